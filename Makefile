@@ -20,9 +20,10 @@ BASE    := -std=gnu11 $(WARN) -I. -D_GNU_SOURCE -MMD -MP
 REL_CFLAGS := $(BASE) -O2 -g
 SAN_CFLAGS := $(BASE) -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all
 SAN_LDFLAGS := -fsanitize=address,undefined
-UNITY_CFLAGS := -I$(UNITY_SRC) -DUNITY_INCLUDE_DOUBLE -DUNITY_SUPPORT_64
+UNITY_CFLAGS := -I$(UNITY_SRC) -DUNITY_INCLUDE_DOUBLE -DUNITY_SUPPORT_64 -DUNITY_USE_FLUSH_STDOUT
 
 CORE_SRC    := $(sort $(wildcard core/*.c))
+LINES_SRC   := $(sort $(wildcard lines/*.c))
 UNIT_SRC    := $(sort $(wildcard tests/unit/test_*.c))
 UNIT_SUP    := $(sort $(wildcard tests/unit/support/*.c))
 INTEG_SRC   := $(sort $(wildcard tests/integration/test_*.c))
@@ -36,6 +37,8 @@ obj = $(patsubst %.c,$(1)/obj/%.o,$(2))
 
 REL_CORE_LIB := $(REL)/lib/libcogw_core.a
 SAN_CORE_LIB := $(SAN)/lib/libcogw_core.a
+REL_LINES_LIB := $(REL)/lib/libcogw_lines.a
+SAN_LINES_LIB := $(SAN)/lib/libcogw_lines.a
 
 UNIT_BINS  := $(patsubst tests/unit/%.c,$(SAN)/tests/unit/%,$(UNIT_SRC))
 INTEG_BINS := $(patsubst tests/integration/%.c,$(SAN)/tests/integration/%,$(INTEG_SRC))
@@ -45,7 +48,7 @@ BENCH_BINS := $(patsubst tests/bench/%.c,$(REL)/tests/bench/%,$(BENCH_SRC))
 .DEFAULT_GOAL := all
 .SECONDARY:
 
-all: $(REL_CORE_LIB)
+all: $(REL_CORE_LIB) $(REL_LINES_LIB)
 
 # ---- compilation ---------------------------------------------------------------
 $(REL)/obj/%.o: %.c
@@ -77,12 +80,20 @@ $(SAN_CORE_LIB): $(call obj,$(SAN),$(CORE_SRC))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 
+$(REL_LINES_LIB): $(call obj,$(REL),$(LINES_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+$(SAN_LINES_LIB): $(call obj,$(SAN),$(LINES_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
 # ---- tests ---------------------------------------------------------------------
-$(SAN)/tests/unit/%: $(SAN)/obj/tests/unit/%.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_CORE_LIB)
+$(SAN)/tests/unit/%: $(SAN)/obj/tests/unit/%.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_LINES_LIB) $(SAN_CORE_LIB)
 	@mkdir -p $(@D)
 	$(CC) $(SAN_LDFLAGS) -o $@ $^ -lm
 
-$(SAN)/tests/integration/%: $(SAN)/obj/tests/integration/%.o $(call obj,$(SAN),$(INTEG_SUP)) $(SAN)/obj/unity.o $(SAN_CORE_LIB)
+$(SAN)/tests/integration/%: $(SAN)/obj/tests/integration/%.o $(call obj,$(SAN),$(INTEG_SUP)) $(SAN)/obj/unity.o $(SAN_LINES_LIB) $(SAN_CORE_LIB)
 	@mkdir -p $(@D)
 	$(CC) $(SAN_LDFLAGS) -o $@ $^ -lrt -lpthread -lm
 

@@ -1,0 +1,126 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * lines/socketcan.h - one CAN line's SocketCAN port: a raw CAN socket with
+ * error frames, kernel receive timestamps, receive-overflow detection and a
+ * bounded transmit queue with back-pressure.
+ *
+ * Thread: a port belongs to one line thread; nothing here locks or blocks.
+ * The socket is non-blocking; the caller waits in epoll on can_port_fd() for
+ * EPOLLIN, and for EPOLLOUT while can_port_wants_writable() says so. Frames
+ * the kernel cannot take yet stay in the port's transmit queue:
+ *  - EAGAIN (socket send buffer full; we shrink SO_SNDBUF so this is what
+ *    normally happens): wait for EPOLLOUT, then can_port_flush();
+ *  - ENOBUFS (the interface's qdisc queue is full; POLLOUT does not cover
+ *    it, it would only spin): retry after can_port_retry_at_us(), with a
+ *    backoff that doubles up to 8 ms.
+ * When the queue itself is full, can_port_send() refuses (-ENOBUFS) and
+ * counts a drop: the caller decides (the core counts it as tx_failed).
+ */
+#ifndef COGW_LINES_SOCKETCAN_H
+#define COGW_LINES_SOCKETCAN_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "core/frame.h"
+
+/* CAN controller state as seen through error frames. */
+typedef enum can_bus_state {
+	CAN_BUS_ACTIVE = 0,   /* error active (normal) */
+	CAN_BUS_WARNING,      /* an error counter >= 96 */
+	CAN_BUS_PASSIVE,      /* an error counter >= 128 */
+	CAN_BUS_OFF,          /* transmit error counter > 255 */
+} can_bus_state;
+
+const char *can_bus_state_to_string(can_bus_state s);
+
+/* What an error frame said, decoded (CAN_ERR_* of linux/can/error.h). */
+typedef struct can_error_info {
+	bool state_changed;
+	can_bus_state state;
+	bool restarted;         /* controller restarted after bus-off */
+	bool controller_problem; /* e.g. controller rx/tx overflow */
+	bool protocol_violation; /* form/stuff/bit errors */
+	bool tx_timeout;
+	bool lost_arbitration;
+	bool no_ack;
+	bool bus_error;
+	uint8_t tx_errors;      /* counters, if the driver reported them */
+	uint8_t rx_errors;
+	uint32_t raw_class;     /* the error class bits of the frame id */
+} can_error_info;
+
+/* Decode an error frame (its can_id with CAN_ERR_FLAG and 8 data bytes).
+ * Pure function: no port needed. */
+void can_error_decode(uint32_t can_id, const uint8_t data[8],
+		      can_bus_state current, can_error_info *out);
+
+typedef struct can_port_config {
+	const char *ifname;
+	uint32_t bitrate;        /* bit/s, for the bus-load estimate */
+	uint16_t tx_queue_len;   /* frames (default 256) */
+	uint16_t tx_high_water;  /* percent (default 75) */
+	uint16_t tx_low_water;   /* percent (default 25) */
+	int rcvbuf_bytes;        /* socket receive buffer (default 256 KiB) */
+} can_port_config;
+
+typedef struct can_port_stats {
+	uint64_t rx_frames;
+	uint64_t rx_error_frames;
+	uint64_t rx_overflow_drops; /* frames the kernel dropped (SO_RXQ_OVFL) */
+	uint64_t rx_invalid;        /* FD or malformed frames ignored */
+	uint64_t tx_frames;
+	uint64_t tx_queued_max;     /* high-water mark of the tx queue */
+	uint64_t tx_drops;          /* refused: tx queue full */
+	uint64_t tx_eagain;
+	uint64_t tx_enobufs;
+	uint64_t tx_errors;         /* other write errors */
+	uint64_t bus_off_count;
+	/* bus load: bits on the wire (own + others) in the last full second,
+	 * as parts per thousand of the bit rate */
+	uint32_t bus_load_permille;
+} can_port_stats;
+
+typedef struct can_port can_port;
+
+/* One received item: a frame, or an error frame already decoded. */
+typedef struct can_rx_item {
+	co_frame frame;
+	uint64_t kernel_ts_ns; /* CLOCK_REALTIME of reception, from the kernel */
+	bool is_error;
+	can_error_info error;  /* valid when is_error */
+} can_rx_item;
+
+/* Open and bind a raw socket on cfg->ifname. Returns 0 or -errno; on error
+ * *errmsg (if not NULL) names the failing step. */
+int can_port_open(can_port **out, const can_port_config *cfg,
+		  const char **errmsg);
+void can_port_close(can_port *p); /* accepts NULL */
+
+int can_port_fd(const can_port *p);
+
+/* Read up to max items without blocking. Returns the count (0 when nothing
+ * is pending) or -errno on a socket error. Updates overflow counters and the
+ * bus state. now_us feeds the bus-load estimate. */
+int can_port_recv(can_port *p, can_rx_item *items, int max, uint64_t now_us);
+
+/* Queue a frame and try to send what is queued. 0 = queued or sent,
+ * -ENOBUFS = queue full (dropped, counted), -EINVAL = malformed frame. */
+int can_port_send(can_port *p, const co_frame *f, uint64_t now_us);
+
+/* Send as much of the queue as the kernel takes. Returns frames sent. */
+int can_port_flush(can_port *p, uint64_t now_us);
+
+size_t can_port_tx_queued(const can_port *p);
+/* True while the queue waits for EPOLLOUT (after EAGAIN). */
+bool can_port_wants_writable(const can_port *p);
+/* Time to retry after ENOBUFS, or UINT64_MAX. */
+uint64_t can_port_retry_at_us(const can_port *p);
+/* Watermark crossings since the last call: +1 went above high water,
+ * -1 went back below low water, 0 none. */
+int can_port_take_watermark_event(can_port *p);
+
+can_bus_state can_port_bus_state(const can_port *p);
+const can_port_stats *can_port_get_stats(const can_port *p);
+
+#endif /* COGW_LINES_SOCKETCAN_H */
