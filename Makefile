@@ -24,6 +24,8 @@ UNITY_CFLAGS := -I$(UNITY_SRC) -DUNITY_INCLUDE_DOUBLE -DUNITY_SUPPORT_64 -DUNITY
 
 CORE_SRC    := $(sort $(wildcard core/*.c))
 LINES_SRC   := $(sort $(wildcard lines/*.c))
+APPCOMMON_SRC := $(sort $(wildcard apps/common/*.c))
+PROGRAMS    := $(notdir $(patsubst %/main.c,%,$(wildcard apps/*/main.c)))
 UNIT_SRC    := $(sort $(wildcard tests/unit/test_*.c))
 UNIT_SUP    := $(sort $(wildcard tests/unit/support/*.c))
 INTEG_SRC   := $(sort $(wildcard tests/integration/test_*.c))
@@ -39,6 +41,22 @@ REL_CORE_LIB := $(REL)/lib/libcogw_core.a
 SAN_CORE_LIB := $(SAN)/lib/libcogw_core.a
 REL_LINES_LIB := $(REL)/lib/libcogw_lines.a
 SAN_LINES_LIB := $(SAN)/lib/libcogw_lines.a
+REL_APPCOMMON_LIB := $(REL)/lib/libcogw_appcommon.a
+SAN_APPCOMMON_LIB := $(SAN)/lib/libcogw_appcommon.a
+# Libraries every program and test links, most dependent first.
+# (mailbox libraries are added to these lists where they are defined below)
+# mailbox: libcogw_mbxsrv.a (daemon side, proto.c + server.c) and libcogw.a/.so
+# (client library, proto.c + client.c); rules at the end of this file.
+REL_MBXSRV_LIB := $(REL)/lib/libcogw_mbxsrv.a
+SAN_MBXSRV_LIB := $(SAN)/lib/libcogw_mbxsrv.a
+REL_COGW_LIB := $(REL)/lib/libcogw.a
+SAN_COGW_LIB := $(SAN)/lib/libcogw.a
+REL_COGW_SO := $(REL)/lib/libcogw.so
+REL_LIBS = $(REL_APPCOMMON_LIB) $(REL_LINES_LIB) $(REL_MBXSRV_LIB) $(REL_COGW_LIB) $(REL_CORE_LIB)
+SAN_LIBS = $(SAN_APPCOMMON_LIB) $(SAN_LINES_LIB) $(SAN_MBXSRV_LIB) $(SAN_COGW_LIB) $(SAN_CORE_LIB)
+SYS_LIBS := $(shell pkg-config --libs libcjson libsystemd 2>/dev/null || echo -lcjson -lsystemd) -lrt -lpthread -lm
+PROGRAM_BINS := $(addprefix $(REL)/bin/,$(PROGRAMS))
+SAN_PROGRAM_BINS := $(addprefix $(SAN)/bin/,$(PROGRAMS))
 
 UNIT_BINS  := $(patsubst tests/unit/%.c,$(SAN)/tests/unit/%,$(UNIT_SRC))
 INTEG_BINS := $(patsubst tests/integration/%.c,$(SAN)/tests/integration/%,$(INTEG_SRC))
@@ -48,7 +66,7 @@ BENCH_BINS := $(patsubst tests/bench/%.c,$(REL)/tests/bench/%,$(BENCH_SRC))
 .DEFAULT_GOAL := all
 .SECONDARY:
 
-all: $(REL_CORE_LIB) $(REL_LINES_LIB)
+all: $(REL_LIBS) $(PROGRAM_BINS)
 
 # ---- compilation ---------------------------------------------------------------
 $(REL)/obj/%.o: %.c
@@ -88,16 +106,36 @@ $(SAN_LINES_LIB): $(call obj,$(SAN),$(LINES_SRC))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 
+$(REL_APPCOMMON_LIB): $(call obj,$(REL),$(APPCOMMON_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+$(SAN_APPCOMMON_LIB): $(call obj,$(SAN),$(APPCOMMON_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+# ---- programs: apps/<name>/*.c -> build/<cfg>/bin/<name> -----------------------
+# The sanitizer build of the programs is what the integration tests run.
+define program_rules
+$(REL)/bin/$(1): $(call obj,$(REL),$(wildcard apps/$(1)/*.c)) $$(REL_LIBS)
+	@mkdir -p $$(@D)
+	$$(CC) -o $$@ $$^ $$(SYS_LIBS)
+$(SAN)/bin/$(1): $(call obj,$(SAN),$(wildcard apps/$(1)/*.c)) $$(SAN_LIBS)
+	@mkdir -p $$(@D)
+	$$(CC) $$(SAN_LDFLAGS) -o $$@ $$^ $$(SYS_LIBS)
+endef
+$(foreach p,$(PROGRAMS),$(eval $(call program_rules,$(p))))
+
 # ---- tests ---------------------------------------------------------------------
-$(SAN)/tests/unit/%: $(SAN)/obj/tests/unit/%.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_LINES_LIB) $(SAN_CORE_LIB)
+$(SAN)/tests/unit/%: $(SAN)/obj/tests/unit/%.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_LIBS)
 	@mkdir -p $(@D)
-	$(CC) $(SAN_LDFLAGS) -o $@ $^ -lm
+	$(CC) $(SAN_LDFLAGS) -o $@ $^ $(SYS_LIBS)
 
-$(SAN)/tests/integration/%: $(SAN)/obj/tests/integration/%.o $(call obj,$(SAN),$(INTEG_SUP)) $(SAN)/obj/unity.o $(SAN_LINES_LIB) $(SAN_CORE_LIB)
+$(SAN)/tests/integration/%: $(SAN)/obj/tests/integration/%.o $(call obj,$(SAN),$(INTEG_SUP)) $(SAN)/obj/unity.o $(SAN_LIBS)
 	@mkdir -p $(@D)
-	$(CC) $(SAN_LDFLAGS) -o $@ $^ -lrt -lpthread -lm
+	$(CC) $(SAN_LDFLAGS) -o $@ $^ $(SYS_LIBS)
 
-tests-build: $(UNIT_BINS) $(INTEG_BINS)
+tests-build: $(UNIT_BINS) $(INTEG_BINS) $(SAN_PROGRAM_BINS)
 
 unit: $(UNIT_BINS)
 	tests/run-tests unit $(UNIT_BINS)
@@ -113,9 +151,9 @@ test:
 	@tests/run-all "$(UNIT_BINS)" "$(INTEG_BINS)"
 
 # ---- benchmarks ----------------------------------------------------------------
-$(REL)/tests/bench/%: $(REL)/obj/tests/bench/%.o $(REL_CORE_LIB)
+$(REL)/tests/bench/%: $(REL)/obj/tests/bench/%.o $(REL_LIBS)
 	@mkdir -p $(@D)
-	$(CC) -o $@ $^ -lm
+	$(CC) -o $@ $^ $(SYS_LIBS)
 
 bench: $(BENCH_BINS)
 	@for b in $(BENCH_BINS); do echo "== $$b"; $$b || exit 1; done
@@ -128,9 +166,10 @@ demo:
 
 # ---- install -------------------------------------------------------------------
 install: all
-	install -d $(DESTDIR)$(PREFIX)/lib $(DESTDIR)$(PREFIX)/include/cogw/core
+	install -d $(DESTDIR)$(PREFIX)/lib $(DESTDIR)$(PREFIX)/include/cogw/core $(DESTDIR)$(PREFIX)/bin
 	install -m 644 $(REL_CORE_LIB) $(DESTDIR)$(PREFIX)/lib/
 	install -m 644 core/*.h $(DESTDIR)$(PREFIX)/include/cogw/core/
+	$(if $(PROGRAM_BINS),install -m 755 $(PROGRAM_BINS) $(DESTDIR)$(PREFIX)/bin/)
 
 deps:
 	scripts/deps.sh
@@ -139,3 +178,36 @@ clean:
 	rm -rf build
 
 -include $(shell find build -name '*.d' 2>/dev/null)
+
+# ---- mailbox libraries (mailbox/*.c) ---------------------------------------------
+# libcogw_mbxsrv.a: the daemon side, linked into lines/apps; libcogw.a and
+# libcogw.so: the client library for applications (public header mailbox/cogw.h).
+MBX_PROTO_SRC  := mailbox/proto.c
+MBX_SERVER_SRC := $(MBX_PROTO_SRC) mailbox/server.c
+MBX_CLIENT_SRC := $(MBX_PROTO_SRC) mailbox/client.c
+
+$(REL)/pic/%.o: %.c
+	@mkdir -p $(@D)
+	$(CC) $(REL_CFLAGS) -fPIC -fvisibility=default -c $< -o $@
+
+$(REL_MBXSRV_LIB): $(call obj,$(REL),$(MBX_SERVER_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+$(SAN_MBXSRV_LIB): $(call obj,$(SAN),$(MBX_SERVER_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+$(REL_COGW_LIB): $(call obj,$(REL),$(MBX_CLIENT_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+$(SAN_COGW_LIB): $(call obj,$(SAN),$(MBX_CLIENT_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+$(REL_COGW_SO): $(patsubst %.c,$(REL)/pic/%.o,$(MBX_CLIENT_SRC))
+	@mkdir -p $(@D)
+	$(CC) -shared -Wl,-soname,libcogw.so.1 -o $@ $^ -lrt -lpthread
+
+all: $(REL_COGW_SO)

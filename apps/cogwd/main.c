@@ -1,0 +1,384 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * cogwd - the cogw daemon: one real-time thread per CAN line, a mailbox of
+ * POSIX message queues per line, systemd notify + watchdog.
+ *
+ * The main thread owns start-up, signals (signalfd), systemd notification,
+ * the watchdog decision, the status line and the file I/O of 1010h "save"
+ * (requested by the lines through an eventfd). It never touches a line's
+ * core instance.
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/eventfd.h>
+#include <sys/mman.h>
+#include <sys/signalfd.h>
+#include <sys/stat.h>
+#include <systemd/sd-daemon.h>
+#include <unistd.h>
+
+#include "apps/common/config.h"
+#include "lines/line.h"
+#include "lines/log.h"
+#include "mailbox/proto.h"
+
+#define STARTUP_TIMEOUT_US 5000000u
+
+typedef struct daemon_state {
+	const char *config_path; /* NULL = embedded default */
+	const char *state_dir_override;
+	cogw_config cfg;
+	line *lines[COGW_LINES_MAX];
+	char queue_names[COGW_LINES_MAX][MBX_QNAME_MAX];
+	mbx_access_rule rules[COGW_ACCESS_RULES_MAX];
+	size_t n_lines;
+	int sigfd, wakefd;
+	uint64_t watchdog_usec; /* 0 = no systemd watchdog */
+	bool watchdog_withheld;
+} daemon_state;
+
+static void usage(FILE *to)
+{
+	fprintf(to,
+		"usage: cogwd [OPTIONS]\n"
+		"  -c, --config FILE     configuration (default: the embedded default,\n"
+		"                        which is etc/cogw.json at build time)\n"
+		"  -s, --state-dir DIR   where 1010h \"save\" persists (overrides the config)\n"
+		"  -t, --check           validate the configuration and exit\n"
+		"      --print-default   print the embedded default configuration\n"
+		"  -v, --verbose         debug log lines\n"
+		"  -h, --help            this text\n"
+		"Signals: SIGTERM/SIGINT stop cleanly, SIGHUP reloads what can change at run time.\n");
+}
+
+static int load_config(daemon_state *d, cogw_config *cfg)
+{
+	char err[512];
+	int rc = d->config_path
+		? cogw_config_load_file(cfg, d->config_path, err, sizeof err)
+		: cogw_config_load_string(cfg, cogw_default_config_json, "<embedded default>", err, sizeof err);
+	if (rc < 0) {
+		cogw_log(COGW_LOG_ERR, "%s", err);
+		return rc;
+	}
+	if (d->state_dir_override)
+		snprintf(cfg->state_dir, sizeof cfg->state_dir, "%s", d->state_dir_override);
+	return 0;
+}
+
+static int prepare_state_dir(const char *dir)
+{
+	if (!*dir)
+		return 0;
+	if (mkdir(dir, 0750) != 0 && errno != EEXIST) {
+		cogw_log(COGW_LOG_ERR, "state directory %s: %s", dir, strerror(errno));
+		return -errno;
+	}
+	if (access(dir, W_OK) != 0) {
+		cogw_log(COGW_LOG_ERR, "state directory %s is not writable: %s", dir, strerror(errno));
+		return -errno;
+	}
+	return 0;
+}
+
+static void fill_rules(daemon_state *d)
+{
+	for (size_t i = 0; i < d->cfg.mailbox.n_rules; i++) {
+		d->rules[i].uid = (uint32_t)d->cfg.mailbox.rules[i].uid;
+		d->rules[i].access = d->cfg.mailbox.rules[i].access;
+	}
+}
+
+static int create_lines(daemon_state *d)
+{
+	const cogw_config *c = &d->cfg;
+	fill_rules(d);
+	for (size_t i = 0; i < c->n_lines; i++) {
+		const cogw_line_config *lc = &c->lines[i];
+		int rc = mbx_queue_name(d->queue_names[i], sizeof d->queue_names[i], c->mailbox.instance, (unsigned)i);
+		if (rc < 0) {
+			cogw_log(COGW_LOG_ERR, "line %s: cannot form a queue name for instance '%s'", lc->name, c->mailbox.instance);
+			return rc;
+		}
+		line_params p = {
+			.index = (uint8_t)i,
+			.name = lc->name,
+			.network_id = lc->network_id,
+			.can = { .ifname = lc->interface, .bitrate = lc->bitrate },
+			.node = {
+				.node_id = lc->node_id,
+				.od = lc->od,
+				.sdo_server_count = lc->sdo_servers,
+				.sdo_server_timeout_ms = lc->sdo_timeout_ms,
+				.sdo_client_count = lc->sdo_clients,
+				.sdo_client_block_threshold = lc->sdo_block_threshold,
+			},
+			.mbx = {
+				.queue_name = d->queue_names[i],
+				.queue_mode = c->mailbox.queue_mode,
+				.depth = c->mailbox.depth,
+				.msg_size = c->mailbox.msg_size,
+				.max_clients = c->mailbox.max_clients,
+				.lease_ms = c->mailbox.lease_ms,
+				.max_transfer = c->mailbox.max_transfer,
+				.rules = d->rules,
+				.n_rules = c->mailbox.n_rules,
+				.default_access = c->mailbox.default_access,
+				/* a stale queue of a crashed daemon must not block a restart */
+				.unlink_existing = true,
+			},
+			.rt_priority = lc->rt.priority,
+			.rt_cpu = lc->rt.cpu,
+			.checkin_ms = c->watchdog_check_ms,
+			.state_dir = c->state_dir,
+			.main_wakefd = d->wakefd,
+		};
+		rc = line_create(&d->lines[i], &p);
+		if (rc < 0)
+			return rc;
+		d->n_lines = i + 1;
+	}
+	return 0;
+}
+
+static void status_line(daemon_state *d, char *buf, size_t len)
+{
+	size_t off = (size_t)snprintf(buf, len, "%zu line%s:", d->n_lines, d->n_lines == 1 ? "" : "s");
+	for (size_t i = 0; i < d->n_lines && off < len; i++) {
+		line_stats s;
+		if (!line_stats_snapshot(d->lines[i], &s)) {
+			off += (size_t)snprintf(buf + off, len - off, " %s starting;", line_name(d->lines[i]));
+			continue;
+		}
+		off += (size_t)snprintf(buf + off, len - off, " %s %s %u node%s %u.%u%% load %u client%s;",
+					line_name(d->lines[i]), can_bus_state_to_string(s.bus_state),
+					s.nodes_seen, s.nodes_seen == 1 ? "" : "s",
+					s.bus_load_permille / 10, s.bus_load_permille % 10,
+					s.mbx_clients, s.mbx_clients == 1 ? "" : "s");
+	}
+	if (off > 0 && off < len && buf[off - 1] == ';')
+		buf[off - 1] = '\0';
+}
+
+/* WATCHDOG=1 only while every line thread has looped within the period:
+ * a stuck line must let systemd restart us. */
+static void watchdog_tick(daemon_state *d, uint64_t now)
+{
+	if (!d->watchdog_usec)
+		return;
+	for (size_t i = 0; i < d->n_lines; i++) {
+		uint64_t seen = line_last_checkin_us(d->lines[i]);
+		if (now > seen && now - seen > d->watchdog_usec / 2) {
+			if (!d->watchdog_withheld)
+				cogw_log(COGW_LOG_ERR, "line %s has not looped for %llu ms; withholding the watchdog ping",
+					 line_name(d->lines[i]), (unsigned long long)((now - seen) / 1000u));
+			d->watchdog_withheld = true;
+			return;
+		}
+	}
+	if (d->watchdog_withheld)
+		cogw_log(COGW_LOG_NOTICE, "all lines loop again; watchdog pings resume");
+	d->watchdog_withheld = false;
+	sd_notify(0, "WATCHDOG=1");
+}
+
+static void reload(daemon_state *d)
+{
+	sd_notify(0, "RELOADING=1");
+	cogw_config next;
+	memset(&next, 0, sizeof next);
+	if (load_config(d, &next) < 0) {
+		cogw_log(COGW_LOG_ERR, "reload refused: the configuration has errors; keeping the running one");
+		cogw_config_free(&next);
+		sd_notify(0, "READY=1");
+		return;
+	}
+	char what[512] = "";
+	if (!cogw_config_reload_check(&d->cfg, &next, what, sizeof what)) {
+		cogw_log(COGW_LOG_ERR, "reload refused: %s", what);
+		cogw_config_free(&next);
+		sd_notify(0, "READY=1");
+		return;
+	}
+	if (what[0])
+		cogw_log(COGW_LOG_WARNING, "reload: these settings need a restart and were not applied: %s", what);
+	for (size_t i = 0; i < d->n_lines; i++)
+		if (next.lines[i].heartbeat_ms != d->cfg.lines[i].heartbeat_ms) {
+			line_request_hb_producer(d->lines[i], next.lines[i].heartbeat_ms);
+			cogw_log(COGW_LOG_INFO, "reload: line %s heartbeat %u -> %u ms", line_name(d->lines[i]),
+				 d->cfg.lines[i].heartbeat_ms, next.lines[i].heartbeat_ms);
+			d->cfg.lines[i].heartbeat_ms = next.lines[i].heartbeat_ms;
+		}
+	cogw_config_free(&next);
+	sd_notify(0, "READY=1");
+}
+
+static int wait_lines_up(daemon_state *d)
+{
+	uint64_t until = line_now_us() + STARTUP_TIMEOUT_US;
+	for (;;) {
+		size_t up = 0;
+		for (size_t i = 0; i < d->n_lines; i++)
+			up += line_is_up(d->lines[i]);
+		if (up == d->n_lines)
+			return 0;
+		if (line_now_us() > until) {
+			cogw_log(COGW_LOG_ERR, "only %zu of %zu lines came up", up, d->n_lines);
+			return -ETIMEDOUT;
+		}
+		poll(NULL, 0, 5);
+	}
+}
+
+static int run(daemon_state *d)
+{
+	char status[1024];
+	uint64_t period = d->watchdog_usec ? d->watchdog_usec / 4 : 1000000u;
+	if (period > 1000000u)
+		period = 1000000u;
+	uint64_t next_tick = 0;
+	for (;;) {
+		uint64_t now = line_now_us();
+		if (now >= next_tick) {
+			watchdog_tick(d, now);
+			status_line(d, status, sizeof status);
+			sd_notifyf(0, "STATUS=%s", status);
+			next_tick = now + period;
+		}
+		struct pollfd pfd[2] = { { .fd = d->sigfd, .events = POLLIN }, { .fd = d->wakefd, .events = POLLIN } };
+		int wait_ms = (int)((next_tick - now) / 1000u) + 1;
+		if (poll(pfd, 2, wait_ms) < 0 && errno != EINTR)
+			return -errno;
+		if (pfd[1].revents & POLLIN) {
+			uint64_t v;
+			ssize_t r = read(d->wakefd, &v, sizeof v);
+			(void)r;
+			for (size_t i = 0; i < d->n_lines; i++)
+				line_store_service(d->lines[i]);
+		}
+		if (!(pfd[0].revents & POLLIN))
+			continue;
+		struct signalfd_siginfo si;
+		if (read(d->sigfd, &si, sizeof si) != (ssize_t)sizeof si)
+			continue;
+		switch (si.ssi_signo) {
+		case SIGTERM:
+		case SIGINT:
+			cogw_log(COGW_LOG_NOTICE, "%s: stopping", strsignal((int)si.ssi_signo));
+			return 0;
+		case SIGHUP:
+			reload(d);
+			break;
+		case SIGUSR2:
+			if (d->cfg.debug_stall_signal && d->n_lines)
+				line_request_stall(d->lines[0], d->cfg.debug_stall_ms ? d->cfg.debug_stall_ms : 5000);
+			else
+				cogw_log(COGW_LOG_NOTICE, "SIGUSR2 ignored (debug.stall_signal is off)");
+			break;
+		}
+	}
+}
+
+int main(int argc, char **argv)
+{
+	static const struct option opts[] = {
+		{ "config", required_argument, NULL, 'c' },
+		{ "state-dir", required_argument, NULL, 's' },
+		{ "check", no_argument, NULL, 't' },
+		{ "print-default", no_argument, NULL, 'P' },
+		{ "verbose", no_argument, NULL, 'v' },
+		{ "help", no_argument, NULL, 'h' },
+		{ NULL, 0, NULL, 0 },
+	};
+	daemon_state d;
+	memset(&d, 0, sizeof d);
+	d.sigfd = d.wakefd = -1;
+	bool check_only = false;
+	int c;
+	while ((c = getopt_long(argc, argv, "c:s:tvh", opts, NULL)) != -1) {
+		switch (c) {
+		case 'c': d.config_path = optarg; break;
+		case 's': d.state_dir_override = optarg; break;
+		case 't': check_only = true; break;
+		case 'P': fputs(cogw_default_config_json, stdout); return 0;
+		case 'v': cogw_log_set_max_level(COGW_LOG_DEBUG); break;
+		case 'h': usage(stdout); return 0;
+		default: usage(stderr); return 2;
+		}
+	}
+	if (optind < argc) {
+		fprintf(stderr, "cogwd: unexpected argument '%s'\n", argv[optind]);
+		usage(stderr);
+		return 2;
+	}
+	cogw_log_use_prefix(getenv("JOURNAL_STREAM") || getenv("NOTIFY_SOCKET"));
+
+	if (load_config(&d, &d.cfg) < 0)
+		return 1;
+	if (check_only) {
+		printf("%s: configuration is valid (%zu lines)\n", d.cfg.source, d.cfg.n_lines);
+		cogw_config_free(&d.cfg);
+		return 0;
+	}
+
+	int rc = 1;
+	char err[512];
+	if (mbx_check_system_limits(d.cfg.mailbox.depth, d.cfg.mailbox.msg_size, err, sizeof err) < 0) {
+		cogw_log(COGW_LOG_ERR, "%s", err);
+		goto out;
+	}
+	if (prepare_state_dir(d.cfg.state_dir) < 0)
+		goto out;
+	if (d.cfg.mlockall && mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
+		cogw_log(COGW_LOG_WARNING, "mlockall not permitted (%s): memory may be paged out", strerror(errno));
+
+	sigset_t mask;
+	sigemptyset(&mask);
+	sigaddset(&mask, SIGTERM);
+	sigaddset(&mask, SIGINT);
+	sigaddset(&mask, SIGHUP);
+	sigaddset(&mask, SIGUSR2);
+	/* blocked before any thread starts, so every thread inherits it and
+	 * only the signalfd sees these signals */
+	pthread_sigmask(SIG_BLOCK, &mask, NULL);
+	signal(SIGPIPE, SIG_IGN);
+	d.sigfd = signalfd(-1, &mask, SFD_CLOEXEC);
+	d.wakefd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+	if (d.sigfd < 0 || d.wakefd < 0) {
+		cogw_log(COGW_LOG_ERR, "signalfd/eventfd: %s", strerror(errno));
+		goto out;
+	}
+
+	if (sd_watchdog_enabled(0, &d.watchdog_usec) <= 0)
+		d.watchdog_usec = 0;
+	if (create_lines(&d) < 0)
+		goto out;
+	for (size_t i = 0; i < d.n_lines; i++)
+		if (line_start(d.lines[i]) < 0)
+			goto out;
+	if (wait_lines_up(&d) < 0)
+		goto out;
+
+	char status[1024];
+	status_line(&d, status, sizeof status);
+	sd_notifyf(0, "READY=1\nSTATUS=%s", status);
+	cogw_log(COGW_LOG_NOTICE, "ready: %zu line%s (%s), mailbox instance '%s'%s", d.n_lines,
+		 d.n_lines == 1 ? "" : "s", d.cfg.source, d.cfg.mailbox.instance,
+		 d.watchdog_usec ? ", systemd watchdog on" : "");
+	rc = run(&d) < 0 ? 1 : 0;
+	sd_notify(0, "STOPPING=1");
+out:
+	for (size_t i = 0; i < d.n_lines; i++)
+		line_destroy(d.lines[i]);
+	cogw_config_free(&d.cfg);
+	if (d.sigfd >= 0)
+		close(d.sigfd);
+	if (d.wakefd >= 0)
+		close(d.wakefd);
+	return rc;
+}

@@ -1,0 +1,116 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * apps/common/config.h - cogwd's configuration (etc/cogw.json), parsed and
+ * validated with cJSON. Every error names the file, the JSON path and the
+ * reason, e.g.
+ *   etc/cogw.json: lines[1].node_id: 200 is out of range 1..127
+ * and the daemon refuses to start on any error. Reference: docs/config.md.
+ *
+ * Called by the main thread only, at start-up and on SIGHUP (reload).
+ */
+#ifndef COGW_APPS_CONFIG_H
+#define COGW_APPS_CONFIG_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <sys/types.h>
+
+#include "core/od.h"
+
+#define COGW_LINES_MAX 16
+#define COGW_ACCESS_RULES_MAX 64
+#define COGW_HB_CONSUMERS_MAX 127
+#define COGW_NAME_MAX 32
+
+/* Mailbox access levels (mirror mailbox/proto.h enum mbx_access). */
+typedef enum cogw_access_level {
+	COGW_ACCESS_NONE = 0,
+	COGW_ACCESS_READ = 1,
+	COGW_ACCESS_WRITE = 2,
+} cogw_access_level;
+
+typedef struct cogw_access_rule {
+	uid_t uid;      /* from "uid", or "user" resolved with getpwnam */
+	uint8_t access; /* cogw_access_level */
+} cogw_access_rule;
+
+typedef struct cogw_rt_config {
+	int priority;   /* SCHED_FIFO 1..99, 0 = normal scheduling */
+	int cpu;        /* pin to this CPU, -1 = no affinity */
+} cogw_rt_config;
+
+typedef struct cogw_hb_consumer {
+	uint8_t node_id;
+	uint16_t time_ms;
+} cogw_hb_consumer;
+
+typedef struct cogw_line_config {
+	char name[COGW_NAME_MAX];      /* "line0" (default "line<N>") */
+	char interface[COGW_NAME_MAX]; /* "vcan0" (IFNAMSIZ-1 chars max) */
+	uint32_t bitrate;              /* 10k..1M, a CiA 301 bit rate */
+	uint8_t node_id;               /* our own node id, 1..127 */
+	uint16_t network_id;           /* CiA 302-7 network id, 1..127, unique */
+	cogw_rt_config rt;
+	/* SDO channels of our own node */
+	uint8_t sdo_servers;           /* 1..128 (default 1) */
+	uint8_t sdo_clients;           /* 0..128 (default 4) */
+	uint32_t sdo_timeout_ms;       /* per frame (default 1000) */
+	uint32_t sdo_block_threshold;  /* bytes (default 128) */
+	uint16_t heartbeat_ms;         /* 1017h (default 1000, 0 = off) */
+	uint32_t sync_period_us;       /* 1006h, 0 = no SYNC producer */
+	cogw_hb_consumer hb_consumers[COGW_HB_CONSUMERS_MAX]; /* 1016h */
+	size_t n_hb_consumers;
+	/* The line's object dictionary: the standard communication objects
+	 * for node_id, then "objects" (manufacturer/profile additions), then
+	 * "values" (initial values of any object). Owned by the config. */
+	co_od *od;
+} cogw_line_config;
+
+typedef struct cogw_mailbox_config {
+	char instance[COGW_NAME_MAX]; /* queue names /<instance>.line<N>.cmd */
+	unsigned depth;          /* mq_maxmsg of the command queues (64) */
+	unsigned msg_size;       /* mq_msgsize (1024) */
+	unsigned queue_mode;     /* command queue mode (0660) */
+	unsigned max_clients;    /* per line (16) */
+	unsigned lease_ms;       /* 0 = no lease */
+	unsigned max_transfer;   /* bytes of one chunked transfer (1 MiB) */
+	uint8_t default_access;  /* for uids not in rules (WRITE) */
+	cogw_access_rule rules[COGW_ACCESS_RULES_MAX];
+	size_t n_rules;
+} cogw_mailbox_config;
+
+typedef struct cogw_config {
+	char source[256];        /* file name or "<embedded default>" */
+	char state_dir[256];     /* 1010h/1011h storage (/var/lib/cogw) */
+	bool mlockall;
+	unsigned watchdog_check_ms; /* line check-in period (default 500) */
+	cogw_mailbox_config mailbox;
+	cogw_line_config lines[COGW_LINES_MAX];
+	size_t n_lines;
+	/* Test hooks (off by default): SIGUSR2 stalls line 0 for stall_ms,
+	 * to prove that a stuck line stops the systemd watchdog pings. */
+	bool debug_stall_signal;
+	unsigned debug_stall_ms;
+} cogw_config;
+
+/* The configuration compiled into cogwd (etc/cogw.json at build time). */
+extern const char cogw_default_config_json[];
+
+/* Parse and validate. On error returns -EINVAL (or -ENOENT/-EIO/-ENOMEM
+ * for the file) and writes one line "source: path: reason" into err.
+ * On success *cfg is complete and owns its ODs (cogw_config_free). */
+int cogw_config_load_file(cogw_config *cfg, const char *path, char *err,
+			  size_t errlen);
+int cogw_config_load_string(cogw_config *cfg, const char *json,
+			    const char *source_name, char *err, size_t errlen);
+void cogw_config_free(cogw_config *cfg); /* accepts a zeroed config */
+
+/* What a reload may change without restarting: access rules, lease,
+ * heartbeat consumers/producer time, RT settings. Fills `what` with the
+ * settings that differ but cannot change at run time ("" if none).
+ * Returns true if `next` is acceptable as a reload of `cur`. */
+bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next,
+			      char *what, size_t whatlen);
+
+#endif /* COGW_APPS_CONFIG_H */

@@ -1,0 +1,450 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * lines/line.c - the line thread and its epoll loop.
+ *
+ * One clock read per iteration (line_now_us), one timerfd armed at the
+ * earliest of: the core's next deadline, the mailbox server's, the transmit
+ * retry after ENOBUFS, and the watchdog check-in (so an idle line still
+ * proves it is alive). No fixed tick, no busy polling.
+ */
+#include "lines/line_internal.h"
+
+#include <errno.h>
+#include <sched.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/epoll.h>
+#include <sys/eventfd.h>
+#include <sys/timerfd.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "core/heartbeat.h"
+#include "core/nmt.h"
+#include "lines/log.h"
+
+enum { TAG_CAN = 1, TAG_TIMER, TAG_MBX, TAG_WAKE };
+
+#define RX_BATCH 32
+#define PUBLISH_PERIOD_US 1000000u
+
+uint64_t line_now_us(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+}
+
+static int line_send(void *ctx, const co_frame *f)
+{
+	line *l = ctx;
+	return can_port_send(l->port, f, l->now_us);
+}
+
+static int epoll_add(int ep, int fd, uint32_t events, uint32_t tag)
+{
+	struct epoll_event ev = { .events = events, .data.u32 = tag };
+	return epoll_ctl(ep, EPOLL_CTL_ADD, fd, &ev) ? -errno : 0;
+}
+
+int line_create(line **out, const line_params *p)
+{
+	*out = NULL;
+	line *l = calloc(1, sizeof *l);
+	if (!l)
+		return -ENOMEM;
+	l->p = *p;
+	l->epfd = l->timerfd = l->wakefd = -1;
+	snprintf(l->name, sizeof l->name, "%s", p->name ? p->name : "line");
+	snprintf(l->ifname, sizeof l->ifname, "%s", p->can.ifname ? p->can.ifname : "");
+	l->p.name = l->name;
+	l->p.can.ifname = l->ifname;
+	if (!l->p.checkin_ms)
+		l->p.checkin_ms = 500;
+	l->armed_us = UINT64_MAX;
+	atomic_init(&l->hb_producer_ms, -1);
+	pthread_mutex_init(&l->stats_lock, NULL);
+	for (int i = 0; i < LINE_NODES; i++)
+		l->nodes[i].state = 0xFF;
+	l->next_tag = 1;
+
+	int rc;
+	const char *why = NULL;
+	l->store.blob = malloc(LINE_STORE_MAX);
+	if (!l->store.blob) {
+		rc = -ENOMEM;
+		goto fail;
+	}
+	if ((rc = can_port_open(&l->port, &l->p.can, &why)) < 0) {
+		cogw_log(COGW_LOG_ERR, "line %s (%s): cannot open the CAN interface: %s: %s",
+			 l->name, l->ifname, why ? why : "?", strerror(-rc));
+		goto fail;
+	}
+
+	if (p->state_dir && *p->state_dir) {
+		snprintf(l->state_path, sizeof l->state_path, "%s/%s.od", p->state_dir, l->name);
+		line_store_load(l);
+	}
+
+	co_node_config nc = p->node;
+	nc.send = line_send;
+	nc.send_ctx = l;
+	nc.event = line_on_core_event;
+	nc.event_ctx = l;
+	if ((rc = co_node_create(&l->node, &nc)) < 0) {
+		cogw_log(COGW_LOG_ERR, "line %s: cannot create the CANopen node %u: %s",
+			 l->name, p->node.node_id, strerror(-rc));
+		goto fail;
+	}
+
+	size_t per = p->mbx.max_transfer ? p->mbx.max_transfer : 1024u * 1024u;
+	l->sdo_bufs = malloc(per * LINE_BIG_SLOTS);
+	if (!l->sdo_bufs) {
+		rc = -ENOMEM;
+		goto fail;
+	}
+	for (int i = 0; i < LINE_PENDING_MAX; i++) {
+		l->pending[i].buf = i < LINE_BIG_SLOTS ? l->sdo_bufs + per * (size_t)i : NULL;
+		l->pending[i].cap = i < LINE_BIG_SLOTS ? (uint32_t)per : 0;
+	}
+
+	if (l->state_path[0] && (rc = line_store_attach(l)) < 0)
+		goto fail;
+
+	mbx_server_config mc = p->mbx;
+	mc.line = p->index;
+	mc.dispatch.dispatch = line_dispatch;
+	mc.dispatch.client_gone = line_client_gone;
+	mc.dispatch_ctx = l;
+	if ((rc = mbx_server_create(&l->mbx, &mc)) < 0) {
+		cogw_log(COGW_LOG_ERR, "line %s: cannot create mailbox queue %s: %s",
+			 l->name, mc.queue_name ? mc.queue_name : "?", strerror(-rc));
+		goto fail;
+	}
+
+	l->epfd = epoll_create1(EPOLL_CLOEXEC);
+	l->timerfd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
+	l->wakefd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+	if (l->epfd < 0 || l->timerfd < 0 || l->wakefd < 0) {
+		rc = -errno;
+		cogw_log(COGW_LOG_ERR, "line %s: epoll/timerfd/eventfd: %s", l->name, strerror(-rc));
+		goto fail;
+	}
+	if ((rc = epoll_add(l->epfd, can_port_fd(l->port), EPOLLIN, TAG_CAN)) ||
+	    (rc = epoll_add(l->epfd, l->timerfd, EPOLLIN, TAG_TIMER)) ||
+	    (rc = epoll_add(l->epfd, mbx_server_fd(l->mbx), EPOLLIN, TAG_MBX)) ||
+	    (rc = epoll_add(l->epfd, l->wakefd, EPOLLIN, TAG_WAKE)))
+		goto fail;
+	*out = l;
+	return 0;
+fail:
+	line_destroy(l);
+	return rc < 0 ? rc : -EIO;
+}
+
+static void arm_timer(line *l, uint64_t at_us)
+{
+	if (at_us == l->armed_us)
+		return;
+	l->armed_us = at_us;
+	struct itimerspec its = { 0 };
+	if (at_us != UINT64_MAX) {
+		/* 0 would disarm: an already-expired deadline fires at once */
+		if (at_us == 0)
+			at_us = 1;
+		its.it_value.tv_sec = (time_t)(at_us / 1000000u);
+		its.it_value.tv_nsec = (long)(at_us % 1000000u) * 1000;
+	}
+	timerfd_settime(l->timerfd, TFD_TIMER_ABSTIME, &its, NULL);
+}
+
+static void set_epollout(line *l, bool on)
+{
+	if (on == l->epollout)
+		return;
+	l->epollout = on;
+	struct epoll_event ev = { .events = EPOLLIN | (on ? EPOLLOUT : 0), .data.u32 = TAG_CAN };
+	epoll_ctl(l->epfd, EPOLL_CTL_MOD, can_port_fd(l->port), &ev);
+}
+
+static void drain_fd(int fd)
+{
+	uint64_t v;
+	while (read(fd, &v, sizeof v) == (ssize_t)sizeof v)
+		;
+}
+
+static void handle_can(line *l)
+{
+	can_rx_item items[RX_BATCH];
+	/* Bounded: a flooded bus must not starve the mailbox and timers;
+	 * epoll reports the socket again on the next iteration. */
+	for (int round = 0; round < 8; round++) {
+		int n = can_port_recv(l->port, items, RX_BATCH, l->now_us);
+		if (n <= 0) {
+			if (n < 0)
+				cogw_log(COGW_LOG_WARNING, "line %s: CAN receive: %s", l->name, strerror(-n));
+			return;
+		}
+		for (int i = 0; i < n; i++) {
+			if (items[i].is_error) {
+				line_on_can_error(l, &items[i]);
+				continue;
+			}
+			co_node_recv(l->node, &items[i].frame, l->now_us);
+			if (l->raw_subscribers)
+				line_publish_raw(l, &items[i].frame, items[i].kernel_ts_ns);
+		}
+		if (n < RX_BATCH)
+			return;
+	}
+}
+
+static void handle_requests(line *l)
+{
+	unsigned stall = atomic_exchange(&l->stall_ms, 0);
+	if (stall) {
+		/* Test hook: a line that stops looping must stop the watchdog. */
+		cogw_log(COGW_LOG_WARNING, "line %s: stalling for %u ms on request (test hook)", l->name, stall);
+		struct timespec ts = { .tv_sec = stall / 1000u, .tv_nsec = (long)(stall % 1000u) * 1000000L };
+		while (nanosleep(&ts, &ts) == -1 && errno == EINTR)
+			;
+	}
+	int hb = atomic_exchange(&l->hb_producer_ms, -1);
+	if (hb >= 0)
+		co_hb_producer_set(l->node, (uint16_t)hb, l->now_us);
+	line_store_poll(l);
+}
+
+static void publish_stats(line *l)
+{
+	if (l->now_us < l->next_publish_us)
+		return;
+	if (pthread_mutex_trylock(&l->stats_lock) != 0)
+		return; /* the main thread is reading; try next iteration */
+	const can_port_stats *cs = can_port_get_stats(l->port);
+	const co_node_stats *ns = co_node_get_stats(l->node);
+	const mbx_server_stats *ms = mbx_server_stats_get(l->mbx);
+	line_stats *s = &l->published;
+	s->loops = l->loops;
+	s->max_loop_us = l->max_loop_us;
+	s->rx_frames = cs->rx_frames;
+	s->tx_frames = cs->tx_frames;
+	s->rx_error_frames = cs->rx_error_frames;
+	s->rx_overflow_drops = cs->rx_overflow_drops;
+	s->tx_drops = cs->tx_drops;
+	s->tx_errors = cs->tx_errors;
+	s->bus_load_permille = cs->bus_load_permille;
+	s->bus_state = (uint8_t)can_port_bus_state(l->port);
+	s->core_rx_invalid = ns->rx_invalid;
+	s->core_tx_failed = ns->tx_failed;
+	s->nmt_state = co_nmt_get_state(l->node);
+	uint16_t seen = 0;
+	for (int i = 1; i < LINE_NODES; i++)
+		seen += l->nodes[i].state != 0xFF;
+	s->nodes_seen = seen;
+	s->mbx_clients = ms->clients;
+	s->mbx_commands = ms->commands_ok;
+	s->mbx_malformed = ms->malformed_total;
+	s->mbx_denied = ms->access_denied;
+	s->mbx_dropped = ms->dropped;
+	s->events_sent = ms->events_sent;
+	l->have_stats = true;
+	pthread_mutex_unlock(&l->stats_lock);
+	l->next_publish_us = l->now_us + PUBLISH_PERIOD_US;
+}
+
+static void *line_main(void *arg)
+{
+	line *l = arg;
+	uint64_t checkin_period = (uint64_t)l->p.checkin_ms * 1000u;
+	l->now_us = line_now_us();
+	co_node_tick(l->node, l->now_us);
+	atomic_store(&l->up, true);
+
+	while (!atomic_load(&l->stop)) {
+		uint64_t next = co_node_next_deadline_us(l->node);
+		uint64_t m = mbx_server_tick(l->mbx, l->now_us);
+		if (m < next)
+			next = m;
+		uint64_t r = can_port_retry_at_us(l->port);
+		if (r < next)
+			next = r;
+		if (l->now_us + checkin_period / 2 < next)
+			next = l->now_us + checkin_period / 2;
+		arm_timer(l, next);
+		set_epollout(l, can_port_wants_writable(l->port));
+
+		struct epoll_event evs[8];
+		int n = epoll_wait(l->epfd, evs, 8, -1);
+		uint64_t woke = line_now_us();
+		l->now_us = woke;
+		atomic_store(&l->checkin_us, woke);
+		if (n < 0 && errno != EINTR) {
+			cogw_log(COGW_LOG_ERR, "line %s: epoll_wait: %s", l->name, strerror(errno));
+			break;
+		}
+		for (int i = 0; i < n; i++) {
+			switch (evs[i].data.u32) {
+			case TAG_CAN:
+				if (evs[i].events & EPOLLOUT)
+					can_port_flush(l->port, l->now_us);
+				if (evs[i].events & (EPOLLIN | EPOLLERR))
+					handle_can(l);
+				break;
+			case TAG_TIMER:
+				drain_fd(l->timerfd);
+				l->armed_us = UINT64_MAX; /* expired: re-arm */
+				break;
+			case TAG_MBX:
+				mbx_server_poll(l->mbx, l->now_us);
+				break;
+			case TAG_WAKE:
+				drain_fd(l->wakefd);
+				handle_requests(l);
+				break;
+			}
+		}
+		if (l->now_us >= co_node_next_deadline_us(l->node))
+			co_node_tick(l->node, l->now_us);
+		if (can_port_retry_at_us(l->port) <= l->now_us)
+			can_port_flush(l->port, l->now_us);
+		int wm = can_port_take_watermark_event(l->port);
+		if (wm)
+			cogw_log(wm > 0 ? COGW_LOG_WARNING : COGW_LOG_INFO,
+				 "line %s: transmit queue %s (%zu frames queued)", l->name,
+				 wm > 0 ? "above its high-water mark" : "back below its low-water mark",
+				 can_port_tx_queued(l->port));
+		l->loops++;
+		uint64_t took = line_now_us() - woke;
+		if (took > l->max_loop_us)
+			l->max_loop_us = took;
+		publish_stats(l);
+	}
+	atomic_store(&l->up, false);
+	return NULL;
+}
+
+static void apply_rt(line *l, pthread_attr_t *attr)
+{
+	if (l->p.rt_priority > 0) {
+		struct sched_param sp = { .sched_priority = l->p.rt_priority };
+		pthread_attr_setinheritsched(attr, PTHREAD_EXPLICIT_SCHED);
+		pthread_attr_setschedpolicy(attr, SCHED_FIFO);
+		pthread_attr_setschedparam(attr, &sp);
+	}
+}
+
+int line_start(line *l)
+{
+	pthread_attr_t attr;
+	pthread_attr_init(&attr);
+	apply_rt(l, &attr);
+	atomic_store(&l->checkin_us, line_now_us());
+	int rc = pthread_create(&l->thread, &attr, line_main, l);
+	if (rc == EPERM && l->p.rt_priority > 0) {
+		cogw_log(COGW_LOG_WARNING,
+			 "line %s: SCHED_FIFO priority %d not permitted (needs CAP_SYS_NICE or an RT limit); running with normal scheduling",
+			 l->name, l->p.rt_priority);
+		pthread_attr_destroy(&attr);
+		pthread_attr_init(&attr);
+		rc = pthread_create(&l->thread, &attr, line_main, l);
+	}
+	pthread_attr_destroy(&attr);
+	if (rc) {
+		cogw_log(COGW_LOG_ERR, "line %s: cannot start its thread: %s", l->name, strerror(rc));
+		return -rc;
+	}
+	l->started = true;
+	/* thread names hold 15 characters: "cogw-" + the start of the name */
+	char tname[16] = "cogw-";
+	size_t keep = strnlen(l->name, sizeof tname - 6);
+	memcpy(tname + 5, l->name, keep);
+	tname[5 + keep] = '\0';
+	pthread_setname_np(l->thread, tname);
+	if (l->p.rt_cpu >= 0) {
+		cpu_set_t set;
+		CPU_ZERO(&set);
+		CPU_SET(l->p.rt_cpu, &set);
+		rc = pthread_setaffinity_np(l->thread, sizeof set, &set);
+		if (rc)
+			cogw_log(COGW_LOG_WARNING, "line %s: cannot pin to CPU %d: %s; running unpinned",
+				 l->name, l->p.rt_cpu, strerror(rc));
+	}
+	return 0;
+}
+
+static void wake(line *l)
+{
+	uint64_t one = 1;
+	ssize_t w = write(l->wakefd, &one, sizeof one);
+	(void)w;
+}
+
+void line_stop(line *l)
+{
+	if (!l || !l->started)
+		return;
+	atomic_store(&l->stop, true);
+	wake(l);
+	pthread_join(l->thread, NULL);
+	l->started = false;
+}
+
+void line_destroy(line *l)
+{
+	if (!l)
+		return;
+	line_stop(l);
+	mbx_server_destroy(l->mbx);
+	co_node_destroy(l->node);
+	can_port_close(l->port);
+	if (l->epfd >= 0)
+		close(l->epfd);
+	if (l->timerfd >= 0)
+		close(l->timerfd);
+	if (l->wakefd >= 0)
+		close(l->wakefd);
+	free(l->sdo_bufs);
+	free(l->store.blob);
+	pthread_mutex_destroy(&l->stats_lock);
+	free(l);
+}
+
+const char *line_name(const line *l)
+{
+	return l->name;
+}
+
+uint64_t line_last_checkin_us(const line *l)
+{
+	return atomic_load(&((line *)l)->checkin_us);
+}
+
+bool line_is_up(const line *l)
+{
+	return atomic_load(&((line *)l)->up);
+}
+
+bool line_stats_snapshot(line *l, line_stats *out)
+{
+	pthread_mutex_lock(&l->stats_lock);
+	bool have = l->have_stats;
+	if (have)
+		*out = l->published;
+	pthread_mutex_unlock(&l->stats_lock);
+	return have;
+}
+
+void line_request_stall(line *l, unsigned ms)
+{
+	atomic_store(&l->stall_ms, ms);
+	wake(l);
+}
+
+void line_request_hb_producer(line *l, uint16_t ms)
+{
+	atomic_store(&l->hb_producer_ms, (int)ms);
+	wake(l);
+}

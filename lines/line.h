@@ -1,0 +1,90 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * lines/line.h - one CAN line at run time: its real-time thread, which owns
+ * the line's core instance, SocketCAN port and mailbox server.
+ *
+ * The thread sleeps in epoll on: the CAN socket, one timerfd armed at the
+ * earliest deadline (core, mailbox, transmit retry, watchdog check-in), the
+ * line's mailbox command queue and an eventfd through which the main thread
+ * (and later other lines) wake it. Nothing else touches the line's core
+ * instance: every request reaches it as a message.
+ *
+ * Threads: line_create/line_start/line_stop/line_destroy are for the main
+ * thread; line_last_checkin_us, line_stats_snapshot and the line_request_*
+ * calls may be made from any thread and never block the line thread.
+ */
+#ifndef COGW_LINES_LINE_H
+#define COGW_LINES_LINE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "core/co.h"
+#include "lines/socketcan.h"
+#include "mailbox/server.h"
+
+typedef struct line line;
+
+typedef struct line_params {
+	uint8_t index;            /* line number, as in mailbox messages */
+	const char *name;         /* "line0", for logs */
+	uint16_t network_id;      /* CiA 302-7 network id of this line */
+	can_port_config can;      /* interface, bit rate, queue sizes */
+	co_node_config node;      /* node id, OD (owned by the caller), SDO
+	                           * settings; send/event are set by the line */
+	mbx_server_config mbx;    /* queue name, limits, access rules;
+	                           * dispatch is set by the line */
+	int rt_priority;          /* SCHED_FIFO 1..99, 0 = normal */
+	int rt_cpu;               /* CPU to pin to, -1 = any */
+	unsigned checkin_ms;      /* watchdog check-in period (default 500) */
+	const char *state_dir;    /* where 1010h "save" persists (NULL = off) */
+	int main_wakefd;          /* eventfd the line writes to when the main
+	                           * thread has storage work (-1 = none) */
+} line_params;
+
+/* Counters published by the line thread about once per second. */
+typedef struct line_stats {
+	uint64_t loops;
+	uint64_t rx_frames, tx_frames;
+	uint64_t rx_error_frames, rx_overflow_drops;
+	uint64_t tx_drops, tx_errors;
+	uint64_t core_rx_invalid, core_tx_failed;
+	uint32_t bus_load_permille;
+	uint8_t bus_state;        /* can_bus_state */
+	uint8_t nmt_state;        /* our own NMT state */
+	uint16_t nodes_seen;      /* remote nodes heard (boot-up/heartbeat) */
+	uint32_t mbx_clients;
+	uint64_t mbx_commands, mbx_malformed, mbx_denied, mbx_dropped;
+	uint64_t events_sent;
+	uint64_t max_loop_us;     /* longest loop iteration seen */
+} line_stats;
+
+/* Open the port, create the node and the mailbox server. Returns 0 or
+ * -errno and logs the reason ("line line0 (vcan0): ..."). */
+int line_create(line **out, const line_params *p);
+/* Start the thread (RT settings applied; logs when not permitted). */
+int line_start(line *l);
+/* Ask the thread to stop, wake it and join it. Idempotent. */
+void line_stop(line *l);
+void line_destroy(line *l); /* stops first; accepts NULL */
+
+const char *line_name(const line *l);
+/* CLOCK_MONOTONIC µs of the line thread's last loop iteration. */
+uint64_t line_last_checkin_us(const line *l);
+bool line_is_up(const line *l);
+/* Copy the latest published counters. Returns false if none yet. */
+bool line_stats_snapshot(line *l, line_stats *out);
+
+/* Requests from the main thread (served by the line thread). */
+void line_request_stall(line *l, unsigned ms);     /* test hook */
+void line_request_hb_producer(line *l, uint16_t ms); /* reload */
+
+/* Main thread: carry out a pending 1010h save / 1011h restore for this
+ * line (file I/O, which the line thread never does). Returns true if there
+ * was one. */
+bool line_store_service(line *l);
+
+/* Monotonic clock in µs (the one clock every line reads once per loop). */
+uint64_t line_now_us(void);
+
+#endif /* COGW_LINES_LINE_H */

@@ -1,0 +1,207 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * lines/line_events.c - what the line's core and CAN port tell, turned into
+ * mailbox events (and answers to requests that were waiting for them).
+ * Runs on the line thread, inside the core's event callback: nothing here
+ * blocks; a full client queue is the mailbox server's business (drop,
+ * count, flag).
+ */
+#include "lines/line_internal.h"
+
+#include <string.h>
+
+#include "core/heartbeat.h"
+#include "core/nmt.h"
+#include "lines/log.h"
+
+static void node_update(line *l, uint8_t node, uint8_t state, uint64_t now)
+{
+	if (node == 0 || node >= LINE_NODES)
+		return;
+	l->nodes[node].state = state;
+	l->nodes[node].last_seen_us = now;
+}
+
+static void publish_node(line *l, uint16_t code, uint8_t node, uint8_t state, uint8_t prev)
+{
+	mbx_ev_node ev = { .node = node, .state = state, .prev = prev };
+	mbx_server_publish(l->mbx, code, 0, &ev, sizeof ev);
+}
+
+/* Pull the bits of one mapped object out of a PDO payload (CiA 301: bit
+ * offset counted from bit 0 of byte 0, little-endian). */
+static uint8_t extract_bits(const uint8_t *data, unsigned bit_off, unsigned bits, uint8_t out[8])
+{
+	memset(out, 0, 8);
+	if (bit_off % 8 == 0 && bits % 8 == 0) {
+		memcpy(out, data + bit_off / 8, bits / 8);
+	} else {
+		for (unsigned b = 0; b < bits; b++) {
+			unsigned src = bit_off + b;
+			if (data[src / 8] & (1u << (src % 8)))
+				out[b / 8] |= (uint8_t)(1u << (b % 8));
+		}
+	}
+	return (uint8_t)((bits + 7) / 8);
+}
+
+static void publish_rpdo(line *l, const co_ev_pdo *p, uint64_t now)
+{
+	struct {
+		mbx_ev_pdo head;
+		mbx_pdo_value values[MBX_PDO_VALUES_MAX];
+	} ev;
+	memset(&ev, 0, sizeof ev);
+	ev.head.ts_us = now;
+	ev.head.pdo = p->nr;
+	unsigned off = 0, n = 0;
+	for (unsigned i = 0; i < p->n_map && n < MBX_PDO_VALUES_MAX; i++) {
+		const co_ev_pdo_map *m = &p->map[i];
+		if (off + m->bits > p->len * 8u)
+			break;
+		if (m->index > 0x0007) { /* dummy entries carry nothing */
+			mbx_pdo_value *v = &ev.values[n++];
+			v->index = m->index;
+			v->sub = m->sub;
+			v->len = extract_bits(p->data, off, m->bits, v->data);
+		}
+		off += m->bits;
+	}
+	ev.head.n = (uint8_t)n;
+	mbx_server_publish(l->mbx, MBX_EV_PDO, 0, &ev, sizeof ev.head + n * sizeof ev.values[0]);
+}
+
+static void sdo_client_done(line *l, const co_ev_sdo_cli *c)
+{
+	line_pending *pp = line_pending_find(l, c->tag);
+	mbx_ev_sdo_done done = {
+		.abort = c->abort, .size = c->size, .index = c->index, .sub = c->sub,
+		.node = c->node_id, .upload = c->upload, .mode = c->mode,
+	};
+	if (!pp)
+		return; /* the client went away meanwhile */
+	uint64_t corr = pp->reply.corr;
+	if (c->abort)
+		mbx_server_respond(l->mbx, &pp->reply, MBX_E_ABORT, c->abort, NULL, 0);
+	else if (c->upload)
+		mbx_server_respond(l->mbx, &pp->reply, 0, 0, pp->buf, c->size);
+	else
+		mbx_server_respond(l->mbx, &pp->reply, 0, 0, NULL, 0);
+	/* SDO-class subscribers (a logger, say) see every transfer end */
+	mbx_server_publish(l->mbx, MBX_EV_SDO_DONE, corr, &done, sizeof done);
+	line_pending_release(l, pp);
+}
+
+void line_on_core_event(void *ctx, const co_event *ev)
+{
+	line *l = ctx;
+	uint64_t now = ev->now_us;
+	switch (ev->kind) {
+	case CO_EV_OD_WRITTEN: {
+		mbx_ev_od_written w = { .index = ev->u.od.index, .sub = ev->u.od.sub, .size = ev->u.od.size };
+		mbx_server_publish(l->mbx, MBX_EV_OD_WRITTEN, 0, &w, sizeof w);
+		break;
+	}
+	case CO_EV_SDO_CLIENT_DONE:
+		sdo_client_done(l, &ev->u.sdo_cli);
+		break;
+	case CO_EV_NMT_STATE:
+		cogw_log(COGW_LOG_INFO, "line %s: own NMT state %s -> %s", l->name,
+			 co_nmt_state_to_string(ev->u.nmt.prev), co_nmt_state_to_string(ev->u.nmt.state));
+		publish_node(l, MBX_EV_NMT_STATE, co_node_id(l->node), ev->u.nmt.state, ev->u.nmt.prev);
+		break;
+	case CO_EV_BOOTUP:
+		node_update(l, ev->u.errctrl.node, 0, now);
+		if (ev->u.errctrl.node < LINE_NODES)
+			l->nodes[ev->u.errctrl.node].bootups++;
+		publish_node(l, MBX_EV_BOOTUP, ev->u.errctrl.node, 0, ev->u.errctrl.prev);
+		break;
+	case CO_EV_HB_STARTED:
+	case CO_EV_GUARD_RESUMED:
+		node_update(l, ev->u.errctrl.node, ev->u.errctrl.state, now);
+		if (ev->u.errctrl.node < LINE_NODES) {
+			l->nodes[ev->u.errctrl.node].monitored = true;
+			l->nodes[ev->u.errctrl.node].hb_lost = false;
+		}
+		publish_node(l, MBX_EV_HB_STARTED, ev->u.errctrl.node, ev->u.errctrl.state, ev->u.errctrl.prev);
+		break;
+	case CO_EV_HB_LOST:
+	case CO_EV_GUARD_FAILED:
+		if (ev->u.errctrl.node < LINE_NODES)
+			l->nodes[ev->u.errctrl.node].hb_lost = true;
+		cogw_log(COGW_LOG_WARNING, "line %s: node %u %s lost (%u ms)", l->name, ev->u.errctrl.node,
+			 ev->kind == CO_EV_HB_LOST ? "heartbeat" : "guarding", ev->u.errctrl.time_ms);
+		publish_node(l, MBX_EV_HB_LOST, ev->u.errctrl.node, ev->u.errctrl.state, ev->u.errctrl.prev);
+		break;
+	case CO_EV_HB_STATE:
+		node_update(l, ev->u.errctrl.node, ev->u.errctrl.state, now);
+		publish_node(l, MBX_EV_NMT_STATE, ev->u.errctrl.node, ev->u.errctrl.state, ev->u.errctrl.prev);
+		break;
+	case CO_EV_EMCY_RX: {
+		const co_ev_emcy *e = &ev->u.emcy;
+		if (e->node < LINE_NODES) {
+			l->nodes[e->node].last_emcy = e->code;
+			l->nodes[e->node].emcy_count++;
+		}
+		mbx_ev_emcy m = { .ts_us = now, .code = e->code, .node = e->node, .reg = e->reg };
+		memcpy(m.msef, e->msef, sizeof m.msef);
+		mbx_server_publish(l->mbx, MBX_EV_EMCY, 0, &m, sizeof m);
+		break;
+	}
+	case CO_EV_RPDO:
+		publish_rpdo(l, &ev->u.pdo, now);
+		break;
+	case CO_EV_LSS_MASTER_DONE:
+		line_lss_done(l, &ev->u.lss_master);
+		break;
+	case CO_EV_TX_FAILED:
+		/* counted by the core and the port; the watermark log says more */
+		break;
+	default:
+		break;
+	}
+}
+
+static uint8_t mbx_state_of(can_bus_state s)
+{
+	switch (s) {
+	case CAN_BUS_ACTIVE: return MBX_CAN_ACTIVE;
+	case CAN_BUS_WARNING: return MBX_CAN_WARNING;
+	case CAN_BUS_PASSIVE: return MBX_CAN_PASSIVE;
+	case CAN_BUS_OFF: return MBX_CAN_BUS_OFF;
+	}
+	return MBX_CAN_ACTIVE;
+}
+
+void line_on_can_error(line *l, const can_rx_item *it)
+{
+	const can_error_info *e = &it->error;
+	if (e->state_changed) {
+		can_bus_state prev = e->restarted ? CAN_BUS_OFF : l->bus_state_prev;
+		cogw_log(e->state == CAN_BUS_ACTIVE ? COGW_LOG_NOTICE : COGW_LOG_WARNING,
+			 "line %s (%s): CAN controller %s -> %s", l->name, l->ifname,
+			 can_bus_state_to_string(prev), can_bus_state_to_string(e->state));
+		mbx_ev_can_state ev = { .state = mbx_state_of(e->state), .prev = mbx_state_of(prev),
+					.tec = e->tx_errors, .rec = e->rx_errors };
+		mbx_server_publish(l->mbx, MBX_EV_CAN_STATE, 0, &ev, sizeof ev);
+		/* CiA 301: bus-off is a communication error (1029h, EMCY 8140h on
+		 * recovery) */
+		if (e->state == CAN_BUS_OFF)
+			co_errctrl_bus_off(l->node, l->now_us);
+		else if (prev == CAN_BUS_OFF)
+			co_errctrl_bus_off_recovered(l->node, l->now_us);
+		l->bus_state_prev = e->state;
+	}
+	if (e->controller_problem)
+		cogw_log(COGW_LOG_WARNING, "line %s (%s): CAN controller reports an overflow", l->name, l->ifname);
+}
+
+void line_publish_raw(line *l, const co_frame *f, uint64_t ts_ns)
+{
+	mbx_ev_raw ev = { .ts_us = ts_ns / 1000u };
+	ev.frame.id = f->id | ((f->flags & CO_FRAME_EXT) ? MBX_RAW_EXT : 0) |
+		      ((f->flags & CO_FRAME_RTR) ? MBX_RAW_RTR : 0);
+	ev.frame.len = f->len;
+	memcpy(ev.frame.data, f->data, f->len);
+	mbx_server_publish(l->mbx, MBX_EV_RAW, 0, &ev, sizeof ev);
+}
