@@ -1,0 +1,522 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Heartbeat producer/consumer and boot-up reception (CiA 301 §7.2.8.3.2.2,
+ * §7.2.8.3.2.3, 1016h/1017h).
+ *
+ * Consumer timing: the deadline of an entry is "last heartbeat + consumer
+ * time", an absolute time handed to the line thread as the node deadline,
+ * so a loss is reported at that instant (plus the loop's latency), never a
+ * tick early; there is no polling period to round to.
+ *
+ * One receiver per remote node-id, not per consumer entry, because boot-ups
+ * must be seen from every node, configured or not (a manager learns about
+ * new nodes that way).
+ */
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/emcy.h"
+#include "core/guarding.h"
+#include "core/heartbeat.h"
+#include "core/nmt.h"
+#include "core/sdo.h"
+
+#define HB_NODES 128u   /* index = node-id 1..127 */
+#define HB_ENTRIES 127u /* 1016h subs 1..127 */
+
+struct hb_entry {
+	uint8_t node;
+	uint16_t time_ms;
+	uint8_t mon; /* co_hb_mon */
+	uint64_t deadline_us;
+};
+
+struct co_errctrl {
+	co_node *node;
+	/* producer */
+	uint64_t prod_next_us; /* CO_NO_DEADLINE = off */
+	/* consumer */
+	struct hb_entry ent[HB_ENTRIES + 1]; /* by 1016h sub, [0] unused */
+	uint8_t n_ent;                        /* subs 1..n_ent exist */
+	uint8_t last_state[HB_NODES];
+	int rx[HB_NODES];
+	unsigned lost;
+	bool bus_off;
+	unsigned rx_missing; /* node-ids not listened to: receiver pool full */
+	uint8_t own_id; /* id whose 700h+id we do not consume (LSS may change it) */
+};
+
+const char *co_hb_mon_to_string(co_hb_mon m)
+{
+	switch (m) {
+	case CO_HB_MON_OFF: return "off";
+	case CO_HB_MON_WAITING: return "waiting";
+	case CO_HB_MON_ACTIVE: return "active";
+	case CO_HB_MON_LOST: return "lost";
+	}
+	return "?";
+}
+
+static void emit(co_node *node, co_event_kind kind, uint8_t remote,
+		 uint8_t state, uint8_t prev, uint16_t time_ms)
+{
+	co_event ev = { .kind = kind };
+
+	ev.u.errctrl.node = remote;
+	ev.u.errctrl.state = state;
+	ev.u.errctrl.prev = prev;
+	ev.u.errctrl.time_ms = time_ms;
+	co_node_emit(node, &ev);
+}
+
+/* ---- producer ------------------------------------------------------------ */
+
+static uint16_t prod_period_ms(const co_node *node)
+{
+	uint16_t v = 0;
+
+	(void)co_od_get_u16(node->od, 0x1017, 0, &v);
+	return v;
+}
+
+static void prod_send(co_node *node)
+{
+	co_frame f;
+
+	co_frame_init(&f, CO_NMT_ERRCTRL_BASE + node->node_id, 1);
+	f.data[0] = co_nmt_get_state(node);
+	(void)co_node_send(node, &f);
+}
+
+static bool prod_allowed(const co_node *node)
+{
+	return node->node_id >= 1 && node->node_id <= 127 &&
+	       co_nmt_get_state(node) != CO_NMT_INITIALISING;
+}
+
+/* (Re)start the producer. send_now: a 1017h write sends at once; after a
+ * boot-up the boot-up itself was the first heartbeat. */
+static void prod_restart(co_node *node, bool send_now, uint64_t now_us)
+{
+	struct co_errctrl *ec = node->errctrl;
+	uint16_t ms = prod_period_ms(node);
+
+	ec->prod_next_us = CO_NO_DEADLINE;
+	if (!ms || !prod_allowed(node))
+		return;
+	if (send_now)
+		prod_send(node);
+	ec->prod_next_us = now_us + (uint64_t)ms * 1000u;
+	co_node_deadline_lower(node, ec->prod_next_us);
+}
+
+static void prod_tick(co_node *node, uint64_t now_us)
+{
+	struct co_errctrl *ec = node->errctrl;
+	uint64_t period;
+
+	if (now_us < ec->prod_next_us)
+		return;
+	period = (uint64_t)prod_period_ms(node) * 1000u;
+	if (!period || !prod_allowed(node)) {
+		ec->prod_next_us = CO_NO_DEADLINE;
+		return;
+	}
+	prod_send(node);
+	/* Keep the grid (no drift from loop latency) unless we fell behind
+	 * by a whole period, then restart from now. */
+	ec->prod_next_us += period;
+	if (ec->prod_next_us <= now_us)
+		ec->prod_next_us = now_us + period;
+}
+
+static void p1017_after(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	co_node *node = ctx;
+
+	(void)e;
+	(void)a;
+	prod_restart(node, true, node->now_us);
+}
+
+static const co_od_hooks p1017_hooks = { .after_write = p1017_after };
+
+int co_hb_producer_set(co_node *node, uint16_t period_ms, uint64_t now_us)
+{
+	co_od_entry *e = co_od_find(node->od, 0x1017, 0);
+	co_od_access a = { .origin = CO_OD_ORIGIN_LOCAL };
+	uint8_t buf[2];
+
+	if (!e)
+		return -ENOENT;
+	if (!node->errctrl)
+		return -ENODEV;
+	node->now_us = now_us;
+	co_put_le16(buf, period_ms);
+	return co_od_write(e, buf, sizeof(buf), &a) ? -EINVAL : 0;
+}
+
+/* ---- consumer ------------------------------------------------------------ */
+
+static void ent_load(struct co_errctrl *ec, uint8_t sub)
+{
+	struct hb_entry *en = &ec->ent[sub];
+	uint32_t v = 0;
+
+	(void)co_od_get_u32(ec->node->od, 0x1016, sub, &v);
+	if (en->mon == CO_HB_MON_LOST && ec->lost)
+		ec->lost--;
+	en->node = (uint8_t)(v >> 16);
+	en->time_ms = (uint16_t)v;
+	en->deadline_us = CO_NO_DEADLINE;
+	en->mon = (en->node && en->node <= 127 && en->time_ms) ? CO_HB_MON_WAITING
+							       : CO_HB_MON_OFF;
+}
+
+static void loss(co_node *node, struct hb_entry *en, uint64_t now_us)
+{
+	struct co_errctrl *ec = node->errctrl;
+	uint8_t msef[5] = { en->node, 0, 0, 0, 0 };
+
+	en->mon = CO_HB_MON_LOST;
+	en->deadline_us = CO_NO_DEADLINE;
+	ec->lost++;
+	emit(node, CO_EV_HB_LOST, en->node, ec->last_state[en->node],
+	     CO_HB_STATE_UNKNOWN, en->time_ms);
+	/* CiA 301: a heartbeat event is a communication error: EMCY first
+	 * (while the state still allows it), then 1029h:1. */
+	(void)co_emcy_send(node, CO_EMCY_LIFE_GUARD, CO_EMCY_REG_COMM, msef,
+			   now_us);
+	(void)co_nmt_comm_error(node, now_us);
+}
+
+void co_errctrl_loss_resolved(co_node *node, uint64_t now_us)
+{
+	struct co_errctrl *ec = node->errctrl;
+	bool guard_lost = co_guard_life_lost(node);
+
+	if (ec && !ec->lost && !guard_lost)
+		(void)co_emcy_clear(node, CO_EMCY_LIFE_GUARD, now_us);
+}
+
+static void hb_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
+{
+	struct co_errctrl *ec = node->errctrl;
+	uint8_t remote = (uint8_t)(uintptr_t)arg;
+	uint8_t st, prev;
+	bool resolved = false;
+
+	if ((f->flags & CO_FRAME_RTR) || f->len < 1)
+		return;
+	/* A guarded node's answers carry a toggle bit: guarding reads them.
+	 * Its boot-up (00h) is still a boot-up. */
+	if (f->data[0] != CO_NMT_INITIALISING && co_guard_master_has(node, remote))
+		return;
+	st = f->data[0] & 0x7F;
+	prev = ec->last_state[remote];
+	ec->last_state[remote] = st;
+
+	if (st == CO_NMT_INITIALISING) {
+		emit(node, CO_EV_BOOTUP, remote, st, prev, 0);
+		for (unsigned s = 1; s <= ec->n_ent; s++) {
+			struct hb_entry *en = &ec->ent[s];
+			if (en->node != remote || en->mon == CO_HB_MON_OFF)
+				continue;
+			if (en->mon == CO_HB_MON_LOST) {
+				ec->lost--;
+				resolved = true;
+			}
+			en->mon = CO_HB_MON_WAITING;
+			en->deadline_us = CO_NO_DEADLINE;
+		}
+	} else {
+		if (prev != st)
+			emit(node, CO_EV_HB_STATE, remote, st, prev, 0);
+		for (unsigned s = 1; s <= ec->n_ent; s++) {
+			struct hb_entry *en = &ec->ent[s];
+			if (en->node != remote || en->mon == CO_HB_MON_OFF)
+				continue;
+			if (en->mon != CO_HB_MON_ACTIVE) {
+				if (en->mon == CO_HB_MON_LOST) {
+					ec->lost--;
+					resolved = true;
+				}
+				en->mon = CO_HB_MON_ACTIVE;
+				emit(node, CO_EV_HB_STARTED, remote, st, prev,
+				     en->time_ms);
+			}
+			en->deadline_us = now_us + (uint64_t)en->time_ms * 1000u;
+			co_node_deadline_lower(node, en->deadline_us);
+		}
+	}
+	if (resolved)
+		co_errctrl_loss_resolved(node, now_us);
+}
+
+static uint32_t c1016_check(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	struct co_errctrl *ec = ctx;
+	uint32_t v;
+	uint8_t n;
+
+	if (!a->data || a->size != 4)
+		return SDO_AB_TYPE_LEN;
+	v = co_get_le32(a->data);
+	if (v & 0xFF000000u)
+		return SDO_AB_VALUE;
+	n = (uint8_t)(v >> 16);
+	if (!n || !(uint16_t)v)
+		return 0; /* disabling an entry is always fine */
+	if (n > 127)
+		return SDO_AB_PARAM_INCOMPAT;
+	/* CiA 301 §7.5.2.18: one active entry per node. */
+	for (unsigned s = 1; s <= ec->n_ent; s++) {
+		uint32_t o = 0;
+		if (s == e->sub)
+			continue;
+		(void)co_od_get_u32(ec->node->od, 0x1016, (uint8_t)s, &o);
+		if ((uint8_t)(o >> 16) == n && (uint16_t)o)
+			return SDO_AB_PARAM_INCOMPAT;
+	}
+	return 0;
+}
+
+static void c1016_after(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	struct co_errctrl *ec = ctx;
+
+	(void)a;
+	ent_load(ec, e->sub);
+	co_errctrl_loss_resolved(ec->node, ec->node->now_us);
+}
+
+static const co_od_hooks c1016_hooks = {
+	.check_write = c1016_check,
+	.after_write = c1016_after,
+};
+
+int co_hb_consumer_set(co_node *node, uint8_t remote_id, uint16_t time_ms,
+		       uint64_t now_us)
+{
+	struct co_errctrl *ec = node->errctrl;
+	co_od_access a = { .origin = CO_OD_ORIGIN_LOCAL };
+	unsigned s, free_sub = 0;
+	uint8_t buf[4];
+
+	if (!ec)
+		return -ENODEV;
+	if (remote_id < 1 || remote_id > 127)
+		return -EINVAL;
+	if (!ec->n_ent)
+		return -ENOENT;
+	for (s = 1; s <= ec->n_ent; s++) {
+		uint32_t v = 0;
+		(void)co_od_get_u32(node->od, 0x1016, (uint8_t)s, &v);
+		if ((uint8_t)(v >> 16) == remote_id)
+			break;
+		if (!free_sub && (!(uint8_t)(v >> 16) || !(uint16_t)v))
+			free_sub = s;
+	}
+	if (s > ec->n_ent) {
+		if (!free_sub)
+			return -ENOSPC;
+		s = free_sub;
+	}
+	node->now_us = now_us;
+	co_put_le32(buf, ((uint32_t)remote_id << 16) | time_ms);
+	return co_od_write(co_od_find(node->od, 0x1016, (uint8_t)s), buf, 4, &a)
+		       ? -EINVAL
+		       : 0;
+}
+
+co_hb_mon co_hb_consumer_status(const co_node *node, uint8_t remote_id)
+{
+	const struct co_errctrl *ec = node->errctrl;
+
+	if (!ec)
+		return CO_HB_MON_OFF;
+	for (unsigned s = 1; s <= ec->n_ent; s++)
+		if (ec->ent[s].node == remote_id && ec->ent[s].mon != CO_HB_MON_OFF)
+			return (co_hb_mon)ec->ent[s].mon;
+	return CO_HB_MON_OFF;
+}
+
+uint8_t co_hb_remote_state(const co_node *node, uint8_t remote_id)
+{
+	if (!node->errctrl || remote_id >= HB_NODES)
+		return CO_HB_STATE_UNKNOWN;
+	return node->errctrl->last_state[remote_id];
+}
+
+unsigned co_hb_lost_count(const co_node *node)
+{
+	return node->errctrl ? node->errctrl->lost : 0;
+}
+
+/* ---- bus-off ------------------------------------------------------------- */
+
+int co_errctrl_bus_off(co_node *node, uint64_t now_us)
+{
+	if (!node->errctrl)
+		return -ENODEV;
+	node->errctrl->bus_off = true;
+	/* No EMCY now: nothing can be sent while bus-off. */
+	return co_nmt_comm_error(node, now_us) < 0 ? -ENODEV : 0;
+}
+
+int co_errctrl_bus_off_recovered(co_node *node, uint64_t now_us)
+{
+	if (!node->errctrl)
+		return -ENODEV;
+	if (!node->errctrl->bus_off)
+		return 0;
+	node->errctrl->bus_off = false;
+	return co_emcy_send(node, CO_EMCY_BUS_OFF_RECOVERED, CO_EMCY_REG_COMM,
+			    NULL, now_us);
+}
+
+/* ---- service ------------------------------------------------------------- */
+
+static void load_all(struct co_errctrl *ec)
+{
+	ec->lost = 0;
+	for (unsigned s = 1; s <= ec->n_ent; s++) {
+		ec->ent[s].mon = CO_HB_MON_OFF;
+		ent_load(ec, (uint8_t)s);
+	}
+}
+
+static int hb_init(co_node *node)
+{
+	struct co_errctrl *ec = calloc(1, sizeof(*ec));
+	co_od_entry *e;
+
+	if (!ec)
+		return -ENOMEM;
+	node->errctrl = ec;
+	ec->node = node;
+	ec->prod_next_us = CO_NO_DEADLINE;
+	memset(ec->last_state, CO_HB_STATE_UNKNOWN, sizeof(ec->last_state));
+	for (unsigned n = 0; n < HB_NODES; n++)
+		ec->rx[n] = -1;
+
+	if ((e = co_od_find(node->od, 0x1017, 0)) != NULL)
+		co_od_entry_set_hooks(e, &p1017_hooks, node);
+	while (ec->n_ent < HB_ENTRIES &&
+	       (e = co_od_find(node->od, 0x1016, (uint8_t)(ec->n_ent + 1)))) {
+		co_od_entry_set_hooks(e, &c1016_hooks, ec);
+		ec->n_ent++;
+	}
+	load_all(ec);
+
+	ec->own_id = node->node_id;
+	for (unsigned n = 1; n <= 127; n++) {
+		if (n == node->node_id)
+			continue;
+		ec->rx[n] = co_rx_register(node, CO_NMT_ERRCTRL_BASE + n, 0,
+					   hb_rx, (void *)(uintptr_t)n);
+		/* A node built with a small receiver pool (rx_max) still
+		 * works: it just does not see the remaining node-ids. */
+		if (ec->rx[n] == -ENOSPC) {
+			ec->rx[n] = -1;
+			ec->rx_missing++;
+		} else if (ec->rx[n] < 0) {
+			return ec->rx[n];
+		}
+	}
+	return 0;
+}
+
+static void hb_fini(co_node *node)
+{
+	free(node->errctrl);
+	node->errctrl = NULL;
+}
+
+static uint64_t hb_tick(co_node *node, uint64_t now_us)
+{
+	struct co_errctrl *ec = node->errctrl;
+	uint64_t next;
+
+	prod_tick(node, now_us);
+	for (unsigned s = 1; s <= ec->n_ent; s++) {
+		struct hb_entry *en = &ec->ent[s];
+		if (en->mon == CO_HB_MON_ACTIVE && now_us >= en->deadline_us)
+			loss(node, en, now_us);
+	}
+	/* loss() may have changed the NMT state and the producer with it. */
+	next = ec->prod_next_us;
+	for (unsigned s = 1; s <= ec->n_ent; s++)
+		if (ec->ent[s].mon == CO_HB_MON_ACTIVE && ec->ent[s].deadline_us < next)
+			next = ec->ent[s].deadline_us;
+	return next;
+}
+
+/* LSS gave us another node-ID (active from this reset communication on):
+ * listen to the old one, stop listening to our own. */
+static void own_id_changed(co_node *node)
+{
+	struct co_errctrl *ec = node->errctrl;
+	uint8_t old = ec->own_id, now = node->node_id;
+
+	if (old >= 1 && old <= 127 && ec->rx[old] < 0)
+		ec->rx[old] = co_rx_register(node, CO_NMT_ERRCTRL_BASE + old, 0,
+					     hb_rx, (void *)(uintptr_t)old);
+	if (now >= 1 && now <= 127 && ec->rx[now] >= 0) {
+		(void)co_rx_unregister(node, ec->rx[now]);
+		ec->rx[now] = -1;
+	}
+	ec->own_id = now;
+}
+
+static void hb_reset_comm(co_node *node, uint64_t now_us)
+{
+	struct co_errctrl *ec = node->errctrl;
+	bool had_loss = ec->lost != 0;
+
+	ec->prod_next_us = CO_NO_DEADLINE; /* restarts after the boot-up */
+	ec->bus_off = false;
+	if (node->node_id != ec->own_id)
+		own_id_changed(node);
+	load_all(ec);
+	if (had_loss)
+		co_errctrl_loss_resolved(node, now_us);
+}
+
+static void hb_nmt_changed(co_node *node, uint8_t state, uint64_t now_us)
+{
+	struct co_errctrl *ec = node->errctrl;
+
+	if (state == CO_NMT_INITIALISING)
+		ec->prod_next_us = CO_NO_DEADLINE;
+	else if (ec->prod_next_us == CO_NO_DEADLINE)
+		prod_restart(node, false, now_us); /* after the boot-up */
+}
+
+const co_service co_svc_hb = {
+	.name = "heartbeat",
+	.init = hb_init,
+	.fini = hb_fini,
+	.tick = hb_tick,
+	.reset_comm = hb_reset_comm,
+	.nmt_changed = hb_nmt_changed,
+};
+
+/* ---- standard objects ---------------------------------------------------- */
+
+int co_od_add_comm_defaults_hb(co_od *od, uint8_t consumers, uint16_t producer_ms)
+{
+	int rc;
+
+	if (!od || consumers > HB_ENTRIES)
+		return -EINVAL;
+	if (consumers && !co_od_has_index(od, 0x1016)) {
+		if ((rc = co_od_add_array(od, 0x1016, CO_T_UNSIGNED32, consumers,
+					  CO_ACC_RW, 0)))
+			return rc;
+	}
+	rc = co_od_add_num(od, 0x1017, 0, CO_T_UNSIGNED16, CO_ACC_RW,
+			   producer_ms, NULL);
+	return rc == -EEXIST ? 0 : rc;
+}

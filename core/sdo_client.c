@@ -1,0 +1,1010 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * SDO client (CiA 301 §7.2.4). One state machine per channel, a bounded
+ * FIFO of requests in front of it. States and their frame handlers are in
+ * cli_states[]; all non-idle states share the per-frame timeout.
+ *
+ * Data never has to be in memory as a whole: downloads read the source
+ * sequentially into one sub-block buffer (127 x 7 bytes), which is also
+ * what a block retransmission resends; uploads hand each byte to the sink
+ * exactly once, in order. The block CRC is computed on that single pass.
+ */
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/crc16.h"
+#include "core/sdo_client.h"
+
+#define SUB_BLOCK_BYTES (SDO_BLK_MAX_SEQ * SDO_SEG_DATA) /* 889 */
+#define UNKNOWN_SIZE UINT32_MAX
+
+enum cli_state {
+	CS_IDLE,
+	CS_DN_INIT,     /* initiate download sent */
+	CS_DN_SEG,      /* download segment sent */
+	CS_UP_INIT,     /* initiate upload sent */
+	CS_UP_SEG,      /* upload segment request sent */
+	CS_BLK_DN_INIT, /* block download initiate sent */
+	CS_BLK_DN_ACK,  /* sub-block sent, waiting for the ack */
+	CS_BLK_DN_END,  /* end sent */
+	CS_BLK_UP_INIT, /* block upload initiate sent */
+	CS_BLK_UP_SUB,  /* receiving sub-block segments */
+	CS_BLK_UP_END,  /* last sub-block acked, waiting for the end */
+	CS_COUNT
+};
+
+struct cli_chan {
+	struct sdo_client *cli;
+	uint8_t num;
+	uint8_t state;
+	int rx_handle;
+	uint64_t deadline;
+	uint64_t timeout_us;
+
+	/* queue: ring of cfg.sdo_client_queue_len waiting requests */
+	sdo_client_req *q;
+	uint16_t q_head;
+	uint16_t q_len;
+
+	sdo_client_req cur; /* the running request (valid if state != IDLE) */
+	uint32_t cob_req;
+	uint32_t cob_resp;
+	uint8_t mode;
+	bool fell_back;
+	uint8_t toggle;
+	uint32_t offset; /* bytes confirmed (download) / delivered (upload) */
+	uint32_t total;  /* download: size; upload: indicated or UNKNOWN */
+	uint32_t read_off; /* download: bytes taken from the source */
+
+	/* block */
+	bool crc_on;
+	uint16_t crc;
+	uint8_t blksize;
+	uint8_t seq;       /* upload: last in-sequence seqno */
+	uint8_t segs;      /* download: segments in the sub-block sent */
+	bool sub_last;     /* download: that sub-block ends the data */
+	bool last_seen;    /* upload: segment with c = 1 accepted */
+	bool pend_valid;   /* upload: held-back segment (its length is only
+	                    * known at the end request) */
+	uint8_t pend[SDO_SEG_DATA];
+	uint32_t sub_len;  /* download: bytes in sub_buf */
+	uint8_t sub_buf[SUB_BLOCK_BYTES];
+
+	co_od_entry *od_cob[2]; /* 1280h+n sub 1/2 */
+	co_od_entry *od_node;   /* sub 3 */
+};
+
+struct sdo_client {
+	co_node *node;
+	uint8_t n;
+	struct cli_chan ch[];
+};
+
+typedef void (*cli_frame_fn)(struct cli_chan *ch, const uint8_t *d);
+
+static void st_ignore(struct cli_chan *ch, const uint8_t *d);
+static void st_dn_init(struct cli_chan *ch, const uint8_t *d);
+static void st_dn_seg(struct cli_chan *ch, const uint8_t *d);
+static void st_up_init(struct cli_chan *ch, const uint8_t *d);
+static void st_up_seg(struct cli_chan *ch, const uint8_t *d);
+static void st_blk_dn_init(struct cli_chan *ch, const uint8_t *d);
+static void st_blk_dn_ack(struct cli_chan *ch, const uint8_t *d);
+static void st_blk_dn_end(struct cli_chan *ch, const uint8_t *d);
+static void st_blk_up_init(struct cli_chan *ch, const uint8_t *d);
+static void st_blk_up_sub(struct cli_chan *ch, const uint8_t *d);
+static void st_blk_up_end(struct cli_chan *ch, const uint8_t *d);
+
+static const struct {
+	const char *name;
+	cli_frame_fn on_frame;
+} cli_states[CS_COUNT] = {
+	[CS_IDLE] = { "idle", st_ignore },
+	[CS_DN_INIT] = { "download initiate", st_dn_init },
+	[CS_DN_SEG] = { "download segment", st_dn_seg },
+	[CS_UP_INIT] = { "upload initiate", st_up_init },
+	[CS_UP_SEG] = { "upload segment", st_up_seg },
+	[CS_BLK_DN_INIT] = { "block download initiate", st_blk_dn_init },
+	[CS_BLK_DN_ACK] = { "block download ack", st_blk_dn_ack },
+	[CS_BLK_DN_END] = { "block download end", st_blk_dn_end },
+	[CS_BLK_UP_INIT] = { "block upload initiate", st_blk_up_init },
+	[CS_BLK_UP_SUB] = { "block upload sub-block", st_blk_up_sub },
+	[CS_BLK_UP_END] = { "block upload end", st_blk_up_end },
+};
+
+static void kick_all(struct sdo_client *cli);
+
+/* ---- helpers ------------------------------------------------------------ */
+
+static co_node *node_of(const struct cli_chan *ch)
+{
+	return ch->cli->node;
+}
+
+static void arm(struct cli_chan *ch)
+{
+	co_node *node = node_of(ch);
+
+	ch->deadline = node->now_us + ch->timeout_us;
+	co_node_deadline_lower(node, ch->deadline);
+}
+
+static void enter(struct cli_chan *ch, uint8_t state)
+{
+	ch->state = state;
+	arm(ch);
+}
+
+static void tx(struct cli_chan *ch, const uint8_t d[8])
+{
+	co_frame f;
+
+	co_frame_init(&f, ch->cob_req & CO_FRAME_EFF_MASK, 8);
+	if (ch->cob_req & SDO_COB_EXT)
+		f.flags |= CO_FRAME_EXT;
+	memcpy(f.data, d, 8);
+	co_node_send(node_of(ch), &f);
+}
+
+/* A frame with index/sub in bytes 1..3 and a 32-bit value in 4..7. */
+static void tx_mux(struct cli_chan *ch, uint8_t cmd, uint32_t v)
+{
+	uint8_t d[8] = { cmd };
+
+	co_put_le16(&d[1], ch->cur.index);
+	d[3] = ch->cur.sub;
+	co_put_le32(&d[4], v);
+	tx(ch, d);
+}
+
+static bool mux_matches(const struct cli_chan *ch, const uint8_t *d)
+{
+	return co_get_le16(&d[1]) == ch->cur.index && d[3] == ch->cur.sub;
+}
+
+static void complete(struct cli_chan *ch, uint32_t abort)
+{
+	co_event ev = { .kind = CO_EV_SDO_CLIENT_DONE };
+
+	ev.u.sdo_cli.channel = ch->num;
+	ev.u.sdo_cli.upload = ch->cur.upload;
+	ev.u.sdo_cli.node_id = ch->cur.node_id;
+	ev.u.sdo_cli.mode = ch->mode;
+	ev.u.sdo_cli.index = ch->cur.index;
+	ev.u.sdo_cli.sub = ch->cur.sub;
+	ev.u.sdo_cli.abort = abort;
+	ev.u.sdo_cli.size = ch->offset;
+	ev.u.sdo_cli.tag = ch->cur.tag;
+	ev.u.sdo_cli.data = ch->cur.upload ? ch->cur.buf : NULL;
+	ch->state = CS_IDLE;
+	ch->deadline = CO_NO_DEADLINE;
+	co_rx_disable(node_of(ch), ch->rx_handle);
+	co_node_emit(node_of(ch), &ev);
+	kick_all(ch->cli);
+}
+
+static void abort_local(struct cli_chan *ch, uint32_t code)
+{
+	tx_mux(ch, SDO_CCS_ABORT << 5, code);
+	complete(ch, code);
+}
+
+/* Take up to len bytes from the download source. */
+static int src_read(struct cli_chan *ch, uint8_t *buf, uint32_t len)
+{
+	int got;
+
+	if (len == 0)
+		return 0;
+	if (ch->cur.data) {
+		memcpy(buf, ch->cur.data + ch->read_off, len);
+		got = (int)len;
+	} else {
+		got = ch->cur.src(ch->cur.ctx, ch->read_off, buf, len);
+		if (got < 0 || (uint32_t)got != len)
+			return -1; /* the value must be exactly `size` long */
+	}
+	ch->read_off += len;
+	return got;
+}
+
+/* Hand len upload bytes to the buffer or sink; 0 or an abort code. */
+static uint32_t sink_put(struct cli_chan *ch, const uint8_t *data, uint32_t len)
+{
+	if (ch->total != UNKNOWN_SIZE && len > ch->total - ch->offset)
+		return SDO_AB_TYPE_LEN;
+	if (ch->cur.buf) {
+		if (len > ch->cur.cap - ch->offset)
+			return SDO_AB_NO_MEM;
+		if (len)
+			memcpy(ch->cur.buf + ch->offset, data, len);
+	} else if (ch->cur.sink && len) {
+		if (ch->cur.sink(ch->cur.ctx, ch->offset, data, len, ch->total) < 0)
+			return SDO_AB_STORE;
+	}
+	ch->offset += len;
+	return 0;
+}
+
+/* Server abort while waiting for an answer: maybe fall back from block. */
+static bool is_abort(const uint8_t *d)
+{
+	return SDO_CS(d[0]) == SDO_SCS_ABORT;
+}
+
+/* ---- download ----------------------------------------------------------- */
+
+static void dn_send_segment(struct cli_chan *ch)
+{
+	uint32_t left = ch->total - ch->offset;
+	uint32_t len = left < SDO_SEG_DATA ? left : SDO_SEG_DATA;
+	bool last = left <= SDO_SEG_DATA;
+	uint8_t d[8] = { 0 };
+
+	if (src_read(ch, &d[1], len) < 0) {
+		abort_local(ch, SDO_AB_STORE);
+		return;
+	}
+	d[0] = (uint8_t)((SDO_CCS_DN_SEG << 5) | ch->toggle | ((SDO_SEG_DATA - len) << 1) |
+			 (last ? SDO_SEG_LAST : 0));
+	tx(ch, d);
+	enter(ch, CS_DN_SEG);
+}
+
+static void start_download(struct cli_chan *ch)
+{
+	uint32_t size = ch->total;
+
+	if (ch->mode == SDO_MODE_EXPEDITED) {
+		uint8_t d[8] = { 0 };
+		d[0] = (uint8_t)((SDO_CCS_DN_INIT << 5) | ((4u - size) << 2) | SDO_EXPEDITED |
+				 SDO_SIZE_IND);
+		co_put_le16(&d[1], ch->cur.index);
+		d[3] = ch->cur.sub;
+		if (src_read(ch, &d[4], size) < 0) {
+			complete(ch, SDO_AB_STORE);
+			return;
+		}
+		tx(ch, d);
+		enter(ch, CS_DN_INIT);
+	} else if (ch->mode == SDO_MODE_BLOCK) {
+		ch->crc = CRC16_CCITT_INIT;
+		ch->sub_len = 0;
+		tx_mux(ch, (SDO_CCS_BLK_DN << 5) | SDO_BLK_CRC | SDO_BLK_SIZE_IND, size);
+		enter(ch, CS_BLK_DN_INIT);
+	} else {
+		tx_mux(ch, (SDO_CCS_DN_INIT << 5) | SDO_SIZE_IND, size);
+		enter(ch, CS_DN_INIT);
+	}
+}
+
+static void st_dn_init(struct cli_chan *ch, const uint8_t *d)
+{
+	if (d[0] != (SDO_SCS_DN_INIT << 5)) {
+		abort_local(ch, SDO_AB_CMD);
+		return;
+	}
+	if (!mux_matches(ch, d))
+		return; /* stale answer to an earlier request */
+	if (ch->mode == SDO_MODE_EXPEDITED) {
+		ch->offset = ch->total;
+		complete(ch, 0);
+		return;
+	}
+	dn_send_segment(ch);
+}
+
+static void st_dn_seg(struct cli_chan *ch, const uint8_t *d)
+{
+	if (SDO_CS(d[0]) != SDO_SCS_DN_SEG) {
+		abort_local(ch, SDO_AB_CMD);
+		return;
+	}
+	if ((d[0] & SDO_TOGGLE) != ch->toggle) {
+		abort_local(ch, SDO_AB_TOGGLE);
+		return;
+	}
+	ch->offset = ch->read_off;
+	if (ch->offset >= ch->total) {
+		complete(ch, 0);
+		return;
+	}
+	ch->toggle ^= SDO_TOGGLE;
+	dn_send_segment(ch);
+}
+
+/* ---- block download ------------------------------------------------------ */
+
+/* Top the sub-block buffer up to blksize segments from the source. */
+static bool blk_fill(struct cli_chan *ch)
+{
+	uint32_t cap = (uint32_t)ch->blksize * SDO_SEG_DATA;
+	uint32_t want;
+
+	if (ch->sub_len >= cap)
+		return true;
+	want = cap - ch->sub_len;
+	if (want > ch->total - ch->read_off)
+		want = ch->total - ch->read_off;
+	if (want == 0)
+		return true;
+	if (src_read(ch, ch->sub_buf + ch->sub_len, want) < 0)
+		return false;
+	if (ch->crc_on)
+		ch->crc = crc16_ccitt(ch->crc, ch->sub_buf + ch->sub_len, want);
+	ch->sub_len += want;
+	return true;
+}
+
+static void blk_dn_send(struct cli_chan *ch)
+{
+	uint32_t cap = (uint32_t)ch->blksize * SDO_SEG_DATA;
+	uint32_t bytes;
+	uint32_t off = 0;
+	uint8_t seq = 0;
+
+	if (!blk_fill(ch)) {
+		abort_local(ch, SDO_AB_STORE);
+		return;
+	}
+	bytes = ch->sub_len < cap ? ch->sub_len : cap;
+	ch->sub_last = ch->read_off == ch->total && bytes == ch->sub_len;
+	do {
+		uint32_t len = bytes - off < SDO_SEG_DATA ? bytes - off : SDO_SEG_DATA;
+		uint8_t d[8] = { 0 };
+		seq++;
+		bool last = ch->sub_last && off + len >= bytes;
+		d[0] = (uint8_t)(seq | (last ? SDO_BLK_SEQ_LAST : 0));
+		if (len)
+			memcpy(&d[1], ch->sub_buf + off, len);
+		tx(ch, d);
+		off += len;
+	} while (off < bytes);
+	ch->segs = seq;
+	enter(ch, CS_BLK_DN_ACK);
+}
+
+static void st_blk_dn_init(struct cli_chan *ch, const uint8_t *d)
+{
+	if ((d[0] & 0xE3u) != (SDO_SCS_BLK_DN << 5 | SDO_BLK_INIT)) {
+		abort_local(ch, SDO_AB_CMD);
+		return;
+	}
+	if (!mux_matches(ch, d))
+		return;
+	if (d[4] == 0 || d[4] > SDO_BLK_MAX_SEQ) {
+		abort_local(ch, SDO_AB_BLK_SIZE);
+		return;
+	}
+	ch->crc_on = d[0] & SDO_BLK_CRC; /* we asked for CRC; the server decides */
+	ch->blksize = d[4];
+	blk_dn_send(ch);
+}
+
+static void st_blk_dn_ack(struct cli_chan *ch, const uint8_t *d)
+{
+	uint8_t ackseq = d[1];
+	uint32_t acked;
+
+	if (d[0] != ((SDO_SCS_BLK_DN << 5) | SDO_BLK_ACK)) {
+		abort_local(ch, SDO_AB_CMD);
+		return;
+	}
+	if (ackseq > ch->segs) {
+		abort_local(ch, SDO_AB_SEQ);
+		return;
+	}
+	if (d[2] == 0 || d[2] > SDO_BLK_MAX_SEQ) {
+		abort_local(ch, SDO_AB_BLK_SIZE);
+		return;
+	}
+	if (ch->sub_last && ackseq == ch->segs) {
+		uint32_t last_len = ch->sub_len - (uint32_t)(ch->segs - 1) * SDO_SEG_DATA;
+		uint8_t e[8] = { 0 };
+		ch->offset = ch->total;
+		e[0] = (uint8_t)((SDO_CCS_BLK_DN << 5) | ((SDO_SEG_DATA - last_len) << 2) |
+				 SDO_BLK_END);
+		co_put_le16(&e[1], ch->crc_on ? ch->crc : 0);
+		tx(ch, e);
+		enter(ch, CS_BLK_DN_END);
+		return;
+	}
+	/* Keep what was not acknowledged; it goes out again first. */
+	acked = (uint32_t)ackseq * SDO_SEG_DATA;
+	if (acked > ch->sub_len)
+		acked = ch->sub_len;
+	memmove(ch->sub_buf, ch->sub_buf + acked, ch->sub_len - acked);
+	ch->sub_len -= acked;
+	ch->offset += acked;
+	ch->blksize = d[2];
+	blk_dn_send(ch);
+}
+
+static void st_blk_dn_end(struct cli_chan *ch, const uint8_t *d)
+{
+	if (d[0] != ((SDO_SCS_BLK_DN << 5) | SDO_BLK_END)) {
+		abort_local(ch, SDO_AB_CMD);
+		return;
+	}
+	complete(ch, 0);
+}
+
+/* ---- upload ------------------------------------------------------------- */
+
+static void up_request_segment(struct cli_chan *ch)
+{
+	uint8_t d[8] = { (uint8_t)((SDO_CCS_UP_SEG << 5) | ch->toggle) };
+
+	tx(ch, d);
+	enter(ch, CS_UP_SEG);
+}
+
+static void start_upload(struct cli_chan *ch)
+{
+	ch->total = UNKNOWN_SIZE;
+	if (ch->mode == SDO_MODE_BLOCK) {
+		const co_node_config *c = &node_of(ch)->cfg;
+		uint8_t d[8] = { (SDO_CCS_BLK_UP << 5) | SDO_BLK_CRC | SDO_BLK_INIT };
+		uint32_t pst = 0;
+		if (ch->cur.mode == SDO_MODE_AUTO)
+			pst = c->sdo_client_block_threshold - 1;
+		co_put_le16(&d[1], ch->cur.index);
+		d[3] = ch->cur.sub;
+		d[4] = c->sdo_client_blksize;
+		d[5] = (uint8_t)(pst > 255 ? 255 : pst);
+		ch->blksize = c->sdo_client_blksize;
+		tx(ch, d);
+		enter(ch, CS_BLK_UP_INIT);
+		return;
+	}
+	tx_mux(ch, SDO_CCS_UP_INIT << 5, 0);
+	enter(ch, CS_UP_INIT);
+}
+
+/* Initiate upload response (also the answer to a block upload initiate
+ * when the server applies the protocol switch threshold). */
+static void up_init_resp(struct cli_chan *ch, const uint8_t *d)
+{
+	uint32_t ab;
+
+	if (d[0] & SDO_EXPEDITED) {
+		uint32_t len = (d[0] & SDO_SIZE_IND) ? 4u - ((d[0] >> 2) & 3u) : 4u;
+		ch->mode = SDO_MODE_EXPEDITED;
+		ab = sink_put(ch, &d[4], len);
+		if (ab)
+			abort_local(ch, ab);
+		else
+			complete(ch, 0);
+		return;
+	}
+	ch->mode = SDO_MODE_SEGMENTED;
+	if (d[0] & SDO_SIZE_IND) {
+		ch->total = co_get_le32(&d[4]);
+		if (ch->cur.buf && ch->total > ch->cur.cap) {
+			abort_local(ch, SDO_AB_NO_MEM);
+			return;
+		}
+	}
+	ch->toggle = 0;
+	up_request_segment(ch);
+}
+
+static void st_up_init(struct cli_chan *ch, const uint8_t *d)
+{
+	if ((d[0] & 0xF0u) != (SDO_SCS_UP_INIT << 5)) {
+		abort_local(ch, SDO_AB_CMD);
+		return;
+	}
+	if (!mux_matches(ch, d))
+		return;
+	up_init_resp(ch, d);
+}
+
+static void st_up_seg(struct cli_chan *ch, const uint8_t *d)
+{
+	uint32_t len = SDO_SEG_DATA - ((d[0] >> 1) & 7u);
+	uint32_t ab;
+
+	if (SDO_CS(d[0]) != SDO_SCS_UP_SEG) {
+		abort_local(ch, SDO_AB_CMD);
+		return;
+	}
+	if ((d[0] & SDO_TOGGLE) != ch->toggle) {
+		abort_local(ch, SDO_AB_TOGGLE);
+		return;
+	}
+	ab = sink_put(ch, &d[1], len);
+	if (!ab && (d[0] & SDO_SEG_LAST) && ch->total != UNKNOWN_SIZE && ch->offset != ch->total)
+		ab = SDO_AB_TYPE_LEN;
+	if (ab) {
+		abort_local(ch, ab);
+		return;
+	}
+	if (d[0] & SDO_SEG_LAST) {
+		complete(ch, 0);
+		return;
+	}
+	ch->toggle ^= SDO_TOGGLE;
+	up_request_segment(ch);
+}
+
+/* ---- block upload ------------------------------------------------------- */
+
+static void st_blk_up_init(struct cli_chan *ch, const uint8_t *d)
+{
+	uint8_t start[8] = { (SDO_CCS_BLK_UP << 5) | SDO_BLK_START };
+
+	if (SDO_CS(d[0]) == SDO_SCS_UP_INIT) { /* protocol switch */
+		if (mux_matches(ch, d))
+			up_init_resp(ch, d);
+		return;
+	}
+	if ((d[0] & 0xE1u) != (SDO_SCS_BLK_UP << 5)) {
+		abort_local(ch, SDO_AB_CMD);
+		return;
+	}
+	if (!mux_matches(ch, d))
+		return;
+	ch->crc_on = d[0] & SDO_BLK_CRC;
+	ch->crc = CRC16_CCITT_INIT;
+	if (d[0] & SDO_BLK_SIZE_IND) {
+		ch->total = co_get_le32(&d[4]);
+		if (ch->cur.buf && ch->total > ch->cur.cap) {
+			abort_local(ch, SDO_AB_NO_MEM);
+			return;
+		}
+	}
+	ch->seq = 0;
+	ch->pend_valid = false;
+	ch->last_seen = false;
+	tx(ch, start);
+	enter(ch, CS_BLK_UP_SUB);
+}
+
+static void blk_up_ack(struct cli_chan *ch)
+{
+	uint8_t d[8] = { (SDO_CCS_BLK_UP << 5) | SDO_BLK_ACK, ch->seq, ch->blksize };
+
+	tx(ch, d);
+	ch->seq = 0;
+	enter(ch, ch->last_seen ? CS_BLK_UP_END : CS_BLK_UP_SUB);
+}
+
+/* Same sequence rules as the server side (sdo_server.c st_blk_dn_sub). */
+static void st_blk_up_sub(struct cli_chan *ch, const uint8_t *d)
+{
+	uint8_t seq = d[0] & 0x7Fu;
+	bool last = d[0] & SDO_BLK_SEQ_LAST;
+
+	if (seq == 0 || seq > ch->blksize) {
+		abort_local(ch, SDO_AB_SEQ);
+		return;
+	}
+	if (seq == ch->seq + 1) {
+		if (ch->pend_valid) {
+			uint32_t ab = sink_put(ch, ch->pend, SDO_SEG_DATA);
+			if (ab) {
+				abort_local(ch, ab);
+				return;
+			}
+			if (ch->crc_on)
+				ch->crc = crc16_ccitt(ch->crc, ch->pend, SDO_SEG_DATA);
+		}
+		memcpy(ch->pend, &d[1], SDO_SEG_DATA);
+		ch->pend_valid = true;
+		ch->seq = seq;
+		ch->last_seen = last;
+	}
+	if (seq == ch->blksize || last)
+		blk_up_ack(ch);
+	else
+		arm(ch);
+}
+
+static void st_blk_up_end(struct cli_chan *ch, const uint8_t *d)
+{
+	uint32_t n = (d[0] >> 2) & 7u;
+	uint8_t resp[8] = { (SDO_CCS_BLK_UP << 5) | SDO_BLK_END };
+	uint32_t ab = 0;
+
+	if ((d[0] & 0xE3u) != ((SDO_SCS_BLK_UP << 5) | SDO_BLK_END)) {
+		abort_local(ch, SDO_AB_CMD);
+		return;
+	}
+	if (ch->pend_valid) {
+		ab = sink_put(ch, ch->pend, SDO_SEG_DATA - n);
+		if (!ab && ch->crc_on)
+			ch->crc = crc16_ccitt(ch->crc, ch->pend, SDO_SEG_DATA - n);
+	}
+	if (!ab && ch->total != UNKNOWN_SIZE && ch->offset != ch->total)
+		ab = SDO_AB_TYPE_LEN;
+	if (!ab && ch->crc_on && ch->crc != co_get_le16(&d[1]))
+		ab = SDO_AB_CRC;
+	if (ab) {
+		abort_local(ch, ab);
+		return;
+	}
+	tx(ch, resp);
+	complete(ch, 0);
+}
+
+static void st_ignore(struct cli_chan *ch, const uint8_t *d)
+{
+	(void)ch;
+	(void)d;
+}
+
+/* ---- receive, start, queue ------------------------------------------------ */
+
+static void restart_without_block(struct cli_chan *ch)
+{
+	ch->fell_back = true;
+	ch->offset = ch->read_off = 0;
+	ch->mode = ch->cur.upload ? SDO_MODE_SEGMENTED
+		   : (ch->total >= 1 && ch->total <= SDO_EXP_DATA) ? SDO_MODE_EXPEDITED
+								     : SDO_MODE_SEGMENTED;
+	if (ch->cur.upload)
+		start_upload(ch);
+	else
+		start_download(ch);
+}
+
+static void cli_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
+{
+	struct cli_chan *ch = arg;
+	const uint8_t *d = f->data;
+
+	(void)node;
+	(void)now_us;
+	if (ch->state == CS_IDLE || f->len != 8 || (f->flags & CO_FRAME_RTR))
+		return;
+	/* In a sub-block any byte 0 is a segment header except 0x80. */
+	if (ch->state == CS_BLK_UP_SUB ? d[0] == (SDO_SCS_ABORT << 5) : is_abort(d)) {
+		uint32_t code = co_get_le32(&d[4]);
+		bool refused = code == SDO_AB_CMD || code == SDO_AB_UNSUPP_ACCESS;
+		if (refused && !ch->fell_back &&
+		    (ch->state == CS_BLK_DN_INIT || ch->state == CS_BLK_UP_INIT)) {
+			restart_without_block(ch);
+			return;
+		}
+		complete(ch, code);
+		return;
+	}
+	cli_states[ch->state].on_frame(ch, d);
+}
+
+static uint8_t pick_mode(const struct cli_chan *ch, const sdo_client_req *r)
+{
+	uint32_t thr = node_of(ch)->cfg.sdo_client_block_threshold;
+
+	if (r->upload) {
+		if (r->mode == SDO_MODE_BLOCK || (r->mode == SDO_MODE_AUTO && r->size >= thr))
+			return SDO_MODE_BLOCK;
+		return SDO_MODE_SEGMENTED;
+	}
+	switch (r->mode) {
+	case SDO_MODE_BLOCK: return SDO_MODE_BLOCK;
+	case SDO_MODE_SEGMENTED: return SDO_MODE_SEGMENTED;
+	case SDO_MODE_EXPEDITED:
+		return r->size >= 1 && r->size <= 4 ? SDO_MODE_EXPEDITED : SDO_MODE_SEGMENTED;
+	default:
+		if (r->size >= 1 && r->size <= 4)
+			return SDO_MODE_EXPEDITED;
+		return r->size >= thr ? SDO_MODE_BLOCK : SDO_MODE_SEGMENTED;
+	}
+}
+
+static uint32_t req_cob_req(const sdo_client_req *r)
+{
+	return r->cob_req ? r->cob_req : SDO_COB_RX_BASE + r->node_id;
+}
+
+static uint32_t req_cob_resp(const sdo_client_req *r)
+{
+	return r->cob_resp ? r->cob_resp : SDO_COB_TX_BASE + r->node_id;
+}
+
+/* Another channel is talking to the same server right now? */
+static bool target_busy(const struct sdo_client *cli, const struct cli_chan *self, uint32_t resp)
+{
+	for (uint8_t i = 0; i < cli->n; i++) {
+		const struct cli_chan *o = &cli->ch[i];
+		if (o != self && o->state != CS_IDLE && o->cob_resp == resp)
+			return true;
+	}
+	return false;
+}
+
+static void start(struct cli_chan *ch, const sdo_client_req *r)
+{
+	co_node *node = node_of(ch);
+
+	ch->cur = *r;
+	ch->cob_req = req_cob_req(r);
+	ch->cob_resp = req_cob_resp(r);
+	ch->timeout_us = (uint64_t)(r->timeout_ms ? r->timeout_ms : 1000u) * 1000u;
+	ch->mode = pick_mode(ch, r);
+	ch->fell_back = false;
+	ch->offset = ch->read_off = 0;
+	ch->toggle = 0;
+	ch->total = r->upload ? UNKNOWN_SIZE : r->size;
+	/* 1280h+n shows the current target, as a manager would set it. */
+	if (ch->od_cob[0])
+		co_od_entry_set_raw(ch->od_cob[0], ch->cob_req);
+	if (ch->od_cob[1])
+		co_od_entry_set_raw(ch->od_cob[1], ch->cob_resp);
+	if (ch->od_node)
+		co_od_entry_set_raw(ch->od_node, r->node_id);
+	if (co_rx_move(node, ch->rx_handle, ch->cob_resp & CO_FRAME_EFF_MASK,
+		       (ch->cob_resp & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0) {
+		ch->state = CS_UP_INIT; /* so that complete() reports it */
+		complete(ch, SDO_AB_NO_RESOURCE);
+		return;
+	}
+	if (r->upload)
+		start_upload(ch);
+	else
+		start_download(ch);
+}
+
+/* Start the head of the queue if the channel is idle and the target free. */
+static void kick(struct cli_chan *ch)
+{
+	const sdo_client_req *r;
+
+	if (ch->state != CS_IDLE || ch->q_len == 0)
+		return;
+	r = &ch->q[ch->q_head];
+	if (target_busy(ch->cli, ch, req_cob_resp(r)))
+		return;
+	sdo_client_req tmp = *r;
+	ch->q_head = (uint16_t)((ch->q_head + 1) % node_of(ch)->cfg.sdo_client_queue_len);
+	ch->q_len--;
+	start(ch, &tmp);
+}
+
+static void kick_all(struct sdo_client *cli)
+{
+	for (uint8_t i = 0; i < cli->n; i++)
+		kick(&cli->ch[i]);
+}
+
+static bool req_valid(const sdo_client_req *r)
+{
+	bool explicit_cob = r->cob_req && r->cob_resp;
+
+	if (!explicit_cob && (r->node_id < 1 || r->node_id > 127))
+		return false;
+	if (r->mode > SDO_MODE_BLOCK)
+		return false;
+	if (!r->upload && r->size && !r->data && !r->src)
+		return false;
+	if (r->upload && r->buf && r->cap == 0 && r->size)
+		return false;
+	return true;
+}
+
+int sdo_client_submit(co_node *node, uint8_t channel, const sdo_client_req *req, uint64_t now_us)
+{
+	struct sdo_client *cli = node->sdo_cli;
+	struct cli_chan *ch;
+	uint16_t cap;
+
+	if (!cli || channel >= cli->n || !req || !req_valid(req))
+		return -EINVAL;
+	ch = &cli->ch[channel];
+	cap = node->cfg.sdo_client_queue_len;
+	if (ch->q_len >= cap)
+		return -ENOSPC;
+	node->now_us = now_us;
+	ch->q[(ch->q_head + ch->q_len) % cap] = *req;
+	ch->q_len++;
+	kick(ch);
+	return 0;
+}
+
+int sdo_client_read(co_node *node, uint8_t channel, uint8_t node_id, uint16_t index,
+		    uint8_t sub, uint8_t *buf, uint32_t cap, uint32_t timeout_ms,
+		    uint64_t tag, uint64_t now_us)
+{
+	sdo_client_req r = { .upload = true, .node_id = node_id, .index = index,
+			     .sub = sub, .timeout_ms = timeout_ms, .tag = tag,
+			     .buf = buf, .cap = cap };
+	return sdo_client_submit(node, channel, &r, now_us);
+}
+
+int sdo_client_write(co_node *node, uint8_t channel, uint8_t node_id, uint16_t index,
+		     uint8_t sub, const uint8_t *data, uint32_t size, uint32_t timeout_ms,
+		     uint64_t tag, uint64_t now_us)
+{
+	sdo_client_req r = { .upload = false, .node_id = node_id, .index = index,
+			     .sub = sub, .timeout_ms = timeout_ms, .tag = tag,
+			     .data = data, .size = size };
+	return sdo_client_submit(node, channel, &r, now_us);
+}
+
+int sdo_client_cancel(co_node *node, uint8_t channel, uint64_t tag, uint32_t abort,
+		      uint64_t now_us)
+{
+	struct sdo_client *cli = node->sdo_cli;
+	struct cli_chan *ch;
+	uint16_t cap;
+
+	if (!cli || channel >= cli->n)
+		return -EINVAL;
+	ch = &cli->ch[channel];
+	cap = node->cfg.sdo_client_queue_len;
+	node->now_us = now_us;
+	if (ch->state != CS_IDLE && ch->cur.tag == tag) {
+		abort_local(ch, abort);
+		return 0;
+	}
+	for (uint16_t i = 0; i < ch->q_len; i++) {
+		uint16_t pos = (uint16_t)((ch->q_head + i) % cap);
+		if (ch->q[pos].tag != tag)
+			continue;
+		co_event ev = { .kind = CO_EV_SDO_CLIENT_DONE };
+		ev.u.sdo_cli.channel = ch->num;
+		ev.u.sdo_cli.upload = ch->q[pos].upload;
+		ev.u.sdo_cli.node_id = ch->q[pos].node_id;
+		ev.u.sdo_cli.mode = ch->q[pos].mode;
+		ev.u.sdo_cli.index = ch->q[pos].index;
+		ev.u.sdo_cli.sub = ch->q[pos].sub;
+		ev.u.sdo_cli.abort = abort;
+		ev.u.sdo_cli.tag = tag;
+		for (uint16_t j = i; j + 1 < ch->q_len; j++)
+			ch->q[(ch->q_head + j) % cap] = ch->q[(ch->q_head + j + 1) % cap];
+		ch->q_len--;
+		co_node_emit(node, &ev);
+		return 0;
+	}
+	return -ENOENT;
+}
+
+unsigned sdo_client_pending(const co_node *node, uint8_t channel)
+{
+	const struct sdo_client *cli = node->sdo_cli;
+
+	if (!cli || channel >= cli->n)
+		return 0;
+	return cli->ch[channel].q_len + (cli->ch[channel].state != CS_IDLE);
+}
+
+uint8_t sdo_client_channel_count(const co_node *node)
+{
+	return node->sdo_cli ? node->sdo_cli->n : 0;
+}
+
+/* ---- service ops -------------------------------------------------------- */
+
+static int chan_od_init(struct cli_chan *ch)
+{
+	co_od *od = node_of(ch)->od;
+	uint16_t idx = (uint16_t)(SDO_CLIENT_PARAM + ch->num);
+	co_od_entry *e;
+	int rc = 0;
+
+	if (!co_od_has_index(od, idx)) {
+		rc = co_od_add_num(od, idx, 0, CO_T_UNSIGNED8, CO_ACC_RO, 3, &e);
+		if (!rc)
+			e->obj_code = CO_OBJ_RECORD;
+		for (uint8_t s = 1; !rc && s <= 2; s++) {
+			rc = co_od_add_num(od, idx, s, CO_T_UNSIGNED32, CO_ACC_RW,
+					   SDO_COB_INVALID, &e);
+			if (!rc)
+				e->obj_code = CO_OBJ_RECORD;
+		}
+		if (!rc)
+			rc = co_od_add_num(od, idx, 3, CO_T_UNSIGNED8, CO_ACC_RW, 0, &e);
+		if (!rc)
+			e->obj_code = CO_OBJ_RECORD;
+	}
+	ch->od_cob[0] = co_od_find(od, idx, 1);
+	ch->od_cob[1] = co_od_find(od, idx, 2);
+	ch->od_node = co_od_find(od, idx, 3);
+	return rc;
+}
+
+static void cli_fini(co_node *node)
+{
+	struct sdo_client *cli = node->sdo_cli;
+
+	if (!cli)
+		return;
+	for (uint8_t i = 0; i < cli->n; i++) {
+		if (cli->ch[i].rx_handle >= 0)
+			co_rx_unregister(node, cli->ch[i].rx_handle);
+		free(cli->ch[i].q);
+	}
+	free(cli);
+	node->sdo_cli = NULL;
+}
+
+static int cli_init(co_node *node)
+{
+	uint8_t n = node->cfg.sdo_client_count;
+	struct sdo_client *cli;
+	int rc = 0;
+
+	if (n == 0)
+		return 0;
+	cli = calloc(1, sizeof(*cli) + n * sizeof(cli->ch[0]));
+	if (!cli)
+		return -ENOMEM;
+	cli->node = node;
+	cli->n = n;
+	node->sdo_cli = cli;
+	for (uint8_t i = 0; i < n; i++)
+		cli->ch[i].rx_handle = -1;
+	for (uint8_t i = 0; i < n && !rc; i++) {
+		struct cli_chan *ch = &cli->ch[i];
+		ch->cli = cli;
+		ch->num = i;
+		ch->deadline = CO_NO_DEADLINE;
+		ch->q = calloc(node->cfg.sdo_client_queue_len, sizeof(*ch->q));
+		if (!ch->q) {
+			rc = -ENOMEM;
+			break;
+		}
+		ch->rx_handle = co_rx_register(node, 0, 0, cli_rx, ch);
+		if (ch->rx_handle < 0) {
+			rc = ch->rx_handle;
+			break;
+		}
+		co_rx_disable(node, ch->rx_handle);
+		rc = chan_od_init(ch);
+	}
+	if (rc)
+		cli_fini(node);
+	return rc;
+}
+
+static uint64_t cli_tick(co_node *node, uint64_t now_us)
+{
+	struct sdo_client *cli = node->sdo_cli;
+	uint64_t next = CO_NO_DEADLINE;
+
+	if (!cli)
+		return next;
+	for (uint8_t i = 0; i < cli->n; i++) {
+		struct cli_chan *ch = &cli->ch[i];
+		if (ch->state != CS_IDLE && now_us >= ch->deadline)
+			abort_local(ch, SDO_AB_TIMEOUT);
+	}
+	/* A second pass: completions above may have started queued requests. */
+	for (uint8_t i = 0; i < cli->n; i++)
+		if (cli->ch[i].state != CS_IDLE && cli->ch[i].deadline < next)
+			next = cli->ch[i].deadline;
+	return next;
+}
+
+static void cli_reset_comm(co_node *node, uint64_t now_us)
+{
+	struct sdo_client *cli = node->sdo_cli;
+
+	(void)now_us;
+	if (!cli)
+		return;
+	/* Client parameters went back to defaults; running transfers stay
+	 * (the manager's requests outlive our own reset communication) but
+	 * the OD mirrors the current target again. */
+	for (uint8_t i = 0; i < cli->n; i++) {
+		struct cli_chan *ch = &cli->ch[i];
+		if (ch->state == CS_IDLE)
+			continue;
+		if (ch->od_cob[0])
+			co_od_entry_set_raw(ch->od_cob[0], ch->cob_req);
+		if (ch->od_cob[1])
+			co_od_entry_set_raw(ch->od_cob[1], ch->cob_resp);
+		if (ch->od_node)
+			co_od_entry_set_raw(ch->od_node, ch->cur.node_id);
+	}
+}
+
+const co_service co_svc_sdo_client = {
+	.name = "sdo-client",
+	.init = cli_init,
+	.fini = cli_fini,
+	.tick = cli_tick,
+	.reset_comm = cli_reset_comm,
+};

@@ -1,0 +1,103 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * core/sdo_client.h - SDO client channels (CiA 301 §7.2.4, objects
+ * 1280h..12FFh) for a manager and a gateway.
+ *
+ * - cfg.sdo_client_count channels; 1280h+n is created in the OD if absent
+ *   and reflects the current target (sub 1/2 COB-IDs, sub 3 node-ID).
+ * - Each channel has a FIFO of cfg.sdo_client_queue_len requests, fixed at
+ *   node creation: submitting never allocates, and callers see -ENOSPC only
+ *   when that bound is reached, never "busy".
+ * - The target node is set per request; the channel's COB-IDs follow it
+ *   (600h+node / 580h+node unless the request overrides them). Two channels
+ *   never talk to the same server COB-ID at once: a request whose target is
+ *   in use by another channel waits in its queue.
+ * - Modes: expedited (1..4 bytes), segmented, block (with CRC). AUTO picks
+ *   expedited for 1..4 bytes, block at >= cfg.sdo_client_block_threshold,
+ *   else segmented. When a server refuses a block initiate with 0x05040001
+ *   or 0x06010000 the request is repeated segmented (event.mode tells).
+ *   Uploads use block only when asked (mode BLOCK) or when the request's
+ *   expected size (size field) reaches the threshold; the client then
+ *   offers the threshold (<= 255) as protocol switch threshold.
+ * - Timeout: timeout_ms per frame, restarted on every frame received for
+ *   the transfer (CiA leaves the value to the application).
+ * - Data: a buffer, or chunk callbacks for domains of any size (the client
+ *   keeps only one sub-block, 889 bytes, per channel).
+ * - Completion: exactly one CO_EV_SDO_CLIENT_DONE per accepted request,
+ *   carrying the caller's tag, the abort code (0 = success) and the size.
+ */
+#ifndef COGW_CORE_SDO_CLIENT_H
+#define COGW_CORE_SDO_CLIENT_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "core/co.h"
+#include "core/sdo.h"
+
+extern const co_service co_svc_sdo_client;
+
+/* Download source: copy up to len bytes of the value at offset into buf.
+ * Offsets are strictly sequential. Return the count copied (len unless the
+ * value ends), or a negative errno to abort (0x08000020 on the wire). */
+typedef int (*sdo_src_fn)(void *ctx, uint32_t offset, uint8_t *buf,
+			  uint32_t len);
+/* Upload sink: the next len bytes at offset (sequential, each byte once).
+ * total is the size indicated by the server, or UINT32_MAX if none. Return
+ * 0, or a negative errno to abort (0x08000020 on the wire). */
+typedef int (*sdo_sink_fn)(void *ctx, uint32_t offset, const uint8_t *data,
+			   uint32_t len, uint32_t total);
+
+typedef struct sdo_client_req {
+	bool upload;        /* true = read from the server, false = write */
+	uint8_t node_id;    /* target node 1..127 */
+	uint16_t index;
+	uint8_t sub;
+	uint8_t mode;       /* sdo_mode hint */
+	uint32_t timeout_ms; /* per frame; 0 = 1000 */
+	uint64_t tag;       /* echoed in the completion event */
+	uint32_t cob_req;   /* client->server COB-ID; 0 = 600h + node_id */
+	uint32_t cob_resp;  /* server->client COB-ID; 0 = 580h + node_id */
+
+	/* Download: size bytes from data, or from src if data is NULL.
+	 * Upload: optional expected size (selects block in AUTO mode). */
+	uint32_t size;
+	const uint8_t *data;
+	sdo_src_fn src;
+
+	/* Upload: into buf (cap bytes; more gives 0x05040005), or into sink
+	 * if buf is NULL. The buffer must live until the completion event. */
+	uint8_t *buf;
+	uint32_t cap;
+	sdo_sink_fn sink;
+
+	void *ctx; /* for src/sink */
+} sdo_client_req;
+
+/* Queue a request on a channel (0-based); it starts at once if the
+ * channel is idle. The request is copied; data/buf it points to must stay
+ * valid until completion. Returns 0, -EINVAL (bad request/channel),
+ * -ENOSPC (queue full). */
+int sdo_client_submit(co_node *node, uint8_t channel,
+		      const sdo_client_req *req, uint64_t now_us);
+
+/* Convenience wrappers (AUTO mode). */
+int sdo_client_read(co_node *node, uint8_t channel, uint8_t node_id,
+		    uint16_t index, uint8_t sub, uint8_t *buf, uint32_t cap,
+		    uint32_t timeout_ms, uint64_t tag, uint64_t now_us);
+int sdo_client_write(co_node *node, uint8_t channel, uint8_t node_id,
+		     uint16_t index, uint8_t sub, const uint8_t *data,
+		     uint32_t size, uint32_t timeout_ms, uint64_t tag,
+		     uint64_t now_us);
+
+/* Cancel the request with this tag (running: an abort frame with `abort`
+ * goes out; queued: removed). Its completion event carries `abort`.
+ * Returns 0 or -ENOENT. */
+int sdo_client_cancel(co_node *node, uint8_t channel, uint64_t tag,
+		      uint32_t abort, uint64_t now_us);
+
+/* Requests on the channel (running + queued). */
+unsigned sdo_client_pending(const co_node *node, uint8_t channel);
+uint8_t sdo_client_channel_count(const co_node *node);
+
+#endif /* COGW_CORE_SDO_CLIENT_H */

@@ -1,0 +1,1070 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * SDO server (CiA 301 §7.2.4). One state machine per channel; each state has
+ * a frame handler in srv_states[], and every non-idle state shares the same
+ * timeout rule (the per-frame timeout, restarted on every frame the channel
+ * receives or sends, aborts with 0x05040000).
+ *
+ * Frame layout reminders (byte 0):
+ *   initiate download   001 x nn e s  -> 011 00000 (0x60)
+ *   download segment    000 t nnn c   -> 001 t 0000
+ *   initiate upload     010 00000     -> 010 x nn e s
+ *   upload segment      011 t 0000    -> 000 t nnn c
+ *   block download      110 xx cc s 0 -> 101 xx sc 00, blksize in byte 4
+ *     sub-block segment c seqno(7)     -> 101 xxx 10 ackseq blksize (ack)
+ *     end                110 nnn x 1   -> 101 xxx 01
+ *   block upload        101 xx cc 00 (blksize, pst) -> 110 xx sc s 0 (size)
+ *     start             101 xxx 11     -> segments c seqno(7)
+ *     ack               101 xxx 10 ackseq blksize
+ *     end (server)      110 nnn x 1 crc -> 101 xxx 01
+ *   abort               100 00000, abort code in bytes 4..7
+ */
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/crc16.h"
+#include "core/sdo_server.h"
+
+enum srv_state {
+	SS_IDLE,
+	SS_DN_SEG,       /* segmented download: expecting a segment */
+	SS_UP_SEG,       /* segmented upload: expecting a segment request */
+	SS_BLK_DN_SUB,   /* block download: receiving sub-block segments */
+	SS_BLK_DN_END,   /* block download: expecting the end request */
+	SS_BLK_UP_START, /* block upload: expecting "start upload" */
+	SS_BLK_UP_ACK,   /* block upload: sub-block sent, expecting an ack */
+	SS_BLK_UP_END,   /* block upload: end sent, expecting its response */
+	SS_DEFERRED,     /* a hook answers later (sdo_server_continue) */
+	SS_COUNT
+};
+
+enum defer_kind {
+	DEFER_COMMIT,  /* store the staged value, send `pending`, finish */
+	DEFER_PROCEED, /* send `pending`, enter resume_state */
+	DEFER_READ,    /* start the upload (normal or block) */
+};
+
+struct srv_chan {
+	struct sdo_server *srv;
+	uint8_t num;
+	uint8_t state;
+	int rx_handle;
+	uint32_t cob_rx; /* 1200h+n sub 1 (client -> server), incl. bit 31 */
+	uint32_t cob_tx; /* sub 2 (server -> client) */
+	uint64_t deadline;
+
+	/* current transfer */
+	co_od_entry *e;
+	uint16_t index;
+	uint8_t sub;
+	uint8_t mode; /* sdo_mode */
+	bool upload;
+	uint8_t toggle;
+	bool size_ind;
+	uint32_t size;   /* indicated (download) or total (upload) size */
+	uint32_t offset; /* bytes done */
+
+	uint8_t *dst;     /* download: stage or e->data (in place) */
+	uint32_t dst_cap;
+	bool in_place;
+	const uint8_t *src; /* upload: e->data or the deferred data */
+
+	/* block */
+	bool crc_on;
+	uint16_t crc;
+	uint8_t blksize;
+	uint8_t seq;      /* download: last in-sequence seqno of the sub-block */
+	uint8_t pst;      /* upload: protocol switch threshold from the client */
+	bool last_seen;   /* download: segment with c=1 accepted */
+	uint32_t last_off; /* download: offset of the last segment */
+	uint32_t blk_start; /* upload: offset of the current sub-block */
+	uint8_t blk_segs;   /* upload: segments in the current sub-block */
+	bool blk_last;      /* upload: the current sub-block ends the data */
+
+	/* deferred answer */
+	uint8_t defer;
+	uint8_t resume_state;
+	bool defer_block;
+	bool reapply; /* own COB-ID written over this channel: apply at end */
+	uint32_t stage_len;
+	co_frame pending;
+
+	uint8_t *stage; /* cfg.sdo_stage_size bytes, allocated at init */
+};
+
+struct sdo_server {
+	co_node *node;
+	uint8_t n;
+	struct srv_chan ch[];
+};
+
+typedef void (*srv_frame_fn)(struct srv_chan *ch, const uint8_t *d);
+
+static void st_idle(struct srv_chan *ch, const uint8_t *d);
+static void st_dn_seg(struct srv_chan *ch, const uint8_t *d);
+static void st_up_seg(struct srv_chan *ch, const uint8_t *d);
+static void st_blk_dn_sub(struct srv_chan *ch, const uint8_t *d);
+static void st_blk_dn_end(struct srv_chan *ch, const uint8_t *d);
+static void st_blk_up_start(struct srv_chan *ch, const uint8_t *d);
+static void st_blk_up_ack(struct srv_chan *ch, const uint8_t *d);
+static void st_blk_up_end(struct srv_chan *ch, const uint8_t *d);
+static void st_deferred(struct srv_chan *ch, const uint8_t *d);
+
+static const struct {
+	const char *name;
+	srv_frame_fn on_frame;
+} srv_states[SS_COUNT] = {
+	[SS_IDLE] = { "idle", st_idle },
+	[SS_DN_SEG] = { "download segment", st_dn_seg },
+	[SS_UP_SEG] = { "upload segment", st_up_seg },
+	[SS_BLK_DN_SUB] = { "block download sub-block", st_blk_dn_sub },
+	[SS_BLK_DN_END] = { "block download end", st_blk_dn_end },
+	[SS_BLK_UP_START] = { "block upload start", st_blk_up_start },
+	[SS_BLK_UP_ACK] = { "block upload ack", st_blk_up_ack },
+	[SS_BLK_UP_END] = { "block upload end", st_blk_up_end },
+	[SS_DEFERRED] = { "deferred", st_deferred },
+};
+
+/* ---- helpers ------------------------------------------------------------ */
+
+static co_node *node_of(const struct srv_chan *ch)
+{
+	return ch->srv->node;
+}
+
+static const co_node_config *cfg_of(const struct srv_chan *ch)
+{
+	return &node_of(ch)->cfg;
+}
+
+static void arm(struct srv_chan *ch)
+{
+	co_node *node = node_of(ch);
+
+	ch->deadline = node->now_us + (uint64_t)node->cfg.sdo_server_timeout_ms * 1000u;
+	co_node_deadline_lower(node, ch->deadline);
+}
+
+static void enter(struct srv_chan *ch, uint8_t state)
+{
+	ch->state = state;
+	if (state == SS_IDLE)
+		ch->deadline = CO_NO_DEADLINE;
+	else
+		arm(ch);
+}
+
+static void frame_init(const struct srv_chan *ch, co_frame *f, uint8_t cmd)
+{
+	co_frame_init(f, ch->cob_tx & CO_FRAME_EFF_MASK, 8);
+	if (ch->cob_tx & SDO_COB_EXT)
+		f->flags |= CO_FRAME_EXT;
+	f->data[0] = cmd;
+}
+
+/* A frame that carries index/sub in bytes 1..3 (initiate, end, abort). */
+static void send_mux(struct srv_chan *ch, uint8_t cmd, const uint8_t *payload4)
+{
+	co_frame f;
+
+	frame_init(ch, &f, cmd);
+	co_put_le16(&f.data[1], ch->index);
+	f.data[3] = ch->sub;
+	if (payload4)
+		memcpy(&f.data[4], payload4, 4);
+	co_node_send(node_of(ch), &f);
+}
+
+static void emit_done(struct srv_chan *ch, uint32_t abort)
+{
+	co_event ev = { .kind = CO_EV_SDO_SERVER_DONE };
+
+	ev.u.sdo_srv.channel = ch->num;
+	ev.u.sdo_srv.upload = ch->upload;
+	ev.u.sdo_srv.index = ch->index;
+	ev.u.sdo_srv.sub = ch->sub;
+	ev.u.sdo_srv.mode = ch->mode;
+	ev.u.sdo_srv.abort = abort;
+	ev.u.sdo_srv.size = ch->upload ? ch->size : ch->offset;
+	co_node_emit(node_of(ch), &ev);
+}
+
+static void chan_apply(struct srv_chan *ch);
+
+static void finish(struct srv_chan *ch, uint32_t abort)
+{
+	enter(ch, SS_IDLE);
+	emit_done(ch, abort);
+	if (ch->reapply) {
+		ch->reapply = false;
+		chan_apply(ch);
+	}
+}
+
+static void abort_transfer(struct srv_chan *ch, uint32_t code)
+{
+	uint8_t p[4];
+
+	co_put_le32(p, code);
+	send_mux(ch, SDO_CCS_ABORT << 5, p);
+	finish(ch, code);
+}
+
+/* Index/sub of a new request, and the access check for it. */
+static uint32_t open_entry(struct srv_chan *ch, const uint8_t *d, bool upload, uint8_t mode)
+{
+	uint32_t ab;
+
+	ch->index = co_get_le16(&d[1]);
+	ch->sub = d[3];
+	ch->upload = upload;
+	ch->mode = mode;
+	ch->offset = 0;
+	ch->size = 0;
+	ch->toggle = 0;
+	ch->e = co_od_find_ex(node_of(ch)->od, ch->index, ch->sub, &ab);
+	if (!ch->e)
+		return ab;
+	if (upload && !(ch->e->access & CO_ACC_READ))
+		return SDO_AB_WRITE_ONLY;
+	if (!upload && (!(ch->e->access & CO_ACC_WRITE) || (ch->e->access & CO_ACC_CONST)))
+		return SDO_AB_READ_ONLY;
+	return 0;
+}
+
+static co_od_access access_of(const struct srv_chan *ch, const uint8_t *data, uint32_t size)
+{
+	co_od_access a = { .origin = CO_OD_ORIGIN_SDO, .channel = ch->num,
+			   .data = data, .size = size };
+	return a;
+}
+
+static void park(struct srv_chan *ch, uint8_t kind)
+{
+	ch->defer = kind;
+	enter(ch, SS_DEFERRED);
+}
+
+/* ---- download ----------------------------------------------------------- */
+
+/* Check an announced size against the entry and pick the data path. */
+static uint32_t dn_prepare(struct srv_chan *ch, bool size_ind, uint32_t size,
+			   bool force_stage)
+{
+	co_od_entry *e = ch->e;
+
+	ch->size_ind = size_ind;
+	ch->size = size;
+	if (size_ind) {
+		if (size > e->max_size)
+			return SDO_AB_LEN_HIGH;
+		if (!co_type_is_variable((co_type)e->type) && size < e->size)
+			return SDO_AB_LEN_LOW;
+	}
+	/* Expedited data (<= 4 bytes) always fits the stage (>= 8 bytes). */
+	ch->in_place = !force_stage && e->max_size > cfg_of(ch)->sdo_stage_size;
+	ch->dst = ch->in_place ? e->data : ch->stage;
+	ch->dst_cap = e->max_size;
+	if (ch->in_place && e->hooks && e->hooks->check_write) {
+		co_od_access a = access_of(ch, NULL, size_ind ? size : 0);
+		return e->hooks->check_write(e->hook_ctx, e, &a);
+	}
+	return 0;
+}
+
+/* Store `len` bytes at the current offset; false if they do not fit. */
+static bool dn_put(struct srv_chan *ch, const uint8_t *data, uint32_t len)
+{
+	if (len > ch->dst_cap - ch->offset)
+		return false;
+	memcpy(ch->dst + ch->offset, data, len);
+	ch->offset += len;
+	return true;
+}
+
+/* All data is in: final checks, hook, store, confirm with `resp`. */
+static void dn_complete(struct srv_chan *ch, const co_frame *resp)
+{
+	co_od_entry *e = ch->e;
+	uint32_t len = ch->offset;
+	uint32_t ab;
+
+	if (ch->size_ind && len != ch->size) {
+		abort_transfer(ch, SDO_AB_TYPE_LEN);
+		return;
+	}
+	ab = co_od_check_value(e, ch->dst, len);
+	if (!ab && !ch->in_place && e->hooks && e->hooks->check_write) {
+		co_od_access a = access_of(ch, ch->dst, len);
+		ab = e->hooks->check_write(e->hook_ctx, e, &a);
+	}
+	if (ab == CO_OD_DEFERRED) {
+		ch->pending = *resp;
+		ch->stage_len = len;
+		park(ch, DEFER_COMMIT);
+		return;
+	}
+	if (ab) {
+		abort_transfer(ch, ab);
+		return;
+	}
+	co_od_access a = access_of(ch, ch->dst, len);
+	co_od_commit(e, ch->dst, len, &a);
+	co_node_send(node_of(ch), resp);
+
+	co_event ev = { .kind = CO_EV_OD_WRITTEN };
+	ev.u.od.index = ch->index;
+	ev.u.od.sub = ch->sub;
+	ev.u.od.channel = ch->num;
+	ev.u.od.size = len;
+	co_node_emit(node_of(ch), &ev);
+	finish(ch, 0);
+}
+
+/* Send `pending` and go on, or park if the hook deferred. */
+static void dn_proceed(struct srv_chan *ch, uint32_t ab, uint8_t next)
+{
+	if (ab == CO_OD_DEFERRED) {
+		ch->resume_state = next;
+		park(ch, DEFER_PROCEED);
+		return;
+	}
+	if (ab) {
+		abort_transfer(ch, ab);
+		return;
+	}
+	co_node_send(node_of(ch), &ch->pending);
+	enter(ch, next);
+}
+
+static void dn_expedited(struct srv_chan *ch, const uint8_t *d)
+{
+	co_od_entry *e = ch->e;
+	bool s = d[0] & SDO_SIZE_IND;
+	uint32_t len = s ? 4u - ((d[0] >> 2) & 3u) : 4u;
+	co_frame resp;
+	uint32_t ab;
+
+	/* Size not indicated: the object's own size, if it fits in 4 bytes. */
+	if (!s && !co_type_is_variable((co_type)e->type) && e->size <= 4)
+		len = e->size;
+	/* Lenient mode: tolerate clients that always send 4 bytes (seed 004's
+	 * 0x2B/0x23 confusion) as long as the surplus bytes are zero. */
+	if (cfg_of(ch)->sdo_server_lenient_size && s && !co_type_is_variable((co_type)e->type) &&
+	    len > e->size) {
+		bool zero = true;
+		for (uint32_t i = e->size; i < len; i++)
+			zero = zero && d[4 + i] == 0;
+		if (zero)
+			len = e->size;
+	}
+	ab = dn_prepare(ch, true, len, true);
+	if (ab) {
+		abort_transfer(ch, ab);
+		return;
+	}
+	ch->mode = SDO_MODE_EXPEDITED;
+	dn_put(ch, &d[4], len);
+	frame_init(ch, &resp, SDO_SCS_DN_INIT << 5);
+	co_put_le16(&resp.data[1], ch->index);
+	resp.data[3] = ch->sub;
+	dn_complete(ch, &resp);
+}
+
+static void dn_init(struct srv_chan *ch, const uint8_t *d)
+{
+	uint32_t ab = open_entry(ch, d, false, SDO_MODE_SEGMENTED);
+
+	if (ab) {
+		abort_transfer(ch, ab);
+		return;
+	}
+	if (d[0] & SDO_EXPEDITED) {
+		dn_expedited(ch, d);
+		return;
+	}
+	ab = dn_prepare(ch, d[0] & SDO_SIZE_IND, co_get_le32(&d[4]), false);
+	frame_init(ch, &ch->pending, SDO_SCS_DN_INIT << 5);
+	co_put_le16(&ch->pending.data[1], ch->index);
+	ch->pending.data[3] = ch->sub;
+	dn_proceed(ch, ab, SS_DN_SEG);
+}
+
+static void st_dn_seg(struct srv_chan *ch, const uint8_t *d)
+{
+	uint8_t t = d[0] & SDO_TOGGLE;
+	uint32_t len = SDO_SEG_DATA - ((d[0] >> 1) & 7u);
+	co_frame resp;
+
+	if (SDO_CS(d[0]) != SDO_CCS_DN_SEG) {
+		abort_transfer(ch, SDO_AB_CMD);
+		return;
+	}
+	if (t != ch->toggle) {
+		abort_transfer(ch, SDO_AB_TOGGLE);
+		return;
+	}
+	if (ch->size_ind && len > ch->size - ch->offset) {
+		abort_transfer(ch, SDO_AB_TYPE_LEN);
+		return;
+	}
+	if (!dn_put(ch, &d[1], len)) {
+		abort_transfer(ch, SDO_AB_LEN_HIGH);
+		return;
+	}
+	frame_init(ch, &resp, (uint8_t)((SDO_SCS_DN_SEG << 5) | t));
+	ch->toggle ^= SDO_TOGGLE;
+	if (d[0] & SDO_SEG_LAST) {
+		dn_complete(ch, &resp);
+		return;
+	}
+	co_node_send(node_of(ch), &resp);
+	arm(ch);
+}
+
+/* ---- block download ------------------------------------------------------ */
+
+static void blk_dn_init(struct srv_chan *ch, const uint8_t *d)
+{
+	uint32_t ab = open_entry(ch, d, false, SDO_MODE_BLOCK);
+
+	if (!ab && cfg_of(ch)->sdo_server_no_block)
+		ab = SDO_AB_CMD;
+	if (!ab && (d[0] & 1u)) /* cs must be "initiate" */
+		ab = SDO_AB_CMD;
+	if (ab) {
+		abort_transfer(ch, ab);
+		return;
+	}
+	ab = dn_prepare(ch, d[0] & SDO_BLK_SIZE_IND, co_get_le32(&d[4]), false);
+	ch->crc_on = d[0] & SDO_BLK_CRC; /* we always support CRC (sc = 1) */
+	ch->crc = CRC16_CCITT_INIT;
+	ch->blksize = cfg_of(ch)->sdo_server_blksize;
+	ch->seq = 0;
+	ch->last_seen = false;
+	frame_init(ch, &ch->pending, (uint8_t)((SDO_SCS_BLK_DN << 5) | SDO_BLK_CRC | SDO_BLK_INIT));
+	co_put_le16(&ch->pending.data[1], ch->index);
+	ch->pending.data[3] = ch->sub;
+	ch->pending.data[4] = ch->blksize;
+	dn_proceed(ch, ab, SS_BLK_DN_SUB);
+}
+
+static void blk_dn_ack(struct srv_chan *ch)
+{
+	co_frame f;
+
+	frame_init(ch, &f, (uint8_t)((SDO_SCS_BLK_DN << 5) | SDO_BLK_ACK));
+	f.data[1] = ch->seq;
+	f.data[2] = ch->blksize;
+	co_node_send(node_of(ch), &f);
+	ch->seq = 0;
+	enter(ch, ch->last_seen ? SS_BLK_DN_END : SS_BLK_DN_SUB);
+}
+
+/* Segments are only accepted in sequence. A lost or repeated segment is
+ * skipped; at the end of the sub-block (seqno == blksize or c = 1, as the
+ * client sees it) the ack names the last good one and the client resends
+ * from there (CiA 301 §7.2.4.3.9). A seqno outside 1..blksize is a protocol
+ * error. */
+static void st_blk_dn_sub(struct srv_chan *ch, const uint8_t *d)
+{
+	uint8_t seq = d[0] & 0x7Fu;
+	bool last = d[0] & SDO_BLK_SEQ_LAST;
+
+	if (d[0] == (SDO_CCS_ABORT << 5)) { /* seqno 0 with c: an abort */
+		finish(ch, co_get_le32(&d[4]));
+		return;
+	}
+	if (seq == 0 || seq > ch->blksize) {
+		abort_transfer(ch, SDO_AB_SEQ);
+		return;
+	}
+	if (seq == ch->seq + 1) {
+		uint32_t room = ch->dst_cap - ch->offset;
+		if (!last && room < SDO_SEG_DATA) {
+			abort_transfer(ch, SDO_AB_LEN_HIGH);
+			return;
+		}
+		if (ch->crc_on && !last)
+			ch->crc = crc16_ccitt(ch->crc, &d[1], SDO_SEG_DATA);
+		if (last) {
+			/* Padding is only known at the end request (n). */
+			ch->last_off = ch->offset;
+			uint32_t n = room < SDO_SEG_DATA ? room : SDO_SEG_DATA;
+			memcpy(ch->dst + ch->offset, &d[1], n);
+			ch->offset += SDO_SEG_DATA; /* virtual until n is known */
+			ch->last_seen = true;
+		} else {
+			memcpy(ch->dst + ch->offset, &d[1], SDO_SEG_DATA);
+			ch->offset += SDO_SEG_DATA;
+		}
+		ch->seq = seq;
+	}
+	if (seq == ch->blksize || last)
+		blk_dn_ack(ch);
+	else
+		arm(ch);
+}
+
+static void st_blk_dn_end(struct srv_chan *ch, const uint8_t *d)
+{
+	uint32_t n = (d[0] >> 2) & 7u;
+	co_frame resp;
+
+	if (SDO_CS(d[0]) != SDO_CCS_BLK_DN || (d[0] & 3u) != SDO_BLK_END) {
+		abort_transfer(ch, SDO_AB_CMD);
+		return;
+	}
+	ch->offset = ch->last_off + SDO_SEG_DATA - n;
+	if (ch->offset > ch->dst_cap) {
+		abort_transfer(ch, SDO_AB_LEN_HIGH);
+		return;
+	}
+	if (ch->crc_on) {
+		ch->crc = crc16_ccitt(ch->crc, ch->dst + ch->last_off, SDO_SEG_DATA - n);
+		if (ch->crc != co_get_le16(&d[1])) {
+			abort_transfer(ch, SDO_AB_CRC);
+			return;
+		}
+	}
+	frame_init(ch, &resp, (uint8_t)((SDO_SCS_BLK_DN << 5) | SDO_BLK_END));
+	dn_complete(ch, &resp);
+}
+
+/* ---- upload ------------------------------------------------------------- */
+
+static void up_start_normal(struct srv_chan *ch)
+{
+	uint8_t p[4] = { 0 };
+
+	if (ch->size >= 1 && ch->size <= SDO_EXP_DATA) {
+		ch->mode = SDO_MODE_EXPEDITED;
+		memcpy(p, ch->src, ch->size); /* 1..4 bytes */
+		send_mux(ch, (uint8_t)((SDO_SCS_UP_INIT << 5) | ((4u - ch->size) << 2) |
+				       SDO_EXPEDITED | SDO_SIZE_IND), p);
+		finish(ch, 0);
+		return;
+	}
+	ch->mode = SDO_MODE_SEGMENTED;
+	co_put_le32(p, ch->size);
+	send_mux(ch, (SDO_SCS_UP_INIT << 5) | SDO_SIZE_IND, p);
+	ch->toggle = 0;
+	enter(ch, SS_UP_SEG);
+}
+
+static void up_start_block(struct srv_chan *ch)
+{
+	uint8_t p[4];
+
+	/* Protocol switch threshold: small values go the cheaper way. */
+	if (ch->pst && ch->size <= ch->pst) {
+		up_start_normal(ch);
+		return;
+	}
+	ch->mode = SDO_MODE_BLOCK;
+	ch->crc = CRC16_CCITT_INIT;
+	ch->blk_start = 0;
+	co_put_le32(p, ch->size);
+	send_mux(ch, (uint8_t)((SDO_SCS_BLK_UP << 5) | SDO_BLK_CRC | SDO_BLK_SIZE_IND), p);
+	enter(ch, SS_BLK_UP_START);
+}
+
+static void up_begin(struct srv_chan *ch, bool block)
+{
+	co_od_entry *e = ch->e;
+	uint32_t ab = 0;
+
+	if (e->hooks && e->hooks->read) {
+		co_od_access a = access_of(ch, NULL, 0);
+		ab = e->hooks->read(e->hook_ctx, e, &a);
+	}
+	if (ab == CO_OD_DEFERRED) {
+		ch->defer_block = block;
+		park(ch, DEFER_READ);
+		return;
+	}
+	if (ab) {
+		abort_transfer(ch, ab);
+		return;
+	}
+	ch->src = e->data;
+	ch->size = e->size;
+	if (block)
+		up_start_block(ch);
+	else
+		up_start_normal(ch);
+}
+
+static void up_init(struct srv_chan *ch, const uint8_t *d)
+{
+	uint32_t ab = open_entry(ch, d, true, SDO_MODE_SEGMENTED);
+
+	if (!ab && d[0] != (SDO_CCS_UP_INIT << 5))
+		ab = SDO_AB_CMD;
+	if (ab) {
+		abort_transfer(ch, ab);
+		return;
+	}
+	up_begin(ch, false);
+}
+
+static void st_up_seg(struct srv_chan *ch, const uint8_t *d)
+{
+	uint8_t t = d[0] & SDO_TOGGLE;
+	uint32_t left = ch->size - ch->offset;
+	uint32_t len = left < SDO_SEG_DATA ? left : SDO_SEG_DATA;
+	bool last = left <= SDO_SEG_DATA;
+	co_frame f;
+
+	if (SDO_CS(d[0]) != SDO_CCS_UP_SEG) {
+		abort_transfer(ch, SDO_AB_CMD);
+		return;
+	}
+	if (t != ch->toggle) {
+		abort_transfer(ch, SDO_AB_TOGGLE);
+		return;
+	}
+	frame_init(ch, &f, (uint8_t)((SDO_SCS_UP_SEG << 5) | t | ((SDO_SEG_DATA - len) << 1) |
+				     (last ? SDO_SEG_LAST : 0)));
+	if (len)
+		memcpy(&f.data[1], ch->src + ch->offset, len);
+	co_node_send(node_of(ch), &f);
+	ch->offset += len;
+	ch->toggle ^= SDO_TOGGLE;
+	if (last)
+		finish(ch, 0);
+	else
+		arm(ch);
+}
+
+/* ---- block upload ------------------------------------------------------- */
+
+static void blk_up_init(struct srv_chan *ch, const uint8_t *d)
+{
+	uint32_t ab = open_entry(ch, d, true, SDO_MODE_BLOCK);
+
+	if (!ab && cfg_of(ch)->sdo_server_no_block)
+		ab = SDO_AB_CMD;
+	if (!ab && (d[0] & 3u) != SDO_BLK_INIT)
+		ab = SDO_AB_CMD;
+	if (!ab && (d[4] == 0 || d[4] > SDO_BLK_MAX_SEQ))
+		ab = SDO_AB_BLK_SIZE;
+	if (ab) {
+		abort_transfer(ch, ab);
+		return;
+	}
+	ch->crc_on = d[0] & SDO_BLK_CRC;
+	ch->blksize = d[4];
+	ch->pst = d[5];
+	up_begin(ch, true);
+}
+
+/* Send one sub-block from blk_start (first time or again after an ack
+ * that named an earlier segment). */
+static void blk_up_send(struct srv_chan *ch)
+{
+	uint32_t off = ch->blk_start;
+	uint8_t seq = 0;
+	co_frame f;
+
+	ch->blk_last = false;
+	do {
+		uint32_t left = ch->size - off;
+		uint32_t len = left < SDO_SEG_DATA ? left : SDO_SEG_DATA;
+		bool last = left <= SDO_SEG_DATA;
+
+		seq++;
+		frame_init(ch, &f, (uint8_t)(seq | (last ? SDO_BLK_SEQ_LAST : 0)));
+		if (len)
+			memcpy(&f.data[1], ch->src + off, len);
+		co_node_send(node_of(ch), &f);
+		off += len;
+		ch->blk_last = last;
+	} while (!ch->blk_last && seq < ch->blksize);
+	ch->blk_segs = seq;
+	enter(ch, SS_BLK_UP_ACK);
+}
+
+static void st_blk_up_start(struct srv_chan *ch, const uint8_t *d)
+{
+	if (d[0] != ((SDO_CCS_BLK_UP << 5) | SDO_BLK_START)) {
+		abort_transfer(ch, SDO_AB_CMD);
+		return;
+	}
+	blk_up_send(ch);
+}
+
+static void blk_up_end(struct srv_chan *ch)
+{
+	uint32_t rem = ch->size % SDO_SEG_DATA;
+	uint32_t n = ch->size == 0 ? SDO_SEG_DATA : rem ? SDO_SEG_DATA - rem : 0;
+	co_frame f;
+
+	frame_init(ch, &f, (uint8_t)((SDO_SCS_BLK_UP << 5) | (n << 2) | SDO_BLK_END));
+	if (ch->crc_on)
+		co_put_le16(&f.data[1], ch->crc);
+	co_node_send(node_of(ch), &f);
+	enter(ch, SS_BLK_UP_END);
+}
+
+static void st_blk_up_ack(struct srv_chan *ch, const uint8_t *d)
+{
+	uint8_t ackseq = d[1];
+	uint8_t blksize = d[2];
+	uint32_t left, acked;
+
+	if (d[0] != ((SDO_CCS_BLK_UP << 5) | SDO_BLK_ACK)) {
+		abort_transfer(ch, SDO_AB_CMD);
+		return;
+	}
+	if (ackseq > ch->blk_segs) {
+		abort_transfer(ch, SDO_AB_SEQ);
+		return;
+	}
+	if (blksize == 0 || blksize > SDO_BLK_MAX_SEQ) {
+		abort_transfer(ch, SDO_AB_BLK_SIZE);
+		return;
+	}
+	left = ch->size - ch->blk_start;
+	acked = (uint32_t)ackseq * SDO_SEG_DATA;
+	if (acked > left)
+		acked = left;
+	if (ch->crc_on && acked)
+		ch->crc = crc16_ccitt(ch->crc, ch->src + ch->blk_start, acked);
+	ch->blk_start += acked;
+	ch->offset = ch->blk_start;
+	ch->blksize = blksize;
+	if (ch->blk_last && ackseq == ch->blk_segs)
+		blk_up_end(ch);
+	else
+		blk_up_send(ch);
+}
+
+static void st_blk_up_end(struct srv_chan *ch, const uint8_t *d)
+{
+	if (d[0] != ((SDO_CCS_BLK_UP << 5) | SDO_BLK_END)) {
+		abort_transfer(ch, SDO_AB_CMD);
+		return;
+	}
+	finish(ch, 0);
+}
+
+/* ---- idle and deferred ----------------------------------------------------- */
+
+static void st_idle(struct srv_chan *ch, const uint8_t *d)
+{
+	switch (SDO_CS(d[0])) {
+	case SDO_CCS_DN_INIT: dn_init(ch, d); return;
+	case SDO_CCS_UP_INIT: up_init(ch, d); return;
+	case SDO_CCS_BLK_DN: blk_dn_init(ch, d); return;
+	case SDO_CCS_BLK_UP: blk_up_init(ch, d); return;
+	case SDO_CCS_ABORT: return; /* nothing to abort */
+	default:
+		ch->index = co_get_le16(&d[1]);
+		ch->sub = d[3];
+		abort_transfer(ch, SDO_AB_CMD);
+		return;
+	}
+}
+
+/* While a hook owns the answer, the client may only abort. */
+static void st_deferred(struct srv_chan *ch, const uint8_t *d)
+{
+	(void)d;
+	abort_transfer(ch, SDO_AB_CMD);
+}
+
+static void srv_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
+{
+	struct srv_chan *ch = arg;
+
+	(void)node;
+	(void)now_us;
+	/* CiA 301 SDO frames always have 8 data bytes; ignore anything else
+	 * (an RTR or a short frame cannot be answered meaningfully). */
+	if (f->len != 8 || (f->flags & CO_FRAME_RTR))
+		return;
+	if (ch->state != SS_IDLE && ch->state != SS_BLK_DN_SUB &&
+	    SDO_CS(f->data[0]) == SDO_CCS_ABORT) {
+		finish(ch, co_get_le32(&f->data[4]));
+		return;
+	}
+	srv_states[ch->state].on_frame(ch, f->data);
+}
+
+/* ---- deferred answers ---------------------------------------------------- */
+
+int sdo_server_continue(co_node *node, uint8_t channel, uint32_t abort,
+			const uint8_t *data, uint32_t size, uint64_t now_us)
+{
+	struct sdo_server *srv = node->sdo_srv;
+	struct srv_chan *ch;
+
+	if (!srv || channel >= srv->n)
+		return -EINVAL;
+	ch = &srv->ch[channel];
+	if (ch->state != SS_DEFERRED)
+		return -ENOENT;
+	node->now_us = now_us;
+	if (abort) {
+		abort_transfer(ch, abort);
+		return 0;
+	}
+	switch (ch->defer) {
+	case DEFER_COMMIT: {
+		co_od_access a = access_of(ch, ch->dst, ch->stage_len);
+		co_frame resp = ch->pending;
+		co_od_commit(ch->e, ch->dst, ch->stage_len, &a);
+		co_node_send(node, &resp);
+		co_event ev = { .kind = CO_EV_OD_WRITTEN };
+		ev.u.od.index = ch->index;
+		ev.u.od.sub = ch->sub;
+		ev.u.od.channel = ch->num;
+		ev.u.od.size = ch->stage_len;
+		co_node_emit(node, &ev);
+		finish(ch, 0);
+		break;
+	}
+	case DEFER_PROCEED:
+		co_node_send(node, &ch->pending);
+		enter(ch, ch->resume_state);
+		break;
+	case DEFER_READ:
+		ch->src = data ? data : ch->e->data;
+		ch->size = data ? size : ch->e->size;
+		if (ch->defer_block)
+			up_start_block(ch);
+		else
+			up_start_normal(ch);
+		break;
+	}
+	return 0;
+}
+
+bool sdo_server_busy(const co_node *node, uint8_t channel)
+{
+	const struct sdo_server *srv = node->sdo_srv;
+
+	return srv && channel < srv->n && srv->ch[channel].state != SS_IDLE;
+}
+
+uint8_t sdo_server_channel_count(const co_node *node)
+{
+	return node->sdo_srv ? node->sdo_srv->n : 0;
+}
+
+/* ---- channel parameters (1200h..127Fh) ------------------------------------ */
+
+/* Register the receiver for the channel's current COB-IDs. */
+static void chan_apply(struct srv_chan *ch)
+{
+	co_node *node = node_of(ch);
+	bool valid = !(ch->cob_rx & SDO_COB_INVALID) && !(ch->cob_tx & SDO_COB_INVALID);
+
+	if (ch->state != SS_IDLE)
+		finish(ch, SDO_AB_GENERAL); /* parameters changed under a transfer */
+	if (!valid || co_rx_move(node, ch->rx_handle, ch->cob_rx & CO_FRAME_EFF_MASK,
+				 (ch->cob_rx & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0)
+		co_rx_disable(node, ch->rx_handle);
+}
+
+static void chan_load(struct srv_chan *ch)
+{
+	co_od *od = node_of(ch)->od;
+	uint16_t idx = (uint16_t)(SDO_SERVER_PARAM + ch->num);
+	uint8_t id = node_of(ch)->node_id;
+	uint32_t v;
+
+	if (ch->num == 0) {
+		/* 1200h is optional; without it the predefined set applies. */
+		bool ok = id >= 1 && id <= 127;
+		ch->cob_rx = ok ? SDO_COB_RX_BASE + id : SDO_COB_INVALID;
+		ch->cob_tx = ok ? SDO_COB_TX_BASE + id : SDO_COB_INVALID;
+	} else {
+		ch->cob_rx = ch->cob_tx = SDO_COB_INVALID;
+	}
+	if (co_od_get_u32(od, idx, 1, &v) == 0)
+		ch->cob_rx = v;
+	if (co_od_get_u32(od, idx, 2, &v) == 0)
+		ch->cob_tx = v;
+	chan_apply(ch);
+}
+
+static bool cob_valid_form(uint32_t v)
+{
+	if (v & SDO_COB_EXT)
+		return true;
+	return (v & 0x1FFFF800u) == 0; /* 11-bit id: nothing in bits 11..28 */
+}
+
+/* CiA 301 §7.5.2.33: a valid COB-ID may not be changed to another valid
+ * one; the channel has to be made invalid (bit 31) first. */
+static uint32_t cob_check(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	(void)ctx;
+	uint32_t old = (uint32_t)co_od_entry_raw(e);
+	uint32_t nv;
+
+	if (!a->data || a->size != 4)
+		return SDO_AB_TYPE_LEN;
+	nv = co_get_le32(a->data);
+	if (!cob_valid_form(nv))
+		return SDO_AB_VALUE;
+	if (!(old & SDO_COB_INVALID) && !(nv & SDO_COB_INVALID) && nv != old)
+		return SDO_AB_VALUE;
+	return 0;
+}
+
+static void cob_written(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	struct srv_chan *ch = ctx;
+	uint32_t v = (uint32_t)co_od_entry_raw(e);
+
+	(void)a;
+	if (e->sub == 1)
+		ch->cob_rx = v;
+	else
+		ch->cob_tx = v;
+	/* The channel answering this very write must confirm it on the old
+	 * COB-ID first: its finish() applies the new one. */
+	if (a->origin == CO_OD_ORIGIN_SDO && a->channel == ch->num)
+		ch->reapply = true;
+	else
+		chan_apply(ch);
+}
+
+static const co_od_hooks cob_hooks = {
+	.check_write = cob_check,
+	.after_write = cob_written,
+};
+
+static int chan_od_init(struct srv_chan *ch)
+{
+	co_od *od = node_of(ch)->od;
+	uint16_t idx = (uint16_t)(SDO_SERVER_PARAM + ch->num);
+	co_od_entry *e;
+	int rc;
+
+	if (ch->num > 0 && !co_od_has_index(od, idx)) {
+		rc = co_od_add_num(od, idx, 0, CO_T_UNSIGNED8, CO_ACC_RO, 3, &e);
+		if (!rc)
+			e->obj_code = CO_OBJ_RECORD;
+		for (uint8_t s = 1; !rc && s <= 2; s++) {
+			rc = co_od_add_num(od, idx, s, CO_T_UNSIGNED32, CO_ACC_RW,
+					   SDO_COB_INVALID, &e);
+			if (!rc)
+				e->obj_code = CO_OBJ_RECORD;
+		}
+		if (!rc)
+			rc = co_od_add_num(od, idx, 3, CO_T_UNSIGNED8, CO_ACC_RW, 0, &e);
+		if (!rc)
+			e->obj_code = CO_OBJ_RECORD;
+		if (rc)
+			return rc;
+	}
+	for (uint8_t s = 1; s <= 2; s++)
+		co_od_set_hooks(od, idx, s, &cob_hooks, ch);
+	return 0;
+}
+
+/* ---- service ops -------------------------------------------------------- */
+
+static void srv_fini(co_node *node)
+{
+	struct sdo_server *srv = node->sdo_srv;
+
+	if (!srv)
+		return;
+	for (uint8_t i = 0; i < srv->n; i++) {
+		struct srv_chan *ch = &srv->ch[i];
+		uint16_t idx = (uint16_t)(SDO_SERVER_PARAM + i);
+		co_od_entry *e;
+		for (uint8_t s = 1; s <= 2; s++)
+			if ((e = co_od_find(node->od, idx, s)) && e->hook_ctx == ch)
+				co_od_entry_set_hooks(e, NULL, NULL);
+		if (ch->rx_handle >= 0)
+			co_rx_unregister(node, ch->rx_handle);
+		free(ch->stage);
+	}
+	free(srv);
+	node->sdo_srv = NULL;
+}
+
+static int srv_init(co_node *node)
+{
+	uint8_t n = node->cfg.sdo_server_count;
+	struct sdo_server *srv = calloc(1, sizeof(*srv) + n * sizeof(srv->ch[0]));
+	int rc = 0;
+
+	if (!srv)
+		return -ENOMEM;
+	srv->node = node;
+	srv->n = n;
+	node->sdo_srv = srv;
+	for (uint8_t i = 0; i < n; i++)
+		srv->ch[i].rx_handle = -1;
+	for (uint8_t i = 0; i < n && !rc; i++) {
+		struct srv_chan *ch = &srv->ch[i];
+		ch->srv = srv;
+		ch->num = i;
+		ch->deadline = CO_NO_DEADLINE;
+		ch->stage = malloc(node->cfg.sdo_stage_size);
+		if (!ch->stage) {
+			rc = -ENOMEM;
+			break;
+		}
+		/* Register on a placeholder id, then move/disable per COB-ID. */
+		ch->rx_handle = co_rx_register(node, 0, 0, srv_rx, ch);
+		if (ch->rx_handle < 0) {
+			rc = ch->rx_handle;
+			break;
+		}
+		co_rx_disable(node, ch->rx_handle);
+		rc = chan_od_init(ch);
+		if (!rc)
+			chan_load(ch);
+	}
+	if (rc)
+		srv_fini(node);
+	return rc;
+}
+
+static uint64_t srv_tick(co_node *node, uint64_t now_us)
+{
+	struct sdo_server *srv = node->sdo_srv;
+	uint64_t next = CO_NO_DEADLINE;
+
+	if (!srv)
+		return next;
+	for (uint8_t i = 0; i < srv->n; i++) {
+		struct srv_chan *ch = &srv->ch[i];
+		if (ch->state != SS_IDLE && now_us >= ch->deadline)
+			abort_transfer(ch, SDO_AB_TIMEOUT);
+		if (ch->deadline < next)
+			next = ch->deadline;
+	}
+	return next;
+}
+
+static void srv_reset_comm(co_node *node, uint64_t now_us)
+{
+	struct sdo_server *srv = node->sdo_srv;
+
+	(void)now_us;
+	if (!srv)
+		return;
+	for (uint8_t i = 0; i < srv->n; i++) {
+		srv->ch[i].state = SS_IDLE; /* a reset ends transfers silently */
+		srv->ch[i].deadline = CO_NO_DEADLINE;
+		chan_load(&srv->ch[i]);
+	}
+}
+
+const co_service co_svc_sdo_server = {
+	.name = "sdo-server",
+	.init = srv_init,
+	.fini = srv_fini,
+	.tick = srv_tick,
+	.reset_comm = srv_reset_comm,
+};

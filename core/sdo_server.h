@@ -1,0 +1,61 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * core/sdo_server.h - SDO server channels (CiA 301 §7.2.4, objects
+ * 1200h..127Fh): expedited, segmented and block transfer, upload and
+ * download, block CRC, per-frame timeout.
+ *
+ * Channels: cfg.sdo_server_count of them (co.h). Channel 0 uses 1200h if the
+ * OD has it, else the predefined 600h+id / 580h+id. Channels 1.. use
+ * 1201h.. and are created in the OD (COB-IDs invalid) if absent. Writing
+ * sub 1/2 follows CiA 301: bit 31 = invalid; a valid COB-ID may only be
+ * changed (to another valid id) while the channel is invalid, otherwise
+ * 0x06090030.
+ *
+ * Download data path (why two):
+ * - Entries whose capacity (max_size) is at most cfg.sdo_stage_size bytes
+ *   (all numerics, short strings) are staged in the channel and only stored
+ *   after the length/limit checks and the check_write hook accepted them,
+ *   so a refusal leaves the value unchanged.
+ * - Larger entries (big strings and DOMAINs, 100 KiB firmware images) are
+ *   written in place as the data arrives; the check_write hook then runs at initiate with
+ *   data == NULL and size = the indicated size, and after_write runs at the
+ *   end. An aborted in-place download leaves a partial value; the
+ *   application sees no CO_EV_OD_WRITTEN for it.
+ *
+ * Deferred answers: a read or check_write hook returning CO_OD_DEFERRED
+ * parks the channel. No reply goes out until sdo_server_continue() is
+ * called (the per-frame timeout keeps running; when it expires the server
+ * aborts with 0x05040000 and a later continue returns -ENOENT).
+ */
+#ifndef COGW_CORE_SDO_SERVER_H
+#define COGW_CORE_SDO_SERVER_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "core/co.h"
+#include "core/sdo.h"
+
+extern const co_service co_svc_sdo_server;
+
+/*
+ * Finish a deferred access on server channel `channel`.
+ * - abort != 0: the transfer is aborted with that code.
+ * - deferred read, abort == 0: data/size give the value to upload; the
+ *   buffer must stay valid until CO_EV_SDO_SERVER_DONE for this channel.
+ *   data == NULL uploads the entry's current value instead (the hook may
+ *   have refreshed it).
+ * - deferred write, abort == 0: the staged value is stored (after_write
+ *   runs, CO_EV_OD_WRITTEN is emitted) and the download is confirmed;
+ *   data/size are ignored.
+ * Returns 0, -ENOENT if the channel is not waiting for a continue (e.g.
+ * it timed out or the client aborted), -EINVAL for a bad channel.
+ */
+int sdo_server_continue(co_node *node, uint8_t channel, uint32_t abort,
+			const uint8_t *data, uint32_t size, uint64_t now_us);
+
+/* True while a transfer is in progress on the channel. */
+bool sdo_server_busy(const co_node *node, uint8_t channel);
+uint8_t sdo_server_channel_count(const co_node *node);
+
+#endif /* COGW_CORE_SDO_SERVER_H */
