@@ -503,10 +503,10 @@ static void store_bytes(co_od_entry *e, const uint8_t *buf, uint32_t len)
 
 int co_od_entry_set_bytes(co_od_entry *e, const void *buf, uint32_t len)
 {
-	if (len > e->max_size)
-		return -EMSGSIZE;
 	if (!co_type_is_variable((co_type)e->type) && len != e->size)
 		return -EINVAL;
+	if (len > e->max_size)
+		return -EMSGSIZE;
 	store_bytes(e, buf, len);
 	return 0;
 }
