@@ -25,6 +25,9 @@ UNITY_CFLAGS := -I$(UNITY_SRC) -DUNITY_INCLUDE_DOUBLE -DUNITY_SUPPORT_64 -DUNITY
 CORE_SRC    := $(sort $(wildcard core/*.c))
 LINES_SRC   := $(sort $(wildcard lines/*.c))
 APPCOMMON_SRC := $(sort $(wildcard apps/common/*.c))
+# Generated at build time, never committed: etc/cogw.json as a C string.
+GEN := build/gen
+APPCOMMON_GEN := $(GEN)/default_config.c
 PROGRAMS    := $(notdir $(patsubst %/main.c,%,$(wildcard apps/*/main.c)))
 UNIT_SRC    := $(sort $(wildcard tests/unit/test_*.c))
 UNIT_SUP    := $(sort $(wildcard tests/unit/support/*.c))
@@ -106,11 +109,11 @@ $(SAN_LINES_LIB): $(call obj,$(SAN),$(LINES_SRC))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 
-$(REL_APPCOMMON_LIB): $(call obj,$(REL),$(APPCOMMON_SRC))
+$(REL_APPCOMMON_LIB): $(call obj,$(REL),$(APPCOMMON_SRC) $(APPCOMMON_GEN))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 
-$(SAN_APPCOMMON_LIB): $(call obj,$(SAN),$(APPCOMMON_SRC))
+$(SAN_APPCOMMON_LIB): $(call obj,$(SAN),$(APPCOMMON_SRC) $(APPCOMMON_GEN))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 
@@ -149,6 +152,39 @@ test:
 	@scripts/deps.sh
 	@$(MAKE) --no-print-directory all tests-build
 	@tests/run-all "$(UNIT_BINS)" "$(INTEG_BINS)"
+
+# ---- generated sources -----------------------------------------------------------
+# cogw_default_config_json[]: the bytes of etc/cogw.json plus a NUL, written with
+# od(1) so that no xxd is needed.
+$(APPCOMMON_GEN): etc/cogw.json
+	@mkdir -p $(@D)
+	{ echo '/* generated from etc/cogw.json by make: do not edit */'; \
+	  echo '#include "apps/common/config.h"'; \
+	  echo 'const char cogw_default_config_json[] = {'; \
+	  od -An -v -tx1 $< | sed -e 's/\([0-9a-f][0-9a-f]\)/0x\1,/g'; \
+	  echo '0x00 };'; } > $@.tmp && mv $@.tmp $@
+
+# ---- fuzz targets (libFuzzer; only where clang is installed) ---------------------
+# tests/fuzz/fuzz_<name>.c -> build/fuzz/fuzz_<name>, linked with the core and
+# apps/common sources compiled with -fsanitize=fuzzer. The corpora in
+# tests/fuzz/corpus/<name>/ are replayed by unit tests (gcc) as well.
+FUZZ_CC   ?= clang
+FUZZ_SRC  := $(sort $(wildcard tests/fuzz/fuzz_*.c))
+FUZZ_BINS := $(patsubst tests/fuzz/%.c,build/fuzz/%,$(FUZZ_SRC))
+HAVE_FUZZ_CC := $(shell command -v $(FUZZ_CC) 2>/dev/null)
+FUZZ_CFLAGS := -std=gnu11 -Wall -Wextra -Wshadow -I. -D_GNU_SOURCE -g -O1 \
+	-fsanitize=fuzzer,address,undefined
+
+.PHONY: fuzz
+ifneq ($(HAVE_FUZZ_CC),)
+fuzz: $(FUZZ_BINS)
+build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN)
+	@mkdir -p $(@D)
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -o $@ $(filter %.c,$^) $(SYS_LIBS)
+else
+fuzz:
+	@echo "fuzz: $(FUZZ_CC) not found; fuzz targets need clang (libFuzzer). The corpora still run in 'make unit'."
+endif
 
 # ---- benchmarks ----------------------------------------------------------------
 $(REL)/tests/bench/%: $(REL)/obj/tests/bench/%.o $(REL_LIBS)

@@ -141,9 +141,6 @@ static int add_sdo_channel(co_od *od, uint16_t idx)
 static int add_pdos(co_od *od, uint8_t node_id, co_pdo_dir dir, uint16_t n,
 		    bool valid)
 {
-	/* Predefined connection set (CiA 301 §7.3.3): PDO k = 1..4. */
-	static const uint32_t rpdo_base[4] = { 0x200, 0x300, 0x400, 0x500 };
-	static const uint32_t tpdo_base[4] = { 0x180, 0x280, 0x380, 0x480 };
 	uint16_t comm = dir == CO_PDO_RX ? 0x1400 : 0x1800;
 	int rc;
 
@@ -153,7 +150,11 @@ static int add_pdos(co_od *od, uint8_t node_id, co_pdo_dir dir, uint16_t n,
 		if (co_od_has_index(od, (uint16_t)(comm + k - 1)))
 			continue;
 		if (k <= 4) {
-			d.cob_id = (dir == CO_PDO_RX ? rpdo_base : tpdo_base)[k - 1] +
+			/* Predefined connection set (CiA 301 §7.3.3): RPDO k
+			 * = 100h * (k + 1) + id (200h..500h), TPDO k = 100h *
+			 * k + 80h + id (180h..480h). */
+			d.cob_id = (dir == CO_PDO_RX ? 0x100u * (k + 1u)
+						     : 0x100u * k + 0x80u) +
 				   node_id;
 			if (!valid)
 				d.cob_id |= COB_INVALID;

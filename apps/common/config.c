@@ -1,0 +1,898 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * apps/common/config.c - cogwd's JSON configuration: parse, validate, build
+ * each line's object dictionary (see config.h, docs/config.md).
+ *
+ * Order of a line's OD: the standard communication objects for its node id
+ * (core/od_std.h) from the line's keys, then "objects", then "values". The
+ * line's structured keys (heartbeat_ms, heartbeat_consumers,
+ * sync_period_us) are read back from the OD at the end, so that a "values"
+ * entry for 1016h/1017h/1006h and the struct never disagree.
+ *
+ * Validation is complete before the daemon touches anything: the first
+ * error ends the load with one message "source: path: reason".
+ */
+#include "apps/common/config.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <pwd.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cjson/cJSON.h>
+
+#include "apps/common/json_od.h"
+#include "apps/common/json_util.h"
+#include "core/od_std.h"
+
+#define CONFIG_FILE_MAX (4u * 1024u * 1024u)
+#define IFNAME_MAX 15u /* IFNAMSIZ - 1 */
+/* mirror mailbox/proto.h MBX_MSG_MIN / MBX_MSG_MAX */
+#define MSG_SIZE_MIN 256u
+#define MSG_SIZE_MAX 65535u
+
+static const char *const top_keys[] = { "version", "state_dir", "mlockall",
+					"watchdog_check_ms", "mailbox",
+					"lines", "debug", "comment", NULL };
+static const char *const mailbox_keys[] = { "instance", "depth", "msg_size",
+					    "queue_mode", "max_clients",
+					    "lease_ms", "max_transfer",
+					    "default_access", "rules",
+					    "comment", NULL };
+static const char *const rule_keys[] = { "user", "uid", "access", "comment",
+					 NULL };
+static const char *const debug_keys[] = { "stall_signal", "stall_ms",
+					  "comment", NULL };
+static const char *const line_keys[] = {
+	"name",	      "interface",	     "bitrate",		 "node_id",
+	"network_id", "rt",		     "sdo_servers",	 "sdo_clients",
+	"sdo_timeout_ms", "sdo_block_threshold", "heartbeat_ms",
+	"sync_period_us", "heartbeat_consumers", "device",	 "rpdos",
+	"tpdos",      "objects",	     "values",		 "comment",
+	NULL
+};
+static const char *const rt_keys[] = { "priority", "cpu", "comment", NULL };
+static const char *const hb_keys[] = { "node_id", "time_ms", "comment", NULL };
+static const char *const device_keys[] = { "device_type", "name",
+					   "hw_version", "sw_version",
+					   "vendor_id", "product_code",
+					   "revision", "serial", "comment",
+					   NULL };
+
+/* CiA 301 §7.2.2 / CiA 102 bit timing table (10 kbit/s .. 1 Mbit/s). */
+static const uint32_t cia_bitrates[] = { 10000,	 20000,	 50000,	 125000,
+					 250000, 500000, 800000, 1000000 };
+
+/* Everything a load needs, passed down instead of a dozen parameters. */
+struct ctx {
+	const char *source;
+	char *err;
+	size_t errlen;
+	char msg[512]; /* "path: reason" before the source is prefixed */
+};
+
+static int fail(struct ctx *c, const char *path, const char *fmt, ...)
+	__attribute__((format(printf, 3, 4)));
+
+static int fail(struct ctx *c, const char *path, const char *fmt, ...)
+{
+	char reason[256];
+	va_list ap;
+
+	va_start(ap, fmt);
+	vsnprintf(reason, sizeof(reason), fmt, ap);
+	va_end(ap);
+	return json_util_fail(c->msg, sizeof(c->msg), path, "%s", reason);
+}
+
+/* ---- small typed readers into struct fields ----------------------------------- */
+
+static int opt_u32(struct ctx *c, const cJSON *o, const char *key,
+		   const char *path, uint64_t min, uint64_t max, uint32_t *out)
+{
+	uint64_t v = *out;
+	int rc = json_util_opt_uint(o, key, path, min, max, &v, c->msg,
+				    sizeof(c->msg));
+
+	if (!rc)
+		*out = (uint32_t)v;
+	return rc;
+}
+
+static int opt_u16(struct ctx *c, const cJSON *o, const char *key,
+		   const char *path, uint64_t min, uint64_t max, uint16_t *out)
+{
+	uint32_t v = *out;
+	int rc = opt_u32(c, o, key, path, min, max, &v);
+
+	if (!rc)
+		*out = (uint16_t)v;
+	return rc;
+}
+
+static int opt_u8(struct ctx *c, const cJSON *o, const char *key,
+		  const char *path, uint64_t min, uint64_t max, uint8_t *out)
+{
+	uint32_t v = *out;
+	int rc = opt_u32(c, o, key, path, min, max, &v);
+
+	if (!rc)
+		*out = (uint8_t)v;
+	return rc;
+}
+
+static int opt_unsigned(struct ctx *c, const cJSON *o, const char *key,
+			const char *path, uint64_t min, uint64_t max,
+			unsigned *out)
+{
+	uint32_t v = *out;
+	int rc = opt_u32(c, o, key, path, min, max, &v);
+
+	if (!rc)
+		*out = v;
+	return rc;
+}
+
+static int check_object(struct ctx *c, const cJSON *o, const char *path,
+			const char *const *keys)
+{
+	return json_util_check_object(o, path, keys, c->msg, sizeof(c->msg));
+}
+
+/* Names that end up in queue names and logs: [A-Za-z0-9_-]. */
+static int check_name_chars(struct ctx *c, const char *path, const char *s)
+{
+	for (const char *p = s; *p; p++) {
+		if ((*p >= 'a' && *p <= 'z') || (*p >= 'A' && *p <= 'Z') ||
+		    (*p >= '0' && *p <= '9') || *p == '_' || *p == '-')
+			continue;
+		return fail(c, path,
+			    "\"%s\" may contain only letters, digits, '_' and '-'",
+			    s);
+	}
+	return 0;
+}
+
+static int parse_access_word(struct ctx *c, const cJSON *v, const char *path,
+			     uint8_t *out)
+{
+	static const char *const words[] = { "none", "read", "write" };
+	char r[64];
+
+	if (cJSON_IsString(v)) {
+		for (unsigned i = 0; i < 3; i++) {
+			if (!strcmp(v->valuestring, words[i])) {
+				*out = (uint8_t)i; /* = cogw_access_level */
+				return 0;
+			}
+		}
+	}
+	json_util_repr(v, r, sizeof(r));
+	return fail(c, path, "unknown access %s (one of none, read, write)", r);
+}
+
+/* ---- mailbox ------------------------------------------------------------------ */
+
+static int parse_rule(struct ctx *c, const cJSON *o, const char *path,
+		      cogw_access_rule *r)
+{
+	char p[JSON_PATH_MAX];
+	const cJSON *user, *uid, *acc;
+	int rc;
+
+	if ((rc = check_object(c, o, path, rule_keys)))
+		return rc;
+	user = json_util_get(o, "user");
+	uid = json_util_get(o, "uid");
+	if (!user == !uid)
+		return fail(c, path, "give either \"user\" or \"uid\"");
+	if (user) {
+		char name[256], buf[4096];
+		struct passwd pw, *res = NULL;
+
+		json_util_path_key(p, sizeof(p), path, "user");
+		if ((rc = json_util_string(user, p, 1, name, sizeof(name), c->msg,
+					   sizeof(c->msg))))
+			return rc;
+		if (getpwnam_r(name, &pw, buf, sizeof(buf), &res) != 0 || !res)
+			return fail(c, p, "unknown user \"%s\"", name);
+		r->uid = res->pw_uid;
+	} else {
+		uint64_t u;
+
+		json_util_path_key(p, sizeof(p), path, "uid");
+		if ((rc = json_util_uint(uid, p, 0, UINT32_MAX - 1, false, &u,
+					 c->msg, sizeof(c->msg))))
+			return rc;
+		r->uid = (uid_t)u;
+	}
+	if ((rc = json_util_require(o, "access", path, &acc, c->msg,
+				    sizeof(c->msg))))
+		return rc;
+	json_util_path_key(p, sizeof(p), path, "access");
+	return parse_access_word(c, acc, p, &r->access);
+}
+
+static int parse_mailbox(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
+{
+	const char *path = "mailbox";
+	char p[JSON_PATH_MAX];
+	const cJSON *v;
+	int rc;
+
+	if ((rc = check_object(c, o, path, mailbox_keys)))
+		return rc;
+	if ((rc = json_util_opt_string(o, "instance", path, 1, m->instance,
+				       sizeof(m->instance), c->msg,
+				       sizeof(c->msg))))
+		return rc;
+	json_util_path_key(p, sizeof(p), path, "instance");
+	if ((rc = check_name_chars(c, p, m->instance)) ||
+	    (rc = opt_unsigned(c, o, "depth", path, 1, 65536, &m->depth)) ||
+	    (rc = opt_unsigned(c, o, "msg_size", path, MSG_SIZE_MIN,
+			       MSG_SIZE_MAX, &m->msg_size)) ||
+	    (rc = opt_unsigned(c, o, "max_clients", path, 1, 1024,
+			       &m->max_clients)) ||
+	    (rc = opt_unsigned(c, o, "lease_ms", path, 0, 86400000u,
+			       &m->lease_ms)) ||
+	    (rc = opt_unsigned(c, o, "max_transfer", path, 1, 256u << 20,
+			       &m->max_transfer)))
+		return rc;
+	v = json_util_get(o, "queue_mode");
+	if (v) {
+		uint64_t mode;
+
+		/* A string, because JSON has no octal: 660 would be 01224. */
+		json_util_path_key(p, sizeof(p), path, "queue_mode");
+		if (!cJSON_IsString(v) || v->valuestring[0] != '0')
+			return fail(c, p,
+				    "expected an octal string like \"0660\"");
+		if ((rc = json_util_uint(v, p, 0, 0777, false, &mode, c->msg,
+					 sizeof(c->msg))))
+			return rc;
+		m->queue_mode = (unsigned)mode;
+	}
+	v = json_util_get(o, "default_access");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "default_access");
+		if ((rc = parse_access_word(c, v, p, &m->default_access)))
+			return rc;
+	}
+	v = json_util_get(o, "rules");
+	if (v) {
+		const cJSON *it;
+		char rp[JSON_PATH_MAX];
+
+		json_util_path_key(p, sizeof(p), path, "rules");
+		if (!cJSON_IsArray(v))
+			return fail(c, p, "expected an array, got %s",
+				    json_util_kind(v));
+		if (cJSON_GetArraySize(v) > COGW_ACCESS_RULES_MAX)
+			return fail(c, p, "%d rules, at most %d",
+				    cJSON_GetArraySize(v), COGW_ACCESS_RULES_MAX);
+		cJSON_ArrayForEach(it, v) {
+			cogw_access_rule *r = &m->rules[m->n_rules];
+
+			json_util_path_index(rp, sizeof(rp), p, m->n_rules);
+			if ((rc = parse_rule(c, it, rp, r)))
+				return rc;
+			for (size_t j = 0; j < m->n_rules; j++)
+				if (m->rules[j].uid == r->uid)
+					return fail(c, rp,
+						    "uid %u already has a rule (%s[%zu])",
+						    (unsigned)r->uid, p, j);
+			m->n_rules++;
+		}
+	}
+	return 0;
+}
+
+/* ---- lines --------------------------------------------------------------------- */
+
+static int parse_device(struct ctx *c, const cJSON *o, const char *path,
+			co_od_std_opts *so, char *name, char *hw, char *sw)
+{
+	int rc;
+
+	if ((rc = check_object(c, o, path, device_keys)) ||
+	    (rc = opt_u32(c, o, "device_type", path, 0, UINT32_MAX,
+			  &so->device_type)) ||
+	    (rc = opt_u32(c, o, "vendor_id", path, 0, UINT32_MAX,
+			  &so->vendor_id)) ||
+	    (rc = opt_u32(c, o, "product_code", path, 0, UINT32_MAX,
+			  &so->product_code)) ||
+	    (rc = opt_u32(c, o, "revision", path, 0, UINT32_MAX,
+			  &so->revision)) ||
+	    (rc = opt_u32(c, o, "serial", path, 0, UINT32_MAX, &so->serial)) ||
+	    (rc = json_util_opt_string(o, "name", path, 0, name,
+				       CO_OD_STD_STRING_MAX + 1, c->msg,
+				       sizeof(c->msg))) ||
+	    (rc = json_util_opt_string(o, "hw_version", path, 0, hw,
+				       CO_OD_STD_STRING_MAX + 1, c->msg,
+				       sizeof(c->msg))) ||
+	    (rc = json_util_opt_string(o, "sw_version", path, 0, sw,
+				       CO_OD_STD_STRING_MAX + 1, c->msg,
+				       sizeof(c->msg))))
+		return rc;
+	return 0;
+}
+
+static int parse_hb_consumers(struct ctx *c, const cJSON *v, const char *path,
+			      cogw_line_config *l)
+{
+	const cJSON *it;
+	char p[JSON_PATH_MAX], kp[JSON_PATH_MAX];
+	int rc;
+
+	if (!cJSON_IsArray(v))
+		return fail(c, path, "expected an array, got %s",
+			    json_util_kind(v));
+	if (cJSON_GetArraySize(v) > COGW_HB_CONSUMERS_MAX)
+		return fail(c, path, "%d entries, at most %d",
+			    cJSON_GetArraySize(v), COGW_HB_CONSUMERS_MAX);
+	cJSON_ArrayForEach(it, v) {
+		cogw_hb_consumer *h = &l->hb_consumers[l->n_hb_consumers];
+		const cJSON *nv, *tv;
+		uint64_t u;
+
+		json_util_path_index(p, sizeof(p), path, l->n_hb_consumers);
+		if ((rc = check_object(c, it, p, hb_keys)) ||
+		    (rc = json_util_require(it, "node_id", p, &nv, c->msg,
+					    sizeof(c->msg))) ||
+		    (rc = json_util_require(it, "time_ms", p, &tv, c->msg,
+					    sizeof(c->msg))))
+			return rc;
+		json_util_path_key(kp, sizeof(kp), p, "node_id");
+		if ((rc = json_util_uint(nv, kp, 1, 127, false, &u, c->msg,
+					 sizeof(c->msg))))
+			return rc;
+		h->node_id = (uint8_t)u;
+		if (h->node_id == l->node_id)
+			return fail(c, kp, "%u is this line's own node id",
+				    h->node_id);
+		for (size_t j = 0; j < l->n_hb_consumers; j++)
+			if (l->hb_consumers[j].node_id == h->node_id)
+				return fail(c, kp,
+					    "node %u is already monitored (%s[%zu])",
+					    h->node_id, path, j);
+		json_util_path_key(kp, sizeof(kp), p, "time_ms");
+		if ((rc = json_util_uint(tv, kp, 1, 65535, false, &u, c->msg,
+					 sizeof(c->msg))))
+			return rc;
+		h->time_ms = (uint16_t)u;
+		l->n_hb_consumers++;
+	}
+	return 0;
+}
+
+/* Read the structured keys back from the final OD (see the file comment). */
+static void line_sync_from_od(cogw_line_config *l)
+{
+	uint16_t hb;
+	uint32_t per;
+
+	if (!co_od_get_u16(l->od, 0x1017, 0, &hb))
+		l->heartbeat_ms = hb;
+	if (!co_od_get_u32(l->od, 0x1006, 0, &per))
+		l->sync_period_us = per;
+	l->n_hb_consumers = 0;
+	for (unsigned s = 1; s <= 127; s++) {
+		uint32_t v;
+
+		if (co_od_get_u32(l->od, 0x1016, (uint8_t)s, &v))
+			break;
+		if ((v >> 16 & 0xFF) && (v & 0xFFFF)) {
+			cogw_hb_consumer *h = &l->hb_consumers[l->n_hb_consumers++];
+
+			h->node_id = (uint8_t)(v >> 16);
+			h->time_ms = (uint16_t)v;
+		}
+	}
+}
+
+static int build_od(struct ctx *c, const cJSON *o, const char *path,
+		    cogw_line_config *l, co_od_std_opts *so)
+{
+	char p[JSON_PATH_MAX];
+	const cJSON *v;
+	int rc;
+
+	rc = co_od_create(&l->od, 256);
+	if (rc)
+		return rc;
+	rc = co_od_add_std_comm(l->od, l->node_id, so);
+	if (rc == -ENOMEM)
+		return rc;
+	if (rc)
+		return fail(c, path, "cannot build the standard objects (%s)",
+			    strerror(-rc));
+	for (size_t i = 0; i < l->n_hb_consumers; i++) {
+		co_od_entry *e = co_od_find(l->od, 0x1016, (uint8_t)(i + 1));
+
+		if (!e)
+			return fail(c, path, "1016h:%zu missing", i + 1);
+		co_od_entry_set_default_raw(e, (uint32_t)l->hb_consumers[i].node_id
+							<< 16 |
+						l->hb_consumers[i].time_ms);
+		co_od_entry_reset(e);
+	}
+	v = json_util_get(o, "objects");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "objects");
+		if ((rc = json_od_add_objects(l->od, v, p, c->msg,
+					      sizeof(c->msg))))
+			return rc;
+	}
+	v = json_util_get(o, "values");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "values");
+		if ((rc = json_od_apply_values(l->od, v, p, c->msg,
+					       sizeof(c->msg))))
+			return rc;
+	}
+	line_sync_from_od(l);
+	return 0;
+}
+
+static int parse_line(struct ctx *c, const cJSON *o, size_t idx,
+		      cogw_line_config *l)
+{
+	char path[JSON_PATH_MAX], p[JSON_PATH_MAX];
+	char dev_name[CO_OD_STD_STRING_MAX + 1] = "cogw";
+	char hw[CO_OD_STD_STRING_MAX + 1] = "", sw[CO_OD_STD_STRING_MAX + 1] = "";
+	co_od_std_opts so;
+	const cJSON *v;
+	uint64_t u;
+	int rc;
+
+	json_util_path_index(path, sizeof(path), "lines", idx);
+	if ((rc = check_object(c, o, path, line_keys)))
+		return rc;
+
+	snprintf(l->name, sizeof(l->name), "line%zu", idx);
+	l->network_id = (uint16_t)(idx + 1);
+	l->rt.priority = 0;
+	l->rt.cpu = -1;
+	l->sdo_servers = 1;
+	l->sdo_clients = 4;
+	l->sdo_timeout_ms = 1000;
+	l->sdo_block_threshold = 128;
+	l->heartbeat_ms = 1000;
+
+	if ((rc = json_util_opt_string(o, "name", path, 1, l->name,
+				       sizeof(l->name), c->msg,
+				       sizeof(c->msg))))
+		return rc;
+	json_util_path_key(p, sizeof(p), path, "name");
+	if ((rc = check_name_chars(c, p, l->name)))
+		return rc;
+
+	if ((rc = json_util_require(o, "interface", path, &v, c->msg,
+				    sizeof(c->msg))))
+		return rc;
+	json_util_path_key(p, sizeof(p), path, "interface");
+	if ((rc = json_util_string(v, p, 1, l->interface, IFNAME_MAX + 1,
+				   c->msg, sizeof(c->msg))))
+		return rc;
+	/* What the kernel's dev_valid_name() refuses. */
+	if (!strcmp(l->interface, ".") || !strcmp(l->interface, "..") ||
+	    strpbrk(l->interface, "/: \t\n"))
+		return fail(c, p, "\"%s\" is not a valid interface name",
+			    l->interface);
+
+	if ((rc = json_util_require(o, "bitrate", path, &v, c->msg,
+				    sizeof(c->msg))))
+		return rc;
+	json_util_path_key(p, sizeof(p), path, "bitrate");
+	if ((rc = json_util_uint(v, p, 1, UINT32_MAX, false, &u, c->msg,
+				 sizeof(c->msg))))
+		return rc;
+	l->bitrate = 0;
+	for (size_t i = 0; i < sizeof(cia_bitrates) / sizeof(cia_bitrates[0]); i++)
+		if (u == cia_bitrates[i])
+			l->bitrate = (uint32_t)u;
+	if (!l->bitrate)
+		return fail(c, p,
+			    "%llu is not a CiA 301 bit rate (10000, 20000, 50000, 125000, 250000, 500000, 800000, 1000000)",
+			    (unsigned long long)u);
+
+	if ((rc = json_util_require(o, "node_id", path, &v, c->msg,
+				    sizeof(c->msg))))
+		return rc;
+	json_util_path_key(p, sizeof(p), path, "node_id");
+	if ((rc = json_util_uint(v, p, 1, 127, false, &u, c->msg,
+				 sizeof(c->msg))))
+		return rc;
+	l->node_id = (uint8_t)u;
+
+	v = json_util_get(o, "rt");
+	if (v) {
+		int64_t s;
+
+		json_util_path_key(p, sizeof(p), path, "rt");
+		if ((rc = check_object(c, v, p, rt_keys)))
+			return rc;
+		s = l->rt.priority;
+		if ((rc = json_util_opt_sint(v, "priority", p, 0, 99, &s, c->msg,
+					     sizeof(c->msg))))
+			return rc;
+		l->rt.priority = (int)s;
+		s = l->rt.cpu;
+		if ((rc = json_util_opt_sint(v, "cpu", p, -1, 1023, &s, c->msg,
+					     sizeof(c->msg))))
+			return rc;
+		l->rt.cpu = (int)s;
+	}
+
+	co_od_std_opts_init(&so);
+	if ((rc = opt_u16(c, o, "network_id", path, 1, 127, &l->network_id)) ||
+	    (rc = opt_u8(c, o, "sdo_servers", path, 1, 128, &l->sdo_servers)) ||
+	    (rc = opt_u8(c, o, "sdo_clients", path, 0, 128, &l->sdo_clients)) ||
+	    (rc = opt_u32(c, o, "sdo_timeout_ms", path, 1, 600000,
+			  &l->sdo_timeout_ms)) ||
+	    (rc = opt_u32(c, o, "sdo_block_threshold", path, 1, UINT32_MAX,
+			  &l->sdo_block_threshold)) ||
+	    (rc = opt_u16(c, o, "heartbeat_ms", path, 0, 65535,
+			  &l->heartbeat_ms)) ||
+	    (rc = opt_u32(c, o, "sync_period_us", path, 0, UINT32_MAX,
+			  &l->sync_period_us)) ||
+	    (rc = opt_u16(c, o, "rpdos", path, 0, 512, &so.rpdos)) ||
+	    (rc = opt_u16(c, o, "tpdos", path, 0, 512, &so.tpdos)))
+		return rc;
+
+	v = json_util_get(o, "heartbeat_consumers");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "heartbeat_consumers");
+		if ((rc = parse_hb_consumers(c, v, p, l)))
+			return rc;
+	}
+	v = json_util_get(o, "device");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "device");
+		if ((rc = parse_device(c, v, p, &so, dev_name, hw, sw)))
+			return rc;
+	}
+
+	so.device_name = dev_name;
+	so.hw_version = hw;
+	so.sw_version = sw;
+	so.heartbeat_ms = l->heartbeat_ms;
+	so.sync_period_us = l->sync_period_us;
+	/* 1005h bit 30: we produce SYNC when a period is configured. */
+	so.sync_cob_id = l->sync_period_us ? 0x40000080u : 0x80u;
+	so.sdo_servers = l->sdo_servers;
+	so.sdo_clients = l->sdo_clients;
+	so.gateway = true;
+	return build_od(c, o, path, l, &so);
+}
+
+static int check_unique(struct ctx *c, const cogw_config *cfg, size_t i)
+{
+	const cogw_line_config *l = &cfg->lines[i];
+	char p[JSON_PATH_MAX];
+
+	for (size_t j = 0; j < i; j++) {
+		const cogw_line_config *o = &cfg->lines[j];
+
+		if (!strcmp(o->name, l->name)) {
+			snprintf(p, sizeof(p), "lines[%zu].name", i);
+			return fail(c, p, "\"%s\" is already used by lines[%zu]",
+				    l->name, j);
+		}
+		if (!strcmp(o->interface, l->interface)) {
+			snprintf(p, sizeof(p), "lines[%zu].interface", i);
+			return fail(c, p, "\"%s\" is already used by lines[%zu]",
+				    l->interface, j);
+		}
+		if (o->network_id == l->network_id) {
+			snprintf(p, sizeof(p), "lines[%zu].network_id", i);
+			return fail(c, p, "%u is already used by lines[%zu]",
+				    l->network_id, j);
+		}
+	}
+	return 0;
+}
+
+/* ---- top level ------------------------------------------------------------------ */
+
+static void set_defaults(cogw_config *cfg, const char *source)
+{
+	memset(cfg, 0, sizeof(*cfg));
+	snprintf(cfg->source, sizeof(cfg->source), "%s", source);
+	snprintf(cfg->state_dir, sizeof(cfg->state_dir), "/var/lib/cogw");
+	cfg->watchdog_check_ms = 500;
+	snprintf(cfg->mailbox.instance, sizeof(cfg->mailbox.instance), "cogw");
+	cfg->mailbox.depth = 64;
+	cfg->mailbox.msg_size = 1024;
+	cfg->mailbox.queue_mode = 0660;
+	cfg->mailbox.max_clients = 16;
+	cfg->mailbox.lease_ms = 0;
+	cfg->mailbox.max_transfer = 1u << 20;
+	cfg->mailbox.default_access = COGW_ACCESS_WRITE;
+}
+
+static int parse_root(struct ctx *c, const cJSON *root, cogw_config *cfg)
+{
+	const cJSON *v, *it;
+	int rc;
+
+	if ((rc = check_object(c, root, "", top_keys)))
+		return rc;
+	v = json_util_get(root, "version");
+	if (v) {
+		uint64_t ver;
+
+		if ((rc = json_util_uint(v, "version", 1, 1, false, &ver, c->msg,
+					 sizeof(c->msg))))
+			return rc;
+	}
+	if ((rc = json_util_opt_string(root, "state_dir", "", 1, cfg->state_dir,
+				       sizeof(cfg->state_dir), c->msg,
+				       sizeof(c->msg))) ||
+	    (rc = json_util_opt_bool(root, "mlockall", "", &cfg->mlockall,
+				     c->msg, sizeof(c->msg))) ||
+	    (rc = opt_unsigned(c, root, "watchdog_check_ms", "", 10, 60000,
+			       &cfg->watchdog_check_ms)))
+		return rc;
+	v = json_util_get(root, "mailbox");
+	if (v && (rc = parse_mailbox(c, v, &cfg->mailbox)))
+		return rc;
+	v = json_util_get(root, "debug");
+	if (v) {
+		if ((rc = check_object(c, v, "debug", debug_keys)) ||
+		    (rc = json_util_opt_bool(v, "stall_signal", "debug",
+					     &cfg->debug_stall_signal, c->msg,
+					     sizeof(c->msg))) ||
+		    (rc = opt_unsigned(c, v, "stall_ms", "debug", 0, 3600000,
+				       &cfg->debug_stall_ms)))
+			return rc;
+	}
+	if ((rc = json_util_require(root, "lines", "", &v, c->msg,
+				    sizeof(c->msg))))
+		return rc;
+	if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) == 0)
+		return fail(c, "lines", "expected a non-empty array, got %s",
+			    cJSON_IsArray(v) ? "an empty array"
+					     : json_util_kind(v));
+	if (cJSON_GetArraySize(v) > COGW_LINES_MAX)
+		return fail(c, "lines", "%d lines, at most %d",
+			    cJSON_GetArraySize(v), COGW_LINES_MAX);
+	cJSON_ArrayForEach(it, v) {
+		size_t i = cfg->n_lines;
+
+		/* Count the line first: cogw_config_free then frees its OD
+		 * even when the line fails half-way. */
+		cfg->n_lines++;
+		if ((rc = parse_line(c, it, i, &cfg->lines[i])) ||
+		    (rc = check_unique(c, cfg, i)))
+			return rc;
+	}
+	return 0;
+}
+
+int cogw_config_load_string(cogw_config *cfg, const char *json,
+			    const char *source_name, char *err, size_t errlen)
+{
+	struct ctx c = { .source = source_name ? source_name : "<string>",
+			 .err = err, .errlen = errlen };
+	cJSON *root = NULL;
+	int rc;
+
+	set_defaults(cfg, c.source);
+	if (err && errlen)
+		err[0] = '\0';
+	rc = json_util_parse(json ? json : "", &root, c.msg, sizeof(c.msg));
+	if (!rc)
+		rc = parse_root(&c, root, cfg);
+	cJSON_Delete(root);
+	if (rc) {
+		if (err && errlen) {
+			if (rc == -ENOMEM)
+				snprintf(err, errlen, "%s: out of memory",
+					 c.source);
+			else
+				snprintf(err, errlen, "%s: %s", c.source, c.msg);
+		}
+		cogw_config_free(cfg);
+		snprintf(cfg->source, sizeof(cfg->source), "%s", c.source);
+		return rc == -ENOMEM ? -ENOMEM : -EINVAL;
+	}
+	return 0;
+}
+
+int cogw_config_load_file(cogw_config *cfg, const char *path, char *err,
+			  size_t errlen)
+{
+	struct stat st;
+	char *buf;
+	ssize_t n;
+	size_t got = 0;
+	int fd, rc;
+
+	memset(cfg, 0, sizeof(*cfg));
+	fd = open(path, O_RDONLY | O_CLOEXEC);
+	if (fd < 0) {
+		rc = errno == ENOENT ? -ENOENT : -EIO;
+		snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
+		return rc;
+	}
+	if (fstat(fd, &st) < 0 || !S_ISREG(st.st_mode)) {
+		snprintf(err, errlen, "%s: not a regular file", path);
+		close(fd);
+		return -EIO;
+	}
+	if ((uint64_t)st.st_size > CONFIG_FILE_MAX) {
+		snprintf(err, errlen, "%s: larger than %u bytes", path,
+			 CONFIG_FILE_MAX);
+		close(fd);
+		return -EINVAL;
+	}
+	buf = malloc((size_t)st.st_size + 1);
+	if (!buf) {
+		close(fd);
+		snprintf(err, errlen, "%s: out of memory", path);
+		return -ENOMEM;
+	}
+	while (got < (size_t)st.st_size &&
+	       (n = read(fd, buf + got, (size_t)st.st_size - got)) != 0) {
+		if (n < 0) {
+			if (errno == EINTR)
+				continue;
+			snprintf(err, errlen, "%s: read error: %s", path,
+				 strerror(errno));
+			free(buf);
+			close(fd);
+			return -EIO;
+		}
+		got += (size_t)n;
+	}
+	close(fd);
+	buf[got] = '\0';
+	if (strlen(buf) != got) {
+		/* cJSON would stop at the NUL and miss the rest. */
+		unsigned line = 1;
+
+		for (const char *q = buf; *q; q++)
+			line += *q == '\n';
+		snprintf(err, errlen, "%s: line %u: NUL byte in file", path, line);
+		free(buf);
+		return -EINVAL;
+	}
+	rc = cogw_config_load_string(cfg, buf, path, err, errlen);
+	free(buf);
+	return rc;
+}
+
+void cogw_config_free(cogw_config *cfg)
+{
+	if (!cfg)
+		return;
+	for (size_t i = 0; i < COGW_LINES_MAX; i++) {
+		co_od_destroy(cfg->lines[i].od);
+		cfg->lines[i].od = NULL;
+	}
+	memset(cfg, 0, sizeof(*cfg));
+}
+
+/* ---- reload --------------------------------------------------------------------- */
+
+static void note(char *what, size_t len, bool *changed, const char *name)
+{
+	size_t used;
+
+	*changed = true;
+	if (!what || !len)
+		return;
+	used = strlen(what);
+	snprintf(what + used, len - used, "%s%s", used ? ", " : "", name);
+}
+
+static bool entry_same(const co_od_entry *a, const co_od_entry *b)
+{
+	if (a->index != b->index || a->sub != b->sub || a->type != b->type ||
+	    a->access != b->access || a->max_size != b->max_size ||
+	    a->obj_code != b->obj_code || a->has_limits != b->has_limits)
+		return false;
+	if (co_type_is_variable((co_type)a->type))
+		return a->def_size == b->def_size &&
+		       (!a->def_size ||
+			!memcmp(a->def_data, b->def_data, a->def_size));
+	if (a->has_limits && (memcmp(a->min, b->min, a->size) ||
+			      memcmp(a->max, b->max, a->size)))
+		return false;
+	return !memcmp(a->def, b->def, a->size);
+}
+
+/* The ODs agree apart from 1016h/1017h, which a reload may change. */
+static bool od_same(const co_od *a, const co_od *b)
+{
+	size_t i = 0, j = 0;
+
+	for (;;) {
+		const co_od_entry *ea = co_od_at(a, i), *eb = co_od_at(b, j);
+
+		while (ea && (ea->index == 0x1016 || ea->index == 0x1017))
+			ea = co_od_at(a, ++i);
+		while (eb && (eb->index == 0x1016 || eb->index == 0x1017))
+			eb = co_od_at(b, ++j);
+		if (!ea || !eb)
+			return !ea && !eb;
+		if (!entry_same(ea, eb))
+			return false;
+		i++;
+		j++;
+	}
+}
+
+bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next,
+			      char *what, size_t whatlen)
+{
+	const cogw_mailbox_config *a = &cur->mailbox, *b = &next->mailbox;
+	char name[64];
+	bool changed = false;
+
+	if (what && whatlen)
+		what[0] = '\0';
+#define DIFF(cond, label)                          \
+	do {                                       \
+		if (cond)                          \
+			note(what, whatlen, &changed, label); \
+	} while (0)
+	DIFF(strcmp(cur->state_dir, next->state_dir), "state_dir");
+	DIFF(cur->mlockall != next->mlockall, "mlockall");
+	DIFF(cur->watchdog_check_ms != next->watchdog_check_ms,
+	     "watchdog_check_ms");
+	DIFF(cur->debug_stall_signal != next->debug_stall_signal ||
+		     cur->debug_stall_ms != next->debug_stall_ms,
+	     "debug");
+	DIFF(strcmp(a->instance, b->instance), "mailbox.instance");
+	DIFF(a->depth != b->depth, "mailbox.depth");
+	DIFF(a->msg_size != b->msg_size, "mailbox.msg_size");
+	DIFF(a->queue_mode != b->queue_mode, "mailbox.queue_mode");
+	DIFF(a->max_clients != b->max_clients, "mailbox.max_clients");
+	DIFF(a->max_transfer != b->max_transfer, "mailbox.max_transfer");
+	if (cur->n_lines != next->n_lines) {
+		note(what, whatlen, &changed, "lines (count)");
+	} else {
+		for (size_t i = 0; i < cur->n_lines; i++) {
+			const cogw_line_config *x = &cur->lines[i];
+			const cogw_line_config *y = &next->lines[i];
+			bool before = changed;
+
+			changed = false;
+#define LDIFF(cond, key)                                                      \
+	do {                                                                  \
+		if (cond) {                                                   \
+			snprintf(name, sizeof(name), "lines[%zu].%s", i, key); \
+			note(what, whatlen, &changed, name);                  \
+		}                                                             \
+	} while (0)
+			LDIFF(strcmp(x->name, y->name), "name");
+			LDIFF(strcmp(x->interface, y->interface), "interface");
+			LDIFF(x->bitrate != y->bitrate, "bitrate");
+			LDIFF(x->node_id != y->node_id, "node_id");
+			LDIFF(x->network_id != y->network_id, "network_id");
+			LDIFF(x->sdo_servers != y->sdo_servers, "sdo_servers");
+			LDIFF(x->sdo_clients != y->sdo_clients, "sdo_clients");
+			LDIFF(x->sdo_timeout_ms != y->sdo_timeout_ms,
+			      "sdo_timeout_ms");
+			LDIFF(x->sdo_block_threshold != y->sdo_block_threshold,
+			      "sdo_block_threshold");
+			LDIFF(x->sync_period_us != y->sync_period_us,
+			      "sync_period_us");
+			/* The OD follows from the keys above: name it only when
+			 * they do not explain the difference. */
+			LDIFF(!changed && x->od && y->od && !od_same(x->od, y->od),
+			      "objects/values");
+			changed = changed || before;
+#undef LDIFF
+		}
+	}
+#undef DIFF
+	return !changed;
+}
