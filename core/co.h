@@ -55,7 +55,10 @@
 typedef struct co_node co_node;
 
 /* Send one frame. Return 0, or a negative errno if it could not be queued
- * (counted in co_node_stats.tx_failed and reported as CO_EV_TX_FAILED). */
+ * (counted in co_node_stats.tx_failed and reported as CO_EV_TX_FAILED).
+ * It must only queue: calling co_node_recv() of any node from inside it
+ * (a loopback shortcut) would re-enter a state machine that is still in
+ * the middle of sending, e.g. a block transfer's sub-block. */
 typedef int (*co_send_fn)(void *ctx, const co_frame *f);
 typedef void (*co_event_fn)(void *ctx, const co_event *ev);
 

@@ -67,6 +67,8 @@ struct cli_chan {
 	bool last_seen;    /* upload: segment with c = 1 accepted */
 	bool pend_valid;   /* upload: held-back segment (its length is only
 	                    * known at the end request) */
+	bool prev_valid;
+	uint8_t prev_seg[8]; /* upload: segment that closed the last sub-block */
 	uint8_t pend[SDO_SEG_DATA];
 	uint32_t sub_len;  /* download: bytes in sub_buf */
 	uint8_t sub_buf[SUB_BLOCK_BYTES];
@@ -557,6 +559,7 @@ static void st_blk_up_init(struct cli_chan *ch, const uint8_t *d)
 	ch->seq = 0;
 	ch->pend_valid = false;
 	ch->last_seen = false;
+	ch->prev_valid = false;
 	tx(ch, start);
 	enter(ch, CS_BLK_UP_SUB);
 }
@@ -570,12 +573,23 @@ static void blk_up_ack(struct cli_chan *ch)
 	enter(ch, ch->last_seen ? CS_BLK_UP_END : CS_BLK_UP_SUB);
 }
 
+/* A second copy of the segment that closed the previous sub-block: see
+ * is_prev_dup() in sdo_server.c. */
+static bool is_prev_dup(const struct cli_chan *ch, const uint8_t *d)
+{
+	return ch->prev_valid && ch->seq == 0 && memcmp(d, ch->prev_seg, 8) == 0;
+}
+
 /* Same sequence rules as the server side (sdo_server.c st_blk_dn_sub). */
 static void st_blk_up_sub(struct cli_chan *ch, const uint8_t *d)
 {
 	uint8_t seq = d[0] & 0x7Fu;
 	bool last = d[0] & SDO_BLK_SEQ_LAST;
 
+	if (is_prev_dup(ch, d)) {
+		arm(ch);
+		return;
+	}
 	if (seq == 0 || seq > ch->blksize) {
 		abort_local(ch, SDO_AB_SEQ);
 		return;
@@ -594,6 +608,10 @@ static void st_blk_up_sub(struct cli_chan *ch, const uint8_t *d)
 		ch->pend_valid = true;
 		ch->seq = seq;
 		ch->last_seen = last;
+		if (seq == ch->blksize || last) {
+			memcpy(ch->prev_seg, d, 8);
+			ch->prev_valid = true;
+		}
 	}
 	if (seq == ch->blksize || last)
 		blk_up_ack(ch);
@@ -607,6 +625,10 @@ static void st_blk_up_end(struct cli_chan *ch, const uint8_t *d)
 	uint8_t resp[8] = { (SDO_CCS_BLK_UP << 5) | SDO_BLK_END };
 	uint32_t ab = 0;
 
+	if (is_prev_dup(ch, d)) {
+		arm(ch);
+		return;
+	}
 	if ((d[0] & 0xE3u) != ((SDO_SCS_BLK_UP << 5) | SDO_BLK_END)) {
 		abort_local(ch, SDO_AB_CMD);
 		return;
@@ -659,7 +681,8 @@ static void cli_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	if (ch->state == CS_IDLE || f->len != 8 || (f->flags & CO_FRAME_RTR))
 		return;
 	/* In a sub-block any byte 0 is a segment header except 0x80. */
-	if (ch->state == CS_BLK_UP_SUB ? d[0] == (SDO_SCS_ABORT << 5) : is_abort(d)) {
+	if (ch->state == CS_BLK_UP_SUB ? d[0] == (SDO_SCS_ABORT << 5)
+				       : is_abort(d) && !is_prev_dup(ch, d)) {
 		uint32_t code = co_get_le32(&d[4]);
 		bool refused = code == SDO_AB_CMD || code == SDO_AB_UNSUPP_ACCESS;
 		if (refused && !ch->fell_back &&
@@ -725,6 +748,7 @@ static void start(struct cli_chan *ch, const sdo_client_req *r)
 	ch->timeout_us = (uint64_t)(r->timeout_ms ? r->timeout_ms : 1000u) * 1000u;
 	ch->mode = pick_mode(ch, r);
 	ch->fell_back = false;
+	ch->prev_valid = false;
 	ch->offset = ch->read_off = 0;
 	ch->toggle = 0;
 	ch->total = r->upload ? UNKNOWN_SIZE : r->size;

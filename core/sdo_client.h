@@ -20,7 +20,8 @@
  *   expected size (size field) reaches the threshold; the client then
  *   offers the threshold (<= 255) as protocol switch threshold.
  * - Timeout: timeout_ms per frame, restarted on every frame received for
- *   the transfer (CiA leaves the value to the application).
+ *   the transfer (CiA leaves the value to the application). A request
+ *   waiting in the queue has no timeout yet; cancel it if it waits too long.
  * - Data: a buffer, or chunk callbacks for domains of any size (the client
  *   keeps only one sub-block, 889 bytes, per channel).
  * - Completion: exactly one CO_EV_SDO_CLIENT_DONE per accepted request,

@@ -77,6 +77,9 @@ struct srv_chan {
 	uint8_t seq;      /* download: last in-sequence seqno of the sub-block */
 	uint8_t pst;      /* upload: protocol switch threshold from the client */
 	bool last_seen;   /* download: segment with c=1 accepted */
+	bool prev_valid;
+	uint8_t prev_seg[8]; /* download: the segment that closed the last
+	                      * sub-block, to recognise a duplicate of it */
 	uint32_t last_off; /* download: offset of the last segment */
 	uint32_t blk_start; /* upload: offset of the current sub-block */
 	uint8_t blk_segs;   /* upload: segments in the current sub-block */
@@ -223,6 +226,7 @@ static uint32_t open_entry(struct srv_chan *ch, const uint8_t *d, bool upload, u
 	ch->offset = 0;
 	ch->size = 0;
 	ch->toggle = 0;
+	ch->prev_valid = false;
 	ch->e = co_od_find_ex(node_of(ch)->od, ch->index, ch->sub, &ab);
 	if (!ch->e)
 		return ab;
@@ -443,6 +447,7 @@ static void blk_dn_init(struct srv_chan *ch, const uint8_t *d)
 	ch->blksize = cfg_of(ch)->sdo_server_blksize;
 	ch->seq = 0;
 	ch->last_seen = false;
+	ch->prev_valid = false;
 	frame_init(ch, &ch->pending, (uint8_t)((SDO_SCS_BLK_DN << 5) | SDO_BLK_CRC | SDO_BLK_INIT));
 	co_put_le16(&ch->pending.data[1], ch->index);
 	ch->pending.data[3] = ch->sub;
@@ -462,6 +467,15 @@ static void blk_dn_ack(struct srv_chan *ch)
 	enter(ch, ch->last_seen ? SS_BLK_DN_END : SS_BLK_DN_SUB);
 }
 
+/* A repeated copy of the frame that closed the previous sub-block (CAN
+ * can deliver a frame twice when an ACK error hits its last bit). Acking
+ * it again would make the client resend a whole sub-block that we then
+ * take for new data. */
+static bool is_prev_dup(const struct srv_chan *ch, const uint8_t *d)
+{
+	return ch->prev_valid && ch->seq == 0 && memcmp(d, ch->prev_seg, 8) == 0;
+}
+
 /* Segments are only accepted in sequence. A lost or repeated segment is
  * skipped; at the end of the sub-block (seqno == blksize or c = 1, as the
  * client sees it) the ack names the last good one and the client resends
@@ -474,6 +488,10 @@ static void st_blk_dn_sub(struct srv_chan *ch, const uint8_t *d)
 
 	if (d[0] == (SDO_CCS_ABORT << 5)) { /* seqno 0 with c: an abort */
 		finish(ch, co_get_le32(&d[4]));
+		return;
+	}
+	if (is_prev_dup(ch, d)) {
+		arm(ch);
 		return;
 	}
 	if (seq == 0 || seq > ch->blksize) {
@@ -500,6 +518,10 @@ static void st_blk_dn_sub(struct srv_chan *ch, const uint8_t *d)
 			ch->offset += SDO_SEG_DATA;
 		}
 		ch->seq = seq;
+		if (seq == ch->blksize || last) {
+			memcpy(ch->prev_seg, d, 8);
+			ch->prev_valid = true;
+		}
 	}
 	if (seq == ch->blksize || last)
 		blk_dn_ack(ch);
@@ -512,6 +534,10 @@ static void st_blk_dn_end(struct srv_chan *ch, const uint8_t *d)
 	uint32_t n = (d[0] >> 2) & 7u;
 	co_frame resp;
 
+	if (is_prev_dup(ch, d)) { /* the last segment, delivered twice */
+		arm(ch);
+		return;
+	}
 	if (SDO_CS(d[0]) != SDO_CCS_BLK_DN || (d[0] & 3u) != SDO_BLK_END) {
 		abort_transfer(ch, SDO_AB_CMD);
 		return;
@@ -786,7 +812,7 @@ static void srv_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	if (f->len != 8 || (f->flags & CO_FRAME_RTR))
 		return;
 	if (ch->state != SS_IDLE && ch->state != SS_BLK_DN_SUB &&
-	    SDO_CS(f->data[0]) == SDO_CCS_ABORT) {
+	    SDO_CS(f->data[0]) == SDO_CCS_ABORT && !is_prev_dup(ch, f->data)) {
 		finish(ch, co_get_le32(&f->data[4]));
 		return;
 	}

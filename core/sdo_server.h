@@ -48,8 +48,11 @@ extern const co_service co_svc_sdo_server;
  * - deferred write, abort == 0: the staged value is stored (after_write
  *   runs, CO_EV_OD_WRITTEN is emitted) and the download is confirmed;
  *   data/size are ignored.
+ * Call it after the hook has returned CO_OD_DEFERRED (from a later event,
+ * a mailbox command, another line's completion), never from inside it.
  * Returns 0, -ENOENT if the channel is not waiting for a continue (e.g.
- * it timed out or the client aborted), -EINVAL for a bad channel.
+ * it timed out or the client aborted; CO_EV_SDO_SERVER_DONE told so),
+ * -EINVAL for a bad channel.
  */
 int sdo_server_continue(co_node *node, uint8_t channel, uint32_t abort,
 			const uint8_t *data, uint32_t size, uint64_t now_us);

@@ -384,6 +384,54 @@ static void test_block_upload_scripted_ok_with_resend(void)
 	TEST_ASSERT_EQUAL_MEMORY("abcdefghi", buf, 9);
 }
 
+
+/* Garbage answers never crash the client; every request completes. */
+static void test_random_answers_fuzz(void)
+{
+	static const uint8_t cs[] = { 0x00, 0x10, 0x20, 0x30, 0x41, 0x43, 0x60, 0x80, 0xA0, 0xA1,
+				      0xA2, 0xA4, 0xC0, 0xC1, 0xC4, 0xC6, 0x01, 0x82 };
+	static uint8_t d[3000];
+	uint32_t seed = 777;
+	size_t started = 0;
+
+	bus.log_on = false;
+	for (int round = 0; round < 3000; round++) {
+		sdo_client_req r = { .node_id = 5, .index = 0x2000, .sub = 1, .timeout_ms = 100,
+				     .mode = (uint8_t)(round % 4), .tag = (uint64_t)round };
+		if (round & 1) {
+			r.upload = true;
+			r.buf = buf;
+			r.cap = sizeof(buf);
+			r.size = (round & 2) ? 2000 : 0;
+		} else {
+			r.data = d;
+			r.size = (uint32_t)(round * 7) % sizeof(d);
+		}
+		TEST_ASSERT_EQUAL(0, sdo_client_submit(cli->node, 0, &r, bus.now));
+		started++;
+		for (int k = 0; k < 40 && sdo_client_pending(cli->node, 0); k++) {
+			uint8_t f[8];
+			char hex[32];
+			seed = seed * 1664525u + 1013904223u;
+			for (int j = 0; j < 8; j++)
+				f[j] = (uint8_t)(seed >> (j * 3));
+			if (seed & 0x100) {
+				f[0] = cs[(seed >> 9) % sizeof(cs)];
+				f[1] = 0x00;
+				f[2] = 0x20;
+				f[3] = 0x01;
+			}
+			snprintf(hex, sizeof(hex), "%02X %02X %02X %02X %02X %02X %02X %02X", f[0],
+				 f[1], f[2], f[3], f[4], f[5], f[6], f[7]);
+			reply(hex);
+		}
+		tb_advance(&bus, 200000); /* whatever is left times out */
+		TEST_ASSERT_EQUAL(0, sdo_client_pending(cli->node, 0));
+	}
+	TEST_ASSERT_EQUAL(3000, started);
+	bus.log_on = true;
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -406,5 +454,6 @@ int main(void)
 	RUN_TEST(test_block_download_server_bad_ack);
 	RUN_TEST(test_block_upload_scripted_crc_error);
 	RUN_TEST(test_block_upload_scripted_ok_with_resend);
+	RUN_TEST(test_random_answers_fuzz);
 	return UNITY_END();
 }

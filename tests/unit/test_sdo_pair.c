@@ -270,6 +270,39 @@ static void test_block_1k_lost_and_repeated(void)
 	bus.filter = NULL;
 }
 
+
+/* CAN may deliver a frame twice (ACK error on its last bit). A repeated
+ * copy of the segment that closes a sub-block, or of the very last
+ * segment, must neither corrupt the data nor break the transfer. */
+static void test_block_duplicate_sub_block_end_and_last_segment(void)
+{
+	const uint32_t size = 3 * 889 + 100; /* 3 full sub-blocks + 15 segments */
+	/* Client frames: 1 initiate, then segments; #128 = seq 127 of the
+	 * first sub-block; the last segment is #(1 + 3 * 127 + 15) = 397. */
+	const uint64_t dups[] = { 128, 255, 397 };
+
+	for (size_t i = 0; i < 3; i++) {
+		struct fault fl = { .from = cli->idx, .dup_at = dups[i] };
+		bus.filter = fault_filter;
+		bus.filter_ctx = &fl;
+		const co_event *ev = download(FX_IDX_DOMAIN, big_in, size, SDO_MODE_BLOCK);
+		TEST_ASSERT_EQUAL_HEX32(0, ev->u.sdo_cli.abort);
+		TEST_ASSERT_EQUAL(1, fl.duped);
+		co_od_entry *e = co_od_find(srv->od, FX_IDX_DOMAIN, 0);
+		TEST_ASSERT_EQUAL_UINT32(size, e->size);
+		TEST_ASSERT_EQUAL_MEMORY(big_in, e->data, size);
+		/* Server frames in an upload: 1 initiate response, then segments. */
+		fl = (struct fault){ .from = srv->idx, .dup_at = dups[i] };
+		memset(big_out, 0, size);
+		ev = upload(FX_IDX_DOMAIN, big_out, FX_DOMAIN_MAX, SDO_MODE_BLOCK, 0);
+		TEST_ASSERT_EQUAL_HEX32(0, ev->u.sdo_cli.abort);
+		TEST_ASSERT_EQUAL(1, fl.duped);
+		TEST_ASSERT_EQUAL_UINT32(size, ev->u.sdo_cli.size);
+		TEST_ASSERT_EQUAL_MEMORY(big_in, big_out, size);
+	}
+	bus.filter = NULL;
+}
+
 static void test_block_100k_lost_and_repeated(void)
 {
 	big_block(100 * 1024, 1);
@@ -448,6 +481,7 @@ int main(void)
 	RUN_TEST(test_matrix_octet_string_staged);
 	RUN_TEST(test_numeric_values_and_remote_aborts);
 	RUN_TEST(test_block_1k_lost_and_repeated);
+	RUN_TEST(test_block_duplicate_sub_block_end_and_last_segment);
 	RUN_TEST(test_block_100k_lost_and_repeated);
 	RUN_TEST(test_block_100k_clean_and_segmented);
 	RUN_TEST(test_streaming_domains);

@@ -649,6 +649,68 @@ static void test_deferred_write_commit_and_refuse(void)
 	TEST_ASSERT_EQUAL_UINT32(1, v);
 }
 
+
+static uint32_t in_place_size;
+static uint32_t defer_in_place(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	(void)ctx;
+	(void)e;
+	TEST_ASSERT_NULL(a->data); /* streamed in place: only the size is known */
+	in_place_size = a->size;
+	return CO_OD_DEFERRED;
+}
+
+static const co_od_hooks defer_in_place_hooks = { .check_write = defer_in_place };
+
+/* An in-place (large) entry whose check hook defers at initiate: the
+ * initiate confirmation waits for the continue. */
+static void test_deferred_check_at_initiate_for_in_place_domain(void)
+{
+	co_od_set_hooks(srv->od, FX_IDX_DOMAIN, 0, &defer_in_place_hooks, NULL);
+	size_t n = tb_count_from_id(&bus, 0, 0x581, 0);
+	req("21 00 22 00 0A 00 00 00");
+	TEST_ASSERT_EQUAL(n, tb_count_from_id(&bus, 0, 0x581, 0));
+	TEST_ASSERT_EQUAL_UINT32(10, in_place_size);
+	TEST_ASSERT_EQUAL(0, sdo_server_continue(srv->node, 0, 0, NULL, 0, bus.now));
+	tb_pump(&bus);
+	EXPECT("60 00 22 00 00 00 00 00");
+	req("00 30 31 32 33 34 35 36");
+	req("19 37 38 39 00 00 00 00");
+	EXPECT("30 00 00 00 00 00 00 00");
+	TEST_ASSERT_EQUAL_MEMORY("0123456789", co_od_find(srv->od, FX_IDX_DOMAIN, 0)->data, 10);
+	TEST_ASSERT_EQUAL(-EINVAL, sdo_server_continue(srv->node, 9, 0, NULL, 0, bus.now));
+}
+
+/* Garbage from the bus never crashes the server or leaves it stuck. */
+static void test_random_frames_fuzz(void)
+{
+	static const uint8_t cs[] = { 0x00, 0x10, 0x20, 0x21, 0x23, 0x2B, 0x40, 0x60, 0x70,
+				      0x80, 0xA0, 0xA3, 0xA4, 0xC0, 0xC6, 0xC1, 0x01, 0x81 };
+	static const uint16_t idx[] = { 0x1008, 0x2200, 0x2201, 0x2402, 0x1017, 0x1000, 0x2400 };
+	uint32_t seed = 0xC0FFEE;
+
+	bus.log_on = false;
+	for (int i = 0; i < 200000; i++) {
+		uint8_t d[8];
+		seed = seed * 1664525u + 1013904223u;
+		for (int k = 0; k < 8; k++)
+			d[k] = (uint8_t)(seed >> (k * 3));
+		if (seed & 0x100) {
+			d[0] = cs[(seed >> 9) % sizeof(cs)] | (uint8_t)((seed >> 20) & 0x0C);
+			co_put_le16(&d[1], idx[(seed >> 13) % 7]);
+			d[3] = 0;
+		}
+		if ((seed & 0xF000) == 0x1000)
+			tb_advance(&bus, 1500000);
+		send_frame_raw(0x601, d);
+	}
+	tb_advance(&bus, 2000000);
+	TEST_ASSERT_FALSE(sdo_server_busy(srv->node, 0));
+	bus.log_on = true;
+	req("40 00 10 00 00 00 00 00");
+	EXPECT("43 00 10 00 94 01 04 00");
+}
+
 /* ---- channels and COB-IDs ------------------------------------------------------ */
 
 static void test_second_channel_cob_id_rules(void)
@@ -747,6 +809,8 @@ int main(void)
 	RUN_TEST(test_deferred_read_answers_after_continue);
 	RUN_TEST(test_deferred_read_still_times_out);
 	RUN_TEST(test_deferred_write_commit_and_refuse);
+	RUN_TEST(test_deferred_check_at_initiate_for_in_place_domain);
+	RUN_TEST(test_random_frames_fuzz);
 	RUN_TEST(test_second_channel_cob_id_rules);
 	RUN_TEST(test_two_channels_in_parallel);
 	return UNITY_END();
