@@ -244,6 +244,7 @@ $(SAN_COGW_LIB): $(call obj,$(SAN),$(MBX_CLIENT_SRC))
 
 $(REL_COGW_SO): $(patsubst %.c,$(REL)/pic/%.o,$(MBX_CLIENT_SRC))
 	@mkdir -p $(@D)
-	$(CC) -shared -Wl,-soname,libcogw.so.1 -o $@ $^ -lrt -lpthread
+	$(CC) -shared -Wl,-soname,libcogw.so.1 -o $@.1 $^ -lrt -lpthread
+	ln -sf libcogw.so.1 $@
 
 all: $(REL_COGW_SO)

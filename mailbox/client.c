@@ -1,0 +1,1481 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * mailbox/client.c - libcogw.
+ *
+ * Structure: one handle = one response queue + one event queue of this
+ * process, a reader thread on the response queue, and per line the
+ * registration (client id + token) and the line's command queue.
+ * - Blocking calls put a waiter (keyed by a correlation id unique in the
+ *   handle) on a list, send, and sleep on the handle's condition variable;
+ *   the reader thread fills the waiter's buffer chunk by chunk and wakes
+ *   them. So answers can come back in any order, from any line, to any
+ *   number of threads.
+ * - Asynchronous answers (cogw_send_async) are reassembled by the reader
+ *   thread into heap buffers and queued in a bounded ring for cogw_recv();
+ *   an eventfd makes them visible to epoll next to the event queue.
+ * - Chunked answers are flow-controlled: the server keeps at most half of
+ *   our response queue filled with chunks of one transfer and waits for
+ *   XFER_ACK, which the reader thread sends every quarter queue.
+ * This is not on a real-time path: mutexes, malloc and blocking sends with
+ * a deadline are fine here.
+ */
+#include "mailbox/cogw.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <mqueue.h>
+#include <poll.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/epoll.h>
+#include <sys/eventfd.h>
+#include <sys/random.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+_Static_assert((int)COGW_E_NOT_FOUND == (int)MBX_STATUS_MIN,
+	       "cogw_err must cover every mbx_status");
+
+#define ASYNC_RING 64u
+#define DEFAULT_TIMEOUT_MS 5000u
+
+typedef struct waiter {
+	struct waiter *next;
+	uint64_t corr;
+	bool done;
+	int status;
+	uint32_t abort;
+	uint8_t *buf;
+	size_t cap;
+	size_t len;   /* bytes received (may exceed cap: truncated) */
+	uint16_t next_chunk;
+} waiter;
+
+typedef struct async_op {
+	struct async_op *next;
+	uint64_t corr;
+	uint8_t line;
+	uint16_t code;
+	int status;
+	uint32_t abort;
+	uint32_t dropped;
+	uint8_t *data;
+	size_t len, total;
+	uint16_t next_chunk;
+} async_op;
+
+typedef struct line_state {
+	bool registered;
+	bool registering; /* a thread is registering: others wait */
+	mqd_t cmd;
+	uint32_t client;
+	uint64_t token;
+	uint32_t lease_ms;
+	uint32_t max_msg;
+	uint32_t max_transfer;
+	uint64_t last_sent_us;
+} line_state;
+
+struct cogw {
+	char instance[MBX_INSTANCE_MAX + 1];
+	char resp_name[MBX_QNAME_MAX], evt_name[MBX_QNAME_MAX];
+	mqd_t resp, evt, self; /* self: O_WRONLY on resp, to wake the reader */
+	size_t resp_msg, evt_msg;
+	unsigned resp_depth;
+	int efd, epfd;
+	unsigned timeout_ms;
+	pthread_t reader;
+	bool reader_started;
+
+	pthread_mutex_t mu; /* everything below */
+	pthread_cond_t cond;
+	bool closing;
+	uint64_t next_corr;
+	waiter *waiters;
+	async_op *asyncs;
+	cogw_msg ring[ASYNC_RING];
+	unsigned ring_head, ring_count;
+	cogw_stats stats;
+
+	/* The line table. Held only briefly (never across a wait), so the
+	 * reader thread can always take it to send an XFER_ACK or a PING. */
+	pthread_mutex_t setup_mu;
+	pthread_cond_t setup_cond; /* registration finished */
+	line_state lines[MBX_LINES_MAX];
+};
+
+/* ---- small helpers ---------------------------------------------------------- */
+
+static uint64_t mono_us(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+}
+
+/* mq_timed* take CLOCK_REALTIME deadlines. */
+static struct timespec rt_deadline(unsigned ms)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_REALTIME, &ts);
+	ts.tv_sec += ms / 1000u;
+	ts.tv_nsec += (long)(ms % 1000u) * 1000000L;
+	if (ts.tv_nsec >= 1000000000L) {
+		ts.tv_sec++;
+		ts.tv_nsec -= 1000000000L;
+	}
+	return ts;
+}
+
+static struct timespec mono_deadline(uint64_t at_us)
+{
+	return (struct timespec){ .tv_sec = (time_t)(at_us / 1000000u),
+				  .tv_nsec = (long)(at_us % 1000000u) * 1000L };
+}
+
+static unsigned ms_left(uint64_t deadline_us)
+{
+	uint64_t now = mono_us();
+
+	return now >= deadline_us ? 0 : (unsigned)((deadline_us - now + 999) / 1000);
+}
+
+static unsigned long read_proc(const char *path, unsigned long dflt)
+{
+	FILE *f = fopen(path, "re");
+	unsigned long v = dflt;
+
+	if (f) {
+		if (fscanf(f, "%lu", &v) != 1)
+			v = dflt;
+		fclose(f);
+	}
+	return v;
+}
+
+const char *cogw_strerror(int err)
+{
+	if (err <= 0 && err >= MBX_STATUS_MIN)
+		return mbx_status_to_string(err);
+	switch (err) {
+	case COGW_E_NO_DAEMON: return "daemon not running (no command queue)";
+	case COGW_E_SYSTEM: return "system call failed";
+	case COGW_E_INVAL: return "invalid argument";
+	case COGW_E_NOMEM: return "out of memory";
+	case COGW_E_AGAIN: return "nothing received";
+	case COGW_E_TRUNCATED: return "answer truncated (buffer too small)";
+	case COGW_E_CLOSED: return "handle closing";
+	case COGW_E_PROTOCOL: return "unexpected message from the daemon";
+	}
+	return "unknown error";
+}
+
+/* ---- sending ------------------------------------------------------------------ */
+
+static int send_raw(mqd_t q, const uint8_t *msg, size_t n, uint64_t deadline_us)
+{
+	struct timespec ts = rt_deadline(ms_left(deadline_us));
+
+	while (mq_timedsend(q, (const char *)msg, n, 0, &ts) < 0) {
+		if (errno == EINTR)
+			continue;
+		if (errno == ETIMEDOUT)
+			return COGW_E_TIMEOUT;
+		return COGW_E_SYSTEM;
+	}
+	return 0;
+}
+
+/* Send a command, chunked when payload + data do not fit one message. */
+static int send_cmd(cogw *h, unsigned line, uint16_t code, uint8_t flags,
+		    uint64_t corr, const void *fixed, size_t flen,
+		    const void *data, size_t dlen, uint64_t deadline_us)
+{
+	line_state snap, *ls = &snap;
+	size_t max_msg;
+
+	pthread_mutex_lock(&h->setup_mu);
+	snap = h->lines[line];
+	pthread_mutex_unlock(&h->setup_mu);
+	max_msg = ls->registered ? ls->max_msg : MBX_MSG_MIN;
+	if (ls->cmd == (mqd_t)-1)
+		return COGW_E_CLOSED;
+	{
+	}
+	size_t room = max_msg - MBX_HDR_SIZE;
+	const uint8_t *d = data;
+	uint8_t *msg;
+	int rc = 0;
+	mbx_hdr hd = {
+		.magic = MBX_MAGIC, .version = MBX_VERSION,
+		.kind = MBX_KIND_COMMAND, .code = code, .line = (uint8_t)line,
+		.flags = flags, .client = ls->client, .corr = corr,
+		.token = ls->token,
+	};
+
+	if (flen > room)
+		return COGW_E_INVAL;
+	msg = malloc(max_msg);
+	if (!msg)
+		return COGW_E_NOMEM;
+	if (flen + dlen <= room) {
+		if (flen)
+			memcpy(msg + MBX_HDR_SIZE, fixed, flen);
+		if (dlen)
+			memcpy(msg + MBX_HDR_SIZE + flen, d, dlen);
+		hd.len = (uint16_t)(flen + dlen);
+		mbx_hdr_encode(&hd, msg);
+		rc = send_raw(ls->cmd, msg, MBX_HDR_SIZE + hd.len, deadline_us);
+		goto out;
+	}
+	const mbx_cmd_info *ci = mbx_cmd_lookup(code);
+
+	if (!ci || !(ci->flags & MBX_CI_DATA) || ci->max_data ||
+	    dlen > ls->max_transfer || dlen > UINT32_MAX) {
+		rc = COGW_E_TOO_BIG;
+		goto out;
+	}
+	size_t off = 0;
+
+	for (uint16_t chunk = 0; off < dlen; chunk++) {
+		size_t f = chunk == 0 ? flen : 0;
+		size_t n = dlen - off;
+
+		if (n > room - f)
+			n = room - f;
+		hd.flags = flags | MBX_F_CHUNKED | (off + n < dlen ? MBX_F_MORE : 0);
+		hd.chunk = chunk;
+		hd.total = (uint32_t)dlen;
+		hd.len = (uint16_t)(f + n);
+		if (f)
+			memcpy(msg + MBX_HDR_SIZE, fixed, f);
+		memcpy(msg + MBX_HDR_SIZE + f, d + off, n);
+		mbx_hdr_encode(&hd, msg);
+		rc = send_raw(ls->cmd, msg, MBX_HDR_SIZE + hd.len, deadline_us);
+		if (rc)
+			break;
+		off += n;
+	}
+out:
+	free(msg);
+	if (rc == 0) {
+		pthread_mutex_lock(&h->setup_mu);
+		h->lines[line].last_sent_us = mono_us();
+		pthread_mutex_unlock(&h->setup_mu);
+	}
+	return rc;
+}
+
+/* ---- waiting --------------------------------------------------------------------- */
+
+static void waiter_unlink(cogw *h, waiter *w)
+{
+	for (waiter **pp = &h->waiters; *pp; pp = &(*pp)->next) {
+		if (*pp == w) {
+			*pp = w->next;
+			return;
+		}
+	}
+}
+
+static uint64_t corr_new(cogw *h)
+{
+	uint64_t c;
+
+	pthread_mutex_lock(&h->mu);
+	c = ++h->next_corr;
+	pthread_mutex_unlock(&h->mu);
+	return c;
+}
+
+/* Send and wait for the answer with the same correlation id. */
+static int exchange(cogw *h, unsigned line, uint16_t code, const void *fixed,
+		    size_t flen, const void *data, size_t dlen, void *rbuf,
+		    size_t rcap, size_t *rlen, uint32_t *abort,
+		    uint64_t deadline_us)
+{
+	waiter w = { .buf = rbuf, .cap = rcap };
+	int rc;
+
+	pthread_mutex_lock(&h->mu);
+	if (h->closing) {
+		pthread_mutex_unlock(&h->mu);
+		return COGW_E_CLOSED;
+	}
+	w.corr = ++h->next_corr;
+	w.next = h->waiters;
+	h->waiters = &w;
+	pthread_mutex_unlock(&h->mu);
+
+	rc = send_cmd(h, line, code, 0, w.corr, fixed, flen, data, dlen,
+		      deadline_us);
+
+	pthread_mutex_lock(&h->mu);
+	if (rc == 0) {
+		struct timespec ts = mono_deadline(deadline_us);
+
+		while (!w.done && !h->closing) {
+			if (pthread_cond_timedwait(&h->cond, &h->mu, &ts) ==
+			    ETIMEDOUT && !w.done) {
+				rc = COGW_E_TIMEOUT;
+				break;
+			}
+		}
+		if (!w.done && rc == 0)
+			rc = COGW_E_CLOSED;
+	}
+	waiter_unlink(h, &w);
+	pthread_mutex_unlock(&h->mu);
+	if (rc)
+		return rc;
+	if (rlen)
+		*rlen = w.len;
+	if (abort)
+		*abort = w.abort;
+	if (w.status)
+		return w.status;
+	return w.len > rcap ? COGW_E_TRUNCATED : 0;
+}
+
+static uint64_t deadline_of(cogw *h, unsigned timeout_ms)
+{
+	return mono_us() + (uint64_t)(timeout_ms ? timeout_ms : h->timeout_ms) * 1000u;
+}
+
+/* Register with a line on first use. One thread registers, others that
+ * need the same line meanwhile wait for it. */
+static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
+{
+	line_state *ls;
+	char qname[MBX_QNAME_MAX];
+	mbx_register_req rq;
+	mbx_register_resp rs;
+	size_t len = 0;
+	int rc = 0;
+
+	if (line >= MBX_LINES_MAX)
+		return COGW_E_INVAL;
+	ls = &h->lines[line];
+	pthread_mutex_lock(&h->setup_mu);
+	while (ls->registering && !ls->registered) {
+		struct timespec ts = mono_deadline(deadline_us);
+
+		if (pthread_cond_timedwait(&h->setup_cond, &h->setup_mu, &ts) ==
+		    ETIMEDOUT) {
+			pthread_mutex_unlock(&h->setup_mu);
+			return COGW_E_TIMEOUT;
+		}
+	}
+	if (ls->registered) {
+		pthread_mutex_unlock(&h->setup_mu);
+		return 0;
+	}
+	if (ls->cmd == (mqd_t)-1) {
+		if (mbx_queue_name(qname, sizeof qname, h->instance, line) < 0) {
+			pthread_mutex_unlock(&h->setup_mu);
+			return COGW_E_INVAL;
+		}
+		ls->cmd = mq_open(qname, O_WRONLY | O_CLOEXEC);
+		if (ls->cmd == (mqd_t)-1) {
+			rc = errno == ENOENT   ? COGW_E_NO_DAEMON
+			     : errno == EACCES ? COGW_E_ACCESS
+					       : COGW_E_SYSTEM;
+			pthread_mutex_unlock(&h->setup_mu);
+			return rc;
+		}
+	}
+	ls->registering = true;
+	ls->client = 0;
+	ls->token = 0;
+	pthread_mutex_unlock(&h->setup_mu);
+
+	memset(&rq, 0, sizeof rq);
+	rq.pid = (uint32_t)getpid();
+	rq.uid = (uint32_t)geteuid();
+	memcpy(rq.resp_queue, h->resp_name, sizeof rq.resp_queue);
+	memcpy(rq.event_queue, h->evt_name, sizeof rq.event_queue);
+	rc = exchange(h, line, MBX_CMD_REGISTER, &rq, sizeof rq, NULL, 0, &rs,
+		      sizeof rs, &len, NULL, deadline_us);
+	if (rc == 0 && len != sizeof rs)
+		rc = COGW_E_PROTOCOL;
+
+	pthread_mutex_lock(&h->setup_mu);
+	if (rc == 0) {
+		ls->client = rs.client;
+		ls->token = rs.token;
+		ls->lease_ms = rs.lease_ms;
+		ls->max_msg = rs.max_msg < MBX_MSG_MIN ? MBX_MSG_MIN : rs.max_msg;
+		if (ls->max_msg > MBX_MSG_MAX)
+			ls->max_msg = MBX_MSG_MAX;
+		ls->max_transfer = rs.max_transfer;
+		ls->registered = true;
+		ls->last_sent_us = mono_us();
+	}
+	ls->registering = false;
+	pthread_cond_broadcast(&h->setup_cond);
+	pthread_mutex_unlock(&h->setup_mu);
+	return rc;
+}
+
+/* The common shape of every blocking call. */
+static int call(cogw *h, unsigned line, uint16_t code, const void *fixed,
+		size_t flen, const void *data, size_t dlen, void *rbuf,
+		size_t rcap, size_t *rlen, uint32_t *abort, unsigned timeout_ms)
+{
+	uint64_t deadline;
+	int rc;
+
+	if (!h)
+		return COGW_E_INVAL;
+	if (abort)
+		*abort = 0;
+	if (rlen)
+		*rlen = 0;
+	deadline = deadline_of(h, timeout_ms);
+	rc = line_ready(h, line, deadline);
+	if (rc)
+		return rc;
+	rc = exchange(h, line, code, fixed, flen, data, dlen, rbuf, rcap, rlen,
+		      abort, deadline);
+	if (rc == COGW_E_NOT_REGISTERED) {
+		/* the daemon restarted or reaped us: register again, once */
+		pthread_mutex_lock(&h->setup_mu);
+		h->lines[line].registered = false;
+		pthread_mutex_unlock(&h->setup_mu);
+		rc = line_ready(h, line, deadline);
+		if (rc == 0)
+			rc = exchange(h, line, code, fixed, flen, data, dlen,
+				      rbuf, rcap, rlen, abort, deadline);
+	}
+	return rc;
+}
+
+/* ---- the reader thread ----------------------------------------------------------- */
+
+static void ring_push(cogw *h, cogw_msg *m)
+{
+	uint64_t one = 1;
+
+	if (h->ring_count == ASYNC_RING) {
+		h->stats.async_dropped++;
+		free(m->data);
+		return;
+	}
+	h->ring[(h->ring_head + h->ring_count) % ASYNC_RING] = *m;
+	h->ring_count++;
+	if (write(h->efd, &one, sizeof one) < 0) {
+		/* counter saturated: it is readable anyway */
+	}
+}
+
+typedef struct ack_todo {
+	bool needed;
+	unsigned line;
+	uint64_t corr;
+	uint16_t next_chunk;
+} ack_todo;
+
+static unsigned ack_every(const cogw *h)
+{
+	unsigned w = h->resp_depth / 2;
+
+	w = w ? w : 1;
+	return w / 2 ? w / 2 : 1;
+}
+
+static void want_ack(cogw *h, const mbx_hdr *hd, uint16_t next, ack_todo *ack)
+{
+	if ((hd->flags & MBX_F_MORE) && next % ack_every(h) == 0) {
+		ack->needed = true;
+		ack->line = hd->line;
+		ack->corr = hd->corr;
+		ack->next_chunk = next;
+	}
+}
+
+/* Returns true when the waiter is complete. */
+static bool feed_waiter(cogw *h, waiter *w, const mbx_hdr *hd,
+			const uint8_t *p, ack_todo *ack)
+{
+	w->status = hd->status;
+	w->abort = hd->abort;
+	if (!(hd->flags & MBX_F_CHUNKED)) {
+		if (w->cap && hd->len)
+			memcpy(w->buf, p, hd->len < w->cap ? hd->len : w->cap);
+		w->len = hd->len;
+		return true;
+	}
+	if (hd->chunk != w->next_chunk) {
+		w->status = COGW_E_SEQUENCE; /* a chunk was lost */
+		return true;
+	}
+	if (w->len < w->cap)
+		memcpy(w->buf + w->len, p,
+		       w->cap - w->len < hd->len ? w->cap - w->len : hd->len);
+	w->len += hd->len;
+	w->next_chunk++;
+	want_ack(h, hd, w->next_chunk, ack);
+	if (hd->flags & MBX_F_MORE)
+		return false;
+	if (w->len != hd->total)
+		w->status = COGW_E_SEQUENCE;
+	return true;
+}
+
+static void feed_async(cogw *h, async_op **pp, const mbx_hdr *hd,
+		       const uint8_t *p, ack_todo *ack)
+{
+	async_op *a = *pp;
+	bool done = true;
+
+	a->status = hd->status;
+	a->abort = hd->abort;
+	if (hd->flags & MBX_F_OVERFLOW)
+		a->dropped += hd->dropped;
+	if (hd->flags & MBX_F_CHUNKED) {
+		if (!a->data) {
+			a->total = hd->total;
+			a->data = malloc(a->total ? a->total : 1);
+			if (!a->data)
+				a->status = COGW_E_NOMEM;
+		}
+		if (hd->chunk != a->next_chunk || hd->total != a->total ||
+		    a->len + hd->len > a->total) {
+			a->status = COGW_E_SEQUENCE;
+		} else if (a->data) {
+			memcpy(a->data + a->len, p, hd->len);
+			a->len += hd->len;
+			a->next_chunk++;
+			want_ack(h, hd, a->next_chunk, ack);
+			done = !(hd->flags & MBX_F_MORE);
+		}
+	} else {
+		a->data = malloc(hd->len ? hd->len : 1);
+		if (a->data) {
+			memcpy(a->data, p, hd->len);
+			a->len = hd->len;
+		} else {
+			a->status = COGW_E_NOMEM;
+		}
+	}
+	if (!done)
+		return;
+	cogw_msg m = {
+		.kind = MBX_KIND_RESPONSE, .line = a->line, .code = a->code,
+		.status = a->status, .abort = a->abort, .corr = a->corr,
+		.dropped = a->dropped, .len = a->status ? 0 : a->len,
+		.data = a->data,
+	};
+	*pp = a->next;
+	free(a);
+	ring_push(h, &m);
+}
+
+static void handle_response(cogw *h, const uint8_t *buf, size_t n,
+			    ack_todo *ack)
+{
+	mbx_hdr hd;
+	const uint8_t *p = buf + MBX_HDR_SIZE;
+
+	if (mbx_hdr_decode(buf, n, &hd, NULL) < 0 ||
+	    hd.kind != MBX_KIND_RESPONSE) {
+		h->stats.stray_responses++;
+		return;
+	}
+	if (hd.flags & MBX_F_OVERFLOW) {
+		h->stats.overflow_flags++;
+		h->stats.dropped_reported += hd.dropped;
+	}
+	for (waiter *w = h->waiters; w; w = w->next) {
+		if (w->corr == hd.corr && !w->done) {
+			if (feed_waiter(h, w, &hd, p, ack)) {
+				w->done = true;
+				pthread_cond_broadcast(&h->cond);
+			}
+			return;
+		}
+	}
+	for (async_op **pp = &h->asyncs; *pp; pp = &(*pp)->next) {
+		if ((*pp)->corr == hd.corr) {
+			feed_async(h, pp, &hd, p, ack);
+			return;
+		}
+	}
+	h->stats.stray_responses++;
+}
+
+static void send_pings(cogw *h)
+{
+	uint64_t now = mono_us();
+
+	for (unsigned i = 0; i < MBX_LINES_MAX; i++) {
+		bool due;
+
+		pthread_mutex_lock(&h->setup_mu);
+		due = h->lines[i].registered && h->lines[i].lease_ms &&
+		      now - h->lines[i].last_sent_us >=
+			      (uint64_t)h->lines[i].lease_ms * 1000u / 3;
+		pthread_mutex_unlock(&h->setup_mu);
+		if (!due)
+			continue;
+		/* NO_REPLY: a lease renewal needs no answer */
+		send_cmd(h, i, MBX_CMD_PING, MBX_F_NO_REPLY, 0, NULL, 0, NULL, 0,
+			 now + 100000u);
+	}
+}
+
+static unsigned reader_period_ms(cogw *h)
+{
+	unsigned p = 1000;
+
+	pthread_mutex_lock(&h->setup_mu);
+	for (unsigned i = 0; i < MBX_LINES_MAX; i++) {
+		unsigned l = h->lines[i].lease_ms / 3;
+
+		if (h->lines[i].registered && h->lines[i].lease_ms && l < p)
+			p = l ? l : 1;
+	}
+	pthread_mutex_unlock(&h->setup_mu);
+	return p;
+}
+
+static void *reader_main(void *arg)
+{
+	cogw *h = arg;
+	uint8_t *buf = malloc(h->resp_msg);
+
+	if (!buf)
+		return NULL;
+	for (;;) {
+		struct timespec ts = rt_deadline(reader_period_ms(h));
+		ssize_t n = mq_timedreceive(h->resp, (char *)buf, h->resp_msg,
+					    NULL, &ts);
+		ack_todo ack = { 0 };
+		bool closing;
+
+		pthread_mutex_lock(&h->mu);
+		closing = h->closing;
+		if (!closing && n > 0)
+			handle_response(h, buf, (size_t)n, &ack);
+		pthread_mutex_unlock(&h->mu);
+		if (closing)
+			break;
+		if (n < 0 && errno != ETIMEDOUT && errno != EINTR)
+			break; /* queue gone: nothing more to read */
+		if (ack.needed) {
+			mbx_xfer_ack a = { .next_chunk = ack.next_chunk };
+
+			send_cmd(h, ack.line, MBX_CMD_XFER_ACK, 0, ack.corr, &a,
+				 sizeof a, NULL, 0, mono_us() + 1000000u);
+		}
+		send_pings(h);
+	}
+	free(buf);
+	return NULL;
+}
+
+/* ---- open / close ------------------------------------------------------------------ */
+
+static mqd_t make_queue(const char *name, unsigned mode, unsigned depth,
+			unsigned msgsize, int oflags)
+{
+	struct mq_attr attr = { .mq_maxmsg = depth, .mq_msgsize = msgsize };
+	mqd_t q = mq_open(name, O_CREAT | O_EXCL | O_CLOEXEC | oflags, mode,
+			  &attr);
+
+	/* the umask filters mode: make it exactly what we asked (0600
+	 * matters: the daemon refuses queues others could read) */
+	if (q != (mqd_t)-1 && fchmod((int)q, mode) < 0) {
+		int e = errno;
+
+		mq_close(q);
+		mq_unlink(name);
+		errno = e;
+		return (mqd_t)-1;
+	}
+	return q;
+}
+
+int cogw_open(cogw **out, const char *instance)
+{
+	cogw_options o = { .instance = instance };
+
+	return cogw_open_opts(out, &o);
+}
+
+int cogw_open_opts(cogw **out, const cogw_options *o)
+{
+	cogw *h;
+	unsigned long msg_max, msgsize_max;
+	unsigned mode, rdepth, edepth, msgsize;
+	int rc = COGW_E_SYSTEM;
+
+	if (!out || !o || !mbx_instance_is_valid(o->instance))
+		return COGW_E_INVAL;
+	*out = NULL;
+	h = calloc(1, sizeof *h);
+	if (!h)
+		return COGW_E_NOMEM;
+	h->resp = h->evt = h->self = (mqd_t)-1;
+	h->efd = h->epfd = -1;
+	for (unsigned i = 0; i < MBX_LINES_MAX; i++)
+		h->lines[i].cmd = (mqd_t)-1;
+	strcpy(h->instance, o->instance);
+	h->timeout_ms = o->timeout_ms ? o->timeout_ms : DEFAULT_TIMEOUT_MS;
+	pthread_mutex_init(&h->mu, NULL);
+	pthread_mutex_init(&h->setup_mu, NULL);
+	pthread_condattr_t ca;
+
+	pthread_condattr_init(&ca);
+	pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
+	pthread_cond_init(&h->cond, &ca);
+	pthread_cond_init(&h->setup_cond, &ca);
+	pthread_condattr_destroy(&ca);
+	getrandom(&h->next_corr, sizeof h->next_corr, GRND_NONBLOCK);
+	h->next_corr &= 0x0000FFFFFFFFFFFFull; /* readable, never wraps */
+
+	mode = o->queue_mode ? o->queue_mode : 0600;
+	rdepth = o->resp_depth ? o->resp_depth : 32;
+	edepth = o->event_depth ? o->event_depth : 32;
+	msgsize = o->msg_size ? o->msg_size : MBX_MSG_DEFAULT;
+	if (msgsize < MBX_MSG_MIN || msgsize > MBX_MSG_MAX) {
+		rc = COGW_E_INVAL;
+		goto fail;
+	}
+	/* Without CAP_SYS_RESOURCE a queue cannot exceed the sysctl limits
+	 * (containers often lack it even as root): clamp, so that a default
+	 * system (msg_max 10) still works; the daemon copes with any depth. */
+	msg_max = read_proc("/proc/sys/fs/mqueue/msg_max", 10);
+	msgsize_max = read_proc("/proc/sys/fs/mqueue/msgsize_max", 8192);
+	if (rdepth > msg_max)
+		rdepth = (unsigned)msg_max;
+	if (edepth > msg_max)
+		edepth = (unsigned)msg_max;
+	if (msgsize > msgsize_max)
+		msgsize = (unsigned)msgsize_max;
+
+	for (int tries = 0; tries < 8; tries++) {
+		uint32_t rnd = (uint32_t)mono_us();
+
+		getrandom(&rnd, sizeof rnd, GRND_NONBLOCK);
+		snprintf(h->resp_name, sizeof h->resp_name,
+			 "/cogw.%s.c%d.%08x.resp", h->instance, (int)getpid(), rnd);
+		snprintf(h->evt_name, sizeof h->evt_name,
+			 "/cogw.%s.c%d.%08x.evt", h->instance, (int)getpid(), rnd);
+		h->resp = make_queue(h->resp_name, mode, rdepth, msgsize, O_RDONLY);
+		if (h->resp != (mqd_t)-1 || errno != EEXIST)
+			break;
+	}
+	if (h->resp == (mqd_t)-1)
+		goto fail;
+	h->evt = make_queue(h->evt_name, mode, edepth, msgsize,
+			    O_RDONLY | O_NONBLOCK);
+	if (h->evt == (mqd_t)-1)
+		goto fail;
+	h->self = mq_open(h->resp_name, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
+	if (h->self == (mqd_t)-1)
+		goto fail;
+	struct mq_attr attr;
+
+	if (mq_getattr(h->resp, &attr) < 0)
+		goto fail;
+	h->resp_msg = (size_t)attr.mq_msgsize;
+	h->resp_depth = (unsigned)attr.mq_maxmsg;
+	if (mq_getattr(h->evt, &attr) < 0)
+		goto fail;
+	h->evt_msg = (size_t)attr.mq_msgsize;
+
+	h->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+	h->epfd = epoll_create1(EPOLL_CLOEXEC);
+	if (h->efd < 0 || h->epfd < 0)
+		goto fail;
+	struct epoll_event ev = { .events = EPOLLIN };
+
+	if (epoll_ctl(h->epfd, EPOLL_CTL_ADD, h->efd, &ev) < 0 ||
+	    epoll_ctl(h->epfd, EPOLL_CTL_ADD, (int)h->evt, &ev) < 0)
+		goto fail;
+	if (pthread_create(&h->reader, NULL, reader_main, h) != 0)
+		goto fail;
+	h->reader_started = true;
+	*out = h;
+	return 0;
+fail:
+	{
+		int e = errno;
+
+		cogw_close(h);
+		errno = e;
+	}
+	return rc;
+}
+
+void cogw_close(cogw *h)
+{
+	if (!h)
+		return;
+	/* Say goodbye to every line (no answer wanted), so the daemon frees
+	 * the slot now rather than at the next liveness check. */
+	for (unsigned i = 0; i < MBX_LINES_MAX; i++)
+		if (h->lines[i].registered)
+			send_cmd(h, i, MBX_CMD_UNREGISTER, MBX_F_NO_REPLY, 0,
+				 NULL, 0, NULL, 0, mono_us() + 200000u);
+
+	pthread_mutex_lock(&h->mu);
+	h->closing = true;
+	pthread_cond_broadcast(&h->cond);
+	pthread_mutex_unlock(&h->mu);
+	if (h->reader_started) {
+		/* wake the reader (if the queue is full it wakes anyway) */
+		if (h->self != (mqd_t)-1)
+			mq_send(h->self, "", 0, 0);
+		pthread_join(h->reader, NULL);
+	}
+	for (unsigned i = 0; i < MBX_LINES_MAX; i++) {
+		if (h->lines[i].cmd != (mqd_t)-1)
+			mq_close(h->lines[i].cmd);
+		h->lines[i].cmd = (mqd_t)-1;
+		h->lines[i].registered = false;
+	}
+	while (h->asyncs) {
+		async_op *a = h->asyncs;
+
+		h->asyncs = a->next;
+		free(a->data);
+		free(a);
+	}
+	while (h->ring_count) {
+		free(h->ring[h->ring_head].data);
+		h->ring_head = (h->ring_head + 1) % ASYNC_RING;
+		h->ring_count--;
+	}
+	if (h->epfd >= 0)
+		close(h->epfd);
+	if (h->efd >= 0)
+		close(h->efd);
+	if (h->self != (mqd_t)-1)
+		mq_close(h->self);
+	if (h->resp != (mqd_t)-1) {
+		mq_close(h->resp);
+		mq_unlink(h->resp_name);
+	}
+	if (h->evt != (mqd_t)-1) {
+		mq_close(h->evt);
+		mq_unlink(h->evt_name);
+	}
+	pthread_cond_destroy(&h->cond);
+	pthread_mutex_destroy(&h->mu);
+	pthread_cond_destroy(&h->setup_cond);
+	pthread_mutex_destroy(&h->setup_mu);
+	free(h);
+}
+
+/* ---- asynchronous interface -------------------------------------------------------- */
+
+int cogw_send_async(cogw *h, unsigned line, uint16_t cmd, const void *payload,
+		    size_t len, uint64_t *corr)
+{
+	const mbx_cmd_info *ci = mbx_cmd_lookup(cmd);
+	uint64_t deadline;
+	async_op *a;
+	size_t flen;
+	int rc;
+
+	if (!h || !ci || (ci->flags & MBX_CI_SERVER) || (len && !payload))
+		return COGW_E_INVAL;
+	flen = (ci->flags & MBX_CI_DATA) ? ci->fixed : len;
+	if (len < flen)
+		return COGW_E_INVAL;
+	deadline = deadline_of(h, 0);
+	rc = line_ready(h, line, deadline);
+	if (rc)
+		return rc;
+	a = calloc(1, sizeof *a);
+	if (!a)
+		return COGW_E_NOMEM;
+	a->corr = corr_new(h);
+	a->line = (uint8_t)line;
+	a->code = cmd;
+	pthread_mutex_lock(&h->mu);
+	a->next = h->asyncs;
+	h->asyncs = a;
+	pthread_mutex_unlock(&h->mu);
+	if (corr)
+		*corr = a->corr;
+	rc = send_cmd(h, line, cmd, 0, a->corr, payload, flen,
+		      (const uint8_t *)payload + flen, len - flen, deadline);
+	if (rc) {
+		pthread_mutex_lock(&h->mu);
+		for (async_op **pp = &h->asyncs; *pp; pp = &(*pp)->next) {
+			if (*pp == a) {
+				*pp = a->next;
+				free(a->data);
+				free(a);
+				break;
+			}
+		}
+		pthread_mutex_unlock(&h->mu);
+	}
+	return rc;
+}
+
+int cogw_event_fd(cogw *h)
+{
+	return h ? h->epfd : COGW_E_INVAL;
+}
+
+void cogw_msg_release(cogw_msg *m)
+{
+	if (!m)
+		return;
+	free(m->data);
+	m->data = NULL;
+	m->len = 0;
+}
+
+static bool ring_pop(cogw *h, cogw_msg *m)
+{
+	bool got = false;
+	uint64_t v;
+
+	pthread_mutex_lock(&h->mu);
+	if (h->ring_count) {
+		*m = h->ring[h->ring_head];
+		h->ring_head = (h->ring_head + 1) % ASYNC_RING;
+		h->ring_count--;
+		got = true;
+	}
+	if (!h->ring_count && read(h->efd, &v, sizeof v) < 0) {
+		/* already zero */
+	}
+	pthread_mutex_unlock(&h->mu);
+	return got;
+}
+
+/* One event from the event queue; 1 = got one, 0 = none, < 0 error. */
+static int event_pop(cogw *h, cogw_msg *m, uint8_t *buf)
+{
+	for (;;) {
+		ssize_t n = mq_receive(h->evt, (char *)buf, h->evt_msg, NULL);
+		mbx_hdr hd;
+
+		if (n < 0)
+			return errno == EAGAIN ? 0 : COGW_E_SYSTEM;
+		if (mbx_hdr_decode(buf, (size_t)n, &hd, NULL) < 0 ||
+		    hd.kind != MBX_KIND_EVENT ||
+		    mbx_event_validate(hd.code, buf + MBX_HDR_SIZE, hd.len) < 0) {
+			pthread_mutex_lock(&h->mu);
+			h->stats.stray_responses++;
+			pthread_mutex_unlock(&h->mu);
+			continue;
+		}
+		if (hd.flags & MBX_F_OVERFLOW) {
+			pthread_mutex_lock(&h->mu);
+			h->stats.overflow_flags++;
+			h->stats.dropped_reported += hd.dropped;
+			pthread_mutex_unlock(&h->mu);
+		}
+		*m = (cogw_msg){ .kind = MBX_KIND_EVENT, .line = hd.line,
+				 .code = hd.code, .abort = hd.abort,
+				 .corr = hd.corr, .dropped = hd.dropped,
+				 .len = hd.len };
+		m->data = malloc(hd.len ? hd.len : 1);
+		if (!m->data)
+			return COGW_E_NOMEM;
+		memcpy(m->data, buf + MBX_HDR_SIZE, hd.len);
+		return 1;
+	}
+}
+
+int cogw_recv(cogw *h, cogw_msg *m, int timeout_ms)
+{
+	uint64_t deadline;
+	uint8_t *buf;
+	int rc = COGW_E_AGAIN;
+
+	if (!h || !m)
+		return COGW_E_INVAL;
+	memset(m, 0, sizeof *m);
+	buf = malloc(h->evt_msg);
+	if (!buf)
+		return COGW_E_NOMEM;
+	deadline = timeout_ms < 0 ? UINT64_MAX
+				  : mono_us() + (uint64_t)timeout_ms * 1000u;
+	for (;;) {
+		if (ring_pop(h, m)) {
+			rc = 0;
+			break;
+		}
+		int got = event_pop(h, m, buf);
+
+		if (got != 0) {
+			rc = got > 0 ? 0 : got;
+			break;
+		}
+		uint64_t now = mono_us();
+
+		if (now >= deadline)
+			break;
+		struct pollfd pf = { .fd = h->epfd, .events = POLLIN };
+		int wait = deadline == UINT64_MAX ? -1
+			   : (int)((deadline - now + 999) / 1000);
+
+		if (poll(&pf, 1, wait) < 0 && errno != EINTR) {
+			rc = COGW_E_SYSTEM;
+			break;
+		}
+	}
+	free(buf);
+	return rc;
+}
+
+void cogw_get_stats(cogw *h, cogw_stats *st)
+{
+	pthread_mutex_lock(&h->mu);
+	*st = h->stats;
+	pthread_mutex_unlock(&h->mu);
+}
+
+/* ---- services ------------------------------------------------------------------------ */
+
+int cogw_od_read(cogw *h, unsigned line, uint16_t index, uint8_t sub,
+		 void *buf, size_t cap, size_t *len, unsigned timeout_ms,
+		 uint32_t *abort)
+{
+	mbx_obj_req r = { .index = index, .sub = sub };
+
+	return call(h, line, MBX_CMD_OD_READ, &r, sizeof r, NULL, 0, buf, cap,
+		    len, abort, timeout_ms);
+}
+
+int cogw_od_write(cogw *h, unsigned line, uint16_t index, uint8_t sub,
+		  const void *data, size_t len, unsigned timeout_ms,
+		  uint32_t *abort)
+{
+	mbx_obj_req r = { .index = index, .sub = sub };
+
+	return call(h, line, MBX_CMD_OD_WRITE, &r, sizeof r, data, len, NULL, 0,
+		    NULL, abort, timeout_ms);
+}
+
+int cogw_sdo_read_ex(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		     uint8_t sub, const cogw_sdo_opts *o, void *buf,
+		     size_t cap, size_t *len, unsigned timeout_ms,
+		     uint32_t *abort)
+{
+	mbx_sdo_req r = { .node = node, .index = index, .sub = sub };
+
+	if (o) {
+		r.mode = o->mode;
+		r.timeout_ms = o->sdo_timeout_ms;
+	}
+	return call(h, line, MBX_CMD_SDO_UPLOAD, &r, sizeof r, NULL, 0, buf,
+		    cap, len, abort, timeout_ms);
+}
+
+int cogw_sdo_write_ex(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		      uint8_t sub, const cogw_sdo_opts *o, const void *data,
+		      size_t len, unsigned timeout_ms, uint32_t *abort)
+{
+	mbx_sdo_req r = { .node = node, .index = index, .sub = sub };
+
+	if (o) {
+		r.mode = o->mode;
+		r.timeout_ms = o->sdo_timeout_ms;
+	}
+	return call(h, line, MBX_CMD_SDO_DOWNLOAD, &r, sizeof r, data, len,
+		    NULL, 0, NULL, abort, timeout_ms);
+}
+
+int cogw_sdo_read(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		  uint8_t sub, void *buf, size_t cap, size_t *len,
+		  unsigned timeout_ms, uint32_t *abort)
+{
+	return cogw_sdo_read_ex(h, line, node, index, sub, NULL, buf, cap, len,
+				timeout_ms, abort);
+}
+
+int cogw_sdo_write(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		   uint8_t sub, const void *data, size_t len,
+		   unsigned timeout_ms, uint32_t *abort)
+{
+	return cogw_sdo_write_ex(h, line, node, index, sub, NULL, data, len,
+				 timeout_ms, abort);
+}
+
+/* Read exactly n bytes (a numeric value) into a little-endian integer. */
+static int read_num(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		    uint8_t sub, size_t n, uint64_t *v, unsigned timeout_ms,
+		    uint32_t *abort)
+{
+	uint8_t b[8];
+	size_t len = 0;
+	uint32_t ab = 0;
+	int rc = cogw_sdo_read(h, line, node, index, sub, b, sizeof b, &len,
+			       timeout_ms, &ab);
+
+	if (rc == 0 && len != n) {
+		rc = COGW_E_ABORT;
+		ab = 0x06070010u; /* data type does not match, length */
+	} else if (rc == COGW_E_TRUNCATED) {
+		rc = COGW_E_ABORT;
+		ab = 0x06070012u; /* length too high */
+	}
+	if (abort)
+		*abort = ab;
+	if (rc)
+		return rc;
+	*v = 0;
+	for (size_t i = 0; i < n; i++)
+		*v |= (uint64_t)b[i] << (8 * i);
+	return 0;
+}
+
+static int write_num(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		     uint8_t sub, size_t n, uint64_t v, unsigned timeout_ms,
+		     uint32_t *abort)
+{
+	uint8_t b[8];
+
+	for (size_t i = 0; i < n; i++)
+		b[i] = (uint8_t)(v >> (8 * i));
+	return cogw_sdo_write(h, line, node, index, sub, b, n, timeout_ms,
+			      abort);
+}
+
+#define TYPED(suffix, type, n)                                                   \
+	int cogw_sdo_read_##suffix(cogw *h, unsigned line, uint8_t node,         \
+				   uint16_t index, uint8_t sub, type *v,         \
+				   unsigned timeout_ms, uint32_t *abort)         \
+	{                                                                        \
+		uint64_t x;                                                      \
+		int rc = read_num(h, line, node, index, sub, n, &x, timeout_ms,  \
+				  abort);                                        \
+		if (rc == 0)                                                     \
+			*v = (type)x;                                            \
+		return rc;                                                       \
+	}                                                                        \
+	int cogw_sdo_write_##suffix(cogw *h, unsigned line, uint8_t node,        \
+				    uint16_t index, uint8_t sub, type v,         \
+				    unsigned timeout_ms, uint32_t *abort)        \
+	{                                                                        \
+		return write_num(h, line, node, index, sub, n, (uint64_t)v,      \
+				 timeout_ms, abort);                             \
+	}
+
+TYPED(u8, uint8_t, 1)
+TYPED(u16, uint16_t, 2)
+TYPED(u32, uint32_t, 4)
+TYPED(u64, uint64_t, 8)
+#undef TYPED
+
+int cogw_sdo_read_float(cogw *h, unsigned line, uint8_t node,
+			uint16_t index, uint8_t sub, float *v,
+			unsigned timeout_ms, uint32_t *abort)
+{
+	uint64_t x;
+	uint32_t bits;
+	int rc = read_num(h, line, node, index, sub, 4, &x, timeout_ms, abort);
+
+	if (rc == 0) {
+		bits = (uint32_t)x;
+		memcpy(v, &bits, sizeof *v); /* IEEE 754 single, as CiA 301 */
+	}
+	return rc;
+}
+
+int cogw_sdo_write_float(cogw *h, unsigned line, uint8_t node,
+			 uint16_t index, uint8_t sub, float v,
+			 unsigned timeout_ms, uint32_t *abort)
+{
+	uint32_t bits;
+
+	memcpy(&bits, &v, sizeof bits);
+	return write_num(h, line, node, index, sub, 4, bits, timeout_ms, abort);
+}
+
+int cogw_sdo_read_string(cogw *h, unsigned line, uint8_t node,
+			 uint16_t index, uint8_t sub, char *s, size_t cap,
+			 unsigned timeout_ms, uint32_t *abort)
+{
+	size_t len = 0;
+	int rc;
+
+	if (!s || cap == 0)
+		return COGW_E_INVAL;
+	rc = cogw_sdo_read(h, line, node, index, sub, s, cap - 1, &len,
+			   timeout_ms, abort);
+	if (rc == 0 || rc == COGW_E_TRUNCATED)
+		s[len < cap - 1 ? len : cap - 1] = 0;
+	else
+		s[0] = 0;
+	return rc;
+}
+
+int cogw_sdo_write_string(cogw *h, unsigned line, uint8_t node,
+			  uint16_t index, uint8_t sub, const char *s,
+			  unsigned timeout_ms, uint32_t *abort)
+{
+	if (!s)
+		return COGW_E_INVAL;
+	return cogw_sdo_write(h, line, node, index, sub, s, strlen(s),
+			      timeout_ms, abort);
+}
+
+int cogw_nmt(cogw *h, unsigned line, uint8_t cs, uint8_t node,
+	     unsigned timeout_ms)
+{
+	mbx_nmt_req r = { .cs = cs, .node = node };
+
+	return call(h, line, MBX_CMD_NMT, &r, sizeof r, NULL, 0, NULL, 0, NULL,
+		    NULL, timeout_ms);
+}
+
+int cogw_node_table(cogw *h, unsigned line, mbx_node_entry *tab, size_t cap,
+		    unsigned timeout_ms)
+{
+	mbx_node_entry all[128];
+	size_t len = 0;
+	int rc = call(h, line, MBX_CMD_NODE_TABLE, NULL, 0, NULL, 0, all,
+		      sizeof all, &len, NULL, timeout_ms);
+
+	if (rc)
+		return rc;
+	if (len % sizeof(mbx_node_entry))
+		return COGW_E_PROTOCOL;
+	size_t n = len / sizeof(mbx_node_entry);
+
+	memcpy(tab, all, (n < cap ? n : cap) * sizeof *tab);
+	return (int)n;
+}
+
+int cogw_pdo_request(cogw *h, unsigned line, uint16_t tpdo,
+		     unsigned timeout_ms)
+{
+	mbx_pdo_num_req r = { .pdo = tpdo };
+
+	return call(h, line, MBX_CMD_PDO_REQUEST, &r, sizeof r, NULL, 0, NULL,
+		    0, NULL, NULL, timeout_ms);
+}
+
+int cogw_pdo_read(cogw *h, unsigned line, uint16_t index, uint8_t sub,
+		  void *buf, size_t cap, size_t *len, unsigned timeout_ms)
+{
+	mbx_obj_req r = { .index = index, .sub = sub };
+
+	return call(h, line, MBX_CMD_PDO_READ, &r, sizeof r, NULL, 0, buf, cap,
+		    len, NULL, timeout_ms);
+}
+
+int cogw_pdo_write(cogw *h, unsigned line, uint16_t index, uint8_t sub,
+		   const void *data, size_t len, int trigger,
+		   unsigned timeout_ms)
+{
+	mbx_obj_req r = { .index = index, .sub = sub,
+			  .flags = trigger ? MBX_PDO_TRIGGER : 0 };
+
+	if (len == 0 || len > 8)
+		return COGW_E_INVAL;
+	return call(h, line, MBX_CMD_PDO_WRITE, &r, sizeof r, data, len, NULL,
+		    0, NULL, NULL, timeout_ms);
+}
+
+int cogw_emcy_send(cogw *h, unsigned line, uint16_t code, uint8_t reg,
+		   const uint8_t msef[5], unsigned timeout_ms)
+{
+	mbx_emcy_req r = { .code = code, .reg = reg };
+
+	if (msef)
+		memcpy(r.msef, msef, sizeof r.msef);
+	return call(h, line, MBX_CMD_EMCY_SEND, &r, sizeof r, NULL, 0, NULL, 0,
+		    NULL, NULL, timeout_ms);
+}
+
+int cogw_raw_send(cogw *h, unsigned line, const mbx_raw_frame *frames,
+		  size_t n, unsigned timeout_ms)
+{
+	if (!frames || n == 0 || n > MBX_RAW_SEND_MAX)
+		return COGW_E_INVAL;
+	return call(h, line, MBX_CMD_RAW_SEND, frames, n * sizeof *frames, NULL,
+		    0, NULL, 0, NULL, NULL, timeout_ms);
+}
+
+int cogw_lss(cogw *h, unsigned line, uint16_t cmd, const mbx_lss_req *req,
+	     mbx_lss_resp *resp, unsigned timeout_ms)
+{
+	mbx_lss_resp tmp;
+	size_t len = 0;
+	int rc;
+
+	if (!req || (cmd & 0xFF00u) != 0x0700u)
+		return COGW_E_INVAL;
+	memset(&tmp, 0, sizeof tmp);
+	rc = call(h, line, cmd, req, sizeof *req, NULL, 0, &tmp, sizeof tmp,
+		  &len, NULL, timeout_ms);
+	if (resp)
+		*resp = tmp;
+	return rc;
+}
+
+int cogw_lss_switch_global(cogw *h, unsigned line, uint8_t mode,
+			   unsigned timeout_ms)
+{
+	mbx_lss_req r = { .mode = mode };
+
+	return cogw_lss(h, line, MBX_CMD_LSS_SWITCH_GLOBAL, &r, NULL, timeout_ms);
+}
+
+int cogw_lss_switch_selective(cogw *h, unsigned line, uint32_t vendor,
+			      uint32_t product, uint32_t revision,
+			      uint32_t serial, unsigned timeout_ms)
+{
+	mbx_lss_req r = { .vendor = vendor, .product = product,
+			  .rev_lo = revision, .rev_hi = revision,
+			  .ser_lo = serial, .ser_hi = serial };
+
+	return cogw_lss(h, line, MBX_CMD_LSS_SWITCH_SELECTIVE, &r, NULL,
+			timeout_ms);
+}
+
+int cogw_lss_set_node_id(cogw *h, unsigned line, uint8_t node,
+			 unsigned timeout_ms)
+{
+	mbx_lss_req r = { .node = node };
+
+	return cogw_lss(h, line, MBX_CMD_LSS_SET_NODE_ID, &r, NULL, timeout_ms);
+}
+
+int cogw_lss_set_bit_timing(cogw *h, unsigned line, uint8_t table,
+			    uint8_t index, unsigned timeout_ms)
+{
+	mbx_lss_req r = { .table = table, .bit_index = index };
+
+	return cogw_lss(h, line, MBX_CMD_LSS_SET_BIT_TIMING, &r, NULL,
+			timeout_ms);
+}
+
+int cogw_lss_activate_bit_timing(cogw *h, unsigned line, uint16_t delay_ms,
+				 unsigned timeout_ms)
+{
+	mbx_lss_req r = { .delay_ms = delay_ms };
+
+	return cogw_lss(h, line, MBX_CMD_LSS_ACTIVATE_BIT_TIMING, &r, NULL,
+			timeout_ms);
+}
+
+int cogw_lss_store(cogw *h, unsigned line, unsigned timeout_ms)
+{
+	mbx_lss_req r = { 0 };
+
+	return cogw_lss(h, line, MBX_CMD_LSS_STORE, &r, NULL, timeout_ms);
+}
+
+int cogw_lss_inquire(cogw *h, unsigned line, uint8_t what, uint32_t *value,
+		     unsigned timeout_ms)
+{
+	mbx_lss_req r = { .what = what };
+	mbx_lss_resp s;
+	int rc = cogw_lss(h, line, MBX_CMD_LSS_INQUIRE, &r, &s, timeout_ms);
+
+	if (rc == 0 && value)
+		*value = s.value;
+	return rc;
+}
+
+int cogw_lss_identify_nonconf(cogw *h, unsigned line, unsigned timeout_ms)
+{
+	mbx_lss_req r = { 0 };
+	mbx_lss_resp s;
+	int rc = cogw_lss(h, line, MBX_CMD_LSS_IDENTIFY_NONCONF, &r, &s,
+			  timeout_ms);
+
+	if (rc == COGW_E_NOT_FOUND)
+		return 0;
+	return rc ? rc : s.found != 0;
+}
+
+int cogw_lss_fastscan(cogw *h, unsigned line, uint32_t id[4],
+		      unsigned timeout_ms)
+{
+	mbx_lss_req r = { 0 };
+	mbx_lss_resp s;
+	int rc = cogw_lss(h, line, MBX_CMD_LSS_FASTSCAN, &r, &s, timeout_ms);
+
+	if (rc == 0 && id)
+		memcpy(id, s.id, sizeof s.id);
+	return rc;
+}
+
+int cogw_line_status(cogw *h, unsigned line, mbx_line_status *st,
+		     unsigned timeout_ms)
+{
+	size_t len = 0;
+	int rc = call(h, line, MBX_CMD_LINE_STATUS, NULL, 0, NULL, 0, st,
+		      sizeof *st, &len, NULL, timeout_ms);
+
+	return rc == 0 && len != sizeof *st ? COGW_E_PROTOCOL : rc;
+}
+
+int cogw_store(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms)
+{
+	mbx_store_req r = { .sub = sub };
+
+	return call(h, line, MBX_CMD_STORE, &r, sizeof r, NULL, 0, NULL, 0, NULL,
+		    NULL, timeout_ms);
+}
+
+int cogw_restore(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms)
+{
+	mbx_store_req r = { .sub = sub };
+
+	return call(h, line, MBX_CMD_RESTORE, &r, sizeof r, NULL, 0, NULL, 0,
+		    NULL, NULL, timeout_ms);
+}
+
+int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st,
+		   unsigned timeout_ms)
+{
+	size_t len = 0;
+	int rc = call(h, line, MBX_CMD_MBX_STATS, NULL, 0, NULL, 0, st,
+		      sizeof *st, &len, NULL, timeout_ms);
+
+	return rc == 0 && len != sizeof *st ? COGW_E_PROTOCOL : rc;
+}
+
+int cogw_ping(cogw *h, unsigned line, unsigned timeout_ms)
+{
+	mbx_ping_resp r;
+
+	return call(h, line, MBX_CMD_PING, NULL, 0, NULL, 0, &r, sizeof r, NULL,
+		    NULL, timeout_ms);
+}
+
+int cogw_subscribe(cogw *h, unsigned line, uint32_t classes,
+		   const mbx_raw_filter *filters, size_t n_filters,
+		   unsigned timeout_ms)
+{
+	mbx_subscribe_req r = { .classes = classes };
+	mbx_subscribe_resp s;
+
+	if (n_filters > MBX_RAW_FILTERS_MAX || (n_filters && !filters))
+		return COGW_E_INVAL;
+	r.n_filters = (uint8_t)n_filters;
+	if (n_filters)
+		memcpy(r.filters, filters, n_filters * sizeof *filters);
+	return call(h, line, MBX_CMD_SUBSCRIBE, &r, sizeof r, NULL, 0, &s,
+		    sizeof s, NULL, NULL, timeout_ms);
+}
+
+int cogw_unsubscribe(cogw *h, unsigned line, uint32_t classes,
+		     unsigned timeout_ms)
+{
+	mbx_unsubscribe_req r = { .classes = classes };
+	mbx_subscribe_resp s;
+
+	return call(h, line, MBX_CMD_UNSUBSCRIBE, &r, sizeof r, NULL, 0, &s,
+		    sizeof s, NULL, NULL, timeout_ms);
+}

@@ -1,0 +1,286 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * cogw.h - libcogw, the client library of the cogw CANopen gateway daemon.
+ *
+ *     cogw *h;
+ *     if (cogw_open(&h, "main") < 0) ...            // daemon instance name
+ *     uint32_t v, abort;
+ *     int rc = cogw_sdo_read_u32(h, 0, 5, 0x1018, 1, &v, 1000, &abort);
+ *     if (rc == COGW_E_ABORT) printf("abort %08x\n", abort);
+ *     else if (rc < 0) printf("%s\n", cogw_strerror(rc));
+ *     cogw_close(h);
+ *
+ * - Every call returns 0 (or a count) on success, or a negative COGW_E_*
+ *   code (one error space; cogw_strerror() names it). An SDO or local OD
+ *   refusal is COGW_E_ABORT with the CiA 301 abort code in *abort.
+ * - `line` is the daemon's CAN line (0-based). The library registers with
+ *   a line on first use (its queues are created by cogw_open, mode 0600).
+ * - Blocking calls take timeout_ms (0 = the handle's default, 5000 ms) for
+ *   the whole exchange with the daemon. SDO timeouts on the bus come back
+ *   as COGW_E_ABORT with abort 0x05040000.
+ * - Data of any size: the library chunks and reassembles transparently up
+ *   to the daemon's limit (1 MiB by default).
+ * - Thread-safe: several threads may make calls on one handle at once.
+ *   A library thread reads the response queue and hands each answer to the
+ *   caller waiting for its correlation id.
+ * - Events: cogw_subscribe() per line and class, then cogw_recv(); for an
+ *   epoll loop, watch cogw_event_fd() and call cogw_recv(h, &m, 0) until it
+ *   returns COGW_E_AGAIN. cogw_recv() also returns the answers to requests
+ *   started with cogw_send_async().
+ * - Message layouts, command and event codes: mailbox/proto.h;
+ *   the protocol: docs/mailbox.md.
+ */
+#ifndef COGW_H
+#define COGW_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "mailbox/proto.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct cogw cogw;
+
+/* ---- errors ------------------------------------------------------------- */
+
+enum cogw_err {
+	COGW_OK = 0,
+	/* reported by the daemon (same values as enum mbx_status) */
+	COGW_E_VERSION = MBX_E_VERSION,
+	COGW_E_MALFORMED = MBX_E_MALFORMED,
+	COGW_E_UNKNOWN_CMD = MBX_E_UNKNOWN_CMD,
+	COGW_E_BAD_LINE = MBX_E_BAD_LINE,
+	COGW_E_NOT_REGISTERED = MBX_E_NOT_REGISTERED,
+	COGW_E_ACCESS = MBX_E_ACCESS,
+	COGW_E_PARAM = MBX_E_PARAM,
+	COGW_E_TOO_BIG = MBX_E_TOO_BIG,
+	COGW_E_BUSY = MBX_E_BUSY,
+	COGW_E_FULL = MBX_E_FULL,
+	COGW_E_QUEUE = MBX_E_QUEUE,
+	COGW_E_TIMEOUT = MBX_E_TIMEOUT,
+	COGW_E_ABORT = MBX_E_ABORT,
+	COGW_E_STATE = MBX_E_STATE,
+	COGW_E_UNSUPPORTED = MBX_E_UNSUPPORTED,
+	COGW_E_SEQUENCE = MBX_E_SEQUENCE,
+	COGW_E_OVERFLOW = MBX_E_OVERFLOW,
+	COGW_E_INTERNAL = MBX_E_INTERNAL,
+	COGW_E_SHUTDOWN = MBX_E_SHUTDOWN,
+	COGW_E_LSS = MBX_E_LSS,
+	COGW_E_NOT_FOUND = MBX_E_NOT_FOUND,
+	/* found by the library */
+	COGW_E_NO_DAEMON = -100, /* the line's command queue does not exist */
+	COGW_E_SYSTEM = -101,    /* a system call failed: errno tells */
+	COGW_E_INVAL = -102,     /* bad argument */
+	COGW_E_NOMEM = -103,
+	COGW_E_AGAIN = -104,     /* cogw_recv: nothing there (yet) */
+	COGW_E_TRUNCATED = -105, /* answer larger than the buffer; *len
+	                          * tells the full size, buffer filled */
+	COGW_E_CLOSED = -106,    /* handle is closing */
+	COGW_E_PROTOCOL = -107,  /* the daemon sent something unexpected */
+};
+
+const char *cogw_strerror(int err);
+
+/* ---- handle ------------------------------------------------------------- */
+
+typedef struct cogw_options {
+	const char *instance;  /* daemon instance ("main"); required */
+	unsigned queue_mode;   /* own queues, 0 = 0600 (0620 when the daemon
+	                        * runs as a non-root user of your group) */
+	unsigned resp_depth;   /* 0 = 32, clamped to fs.mqueue.msg_max */
+	unsigned event_depth;  /* 0 = 32, same clamp */
+	unsigned msg_size;     /* own queues' message size, 0 = 1024 */
+	unsigned timeout_ms;   /* default for calls given 0, 0 = 5000 */
+} cogw_options;
+
+int cogw_open(cogw **h, const char *instance);
+int cogw_open_opts(cogw **h, const cogw_options *opts);
+/* Unregisters from every line, removes the queues. Accepts NULL. */
+void cogw_close(cogw *h);
+
+/* ---- local object dictionary of a line (the daemon's own OD) ----------- */
+
+int cogw_od_read(cogw *h, unsigned line, uint16_t index, uint8_t sub,
+		 void *buf, size_t cap, size_t *len, unsigned timeout_ms,
+		 uint32_t *abort);
+int cogw_od_write(cogw *h, unsigned line, uint16_t index, uint8_t sub,
+		  const void *data, size_t len, unsigned timeout_ms,
+		  uint32_t *abort);
+
+/* ---- remote SDO (the daemon is the SDO client) -------------------------- */
+
+/* mode: 0 auto, 1 expedited, 2 segmented, 3 block. sdo_timeout_ms: per
+ * SDO frame on the bus (0 = line default). */
+typedef struct cogw_sdo_opts {
+	uint8_t mode;
+	uint32_t sdo_timeout_ms;
+} cogw_sdo_opts;
+
+int cogw_sdo_read(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		  uint8_t sub, void *buf, size_t cap, size_t *len,
+		  unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_write(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		   uint8_t sub, const void *data, size_t len,
+		   unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_read_ex(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		     uint8_t sub, const cogw_sdo_opts *o, void *buf,
+		     size_t cap, size_t *len, unsigned timeout_ms,
+		     uint32_t *abort);
+int cogw_sdo_write_ex(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		      uint8_t sub, const cogw_sdo_opts *o, const void *data,
+		      size_t len, unsigned timeout_ms, uint32_t *abort);
+
+/* Typed helpers: values are little-endian on the bus; a reply of the wrong
+ * size is COGW_E_ABORT with abort 0x06070010 (type/length mismatch).
+ * Strings are NUL-terminated (COGW_E_TRUNCATED if cap is too small).
+ * A DOMAIN is cogw_sdo_read/write with a buffer. */
+int cogw_sdo_read_u8(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		     uint8_t sub, uint8_t *v, unsigned timeout_ms,
+		     uint32_t *abort);
+int cogw_sdo_read_u16(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		      uint8_t sub, uint16_t *v, unsigned timeout_ms,
+		      uint32_t *abort);
+int cogw_sdo_read_u32(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		      uint8_t sub, uint32_t *v, unsigned timeout_ms,
+		      uint32_t *abort);
+int cogw_sdo_read_u64(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		      uint8_t sub, uint64_t *v, unsigned timeout_ms,
+		      uint32_t *abort);
+int cogw_sdo_read_float(cogw *h, unsigned line, uint8_t node,
+			uint16_t index, uint8_t sub, float *v,
+			unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_read_string(cogw *h, unsigned line, uint8_t node,
+			 uint16_t index, uint8_t sub, char *s, size_t cap,
+			 unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_write_u8(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		      uint8_t sub, uint8_t v, unsigned timeout_ms,
+		      uint32_t *abort);
+int cogw_sdo_write_u16(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		       uint8_t sub, uint16_t v, unsigned timeout_ms,
+		       uint32_t *abort);
+int cogw_sdo_write_u32(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		       uint8_t sub, uint32_t v, unsigned timeout_ms,
+		       uint32_t *abort);
+int cogw_sdo_write_u64(cogw *h, unsigned line, uint8_t node, uint16_t index,
+		       uint8_t sub, uint64_t v, unsigned timeout_ms,
+		       uint32_t *abort);
+int cogw_sdo_write_float(cogw *h, unsigned line, uint8_t node,
+			 uint16_t index, uint8_t sub, float v,
+			 unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_write_string(cogw *h, unsigned line, uint8_t node,
+			  uint16_t index, uint8_t sub, const char *s,
+			  unsigned timeout_ms, uint32_t *abort);
+
+/* ---- NMT, nodes, PDO, EMCY, raw CAN ------------------------------------- */
+
+/* cs: 0x01 start, 0x02 stop, 0x80 pre-operational, 0x81 reset node,
+ * 0x82 reset communication. node 0 = all nodes. */
+int cogw_nmt(cogw *h, unsigned line, uint8_t cs, uint8_t node,
+	     unsigned timeout_ms);
+/* Fills up to cap entries; returns the number of nodes known (>= 0). */
+int cogw_node_table(cogw *h, unsigned line, mbx_node_entry *tab, size_t cap,
+		    unsigned timeout_ms);
+int cogw_pdo_request(cogw *h, unsigned line, uint16_t tpdo,
+		     unsigned timeout_ms);
+int cogw_pdo_read(cogw *h, unsigned line, uint16_t index, uint8_t sub,
+		  void *buf, size_t cap, size_t *len, unsigned timeout_ms);
+/* trigger: send event-driven TPDOs that map the object now. */
+int cogw_pdo_write(cogw *h, unsigned line, uint16_t index, uint8_t sub,
+		   const void *data, size_t len, int trigger,
+		   unsigned timeout_ms);
+int cogw_emcy_send(cogw *h, unsigned line, uint16_t code, uint8_t reg,
+		   const uint8_t msef[5], unsigned timeout_ms);
+/* frames: id | MBX_RAW_EXT / MBX_RAW_RTR, len 0..8; n 1..32. */
+int cogw_raw_send(cogw *h, unsigned line, const mbx_raw_frame *frames,
+		  size_t n, unsigned timeout_ms);
+
+/* ---- LSS master (CiA 305) ------------------------------------------------ */
+
+/* Generic: cmd = MBX_CMD_LSS_*, fields of req as proto.h documents. */
+int cogw_lss(cogw *h, unsigned line, uint16_t cmd, const mbx_lss_req *req,
+	     mbx_lss_resp *resp, unsigned timeout_ms);
+int cogw_lss_switch_global(cogw *h, unsigned line, uint8_t mode,
+			   unsigned timeout_ms);
+int cogw_lss_switch_selective(cogw *h, unsigned line, uint32_t vendor,
+			      uint32_t product, uint32_t revision,
+			      uint32_t serial, unsigned timeout_ms);
+int cogw_lss_set_node_id(cogw *h, unsigned line, uint8_t node,
+			 unsigned timeout_ms);
+int cogw_lss_set_bit_timing(cogw *h, unsigned line, uint8_t table,
+			    uint8_t index, unsigned timeout_ms);
+int cogw_lss_activate_bit_timing(cogw *h, unsigned line, uint16_t delay_ms,
+				 unsigned timeout_ms);
+int cogw_lss_store(cogw *h, unsigned line, unsigned timeout_ms);
+/* what: 0x5A vendor, 0x5B product, 0x5C revision, 0x5D serial, 0x5E node */
+int cogw_lss_inquire(cogw *h, unsigned line, uint8_t what, uint32_t *value,
+		     unsigned timeout_ms);
+/* Returns 1 if non-configured slaves answered, 0 if none. */
+int cogw_lss_identify_nonconf(cogw *h, unsigned line, unsigned timeout_ms);
+/* id[4] = vendor, product, revision, serial of the slave found. */
+int cogw_lss_fastscan(cogw *h, unsigned line, uint32_t id[4],
+		      unsigned timeout_ms);
+
+/* ---- line status, store/restore, mailbox counters ------------------------ */
+
+int cogw_line_status(cogw *h, unsigned line, mbx_line_status *st,
+		     unsigned timeout_ms);
+/* sub: 1 all, 2 communication, 3 application, 4..127 manufacturer. */
+int cogw_store(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms);
+int cogw_restore(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms);
+int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st,
+		   unsigned timeout_ms);
+int cogw_ping(cogw *h, unsigned line, unsigned timeout_ms);
+
+/* ---- events and asynchronous requests ------------------------------------ */
+
+/* Add classes (MBX_EVC_*). With MBX_EVC_RAW, filters (0..4, NULL/0 = all
+ * frames) replace the previous ones. */
+int cogw_subscribe(cogw *h, unsigned line, uint32_t classes,
+		   const mbx_raw_filter *filters, size_t n_filters,
+		   unsigned timeout_ms);
+int cogw_unsubscribe(cogw *h, unsigned line, uint32_t classes,
+		     unsigned timeout_ms);
+
+/* What cogw_recv() returns: an event, or the answer to cogw_send_async(). */
+typedef struct cogw_msg {
+	uint8_t kind;     /* MBX_KIND_EVENT or MBX_KIND_RESPONSE */
+	uint8_t line;
+	uint16_t code;    /* event code (mbx_event) or command code */
+	int status;       /* response: 0 or COGW_E_*; event: 0 */
+	uint32_t abort;   /* CiA abort code, 0 = none */
+	uint64_t corr;    /* correlation id (0 for unrelated events) */
+	uint32_t dropped; /* messages lost before this one (overflow) */
+	size_t len;       /* payload bytes at data */
+	uint8_t *data;    /* payload; valid until cogw_msg_release() */
+} cogw_msg;
+
+/* Start a command without waiting: payload as proto.h defines for cmd
+ * (any size for data commands: chunked here). *corr receives the
+ * correlation id that the answer (and related events) will carry. */
+int cogw_send_async(cogw *h, unsigned line, uint16_t cmd,
+		    const void *payload, size_t len, uint64_t *corr);
+/* Next event or asynchronous answer, waiting up to timeout_ms (0 = do not
+ * wait, -1 = forever). COGW_E_AGAIN if none came. Release with
+ * cogw_msg_release(). Validates event payload sizes. */
+int cogw_recv(cogw *h, cogw_msg *m, int timeout_ms);
+void cogw_msg_release(cogw_msg *m);
+/* A descriptor that is readable when cogw_recv() has something for you. */
+int cogw_event_fd(cogw *h);
+
+/* Library-side counters (overflows seen, async answers dropped). */
+typedef struct cogw_stats {
+	uint64_t overflow_flags;   /* messages that carried MBX_F_OVERFLOW */
+	uint64_t dropped_reported; /* sum of their dropped counts */
+	uint64_t stray_responses;  /* answers nobody waited for */
+	uint64_t async_dropped;    /* async answers lost (ring full) */
+} cogw_stats;
+void cogw_get_stats(cogw *h, cogw_stats *st);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* COGW_H */

@@ -1,0 +1,820 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * mailbox/proto.c - encoding, decoding and validation of mailbox messages.
+ *
+ * Everything a client sends is untrusted: every header field and every
+ * payload field is checked here, with the reason reported so the server can
+ * count it (mbx_server_stats.malformed[reason]). Nothing here allocates or
+ * keeps state; both the daemon and libcogw link it.
+ */
+#include "mailbox/proto.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/resource.h>
+
+/* Pin every payload layout: a change here is a protocol change. */
+_Static_assert(sizeof(mbx_register_req) == 140, "wire layout");
+_Static_assert(sizeof(mbx_register_resp) == 32, "wire layout");
+_Static_assert(sizeof(mbx_raw_filter) == 8, "wire layout");
+_Static_assert(sizeof(mbx_subscribe_req) == 40, "wire layout");
+_Static_assert(sizeof(mbx_unsubscribe_req) == 4, "wire layout");
+_Static_assert(sizeof(mbx_subscribe_resp) == 4, "wire layout");
+_Static_assert(sizeof(mbx_ping_resp) == 16, "wire layout");
+_Static_assert(sizeof(mbx_xfer_ack) == 4, "wire layout");
+_Static_assert(sizeof(mbx_stats_wire) == 72, "wire layout");
+_Static_assert(sizeof(mbx_obj_req) == 4, "wire layout");
+_Static_assert(sizeof(mbx_sdo_req) == 16, "wire layout");
+_Static_assert(sizeof(mbx_nmt_req) == 4, "wire layout");
+_Static_assert(sizeof(mbx_node_entry) == 4, "wire layout");
+_Static_assert(sizeof(mbx_pdo_num_req) == 4, "wire layout");
+_Static_assert(sizeof(mbx_emcy_req) == 8, "wire layout");
+_Static_assert(sizeof(mbx_raw_frame) == 16, "wire layout");
+_Static_assert(sizeof(mbx_lss_req) == 36, "wire layout");
+_Static_assert(sizeof(mbx_lss_resp) == 24, "wire layout");
+_Static_assert(sizeof(mbx_line_status) == 64, "wire layout");
+_Static_assert(sizeof(mbx_store_req) == 4, "wire layout");
+_Static_assert(sizeof(mbx_ev_overflow) == 8, "wire layout");
+_Static_assert(sizeof(mbx_ev_od_written) == 8, "wire layout");
+_Static_assert(sizeof(mbx_ev_sdo_done) == 16, "wire layout");
+_Static_assert(sizeof(mbx_ev_node) == 4, "wire layout");
+_Static_assert(sizeof(mbx_pdo_value) == 12, "wire layout");
+_Static_assert(sizeof(mbx_ev_pdo) == 16, "wire layout");
+_Static_assert(sizeof(mbx_ev_emcy) == 24, "wire layout");
+_Static_assert(sizeof(mbx_ev_raw) == 24, "wire layout");
+_Static_assert(sizeof(mbx_ev_can_state) == 4, "wire layout");
+_Static_assert(offsetof(mbx_sdo_req, timeout_ms) == 8, "wire layout");
+_Static_assert(offsetof(mbx_lss_req, vendor) == 12, "wire layout");
+_Static_assert(offsetof(mbx_ev_emcy, msef) == 12, "wire layout");
+
+/* ---- little-endian helpers ---------------------------------------------- */
+
+static void put16(uint8_t *p, uint16_t v)
+{
+	p[0] = (uint8_t)v;
+	p[1] = (uint8_t)(v >> 8);
+}
+
+static void put32(uint8_t *p, uint32_t v)
+{
+	put16(p, (uint16_t)v);
+	put16(p + 2, (uint16_t)(v >> 16));
+}
+
+static void put64(uint8_t *p, uint64_t v)
+{
+	put32(p, (uint32_t)v);
+	put32(p + 4, (uint32_t)(v >> 32));
+}
+
+static uint16_t get16(const uint8_t *p)
+{
+	return (uint16_t)(p[0] | (p[1] << 8));
+}
+
+static uint32_t get32(const uint8_t *p)
+{
+	return (uint32_t)get16(p) | ((uint32_t)get16(p + 2) << 16);
+}
+
+static uint64_t get64(const uint8_t *p)
+{
+	return (uint64_t)get32(p) | ((uint64_t)get32(p + 4) << 32);
+}
+
+/* ---- names --------------------------------------------------------------- */
+
+const char *mbx_kind_to_string(unsigned k)
+{
+	switch (k) {
+	case MBX_KIND_COMMAND: return "command";
+	case MBX_KIND_RESPONSE: return "response";
+	case MBX_KIND_EVENT: return "event";
+	}
+	return "?";
+}
+
+const char *mbx_status_to_string(int status)
+{
+	switch (status) {
+	case MBX_OK: return "ok";
+	case MBX_E_VERSION: return "unsupported protocol version";
+	case MBX_E_MALFORMED: return "malformed message";
+	case MBX_E_UNKNOWN_CMD: return "unknown command";
+	case MBX_E_BAD_LINE: return "wrong line";
+	case MBX_E_NOT_REGISTERED: return "client not registered";
+	case MBX_E_ACCESS: return "access denied";
+	case MBX_E_PARAM: return "invalid parameter";
+	case MBX_E_TOO_BIG: return "data too large";
+	case MBX_E_BUSY: return "busy, retry";
+	case MBX_E_FULL: return "client table full";
+	case MBX_E_QUEUE: return "client queue unusable";
+	case MBX_E_TIMEOUT: return "timed out";
+	case MBX_E_ABORT: return "aborted (see abort code)";
+	case MBX_E_STATE: return "not possible in the current state";
+	case MBX_E_UNSUPPORTED: return "not supported on this line";
+	case MBX_E_SEQUENCE: return "chunk out of sequence";
+	case MBX_E_OVERFLOW: return "messages dropped (queue full)";
+	case MBX_E_INTERNAL: return "internal error";
+	case MBX_E_SHUTDOWN: return "line shutting down";
+	case MBX_E_LSS: return "LSS slave reported an error";
+	case MBX_E_NOT_FOUND: return "no LSS slave answered";
+	}
+	return "unknown status";
+}
+
+const char *mbx_bad_to_string(unsigned b)
+{
+	static const char *const names[MBX_BAD_COUNT] = {
+		[MBX_BAD_NONE] = "none",       [MBX_BAD_SHORT] = "short",
+		[MBX_BAD_MAGIC] = "magic",     [MBX_BAD_VERSION] = "version",
+		[MBX_BAD_KIND] = "kind",       [MBX_BAD_LEN] = "length",
+		[MBX_BAD_FLAGS] = "flags",     [MBX_BAD_CHUNK] = "chunk",
+		[MBX_BAD_RESERVED] = "reserved", [MBX_BAD_LINE] = "line",
+		[MBX_BAD_CMD] = "command",     [MBX_BAD_SIZE] = "size",
+		[MBX_BAD_PARAM] = "parameter", [MBX_BAD_CLIENT] = "client",
+		[MBX_BAD_SEQUENCE] = "sequence", [MBX_BAD_QUEUE] = "queue",
+	};
+	return b < MBX_BAD_COUNT ? names[b] : "?";
+}
+
+int mbx_bad_status(mbx_bad b)
+{
+	switch (b) {
+	case MBX_BAD_NONE: return MBX_OK;
+	case MBX_BAD_VERSION: return MBX_E_VERSION;
+	case MBX_BAD_LINE: return MBX_E_BAD_LINE;
+	case MBX_BAD_CMD: return MBX_E_UNKNOWN_CMD;
+	case MBX_BAD_PARAM: return MBX_E_PARAM;
+	case MBX_BAD_CLIENT: return MBX_E_NOT_REGISTERED;
+	case MBX_BAD_SEQUENCE: return MBX_E_SEQUENCE;
+	case MBX_BAD_QUEUE: return MBX_E_QUEUE;
+	default: return MBX_E_MALFORMED;
+	}
+}
+
+const char *mbx_access_to_string(unsigned a)
+{
+	switch (a) {
+	case MBX_ACCESS_NONE: return "none";
+	case MBX_ACCESS_READ: return "read";
+	case MBX_ACCESS_WRITE: return "write";
+	}
+	return "?";
+}
+
+const char *mbx_can_state_to_string(unsigned s)
+{
+	switch (s) {
+	case MBX_CAN_ACTIVE: return "error-active";
+	case MBX_CAN_WARNING: return "error-warning";
+	case MBX_CAN_PASSIVE: return "error-passive";
+	case MBX_CAN_BUS_OFF: return "bus-off";
+	case MBX_CAN_STOPPED: return "stopped";
+	}
+	return "?";
+}
+
+/* ---- command table ------------------------------------------------------- */
+
+#define R 0
+#define W MBX_CI_WRITE
+#define S MBX_CI_SERVER
+#define D MBX_CI_DATA
+#define A MBX_CI_ARRAY
+#define Q MBX_CI_QUIET
+
+/* Sorted by code (binary search). */
+static const mbx_cmd_info cmd_table[] = {
+	{ MBX_CMD_REGISTER, R | S, sizeof(mbx_register_req), 0, "register" },
+	{ MBX_CMD_UNREGISTER, R | S, 0, 0, "unregister" },
+	{ MBX_CMD_SUBSCRIBE, R | S, sizeof(mbx_subscribe_req), 0, "subscribe" },
+	{ MBX_CMD_UNSUBSCRIBE, R | S, sizeof(mbx_unsubscribe_req), 0,
+	  "unsubscribe" },
+	{ MBX_CMD_PING, R | S, 0, 0, "ping" },
+	{ MBX_CMD_XFER_ACK, R | S | Q, sizeof(mbx_xfer_ack), 0, "xfer-ack" },
+	{ MBX_CMD_MBX_STATS, R | S, 0, 0, "mbx-stats" },
+	{ MBX_CMD_OD_READ, R, sizeof(mbx_obj_req), 0, "od-read" },
+	{ MBX_CMD_OD_WRITE, W | D, sizeof(mbx_obj_req), 0, "od-write" },
+	{ MBX_CMD_SDO_UPLOAD, R, sizeof(mbx_sdo_req), 0, "sdo-upload" },
+	{ MBX_CMD_SDO_DOWNLOAD, W | D, sizeof(mbx_sdo_req), 0, "sdo-download" },
+	{ MBX_CMD_NMT, W, sizeof(mbx_nmt_req), 0, "nmt" },
+	{ MBX_CMD_NODE_TABLE, R, 0, 0, "node-table" },
+	{ MBX_CMD_PDO_REQUEST, W, sizeof(mbx_pdo_num_req), 0, "pdo-request" },
+	{ MBX_CMD_PDO_READ, R, sizeof(mbx_obj_req), 0, "pdo-read" },
+	{ MBX_CMD_PDO_WRITE, W | D, sizeof(mbx_obj_req), 8, "pdo-write" },
+	{ MBX_CMD_EMCY_SEND, W, sizeof(mbx_emcy_req), 0, "emcy-send" },
+	{ MBX_CMD_RAW_SEND, W | A, sizeof(mbx_raw_frame), MBX_RAW_SEND_MAX,
+	  "raw-send" },
+	{ MBX_CMD_LSS_SWITCH_GLOBAL, W, sizeof(mbx_lss_req), 0,
+	  "lss-switch-global" },
+	{ MBX_CMD_LSS_SWITCH_SELECTIVE, W, sizeof(mbx_lss_req), 0,
+	  "lss-switch-selective" },
+	{ MBX_CMD_LSS_SET_NODE_ID, W, sizeof(mbx_lss_req), 0,
+	  "lss-set-node-id" },
+	{ MBX_CMD_LSS_SET_BIT_TIMING, W, sizeof(mbx_lss_req), 0,
+	  "lss-set-bit-timing" },
+	{ MBX_CMD_LSS_ACTIVATE_BIT_TIMING, W, sizeof(mbx_lss_req), 0,
+	  "lss-activate-bit-timing" },
+	{ MBX_CMD_LSS_STORE, W, sizeof(mbx_lss_req), 0, "lss-store" },
+	{ MBX_CMD_LSS_INQUIRE, W, sizeof(mbx_lss_req), 0, "lss-inquire" },
+	{ MBX_CMD_LSS_IDENTIFY_REMOTE, W, sizeof(mbx_lss_req), 0,
+	  "lss-identify-remote" },
+	{ MBX_CMD_LSS_IDENTIFY_NONCONF, W, sizeof(mbx_lss_req), 0,
+	  "lss-identify-nonconf" },
+	{ MBX_CMD_LSS_FASTSCAN, W, sizeof(mbx_lss_req), 0, "lss-fastscan" },
+	{ MBX_CMD_LINE_STATUS, R, 0, 0, "line-status" },
+	{ MBX_CMD_STORE, W, sizeof(mbx_store_req), 0, "store" },
+	{ MBX_CMD_RESTORE, W, sizeof(mbx_store_req), 0, "restore" },
+};
+
+#undef R
+#undef W
+#undef S
+#undef D
+#undef A
+#undef Q
+
+const mbx_cmd_info *mbx_cmd_lookup(unsigned code)
+{
+	size_t lo = 0, hi = sizeof cmd_table / sizeof cmd_table[0];
+
+	while (lo < hi) {
+		size_t mid = (lo + hi) / 2;
+
+		if (cmd_table[mid].code == code)
+			return &cmd_table[mid];
+		if (cmd_table[mid].code < code)
+			lo = mid + 1;
+		else
+			hi = mid;
+	}
+	return NULL;
+}
+
+const char *mbx_cmd_to_string(unsigned code)
+{
+	const mbx_cmd_info *ci = mbx_cmd_lookup(code);
+
+	return ci ? ci->name : "?";
+}
+
+/* ---- events -------------------------------------------------------------- */
+
+const char *mbx_event_class_to_string(uint32_t cls)
+{
+	switch (cls) {
+	case MBX_EVC_NMT: return "nmt";
+	case MBX_EVC_HB: return "hb";
+	case MBX_EVC_BOOT: return "boot";
+	case MBX_EVC_EMCY: return "emcy";
+	case MBX_EVC_PDO: return "pdo";
+	case MBX_EVC_SDO: return "sdo";
+	case MBX_EVC_CAN: return "can";
+	case MBX_EVC_RAW: return "raw";
+	case MBX_EVC_OD: return "od";
+	case MBX_EVC_OVERFLOW: return "overflow";
+	}
+	return "?";
+}
+
+const char *mbx_event_to_string(unsigned code)
+{
+	switch (code) {
+	case MBX_EV_OVERFLOW: return "overflow";
+	case MBX_EV_OD_WRITTEN: return "od-written";
+	case MBX_EV_SDO_DONE: return "sdo-done";
+	case MBX_EV_NMT_STATE: return "nmt-state";
+	case MBX_EV_BOOTUP: return "boot-up";
+	case MBX_EV_HB_STARTED: return "hb-started";
+	case MBX_EV_HB_LOST: return "hb-lost";
+	case MBX_EV_PDO: return "pdo";
+	case MBX_EV_EMCY: return "emcy";
+	case MBX_EV_RAW: return "raw";
+	case MBX_EV_CAN_STATE: return "can-state";
+	}
+	return "?";
+}
+
+uint32_t mbx_event_class_of(unsigned code)
+{
+	switch (code) {
+	case MBX_EV_OVERFLOW: return MBX_EVC_OVERFLOW;
+	case MBX_EV_OD_WRITTEN: return MBX_EVC_OD;
+	case MBX_EV_SDO_DONE: return MBX_EVC_SDO;
+	case MBX_EV_NMT_STATE: return MBX_EVC_NMT;
+	case MBX_EV_BOOTUP: return MBX_EVC_BOOT;
+	case MBX_EV_HB_STARTED:
+	case MBX_EV_HB_LOST: return MBX_EVC_HB;
+	case MBX_EV_PDO: return MBX_EVC_PDO;
+	case MBX_EV_EMCY: return MBX_EVC_EMCY;
+	case MBX_EV_RAW: return MBX_EVC_RAW;
+	case MBX_EV_CAN_STATE: return MBX_EVC_CAN;
+	}
+	return 0;
+}
+
+/* ---- header --------------------------------------------------------------- */
+
+void mbx_hdr_encode(const mbx_hdr *h, uint8_t *b)
+{
+	put16(b + 0, h->magic);
+	b[2] = h->version;
+	b[3] = h->kind;
+	put16(b + 4, h->code);
+	b[6] = h->line;
+	b[7] = h->flags;
+	put32(b + 8, h->client);
+	put32(b + 12, (uint32_t)h->status);
+	put64(b + 16, h->corr);
+	put64(b + 24, h->token);
+	put32(b + 32, h->abort);
+	put32(b + 36, h->dropped);
+	put16(b + 40, h->chunk);
+	put16(b + 42, h->len);
+	put32(b + 44, h->total);
+}
+
+static int refuse(mbx_bad *out, mbx_bad why)
+{
+	if (out)
+		*out = why;
+	return mbx_bad_status(why);
+}
+
+int mbx_hdr_decode(const uint8_t *b, size_t n, mbx_hdr *h, mbx_bad *bad)
+{
+	if (bad)
+		*bad = MBX_BAD_NONE;
+	memset(h, 0, sizeof *h);
+	if (n < MBX_HDR_SIZE)
+		return refuse(bad, MBX_BAD_SHORT);
+	h->magic = get16(b + 0);
+	h->version = b[2];
+	h->kind = b[3];
+	h->code = get16(b + 4);
+	h->line = b[6];
+	h->flags = b[7];
+	h->client = get32(b + 8);
+	h->status = (int32_t)get32(b + 12);
+	h->corr = get64(b + 16);
+	h->token = get64(b + 24);
+	h->abort = get32(b + 32);
+	h->dropped = get32(b + 36);
+	h->chunk = get16(b + 40);
+	h->len = get16(b + 42);
+	h->total = get32(b + 44);
+
+	if (h->magic != MBX_MAGIC)
+		return refuse(bad, MBX_BAD_MAGIC);
+	if (h->version != MBX_VERSION)
+		return refuse(bad, MBX_BAD_VERSION);
+	if (h->kind < MBX_KIND_COMMAND || h->kind > MBX_KIND_EVENT)
+		return refuse(bad, MBX_BAD_KIND);
+	if ((size_t)h->len != n - MBX_HDR_SIZE)
+		return refuse(bad, MBX_BAD_LEN);
+
+	if (h->kind == MBX_KIND_COMMAND) {
+		if (h->flags & ~MBX_F_CMD_MASK)
+			return refuse(bad, MBX_BAD_FLAGS);
+		/* Fields only the daemon fills must be zero from a client:
+		 * they can gain a meaning in a later version. */
+		if (h->status != 0 || h->abort != 0 || h->dropped != 0)
+			return refuse(bad, MBX_BAD_RESERVED);
+	} else {
+		if (h->flags & ~MBX_F_OUT_MASK)
+			return refuse(bad, MBX_BAD_FLAGS);
+		if (h->token != 0)
+			return refuse(bad, MBX_BAD_RESERVED);
+		if (!(h->flags & MBX_F_OVERFLOW) && h->dropped != 0)
+			return refuse(bad, MBX_BAD_RESERVED);
+	}
+	if ((h->flags & MBX_F_MORE) && !(h->flags & MBX_F_CHUNKED))
+		return refuse(bad, MBX_BAD_FLAGS);
+	if (h->flags & MBX_F_CHUNKED) {
+		if (h->total == 0)
+			return refuse(bad, MBX_BAD_CHUNK);
+	} else if (h->chunk != 0 || h->total != 0) {
+		return refuse(bad, MBX_BAD_CHUNK);
+	}
+	return 0;
+}
+
+int mbx_msg_build(uint8_t *buf, size_t cap, const mbx_hdr *h,
+		  const void *payload, size_t payload_len)
+{
+	mbx_hdr hh = *h;
+
+	if (payload_len > MBX_MSG_MAX - MBX_HDR_SIZE ||
+	    cap < MBX_HDR_SIZE + payload_len)
+		return -EMSGSIZE;
+	hh.len = (uint16_t)payload_len;
+	mbx_hdr_encode(&hh, buf);
+	if (payload_len)
+		memcpy(buf + MBX_HDR_SIZE, payload, payload_len);
+	return (int)(MBX_HDR_SIZE + payload_len);
+}
+
+/* ---- names of queues ------------------------------------------------------ */
+
+static bool qchar_ok(char c)
+{
+	return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+	       (c >= '0' && c <= '9') || c == '.' || c == '_' || c == '-';
+}
+
+bool mbx_queue_name_is_valid(const char *name, size_t field)
+{
+	size_t i;
+
+	if (field > MBX_QNAME_MAX)
+		field = MBX_QNAME_MAX;
+	if (field < 3 || name[0] != '/')
+		return false;
+	for (i = 1; i < field && name[i]; i++)
+		if (!qchar_ok(name[i]))
+			return false;
+	/* needs a NUL inside the field and at least one name char; "." and
+	 * ".." are not names */
+	if (i == field || i < 2)
+		return false;
+	if (strcmp(name, "/.") == 0 || strcmp(name, "/..") == 0)
+		return false;
+	return true;
+}
+
+bool mbx_instance_is_valid(const char *instance)
+{
+	size_t i;
+
+	if (!instance || !instance[0])
+		return false;
+	for (i = 0; instance[i]; i++) {
+		char c = instance[i];
+
+		if (i >= MBX_INSTANCE_MAX || c == '.' || !qchar_ok(c))
+			return false;
+	}
+	return true;
+}
+
+int mbx_queue_name(char *buf, size_t cap, const char *instance,
+		   unsigned line)
+{
+	int n;
+
+	if (!mbx_instance_is_valid(instance) || line >= MBX_LINES_MAX)
+		return -EINVAL;
+	n = snprintf(buf, cap, "/cogw.%s.line%u.cmd", instance, line);
+	if (n < 0 || (size_t)n >= cap || (size_t)n >= MBX_QNAME_MAX)
+		return -ENAMETOOLONG;
+	return 0;
+}
+
+bool mbx_raw_filter_match(const mbx_raw_filter *f, const mbx_raw_frame *fr)
+{
+	return (((fr->id) ^ f->id) & f->mask) == 0;
+}
+
+/* ---- payload validation ----------------------------------------------------- */
+
+static bool all_zero(const void *p, size_t n)
+{
+	const uint8_t *b = p;
+
+	for (size_t i = 0; i < n; i++)
+		if (b[i])
+			return false;
+	return true;
+}
+
+static bool raw_id_ok(uint32_t id)
+{
+	uint32_t bare = id & ~(MBX_RAW_EXT | MBX_RAW_RTR);
+
+	if (id & MBX_RAW_EXT)
+		return bare <= 0x1FFFFFFFu;
+	return bare <= 0x7FFu;
+}
+
+static int check_register(const uint8_t *p, mbx_bad *bad)
+{
+	mbx_register_req r;
+
+	memcpy(&r, p, sizeof r);
+	if (r.reserved)
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (r.pid == 0 || r.pid > 0x3FFFFFFFu)
+		return refuse(bad, MBX_BAD_PARAM);
+	if (!mbx_queue_name_is_valid(r.resp_queue, MBX_QNAME_MAX) ||
+	    !mbx_queue_name_is_valid(r.event_queue, MBX_QNAME_MAX) ||
+	    strcmp(r.resp_queue, r.event_queue) == 0)
+		return refuse(bad, MBX_BAD_QUEUE);
+	return 0;
+}
+
+static int check_subscribe(const uint8_t *p, mbx_bad *bad)
+{
+	mbx_subscribe_req r;
+
+	memcpy(&r, p, sizeof r);
+	if (!all_zero(r.pad, sizeof r.pad))
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (r.classes & ~(MBX_EVC_ALL | MBX_EVC_OVERFLOW))
+		return refuse(bad, MBX_BAD_PARAM);
+	if (r.n_filters > MBX_RAW_FILTERS_MAX)
+		return refuse(bad, MBX_BAD_PARAM);
+	if (r.n_filters && !(r.classes & MBX_EVC_RAW))
+		return refuse(bad, MBX_BAD_PARAM);
+	for (unsigned i = r.n_filters; i < MBX_RAW_FILTERS_MAX; i++)
+		if (r.filters[i].id || r.filters[i].mask)
+			return refuse(bad, MBX_BAD_RESERVED);
+	return 0;
+}
+
+static int check_lss(uint16_t code, const uint8_t *p, mbx_bad *bad)
+{
+	mbx_lss_req r;
+
+	memcpy(&r, p, sizeof r);
+	if (r.pad)
+		return refuse(bad, MBX_BAD_RESERVED);
+	switch (code) {
+	case MBX_CMD_LSS_SWITCH_GLOBAL:
+		if (r.mode > 1)
+			return refuse(bad, MBX_BAD_PARAM);
+		break;
+	case MBX_CMD_LSS_SET_NODE_ID:
+		if (!((r.node >= 1 && r.node <= 127) || r.node == 255))
+			return refuse(bad, MBX_BAD_PARAM);
+		break;
+	case MBX_CMD_LSS_INQUIRE:
+		if (r.what < 0x5A || r.what > 0x5E)
+			return refuse(bad, MBX_BAD_PARAM);
+		break;
+	case MBX_CMD_LSS_IDENTIFY_REMOTE:
+		if (r.rev_lo > r.rev_hi || r.ser_lo > r.ser_hi)
+			return refuse(bad, MBX_BAD_PARAM);
+		break;
+	default:
+		break;
+	}
+	return 0;
+}
+
+/* Fixed-part checks of the service commands. */
+static int check_fixed(uint16_t code, const uint8_t *p, size_t len,
+		       mbx_bad *bad)
+{
+	switch (code) {
+	case MBX_CMD_REGISTER:
+		return check_register(p, bad);
+	case MBX_CMD_SUBSCRIBE:
+		return check_subscribe(p, bad);
+	case MBX_CMD_UNSUBSCRIBE: {
+		mbx_unsubscribe_req r;
+
+		memcpy(&r, p, sizeof r);
+		if (r.classes & ~(MBX_EVC_ALL | MBX_EVC_OVERFLOW))
+			return refuse(bad, MBX_BAD_PARAM);
+		return 0;
+	}
+	case MBX_CMD_XFER_ACK: {
+		mbx_xfer_ack r;
+
+		memcpy(&r, p, sizeof r);
+		return r.pad ? refuse(bad, MBX_BAD_RESERVED) : 0;
+	}
+	case MBX_CMD_OD_READ:
+	case MBX_CMD_OD_WRITE:
+	case MBX_CMD_PDO_READ:
+	case MBX_CMD_PDO_WRITE: {
+		mbx_obj_req r;
+
+		memcpy(&r, p, sizeof r);
+		if (code == MBX_CMD_PDO_WRITE ? (r.flags & ~MBX_PDO_TRIGGER)
+					      : r.flags)
+			return refuse(bad, MBX_BAD_RESERVED);
+		return 0;
+	}
+	case MBX_CMD_SDO_UPLOAD:
+	case MBX_CMD_SDO_DOWNLOAD: {
+		mbx_sdo_req r;
+
+		memcpy(&r, p, sizeof r);
+		if (!all_zero(r.pad, sizeof r.pad))
+			return refuse(bad, MBX_BAD_RESERVED);
+		if (r.node < 1 || r.node > 127 || r.mode > MBX_SDO_MODE_MAX)
+			return refuse(bad, MBX_BAD_PARAM);
+		if (code == MBX_CMD_SDO_DOWNLOAD && r.size)
+			return refuse(bad, MBX_BAD_RESERVED);
+		return 0;
+	}
+	case MBX_CMD_NMT: {
+		mbx_nmt_req r;
+
+		memcpy(&r, p, sizeof r);
+		if (r.pad)
+			return refuse(bad, MBX_BAD_RESERVED);
+		if (r.node > 127)
+			return refuse(bad, MBX_BAD_PARAM);
+		switch (r.cs) {
+		case 0x01: case 0x02: case 0x80: case 0x81: case 0x82:
+			return 0;
+		}
+		return refuse(bad, MBX_BAD_PARAM);
+	}
+	case MBX_CMD_PDO_REQUEST: {
+		mbx_pdo_num_req r;
+
+		memcpy(&r, p, sizeof r);
+		if (r.pad)
+			return refuse(bad, MBX_BAD_RESERVED);
+		if (r.pdo < 1 || r.pdo > 512)
+			return refuse(bad, MBX_BAD_PARAM);
+		return 0;
+	}
+	case MBX_CMD_RAW_SEND:
+		for (size_t off = 0; off < len; off += sizeof(mbx_raw_frame)) {
+			mbx_raw_frame f;
+
+			memcpy(&f, p + off, sizeof f);
+			if (!all_zero(f.pad, sizeof f.pad))
+				return refuse(bad, MBX_BAD_RESERVED);
+			if (!raw_id_ok(f.id) || f.len > 8)
+				return refuse(bad, MBX_BAD_PARAM);
+			if (!all_zero(f.data + f.len, 8u - f.len))
+				return refuse(bad, MBX_BAD_RESERVED);
+		}
+		return 0;
+	case MBX_CMD_STORE:
+	case MBX_CMD_RESTORE: {
+		mbx_store_req r;
+
+		memcpy(&r, p, sizeof r);
+		if (!all_zero(r.pad, sizeof r.pad))
+			return refuse(bad, MBX_BAD_RESERVED);
+		if (r.sub < 1 || r.sub > 127)
+			return refuse(bad, MBX_BAD_PARAM);
+		return 0;
+	}
+	default:
+		if ((code & 0xFF00) == 0x0700)
+			return check_lss(code, p, bad);
+		return 0; /* no fixed part or nothing to check (EMCY: any) */
+	}
+}
+
+int mbx_cmd_validate(const mbx_hdr *h, const uint8_t *payload, mbx_bad *bad)
+{
+	const mbx_cmd_info *ci = mbx_cmd_lookup(h->code);
+	size_t len = h->len;
+
+	if (bad)
+		*bad = MBX_BAD_NONE;
+	if (!ci)
+		return refuse(bad, MBX_BAD_CMD);
+	if (h->flags & MBX_F_CHUNKED) {
+		/* only data-carrying commands with no size cap are chunked */
+		if (!(ci->flags & MBX_CI_DATA) || ci->max_data)
+			return refuse(bad, MBX_BAD_CHUNK);
+		if (h->chunk > 0)
+			return len ? 0 : refuse(bad, MBX_BAD_SIZE);
+		/* first chunk: fixed part + some data, and more must follow
+		 * (a transfer that fits one message is not chunked) */
+		if (len < ci->fixed || !(h->flags & MBX_F_MORE) ||
+		    h->total <= len - ci->fixed)
+			return refuse(bad, MBX_BAD_CHUNK);
+		return check_fixed(h->code, payload, len, bad);
+	}
+	if (ci->flags & MBX_CI_ARRAY) {
+		if (len == 0 || len % ci->fixed ||
+		    len / ci->fixed > ci->max_data)
+			return refuse(bad, MBX_BAD_SIZE);
+	} else if (ci->flags & MBX_CI_DATA) {
+		if (len < ci->fixed)
+			return refuse(bad, MBX_BAD_SIZE);
+		if (ci->max_data &&
+		    (len - ci->fixed > ci->max_data || len == ci->fixed))
+			return refuse(bad, MBX_BAD_SIZE);
+	} else if (len != ci->fixed) {
+		return refuse(bad, MBX_BAD_SIZE);
+	}
+	return check_fixed(h->code, payload, len, bad);
+}
+
+int mbx_event_validate(unsigned code, const uint8_t *p, size_t len)
+{
+	switch (code) {
+	case MBX_EV_OVERFLOW:
+		return len == sizeof(mbx_ev_overflow) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_OD_WRITTEN:
+		return len == sizeof(mbx_ev_od_written) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_SDO_DONE:
+		return len >= sizeof(mbx_ev_sdo_done) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_NMT_STATE:
+	case MBX_EV_BOOTUP:
+	case MBX_EV_HB_STARTED:
+	case MBX_EV_HB_LOST:
+		return len == sizeof(mbx_ev_node) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_PDO: {
+		mbx_ev_pdo e;
+
+		if (len < sizeof e)
+			return MBX_E_MALFORMED;
+		memcpy(&e, p, sizeof e);
+		if (e.n > MBX_PDO_VALUES_MAX ||
+		    len != sizeof e + (size_t)e.n * sizeof(mbx_pdo_value))
+			return MBX_E_MALFORMED;
+		return 0;
+	}
+	case MBX_EV_EMCY:
+		return len == sizeof(mbx_ev_emcy) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_RAW:
+		return len == sizeof(mbx_ev_raw) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_CAN_STATE:
+		return len == sizeof(mbx_ev_can_state) ? 0 : MBX_E_MALFORMED;
+	}
+	return MBX_E_UNKNOWN_CMD;
+}
+
+/* ---- system limits ---------------------------------------------------------- */
+
+static int read_limit(const char *path, unsigned long *v)
+{
+	FILE *f = fopen(path, "re");
+	int ok;
+
+	if (!f)
+		return -errno;
+	ok = fscanf(f, "%lu", v);
+	fclose(f);
+	return ok == 1 ? 0 : -EIO;
+}
+
+int mbx_check_system_limits(unsigned depth, unsigned msgsize, char *err,
+			    size_t errlen)
+{
+	unsigned long msg_max, msgsize_max;
+	struct rlimit rl;
+	int rc;
+
+	if (err && errlen)
+		err[0] = 0;
+	if (depth == 0 || msgsize < MBX_MSG_MIN || msgsize > MBX_MSG_MAX) {
+		if (err)
+			snprintf(err, errlen,
+				 "mailbox: depth %u / message size %u out of range"
+				 " (depth >= 1, size %u..%u)",
+				 depth, msgsize, MBX_MSG_MIN, MBX_MSG_MAX);
+		return -EINVAL;
+	}
+	rc = read_limit("/proc/sys/fs/mqueue/msg_max", &msg_max);
+	if (rc == 0)
+		rc = read_limit("/proc/sys/fs/mqueue/msgsize_max", &msgsize_max);
+	if (rc) {
+		if (err)
+			snprintf(err, errlen,
+				 "mailbox: cannot read /proc/sys/fs/mqueue limits"
+				 " (%s): is the mqueue file system available?",
+				 strerror(-rc));
+		return rc;
+	}
+	if (depth > msg_max) {
+		if (err)
+			snprintf(err, errlen,
+				 "mailbox: fs.mqueue.msg_max is %lu but the mailbox"
+				 " queue depth is %u: run 'sysctl -w"
+				 " fs.mqueue.msg_max=%u' (or lower the depth)",
+				 msg_max, depth, depth);
+		return -ERANGE;
+	}
+	if (msgsize > msgsize_max) {
+		if (err)
+			snprintf(err, errlen,
+				 "mailbox: fs.mqueue.msgsize_max is %lu but the"
+				 " mailbox message size is %u: run 'sysctl -w"
+				 " fs.mqueue.msgsize_max=%u' (or lower the size)",
+				 msgsize_max, msgsize, msgsize);
+		return -ERANGE;
+	}
+	/* RLIMIT_MSGQUEUE counts the bytes of all queues of one user; the
+	 * kernel charges about msgsize + a pointer per message. */
+	if (getrlimit(RLIMIT_MSGQUEUE, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY) {
+		unsigned long long need =
+			(unsigned long long)depth * (msgsize + sizeof(void *) * 2);
+
+		if (need > rl.rlim_cur) {
+			if (err)
+				snprintf(err, errlen,
+					 "mailbox: RLIMIT_MSGQUEUE is %llu bytes but one"
+					 " queue of %u x %u bytes needs %llu: raise it"
+					 " (LimitMSGQUEUE= in the systemd unit, ulimit -q)",
+					 (unsigned long long)rl.rlim_cur, depth,
+					 msgsize, need);
+			return -ERANGE;
+		}
+	}
+	return 0;
+}

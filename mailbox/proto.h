@@ -1,0 +1,574 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * mailbox/proto.h - THE mailbox wire format, shared by the daemon (one
+ * mbx_server per line) and the clients (libcogw). docs/mailbox.md is the
+ * prose version of this file; keep both in step.
+ *
+ * Transport: POSIX message queues on one host.
+ *   - one command queue per line, created by the daemon:
+ *       /cogw.<instance>.line<N>.cmd        (mbx_queue_name())
+ *   - per client one response queue and one event queue, created by the
+ *     client (mode 0600, O_EXCL) and announced with MBX_CMD_REGISTER on
+ *     every line it uses.
+ *
+ * Every message = one 48-byte header (mbx_hdr, explicit little-endian
+ * encoding, mbx_hdr_encode/mbx_hdr_decode) + hdr.len payload bytes.
+ *
+ * Payloads are fixed-layout structs (below): fixed-width fields, natural
+ * alignment, every gap an explicit zero "pad" field, sizes pinned by static
+ * asserts. They are copied with memcpy into an aligned local and then
+ * validated field by field. This is safe because both ends run on the same
+ * host (a message queue never leaves the machine) and the build refuses a
+ * big-endian host: the byte order on the wire is little-endian, as the
+ * header's. Version 1 = this file; any incompatible change bumps
+ * MBX_VERSION, compatible additions use new command/event codes or the
+ * reserved/pad fields (which must be zero today, so they can gain meaning).
+ *
+ * Data larger than one message (domains, big SDO transfers) travels in
+ * ordered chunks under one correlation id (MBX_F_CHUNKED, see "Chunking").
+ */
+#ifndef COGW_MAILBOX_PROTO_H
+#define COGW_MAILBOX_PROTO_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "mailbox payload structs assume a little-endian host (see proto.h)"
+#endif
+
+/* ---- envelope ------------------------------------------------------------ */
+
+#define MBX_MAGIC 0x5743u /* bytes 'C' 'W' */
+#define MBX_VERSION 1u
+#define MBX_HDR_SIZE 48u
+
+#define MBX_MSG_MIN 256u     /* smallest mq_msgsize any queue may have */
+#define MBX_MSG_MAX 65535u   /* largest message (hdr.len is 16 bits) */
+#define MBX_MSG_DEFAULT 1024u
+#define MBX_QNAME_MAX 64u    /* queue name incl. the NUL */
+#define MBX_INSTANCE_MAX 32u /* instance name chars */
+#define MBX_LINES_MAX 64u    /* line numbers 0..63 */
+
+typedef enum mbx_kind {
+	MBX_KIND_COMMAND = 1,  /* client -> daemon */
+	MBX_KIND_RESPONSE = 2, /* daemon -> client response queue */
+	MBX_KIND_EVENT = 3,    /* daemon -> client event queue */
+} mbx_kind;
+
+const char *mbx_kind_to_string(unsigned k);
+
+/* Header flags. */
+enum mbx_flag {
+	MBX_F_CHUNKED = 1u << 0,  /* part of a chunked transfer (hdr.total) */
+	MBX_F_MORE = 1u << 1,     /* more chunks follow (needs CHUNKED) */
+	MBX_F_OVERFLOW = 1u << 2, /* daemon -> client: hdr.dropped messages to
+	                           * this queue were lost before this one */
+	MBX_F_NO_REPLY = 1u << 3, /* command: do not send a response (errors
+	                           * are still counted) */
+};
+#define MBX_F_CMD_MASK (MBX_F_CHUNKED | MBX_F_MORE | MBX_F_NO_REPLY)
+#define MBX_F_OUT_MASK (MBX_F_CHUNKED | MBX_F_MORE | MBX_F_OVERFLOW)
+
+/*
+ * The header, decoded. Wire layout (little-endian):
+ *   0 u16 magic     4 u16 code    7 u8 flags    12 i32 status  24 u64 token
+ *   2 u8  version   6 u8  line    8 u32 client  16 u64 corr    32 u32 abort
+ *   3 u8  kind                                                  36 u32 dropped
+ *   40 u16 chunk    42 u16 len    44 u32 total
+ */
+typedef struct mbx_hdr {
+	uint16_t magic;   /* MBX_MAGIC */
+	uint8_t version;  /* MBX_VERSION */
+	uint8_t kind;     /* mbx_kind */
+	uint16_t code;    /* command code (command, response) or event code */
+	uint8_t line;     /* CAN line, 0-based */
+	uint8_t flags;    /* enum mbx_flag */
+	uint32_t client;  /* id given by REGISTER (0 in REGISTER itself) */
+	int32_t status;   /* response: 0 or a negative mbx_status; else 0 */
+	uint64_t corr;    /* client-chosen correlation id, echoed */
+	uint64_t token;   /* command: session secret from REGISTER; else 0 */
+	uint32_t abort;   /* response/event: CiA 301 abort code, 0 = none */
+	uint32_t dropped; /* with MBX_F_OVERFLOW: messages lost before this */
+	uint16_t chunk;   /* chunked: index 0.. ; else 0 */
+	uint16_t len;     /* payload bytes after the header */
+	uint32_t total;   /* chunked: total data bytes of the transfer; else 0 */
+} mbx_hdr;
+
+/* ---- status: one error space for the daemon and libcogw ------------------ */
+
+typedef enum mbx_status {
+	MBX_OK = 0,
+	MBX_E_VERSION = -1,      /* unsupported protocol version */
+	MBX_E_MALFORMED = -2,    /* a header or payload field is invalid */
+	MBX_E_UNKNOWN_CMD = -3,  /* command code not known to this daemon */
+	MBX_E_BAD_LINE = -4,     /* line does not match the queue */
+	MBX_E_NOT_REGISTERED = -5, /* unknown client id or wrong token */
+	MBX_E_ACCESS = -6,       /* access denied (user / queue owner / mode) */
+	MBX_E_PARAM = -7,        /* parameter out of range (node, cs, ...) */
+	MBX_E_TOO_BIG = -8,      /* data larger than the configured limit */
+	MBX_E_BUSY = -9,         /* resource busy, retry later */
+	MBX_E_FULL = -10,        /* client table of this line full */
+	MBX_E_QUEUE = -11,       /* client queue cannot be opened / unusable */
+	MBX_E_TIMEOUT = -12,     /* no answer in time / chunk stream stalled */
+	MBX_E_ABORT = -13,       /* SDO or OD access aborted: hdr.abort */
+	MBX_E_STATE = -14,       /* not possible in the current state */
+	MBX_E_UNSUPPORTED = -15, /* service not available on this line */
+	MBX_E_SEQUENCE = -16,    /* chunk out of order / unexpected chunk */
+	MBX_E_OVERFLOW = -17,    /* messages were dropped (queue full) */
+	MBX_E_INTERNAL = -18,    /* daemon-side failure */
+	MBX_E_SHUTDOWN = -19,    /* line is stopping */
+	MBX_E_LSS = -20,         /* LSS slave answered an error (payload) */
+	MBX_E_NOT_FOUND = -21,   /* LSS identify/fastscan: nobody answered */
+	MBX_STATUS_MIN = -21,
+} mbx_status;
+
+const char *mbx_status_to_string(int status);
+
+/* Why a message was refused (counted per reason in mbx_server_stats). */
+typedef enum mbx_bad {
+	MBX_BAD_NONE = 0,
+	MBX_BAD_SHORT,    /* shorter than the header */
+	MBX_BAD_MAGIC,
+	MBX_BAD_VERSION,
+	MBX_BAD_KIND,     /* not a command */
+	MBX_BAD_LEN,      /* hdr.len != bytes received - header */
+	MBX_BAD_FLAGS,    /* unknown flag / MORE without CHUNKED */
+	MBX_BAD_CHUNK,    /* chunk/total inconsistent */
+	MBX_BAD_RESERVED, /* status/abort/dropped not 0 in a command, pads */
+	MBX_BAD_LINE,
+	MBX_BAD_CMD,      /* unknown command code */
+	MBX_BAD_SIZE,     /* payload size wrong for the command */
+	MBX_BAD_PARAM,    /* field value out of range */
+	MBX_BAD_CLIENT,   /* unknown client id / wrong token */
+	MBX_BAD_SEQUENCE, /* chunk does not continue an open transfer */
+	MBX_BAD_QUEUE,    /* REGISTER: queue name invalid or queue unusable */
+	MBX_BAD_COUNT
+} mbx_bad;
+
+const char *mbx_bad_to_string(unsigned b);
+/* The status answered for a refusal reason. */
+int mbx_bad_status(mbx_bad b);
+
+/* ---- commands ------------------------------------------------------------ */
+/*
+ * Numbered by family; new commands append inside their family.
+ * R = read-type (allowed to read-only users), W = write-type.
+ * Payload = request payload; "resp" = response payload (besides the header).
+ */
+typedef enum mbx_cmd {
+	/* 0x00xx protocol: answered by the mailbox server itself */
+	MBX_CMD_REGISTER = 0x0001,    /* R mbx_register_req -> mbx_register_resp */
+	MBX_CMD_UNREGISTER = 0x0002,  /* R -, resp - */
+	MBX_CMD_SUBSCRIBE = 0x0003,   /* R mbx_subscribe_req -> mbx_subscribe_resp */
+	MBX_CMD_UNSUBSCRIBE = 0x0004, /* R mbx_unsubscribe_req -> mbx_subscribe_resp */
+	MBX_CMD_PING = 0x0005,        /* R -, renews the lease -> mbx_ping_resp */
+	MBX_CMD_XFER_ACK = 0x0006,    /* R mbx_xfer_ack, never answered */
+	MBX_CMD_MBX_STATS = 0x0007,   /* R - -> mbx_stats_wire */
+	/* 0x01xx local object dictionary of the line */
+	MBX_CMD_OD_READ = 0x0101,  /* R mbx_obj_req -> data (chunked if large) */
+	MBX_CMD_OD_WRITE = 0x0102, /* W mbx_obj_req + data (chunkable) */
+	/* 0x02xx remote SDO (client on the line) */
+	MBX_CMD_SDO_UPLOAD = 0x0201,   /* R mbx_sdo_req -> data, hdr.abort */
+	MBX_CMD_SDO_DOWNLOAD = 0x0202, /* W mbx_sdo_req + data -> -, hdr.abort */
+	/* 0x03xx NMT and node table */
+	MBX_CMD_NMT = 0x0301,        /* W mbx_nmt_req */
+	MBX_CMD_NODE_TABLE = 0x0302, /* R - -> mbx_node_entry[n] */
+	/* 0x04xx PDO / process data */
+	MBX_CMD_PDO_REQUEST = 0x0401, /* W mbx_pdo_num_req: send a TPDO now */
+	MBX_CMD_PDO_READ = 0x0402,    /* R mbx_obj_req -> data (<= 8 bytes) */
+	MBX_CMD_PDO_WRITE = 0x0403,   /* W mbx_obj_req + data (<= 8 bytes) */
+	/* 0x05xx EMCY */
+	MBX_CMD_EMCY_SEND = 0x0501, /* W mbx_emcy_req */
+	/* 0x06xx raw CAN */
+	MBX_CMD_RAW_SEND = 0x0601, /* W mbx_raw_frame[1..MBX_RAW_SEND_MAX] */
+	/* 0x07xx LSS master (CiA 305): all W, payload mbx_lss_req,
+	 * resp mbx_lss_resp */
+	MBX_CMD_LSS_SWITCH_GLOBAL = 0x0701,    /* mode */
+	MBX_CMD_LSS_SWITCH_SELECTIVE = 0x0702, /* vendor product rev_lo ser_lo */
+	MBX_CMD_LSS_SET_NODE_ID = 0x0703,      /* node */
+	MBX_CMD_LSS_SET_BIT_TIMING = 0x0704,   /* table, bit_index */
+	MBX_CMD_LSS_ACTIVATE_BIT_TIMING = 0x0705, /* delay_ms */
+	MBX_CMD_LSS_STORE = 0x0706,
+	MBX_CMD_LSS_INQUIRE = 0x0707,          /* what -> value */
+	MBX_CMD_LSS_IDENTIFY_REMOTE = 0x0708,  /* all ranges -> found */
+	MBX_CMD_LSS_IDENTIFY_NONCONF = 0x0709, /* -> found */
+	MBX_CMD_LSS_FASTSCAN = 0x070A,         /* timeout_ms -> id[4] */
+	/* 0x08xx line status and statistics */
+	MBX_CMD_LINE_STATUS = 0x0801, /* R - -> mbx_line_status */
+	/* 0x09xx store / restore (1010h / 1011h of the line's OD) */
+	MBX_CMD_STORE = 0x0901,   /* W mbx_store_req */
+	MBX_CMD_RESTORE = 0x0902, /* W mbx_store_req */
+	/* 0x0Axx manager (CiA 302-2/-3), 0x0Bxx gateway (CiA 302-7): later */
+} mbx_cmd;
+
+const char *mbx_cmd_to_string(unsigned code); /* "?" if unknown */
+
+/* Static facts about one command (mbx_cmd_lookup). */
+enum mbx_cmd_flag {
+	MBX_CI_WRITE = 1u << 0,  /* write-type: refused to read-only users */
+	MBX_CI_SERVER = 1u << 1, /* answered by mbx_server itself */
+	MBX_CI_DATA = 1u << 2,   /* fixed part + trailing data, chunkable */
+	MBX_CI_ARRAY = 1u << 3,  /* payload = n * fixed (n >= 1) */
+	MBX_CI_QUIET = 1u << 4,  /* never answered (XFER_ACK) */
+};
+
+typedef struct mbx_cmd_info {
+	uint16_t code;
+	uint8_t flags;     /* enum mbx_cmd_flag */
+	uint16_t fixed;    /* fixed payload part (array: element size) */
+	uint16_t max_data; /* DATA: max trailing bytes, 0 = any (chunked);
+	                    * ARRAY: max elements */
+	const char *name;
+} mbx_cmd_info;
+
+const mbx_cmd_info *mbx_cmd_lookup(unsigned code); /* NULL if unknown */
+
+/* ---- events -------------------------------------------------------------- */
+
+/* Subscription classes (bit mask, per client and per line). */
+enum mbx_event_class {
+	MBX_EVC_NMT = 1u << 0,  /* NMT state changes of nodes */
+	MBX_EVC_HB = 1u << 1,   /* heartbeat / guarding started, lost */
+	MBX_EVC_BOOT = 1u << 2, /* boot-up messages */
+	MBX_EVC_EMCY = 1u << 3, /* EMCY received */
+	MBX_EVC_PDO = 1u << 4,  /* RPDO received, with mapped values */
+	MBX_EVC_SDO = 1u << 5,  /* SDO transfers of any client completed */
+	MBX_EVC_CAN = 1u << 6,  /* CAN controller state (bus-off, ...) */
+	MBX_EVC_RAW = 1u << 7,  /* raw frames, opt-in, id/mask filtered */
+	MBX_EVC_OD = 1u << 8,   /* local object written over SDO */
+	MBX_EVC_OVERFLOW = 1u << 31, /* always delivered, cannot be cleared */
+};
+#define MBX_EVC_ALL 0x000001FFu
+
+/* Name of a single class bit ("nmt", "hb", ...); "?" otherwise. */
+const char *mbx_event_class_to_string(uint32_t cls);
+
+typedef enum mbx_event {
+	MBX_EV_OVERFLOW = 0x0001,   /* mbx_ev_overflow */
+	MBX_EV_OD_WRITTEN = 0x0101, /* OD  mbx_ev_od_written */
+	MBX_EV_SDO_DONE = 0x0201,   /* SDO mbx_ev_sdo_done + data */
+	MBX_EV_NMT_STATE = 0x0301,  /* NMT mbx_ev_node */
+	MBX_EV_BOOTUP = 0x0302,     /* BOOT mbx_ev_node */
+	MBX_EV_HB_STARTED = 0x0303, /* HB mbx_ev_node */
+	MBX_EV_HB_LOST = 0x0304,    /* HB mbx_ev_node */
+	MBX_EV_PDO = 0x0401,        /* PDO mbx_ev_pdo + mbx_pdo_value[n] */
+	MBX_EV_EMCY = 0x0501,       /* EMCY mbx_ev_emcy */
+	MBX_EV_RAW = 0x0601,        /* RAW mbx_ev_raw */
+	MBX_EV_CAN_STATE = 0x0801,  /* CAN mbx_ev_can_state */
+} mbx_event;
+
+const char *mbx_event_to_string(unsigned code); /* "?" if unknown */
+/* Class bit of an event code, 0 if unknown. */
+uint32_t mbx_event_class_of(unsigned code);
+
+/* ---- payloads: protocol ------------------------------------------------- */
+
+typedef struct mbx_register_req {
+	uint32_t pid;                /* the client process, for liveness */
+	uint32_t uid;                /* claimed; must equal the queues' owner */
+	uint32_t reserved;           /* 0 */
+	char resp_queue[MBX_QNAME_MAX];  /* "/name", NUL-terminated, padded */
+	char event_queue[MBX_QNAME_MAX];
+} mbx_register_req;
+
+enum mbx_access {
+	MBX_ACCESS_NONE = 0,
+	MBX_ACCESS_READ = 1,
+	MBX_ACCESS_WRITE = 2,
+};
+const char *mbx_access_to_string(unsigned a);
+
+typedef struct mbx_register_resp {
+	uint64_t token;        /* put it in hdr.token of every command */
+	uint32_t client;       /* put it in hdr.client of every command */
+	uint32_t lease_ms;     /* renew (any command, PING) within; 0 = none */
+	uint32_t max_msg;      /* largest command message this line takes */
+	uint32_t max_transfer; /* largest chunked data in either direction */
+	uint8_t access;        /* enum mbx_access granted */
+	uint8_t line;
+	uint16_t pad;
+	uint32_t pad2;
+} mbx_register_resp;
+
+#define MBX_RAW_FILTERS_MAX 4u
+#define MBX_RAW_EXT (1u << 31) /* raw id/mask: 29-bit frame */
+#define MBX_RAW_RTR (1u << 30) /* raw id/mask: RTR frame */
+
+/* A frame matches if ((frame_id | flags) ^ id) & mask == 0, with the
+ * MBX_RAW_EXT / MBX_RAW_RTR bits standing for the frame's flags. */
+typedef struct mbx_raw_filter {
+	uint32_t id;
+	uint32_t mask;
+} mbx_raw_filter;
+
+typedef struct mbx_subscribe_req {
+	uint32_t classes;    /* MBX_EVC_* to add */
+	uint8_t n_filters;   /* with MBX_EVC_RAW: 0 = every frame, else
+	                      * replaces the raw filters; 0 otherwise */
+	uint8_t pad[3];
+	mbx_raw_filter filters[MBX_RAW_FILTERS_MAX];
+} mbx_subscribe_req;
+
+typedef struct mbx_unsubscribe_req {
+	uint32_t classes; /* MBX_EVC_* to remove */
+} mbx_unsubscribe_req;
+
+typedef struct mbx_subscribe_resp {
+	uint32_t classes; /* active classes after the command */
+} mbx_subscribe_resp;
+
+typedef struct mbx_ping_resp {
+	uint32_t lease_ms;
+	uint32_t pad;
+	uint64_t now_us; /* daemon monotonic clock */
+} mbx_ping_resp;
+
+/* Flow control of a chunked response: "I have consumed every chunk below
+ * next_chunk of transfer hdr.corr". */
+typedef struct mbx_xfer_ack {
+	uint16_t next_chunk;
+	uint16_t pad;
+} mbx_xfer_ack;
+
+/* Mailbox counters of one line (MBX_CMD_MBX_STATS). */
+typedef struct mbx_stats_wire {
+	uint64_t commands_ok;
+	uint64_t malformed; /* sum over reasons */
+	uint64_t access_denied;
+	uint64_t events_sent;
+	uint64_t responses_sent;
+	uint64_t dropped;
+	uint64_t clients_registered;
+	uint64_t clients_reaped;
+	uint32_t clients; /* current */
+	uint32_t pad;
+} mbx_stats_wire;
+
+/* ---- payloads: services ------------------------------------------------- */
+
+/* OD_READ, OD_WRITE (+ data), PDO_READ, PDO_WRITE (+ 1..8 bytes). */
+typedef struct mbx_obj_req {
+	uint16_t index;
+	uint8_t sub;
+	uint8_t flags; /* PDO_WRITE: MBX_PDO_TRIGGER; else 0 */
+} mbx_obj_req;
+#define MBX_PDO_TRIGGER 0x01u /* send event-driven TPDOs mapping it now */
+
+typedef struct mbx_sdo_req {
+	uint8_t node;  /* 1..127 */
+	uint8_t mode;  /* 0 auto, 1 expedited, 2 segmented, 3 block */
+	uint16_t index;
+	uint8_t sub;
+	uint8_t pad[3];
+	uint32_t timeout_ms; /* per SDO frame; 0 = line default */
+	uint32_t size;       /* upload: expected size hint (0 = unknown) */
+} mbx_sdo_req;
+#define MBX_SDO_MODE_MAX 3u
+
+typedef struct mbx_nmt_req {
+	uint8_t cs;   /* 0x01 start, 0x02 stop, 0x80 pre-op, 0x81 reset node,
+	               * 0x82 reset communication (CiA 301 §7.2.8.3.1) */
+	uint8_t node; /* 0 = all, 1..127 */
+	uint16_t pad;
+} mbx_nmt_req;
+
+typedef struct mbx_node_entry {
+	uint8_t node;
+	uint8_t nmt_state; /* CiA 301 NMT state byte (0 boot, 4 stopped,
+	                    * 5 operational, 127 pre-op), 0xFF unknown */
+	uint8_t hb;        /* 0 not monitored, 1 active, 2 lost */
+	uint8_t flags;     /* bit0 boot-up seen, bit1 EMCY active */
+} mbx_node_entry;
+
+typedef struct mbx_pdo_num_req {
+	uint16_t pdo; /* TPDO number 1..512 */
+	uint16_t pad;
+} mbx_pdo_num_req;
+
+typedef struct mbx_emcy_req {
+	uint16_t code; /* error code; 0 = error reset */
+	uint8_t reg;   /* error register 1001h bits */
+	uint8_t msef[5];
+} mbx_emcy_req;
+
+typedef struct mbx_raw_frame {
+	uint32_t id; /* 11- or 29-bit id | MBX_RAW_EXT | MBX_RAW_RTR */
+	uint8_t len; /* 0..8 */
+	uint8_t pad[3];
+	uint8_t data[8];
+} mbx_raw_frame;
+#define MBX_RAW_SEND_MAX 32u
+
+typedef struct mbx_lss_req {
+	uint8_t mode;      /* SWITCH_GLOBAL: 0 waiting, 1 configuration */
+	uint8_t node;      /* SET_NODE_ID: 1..127 or 255 (unconfigured) */
+	uint8_t table;     /* SET_BIT_TIMING */
+	uint8_t bit_index; /* SET_BIT_TIMING */
+	uint16_t delay_ms; /* ACTIVATE_BIT_TIMING */
+	uint8_t what;      /* INQUIRE: 0x5A vendor .. 0x5D serial, 0x5E node */
+	uint8_t pad;
+	uint32_t timeout_ms; /* per LSS answer; 0 = line default */
+	uint32_t vendor, product, rev_lo, rev_hi, ser_lo, ser_hi;
+} mbx_lss_req;
+
+typedef struct mbx_lss_resp {
+	uint8_t error;      /* slave error code (MBX_E_LSS) */
+	uint8_t spec_error; /* with error 255 */
+	uint8_t found;      /* IDENTIFY / FASTSCAN: 1 = a slave answered */
+	uint8_t pad;
+	uint32_t value;  /* INQUIRE */
+	uint32_t id[4];  /* FASTSCAN: vendor, product, revision, serial */
+} mbx_lss_resp;
+
+enum mbx_can_state {
+	MBX_CAN_ACTIVE = 0,
+	MBX_CAN_WARNING = 1,
+	MBX_CAN_PASSIVE = 2,
+	MBX_CAN_BUS_OFF = 3,
+	MBX_CAN_STOPPED = 4,
+};
+const char *mbx_can_state_to_string(unsigned s);
+
+typedef struct mbx_line_status {
+	uint8_t can_state; /* enum mbx_can_state */
+	uint8_t nmt_state; /* own NMT state */
+	uint8_t node_id;   /* own node-id */
+	uint8_t pad;
+	uint32_t bitrate;  /* bit/s, 0 = unknown */
+	uint64_t rx_frames, tx_frames, rx_dropped, tx_failed, err_frames,
+		bus_off_count;
+	uint32_t clients; /* mailbox clients on this line */
+	uint32_t pad2;
+} mbx_line_status;
+
+typedef struct mbx_store_req {
+	uint8_t sub; /* 1 all, 2 communication, 3 application, 4..127 */
+	uint8_t pad[3];
+} mbx_store_req;
+
+/* ---- payloads: events --------------------------------------------------- */
+
+typedef struct mbx_ev_overflow {
+	uint32_t dropped_events;    /* lost on the event queue since the last
+	                             * notice */
+	uint32_t dropped_responses; /* lost on the response queue */
+} mbx_ev_overflow;
+
+typedef struct mbx_ev_od_written {
+	uint16_t index;
+	uint8_t sub;
+	uint8_t pad;
+	uint32_t size;
+} mbx_ev_od_written;
+
+/* followed by min(size, what fits) data bytes of an upload */
+typedef struct mbx_ev_sdo_done {
+	uint32_t abort; /* 0 = success */
+	uint32_t size;  /* bytes transferred */
+	uint16_t index;
+	uint8_t sub;
+	uint8_t node;
+	uint8_t upload; /* 1 upload, 0 download */
+	uint8_t mode;   /* mode used */
+	uint8_t pad[2];
+} mbx_ev_sdo_done;
+
+/* NMT_STATE, BOOTUP, HB_STARTED, HB_LOST */
+typedef struct mbx_ev_node {
+	uint8_t node;
+	uint8_t state; /* NMT state byte (as mbx_node_entry) */
+	uint8_t prev;  /* NMT_STATE: previous state */
+	uint8_t pad;
+} mbx_ev_node;
+
+typedef struct mbx_pdo_value {
+	uint16_t index;
+	uint8_t sub;
+	uint8_t len; /* 1..8 bytes used of data */
+	uint8_t data[8];
+} mbx_pdo_value;
+#define MBX_PDO_VALUES_MAX 64u
+
+typedef struct mbx_ev_pdo {
+	uint64_t ts_us;
+	uint16_t pdo; /* RPDO number 1..512 */
+	uint8_t n;    /* mbx_pdo_value entries that follow */
+	uint8_t pad[5];
+} mbx_ev_pdo;
+
+typedef struct mbx_ev_emcy {
+	uint64_t ts_us;
+	uint16_t code;
+	uint8_t node;
+	uint8_t reg;
+	uint8_t msef[5];
+	uint8_t pad[7];
+} mbx_ev_emcy;
+
+typedef struct mbx_ev_raw {
+	uint64_t ts_us;
+	mbx_raw_frame frame;
+} mbx_ev_raw;
+
+typedef struct mbx_ev_can_state {
+	uint8_t state; /* enum mbx_can_state */
+	uint8_t prev;
+	uint8_t tec; /* transmit error counter, if known */
+	uint8_t rec; /* receive error counter, if known */
+} mbx_ev_can_state;
+
+/* ---- functions ----------------------------------------------------------- */
+
+/* Write the 48-byte header into buf (>= MBX_HDR_SIZE). */
+void mbx_hdr_encode(const mbx_hdr *h, uint8_t *buf);
+/*
+ * Decode and check the envelope of a received message of n bytes:
+ * size, magic, version, kind, len == n - header, flags, chunk/total
+ * consistency, and the kind-specific rules (a command carries no status,
+ * abort, dropped or OVERFLOW flag; a response/event carries no token).
+ * Returns 0 or a negative mbx_status; *bad (optional) tells the reason.
+ */
+int mbx_hdr_decode(const uint8_t *buf, size_t n, mbx_hdr *h, mbx_bad *bad);
+
+/*
+ * Validate the payload of a command (its first message for a chunked one:
+ * then only the fixed part is checked here; the data arrives in chunks).
+ * Checks the size for the command and every field (node ids, NMT cs,
+ * filters, queue names, pads zero). Returns 0 or a negative mbx_status,
+ * *bad (optional) the reason.
+ */
+int mbx_cmd_validate(const mbx_hdr *h, const uint8_t *payload, mbx_bad *bad);
+
+/* Check an event payload as a client receives it (sizes and counts). */
+int mbx_event_validate(unsigned code, const uint8_t *payload, size_t len);
+
+/* Build a complete message: header (len set from payload_len) + payload.
+ * Returns the message size, or -EMSGSIZE if it does not fit cap. */
+int mbx_msg_build(uint8_t *buf, size_t cap, const mbx_hdr *h,
+		  const void *payload, size_t payload_len);
+
+/* A valid queue name: "/" + 1..62 chars of [A-Za-z0-9._-], NUL within the
+ * field of MBX_QNAME_MAX bytes. */
+bool mbx_queue_name_is_valid(const char *name, size_t field);
+/* A valid instance name: 1..MBX_INSTANCE_MAX chars of [A-Za-z0-9_-]. */
+bool mbx_instance_is_valid(const char *instance);
+/* "/cogw.<instance>.line<N>.cmd". Returns 0, -EINVAL, -ENAMETOOLONG. */
+int mbx_queue_name(char *buf, size_t cap, const char *instance,
+		   unsigned line);
+
+/* Does a raw frame match a filter? (see mbx_raw_filter) */
+bool mbx_raw_filter_match(const mbx_raw_filter *f, const mbx_raw_frame *fr);
+
+/*
+ * Check the kernel limits for message queues of depth messages of msgsize
+ * bytes: /proc/sys/fs/mqueue/msg_max, msgsize_max and RLIMIT_MSGQUEUE.
+ * Returns 0, or -ERANGE with err naming the sysctl and the value needed
+ * ("fs.mqueue.msg_max is 10, the mailbox needs 64: sysctl -w ..."), or
+ * -errno if the limits cannot be read. The daemon calls it at start-up.
+ */
+int mbx_check_system_limits(unsigned depth, unsigned msgsize, char *err,
+			    size_t errlen);
+
+#endif /* COGW_MAILBOX_PROTO_H */

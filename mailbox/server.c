@@ -1,0 +1,1229 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * mailbox/server.c - the daemon side of one line's mailbox.
+ *
+ * Design notes (why it looks like this):
+ * - One server per line, driven by that line's thread only: the client
+ *   table is per line, so a line never waits for a lock another line holds
+ *   (DESIGN.md "Threads and data flow").
+ * - Every send to a client is mq_send on an O_NONBLOCK descriptor. A full
+ *   client queue means the message is dropped and counted, and the next
+ *   message that reaches that queue carries MBX_F_OVERFLOW + the count; an
+ *   MBX_EV_OVERFLOW notice follows on the event queue as soon as it has
+ *   room. A slow client therefore costs the line one failed syscall per
+ *   message, never a stall.
+ * - Access control rests on two kernel facts: the owner of a message queue
+ *   is the user that created it (fstat on the mqd gives st_uid on Linux),
+ *   and a queue with mode 0600 can be read only by that user. The server
+ *   sends a random 64-bit token in the REGISTER answer to the response
+ *   queue; every later command must carry it. So a process can only act as
+ *   a client whose response queue it can read, and it is granted the rights
+ *   of that queue's owner. Naming somebody else's queue in REGISTER gains
+ *   nothing (the token goes to that queue).
+ * - No allocation after create: the client table, the transfer slots and
+ *   both message buffers are sized from the config.
+ */
+#include "mailbox/server.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <mqueue.h>
+#include <signal.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/random.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#define RETRY_US 20000u /* resume a chunk stream / overflow notice */
+
+typedef struct mbx_client {
+	uint32_t id; /* 0 = free slot */
+	uint64_t token;
+	mqd_t resp, evt;
+	size_t resp_msg, evt_msg; /* mq_msgsize of each */
+	unsigned resp_depth;      /* mq_maxmsg of the response queue */
+	ino_t resp_ino, evt_ino;  /* to notice a queue that was replaced */
+	uint32_t uid, pid;
+	uint8_t access;
+	bool confirmed;
+	bool dead; /* a send failed hard: reap at the next tick */
+	uint32_t classes;
+	uint8_t n_filters;
+	mbx_raw_filter filters[MBX_RAW_FILTERS_MAX];
+	uint64_t registered_us;
+	uint64_t lease_until;
+	uint32_t drop_resp, drop_evt; /* not yet reported to the client */
+	uint64_t dropped;
+	bool discarding; /* chunks of a refused transfer are ignored */
+	uint64_t discard_corr;
+	char resp_name[MBX_QNAME_MAX];
+	char evt_name[MBX_QNAME_MAX];
+} mbx_client;
+
+typedef enum xfer_state {
+	XS_FREE = 0,
+	XS_IN,   /* receiving a chunked command */
+	XS_HELD, /* complete, dispatched, data referenced until answered */
+	XS_OUT,  /* streaming a chunked response */
+} xfer_state;
+
+typedef struct mbx_xfer {
+	xfer_state st;
+	uint32_t client;
+	uint64_t corr;
+	uint16_t code;
+	uint8_t hflags; /* command header flags (NO_REPLY) */
+	uint8_t fixed[64];
+	size_t fixed_len;
+	uint8_t *buf; /* cfg.max_transfer bytes */
+	size_t total, done;
+	uint16_t next_chunk; /* in: expected; out: next to send */
+	uint16_t acked;      /* out: client consumed chunks below this */
+	int status;
+	uint32_t abort;
+	uint64_t deadline_us; /* progress timeout */
+	uint64_t retry_us;    /* out: resume sending at (0 = not waiting) */
+} mbx_xfer;
+
+struct mbx_server {
+	mbx_server_config cfg; /* with defaults filled in */
+	char qname[MBX_QNAME_MAX];
+	mqd_t q;
+	uint8_t *rx;
+	size_t rx_size;
+	uint8_t *tx;
+	mbx_access_rule *rules;
+	mbx_client *clients;
+	mbx_xfer *xfers;
+	uint16_t gen;
+	uint64_t rng; /* fallback token source */
+	uint64_t now_us;
+	uint64_t next_check_us;
+	mbx_server_stats stats;
+};
+
+/* ---- helpers -------------------------------------------------------------- */
+
+static uint64_t splitmix(uint64_t *s)
+{
+	uint64_t z = (*s += 0x9E3779B97F4A7C15ull);
+
+	z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+	z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+	return z ^ (z >> 31);
+}
+
+static uint64_t new_token(mbx_server *srv)
+{
+	uint64_t t = 0;
+
+	/* getrandom never blocks once the pool is initialised (GRND_NONBLOCK
+	 * guards early boot); the fallback is unpredictable enough only
+	 * against a casual local user, so it is mixed with the clock. */
+	if (getrandom(&t, sizeof t, GRND_NONBLOCK) != (ssize_t)sizeof t) {
+		struct timespec ts;
+
+		clock_gettime(CLOCK_MONOTONIC, &ts);
+		srv->rng ^= (uint64_t)ts.tv_nsec << 17 ^ (uint64_t)ts.tv_sec;
+		t = splitmix(&srv->rng);
+	}
+	return t ? t : 1;
+}
+
+static mbx_client *client_find(const mbx_server *srv, uint32_t id)
+{
+	uint32_t idx = (id & 0xFFFFu);
+
+	if (id == 0 || idx == 0 || idx > srv->cfg.max_clients)
+		return NULL;
+	mbx_client *c = &srv->clients[idx - 1];
+
+	return c->id == id ? c : NULL;
+}
+
+static uint8_t access_of(const mbx_server *srv, uint32_t uid)
+{
+	if (uid == 0)
+		return MBX_ACCESS_WRITE;
+	for (size_t i = 0; i < srv->cfg.n_rules; i++)
+		if (srv->rules[i].uid == uid)
+			return srv->rules[i].access;
+	return srv->cfg.default_access;
+}
+
+static void count_bad(mbx_server *srv, mbx_bad b)
+{
+	if (b >= MBX_BAD_COUNT)
+		b = MBX_BAD_NONE;
+	srv->stats.malformed[b]++;
+	srv->stats.malformed_total++;
+}
+
+static void xfer_free(mbx_xfer *x)
+{
+	uint8_t *buf = x->buf;
+
+	memset(x, 0, sizeof *x);
+	x->buf = buf;
+}
+
+/* ---- sending ------------------------------------------------------------------ */
+
+enum send_mode {
+	SEND_NORMAL, /* a full queue = a dropped message */
+	SEND_STREAM, /* a full queue = wait (flow-controlled chunk stream) */
+};
+
+/* Send one message to a client's response or event queue, without
+ * blocking. Returns 0, -EAGAIN (stream: queue full), -ENOBUFS (dropped),
+ * -EPIPE (queue unusable: client marked dead). */
+static int send_to(mbx_server *srv, mbx_client *c, bool event, mbx_hdr *h,
+		   const void *payload, size_t len, enum send_mode mode)
+{
+	uint32_t *pending = event ? &c->drop_evt : &c->drop_resp;
+	mqd_t q = event ? c->evt : c->resp;
+	int n;
+
+	h->magic = MBX_MAGIC;
+	h->version = MBX_VERSION;
+	h->kind = event ? MBX_KIND_EVENT : MBX_KIND_RESPONSE;
+	h->line = srv->cfg.line;
+	h->client = c->id;
+	h->token = 0;
+	h->flags &= (uint8_t)~MBX_F_OVERFLOW;
+	h->dropped = 0;
+	if (*pending) {
+		h->flags |= MBX_F_OVERFLOW;
+		h->dropped = *pending;
+	}
+	n = mbx_msg_build(srv->tx, MBX_MSG_MAX, h, payload, len);
+	if (n < 0 || (size_t)n > (event ? c->evt_msg : c->resp_msg))
+		return -EMSGSIZE;
+	if (mq_send(q, (const char *)srv->tx, (size_t)n, 0) == 0) {
+		*pending = 0;
+		if (event)
+			srv->stats.events_sent++;
+		else
+			srv->stats.responses_sent++;
+		return 0;
+	}
+	if (errno == EAGAIN) {
+		if (mode == SEND_STREAM)
+			return -EAGAIN;
+		(*pending)++;
+		c->dropped++;
+		srv->stats.dropped++;
+		return -ENOBUFS;
+	}
+	/* EBADF & co: the descriptor is unusable; reap at the next tick */
+	c->dead = true;
+	return -EPIPE;
+}
+
+static int send_status(mbx_server *srv, mbx_client *c, uint16_t code,
+		       uint64_t corr, int status, uint32_t abort,
+		       const void *payload, size_t len)
+{
+	mbx_hdr h = { .code = code, .corr = corr, .status = status,
+		      .abort = abort };
+
+	return send_to(srv, c, false, &h, payload, len, SEND_NORMAL);
+}
+
+/* ---- client lifetime ---------------------------------------------------------- */
+
+static void client_remove(mbx_server *srv, mbx_client *c, bool reaped)
+{
+	uint32_t id = c->id;
+
+	for (unsigned i = 0; i < srv->cfg.xfer_slots; i++) {
+		mbx_xfer *x = &srv->xfers[i];
+
+		/* HELD slots stay: the glue may still point an SDO transfer
+		 * at their data; answering the request frees them. */
+		if (x->client == id && (x->st == XS_IN || x->st == XS_OUT)) {
+			srv->stats.xfer_failed++;
+			xfer_free(x);
+		}
+	}
+	if (c->resp != (mqd_t)-1)
+		mq_close(c->resp);
+	if (c->evt != (mqd_t)-1)
+		mq_close(c->evt);
+	memset(c, 0, sizeof *c);
+	c->resp = c->evt = (mqd_t)-1;
+	srv->stats.clients--;
+	if (reaped)
+		srv->stats.clients_reaped++;
+	else
+		srv->stats.clients_unregistered++;
+	if (srv->cfg.dispatch.client_gone)
+		srv->cfg.dispatch.client_gone(srv->cfg.dispatch_ctx, srv, id);
+}
+
+/* Is the queue behind name still the one we hold open? An unlinked (or
+ * unlinked and re-created) queue means the client went away. */
+static bool queue_still_there(const char *name, ino_t ino)
+{
+	mqd_t q = mq_open(name, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
+	struct stat st;
+	bool same;
+
+	if (q == (mqd_t)-1)
+		return errno != ENOENT; /* EACCES & co: cannot tell, assume ok */
+	same = fstat((int)q, &st) == 0 && st.st_ino == ino;
+	mq_close(q);
+	return same;
+}
+
+static bool client_is_dead(const mbx_server *srv, const mbx_client *c,
+			   uint64_t now_us, bool full_check)
+{
+	if (c->dead)
+		return true;
+	if (srv->cfg.lease_ms && now_us > c->lease_until)
+		return true;
+	if (!c->confirmed &&
+	    now_us > c->registered_us +
+			     (uint64_t)srv->cfg.register_timeout_ms * 1000u)
+		return true;
+	if (!full_check)
+		return false;
+	if (kill((pid_t)c->pid, 0) < 0 && errno == ESRCH)
+		return true;
+	return !queue_still_there(c->resp_name, c->resp_ino) ||
+	       !queue_still_there(c->evt_name, c->evt_ino);
+}
+
+/* ---- transfers ------------------------------------------------------------------ */
+
+static mbx_xfer *xfer_find(mbx_server *srv, uint32_t client, uint64_t corr,
+			   xfer_state st)
+{
+	for (unsigned i = 0; i < srv->cfg.xfer_slots; i++) {
+		mbx_xfer *x = &srv->xfers[i];
+
+		if (x->st == st && x->client == client && x->corr == corr)
+			return x;
+	}
+	return NULL;
+}
+
+static mbx_xfer *xfer_alloc(mbx_server *srv)
+{
+	for (unsigned i = 0; i < srv->cfg.xfer_slots; i++)
+		if (srv->xfers[i].st == XS_FREE)
+			return &srv->xfers[i];
+	return NULL;
+}
+
+static size_t chunk_size(const mbx_client *c)
+{
+	return c->resp_msg - MBX_HDR_SIZE;
+}
+
+/* At most this many chunks unacknowledged in the client's response queue:
+ * half of it, so answers to other requests still find room. */
+static unsigned stream_window(const mbx_client *c)
+{
+	unsigned w = c->resp_depth / 2;
+
+	return w ? w : 1;
+}
+
+/* Push chunks of an outgoing transfer while the window and the queue
+ * allow. */
+static void xfer_pump(mbx_server *srv, mbx_xfer *x)
+{
+	mbx_client *c = client_find(srv, x->client);
+	size_t csz;
+
+	if (!c) {
+		xfer_free(x);
+		return;
+	}
+	csz = chunk_size(c);
+	x->retry_us = 0;
+	while (x->done < x->total) {
+		size_t n = x->total - x->done;
+		int rc;
+
+		if ((unsigned)(x->next_chunk - x->acked) >= stream_window(c))
+			return; /* wait for XFER_ACK */
+		if (n > csz)
+			n = csz;
+		mbx_hdr h = {
+			.code = x->code,
+			.corr = x->corr,
+			.status = x->status,
+			.abort = x->abort,
+			.flags = MBX_F_CHUNKED |
+				 (x->done + n < x->total ? MBX_F_MORE : 0),
+			.chunk = x->next_chunk,
+			.total = (uint32_t)x->total,
+		};
+		rc = send_to(srv, c, false, &h, x->buf + x->done, n,
+			     SEND_STREAM);
+		if (rc == -EAGAIN) {
+			x->retry_us = srv->now_us + RETRY_US;
+			return;
+		}
+		if (rc < 0) {
+			srv->stats.xfer_failed++;
+			xfer_free(x);
+			return;
+		}
+		x->done += n;
+		x->next_chunk++;
+		x->deadline_us =
+			srv->now_us + (uint64_t)srv->cfg.xfer_timeout_ms * 1000u;
+	}
+	srv->stats.xfer_out++;
+	xfer_free(x);
+}
+
+/* ---- dispatch --------------------------------------------------------------------- */
+
+static void dispatch(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
+		     const uint8_t *fixed, size_t fixed_len,
+		     const uint8_t *data, size_t data_len, mbx_xfer *held)
+{
+	mbx_request req = {
+		.reply = { .client = c->id, .code = h->code,
+			   .flags = h->flags & MBX_F_NO_REPLY, .corr = h->corr },
+		.code = h->code,
+		.line = srv->cfg.line,
+		.access = c->access,
+		.uid = c->uid,
+		.pid = c->pid,
+		.payload = fixed,
+		.fixed_len = fixed_len,
+		.data = data,
+		.data_len = data_len,
+	};
+
+	if (held)
+		req.reply.slot = (uint8_t)(held - srv->xfers + 1);
+	srv->stats.commands_ok++;
+	if (!srv->cfg.dispatch.dispatch) {
+		mbx_server_respond(srv, &req.reply, MBX_E_UNSUPPORTED, 0, NULL,
+				   0);
+		return;
+	}
+	srv->cfg.dispatch.dispatch(srv->cfg.dispatch_ctx, srv, &req);
+}
+
+/* ---- protocol commands -------------------------------------------------------- */
+
+/* Open a client queue for sending and check it. Returns the mqd or -1 with
+ * *status set. */
+static mqd_t open_client_queue(mbx_server *srv, const char *name,
+			       struct stat *st, struct mq_attr *attr,
+			       int *status)
+{
+	mqd_t q = mq_open(name, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
+
+	if (q == (mqd_t)-1) {
+		*status = MBX_E_QUEUE;
+		return q;
+	}
+	if (fstat((int)q, st) < 0 || mq_getattr(q, attr) < 0) {
+		*status = MBX_E_QUEUE;
+	} else if (st->st_mode & srv->cfg.forbidden_client_mode) {
+		*status = MBX_E_ACCESS; /* others could read the token */
+	} else if (attr->mq_msgsize < (long)MBX_MSG_MIN) {
+		*status = MBX_E_QUEUE;
+	} else {
+		*status = 0;
+		return q;
+	}
+	mq_close(q);
+	return (mqd_t)-1;
+}
+
+static void register_refuse(mbx_server *srv, mqd_t resp, long resp_msg,
+			    const mbx_hdr *h, int status)
+{
+	/* Answer through a temporary client record so the normal send path
+	 * (size checks, non-blocking) is used; no token is given. */
+	mbx_client tmp = { .id = 0, .resp = resp, .evt = (mqd_t)-1,
+			   .resp_msg = (size_t)resp_msg };
+
+	if (status == MBX_E_ACCESS)
+		srv->stats.access_denied++;
+	if (resp != (mqd_t)-1 && !(h->flags & MBX_F_NO_REPLY))
+		send_status(srv, &tmp, h->code, h->corr, status, 0, NULL, 0);
+}
+
+static void handle_register(mbx_server *srv, const mbx_hdr *h,
+			    const uint8_t *p)
+{
+	mbx_register_req r;
+	struct stat rst, est;
+	struct mq_attr rattr, eattr;
+	mqd_t resp, evt;
+	mbx_client *c = NULL;
+	int status;
+	uint8_t access;
+
+	memcpy(&r, p, sizeof r);
+	resp = open_client_queue(srv, r.resp_queue, &rst, &rattr, &status);
+	if (resp == (mqd_t)-1) {
+		/* nowhere to answer (or must not answer: readable by all) */
+		count_bad(srv, MBX_BAD_QUEUE);
+		if (status == MBX_E_ACCESS)
+			srv->stats.access_denied++;
+		return;
+	}
+	evt = open_client_queue(srv, r.event_queue, &est, &eattr, &status);
+	if (evt == (mqd_t)-1) {
+		count_bad(srv, MBX_BAD_QUEUE);
+		register_refuse(srv, resp, rattr.mq_msgsize, h, status);
+		mq_close(resp);
+		return;
+	}
+	access = access_of(srv, (uint32_t)rst.st_uid);
+	status = 0;
+	if (est.st_uid != rst.st_uid || r.uid != (uint32_t)rst.st_uid ||
+	    access == MBX_ACCESS_NONE)
+		status = MBX_E_ACCESS;
+
+	/* A client registering again (e.g. it lost the answer) replaces its
+	 * old entry; an entry of another process is replaced only while it
+	 * is unconfirmed, so nobody can kick out a working client by naming
+	 * its queues. */
+	for (unsigned i = 0; !status && i < srv->cfg.max_clients; i++) {
+		mbx_client *o = &srv->clients[i];
+
+		if (o->id && strcmp(o->resp_name, r.resp_queue) == 0) {
+			if (o->pid == r.pid || !o->confirmed)
+				client_remove(srv, o, false);
+			else
+				status = MBX_E_BUSY;
+		}
+	}
+	for (unsigned i = 0; !status && i < srv->cfg.max_clients; i++) {
+		if (!srv->clients[i].id) {
+			c = &srv->clients[i];
+			break;
+		}
+	}
+	if (!status && !c)
+		status = MBX_E_FULL;
+	if (status) {
+		register_refuse(srv, resp, rattr.mq_msgsize, h, status);
+		mq_close(resp);
+		mq_close(evt);
+		return;
+	}
+
+	if (++srv->gen == 0)
+		srv->gen = 1;
+	memset(c, 0, sizeof *c);
+	c->id = ((uint32_t)srv->gen << 16) | (uint32_t)(c - srv->clients + 1);
+	c->token = new_token(srv);
+	c->resp = resp;
+	c->evt = evt;
+	c->resp_msg = (size_t)rattr.mq_msgsize;
+	c->evt_msg = (size_t)eattr.mq_msgsize;
+	if (c->resp_msg > MBX_MSG_MAX)
+		c->resp_msg = MBX_MSG_MAX;
+	if (c->evt_msg > MBX_MSG_MAX)
+		c->evt_msg = MBX_MSG_MAX;
+	c->resp_depth = (unsigned)rattr.mq_maxmsg;
+	c->resp_ino = rst.st_ino;
+	c->evt_ino = est.st_ino;
+	c->uid = (uint32_t)rst.st_uid;
+	c->pid = r.pid;
+	c->access = access;
+	c->registered_us = srv->now_us;
+	c->lease_until = srv->now_us + (uint64_t)srv->cfg.lease_ms * 1000u;
+	memcpy(c->resp_name, r.resp_queue, MBX_QNAME_MAX);
+	memcpy(c->evt_name, r.event_queue, MBX_QNAME_MAX);
+	srv->stats.clients++;
+	srv->stats.clients_registered++;
+	srv->stats.commands_ok++;
+
+	mbx_register_resp out = {
+		.token = c->token,
+		.client = c->id,
+		.lease_ms = srv->cfg.lease_ms,
+		.max_msg = srv->cfg.msg_size,
+		.max_transfer = srv->cfg.max_transfer,
+		.access = access,
+		.line = srv->cfg.line,
+	};
+	/* The answer is mandatory (it carries the token): NO_REPLY is
+	 * ignored here. */
+	if (send_status(srv, c, h->code, h->corr, 0, 0, &out, sizeof out) < 0)
+		client_remove(srv, c, true);
+}
+
+static void handle_protocol(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
+			    const uint8_t *p)
+{
+	bool reply = !(h->flags & MBX_F_NO_REPLY);
+
+	srv->stats.commands_ok++;
+	switch (h->code) {
+	case MBX_CMD_UNREGISTER:
+		if (reply)
+			send_status(srv, c, h->code, h->corr, 0, 0, NULL, 0);
+		client_remove(srv, c, false);
+		return;
+	case MBX_CMD_SUBSCRIBE: {
+		mbx_subscribe_req r;
+		mbx_subscribe_resp out;
+
+		memcpy(&r, p, sizeof r);
+		c->classes |= r.classes & MBX_EVC_ALL;
+		if (r.classes & MBX_EVC_RAW) {
+			c->n_filters = r.n_filters;
+			memcpy(c->filters, r.filters, sizeof c->filters);
+		}
+		out.classes = c->classes | MBX_EVC_OVERFLOW;
+		if (reply)
+			send_status(srv, c, h->code, h->corr, 0, 0, &out,
+				    sizeof out);
+		return;
+	}
+	case MBX_CMD_UNSUBSCRIBE: {
+		mbx_unsubscribe_req r;
+		mbx_subscribe_resp out;
+
+		memcpy(&r, p, sizeof r);
+		c->classes &= ~r.classes;
+		if (r.classes & MBX_EVC_RAW) {
+			c->n_filters = 0;
+			memset(c->filters, 0, sizeof c->filters);
+		}
+		out.classes = c->classes | MBX_EVC_OVERFLOW;
+		if (reply)
+			send_status(srv, c, h->code, h->corr, 0, 0, &out,
+				    sizeof out);
+		return;
+	}
+	case MBX_CMD_PING: {
+		mbx_ping_resp out = { .lease_ms = srv->cfg.lease_ms,
+				      .now_us = srv->now_us };
+
+		if (reply)
+			send_status(srv, c, h->code, h->corr, 0, 0, &out,
+				    sizeof out);
+		return;
+	}
+	case MBX_CMD_XFER_ACK: {
+		mbx_xfer_ack r;
+		mbx_xfer *x = xfer_find(srv, c->id, h->corr, XS_OUT);
+
+		memcpy(&r, p, sizeof r);
+		/* An ack for a finished transfer is normal (the last chunks
+		 * raced it); an ack beyond what was sent is ignored. */
+		if (x && r.next_chunk > x->acked &&
+		    r.next_chunk <= x->next_chunk) {
+			x->acked = r.next_chunk;
+			xfer_pump(srv, x);
+		}
+		return;
+	}
+	case MBX_CMD_MBX_STATS: {
+		mbx_stats_wire out = {
+			.commands_ok = srv->stats.commands_ok,
+			.malformed = srv->stats.malformed_total,
+			.access_denied = srv->stats.access_denied,
+			.events_sent = srv->stats.events_sent,
+			.responses_sent = srv->stats.responses_sent,
+			.dropped = srv->stats.dropped,
+			.clients_registered = srv->stats.clients_registered,
+			.clients_reaped = srv->stats.clients_reaped,
+			.clients = srv->stats.clients,
+		};
+		if (reply)
+			send_status(srv, c, h->code, h->corr, 0, 0, &out,
+				    sizeof out);
+		return;
+	}
+	}
+}
+
+/* ---- chunked commands ---------------------------------------------------------------- */
+
+static void refuse_transfer(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
+			    int status)
+{
+	srv->stats.xfer_failed++;
+	if (h->flags & MBX_F_MORE) {
+		c->discarding = true;
+		c->discard_corr = h->corr;
+	}
+	if (!(h->flags & MBX_F_NO_REPLY))
+		send_status(srv, c, h->code, h->corr, status, 0, NULL, 0);
+}
+
+static void handle_chunk(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
+			 const uint8_t *p)
+{
+	const mbx_cmd_info *ci = mbx_cmd_lookup(h->code);
+	mbx_xfer *x;
+
+	if (h->chunk == 0) {
+		if (h->total > srv->cfg.max_transfer) {
+			refuse_transfer(srv, c, h, MBX_E_TOO_BIG);
+			return;
+		}
+		if (xfer_find(srv, c->id, h->corr, XS_IN)) {
+			count_bad(srv, MBX_BAD_SEQUENCE);
+			refuse_transfer(srv, c, h, MBX_E_SEQUENCE);
+			return;
+		}
+		x = xfer_alloc(srv);
+		if (!x) {
+			refuse_transfer(srv, c, h, MBX_E_BUSY);
+			return;
+		}
+		x->st = XS_IN;
+		x->client = c->id;
+		x->corr = h->corr;
+		x->code = h->code;
+		x->hflags = h->flags;
+		x->fixed_len = ci->fixed;
+		memcpy(x->fixed, p, ci->fixed);
+		x->total = h->total;
+		x->done = h->len - ci->fixed;
+		memcpy(x->buf, p + ci->fixed, x->done);
+		x->next_chunk = 1;
+		x->deadline_us =
+			srv->now_us + (uint64_t)srv->cfg.xfer_timeout_ms * 1000u;
+		return;
+	}
+	x = xfer_find(srv, c->id, h->corr, XS_IN);
+	if (!x || x->code != h->code || x->next_chunk != h->chunk ||
+	    x->total != h->total || x->done + h->len > x->total ||
+	    (!(h->flags & MBX_F_MORE) && x->done + h->len != x->total)) {
+		count_bad(srv, MBX_BAD_SEQUENCE);
+		if (x) {
+			srv->stats.xfer_failed++;
+			xfer_free(x);
+		}
+		if (h->flags & MBX_F_MORE) {
+			c->discarding = true;
+			c->discard_corr = h->corr;
+		}
+		if (!(h->flags & MBX_F_NO_REPLY))
+			send_status(srv, c, h->code, h->corr, MBX_E_SEQUENCE, 0,
+				    NULL, 0);
+		return;
+	}
+	memcpy(x->buf + x->done, p, h->len);
+	x->done += h->len;
+	x->next_chunk++;
+	x->deadline_us = srv->now_us + (uint64_t)srv->cfg.xfer_timeout_ms * 1000u;
+	if (h->flags & MBX_F_MORE)
+		return;
+	srv->stats.xfer_in++;
+	x->st = XS_HELD;
+	mbx_hdr first = *h;
+
+	first.flags = x->hflags;
+	dispatch(srv, c, &first, x->fixed, x->fixed_len, x->buf, x->total, x);
+}
+
+/* ---- receiving ---------------------------------------------------------------------- */
+
+static void handle_msg(mbx_server *srv, const uint8_t *buf, size_t n)
+{
+	mbx_hdr h;
+	mbx_bad bad = MBX_BAD_NONE;
+	const uint8_t *p = buf + MBX_HDR_SIZE;
+	mbx_client *c;
+	int rc;
+
+	rc = mbx_hdr_decode(buf, n, &h, &bad);
+	if (rc == 0 && h.kind != MBX_KIND_COMMAND) {
+		rc = MBX_E_MALFORMED;
+		bad = MBX_BAD_KIND;
+	}
+	if (rc == 0 && h.line != srv->cfg.line) {
+		rc = MBX_E_BAD_LINE;
+		bad = MBX_BAD_LINE;
+	}
+	if (rc == 0 && h.code == MBX_CMD_REGISTER) {
+		rc = mbx_cmd_validate(&h, p, &bad);
+		if (rc) {
+			count_bad(srv, bad); /* no queue to answer to */
+			return;
+		}
+		handle_register(srv, &h, p);
+		return;
+	}
+
+	/* Who is it? Only an authenticated sender gets an answer, even an
+	 * error answer: a forged client id must not make us write to
+	 * somebody else's queue. */
+	c = NULL;
+	if (bad != MBX_BAD_SHORT && bad != MBX_BAD_MAGIC) {
+		c = client_find(srv, h.client);
+		if (c && c->token != h.token)
+			c = NULL;
+	}
+	if (rc) {
+		count_bad(srv, bad);
+		if (c && !(h.flags & MBX_F_NO_REPLY))
+			send_status(srv, c, h.code, h.corr, rc, 0, NULL, 0);
+		return;
+	}
+	if (!c) {
+		count_bad(srv, MBX_BAD_CLIENT);
+		return;
+	}
+	c->confirmed = true;
+	c->lease_until = srv->now_us + (uint64_t)srv->cfg.lease_ms * 1000u;
+
+	if (c->discarding && c->discard_corr == h.corr &&
+	    (h.flags & MBX_F_CHUNKED) && h.chunk > 0) {
+		if (!(h.flags & MBX_F_MORE))
+			c->discarding = false;
+		return; /* rest of a transfer already refused */
+	}
+
+	rc = mbx_cmd_validate(&h, p, &bad);
+	if (rc) {
+		count_bad(srv, bad);
+		if ((h.flags & MBX_F_MORE) && h.chunk == 0) {
+			c->discarding = true;
+			c->discard_corr = h.corr;
+		}
+		if (!(h.flags & MBX_F_NO_REPLY))
+			send_status(srv, c, h.code, h.corr, rc, 0, NULL, 0);
+		return;
+	}
+	const mbx_cmd_info *ci = mbx_cmd_lookup(h.code);
+
+	if ((ci->flags & MBX_CI_WRITE) && c->access < MBX_ACCESS_WRITE) {
+		srv->stats.access_denied++;
+		if ((h.flags & MBX_F_MORE) && h.chunk == 0) {
+			c->discarding = true;
+			c->discard_corr = h.corr;
+		}
+		if (!(h.flags & MBX_F_NO_REPLY) && h.chunk == 0)
+			send_status(srv, c, h.code, h.corr, MBX_E_ACCESS, 0,
+				    NULL, 0);
+		return;
+	}
+	if (h.flags & MBX_F_CHUNKED) {
+		handle_chunk(srv, c, &h, p);
+		return;
+	}
+	if (ci->flags & MBX_CI_SERVER) {
+		handle_protocol(srv, c, &h, p);
+		return;
+	}
+	if (ci->flags & MBX_CI_DATA)
+		dispatch(srv, c, &h, p, ci->fixed, p + ci->fixed,
+			 h.len - ci->fixed, NULL);
+	else
+		dispatch(srv, c, &h, p, h.len, NULL, 0, NULL);
+}
+
+int mbx_server_poll(mbx_server *srv, uint64_t now_us)
+{
+	int n = 0;
+
+	srv->now_us = now_us;
+	while ((unsigned)n < srv->cfg.poll_budget) {
+		ssize_t r = mq_receive(srv->q, (char *)srv->rx, srv->rx_size,
+				       NULL);
+
+		if (r < 0) {
+			if (errno == EAGAIN)
+				break;
+			if (errno == EINTR)
+				continue;
+			return -errno;
+		}
+		n++;
+		handle_msg(srv, srv->rx, (size_t)r);
+	}
+	return n;
+}
+
+/* ---- answering ---------------------------------------------------------------------- */
+
+int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status,
+		       uint32_t abort, const void *payload, size_t len)
+{
+	mbx_client *c;
+	mbx_xfer *x;
+	size_t nchunks;
+
+	if (to->slot && to->slot <= srv->cfg.xfer_slots) {
+		x = &srv->xfers[to->slot - 1];
+		if (x->st == XS_HELD && x->client == to->client &&
+		    x->corr == to->corr)
+			xfer_free(x); /* buffer stays; payload may live in it */
+	}
+	c = client_find(srv, to->client);
+	if (!c)
+		return -ENOENT;
+	if (to->flags & MBX_F_NO_REPLY)
+		return 0;
+	if (len <= chunk_size(c)) {
+		int rc = send_status(srv, c, to->code, to->corr, status, abort,
+				     payload, len);
+
+		return rc == -EPIPE ? -ENOENT : rc;
+	}
+	nchunks = (len + chunk_size(c) - 1) / chunk_size(c);
+	if (len > srv->cfg.max_transfer || nchunks > 0xFFFFu) {
+		srv->stats.xfer_failed++;
+		send_status(srv, c, to->code, to->corr, MBX_E_TOO_BIG, 0, NULL,
+			    0);
+		return -EMSGSIZE;
+	}
+	x = xfer_alloc(srv);
+	if (!x) {
+		srv->stats.xfer_failed++;
+		send_status(srv, c, to->code, to->corr, MBX_E_BUSY, 0, NULL, 0);
+		return -EBUSY;
+	}
+	x->st = XS_OUT;
+	x->client = c->id;
+	x->corr = to->corr;
+	x->code = to->code;
+	x->status = status;
+	x->abort = abort;
+	memmove(x->buf, payload, len);
+	x->total = len;
+	x->done = 0;
+	x->next_chunk = 0;
+	x->acked = 0;
+	x->deadline_us = srv->now_us + (uint64_t)srv->cfg.xfer_timeout_ms * 1000u;
+	xfer_pump(srv, x);
+	return 0;
+}
+
+static bool wants(const mbx_client *c, uint32_t cls, const uint8_t *payload,
+		  size_t len)
+{
+	mbx_ev_raw raw;
+
+	if (cls == MBX_EVC_OVERFLOW)
+		return true;
+	if (!(c->classes & cls))
+		return false;
+	if (cls != MBX_EVC_RAW || c->n_filters == 0)
+		return true;
+	if (len < sizeof raw)
+		return false;
+	memcpy(&raw, payload, sizeof raw);
+	for (unsigned i = 0; i < c->n_filters; i++)
+		if (mbx_raw_filter_match(&c->filters[i], &raw.frame))
+			return true;
+	return false;
+}
+
+int mbx_server_publish(mbx_server *srv, uint16_t ev_code, uint64_t corr,
+		       const void *payload, size_t len)
+{
+	uint32_t cls = mbx_event_class_of(ev_code);
+	int reached = 0;
+
+	if (!cls || (len && !payload))
+		return -EINVAL;
+	if (len > MBX_MSG_MAX - MBX_HDR_SIZE)
+		return -EMSGSIZE;
+	for (unsigned i = 0; i < srv->cfg.max_clients; i++) {
+		mbx_client *c = &srv->clients[i];
+		size_t n = len;
+
+		if (!c->id || c->dead || !wants(c, cls, payload, len))
+			continue;
+		if (n > c->evt_msg - MBX_HDR_SIZE) {
+			if (ev_code != MBX_EV_SDO_DONE) {
+				/* cannot fit this client's queue: lost */
+				c->drop_evt++;
+				c->dropped++;
+				srv->stats.dropped++;
+				continue;
+			}
+			n = c->evt_msg - MBX_HDR_SIZE; /* data truncated */
+		}
+		mbx_hdr h = { .code = ev_code, .corr = corr };
+
+		if (send_to(srv, c, true, &h, payload, n, SEND_NORMAL) == 0)
+			reached++;
+	}
+	return reached;
+}
+
+int mbx_server_notify(mbx_server *srv, const mbx_reply_to *to,
+		      uint16_t ev_code, const void *payload, size_t len)
+{
+	mbx_client *c = client_find(srv, to->client);
+	mbx_hdr h = { .code = ev_code, .corr = to->corr };
+	int rc;
+
+	if (!c)
+		return -ENOENT;
+	if (!mbx_event_class_of(ev_code))
+		return -EINVAL;
+	if (len > c->evt_msg - MBX_HDR_SIZE) {
+		if (ev_code != MBX_EV_SDO_DONE)
+			return -EMSGSIZE;
+		len = c->evt_msg - MBX_HDR_SIZE;
+	}
+	rc = send_to(srv, c, true, &h, payload, len, SEND_NORMAL);
+	return rc == -EPIPE ? -ENOENT : rc;
+}
+
+/* ---- time ----------------------------------------------------------------------------- */
+
+static uint64_t min64(uint64_t a, uint64_t b)
+{
+	return a < b ? a : b;
+}
+
+uint64_t mbx_server_tick(mbx_server *srv, uint64_t now_us)
+{
+	uint64_t next = UINT64_MAX;
+	bool full = now_us >= srv->next_check_us;
+
+	srv->now_us = now_us;
+	if (full)
+		srv->next_check_us = now_us + (uint64_t)srv->cfg.check_ms * 1000u;
+
+	for (unsigned i = 0; i < srv->cfg.xfer_slots; i++) {
+		mbx_xfer *x = &srv->xfers[i];
+
+		if (x->st != XS_IN && x->st != XS_OUT)
+			continue;
+		if (now_us >= x->deadline_us) {
+			mbx_client *c = client_find(srv, x->client);
+
+			srv->stats.xfer_failed++;
+			if (c && x->st == XS_IN &&
+			    !(x->hflags & MBX_F_NO_REPLY))
+				send_status(srv, c, x->code, x->corr,
+					    MBX_E_TIMEOUT, 0, NULL, 0);
+			else if (c) /* an answer was lost: tell the client */
+				c->drop_resp++;
+			xfer_free(x);
+			continue;
+		}
+		if (x->st == XS_OUT && x->retry_us && now_us >= x->retry_us)
+			xfer_pump(srv, x);
+		if (x->st == XS_FREE)
+			continue;
+		next = min64(next, x->deadline_us);
+		if (x->st == XS_OUT && x->retry_us)
+			next = min64(next, x->retry_us);
+	}
+
+	for (unsigned i = 0; i < srv->cfg.max_clients; i++) {
+		mbx_client *c = &srv->clients[i];
+
+		if (!c->id)
+			continue;
+		if (client_is_dead(srv, c, now_us, full)) {
+			client_remove(srv, c, true);
+			continue;
+		}
+		if (c->drop_evt || c->drop_resp) {
+			/* Tell the client what it lost, as soon as its event
+			 * queue has room; both counters travel in it. */
+			mbx_ev_overflow ov = { .dropped_events = c->drop_evt,
+					       .dropped_responses = c->drop_resp };
+			mbx_hdr h = { .code = MBX_EV_OVERFLOW };
+			uint32_t dr = c->drop_resp;
+
+			if (send_to(srv, c, true, &h, &ov, sizeof ov,
+				    SEND_STREAM) == 0) {
+				c->drop_resp -= dr;
+			} else {
+				next = min64(next, now_us + RETRY_US);
+			}
+		}
+		if (srv->cfg.lease_ms)
+			next = min64(next, c->lease_until + 1);
+		if (!c->confirmed)
+			next = min64(next,
+				     c->registered_us +
+					     (uint64_t)srv->cfg.register_timeout_ms *
+						     1000u +
+					     1);
+	}
+	if (srv->stats.clients)
+		next = min64(next, srv->next_check_us);
+	return next;
+}
+
+/* ---- lifetime ------------------------------------------------------------------------ */
+
+int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
+{
+	mbx_server *srv;
+	struct mq_attr attr;
+	int rc;
+
+	*out = NULL;
+	if (!cfg || !cfg->queue_name || cfg->line >= MBX_LINES_MAX ||
+	    !mbx_queue_name_is_valid(cfg->queue_name, strlen(cfg->queue_name) + 1) ||
+	    (cfg->n_rules && !cfg->rules) || cfg->default_access > MBX_ACCESS_WRITE)
+		return -EINVAL;
+	srv = calloc(1, sizeof *srv);
+	if (!srv)
+		return -ENOMEM;
+	srv->q = (mqd_t)-1;
+	srv->cfg = *cfg;
+	mbx_server_config *c = &srv->cfg;
+
+	if (!c->queue_mode)
+		c->queue_mode = 0660;
+	if (!c->depth)
+		c->depth = 64;
+	if (!c->msg_size)
+		c->msg_size = MBX_MSG_DEFAULT;
+	if (!c->max_clients)
+		c->max_clients = 16;
+	if (!c->check_ms)
+		c->check_ms = 1000;
+	if (!c->register_timeout_ms)
+		c->register_timeout_ms = 10000;
+	if (!c->xfer_slots)
+		c->xfer_slots = 2;
+	if (!c->max_transfer)
+		c->max_transfer = 1u << 20;
+	if (!c->xfer_timeout_ms)
+		c->xfer_timeout_ms = 5000;
+	if (!c->poll_budget)
+		c->poll_budget = c->depth;
+	if (!c->forbidden_client_mode)
+		c->forbidden_client_mode = 0044;
+	rc = -EINVAL;
+	if (c->msg_size < MBX_MSG_MIN || c->msg_size > MBX_MSG_MAX ||
+	    c->max_clients > 0xFFFFu || c->xfer_slots > 255)
+		goto fail;
+	strcpy(srv->qname, cfg->queue_name);
+	c->queue_name = srv->qname;
+
+	rc = -ENOMEM;
+	srv->rx_size = c->msg_size;
+	srv->rx = malloc(srv->rx_size);
+	srv->tx = malloc(MBX_MSG_MAX);
+	srv->clients = calloc(c->max_clients, sizeof *srv->clients);
+	srv->xfers = calloc(c->xfer_slots, sizeof *srv->xfers);
+	if (c->n_rules) {
+		srv->rules = calloc(c->n_rules, sizeof *srv->rules);
+		if (srv->rules)
+			memcpy(srv->rules, cfg->rules,
+			       c->n_rules * sizeof *srv->rules);
+	}
+	if (!srv->rx || !srv->tx || !srv->clients || !srv->xfers ||
+	    (c->n_rules && !srv->rules))
+		goto fail;
+	c->rules = srv->rules;
+	for (unsigned i = 0; i < c->max_clients; i++)
+		srv->clients[i].resp = srv->clients[i].evt = (mqd_t)-1;
+	for (unsigned i = 0; i < c->xfer_slots; i++) {
+		srv->xfers[i].buf = malloc(c->max_transfer);
+		if (!srv->xfers[i].buf)
+			goto fail;
+	}
+	if (getrandom(&srv->rng, sizeof srv->rng, GRND_NONBLOCK) !=
+	    (ssize_t)sizeof srv->rng)
+		srv->rng = (uint64_t)getpid() * 0x9E3779B97F4A7C15ull ^
+			   (uint64_t)(uintptr_t)srv;
+
+	if (c->unlink_existing)
+		mq_unlink(srv->qname);
+	attr = (struct mq_attr){ .mq_maxmsg = c->depth,
+				 .mq_msgsize = c->msg_size };
+	srv->q = mq_open(srv->qname,
+			 O_CREAT | O_EXCL | O_RDONLY | O_NONBLOCK | O_CLOEXEC,
+			 c->queue_mode, &attr);
+	if (srv->q == (mqd_t)-1) {
+		rc = -errno;
+		goto fail;
+	}
+	/* The mode given to mq_open is filtered by the umask: set it
+	 * exactly, as the config says. */
+	if (fchmod((int)srv->q, c->queue_mode) < 0 ||
+	    (c->queue_chown &&
+	     fchown((int)srv->q, c->queue_uid, c->queue_gid) < 0)) {
+		rc = -errno;
+		goto fail;
+	}
+	*out = srv;
+	return 0;
+fail:
+	mbx_server_destroy(srv);
+	return rc;
+}
+
+void mbx_server_destroy(mbx_server *srv)
+{
+	if (!srv)
+		return;
+	if (srv->clients) {
+		for (unsigned i = 0; i < srv->cfg.max_clients; i++) {
+			if (srv->clients[i].resp != (mqd_t)-1)
+				mq_close(srv->clients[i].resp);
+			if (srv->clients[i].evt != (mqd_t)-1)
+				mq_close(srv->clients[i].evt);
+		}
+	}
+	if (srv->xfers)
+		for (unsigned i = 0; i < srv->cfg.xfer_slots; i++)
+			free(srv->xfers[i].buf);
+	if (srv->q != (mqd_t)-1) {
+		mq_close(srv->q);
+		mq_unlink(srv->qname);
+	}
+	free(srv->xfers);
+	free(srv->clients);
+	free(srv->rules);
+	free(srv->tx);
+	free(srv->rx);
+	free(srv);
+}
+
+int mbx_server_fd(const mbx_server *srv)
+{
+	return (int)srv->q;
+}
+
+const mbx_server_stats *mbx_server_stats_get(const mbx_server *srv)
+{
+	return &srv->stats;
+}
+
+int mbx_server_client_info(const mbx_server *srv, unsigned n,
+			   mbx_client_info *info)
+{
+	for (unsigned i = 0; i < srv->cfg.max_clients; i++) {
+		const mbx_client *c = &srv->clients[i];
+
+		if (!c->id || n--)
+			continue;
+		*info = (mbx_client_info){
+			.id = c->id, .uid = c->uid, .pid = c->pid,
+			.access = c->access, .confirmed = c->confirmed,
+			.classes = c->classes, .dropped = c->dropped,
+			.pending_drop_events = c->drop_evt,
+			.pending_drop_responses = c->drop_resp,
+		};
+		memcpy(info->resp_queue, c->resp_name, MBX_QNAME_MAX);
+		memcpy(info->event_queue, c->evt_name, MBX_QNAME_MAX);
+		return 0;
+	}
+	return -ENOENT;
+}
+
+size_t mbx_server_client_max_payload(const mbx_server *srv, uint32_t client)
+{
+	const mbx_client *c = client_find(srv, client);
+
+	return c ? chunk_size(c) : 0;
+}
