@@ -1,0 +1,713 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * apps/cosim/device.c - a JSON device file (docs/cosim.md) turned into an
+ * object dictionary and a description of the simulated behaviour.
+ *
+ * The OD is built in layers, each reused from where it already lives:
+ * core/od_std.c for the standard communication objects (so the simulated
+ * slave carries exactly the objects, types and defaults the core's services
+ * expect), core/pdo.c's co_od_add_pdo() for the PDO records, and
+ * apps/common/json_od.c for the device's own "objects" and "values" (the
+ * same shapes as cogwd's configuration). Every check names the JSON path,
+ * "etc/devices/x.json: tpdos[0].map[1]: ...", as the daemon's config does.
+ */
+#include "apps/cosim/cosim.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "apps/common/json_od.h"
+#include "apps/common/json_util.h"
+#include "core/od_std.h"
+#include "core/pdo.h"
+
+const char *cosim_signal_kind_to_string(cosim_signal_kind k)
+{
+	switch (k) {
+	case COSIM_SIG_CONST:
+		return "const";
+	case COSIM_SIG_RAMP:
+		return "ramp";
+	case COSIM_SIG_SINE:
+		return "sine";
+	case COSIM_SIG_SQUARE:
+		return "square";
+	}
+	return "?";
+}
+
+static bool signal_kind_from_string(const char *s, cosim_signal_kind *k)
+{
+	for (int i = COSIM_SIG_CONST; i <= COSIM_SIG_SQUARE; i++) {
+		if (!strcmp(s, cosim_signal_kind_to_string((cosim_signal_kind)i))) {
+			*k = (cosim_signal_kind)i;
+			return true;
+		}
+	}
+	return false;
+}
+
+/* "0x2003:00", "2003:0", "0x2003" (sub 0). Index and sub are hex, with or
+ * without 0x, because that is how every CANopen document writes them. */
+int cosim_parse_object(const char *s, uint16_t *index, uint8_t *sub)
+{
+	char *end;
+	unsigned long i, sb = 0;
+
+	if (!s || !*s)
+		return -EINVAL;
+	i = strtoul(s, &end, 16);
+	if (end == s || i < 1 || i > 0xFFFF)
+		return -EINVAL;
+	if (*end == ':') {
+		const char *p = end + 1;
+		sb = strtoul(p, &end, 16);
+		if (end == p || sb > 0xFF)
+			return -EINVAL;
+	}
+	if (*end)
+		return -EINVAL;
+	*index = (uint16_t)i;
+	*sub = (uint8_t)sb;
+	return 0;
+}
+
+/* "0x2003:00:32": object and length in bits (decimal, 1..64). */
+static int parse_map_entry(const char *s, uint32_t *out)
+{
+	char obj[32];
+	const char *colon = strrchr(s, ':');
+	char *end;
+	uint16_t index;
+	uint8_t sub;
+
+	if (!colon || colon == s || (size_t)(colon - s) >= sizeof obj)
+		return -EINVAL;
+	memcpy(obj, s, (size_t)(colon - s));
+	obj[colon - s] = 0;
+	if (!strchr(obj, ':') || cosim_parse_object(obj, &index, &sub))
+		return -EINVAL;
+	unsigned long bits = strtoul(colon + 1, &end, 10);
+	if (end == colon + 1 || *end || bits < 1 || bits > 64)
+		return -EINVAL;
+	*out = CO_PDO_MAP(index, sub, bits);
+	return 0;
+}
+
+/* An object reference member: "0x2003:00". */
+static int get_object(const cJSON *o, const char *key, const char *path, bool required,
+		      uint16_t *index, uint8_t *sub, char *err, size_t errlen)
+{
+	const cJSON *v = json_util_get(o, key);
+	char p[JSON_PATH_MAX];
+
+	json_util_path_key(p, sizeof p, path, key);
+	if (!v) {
+		if (required)
+			return json_util_fail(err, errlen, p, "required key is missing");
+		*index = 0;
+		*sub = 0;
+		return 0;
+	}
+	if (!cJSON_IsString(v) || cosim_parse_object(v->valuestring, index, sub))
+		return json_util_fail(err, errlen, p,
+				      "expected an object as \"0xINDEX:SUB\" (hex), e.g. \"0x2003:00\"");
+	return 0;
+}
+
+/* A reference to an object that must exist and be numeric. */
+static int check_numeric(const co_od *od, uint16_t index, uint8_t sub, const char *path,
+			 const char *key, char *err, size_t errlen)
+{
+	char p[JSON_PATH_MAX];
+	const co_od_entry *e = co_od_find(od, index, sub);
+
+	json_util_path_key(p, sizeof p, path, key);
+	if (!e)
+		return json_util_fail(err, errlen, p, "object 0x%04X:%02X does not exist", index,
+				      sub);
+	if (co_type_is_variable((co_type)e->type))
+		return json_util_fail(err, errlen, p, "object 0x%04X:%02X is a %s, not a number",
+				      index, sub, co_type_to_string((co_type)e->type));
+	return 0;
+}
+
+/* ---- top level ------------------------------------------------------------ */
+
+static const char *const top_keys[] = {
+	"name",	       "comment",    "node_id", "identity", "device_type", "device_name",
+	"hw_version",  "sw_version", "heartbeat_ms", "emcy_history", "store_subs",
+	"objects",     "values",     "tpdos",	"rpdos",    "lss",	   "signals",
+	"loopback",    NULL
+};
+
+struct parsed_top {
+	co_od_std_opts std;
+	char device_name[CO_OD_STD_STRING_MAX];
+	char hw[CO_OD_STD_STRING_MAX];
+	char sw[CO_OD_STD_STRING_MAX];
+};
+
+static int parse_identity(const cJSON *root, struct parsed_top *t, char *err, size_t errlen)
+{
+	static const char *const keys[] = { "vendor", "product", "revision", "serial",
+					    "comment", NULL };
+	const cJSON *id = json_util_get(root, "identity");
+	uint64_t v[4] = { 0, 0, 0, 0 };
+	int rc;
+
+	if (!id)
+		return 0;
+	if (!cJSON_IsObject(id))
+		return json_util_fail(err, errlen, "identity", "expected an object, got %s",
+				      json_util_kind(id));
+	if ((rc = json_util_check_object(id, "identity", keys, err, errlen)) ||
+	    (rc = json_util_opt_uint(id, "vendor", "identity", 0, UINT32_MAX, &v[0], err,
+				     errlen)) ||
+	    (rc = json_util_opt_uint(id, "product", "identity", 0, UINT32_MAX, &v[1], err,
+				     errlen)) ||
+	    (rc = json_util_opt_uint(id, "revision", "identity", 0, UINT32_MAX, &v[2], err,
+				     errlen)) ||
+	    (rc = json_util_opt_uint(id, "serial", "identity", 0, UINT32_MAX, &v[3], err,
+				     errlen)))
+		return rc;
+	t->std.vendor_id = (uint32_t)v[0];
+	t->std.product_code = (uint32_t)v[1];
+	t->std.revision = (uint32_t)v[2];
+	t->std.serial = (uint32_t)v[3];
+	return 0;
+}
+
+static int parse_top(const cJSON *root, cosim_device *dev, const cosim_device_opts *opts,
+		     struct parsed_top *t, char *err, size_t errlen)
+{
+	uint64_t node = 1, dt = 0, hb = 0, hist = 8, store = 1;
+	int rc;
+
+	co_od_std_opts_init(&t->std);
+	snprintf(t->device_name, sizeof t->device_name, "cosim");
+	t->hw[0] = t->sw[0] = 0;
+	if ((rc = json_util_check_object(root, "", top_keys, err, errlen)) ||
+	    (rc = json_util_opt_string(root, "name", "", 1, dev->name, sizeof dev->name, err,
+				       errlen)) ||
+	    (rc = json_util_opt_uint(root, "node_id", "", 1, 255, &node, err, errlen)) ||
+	    (rc = json_util_opt_uint(root, "device_type", "", 0, UINT32_MAX, &dt, err,
+				     errlen)) ||
+	    (rc = json_util_opt_string(root, "device_name", "", 0, t->device_name,
+				       sizeof t->device_name, err, errlen)) ||
+	    (rc = json_util_opt_string(root, "hw_version", "", 0, t->hw, sizeof t->hw, err,
+				       errlen)) ||
+	    (rc = json_util_opt_string(root, "sw_version", "", 0, t->sw, sizeof t->sw, err,
+				       errlen)) ||
+	    (rc = json_util_opt_uint(root, "heartbeat_ms", "", 0, 0xFFFF, &hb, err, errlen)) ||
+	    (rc = json_util_opt_uint(root, "emcy_history", "", 0, 254, &hist, err, errlen)) ||
+	    (rc = json_util_opt_uint(root, "store_subs", "", 0, 127, &store, err, errlen)) ||
+	    (rc = parse_identity(root, t, err, errlen)))
+		return rc;
+	if (node > 127 && node != 255)
+		return json_util_fail(err, errlen, "node_id",
+				      "%llu is out of range 1..127 (or 255 = unconfigured)",
+				      (unsigned long long)node);
+	if (opts && opts->node_id >= 0)
+		node = (uint64_t)opts->node_id;
+	if (opts && opts->serial >= 0)
+		t->std.serial = (uint32_t)opts->serial;
+	if (!dev->name[0])
+		snprintf(dev->name, sizeof dev->name, "%s", t->device_name);
+	dev->node_id = (uint8_t)node;
+	t->std.device_type = (uint32_t)dt;
+	t->std.device_name = t->device_name;
+	t->std.hw_version = t->hw;
+	t->std.sw_version = t->sw;
+	t->std.heartbeat_ms = (uint16_t)hb;
+	t->std.emcy_history = (uint8_t)hist;
+	/* A device: it produces EMCY and heartbeats, it does not consume
+	 * them (the manager does). */
+	t->std.emcy_consumers = 0;
+	t->std.hb_consumers = 0;
+	t->std.store_subs = (uint8_t)store;
+	t->std.rpdos = t->std.tpdos = 0; /* built from "tpdos"/"rpdos" below */
+	return 0;
+}
+
+/* ---- PDOs ------------------------------------------------------------------- */
+
+static const char *const pdo_keys[] = { "nr",	  "cob_id",	"add_node_id", "valid",
+					"transmission", "inhibit_100us", "event_ms",
+					"sync_start", "map", "comment", NULL };
+
+static void add_rel(cosim_device *dev, uint16_t index, uint8_t sub, uint32_t base)
+{
+	if (dev->n_rel < COSIM_REL_COB_MAX)
+		dev->rel[dev->n_rel++] = (cosim_rel_cob){ index, sub, base };
+}
+
+static int parse_map(const cJSON *m, const co_od *od, co_pdo_dir dir, const char *path,
+		     uint32_t *map, uint8_t *n_map, char *err, size_t errlen)
+{
+	char p[JSON_PATH_MAX], ip[JSON_PATH_MAX];
+	const cJSON *it;
+	unsigned bits = 0;
+	size_t i = 0;
+
+	*n_map = 0;
+	if (!m)
+		return 0;
+	json_util_path_key(p, sizeof p, path, "map");
+	if (!cJSON_IsArray(m))
+		return json_util_fail(err, errlen, p, "expected an array of \"0xINDEX:SUB:BITS\"");
+	cJSON_ArrayForEach(it, m) {
+		json_util_path_index(ip, sizeof ip, p, i++);
+		if (i > 8)
+			return json_util_fail(err, errlen, ip,
+					      "more than 8 mapping entries");
+		if (!cJSON_IsString(it) || parse_map_entry(it->valuestring, &map[i - 1]))
+			return json_util_fail(err, errlen, ip,
+					      "expected \"0xINDEX:SUB:BITS\" (hex object, decimal bits), e.g. \"0x2003:00:32\"");
+		uint16_t index = (uint16_t)(map[i - 1] >> 16);
+		uint8_t sub = (uint8_t)(map[i - 1] >> 8);
+		unsigned len = map[i - 1] & 0xFF;
+		const co_od_entry *e = co_od_find(od, index, sub);
+		bits += len;
+		if (dir == CO_PDO_RX && index >= 1 && index <= 7)
+			continue; /* dummy entry */
+		if (!e)
+			return json_util_fail(err, errlen, ip, "object 0x%04X:%02X does not exist",
+					      index, sub);
+		if (!(e->access & (dir == CO_PDO_TX ? CO_ACC_TPDO : CO_ACC_RPDO)))
+			return json_util_fail(err, errlen, ip,
+					      "object 0x%04X:%02X cannot be mapped into a%s (give it \"pdo\": true%s)",
+					      index, sub, dir == CO_PDO_TX ? " TPDO" : "n RPDO",
+					      dir == CO_PDO_RX ? " and a writable access" : "");
+		if (!co_type_is_variable((co_type)e->type) && len > e->size * 8u)
+			return json_util_fail(err, errlen, ip,
+					      "%u bits is longer than the object (%s, %u bits)", len,
+					      co_type_to_string((co_type)e->type), e->size * 8u);
+	}
+	if (bits > 64)
+		return json_util_fail(err, errlen, p, "%u bits do not fit one CAN frame (64)",
+				      bits);
+	*n_map = (uint8_t)(i);
+	return 0;
+}
+
+static int parse_pdos(const cJSON *root, cosim_device *dev, co_pdo_dir dir, char *err,
+		      size_t errlen)
+{
+	const char *key = dir == CO_PDO_TX ? "tpdos" : "rpdos";
+	const cJSON *arr = json_util_get(root, key), *it;
+	uint8_t id = dev->node_id == 255 ? 0 : dev->node_id;
+	char p[JSON_PATH_MAX];
+	size_t i = 0;
+	int rc;
+
+	if (!arr)
+		return 0;
+	if (!cJSON_IsArray(arr))
+		return json_util_fail(err, errlen, key, "expected an array of PDO objects");
+	cJSON_ArrayForEach(it, arr) {
+		uint64_t nr = i + 1, cob = 0, tt = 254, inhibit = 0, event = 0, start = 0;
+		bool add_id = true, valid = true;
+		uint32_t map[8];
+		co_pdo_desc d;
+
+		json_util_path_index(p, sizeof p, key, i++);
+		if (!cJSON_IsObject(it))
+			return json_util_fail(err, errlen, p, "expected an object, got %s",
+					      json_util_kind(it));
+		if ((rc = json_util_check_object(it, p, pdo_keys, err, errlen)) ||
+		    (rc = json_util_opt_uint(it, "nr", p, 1, COSIM_PDO_MAX, &nr, err, errlen)))
+			return rc;
+		/* Default COB-ID: the predefined connection set for PDO 1..4
+		 * (CiA 301 §7.3.5), the caller must give one for the others. */
+		if (nr <= 4)
+			cob = dir == CO_PDO_TX ? CO_PDO_TPDO_DEFAULT_COB(nr, 0)
+					       : CO_PDO_RPDO_DEFAULT_COB(nr, 0);
+		else if (!json_util_get(it, "cob_id"))
+			return json_util_fail(err, errlen, p,
+					      "\"cob_id\" is required for PDO %llu (only 1..4 have predefined ones)",
+					      (unsigned long long)nr);
+		if ((rc = json_util_opt_uint(it, "cob_id", p, 1, 0x7FF, &cob, err, errlen)) ||
+		    (rc = json_util_opt_bool(it, "add_node_id", p, &add_id, err, errlen)) ||
+		    (rc = json_util_opt_bool(it, "valid", p, &valid, err, errlen)) ||
+		    (rc = json_util_opt_uint(it, "transmission", p, 0, 255, &tt, err, errlen)) ||
+		    (rc = json_util_opt_uint(it, "inhibit_100us", p, 0, 0xFFFF, &inhibit, err,
+					     errlen)) ||
+		    (rc = json_util_opt_uint(it, "event_ms", p, 0, 0xFFFF, &event, err,
+					     errlen)) ||
+		    (rc = json_util_opt_uint(it, "sync_start", p, 0, 255, &start, err, errlen)))
+			return rc;
+		if ((tt >= 241 && tt <= 251) || (dir == CO_PDO_RX && (tt == 252 || tt == 253))) {
+			char tp[JSON_PATH_MAX];
+			json_util_path_key(tp, sizeof tp, p, "transmission");
+			return json_util_fail(err, errlen, tp,
+					      "%llu is a reserved transmission type for a%s",
+					      (unsigned long long)tt,
+					      dir == CO_PDO_TX ? " TPDO" : "n RPDO");
+		}
+		if (add_id && cob + 127 > 0x7FF)
+			return json_util_fail(err, errlen, p,
+					      "cob_id 0x%llX + node-ID does not fit 11 bits",
+					      (unsigned long long)cob);
+		memset(&d, 0, sizeof d);
+		if ((rc = parse_map(json_util_get(it, "map"), dev->od, dir, p, map, &d.n_map, err,
+				    errlen)))
+			return rc;
+		uint32_t base = (uint32_t)cob | (valid ? 0 : CO_PDO_COB_INVALID);
+		d.dir = dir;
+		d.nr = (uint16_t)nr;
+		d.cob_id = base + (add_id ? id : 0);
+		if (add_id && dev->node_id == 255)
+			d.cob_id |= CO_PDO_COB_INVALID;
+		d.tt = (uint8_t)tt;
+		d.inhibit_100us = (uint16_t)inhibit;
+		d.event_ms = (uint16_t)event;
+		d.sync_start = (uint8_t)start;
+		d.map_subs = 8;
+		d.map = map;
+		rc = co_od_add_pdo(dev->od, &d);
+		if (rc == -EEXIST)
+			return json_util_fail(err, errlen, p, "%s %llu is defined twice",
+					      dir == CO_PDO_TX ? "TPDO" : "RPDO",
+					      (unsigned long long)nr);
+		if (rc == -ENOMEM)
+			return rc;
+		if (rc)
+			return json_util_fail(err, errlen, p, "cannot build the PDO records (%s)",
+					      strerror(-rc));
+		if (add_id)
+			add_rel(dev, (uint16_t)((dir == CO_PDO_TX ? CO_PDO_TPDO_COMM
+								  : CO_PDO_RPDO_COMM) +
+						nr - 1),
+				1, base);
+	}
+	return 0;
+}
+
+/* ---- LSS ---------------------------------------------------------------------- */
+
+static int parse_lss(const cJSON *root, cosim_device *dev, char *err, size_t errlen)
+{
+	static const char *const keys[] = { "enabled", "constant_id", "bit_timing", "comment",
+					    NULL };
+	const cJSON *l = json_util_get(root, "lss"), *bt, *it;
+	char p[JSON_PATH_MAX], ip[JSON_PATH_MAX];
+	size_t i = 0;
+	int rc;
+
+	dev->lss_enabled = true;
+	if (!l)
+		return 0;
+	if (!cJSON_IsObject(l))
+		return json_util_fail(err, errlen, "lss", "expected an object, got %s",
+				      json_util_kind(l));
+	if ((rc = json_util_check_object(l, "lss", keys, err, errlen)) ||
+	    (rc = json_util_opt_bool(l, "enabled", "lss", &dev->lss_enabled, err, errlen)) ||
+	    (rc = json_util_opt_bool(l, "constant_id", "lss", &dev->lss_constant_id, err,
+				     errlen)))
+		return rc;
+	bt = json_util_get(l, "bit_timing");
+	if (!bt)
+		return 0;
+	json_util_path_key(p, sizeof p, "lss", "bit_timing");
+	if (!cJSON_IsArray(bt) || cJSON_GetArraySize(bt) == 0)
+		return json_util_fail(err, errlen, p,
+				      "expected a non-empty array of CiA table indexes 0..8");
+	cJSON_ArrayForEach(it, bt) {
+		uint64_t v;
+		json_util_path_index(ip, sizeof ip, p, i++);
+		if ((rc = json_util_uint(it, ip, 0, 8, false, &v, err, errlen)))
+			return rc;
+		if (v == 5)
+			return json_util_fail(err, errlen, ip, "index 5 is reserved (CiA 305)");
+		dev->lss_bit_timing_mask |= (uint16_t)(1u << v);
+	}
+	return 0;
+}
+
+/* ---- signals and loopback ------------------------------------------------------ */
+
+static const char *const signal_keys[] = { "name",	"object",     "kind",	   "min",
+					   "max",	"value",      "period_ms", "update_ms",
+					   "notify",	"offset_object", "span_object",
+					   "comment",	NULL };
+
+static int opt_real(const cJSON *o, const char *key, const char *path, double *out,
+		    bool required, char *err, size_t errlen)
+{
+	char p[JSON_PATH_MAX];
+	const cJSON *v = json_util_get(o, key);
+
+	json_util_path_key(p, sizeof p, path, key);
+	if (!v)
+		return required ? json_util_fail(err, errlen, p, "required key is missing") : 0;
+	return json_util_real(v, p, out, err, errlen);
+}
+
+static int parse_signal(const cJSON *it, const char *p, cosim_device *dev,
+			cosim_signal_desc *s, char *err, size_t errlen)
+{
+	char kp[JSON_PATH_MAX], kind[16] = "const";
+	uint64_t period = 0, update = 100;
+	int rc;
+
+	memset(s, 0, sizeof *s);
+	if (!cJSON_IsObject(it))
+		return json_util_fail(err, errlen, p, "expected an object, got %s",
+				      json_util_kind(it));
+	if ((rc = json_util_check_object(it, p, signal_keys, err, errlen)) ||
+	    (rc = json_util_opt_string(it, "name", p, 1, s->name, sizeof s->name, err,
+				       errlen)) ||
+	    (rc = get_object(it, "object", p, true, &s->index, &s->sub, err, errlen)) ||
+	    (rc = check_numeric(dev->od, s->index, s->sub, p, "object", err, errlen)) ||
+	    (rc = json_util_opt_string(it, "kind", p, 1, kind, sizeof kind, err, errlen)) ||
+	    (rc = json_util_opt_uint(it, "period_ms", p, 1, 86400000, &period, err, errlen)) ||
+	    (rc = json_util_opt_uint(it, "update_ms", p, 1, 3600000, &update, err, errlen)) ||
+	    (rc = json_util_opt_bool(it, "notify", p, &s->notify, err, errlen)) ||
+	    (rc = get_object(it, "offset_object", p, false, &s->offset_index, &s->offset_sub,
+			     err, errlen)) ||
+	    (rc = get_object(it, "span_object", p, false, &s->span_index, &s->span_sub, err,
+			     errlen)))
+		return rc;
+	json_util_path_key(kp, sizeof kp, p, "kind");
+	if (!signal_kind_from_string(kind, &s->kind))
+		return json_util_fail(err, errlen, kp,
+				      "unknown kind \"%s\" (const, ramp, sine or square)", kind);
+	if (s->offset_index &&
+	    (rc = check_numeric(dev->od, s->offset_index, s->offset_sub, p, "offset_object",
+				err, errlen)))
+		return rc;
+	if (s->span_index && (rc = check_numeric(dev->od, s->span_index, s->span_sub, p,
+						 "span_object", err, errlen)))
+		return rc;
+	if (s->kind == COSIM_SIG_CONST) {
+		if ((rc = opt_real(it, "value", p, &s->value, true, err, errlen)))
+			return rc;
+	} else {
+		if ((rc = opt_real(it, "min", p, &s->min, true, err, errlen)) ||
+		    (rc = opt_real(it, "max", p, &s->max, true, err, errlen)))
+			return rc;
+		json_util_path_key(kp, sizeof kp, p, "period_ms");
+		if (!period)
+			return json_util_fail(err, errlen, kp, "required for a %s signal", kind);
+		if (s->max < s->min) {
+			json_util_path_key(kp, sizeof kp, p, "max");
+			return json_util_fail(err, errlen, kp, "%g is below min %g", s->max,
+					      s->min);
+		}
+	}
+	s->period_ms = (uint32_t)period;
+	s->update_ms = (uint32_t)update;
+	return 0;
+}
+
+static int parse_signals(const cJSON *root, cosim_device *dev, char *err, size_t errlen)
+{
+	const cJSON *arr = json_util_get(root, "signals"), *it;
+	char p[JSON_PATH_MAX];
+	size_t i = 0;
+	int rc;
+
+	if (!arr)
+		return 0;
+	if (!cJSON_IsArray(arr))
+		return json_util_fail(err, errlen, "signals", "expected an array");
+	cJSON_ArrayForEach(it, arr) {
+		json_util_path_index(p, sizeof p, "signals", i++);
+		if (dev->n_signals >= COSIM_SIGNAL_MAX)
+			return json_util_fail(err, errlen, p, "more than %u signals",
+					      COSIM_SIGNAL_MAX);
+		if ((rc = parse_signal(it, p, dev, &dev->signals[dev->n_signals], err, errlen)))
+			return rc;
+		dev->n_signals++;
+	}
+	return 0;
+}
+
+static int parse_loopback(const cJSON *root, cosim_device *dev, char *err, size_t errlen)
+{
+	static const char *const keys[] = { "enabled", "pairs", "comment", NULL };
+	static const char *const pair_keys[] = { "from", "to", "comment", NULL };
+	const cJSON *l = json_util_get(root, "loopback"), *pairs, *it;
+	char p[JSON_PATH_MAX], ip[JSON_PATH_MAX];
+	size_t i = 0;
+	int rc;
+
+	if (!l)
+		return 0;
+	if (!cJSON_IsObject(l))
+		return json_util_fail(err, errlen, "loopback", "expected an object, got %s",
+				      json_util_kind(l));
+	if ((rc = json_util_check_object(l, "loopback", keys, err, errlen)) ||
+	    (rc = json_util_opt_bool(l, "enabled", "loopback", &dev->loopback_enabled, err,
+				     errlen)))
+		return rc;
+	pairs = json_util_get(l, "pairs");
+	if (!pairs)
+		return 0;
+	json_util_path_key(p, sizeof p, "loopback", "pairs");
+	if (!cJSON_IsArray(pairs))
+		return json_util_fail(err, errlen, p, "expected an array of {\"from\", \"to\"}");
+	cJSON_ArrayForEach(it, pairs) {
+		cosim_loopback_desc *d = &dev->loopback[dev->n_loopback];
+		json_util_path_index(ip, sizeof ip, p, i++);
+		if (dev->n_loopback >= COSIM_LOOPBACK_MAX)
+			return json_util_fail(err, errlen, ip, "more than %u pairs",
+					      COSIM_LOOPBACK_MAX);
+		if (!cJSON_IsObject(it))
+			return json_util_fail(err, errlen, ip, "expected an object, got %s",
+					      json_util_kind(it));
+		if ((rc = json_util_check_object(it, ip, pair_keys, err, errlen)) ||
+		    (rc = get_object(it, "from", ip, true, &d->from_index, &d->from_sub, err,
+				     errlen)) ||
+		    (rc = check_numeric(dev->od, d->from_index, d->from_sub, ip, "from", err,
+					errlen)) ||
+		    (rc = get_object(it, "to", ip, true, &d->to_index, &d->to_sub, err,
+				     errlen)) ||
+		    (rc = check_numeric(dev->od, d->to_index, d->to_sub, ip, "to", err, errlen)))
+			return rc;
+		dev->n_loopback++;
+	}
+	return 0;
+}
+
+/* ---- node-relative COB-IDs ----------------------------------------------------- */
+
+void cosim_device_rebase(cosim_device *dev, co_od *od, uint8_t node_id)
+{
+	for (unsigned i = 0; i < dev->n_rel; i++) {
+		co_od_entry *e = co_od_find(od, dev->rel[i].index, dev->rel[i].sub);
+		uint32_t v = dev->rel[i].base;
+		if (!e)
+			continue;
+		if (node_id >= 1 && node_id <= 127)
+			v += node_id;
+		else
+			v |= 0x80000000u; /* unconfigured: no COB-ID of its own */
+		co_od_entry_set_default_raw(e, v);
+		co_od_entry_set_raw(e, v);
+	}
+}
+
+/* ---- loading ------------------------------------------------------------------- */
+
+static int build(cosim_device *dev, const cJSON *root, const cosim_device_opts *opts,
+		 char *err, size_t errlen)
+{
+	struct parsed_top t;
+	const cJSON *v;
+	int rc;
+
+	if (!cJSON_IsObject(root))
+		return json_util_fail(err, errlen, "(top)", "expected an object, got %s",
+				      json_util_kind(root));
+	if ((rc = parse_top(root, dev, opts, &t, err, errlen)))
+		return rc;
+	if ((rc = co_od_create(&dev->od, 256)))
+		return rc;
+	/* od_std wants a real node-ID: an unconfigured device is built as
+	 * node 1 and its node-relative COB-IDs are then made invalid. */
+	rc = co_od_add_std_comm(dev->od, dev->node_id == 255 ? 1 : dev->node_id, &t.std);
+	if (rc == -ENOMEM)
+		return rc;
+	if (rc)
+		return json_util_fail(err, errlen, "(top)",
+				      "cannot build the standard objects (%s)", strerror(-rc));
+	add_rel(dev, 0x1200, 1, 0x600);
+	add_rel(dev, 0x1200, 2, 0x580);
+	add_rel(dev, 0x1014, 0, 0x80);
+	if ((v = json_util_get(root, "objects")) &&
+	    (rc = json_od_add_objects(dev->od, v, "objects", err, errlen)))
+		return rc;
+	if ((rc = parse_pdos(root, dev, CO_PDO_TX, err, errlen)) ||
+	    (rc = parse_pdos(root, dev, CO_PDO_RX, err, errlen)))
+		return rc;
+	/* Values last: they may set any object, standard or PDO ones too. */
+	if ((v = json_util_get(root, "values")) &&
+	    (rc = json_od_apply_values(dev->od, v, "values", err, errlen)))
+		return rc;
+	if ((rc = parse_lss(root, dev, err, errlen)) ||
+	    (rc = parse_signals(root, dev, err, errlen)) ||
+	    (rc = parse_loopback(root, dev, err, errlen)))
+		return rc;
+	if (dev->node_id == 255) {
+		if (!dev->lss_enabled)
+			return json_util_fail(err, errlen, "node_id",
+					      "255 (unconfigured) needs \"lss\": {\"enabled\": true}");
+		cosim_device_rebase(dev, dev->od, 255);
+	}
+	return 0;
+}
+
+int cosim_device_load_string(cosim_device *dev, const char *file, const char *json,
+			     const cosim_device_opts *opts, char *err, size_t errlen)
+{
+	char msg[COSIM_ERR_MAX];
+	cJSON *root = NULL;
+	int rc;
+
+	memset(dev, 0, sizeof *dev);
+	snprintf(dev->file, sizeof dev->file, "%s", file);
+	msg[0] = 0;
+	rc = json_util_parse(json, &root, msg, sizeof msg);
+	if (!rc)
+		rc = build(dev, root, opts, msg, sizeof msg);
+	cJSON_Delete(root);
+	if (rc) {
+		if (rc == -ENOMEM)
+			snprintf(err, errlen, "%s: out of memory", file);
+		else
+			snprintf(err, errlen, "%s: %s", file, msg);
+		cosim_device_free(dev);
+	}
+	return rc;
+}
+
+int cosim_device_load(cosim_device *dev, const char *path, const cosim_device_opts *opts,
+		      char *err, size_t errlen)
+{
+	FILE *f = fopen(path, "rb");
+	char *text;
+	long n;
+	int rc;
+
+	if (!f) {
+		rc = -errno;
+		snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
+		return rc;
+	}
+	if (fseek(f, 0, SEEK_END) < 0 || (n = ftell(f)) < 0 || fseek(f, 0, SEEK_SET) < 0 ||
+	    n > 4 * 1024 * 1024) {
+		fclose(f);
+		snprintf(err, errlen, "%s: cannot read (not a regular file, or above 4 MiB)",
+			 path);
+		return -EIO;
+	}
+	text = malloc((size_t)n + 1);
+	if (!text) {
+		fclose(f);
+		return -ENOMEM;
+	}
+	if (fread(text, 1, (size_t)n, f) != (size_t)n) {
+		fclose(f);
+		free(text);
+		snprintf(err, errlen, "%s: read error", path);
+		return -EIO;
+	}
+	fclose(f);
+	text[n] = 0;
+	rc = cosim_device_load_string(dev, path, text, opts, err, errlen);
+	free(text);
+	return rc;
+}
+
+void cosim_device_free(cosim_device *dev)
+{
+	if (!dev)
+		return;
+	co_od_destroy(dev->od);
+	dev->od = NULL;
+}
