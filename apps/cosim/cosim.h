@@ -28,6 +28,7 @@
 #include "core/co.h"
 #include "core/frame.h"
 #include "core/od.h"
+#include "core/od_image.h"
 
 #define COSIM_NAME_MAX 64
 #define COSIM_PDO_MAX 32u      /* PDOs per direction in a device file */
@@ -192,8 +193,8 @@ void cosim_log(bool quiet, const char *fmt, ...)
 /* ---- persistence (nv.c) ----------------------------------------------- */
 
 /* Parts of the OD that 1010h/1011h sub-indexes name (CiA 301 §7.5.2.13). */
-#define COSIM_NV_COMM 0x1u /* 1000h..1FFFh */
-#define COSIM_NV_APP 0x2u  /* 2000h..FFFFh */
+#define COSIM_NV_COMM CO_OD_IMAGE_COMM /* 1000h..1FFFh */
+#define COSIM_NV_APP CO_OD_IMAGE_APP   /* 2000h..FFFFh */
 
 /* Write the persistent entries of `parts` to <dir>/<key>.comm / .app,
  * atomically (temp file + rename). 0 or -errno. */
@@ -209,12 +210,5 @@ int cosim_nv_erase(const char *dir, const char *key, unsigned parts);
 /* LSS: the persistent node-ID (<key>.lss). load: -ENOENT if none. */
 int cosim_nv_save_node_id(const char *dir, const char *key, uint8_t node_id);
 int cosim_nv_load_node_id(const char *dir, const char *key, uint8_t *node_id);
-
-/* Serialise / apply the same records in memory (the defaults snapshot that
- * 1011h "load" brings back). */
-long cosim_nv_serialise(const co_od *od, unsigned parts, uint8_t *buf,
-			size_t cap);
-int cosim_nv_apply(co_od *od, const uint8_t *buf, size_t len, bool set_default,
-		   bool set_value, unsigned *loaded, unsigned *skipped);
 
 #endif /* COGW_APPS_COSIM_H */

@@ -530,7 +530,7 @@ static uint32_t store_restore(void *ctx, uint8_t sub, const co_od_access *a)
 	 * so only the defaults change now. The snapshot holds both parts;
 	 * applying it whole is right for sub 1 and close enough for 2/3. */
 	if (n->snapshot)
-		cosim_nv_apply(n->dev.od, n->snapshot, n->snapshot_len, true, false, &l, &s);
+		co_od_image_apply(n->dev.od, n->snapshot, n->snapshot_len, CO_OD_IMAGE_SET_DEFAULT, &l, &s);
 	logn(n, "1011h:%02X load: device file defaults after the next reset", sub);
 	return 0;
 }
@@ -727,7 +727,7 @@ int cosim_node_create(cosim_node **out, const cosim_node_config *cfg, char *err,
 	/* The device file's values, before anything stored replaces them. */
 	n->snapshot = malloc(SNAPSHOT_MAX);
 	if (n->snapshot) {
-		long len = cosim_nv_serialise(n->dev.od, COSIM_NV_COMM | COSIM_NV_APP, n->snapshot,
+		long len = co_od_image_write(n->dev.od, COSIM_NV_COMM | COSIM_NV_APP, n->snapshot,
 					      SNAPSHOT_MAX);
 		if (len < 0) {
 			free(n->snapshot);
