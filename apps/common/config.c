@@ -421,6 +421,15 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path,
 						l->hb_consumers[i].time_ms);
 		co_od_entry_reset(e);
 	}
+	/* A manager must keep running when one slave's heartbeat is lost:
+	 * CiA 301's default reaction (1029h:1 = 0, go pre-operational) would
+	 * stop this line's PDO traffic for every other node. "values" may
+	 * still set it back. */
+	co_od_entry *eb = co_od_find(l->od, 0x1029, 1);
+	if (eb) {
+		co_od_entry_set_default_raw(eb, 1);
+		co_od_entry_reset(eb);
+	}
 	v = json_util_get(o, "objects");
 	if (v) {
 		json_util_path_key(p, sizeof(p), path, "objects");
@@ -606,7 +615,7 @@ static void set_defaults(cogw_config *cfg, const char *source)
 	snprintf(cfg->source, sizeof(cfg->source), "%s", source);
 	snprintf(cfg->state_dir, sizeof(cfg->state_dir), "/var/lib/cogw");
 	cfg->watchdog_check_ms = 500;
-	snprintf(cfg->mailbox.instance, sizeof(cfg->mailbox.instance), "cogw");
+	snprintf(cfg->mailbox.instance, sizeof(cfg->mailbox.instance), "main");
 	cfg->mailbox.depth = 64;
 	cfg->mailbox.msg_size = 1024;
 	cfg->mailbox.queue_mode = 0660;

@@ -76,7 +76,7 @@ static void test_embedded_default_parses(void)
 	load_ok(cogw_default_config_json);
 	TEST_ASSERT_EQUAL_size_t(3, cfg.n_lines);
 	TEST_ASSERT_EQUAL_STRING("/var/lib/cogw", cfg.state_dir);
-	TEST_ASSERT_EQUAL_STRING("cogw", cfg.mailbox.instance);
+	TEST_ASSERT_EQUAL_STRING("main", cfg.mailbox.instance);
 	TEST_ASSERT_EQUAL_UINT(0660, cfg.mailbox.queue_mode);
 	TEST_ASSERT_EQUAL_UINT(COGW_ACCESS_WRITE, cfg.mailbox.default_access);
 	for (size_t i = 0; i < 3; i++) {
