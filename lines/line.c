@@ -201,6 +201,21 @@ static void handle_can(line *l)
 	}
 }
 
+/* handle_can() publishes raw frames only while some client subscribed to
+ * the raw class (building an event per frame for nobody is waste). The
+ * cache was never set before, so raw events never reached anyone: it is
+ * refreshed after every batch of mailbox commands, which is where
+ * SUBSCRIBE/UNSUBSCRIBE/UNREGISTER arrive. A reaped client can leave it
+ * set until the next command; publishing then reaches nobody, harmlessly. */
+static void refresh_raw_subscribers(line *l)
+{
+	uint32_t n = 0;
+	mbx_client_info ci;
+	for (unsigned i = 0; mbx_server_client_info(l->mbx, i, &ci) == 0; i++)
+		n += (ci.classes & MBX_EVC_RAW) != 0;
+	l->raw_subscribers = n;
+}
+
 static void handle_requests(line *l)
 {
 	unsigned stall = atomic_exchange(&l->stall_ms, 0);
@@ -214,6 +229,13 @@ static void handle_requests(line *l)
 	int hb = atomic_exchange(&l->hb_producer_ms, -1);
 	if (hb >= 0)
 		co_hb_producer_set(l->node, (uint16_t)hb, l->now_us);
+	if (atomic_load_explicit(&l->access.state, memory_order_acquire) == 1) {
+		line_access_req *a = &l->access;
+		if (mbx_server_set_rules(l->mbx, a->rules, a->n_rules, a->default_access) < 0)
+			cogw_log(COGW_LOG_ERR, "line %s: reload: access rules refused by the mailbox", l->name);
+		mbx_server_set_lease(l->mbx, a->lease_ms);
+		atomic_store_explicit(&a->state, 0, memory_order_release);
+	}
 	line_store_poll(l);
 }
 
@@ -261,6 +283,11 @@ static void *line_main(void *arg)
 	uint64_t checkin_period = (uint64_t)l->p.checkin_ms * 1000u;
 	l->now_us = line_now_us();
 	co_node_tick(l->node, l->now_us);
+	/* Publish once before saying "up": the main thread builds the STATUS=
+	 * that goes with READY=1 from these counters, and without them it
+	 * reported every line as "starting" at the moment it declared the
+	 * daemon ready. */
+	publish_stats(l);
 	atomic_store(&l->up, true);
 
 	while (!atomic_load(&l->stop)) {
@@ -299,6 +326,7 @@ static void *line_main(void *arg)
 				break;
 			case TAG_MBX:
 				mbx_server_poll(l->mbx, l->now_us);
+				refresh_raw_subscribers(l);
 				break;
 			case TAG_WAKE:
 				drain_fd(l->wakefd);
@@ -447,4 +475,38 @@ void line_request_hb_producer(line *l, uint16_t ms)
 {
 	atomic_store(&l->hb_producer_ms, (int)ms);
 	wake(l);
+}
+
+int line_request_access(line *l, const mbx_access_rule *rules, size_t n_rules,
+			uint8_t default_access, unsigned lease_ms)
+{
+	if (n_rules > MBX_SERVER_RULES_MAX)
+		return -EINVAL;
+	/* A previous hand-over not yet taken: the line loops at least every
+	 * checkin_ms/2, so waiting a little is enough unless it is stuck;
+	 * then the fields must not be overwritten under it. */
+	for (int i = 0; atomic_load_explicit(&l->access.state, memory_order_acquire) != 0; i++) {
+		if (i >= 200)
+			return -EBUSY;
+		struct timespec ts = { .tv_nsec = 5 * 1000000L };
+		nanosleep(&ts, NULL);
+	}
+	line_access_req *a = &l->access;
+	if (n_rules)
+		memcpy(a->rules, rules, n_rules * sizeof *rules);
+	a->n_rules = n_rules;
+	a->default_access = default_access;
+	a->lease_ms = lease_ms;
+	atomic_store_explicit(&a->state, 1, memory_order_release);
+	wake(l);
+	/* Wait (briefly) until the line has applied it, so that the READY=1
+	 * after a reload means the new rules are in force. A stuck line
+	 * applies it later. */
+	for (int i = 0; atomic_load_explicit(&l->access.state, memory_order_acquire) != 0; i++) {
+		if (i >= 200)
+			return -ETIMEDOUT;
+		struct timespec ts = { .tv_nsec = 5 * 1000000L };
+		nanosleep(&ts, NULL);
+	}
+	return 0;
 }

@@ -78,6 +78,14 @@ bool line_stats_snapshot(line *l, line_stats *out);
 /* Requests from the main thread (served by the line thread). */
 void line_request_stall(line *l, unsigned ms);     /* test hook */
 void line_request_hb_producer(line *l, uint16_t ms); /* reload */
+/* Reload: new mailbox access rules, default access and lease (applied by
+ * the line thread with mbx_server_set_rules/_set_lease, also to clients
+ * already registered). Waits up to ~1 s for the line to apply them.
+ * Returns 0 (applied), -EINVAL (too many rules), -EBUSY (the previous
+ * request is still pending: nothing posted) or -ETIMEDOUT (posted, the
+ * line will apply it when it loops again). */
+int line_request_access(line *l, const mbx_access_rule *rules, size_t n_rules,
+			uint8_t default_access, unsigned lease_ms);
 
 /* Main thread: carry out a pending 1010h save / 1011h restore for this
  * line (file I/O, which the line thread never does). Returns true if there

@@ -142,6 +142,15 @@ static void sdo_transfer(line *l, const mbx_request *req, const mbx_sdo_req *s, 
 
 static void nmt_cmd(line *l, const mbx_request *req, const mbx_nmt_req *n)
 {
+	/* Addressed to the daemon's own node-ID: the kernel does not loop our
+	 * own frame back to us, so sent on the bus it would change nothing.
+	 * Apply it locally instead (e.g. "start" makes the manager OPERATIONAL
+	 * so that its RPDOs run and PDO events flow). A vetoed start is a
+	 * state refusal. */
+	if (n->node == co_node_id(l->node)) {
+		int lrc = co_nmt_local_cmd(l->node, n->cs, l->now_us);
+		return answer(l, req, lrc == 0 ? 0 : lrc == -EPERM ? MBX_E_STATE : MBX_E_PARAM, 0, NULL, 0);
+	}
 	int rc = co_nmt_master_send(l->node, n->node, n->cs, l->now_us);
 	answer(l, req, rc < 0 ? MBX_E_PARAM : 0, 0, NULL, 0);
 }

@@ -55,6 +55,17 @@ typedef struct line_store_req {
 
 #define LINE_STORE_MAX (256u * 1024u)
 
+/* Access settings handed over by a reload (main thread -> line thread).
+ * The main thread fills the fields only while state is 0, then sets 1;
+ * the line thread applies them and sets 0 again. No lock on the RT path. */
+typedef struct line_access_req {
+	atomic_int state;
+	mbx_access_rule rules[MBX_SERVER_RULES_MAX];
+	size_t n_rules;
+	uint8_t default_access;
+	unsigned lease_ms;
+} line_access_req;
+
 struct line {
 	line_params p;
 	char name[32];
@@ -91,6 +102,7 @@ struct line {
 	uint32_t raw_subscribers; /* cached: any client wants raw frames */
 	can_bus_state bus_state_prev;
 	line_store_req store;
+	line_access_req access;
 };
 
 /* line_events.c */

@@ -95,6 +95,7 @@ struct mbx_server {
 	size_t rx_size;
 	uint8_t *tx;
 	mbx_access_rule *rules;
+	size_t rules_cap; /* room for MBX_SERVER_RULES_MAX (set_rules) */
 	mbx_client *clients;
 	mbx_xfer *xfers;
 	uint16_t gen;
@@ -1114,14 +1115,14 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 	srv->tx = malloc(MBX_MSG_MAX);
 	srv->clients = calloc(c->max_clients, sizeof *srv->clients);
 	srv->xfers = calloc(c->xfer_slots, sizeof *srv->xfers);
-	if (c->n_rules) {
-		srv->rules = calloc(c->n_rules, sizeof *srv->rules);
-		if (srv->rules)
-			memcpy(srv->rules, cfg->rules,
-			       c->n_rules * sizeof *srv->rules);
-	}
-	if (!srv->rx || !srv->tx || !srv->clients || !srv->xfers ||
-	    (c->n_rules && !srv->rules))
+	/* Room for a reload's rules too (mbx_server_set_rules), so that
+	 * nothing is allocated after create. */
+	srv->rules_cap = c->n_rules > MBX_SERVER_RULES_MAX ? c->n_rules
+							   : MBX_SERVER_RULES_MAX;
+	srv->rules = calloc(srv->rules_cap, sizeof *srv->rules);
+	if (srv->rules && c->n_rules)
+		memcpy(srv->rules, cfg->rules, c->n_rules * sizeof *srv->rules);
+	if (!srv->rx || !srv->tx || !srv->clients || !srv->xfers || !srv->rules)
 		goto fail;
 	c->rules = srv->rules;
 	for (unsigned i = 0; i < c->max_clients; i++)
@@ -1192,6 +1193,45 @@ void mbx_server_destroy(mbx_server *srv)
 int mbx_server_fd(const mbx_server *srv)
 {
 	return (int)srv->q;
+}
+
+int mbx_server_set_rules(mbx_server *srv, const mbx_access_rule *rules,
+			 size_t n_rules, uint8_t default_access)
+{
+	if (n_rules > srv->rules_cap || (n_rules && !rules) ||
+	    default_access > MBX_ACCESS_WRITE)
+		return -EINVAL;
+	if (n_rules)
+		memcpy(srv->rules, rules, n_rules * sizeof *srv->rules);
+	srv->cfg.n_rules = n_rules;
+	srv->cfg.default_access = default_access;
+	/* Access is granted at REGISTER; a reload that revokes a right must
+	 * reach the clients already registered too, or it would not take
+	 * effect until they reconnect. A client left with no access at all
+	 * is dropped (it would be refused registration now). */
+	for (unsigned i = 0; i < srv->cfg.max_clients; i++) {
+		mbx_client *c = &srv->clients[i];
+
+		if (!c->id)
+			continue;
+		c->access = access_of(srv, c->uid);
+		if (c->access == MBX_ACCESS_NONE) {
+			srv->stats.access_denied++;
+			client_remove(srv, c, true);
+		}
+	}
+	return 0;
+}
+
+void mbx_server_set_lease(mbx_server *srv, unsigned lease_ms)
+{
+	srv->cfg.lease_ms = lease_ms;
+	/* Every client gets a full new lease: one computed with the old
+	 * value (0 = none) would expire at once. */
+	for (unsigned i = 0; i < srv->cfg.max_clients; i++)
+		if (srv->clients[i].id)
+			srv->clients[i].lease_until =
+				srv->now_us + (uint64_t)lease_ms * 1000u;
 }
 
 const mbx_server_stats *mbx_server_stats_get(const mbx_server *srv)

@@ -199,6 +199,19 @@ int mbx_server_publish(mbx_server *srv, uint16_t ev_code, uint64_t corr,
 int mbx_server_notify(mbx_server *srv, const mbx_reply_to *to,
 		      uint16_t ev_code, const void *payload, size_t len);
 
+/*
+ * Reload (SIGHUP) of the access settings, on the owner thread: replace the
+ * rules (at most MBX_SERVER_RULES_MAX, or the create-time count if larger)
+ * and default_access. Registered clients are re-evaluated at once: their
+ * level follows the new rules, and a client left with MBX_ACCESS_NONE is
+ * dropped (reaped; client_gone is called). Returns 0 or -EINVAL.
+ */
+#define MBX_SERVER_RULES_MAX 64u
+int mbx_server_set_rules(mbx_server *srv, const mbx_access_rule *rules,
+			 size_t n_rules, uint8_t default_access);
+/* New lease (0 = none); every registered client's lease restarts now. */
+void mbx_server_set_lease(mbx_server *srv, unsigned lease_ms);
+
 const mbx_server_stats *mbx_server_stats_get(const mbx_server *srv);
 /* Info about the n-th live client (0-based); -ENOENT past the end. */
 int mbx_server_client_info(const mbx_server *srv, unsigned n,

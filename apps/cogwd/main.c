@@ -117,6 +117,10 @@ static int create_lines(daemon_state *d)
 				.sdo_server_timeout_ms = lc->sdo_timeout_ms,
 				.sdo_client_count = lc->sdo_clients,
 				.sdo_client_block_threshold = lc->sdo_block_threshold,
+				/* The manager is the LSS master of every line: without
+				 * this the mailbox's LSS commands all answered
+				 * UNSUPPORTED (core timeouts stay at their defaults). */
+				.lss_master = true,
 			},
 			.mbx = {
 				.queue_name = d->queue_names[i],
@@ -187,6 +191,68 @@ static void watchdog_tick(daemon_state *d, uint64_t now)
 	sd_notify(0, "WATCHDOG=1");
 }
 
+static bool rules_differ(const cogw_mailbox_config *a, const cogw_mailbox_config *b)
+{
+	if (a->n_rules != b->n_rules || a->default_access != b->default_access)
+		return true;
+	for (size_t i = 0; i < a->n_rules; i++)
+		if (a->rules[i].uid != b->rules[i].uid || a->rules[i].access != b->rules[i].access)
+			return true;
+	return false;
+}
+
+/* mailbox.rules, default_access and lease_ms are documented as reloadable:
+ * hand them to every line (each line's mailbox server is owned by its
+ * thread), where they also apply to clients already registered. */
+static void apply_access_reload(daemon_state *d, const cogw_config *next)
+{
+	const cogw_mailbox_config *cur = &d->cfg.mailbox, *nm = &next->mailbox;
+	if (!rules_differ(cur, nm) && cur->lease_ms == nm->lease_ms)
+		return;
+	mbx_access_rule rules[COGW_ACCESS_RULES_MAX];
+	for (size_t i = 0; i < nm->n_rules; i++) {
+		rules[i].uid = (uint32_t)nm->rules[i].uid;
+		rules[i].access = nm->rules[i].access;
+	}
+	bool all = true;
+	for (size_t i = 0; i < d->n_lines; i++) {
+		int rc = line_request_access(d->lines[i], rules, nm->n_rules, nm->default_access, nm->lease_ms);
+		if (rc == -ETIMEDOUT) {
+			cogw_log(COGW_LOG_WARNING, "reload: line %s is busy; it applies the new access rules when it loops again",
+				 line_name(d->lines[i]));
+		} else if (rc < 0) {
+			all = false;
+			cogw_log(COGW_LOG_ERR, "reload: line %s did not take the new access rules: %s",
+				 line_name(d->lines[i]), strerror(-rc));
+		}
+	}
+	if (!all)
+		return; /* keep the old values so that the next reload retries */
+	cogw_log(COGW_LOG_INFO, "reload: mailbox access: %zu rule%s, default %s, lease %u ms", nm->n_rules,
+		 nm->n_rules == 1 ? "" : "s", mbx_access_to_string(nm->default_access), nm->lease_ms);
+	d->cfg.mailbox.n_rules = nm->n_rules;
+	memcpy(d->cfg.mailbox.rules, nm->rules, nm->n_rules * sizeof nm->rules[0]);
+	d->cfg.mailbox.default_access = nm->default_access;
+	d->cfg.mailbox.lease_ms = nm->lease_ms;
+}
+
+/* cogw_config_reload_check() lets these through as run-time changes, but
+ * the daemon cannot apply them yet: say so instead of pretending. */
+static void warn_unapplied_reload(daemon_state *d, const cogw_config *next)
+{
+	for (size_t i = 0; i < d->n_lines; i++) {
+		const cogw_line_config *a = &d->cfg.lines[i], *b = &next->lines[i];
+		bool hb = a->n_hb_consumers != b->n_hb_consumers ||
+			  memcmp(a->hb_consumers, b->hb_consumers, a->n_hb_consumers * sizeof a->hb_consumers[0]);
+		bool rt = a->rt.priority != b->rt.priority || a->rt.cpu != b->rt.cpu;
+		if (hb || rt)
+			cogw_log(COGW_LOG_WARNING,
+				 "reload: line %s: %s%s%s not applied at run time yet: restart the daemon for it",
+				 line_name(d->lines[i]), hb ? "heartbeat_consumers" : "", hb && rt ? " and " : "",
+				 rt ? "rt" : "");
+	}
+}
+
 static void reload(daemon_state *d)
 {
 	sd_notify(0, "RELOADING=1");
@@ -214,6 +280,8 @@ static void reload(daemon_state *d)
 				 d->cfg.lines[i].heartbeat_ms, next.lines[i].heartbeat_ms);
 			d->cfg.lines[i].heartbeat_ms = next.lines[i].heartbeat_ms;
 		}
+	apply_access_reload(d, &next);
+	warn_unapplied_reload(d, &next);
 	cogw_config_free(&next);
 	sd_notify(0, "READY=1");
 }

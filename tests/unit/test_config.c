@@ -577,13 +577,18 @@ static void test_reload_check(void)
 		"{\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,"
 		" \"network_id\": 1, \"heartbeat_ms\": 500, \"rt\": {\"priority\": 50, \"cpu\": 1},"
 		" \"heartbeat_consumers\": [{\"node_id\": 1, \"time_ms\": 3000}, {\"node_id\": 9, \"time_ms\": 3000}],"
-		" \"device\": {\"name\": \"cogw gateway\"}},"
+		" \"device\": {\"name\": \"cogw gateway\"},"
+		/* the default's demo RPDO into B000h, unchanged */
+		" \"rpdos\": 1, \"objects\": [{\"index\": \"0xB000\", \"type\": \"REAL32\", \"access\": \"rw\","
+		" \"pdo\": true, \"name\": \"pressure of node 1 (PSI, shared process image)\"}],"
+		" \"values\": [{\"index\": \"0x1400\", \"sub\": 1, \"value\": \"0x00000181\"},"
+		" {\"index\": \"0x1600\", \"sub\": 1, \"value\": \"0xB0000020\"}, {\"index\": \"0x1600\", \"sub\": 0, \"value\": 1}]},"
 		"{\"name\": \"line1\", \"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127,"
 		" \"network_id\": 2, \"device\": {\"name\": \"cogw gateway\"}},"
 		"{\"name\": \"line2\", \"interface\": \"vcan2\", \"bitrate\": 1000000, \"node_id\": 127,"
 		" \"network_id\": 3, \"device\": {\"name\": \"cogw gateway\"}}]}",
 		"next", err, sizeof(err)));
-	TEST_ASSERT_TRUE(cogw_config_reload_check(&cfg, &next, what, sizeof(what)));
+	TEST_ASSERT_TRUE_MESSAGE(cogw_config_reload_check(&cfg, &next, what, sizeof(what)), what);
 	TEST_ASSERT_EQUAL_STRING("", what);
 	cogw_config_free(&next);
 
