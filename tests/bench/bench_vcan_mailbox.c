@@ -1,0 +1,677 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Benchmark: the mailbox, end to end through a real cogwd on vcan0.
+ *
+ *   - round trip of a local object read (OD_READ 1018h:01 through libcogw)
+ *     p50/p99, against a raw POSIX mq ping-pong between two processes with
+ *     messages of the same sizes (target: <= 2x the raw ping-pong);
+ *   - commands/s with 1, 4 and 16 client processes, against the raw
+ *     ping-pong's round trips/s;
+ *   - event fan-out: RPDO frames injected on vcan0, each one an MBX_EV_PDO
+ *     event to 8 subscriber processes, against one process writing the same
+ *     messages into 8 raw queues read by 8 processes. Both keep at most a
+ *     window of messages in flight (the slowest reader paces the writer), so
+ *     what is measured is sustained delivery, not queue overflow.
+ *
+ * Needs vcan0 and build/rel/bin/cogwd: run through tests/bench/run-vcan
+ * (make bench). Prints figures; asserts nothing, but says so loudly when a
+ * value read back is wrong or events were lost.
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <linux/can.h>
+#include <math.h>
+#include <mqueue.h>
+#include <sched.h>
+#include <signal.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "mailbox/cogw.h"
+#include "tests/bench/support/bench.h"
+
+#define VENDOR_ID 0x0B16C0DEu
+#define SUBSCRIBERS 8
+#define MAX_CLIENTS 16
+#define RPDO_COB_ID 0x181u
+#define SAMPLES_MAX 200000
+
+static char instance[32];
+static char tmpdir[128];
+static double run_seconds = 2.0;
+
+/* ---- raw POSIX mq ping-pong (baseline) --------------------------------------- */
+
+/* The sizes the mailbox round trip uses: OD_READ = header + mbx_obj_req,
+ * its answer = header + 4 value bytes, in queues of the mailbox's
+ * mq_msgsize. */
+#define PING_SIZE (MBX_HDR_SIZE + sizeof(mbx_obj_req))
+#define PONG_SIZE (MBX_HDR_SIZE + 4u)
+#define QUEUE_MSGSIZE 1024
+
+static void queue_name(char *buf, size_t len, const char *what)
+{
+	snprintf(buf, len, "/cogw.%s.%s", instance, what);
+}
+
+static mqd_t queue_create(const char *name, unsigned depth, int flags)
+{
+	struct mq_attr a = { .mq_maxmsg = depth, .mq_msgsize = QUEUE_MSGSIZE };
+	mq_unlink(name);
+	return mq_open(name, O_CREAT | O_EXCL | flags | O_CLOEXEC, 0600, &a);
+}
+
+/* Returns the number of samples (RTTs in µs in rtt[]), or -1. */
+static int raw_pingpong(double *rtt, size_t max, double seconds)
+{
+	char ping_name[64], pong_name[64];
+	queue_name(ping_name, sizeof ping_name, "raw-ping");
+	queue_name(pong_name, sizeof pong_name, "raw-pong");
+	mqd_t ping = queue_create(ping_name, 8, O_RDWR), pong = queue_create(pong_name, 8, O_RDWR);
+	if (ping == (mqd_t)-1 || pong == (mqd_t)-1) {
+		printf("raw ping-pong: mq_open: %s\n", strerror(errno));
+		return -1;
+	}
+	fflush(stdout);
+	pid_t child = fork();
+	if (child == 0) {
+		char buf[QUEUE_MSGSIZE] = { 0 };
+		for (;;) {
+			ssize_t n = mq_receive(ping, buf, sizeof buf, NULL);
+			if (n <= 0 || buf[0] == 'q')
+				_exit(0);
+			buf[0] = 'p';
+			mq_send(pong, buf, PONG_SIZE, 0);
+		}
+	}
+	char msg[QUEUE_MSGSIZE] = { 0 }, in[QUEUE_MSGSIZE];
+	size_t n = 0;
+	double end = bench_now_s() + seconds;
+	for (int warm = 0; warm < 200; warm++) {
+		msg[0] = 'x';
+		mq_send(ping, msg, PING_SIZE, 0);
+		mq_receive(pong, in, sizeof in, NULL);
+	}
+	while (n < max && bench_now_s() < end) {
+		uint64_t t0 = bench_now_ns();
+		msg[0] = 'x';
+		if (mq_send(ping, msg, PING_SIZE, 0) < 0 || mq_receive(pong, in, sizeof in, NULL) != (ssize_t)PONG_SIZE)
+			break;
+		rtt[n++] = (double)(bench_now_ns() - t0) * 1e-3;
+	}
+	msg[0] = 'q';
+	mq_send(ping, msg, 1, 0);
+	waitpid(child, NULL, 0);
+	mq_close(ping);
+	mq_close(pong);
+	mq_unlink(ping_name);
+	mq_unlink(pong_name);
+	return (int)n;
+}
+
+/* ---- the daemon ---------------------------------------------------------------- */
+
+static int write_config(const char *path, unsigned depth)
+{
+	char text[4096];
+	snprintf(text, sizeof text,
+		 "{\n"
+		 " \"version\": 1,\n"
+		 " \"state_dir\": \"%s/state\",\n"
+		 " \"mailbox\": {\"instance\": \"%s\", \"depth\": %u, \"max_clients\": 32},\n"
+		 " \"lines\": [{\n"
+		 "  \"name\": \"bench0\", \"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,\n"
+		 "  \"heartbeat_ms\": 1000, \"rpdos\": 1,\n"
+		 "  \"device\": {\"name\": \"cogw bench\", \"vendor_id\": \"0x%08X\"},\n"
+		 "  \"objects\": [{\"index\": \"0x2000\", \"object\": \"ARRAY\", \"type\": \"UNSIGNED32\",\n"
+		 "               \"length\": 2, \"access\": \"rww\", \"pdo\": true, \"default\": 0}],\n"
+		 "  \"values\": [\n"
+		 "   {\"index\": \"0x1400\", \"sub\": 1, \"value\": \"0x%03X\"},\n"
+		 "   {\"index\": \"0x1600\", \"sub\": 0, \"value\": 2},\n"
+		 "   {\"index\": \"0x1600\", \"sub\": 1, \"value\": \"0x20000120\"},\n"
+		 "   {\"index\": \"0x1600\", \"sub\": 2, \"value\": \"0x20000220\"}]\n"
+		 " }]\n"
+		 "}\n",
+		 tmpdir, instance, depth, VENDOR_ID, RPDO_COB_ID);
+	return bench_write_file(path, text);
+}
+
+/* deep_events: a subscriber's event queue as deep as allowed (up to 256);
+ * otherwise libcogw's default. */
+static cogw *client_open(bool deep_events)
+{
+	cogw *h = NULL;
+	unsigned depth = bench_mq_msg_max();
+	cogw_options o = { .instance = instance, .timeout_ms = 10000,
+			   .event_depth = deep_events ? (depth > 256 ? 256 : depth) : 0 };
+	int rc = cogw_open_opts(&h, &o);
+	if (rc < 0) {
+		printf("cogw_open: %s\n", cogw_strerror(rc));
+		return NULL;
+	}
+	return h;
+}
+
+/* One OD read of 1018h:01, checked. Returns 0, or the error. */
+static int od_read_vendor(cogw *h)
+{
+	uint8_t v[4];
+	size_t len = 0;
+	uint32_t abort = 0;
+	int rc = cogw_od_read(h, 0, 0x1018, 1, v, sizeof v, &len, 10000, &abort);
+	if (rc < 0)
+		return rc;
+	uint32_t got = (uint32_t)v[0] | (uint32_t)v[1] << 8 | (uint32_t)v[2] << 16 | (uint32_t)v[3] << 24;
+	return len == 4 && got == VENDOR_ID ? 0 : COGW_E_PROTOCOL;
+}
+
+/* ---- mailbox round trip ----------------------------------------------------------- */
+
+static int mailbox_rtt(double *rtt, size_t max, double seconds, int *errors)
+{
+	cogw *h = client_open(false);
+	if (!h)
+		return -1;
+	*errors = 0;
+	for (int warm = 0; warm < 200; warm++)
+		if (od_read_vendor(h) < 0)
+			(*errors)++;
+	size_t n = 0;
+	double end = bench_now_s() + seconds;
+	while (n < max && bench_now_s() < end) {
+		uint64_t t0 = bench_now_ns();
+		int rc = od_read_vendor(h);
+		double us = (double)(bench_now_ns() - t0) * 1e-3;
+		if (rc < 0) {
+			if ((*errors)++ < 3)
+				printf("mailbox round trip: OD read 1018:01: %s\n", cogw_strerror(rc));
+			continue;
+		}
+		rtt[n++] = us;
+	}
+	cogw_close(h);
+	return (int)n;
+}
+
+/* ---- commands/s with N client processes ------------------------------------------ */
+
+struct client_result {
+	uint64_t ok, errors;
+};
+
+static double commands_per_s(int clients, double seconds, uint64_t *errors_out)
+{
+	int ready[2], go[2], results[2];
+	if (pipe(ready) || pipe(go) || pipe(results))
+		return -1;
+	pid_t pids[MAX_CLIENTS];
+	fflush(stdout);
+	for (int i = 0; i < clients; i++) {
+		pids[i] = fork();
+		if (pids[i] == 0) {
+			struct client_result r = { 0 };
+			char c = 'r';
+			close(ready[0]);
+			close(results[0]);
+			cogw *h = client_open(false);
+			/* the first command registers with the line: not timed */
+			if (!h || od_read_vendor(h) < 0)
+				c = 'e';
+			fflush(stdout);
+			if (write(ready[1], &c, 1) != 1 || read(go[0], &c, 1) != 1 || !h)
+				_exit(2);
+			double end = bench_now_s() + seconds;
+			while (bench_now_s() < end) {
+				if (od_read_vendor(h) == 0)
+					r.ok++;
+				else
+					r.errors++;
+			}
+			cogw_close(h);
+			fflush(stdout);
+			if (write(results[1], &r, sizeof r) != (ssize_t)sizeof r)
+				_exit(3);
+			_exit(0);
+		}
+	}
+	/* only the children write these: a child that dies ends in EOF, not
+	 * in a parent waiting forever */
+	close(ready[1]);
+	close(results[1]);
+	int up = 0;
+	for (int i = 0; i < clients; i++) {
+		char c;
+		if (read(ready[0], &c, 1) == 1 && c == 'r')
+			up++;
+	}
+	if (up != clients)
+		printf("commands/s: only %d of %d clients registered\n", up, clients);
+	double t0 = bench_now_s();
+	char gos[MAX_CLIENTS];
+	memset(gos, 'g', sizeof gos);
+	if (write(go[1], gos, (size_t)clients) != clients)
+		printf("commands/s: cannot start the clients\n");
+	uint64_t ok = 0, errors = 0;
+	for (int i = 0; i < clients; i++) {
+		struct client_result r;
+		if (read(results[0], &r, sizeof r) == (ssize_t)sizeof r) {
+			ok += r.ok;
+			errors += r.errors;
+		}
+	}
+	double elapsed = bench_now_s() - t0;
+	for (int i = 0; i < clients; i++) {
+		int st = 0;
+		waitpid(pids[i], &st, 0);
+		if (!WIFEXITED(st) || WEXITSTATUS(st) != 0)
+			printf("commands/s: client %d of %d ended with status 0x%x\n", i + 1, clients, (unsigned)st);
+	}
+	close(ready[0]); close(go[0]); close(go[1]);
+	close(results[0]);
+	*errors_out = errors;
+	return (double)ok / elapsed;
+}
+
+/* ---- fan-out to 8 subscribers ------------------------------------------------------ */
+
+struct fanout_shared {
+	_Atomic uint64_t next_seq[SUBSCRIBERS]; /* highest sequence seen + 1 */
+	_Atomic uint64_t received[SUBSCRIBERS];
+	_Atomic uint64_t dropped[SUBSCRIBERS];  /* overflow reported */
+	_Atomic int ready;
+	double lat_p50[SUBSCRIBERS], lat_p99[SUBSCRIBERS];
+};
+
+/* Message of the raw baseline: the size of the MBX_EV_PDO the daemon sends
+ * for our RPDO (header + mbx_ev_pdo + 2 values). */
+#define FANOUT_MSG_SIZE (MBX_HDR_SIZE + sizeof(mbx_ev_pdo) + 2 * sizeof(mbx_pdo_value))
+
+static uint64_t min_next_seq(struct fanout_shared *s)
+{
+	uint64_t m = UINT64_MAX;
+	for (int i = 0; i < SUBSCRIBERS; i++) {
+		uint64_t v = atomic_load(&s->next_seq[i]);
+		if (v < m)
+			m = v;
+	}
+	return m;
+}
+
+static void record_latencies(struct fanout_shared *s, int idx, double *lat, size_t n)
+{
+	s->lat_p50[idx] = bench_percentile(lat, n, 50);
+	s->lat_p99[idx] = bench_percentile(lat, n, 99);
+}
+
+static void daemon_subscriber(struct fanout_shared *s, int idx, uint64_t total)
+{
+	double *lat = malloc(sizeof(double) * total);
+	size_t nlat = 0;
+	cogw *h = client_open(true);
+	if (!h || !lat || cogw_subscribe(h, 0, MBX_EVC_PDO, NULL, 0, 10000) < 0)
+		_exit(1);
+	atomic_fetch_add(&s->ready, 1);
+	while (atomic_load(&s->next_seq[idx]) < total) {
+		cogw_msg m;
+		int rc = cogw_recv(h, &m, 5000);
+		if (rc == COGW_E_AGAIN)
+			break; /* nothing for 5 s: the rest was lost */
+		if (rc < 0)
+			break;
+		if (m.dropped)
+			atomic_fetch_add(&s->dropped[idx], m.dropped);
+		if (m.kind == MBX_KIND_EVENT && m.code == MBX_EV_PDO &&
+		    m.len >= sizeof(mbx_ev_pdo) + 2 * sizeof(mbx_pdo_value)) {
+			mbx_pdo_value v[2];
+			memcpy(v, m.data + sizeof(mbx_ev_pdo), sizeof v);
+			uint32_t seq, sent_us;
+			memcpy(&seq, v[0].data, 4);
+			memcpy(&sent_us, v[1].data, 4);
+			uint32_t now_us = (uint32_t)(bench_now_ns() / 1000u);
+			if (nlat < total)
+				lat[nlat++] = (double)(uint32_t)(now_us - sent_us);
+			atomic_fetch_add(&s->received[idx], 1);
+			atomic_store(&s->next_seq[idx], (uint64_t)seq + 1);
+		}
+		cogw_msg_release(&m);
+	}
+	record_latencies(s, idx, lat, nlat);
+	cogw_close(h);
+	_exit(0);
+}
+
+static void raw_subscriber(struct fanout_shared *s, int idx, uint64_t total)
+{
+	char name[64], what[16], buf[QUEUE_MSGSIZE];
+	double *lat = malloc(sizeof(double) * total);
+	size_t nlat = 0;
+	snprintf(what, sizeof what, "raw-fan%d", idx);
+	queue_name(name, sizeof name, what);
+	mqd_t q = mq_open(name, O_RDONLY | O_CLOEXEC);
+	if (q == (mqd_t)-1 || !lat)
+		_exit(1);
+	atomic_fetch_add(&s->ready, 1);
+	while (atomic_load(&s->next_seq[idx]) < total) {
+		struct timespec until;
+		clock_gettime(CLOCK_REALTIME, &until);
+		until.tv_sec += 5;
+		ssize_t n = mq_timedreceive(q, buf, sizeof buf, NULL, &until);
+		if (n < 0)
+			break;
+		uint32_t seq, sent_us;
+		memcpy(&seq, buf + MBX_HDR_SIZE, 4);
+		memcpy(&sent_us, buf + MBX_HDR_SIZE + 4, 4);
+		lat[nlat++] = (double)(uint32_t)((uint32_t)(bench_now_ns() / 1000u) - sent_us);
+		atomic_fetch_add(&s->received[idx], 1);
+		atomic_store(&s->next_seq[idx], (uint64_t)seq + 1);
+	}
+	record_latencies(s, idx, lat, nlat);
+	mq_close(q);
+	_exit(0);
+}
+
+struct fanout_result {
+	double events_per_s; /* delivered to all subscribers together */
+	uint64_t delivered, expected, dropped;
+	double lat_p50, lat_p99; /* median of the p50s, worst p99 */
+};
+
+/* Writer side, shared by both variants: send(seq) puts message seq out. */
+typedef int (*fanout_send_fn)(void *ctx, uint32_t seq);
+
+static int fanout_run(struct fanout_shared *s, pid_t *pids, uint64_t total, unsigned window,
+		      fanout_send_fn send, void *ctx, struct fanout_result *out)
+{
+	uint64_t wait_until = bench_now_ns() + 20000000000ull;
+	while (atomic_load(&s->ready) < SUBSCRIBERS && bench_now_ns() < wait_until)
+		sched_yield();
+	if (atomic_load(&s->ready) < SUBSCRIBERS)
+		printf("fan-out: only %d of %d subscribers came up\n", atomic_load(&s->ready), SUBSCRIBERS);
+	double t0 = bench_now_s();
+	uint64_t last_progress = bench_now_ns(), last_min = 0;
+	for (uint64_t seq = 0; seq < total; seq++) {
+		/* pace: at most `window` messages ahead of the slowest reader */
+		for (;;) {
+			uint64_t m = min_next_seq(s);
+			if (m != last_min) {
+				last_min = m;
+				last_progress = bench_now_ns();
+			}
+			if (seq < m + window)
+				break;
+			if (bench_now_ns() - last_progress > 5000000000ull)
+				goto stalled;
+			struct timespec ts = { 0, 20000 };
+			nanosleep(&ts, NULL);
+		}
+		if (send(ctx, (uint32_t)seq) < 0) {
+			printf("fan-out: send %llu failed: %s\n", (unsigned long long)seq, strerror(errno));
+			break;
+		}
+	}
+stalled:
+	for (int i = 0; i < SUBSCRIBERS; i++)
+		waitpid(pids[i], NULL, 0);
+	double elapsed = bench_now_s() - t0;
+	memset(out, 0, sizeof *out);
+	out->expected = total * SUBSCRIBERS;
+	double p50s[SUBSCRIBERS];
+	for (int i = 0; i < SUBSCRIBERS; i++) {
+		out->delivered += atomic_load(&s->received[i]);
+		out->dropped += atomic_load(&s->dropped[i]);
+		p50s[i] = s->lat_p50[i];
+		if (s->lat_p99[i] > out->lat_p99)
+			out->lat_p99 = s->lat_p99[i];
+	}
+	out->lat_p50 = bench_percentile(p50s, SUBSCRIBERS, 50);
+	out->events_per_s = (double)out->delivered / elapsed;
+	return 0;
+}
+
+struct raw_fan_ctx {
+	mqd_t q[SUBSCRIBERS];
+};
+
+static int raw_fan_send(void *ctx, uint32_t seq)
+{
+	struct raw_fan_ctx *c = ctx;
+	char msg[FANOUT_MSG_SIZE] = { 0 };
+	uint32_t now_us = (uint32_t)(bench_now_ns() / 1000u);
+	memcpy(msg + MBX_HDR_SIZE, &seq, 4);
+	memcpy(msg + MBX_HDR_SIZE + 4, &now_us, 4);
+	/* like the daemon: non-blocking sends, one per subscriber */
+	for (int i = 0; i < SUBSCRIBERS; i++)
+		if (mq_send(c->q[i], msg, sizeof msg, 0) < 0 && errno != EAGAIN)
+			return -1;
+	return 0;
+}
+
+static int can_fan_send(void *ctx, uint32_t seq)
+{
+	int fd = *(int *)ctx;
+	uint8_t data[8];
+	uint32_t now_us = (uint32_t)(bench_now_ns() / 1000u);
+	memcpy(data, &seq, 4);
+	memcpy(data + 4, &now_us, 4);
+	return can_send_std(fd, RPDO_COB_ID, data, 8);
+}
+
+static struct fanout_shared *shared_new(void)
+{
+	void *p = mmap(NULL, sizeof(struct fanout_shared), PROT_READ | PROT_WRITE,
+		       MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+	if (p == MAP_FAILED)
+		return NULL;
+	memset(p, 0, sizeof(struct fanout_shared));
+	return p;
+}
+
+static int fanout_raw(uint64_t total, unsigned window, unsigned depth, struct fanout_result *out)
+{
+	struct fanout_shared *s = shared_new();
+	struct raw_fan_ctx c;
+	char names[SUBSCRIBERS][64];
+	pid_t pids[SUBSCRIBERS];
+	if (!s)
+		return -1;
+	for (int i = 0; i < SUBSCRIBERS; i++) {
+		char what[16];
+		snprintf(what, sizeof what, "raw-fan%d", i);
+		queue_name(names[i], sizeof names[i], what);
+		c.q[i] = queue_create(names[i], depth, O_WRONLY | O_NONBLOCK);
+		if (c.q[i] == (mqd_t)-1) {
+			printf("raw fan-out: mq_open: %s\n", strerror(errno));
+			return -1;
+		}
+	}
+	fflush(stdout);
+	for (int i = 0; i < SUBSCRIBERS; i++)
+		if ((pids[i] = fork()) == 0)
+			raw_subscriber(s, i, total);
+	fanout_run(s, pids, total, window, raw_fan_send, &c, out);
+	for (int i = 0; i < SUBSCRIBERS; i++) {
+		mq_close(c.q[i]);
+		mq_unlink(names[i]);
+	}
+	munmap(s, sizeof *s);
+	return 0;
+}
+
+static int fanout_daemon(uint64_t total, unsigned window, struct fanout_result *out)
+{
+	struct fanout_shared *s = shared_new();
+	pid_t pids[SUBSCRIBERS];
+	int fd = can_open_raw("vcan0");
+	if (!s || fd < 0)
+		return -1;
+	fflush(stdout);
+	for (int i = 0; i < SUBSCRIBERS; i++)
+		if ((pids[i] = fork()) == 0)
+			daemon_subscriber(s, i, total);
+	fanout_run(s, pids, total, window, can_fan_send, &fd, out);
+	close(fd);
+	munmap(s, sizeof *s);
+	return 0;
+}
+
+/* RPDOs are only processed in OPERATIONAL: start the daemon's own node on
+ * vcan0 with an NMT frame, as a manager of this network would, and check
+ * that it got there. */
+static int daemon_go_operational(void)
+{
+	int fd = can_open_raw("vcan0");
+	cogw *h = client_open(false);
+	int rc = -1;
+	if (fd < 0 || !h)
+		goto out;
+	uint8_t start[2] = { 0x01, 127 };
+	can_send_std(fd, 0x000, start, 2);
+	for (uint64_t until = mono_ms() + 5000; mono_ms() < until; sleep_ms(20)) {
+		mbx_line_status st;
+		if (cogw_line_status(h, 0, &st, 5000) == 0 && st.nmt_state == 0x05) {
+			rc = 0;
+			break;
+		}
+	}
+	if (rc < 0)
+		printf("fan-out: the daemon's node did not become operational\n");
+out:
+	if (fd >= 0)
+		close(fd);
+	cogw_close(h);
+	return rc;
+}
+
+static void print_rate(const char *name, double value, const char *bname, double base)
+{
+	bench_print_figure(&(bench_figure){ .name = name, .value = value, .unit = "1/s",
+					    .base_name = bname, .base_value = base, .base_unit = "1/s",
+					    .ratio = base > 0 ? value / base : -1,
+					    .target = "none (context)", .verdict = "-" });
+}
+
+int main(void)
+{
+	const char *secs = getenv("COGW_BENCH_SECONDS");
+	if (secs && atof(secs) > 0)
+		run_seconds = atof(secs);
+	signal(SIGPIPE, SIG_IGN);
+	snprintf(instance, sizeof instance, "bench%d", (int)getpid());
+	if (bench_tmpdir_create(tmpdir, sizeof tmpdir, "mbx") < 0) {
+		printf("bench_vcan_mailbox: cannot create a temp directory\n");
+		return 1;
+	}
+	char cfg[256], log[256], state[256];
+	snprintf(cfg, sizeof cfg, "%s/cogw.json", tmpdir);
+	snprintf(log, sizeof log, "%s/cogwd.log", tmpdir);
+	snprintf(state, sizeof state, "%s/state", tmpdir);
+	unsigned msg_max = bench_mq_msg_max();
+	unsigned depth = msg_max < 64 ? msg_max : 64;
+	double *samples = malloc(sizeof(double) * SAMPLES_MAX);
+	int status = 1;
+	bench_daemon d = { .pid = -1 };
+
+	uint64_t mq_limit = bench_raise_mq_limit();
+	char limit[32] = "unlimited";
+	if (mq_limit != UINT64_MAX)
+		snprintf(limit, sizeof limit, "%llu bytes", (unsigned long long)mq_limit);
+	printf("bench_vcan_mailbox: cogwd on vcan0, %.1f s per measurement, fs.mqueue.msg_max %u, "
+	       "RLIMIT_MSGQUEUE %s\n", run_seconds, msg_max, limit);
+
+	/* baseline first, while nothing else runs */
+	int nraw = raw_pingpong(samples, SAMPLES_MAX, run_seconds);
+	if (nraw <= 0)
+		goto out;
+	double raw_mean = 0;
+	for (int i = 0; i < nraw; i++)
+		raw_mean += samples[i];
+	raw_mean /= nraw;
+	double raw_p50 = bench_percentile(samples, (size_t)nraw, 50);
+	double raw_p99 = bench_percentile(samples, (size_t)nraw, 99);
+	double raw_rate = 1e6 / raw_mean;
+
+	if (write_config(cfg, depth) < 0 || bench_daemon_start(&d, cfg, instance, log) < 0)
+		goto out;
+
+	int errors = 0;
+	int n = mailbox_rtt(samples, SAMPLES_MAX, run_seconds, &errors);
+	if (n <= 0)
+		goto out;
+	double p50 = bench_percentile(samples, (size_t)n, 50);
+	double p99 = bench_percentile(samples, (size_t)n, 99);
+	bench_print_figure(&(bench_figure){
+		.name = "mailbox round trip p50 (OD read 1018h:01)", .value = p50, .unit = "us",
+		.base_name = "raw mq ping-pong p50", .base_value = raw_p50, .base_unit = "us",
+		.ratio = p50 / raw_p50, .target = "ratio <= 2.00",
+		.verdict = bench_verdict(p50 <= 2 * raw_p50) });
+	bench_print_figure(&(bench_figure){
+		.name = "mailbox round trip p99 (OD read 1018h:01)", .value = p99, .unit = "us",
+		.base_name = "raw mq ping-pong p99", .base_value = raw_p99, .base_unit = "us",
+		.ratio = p99 / raw_p99, .target = "ratio <= 2.00",
+		.verdict = bench_verdict(p99 <= 2 * raw_p99) });
+	double mean = 0;
+	for (int i = 0; i < n; i++)
+		mean += samples[i];
+	mean /= n;
+	bench_note("round trips: %d mailbox (%d failed or wrong value), mean %.0f us; %d raw, mean %.0f us; "
+		   "raw messages %zu/%zu bytes in queues of %d", n, errors, mean, nraw, raw_mean,
+		   (size_t)PING_SIZE, (size_t)PONG_SIZE, QUEUE_MSGSIZE);
+
+	static const int counts[] = { 1, 4, 16 };
+	for (size_t i = 0; i < sizeof counts / sizeof counts[0]; i++) {
+		uint64_t errs = 0;
+		double rate = commands_per_s(counts[i], run_seconds, &errs);
+		char name[96];
+		snprintf(name, sizeof name, "mailbox commands/s, %d client%s (OD read)", counts[i],
+			 counts[i] == 1 ? "" : "s");
+		print_rate(name, rate, "raw mq ping-pong round trips/s", raw_rate);
+		if (errs)
+			bench_note("%s: %llu commands failed or read a wrong value", name, (unsigned long long)errs);
+	}
+
+	/* Fan-out: window = half the subscribers' event queue depth. */
+	unsigned evdepth = msg_max > 256 ? 256 : msg_max;
+	unsigned window = evdepth / 2 ? evdepth / 2 : 1;
+	uint64_t total = bench_in_vm() ? 2000 : 20000;
+	/* Two passes each: throughput with a full window, then latency with
+	 * one message in flight (under a full window latency is only the
+	 * window divided by the rate). */
+	uint64_t lat_total = bench_in_vm() ? 200 : 2000;
+	struct fanout_result raw, dmn, raw_lat, dmn_lat;
+	if (fanout_raw(total, window, evdepth, &raw) < 0 || fanout_raw(lat_total, 1, evdepth, &raw_lat) < 0 ||
+	    daemon_go_operational() < 0 || fanout_daemon(total, window, &dmn) < 0 ||
+	    fanout_daemon(lat_total, 1, &dmn_lat) < 0)
+		goto out;
+	print_rate("event fan-out to 8 subscribers (RPDO events delivered)", dmn.events_per_s,
+		   "raw mq fan-out 1 writer to 8 readers", raw.events_per_s);
+	bench_print_figure(&(bench_figure){
+		.name = "event fan-out latency p50, one event in flight (frame sent to event read)",
+		.value = dmn_lat.lat_p50, .unit = "us",
+		.base_name = "raw mq fan-out latency p50", .base_value = raw_lat.lat_p50, .base_unit = "us",
+		.ratio = raw_lat.lat_p50 > 0 ? dmn_lat.lat_p50 / raw_lat.lat_p50 : -1,
+		.target = "none (context)", .verdict = "-" });
+	bench_note("fan-out: %llu RPDO frames, window %u; daemon delivered %llu of %llu events (overflow reported %llu), "
+		   "raw %llu of %llu; latency pass %llu frames, worst subscriber p99 %.0f us (raw %.0f us)",
+		   (unsigned long long)total, window, (unsigned long long)dmn.delivered,
+		   (unsigned long long)dmn.expected, (unsigned long long)dmn.dropped,
+		   (unsigned long long)raw.delivered, (unsigned long long)raw.expected,
+		   (unsigned long long)lat_total, dmn_lat.lat_p99, raw_lat.lat_p99);
+	if (dmn.delivered != dmn.expected || dmn_lat.delivered != dmn_lat.expected)
+		printf("WARNING: the daemon lost %llu events\n",
+		       (unsigned long long)(dmn.expected + dmn_lat.expected - dmn.delivered - dmn_lat.delivered));
+	status = 0;
+out:
+	bench_daemon_stop(&d);
+	bench_unlink_instance_queues(instance);
+	snprintf(state, sizeof state, "%s/state", tmpdir);
+	bench_tmpdir_remove(state);
+	bench_tmpdir_remove(tmpdir);
+	free(samples);
+	return status;
+}
