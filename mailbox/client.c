@@ -16,13 +16,18 @@
  * - Chunked answers are flow-controlled: the server keeps at most half of
  *   our response queue filled with chunks of one transfer and waits for
  *   XFER_ACK, which the reader thread sends every quarter queue.
- * This is not on a real-time path: mutexes, malloc and blocking sends with
- * a deadline are fine here.
+ * - Every wait on a queue is poll() on the mqd (a descriptor on Linux) with
+ *   a CLOCK_MONOTONIC timeout, and the mq_send/mq_receive after it is
+ *   non-blocking: mq_timed* take CLOCK_REALTIME deadlines, which a clock
+ *   step (early boot, NTP) would stretch or cut.
+ * This is not on a real-time path: mutexes, malloc and sends that wait
+ * (up to a deadline) for room in a full command queue are fine here.
  */
 #include "mailbox/cogw.h"
 
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <mqueue.h>
 #include <poll.h>
 #include <pthread.h>
@@ -117,21 +122,6 @@ static uint64_t mono_us(void)
 	return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
 }
 
-/* mq_timed* take CLOCK_REALTIME deadlines. */
-static struct timespec rt_deadline(unsigned ms)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_REALTIME, &ts);
-	ts.tv_sec += ms / 1000u;
-	ts.tv_nsec += (long)(ms % 1000u) * 1000000L;
-	if (ts.tv_nsec >= 1000000000L) {
-		ts.tv_sec++;
-		ts.tv_nsec -= 1000000000L;
-	}
-	return ts;
-}
-
 static struct timespec mono_deadline(uint64_t at_us)
 {
 	return (struct timespec){ .tv_sec = (time_t)(at_us / 1000000u),
@@ -143,6 +133,23 @@ static unsigned ms_left(uint64_t deadline_us)
 	uint64_t now = mono_us();
 
 	return now >= deadline_us ? 0 : (unsigned)((deadline_us - now + 999) / 1000);
+}
+
+/* Wait until q is ready for events (POLLIN / POLLOUT) or ms pass.
+ * Returns > 0 ready, 0 timeout or signal (the caller retries), < 0 error
+ * with errno set. */
+static int mq_wait(mqd_t q, short events, unsigned ms)
+{
+	struct pollfd pf = { .fd = (int)q, .events = events };
+	int rc = poll(&pf, 1, ms > INT_MAX ? INT_MAX : (int)ms);
+
+	if (rc < 0)
+		return errno == EINTR ? 0 : -1;
+	if (rc > 0 && (pf.revents & POLLNVAL)) {
+		errno = EBADF;
+		return -1;
+	}
+	return rc;
 }
 
 static unsigned long read_proc(const char *path, unsigned long dflt)
@@ -177,16 +184,22 @@ const char *cogw_strerror(int err)
 
 /* ---- sending ------------------------------------------------------------------ */
 
+/* q is O_NONBLOCK: a full command queue is waited out with poll(), up to
+ * the caller's monotonic deadline. */
 static int send_raw(mqd_t q, const uint8_t *msg, size_t n, uint64_t deadline_us)
 {
-	struct timespec ts = rt_deadline(ms_left(deadline_us));
+	while (mq_send(q, (const char *)msg, n, 0) < 0) {
+		unsigned left;
 
-	while (mq_timedsend(q, (const char *)msg, n, 0, &ts) < 0) {
 		if (errno == EINTR)
 			continue;
-		if (errno == ETIMEDOUT)
+		if (errno != EAGAIN)
+			return COGW_E_SYSTEM;
+		left = ms_left(deadline_us);
+		if (left == 0)
 			return COGW_E_TIMEOUT;
-		return COGW_E_SYSTEM;
+		if (mq_wait(q, POLLOUT, left) < 0)
+			return COGW_E_SYSTEM;
 	}
 	return 0;
 }
@@ -380,7 +393,8 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 			pthread_mutex_unlock(&h->setup_mu);
 			return COGW_E_INVAL;
 		}
-		ls->cmd = mq_open(qname, O_WRONLY | O_CLOEXEC);
+		/* non-blocking: send_raw waits with poll() */
+		ls->cmd = mq_open(qname, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
 		if (ls->cmd == (mqd_t)-1) {
 			rc = errno == ENOENT   ? COGW_E_NO_DAEMON
 			     : errno == EACCES ? COGW_E_ACCESS
@@ -652,11 +666,17 @@ static void *reader_main(void *arg)
 	if (!buf)
 		return NULL;
 	for (;;) {
-		struct timespec ts = rt_deadline(reader_period_ms(h));
-		ssize_t n = mq_timedreceive(h->resp, (char *)buf, h->resp_msg,
-					    NULL, &ts);
+		int ready = mq_wait(h->resp, POLLIN, reader_period_ms(h));
+		ssize_t n = -1;
+		int err = ready < 0 ? errno : 0;
 		ack_todo ack = { 0 };
 		bool closing;
+
+		if (ready > 0) {
+			/* errno is kept now: the locking below may change it */
+			n = mq_receive(h->resp, (char *)buf, h->resp_msg, NULL);
+			err = n < 0 ? errno : 0;
+		}
 
 		pthread_mutex_lock(&h->mu);
 		closing = h->closing;
@@ -665,7 +685,8 @@ static void *reader_main(void *arg)
 		pthread_mutex_unlock(&h->mu);
 		if (closing)
 			break;
-		if (n < 0 && errno != ETIMEDOUT && errno != EINTR)
+		if (ready < 0 ||
+		    (ready > 0 && n < 0 && err != EAGAIN && err != EINTR))
 			break; /* queue gone: nothing more to read */
 		if (ack.needed) {
 			mbx_xfer_ack a = { .next_chunk = ack.next_chunk };
@@ -767,7 +788,8 @@ int cogw_open_opts(cogw **out, const cogw_options *o)
 			 "/cogw.%s.c%d.%08x.resp", h->instance, (int)getpid(), rnd);
 		snprintf(h->evt_name, sizeof h->evt_name,
 			 "/cogw.%s.c%d.%08x.evt", h->instance, (int)getpid(), rnd);
-		h->resp = make_queue(h->resp_name, mode, rdepth, msgsize, O_RDONLY);
+		h->resp = make_queue(h->resp_name, mode, rdepth, msgsize,
+				     O_RDONLY | O_NONBLOCK);
 		if (h->resp != (mqd_t)-1 || errno != EEXIST)
 			break;
 	}

@@ -28,6 +28,8 @@
 
 #define LINE 1
 #define BIG 100000u
+/* Per-call timeout: generous, the suite also runs under software emulation. */
+#define CALL_MS 10000
 
 /* ---- the fake line ------------------------------------------------------------- */
 
@@ -44,6 +46,7 @@ typedef struct fake_line {
 	pthread_mutex_t mu;
 	pthread_t thr;
 	volatile bool stop;
+	volatile bool running; /* loop_main entered: the thread is set up */
 	mbx_server *srv;
 	pending pend[256];
 	uint8_t big[BIG];
@@ -167,6 +170,7 @@ static void *loop_main(void *arg)
 {
 	fake_line *f = arg;
 
+	f->running = true;
 	while (!f->stop) {
 		struct pollfd pf = { .fd = mbx_server_fd(f->srv),
 				     .events = POLLIN };
@@ -209,6 +213,7 @@ static void start(const mbx_server_config *cfg)
 
 	memset(fl.pend, 0, sizeof fl.pend);
 	fl.stop = false;
+	fl.running = false;
 	fl.writes_ok = fl.gone = 0;
 	fl.big_len = BIG;
 	for (unsigned i = 0; i < BIG; i++)
@@ -216,6 +221,11 @@ static void start(const mbx_server_config *cfg)
 	rc = mbx_server_create(&fl.srv, cfg);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, strerror(-rc));
 	TEST_ASSERT_EQUAL_INT(0, pthread_create(&fl.thr, NULL, loop_main, &fl));
+	/* No fork (spawn) before the new thread is through its start-up,
+	 * see spawn(). */
+	for (unsigned i = 0; i < 10000 && !fl.running; i++)
+		sleep_ms(1);
+	TEST_ASSERT_TRUE_MESSAGE(fl.running, "loop thread did not start");
 }
 
 static void stop(void)
@@ -274,12 +284,25 @@ void tearDown(void)
 
 typedef int (*child_fn)(void *arg);
 
+/* The child of fork() gets a copy of every lock as it was, but only the
+ * forking thread: a lock another thread held at that moment stays held
+ * for ever in the child. The children here go on to malloc and
+ * pthread_create (libcogw), so no other thread of this process may be
+ * inside the allocator or the thread registry (ASan's are not made
+ * fork-safe the way glibc's malloc is) when we fork: the loop thread is
+ * past its start-up (start() waits for that) and is held off its work by
+ * fl.mu, so it can only be in poll() or waiting for fl.mu. Without this
+ * the first child, forked while the just-created loop thread was still
+ * starting, could hang in its own reader thread (slow emulation made
+ * that window wide). */
 static pid_t spawn(child_fn fn, void *arg)
 {
 	pid_t pid;
 
 	fflush(stdout);
+	pthread_mutex_lock(&fl.mu);
 	pid = fork();
+	pthread_mutex_unlock(&fl.mu); /* parent, and the child's copy */
 	TEST_ASSERT_TRUE(pid >= 0);
 	if (pid == 0)
 		_exit(fn(arg));
@@ -362,10 +385,10 @@ static int child_basic(void *arg)
 
 	(void)arg;
 	CHECK(cogw_open(&h, instance) == 0);
-	CHECK(cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, 2000, &abort) == 0);
+	CHECK(cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, CALL_MS, &abort) == 0);
 	CHECK(len == 4 && v[0] == 0x78 && v[3] == 0x12);
 	/* local OD refusal: abort code surfaces */
-	CHECK(cogw_od_read(h, LINE, 0x3000, 0, v, sizeof v, &len, 2000, &abort) ==
+	CHECK(cogw_od_read(h, LINE, 0x3000, 0, v, sizeof v, &len, CALL_MS, &abort) ==
 	      COGW_E_ABORT);
 	CHECK(abort == 0x06020000);
 	/* asynchronous: correlation ids echoed */
@@ -373,7 +396,7 @@ static int child_basic(void *arg)
 	CHECK(cogw_send_async(h, LINE, MBX_CMD_OD_READ, &o, sizeof o, &c2) == 0);
 	CHECK(c1 != c2);
 	for (int i = 0; i < 2; i++) {
-		CHECK(cogw_recv(h, &m, 2000) == 0);
+		CHECK(cogw_recv(h, &m, CALL_MS) == 0);
 		CHECK(m.kind == MBX_KIND_RESPONSE && m.code == MBX_CMD_OD_READ);
 		CHECK(m.corr == (i == 0 ? c1 : c2));
 		CHECK(m.status == 0 && m.len == 4 && m.data[0] == 0x78);
@@ -382,26 +405,26 @@ static int child_basic(void *arg)
 	}
 	CHECK(cogw_recv(h, &m, 0) == COGW_E_AGAIN);
 	/* the service the fake line does not implement */
-	CHECK(cogw_emcy_send(h, LINE, 0x1000, 1, NULL, 2000) == COGW_E_UNSUPPORTED);
+	CHECK(cogw_emcy_send(h, LINE, 0x1000, 1, NULL, CALL_MS) == COGW_E_UNSUPPORTED);
 	/* NMT, and an SDO read with its abort code */
-	CHECK(cogw_nmt(h, LINE, 0x01, 0, 2000) == 0);
-	CHECK(cogw_sdo_read(h, LINE, 99, 0x1018, 1, v, sizeof v, &len, 2000,
+	CHECK(cogw_nmt(h, LINE, 0x01, 0, CALL_MS) == 0);
+	CHECK(cogw_sdo_read(h, LINE, 99, 0x1018, 1, v, sizeof v, &len, CALL_MS,
 			    &abort) == COGW_E_ABORT);
 	CHECK(abort == 0x06020000);
 	uint32_t u32;
 
-	CHECK(cogw_sdo_read_u32(h, LINE, 5, 0x1018, 2, &u32, 2000, &abort) == 0);
+	CHECK(cogw_sdo_read_u32(h, LINE, 5, 0x1018, 2, &u32, CALL_MS, &abort) == 0);
 	CHECK(u32 == (5u | 0x18u << 8 | 0x10u << 16 | 2u << 24));
 	uint16_t u16; /* 4 bytes come back: type/length mismatch */
 
-	CHECK(cogw_sdo_read_u16(h, LINE, 5, 0x1018, 2, &u16, 2000, &abort) ==
+	CHECK(cogw_sdo_read_u16(h, LINE, 5, 0x1018, 2, &u16, CALL_MS, &abort) ==
 	      COGW_E_ABORT);
 	CHECK(abort == 0x06070010);
 	/* a line without a daemon */
 	CHECK(cogw_ping(h, 7, 500) == COGW_E_NO_DAEMON);
 	mbx_stats_wire ms;
 
-	CHECK(cogw_mbx_stats(h, LINE, &ms, 2000) == 0);
+	CHECK(cogw_mbx_stats(h, LINE, &ms, CALL_MS) == 0);
 	CHECK(ms.clients == 1 && ms.clients_registered == 1);
 	cogw_close(h);
 	return 0;
@@ -413,7 +436,7 @@ static void test_register_call_and_correlation(void)
 
 	start(&cfg);
 	TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_basic, NULL)));
-	WAIT_FOR(stats().clients == 0, 1000);
+	WAIT_FOR(stats().clients == 0, 5000);
 	mbx_server_stats st = stats();
 
 	TEST_ASSERT_EQUAL_UINT64(1, st.clients_registered);
@@ -482,7 +505,7 @@ static int child_sub(void *arg)
 	unsigned hb = 0, other = 0;
 
 	CHECK(cogw_open(&h, instance) == 0);
-	CHECK(cogw_subscribe(h, LINE, s->param, NULL, 0, 2000) == 0);
+	CHECK(cogw_subscribe(h, LINE, s->param, NULL, 0, CALL_MS) == 0);
 	child_ready(s);
 	child_wait_go(s);
 	while (cogw_recv(h, &m, 300) == 0) {
@@ -504,7 +527,7 @@ static int child_sub(void *arg)
 	CHECK(other == 0);
 	CHECK(hb == (s->param == MBX_EVC_HB ? 2 : 1));
 	/* unsubscribe: nothing more */
-	CHECK(cogw_unsubscribe(h, LINE, s->param, 2000) == 0);
+	CHECK(cogw_unsubscribe(h, LINE, s->param, CALL_MS) == 0);
 	child_ready(s);
 	child_wait_go(s);
 	CHECK(cogw_recv(h, &m, 300) == COGW_E_AGAIN);
@@ -641,18 +664,20 @@ static int child_slow(void *arg)
 	unsigned n = 0;
 
 	CHECK(cogw_open_opts(&h, &o) == 0);
-	CHECK(cogw_subscribe(h, LINE, MBX_EVC_EMCY, NULL, 0, 2000) == 0);
+	CHECK(cogw_subscribe(h, LINE, MBX_EVC_EMCY, NULL, 0, CALL_MS) == 0);
 	child_ready(s);
 	child_wait_go(s); /* parent has published 10 into a queue of 4 */
-	while (cogw_recv(h, &m, 0) == 0) {
+	/* Exactly the 4 that fitted: as soon as one is read, the server's
+	 * tick may queue the OVERFLOW notice behind them, which belongs to
+	 * the next step. */
+	for (; n < 4; n++) {
+		CHECK(cogw_recv(h, &m, 0) == 0);
 		CHECK(m.code == MBX_EV_EMCY && m.dropped == 0);
-		n++;
 		cogw_msg_release(&m);
 	}
-	CHECK(n == 4);
 	child_ready(s);
 	child_wait_go(s); /* parent published one more */
-	CHECK(cogw_recv(h, &m, 2000) == 0);
+	CHECK(cogw_recv(h, &m, CALL_MS) == 0);
 	/* the first message after the loss carries the flag and count:
 	 * either the overflow notice or the next EMCY */
 	CHECK(m.dropped == 6);
@@ -718,7 +743,7 @@ static int child_park(void *arg)
 	cogw *h;
 
 	CHECK(cogw_open(&h, instance) == 0);
-	CHECK(cogw_ping(h, LINE, 2000) == 0);
+	CHECK(cogw_ping(h, LINE, CALL_MS) == 0);
 	child_ready(s);
 	child_wait_go(s); /* killed or told to go on */
 	cogw_close(h);
@@ -753,7 +778,7 @@ static void test_killed_client_is_reaped(void)
 	TEST_ASSERT_EQUAL_UINT32((uint32_t)p, ci.pid);
 	kill(p, SIGKILL);
 	TEST_ASSERT_EQUAL_INT(1000 + SIGKILL, reap(p)); /* no zombie left */
-	WAIT_FOR(stats().clients == 0, 2000);
+	WAIT_FOR(stats().clients == 0, CALL_MS);
 	TEST_ASSERT_EQUAL_UINT32(0, stats().clients);
 	TEST_ASSERT_EQUAL_UINT64(1, stats().clients_reaped);
 	TEST_ASSERT_EQUAL_UINT(1, fl.gone);
@@ -774,7 +799,7 @@ static void test_client_with_unlinked_queue_is_reaped(void)
 	p = spawn(child_park, &s);
 	parent_wait_ready(&s);
 	unlink_client_queues(0); /* process alive, queue gone */
-	WAIT_FOR(stats().clients == 0, 2000);
+	WAIT_FOR(stats().clients == 0, CALL_MS);
 	TEST_ASSERT_EQUAL_UINT32(0, stats().clients);
 	TEST_ASSERT_EQUAL_UINT64(1, stats().clients_reaped);
 	parent_go(&s);
@@ -788,7 +813,7 @@ static void test_lease_expiry(void)
 	sync2 a, b;
 	pid_t pa, pb;
 
-	cfg.lease_ms = 300;
+	cfg.lease_ms = 1000;
 	start(&cfg);
 	sync_init(&a);
 	sync_init(&b);
@@ -798,7 +823,7 @@ static void test_lease_expiry(void)
 	parent_wait_ready(&b);
 	TEST_ASSERT_EQUAL_UINT32(2, stats().clients);
 	kill(pb, SIGSTOP); /* alive, but renews nothing */
-	sleep_ms(1000);    /* > 3 leases: a keeps pinging, b expires */
+	sleep_ms(4000);    /* > 3 leases: a keeps pinging, b expires */
 	mbx_server_stats st = stats();
 
 	TEST_ASSERT_EQUAL_UINT32(1, st.clients);
@@ -835,15 +860,15 @@ static int child_as_user(void *arg)
 		return 0;
 	}
 	/* read-only user: reads and subscriptions yes, writes no */
-	CHECK(cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, 2000, &abort) == 0);
-	CHECK(cogw_subscribe(h, LINE, MBX_EVC_HB, NULL, 0, 2000) == 0);
-	CHECK(cogw_od_write(h, LINE, 0x2001, 0, v, 4, 2000, &abort) == COGW_E_ACCESS);
-	CHECK(cogw_nmt(h, LINE, 0x81, 0, 2000) == COGW_E_ACCESS);
+	CHECK(cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, CALL_MS, &abort) == 0);
+	CHECK(cogw_subscribe(h, LINE, MBX_EVC_HB, NULL, 0, CALL_MS) == 0);
+	CHECK(cogw_od_write(h, LINE, 0x2001, 0, v, 4, CALL_MS, &abort) == COGW_E_ACCESS);
+	CHECK(cogw_nmt(h, LINE, 0x81, 0, CALL_MS) == COGW_E_ACCESS);
 	uint8_t big[5000] = { 0 }; /* chunked write: refused, rest ignored */
 
-	CHECK(cogw_od_write(h, LINE, 0x2001, 0, big, sizeof big, 2000, &abort) ==
+	CHECK(cogw_od_write(h, LINE, 0x2001, 0, big, sizeof big, CALL_MS, &abort) ==
 	      COGW_E_ACCESS);
-	CHECK(cogw_ping(h, LINE, 2000) == 0); /* still fine afterwards */
+	CHECK(cogw_ping(h, LINE, CALL_MS) == 0); /* still fine afterwards */
 	cogw_close(h);
 	return 0;
 }
