@@ -40,6 +40,7 @@ struct co_errctrl {
 	struct hb_entry ent[HB_ENTRIES + 1]; /* by 1016h sub, [0] unused */
 	uint8_t n_ent;                        /* subs 1..n_ent exist */
 	uint8_t last_state[HB_NODES];
+	uint64_t last_heard_us[HB_NODES]; /* 0 = never */
 	int rx[HB_NODES];
 	unsigned lost;
 	bool bus_off;
@@ -216,6 +217,7 @@ static void hb_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	st = f->data[0] & 0x7F;
 	prev = ec->last_state[remote];
 	ec->last_state[remote] = st;
+	ec->last_heard_us[remote] = now_us ? now_us : 1;
 
 	if (st == CO_NMT_INITIALISING) {
 		emit(node, CO_EV_BOOTUP, remote, st, prev, 0);
@@ -347,6 +349,13 @@ uint8_t co_hb_remote_state(const co_node *node, uint8_t remote_id)
 	if (!node->errctrl || remote_id >= HB_NODES)
 		return CO_HB_STATE_UNKNOWN;
 	return node->errctrl->last_state[remote_id];
+}
+
+uint64_t co_hb_last_heard_us(const co_node *node, uint8_t remote_id)
+{
+	if (!node->errctrl || remote_id >= HB_NODES)
+		return 0;
+	return node->errctrl->last_heard_us[remote_id];
 }
 
 unsigned co_hb_lost_count(const co_node *node)

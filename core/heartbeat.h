@@ -70,6 +70,9 @@ co_hb_mon co_hb_consumer_status(const co_node *node, uint8_t remote_id);
 /* Last state byte seen from remote_id (any node), CO_HB_STATE_UNKNOWN if
  * none. */
 uint8_t co_hb_remote_state(const co_node *node, uint8_t remote_id);
+/* Time of the last heartbeat or boot-up frame from remote_id (any node,
+ * monitored or not); 0 if none was ever heard. */
+uint64_t co_hb_last_heard_us(const co_node *node, uint8_t remote_id);
 /* Monitored nodes currently lost. */
 unsigned co_hb_lost_count(const co_node *node);
 

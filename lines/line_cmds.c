@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "core/emcy.h"
+#include "core/heartbeat.h"
 #include "core/lss_master.h"
 #include "core/nmt.h"
 #include "core/pdo.h"
@@ -112,15 +113,28 @@ static void sdo_transfer(line *l, const mbx_request *req, const mbx_sdo_req *s, 
 	if (!pp)
 		return answer(l, req, MBX_E_BUSY, 0, NULL, 0);
 
+	/* timeout_ms 0 means "the line's default" (docs/mailbox.md): that is
+	 * the configured lines[].sdo_timeout_ms, which cogwd hands over as the
+	 * node's SDO timeout. Passing 0 on let the core use its own 1000 ms,
+	 * so the configured value never reached mailbox SDO transfers. */
+	uint32_t timeout_ms = s->timeout_ms ? s->timeout_ms : l->p.node.sdo_server_timeout_ms;
 	sdo_client_req r = {
 		.upload = upload, .node_id = s->node, .index = s->index, .sub = s->sub,
-		.mode = s->mode, .timeout_ms = s->timeout_ms, .tag = pp->tag,
+		.mode = s->mode, .timeout_ms = timeout_ms, .tag = pp->tag,
 	};
 	if (upload) {
 		r.size = s->size;
-		r.buf = pp->buf ? pp->buf : pp->inline_data;
-		r.cap = pp->buf ? pp->cap : LINE_INLINE_MAX;
-		pp->buf = r.buf;
+		/* A small slot uploads into its inline buffer. Give it its
+		 * capacity too: it used to keep pp->buf = inline_data with
+		 * pp->cap = 0 after its first use, so the slot's next upload
+		 * got a 0-byte buffer and aborted 05040005 (found with more
+		 * uploads in flight than LINE_BIG_SLOTS). */
+		if (!pp->buf) {
+			pp->buf = pp->inline_data;
+			pp->cap = LINE_INLINE_MAX;
+		}
+		r.buf = pp->buf;
+		r.cap = pp->cap;
 	} else {
 		r.size = (uint32_t)req->data_len;
 		if (req->data_len <= LINE_INLINE_MAX) {
@@ -155,19 +169,29 @@ static void nmt_cmd(line *l, const mbx_request *req, const mbx_nmt_req *n)
 	answer(l, req, rc < 0 ? MBX_E_PARAM : 0, 0, NULL, 0);
 }
 
+/* The heartbeat consumer is the source of truth for states and times; the
+ * line adds what only it counts (boot-ups, EMCYs). */
 static void node_table(line *l, const mbx_request *req)
 {
 	mbx_node_entry rows[LINE_NODES];
 	size_t n = 0;
 	for (int i = 1; i < LINE_NODES; i++) {
 		const line_node_info *ni = &l->nodes[i];
-		if (ni->state == 0xFF && !ni->monitored)
+		uint8_t state = co_hb_remote_state(l->node, (uint8_t)i);
+		co_hb_mon mon = co_hb_consumer_status(l->node, (uint8_t)i);
+		uint64_t heard = co_hb_last_heard_us(l->node, (uint8_t)i);
+		if (state == CO_HB_STATE_UNKNOWN && mon == CO_HB_MON_OFF && !ni->emcy_count)
 			continue;
+		uint64_t ago_ms = heard ? (l->now_us - heard) / 1000u : UINT32_MAX;
 		rows[n++] = (mbx_node_entry){
 			.node = (uint8_t)i,
-			.nmt_state = ni->state,
-			.hb = ni->hb_lost ? 2 : ni->monitored ? 1 : 0,
+			.nmt_state = state,
+			.hb = mon == CO_HB_MON_LOST ? 2 : mon == CO_HB_MON_OFF ? 0 : 1,
 			.flags = (uint8_t)((ni->bootups ? 1 : 0) | (ni->emcy_count && ni->last_emcy ? 2 : 0)),
+			.last_heard_ms = ago_ms > UINT32_MAX ? UINT32_MAX : (uint32_t)ago_ms,
+			.bootups = ni->bootups > UINT16_MAX ? UINT16_MAX : (uint16_t)ni->bootups,
+			.last_emcy = ni->last_emcy,
+			.emcy_count = ni->emcy_count,
 		};
 	}
 	answer(l, req, 0, 0, rows, n * sizeof rows[0]);

@@ -27,7 +27,7 @@ _Static_assert(sizeof(mbx_stats_wire) == 72, "wire layout");
 _Static_assert(sizeof(mbx_obj_req) == 4, "wire layout");
 _Static_assert(sizeof(mbx_sdo_req) == 16, "wire layout");
 _Static_assert(sizeof(mbx_nmt_req) == 4, "wire layout");
-_Static_assert(sizeof(mbx_node_entry) == 4, "wire layout");
+_Static_assert(sizeof(mbx_node_entry) == 16, "wire layout");
 _Static_assert(sizeof(mbx_pdo_num_req) == 4, "wire layout");
 _Static_assert(sizeof(mbx_emcy_req) == 8, "wire layout");
 _Static_assert(sizeof(mbx_raw_frame) == 16, "wire layout");

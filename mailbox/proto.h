@@ -380,6 +380,11 @@ typedef struct mbx_node_entry {
 	                    * 5 operational, 127 pre-op), 0xFF unknown */
 	uint8_t hb;        /* 0 not monitored, 1 active, 2 lost */
 	uint8_t flags;     /* bit0 boot-up seen, bit1 EMCY active */
+	uint32_t last_heard_ms; /* since its last heartbeat/boot-up frame;
+	                         * 0xFFFFFFFF = never heard */
+	uint16_t bootups;  /* boot-up messages seen (saturating) */
+	uint16_t last_emcy; /* error code of its last EMCY, 0 = none */
+	uint32_t emcy_count; /* EMCY messages received from it */
 } mbx_node_entry;
 
 typedef struct mbx_pdo_num_req {

@@ -67,8 +67,15 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 			cJSON_AddStringToObject(e, "nmt_state", nmt_text(nodes[i].nmt_state));
 			cJSON_AddStringToObject(e, "heartbeat",
 						nodes[i].hb == 1 ? "active" : nodes[i].hb == 2 ? "lost" : "off");
+			if (nodes[i].last_heard_ms != UINT32_MAX)
+				cJSON_AddNumberToObject(e, "last_heard_ms", nodes[i].last_heard_ms);
+			else
+				cJSON_AddNullToObject(e, "last_heard_ms");
 			cJSON_AddBoolToObject(e, "bootup_seen", nodes[i].flags & 1);
+			cJSON_AddNumberToObject(e, "bootups", nodes[i].bootups);
 			cJSON_AddBoolToObject(e, "emcy_active", nodes[i].flags & 2);
+			cJSON_AddNumberToObject(e, "emcy_count", nodes[i].emcy_count);
+			cJSON_AddNumberToObject(e, "last_emcy", nodes[i].last_emcy);
 			cJSON_AddItemToArray(na, e);
 		}
 		cJSON_AddItemToArray(arr, o);
@@ -88,11 +95,20 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 		printf("  nodes: none heard yet\n");
 		return 0;
 	}
-	printf("  %4s  %-16s  %-13s  %-7s  %s\n", "node", "NMT state", "heartbeat", "boot-up", "EMCY");
-	for (int i = 0; i < n; i++)
-		printf("  %4u  %-16s  %-13s  %-7s  %s\n", nodes[i].node, nmt_text(nodes[i].nmt_state),
-		       hb_text(nodes[i].hb), nodes[i].flags & 1 ? "seen" : "-",
-		       nodes[i].flags & 2 ? "error active" : "-");
+	printf("  %4s  %-16s  %-13s  %-11s  %-7s  %s\n", "node", "NMT state", "heartbeat", "last heard",
+	       "boot-up", "EMCY");
+	for (int i = 0; i < n; i++) {
+		char heard[24] = "never", emcy[40] = "-";
+		if (nodes[i].last_heard_ms != UINT32_MAX)
+			snprintf(heard, sizeof heard, "%u.%u s ago", nodes[i].last_heard_ms / 1000u,
+				 nodes[i].last_heard_ms % 1000u / 100u);
+		if (nodes[i].emcy_count)
+			snprintf(emcy, sizeof emcy, "%s, last %04Xh (%u)",
+				 nodes[i].flags & 2 ? "error active" : "no error", nodes[i].last_emcy,
+				 nodes[i].emcy_count);
+		printf("  %4u  %-16s  %-13s  %-11s  %-7s  %s\n", nodes[i].node, nmt_text(nodes[i].nmt_state),
+		       hb_text(nodes[i].hb), heard, nodes[i].flags & 1 ? "seen" : "-", emcy);
+	}
 	return 0;
 }
 
