@@ -143,9 +143,13 @@ fail:
 	return rc < 0 ? rc : -EIO;
 }
 
+/* Re-arm only when the deadline moves earlier (or the timer has fired):
+ * most frames push a deadline later (a heartbeat restarts its consumer
+ * timer), and one timerfd_settime per frame would cost more than the
+ * occasional early wake-up that finds nothing due and re-arms. */
 static void arm_timer(line *l, uint64_t at_us)
 {
-	if (at_us == l->armed_us)
+	if (at_us >= l->armed_us)
 		return;
 	l->armed_us = at_us;
 	struct itimerspec its = { 0 };
