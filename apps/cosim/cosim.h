@@ -159,6 +159,8 @@ typedef struct cosim_node_config {
 	cosim_faults faults;
 	bool autostart;     /* enter OPERATIONAL after boot-up by itself */
 	bool quiet;
+	uint32_t sdo_timeout_ms; /* SDO server, per frame; 0 = core default
+	                          * (1000 ms) */
 	cosim_out_fn out;
 	void *out_ctx;
 	uint64_t now_us;    /* start time (signals count from here) */

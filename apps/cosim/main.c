@@ -276,6 +276,8 @@ static void usage(FILE *out)
 	      "                         start loads them\n"
 	      "      --autostart        enter OPERATIONAL after boot-up without a master\n"
 	      "      --loopback         echo outputs into inputs (device file \"loopback\")\n"
+	      "      --sdo-timeout MS   SDO server timeout per frame (default 1000): raise it\n"
+	      "                         where the peer can stall for longer (slow test VMs)\n"
 	      "\n"
 	      "Faults (all nodes; also switchable at run time, see --control):\n"
 	      "      --silent           send nothing, hear nothing (cable pulled)\n"
@@ -348,6 +350,7 @@ enum {
 	OPT_SDO_DELAY,
 	OPT_SDO_LENIENT,
 	OPT_PDO_BADLEN,
+	OPT_SDO_TIMEOUT,
 };
 
 int main(int argc, char **argv)
@@ -370,6 +373,7 @@ int main(int argc, char **argv)
 		{ "sdo-delay", required_argument, NULL, OPT_SDO_DELAY },
 		{ "sdo-lenient", no_argument, NULL, OPT_SDO_LENIENT },
 		{ "pdo-badlen", no_argument, NULL, OPT_PDO_BADLEN },
+		{ "sdo-timeout", required_argument, NULL, OPT_SDO_TIMEOUT },
 		{ NULL, 0, NULL, 0 },
 	};
 	static struct app app; /* large (local queue): not on the stack */
@@ -377,6 +381,7 @@ int main(int argc, char **argv)
 	int n_devs = 0, opt, rc = EXIT_OK;
 	const char *ifname = NULL, *nv_dir = NULL, *control = NULL;
 	bool autostart = false, loopback = false;
+	uint32_t sdo_timeout_ms = 0; /* core default */
 	cosim_faults faults = { 0 };
 	long v;
 	char err[COSIM_ERR_MAX];
@@ -471,6 +476,13 @@ int main(int argc, char **argv)
 		case OPT_SDO_LENIENT:
 			faults.sdo_lenient = true;
 			break;
+		case OPT_SDO_TIMEOUT:
+			if (!parse_int(optarg, 1, 600000, &v)) {
+				fprintf(stderr, "cosim: --sdo-timeout %s: 1..600000 ms\n", optarg);
+				return EXIT_USAGE;
+			}
+			sdo_timeout_ms = (uint32_t)v;
+			break;
 		case OPT_PDO_BADLEN:
 			faults.pdo_badlen = true;
 			break;
@@ -524,6 +536,7 @@ int main(int argc, char **argv)
 		nc.nv_key = key;
 		nc.faults = faults;
 		nc.autostart = autostart;
+		nc.sdo_timeout_ms = sdo_timeout_ms;
 		nc.quiet = app.quiet;
 		nc.out = out_frame;
 		nc.out_ctx = &app;

@@ -764,6 +764,7 @@ int cosim_node_create(cosim_node **out, const cosim_node_config *cfg, char *err,
 	nc.event_ctx = n;
 	nc.lss_slave = n->dev.lss_enabled;
 	nc.lss_slave_constant_id = n->dev.lss_constant_id;
+	nc.sdo_server_timeout_ms = cfg->sdo_timeout_ms;
 	n->lss_hooks.store = lss_store;
 	if (n->dev.lss_bit_timing_mask)
 		n->lss_hooks.check_bit_timing = lss_check_bt;

@@ -138,6 +138,12 @@ int daemon_start(daemon_run *d, const daemon_opts *opts)
 			proc_dump_log(d->log_path, 40);
 			return -ETIMEDOUT;
 		}
+		if (opts->drop_notify) {
+			/* the daemon's later sd_notify calls fail (ECONNREFUSED)
+			 * instead of blocking on a full socket */
+			notify_close(&d->ns);
+			d->has_notify = false;
+		}
 	}
 	for (unsigned line = 0; line < d->n_lines; line++) {
 		char q[96];
@@ -160,10 +166,32 @@ int daemon_start(daemon_run *d, const daemon_opts *opts)
 	return 0;
 }
 
+/* Read whatever sits in the notify socket: a daemon blocked in sd_notify()
+ * on a full socket cannot see its SIGTERM. */
+static void drain_notify(daemon_run *d)
+{
+	char buf[4096];
+	while (d->has_notify && recv(d->ns.fd, buf, sizeof buf, MSG_DONTWAIT) > 0)
+		;
+}
+
 int daemon_stop(daemon_run *d, int timeout_ms)
 {
 	if (d->pid > 0) {
-		d->exit_status = proc_stop(d->pid, SIGTERM, timeout_ms);
+		drain_notify(d);
+		kill(d->pid, SIGTERM);
+		uint64_t until = mono_ms() + (uint64_t)(timeout_ms > 0 ? timeout_ms : 0);
+		bool exited = false;
+		while (!(exited = proc_exited(d->pid, &d->exit_status)) && mono_ms() < until) {
+			drain_notify(d);
+			sleep_ms(10);
+		}
+		if (!exited) {
+			printf("cogwd: no exit within %d ms of SIGTERM: SIGKILL\n", timeout_ms);
+			kill(d->pid, SIGKILL);
+			waitpid(d->pid, NULL, 0);
+			d->exit_status = -1;
+		}
 		d->pid = 0;
 		bool clean = d->exit_status != -1 && WIFEXITED(d->exit_status) &&
 			     WEXITSTATUS(d->exit_status) == 0;

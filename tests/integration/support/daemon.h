@@ -51,6 +51,12 @@ typedef struct daemon_opts {
 	/* Give the daemon a NOTIFY_SOCKET and wait for READY=1 (else only the
 	 * queues are awaited). */
 	bool notify;
+	/* With notify: close the socket once READY=1 came. Keep it (false)
+	 * only if the test reads it regularly: an unread datagram socket fills
+	 * up after ~10 messages (net.unix.max_dgram_qlen), then the daemon's
+	 * sd_notify() blocks its main thread (STATUS= goes out every second)
+	 * and SIGTERM/SIGHUP are no longer handled. daemon_stop() drains it. */
+	bool drop_notify;
 	/* With notify: WATCHDOG_USEC for the daemon (0 = none). */
 	uint64_t watchdog_usec;
 	/* Daemon binary (NULL = build/san/bin/cogwd). */
