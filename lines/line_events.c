@@ -81,6 +81,7 @@ static void sdo_client_done(line *l, const co_ev_sdo_cli *c)
 	if (!pp)
 		return; /* the client went away meanwhile */
 	uint64_t corr = pp->reply.corr;
+	done.client = pp->reply.client;
 	if (c->abort)
 		mbx_server_respond(l->mbx, &pp->reply, MBX_E_ABORT, c->abort, NULL, 0);
 	else if (c->upload)

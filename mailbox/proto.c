@@ -37,7 +37,7 @@ _Static_assert(sizeof(mbx_line_status) == 64, "wire layout");
 _Static_assert(sizeof(mbx_store_req) == 4, "wire layout");
 _Static_assert(sizeof(mbx_ev_overflow) == 8, "wire layout");
 _Static_assert(sizeof(mbx_ev_od_written) == 8, "wire layout");
-_Static_assert(sizeof(mbx_ev_sdo_done) == 16, "wire layout");
+_Static_assert(sizeof(mbx_ev_sdo_done) == 24, "wire layout");
 _Static_assert(sizeof(mbx_ev_node) == 4, "wire layout");
 _Static_assert(sizeof(mbx_pdo_value) == 12, "wire layout");
 _Static_assert(sizeof(mbx_ev_pdo) == 16, "wire layout");
@@ -712,7 +712,7 @@ int mbx_event_validate(unsigned code, const uint8_t *p, size_t len)
 	case MBX_EV_OD_WRITTEN:
 		return len == sizeof(mbx_ev_od_written) ? 0 : MBX_E_MALFORMED;
 	case MBX_EV_SDO_DONE:
-		return len >= sizeof(mbx_ev_sdo_done) ? 0 : MBX_E_MALFORMED;
+		return len == sizeof(mbx_ev_sdo_done) ? 0 : MBX_E_MALFORMED;
 	case MBX_EV_NMT_STATE:
 	case MBX_EV_BOOTUP:
 	case MBX_EV_HB_STARTED:

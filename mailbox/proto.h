@@ -248,7 +248,7 @@ const char *mbx_event_class_to_string(uint32_t cls);
 typedef enum mbx_event {
 	MBX_EV_OVERFLOW = 0x0001,   /* mbx_ev_overflow */
 	MBX_EV_OD_WRITTEN = 0x0101, /* OD  mbx_ev_od_written */
-	MBX_EV_SDO_DONE = 0x0201,   /* SDO mbx_ev_sdo_done + data */
+	MBX_EV_SDO_DONE = 0x0201,   /* SDO mbx_ev_sdo_done */
 	MBX_EV_NMT_STATE = 0x0301,  /* NMT mbx_ev_node */
 	MBX_EV_BOOTUP = 0x0302,     /* BOOT mbx_ev_node */
 	MBX_EV_HB_STARTED = 0x0303, /* HB mbx_ev_node */
@@ -468,7 +468,10 @@ typedef struct mbx_ev_od_written {
 	uint32_t size;
 } mbx_ev_od_written;
 
-/* followed by min(size, what fits) data bytes of an upload */
+/* An SDO transfer of some client ended (observers of the sdo class, e.g.
+ * a logger). The requester itself gets the outcome, with the data, as the
+ * response to its request. (client, corr in the header) name the request
+ * uniquely; correlation ids alone are per client. */
 typedef struct mbx_ev_sdo_done {
 	uint32_t abort; /* 0 = success */
 	uint32_t size;  /* bytes transferred */
@@ -478,6 +481,8 @@ typedef struct mbx_ev_sdo_done {
 	uint8_t upload; /* 1 upload, 0 download */
 	uint8_t mode;   /* mode used */
 	uint8_t pad[2];
+	uint32_t client; /* the requesting client's id on this line */
+	uint32_t pad2;
 } mbx_ev_sdo_done;
 
 /* NMT_STATE, BOOTUP, HB_STARTED, HB_LOST */

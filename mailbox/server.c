@@ -279,6 +279,20 @@ static bool queue_still_there(const char *name, ino_t ino)
 	return same;
 }
 
+/* The process of a reaped client is gone: remove its queues too, so that a
+ * crashed client does not leave its names (and kernel memory, counted in
+ * its owner's RLIMIT_MSGQUEUE) behind. Only a queue that is still the very
+ * one the client registered is removed, never a newcomer's of that name. */
+static void unlink_orphan_queues(const mbx_client *c)
+{
+	if (kill((pid_t)c->pid, 0) == 0 || errno != ESRCH)
+		return;
+	if (queue_still_there(c->resp_name, c->resp_ino))
+		mq_unlink(c->resp_name);
+	if (queue_still_there(c->evt_name, c->evt_ino))
+		mq_unlink(c->evt_name);
+}
+
 static bool client_is_dead(const mbx_server *srv, const mbx_client *c,
 			   uint64_t now_us, bool full_check)
 {
@@ -942,14 +956,11 @@ int mbx_server_publish(mbx_server *srv, uint16_t ev_code, uint64_t corr,
 		if (!c->id || c->dead || !wants(c, cls, payload, len))
 			continue;
 		if (n > c->evt_msg - MBX_HDR_SIZE) {
-			if (ev_code != MBX_EV_SDO_DONE) {
-				/* cannot fit this client's queue: lost */
-				c->drop_evt++;
-				c->dropped++;
-				srv->stats.dropped++;
-				continue;
-			}
-			n = c->evt_msg - MBX_HDR_SIZE; /* data truncated */
+			/* cannot fit this client's queue: lost, counted, flagged */
+			c->drop_evt++;
+			c->dropped++;
+			srv->stats.dropped++;
+			continue;
 		}
 		mbx_hdr h = { .code = ev_code, .corr = corr };
 
@@ -1028,6 +1039,7 @@ uint64_t mbx_server_tick(mbx_server *srv, uint64_t now_us)
 		if (!c->id)
 			continue;
 		if (client_is_dead(srv, c, now_us, full)) {
+			unlink_orphan_queues(c);
 			client_remove(srv, c, true);
 			continue;
 		}

@@ -186,9 +186,8 @@ int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status,
 /*
  * Fan an event out to every client of this line subscribed to its class
  * (overflow notices to everyone). corr: the request it belongs to, or 0.
- * The payload must fit one message (events are never chunked); an SDO_DONE
- * with data is truncated to fit (mbx_ev_sdo_done.size tells the real size).
- * Raw frames are matched against each client's filters. Returns the number
+ * Events are never chunked: one that does not fit a client's event queue
+ * messages is dropped for that client (counted and flagged). Raw frames are matched against each client's filters. Returns the number
  * of clients it reached, or -EINVAL / -EMSGSIZE.
  */
 int mbx_server_publish(mbx_server *srv, uint16_t ev_code, uint64_t corr,

@@ -164,8 +164,8 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		char ab[128] = "ok";
 		if (e.abort)
 			snprintf(ab, sizeof ab, "abort 0x%08" PRIX32 " (%s)", e.abort, sdo_abort_to_string(e.abort));
-		snprintf(text, sizeof text, "node %u SDO %s %04X:%02X %" PRIu32 " bytes: %s", e.node,
-			 e.upload ? "upload" : "download", e.index, e.sub, e.size, ab);
+		snprintf(text, sizeof text, "node %u SDO %s %04X:%02X %" PRIu32 " bytes: %s (client %" PRIu32 ")",
+			 e.node, e.upload ? "upload" : "download", e.index, e.sub, e.size, ab, e.client);
 		if (o) {
 			cJSON_AddNumberToObject(o, "node", e.node);
 			cJSON_AddBoolToObject(o, "upload", e.upload);
@@ -173,6 +173,7 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 			cJSON_AddNumberToObject(o, "sub", e.sub);
 			cJSON_AddNumberToObject(o, "size", e.size);
 			cJSON_AddNumberToObject(o, "abort", e.abort);
+			cJSON_AddNumberToObject(o, "client", e.client);
 		}
 		break;
 	}

@@ -1125,10 +1125,9 @@ static void test_killed_client_is_reaped_and_others_are_served(void)
 	mbx_line_status ls;
 	TEST_ASSERT_EQUAL_INT(0, cogw_line_status(h, 0, &ls, 0));
 	TEST_ASSERT_EQUAL_UINT32(1, ls.clients);
-	/* its queues: the daemon dropped them; the files stay until someone
-	 * unlinks them (the client owned them) */
+	/* its queues: its process is gone, so the daemon removed them as well */
 	int queues = count_client_queues(INSTANCE, v->pid, true);
-	printf("victim's queues left in /dev/mqueue: %d (unlinked now)\n", queues);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, queues, "a dead client's queues were left in /dev/mqueue");
 
 	/* the next transfer to the same node gets the channel and all data */
 	uint8_t *want = malloc(BIG_SIZE), *back = malloc(DOMAIN_MAX);

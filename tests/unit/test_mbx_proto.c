@@ -612,7 +612,9 @@ static void test_event_validation(void)
 	TEST_ASSERT_EQUAL_INT(0, mbx_event_validate(MBX_EV_RAW, p, 24));
 	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED,
 			      mbx_event_validate(MBX_EV_EMCY, p, 23));
-	TEST_ASSERT_EQUAL_INT(0, mbx_event_validate(MBX_EV_SDO_DONE, p, 20));
+	TEST_ASSERT_EQUAL_INT(0, mbx_event_validate(MBX_EV_SDO_DONE, p, 24));
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_event_validate(MBX_EV_SDO_DONE, p, 20));
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_event_validate(MBX_EV_SDO_DONE, p, 28));
 	memcpy(p, &e, sizeof e);
 	TEST_ASSERT_EQUAL_INT(0, mbx_event_validate(MBX_EV_PDO, p, 16 + 24));
 	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED,
