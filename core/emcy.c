@@ -539,19 +539,6 @@ const co_service co_svc_emcy = {
 
 /* ---- standard objects ---------------------------------------------------- */
 
-static int add_keep(co_od *od, uint16_t idx, uint8_t sub, co_type t,
-		    uint16_t acc, uint64_t def, uint8_t obj_code)
-{
-	co_od_entry *e;
-	int rc = co_od_add_num(od, idx, sub, t, acc, def, &e);
-
-	if (rc == -EEXIST)
-		return 0;
-	if (rc == 0 && obj_code)
-		e->obj_code = obj_code;
-	return rc;
-}
-
 int co_od_add_comm_defaults_emcy(co_od *od, uint8_t node_id,
 				 uint8_t history_len, uint8_t consumers,
 				 int consume_all)
@@ -561,34 +548,36 @@ int co_od_add_comm_defaults_emcy(co_od *od, uint8_t node_id,
 	if (!od || node_id < 1 || node_id > 127 || history_len > EMCY_HIST_MAX ||
 	    consumers > EMCY_CONS_MAX)
 		return -EINVAL;
-	if ((rc = add_keep(od, 0x1001, 0, CO_T_UNSIGNED8, CO_ACC_RO | CO_ACC_TPDO,
-			   0, 0)))
+	if ((rc = co_od_ensure_num(od, 0x1001, 0, CO_T_UNSIGNED8,
+				   CO_ACC_RO | CO_ACC_TPDO, 0, 0)))
 		return rc;
 	if (history_len) {
-		if ((rc = add_keep(od, 0x1003, 0, CO_T_UNSIGNED8, CO_ACC_RW, 0,
-				   CO_OBJ_ARRAY)))
+		if ((rc = co_od_ensure_num(od, 0x1003, 0, CO_T_UNSIGNED8,
+					   CO_ACC_RW, 0, CO_OBJ_ARRAY)))
 			return rc;
 		for (unsigned s = 1; s <= history_len; s++)
-			if ((rc = add_keep(od, 0x1003, (uint8_t)s,
-					   CO_T_UNSIGNED32, CO_ACC_RO, 0,
-					   CO_OBJ_ARRAY)))
+			if ((rc = co_od_ensure_num(od, 0x1003, (uint8_t)s,
+						   CO_T_UNSIGNED32, CO_ACC_RO, 0,
+						   CO_OBJ_ARRAY)))
 				return rc;
 	}
-	if ((rc = add_keep(od, 0x1014, 0, CO_T_UNSIGNED32, CO_ACC_RW,
-			   CO_EMCY_COB_BASE + node_id, 0)))
+	if ((rc = co_od_ensure_num(od, 0x1014, 0, CO_T_UNSIGNED32, CO_ACC_RW,
+				   CO_EMCY_COB_BASE + node_id, 0)))
 		return rc;
-	if ((rc = add_keep(od, 0x1015, 0, CO_T_UNSIGNED16, CO_ACC_RW, 0, 0)))
+	if ((rc = co_od_ensure_num(od, 0x1015, 0, CO_T_UNSIGNED16, CO_ACC_RW,
+				   0, 0)))
 		return rc;
 	if (consumers) {
-		if ((rc = add_keep(od, 0x1028, 0, CO_T_UNSIGNED8, CO_ACC_RO,
-				   consumers, CO_OBJ_ARRAY)))
+		if ((rc = co_od_ensure_num(od, 0x1028, 0, CO_T_UNSIGNED8,
+					   CO_ACC_RO, consumers,
+					   CO_OBJ_ARRAY)))
 			return rc;
 		for (unsigned s = 1; s <= consumers; s++)
-			if ((rc = add_keep(od, 0x1028, (uint8_t)s,
-					   CO_T_UNSIGNED32, CO_ACC_RW,
-					   (CO_EMCY_COB_BASE + s) |
-						   (consume_all ? 0 : COB_INVALID),
-					   CO_OBJ_ARRAY)))
+			if ((rc = co_od_ensure_num(od, 0x1028, (uint8_t)s,
+						   CO_T_UNSIGNED32, CO_ACC_RW,
+						   (CO_EMCY_COB_BASE + s) |
+							   (consume_all ? 0 : COB_INVALID),
+						   CO_OBJ_ARRAY)))
 				return rc;
 	}
 	return 0;

@@ -49,14 +49,7 @@ struct co_guard {
 static void emit(co_node *node, co_event_kind kind, uint8_t remote,
 		 uint8_t state, uint8_t prev, uint16_t time_ms)
 {
-	co_event ev = { .kind = kind };
-
-	ev.u.errctrl.node = remote;
-	ev.u.errctrl.state = state;
-	ev.u.errctrl.prev = prev;
-	ev.u.errctrl.guarded = 1;
-	ev.u.errctrl.time_ms = time_ms;
-	co_node_emit(node, &ev);
+	co_errctrl_emit(node, kind, remote, state, prev, true, time_ms);
 }
 
 /* ---- slave ----------------------------------------------------------------- */
@@ -372,9 +365,8 @@ int co_od_add_comm_defaults_guard(co_od *od)
 
 	if (!od)
 		return -EINVAL;
-	rc = co_od_add_num(od, 0x100C, 0, CO_T_UNSIGNED16, CO_ACC_RW, 0, NULL);
-	if (rc && rc != -EEXIST)
+	rc = co_od_ensure_num(od, 0x100C, 0, CO_T_UNSIGNED16, CO_ACC_RW, 0, 0);
+	if (rc)
 		return rc;
-	rc = co_od_add_num(od, 0x100D, 0, CO_T_UNSIGNED8, CO_ACC_RW, 0, NULL);
-	return rc == -EEXIST ? 0 : rc;
+	return co_od_ensure_num(od, 0x100D, 0, CO_T_UNSIGNED8, CO_ACC_RW, 0, 0);
 }

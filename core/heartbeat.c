@@ -59,16 +59,23 @@ const char *co_hb_mon_to_string(co_hb_mon m)
 	return "?";
 }
 
-static void emit(co_node *node, co_event_kind kind, uint8_t remote,
-		 uint8_t state, uint8_t prev, uint16_t time_ms)
+void co_errctrl_emit(co_node *node, co_event_kind kind, uint8_t remote, uint8_t state,
+		     uint8_t prev, bool guarded, uint16_t time_ms)
 {
 	co_event ev = { .kind = kind };
 
 	ev.u.errctrl.node = remote;
 	ev.u.errctrl.state = state;
 	ev.u.errctrl.prev = prev;
+	ev.u.errctrl.guarded = guarded;
 	ev.u.errctrl.time_ms = time_ms;
 	co_node_emit(node, &ev);
+}
+
+static void emit(co_node *node, co_event_kind kind, uint8_t remote,
+		 uint8_t state, uint8_t prev, uint16_t time_ms)
+{
+	co_errctrl_emit(node, kind, remote, state, prev, false, time_ms);
 }
 
 /* ---- producer ------------------------------------------------------------ */
@@ -525,7 +532,6 @@ int co_od_add_comm_defaults_hb(co_od *od, uint8_t consumers, uint16_t producer_m
 					  CO_ACC_RW, 0)))
 			return rc;
 	}
-	rc = co_od_add_num(od, 0x1017, 0, CO_T_UNSIGNED16, CO_ACC_RW,
-			   producer_ms, NULL);
-	return rc == -EEXIST ? 0 : rc;
+	return co_od_ensure_num(od, 0x1017, 0, CO_T_UNSIGNED16, CO_ACC_RW,
+				producer_ms, 0);
 }

@@ -88,6 +88,11 @@ int co_errctrl_bus_off_recovered(co_node *node, uint64_t now_us);
  * heartbeat or life-guarding loss remains. */
 void co_errctrl_loss_resolved(co_node *node, uint64_t now_us);
 
+/* For guarding.c: emit an error-control event (u.errctrl); guarded: seen
+ * through node guarding rather than heartbeat. */
+void co_errctrl_emit(co_node *node, co_event_kind kind, uint8_t remote, uint8_t state,
+		     uint8_t prev, bool guarded, uint16_t time_ms);
+
 /* Add 1016h (ARRAY, consumers entries 1..127, U32 rw, 0) and 1017h (U16
  * rw, default producer_ms) unless present. consumers 0 = no 1016h. */
 int co_od_add_comm_defaults_hb(co_od *od, uint8_t consumers,

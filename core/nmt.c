@@ -426,6 +426,5 @@ int co_od_add_comm_defaults_nmt(co_od *od, uint8_t n_subs)
 					  CO_ACC_RW, CO_NMT_ERR_PREOP)))
 			return rc;
 	}
-	rc = co_od_add_num(od, 0x102A, 0, CO_T_UNSIGNED16, CO_ACC_RW, 0, NULL);
-	return rc == -EEXIST ? 0 : rc;
+	return co_od_ensure_num(od, 0x102A, 0, CO_T_UNSIGNED16, CO_ACC_RW, 0, 0);
 }

@@ -419,6 +419,19 @@ int co_od_add_num(co_od *od, uint16_t index, uint8_t sub, co_type type,
 	return co_od_add(od, &d, out);
 }
 
+int co_od_ensure_num(co_od *od, uint16_t index, uint8_t sub, co_type type,
+		     uint16_t access, uint64_t def_bits, uint8_t obj_code)
+{
+	co_od_entry *e;
+	int rc = co_od_add_num(od, index, sub, type, access, def_bits, &e);
+
+	if (rc == -EEXIST)
+		return 0;
+	if (rc == 0 && obj_code)
+		e->obj_code = obj_code;
+	return rc;
+}
+
 int co_od_add_bytes(co_od *od, uint16_t index, uint8_t sub, co_type type,
 		    uint16_t access, uint32_t max_size, const void *def,
 		    uint32_t def_size, co_od_entry **out)

@@ -202,6 +202,11 @@ int co_od_add(co_od *od, const co_od_desc *d, co_od_entry **out);
  * (two's complement for signed types, IEEE 754 bits for reals). */
 int co_od_add_num(co_od *od, uint16_t index, uint8_t sub, co_type type,
 		  uint16_t access, uint64_t def_bits, co_od_entry **out);
+/* Like co_od_add_num, for building default layouts: an (index, sub) that
+ * exists already is left as it is and counts as success. A new entry gets
+ * obj_code unless that is 0 (VAR). 0, -EINVAL or -ENOMEM. */
+int co_od_ensure_num(co_od *od, uint16_t index, uint8_t sub, co_type type,
+		     uint16_t access, uint64_t def_bits, uint8_t obj_code);
 /* Convenience: string or domain with capacity max_size and a default. */
 int co_od_add_bytes(co_od *od, uint16_t index, uint8_t sub, co_type type,
 		    uint16_t access, uint32_t max_size, const void *def,

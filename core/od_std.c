@@ -44,20 +44,6 @@ void co_od_std_opts_init(co_od_std_opts *o)
 	o->sdo_servers = 1;
 }
 
-/* Add a numeric entry unless it exists; obj_code 0 = VAR. */
-static int add_num(co_od *od, uint16_t idx, uint8_t sub, co_type t,
-		   uint16_t acc, uint64_t def, uint8_t obj_code)
-{
-	co_od_entry *e;
-	int rc = co_od_add_num(od, idx, sub, t, acc, def, &e);
-
-	if (rc == -EEXIST)
-		return 0;
-	if (rc == 0 && obj_code)
-		e->obj_code = obj_code;
-	return rc;
-}
-
 static int add_string(co_od *od, uint16_t idx, const char *s)
 {
 	size_t n = s ? strlen(s) : 0;
@@ -76,12 +62,12 @@ static int add_identity(co_od *od, const co_od_std_opts *o)
 {
 	const uint32_t v[4] = { o->vendor_id, o->product_code, o->revision,
 				o->serial };
-	int rc = add_num(od, 0x1018, 0, CO_T_UNSIGNED8, CO_ACC_CO, 4,
-			 CO_OBJ_RECORD);
+	int rc = co_od_ensure_num(od, 0x1018, 0, CO_T_UNSIGNED8, CO_ACC_CO, 4,
+				  CO_OBJ_RECORD);
 
 	for (uint8_t s = 1; !rc && s <= 4; s++)
-		rc = add_num(od, 0x1018, s, CO_T_UNSIGNED32, CO_ACC_RO, v[s - 1],
-			     CO_OBJ_RECORD);
+		rc = co_od_ensure_num(od, 0x1018, s, CO_T_UNSIGNED32, CO_ACC_RO,
+				      v[s - 1], CO_OBJ_RECORD);
 	return rc;
 }
 
@@ -109,32 +95,14 @@ static int add_sdo_server_default(co_od *od, uint8_t node_id)
 
 	if (co_od_has_index(od, SDO_SERVER_PARAM))
 		return 0;
-	rc = add_num(od, SDO_SERVER_PARAM, 0, CO_T_UNSIGNED8, CO_ACC_CO, 2,
-		     CO_OBJ_RECORD);
+	rc = co_od_ensure_num(od, SDO_SERVER_PARAM, 0, CO_T_UNSIGNED8,
+			      CO_ACC_CO, 2, CO_OBJ_RECORD);
 	if (!rc)
-		rc = add_num(od, SDO_SERVER_PARAM, 1, CO_T_UNSIGNED32, CO_ACC_RO,
-			     0x600u + node_id, CO_OBJ_RECORD);
+		rc = co_od_ensure_num(od, SDO_SERVER_PARAM, 1, CO_T_UNSIGNED32,
+				      CO_ACC_RO, 0x600u + node_id, CO_OBJ_RECORD);
 	if (!rc)
-		rc = add_num(od, SDO_SERVER_PARAM, 2, CO_T_UNSIGNED32, CO_ACC_RO,
-			     0x580u + node_id, CO_OBJ_RECORD);
-	return rc;
-}
-
-/* Further servers and all clients: COB-IDs rw and not valid until the
- * manager (or a client over SDO) assigns them; sub 3 = the peer node. */
-static int add_sdo_channel(co_od *od, uint16_t idx)
-{
-	int rc;
-
-	if (co_od_has_index(od, idx))
-		return 0;
-	rc = add_num(od, idx, 0, CO_T_UNSIGNED8, CO_ACC_CO, 3, CO_OBJ_RECORD);
-	for (uint8_t s = 1; !rc && s <= 2; s++)
-		rc = add_num(od, idx, s, CO_T_UNSIGNED32, CO_ACC_RW,
-			     SDO_COB_INVALID, CO_OBJ_RECORD);
-	if (!rc)
-		rc = add_num(od, idx, 3, CO_T_UNSIGNED8, CO_ACC_RW, 0,
-			     CO_OBJ_RECORD);
+		rc = co_od_ensure_num(od, SDO_SERVER_PARAM, 2, CO_T_UNSIGNED32,
+				      CO_ACC_RO, 0x580u + node_id, CO_OBJ_RECORD);
 	return rc;
 }
 
@@ -228,8 +196,8 @@ int co_od_add_std_comm(co_od *od, uint8_t node_id, const co_od_std_opts *opts)
 	if (!od || (rc = check_opts(node_id, o)))
 		return -EINVAL;
 
-	if ((rc = add_num(od, 0x1000, 0, CO_T_UNSIGNED32, CO_ACC_RO,
-			  o->device_type, 0)))
+	if ((rc = co_od_ensure_num(od, 0x1000, 0, CO_T_UNSIGNED32, CO_ACC_RO,
+				   o->device_type, 0)))
 		return rc;
 	if ((rc = add_emcy(od, node_id, o)))
 		return rc;
@@ -257,10 +225,12 @@ int co_od_add_std_comm(co_od *od, uint8_t node_id, const co_od_std_opts *opts)
 	if ((rc = add_sdo_server_default(od, node_id)))
 		return rc;
 	for (unsigned i = 1; i < o->sdo_servers; i++)
-		if ((rc = add_sdo_channel(od, (uint16_t)(SDO_SERVER_PARAM + i))))
+		if ((rc = sdo_param_od_add(od, (uint16_t)(SDO_SERVER_PARAM + i),
+					   CO_ACC_CO)))
 			return rc;
 	for (unsigned i = 0; i < o->sdo_clients; i++)
-		if ((rc = add_sdo_channel(od, (uint16_t)(SDO_CLIENT_PARAM + i))))
+		if ((rc = sdo_param_od_add(od, (uint16_t)(SDO_CLIENT_PARAM + i),
+					   CO_ACC_CO)))
 			return rc;
 	if ((rc = add_pdos(od, node_id, CO_PDO_RX, o->rpdos, o->pdo_valid)) ||
 	    (rc = add_pdos(od, node_id, CO_PDO_TX, o->tpdos, o->pdo_valid)))

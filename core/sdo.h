@@ -8,6 +8,8 @@
 
 #include <stdint.h>
 
+#include "core/od.h"
+
 /* SDO abort codes (CiA 301 §7.2.4.3.17, plus the CiA 302-7 routing codes
  * this project uses for network indications, see DESIGN.md). */
 typedef enum sdo_abort {
@@ -119,5 +121,11 @@ enum sdo_blk_sub {
 #define SDO_SERVER_PARAM 0x1200u /* .. 127Fh */
 #define SDO_CLIENT_PARAM 0x1280u /* .. 12FFh */
 #define SDO_MAX_CHANNELS 128u
+
+/* Create the parameter record idx (1200h+n or 1280h+n) unless the index
+ * exists: sub 0 = 3 with access sub0_access, sub 1/2 COB-IDs rw and not
+ * valid (bit 31) until the manager or a client over SDO assigns them,
+ * sub 3 the peer node-id, rw, 0. 0, -EINVAL or -ENOMEM. */
+int sdo_param_od_add(co_od *od, uint16_t idx, uint16_t sub0_access);
 
 #endif /* COGW_CORE_SDO_H */

@@ -7,13 +7,14 @@
  * Data never has to be in memory as a whole: downloads read the source
  * sequentially into one sub-block buffer (127 x 7 bytes), which is also
  * what a block retransmission resends; uploads hand each byte to the sink
- * exactly once, in order. The block CRC is computed on that single pass.
+ * exactly once, in order. The sub-block rules and the CRC are in
+ * sdo_block.c, shared with the server.
  */
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "core/crc16.h"
+#include "core/sdo_block.h"
 #include "core/sdo_client.h"
 
 #define SUB_BLOCK_BYTES (SDO_BLK_MAX_SEQ * SDO_SEG_DATA) /* 889 */
@@ -58,17 +59,10 @@ struct cli_chan {
 	uint32_t read_off; /* download: bytes taken from the source */
 
 	/* block */
-	bool crc_on;
-	uint16_t crc;
-	uint8_t blksize;
-	uint8_t seq;       /* upload: last in-sequence seqno */
-	uint8_t segs;      /* download: segments in the sub-block sent */
-	bool sub_last;     /* download: that sub-block ends the data */
-	bool last_seen;    /* upload: segment with c = 1 accepted */
+	struct sdo_blk_rx brx; /* upload: sequence, duplicates, CRC */
+	struct sdo_blk_tx btx; /* download: sub-block, CRC */
 	bool pend_valid;   /* upload: held-back segment (its length is only
 	                    * known at the end request) */
-	bool prev_valid;
-	uint8_t prev_seg[8]; /* upload: segment that closed the last sub-block */
 	uint8_t pend[SDO_SEG_DATA];
 	uint32_t sub_len;  /* download: bytes in sub_buf */
 	uint8_t sub_buf[SUB_BLOCK_BYTES];
@@ -270,7 +264,6 @@ static void start_download(struct cli_chan *ch)
 		tx(ch, d);
 		enter(ch, CS_DN_INIT);
 	} else if (ch->mode == SDO_MODE_BLOCK) {
-		ch->crc = CRC16_CCITT_INIT;
 		ch->sub_len = 0;
 		tx_mux(ch, (SDO_CCS_BLK_DN << 5) | SDO_BLK_CRC | SDO_BLK_SIZE_IND, size);
 		enter(ch, CS_BLK_DN_INIT);
@@ -320,7 +313,7 @@ static void st_dn_seg(struct cli_chan *ch, const uint8_t *d)
 /* Top the sub-block buffer up to blksize segments from the source. */
 static bool blk_fill(struct cli_chan *ch)
 {
-	uint32_t cap = (uint32_t)ch->blksize * SDO_SEG_DATA;
+	uint32_t cap = (uint32_t)ch->btx.blksize * SDO_SEG_DATA;
 	uint32_t want;
 
 	if (ch->sub_len >= cap)
@@ -332,37 +325,24 @@ static bool blk_fill(struct cli_chan *ch)
 		return true;
 	if (src_read(ch, ch->sub_buf + ch->sub_len, want) < 0)
 		return false;
-	if (ch->crc_on)
-		ch->crc = crc16_ccitt(ch->crc, ch->sub_buf + ch->sub_len, want);
 	ch->sub_len += want;
 	return true;
 }
 
 static void blk_dn_send(struct cli_chan *ch)
 {
-	uint32_t cap = (uint32_t)ch->blksize * SDO_SEG_DATA;
-	uint32_t bytes;
-	uint32_t off = 0;
-	uint8_t seq = 0;
+	uint8_t segs;
+	uint8_t d[8];
 
 	if (!blk_fill(ch)) {
 		abort_local(ch, SDO_AB_STORE);
 		return;
 	}
-	bytes = ch->sub_len < cap ? ch->sub_len : cap;
-	ch->sub_last = ch->read_off == ch->total && bytes == ch->sub_len;
-	do {
-		uint32_t len = bytes - off < SDO_SEG_DATA ? bytes - off : SDO_SEG_DATA;
-		uint8_t d[8] = { 0 };
-		seq++;
-		bool last = ch->sub_last && off + len >= bytes;
-		d[0] = (uint8_t)(seq | (last ? SDO_BLK_SEQ_LAST : 0));
-		if (len)
-			memcpy(&d[1], ch->sub_buf + off, len);
+	segs = sdo_blk_tx_sub_block(&ch->btx, ch->sub_len, ch->read_off == ch->total);
+	for (uint8_t seq = 1; seq <= segs; seq++) {
+		sdo_blk_tx_segment(&ch->btx, seq, ch->sub_buf, d);
 		tx(ch, d);
-		off += len;
-	} while (off < bytes);
-	ch->segs = seq;
+	}
 	enter(ch, CS_BLK_DN_ACK);
 }
 
@@ -374,51 +354,37 @@ static void st_blk_dn_init(struct cli_chan *ch, const uint8_t *d)
 	}
 	if (!mux_matches(ch, d))
 		return;
-	if (d[4] == 0 || d[4] > SDO_BLK_MAX_SEQ) {
+	if (!sdo_blk_size_valid(d[4])) {
 		abort_local(ch, SDO_AB_BLK_SIZE);
 		return;
 	}
-	ch->crc_on = d[0] & SDO_BLK_CRC; /* we asked for CRC; the server decides */
-	ch->blksize = d[4];
+	/* we asked for CRC; the server decides */
+	sdo_blk_tx_start(&ch->btx, d[4], d[0] & SDO_BLK_CRC);
 	blk_dn_send(ch);
 }
 
 static void st_blk_dn_ack(struct cli_chan *ch, const uint8_t *d)
 {
-	uint8_t ackseq = d[1];
 	uint32_t acked;
+	bool done;
+	uint32_t ab = sdo_blk_tx_ack(&ch->btx, d, ch->sub_buf, &acked, &done);
 
-	if (d[0] != ((SDO_SCS_BLK_DN << 5) | SDO_BLK_ACK)) {
-		abort_local(ch, SDO_AB_CMD);
+	if (ab) {
+		abort_local(ch, ab);
 		return;
 	}
-	if (ackseq > ch->segs) {
-		abort_local(ch, SDO_AB_SEQ);
-		return;
-	}
-	if (d[2] == 0 || d[2] > SDO_BLK_MAX_SEQ) {
-		abort_local(ch, SDO_AB_BLK_SIZE);
-		return;
-	}
-	if (ch->sub_last && ackseq == ch->segs) {
-		uint32_t last_len = ch->sub_len - (uint32_t)(ch->segs - 1) * SDO_SEG_DATA;
-		uint8_t e[8] = { 0 };
+	if (done) {
+		uint8_t e[8];
 		ch->offset = ch->total;
-		e[0] = (uint8_t)((SDO_CCS_BLK_DN << 5) | ((SDO_SEG_DATA - last_len) << 2) |
-				 SDO_BLK_END);
-		co_put_le16(&e[1], ch->crc_on ? ch->crc : 0);
+		sdo_blk_tx_end(&ch->btx, e);
 		tx(ch, e);
 		enter(ch, CS_BLK_DN_END);
 		return;
 	}
 	/* Keep what was not acknowledged; it goes out again first. */
-	acked = (uint32_t)ackseq * SDO_SEG_DATA;
-	if (acked > ch->sub_len)
-		acked = ch->sub_len;
 	memmove(ch->sub_buf, ch->sub_buf + acked, ch->sub_len - acked);
 	ch->sub_len -= acked;
 	ch->offset += acked;
-	ch->blksize = d[2];
 	blk_dn_send(ch);
 }
 
@@ -454,7 +420,7 @@ static void start_upload(struct cli_chan *ch)
 		d[3] = ch->cur.sub;
 		d[4] = c->sdo_client_blksize;
 		d[5] = (uint8_t)(pst > 255 ? 255 : pst);
-		ch->blksize = c->sdo_client_blksize;
+		ch->brx.blksize = c->sdo_client_blksize;
 		tx(ch, d);
 		enter(ch, CS_BLK_UP_INIT);
 		return;
@@ -547,8 +513,6 @@ static void st_blk_up_init(struct cli_chan *ch, const uint8_t *d)
 	}
 	if (!mux_matches(ch, d))
 		return;
-	ch->crc_on = d[0] & SDO_BLK_CRC;
-	ch->crc = CRC16_CCITT_INIT;
 	if (d[0] & SDO_BLK_SIZE_IND) {
 		ch->total = co_get_le32(&d[4]);
 		if (ch->cur.buf && ch->total > ch->cur.cap) {
@@ -556,64 +520,46 @@ static void st_blk_up_init(struct cli_chan *ch, const uint8_t *d)
 			return;
 		}
 	}
-	ch->seq = 0;
+	/* blksize: what start_upload() announced */
+	sdo_blk_rx_start(&ch->brx, ch->brx.blksize, d[0] & SDO_BLK_CRC);
 	ch->pend_valid = false;
-	ch->last_seen = false;
-	ch->prev_valid = false;
 	tx(ch, start);
 	enter(ch, CS_BLK_UP_SUB);
 }
 
 static void blk_up_ack(struct cli_chan *ch)
 {
-	uint8_t d[8] = { (SDO_CCS_BLK_UP << 5) | SDO_BLK_ACK, ch->seq, ch->blksize };
+	uint8_t d[8];
 
+	sdo_blk_rx_ack(&ch->brx, d);
 	tx(ch, d);
-	ch->seq = 0;
-	enter(ch, ch->last_seen ? CS_BLK_UP_END : CS_BLK_UP_SUB);
+	enter(ch, ch->brx.last_seen ? CS_BLK_UP_END : CS_BLK_UP_SUB);
 }
 
-/* A second copy of the segment that closed the previous sub-block: see
- * is_prev_dup() in sdo_server.c. */
-static bool is_prev_dup(const struct cli_chan *ch, const uint8_t *d)
-{
-	return ch->prev_valid && ch->seq == 0 && memcmp(d, ch->prev_seg, 8) == 0;
-}
-
-/* Same sequence rules as the server side (sdo_server.c st_blk_dn_sub). */
+/* Sequence rules, duplicates and CRC: sdo_block.c, as for the server's
+ * block download. Each segment is held back until the next one arrives:
+ * the sink must only see data bytes, and the last segment's length is
+ * only known at the end request. */
 static void st_blk_up_sub(struct cli_chan *ch, const uint8_t *d)
 {
-	uint8_t seq = d[0] & 0x7Fu;
-	bool last = d[0] & SDO_BLK_SEQ_LAST;
+	unsigned act = sdo_blk_rx_segment(&ch->brx, d);
 
-	if (is_prev_dup(ch, d)) {
-		arm(ch);
-		return;
-	}
-	if (seq == 0 || seq > ch->blksize) {
+	if (act & SDO_BLK_RX_BAD_SEQ) {
 		abort_local(ch, SDO_AB_SEQ);
 		return;
 	}
-	if (seq == ch->seq + 1) {
+	if (act & SDO_BLK_RX_STORE) {
 		if (ch->pend_valid) {
 			uint32_t ab = sink_put(ch, ch->pend, SDO_SEG_DATA);
 			if (ab) {
 				abort_local(ch, ab);
 				return;
 			}
-			if (ch->crc_on)
-				ch->crc = crc16_ccitt(ch->crc, ch->pend, SDO_SEG_DATA);
 		}
 		memcpy(ch->pend, &d[1], SDO_SEG_DATA);
 		ch->pend_valid = true;
-		ch->seq = seq;
-		ch->last_seen = last;
-		if (seq == ch->blksize || last) {
-			memcpy(ch->prev_seg, d, 8);
-			ch->prev_valid = true;
-		}
 	}
-	if (seq == ch->blksize || last)
+	if (act & SDO_BLK_RX_ACK)
 		blk_up_ack(ch);
 	else
 		arm(ch);
@@ -621,26 +567,23 @@ static void st_blk_up_sub(struct cli_chan *ch, const uint8_t *d)
 
 static void st_blk_up_end(struct cli_chan *ch, const uint8_t *d)
 {
-	uint32_t n = (d[0] >> 2) & 7u;
 	uint8_t resp[8] = { (SDO_CCS_BLK_UP << 5) | SDO_BLK_END };
+	uint32_t last_len;
 	uint32_t ab = 0;
 
-	if (is_prev_dup(ch, d)) {
+	if (sdo_blk_rx_is_dup(&ch->brx, d)) {
 		arm(ch);
 		return;
 	}
-	if ((d[0] & 0xE3u) != ((SDO_SCS_BLK_UP << 5) | SDO_BLK_END)) {
+	if (!sdo_blk_rx_end(d, &last_len)) {
 		abort_local(ch, SDO_AB_CMD);
 		return;
 	}
-	if (ch->pend_valid) {
-		ab = sink_put(ch, ch->pend, SDO_SEG_DATA - n);
-		if (!ab && ch->crc_on)
-			ch->crc = crc16_ccitt(ch->crc, ch->pend, SDO_SEG_DATA - n);
-	}
+	if (ch->pend_valid)
+		ab = sink_put(ch, ch->pend, last_len);
 	if (!ab && ch->total != UNKNOWN_SIZE && ch->offset != ch->total)
 		ab = SDO_AB_TYPE_LEN;
-	if (!ab && ch->crc_on && ch->crc != co_get_le16(&d[1]))
+	if (!ab && !sdo_blk_rx_crc_ok(&ch->brx, d, last_len))
 		ab = SDO_AB_CRC;
 	if (ab) {
 		abort_local(ch, ab);
@@ -680,9 +623,8 @@ static void cli_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	(void)now_us;
 	if (ch->state == CS_IDLE || f->len != 8 || (f->flags & CO_FRAME_RTR))
 		return;
-	/* In a sub-block any byte 0 is a segment header except 0x80. */
-	if (ch->state == CS_BLK_UP_SUB ? d[0] == (SDO_SCS_ABORT << 5)
-				       : is_abort(d) && !is_prev_dup(ch, d)) {
+	if (ch->state == CS_BLK_UP_SUB ? sdo_blk_seg_is_abort(d)
+				       : is_abort(d) && !sdo_blk_rx_is_dup(&ch->brx, d)) {
 		uint32_t code = co_get_le32(&d[4]);
 		bool refused = code == SDO_AB_CMD || code == SDO_AB_UNSUPP_ACCESS;
 		if (refused && !ch->fell_back &&
@@ -748,7 +690,7 @@ static void start(struct cli_chan *ch, const sdo_client_req *r)
 	ch->timeout_us = (uint64_t)(r->timeout_ms ? r->timeout_ms : 1000u) * 1000u;
 	ch->mode = pick_mode(ch, r);
 	ch->fell_back = false;
-	ch->prev_valid = false;
+	sdo_blk_rx_reset(&ch->brx);
 	ch->offset = ch->read_off = 0;
 	ch->toggle = 0;
 	ch->total = r->upload ? UNKNOWN_SIZE : r->size;
@@ -905,24 +847,8 @@ static int chan_od_init(struct cli_chan *ch)
 {
 	co_od *od = node_of(ch)->od;
 	uint16_t idx = (uint16_t)(SDO_CLIENT_PARAM + ch->num);
-	co_od_entry *e;
-	int rc = 0;
+	int rc = sdo_param_od_add(od, idx, CO_ACC_RO);
 
-	if (!co_od_has_index(od, idx)) {
-		rc = co_od_add_num(od, idx, 0, CO_T_UNSIGNED8, CO_ACC_RO, 3, &e);
-		if (!rc)
-			e->obj_code = CO_OBJ_RECORD;
-		for (uint8_t s = 1; !rc && s <= 2; s++) {
-			rc = co_od_add_num(od, idx, s, CO_T_UNSIGNED32, CO_ACC_RW,
-					   SDO_COB_INVALID, &e);
-			if (!rc)
-				e->obj_code = CO_OBJ_RECORD;
-		}
-		if (!rc)
-			rc = co_od_add_num(od, idx, 3, CO_T_UNSIGNED8, CO_ACC_RW, 0, &e);
-		if (!rc)
-			e->obj_code = CO_OBJ_RECORD;
-	}
 	ch->od_cob[0] = co_od_find(od, idx, 1);
 	ch->od_cob[1] = co_od_find(od, idx, 2);
 	ch->od_node = co_od_find(od, idx, 3);

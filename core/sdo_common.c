@@ -1,7 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Strings shared by the SDO server, client, CLI and logs. The texts follow
- * the meaning of CiA 301 §7.2.4.3.17 in our own words.
+ * What the SDO server and client share besides block transfer
+ * (sdo_block.c): the strings for the CLI and logs, whose texts follow the
+ * meaning of CiA 301 §7.2.4.3.17 in our own words, and the layout of the
+ * channel parameter records.
  */
 #include "core/sdo.h"
 
@@ -45,6 +47,21 @@ const char *sdo_abort_to_string(uint32_t code)
 	case SDO_AB_ROUTE_BUSY: return "routing channel busy";
 	default: return "unknown abort code";
 	}
+}
+
+int sdo_param_od_add(co_od *od, uint16_t idx, uint16_t sub0_access)
+{
+	int rc;
+
+	if (co_od_has_index(od, idx))
+		return 0;
+	rc = co_od_ensure_num(od, idx, 0, CO_T_UNSIGNED8, sub0_access, 3, CO_OBJ_RECORD);
+	for (uint8_t s = 1; !rc && s <= 2; s++)
+		rc = co_od_ensure_num(od, idx, s, CO_T_UNSIGNED32, CO_ACC_RW,
+				      SDO_COB_INVALID, CO_OBJ_RECORD);
+	if (!rc)
+		rc = co_od_ensure_num(od, idx, 3, CO_T_UNSIGNED8, CO_ACC_RW, 0, CO_OBJ_RECORD);
+	return rc;
 }
 
 const char *sdo_mode_to_string(sdo_mode m)

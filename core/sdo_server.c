@@ -3,7 +3,9 @@
  * SDO server (CiA 301 §7.2.4). One state machine per channel; each state has
  * a frame handler in srv_states[], and every non-idle state shares the same
  * timeout rule (the per-frame timeout, restarted on every frame the channel
- * receives or sends, aborts with 0x05040000).
+ * receives or sends, aborts with 0x05040000). The sub-block rules of both
+ * block directions (sequence, duplicates, ack, CRC) are shared with the
+ * client in sdo_block.c.
  *
  * Frame layout reminders (byte 0):
  *   initiate download   001 x nn e s  -> 011 00000 (0x60)
@@ -23,7 +25,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "core/crc16.h"
+#include "core/sdo_block.h"
 #include "core/sdo_server.h"
 
 enum srv_state {
@@ -71,19 +73,11 @@ struct srv_chan {
 	const uint8_t *src; /* upload: e->data or the deferred data */
 
 	/* block */
-	bool crc_on;
-	uint16_t crc;
-	uint8_t blksize;
-	uint8_t seq;      /* download: last in-sequence seqno of the sub-block */
-	uint8_t pst;      /* upload: protocol switch threshold from the client */
-	bool last_seen;   /* download: segment with c=1 accepted */
-	bool prev_valid;
-	uint8_t prev_seg[8]; /* download: the segment that closed the last
-	                      * sub-block, to recognise a duplicate of it */
-	uint32_t last_off; /* download: offset of the last segment */
-	uint32_t blk_start; /* upload: offset of the current sub-block */
-	uint8_t blk_segs;   /* upload: segments in the current sub-block */
-	bool blk_last;      /* upload: the current sub-block ends the data */
+	struct sdo_blk_rx brx; /* download: sequence, duplicates, CRC */
+	uint32_t last_off;     /* download: offset of the last segment */
+	struct sdo_blk_tx btx; /* upload: sub-block, CRC */
+	uint8_t pst;           /* upload: protocol switch threshold from the client */
+	uint32_t blk_start;    /* upload: offset of the current sub-block */
 
 	/* deferred answer */
 	uint8_t defer;
@@ -226,7 +220,7 @@ static uint32_t open_entry(struct srv_chan *ch, const uint8_t *d, bool upload, u
 	ch->offset = 0;
 	ch->size = 0;
 	ch->toggle = 0;
-	ch->prev_valid = false;
+	sdo_blk_rx_reset(&ch->brx);
 	ch->e = co_od_find_ex(node_of(ch)->od, ch->index, ch->sub, &ab);
 	if (!ch->e)
 		return ab;
@@ -287,6 +281,23 @@ static bool dn_put(struct srv_chan *ch, const uint8_t *data, uint32_t len)
 	return true;
 }
 
+/* Store the checked value, confirm with `resp` and finish. */
+static void dn_commit(struct srv_chan *ch, const co_frame *resp, uint32_t len)
+{
+	co_od_access a = access_of(ch, ch->dst, len);
+	co_frame r = *resp; /* `resp` may be ch->pending */
+	co_event ev = { .kind = CO_EV_OD_WRITTEN };
+
+	co_od_commit(ch->e, ch->dst, len, &a);
+	co_node_send(node_of(ch), &r);
+	ev.u.od.index = ch->index;
+	ev.u.od.sub = ch->sub;
+	ev.u.od.channel = ch->num;
+	ev.u.od.size = len;
+	co_node_emit(node_of(ch), &ev);
+	finish(ch, 0);
+}
+
 /* All data is in: final checks, hook, store, confirm with `resp`. */
 static void dn_complete(struct srv_chan *ch, const co_frame *resp)
 {
@@ -313,17 +324,7 @@ static void dn_complete(struct srv_chan *ch, const co_frame *resp)
 		abort_transfer(ch, ab);
 		return;
 	}
-	co_od_access a = access_of(ch, ch->dst, len);
-	co_od_commit(e, ch->dst, len, &a);
-	co_node_send(node_of(ch), resp);
-
-	co_event ev = { .kind = CO_EV_OD_WRITTEN };
-	ev.u.od.index = ch->index;
-	ev.u.od.sub = ch->sub;
-	ev.u.od.channel = ch->num;
-	ev.u.od.size = len;
-	co_node_emit(node_of(ch), &ev);
-	finish(ch, 0);
+	dn_commit(ch, resp, len);
 }
 
 /* Send `pending` and go on, or park if the hook deferred. */
@@ -442,16 +443,12 @@ static void blk_dn_init(struct srv_chan *ch, const uint8_t *d)
 		return;
 	}
 	ab = dn_prepare(ch, d[0] & SDO_BLK_SIZE_IND, co_get_le32(&d[4]), false);
-	ch->crc_on = d[0] & SDO_BLK_CRC; /* we always support CRC (sc = 1) */
-	ch->crc = CRC16_CCITT_INIT;
-	ch->blksize = cfg_of(ch)->sdo_server_blksize;
-	ch->seq = 0;
-	ch->last_seen = false;
-	ch->prev_valid = false;
+	/* we always support CRC (sc = 1) */
+	sdo_blk_rx_start(&ch->brx, cfg_of(ch)->sdo_server_blksize, d[0] & SDO_BLK_CRC);
 	frame_init(ch, &ch->pending, (uint8_t)((SDO_SCS_BLK_DN << 5) | SDO_BLK_CRC | SDO_BLK_INIT));
 	co_put_le16(&ch->pending.data[1], ch->index);
 	ch->pending.data[3] = ch->sub;
-	ch->pending.data[4] = ch->blksize;
+	ch->pending.data[4] = ch->brx.blksize;
 	dn_proceed(ch, ab, SS_BLK_DN_SUB);
 }
 
@@ -459,71 +456,51 @@ static void blk_dn_ack(struct srv_chan *ch)
 {
 	co_frame f;
 
-	frame_init(ch, &f, (uint8_t)((SDO_SCS_BLK_DN << 5) | SDO_BLK_ACK));
-	f.data[1] = ch->seq;
-	f.data[2] = ch->blksize;
+	frame_init(ch, &f, 0);
+	sdo_blk_rx_ack(&ch->brx, f.data);
 	co_node_send(node_of(ch), &f);
-	ch->seq = 0;
-	enter(ch, ch->last_seen ? SS_BLK_DN_END : SS_BLK_DN_SUB);
+	enter(ch, ch->brx.last_seen ? SS_BLK_DN_END : SS_BLK_DN_SUB);
 }
 
-/* A repeated copy of the frame that closed the previous sub-block (CAN
- * can deliver a frame twice when an ACK error hits its last bit). Acking
- * it again would make the client resend a whole sub-block that we then
- * take for new data. */
-static bool is_prev_dup(const struct srv_chan *ch, const uint8_t *d)
+/* Store an in-sequence segment straight into the destination; false if
+ * it does not fit (the transfer is aborted). */
+static bool blk_dn_store(struct srv_chan *ch, const uint8_t *d)
 {
-	return ch->prev_valid && ch->seq == 0 && memcmp(d, ch->prev_seg, 8) == 0;
+	uint32_t room = ch->dst_cap - ch->offset;
+
+	if (!ch->brx.last_seen) {
+		if (room < SDO_SEG_DATA) {
+			abort_transfer(ch, SDO_AB_LEN_HIGH);
+			return false;
+		}
+		memcpy(ch->dst + ch->offset, &d[1], SDO_SEG_DATA);
+		ch->offset += SDO_SEG_DATA;
+		return true;
+	}
+	/* Padding is only known at the end request (n). */
+	ch->last_off = ch->offset;
+	memcpy(ch->dst + ch->offset, &d[1], room < SDO_SEG_DATA ? room : SDO_SEG_DATA);
+	ch->offset += SDO_SEG_DATA; /* virtual until n is known */
+	return true;
 }
 
-/* Segments are only accepted in sequence. A lost or repeated segment is
- * skipped; at the end of the sub-block (seqno == blksize or c = 1, as the
- * client sees it) the ack names the last good one and the client resends
- * from there (CiA 301 §7.2.4.3.9). A seqno outside 1..blksize is a protocol
- * error. */
+/* Sequence rules, duplicates and CRC: sdo_block.c. */
 static void st_blk_dn_sub(struct srv_chan *ch, const uint8_t *d)
 {
-	uint8_t seq = d[0] & 0x7Fu;
-	bool last = d[0] & SDO_BLK_SEQ_LAST;
+	unsigned act;
 
-	if (d[0] == (SDO_CCS_ABORT << 5)) { /* seqno 0 with c: an abort */
+	if (sdo_blk_seg_is_abort(d)) {
 		finish(ch, co_get_le32(&d[4]));
 		return;
 	}
-	if (is_prev_dup(ch, d)) {
-		arm(ch);
-		return;
-	}
-	if (seq == 0 || seq > ch->blksize) {
+	act = sdo_blk_rx_segment(&ch->brx, d);
+	if (act & SDO_BLK_RX_BAD_SEQ) {
 		abort_transfer(ch, SDO_AB_SEQ);
 		return;
 	}
-	if (seq == ch->seq + 1) {
-		uint32_t room = ch->dst_cap - ch->offset;
-		if (!last && room < SDO_SEG_DATA) {
-			abort_transfer(ch, SDO_AB_LEN_HIGH);
-			return;
-		}
-		if (ch->crc_on && !last)
-			ch->crc = crc16_ccitt(ch->crc, &d[1], SDO_SEG_DATA);
-		if (last) {
-			/* Padding is only known at the end request (n). */
-			ch->last_off = ch->offset;
-			uint32_t n = room < SDO_SEG_DATA ? room : SDO_SEG_DATA;
-			memcpy(ch->dst + ch->offset, &d[1], n);
-			ch->offset += SDO_SEG_DATA; /* virtual until n is known */
-			ch->last_seen = true;
-		} else {
-			memcpy(ch->dst + ch->offset, &d[1], SDO_SEG_DATA);
-			ch->offset += SDO_SEG_DATA;
-		}
-		ch->seq = seq;
-		if (seq == ch->blksize || last) {
-			memcpy(ch->prev_seg, d, 8);
-			ch->prev_valid = true;
-		}
-	}
-	if (seq == ch->blksize || last)
+	if ((act & SDO_BLK_RX_STORE) && !blk_dn_store(ch, d))
+		return;
+	if (act & SDO_BLK_RX_ACK)
 		blk_dn_ack(ch);
 	else
 		arm(ch);
@@ -531,28 +508,25 @@ static void st_blk_dn_sub(struct srv_chan *ch, const uint8_t *d)
 
 static void st_blk_dn_end(struct srv_chan *ch, const uint8_t *d)
 {
-	uint32_t n = (d[0] >> 2) & 7u;
+	uint32_t last_len;
 	co_frame resp;
 
-	if (is_prev_dup(ch, d)) { /* the last segment, delivered twice */
+	if (sdo_blk_rx_is_dup(&ch->brx, d)) { /* the last segment, delivered twice */
 		arm(ch);
 		return;
 	}
-	if (SDO_CS(d[0]) != SDO_CCS_BLK_DN || (d[0] & 3u) != SDO_BLK_END) {
+	if (!sdo_blk_rx_end(d, &last_len)) {
 		abort_transfer(ch, SDO_AB_CMD);
 		return;
 	}
-	ch->offset = ch->last_off + SDO_SEG_DATA - n;
+	ch->offset = ch->last_off + last_len;
 	if (ch->offset > ch->dst_cap) {
 		abort_transfer(ch, SDO_AB_LEN_HIGH);
 		return;
 	}
-	if (ch->crc_on) {
-		ch->crc = crc16_ccitt(ch->crc, ch->dst + ch->last_off, SDO_SEG_DATA - n);
-		if (ch->crc != co_get_le16(&d[1])) {
-			abort_transfer(ch, SDO_AB_CRC);
-			return;
-		}
+	if (!sdo_blk_rx_crc_ok(&ch->brx, d, last_len)) {
+		abort_transfer(ch, SDO_AB_CRC);
+		return;
 	}
 	frame_init(ch, &resp, (uint8_t)((SDO_SCS_BLK_DN << 5) | SDO_BLK_END));
 	dn_complete(ch, &resp);
@@ -589,7 +563,6 @@ static void up_start_block(struct srv_chan *ch)
 		return;
 	}
 	ch->mode = SDO_MODE_BLOCK;
-	ch->crc = CRC16_CCITT_INIT;
 	ch->blk_start = 0;
 	co_put_le32(p, ch->size);
 	send_mux(ch, (uint8_t)((SDO_SCS_BLK_UP << 5) | SDO_BLK_CRC | SDO_BLK_SIZE_IND), p);
@@ -674,14 +647,13 @@ static void blk_up_init(struct srv_chan *ch, const uint8_t *d)
 		ab = SDO_AB_CMD;
 	if (!ab && (d[0] & 3u) != SDO_BLK_INIT)
 		ab = SDO_AB_CMD;
-	if (!ab && (d[4] == 0 || d[4] > SDO_BLK_MAX_SEQ))
+	if (!ab && !sdo_blk_size_valid(d[4]))
 		ab = SDO_AB_BLK_SIZE;
 	if (ab) {
 		abort_transfer(ch, ab);
 		return;
 	}
-	ch->crc_on = d[0] & SDO_BLK_CRC;
-	ch->blksize = d[4];
+	sdo_blk_tx_start(&ch->btx, d[4], d[0] & SDO_BLK_CRC);
 	ch->pst = d[5];
 	up_begin(ch, true);
 }
@@ -690,25 +662,15 @@ static void blk_up_init(struct srv_chan *ch, const uint8_t *d)
  * that named an earlier segment). */
 static void blk_up_send(struct srv_chan *ch)
 {
-	uint32_t off = ch->blk_start;
-	uint8_t seq = 0;
+	const uint8_t *data = ch->src + ch->blk_start;
+	uint8_t segs = sdo_blk_tx_sub_block(&ch->btx, ch->size - ch->blk_start, true);
 	co_frame f;
 
-	ch->blk_last = false;
-	do {
-		uint32_t left = ch->size - off;
-		uint32_t len = left < SDO_SEG_DATA ? left : SDO_SEG_DATA;
-		bool last = left <= SDO_SEG_DATA;
-
-		seq++;
-		frame_init(ch, &f, (uint8_t)(seq | (last ? SDO_BLK_SEQ_LAST : 0)));
-		if (len)
-			memcpy(&f.data[1], ch->src + off, len);
+	for (uint8_t seq = 1; seq <= segs; seq++) {
+		frame_init(ch, &f, 0);
+		sdo_blk_tx_segment(&ch->btx, seq, data, f.data);
 		co_node_send(node_of(ch), &f);
-		off += len;
-		ch->blk_last = last;
-	} while (!ch->blk_last && seq < ch->blksize);
-	ch->blk_segs = seq;
+	}
 	enter(ch, SS_BLK_UP_ACK);
 }
 
@@ -721,50 +683,27 @@ static void st_blk_up_start(struct srv_chan *ch, const uint8_t *d)
 	blk_up_send(ch);
 }
 
-static void blk_up_end(struct srv_chan *ch)
-{
-	uint32_t rem = ch->size % SDO_SEG_DATA;
-	uint32_t n = ch->size == 0 ? SDO_SEG_DATA : rem ? SDO_SEG_DATA - rem : 0;
-	co_frame f;
-
-	frame_init(ch, &f, (uint8_t)((SDO_SCS_BLK_UP << 5) | (n << 2) | SDO_BLK_END));
-	if (ch->crc_on)
-		co_put_le16(&f.data[1], ch->crc);
-	co_node_send(node_of(ch), &f);
-	enter(ch, SS_BLK_UP_END);
-}
-
 static void st_blk_up_ack(struct srv_chan *ch, const uint8_t *d)
 {
-	uint8_t ackseq = d[1];
-	uint8_t blksize = d[2];
-	uint32_t left, acked;
+	uint32_t acked;
+	bool done;
+	uint32_t ab = sdo_blk_tx_ack(&ch->btx, d, ch->src + ch->blk_start, &acked, &done);
+	co_frame f;
 
-	if (d[0] != ((SDO_CCS_BLK_UP << 5) | SDO_BLK_ACK)) {
-		abort_transfer(ch, SDO_AB_CMD);
+	if (ab) {
+		abort_transfer(ch, ab);
 		return;
 	}
-	if (ackseq > ch->blk_segs) {
-		abort_transfer(ch, SDO_AB_SEQ);
-		return;
-	}
-	if (blksize == 0 || blksize > SDO_BLK_MAX_SEQ) {
-		abort_transfer(ch, SDO_AB_BLK_SIZE);
-		return;
-	}
-	left = ch->size - ch->blk_start;
-	acked = (uint32_t)ackseq * SDO_SEG_DATA;
-	if (acked > left)
-		acked = left;
-	if (ch->crc_on && acked)
-		ch->crc = crc16_ccitt(ch->crc, ch->src + ch->blk_start, acked);
 	ch->blk_start += acked;
 	ch->offset = ch->blk_start;
-	ch->blksize = blksize;
-	if (ch->blk_last && ackseq == ch->blk_segs)
-		blk_up_end(ch);
-	else
+	if (!done) {
 		blk_up_send(ch);
+		return;
+	}
+	frame_init(ch, &f, 0);
+	sdo_blk_tx_end(&ch->btx, f.data);
+	co_node_send(node_of(ch), &f);
+	enter(ch, SS_BLK_UP_END);
 }
 
 static void st_blk_up_end(struct srv_chan *ch, const uint8_t *d)
@@ -812,7 +751,7 @@ static void srv_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	if (f->len != 8 || (f->flags & CO_FRAME_RTR))
 		return;
 	if (ch->state != SS_IDLE && ch->state != SS_BLK_DN_SUB &&
-	    SDO_CS(f->data[0]) == SDO_CCS_ABORT && !is_prev_dup(ch, f->data)) {
+	    SDO_CS(f->data[0]) == SDO_CCS_ABORT && !sdo_blk_rx_is_dup(&ch->brx, f->data)) {
 		finish(ch, co_get_le32(&f->data[4]));
 		return;
 	}
@@ -838,20 +777,9 @@ int sdo_server_continue(co_node *node, uint8_t channel, uint32_t abort,
 		return 0;
 	}
 	switch (ch->defer) {
-	case DEFER_COMMIT: {
-		co_od_access a = access_of(ch, ch->dst, ch->stage_len);
-		co_frame resp = ch->pending;
-		co_od_commit(ch->e, ch->dst, ch->stage_len, &a);
-		co_node_send(node, &resp);
-		co_event ev = { .kind = CO_EV_OD_WRITTEN };
-		ev.u.od.index = ch->index;
-		ev.u.od.sub = ch->sub;
-		ev.u.od.channel = ch->num;
-		ev.u.od.size = ch->stage_len;
-		co_node_emit(node, &ev);
-		finish(ch, 0);
+	case DEFER_COMMIT:
+		dn_commit(ch, &ch->pending, ch->stage_len);
 		break;
-	}
 	case DEFER_PROCEED:
 		co_node_send(node, &ch->pending);
 		enter(ch, ch->resume_state);
@@ -969,26 +897,11 @@ static int chan_od_init(struct srv_chan *ch)
 {
 	co_od *od = node_of(ch)->od;
 	uint16_t idx = (uint16_t)(SDO_SERVER_PARAM + ch->num);
-	co_od_entry *e;
 	int rc;
 
-	if (ch->num > 0 && !co_od_has_index(od, idx)) {
-		rc = co_od_add_num(od, idx, 0, CO_T_UNSIGNED8, CO_ACC_RO, 3, &e);
-		if (!rc)
-			e->obj_code = CO_OBJ_RECORD;
-		for (uint8_t s = 1; !rc && s <= 2; s++) {
-			rc = co_od_add_num(od, idx, s, CO_T_UNSIGNED32, CO_ACC_RW,
-					   SDO_COB_INVALID, &e);
-			if (!rc)
-				e->obj_code = CO_OBJ_RECORD;
-		}
-		if (!rc)
-			rc = co_od_add_num(od, idx, 3, CO_T_UNSIGNED8, CO_ACC_RW, 0, &e);
-		if (!rc)
-			e->obj_code = CO_OBJ_RECORD;
-		if (rc)
-			return rc;
-	}
+	/* 1200h is optional (see chan_load()). */
+	if (ch->num > 0 && (rc = sdo_param_od_add(od, idx, CO_ACC_RO)))
+		return rc;
 	for (uint8_t s = 1; s <= 2; s++)
 		co_od_set_hooks(od, idx, s, &cob_hooks, ch);
 	return 0;
