@@ -186,7 +186,7 @@ static void node_table(line *l, const mbx_request *req)
 		rows[n++] = (mbx_node_entry){
 			.node = (uint8_t)i,
 			.nmt_state = state,
-			.hb = mon == CO_HB_MON_LOST ? 2 : mon == CO_HB_MON_OFF ? 0 : 1,
+			.hb = mon == CO_HB_MON_LOST ? 2 : mon == CO_HB_MON_ACTIVE ? 1 : mon == CO_HB_MON_WAITING ? 3 : 0,
 			.flags = (uint8_t)((ni->bootups ? 1 : 0) | (ni->emcy_count && ni->last_emcy ? 2 : 0)),
 			.last_heard_ms = ago_ms > UINT32_MAX ? UINT32_MAX : (uint32_t)ago_ms,
 			.bootups = ni->bootups > UINT16_MAX ? UINT16_MAX : (uint16_t)ni->bootups,

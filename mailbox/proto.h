@@ -378,7 +378,8 @@ typedef struct mbx_node_entry {
 	uint8_t node;
 	uint8_t nmt_state; /* CiA 301 NMT state byte (0 boot, 4 stopped,
 	                    * 5 operational, 127 pre-op), 0xFF unknown */
-	uint8_t hb;        /* 0 not monitored, 1 active, 2 lost */
+	uint8_t hb;        /* 0 not monitored, 1 active, 2 lost, 3 monitored
+	                    * but no heartbeat yet (or since its boot-up) */
 	uint8_t flags;     /* bit0 boot-up seen, bit1 EMCY active */
 	uint32_t last_heard_ms; /* since its last heartbeat/boot-up frame;
 	                         * 0xFFFFFFFF = never heard */

@@ -99,7 +99,7 @@ explain "($(ls /dev/mqueue | grep -c '^cogw\.main\.line') queues /cogw.main.line
 say "4. The node table"
 explain "Clients never touch CAN: cogwctl asks the daemon through its mailbox."
 explain "Each line lists the nodes it has heard; heartbeats tell their NMT state."
-wait_for "node 1's heartbeat on line 0" 10 sh -c "'$bin/cogwctl' --json status 0 | grep -q '\"node\":1,'"
+wait_for "node 1's heartbeat on line 0" 10 sh -c "'$bin/cogwctl' --json status 0 | grep -q '\"node\":1,\"nmt_state\":\"pre-operational\"'"
 wait_for "node 2's heartbeat on line 1" 10 sh -c "'$bin/cogwctl' --json status 1 | grep -q '\"node\":2,'"
 ctl status
 

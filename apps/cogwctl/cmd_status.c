@@ -17,7 +17,7 @@ static const char *nmt_text(uint8_t s)
 
 static const char *hb_text(uint8_t hb)
 {
-	return hb == 1 ? "active" : hb == 2 ? "LOST" : "not monitored";
+	return hb == 1 ? "active" : hb == 2 ? "LOST" : hb == 3 ? "waiting" : "not monitored";
 }
 
 static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
@@ -66,7 +66,8 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 			cJSON_AddNumberToObject(e, "node", nodes[i].node);
 			cJSON_AddStringToObject(e, "nmt_state", nmt_text(nodes[i].nmt_state));
 			cJSON_AddStringToObject(e, "heartbeat",
-						nodes[i].hb == 1 ? "active" : nodes[i].hb == 2 ? "lost" : "off");
+						nodes[i].hb == 1 ? "active" : nodes[i].hb == 2 ? "lost"
+						: nodes[i].hb == 3 ? "waiting" : "off");
 			if (nodes[i].last_heard_ms != UINT32_MAX)
 				cJSON_AddNumberToObject(e, "last_heard_ms", nodes[i].last_heard_ms);
 			else

@@ -189,7 +189,9 @@ static void start_system(void)
 	uint64_t until = mono_ms() + 10000;
 	for (;;) {
 		ctl_result *r = ctl_run("--json status 0");
-		if (r->exit == 0 && strstr(r->out, "\"node\":1,"))
+		/* supervised from the start, but in the table with a state only
+		 * once its boot-up and first heartbeat were heard */
+		if (r->exit == 0 && strstr(r->out, "\"node\":1,\"nmt_state\":\"pre-operational\""))
 			break;
 		TEST_ASSERT_TRUE_MESSAGE(mono_ms() < until, "node 1 never appeared in the node table");
 		sleep_ms(200);
