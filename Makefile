@@ -218,11 +218,22 @@ demo:
 	tests/vcan/run -n 3 -- scripts/demo.sh
 
 # ---- install -------------------------------------------------------------------
+# Applications include "mailbox/cogw.h" with -I$(PREFIX)/include/cogw and link
+# -lcogw. The unit's ExecStart is rewritten to the installed binary.
+SYSCONFDIR ?= /etc
+UNITDIR ?= $(PREFIX)/lib/systemd/system
 install: all
-	install -d $(DESTDIR)$(PREFIX)/lib $(DESTDIR)$(PREFIX)/include/cogw/core $(DESTDIR)$(PREFIX)/bin
-	install -m 644 $(REL_CORE_LIB) $(DESTDIR)$(PREFIX)/lib/
+	install -d $(DESTDIR)$(PREFIX)/lib $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(UNITDIR) \
+		$(DESTDIR)$(PREFIX)/include/cogw/core $(DESTDIR)$(PREFIX)/include/cogw/mailbox \
+		$(DESTDIR)$(SYSCONFDIR)/cogw
+	install -m 644 $(REL_CORE_LIB) $(REL_COGW_LIB) $(DESTDIR)$(PREFIX)/lib/
+	cp -P $(REL)/lib/libcogw.so* $(DESTDIR)$(PREFIX)/lib/
 	install -m 644 core/*.h $(DESTDIR)$(PREFIX)/include/cogw/core/
+	install -m 644 mailbox/cogw.h mailbox/proto.h $(DESTDIR)$(PREFIX)/include/cogw/mailbox/
 	$(if $(PROGRAM_BINS),install -m 755 $(PROGRAM_BINS) $(DESTDIR)$(PREFIX)/bin/)
+	sed 's|/usr/local/bin/cogwd|$(PREFIX)/bin/cogwd|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogwd.service \
+		> $(DESTDIR)$(UNITDIR)/cogwd.service
+	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw.json || install -m 644 etc/cogw.json $(DESTDIR)$(SYSCONFDIR)/cogw/cogw.json
 
 deps:
 	scripts/deps.sh
