@@ -65,8 +65,6 @@ int line_create(line **out, const line_params *p)
 	l->armed_us = UINT64_MAX;
 	atomic_init(&l->hb_producer_ms, -1);
 	pthread_mutex_init(&l->stats_lock, NULL);
-	for (int i = 0; i < LINE_NODES; i++)
-		l->nodes[i].state = 0xFF;
 	l->next_tag = 1;
 
 	int rc;
@@ -268,7 +266,7 @@ static void publish_stats(line *l)
 	s->nmt_state = co_nmt_get_state(l->node);
 	uint16_t seen = 0;
 	for (int i = 1; i < LINE_NODES; i++)
-		seen += l->nodes[i].state != 0xFF;
+		seen += co_hb_remote_state(l->node, (uint8_t)i) != CO_HB_STATE_UNKNOWN;
 	s->nodes_seen = seen;
 	s->mbx_clients = ms->clients;
 	s->mbx_commands = ms->commands_ok;

@@ -14,14 +14,6 @@
 #include "core/nmt.h"
 #include "lines/log.h"
 
-static void node_update(line *l, uint8_t node, uint8_t state, uint64_t now)
-{
-	if (node == 0 || node >= LINE_NODES)
-		return;
-	l->nodes[node].state = state;
-	l->nodes[node].last_seen_us = now;
-}
-
 static void publish_node(line *l, uint16_t code, uint8_t node, uint8_t state, uint8_t prev)
 {
 	mbx_ev_node ev = { .node = node, .state = state, .prev = prev };
@@ -112,30 +104,21 @@ void line_on_core_event(void *ctx, const co_event *ev)
 		publish_node(l, MBX_EV_NMT_STATE, co_node_id(l->node), ev->u.nmt.state, ev->u.nmt.prev);
 		break;
 	case CO_EV_BOOTUP:
-		node_update(l, ev->u.errctrl.node, 0, now);
 		if (ev->u.errctrl.node < LINE_NODES)
 			l->nodes[ev->u.errctrl.node].bootups++;
 		publish_node(l, MBX_EV_BOOTUP, ev->u.errctrl.node, 0, ev->u.errctrl.prev);
 		break;
 	case CO_EV_HB_STARTED:
 	case CO_EV_GUARD_RESUMED:
-		node_update(l, ev->u.errctrl.node, ev->u.errctrl.state, now);
-		if (ev->u.errctrl.node < LINE_NODES) {
-			l->nodes[ev->u.errctrl.node].monitored = true;
-			l->nodes[ev->u.errctrl.node].hb_lost = false;
-		}
 		publish_node(l, MBX_EV_HB_STARTED, ev->u.errctrl.node, ev->u.errctrl.state, ev->u.errctrl.prev);
 		break;
 	case CO_EV_HB_LOST:
 	case CO_EV_GUARD_FAILED:
-		if (ev->u.errctrl.node < LINE_NODES)
-			l->nodes[ev->u.errctrl.node].hb_lost = true;
 		cogw_log(COGW_LOG_WARNING, "line %s: node %u %s lost (%u ms)", l->name, ev->u.errctrl.node,
 			 ev->kind == CO_EV_HB_LOST ? "heartbeat" : "guarding", ev->u.errctrl.time_ms);
 		publish_node(l, MBX_EV_HB_LOST, ev->u.errctrl.node, ev->u.errctrl.state, ev->u.errctrl.prev);
 		break;
 	case CO_EV_HB_STATE:
-		node_update(l, ev->u.errctrl.node, ev->u.errctrl.state, now);
 		publish_node(l, MBX_EV_NMT_STATE, ev->u.errctrl.node, ev->u.errctrl.state, ev->u.errctrl.prev);
 		break;
 	case CO_EV_EMCY_RX: {

@@ -18,13 +18,10 @@
 #define LINE_BIG_SLOTS 4    /* of which with a max_transfer buffer */
 #define LINE_INLINE_MAX 1024
 
-/* What the line knows about a remote node (the node state table). */
+/* What only the line counts about a remote node; states, supervision and
+ * times come from the heartbeat consumer (core/heartbeat.h). */
 typedef struct line_node_info {
-	uint8_t state;        /* heartbeat/NMT byte, 0xFF = never heard */
-	bool monitored;       /* heartbeat consumer running */
-	bool hb_lost;
 	uint32_t bootups;
-	uint64_t last_seen_us;
 	uint16_t last_emcy;
 	uint32_t emcy_count;
 } line_node_info;
