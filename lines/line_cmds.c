@@ -215,6 +215,7 @@ static void line_status(line *l, const mbx_request *req)
 		.err_frames = cs->rx_error_frames,
 		.bus_off_count = cs->bus_off_count,
 		.clients = mbx_server_stats_get(l->mbx)->clients,
+		.bus_load_permille = cs->bus_load_permille,
 	};
 	answer(l, req, 0, 0, &st, sizeof st);
 }

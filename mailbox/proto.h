@@ -446,7 +446,8 @@ typedef struct mbx_line_status {
 	uint64_t rx_frames, tx_frames, rx_dropped, tx_failed, err_frames,
 		bus_off_count;
 	uint32_t clients; /* mailbox clients on this line */
-	uint32_t pad2;
+	uint32_t bus_load_permille; /* bits on the wire in the last full second,
+	                             * per mille of the configured bit rate */
 } mbx_line_status;
 
 typedef struct mbx_store_req {

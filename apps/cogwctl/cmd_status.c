@@ -46,6 +46,7 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 		cJSON_AddNumberToObject(o, "node_id", st.node_id);
 		cJSON_AddStringToObject(o, "nmt_state", nmt_text(st.nmt_state));
 		cJSON_AddNumberToObject(o, "bitrate", st.bitrate);
+		cJSON_AddNumberToObject(o, "bus_load_percent", st.bus_load_permille / 10.0);
 		cJSON *cnt = cJSON_AddObjectToObject(o, "counters");
 		cJSON_AddNumberToObject(cnt, "rx_frames", (double)st.rx_frames);
 		cJSON_AddNumberToObject(cnt, "tx_frames", (double)st.tx_frames);
@@ -82,9 +83,9 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 		cJSON_AddItemToArray(arr, o);
 		return 0;
 	}
-	printf("line %u: CAN %s, %" PRIu32 " kbit/s, own node %u %s\n", line,
-	       mbx_can_state_to_string(st.can_state), st.bitrate / 1000u, st.node_id,
-	       nmt_text(st.nmt_state));
+	printf("line %u: CAN %s, %" PRIu32 " kbit/s, bus load %" PRIu32 ".%" PRIu32 " %%, own node %u %s\n", line,
+	       mbx_can_state_to_string(st.can_state), st.bitrate / 1000u, st.bus_load_permille / 10u,
+	       st.bus_load_permille % 10u, st.node_id, nmt_text(st.nmt_state));
 	printf("  frames: rx %" PRIu64 ", tx %" PRIu64 ", rx dropped %" PRIu64 ", tx failed %" PRIu64
 	       ", error frames %" PRIu64 ", bus-off %" PRIu64 "\n",
 	       st.rx_frames, st.tx_frames, st.rx_dropped, st.tx_failed, st.err_frames, st.bus_off_count);

@@ -324,7 +324,8 @@ static void test_status_sdo_types_json_and_aborts(void)
 	start_system();
 	ctl_result *r = ctl_run("status");
 	expect_exit(0, r);
-	expect_contains(r->out, "line 0: CAN error-active, 1000 kbit/s, own node 127 pre-operational");
+	expect_contains(r->out, "line 0: CAN error-active, 1000 kbit/s, bus load ");
+	expect_contains(r->out, " %, own node 127 pre-operational");
 	expect_contains(r->out, "     1  pre-operational   active");
 	expect_contains(r->out, "line 2:");
 
