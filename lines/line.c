@@ -405,11 +405,10 @@ int line_start(line *l)
 	return 0;
 }
 
-static void wake(line *l)
+void line_wake(line *l)
 {
-	uint64_t one = 1;
-	ssize_t w = write(l->wakefd, &one, sizeof one);
-	(void)w;
+	/* eventfd counter: never blocks, a pending wake-up just adds up */
+	eventfd_write(l->wakefd, 1);
 }
 
 void line_stop(line *l)
@@ -417,7 +416,7 @@ void line_stop(line *l)
 	if (!l || !l->started)
 		return;
 	atomic_store(&l->stop, true);
-	wake(l);
+	line_wake(l);
 	pthread_join(l->thread, NULL);
 	l->started = false;
 }
@@ -470,13 +469,13 @@ bool line_stats_snapshot(line *l, line_stats *out)
 void line_request_stall(line *l, unsigned ms)
 {
 	atomic_store(&l->stall_ms, ms);
-	wake(l);
+	line_wake(l);
 }
 
 void line_request_hb_producer(line *l, uint16_t ms)
 {
 	atomic_store(&l->hb_producer_ms, (int)ms);
-	wake(l);
+	line_wake(l);
 }
 
 int line_request_access(line *l, const mbx_access_rule *rules, size_t n_rules,
@@ -500,7 +499,7 @@ int line_request_access(line *l, const mbx_access_rule *rules, size_t n_rules,
 	a->default_access = default_access;
 	a->lease_ms = lease_ms;
 	atomic_store_explicit(&a->state, 1, memory_order_release);
-	wake(l);
+	line_wake(l);
 	/* Wait (briefly) until the line has applied it, so that the READY=1
 	 * after a reload means the new rules are in force. A stuck line
 	 * applies it later. */

@@ -201,10 +201,8 @@ static void line_status(line *l, const mbx_request *req)
 {
 	const can_port_stats *cs = can_port_get_stats(l->port);
 	const co_node_stats *ns = co_node_get_stats(l->node);
-	can_bus_state bs = can_port_bus_state(l->port);
 	mbx_line_status st = {
-		.can_state = bs == CAN_BUS_OFF ? MBX_CAN_BUS_OFF : bs == CAN_BUS_PASSIVE ? MBX_CAN_PASSIVE
-			     : bs == CAN_BUS_WARNING ? MBX_CAN_WARNING : MBX_CAN_ACTIVE,
+		.can_state = line_mbx_can_state(can_port_bus_state(l->port)),
 		.nmt_state = co_nmt_get_state(l->node),
 		.node_id = co_node_id(l->node),
 		.bitrate = l->p.can.bitrate,

@@ -146,7 +146,7 @@ void line_on_core_event(void *ctx, const co_event *ev)
 	}
 }
 
-static uint8_t mbx_state_of(can_bus_state s)
+uint8_t line_mbx_can_state(can_bus_state s)
 {
 	switch (s) {
 	case CAN_BUS_ACTIVE: return MBX_CAN_ACTIVE;
@@ -165,7 +165,7 @@ void line_on_can_error(line *l, const can_rx_item *it)
 		cogw_log(e->state == CAN_BUS_ACTIVE ? COGW_LOG_NOTICE : COGW_LOG_WARNING,
 			 "line %s (%s): CAN controller %s -> %s", l->name, l->ifname,
 			 can_bus_state_to_string(prev), can_bus_state_to_string(e->state));
-		mbx_ev_can_state ev = { .state = mbx_state_of(e->state), .prev = mbx_state_of(prev),
+		mbx_ev_can_state ev = { .state = line_mbx_can_state(e->state), .prev = line_mbx_can_state(prev),
 					.tec = e->tx_errors, .rec = e->rx_errors };
 		mbx_server_publish(l->mbx, MBX_EV_CAN_STATE, 0, &ev, sizeof ev);
 		/* CiA 301: bus-off is a communication error (1029h, EMCY 8140h on

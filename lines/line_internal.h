@@ -102,7 +102,11 @@ struct line {
 	line_access_req access;
 };
 
+/* line.c: wake the line thread (any thread may call it) */
+void line_wake(line *l);
+
 /* line_events.c */
+uint8_t line_mbx_can_state(can_bus_state s);
 void line_on_core_event(void *ctx, const co_event *ev);
 void line_on_can_error(line *l, const can_rx_item *it);
 void line_publish_raw(line *l, const co_frame *f, uint64_t ts_ns);

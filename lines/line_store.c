@@ -30,6 +30,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include "core/od_image.h"
@@ -62,11 +63,8 @@ static void request_main(line *l, uint8_t op, uint8_t sub, const co_od_access *a
 	l->store.from_sdo = a->origin == CO_OD_ORIGIN_SDO;
 	l->store.channel = a->channel;
 	atomic_store(&l->store.state, 1);
-	if (l->p.main_wakefd >= 0) {
-		uint64_t one = 1;
-		ssize_t w = write(l->p.main_wakefd, &one, sizeof one);
-		(void)w;
-	}
+	if (l->p.main_wakefd >= 0)
+		eventfd_write(l->p.main_wakefd, 1);
 }
 
 static uint32_t on_save(void *ctx, uint8_t sub, const co_od_access *a)
@@ -161,9 +159,7 @@ bool line_store_service(line *l)
 			 l->store.op == 1 ? "1010h" : "1011h", l->store.sub);
 	l->store.result = rc;
 	atomic_store(&l->store.state, 2);
-	uint64_t one = 1;
-	ssize_t w = write(l->wakefd, &one, sizeof one);
-	(void)w;
+	line_wake(l);
 	return true;
 }
 

@@ -161,9 +161,6 @@ static int parse_identity(const cJSON *root, struct parsed_top *t, char *err, si
 
 	if (!id)
 		return 0;
-	if (!cJSON_IsObject(id))
-		return json_util_fail(err, errlen, "identity", "expected an object, got %s",
-				      json_util_kind(id));
 	if ((rc = json_util_check_object(id, "identity", keys, err, errlen)) ||
 	    (rc = json_util_opt_uint(id, "vendor", "identity", 0, UINT32_MAX, &v[0], err,
 				     errlen)) ||
@@ -315,9 +312,6 @@ static int parse_pdos(const cJSON *root, cosim_device *dev, co_pdo_dir dir, char
 		co_pdo_desc d;
 
 		json_util_path_index(p, sizeof p, key, i++);
-		if (!cJSON_IsObject(it))
-			return json_util_fail(err, errlen, p, "expected an object, got %s",
-					      json_util_kind(it));
 		if ((rc = json_util_check_object(it, p, pdo_keys, err, errlen)) ||
 		    (rc = json_util_opt_uint(it, "nr", p, 1, COSIM_PDO_MAX, &nr, err, errlen)))
 			return rc;
@@ -401,9 +395,6 @@ static int parse_lss(const cJSON *root, cosim_device *dev, char *err, size_t err
 	dev->lss_enabled = true;
 	if (!l)
 		return 0;
-	if (!cJSON_IsObject(l))
-		return json_util_fail(err, errlen, "lss", "expected an object, got %s",
-				      json_util_kind(l));
 	if ((rc = json_util_check_object(l, "lss", keys, err, errlen)) ||
 	    (rc = json_util_opt_bool(l, "enabled", "lss", &dev->lss_enabled, err, errlen)) ||
 	    (rc = json_util_opt_bool(l, "constant_id", "lss", &dev->lss_constant_id, err,
@@ -455,9 +446,6 @@ static int parse_signal(const cJSON *it, const char *p, cosim_device *dev,
 	int rc;
 
 	memset(s, 0, sizeof *s);
-	if (!cJSON_IsObject(it))
-		return json_util_fail(err, errlen, p, "expected an object, got %s",
-				      json_util_kind(it));
 	if ((rc = json_util_check_object(it, p, signal_keys, err, errlen)) ||
 	    (rc = json_util_opt_string(it, "name", p, 1, s->name, sizeof s->name, err,
 				       errlen)) ||
@@ -538,9 +526,6 @@ static int parse_loopback(const cJSON *root, cosim_device *dev, char *err, size_
 
 	if (!l)
 		return 0;
-	if (!cJSON_IsObject(l))
-		return json_util_fail(err, errlen, "loopback", "expected an object, got %s",
-				      json_util_kind(l));
 	if ((rc = json_util_check_object(l, "loopback", keys, err, errlen)) ||
 	    (rc = json_util_opt_bool(l, "enabled", "loopback", &dev->loopback_enabled, err,
 				     errlen)))
@@ -557,9 +542,6 @@ static int parse_loopback(const cJSON *root, cosim_device *dev, char *err, size_
 		if (dev->n_loopback >= COSIM_LOOPBACK_MAX)
 			return json_util_fail(err, errlen, ip, "more than %u pairs",
 					      COSIM_LOOPBACK_MAX);
-		if (!cJSON_IsObject(it))
-			return json_util_fail(err, errlen, ip, "expected an object, got %s",
-					      json_util_kind(it));
 		if ((rc = json_util_check_object(it, ip, pair_keys, err, errlen)) ||
 		    (rc = get_object(it, "from", ip, true, &d->from_index, &d->from_sub, err,
 				     errlen)) ||

@@ -21,18 +21,12 @@ void tearDown(void)
 	ecf_destroy(&x);
 }
 
-static void sdo_req(const uint8_t req[8])
-{
-	ecf_rx(&x, 0x600 + ID, 0, 8, req);
-}
-
 static void assert_last_sdo(const uint8_t exp[8])
 {
-	int i = -1, j = -1;
-	while ((j = ecf_tx_find(&x, (unsigned)(j + 1), 0x580 + ID)) >= 0)
-		i = j;
-	TEST_ASSERT_TRUE(i >= 0);
-	TEST_ASSERT_EQUAL_HEX8_ARRAY(exp, x.tx[i].data, 8);
+	const co_frame *f = ecf_tx_last(&x, 0x580 + ID);
+	TEST_ASSERT_NOT_NULL(f);
+	TEST_ASSERT_EQUAL_UINT8(8, f->len);
+	TEST_ASSERT_EQUAL_HEX8_ARRAY(exp, f->data, 8);
 }
 
 static uint32_t u32(uint16_t idx, uint8_t sub)
@@ -91,18 +85,18 @@ static void test_history_clear_over_sdo(void)
 	co_emcy_send(x.node, 0x5001, 0, NULL, 0);
 	const uint8_t bad[8] = { 0x2F, 0x03, 0x10, 0x00, 0x01, 0, 0, 0 };
 	const uint8_t ab[8] = { 0x80, 0x03, 0x10, 0x00, 0x30, 0x00, 0x09, 0x06 };
-	sdo_req(bad);
+	ecf_sdo_req(&x, bad);
 	assert_last_sdo(ab);
 	TEST_ASSERT_EQUAL_UINT8(2, u8(0x1003, 0));
 	const uint8_t clr[8] = { 0x2F, 0x03, 0x10, 0x00, 0x00, 0, 0, 0 };
 	const uint8_t ok[8] = { 0x60, 0x03, 0x10, 0x00, 0, 0, 0, 0 };
-	sdo_req(clr);
+	ecf_sdo_req(&x, clr);
 	assert_last_sdo(ok);
 	TEST_ASSERT_EQUAL_UINT8(0, u8(0x1003, 0));
 	TEST_ASSERT_EQUAL_HEX32(0, u32(0x1003, 1));
 	const uint8_t rd[8] = { 0x40, 0x03, 0x10, 0x01, 0, 0, 0, 0 };
 	const uint8_t nodata[8] = { 0x80, 0x03, 0x10, 0x01, 0x24, 0x00, 0x00, 0x08 };
-	sdo_req(rd);
+	ecf_sdo_req(&x, rd);
 	assert_last_sdo(nodata);
 }
 
@@ -180,22 +174,22 @@ static void test_1014_cob_id(void)
 	/* change while valid -> 0x06090030 */
 	const uint8_t chg[8] = { 0x23, 0x14, 0x10, 0x00, 0x90, 0x00, 0x00, 0x00 };
 	const uint8_t ab[8] = { 0x80, 0x14, 0x10, 0x00, 0x30, 0x00, 0x09, 0x06 };
-	sdo_req(chg);
+	ecf_sdo_req(&x, chg);
 	assert_last_sdo(ab);
 	/* invalidate -> accepted, and then no EMCY is produced */
 	const uint8_t inv[8] = { 0x23, 0x14, 0x10, 0x00, 0x85, 0x00, 0x00, 0x80 };
 	const uint8_t ok[8] = { 0x60, 0x14, 0x10, 0x00, 0, 0, 0, 0 };
-	sdo_req(inv);
+	ecf_sdo_req(&x, inv);
 	assert_last_sdo(ok);
 	ecf_clear(&x);
 	co_emcy_send(x.node, 0x5000, 0, NULL, 0);
 	TEST_ASSERT_EQUAL_UINT(0, x.n_tx);
 	/* a restricted CAN-ID (701h) is refused */
 	const uint8_t rst[8] = { 0x23, 0x14, 0x10, 0x00, 0x01, 0x07, 0x00, 0x00 };
-	sdo_req(rst);
+	ecf_sdo_req(&x, rst);
 	assert_last_sdo(ab);
 	/* now a new valid id is fine and used */
-	sdo_req(chg);
+	ecf_sdo_req(&x, chg);
 	assert_last_sdo(ok);
 	ecf_clear(&x);
 	co_emcy_send(x.node, 0x5001, 0, NULL, 0);
@@ -231,7 +225,7 @@ static void test_consumer(void)
 	 * to another COB-ID -> consumed there. */
 	const uint8_t w3[8] = { 0x23, 0x28, 0x10, 0x03, 0x83, 0x00, 0x00, 0x80 };
 	const uint8_t ok3[8] = { 0x60, 0x28, 0x10, 0x03, 0, 0, 0, 0 };
-	sdo_req(w3);
+	ecf_sdo_req(&x, w3);
 	assert_last_sdo(ok3);
 	ecf_rx(&x, 0x83, 0, 8, d);
 	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&x, CO_EV_EMCY_RX));

@@ -22,19 +22,12 @@ void tearDown(void)
 	ecf_destroy(&x);
 }
 
-static void sdo_req(const uint8_t req[8])
-{
-	ecf_rx(&x, 0x600 + ID, 0, 8, req);
-}
-
 static void assert_last_sdo(const uint8_t exp[8])
 {
-	int i = -1, j = -1;
-	while ((j = ecf_tx_find(&x, (unsigned)(j + 1), 0x580 + ID)) >= 0)
-		i = j;
-	TEST_ASSERT_TRUE(i >= 0);
-	TEST_ASSERT_EQUAL_UINT8(8, x.tx[i].len);
-	TEST_ASSERT_EQUAL_HEX8_ARRAY(exp, x.tx[i].data, 8);
+	const co_frame *f = ecf_tx_last(&x, 0x580 + ID);
+	TEST_ASSERT_NOT_NULL(f);
+	TEST_ASSERT_EQUAL_UINT8(8, f->len);
+	TEST_ASSERT_EQUAL_HEX8_ARRAY(exp, f->data, 8);
 }
 
 /* 1: 1017h over SDO; the first heartbeat goes out at once. */
@@ -44,7 +37,7 @@ static void test_1017_sdo_write_first_hb_at_once(void)
 	x.now = 50 * MS;
 	const uint8_t req[8] = { 0x2B, 0x17, 0x10, 0x00, 0xE8, 0x03, 0x00, 0x00 };
 	const uint8_t rsp[8] = { 0x60, 0x17, 0x10, 0x00, 0x00, 0x00, 0x00, 0x00 };
-	sdo_req(req);
+	ecf_sdo_req(&x, req);
 	assert_last_sdo(rsp);
 	int hb = ecf_tx_find(&x, 0, HB_COB);
 	TEST_ASSERT_TRUE(hb >= 0);
@@ -60,7 +53,7 @@ static void test_1017_sdo_write_first_hb_at_once(void)
 	TEST_ASSERT_EQUAL_UINT(4, ecf_tx_count(&x, HB_COB));
 	/* 0 stops the producer at once. */
 	const uint8_t off[8] = { 0x2B, 0x17, 0x10, 0x00, 0, 0, 0, 0 };
-	sdo_req(off);
+	ecf_sdo_req(&x, off);
 	ecf_advance(&x, 10000 * MS);
 	TEST_ASSERT_EQUAL_UINT(4, ecf_tx_count(&x, HB_COB));
 }
@@ -231,11 +224,11 @@ static void test_1016_sdo_validation(void)
 	ecf_boot(&x, ID);
 	const uint8_t w1[8] = { 0x23, 0x16, 0x10, 0x01, 0xF4, 0x01, 0x07, 0x00 };
 	const uint8_t ok1[8] = { 0x60, 0x16, 0x10, 0x01, 0, 0, 0, 0 };
-	sdo_req(w1);
+	ecf_sdo_req(&x, w1);
 	assert_last_sdo(ok1);
 	const uint8_t w2[8] = { 0x23, 0x16, 0x10, 0x02, 0x64, 0x00, 0x07, 0x00 };
 	const uint8_t ab2[8] = { 0x80, 0x16, 0x10, 0x02, 0x43, 0x00, 0x04, 0x06 };
-	sdo_req(w2);
+	ecf_sdo_req(&x, w2);
 	assert_last_sdo(ab2);
 	uint32_t v = 1;
 	co_od_get_u32(x.od, 0x1016, 2, &v);
@@ -243,7 +236,7 @@ static void test_1016_sdo_validation(void)
 	/* Reserved bits 31..24 */
 	const uint8_t w3[8] = { 0x23, 0x16, 0x10, 0x02, 0x64, 0x00, 0x08, 0x01 };
 	const uint8_t ab3[8] = { 0x80, 0x16, 0x10, 0x02, 0x30, 0x00, 0x09, 0x06 };
-	sdo_req(w3);
+	ecf_sdo_req(&x, w3);
 	assert_last_sdo(ab3);
 	/* The SDO-written entry monitors at once. */
 	TEST_ASSERT_EQUAL_INT(CO_HB_MON_WAITING, co_hb_consumer_status(x.node, 7));

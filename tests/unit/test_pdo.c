@@ -90,18 +90,9 @@ void tearDown(void)
 	tb_fini(&bus);
 }
 
-/* Write as an SDO client would (checks and hooks run). */
 static uint32_t odw(uint16_t index, uint8_t sub, uint64_t v)
 {
-	co_od_entry *e = co_od_find(od, index, sub);
-	co_od_access a = { .origin = CO_OD_ORIGIN_SDO };
-	uint8_t b[8];
-
-	TEST_ASSERT_NOT_NULL(e);
-	for (int i = 0; i < 8; i++)
-		b[i] = (uint8_t)(v >> (8 * i));
-	co_node_tick(node, bus.now); /* hooks take the node's current time */
-	return co_od_write(e, b, e->size, &a);
+	return tb_od_write(&bus, node, index, sub, v);
 }
 
 static uint64_t odr(uint16_t index, uint8_t sub)

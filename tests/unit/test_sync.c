@@ -52,15 +52,7 @@ void tearDown(void)
 
 static uint32_t odw(uint16_t index, uint8_t sub, uint64_t v)
 {
-	co_od_entry *e = co_od_find(od, index, sub);
-	co_od_access a = { .origin = CO_OD_ORIGIN_SDO };
-	uint8_t b[8];
-
-	TEST_ASSERT_NOT_NULL(e);
-	for (int i = 0; i < 8; i++)
-		b[i] = (uint8_t)(v >> (8 * i));
-	co_node_tick(node, bus.now);
-	return co_od_write(e, b, e->size, &a);
+	return tb_od_write(&bus, node, index, sub, v);
 }
 
 static unsigned count_id(uint32_t id)

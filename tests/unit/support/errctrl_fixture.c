@@ -127,6 +127,19 @@ int ecf_tx_find(const ecf *x, unsigned from, uint32_t id)
 	return -1;
 }
 
+const co_frame *ecf_tx_last(const ecf *x, uint32_t id)
+{
+	for (unsigned i = x->n_tx; i-- > 0;)
+		if (x->tx[i].id == id)
+			return &x->tx[i];
+	return NULL;
+}
+
+void ecf_sdo_req(ecf *x, const uint8_t req[8])
+{
+	ecf_rx(x, 0x600u + co_node_id(x->node), 0, 8, req);
+}
+
 unsigned ecf_tx_count(const ecf *x, uint32_t id)
 {
 	unsigned n = 0;

@@ -46,6 +46,10 @@ void ecf_advance(ecf *x, uint64_t t);
 void ecf_clear(ecf *x);
 
 int ecf_tx_find(const ecf *x, unsigned from, uint32_t id);
+/* The last frame the node sent with this id, NULL if none. */
+const co_frame *ecf_tx_last(const ecf *x, uint32_t id);
+/* An SDO request to the node's default server channel (600h + its id). */
+void ecf_sdo_req(ecf *x, const uint8_t req[8]);
 unsigned ecf_tx_count(const ecf *x, uint32_t id);
 int ecf_ev_find(const ecf *x, unsigned from, co_event_kind kind);
 unsigned ecf_ev_count(const ecf *x, co_event_kind kind);

@@ -302,3 +302,17 @@ void tb_events_clear(tb_port *p)
 {
 	p->n_ev = 0;
 }
+
+uint32_t tb_od_write(tb_bus *bus, co_node *node, uint16_t index, uint8_t sub, uint64_t v)
+{
+	co_od_entry *e = co_od_find(co_node_od(node), index, sub);
+	co_od_access a = { .origin = CO_OD_ORIGIN_SDO };
+	uint8_t b[8];
+
+	if (!e)
+		return 0x06020000u;
+	for (int i = 0; i < 8; i++)
+		b[i] = (uint8_t)(v >> (8 * i));
+	co_node_tick(node, bus->now);
+	return co_od_write(e, b, e->size > 8 ? 8 : e->size, &a);
+}

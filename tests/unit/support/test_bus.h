@@ -61,6 +61,12 @@ void tb_fini(tb_bus *bus); /* destroys the nodes and their ODs */
  * owned by the bus from here on. Returns the port or NULL. */
 tb_port *tb_add_node(tb_bus *bus, co_node_config *cfg, co_od *od);
 
+/* Write an object as an SDO client would (length/limit checks and hooks
+ * run), v little-endian, cut to the entry's size; the node is ticked to the
+ * bus time first because hooks take the node's current time. Returns 0 or
+ * the abort code (0x06020000 if the object does not exist). */
+uint32_t tb_od_write(tb_bus *bus, co_node *node, uint16_t index, uint8_t sub, uint64_t v);
+
 /* Deliver queued frames until the bus is quiet; returns frames delivered. */
 size_t tb_pump(tb_bus *bus);
 /* Inject a frame as the test (tester), then pump. */
