@@ -88,6 +88,10 @@ typedef struct co_node_config {
 	/* SDO client (see core/sdo_client.h) */
 	uint8_t sdo_client_count;       /* channels 1280h.. (default 0) */
 	uint16_t sdo_client_queue_len;  /* requests per channel (default 8) */
+	uint16_t sdo_client_pool_len;   /* requests waiting for any channel
+	                                 * (default queue_len x count) */
+	uint32_t sdo_client_timeout_ms; /* per frame, for requests that give
+	                                 * none (default 1000) */
 	uint32_t sdo_client_block_threshold; /* auto: block at >= this size
 	                                      * (default 128; UINT32_MAX = never) */
 	uint8_t sdo_client_blksize;     /* requested in block upload (127) */
@@ -177,6 +181,17 @@ typedef struct co_service {
 	void (*nmt_changed)(co_node *node, uint8_t new_state, uint64_t now_us);
 } co_service;
 
+/* Attach a service that is not in the built-in table (the CiA 302
+ * manager, a gateway's glue) to a running node, at start-up, on the
+ * owning thread: its init runs now (on failure its fini runs and the
+ * error is returned), then it is ticked, reset and told NMT changes after
+ * the built-in services, in attach order, and contributes to the node's
+ * deadline like them; its fini runs at co_node_destroy(), before the
+ * built-in ones. At most CO_NODE_ATTACH_MAX services. Returns 0,
+ * -EINVAL, -EEXIST (already attached), -ENOSPC, or the init's error. */
+#define CO_NODE_ATTACH_MAX 4
+int co_node_attach_service(co_node *node, const co_service *svc, uint64_t now_us);
+
 /* Tell every service (nmt_changed op) that the NMT state changed. Called
  * by core/nmt.c only. */
 void co_node_nmt_changed(co_node *node, uint8_t new_state, uint64_t now_us);
@@ -225,6 +240,8 @@ struct co_node {
 	struct co_time *time;       /* core/time.c */
 	struct co_pdo *pdo;         /* core/pdo.c */
 	struct co_lss *lss;         /* core/lss.c */
+	const co_service *attached[CO_NODE_ATTACH_MAX]; /* co_node_attach_service */
+	unsigned n_attached;
 	void *ext[4];               /* spare slots for later services
 	                             * (CiA 302 manager, gateway glue) */
 };

@@ -3,8 +3,11 @@
  * LSS master (CiA 305). One request runs at a time; it is a small state
  * machine (states below, each with on_frame / on_timeout handlers), started
  * by a per-service start function. Completion always goes through finish(),
- * which emits the one CO_EV_LSS_MASTER_DONE and starts the next queued
- * request.
+ * which calls the request's con, emits the one CO_EV_LSS_MASTER_DONE and
+ * starts the next queued request. A request that ends while it is being
+ * submitted (switch global: done once its frame is out; a refused send)
+ * is finished from the next tick instead (MST_DONE_LATER), so that no
+ * confirmation ever runs inside lss_master_submit().
  *
  * Why some choices:
  * - LSS answers carry no node address, so the master cannot tell two
@@ -43,6 +46,8 @@ typedef enum mst_state {
 	MST_FS_RESET,   /* Fastscan: BitChecked 80h sent, anybody there? */
 	MST_FS_BIT,     /* Fastscan: probing bit fs_bit (31..1) of fs_sub */
 	MST_FS_CONFIRM, /* Fastscan: whole field sent, slave moves on */
+	MST_DONE_LATER, /* ended inside lss_master_submit(): finish at the
+	                 * next tick with done_later */
 	MST_COUNT
 } mst_state;
 
@@ -57,6 +62,8 @@ struct lss_master {
 	uint8_t q_head;
 	uint8_t q_count;
 	bool cancelling; /* lss_master_cancel_all() running: start nothing */
+	bool submitting; /* inside lss_master_submit(): finish later */
+	lss_result done_later; /* MST_DONE_LATER: the result */
 
 	bool busy;
 	lss_master_req cur;
@@ -146,16 +153,33 @@ static uint32_t cur_timeout_ms(const struct lss_master *m)
 static void finish(struct lss_master *m, lss_result r, uint64_t now_us)
 {
 	co_event ev = { .kind = CO_EV_LSS_MASTER_DONE };
+	lss_master_con_fn con = m->cur.con;
+	void *con_arg = m->cur.con_arg;
 
+	if (m->submitting) {
+		m->state = MST_DONE_LATER;
+		m->done_later = r;
+		m->deadline_us = now_us;
+		co_node_deadline_lower(m->node, now_us);
+		return;
+	}
 	m->res.service = (uint8_t)m->cur.service;
 	m->res.result = (uint8_t)r;
 	m->res.tag = m->cur.tag;
 	ev.u.lss_master = m->res;
+	ev.now_us = now_us;
 	m->busy = false;
 	m->state = MST_IDLE;
 	m->deadline_us = CO_NO_DEADLINE;
+	if (con)
+		con(con_arg, &ev.u.lss_master);
 	co_node_emit(m->node, &ev);
 	kick(m, now_us);
+}
+
+static void done_later_on_timeout(struct lss_master *m, uint64_t now_us)
+{
+	finish(m, m->done_later, now_us);
 }
 
 /* Send one LSS request: cs and up to 7 payload bytes, padded to 8. */
@@ -354,6 +378,7 @@ static const mst_state_ops mst_states[MST_COUNT] = {
 	[MST_FS_RESET] = { "fs-reset", window_on_frame, fs_reset_on_timeout },
 	[MST_FS_BIT] = { "fs-bit", window_on_frame, fs_bit_on_timeout },
 	[MST_FS_CONFIRM] = { "fs-confirm", window_on_frame, fs_confirm_on_timeout },
+	[MST_DONE_LATER] = { "done-later", NULL, done_later_on_timeout },
 };
 
 /* ---- service start functions ------------------------------------------------------ */
@@ -556,7 +581,9 @@ int lss_master_submit(co_node *node, const lss_master_req *req,
 	m->q_count++;
 	/* Events emitted from here carry this time (see co_node_emit). */
 	node->now_us = now_us;
+	m->submitting = true;
 	kick(m, now_us);
+	m->submitting = false;
 	return 0;
 }
 

@@ -10,7 +10,12 @@
  * - Every service is asynchronous: lss_master_submit() starts it (or
  *   queues it), received frames and co_node_tick() advance it, and exactly
  *   one CO_EV_LSS_MASTER_DONE (u.lss_master) ends every accepted request,
- *   carrying the caller's tag.
+ *   carrying the caller's tag. If the request names a confirmation
+ *   (req.con), it is called exactly once with the same content just
+ *   before that event. Neither ever comes from inside lss_master_submit():
+ *   a request that ends at once (switch global, a refused send) is
+ *   reported from the next co_node_tick() at the same time (the node's
+ *   deadline asks for it).
  * - One service at a time per node: LSS answers carry no address, so two
  *   services in flight could not tell their answers apart. Further
  *   requests wait in a FIFO of cfg.lss_queue_len entries allocated at node
@@ -25,7 +30,7 @@
  *   most 13.3 s at 100 ms). A known field costs 1 step. Each request may
  *   override its timeout (timeout_ms).
  * - Unconfirmed services: switch global completes as soon as its frame is
- *   out. Activate bit timing completes after the switch delay (that is when
+ *   out (reported at the next tick). Activate bit timing completes after the switch delay (that is when
  *   the application must switch the master's own controller) and the
  *   master then keeps the bus quiet for a second delay before the next
  *   request, as CiA 305 asks of the slaves.
@@ -80,6 +85,10 @@ typedef enum lss_result {
 
 const char *lss_result_to_string(lss_result r);
 
+/* Per-request confirmation (see the contract above). It may submit further
+ * requests. */
+typedef void (*lss_master_con_fn)(void *arg, const co_ev_lss_master *con);
+
 typedef struct lss_master_req {
 	lss_master_service service;
 	uint64_t tag;        /* echoed in CO_EV_LSS_MASTER_DONE */
@@ -94,6 +103,8 @@ typedef struct lss_master_req {
 	lss_address addr;    /* SWITCH_SELECTIVE, IDENTIFY_REMOTE, FASTSCAN */
 	lss_address addr_high; /* IDENTIFY_REMOTE: only revision and serial
 	                        * (upper bounds) are used */
+	lss_master_con_fn con; /* NULL = event only */
+	void *con_arg;
 } lss_master_req;
 
 /* Queue a request; it starts at once when the master is idle. Returns 0,

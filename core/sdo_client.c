@@ -9,6 +9,14 @@
  * what a block retransmission resends; uploads hand each byte to the sink
  * exactly once, in order. The sub-block rules and the CRC are in
  * sdo_block.c, shared with the server.
+ *
+ * Requests reach a channel from its own FIFO (sdo_client_submit) or from
+ * the pool FIFO shared by all channels (sdo_client_pool_submit). Whenever
+ * a transfer ends, kick_all() starts what can start: first each idle
+ * channel's own FIFO, then pool requests in order on channels that are
+ * idle with an empty FIFO, skipping those whose target is busy. Every
+ * transfer ends in complete() (or finish_unstarted() for a request
+ * cancelled before it started): the request's con, then the event.
  */
 #include <errno.h>
 #include <stdlib.h>
@@ -32,6 +40,8 @@ enum cli_state {
 	CS_BLK_UP_INIT, /* block upload initiate sent */
 	CS_BLK_UP_SUB,  /* receiving sub-block segments */
 	CS_BLK_UP_END,  /* last sub-block acked, waiting for the end */
+	CS_START_FAILED, /* could not start: completes at the next tick with
+	                  * start_abort (never inside the submitting call) */
 	CS_COUNT
 };
 
@@ -57,6 +67,7 @@ struct cli_chan {
 	uint32_t offset; /* bytes confirmed (download) / delivered (upload) */
 	uint32_t total;  /* download: size; upload: indicated or UNKNOWN */
 	uint32_t read_off; /* download: bytes taken from the source */
+	uint32_t start_abort; /* CS_START_FAILED: the abort to report */
 
 	/* block */
 	struct sdo_blk_rx brx; /* upload: sequence, duplicates, CRC */
@@ -74,6 +85,11 @@ struct cli_chan {
 struct sdo_client {
 	co_node *node;
 	uint8_t n;
+	/* pool: ring of cfg.sdo_client_pool_len requests waiting for any
+	 * channel */
+	sdo_client_req *pool;
+	uint16_t pool_head;
+	uint16_t pool_len;
 	struct cli_chan ch[];
 };
 
@@ -106,6 +122,7 @@ static const struct {
 	[CS_BLK_UP_INIT] = { "block upload initiate", st_blk_up_init },
 	[CS_BLK_UP_SUB] = { "block upload sub-block", st_blk_up_sub },
 	[CS_BLK_UP_END] = { "block upload end", st_blk_up_end },
+	[CS_START_FAILED] = { "start failed", st_ignore },
 };
 
 static void kick_all(struct sdo_client *cli);
@@ -158,25 +175,49 @@ static bool mux_matches(const struct cli_chan *ch, const uint8_t *d)
 	return co_get_le16(&d[1]) == ch->cur.index && d[3] == ch->cur.sub;
 }
 
-static void complete(struct cli_chan *ch, uint32_t abort)
+/* The one way a request ends: its confirmation, then the event for
+ * observers. The request is a copy: the channel may already run the next
+ * one when con returns. */
+static void confirm(co_node *node, const sdo_client_req *r, uint8_t channel, uint8_t mode,
+		    uint32_t abort, uint32_t size)
 {
 	co_event ev = { .kind = CO_EV_SDO_CLIENT_DONE };
 
-	ev.u.sdo_cli.channel = ch->num;
-	ev.u.sdo_cli.upload = ch->cur.upload;
-	ev.u.sdo_cli.node_id = ch->cur.node_id;
-	ev.u.sdo_cli.mode = ch->mode;
-	ev.u.sdo_cli.index = ch->cur.index;
-	ev.u.sdo_cli.sub = ch->cur.sub;
+	ev.u.sdo_cli.channel = channel;
+	ev.u.sdo_cli.upload = r->upload;
+	ev.u.sdo_cli.node_id = r->node_id;
+	ev.u.sdo_cli.mode = mode;
+	ev.u.sdo_cli.index = r->index;
+	ev.u.sdo_cli.sub = r->sub;
 	ev.u.sdo_cli.abort = abort;
-	ev.u.sdo_cli.size = ch->offset;
-	ev.u.sdo_cli.tag = ch->cur.tag;
-	ev.u.sdo_cli.data = ch->cur.upload ? ch->cur.buf : NULL;
+	ev.u.sdo_cli.size = size;
+	ev.u.sdo_cli.tag = r->tag;
+	ev.u.sdo_cli.data = r->upload ? r->buf : NULL;
+	ev.now_us = node->now_us;
+	if (r->con)
+		r->con(r->con_arg, &ev.u.sdo_cli);
+	co_node_emit(node, &ev);
+}
+
+static void complete(struct cli_chan *ch, uint32_t abort)
+{
+	sdo_client_req r = ch->cur;
+
 	ch->state = CS_IDLE;
 	ch->deadline = CO_NO_DEADLINE;
 	co_rx_disable(node_of(ch), ch->rx_handle);
-	co_node_emit(node_of(ch), &ev);
+	confirm(node_of(ch), &r, ch->num, ch->mode, abort, ch->offset);
 	kick_all(ch->cli);
+}
+
+/* A request that could not start: report it from the next tick, so that
+ * no completion ever runs inside the call that submitted it. */
+static void fail_start(struct cli_chan *ch, uint32_t abort)
+{
+	ch->state = CS_START_FAILED;
+	ch->start_abort = abort;
+	ch->deadline = node_of(ch)->now_us;
+	co_node_deadline_lower(node_of(ch), ch->deadline);
 }
 
 static void abort_local(struct cli_chan *ch, uint32_t code)
@@ -258,7 +299,7 @@ static void start_download(struct cli_chan *ch)
 		co_put_le16(&d[1], ch->cur.index);
 		d[3] = ch->cur.sub;
 		if (src_read(ch, &d[4], size) < 0) {
-			complete(ch, SDO_AB_STORE);
+			fail_start(ch, SDO_AB_STORE);
 			return;
 		}
 		tx(ch, d);
@@ -621,7 +662,8 @@ static void cli_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 
 	(void)node;
 	(void)now_us;
-	if (ch->state == CS_IDLE || f->len != 8 || (f->flags & CO_FRAME_RTR))
+	if (ch->state == CS_IDLE || ch->state == CS_START_FAILED || f->len != 8 ||
+	    (f->flags & CO_FRAME_RTR))
 		return;
 	if (ch->state == CS_BLK_UP_SUB ? sdo_blk_seg_is_abort(d)
 				       : is_abort(d) && !sdo_blk_rx_is_dup(&ch->brx, d)) {
@@ -687,7 +729,7 @@ static void start(struct cli_chan *ch, const sdo_client_req *r)
 	ch->cur = *r;
 	ch->cob_req = req_cob_req(r);
 	ch->cob_resp = req_cob_resp(r);
-	ch->timeout_us = (uint64_t)(r->timeout_ms ? r->timeout_ms : 1000u) * 1000u;
+	ch->timeout_us = (uint64_t)(r->timeout_ms ? r->timeout_ms : node->cfg.sdo_client_timeout_ms) * 1000u;
 	ch->mode = pick_mode(ch, r);
 	ch->fell_back = false;
 	sdo_blk_rx_reset(&ch->brx);
@@ -703,8 +745,7 @@ static void start(struct cli_chan *ch, const sdo_client_req *r)
 		co_od_entry_set_raw(ch->od_node, r->node_id);
 	if (co_rx_move(node, ch->rx_handle, ch->cob_resp & CO_FRAME_EFF_MASK,
 		       (ch->cob_resp & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0) {
-		ch->state = CS_UP_INIT; /* so that complete() reports it */
-		complete(ch, SDO_AB_NO_RESOURCE);
+		fail_start(ch, SDO_AB_NO_RESOURCE);
 		return;
 	}
 	if (r->upload)
@@ -729,10 +770,61 @@ static void kick(struct cli_chan *ch)
 	start(ch, &tmp);
 }
 
+/* Free for the pool: idle, and nothing waiting in its own FIFO. */
+static struct cli_chan *free_channel(struct sdo_client *cli)
+{
+	for (uint8_t i = 0; i < cli->n; i++)
+		if (cli->ch[i].state == CS_IDLE && cli->ch[i].q_len == 0)
+			return &cli->ch[i];
+	return NULL;
+}
+
+static sdo_client_req *pool_at(struct sdo_client *cli, uint16_t i)
+{
+	return &cli->pool[(cli->pool_head + i) % cli->node->cfg.sdo_client_pool_len];
+}
+
+static void pool_remove(struct sdo_client *cli, uint16_t i)
+{
+	if (i == 0) { /* the usual case: the oldest starts */
+		cli->pool_head = (uint16_t)((cli->pool_head + 1) % cli->node->cfg.sdo_client_pool_len);
+		cli->pool_len--;
+		return;
+	}
+	for (uint16_t j = i; j + 1 < cli->pool_len; j++)
+		*pool_at(cli, j) = *pool_at(cli, (uint16_t)(j + 1));
+	cli->pool_len--;
+}
+
+/* Start waiting pool requests, oldest first, on free channels. One whose
+ * target is busy stays (and so do the later ones for that target, which
+ * see the same busy target: per-target order holds). */
+static void pool_kick(struct sdo_client *cli)
+{
+	uint16_t i = 0;
+
+	while (i < cli->pool_len) {
+		const sdo_client_req *r = pool_at(cli, i);
+		struct cli_chan *ch;
+
+		if (target_busy(cli, NULL, req_cob_resp(r))) {
+			i++;
+			continue;
+		}
+		ch = free_channel(cli);
+		if (!ch)
+			return;
+		sdo_client_req tmp = *r;
+		pool_remove(cli, i);
+		start(ch, &tmp);
+	}
+}
+
 static void kick_all(struct sdo_client *cli)
 {
 	for (uint8_t i = 0; i < cli->n; i++)
 		kick(&cli->ch[i]);
+	pool_kick(cli);
 }
 
 static bool req_valid(const sdo_client_req *r)
@@ -789,42 +881,101 @@ int sdo_client_write(co_node *node, uint8_t channel, uint8_t node_id, uint16_t i
 	return sdo_client_submit(node, channel, &r, now_us);
 }
 
-int sdo_client_cancel(co_node *node, uint8_t channel, uint64_t tag, uint32_t abort,
-		      uint64_t now_us)
+/* Running on ch with this tag: abort it (an abort frame unless it never
+ * got on the wire). */
+static bool cancel_running(struct cli_chan *ch, uint64_t tag, uint32_t abort)
 {
-	struct sdo_client *cli = node->sdo_cli;
-	struct cli_chan *ch;
-	uint16_t cap;
-
-	if (!cli || channel >= cli->n)
-		return -EINVAL;
-	ch = &cli->ch[channel];
-	cap = node->cfg.sdo_client_queue_len;
-	node->now_us = now_us;
-	if (ch->state != CS_IDLE && ch->cur.tag == tag) {
+	if (ch->state == CS_IDLE || ch->cur.tag != tag)
+		return false;
+	if (ch->state == CS_START_FAILED)
+		complete(ch, abort);
+	else
 		abort_local(ch, abort);
-		return 0;
-	}
+	return true;
+}
+
+/* Waiting in ch's own FIFO with this tag: remove it and confirm it. */
+static bool cancel_queued(struct cli_chan *ch, uint64_t tag, uint32_t abort)
+{
+	uint16_t cap = node_of(ch)->cfg.sdo_client_queue_len;
+
 	for (uint16_t i = 0; i < ch->q_len; i++) {
 		uint16_t pos = (uint16_t)((ch->q_head + i) % cap);
 		if (ch->q[pos].tag != tag)
 			continue;
-		co_event ev = { .kind = CO_EV_SDO_CLIENT_DONE };
-		ev.u.sdo_cli.channel = ch->num;
-		ev.u.sdo_cli.upload = ch->q[pos].upload;
-		ev.u.sdo_cli.node_id = ch->q[pos].node_id;
-		ev.u.sdo_cli.mode = ch->q[pos].mode;
-		ev.u.sdo_cli.index = ch->q[pos].index;
-		ev.u.sdo_cli.sub = ch->q[pos].sub;
-		ev.u.sdo_cli.abort = abort;
-		ev.u.sdo_cli.tag = tag;
+		sdo_client_req r = ch->q[pos];
 		for (uint16_t j = i; j + 1 < ch->q_len; j++)
 			ch->q[(ch->q_head + j) % cap] = ch->q[(ch->q_head + j + 1) % cap];
 		ch->q_len--;
-		co_node_emit(node, &ev);
+		confirm(node_of(ch), &r, ch->num, r.mode, abort, 0);
+		return true;
+	}
+	return false;
+}
+
+int sdo_client_cancel(co_node *node, uint8_t channel, uint64_t tag, uint32_t abort,
+		      uint64_t now_us)
+{
+	struct sdo_client *cli = node->sdo_cli;
+
+	if (!cli || channel >= cli->n)
+		return -EINVAL;
+	node->now_us = now_us;
+	if (cancel_running(&cli->ch[channel], tag, abort) ||
+	    cancel_queued(&cli->ch[channel], tag, abort))
+		return 0;
+	return -ENOENT;
+}
+
+int sdo_client_cancel_tag(co_node *node, uint64_t tag, uint32_t abort, uint64_t now_us)
+{
+	struct sdo_client *cli = node->sdo_cli;
+
+	if (!cli)
+		return -ENOENT;
+	node->now_us = now_us;
+	for (uint8_t i = 0; i < cli->n; i++)
+		if (cancel_running(&cli->ch[i], tag, abort))
+			return 0;
+	for (uint8_t i = 0; i < cli->n; i++)
+		if (cancel_queued(&cli->ch[i], tag, abort))
+			return 0;
+	for (uint16_t i = 0; i < cli->pool_len; i++) {
+		if (pool_at(cli, i)->tag != tag)
+			continue;
+		sdo_client_req r = *pool_at(cli, i);
+		pool_remove(cli, i);
+		confirm(node, &r, SDO_CLIENT_NO_CHANNEL, r.mode, abort, 0);
 		return 0;
 	}
 	return -ENOENT;
+}
+
+int sdo_client_pool_submit(co_node *node, const sdo_client_req *req, uint64_t now_us)
+{
+	struct sdo_client *cli = node->sdo_cli;
+
+	if (!cli || !req || !req_valid(req))
+		return -EINVAL;
+	node->now_us = now_us;
+	if (req->no_wait) {
+		struct cli_chan *ch = free_channel(cli);
+		if (!ch || target_busy(cli, NULL, req_cob_resp(req)))
+			return -EBUSY;
+		start(ch, req);
+		return 0;
+	}
+	if (cli->pool_len >= node->cfg.sdo_client_pool_len)
+		return -ENOSPC;
+	*pool_at(cli, cli->pool_len) = *req;
+	cli->pool_len++;
+	pool_kick(cli);
+	return 0;
+}
+
+unsigned sdo_client_pool_waiting(const co_node *node)
+{
+	return node->sdo_cli ? node->sdo_cli->pool_len : 0;
 }
 
 unsigned sdo_client_pending(const co_node *node, uint8_t channel)
@@ -866,6 +1017,7 @@ static void cli_fini(co_node *node)
 			co_rx_unregister(node, cli->ch[i].rx_handle);
 		free(cli->ch[i].q);
 	}
+	free(cli->pool);
 	free(cli);
 	node->sdo_cli = NULL;
 }
@@ -886,6 +1038,9 @@ static int cli_init(co_node *node)
 	node->sdo_cli = cli;
 	for (uint8_t i = 0; i < n; i++)
 		cli->ch[i].rx_handle = -1;
+	cli->pool = calloc(node->cfg.sdo_client_pool_len, sizeof(*cli->pool));
+	if (!cli->pool)
+		rc = -ENOMEM;
 	for (uint8_t i = 0; i < n && !rc; i++) {
 		struct cli_chan *ch = &cli->ch[i];
 		ch->cli = cli;
@@ -918,7 +1073,9 @@ static uint64_t cli_tick(co_node *node, uint64_t now_us)
 		return next;
 	for (uint8_t i = 0; i < cli->n; i++) {
 		struct cli_chan *ch = &cli->ch[i];
-		if (ch->state != CS_IDLE && now_us >= ch->deadline)
+		if (ch->state == CS_START_FAILED && now_us >= ch->deadline)
+			complete(ch, ch->start_abort);
+		else if (ch->state != CS_IDLE && now_us >= ch->deadline)
 			abort_local(ch, SDO_AB_TIMEOUT);
 	}
 	/* A second pass: completions above may have started queued requests. */

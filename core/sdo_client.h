@@ -25,7 +25,28 @@
  * - Data: a buffer, or chunk callbacks for domains of any size (the client
  *   keeps only one sub-block, 889 bytes, per channel).
  * - Completion: exactly one CO_EV_SDO_CLIENT_DONE per accepted request,
- *   carrying the caller's tag, the abort code (0 = success) and the size.
+ *   carrying the caller's tag, the abort code (0 = success) and the size,
+ *   and, if the request names one, exactly one call of its confirmation
+ *   `con(con_arg, &event)` just before that event. Both come on the owning
+ *   thread and never from inside the submitting call (a request that
+ *   cannot even start, e.g. no receiver left for its COB-ID, is reported
+ *   from the next co_node_tick(); the node's deadline says when).
+ *
+ * Two ways to get a channel:
+ * - The pool (sdo_client_pool_submit): the request borrows any free
+ *   channel (idle, with nothing queued on it) and returns it at
+ *   completion. A busy channel never holds back a request another channel
+ *   could serve. Requests that find no free channel, or whose target is
+ *   busy on some channel (one transfer per server channel, CiA 301), wait
+ *   in one bounded FIFO of cfg.sdo_client_pool_len entries; they start in
+ *   order as channels and targets free up, so two requests to the same
+ *   node run one after the other in submission order. -ENOSPC when that
+ *   FIFO is full. With req.no_wait the request is refused at once with
+ *   -EBUSY instead of waiting (the caller reports SDO_AB_NO_RESOURCE,
+ *   0x060A0023, "resource not available: SDO connection").
+ * - A named channel (sdo_client_submit): the request waits in that
+ *   channel's own FIFO (tests, tools that need a fixed 1280h+n).
+ * A channel with requests in its own FIFO is not free for the pool.
  */
 #ifndef COGW_CORE_SDO_CLIENT_H
 #define COGW_CORE_SDO_CLIENT_H
@@ -37,6 +58,15 @@
 #include "core/sdo.h"
 
 extern const co_service co_svc_sdo_client;
+
+/* Channel number in a completion event of a request cancelled while it
+ * still waited in the pool (it never had a channel). */
+#define SDO_CLIENT_NO_CHANNEL 0xFFu
+
+/* Per-request confirmation: called once with the request's completion (the
+ * same content as the CO_EV_SDO_CLIENT_DONE that follows; con->data is the
+ * request's own upload buffer). It may submit or cancel requests. */
+typedef void (*sdo_client_con_fn)(void *arg, const co_ev_sdo_cli *con);
 
 /* Download source: copy up to len bytes of the value at offset into buf.
  * Offsets are strictly sequential. Return the count copied (len unless the
@@ -55,7 +85,7 @@ typedef struct sdo_client_req {
 	uint16_t index;
 	uint8_t sub;
 	uint8_t mode;       /* sdo_mode hint */
-	uint32_t timeout_ms; /* per frame; 0 = 1000 */
+	uint32_t timeout_ms; /* per frame; 0 = cfg.sdo_client_timeout_ms */
 	uint64_t tag;       /* echoed in the completion event */
 	uint32_t cob_req;   /* client->server COB-ID; 0 = 600h + node_id */
 	uint32_t cob_resp;  /* server->client COB-ID; 0 = 580h + node_id */
@@ -73,6 +103,12 @@ typedef struct sdo_client_req {
 	sdo_sink_fn sink;
 
 	void *ctx; /* for src/sink */
+
+	/* Completion: called once, before the event (NULL = event only). */
+	sdo_client_con_fn con;
+	void *con_arg;
+	/* Pool only: refuse with -EBUSY instead of waiting for a channel. */
+	bool no_wait;
 } sdo_client_req;
 
 /* Queue a request on a channel (0-based); it starts at once if the
@@ -96,6 +132,23 @@ int sdo_client_write(co_node *node, uint8_t channel, uint8_t node_id,
  * Returns 0 or -ENOENT. */
 int sdo_client_cancel(co_node *node, uint8_t channel, uint64_t tag,
 		      uint32_t abort, uint64_t now_us);
+
+/* Borrow any free channel (see the pool, above). Returns 0, -EINVAL (bad
+ * request, no client channels), -EBUSY (no_wait and it cannot start at
+ * once), -ENOSPC (pool FIFO full). */
+int sdo_client_pool_submit(co_node *node, const sdo_client_req *req,
+			   uint64_t now_us);
+
+/* Cancel the request with this tag wherever it is: running on a channel
+ * (abort frame with `abort`), waiting in a channel's FIFO or in the pool
+ * (removed). Its completion carries `abort`. If several requests share the
+ * tag, the first found (running, then channel FIFOs, then pool). Returns 0
+ * or -ENOENT. */
+int sdo_client_cancel_tag(co_node *node, uint64_t tag, uint32_t abort,
+			  uint64_t now_us);
+
+/* Requests waiting in the pool for a channel. */
+unsigned sdo_client_pool_waiting(const co_node *node);
 
 /* Requests on the channel (running + queued). */
 unsigned sdo_client_pending(const co_node *node, uint8_t channel);

@@ -132,6 +132,7 @@ static void test_golden_configure_sequence(void)
 	/* L1: unconfirmed, done as soon as it is out. */
 	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_global_req(mst.node, LSS_STATE_CONFIGURATION, 1, 0));
 	lss_fixture_expect_frame(&bus, 0, 0x7E5, l1);
+	membus_advance(&bus, bus.now_us); /* confirmed by the next tick, never inside the request */
 	expect_done(LSS_SVC_SWITCH_GLOBAL, LSS_RESULT_OK, 1);
 
 	/* L2/L3 */
@@ -164,6 +165,7 @@ static void test_golden_configure_sequence(void)
 	/* L10 */
 	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_global_req(mst.node, LSS_STATE_WAITING, 6, 0));
 	lss_fixture_expect_frame(&bus, 5, 0x7E5, l10);
+	membus_advance(&bus, bus.now_us); /* confirmed by the next tick, never inside the request */
 	expect_done(LSS_SVC_SWITCH_GLOBAL, LSS_RESULT_OK, 6);
 	TEST_ASSERT_EQUAL_UINT(6, n_done());
 	TEST_ASSERT_EQUAL_UINT(6, n_tx());
@@ -420,9 +422,10 @@ static void test_tx_failure_completes_the_request(void)
 {
 	bus.fail_send = true;
 	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_selective_req(mst.node, &(lss_address){ { 1, 2, 3, 4 } }, 1, 0));
+	TEST_ASSERT_EQUAL_UINT(1, evlog_count(&mst.ev, CO_EV_TX_FAILED)); /* stops at the first */
+	co_node_tick(mst.node, bus.now_us); /* confirmed by the next tick, never inside the request */
 	expect_done(LSS_SVC_SWITCH_SELECTIVE, LSS_RESULT_TX_FAILED, 1);
 	TEST_ASSERT_EQUAL_UINT(0, lss_master_pending(mst.node));
-	TEST_ASSERT_EQUAL_UINT(1, evlog_count(&mst.ev, CO_EV_TX_FAILED)); /* stops at the first */
 }
 
 static void test_bad_requests(void)
@@ -462,6 +465,71 @@ static void test_names(void)
 	TEST_ASSERT_EQUAL_UINT16(0, lss_bit_rate_kbit(9));
 }
 
+
+/* ---- per-request confirmation ------------------------------------------------ */
+
+static struct {
+	unsigned n;
+	co_ev_lss_master last;
+	bool in_submit;
+	unsigned during_submit;
+} cons;
+
+static void on_con(void *arg, const co_ev_lss_master *con)
+{
+	TEST_ASSERT_EQUAL_PTR(&cons, arg);
+	cons.during_submit += cons.in_submit;
+	cons.last = *con;
+	cons.n++;
+}
+
+static int submit_with_con(lss_master_req r)
+{
+	int rc;
+
+	r.con = on_con;
+	r.con_arg = &cons;
+	cons.in_submit = true;
+	rc = lss_master_submit(mst.node, &r, bus.now_us);
+	cons.in_submit = false;
+	return rc;
+}
+
+static void test_confirmation_once_never_inside_submit(void)
+{
+	memset(&cons, 0, sizeof(cons));
+	/* Unconfirmed service: done once out, confirmed at the next tick. */
+	TEST_ASSERT_EQUAL_INT(0, submit_with_con((lss_master_req){ .service = LSS_SVC_SWITCH_GLOBAL,
+								    .mode = LSS_STATE_CONFIGURATION, .tag = 1 }));
+	TEST_ASSERT_EQUAL_UINT(0, cons.n);
+	TEST_ASSERT_EQUAL_UINT(0, n_done());
+	TEST_ASSERT_TRUE(co_node_next_deadline_us(mst.node) <= bus.now_us);
+	co_node_tick(mst.node, bus.now_us);
+	TEST_ASSERT_EQUAL_UINT(1, cons.n);
+	TEST_ASSERT_EQUAL_UINT64(1, cons.last.tag);
+	TEST_ASSERT_EQUAL_UINT8(LSS_RESULT_OK, cons.last.result);
+	TEST_ASSERT_EQUAL_UINT(1, n_done()); /* the event for observers too */
+
+	/* Confirmed service: con with the slave's answer. */
+	TEST_ASSERT_EQUAL_INT(0, submit_with_con((lss_master_req){ .service = LSS_SVC_INQUIRE_NODE_ID, .tag = 2 }));
+	slave_says(0x5E, 0x21, 0, 0, 0);
+	TEST_ASSERT_EQUAL_UINT(2, cons.n);
+	TEST_ASSERT_EQUAL_UINT64(2, cons.last.tag);
+	TEST_ASSERT_EQUAL_UINT8(0x21, cons.last.node_id);
+
+	/* Cancelled: still exactly once. */
+	TEST_ASSERT_EQUAL_INT(0, submit_with_con((lss_master_req){ .service = LSS_SVC_STORE, .tag = 3 }));
+	TEST_ASSERT_EQUAL_INT(0, submit_with_con((lss_master_req){ .service = LSS_SVC_STORE, .tag = 4 }));
+	lss_master_cancel_all(mst.node, bus.now_us);
+	TEST_ASSERT_EQUAL_UINT(4, cons.n);
+	TEST_ASSERT_EQUAL_UINT64(4, cons.last.tag);
+	TEST_ASSERT_EQUAL_UINT8(LSS_RESULT_CANCELLED, cons.last.result);
+	membus_advance(&bus, bus.now_us + 5000 * MS);
+	TEST_ASSERT_EQUAL_UINT(4, cons.n);
+	TEST_ASSERT_EQUAL_UINT(0, cons.during_submit);
+	TEST_ASSERT_EQUAL_UINT(4, n_done());
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -480,6 +548,7 @@ int main(void)
 	RUN_TEST(test_cancel_all);
 	RUN_TEST(test_tx_failure_completes_the_request);
 	RUN_TEST(test_bad_requests);
+	RUN_TEST(test_confirmation_once_never_inside_submit);
 	RUN_TEST(test_names);
 	return UNITY_END();
 }
