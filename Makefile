@@ -65,7 +65,7 @@ UNIT_BINS  := $(patsubst tests/unit/%.c,$(SAN)/tests/unit/%,$(UNIT_SRC))
 INTEG_BINS := $(patsubst tests/integration/%.c,$(SAN)/tests/integration/%,$(INTEG_SRC))
 BENCH_BINS := $(patsubst tests/bench/%.c,$(REL)/tests/bench/%,$(BENCH_SRC))
 
-.PHONY: all deps test unit integration bench demo install clean tests-build check-core-io
+.PHONY: all deps test unit integration bench demo install clean tests-build check check-core-io check-layering format
 .DEFAULT_GOAL := all
 .SECONDARY:
 
@@ -152,6 +152,21 @@ test:
 	@scripts/deps.sh
 	@$(MAKE) --no-print-directory all tests-build
 	@tests/run-all "$(UNIT_BINS)" "$(INTEG_BINS)"
+
+# ---- house rules -----------------------------------------------------------------
+# `make check` runs every tests/checks/check_* script (layering, core I/O, format, ...);
+# `make test` runs them first. `make format` applies .clang-format to the tree.
+check:
+	tests/checks/run
+
+check-core-io:
+	scripts/check-core-io
+
+check-layering:
+	scripts/check-layering
+
+format:
+	git ls-files '*.c' '*.h' | xargs clang-format -i
 
 # ---- generated sources -----------------------------------------------------------
 # cogw_default_config_json[]: the bytes of etc/cogw.json plus a NUL, written with
