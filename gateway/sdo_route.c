@@ -1,0 +1,621 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * gateway/sdo_route.c - the routed SDO session (sdo_route.h).
+ *
+ * Each relay state knows whose turn it is; a frame from the other side
+ * (other than an abort) is a protocol error that ends the session with
+ * 05040001 on both sides, as an SDO server would answer it. Data frames
+ * are forwarded unchanged, so the CRC, sizes, toggles and sequence numbers
+ * stay the two ends' business: the gateway only needs the command
+ * specifiers (CiA 301 §7.2.4.3) to see the end of the transfer:
+ *
+ *   download  init 001..e. -> 60 [e=1: end]; segment 000t nnnc -> 001t
+ *             [c=1: end]
+ *   upload    init 40 -> 010. nn e s [e=1: end]; 011t -> 000t nnnc [c=1: end]
+ *   block dn  110..0 -> A0; segments c|seq -> A2 ackseq [ackseq >= the
+ *             c=1 segment: end phase]; 110nnn01 -> A1 [end]
+ *   block up  101..00 -> 110..0 (or 010... when the server switches to a
+ *             normal upload); A3 -> segments c|seq; A2 ackseq [>= the c=1
+ *             segment: end phase]; 110nnn01 -> A1 [end]
+ *   abort     100....., bytes 4..7 = code; inside a sub-block only 80h
+ *             (sequence number 0 does not exist there).
+ */
+#include "gateway/sdo_route.h"
+
+#include <errno.h>
+#include <string.h>
+
+#include "core/frame.h"
+
+enum side { SIDE_REQUESTER, SIDE_TARGET, SIDE_BOTH };
+
+/* Whose frame the state waits for: picks the timeout and its code. */
+static const uint8_t waits_for[GW_SR_COUNT] = {
+	[GW_SR_OPENING] = SIDE_TARGET,
+	[GW_SR_HOP] = SIDE_TARGET,
+	[GW_SR_WAIT_INIT] = SIDE_REQUESTER,
+	[GW_SR_DN_INIT_RESP] = SIDE_TARGET,
+	[GW_SR_DN_SEG_REQ] = SIDE_REQUESTER,
+	[GW_SR_DN_SEG_RESP] = SIDE_TARGET,
+	[GW_SR_UP_INIT_RESP] = SIDE_TARGET,
+	[GW_SR_UP_SEG_REQ] = SIDE_REQUESTER,
+	[GW_SR_UP_SEG_RESP] = SIDE_TARGET,
+	[GW_SR_BLK_DN_INIT_RESP] = SIDE_TARGET,
+	[GW_SR_BLK_DN_SUB] = SIDE_BOTH,
+	[GW_SR_BLK_DN_END_REQ] = SIDE_REQUESTER,
+	[GW_SR_BLK_DN_END_RESP] = SIDE_TARGET,
+	[GW_SR_BLK_UP_INIT_RESP] = SIDE_TARGET,
+	[GW_SR_BLK_UP_START] = SIDE_REQUESTER,
+	[GW_SR_BLK_UP_SUB] = SIDE_BOTH,
+	[GW_SR_BLK_UP_END] = SIDE_TARGET,
+	[GW_SR_BLK_UP_END_RESP] = SIDE_REQUESTER,
+};
+
+#define CS(d) ((uint8_t)((d)[0] >> 5))
+
+/* ---- actions --------------------------------------------------------------- */
+
+static void to_requester(gw_sdo_route *s, const uint8_t d[8])
+{
+	s->frames_to_requester++;
+	s->ops->to_requester(s->ctx, d);
+}
+
+static void to_target(gw_sdo_route *s, const uint8_t d[8])
+{
+	s->frames_to_target++;
+	s->ops->to_target(s->ctx, d);
+}
+
+static void abort_frame(const gw_sdo_route *s, uint8_t d[8], uint32_t code)
+{
+	d[0] = SDO_CCS_ABORT << 5;
+	memcpy(&d[1], s->mux, 3);
+	co_put_le32(&d[4], code);
+}
+
+/* Has the target (or router) seen anything it would wait on? */
+static bool target_engaged(const gw_sdo_route *s)
+{
+	return s->frames_to_target > 0;
+}
+
+/* End the session with aborts: `req` to the requester, `tgt` to the
+ * target if it is engaged (0 = none). */
+static int fail(gw_sdo_route *s, uint32_t req, uint32_t tgt, gw_route_outcome o)
+{
+	uint8_t d[8];
+
+	if (tgt && target_engaged(s)) {
+		abort_frame(s, d, tgt);
+		to_target(s, d);
+	}
+	abort_frame(s, d, req);
+	to_requester(s, d);
+	s->abort = req;
+	s->outcome = (uint8_t)o;
+	return GW_SR_DONE;
+}
+
+static int protocol_error(gw_sdo_route *s)
+{
+	return fail(s, SDO_AB_CMD, SDO_AB_CMD, GW_OUT_ABORTED);
+}
+
+static int finish_ok(gw_sdo_route *s)
+{
+	s->abort = 0;
+	s->outcome = GW_OUT_ROUTED;
+	return GW_SR_DONE;
+}
+
+/* An abort passes through to the other side and ends the session. */
+static int relay_abort(gw_sdo_route *s, const uint8_t d[8], bool from_requester)
+{
+	if (from_requester) {
+		if (target_engaged(s))
+			to_target(s, d);
+	} else {
+		to_requester(s, d);
+	}
+	s->abort = co_get_le32(&d[4]);
+	s->outcome = GW_OUT_ABORTED;
+	return GW_SR_DONE;
+}
+
+static bool is_abort(const uint8_t d[8], bool in_sub_block)
+{
+	return in_sub_block ? d[0] == 0x80 : CS(d) == SDO_CCS_ABORT;
+}
+
+/* ---- states ------------------------------------------------------------------- */
+
+static int opening_enter(void *obj, uint64_t now_us);
+static int opening_con(void *obj, const void *con, uint64_t now_us);
+static int hop_enter(void *obj, uint64_t now_us);
+static int hop_con(void *obj, const void *con, uint64_t now_us);
+static int wait_init_enter(void *obj, uint64_t now_us);
+static int done_enter(void *obj, uint64_t now_us);
+static int on_timeout(void *obj, uint64_t now_us);
+static int on_requester(void *obj, const co_frame *f, uint64_t now_us);
+static int on_target(void *obj, const void *con, uint64_t now_us);
+
+#define RELAY(nm) { .name = nm, .on_frame = on_requester, .on_con = on_target, \
+		    .on_timeout = on_timeout }
+
+static const co_fsm_state states[GW_SR_COUNT] = {
+	[GW_SR_IDLE] = { .name = "idle" },
+	[GW_SR_OPENING] = { .name = "opening", .on_enter = opening_enter,
+			    .on_frame = on_requester,
+			    .on_con = opening_con, .on_timeout = on_timeout },
+	[GW_SR_HOP] = { .name = "next router", .on_enter = hop_enter,
+			.on_frame = on_requester, .on_con = hop_con,
+			.on_timeout = on_timeout },
+	[GW_SR_WAIT_INIT] = { .name = "wait initiate", .on_enter = wait_init_enter,
+			      .on_frame = on_requester, .on_con = on_target,
+			      .on_timeout = on_timeout },
+	[GW_SR_DN_INIT_RESP] = RELAY("download initiate"),
+	[GW_SR_DN_SEG_REQ] = RELAY("download segment request"),
+	[GW_SR_DN_SEG_RESP] = RELAY("download segment response"),
+	[GW_SR_UP_INIT_RESP] = RELAY("upload initiate"),
+	[GW_SR_UP_SEG_REQ] = RELAY("upload segment request"),
+	[GW_SR_UP_SEG_RESP] = RELAY("upload segment response"),
+	[GW_SR_BLK_DN_INIT_RESP] = RELAY("block download initiate"),
+	[GW_SR_BLK_DN_SUB] = RELAY("block download sub-block"),
+	[GW_SR_BLK_DN_END_REQ] = RELAY("block download end request"),
+	[GW_SR_BLK_DN_END_RESP] = RELAY("block download end response"),
+	[GW_SR_BLK_UP_INIT_RESP] = RELAY("block upload initiate"),
+	[GW_SR_BLK_UP_START] = RELAY("block upload start"),
+	[GW_SR_BLK_UP_SUB] = RELAY("block upload sub-block"),
+	[GW_SR_BLK_UP_END] = RELAY("block upload end"),
+	[GW_SR_BLK_UP_END_RESP] = RELAY("block upload end response"),
+	[GW_SR_DONE] = { .name = "done", .on_enter = done_enter },
+};
+
+static const co_fsm_def route_fsm = { "sdo_route", states, GW_SR_COUNT };
+
+const char *gw_sdo_route_state_to_string(gw_sdo_route_state st)
+{
+	return co_fsm_state_name(&route_fsm, (int)st);
+}
+
+/* OPENING: refuse at once, or ask the target line for a lease. */
+static int opening_enter(void *obj, uint64_t now_us)
+{
+	gw_sdo_route *s = obj;
+	uint32_t ab = s->refuse;
+
+	(void)now_us;
+	if (!ab)
+		ab = s->ops->open(s->ctx, &s->hop);
+	if (ab)
+		return fail(s, ab, 0, GW_OUT_REFUSED);
+	s->opened = true;
+	return CO_FSM_STAY;
+}
+
+/* The target line answers the lease request. */
+static int opening_con(void *obj, const void *con, uint64_t now_us)
+{
+	gw_sdo_route *s = obj;
+	const gw_sdo_route_con *c = con;
+
+	(void)now_us;
+	if (c->kind == GW_CON_LOST || (c->kind == GW_CON_OPENED && c->abort)) {
+		s->opened = false; /* nothing was granted: no close owed */
+		return fail(s, c->abort ? c->abort : GW_AB_NO_ANSWER, 0, GW_OUT_REFUSED);
+	}
+	if (c->kind != GW_CON_OPENED)
+		return CO_FSM_STAY; /* a stray frame before the lease: ignore */
+	return s->hop.via_router ? GW_SR_HOP : GW_SR_WAIT_INIT;
+}
+
+/* HOP: the same indication goes to the next router first. */
+static int hop_enter(void *obj, uint64_t now_us)
+{
+	gw_sdo_route *s = obj;
+	uint8_t d[8];
+
+	(void)now_us;
+	gw_netind_encode(d, s->target);
+	to_target(s, d);
+	return CO_FSM_STAY;
+}
+
+static int hop_con(void *obj, const void *con, uint64_t now_us)
+{
+	gw_sdo_route *s = obj;
+	const gw_sdo_route_con *c = con;
+	const uint8_t *d = c->data;
+
+	(void)now_us;
+	if (c->kind == GW_CON_LOST)
+		return fail(s, c->abort ? c->abort : GW_AB_NO_ANSWER, 0, GW_OUT_ABORTED);
+	if (c->kind != GW_CON_TARGET_FRAME)
+		return CO_FSM_STAY;
+	if (CS(d) == SDO_CCS_ABORT) {
+		/* The router refused: its abort names the same network/node. */
+		to_requester(s, d);
+		s->abort = co_get_le32(&d[4]);
+		s->outcome = GW_OUT_REFUSED;
+		return GW_SR_DONE;
+	}
+	if (d[0] != GW_NETIND_CS || memcmp(&d[1], s->mux, 3) != 0)
+		return protocol_error(s);
+	s->target_answered = true;
+	return GW_SR_WAIT_INIT;
+}
+
+static int wait_init_enter(void *obj, uint64_t now_us)
+{
+	gw_sdo_route *s = obj;
+	uint8_t d[8];
+
+	(void)now_us;
+	gw_netind_encode(d, s->target);
+	to_requester(s, d);
+	s->confirmed = true;
+	return CO_FSM_STAY;
+}
+
+static int done_enter(void *obj, uint64_t now_us)
+{
+	gw_sdo_route *s = obj;
+
+	(void)now_us;
+	if (s->opened) {
+		s->opened = false;
+		s->ops->close(s->ctx);
+	}
+	s->deadline_us = UINT64_MAX;
+	s->ops->done(s->ctx, s->abort, (gw_route_outcome)s->outcome);
+	return GW_SR_IDLE;
+}
+
+static int on_timeout(void *obj, uint64_t now_us)
+{
+	gw_sdo_route *s = obj;
+	int st = co_fsm_state_of(&s->fsm);
+
+	(void)now_us;
+	if (st == GW_SR_OPENING)
+		return fail(s, GW_AB_NO_ANSWER, 0, GW_OUT_TIMED_OUT);
+	if (waits_for[st] == SIDE_REQUESTER)
+		return fail(s, SDO_AB_TIMEOUT, SDO_AB_TIMEOUT, GW_OUT_TIMED_OUT);
+	return fail(s, s->target_answered ? SDO_AB_TIMEOUT : GW_AB_NO_ANSWER,
+		    SDO_AB_TIMEOUT, GW_OUT_TIMED_OUT);
+}
+
+/* ---- requester frames --------------------------------------------------------- */
+
+static int req_wait_init(gw_sdo_route *s, const uint8_t *d)
+{
+	int next;
+
+	switch (CS(d)) {
+	case SDO_CCS_DN_INIT:
+		s->expedited = d[0] & SDO_EXPEDITED;
+		next = GW_SR_DN_INIT_RESP;
+		break;
+	case SDO_CCS_UP_INIT:
+		next = GW_SR_UP_INIT_RESP;
+		break;
+	case SDO_CCS_BLK_DN:
+		if (d[0] & 1u)
+			return protocol_error(s);
+		next = GW_SR_BLK_DN_INIT_RESP;
+		break;
+	case SDO_CCS_BLK_UP:
+		if (d[0] & 3u)
+			return protocol_error(s);
+		next = GW_SR_BLK_UP_INIT_RESP;
+		break;
+	default:
+		return protocol_error(s);
+	}
+	memcpy(s->mux, &d[1], 3);
+	s->started = true;
+	s->last = false;
+	to_target(s, d);
+	return next;
+}
+
+/* A segment of a block download sub-block (c bit + sequence number). */
+static int req_blk_dn_segment(gw_sdo_route *s, const uint8_t *d)
+{
+	uint8_t seq = d[0] & 0x7Fu;
+
+	if (seq == 0)
+		return protocol_error(s);
+	if (d[0] & SDO_BLK_SEQ_LAST) {
+		s->last = true;
+		s->last_seq = seq;
+	}
+	to_target(s, d);
+	return CO_FSM_STAY;
+}
+
+/* The requester's ack of a block upload sub-block. */
+static int req_blk_up_ack(gw_sdo_route *s, const uint8_t *d)
+{
+	if (d[0] != ((SDO_CCS_BLK_UP << 5) | SDO_BLK_ACK))
+		return protocol_error(s);
+	to_target(s, d);
+	if (s->last && d[1] >= s->last_seq)
+		return GW_SR_BLK_UP_END;
+	s->last = false; /* segments are repeated from ackseq + 1 */
+	return CO_FSM_STAY;
+}
+
+/* Forward d if byte 0 matches (mask, value); go to next. */
+static int req_expect(gw_sdo_route *s, const uint8_t *d, uint8_t mask, uint8_t value,
+		      int next)
+{
+	if ((d[0] & mask) != value)
+		return protocol_error(s);
+	to_target(s, d);
+	return next;
+}
+
+static int on_requester(void *obj, const co_frame *f, uint64_t now_us)
+{
+	gw_sdo_route *s = obj;
+	const uint8_t *d = f->data;
+	int st = co_fsm_state_of(&s->fsm);
+	bool sub_block = st == GW_SR_BLK_DN_SUB;
+
+	(void)now_us;
+	if (is_abort(d, sub_block))
+		return relay_abort(s, d, true);
+	switch (st) {
+	case GW_SR_WAIT_INIT:
+		return req_wait_init(s, d);
+	case GW_SR_DN_SEG_REQ:
+		if (CS(d) == SDO_CCS_DN_SEG)
+			s->last = d[0] & SDO_SEG_LAST;
+		return req_expect(s, d, 0xE0, SDO_CCS_DN_SEG << 5, GW_SR_DN_SEG_RESP);
+	case GW_SR_UP_SEG_REQ:
+		return req_expect(s, d, 0xE0, SDO_CCS_UP_SEG << 5, GW_SR_UP_SEG_RESP);
+	case GW_SR_BLK_DN_SUB:
+		return req_blk_dn_segment(s, d);
+	case GW_SR_BLK_DN_END_REQ:
+		return req_expect(s, d, 0xE3, (SDO_CCS_BLK_DN << 5) | SDO_BLK_END,
+				  GW_SR_BLK_DN_END_RESP);
+	case GW_SR_BLK_UP_START:
+		return req_expect(s, d, 0xFF, (SDO_CCS_BLK_UP << 5) | SDO_BLK_START,
+				  GW_SR_BLK_UP_SUB);
+	case GW_SR_BLK_UP_SUB:
+		return req_blk_up_ack(s, d);
+	case GW_SR_BLK_UP_END_RESP:
+		if (d[0] != ((SDO_CCS_BLK_UP << 5) | SDO_BLK_END))
+			return protocol_error(s);
+		to_target(s, d);
+		return finish_ok(s);
+	default:
+		/* Not the requester's turn (the target is awaited). */
+		return protocol_error(s);
+	}
+}
+
+/* ---- target frames ------------------------------------------------------------ */
+
+static int tgt_expect(gw_sdo_route *s, const uint8_t *d, uint8_t mask, uint8_t value,
+		      int next)
+{
+	if ((d[0] & mask) != value)
+		return protocol_error(s);
+	to_requester(s, d);
+	return next;
+}
+
+static int tgt_blk_up_init(gw_sdo_route *s, const uint8_t *d)
+{
+	if (CS(d) == SDO_SCS_UP_INIT) {
+		/* The server switched to a normal upload (size <= threshold). */
+		to_requester(s, d);
+		return (d[0] & SDO_EXPEDITED) ? finish_ok(s) : GW_SR_UP_SEG_REQ;
+	}
+	return tgt_expect(s, d, 0xE1, SDO_SCS_BLK_UP << 5, GW_SR_BLK_UP_START);
+}
+
+static int tgt_blk_dn_ack(gw_sdo_route *s, const uint8_t *d)
+{
+	if (d[0] != ((SDO_SCS_BLK_DN << 5) | SDO_BLK_ACK))
+		return protocol_error(s);
+	to_requester(s, d);
+	if (s->last && d[1] >= s->last_seq)
+		return GW_SR_BLK_DN_END_REQ;
+	s->last = false;
+	return CO_FSM_STAY;
+}
+
+static int tgt_blk_up_segment(gw_sdo_route *s, const uint8_t *d)
+{
+	uint8_t seq = d[0] & 0x7Fu;
+
+	if (seq == 0)
+		return protocol_error(s);
+	if (d[0] & SDO_BLK_SEQ_LAST) {
+		s->last = true;
+		s->last_seq = seq;
+	}
+	to_requester(s, d);
+	return CO_FSM_STAY;
+}
+
+static int on_target(void *obj, const void *con, uint64_t now_us)
+{
+	gw_sdo_route *s = obj;
+	const gw_sdo_route_con *c = con;
+	const uint8_t *d = c->data;
+	int st = co_fsm_state_of(&s->fsm);
+
+	(void)now_us;
+	if (c->kind == GW_CON_LOST)
+		return fail(s, c->abort ? c->abort : GW_AB_NO_ANSWER,
+			    0, GW_OUT_ABORTED);
+	if (c->kind != GW_CON_TARGET_FRAME)
+		return CO_FSM_STAY;
+	if (is_abort(d, st == GW_SR_BLK_UP_SUB))
+		return relay_abort(s, d, false);
+	s->target_answered = true;
+	switch (st) {
+	case GW_SR_DN_INIT_RESP:
+		if (d[0] != (SDO_SCS_DN_INIT << 5))
+			return protocol_error(s);
+		to_requester(s, d);
+		return s->expedited ? finish_ok(s) : GW_SR_DN_SEG_REQ;
+	case GW_SR_DN_SEG_RESP:
+		if ((d[0] & 0xEF) != (SDO_SCS_DN_SEG << 5))
+			return protocol_error(s);
+		to_requester(s, d);
+		return s->last ? finish_ok(s) : GW_SR_DN_SEG_REQ;
+	case GW_SR_UP_INIT_RESP:
+		if (CS(d) != SDO_SCS_UP_INIT)
+			return protocol_error(s);
+		to_requester(s, d);
+		return (d[0] & SDO_EXPEDITED) ? finish_ok(s) : GW_SR_UP_SEG_REQ;
+	case GW_SR_UP_SEG_RESP:
+		if (CS(d) != SDO_SCS_UP_SEG)
+			return protocol_error(s);
+		to_requester(s, d);
+		return (d[0] & SDO_SEG_LAST) ? finish_ok(s) : GW_SR_UP_SEG_REQ;
+	case GW_SR_BLK_DN_INIT_RESP:
+		return tgt_expect(s, d, 0xE3, SDO_SCS_BLK_DN << 5, GW_SR_BLK_DN_SUB);
+	case GW_SR_BLK_DN_SUB:
+		return tgt_blk_dn_ack(s, d);
+	case GW_SR_BLK_DN_END_RESP:
+		if (d[0] != ((SDO_SCS_BLK_DN << 5) | SDO_BLK_END))
+			return protocol_error(s);
+		to_requester(s, d);
+		return finish_ok(s);
+	case GW_SR_BLK_UP_INIT_RESP:
+		return tgt_blk_up_init(s, d);
+	case GW_SR_BLK_UP_SUB:
+		return tgt_blk_up_segment(s, d);
+	case GW_SR_BLK_UP_END:
+		return tgt_expect(s, d, 0xE3, (SDO_SCS_BLK_UP << 5) | SDO_BLK_END,
+				  GW_SR_BLK_UP_END_RESP);
+	default:
+		/* Not the target's turn: the requester is awaited. */
+		return protocol_error(s);
+	}
+}
+
+/* ---- API ------------------------------------------------------------------------ */
+
+static void rearm(gw_sdo_route *s, uint64_t now_us)
+{
+	int st = co_fsm_state_of(&s->fsm);
+	uint32_t ms;
+
+	if (st == GW_SR_IDLE) {
+		s->deadline_us = UINT64_MAX;
+		return;
+	}
+	switch (waits_for[st]) {
+	case SIDE_REQUESTER: ms = s->requester_timeout_ms; break;
+	case SIDE_TARGET: ms = s->target_timeout_ms; break;
+	default:
+		ms = s->requester_timeout_ms > s->target_timeout_ms ?
+			     s->requester_timeout_ms : s->target_timeout_ms;
+		break;
+	}
+	s->deadline_us = now_us + (uint64_t)ms * 1000u;
+}
+
+void gw_sdo_route_init(gw_sdo_route *s, const gw_sdo_route_ops *ops, void *ctx)
+{
+	memset(s, 0, sizeof(*s));
+	s->ops = ops;
+	s->ctx = ctx;
+	s->deadline_us = UINT64_MAX;
+	co_fsm_init(&s->fsm, &route_fsm, s, GW_SR_IDLE);
+}
+
+int gw_sdo_route_start(gw_sdo_route *s, gw_netind ni, uint32_t refuse,
+		       const gw_hop *hop, uint32_t requester_timeout_ms,
+		       uint32_t target_timeout_ms, uint64_t now_us)
+{
+	if (gw_sdo_route_busy(s))
+		return -EBUSY;
+	s->target = ni;
+	s->hop = hop ? *hop : (gw_hop){ 0 };
+	s->requester_timeout_ms = requester_timeout_ms ? requester_timeout_ms : 1000;
+	s->target_timeout_ms = target_timeout_ms ? target_timeout_ms : 1000;
+	s->opened = s->confirmed = s->target_answered = s->started = false;
+	s->expedited = s->last = false;
+	s->abort = 0;
+	s->outcome = GW_OUT_ROUTED;
+	s->frames_to_target = s->frames_to_requester = 0;
+	co_put_le16(&s->mux[0], ni.net);
+	s->mux[2] = ni.node;
+	s->refuse = refuse;
+	s->now_us = now_us;
+	/* A refusal, too, leaves through DONE: one done() per session. */
+	co_fsm_goto(&s->fsm, GW_SR_OPENING, now_us);
+	rearm(s, now_us);
+	return 0;
+}
+
+void gw_sdo_route_requester_frame(gw_sdo_route *s, const uint8_t d[8], uint64_t now_us)
+{
+	co_frame f;
+
+	if (!gw_sdo_route_busy(s))
+		return;
+	co_frame_init(&f, 0, 8);
+	memcpy(f.data, d, 8);
+	s->now_us = now_us;
+	co_fsm_frame(&s->fsm, &f, now_us);
+	rearm(s, now_us);
+}
+
+static void deliver(gw_sdo_route *s, const gw_sdo_route_con *c, uint64_t now_us)
+{
+	if (!gw_sdo_route_busy(s))
+		return;
+	s->now_us = now_us;
+	co_fsm_con(&s->fsm, c, now_us);
+	rearm(s, now_us);
+}
+
+void gw_sdo_route_target_frame(gw_sdo_route *s, const uint8_t d[8], uint64_t now_us)
+{
+	gw_sdo_route_con c = { .kind = GW_CON_TARGET_FRAME };
+
+	memcpy(c.data, d, 8);
+	deliver(s, &c, now_us);
+}
+
+void gw_sdo_route_opened(gw_sdo_route *s, uint32_t abort, uint64_t now_us)
+{
+	gw_sdo_route_con c = { .kind = GW_CON_OPENED, .abort = abort };
+
+	deliver(s, &c, now_us);
+}
+
+void gw_sdo_route_lost(gw_sdo_route *s, uint32_t abort, uint64_t now_us)
+{
+	gw_sdo_route_con c = { .kind = GW_CON_LOST, .abort = abort };
+
+	deliver(s, &c, now_us);
+}
+
+void gw_sdo_route_tick(gw_sdo_route *s, uint64_t now_us)
+{
+	if (!gw_sdo_route_busy(s) || now_us < s->deadline_us)
+		return;
+	s->now_us = now_us;
+	co_fsm_timeout(&s->fsm, now_us);
+	rearm(s, now_us);
+}
+
+void gw_sdo_route_cancel(gw_sdo_route *s, uint32_t abort, uint64_t now_us)
+{
+	if (!gw_sdo_route_busy(s))
+		return;
+	s->now_us = now_us;
+	co_fsm_goto(&s->fsm, fail(s, abort, abort, GW_OUT_ABORTED), now_us);
+	rearm(s, now_us);
+}

@@ -1,0 +1,513 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The routed SDO session (gateway/sdo_route.h) between two in-memory buses:
+ * a real core SDO client on the requester's bus and a real core SDO server
+ * (the transducer fixture) on the target's bus. The session relays every
+ * transfer frame by frame; every mode and size class must arrive
+ * byte-exact, and every ending (refusal, abort, timeout, cancel) must
+ * release the lease once and report once.
+ */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "unity.h"
+
+#include "core/co.h"
+#include "core/sdo_client.h"
+#include "gateway/sdo_route.h"
+#include "tests/unit/support/test_bus.h"
+#include "tests/unit/support/test_od_fixture.h"
+
+#define GW_ID 0x7F   /* the gateway's node-ID on the requester's bus */
+#define TGT_ID 5
+#define NET 2
+#define Q_LEN 4096
+
+typedef struct fq {
+	uint8_t d[Q_LEN][8];
+	unsigned head, n;
+} fq;
+
+static void fq_push(fq *q, const uint8_t d[8])
+{
+	TEST_ASSERT_TRUE_MESSAGE(q->n < Q_LEN, "frame queue full");
+	memcpy(q->d[(q->head + q->n++) % Q_LEN], d, 8);
+}
+
+static bool fq_pop(fq *q, uint8_t d[8])
+{
+	if (!q->n)
+		return false;
+	memcpy(d, q->d[q->head], 8);
+	q->head = (q->head + 1) % Q_LEN;
+	q->n--;
+	return true;
+}
+
+static tb_bus bus_a, bus_b;       /* requester's and target's lines */
+static tb_port *req, *tgt;
+static gw_sdo_route s;
+static fq from_req, from_tgt;     /* captured off the buses */
+static fq to_req, to_tgt;         /* what the session sent */
+static uint8_t last_to_req[8], last_to_tgt[8];
+static unsigned n_to_req, n_to_tgt;
+static unsigned opens, closes, dones;
+static uint32_t open_answer, done_abort;
+static gw_route_outcome done_outcome;
+static gw_hop opened_hop;
+static uint8_t *big_in, *big_out;
+
+static void op_to_requester(void *ctx, const uint8_t d[8])
+{
+	(void)ctx;
+	memcpy(last_to_req, d, 8);
+	n_to_req++;
+	fq_push(&to_req, d);
+}
+
+static void op_to_target(void *ctx, const uint8_t d[8])
+{
+	(void)ctx;
+	memcpy(last_to_tgt, d, 8);
+	n_to_tgt++;
+	fq_push(&to_tgt, d);
+}
+
+static uint32_t op_open(void *ctx, const gw_hop *hop)
+{
+	(void)ctx;
+	opens++;
+	opened_hop = *hop;
+	return open_answer;
+}
+
+static void op_close(void *ctx)
+{
+	(void)ctx;
+	closes++;
+}
+
+static void op_done(void *ctx, uint32_t abort, gw_route_outcome o)
+{
+	(void)ctx;
+	dones++;
+	done_abort = abort;
+	done_outcome = o;
+}
+
+static const gw_sdo_route_ops ops = {
+	.to_requester = op_to_requester,
+	.to_target = op_to_target,
+	.open = op_open,
+	.close = op_close,
+	.done = op_done,
+};
+
+/* Frames the nodes send toward the gateway are taken off the bus. */
+static tb_action capture_a(void *ctx, const co_frame *f, int from, uint64_t n)
+{
+	(void)ctx;
+	(void)n;
+	if (from != TB_TESTER && f->id == 0x600u + GW_ID) {
+		fq_push(&from_req, f->data);
+		return TB_DROP;
+	}
+	return TB_DELIVER;
+}
+
+static tb_action capture_b(void *ctx, const co_frame *f, int from, uint64_t n)
+{
+	(void)ctx;
+	(void)n;
+	if (from != TB_TESTER && f->id == 0x580u + TGT_ID) {
+		fq_push(&from_tgt, f->data);
+		return TB_DROP;
+	}
+	return TB_DELIVER;
+}
+
+static void inject(tb_bus *bus, uint32_t id, const uint8_t d[8])
+{
+	co_frame f;
+
+	co_frame_init(&f, id, 8);
+	memcpy(f.data, d, 8);
+	tb_send(bus, &f);
+}
+
+/* Carry frames between the buses and the session until all is quiet. */
+static void pump(void)
+{
+	uint8_t d[8];
+	bool moved = true;
+
+	while (moved) {
+		moved = false;
+		while (fq_pop(&to_req, d)) {
+			inject(&bus_a, 0x580u + GW_ID, d);
+			moved = true;
+		}
+		while (fq_pop(&to_tgt, d)) {
+			inject(&bus_b, 0x600u + TGT_ID, d);
+			moved = true;
+		}
+		while (fq_pop(&from_req, d)) {
+			gw_sdo_route_requester_frame(&s, d, bus_a.now);
+			moved = true;
+		}
+		while (fq_pop(&from_tgt, d)) {
+			gw_sdo_route_target_frame(&s, d, bus_a.now);
+			moved = true;
+		}
+	}
+}
+
+static void advance(uint64_t dt_us)
+{
+	tb_advance(&bus_a, dt_us);
+	tb_advance(&bus_b, dt_us);
+	gw_sdo_route_tick(&s, bus_a.now);
+	pump();
+}
+
+void setUp(void)
+{
+	co_node_config rcfg = { .node_id = 1, .sdo_client_count = 1 };
+	co_node_config tcfg = { .node_id = TGT_ID };
+	co_od *rod;
+
+	memset(&from_req, 0, sizeof(from_req));
+	memset(&from_tgt, 0, sizeof(from_tgt));
+	memset(&to_req, 0, sizeof(to_req));
+	memset(&to_tgt, 0, sizeof(to_tgt));
+	n_to_req = n_to_tgt = opens = closes = dones = 0;
+	open_answer = done_abort = 0;
+	tb_init(&bus_a);
+	tb_init(&bus_b);
+	bus_a.log_on = bus_b.log_on = false;
+	TEST_ASSERT_EQUAL(0, co_od_create(&rod, 16));
+	req = tb_add_node(&bus_a, &rcfg, rod);
+	tgt = tb_add_node(&bus_b, &tcfg, fx_od_new());
+	TEST_ASSERT_NOT_NULL(req);
+	TEST_ASSERT_NOT_NULL(tgt);
+	bus_a.filter = capture_a;
+	bus_b.filter = capture_b;
+	gw_sdo_route_init(&s, &ops, NULL);
+	big_in = malloc(FX_DOMAIN_MAX);
+	big_out = malloc(FX_DOMAIN_MAX);
+	for (uint32_t i = 0; i < FX_DOMAIN_MAX; i++)
+		big_in[i] = (uint8_t)(i * 13u + (i >> 8));
+}
+
+void tearDown(void)
+{
+	tb_fini(&bus_a);
+	tb_fini(&bus_b);
+	free(big_in);
+	free(big_out);
+}
+
+static void hex_eq(const char *want, const uint8_t d[8])
+{
+	char got[32];
+
+	for (int i = 0; i < 8; i++)
+		snprintf(&got[i * 3], 4, i < 7 ? "%02X " : "%02X", d[i]);
+	TEST_ASSERT_EQUAL_STRING(want, got);
+}
+
+/* Network indication for (NET, TGT_ID), lease granted: confirmed. */
+static void indicate(void)
+{
+	gw_hop hop = { .line = 1, .node = TGT_ID };
+
+	TEST_ASSERT_EQUAL(0, gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop,
+						1000, 1000, bus_a.now));
+	TEST_ASSERT_EQUAL(GW_SR_OPENING, gw_sdo_route_state_of(&s));
+	gw_sdo_route_opened(&s, 0, bus_a.now);
+	TEST_ASSERT_EQUAL(GW_SR_WAIT_INIT, gw_sdo_route_state_of(&s));
+	hex_eq("E0 02 00 05 00 00 00 00", last_to_req);
+	pump();
+}
+
+static const co_event *client_run(const sdo_client_req *r)
+{
+	size_t before = tb_event_count(req, CO_EV_SDO_CLIENT_DONE);
+
+	TEST_ASSERT_EQUAL(0, sdo_client_submit(req->node, 0, r, bus_a.now));
+	for (int i = 0; i < 20000 && tb_event_count(req, CO_EV_SDO_CLIENT_DONE) == before; i++) {
+		pump();
+		if (tb_event_count(req, CO_EV_SDO_CLIENT_DONE) == before)
+			advance(1000);
+	}
+	TEST_ASSERT_EQUAL_MESSAGE(before + 1, tb_event_count(req, CO_EV_SDO_CLIENT_DONE),
+				  "no completion");
+	pump();
+	return tb_last_event(req, CO_EV_SDO_CLIENT_DONE);
+}
+
+static void routed_roundtrip(uint32_t size, uint8_t mode)
+{
+	char msg[80];
+	co_od_entry *e = co_od_find(tgt->od, FX_IDX_DOMAIN, 0);
+	unsigned d0 = dones;
+	const co_event *ev;
+	sdo_client_req dn = { .node_id = GW_ID, .index = FX_IDX_DOMAIN, .mode = mode,
+			      .data = big_in, .size = size, .tag = 1 };
+	sdo_client_req up = { .upload = true, .node_id = GW_ID, .index = FX_IDX_DOMAIN,
+			      .mode = mode, .buf = big_out, .cap = FX_DOMAIN_MAX, .size = size,
+			      .tag = 2 };
+
+	snprintf(msg, sizeof(msg), "size %u mode %s", size, sdo_mode_to_string((sdo_mode)mode));
+	indicate();
+	ev = client_run(&dn);
+	TEST_ASSERT_EQUAL_HEX32_MESSAGE(0, ev->u.sdo_cli.abort, msg);
+	TEST_ASSERT_EQUAL_UINT32_MESSAGE(size, e->size, msg);
+	TEST_ASSERT_EQUAL_MEMORY_MESSAGE(big_in, e->data, size, msg);
+	TEST_ASSERT_EQUAL_MESSAGE(d0 + 1, dones, msg);
+	TEST_ASSERT_EQUAL_HEX32_MESSAGE(0, done_abort, msg);
+	TEST_ASSERT_EQUAL_MESSAGE(GW_OUT_ROUTED, done_outcome, msg);
+	TEST_ASSERT_FALSE_MESSAGE(gw_sdo_route_busy(&s), msg);
+
+	memset(big_out, 0, size);
+	indicate();
+	ev = client_run(&up);
+	TEST_ASSERT_EQUAL_HEX32_MESSAGE(0, ev->u.sdo_cli.abort, msg);
+	TEST_ASSERT_EQUAL_UINT32_MESSAGE(size, ev->u.sdo_cli.size, msg);
+	TEST_ASSERT_EQUAL_MEMORY_MESSAGE(big_in, big_out, size, msg);
+	TEST_ASSERT_EQUAL_MESSAGE(d0 + 2, dones, msg);
+	TEST_ASSERT_EQUAL_MESSAGE(GW_OUT_ROUTED, done_outcome, msg);
+	TEST_ASSERT_EQUAL_MESSAGE(opens, closes, msg);
+}
+
+static void test_every_mode_and_size_arrives_byte_exact(void)
+{
+	static const uint32_t sizes[] = { 1, 3, 4, 5, 7, 8, 14, 100, 889, 890, 4096, 100000 };
+	static const uint8_t modes[] = { SDO_MODE_EXPEDITED, SDO_MODE_SEGMENTED, SDO_MODE_BLOCK };
+
+	for (size_t m = 0; m < sizeof(modes); m++)
+		for (size_t i = 0; i < sizeof(sizes) / sizeof(sizes[0]); i++)
+			routed_roundtrip(sizes[i], modes[m]);
+}
+
+static void test_expedited_frames_are_relayed_unchanged(void)
+{
+	uint8_t init[8] = { 0x2B, 0x17, 0x10, 0x00, 0xE8, 0x03, 0, 0 };
+
+	indicate();
+	gw_sdo_route_requester_frame(&s, init, bus_a.now);
+	TEST_ASSERT_EQUAL(GW_SR_DN_INIT_RESP, gw_sdo_route_state_of(&s));
+	TEST_ASSERT_EQUAL_MEMORY(init, last_to_tgt, 8);
+	pump();
+	hex_eq("60 17 10 00 00 00 00 00", last_to_req);
+	TEST_ASSERT_EQUAL(1, dones);
+	TEST_ASSERT_EQUAL(GW_OUT_ROUTED, done_outcome);
+}
+
+static void test_refusals_come_at_once(void)
+{
+	gw_hop hop = { .line = 1, .node = TGT_ID };
+
+	/* the caller's route lookup refused: no lease asked */
+	TEST_ASSERT_EQUAL(0, gw_sdo_route_start(&s, (gw_netind){ 9, 3 }, GW_AB_NET_UNKNOWN,
+						NULL, 0, 0, 0));
+	hex_eq("80 09 00 03 01 00 00 0A", last_to_req);
+	TEST_ASSERT_EQUAL(0, opens);
+	TEST_ASSERT_EQUAL(1, dones);
+	TEST_ASSERT_EQUAL(GW_OUT_REFUSED, done_outcome);
+	TEST_ASSERT_FALSE(gw_sdo_route_busy(&s));
+
+	/* the hand-off to the target line is full */
+	open_answer = GW_AB_ROUTE_BUSY;
+	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 0, 0, 0);
+	hex_eq("80 02 00 05 03 00 00 0A", last_to_req);
+	TEST_ASSERT_EQUAL(0, closes);
+	TEST_ASSERT_EQUAL(2, dones);
+
+	/* the target line has no free client, or is down */
+	open_answer = 0;
+	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 0, 0, 0);
+	gw_sdo_route_opened(&s, GW_AB_NO_CLIENT, 0);
+	hex_eq("80 02 00 05 23 00 0A 06", last_to_req);
+	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 0, 0, 0);
+	gw_sdo_route_opened(&s, GW_AB_NO_ANSWER, 0);
+	hex_eq("80 02 00 05 02 00 00 0A", last_to_req);
+	TEST_ASSERT_EQUAL(0, closes); /* nothing was granted */
+	TEST_ASSERT_EQUAL(4, dones);
+	TEST_ASSERT_EQUAL(0, n_to_tgt);
+	TEST_ASSERT_EQUAL(0, gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 0, 0, 0));
+	TEST_ASSERT_EQUAL(-EBUSY, gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop,
+						     0, 0, 0));
+}
+
+static void test_multi_hop_confirms_after_the_next_router(void)
+{
+	gw_hop hop = { .line = 2, .node = 0x20, .via_router = true };
+	uint8_t confirm[8] = { 0xE0, 9, 0, 5, 0, 0, 0, 0 };
+	uint8_t up[8] = { 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0 };
+	uint8_t resp[8] = { 0x43, 0x00, 0x10, 0x00, 0x91, 0x01, 0x0F, 0x00 };
+
+	gw_sdo_route_start(&s, (gw_netind){ 9, 5 }, 0, &hop, 1000, 3000, 0);
+	TEST_ASSERT_EQUAL(0x20, opened_hop.node);
+	gw_sdo_route_opened(&s, 0, 0);
+	TEST_ASSERT_EQUAL(GW_SR_HOP, gw_sdo_route_state_of(&s));
+	hex_eq("E0 09 00 05 00 00 00 00", last_to_tgt);
+	TEST_ASSERT_EQUAL(0, n_to_req); /* not confirmed before the router */
+	TEST_ASSERT_EQUAL_UINT64(3000000, gw_sdo_route_deadline(&s));
+	gw_sdo_route_target_frame(&s, confirm, 10);
+	hex_eq("E0 09 00 05 00 00 00 00", last_to_req);
+	gw_sdo_route_requester_frame(&s, up, 20);
+	TEST_ASSERT_EQUAL_MEMORY(up, last_to_tgt, 8);
+	gw_sdo_route_target_frame(&s, resp, 30);
+	TEST_ASSERT_EQUAL_MEMORY(resp, last_to_req, 8);
+	TEST_ASSERT_EQUAL(1, dones);
+	TEST_ASSERT_EQUAL(GW_OUT_ROUTED, done_outcome);
+	TEST_ASSERT_EQUAL(1, closes);
+}
+
+static void test_next_router_refusal_is_passed_back(void)
+{
+	gw_hop hop = { .line = 2, .node = 0x20, .via_router = true };
+	uint8_t refusal[8] = { 0x80, 9, 0, 5, 0x01, 0, 0, 0x0A };
+
+	gw_sdo_route_start(&s, (gw_netind){ 9, 5 }, 0, &hop, 1000, 1000, 0);
+	gw_sdo_route_opened(&s, 0, 0);
+	gw_sdo_route_target_frame(&s, refusal, 10);
+	TEST_ASSERT_EQUAL_MEMORY(refusal, last_to_req, 8);
+	TEST_ASSERT_EQUAL(GW_OUT_REFUSED, done_outcome);
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NET_UNKNOWN, done_abort);
+	TEST_ASSERT_EQUAL(1, closes);
+}
+
+static void test_timeouts(void)
+{
+	gw_hop hop = { .line = 1, .node = TGT_ID };
+	uint8_t init[8] = { 0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0 };
+	uint8_t seg_init[8] = { 0x41, 0x08, 0x10, 0x00, 30, 0, 0, 0 };
+
+	/* the target line never answers the lease */
+	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 500, 800, 0);
+	gw_sdo_route_tick(&s, 799999);
+	TEST_ASSERT_EQUAL(0, dones);
+	gw_sdo_route_tick(&s, 800000);
+	hex_eq("80 02 00 05 02 00 00 0A", last_to_req);
+	TEST_ASSERT_EQUAL(GW_OUT_TIMED_OUT, done_outcome);
+	TEST_ASSERT_EQUAL(1, closes);
+
+	/* the target never answers the initiate: node silent */
+	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 500, 800, 1000000);
+	gw_sdo_route_opened(&s, 0, 1000000);
+	gw_sdo_route_requester_frame(&s, init, 1100000);
+	gw_sdo_route_tick(&s, 1900000);
+	hex_eq("80 18 10 01 02 00 00 0A", last_to_req);
+	hex_eq("80 18 10 01 00 00 04 05", last_to_tgt);
+	TEST_ASSERT_EQUAL(GW_OUT_TIMED_OUT, done_outcome);
+
+	/* the target answered, then went silent: SDO timeout */
+	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 500, 800, 2000000);
+	gw_sdo_route_opened(&s, 0, 2000000);
+	init[1] = 0x08;
+	init[3] = 0;
+	gw_sdo_route_requester_frame(&s, init, 2000000);
+	gw_sdo_route_target_frame(&s, seg_init, 2000000);
+	TEST_ASSERT_EQUAL(GW_SR_UP_SEG_REQ, gw_sdo_route_state_of(&s));
+	/* ... and the requester vanishes: 500 ms later both get an abort */
+	gw_sdo_route_tick(&s, 2500000);
+	hex_eq("80 08 10 00 00 00 04 05", last_to_req);
+	hex_eq("80 08 10 00 00 00 04 05", last_to_tgt);
+	TEST_ASSERT_EQUAL(3, dones);
+	TEST_ASSERT_EQUAL(3, closes);
+}
+
+static void test_requester_vanishing_in_a_block_download_releases_both(void)
+{
+	co_od_entry *e = co_od_find(tgt->od, FX_IDX_DOMAIN, 0);
+	uint8_t init[8] = { 0xC6, 0x00, 0x22, 0x00, 0x00, 0x10, 0, 0 }; /* 4096 bytes */
+	uint8_t seg[8] = { 0x01, 1, 2, 3, 4, 5, 6, 7 };
+
+	(void)e;
+	indicate();
+	gw_sdo_route_requester_frame(&s, init, bus_a.now);
+	pump();
+	TEST_ASSERT_EQUAL(GW_SR_BLK_DN_SUB, gw_sdo_route_state_of(&s));
+	for (uint8_t i = 1; i <= 5; i++) {
+		seg[0] = i;
+		gw_sdo_route_requester_frame(&s, seg, bus_a.now);
+	}
+	pump();
+	/* the requester is gone: the session times out, both ends released */
+	for (int i = 0; i < 30 && gw_sdo_route_busy(&s); i++)
+		advance(100000);
+	TEST_ASSERT_FALSE(gw_sdo_route_busy(&s));
+	TEST_ASSERT_EQUAL(GW_OUT_TIMED_OUT, done_outcome);
+	TEST_ASSERT_EQUAL(1, closes);
+	TEST_ASSERT_EQUAL(CO_EV_SDO_SERVER_DONE,
+			  tb_last_event(tgt, CO_EV_SDO_SERVER_DONE)->kind);
+	TEST_ASSERT_NOT_EQUAL(0, tb_last_event(tgt, CO_EV_SDO_SERVER_DONE)->u.sdo_srv.abort);
+}
+
+static void test_protocol_errors_and_aborts(void)
+{
+	uint8_t bad[8] = { 0x60, 0, 0, 0, 0, 0, 0, 0 }; /* upload segment first */
+	uint8_t init[8] = { 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0 };
+	uint8_t ab[8] = { 0x80, 0x00, 0x10, 0x00, 0x00, 0x00, 0x02, 0x06 };
+
+	indicate();
+	gw_sdo_route_requester_frame(&s, bad, bus_a.now);
+	hex_eq("80 02 00 05 01 00 04 05", last_to_req);
+	TEST_ASSERT_EQUAL(0, n_to_tgt); /* nothing reached the target yet */
+	TEST_ASSERT_EQUAL(GW_OUT_ABORTED, done_outcome);
+
+	pump();
+	indicate();
+	gw_sdo_route_requester_frame(&s, init, bus_a.now);
+	gw_sdo_route_target_frame(&s, ab, bus_a.now); /* the target's abort */
+	TEST_ASSERT_EQUAL_MEMORY(ab, last_to_req, 8);
+	TEST_ASSERT_EQUAL_HEX32(0x06020000, done_abort);
+	TEST_ASSERT_EQUAL(GW_OUT_ABORTED, done_outcome);
+
+	pump();
+	indicate();
+	gw_sdo_route_requester_frame(&s, init, bus_a.now);
+	gw_sdo_route_requester_frame(&s, init, bus_a.now); /* not its turn */
+	hex_eq("80 00 10 00 01 00 04 05", last_to_req);
+	hex_eq("80 00 10 00 01 00 04 05", last_to_tgt);
+
+	pump();
+	indicate();
+	gw_sdo_route_cancel(&s, SDO_AB_GENERAL, bus_a.now);
+	hex_eq("80 02 00 05 00 00 00 08", last_to_req);
+	TEST_ASSERT_FALSE(gw_sdo_route_busy(&s));
+	TEST_ASSERT_EQUAL(opens, closes);
+	TEST_ASSERT_EQUAL_STRING("block upload sub-block",
+				 gw_sdo_route_state_to_string(GW_SR_BLK_UP_SUB));
+}
+
+static void test_target_line_lost_mid_transfer(void)
+{
+	uint8_t init[8] = { 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0 };
+
+	indicate();
+	gw_sdo_route_requester_frame(&s, init, bus_a.now);
+	gw_sdo_route_lost(&s, GW_AB_NO_ANSWER, bus_a.now);
+	hex_eq("80 00 10 00 02 00 00 0A", last_to_req);
+	TEST_ASSERT_EQUAL(1, dones);
+	TEST_ASSERT_EQUAL(1, closes);
+}
+
+int main(void)
+{
+	UNITY_BEGIN();
+	RUN_TEST(test_every_mode_and_size_arrives_byte_exact);
+	RUN_TEST(test_expedited_frames_are_relayed_unchanged);
+	RUN_TEST(test_refusals_come_at_once);
+	RUN_TEST(test_multi_hop_confirms_after_the_next_router);
+	RUN_TEST(test_next_router_refusal_is_passed_back);
+	RUN_TEST(test_timeouts);
+	RUN_TEST(test_requester_vanishing_in_a_block_download_releases_both);
+	RUN_TEST(test_protocol_errors_and_aborts);
+	RUN_TEST(test_target_line_lost_mid_transfer);
+	return UNITY_END();
+}
