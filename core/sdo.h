@@ -76,6 +76,9 @@ enum sdo_ccs {
 	SDO_CCS_BLK_DN = 6,  /* block download */
 };
 
+/* Command specifier 7 (both directions): CiA 302-7 network indication. */
+#define SDO_CS_NETWORK 7u
+
 /* Server command specifiers (bits 7..5 of byte 0, server -> client). */
 enum sdo_scs {
 	SDO_SCS_UP_SEG = 0,  /* upload segment */

@@ -38,6 +38,7 @@ enum srv_state {
 	SS_BLK_UP_ACK,   /* block upload: sub-block sent, expecting an ack */
 	SS_BLK_UP_END,   /* block upload: end sent, expecting its response */
 	SS_DEFERRED,     /* a hook answers later (sdo_server_continue) */
+	SS_ROUTED,       /* CiA 302-7: frames go to the routing hook */
 	SS_COUNT
 };
 
@@ -92,6 +93,8 @@ struct srv_chan {
 
 struct sdo_server {
 	co_node *node;
+	const sdo_server_route_ops *route; /* NULL: no routing (cs 7 refused) */
+	void *route_ctx;
 	uint8_t n;
 	struct srv_chan ch[];
 };
@@ -107,6 +110,7 @@ static void st_blk_up_start(struct srv_chan *ch, const uint8_t *d);
 static void st_blk_up_ack(struct srv_chan *ch, const uint8_t *d);
 static void st_blk_up_end(struct srv_chan *ch, const uint8_t *d);
 static void st_deferred(struct srv_chan *ch, const uint8_t *d);
+static void st_routed(struct srv_chan *ch, const uint8_t *d);
 
 static const struct {
 	const char *name;
@@ -121,6 +125,7 @@ static const struct {
 	[SS_BLK_UP_ACK] = { "block upload ack", st_blk_up_ack },
 	[SS_BLK_UP_END] = { "block upload end", st_blk_up_end },
 	[SS_DEFERRED] = { "deferred", st_deferred },
+	[SS_ROUTED] = { "routed", st_routed },
 };
 
 /* ---- helpers ------------------------------------------------------------ */
@@ -146,7 +151,8 @@ static void arm(struct srv_chan *ch)
 static void enter(struct srv_chan *ch, uint8_t state)
 {
 	ch->state = state;
-	if (state == SS_IDLE)
+	/* A routed channel's timers are the routing session's. */
+	if (state == SS_IDLE || state == SS_ROUTED)
 		ch->deadline = CO_NO_DEADLINE;
 	else
 		arm(ch);
@@ -717,8 +723,32 @@ static void st_blk_up_end(struct srv_chan *ch, const uint8_t *d)
 
 /* ---- idle and deferred ----------------------------------------------------- */
 
+/* Command specifier 7: a CiA 302-7 network indication. The routing hook
+ * takes the channel (it answers, confirms or refuses, through
+ * sdo_server_route_send), or refuses with an abort code. */
+static void route_begin(struct srv_chan *ch, const uint8_t *d)
+{
+	struct sdo_server *srv = ch->srv;
+	uint8_t p[4];
+	uint32_t ab;
+
+	ch->index = co_get_le16(&d[1]);
+	ch->sub = d[3];
+	enter(ch, SS_ROUTED);
+	ab = srv->route->indication(srv->route_ctx, ch->num, d, node_of(ch)->now_us);
+	if (ab && ch->state == SS_ROUTED) {
+		ch->state = SS_IDLE; /* no transfer began: no DONE event */
+		co_put_le32(p, ab);
+		send_mux(ch, SDO_CCS_ABORT << 5, p);
+	}
+}
+
 static void st_idle(struct srv_chan *ch, const uint8_t *d)
 {
+	if (SDO_CS(d[0]) == SDO_CS_NETWORK && ch->srv->route) {
+		route_begin(ch, d);
+		return;
+	}
 	switch (SDO_CS(d[0])) {
 	case SDO_CCS_DN_INIT: dn_init(ch, d); return;
 	case SDO_CCS_UP_INIT: up_init(ch, d); return;
@@ -733,6 +763,13 @@ static void st_idle(struct srv_chan *ch, const uint8_t *d)
 	}
 }
 
+/* Routed frames never reach the state table (srv_rx hands them over). */
+static void st_routed(struct srv_chan *ch, const uint8_t *d)
+{
+	(void)ch;
+	(void)d;
+}
+
 /* While a hook owns the answer, the client may only abort. */
 static void st_deferred(struct srv_chan *ch, const uint8_t *d)
 {
@@ -745,11 +782,14 @@ static void srv_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	struct srv_chan *ch = arg;
 
 	(void)node;
-	(void)now_us;
 	/* CiA 301 SDO frames always have 8 data bytes; ignore anything else
 	 * (an RTR or a short frame cannot be answered meaningfully). */
 	if (f->len != 8 || (f->flags & CO_FRAME_RTR))
 		return;
+	if (ch->state == SS_ROUTED) {
+		ch->srv->route->frame(ch->srv->route_ctx, ch->num, f->data, now_us);
+		return;
+	}
 	if (ch->state != SS_IDLE && ch->state != SS_BLK_DN_SUB &&
 	    SDO_CS(f->data[0]) == SDO_CCS_ABORT && !sdo_blk_rx_is_dup(&ch->brx, f->data)) {
 		finish(ch, co_get_le32(&f->data[4]));
@@ -796,6 +836,65 @@ int sdo_server_continue(co_node *node, uint8_t channel, uint32_t abort,
 	return 0;
 }
 
+/* ---- CiA 302-7 routing hook ---------------------------------------------- */
+
+int sdo_server_route_attach(co_node *node, const sdo_server_route_ops *ops, void *ctx)
+{
+	struct sdo_server *srv = node->sdo_srv;
+
+	if (!srv || (ops && (!ops->indication || !ops->frame || !ops->ended)))
+		return -EINVAL;
+	for (uint8_t i = 0; i < srv->n; i++)
+		if (srv->ch[i].state == SS_ROUTED)
+			return -EBUSY;
+	srv->route = ops;
+	srv->route_ctx = ctx;
+	return 0;
+}
+
+static struct srv_chan *routed_chan(co_node *node, uint8_t channel)
+{
+	struct sdo_server *srv = node->sdo_srv;
+
+	if (!srv || channel >= srv->n || srv->ch[channel].state != SS_ROUTED)
+		return NULL;
+	return &srv->ch[channel];
+}
+
+int sdo_server_route_send(co_node *node, uint8_t channel, const uint8_t d[8])
+{
+	struct srv_chan *ch = routed_chan(node, channel);
+	co_frame f;
+
+	if (!ch)
+		return -ENOENT;
+	frame_init(ch, &f, d[0]);
+	memcpy(&f.data[1], &d[1], 7);
+	return co_node_send(node, &f);
+}
+
+int sdo_server_route_end(co_node *node, uint8_t channel)
+{
+	struct srv_chan *ch = routed_chan(node, channel);
+
+	if (!ch)
+		return -ENOENT;
+	enter(ch, SS_IDLE);
+	if (ch->reapply) {
+		ch->reapply = false;
+		chan_apply(ch);
+	}
+	return 0;
+}
+
+/* The server itself ends a route (parameters changed, reset): tell the
+ * hook, which must not send on the channel any more. */
+static void route_drop(struct srv_chan *ch)
+{
+	enter(ch, SS_IDLE);
+	ch->srv->route->ended(ch->srv->route_ctx, ch->num);
+}
+
 bool sdo_server_busy(const co_node *node, uint8_t channel)
 {
 	const struct sdo_server *srv = node->sdo_srv;
@@ -816,7 +915,9 @@ static void chan_apply(struct srv_chan *ch)
 	co_node *node = node_of(ch);
 	bool valid = !(ch->cob_rx & SDO_COB_INVALID) && !(ch->cob_tx & SDO_COB_INVALID);
 
-	if (ch->state != SS_IDLE)
+	if (ch->state == SS_ROUTED)
+		route_drop(ch);
+	else if (ch->state != SS_IDLE)
 		finish(ch, SDO_AB_GENERAL); /* parameters changed under a transfer */
 	if (!valid || co_rx_move(node, ch->rx_handle, ch->cob_rx & CO_FRAME_EFF_MASK,
 				 (ch->cob_rx & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0)
@@ -994,6 +1095,8 @@ static void srv_reset_comm(co_node *node, uint64_t now_us)
 	if (!srv)
 		return;
 	for (uint8_t i = 0; i < srv->n; i++) {
+		if (srv->ch[i].state == SS_ROUTED)
+			route_drop(&srv->ch[i]);
 		srv->ch[i].state = SS_IDLE; /* a reset ends transfers silently */
 		srv->ch[i].deadline = CO_NO_DEADLINE;
 		chan_load(&srv->ch[i]);

@@ -57,6 +57,37 @@ extern const co_service co_svc_sdo_server;
 int sdo_server_continue(co_node *node, uint8_t channel, uint32_t abort,
 			const uint8_t *data, uint32_t size, uint64_t now_us);
 
+/*
+ * CiA 302-7 routing hook (used by gateway/; DESIGN.md conventions).
+ * A frame with command specifier 7 (a network indication) arriving on an
+ * idle channel goes to ops->indication. The channel is then "routed":
+ * every later frame received on it goes to ops->frame untouched (aborts
+ * included); the server neither answers nor times out on it until
+ * sdo_server_route_end(). If indication returns an abort code instead of
+ * 0, the server refuses with it (bytes 1..3 = those of the indication) and
+ * the channel stays idle. ops->ended tells that the server itself ended a
+ * route (its COB-IDs changed, reset communication): the hook must forget
+ * the channel. Without a hook, command specifier 7 is refused with
+ * 05040001 as any unknown one. No CO_EV_SDO_SERVER_DONE for routed
+ * transfers: the routing layer reports them.
+ * Callbacks run on the node's thread, inside co_node_recv / the call that
+ * reset the node.
+ */
+typedef struct sdo_server_route_ops {
+	uint32_t (*indication)(void *ctx, uint8_t channel, const uint8_t d[8], uint64_t now_us);
+	void (*frame)(void *ctx, uint8_t channel, const uint8_t d[8], uint64_t now_us);
+	void (*ended)(void *ctx, uint8_t channel);
+} sdo_server_route_ops;
+
+/* Install (ops = NULL: remove) the hook. -EINVAL, -EBUSY while a channel
+ * is routed. */
+int sdo_server_route_attach(co_node *node, const sdo_server_route_ops *ops, void *ctx);
+/* Send 8 bytes on a routed channel's server->client COB-ID. -ENOENT if
+ * the channel is not routed, else what the send callback returned. */
+int sdo_server_route_send(co_node *node, uint8_t channel, const uint8_t d[8]);
+/* Give a routed channel back to the server. -ENOENT if not routed. */
+int sdo_server_route_end(co_node *node, uint8_t channel);
+
 /* True while a transfer is in progress on the channel. */
 bool sdo_server_busy(const co_node *node, uint8_t channel);
 uint8_t sdo_server_channel_count(const co_node *node);

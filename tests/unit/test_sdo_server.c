@@ -772,6 +772,114 @@ static void test_two_channels_in_parallel(void)
 	TEST_ASSERT_TRUE(sdo_server_busy(srv->node, 1));
 }
 
+
+/* ---- CiA 302-7 routing hook ---------------------------------------------- */
+
+static struct {
+	unsigned ind, frames, ended;
+	uint8_t ch, last[8];
+	uint32_t answer;  /* what indication returns */
+	bool end_inside;  /* end the route from inside indication */
+} rt;
+
+static uint32_t rt_indication(void *ctx, uint8_t ch, const uint8_t d[8], uint64_t now_us)
+{
+	(void)ctx;
+	(void)now_us;
+	rt.ind++;
+	rt.ch = ch;
+	memcpy(rt.last, d, 8);
+	if (rt.end_inside) {
+		uint8_t refuse[8] = { 0x80, d[1], d[2], d[3], 0x01, 0, 0, 0x0A };
+		TEST_ASSERT_EQUAL(0, sdo_server_route_send(srv->node, ch, refuse));
+		TEST_ASSERT_EQUAL(0, sdo_server_route_end(srv->node, ch));
+	}
+	return rt.answer;
+}
+
+static void rt_frame(void *ctx, uint8_t ch, const uint8_t d[8], uint64_t now_us)
+{
+	(void)ctx;
+	(void)now_us;
+	rt.frames++;
+	rt.ch = ch;
+	memcpy(rt.last, d, 8);
+}
+
+static void rt_ended(void *ctx, uint8_t ch)
+{
+	(void)ctx;
+	rt.ended++;
+	rt.ch = ch;
+}
+
+static const sdo_server_route_ops rt_ops = { rt_indication, rt_frame, rt_ended };
+
+static void test_network_indication_without_hook_is_refused(void)
+{
+	req("E0 02 00 05 00 00 00 00");
+	EXPECT("80 02 00 05 01 00 04 05");
+}
+
+static void test_routing_hook_owns_the_channel_until_released(void)
+{
+	uint8_t confirm[8] = { 0xE0, 0x02, 0x00, 0x05, 0, 0, 0, 0 };
+	size_t done_before = tb_event_count(srv, CO_EV_SDO_SERVER_DONE);
+
+	memset(&rt, 0, sizeof(rt));
+	TEST_ASSERT_EQUAL(0, sdo_server_route_attach(srv->node, &rt_ops, NULL));
+	TEST_ASSERT_EQUAL(-ENOENT, sdo_server_route_send(srv->node, 0, confirm));
+	req("E0 02 00 05 00 00 00 00");
+	TEST_ASSERT_EQUAL(1, rt.ind);
+	TEST_ASSERT_TRUE(sdo_server_busy(srv->node, 0));
+	TEST_ASSERT_EQUAL(0, sdo_server_route_send(srv->node, 0, confirm));
+	EXPECT("E0 02 00 05 00 00 00 00");
+	/* every frame, aborts included, goes to the hook; no answer, no timeout */
+	req("40 00 10 00 00 00 00 00");
+	req("80 00 10 00 00 00 04 05");
+	TEST_ASSERT_EQUAL(2, rt.frames);
+	TEST_ASSERT_EQUAL_HEX8(0x80, rt.last[0]);
+	tb_advance(&bus, 5000000);
+	TEST_ASSERT_EQUAL(1, tb_count_from_id(&bus, 0, 0x581, 0));
+	TEST_ASSERT_EQUAL(-EBUSY, sdo_server_route_attach(srv->node, NULL, NULL));
+	TEST_ASSERT_EQUAL(0, sdo_server_route_end(srv->node, 0));
+	TEST_ASSERT_FALSE(sdo_server_busy(srv->node, 0));
+	TEST_ASSERT_EQUAL(-ENOENT, sdo_server_route_end(srv->node, 0));
+	/* a normal transfer again */
+	req("40 00 10 00 00 00 00 00");
+	EXPECT("43 00 10 00 94 01 04 00");
+	TEST_ASSERT_EQUAL(2, rt.frames);
+	TEST_ASSERT_EQUAL(done_before + 1, tb_event_count(srv, CO_EV_SDO_SERVER_DONE));
+}
+
+static void test_routing_hook_refusals(void)
+{
+	memset(&rt, 0, sizeof(rt));
+	TEST_ASSERT_EQUAL(0, sdo_server_route_attach(srv->node, &rt_ops, NULL));
+	rt.answer = 0x0A000001;
+	req("E0 09 00 05 00 00 00 00");
+	EXPECT("80 09 00 05 01 00 00 0A");
+	TEST_ASSERT_FALSE(sdo_server_busy(srv->node, 0));
+	/* the hook answers and releases from inside the indication */
+	rt.answer = 0;
+	rt.end_inside = true;
+	req("E0 0A 00 05 00 00 00 00");
+	EXPECT("80 0A 00 05 01 00 00 0A");
+	TEST_ASSERT_FALSE(sdo_server_busy(srv->node, 0));
+	TEST_ASSERT_EQUAL(2, tb_count_from_id(&bus, 0, 0x581, 0));
+}
+
+static void test_reset_ends_a_route(void)
+{
+	memset(&rt, 0, sizeof(rt));
+	TEST_ASSERT_EQUAL(0, sdo_server_route_attach(srv->node, &rt_ops, NULL));
+	req("E0 02 00 05 00 00 00 00");
+	co_node_reset_comm(srv->node, bus.now);
+	TEST_ASSERT_EQUAL(1, rt.ended);
+	TEST_ASSERT_FALSE(sdo_server_busy(srv->node, 0));
+	TEST_ASSERT_EQUAL(-ENOENT, sdo_server_route_end(srv->node, 0));
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -813,5 +921,9 @@ int main(void)
 	RUN_TEST(test_random_frames_fuzz);
 	RUN_TEST(test_second_channel_cob_id_rules);
 	RUN_TEST(test_two_channels_in_parallel);
+	RUN_TEST(test_network_indication_without_hook_is_refused);
+	RUN_TEST(test_routing_hook_owns_the_channel_until_released);
+	RUN_TEST(test_routing_hook_refusals);
+	RUN_TEST(test_reset_ends_a_route);
 	return UNITY_END();
 }
