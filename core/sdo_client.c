@@ -42,6 +42,7 @@ enum cli_state {
 	CS_BLK_UP_END,  /* last sub-block acked, waiting for the end */
 	CS_START_FAILED, /* could not start: completes at the next tick with
 	                  * start_abort (never inside the submitting call) */
+	CS_LEASED,      /* lent out raw (CiA 302-7 relay): frames go to lease_fn */
 	CS_COUNT
 };
 
@@ -77,6 +78,9 @@ struct cli_chan {
 	uint8_t pend[SDO_SEG_DATA];
 	uint32_t sub_len;  /* download: bytes in sub_buf */
 	uint8_t sub_buf[SUB_BLOCK_BYTES];
+
+	sdo_client_raw_fn lease_fn; /* CS_LEASED */
+	void *lease_arg;
 
 	co_od_entry *od_cob[2]; /* 1280h+n sub 1/2 */
 	co_od_entry *od_node;   /* sub 3 */
@@ -123,6 +127,7 @@ static const struct {
 	[CS_BLK_UP_SUB] = { "block upload sub-block", st_blk_up_sub },
 	[CS_BLK_UP_END] = { "block upload end", st_blk_up_end },
 	[CS_START_FAILED] = { "start failed", st_ignore },
+	[CS_LEASED] = { "leased", st_ignore },
 };
 
 static void kick_all(struct sdo_client *cli);
@@ -661,10 +666,13 @@ static void cli_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	const uint8_t *d = f->data;
 
 	(void)node;
-	(void)now_us;
 	if (ch->state == CS_IDLE || ch->state == CS_START_FAILED || f->len != 8 ||
 	    (f->flags & CO_FRAME_RTR))
 		return;
+	if (ch->state == CS_LEASED) {
+		ch->lease_fn(ch->lease_arg, d, now_us);
+		return;
+	}
 	if (ch->state == CS_BLK_UP_SUB ? sdo_blk_seg_is_abort(d)
 				       : is_abort(d) && !sdo_blk_rx_is_dup(&ch->brx, d)) {
 		uint32_t code = co_get_le32(&d[4]);
@@ -885,7 +893,7 @@ int sdo_client_write(co_node *node, uint8_t channel, uint8_t node_id, uint16_t i
  * got on the wire). */
 static bool cancel_running(struct cli_chan *ch, uint64_t tag, uint32_t abort)
 {
-	if (ch->state == CS_IDLE || ch->cur.tag != tag)
+	if (ch->state == CS_IDLE || ch->state == CS_LEASED || ch->cur.tag != tag)
 		return false;
 	if (ch->state == CS_START_FAILED)
 		complete(ch, abort);
@@ -970,6 +978,75 @@ int sdo_client_pool_submit(co_node *node, const sdo_client_req *req, uint64_t no
 	*pool_at(cli, cli->pool_len) = *req;
 	cli->pool_len++;
 	pool_kick(cli);
+	return 0;
+}
+
+/* ---- relay lease (CiA 302-7) ------------------------------------------------ */
+
+int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t cob_resp,
+		     sdo_client_raw_fn fn, void *arg, uint64_t now_us)
+{
+	struct sdo_client *cli = node->sdo_cli;
+	sdo_client_req r = { .node_id = node_id, .cob_req = cob_req, .cob_resp = cob_resp };
+	struct cli_chan *ch;
+
+	if (!cli || !fn || node_id < 1 || node_id > 127)
+		return -EINVAL;
+	node->now_us = now_us;
+	if (target_busy(cli, NULL, req_cob_resp(&r)))
+		return -EALREADY;
+	ch = free_channel(cli);
+	if (!ch)
+		return -EBUSY;
+	if (co_rx_move(node, ch->rx_handle, req_cob_resp(&r) & CO_FRAME_EFF_MASK,
+		       (req_cob_resp(&r) & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0)
+		return -ENOSPC;
+	ch->cur = r;
+	ch->cob_req = req_cob_req(&r);
+	ch->cob_resp = req_cob_resp(&r);
+	ch->lease_fn = fn;
+	ch->lease_arg = arg;
+	ch->state = CS_LEASED;
+	ch->deadline = CO_NO_DEADLINE; /* the relay keeps its own timers */
+	if (ch->od_cob[0])
+		co_od_entry_set_raw(ch->od_cob[0], ch->cob_req);
+	if (ch->od_cob[1])
+		co_od_entry_set_raw(ch->od_cob[1], ch->cob_resp);
+	if (ch->od_node)
+		co_od_entry_set_raw(ch->od_node, node_id);
+	return ch->num;
+}
+
+static struct cli_chan *leased(co_node *node, uint8_t channel)
+{
+	struct sdo_client *cli = node->sdo_cli;
+
+	if (!cli || channel >= cli->n || cli->ch[channel].state != CS_LEASED)
+		return NULL;
+	return &cli->ch[channel];
+}
+
+int sdo_client_lease_send(co_node *node, uint8_t channel, const uint8_t d[8])
+{
+	struct cli_chan *ch = leased(node, channel);
+
+	if (!ch)
+		return -ENOENT;
+	tx(ch, d);
+	return 0;
+}
+
+int sdo_client_lease_end(co_node *node, uint8_t channel, uint64_t now_us)
+{
+	struct cli_chan *ch = leased(node, channel);
+
+	if (!ch)
+		return -ENOENT;
+	node->now_us = now_us;
+	ch->state = CS_IDLE;
+	ch->lease_fn = NULL;
+	co_rx_disable(node, ch->rx_handle);
+	kick_all(ch->cli);
 	return 0;
 }
 

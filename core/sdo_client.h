@@ -147,6 +147,26 @@ int sdo_client_pool_submit(co_node *node, const sdo_client_req *req,
 int sdo_client_cancel_tag(co_node *node, uint64_t tag, uint32_t abort,
 			  uint64_t now_us);
 
+/*
+ * Relay lease (CiA 302-7 SDO routing, used by gateway/): borrow a free
+ * channel of the pool for raw frames toward one server. Frames given to
+ * sdo_client_lease_send() go out unchanged on the request COB-ID
+ * (cob_req, 0 = 600h + node_id); every 8-byte frame received on the
+ * response COB-ID (cob_resp, 0 = 580h + node_id) goes to fn, until
+ * sdo_client_lease_end(). The lease counts as a transfer with that server
+ * (pool requests to it wait) and has no timeout: the relay keeps its own.
+ * Returns the channel (>= 0), -EBUSY (no free channel: the caller answers
+ * 0x060A0023), -EALREADY (that server is in a transfer on another
+ * channel), -ENOSPC (no receiver for the COB-ID), -EINVAL.
+ */
+typedef void (*sdo_client_raw_fn)(void *arg, const uint8_t d[8], uint64_t now_us);
+int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t cob_resp,
+		     sdo_client_raw_fn fn, void *arg, uint64_t now_us);
+/* -ENOENT if the channel is not leased. */
+int sdo_client_lease_send(co_node *node, uint8_t channel, const uint8_t d[8]);
+/* Give the channel back to the pool (waiting requests may start). */
+int sdo_client_lease_end(co_node *node, uint8_t channel, uint64_t now_us);
+
 /* Requests waiting in the pool for a channel. */
 unsigned sdo_client_pool_waiting(const co_node *node);
 

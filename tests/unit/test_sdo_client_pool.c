@@ -319,6 +319,56 @@ static void test_without_client_channels(void)
 	TEST_ASSERT_EQUAL(0, sdo_client_pool_waiting(p->node));
 }
 
+
+/* ---- relay lease (CiA 302-7) ------------------------------------------------ */
+
+static struct {
+	unsigned n;
+	uint8_t last[8];
+} raw;
+
+static void on_raw(void *arg, const uint8_t d[8], uint64_t now_us)
+{
+	(void)now_us;
+	TEST_ASSERT_EQUAL_PTR(&raw, arg);
+	raw.n++;
+	memcpy(raw.last, d, 8);
+}
+
+static void test_lease_relays_raw_frames_and_holds_the_target(void)
+{
+	uint8_t d[8] = { 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0 };
+	int ch;
+
+	memset(&raw, 0, sizeof(raw));
+	ch = sdo_client_lease(cli->node, 5, 0, 0, on_raw, &raw, bus.now);
+	TEST_ASSERT_TRUE(ch >= 0);
+	TEST_ASSERT_EQUAL(1, sdo_client_pending(cli->node, (uint8_t)ch));
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_send(cli->node, (uint8_t)ch, d));
+	TB_ASSERT_LAST(&bus, cli->idx, 0x605, "40 00 10 00 00 00 00 00");
+	tb_send_hex(&bus, 0x585, "43 00 10 00 91 01 0F 00");
+	TEST_ASSERT_EQUAL(1, raw.n);
+	TEST_ASSERT_EQUAL_HEX8(0x43, raw.last[0]);
+	/* the same server again: busy; a pool request to it waits */
+	TEST_ASSERT_EQUAL(-EALREADY, sdo_client_lease(cli->node, 5, 0, 0, on_raw, &raw, bus.now));
+	TEST_ASSERT_EQUAL(0, pool_read(5, 1, false));
+	TEST_ASSERT_EQUAL(1, sdo_client_pool_waiting(cli->node));
+	/* no timeout on a lease */
+	tb_advance(&bus, 10000000);
+	TEST_ASSERT_EQUAL(0, seen.n);
+	/* a second server takes the other channel; then none is free */
+	TEST_ASSERT_TRUE(sdo_client_lease(cli->node, 6, 0, 0, on_raw, &raw, bus.now) >= 0);
+	TEST_ASSERT_EQUAL(-EBUSY, sdo_client_lease(cli->node, 7, 0, 0, on_raw, &raw, bus.now));
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_end(cli->node, (uint8_t)ch, bus.now));
+	TEST_ASSERT_EQUAL(-ENOENT, sdo_client_lease_end(cli->node, (uint8_t)ch, bus.now));
+	TEST_ASSERT_EQUAL(-ENOENT, sdo_client_lease_send(cli->node, (uint8_t)ch, d));
+	/* the waiting request started on the released channel */
+	TEST_ASSERT_EQUAL(0, sdo_client_pool_waiting(cli->node));
+	TB_ASSERT_LAST(&bus, cli->idx, 0x605, "40 00 10 00 00 00 00 00");
+	TEST_ASSERT_EQUAL(-EINVAL, sdo_client_lease(cli->node, 0, 0, 0, on_raw, &raw, bus.now));
+	TEST_ASSERT_EQUAL(-ENOENT, sdo_client_cancel_tag(cli->node, 0, SDO_AB_GENERAL, bus.now));
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -332,5 +382,6 @@ int main(void)
 	RUN_TEST(test_confirmation_may_submit);
 	RUN_TEST(test_default_timeout_is_the_clients_own);
 	RUN_TEST(test_without_client_channels);
+	RUN_TEST(test_lease_relays_raw_frames_and_holds_the_target);
 	return UNITY_END();
 }
