@@ -107,4 +107,7 @@ elif [ ! -f "$udir/.complete" ]; then
     log "Unity: $(cat "$udir/.complete")"
 fi
 
+# --- python-canopen sdist: third-party EDS files (and a stack) for tests --------
+"$top/scripts/fetch-python-canopen.sh" >/dev/null || die "fetching python-canopen failed"
+
 log "ok (kernel $(cat "$kdir/.complete"), unity $(cat "$udir/.complete"))"

@@ -93,7 +93,7 @@ static uint64_t le_get(const uint8_t *p, uint32_t n)
 }
 
 /* UTF-8 (what cJSON gives, \u escapes included) to UTF-16LE. */
-static long utf8_to_utf16le(const char *s, uint8_t *out, uint32_t cap)
+long json_od_utf8_to_utf16le(const char *s, uint8_t *out, uint32_t cap)
 {
 	const unsigned char *p = (const unsigned char *)s;
 	uint32_t n = 0;
@@ -294,7 +294,7 @@ int json_od_parse_value(const cJSON *v, co_type t, const char *path,
 			return json_util_fail(err, errlen, path,
 					      "expected a string for UNICODE_STRING, got %s",
 					      json_util_kind(v));
-		n = utf8_to_utf16le(v->valuestring, buf, cap);
+		n = json_od_utf8_to_utf16le(v->valuestring, buf, cap);
 		if (n == -1)
 			return json_util_fail(err, errlen, path,
 					      "string is not valid UTF-8");
@@ -334,7 +334,7 @@ static long var_value_len(const cJSON *v, co_type t)
 	if (t == CO_T_VISIBLE_STRING)
 		return cJSON_IsString(v) ? (long)strlen(v->valuestring) : -1;
 	if (t == CO_T_UNICODE_STRING)
-		return cJSON_IsString(v) ? utf8_to_utf16le(v->valuestring, NULL, 0)
+		return cJSON_IsString(v) ? json_od_utf8_to_utf16le(v->valuestring, NULL, 0)
 					 : -1;
 	return json_util_hex_len(v);
 }

@@ -60,6 +60,11 @@ int json_od_parse_value(const cJSON *v, co_type t, const char *path,
 int json_od_parse_index(const cJSON *v, const char *path, uint16_t *out,
 			char *err, size_t errlen);
 
+/* UTF-8 text (NUL-terminated) to UTF-16LE, the wire form of
+ * UNICODE_STRING. out NULL: only count. Returns the byte length, -1 for
+ * invalid UTF-8 (or surrogates), -2 if it does not fit cap. */
+long json_od_utf8_to_utf16le(const char *s, uint8_t *out, uint32_t cap);
+
 /* "UNSIGNED16" -> CO_T_UNSIGNED16 (exact, upper case, as co_type_to_string
  * prints). false if unknown. */
 bool json_od_type_from_string(const char *s, co_type *t);

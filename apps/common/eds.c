@@ -1,0 +1,1342 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * apps/common/eds.c - CiA 306 EDS/DCF reader and its conversion to a
+ * concise DCF (the contract is in eds.h).
+ *
+ * Three passes: (1) INI text to sections and keys, every line numbered;
+ * (2) sections sorted so duplicates sit side by side and every lookup is
+ * a binary search (a device file has ~1000 sections; the fuzzer feeds
+ * many more); (3) objects walked in index order, every value parsed and
+ * checked against its data type and limits - also values that will not
+ * be written, because a file with a broken value is a broken file - and
+ * the writable ones collected, then emitted in the order a slave accepts
+ * them (PDO parameters in the CiA 301 re-mapping order).
+ */
+#include "apps/common/eds.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "apps/common/json_od.h"
+#include "core/cdcf.h"
+#include "core/od.h"
+
+enum sec_kind {
+	SEC_OTHER = 0, /* FileInfo, DeviceInfo, object lists, ... */
+	SEC_OBJ,       /* [XXXX] */
+	SEC_SUB,       /* [XXXXsubY] */
+	SEC_NAME,      /* [XXXXName] (CompactSubObj names) */
+	SEC_VALUE,     /* [XXXXValue] (CompactSubObj values in a DCF) */
+	SEC_DENOT,     /* [XXXXDenotation] */
+	SEC_LINKS,     /* [XXXXObjectLinks] */
+};
+
+typedef struct ini_key {
+	const char *key;
+	const char *val;
+	unsigned line;
+} ini_key;
+
+typedef struct ini_sec {
+	const char *name;
+	unsigned line;
+	enum sec_kind kind;
+	uint16_t index;
+	uint8_t sub;
+	ini_key *keys;
+	size_t nkeys, cap;
+} ini_sec;
+
+/* One value to write. */
+typedef struct out_var {
+	uint16_t index;
+	uint8_t sub;
+	unsigned line; /* line of the value */
+	uint8_t *data;
+	uint32_t size;
+} out_var;
+
+typedef struct eds_ctx {
+	const char *file;
+	char *text;
+	ini_sec *secs;
+	size_t nsecs, cap;
+	ini_sec **sorted;
+	uint8_t node_id;
+	out_var *vars;
+	size_t nvars, vcap;
+	out_var *emit; /* output order (shallow copies of vars) */
+	size_t nemit, ecap;
+	eds_stats st;
+	char *err;
+	size_t errlen;
+} eds_ctx;
+
+/* Objects that are commands or state, never configuration. */
+static bool index_is_excluded(uint16_t index)
+{
+	switch (index) {
+	case 0x1003: /* pre-defined error field: writing 0 clears it */
+	case 0x1010: /* store parameters: "save" signature */
+	case 0x1011: /* restore default parameters: "load" signature */
+	case 0x1021: /* store EDS */
+	case 0x1023: /* OS command */
+	case 0x1F25: /* configuration request */
+	case 0x1F50: /* program data */
+	case 0x1F51: /* program control */
+		return true;
+	default:
+		return false;
+	}
+}
+
+static int fail(eds_ctx *c, unsigned line, const char *fmt, ...)
+	__attribute__((format(printf, 3, 4)));
+
+static int fail(eds_ctx *c, unsigned line, const char *fmt, ...)
+{
+	va_list ap;
+	int n;
+
+	if (!c->err || !c->errlen)
+		return -EINVAL;
+	n = snprintf(c->err, c->errlen, "%s:%u: ", c->file, line);
+	if (n >= 0 && (size_t)n < c->errlen) {
+		va_start(ap, fmt);
+		vsnprintf(c->err + n, c->errlen - (size_t)n, fmt, ap);
+		va_end(ap);
+	}
+	return -EINVAL;
+}
+
+static void warn(eds_ctx *c, unsigned line, const char *fmt, ...)
+	__attribute__((format(printf, 3, 4)));
+
+static void warn(eds_ctx *c, unsigned line, const char *fmt, ...)
+{
+	va_list ap;
+	int n;
+
+	if (c->st.warnings++)
+		return;
+	n = snprintf(c->st.first_warning, sizeof(c->st.first_warning), "%s:%u: ", c->file, line);
+	if (n >= 0 && (size_t)n < sizeof(c->st.first_warning)) {
+		va_start(ap, fmt);
+		vsnprintf(c->st.first_warning + n, sizeof(c->st.first_warning) - (size_t)n, fmt, ap);
+		va_end(ap);
+	}
+}
+
+static int grow(void **p, size_t *cap, size_t need, size_t elem)
+{
+	size_t ncap;
+	void *np;
+
+	if (need <= *cap)
+		return 0;
+	ncap = *cap ? *cap * 2 : 16;
+	while (ncap < need)
+		ncap *= 2;
+	np = realloc(*p, ncap * elem);
+	if (!np)
+		return -ENOMEM;
+	*p = np;
+	*cap = ncap;
+	return 0;
+}
+
+/* ---- pass 1: INI text ------------------------------------------------------ */
+
+static char *trim(char *s, char *end)
+{
+	while (s < end && (*s == ' ' || *s == '\t'))
+		s++;
+	while (end > s && (end[-1] == ' ' || end[-1] == '\t' || end[-1] == '\r'))
+		end--;
+	*end = '\0';
+	return s;
+}
+
+static int hexval(int ch)
+{
+	if (ch >= '0' && ch <= '9')
+		return ch - '0';
+	if (ch >= 'a' && ch <= 'f')
+		return ch - 'a' + 10;
+	if (ch >= 'A' && ch <= 'F')
+		return ch - 'A' + 10;
+	return -1;
+}
+
+static void classify(ini_sec *s)
+{
+	const char *n = s->name;
+	unsigned v = 0;
+
+	s->kind = SEC_OTHER;
+	for (int i = 0; i < 4; i++) {
+		int h = hexval((unsigned char)n[i]);
+		if (h < 0)
+			return;
+		v = v << 4 | (unsigned)h;
+	}
+	n += 4;
+	s->index = (uint16_t)v;
+	if (!*n) {
+		s->kind = SEC_OBJ;
+	} else if (!strncasecmp(n, "sub", 3)) {
+		const char *d = n + 3;
+		unsigned sub = 0;
+		size_t nd = strlen(d);
+		if (nd < 1 || nd > 2)
+			return; /* checked by the caller: "sub" with a bad number */
+		for (size_t i = 0; i < nd; i++) {
+			int h = hexval((unsigned char)d[i]);
+			if (h < 0)
+				return;
+			sub = sub << 4 | (unsigned)h;
+		}
+		s->sub = (uint8_t)sub;
+		s->kind = SEC_SUB;
+	} else if (!strcasecmp(n, "Name")) {
+		s->kind = SEC_NAME;
+	} else if (!strcasecmp(n, "Value")) {
+		s->kind = SEC_VALUE;
+	} else if (!strcasecmp(n, "Denotation")) {
+		s->kind = SEC_DENOT;
+	} else if (!strcasecmp(n, "ObjectLinks")) {
+		s->kind = SEC_LINKS;
+	}
+}
+
+static int parse_ini(eds_ctx *c, size_t len)
+{
+	char *p = c->text, *end = c->text + len;
+	ini_sec *cur = NULL;
+	unsigned line = 0;
+
+	while (p < end) {
+		char *nl = memchr(p, '\n', (size_t)(end - p));
+		char *le = nl ? nl : end;
+		char *s;
+
+		line++;
+		if (memchr(p, '\0', (size_t)(le - p)))
+			return fail(c, line, "NUL byte: not a text file");
+		s = trim(p, le);
+		p = nl ? nl + 1 : end;
+		if (!*s || *s == ';' || *s == '#')
+			continue;
+		if (*s == '[') {
+			size_t n = strlen(s);
+			char *name;
+
+			if (s[n - 1] != ']')
+				return fail(c, line, "section header without closing ']'");
+			name = trim(s + 1, s + n - 1);
+			if (!*name)
+				return fail(c, line, "empty section name");
+			if (grow((void **)&c->secs, &c->cap, c->nsecs + 1, sizeof(*c->secs)))
+				return -ENOMEM;
+			cur = &c->secs[c->nsecs++];
+			memset(cur, 0, sizeof(*cur));
+			cur->name = name;
+			cur->line = line;
+			classify(cur);
+			if (cur->kind == SEC_OTHER && strlen(name) > 4 &&
+			    hexval((unsigned char)name[0]) >= 0 && hexval((unsigned char)name[1]) >= 0 &&
+			    hexval((unsigned char)name[2]) >= 0 && hexval((unsigned char)name[3]) >= 0 &&
+			    !strncasecmp(name + 4, "sub", 3))
+				return fail(c, line, "[%s]: sub-index must be 1 or 2 hex digits (00..FF)", name);
+			continue;
+		}
+		char *eq = strchr(s, '=');
+		if (!eq)
+			return fail(c, line, "expected [section] or key=value, got '%.40s'", s);
+		if (!cur)
+			return fail(c, line, "key=value before the first [section]");
+		char *key = trim(s, eq);
+		char *val = trim(eq + 1, eq + 1 + strlen(eq + 1));
+		if (!*key)
+			return fail(c, line, "no key before '='");
+		for (size_t i = 0; i < cur->nkeys; i++)
+			if (!strcasecmp(cur->keys[i].key, key))
+				return fail(c, line, "duplicate key '%s' in [%s] (first at line %u)", key,
+					    cur->name, cur->keys[i].line);
+		if (grow((void **)&cur->keys, &cur->cap, cur->nkeys + 1, sizeof(*cur->keys)))
+			return -ENOMEM;
+		cur->keys[cur->nkeys++] = (ini_key){.key = key, .val = val, .line = line};
+	}
+	return 0;
+}
+
+/* ---- pass 2: sorted sections ------------------------------------------------ */
+
+static int sec_cmp(const ini_sec *a, const ini_sec *b)
+{
+	if ((a->kind == SEC_OTHER) != (b->kind == SEC_OTHER))
+		return a->kind == SEC_OTHER ? -1 : 1;
+	if (a->kind == SEC_OTHER)
+		return strcasecmp(a->name, b->name);
+	if (a->index != b->index)
+		return a->index < b->index ? -1 : 1;
+	if (a->kind != b->kind)
+		return a->kind < b->kind ? -1 : 1;
+	if (a->sub != b->sub)
+		return a->sub < b->sub ? -1 : 1;
+	return 0;
+}
+
+static int sec_qcmp(const void *a, const void *b)
+{
+	const ini_sec *x = *(ini_sec *const *)a, *y = *(ini_sec *const *)b;
+	int r = sec_cmp(x, y);
+	/* equal keys: file order, so the later one is reported */
+	return r ? r : (x->line < y->line ? -1 : x->line > y->line);
+}
+
+static int sort_sections(eds_ctx *c)
+{
+	c->sorted = malloc((c->nsecs ? c->nsecs : 1) * sizeof(*c->sorted));
+	if (!c->sorted)
+		return -ENOMEM;
+	for (size_t i = 0; i < c->nsecs; i++)
+		c->sorted[i] = &c->secs[i];
+	qsort(c->sorted, c->nsecs, sizeof(*c->sorted), sec_qcmp);
+	for (size_t i = 1; i < c->nsecs; i++)
+		if (!sec_cmp(c->sorted[i - 1], c->sorted[i]))
+			return fail(c, c->sorted[i]->line, "duplicate section [%s] (first at line %u)",
+				    c->sorted[i]->name, c->sorted[i - 1]->line);
+	return 0;
+}
+
+static ini_sec *find_sec(const eds_ctx *c, enum sec_kind kind, uint16_t index, uint8_t sub,
+			 const char *name)
+{
+	ini_sec key = {.name = name, .kind = kind, .index = index, .sub = sub};
+	size_t lo = 0, hi = c->nsecs;
+
+	while (lo < hi) {
+		size_t mid = lo + (hi - lo) / 2;
+		int r = sec_cmp(c->sorted[mid], &key);
+		if (!r)
+			return c->sorted[mid];
+		if (r < 0)
+			lo = mid + 1;
+		else
+			hi = mid;
+	}
+	return NULL;
+}
+
+/* Position of the first sorted section at or after (kind, index, 0). */
+static size_t lower_bound(const eds_ctx *c, enum sec_kind kind, uint16_t index)
+{
+	ini_sec key = {.kind = kind, .index = index};
+	size_t lo = 0, hi = c->nsecs;
+
+	while (lo < hi) {
+		size_t mid = lo + (hi - lo) / 2;
+		if (sec_cmp(c->sorted[mid], &key) < 0)
+			lo = mid + 1;
+		else
+			hi = mid;
+	}
+	return lo;
+}
+
+static const ini_key *get_key(const ini_sec *s, const char *key)
+{
+	for (size_t i = 0; i < s->nkeys; i++)
+		if (!strcasecmp(s->keys[i].key, key))
+			return &s->keys[i];
+	return NULL;
+}
+
+/* ---- numbers ------------------------------------------------------------------- */
+
+/* A literal: [+-] then 0x<hex>, 0<octal> or <decimal>. *pattern is set for
+ * hex and octal (a signed type may take them as a bit pattern). */
+static int parse_literal(const char *s, bool *neg, uint64_t *mag, bool *pattern)
+{
+	unsigned base = 10;
+	uint64_t v = 0;
+
+	*neg = false;
+	if (*s == '-' || *s == '+')
+		*neg = *s++ == '-';
+	if (s[0] == '0' && (s[1] == 'x' || s[1] == 'X')) {
+		base = 16;
+		s += 2;
+	} else if (s[0] == '0' && s[1]) {
+		base = 8;
+		s++;
+	}
+	*pattern = base != 10;
+	if (!*s)
+		return -1;
+	for (; *s; s++) {
+		int d = hexval((unsigned char)*s);
+		if (d < 0 || (unsigned)d >= base)
+			return -1;
+		if (v > (UINT64_MAX - (unsigned)d) / base)
+			return -2;
+		v = v * base + (unsigned)d;
+	}
+	*mag = v;
+	return 0;
+}
+
+typedef struct num_val {
+	bool neg;
+	uint64_t mag;
+	bool pattern;
+} num_val;
+
+/* An integer expression: literal, $NODEID, $NODEID+literal, literal+$NODEID. */
+static int parse_int_expr(eds_ctx *c, const ini_key *k, num_val *out)
+{
+	char buf[128];
+	char *terms[3];
+	int nterms = 0, nodes = 0, lits = 0;
+	size_t n = strlen(k->val);
+
+	if (n >= sizeof(buf))
+		return fail(c, k->line, "%s: value too long for a number", k->key);
+	memcpy(buf, k->val, n + 1);
+	/* split at '+' that is not a leading sign */
+	terms[nterms++] = buf;
+	for (char *p = buf + 1; *p; p++) {
+		if (*p == '+') {
+			if (nterms == 2)
+				return fail(c, k->line, "%s '%s': more than two terms", k->key, k->val);
+			*p = '\0';
+			terms[nterms++] = p + 1;
+		}
+	}
+	memset(out, 0, sizeof(*out));
+	for (int i = 0; i < nterms; i++) {
+		char *t = trim(terms[i], terms[i] + strlen(terms[i]));
+		if (!strcasecmp(t, "$NODEID")) {
+			if (nodes++)
+				return fail(c, k->line, "%s '%s': $NODEID twice", k->key, k->val);
+			if (!c->node_id)
+				return fail(c, k->line, "%s '%s': $NODEID needs a node id (none given and no [DeviceComissioning] NodeID)",
+					    k->key, k->val);
+			continue;
+		}
+		if (strchr(t, '$'))
+			return fail(c, k->line, "%s '%s': bad expression (only $NODEID, '+' and numbers)",
+				    k->key, k->val);
+		num_val lit;
+		int rc = parse_literal(t, &lit.neg, &lit.mag, &lit.pattern);
+		if (rc == -2)
+			return fail(c, k->line, "%s '%s': number too large", k->key, k->val);
+		if (rc)
+			return fail(c, k->line, "%s '%s': not a number (decimal, 0x hex or 0 octal)",
+				    k->key, k->val);
+		lits++;
+		*out = lit;
+	}
+	if (lits > 1)
+		return fail(c, k->line, "%s '%s': bad expression (two numbers)", k->key, k->val);
+	if (nodes) {
+		if (out->neg && out->mag)
+			return fail(c, k->line, "%s '%s': $NODEID with a negative number", k->key, k->val);
+		if (out->mag > UINT64_MAX - c->node_id)
+			return fail(c, k->line, "%s '%s': number too large", k->key, k->val);
+		out->neg = false;
+		out->mag += c->node_id;
+	}
+	return 0;
+}
+
+/* Range-check an integer for type t and give its bit pattern. */
+static int int_to_bits(eds_ctx *c, const ini_key *k, co_type t, const num_val *v,
+		       uint64_t *bits)
+{
+	unsigned w = co_type_size(t) * 8;
+	uint64_t umax = w == 64 ? UINT64_MAX : (UINT64_C(1) << w) - 1;
+
+	if (t == CO_T_BOOLEAN)
+		umax = 1;
+	if (!co_type_is_signed(t)) {
+		if (v->neg && v->mag)
+			return fail(c, k->line, "%s '%s': negative value for %s", k->key, k->val,
+				    co_type_to_string(t));
+		if (v->mag > umax)
+			return fail(c, k->line, "%s '%s': out of range for %s (max %llu)", k->key,
+				    k->val, co_type_to_string(t), (unsigned long long)umax);
+		*bits = v->mag;
+		return 0;
+	}
+	uint64_t smax = umax >> 1; /* 2^(w-1) - 1 */
+	if (v->neg) {
+		if (v->mag > smax + 1)
+			return fail(c, k->line, "%s '%s': out of range for %s", k->key, k->val,
+				    co_type_to_string(t));
+		*bits = (~v->mag + 1) & umax;
+		return 0;
+	}
+	if (v->mag <= smax || (v->pattern && v->mag <= umax)) {
+		*bits = v->mag;
+		return 0;
+	}
+	return fail(c, k->line, "%s '%s': out of range for %s", k->key, k->val,
+		    co_type_to_string(t));
+}
+
+static int parse_real(eds_ctx *c, const ini_key *k, co_type t, uint64_t *bits)
+{
+	const char *s = k->val;
+	char *end;
+	double d;
+
+	if ((s[0] == '0' && (s[1] == 'x' || s[1] == 'X'))) {
+		num_val v;
+		int rc = parse_literal(s, &v.neg, &v.mag, &v.pattern);
+		if (rc)
+			return fail(c, k->line, "%s '%s': not a hex bit pattern", k->key, s);
+		if (t == CO_T_REAL32 && v.mag > UINT32_MAX)
+			return fail(c, k->line, "%s '%s': REAL32 bit pattern wider than 32 bits", k->key, s);
+		*bits = v.mag;
+		return 0;
+	}
+	errno = 0;
+	d = strtod(s, &end);
+	if (end == s || *end || strchr(s, 'x') || strchr(s, 'X'))
+		return fail(c, k->line, "%s '%s': not a number for %s", k->key, s, co_type_to_string(t));
+	if (errno == ERANGE || !isfinite(d))
+		return fail(c, k->line, "%s '%s': out of range for %s", k->key, s, co_type_to_string(t));
+	if (t == CO_T_REAL32) {
+		float f;
+		uint32_t u;
+		if (fabs(d) > FLT_MAX)
+			return fail(c, k->line, "%s '%s': out of range for REAL32", k->key, s);
+		f = (float)d;
+		memcpy(&u, &f, 4);
+		*bits = u;
+	} else {
+		memcpy(bits, &d, 8);
+	}
+	return 0;
+}
+
+/* Numeric value of key k as a bit pattern of type t. */
+static int parse_num(eds_ctx *c, const ini_key *k, co_type t, uint64_t *bits)
+{
+	num_val v;
+	int rc;
+
+	if (co_type_is_real(t))
+		return parse_real(c, k, t, bits);
+	rc = parse_int_expr(c, k, &v);
+	return rc ? rc : int_to_bits(c, k, t, &v, bits);
+}
+
+static int num_cmp(co_type t, uint64_t a, uint64_t b)
+{
+	if (co_type_is_real(t)) {
+		double x, y;
+		if (t == CO_T_REAL32) {
+			uint32_t ua = (uint32_t)a, ub = (uint32_t)b;
+			float fa, fb;
+			memcpy(&fa, &ua, 4);
+			memcpy(&fb, &ub, 4);
+			x = fa;
+			y = fb;
+		} else {
+			memcpy(&x, &a, 8);
+			memcpy(&y, &b, 8);
+		}
+		return x < y ? -1 : x > y;
+	}
+	if (co_type_is_signed(t)) {
+		unsigned sh = 64 - co_type_size(t) * 8;
+		int64_t x = (int64_t)(a << sh) >> sh, y = (int64_t)(b << sh) >> sh;
+		return x < y ? -1 : x > y;
+	}
+	return a < b ? -1 : a > b;
+}
+
+/* ---- pass 3: objects -------------------------------------------------------- */
+
+/* A sub-object as read from one section (or from a compact object). */
+typedef struct var_spec {
+	uint16_t index;
+	uint8_t sub;
+	const ini_sec *sec;     /* where DataType/AccessType/limits live */
+	const ini_key *value;   /* ParameterValue or DefaultValue; NULL = none */
+	const char *where;      /* section name for messages */
+} var_spec;
+
+static int parse_access(eds_ctx *c, const ini_key *k, bool *writable)
+{
+	static const char *const wr[] = {"wo", "rw", "rwr", "rww"};
+	if (!strcasecmp(k->val, "ro") || !strcasecmp(k->val, "const")) {
+		*writable = false;
+		return 0;
+	}
+	for (size_t i = 0; i < sizeof(wr) / sizeof(wr[0]); i++)
+		if (!strcasecmp(k->val, wr[i])) {
+			*writable = true;
+			return 0;
+		}
+	return fail(c, k->line, "AccessType '%s': not one of ro, wo, rw, rwr, rww, const", k->val);
+}
+
+static int parse_uint_key(eds_ctx *c, const ini_key *k, uint64_t max, uint64_t *out)
+{
+	num_val v;
+	int rc = parse_int_expr(c, k, &v);
+	if (rc)
+		return rc;
+	if ((v.neg && v.mag) || v.mag > max)
+		return fail(c, k->line, "%s '%s': out of range 0..%llu", k->key, k->val,
+			    (unsigned long long)max);
+	*out = v.mag;
+	return 0;
+}
+
+static int parse_type(eds_ctx *c, const ini_sec *s, co_type *t)
+{
+	const ini_key *k = get_key(s, "DataType");
+	uint64_t v;
+	int rc;
+
+	if (!k)
+		return fail(c, s->line, "[%s]: DataType missing", s->name);
+	rc = parse_uint_key(c, k, 0xFFFF, &v);
+	if (rc)
+		return rc;
+	if (!co_type_is_valid((co_type)v))
+		return fail(c, k->line, "DataType 0x%04llX is not a CiA 301 basic data type",
+			    (unsigned long long)v);
+	*t = (co_type)v;
+	return 0;
+}
+
+static int add_var(eds_ctx *c, uint16_t index, uint8_t sub, unsigned line, uint8_t *data,
+		   uint32_t size)
+{
+	if (grow((void **)&c->vars, &c->vcap, c->nvars + 1, sizeof(*c->vars))) {
+		free(data);
+		return -ENOMEM;
+	}
+	c->vars[c->nvars++] = (out_var){.index = index, .sub = sub, .line = line, .data = data,
+					.size = size};
+	return 0;
+}
+
+static int encode_bytes(eds_ctx *c, const ini_key *k, co_type t, uint8_t **data,
+			uint32_t *size)
+{
+	const char *s = k->val;
+	size_t n = strlen(s);
+	uint8_t *b;
+
+	switch (t) {
+	case CO_T_VISIBLE_STRING:
+		for (size_t i = 0; i < n; i++)
+			if ((unsigned char)s[i] < 0x20 || (unsigned char)s[i] == 0x7F)
+				return fail(c, k->line, "%s: control character in a VISIBLE_STRING", k->key);
+		b = malloc(n);
+		if (!b)
+			return -ENOMEM;
+		memcpy(b, s, n);
+		*size = (uint32_t)n;
+		break;
+	case CO_T_UNICODE_STRING: {
+		long m = json_od_utf8_to_utf16le(s, NULL, 0);
+		if (m < 0)
+			return fail(c, k->line, "%s: UNICODE_STRING is not valid UTF-8", k->key);
+		b = malloc((size_t)m);
+		if (!b)
+			return -ENOMEM;
+		json_od_utf8_to_utf16le(s, b, (uint32_t)m);
+		*size = (uint32_t)m;
+		break;
+	}
+	case CO_T_OCTET_STRING:
+	case CO_T_DOMAIN: {
+		size_t digits = 0;
+		for (size_t i = 0; i < n; i++) {
+			if (s[i] == ' ' || s[i] == '\t')
+				continue;
+			if (hexval((unsigned char)s[i]) < 0)
+				return fail(c, k->line, "%s '%.40s': %s value must be hex digits", k->key, s,
+					    co_type_to_string(t));
+			digits++;
+		}
+		if (digits % 2)
+			return fail(c, k->line, "%s '%.40s': odd number of hex digits", k->key, s);
+		b = malloc(digits / 2 ? digits / 2 : 1);
+		if (!b)
+			return -ENOMEM;
+		size_t o = 0;
+		int hi = -1;
+		for (size_t i = 0; i < n; i++) {
+			int h = hexval((unsigned char)s[i]);
+			if (h < 0)
+				continue;
+			if (hi < 0) {
+				hi = h;
+			} else {
+				b[o++] = (uint8_t)(hi << 4 | h);
+				hi = -1;
+			}
+		}
+		*size = (uint32_t)o;
+		break;
+	}
+	default:
+		return fail(c, k->line, "%s: values of %s are not supported in EDS/DCF files", k->key,
+			    co_type_to_string(t));
+	}
+	*data = b;
+	return 0;
+}
+
+static int limit_check(eds_ctx *c, const var_spec *v, co_type t, uint64_t bits)
+{
+	const ini_key *lo = get_key(v->sec, "LowLimit"), *hi = get_key(v->sec, "HighLimit");
+	uint64_t lb = 0, hb = 0;
+	int rc;
+
+	if (lo && !*lo->val)
+		lo = NULL;
+	if (hi && !*hi->val)
+		hi = NULL;
+	if (lo && (rc = parse_num(c, lo, t, &lb)))
+		return rc;
+	if (hi && (rc = parse_num(c, hi, t, &hb)))
+		return rc;
+	if (lo && hi && num_cmp(t, lb, hb) > 0)
+		return fail(c, hi->line, "HighLimit '%s' is below LowLimit '%s' (line %u)", hi->val,
+			    lo->val, lo->line);
+	if (lo && num_cmp(t, bits, lb) < 0)
+		return fail(c, v->value->line, "%s '%s' is below LowLimit '%s' (line %u)",
+			    v->value->key, v->value->val, lo->val, lo->line);
+	if (hi && num_cmp(t, bits, hb) > 0)
+		return fail(c, v->value->line, "%s '%s' is above HighLimit '%s' (line %u)",
+			    v->value->key, v->value->val, hi->val, hi->line);
+	return 0;
+}
+
+/* Check one sub-object; collect its value if a configuration writes it. */
+static int do_var(eds_ctx *c, const var_spec *v, co_type t, bool writable)
+{
+	uint8_t *data = NULL;
+	uint32_t size = 0;
+	int rc;
+
+	if (!v->value) {
+		if (writable)
+			c->st.skipped++;
+		return 0;
+	}
+	c->st.values++;
+	if (co_type_size(t) && t != CO_T_TIME_OF_DAY && t != CO_T_TIME_DIFFERENCE) {
+		uint64_t bits;
+		uint32_t n = co_type_size(t);
+		if ((rc = parse_num(c, v->value, t, &bits)) || (rc = limit_check(c, v, t, bits)))
+			return rc;
+		data = malloc(n);
+		if (!data)
+			return -ENOMEM;
+		for (uint32_t i = 0; i < n; i++)
+			data[i] = (uint8_t)(bits >> (8 * i));
+		size = n;
+	} else if ((rc = encode_bytes(c, v->value, t, &data, &size))) {
+		return rc;
+	}
+	if (!writable || index_is_excluded(v->index) || size == 0) {
+		free(data);
+		return 0;
+	}
+	return add_var(c, v->index, v->sub, v->value->line, data, size);
+}
+
+static const ini_key *value_key(const ini_sec *s)
+{
+	const ini_key *k = get_key(s, "ParameterValue");
+	if (!k || !*k->val)
+		k = get_key(s, "DefaultValue");
+	return k && *k->val ? k : NULL;
+}
+
+/* A VAR-like section (an object of type VAR/DOMAIN, or a sub-object). */
+static int do_plain(eds_ctx *c, const ini_sec *s, uint16_t index, uint8_t sub, bool is_domain)
+{
+	const ini_key *ak = get_key(s, "AccessType");
+	var_spec v = {.index = index, .sub = sub, .sec = s, .value = value_key(s), .where = s->name};
+	co_type t = CO_T_DOMAIN;
+	bool writable;
+	int rc;
+
+	if (!(is_domain && !get_key(s, "DataType")) && (rc = parse_type(c, s, &t)))
+		return rc;
+	if (!ak)
+		return fail(c, s->line, "[%s]: AccessType missing", s->name);
+	if ((rc = parse_access(c, ak, &writable)))
+		return rc;
+	return do_var(c, &v, t, writable);
+}
+
+static int check_keyed_list(eds_ctx *c, const ini_sec *s, const char *count_key, uint64_t max,
+			    uint64_t *count)
+{
+	const ini_key *k = get_key(s, count_key);
+	int rc;
+
+	if (!k)
+		return fail(c, s->line, "[%s]: %s missing", s->name, count_key);
+	if ((rc = parse_uint_key(c, k, max, count)))
+		return rc;
+	for (size_t i = 0; i < s->nkeys; i++) {
+		const ini_key *e = &s->keys[i];
+		char *end;
+		unsigned long n;
+		if (e == k)
+			continue;
+		errno = 0;
+		n = strtoul(e->key, &end, 10);
+		if (*end || end == e->key || errno || e->key[0] == '-' || e->key[0] == '+')
+			return fail(c, e->line, "[%s]: unexpected key '%s'", s->name, e->key);
+		if (n < 1 || n > *count)
+			return fail(c, e->line, "[%s]: entry %s beyond %s=%llu", s->name, e->key,
+				    count_key, (unsigned long long)*count);
+	}
+	return 0;
+}
+
+/* [XXXXName] and [XXXXValue] of a compact object: NrOfEntries=k, then k
+ * keys "sub=..." with sub-indexes 1..n (decimal). */
+static int check_compact_list(eds_ctx *c, const ini_sec *s, uint64_t n)
+{
+	const ini_key *k = get_key(s, "NrOfEntries");
+	uint64_t cnt;
+	int rc;
+
+	if (!k)
+		return fail(c, s->line, "[%s]: NrOfEntries missing", s->name);
+	if ((rc = parse_uint_key(c, k, 255, &cnt)))
+		return rc;
+	for (size_t i = 0; i < s->nkeys; i++) {
+		const ini_key *e = &s->keys[i];
+		char *end;
+		unsigned long sub;
+		if (e == k)
+			continue;
+		errno = 0;
+		sub = strtoul(e->key, &end, 10);
+		if (*end || end == e->key || errno || e->key[0] == '-' || e->key[0] == '+')
+			return fail(c, e->line, "[%s]: unexpected key '%s'", s->name, e->key);
+		if (sub < 1 || sub > n)
+			return fail(c, e->line, "[%s]: sub-index %s beyond CompactSubObj=%llu", s->name,
+				    e->key, (unsigned long long)n);
+	}
+	if (cnt != s->nkeys - 1)
+		return fail(c, k->line, "[%s]: NrOfEntries=%llu but %zu entries", s->name,
+			    (unsigned long long)cnt, s->nkeys - 1);
+	return 0;
+}
+
+/* The value of sub-index `sub` in a [XXXXValue] section. */
+static const ini_key *compact_value(const ini_sec *vals, unsigned sub)
+{
+	char key[8];
+	if (!vals)
+		return NULL;
+	snprintf(key, sizeof(key), "%u", sub);
+	const ini_key *k = get_key(vals, key);
+	return k && *k->val ? k : NULL;
+}
+
+static int do_compact(eds_ctx *c, const ini_sec *o, const ini_key *ck)
+{
+	const ini_sec *names = find_sec(c, SEC_NAME, o->index, 0, NULL);
+	const ini_sec *vals = find_sec(c, SEC_VALUE, o->index, 0, NULL);
+	const ini_key *ak = get_key(o, "AccessType");
+	uint64_t n;
+	co_type t;
+	bool writable;
+	int rc;
+
+	if ((rc = parse_uint_key(c, ck, 254, &n)))
+		return rc;
+	if (n == 0)
+		return fail(c, ck->line, "CompactSubObj must be 1..254");
+	if ((rc = parse_type(c, o, &t)))
+		return rc;
+	if (!ak)
+		return fail(c, o->line, "[%s]: AccessType missing", o->name);
+	if ((rc = parse_access(c, ak, &writable)))
+		return rc;
+	if (find_sec(c, SEC_SUB, o->index, 0, NULL) ||
+	    lower_bound(c, SEC_SUB, o->index) < lower_bound(c, SEC_NAME, o->index))
+		return fail(c, o->line, "[%s]: CompactSubObj and sub-object sections together",
+			    o->name);
+	if (names && (rc = check_compact_list(c, names, n)))
+		return rc;
+	if (vals && (rc = check_compact_list(c, vals, n)))
+		return rc;
+	/* sub0 = n, UNSIGNED8 read-only: nothing to write */
+	for (unsigned s = 1; s <= n; s++) {
+		var_spec v = {.index = o->index, .sub = (uint8_t)s, .sec = o, .where = o->name};
+		v.value = compact_value(vals, s);
+		if (!v.value)
+			v.value = value_key(o);
+		if ((rc = do_var(c, &v, t, writable)))
+			return rc;
+	}
+	return 0;
+}
+
+static int do_object(eds_ctx *c, const ini_sec *o)
+{
+	const ini_key *otk = get_key(o, "ObjectType");
+	const ini_key *sn = get_key(o, "SubNumber"), *ck = get_key(o, "CompactSubObj");
+	uint64_t ot = CO_OBJ_VAR;
+	size_t first = lower_bound(c, SEC_SUB, o->index), last = lower_bound(c, SEC_NAME, o->index);
+	int rc;
+
+	c->st.objects++;
+	if (o->index == 0)
+		return fail(c, o->line, "[%s]: index 0000h is not an object", o->name);
+	if (otk && (rc = parse_uint_key(c, otk, 0xFF, &ot)))
+		return rc;
+	if (ck && !*ck->val)
+		ck = NULL;
+	switch (ot) {
+	case CO_OBJ_DEFTYPE:
+	case CO_OBJ_DEFSTRUCT:
+		return 0; /* type definitions: nothing to configure */
+	case CO_OBJ_VAR:
+	case CO_OBJ_DOMAIN:
+		if (first < last)
+			return fail(c, c->sorted[first]->line, "[%s]: sub-object of %s object [%s]",
+				    c->sorted[first]->name, ot == CO_OBJ_VAR ? "VAR" : "DOMAIN", o->name);
+		if (sn || ck)
+			return fail(c, (sn ? sn : ck)->line, "[%s]: %s on a %s object", o->name,
+				    (sn ? sn : ck)->key, ot == CO_OBJ_VAR ? "VAR" : "DOMAIN");
+		return do_plain(c, o, o->index, 0, ot == CO_OBJ_DOMAIN);
+	case CO_OBJ_ARRAY:
+	case CO_OBJ_RECORD:
+		break;
+	default:
+		return fail(c, otk->line, "ObjectType '%s' is not one of 0x2 (DOMAIN), 0x5 (DEFTYPE), 0x6 (DEFSTRUCT), 0x7 (VAR), 0x8 (ARRAY), 0x9 (RECORD)",
+			    otk->val);
+	}
+	if (ck) {
+		if (ot != CO_OBJ_ARRAY)
+			return fail(c, ck->line, "[%s]: CompactSubObj on a RECORD (only ARRAY)", o->name);
+		if (sn && *sn->val) {
+			uint64_t n;
+			if ((rc = parse_uint_key(c, sn, 255, &n)))
+				return rc;
+			if (n != 0)
+				return fail(c, sn->line, "[%s]: SubNumber and CompactSubObj together", o->name);
+		}
+		return do_compact(c, o, ck);
+	}
+	if (!sn)
+		return fail(c, o->line, "[%s]: %s without SubNumber or CompactSubObj", o->name,
+			    ot == CO_OBJ_ARRAY ? "ARRAY" : "RECORD");
+	uint64_t n;
+	if ((rc = parse_uint_key(c, sn, 255, &n)))
+		return rc;
+	if (n == 0)
+		return fail(c, sn->line, "[%s]: SubNumber 0 (an %s has at least sub-index 0)", o->name,
+			    ot == CO_OBJ_ARRAY ? "ARRAY" : "RECORD");
+	if (last - first != n)
+		return fail(c, sn->line, "[%s]: SubNumber=%llu but %zu sub-object sections [%04XsubN]",
+			    o->name, (unsigned long long)n, last - first, o->index);
+	if (c->sorted[first]->sub != 0)
+		return fail(c, o->line, "[%s]: no sub-object section [%04Xsub0]", o->name, o->index);
+	for (size_t i = first; i < last; i++) {
+		const ini_sec *s = c->sorted[i];
+		const ini_key *sot = get_key(s, "ObjectType");
+		uint64_t so;
+		if (sot && (rc = parse_uint_key(c, sot, 0xFF, &so)))
+			return rc;
+		if (sot && so != CO_OBJ_VAR)
+			return fail(c, sot->line, "[%s]: a sub-object must have ObjectType 0x7 (VAR)",
+				    s->name);
+		if ((rc = do_plain(c, s, s->index, s->sub, false)))
+			return rc;
+	}
+	return 0;
+}
+
+/* [XXXXObjectLinks]: ObjectLinks=n, 1..n = indexes of existing objects. */
+static int do_links(eds_ctx *c, const ini_sec *s)
+{
+	uint64_t n;
+	int rc;
+
+	if (!find_sec(c, SEC_OBJ, s->index, 0, NULL))
+		return fail(c, s->line, "[%s] without object [%04X]", s->name, s->index);
+	if ((rc = check_keyed_list(c, s, "ObjectLinks", 0xFFFF, &n)))
+		return rc;
+	for (size_t i = 0; i < s->nkeys; i++) {
+		const ini_key *k = &s->keys[i];
+		uint64_t idx;
+		if (!strcasecmp(k->key, "ObjectLinks"))
+			continue;
+		if ((rc = parse_uint_key(c, k, 0xFFFF, &idx)))
+			return rc;
+		if (!find_sec(c, SEC_OBJ, (uint16_t)idx, 0, NULL))
+			return fail(c, k->line, "[%s]: linked object 0x%04llX has no section",
+				    s->name, (unsigned long long)idx);
+	}
+	return 0;
+}
+
+/* [MandatoryObjects] etc.: SupportedObjects=n, 1..n = indexes. Count
+ * mismatches and listed objects without a section are warnings (vendor
+ * files have them; nothing is lost), malformed entries are errors. */
+static int do_list(eds_ctx *c, const char *name)
+{
+	const ini_sec *s = find_sec(c, SEC_OTHER, 0, 0, name);
+	const ini_key *sk;
+	uint64_t n;
+	int rc;
+
+	if (!s)
+		return 0;
+	sk = get_key(s, "SupportedObjects");
+	if (!sk)
+		return fail(c, s->line, "[%s]: SupportedObjects missing", s->name);
+	if ((rc = parse_uint_key(c, sk, 0xFFFF, &n)))
+		return rc;
+	if (s->nkeys - 1 != n)
+		warn(c, sk->line, "[%s]: SupportedObjects=%llu but %zu entries", name,
+		     (unsigned long long)n, s->nkeys - 1);
+	for (size_t i = 0; i < s->nkeys; i++) {
+		const ini_key *k = &s->keys[i];
+		uint64_t idx;
+		char *end;
+		if (k == sk)
+			continue;
+		errno = 0;
+		(void)strtoul(k->key, &end, 10);
+		if (*end || end == k->key || errno || k->key[0] == '-' || k->key[0] == '+')
+			return fail(c, k->line, "[%s]: unexpected key '%s'", s->name, k->key);
+		if ((rc = parse_uint_key(c, k, 0xFFFF, &idx)))
+			return rc;
+		if (!find_sec(c, SEC_OBJ, (uint16_t)idx, 0, NULL))
+			warn(c, k->line, "[%s]: object 0x%04llX listed but no section [%04llX]", name,
+			     (unsigned long long)idx, (unsigned long long)idx);
+	}
+	return 0;
+}
+
+static int check_orphans(eds_ctx *c)
+{
+	for (size_t i = 0; i < c->nsecs; i++) {
+		const ini_sec *s = c->sorted[i];
+		const ini_sec *o;
+		if (s->kind == SEC_OTHER || s->kind == SEC_OBJ)
+			continue;
+		o = find_sec(c, SEC_OBJ, s->index, 0, NULL);
+		if (!o)
+			return fail(c, s->line, "[%s] without object [%04X]", s->name, s->index);
+		if ((s->kind == SEC_NAME || s->kind == SEC_VALUE) && !get_key(o, "CompactSubObj"))
+			return fail(c, s->line, "[%s] but [%s] has no CompactSubObj", s->name, o->name);
+	}
+	return 0;
+}
+
+static int node_from_file(eds_ctx *c)
+{
+	const ini_sec *s = find_sec(c, SEC_OTHER, 0, 0, "DeviceComissioning");
+	const ini_key *k = s ? get_key(s, "NodeID") : NULL;
+	uint64_t id;
+	int rc;
+
+	if (!k || !*k->val)
+		return 0;
+	if ((rc = parse_uint_key(c, k, 127, &id)))
+		return rc;
+	if (id < 1)
+		return fail(c, k->line, "NodeID must be 1..127");
+	c->node_id = (uint8_t)id;
+	return 0;
+}
+
+/* ---- emitting in download order ------------------------------------------------- */
+
+static out_var *find_var(eds_ctx *c, uint16_t index, uint8_t sub)
+{
+	for (size_t i = 0; i < c->nvars; i++)
+		if (c->vars[i].index == index && c->vars[i].sub == sub)
+			return &c->vars[i];
+	return NULL;
+}
+
+static int emit(eds_ctx *c, const out_var *v)
+{
+	if (grow((void **)&c->emit, &c->ecap, c->nemit + 1, sizeof(*c->emit)))
+		return -ENOMEM;
+	c->emit[c->nemit++] = *v;
+	return 0;
+}
+
+static uint32_t u32_of(const out_var *v)
+{
+	uint32_t x = 0;
+	for (uint32_t i = 0; i < v->size && i < 4; i++)
+		x |= (uint32_t)v->data[i] << (8 * i);
+	return x;
+}
+
+static bool is_pdo_comm(uint16_t i)
+{
+	return (i >= 0x1400 && i <= 0x15FF) || (i >= 0x1800 && i <= 0x19FF);
+}
+
+static bool is_pdo_map(uint16_t i)
+{
+	return (i >= 0x1600 && i <= 0x17FF) || (i >= 0x1A00 && i <= 0x1BFF);
+}
+
+/* Constant bytes for the re-mapping steps live in the context's vars. */
+static int emit_const(eds_ctx *c, uint16_t index, uint8_t sub, uint32_t val, uint32_t size,
+		      unsigned line)
+{
+	uint8_t *d = malloc(4);
+	out_var v;
+	int rc;
+
+	if (!d)
+		return -ENOMEM;
+	for (int i = 0; i < 4; i++)
+		d[i] = (uint8_t)(val >> (8 * i));
+	v = (out_var){.index = index, .sub = sub, .line = line, .data = d, .size = size};
+	if ((rc = add_var(c, index, sub, line, d, size)))
+		return rc;
+	return emit(c, &v);
+}
+
+static int emit_pdo(eds_ctx *c, uint16_t comm, uint16_t map, size_t nvars)
+{
+	const out_var *cob = find_var(c, comm, 1), *m0 = find_var(c, map, 0);
+	uint32_t cob_val = cob ? u32_of(cob) : 0;
+	int rc;
+
+	if (cob && (rc = emit_const(c, comm, 1, cob_val | 0x80000000u, cob->size, cob->line)))
+		return rc;
+	cob = find_var(c, comm, 1); /* add_var may have moved the array */
+	m0 = find_var(c, map, 0);
+	for (size_t i = 0; i < nvars; i++)
+		if (c->vars[i].index == comm && c->vars[i].sub != 1 && (rc = emit(c, &c->vars[i])))
+			return rc;
+	if (m0) {
+		uint8_t n = m0->data[0];
+		unsigned line = m0->line;
+		if (n > 0x40)
+			return fail(c, line, "PDO mapping %04Xh: sub0=%u, at most 64 entries", map, n);
+		if ((rc = emit_const(c, map, 0, 0, 1, line)))
+			return rc;
+		for (unsigned s = 1; s <= n; s++) {
+			const out_var *e = find_var(c, map, (uint8_t)s);
+			if (!e)
+				return fail(c, line, "PDO mapping %04Xh: sub0=%u but sub %u has no writable value",
+					    map, n, s);
+			if ((rc = emit(c, e)))
+				return rc;
+		}
+		m0 = find_var(c, map, 0);
+		if (n && (rc = emit(c, m0)))
+			return rc;
+	} else {
+		for (size_t i = 0; i < nvars; i++)
+			if (c->vars[i].index == map && (rc = emit(c, &c->vars[i])))
+				return rc;
+	}
+	cob = find_var(c, comm, 1);
+	if (cob && !(cob_val & 0x80000000u) && (rc = emit(c, cob)))
+		return rc;
+	return 0;
+}
+
+static int order_vars(eds_ctx *c)
+{
+	size_t nvars = c->nvars; /* emit_const appends; walk the original ones */
+	int rc;
+
+	for (size_t i = 0; i < nvars; i++) {
+		uint16_t idx = c->vars[i].index;
+		if (i > 0 && c->vars[i - 1].index == idx)
+			continue; /* one group per index */
+		if (is_pdo_comm(idx)) {
+			rc = emit_pdo(c, idx, (uint16_t)(idx + 0x200), nvars);
+		} else if (is_pdo_map(idx)) {
+			bool comm_written = false;
+			for (size_t j = 0; j < nvars; j++)
+				comm_written |= c->vars[j].index == idx - 0x200;
+			rc = comm_written ? 0 : emit_pdo(c, (uint16_t)(idx - 0x200), idx, nvars);
+		} else {
+			rc = 0;
+			for (size_t j = i; j < nvars && c->vars[j].index == idx && !rc; j++)
+				rc = emit(c, &c->vars[j]);
+		}
+		if (rc)
+			return rc;
+	}
+	return 0;
+}
+
+static int write_cdcf(eds_ctx *c, uint8_t **out, size_t *out_len)
+{
+	co_cdcf_writer w;
+	long n;
+	uint8_t *buf;
+
+	co_cdcf_writer_init(&w, NULL, 0);
+	for (size_t i = 0; i < c->nemit; i++)
+		co_cdcf_writer_add(&w, c->emit[i].index, c->emit[i].sub, c->emit[i].data,
+				   c->emit[i].size);
+	n = co_cdcf_writer_finish(&w);
+	if (n < 0)
+		return fail(c, 0, "cannot build the concise DCF (%s)", strerror((int)-n));
+	buf = malloc((size_t)n);
+	if (!buf)
+		return -ENOMEM;
+	co_cdcf_writer_init(&w, buf, (size_t)n);
+	for (size_t i = 0; i < c->nemit; i++)
+		co_cdcf_writer_add(&w, c->emit[i].index, c->emit[i].sub, c->emit[i].data,
+				   c->emit[i].size);
+	if (co_cdcf_writer_finish(&w) != n) {
+		free(buf);
+		return fail(c, 0, "concise DCF writer disagrees with itself");
+	}
+	*out = buf;
+	*out_len = (size_t)n;
+	c->st.entries = (unsigned)c->nemit;
+	return 0;
+}
+
+static void ctx_free(eds_ctx *c)
+{
+	for (size_t i = 0; i < c->nsecs; i++)
+		free(c->secs[i].keys);
+	for (size_t i = 0; i < c->nvars; i++)
+		free(c->vars[i].data);
+	free(c->secs);
+	free(c->sorted);
+	free(c->vars);
+	free(c->emit);
+	free(c->text);
+}
+
+int eds_convert(const char *text, size_t len, const char *file, uint8_t node_id,
+		uint8_t **out, size_t *out_len, eds_stats *stats, char *err, size_t errlen)
+{
+	eds_ctx c = {.file = file ? file : "(buffer)", .node_id = node_id, .err = err,
+		     .errlen = errlen};
+	int rc;
+
+	*out = NULL;
+	*out_len = 0;
+	if (err && errlen)
+		err[0] = '\0';
+	if (node_id > 127)
+		return fail(&c, 0, "node id %u is out of range 1..127", node_id);
+	if (len > EDS_FILE_MAX)
+		return fail(&c, 0, "file larger than %u bytes", EDS_FILE_MAX);
+	c.text = malloc(len + 1);
+	if (!c.text)
+		return -ENOMEM;
+	memcpy(c.text, text, len);
+	c.text[len] = '\0';
+
+	memset(&c.st, 0, sizeof(c.st));
+	if ((rc = parse_ini(&c, len)) || (rc = sort_sections(&c)))
+		goto out;
+	if (!c.node_id && (rc = node_from_file(&c)))
+		goto out;
+	if ((rc = do_list(&c, "MandatoryObjects")) || (rc = do_list(&c, "OptionalObjects")) ||
+	    (rc = do_list(&c, "ManufacturerObjects")) || (rc = check_orphans(&c)))
+		goto out;
+	for (size_t i = 0; i < c.nsecs && !rc; i++) {
+		if (c.sorted[i]->kind == SEC_OBJ)
+			rc = do_object(&c, c.sorted[i]);
+		else if (c.sorted[i]->kind == SEC_LINKS)
+			rc = do_links(&c, c.sorted[i]);
+	}
+	if (!rc && !c.st.objects)
+		rc = fail(&c, 0, "no object sections: not an EDS or DCF");
+	if (rc || (rc = order_vars(&c)) || (rc = write_cdcf(&c, out, out_len)))
+		goto out;
+	c.st.node_id = c.node_id;
+out:
+	if (stats)
+		*stats = c.st; /* warnings too when the file was refused */
+	if (rc == -ENOMEM && err && errlen)
+		snprintf(err, errlen, "%s: out of memory", c.file);
+	ctx_free(&c);
+	return rc;
+}
+
+int eds_convert_file(const char *path, uint8_t node_id, uint8_t **out, size_t *out_len,
+		     eds_stats *stats, char *err, size_t errlen)
+{
+	struct stat st;
+	char *buf = NULL;
+	size_t got = 0;
+	int fd, rc;
+
+	*out = NULL;
+	*out_len = 0;
+	fd = open(path, O_RDONLY | O_CLOEXEC);
+	if (fd < 0) {
+		rc = -errno;
+		snprintf(err, errlen, "%s: %s", path, strerror(-rc));
+		return rc;
+	}
+	if (fstat(fd, &st) < 0 || !S_ISREG(st.st_mode)) {
+		rc = S_ISDIR(st.st_mode) ? -EISDIR : -EINVAL;
+		snprintf(err, errlen, "%s: not a regular file", path);
+		close(fd);
+		return rc;
+	}
+	if ((uint64_t)st.st_size > EDS_FILE_MAX) {
+		snprintf(err, errlen, "%s: file larger than %u bytes", path, EDS_FILE_MAX);
+		close(fd);
+		return -EFBIG;
+	}
+	buf = malloc((size_t)st.st_size + 1);
+	if (!buf) {
+		close(fd);
+		return -ENOMEM;
+	}
+	while (got < (size_t)st.st_size) {
+		ssize_t n = read(fd, buf + got, (size_t)st.st_size - got);
+		if (n < 0 && errno == EINTR)
+			continue;
+		if (n <= 0) {
+			rc = n < 0 ? -errno : -EIO;
+			snprintf(err, errlen, "%s: read failed: %s", path, strerror(-rc));
+			free(buf);
+			close(fd);
+			return rc;
+		}
+		got += (size_t)n;
+	}
+	close(fd);
+	rc = eds_convert(buf, got, path, node_id, out, out_len, stats, err, errlen);
+	free(buf);
+	return rc;
+}
