@@ -53,9 +53,10 @@ static const char *const line_keys[] = {
 	"network_id", "rt",		     "sdo_servers",	 "sdo_clients",
 	"sdo_timeout_ms", "sdo_block_threshold", "heartbeat_ms",
 	"sync_period_us", "heartbeat_consumers", "device",	 "rpdos",
-	"tpdos",      "objects",	     "values",		 "comment",
-	NULL
+	"tpdos",      "objects",	     "values",		 "nodes",
+	"comment",    NULL
 };
+static const char *const node_keys[] = { "id", "config", "comment", NULL };
 static const char *const rt_keys[] = { "priority", "cpu", "comment", NULL };
 static const char *const hb_keys[] = { "node_id", "time_ms", "comment", NULL };
 static const char *const device_keys[] = { "device_type", "name",
@@ -71,6 +72,7 @@ static const uint32_t cia_bitrates[] = { 10000,	 20000,	 50000,	 125000,
 /* Everything a load needs, passed down instead of a dozen parameters. */
 struct ctx {
 	const char *source;
+	char base_dir[256]; /* directory of the source file ("" = cwd) */
 	char *err;
 	size_t errlen;
 	char msg[512]; /* "path: reason" before the source is prefixed */
@@ -448,6 +450,56 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path,
 	return 0;
 }
 
+/* "nodes": [{"id": N, "config": {...}}]. Node configurations are loaded
+ * (files read, DCFs converted) here, so a broken one stops the start. */
+static int parse_nodes(struct ctx *c, const cJSON *v, const char *path,
+		       cogw_line_config *l)
+{
+	const cJSON *it;
+	size_t i = 0;
+	int rc;
+
+	if (!cJSON_IsArray(v))
+		return fail(c, path, "expected an array of nodes, got %s",
+			    json_util_kind(v));
+	if (cJSON_GetArraySize(v) > 127)
+		return fail(c, path, "%d nodes, at most 127", cJSON_GetArraySize(v));
+	l->nodes = calloc((size_t)cJSON_GetArraySize(v) + 1, sizeof(*l->nodes));
+	if (!l->nodes)
+		return -ENOMEM;
+	cJSON_ArrayForEach(it, v) {
+		char np[JSON_PATH_MAX], p[JSON_PATH_MAX];
+		cogw_node *n = &l->nodes[i];
+		const cJSON *x;
+		uint64_t id;
+
+		json_util_path_index(np, sizeof(np), path, i++);
+		if ((rc = check_object(c, it, np, node_keys)) ||
+		    (rc = json_util_require(it, "id", np, &x, c->msg, sizeof(c->msg))))
+			return rc;
+		json_util_path_key(p, sizeof(p), np, "id");
+		if ((rc = json_util_uint(x, p, 1, 127, false, &id, c->msg, sizeof(c->msg))))
+			return rc;
+		if (id == l->node_id)
+			return fail(c, p, "%llu is the line's own node_id",
+				    (unsigned long long)id);
+		for (size_t j = 0; j < l->n_nodes; j++)
+			if (l->nodes[j].id == id)
+				return fail(c, p, "node %llu is already in %s[%zu]",
+					    (unsigned long long)id, path, j);
+		n->id = (uint8_t)id;
+		l->n_nodes++;
+		x = json_util_get(it, "config");
+		if (!x)
+			continue;
+		json_util_path_key(p, sizeof(p), np, "config");
+		if ((rc = cogw_node_config_parse(x, p, n->id, c->base_dir, &n->config,
+						 c->msg, sizeof(c->msg))))
+			return rc;
+	}
+	return 0;
+}
+
 static int parse_line(struct ctx *c, const cJSON *o, size_t idx,
 		      cogw_line_config *l)
 {
@@ -564,6 +616,13 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx,
 	if (v) {
 		json_util_path_key(p, sizeof(p), path, "device");
 		if ((rc = parse_device(c, v, p, &so, dev_name, hw, sw)))
+			return rc;
+	}
+
+	v = json_util_get(o, "nodes");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "nodes");
+		if ((rc = parse_nodes(c, v, p, l)))
 			return rc;
 	}
 
@@ -693,6 +752,10 @@ int cogw_config_load_string(cogw_config *cfg, const char *json,
 	int rc;
 
 	set_defaults(cfg, c.source);
+	/* files named in the config are relative to its directory */
+	if (source_name && strrchr(source_name, '/'))
+		snprintf(c.base_dir, sizeof(c.base_dir), "%.*s",
+			 (int)(strrchr(source_name, '/') - source_name), source_name);
 	if (err && errlen)
 		err[0] = '\0';
 	rc = json_util_parse(json ? json : "", &root, c.msg, sizeof(c.msg));
@@ -782,8 +845,14 @@ void cogw_config_free(cogw_config *cfg)
 	if (!cfg)
 		return;
 	for (size_t i = 0; i < COGW_LINES_MAX; i++) {
-		co_od_destroy(cfg->lines[i].od);
-		cfg->lines[i].od = NULL;
+		cogw_line_config *l = &cfg->lines[i];
+
+		co_od_destroy(l->od);
+		l->od = NULL;
+		for (size_t j = 0; l->nodes && j < l->n_nodes + 1; j++)
+			cogw_node_config_free(&l->nodes[j].config);
+		free(l->nodes);
+		l->nodes = NULL;
 	}
 	memset(cfg, 0, sizeof(*cfg));
 }
@@ -836,6 +905,18 @@ static bool od_same(const co_od *a, const co_od *b)
 		i++;
 		j++;
 	}
+}
+
+/* Same node ids and configurations, in the same order. */
+static bool nodes_same(const cogw_line_config *a, const cogw_line_config *b)
+{
+	if (a->n_nodes != b->n_nodes)
+		return false;
+	for (size_t i = 0; i < a->n_nodes; i++)
+		if (a->nodes[i].id != b->nodes[i].id ||
+		    !cogw_node_config_equal(&a->nodes[i].config, &b->nodes[i].config))
+			return false;
+	return true;
 }
 
 bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next,
@@ -898,6 +979,7 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next,
 			 * they do not explain the difference. */
 			LDIFF(!changed && x->od && y->od && !od_same(x->od, y->od),
 			      "objects/values");
+			LDIFF(!nodes_same(x, y), "nodes");
 			changed = changed || before;
 #undef LDIFF
 		}

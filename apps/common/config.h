@@ -16,6 +16,7 @@
 #include <stdint.h>
 #include <sys/types.h>
 
+#include "apps/common/node_config.h"
 #include "core/od.h"
 
 #define COGW_LINES_MAX 16
@@ -45,6 +46,14 @@ typedef struct cogw_hb_consumer {
 	uint16_t time_ms;
 } cogw_hb_consumer;
 
+/* A slave node on a line ("nodes"): its id and where its configuration
+ * comes from (apps/common/node_config.h). The CiA 302-2 manager's own
+ * per-node settings join this struct. */
+typedef struct cogw_node {
+	uint8_t id;                 /* 1..127, not the line's own node_id */
+	cogw_node_config config;    /* source NONE: nothing to download */
+} cogw_node;
+
 typedef struct cogw_line_config {
 	char name[COGW_NAME_MAX];      /* "line0" (default "line<N>") */
 	char interface[COGW_NAME_MAX]; /* "vcan0" (IFNAMSIZ-1 chars max) */
@@ -65,6 +74,8 @@ typedef struct cogw_line_config {
 	 * for node_id, then "objects" (manufacturer/profile additions), then
 	 * "values" (initial values of any object). Owned by the config. */
 	co_od *od;
+	cogw_node *nodes;              /* "nodes" (owned, n_nodes entries) */
+	size_t n_nodes;
 } cogw_line_config;
 
 typedef struct cogw_mailbox_config {

@@ -1,0 +1,307 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * apps/common/node_config.c - a node's "config" in cogw.json to a concise
+ * DCF (contract in node_config.h). All three sources end in the same
+ * checked byte form, so the download step never sees where it came from.
+ */
+#include "apps/common/node_config.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "apps/common/eds.h"
+#include "apps/common/json_od.h"
+#include "apps/common/json_util.h"
+#include "core/cdcf.h"
+
+static const char *const config_keys[] = { "entries", "dcf", "concise", "store",
+					   "date", "time", "comment", NULL };
+static const char *const entry_keys[] = { "index", "sub", "type", "value",
+					  "comment", NULL };
+
+const char *cogw_node_config_source_to_string(cogw_node_config_source s)
+{
+	switch (s) {
+	case COGW_NODE_CONFIG_NONE: return "none";
+	case COGW_NODE_CONFIG_ENTRIES: return "entries";
+	case COGW_NODE_CONFIG_DCF: return "dcf";
+	case COGW_NODE_CONFIG_CONCISE: return "concise";
+	}
+	return "?";
+}
+
+void cogw_node_config_free(cogw_node_config *nc)
+{
+	if (!nc)
+		return;
+	free(nc->cdcf);
+	memset(nc, 0, sizeof(*nc));
+}
+
+bool cogw_node_config_equal(const cogw_node_config *a,
+			    const cogw_node_config *b)
+{
+	return a->source == b->source && a->store == b->store &&
+	       a->verify == b->verify && a->date == b->date &&
+	       a->time == b->time && a->cdcf_len == b->cdcf_len &&
+	       (!a->cdcf_len || !memcmp(a->cdcf, b->cdcf, a->cdcf_len));
+}
+
+int cogw_cdcf_load_file(const char *file, uint8_t **out, size_t *len,
+			char *err, size_t errlen)
+{
+	struct stat st;
+	co_cdcf_diag d;
+	uint8_t *buf;
+	size_t got = 0;
+	char why[200];
+	int fd, rc;
+
+	*out = NULL;
+	*len = 0;
+	fd = open(file, O_RDONLY | O_CLOEXEC);
+	if (fd < 0) {
+		rc = -errno;
+		snprintf(err, errlen, "%s: %s", file, strerror(-rc));
+		return rc;
+	}
+	if (fstat(fd, &st) < 0 || !S_ISREG(st.st_mode)) {
+		snprintf(err, errlen, "%s: not a regular file", file);
+		close(fd);
+		return -EIO;
+	}
+	if ((uint64_t)st.st_size > COGW_NODE_CONFIG_MAX) {
+		snprintf(err, errlen, "%s: larger than %u bytes", file,
+			 COGW_NODE_CONFIG_MAX);
+		close(fd);
+		return -EFBIG;
+	}
+	buf = malloc((size_t)st.st_size ? (size_t)st.st_size : 1);
+	if (!buf) {
+		close(fd);
+		return -ENOMEM;
+	}
+	while (got < (size_t)st.st_size) {
+		ssize_t n = read(fd, buf + got, (size_t)st.st_size - got);
+
+		if (n < 0 && errno == EINTR)
+			continue;
+		if (n <= 0) {
+			snprintf(err, errlen, "%s: read error: %s", file,
+				 n < 0 ? strerror(errno) : "file shrank");
+			free(buf);
+			close(fd);
+			return -EIO;
+		}
+		got += (size_t)n;
+	}
+	close(fd);
+	if (co_cdcf_check(buf, got, NULL, &d)) {
+		co_cdcf_diag_format(&d, why, sizeof(why));
+		snprintf(err, errlen, "%s: not a concise DCF: %s", file, why);
+		free(buf);
+		return -EINVAL;
+	}
+	*out = buf;
+	*len = got;
+	return 0;
+}
+
+/* "entries": a JSON list, written with the cdcf writer in two passes
+ * (measure, then fill) so the buffer is allocated once. */
+static int parse_entries(const cJSON *list, const char *path,
+			 cogw_node_config *nc, char *err, size_t errlen)
+{
+	uint8_t *val = NULL;
+	co_cdcf_writer w;
+	long n;
+	int rc = 0;
+
+	if (!cJSON_IsArray(list))
+		return json_util_fail(err, errlen, path,
+				      "expected an array of entries, got %s",
+				      json_util_kind(list));
+	val = malloc(COGW_NODE_ENTRY_MAX);
+	if (!val)
+		return -ENOMEM;
+	for (int pass = 0; pass < 2 && !rc; pass++) {
+		const cJSON *e;
+		size_t i = 0;
+
+		co_cdcf_writer_init(&w, nc->cdcf, nc->cdcf_len);
+		cJSON_ArrayForEach(e, list) {
+			char ep[JSON_PATH_MAX], p[JSON_PATH_MAX];
+			const cJSON *v;
+			uint16_t index;
+			uint64_t sub = 0;
+			char tname[32];
+			co_type t;
+			uint32_t len = 0;
+
+			json_util_path_index(ep, sizeof(ep), path, i++);
+			if ((rc = json_util_check_object(e, ep, entry_keys, err, errlen)) ||
+			    (rc = json_util_require(e, "index", ep, &v, err, errlen)))
+				break;
+			json_util_path_key(p, sizeof(p), ep, "index");
+			if ((rc = json_od_parse_index(v, p, &index, err, errlen)) ||
+			    (rc = json_util_opt_uint(e, "sub", ep, 0, 255, &sub, err, errlen)) ||
+			    (rc = json_util_require(e, "type", ep, &v, err, errlen)))
+				break;
+			json_util_path_key(p, sizeof(p), ep, "type");
+			if ((rc = json_util_string(v, p, 1, tname, sizeof(tname), err, errlen)))
+				break;
+			if (!json_od_type_from_string(tname, &t)) {
+				rc = json_util_fail(err, errlen, p,
+						    "\"%s\" is not a CiA 301 data type name (e.g. UNSIGNED16, VISIBLE_STRING)",
+						    tname);
+				break;
+			}
+			if ((rc = json_util_require(e, "value", ep, &v, err, errlen)))
+				break;
+			json_util_path_key(p, sizeof(p), ep, "value");
+			if ((rc = json_od_parse_value(v, t, p, val, COGW_NODE_ENTRY_MAX, &len,
+						      err, errlen)))
+				break;
+			if (len == 0) {
+				rc = json_util_fail(err, errlen, p,
+						    "empty value (a concise DCF entry needs at least one byte)");
+				break;
+			}
+			rc = co_cdcf_writer_add(&w, index, (uint8_t)sub, val, len);
+			if (rc || w.len > COGW_NODE_CONFIG_MAX) {
+				rc = json_util_fail(err, errlen, ep,
+						    "configuration larger than %u bytes",
+						    COGW_NODE_CONFIG_MAX);
+				break;
+			}
+		}
+		if (rc)
+			break;
+		n = co_cdcf_writer_finish(&w);
+		if (n < 0) {
+			rc = json_util_fail(err, errlen, path, "cannot build the concise DCF");
+			break;
+		}
+		if (pass == 0) {
+			nc->cdcf = malloc((size_t)n);
+			if (!nc->cdcf) {
+				rc = -ENOMEM;
+				break;
+			}
+			nc->cdcf_len = (size_t)n;
+		}
+		nc->entries = w.count;
+	}
+	free(val);
+	return rc;
+}
+
+/* base_dir/file into buf; false if it does not fit. */
+static bool resolve(char *buf, size_t n, const char *base_dir, const char *file)
+{
+	size_t bl = base_dir ? strlen(base_dir) : 0, fl = strlen(file);
+
+	if (file[0] == '/' || !bl) {
+		if (fl >= n)
+			return false;
+		memcpy(buf, file, fl + 1);
+		return true;
+	}
+	if (bl + 1 + fl >= n)
+		return false;
+	memcpy(buf, base_dir, bl);
+	buf[bl] = '/';
+	memcpy(buf + bl + 1, file, fl + 1);
+	return true;
+}
+
+int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id,
+			   const char *base_dir, cogw_node_config *nc,
+			   char *err, size_t errlen)
+{
+	const char *srcs[] = { "entries", "dcf", "concise" };
+	const cJSON *src = NULL, *x;
+	char p[JSON_PATH_MAX], name[256], why[512];
+	uint64_t date = 0, time = 0;
+	int which = -1, rc;
+
+	memset(nc, 0, sizeof(*nc));
+	if ((rc = json_util_check_object(v, path, config_keys, err, errlen)))
+		return rc;
+	for (int i = 0; i < 3; i++) {
+		x = json_util_get(v, srcs[i]);
+		if (!x)
+			continue;
+		if (src) {
+			json_util_path_key(p, sizeof(p), path, srcs[i]);
+			return json_util_fail(err, errlen, p,
+					      "only one of \"entries\", \"dcf\" and \"concise\" (\"%s\" is given too)",
+					      srcs[which]);
+		}
+		src = x;
+		which = i;
+	}
+	if (!src)
+		return json_util_fail(err, errlen, path,
+				      "one of \"entries\", \"dcf\" or \"concise\" is required");
+	if ((rc = json_util_opt_bool(v, "store", path, &nc->store, err, errlen)) ||
+	    (rc = json_util_opt_uint(v, "date", path, 0, UINT32_MAX, &date, err, errlen)) ||
+	    (rc = json_util_opt_uint(v, "time", path, 0, 86399999, &time, err, errlen)))
+		return rc;
+	if (!json_util_get(v, "date") != !json_util_get(v, "time")) {
+		json_util_path_key(p, sizeof(p), path, json_util_get(v, "date") ? "time" : "date");
+		return json_util_fail(err, errlen, p,
+				      "\"date\" and \"time\" go together (the expected 1020h:1/2)");
+	}
+	nc->verify = json_util_get(v, "date") != NULL;
+	nc->date = (uint32_t)date;
+	nc->time = (uint32_t)time;
+
+	json_util_path_key(p, sizeof(p), path, srcs[which]);
+	if (which == 0) {
+		nc->source = COGW_NODE_CONFIG_ENTRIES;
+		rc = parse_entries(src, p, nc, err, errlen);
+		if (rc)
+			cogw_node_config_free(nc);
+		return rc;
+	}
+	if ((rc = json_util_string(src, p, 1, name, sizeof(name), err, errlen)))
+		return rc;
+	if (!resolve(nc->file, sizeof(nc->file), base_dir, name))
+		return json_util_fail(err, errlen, p, "file name longer than %zu bytes",
+				      sizeof(nc->file) - 1);
+	if (which == 1) {
+		eds_stats st;
+
+		nc->source = COGW_NODE_CONFIG_DCF;
+		rc = eds_convert_file(nc->file, node_id, &nc->cdcf, &nc->cdcf_len, &st,
+				      why, sizeof(why));
+		nc->entries = st.entries;
+	} else {
+		nc->source = COGW_NODE_CONFIG_CONCISE;
+		rc = cogw_cdcf_load_file(nc->file, &nc->cdcf, &nc->cdcf_len, why, sizeof(why));
+		if (!rc) {
+			uint32_t count = 0;
+			co_cdcf_check(nc->cdcf, nc->cdcf_len, &count, NULL);
+			nc->entries = count;
+		}
+	}
+	if (!rc && nc->cdcf_len > COGW_NODE_CONFIG_MAX) {
+		snprintf(why, sizeof(why), "%s: concise DCF larger than %u bytes", nc->file,
+			 COGW_NODE_CONFIG_MAX);
+		rc = -EINVAL;
+	}
+	if (rc) {
+		cogw_node_config_free(nc);
+		if (rc == -ENOMEM)
+			return rc;
+		json_util_fail(err, errlen, p, "%s", why);
+		return -EINVAL;
+	}
+	return 0;
+}
