@@ -22,6 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/nmt.h"
 #include "core/sdo_block.h"
 #include "core/sdo_client.h"
 
@@ -84,6 +85,21 @@ struct cli_chan {
 
 	co_od_entry *od_cob[2]; /* 1280h+n sub 1/2 */
 	co_od_entry *od_node;   /* sub 3 */
+
+	/* `ended`: the last transfer this channel ended with its own abort
+	 * frame (cancel, timeout, protocol error). The server may have sent
+	 * more frames of it before it saw the abort; the next transfer to
+	 * the same server (on any channel) takes it as its `filter` and
+	 * ignores those frames until its own first answer arrives (see
+	 * is_stale()). */
+	struct stale_xfer {
+		bool valid;
+		bool upload;
+		uint8_t mode;
+		uint16_t index;
+		uint8_t sub;
+		uint32_t cob_resp;
+	} ended, filter;
 };
 
 struct sdo_client {
@@ -228,7 +244,43 @@ static void fail_start(struct cli_chan *ch, uint32_t abort)
 static void abort_local(struct cli_chan *ch, uint32_t code)
 {
 	tx_mux(ch, SDO_CCS_ABORT << 5, code);
+	ch->ended = (struct stale_xfer){ .valid = true, .upload = ch->cur.upload,
+					  .mode = ch->mode, .index = ch->cur.index,
+					  .sub = ch->cur.sub, .cob_resp = ch->cob_resp };
 	complete(ch, code);
+}
+
+/* A late frame of the transfer that ch->filter describes, arriving before
+ * the first answer of the current one? Those are the old transfer's
+ * segments (or block acks / sub-block segments), or its initiate answer or
+ * abort naming the old object. An initiate answer or abort naming the
+ * current object is the current answer; anything else is judged as an
+ * answer to the current request. */
+static bool is_stale(const struct cli_chan *ch, const uint8_t *d)
+{
+	const struct stale_xfer *s = &ch->filter;
+	uint8_t cs = SDO_CS(d[0]);
+	bool names_cur = co_get_le16(&d[1]) == ch->cur.index && d[3] == ch->cur.sub;
+	bool names_old = co_get_le16(&d[1]) == s->index && d[3] == s->sub;
+	bool initiate_or_abort = cs == SDO_SCS_UP_INIT || cs == SDO_SCS_DN_INIT ||
+				 cs == SDO_SCS_BLK_DN || cs == SDO_SCS_BLK_UP || cs == SDO_SCS_ABORT;
+
+	if (!s->valid)
+		return false;
+	if (initiate_or_abort && names_cur)
+		return false;
+	if (initiate_or_abort && names_old)
+		return true;
+	switch (s->mode) {
+	case SDO_MODE_SEGMENTED:
+		return cs == (s->upload ? SDO_SCS_UP_SEG : SDO_SCS_DN_SEG);
+	case SDO_MODE_BLOCK:
+		/* block upload: sub-block segments carry any byte 0 */
+		return s->upload || d[0] == ((SDO_SCS_BLK_DN << 5) | SDO_BLK_ACK) ||
+		       d[0] == ((SDO_SCS_BLK_DN << 5) | SDO_BLK_END);
+	default:
+		return false;
+	}
 }
 
 /* Take up to len bytes from the download source. */
@@ -325,8 +377,10 @@ static void st_dn_init(struct cli_chan *ch, const uint8_t *d)
 		abort_local(ch, SDO_AB_CMD);
 		return;
 	}
-	if (!mux_matches(ch, d))
-		return; /* stale answer to an earlier request */
+	if (!mux_matches(ch, d)) {
+		abort_local(ch, SDO_AB_PARAM_INCOMPAT);
+		return;
+	}
 	if (ch->mode == SDO_MODE_EXPEDITED) {
 		ch->offset = ch->total;
 		complete(ch, 0);
@@ -398,8 +452,10 @@ static void st_blk_dn_init(struct cli_chan *ch, const uint8_t *d)
 		abort_local(ch, SDO_AB_CMD);
 		return;
 	}
-	if (!mux_matches(ch, d))
+	if (!mux_matches(ch, d)) {
+		abort_local(ch, SDO_AB_PARAM_INCOMPAT);
 		return;
+	}
 	if (!sdo_blk_size_valid(d[4])) {
 		abort_local(ch, SDO_AB_BLK_SIZE);
 		return;
@@ -509,8 +565,10 @@ static void st_up_init(struct cli_chan *ch, const uint8_t *d)
 		abort_local(ch, SDO_AB_CMD);
 		return;
 	}
-	if (!mux_matches(ch, d))
+	if (!mux_matches(ch, d)) {
+		abort_local(ch, SDO_AB_PARAM_INCOMPAT);
 		return;
+	}
 	up_init_resp(ch, d);
 }
 
@@ -551,14 +609,18 @@ static void st_blk_up_init(struct cli_chan *ch, const uint8_t *d)
 	if (SDO_CS(d[0]) == SDO_SCS_UP_INIT) { /* protocol switch */
 		if (mux_matches(ch, d))
 			up_init_resp(ch, d);
+		else
+			abort_local(ch, SDO_AB_PARAM_INCOMPAT);
 		return;
 	}
 	if ((d[0] & 0xE1u) != (SDO_SCS_BLK_UP << 5)) {
 		abort_local(ch, SDO_AB_CMD);
 		return;
 	}
-	if (!mux_matches(ch, d))
+	if (!mux_matches(ch, d)) {
+		abort_local(ch, SDO_AB_PARAM_INCOMPAT);
 		return;
+	}
 	if (d[0] & SDO_BLK_SIZE_IND) {
 		ch->total = co_get_le32(&d[4]);
 		if (ch->cur.buf && ch->total > ch->cur.cap) {
@@ -673,6 +735,9 @@ static void cli_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 		ch->lease_fn(ch->lease_arg, d, now_us);
 		return;
 	}
+	if (is_stale(ch, d))
+		return;
+	ch->filter.valid = false; /* the server answers the current request */
 	if (ch->state == CS_BLK_UP_SUB ? sdo_blk_seg_is_abort(d)
 				       : is_abort(d) && !sdo_blk_rx_is_dup(&ch->brx, d)) {
 		uint32_t code = co_get_le32(&d[4]);
@@ -737,6 +802,16 @@ static void start(struct cli_chan *ch, const sdo_client_req *r)
 	ch->cur = *r;
 	ch->cob_req = req_cob_req(r);
 	ch->cob_resp = req_cob_resp(r);
+	/* Late frames of a transfer to this server that some channel ended
+	 * with an abort frame are to be ignored (is_stale()). */
+	ch->filter.valid = false;
+	for (uint8_t i = 0; i < ch->cli->n; i++) {
+		struct stale_xfer *st = &ch->cli->ch[i].ended;
+		if (st->valid && st->cob_resp == ch->cob_resp) {
+			ch->filter = *st;
+			st->valid = false;
+		}
+	}
 	ch->timeout_us = (uint64_t)(r->timeout_ms ? r->timeout_ms : node->cfg.sdo_client_timeout_ms) * 1000u;
 	ch->mode = pick_mode(ch, r);
 	ch->fell_back = false;
@@ -751,6 +826,12 @@ static void start(struct cli_chan *ch, const sdo_client_req *r)
 		co_od_entry_set_raw(ch->od_cob[1], ch->cob_resp);
 	if (ch->od_node)
 		co_od_entry_set_raw(ch->od_node, r->node_id);
+	/* CiA 301 §7.3.2.2: no SDO in STOPPED; reported from the next tick
+	 * like any request that cannot start. */
+	if (co_nmt_get_state(node) == CO_NMT_STOPPED) {
+		fail_start(ch, SDO_AB_DEV_STATE);
+		return;
+	}
 	if (co_rx_move(node, ch->rx_handle, ch->cob_resp & CO_FRAME_EFF_MASK,
 		       (ch->cob_resp & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0) {
 		fail_start(ch, SDO_AB_NO_RESOURCE);
@@ -1185,10 +1266,27 @@ static void cli_reset_comm(co_node *node, uint64_t now_us)
 	}
 }
 
+/* Entering STOPPED: running transfers end without a frame (no SDO traffic
+ * in STOPPED) with 0x08000022 (device state); the requests that start
+ * next fail the same way from the next tick (start()). */
+static void cli_nmt_changed(co_node *node, uint8_t state, uint64_t now_us)
+{
+	struct sdo_client *cli = node->sdo_cli;
+
+	(void)now_us;
+	if (!cli || state != CO_NMT_STOPPED)
+		return;
+	for (uint8_t i = 0; i < cli->n; i++)
+		if (cli->ch[i].state != CS_IDLE && cli->ch[i].state != CS_START_FAILED &&
+		    cli->ch[i].state != CS_LEASED) /* a relay lease: its owner's business */
+			complete(&cli->ch[i], SDO_AB_DEV_STATE);
+}
+
 const co_service co_svc_sdo_client = {
 	.name = "sdo-client",
 	.init = cli_init,
 	.fini = cli_fini,
 	.tick = cli_tick,
 	.reset_comm = cli_reset_comm,
+	.nmt_changed = cli_nmt_changed,
 };

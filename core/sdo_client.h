@@ -47,6 +47,17 @@
  * - A named channel (sdo_client_submit): the request waits in that
  *   channel's own FIFO (tests, tools that need a fixed 1280h+n).
  * A channel with requests in its own FIFO is not free for the pool.
+ *
+ * - Own NMT state STOPPED (CiA 301 §7.3.2.2: no SDO there): a running
+ *   transfer ends without a frame, and every request that would start
+ *   completes from the next tick instead; all with 0x08000022 (device
+ *   state).
+ * - An answer that names another object than the request aborts the
+ *   transfer at once with 0x06040043 (general parameter incompatibility).
+ *   Exception: after a channel ended a transfer with its own abort frame
+ *   (cancel, timeout, protocol error), late frames of that transfer (its
+ *   segments, its answer naming the old object) are ignored by the next
+ *   transfer to the same server until that one's first answer arrives.
  */
 #ifndef COGW_CORE_SDO_CLIENT_H
 #define COGW_CORE_SDO_CLIENT_H

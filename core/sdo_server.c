@@ -25,6 +25,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/nmt.h"
 #include "core/sdo_block.h"
 #include "core/sdo_server.h"
 
@@ -449,9 +450,11 @@ static void blk_dn_init(struct srv_chan *ch, const uint8_t *d)
 		return;
 	}
 	ab = dn_prepare(ch, d[0] & SDO_BLK_SIZE_IND, co_get_le32(&d[4]), false);
-	/* we always support CRC (sc = 1) */
+	/* The CRC is used only if both ends support it (CiA 301 §7.2.4.3.9):
+	 * answer sc = cc, i.e. exactly what this transfer will use. */
 	sdo_blk_rx_start(&ch->brx, cfg_of(ch)->sdo_server_blksize, d[0] & SDO_BLK_CRC);
-	frame_init(ch, &ch->pending, (uint8_t)((SDO_SCS_BLK_DN << 5) | SDO_BLK_CRC | SDO_BLK_INIT));
+	frame_init(ch, &ch->pending,
+		   (uint8_t)((SDO_SCS_BLK_DN << 5) | (d[0] & SDO_BLK_CRC) | SDO_BLK_INIT));
 	co_put_le16(&ch->pending.data[1], ch->index);
 	ch->pending.data[3] = ch->sub;
 	ch->pending.data[4] = ch->brx.blksize;
@@ -571,7 +574,10 @@ static void up_start_block(struct srv_chan *ch)
 	ch->mode = SDO_MODE_BLOCK;
 	ch->blk_start = 0;
 	co_put_le32(p, ch->size);
-	send_mux(ch, (uint8_t)((SDO_SCS_BLK_UP << 5) | SDO_BLK_CRC | SDO_BLK_SIZE_IND), p);
+	/* sc = 1 only if the client asked for a CRC (cc = 1): a client that
+	 * did not ask may reject an end frame that announces one. */
+	send_mux(ch, (uint8_t)((SDO_SCS_BLK_UP << 5) | (ch->btx.crc_on ? SDO_BLK_CRC : 0) |
+			       SDO_BLK_SIZE_IND), p);
 	enter(ch, SS_BLK_UP_START);
 }
 
@@ -781,10 +787,13 @@ static void srv_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	struct srv_chan *ch = arg;
 
-	(void)node;
 	/* CiA 301 SDO frames always have 8 data bytes; ignore anything else
 	 * (an RTR or a short frame cannot be answered meaningfully). */
 	if (f->len != 8 || (f->flags & CO_FRAME_RTR))
+		return;
+	/* CiA 301 §7.3.2.2 (services per NMT state): STOPPED allows only NMT
+	 * and error control, so no SDO answer at all, not even an abort. */
+	if (co_nmt_get_state(node) == CO_NMT_STOPPED)
 		return;
 	if (ch->state == SS_ROUTED) {
 		ch->srv->route->frame(ch->srv->route_ctx, ch->num, f->data, now_us);
@@ -1103,10 +1112,30 @@ static void srv_reset_comm(co_node *node, uint64_t now_us)
 	}
 }
 
+/* Entering STOPPED ends every transfer in progress without a frame (no
+ * SDO traffic is allowed there); the application sees
+ * CO_EV_SDO_SERVER_DONE with 0x08000022 (device state). Requests are
+ * ignored in srv_rx() until the node leaves STOPPED. */
+static void srv_nmt_changed(co_node *node, uint8_t state, uint64_t now_us)
+{
+	struct sdo_server *srv = node->sdo_srv;
+
+	(void)now_us;
+	if (!srv || state != CO_NMT_STOPPED)
+		return;
+	for (uint8_t i = 0; i < srv->n; i++) {
+		if (srv->ch[i].state == SS_ROUTED)
+			route_drop(&srv->ch[i]);
+		else if (srv->ch[i].state != SS_IDLE)
+			finish(&srv->ch[i], SDO_AB_DEV_STATE);
+	}
+}
+
 const co_service co_svc_sdo_server = {
 	.name = "sdo-server",
 	.init = srv_init,
 	.fini = srv_fini,
 	.tick = srv_tick,
 	.reset_comm = srv_reset_comm,
+	.nmt_changed = srv_nmt_changed,
 };

@@ -22,6 +22,14 @@
  *   end. An aborted in-place download leaves a partial value; the
  *   application sees no CO_EV_OD_WRITTEN for it.
  *
+ * NMT: in STOPPED the server ignores every request (no answer, no abort:
+ * CiA 301 allows only NMT and error control there); entering STOPPED ends
+ * a transfer in progress without a frame (CO_EV_SDO_SERVER_DONE with
+ * 0x08000022).
+ *
+ * Block transfers answer sc = cc: the CRC is used only when the client
+ * asked for it.
+ *
  * Deferred answers: a read or check_write hook returning CO_OD_DEFERRED
  * parks the channel. No reply goes out until sdo_server_continue() is
  * called (the per-frame timeout keeps running; when it expires the server

@@ -152,13 +152,125 @@ static void test_client_detects_size_mismatch_and_bad_command(void)
 	TEST_ASSERT_EQUAL_HEX32(0x05040001, done()->u.sdo_cli.abort);
 }
 
-static void test_stale_answer_with_other_index_is_ignored(void)
+/* Issue 10 item 5: an answer naming another object (3005h for a request
+ * for 3004h) aborts at once with 06040043; before, it was ignored and the
+ * request timed out. */
+static void test_answer_for_other_object_aborts_at_once(void)
 {
-	TEST_ASSERT_EQUAL(0, sdo_client_read(cli->node, 0, 5, 0x1000, 0, buf, 4, 0, 1, bus.now));
-	reply("43 18 10 01 50 02 00 00"); /* answer to some earlier request */
-	TEST_ASSERT_NULL(done());
+	TEST_ASSERT_EQUAL(0, sdo_client_read(cli->node, 0, 5, 0x3004, 0, buf, 4, 0, 1, bus.now));
+	reply("43 05 30 00 01 00 00 00");
+	EXPECT_REQ(0x605, "80 04 30 00 43 00 04 06");
+	TEST_ASSERT_NOT_NULL(done());
+	TEST_ASSERT_EQUAL_HEX32(0x06040043, done()->u.sdo_cli.abort);
+	/* the same for downloads and block initiates */
+	static const uint8_t d[200] = { 1 };
+	TEST_ASSERT_EQUAL(0, write_n(d, 2, 2));
+	reply("60 01 20 01 00 00 00 00");
+	TEST_ASSERT_EQUAL_HEX32(0x06040043, done()->u.sdo_cli.abort);
+	TEST_ASSERT_EQUAL(0, write_n(d, 200, 3)); /* block (threshold 128) */
+	reply("A4 00 20 02 7F 00 00 00");
+	TEST_ASSERT_EQUAL_UINT64(3, done()->u.sdo_cli.tag);
+	TEST_ASSERT_EQUAL_HEX32(0x06040043, done()->u.sdo_cli.abort);
+}
+
+/* What the old test "stale answer with other index is ignored" meant: the
+ * late answer of a request this channel cancelled does not disturb the
+ * next one. */
+static void test_stale_answer_of_cancelled_request_is_ignored(void)
+{
+	TEST_ASSERT_EQUAL(0, sdo_client_read(cli->node, 0, 5, 0x1018, 1, buf, 4, 0, 1, bus.now));
+	TEST_ASSERT_EQUAL(0, sdo_client_cancel(cli->node, 0, 1, 0x08000000, bus.now));
+	TEST_ASSERT_EQUAL(0, sdo_client_read(cli->node, 0, 5, 0x1000, 0, buf, 4, 0, 2, bus.now));
+	reply("43 18 10 01 50 02 00 00"); /* answer to the cancelled request */
+	TEST_ASSERT_EQUAL_UINT64(1, done()->u.sdo_cli.tag);
 	reply("43 00 10 00 94 01 04 00");
+	TEST_ASSERT_EQUAL_UINT64(2, done()->u.sdo_cli.tag);
 	TEST_ASSERT_EQUAL_HEX32(0, done()->u.sdo_cli.abort);
+}
+
+/* Issue 10 item 9: a segmented upload cancelled (its client died) while
+ * the server's next segment was on its way. The cancel puts an abort on
+ * the bus; the new upload ignores the late segments (before the fix it
+ * aborted 05040001 on them). */
+static void test_late_segments_of_cancelled_upload_do_not_poison_next(void)
+{
+	TEST_ASSERT_EQUAL(0, sdo_client_read(cli->node, 0, 5, 0x1008, 0, buf, 64, 0, 1, bus.now));
+	reply("41 08 10 00 1B 00 00 00");
+	reply("00 41 42 43 44 45 46 47");
+	EXPECT_REQ(0x605, "70 00 00 00 00 00 00 00");
+	TEST_ASSERT_EQUAL(0, sdo_client_cancel(cli->node, 0, 1, 0x08000000, bus.now));
+	TEST_ASSERT_TRUE(tb_frame_is(tb_log_at(&bus, tb_log_count(&bus) - 1), 0x605,
+				     "80 08 10 00 00 00 00 08"));
+	TEST_ASSERT_EQUAL(0, sdo_client_read(cli->node, 1, 5, 0x1008, 0, buf, 64, 0, 2, bus.now));
+	EXPECT_REQ(0x605, "40 08 10 00 00 00 00 00");
+	reply("10 48 49 4A 4B 4C 4D 4E"); /* late segment of the cancelled one */
+	reply("00 48 49 4A 4B 4C 4D 4E");
+	TEST_ASSERT_EQUAL_UINT64(1, done()->u.sdo_cli.tag);
+	reply("43 08 10 00 61 62 63 64"); /* 4-byte value: expedited */
+	TEST_ASSERT_EQUAL_UINT64(2, done()->u.sdo_cli.tag);
+	TEST_ASSERT_EQUAL_HEX32(0, done()->u.sdo_cli.abort);
+	TEST_ASSERT_EQUAL_UINT32(4, done()->u.sdo_cli.size);
+	/* Once the new transfer has its answer, the filter is gone: a
+	 * segment now is a protocol error again. */
+	TEST_ASSERT_EQUAL(0, sdo_client_read(cli->node, 1, 5, 0x1008, 0, buf, 64, 0, 3, bus.now));
+	reply("00 48 49 4A 4B 4C 4D 4E");
+	TEST_ASSERT_EQUAL_HEX32(0x05040001, done()->u.sdo_cli.abort);
+}
+
+/* The same for a block upload: its sub-block segments carry any byte 0. */
+static void test_late_block_segments_of_cancelled_upload_ignored(void)
+{
+	sdo_client_req r = { .upload = true, .node_id = 5, .index = 0x2200, .sub = 0,
+			     .mode = SDO_MODE_BLOCK, .tag = 1, .buf = buf, .cap = sizeof(buf) };
+	TEST_ASSERT_EQUAL(0, sdo_client_submit(cli->node, 0, &r, bus.now));
+	reply("C6 00 22 00 00 01 00 00");
+	reply("01 01 02 03 04 05 06 07");
+	TEST_ASSERT_EQUAL(0, sdo_client_cancel(cli->node, 0, 1, 0x08000000, bus.now));
+	r.tag = 2;
+	TEST_ASSERT_EQUAL(0, sdo_client_submit(cli->node, 0, &r, bus.now));
+	reply("02 01 02 03 04 05 06 07");
+	reply("43 41 42 43 44 45 46 47"); /* looks like an init answer... */
+	reply("85 48 49 4A 00 00 00 00"); /* ...and an abort: late segments */
+	TEST_ASSERT_EQUAL_UINT64(1, done()->u.sdo_cli.tag);
+	reply("C6 00 22 00 07 00 00 00");
+	EXPECT_REQ(0x605, "A3 00 00 00 00 00 00 00");
+}
+
+/* ---- NMT state (issue 10 item 1) ---------------------------------------- */
+
+static void own_nmt(const char *hex)
+{
+	tb_advance(&bus, 1); /* first tick: boot-up, PRE-OPERATIONAL */
+	tb_send_hex(&bus, 0x000, hex);
+}
+
+static void test_stopped_node_sends_no_sdo(void)
+{
+	TEST_ASSERT_EQUAL(0, sdo_client_read(cli->node, 0, 5, 0x1008, 0, buf, 64, 0, 1, bus.now));
+	TEST_ASSERT_EQUAL(0, sdo_client_read(cli->node, 0, 5, 0x1000, 0, buf, 64, 0, 2, bus.now));
+	reply("41 08 10 00 1B 00 00 00");
+	size_t mark = tb_log_count(&bus);
+	own_nmt("02 01");
+	/* the running one ends at once, the queued one from the next tick;
+	 * both with "device state", without a frame */
+	tb_advance(&bus, 1);
+	TEST_ASSERT_EQUAL(2, tb_event_count(cli, CO_EV_SDO_CLIENT_DONE));
+	TEST_ASSERT_EQUAL_UINT64(2, done()->u.sdo_cli.tag);
+	TEST_ASSERT_EQUAL_HEX32(0x08000022, done()->u.sdo_cli.abort);
+	TEST_ASSERT_EQUAL(0, tb_count_from_id(&bus, 0, 0x605, mark));
+	TEST_ASSERT_EQUAL(0, sdo_client_pending(cli->node, 0));
+	/* a new request is refused the same way */
+	TEST_ASSERT_EQUAL(0, sdo_client_read(cli->node, 1, 5, 0x1000, 0, buf, 64, 0, 3, bus.now));
+	tb_advance(&bus, 1);
+	TEST_ASSERT_EQUAL_UINT64(3, done()->u.sdo_cli.tag);
+	TEST_ASSERT_EQUAL_HEX32(0x08000022, done()->u.sdo_cli.abort);
+	TEST_ASSERT_EQUAL(0, tb_count_from_id(&bus, 0, 0x605, mark));
+	tb_advance(&bus, 3000000);
+	TEST_ASSERT_EQUAL(0, tb_count_from_id(&bus, 0, 0x605, mark));
+	/* pre-operational: allowed again */
+	tb_send_hex(&bus, 0x000, "80 01");
+	TEST_ASSERT_EQUAL(0, sdo_client_read(cli->node, 1, 5, 0x1000, 0, buf, 64, 0, 4, bus.now));
+	EXPECT_REQ(0x605, "40 00 10 00 00 00 00 00");
 }
 
 /* ---- timeouts -------------------------------------------------------------- */
@@ -441,7 +553,11 @@ int main(void)
 	RUN_TEST(test_segmented_download_frames);
 	RUN_TEST(test_client_detects_toggle_error);
 	RUN_TEST(test_client_detects_size_mismatch_and_bad_command);
-	RUN_TEST(test_stale_answer_with_other_index_is_ignored);
+	RUN_TEST(test_answer_for_other_object_aborts_at_once);
+	RUN_TEST(test_stale_answer_of_cancelled_request_is_ignored);
+	RUN_TEST(test_late_segments_of_cancelled_upload_do_not_poison_next);
+	RUN_TEST(test_late_block_segments_of_cancelled_upload_ignored);
+	RUN_TEST(test_stopped_node_sends_no_sdo);
 	RUN_TEST(test_silent_slave_times_out_exactly);
 	RUN_TEST(test_timeout_restarts_on_every_frame);
 	RUN_TEST(test_remote_abort_code_in_event);

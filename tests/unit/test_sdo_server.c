@@ -12,6 +12,7 @@
 
 #include "core/co.h"
 #include "core/crc16.h"
+#include "core/nmt.h"
 #include "core/sdo_server.h"
 #include "core/store.h"
 #include "tests/unit/support/test_bus.h"
@@ -880,6 +881,79 @@ static void test_reset_ends_a_route(void)
 	TEST_ASSERT_EQUAL(-ENOENT, sdo_server_route_end(srv->node, 0));
 }
 
+/* ---- NMT state (issue 10 item 1) and block CRC negotiation (item 4) ---- */
+
+static void nmt(const char *hex)
+{
+	tb_advance(&bus, 1); /* first tick: boot-up, PRE-OPERATIONAL */
+	tb_send_hex(&bus, 0x000, hex);
+}
+
+/* CiA 301 §7.3.2.2: in STOPPED only NMT and error control; no SDO answer
+ * at all. Before the fix the server answered 43 00 10 00 ... */
+static void test_stopped_node_answers_no_sdo(void)
+{
+	nmt("02 01");
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_STOPPED, co_nmt_get_state(srv->node));
+	size_t mark = tb_log_count(&bus);
+	req("40 00 10 00 00 00 00 00");
+	req("2B 17 10 00 D2 04 00 00");
+	req("A4 08 10 00 7F 00 00 00");
+	TEST_ASSERT_EQUAL(0, tb_count_from_id(&bus, 0, 0x581, mark));
+	uint16_t v;
+	TEST_ASSERT_EQUAL(0, co_od_get_u16(srv->od, 0x1017, 0, &v));
+	TEST_ASSERT_NOT_EQUAL(1234, v); /* the write was not applied */
+	nmt("80 01"); /* pre-operational: SDO again */
+	req("40 00 10 00 00 00 00 00");
+	EXPECT("43 00 10 00 94 01 04 00");
+}
+
+static void test_stopping_ends_transfer_in_progress(void)
+{
+	req("40 08 10 00 00 00 00 00");
+	EXPECT("41 08 10 00 1B 00 00 00");
+	TEST_ASSERT_TRUE(sdo_server_busy(srv->node, 0));
+	size_t mark = tb_log_count(&bus);
+	nmt("02 00"); /* stop all */
+	TEST_ASSERT_FALSE(sdo_server_busy(srv->node, 0));
+	TEST_ASSERT_EQUAL(0, tb_count_from_id(&bus, 0, 0x581, mark)); /* no abort frame */
+	const co_event *ev = tb_last_event(srv, CO_EV_SDO_SERVER_DONE);
+	TEST_ASSERT_NOT_NULL(ev);
+	TEST_ASSERT_EQUAL_HEX32(0x08000022, ev->u.sdo_srv.abort);
+	req("60 00 00 00 00 00 00 00"); /* the client goes on: still silent */
+	TEST_ASSERT_EQUAL(0, tb_count_from_id(&bus, 0, 0x581, mark));
+	tb_advance(&bus, 2000000); /* and no timeout abort later either */
+	TEST_ASSERT_EQUAL(0, tb_count_from_id(&bus, 0, 0x581, mark));
+}
+
+/* Block upload with cc = 0: the server must answer sc = 0 (before the
+ * fix: C6 ... i.e. sc = 1, then an end frame with CRC 0). */
+static void test_block_upload_without_crc_answers_sc0(void)
+{
+	req("A0 08 10 00 7F 00 00 00");
+	EXPECT("C2 08 10 00 1B 00 00 00");
+	req("A3 00 00 00 00 00 00 00");
+	EXPECT("84 73 64 75 63 65 72 00");
+	req("A2 04 7F 00 00 00 00 00");
+	EXPECT("C5 00 00 00 00 00 00 00");
+	req("A1 00 00 00 00 00 00 00");
+	TEST_ASSERT_EQUAL_HEX32(0, tb_last_event(srv, CO_EV_SDO_SERVER_DONE)->u.sdo_srv.abort);
+}
+
+/* Block download with cc = 0: sc = 0 too, and the end frame's CRC field
+ * is not checked. */
+static void test_block_download_without_crc_answers_sc0(void)
+{
+	req("C2 00 22 00 00 04 00 00");
+	EXPECT("A0 00 22 00 7F 00 00 00");
+	send_segments(1024, 0, 127, 0, 0);
+	send_segments(1024, 127 * 7, 127, 0, 0);
+	EXPECT("A2 14 7F 00 00 00 00 00");
+	end_frame(1024, 0);
+	EXPECT("A1 00 00 00 00 00 00 00");
+	check_domain(1024);
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -925,5 +999,9 @@ int main(void)
 	RUN_TEST(test_routing_hook_owns_the_channel_until_released);
 	RUN_TEST(test_routing_hook_refusals);
 	RUN_TEST(test_reset_ends_a_route);
+	RUN_TEST(test_stopped_node_answers_no_sdo);
+	RUN_TEST(test_stopping_ends_transfer_in_progress);
+	RUN_TEST(test_block_upload_without_crc_answers_sc0);
+	RUN_TEST(test_block_download_without_crc_answers_sc0);
 	return UNITY_END();
 }
