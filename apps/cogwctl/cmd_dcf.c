@@ -1,0 +1,282 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * cogwctl dcf - offline: check a CiA 306 DCF/EDS (or a binary concise
+ * DCF) and convert a DCF/EDS into the concise DCF that the configuration
+ * manager downloads. No daemon involved; the same reader as cogwd's
+ * node configuration (apps/common/eds.c, node_config.c), so what passes
+ * here loads there.
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "apps/cogwctl/ctl.h"
+#include "apps/common/eds.h"
+#include "apps/common/node_config.h"
+#include "core/cdcf.h"
+
+static bool is_concise_name(const char *path)
+{
+	const char *dot = strrchr(path, '.');
+	return dot && (!strcmp(dot, ".cdc") || !strcmp(dot, ".bin"));
+}
+
+/* "file: reason" on stderr, or {"ok":false,...} with --json. */
+static int refuse(ctl *c, const char *file, const char *msg)
+{
+	if (c->json) {
+		cJSON *o = cJSON_CreateObject();
+		cJSON_AddBoolToObject(o, "ok", false);
+		cJSON_AddStringToObject(o, "file", file);
+		cJSON_AddStringToObject(o, "error", msg);
+		ctl_json_print(o);
+	} else {
+		fprintf(stderr, "cogwctl %s: %s\n", c->what, msg);
+	}
+	return CTL_EXIT_REFUSED;
+}
+
+static void list_entries(ctl *c, cJSON *o, const uint8_t *buf, size_t len)
+{
+	cJSON *arr = o ? cJSON_AddArrayToObject(o, "entries") : NULL;
+	co_cdcf_iter it;
+	co_cdcf_entry e;
+
+	if (co_cdcf_iter_init(&it, buf, len, NULL))
+		return;
+	while (co_cdcf_iter_next(&it, &e)) {
+		char *hex = ctl_hex_text(e.data, e.size, 16);
+		if (c->json) {
+			cJSON *x = cJSON_CreateObject();
+			char idx[8];
+			snprintf(idx, sizeof idx, "%04X", e.index);
+			cJSON_AddStringToObject(x, "index", idx);
+			cJSON_AddNumberToObject(x, "sub", e.sub);
+			cJSON_AddNumberToObject(x, "size", e.size);
+			cJSON_AddStringToObject(x, "hex", hex ? hex : "");
+			cJSON_AddItemToArray(arr, x);
+		} else {
+			printf("  %4u  %04X:%02X  %6u bytes  %s\n", (unsigned)e.number, e.index, e.sub,
+			       (unsigned)e.size, hex ? hex : "");
+		}
+		free(hex);
+	}
+}
+
+/*
+ * Convert FILE for node (0 = the file's own NodeID). For a check without
+ * --node, a file that needs $NODEID is checked with node 1 and says so.
+ */
+static int convert(ctl *c, const char *file, uint8_t node, bool check, uint8_t **out,
+		   size_t *len, eds_stats *st, bool *assumed_node)
+{
+	char err[600];
+	int rc = eds_convert_file(file, node, out, len, st, err, sizeof err);
+
+	*assumed_node = false;
+	if (rc == -EINVAL && check && !node && strstr(err, "$NODEID needs a node id")) {
+		*assumed_node = true;
+		rc = eds_convert_file(file, 1, out, len, st, err, sizeof err);
+	}
+	if (rc == -ENOMEM) {
+		fprintf(stderr, "cogwctl %s: out of memory\n", c->what);
+		return CTL_EXIT_REFUSED;
+	}
+	if (rc == -EINVAL)
+		return refuse(c, file, err);
+	if (rc) /* the file could not be read */
+		return c->json ? refuse(c, file, err)
+			       : (fprintf(stderr, "cogwctl %s: %s\n", c->what, err), CTL_EXIT_USAGE);
+	return 0;
+}
+
+static int check_concise(ctl *c, const char *file, bool list)
+{
+	uint8_t *buf = NULL;
+	size_t len = 0;
+	char err[400];
+	uint32_t count = 0;
+	int rc = cogw_cdcf_load_file(file, &buf, &len, err, sizeof err);
+
+	if (rc == -EINVAL)
+		return refuse(c, file, err);
+	if (rc) {
+		fprintf(stderr, "cogwctl %s: %s\n", c->what, err);
+		return rc == -ENOMEM ? CTL_EXIT_REFUSED : CTL_EXIT_USAGE;
+	}
+	co_cdcf_check(buf, len, &count, NULL);
+	if (c->json) {
+		cJSON *o = cJSON_CreateObject();
+		cJSON_AddBoolToObject(o, "ok", true);
+		cJSON_AddStringToObject(o, "file", file);
+		cJSON_AddStringToObject(o, "format", "concise");
+		cJSON_AddNumberToObject(o, "entries", count);
+		cJSON_AddNumberToObject(o, "bytes", (double)len);
+		if (list)
+			list_entries(c, o, buf, len);
+		ctl_json_print(o);
+	} else {
+		printf("%s: concise DCF ok: %u entries, %zu bytes\n", file, (unsigned)count, len);
+		if (list)
+			list_entries(c, NULL, buf, len);
+	}
+	free(buf);
+	return CTL_EXIT_OK;
+}
+
+/* Write the whole buffer to path through a temporary file and rename, so
+ * a reader never sees half a file. */
+static int write_file(ctl *c, const char *path, const uint8_t *buf, size_t len)
+{
+	char tmp[4096];
+	int fd;
+	size_t done = 0;
+
+	if (snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof tmp)
+		return ctl_usage_error(c, "output path too long");
+	fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+	if (fd < 0) {
+		fprintf(stderr, "cogwctl %s: %s: %s\n", c->what, tmp, strerror(errno));
+		return CTL_EXIT_USAGE;
+	}
+	while (done < len) {
+		ssize_t n = write(fd, buf + done, len - done);
+		if (n < 0 && errno == EINTR)
+			continue;
+		if (n <= 0)
+			break;
+		done += (size_t)n;
+	}
+	if (done != len || fsync(fd) < 0 || close(fd) < 0 || rename(tmp, path) < 0) {
+		fprintf(stderr, "cogwctl %s: cannot write %s: %s\n", c->what, path, strerror(errno));
+		unlink(tmp);
+		return CTL_EXIT_REFUSED;
+	}
+	return 0;
+}
+
+static int run_dcf(ctl *c, int argc, char **argv)
+{
+	const char *pos[4], *node_s = NULL, *out_s = NULL, *out_long = NULL;
+	bool list = false;
+	int n_pos;
+	ctl_opt opts[] = { { "--node", true, &node_s, NULL },
+			   { "-o", true, &out_s, NULL },
+			   { "--output", true, &out_long, NULL },
+			   { "--list", false, NULL, &list },
+			   { NULL, false, NULL, NULL } };
+	int rc = ctl_parse(c, argc, argv, opts, pos, 4, &n_pos);
+	uint8_t node = 0, *buf = NULL;
+	size_t len = 0;
+	eds_stats st;
+	bool assumed, check;
+
+	if (rc)
+		return rc;
+	if (c->help)
+		return ctl_print_help(&ctl_cmd_dcf);
+	if (n_pos < 1)
+		return ctl_usage_error(c, "check or convert?");
+	check = !strcmp(pos[0], "check");
+	if (!check && strcmp(pos[0], "convert"))
+		return ctl_usage_error(c, "unknown action '%s' (check or convert)", pos[0]);
+	c->what = check ? "dcf check" : "dcf convert";
+	if (n_pos != 2)
+		return ctl_usage_error(c, n_pos < 2 ? "FILE missing" : "one FILE only");
+	if (out_long)
+		out_s = out_long;
+	if (node_s && ctl_arg_node(c, node_s, &node))
+		return CTL_EXIT_USAGE;
+	if (check && out_s)
+		return ctl_usage_error(c, "-o belongs to 'dcf convert'");
+	if (!check && !out_s)
+		return ctl_usage_error(c, "-o FILE.cdc missing");
+	if (check && is_concise_name(pos[1]))
+		return check_concise(c, pos[1], list);
+
+	if ((rc = convert(c, pos[1], node, check, &buf, &len, &st, &assumed)))
+		return rc;
+	if (!check && (rc = write_file(c, out_s, buf, len))) {
+		free(buf);
+		return rc;
+	}
+	if (c->json) {
+		cJSON *o = cJSON_CreateObject();
+		cJSON_AddBoolToObject(o, "ok", true);
+		cJSON_AddStringToObject(o, "file", pos[1]);
+		if (!check)
+			cJSON_AddStringToObject(o, "output", out_s);
+		cJSON_AddNumberToObject(o, "objects", st.objects);
+		cJSON_AddNumberToObject(o, "values", st.values);
+		cJSON_AddNumberToObject(o, "entries", st.entries);
+		cJSON_AddNumberToObject(o, "without_value", st.skipped);
+		cJSON_AddNumberToObject(o, "bytes", (double)len);
+		if (st.node_id)
+			cJSON_AddNumberToObject(o, "node", st.node_id);
+		cJSON_AddBoolToObject(o, "node_assumed", assumed);
+		cJSON_AddNumberToObject(o, "warnings", st.warnings);
+		if (st.warnings)
+			cJSON_AddStringToObject(o, "first_warning", st.first_warning);
+		if (list)
+			list_entries(c, o, buf, len);
+		ctl_json_print(o);
+	} else {
+		if (st.warnings)
+			fprintf(stderr, "warning: %s\n", st.first_warning);
+		if (st.warnings > 1)
+			fprintf(stderr, "warning: %u warnings in all (the file is still used)\n",
+				st.warnings);
+		if (assumed)
+			printf("note: $NODEID evaluated as 1 (give --node N for the real node)\n");
+		printf("%s: ok: %u objects, %u values, %u entries for the concise DCF (%zu bytes)%s",
+		       pos[1], st.objects, st.values, st.entries, len,
+		       st.node_id ? "" : "\n");
+		if (st.node_id)
+			printf(", node %u\n", st.node_id);
+		if (!check)
+			printf("wrote %s\n", out_s);
+		if (list)
+			list_entries(c, NULL, buf, len);
+	}
+	free(buf);
+	return CTL_EXIT_OK;
+}
+
+const ctl_cmd ctl_cmd_dcf = {
+	.name = "dcf",
+	.synopsis = "  dcf check FILE [--node N] [--list]     validate a DCF/EDS or a concise DCF (offline)\n"
+		    "  dcf convert FILE --node N -o OUT.cdc   DCF/EDS to a concise DCF (offline)\n",
+	.help =
+		"usage: cogwctl dcf check FILE [--node N] [--list]\n"
+		"       cogwctl dcf convert FILE [--node N] -o OUT.cdc [--list]\n"
+		"\n"
+		"Offline (no daemon): the same reader as cogwd's \"nodes[].config\" (docs/config.md,\n"
+		"\"DCF and EDS files\"), so a file that passes here loads there.\n"
+		"\n"
+		"check    reads a CiA 306 DCF or EDS, checks every section and value (types, ranges,\n"
+		"         limits, $NODEID expressions, sub-objects, CompactSubObj, ObjectLinks) and\n"
+		"         says how many entries its concise DCF has. A FILE ending in .cdc or .bin is\n"
+		"         checked as a binary concise DCF instead (count, entry framing).\n"
+		"convert  writes the concise DCF (1F22h format) of the writable values to OUT.cdc,\n"
+		"         PDO parameters in the CiA 301 re-mapping order.\n"
+		"\n"
+		"--node N   what $NODEID stands for (1..127); default: the file's\n"
+		"           [DeviceComissioning] NodeID. check without either evaluates $NODEID\n"
+		"           as 1 and says so.\n"
+		"-o FILE    output of convert (written to a temporary file, then renamed)\n"
+		"--list     print the entries: number, index:sub, size, data\n"
+		"\n"
+		"Errors name the file and line, e.g.\n"
+		"  cogwctl dcf check: dev.eds:41: DefaultValue '70000': out of range for UNSIGNED16 (max 65535)\n"
+		"Warnings (a listed object without a section, a wrong SupportedObjects count) do\n"
+		"not make the file fail. Exit status 1 for a refused file.\n"
+		"\n"
+		"Examples:\n"
+		"  cogwctl dcf check etc/transducer.dcf --list\n"
+		"  cogwctl dcf convert vendor.eds --node 5 -o node5.cdc\n"
+		"  cogwctl dcf check node5.cdc\n",
+	.run = run_dcf,
+};
