@@ -4,7 +4,9 @@
 #
 # Two configurations live side by side:
 #   build/rel  -O2, what `make`, `make install` and `make bench` use;
-#   build/san  ASan+UBSan, what the tests use.
+#   build/san  ASan+UBSan, what the tests use;
+# and a third for what threads share:
+#   build/tsan ThreadSanitizer, the multi-threaded stress tests in tests/tsan/.
 
 PREFIX  ?= /usr/local
 DESTDIR ?=
@@ -66,9 +68,16 @@ SAN_PROGRAM_BINS := $(addprefix $(SAN)/bin/,$(PROGRAMS))
 
 UNIT_BINS  := $(patsubst tests/unit/%.c,$(SAN)/tests/unit/%,$(UNIT_SRC))
 INTEG_BINS := $(patsubst tests/integration/%.c,$(SAN)/tests/integration/%,$(INTEG_SRC))
+# ThreadSanitizer: tests/tsan/test_*.c, linked with the modules threads share
+# (TSAN_LIB_SRC), all compiled with -fsanitize=thread.
+TSAN := build/tsan
+TSAN_CFLAGS := $(BASE) -O1 -g -fno-omit-frame-pointer -fsanitize=thread
+TSAN_SRC := $(sort $(wildcard tests/tsan/test_*.c))
+TSAN_LIB_SRC := lines/xring.c
+TSAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_SRC))
 BENCH_BINS := $(patsubst tests/bench/%.c,$(REL)/tests/bench/%,$(BENCH_SRC))
 
-.PHONY: all deps test unit integration bench demo install clean tests-build check check-core-io check-layering format
+.PHONY: all deps test unit tsan integration bench demo install clean tests-build check check-core-io check-layering format
 .DEFAULT_GOAL := all
 .SECONDARY:
 
@@ -149,7 +158,27 @@ $(SAN)/tests/integration/%: $(SAN)/obj/tests/integration/%.o $(call obj,$(SAN),$
 	@mkdir -p $(@D)
 	$(CC) $(SAN_LDFLAGS) -o $@ $^ $(SYS_LIBS)
 
-tests-build: $(UNIT_BINS) $(INTEG_BINS) $(SAN_PROGRAM_BINS)
+tests-build: $(UNIT_BINS) $(INTEG_BINS) $(SAN_PROGRAM_BINS) $(TSAN_BINS)
+
+# ---- ThreadSanitizer build ---------------------------------------------------------
+$(TSAN)/obj/%.o: %.c
+	@mkdir -p $(@D)
+	$(CC) $(TSAN_CFLAGS) -c $< -o $@
+
+$(TSAN)/obj/tests/%.o: tests/%.c
+	@mkdir -p $(@D)
+	$(CC) $(TSAN_CFLAGS) $(UNITY_CFLAGS) -c $< -o $@
+
+$(TSAN)/obj/unity.o: $(UNITY_SRC)/unity.c
+	@mkdir -p $(@D)
+	$(CC) -std=gnu11 -O1 -g $(UNITY_CFLAGS) -fsanitize=thread -c $< -o $@
+
+$(TSAN)/tests/tsan/%: $(TSAN)/obj/tests/tsan/%.o $(call obj,$(TSAN),$(TSAN_LIB_SRC)) $(TSAN)/obj/unity.o
+	@mkdir -p $(@D)
+	$(CC) -fsanitize=thread -o $@ $^ -lpthread
+
+tsan: $(TSAN_BINS)
+	tests/run-tests tsan $(TSAN_BINS)
 
 unit: $(UNIT_BINS)
 	tests/run-tests unit $(UNIT_BINS)
@@ -162,7 +191,7 @@ integration: $(INTEG_BINS)
 test:
 	@scripts/deps.sh
 	@$(MAKE) --no-print-directory all tests-build
-	@tests/run-all "$(UNIT_BINS)" "$(INTEG_BINS)"
+	@tests/run-all "$(UNIT_BINS)" "$(INTEG_BINS)" "$(TSAN_BINS)"
 
 # ---- house rules -----------------------------------------------------------------
 # `make check` runs every tests/checks/check_* script (layering, core I/O, format, ...);

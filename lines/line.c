@@ -24,7 +24,7 @@
 #include "core/nmt.h"
 #include "lines/log.h"
 
-enum { TAG_CAN = 1, TAG_TIMER, TAG_MBX, TAG_WAKE };
+enum { TAG_CAN = 1, TAG_TIMER, TAG_MBX, TAG_WAKE, TAG_EXT_WAKE /* + extension index */ };
 
 #define RX_BATCH 32
 #define PUBLISH_PERIOD_US 1000000u
@@ -46,6 +46,70 @@ static int epoll_add(int ep, int fd, uint32_t events, uint32_t tag)
 {
 	struct epoll_event ev = { .events = events, .data.u32 = tag };
 	return epoll_ctl(ep, EPOLL_CTL_ADD, fd, &ev) ? -errno : 0;
+}
+
+/* Start-up of the extensions: watch their wake fds, then attach them in
+ * order. One that fails is logged by name and fails the line. */
+static int attach_extensions(line *l)
+{
+	for (unsigned i = 0; i < LINE_EXT_MAX; i++) {
+		const line_ext *x = &l->p.ext[i];
+		int rc;
+		if (!x->ops)
+			continue;
+		if (x->ops->on_wake && x->wake_fd >= 0 &&
+		    (rc = epoll_add(l->epfd, x->wake_fd, EPOLLIN, TAG_EXT_WAKE + i)) < 0) {
+			cogw_log(COGW_LOG_ERR, "line %s: extension %s: cannot watch its wake fd: %s", l->name,
+				 x->ops->name ? x->ops->name : "?", strerror(-rc));
+			return rc;
+		}
+		if (x->ops->attach && (rc = x->ops->attach(x->ctx, l)) < 0) {
+			cogw_log(COGW_LOG_ERR, "line %s: extension %s: cannot attach: %s", l->name,
+				 x->ops->name ? x->ops->name : "?", strerror(-rc));
+			return rc;
+		}
+		l->ext_attached = i + 1;
+	}
+	return 0;
+}
+
+static void detach_extensions(line *l)
+{
+	for (unsigned i = l->ext_attached; i-- > 0;) {
+		const line_ext *x = &l->p.ext[i];
+		if (x->ops && x->ops->detach)
+			x->ops->detach(x->ctx, l);
+	}
+	l->ext_attached = 0;
+}
+
+/* Each extension runs what is due; the earliest next time. */
+static uint64_t poll_extensions(line *l)
+{
+	uint64_t next = UINT64_MAX;
+	for (unsigned i = 0; i < l->ext_attached; i++) {
+		const line_ext *x = &l->p.ext[i];
+		if (x->ops && x->ops->poll) {
+			uint64_t t = x->ops->poll(x->ctx, l, l->now_us);
+			if (t < next)
+				next = t;
+		}
+	}
+	return next;
+}
+
+static void wake_extension(line *l, unsigned i)
+{
+	const line_ext *x = i < l->ext_attached ? &l->p.ext[i] : NULL;
+	if (!x || !x->ops)
+		return;
+	uint64_t v;
+	/* read the counter first: a hand-off pushed after this read wakes us
+	 * again, one pushed before it is drained below */
+	while (read(x->wake_fd, &v, sizeof v) == (ssize_t)sizeof v)
+		;
+	if (x->ops->on_wake)
+		x->ops->on_wake(x->ctx, l);
 }
 
 int line_create(line **out, const line_params *p)
@@ -133,6 +197,8 @@ int line_create(line **out, const line_params *p)
 	    (rc = epoll_add(l->epfd, l->timerfd, EPOLLIN, TAG_TIMER)) ||
 	    (rc = epoll_add(l->epfd, mbx_server_fd(l->mbx), EPOLLIN, TAG_MBX)) ||
 	    (rc = epoll_add(l->epfd, l->wakefd, EPOLLIN, TAG_WAKE)))
+		goto fail;
+	if ((rc = attach_extensions(l)) < 0)
 		goto fail;
 	*out = l;
 	return 0;
@@ -293,7 +359,9 @@ static void *line_main(void *arg)
 	atomic_store(&l->up, true);
 
 	while (!atomic_load(&l->stop)) {
-		uint64_t next = co_node_next_deadline_us(l->node);
+		uint64_t next = poll_extensions(l);
+		if (co_node_next_deadline_us(l->node) < next)
+			next = co_node_next_deadline_us(l->node);
 		uint64_t m = mbx_server_tick(l->mbx, l->now_us);
 		if (m < next)
 			next = m;
@@ -333,6 +401,9 @@ static void *line_main(void *arg)
 			case TAG_WAKE:
 				drain_fd(l->wakefd);
 				handle_requests(l);
+				break;
+			default:
+				wake_extension(l, evs[i].data.u32 - TAG_EXT_WAKE);
 				break;
 			}
 		}
@@ -426,6 +497,7 @@ void line_destroy(line *l)
 	if (!l)
 		return;
 	line_stop(l);
+	detach_extensions(l);
 	mbx_server_destroy(l->mbx);
 	co_node_destroy(l->node);
 	can_port_close(l->port);
@@ -439,6 +511,31 @@ void line_destroy(line *l)
 	free(l->store.blob);
 	pthread_mutex_destroy(&l->stats_lock);
 	free(l);
+}
+
+co_node *line_node(line *l)
+{
+	return l->node;
+}
+
+mbx_server *line_mbx(line *l)
+{
+	return l->mbx;
+}
+
+uint8_t line_index(const line *l)
+{
+	return l->p.index;
+}
+
+uint16_t line_network_id(const line *l)
+{
+	return l->p.network_id;
+}
+
+uint64_t line_loop_now_us(const line *l)
+{
+	return l->now_us;
 }
 
 const char *line_name(const line *l)

@@ -4,10 +4,12 @@
  * the line's core instance, SocketCAN port and mailbox server.
  *
  * The thread sleeps in epoll on: the CAN socket, one timerfd armed at the
- * earliest deadline (core, mailbox, transmit retry, watchdog check-in), the
- * line's mailbox command queue and an eventfd through which the main thread
- * (and later other lines) wake it. Nothing else touches the line's core
- * instance: every request reaches it as a message.
+ * earliest deadline (core, mailbox, transmit retry, watchdog check-in,
+ * extensions), the line's mailbox command queue, an eventfd through which
+ * the main thread wakes it, and each extension's wake_fd (cross-line rings,
+ * lines/xring.h). Nothing else touches the line's core instance: every
+ * request reaches it as a message. Extensions (manager, gateway) plug in
+ * through line_params.ext, see lines/line_ext.h.
  *
  * Threads: line_create/line_start/line_stop/line_destroy are for the main
  * thread; line_last_checkin_us, line_stats_snapshot and the line_request_*
@@ -20,6 +22,7 @@
 #include <stdint.h>
 
 #include "core/co.h"
+#include "lines/line_ext.h"
 #include "lines/socketcan.h"
 #include "mailbox/server.h"
 
@@ -40,6 +43,8 @@ typedef struct line_params {
 	const char *state_dir;    /* where 1010h "save" persists (NULL = off) */
 	int main_wakefd;          /* eventfd the line writes to when the main
 	                           * thread has storage work (-1 = none) */
+	line_ext ext[LINE_EXT_MAX]; /* extensions (lines/line_ext.h), in
+	                             * order; entries with ops NULL unused */
 } line_params;
 
 /* Counters published by the line thread about once per second. */

@@ -332,6 +332,12 @@ void line_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 	line *l = ctx;
 	(void)srv;
 	const uint8_t *p = req->payload;
+	for (unsigned i = 0; i < l->ext_attached; i++) {
+		const line_ext *x = &l->p.ext[i];
+		if (x->ops && x->ops->on_command && req->code >= x->ops->cmd_first &&
+		    req->code <= x->ops->cmd_last && x->ops->cmd_last)
+			return x->ops->on_command(x->ctx, l, req);
+	}
 	switch (req->code) {
 	case MBX_CMD_OD_READ:
 	case MBX_CMD_PDO_READ: {
@@ -410,5 +416,10 @@ void line_client_gone(void *ctx, mbx_server *srv, uint32_t client)
 					break;
 		}
 		pp->used = false;
+	}
+	for (unsigned i = 0; i < l->ext_attached; i++) {
+		const line_ext *x = &l->p.ext[i];
+		if (x->ops && x->ops->on_client_gone)
+			x->ops->on_client_gone(x->ctx, l, client);
 	}
 }

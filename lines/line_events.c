@@ -144,6 +144,11 @@ void line_on_core_event(void *ctx, const co_event *ev)
 	default:
 		break;
 	}
+	for (unsigned i = 0; i < l->ext_attached; i++) {
+		const line_ext *x = &l->p.ext[i];
+		if (x->ops && x->ops->on_core_event)
+			x->ops->on_core_event(x->ctx, l, ev);
+	}
 }
 
 uint8_t line_mbx_can_state(can_bus_state s)

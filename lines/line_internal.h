@@ -100,6 +100,7 @@ struct line {
 	can_bus_state bus_state_prev;
 	line_store_req store;
 	line_access_req access;
+	unsigned ext_attached; /* p.ext[0..ext_attached) attached */
 };
 
 /* line.c: wake the line thread (any thread may call it) */

@@ -22,6 +22,7 @@
 #include <systemd/sd-daemon.h>
 #include <unistd.h>
 
+#include "apps/cogwd/extensions.h"
 #include "apps/common/config.h"
 #include "lines/line.h"
 #include "lines/log.h"
@@ -40,6 +41,7 @@ typedef struct daemon_state {
 	int sigfd, wakefd;
 	uint64_t watchdog_usec; /* 0 = no systemd watchdog */
 	bool watchdog_withheld;
+	cogwd_exts exts; /* manager, gateway: plugged into the lines */
 } daemon_state;
 
 static void usage(FILE *to)
@@ -142,6 +144,7 @@ static int create_lines(daemon_state *d)
 			.state_dir = c->state_dir,
 			.main_wakefd = d->wakefd,
 		};
+		cogwd_exts_for_line(&d->exts, (unsigned)i, p.ext);
 		rc = line_create(&d->lines[i], &p);
 		if (rc < 0)
 			return rc;
@@ -424,6 +427,8 @@ int main(int argc, char **argv)
 
 	if (sd_watchdog_enabled(0, &d.watchdog_usec) <= 0)
 		d.watchdog_usec = 0;
+	if (cogwd_exts_setup(&d.exts, &d.cfg) < 0)
+		goto out;
 	if (create_lines(&d) < 0)
 		goto out;
 	for (size_t i = 0; i < d.n_lines; i++)
@@ -443,6 +448,7 @@ int main(int argc, char **argv)
 out:
 	for (size_t i = 0; i < d.n_lines; i++)
 		line_destroy(d.lines[i]);
+	cogwd_exts_teardown(&d.exts);
 	cogw_config_free(&d.cfg);
 	if (d.sigfd >= 0)
 		close(d.sigfd);

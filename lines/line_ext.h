@@ -1,0 +1,77 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * lines/line_ext.h - the extension seam of a line: how the CiA 302 manager,
+ * the CiA 302-7 gateway (or a test) plug into a line thread without lines/
+ * knowing them.
+ *
+ * An extension is an ops table plus a context, given to line_create() in
+ * line_params.ext[]. apps/cogwd wires them; lines/ never includes their
+ * headers. Every op runs on the line thread (attach/detach: on the thread
+ * that calls line_create/line_destroy, while the line thread does not run),
+ * so an extension owns its state without locks; other threads reach it
+ * only through messages (a cross-line ring, lines/xring.h, whose eventfd
+ * is wake_fd, or the mailbox).
+ *
+ * What an extension can do, op by op (all optional):
+ *   attach        at start-up: allocate, attach core services to the
+ *                 line's node (co_node_attach_service(line_node(l), ...):
+ *                 they are then ticked and counted in the deadline like
+ *                 the built-in services), hook OD entries.
+ *   on_core_event observe every event of the line's core, after the line's
+ *                 own handling (mailbox answers and events).
+ *   on_command    mailbox commands with cmd_first <= code <= cmd_last
+ *                 (checked before the line's own table, extensions in
+ *                 order). The mailbox has validated the envelope and the
+ *                 client's access; the handler answers now or later with
+ *                 mbx_server_respond(line_mbx(l), &req->reply, ...).
+ *   on_client_gone a mailbox client left: drop what it waits for.
+ *   on_wake       wake_fd became readable (the line has read the eventfd
+ *                 counter): drain the hand-offs, e.g. xring_pop() until 0.
+ *   poll          once per loop iteration: run what is due at now_us and
+ *                 return the next time it needs the line (CO_NO_DEADLINE
+ *                 for none); the line sleeps no longer than that.
+ *   detach        at line_destroy(), after the thread stopped and before
+ *                 the node is destroyed.
+ * Rules for every op: never block, never allocate after attach, never
+ * call into another line's core.
+ */
+#ifndef COGW_LINES_LINE_EXT_H
+#define COGW_LINES_LINE_EXT_H
+
+#include <stdint.h>
+
+#include "core/co.h"
+#include "mailbox/server.h"
+
+typedef struct line line;
+
+typedef struct line_ext_ops {
+	const char *name; /* for logs */
+	int (*attach)(void *ctx, line *l); /* 0 or -errno: line_create fails */
+	void (*detach)(void *ctx, line *l);
+	void (*on_core_event)(void *ctx, line *l, const co_event *ev);
+	uint16_t cmd_first, cmd_last; /* inclusive; 0, 0 = no commands */
+	void (*on_command)(void *ctx, line *l, const mbx_request *req);
+	void (*on_client_gone)(void *ctx, line *l, uint32_t client);
+	void (*on_wake)(void *ctx, line *l);
+	uint64_t (*poll)(void *ctx, line *l, uint64_t now_us);
+} line_ext_ops;
+
+typedef struct line_ext {
+	const line_ext_ops *ops; /* NULL = unused entry */
+	void *ctx;
+	int wake_fd; /* eventfd the line watches when ops->on_wake is set;
+	              * -1 = none. Not owned (e.g. xring_mesh_wake_fd()). */
+} line_ext;
+
+#define LINE_EXT_MAX 4
+
+/* For extensions, on the line thread (and in attach/detach). */
+co_node *line_node(line *l);
+mbx_server *line_mbx(line *l);
+uint8_t line_index(const line *l);
+uint16_t line_network_id(const line *l);
+/* The time of the current loop iteration (the one the core got). */
+uint64_t line_loop_now_us(const line *l);
+
+#endif /* COGW_LINES_LINE_EXT_H */
