@@ -29,6 +29,7 @@
 #include <fcntl.h>
 #include <mqueue.h>
 #include <signal.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/random.h>
@@ -48,6 +49,7 @@ typedef struct mbx_client {
 	uint32_t uid, pid;
 	uint8_t access;
 	bool confirmed;
+	bool pid_proven; /* at REGISTER, pid was a live process of uid */
 	bool dead; /* a send failed hard: reap at the next tick */
 	uint32_t classes;
 	uint8_t n_filters;
@@ -91,6 +93,7 @@ struct mbx_server {
 	mbx_server_config cfg; /* with defaults filled in */
 	char qname[MBX_QNAME_MAX];
 	mqd_t q;
+	ino_t q_ino; /* never accepted as a client queue */
 	uint8_t *rx;
 	size_t rx_size;
 	uint8_t *tx;
@@ -282,9 +285,19 @@ static bool queue_still_there(const char *name, ino_t ino)
 /* The process of a reaped client is gone: remove its queues too, so that a
  * crashed client does not leave its names (and kernel memory, counted in
  * its owner's RLIMIT_MSGQUEUE) behind. Only a queue that is still the very
- * one the client registered is removed, never a newcomer's of that name. */
+ * one the client registered is removed, never a newcomer's of that name.
+ *
+ * REGISTER is sent by a process the daemon cannot see, so the queues are
+ * removed only when they provably belonged to the dead process: the entry
+ * was confirmed (whoever used it read the token, i.e. could read the
+ * response queue, i.e. is its owner) and its pid was, at REGISTER, a live
+ * process of that owner (pid_check). Anybody else naming those queues, a
+ * dead pid or somebody else's pid (issue 11: that made the daemon unlink
+ * other clients' queues and its own command queues) unlinks nothing. */
 static void unlink_orphan_queues(const mbx_client *c)
 {
+	if (!c->confirmed || !c->pid_proven)
+		return;
 	if (kill((pid_t)c->pid, 0) == 0 || errno != ESRCH)
 		return;
 	if (queue_still_there(c->resp_name, c->resp_ino))
@@ -458,6 +471,41 @@ static mqd_t open_client_queue(mbx_server *srv, const char *name,
 	return (mqd_t)-1;
 }
 
+/* Is pid a live process running as uid (any of its real, effective, saved
+ * or file-system uids)? 1 yes, 0 it runs as somebody else, -ESRCH no such
+ * process, -EACCES cannot tell (procfs hidden). The process that created
+ * a queue had the owner's fs uid then; a pid of another user, or of
+ * nobody, is a REGISTER lying about who sent it. */
+static int pid_check(uint32_t pid, uint32_t uid)
+{
+	char path[32], line[256];
+	unsigned long u[4];
+	FILE *f;
+	int rc = -EACCES;
+
+	snprintf(path, sizeof path, "/proc/%u/status", (unsigned)pid);
+	f = fopen(path, "re");
+	if (!f) {
+		if (kill((pid_t)pid, 0) < 0 && errno == ESRCH)
+			return -ESRCH;
+		return -EACCES;
+	}
+	while (fgets(line, sizeof line, f)) {
+		if (strncmp(line, "Uid:", 4) != 0)
+			continue;
+		if (sscanf(line + 4, "%lu %lu %lu %lu", &u[0], &u[1], &u[2],
+			   &u[3]) != 4)
+			break;
+		rc = 0;
+		for (int i = 0; i < 4; i++)
+			if (u[i] == uid)
+				rc = 1;
+		break;
+	}
+	fclose(f);
+	return rc;
+}
+
 static void register_refuse(mbx_server *srv, mqd_t resp, long resp_msg,
 			    const mbx_hdr *h, int status)
 {
@@ -480,7 +528,7 @@ static void handle_register(mbx_server *srv, const mbx_hdr *h,
 	struct mq_attr rattr, eattr;
 	mqd_t resp, evt;
 	mbx_client *c = NULL;
-	int status;
+	int status, pid_rc = -EACCES;
 	uint8_t access;
 
 	memcpy(&r, p, sizeof r);
@@ -502,21 +550,38 @@ static void handle_register(mbx_server *srv, const mbx_hdr *h,
 	access = access_of(srv, (uint32_t)rst.st_uid);
 	status = 0;
 	if (est.st_uid != rst.st_uid || r.uid != (uint32_t)rst.st_uid ||
-	    access == MBX_ACCESS_NONE)
+	    access == MBX_ACCESS_NONE || rst.st_ino == srv->q_ino ||
+	    est.st_ino == srv->q_ino)
 		status = MBX_E_ACCESS;
+	if (!status) {
+		pid_rc = pid_check(r.pid, r.uid);
+		if (pid_rc == 0 || pid_rc == -ESRCH)
+			status = MBX_E_ACCESS; /* not the owner's process */
+	}
 
-	/* A client registering again (e.g. it lost the answer) replaces its
-	 * old entry; an entry of another process is replaced only while it
-	 * is unconfirmed, so nobody can kick out a working client by naming
-	 * its queues. */
+	/* Who sends REGISTER is unknown (a message queue has no peer
+	 * credentials), so an existing entry on the same response queue is
+	 * replaced only by a REGISTER that proves to be that client: it
+	 * carries the entry's id and token in its header (only the reader of
+	 * the response queue knows them). A live, used entry is never
+	 * replaced otherwise (issue 11: naming a client's queues and pid
+	 * kicked it out for good), and the refusal is not even written to its
+	 * queue (a stranger's corr must not complete the victim's call). An
+	 * unused entry stays too: the new one is added next to it and the
+	 * old one expires after register_timeout_ms. */
 	for (unsigned i = 0; !status && i < srv->cfg.max_clients; i++) {
 		mbx_client *o = &srv->clients[i];
 
-		if (o->id && strcmp(o->resp_name, r.resp_queue) == 0) {
-			if (o->pid == r.pid || !o->confirmed)
-				client_remove(srv, o, false);
-			else
-				status = MBX_E_BUSY;
+		if (!o->id || o->resp_ino != rst.st_ino)
+			continue;
+		if (h->client == o->id && h->token == o->token) {
+			client_remove(srv, o, false);
+		} else if (o->confirmed) {
+			srv->stats.access_denied++;
+			count_bad(srv, MBX_BAD_CLIENT);
+			mq_close(resp);
+			mq_close(evt);
+			return;
 		}
 	}
 	for (unsigned i = 0; !status && i < srv->cfg.max_clients; i++) {
@@ -552,6 +617,7 @@ static void handle_register(mbx_server *srv, const mbx_hdr *h,
 	c->evt_ino = est.st_ino;
 	c->uid = (uint32_t)rst.st_uid;
 	c->pid = r.pid;
+	c->pid_proven = pid_rc == 1;
 	c->access = access;
 	c->registered_us = srv->now_us;
 	c->lease_until = srv->now_us + (uint64_t)srv->cfg.lease_ms * 1000u;
@@ -1093,7 +1159,7 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 	mbx_server_config *c = &srv->cfg;
 
 	if (!c->queue_mode)
-		c->queue_mode = 0660;
+		c->queue_mode = 0620;
 	if (!c->depth)
 		c->depth = 64;
 	if (!c->msg_size)
@@ -1112,9 +1178,15 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 		c->xfer_timeout_ms = 5000;
 	if (!c->poll_budget)
 		c->poll_budget = c->depth;
-	if (!c->forbidden_client_mode)
-		c->forbidden_client_mode = 0044;
+	/* A client queue others can read leaks the token: never allowed. */
+	c->forbidden_client_mode |= 0044;
 	rc = -EINVAL;
+	/* The command queue carries every client's token: only the daemon
+	 * may read it (issue 11: with 0660 any member of the group read the
+	 * tokens of other clients and acted with their rights). */
+	if (c->queue_mode & ~0777u || c->queue_mode & 0044 ||
+	    (c->queue_chown && c->queue_uid != geteuid()))
+		goto fail;
 	if (c->msg_size < MBX_MSG_MIN || c->msg_size > MBX_MSG_MAX ||
 	    c->max_clients > 0xFFFFu || c->xfer_slots > 255)
 		goto fail;
@@ -1162,12 +1234,16 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 	}
 	/* The mode given to mq_open is filtered by the umask: set it
 	 * exactly, as the config says. */
+	struct stat qst;
+
 	if (fchmod((int)srv->q, c->queue_mode) < 0 ||
 	    (c->queue_chown &&
-	     fchown((int)srv->q, c->queue_uid, c->queue_gid) < 0)) {
+	     fchown((int)srv->q, c->queue_uid, c->queue_gid) < 0) ||
+	    fstat((int)srv->q, &qst) < 0) {
 		rc = -errno;
 		goto fail;
 	}
+	srv->q_ino = qst.st_ino;
 	*out = srv;
 	return 0;
 fail:

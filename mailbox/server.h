@@ -89,9 +89,12 @@ typedef struct mbx_access_rule {
 typedef struct mbx_server_config {
 	uint8_t line;           /* < MBX_LINES_MAX */
 	const char *queue_name; /* e.g. from mbx_queue_name(); required */
-	unsigned queue_mode;    /* command queue mode (0 = 0660) */
+	/* Command queue mode (0 = 0620). Every command carries its client's
+	 * token, so no read bit for group/others is allowed (-EINVAL). */
+	unsigned queue_mode;
 	uid_t queue_uid;        /* chown the command queue (with queue_gid) */
-	gid_t queue_gid;        /*   if queue_chown is set */
+	gid_t queue_gid;        /*   if queue_chown is set; queue_uid must be
+	                         *   the daemon's own (the owner reads it) */
 	bool queue_chown;
 	unsigned depth;         /* command queue mq_maxmsg (0 = 64) */
 	unsigned msg_size;      /* command queue mq_msgsize (0 = 1024) */
@@ -110,7 +113,8 @@ typedef struct mbx_server_config {
 	size_t n_rules;
 	uint8_t default_access;
 	/* Mode bits a client queue must NOT have: the token travels in the
-	 * response queue, so nobody but its owner may read it. 0 = 0044. */
+	 * response queue, so nobody but its owner may read it. 0044 is always
+	 * added (a config can forbid more, never less). */
 	unsigned forbidden_client_mode;
 	bool unlink_existing; /* remove a stale command queue first */
 	mbx_dispatch dispatch;

@@ -253,10 +253,17 @@ static int parse_mailbox(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
 		json_util_path_key(p, sizeof(p), path, "queue_mode");
 		if (!cJSON_IsString(v) || v->valuestring[0] != '0')
 			return fail(c, p,
-				    "expected an octal string like \"0660\"");
+				    "expected an octal string like \"0620\"");
 		if ((rc = json_util_uint(v, p, 0, 0777, false, &mode, c->msg,
 					 sizeof(c->msg))))
 			return rc;
+		/* Every command carries its client's token: a command queue
+		 * others can read gives them every client's rights. */
+		if (mode & 0044)
+			return fail(c, p,
+				    "clients could read other clients' tokens: "
+				    "no read bit for group or others (e.g. "
+				    "\"0620\" or \"0622\")");
 		m->queue_mode = (unsigned)mode;
 	}
 	v = json_util_get(o, "default_access");
@@ -677,7 +684,7 @@ static void set_defaults(cogw_config *cfg, const char *source)
 	snprintf(cfg->mailbox.instance, sizeof(cfg->mailbox.instance), "main");
 	cfg->mailbox.depth = 64;
 	cfg->mailbox.msg_size = 1024;
-	cfg->mailbox.queue_mode = 0660;
+	cfg->mailbox.queue_mode = 0620;
 	cfg->mailbox.max_clients = 16;
 	cfg->mailbox.lease_ms = 0;
 	cfg->mailbox.max_transfer = 1u << 20;

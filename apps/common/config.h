@@ -82,7 +82,7 @@ typedef struct cogw_mailbox_config {
 	char instance[COGW_NAME_MAX]; /* queue names /<instance>.line<N>.cmd */
 	unsigned depth;          /* mq_maxmsg of the command queues (64) */
 	unsigned msg_size;       /* mq_msgsize (1024) */
-	unsigned queue_mode;     /* command queue mode (0660) */
+	unsigned queue_mode;     /* command queue mode (0620) */
 	unsigned max_clients;    /* per line (16) */
 	unsigned lease_ms;       /* 0 = no lease */
 	unsigned max_transfer;   /* bytes of one chunked transfer (1 MiB) */

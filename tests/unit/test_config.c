@@ -77,7 +77,7 @@ static void test_embedded_default_parses(void)
 	TEST_ASSERT_EQUAL_size_t(3, cfg.n_lines);
 	TEST_ASSERT_EQUAL_STRING("/var/lib/cogw", cfg.state_dir);
 	TEST_ASSERT_EQUAL_STRING("main", cfg.mailbox.instance);
-	TEST_ASSERT_EQUAL_UINT(0660, cfg.mailbox.queue_mode);
+	TEST_ASSERT_EQUAL_UINT(0620, cfg.mailbox.queue_mode);
 	TEST_ASSERT_EQUAL_UINT(COGW_ACCESS_WRITE, cfg.mailbox.default_access);
 	for (size_t i = 0; i < 3; i++) {
 		char ifn[16];
@@ -159,7 +159,20 @@ static void test_wrong_types(void)
 		     "t.json: lines: expected a non-empty array, got an object");
 	expect_error("[]", "t.json: (top): expected an object, got an array");
 	expect_error("{\"mailbox\": {\"queue_mode\": 432}, \"lines\": [" LINE("") "]}",
-		     "t.json: mailbox.queue_mode: expected an octal string like \"0660\"");
+		     "t.json: mailbox.queue_mode: expected an octal string like \"0620\"");
+	/* issue 11: a command queue clients can read leaks their tokens */
+	static const char *const readable[] = { "0660", "0666", "0640",
+						"0604", "0777" };
+	for (size_t i = 0; i < sizeof readable / sizeof readable[0]; i++) {
+		char json[256];
+
+		snprintf(json, sizeof json,
+			 "{\"mailbox\": {\"queue_mode\": \"%s\"}, \"lines\": ["
+			 LINE("") "]}", readable[i]);
+		expect_error(json, "t.json: mailbox.queue_mode: clients could "
+				   "read other clients' tokens: no read bit for "
+				   "group or others (e.g. \"0620\" or \"0622\")");
+	}
 }
 
 static void test_missing_required_keys(void)

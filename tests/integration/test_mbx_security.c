@@ -1,0 +1,587 @@
+/* Attacks on the mailbox, performed as a hostile local process would
+ * (issue 11): an in-process mbx_server on REAL POSIX message queues, a
+ * victim client using libcogw in a forked child, and an attacker that is
+ * another uid (a forked child that drops to 65534 = nobody, as
+ * `setpriv --reuid=65534 --regid=65534 --clear-groups` would) sending raw
+ * mailbox messages. Needs root (to change uid and to read every queue's
+ * owner, like the daemon); skipped otherwise.
+ *
+ * Covered:
+ *  - REGISTER naming a live client's queues and pid must not replace that
+ *    client (it used to: the victim never got an answer again);
+ *  - REGISTER naming a pid that does not exist must not make the daemon
+ *    unlink the queues it named (the victim's, or the daemon's own
+ *    command queue);
+ *  - the command queue carries every client's token: nobody but the
+ *    daemon may read it (default mode, and modes with read bits for
+ *    group/others refused at create).
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <grp.h>
+#include <mqueue.h>
+#include <poll.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "mailbox/cogw.h"
+#include "mailbox/server.h"
+#include "unity.h"
+
+#define LINE 2
+#define CALL_MS 10000
+#define NOBODY 65534u
+
+/* ---- the fake line: answers OD_READ 2000h and OD_WRITE, nothing else ---------- */
+
+typedef struct fake_line {
+	pthread_mutex_t mu;
+	pthread_t thr;
+	volatile bool stop;
+	volatile bool running;
+	mbx_server *srv;
+	unsigned writes_ok;
+} fake_line;
+
+static fake_line fl;
+static char instance[32];
+static char qname[MBX_QNAME_MAX];
+
+static uint64_t now_us(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+}
+
+static void sleep_ms(unsigned ms)
+{
+	struct timespec ts = { ms / 1000, (long)(ms % 1000) * 1000000L };
+
+	nanosleep(&ts, NULL);
+}
+
+static void fake_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
+{
+	fake_line *f = ctx;
+	uint8_t v[4] = { 1, 2, 3, 4 };
+
+	switch (req->code) {
+	case MBX_CMD_OD_READ:
+		mbx_server_respond(srv, &req->reply, 0, 0, v, sizeof v);
+		return;
+	case MBX_CMD_OD_WRITE:
+		f->writes_ok++;
+		mbx_server_respond(srv, &req->reply, 0, 0, NULL, 0);
+		return;
+	default:
+		mbx_server_respond(srv, &req->reply, MBX_E_UNSUPPORTED, 0, NULL,
+				   0);
+	}
+}
+
+static void *loop_main(void *arg)
+{
+	fake_line *f = arg;
+
+	f->running = true;
+	while (!f->stop) {
+		struct pollfd pf = { .fd = mbx_server_fd(f->srv),
+				     .events = POLLIN };
+
+		poll(&pf, 1, 2);
+		pthread_mutex_lock(&f->mu);
+		uint64_t now = now_us();
+
+		mbx_server_poll(f->srv, now);
+		mbx_server_tick(f->srv, now);
+		pthread_mutex_unlock(&f->mu);
+	}
+	return NULL;
+}
+
+static mbx_server_config base_cfg(void)
+{
+	return (mbx_server_config){
+		.line = LINE,
+		.queue_name = qname,
+		.queue_mode = 0622, /* any user may send (not read) */
+		.depth = 10,
+		.msg_size = 1024,
+		.max_clients = 8,
+		.check_ms = 100,
+		.register_timeout_ms = 500,
+		.default_access = MBX_ACCESS_WRITE,
+		.unlink_existing = true,
+		.dispatch = { .dispatch = fake_dispatch },
+		.dispatch_ctx = &fl,
+	};
+}
+
+static void start(const mbx_server_config *cfg)
+{
+	int rc;
+
+	fl.stop = false;
+	fl.running = false;
+	fl.writes_ok = 0;
+	rc = mbx_server_create(&fl.srv, cfg);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, strerror(-rc));
+	TEST_ASSERT_EQUAL_INT(0, pthread_create(&fl.thr, NULL, loop_main, &fl));
+	for (unsigned i = 0; i < 10000 && !fl.running; i++)
+		sleep_ms(1);
+	TEST_ASSERT_TRUE_MESSAGE(fl.running, "loop thread did not start");
+}
+
+static void stop(void)
+{
+	if (!fl.srv)
+		return;
+	fl.stop = true;
+	pthread_join(fl.thr, NULL);
+	mbx_server_destroy(fl.srv);
+	fl.srv = NULL;
+}
+
+static mbx_server_stats stats(void)
+{
+	mbx_server_stats st;
+
+	pthread_mutex_lock(&fl.mu);
+	st = *mbx_server_stats_get(fl.srv);
+	pthread_mutex_unlock(&fl.mu);
+	return st;
+}
+
+static mbx_client_info client_info(unsigned n)
+{
+	mbx_client_info ci;
+
+	pthread_mutex_lock(&fl.mu);
+	TEST_ASSERT_EQUAL_INT(0, mbx_server_client_info(fl.srv, n, &ci));
+	pthread_mutex_unlock(&fl.mu);
+	return ci;
+}
+
+void setUp(void)
+{
+	if (geteuid() != 0)
+		TEST_IGNORE_MESSAGE("needs root (attacks run as uid 65534)");
+	snprintf(instance, sizeof instance, "s%d", (int)getpid());
+	TEST_ASSERT_EQUAL_INT(0, mbx_queue_name(qname, sizeof qname, instance,
+						 LINE));
+	fl.srv = NULL;
+}
+
+void tearDown(void)
+{
+	stop();
+	mq_unlink(qname);
+}
+
+/* ---- processes ------------------------------------------------------------------ */
+
+/* Children report failures as the line number in the exit code (0 = ok):
+ * Unity's assertions must not run in a forked child. */
+#define CHECK(c)                                                              \
+	do {                                                                   \
+		if (!(c)) {                                                    \
+			fprintf(stderr, "child %d: %s:%d: %s\n", (int)getpid(), \
+				__FILE__, __LINE__, #c);                       \
+			return __LINE__ % 250 + 1;                             \
+		}                                                              \
+	} while (0)
+
+typedef int (*child_fn)(void *arg);
+
+/* fork with the loop thread held off its work (see test_mbx_server.c
+ * spawn(): no other thread may be inside the allocator at fork time). */
+static pid_t spawn(child_fn fn, void *arg)
+{
+	pid_t pid;
+
+	fflush(stdout);
+	pthread_mutex_lock(&fl.mu);
+	pid = fork();
+	pthread_mutex_unlock(&fl.mu);
+	TEST_ASSERT_TRUE(pid >= 0);
+	if (pid == 0)
+		_exit(fn(arg));
+	return pid;
+}
+
+static int reap(pid_t pid)
+{
+	int st = 0;
+
+	TEST_ASSERT_EQUAL_INT(pid, waitpid(pid, &st, 0));
+	if (WIFSIGNALED(st))
+		return 1000 + WTERMSIG(st);
+	return WEXITSTATUS(st);
+}
+
+/* Become uid/gid 65534 with no supplementary groups (setpriv --reuid
+ * --regid --clear-groups). */
+static int become_nobody(void)
+{
+	if (setgroups(0, NULL) < 0 || setresgid(NOBODY, NOBODY, NOBODY) < 0 ||
+	    setresuid(NOBODY, NOBODY, NOBODY) < 0)
+		return -1;
+	return geteuid() == NOBODY && getegid() == NOBODY ? 0 : -1;
+}
+
+typedef struct sync2 {
+	int ready[2], go[2];
+} sync2;
+
+static void sync_init(sync2 *s)
+{
+	TEST_ASSERT_EQUAL_INT(0, pipe(s->ready));
+	TEST_ASSERT_EQUAL_INT(0, pipe(s->go));
+}
+
+static void sync_close(sync2 *s)
+{
+	close(s->ready[0]);
+	close(s->ready[1]);
+	close(s->go[0]);
+	close(s->go[1]);
+}
+
+static void child_ready(sync2 *s)
+{
+	char c = 'r';
+
+	if (write(s->ready[1], &c, 1) != 1)
+		_exit(99);
+}
+
+static void child_wait_go(sync2 *s)
+{
+	char c;
+
+	if (read(s->go[0], &c, 1) != 1)
+		_exit(98);
+}
+
+static void parent_wait_ready(sync2 *s)
+{
+	struct pollfd pf = { .fd = s->ready[0], .events = POLLIN };
+	char c;
+
+	TEST_ASSERT_EQUAL_INT_MESSAGE(1, poll(&pf, 1, 10000), "child not ready");
+	TEST_ASSERT_EQUAL_INT(1, read(s->ready[0], &c, 1));
+}
+
+static void parent_go(sync2 *s)
+{
+	char c = 'g';
+
+	TEST_ASSERT_EQUAL_INT(1, write(s->go[1], &c, 1));
+}
+
+/* The victim: a libcogw client (root) that registers, waits while the
+ * attack runs, then must still be served. */
+static int child_victim(void *arg)
+{
+	sync2 *s = arg;
+	cogw *h;
+	uint8_t v[8];
+	size_t len = 0;
+	uint32_t abort = 0;
+
+	CHECK(cogw_open(&h, instance) == 0);
+	CHECK(cogw_ping(h, LINE, CALL_MS) == 0);
+	child_ready(s);
+	child_wait_go(s);
+	/* after the attack: the very same registration still works */
+	CHECK(cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, 3000,
+			   &abort) == 0);
+	CHECK(len == 4 && v[0] == 1);
+	cogw_close(h);
+	return 0;
+}
+
+/* ---- the attacker: raw REGISTER as uid 65534 ------------------------------------- */
+
+typedef struct attack {
+	char resp[MBX_QNAME_MAX], evt[MBX_QNAME_MAX];
+	uint32_t pid, uid;
+	uint32_t first_pid; /* if set: the first REGISTER names this pid */
+	unsigned times;
+} attack;
+
+static int child_register_as_nobody(void *arg)
+{
+	const attack *a = arg;
+	uint8_t buf[MBX_MSG_MIN];
+	mbx_register_req r;
+	mqd_t cmd;
+
+	CHECK(become_nobody() == 0);
+	cmd = mq_open(qname, O_WRONLY | O_NONBLOCK);
+	CHECK(cmd != (mqd_t)-1);
+	memset(&r, 0, sizeof r);
+	r.pid = a->pid;
+	r.uid = a->uid;
+	memcpy(r.resp_queue, a->resp, sizeof r.resp_queue);
+	memcpy(r.event_queue, a->evt, sizeof r.event_queue);
+	for (unsigned i = 0; i < a->times; i++) {
+		mbx_hdr h = { .magic = MBX_MAGIC, .version = MBX_VERSION,
+			      .kind = MBX_KIND_COMMAND,
+			      .code = MBX_CMD_REGISTER, .line = LINE,
+			      .corr = 4242 + i };
+		int n;
+
+		r.pid = i == 0 && a->first_pid ? a->first_pid : a->pid;
+		n = mbx_msg_build(buf, sizeof buf, &h, &r, sizeof r);
+
+		CHECK(n > 0);
+		CHECK(mq_send(cmd, (const char *)buf, (size_t)n, 0) == 0);
+	}
+	mq_close(cmd);
+	return 0;
+}
+
+/* Inode of the queue behind name, 0 if there is none. */
+static ino_t queue_ino(const char *name)
+{
+	mqd_t q = mq_open(name, O_WRONLY | O_NONBLOCK);
+	struct stat st;
+	ino_t ino = 0;
+
+	if (q == (mqd_t)-1)
+		return 0;
+	if (fstat((int)q, &st) == 0)
+		ino = st.st_ino;
+	mq_close(q);
+	return ino;
+}
+
+/* A pid nobody has: past pid_max. */
+static uint32_t dead_pid(void)
+{
+	unsigned long max = 4194304;
+	FILE *f = fopen("/proc/sys/kernel/pid_max", "r");
+
+	if (f) {
+		if (fscanf(f, "%lu", &max) != 1)
+			max = 4194304;
+		fclose(f);
+	}
+	return (uint32_t)max + 1000u;
+}
+
+/* ---- 1. registration cannot hijack ----------------------------------------------- */
+
+/* Before issue 11: a REGISTER naming the victim's queues and pid replaced
+ * the victim's entry; the victim's token died with it and every later
+ * call of the victim timed out. */
+static void test_register_cannot_replace_a_live_client(void)
+{
+	mbx_server_config cfg = base_cfg();
+	mbx_client_info ci;
+	sync2 s;
+	pid_t victim;
+	attack a = { .times = 3 };
+
+	start(&cfg);
+	sync_init(&s);
+	victim = spawn(child_victim, &s);
+	parent_wait_ready(&s);
+	ci = client_info(0);
+	TEST_ASSERT_TRUE(ci.confirmed);
+	memcpy(a.resp, ci.resp_queue, sizeof a.resp);
+	memcpy(a.evt, ci.event_queue, sizeof a.evt);
+	a.pid = ci.pid;
+	a.uid = ci.uid;
+	TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_register_as_nobody, &a)));
+	sleep_ms(300);
+	ci = client_info(0);
+	TEST_ASSERT_EQUAL_UINT32_MESSAGE((uint32_t)victim, ci.pid,
+					 "the victim's entry was replaced");
+	TEST_ASSERT_TRUE(ci.confirmed);
+	parent_go(&s);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(victim),
+				      "the victim lost its registration");
+	sync_close(&s);
+}
+
+/* ---- 1. registration cannot destroy ---------------------------------------------- */
+
+/* Before issue 11: the entry naming a pid that does not exist was reaped
+ * at the next liveness check, and the daemon unlinked the queues it named
+ * (the victim's): the victim lost its response queue for good. */
+static void test_register_with_dead_pid_unlinks_nothing(void)
+{
+	mbx_server_config cfg = base_cfg();
+	mbx_client_info ci;
+	sync2 s;
+	pid_t victim;
+	attack a = { .times = 2 };
+	ino_t rino, eino;
+
+	start(&cfg);
+	sync_init(&s);
+	victim = spawn(child_victim, &s);
+	parent_wait_ready(&s);
+	ci = client_info(0);
+	rino = queue_ino(ci.resp_queue);
+	eino = queue_ino(ci.event_queue);
+	TEST_ASSERT_TRUE(rino && eino);
+	memcpy(a.resp, ci.resp_queue, sizeof a.resp);
+	memcpy(a.evt, ci.event_queue, sizeof a.evt);
+	/* first push the victim out (naming its pid), then name a dead one */
+	a.first_pid = ci.pid;
+	a.pid = dead_pid();
+	a.uid = ci.uid;
+	TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_register_as_nobody, &a)));
+	/* several liveness checks and the registration timeout */
+	sleep_ms(1200);
+	TEST_ASSERT_EQUAL_UINT64_MESSAGE(rino, queue_ino(ci.resp_queue),
+					 "victim's response queue unlinked");
+	TEST_ASSERT_EQUAL_UINT64_MESSAGE(eino, queue_ino(ci.event_queue),
+					 "victim's event queue unlinked");
+	parent_go(&s);
+	TEST_ASSERT_EQUAL_INT(0, reap(victim));
+	sync_close(&s);
+}
+
+/* Before issue 11: with a command queue any user may write (0622), naming
+ * the daemon's own command queue as "client queues" with a dead pid made
+ * the daemon unlink its command queue: no new client could ever connect. */
+static void test_register_cannot_unlink_the_command_queue(void)
+{
+	mbx_server_config cfg = base_cfg();
+	attack a = { .times = 1, .uid = 0 };
+	struct mq_attr qa = { .mq_maxmsg = 4, .mq_msgsize = 1024 };
+	char other[MBX_QNAME_MAX];
+	ino_t ino, other_ino;
+	mqd_t oq;
+
+	start(&cfg);
+	/* stands for another line's command queue (root, 0622) */
+	snprintf(other, sizeof other, "/%s.line3.cmd", instance);
+	mq_unlink(other);
+	oq = mq_open(other, O_CREAT | O_EXCL | O_RDONLY, 0622, &qa);
+	TEST_ASSERT_TRUE(oq != (mqd_t)-1);
+	fchmod((int)oq, 0622);
+	ino = queue_ino(qname);
+	other_ino = queue_ino(other);
+	TEST_ASSERT_TRUE(ino != 0 && other_ino != 0);
+	memcpy(a.resp, qname, sizeof a.resp);
+	memcpy(a.evt, other, sizeof a.evt);
+	a.pid = dead_pid();
+	TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_register_as_nobody, &a)));
+	sleep_ms(1200);
+	TEST_ASSERT_EQUAL_UINT64_MESSAGE(ino, queue_ino(qname),
+					 "the daemon's command queue was unlinked");
+	TEST_ASSERT_EQUAL_UINT64_MESSAGE(other_ino, queue_ino(other),
+					 "another command queue was unlinked");
+	mq_close(oq);
+	mq_unlink(other);
+	TEST_ASSERT_EQUAL_UINT32(0, stats().clients);
+}
+
+/* A client that really died still has its queues removed (the reaping
+ * that the attacks above must not be able to trigger). */
+static int child_register_and_die(void *arg)
+{
+	cogw *h;
+
+	(void)arg;
+	CHECK(cogw_open(&h, instance) == 0);
+	CHECK(cogw_ping(h, LINE, CALL_MS) == 0);
+	_exit(0); /* no cogw_close: the queues stay behind */
+}
+
+static void test_dead_client_queues_are_still_removed(void)
+{
+	mbx_server_config cfg = base_cfg();
+	mbx_client_info ci;
+	pid_t p;
+
+	start(&cfg);
+	p = spawn(child_register_and_die, NULL);
+	for (unsigned i = 0; i < 1000 && stats().clients == 0; i++)
+		sleep_ms(5);
+	ci = client_info(0);
+	TEST_ASSERT_EQUAL_INT(0, reap(p));
+	for (unsigned i = 0; i < 400 && stats().clients; i++)
+		sleep_ms(5);
+	TEST_ASSERT_EQUAL_UINT32(0, stats().clients);
+	TEST_ASSERT_EQUAL_UINT64(0, queue_ino(ci.resp_queue));
+	TEST_ASSERT_EQUAL_UINT64(0, queue_ino(ci.event_queue));
+}
+
+/* ---- 2. tokens stay secret -------------------------------------------------------- */
+
+/* Before issue 11: the default command queue mode was 0660, so every
+ * member of the queue's group could read the queue, and with it every
+ * client's token. */
+static int child_read_command_queue(void *arg)
+{
+	mqd_t q;
+
+	(void)arg;
+	CHECK(become_nobody() == 0);
+	q = mq_open(qname, O_RDONLY | O_NONBLOCK);
+	CHECK(q == (mqd_t)-1 && errno == EACCES);
+	q = mq_open(qname, O_WRONLY | O_NONBLOCK); /* sending is the point */
+	CHECK(q != (mqd_t)-1);
+	mq_close(q);
+	return 0;
+}
+
+static void test_command_queue_is_write_only_for_clients(void)
+{
+	mbx_server_config cfg = base_cfg();
+	struct stat st;
+
+	cfg.queue_mode = 0; /* the default */
+	cfg.queue_chown = true; /* the clients' group: nobody's */
+	cfg.queue_uid = 0;
+	cfg.queue_gid = NOBODY;
+	start(&cfg);
+	TEST_ASSERT_EQUAL_INT(0, fstat(mbx_server_fd(fl.srv), &st));
+	TEST_ASSERT_EQUAL_HEX(0, st.st_mode & 0044);
+	TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_read_command_queue, NULL)));
+}
+
+static void test_readable_command_queue_modes_are_refused(void)
+{
+	static const unsigned bad[] = { 0660, 0666, 0777, 0640, 0604, 0624 };
+	mbx_server_config cfg = base_cfg();
+	mbx_server *srv = NULL;
+
+	for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+		cfg.queue_mode = bad[i];
+		TEST_ASSERT_EQUAL_INT_MESSAGE(-EINVAL,
+					      mbx_server_create(&srv, &cfg),
+					      "a readable command queue");
+		TEST_ASSERT_NULL(srv);
+		TEST_ASSERT_EQUAL_UINT64(0, queue_ino(qname));
+	}
+}
+
+int main(void)
+{
+	pthread_mutex_init(&fl.mu, NULL);
+	signal(SIGPIPE, SIG_IGN);
+	UNITY_BEGIN();
+	RUN_TEST(test_register_cannot_replace_a_live_client);
+	RUN_TEST(test_register_with_dead_pid_unlinks_nothing);
+	RUN_TEST(test_register_cannot_unlink_the_command_queue);
+	RUN_TEST(test_dead_client_queues_are_still_removed);
+	RUN_TEST(test_command_queue_is_write_only_for_clients);
+	RUN_TEST(test_readable_command_queue_modes_are_refused);
+	return UNITY_END();
+}
