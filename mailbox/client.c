@@ -75,7 +75,24 @@ typedef struct async_op {
 typedef struct line_state {
 	bool registered;
 	bool registering; /* a thread is registering: others wait */
+	/* The daemon restarted (the command queue behind the name is another
+	 * one, or gone): cmd must be re-opened by name and the line
+	 * registered again (line_ready). */
+	bool stale;
 	mqd_t cmd;
+	ino_t cmd_ino;     /* the queue cmd refers to */
+	unsigned restarts; /* counts restarts seen: a wait that began
+	                    * before one fails with COGW_E_RESTARTED */
+	unsigned restarts_failed; /* asyncs failed up to this count */
+	uint64_t checked_us; /* last cmd_queue_check */
+	/* what to subscribe again after a restart */
+	uint32_t sub_classes;
+	uint8_t n_filters;
+	mbx_raw_filter filters[MBX_RAW_FILTERS_MAX];
+	/* reader thread: a re-registration sent by itself (event-only
+	 * clients make no calls that would re-register) */
+	uint64_t rereg_corr;
+	uint64_t rereg_sent_us;
 	uint32_t client;
 	uint64_t token;
 	uint32_t lease_ms;
@@ -178,15 +195,120 @@ const char *cogw_strerror(int err)
 	case COGW_E_TRUNCATED: return "answer truncated (buffer too small)";
 	case COGW_E_CLOSED: return "handle closing";
 	case COGW_E_PROTOCOL: return "unexpected message from the daemon";
+	case COGW_E_RESTARTED:
+		return "the daemon restarted: request not completed (retry)";
 	}
 	return "unknown error";
+}
+
+/* ---- daemon restarts ------------------------------------------------------------ */
+
+#define RESTART_CHECK_MS 200u
+
+/*
+ * Is the line's command queue still the one we send to? A daemon that
+ * restarts unlinks the old queue and creates a new one: whatever we send
+ * to the old descriptor is never read, and the new daemon does not know
+ * our registration. There is no notification for that on a message
+ * queue, so waits check the name's inode every RESTART_CHECK_MS (and the
+ * reader thread every period). On a change the line is marked stale and
+ * unregistered, its restart count goes up (waits that began before fail
+ * with COGW_E_RESTARTED) and the next use registers again.
+ * Returns 0 (unchanged, or not open), COGW_E_RESTARTED.
+ */
+static int cmd_queue_check(cogw *h, unsigned line)
+{
+	line_state *ls = &h->lines[line];
+	char qname[MBX_QNAME_MAX];
+	struct stat st;
+	bool changed;
+	mqd_t q;
+
+	pthread_mutex_lock(&h->setup_mu);
+	if (ls->cmd == (mqd_t)-1 || ls->stale) {
+		changed = ls->stale;
+		pthread_mutex_unlock(&h->setup_mu);
+		return changed ? COGW_E_RESTARTED : 0;
+	}
+	pthread_mutex_unlock(&h->setup_mu);
+	if (mbx_queue_name(qname, sizeof qname, h->instance, line) < 0)
+		return 0;
+	q = mq_open(qname, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
+	if (q == (mqd_t)-1) {
+		changed = errno == ENOENT;
+		st.st_ino = 0;
+	} else {
+		changed = fstat((int)q, &st) == 0 && st.st_ino != ls->cmd_ino;
+		mq_close(q);
+	}
+	pthread_mutex_lock(&h->setup_mu);
+	ls->checked_us = mono_us();
+	if (changed && !ls->stale && st.st_ino != ls->cmd_ino) {
+		ls->stale = true;
+		ls->registered = false;
+		ls->client = 0;
+		ls->token = 0;
+		ls->rereg_corr = 0;
+		ls->restarts++;
+	}
+	changed = ls->stale;
+	pthread_mutex_unlock(&h->setup_mu);
+	return changed ? COGW_E_RESTARTED : 0;
+}
+
+static unsigned restarts_of(cogw *h, unsigned line)
+{
+	unsigned n;
+
+	pthread_mutex_lock(&h->setup_mu);
+	n = h->lines[line].restarts;
+	pthread_mutex_unlock(&h->setup_mu);
+	return n;
+}
+
+/* (Re-)open the line's command queue by name. After a restart the new
+ * queue is dup2()ed onto the old descriptor: other threads may hold its
+ * number in a snapshot (send_cmd), and must never reach an unrelated
+ * file that reused it. Call with setup_mu held. */
+static int line_open_cmd(cogw *h, unsigned line)
+{
+	line_state *ls = &h->lines[line];
+	char qname[MBX_QNAME_MAX];
+	struct stat st;
+	mqd_t q;
+
+	if (mbx_queue_name(qname, sizeof qname, h->instance, line) < 0)
+		return COGW_E_INVAL;
+	/* non-blocking: send_raw waits with poll() */
+	q = mq_open(qname, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
+	if (q == (mqd_t)-1)
+		return errno == ENOENT   ? COGW_E_NO_DAEMON
+		       : errno == EACCES ? COGW_E_ACCESS
+					 : COGW_E_SYSTEM;
+	if (fstat((int)q, &st) < 0) {
+		mq_close(q);
+		return COGW_E_SYSTEM;
+	}
+	if (ls->cmd == (mqd_t)-1) {
+		ls->cmd = q;
+	} else {
+		if (dup3((int)q, (int)ls->cmd, O_CLOEXEC) < 0) {
+			mq_close(q);
+			return COGW_E_SYSTEM;
+		}
+		mq_close(q);
+	}
+	ls->cmd_ino = st.st_ino;
+	ls->stale = false;
+	return 0;
 }
 
 /* ---- sending ------------------------------------------------------------------ */
 
 /* q is O_NONBLOCK: a full command queue is waited out with poll(), up to
  * the caller's monotonic deadline. */
-static int send_raw(mqd_t q, const uint8_t *msg, size_t n, uint64_t deadline_us)
+static int send_raw(cogw *h, unsigned line, mqd_t q, const uint8_t *msg,
+		    size_t n, uint64_t deadline_us)
 {
 	while (mq_send(q, (const char *)msg, n, 0) < 0) {
 		unsigned left;
@@ -198,7 +320,11 @@ static int send_raw(mqd_t q, const uint8_t *msg, size_t n, uint64_t deadline_us)
 		left = ms_left(deadline_us);
 		if (left == 0)
 			return COGW_E_TIMEOUT;
-		if (mq_wait(q, POLLOUT, left) < 0)
+		/* a full queue nobody reads any more: the daemon is gone */
+		if (cmd_queue_check(h, line))
+			return COGW_E_RESTARTED;
+		if (mq_wait(q, POLLOUT,
+			    left < RESTART_CHECK_MS ? left : RESTART_CHECK_MS) < 0)
 			return COGW_E_SYSTEM;
 	}
 	return 0;
@@ -243,7 +369,8 @@ static int send_cmd(cogw *h, unsigned line, uint16_t code, uint8_t flags,
 			memcpy(msg + MBX_HDR_SIZE + flen, d, dlen);
 		hd.len = (uint16_t)(flen + dlen);
 		mbx_hdr_encode(&hd, msg);
-		rc = send_raw(ls->cmd, msg, MBX_HDR_SIZE + hd.len, deadline_us);
+		rc = send_raw(h, line, ls->cmd, msg, MBX_HDR_SIZE + hd.len,
+			      deadline_us);
 		goto out;
 	}
 	const mbx_cmd_info *ci = mbx_cmd_lookup(code);
@@ -269,7 +396,8 @@ static int send_cmd(cogw *h, unsigned line, uint16_t code, uint8_t flags,
 			memcpy(msg + MBX_HDR_SIZE, fixed, f);
 		memcpy(msg + MBX_HDR_SIZE + f, d + off, n);
 		mbx_hdr_encode(&hd, msg);
-		rc = send_raw(ls->cmd, msg, MBX_HDR_SIZE + hd.len, deadline_us);
+		rc = send_raw(h, line, ls->cmd, msg, MBX_HDR_SIZE + hd.len,
+			      deadline_us);
 		if (rc)
 			break;
 		off += n;
@@ -313,6 +441,7 @@ static int exchange(cogw *h, unsigned line, uint16_t code, const void *fixed,
 		    uint64_t deadline_us)
 {
 	waiter w = { .buf = rbuf, .cap = rcap };
+	unsigned restarts = restarts_of(h, line);
 	int rc;
 
 	pthread_mutex_lock(&h->mu);
@@ -330,12 +459,30 @@ static int exchange(cogw *h, unsigned line, uint16_t code, const void *fixed,
 
 	pthread_mutex_lock(&h->mu);
 	if (rc == 0) {
-		struct timespec ts = mono_deadline(deadline_us);
-
+		/* Wait in slices: between them, make sure the daemon did not
+		 * restart under us (then no answer can ever come). */
 		while (!w.done && !h->closing) {
-			if (pthread_cond_timedwait(&h->cond, &h->mu, &ts) ==
-			    ETIMEDOUT && !w.done) {
+			uint64_t now = mono_us(), until;
+			struct timespec ts;
+
+			if (now >= deadline_us) {
 				rc = COGW_E_TIMEOUT;
+				break;
+			}
+			until = now + RESTART_CHECK_MS * 1000u;
+			ts = mono_deadline(until < deadline_us ? until
+							       : deadline_us);
+			if (pthread_cond_timedwait(&h->cond, &h->mu, &ts) !=
+				    ETIMEDOUT ||
+			    w.done)
+				continue;
+			pthread_mutex_unlock(&h->mu);
+			cmd_queue_check(h, line);
+			bool restarted = restarts_of(h, line) != restarts;
+
+			pthread_mutex_lock(&h->mu);
+			if (restarted && !w.done) {
+				rc = COGW_E_RESTARTED;
 				break;
 			}
 		}
@@ -365,7 +512,6 @@ static uint64_t deadline_of(cogw *h, unsigned timeout_ms)
 static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 {
 	line_state *ls;
-	char qname[MBX_QNAME_MAX];
 	mbx_register_req rq;
 	mbx_register_resp rs;
 	size_t len = 0;
@@ -388,17 +534,9 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 		pthread_mutex_unlock(&h->setup_mu);
 		return 0;
 	}
-	if (ls->cmd == (mqd_t)-1) {
-		if (mbx_queue_name(qname, sizeof qname, h->instance, line) < 0) {
-			pthread_mutex_unlock(&h->setup_mu);
-			return COGW_E_INVAL;
-		}
-		/* non-blocking: send_raw waits with poll() */
-		ls->cmd = mq_open(qname, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
-		if (ls->cmd == (mqd_t)-1) {
-			rc = errno == ENOENT   ? COGW_E_NO_DAEMON
-			     : errno == EACCES ? COGW_E_ACCESS
-					       : COGW_E_SYSTEM;
+	if (ls->cmd == (mqd_t)-1 || ls->stale) {
+		rc = line_open_cmd(h, line);
+		if (rc) {
 			pthread_mutex_unlock(&h->setup_mu);
 			return rc;
 		}
@@ -430,9 +568,20 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 		ls->registered = true;
 		ls->last_sent_us = mono_us();
 	}
+	mbx_subscribe_req sub = { .classes = ls->sub_classes,
+				  .n_filters = ls->n_filters };
+
+	memcpy(sub.filters, ls->filters, sizeof sub.filters);
 	ls->registering = false;
 	pthread_cond_broadcast(&h->setup_cond);
 	pthread_mutex_unlock(&h->setup_mu);
+	/* registered again after a restart: subscribe to what we had */
+	if (rc == 0 && sub.classes) {
+		mbx_subscribe_resp sr;
+
+		exchange(h, line, MBX_CMD_SUBSCRIBE, &sub, sizeof sub, NULL, 0,
+			 &sr, sizeof sr, NULL, NULL, deadline_us);
+	}
 	return rc;
 }
 
@@ -492,7 +641,15 @@ typedef struct ack_todo {
 	unsigned line;
 	uint64_t corr;
 	uint16_t next_chunk;
+	/* the answer to a re-registration the reader thread sent */
+	bool rereg;
+	int rereg_status;
+	mbx_register_resp rereg_resp;
 } ack_todo;
+
+/* Correlation ids of the reader thread's own re-registrations: never
+ * one of corr_new()'s. */
+#define REREG_CORR_BIT (1ull << 63)
 
 static unsigned ack_every(const cogw *h)
 {
@@ -605,6 +762,17 @@ static void handle_response(cogw *h, const uint8_t *buf, size_t n,
 		h->stats.overflow_flags++;
 		h->stats.dropped_reported += hd.dropped;
 	}
+	if ((hd.corr & REREG_CORR_BIT) && hd.code == MBX_CMD_REGISTER) {
+		ack->rereg = true;
+		ack->line = hd.line;
+		ack->corr = hd.corr;
+		ack->rereg_status = hd.len == sizeof ack->rereg_resp
+					    ? hd.status
+					    : COGW_E_PROTOCOL;
+		if (hd.len == sizeof ack->rereg_resp)
+			memcpy(&ack->rereg_resp, p, sizeof ack->rereg_resp);
+		return;
+	}
 	for (waiter *w = h->waiters; w; w = w->next) {
 		if (w->corr == hd.corr && !w->done) {
 			if (feed_waiter(h, w, &hd, p, ack)) {
@@ -640,6 +808,136 @@ static void send_pings(cogw *h)
 		/* NO_REPLY: a lease renewal needs no answer */
 		send_cmd(h, i, MBX_CMD_PING, MBX_F_NO_REPLY, 0, NULL, 0, NULL, 0,
 			 now + 100000u);
+	}
+}
+
+/* Restarts seen by the reader thread: requests sent with cogw_send_async
+ * to that line get COGW_E_RESTARTED now (their answers will never come),
+ * and a line with subscriptions registers again by itself, so that an
+ * event-only client (a logger) carries on without making a call. */
+static void fail_asyncs_of_line(cogw *h, unsigned line)
+{
+	pthread_mutex_lock(&h->mu);
+	for (async_op **pp = &h->asyncs; *pp;) {
+		async_op *a = *pp;
+
+		if (a->line != line) {
+			pp = &a->next;
+			continue;
+		}
+		*pp = a->next;
+		free(a->data);
+		cogw_msg m = { .kind = MBX_KIND_RESPONSE, .line = a->line,
+			       .code = a->code, .status = COGW_E_RESTARTED,
+			       .corr = a->corr };
+		free(a);
+		ring_push(h, &m);
+	}
+	pthread_mutex_unlock(&h->mu);
+}
+
+static void reregister_async(cogw *h, unsigned line, uint64_t now)
+{
+	line_state *ls = &h->lines[line];
+	mbx_register_req rq;
+	uint64_t corr;
+
+	pthread_mutex_lock(&h->setup_mu);
+	if (!ls->stale && ls->registered) {
+		pthread_mutex_unlock(&h->setup_mu);
+		return;
+	}
+	if (ls->rereg_corr && now - ls->rereg_sent_us < 2000000u) {
+		pthread_mutex_unlock(&h->setup_mu);
+		return; /* answer still due */
+	}
+	if ((ls->registering && !ls->rereg_corr) || !ls->sub_classes ||
+	    line_open_cmd(h, line) != 0) {
+		pthread_mutex_unlock(&h->setup_mu);
+		return; /* a caller registers / nothing to do / no daemon */
+	}
+	corr = corr_new(h) | REREG_CORR_BIT;
+	ls->registering = true;
+	ls->rereg_corr = corr;
+	ls->rereg_sent_us = now;
+	ls->client = 0;
+	ls->token = 0;
+	pthread_mutex_unlock(&h->setup_mu);
+	memset(&rq, 0, sizeof rq);
+	rq.pid = (uint32_t)getpid();
+	rq.uid = (uint32_t)geteuid();
+	memcpy(rq.resp_queue, h->resp_name, sizeof rq.resp_queue);
+	memcpy(rq.event_queue, h->evt_name, sizeof rq.event_queue);
+	send_cmd(h, line, MBX_CMD_REGISTER, 0, corr, &rq, sizeof rq, NULL, 0,
+		 now + 100000u);
+}
+
+static void reregister_done(cogw *h, const ack_todo *t)
+{
+	line_state *ls;
+	mbx_subscribe_req sub;
+
+	if (t->line >= MBX_LINES_MAX)
+		return;
+	ls = &h->lines[t->line];
+	pthread_mutex_lock(&h->setup_mu);
+	if (ls->rereg_corr != t->corr) {
+		pthread_mutex_unlock(&h->setup_mu);
+		return;
+	}
+	ls->rereg_corr = 0;
+	ls->registering = false;
+	if (t->rereg_status == 0) {
+		const mbx_register_resp *rs = &t->rereg_resp;
+
+		ls->client = rs->client;
+		ls->token = rs->token;
+		ls->lease_ms = rs->lease_ms;
+		ls->max_msg = rs->max_msg < MBX_MSG_MIN ? MBX_MSG_MIN
+							: rs->max_msg;
+		if (ls->max_msg > MBX_MSG_MAX)
+			ls->max_msg = MBX_MSG_MAX;
+		ls->max_transfer = rs->max_transfer;
+		ls->registered = true;
+		ls->last_sent_us = mono_us();
+	}
+	sub = (mbx_subscribe_req){ .classes = ls->sub_classes,
+				   .n_filters = ls->n_filters };
+	memcpy(sub.filters, ls->filters, sizeof sub.filters);
+	pthread_cond_broadcast(&h->setup_cond);
+	pthread_mutex_unlock(&h->setup_mu);
+	if (t->rereg_status == 0)
+		send_cmd(h, t->line, MBX_CMD_SUBSCRIBE, MBX_F_NO_REPLY, 0, &sub,
+			 sizeof sub, NULL, 0, mono_us() + 100000u);
+}
+
+static void check_restarts(cogw *h)
+{
+	uint64_t now = mono_us();
+
+	for (unsigned i = 0; i < MBX_LINES_MAX; i++) {
+		line_state *ls = &h->lines[i];
+		bool open, due, stale, rereg, failed;
+
+		pthread_mutex_lock(&h->setup_mu);
+		open = ls->cmd != (mqd_t)-1;
+		due = open && !ls->stale &&
+		      now - ls->checked_us >= RESTART_CHECK_MS * 5 * 1000u;
+		pthread_mutex_unlock(&h->setup_mu);
+		if (!open)
+			continue;
+		if (due)
+			cmd_queue_check(h, i);
+		pthread_mutex_lock(&h->setup_mu);
+		stale = ls->stale;
+		rereg = ls->rereg_corr != 0;
+		failed = ls->restarts_failed != ls->restarts;
+		ls->restarts_failed = ls->restarts;
+		pthread_mutex_unlock(&h->setup_mu);
+		if (failed) /* by this check or a caller's */
+			fail_asyncs_of_line(h, i);
+		if (stale || rereg)
+			reregister_async(h, i, now);
 	}
 }
 
@@ -694,7 +992,10 @@ static void *reader_main(void *arg)
 			send_cmd(h, ack.line, MBX_CMD_XFER_ACK, 0, ack.corr, &a,
 				 sizeof a, NULL, 0, mono_us() + 1000000u);
 		}
+		if (ack.rereg)
+			reregister_done(h, &ack);
 		send_pings(h);
+		check_restarts(h);
 	}
 	free(buf);
 	return NULL;
@@ -1488,8 +1789,21 @@ int cogw_subscribe(cogw *h, unsigned line, uint32_t classes,
 	r.n_filters = (uint8_t)n_filters;
 	if (n_filters)
 		memcpy(r.filters, filters, n_filters * sizeof *filters);
-	return call(h, line, MBX_CMD_SUBSCRIBE, &r, sizeof r, NULL, 0, &s,
-		    sizeof s, NULL, NULL, timeout_ms);
+	int rc = call(h, line, MBX_CMD_SUBSCRIBE, &r, sizeof r, NULL, 0, &s,
+		      sizeof s, NULL, NULL, timeout_ms);
+
+	if (rc == 0) { /* remembered for a re-registration */
+		line_state *ls = &h->lines[line];
+
+		pthread_mutex_lock(&h->setup_mu);
+		ls->sub_classes |= classes & MBX_EVC_ALL;
+		if (classes & MBX_EVC_RAW) {
+			ls->n_filters = r.n_filters;
+			memcpy(ls->filters, r.filters, sizeof ls->filters);
+		}
+		pthread_mutex_unlock(&h->setup_mu);
+	}
+	return rc;
 }
 
 int cogw_unsubscribe(cogw *h, unsigned line, uint32_t classes,
@@ -1498,6 +1812,17 @@ int cogw_unsubscribe(cogw *h, unsigned line, uint32_t classes,
 	mbx_unsubscribe_req r = { .classes = classes };
 	mbx_subscribe_resp s;
 
-	return call(h, line, MBX_CMD_UNSUBSCRIBE, &r, sizeof r, NULL, 0, &s,
-		    sizeof s, NULL, NULL, timeout_ms);
+	int rc = call(h, line, MBX_CMD_UNSUBSCRIBE, &r, sizeof r, NULL, 0, &s,
+		      sizeof s, NULL, NULL, timeout_ms);
+
+	if (rc == 0) {
+		line_state *ls = &h->lines[line];
+
+		pthread_mutex_lock(&h->setup_mu);
+		ls->sub_classes &= ~classes;
+		if (classes & MBX_EVC_RAW)
+			ls->n_filters = 0;
+		pthread_mutex_unlock(&h->setup_mu);
+	}
+	return rc;
 }

@@ -80,6 +80,9 @@ enum cogw_err {
 	                          * tells the full size, buffer filled */
 	COGW_E_CLOSED = -106,    /* handle is closing */
 	COGW_E_PROTOCOL = -107,  /* the daemon sent something unexpected */
+	/* the daemon restarted while the request was under way: it may or may
+	 * not have been carried out; the next call registers again */
+	COGW_E_RESTARTED = -108,
 };
 
 const char *cogw_strerror(int err);

@@ -74,8 +74,13 @@ static void fake_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 	fake_line *f = ctx;
 	uint8_t v[4] = { 1, 2, 3, 4 };
 
+	mbx_obj_req o;
+
 	switch (req->code) {
 	case MBX_CMD_OD_READ:
+		memcpy(&o, req->payload, sizeof o);
+		if (o.index == 0x2002)
+			return; /* never answered: a request "in flight" */
 		mbx_server_respond(srv, &req->reply, 0, 0, v, sizeof v);
 		return;
 	case MBX_CMD_OD_WRITE:
@@ -572,6 +577,116 @@ static void test_readable_command_queue_modes_are_refused(void)
 	}
 }
 
+/* ---- 3. clients survive a daemon restart ----------------------------------------- */
+
+/* A blocking call in flight when the daemon restarts gets one clear error,
+ * an asynchronous one too; then service goes on (registered again). Before
+ * issue 11 every call timed out for ever after a restart. */
+static int child_caller(void *arg)
+{
+	sync2 *s = arg;
+	cogw *h;
+	uint8_t v[8];
+	size_t len = 0;
+	uint32_t abort = 0;
+	uint64_t corr, t0;
+	cogw_msg m;
+	mbx_obj_req o = { .index = 0x2002 };
+
+	CHECK(cogw_open(&h, instance) == 0);
+	CHECK(cogw_ping(h, LINE, CALL_MS) == 0);
+	CHECK(cogw_send_async(h, LINE, MBX_CMD_OD_READ, &o, sizeof o, &corr) == 0);
+	child_ready(s);
+	t0 = now_us();
+	/* in flight while the daemon goes away and comes back */
+	int rc = cogw_od_read(h, LINE, 0x2002, 0, v, sizeof v, &len, CALL_MS,
+			      &abort);
+	if (rc != COGW_E_RESTARTED)
+		fprintf(stderr, "in flight: %s\n", cogw_strerror(rc));
+	CHECK(rc == COGW_E_RESTARTED);
+	CHECK(now_us() - t0 < 5000000u); /* found out well before the timeout */
+	CHECK(cogw_recv(h, &m, CALL_MS) == 0);
+	CHECK(m.kind == MBX_KIND_RESPONSE && m.corr == corr &&
+	      m.status == COGW_E_RESTARTED);
+	cogw_msg_release(&m);
+	/* then normal service, on a new registration */
+	CHECK(cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, CALL_MS,
+			   &abort) == 0);
+	CHECK(len == 4 && v[0] == 1);
+	CHECK(cogw_od_write(h, LINE, 0x2001, 0, v, 4, CALL_MS, &abort) == 0);
+	cogw_close(h);
+	return 0;
+}
+
+/* An event-only client (a logger) makes no calls: it must get its events
+ * again after a restart all the same. */
+static int child_logger(void *arg)
+{
+	sync2 *s = arg;
+	cogw *h;
+	cogw_msg m;
+	int rc;
+
+	CHECK(cogw_open(&h, instance) == 0);
+	CHECK(cogw_subscribe(h, LINE, MBX_EVC_EMCY, NULL, 0, CALL_MS) == 0);
+	child_ready(s);
+	child_wait_go(s); /* the daemon restarted */
+	for (;;) {
+		rc = cogw_recv(h, &m, 8000);
+		if (rc || m.kind == MBX_KIND_EVENT)
+			break;
+		cogw_msg_release(&m);
+	}
+	if (rc)
+		fprintf(stderr, "logger: %s\n", cogw_strerror(rc));
+	CHECK(rc == 0 && m.code == MBX_EV_EMCY);
+	cogw_msg_release(&m);
+	cogw_close(h);
+	return 0;
+}
+
+static void test_clients_survive_a_daemon_restart(void)
+{
+	mbx_server_config cfg = base_cfg();
+	mbx_ev_emcy e = { .node = 3, .code = 0x8130 };
+	sync2 a, b;
+	pid_t caller, logger;
+	int st = 0;
+
+	start(&cfg);
+	sync_init(&a);
+	sync_init(&b);
+	caller = spawn(child_caller, &a);
+	logger = spawn(child_logger, &b);
+	parent_wait_ready(&a);
+	parent_wait_ready(&b);
+	sleep_ms(300); /* the blocking call is under way */
+	stop();
+	sleep_ms(200);
+	start(&cfg);
+	parent_go(&b);
+	/* publish until the logger got one (it must re-register by itself) */
+	for (unsigned i = 0; i < 100; i++) {
+		pthread_mutex_lock(&fl.mu);
+		mbx_server_publish(fl.srv, MBX_EV_EMCY, 0, &e, sizeof e);
+		pthread_mutex_unlock(&fl.mu);
+		if (waitpid(logger, &st, WNOHANG) == logger)
+			break;
+		sleep_ms(100);
+	}
+	if (waitpid(logger, &st, WNOHANG) == 0) {
+		kill(logger, SIGKILL);
+		waitpid(logger, &st, 0);
+	}
+	TEST_ASSERT_TRUE_MESSAGE(WIFEXITED(st) && WEXITSTATUS(st) == 0,
+				 "the logger got no event after the restart");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(caller),
+				      "the caller did not recover");
+	TEST_ASSERT_EQUAL_UINT(1, fl.writes_ok);
+	sync_close(&a);
+	sync_close(&b);
+}
+
 int main(void)
 {
 	pthread_mutex_init(&fl.mu, NULL);
@@ -583,5 +698,6 @@ int main(void)
 	RUN_TEST(test_dead_client_queues_are_still_removed);
 	RUN_TEST(test_command_queue_is_write_only_for_clients);
 	RUN_TEST(test_readable_command_queue_modes_are_refused);
+	RUN_TEST(test_clients_survive_a_daemon_restart);
 	return UNITY_END();
 }
