@@ -13,6 +13,9 @@
  * error ends the load with one message "source: path: reason".
  */
 #include "apps/common/config.h"
+#include "gateway/convention.h"
+#include "gateway/image.h"
+#include "gateway/route.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -38,7 +41,9 @@
 
 static const char *const top_keys[] = { "version", "state_dir", "mlockall",
 					"watchdog_check_ms", "mailbox",
-					"lines", "debug", "comment", NULL };
+					"lines", "gateway", "debug", "comment", NULL };
+static const char *const gateway_keys[] = { "routes", "process_image", "comment", NULL };
+static const char *const route_keys[] = { "network", "line", "router", "comment", NULL };
 static const char *const mailbox_keys[] = { "instance", "depth", "msg_size",
 					    "queue_mode", "max_clients",
 					    "lease_ms", "max_transfer",
@@ -76,6 +81,12 @@ struct ctx {
 	char *err;
 	size_t errlen;
 	char msg[512]; /* "path: reason" before the source is prefixed */
+	/* CiA 302-7 gateway, known before the lines are built (every line's
+	 * 1F2Ch gets the routes to all lines' networks as defaults) */
+	size_t n_lines;
+	uint16_t line_net[COGW_LINES_MAX];          /* network of each line */
+	uint32_t route_default[GW_NET_MAX + 1];     /* 1F2Ch defaults */
+	const cJSON *process_image;                 /* gateway.process_image */
 };
 
 static int fail(struct ctx *c, const char *path, const char *fmt, ...)
@@ -404,6 +415,180 @@ static void line_sync_from_od(cogw_line_config *l)
 	}
 }
 
+/* ---- CiA 302-7 gateway ------------------------------------------------------------ */
+
+/* The gateway objects of one line, before its own "objects" and "values"
+ * (which may override them): this line's network id (5F00h), 1F2Ch with
+ * the routes to every line's network and gateway.routes, and the shared
+ * process image (gateway.process_image, the same objects on every line). */
+static int gateway_objects(struct ctx *c, cogw_line_config *l)
+{
+	co_od_entry *e;
+	int rc;
+
+	rc = co_od_add_num(l->od, GW_OBJ_NETWORK_ID, 0, CO_T_UNSIGNED8, CO_ACC_CO,
+			   l->network_id, &e);
+	if (rc)
+		return fail(c, "lines", "cannot add %04Xh (%s)", GW_OBJ_NETWORK_ID,
+			    strerror(-rc));
+	for (unsigned n = GW_NET_MIN; n <= GW_NET_MAX; n++) {
+		if (!c->route_default[n] || !(e = co_od_find(l->od, GW_OBJ_ROUTES, (uint8_t)n)))
+			continue;
+		co_od_entry_set_default_raw(e, c->route_default[n]);
+		co_od_entry_reset(e);
+	}
+	if (c->process_image &&
+	    (rc = json_od_add_objects(l->od, c->process_image, "gateway.process_image",
+				      c->msg, sizeof(c->msg))))
+		return rc;
+	return 0;
+}
+
+/* B000h..BFFFh is one image for all lines: defined once, in gateway. */
+static int refuse_image_objects(struct ctx *c, const cJSON *objects, const char *path)
+{
+	const cJSON *it;
+	size_t i = 0;
+
+	cJSON_ArrayForEach(it, objects) {
+		char p[JSON_PATH_MAX];
+		const cJSON *v = cJSON_IsObject(it) ? json_util_get(it, "index") : NULL;
+		uint16_t index;
+
+		json_util_path_index(p, sizeof(p), path, i++);
+		if (v && json_od_parse_index(v, p, &index, c->msg, sizeof(c->msg)) == 0 &&
+		    gw_image_in_range(index))
+			return fail(c, p, "%04Xh: B000h..BFFFh is the shared process image of all "
+				    "lines: define it in gateway.process_image", index);
+	}
+	return 0;
+}
+
+/* Check the process image objects: B000h..BFFFh, numeric, at most 8 bytes
+ * (what a classic CAN PDO can carry), PDO-mappable. */
+static int check_image(struct ctx *c, const co_od *od)
+{
+	for (size_t i = 0; i < co_od_count(od); i++) {
+		const co_od_entry *e = co_od_at(od, i);
+
+		if (e->obj_code != CO_OBJ_VAR && e->sub == 0)
+			continue; /* sub 0 of an ARRAY/RECORD: the count */
+		if (!gw_image_in_range(e->index))
+			return fail(c, "gateway.process_image", "%04Xh is outside B000h..BFFFh",
+				    e->index);
+		if (co_type_is_variable((co_type)e->type) || e->size > 8)
+			return fail(c, "gateway.process_image",
+				    "%04Xh:%02X: a %s cannot be forwarded by PDO "
+				    "(numeric types of at most 8 bytes)",
+				    e->index, e->sub, co_type_to_string((co_type)e->type));
+		if (!(e->access & (CO_ACC_RPDO | CO_ACC_TPDO)))
+			return fail(c, "gateway.process_image",
+				    "%04Xh:%02X is not PDO-mappable (set \"pdo\": true)",
+				    e->index, e->sub);
+	}
+	return 0;
+}
+
+/* Every line's network id, read ahead of the lines (validated again, with
+ * its path, when the line itself is parsed). */
+static void scan_networks(struct ctx *c, const cJSON *lines)
+{
+	const cJSON *it;
+
+	c->n_lines = 0;
+	cJSON_ArrayForEach(it, lines) {
+		const cJSON *v = cJSON_IsObject(it) ? json_util_get(it, "network_id") : NULL;
+		uint16_t net = (uint16_t)(c->n_lines + 1);
+
+		if (c->n_lines >= COGW_LINES_MAX)
+			break;
+		if (v && cJSON_IsNumber(v) && v->valuedouble >= GW_NET_MIN &&
+		    v->valuedouble <= GW_NET_MAX)
+			net = (uint16_t)v->valuedouble;
+		c->line_net[c->n_lines++] = net;
+	}
+	memset(c->route_default, 0, sizeof(c->route_default));
+	for (size_t i = 0; i < c->n_lines; i++)
+		c->route_default[c->line_net[i]] =
+			gw_route_entry_encode((gw_route_entry){ true, (uint8_t)i, 0 });
+}
+
+static int parse_route(struct ctx *c, const cJSON *o, size_t idx)
+{
+	char path[JSON_PATH_MAX], pn[JSON_PATH_MAX], pl[JSON_PATH_MAX], pr[JSON_PATH_MAX];
+	uint64_t net, line, router = 0;
+	const cJSON *v;
+	int rc;
+
+	json_util_path_index(path, sizeof(path), "gateway.routes", idx);
+	json_util_path_key(pn, sizeof(pn), path, "network");
+	json_util_path_key(pl, sizeof(pl), path, "line");
+	json_util_path_key(pr, sizeof(pr), path, "router");
+	if ((rc = check_object(c, o, path, route_keys)))
+		return rc;
+	if ((rc = json_util_require(o, "network", path, &v, c->msg, sizeof(c->msg))) ||
+	    (rc = json_util_uint(v, pn, GW_NET_MIN, GW_NET_MAX, false, &net, c->msg,
+				 sizeof(c->msg))) ||
+	    (rc = json_util_require(o, "line", path, &v, c->msg, sizeof(c->msg))) ||
+	    (rc = json_util_uint(v, pl, 0, COGW_LINES_MAX - 1, false, &line, c->msg,
+				 sizeof(c->msg))))
+		return rc;
+	if (line >= c->n_lines)
+		return fail(c, pl, "line %u does not exist (%zu lines)", (unsigned)line,
+			    c->n_lines);
+	v = json_util_get(o, "router");
+	if (v && (rc = json_util_uint(v, pr, 1, 127, false, &router, c->msg,
+				      sizeof(c->msg))))
+		return rc;
+	for (size_t i = 0; i < c->n_lines; i++)
+		if (c->line_net[i] == net)
+			return fail(c, path, "network %u is attached to lines[%zu]: it needs no route",
+				    (unsigned)net, i);
+	if (!router)
+		return fail(c, path, "network %u is not attached here: name its next router",
+			    (unsigned)net);
+	c->route_default[net] = gw_route_entry_encode(
+		(gw_route_entry){ true, (uint8_t)line, (uint8_t)router });
+	return 0;
+}
+
+static int parse_gateway(struct ctx *c, const cJSON *o)
+{
+	const cJSON *v, *it;
+	size_t i = 0;
+	int rc;
+
+	if ((rc = check_object(c, o, "gateway", gateway_keys)))
+		return rc;
+	v = json_util_get(o, "routes");
+	if (v) {
+		if (!cJSON_IsArray(v))
+			return fail(c, "gateway.routes", "expected an array, got %s",
+				    json_util_kind(v));
+		cJSON_ArrayForEach(it, v) {
+			if ((rc = parse_route(c, it, i++)))
+				return rc;
+		}
+	}
+	v = json_util_get(o, "process_image");
+	if (v) {
+		co_od *od;
+
+		/* Try the definitions once on their own, for errors that name
+		 * gateway.process_image rather than a line. */
+		if ((rc = co_od_create(&od, 16)))
+			return rc;
+		rc = json_od_add_objects(od, v, "gateway.process_image", c->msg, sizeof(c->msg));
+		if (!rc)
+			rc = check_image(c, od);
+		co_od_destroy(od);
+		if (rc)
+			return rc;
+		c->process_image = v;
+	}
+	return 0;
+}
+
 static int build_od(struct ctx *c, const cJSON *o, const char *path,
 		    cogw_line_config *l, co_od_std_opts *so)
 {
@@ -439,11 +624,13 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path,
 		co_od_entry_set_default_raw(eb, 1);
 		co_od_entry_reset(eb);
 	}
+	if ((rc = gateway_objects(c, l)))
+		return rc;
 	v = json_util_get(o, "objects");
 	if (v) {
 		json_util_path_key(p, sizeof(p), path, "objects");
-		if ((rc = json_od_add_objects(l->od, v, p, c->msg,
-					      sizeof(c->msg))))
+		if ((rc = refuse_image_objects(c, v, p)) ||
+		    (rc = json_od_add_objects(l->od, v, p, c->msg, sizeof(c->msg))))
 			return rc;
 	}
 	v = json_util_get(o, "values");
@@ -737,6 +924,10 @@ static int parse_root(struct ctx *c, const cJSON *root, cogw_config *cfg)
 	if (cJSON_GetArraySize(v) > COGW_LINES_MAX)
 		return fail(c, "lines", "%d lines, at most %d",
 			    cJSON_GetArraySize(v), COGW_LINES_MAX);
+	scan_networks(c, v);
+	it = json_util_get(root, "gateway");
+	if (it && (rc = parse_gateway(c, it)))
+		return rc;
 	cJSON_ArrayForEach(it, v) {
 		size_t i = cfg->n_lines;
 

@@ -586,14 +586,16 @@ static void test_reload_check(void)
 	TEST_ASSERT_EQUAL_INT(0, cogw_config_load_string(&next,
 		"{\"mailbox\": {\"lease_ms\": 3000, \"default_access\": \"read\","
 		" \"rules\": [{\"uid\": 0, \"access\": \"write\"}]},"
+		/* the default's shared process image B000h, unchanged */
+		" \"gateway\": {\"process_image\": [{\"index\": \"0xB000\", \"type\": \"REAL32\","
+		" \"access\": \"rw\", \"pdo\": true, \"name\": \"pressure of node 1 (PSI, shared process image)\"}]},"
 		" \"lines\": ["
 		"{\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,"
 		" \"network_id\": 1, \"heartbeat_ms\": 500, \"rt\": {\"priority\": 50, \"cpu\": 1},"
 		" \"heartbeat_consumers\": [{\"node_id\": 1, \"time_ms\": 3000}, {\"node_id\": 9, \"time_ms\": 3000}],"
 		" \"device\": {\"name\": \"cogw gateway\"},"
 		/* the default's demo RPDO into B000h, unchanged */
-		" \"rpdos\": 1, \"objects\": [{\"index\": \"0xB000\", \"type\": \"REAL32\", \"access\": \"rw\","
-		" \"pdo\": true, \"name\": \"pressure of node 1 (PSI, shared process image)\"}],"
+		" \"rpdos\": 1,"
 		" \"values\": [{\"index\": \"0x1400\", \"sub\": 1, \"value\": \"0x00000181\"},"
 		" {\"index\": \"0x1600\", \"sub\": 1, \"value\": \"0xB0000020\"}, {\"index\": \"0x1600\", \"sub\": 0, \"value\": 1}]},"
 		"{\"name\": \"line1\", \"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127,"
@@ -608,6 +610,8 @@ static void test_reload_check(void)
 	/* What may not. */
 	TEST_ASSERT_EQUAL_INT(0, cogw_config_load_string(&next,
 		"{\"mailbox\": {\"depth\": 32},"
+		" \"gateway\": {\"process_image\": [{\"index\": \"0xB000\", \"type\": \"REAL32\","
+		" \"access\": \"rw\", \"pdo\": true, \"name\": \"pressure of node 1 (PSI, shared process image)\"}]},"
 		" \"lines\": ["
 		"{\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 127,"
 		" \"network_id\": 1, \"device\": {\"name\": \"cogw gateway\"}},"
@@ -682,6 +686,68 @@ static void test_json_od_standalone(void)
 	co_od_destroy(od);
 }
 
+/* ---- the CiA 302-7 gateway --------------------------------------------------------------- */
+
+#define LINE_N(i, net) \
+	"{\"interface\": \"vcan" #i "\", \"bitrate\": 500000, \"node_id\": 5, \"network_id\": " #net "}"
+#define CFG3(gw) "{" gw "\"lines\": [" LINE_N(0, 7) ", " LINE_N(1, 3) ", " LINE_N(2, 9) "]}"
+
+static void test_gateway_routes_and_network_ids(void)
+{
+	load_ok(CFG3("\"gateway\": {\"routes\": [{\"network\": 40, \"line\": 2, \"router\": 33}],"
+		     " \"process_image\": [{\"index\": \"0xB000\", \"type\": \"INTEGER64\","
+		     " \"access\": \"rw\", \"pdo\": true}, {\"index\": \"0xB001\","
+		     " \"object\": \"ARRAY\", \"type\": \"UNSIGNED8\", \"access\": \"rw\","
+		     " \"pdo\": true, \"length\": 2}]},"));
+	for (size_t i = 0; i < 3; i++) {
+		co_od *od = cfg.lines[i].od;
+		/* every line routes to every line's network, and to 40 via node 33 */
+		TEST_ASSERT_EQUAL_HEX64(0x01, raw(od, 0x1F2C, 7));
+		TEST_ASSERT_EQUAL_HEX64(0x02, raw(od, 0x1F2C, 3));
+		TEST_ASSERT_EQUAL_HEX64(0x03, raw(od, 0x1F2C, 9));
+		TEST_ASSERT_EQUAL_HEX64(0x2103, raw(od, 0x1F2C, 40));
+		TEST_ASSERT_EQUAL_HEX64(0, raw(od, 0x1F2C, 1));
+		TEST_ASSERT_EQUAL_HEX64(cfg.lines[i].network_id, raw(od, 0x5F00, 0));
+		/* the same process image on every line */
+		TEST_ASSERT_NOT_NULL(co_od_find(od, 0xB000, 0));
+		TEST_ASSERT_NOT_NULL(co_od_find(od, 0xB001, 2));
+	}
+	/* a line's values may still override its own table */
+	cogw_config_free(&cfg);
+	load_ok("{\"lines\": [" LINE_N(0, 1) ", {\"interface\": \"vcan1\", \"bitrate\": 500000,"
+		" \"node_id\": 5, \"values\": [{\"index\": \"0x1F2C\", \"sub\": 1, \"value\": 0}]}]}");
+	TEST_ASSERT_EQUAL_HEX64(0x01, raw(cfg.lines[0].od, 0x1F2C, 1));
+	TEST_ASSERT_EQUAL_HEX64(0x02, raw(cfg.lines[0].od, 0x1F2C, 2));
+	TEST_ASSERT_EQUAL_HEX64(0, raw(cfg.lines[1].od, 0x1F2C, 1));
+}
+
+static void test_gateway_errors(void)
+{
+	expect_error(CFG3("\"gateway\": {\"routes\": [{\"network\": 3, \"line\": 0, \"router\": 2}]},"),
+		     "t.json: gateway.routes[0]: network 3 is attached to lines[1]: it needs no route");
+	expect_error(CFG3("\"gateway\": {\"routes\": [{\"network\": 4, \"line\": 0}]},"),
+		     "t.json: gateway.routes[0]: network 4 is not attached here: name its next router");
+	expect_error(CFG3("\"gateway\": {\"routes\": [{\"network\": 4, \"line\": 3, \"router\": 2}]},"),
+		     "t.json: gateway.routes[0].line: line 3 does not exist (3 lines)");
+	expect_error(CFG3("\"gateway\": {\"routes\": [{\"network\": 128, \"line\": 0, \"router\": 2}]},"),
+		     "t.json: gateway.routes[0].network: 128 is out of range 1..127");
+	expect_error(CFG3("\"gateway\": {\"route\": []},"),
+		     "t.json: gateway.route: unknown key (did you mean \"routes\"?)");
+	expect_error(CFG3("\"gateway\": {\"process_image\": [{\"index\": \"0xA000\", \"type\": \"UNSIGNED8\","
+			  " \"pdo\": true}]},"),
+		     "t.json: gateway.process_image: A000h is outside B000h..BFFFh");
+	expect_error(CFG3("\"gateway\": {\"process_image\": [{\"index\": \"0xB000\","
+			  " \"type\": \"VISIBLE_STRING\", \"max_size\": 8, \"pdo\": true}]},"),
+		     "t.json: gateway.process_image: B000h:00: a VISIBLE_STRING cannot be forwarded "
+		     "by PDO (numeric types of at most 8 bytes)");
+	expect_error(CFG3("\"gateway\": {\"process_image\": [{\"index\": \"0xB000\","
+			  " \"type\": \"UNSIGNED8\"}]},"),
+		     "t.json: gateway.process_image: B000h:00 is not PDO-mappable (set \"pdo\": true)");
+	expect_error(CFG1(", \"objects\": [{\"index\": \"0xB010\", \"type\": \"UNSIGNED8\"}]"),
+		     "t.json: lines[0].objects[0]: B010h: B000h..BFFFh is the shared process image "
+		     "of all lines: define it in gateway.process_image");
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -704,6 +770,8 @@ int main(void)
 	RUN_TEST(test_values_update_structured_keys);
 	RUN_TEST(test_sync_producer_and_pdos);
 	RUN_TEST(test_reload_check);
+	RUN_TEST(test_gateway_routes_and_network_ids);
+	RUN_TEST(test_gateway_errors);
 	RUN_TEST(test_load_file);
 	RUN_TEST(test_json_od_standalone);
 	return UNITY_END();
