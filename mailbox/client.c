@@ -1414,6 +1414,61 @@ int cogw_sdo_write_ex(cogw *h, unsigned line, uint8_t node, uint16_t index,
 		    NULL, 0, NULL, abort, timeout_ms);
 }
 
+static mbx_gw_sdo_req gw_sdo_req(uint16_t net, uint8_t node, uint16_t index, uint8_t sub,
+				 const cogw_sdo_opts *o)
+{
+	mbx_gw_sdo_req r = { .net = net, .sdo = { .node = node, .index = index, .sub = sub } };
+
+	if (o) {
+		r.sdo.mode = o->mode;
+		r.sdo.timeout_ms = o->sdo_timeout_ms;
+	}
+	return r;
+}
+
+int cogw_sdo_read_net(cogw *h, unsigned line, uint16_t net, uint8_t node,
+		      uint16_t index, uint8_t sub, const cogw_sdo_opts *o,
+		      void *buf, size_t cap, size_t *len, unsigned timeout_ms,
+		      uint32_t *abort)
+{
+	mbx_gw_sdo_req r = gw_sdo_req(net, node, index, sub, o);
+
+	return call(h, line, MBX_CMD_GW_SDO_UPLOAD, &r, sizeof r, NULL, 0, buf, cap, len,
+		    abort, timeout_ms);
+}
+
+int cogw_sdo_write_net(cogw *h, unsigned line, uint16_t net, uint8_t node,
+		       uint16_t index, uint8_t sub, const cogw_sdo_opts *o,
+		       const void *data, size_t len, unsigned timeout_ms,
+		       uint32_t *abort)
+{
+	mbx_gw_sdo_req r = gw_sdo_req(net, node, index, sub, o);
+
+	return call(h, line, MBX_CMD_GW_SDO_DOWNLOAD, &r, sizeof r, data, len, NULL, 0, NULL,
+		    abort, timeout_ms);
+}
+
+int cogw_gw_routes(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes,
+		   size_t cap, size_t *n, unsigned timeout_ms)
+{
+	uint8_t buf[sizeof(mbx_gw_status) + 128 * sizeof(mbx_gw_route)];
+	size_t len = 0, got;
+	int rc = call(h, line, MBX_CMD_GW_ROUTES, NULL, 0, NULL, 0, buf, sizeof buf, &len,
+		      NULL, timeout_ms);
+
+	if (rc)
+		return rc;
+	if (len < sizeof *st || (len - sizeof *st) % sizeof(mbx_gw_route))
+		return COGW_E_PROTOCOL;
+	memcpy(st, buf, sizeof *st);
+	got = (len - sizeof *st) / sizeof(mbx_gw_route);
+	if (n)
+		*n = got;
+	for (size_t i = 0; i < got && i < cap; i++)
+		memcpy(&routes[i], buf + sizeof *st + i * sizeof(mbx_gw_route), sizeof routes[i]);
+	return 0;
+}
+
 int cogw_sdo_read(cogw *h, unsigned line, uint8_t node, uint16_t index,
 		  uint8_t sub, void *buf, size_t cap, size_t *len,
 		  unsigned timeout_ms, uint32_t *abort)

@@ -136,6 +136,20 @@ int cogw_sdo_write_ex(cogw *h, unsigned line, uint8_t node, uint16_t index,
 		      uint8_t sub, const cogw_sdo_opts *o, const void *data,
 		      size_t len, unsigned timeout_ms, uint32_t *abort);
 
+/* The same with a node of network `net` (CiA 302-7 routing through the
+ * daemon, docs/gateway.md): the line's 1F2Ch picks the local line, or the
+ * next router. net = the line's own network is a plain transfer. Routing
+ * refusals are COGW_E_ABORT with *abort 0A000001h (no route), 0A000002h
+ * (no answer), 0A000003h (busy) or 060A0023h (no client free). */
+int cogw_sdo_read_net(cogw *h, unsigned line, uint16_t net, uint8_t node,
+		      uint16_t index, uint8_t sub, const cogw_sdo_opts *o,
+		      void *buf, size_t cap, size_t *len, unsigned timeout_ms,
+		      uint32_t *abort);
+int cogw_sdo_write_net(cogw *h, unsigned line, uint16_t net, uint8_t node,
+		       uint16_t index, uint8_t sub, const cogw_sdo_opts *o,
+		       const void *data, size_t len, unsigned timeout_ms,
+		       uint32_t *abort);
+
 /* Typed helpers: values are little-endian on the bus; a reply of the wrong
  * size is COGW_E_ABORT with abort 0x06070010 (type/length mismatch).
  * Strings are NUL-terminated (COGW_E_TRUNCATED if cap is too small).
@@ -232,6 +246,10 @@ int cogw_line_status(cogw *h, unsigned line, mbx_line_status *st,
 		     unsigned timeout_ms);
 /* sub: 1 all, 2 communication, 3 application, 4..127 manufacturer. */
 int cogw_store(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms);
+/* The line's gateway: counters and its routes (at most cap of them, *n =
+ * how many the daemon sent). */
+int cogw_gw_routes(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes,
+		   size_t cap, size_t *n, unsigned timeout_ms);
 int cogw_restore(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms);
 int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st,
 		   unsigned timeout_ms);

@@ -227,6 +227,9 @@ static const mbx_cmd_info cmd_table[] = {
 	{ MBX_CMD_LINE_STATUS, R, 0, 0, "line-status" },
 	{ MBX_CMD_STORE, W, sizeof(mbx_store_req), 0, "store" },
 	{ MBX_CMD_RESTORE, W, sizeof(mbx_store_req), 0, "restore" },
+	{ MBX_CMD_GW_ROUTES, R, 0, 0, "gw-routes" },
+	{ MBX_CMD_GW_SDO_UPLOAD, R, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-upload" },
+	{ MBX_CMD_GW_SDO_DOWNLOAD, W | D, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-download" },
 };
 
 #undef R
@@ -608,6 +611,20 @@ static int check_fixed(uint16_t code, const uint8_t *p, size_t len,
 		if (r.node < 1 || r.node > 127 || r.mode > MBX_SDO_MODE_MAX)
 			return refuse(bad, MBX_BAD_PARAM);
 		if (code == MBX_CMD_SDO_DOWNLOAD && r.size)
+			return refuse(bad, MBX_BAD_RESERVED);
+		return 0;
+	}
+	case MBX_CMD_GW_SDO_UPLOAD:
+	case MBX_CMD_GW_SDO_DOWNLOAD: {
+		mbx_gw_sdo_req r;
+
+		memcpy(&r, p, sizeof r);
+		if (r.pad || !all_zero(r.sdo.pad, sizeof r.sdo.pad))
+			return refuse(bad, MBX_BAD_RESERVED);
+		if (r.net < 1 || r.net > 127 || r.sdo.node < 1 || r.sdo.node > 127 ||
+		    r.sdo.mode > MBX_SDO_MODE_MAX)
+			return refuse(bad, MBX_BAD_PARAM);
+		if (code == MBX_CMD_GW_SDO_DOWNLOAD && r.sdo.size)
 			return refuse(bad, MBX_BAD_RESERVED);
 		return 0;
 	}

@@ -200,7 +200,11 @@ typedef enum mbx_cmd {
 	/* 0x09xx store / restore (1010h / 1011h of the line's OD) */
 	MBX_CMD_STORE = 0x0901,   /* W mbx_store_req */
 	MBX_CMD_RESTORE = 0x0902, /* W mbx_store_req */
-	/* 0x0Axx manager (CiA 302-2/-3), 0x0Bxx gateway (CiA 302-7): later */
+	/* 0x0Axx manager (CiA 302-2/-3) */
+	/* 0x0Bxx gateway (CiA 302-7, docs/gateway.md) */
+	MBX_CMD_GW_ROUTES = 0x0B01,       /* R - -> mbx_gw_status + mbx_gw_route[n] */
+	MBX_CMD_GW_SDO_UPLOAD = 0x0B02,   /* R mbx_gw_sdo_req -> data, hdr.abort */
+	MBX_CMD_GW_SDO_DOWNLOAD = 0x0B03, /* W mbx_gw_sdo_req + data -> -, hdr.abort */
 } mbx_cmd;
 
 const char *mbx_cmd_to_string(unsigned code); /* "?" if unknown */
@@ -366,6 +370,39 @@ typedef struct mbx_sdo_req {
 	uint32_t size;       /* upload: expected size hint (0 = unknown) */
 } mbx_sdo_req;
 #define MBX_SDO_MODE_MAX 3u
+
+/* MBX_CMD_GW_SDO_*: an SDO transfer with a node of any network the line's
+ * routing table (1F2Ch) reaches; net = the line's own network is a plain
+ * transfer on the line. Refusals come as SDO aborts (0A000001 no route,
+ * 0A000002 no answer, 060A0023 no client free, ...). */
+typedef struct mbx_gw_sdo_req {
+	uint16_t net;    /* 1..127 */
+	uint16_t pad;
+	mbx_sdo_req sdo; /* node, index, sub, mode, timeout, size as for SDO */
+} mbx_gw_sdo_req;
+
+/* MBX_CMD_GW_ROUTES: the line's gateway counters, then one mbx_gw_route
+ * per network with a route or any counted traffic. */
+typedef struct mbx_gw_status {
+	uint16_t network_id;    /* this line's network */
+	uint8_t routes;         /* mbx_gw_route entries that follow */
+	uint8_t active;         /* routed sessions running now */
+	uint32_t pad;
+	uint64_t sessions, routed, aborted, timed_out, refused;
+	uint64_t relayed_frames; /* frames through this line's relay leases */
+	uint64_t pdo_published, pdo_forwarded, pdo_dropped, pdo_applied, pdo_triggered;
+	uint64_t emcy_consumed, emcy_forwarded, emcy_unroutable, emcy_dropped, emcy_sent;
+	uint64_t ring_drops;
+} mbx_gw_status;
+
+typedef struct mbx_gw_route {
+	uint8_t net;
+	uint8_t kind;   /* 0 none, 1 attached to `line`, 2 through `router` */
+	uint8_t line;
+	uint8_t router;
+	uint32_t raw;   /* the 1F2Ch value */
+	uint64_t routed, aborted, timed_out, refused;
+} mbx_gw_route;
 
 typedef struct mbx_nmt_req {
 	uint8_t cs;   /* 0x01 start, 0x02 stop, 0x80 pre-op, 0x81 reset node,

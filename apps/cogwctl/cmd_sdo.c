@@ -20,6 +20,7 @@ typedef struct obj_args {
 	bool remote; /* sdo (true) or od (false) */
 	unsigned line;
 	uint8_t node;
+	uint16_t net; /* --net: routed through the daemon's gateway (0 = no) */
 	uint16_t index;
 	uint8_t sub;
 	const ctl_type *type;
@@ -29,7 +30,10 @@ typedef struct obj_args {
 
 static void context(const obj_args *a, bool write, char *buf, size_t len)
 {
-	if (a->remote)
+	if (a->remote && a->net)
+		snprintf(buf, len, "SDO %s %04X:%02X node %u of network %u via line %u",
+			 write ? "download" : "upload", a->index, a->sub, a->node, a->net, a->line);
+	else if (a->remote)
 		snprintf(buf, len, "SDO %s %04X:%02X node %u on line %u", write ? "download" : "upload",
 			 a->index, a->sub, a->node, a->line);
 	else
@@ -45,6 +49,8 @@ static cJSON *json_head(const obj_args *a)
 	cJSON_AddNumberToObject(o, "line", a->line);
 	if (a->remote)
 		cJSON_AddNumberToObject(o, "node", a->node);
+	if (a->net)
+		cJSON_AddNumberToObject(o, "net", a->net);
 	snprintf(idx, sizeof idx, "0x%04X", a->index);
 	cJSON_AddStringToObject(o, "index", idx);
 	cJSON_AddNumberToObject(o, "sub", a->sub);
@@ -64,9 +70,14 @@ static int do_read(ctl *c, cogw *h, const obj_args *a)
 			fprintf(stderr, "cogwctl: out of memory\n");
 			return CTL_EXIT_REFUSED;
 		}
-		rc = a->remote ? cogw_sdo_read_ex(h, a->line, a->node, a->index, a->sub, &a->opts, buf, cap,
-						  &len, c->timeout_ms, &abort)
-			       : cogw_od_read(h, a->line, a->index, a->sub, buf, cap, &len, c->timeout_ms, &abort);
+		if (a->net)
+			rc = cogw_sdo_read_net(h, a->line, a->net, a->node, a->index, a->sub, &a->opts,
+					       buf, cap, &len, c->timeout_ms, &abort);
+		else
+			rc = a->remote ? cogw_sdo_read_ex(h, a->line, a->node, a->index, a->sub, &a->opts,
+							  buf, cap, &len, c->timeout_ms, &abort)
+				       : cogw_od_read(h, a->line, a->index, a->sub, buf, cap, &len,
+						      c->timeout_ms, &abort);
 		if (rc != COGW_E_TRUNCATED || attempt > 0 || len <= cap)
 			break;
 		free(buf);
@@ -133,9 +144,14 @@ static int do_write(ctl *c, cogw *h, const obj_args *a, const char *value)
 	if (rc)
 		return rc;
 	uint32_t abort = 0;
-	rc = a->remote ? cogw_sdo_write_ex(h, a->line, a->node, a->index, a->sub, &a->opts, data, len,
-					   c->timeout_ms, &abort)
-		       : cogw_od_write(h, a->line, a->index, a->sub, data, len, c->timeout_ms, &abort);
+	if (a->net)
+		rc = cogw_sdo_write_net(h, a->line, a->net, a->node, a->index, a->sub, &a->opts, data,
+					len, c->timeout_ms, &abort);
+	else
+		rc = a->remote ? cogw_sdo_write_ex(h, a->line, a->node, a->index, a->sub, &a->opts,
+						   data, len, c->timeout_ms, &abort)
+			       : cogw_od_write(h, a->line, a->index, a->sub, data, len, c->timeout_ms,
+					       &abort);
 	if (rc < 0) {
 		free(data);
 		return ctl_fail(c, rc, abort, ctx);
@@ -171,9 +187,10 @@ static int run_obj(ctl *c, int argc, char **argv, bool remote, const ctl_cmd *se
 {
 	const char *pos[8];
 	int n_pos;
-	const char *out = NULL, *mode = NULL, *sdo_timeout = NULL;
+	const char *out = NULL, *mode = NULL, *sdo_timeout = NULL, *net = NULL;
 	ctl_opt sdo_opts[] = {
 		{ "--out", true, &out, NULL },
+		{ "--net", true, &net, NULL },
 		{ "--mode", true, &mode, NULL },
 		{ "--sdo-timeout", true, &sdo_timeout, NULL },
 		{ NULL, false, NULL, NULL },
@@ -215,6 +232,14 @@ static int run_obj(ctl *c, int argc, char **argv, bool remote, const ctl_cmd *se
 		return ctl_usage_error(c, "--out is for read");
 	if (mode && parse_mode(c, mode, &a.opts.mode))
 		return CTL_EXIT_USAGE;
+	if (net) {
+		uint64_t v;
+		if (ctl_arg_uint(c, net, "--net", 127, &v) < 0)
+			return CTL_EXIT_USAGE;
+		if (v < 1)
+			return ctl_usage_error(c, "--net %s: a network id is 1..127", net);
+		a.net = (uint16_t)v;
+	}
 	if (sdo_timeout) {
 		uint64_t ms;
 		if (ctl_arg_uint(c, sdo_timeout, "--sdo-timeout", 600000, &ms) < 0)
@@ -245,7 +270,9 @@ const ctl_cmd ctl_cmd_sdo = {
 		    "                                           write an object of a node (SDO download)\n",
 	.help =
 		"usage: cogwctl sdo read LINE NODE INDEX SUB [TYPE] [--out FILE] [--mode M] [--sdo-timeout MS]\n"
+		"                        [--net NET]\n"
 		"       cogwctl sdo write LINE NODE INDEX SUB TYPE VALUE|@FILE [--mode M] [--sdo-timeout MS]\n"
+		"                        [--net NET]\n"
 		"\n"
 		"The daemon reads (uploads) or writes (downloads) object INDEX:SUB of node NODE on\n"
 		"line LINE with its SDO client. Any size: expedited, segmented or block transfer\n"
@@ -265,6 +292,11 @@ const ctl_cmd ctl_cmd_sdo = {
 		"  --out FILE     (read) write the raw bytes to FILE ('-' = stdout, for pipes)\n"
 		"  --mode M       auto (default), expedited, segmented or block\n"
 		"  --sdo-timeout MS  per-frame SDO timeout on the bus (default: the line's, 1000)\n"
+		"  --net NET      node NODE of network NET (1..127), wherever it is: the daemon's\n"
+		"                 gateway routes the transfer by LINE's routing table 1F2Ch, to the\n"
+		"                 line that network is attached to or through the next router\n"
+		"                 (docs/gateway.md). Refusals: abort 0x0A000001 (no route),\n"
+		"                 0x0A000002 (no answer), 0x060A0023 (no SDO client free)\n"
 		"\n"
 		"An SDO abort is printed with its CiA 301 meaning and exits 1, e.g.\n"
 		"  cogwctl sdo read: SDO upload 2001:00 node 1 on line 0: abort 0x06020000 (object does not exist)\n"
@@ -277,7 +309,8 @@ const ctl_cmd ctl_cmd_sdo = {
 		"  cogwctl sdo write 0 1 1017 0 u16 500       heartbeat every 500 ms\n"
 		"  cogwctl sdo write 0 1 2005 1 r32 98.5\n"
 		"  cogwctl sdo write 0 5 2100 0 domain @firmware.bin --mode block --timeout 60000\n"
-		"  cogwctl sdo read 0 5 2100 0 domain --out dump.bin\n",
+		"  cogwctl sdo read 0 5 2100 0 domain --out dump.bin\n"
+		"  cogwctl sdo read 0 2 1018 1 u32 --net 2   node 2 of network 2, asked on line 0\n",
 	.run = run_sdo,
 };
 

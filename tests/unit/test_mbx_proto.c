@@ -648,6 +648,35 @@ static void test_system_limits_message(void)
 	TEST_ASSERT_EQUAL_STRING("", err);
 }
 
+static void test_gateway_sdo_fields(void)
+{
+	mbx_hdr h = cmd_hdr(MBX_CMD_GW_SDO_UPLOAD);
+	mbx_gw_sdo_req r = { .net = 2, .sdo = { .node = 5, .index = 0x1000 } };
+
+	TEST_ASSERT_EQUAL_STRING("gw-sdo-upload", mbx_cmd_to_string(MBX_CMD_GW_SDO_UPLOAD));
+	TEST_ASSERT_EQUAL_STRING("gw-routes", mbx_cmd_to_string(MBX_CMD_GW_ROUTES));
+	ASSERT_OK(h, &r, sizeof r);
+	ASSERT_BAD(MBX_E_MALFORMED, MBX_BAD_SIZE, h, &r, sizeof r - 1);
+	r.net = 0;
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &r, sizeof r);
+	r.net = 128;
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &r, sizeof r);
+	r.net = 127;
+	r.sdo.node = 0;
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &r, sizeof r);
+	r.sdo.node = 5;
+	r.pad = 1;
+	ASSERT_BAD(MBX_E_MALFORMED, MBX_BAD_RESERVED, h, &r, sizeof r);
+	r.pad = 0;
+	h = cmd_hdr(MBX_CMD_GW_SDO_DOWNLOAD);
+	r.sdo.size = 4; /* a download's size is its data */
+	ASSERT_BAD(MBX_E_MALFORMED, MBX_BAD_RESERVED, h, &r, sizeof r);
+	h = cmd_hdr(MBX_CMD_GW_ROUTES);
+	ASSERT_OK(h, NULL, 0);
+	TEST_ASSERT_TRUE(mbx_cmd_lookup(MBX_CMD_GW_SDO_DOWNLOAD)->flags & MBX_CI_WRITE);
+	TEST_ASSERT_FALSE(mbx_cmd_lookup(MBX_CMD_GW_SDO_UPLOAD)->flags & MBX_CI_WRITE);
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -670,6 +699,7 @@ int main(void)
 	RUN_TEST(test_subscribe_fields);
 	RUN_TEST(test_xfer_ack_and_object_fields);
 	RUN_TEST(test_sdo_fields);
+	RUN_TEST(test_gateway_sdo_fields);
 	RUN_TEST(test_nmt_fields);
 	RUN_TEST(test_pdo_request_and_store_fields);
 	RUN_TEST(test_raw_send_fields);

@@ -1,0 +1,175 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * cogwctl route: the CiA 302-7 gateway of each line - its network, its
+ * routing table 1F2Ch with the counters per network, routed sessions,
+ * relayed frames, PDO forwarding and EMCY routing counters.
+ */
+#include <inttypes.h>
+#include <string.h>
+
+#include "apps/cogwctl/ctl.h"
+
+static const char *kind_text(uint8_t k)
+{
+	return k == 1 ? "attached" : k == 2 ? "router" : "none";
+}
+
+static void add_u64(cJSON *o, const char *name, uint64_t v)
+{
+	cJSON_AddNumberToObject(o, name, (double)v);
+}
+
+static cJSON *line_json(unsigned line, const mbx_gw_status *st, const mbx_gw_route *r, size_t n)
+{
+	cJSON *o = cJSON_CreateObject();
+	cJSON *s, *routes;
+
+	cJSON_AddNumberToObject(o, "line", line);
+	cJSON_AddNumberToObject(o, "network", st->network_id);
+	cJSON_AddNumberToObject(o, "active_sessions", st->active);
+	s = cJSON_AddObjectToObject(o, "sdo");
+	add_u64(s, "sessions", st->sessions);
+	add_u64(s, "routed", st->routed);
+	add_u64(s, "aborted", st->aborted);
+	add_u64(s, "timed_out", st->timed_out);
+	add_u64(s, "refused", st->refused);
+	add_u64(s, "relayed_frames", st->relayed_frames);
+	s = cJSON_AddObjectToObject(o, "pdo");
+	add_u64(s, "published", st->pdo_published);
+	add_u64(s, "forwarded", st->pdo_forwarded);
+	add_u64(s, "dropped", st->pdo_dropped);
+	add_u64(s, "applied", st->pdo_applied);
+	add_u64(s, "triggered", st->pdo_triggered);
+	s = cJSON_AddObjectToObject(o, "emcy");
+	add_u64(s, "consumed", st->emcy_consumed);
+	add_u64(s, "forwarded", st->emcy_forwarded);
+	add_u64(s, "unroutable", st->emcy_unroutable);
+	add_u64(s, "dropped", st->emcy_dropped);
+	add_u64(s, "sent", st->emcy_sent);
+	add_u64(o, "ring_drops", st->ring_drops);
+	routes = cJSON_AddArrayToObject(o, "routes");
+	for (size_t i = 0; i < n; i++) {
+		cJSON *e = cJSON_CreateObject();
+		cJSON_AddNumberToObject(e, "network", r[i].net);
+		cJSON_AddStringToObject(e, "kind", kind_text(r[i].kind));
+		if (r[i].kind) {
+			cJSON_AddNumberToObject(e, "line", r[i].line);
+			if (r[i].kind == 2)
+				cJSON_AddNumberToObject(e, "router", r[i].router);
+		}
+		add_u64(e, "routed", r[i].routed);
+		add_u64(e, "aborted", r[i].aborted);
+		add_u64(e, "timed_out", r[i].timed_out);
+		add_u64(e, "refused", r[i].refused);
+		cJSON_AddItemToArray(routes, e);
+	}
+	return o;
+}
+
+static void line_text(unsigned line, const mbx_gw_status *st, const mbx_gw_route *r, size_t n)
+{
+	printf("line %u: network %u, %u routed session%s running\n", line, st->network_id,
+	       st->active, st->active == 1 ? "" : "s");
+	printf("  SDO   sessions %" PRIu64 ", routed %" PRIu64 ", aborted %" PRIu64
+	       ", timed out %" PRIu64 ", refused %" PRIu64 ", relayed frames %" PRIu64 "\n",
+	       st->sessions, st->routed, st->aborted, st->timed_out, st->refused,
+	       st->relayed_frames);
+	printf("  PDO   published %" PRIu64 ", forwarded %" PRIu64 ", dropped %" PRIu64
+	       ", applied %" PRIu64 " (TPDOs triggered %" PRIu64 ")\n",
+	       st->pdo_published, st->pdo_forwarded, st->pdo_dropped, st->pdo_applied,
+	       st->pdo_triggered);
+	printf("  EMCY  consumed %" PRIu64 ", forwarded %" PRIu64 ", unroutable %" PRIu64
+	       ", dropped %" PRIu64 ", sent %" PRIu64 "\n",
+	       st->emcy_consumed, st->emcy_forwarded, st->emcy_unroutable, st->emcy_dropped,
+	       st->emcy_sent);
+	printf("  network  route                     routed  aborted  timed-out  refused\n");
+	for (size_t i = 0; i < n; i++) {
+		char how[40];
+		if (r[i].kind == 1)
+			snprintf(how, sizeof how, "line %u", r[i].line);
+		else if (r[i].kind == 2)
+			snprintf(how, sizeof how, "line %u, router node %u", r[i].line, r[i].router);
+		else
+			snprintf(how, sizeof how, "-");
+		printf("  %7u  %-24s %7" PRIu64 "  %7" PRIu64 "  %9" PRIu64 "  %7" PRIu64 "\n",
+		       r[i].net, how, r[i].routed, r[i].aborted, r[i].timed_out, r[i].refused);
+	}
+}
+
+static int run(ctl *c, int argc, char **argv)
+{
+	const char *pos[MBX_LINES_MAX];
+	int n_pos;
+	int rc = ctl_parse(c, argc, argv, NULL, pos, MBX_LINES_MAX, &n_pos);
+	if (rc)
+		return rc;
+	if (c->help)
+		return ctl_print_help(&ctl_cmd_route);
+	unsigned lines[MBX_LINES_MAX];
+	int n_lines = n_pos;
+	for (int i = 0; i < n_pos; i++)
+		if (ctl_arg_line(c, pos[i], &lines[i]) < 0)
+			return CTL_EXIT_USAGE;
+	if (n_lines == 0) {
+		int n = ctl_count_lines(c);
+		if (n < 0)
+			return -n;
+		for (int i = 0; i < n; i++)
+			lines[i] = (unsigned)i;
+		n_lines = n;
+	}
+	int ex = 0;
+	cogw *h = ctl_handle(c, &ex);
+	if (!h)
+		return ex;
+	cJSON *arr = c->json ? cJSON_CreateArray() : NULL;
+	static mbx_gw_route routes[128];
+	for (int i = 0; i < n_lines; i++) {
+		mbx_gw_status st;
+		size_t n = 0;
+		char ctx[48];
+		snprintf(ctx, sizeof ctx, "gateway of line %u", lines[i]);
+		rc = cogw_gw_routes(h, lines[i], &st, routes, 128, &n, c->timeout_ms);
+		if (rc < 0) {
+			cJSON_Delete(arr);
+			return ctl_fail(c, rc, 0, ctx);
+		}
+		if (n > 128)
+			n = 128;
+		if (c->json) {
+			cJSON_AddItemToArray(arr, line_json(lines[i], &st, routes, n));
+		} else {
+			if (i)
+				printf("\n");
+			line_text(lines[i], &st, routes, n);
+		}
+	}
+	if (c->json) {
+		cJSON *o = cJSON_CreateObject();
+		cJSON_AddBoolToObject(o, "ok", true);
+		cJSON_AddItemToObject(o, "lines", arr);
+		ctl_json_print(o);
+	}
+	return 0;
+}
+
+const ctl_cmd ctl_cmd_route = {
+	.name = "route",
+	.synopsis = "  route [LINE...]                          gateway: routing tables, counters\n",
+	.help =
+		"usage: cogwctl route [LINE...] [--json]\n"
+		"\n"
+		"The CiA 302-7 gateway of every line (or the lines given): the line's network,\n"
+		"routed SDO sessions (taken, routed, aborted, timed out, refused, running now,\n"
+		"frames relayed for other lines), PDO forwarding of the B000h process image\n"
+		"(published by RPDOs here, forwarded to other lines, dropped, applied here and\n"
+		"TPDOs triggered), EMCY routing (consumed with a 1F2Fh entry, forwarded,\n"
+		"unroutable, dropped, sent here), then the routing table 1F2Ch: every network\n"
+		"with a route (attached to a line, or through a router node on a line) and its\n"
+		"counters. See docs/gateway.md.\n"
+		"\n"
+		"Examples:\n"
+		"  cogwctl route\n"
+		"  cogwctl route 0 --json\n",
+	.run = run,
+};
