@@ -509,6 +509,7 @@ void line_destroy(line *l)
 		close(l->wakefd);
 	free(l->sdo_bufs);
 	free(l->store.blob);
+	free(l->store.factory);
 	pthread_mutex_destroy(&l->stats_lock);
 	free(l);
 }

@@ -48,6 +48,10 @@ typedef struct line_store_req {
 	mbx_reply_to reply; /* mailbox request waiting */
 	uint32_t len;
 	uint8_t *blob;      /* serialised values, LINE_STORE_MAX bytes */
+	/* The configured values (before any saved file was loaded), as the
+	 * blob's parts: what 1011h "load" makes the defaults again. */
+	uint8_t *factory;
+	uint32_t factory_len;
 } line_store_req;
 
 #define LINE_STORE_MAX (256u * 1024u)

@@ -16,13 +16,22 @@
  * each part in its own file <line>.comm / <line>.app, so saving one part
  * keeps the other. Only entries that can change are written: writable
  * ones, and those flagged persistent. 1011h "load" deletes the files, so
- * the next start (or reset) brings the defaults back.
+ * the next start brings the configured values back.
+ *
+ * What a reset brings back (CiA 301 §7.5.2.13/14): NMT reset node
+ * (application) and reset communication set the objects to their
+ * defaults (core/od.h), so the defaults are kept equal to what is stored:
+ * - at start-up, loaded values become the defaults too;
+ * - a successful "save" makes the saved values the defaults of its parts
+ *   at once (not only at the next start);
+ * - a successful "load" makes the configured values (an image taken at
+ *   start-up before any file was loaded) the defaults of its parts again,
+ *   so the next reset node (sub 1..3) or reset communication (sub 1, 2)
+ *   brings the defaults back. Current values stay until that reset.
  *
  * The files hold core/od_image.h images (the simulator uses the same
  * format). On load every record is checked against the OD and bad ones are
- * skipped and counted in the log line, never trusted; loaded values also
- * become the defaults, so a reset communication/application returns to
- * the saved values as CiA 301 expects, not to the configured ones.
+ * skipped and counted in the log line, never trusted.
  */
 #include "lines/line_internal.h"
 
@@ -50,6 +59,8 @@ static unsigned parts_of_sub(uint8_t sub)
 	return sub == 2 ? CO_OD_IMAGE_COMM : sub == 3 ? CO_OD_IMAGE_APP : CO_OD_IMAGE_COMM | CO_OD_IMAGE_APP;
 }
 
+static long write_parts(const co_od *od, unsigned parts_mask, uint8_t *buf, uint32_t cap);
+
 static void part_path(const line *l, unsigned part, char *out, size_t len)
 {
 	snprintf(out, len, "%s.%s", l->state_path, part == CO_OD_IMAGE_COMM ? "comm" : "app");
@@ -75,20 +86,12 @@ static uint32_t on_save(void *ctx, uint8_t sub, const co_od_access *a)
 	if (atomic_load(&l->store.state) != 0)
 		return 0x08000022u; /* one save at a time: "device state" */
 	/* serialise now, on the line thread: the OD is only ever read here */
-	uint32_t off = 0;
-	for (int i = 0; i < N_PARTS; i++) {
-		if (!(parts_of_sub(sub) & parts[i]))
-			continue;
-		long n = co_od_image_write(co_node_od(l->node), parts[i], l->store.blob + off + 4,
-					   LINE_STORE_MAX - off - 4);
-		if (n < 0) {
-			cogw_log(COGW_LOG_ERR, "line %s: save: values exceed %u bytes", l->name, LINE_STORE_MAX);
-			return 0x08000020u;
-		}
-		co_put_le32(l->store.blob + off, (uint32_t)n);
-		off += 4u + (uint32_t)n;
+	long n = write_parts(co_node_od(l->node), parts_of_sub(sub), l->store.blob, LINE_STORE_MAX);
+	if (n < 0) {
+		cogw_log(COGW_LOG_ERR, "line %s: save: values exceed %u bytes", l->name, LINE_STORE_MAX);
+		return 0x08000020u;
 	}
-	l->store.len = off;
+	l->store.len = (uint32_t)n;
 	request_main(l, 1, sub, a);
 	return a->origin == CO_OD_ORIGIN_SDO ? CO_OD_DEFERRED : 0;
 }
@@ -155,7 +158,7 @@ bool line_store_service(line *l)
 			 l->store.op == 1 ? "save to" : "restore (delete)", path, strerror(-rc));
 	else
 		cogw_log(COGW_LOG_INFO, "line %s: %s (%s sub %u)", l->name,
-			 l->store.op == 1 ? "parameters saved" : "defaults restored for the next start",
+			 l->store.op == 1 ? "parameters saved" : "defaults restored for the next reset or start",
 			 l->store.op == 1 ? "1010h" : "1011h", l->store.sub);
 	l->store.result = rc;
 	atomic_store(&l->store.state, 2);
@@ -165,10 +168,60 @@ bool line_store_service(line *l)
 
 /* ---- line thread ---------------------------------------------------------- */
 
+/* Serialise the parts of `parts_mask` of the OD into buf as the save blob
+ * lays them out (each part prefixed with its length; parts not in the
+ * mask are skipped). Returns the length or -EMSGSIZE. */
+static long write_parts(const co_od *od, unsigned parts_mask, uint8_t *buf, uint32_t cap)
+{
+	uint32_t off = 0;
+	for (int i = 0; i < N_PARTS; i++) {
+		if (!(parts_mask & parts[i]))
+			continue;
+		if (cap - off < 4)
+			return -EMSGSIZE;
+		long n = co_od_image_write(od, parts[i], buf + off + 4, cap - off - 4);
+		if (n < 0)
+			return n;
+		co_put_le32(buf + off, (uint32_t)n);
+		off += 4u + (uint32_t)n;
+	}
+	return off;
+}
+
+/* Make the values of a blob (as write_parts() lays it out) the defaults of
+ * the entries it holds, restricted to the parts of `parts_mask`; the
+ * current values stay. */
+static void set_defaults_from(line *l, const uint8_t *buf, uint32_t len, unsigned parts_mask,
+			      unsigned buf_parts)
+{
+	uint32_t off = 0;
+	for (int i = 0; i < N_PARTS && off + 4 <= len; i++) {
+		if (!(buf_parts & parts[i]))
+			continue;
+		uint32_t n = co_get_le32(buf + off);
+		if (n > len - off - 4)
+			return;
+		if (parts_mask & parts[i]) {
+			unsigned applied, skipped;
+			co_od_image_apply(co_node_od(l->node), buf + off + 4, n, CO_OD_IMAGE_SET_DEFAULT,
+					  &applied, &skipped);
+		}
+		off += 4u + n;
+	}
+}
+
 void line_store_poll(line *l)
 {
 	if (atomic_load(&l->store.state) != 2)
 		return;
+	if (!l->store.result) {
+		unsigned mask = parts_of_sub(l->store.sub);
+		if (l->store.op == 1)
+			set_defaults_from(l, l->store.blob, l->store.len, mask, mask);
+		else if (l->store.factory)
+			set_defaults_from(l, l->store.factory, l->store.factory_len, mask,
+					  CO_OD_IMAGE_COMM | CO_OD_IMAGE_APP);
+	}
 	uint32_t abort = l->store.result ? 0x08000020u : 0;
 	if (l->store.from_sdo)
 		sdo_server_continue(l->node, l->store.channel, abort, NULL, 0, l->now_us);
@@ -204,6 +257,18 @@ static void load_part(line *l, unsigned part)
 
 int line_store_load(line *l)
 {
+	/* The configured values, before any saved file changes them: what a
+	 * later 1011h "load" makes the defaults again. Without memory for it
+	 * "load" only takes effect at the next start (logged). */
+	long n = write_parts(l->p.node.od, CO_OD_IMAGE_COMM | CO_OD_IMAGE_APP, l->store.blob,
+			     LINE_STORE_MAX);
+	if (n > 0 && (l->store.factory = malloc((size_t)n)) != NULL) {
+		memcpy(l->store.factory, l->store.blob, (size_t)n);
+		l->store.factory_len = (uint32_t)n;
+	} else {
+		cogw_log(COGW_LOG_WARNING, "line %s: cannot keep the configured values; 1011h \"load\" "
+			 "takes effect at the next start only", l->name);
+	}
 	load_part(l, CO_OD_IMAGE_COMM);
 	load_part(l, CO_OD_IMAGE_APP);
 	return 0;

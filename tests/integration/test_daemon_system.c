@@ -420,6 +420,79 @@ static void test_store_restore_survives_restart(void)
 	TEST_ASSERT_EQUAL_UINT16(400, od_read_u16(client, 0x1017));
 }
 
+/* Issue 10 items 2 and 3: what NMT reset node / reset communication bring
+ * back follows 1010h/1011h at run time, not only at the next start. The
+ * frames are the issue's: 67F#2310100173617665 -> 5FF#60..., 000#817F. */
+static void nmt_reset_own(uint8_t cs)
+{
+	uint8_t f[2] = { cs, 0x7F }, boot[8];
+	drain_can(can_fd);
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(can_fd, 0x000, f, 2));
+	TEST_ASSERT_EQUAL_INT_MESSAGE(1, can_wait_id(can_fd, HB_COB_ID, boot, 5000), "no boot-up");
+	TEST_ASSERT_EQUAL_HEX8(0x00, boot[0]);
+}
+
+static void test_store_takes_effect_at_reset(void)
+{
+	char json[4096];
+	config_text(json, sizeof json, &(cfg_params){ .instance = "sys2r", .n_lines = 1 });
+	start_daemon(&d, json, "sys2r", 1, 0, NULL);
+	open_client("sys2r");
+	can_fd = can_open_raw("vcan0");
+	TEST_ASSERT_GREATER_OR_EQUAL_INT(0, can_fd);
+	uint8_t resp[8];
+	static const uint8_t confirm_save[8] = { 0x60, 0x10, 0x10, 0x01, 0, 0, 0, 0 };
+	static const uint8_t save[4] = { 's', 'a', 'v', 'e' };
+
+	/* item 2: 1017h = 1234, save, 1017h = 555, reset node -> 1234
+	 * (before the fix: 1000, the configured value) */
+	od_write_u16(client, 0x1017, 1234);
+	sdo_expedited_download(0x1010, 1, save, resp);
+	TEST_ASSERT_EQUAL_HEX8_ARRAY(confirm_save, resp, 8);
+	od_write_u16(client, 0x1017, 555);
+	nmt_reset_own(0x81);
+	TEST_ASSERT_EQUAL_UINT16(1234, od_read_u16(client, 0x1017));
+	/* reset communication: the same for the communication area */
+	od_write_u16(client, 0x1017, 556);
+	nmt_reset_own(0x82);
+	TEST_ASSERT_EQUAL_UINT16(1234, od_read_u16(client, 0x1017));
+}
+
+static void test_restore_takes_effect_at_reset(void)
+{
+	char json[4096];
+	config_text(json, sizeof json, &(cfg_params){ .instance = "sys2l", .n_lines = 1 });
+	start_daemon(&d, json, "sys2l", 1, 0, NULL);
+	open_client("sys2l");
+	uint8_t resp[8];
+	static const uint8_t confirm_load[8] = { 0x60, 0x11, 0x10, 0x01, 0, 0, 0, 0 };
+	static const uint8_t load[4] = { 'l', 'o', 'a', 'd' };
+
+	/* item 3: after a restart that loaded the saved values, "load" and
+	 * then reset node -> the default (before the fix: 1234 stayed) */
+	od_write_u16(client, 0x1017, 1234);
+	TEST_ASSERT_EQUAL_INT(0, cogw_store(client, 0, 1, 5000));
+	restart_on_same_state(json, "sys2l");
+	can_fd = can_open_raw("vcan0");
+	TEST_ASSERT_GREATER_OR_EQUAL_INT(0, can_fd);
+	TEST_ASSERT_EQUAL_UINT16(1234, od_read_u16(client, 0x1017));
+	sdo_expedited_download(0x1011, 1, load, resp);
+	TEST_ASSERT_EQUAL_HEX8_ARRAY(confirm_load, resp, 8);
+	TEST_ASSERT_EQUAL_UINT16(1234, od_read_u16(client, 0x1017)); /* until the reset */
+	nmt_reset_own(0x81);
+	TEST_ASSERT_EQUAL_UINT16(1000, od_read_u16(client, 0x1017));
+
+	/* sub 2 + reset communication, through the mailbox this time */
+	od_write_u16(client, 0x1017, 777);
+	TEST_ASSERT_EQUAL_INT(0, cogw_store(client, 0, 2, 5000));
+	od_write_u16(client, 0x1017, 778);
+	nmt_reset_own(0x82);
+	TEST_ASSERT_EQUAL_UINT16(777, od_read_u16(client, 0x1017));
+	TEST_ASSERT_EQUAL_INT(0, cogw_restore(client, 0, 2, 5000));
+	nmt_reset_own(0x82);
+	TEST_ASSERT_EQUAL_UINT16(1000, od_read_u16(client, 0x1017));
+}
+
 /* ---- 3. invalid configurations ---------------------------------------------------- */
 
 /* Run cogwd on a config file; returns its exit status, output in log. */
@@ -1078,6 +1151,15 @@ static void test_systemd_unit_verifies(void)
 	TEST_ASSERT_FALSE(file_contains(log, "is not executable"));
 }
 
+/* COGW_TEST_ONLY=substring runs only the tests whose name contains it. */
+#undef RUN_TEST
+#define RUN_TEST(fn)                                                                  \
+	do {                                                                          \
+		const char *only_ = getenv("COGW_TEST_ONLY");                         \
+		if (!only_ || strstr(#fn, only_))                                     \
+			UnityDefaultTestRun(fn, #fn, __LINE__);                       \
+	} while (0)
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -1087,6 +1169,8 @@ int main(void)
 	RUN_TEST(test_no_ready_when_a_line_fails);
 	RUN_TEST(test_notify_ready_status_watchdog_stall_stopping);
 	RUN_TEST(test_store_restore_survives_restart);
+	RUN_TEST(test_store_takes_effect_at_reset);
+	RUN_TEST(test_restore_takes_effect_at_reset);
 	RUN_TEST(test_sighup_reload);
 	RUN_TEST(test_malformed_messages_against_daemon);
 	return UNITY_END();

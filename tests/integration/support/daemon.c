@@ -83,7 +83,10 @@ int daemon_start(daemon_run *d, const daemon_opts *opts)
 	size_t argc = 0;
 	for (size_t i = 0; opts->wrapper && opts->wrapper[i] && argc < 16; i++)
 		argv[argc++] = opts->wrapper[i];
-	argv[argc++] = opts->binary ? opts->binary : DEFAULT_COGWD;
+	/* COGW_TEST_COGWD runs the tests against another build of cogwd
+	 * (e.g. an older one, to see a regression test fail there). */
+	const char *bin = getenv("COGW_TEST_COGWD");
+	argv[argc++] = opts->binary ? opts->binary : bin && *bin ? bin : DEFAULT_COGWD;
 	if (opts->config_json) {
 		argv[argc++] = "--config";
 		argv[argc++] = d->config_path;
