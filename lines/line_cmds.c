@@ -317,7 +317,7 @@ void line_lss_done(line *l, const co_ev_lss_master *m)
 	switch (m->result) {
 	case LSS_RESULT_OK: break;
 	case LSS_RESULT_SLAVE_ERROR: status = MBX_E_LSS; break;
-	case LSS_RESULT_TIMEOUT: status = MBX_E_TIMEOUT; break;
+	case LSS_RESULT_TIMEOUT: status = MBX_E_NO_ANSWER; break; /* the slave, not us */
 	case LSS_RESULT_NOT_FOUND: status = MBX_E_NOT_FOUND; break;
 	default: status = MBX_E_STATE; break;
 	}

@@ -41,7 +41,7 @@
 #include <time.h>
 #include <unistd.h>
 
-_Static_assert((int)COGW_E_NOT_FOUND == (int)MBX_STATUS_MIN,
+_Static_assert((int)COGW_E_NO_ANSWER == (int)MBX_STATUS_MIN,
 	       "cogw_err must cover every mbx_status");
 
 #define ASYNC_RING 64u

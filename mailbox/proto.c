@@ -120,6 +120,7 @@ const char *mbx_status_to_string(int status)
 	case MBX_E_SHUTDOWN: return "line shutting down";
 	case MBX_E_LSS: return "LSS slave reported an error";
 	case MBX_E_NOT_FOUND: return "no LSS slave answered";
+	case MBX_E_NO_ANSWER: return "the device did not answer in time";
 	}
 	return "unknown status";
 }

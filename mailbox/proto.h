@@ -121,7 +121,10 @@ typedef enum mbx_status {
 	MBX_E_SHUTDOWN = -19,    /* line is stopping */
 	MBX_E_LSS = -20,         /* LSS slave answered an error (payload) */
 	MBX_E_NOT_FOUND = -21,   /* LSS identify/fastscan: nobody answered */
-	MBX_STATUS_MIN = -21,
+	MBX_E_NO_ANSWER = -22,   /* the device on the bus did not answer a
+	                          * confirmed service in time (the daemon did:
+	                          * not to be confused with MBX_E_TIMEOUT) */
+	MBX_STATUS_MIN = -22,
 } mbx_status;
 
 const char *mbx_status_to_string(int status);

@@ -43,8 +43,10 @@ static void overview(FILE *to)
 		"  1  refused: SDO abort (code and meaning printed), LSS error, the daemon refused\n"
 		"  2  usage error (bad command line or value)\n"
 		"  3  daemon not reachable (no cogwd for this instance, or no such line)\n"
-		"  4  timeout: the daemon or the device did not answer in time\n"
-		"     (an SDO abort 0x05040000 \"SDO protocol timed out\" counts as a timeout)\n"
+		"  4  timeout: the daemon or the device did not answer in time; the message\n"
+		"     says which (\"the daemon did not answer\" / \"the device did not answer\";\n"
+		"     --json: \"timeout\": \"daemon\" or \"device\"). An SDO abort 0x05040000\n"
+		"     \"SDO protocol timed out\" is a device timeout\n"
 		"\n"
 		"Manual: docs/cogwctl.md\n");
 }

@@ -158,6 +158,7 @@ int ctl_exit_of(int rc, uint32_t abort)
 	case COGW_E_NO_DAEMON:
 		return CTL_EXIT_NO_DAEMON;
 	case COGW_E_TIMEOUT:
+	case COGW_E_NO_ANSWER:
 		return CTL_EXIT_TIMEOUT;
 	case COGW_E_ABORT:
 		/* the device did not answer in time: a timeout, not a refusal */
@@ -171,12 +172,25 @@ int ctl_fail(ctl *c, int rc, uint32_t abort, const char *context)
 {
 	char ab[160] = "";
 	const char *hint = "";
+	/* Who did not answer: the daemon (libcogw's own timeout: COGW_E_TIMEOUT
+	 * with no answer at all) or the device (the daemon answered with
+	 * NO_ANSWER, or an SDO abort 0x05040000). Both exit 4; the text and
+	 * the JSON "timeout" field tell them apart. */
+	const char *who = NULL;
 	if (rc == COGW_E_ABORT)
 		ctl_abort_text(abort, ab, sizeof ab);
-	if (rc == COGW_E_NO_DAEMON)
+	if (rc == COGW_E_NO_DAEMON) {
 		hint = " (is cogwd running, with this mailbox instance and line?)";
-	else if (rc == COGW_E_TIMEOUT)
+	} else if (rc == COGW_E_TIMEOUT) {
 		hint = " (the daemon did not answer in time; --timeout MS)";
+		who = "daemon";
+	} else if (rc == COGW_E_NO_ANSWER) {
+		hint = " (the daemon answered: the device did not answer on the bus)";
+		who = "device";
+	} else if (rc == COGW_E_ABORT && abort == SDO_AB_TIMEOUT) {
+		hint = " (the daemon answered: the device did not answer on the bus in time)";
+		who = "device";
+	}
 	if (c->json) {
 		cJSON *o = cJSON_CreateObject();
 		cJSON_AddBoolToObject(o, "ok", false);
@@ -190,10 +204,12 @@ int ctl_fail(ctl *c, int rc, uint32_t abort, const char *context)
 			cJSON_AddStringToObject(o, "abort", hex);
 			cJSON_AddStringToObject(o, "abort_text", sdo_abort_to_string(abort));
 		}
+		if (who)
+			cJSON_AddStringToObject(o, "timeout", who);
 		cJSON_AddNumberToObject(o, "exit", ctl_exit_of(rc, abort));
 		ctl_json_print(o);
 	} else if (rc == COGW_E_ABORT) {
-		fprintf(stderr, "cogwctl: %s: abort %s\n", context, ab);
+		fprintf(stderr, "cogwctl: %s: abort %s%s\n", context, ab, hint);
 	} else {
 		fprintf(stderr, "cogwctl: %s: %s%s\n", context, cogw_strerror(rc), hint);
 	}

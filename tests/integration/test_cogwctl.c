@@ -35,7 +35,14 @@
 #include "tests/integration/support/proc.h"
 #include "unity.h"
 
-#define CTL "build/san/bin/cogwctl"
+/* COGW_TEST_COGWCTL: run against another build of the tool (e.g. an
+ * older one, to see a regression test fail there). */
+static const char *ctl_path(void)
+{
+	const char *p = getenv("COGW_TEST_COGWCTL");
+	return p && *p ? p : "build/san/bin/cogwctl";
+}
+#define CTL ctl_path()
 #define DOMAIN_IDX 0x2200
 #define DOMAIN_SIZE 3000u
 
@@ -560,6 +567,47 @@ static void test_lss_inquire_and_fastscan(void)
 	expect_contains(r->err, "no LSS slave answered");
 }
 
+/* Issue 10 item 6: exit 4 either way, but the message says who did not
+ * answer. Before the fix an LSS service nobody answered printed "the
+ * daemon did not answer in time; --timeout MS" although the daemon had
+ * answered with the LSS timeout. */
+static void test_timeouts_name_who_did_not_answer(void)
+{
+	start_system();
+	/* nobody in LSS configuration mode: the device does not answer */
+	expect_exit(0, ctl_run("lss switch 0 waiting"));
+	ctl_result *r = ctl_run("lss inquire 0 serial");
+	expect_exit(4, r);
+	expect_contains(r->err, "the device did not answer");
+	TEST_ASSERT_NULL_MESSAGE(strstr(r->err, "the daemon did not answer"), r->err);
+	r = ctl_run("--json lss inquire 0 serial");
+	expect_exit(4, r);
+	expect_contains(r->out, "\"timeout\":\"device\"");
+	/* an SDO device timeout says so too */
+	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sim, "sdo silent on", NULL, 0, 3000));
+	r = ctl_run("sdo read 0 1 1018 1 u32 --sdo-timeout 300");
+	expect_exit(4, r);
+	expect_contains(r->err, "the device did not answer on the bus in time");
+	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sim, "sdo silent off", NULL, 0, 3000));
+	/* the daemon itself does not answer (stopped): that is the daemon */
+	TEST_ASSERT_EQUAL_INT(0, kill(dmn.pid, SIGSTOP));
+	r = ctl_run("--timeout 500 lss inquire 0 serial");
+	TEST_ASSERT_EQUAL_INT(0, kill(dmn.pid, SIGCONT));
+	expect_exit(4, r);
+	expect_contains(r->err, "the daemon did not answer in time");
+	r = ctl_run("--timeout 5000 status 0");
+	expect_exit(0, r);
+}
+
+/* COGW_TEST_ONLY=substring runs only the tests whose name contains it. */
+#undef RUN_TEST
+#define RUN_TEST(fn)                                                                  \
+	do {                                                                          \
+		const char *only_ = getenv("COGW_TEST_ONLY");                         \
+		if (!only_ || strstr(#fn, only_))                                     \
+			UnityDefaultTestRun(fn, #fn, __LINE__);                       \
+	} while (0)
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -571,5 +619,6 @@ int main(void)
 	RUN_TEST(test_raw_send_and_dump);
 	RUN_TEST(test_emcy_both_ways);
 	RUN_TEST(test_lss_inquire_and_fastscan);
+	RUN_TEST(test_timeouts_name_who_did_not_answer);
 	return UNITY_END();
 }
