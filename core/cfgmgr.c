@@ -446,3 +446,152 @@ int co_cfgmgr_cancel(co_cfgmgr *job, uint64_t now_us)
 	co_fsm_goto(&job->fsm, CO_CFGMGR_DONE, now_us);
 	return 0;
 }
+
+/* ---- the configuration manager of a line ---------------------------------------- */
+
+int co_od_add_cfgmgr_node(co_od *od, uint8_t node_id, uint32_t cdcf_cap)
+{
+	static const struct {
+		uint16_t index;
+		co_type type;
+	} arrays[] = {
+		{ CO_CFGMGR_IDX_DATE, CO_T_UNSIGNED32 },
+		{ CO_CFGMGR_IDX_TIME, CO_T_UNSIGNED32 },
+		{ CO_CFGMGR_IDX_RESTORE, CO_T_UNSIGNED8 },
+	};
+	co_od_desc d = {
+		.index = CO_CFGMGR_IDX_CDCF,
+		.sub = node_id,
+		.obj_code = CO_OBJ_ARRAY,
+		.type = CO_T_DOMAIN,
+		.access = CO_ACC_RW,
+		.max_size = cdcf_cap,
+		.name = "ConciseDCF",
+	};
+	int rc;
+
+	if (!od || node_id < 1 || node_id > 127 || !cdcf_cap)
+		return -EINVAL;
+	for (size_t i = 0; i < sizeof(arrays) / sizeof(arrays[0]); i++) {
+		if (co_od_has_index(od, arrays[i].index))
+			continue;
+		rc = co_od_add_array(od, arrays[i].index, arrays[i].type, 127, CO_ACC_RW, 0);
+		if (rc)
+			return rc;
+	}
+	rc = co_od_ensure_num(od, CO_CFGMGR_IDX_CDCF, 0, CO_T_UNSIGNED8, CO_ACC_RO, 127,
+			      CO_OBJ_ARRAY);
+	if (rc || co_od_find(od, CO_CFGMGR_IDX_CDCF, node_id))
+		return rc;
+	return co_od_add(od, &d, NULL);
+}
+
+static uint32_t cdcf_check_write(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	co_cfgmgr_line *l = ctx;
+
+	if (e->sub < 1 || e->sub > 127)
+		return 0;
+	if (co_cfgmgr_running(&l->job[e->sub - 1]))
+		return 0x08000022u; /* device state: being configured */
+	/* a streamed value is only seen in pieces: checked when used */
+	if (a->data && a->size && co_cdcf_check(a->data, a->size, NULL, NULL))
+		return 0x06090030u; /* invalid value for parameter */
+	return 0;
+}
+
+static const co_od_hooks cdcf_hooks = { .check_write = cdcf_check_write };
+
+static void line_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
+{
+	co_cfgmgr_line *l = ctx;
+
+	if (l->done)
+		l->done(l->done_ctx, r, now_us);
+}
+
+void co_cfgmgr_line_init(co_cfgmgr_line *l, co_node *node, co_cfgmgr_done_fn done,
+			 void *done_ctx)
+{
+	co_od *od = co_node_od(node);
+
+	memset(l, 0, sizeof(*l));
+	l->node = node;
+	l->channel = -1;
+	l->done = done;
+	l->done_ctx = done_ctx;
+	for (unsigned n = 1; n <= 127; n++) {
+		co_od_entry *e = co_od_find(od, CO_CFGMGR_IDX_CDCF, (uint8_t)n);
+		if (e)
+			co_od_entry_set_hooks(e, &cdcf_hooks, l);
+	}
+}
+
+static uint32_t od_u32(const co_od *od, uint16_t index, uint8_t sub)
+{
+	uint32_t v = 0;
+
+	if (co_od_get_u32(od, index, sub, &v))
+		return 0;
+	return v;
+}
+
+int co_cfgmgr_line_configure(void *ctx, uint8_t node_id, uint64_t now_us)
+{
+	co_cfgmgr_line *l = ctx;
+	const co_od *od;
+	const co_od_entry *e;
+	co_cfgmgr_params p = { 0 };
+	uint8_t restore = 0;
+	int rc;
+
+	if (!l || !l->node || node_id < 1 || node_id > 127)
+		return -EINVAL;
+	od = co_node_od(l->node);
+	e = co_od_find(od, CO_CFGMGR_IDX_CDCF, node_id);
+	p.node_id = node_id;
+	if (e && e->size) {
+		p.cdcf = e->data;
+		p.cdcf_len = e->size;
+	}
+	p.date = od_u32(od, CO_CFGMGR_IDX_DATE, node_id);
+	p.time = od_u32(od, CO_CFGMGR_IDX_TIME, node_id);
+	p.verify = p.date || p.time; /* 0/0: always configure (CiA 302-3) */
+	if ((od_u32(od, 0x1F81, node_id) & CO_CFGMGR_F81_RESTORE) &&
+	    !co_od_get_u8(od, CO_CFGMGR_IDX_RESTORE, node_id, &restore))
+		p.restore_sub = restore;
+	p.store = l->store[node_id];
+	if (!p.cdcf_len && !p.verify && !p.restore_sub)
+		return 0;
+	p.channel = l->channel;
+	p.sdo_timeout_ms = l->sdo_timeout_ms;
+	p.done = line_done;
+	p.done_ctx = l;
+	rc = co_cfgmgr_start(&l->job[node_id - 1], l->node, &p, now_us);
+	return rc ? rc : 1;
+}
+
+void co_cfgmgr_line_on_event(co_cfgmgr_line *l, const co_event *ev, uint64_t now_us)
+{
+	if (ev->kind != CO_EV_BOOTUP || ev->u.errctrl.node < 1 || ev->u.errctrl.node > 127)
+		return;
+	co_cfgmgr_on_event(&l->job[ev->u.errctrl.node - 1], ev, now_us);
+}
+
+uint64_t co_cfgmgr_line_tick(co_cfgmgr_line *l, uint64_t now_us)
+{
+	uint64_t next = CO_NO_DEADLINE;
+
+	for (unsigned n = 0; n < 127; n++) {
+		uint64_t d = co_cfgmgr_tick(&l->job[n], now_us);
+		if (d < next)
+			next = d;
+	}
+	return next;
+}
+
+void co_cfgmgr_line_cancel_all(co_cfgmgr_line *l, uint64_t now_us)
+{
+	for (unsigned n = 0; n < 127; n++)
+		co_cfgmgr_cancel(&l->job[n], now_us);
+}

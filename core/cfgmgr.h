@@ -143,4 +143,62 @@ static inline int co_cfgmgr_state_of(const co_cfgmgr *job)
 	return co_fsm_state_of(&job->fsm);
 }
 
+/* ======================================================================
+ * The configuration manager of a line: the objects and one job per node
+ * ====================================================================== */
+
+/*
+ * Objects (CiA 302-3), in the manager's own OD:
+ *   1F22h:n  concise DCF of node n (DOMAIN, rw; written by the
+ *            configuration at start-up, or over SDO / the mailbox)
+ *   1F26h:n  expected configuration date (UNSIGNED32, rw, 0 = none)
+ *   1F27h:n  expected configuration time (UNSIGNED32, rw, 0 = none)
+ *   1F8Ah:n  restore configuration: 1011h sub-index to "load" before the
+ *            configuration when 1F81h:n bit 7 is set (UNSIGNED8, rw)
+ * co_od_add_cfgmgr_node() makes node n configurable: it creates the four
+ * arrays on first use (sub 0 = 127; 1F26h/1F27h/1F8Ah with all 127 subs)
+ * and 1F22h:n with room for cdcf_cap bytes (the capacity is allocated:
+ * only nodes that can be configured get a 1F22h sub-index). 0, -EINVAL,
+ * -ENOMEM; an existing 1F22h:n is kept (0).
+ */
+#define CO_CFGMGR_IDX_CDCF 0x1F22u
+#define CO_CFGMGR_IDX_DATE 0x1F26u
+#define CO_CFGMGR_IDX_TIME 0x1F27u
+#define CO_CFGMGR_IDX_RESTORE 0x1F8Au
+#define CO_CFGMGR_F81_RESTORE 0x80u /* 1F81h:n bit 7 */
+int co_od_add_cfgmgr_node(co_od *od, uint8_t node_id, uint32_t cdcf_cap);
+
+typedef struct co_cfgmgr_line {
+	co_node *node;
+	co_cfgmgr job[127];      /* job[n - 1] configures node n */
+	bool store[128];         /* save (1010h:1) after a download */
+	int channel;             /* SDO channel for every job, < 0 = pool */
+	uint32_t sdo_timeout_ms; /* 0 = the SDO client's */
+	co_cfgmgr_done_fn done;  /* the owner's report (e.g. to the 302-2
+	                          * boot process: co_manager_configure_done) */
+	void *done_ctx;
+} co_cfgmgr_line;
+
+/*
+ * Bind to a node whose OD has the objects above. Installs a check on
+ * 1F22h:n: a write while node n is being configured is refused
+ * (0x08000022), one that is not a concise DCF too (0x06090030) when the
+ * value is seen whole. Owning thread; no allocation.
+ */
+void co_cfgmgr_line_init(co_cfgmgr_line *l, co_node *node, co_cfgmgr_done_fn done,
+			 void *done_ctx);
+/*
+ * The 302-2 "configure" step of node n (the signature of the manager's
+ * configure hook; ctx = the line). Reads 1F22h:n, 1F26h:n, 1F27h:n,
+ * 1F81h:n bit 7 and 1F8Ah:n now. Returns 0 when there is nothing to do
+ * (no concise DCF, no date/time, no restore), 1 when a job started (done()
+ * reports it), -EINVAL for a 1F22h:n that is not a concise DCF, -EBUSY if
+ * node n's job is running.
+ */
+int co_cfgmgr_line_configure(void *ctx, uint8_t node_id, uint64_t now_us);
+void co_cfgmgr_line_on_event(co_cfgmgr_line *l, const co_event *ev, uint64_t now_us);
+uint64_t co_cfgmgr_line_tick(co_cfgmgr_line *l, uint64_t now_us);
+/* Cancel every running job (their done() reports CANCELLED). */
+void co_cfgmgr_line_cancel_all(co_cfgmgr_line *l, uint64_t now_us);
+
 #endif /* COGW_CORE_CFGMGR_H */

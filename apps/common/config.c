@@ -31,6 +31,7 @@
 
 #include "apps/common/json_od.h"
 #include "apps/common/json_util.h"
+#include "core/cfgmgr.h"
 #include "core/od_std.h"
 
 #define CONFIG_FILE_MAX (4u * 1024u * 1024u)
@@ -589,6 +590,47 @@ static int parse_gateway(struct ctx *c, const cJSON *o)
 	return 0;
 }
 
+/* Every node in "nodes" gets 1F22h:n (its concise DCF, room for at least
+ * COGW_NODE_CDCF_ROOM bytes so that a new one can be written over SDO or
+ * the mailbox) and, with "date"/"time", 1F26h:n/1F27h:n. They are the
+ * defaults too: a reset communication keeps them. The configuration
+ * manager (core/cfgmgr.h) reads them when the node boots. */
+#define COGW_NODE_CDCF_ROOM (16u * 1024u)
+static int node_objects(struct ctx *c, const char *path, cogw_line_config *l)
+{
+	for (size_t i = 0; i < l->n_nodes; i++) {
+		const cogw_node *n = &l->nodes[i];
+		const cogw_node_config *nc = &n->config;
+		uint32_t cap = nc->cdcf_len > COGW_NODE_CDCF_ROOM ? (uint32_t)nc->cdcf_len
+								  : COGW_NODE_CDCF_ROOM;
+		co_od_entry *e;
+		int rc = co_od_add_cfgmgr_node(l->od, n->id, cap);
+
+		if (rc == -ENOMEM)
+			return rc;
+		if (rc || !(e = co_od_find(l->od, CO_CFGMGR_IDX_CDCF, n->id)))
+			return fail(c, path, "cannot add 1F22h:%u for node %u (%s)", n->id, n->id,
+				    strerror(rc ? -rc : ENOENT));
+		if (nc->cdcf_len) {
+			if ((rc = co_od_entry_set_default_bytes(e, nc->cdcf, (uint32_t)nc->cdcf_len)))
+				return rc == -ENOMEM ? rc : fail(c, path, "1F22h:%u: %s", n->id, strerror(-rc));
+			co_od_entry_reset(e);
+		}
+		if (nc->verify) {
+			co_od_entry *d = co_od_find(l->od, CO_CFGMGR_IDX_DATE, n->id);
+			co_od_entry *t = co_od_find(l->od, CO_CFGMGR_IDX_TIME, n->id);
+
+			if (d && t) {
+				co_od_entry_set_default_raw(d, nc->date);
+				co_od_entry_set_default_raw(t, nc->time);
+				co_od_entry_reset(d);
+				co_od_entry_reset(t);
+			}
+		}
+	}
+	return 0;
+}
+
 static int build_od(struct ctx *c, const cJSON *o, const char *path,
 		    cogw_line_config *l, co_od_std_opts *so)
 {
@@ -624,7 +666,7 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path,
 		co_od_entry_set_default_raw(eb, 1);
 		co_od_entry_reset(eb);
 	}
-	if ((rc = gateway_objects(c, l)))
+	if ((rc = gateway_objects(c, l)) || (rc = node_objects(c, path, l)))
 		return rc;
 	v = json_util_get(o, "objects");
 	if (v) {
@@ -1084,7 +1126,15 @@ static bool entry_same(const co_od_entry *a, const co_od_entry *b)
 	return !memcmp(a->def, b->def, a->size);
 }
 
-/* The ODs agree apart from 1016h/1017h, which a reload may change. */
+/* Left out of the OD comparison: 1016h/1017h, which a reload may change,
+ * and the node configuration objects, which "nodes" explains. */
+static bool od_skip(uint16_t index)
+{
+	return index == 0x1016 || index == 0x1017 || index == CO_CFGMGR_IDX_CDCF ||
+	       index == CO_CFGMGR_IDX_DATE || index == CO_CFGMGR_IDX_TIME;
+}
+
+/* The ODs agree apart from what od_skip() leaves out. */
 static bool od_same(const co_od *a, const co_od *b)
 {
 	size_t i = 0, j = 0;
@@ -1092,9 +1142,9 @@ static bool od_same(const co_od *a, const co_od *b)
 	for (;;) {
 		const co_od_entry *ea = co_od_at(a, i), *eb = co_od_at(b, j);
 
-		while (ea && (ea->index == 0x1016 || ea->index == 0x1017))
+		while (ea && od_skip(ea->index))
 			ea = co_od_at(a, ++i);
-		while (eb && (eb->index == 0x1016 || eb->index == 0x1017))
+		while (eb && od_skip(eb->index))
 			eb = co_od_at(b, ++j);
 		if (!ea || !eb)
 			return !ea && !eb;

@@ -36,6 +36,7 @@ static uint8_t cdcf[4096];
 static size_t cdcf_len;
 static co_cdcf_writer w;
 static unsigned restores;
+static co_cfgmgr_line line;
 
 static uint32_t on_restore(void *ctx, uint8_t sub, const co_od_access *a)
 {
@@ -90,6 +91,9 @@ void tearDown(void)
 {
 	if (co_cfgmgr_running(&job))
 		co_cfgmgr_cancel(&job, bus.now);
+	if (line.node)
+		co_cfgmgr_line_cancel_all(&line, bus.now);
+	memset(&line, 0, sizeof line);
 	tb_fini(&bus);
 }
 
@@ -495,6 +499,99 @@ static void test_pool_mode(void)
 	TEST_ASSERT_EQUAL_UINT64(11, slave_u(FX_IDX_LIMITED, 0));
 }
 
+/* ---- the line: 1F22h/1F26h/1F27h/1F81h/1F8Ah in the manager's OD ---------------- */
+
+static void line_drive(uint64_t limit_us)
+{
+	uint64_t end = bus.now + limit_us;
+
+	while (!done_calls && bus.now < end) {
+		tb_pump(&bus);
+		for (; ev_seen < mgr->n_ev; ev_seen++)
+			co_cfgmgr_line_on_event(&line, &mgr->ev[ev_seen], bus.now);
+		co_cfgmgr_line_tick(&line, bus.now);
+		tb_advance(&bus, 1000);
+	}
+	tb_settle(&bus, 10000);
+}
+
+static void line_setup(void)
+{
+	TEST_ASSERT_EQUAL_INT(0, co_od_add_cfgmgr_node(mgr->od, SLAVE, 4096));
+	TEST_ASSERT_EQUAL_INT(0, co_od_add_cfgmgr_node(mgr->od, SLAVE, 4096)); /* kept */
+	TEST_ASSERT_EQUAL_INT(0, co_od_add_array(mgr->od, 0x1F81, CO_T_UNSIGNED32, 127, CO_ACC_RW, 0));
+	co_cfgmgr_line_init(&line, mgr->node, on_done, NULL);
+}
+
+static uint32_t sdo_write(uint16_t index, uint8_t sub, const void *data, uint32_t len)
+{
+	co_od_access a = { .origin = CO_OD_ORIGIN_SDO, .data = data, .size = len };
+	co_od_entry *e = co_od_find(mgr->od, index, sub);
+	TEST_ASSERT_NOT_NULL(e);
+	return co_od_write(e, data, len, &a);
+}
+
+static void test_line_configures_from_the_od(void)
+{
+	line_setup();
+	TEST_ASSERT_EQUAL_INT(0, co_cfgmgr_line_configure(&line, SLAVE, bus.now)); /* nothing to do */
+	TEST_ASSERT_EQUAL_INT(0, co_cfgmgr_line_configure(&line, 9, bus.now));
+	TEST_ASSERT_EQUAL_INT(-EINVAL, co_cfgmgr_line_configure(&line, 0, bus.now));
+
+	add_u(0x1017, 0, 321, 2);
+	add_u(FX_IDX_LIMITED, 0, 12, 2);
+	finish_cdcf();
+	/* 1F22h:5 written as over SDO; a value that is no concise DCF is refused */
+	TEST_ASSERT_EQUAL_HEX32(0x06090030, sdo_write(0x1F22, SLAVE, cdcf, (uint32_t)cdcf_len - 1));
+	TEST_ASSERT_EQUAL_HEX32(0, sdo_write(0x1F22, SLAVE, cdcf, (uint32_t)cdcf_len));
+	TEST_ASSERT_EQUAL_INT(0, co_od_set_u32(mgr->od, 0x1F26, SLAVE, 15000));
+	TEST_ASSERT_EQUAL_INT(0, co_od_set_u32(mgr->od, 0x1F27, SLAVE, 1234));
+	line.store[SLAVE] = true;
+
+	TEST_ASSERT_EQUAL_INT(1, co_cfgmgr_line_configure(&line, SLAVE, bus.now));
+	TEST_ASSERT_EQUAL_INT(-EBUSY, co_cfgmgr_line_configure(&line, SLAVE, bus.now));
+	/* no new 1F22h:5 while node 5 is being configured */
+	TEST_ASSERT_EQUAL_HEX32(0x08000022, sdo_write(0x1F22, SLAVE, cdcf, (uint32_t)cdcf_len));
+	line_drive(10000000);
+	TEST_ASSERT_EQUAL_UINT(1, done_calls);
+	TEST_ASSERT_EQUAL_INT(CO_CFGMGR_CONFIGURED, res.outcome);
+	TEST_ASSERT_EQUAL_UINT8(SLAVE, res.node_id);
+	TEST_ASSERT_EQUAL_UINT64(321, slave_u(0x1017, 0));
+	TEST_ASSERT_EQUAL_UINT64(12, slave_u(FX_IDX_LIMITED, 0));
+	TEST_ASSERT_EQUAL_UINT64(15000, slave_u(0x1020, 1));
+	TEST_ASSERT_EQUAL_UINT64(1234, slave_u(0x1020, 2));
+	TEST_ASSERT_EQUAL_UINT(1, tb_event_count(slv, CO_EV_STORE));
+
+	/* the next boot: 1020h matches */
+	done_calls = 0;
+	TEST_ASSERT_EQUAL_INT(1, co_cfgmgr_line_configure(&line, SLAVE, bus.now));
+	line_drive(10000000);
+	TEST_ASSERT_EQUAL_INT(CO_CFGMGR_SKIPPED, res.outcome);
+
+	/* 1F81h:5 bit 7 with 1F8Ah:5 = 1: restore first (1020h is back to 0) */
+	done_calls = 0;
+	TEST_ASSERT_EQUAL_INT(0, co_od_set_u32(mgr->od, 0x1F81, SLAVE, 0x85));
+	TEST_ASSERT_EQUAL_INT(0, co_od_set_u8(mgr->od, 0x1F8A, SLAVE, 1));
+	TEST_ASSERT_EQUAL_INT(1, co_cfgmgr_line_configure(&line, SLAVE, bus.now));
+	line_drive(10000000);
+	TEST_ASSERT_EQUAL_INT(CO_CFGMGR_CONFIGURED, res.outcome);
+	TEST_ASSERT_TRUE(res.restored);
+	TEST_ASSERT_EQUAL_UINT(1, restores);
+	TEST_ASSERT_EQUAL_UINT64(15000, slave_u(0x1020, 1));
+}
+
+static void test_line_refuses_a_broken_cdcf(void)
+{
+	static const uint8_t broken[] = {2, 0, 0, 0, 0x17, 0x10, 0, 2, 0, 0, 0, 1, 0};
+	line_setup();
+	/* a local write is not checked; the configure step is */
+	TEST_ASSERT_EQUAL_INT(0, co_od_set_bytes(mgr->od, 0x1F22, SLAVE, broken, sizeof broken));
+	TEST_ASSERT_EQUAL_INT(-EINVAL, co_cfgmgr_line_configure(&line, SLAVE, bus.now));
+	TEST_ASSERT_EQUAL_UINT(0, done_calls);
+	TEST_ASSERT_EQUAL_INT(-EINVAL, co_od_add_cfgmgr_node(mgr->od, 128, 16));
+	TEST_ASSERT_EQUAL_INT(-EINVAL, co_od_add_cfgmgr_node(mgr->od, 6, 0));
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -509,5 +606,7 @@ int main(void)
 	RUN_TEST(test_refused_restore_load_fails);
 	RUN_TEST(test_start_checks_and_cancel);
 	RUN_TEST(test_pool_mode);
+	RUN_TEST(test_line_configures_from_the_od);
+	RUN_TEST(test_line_refuses_a_broken_cdcf);
 	return UNITY_END();
 }

@@ -17,6 +17,7 @@
 #include "apps/common/config.h"
 #include "apps/common/node_config.h"
 #include "core/cdcf.h"
+#include "core/od.h"
 
 static cogw_config cfg;
 static char err[600];
@@ -95,6 +96,27 @@ static void test_entries_become_a_concise_dcf(void)
 				       0x00, 0x20, 1, 2, 0, 0, 0, 'a', 'b'};
 	TEST_ASSERT_EQUAL_size_t(sizeof want, n->config.cdcf_len);
 	TEST_ASSERT_EQUAL_MEMORY(want, n->config.cdcf, sizeof want);
+	/* the line's OD carries it for the configuration manager: 1F22h:5 (also
+	 * as default, so a reset communication keeps it), 1F26h:5, 1F27h:5 */
+	co_od *od = cfg.lines[0].od;
+	uint8_t back[64];
+	uint32_t blen = 0, v = 0;
+	TEST_ASSERT_EQUAL_INT(0, co_od_get_bytes(od, 0x1F22, 5, back, sizeof back, &blen));
+	TEST_ASSERT_EQUAL_UINT32(sizeof want, blen);
+	TEST_ASSERT_EQUAL_MEMORY(want, back, sizeof want);
+	co_od_reset_range(od, 0x1000, 0x1FFF);
+	TEST_ASSERT_EQUAL_INT(0, co_od_get_bytes(od, 0x1F22, 5, back, sizeof back, &blen));
+	TEST_ASSERT_EQUAL_UINT32(sizeof want, blen);
+	TEST_ASSERT_EQUAL_INT(0, co_od_get_u32(od, 0x1F26, 5, &v));
+	TEST_ASSERT_EQUAL_UINT32(15000, v);
+	TEST_ASSERT_EQUAL_INT(0, co_od_get_u32(od, 0x1F27, 5, &v));
+	TEST_ASSERT_EQUAL_UINT32(3600000, v);
+	/* node 6 has no configuration, but a 1F22h:6 to write one into */
+	const co_od_entry *e6 = co_od_find(od, 0x1F22, 6);
+	TEST_ASSERT_NOT_NULL(e6);
+	TEST_ASSERT_EQUAL_UINT32(0, e6->size);
+	TEST_ASSERT_TRUE(e6->max_size >= 16384);
+	TEST_ASSERT_NULL(co_od_find(od, 0x1F22, 7));
 	/* a node without "config" has nothing to download */
 	TEST_ASSERT_EQUAL_UINT8(6, cfg.lines[0].nodes[1].id);
 	TEST_ASSERT_EQUAL_INT(COGW_NODE_CONFIG_NONE, cfg.lines[0].nodes[1].config.source);
