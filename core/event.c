@@ -34,6 +34,9 @@ const char *co_event_kind_to_string(co_event_kind k)
 	case CO_EV_LSS_SLAVE_NODE_ID: return "lss-slave-node-id";
 	case CO_EV_LSS_SLAVE_STORE: return "lss-slave-store";
 	case CO_EV_LSS_SLAVE_BIT_TIMING: return "lss-slave-bit-timing";
+	case CO_EV_MGR_STATE: return "manager-state";
+	case CO_EV_MGR_BOOT: return "manager-boot";
+	case CO_EV_MGR_NODE: return "manager-node";
 	case CO_EV_KIND_COUNT: break;
 	}
 	return "?";

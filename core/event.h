@@ -53,6 +53,10 @@ typedef enum co_event_kind {
 	CO_EV_LSS_SLAVE_STORE,  /* slave: store configuration accepted */
 	CO_EV_LSS_SLAVE_BIT_TIMING, /* slave: activate bit timing (switch the
 	                             * controller after delay_ms) */
+	/* CiA 302-2 manager (core/manager.c): u.mgr */
+	CO_EV_MGR_STATE,        /* line state or flags changed */
+	CO_EV_MGR_BOOT,         /* one step of a node's boot slave process */
+	CO_EV_MGR_NODE,         /* unexpected/late/lost/duplicate node, ... */
 	/* other services append here: NMT, HB, EMCY, SYNC, TIME, PDO, LSS */
 	CO_EV_KIND_COUNT
 } co_event_kind;
@@ -184,6 +188,24 @@ typedef struct co_ev_lss_slave {
 	uint16_t delay_ms;  /* BIT_TIMING: switch delay */
 } co_ev_lss_slave;
 
+/* CO_EV_MGR_* (core/manager.h) */
+typedef struct co_ev_mgr {
+	uint8_t node;     /* 0 = the line (MGR_STATE) */
+	uint8_t state;    /* MGR_STATE: co_mgr_state */
+	uint8_t prev;     /* MGR_STATE: previous co_mgr_state */
+	uint8_t flags;    /* MGR_STATE/BOOT: CO_MGR_F_* of the line */
+	uint8_t step;     /* MGR_BOOT: co_mgr_step */
+	char status;      /* MGR_BOOT: CiA 302-2 letter, 0 = step passed */
+	uint8_t what;     /* MGR_NODE: co_mgr_node_what */
+	uint8_t mandatory; /* MGR_BOOT/NODE: 1 = mandatory slave */
+	uint16_t index;   /* MGR_BOOT: object of the step (0 = none) */
+	uint8_t sub;
+	uint8_t done;     /* MGR_BOOT: 1 = last step (booted or failed) */
+	uint32_t abort;   /* MGR_BOOT: SDO abort code, 0 = none */
+	uint32_t value;   /* value read (BOOT), detail (NODE) */
+	uint32_t expected; /* MGR_BOOT: value expected (1F84h..1F88h) */
+} co_ev_mgr;
+
 typedef struct co_event {
 	co_event_kind kind;
 	uint64_t now_us; /* time of the call that produced the event */
@@ -202,6 +224,7 @@ typedef struct co_event {
 		co_ev_pdo_obj pdo_obj;
 		co_ev_lss_master lss_master;
 		co_ev_lss_slave lss_slave;
+		co_ev_mgr mgr;
 	} u;
 } co_event;
 

@@ -28,6 +28,8 @@ struct co_nmt {
 
 	co_nmt_veto_fn veto;
 	void *veto_ctx;
+	co_nmt_rx_filter_fn rx_filter;
+	void *rx_filter_ctx;
 
 	/* master */
 	struct nmt_cmd q[CO_NMT_MASTER_QUEUE_LEN];
@@ -89,6 +91,14 @@ void co_nmt_set_veto(co_node *node, co_nmt_veto_fn fn, void *ctx)
 }
 
 /* ---- slave state machine ------------------------------------------------- */
+
+void co_nmt_set_rx_filter(co_node *node, co_nmt_rx_filter_fn fn, void *ctx)
+{
+	if (!node->nmt)
+		return;
+	node->nmt->rx_filter = fn;
+	node->nmt->rx_filter_ctx = ctx;
+}
 
 static void enter(co_node *node, uint8_t state, uint8_t cs, uint64_t now_us)
 {
@@ -235,6 +245,11 @@ static void nmt_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	if (target != 0 && target != node->node_id)
 		return;
 	nmt->stats.cmd_rx++;
+	if (nmt->rx_filter &&
+	    !nmt->rx_filter(nmt->rx_filter_ctx, node, f->data[0], target, now_us)) {
+		nmt->stats.cmd_filtered++;
+		return;
+	}
 	(void)apply(node, f->data[0], now_us);
 }
 

@@ -82,6 +82,7 @@ typedef struct co_nmt_stats {
 	uint64_t cmd_rx;       /* NMT commands addressed to us */
 	uint64_t cmd_invalid;  /* wrong length / unknown cs */
 	uint64_t vetoed;       /* OPERATIONAL refused by the application */
+	uint64_t cmd_filtered; /* received commands the rx filter dropped */
 	uint64_t master_tx;    /* NMT frames sent as master */
 	uint64_t master_queued;   /* had to wait for 102Ah */
 	uint64_t master_overflow; /* refused: queue full */
@@ -99,6 +100,17 @@ uint8_t co_nmt_get_state(const co_node *node);
 typedef bool (*co_nmt_veto_fn)(void *ctx, co_node *node, uint8_t from_state,
 			       uint8_t to_state);
 void co_nmt_set_veto(co_node *node, co_nmt_veto_fn fn, void *ctx);
+
+/*
+ * Receive filter: called for every valid NMT command from the bus that
+ * addresses this node (target = own id or 0) before it is applied. Return
+ * false to ignore it (counted in cmd_filtered). The CiA 302-2 manager uses
+ * it so that other nodes cannot stop or reset the NMT master. Local
+ * commands (co_nmt_local_cmd) do not pass through it. NULL removes it.
+ */
+typedef bool (*co_nmt_rx_filter_fn)(void *ctx, co_node *node, uint8_t cs,
+				    uint8_t target, uint64_t now_us);
+void co_nmt_set_rx_filter(co_node *node, co_nmt_rx_filter_fn fn, void *ctx);
 
 /* Apply an NMT command to this node as if it had been received (the
  * application starting itself, a self-starting device). -EINVAL for an

@@ -100,6 +100,8 @@ static void port_event(void *ctx, const co_event *ev)
 		memmove(&p->ev[0], &p->ev[1], (TB_MAX_EVENTS - 1) * sizeof(p->ev[0]));
 		p->ev[TB_MAX_EVENTS - 1] = *ev;
 	}
+	if (p->ext_event)
+		p->ext_event(p->ext_ctx, ev);
 }
 
 tb_port *tb_add_node(tb_bus *bus, co_node_config *cfg, co_od *od)
@@ -164,6 +166,11 @@ static uint64_t next_deadline(const tb_bus *bus)
 		uint64_t d = co_node_next_deadline_us(bus->port[i].node);
 		if (d < t)
 			t = d;
+		if (bus->port[i].ext_deadline) {
+			d = bus->port[i].ext_deadline(bus->port[i].ext_ctx);
+			if (d < t)
+				t = d;
+		}
 	}
 	return t;
 }
@@ -179,9 +186,13 @@ void tb_advance(tb_bus *bus, uint64_t dt_us)
 			break;
 		if (t > bus->now)
 			bus->now = t;
-		for (int i = 0; i < bus->n; i++)
-			if (co_node_next_deadline_us(bus->port[i].node) <= bus->now)
-				co_node_tick(bus->port[i].node, bus->now);
+		for (int i = 0; i < bus->n; i++) {
+			tb_port *p = &bus->port[i];
+			if (co_node_next_deadline_us(p->node) <= bus->now)
+				co_node_tick(p->node, bus->now);
+			if (p->ext_tick && p->ext_deadline(p->ext_ctx) <= bus->now)
+				p->ext_tick(p->ext_ctx, bus->now);
+		}
 		tb_pump(bus);
 	}
 	bus->now = end;

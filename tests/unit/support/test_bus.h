@@ -17,7 +17,7 @@
 
 #include "core/co.h"
 
-#define TB_MAX_NODES 4
+#define TB_MAX_NODES 8
 #define TB_MAX_EVENTS 256
 #define TB_TESTER (-1) /* "from" of frames injected by the test itself */
 
@@ -36,6 +36,13 @@ typedef struct tb_port {
 	co_event ev[TB_MAX_EVENTS];
 	size_t n_ev;
 	bool deliver; /* receives frames from the bus (default true) */
+	/* Optional extension driven with the node (a CiA 302 manager): it
+	 * sees every event of the node after the port logged it, and is
+	 * ticked at its own deadline like the node. */
+	void (*ext_event)(void *ctx, const co_event *ev);
+	uint64_t (*ext_tick)(void *ctx, uint64_t now_us);
+	uint64_t (*ext_deadline)(void *ctx);
+	void *ext_ctx;
 } tb_port;
 
 struct tb_bus {

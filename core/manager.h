@@ -1,0 +1,306 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * core/manager.h - the CANopen manager of one line: network boot-up and
+ * supervision (CiA 302-2), Request NMT (1F82h), configuration request
+ * (1F25h) and the line's diagnostics.
+ *
+ * Configuration surface: the manager node's own OD, read live (an SDO or
+ * mailbox write takes effect at the next decision that reads it):
+ *   1F80h NMT start-up     bit 0 NMT master, bit 1 start all slaves with
+ *                          one broadcast, bit 2 the manager does not start
+ *                          itself, bit 3 the application starts the
+ *                          slaves, bit 4 reset all nodes on an error of a
+ *                          mandatory slave, bit 6 stop all nodes instead
+ *                          (bit 4 wins when both are set)
+ *   1F81h:n slave assignment  bit 0 slave, bit 2 boot it, bit 3 mandatory,
+ *                          bit 4 keep-alive, bits 8-15 retry (life time)
+ *                          factor, bits 16-31 guard time in ms
+ *   1F84h..1F88h:n         expected 1000h, 1018h:1..4 (0 = do not check)
+ *   1F89h boot time (ms)   mandatory slaves must have booted by then
+ *                          (0 = wait for ever)
+ *   1016h                  heartbeat consumer entries (error control)
+ *   1F82h:n (n = 128: all) Request NMT; 1F25h:n "conf" = boot node n again
+ * co_od_add_manager_defaults() adds what is missing.
+ *
+ * Machines (core/fsm.h), each state citing the CiA 302-2 step:
+ * - one per line (enum co_mgr_state): NMT start-up / network boot;
+ * - one per node 1..127: the boot slave process. Nodes boot in parallel,
+ *   bounded by the SDO client channels given to the manager (one channel
+ *   per node being booted, held from the 1000h read to the end of the
+ *   configure step).
+ *
+ * Inputs: the owner forwards every core event of the node to
+ * co_manager_on_event() (boot-ups, heartbeat/guarding, EMCY, SDO client
+ * completions whose tag the manager made) and calls co_manager_tick() at or
+ * after co_manager_next_deadline_us(). Outputs: NMT and SDO frames through
+ * the node, and events through the node's event callback (CO_EV_MGR_*,
+ * u.mgr). The manager also filters NMT commands from the bus addressed to
+ * its own node (co_nmt_set_rx_filter).
+ *
+ * Pure code: no I/O, time comes in as a parameter; owning thread only.
+ * Functions return 0 or a negative errno.
+ */
+#ifndef COGW_CORE_MANAGER_H
+#define COGW_CORE_MANAGER_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "core/co.h"
+
+/* 1F80h bits */
+#define CO_MGR_1F80_MASTER (1u << 0)
+#define CO_MGR_1F80_START_ALL (1u << 1)
+#define CO_MGR_1F80_NO_SELF_START (1u << 2)
+#define CO_MGR_1F80_APP_STARTS_SLAVES (1u << 3)
+#define CO_MGR_1F80_RESET_ALL_ON_ERROR (1u << 4)
+#define CO_MGR_1F80_FLYING_MASTER (1u << 5)
+#define CO_MGR_1F80_STOP_ALL_ON_ERROR (1u << 6)
+
+/* 1F81h bits */
+#define CO_MGR_1F81_SLAVE (1u << 0)
+#define CO_MGR_1F81_BOOT (1u << 2)
+#define CO_MGR_1F81_MANDATORY (1u << 3)
+#define CO_MGR_1F81_KEEP_ALIVE (1u << 4)
+#define CO_MGR_1F81_VERIFY_SW (1u << 5)
+#define CO_MGR_1F81_UPDATE_SW (1u << 6)
+#define CO_MGR_1F81_RESTORE (1u << 7)
+#define CO_MGR_1F81_RETRY_FACTOR(v) (((v) >> 8) & 0xFFu)
+#define CO_MGR_1F81_GUARD_MS(v) ((v) >> 16)
+
+/* 1F25h signature "conf" (little-endian) */
+#define CO_MGR_CONF_SIGNATURE 0x666E6F63u
+#define CO_MGR_ALL_NODES 128u
+
+/* Line state, modelled on seed 001 §2.2. */
+typedef enum co_mgr_state {
+	CO_MGR_SLAVE = 0,     /* 1F80h bit 0 clear: plain NMT slave */
+	CO_MGR_RESETTING,     /* reset communication of the network */
+	CO_MGR_BOOTING,       /* boot slave processes running */
+	CO_MGR_WAIT_MANDATORY, /* first pass over, mandatory slaves missing */
+	CO_MGR_BOOTED,        /* booted, network not started */
+	CO_MGR_OPERATIONAL,   /* network started */
+	CO_MGR_STOPPED,       /* network stopped (request or error reaction) */
+	CO_MGR_PREOP,         /* network pre-operational (request) */
+	CO_MGR_FATAL,         /* a device on the manager's node-ID */
+	CO_MGR_STATE_COUNT
+} co_mgr_state;
+
+/* "slave", "resetting", "booting", "wait-mandatory", "booted",
+ * "operational", "stopped", "pre-operational", "fatal" */
+const char *co_mgr_state_to_string(uint8_t state);
+
+/* Flags beside the state (seed 001 §2.2, low nibble). */
+#define CO_MGR_F_OPTIONAL_MISSING 0x01u /* optional missing/wrong, or an
+                                         * unexpected node is present */
+#define CO_MGR_F_MANDATORY_MISSING 0x02u
+#define CO_MGR_F_SLAVE_OPERATIONAL 0x04u
+#define CO_MGR_F_MANAGER_OPERATIONAL 0x08u
+
+/* Steps of the boot slave process, as reported in CO_EV_MGR_BOOT. */
+typedef enum co_mgr_step {
+	CO_MGR_STEP_ASSIGNMENT = 0, /* 1F81h bit 0 */
+	CO_MGR_STEP_KEEP_ALIVE,     /* keep-alive state check */
+	CO_MGR_STEP_DEVICE_TYPE,    /* 1000h vs 1F84h */
+	CO_MGR_STEP_VENDOR,         /* 1018h:1 vs 1F85h */
+	CO_MGR_STEP_PRODUCT,        /* 1018h:2 vs 1F86h */
+	CO_MGR_STEP_REVISION,       /* 1018h:3 vs 1F87h */
+	CO_MGR_STEP_SERIAL,         /* 1018h:4 vs 1F88h */
+	CO_MGR_STEP_CONFIGURE,      /* CiA 302-3 hook */
+	CO_MGR_STEP_ERRCTRL,        /* start of error control */
+	CO_MGR_STEP_START,          /* NMT start per 1F80h */
+	CO_MGR_STEP_BOOT_TIME,      /* 1F89h ran out before this node booted */
+	CO_MGR_STEP_COUNT
+} co_mgr_step;
+
+/* "assignment", "keep-alive", "device-type", "vendor-id", "product-code",
+ * "revision", "serial", "configure", "error-control", "start",
+ * "boot-time" */
+const char *co_mgr_step_to_string(uint8_t step);
+
+/* CiA 302-2 boot status letters this module reports (0 = booted / none);
+ * A not in 1F81h, B no answer to 1000h, C 1000h differs from 1F84h,
+ * D/M/N/O 1018h:1/2/3/4 differ from 1F85h/1F86h/1F87h/1F88h, E heartbeat
+ * event after boot, F node guarding event, J configuration failed (302-3
+ * hook), K no heartbeat during the start of error control, L the slave was
+ * operational already (keep-alive; informational). */
+const char *co_mgr_status_to_string(char status);
+
+/* What CO_EV_MGR_NODE reports. */
+typedef enum co_mgr_node_what {
+	CO_MGR_NODE_UNEXPECTED = 0, /* a node not in 1F81h showed up (once) */
+	CO_MGR_NODE_LATE,           /* an assigned node booted after the
+	                             * network boot had ended */
+	CO_MGR_NODE_LOST,           /* error control lost: status E or F */
+	CO_MGR_NODE_BACK,           /* error control of a lost node resumed */
+	CO_MGR_NODE_DUPLICATE,      /* two devices seem to share this ID */
+	CO_MGR_NODE_OWN_ID,         /* a device uses the manager's node-ID */
+	CO_MGR_NODE_NMT_IGNORED,    /* an NMT command to the manager was
+	                             * ignored; value = cs, sub = target */
+	CO_MGR_NODE_KEEP_OP,        /* KEEP_OP: started again; value = state
+	                             * it had left to */
+	CO_MGR_NODE_REQUEST_NMT,    /* 1F82h / request: value = command */
+	CO_MGR_NODE_ERROR_REACTION, /* 1F80h reaction ran: value = cs sent
+	                             * (0 = that node alone) */
+	CO_MGR_NODE_WHAT_COUNT
+} co_mgr_node_what;
+
+const char *co_mgr_node_what_to_string(uint8_t what);
+
+/* 1F82h values */
+enum co_mgr_nmt_request {
+	CO_MGR_REQ_STOP = 4,
+	CO_MGR_REQ_START = 5,
+	CO_MGR_REQ_RESET_NODE = 6,
+	CO_MGR_REQ_RESET_COMM = 7,
+	CO_MGR_REQ_PREOP = 127,
+};
+/* 1F82h read values */
+enum co_mgr_nmt_read {
+	CO_MGR_NODE_UNKNOWN = 0,
+	CO_MGR_NODE_MISSING = 1,
+};
+
+/*
+ * The 302-3 configure step: called when a node reaches it (its SDO
+ * channel is still held: `channel`). Return 0 when the node is configured
+ * (or needs nothing), 1 when the outcome follows later through
+ * co_manager_configure_done(), or a negative errno for a failure (J).
+ */
+typedef int (*co_mgr_configure_fn)(void *ctx, uint8_t node_id, uint8_t channel,
+				   uint64_t now_us);
+
+typedef struct co_manager_config {
+	uint8_t sdo_channel_first;  /* SDO client channels the manager uses */
+	uint8_t sdo_channel_count;  /* (0 = all channels from the first) */
+	uint32_t sdo_timeout_ms;    /* per SDO frame during the boot (500) */
+	uint32_t reset_wait_ms;     /* longest wait for a boot-up after reset
+	                             * communication (1000) */
+	uint32_t retry_ms;          /* retry interval of a node that did not
+	                             * answer (1000); optional nodes for ever,
+	                             * mandatory ones until 1F89h runs out */
+	uint32_t scan_ms;           /* search for missing assigned nodes
+	                             * every scan_ms after the boot (0 = off) */
+	bool accept_remote_nmt;     /* NMT commands from the bus to our own
+	                             * node are applied (default: ignored and
+	                             * counted while we are NMT master) */
+	bool no_autostart;          /* do not run the network boot at the
+	                             * first tick (the application calls
+	                             * co_manager_boot_network) */
+	co_mgr_configure_fn configure; /* NULL: nothing to configure */
+	void *configure_ctx;
+} co_manager_config;
+
+typedef struct co_manager co_manager;
+
+#define CO_MGR_EMCY_HISTORY 8
+
+typedef struct co_mgr_emcy_rec {
+	uint64_t time_us;
+	uint16_t code;
+	uint8_t reg;
+	uint8_t msef[5];
+} co_mgr_emcy_rec;
+
+/* Diagnostics of one node. */
+typedef struct co_mgr_node_diag {
+	uint32_t assignment;  /* 1F81h:n when last read */
+	uint8_t step;         /* co_mgr_step of the last boot event */
+	char status;          /* CiA letter of the last failure, 0 = none */
+	uint32_t abort;       /* SDO abort code of that failure (0 = none) */
+	uint16_t index;       /* object of that failure */
+	uint8_t sub;
+	uint32_t value;       /* value read at that failure */
+	uint8_t bs_state;     /* boot slave machine state (internal index) */
+	bool booting;
+	bool booted;
+	uint64_t boot_started_us;
+	uint64_t boot_time_us; /* duration of the last successful boot */
+	uint32_t boot_count;   /* successful boots */
+	uint32_t fail_count;   /* failed attempts */
+	uint8_t emcy_count;    /* entries in emcy[] (<= 8) */
+	uint8_t emcy_next;     /* ring position of the next entry */
+	co_mgr_emcy_rec emcy[CO_MGR_EMCY_HISTORY];
+} co_mgr_node_diag;
+
+/* Bit lists: bit n of word n / 32 = node n (0..127). */
+typedef struct co_mgr_bits {
+	uint32_t w[4];
+} co_mgr_bits;
+
+typedef struct co_mgr_diag {
+	uint8_t state; /* co_mgr_state */
+	uint8_t flags; /* CO_MGR_F_* */
+	co_mgr_bits assigned, present, booted, operational, stopped, preop,
+		mismatch, errctrl_lost, emcy_active;
+	uint8_t first_error_node;  /* 0 = none since the last reset */
+	char first_error_status;   /* boot status letter, 0 = an EMCY */
+	uint32_t first_error_code; /* EMCY error code, or the SDO abort code
+	                            * of the boot failure (0 = none) */
+	uint32_t nmt_ignored;      /* NMT commands to us ignored */
+	uint32_t unexpected;       /* unexpected nodes reported */
+	uint32_t duplicates;       /* duplicate node-IDs reported */
+	uint32_t errctrl_events;   /* error-control losses of booted slaves */
+	uint32_t keep_op_restarts;
+	uint32_t network_boots;
+} co_mgr_diag;
+
+static inline bool co_mgr_bit(const co_mgr_bits *b, unsigned n)
+{
+	return n < 128 && (b->w[n / 32] >> (n % 32)) & 1u;
+}
+
+/* Create a manager on `node` (not attached to anything: the owner
+ * forwards events and ticks). Installs the 1F82h/1F25h hooks and the NMT
+ * receive filter. -ENOMEM, -EINVAL (no SDO client channel). */
+int co_manager_create(co_manager **out, co_node *node,
+		      const co_manager_config *cfg);
+void co_manager_destroy(co_manager *m); /* accepts NULL */
+
+/* Every core event of the node (events the manager emits itself are
+ * ignored). */
+void co_manager_on_event(co_manager *m, const co_event *ev);
+/* Run timers; returns the next deadline (CO_NO_DEADLINE = none). */
+uint64_t co_manager_tick(co_manager *m, uint64_t now_us);
+uint64_t co_manager_next_deadline_us(const co_manager *m);
+
+/* Re-run the network boot (NMT start-up from the reset on). Leaves FATAL.
+ * -EPERM in slave mode (1F80h bit 0 clear). */
+int co_manager_boot_network(co_manager *m, uint64_t now_us);
+/* Run the boot slave process of one node again. -EINVAL for a bad node,
+ * -ENOENT if not assigned, -EPERM in slave mode or FATAL. */
+int co_manager_boot_node(co_manager *m, uint8_t node_id, uint64_t now_us);
+/* Start the network (when 1F80h leaves it to the application): the
+ * manager itself, then the slaves. -EAGAIN while a mandatory slave has not
+ * booted, -EPERM in slave mode or FATAL. */
+int co_manager_start_network(co_manager *m, uint64_t now_us);
+/* Request NMT (the 1F82h write): node 1..127 or CO_MGR_ALL_NODES, cmd one
+ * of enum co_mgr_nmt_request. -EINVAL, -EPERM (slave mode), -EAGAIN
+ * (start of the network while a mandatory slave is missing). */
+int co_manager_request_nmt(co_manager *m, uint8_t node_id, uint8_t cmd,
+			   uint64_t now_us);
+/* The 1F82h read value of node n (0 unknown, 1 missing, 4, 5, 127). */
+uint8_t co_manager_node_nmt_state(const co_manager *m, uint8_t node_id);
+/* The 302-3 configure step ended (abort 0 = configured). */
+int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort,
+			      uint16_t index, uint8_t sub, uint64_t now_us);
+/* KEEP_OP (seed 003): a node that leaves OPERATIONAL without being told is
+ * started again. */
+int co_manager_set_keep_op(co_manager *m, uint8_t node_id, bool on);
+
+uint8_t co_manager_state(const co_manager *m);
+uint8_t co_manager_flags(const co_manager *m);
+/* Snapshot of the diagnostics (bit lists computed now). */
+void co_manager_get_diag(const co_manager *m, co_mgr_diag *out);
+/* Node 1..127, NULL otherwise. */
+const co_mgr_node_diag *co_manager_node_diag(const co_manager *m,
+					     uint8_t node_id);
+/* Zero counters, EMCY histories and the first error (not the states). */
+void co_manager_reset_counters(co_manager *m);
+
+/* Add 1F80h (U32 rw, default f80), 1F81h, 1F84h..1F88h (ARRAY 127 of
+ * U32 rw, 0), 1F89h (U32 rw, 0), 1F82h (ARRAY 128 of U8 rw), 1F25h (ARRAY
+ * 128 of U32 wo), 1029h and 1016h (127 entries) unless present. */
+int co_od_add_manager_defaults(co_od *od, uint32_t f80);
+
+#endif /* COGW_CORE_MANAGER_H */
