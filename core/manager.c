@@ -108,7 +108,7 @@ struct co_manager {
 	co_fsm fsm;
 	uint8_t own_id;
 	uint8_t reset_cs;       /* NMT command of the next network reset */
-	uint64_t timer_us;      /* boot time (1F89h) */
+	uint64_t timer_us;      /* end of the boot time, 1F89h */
 	uint64_t scan_us;       /* next scan for missing nodes */
 	bool autostart_pending;
 	bool boot_time_expired;
