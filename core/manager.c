@@ -8,7 +8,16 @@
  * Why the boot runs in parallel: the reference manuals boot node 1, then
  * node 2, ...; a silent node then costs every node behind it one SDO
  * timeout. Here every assigned node runs its own machine and only the SDO
- * client channels bound how many talk at once.
+ * client pool bounds how many talk at once (a node holds one "boot slot"
+ * from its 1000h read to the end of the configure step; there are as many
+ * slots as client channels, so the pool's FIFO never overflows because of
+ * the boot).
+ *
+ * A boot that restarts while its SDO request runs does not cancel it: it
+ * disowns it (the confirmation is ignored). The pool runs requests to one
+ * server in submission order, so the next request of that node starts
+ * only after the old answer or timeout; a cancel would leave the old
+ * answer on the bus to be taken for the answer of the next request.
  *
  * Re-entrancy: the core delivers events synchronously, and the manager's
  * own calls (SDO cancel, NMT send) may produce events. Every entry point
@@ -31,7 +40,6 @@
 
 #define MGR_TAG 0x4D47520000000000ull /* "MGR" in the top bytes */
 #define MGR_TAG_MASK 0xFFFFFF0000000000ull
-#define MGR_MAX_CHANNELS 128u
 #define STATE_UNKNOWN 0xFFu
 #define SDO_ABORT_GENERAL 0x08000000u
 #define SDO_ABORT_STATE 0x08000022u
@@ -45,7 +53,7 @@ enum bs_state {
 	BS_ASSIGNMENT,   /* 302-2 boot slave: "slave in network list (1F81h)?" */
 	BS_KEEP_ALIVE,   /* 302-2: keep-alive bit set -> NMT state check */
 	BS_WAIT_BOOTUP,  /* 302-2 network boot: after reset communication */
-	BS_WAIT_CHANNEL, /* waits for a free SDO client channel (pool) */
+	BS_WAIT_CHANNEL, /* waits for a boot slot (SDO client pool) */
 	BS_DEVICE_TYPE,  /* 302-2: "check device type" 1000h vs 1F84h */
 	BS_IDENTITY,     /* 302-2: "check identification" 1018h:1..4 vs
 	                  * 1F85h..1F88h */
@@ -73,7 +81,7 @@ struct mgr_slave {
 	uint8_t id;
 	co_fsm fsm;
 	uint64_t timer_us;
-	int channel;          /* held SDO client channel, -1 = none */
+	bool slot;            /* holds a boot slot */
 	bool sdo_pending;
 	uint64_t tag;         /* of the pending SDO request */
 	uint32_t gen;         /* bumps when a pending request is disowned */
@@ -122,14 +130,17 @@ struct co_manager {
 	uint8_t reported_state, reported_flags;
 	bool reported_once;
 	int rx[3];
-	uint8_t n_chan;
-	bool chan_busy[MGR_MAX_CHANNELS];
+	uint8_t n_slots, slots_used;
+	bool destroying;
 	co_mgr_diag cnt; /* counters and first error (bit lists unused) */
 	struct mgr_slave s[128]; /* by node-ID, [0] unused */
 };
 
 static const co_fsm_def bs_def;
 static const co_fsm_def mgr_def;
+static void bs_input(struct mgr_slave *s, const struct mgr_in *in, uint64_t now_us);
+static void mgr_enter(co_manager *m, uint64_t now_us);
+static void mgr_after(co_manager *m, uint64_t now_us);
 
 /* ---- names ------------------------------------------------------------------- */
 
@@ -326,31 +337,47 @@ static void nmt_send(co_manager *m, uint8_t target, uint8_t cs, uint64_t now_us)
 	}
 }
 
-/* ---- SDO channels (the pool) ------------------------------------------------- */
+/* ---- SDO: boot slots and the pool ------------------------------------------ */
 
 static bool chan_acquire(struct mgr_slave *s)
 {
 	co_manager *m = s->m;
-	if (s->channel >= 0)
+	if (s->slot)
 		return true;
-	for (unsigned i = 0; i < m->n_chan; i++) {
-		unsigned ch = m->cfg.sdo_channel_first + i;
-		if (!m->chan_busy[i] && sdo_client_pending(m->node, (uint8_t)ch) == 0) {
-			m->chan_busy[i] = true;
-			s->channel = (int)ch;
-			return true;
-		}
-	}
-	return false;
+	if (m->slots_used >= m->n_slots)
+		return false;
+	m->slots_used++;
+	s->slot = true;
+	return true;
 }
 
 static void chan_release(struct mgr_slave *s)
 {
-	if (s->channel < 0)
+	if (!s->slot)
 		return;
-	s->m->chan_busy[s->channel - s->m->cfg.sdo_channel_first] = false;
-	s->channel = -1;
+	s->slot = false;
+	s->m->slots_used--;
 	s->m->wake_pending = true;
+}
+
+static void sdo_con(void *arg, const co_ev_sdo_cli *c)
+{
+	struct mgr_slave *s = arg;
+	co_manager *m = s->m;
+	uint64_t now = m->node->now_us;
+	uint32_t v = 0;
+	struct mgr_in in = { .kind = IN_SDO, .abort = c->abort, .index = c->index,
+			     .sub = c->sub };
+
+	if (m->destroying || !s->sdo_pending || s->tag != c->tag)
+		return; /* disowned */
+	s->sdo_pending = false;
+	for (uint32_t i = 0; c->data && i < c->size && i < 4; i++)
+		v |= (uint32_t)c->data[i] << (8 * i);
+	in.value = v;
+	mgr_enter(m, now);
+	bs_input(s, &in, now);
+	mgr_after(m, now);
 }
 
 static int sdo_read(struct mgr_slave *s, uint16_t index, uint8_t sub, uint64_t now_us)
@@ -360,14 +387,14 @@ static int sdo_read(struct mgr_slave *s, uint16_t index, uint8_t sub, uint64_t n
 		.upload = true, .node_id = s->id, .index = index, .sub = sub,
 		.mode = 0, .timeout_ms = m->cfg.sdo_timeout_ms,
 		.buf = s->buf, .cap = sizeof(s->buf),
+		.con = sdo_con, .con_arg = s,
 	};
 	int rc;
 
 	s->gen++;
 	r.tag = MGR_TAG | ((uint64_t)(s->gen & 0xFFFFFFu) << 8) | s->id;
 	s->tag = r.tag;
-	memset(s->buf, 0, sizeof(s->buf));
-	rc = sdo_client_submit(m->node, (uint8_t)s->channel, &r, now_us);
+	rc = sdo_client_pool_submit(m->node, &r, now_us);
 	s->sdo_pending = rc == 0;
 	return rc;
 }
@@ -398,14 +425,9 @@ static int bs_fail(struct mgr_slave *s, uint8_t step, char status, uint32_t abor
 static void bs_leave(void *obj, uint64_t now_us)
 {
 	struct mgr_slave *s = obj;
+	(void)now_us;
 	s->timer_us = CO_NO_DEADLINE;
-	if (s->sdo_pending) {
-		uint64_t tag = s->tag;
-		s->sdo_pending = false;
-		s->gen++; /* its completion is not ours any more */
-		(void)sdo_client_cancel(s->m->node, (uint8_t)s->channel, tag,
-					SDO_ABORT_GENERAL, now_us);
-	}
+	s->sdo_pending = false; /* disowned, see the file comment */
 }
 
 static int idle_enter(void *obj, uint64_t now_us)
@@ -539,12 +561,6 @@ static int device_type_enter(void *obj, uint64_t now_us)
 	return CO_FSM_STAY;
 }
 
-static uint32_t in_value(const struct mgr_slave *s)
-{
-	return (uint32_t)s->buf[0] | (uint32_t)s->buf[1] << 8 |
-	       (uint32_t)s->buf[2] << 16 | (uint32_t)s->buf[3] << 24;
-}
-
 static int device_type_con(void *obj, const void *con, uint64_t now_us)
 {
 	struct mgr_slave *s = obj;
@@ -556,10 +572,10 @@ static int device_type_con(void *obj, const void *con, uint64_t now_us)
 	if (in->abort)
 		return bs_fail(s, CO_MGR_STEP_DEVICE_TYPE, 'B', in->abort, 0x1000, 0,
 			       0, expected);
-	if (expected && in_value(s) != expected)
+	if (expected && in->value != expected)
 		return bs_fail(s, CO_MGR_STEP_DEVICE_TYPE, 'C', 0, 0x1000, 0,
-			       in_value(s), expected);
-	emit_boot(s, CO_MGR_STEP_DEVICE_TYPE, 0, 0, 0x1000, 0, in_value(s), expected,
+			       in->value, expected);
+	emit_boot(s, CO_MGR_STEP_DEVICE_TYPE, 0, 0, 0x1000, 0, in->value, expected,
 		  false);
 	s->id_sub = 1;
 	return BS_IDENTITY;
@@ -589,10 +605,10 @@ static int identity_con(void *obj, const void *con, uint64_t now_us)
 	(void)now_us;
 	if (in->kind != IN_SDO)
 		return CO_FSM_STAY;
-	if (in->abort || in_value(s) != expected)
+	if (in->abort || in->value != expected)
 		return bs_fail(s, step_of_sub(k), letter_of_sub(k), in->abort, 0x1018,
-			       k, in->abort ? 0 : in_value(s), expected);
-	emit_boot(s, step_of_sub(k), 0, 0, 0x1018, k, in_value(s), expected, false);
+			       k, in->abort ? 0 : in->value, expected);
+	emit_boot(s, step_of_sub(k), 0, 0, 0x1018, k, in->value, expected, false);
 	s->id_sub++;
 	return BS_IDENTITY; /* re-entered: next sub */
 }
@@ -605,8 +621,7 @@ static int configure_enter(void *obj, uint64_t now_us)
 	co_manager *m = s->m;
 	int rc = 0;
 	if (m->cfg.configure)
-		rc = m->cfg.configure(m->cfg.configure_ctx, s->id, (uint8_t)s->channel,
-				      now_us);
+		rc = m->cfg.configure(m->cfg.configure_ctx, s->id, now_us);
 	if (rc == 1)
 		return CO_FSM_STAY;
 	if (rc < 0)
@@ -1165,7 +1180,8 @@ static void on_bootup(co_manager *m, struct mgr_slave *s, uint64_t now_us)
 	if (!is_bootable(m, s->id) && bs_state(s) == BS_BOOTED)
 		return;
 	/* late or rebooted node: its boot slave process runs again */
-	if (!s->ever_booted && mst != CO_MGR_BOOTING)
+	/* late: it was looked for and missing, and shows up now */
+	if (!s->ever_booted && s->attempted)
 		emit_node(m, s->id, CO_MGR_NODE_LATE, 0);
 	if (s->lost)
 		emit_node(m, s->id, CO_MGR_NODE_BACK, 0);
@@ -1271,22 +1287,6 @@ void co_manager_on_event(co_manager *m, const co_event *ev)
 	struct mgr_slave *s = NULL;
 
 	switch (ev->kind) {
-	case CO_EV_SDO_CLIENT_DONE: {
-		const co_ev_sdo_cli *c = &ev->u.sdo_cli;
-		uint8_t id = (uint8_t)(c->tag & 0xFF);
-		if ((c->tag & MGR_TAG_MASK) != MGR_TAG || id < 1 || id > 127)
-			return;
-		s = &m->s[id];
-		if (!s->sdo_pending || s->tag != c->tag)
-			return; /* disowned (cancelled or restarted) */
-		s->sdo_pending = false;
-		struct mgr_in in = { .kind = IN_SDO, .abort = c->abort,
-				     .index = c->index, .sub = c->sub };
-		mgr_enter(m, now);
-		bs_input(s, &in, now);
-		mgr_after(m, now);
-		return;
-	}
 	case CO_EV_BOOTUP:
 	case CO_EV_HB_STATE:
 	case CO_EV_HB_STARTED:
@@ -1750,7 +1750,7 @@ int co_manager_create(co_manager **out, co_node *node, const co_manager_config *
 	uint8_t n_cli = sdo_client_channel_count(node);
 
 	*out = NULL;
-	if (!cfg || cfg->sdo_channel_first >= n_cli)
+	if (!cfg || !n_cli)
 		return -EINVAL;
 	m = calloc(1, sizeof(*m));
 	if (!m)
@@ -1759,12 +1759,8 @@ int co_manager_create(co_manager **out, co_node *node, const co_manager_config *
 	m->od = co_node_od(node);
 	m->cfg = *cfg;
 	m->own_id = co_node_id(node);
-	if (!m->cfg.sdo_channel_count ||
-	    m->cfg.sdo_channel_first + m->cfg.sdo_channel_count > n_cli)
-		m->cfg.sdo_channel_count = (uint8_t)(n_cli - m->cfg.sdo_channel_first);
-	m->n_chan = m->cfg.sdo_channel_count;
-	if (m->n_chan > MGR_MAX_CHANNELS)
-		m->n_chan = MGR_MAX_CHANNELS;
+	m->n_slots = m->cfg.max_parallel && m->cfg.max_parallel < n_cli
+			     ? m->cfg.max_parallel : n_cli;
 	if (!m->cfg.sdo_timeout_ms)
 		m->cfg.sdo_timeout_ms = 500;
 	if (!m->cfg.reset_wait_ms)
@@ -1779,7 +1775,6 @@ int co_manager_create(co_manager **out, co_node *node, const co_manager_config *
 		struct mgr_slave *s = &m->s[id];
 		s->m = m;
 		s->id = (uint8_t)id;
-		s->channel = -1;
 		s->timer_us = CO_NO_DEADLINE;
 		s->last_state = STATE_UNKNOWN;
 		s->expected_state = STATE_UNKNOWN;
@@ -1807,6 +1802,12 @@ void co_manager_destroy(co_manager *m)
 {
 	if (!m)
 		return;
+	/* requests still out would confirm into freed memory */
+	m->destroying = true;
+	for (unsigned id = 1; id <= 127; id++)
+		if (m->s[id].sdo_pending)
+			(void)sdo_client_cancel_tag(m->node, m->s[id].tag, SDO_ABORT_GENERAL,
+						    m->node->now_us);
 	co_nmt_set_rx_filter(m->node, NULL, NULL);
 	for (unsigned sub = 1; sub <= 128; sub++) {
 		(void)co_od_set_hooks(m->od, 0x1F82, (uint8_t)sub, NULL, NULL);

@@ -25,13 +25,12 @@
  * Machines (core/fsm.h), each state citing the CiA 302-2 step:
  * - one per line (enum co_mgr_state): NMT start-up / network boot;
  * - one per node 1..127: the boot slave process. Nodes boot in parallel,
- *   bounded by the SDO client channels given to the manager (one channel
- *   per node being booted, held from the 1000h read to the end of the
- *   configure step).
+ *   bounded by the SDO client pool (max_parallel nodes in their SDO steps
+ *   at once, from the 1000h read to the end of the configure step).
  *
  * Inputs: the owner forwards every core event of the node to
- * co_manager_on_event() (boot-ups, heartbeat/guarding, EMCY, SDO client
- * completions whose tag the manager made) and calls co_manager_tick() at or
+ * co_manager_on_event() (boot-ups, heartbeat/guarding, EMCY; SDO answers
+ * come through per-request confirmations) and calls co_manager_tick() at or
  * after co_manager_next_deadline_us(). Outputs: NMT and SDO frames through
  * the node, and events through the node's event callback (CO_EV_MGR_*,
  * u.mgr). The manager also filters NMT commands from the bus addressed to
@@ -162,17 +161,17 @@ enum co_mgr_nmt_read {
 };
 
 /*
- * The 302-3 configure step: called when a node reaches it (its SDO
- * channel is still held: `channel`). Return 0 when the node is configured
+ * The 302-3 configure step: called when a node reaches it (it still holds
+ * its boot slot; SDO requests go through the client pool). Return 0 when the node is configured
  * (or needs nothing), 1 when the outcome follows later through
  * co_manager_configure_done(), or a negative errno for a failure (J).
  */
-typedef int (*co_mgr_configure_fn)(void *ctx, uint8_t node_id, uint8_t channel,
-				   uint64_t now_us);
+typedef int (*co_mgr_configure_fn)(void *ctx, uint8_t node_id, uint64_t now_us);
 
 typedef struct co_manager_config {
-	uint8_t sdo_channel_first;  /* SDO client channels the manager uses */
-	uint8_t sdo_channel_count;  /* (0 = all channels from the first) */
+	uint8_t max_parallel;       /* nodes in their SDO steps at once
+	                             * (0 = the node's SDO client channels);
+	                             * requests go through the client pool */
 	uint32_t sdo_timeout_ms;    /* per SDO frame during the boot (500) */
 	uint32_t reset_wait_ms;     /* longest wait for a boot-up after reset
 	                             * communication (1000) */
@@ -255,7 +254,9 @@ static inline bool co_mgr_bit(const co_mgr_bits *b, unsigned n)
  * receive filter. -ENOMEM, -EINVAL (no SDO client channel). */
 int co_manager_create(co_manager **out, co_node *node,
 		      const co_manager_config *cfg);
-void co_manager_destroy(co_manager *m); /* accepts NULL */
+/* Accepts NULL. Cancels the manager's SDO requests; call it before the
+ * node is destroyed. */
+void co_manager_destroy(co_manager *m);
 
 /* Every core event of the node (events the manager emits itself are
  * ignored). */

@@ -182,11 +182,10 @@ static void test_s47_silent_mandatory_B_then_late(void)
 
 /* 48 (302-3 hook): the configure step waits for its outcome. */
 static int cfg_calls;
-static int configure_pending(void *ctx, uint8_t node, uint8_t channel, uint64_t now)
+static int configure_pending(void *ctx, uint8_t node, uint64_t now)
 {
 	(void)ctx;
 	(void)node;
-	(void)channel;
 	(void)now;
 	cfg_calls++;
 	return 1;
