@@ -77,7 +77,7 @@ TSAN_LIB_SRC := lines/xring.c
 TSAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_SRC))
 BENCH_BINS := $(patsubst tests/bench/%.c,$(REL)/tests/bench/%,$(BENCH_SRC))
 
-.PHONY: all deps test unit tsan integration bench demo install clean tests-build check check-core-io check-layering format
+.PHONY: all deps test unit tsan integration bench demo install clean tests-build check check-core-io check-layering format check-callgraph
 .DEFAULT_GOAL := all
 .SECONDARY:
 
@@ -185,6 +185,11 @@ unit: $(UNIT_BINS)
 
 integration: $(INTEG_BINS)
 	tests/vcan/run -n 3 -- tests/run-tests integration $(INTEG_BINS)
+
+# No call cycle between the files of core/ (scripts/callgraph-cycles: who
+# calls whose functions, from the object files' symbols).
+check-callgraph:
+	scripts/callgraph-cycles core
 
 # The whole suite: set-up if needed, build, unit tests, then integration tests on
 # 3 vcan lines; one closing line "N passed, M failed".

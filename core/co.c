@@ -13,7 +13,9 @@
 #include <string.h>
 
 #include "core/co.h"
+#include "core/co_internal.h"
 #include "core/emcy.h"
+#include "core/errctrl.h"
 #include "core/guarding.h"
 #include "core/heartbeat.h"
 #include "core/lss.h"
@@ -34,6 +36,7 @@ static const co_service *const co_services[] = {
 	&co_svc_store,
 	&co_svc_nmt,   /* before the error control services: boot-up first */
 	&co_svc_emcy,
+	&co_svc_errctrl, /* before heartbeat and guarding, which report to it */
 	&co_svc_hb,
 	&co_svc_guard,
 	&co_svc_sync,  /* before PDO: a produced SYNC drives the PDOs */

@@ -19,9 +19,10 @@
  * ---------------------------------------------------------------------------
  * HOW TO ADD A SERVICE (e.g. core/nmt.c, core/pdo.c, core/heartbeat.c)
  *
- * 1. Write core/<svc>.h and core/<svc>.c. State lives in a struct you
- *    allocate in your init op and hang in your slot of struct co_node
- *    (node->nmt, node->pdo, ...; slots are reserved below, NULL until then).
+ * 1. Write core/<svc>.h and core/<svc>.c; the .c includes
+ *    core/co_internal.h. State lives in a struct you allocate in your init
+ *    op and hang in your typed slot of struct co_node (node->nmt,
+ *    node->pdo, ...; add one in core/co_internal.h, NULL until init).
  * 2. Define the ops:  const co_service co_svc_<svc> = { .name = "nmt",
  *    .init = ..., .fini = ..., .tick = ..., .reset_comm = ... };
  *    - init(node): allocate, read your objects from node->od (1017h...),
@@ -140,7 +141,9 @@ void co_node_reset_comm(co_node *node, uint64_t now_us);
 void co_node_reset_app(co_node *node, uint64_t now_us);
 
 /* ======================================================================
- * For core services (not for the application)
+ * For services (the built-in ones of core/ and those attached with
+ * co_node_attach_service), not for the application. The node's fields
+ * and what only core/ calls are in core/co_internal.h.
  * ====================================================================== */
 
 /* Receive dispatch: O(1) for 11-bit ids (a direct table of 2048 heads,
@@ -162,7 +165,8 @@ int co_rx_unregister(co_node *node, int handle);
 /* Frames delivered to this receiver so far. */
 uint64_t co_rx_hits(const co_node *node, int handle);
 
-/* Send through the node's callback, counting. */
+/* Send through the node's callback, counted in co_node_stats (tx_frames,
+ * or tx_failed plus CO_EV_TX_FAILED). 0 or the callback's errno. */
 int co_node_send(co_node *node, const co_frame *f);
 /* Emit an event (no-op without an event callback). */
 void co_node_emit(co_node *node, co_event *ev);
@@ -191,59 +195,5 @@ typedef struct co_service {
  * -EINVAL, -EEXIST (already attached), -ENOSPC, or the init's error. */
 #define CO_NODE_ATTACH_MAX 4
 int co_node_attach_service(co_node *node, const co_service *svc, uint64_t now_us);
-
-/* Tell every service (nmt_changed op) that the NMT state changed. Called
- * by core/nmt.c only. */
-void co_node_nmt_changed(co_node *node, uint8_t new_state, uint64_t now_us);
-
-struct co_rx;
-struct co_rx_ext;
-struct sdo_server;
-struct sdo_client;
-struct co_store;
-struct co_nmt;
-struct co_errctrl;
-struct co_guard;
-struct co_emcy;
-struct co_sync;
-struct co_time;
-struct co_pdo;
-struct co_lss;
-
-/* Fields are private to core/ services: applications use the functions. */
-struct co_node {
-	co_node_config cfg; /* copy, with defaults filled in */
-	co_od *od;
-	uint8_t node_id;
-	uint64_t deadline_us; /* cached minimum of the services' deadlines */
-	uint64_t now_us;      /* time of the current recv/tick call */
-	co_node_stats stats;
-
-	/* receive dispatch */
-	uint16_t rx_sff[2048];     /* head receiver + 1 per 11-bit id, 0 = none */
-	struct co_rx *rx;          /* pool of cfg.rx_max receivers */
-	uint16_t rx_free;          /* free list head + 1 */
-	struct co_rx_ext *rx_ext;  /* sorted by id, cfg.rx_ext_max entries */
-	uint16_t rx_ext_count;
-
-	/* service slots: NULL until the module exists / is enabled */
-	struct sdo_server *sdo_srv; /* core/sdo_server.c */
-	struct sdo_client *sdo_cli; /* core/sdo_client.c */
-	struct co_store *store;     /* core/store.c (1010h/1011h) */
-	struct co_nmt *nmt;         /* core/nmt.c */
-	struct co_errctrl *errctrl; /* core/heartbeat.c: HB producer/consumer,
-	                             * guarding */
-	struct co_guard *guard;     /* core/guarding.c: node guarding, master
-	                             * and slave (100Ch/100Dh) */
-	struct co_emcy *emcy;       /* core/emcy.c */
-	struct co_sync *sync;       /* core/sync.c */
-	struct co_time *time;       /* core/time.c */
-	struct co_pdo *pdo;         /* core/pdo.c */
-	struct co_lss *lss;         /* core/lss.c */
-	const co_service *attached[CO_NODE_ATTACH_MAX]; /* co_node_attach_service */
-	unsigned n_attached;
-	void *ext[4];               /* spare slots for later services
-	                             * (CiA 302 manager, gateway glue) */
-};
 
 #endif /* COGW_CORE_CO_H */

@@ -19,6 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/co_internal.h"
 #include "core/emcy.h"
 #include "core/nmt.h"
 #include "core/sdo.h"

@@ -15,7 +15,8 @@
 #include <errno.h>
 #include <stdlib.h>
 
-#include "core/emcy.h"
+#include "core/co_internal.h"
+#include "core/errctrl.h"
 #include "core/guarding.h"
 #include "core/heartbeat.h"
 #include "core/nmt.h"
@@ -94,14 +95,14 @@ static void slave_rtr(co_node *node, uint64_t now_us)
 		g->life_lost = false;
 		emit(node, CO_EV_GUARD_LIFE_RESUMED, node->node_id,
 		     co_nmt_get_state(node), CO_HB_STATE_UNKNOWN, 0);
-		co_errctrl_loss_resolved(node, now_us);
+		co_errctrl_loss_update(node, CO_ERRCTRL_SRC_LIFE_GUARD, false,
+				       now_us);
 	}
 }
 
 static void slave_tick(co_node *node, uint64_t now_us)
 {
 	struct co_guard *g = node->guard;
-	uint8_t msef[5] = { node->node_id, 0, 0, 0, 0 };
 
 	if (!g->life_active || g->life_lost || now_us < g->life_deadline_us)
 		return;
@@ -109,9 +110,8 @@ static void slave_tick(co_node *node, uint64_t now_us)
 	g->life_active = false;
 	emit(node, CO_EV_GUARD_LIFE_LOST, node->node_id, co_nmt_get_state(node),
 	     CO_HB_STATE_UNKNOWN, 0);
-	(void)co_emcy_send(node, CO_EMCY_LIFE_GUARD, CO_EMCY_REG_COMM, msef,
-			   now_us);
-	(void)co_nmt_comm_error(node, now_us);
+	co_errctrl_comm_lost(node, CO_ERRCTRL_SRC_LIFE_GUARD, node->node_id,
+			     now_us);
 }
 
 static void par_after(void *ctx, co_od_entry *e, const co_od_access *a)
@@ -235,6 +235,7 @@ int co_guard_master_add(co_node *node, uint8_t target, uint16_t guard_time_ms,
 			return h;
 		*t = (struct guard_target){ .used = true, .rx = h,
 					    .state = CO_HB_STATE_UNKNOWN };
+		co_errctrl_guarded_set(node, target, true);
 	}
 	t->guard_time_ms = guard_time_ms;
 	t->life_factor = life_factor ? life_factor : 1;
@@ -255,6 +256,7 @@ int co_guard_master_remove(co_node *node, uint8_t target)
 		return -ENOENT;
 	(void)co_rx_unregister(node, g->t[target].rx);
 	g->t[target].used = false;
+	co_errctrl_guarded_set(node, target, false);
 	return 0;
 }
 
@@ -346,7 +348,8 @@ static void guard_reset_comm(co_node *node, uint64_t now_us)
 	g->life_lost = false;
 	slave_follow_id(node);
 	if (was_lost)
-		co_errctrl_loss_resolved(node, now_us);
+		co_errctrl_loss_update(node, CO_ERRCTRL_SRC_LIFE_GUARD, false,
+				       now_us);
 }
 
 const co_service co_svc_guard = {

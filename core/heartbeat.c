@@ -16,8 +16,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "core/emcy.h"
-#include "core/guarding.h"
+#include "core/co_internal.h"
+#include "core/errctrl.h"
 #include "core/heartbeat.h"
 #include "core/nmt.h"
 #include "core/sdo.h"
@@ -32,7 +32,7 @@ struct hb_entry {
 	uint64_t deadline_us;
 };
 
-struct co_errctrl {
+struct co_hb {
 	co_node *node;
 	/* producer */
 	uint64_t prod_next_us; /* CO_NO_DEADLINE = off */
@@ -43,7 +43,6 @@ struct co_errctrl {
 	uint64_t last_heard_us[HB_NODES]; /* 0 = never */
 	int rx[HB_NODES];
 	unsigned lost;
-	bool bus_off;
 	unsigned rx_missing; /* node-ids not listened to: receiver pool full */
 	uint8_t own_id; /* id whose 700h+id we do not consume (LSS may change it) */
 };
@@ -57,19 +56,6 @@ const char *co_hb_mon_to_string(co_hb_mon m)
 	case CO_HB_MON_LOST: return "lost";
 	}
 	return "?";
-}
-
-void co_errctrl_emit(co_node *node, co_event_kind kind, uint8_t remote, uint8_t state,
-		     uint8_t prev, bool guarded, uint16_t time_ms)
-{
-	co_event ev = { .kind = kind };
-
-	ev.u.errctrl.node = remote;
-	ev.u.errctrl.state = state;
-	ev.u.errctrl.prev = prev;
-	ev.u.errctrl.guarded = guarded;
-	ev.u.errctrl.time_ms = time_ms;
-	co_node_emit(node, &ev);
 }
 
 static void emit(co_node *node, co_event_kind kind, uint8_t remote,
@@ -107,7 +93,7 @@ static bool prod_allowed(const co_node *node)
  * boot-up the boot-up itself was the first heartbeat. */
 static void prod_restart(co_node *node, bool send_now, uint64_t now_us)
 {
-	struct co_errctrl *ec = node->errctrl;
+	struct co_hb *ec = node->hb;
 	uint16_t ms = prod_period_ms(node);
 
 	ec->prod_next_us = CO_NO_DEADLINE;
@@ -121,7 +107,7 @@ static void prod_restart(co_node *node, bool send_now, uint64_t now_us)
 
 static void prod_tick(co_node *node, uint64_t now_us)
 {
-	struct co_errctrl *ec = node->errctrl;
+	struct co_hb *ec = node->hb;
 	uint64_t period;
 
 	if (now_us < ec->prod_next_us)
@@ -158,7 +144,7 @@ int co_hb_producer_set(co_node *node, uint16_t period_ms, uint64_t now_us)
 
 	if (!e)
 		return -ENOENT;
-	if (!node->errctrl)
+	if (!node->hb)
 		return -ENODEV;
 	node->now_us = now_us;
 	co_put_le16(buf, period_ms);
@@ -167,7 +153,7 @@ int co_hb_producer_set(co_node *node, uint16_t period_ms, uint64_t now_us)
 
 /* ---- consumer ------------------------------------------------------------ */
 
-static void ent_load(struct co_errctrl *ec, uint8_t sub)
+static void ent_load(struct co_hb *ec, uint8_t sub)
 {
 	struct hb_entry *en = &ec->ent[sub];
 	uint32_t v = 0;
@@ -184,33 +170,27 @@ static void ent_load(struct co_errctrl *ec, uint8_t sub)
 
 static void loss(co_node *node, struct hb_entry *en, uint64_t now_us)
 {
-	struct co_errctrl *ec = node->errctrl;
-	uint8_t msef[5] = { en->node, 0, 0, 0, 0 };
+	struct co_hb *ec = node->hb;
 
 	en->mon = CO_HB_MON_LOST;
 	en->deadline_us = CO_NO_DEADLINE;
 	ec->lost++;
 	emit(node, CO_EV_HB_LOST, en->node, ec->last_state[en->node],
 	     CO_HB_STATE_UNKNOWN, en->time_ms);
-	/* CiA 301: a heartbeat event is a communication error: EMCY first
-	 * (while the state still allows it), then 1029h:1. */
-	(void)co_emcy_send(node, CO_EMCY_LIFE_GUARD, CO_EMCY_REG_COMM, msef,
-			   now_us);
-	(void)co_nmt_comm_error(node, now_us);
+	co_errctrl_comm_lost(node, CO_ERRCTRL_SRC_HEARTBEAT, en->node, now_us);
 }
 
-void co_errctrl_loss_resolved(co_node *node, uint64_t now_us)
+/* Tell core/errctrl.c whether a heartbeat loss remains (it clears EMCY
+ * 8130h once neither heartbeat nor life guarding has one). */
+static void loss_update(co_node *node, uint64_t now_us)
 {
-	struct co_errctrl *ec = node->errctrl;
-	bool guard_lost = co_guard_life_lost(node);
-
-	if (ec && !ec->lost && !guard_lost)
-		(void)co_emcy_clear(node, CO_EMCY_LIFE_GUARD, now_us);
+	co_errctrl_loss_update(node, CO_ERRCTRL_SRC_HEARTBEAT,
+			       node->hb && node->hb->lost != 0, now_us);
 }
 
 static void hb_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
-	struct co_errctrl *ec = node->errctrl;
+	struct co_hb *ec = node->hb;
 	uint8_t remote = (uint8_t)(uintptr_t)arg;
 	uint8_t st, prev;
 	bool resolved = false;
@@ -219,7 +199,7 @@ static void hb_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 		return;
 	/* A guarded node's answers carry a toggle bit: guarding reads them.
 	 * Its boot-up (00h) is still a boot-up. */
-	if (f->data[0] != CO_NMT_INITIALISING && co_guard_master_has(node, remote))
+	if (f->data[0] != CO_NMT_INITIALISING && co_errctrl_guarded(node, remote))
 		return;
 	st = f->data[0] & 0x7F;
 	prev = ec->last_state[remote];
@@ -260,12 +240,12 @@ static void hb_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 		}
 	}
 	if (resolved)
-		co_errctrl_loss_resolved(node, now_us);
+		loss_update(node, now_us);
 }
 
 static uint32_t c1016_check(void *ctx, co_od_entry *e, const co_od_access *a)
 {
-	struct co_errctrl *ec = ctx;
+	struct co_hb *ec = ctx;
 	uint32_t v;
 	uint8_t n;
 
@@ -293,11 +273,11 @@ static uint32_t c1016_check(void *ctx, co_od_entry *e, const co_od_access *a)
 
 static void c1016_after(void *ctx, co_od_entry *e, const co_od_access *a)
 {
-	struct co_errctrl *ec = ctx;
+	struct co_hb *ec = ctx;
 
 	(void)a;
 	ent_load(ec, e->sub);
-	co_errctrl_loss_resolved(ec->node, ec->node->now_us);
+	loss_update(ec->node, ec->node->now_us);
 }
 
 static const co_od_hooks c1016_hooks = {
@@ -308,7 +288,7 @@ static const co_od_hooks c1016_hooks = {
 int co_hb_consumer_set(co_node *node, uint8_t remote_id, uint16_t time_ms,
 		       uint64_t now_us)
 {
-	struct co_errctrl *ec = node->errctrl;
+	struct co_hb *ec = node->hb;
 	co_od_access a = { .origin = CO_OD_ORIGIN_LOCAL };
 	unsigned s, free_sub = 0;
 	uint8_t buf[4];
@@ -341,7 +321,7 @@ int co_hb_consumer_set(co_node *node, uint8_t remote_id, uint16_t time_ms,
 
 co_hb_mon co_hb_consumer_status(const co_node *node, uint8_t remote_id)
 {
-	const struct co_errctrl *ec = node->errctrl;
+	const struct co_hb *ec = node->hb;
 
 	if (!ec)
 		return CO_HB_MON_OFF;
@@ -353,48 +333,26 @@ co_hb_mon co_hb_consumer_status(const co_node *node, uint8_t remote_id)
 
 uint8_t co_hb_remote_state(const co_node *node, uint8_t remote_id)
 {
-	if (!node->errctrl || remote_id >= HB_NODES)
+	if (!node->hb || remote_id >= HB_NODES)
 		return CO_HB_STATE_UNKNOWN;
-	return node->errctrl->last_state[remote_id];
+	return node->hb->last_state[remote_id];
 }
 
 uint64_t co_hb_last_heard_us(const co_node *node, uint8_t remote_id)
 {
-	if (!node->errctrl || remote_id >= HB_NODES)
+	if (!node->hb || remote_id >= HB_NODES)
 		return 0;
-	return node->errctrl->last_heard_us[remote_id];
+	return node->hb->last_heard_us[remote_id];
 }
 
 unsigned co_hb_lost_count(const co_node *node)
 {
-	return node->errctrl ? node->errctrl->lost : 0;
-}
-
-/* ---- bus-off ------------------------------------------------------------- */
-
-int co_errctrl_bus_off(co_node *node, uint64_t now_us)
-{
-	if (!node->errctrl)
-		return -ENODEV;
-	node->errctrl->bus_off = true;
-	/* No EMCY now: nothing can be sent while bus-off. */
-	return co_nmt_comm_error(node, now_us) < 0 ? -ENODEV : 0;
-}
-
-int co_errctrl_bus_off_recovered(co_node *node, uint64_t now_us)
-{
-	if (!node->errctrl)
-		return -ENODEV;
-	if (!node->errctrl->bus_off)
-		return 0;
-	node->errctrl->bus_off = false;
-	return co_emcy_send(node, CO_EMCY_BUS_OFF_RECOVERED, CO_EMCY_REG_COMM,
-			    NULL, now_us);
+	return node->hb ? node->hb->lost : 0;
 }
 
 /* ---- service ------------------------------------------------------------- */
 
-static void load_all(struct co_errctrl *ec)
+static void load_all(struct co_hb *ec)
 {
 	ec->lost = 0;
 	for (unsigned s = 1; s <= ec->n_ent; s++) {
@@ -405,12 +363,12 @@ static void load_all(struct co_errctrl *ec)
 
 static int hb_init(co_node *node)
 {
-	struct co_errctrl *ec = calloc(1, sizeof(*ec));
+	struct co_hb *ec = calloc(1, sizeof(*ec));
 	co_od_entry *e;
 
 	if (!ec)
 		return -ENOMEM;
-	node->errctrl = ec;
+	node->hb = ec;
 	ec->node = node;
 	ec->prod_next_us = CO_NO_DEADLINE;
 	memset(ec->last_state, CO_HB_STATE_UNKNOWN, sizeof(ec->last_state));
@@ -446,13 +404,13 @@ static int hb_init(co_node *node)
 
 static void hb_fini(co_node *node)
 {
-	free(node->errctrl);
-	node->errctrl = NULL;
+	free(node->hb);
+	node->hb = NULL;
 }
 
 static uint64_t hb_tick(co_node *node, uint64_t now_us)
 {
-	struct co_errctrl *ec = node->errctrl;
+	struct co_hb *ec = node->hb;
 	uint64_t next;
 
 	prod_tick(node, now_us);
@@ -473,7 +431,7 @@ static uint64_t hb_tick(co_node *node, uint64_t now_us)
  * listen to the old one, stop listening to our own. */
 static void own_id_changed(co_node *node)
 {
-	struct co_errctrl *ec = node->errctrl;
+	struct co_hb *ec = node->hb;
 	uint8_t old = ec->own_id, now = node->node_id;
 
 	if (old >= 1 && old <= 127 && ec->rx[old] < 0)
@@ -488,21 +446,20 @@ static void own_id_changed(co_node *node)
 
 static void hb_reset_comm(co_node *node, uint64_t now_us)
 {
-	struct co_errctrl *ec = node->errctrl;
+	struct co_hb *ec = node->hb;
 	bool had_loss = ec->lost != 0;
 
 	ec->prod_next_us = CO_NO_DEADLINE; /* restarts after the boot-up */
-	ec->bus_off = false;
 	if (node->node_id != ec->own_id)
 		own_id_changed(node);
 	load_all(ec);
 	if (had_loss)
-		co_errctrl_loss_resolved(node, now_us);
+		loss_update(node, now_us);
 }
 
 static void hb_nmt_changed(co_node *node, uint8_t state, uint64_t now_us)
 {
-	struct co_errctrl *ec = node->errctrl;
+	struct co_hb *ec = node->hb;
 
 	if (state == CO_NMT_INITIALISING)
 		ec->prod_next_us = CO_NO_DEADLINE;

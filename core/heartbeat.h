@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * core/heartbeat.h - heartbeat producer (1017h) and consumer (1016h), boot-up
- * reception, and the error-control entry points for bus-off (CiA 301
- * §7.2.8.3.2, §7.5.2.18/19).
+ * core/heartbeat.h - heartbeat producer (1017h) and consumer (1016h) and
+ * boot-up reception (CiA 301 §7.2.8.3.2, §7.5.2.18/19). What it shares
+ * with node guarding (loss handling, bus-off) is in core/errctrl.h.
  *
  * Producer
  * - 1017h (UNSIGNED16, ms). Heartbeat = 700h + id, one byte: the NMT state
@@ -26,8 +26,9 @@
  * - Any change of a remote node's state byte gives CO_EV_HB_STATE.
  * - SDO writes of 1016h are checked: two active entries for the same node
  *   give 0x06040043; bits 31..24 set give 0x06090030.
- * - Nodes guarded by this node's guarding master (core/guarding.h) are
- *   left to guarding (their replies carry a toggle bit), except boot-ups.
+ * - Nodes guarded by this node's guarding master (core/guarding.h, known
+ *   through core/errctrl.h) are left to guarding (their replies carry a
+ *   toggle bit), except boot-ups.
  *
  * Needs one receiver per node-id (126 of co_node_config.rx_max).
  * All functions: owning thread only; 0 or a negative errno.
@@ -38,6 +39,7 @@
 #include <stdint.h>
 
 #include "core/co.h"
+#include "core/errctrl.h" /* co_errctrl_bus_off*(), shared with guarding */
 
 extern const co_service co_svc_hb;
 
@@ -75,23 +77,6 @@ uint8_t co_hb_remote_state(const co_node *node, uint8_t remote_id);
 uint64_t co_hb_last_heard_us(const co_node *node, uint8_t remote_id);
 /* Monitored nodes currently lost. */
 unsigned co_hb_lost_count(const co_node *node);
-
-/*
- * For the line runtime: the CAN controller went bus-off. Applies 1029h:1
- * (communication error). co_errctrl_bus_off_recovered(): back on the bus;
- * sends EMCY 8140h (recovered from bus off).
- */
-int co_errctrl_bus_off(co_node *node, uint64_t now_us);
-int co_errctrl_bus_off_recovered(co_node *node, uint64_t now_us);
-
-/* For guarding.c: a communication loss ended; clears EMCY 8130h once no
- * heartbeat or life-guarding loss remains. */
-void co_errctrl_loss_resolved(co_node *node, uint64_t now_us);
-
-/* For guarding.c: emit an error-control event (u.errctrl); guarded: seen
- * through node guarding rather than heartbeat. */
-void co_errctrl_emit(co_node *node, co_event_kind kind, uint8_t remote, uint8_t state,
-		     uint8_t prev, bool guarded, uint16_t time_ms);
 
 /* Add 1016h (ARRAY, consumers entries 1..127, U32 rw, 0) and 1017h (U16
  * rw, default producer_ms) unless present. consumers 0 = no 1016h. */

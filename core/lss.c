@@ -1,15 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * LSS (CiA 305): names for the shared constants, and the one core service
- * that hosts the master and the slave end in node->lss. The protocol
- * itself lives in lss_master.c and lss_slave.c.
+ * LSS (CiA 305): names for the shared constants and the bit timing table,
+ * used by both ends. The protocol lives in lss_master.c and lss_slave.c,
+ * the core service that hosts them in lss_service.c (a separate file, so
+ * that the ends call this one and it calls none of them).
  */
-#include <errno.h>
-#include <stdlib.h>
-
 #include "core/lss.h"
-#include "core/lss_master.h"
-#include "core/lss_slave.h"
 
 const char *lss_cs_to_string(uint8_t cs)
 {
@@ -86,56 +82,3 @@ uint16_t lss_bit_rate_kbit(uint8_t index)
 
 	return index < sizeof(kbit) / sizeof(kbit[0]) ? kbit[index] : 0;
 }
-
-/* ---- the core service ---------------------------------------------------- */
-
-static void lss_fini(co_node *node)
-{
-	struct co_lss *l = node->lss;
-
-	if (!l)
-		return;
-	lss_master_fini(l->master);
-	lss_slave_fini(l->slave);
-	free(l);
-	node->lss = NULL;
-}
-
-static int lss_init(co_node *node)
-{
-	struct co_lss *l;
-	int rc;
-
-	if (!node->cfg.lss_master && !node->cfg.lss_slave)
-		return 0; /* slot stays NULL: the node does no LSS */
-	l = calloc(1, sizeof(*l));
-	if (!l)
-		return -ENOMEM;
-	node->lss = l;
-	if (node->cfg.lss_slave && (rc = lss_slave_init(node, &l->slave)) != 0)
-		return rc; /* the core runs fini on failure */
-	if (node->cfg.lss_master && (rc = lss_master_init(node, &l->master)) != 0)
-		return rc;
-	return 0;
-}
-
-static uint64_t lss_tick(co_node *node, uint64_t now_us)
-{
-	if (!node->lss || !node->lss->master)
-		return CO_NO_DEADLINE;
-	return lss_master_tick(node->lss->master, now_us);
-}
-
-static void lss_reset_comm(co_node *node, uint64_t now_us)
-{
-	if (node->lss && node->lss->slave)
-		lss_slave_reset_comm(node->lss->slave, now_us);
-}
-
-const co_service co_svc_lss = {
-	.name = "lss",
-	.init = lss_init,
-	.fini = lss_fini,
-	.tick = lss_tick,
-	.reset_comm = lss_reset_comm,
-};

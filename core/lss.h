@@ -11,7 +11,7 @@
  * - A node runs an LSS master (cfg.lss_master, see core/lss_master.h), an
  *   LSS slave (cfg.lss_slave, see core/lss_slave.h), both or neither. Both
  *   ends hang off node->lss (struct co_lss); the one service co_svc_lss
- *   initialises, ticks and resets them.
+ *   (core/lss_service.c) initialises, ticks and resets them.
  */
 #ifndef COGW_CORE_LSS_H
 #define COGW_CORE_LSS_H

@@ -32,6 +32,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/co_internal.h"
 #include "core/lss_master.h"
 
 #define DEFAULT_TIMEOUT_MS 1000u /* CiA 305 leaves it open; 1 s is common */

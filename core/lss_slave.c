@@ -19,6 +19,7 @@
 #include <errno.h>
 #include <stdlib.h>
 
+#include "core/co_internal.h"
 #include "core/lss_slave.h"
 
 struct lss_slave {

@@ -14,6 +14,7 @@
 #include <errno.h>
 #include <stdlib.h>
 
+#include "core/co_internal.h"
 #include "core/nmt.h"
 
 struct nmt_cmd {

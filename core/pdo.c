@@ -26,6 +26,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/co_internal.h"
 #include "core/emcy.h"
 #include "core/nmt.h"
 #include "core/pdo.h"
@@ -650,6 +651,13 @@ static void pdo_load_all(struct co_pdo *P, uint64_t now_us)
 	P->len_err_count[0] = P->len_err_count[1] = 0;
 }
 
+static void pdo_sync_observer(co_node *node, void *ctx, uint8_t counter,
+			      uint64_t now_us)
+{
+	(void)ctx;
+	co_pdo_sync_ind(node, counter, now_us);
+}
+
 static int pdo_init(co_node *node)
 {
 	struct co_pdo *P = calloc(1, sizeof(*P));
@@ -674,7 +682,7 @@ static int pdo_init(co_node *node)
 	}
 	pdo_hooks_set(P, &pdo_hooks);
 	pdo_load_all(P, node->now_us);
-	return 0;
+	return co_sync_observer_add(node, pdo_sync_observer, NULL);
 }
 
 static void pdo_fini(co_node *node)

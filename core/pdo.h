@@ -189,7 +189,8 @@ bool co_pdo_is_valid(const co_node *node, co_pdo_dir dir, uint16_t nr);
 int co_pdo_length(const co_node *node, co_pdo_dir dir, uint16_t nr);
 const co_pdo_stats *co_pdo_get_stats(const co_node *node);
 
-/* For core/sync.c: a SYNC with this counter (0 = none) happened. */
+/* A SYNC with this counter (0 = none) happened; the PDO service's SYNC
+ * observer (core/sync.h, registered at init) calls it. */
 void co_pdo_sync_ind(co_node *node, uint8_t counter, uint64_t now_us);
 
 /* ---- building the OD ------------------------------------------------------ */

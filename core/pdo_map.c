@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/co_internal.h"
 #include "core/pdo_map.h"
 
 #define SLOT_NONE 0xFFFFu

@@ -25,6 +25,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/co_internal.h"
 #include "core/nmt.h"
 #include "core/sdo_block.h"
 #include "core/sdo_server.h"

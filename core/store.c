@@ -8,6 +8,7 @@
 #include <errno.h>
 #include <stdlib.h>
 
+#include "core/co_internal.h"
 #include "core/sdo.h"
 #include "core/store.h"
 

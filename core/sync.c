@@ -5,14 +5,16 @@
  *
  * The producer is one absolute deadline (next_us); the consumer is one
  * receiver. Both feed sync_occurred(), which is the single place that
- * tells the PDO service, so a produced and a consumed SYNC behave alike.
+ * tells the observers (the PDO service registers one), so a produced and
+ * a consumed SYNC behave alike. SYNC does not know PDO: the observer is an
+ * operation handed in, which keeps the call graph of core/ free of cycles.
  */
 #include <errno.h>
 #include <stdlib.h>
 
+#include "core/co_internal.h"
 #include "core/emcy.h"
 #include "core/nmt.h"
-#include "core/pdo.h"
 #include "core/sdo.h"
 #include "core/sync.h"
 
@@ -35,6 +37,11 @@ struct co_sync {
 	uint64_t next_us;   /* producer deadline, CO_NO_DEADLINE when idle */
 	uint64_t last_us;   /* last SYNC, CO_NO_DEADLINE when none */
 	co_sync_stats stats;
+	struct {
+		co_sync_ind_fn fn;
+		void *ctx;
+	} obs[CO_SYNC_OBSERVERS_MAX];
+	uint8_t n_obs;
 };
 
 static bool state_allows_sync(uint8_t s)
@@ -69,7 +76,8 @@ static void sync_occurred(struct co_sync *S, uint8_t counter, bool produced,
 	ev.u.sync.counter = counter;
 	ev.u.sync.produced = produced;
 	co_node_emit(S->node, &ev);
-	co_pdo_sync_ind(S->node, counter, now_us);
+	for (unsigned i = 0; i < S->n_obs; i++)
+		S->obs[i].fn(S->node, S->obs[i].ctx, counter, now_us);
 }
 
 /* Restart the producer one period from now (CiA 301: the counter starts
@@ -334,6 +342,22 @@ bool co_sync_is_producer(const co_node *node)
 uint64_t co_sync_last_us(const co_node *node)
 {
 	return node->sync ? node->sync->last_us : CO_NO_DEADLINE;
+}
+
+int co_sync_observer_add(co_node *node, co_sync_ind_fn fn, void *ctx)
+{
+	struct co_sync *S = node->sync;
+
+	if (!fn)
+		return -EINVAL;
+	if (!S)
+		return -ENODEV;
+	if (S->n_obs >= CO_SYNC_OBSERVERS_MAX)
+		return -ENOSPC;
+	S->obs[S->n_obs].fn = fn;
+	S->obs[S->n_obs].ctx = ctx;
+	S->n_obs++;
+	return 0;
 }
 
 bool co_sync_in_window(const co_node *node, uint64_t now_us)

@@ -31,8 +31,9 @@
  * On every SYNC, produced or consumed, in this order:
  *   1. CO_EV_SYNC (counter, produced) - the callback may still update
  *      mapped objects, synchronous TPDOs sample after it returns;
- *   2. the PDO service commits synchronous RPDOs and sends synchronous
- *      TPDOs (core/pdo.h, co_pdo_sync_ind).
+ *   2. every SYNC observer (co_sync_observer_add), in registration order:
+ *      the PDO service registers one at init that commits synchronous
+ *      RPDOs and sends synchronous TPDOs (core/pdo.h, co_pdo_sync_ind).
  *
  * All functions: owning thread only.
  */
@@ -58,6 +59,18 @@ typedef struct co_sync_stats {
 } co_sync_stats;
 
 extern const co_service co_svc_sync;
+
+/* Something that acts on every SYNC, produced or consumed: called after
+ * CO_EV_SYNC with the SYNC's counter (0 = none). */
+typedef void (*co_sync_ind_fn)(co_node *node, void *ctx, uint8_t counter,
+			       uint64_t now_us);
+
+#define CO_SYNC_OBSERVERS_MAX 4
+
+/* Register an observer for the node's lifetime (services call it from
+ * their init op; co_svc_sync runs before them). 0, -EINVAL, -ENODEV,
+ * -ENOSPC (CO_SYNC_OBSERVERS_MAX reached). */
+int co_sync_observer_add(co_node *node, co_sync_ind_fn fn, void *ctx);
 
 /* Counter of the last SYNC (0 = none yet, or SYNC without counter). */
 uint8_t co_sync_counter(const co_node *node);

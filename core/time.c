@@ -9,6 +9,7 @@
 #include <errno.h>
 #include <stdlib.h>
 
+#include "core/co_internal.h"
 #include "core/nmt.h"
 #include "core/sdo.h"
 #include "core/time.h"

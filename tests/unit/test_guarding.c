@@ -208,6 +208,40 @@ static void test_master_bootup_of_guarded_node(void)
 	TEST_ASSERT_EQUAL_UINT(0, ecf_ev_count(&m, CO_EV_GUARD_TOGGLE));
 }
 
+/* Heartbeat and life guarding report their losses to core/errctrl.c:
+ * EMCY 8130h stays active while either still has one and is reset when
+ * the last one ends, whichever ends first. */
+static void test_losses_of_both_protocols_share_one_emcy(void)
+{
+	ecf_boot(&x, ID);
+	co_od_set_u16(x.od, 0x100C, 0, 100);
+	co_od_set_u8(x.od, 0x100D, 0, 3);
+	TEST_ASSERT_EQUAL_INT(0, co_hb_consumer_set(x.node, 7, 500, 0));
+	co_nmt_local_cmd(x.node, CO_NMT_CS_START, 0);
+	rtr(&x, GUARD_COB);
+	ecf_rx1(&x, 0x707, 0x05);
+	ecf_advance(&x, 600 * MS);
+	TEST_ASSERT_TRUE(co_guard_life_lost(x.node));
+	TEST_ASSERT_EQUAL_UINT(1, co_hb_lost_count(x.node));
+	TEST_ASSERT_TRUE(co_emcy_is_active(x.node, CO_EMCY_LIFE_GUARD));
+
+	/* Life guarding back, the heartbeat still lost: 8130h stays. */
+	ecf_clear(&x);
+	rtr(&x, GUARD_COB);
+	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&x, CO_EV_GUARD_LIFE_RESUMED));
+	TEST_ASSERT_TRUE(co_emcy_is_active(x.node, CO_EMCY_LIFE_GUARD));
+	TEST_ASSERT_EQUAL_UINT(1, ecf_tx_count(&x, GUARD_COB));
+	TEST_ASSERT_EQUAL_UINT(1, x.n_tx); /* no error reset EMCY yet */
+
+	/* The heartbeat comes back: no loss left, error reset. */
+	ecf_clear(&x);
+	ecf_rx1(&x, 0x707, 0x05);
+	TEST_ASSERT_FALSE(co_emcy_is_active(x.node, CO_EMCY_LIFE_GUARD));
+	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
+	TEST_ASSERT_EQUAL_HEX32(0x80 + ID, x.tx[0].id);
+	TEST_ASSERT_EQUAL_HEX8(0x00, x.tx[0].data[1]);
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -217,5 +251,6 @@ int main(void)
 	RUN_TEST(test_master_with_real_slave);
 	RUN_TEST(test_master_toggle_and_failure);
 	RUN_TEST(test_master_bootup_of_guarded_node);
+	RUN_TEST(test_losses_of_both_protocols_share_one_emcy);
 	return UNITY_END();
 }

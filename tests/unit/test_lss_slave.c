@@ -7,6 +7,7 @@
 #include <errno.h>
 #include <string.h>
 
+#include "core/co_internal.h" /* node->lss slot */
 #include "core/lss_master.h"
 #include "core/lss_slave.h"
 #include "tests/unit/support/lss_fixture.h"

@@ -236,6 +236,44 @@ static void test_consumer_events_and_counter(void)
 	TEST_ASSERT_TRUE(tb_frame_is(nth_id(0x85, 1), 0x85, "00 00 00 00 00 00 00 00"));
 }
 
+struct obs_log {
+	unsigned calls;
+	uint8_t counter;
+	size_t events_seen; /* CO_EV_SYNC events emitted before the call */
+};
+
+static void obs_record(co_node *n, void *ctx, uint8_t counter, uint64_t now_us)
+{
+	struct obs_log *log = ctx;
+
+	TEST_ASSERT_EQUAL_PTR(node, n);
+	TEST_ASSERT_EQUAL_UINT64(bus.now, now_us);
+	log->calls++;
+	log->counter = counter;
+	log->events_seen = tb_event_count(port, CO_EV_SYNC);
+}
+
+/* The operation through which SYNC reaches PDO (and any later observer):
+ * called after CO_EV_SYNC with the counter; the table is bounded. */
+static void test_observer_op(void)
+{
+	struct obs_log log = { 0 };
+	int rc, added = 1; /* the PDO service registered one at init */
+
+	TEST_ASSERT_EQUAL(-EINVAL, co_sync_observer_add(node, NULL, &log));
+	TEST_ASSERT_EQUAL(0, co_sync_observer_add(node, obs_record, &log));
+	added++;
+	TEST_ASSERT_EQUAL_HEX32(0, odw(0x1019, 0, 4));
+	tb_send_hex(&bus, 0x80, "02");
+	TEST_ASSERT_EQUAL(1, log.calls);
+	TEST_ASSERT_EQUAL(2, log.counter);
+	TEST_ASSERT_EQUAL(1, log.events_seen);
+	while ((rc = co_sync_observer_add(node, obs_record, &log)) == 0)
+		added++;
+	TEST_ASSERT_EQUAL(-ENOSPC, rc);
+	TEST_ASSERT_EQUAL(CO_SYNC_OBSERVERS_MAX, added);
+}
+
 static void test_consumer_follows_1005h_and_nmt(void)
 {
 	TEST_ASSERT_EQUAL_HEX32(0, odw(0x1005, 0, 0x90));
@@ -270,6 +308,7 @@ int main(void)
 	RUN_TEST(test_producer_stops_in_stopped);
 	RUN_TEST(test_produced_sync_drives_own_tpdos);
 	RUN_TEST(test_consumer_events_and_counter);
+	RUN_TEST(test_observer_op);
 	RUN_TEST(test_consumer_follows_1005h_and_nmt);
 	RUN_TEST(test_window);
 	return UNITY_END();
