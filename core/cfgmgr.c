@@ -14,6 +14,7 @@
 #include <errno.h>
 #include <string.h>
 
+#include "core/co_internal.h"
 #include "core/nmt.h"
 #include "core/sdo.h"
 #include "core/sdo_client.h"
