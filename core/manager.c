@@ -30,6 +30,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/co_internal.h"
 #include "core/fsm.h"
 #include "core/guarding.h"
 #include "core/heartbeat.h"
