@@ -32,6 +32,7 @@
 #include "apps/common/json_od.h"
 #include "apps/common/json_util.h"
 #include "core/cfgmgr.h"
+#include "core/manager.h"
 #include "core/od_std.h"
 
 #define CONFIG_FILE_MAX (4u * 1024u * 1024u)
@@ -60,9 +61,19 @@ static const char *const line_keys[] = {
 	"sdo_timeout_ms", "sdo_block_threshold", "heartbeat_ms",
 	"sync_period_us", "heartbeat_consumers", "device",	 "rpdos",
 	"tpdos",      "objects",	     "values",		 "nodes",
-	"comment",    NULL
+	"manager",    "comment",    NULL
 };
-static const char *const node_keys[] = { "id", "config", "comment", NULL };
+static const char *const node_keys[] = { "id", "config", "mandatory", "boot",
+					 "keep_alive", "retry_factor", "guard_time_ms",
+					 "heartbeat_ms", "device_type", "vendor_id",
+					 "product_code", "revision", "serial", "keep_op",
+					 "comment", NULL };
+static const char *const manager_keys[] = { "master", "start_all", "self_start",
+					    "start_slaves", "on_mandatory_error",
+					    "boot_time_ms", "retry_ms", "scan_ms",
+					    "reset_wait_ms", "sdo_timeout_ms",
+					    "max_parallel", "accept_remote_nmt",
+					    "comment", NULL };
 static const char *const rt_keys[] = { "priority", "cpu", "comment", NULL };
 static const char *const hb_keys[] = { "node_id", "time_ms", "comment", NULL };
 static const char *const device_keys[] = { "device_type", "name",
@@ -631,6 +642,8 @@ static int node_objects(struct ctx *c, const char *path, cogw_line_config *l)
 	return 0;
 }
 
+static int manager_objects(struct ctx *c, const char *path, cogw_line_config *l);
+
 static int build_od(struct ctx *c, const cJSON *o, const char *path,
 		    cogw_line_config *l, co_od_std_opts *so)
 {
@@ -666,7 +679,8 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path,
 		co_od_entry_set_default_raw(eb, 1);
 		co_od_entry_reset(eb);
 	}
-	if ((rc = gateway_objects(c, l)) || (rc = node_objects(c, path, l)))
+	if ((rc = gateway_objects(c, l)) || (rc = node_objects(c, path, l)) ||
+	    (rc = manager_objects(c, path, l)))
 		return rc;
 	v = json_util_get(o, "objects");
 	if (v) {
@@ -683,6 +697,179 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path,
 			return rc;
 	}
 	line_sync_from_od(l);
+	return 0;
+}
+
+static int opt_flag(struct ctx *c, const cJSON *o, const char *key, const char *path,
+		    uint32_t bit, bool def, uint32_t *bits)
+{
+	bool b = def;
+	int rc = json_util_opt_bool(o, key, path, &b, c->msg, sizeof(c->msg));
+
+	if (!rc && b)
+		*bits |= bit;
+	return rc;
+}
+
+/* An UNSIGNED32 given as a number or a "0x..." string. */
+static int opt_u32_hex(struct ctx *c, const cJSON *o, const char *key, const char *path,
+		       uint32_t *out)
+{
+	const cJSON *v = json_util_get(o, key);
+	char p[JSON_PATH_MAX];
+	uint64_t u;
+	int rc;
+
+	if (!v)
+		return 0;
+	json_util_path_key(p, sizeof(p), path, key);
+	if ((rc = json_util_uint(v, p, 0, UINT32_MAX, true, &u, c->msg, sizeof(c->msg))))
+		return rc;
+	*out = (uint32_t)u;
+	return 0;
+}
+
+/* The CiA 302-2 settings of one entry of "nodes" (1F81h:n, 1F84h..1F88h:n,
+ * the 1016h consumer time, KEEP_OP). */
+static int parse_node_manager(struct ctx *c, const cJSON *it, const char *np, cogw_node *n)
+{
+	static const char *const id_keys[5] = { "device_type", "vendor_id", "product_code",
+						"revision", "serial" };
+	uint32_t a = CO_MGR_1F81_SLAVE, factor = 0, guard = 0;
+	uint16_t hb = 0;
+	bool keep_op = false;
+	int rc;
+
+	if ((rc = opt_flag(c, it, "boot", np, CO_MGR_1F81_BOOT, true, &a)) ||
+	    (rc = opt_flag(c, it, "mandatory", np, CO_MGR_1F81_MANDATORY, false, &a)) ||
+	    (rc = opt_flag(c, it, "keep_alive", np, CO_MGR_1F81_KEEP_ALIVE, false, &a)) ||
+	    (rc = opt_u32(c, it, "retry_factor", np, 0, 255, &factor)) ||
+	    (rc = opt_u32(c, it, "guard_time_ms", np, 0, 65535, &guard)) ||
+	    (rc = opt_u16(c, it, "heartbeat_ms", np, 0, 65535, &hb)) ||
+	    (rc = json_util_opt_bool(it, "keep_op", np, &keep_op, c->msg, sizeof(c->msg))))
+		return rc;
+	for (int i = 0; i < 5; i++)
+		if ((rc = opt_u32_hex(c, it, id_keys[i], np, &n->identity[i])))
+			return rc;
+	if (hb && guard) {
+		char p[JSON_PATH_MAX];
+		json_util_path_key(p, sizeof(p), np, "guard_time_ms");
+		return fail(c, p, "node %u has heartbeat_ms too: supervise it one way", n->id);
+	}
+	n->assignment = a | factor << 8 | guard << 16;
+	n->heartbeat_ms = hb;
+	n->keep_op = keep_op;
+	return 0;
+}
+
+/* "manager": the line's CiA 302-2 manager; 1F80h from names. */
+static int parse_manager(struct ctx *c, const cJSON *o, const char *path,
+			 cogw_manager_config *m)
+{
+	char p[JSON_PATH_MAX], what[16] = "node";
+	uint32_t b = 0;
+	int rc;
+
+	if ((rc = check_object(c, o, path, manager_keys)))
+		return rc;
+	m->enabled = true;
+	m->retry_ms = 1000;
+	m->reset_wait_ms = 1000;
+	m->sdo_timeout_ms = 500;
+	m->boot_time_ms = 0;
+	if ((rc = opt_flag(c, o, "master", path, CO_MGR_1F80_MASTER, true, &b)) ||
+	    (rc = opt_flag(c, o, "start_all", path, CO_MGR_1F80_START_ALL, false, &b)))
+		return rc;
+	/* bits 2 and 3 say what the manager may NOT do: the names say what it
+	 * does */
+	uint32_t self = 0, slaves = 0;
+	if ((rc = opt_flag(c, o, "self_start", path, 1, true, &self)) ||
+	    (rc = opt_flag(c, o, "start_slaves", path, 1, true, &slaves)))
+		return rc;
+	if (!self)
+		b |= CO_MGR_1F80_NO_SELF_START;
+	if (!slaves)
+		b |= CO_MGR_1F80_APP_STARTS_SLAVES;
+	if ((rc = json_util_opt_string(o, "on_mandatory_error", path, 1, what, sizeof(what),
+				       c->msg, sizeof(c->msg))))
+		return rc;
+	json_util_path_key(p, sizeof(p), path, "on_mandatory_error");
+	if (!strcmp(what, "reset_all"))
+		b |= CO_MGR_1F80_RESET_ALL_ON_ERROR;
+	else if (!strcmp(what, "stop_all"))
+		b |= CO_MGR_1F80_STOP_ALL_ON_ERROR;
+	else if (strcmp(what, "node"))
+		return fail(c, p, "\"%s\": expected \"node\", \"reset_all\" or \"stop_all\"", what);
+	m->nmt_startup = b;
+	if ((rc = opt_u32(c, o, "boot_time_ms", path, 0, 3600000, &m->boot_time_ms)) ||
+	    (rc = opt_u32(c, o, "retry_ms", path, 10, 3600000, &m->retry_ms)) ||
+	    (rc = opt_u32(c, o, "scan_ms", path, 0, 3600000, &m->scan_ms)) ||
+	    (rc = opt_u32(c, o, "reset_wait_ms", path, 1, 60000, &m->reset_wait_ms)) ||
+	    (rc = opt_u32(c, o, "sdo_timeout_ms", path, 1, 60000, &m->sdo_timeout_ms)) ||
+	    (rc = opt_u8(c, o, "max_parallel", path, 0, 128, &m->max_parallel)) ||
+	    (rc = json_util_opt_bool(o, "accept_remote_nmt", path, &m->accept_remote_nmt,
+				     c->msg, sizeof(c->msg))))
+		return rc;
+	return 0;
+}
+
+/* The manager's objects in the line's OD, as defaults (a reset
+ * communication keeps them): 1F80h, 1F89h, 1F81h:n, 1F84h..1F88h:n and a
+ * 1016h entry per node with heartbeat_ms. */
+static int set_default(co_od *od, uint16_t index, uint8_t sub, uint32_t v)
+{
+	co_od_entry *e = co_od_find(od, index, sub);
+	if (!e)
+		return -ENOENT;
+	co_od_entry_set_default_raw(e, v);
+	co_od_entry_reset(e);
+	return 0;
+}
+
+static int manager_objects(struct ctx *c, const char *path, cogw_line_config *l)
+{
+	const cogw_manager_config *m = &l->manager;
+	int rc;
+
+	if (!m->enabled)
+		return 0;
+	if ((rc = co_od_add_manager_defaults(l->od, m->nmt_startup)) < 0)
+		return rc == -ENOMEM ? rc : fail(c, path, "cannot add the manager objects (%s)",
+						 strerror(-rc));
+	if ((rc = set_default(l->od, 0x1F80, 0, m->nmt_startup)) ||
+	    (rc = set_default(l->od, 0x1F89, 0, m->boot_time_ms)))
+		return fail(c, path, "1F80h/1F89h: %s", strerror(-rc));
+	for (size_t i = 0; i < l->n_nodes; i++) {
+		const cogw_node *n = &l->nodes[i];
+		if ((rc = set_default(l->od, 0x1F81, n->id, n->assignment)))
+			return fail(c, path, "1F81h:%u: %s", n->id, strerror(-rc));
+		for (int k = 0; k < 5; k++)
+			if ((rc = set_default(l->od, (uint16_t)(0x1F84 + k), n->id, n->identity[k])))
+				return fail(c, path, "%04Xh:%u: %s", 0x1F84 + k, n->id,
+					    strerror(-rc));
+		if (!n->heartbeat_ms)
+			continue;
+		uint8_t free_sub = 0, subs = 0;
+		(void)co_od_get_u8(l->od, 0x1016, 0, &subs);
+		for (unsigned s = 1; s <= subs; s++) {
+			uint32_t v = 0;
+			(void)co_od_get_u32(l->od, 0x1016, (uint8_t)s, &v);
+			if (((v >> 16) & 0xFF) == n->id && (v & 0xFFFF)) {
+				char np[JSON_PATH_MAX], pp[JSON_PATH_MAX];
+				json_util_path_key(np, sizeof(np), path, "nodes");
+				json_util_path_index(pp, sizeof(pp), np, i);
+				json_util_path_key(np, sizeof(np), pp, "heartbeat_ms");
+				return fail(c, np, "node %u is in heartbeat_consumers too", n->id);
+			}
+			if (!free_sub && !v)
+				free_sub = (uint8_t)s;
+		}
+		if (!free_sub)
+			return fail(c, path, "1016h is full");
+		if ((rc = set_default(l->od, 0x1016, free_sub,
+				      (uint32_t)n->id << 16 | n->heartbeat_ms)))
+			return fail(c, path, "1016h:%u: %s", free_sub, strerror(-rc));
+	}
 	return 0;
 }
 
@@ -725,6 +912,8 @@ static int parse_nodes(struct ctx *c, const cJSON *v, const char *path,
 					    (unsigned long long)id, path, j);
 		n->id = (uint8_t)id;
 		l->n_nodes++;
+		if ((rc = parse_node_manager(c, it, np, n)))
+			return rc;
 		x = json_util_get(it, "config");
 		if (!x)
 			continue;
@@ -859,6 +1048,12 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx,
 	if (v) {
 		json_util_path_key(p, sizeof(p), path, "nodes");
 		if ((rc = parse_nodes(c, v, p, l)))
+			return rc;
+	}
+	v = json_util_get(o, "manager");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "manager");
+		if ((rc = parse_manager(c, v, p, &l->manager)))
 			return rc;
 	}
 
@@ -1162,7 +1357,12 @@ static bool nodes_same(const cogw_line_config *a, const cogw_line_config *b)
 		return false;
 	for (size_t i = 0; i < a->n_nodes; i++)
 		if (a->nodes[i].id != b->nodes[i].id ||
-		    !cogw_node_config_equal(&a->nodes[i].config, &b->nodes[i].config))
+		    !cogw_node_config_equal(&a->nodes[i].config, &b->nodes[i].config) ||
+		    a->nodes[i].assignment != b->nodes[i].assignment ||
+		    memcmp(a->nodes[i].identity, b->nodes[i].identity,
+			   sizeof(a->nodes[i].identity)) ||
+		    a->nodes[i].heartbeat_ms != b->nodes[i].heartbeat_ms ||
+		    a->nodes[i].keep_op != b->nodes[i].keep_op)
 			return false;
 	return true;
 }
@@ -1228,6 +1428,7 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next,
 			LDIFF(!changed && x->od && y->od && !od_same(x->od, y->od),
 			      "objects/values");
 			LDIFF(!nodes_same(x, y), "nodes");
+			LDIFF(memcmp(&x->manager, &y->manager, sizeof(x->manager)), "manager");
 			changed = changed || before;
 #undef LDIFF
 		}

@@ -46,13 +46,30 @@ typedef struct cogw_hb_consumer {
 	uint16_t time_ms;
 } cogw_hb_consumer;
 
-/* A slave node on a line ("nodes"): its id and where its configuration
- * comes from (apps/common/node_config.h). The CiA 302-2 manager's own
- * per-node settings join this struct. */
+/* A slave node on a line ("nodes"): its id, where its configuration
+ * comes from (apps/common/node_config.h) and, for the line's CiA 302-2
+ * manager, its assignment and expected identity. */
 typedef struct cogw_node {
 	uint8_t id;                 /* 1..127, not the line's own node_id */
 	cogw_node_config config;    /* source NONE: nothing to download */
+	uint32_t assignment;        /* 1F81h:n built from the names */
+	uint32_t identity[5];       /* 1F84h..1F88h:n (0 = do not check) */
+	uint16_t heartbeat_ms;      /* 1016h consumer time, 0 = none */
+	bool keep_op;               /* restart it when it leaves OPERATIONAL */
 } cogw_node;
+
+/* The CiA 302-2 manager of a line ("manager"; docs/config.md). */
+typedef struct cogw_manager_config {
+	bool enabled;               /* the section is present */
+	uint32_t nmt_startup;       /* 1F80h built from the names */
+	uint32_t boot_time_ms;      /* 1F89h (0 = wait for ever) */
+	uint32_t retry_ms;          /* retry interval of missing nodes */
+	uint32_t scan_ms;           /* scan for missing nodes, 0 = off */
+	uint32_t reset_wait_ms;     /* longest wait for a boot-up */
+	uint32_t sdo_timeout_ms;    /* per SDO frame during the boot */
+	uint8_t max_parallel;       /* nodes booting at once, 0 = channels */
+	bool accept_remote_nmt;     /* NMT to our node from the bus applies */
+} cogw_manager_config;
 
 typedef struct cogw_line_config {
 	char name[COGW_NAME_MAX];      /* "line0" (default "line<N>") */
@@ -76,6 +93,7 @@ typedef struct cogw_line_config {
 	co_od *od;
 	cogw_node *nodes;              /* "nodes" (owned, n_nodes entries) */
 	size_t n_nodes;
+	cogw_manager_config manager;   /* "manager" */
 } cogw_line_config;
 
 typedef struct cogw_mailbox_config {

@@ -29,6 +29,8 @@
 #include "apps/common/node_config.h"
 #include "core/od.h"
 
+#include "core/manager.h"
+
 #define DOC "docs/config.md"
 #define NODE_ID 5
 /* A minimal configuration, plus one slave node with a configuration
@@ -146,6 +148,52 @@ static int fill_key_defaults(struct key_default *k)
 	KD("`lines[]`", "tpdos", "%u", count_records(l->od, 0x1800));
 	TEST_ASSERT_EQUAL_size_t(1, l->n_nodes);
 	KD("Node configuration", "store", "%s", l->nodes[0].config.store ? "true" : "false");
+	{
+		/* the manager's keys: a line with "manager": {} and one node */
+		static cogw_config mc;
+		static const char *sec = "The manager (`manager` and `nodes`)";
+		cogw_config_free(&mc);
+		memset(&mc, 0, sizeof mc);
+		TEST_ASSERT_EQUAL_INT_MESSAGE(
+			0,
+			cogw_config_load_string(&mc,
+						"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, "
+						"\"node_id\": 5, \"manager\": {}, \"nodes\": [{\"id\": 7}]}]}",
+						"m.json", err, sizeof err),
+			err);
+		const cogw_manager_config *g = &mc.lines[0].manager;
+		const cogw_node *nd = &mc.lines[0].nodes[0];
+		uint32_t b = g->nmt_startup, a = nd->assignment;
+#define TF(x) ((x) ? "true" : "false")
+		KD(sec, "master", "%s", TF(b & CO_MGR_1F80_MASTER));
+		KD(sec, "start_all", "%s", TF(b & CO_MGR_1F80_START_ALL));
+		KD(sec, "self_start", "%s", TF(!(b & CO_MGR_1F80_NO_SELF_START)));
+		KD(sec, "start_slaves", "%s", TF(!(b & CO_MGR_1F80_APP_STARTS_SLAVES)));
+		KD(sec, "on_mandatory_error", "%s",
+		   b & CO_MGR_1F80_RESET_ALL_ON_ERROR  ? "reset_all"
+		   : b & CO_MGR_1F80_STOP_ALL_ON_ERROR ? "stop_all"
+						       : "node");
+		KD(sec, "boot_time_ms", "%u", g->boot_time_ms);
+		KD(sec, "retry_ms", "%u", g->retry_ms);
+		KD(sec, "scan_ms", "%u", g->scan_ms);
+		KD(sec, "reset_wait_ms", "%u", g->reset_wait_ms);
+		KD(sec, "sdo_timeout_ms", "%u", g->sdo_timeout_ms);
+		KD(sec, "max_parallel", "%u", g->max_parallel);
+		KD(sec, "accept_remote_nmt", "%s", TF(g->accept_remote_nmt));
+		KD(sec, "boot", "%s", TF(a & CO_MGR_1F81_BOOT));
+		KD(sec, "mandatory", "%s", TF(a & CO_MGR_1F81_MANDATORY));
+		KD(sec, "keep_alive", "%s", TF(a & CO_MGR_1F81_KEEP_ALIVE));
+		KD(sec, "retry_factor", "%u", CO_MGR_1F81_RETRY_FACTOR(a));
+		KD(sec, "guard_time_ms", "%u", CO_MGR_1F81_GUARD_MS(a));
+		KD(sec, "heartbeat_ms", "%u", nd->heartbeat_ms);
+		KD(sec, "device_type", "%u", nd->identity[0]);
+		KD(sec, "vendor_id", "%u", nd->identity[1]);
+		KD(sec, "product_code", "%u", nd->identity[2]);
+		KD(sec, "revision", "%u", nd->identity[3]);
+		KD(sec, "serial", "%u", nd->identity[4]);
+		KD(sec, "keep_op", "%s", TF(nd->keep_op));
+#undef TF
+	}
 	KD("`debug`", "stall_signal", "%s", cfg.debug_stall_signal ? "true" : "false");
 	KD("`debug`", "stall_ms", "%u", cfg.debug_stall_ms);
 #undef KD
@@ -190,9 +238,9 @@ static bool plain_default(const char *cell, char *out, size_t len)
 
 static void test_key_tables_match_the_loader(void)
 {
-	struct key_default k[64];
+	struct key_default k[96];
 	int nk = fill_key_defaults(k);
-	bool seen[64] = { false };
+	bool seen[96] = { false };
 	char section[64] = "";
 	char msg[512];
 	int checked = 0;

@@ -1,0 +1,172 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * cogw.json: the "manager" section of a line and the CiA 302-2 keys of
+ * "nodes" fill 1F80h, 1F81h, 1F84h..1F89h and 1016h of the line's own OD
+ * (as defaults); bad values are refused with their JSON path.
+ */
+#include <errno.h>
+#include <string.h>
+
+#include "apps/common/config.h"
+#include "core/manager.h"
+#include "core/od.h"
+#include "unity.h"
+
+static cogw_config cfg;
+static char err[512];
+
+void setUp(void)
+{
+	memset(&cfg, 0, sizeof(cfg));
+	err[0] = '\0';
+}
+
+void tearDown(void)
+{
+	cogw_config_free(&cfg);
+}
+
+#define LINE(extra) \
+	"{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 5" extra "}"
+#define CFG1(extra) "{\"lines\": [" LINE(extra) "]}"
+
+static void expect_error(const char *json, const char *msg)
+{
+	int rc = cogw_config_load_string(&cfg, json, "t.json", err, sizeof(err));
+
+	TEST_ASSERT_EQUAL_INT(-EINVAL, rc);
+	TEST_ASSERT_EQUAL_STRING(msg, err);
+	TEST_ASSERT_EQUAL_size_t(0, cfg.n_lines);
+}
+
+static void load_ok(const char *json)
+{
+	int rc = cogw_config_load_string(&cfg, json, "t.json", err, sizeof(err));
+
+	TEST_ASSERT_EQUAL_STRING("", err);
+	TEST_ASSERT_EQUAL_INT(0, rc);
+}
+
+static uint64_t raw(const co_od *od, uint16_t index, uint8_t sub)
+{
+	co_od_entry *e = co_od_find(od, index, sub);
+
+	TEST_ASSERT_NOT_NULL_MESSAGE(e, "entry missing");
+	return co_od_entry_raw(e);
+}
+
+static void test_no_manager_no_objects(void)
+{
+	load_ok(CFG1(""));
+	TEST_ASSERT_FALSE(cfg.lines[0].manager.enabled);
+	TEST_ASSERT_NULL(co_od_find(cfg.lines[0].od, 0x1F89, 0));
+}
+
+static void test_manager_defaults(void)
+{
+	load_ok(CFG1(", \"manager\": {}"));
+	const cogw_manager_config *m = &cfg.lines[0].manager;
+	TEST_ASSERT_TRUE(m->enabled);
+	TEST_ASSERT_EQUAL_HEX32(CO_MGR_1F80_MASTER, m->nmt_startup);
+	TEST_ASSERT_EQUAL_UINT32(1000, m->retry_ms);
+	TEST_ASSERT_EQUAL_UINT32(0, m->scan_ms);
+	TEST_ASSERT_EQUAL_HEX64(CO_MGR_1F80_MASTER, raw(cfg.lines[0].od, 0x1F80, 0));
+	TEST_ASSERT_EQUAL_HEX64(0, raw(cfg.lines[0].od, 0x1F89, 0));
+	TEST_ASSERT_NOT_NULL(co_od_find(cfg.lines[0].od, 0x1F82, 128));
+	TEST_ASSERT_NOT_NULL(co_od_find(cfg.lines[0].od, 0x1F25, 128));
+}
+
+static void test_manager_bits_by_name(void)
+{
+	load_ok(CFG1(", \"manager\": {\"start_all\": true, \"self_start\": false, "
+		     "\"start_slaves\": false, \"on_mandatory_error\": \"stop_all\", "
+		     "\"boot_time_ms\": 5000, \"scan_ms\": 2000, \"retry_ms\": 500, "
+		     "\"max_parallel\": 3, \"accept_remote_nmt\": true}"));
+	uint32_t want = CO_MGR_1F80_MASTER | CO_MGR_1F80_START_ALL |
+			CO_MGR_1F80_NO_SELF_START | CO_MGR_1F80_APP_STARTS_SLAVES |
+			CO_MGR_1F80_STOP_ALL_ON_ERROR;
+	TEST_ASSERT_EQUAL_HEX64(want, raw(cfg.lines[0].od, 0x1F80, 0));
+	TEST_ASSERT_EQUAL_HEX64(5000, raw(cfg.lines[0].od, 0x1F89, 0));
+	const cogw_manager_config *m = &cfg.lines[0].manager;
+	TEST_ASSERT_EQUAL_UINT32(2000, m->scan_ms);
+	TEST_ASSERT_EQUAL_UINT32(500, m->retry_ms);
+	TEST_ASSERT_EQUAL_UINT8(3, m->max_parallel);
+	TEST_ASSERT_TRUE(m->accept_remote_nmt);
+	cogw_config_free(&cfg);
+	load_ok(CFG1(", \"manager\": {\"master\": false, \"on_mandatory_error\": \"reset_all\"}"));
+	TEST_ASSERT_EQUAL_HEX64(CO_MGR_1F80_RESET_ALL_ON_ERROR, raw(cfg.lines[0].od, 0x1F80, 0));
+}
+
+static void test_nodes_fill_assignment_identity_heartbeat(void)
+{
+	load_ok(CFG1(", \"manager\": {}, \"nodes\": ["
+		     "{\"id\": 2, \"mandatory\": true, \"heartbeat_ms\": 1500, "
+		     " \"vendor_id\": \"0x250\", \"product_code\": 4660, \"keep_op\": true},"
+		     "{\"id\": 3, \"keep_alive\": true, \"guard_time_ms\": 100, \"retry_factor\": 3,"
+		     " \"device_type\": \"0x00040194\", \"serial\": 99},"
+		     "{\"id\": 4, \"boot\": false}]"));
+	const co_od *od = cfg.lines[0].od;
+	TEST_ASSERT_EQUAL_HEX64(CO_MGR_1F81_SLAVE | CO_MGR_1F81_BOOT | CO_MGR_1F81_MANDATORY,
+				raw(od, 0x1F81, 2));
+	TEST_ASSERT_EQUAL_HEX64(CO_MGR_1F81_SLAVE | CO_MGR_1F81_BOOT | CO_MGR_1F81_KEEP_ALIVE |
+					3u << 8 | 100u << 16,
+				raw(od, 0x1F81, 3));
+	TEST_ASSERT_EQUAL_HEX64(CO_MGR_1F81_SLAVE, raw(od, 0x1F81, 4));
+	TEST_ASSERT_EQUAL_HEX64(0, raw(od, 0x1F81, 5));
+	TEST_ASSERT_EQUAL_HEX64(0x250, raw(od, 0x1F85, 2));
+	TEST_ASSERT_EQUAL_HEX64(4660, raw(od, 0x1F86, 2));
+	TEST_ASSERT_EQUAL_HEX64(0, raw(od, 0x1F84, 2));
+	TEST_ASSERT_EQUAL_HEX64(0x00040194, raw(od, 0x1F84, 3));
+	TEST_ASSERT_EQUAL_HEX64(99, raw(od, 0x1F88, 3));
+	/* a 1016h entry for node 2 */
+	bool found = false;
+	for (unsigned s = 1; s <= 127; s++)
+		if (co_od_find(od, 0x1016, (uint8_t)s) &&
+		    raw(od, 0x1016, (uint8_t)s) == (2u << 16 | 1500))
+			found = true;
+	TEST_ASSERT_TRUE(found);
+	TEST_ASSERT_TRUE(cfg.lines[0].nodes[0].keep_op);
+	TEST_ASSERT_FALSE(cfg.lines[0].nodes[1].keep_op);
+	/* defaults: a reset communication keeps them */
+	co_od_entry *e = co_od_find(od, 0x1F81, 2);
+	co_od_entry_set_raw(e, 0);
+	co_od_entry_reset(e);
+	TEST_ASSERT_EQUAL_HEX64(CO_MGR_1F81_SLAVE | CO_MGR_1F81_BOOT | CO_MGR_1F81_MANDATORY,
+				raw(od, 0x1F81, 2));
+}
+
+static void test_bad_values_with_paths(void)
+{
+	expect_error(CFG1(", \"manager\": {\"on_mandatory_error\": \"panic\"}"),
+		     "t.json: lines[0].manager.on_mandatory_error: \"panic\": expected \"node\", "
+		     "\"reset_all\" or \"stop_all\"");
+	expect_error(CFG1(", \"manager\": {\"boot_time\": 1}"),
+		     "t.json: lines[0].manager.boot_time: unknown key");
+	expect_error(CFG1(", \"manager\": {\"start_all\": 1}"),
+		     "t.json: lines[0].manager.start_all: expected true or false, got a number");
+	expect_error(CFG1(", \"manager\": {\"retry_ms\": 0}"),
+		     "t.json: lines[0].manager.retry_ms: 0 is out of range 10..3600000");
+	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"retry_factor\": 256}]"),
+		     "t.json: lines[0].nodes[0].retry_factor: 256 is out of range 0..255");
+	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"vendor_id\": \"0x1FFFFFFFF\"}]"),
+		     "t.json: lines[0].nodes[0].vendor_id: \"0x1FFFFFFFF\" is out of range 0x0000..0xFFFFFFFF");
+	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"heartbeat_ms\": 100, \"guard_time_ms\": 100}]"),
+		     "t.json: lines[0].nodes[0].guard_time_ms: node 2 has heartbeat_ms too: "
+		     "supervise it one way");
+	expect_error(CFG1(", \"manager\": {}, \"heartbeat_consumers\": [{\"node_id\": 2, \"time_ms\": 500}], "
+			  "\"nodes\": [{\"id\": 2, \"heartbeat_ms\": 100}]"),
+		     "t.json: lines[0].nodes[0].heartbeat_ms: node 2 is in heartbeat_consumers too");
+	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"mandatory\": \"yes\"}]"),
+		     "t.json: lines[0].nodes[0].mandatory: expected true or false, got a string");
+}
+
+int main(void)
+{
+	UNITY_BEGIN();
+	RUN_TEST(test_no_manager_no_objects);
+	RUN_TEST(test_manager_defaults);
+	RUN_TEST(test_manager_bits_by_name);
+	RUN_TEST(test_nodes_fill_assignment_identity_heartbeat);
+	RUN_TEST(test_bad_values_with_paths);
+	return UNITY_END();
+}
