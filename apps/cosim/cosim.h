@@ -84,6 +84,46 @@ typedef struct cosim_rel_cob {
 
 #define COSIM_REL_COB_MAX (4u + 2u * COSIM_PDO_MAX)
 
+/* The program download objects of CiA 302-3 (device file "program"). */
+typedef struct cosim_program_desc {
+	bool enabled;
+	uint32_t flash_max;   /* capacity of 1F50h:1 (the simulated flash) */
+	bool refuse;          /* refuse every image on start (a device that
+	                       * rejects the firmware it is given) */
+} cosim_program_desc;
+
+/* Program state machine (1F51h:1 read value). */
+typedef enum cosim_program_state {
+	COSIM_PROG_STOPPED = 0,  /* an image, not running */
+	COSIM_PROG_RUNNING = 1,
+	COSIM_PROG_CLEARED = 3,  /* flash erased: 1F50h:1 may be written */
+} cosim_program_state;
+
+typedef struct cosim_program {
+	co_od *od;
+	const cosim_program_desc *desc;
+	uint8_t state;        /* cosim_program_state */
+	uint32_t image_len;   /* bytes in the flash */
+	uint32_t refused;     /* starts refused */
+	bool quiet;
+	uint8_t node_id;      /* for log lines */
+} cosim_program;
+
+/* Hook 1F50h:1/1F51h:1 (built by the device) into the state machine:
+ * - 1F50h:1 (program data) may be written only while CLEARED (else
+ *   0x08000022); a complete write leaves the program STOPPED;
+ * - 1F51h:1 write 0 = stop (RUNNING -> STOPPED), 1 = start, 2 = reset
+ *   (stop, start), 3 = clear (STOPPED -> CLEARED, 1F56h:1 = 0; refused
+ *   while RUNNING with 0x08000022); other values 0x06090030;
+ * - start checks the image: at least 5 bytes, the last 4 the CRC-32
+ *   (IEEE 802.3, little-endian) of the others; a bad image, no image or
+ *   "refuse" -> 0x08000020 and the program stays STOPPED; a good one
+ *   runs and 1F56h:1 (application software identification) = its CRC. */
+int cosim_program_attach(cosim_program *p, co_od *od, const cosim_program_desc *desc,
+			 uint8_t node_id, bool quiet);
+/* CRC-32 (IEEE 802.3, reflected, init and final xor FFFFFFFFh). */
+uint32_t cosim_crc32(const uint8_t *data, size_t len);
+
 typedef struct cosim_device {
 	char file[256];              /* for messages */
 	char name[COSIM_NAME_MAX];
@@ -100,6 +140,7 @@ typedef struct cosim_device {
 	cosim_loopback_desc loopback[COSIM_LOOPBACK_MAX];
 	unsigned n_rel;
 	cosim_rel_cob rel[COSIM_REL_COB_MAX];
+	cosim_program_desc program;
 } cosim_device;
 
 /* Set every node-relative COB-ID (dev->rel) for node_id, default and

@@ -141,7 +141,7 @@ static const char *const top_keys[] = {
 	"name",	       "comment",    "node_id", "identity", "device_type", "device_name",
 	"hw_version",  "sw_version", "heartbeat_ms", "emcy_history", "store_subs",
 	"objects",     "values",     "tpdos",	"rpdos",    "lss",	   "signals",
-	"loopback",    NULL
+	"loopback",    "program",    NULL
 };
 
 struct parsed_top {
@@ -576,6 +576,43 @@ void cosim_device_rebase(cosim_device *dev, co_od *od, uint8_t node_id)
 
 /* ---- loading ------------------------------------------------------------------- */
 
+/* "program": {"flash_max": N, "refuse": bool} -> 1F50h:1 (DOMAIN wo,
+ * N bytes), 1F51h:1 (UNSIGNED8 rw), 1F56h:1 (UNSIGNED32 ro). */
+static int parse_program(const cJSON *root, cosim_device *dev, char *err, size_t errlen)
+{
+	static const char *const keys[] = { "flash_max", "refuse", "comment", NULL };
+	const cJSON *v = json_util_get(root, "program");
+	uint64_t flash = 256u * 1024u;
+	co_od_entry *e;
+	int rc;
+
+	if (!v)
+		return 0;
+	if ((rc = json_util_check_object(v, "program", keys, err, errlen)) ||
+	    (rc = json_util_opt_uint(v, "flash_max", "program", 16, 16u * 1024u * 1024u, &flash,
+				     err, errlen)) ||
+	    (rc = json_util_opt_bool(v, "refuse", "program", &dev->program.refuse, err, errlen)))
+		return rc;
+	if (co_od_has_index(dev->od, 0x1F50) || co_od_has_index(dev->od, 0x1F51) ||
+	    co_od_has_index(dev->od, 0x1F56))
+		return json_util_fail(err, errlen, "program",
+				      "1F50h/1F51h/1F56h are defined already (in \"objects\")");
+	dev->program.enabled = true;
+	dev->program.flash_max = (uint32_t)flash;
+	if ((rc = co_od_ensure_num(dev->od, 0x1F50, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1, CO_OBJ_ARRAY)) ||
+	    (rc = co_od_add_bytes(dev->od, 0x1F50, 1, CO_T_DOMAIN, CO_ACC_WO, (uint32_t)flash,
+				  NULL, 0, &e)))
+		return rc == -ENOMEM ? rc : json_util_fail(err, errlen, "program", "cannot add 1F50h");
+	e->obj_code = CO_OBJ_ARRAY;
+	if ((rc = co_od_ensure_num(dev->od, 0x1F51, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1, CO_OBJ_ARRAY)) ||
+	    (rc = co_od_ensure_num(dev->od, 0x1F51, 1, CO_T_UNSIGNED8, CO_ACC_RW, COSIM_PROG_CLEARED,
+				   CO_OBJ_ARRAY)) ||
+	    (rc = co_od_ensure_num(dev->od, 0x1F56, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1, CO_OBJ_ARRAY)) ||
+	    (rc = co_od_ensure_num(dev->od, 0x1F56, 1, CO_T_UNSIGNED32, CO_ACC_RO, 0, CO_OBJ_ARRAY)))
+		return rc == -ENOMEM ? rc : json_util_fail(err, errlen, "program", "cannot add 1F51h/1F56h");
+	return 0;
+}
+
 static int build(cosim_device *dev, const cJSON *root, const cosim_device_opts *opts,
 		 char *err, size_t errlen)
 {
@@ -612,6 +649,7 @@ static int build(cosim_device *dev, const cJSON *root, const cosim_device_opts *
 	    (rc = json_od_apply_values(dev->od, v, "values", err, errlen)))
 		return rc;
 	if ((rc = parse_lss(root, dev, err, errlen)) ||
+	    (rc = parse_program(root, dev, err, errlen)) ||
 	    (rc = parse_signals(root, dev, err, errlen)) ||
 	    (rc = parse_loopback(root, dev, err, errlen)))
 		return rc;

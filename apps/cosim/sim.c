@@ -96,6 +96,7 @@ struct cosim_node {
 	lss_slave_hooks lss_hooks;
 
 	uint64_t dropped, delayed_count, forced_aborts;
+	cosim_program prog; /* 1F50h/1F51h/1F56h, if the device has them */
 };
 
 static void logn(const cosim_node *n, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -780,6 +781,11 @@ int cosim_node_create(cosim_node **out, const cosim_node_config *cfg, char *err,
 	if (rc) {
 		snprintf(err, errlen, "%s: cannot attach 1010h/1011h: %s", n->dev.file,
 			 strerror(-rc));
+		goto fail;
+	}
+	if (n->dev.program.enabled &&
+	    (rc = cosim_program_attach(&n->prog, n->dev.od, &n->dev.program, n->cfg_id, n->quiet))) {
+		snprintf(err, errlen, "%s: cannot attach 1F50h/1F51h: %s", n->dev.file, strerror(-rc));
 		goto fail;
 	}
 	for (unsigned i = 0; i < n->dev.n_signals; i++)

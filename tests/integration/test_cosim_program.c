@@ -1,0 +1,196 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * tests/integration/test_cosim_program.c - the simulated transducer's
+ * program download objects (1F50h:1 flash, 1F51h:1 control, 1F56h:1
+ * software identification) and its 1020h, driven through the real daemon
+ * and cogwctl on vcan: a 64 KiB image downloaded by block transfer, then
+ * started (its CRC-32 checked by the device and shown in 1F56h:1);
+ * downloads refused while running or before a clear; a corrupted image
+ * refused on start; 1020h written and read back.
+ *
+ *   make build/san/tests/integration/test_cosim_program build/san/bin/cogwd \
+ *        build/san/bin/cosim build/san/bin/cogwctl
+ *   tests/vcan/run -n 3 -- build/san/tests/integration/test_cosim_program
+ */
+#include <cjson/cJSON.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "tests/integration/support/daemon.h"
+#include "tests/integration/support/proc.h"
+#include "unity.h"
+
+#define CTL "build/san/bin/cogwctl"
+#define IMAGE_SIZE (64u * 1024u)
+
+static daemon_run dmn;
+static cosim_run sim;
+
+typedef struct ctl_result {
+	int exit;
+	char out[8192];
+	char err[4096];
+} ctl_result;
+
+static ctl_result res;
+
+static void slurp(const char *path, char *buf, size_t cap)
+{
+	buf[0] = '\0';
+	FILE *f = fopen(path, "r");
+	if (!f)
+		return;
+	size_t n = fread(buf, 1, cap - 1, f);
+	buf[n] = '\0';
+	fclose(f);
+}
+
+static ctl_result *ctl_run(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+static ctl_result *ctl_run(const char *fmt, ...)
+{
+	char args[1024], cmd[1400], out_path[128], err_path[128];
+	va_list ap;
+	va_start(ap, fmt);
+	vsnprintf(args, sizeof args, fmt, ap);
+	va_end(ap);
+	snprintf(out_path, sizeof out_path, "%s/ctl.out", dmn.dir);
+	snprintf(err_path, sizeof err_path, "%s/ctl.err", dmn.dir);
+	snprintf(cmd, sizeof cmd, "%s --timeout 60000 %s >%s 2>%s", CTL, args, out_path, err_path);
+	int st = system(cmd);
+	res.exit = (st != -1 && WIFEXITED(st)) ? WEXITSTATUS(st) : -1;
+	slurp(out_path, res.out, sizeof res.out);
+	slurp(err_path, res.err, sizeof res.err);
+	return &res;
+}
+
+/* An independent CRC-32 (IEEE 802.3) to build images with. */
+static uint32_t crc32_ieee(const uint8_t *p, size_t n)
+{
+	uint32_t crc = 0xFFFFFFFFu;
+	for (size_t i = 0; i < n; i++) {
+		crc ^= p[i];
+		for (int b = 0; b < 8; b++)
+			crc = (crc & 1u) ? (crc >> 1) ^ 0xEDB88320u : crc >> 1;
+	}
+	return ~crc;
+}
+
+static uint32_t write_image(const char *name, bool corrupt, char *path, size_t cap)
+{
+	static uint8_t img[IMAGE_SIZE];
+	for (uint32_t i = 0; i < IMAGE_SIZE - 4; i++)
+		img[i] = (uint8_t)(i * 131u + (i >> 8));
+	uint32_t crc = crc32_ieee(img, IMAGE_SIZE - 4);
+	for (int b = 0; b < 4; b++)
+		img[IMAGE_SIZE - 4 + b] = (uint8_t)(crc >> (8 * b));
+	if (corrupt)
+		img[1000] ^= 0x40;
+	snprintf(path, cap, "%s/%s", dmn.dir, name);
+	FILE *f = fopen(path, "wb");
+	TEST_ASSERT_NOT_NULL(f);
+	TEST_ASSERT_EQUAL_size_t(IMAGE_SIZE, fwrite(img, 1, IMAGE_SIZE, f));
+	fclose(f);
+	return crc;
+}
+
+static double read_value(const char *obj, const char *sub, const char *type)
+{
+	ctl_run("--json sdo read 0 1 %s %s %s", obj, sub, type);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	cJSON *o = cJSON_Parse(res.out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(o, res.out);
+	cJSON *v = cJSON_GetObjectItem(o, "value");
+	TEST_ASSERT_NOT_NULL_MESSAGE(v, res.out);
+	double d = v->valuedouble;
+	cJSON_Delete(o);
+	return d;
+}
+
+void setUp(void)
+{
+	memset(&dmn, 0, sizeof dmn);
+	memset(&sim, 0, sizeof sim);
+	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .n_lines = 3 }));
+	const char *devices[] = { "etc/devices/sti-pressure.json", NULL };
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, NULL));
+}
+
+void tearDown(void)
+{
+	cosim_stop(&sim, 3000);
+	daemon_cleanup(&dmn);
+	daemon_unlink_queues("main");
+}
+
+static void test_program_download_start_and_refusals(void)
+{
+	char good[200], bad[200];
+	uint32_t crc = write_image("good.bin", false, good, sizeof good);
+	write_image("bad.bin", true, bad, sizeof bad);
+
+	/* a fresh device: flash cleared, no software */
+	TEST_ASSERT_EQUAL_DOUBLE(3, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F56", "1", "u32"));
+
+	/* 64 KiB by block transfer */
+	ctl_run("sdo write 0 1 1F50 1 domain @%s --mode block", good);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F51", "1", "u8")); /* stopped */
+
+	/* start: the device checks the CRC and runs it */
+	ctl_run("sdo write 0 1 1F51 1 u8 1");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
+
+	/* no download while running, no clear while running */
+	ctl_run("sdo write 0 1 1F50 1 domain @%s --mode block", good);
+	TEST_ASSERT_EQUAL_INT(1, res.exit);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "08000022"), res.err);
+	ctl_run("sdo write 0 1 1F51 1 u8 3");
+	TEST_ASSERT_EQUAL_INT(1, res.exit);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "08000022"), res.err);
+
+	/* stop, and a download before the clear is refused too */
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1F51 1 u8 0")->exit);
+	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F51", "1", "u8"));
+	ctl_run("sdo write 0 1 1F50 1 domain @%s --mode block", good);
+	TEST_ASSERT_EQUAL_INT(1, res.exit);
+
+	/* clear, download a corrupted image: refused on start */
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1F51 1 u8 3")->exit);
+	TEST_ASSERT_EQUAL_DOUBLE(3, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F56", "1", "u32"));
+	ctl_run("sdo write 0 1 1F50 1 domain @%s --mode block", bad);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	ctl_run("sdo write 0 1 1F51 1 u8 1");
+	TEST_ASSERT_EQUAL_INT(1, res.exit);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "08000020"), res.err);
+	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F56", "1", "u32"));
+	/* an unknown command */
+	ctl_run("sdo write 0 1 1F51 1 u8 7");
+	TEST_ASSERT_EQUAL_INT(1, res.exit);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "06090030"), res.err);
+}
+
+static void test_verify_configuration_object(void)
+{
+	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1020", "1", "u32"));
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1020 1 u32 15000")->exit);
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1020 2 u32 3600000")->exit);
+	TEST_ASSERT_EQUAL_DOUBLE(15000, read_value("1020", "1", "u32"));
+	TEST_ASSERT_EQUAL_DOUBLE(3600000, read_value("1020", "2", "u32"));
+}
+
+int main(void)
+{
+	UNITY_BEGIN();
+	RUN_TEST(test_program_download_start_and_refusals);
+	RUN_TEST(test_verify_configuration_object);
+	return UNITY_END();
+}
