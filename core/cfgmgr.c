@@ -591,6 +591,18 @@ uint64_t co_cfgmgr_line_tick(co_cfgmgr_line *l, uint64_t now_us)
 	return next;
 }
 
+uint64_t co_cfgmgr_line_next_deadline_us(const co_cfgmgr_line *l)
+{
+	uint64_t next = CO_NO_DEADLINE;
+
+	for (unsigned n = 0; n < 127; n++) {
+		uint64_t d = co_cfgmgr_next_deadline_us(&l->job[n]);
+		if (d < next)
+			next = d;
+	}
+	return next;
+}
+
 void co_cfgmgr_line_cancel_all(co_cfgmgr_line *l, uint64_t now_us)
 {
 	for (unsigned n = 0; n < 127; n++)

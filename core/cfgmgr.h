@@ -198,6 +198,7 @@ void co_cfgmgr_line_init(co_cfgmgr_line *l, co_node *node, co_cfgmgr_done_fn don
 int co_cfgmgr_line_configure(void *ctx, uint8_t node_id, uint64_t now_us);
 void co_cfgmgr_line_on_event(co_cfgmgr_line *l, const co_event *ev, uint64_t now_us);
 uint64_t co_cfgmgr_line_tick(co_cfgmgr_line *l, uint64_t now_us);
+uint64_t co_cfgmgr_line_next_deadline_us(const co_cfgmgr_line *l);
 /* Cancel every running job (their done() reports CANCELLED). */
 void co_cfgmgr_line_cancel_all(co_cfgmgr_line *l, uint64_t now_us);
 

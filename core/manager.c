@@ -1175,6 +1175,13 @@ static void on_bootup(co_manager *m, struct mgr_slave *s, uint64_t now_us)
 	case BS_KEEP_ALIVE:
 		bs_input(s, &in, now_us);
 		return;
+	case BS_CONFIGURE:
+		/* CiA 302-3 restore configuration (1F81h bit 7, 1F8Ah): the
+		 * configure step itself resets the node and waits for this
+		 * boot-up; the boot slave process goes on where it is. */
+		if (assignment(m, s->id) & CO_MGR_1F81_RESTORE)
+			return;
+		break;
 	default:
 		break;
 	}

@@ -165,6 +165,9 @@ enum co_mgr_nmt_read {
  * its boot slot; SDO requests go through the client pool). Return 0 when the node is configured
  * (or needs nothing), 1 when the outcome follows later through
  * co_manager_configure_done(), or a negative errno for a failure (J).
+ * With 1F81h:n bit 7 (restore configuration) the step may reset the node
+ * itself: a boot-up of node n during the step is then left to the hook
+ * (core/cfgmgr.h co_cfgmgr_line_configure) instead of restarting its boot.
  */
 typedef int (*co_mgr_configure_fn)(void *ctx, uint8_t node_id, uint64_t now_us);
 
