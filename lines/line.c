@@ -351,6 +351,7 @@ static void *line_main(void *arg)
 	uint64_t checkin_period = (uint64_t)l->p.checkin_ms * 1000u;
 	l->now_us = line_now_us();
 	co_node_tick(l->node, l->now_us);
+	line_store_started(l);
 	/* Publish once before saying "up": the main thread builds the STATUS=
 	 * that goes with READY=1 from these counters, and without them it
 	 * reported every line as "starting" at the moment it declared the

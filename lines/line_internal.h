@@ -52,6 +52,7 @@ typedef struct line_store_req {
 	 * blob's parts: what 1011h "load" makes the defaults again. */
 	uint8_t *factory;
 	uint32_t factory_len;
+	bool damaged;       /* the saved set could not be loaded: EMCY */
 } line_store_req;
 
 #define LINE_STORE_MAX (256u * 1024u)
@@ -126,6 +127,9 @@ void line_pending_release(line *l, line_pending *pp);
 /* line_store.c */
 int line_store_attach(line *l);
 int line_store_load(line *l);
+/* Line thread, once the node runs: EMCY 6300h (data set) if the saved
+ * parameters were damaged and the configured values are in use. */
+void line_store_started(line *l);
 void line_store_poll(line *l); /* on wake-up: finish a completed save */
 /* Start a save (op 1) or restore (op 2) for a mailbox request. Returns 0,
  * -EBUSY (one already running) or -EINVAL. */

@@ -30,8 +30,18 @@
  *   brings the defaults back. Current values stay until that reset.
  *
  * The files hold core/od_image.h images (the simulator uses the same
- * format). On load every record is checked against the OD and bad ones are
- * skipped and counted in the log line, never trusted.
+ * format) sealed with core/store_file.h: a CRC-32 over the image and a
+ * generation shared by the files of one save. A file that fails the
+ * check (truncated, a flipped bit, no seal), or a save cut between its two
+ * files (the newest file names a part whose file has another
+ * generation), is damaged: nothing at all is loaded, the line starts on
+ * its configured values, logs an error and sends EMCY 6300h "data set"
+ * (issue 11: a kill between the two renames left them inconsistent, a bit
+ * flip loaded as another value and a truncated file half-applied).
+ * 1011h "load" first re-seals the parts that stay (so they no longer name
+ * the deleted ones), then deletes. On load every record is checked
+ * against the OD and bad ones are skipped and counted in the log line,
+ * never trusted.
  */
 #include "lines/line_internal.h"
 
@@ -39,12 +49,16 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
 #include <sys/eventfd.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "core/od_image.h"
+#include "core/emcy.h"
 #include "core/sdo_server.h"
 #include "core/store.h"
+#include "core/store_file.h"
 #include "lines/file_atomic.h"
 #include "lines/log.h"
 
@@ -134,6 +148,99 @@ int line_store_request_mbx(line *l, uint8_t op, uint8_t sub, const mbx_reply_to 
 
 /* ---- main thread ---------------------------------------------------------- */
 
+/* Read a saved part file (at most cap bytes) into buf. Returns its length,
+ * -ENOENT if there is none, -EFBIG if larger than cap, or -errno. Only a
+ * regular file is read: O_NONBLOCK, so a FIFO put there cannot block. */
+static long read_part(const char *path, uint8_t *buf, size_t cap)
+{
+	int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+	struct stat st;
+	size_t n = 0;
+
+	if (fd < 0)
+		return -errno;
+	if (fstat(fd, &st) < 0 || !S_ISREG(st.st_mode)) {
+		close(fd);
+		return -EINVAL;
+	}
+	while (n < cap) {
+		ssize_t r = read(fd, buf + n, cap - n);
+
+		if (r < 0 && errno == EINTR)
+			continue;
+		if (r < 0) {
+			int e = errno;
+
+			close(fd);
+			return -e;
+		}
+		if (r == 0)
+			break;
+		n += (size_t)r;
+	}
+	if (n == cap) {
+		uint8_t extra;
+
+		if (read(fd, &extra, 1) > 0) {
+			close(fd);
+			return -EFBIG;
+		}
+	}
+	close(fd);
+	return (long)n;
+}
+
+/* The generation and set of a part file on disk (0 if none or damaged). */
+static co_store_file_info part_info(const line *l, unsigned part, uint8_t *buf, size_t cap)
+{
+	char path[400];
+	co_store_file_info info = { 0 };
+
+	part_path(l, part, path, sizeof path);
+	long n = read_part(path, buf, cap);
+	if (n < 0 || co_store_file_check(buf, (size_t)n, &info) < 0)
+		info = (co_store_file_info){ 0 };
+	return info;
+}
+
+/* Write a part (image of n bytes) sealed with generation gen and set. */
+static int write_part(const char *path, const uint8_t *image, uint32_t n, uint32_t gen,
+		      uint32_t set)
+{
+	uint8_t *buf = malloc((size_t)n + CO_STORE_FILE_TRAILER);
+	if (!buf)
+		return -ENOMEM;
+	memcpy(buf, image, n);
+	long len = co_store_file_seal(buf, n, (size_t)n + CO_STORE_FILE_TRAILER, gen, set);
+	int rc = len < 0 ? (int)len : file_write_atomic(path, buf, (size_t)len, 0640);
+	free(buf);
+	return rc;
+}
+
+/* 1011h: the parts that stay get a seal that no longer names the deleted
+ * ones (else the set would read as torn), then the others are deleted. */
+static int restore_parts(line *l, unsigned del, uint8_t *tmp, size_t cap)
+{
+	char path[400];
+	int rc = 0;
+	for (int i = 0; i < N_PARTS && !rc; i++) {
+		if (del & parts[i])
+			continue;
+		part_path(l, parts[i], path, sizeof path);
+		long n = read_part(path, tmp, cap);
+		co_store_file_info info;
+		if (n < 0 || co_store_file_check(tmp, (size_t)n, &info) < 0 || !(info.set & del))
+			continue;
+		rc = write_part(path, tmp, (uint32_t)info.image_len, info.generation, info.set & ~del);
+	}
+	for (int i = 0; i < N_PARTS && !rc; i++) {
+		part_path(l, parts[i], path, sizeof path);
+		if ((del & parts[i]) && unlink(path) != 0 && errno != ENOENT)
+			rc = -errno;
+	}
+	return rc;
+}
+
 bool line_store_service(line *l)
 {
 	if (!l || atomic_load(&l->store.state) != 1)
@@ -141,18 +248,31 @@ bool line_store_service(line *l)
 	int rc = 0;
 	char path[400];
 	uint32_t off = 0;
-	for (int i = 0; i < N_PARTS && !rc; i++) {
-		if (!(parts_of_sub(l->store.sub) & parts[i]))
+	unsigned set = parts_of_sub(l->store.sub);
+	uint8_t *tmp = malloc(LINE_STORE_MAX); /* main thread: not real time */
+	uint32_t gen = 0;
+	if (!tmp)
+		rc = -ENOMEM;
+	/* one generation newer than anything on disk: see core/store_file.h */
+	for (int i = 0; i < N_PARTS && !rc && l->store.op == 1; i++) {
+		co_store_file_info info = part_info(l, parts[i], tmp, LINE_STORE_MAX);
+		if (info.generation > gen)
+			gen = info.generation;
+	}
+	gen++;
+	if (!rc && l->store.op == 2) {
+		rc = restore_parts(l, set, tmp, LINE_STORE_MAX);
+		snprintf(path, sizeof path, "%s.*", l->state_path);
+	}
+	for (int i = 0; i < N_PARTS && !rc && l->store.op == 1; i++) {
+		if (!(set & parts[i]))
 			continue;
 		part_path(l, parts[i], path, sizeof path);
-		if (l->store.op == 1) {
-			uint32_t n = co_get_le32(l->store.blob + off);
-			rc = file_write_atomic(path, l->store.blob + off + 4, n, 0640);
-			off += 4u + n;
-		} else if (unlink(path) != 0 && errno != ENOENT) {
-			rc = -errno;
-		}
+		uint32_t n = co_get_le32(l->store.blob + off);
+		rc = write_part(path, l->store.blob + off + 4, n, gen, set);
+		off += 4u + n;
 	}
+	free(tmp);
 	if (rc)
 		cogw_log(COGW_LOG_ERR, "line %s: %s %s: %s", l->name,
 			 l->store.op == 1 ? "save to" : "restore (delete)", path, strerror(-rc));
@@ -231,30 +351,9 @@ void line_store_poll(line *l)
 }
 
 /* Start-up, before the node is created (its services read their objects
- * when they start) and before the thread runs, so plain file I/O is fine. */
-static void load_part(line *l, unsigned part)
-{
-	char path[400];
-	part_path(l, part, path, sizeof path);
-	FILE *f = fopen(path, "rb");
-	if (!f) {
-		if (errno != ENOENT)
-			cogw_log(COGW_LOG_WARNING, "line %s: cannot read %s: %s", l->name, path, strerror(errno));
-		return;
-	}
-	size_t n = fread(l->store.blob, 1, LINE_STORE_MAX, f);
-	fclose(f);
-	unsigned applied, skipped;
-	if (co_od_image_apply(l->p.node.od, l->store.blob, n,
-			      CO_OD_IMAGE_SET_VALUE | CO_OD_IMAGE_SET_DEFAULT, &applied, &skipped) < 0) {
-		cogw_log(COGW_LOG_WARNING, "line %s: %s is not a cogw parameter file; ignored", l->name, path);
-		return;
-	}
-	cogw_log(skipped ? COGW_LOG_WARNING : COGW_LOG_INFO, "line %s: loaded %u saved values from %s%s",
-		 l->name, applied, path,
-		 skipped ? " (some records did not match the dictionary and were skipped)" : "");
-}
-
+ * when they start) and before the thread runs, so plain file I/O is fine.
+ * Both parts are read and checked first; only a whole, consistent set is
+ * applied. */
 int line_store_load(line *l)
 {
 	/* The configured values, before any saved file changes them: what a
@@ -269,7 +368,75 @@ int line_store_load(line *l)
 		cogw_log(COGW_LOG_WARNING, "line %s: cannot keep the configured values; 1011h \"load\" "
 			 "takes effect at the next start only", l->name);
 	}
-	load_part(l, CO_OD_IMAGE_COMM);
-	load_part(l, CO_OD_IMAGE_APP);
+	char path[N_PARTS][400];
+	long len[N_PARTS];
+	co_store_file_info info[N_PARTS] = { { 0 } };
+	int present[N_PARTS] = { 0 };
+	uint8_t *buf[N_PARTS] = { l->store.blob, malloc(LINE_STORE_MAX) };
+	const char *damage = NULL;
+	int bad = -1;
+
+	if (!buf[1]) {
+		cogw_log(COGW_LOG_ERR, "line %s: cannot load saved values: out of memory", l->name);
+		return -ENOMEM;
+	}
+	for (int i = 0; i < N_PARTS && !damage; i++) {
+		part_path(l, parts[i], path[i], sizeof path[i]);
+		len[i] = read_part(path[i], buf[i], LINE_STORE_MAX);
+		if (len[i] == -ENOENT)
+			continue;
+		bad = i;
+		if (len[i] == -EINVAL)
+			damage = "is not a regular file";
+		else if (len[i] == -EFBIG)
+			damage = "is too large";
+		else if (len[i] < 0)
+			damage = strerror((int)-len[i]);
+		else if ((size_t)len[i] < CO_OD_IMAGE_MAGIC_LEN ||
+			 memcmp(buf[i], "COGWOD1\n", CO_OD_IMAGE_MAGIC_LEN) != 0)
+			damage = "is not a cogw parameter file; ignored,";
+		else {
+			int rc = co_store_file_check(buf[i], (size_t)len[i], &info[i]);
+			if (rc == -ENODATA)
+				damage = "has no checksum (truncated, or not written by cogw)";
+			else if (rc < 0)
+				damage = "fails its checksum (damaged)";
+		}
+		present[i] = 1;
+	}
+	if (!damage && co_store_file_torn(info, present, parts, N_PARTS)) {
+		damage = "belongs to an interrupted save (its parts are of different generations)";
+		bad = 0;
+	}
+	if (damage) {
+		/* never half-apply: all configured values, an error, an EMCY */
+		cogw_log(COGW_LOG_ERR,
+			 "line %s: saved parameters damaged: %s %s; none of them loaded, starting with "
+			 "the configured values (EMCY 6300h)",
+			 l->name, path[bad], damage);
+		l->store.damaged = true;
+		free(buf[1]);
+		return 0;
+	}
+	for (int i = 0; i < N_PARTS; i++) {
+		if (!present[i])
+			continue;
+		unsigned applied = 0, skipped = 0;
+		co_od_image_apply(l->p.node.od, buf[i], info[i].image_len,
+				  CO_OD_IMAGE_SET_VALUE | CO_OD_IMAGE_SET_DEFAULT, &applied, &skipped);
+		cogw_log(skipped ? COGW_LOG_WARNING : COGW_LOG_INFO, "line %s: loaded %u saved values from %s%s",
+			 l->name, applied, path[i],
+			 skipped ? " (some records did not match the dictionary and were skipped)" : "");
+	}
+	free(buf[1]);
 	return 0;
+}
+
+void line_store_started(line *l)
+{
+	static const uint8_t msef[5] = { 0 };
+
+	if (l->store.damaged)
+		co_emcy_send(l->node, 0x6300u /* data set (CiA 301 table 21) */, CO_EMCY_REG_GENERIC, msef,
+			     l->now_us);
 }

@@ -37,6 +37,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "core/od_image.h"
+#include "core/store_file.h"
 #include "mailbox/cogw.h"
 #include "mailbox/proto.h"
 #include "tests/integration/support/daemon.h"
@@ -325,6 +327,37 @@ static void test_no_ready_when_a_line_fails(void)
 
 /* ---- 2. store / restore across restarts ---------------------------------------------- */
 
+/* Write a parameter file: image, sealed (core/store_file.h) unless gen is
+ * 0, with one byte flipped at flip (if >= 0). */
+static void write_state_file(const char *path, const uint8_t *image, size_t n, uint32_t gen,
+			     uint32_t set, long flip)
+{
+	uint8_t buf[512];
+	long len = (long)n;
+	TEST_ASSERT_TRUE(n + CO_STORE_FILE_TRAILER <= sizeof buf);
+	memcpy(buf, image, n);
+	if (gen)
+		len = co_store_file_seal(buf, n, sizeof buf, gen, set);
+	TEST_ASSERT_TRUE(len > 0);
+	if (flip >= 0)
+		buf[flip] ^= 0x10;
+	FILE *f = fopen(path, "wb");
+	TEST_ASSERT_NOT_NULL(f);
+	TEST_ASSERT_EQUAL_size_t((size_t)len, fwrite(buf, 1, (size_t)len, f));
+	fclose(f);
+}
+
+/* 1001h error register of line 0's own node */
+static uint8_t error_register(void)
+{
+	uint8_t v = 0xEE;
+	size_t len = 0;
+	uint32_t abort = 0;
+	int rc = cogw_od_read(client, 0, 0x1001, 0, &v, 1, &len, 5000, &abort);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, cogw_strerror(rc));
+	return v;
+}
+
 static void restart_on_same_state(const char *json, const char *instance)
 {
 	cogw_close(client);
@@ -411,10 +444,34 @@ static void test_store_restore_survives_restart(void)
 		0xFF, 0x5F, 0x00, 0x02, 0x00, 0x00, 0x00, 0x01, 0x00,             /* 5FFFh: absent */
 		0x05, 0x10, 0x00, 0xFF, 0x00, 0x00, 0x00, 0x01,                   /* truncated */
 	};
-	FILE *f = fopen(comm, "wb");
-	TEST_ASSERT_NOT_NULL(f);
-	TEST_ASSERT_EQUAL_size_t(sizeof mixed, fwrite(mixed, 1, sizeof mixed, f));
-	fclose(f);
+	/* issue 11: damaged saved values are never half-applied. Before,
+	 * each of these loaded 1017h = 400 (a truncated file with a warning,
+	 * a flipped bit silently as another value, a save cut between its two
+	 * files half old, half new); now: the configured values, an error
+	 * in the log and EMCY 6300h (1001h generic error bit). */
+	write_state_file(comm, mixed, sizeof mixed, 0, 0, -1); /* no seal: truncated / foreign */
+	restart_on_same_state(json, "sys2");
+	TEST_ASSERT_TRUE(file_contains(d2.log_path, "has no checksum"));
+	TEST_ASSERT_TRUE(file_contains(d2.log_path, "none of them loaded"));
+	TEST_ASSERT_EQUAL_UINT16(1000, od_read_u16(client, 0x1017));
+	TEST_ASSERT_EQUAL_HEX8(0x01, error_register() & 0x01);
+	write_state_file(comm, mixed, sizeof mixed, 5, CO_OD_IMAGE_COMM, 16); /* 400 -> another value */
+	restart_on_same_state(json, "sys2");
+	TEST_ASSERT_TRUE(file_contains(d2.log_path, "fails its checksum (damaged)"));
+	TEST_ASSERT_EQUAL_UINT16(1000, od_read_u16(client, 0x1017));
+	TEST_ASSERT_EQUAL_HEX8(0x01, error_register() & 0x01);
+	static const uint8_t app_image[] = { 'C', 'O', 'G', 'W', 'O', 'D', '1', '\n' };
+	write_state_file(comm, mixed, sizeof mixed, 7, CO_OD_IMAGE_COMM | CO_OD_IMAGE_APP, -1);
+	write_state_file(app, app_image, sizeof app_image, 6, CO_OD_IMAGE_COMM | CO_OD_IMAGE_APP, -1);
+	restart_on_same_state(json, "sys2");
+	TEST_ASSERT_TRUE(file_contains(d2.log_path, "belongs to an interrupted save"));
+	TEST_ASSERT_EQUAL_UINT16(1000, od_read_u16(client, 0x1017));
+	TEST_ASSERT_EQUAL_HEX8(0x01, error_register() & 0x01);
+	TEST_ASSERT_EQUAL_INT(0, unlink(app));
+
+	/* whole and sealed: applied (the records the dictionary does not
+	 * know are skipped: a configuration that changed, not damage) */
+	write_state_file(comm, mixed, sizeof mixed, 8, CO_OD_IMAGE_COMM, -1);
 	restart_on_same_state(json, "sys2");
 	TEST_ASSERT_TRUE(file_contains(d2.log_path, "did not match the dictionary and were skipped"));
 	TEST_ASSERT_EQUAL_UINT16(400, od_read_u16(client, 0x1017));
