@@ -48,7 +48,12 @@ int file_write_atomic(const char *path, const void *buf, size_t len, unsigned mo
 	char tmp[PATH_MAX];
 	if ((size_t)snprintf(tmp, sizeof tmp, "%s.tmp", path) >= sizeof tmp)
 		return -ENAMETOOLONG;
-	int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, mode);
+	/* Whatever sits at the temp path (a leftover, or a FIFO or device
+	 * somebody put there: opening that for writing could block for ever)
+	 * goes first; the new temp file is created exclusively. */
+	if (unlink(tmp) != 0 && errno != ENOENT)
+		return -errno;
+	int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, mode);
 	if (fd < 0)
 		return -errno;
 	int rc = write_all(fd, buf, len);

@@ -427,6 +427,20 @@ int main(int argc, char **argv)
 
 	if (sd_watchdog_enabled(0, &d.watchdog_usec) <= 0)
 		d.watchdog_usec = 0;
+	/* An idle line wakes every watchdog_check_ms/2 to check in, and a
+	 * ping is withheld when a line has not checked in for half the
+	 * watchdog period: a check period that does not fit would stop the
+	 * pings of a healthy idle line (issue 11: watchdog_check_ms 60000
+	 * under WatchdogSec=5s). Refused, with what would fit. */
+	if (d.watchdog_usec && (uint64_t)d.cfg.watchdog_check_ms * 1000u > d.watchdog_usec / 2) {
+		cogw_log(COGW_LOG_ERR,
+			 "watchdog_check_ms %u does not fit the systemd watchdog period of %llu ms: an idle "
+			 "line checks in every watchdog_check_ms/2 and must do so within half the period; "
+			 "use at most %llu",
+			 d.cfg.watchdog_check_ms, (unsigned long long)(d.watchdog_usec / 1000u),
+			 (unsigned long long)(d.watchdog_usec / 2000u));
+		goto out;
+	}
 	if (cogwd_exts_setup(&d.exts, &d.cfg) < 0)
 		goto out;
 	if (create_lines(&d) < 0)

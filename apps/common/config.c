@@ -25,6 +25,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <cjson/cJSON.h>
@@ -36,6 +37,7 @@
 #include "core/od_std.h"
 
 #define CONFIG_FILE_MAX (4u * 1024u * 1024u)
+#define CONFIG_READ_TIMEOUT_S 5 /* reading the config file, at most */
 #define IFNAME_MAX 15u /* IFNAMSIZ - 1 */
 /* mirror mailbox/proto.h MBX_MSG_MIN / MBX_MSG_MAX */
 #define MSG_SIZE_MIN 256u
@@ -1222,7 +1224,11 @@ int cogw_config_load_file(cogw_config *cfg, const char *path, char *err,
 	int fd, rc;
 
 	memset(cfg, 0, sizeof(*cfg));
-	fd = open(path, O_RDONLY | O_CLOEXEC);
+	/* O_NONBLOCK: opening a FIFO (or a device) for reading would wait for
+	 * a writer for ever, and with it start-up, --check and a reload
+	 * (issue 11). It is refused by the regular-file check below; for a
+	 * regular file the flag changes nothing. */
+	fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
 	if (fd < 0) {
 		rc = errno == ENOENT ? -ENOENT : -EIO;
 		snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
@@ -1233,6 +1239,9 @@ int cogw_config_load_file(cogw_config *cfg, const char *path, char *err,
 		close(fd);
 		return -EIO;
 	}
+	struct timespec t0, t1;
+
+	clock_gettime(CLOCK_MONOTONIC, &t0);
 	if ((uint64_t)st.st_size > CONFIG_FILE_MAX) {
 		snprintf(err, errlen, "%s: larger than %u bytes", path,
 			 CONFIG_FILE_MAX);
@@ -1247,6 +1256,23 @@ int cogw_config_load_file(cogw_config *cfg, const char *path, char *err,
 	}
 	while (got < (size_t)st.st_size &&
 	       (n = read(fd, buf + got, (size_t)st.st_size - got)) != 0) {
+		/* time-boxed: a file system that trickles (FUSE, a dead NFS
+		 * server answering slowly) must not hold start-up or a
+		 * reload for ever */
+		clock_gettime(CLOCK_MONOTONIC, &t1);
+		if (t1.tv_sec - t0.tv_sec > CONFIG_READ_TIMEOUT_S) {
+			snprintf(err, errlen, "%s: reading took more than %d s", path,
+				 CONFIG_READ_TIMEOUT_S);
+			free(buf);
+			close(fd);
+			return -EIO;
+		}
+		if (n < 0 && errno == EAGAIN) {
+			struct timespec pause = { 0, 10000000 };
+
+			nanosleep(&pause, NULL);
+			continue;
+		}
 		if (n < 0) {
 			if (errno == EINTR)
 				continue;

@@ -325,6 +325,74 @@ static void test_no_ready_when_a_line_fails(void)
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, daemon_leftovers("sys1b", NULL, 0, report, sizeof report), report);
 }
 
+/* issue 11: a valid watchdog_check_ms longer than an idle line sleeps used
+ * to stop every WATCHDOG=1 (seen with 60000 and idle lines): systemd then
+ * kills a healthy daemon. Now a period that cannot fit is refused at start,
+ * and one that fits keeps an idle daemon pinging. */
+static void test_watchdog_check_period_fits_the_watchdog(void)
+{
+	char json[4096];
+	config_text(json, sizeof json,
+		    &(cfg_params){ .instance = "sys1w", .n_lines = 2, .top = "\"watchdog_check_ms\": 60000," });
+	int rc = daemon_start(&d, &(daemon_opts){ .config_json = json, .instance = "sys1w", .n_lines = 2,
+						  .notify = true, .watchdog_usec = 2000000,
+						  .ready_timeout_ms = 20000 });
+	TEST_ASSERT_EQUAL_INT_MESSAGE(-ECHILD, rc, "a check period that cannot fit was accepted");
+	TEST_ASSERT_TRUE(WIFEXITED(d.exit_status) && WEXITSTATUS(d.exit_status) != 0);
+	TEST_ASSERT_TRUE(file_contains(d.log_path, "watchdog_check_ms 60000 does not fit the systemd watchdog "
+						   "period of 2000 ms"));
+	daemon_cleanup(&d);
+
+	/* the largest that fits: idle lines, pings all the time */
+	config_text(json, sizeof json,
+		    &(cfg_params){ .instance = "sys1w", .n_lines = 2, .top = "\"watchdog_check_ms\": 1000," });
+	start_daemon(&d, json, "sys1w", 2, 2000000, NULL);
+	drain_notify(&d.ns);
+	TEST_ASSERT_GREATER_OR_EQUAL_INT(6, notify_count(&d.ns, "WATCHDOG=1", 5000));
+	TEST_ASSERT_FALSE(file_contains(d.log_path, "withholding the watchdog ping"));
+}
+
+static int run_cogwd(const char *config, const char *extra, const char *log, int timeout_ms);
+
+/* issue 11: a FIFO at the configuration path or at a state-file path
+ * blocked start-up, --check and a reload for ever (and with a reload,
+ * SIGTERM too). Now: refused as "not a regular file", at once. */
+static void test_special_files_do_not_block(void)
+{
+	char json[4096], fifo[300], log[300], comm[300];
+	config_text(json, sizeof json, &(cfg_params){ .instance = "sys1f", .n_lines = 1 });
+	start_daemon(&d, json, "sys1f", 1, 0, NULL);
+
+	/* --check on a FIFO: a clear error, no wait */
+	snprintf(fifo, sizeof fifo, "%s/fifo.json", d.dir);
+	snprintf(log, sizeof log, "%s/check.log", d.dir);
+	TEST_ASSERT_EQUAL_INT(0, mkfifo(fifo, 0600));
+	TEST_ASSERT_NOT_EQUAL(0, run_cogwd(fifo, "--check", log, 10000));
+	TEST_ASSERT_TRUE(file_contains(log, "not a regular file"));
+
+	/* reload with the config path turned into a FIFO: refused, the daemon
+	 * goes on and still stops on SIGTERM */
+	TEST_ASSERT_EQUAL_INT(0, unlink(d.config_path));
+	TEST_ASSERT_EQUAL_INT(0, mkfifo(d.config_path, 0600));
+	TEST_ASSERT_EQUAL_INT(0, kill(d.pid, SIGHUP));
+	TEST_ASSERT_TRUE(file_wait_contains(d.log_path, "not a regular file", 5000));
+	open_client("sys1f");
+	TEST_ASSERT_EQUAL_INT(0, cogw_ping(client, 0, 5000));
+	cogw_close(client);
+	client = NULL;
+	int st = daemon_stop(&d, 10000);
+	TEST_ASSERT_TRUE_MESSAGE(st != -1 && WIFEXITED(st), "SIGTERM did not stop the daemon");
+
+	/* a FIFO at the state file path: start-up goes on, configured values */
+	snprintf(comm, sizeof comm, "%s/line0.od.comm", d.state_dir);
+	mkdir(d.state_dir, 0750);
+	unlink(comm);
+	TEST_ASSERT_EQUAL_INT(0, mkfifo(comm, 0600));
+	daemon_cleanup(&d2);
+	start_daemon(&d2, json, "sys1f", 1, 0, d.state_dir);
+	TEST_ASSERT_TRUE(file_contains(d2.log_path, "line0.od.comm is not a regular file"));
+}
+
 /* ---- 2. store / restore across restarts ---------------------------------------------- */
 
 /* Write a parameter file: image, sealed (core/store_file.h) unless gen is
@@ -1225,6 +1293,8 @@ int main(void)
 	RUN_TEST(test_systemd_unit_verifies);
 	RUN_TEST(test_no_ready_when_a_line_fails);
 	RUN_TEST(test_notify_ready_status_watchdog_stall_stopping);
+	RUN_TEST(test_watchdog_check_period_fits_the_watchdog);
+	RUN_TEST(test_special_files_do_not_block);
 	RUN_TEST(test_store_restore_survives_restart);
 	RUN_TEST(test_store_takes_effect_at_reset);
 	RUN_TEST(test_restore_takes_effect_at_reset);

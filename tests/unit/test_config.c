@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "unity.h"
@@ -748,9 +749,33 @@ static void test_gateway_errors(void)
 		     "of all lines: define it in gateway.process_image");
 }
 
+/* issue 11: a FIFO at the config path made the loader (start-up, --check,
+ * reload) wait for a writer for ever. alarm() turns a hang into a failure. */
+static void test_fifo_config_refused_at_once(void)
+{
+	char dir[] = "/tmp/cogw-cfg-XXXXXX", path[64], msg[256];
+
+	TEST_ASSERT_NOT_NULL(mkdtemp(dir));
+	snprintf(path, sizeof path, "%s/fifo.json", dir);
+	TEST_ASSERT_EQUAL_INT(0, mkfifo(path, 0600));
+	alarm(10);
+	int rc = cogw_config_load_file(&cfg, path, msg, sizeof msg);
+	alarm(0);
+	TEST_ASSERT_EQUAL_INT(-EIO, rc);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(msg, "not a regular file"), msg);
+	unlink(path);
+	rmdir(dir);
+	/* a device too */
+	alarm(10);
+	rc = cogw_config_load_file(&cfg, "/dev/zero", msg, sizeof msg);
+	alarm(0);
+	TEST_ASSERT_EQUAL_INT(-EIO, rc);
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
+	RUN_TEST(test_fifo_config_refused_at_once);
 	RUN_TEST(test_embedded_default_parses);
 	RUN_TEST(test_defaults_of_optional_keys);
 	RUN_TEST(test_invalid_json_line_column);
