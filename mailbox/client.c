@@ -1448,6 +1448,56 @@ int cogw_sdo_write_net(cogw *h, unsigned line, uint16_t net, uint8_t node,
 		    abort, timeout_ms);
 }
 
+int cogw_mgr_status(cogw *h, unsigned line, mbx_mgr_status *st, unsigned timeout_ms)
+{
+	size_t len = 0;
+	int rc = call(h, line, MBX_CMD_MGR_STATUS, NULL, 0, NULL, 0, st, sizeof *st, &len, NULL,
+		      timeout_ms);
+
+	if (!rc && len != sizeof *st)
+		return COGW_E_PROTOCOL;
+	return rc;
+}
+
+int cogw_mgr_node_diag(cogw *h, unsigned line, uint8_t node, mbx_mgr_node_diag *d,
+		       unsigned timeout_ms)
+{
+	mbx_mgr_node_req r = { .node = node };
+	size_t len = 0;
+	int rc = call(h, line, MBX_CMD_MGR_NODE_DIAG, &r, sizeof r, NULL, 0, d, sizeof *d, &len,
+		      NULL, timeout_ms);
+
+	if (!rc && len != sizeof *d)
+		return COGW_E_PROTOCOL;
+	return rc;
+}
+
+int cogw_mgr_boot(cogw *h, unsigned line, uint8_t node, unsigned timeout_ms)
+{
+	mbx_mgr_node_req r = { .node = node };
+	return call(h, line, MBX_CMD_MGR_BOOT, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL,
+		    timeout_ms);
+}
+
+int cogw_mgr_start(cogw *h, unsigned line, unsigned timeout_ms)
+{
+	return call(h, line, MBX_CMD_MGR_START, NULL, 0, NULL, 0, NULL, 0, NULL, NULL, timeout_ms);
+}
+
+int cogw_mgr_request_nmt(cogw *h, unsigned line, uint8_t node, uint8_t cmd,
+			 unsigned timeout_ms)
+{
+	mbx_mgr_nmt_req r = { .node = node, .cmd = cmd };
+	return call(h, line, MBX_CMD_MGR_REQUEST_NMT, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL,
+		    timeout_ms);
+}
+
+int cogw_mgr_reset_counters(cogw *h, unsigned line, unsigned timeout_ms)
+{
+	return call(h, line, MBX_CMD_MGR_RESET_COUNTERS, NULL, 0, NULL, 0, NULL, 0, NULL, NULL,
+		    timeout_ms);
+}
+
 int cogw_gw_routes(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes,
 		   size_t cap, size_t *n, unsigned timeout_ms)
 {

@@ -252,6 +252,22 @@ int cogw_store(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms);
 int cogw_gw_routes(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes,
 		   size_t cap, size_t *n, unsigned timeout_ms);
 int cogw_restore(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms);
+
+/* ---- the line's CiA 302-2 manager (MBX_CMD_MGR_*) ------------------------- */
+
+/* State, flags, bit lists, counters and first error of the line. */
+int cogw_mgr_status(cogw *h, unsigned line, mbx_mgr_status *st, unsigned timeout_ms);
+/* Diagnostics of one node 1..127: last boot status, boot time/count, EMCYs. */
+int cogw_mgr_node_diag(cogw *h, unsigned line, uint8_t node, mbx_mgr_node_diag *d,
+		       unsigned timeout_ms);
+/* Boot node 1..127 again, or the whole network (node 0). */
+int cogw_mgr_boot(cogw *h, unsigned line, uint8_t node, unsigned timeout_ms);
+/* Start the network (when 1F80h leaves that to the application). */
+int cogw_mgr_start(cogw *h, unsigned line, unsigned timeout_ms);
+/* Request NMT (1F82h): node 1..127 or 128 = all; cmd 4, 5, 6, 7, 127. */
+int cogw_mgr_request_nmt(cogw *h, unsigned line, uint8_t node, uint8_t cmd,
+			 unsigned timeout_ms);
+int cogw_mgr_reset_counters(cogw *h, unsigned line, unsigned timeout_ms);
 int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st,
 		   unsigned timeout_ms);
 int cogw_ping(cogw *h, unsigned line, unsigned timeout_ms);

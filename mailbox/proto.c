@@ -228,6 +228,12 @@ static const mbx_cmd_info cmd_table[] = {
 	{ MBX_CMD_LINE_STATUS, R, 0, 0, "line-status" },
 	{ MBX_CMD_STORE, W, sizeof(mbx_store_req), 0, "store" },
 	{ MBX_CMD_RESTORE, W, sizeof(mbx_store_req), 0, "restore" },
+	{ MBX_CMD_MGR_STATUS, R, 0, 0, "manager-status" },
+	{ MBX_CMD_MGR_BOOT, W, sizeof(mbx_mgr_node_req), 0, "manager-boot" },
+	{ MBX_CMD_MGR_START, W, 0, 0, "manager-start" },
+	{ MBX_CMD_MGR_REQUEST_NMT, W, sizeof(mbx_mgr_nmt_req), 0, "manager-request-nmt" },
+	{ MBX_CMD_MGR_NODE_DIAG, R, sizeof(mbx_mgr_node_req), 0, "manager-node-diag" },
+	{ MBX_CMD_MGR_RESET_COUNTERS, W, 0, 0, "manager-reset-counters" },
 	{ MBX_CMD_GW_ROUTES, R, 0, 0, "gw-routes" },
 	{ MBX_CMD_GW_SDO_UPLOAD, R, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-upload" },
 	{ MBX_CMD_GW_SDO_DOWNLOAD, W | D, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-download" },
@@ -278,6 +284,7 @@ const char *mbx_event_class_to_string(uint32_t cls)
 	case MBX_EVC_CAN: return "can";
 	case MBX_EVC_RAW: return "raw";
 	case MBX_EVC_OD: return "od";
+	case MBX_EVC_MANAGER: return "manager";
 	case MBX_EVC_OVERFLOW: return "overflow";
 	}
 	return "?";
@@ -297,6 +304,9 @@ const char *mbx_event_to_string(unsigned code)
 	case MBX_EV_EMCY: return "emcy";
 	case MBX_EV_RAW: return "raw";
 	case MBX_EV_CAN_STATE: return "can-state";
+	case MBX_EV_MGR_STATE: return "manager-state";
+	case MBX_EV_MGR_BOOT: return "manager-boot";
+	case MBX_EV_MGR_NODE: return "manager-node";
 	}
 	return "?";
 }
@@ -315,6 +325,9 @@ uint32_t mbx_event_class_of(unsigned code)
 	case MBX_EV_EMCY: return MBX_EVC_EMCY;
 	case MBX_EV_RAW: return MBX_EVC_RAW;
 	case MBX_EV_CAN_STATE: return MBX_EVC_CAN;
+	case MBX_EV_MGR_STATE:
+	case MBX_EV_MGR_NODE: return MBX_EVC_MANAGER;
+	case MBX_EV_MGR_BOOT: return MBX_EVC_BOOT;
 	}
 	return 0;
 }
@@ -615,6 +628,31 @@ static int check_fixed(uint16_t code, const uint8_t *p, size_t len,
 			return refuse(bad, MBX_BAD_RESERVED);
 		return 0;
 	}
+	case MBX_CMD_MGR_BOOT:
+	case MBX_CMD_MGR_NODE_DIAG: {
+		mbx_mgr_node_req r;
+
+		memcpy(&r, p, sizeof r);
+		if (!all_zero(r.pad, sizeof r.pad))
+			return refuse(bad, MBX_BAD_RESERVED);
+		if (r.node > 127 || (code == MBX_CMD_MGR_NODE_DIAG && r.node < 1))
+			return refuse(bad, MBX_BAD_PARAM);
+		return 0;
+	}
+	case MBX_CMD_MGR_REQUEST_NMT: {
+		mbx_mgr_nmt_req r;
+
+		memcpy(&r, p, sizeof r);
+		if (r.pad)
+			return refuse(bad, MBX_BAD_RESERVED);
+		if (r.node < 1 || r.node > 128)
+			return refuse(bad, MBX_BAD_PARAM);
+		switch (r.cmd) {
+		case 4: case 5: case 6: case 7: case 127:
+			return 0;
+		}
+		return refuse(bad, MBX_BAD_PARAM);
+	}
 	case MBX_CMD_GW_SDO_UPLOAD:
 	case MBX_CMD_GW_SDO_DOWNLOAD: {
 		mbx_gw_sdo_req r;
@@ -753,6 +791,10 @@ int mbx_event_validate(unsigned code, const uint8_t *p, size_t len)
 		return len == sizeof(mbx_ev_raw) ? 0 : MBX_E_MALFORMED;
 	case MBX_EV_CAN_STATE:
 		return len == sizeof(mbx_ev_can_state) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_MGR_STATE:
+	case MBX_EV_MGR_BOOT:
+	case MBX_EV_MGR_NODE:
+		return len == sizeof(mbx_ev_mgr) ? 0 : MBX_E_MALFORMED;
 	}
 	return MBX_E_UNKNOWN_CMD;
 }

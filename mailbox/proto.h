@@ -203,7 +203,13 @@ typedef enum mbx_cmd {
 	/* 0x09xx store / restore (1010h / 1011h of the line's OD) */
 	MBX_CMD_STORE = 0x0901,   /* W mbx_store_req */
 	MBX_CMD_RESTORE = 0x0902, /* W mbx_store_req */
-	/* 0x0Axx manager (CiA 302-2/-3) */
+	/* 0x0Axx manager (CiA 302-2/-3; answered when the line has one) */
+	MBX_CMD_MGR_STATUS = 0x0A01,  /* R - -> mbx_mgr_status */
+	MBX_CMD_MGR_BOOT = 0x0A02,    /* W mbx_mgr_node_req: node 0 = the network */
+	MBX_CMD_MGR_START = 0x0A03,   /* W -: start the network (1F80h bit 2/3) */
+	MBX_CMD_MGR_REQUEST_NMT = 0x0A04, /* W mbx_mgr_nmt_req (1F82h) */
+	MBX_CMD_MGR_NODE_DIAG = 0x0A05, /* R mbx_mgr_node_req -> mbx_mgr_node_diag */
+	MBX_CMD_MGR_RESET_COUNTERS = 0x0A06, /* W - */
 	/* 0x0Bxx gateway (CiA 302-7, docs/gateway.md) */
 	MBX_CMD_GW_ROUTES = 0x0B01,       /* R - -> mbx_gw_status + mbx_gw_route[n] */
 	MBX_CMD_GW_SDO_UPLOAD = 0x0B02,   /* R mbx_gw_sdo_req -> data, hdr.abort */
@@ -245,9 +251,10 @@ enum mbx_event_class {
 	MBX_EVC_CAN = 1u << 6,  /* CAN controller state (bus-off, ...) */
 	MBX_EVC_RAW = 1u << 7,  /* raw frames, opt-in, id/mask filtered */
 	MBX_EVC_OD = 1u << 8,   /* local object written over SDO */
+	MBX_EVC_MANAGER = 1u << 9, /* manager state, unexpected/late/lost nodes */
 	MBX_EVC_OVERFLOW = 1u << 31, /* always delivered, cannot be cleared */
 };
-#define MBX_EVC_ALL 0x000001FFu
+#define MBX_EVC_ALL 0x000003FFu
 
 /* Name of a single class bit ("nmt", "hb", ...); "?" otherwise. */
 const char *mbx_event_class_to_string(uint32_t cls);
@@ -264,6 +271,9 @@ typedef enum mbx_event {
 	MBX_EV_EMCY = 0x0501,       /* EMCY mbx_ev_emcy */
 	MBX_EV_RAW = 0x0601,        /* RAW mbx_ev_raw */
 	MBX_EV_CAN_STATE = 0x0801,  /* CAN mbx_ev_can_state */
+	MBX_EV_MGR_STATE = 0x0A01,  /* MANAGER mbx_ev_mgr: line state/flags */
+	MBX_EV_MGR_BOOT = 0x0A02,   /* BOOT mbx_ev_mgr: one boot step of a node */
+	MBX_EV_MGR_NODE = 0x0A03,   /* MANAGER mbx_ev_mgr: a node event */
 } mbx_event;
 
 const char *mbx_event_to_string(unsigned code); /* "?" if unknown */
@@ -386,6 +396,78 @@ typedef struct mbx_gw_sdo_req {
 
 /* MBX_CMD_GW_ROUTES: the line's gateway counters, then one mbx_gw_route
  * per network with a route or any counted traffic. */
+/* ---- payloads: CiA 302-2 manager (docs/mailbox.md) ------------------------ */
+
+typedef struct mbx_mgr_node_req {
+	uint8_t node;   /* 1..127 (BOOT: 0 = the whole network) */
+	uint8_t pad[3];
+} mbx_mgr_node_req;
+
+typedef struct mbx_mgr_nmt_req {
+	uint8_t node;   /* 1..127, 128 = all nodes */
+	uint8_t cmd;    /* 1F82h value: 4 stop, 5 start, 6 reset node,
+	                 * 7 reset communication, 127 pre-operational */
+	uint16_t pad;
+} mbx_mgr_nmt_req;
+
+/* Bit n of word n / 32 = node n. */
+typedef struct mbx_mgr_bits {
+	uint32_t w[4];
+} mbx_mgr_bits;
+
+typedef struct mbx_mgr_status {
+	uint8_t state;      /* co_mgr_state (core/manager.h) */
+	uint8_t flags;      /* CO_MGR_F_* */
+	uint8_t first_error_node; /* 0 = none */
+	char first_error_status;  /* boot status letter, 0 = an EMCY */
+	uint32_t first_error_code; /* EMCY code or SDO abort code */
+	uint32_t nmt_ignored, unexpected, duplicates, errctrl_events;
+	uint32_t keep_op_restarts, network_boots;
+	mbx_mgr_bits assigned, present, booted, operational, stopped, preop,
+		mismatch, errctrl_lost, emcy_active;
+} mbx_mgr_status;
+
+typedef struct mbx_mgr_emcy {
+	uint64_t time_us;  /* daemon's monotonic clock */
+	uint16_t code;
+	uint8_t reg;
+	uint8_t msef[5];
+} mbx_mgr_emcy;
+
+#define MBX_MGR_EMCY_MAX 8
+typedef struct mbx_mgr_node_diag {
+	uint8_t node;
+	uint8_t step;       /* co_mgr_step of the last boot event */
+	char status;        /* CiA 302-2 letter of the last failure, 0 = none */
+	uint8_t booted;     /* 1 = booted */
+	uint8_t booting;
+	uint8_t nmt_state;  /* 1F82h read value (0 unknown, 1 missing, ...) */
+	uint8_t sub;        /* object of the last failure */
+	uint8_t n_emcy;     /* entries in emcy[], oldest first */
+	uint16_t index;
+	uint16_t pad;
+	uint32_t assignment; /* 1F81h:n */
+	uint32_t abort;      /* SDO abort code of the last failure */
+	uint32_t value;      /* value read at that failure */
+	uint32_t boot_count, fail_count;
+	uint32_t pad2;
+	uint64_t boot_time_us; /* duration of the last boot */
+	mbx_mgr_emcy emcy[MBX_MGR_EMCY_MAX];
+} mbx_mgr_node_diag;
+
+/* MBX_EV_MGR_*: the fields of co_ev_mgr (core/event.h). */
+typedef struct mbx_ev_mgr {
+	uint8_t node, state, prev, flags;
+	uint8_t step;
+	char status;
+	uint8_t what;
+	uint8_t mandatory;
+	uint16_t index;
+	uint8_t sub;
+	uint8_t done;
+	uint32_t abort, value, expected;
+} mbx_ev_mgr;
+
 typedef struct mbx_gw_status {
 	uint16_t network_id;    /* this line's network */
 	uint8_t routes;         /* mbx_gw_route entries that follow */

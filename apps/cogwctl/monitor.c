@@ -12,6 +12,7 @@
 #include <time.h>
 
 #include "apps/cogwctl/ctl.h"
+#include "core/manager.h"
 #include "core/emcy.h"
 #include "core/nmt.h"
 #include "core/sdo.h"
@@ -177,6 +178,53 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		}
 		break;
 	}
+	case MBX_EV_MGR_STATE:
+	case MBX_EV_MGR_BOOT:
+	case MBX_EV_MGR_NODE: {
+		mbx_ev_mgr e;
+		char st[2];
+		memcpy(&e, m->data, sizeof e);
+		st[0] = e.status;
+		st[1] = 0;
+		if (m->code == MBX_EV_MGR_STATE)
+			snprintf(text, sizeof text, "manager %s -> %s (flags %02X)",
+				 co_mgr_state_to_string(e.prev), co_mgr_state_to_string(e.state), e.flags);
+		else if (m->code == MBX_EV_MGR_BOOT && e.status && e.status != 'L')
+			snprintf(text, sizeof text,
+				 "node %u boot %s %04X:%02X FAILED: status %c (%s), abort 0x%08" PRIX32
+				 ", value 0x%08" PRIX32 " expected 0x%08" PRIX32,
+				 e.node, co_mgr_step_to_string(e.step), e.index, e.sub, e.status,
+				 co_mgr_status_to_string(e.status), e.abort, e.value, e.expected);
+		else if (m->code == MBX_EV_MGR_BOOT)
+			snprintf(text, sizeof text, "node %u boot %s%s%s", e.node,
+				 co_mgr_step_to_string(e.step), e.status == 'L' ? " L (was operational)" : " ok",
+				 e.done ? ": booted" : "");
+		else
+			snprintf(text, sizeof text, "node %u %s (%" PRIu32 ")", e.node,
+				 co_mgr_node_what_to_string(e.what), e.value);
+		if (o) {
+			cJSON_AddNumberToObject(o, "node", e.node);
+			if (m->code == MBX_EV_MGR_STATE) {
+				cJSON_AddStringToObject(o, "state", co_mgr_state_to_string(e.state));
+				cJSON_AddStringToObject(o, "prev", co_mgr_state_to_string(e.prev));
+				cJSON_AddNumberToObject(o, "flags", e.flags);
+			} else if (m->code == MBX_EV_MGR_BOOT) {
+				cJSON_AddStringToObject(o, "step", co_mgr_step_to_string(e.step));
+				cJSON_AddStringToObject(o, "status", st);
+				cJSON_AddNumberToObject(o, "abort", e.abort);
+				cJSON_AddNumberToObject(o, "index", e.index);
+				cJSON_AddNumberToObject(o, "sub", e.sub);
+				cJSON_AddNumberToObject(o, "value", e.value);
+				cJSON_AddNumberToObject(o, "expected", e.expected);
+				cJSON_AddBoolToObject(o, "done", e.done);
+				cJSON_AddBoolToObject(o, "mandatory", e.mandatory);
+			} else {
+				cJSON_AddStringToObject(o, "what", co_mgr_node_what_to_string(e.what));
+				cJSON_AddNumberToObject(o, "value", e.value);
+			}
+		}
+		break;
+	}
 	case MBX_EV_CAN_STATE: {
 		mbx_ev_can_state e;
 		memcpy(&e, m->data, sizeof e);
@@ -266,7 +314,7 @@ int ctl_monitor_run(ctl *c, const ctl_monitor_spec *spec)
 	 * events): a person knows it is listening, a script can wait for it. */
 	char what[256] = "";
 	size_t off = 0;
-	for (uint32_t bit = 1; bit && bit <= MBX_EVC_OD; bit <<= 1)
+	for (uint32_t bit = 1; bit && bit <= MBX_EVC_MANAGER; bit <<= 1)
 		if ((spec->classes & bit) && off < sizeof what)
 			off += (size_t)snprintf(what + off, sizeof what - off, "%s%s", off ? "," : "",
 						mbx_event_class_to_string(bit));
@@ -318,7 +366,7 @@ static const struct {
 } class_names[] = {
 	{ "nmt", MBX_EVC_NMT }, { "hb", MBX_EVC_HB },   { "boot", MBX_EVC_BOOT }, { "emcy", MBX_EVC_EMCY },
 	{ "pdo", MBX_EVC_PDO }, { "sdo", MBX_EVC_SDO }, { "can", MBX_EVC_CAN },   { "raw", MBX_EVC_RAW },
-	{ "od", MBX_EVC_OD },   { "all", MBX_EVC_ALL },
+	{ "od", MBX_EVC_OD },   { "manager", MBX_EVC_MANAGER }, { "all", MBX_EVC_ALL },
 };
 
 /* Split "a,b,c" and call fn on each part. */
@@ -350,7 +398,7 @@ static int add_class(ctl *c, const char *s, void *arg)
 			*(uint32_t *)arg |= class_names[i].bits;
 			return 0;
 		}
-	return ctl_usage_error(c, "unknown event class '%s' (nmt, hb, boot, emcy, pdo, sdo, can, raw, od, all)", s);
+	return ctl_usage_error(c, "unknown event class '%s' (nmt, hb, boot, emcy, pdo, sdo, can, raw, od, manager, all)", s);
 }
 
 static int add_filter(ctl *c, const char *s, void *arg)

@@ -4,6 +4,7 @@
  * start-up and shutdown (see extensions.h).
  */
 #include "apps/cogwd/extensions.h"
+#include "apps/cogwd/manager_ext.h"
 
 #include <errno.h>
 #include <string.h>
@@ -12,6 +13,7 @@
 
 const cogwd_ext_provider *const cogwd_ext_providers[] = {
 	/* the manager and the gateway add their providers here */
+	&cogwd_manager_provider,
 	NULL,
 };
 

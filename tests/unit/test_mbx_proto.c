@@ -247,9 +247,37 @@ static void test_bad_chunk_and_total_fields(void)
 	ASSERT_BAD(MBX_E_MALFORMED, MBX_BAD_CHUNK, h, msg, 8);
 }
 
+/* The manager's commands: node ranges, 1F82h values, reserved bytes. */
+static void test_manager_commands(void)
+{
+	mbx_hdr h = cmd_hdr(MBX_CMD_MGR_REQUEST_NMT);
+	mbx_mgr_nmt_req r = { .node = 128, .cmd = 5 };
+	mbx_mgr_node_req n = { .node = 0 };
+
+	TEST_ASSERT_NOT_NULL(mbx_cmd_lookup(MBX_CMD_MGR_STATUS));
+	TEST_ASSERT_TRUE(mbx_cmd_lookup(MBX_CMD_MGR_BOOT)->flags & MBX_CI_WRITE);
+	TEST_ASSERT_FALSE(mbx_cmd_lookup(MBX_CMD_MGR_NODE_DIAG)->flags & MBX_CI_WRITE);
+	r.cmd = 9;
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &r, sizeof r);
+	r.cmd = 5;
+	r.node = 0;
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &r, sizeof r);
+	r.node = 3;
+	r.pad = 1;
+	ASSERT_BAD(MBX_E_MALFORMED, MBX_BAD_RESERVED, h, &r, sizeof r);
+	h = cmd_hdr(MBX_CMD_MGR_NODE_DIAG);
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &n, sizeof n); /* node 0 */
+	n.node = 128;
+	h = cmd_hdr(MBX_CMD_MGR_BOOT);
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &n, sizeof n);
+	TEST_ASSERT_EQUAL_UINT32(MBX_EVC_BOOT, mbx_event_class_of(MBX_EV_MGR_BOOT));
+	TEST_ASSERT_EQUAL_UINT32(MBX_EVC_MANAGER, mbx_event_class_of(MBX_EV_MGR_STATE));
+	TEST_ASSERT_EQUAL_STRING("manager", mbx_event_class_to_string(MBX_EVC_MANAGER));
+}
+
 static void test_bad_command_code(void)
 {
-	mbx_hdr h = cmd_hdr(0x0A01); /* manager family: not yet */
+	mbx_hdr h = cmd_hdr(0x0A7F); /* manager family: no such command */
 
 	ASSERT_BAD(MBX_E_UNKNOWN_CMD, MBX_BAD_CMD, h, NULL, 0);
 	h.code = 0;
@@ -693,6 +721,7 @@ int main(void)
 	RUN_TEST(test_bad_token_or_dropped_in_response);
 	RUN_TEST(test_bad_chunk_and_total_fields);
 	RUN_TEST(test_bad_command_code);
+	RUN_TEST(test_manager_commands);
 	RUN_TEST(test_chunking_rules);
 	RUN_TEST(test_payload_sizes_per_command);
 	RUN_TEST(test_register_fields);

@@ -1,0 +1,319 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * apps/cogwd/manager_ext.c - see manager_ext.h. Everything here runs on
+ * the line thread (attach/detach while it does not run): each line owns its
+ * manager alone.
+ */
+#include "apps/cogwd/manager_ext.h"
+
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/cfgmgr.h"
+#include "core/manager.h"
+#include "core/sdo.h"
+#include "lines/log.h"
+#include "mailbox/proto.h"
+
+struct mgr_line {
+	const cogw_line_config *lc;
+	co_manager *mgr;
+	co_cfgmgr_line cfgm;
+	char name[COGW_NAME_MAX];
+};
+
+struct mgr_state {
+	struct mgr_line lines[COGW_LINES_MAX];
+};
+
+/* The 302-3 job ended: the boot slave process goes on (J on failure). */
+static void cfgm_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
+{
+	struct mgr_line *ml = ctx;
+	uint32_t abort = r->outcome == CO_CFGMGR_FAILED_J || r->outcome == CO_CFGMGR_CANCELLED
+				 ? (r->abort ? r->abort : 0x08000000u)
+				 : 0;
+	if (ml->mgr)
+		(void)co_manager_configure_done(ml->mgr, r->node_id, abort, r->index, r->sub, now_us);
+}
+
+static int mgr_attach(void *ctx, line *l)
+{
+	struct mgr_line *ml = ctx;
+	const cogw_manager_config *mc = &ml->lc->manager;
+	co_node *node = line_node(l);
+	co_manager_config c = {
+		.max_parallel = mc->max_parallel,
+		.sdo_timeout_ms = mc->sdo_timeout_ms,
+		.reset_wait_ms = mc->reset_wait_ms,
+		.retry_ms = mc->retry_ms,
+		.scan_ms = mc->scan_ms,
+		.accept_remote_nmt = mc->accept_remote_nmt,
+		.configure = co_cfgmgr_line_configure,
+		.configure_ctx = &ml->cfgm,
+	};
+	int rc;
+
+	co_cfgmgr_line_init(&ml->cfgm, node, cfgm_done, ml);
+	if ((rc = co_manager_create(&ml->mgr, node, &c)) < 0) {
+		cogw_log(COGW_LOG_ERR, "line %s: manager: %s (the line needs sdo_clients >= 1)",
+			 ml->name, strerror(-rc));
+		return rc;
+	}
+	for (size_t i = 0; i < ml->lc->n_nodes; i++)
+		if (ml->lc->nodes[i].keep_op)
+			(void)co_manager_set_keep_op(ml->mgr, ml->lc->nodes[i].id, true);
+	return 0;
+}
+
+static void mgr_detach(void *ctx, line *l)
+{
+	struct mgr_line *ml = ctx;
+	(void)l;
+	co_cfgmgr_line_cancel_all(&ml->cfgm, line_loop_now_us(l));
+	co_manager_destroy(ml->mgr);
+	ml->mgr = NULL;
+}
+
+static void log_event(const struct mgr_line *ml, const co_event *ev)
+{
+	const co_ev_mgr *e = &ev->u.mgr;
+	switch (ev->kind) {
+	case CO_EV_MGR_STATE:
+		cogw_log(COGW_LOG_INFO, "line %s: manager %s (flags %02x)", ml->name,
+			 co_mgr_state_to_string(e->state), e->flags);
+		break;
+	case CO_EV_MGR_BOOT:
+		if (e->status && e->status != 'L')
+			cogw_log(COGW_LOG_WARNING,
+				 "line %s: boot of node %u failed at %s %04X:%02X: status %c (%s), abort %08X (%s)",
+				 ml->name, e->node, co_mgr_step_to_string(e->step), e->index, e->sub,
+				 e->status, co_mgr_status_to_string(e->status), e->abort,
+				 e->abort ? sdo_abort_to_string(e->abort) : "none");
+		else if (e->done)
+			cogw_log(COGW_LOG_INFO, "line %s: node %u booted", ml->name, e->node);
+		break;
+	case CO_EV_MGR_NODE:
+		cogw_log(e->what == CO_MGR_NODE_OWN_ID || e->what == CO_MGR_NODE_DUPLICATE
+				 ? COGW_LOG_ERR
+				 : COGW_LOG_NOTICE,
+			 "line %s: node %u: %s (%u)", ml->name, e->node,
+			 co_mgr_node_what_to_string(e->what), e->value);
+		break;
+	default:
+		break;
+	}
+}
+
+static void mgr_on_core_event(void *ctx, line *l, const co_event *ev)
+{
+	struct mgr_line *ml = ctx;
+	uint16_t code;
+
+	switch (ev->kind) {
+	case CO_EV_MGR_STATE: code = MBX_EV_MGR_STATE; break;
+	case CO_EV_MGR_BOOT: code = MBX_EV_MGR_BOOT; break;
+	case CO_EV_MGR_NODE: code = MBX_EV_MGR_NODE; break;
+	default:
+		co_cfgmgr_line_on_event(&ml->cfgm, ev, ev->now_us);
+		co_manager_on_event(ml->mgr, ev);
+		return;
+	}
+	const co_ev_mgr *e = &ev->u.mgr;
+	mbx_ev_mgr w = { .node = e->node, .state = e->state, .prev = e->prev,
+			 .flags = e->flags, .step = e->step, .status = e->status,
+			 .what = e->what, .mandatory = e->mandatory, .index = e->index,
+			 .sub = e->sub, .done = e->done, .abort = e->abort,
+			 .value = e->value, .expected = e->expected };
+	log_event(ml, ev);
+	(void)mbx_server_publish(line_mbx(l), code, 0, &w, sizeof w);
+}
+
+static uint64_t mgr_poll(void *ctx, line *l, uint64_t now_us)
+{
+	struct mgr_line *ml = ctx;
+	uint64_t a, b;
+	(void)l;
+	a = co_cfgmgr_line_tick(&ml->cfgm, now_us);
+	b = co_manager_tick(ml->mgr, now_us);
+	return a < b ? a : b;
+}
+
+static void copy_bits(mbx_mgr_bits *o, const co_mgr_bits *i)
+{
+	memcpy(o->w, i->w, sizeof o->w);
+}
+
+static int answer_status(struct mgr_line *ml, mbx_mgr_status *s)
+{
+	co_mgr_diag d;
+	co_manager_get_diag(ml->mgr, &d);
+	memset(s, 0, sizeof *s);
+	s->state = d.state;
+	s->flags = d.flags;
+	s->first_error_node = d.first_error_node;
+	s->first_error_status = d.first_error_status;
+	s->first_error_code = d.first_error_code;
+	s->nmt_ignored = d.nmt_ignored;
+	s->unexpected = d.unexpected;
+	s->duplicates = d.duplicates;
+	s->errctrl_events = d.errctrl_events;
+	s->keep_op_restarts = d.keep_op_restarts;
+	s->network_boots = d.network_boots;
+	copy_bits(&s->assigned, &d.assigned);
+	copy_bits(&s->present, &d.present);
+	copy_bits(&s->booted, &d.booted);
+	copy_bits(&s->operational, &d.operational);
+	copy_bits(&s->stopped, &d.stopped);
+	copy_bits(&s->preop, &d.preop);
+	copy_bits(&s->mismatch, &d.mismatch);
+	copy_bits(&s->errctrl_lost, &d.errctrl_lost);
+	copy_bits(&s->emcy_active, &d.emcy_active);
+	return 0;
+}
+
+static void node_diag(struct mgr_line *ml, uint8_t node, mbx_mgr_node_diag *o)
+{
+	const co_mgr_node_diag *d = co_manager_node_diag(ml->mgr, node);
+	memset(o, 0, sizeof *o);
+	o->node = node;
+	o->step = d->step;
+	o->status = d->status;
+	o->booted = d->booted;
+	o->booting = d->booting;
+	o->nmt_state = co_manager_node_nmt_state(ml->mgr, node);
+	o->sub = d->sub;
+	o->index = d->index;
+	o->assignment = d->assignment;
+	o->abort = d->abort;
+	o->value = d->value;
+	o->boot_count = d->boot_count;
+	o->fail_count = d->fail_count;
+	o->boot_time_us = d->boot_time_us;
+	o->n_emcy = d->emcy_count;
+	for (unsigned i = 0; i < d->emcy_count; i++) {
+		/* oldest first */
+		unsigned k = (d->emcy_next + CO_MGR_EMCY_HISTORY - d->emcy_count + i) %
+			     CO_MGR_EMCY_HISTORY;
+		o->emcy[i].time_us = d->emcy[k].time_us;
+		o->emcy[i].code = d->emcy[k].code;
+		o->emcy[i].reg = d->emcy[k].reg;
+		memcpy(o->emcy[i].msef, d->emcy[k].msef, sizeof o->emcy[i].msef);
+	}
+}
+
+static int status_of(int rc)
+{
+	switch (rc) {
+	case 0: return 0;
+	case -EAGAIN:
+	case -EPERM: return MBX_E_STATE;
+	case -EINVAL:
+	case -ENOENT: return MBX_E_PARAM;
+	default: return MBX_E_INTERNAL;
+	}
+}
+
+static void mgr_on_command(void *ctx, line *l, const mbx_request *req)
+{
+	struct mgr_line *ml = ctx;
+	mbx_server *srv = line_mbx(l);
+	uint64_t now = line_loop_now_us(l);
+	int rc = 0;
+
+	switch (req->code) {
+	case MBX_CMD_MGR_STATUS: {
+		mbx_mgr_status s;
+		answer_status(ml, &s);
+		(void)mbx_server_respond(srv, &req->reply, 0, 0, &s, sizeof s);
+		return;
+	}
+	case MBX_CMD_MGR_NODE_DIAG: {
+		mbx_mgr_node_req r;
+		mbx_mgr_node_diag d;
+		memcpy(&r, req->payload, sizeof r);
+		node_diag(ml, r.node, &d);
+		(void)mbx_server_respond(srv, &req->reply, 0, 0, &d, sizeof d);
+		return;
+	}
+	case MBX_CMD_MGR_BOOT: {
+		mbx_mgr_node_req r;
+		memcpy(&r, req->payload, sizeof r);
+		rc = r.node ? co_manager_boot_node(ml->mgr, r.node, now)
+			    : co_manager_boot_network(ml->mgr, now);
+		break;
+	}
+	case MBX_CMD_MGR_START:
+		rc = co_manager_start_network(ml->mgr, now);
+		break;
+	case MBX_CMD_MGR_REQUEST_NMT: {
+		mbx_mgr_nmt_req r;
+		memcpy(&r, req->payload, sizeof r);
+		rc = co_manager_request_nmt(ml->mgr, r.node, r.cmd, now);
+		break;
+	}
+	case MBX_CMD_MGR_RESET_COUNTERS:
+		co_manager_reset_counters(ml->mgr);
+		break;
+	default:
+		rc = -EINVAL;
+		(void)mbx_server_respond(srv, &req->reply, MBX_E_UNKNOWN_CMD, 0, NULL, 0);
+		return;
+	}
+	(void)mbx_server_respond(srv, &req->reply, status_of(rc), 0, NULL, 0);
+}
+
+static const line_ext_ops mgr_ops = {
+	.name = "manager",
+	.attach = mgr_attach,
+	.detach = mgr_detach,
+	.on_core_event = mgr_on_core_event,
+	.cmd_first = MBX_CMD_MGR_STATUS,
+	.cmd_last = MBX_CMD_MGR_RESET_COUNTERS,
+	.on_command = mgr_on_command,
+	.poll = mgr_poll,
+};
+
+static int mgr_setup(const cogw_config *cfg, void **state)
+{
+	struct mgr_state *st;
+	bool any = false;
+
+	*state = NULL;
+	for (size_t i = 0; i < cfg->n_lines; i++)
+		any = any || cfg->lines[i].manager.enabled;
+	if (!any)
+		return 0;
+	st = calloc(1, sizeof *st);
+	if (!st)
+		return -ENOMEM;
+	for (size_t i = 0; i < cfg->n_lines; i++) {
+		st->lines[i].lc = &cfg->lines[i];
+		memcpy(st->lines[i].name, cfg->lines[i].name, sizeof st->lines[i].name);
+	}
+	*state = st;
+	return 0;
+}
+
+static void mgr_line_ext(void *state, unsigned line_no, line_ext *out)
+{
+	struct mgr_state *st = state;
+	if (line_no >= COGW_LINES_MAX || !st->lines[line_no].lc ||
+	    !st->lines[line_no].lc->manager.enabled)
+		return;
+	out->ops = &mgr_ops;
+	out->ctx = &st->lines[line_no];
+}
+
+static void mgr_teardown(void *state)
+{
+	free(state);
+}
+
+const cogwd_ext_provider cogwd_manager_provider = {
+	.name = "manager",
+	.setup = mgr_setup,
+	.line_ext = mgr_line_ext,
+	.teardown = mgr_teardown,
+};
