@@ -6,7 +6,8 @@
  * and cogwctl on vcan: a 64 KiB image downloaded by block transfer, then
  * started (its CRC-32 checked by the device and shown in 1F56h:1);
  * downloads refused while running or before a clear; a corrupted image
- * refused on start; 1020h written and read back.
+ * refused on start; 1020h written and read back; etc/transducer.dcf's
+ * concise DCF accepted by the device entry by entry.
  *
  *   make build/san/tests/integration/test_cosim_program build/san/bin/cogwd \
  *        build/san/bin/cosim build/san/bin/cogwctl
@@ -20,6 +21,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "core/cdcf.h"
 #include "tests/integration/support/daemon.h"
 #include "tests/integration/support/proc.h"
 #include "unity.h"
@@ -187,10 +189,45 @@ static void test_verify_configuration_object(void)
 	TEST_ASSERT_EQUAL_DOUBLE(3600000, read_value("1020", "2", "u32"));
 }
 
+/* etc/transducer.dcf fits the transducer: its concise DCF (cogwctl dcf
+ * convert), written entry by entry in order as the configuration manager
+ * does, is accepted by the device and read back. */
+static void test_transducer_dcf_fits_the_device(void)
+{
+	char cdc[200];
+	static uint8_t buf[4096];
+	snprintf(cdc, sizeof cdc, "%s/transducer.cdc", dmn.dir);
+	ctl_run("dcf convert etc/transducer.dcf --node 1 -o %s", cdc);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	FILE *fp = fopen(cdc, "rb");
+	TEST_ASSERT_NOT_NULL(fp);
+	size_t n = fread(buf, 1, sizeof buf, fp);
+	fclose(fp);
+	co_cdcf_iter it;
+	co_cdcf_entry e;
+	TEST_ASSERT_EQUAL_INT(0, co_cdcf_iter_init(&it, buf, n, NULL));
+	TEST_ASSERT_TRUE(it.count >= 5);
+	while (co_cdcf_iter_next(&it, &e)) {
+		char hex[64] = "", *p = hex;
+		for (uint32_t i = 0; i < e.size && i < 16; i++)
+			p += sprintf(p, "%02x", e.data[i]);
+		ctl_run("sdo write 0 1 %04X %u hex %s", e.index, e.sub, hex);
+		char what[160];
+		snprintf(what, sizeof what, "entry %u %04X:%02X: %.100s", (unsigned)e.number, e.index, e.sub, res.err);
+		TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, what);
+	}
+	TEST_ASSERT_EQUAL_DOUBLE(500, read_value("1017", "0", "u16"));      /* heartbeat */
+	TEST_ASSERT_EQUAL_DOUBLE(500, read_value("1800", "5", "u16"));      /* event timer */
+	TEST_ASSERT_EQUAL_DOUBLE(0x181, read_value("1800", "1", "u32"));    /* valid again */
+	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1A00", "0", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE(0x20030020, read_value("1A00", "1", "u32"));
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
 	RUN_TEST(test_program_download_start_and_refusals);
 	RUN_TEST(test_verify_configuration_object);
+	RUN_TEST(test_transducer_dcf_fits_the_device);
 	return UNITY_END();
 }
