@@ -1,0 +1,162 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The CiA 302-2 manager in the real daemon on vcan with cosim devices
+ * (issue 12 integration items, grouped into one VM boot):
+ *   (c)+(g) two lines booting at once: line 0 has the transducer (node 1,
+ *       mandatory, identity checked) and an I/O module (node 2, optional,
+ *       expected with a wrong vendor -> status D, not started); line 1 has
+ *       an I/O module as mandatory node 2. Both lines reach OPERATIONAL by
+ *       themselves; the devices start late (after the daemon) and are
+ *       booted when their boot-up comes. Boot events reach a client.
+ *   (f) Request NMT over the mailbox stops a node.
+ *   (h) a device on the manager's own node-ID makes that line fatal, not
+ *       the other one.
+ * Run: tests/vcan/run -n 2 -- build/san/tests/integration/test_manager_boot
+ */
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "core/manager.h"
+#include "mailbox/cogw.h"
+#include "tests/integration/support/daemon.h"
+#include "tests/integration/support/proc.h"
+#include "unity.h"
+
+#define CONFIG                                                                              \
+	"{\"version\": 1, \"mailbox\": {\"instance\": \"mgrt\"}, \"lines\": ["                     \
+	"{\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127, "                   \
+	" \"manager\": {\"boot_time_ms\": 20000, \"retry_ms\": 500}, \"nodes\": ["                \
+	"  {\"id\": 1, \"mandatory\": true, \"heartbeat_ms\": 1500, \"vendor_id\": \"0x250\", "    \
+	"   \"device_type\": \"0x00040194\", \"serial\": 123456},"                               \
+	"  {\"id\": 2, \"heartbeat_ms\": 800, \"vendor_id\": \"0x9999\"}]},"                     \
+	"{\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127, "                   \
+	" \"manager\": {\"retry_ms\": 500}, \"nodes\": ["                                        \
+	"  {\"id\": 2, \"mandatory\": true, \"heartbeat_ms\": 800, \"vendor_id\": \"0x1234\", "    \
+	"   \"product_code\": \"0x401\"}]}]}"
+
+static daemon_run dmn;
+static cosim_run sim0, sim1, intruder;
+static cogw *h;
+
+void setUp(void)
+{
+	memset(&dmn, 0, sizeof dmn);
+	memset(&sim0, 0, sizeof sim0);
+	memset(&sim1, 0, sizeof sim1);
+	memset(&intruder, 0, sizeof intruder);
+	h = NULL;
+}
+
+void tearDown(void)
+{
+	if (h)
+		cogw_close(h);
+	cosim_stop(&intruder, 3000);
+	cosim_stop(&sim0, 3000);
+	cosim_stop(&sim1, 3000);
+	daemon_cleanup(&dmn);
+	daemon_unlink_queues("mgrt");
+}
+
+static int wait_state(unsigned line, uint8_t state, int timeout_ms, mbx_mgr_status *st)
+{
+	uint64_t until = mono_ms() + (uint64_t)timeout_ms;
+	for (;;) {
+		int rc = cogw_mgr_status(h, line, st, 3000);
+		if (rc == 0 && st->state == state)
+			return 0;
+		if (mono_ms() > until)
+			return rc ? rc : -1;
+		sleep_ms(100);
+	}
+}
+
+static bool bit(const mbx_mgr_bits *b, unsigned n)
+{
+	return (b->w[n / 32] >> (n % 32)) & 1u;
+}
+
+static void test_two_lines_boot_identity_request_own_id(void)
+{
+	mbx_mgr_status st;
+	mbx_mgr_node_diag d;
+	cogw_msg m;
+	bool booted1 = false, failed_d = false;
+
+	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = CONFIG,
+								     .instance = "mgrt",
+								     .n_lines = 2 }));
+	TEST_ASSERT_EQUAL_INT(0, cogw_open(&h, "mgrt"));
+	TEST_ASSERT_EQUAL_INT(0, cogw_subscribe(h, 0, MBX_EVC_BOOT | MBX_EVC_MANAGER, NULL, 0, 3000));
+	/* the devices are switched on after the daemon: late nodes */
+	const char *dev0[] = { "etc/devices/sti-pressure.json:1", "etc/devices/io-generic.json:2",
+			       NULL };
+	const char *dev1[] = { "etc/devices/io-generic.json:2", NULL };
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim0, dmn.dir, 0, dev0, NULL));
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim1, dmn.dir, 1, dev1, NULL));
+
+	TEST_ASSERT_EQUAL_INT(0, wait_state(0, CO_MGR_OPERATIONAL, 30000, &st));
+	TEST_ASSERT_TRUE(bit(&st.booted, 1));
+	TEST_ASSERT_FALSE(bit(&st.booted, 2));
+	TEST_ASSERT_TRUE(bit(&st.mismatch, 2));
+	/* the operational list follows the heartbeats: node 1's next one */
+	for (uint64_t t = mono_ms() + 5000; !bit(&st.operational, 1) && mono_ms() < t;) {
+		sleep_ms(100);
+		TEST_ASSERT_EQUAL_INT(0, cogw_mgr_status(h, 0, &st, 3000));
+	}
+	TEST_ASSERT_TRUE(bit(&st.operational, 1));
+	TEST_ASSERT_FALSE(bit(&st.operational, 2));
+	TEST_ASSERT_TRUE(st.flags & CO_MGR_F_OPTIONAL_MISSING);
+	TEST_ASSERT_EQUAL_INT(0, cogw_mgr_node_diag(h, 0, 2, &d, 3000));
+	TEST_ASSERT_EQUAL('D', d.status);
+	TEST_ASSERT_EQUAL_HEX16(0x1018, d.index);
+	TEST_ASSERT_EQUAL_UINT8(1, d.sub);
+	TEST_ASSERT_EQUAL_HEX32(0x1234, d.value);
+	TEST_ASSERT_EQUAL_INT(0, wait_state(1, CO_MGR_OPERATIONAL, 30000, &st));
+	TEST_ASSERT_TRUE(bit(&st.booted, 2));
+
+	/* the boot events reached the client */
+	uint64_t until = mono_ms() + 5000;
+	while ((!booted1 || !failed_d) && mono_ms() < until) {
+		if (cogw_recv(h, &m, 200) != 0)
+			continue;
+		if (m.code == MBX_EV_MGR_BOOT && m.line == 0) {
+			mbx_ev_mgr e;
+			memcpy(&e, m.data, sizeof e);
+			booted1 = booted1 || (e.node == 1 && e.done && !e.status);
+			failed_d = failed_d || (e.node == 2 && e.status == 'D');
+		}
+		cogw_msg_release(&m);
+	}
+	TEST_ASSERT_TRUE_MESSAGE(booted1, "no 'booted' event for node 1");
+	TEST_ASSERT_TRUE_MESSAGE(failed_d, "no status D event for node 2");
+
+	/* (f) Request NMT: stop node 1 on line 0 */
+	TEST_ASSERT_EQUAL_INT(0, cogw_mgr_request_nmt(h, 0, 1, 4, 3000));
+	until = mono_ms() + 5000;
+	do {
+		sleep_ms(200);
+		TEST_ASSERT_EQUAL_INT(0, cogw_mgr_status(h, 0, &st, 3000));
+	} while (!bit(&st.stopped, 1) && mono_ms() < until);
+	TEST_ASSERT_TRUE(bit(&st.stopped, 1));
+
+	/* (h) a device claims the manager's node-ID on line 1 */
+	/* its boot-up frame on 77Fh, as a device configured with ID 127 sends */
+	int fd = can_open_raw("vcan1");
+	TEST_ASSERT_TRUE(fd >= 0);
+	uint8_t zero = 0;
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd, 0x77F, &zero, 1));
+	close(fd);
+	TEST_ASSERT_EQUAL_INT(0, wait_state(1, CO_MGR_FATAL, 5000, &st));
+	TEST_ASSERT_EQUAL_INT(0, cogw_mgr_node_diag(h, 1, 2, &d, 3000));
+	TEST_ASSERT_EQUAL_INT(0, cogw_mgr_status(h, 0, &st, 3000));
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, st.state);
+}
+
+int main(void)
+{
+	UNITY_BEGIN();
+	RUN_TEST(test_two_lines_boot_identity_request_own_id);
+	return UNITY_END();
+}
