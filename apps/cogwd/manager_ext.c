@@ -34,6 +34,17 @@ static void cfgm_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
 	uint32_t abort = r->outcome == CO_CFGMGR_FAILED_J || r->outcome == CO_CFGMGR_CANCELLED
 				 ? (r->abort ? r->abort : 0x08000000u)
 				 : 0;
+	if (r->outcome == CO_CFGMGR_FAILED_J)
+		cogw_log(COGW_LOG_ERR,
+			 "line %s: node %u: configuration failed at entry %u (%04X:%02X): abort %08X (%s)",
+			 ml->name, r->node_id, (unsigned)r->entry, r->index, r->sub, (unsigned)r->abort,
+			 sdo_abort_to_string(r->abort));
+	else if (r->outcome == CO_CFGMGR_CONFIGURED)
+		cogw_log(COGW_LOG_INFO, "line %s: node %u: configured (%u entries%s)", ml->name,
+			 r->node_id, (unsigned)r->written, r->restored ? ", defaults restored first" : "");
+	else if (r->outcome == CO_CFGMGR_SKIPPED)
+		cogw_log(COGW_LOG_INFO, "line %s: node %u: configuration unchanged (1020h matches 1F26h/1F27h)",
+			 ml->name, r->node_id);
 	if (ml->mgr)
 		(void)co_manager_configure_done(ml->mgr, r->node_id, abort, r->index, r->sub, now_us);
 }
@@ -56,6 +67,9 @@ static int mgr_attach(void *ctx, line *l)
 	int rc;
 
 	co_cfgmgr_line_init(&ml->cfgm, node, cfgm_done, ml);
+	ml->cfgm.sdo_timeout_ms = mc->sdo_timeout_ms;
+	for (size_t i = 0; i < ml->lc->n_nodes; i++) /* "store": 1010h after a download */
+		ml->cfgm.store[ml->lc->nodes[i].id] = ml->lc->nodes[i].config.store;
 	if ((rc = co_manager_create(&ml->mgr, node, &c)) < 0) {
 		cogw_log(COGW_LOG_ERR, "line %s: manager: %s (the line needs sdo_clients >= 1)",
 			 ml->name, strerror(-rc));

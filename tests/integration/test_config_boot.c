@@ -1,0 +1,166 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * tests/integration/test_config_boot.c - the CiA 302-3 configuration
+ * download during the CiA 302-2 boot, with the real daemon, the simulated
+ * transducer (cosim) and cogwctl on vcan:
+ *  - a node whose "config" is etc/transducer.dcf is configured while it
+ *    boots (heartbeat 500 ms, TPDO 1 event timer 500 ms, 1020h = the
+ *    configured date/time) and then started;
+ *  - a configuration whose entry 7 the device refuses stops the boot with
+ *    J (logged with the entry and index:sub) and the node is not started.
+ *
+ *   make build/san/tests/integration/test_config_boot build/san/bin/cogwd \
+ *        build/san/bin/cosim build/san/bin/cogwctl
+ *   tests/vcan/run -n 3 -- build/san/tests/integration/test_config_boot
+ */
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cjson/cJSON.h>
+
+#include "tests/integration/support/daemon.h"
+#include "tests/integration/support/proc.h"
+#include "unity.h"
+
+#define CTL "build/san/bin/cogwctl"
+
+static daemon_run dmn;
+static cosim_run sim;
+static char cfg[4096];
+
+typedef struct ctl_result {
+	int exit;
+	char out[8192];
+	char err[4096];
+} ctl_result;
+
+static ctl_result res;
+
+static void slurp(const char *path, char *buf, size_t cap)
+{
+	buf[0] = '\0';
+	FILE *f = fopen(path, "r");
+	if (!f)
+		return;
+	size_t n = fread(buf, 1, cap - 1, f);
+	buf[n] = '\0';
+	fclose(f);
+}
+
+static ctl_result *ctl_run(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+static ctl_result *ctl_run(const char *fmt, ...)
+{
+	char args[1024], cmd[1400], out_path[128], err_path[128];
+	va_list ap;
+	va_start(ap, fmt);
+	vsnprintf(args, sizeof args, fmt, ap);
+	va_end(ap);
+	snprintf(out_path, sizeof out_path, "%s/ctl.out", dmn.dir);
+	snprintf(err_path, sizeof err_path, "%s/ctl.err", dmn.dir);
+	snprintf(cmd, sizeof cmd, "%s --timeout 10000 %s >%s 2>%s", CTL, args, out_path, err_path);
+	int st = system(cmd);
+	res.exit = (st != -1 && WIFEXITED(st)) ? WEXITSTATUS(st) : -1;
+	slurp(out_path, res.out, sizeof res.out);
+	slurp(err_path, res.err, sizeof res.err);
+	return &res;
+}
+
+static double read_value(const char *obj, const char *sub, const char *type)
+{
+	ctl_run("--json sdo read 0 1 %s %s %s", obj, sub, type);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	cJSON *o = cJSON_Parse(res.out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(o, res.out);
+	double d = cJSON_GetObjectItem(o, "value")->valuedouble;
+	cJSON_Delete(o);
+	return d;
+}
+
+/* Wait until the node table shows node 1 in `state`. */
+static bool wait_state(const char *state, unsigned ms)
+{
+	char want[64];
+	snprintf(want, sizeof want, "\"node\":1,\"nmt_state\":\"%s\"", state);
+	for (uint64_t until = mono_ms() + ms; mono_ms() < until; sleep_ms(250))
+		if (ctl_run("--json status 0")->exit == 0 && strstr(res.out, want))
+			return true;
+	return false;
+}
+
+static void start(const char *node_config)
+{
+	snprintf(cfg, sizeof cfg,
+		 "{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 127,"
+		 " \"sdo_clients\": 4,"
+		 " \"manager\": {\"reset_wait_ms\": 3000, \"sdo_timeout_ms\": 2000},"
+		 " \"nodes\": [{\"id\": 1, \"mandatory\": true, \"config\": %s}]},"
+		 " {\"interface\": \"vcan1\", \"bitrate\": 500000, \"node_id\": 127},"
+		 " {\"interface\": \"vcan2\", \"bitrate\": 500000, \"node_id\": 127}]}",
+		 node_config);
+	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = cfg, .n_lines = 3 }));
+	const char *devices[] = { "etc/devices/sti-pressure.json", NULL };
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, NULL));
+}
+
+void setUp(void)
+{
+	memset(&dmn, 0, sizeof dmn);
+	memset(&sim, 0, sizeof sim);
+}
+
+void tearDown(void)
+{
+	cosim_stop(&sim, 3000);
+	daemon_cleanup(&dmn);
+	daemon_unlink_queues("main");
+}
+
+static void test_dcf_downloaded_during_boot(void)
+{
+	char node_cfg[1200], cwd[900];
+	TEST_ASSERT_NOT_NULL(getcwd(cwd, sizeof cwd));
+	snprintf(node_cfg, sizeof node_cfg,
+		 "{\"dcf\": \"%s/etc/transducer.dcf\", \"date\": 15000, \"time\": 1000}", cwd);
+	start(node_cfg);
+	if (!wait_state("operational", 30000)) {
+		proc_dump_log(dmn.log_path, 40);
+		TEST_FAIL_MESSAGE("node 1 was not started");
+	}
+	TEST_ASSERT_EQUAL_DOUBLE(500, read_value("1017", "0", "u16"));
+	TEST_ASSERT_EQUAL_DOUBLE(500, read_value("1800", "5", "u16"));
+	TEST_ASSERT_EQUAL_DOUBLE(0x181, read_value("1800", "1", "u32"));
+	TEST_ASSERT_EQUAL_DOUBLE(15000, read_value("1020", "1", "u32"));
+	TEST_ASSERT_EQUAL_DOUBLE(1000, read_value("1020", "2", "u32"));
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(dmn.log_path, "node 1: configured (10 entries)", 5000),
+				 "no 'configured' line in the daemon log");
+}
+
+static void test_abort_on_entry_7_is_j(void)
+{
+	start("{\"entries\": ["
+	      "{\"index\": \"0x1017\", \"type\": \"UNSIGNED16\", \"value\": 700},"
+	      "{\"index\": \"0x2004\", \"sub\": 1, \"type\": \"REAL32\", \"value\": 0.5},"
+	      "{\"index\": \"0x2005\", \"sub\": 1, \"type\": \"REAL32\", \"value\": 99.0},"
+	      "{\"index\": \"0x1800\", \"sub\": 5, \"type\": \"UNSIGNED16\", \"value\": 800},"
+	      "{\"index\": \"0x2000\", \"sub\": 1, \"type\": \"REAL32\", \"value\": 1.0},"
+	      "{\"index\": \"0x2000\", \"sub\": 2, \"type\": \"REAL32\", \"value\": 2.0},"
+	      "{\"index\": \"0x1000\", \"type\": \"UNSIGNED32\", \"value\": 1},"
+	      "{\"index\": \"0x1017\", \"type\": \"UNSIGNED16\", \"value\": 900}]}");
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(dmn.log_path, "node 1: configuration failed at entry 7 (1000:00)", 30000),
+				 "no J for entry 7 in the daemon log");
+	TEST_ASSERT_FALSE(wait_state("operational", 3000));
+	TEST_ASSERT_EQUAL_DOUBLE(700, read_value("1017", "0", "u16")); /* entry 8 not written */
+	TEST_ASSERT_EQUAL_DOUBLE(800, read_value("1800", "5", "u16"));
+}
+
+int main(void)
+{
+	UNITY_BEGIN();
+	RUN_TEST(test_dcf_downloaded_during_boot);
+	RUN_TEST(test_abort_on_entry_7_is_j);
+	return UNITY_END();
+}
