@@ -69,37 +69,49 @@ explain "cogwd drives one SocketCAN interface per line. Here they are vcan0..vca
 explain "the kernel's virtual CAN: real sockets and frames, no hardware."
 show ip -br link show type vcan
 
-say "2. Two simulated CANopen devices (cosim)"
-explain "vcan0: the pressure transducer of seed 004, node 1. It sends its pressure"
-explain "       (REAL32, PSI) in TPDO 1 (COB-ID 181h) once a second while OPERATIONAL."
-explain "vcan1: a CiA 401-style I/O module, node 2."
-explain "Both boot into PRE-OPERATIONAL and send heartbeats (node 1 every 1000 ms)."
-"$bin/cosim" --interface vcan0 --device etc/devices/sti-pressure.json >"$work/cosim-vcan0.log" 2>&1 &
-pids+=($!)
-"$bin/cosim" --interface vcan1 --device etc/devices/io-generic.json >"$work/cosim-vcan1.log" 2>&1 &
-pids+=($!)
-wait_for "the simulated devices to boot" 10 grep -q "pre-operational" "$work/cosim-vcan0.log"
-wait_for "the I/O device to boot" 10 grep -q "pre-operational" "$work/cosim-vcan1.log"
-printf '   started: cosim on vcan0 (pid %s), cosim on vcan1 (pid %s)\n' "${pids[0]}" "${pids[1]}"
-
-say "3. The daemon cogwd, on its embedded default configuration"
-explain "No --config: cogwd uses the configuration compiled into it (etc/cogw.json):"
-explain "3 lines vcan0..vcan2, its own node-ID 127 on each, heartbeat consumers for"
-explain "node 1 (line 0) and node 2 (line 1), and on line 0 an RPDO that receives the"
-explain "transducer's TPDO into object B000h. --state-dir only moves where 1010h"
+say "2. The daemon cogwd, with the demo configuration"
+explain "etc/cogw-demo.json is the embedded default (etc/cogw.json: 3 lines vcan0..vcan2,"
+explain "its own node-ID 127 on each, on line 0 an RPDO that receives the transducer's"
+explain "TPDO into object B000h) plus a CiA 302-2 manager on lines 0 and 1: node 1 on"
+explain "line 0 and node 2 on line 1 are mandatory, their identity is checked against"
+explain "1018h, their heartbeats are supervised. --state-dir only moves where 1010h"
 explain "\"save\" would write, into /tmp (the rest of this machine is read-only in the VM)."
-printf '\n$ cogwd --state-dir %s\n' "$work/state"
-"$bin/cogwd" --state-dir "$work/state" >"$work/cogwd.log" 2>&1 &
+printf '\n$ cogwd --config etc/cogw-demo.json --state-dir %s\n' "$work/state"
+"$bin/cogwd" --config etc/cogw-demo.json --state-dir "$work/state" >"$work/cogwd.log" 2>&1 &
 pids+=($!)
 cogwd_pid=$!
 wait_for "cogwd's mailbox" 10 "$bin/cogwctl" --timeout 1000 status
 explain "cogwd is up: one thread and one mailbox command queue per line"
 explain "($(ls /dev/mqueue | grep -c '^cogw\.main\.line') queues /cogw.main.line<N>.cmd)."
+explain "" "No device answers yet: the managers wait for their mandatory nodes."
+ctl manager 0
+
+say "3. Two simulated CANopen devices (cosim) are switched on"
+explain "vcan0: the pressure transducer of seed 004, node 1. It sends its pressure"
+explain "       (REAL32, PSI) in TPDO 1 (COB-ID 181h) once a second while OPERATIONAL."
+explain "vcan1: a CiA 401-style I/O module, node 2."
+explain "Their boot-up messages make the managers boot them: device type 1000h,"
+explain "identity 1018h, error control, then NMT start. The boot events, as any client"
+explain "sees them (cogwctl monitor --class boot,manager):"
+"$bin/cogwctl" monitor --class boot,manager --duration 6 >"$work/boot.txt" 2>&1 &
+mon_pid=$!
+sleep 0.5
+"$bin/cosim" --interface vcan0 --device etc/devices/sti-pressure.json >"$work/cosim-vcan0.log" 2>&1 &
+pids+=($!)
+"$bin/cosim" --interface vcan1 --device etc/devices/io-generic.json >"$work/cosim-vcan1.log" 2>&1 &
+pids+=($!)
+wait "$mon_pid" || true
+cat "$work/boot.txt"
+grep -q "node 1 boot start ok: booted" "$work/boot.txt" || fail "node 1 was not booted by the manager"
+grep -q "node 2 boot start ok: booted" "$work/boot.txt" || fail "node 2 was not booted by the manager"
+printf '   started: cosim on vcan0 (pid %s), cosim on vcan1 (pid %s)\n' "${pids[1]}" "${pids[2]}"
+ctl manager 0
+ctl diag 0 1
 
 say "4. The node table"
 explain "Clients never touch CAN: cogwctl asks the daemon through its mailbox."
 explain "Each line lists the nodes it has heard; heartbeats tell their NMT state."
-wait_for "node 1's heartbeat on line 0" 10 sh -c "'$bin/cogwctl' --json status 0 | grep -q '\"node\":1,\"nmt_state\":\"pre-operational\"'"
+wait_for "node 1's heartbeat on line 0" 10 sh -c "'$bin/cogwctl' --json status 0 | grep -q '\"node\":1,\"nmt_state\":\"operational\"'"
 wait_for "node 2's heartbeat on line 1" 10 sh -c "'$bin/cogwctl' --json status 1 | grep -q '\"node\":2,'"
 ctl status
 
@@ -130,10 +142,8 @@ ctl raw dump 0 701 --duration 2
 explain "(about 4 frames: one every 500 ms now)"
 
 say "7. Live pressure: PDO events"
-explain "PDOs only run in OPERATIONAL. Start node 1, and the daemon's own node on line 0"
-explain "('self'), whose RPDO 1 receives the transducer's TPDO 1 into B000h:"
-ctl nmt start 0 1
-ctl nmt start 0 self
+explain "PDOs only run in OPERATIONAL. The manager started node 1 and the daemon's own"
+explain "node on line 0, whose RPDO 1 receives the transducer's TPDO 1 into B000h:"
 explain "" "A minute of live pressure, shortened to 5 seconds. The pressure ramps from 0 to"
 explain "50 PSI over 20 s; --float shows the 4-byte values as REAL32:"
 ctl monitor --line 0 --class pdo --float --duration 5 2>&1 | tee "$work/pdo.txt"
@@ -150,7 +160,7 @@ set +e
 wait "$cogwd_pid"
 rc=$?
 set -e
-pids=("${pids[@]:0:2}")
+pids=("${pids[@]:1:2}")
 [ "$rc" -eq 0 ] || fail "cogwd exited with status $rc"
 left=$(ls /dev/mqueue | grep -c '^cogw\.main\.' || true)
 [ "$left" -eq 0 ] || fail "$left mailbox queues left behind"
@@ -160,11 +170,12 @@ pids=()
 printf '   the simulated devices stopped.\n'
 
 say "Summary ($((SECONDS - t_start)) s)"
-explain "- cogwd drove 3 CAN lines from its embedded configuration and supervised the"
-explain "  heartbeats of two simulated devices (node table: step 4)."
+explain "- cogwd drove 3 CAN lines; its CiA 302-2 managers booted the two simulated"
+explain "  devices by themselves when they were switched on (device type, identity,"
+explain "  heartbeat, NMT start: step 3) and supervise their heartbeats (step 4)."
 explain "- cogwctl read the transducer's identity 1018h and name 1008h over SDO, showed an"
 explain "  SDO abort with its meaning, and set its heartbeat time 1017h to 500 ms."
-explain "- After NMT start, $n_pdo pressure PDOs arrived as live events (step 7)."
+explain "- Started by the manager, the transducer sent $n_pdo pressure PDOs as live events (step 7)."
 explain "- Everything went through the mailbox (POSIX message queues); nothing was left over."
 explain "Next: 'cogwctl --help', docs/cogwctl.md, docs/config.md, docs/mailbox.md."
 printf '\ndemo: OK\n'

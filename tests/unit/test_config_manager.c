@@ -160,6 +160,20 @@ static void test_bad_values_with_paths(void)
 		     "t.json: lines[0].nodes[0].mandatory: expected true or false, got a string");
 }
 
+/* make demo's configuration: the managers of lines 0 and 1 know the two
+ * simulated devices (identity of the files in etc/devices). */
+static void test_demo_configuration(void)
+{
+	int rc = cogw_config_load_file(&cfg, "etc/cogw-demo.json", err, sizeof(err));
+	TEST_ASSERT_EQUAL_STRING("", err);
+	TEST_ASSERT_EQUAL_INT(0, rc);
+	TEST_ASSERT_TRUE(cfg.lines[0].manager.enabled);
+	TEST_ASSERT_TRUE(cfg.lines[1].manager.enabled);
+	TEST_ASSERT_FALSE(cfg.lines[2].manager.enabled);
+	TEST_ASSERT_EQUAL_HEX64(0x250, raw(cfg.lines[0].od, 0x1F85, 1));
+	TEST_ASSERT_EQUAL_HEX64(0x1234, raw(cfg.lines[1].od, 0x1F85, 2));
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -168,5 +182,6 @@ int main(void)
 	RUN_TEST(test_manager_bits_by_name);
 	RUN_TEST(test_nodes_fill_assignment_identity_heartbeat);
 	RUN_TEST(test_bad_values_with_paths);
+	RUN_TEST(test_demo_configuration);
 	return UNITY_END();
 }
