@@ -33,6 +33,17 @@ static void answer(line *l, const mbx_request *req, int status, uint32_t abort,
 static line_pending *pending_take(line *l, const mbx_request *req, bool big)
 {
 	int first = big ? 0 : LINE_BIG_SLOTS, last = big ? LINE_BIG_SLOTS : LINE_PENDING_MAX;
+	/* The last entry of each kind is for writers: read-only clients
+	 * parking uploads (a dead node answers nothing for the whole SDO
+	 * timeout) must not make a writer's request fail with BUSY (issue
+	 * 11; the mailbox limits how many requests readers park at all). */
+	if (req->access < MBX_ACCESS_WRITE) {
+		int used = 0;
+		for (int i = first; i < last; i++)
+			used += l->pending[i].used;
+		if (used >= last - first - 1)
+			return NULL;
+	}
 	for (int i = first; i < last; i++) {
 		line_pending *pp = &l->pending[i];
 		if (!pp->used) {

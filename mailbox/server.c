@@ -29,6 +29,7 @@
 #include <fcntl.h>
 #include <mqueue.h>
 #include <signal.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -57,6 +58,7 @@ typedef struct mbx_client {
 	uint64_t registered_us;
 	uint64_t lease_until;
 	uint32_t drop_resp, drop_evt; /* not yet reported to the client */
+	uint16_t outstanding; /* dispatched, not answered yet */
 	uint64_t dropped;
 	bool discarding; /* chunks of a refused transfer are ignored */
 	uint64_t discard_corr;
@@ -86,6 +88,7 @@ typedef struct mbx_xfer {
 	int status;
 	uint32_t abort;
 	uint64_t deadline_us; /* progress timeout */
+	uint64_t end_us;      /* lifetime (xfer_max_ms), however it goes */
 	uint64_t retry_us;    /* out: resume sending at (0 = not waiting) */
 } mbx_xfer;
 
@@ -339,12 +342,37 @@ static mbx_xfer *xfer_find(mbx_server *srv, uint32_t client, uint64_t corr,
 	return NULL;
 }
 
-static mbx_xfer *xfer_alloc(mbx_server *srv)
+/* A free transfer slot for client c, or NULL: a client holds at most
+ * xfer_per_client slots, and read-only clients together leave one slot to
+ * writers (a reader that never acknowledges its big answers must not make
+ * a writer's download fail with BUSY). */
+static mbx_xfer *xfer_alloc(mbx_server *srv, const mbx_client *c)
 {
-	for (unsigned i = 0; i < srv->cfg.xfer_slots; i++)
-		if (srv->xfers[i].st == XS_FREE)
-			return &srv->xfers[i];
-	return NULL;
+	unsigned mine = 0, readers = 0;
+	mbx_xfer *free_slot = NULL;
+
+	for (unsigned i = 0; i < srv->cfg.xfer_slots; i++) {
+		mbx_xfer *x = &srv->xfers[i];
+
+		if (x->st == XS_FREE) {
+			if (!free_slot)
+				free_slot = x;
+			continue;
+		}
+		if (x->client == c->id)
+			mine++;
+		const mbx_client *o = client_find(srv, x->client);
+
+		if (o && o->access < MBX_ACCESS_WRITE)
+			readers++;
+	}
+	if (!free_slot || mine >= srv->cfg.xfer_per_client)
+		return NULL;
+	if (c->access < MBX_ACCESS_WRITE && srv->cfg.xfer_slots > 1 &&
+	    readers + 1 >= srv->cfg.xfer_slots)
+		return NULL;
+	free_slot->end_us = srv->now_us + (uint64_t)srv->cfg.xfer_max_ms * 1000u;
+	return free_slot;
 }
 
 static size_t chunk_size(const mbx_client *c)
@@ -414,6 +442,38 @@ static void xfer_pump(mbx_server *srv, mbx_xfer *x)
 
 /* ---- dispatch --------------------------------------------------------------------- */
 
+static unsigned read_outstanding(const mbx_server *srv)
+{
+	unsigned n = 0;
+
+	for (unsigned i = 0; i < srv->cfg.max_clients; i++)
+		if (srv->clients[i].id &&
+		    srv->clients[i].access < MBX_ACCESS_WRITE)
+			n += srv->clients[i].outstanding;
+	return n;
+}
+
+/* The request's own timeout (SDO per frame, LSS per answer) within the
+ * ceiling: 0xFFFFFFFF would hold an SDO channel for ever. */
+static bool timeout_too_long(const mbx_server *srv, const mbx_hdr *h,
+			     const uint8_t *p)
+{
+	uint32_t t;
+
+	switch (h->code) {
+	case MBX_CMD_SDO_UPLOAD:
+	case MBX_CMD_SDO_DOWNLOAD:
+		memcpy(&t, p + offsetof(mbx_sdo_req, timeout_ms), sizeof t);
+		break;
+	case MBX_CMD_LSS_SWITCH_GLOBAL ... MBX_CMD_LSS_FASTSCAN:
+		memcpy(&t, p + offsetof(mbx_lss_req, timeout_ms), sizeof t);
+		break;
+	default:
+		return false;
+	}
+	return t > srv->cfg.max_request_timeout_ms;
+}
+
 static void dispatch(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
 		     const uint8_t *fixed, size_t fixed_len,
 		     const uint8_t *data, size_t data_len, mbx_xfer *held)
@@ -435,6 +495,16 @@ static void dispatch(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
 	if (held)
 		req.reply.slot = (uint8_t)(held - srv->xfers + 1);
 	srv->stats.commands_ok++;
+	/* Counted until mbx_server_respond(); over a limit the request is
+	 * answered BUSY at once (which uncounts it again). */
+	c->outstanding++;
+	if (c->outstanding > srv->cfg.max_outstanding ||
+	    (c->access < MBX_ACCESS_WRITE &&
+	     read_outstanding(srv) > srv->cfg.read_outstanding)) {
+		srv->stats.limited++;
+		mbx_server_respond(srv, &req.reply, MBX_E_BUSY, 0, NULL, 0);
+		return;
+	}
 	if (!srv->cfg.dispatch.dispatch) {
 		mbx_server_respond(srv, &req.reply, MBX_E_UNSUPPORTED, 0, NULL,
 				   0);
@@ -584,14 +654,27 @@ static void handle_register(mbx_server *srv, const mbx_hdr *h,
 			return;
 		}
 	}
+	unsigned free_slots = 0, of_uid = 0;
+
 	for (unsigned i = 0; !status && i < srv->cfg.max_clients; i++) {
 		if (!srv->clients[i].id) {
-			c = &srv->clients[i];
-			break;
+			if (!c)
+				c = &srv->clients[i];
+			free_slots++;
+		} else if (srv->clients[i].uid == (uint32_t)rst.st_uid) {
+			of_uid++;
 		}
 	}
-	if (!status && !c)
+	/* One user cannot take every slot, and the last write_reserve slots
+	 * are for writers: a read-only client flooding REGISTER must not lock
+	 * a writer out with FULL. */
+	if (!status && (!c || (access < MBX_ACCESS_WRITE &&
+			       free_slots <= srv->cfg.write_reserve)))
 		status = MBX_E_FULL;
+	if (!status && rst.st_uid != 0 && of_uid >= srv->cfg.max_clients_per_uid)
+		status = MBX_E_FULL;
+	if (status == MBX_E_FULL)
+		srv->stats.limited++;
 	if (status) {
 		register_refuse(srv, resp, rattr.mq_msgsize, h, status);
 		mq_close(resp);
@@ -759,8 +842,9 @@ static void handle_chunk(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
 			refuse_transfer(srv, c, h, MBX_E_SEQUENCE);
 			return;
 		}
-		x = xfer_alloc(srv);
+		x = xfer_alloc(srv, c);
 		if (!x) {
+			srv->stats.limited++;
 			refuse_transfer(srv, c, h, MBX_E_BUSY);
 			return;
 		}
@@ -893,6 +977,18 @@ static void handle_msg(mbx_server *srv, const uint8_t *buf, size_t n)
 				    NULL, 0);
 		return;
 	}
+	if ((!(h.flags & MBX_F_CHUNKED) || h.chunk == 0) &&
+	    timeout_too_long(srv, &h, p)) {
+		count_bad(srv, MBX_BAD_PARAM);
+		if ((h.flags & MBX_F_MORE) && h.chunk == 0) {
+			c->discarding = true;
+			c->discard_corr = h.corr;
+		}
+		if (!(h.flags & MBX_F_NO_REPLY))
+			send_status(srv, c, h.code, h.corr, MBX_E_PARAM, 0, NULL,
+				    0);
+		return;
+	}
 	if (h.flags & MBX_F_CHUNKED) {
 		handle_chunk(srv, c, &h, p);
 		return;
@@ -948,6 +1044,8 @@ int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status,
 	c = client_find(srv, to->client);
 	if (!c)
 		return -ENOENT;
+	if (c->outstanding)
+		c->outstanding--;
 	if (to->flags & MBX_F_NO_REPLY)
 		return 0;
 	if (len <= chunk_size(c)) {
@@ -963,7 +1061,7 @@ int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status,
 			    0);
 		return -EMSGSIZE;
 	}
-	x = xfer_alloc(srv);
+	x = xfer_alloc(srv, c);
 	if (!x) {
 		srv->stats.xfer_failed++;
 		send_status(srv, c, to->code, to->corr, MBX_E_BUSY, 0, NULL, 0);
@@ -1077,7 +1175,7 @@ uint64_t mbx_server_tick(mbx_server *srv, uint64_t now_us)
 
 		if (x->st != XS_IN && x->st != XS_OUT)
 			continue;
-		if (now_us >= x->deadline_us) {
+		if (now_us >= x->deadline_us || now_us >= x->end_us) {
 			mbx_client *c = client_find(srv, x->client);
 
 			srv->stats.xfer_failed++;
@@ -1094,7 +1192,7 @@ uint64_t mbx_server_tick(mbx_server *srv, uint64_t now_us)
 			xfer_pump(srv, x);
 		if (x->st == XS_FREE)
 			continue;
-		next = min64(next, x->deadline_us);
+		next = min64(next, min64(x->deadline_us, x->end_us));
 		if (x->st == XS_OUT && x->retry_us)
 			next = min64(next, x->retry_us);
 	}
@@ -1178,6 +1276,20 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 		c->xfer_timeout_ms = 5000;
 	if (!c->poll_budget)
 		c->poll_budget = c->depth;
+	if (!c->max_clients_per_uid)
+		c->max_clients_per_uid = c->max_clients / 4 ? c->max_clients / 4 : 1;
+	if (!c->write_reserve)
+		c->write_reserve = c->max_clients / 4;
+	if (!c->max_outstanding)
+		c->max_outstanding = 16;
+	if (!c->read_outstanding)
+		c->read_outstanding = 32;
+	if (!c->xfer_per_client)
+		c->xfer_per_client = c->xfer_slots / 2 ? c->xfer_slots / 2 : 1;
+	if (!c->max_request_timeout_ms)
+		c->max_request_timeout_ms = 60000;
+	if (!c->xfer_max_ms)
+		c->xfer_max_ms = 60000;
 	/* A client queue others can read leaks the token: never allowed. */
 	c->forbidden_client_mode |= 0044;
 	rc = -EINVAL;

@@ -107,6 +107,24 @@ typedef struct mbx_server_config {
 	unsigned max_transfer;  /* bytes per chunked transfer (0 = 1 MiB) */
 	unsigned xfer_timeout_ms; /* a stalled transfer is dropped (0 = 5000) */
 	unsigned poll_budget;   /* messages per mbx_server_poll (0 = depth) */
+	/* Per-user and per-client limits (docs/mailbox.md "Security model"):
+	 * nothing one client (or one user) does may make another's request
+	 * fail with FULL or BUSY. 0 = the default in brackets. */
+	unsigned max_clients_per_uid; /* registrations per uid, root exempt
+	                               * (max(1, max_clients / 4)) */
+	unsigned write_reserve;  /* client slots only a writer may take
+	                          * (max_clients / 4) */
+	unsigned max_outstanding; /* requests of one client dispatched and
+	                           * not answered yet (16); more -> BUSY */
+	unsigned read_outstanding; /* all read-only clients together (32) */
+	unsigned xfer_per_client; /* transfer slots of one client
+	                           * (max(1, xfer_slots / 2)); read-only
+	                           * clients together leave one to writers */
+	unsigned max_request_timeout_ms; /* ceiling of a request's own
+	                                  * timeout_ms (SDO, LSS) (60000);
+	                                  * above -> PARAM */
+	unsigned xfer_max_ms;   /* a chunked transfer ends within this,
+	                         * however slowly it progresses (60000) */
 	/* Access: root always gets WRITE; a uid in rules gets its access;
 	 * everyone else default_access (NONE = registration refused). */
 	const mbx_access_rule *rules;
@@ -135,6 +153,7 @@ typedef struct mbx_server_stats {
 	uint64_t clients_reaped;         /* dead, lease expired, unconfirmed */
 	uint64_t xfer_in, xfer_out;      /* chunked transfers completed */
 	uint64_t xfer_failed;            /* timed out, too big, no slot */
+	uint64_t limited;                /* refused by a per-user/client limit */
 	uint32_t clients;                /* current */
 } mbx_server_stats;
 

@@ -51,6 +51,9 @@ static const char *const route_keys[] = { "network", "line", "router", "comment"
 static const char *const mailbox_keys[] = { "instance", "depth", "msg_size",
 					    "queue_mode", "max_clients",
 					    "lease_ms", "max_transfer",
+					    "max_clients_per_uid",
+					    "max_outstanding",
+					    "max_request_timeout_ms",
 					    "default_access", "rules",
 					    "comment", NULL };
 static const char *const rule_keys[] = { "user", "uid", "access", "comment",
@@ -268,7 +271,13 @@ static int parse_mailbox(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
 	    (rc = opt_unsigned(c, o, "lease_ms", path, 0, 86400000u,
 			       &m->lease_ms)) ||
 	    (rc = opt_unsigned(c, o, "max_transfer", path, 1, 256u << 20,
-			       &m->max_transfer)))
+			       &m->max_transfer)) ||
+	    (rc = opt_unsigned(c, o, "max_clients_per_uid", path, 1, 1024,
+			       &m->max_clients_per_uid)) ||
+	    (rc = opt_unsigned(c, o, "max_outstanding", path, 1, 1024,
+			       &m->max_outstanding)) ||
+	    (rc = opt_unsigned(c, o, "max_request_timeout_ms", path, 1,
+			       3600000u, &m->max_request_timeout_ms)))
 		return rc;
 	v = json_util_get(o, "queue_mode");
 	if (v) {
@@ -1112,6 +1121,8 @@ static void set_defaults(cogw_config *cfg, const char *source)
 	cfg->mailbox.msg_size = 1024;
 	cfg->mailbox.queue_mode = 0620;
 	cfg->mailbox.max_clients = 16;
+	cfg->mailbox.max_outstanding = 16;          /* = mbx_server's defaults */
+	cfg->mailbox.max_request_timeout_ms = 60000;
 	cfg->mailbox.lease_ms = 0;
 	cfg->mailbox.max_transfer = 1u << 20;
 	cfg->mailbox.default_access = COGW_ACCESS_WRITE;
@@ -1420,6 +1431,11 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next,
 	DIFF(a->queue_mode != b->queue_mode, "mailbox.queue_mode");
 	DIFF(a->max_clients != b->max_clients, "mailbox.max_clients");
 	DIFF(a->max_transfer != b->max_transfer, "mailbox.max_transfer");
+	DIFF(a->max_clients_per_uid != b->max_clients_per_uid,
+	     "mailbox.max_clients_per_uid");
+	DIFF(a->max_outstanding != b->max_outstanding, "mailbox.max_outstanding");
+	DIFF(a->max_request_timeout_ms != b->max_request_timeout_ms,
+	     "mailbox.max_request_timeout_ms");
 	if (cur->n_lines != next->n_lines) {
 		note(what, whatlen, &changed, "lines (count)");
 	} else {

@@ -104,6 +104,10 @@ typedef struct cogw_mailbox_config {
 	unsigned max_clients;    /* per line (16) */
 	unsigned lease_ms;       /* 0 = no lease */
 	unsigned max_transfer;   /* bytes of one chunked transfer (1 MiB) */
+	/* per-user / per-client limits (0 = mbx_server's default) */
+	unsigned max_clients_per_uid;
+	unsigned max_outstanding;
+	unsigned max_request_timeout_ms;
 	uint8_t default_access;  /* for uids not in rules (WRITE) */
 	cogw_access_rule rules[COGW_ACCESS_RULES_MAX];
 	size_t n_rules;

@@ -41,7 +41,12 @@
 
 /* ---- the fake line: answers OD_READ 2000h and OD_WRITE, nothing else ---------- */
 
+#define HELD_MAX 8 /* the fake line's pending table (lines/ has 64) */
+#define BIG_ANSWER 8192
+
 typedef struct fake_line {
+	unsigned held; /* requests parked in the pending table */
+	uint8_t big[BIG_ANSWER];
 	pthread_mutex_t mu;
 	pthread_t thr;
 	volatile bool stop;
@@ -79,11 +84,29 @@ static void fake_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 	switch (req->code) {
 	case MBX_CMD_OD_READ:
 		memcpy(&o, req->payload, sizeof o);
-		if (o.index == 0x2002)
-			return; /* never answered: a request "in flight" */
+		if (o.index == 0x2002) {
+			/* never answered: a request "in flight", parked in a
+			 * bounded table like the line's pending requests */
+			if (f->held >= HELD_MAX)
+				mbx_server_respond(srv, &req->reply, MBX_E_BUSY, 0,
+						   NULL, 0);
+			else
+				f->held++;
+			return;
+		}
+		if (o.index == 0x2001) { /* a chunked answer */
+			mbx_server_respond(srv, &req->reply, 0, 0, f->big,
+					   sizeof f->big);
+			return;
+		}
 		mbx_server_respond(srv, &req->reply, 0, 0, v, sizeof v);
 		return;
 	case MBX_CMD_OD_WRITE:
+		if (f->held >= HELD_MAX) { /* needs a table entry too */
+			mbx_server_respond(srv, &req->reply, MBX_E_BUSY, 0, NULL,
+					   0);
+			return;
+		}
 		f->writes_ok++;
 		mbx_server_respond(srv, &req->reply, 0, 0, NULL, 0);
 		return;
@@ -138,6 +161,7 @@ static void start(const mbx_server_config *cfg)
 	fl.stop = false;
 	fl.running = false;
 	fl.writes_ok = 0;
+	fl.held = 0;
 	rc = mbx_server_create(&fl.srv, cfg);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, strerror(-rc));
 	TEST_ASSERT_EQUAL_INT(0, pthread_create(&fl.thr, NULL, loop_main, &fl));
@@ -687,6 +711,204 @@ static void test_clients_survive_a_daemon_restart(void)
 	sync_close(&b);
 }
 
+/* ---- 5. per-user and per-client limits ------------------------------------------- */
+
+/* A raw client of whoever runs it, with small queues. */
+typedef struct rawc {
+	char rn[MBX_QNAME_MAX], en[MBX_QNAME_MAX];
+	mqd_t cmd, resp, evt;
+	uint32_t id;
+	uint64_t token;
+} rawc;
+
+static int rawc_send(rawc *r, uint16_t code, uint8_t flags, uint64_t corr,
+		     const void *p, size_t len)
+{
+	uint8_t buf[1024];
+	mbx_hdr h = { .magic = MBX_MAGIC, .version = MBX_VERSION,
+		      .kind = MBX_KIND_COMMAND, .code = code, .line = LINE,
+		      .flags = flags, .client = r->id, .token = r->token,
+		      .corr = corr };
+	int n = mbx_msg_build(buf, sizeof buf, &h, p, len);
+
+	if (n < 0)
+		return n;
+	for (unsigned i = 0; i < 400; i++) { /* a full queue: wait, 2 s */
+		if (mq_send(r->cmd, (const char *)buf, (size_t)n, 0) == 0)
+			return 0;
+		if (errno != EAGAIN)
+			return -errno;
+		sleep_ms(5);
+	}
+	return -EAGAIN;
+}
+
+/* The next response (2 s at most): 0 and *h, or -ETIMEDOUT. */
+static int rawc_recv(rawc *r, mbx_hdr *h, void *p, size_t cap)
+{
+	uint8_t buf[1024];
+	struct pollfd pf = { .fd = (int)r->resp, .events = POLLIN };
+
+	if (poll(&pf, 1, 2000) != 1)
+		return -ETIMEDOUT;
+	ssize_t n = mq_receive(r->resp, (char *)buf, sizeof buf, NULL);
+
+	if (n < 0 || mbx_hdr_decode(buf, (size_t)n, h, NULL) < 0)
+		return -EIO;
+	if (p)
+		memcpy(p, buf + MBX_HDR_SIZE, h->len < cap ? h->len : cap);
+	return 0;
+}
+
+/* Create queues n (depth 2: a chunk window of one) and register; returns
+ * the status of the answer. */
+static int rawc_register(rawc *r, unsigned n)
+{
+	struct mq_attr a = { .mq_maxmsg = 2, .mq_msgsize = 1024 };
+	mbx_register_req rq;
+	mbx_register_resp rs;
+	mbx_hdr h;
+
+	snprintf(r->rn, sizeof r->rn, "/%s.n%u.resp", instance, n);
+	snprintf(r->en, sizeof r->en, "/%s.n%u.evt", instance, n);
+	mq_unlink(r->rn);
+	mq_unlink(r->en);
+	r->resp = mq_open(r->rn, O_CREAT | O_EXCL | O_RDONLY | O_NONBLOCK, 0600, &a);
+	r->evt = mq_open(r->en, O_CREAT | O_EXCL | O_RDONLY | O_NONBLOCK, 0600, &a);
+	r->cmd = mq_open(qname, O_WRONLY | O_NONBLOCK);
+	if (r->resp == (mqd_t)-1 || r->evt == (mqd_t)-1 || r->cmd == (mqd_t)-1)
+		return -errno;
+	memset(&rq, 0, sizeof rq);
+	rq.pid = (uint32_t)getpid();
+	rq.uid = (uint32_t)geteuid();
+	strcpy(rq.resp_queue, r->rn);
+	strcpy(rq.event_queue, r->en);
+	r->id = 0;
+	r->token = 0;
+	if (rawc_send(r, MBX_CMD_REGISTER, 0, 1, &rq, sizeof rq) < 0 ||
+	    rawc_recv(r, &h, &rs, sizeof rs) < 0)
+		return -ETIMEDOUT;
+	if (h.status == 0) {
+		r->id = rs.client;
+		r->token = rs.token;
+		rawc_send(r, MBX_CMD_PING, MBX_F_NO_REPLY, 2, NULL, 0); /* confirm */
+	}
+	return h.status;
+}
+
+static void rawc_close(rawc *r)
+{
+	mq_close(r->cmd);
+	mq_close(r->resp);
+	mq_close(r->evt);
+	mq_unlink(r->rn);
+	mq_unlink(r->en);
+}
+
+/* The read-only user (65534) takes all it can: registrations, parked
+ * requests, transfer slots it never acknowledges, an endless timeout. */
+static int child_greedy_reader(void *arg)
+{
+	sync2 *s = arg;
+	rawc r[8];
+	unsigned ok = 0;
+	mbx_hdr h;
+
+	CHECK(become_nobody() == 0);
+	for (unsigned i = 0; i < 8; i++) {
+		int st = rawc_register(&r[i], i);
+
+		CHECK(st == 0 || st == MBX_E_FULL);
+		if (st == 0)
+			ok++;
+		else
+			break;
+	}
+	fprintf(stderr, "reader: %u registrations\n", ok);
+	CHECK(ok >= 1);
+	/* an SDO request that would hold a channel for ever (asked first: its
+	 * answer must find room in the small response queue) */
+	mbx_sdo_req sdo = { .node = 5, .index = 0x1018, .sub = 1,
+			    .timeout_ms = 0xFFFFFFFFu };
+	int got_param = 0;
+
+	CHECK(rawc_send(&r[0], MBX_CMD_SDO_UPLOAD, 0, 300, &sdo, sizeof sdo) == 0);
+	if (rawc_recv(&r[0], &h, NULL, 0) == 0 && h.corr == 300)
+		got_param = h.status == MBX_E_PARAM;
+	if (!got_param)
+		fprintf(stderr, "reader: the endless SDO timeout was accepted\n");
+	/* parked requests: as many as it likes */
+	mbx_obj_req hold = { .index = 0x2002 };
+
+	for (unsigned i = 0; i < 20; i++)
+		CHECK(rawc_send(&r[0], MBX_CMD_OD_READ, MBX_F_NO_REPLY, 100 + i,
+				&hold, sizeof hold) == 0);
+	/* big answers it never acknowledges, from every client it has */
+	mbx_obj_req big = { .index = 0x2001 };
+
+	for (unsigned i = 0; i < ok; i++)
+		for (unsigned k = 0; k < 2; k++)
+			CHECK(rawc_send(&r[i], MBX_CMD_OD_READ, 0, 200 + k, &big,
+					sizeof big) == 0);
+	child_ready(s);
+	child_wait_go(s);
+	for (unsigned i = 0; i < ok; i++)
+		rawc_close(&r[i]);
+	return got_param ? 0 : 3;
+}
+
+/* A writer (root, libcogw) that must be served despite the reader. */
+static int child_writer(void *arg)
+{
+	cogw *h;
+	uint8_t v[5000] = { 7 };
+	uint32_t abort = 0;
+	int rc;
+
+	(void)arg;
+	CHECK(cogw_open(&h, instance) == 0);
+	rc = cogw_ping(h, LINE, 3000);
+	if (rc)
+		fprintf(stderr, "writer: register: %s\n", cogw_strerror(rc));
+	CHECK(rc == 0);
+	rc = cogw_od_write(h, LINE, 0x2001, 0, v, 4, 3000, &abort);
+	if (rc)
+		fprintf(stderr, "writer: small write: %s\n", cogw_strerror(rc));
+	CHECK(rc == 0);
+	rc = cogw_od_write(h, LINE, 0x2001, 0, v, sizeof v, 3000, &abort);
+	if (rc)
+		fprintf(stderr, "writer: chunked write: %s\n", cogw_strerror(rc));
+	CHECK(rc == 0);
+	cogw_close(h);
+	return 0;
+}
+
+static void test_a_reader_cannot_starve_a_writer(void)
+{
+	mbx_access_rule rules[] = { { .uid = NOBODY, .access = MBX_ACCESS_READ } };
+	mbx_server_config cfg = base_cfg();
+	sync2 s;
+	pid_t reader;
+
+	cfg.rules = rules;
+	cfg.n_rules = 1;
+	cfg.register_timeout_ms = 10000;
+	cfg.xfer_slots = 2;
+	cfg.max_transfer = 64 * 1024;
+	cfg.read_outstanding = HELD_MAX / 2;
+	start(&cfg);
+	sync_init(&s);
+	reader = spawn(child_greedy_reader, &s);
+	parent_wait_ready(&s);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_writer, NULL)),
+				      "the writer was refused (FULL/BUSY)");
+	TEST_ASSERT_EQUAL_UINT(2, fl.writes_ok);
+	TEST_ASSERT_TRUE(stats().limited > 0);
+	parent_go(&s);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(reader),
+				      "a request timeout above the ceiling was accepted");
+}
+
 int main(void)
 {
 	pthread_mutex_init(&fl.mu, NULL);
@@ -699,5 +921,6 @@ int main(void)
 	RUN_TEST(test_command_queue_is_write_only_for_clients);
 	RUN_TEST(test_readable_command_queue_modes_are_refused);
 	RUN_TEST(test_clients_survive_a_daemon_restart);
+	RUN_TEST(test_a_reader_cannot_starve_a_writer);
 	return UNITY_END();
 }

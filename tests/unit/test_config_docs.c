@@ -133,6 +133,8 @@ static int fill_key_defaults(struct key_default *k)
 	KD("`mailbox`", "max_clients", "%u", m->max_clients);
 	KD("`mailbox`", "lease_ms", "%u", m->lease_ms);
 	KD("`mailbox`", "max_transfer", "%u", m->max_transfer);
+	KD("`mailbox`", "max_outstanding", "%u", m->max_outstanding);
+	KD("`mailbox`", "max_request_timeout_ms", "%u", m->max_request_timeout_ms);
 	KD("`mailbox`", "default_access", "%s",
 	   m->default_access == COGW_ACCESS_WRITE  ? "write"
 	   : m->default_access == COGW_ACCESS_READ ? "read"
