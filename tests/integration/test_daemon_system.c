@@ -1276,6 +1276,48 @@ static void test_systemd_unit_verifies(void)
 	TEST_ASSERT_FALSE(file_contains(log, "is not executable"));
 }
 
+/* issue 11 item 4: under the shipped unit's capability set a non-root
+ * client could not register (without CAP_DAC_OVERRIDE the root daemon
+ * cannot open a 0600 queue of another user, so REGISTER went unanswered).
+ * The daemon runs here with exactly the unit's CapabilityBoundingSet
+ * (setpriv --bounding-set) and a client of uid 65534 must be served. */
+static void test_unit_capabilities_serve_a_non_root_client(void)
+{
+	if (access("/usr/bin/setpriv", X_OK) != 0)
+		TEST_IGNORE_MESSAGE("setpriv not installed");
+	FILE *f = fopen("etc/cogwd.service", "r");
+	TEST_ASSERT_NOT_NULL(f);
+	char line[512], bset[512] = "--bounding-set=-all";
+	bool found = false;
+	while (fgets(line, sizeof line, f)) {
+		if (strncmp(line, "CapabilityBoundingSet=", 22) != 0)
+			continue;
+		found = true;
+		for (char *tok = strtok(line + 22, " \t\n"); tok; tok = strtok(NULL, " \t\n")) {
+			size_t n = strlen(bset);
+			snprintf(bset + n, sizeof bset - n, ",+%s", tok + 4); /* CAP_X -> +X */
+			for (char *q = bset + n; *q; q++)
+				*q = (char)(*q >= 'A' && *q <= 'Z' ? *q - 'A' + 'a' : *q);
+		}
+	}
+	fclose(f);
+	TEST_ASSERT_TRUE_MESSAGE(found, "no CapabilityBoundingSet in etc/cogwd.service");
+	printf("daemon under %s\n", bset);
+	const char *const wrapper[] = { "/usr/bin/setpriv", bset, NULL };
+	char json[4096];
+	cfg_params p = { .instance = "sys1c", .n_lines = 1,
+			 .mailbox = "\"queue_mode\": \"0622\", \"default_access\": \"read\", ",
+			 .line0 = RELOAD_OBJ };
+	config_text(json, sizeof json, &p);
+	int rc = daemon_start(&d, &(daemon_opts){ .config_json = json, .instance = "sys1c", .n_lines = 1,
+						  .notify = true, .wrapper = wrapper });
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, "cogwd did not come up under the unit's capabilities");
+	start_child("sys1c");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, child_do('r'), "a non-root client was not served");
+	TEST_ASSERT_EQUAL_INT(COGW_E_ACCESS, child_do('w')); /* read-only by default_access */
+	stop_child();
+}
+
 /* COGW_TEST_ONLY=substring runs only the tests whose name contains it. */
 #undef RUN_TEST
 #define RUN_TEST(fn)                                                                  \
@@ -1291,6 +1333,7 @@ int main(void)
 	RUN_TEST(test_invalid_config_refused_with_path);
 	RUN_TEST(test_depth_above_msg_max_refused);
 	RUN_TEST(test_systemd_unit_verifies);
+	RUN_TEST(test_unit_capabilities_serve_a_non_root_client);
 	RUN_TEST(test_no_ready_when_a_line_fails);
 	RUN_TEST(test_notify_ready_status_watchdog_stall_stopping);
 	RUN_TEST(test_watchdog_check_period_fits_the_watchdog);
