@@ -238,7 +238,7 @@ FUZZ_CFLAGS := -std=gnu11 -Wall -Wextra -Wshadow -I. -D_GNU_SOURCE -g -O1 \
 .PHONY: fuzz
 ifneq ($(HAVE_FUZZ_CC),)
 fuzz: $(FUZZ_BINS)
-build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN)
+build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) mailbox/proto.c
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -o $@ $(filter %.c,$^) $(SYS_LIBS)
 else
