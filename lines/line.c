@@ -545,6 +545,12 @@ const char *line_name(const line *l)
 	return l->name;
 }
 
+size_t line_buffer_bytes(const line *l)
+{
+	size_t per = l->p.mbx.max_transfer ? l->p.mbx.max_transfer : 1024u * 1024u;
+	return per * LINE_BIG_SLOTS + LINE_STORE_MAX + mbx_server_buffer_bytes(l->mbx);
+}
+
 uint64_t line_last_checkin_us(const line *l)
 {
 	return atomic_load(&((line *)l)->checkin_us);

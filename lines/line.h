@@ -76,6 +76,10 @@ void line_destroy(line *l); /* stops first; accepts NULL */
 const char *line_name(const line *l);
 /* CLOCK_MONOTONIC µs of the line thread's last loop iteration. */
 uint64_t line_last_checkin_us(const line *l);
+/* Bytes of buffers the line allocated at create (SDO transfer buffers,
+ * the store buffer, its mailbox's transfer slots): what mlockall would
+ * pin once touched. Any thread, after line_create. */
+size_t line_buffer_bytes(const line *l);
 bool line_is_up(const line *l);
 /* Copy the latest published counters. Returns false if none yet. */
 bool line_stats_snapshot(line *l, line_stats *out);

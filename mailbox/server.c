@@ -1434,6 +1434,13 @@ void mbx_server_set_lease(mbx_server *srv, unsigned lease_ms)
 				srv->now_us + (uint64_t)lease_ms * 1000u;
 }
 
+size_t mbx_server_buffer_bytes(const mbx_server *srv)
+{
+	return (size_t)srv->cfg.xfer_slots * (srv->cfg.max_transfer + sizeof *srv->xfers) +
+	       srv->rx_size + MBX_MSG_MAX + srv->cfg.max_clients * sizeof *srv->clients +
+	       srv->rules_cap * sizeof *srv->rules;
+}
+
 const mbx_server_stats *mbx_server_stats_get(const mbx_server *srv)
 {
 	return &srv->stats;

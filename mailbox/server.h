@@ -235,6 +235,9 @@ int mbx_server_set_rules(mbx_server *srv, const mbx_access_rule *rules,
 void mbx_server_set_lease(mbx_server *srv, unsigned lease_ms);
 
 const mbx_server_stats *mbx_server_stats_get(const mbx_server *srv);
+/* Bytes allocated at create for buffers and tables (transfer slots of
+ * max_transfer bytes each, message buffers, client table). */
+size_t mbx_server_buffer_bytes(const mbx_server *srv);
 /* Info about the n-th live client (0-based); -ENOENT past the end. */
 int mbx_server_client_info(const mbx_server *srv, unsigned n,
 			   mbx_client_info *info);
