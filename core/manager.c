@@ -63,10 +63,12 @@ enum bs_state {
 	BS_START,        /* 302-2: "start slave" per 1F80h */
 	BS_BOOTED,       /* 302-2: boot slave process finished, supervised */
 	BS_FAILED,       /* 302-2: error status A..O; retry per retry_ms */
+	BS_SOFTWARE,     /* 302-2: "check software" (302-3 software manager),
+	                  * between BS_IDENTITY and BS_CONFIGURE */
 	BS_COUNT
 };
 
-enum in_kind { IN_SDO, IN_BOOTUP, IN_HB, IN_CHANNEL, IN_CONFIGURED };
+enum in_kind { IN_SDO, IN_BOOTUP, IN_HB, IN_CHANNEL, IN_CONFIGURED, IN_SOFTWARE };
 
 struct mgr_in {
 	enum in_kind kind;
@@ -159,7 +161,7 @@ const char *co_mgr_step_to_string(uint8_t step)
 	static const char *const n[CO_MGR_STEP_COUNT] = {
 		"assignment", "keep-alive", "device-type", "vendor-id",
 		"product-code", "revision", "serial", "configure",
-		"error-control", "start", "boot-time",
+		"error-control", "start", "boot-time", "software",
 	};
 	return step < CO_MGR_STEP_COUNT ? n[step] : "?";
 }
@@ -590,7 +592,7 @@ static int identity_enter(void *obj, uint64_t now_us)
 	while (s->id_sub <= 4 && !od_u32(s->m, (uint16_t)(0x1F84 + s->id_sub), s->id))
 		s->id_sub++;
 	if (s->id_sub > 4)
-		return BS_CONFIGURE;
+		return BS_SOFTWARE;
 	if (sdo_read(s, 0x1018, s->id_sub, now_us) < 0)
 		return bs_fail(s, step_of_sub(s->id_sub), letter_of_sub(s->id_sub),
 			       SDO_ABORT_GENERAL, 0x1018, s->id_sub, 0, 0);
@@ -612,6 +614,39 @@ static int identity_con(void *obj, const void *con, uint64_t now_us)
 	emit_boot(s, step_of_sub(k), 0, 0, 0x1018, k, in->value, expected, false);
 	s->id_sub++;
 	return BS_IDENTITY; /* re-entered: next sub */
+}
+
+/* 302-2 "check software" (1F81h bit 5): the CiA 302-3 software manager
+ * hook; without it there is nothing to do. Failures are G, H or I. */
+static int software_enter(void *obj, uint64_t now_us)
+{
+	struct mgr_slave *s = obj;
+	co_manager *m = s->m;
+	int rc = 0;
+	if (m->cfg.software)
+		rc = m->cfg.software(m->cfg.software_ctx, s->id, now_us);
+	if (rc == 1)
+		return CO_FSM_STAY;
+	if (rc < 0)
+		return bs_fail(s, CO_MGR_STEP_SOFTWARE, 'G', 0, 0x1F55, s->id,
+			       (uint32_t)-rc, 0);
+	if (m->cfg.software)
+		emit_boot(s, CO_MGR_STEP_SOFTWARE, 0, 0, 0, 0, 0, 0, false);
+	return BS_CONFIGURE;
+}
+
+static int software_con(void *obj, const void *con, uint64_t now_us)
+{
+	struct mgr_slave *s = obj;
+	const struct mgr_in *in = con;
+	(void)now_us;
+	if (in->kind != IN_SOFTWARE)
+		return CO_FSM_STAY;
+	if (in->value)
+		return bs_fail(s, CO_MGR_STEP_SOFTWARE, (char)in->value, in->abort,
+			       in->index, in->sub, 0, 0);
+	emit_boot(s, CO_MGR_STEP_SOFTWARE, 0, 0, 0, 0, 0, 0, false);
+	return BS_CONFIGURE;
 }
 
 /* 302-2 "check and update configuration": the CiA 302-3 hook; without it
@@ -776,6 +811,8 @@ static const co_fsm_state bs_states[BS_COUNT] = {
 			     .on_con = device_type_con, .on_leave = bs_leave },
 	[BS_IDENTITY] = { .name = "identity", .on_enter = identity_enter,
 			  .on_con = identity_con, .on_leave = bs_leave },
+	[BS_SOFTWARE] = { .name = "software", .on_enter = software_enter,
+			  .on_con = software_con, .on_leave = bs_leave },
 	[BS_CONFIGURE] = { .name = "configure", .on_enter = configure_enter,
 			   .on_con = configure_con, .on_leave = bs_leave },
 	[BS_ERRCTRL] = { .name = "error-control", .on_enter = errctrl_enter,
@@ -1573,6 +1610,21 @@ int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort,
 	if (node_id < 1 || node_id > 127)
 		return -EINVAL;
 	if (bs_state(&m->s[node_id]) != BS_CONFIGURE)
+		return -ENOENT;
+	mgr_enter(m, now_us);
+	bs_input(&m->s[node_id], &in, now_us);
+	mgr_after(m, now_us);
+	return 0;
+}
+
+int co_manager_software_done(co_manager *m, uint8_t node_id, char status, uint32_t abort,
+			     uint16_t index, uint8_t sub, uint64_t now_us)
+{
+	struct mgr_in in = { .kind = IN_SOFTWARE, .abort = abort, .index = index,
+			     .sub = sub, .value = (uint8_t)status };
+	if (node_id < 1 || node_id > 127 || (status && !strchr("GHI", status)))
+		return -EINVAL;
+	if (bs_state(&m->s[node_id]) != BS_SOFTWARE)
 		return -ENOENT;
 	mgr_enter(m, now_us);
 	bs_input(&m->s[node_id], &in, now_us);

@@ -109,12 +109,14 @@ typedef enum co_mgr_step {
 	CO_MGR_STEP_ERRCTRL,        /* start of error control */
 	CO_MGR_STEP_START,          /* NMT start per 1F80h */
 	CO_MGR_STEP_BOOT_TIME,      /* 1F89h ran out before this node booted */
+	CO_MGR_STEP_SOFTWARE,       /* CiA 302-3 software manager hook (runs
+	                             * between serial and configure) */
 	CO_MGR_STEP_COUNT
 } co_mgr_step;
 
 /* "assignment", "keep-alive", "device-type", "vendor-id", "product-code",
  * "revision", "serial", "configure", "error-control", "start",
- * "boot-time" */
+ * "boot-time", "software" */
 const char *co_mgr_step_to_string(uint8_t step);
 
 /* CiA 302-2 boot status letters this module reports (0 = booted / none);
@@ -171,6 +173,17 @@ enum co_mgr_nmt_read {
  */
 typedef int (*co_mgr_configure_fn)(void *ctx, uint8_t node_id, uint64_t now_us);
 
+/*
+ * The 302-3 "check software" step (before the configure step, CiA 302-2
+ * boot slave process): called when a node reaches it, holding its boot
+ * slot. Return 0 when the software is right (or not checked: 1F81h bit 5
+ * clear), 1 when the outcome follows later through
+ * co_manager_software_done(), or a negative errno for status G (the
+ * program download objects are not configured).
+ * core/swmgr.h co_swmgr_line_check has this signature.
+ */
+typedef int (*co_mgr_software_fn)(void *ctx, uint8_t node_id, uint64_t now_us);
+
 typedef struct co_manager_config {
 	uint8_t max_parallel;       /* nodes in their SDO steps at once
 	                             * (0 = the node's SDO client channels);
@@ -191,6 +204,8 @@ typedef struct co_manager_config {
 	                             * co_manager_boot_network) */
 	co_mgr_configure_fn configure; /* NULL: nothing to configure */
 	void *configure_ctx;
+	co_mgr_software_fn software;   /* NULL: software not checked */
+	void *software_ctx;
 } co_manager_config;
 
 typedef struct co_manager co_manager;
@@ -288,6 +303,11 @@ uint8_t co_manager_node_nmt_state(const co_manager *m, uint8_t node_id);
 /* The 302-3 configure step ended (abort 0 = configured). */
 int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort,
 			      uint16_t index, uint8_t sub, uint64_t now_us);
+/* The 302-3 check software step ended: status 0 = right software (or
+ * updated), 'G', 'H' or 'I' = failed, with the object and abort code.
+ * -EINVAL (bad node or letter), -ENOENT (node not in that step). */
+int co_manager_software_done(co_manager *m, uint8_t node_id, char status, uint32_t abort,
+			     uint16_t index, uint8_t sub, uint64_t now_us);
 /* KEEP_OP (seed 003): a node that leaves OPERATIONAL without being told is
  * started again. */
 int co_manager_set_keep_op(co_manager *m, uint8_t node_id, bool on);
