@@ -188,12 +188,66 @@ static void loss_update(co_node *node, uint64_t now_us)
 			       node->hb && node->hb->lost != 0, now_us);
 }
 
+/* A lost entry is heard from again: one loss fewer. True if it was lost. */
+static bool ent_unlose(struct co_hb *ec, struct hb_entry *en)
+{
+	if (en->mon != CO_HB_MON_LOST)
+		return false;
+	ec->lost--;
+	return true;
+}
+
+/* Boot-up of `remote`: its entries wait for the first heartbeat again (a
+ * rebooted node's producer may be off until it is configured: no loss).
+ * Returns true if a loss ended. */
+static bool hb_bootup(co_node *node, uint8_t remote, uint8_t prev)
+{
+	struct co_hb *ec = node->hb;
+	bool resolved = false;
+
+	emit(node, CO_EV_BOOTUP, remote, CO_NMT_INITIALISING, prev, 0);
+	for (unsigned s = 1; s <= ec->n_ent; s++) {
+		struct hb_entry *en = &ec->ent[s];
+		if (en->node != remote || en->mon == CO_HB_MON_OFF)
+			continue;
+		resolved |= ent_unlose(ec, en);
+		en->mon = CO_HB_MON_WAITING;
+		en->deadline_us = CO_NO_DEADLINE;
+	}
+	return resolved;
+}
+
+/* Heartbeat of `remote` in state st: (re)start its entries' windows.
+ * Returns true if a loss ended. */
+static bool hb_heard(co_node *node, uint8_t remote, uint8_t st, uint8_t prev,
+		     uint64_t now_us)
+{
+	struct co_hb *ec = node->hb;
+	bool resolved = false;
+
+	if (prev != st)
+		emit(node, CO_EV_HB_STATE, remote, st, prev, 0);
+	for (unsigned s = 1; s <= ec->n_ent; s++) {
+		struct hb_entry *en = &ec->ent[s];
+		if (en->node != remote || en->mon == CO_HB_MON_OFF)
+			continue;
+		if (en->mon != CO_HB_MON_ACTIVE) {
+			resolved |= ent_unlose(ec, en);
+			en->mon = CO_HB_MON_ACTIVE;
+			emit(node, CO_EV_HB_STARTED, remote, st, prev, en->time_ms);
+		}
+		en->deadline_us = now_us + (uint64_t)en->time_ms * 1000u;
+		co_node_deadline_lower(node, en->deadline_us);
+	}
+	return resolved;
+}
+
 static void hb_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	struct co_hb *ec = node->hb;
 	uint8_t remote = (uint8_t)(uintptr_t)arg;
 	uint8_t st, prev;
-	bool resolved = false;
+	bool resolved;
 
 	if ((f->flags & CO_FRAME_RTR) || f->len < 1)
 		return;
@@ -205,40 +259,10 @@ static void hb_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	prev = ec->last_state[remote];
 	ec->last_state[remote] = st;
 	ec->last_heard_us[remote] = now_us ? now_us : 1;
-
-	if (st == CO_NMT_INITIALISING) {
-		emit(node, CO_EV_BOOTUP, remote, st, prev, 0);
-		for (unsigned s = 1; s <= ec->n_ent; s++) {
-			struct hb_entry *en = &ec->ent[s];
-			if (en->node != remote || en->mon == CO_HB_MON_OFF)
-				continue;
-			if (en->mon == CO_HB_MON_LOST) {
-				ec->lost--;
-				resolved = true;
-			}
-			en->mon = CO_HB_MON_WAITING;
-			en->deadline_us = CO_NO_DEADLINE;
-		}
-	} else {
-		if (prev != st)
-			emit(node, CO_EV_HB_STATE, remote, st, prev, 0);
-		for (unsigned s = 1; s <= ec->n_ent; s++) {
-			struct hb_entry *en = &ec->ent[s];
-			if (en->node != remote || en->mon == CO_HB_MON_OFF)
-				continue;
-			if (en->mon != CO_HB_MON_ACTIVE) {
-				if (en->mon == CO_HB_MON_LOST) {
-					ec->lost--;
-					resolved = true;
-				}
-				en->mon = CO_HB_MON_ACTIVE;
-				emit(node, CO_EV_HB_STARTED, remote, st, prev,
-				     en->time_ms);
-			}
-			en->deadline_us = now_us + (uint64_t)en->time_ms * 1000u;
-			co_node_deadline_lower(node, en->deadline_us);
-		}
-	}
+	if (st == CO_NMT_INITIALISING)
+		resolved = hb_bootup(node, remote, prev);
+	else
+		resolved = hb_heard(node, remote, st, prev, now_us);
 	if (resolved)
 		loss_update(node, now_us);
 }

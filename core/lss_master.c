@@ -1,13 +1,15 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * LSS master (CiA 305). One request runs at a time; it is a small state
- * machine (states below, each with on_frame / on_timeout handlers), started
- * by a per-service start function. Completion always goes through finish(),
- * which calls the request's con, emits the one CO_EV_LSS_MASTER_DONE and
- * starts the next queued request. A request that ends while it is being
- * submitted (switch global: done once its frame is out; a refused send)
- * is finished from the next tick instead (MST_DONE_LATER), so that no
- * confirmation ever runs inside lss_master_submit().
+ * LSS master (CiA 305). One request runs at a time, in a core/fsm.h
+ * machine (the table mst_states below): the start state sends the
+ * service's first frames (one start function per service) and moves to
+ * the state that waits for the answer or the window. Every ending goes
+ * through end(), which returns to idle; then report() calls the request's
+ * con and emits the one CO_EV_LSS_MASTER_DONE, and kick() starts the next
+ * queued request. A request that ends while it is being submitted
+ * (switch global: done once its frame is out; a refused send) ends from
+ * the next tick instead (state done-later), so that no confirmation ever
+ * runs inside lss_master_submit().
  *
  * Why some choices:
  * - LSS answers carry no node address, so the master cannot tell two
@@ -33,24 +35,12 @@
 #include <string.h>
 
 #include "core/co_internal.h"
+#include "core/fsm.h"
 #include "core/lss_master.h"
 
 #define DEFAULT_TIMEOUT_MS 1000u /* CiA 305 leaves it open; 1 s is common */
 #define DEFAULT_STEP_MS 100u
 #define DEFAULT_QUEUE_LEN 8u
-
-typedef enum mst_state {
-	MST_IDLE = 0,
-	MST_CONFIRM,    /* waiting for one answer with expect_cs */
-	MST_WINDOW,     /* identify: counting answers until the deadline */
-	MST_ACTIVATE,   /* activate bit timing: waiting out the switch delay */
-	MST_FS_RESET,   /* Fastscan: BitChecked 80h sent, anybody there? */
-	MST_FS_BIT,     /* Fastscan: probing bit fs_bit (31..1) of fs_sub */
-	MST_FS_CONFIRM, /* Fastscan: whole field sent, slave moves on */
-	MST_DONE_LATER, /* ended inside lss_master_submit(): finish at the
-	                 * next tick with done_later */
-	MST_COUNT
-} mst_state;
 
 struct lss_master {
 	co_node *node;
@@ -63,16 +53,18 @@ struct lss_master {
 	uint8_t q_head;
 	uint8_t q_count;
 	bool cancelling; /* lss_master_cancel_all() running: start nothing */
-	bool submitting; /* inside lss_master_submit(): finish later */
-	lss_result done_later; /* MST_DONE_LATER: the result */
+	bool submitting; /* inside lss_master_submit(): end later */
+	lss_result done_later; /* LSS_MASTER_DONE_LATER: the result */
 
-	bool busy;
+	co_fsm fsm;              /* state: lss_master_state */
 	lss_master_req cur;
-	mst_state state;
 	uint64_t deadline_us;    /* of the running state; CO_NO_DEADLINE */
 	uint64_t quiet_until_us; /* after activate bit timing */
 	uint8_t expect_cs;       /* answer the running state listens for */
 	co_ev_lss_master res;    /* result being built */
+	bool ended;              /* cur ended with end_result: report it
+	                          * once the machine has settled in idle */
+	lss_result end_result;
 
 	uint8_t fs_sub;          /* Fastscan: field being scanned */
 	uint8_t fs_bit;          /* Fastscan: bit being probed */
@@ -125,23 +117,27 @@ static struct lss_master *master_of(const co_node *node)
 	return node->lss ? node->lss->master : NULL;
 }
 
-static void kick(struct lss_master *m, uint64_t now_us);
+static bool busy(const struct lss_master *m)
+{
+	return co_fsm_state_of(&m->fsm) != LSS_MASTER_IDLE;
+}
 
 static uint64_t next_deadline(const struct lss_master *m)
 {
-	if (m->busy)
+	if (busy(m))
 		return m->deadline_us;
 	if (m->q_count)
 		return m->quiet_until_us; /* in the past: kick at the next tick */
 	return CO_NO_DEADLINE;
 }
 
-static void arm(struct lss_master *m, mst_state st, uint32_t ms, uint64_t now_us)
+/* Entering a waiting state: its deadline, a fresh answer count. */
+static int arm(struct lss_master *m, uint32_t ms, uint64_t now_us)
 {
-	m->state = st;
 	m->deadline_us = now_us + (uint64_t)ms * 1000u;
 	m->res.answers = 0;
 	co_node_deadline_lower(m->node, m->deadline_us);
+	return CO_FSM_STAY;
 }
 
 static uint32_t cur_timeout_ms(const struct lss_master *m)
@@ -151,36 +147,40 @@ static uint32_t cur_timeout_ms(const struct lss_master *m)
 	return m->cur.service == LSS_SVC_FASTSCAN ? m->step_ms : m->timeout_ms;
 }
 
-static void finish(struct lss_master *m, lss_result r, uint64_t now_us)
+/* The running request ended with r: back to idle; the confirmation and
+ * the event follow once the machine has settled (report()), so that a
+ * confirmation submitting the next request finds the master idle. Inside
+ * lss_master_submit() nothing may be reported: wait for the next tick. */
+static int end(struct lss_master *m, lss_result r)
+{
+	if (m->submitting) {
+		m->done_later = r;
+		return LSS_MASTER_DONE_LATER;
+	}
+	m->ended = true;
+	m->end_result = r;
+	return LSS_MASTER_IDLE;
+}
+
+/* Confirmation, then the one CO_EV_LSS_MASTER_DONE, of the request that
+ * ended (if one did). */
+static void report(struct lss_master *m, uint64_t now_us)
 {
 	co_event ev = { .kind = CO_EV_LSS_MASTER_DONE };
 	lss_master_con_fn con = m->cur.con;
 	void *con_arg = m->cur.con_arg;
 
-	if (m->submitting) {
-		m->state = MST_DONE_LATER;
-		m->done_later = r;
-		m->deadline_us = now_us;
-		co_node_deadline_lower(m->node, now_us);
+	if (!m->ended)
 		return;
-	}
+	m->ended = false;
 	m->res.service = (uint8_t)m->cur.service;
-	m->res.result = (uint8_t)r;
+	m->res.result = (uint8_t)m->end_result;
 	m->res.tag = m->cur.tag;
 	ev.u.lss_master = m->res;
 	ev.now_us = now_us;
-	m->busy = false;
-	m->state = MST_IDLE;
-	m->deadline_us = CO_NO_DEADLINE;
 	if (con)
 		con(con_arg, &ev.u.lss_master);
 	co_node_emit(m->node, &ev);
-	kick(m, now_us);
-}
-
-static void done_later_on_timeout(struct lss_master *m, uint64_t now_us)
-{
-	finish(m, m->done_later, now_us);
 }
 
 /* Send one LSS request: cs and up to 7 payload bytes, padded to 8. */
@@ -204,75 +204,130 @@ static int send_u32(struct lss_master *m, uint8_t cs, uint32_t v)
 	return send_cmd(m, cs, p, 4);
 }
 
-/* ---- state handlers ------------------------------------------------------------- */
+/* ---- idle, done-later ------------------------------------------------------------ */
 
-static void confirm_on_frame(struct lss_master *m, const co_frame *f,
-			     uint64_t now_us)
+static int idle_on_enter(void *obj, uint64_t now_us)
 {
-	uint8_t cs = f->data[0];
+	struct lss_master *m = obj;
 
-	switch (cs) {
+	(void)now_us;
+	m->deadline_us = CO_NO_DEADLINE;
+	return CO_FSM_STAY;
+}
+
+/* Ended inside lss_master_submit(): report from the next tick. */
+static int done_later_on_enter(void *obj, uint64_t now_us)
+{
+	struct lss_master *m = obj;
+
+	m->deadline_us = now_us;
+	co_node_deadline_lower(m->node, now_us);
+	return CO_FSM_STAY;
+}
+
+static int done_later_on_timeout(void *obj, uint64_t now_us)
+{
+	struct lss_master *m = obj;
+
+	(void)now_us;
+	return end(m, m->done_later);
+}
+
+/* ---- confirmed services ------------------------------------------------------------ */
+
+static int confirm_on_enter(void *obj, uint64_t now_us)
+{
+	struct lss_master *m = obj;
+
+	return arm(m, cur_timeout_ms(m), now_us);
+}
+
+static int confirm_error_answer(struct lss_master *m, const co_frame *f)
+{
+	if (f->len < 2)
+		return CO_FSM_STAY; /* no error code: not an answer */
+	m->res.error_code = f->data[1];
+	m->res.error_spec = f->len >= 3 ? f->data[2] : 0;
+	return end(m, f->data[1] == LSS_EC_OK ? LSS_RESULT_OK
+					      : LSS_RESULT_SLAVE_ERROR);
+}
+
+static int confirm_on_frame(void *obj, const co_frame *f, uint64_t now_us)
+{
+	struct lss_master *m = obj;
+
+	(void)now_us;
+	switch ((lss_cs)f->data[0]) {
 	case LSS_CS_SWITCH_SEL_RESPONSE:
-		finish(m, LSS_RESULT_OK, now_us);
-		return;
+		return end(m, LSS_RESULT_OK);
 	case LSS_CS_CONFIG_NODE_ID:
 	case LSS_CS_CONFIG_BIT_TIMING:
 	case LSS_CS_STORE:
-		if (f->len < 2)
-			return; /* no error code: not an answer */
-		m->res.error_code = f->data[1];
-		m->res.error_spec = f->len >= 3 ? f->data[2] : 0;
-		finish(m, f->data[1] == LSS_EC_OK ? LSS_RESULT_OK
-						  : LSS_RESULT_SLAVE_ERROR,
-		       now_us);
-		return;
+		return confirm_error_answer(m, f);
 	case LSS_CS_INQUIRE_NODE_ID:
 		if (f->len < 2)
-			return;
+			return CO_FSM_STAY;
 		m->res.node_id = f->data[1];
-		finish(m, LSS_RESULT_OK, now_us);
-		return;
+		return end(m, LSS_RESULT_OK);
 	default: /* inquire vendor..serial */
 		if (f->len < 5)
-			return;
+			return CO_FSM_STAY;
 		m->res.value = co_get_le32(&f->data[1]);
-		finish(m, LSS_RESULT_OK, now_us);
-		return;
+		return end(m, LSS_RESULT_OK);
 	}
 }
 
-static void confirm_on_timeout(struct lss_master *m, uint64_t now_us)
+static int confirm_on_timeout(void *obj, uint64_t now_us)
 {
-	finish(m, LSS_RESULT_TIMEOUT, now_us);
+	(void)now_us;
+	return end(obj, LSS_RESULT_TIMEOUT);
 }
 
-/* Identify and Fastscan windows: count, decide at the deadline. */
-static void window_on_frame(struct lss_master *m, const co_frame *f,
-			    uint64_t now_us)
+/* ---- identify windows (also every Fastscan step): count the answers --------------- */
+
+static int window_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
+	struct lss_master *m = obj;
+
 	(void)f;
 	(void)now_us;
 	if (m->res.answers < UINT16_MAX)
 		m->res.answers++;
+	return CO_FSM_STAY;
 }
 
-static void window_on_timeout(struct lss_master *m, uint64_t now_us)
+static int window_on_timeout(void *obj, uint64_t now_us)
 {
-	finish(m, m->res.answers ? LSS_RESULT_OK : LSS_RESULT_NOT_FOUND, now_us);
+	struct lss_master *m = obj;
+
+	(void)now_us;
+	return end(m, m->res.answers ? LSS_RESULT_OK : LSS_RESULT_NOT_FOUND);
 }
 
-static void activate_on_timeout(struct lss_master *m, uint64_t now_us)
+/* ---- activate bit timing ------------------------------------------------------------ */
+
+static int activate_on_enter(void *obj, uint64_t now_us)
 {
+	struct lss_master *m = obj;
+
+	return arm(m, m->cur.delay_ms, now_us);
+}
+
+static int activate_on_timeout(void *obj, uint64_t now_us)
+{
+	struct lss_master *m = obj;
+
 	/* First delay over: every node switches now. The second delay keeps
 	 * the bus quiet while they come back (CiA 305). */
 	m->quiet_until_us = now_us + (uint64_t)m->cur.delay_ms * 1000u;
-	finish(m, LSS_RESULT_OK, now_us);
+	return end(m, LSS_RESULT_OK);
 }
 
-/* -- Fastscan -- */
+/* ---- Fastscan ------------------------------------------------------------------------ */
 
-static void fs_send(struct lss_master *m, mst_state st, uint8_t bit,
-		    uint8_t next, uint64_t now_us)
+/* Send one Fastscan frame for the current field; the caller then enters
+ * (or re-enters) the step state st, which arms the step's window. */
+static int fs_send(struct lss_master *m, int st, uint8_t bit, uint8_t next)
 {
 	uint8_t p[7];
 
@@ -280,185 +335,160 @@ static void fs_send(struct lss_master *m, mst_state st, uint8_t bit,
 	p[4] = bit;
 	p[5] = m->fs_sub;
 	p[6] = next;
-	if (send_cmd(m, LSS_CS_FASTSCAN, p, 7) < 0) {
-		finish(m, LSS_RESULT_TX_FAILED, now_us);
-		return;
-	}
-	arm(m, st, cur_timeout_ms(m), now_us);
+	if (send_cmd(m, LSS_CS_FASTSCAN, p, 7) < 0)
+		return end(m, LSS_RESULT_TX_FAILED);
+	return st;
 }
 
-static void fs_probe(struct lss_master *m, uint64_t now_us)
+static int fs_probe(struct lss_master *m)
 {
-	fs_send(m, MST_FS_BIT, m->fs_bit, m->fs_sub, now_us);
+	return fs_send(m, LSS_MASTER_FS_BIT, m->fs_bit, m->fs_sub);
 }
 
 /* BitChecked 0 with the next field: the slave matching the whole value
  * moves on (or, after the last field, into configuration state). */
-static void fs_confirm(struct lss_master *m, uint64_t now_us)
+static int fs_confirm(struct lss_master *m)
 {
-	fs_send(m, MST_FS_CONFIRM, 0, (uint8_t)((m->fs_sub + 1) % LSS_ID_COUNT),
-		now_us);
+	return fs_send(m, LSS_MASTER_FS_CONFIRM, 0,
+		       (uint8_t)((m->fs_sub + 1) % LSS_ID_COUNT));
 }
 
-static void fs_begin_field(struct lss_master *m, uint64_t now_us)
+static int fs_begin_field(struct lss_master *m)
 {
-	if (m->cur.known_mask & (1u << m->fs_sub)) {
-		fs_confirm(m, now_us); /* value given: only confirm it */
-		return;
-	}
+	if (m->cur.known_mask & (1u << m->fs_sub))
+		return fs_confirm(m); /* value given: only confirm it */
 	m->res.identity[m->fs_sub] = 0;
 	m->fs_bit = 31;
 	m->fs_bit0_retry = false;
-	fs_probe(m, now_us);
+	return fs_probe(m);
 }
 
-static void fs_reset_on_timeout(struct lss_master *m, uint64_t now_us)
+static int fs_step_on_enter(void *obj, uint64_t now_us)
 {
-	if (!m->res.answers) {
-		finish(m, LSS_RESULT_NOT_FOUND, now_us);
-		return;
-	}
+	struct lss_master *m = obj;
+
+	return arm(m, cur_timeout_ms(m), now_us);
+}
+
+static int fs_reset_on_timeout(void *obj, uint64_t now_us)
+{
+	struct lss_master *m = obj;
+
+	(void)now_us;
+	if (!m->res.answers)
+		return end(m, LSS_RESULT_NOT_FOUND);
 	m->fs_sub = 0;
-	fs_begin_field(m, now_us);
+	return fs_begin_field(m);
 }
 
-static void fs_bit_on_timeout(struct lss_master *m, uint64_t now_us)
+static int fs_bit_on_timeout(void *obj, uint64_t now_us)
 {
+	struct lss_master *m = obj;
+
+	(void)now_us;
 	/* An answer means some slave has 0 at this bit (the probe sends 0
 	 * there); silence means every remaining candidate has 1. Bit 0 is
 	 * left to the confirmation (see the top of the file). */
 	if (!m->res.answers)
 		m->res.identity[m->fs_sub] |= 1u << m->fs_bit;
-	if (m->fs_bit == 1) {
-		fs_confirm(m, now_us); /* bit 0 = 0 first */
-		return;
-	}
+	if (m->fs_bit == 1)
+		return fs_confirm(m); /* bit 0 = 0 first */
 	m->fs_bit--;
-	fs_probe(m, now_us);
+	return fs_probe(m);
 }
 
-static void fs_confirm_on_timeout(struct lss_master *m, uint64_t now_us)
+static int fs_confirm_on_timeout(void *obj, uint64_t now_us)
 {
+	struct lss_master *m = obj;
 	bool known = m->cur.known_mask & (1u << m->fs_sub);
 
+	(void)now_us;
 	if (!m->res.answers && !known && !m->fs_bit0_retry) {
 		m->fs_bit0_retry = true; /* nobody has bit 0 = 0: try 1 */
 		m->res.identity[m->fs_sub] |= 1u;
-		fs_confirm(m, now_us);
-		return;
+		return fs_confirm(m);
 	}
-	if (!m->res.answers) {
+	if (!m->res.answers)
 		/* A given value nobody has is "not found"; a scanned value
 		 * nobody confirms means the slave went away mid-scan. */
-		finish(m, known ? LSS_RESULT_NOT_FOUND : LSS_RESULT_SCAN_LOST,
-		       now_us);
-		return;
-	}
+		return end(m, known ? LSS_RESULT_NOT_FOUND : LSS_RESULT_SCAN_LOST);
 	m->fs_bit0_retry = false;
-	if (++m->fs_sub == LSS_ID_COUNT) {
+	if (++m->fs_sub == LSS_ID_COUNT)
 		/* The slave saw LSSNext < LSSSub: it is in configuration
 		 * state now. */
-		finish(m, LSS_RESULT_OK, now_us);
-		return;
-	}
-	fs_begin_field(m, now_us);
+		return end(m, LSS_RESULT_OK);
+	return fs_begin_field(m);
 }
 
-typedef struct mst_state_ops {
-	const char *name;
-	void (*on_frame)(struct lss_master *m, const co_frame *f,
-			 uint64_t now_us);
-	void (*on_timeout)(struct lss_master *m, uint64_t now_us);
-} mst_state_ops;
+/* ---- service start functions: send, then the state that waits -------------------- */
 
-static const mst_state_ops mst_states[MST_COUNT] = {
-	[MST_IDLE] = { "idle", NULL, NULL },
-	[MST_CONFIRM] = { "confirm", confirm_on_frame, confirm_on_timeout },
-	[MST_WINDOW] = { "window", window_on_frame, window_on_timeout },
-	[MST_ACTIVATE] = { "activate", NULL, activate_on_timeout },
-	[MST_FS_RESET] = { "fs-reset", window_on_frame, fs_reset_on_timeout },
-	[MST_FS_BIT] = { "fs-bit", window_on_frame, fs_bit_on_timeout },
-	[MST_FS_CONFIRM] = { "fs-confirm", window_on_frame, fs_confirm_on_timeout },
-	[MST_DONE_LATER] = { "done-later", NULL, done_later_on_timeout },
-};
-
-/* ---- service start functions ------------------------------------------------------ */
-
-/* Frames sent, now wait in state st for expect (timeout per service). */
-static void wait_for(struct lss_master *m, int rc, mst_state st,
-		     uint8_t expect, uint64_t now_us)
+/* Frames sent (rc) or not; then wait in state st for the answer expect. */
+static int wait_for(struct lss_master *m, int rc, int st, uint8_t expect)
 {
-	if (rc < 0) {
-		finish(m, LSS_RESULT_TX_FAILED, now_us);
-		return;
-	}
+	if (rc < 0)
+		return end(m, LSS_RESULT_TX_FAILED);
 	m->expect_cs = expect;
-	arm(m, st, cur_timeout_ms(m), now_us);
+	return st;
 }
 
-static void start_switch_global(struct lss_master *m, uint64_t now_us)
+static int start_switch_global(struct lss_master *m)
 {
 	uint8_t mode = m->cur.mode;
 
-	finish(m, send_cmd(m, LSS_CS_SWITCH_GLOBAL, &mode, 1) < 0
-			  ? LSS_RESULT_TX_FAILED
-			  : LSS_RESULT_OK,
-	       now_us);
+	return end(m, send_cmd(m, LSS_CS_SWITCH_GLOBAL, &mode, 1) < 0
+			      ? LSS_RESULT_TX_FAILED
+			      : LSS_RESULT_OK);
 }
 
-static void start_switch_selective(struct lss_master *m, uint64_t now_us)
+static int start_switch_selective(struct lss_master *m)
 {
 	int rc = 0;
 
 	for (unsigned i = 0; i < LSS_ID_COUNT && rc == 0; i++)
 		rc = send_u32(m, (uint8_t)(LSS_CS_SWITCH_SEL_VENDOR + i),
 			      m->cur.addr.id[i]);
-	wait_for(m, rc, MST_CONFIRM, LSS_CS_SWITCH_SEL_RESPONSE, now_us);
+	return wait_for(m, rc, LSS_MASTER_CONFIRM, LSS_CS_SWITCH_SEL_RESPONSE);
 }
 
-static void start_config_node_id(struct lss_master *m, uint64_t now_us)
+static int start_config_node_id(struct lss_master *m)
 {
 	m->res.node_id = m->cur.node_id;
-	wait_for(m, send_cmd(m, LSS_CS_CONFIG_NODE_ID, &m->cur.node_id, 1),
-		 MST_CONFIRM, LSS_CS_CONFIG_NODE_ID, now_us);
+	return wait_for(m, send_cmd(m, LSS_CS_CONFIG_NODE_ID, &m->cur.node_id, 1),
+			LSS_MASTER_CONFIRM, LSS_CS_CONFIG_NODE_ID);
 }
 
-static void start_config_bit_timing(struct lss_master *m, uint64_t now_us)
+static int start_config_bit_timing(struct lss_master *m)
 {
 	uint8_t p[2] = { m->cur.table, m->cur.index };
 
-	wait_for(m, send_cmd(m, LSS_CS_CONFIG_BIT_TIMING, p, 2), MST_CONFIRM,
-		 LSS_CS_CONFIG_BIT_TIMING, now_us);
+	return wait_for(m, send_cmd(m, LSS_CS_CONFIG_BIT_TIMING, p, 2),
+			LSS_MASTER_CONFIRM, LSS_CS_CONFIG_BIT_TIMING);
 }
 
-static void start_activate_bit_timing(struct lss_master *m, uint64_t now_us)
+static int start_activate_bit_timing(struct lss_master *m)
 {
 	uint8_t p[2];
 
 	co_put_le16(p, m->cur.delay_ms);
-	if (send_cmd(m, LSS_CS_ACTIVATE_BIT_TIMING, p, 2) < 0) {
-		finish(m, LSS_RESULT_TX_FAILED, now_us);
-		return;
-	}
-	m->expect_cs = 0;
-	arm(m, MST_ACTIVATE, m->cur.delay_ms, now_us);
+	return wait_for(m, send_cmd(m, LSS_CS_ACTIVATE_BIT_TIMING, p, 2),
+			LSS_MASTER_ACTIVATE, 0);
 }
 
-static void start_store(struct lss_master *m, uint64_t now_us)
+static int start_store(struct lss_master *m)
 {
-	wait_for(m, send_cmd(m, LSS_CS_STORE, NULL, 0), MST_CONFIRM,
-		 LSS_CS_STORE, now_us);
+	return wait_for(m, send_cmd(m, LSS_CS_STORE, NULL, 0),
+			LSS_MASTER_CONFIRM, LSS_CS_STORE);
 }
 
-static void start_inquire(struct lss_master *m, uint64_t now_us)
+static int start_inquire(struct lss_master *m)
 {
 	uint8_t cs = (uint8_t)(LSS_CS_INQUIRE_VENDOR +
 			       (m->cur.service - LSS_SVC_INQUIRE_VENDOR));
 
-	wait_for(m, send_cmd(m, cs, NULL, 0), MST_CONFIRM, cs, now_us);
+	return wait_for(m, send_cmd(m, cs, NULL, 0), LSS_MASTER_CONFIRM, cs);
 }
 
-static void start_identify_remote(struct lss_master *m, uint64_t now_us)
+static int start_identify_remote(struct lss_master *m)
 {
 	const uint32_t v[6] = {
 		m->cur.addr.id[LSS_ID_VENDOR], m->cur.addr.id[LSS_ID_PRODUCT],
@@ -471,16 +501,16 @@ static void start_identify_remote(struct lss_master *m, uint64_t now_us)
 
 	for (unsigned i = 0; i < 6 && rc == 0; i++)
 		rc = send_u32(m, (uint8_t)(LSS_CS_IDENT_VENDOR + i), v[i]);
-	wait_for(m, rc, MST_WINDOW, LSS_CS_IDENT_SLAVE, now_us);
+	return wait_for(m, rc, LSS_MASTER_WINDOW, LSS_CS_IDENT_SLAVE);
 }
 
-static void start_identify_non_configured(struct lss_master *m, uint64_t now_us)
+static int start_identify_non_configured(struct lss_master *m)
 {
-	wait_for(m, send_cmd(m, LSS_CS_IDENT_NON_CONFIGURED, NULL, 0),
-		 MST_WINDOW, LSS_CS_IDENT_NON_CONFIGURED_SLAVE, now_us);
+	return wait_for(m, send_cmd(m, LSS_CS_IDENT_NON_CONFIGURED, NULL, 0),
+			LSS_MASTER_WINDOW, LSS_CS_IDENT_NON_CONFIGURED_SLAVE);
 }
 
-static void start_fastscan(struct lss_master *m, uint64_t now_us)
+static int start_fastscan(struct lss_master *m)
 {
 	for (unsigned i = 0; i < LSS_ID_COUNT; i++)
 		m->res.identity[i] = (m->cur.known_mask & (1u << i))
@@ -490,10 +520,10 @@ static void start_fastscan(struct lss_master *m, uint64_t now_us)
 	m->expect_cs = LSS_CS_IDENT_SLAVE;
 	/* IDNumber 0 and sub 0 as placeholders: with BitChecked 80h the
 	 * slaves only reset their position and answer. */
-	fs_send(m, MST_FS_RESET, LSS_FASTSCAN_CONFIRM, 0, now_us);
+	return fs_send(m, LSS_MASTER_FS_RESET, LSS_FASTSCAN_CONFIRM, 0);
 }
 
-typedef void (*mst_start_fn)(struct lss_master *m, uint64_t now_us);
+typedef int (*mst_start_fn)(struct lss_master *m);
 
 static const mst_start_fn mst_start[LSS_SVC_COUNT] = {
 	[LSS_SVC_SWITCH_GLOBAL] = start_switch_global,
@@ -512,21 +542,89 @@ static const mst_start_fn mst_start[LSS_SVC_COUNT] = {
 	[LSS_SVC_FASTSCAN] = start_fastscan,
 };
 
+/* The request in cur starts: send its first frames, go where it waits. */
+static int start_on_enter(void *obj, uint64_t now_us)
+{
+	struct lss_master *m = obj;
+
+	(void)now_us;
+	return mst_start[m->cur.service](m);
+}
+
+/* ---- the machine ---------------------------------------------------------------------- */
+
+static const co_fsm_state mst_states[LSS_MASTER_STATE_COUNT] = {
+	[LSS_MASTER_IDLE] = { .name = "idle", .on_enter = idle_on_enter },
+	[LSS_MASTER_START] = { .name = "start", .on_enter = start_on_enter },
+	[LSS_MASTER_CONFIRM] = { .name = "confirm",
+				 .on_enter = confirm_on_enter,
+				 .on_frame = confirm_on_frame,
+				 .on_timeout = confirm_on_timeout },
+	[LSS_MASTER_WINDOW] = { .name = "window",
+				.on_enter = confirm_on_enter,
+				.on_frame = window_on_frame,
+				.on_timeout = window_on_timeout },
+	[LSS_MASTER_ACTIVATE] = { .name = "activate",
+				  .on_enter = activate_on_enter,
+				  .on_timeout = activate_on_timeout },
+	[LSS_MASTER_FS_RESET] = { .name = "fs-reset",
+				  .on_enter = fs_step_on_enter,
+				  .on_frame = window_on_frame,
+				  .on_timeout = fs_reset_on_timeout },
+	[LSS_MASTER_FS_BIT] = { .name = "fs-bit",
+				.on_enter = fs_step_on_enter,
+				.on_frame = window_on_frame,
+				.on_timeout = fs_bit_on_timeout },
+	[LSS_MASTER_FS_CONFIRM] = { .name = "fs-confirm",
+				    .on_enter = fs_step_on_enter,
+				    .on_frame = window_on_frame,
+				    .on_timeout = fs_confirm_on_timeout },
+	[LSS_MASTER_DONE_LATER] = { .name = "done-later",
+				    .on_enter = done_later_on_enter,
+				    .on_timeout = done_later_on_timeout },
+};
+
+static const co_fsm_def mst_def = {
+	.name = "lss_master",
+	.states = mst_states,
+	.n_states = LSS_MASTER_STATE_COUNT,
+};
+
+const char *lss_master_state_to_string(lss_master_state s)
+{
+	return co_fsm_state_name(&mst_def, (int)s);
+}
+
+lss_master_state lss_master_state_of(const co_node *node)
+{
+	const struct lss_master *m = master_of(node);
+
+	return m ? (lss_master_state)co_fsm_state_of(&m->fsm) : LSS_MASTER_IDLE;
+}
+
 /* Start queued requests while the master is idle and the bus not held
- * quiet. A start may finish at once (switch global), hence the loop. */
+ * quiet. A start may end at once (switch global), and a confirmation may
+ * submit more, hence the loop. */
 static void kick(struct lss_master *m, uint64_t now_us)
 {
-	while (!m->busy && !m->cancelling && m->q_count &&
+	while (!busy(m) && !m->cancelling && m->q_count &&
 	       now_us >= m->quiet_until_us) {
 		m->cur = m->queue[m->q_head];
 		m->q_head = (uint8_t)((m->q_head + 1) % m->q_len);
 		m->q_count--;
-		m->busy = true;
 		memset(&m->res, 0, sizeof(m->res));
-		mst_start[m->cur.service](m, now_us);
+		co_fsm_goto(&m->fsm, LSS_MASTER_START, now_us);
+		report(m, now_us);
 	}
-	if (!m->busy && m->q_count)
+	if (!busy(m) && m->q_count)
 		co_node_deadline_lower(m->node, m->quiet_until_us);
+}
+
+/* After every input: report what ended, start what waits. */
+static void settle(struct lss_master *m, uint64_t now_us)
+{
+	report(m, now_us);
+	kick(m, now_us);
 }
 
 /* ---- receive and tick ---------------------------------------------------------------- */
@@ -535,21 +633,20 @@ static void lss_master_rx(co_node *node, void *arg, const co_frame *f,
 			  uint64_t now_us)
 {
 	struct lss_master *m = arg;
-	const mst_state_ops *ops = &mst_states[m->state];
 
 	(void)node;
-	if (!m->busy || !ops->on_frame || f->len < 1 ||
-	    (f->flags & CO_FRAME_RTR) || f->data[0] != m->expect_cs)
+	if (!busy(m) || f->len < 1 || (f->flags & CO_FRAME_RTR) ||
+	    f->data[0] != m->expect_cs)
 		return; /* idle, or not what the running service waits for */
-	ops->on_frame(m, f, now_us);
+	co_fsm_frame(&m->fsm, f, now_us);
+	settle(m, now_us);
 }
 
 uint64_t lss_master_tick(struct lss_master *m, uint64_t now_us)
 {
-	if (m->busy && now_us >= m->deadline_us &&
-	    mst_states[m->state].on_timeout)
-		mst_states[m->state].on_timeout(m, now_us);
-	kick(m, now_us);
+	if (busy(m) && now_us >= m->deadline_us)
+		co_fsm_timeout(&m->fsm, now_us);
+	settle(m, now_us);
 	return next_deadline(m);
 }
 
@@ -598,15 +695,20 @@ void lss_master_cancel_all(co_node *node, uint64_t now_us)
 	node->now_us = now_us;
 	m->cancelling = true;
 	n = m->q_count; /* requests submitted by the callbacks stay */
-	if (m->busy)
-		finish(m, LSS_RESULT_CANCELLED, now_us);
+	if (busy(m)) {
+		m->ended = true;
+		m->end_result = LSS_RESULT_CANCELLED;
+		co_fsm_goto(&m->fsm, LSS_MASTER_IDLE, now_us);
+		report(m, now_us);
+	}
 	while (n--) {
 		m->cur = m->queue[m->q_head];
 		m->q_head = (uint8_t)((m->q_head + 1) % m->q_len);
 		m->q_count--;
 		memset(&m->res, 0, sizeof(m->res));
-		m->busy = true;
-		finish(m, LSS_RESULT_CANCELLED, now_us);
+		m->ended = true;
+		m->end_result = LSS_RESULT_CANCELLED;
+		report(m, now_us);
 	}
 	m->cancelling = false;
 	kick(m, now_us);
@@ -616,7 +718,7 @@ unsigned lss_master_pending(const co_node *node)
 {
 	const struct lss_master *m = master_of(node);
 
-	return m ? m->q_count + (m->busy ? 1u : 0u) : 0;
+	return m ? m->q_count + (busy(m) ? 1u : 0u) : 0;
 }
 
 int lss_master_switch_global_req(co_node *node, lss_state mode, uint64_t tag,
@@ -731,6 +833,7 @@ int lss_master_init(co_node *node, struct lss_master **out)
 	m->q_len = node->cfg.lss_queue_len ? node->cfg.lss_queue_len
 					   : DEFAULT_QUEUE_LEN;
 	m->deadline_us = CO_NO_DEADLINE;
+	co_fsm_init(&m->fsm, &mst_def, m, LSS_MASTER_IDLE);
 	m->queue = calloc(m->q_len, sizeof(*m->queue));
 	if (!m->queue) {
 		free(m);

@@ -148,7 +148,28 @@ void lss_master_cancel_all(co_node *node, uint64_t now_us);
 /* Requests running + queued; 0 without a master. */
 unsigned lss_master_pending(const co_node *node);
 
-/* ---- for core/lss.c only ---------------------------------------------- */
+/* States of the master's machine (core/fsm.h), for diagnostics and tests. */
+typedef enum lss_master_state {
+	LSS_MASTER_IDLE = 0,
+	LSS_MASTER_START,      /* sending the request's first frames */
+	LSS_MASTER_CONFIRM,    /* confirmed service: waiting for one answer */
+	LSS_MASTER_WINDOW,     /* identify: counting answers until the end of
+	                        * the window */
+	LSS_MASTER_ACTIVATE,   /* activate bit timing: the switch delay */
+	LSS_MASTER_FS_RESET,   /* Fastscan: BitChecked 80h sent, anybody? */
+	LSS_MASTER_FS_BIT,     /* Fastscan: probing one bit (31..1) */
+	LSS_MASTER_FS_CONFIRM, /* Fastscan: a whole field sent, slave moves on */
+	LSS_MASTER_DONE_LATER, /* ended inside lss_master_submit(): reported
+	                        * from the next tick */
+	LSS_MASTER_STATE_COUNT
+} lss_master_state;
+
+/* "idle", "confirm", "fs-bit", ...; "?" out of range. */
+const char *lss_master_state_to_string(lss_master_state s);
+/* State of the node's master; LSS_MASTER_IDLE without one. */
+lss_master_state lss_master_state_of(const co_node *node);
+
+/* ---- for core/lss_service.c only ---------------------------------------------- */
 int lss_master_init(co_node *node, struct lss_master **out);
 void lss_master_fini(struct lss_master *m);
 uint64_t lss_master_tick(struct lss_master *m, uint64_t now_us);

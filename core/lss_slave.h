@@ -62,7 +62,7 @@ typedef struct lss_slave_hooks {
 int lss_slave_get(const co_node *node, lss_state *state, uint8_t *active,
 		  uint8_t *pending, uint8_t *persistent);
 
-/* ---- for core/lss.c only ---------------------------------------------- */
+/* ---- for core/lss_service.c only ---------------------------------------------- */
 int lss_slave_init(co_node *node, struct lss_slave **out);
 void lss_slave_fini(struct lss_slave *s);
 void lss_slave_reset_comm(struct lss_slave *s, uint64_t now_us);

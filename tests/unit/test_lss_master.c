@@ -300,7 +300,9 @@ static void test_activate_bit_timing_holds_the_bus(void)
 {
 	const uint8_t act[8] = { 0x15, 0xE8, 0x03, 0, 0, 0, 0, 0 }; /* 1000 ms */
 
+	TEST_ASSERT_EQUAL_INT(LSS_MASTER_IDLE, lss_master_state_of(mst.node));
 	TEST_ASSERT_EQUAL_INT(0, lss_master_activate_bit_timing_req(mst.node, 1000, 1, 0));
+	TEST_ASSERT_EQUAL_INT(LSS_MASTER_ACTIVATE, lss_master_state_of(mst.node));
 	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_global_req(mst.node, LSS_STATE_WAITING, 2, 0));
 	lss_fixture_expect_frame(&bus, 0, 0x7E5, act);
 	TEST_ASSERT_EQUAL_UINT(1, n_tx());
@@ -314,9 +316,11 @@ static void test_activate_bit_timing_holds_the_bus(void)
 	TEST_ASSERT_EQUAL_UINT64(2000 * MS, deadline());
 	membus_advance(&bus, 1999 * MS);
 	TEST_ASSERT_EQUAL_UINT(1, n_tx());
+	TEST_ASSERT_EQUAL_INT(LSS_MASTER_IDLE, lss_master_state_of(mst.node));
 	membus_advance(&bus, 2000 * MS);
 	TEST_ASSERT_EQUAL_UINT(2, n_tx());
 	expect_done(LSS_SVC_SWITCH_GLOBAL, LSS_RESULT_OK, 2);
+	TEST_ASSERT_EQUAL_INT(LSS_MASTER_IDLE, lss_master_state_of(mst.node));
 	TEST_ASSERT_EQUAL_UINT64(2000 * MS, tx(1)->t_us);
 }
 
@@ -463,6 +467,9 @@ static void test_names(void)
 	TEST_ASSERT_EQUAL_UINT16(0, lss_bit_rate_kbit(5));
 	TEST_ASSERT_EQUAL_UINT16(10, lss_bit_rate_kbit(8));
 	TEST_ASSERT_EQUAL_UINT16(0, lss_bit_rate_kbit(9));
+	TEST_ASSERT_EQUAL_STRING("fs-confirm", lss_master_state_to_string(LSS_MASTER_FS_CONFIRM));
+	TEST_ASSERT_EQUAL_STRING("done-later", lss_master_state_to_string(LSS_MASTER_DONE_LATER));
+	TEST_ASSERT_EQUAL_STRING("?", lss_master_state_to_string(LSS_MASTER_STATE_COUNT));
 }
 
 
