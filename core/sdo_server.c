@@ -1,11 +1,15 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * SDO server (CiA 301 §7.2.4). One state machine per channel; each state has
- * a frame handler in srv_states[], and every non-idle state shares the same
- * timeout rule (the per-frame timeout, restarted on every frame the channel
- * receives or sends, aborts with 0x05040000). The sub-block rules of both
- * block directions (sequence, duplicates, ack, CRC) are shared with the
- * client in sdo_block.c.
+ * SDO server (CiA 301 §7.2.4). One core/fsm.h machine per channel: the
+ * table srv_states[] gives each state its frame handler, which returns the
+ * next state. Every transfer state shares one on_enter and one timeout
+ * rule (the per-frame timeout, restarted on every frame the channel
+ * receives or sends, aborts with 0x05040000). A transfer ends through
+ * finish(), which returns idle; idle's on_enter emits the one
+ * CO_EV_SDO_SERVER_DONE. A deferred hook answers through on_con
+ * (sdo_server_continue). The sub-block rules of both block directions
+ * (sequence, duplicates, ack, CRC) are shared with the client in
+ * sdo_block.c.
  *
  * Frame layout reminders (byte 0):
  *   initiate download   001 x nn e s  -> 011 00000 (0x60)
@@ -26,6 +30,7 @@
 #include <string.h>
 
 #include "core/co_internal.h"
+#include "core/fsm.h"
 #include "core/nmt.h"
 #include "core/sdo_block.h"
 #include "core/sdo_server.h"
@@ -53,7 +58,10 @@ enum defer_kind {
 struct srv_chan {
 	struct sdo_server *srv;
 	uint8_t num;
-	uint8_t state;
+	co_fsm fsm; /* state: enum srv_state (srv_states[]) */
+	bool done_pending;   /* the transfer ended: idle's on_enter reports */
+	uint32_t done_abort; /* ... with this abort code (0 = success) */
+	co_frame route_ind;  /* the network indication handed to routing */
 	int rx_handle;
 	uint32_t cob_rx; /* 1200h+n sub 1 (client -> server), incl. bit 31 */
 	uint32_t cob_tx; /* sub 2 (server -> client) */
@@ -101,35 +109,6 @@ struct sdo_server {
 	struct srv_chan ch[];
 };
 
-typedef void (*srv_frame_fn)(struct srv_chan *ch, const uint8_t *d);
-
-static void st_idle(struct srv_chan *ch, const uint8_t *d);
-static void st_dn_seg(struct srv_chan *ch, const uint8_t *d);
-static void st_up_seg(struct srv_chan *ch, const uint8_t *d);
-static void st_blk_dn_sub(struct srv_chan *ch, const uint8_t *d);
-static void st_blk_dn_end(struct srv_chan *ch, const uint8_t *d);
-static void st_blk_up_start(struct srv_chan *ch, const uint8_t *d);
-static void st_blk_up_ack(struct srv_chan *ch, const uint8_t *d);
-static void st_blk_up_end(struct srv_chan *ch, const uint8_t *d);
-static void st_deferred(struct srv_chan *ch, const uint8_t *d);
-static void st_routed(struct srv_chan *ch, const uint8_t *d);
-
-static const struct {
-	const char *name;
-	srv_frame_fn on_frame;
-} srv_states[SS_COUNT] = {
-	[SS_IDLE] = { "idle", st_idle },
-	[SS_DN_SEG] = { "download segment", st_dn_seg },
-	[SS_UP_SEG] = { "upload segment", st_up_seg },
-	[SS_BLK_DN_SUB] = { "block download sub-block", st_blk_dn_sub },
-	[SS_BLK_DN_END] = { "block download end", st_blk_dn_end },
-	[SS_BLK_UP_START] = { "block upload start", st_blk_up_start },
-	[SS_BLK_UP_ACK] = { "block upload ack", st_blk_up_ack },
-	[SS_BLK_UP_END] = { "block upload end", st_blk_up_end },
-	[SS_DEFERRED] = { "deferred", st_deferred },
-	[SS_ROUTED] = { "routed", st_routed },
-};
-
 /* ---- helpers ------------------------------------------------------------ */
 
 static co_node *node_of(const struct srv_chan *ch)
@@ -142,22 +121,17 @@ static const co_node_config *cfg_of(const struct srv_chan *ch)
 	return &node_of(ch)->cfg;
 }
 
+static int state_of(const struct srv_chan *ch)
+{
+	return co_fsm_state_of(&ch->fsm);
+}
+
 static void arm(struct srv_chan *ch)
 {
 	co_node *node = node_of(ch);
 
 	ch->deadline = node->now_us + (uint64_t)node->cfg.sdo_server_timeout_ms * 1000u;
 	co_node_deadline_lower(node, ch->deadline);
-}
-
-static void enter(struct srv_chan *ch, uint8_t state)
-{
-	ch->state = state;
-	/* A routed channel's timers are the routing session's. */
-	if (state == SS_IDLE || state == SS_ROUTED)
-		ch->deadline = CO_NO_DEADLINE;
-	else
-		arm(ch);
 }
 
 static void frame_init(const struct srv_chan *ch, co_frame *f, uint8_t cmd)
@@ -197,23 +171,22 @@ static void emit_done(struct srv_chan *ch, uint32_t abort)
 
 static void chan_apply(struct srv_chan *ch);
 
-static void finish(struct srv_chan *ch, uint32_t abort)
+/* The transfer ends with `abort` (0 = success): back to idle, whose
+ * on_enter reports CO_EV_SDO_SERVER_DONE once the channel is idle. */
+static int finish(struct srv_chan *ch, uint32_t abort)
 {
-	enter(ch, SS_IDLE);
-	emit_done(ch, abort);
-	if (ch->reapply) {
-		ch->reapply = false;
-		chan_apply(ch);
-	}
+	ch->done_pending = true;
+	ch->done_abort = abort;
+	return SS_IDLE;
 }
 
-static void abort_transfer(struct srv_chan *ch, uint32_t code)
+static int abort_transfer(struct srv_chan *ch, uint32_t code)
 {
 	uint8_t p[4];
 
 	co_put_le32(p, code);
 	send_mux(ch, SDO_CCS_ABORT << 5, p);
-	finish(ch, code);
+	return finish(ch, code);
 }
 
 /* Index/sub of a new request, and the access check for it. */
@@ -246,10 +219,11 @@ static co_od_access access_of(const struct srv_chan *ch, const uint8_t *data, ui
 	return a;
 }
 
-static void park(struct srv_chan *ch, uint8_t kind)
+/* A hook answers later (sdo_server_continue): wait in "deferred". */
+static int park(struct srv_chan *ch, uint8_t kind)
 {
 	ch->defer = kind;
-	enter(ch, SS_DEFERRED);
+	return SS_DEFERRED;
 }
 
 /* ---- download ----------------------------------------------------------- */
@@ -290,7 +264,7 @@ static bool dn_put(struct srv_chan *ch, const uint8_t *data, uint32_t len)
 }
 
 /* Store the checked value, confirm with `resp` and finish. */
-static void dn_commit(struct srv_chan *ch, const co_frame *resp, uint32_t len)
+static int dn_commit(struct srv_chan *ch, const co_frame *resp, uint32_t len)
 {
 	co_od_access a = access_of(ch, ch->dst, len);
 	co_frame r = *resp; /* `resp` may be ch->pending */
@@ -303,20 +277,18 @@ static void dn_commit(struct srv_chan *ch, const co_frame *resp, uint32_t len)
 	ev.u.od.channel = ch->num;
 	ev.u.od.size = len;
 	co_node_emit(node_of(ch), &ev);
-	finish(ch, 0);
+	return finish(ch, 0);
 }
 
 /* All data is in: final checks, hook, store, confirm with `resp`. */
-static void dn_complete(struct srv_chan *ch, const co_frame *resp)
+static int dn_complete(struct srv_chan *ch, const co_frame *resp)
 {
 	co_od_entry *e = ch->e;
 	uint32_t len = ch->offset;
 	uint32_t ab;
 
-	if (ch->size_ind && len != ch->size) {
-		abort_transfer(ch, SDO_AB_TYPE_LEN);
-		return;
-	}
+	if (ch->size_ind && len != ch->size)
+		return abort_transfer(ch, SDO_AB_TYPE_LEN);
 	ab = co_od_check_value(e, ch->dst, len);
 	if (!ab && !ch->in_place && e->hooks && e->hooks->check_write) {
 		co_od_access a = access_of(ch, ch->dst, len);
@@ -325,33 +297,27 @@ static void dn_complete(struct srv_chan *ch, const co_frame *resp)
 	if (ab == CO_OD_DEFERRED) {
 		ch->pending = *resp;
 		ch->stage_len = len;
-		park(ch, DEFER_COMMIT);
-		return;
+		return park(ch, DEFER_COMMIT);
 	}
-	if (ab) {
-		abort_transfer(ch, ab);
-		return;
-	}
-	dn_commit(ch, resp, len);
+	if (ab)
+		return abort_transfer(ch, ab);
+	return dn_commit(ch, resp, len);
 }
 
-/* Send `pending` and go on, or park if the hook deferred. */
-static void dn_proceed(struct srv_chan *ch, uint32_t ab, uint8_t next)
+/* Send `pending` and go on to `next`, or park if the hook deferred. */
+static int dn_proceed(struct srv_chan *ch, uint32_t ab, uint8_t next)
 {
 	if (ab == CO_OD_DEFERRED) {
 		ch->resume_state = next;
-		park(ch, DEFER_PROCEED);
-		return;
+		return park(ch, DEFER_PROCEED);
 	}
-	if (ab) {
-		abort_transfer(ch, ab);
-		return;
-	}
+	if (ab)
+		return abort_transfer(ch, ab);
 	co_node_send(node_of(ch), &ch->pending);
-	enter(ch, next);
+	return next;
 }
 
-static void dn_expedited(struct srv_chan *ch, const uint8_t *d)
+static int dn_expedited(struct srv_chan *ch, const uint8_t *d)
 {
 	co_od_entry *e = ch->e;
 	bool s = d[0] & SDO_SIZE_IND;
@@ -373,72 +339,60 @@ static void dn_expedited(struct srv_chan *ch, const uint8_t *d)
 			len = e->size;
 	}
 	ab = dn_prepare(ch, true, len, true);
-	if (ab) {
-		abort_transfer(ch, ab);
-		return;
-	}
+	if (ab)
+		return abort_transfer(ch, ab);
 	ch->mode = SDO_MODE_EXPEDITED;
 	dn_put(ch, &d[4], len);
 	frame_init(ch, &resp, SDO_SCS_DN_INIT << 5);
 	co_put_le16(&resp.data[1], ch->index);
 	resp.data[3] = ch->sub;
-	dn_complete(ch, &resp);
+	return dn_complete(ch, &resp);
 }
 
-static void dn_init(struct srv_chan *ch, const uint8_t *d)
+static int dn_init(struct srv_chan *ch, const uint8_t *d)
 {
 	uint32_t ab = open_entry(ch, d, false, SDO_MODE_SEGMENTED);
 
-	if (ab) {
-		abort_transfer(ch, ab);
-		return;
-	}
-	if (d[0] & SDO_EXPEDITED) {
-		dn_expedited(ch, d);
-		return;
-	}
+	if (ab)
+		return abort_transfer(ch, ab);
+	if (d[0] & SDO_EXPEDITED)
+		return dn_expedited(ch, d);
 	ab = dn_prepare(ch, d[0] & SDO_SIZE_IND, co_get_le32(&d[4]), false);
 	frame_init(ch, &ch->pending, SDO_SCS_DN_INIT << 5);
 	co_put_le16(&ch->pending.data[1], ch->index);
 	ch->pending.data[3] = ch->sub;
-	dn_proceed(ch, ab, SS_DN_SEG);
+	return dn_proceed(ch, ab, SS_DN_SEG);
 }
 
-static void st_dn_seg(struct srv_chan *ch, const uint8_t *d)
+static int dn_seg_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
+	struct srv_chan *ch = obj;
+	const uint8_t *d = f->data;
 	uint8_t t = d[0] & SDO_TOGGLE;
 	uint32_t len = SDO_SEG_DATA - ((d[0] >> 1) & 7u);
 	co_frame resp;
 
-	if (SDO_CS(d[0]) != SDO_CCS_DN_SEG) {
-		abort_transfer(ch, SDO_AB_CMD);
-		return;
-	}
-	if (t != ch->toggle) {
-		abort_transfer(ch, SDO_AB_TOGGLE);
-		return;
-	}
-	if (ch->size_ind && len > ch->size - ch->offset) {
-		abort_transfer(ch, SDO_AB_TYPE_LEN);
-		return;
-	}
-	if (!dn_put(ch, &d[1], len)) {
-		abort_transfer(ch, SDO_AB_LEN_HIGH);
-		return;
-	}
+	(void)now_us;
+	if (SDO_CS(d[0]) != SDO_CCS_DN_SEG)
+		return abort_transfer(ch, SDO_AB_CMD);
+	if (t != ch->toggle)
+		return abort_transfer(ch, SDO_AB_TOGGLE);
+	if (ch->size_ind && len > ch->size - ch->offset)
+		return abort_transfer(ch, SDO_AB_TYPE_LEN);
+	if (!dn_put(ch, &d[1], len))
+		return abort_transfer(ch, SDO_AB_LEN_HIGH);
 	frame_init(ch, &resp, (uint8_t)((SDO_SCS_DN_SEG << 5) | t));
 	ch->toggle ^= SDO_TOGGLE;
-	if (d[0] & SDO_SEG_LAST) {
-		dn_complete(ch, &resp);
-		return;
-	}
+	if (d[0] & SDO_SEG_LAST)
+		return dn_complete(ch, &resp);
 	co_node_send(node_of(ch), &resp);
 	arm(ch);
+	return CO_FSM_STAY;
 }
 
 /* ---- block download ------------------------------------------------------ */
 
-static void blk_dn_init(struct srv_chan *ch, const uint8_t *d)
+static int blk_dn_init(struct srv_chan *ch, const uint8_t *d)
 {
 	uint32_t ab = open_entry(ch, d, false, SDO_MODE_BLOCK);
 
@@ -446,10 +400,8 @@ static void blk_dn_init(struct srv_chan *ch, const uint8_t *d)
 		ab = SDO_AB_CMD;
 	if (!ab && (d[0] & 1u)) /* cs must be "initiate" */
 		ab = SDO_AB_CMD;
-	if (ab) {
-		abort_transfer(ch, ab);
-		return;
-	}
+	if (ab)
+		return abort_transfer(ch, ab);
 	ab = dn_prepare(ch, d[0] & SDO_BLK_SIZE_IND, co_get_le32(&d[4]), false);
 	/* The CRC is used only if both ends support it (CiA 301 §7.2.4.3.9):
 	 * answer sc = cc, i.e. exactly what this transfer will use. */
@@ -459,92 +411,87 @@ static void blk_dn_init(struct srv_chan *ch, const uint8_t *d)
 	co_put_le16(&ch->pending.data[1], ch->index);
 	ch->pending.data[3] = ch->sub;
 	ch->pending.data[4] = ch->brx.blksize;
-	dn_proceed(ch, ab, SS_BLK_DN_SUB);
+	return dn_proceed(ch, ab, SS_BLK_DN_SUB);
 }
 
-static void blk_dn_ack(struct srv_chan *ch)
+static int blk_dn_ack(struct srv_chan *ch)
 {
 	co_frame f;
 
 	frame_init(ch, &f, 0);
 	sdo_blk_rx_ack(&ch->brx, f.data);
 	co_node_send(node_of(ch), &f);
-	enter(ch, ch->brx.last_seen ? SS_BLK_DN_END : SS_BLK_DN_SUB);
+	return ch->brx.last_seen ? SS_BLK_DN_END : SS_BLK_DN_SUB;
 }
 
-/* Store an in-sequence segment straight into the destination; false if
- * it does not fit (the transfer is aborted). */
-static bool blk_dn_store(struct srv_chan *ch, const uint8_t *d)
+/* Store an in-sequence segment straight into the destination; an abort
+ * code if it does not fit. */
+static uint32_t blk_dn_store(struct srv_chan *ch, const uint8_t *d)
 {
 	uint32_t room = ch->dst_cap - ch->offset;
 
 	if (!ch->brx.last_seen) {
-		if (room < SDO_SEG_DATA) {
-			abort_transfer(ch, SDO_AB_LEN_HIGH);
-			return false;
-		}
+		if (room < SDO_SEG_DATA)
+			return SDO_AB_LEN_HIGH;
 		memcpy(ch->dst + ch->offset, &d[1], SDO_SEG_DATA);
 		ch->offset += SDO_SEG_DATA;
-		return true;
+		return 0;
 	}
 	/* Padding is only known at the end request (n). */
 	ch->last_off = ch->offset;
 	memcpy(ch->dst + ch->offset, &d[1], room < SDO_SEG_DATA ? room : SDO_SEG_DATA);
 	ch->offset += SDO_SEG_DATA; /* virtual until n is known */
-	return true;
+	return 0;
 }
 
 /* Sequence rules, duplicates and CRC: sdo_block.c. */
-static void st_blk_dn_sub(struct srv_chan *ch, const uint8_t *d)
+static int blk_dn_sub_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
+	struct srv_chan *ch = obj;
+	const uint8_t *d = f->data;
 	unsigned act;
+	uint32_t ab;
 
-	if (sdo_blk_seg_is_abort(d)) {
-		finish(ch, co_get_le32(&d[4]));
-		return;
-	}
+	(void)now_us;
+	if (sdo_blk_seg_is_abort(d))
+		return finish(ch, co_get_le32(&d[4]));
 	act = sdo_blk_rx_segment(&ch->brx, d);
-	if (act & SDO_BLK_RX_BAD_SEQ) {
-		abort_transfer(ch, SDO_AB_SEQ);
-		return;
-	}
-	if ((act & SDO_BLK_RX_STORE) && !blk_dn_store(ch, d))
-		return;
+	if (act & SDO_BLK_RX_BAD_SEQ)
+		return abort_transfer(ch, SDO_AB_SEQ);
+	if ((act & SDO_BLK_RX_STORE) && (ab = blk_dn_store(ch, d)) != 0)
+		return abort_transfer(ch, ab);
 	if (act & SDO_BLK_RX_ACK)
-		blk_dn_ack(ch);
-	else
-		arm(ch);
+		return blk_dn_ack(ch);
+	arm(ch);
+	return CO_FSM_STAY;
 }
 
-static void st_blk_dn_end(struct srv_chan *ch, const uint8_t *d)
+static int blk_dn_end_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
+	struct srv_chan *ch = obj;
+	const uint8_t *d = f->data;
 	uint32_t last_len;
 	co_frame resp;
 
+	(void)now_us;
 	if (sdo_blk_rx_is_dup(&ch->brx, d)) { /* the last segment, delivered twice */
 		arm(ch);
-		return;
+		return CO_FSM_STAY;
 	}
-	if (!sdo_blk_rx_end(d, &last_len)) {
-		abort_transfer(ch, SDO_AB_CMD);
-		return;
-	}
+	if (!sdo_blk_rx_end(d, &last_len))
+		return abort_transfer(ch, SDO_AB_CMD);
 	ch->offset = ch->last_off + last_len;
-	if (ch->offset > ch->dst_cap) {
-		abort_transfer(ch, SDO_AB_LEN_HIGH);
-		return;
-	}
-	if (!sdo_blk_rx_crc_ok(&ch->brx, d, last_len)) {
-		abort_transfer(ch, SDO_AB_CRC);
-		return;
-	}
+	if (ch->offset > ch->dst_cap)
+		return abort_transfer(ch, SDO_AB_LEN_HIGH);
+	if (!sdo_blk_rx_crc_ok(&ch->brx, d, last_len))
+		return abort_transfer(ch, SDO_AB_CRC);
 	frame_init(ch, &resp, (uint8_t)((SDO_SCS_BLK_DN << 5) | SDO_BLK_END));
-	dn_complete(ch, &resp);
+	return dn_complete(ch, &resp);
 }
 
 /* ---- upload ------------------------------------------------------------- */
 
-static void up_start_normal(struct srv_chan *ch)
+static int up_start_normal(struct srv_chan *ch)
 {
 	uint8_t p[4] = { 0 };
 
@@ -553,25 +500,22 @@ static void up_start_normal(struct srv_chan *ch)
 		memcpy(p, ch->src, ch->size); /* 1..4 bytes */
 		send_mux(ch, (uint8_t)((SDO_SCS_UP_INIT << 5) | ((4u - ch->size) << 2) |
 				       SDO_EXPEDITED | SDO_SIZE_IND), p);
-		finish(ch, 0);
-		return;
+		return finish(ch, 0);
 	}
 	ch->mode = SDO_MODE_SEGMENTED;
 	co_put_le32(p, ch->size);
 	send_mux(ch, (SDO_SCS_UP_INIT << 5) | SDO_SIZE_IND, p);
 	ch->toggle = 0;
-	enter(ch, SS_UP_SEG);
+	return SS_UP_SEG;
 }
 
-static void up_start_block(struct srv_chan *ch)
+static int up_start_block(struct srv_chan *ch)
 {
 	uint8_t p[4];
 
 	/* Protocol switch threshold: small values go the cheaper way. */
-	if (ch->pst && ch->size <= ch->pst) {
-		up_start_normal(ch);
-		return;
-	}
+	if (ch->pst && ch->size <= ch->pst)
+		return up_start_normal(ch);
 	ch->mode = SDO_MODE_BLOCK;
 	ch->blk_start = 0;
 	co_put_le32(p, ch->size);
@@ -579,10 +523,10 @@ static void up_start_block(struct srv_chan *ch)
 	 * did not ask may reject an end frame that announces one. */
 	send_mux(ch, (uint8_t)((SDO_SCS_BLK_UP << 5) | (ch->btx.crc_on ? SDO_BLK_CRC : 0) |
 			       SDO_BLK_SIZE_IND), p);
-	enter(ch, SS_BLK_UP_START);
+	return SS_BLK_UP_START;
 }
 
-static void up_begin(struct srv_chan *ch, bool block)
+static int up_begin(struct srv_chan *ch, bool block)
 {
 	co_od_entry *e = ch->e;
 	uint32_t ab = 0;
@@ -593,50 +537,41 @@ static void up_begin(struct srv_chan *ch, bool block)
 	}
 	if (ab == CO_OD_DEFERRED) {
 		ch->defer_block = block;
-		park(ch, DEFER_READ);
-		return;
+		return park(ch, DEFER_READ);
 	}
-	if (ab) {
-		abort_transfer(ch, ab);
-		return;
-	}
+	if (ab)
+		return abort_transfer(ch, ab);
 	ch->src = e->data;
 	ch->size = e->size;
-	if (block)
-		up_start_block(ch);
-	else
-		up_start_normal(ch);
+	return block ? up_start_block(ch) : up_start_normal(ch);
 }
 
-static void up_init(struct srv_chan *ch, const uint8_t *d)
+static int up_init(struct srv_chan *ch, const uint8_t *d)
 {
 	uint32_t ab = open_entry(ch, d, true, SDO_MODE_SEGMENTED);
 
 	if (!ab && d[0] != (SDO_CCS_UP_INIT << 5))
 		ab = SDO_AB_CMD;
-	if (ab) {
-		abort_transfer(ch, ab);
-		return;
-	}
-	up_begin(ch, false);
+	if (ab)
+		return abort_transfer(ch, ab);
+	return up_begin(ch, false);
 }
 
-static void st_up_seg(struct srv_chan *ch, const uint8_t *d)
+static int up_seg_on_frame(void *obj, const co_frame *fr, uint64_t now_us)
 {
+	struct srv_chan *ch = obj;
+	const uint8_t *d = fr->data;
 	uint8_t t = d[0] & SDO_TOGGLE;
 	uint32_t left = ch->size - ch->offset;
 	uint32_t len = left < SDO_SEG_DATA ? left : SDO_SEG_DATA;
 	bool last = left <= SDO_SEG_DATA;
 	co_frame f;
 
-	if (SDO_CS(d[0]) != SDO_CCS_UP_SEG) {
-		abort_transfer(ch, SDO_AB_CMD);
-		return;
-	}
-	if (t != ch->toggle) {
-		abort_transfer(ch, SDO_AB_TOGGLE);
-		return;
-	}
+	(void)now_us;
+	if (SDO_CS(d[0]) != SDO_CCS_UP_SEG)
+		return abort_transfer(ch, SDO_AB_CMD);
+	if (t != ch->toggle)
+		return abort_transfer(ch, SDO_AB_TOGGLE);
 	frame_init(ch, &f, (uint8_t)((SDO_SCS_UP_SEG << 5) | t | ((SDO_SEG_DATA - len) << 1) |
 				     (last ? SDO_SEG_LAST : 0)));
 	if (len)
@@ -645,14 +580,14 @@ static void st_up_seg(struct srv_chan *ch, const uint8_t *d)
 	ch->offset += len;
 	ch->toggle ^= SDO_TOGGLE;
 	if (last)
-		finish(ch, 0);
-	else
-		arm(ch);
+		return finish(ch, 0);
+	arm(ch);
+	return CO_FSM_STAY;
 }
 
 /* ---- block upload ------------------------------------------------------- */
 
-static void blk_up_init(struct srv_chan *ch, const uint8_t *d)
+static int blk_up_init(struct srv_chan *ch, const uint8_t *d)
 {
 	uint32_t ab = open_entry(ch, d, true, SDO_MODE_BLOCK);
 
@@ -662,18 +597,16 @@ static void blk_up_init(struct srv_chan *ch, const uint8_t *d)
 		ab = SDO_AB_CMD;
 	if (!ab && !sdo_blk_size_valid(d[4]))
 		ab = SDO_AB_BLK_SIZE;
-	if (ab) {
-		abort_transfer(ch, ab);
-		return;
-	}
+	if (ab)
+		return abort_transfer(ch, ab);
 	sdo_blk_tx_start(&ch->btx, d[4], d[0] & SDO_BLK_CRC);
 	ch->pst = d[5];
-	up_begin(ch, true);
+	return up_begin(ch, true);
 }
 
 /* Send one sub-block from blk_start (first time or again after an ack
- * that named an earlier segment). */
-static void blk_up_send(struct srv_chan *ch)
+ * that named an earlier segment), then wait for its ack. */
+static int blk_up_send(struct srv_chan *ch)
 {
 	const uint8_t *data = ch->src + ch->blk_start;
 	uint8_t segs = sdo_blk_tx_sub_block(&ch->btx, ch->size - ch->blk_start, true);
@@ -684,109 +617,220 @@ static void blk_up_send(struct srv_chan *ch)
 		sdo_blk_tx_segment(&ch->btx, seq, data, f.data);
 		co_node_send(node_of(ch), &f);
 	}
-	enter(ch, SS_BLK_UP_ACK);
+	return SS_BLK_UP_ACK;
 }
 
-static void st_blk_up_start(struct srv_chan *ch, const uint8_t *d)
+static int blk_up_start_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
-	if (d[0] != ((SDO_CCS_BLK_UP << 5) | SDO_BLK_START)) {
-		abort_transfer(ch, SDO_AB_CMD);
-		return;
-	}
-	blk_up_send(ch);
+	struct srv_chan *ch = obj;
+
+	(void)now_us;
+	if (f->data[0] != ((SDO_CCS_BLK_UP << 5) | SDO_BLK_START))
+		return abort_transfer(ch, SDO_AB_CMD);
+	return blk_up_send(ch);
 }
 
-static void st_blk_up_ack(struct srv_chan *ch, const uint8_t *d)
+static int blk_up_ack_on_frame(void *obj, const co_frame *fr, uint64_t now_us)
 {
+	struct srv_chan *ch = obj;
 	uint32_t acked;
 	bool done;
-	uint32_t ab = sdo_blk_tx_ack(&ch->btx, d, ch->src + ch->blk_start, &acked, &done);
+	uint32_t ab = sdo_blk_tx_ack(&ch->btx, fr->data, ch->src + ch->blk_start, &acked, &done);
 	co_frame f;
 
-	if (ab) {
-		abort_transfer(ch, ab);
-		return;
-	}
+	(void)now_us;
+	if (ab)
+		return abort_transfer(ch, ab);
 	ch->blk_start += acked;
 	ch->offset = ch->blk_start;
-	if (!done) {
-		blk_up_send(ch);
-		return;
-	}
+	if (!done)
+		return blk_up_send(ch);
 	frame_init(ch, &f, 0);
 	sdo_blk_tx_end(&ch->btx, f.data);
 	co_node_send(node_of(ch), &f);
-	enter(ch, SS_BLK_UP_END);
+	return SS_BLK_UP_END;
 }
 
-static void st_blk_up_end(struct srv_chan *ch, const uint8_t *d)
+static int blk_up_end_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
-	if (d[0] != ((SDO_CCS_BLK_UP << 5) | SDO_BLK_END)) {
-		abort_transfer(ch, SDO_AB_CMD);
-		return;
-	}
-	finish(ch, 0);
+	struct srv_chan *ch = obj;
+
+	(void)now_us;
+	if (f->data[0] != ((SDO_CCS_BLK_UP << 5) | SDO_BLK_END))
+		return abort_transfer(ch, SDO_AB_CMD);
+	return finish(ch, 0);
 }
 
-/* ---- idle and deferred ----------------------------------------------------- */
+/* ---- idle, routed, deferred -------------------------------------------------- */
+
+/* Idle: no timer; report the transfer that just ended (if one did). The
+ * event comes once the channel is idle, so its observer may start the
+ * next transfer or look at the channel. */
+static int idle_on_enter(void *obj, uint64_t now_us)
+{
+	struct srv_chan *ch = obj;
+
+	(void)now_us;
+	ch->deadline = CO_NO_DEADLINE;
+	if (!ch->done_pending)
+		return CO_FSM_STAY;
+	ch->done_pending = false;
+	emit_done(ch, ch->done_abort);
+	if (ch->reapply) {
+		ch->reapply = false;
+		chan_apply(ch);
+	}
+	return CO_FSM_STAY;
+}
+
+static int idle_on_frame(void *obj, const co_frame *f, uint64_t now_us)
+{
+	struct srv_chan *ch = obj;
+	const uint8_t *d = f->data;
+
+	(void)now_us;
+	if (SDO_CS(d[0]) == SDO_CS_NETWORK && ch->srv->route) {
+		/* CiA 302-7 network indication: the routing hook takes it
+		 * (routed_on_enter). */
+		ch->index = co_get_le16(&d[1]);
+		ch->sub = d[3];
+		ch->route_ind = *f;
+		return SS_ROUTED;
+	}
+	switch (SDO_CS(d[0])) {
+	case SDO_CCS_DN_INIT: return dn_init(ch, d);
+	case SDO_CCS_UP_INIT: return up_init(ch, d);
+	case SDO_CCS_BLK_DN: return blk_dn_init(ch, d);
+	case SDO_CCS_BLK_UP: return blk_up_init(ch, d);
+	case SDO_CCS_ABORT: return CO_FSM_STAY; /* nothing to abort */
+	default:
+		ch->index = co_get_le16(&d[1]);
+		ch->sub = d[3];
+		return abort_transfer(ch, SDO_AB_CMD);
+	}
+}
+
+/* Every state of a transfer: the per-frame timeout runs. */
+static int transfer_on_enter(void *obj, uint64_t now_us)
+{
+	(void)now_us;
+	arm(obj);
+	return CO_FSM_STAY;
+}
+
+static int transfer_on_timeout(void *obj, uint64_t now_us)
+{
+	(void)now_us;
+	return abort_transfer(obj, SDO_AB_TIMEOUT);
+}
 
 /* Command specifier 7: a CiA 302-7 network indication. The routing hook
  * takes the channel (it answers, confirms or refuses, through
- * sdo_server_route_send), or refuses with an abort code. */
-static void route_begin(struct srv_chan *ch, const uint8_t *d)
+ * sdo_server_route_send), or refuses with an abort code. A routed
+ * channel's timers are the routing session's. */
+static int routed_on_enter(void *obj, uint64_t now_us)
 {
+	struct srv_chan *ch = obj;
 	struct sdo_server *srv = ch->srv;
 	uint8_t p[4];
 	uint32_t ab;
 
-	ch->index = co_get_le16(&d[1]);
-	ch->sub = d[3];
-	enter(ch, SS_ROUTED);
-	ab = srv->route->indication(srv->route_ctx, ch->num, d, node_of(ch)->now_us);
-	if (ab && ch->state == SS_ROUTED) {
-		ch->state = SS_IDLE; /* no transfer began: no DONE event */
-		co_put_le32(p, ab);
-		send_mux(ch, SDO_CCS_ABORT << 5, p);
-	}
-}
-
-static void st_idle(struct srv_chan *ch, const uint8_t *d)
-{
-	if (SDO_CS(d[0]) == SDO_CS_NETWORK && ch->srv->route) {
-		route_begin(ch, d);
-		return;
-	}
-	switch (SDO_CS(d[0])) {
-	case SDO_CCS_DN_INIT: dn_init(ch, d); return;
-	case SDO_CCS_UP_INIT: up_init(ch, d); return;
-	case SDO_CCS_BLK_DN: blk_dn_init(ch, d); return;
-	case SDO_CCS_BLK_UP: blk_up_init(ch, d); return;
-	case SDO_CCS_ABORT: return; /* nothing to abort */
-	default:
-		ch->index = co_get_le16(&d[1]);
-		ch->sub = d[3];
-		abort_transfer(ch, SDO_AB_CMD);
-		return;
-	}
-}
-
-/* Routed frames never reach the state table (srv_rx hands them over). */
-static void st_routed(struct srv_chan *ch, const uint8_t *d)
-{
-	(void)ch;
-	(void)d;
+	(void)now_us;
+	ch->deadline = CO_NO_DEADLINE;
+	ab = srv->route->indication(srv->route_ctx, ch->num, ch->route_ind.data,
+				    node_of(ch)->now_us);
+	if (!ab || state_of(ch) != SS_ROUTED)
+		return CO_FSM_STAY;
+	co_put_le32(p, ab);
+	send_mux(ch, SDO_CCS_ABORT << 5, p);
+	return SS_IDLE; /* no transfer began: no DONE event */
 }
 
 /* While a hook owns the answer, the client may only abort. */
-static void st_deferred(struct srv_chan *ch, const uint8_t *d)
+static int deferred_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
-	(void)d;
-	abort_transfer(ch, SDO_AB_CMD);
+	(void)f;
+	(void)now_us;
+	return abort_transfer(obj, SDO_AB_CMD);
+}
+
+/* The hook's answer (sdo_server_continue). */
+struct srv_con {
+	uint32_t abort;
+	const uint8_t *data;
+	uint32_t size;
+};
+
+static int deferred_on_con(void *obj, const void *con, uint64_t now_us)
+{
+	struct srv_chan *ch = obj;
+	const struct srv_con *c = con;
+
+	(void)now_us;
+	if (c->abort)
+		return abort_transfer(ch, c->abort);
+	switch (ch->defer) {
+	case DEFER_COMMIT:
+		return dn_commit(ch, &ch->pending, ch->stage_len);
+	case DEFER_PROCEED:
+		co_node_send(node_of(ch), &ch->pending);
+		return ch->resume_state;
+	case DEFER_READ:
+	default:
+		ch->src = c->data ? c->data : ch->e->data;
+		ch->size = c->data ? c->size : ch->e->size;
+		return ch->defer_block ? up_start_block(ch) : up_start_normal(ch);
+	}
+}
+
+/* ---- the machine ------------------------------------------------------------- */
+
+#define TRANSFER_STATE(nm, frame_fn)                                          \
+	{ .name = nm, .on_enter = transfer_on_enter, .on_frame = frame_fn,    \
+	  .on_timeout = transfer_on_timeout }
+
+static const co_fsm_state srv_states[SS_COUNT] = {
+	[SS_IDLE] = { .name = "idle", .on_enter = idle_on_enter,
+		      .on_frame = idle_on_frame },
+	[SS_DN_SEG] = TRANSFER_STATE("download segment", dn_seg_on_frame),
+	[SS_UP_SEG] = TRANSFER_STATE("upload segment", up_seg_on_frame),
+	[SS_BLK_DN_SUB] = TRANSFER_STATE("block download sub-block",
+					 blk_dn_sub_on_frame),
+	[SS_BLK_DN_END] = TRANSFER_STATE("block download end",
+					 blk_dn_end_on_frame),
+	[SS_BLK_UP_START] = TRANSFER_STATE("block upload start",
+					   blk_up_start_on_frame),
+	[SS_BLK_UP_ACK] = TRANSFER_STATE("block upload ack",
+					 blk_up_ack_on_frame),
+	[SS_BLK_UP_END] = TRANSFER_STATE("block upload end",
+					 blk_up_end_on_frame),
+	[SS_DEFERRED] = { .name = "deferred", .on_enter = transfer_on_enter,
+			  .on_frame = deferred_on_frame,
+			  .on_timeout = transfer_on_timeout,
+			  .on_con = deferred_on_con },
+	/* Routed frames never reach the table (srv_rx hands them over). */
+	[SS_ROUTED] = { .name = "routed", .on_enter = routed_on_enter },
+};
+
+static const co_fsm_def srv_def = {
+	.name = "sdo_server",
+	.states = srv_states,
+	.n_states = SS_COUNT,
+};
+
+const char *sdo_server_state_to_string(const co_node *node, uint8_t channel)
+{
+	const struct sdo_server *srv = node->sdo_srv;
+
+	if (!srv || channel >= srv->n)
+		return "?";
+	return co_fsm_state_name(&srv_def, state_of(&srv->ch[channel]));
 }
 
 static void srv_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	struct srv_chan *ch = arg;
+	int st = state_of(ch);
 
 	/* CiA 301 SDO frames always have 8 data bytes; ignore anything else
 	 * (an RTR or a short frame cannot be answered meaningfully). */
@@ -796,16 +840,16 @@ static void srv_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	 * and error control, so no SDO answer at all, not even an abort. */
 	if (co_nmt_get_state(node) == CO_NMT_STOPPED)
 		return;
-	if (ch->state == SS_ROUTED) {
+	if (st == SS_ROUTED) {
 		ch->srv->route->frame(ch->srv->route_ctx, ch->num, f->data, now_us);
 		return;
 	}
-	if (ch->state != SS_IDLE && ch->state != SS_BLK_DN_SUB &&
+	if (st != SS_IDLE && st != SS_BLK_DN_SUB &&
 	    SDO_CS(f->data[0]) == SDO_CCS_ABORT && !sdo_blk_rx_is_dup(&ch->brx, f->data)) {
-		finish(ch, co_get_le32(&f->data[4]));
+		co_fsm_goto(&ch->fsm, finish(ch, co_get_le32(&f->data[4])), now_us);
 		return;
 	}
-	srv_states[ch->state].on_frame(ch, f->data);
+	co_fsm_frame(&ch->fsm, f, now_us);
 }
 
 /* ---- deferred answers ---------------------------------------------------- */
@@ -814,35 +858,16 @@ int sdo_server_continue(co_node *node, uint8_t channel, uint32_t abort,
 			const uint8_t *data, uint32_t size, uint64_t now_us)
 {
 	struct sdo_server *srv = node->sdo_srv;
+	struct srv_con con = { .abort = abort, .data = data, .size = size };
 	struct srv_chan *ch;
 
 	if (!srv || channel >= srv->n)
 		return -EINVAL;
 	ch = &srv->ch[channel];
-	if (ch->state != SS_DEFERRED)
+	if (state_of(ch) != SS_DEFERRED)
 		return -ENOENT;
 	node->now_us = now_us;
-	if (abort) {
-		abort_transfer(ch, abort);
-		return 0;
-	}
-	switch (ch->defer) {
-	case DEFER_COMMIT:
-		dn_commit(ch, &ch->pending, ch->stage_len);
-		break;
-	case DEFER_PROCEED:
-		co_node_send(node, &ch->pending);
-		enter(ch, ch->resume_state);
-		break;
-	case DEFER_READ:
-		ch->src = data ? data : ch->e->data;
-		ch->size = data ? size : ch->e->size;
-		if (ch->defer_block)
-			up_start_block(ch);
-		else
-			up_start_normal(ch);
-		break;
-	}
+	co_fsm_con(&ch->fsm, &con, now_us);
 	return 0;
 }
 
@@ -855,7 +880,7 @@ int sdo_server_route_attach(co_node *node, const sdo_server_route_ops *ops, void
 	if (!srv || (ops && (!ops->indication || !ops->frame || !ops->ended)))
 		return -EINVAL;
 	for (uint8_t i = 0; i < srv->n; i++)
-		if (srv->ch[i].state == SS_ROUTED)
+		if (state_of(&srv->ch[i]) == SS_ROUTED)
 			return -EBUSY;
 	srv->route = ops;
 	srv->route_ctx = ctx;
@@ -866,7 +891,7 @@ static struct srv_chan *routed_chan(co_node *node, uint8_t channel)
 {
 	struct sdo_server *srv = node->sdo_srv;
 
-	if (!srv || channel >= srv->n || srv->ch[channel].state != SS_ROUTED)
+	if (!srv || channel >= srv->n || state_of(&srv->ch[channel]) != SS_ROUTED)
 		return NULL;
 	return &srv->ch[channel];
 }
@@ -889,7 +914,7 @@ int sdo_server_route_end(co_node *node, uint8_t channel)
 
 	if (!ch)
 		return -ENOENT;
-	enter(ch, SS_IDLE);
+	co_fsm_goto(&ch->fsm, SS_IDLE, node->now_us);
 	if (ch->reapply) {
 		ch->reapply = false;
 		chan_apply(ch);
@@ -901,7 +926,7 @@ int sdo_server_route_end(co_node *node, uint8_t channel)
  * hook, which must not send on the channel any more. */
 static void route_drop(struct srv_chan *ch)
 {
-	enter(ch, SS_IDLE);
+	co_fsm_goto(&ch->fsm, SS_IDLE, node_of(ch)->now_us);
 	ch->srv->route->ended(ch->srv->route_ctx, ch->num);
 }
 
@@ -909,7 +934,7 @@ bool sdo_server_busy(const co_node *node, uint8_t channel)
 {
 	const struct sdo_server *srv = node->sdo_srv;
 
-	return srv && channel < srv->n && srv->ch[channel].state != SS_IDLE;
+	return srv && channel < srv->n && state_of(&srv->ch[channel]) != SS_IDLE;
 }
 
 uint8_t sdo_server_channel_count(const co_node *node)
@@ -925,10 +950,10 @@ static void chan_apply(struct srv_chan *ch)
 	co_node *node = node_of(ch);
 	bool valid = !(ch->cob_rx & SDO_COB_INVALID) && !(ch->cob_tx & SDO_COB_INVALID);
 
-	if (ch->state == SS_ROUTED)
+	if (state_of(ch) == SS_ROUTED)
 		route_drop(ch);
-	else if (ch->state != SS_IDLE)
-		finish(ch, SDO_AB_GENERAL); /* parameters changed under a transfer */
+	else if (state_of(ch) != SS_IDLE) /* parameters changed under a transfer */
+		co_fsm_goto(&ch->fsm, finish(ch, SDO_AB_GENERAL), node->now_us);
 	if (!valid || co_rx_move(node, ch->rx_handle, ch->cob_rx & CO_FRAME_EFF_MASK,
 				 (ch->cob_rx & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0)
 		co_rx_disable(node, ch->rx_handle);
@@ -1059,6 +1084,7 @@ static int srv_init(co_node *node)
 		ch->srv = srv;
 		ch->num = i;
 		ch->deadline = CO_NO_DEADLINE;
+		co_fsm_init(&ch->fsm, &srv_def, ch, SS_IDLE);
 		ch->stage = malloc(node->cfg.sdo_stage_size);
 		if (!ch->stage) {
 			rc = -ENOMEM;
@@ -1089,8 +1115,8 @@ static uint64_t srv_tick(co_node *node, uint64_t now_us)
 		return next;
 	for (uint8_t i = 0; i < srv->n; i++) {
 		struct srv_chan *ch = &srv->ch[i];
-		if (ch->state != SS_IDLE && now_us >= ch->deadline)
-			abort_transfer(ch, SDO_AB_TIMEOUT);
+		if (state_of(ch) != SS_IDLE && now_us >= ch->deadline)
+			co_fsm_timeout(&ch->fsm, now_us);
 		if (ch->deadline < next)
 			next = ch->deadline;
 	}
@@ -1101,14 +1127,13 @@ static void srv_reset_comm(co_node *node, uint64_t now_us)
 {
 	struct sdo_server *srv = node->sdo_srv;
 
-	(void)now_us;
 	if (!srv)
 		return;
 	for (uint8_t i = 0; i < srv->n; i++) {
-		if (srv->ch[i].state == SS_ROUTED)
+		if (state_of(&srv->ch[i]) == SS_ROUTED)
 			route_drop(&srv->ch[i]);
-		srv->ch[i].state = SS_IDLE; /* a reset ends transfers silently */
-		srv->ch[i].deadline = CO_NO_DEADLINE;
+		/* a reset ends transfers silently (no done_pending: no event) */
+		co_fsm_goto(&srv->ch[i].fsm, SS_IDLE, now_us);
 		chan_load(&srv->ch[i]);
 	}
 }
@@ -1121,14 +1146,14 @@ static void srv_nmt_changed(co_node *node, uint8_t state, uint64_t now_us)
 {
 	struct sdo_server *srv = node->sdo_srv;
 
-	(void)now_us;
 	if (!srv || state != CO_NMT_STOPPED)
 		return;
 	for (uint8_t i = 0; i < srv->n; i++) {
-		if (srv->ch[i].state == SS_ROUTED)
-			route_drop(&srv->ch[i]);
-		else if (srv->ch[i].state != SS_IDLE)
-			finish(&srv->ch[i], SDO_AB_DEV_STATE);
+		struct srv_chan *ch = &srv->ch[i];
+		if (state_of(ch) == SS_ROUTED)
+			route_drop(ch);
+		else if (state_of(ch) != SS_IDLE)
+			co_fsm_goto(&ch->fsm, finish(ch, SDO_AB_DEV_STATE), now_us);
 	}
 }
 

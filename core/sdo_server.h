@@ -98,6 +98,9 @@ int sdo_server_route_end(co_node *node, uint8_t channel);
 
 /* True while a transfer is in progress on the channel. */
 bool sdo_server_busy(const co_node *node, uint8_t channel);
+/* Name of the channel's state ("idle", "download segment", "block upload
+ * ack", "deferred", "routed", ...); "?" for a bad channel. */
+const char *sdo_server_state_to_string(const co_node *node, uint8_t channel);
 uint8_t sdo_server_channel_count(const co_node *node);
 
 #endif /* COGW_CORE_SDO_SERVER_H */

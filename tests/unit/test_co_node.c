@@ -243,7 +243,10 @@ static void test_two_instances_are_independent(void)
 	TEST_ASSERT_EQUAL_UINT16(4000, va);
 	TEST_ASSERT_EQUAL_UINT16(1000, vb);
 	TEST_ASSERT_TRUE(sdo_server_busy(pa->node, 0));
+	TEST_ASSERT_EQUAL_STRING("download segment", sdo_server_state_to_string(pa->node, 0));
 	TEST_ASSERT_FALSE(sdo_server_busy(pb->node, 0));
+	TEST_ASSERT_EQUAL_STRING("idle", sdo_server_state_to_string(pb->node, 0));
+	TEST_ASSERT_EQUAL_STRING("?", sdo_server_state_to_string(pb->node, 9));
 	tb_advance(&a, 2000000);
 	TEST_ASSERT_FALSE(sdo_server_busy(pa->node, 0));
 	tb_send_hex(&b, 0x601, "40 17 10 00 00 00 00 00");
