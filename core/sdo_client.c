@@ -1,8 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * SDO client (CiA 301 §7.2.4). One state machine per channel, a bounded
- * FIFO of requests in front of it. States and their frame handlers are in
- * cli_states[]; all non-idle states share the per-frame timeout.
+ * SDO client (CiA 301 §7.2.4). One core/fsm.h machine per channel, a
+ * bounded FIFO of requests in front of it. The table cli_states[] gives
+ * each state its frame handler, which returns the next state; all transfer
+ * states share one on_enter (the per-frame timer) and one timeout rule.
  *
  * Data never has to be in memory as a whole: downloads read the source
  * sequentially into one sub-block buffer (127 x 7 bytes), which is also
@@ -15,14 +16,16 @@
  * a transfer ends, kick_all() starts what can start: first each idle
  * channel's own FIFO, then pool requests in order on channels that are
  * idle with an empty FIFO, skipping those whose target is busy. Every
- * transfer ends in complete() (or finish_unstarted() for a request
- * cancelled before it started): the request's con, then the event.
+ * transfer ends in complete(), which returns idle; idle's on_enter calls
+ * the request's con, then emits the event (a request cancelled before it
+ * started is confirmed directly).
  */
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "core/co_internal.h"
+#include "core/fsm.h"
 #include "core/nmt.h"
 #include "core/sdo_block.h"
 #include "core/sdo_client.h"
@@ -51,7 +54,9 @@ enum cli_state {
 struct cli_chan {
 	struct sdo_client *cli;
 	uint8_t num;
-	uint8_t state;
+	co_fsm fsm; /* state: enum cli_state (cli_states[]) */
+	bool done_pending;   /* the request ended: idle's on_enter confirms */
+	uint32_t done_abort; /* ... with this abort code (0 = success) */
 	int rx_handle;
 	uint64_t deadline;
 	uint64_t timeout_us;
@@ -114,39 +119,6 @@ struct sdo_client {
 	struct cli_chan ch[];
 };
 
-typedef void (*cli_frame_fn)(struct cli_chan *ch, const uint8_t *d);
-
-static void st_ignore(struct cli_chan *ch, const uint8_t *d);
-static void st_dn_init(struct cli_chan *ch, const uint8_t *d);
-static void st_dn_seg(struct cli_chan *ch, const uint8_t *d);
-static void st_up_init(struct cli_chan *ch, const uint8_t *d);
-static void st_up_seg(struct cli_chan *ch, const uint8_t *d);
-static void st_blk_dn_init(struct cli_chan *ch, const uint8_t *d);
-static void st_blk_dn_ack(struct cli_chan *ch, const uint8_t *d);
-static void st_blk_dn_end(struct cli_chan *ch, const uint8_t *d);
-static void st_blk_up_init(struct cli_chan *ch, const uint8_t *d);
-static void st_blk_up_sub(struct cli_chan *ch, const uint8_t *d);
-static void st_blk_up_end(struct cli_chan *ch, const uint8_t *d);
-
-static const struct {
-	const char *name;
-	cli_frame_fn on_frame;
-} cli_states[CS_COUNT] = {
-	[CS_IDLE] = { "idle", st_ignore },
-	[CS_DN_INIT] = { "download initiate", st_dn_init },
-	[CS_DN_SEG] = { "download segment", st_dn_seg },
-	[CS_UP_INIT] = { "upload initiate", st_up_init },
-	[CS_UP_SEG] = { "upload segment", st_up_seg },
-	[CS_BLK_DN_INIT] = { "block download initiate", st_blk_dn_init },
-	[CS_BLK_DN_ACK] = { "block download ack", st_blk_dn_ack },
-	[CS_BLK_DN_END] = { "block download end", st_blk_dn_end },
-	[CS_BLK_UP_INIT] = { "block upload initiate", st_blk_up_init },
-	[CS_BLK_UP_SUB] = { "block upload sub-block", st_blk_up_sub },
-	[CS_BLK_UP_END] = { "block upload end", st_blk_up_end },
-	[CS_START_FAILED] = { "start failed", st_ignore },
-	[CS_LEASED] = { "leased", st_ignore },
-};
-
 static void kick_all(struct sdo_client *cli);
 
 /* ---- helpers ------------------------------------------------------------ */
@@ -164,10 +136,9 @@ static void arm(struct cli_chan *ch)
 	co_node_deadline_lower(node, ch->deadline);
 }
 
-static void enter(struct cli_chan *ch, uint8_t state)
+static int state_of(const struct cli_chan *ch)
 {
-	ch->state = state;
-	arm(ch);
+	return co_fsm_state_of(&ch->fsm);
 }
 
 static void tx(struct cli_chan *ch, const uint8_t d[8])
@@ -221,34 +192,31 @@ static void confirm(co_node *node, const sdo_client_req *r, uint8_t channel, uin
 	co_node_emit(node, &ev);
 }
 
-static void complete(struct cli_chan *ch, uint32_t abort)
+/* The running request ends with `abort` (0 = success): back to idle,
+ * whose on_enter confirms it and starts what waits. */
+static int complete(struct cli_chan *ch, uint32_t abort)
 {
-	sdo_client_req r = ch->cur;
-
-	ch->state = CS_IDLE;
-	ch->deadline = CO_NO_DEADLINE;
-	co_rx_disable(node_of(ch), ch->rx_handle);
-	confirm(node_of(ch), &r, ch->num, ch->mode, abort, ch->offset);
-	kick_all(ch->cli);
+	ch->done_pending = true;
+	ch->done_abort = abort;
+	return CS_IDLE;
 }
 
-/* A request that could not start: report it from the next tick, so that
- * no completion ever runs inside the call that submitted it. */
-static void fail_start(struct cli_chan *ch, uint32_t abort)
+/* A request that could not start: report it from the next tick (state
+ * "start failed"), so that no completion ever runs inside the call that
+ * submitted it. */
+static int fail_start(struct cli_chan *ch, uint32_t abort)
 {
-	ch->state = CS_START_FAILED;
 	ch->start_abort = abort;
-	ch->deadline = node_of(ch)->now_us;
-	co_node_deadline_lower(node_of(ch), ch->deadline);
+	return CS_START_FAILED;
 }
 
-static void abort_local(struct cli_chan *ch, uint32_t code)
+static int abort_local(struct cli_chan *ch, uint32_t code)
 {
 	tx_mux(ch, SDO_CCS_ABORT << 5, code);
 	ch->ended = (struct stale_xfer){ .valid = true, .upload = ch->cur.upload,
 					  .mode = ch->mode, .index = ch->cur.index,
 					  .sub = ch->cur.sub, .cob_resp = ch->cob_resp };
-	complete(ch, code);
+	return complete(ch, code);
 }
 
 /* A late frame of the transfer that ch->filter describes, arriving before
@@ -329,24 +297,22 @@ static bool is_abort(const uint8_t *d)
 
 /* ---- download ----------------------------------------------------------- */
 
-static void dn_send_segment(struct cli_chan *ch)
+static int dn_send_segment(struct cli_chan *ch)
 {
 	uint32_t left = ch->total - ch->offset;
 	uint32_t len = left < SDO_SEG_DATA ? left : SDO_SEG_DATA;
 	bool last = left <= SDO_SEG_DATA;
 	uint8_t d[8] = { 0 };
 
-	if (src_read(ch, &d[1], len) < 0) {
-		abort_local(ch, SDO_AB_STORE);
-		return;
-	}
+	if (src_read(ch, &d[1], len) < 0)
+		return abort_local(ch, SDO_AB_STORE);
 	d[0] = (uint8_t)((SDO_CCS_DN_SEG << 5) | ch->toggle | ((SDO_SEG_DATA - len) << 1) |
 			 (last ? SDO_SEG_LAST : 0));
 	tx(ch, d);
-	enter(ch, CS_DN_SEG);
+	return CS_DN_SEG;
 }
 
-static void start_download(struct cli_chan *ch)
+static int start_download(struct cli_chan *ch)
 {
 	uint32_t size = ch->total;
 
@@ -356,57 +322,52 @@ static void start_download(struct cli_chan *ch)
 				 SDO_SIZE_IND);
 		co_put_le16(&d[1], ch->cur.index);
 		d[3] = ch->cur.sub;
-		if (src_read(ch, &d[4], size) < 0) {
-			fail_start(ch, SDO_AB_STORE);
-			return;
-		}
+		if (src_read(ch, &d[4], size) < 0)
+			return fail_start(ch, SDO_AB_STORE);
 		tx(ch, d);
-		enter(ch, CS_DN_INIT);
-	} else if (ch->mode == SDO_MODE_BLOCK) {
+		return CS_DN_INIT;
+	}
+	if (ch->mode == SDO_MODE_BLOCK) {
 		ch->sub_len = 0;
 		tx_mux(ch, (SDO_CCS_BLK_DN << 5) | SDO_BLK_CRC | SDO_BLK_SIZE_IND, size);
-		enter(ch, CS_BLK_DN_INIT);
-	} else {
-		tx_mux(ch, (SDO_CCS_DN_INIT << 5) | SDO_SIZE_IND, size);
-		enter(ch, CS_DN_INIT);
+		return CS_BLK_DN_INIT;
 	}
+	tx_mux(ch, (SDO_CCS_DN_INIT << 5) | SDO_SIZE_IND, size);
+	return CS_DN_INIT;
 }
 
-static void st_dn_init(struct cli_chan *ch, const uint8_t *d)
+static int dn_init_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
-	if (d[0] != (SDO_SCS_DN_INIT << 5)) {
-		abort_local(ch, SDO_AB_CMD);
-		return;
-	}
-	if (!mux_matches(ch, d)) {
-		abort_local(ch, SDO_AB_PARAM_INCOMPAT);
-		return;
-	}
+	struct cli_chan *ch = obj;
+	const uint8_t *d = f->data;
+
+	(void)now_us;
+	if (d[0] != (SDO_SCS_DN_INIT << 5))
+		return abort_local(ch, SDO_AB_CMD);
+	if (!mux_matches(ch, d))
+		return abort_local(ch, SDO_AB_PARAM_INCOMPAT);
 	if (ch->mode == SDO_MODE_EXPEDITED) {
 		ch->offset = ch->total;
-		complete(ch, 0);
-		return;
+		return complete(ch, 0);
 	}
-	dn_send_segment(ch);
+	return dn_send_segment(ch);
 }
 
-static void st_dn_seg(struct cli_chan *ch, const uint8_t *d)
+static int dn_seg_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
-	if (SDO_CS(d[0]) != SDO_SCS_DN_SEG) {
-		abort_local(ch, SDO_AB_CMD);
-		return;
-	}
-	if ((d[0] & SDO_TOGGLE) != ch->toggle) {
-		abort_local(ch, SDO_AB_TOGGLE);
-		return;
-	}
+	struct cli_chan *ch = obj;
+	const uint8_t *d = f->data;
+
+	(void)now_us;
+	if (SDO_CS(d[0]) != SDO_SCS_DN_SEG)
+		return abort_local(ch, SDO_AB_CMD);
+	if ((d[0] & SDO_TOGGLE) != ch->toggle)
+		return abort_local(ch, SDO_AB_TOGGLE);
 	ch->offset = ch->read_off;
-	if (ch->offset >= ch->total) {
-		complete(ch, 0);
-		return;
-	}
+	if (ch->offset >= ch->total)
+		return complete(ch, 0);
 	ch->toggle ^= SDO_TOGGLE;
-	dn_send_segment(ch);
+	return dn_send_segment(ch);
 }
 
 /* ---- block download ------------------------------------------------------ */
@@ -430,87 +391,84 @@ static bool blk_fill(struct cli_chan *ch)
 	return true;
 }
 
-static void blk_dn_send(struct cli_chan *ch)
+/* Send one sub-block, then wait for its ack. */
+static int blk_dn_send(struct cli_chan *ch)
 {
 	uint8_t segs;
 	uint8_t d[8];
 
-	if (!blk_fill(ch)) {
-		abort_local(ch, SDO_AB_STORE);
-		return;
-	}
+	if (!blk_fill(ch))
+		return abort_local(ch, SDO_AB_STORE);
 	segs = sdo_blk_tx_sub_block(&ch->btx, ch->sub_len, ch->read_off == ch->total);
 	for (uint8_t seq = 1; seq <= segs; seq++) {
 		sdo_blk_tx_segment(&ch->btx, seq, ch->sub_buf, d);
 		tx(ch, d);
 	}
-	enter(ch, CS_BLK_DN_ACK);
+	return CS_BLK_DN_ACK;
 }
 
-static void st_blk_dn_init(struct cli_chan *ch, const uint8_t *d)
+static int blk_dn_init_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
-	if ((d[0] & 0xE3u) != (SDO_SCS_BLK_DN << 5 | SDO_BLK_INIT)) {
-		abort_local(ch, SDO_AB_CMD);
-		return;
-	}
-	if (!mux_matches(ch, d)) {
-		abort_local(ch, SDO_AB_PARAM_INCOMPAT);
-		return;
-	}
-	if (!sdo_blk_size_valid(d[4])) {
-		abort_local(ch, SDO_AB_BLK_SIZE);
-		return;
-	}
+	struct cli_chan *ch = obj;
+	const uint8_t *d = f->data;
+
+	(void)now_us;
+	if ((d[0] & 0xE3u) != (SDO_SCS_BLK_DN << 5 | SDO_BLK_INIT))
+		return abort_local(ch, SDO_AB_CMD);
+	if (!mux_matches(ch, d))
+		return abort_local(ch, SDO_AB_PARAM_INCOMPAT);
+	if (!sdo_blk_size_valid(d[4]))
+		return abort_local(ch, SDO_AB_BLK_SIZE);
 	/* we asked for CRC; the server decides */
 	sdo_blk_tx_start(&ch->btx, d[4], d[0] & SDO_BLK_CRC);
-	blk_dn_send(ch);
+	return blk_dn_send(ch);
 }
 
-static void st_blk_dn_ack(struct cli_chan *ch, const uint8_t *d)
+static int blk_dn_ack_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
+	struct cli_chan *ch = obj;
 	uint32_t acked;
 	bool done;
-	uint32_t ab = sdo_blk_tx_ack(&ch->btx, d, ch->sub_buf, &acked, &done);
+	uint32_t ab = sdo_blk_tx_ack(&ch->btx, f->data, ch->sub_buf, &acked, &done);
 
-	if (ab) {
-		abort_local(ch, ab);
-		return;
-	}
+	(void)now_us;
+	if (ab)
+		return abort_local(ch, ab);
 	if (done) {
 		uint8_t e[8];
 		ch->offset = ch->total;
 		sdo_blk_tx_end(&ch->btx, e);
 		tx(ch, e);
-		enter(ch, CS_BLK_DN_END);
-		return;
+		return CS_BLK_DN_END;
 	}
 	/* Keep what was not acknowledged; it goes out again first. */
 	memmove(ch->sub_buf, ch->sub_buf + acked, ch->sub_len - acked);
 	ch->sub_len -= acked;
 	ch->offset += acked;
-	blk_dn_send(ch);
+	return blk_dn_send(ch);
 }
 
-static void st_blk_dn_end(struct cli_chan *ch, const uint8_t *d)
+static int blk_dn_end_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
-	if (d[0] != ((SDO_SCS_BLK_DN << 5) | SDO_BLK_END)) {
-		abort_local(ch, SDO_AB_CMD);
-		return;
-	}
-	complete(ch, 0);
+	struct cli_chan *ch = obj;
+
+	(void)now_us;
+	if (f->data[0] != ((SDO_SCS_BLK_DN << 5) | SDO_BLK_END))
+		return abort_local(ch, SDO_AB_CMD);
+	return complete(ch, 0);
 }
 
 /* ---- upload ------------------------------------------------------------- */
 
-static void up_request_segment(struct cli_chan *ch)
+static int up_request_segment(struct cli_chan *ch)
 {
 	uint8_t d[8] = { (uint8_t)((SDO_CCS_UP_SEG << 5) | ch->toggle) };
 
 	tx(ch, d);
-	enter(ch, CS_UP_SEG);
+	return CS_UP_SEG;
 }
 
-static void start_upload(struct cli_chan *ch)
+static int start_upload(struct cli_chan *ch)
 {
 	ch->total = UNKNOWN_SIZE;
 	if (ch->mode == SDO_MODE_BLOCK) {
@@ -525,16 +483,15 @@ static void start_upload(struct cli_chan *ch)
 		d[5] = (uint8_t)(pst > 255 ? 255 : pst);
 		ch->brx.blksize = c->sdo_client_blksize;
 		tx(ch, d);
-		enter(ch, CS_BLK_UP_INIT);
-		return;
+		return CS_BLK_UP_INIT;
 	}
 	tx_mux(ch, SDO_CCS_UP_INIT << 5, 0);
-	enter(ch, CS_UP_INIT);
+	return CS_UP_INIT;
 }
 
 /* Initiate upload response (also the answer to a block upload initiate
  * when the server applies the protocol switch threshold). */
-static void up_init_resp(struct cli_chan *ch, const uint8_t *d)
+static int up_init_resp(struct cli_chan *ch, const uint8_t *d)
 {
 	uint32_t ab;
 
@@ -542,216 +499,298 @@ static void up_init_resp(struct cli_chan *ch, const uint8_t *d)
 		uint32_t len = (d[0] & SDO_SIZE_IND) ? 4u - ((d[0] >> 2) & 3u) : 4u;
 		ch->mode = SDO_MODE_EXPEDITED;
 		ab = sink_put(ch, &d[4], len);
-		if (ab)
-			abort_local(ch, ab);
-		else
-			complete(ch, 0);
-		return;
+		return ab ? abort_local(ch, ab) : complete(ch, 0);
 	}
 	ch->mode = SDO_MODE_SEGMENTED;
 	if (d[0] & SDO_SIZE_IND) {
 		ch->total = co_get_le32(&d[4]);
-		if (ch->cur.buf && ch->total > ch->cur.cap) {
-			abort_local(ch, SDO_AB_NO_MEM);
-			return;
-		}
+		if (ch->cur.buf && ch->total > ch->cur.cap)
+			return abort_local(ch, SDO_AB_NO_MEM);
 	}
 	ch->toggle = 0;
-	up_request_segment(ch);
+	return up_request_segment(ch);
 }
 
-static void st_up_init(struct cli_chan *ch, const uint8_t *d)
+static int up_init_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
-	if ((d[0] & 0xF0u) != (SDO_SCS_UP_INIT << 5)) {
-		abort_local(ch, SDO_AB_CMD);
-		return;
-	}
-	if (!mux_matches(ch, d)) {
-		abort_local(ch, SDO_AB_PARAM_INCOMPAT);
-		return;
-	}
-	up_init_resp(ch, d);
+	struct cli_chan *ch = obj;
+	const uint8_t *d = f->data;
+
+	(void)now_us;
+	if ((d[0] & 0xF0u) != (SDO_SCS_UP_INIT << 5))
+		return abort_local(ch, SDO_AB_CMD);
+	if (!mux_matches(ch, d))
+		return abort_local(ch, SDO_AB_PARAM_INCOMPAT);
+	return up_init_resp(ch, d);
 }
 
-static void st_up_seg(struct cli_chan *ch, const uint8_t *d)
+static int up_seg_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
+	struct cli_chan *ch = obj;
+	const uint8_t *d = f->data;
 	uint32_t len = SDO_SEG_DATA - ((d[0] >> 1) & 7u);
 	uint32_t ab;
 
-	if (SDO_CS(d[0]) != SDO_SCS_UP_SEG) {
-		abort_local(ch, SDO_AB_CMD);
-		return;
-	}
-	if ((d[0] & SDO_TOGGLE) != ch->toggle) {
-		abort_local(ch, SDO_AB_TOGGLE);
-		return;
-	}
+	(void)now_us;
+	if (SDO_CS(d[0]) != SDO_SCS_UP_SEG)
+		return abort_local(ch, SDO_AB_CMD);
+	if ((d[0] & SDO_TOGGLE) != ch->toggle)
+		return abort_local(ch, SDO_AB_TOGGLE);
 	ab = sink_put(ch, &d[1], len);
 	if (!ab && (d[0] & SDO_SEG_LAST) && ch->total != UNKNOWN_SIZE && ch->offset != ch->total)
 		ab = SDO_AB_TYPE_LEN;
-	if (ab) {
-		abort_local(ch, ab);
-		return;
-	}
-	if (d[0] & SDO_SEG_LAST) {
-		complete(ch, 0);
-		return;
-	}
+	if (ab)
+		return abort_local(ch, ab);
+	if (d[0] & SDO_SEG_LAST)
+		return complete(ch, 0);
 	ch->toggle ^= SDO_TOGGLE;
-	up_request_segment(ch);
+	return up_request_segment(ch);
 }
 
 /* ---- block upload ------------------------------------------------------- */
 
-static void st_blk_up_init(struct cli_chan *ch, const uint8_t *d)
+static int blk_up_init_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
+	struct cli_chan *ch = obj;
+	const uint8_t *d = f->data;
 	uint8_t start[8] = { (SDO_CCS_BLK_UP << 5) | SDO_BLK_START };
 
-	if (SDO_CS(d[0]) == SDO_SCS_UP_INIT) { /* protocol switch */
-		if (mux_matches(ch, d))
-			up_init_resp(ch, d);
-		else
-			abort_local(ch, SDO_AB_PARAM_INCOMPAT);
-		return;
-	}
-	if ((d[0] & 0xE1u) != (SDO_SCS_BLK_UP << 5)) {
-		abort_local(ch, SDO_AB_CMD);
-		return;
-	}
-	if (!mux_matches(ch, d)) {
-		abort_local(ch, SDO_AB_PARAM_INCOMPAT);
-		return;
-	}
+	(void)now_us;
+	if (SDO_CS(d[0]) == SDO_SCS_UP_INIT) /* protocol switch */
+		return mux_matches(ch, d) ? up_init_resp(ch, d)
+					  : abort_local(ch, SDO_AB_PARAM_INCOMPAT);
+	if ((d[0] & 0xE1u) != (SDO_SCS_BLK_UP << 5))
+		return abort_local(ch, SDO_AB_CMD);
+	if (!mux_matches(ch, d))
+		return abort_local(ch, SDO_AB_PARAM_INCOMPAT);
 	if (d[0] & SDO_BLK_SIZE_IND) {
 		ch->total = co_get_le32(&d[4]);
-		if (ch->cur.buf && ch->total > ch->cur.cap) {
-			abort_local(ch, SDO_AB_NO_MEM);
-			return;
-		}
+		if (ch->cur.buf && ch->total > ch->cur.cap)
+			return abort_local(ch, SDO_AB_NO_MEM);
 	}
 	/* blksize: what start_upload() announced */
 	sdo_blk_rx_start(&ch->brx, ch->brx.blksize, d[0] & SDO_BLK_CRC);
 	ch->pend_valid = false;
 	tx(ch, start);
-	enter(ch, CS_BLK_UP_SUB);
+	return CS_BLK_UP_SUB;
 }
 
-static void blk_up_ack(struct cli_chan *ch)
+static int blk_up_ack(struct cli_chan *ch)
 {
 	uint8_t d[8];
 
 	sdo_blk_rx_ack(&ch->brx, d);
 	tx(ch, d);
-	enter(ch, ch->brx.last_seen ? CS_BLK_UP_END : CS_BLK_UP_SUB);
+	return ch->brx.last_seen ? CS_BLK_UP_END : CS_BLK_UP_SUB;
 }
 
 /* Sequence rules, duplicates and CRC: sdo_block.c, as for the server's
  * block download. Each segment is held back until the next one arrives:
  * the sink must only see data bytes, and the last segment's length is
  * only known at the end request. */
-static void st_blk_up_sub(struct cli_chan *ch, const uint8_t *d)
+static int blk_up_sub_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
+	struct cli_chan *ch = obj;
+	const uint8_t *d = f->data;
 	unsigned act = sdo_blk_rx_segment(&ch->brx, d);
 
-	if (act & SDO_BLK_RX_BAD_SEQ) {
-		abort_local(ch, SDO_AB_SEQ);
-		return;
-	}
+	(void)now_us;
+	if (act & SDO_BLK_RX_BAD_SEQ)
+		return abort_local(ch, SDO_AB_SEQ);
 	if (act & SDO_BLK_RX_STORE) {
 		if (ch->pend_valid) {
 			uint32_t ab = sink_put(ch, ch->pend, SDO_SEG_DATA);
-			if (ab) {
-				abort_local(ch, ab);
-				return;
-			}
+			if (ab)
+				return abort_local(ch, ab);
 		}
 		memcpy(ch->pend, &d[1], SDO_SEG_DATA);
 		ch->pend_valid = true;
 	}
 	if (act & SDO_BLK_RX_ACK)
-		blk_up_ack(ch);
-	else
-		arm(ch);
+		return blk_up_ack(ch);
+	arm(ch);
+	return CO_FSM_STAY;
 }
 
-static void st_blk_up_end(struct cli_chan *ch, const uint8_t *d)
+static int blk_up_end_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 {
+	struct cli_chan *ch = obj;
+	const uint8_t *d = f->data;
 	uint8_t resp[8] = { (SDO_CCS_BLK_UP << 5) | SDO_BLK_END };
 	uint32_t last_len;
 	uint32_t ab = 0;
 
+	(void)now_us;
 	if (sdo_blk_rx_is_dup(&ch->brx, d)) {
 		arm(ch);
-		return;
+		return CO_FSM_STAY;
 	}
-	if (!sdo_blk_rx_end(d, &last_len)) {
-		abort_local(ch, SDO_AB_CMD);
-		return;
-	}
+	if (!sdo_blk_rx_end(d, &last_len))
+		return abort_local(ch, SDO_AB_CMD);
 	if (ch->pend_valid)
 		ab = sink_put(ch, ch->pend, last_len);
 	if (!ab && ch->total != UNKNOWN_SIZE && ch->offset != ch->total)
 		ab = SDO_AB_TYPE_LEN;
 	if (!ab && !sdo_blk_rx_crc_ok(&ch->brx, d, last_len))
 		ab = SDO_AB_CRC;
-	if (ab) {
-		abort_local(ch, ab);
-		return;
-	}
+	if (ab)
+		return abort_local(ch, ab);
 	tx(ch, resp);
-	complete(ch, 0);
+	return complete(ch, 0);
 }
 
-static void st_ignore(struct cli_chan *ch, const uint8_t *d)
+/* ---- idle, start failed, leased ------------------------------------------------ */
+
+/* Idle: no timer, no receiver. Confirm the request that just ended (its
+ * con, then the event), then start what waits; a con may already submit
+ * the next request to this channel, which then starts from here. */
+static int idle_on_enter(void *obj, uint64_t now_us)
 {
-	(void)ch;
-	(void)d;
+	struct cli_chan *ch = obj;
+	sdo_client_req r = ch->cur;
+
+	(void)now_us;
+	ch->deadline = CO_NO_DEADLINE;
+	if (!ch->done_pending)
+		return CO_FSM_STAY;
+	ch->done_pending = false;
+	co_rx_disable(node_of(ch), ch->rx_handle);
+	confirm(node_of(ch), &r, ch->num, ch->mode, ch->done_abort, ch->offset);
+	kick_all(ch->cli);
+	return CO_FSM_STAY;
+}
+
+/* Every transfer state: the per-frame timeout runs from here. */
+static int transfer_on_enter(void *obj, uint64_t now_us)
+{
+	(void)now_us;
+	arm(obj);
+	return CO_FSM_STAY;
+}
+
+static int transfer_on_timeout(void *obj, uint64_t now_us)
+{
+	(void)now_us;
+	return abort_local(obj, SDO_AB_TIMEOUT);
+}
+
+static int start_failed_on_enter(void *obj, uint64_t now_us)
+{
+	struct cli_chan *ch = obj;
+
+	(void)now_us;
+	ch->deadline = node_of(ch)->now_us;
+	co_node_deadline_lower(node_of(ch), ch->deadline);
+	return CO_FSM_STAY;
+}
+
+static int start_failed_on_timeout(void *obj, uint64_t now_us)
+{
+	struct cli_chan *ch = obj;
+
+	(void)now_us;
+	return complete(ch, ch->start_abort);
+}
+
+static int leased_on_enter(void *obj, uint64_t now_us)
+{
+	struct cli_chan *ch = obj;
+
+	(void)now_us;
+	ch->deadline = CO_NO_DEADLINE; /* the relay keeps its own timers */
+	return CO_FSM_STAY;
+}
+
+/* ---- the machine ----------------------------------------------------------------- */
+
+#define TRANSFER_STATE(nm, frame_fn)                                          \
+	{ .name = nm, .on_enter = transfer_on_enter, .on_frame = frame_fn,    \
+	  .on_timeout = transfer_on_timeout }
+
+/* Frames of a leased channel and of the idle / start failed states never
+ * reach the table (cli_rx). */
+static const co_fsm_state cli_states[CS_COUNT] = {
+	[CS_IDLE] = { .name = "idle", .on_enter = idle_on_enter },
+	[CS_DN_INIT] = TRANSFER_STATE("download initiate", dn_init_on_frame),
+	[CS_DN_SEG] = TRANSFER_STATE("download segment", dn_seg_on_frame),
+	[CS_UP_INIT] = TRANSFER_STATE("upload initiate", up_init_on_frame),
+	[CS_UP_SEG] = TRANSFER_STATE("upload segment", up_seg_on_frame),
+	[CS_BLK_DN_INIT] = TRANSFER_STATE("block download initiate",
+					  blk_dn_init_on_frame),
+	[CS_BLK_DN_ACK] = TRANSFER_STATE("block download ack", blk_dn_ack_on_frame),
+	[CS_BLK_DN_END] = TRANSFER_STATE("block download end", blk_dn_end_on_frame),
+	[CS_BLK_UP_INIT] = TRANSFER_STATE("block upload initiate",
+					  blk_up_init_on_frame),
+	[CS_BLK_UP_SUB] = TRANSFER_STATE("block upload sub-block",
+					 blk_up_sub_on_frame),
+	[CS_BLK_UP_END] = TRANSFER_STATE("block upload end", blk_up_end_on_frame),
+	[CS_START_FAILED] = { .name = "start failed",
+			      .on_enter = start_failed_on_enter,
+			      .on_timeout = start_failed_on_timeout },
+	[CS_LEASED] = { .name = "leased", .on_enter = leased_on_enter },
+};
+
+static const co_fsm_def cli_def = {
+	.name = "sdo_client",
+	.states = cli_states,
+	.n_states = CS_COUNT,
+};
+
+const char *sdo_client_state_to_string(const co_node *node, uint8_t channel)
+{
+	const struct sdo_client *cli = node->sdo_cli;
+
+	if (!cli || channel >= cli->n)
+		return "?";
+	return co_fsm_state_name(&cli_def, state_of(&cli->ch[channel]));
 }
 
 /* ---- receive, start, queue ------------------------------------------------ */
 
-static void restart_without_block(struct cli_chan *ch)
+static int restart_without_block(struct cli_chan *ch)
 {
 	ch->fell_back = true;
 	ch->offset = ch->read_off = 0;
 	ch->mode = ch->cur.upload ? SDO_MODE_SEGMENTED
 		   : (ch->total >= 1 && ch->total <= SDO_EXP_DATA) ? SDO_MODE_EXPEDITED
 								     : SDO_MODE_SEGMENTED;
-	if (ch->cur.upload)
-		start_upload(ch);
-	else
-		start_download(ch);
+	return ch->cur.upload ? start_upload(ch) : start_download(ch);
+}
+
+/* A server abort while a transfer runs: maybe fall back from block. */
+static int server_abort(struct cli_chan *ch, int st, const uint8_t *d)
+{
+	uint32_t code = co_get_le32(&d[4]);
+	bool refused = code == SDO_AB_CMD || code == SDO_AB_UNSUPP_ACCESS;
+
+	if (refused && !ch->fell_back && (st == CS_BLK_DN_INIT || st == CS_BLK_UP_INIT))
+		return restart_without_block(ch);
+	return complete(ch, code);
 }
 
 static void cli_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	struct cli_chan *ch = arg;
 	const uint8_t *d = f->data;
+	int st = state_of(ch);
 
 	(void)node;
-	if (ch->state == CS_IDLE || ch->state == CS_START_FAILED || f->len != 8 ||
+	if (st == CS_IDLE || st == CS_START_FAILED || f->len != 8 ||
 	    (f->flags & CO_FRAME_RTR))
 		return;
-	if (ch->state == CS_LEASED) {
+	if (st == CS_LEASED) {
 		ch->lease_fn(ch->lease_arg, d, now_us);
 		return;
 	}
 	if (is_stale(ch, d))
 		return;
 	ch->filter.valid = false; /* the server answers the current request */
-	if (ch->state == CS_BLK_UP_SUB ? sdo_blk_seg_is_abort(d)
-				       : is_abort(d) && !sdo_blk_rx_is_dup(&ch->brx, d)) {
-		uint32_t code = co_get_le32(&d[4]);
-		bool refused = code == SDO_AB_CMD || code == SDO_AB_UNSUPP_ACCESS;
-		if (refused && !ch->fell_back &&
-		    (ch->state == CS_BLK_DN_INIT || ch->state == CS_BLK_UP_INIT)) {
-			restart_without_block(ch);
-			return;
-		}
-		complete(ch, code);
+	if (st == CS_BLK_UP_SUB ? sdo_blk_seg_is_abort(d)
+				: is_abort(d) && !sdo_blk_rx_is_dup(&ch->brx, d)) {
+		co_fsm_goto(&ch->fsm, server_abort(ch, st, d), now_us);
 		return;
 	}
-	cli_states[ch->state].on_frame(ch, d);
+	co_fsm_frame(&ch->fsm, f, now_us);
 }
 
 static uint8_t pick_mode(const struct cli_chan *ch, const sdo_client_req *r)
@@ -790,13 +829,15 @@ static bool target_busy(const struct sdo_client *cli, const struct cli_chan *sel
 {
 	for (uint8_t i = 0; i < cli->n; i++) {
 		const struct cli_chan *o = &cli->ch[i];
-		if (o != self && o->state != CS_IDLE && o->cob_resp == resp)
+		if (o != self && state_of(o) != CS_IDLE && o->cob_resp == resp)
 			return true;
 	}
 	return false;
 }
 
-static void start(struct cli_chan *ch, const sdo_client_req *r)
+/* Set the channel up for r and send its first frame; the state that
+ * waits for the answer (or "start failed"). */
+static int start_state(struct cli_chan *ch, const sdo_client_req *r)
 {
 	co_node *node = node_of(ch);
 
@@ -829,19 +870,17 @@ static void start(struct cli_chan *ch, const sdo_client_req *r)
 		co_od_entry_set_raw(ch->od_node, r->node_id);
 	/* CiA 301 §7.3.2.2: no SDO in STOPPED; reported from the next tick
 	 * like any request that cannot start. */
-	if (co_nmt_get_state(node) == CO_NMT_STOPPED) {
-		fail_start(ch, SDO_AB_DEV_STATE);
-		return;
-	}
+	if (co_nmt_get_state(node) == CO_NMT_STOPPED)
+		return fail_start(ch, SDO_AB_DEV_STATE);
 	if (co_rx_move(node, ch->rx_handle, ch->cob_resp & CO_FRAME_EFF_MASK,
-		       (ch->cob_resp & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0) {
-		fail_start(ch, SDO_AB_NO_RESOURCE);
-		return;
-	}
-	if (r->upload)
-		start_upload(ch);
-	else
-		start_download(ch);
+		       (ch->cob_resp & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0)
+		return fail_start(ch, SDO_AB_NO_RESOURCE);
+	return r->upload ? start_upload(ch) : start_download(ch);
+}
+
+static void start(struct cli_chan *ch, const sdo_client_req *r)
+{
+	co_fsm_goto(&ch->fsm, start_state(ch, r), node_of(ch)->now_us);
 }
 
 /* Start the head of the queue if the channel is idle and the target free. */
@@ -849,7 +888,7 @@ static void kick(struct cli_chan *ch)
 {
 	const sdo_client_req *r;
 
-	if (ch->state != CS_IDLE || ch->q_len == 0)
+	if (state_of(ch) != CS_IDLE || ch->q_len == 0)
 		return;
 	r = &ch->q[ch->q_head];
 	if (target_busy(ch->cli, ch, req_cob_resp(r)))
@@ -864,7 +903,7 @@ static void kick(struct cli_chan *ch)
 static struct cli_chan *free_channel(struct sdo_client *cli)
 {
 	for (uint8_t i = 0; i < cli->n; i++)
-		if (cli->ch[i].state == CS_IDLE && cli->ch[i].q_len == 0)
+		if (state_of(&cli->ch[i]) == CS_IDLE && cli->ch[i].q_len == 0)
 			return &cli->ch[i];
 	return NULL;
 }
@@ -975,12 +1014,12 @@ int sdo_client_write(co_node *node, uint8_t channel, uint8_t node_id, uint16_t i
  * got on the wire). */
 static bool cancel_running(struct cli_chan *ch, uint64_t tag, uint32_t abort)
 {
-	if (ch->state == CS_IDLE || ch->state == CS_LEASED || ch->cur.tag != tag)
+	int st = state_of(ch);
+
+	if (st == CS_IDLE || st == CS_LEASED || ch->cur.tag != tag)
 		return false;
-	if (ch->state == CS_START_FAILED)
-		complete(ch, abort);
-	else
-		abort_local(ch, abort);
+	co_fsm_goto(&ch->fsm, st == CS_START_FAILED ? complete(ch, abort) : abort_local(ch, abort),
+		    node_of(ch)->now_us);
 	return true;
 }
 
@@ -1088,8 +1127,7 @@ int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t 
 	ch->cob_resp = req_cob_resp(&r);
 	ch->lease_fn = fn;
 	ch->lease_arg = arg;
-	ch->state = CS_LEASED;
-	ch->deadline = CO_NO_DEADLINE; /* the relay keeps its own timers */
+	co_fsm_goto(&ch->fsm, CS_LEASED, now_us);
 	if (ch->od_cob[0])
 		co_od_entry_set_raw(ch->od_cob[0], ch->cob_req);
 	if (ch->od_cob[1])
@@ -1103,7 +1141,7 @@ static struct cli_chan *leased(co_node *node, uint8_t channel)
 {
 	struct sdo_client *cli = node->sdo_cli;
 
-	if (!cli || channel >= cli->n || cli->ch[channel].state != CS_LEASED)
+	if (!cli || channel >= cli->n || state_of(&cli->ch[channel]) != CS_LEASED)
 		return NULL;
 	return &cli->ch[channel];
 }
@@ -1125,7 +1163,7 @@ int sdo_client_lease_end(co_node *node, uint8_t channel, uint64_t now_us)
 	if (!ch)
 		return -ENOENT;
 	node->now_us = now_us;
-	ch->state = CS_IDLE;
+	co_fsm_goto(&ch->fsm, CS_IDLE, now_us); /* nothing to confirm */
 	ch->lease_fn = NULL;
 	co_rx_disable(node, ch->rx_handle);
 	kick_all(ch->cli);
@@ -1143,7 +1181,7 @@ unsigned sdo_client_pending(const co_node *node, uint8_t channel)
 
 	if (!cli || channel >= cli->n)
 		return 0;
-	return cli->ch[channel].q_len + (cli->ch[channel].state != CS_IDLE);
+	return cli->ch[channel].q_len + (state_of(&cli->ch[channel]) != CS_IDLE);
 }
 
 uint8_t sdo_client_channel_count(const co_node *node)
@@ -1205,6 +1243,7 @@ static int cli_init(co_node *node)
 		ch->cli = cli;
 		ch->num = i;
 		ch->deadline = CO_NO_DEADLINE;
+		co_fsm_init(&ch->fsm, &cli_def, ch, CS_IDLE);
 		ch->q = calloc(node->cfg.sdo_client_queue_len, sizeof(*ch->q));
 		if (!ch->q) {
 			rc = -ENOMEM;
@@ -1232,14 +1271,12 @@ static uint64_t cli_tick(co_node *node, uint64_t now_us)
 		return next;
 	for (uint8_t i = 0; i < cli->n; i++) {
 		struct cli_chan *ch = &cli->ch[i];
-		if (ch->state == CS_START_FAILED && now_us >= ch->deadline)
-			complete(ch, ch->start_abort);
-		else if (ch->state != CS_IDLE && now_us >= ch->deadline)
-			abort_local(ch, SDO_AB_TIMEOUT);
+		if (state_of(ch) != CS_IDLE && now_us >= ch->deadline)
+			co_fsm_timeout(&ch->fsm, now_us);
 	}
 	/* A second pass: completions above may have started queued requests. */
 	for (uint8_t i = 0; i < cli->n; i++)
-		if (cli->ch[i].state != CS_IDLE && cli->ch[i].deadline < next)
+		if (state_of(&cli->ch[i]) != CS_IDLE && cli->ch[i].deadline < next)
 			next = cli->ch[i].deadline;
 	return next;
 }
@@ -1256,7 +1293,7 @@ static void cli_reset_comm(co_node *node, uint64_t now_us)
 	 * the OD mirrors the current target again. */
 	for (uint8_t i = 0; i < cli->n; i++) {
 		struct cli_chan *ch = &cli->ch[i];
-		if (ch->state == CS_IDLE)
+		if (state_of(ch) == CS_IDLE)
 			continue;
 		if (ch->od_cob[0])
 			co_od_entry_set_raw(ch->od_cob[0], ch->cob_req);
@@ -1274,13 +1311,15 @@ static void cli_nmt_changed(co_node *node, uint8_t state, uint64_t now_us)
 {
 	struct sdo_client *cli = node->sdo_cli;
 
-	(void)now_us;
 	if (!cli || state != CO_NMT_STOPPED)
 		return;
-	for (uint8_t i = 0; i < cli->n; i++)
-		if (cli->ch[i].state != CS_IDLE && cli->ch[i].state != CS_START_FAILED &&
-		    cli->ch[i].state != CS_LEASED) /* a relay lease: its owner's business */
-			complete(&cli->ch[i], SDO_AB_DEV_STATE);
+	for (uint8_t i = 0; i < cli->n; i++) {
+		struct cli_chan *ch = &cli->ch[i];
+		int st = state_of(ch);
+		if (st != CS_IDLE && st != CS_START_FAILED &&
+		    st != CS_LEASED) /* a relay lease: its owner's business */
+			co_fsm_goto(&ch->fsm, complete(ch, SDO_AB_DEV_STATE), now_us);
+	}
 }
 
 const co_service co_svc_sdo_client = {

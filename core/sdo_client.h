@@ -184,5 +184,8 @@ unsigned sdo_client_pool_waiting(const co_node *node);
 /* Requests on the channel (running + queued). */
 unsigned sdo_client_pending(const co_node *node, uint8_t channel);
 uint8_t sdo_client_channel_count(const co_node *node);
+/* Name of the channel's state ("idle", "upload segment", "block download
+ * ack", "start failed", "leased", ...); "?" for a bad channel. */
+const char *sdo_client_state_to_string(const co_node *node, uint8_t channel);
 
 #endif /* COGW_CORE_SDO_CLIENT_H */

@@ -327,6 +327,8 @@ static void test_queue_never_busy_until_capacity(void)
 	TEST_ASSERT_EQUAL(0, write_n(d, 1, 4));
 	TEST_ASSERT_EQUAL(-ENOSPC, write_n(d, 1, 5));
 	TEST_ASSERT_EQUAL(4, sdo_client_pending(cli->node, 0));
+	TEST_ASSERT_EQUAL_STRING("download initiate", sdo_client_state_to_string(cli->node, 0));
+	TEST_ASSERT_EQUAL_STRING("?", sdo_client_state_to_string(cli->node, 200));
 	size_t before = tb_count_from_id(&bus, 0, 0x605, 0);
 	TEST_ASSERT_EQUAL(1, before); /* never two requests on the wire */
 	for (uint64_t t = 1; t <= 4; t++) {
@@ -335,6 +337,7 @@ static void test_queue_never_busy_until_capacity(void)
 	}
 	TEST_ASSERT_EQUAL(4, tb_count_from_id(&bus, 0, 0x605, 0));
 	TEST_ASSERT_EQUAL(0, sdo_client_pending(cli->node, 0));
+	TEST_ASSERT_EQUAL_STRING("idle", sdo_client_state_to_string(cli->node, 0));
 }
 
 static void test_cancel_running_and_queued(void)
