@@ -219,6 +219,23 @@ static int abort_local(struct cli_chan *ch, uint32_t code)
 	return complete(ch, code);
 }
 
+/* A frame of the old transfer's data phase (segments, block acks and end,
+ * block upload sub-block segments, which carry any byte 0)? */
+static bool is_old_data_phase(const struct stale_xfer *s, const uint8_t *d)
+{
+	uint8_t cs = SDO_CS(d[0]);
+
+	switch (s->mode) {
+	case SDO_MODE_SEGMENTED:
+		return cs == (s->upload ? SDO_SCS_UP_SEG : SDO_SCS_DN_SEG);
+	case SDO_MODE_BLOCK:
+		return s->upload || d[0] == ((SDO_SCS_BLK_DN << 5) | SDO_BLK_ACK) ||
+		       d[0] == ((SDO_SCS_BLK_DN << 5) | SDO_BLK_END);
+	default:
+		return false;
+	}
+}
+
 /* A late frame of the transfer that ch->filter describes, arriving before
  * the first answer of the current one? Those are the old transfer's
  * segments (or block acks / sub-block segments), or its initiate answer or
@@ -240,16 +257,7 @@ static bool is_stale(const struct cli_chan *ch, const uint8_t *d)
 		return false;
 	if (initiate_or_abort && names_old)
 		return true;
-	switch (s->mode) {
-	case SDO_MODE_SEGMENTED:
-		return cs == (s->upload ? SDO_SCS_UP_SEG : SDO_SCS_DN_SEG);
-	case SDO_MODE_BLOCK:
-		/* block upload: sub-block segments carry any byte 0 */
-		return s->upload || d[0] == ((SDO_SCS_BLK_DN << 5) | SDO_BLK_ACK) ||
-		       d[0] == ((SDO_SCS_BLK_DN << 5) | SDO_BLK_END);
-	default:
-		return false;
-	}
+	return is_old_data_phase(s, d);
 }
 
 /* Take up to len bytes from the download source. */
