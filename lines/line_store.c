@@ -56,6 +56,7 @@
 
 #include "core/od_image.h"
 #include "core/emcy.h"
+#include "core/sdo.h"
 #include "core/sdo_server.h"
 #include "core/store.h"
 #include "core/store_file.h"
@@ -96,14 +97,14 @@ static uint32_t on_save(void *ctx, uint8_t sub, const co_od_access *a)
 {
 	line *l = ctx;
 	if (sub > 3)
-		return 0x08000020u; /* manufacturer parts: nothing defined */
+		return SDO_AB_STORE; /* manufacturer parts: nothing defined */
 	if (atomic_load(&l->store.state) != 0)
-		return 0x08000022u; /* one save at a time: "device state" */
+		return SDO_AB_DEV_STATE; /* one save at a time: "device state" */
 	/* serialise now, on the line thread: the OD is only ever read here */
 	long n = write_parts(co_node_od(l->node), parts_of_sub(sub), l->store.blob, LINE_STORE_MAX);
 	if (n < 0) {
 		cogw_log(COGW_LOG_ERR, "line %s: save: values exceed %u bytes", l->name, LINE_STORE_MAX);
-		return 0x08000020u;
+		return SDO_AB_STORE;
 	}
 	l->store.len = (uint32_t)n;
 	request_main(l, 1, sub, a);
@@ -114,9 +115,9 @@ static uint32_t on_restore(void *ctx, uint8_t sub, const co_od_access *a)
 {
 	line *l = ctx;
 	if (sub > 3)
-		return 0x08000020u;
+		return SDO_AB_STORE;
 	if (atomic_load(&l->store.state) != 0)
-		return 0x08000022u;
+		return SDO_AB_DEV_STATE;
 	l->store.len = 0;
 	request_main(l, 2, sub, a);
 	return a->origin == CO_OD_ORIGIN_SDO ? CO_OD_DEFERRED : 0;
@@ -138,7 +139,7 @@ int line_store_request_mbx(line *l, uint8_t op, uint8_t sub, const mbx_reply_to 
 		return -EINVAL;
 	co_od_access a = { .origin = CO_OD_ORIGIN_LOCAL };
 	uint32_t abort = op == 1 ? on_save(l, sub, &a) : on_restore(l, sub, &a);
-	if (abort == 0x08000022u)
+	if (abort == SDO_AB_DEV_STATE)
 		return -EBUSY;
 	if (abort)
 		return -EIO;
@@ -342,7 +343,7 @@ void line_store_poll(line *l)
 			set_defaults_from(l, l->store.factory, l->store.factory_len, mask,
 					  CO_OD_IMAGE_COMM | CO_OD_IMAGE_APP);
 	}
-	uint32_t abort = l->store.result ? 0x08000020u : 0;
+	uint32_t abort = l->store.result ? SDO_AB_STORE : 0;
 	if (l->store.from_sdo)
 		sdo_server_continue(l->node, l->store.channel, abort, NULL, 0, l->now_us);
 	else
