@@ -77,7 +77,7 @@ TSAN_LIB_SRC := lines/xring.c
 TSAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_SRC))
 BENCH_BINS := $(patsubst tests/bench/%.c,$(REL)/tests/bench/%,$(BENCH_SRC))
 
-.PHONY: all deps test unit tsan integration bench demo install clean tests-build check check-core-io check-layering format check-callgraph
+.PHONY: all deps test unit tsan integration interop bench demo install clean tests-build check check-core-io check-layering format check-callgraph
 .DEFAULT_GOAL := all
 .SECONDARY:
 
@@ -191,12 +191,21 @@ integration: $(INTEG_BINS)
 check-callgraph:
 	scripts/callgraph-cycles core
 
+# Interoperability with python-canopen (tests/interop/): one VM boot for the group.
+# scripts/pyenv.sh installs the pinned packages into build/pyenv on first use.
+INTEROP_TESTS := tests/interop/run
+interop: $(SAN_PROGRAM_BINS)
+	@scripts/pyenv.sh
+	tests/vcan/run -n 3 -- env COGW_TEST_TIMEOUT=$${COGW_INTEROP_TIMEOUT:-1800} tests/run-tests interop $(INTEROP_TESTS)
+
 # The whole suite: set-up if needed, build, unit tests, then integration tests on
-# 3 vcan lines; one closing line "N passed, M failed".
+# 3 vcan lines and the interoperability group in the same VM boot; one closing
+# line "N passed, M failed".
 test:
 	@scripts/deps.sh
+	@scripts/pyenv.sh
 	@$(MAKE) --no-print-directory all tests-build
-	@tests/run-all "$(UNIT_BINS)" "$(INTEG_BINS)" "$(TSAN_BINS)"
+	@tests/run-all "$(UNIT_BINS)" "$(INTEG_BINS)" "$(TSAN_BINS)" "$(INTEROP_TESTS)"
 
 # ---- house rules -----------------------------------------------------------------
 # `make check` runs every tests/checks/check_* script (layering, core I/O, format, ...);

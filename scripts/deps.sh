@@ -22,7 +22,7 @@ if [ "$(id -u)" -ne 0 ]; then
 fi
 
 packages=(gcc make pkg-config libsystemd-dev libcjson-dev can-utils iproute2 clang-format
-          qemu-system-x86 busybox-static cpio kmod valgrind systemd)
+          qemu-system-x86 busybox-static cpio kmod valgrind systemd python3 python3-venv)
 
 missing=()
 for p in "${packages[@]}"; do
@@ -109,5 +109,8 @@ fi
 
 # --- python-canopen sdist: third-party EDS files (and a stack) for tests --------
 "$top/scripts/fetch-python-canopen.sh" >/dev/null || die "fetching python-canopen failed"
+
+# --- python-canopen installed (build/pyenv) for the interoperability tests -------
+"$top/scripts/pyenv.sh" || die "creating build/pyenv failed"
 
 log "ok (kernel $(cat "$kdir/.complete"), unity $(cat "$udir/.complete"))"
