@@ -294,6 +294,13 @@ static void emit_boot(struct mgr_slave *s, uint8_t step, char status,
 			.value = value, .expected = expected, .done = done,
 			.mandatory = is_mandatory(m, s->id) };
 
+	if (step == CO_MGR_STEP_BOOT_TIME) {
+		/* reports the node's last failure; its details stay as they are */
+		note_first_error(m, s->id, status, abort);
+		e.flags = compute_flags(m);
+		emit(m, CO_EV_MGR_BOOT, &e);
+		return;
+	}
 	s->d.step = step;
 	if (status && status != 'L') {
 		bool repeat = s->last_fail == status && s->last_fail_step == step &&

@@ -147,6 +147,10 @@ static void test_s47_silent_mandatory_B_then_late(void)
 	TEST_ASSERT_EQUAL_HEX32(0x05040000, e->abort);
 	TEST_ASSERT_EQUAL_UINT(0, mf_sent(&f, 0x000, "01"));
 	TEST_ASSERT_EQUAL(CO_MGR_NODE_MISSING, co_manager_node_nmt_state(f.mgr, 4));
+	/* the node's diagnostics keep the failing step, not the boot time */
+	TEST_ASSERT_EQUAL('B', co_manager_node_diag(f.mgr, 4)->status);
+	TEST_ASSERT_EQUAL_HEX16(0x1000, co_manager_node_diag(f.mgr, 4)->index);
+	TEST_ASSERT_EQUAL_HEX32(0x05040000, co_manager_node_diag(f.mgr, 4)->abort);
 	/* no more retries after the boot time */
 	reads = mf_sent(&f, 0x604, "40 00 10 00");
 	tb_advance(&f.bus, 3 * S);
