@@ -136,7 +136,8 @@ typedef struct ctl_cmd {
 
 extern const ctl_cmd ctl_cmd_status, ctl_cmd_sdo, ctl_cmd_od, ctl_cmd_nmt,
 	ctl_cmd_pdo, ctl_cmd_emcy, ctl_cmd_lss, ctl_cmd_monitor, ctl_cmd_raw,
-	ctl_cmd_dcf, ctl_cmd_route, ctl_cmd_manager, ctl_cmd_boot, ctl_cmd_diag;
+	ctl_cmd_dcf, ctl_cmd_route, ctl_cmd_manager, ctl_cmd_boot, ctl_cmd_diag,
+	ctl_cmd_program, ctl_cmd_configure;
 
 /* Print a subcommand's help (stdout) and return 0. */
 int ctl_print_help(const ctl_cmd *cmd);

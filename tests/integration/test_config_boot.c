@@ -137,6 +137,25 @@ static void test_dcf_downloaded_during_boot(void)
 	TEST_ASSERT_EQUAL_DOUBLE(1000, read_value("1020", "2", "u32"));
 	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(dmn.log_path, "node 1: configured (10 entries)", 5000),
 				 "no 'configured' line in the daemon log");
+
+	/* cogwctl configure (1F25h): the device's configuration was changed
+	 * behind the manager's back (1020h no longer matches): configured again */
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1017 0 u16 900")->exit);
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1020 1 u32 1")->exit);
+	ctl_run("configure 0 1");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "node 1"), res.out);
+	bool back = false;
+	for (uint64_t until = mono_ms() + 20000; !back && mono_ms() < until; sleep_ms(250))
+		back = wait_state("operational", 1000) && read_value("1017", "0", "u16") == 500 &&
+		       read_value("1020", "1", "u32") == 15000;
+	TEST_ASSERT_TRUE_MESSAGE(back, "node 1 not configured again after cogwctl configure");
+	ctl_run("--json configure 0 all");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "\"node\":\"all\""), res.out);
+	TEST_ASSERT_EQUAL_INT(2, ctl_run("configure 0 128")->exit);
+	TEST_ASSERT_EQUAL_INT(2, ctl_run("configure 0")->exit);
+	TEST_ASSERT_TRUE(wait_state("operational", 20000));
 }
 
 static void test_abort_on_entry_7_is_j(void)

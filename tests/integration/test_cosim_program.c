@@ -180,6 +180,60 @@ static void test_program_download_start_and_refusals(void)
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "06090030"), res.err);
 }
 
+/* cogwctl program: the software manager's steps through the daemon
+ * (check, stop, clear, 64 KiB block download, start, verify), each
+ * reported as it ends; a refused image is status I with the abort. */
+static void test_cogwctl_program(void)
+{
+	char good[200], bad[200];
+	uint32_t crc = write_image("good.bin", false, good, sizeof good);
+	write_image("bad.bin", true, bad, sizeof bad);
+
+	/* the first update of a fresh device, verified against --expect */
+	ctl_run("program 0 1 %s --expect 0x%08X", good, (unsigned)crc);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	const char *steps[] = { "check", "stop", "clear", "download", "start", "verify" };
+	const char *at = res.out;
+	for (size_t i = 0; i < sizeof steps / sizeof steps[0]; i++) {
+		const char *p = strstr(at, steps[i]);
+		TEST_ASSERT_NOT_NULL_MESSAGE(p, res.out); /* in this order */
+		at = p;
+	}
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "65536 bytes to 1F50:01 by block transfer"), res.out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "program updated and running"), res.out);
+	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
+
+	/* again, over a running program (stopped and cleared first), --json */
+	ctl_run("--json program 0 1 %s --expect %u", good, (unsigned)crc);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	cJSON *o = cJSON_Parse(res.out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(o, res.out);
+	TEST_ASSERT_TRUE(cJSON_IsTrue(cJSON_GetObjectItem(o, "ok")));
+	TEST_ASSERT_EQUAL_INT(65536, cJSON_GetObjectItem(o, "size")->valueint);
+	TEST_ASSERT_EQUAL_INT(6, cJSON_GetArraySize(cJSON_GetObjectItem(o, "steps")));
+	cJSON_Delete(o);
+
+	/* the wrong identification expected: I after the start */
+	ctl_run("program 0 1 %s --expect 0x12345678", good);
+	TEST_ASSERT_EQUAL_INT(1, res.exit);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "status I"), res.err);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "expected 0x12345678"), res.err);
+
+	/* a corrupted image: the device refuses to start it -> I, 08000020 */
+	ctl_run("program 0 1 %s", bad);
+	TEST_ASSERT_EQUAL_INT(1, res.exit);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "status I"), res.err);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "1F51:01 = 1"), res.err);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "08000020"), res.err);
+	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F56", "1", "u32"));
+
+	/* bad arguments */
+	TEST_ASSERT_EQUAL_INT(2, ctl_run("program 0 1")->exit);
+	TEST_ASSERT_EQUAL_INT(2, ctl_run("program 0 1 %s --expect 0x1FFFFFFFF", good)->exit);
+}
+
 static void test_verify_configuration_object(void)
 {
 	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1020", "1", "u32"));
@@ -227,6 +281,7 @@ int main(void)
 {
 	UNITY_BEGIN();
 	RUN_TEST(test_program_download_start_and_refusals);
+	RUN_TEST(test_cogwctl_program);
 	RUN_TEST(test_verify_configuration_object);
 	RUN_TEST(test_transducer_dcf_fits_the_device);
 	return UNITY_END();
