@@ -44,6 +44,11 @@ _Static_assert(sizeof(mbx_ev_pdo) == 16, "wire layout");
 _Static_assert(sizeof(mbx_ev_emcy) == 24, "wire layout");
 _Static_assert(sizeof(mbx_ev_raw) == 24, "wire layout");
 _Static_assert(sizeof(mbx_ev_can_state) == 4, "wire layout");
+_Static_assert(sizeof(mbx_gw_sdo_req) == 20, "wire layout");
+_Static_assert(sizeof(mbx_gw_status) == 144, "wire layout");
+_Static_assert(sizeof(mbx_gw_route) == 40, "wire layout");
+_Static_assert(sizeof(mbx_ev_gw_sdo) == 16, "wire layout");
+_Static_assert(sizeof(mbx_ev_gw_emcy) == 8, "wire layout");
 _Static_assert(offsetof(mbx_sdo_req, timeout_ms) == 8, "wire layout");
 _Static_assert(offsetof(mbx_lss_req, vendor) == 12, "wire layout");
 _Static_assert(offsetof(mbx_ev_emcy, msef) == 12, "wire layout");
@@ -285,6 +290,7 @@ const char *mbx_event_class_to_string(uint32_t cls)
 	case MBX_EVC_RAW: return "raw";
 	case MBX_EVC_OD: return "od";
 	case MBX_EVC_MANAGER: return "manager";
+	case MBX_EVC_GW: return "gateway";
 	case MBX_EVC_OVERFLOW: return "overflow";
 	}
 	return "?";
@@ -307,6 +313,8 @@ const char *mbx_event_to_string(unsigned code)
 	case MBX_EV_MGR_STATE: return "manager-state";
 	case MBX_EV_MGR_BOOT: return "manager-boot";
 	case MBX_EV_MGR_NODE: return "manager-node";
+	case MBX_EV_GW_SDO: return "gw-sdo";
+	case MBX_EV_GW_EMCY: return "gw-emcy";
 	}
 	return "?";
 }
@@ -328,6 +336,8 @@ uint32_t mbx_event_class_of(unsigned code)
 	case MBX_EV_MGR_STATE:
 	case MBX_EV_MGR_NODE: return MBX_EVC_MANAGER;
 	case MBX_EV_MGR_BOOT: return MBX_EVC_BOOT;
+	case MBX_EV_GW_SDO:
+	case MBX_EV_GW_EMCY: return MBX_EVC_GW;
 	}
 	return 0;
 }
@@ -795,6 +805,10 @@ int mbx_event_validate(unsigned code, const uint8_t *p, size_t len)
 	case MBX_EV_MGR_BOOT:
 	case MBX_EV_MGR_NODE:
 		return len == sizeof(mbx_ev_mgr) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_GW_SDO:
+		return len == sizeof(mbx_ev_gw_sdo) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_GW_EMCY:
+		return len == sizeof(mbx_ev_gw_emcy) ? 0 : MBX_E_MALFORMED;
 	}
 	return MBX_E_UNKNOWN_CMD;
 }

@@ -252,9 +252,10 @@ enum mbx_event_class {
 	MBX_EVC_RAW = 1u << 7,  /* raw frames, opt-in, id/mask filtered */
 	MBX_EVC_OD = 1u << 8,   /* local object written over SDO */
 	MBX_EVC_MANAGER = 1u << 9, /* manager state, unexpected/late/lost nodes */
+	MBX_EVC_GW = 1u << 10,  /* gateway: routed SDO sessions, EMCYs forwarded */
 	MBX_EVC_OVERFLOW = 1u << 31, /* always delivered, cannot be cleared */
 };
-#define MBX_EVC_ALL 0x000003FFu
+#define MBX_EVC_ALL 0x000007FFu
 
 /* Name of a single class bit ("nmt", "hb", ...); "?" otherwise. */
 const char *mbx_event_class_to_string(uint32_t cls);
@@ -274,6 +275,8 @@ typedef enum mbx_event {
 	MBX_EV_MGR_STATE = 0x0A01,  /* MANAGER mbx_ev_mgr: line state/flags */
 	MBX_EV_MGR_BOOT = 0x0A02,   /* BOOT mbx_ev_mgr: one boot step of a node */
 	MBX_EV_MGR_NODE = 0x0A03,   /* MANAGER mbx_ev_mgr: a node event */
+	MBX_EV_GW_SDO = 0x0B01,     /* GW mbx_ev_gw_sdo: a routed session ended */
+	MBX_EV_GW_EMCY = 0x0B02,    /* GW mbx_ev_gw_emcy: an EMCY was forwarded */
 } mbx_event;
 
 const char *mbx_event_to_string(unsigned code); /* "?" if unknown */
@@ -393,6 +396,29 @@ typedef struct mbx_gw_sdo_req {
 	uint16_t pad;
 	mbx_sdo_req sdo; /* node, index, sub, mode, timeout, size as for SDO */
 } mbx_gw_sdo_req;
+
+/* MBX_EV_GW_SDO, on the line the request entered (routed by the SDO server
+ * of that line after a network indication). */
+typedef struct mbx_ev_gw_sdo {
+	uint16_t net;      /* the network asked for */
+	uint8_t node;      /* the node asked for */
+	uint8_t outcome;   /* 0 routed, 1 aborted, 2 timed out, 3 refused */
+	uint32_t abort;    /* 0 or the abort code that ended it */
+	uint8_t target_line; /* the line it went out on (0xFF: refused before) */
+	uint8_t router;    /* next router's node-ID, 0 = attached */
+	uint8_t channel;   /* SDO server channel */
+	uint8_t pad;
+	uint32_t frames;   /* frames relayed (both directions) */
+} mbx_ev_gw_sdo;
+
+/* MBX_EV_GW_EMCY, on the line that consumed it. */
+typedef struct mbx_ev_gw_emcy {
+	uint16_t src_net;
+	uint8_t src_node;
+	uint8_t pad;
+	uint16_t code;     /* the original error code */
+	uint16_t lines;    /* bit L: handed to line L */
+} mbx_ev_gw_emcy;
 
 /* MBX_CMD_GW_ROUTES: the line's gateway counters, then one mbx_gw_route
  * per network with a route or any counted traffic. */

@@ -108,6 +108,48 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		}
 		break;
 	}
+	case MBX_EV_GW_SDO: {
+		static const char *const outcome[] = { "routed", "aborted", "timed out", "refused" };
+		mbx_ev_gw_sdo e;
+		char ab[96] = "";
+		memcpy(&e, m->data, sizeof e);
+		const char *oc = e.outcome < 4 ? outcome[e.outcome] : "?";
+		if (e.abort)
+			ctl_abort_text(e.abort, ab, sizeof ab);
+		if (e.target_line == 0xFF)
+			snprintf(sub, sizeof sub, "refused before leaving");
+		else if (e.router)
+			snprintf(sub, sizeof sub, "via line %u, router node %u", e.target_line, e.router);
+		else
+			snprintf(sub, sizeof sub, "via line %u", e.target_line);
+		snprintf(text, sizeof text, "routed SDO to network %u node %u (%s): %s%s%s, %u frames",
+			 e.net, e.node, sub, oc, e.abort ? ", abort " : "", ab, e.frames);
+		if (o) {
+			cJSON_AddNumberToObject(o, "net", e.net);
+			cJSON_AddNumberToObject(o, "node", e.node);
+			cJSON_AddStringToObject(o, "outcome", oc);
+			cJSON_AddNumberToObject(o, "abort", e.abort);
+			if (e.target_line != 0xFF)
+				cJSON_AddNumberToObject(o, "target_line", e.target_line);
+			cJSON_AddNumberToObject(o, "router", e.router);
+			cJSON_AddNumberToObject(o, "channel", e.channel);
+			cJSON_AddNumberToObject(o, "frames", e.frames);
+		}
+		break;
+	}
+	case MBX_EV_GW_EMCY: {
+		mbx_ev_gw_emcy e;
+		memcpy(&e, m->data, sizeof e);
+		snprintf(text, sizeof text, "EMCY %04X of node %u (network %u) forwarded to lines mask %04X",
+			 e.code, e.src_node, e.src_net, e.lines);
+		if (o) {
+			cJSON_AddNumberToObject(o, "src_net", e.src_net);
+			cJSON_AddNumberToObject(o, "src_node", e.src_node);
+			cJSON_AddNumberToObject(o, "code", e.code);
+			cJSON_AddNumberToObject(o, "lines", e.lines);
+		}
+		break;
+	}
 	case MBX_EV_EMCY: {
 		mbx_ev_emcy e;
 		memcpy(&e, m->data, sizeof e);
@@ -366,7 +408,8 @@ static const struct {
 } class_names[] = {
 	{ "nmt", MBX_EVC_NMT }, { "hb", MBX_EVC_HB },   { "boot", MBX_EVC_BOOT }, { "emcy", MBX_EVC_EMCY },
 	{ "pdo", MBX_EVC_PDO }, { "sdo", MBX_EVC_SDO }, { "can", MBX_EVC_CAN },   { "raw", MBX_EVC_RAW },
-	{ "od", MBX_EVC_OD },   { "manager", MBX_EVC_MANAGER }, { "all", MBX_EVC_ALL },
+	{ "od", MBX_EVC_OD },   { "manager", MBX_EVC_MANAGER }, { "gateway", MBX_EVC_GW },
+	{ "all", MBX_EVC_ALL },
 };
 
 /* Split "a,b,c" and call fn on each part. */
@@ -398,7 +441,7 @@ static int add_class(ctl *c, const char *s, void *arg)
 			*(uint32_t *)arg |= class_names[i].bits;
 			return 0;
 		}
-	return ctl_usage_error(c, "unknown event class '%s' (nmt, hb, boot, emcy, pdo, sdo, can, raw, od, manager, all)", s);
+	return ctl_usage_error(c, "unknown event class '%s' (nmt, hb, boot, emcy, pdo, sdo, can, raw, od, manager, gateway, all)", s);
 }
 
 static int add_filter(ctl *c, const char *s, void *arg)
@@ -480,7 +523,8 @@ const ctl_cmd ctl_cmd_monitor = {
 		"(--duration, fractions allowed); then prints how many events it saw (stderr).\n"
 		"\n"
 		"  --line L,..      lines to watch (default: every line of the daemon)\n"
-		"  --class C,..     event classes (default: all but raw):\n"
+		"  --class C,..     event classes (default: all but raw; gateway = routed SDO\n"
+		"                   sessions ending and EMCYs forwarded):\n"
 		"                   nmt   NMT state changes (from heartbeats and the daemon's own)\n"
 		"                   hb    heartbeat supervision started / lost\n"
 		"                   boot  boot-up messages\n"

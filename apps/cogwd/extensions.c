@@ -11,9 +11,12 @@
 
 #include "lines/log.h"
 
+extern const cogwd_ext_provider cogwd_ext_gateway;
+
 const cogwd_ext_provider *const cogwd_ext_providers[] = {
 	/* the manager and the gateway add their providers here */
 	&cogwd_manager_provider,
+	&cogwd_ext_gateway,
 	NULL,
 };
 
