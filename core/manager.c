@@ -193,7 +193,7 @@ const char *co_mgr_node_what_to_string(uint8_t what)
 {
 	static const char *const n[CO_MGR_NODE_WHAT_COUNT] = {
 		"unexpected", "late", "lost", "back", "duplicate", "own-id",
-		"nmt-ignored", "keep-op", "request-nmt", "error-reaction",
+		"nmt-ignored", "keep-op", "request-nmt", "error-reaction", "program",
 	};
 	return what < CO_MGR_NODE_WHAT_COUNT ? n[what] : "?";
 }
@@ -637,7 +637,7 @@ static int software_enter(void *obj, uint64_t now_us)
 	if (rc < 0)
 		return bs_fail(s, CO_MGR_STEP_SOFTWARE, 'G', 0, 0x1F55, s->id,
 			       (uint32_t)-rc, 0);
-	if (m->cfg.software)
+	if (m->cfg.software && (assignment(m, s->id) & CO_MGR_1F81_VERIFY_SW))
 		emit_boot(s, CO_MGR_STEP_SOFTWARE, 0, 0, 0, 0, 0, 0, false);
 	return BS_CONFIGURE;
 }

@@ -143,6 +143,10 @@ typedef enum co_mgr_node_what {
 	CO_MGR_NODE_REQUEST_NMT,    /* 1F82h / request: value = command */
 	CO_MGR_NODE_ERROR_REACTION, /* 1F80h reaction ran: value = cs sent
 	                             * (0 = that node alone) */
+	CO_MGR_NODE_PROGRAM,        /* program download progress (302-3
+	                             * software manager; reported by the
+	                             * owner): value = bytes sent, expected =
+	                             * image size */
 	CO_MGR_NODE_WHAT_COUNT
 } co_mgr_node_what;
 

@@ -13,6 +13,7 @@
 #include "core/cfgmgr.h"
 #include "core/manager.h"
 #include "core/sdo.h"
+#include "core/swmgr.h"
 #include "lines/log.h"
 #include "mailbox/proto.h"
 
@@ -20,6 +21,8 @@ struct mgr_line {
 	const cogw_line_config *lc;
 	co_manager *mgr;
 	co_cfgmgr_line cfgm;
+	co_swmgr_line swm;
+	line *l; /* while attached: progress events go to its mailbox */
 	char name[COGW_NAME_MAX];
 };
 
@@ -49,6 +52,72 @@ static void cfgm_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
 		(void)co_manager_configure_done(ml->mgr, r->node_id, abort, r->index, r->sub, now_us);
 }
 
+/* 1F58h:n: the images read from the files of nodes[].program at load. */
+static const cogw_node *node_of(const struct mgr_line *ml, uint8_t id)
+{
+	for (size_t i = 0; i < ml->lc->n_nodes; i++)
+		if (ml->lc->nodes[i].id == id)
+			return &ml->lc->nodes[i];
+	return NULL;
+}
+
+static uint32_t image_size(void *ctx, uint8_t node_id)
+{
+	const cogw_node *n = node_of(ctx, node_id);
+	return n && n->program ? (uint32_t)n->program_len : 0;
+}
+
+static int image_read(void *ctx, uint8_t node_id, uint32_t offset, uint8_t *buf, uint32_t len)
+{
+	const cogw_node *n = node_of(ctx, node_id);
+	if (!n || !n->program || offset > n->program_len)
+		return -EINVAL;
+	if (len > n->program_len - offset)
+		len = (uint32_t)(n->program_len - offset);
+	memcpy(buf, n->program + offset, len);
+	return (int)len;
+}
+
+/* Progress of a program download: an MGR_NODE event "program" (value =
+ * bytes sent, expected = image size) and a log line at the end. */
+static void swm_progress(void *ctx, uint8_t node_id, uint32_t sent, uint32_t total,
+			 uint64_t now_us)
+{
+	struct mgr_line *ml = ctx;
+	mbx_ev_mgr w = { .node = node_id, .what = CO_MGR_NODE_PROGRAM, .value = sent,
+			 .expected = total };
+	(void)now_us;
+	if (sent == total)
+		cogw_log(COGW_LOG_INFO, "line %s: node %u: program image sent (%u bytes)", ml->name,
+			 node_id, (unsigned)total);
+	if (ml->l)
+		(void)mbx_server_publish(line_mbx(ml->l), MBX_EV_MGR_NODE, 0, &w, sizeof w);
+}
+
+/* The 302-3 software check/update ended: the boot slave process goes on
+ * (G, H or I on failure). */
+static void swm_done(void *ctx, const co_swmgr_result *r, uint64_t now_us)
+{
+	struct mgr_line *ml = ctx;
+	char status = r->outcome == CO_SWMGR_FAILED_STATUS ? r->status
+		      : r->outcome == CO_SWMGR_CANCELLED   ? 'I'
+							   : 0;
+	if (status)
+		cogw_log(COGW_LOG_ERR,
+			 "line %s: node %u: software %c (%s) at %04X:%02X: abort %08X, 1F56h:1 = %08X, expected %08X",
+			 ml->name, r->node_id, status, co_mgr_status_to_string(status), r->index, r->sub,
+			 (unsigned)r->abort, (unsigned)r->found, (unsigned)r->expected);
+	else if (r->outcome == CO_SWMGR_UPDATED)
+		cogw_log(COGW_LOG_INFO, "line %s: node %u: program updated (%u bytes), software %08X",
+			 ml->name, r->node_id, (unsigned)r->bytes, (unsigned)r->found);
+	else
+		cogw_log(COGW_LOG_INFO, "line %s: node %u: software %08X as expected", ml->name,
+			 r->node_id, (unsigned)r->found);
+	if (ml->mgr)
+		(void)co_manager_software_done(ml->mgr, r->node_id, status, r->abort, r->index,
+					       r->sub, now_us);
+}
+
 static int mgr_attach(void *ctx, line *l)
 {
 	struct mgr_line *ml = ctx;
@@ -63,10 +132,18 @@ static int mgr_attach(void *ctx, line *l)
 		.accept_remote_nmt = mc->accept_remote_nmt,
 		.configure = co_cfgmgr_line_configure,
 		.configure_ctx = &ml->cfgm,
+		.software = co_swmgr_line_check,
+		.software_ctx = &ml->swm,
 	};
+	const co_swmgr_source src = { .size = image_size, .read = image_read, .ctx = ml };
 	int rc;
 
 	co_cfgmgr_line_init(&ml->cfgm, node, cfgm_done, ml);
+	co_swmgr_line_init(&ml->swm, node, &src, swm_done, ml);
+	ml->swm.sdo_timeout_ms = mc->sdo_timeout_ms;
+	ml->swm.progress = swm_progress;
+	ml->swm.progress_ctx = ml;
+	ml->l = l;
 	ml->cfgm.sdo_timeout_ms = mc->sdo_timeout_ms;
 	for (size_t i = 0; i < ml->lc->n_nodes; i++) /* "store": 1010h after a download */
 		ml->cfgm.store[ml->lc->nodes[i].id] = ml->lc->nodes[i].config.store;
@@ -86,7 +163,9 @@ static void mgr_detach(void *ctx, line *l)
 	struct mgr_line *ml = ctx;
 	(void)l;
 	co_cfgmgr_line_cancel_all(&ml->cfgm, line_loop_now_us(l));
+	co_swmgr_line_cancel_all(&ml->swm, line_loop_now_us(l));
 	co_manager_destroy(ml->mgr);
+	ml->l = NULL;
 	ml->mgr = NULL;
 }
 

@@ -34,6 +34,7 @@
 #include "apps/common/json_util.h"
 #include "core/cfgmgr.h"
 #include "core/manager.h"
+#include "core/swmgr.h"
 #include "core/od_std.h"
 
 #define CONFIG_FILE_MAX (4u * 1024u * 1024u)
@@ -72,6 +73,7 @@ static const char *const node_keys[] = { "id", "config", "mandatory", "boot",
 					 "keep_alive", "retry_factor", "guard_time_ms",
 					 "heartbeat_ms", "device_type", "vendor_id",
 					 "product_code", "revision", "serial", "keep_op",
+					 "software_id", "software_update", "program",
 					 "comment", NULL };
 static const char *const manager_keys[] = { "master", "start_all", "self_start",
 					    "start_slaves", "on_mandatory_error",
@@ -740,6 +742,73 @@ static int opt_u32_hex(struct ctx *c, const cJSON *o, const char *key, const cha
 	return 0;
 }
 
+/* The image file of "program", read whole now (start-up: the line thread
+ * later reads it from memory). */
+static int load_program(struct ctx *c, const char *p, const char *name, cogw_node *n)
+{
+	FILE *f;
+	long len;
+
+	if (name[0] == '/' || !c->base_dir[0])
+		snprintf(n->program_file, sizeof(n->program_file), "%s", name);
+	else if ((size_t)snprintf(n->program_file, sizeof(n->program_file), "%s/%s", c->base_dir,
+				  name) >= sizeof(n->program_file))
+		return fail(c, p, "file name too long");
+	f = fopen(n->program_file, "rb");
+	if (!f)
+		return fail(c, p, "%s: %s", n->program_file, strerror(errno));
+	if (fseek(f, 0, SEEK_END) || (len = ftell(f)) < 0 || fseek(f, 0, SEEK_SET)) {
+		fclose(f);
+		return fail(c, p, "%s: %s", n->program_file, strerror(errno));
+	}
+	if (len == 0 || (unsigned long)len > COGW_PROGRAM_MAX) {
+		fclose(f);
+		return fail(c, p, "%s: a program image of 1..%u bytes, not %ld", n->program_file,
+			    COGW_PROGRAM_MAX, len);
+	}
+	n->program = malloc((size_t)len);
+	if (!n->program) {
+		fclose(f);
+		return -ENOMEM;
+	}
+	if (fread(n->program, 1, (size_t)len, f) != (size_t)len) {
+		fclose(f);
+		return fail(c, p, "%s: short read", n->program_file);
+	}
+	fclose(f);
+	n->program_len = (size_t)len;
+	return 0;
+}
+
+/* The CiA 302-3 software manager settings of a node: "software_id"
+ * (1F55h:n, sets 1F81h:n bit 5), "software_update" with "program" (the
+ * image of 1F58h:n; sets bit 6). */
+static int parse_node_software(struct ctx *c, const cJSON *it, const char *np, cogw_node *n,
+			       uint32_t *a)
+{
+	const cJSON *prog = json_util_get(it, "program");
+	char p[JSON_PATH_MAX], name[256];
+	bool update = false;
+	int rc;
+
+	if ((rc = opt_u32_hex(c, it, "software_id", np, &n->software_id)) ||
+	    (rc = json_util_opt_bool(it, "software_update", np, &update, c->msg, sizeof(c->msg))))
+		return rc;
+	if (n->software_id)
+		*a |= CO_SWMGR_F81_CHECK;
+	if (!update && !prog)
+		return 0;
+	json_util_path_key(p, sizeof(p), np, update ? "software_update" : "program");
+	if (!update || !prog || !n->software_id)
+		return fail(c, p, "\"software_update\": true, \"program\" and a non-zero "
+				  "\"software_id\" go together (node %u)", n->id);
+	*a |= CO_SWMGR_F81_UPDATE;
+	json_util_path_key(p, sizeof(p), np, "program");
+	if ((rc = json_util_string(prog, p, 1, name, sizeof(name), c->msg, sizeof(c->msg))))
+		return rc;
+	return load_program(c, p, name, n);
+}
+
 /* The CiA 302-2 settings of one entry of "nodes" (1F81h:n, 1F84h..1F88h:n,
  * the 1016h consumer time, KEEP_OP). */
 static int parse_node_manager(struct ctx *c, const cJSON *it, const char *np, cogw_node *n)
@@ -767,6 +836,8 @@ static int parse_node_manager(struct ctx *c, const cJSON *it, const char *np, co
 		json_util_path_key(p, sizeof(p), np, "guard_time_ms");
 		return fail(c, p, "node %u has heartbeat_ms too: supervise it one way", n->id);
 	}
+	if ((rc = parse_node_software(c, it, np, n, &a)))
+		return rc;
 	n->assignment = a | factor << 8 | guard << 16;
 	n->heartbeat_ms = hb;
 	n->keep_op = keep_op;
@@ -858,6 +929,10 @@ static int manager_objects(struct ctx *c, const char *path, cogw_line_config *l)
 			if ((rc = set_default(l->od, (uint16_t)(0x1F84 + k), n->id, n->identity[k])))
 				return fail(c, path, "%04Xh:%u: %s", 0x1F84 + k, n->id,
 					    strerror(-rc));
+		if (n->software_id &&
+		    ((rc = co_od_add_swmgr_defaults(l->od)) ||
+		     (rc = set_default(l->od, CO_SWMGR_IDX_EXPECTED, n->id, n->software_id))))
+			return fail(c, path, "1F55h:%u: %s", n->id, strerror(-rc));
 		if (!n->heartbeat_ms)
 			continue;
 		uint8_t free_sub = 0, subs = 0;
@@ -1321,8 +1396,10 @@ void cogw_config_free(cogw_config *cfg)
 
 		co_od_destroy(l->od);
 		l->od = NULL;
-		for (size_t j = 0; l->nodes && j < l->n_nodes + 1; j++)
+		for (size_t j = 0; l->nodes && j < l->n_nodes + 1; j++) {
 			cogw_node_config_free(&l->nodes[j].config);
+			free(l->nodes[j].program);
+		}
 		free(l->nodes);
 		l->nodes = NULL;
 	}

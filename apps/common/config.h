@@ -56,7 +56,16 @@ typedef struct cogw_node {
 	uint32_t identity[5];       /* 1F84h..1F88h:n (0 = do not check) */
 	uint16_t heartbeat_ms;      /* 1016h consumer time, 0 = none */
 	bool keep_op;               /* restart it when it leaves OPERATIONAL */
+	uint32_t software_id;       /* 1F55h:n expected software (0 = none);
+	                             * non-zero sets 1F81h:n bit 5 */
+	char program_file[256];     /* "program": the image file (resolved) */
+	uint8_t *program;           /* its bytes (owned, read at load time):
+	                             * the 1F58h:n image; "software_update"
+	                             * sets 1F81h:n bit 6 */
+	size_t program_len;
 } cogw_node;
+
+#define COGW_PROGRAM_MAX (16u * 1024u * 1024u)
 
 /* The CiA 302-2 manager of a line ("manager"; docs/config.md). */
 typedef struct cogw_manager_config {

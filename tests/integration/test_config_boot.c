@@ -14,6 +14,8 @@
  *   tests/vcan/run -n 3 -- build/san/tests/integration/test_config_boot
  */
 #include <stdarg.h>
+#include <stdbool.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -106,6 +108,107 @@ static void start(const char *node_config)
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, NULL));
 }
 
+/* An independent CRC-32 (IEEE 802.3): the simulated device's software
+ * identification of an image is the CRC of all but its last 4 bytes,
+ * which must hold that CRC. */
+static uint32_t crc32_ieee(const uint8_t *p, size_t n)
+{
+	uint32_t crc = 0xFFFFFFFFu;
+	for (size_t i = 0; i < n; i++) {
+		crc ^= p[i];
+		for (int b = 0; b < 8; b++)
+			crc = (crc & 1u) ? (crc >> 1) ^ 0xEDB88320u : crc >> 1;
+	}
+	return ~crc;
+}
+
+#define IMAGE_SIZE (64u * 1024u)
+
+/* A 64 KiB image in the daemon's directory; returns its identification. */
+static uint32_t write_image(const char *path, bool corrupt)
+{
+	static uint8_t img[IMAGE_SIZE];
+	for (uint32_t i = 0; i < IMAGE_SIZE - 4; i++)
+		img[i] = (uint8_t)(i * 13u + (i >> 9));
+	uint32_t crc = crc32_ieee(img, IMAGE_SIZE - 4);
+	for (int b = 0; b < 4; b++)
+		img[IMAGE_SIZE - 4 + b] = (uint8_t)(crc >> (8 * b));
+	if (corrupt)
+		img[4242] ^= 0x10;
+	FILE *f = fopen(path, "wb");
+	TEST_ASSERT_NOT_NULL(f);
+	TEST_ASSERT_EQUAL_size_t(IMAGE_SIZE, fwrite(img, 1, IMAGE_SIZE, f));
+	fclose(f);
+	return crc;
+}
+
+/* The daemon with node 1 under the software manager: its program from
+ * `image` (written now, corrupted or not); a monitor of the manager's
+ * events runs from before the device is switched on. */
+static char image_path[128];
+
+static uint32_t start_software(bool corrupt, char *mon_path, size_t cap)
+{
+	char node_cfg[600], cmd[700];
+	uint32_t crc;
+	snprintf(image_path, sizeof image_path, "/tmp/cogw-test-program-%d.bin", (int)getpid());
+	crc = write_image(image_path, corrupt);
+	snprintf(node_cfg, sizeof node_cfg,
+		 "{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 127,"
+		 " \"sdo_clients\": 4,"
+		 " \"manager\": {\"reset_wait_ms\": 3000, \"sdo_timeout_ms\": 2000},"
+		 " \"nodes\": [{\"id\": 1, \"mandatory\": true, \"software_id\": %u,"
+		 " \"software_update\": true, \"program\": \"%s\"}]},"
+		 " {\"interface\": \"vcan1\", \"bitrate\": 500000, \"node_id\": 127},"
+		 " {\"interface\": \"vcan2\", \"bitrate\": 500000, \"node_id\": 127}]}",
+		 (unsigned)(corrupt ? crc ^ 1u : crc), image_path);
+	snprintf(cfg, sizeof cfg, "%s", node_cfg);
+	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = cfg, .n_lines = 3 }));
+	snprintf(mon_path, cap, "%s/monitor.out", dmn.dir);
+	snprintf(cmd, sizeof cmd, "%s --json monitor --line 0 --class manager,boot --duration 40 >%s 2>&1 &", CTL,
+		 mon_path);
+	TEST_ASSERT_EQUAL_INT(0, system(cmd));
+	sleep_ms(1000);
+	const char *devices[] = { "etc/devices/sti-pressure.json", NULL };
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, NULL));
+	return crc;
+}
+
+/* Software manager during the boot: the fresh device's 1F56h:1 (0)
+ * differs from software_id -> stop, clear, 64 KiB block download with
+ * progress events, start, verify; then the node is started. */
+static void test_program_updated_during_boot(void)
+{
+	char mon[200];
+	uint32_t crc = start_software(false, mon, sizeof mon);
+	if (!wait_state("operational", 40000)) {
+		proc_dump_log(dmn.log_path, 40);
+		TEST_FAIL_MESSAGE("node 1 was not started");
+	}
+	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
+	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8")); /* running */
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(dmn.log_path, "node 1: program updated (65536 bytes)", 5000),
+				 "no 'program updated' line in the daemon log");
+	/* progress events on the mailbox: the last one has all bytes */
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "\"what\":\"program\"", 5000), "no progress event");
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "\"value\":65536", 5000), "no final progress event");
+	unlink(image_path);
+}
+
+/* An image the device refuses to start: status I, the node not started. */
+static void test_refused_image_is_i(void)
+{
+	char mon[200];
+	(void)start_software(true, mon, sizeof mon);
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(dmn.log_path, "node 1: software I", 40000),
+				 "no status I in the daemon log");
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(dmn.log_path, "1F51:01: abort 08000020", 1000),
+				 "not refused by the start");
+	TEST_ASSERT_FALSE(wait_state("operational", 3000));
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "\"status\":\"I\"", 5000), "no boot event with I");
+	unlink(image_path);
+}
+
 void setUp(void)
 {
 	memset(&dmn, 0, sizeof dmn);
@@ -181,5 +284,7 @@ int main(void)
 	UNITY_BEGIN();
 	RUN_TEST(test_dcf_downloaded_during_boot);
 	RUN_TEST(test_abort_on_entry_7_is_j);
+	RUN_TEST(test_program_updated_during_boot);
+	RUN_TEST(test_refused_image_is_i);
 	return UNITY_END();
 }

@@ -194,6 +194,8 @@ static int fill_key_defaults(struct key_default *k)
 		KD(sec, "revision", "%u", nd->identity[3]);
 		KD(sec, "serial", "%u", nd->identity[4]);
 		KD(sec, "keep_op", "%s", TF(nd->keep_op));
+		KD(sec, "software_id", "%u", nd->software_id);
+		KD(sec, "software_update", "%s", TF(a & CO_MGR_1F81_UPDATE_SW));
 #undef TF
 	}
 	KD("`debug`", "stall_signal", "%s", cfg.debug_stall_signal ? "true" : "false");

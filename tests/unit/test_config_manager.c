@@ -5,6 +5,7 @@
  * (as defaults); bad values are refused with their JSON path.
  */
 #include <errno.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "apps/common/config.h"
@@ -135,6 +136,45 @@ static void test_nodes_fill_assignment_identity_heartbeat(void)
 				raw(od, 0x1F81, 2));
 }
 
+/* The software manager keys: 1F55h:n, 1F81h bits 5/6, the image read at
+ * load time; bad combinations and files refused with their path. */
+static void test_node_software_keys(void)
+{
+	const char *img = "/tmp/cogw-test-config-program.bin";
+	FILE *f = fopen(img, "wb");
+	TEST_ASSERT_NOT_NULL(f);
+	TEST_ASSERT_EQUAL_size_t(5, fwrite("\x01\x02\x03\x04\x05", 1, 5, f));
+	fclose(f);
+	load_ok(CFG1(", \"manager\": {}, \"nodes\": ["
+		     "{\"id\": 2, \"software_id\": \"0x12345678\", \"software_update\": true,"
+		     " \"program\": \"/tmp/cogw-test-config-program.bin\"},"
+		     "{\"id\": 3, \"software_id\": 7}]"));
+	const co_od *od = cfg.lines[0].od;
+	TEST_ASSERT_EQUAL_HEX64(CO_MGR_1F81_SLAVE | CO_MGR_1F81_BOOT | CO_MGR_1F81_VERIFY_SW |
+					CO_MGR_1F81_UPDATE_SW,
+				raw(od, 0x1F81, 2));
+	TEST_ASSERT_EQUAL_HEX64(CO_MGR_1F81_SLAVE | CO_MGR_1F81_BOOT | CO_MGR_1F81_VERIFY_SW,
+				raw(od, 0x1F81, 3));
+	TEST_ASSERT_EQUAL_HEX64(0x12345678, raw(od, 0x1F55, 2));
+	TEST_ASSERT_EQUAL_HEX64(7, raw(od, 0x1F55, 3));
+	TEST_ASSERT_EQUAL_size_t(5, cfg.lines[0].nodes[0].program_len);
+	TEST_ASSERT_EQUAL_MEMORY("\x01\x02\x03\x04\x05", cfg.lines[0].nodes[0].program, 5);
+	TEST_ASSERT_NULL(cfg.lines[0].nodes[1].program);
+	cogw_config_free(&cfg);
+
+	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"software_update\": true}]"),
+		     "t.json: lines[0].nodes[0].software_update: \"software_update\": true, \"program\" and a "
+		     "non-zero \"software_id\" go together (node 2)");
+	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"software_id\": 1,"
+			  " \"program\": \"/tmp/cogw-test-config-program.bin\"}]"),
+		     "t.json: lines[0].nodes[0].program: \"software_update\": true, \"program\" and a "
+		     "non-zero \"software_id\" go together (node 2)");
+	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"software_id\": 1, \"software_update\": true,"
+			  " \"program\": \"/nonexistent/x.bin\"}]"),
+		     "t.json: lines[0].nodes[0].program: /nonexistent/x.bin: No such file or directory");
+	remove(img);
+}
+
 static void test_bad_values_with_paths(void)
 {
 	expect_error(CFG1(", \"manager\": {\"on_mandatory_error\": \"panic\"}"),
@@ -181,6 +221,7 @@ int main(void)
 	RUN_TEST(test_manager_defaults);
 	RUN_TEST(test_manager_bits_by_name);
 	RUN_TEST(test_nodes_fill_assignment_identity_heartbeat);
+	RUN_TEST(test_node_software_keys);
 	RUN_TEST(test_bad_values_with_paths);
 	RUN_TEST(test_demo_configuration);
 	return UNITY_END();
