@@ -153,7 +153,49 @@ explain "" "The latest value also stays in the daemon's process image B000h, rea
 explain "any time (the ramp starts again from 0 after 50 PSI, so it may have wrapped):"
 ctl pdo read 0 b000 0 r32
 
-say "8. A clean stop"
+say "8. The gateway between the lines (CiA 302-7)"
+explain "cogwd is also a gateway: every line is a network (ids 1..3), and each line's"
+explain "routing table 1F2Ch says where the other networks are. The table of line 0:"
+ctl route 0
+explain "" "A service tool on vcan0 (here: cansend) reaches node 2, which is on vcan1"
+explain "(network 2), through the daemon's SDO server on vcan0 (node 127): first the"
+explain "network indication E0 02 00 02 (network 2, node 2), confirmed with the same"
+explain "bytes, then an ordinary SDO read of 1018h:1 that the gateway relays to node 2:"
+timeout 10 candump -n 2 vcan0,5FF:7FF >"$work/netind.txt" 2>&1 &
+dump_pid=$!
+sleep 0.3
+show cansend vcan0 67F#E002000200000000
+sleep 0.3
+show cansend vcan0 67F#4018100100000000
+wait "$dump_pid" || fail "no answer from the gateway on vcan0 (5FFh)"
+explain "" "The answers on vcan0, from the gateway (5FFh): the confirmation, then node 2's"
+explain "answer with its vendor-ID, relayed from vcan1:"
+cat "$work/netind.txt"
+grep -q "E0 02 00 02" "$work/netind.txt" || fail "the network indication was not confirmed"
+grep -q "43 18 10 01" "$work/netind.txt" || fail "node 2's answer did not come back"
+explain "" "Mailbox clients do the same with --net: asked on line 0, node 2 of network 2:"
+ctl sdo read 0 2 1018 1 u32 --net 2
+explain "" "EMCY routing: 1F2Fh:1 = 2 on line 0 forwards node 1's emergencies to network 2."
+explain "A fake EMCY from node 1 on vcan0 (code 1234h) comes out on vcan1 from the gateway"
+explain "(80h + 127 = 0FFh) as F000h with the source network, node and original code:"
+timeout 10 candump -n 1 vcan1,0FF:7FF >"$work/emcy.txt" 2>&1 &
+dump_pid=$!
+sleep 0.3
+show cansend vcan0 081#3412010000000000
+wait "$dump_pid" || fail "the EMCY was not forwarded to vcan1"
+cat "$work/emcy.txt"
+grep -q "00 F0 .. 01 00 01 34 12" "$work/emcy.txt" || fail "unexpected forwarded EMCY"
+explain "" "PDO forwarding: B000h is one process image for all lines. Line 1's TPDO 1 (1FFh)"
+explain "maps it, so the pressure that line 0 receives from the transducer goes out on"
+explain "vcan1 as soon as it changes, with the daemon's node on line 1 OPERATIONAL:"
+ctl nmt start 1 self
+timeout 10 candump -n 3 vcan1,1FF:7FF >"$work/fwd.txt" 2>&1 || fail "no forwarded pressure PDO on vcan1"
+cat "$work/fwd.txt"
+ctl pdo read 1 b000 0 r32
+explain "" "The counters of the routes and of the forwarding:"
+ctl route 0 1
+
+say "9. A clean stop"
 explain "SIGTERM: cogwd stops its line threads, removes its mailbox queues, exits 0."
 kill -TERM "$cogwd_pid"
 set +e
@@ -176,6 +218,8 @@ explain "  heartbeat, NMT start: step 3) and supervise their heartbeats (step 4)
 explain "- cogwctl read the transducer's identity 1018h and name 1008h over SDO, showed an"
 explain "  SDO abort with its meaning, and set its heartbeat time 1017h to 500 ms."
 explain "- Started by the manager, the transducer sent $n_pdo pressure PDOs as live events (step 7)."
+explain "- As a gateway (step 8) cogwd relayed an SDO request entering on vcan0 to node 2 on"
+explain "  vcan1, forwarded an EMCY from vcan0 to vcan1, and the pressure by PDO to vcan1."
 explain "- Everything went through the mailbox (POSIX message queues); nothing was left over."
-explain "Next: 'cogwctl --help', docs/cogwctl.md, docs/config.md, docs/mailbox.md."
+explain "Next: 'cogwctl --help', docs/cogwctl.md, docs/config.md, docs/gateway.md, docs/mailbox.md."
 printf '\ndemo: OK\n'

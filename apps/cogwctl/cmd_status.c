@@ -38,6 +38,10 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 	rc = cogw_mbx_stats(h, line, &ms, c->timeout_ms);
 	if (rc < 0)
 		return ctl_fail(c, rc, 0, ctx);
+	/* The gateway's traffic through this line (a daemon without the
+	 * gateway answers "unknown command": then there is none to show). */
+	mbx_gw_status gw;
+	bool has_gw = cogw_gw_routes(h, line, &gw, NULL, 0, NULL, c->timeout_ms) == 0;
 
 	if (c->json) {
 		cJSON *o = cJSON_CreateObject();
@@ -61,6 +65,20 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 		cJSON_AddNumberToObject(mb, "access_denied", (double)ms.access_denied);
 		cJSON_AddNumberToObject(mb, "events_sent", (double)ms.events_sent);
 		cJSON_AddNumberToObject(mb, "dropped", (double)ms.dropped);
+		if (has_gw) {
+			cJSON *g = cJSON_AddObjectToObject(o, "gateway");
+			cJSON_AddNumberToObject(g, "network", gw.network_id);
+			cJSON_AddNumberToObject(g, "sdo_routed", (double)gw.routed);
+			cJSON_AddNumberToObject(g, "sdo_aborted", (double)gw.aborted);
+			cJSON_AddNumberToObject(g, "sdo_timed_out", (double)gw.timed_out);
+			cJSON_AddNumberToObject(g, "sdo_refused", (double)gw.refused);
+			cJSON_AddNumberToObject(g, "relayed_frames", (double)gw.relayed_frames);
+			cJSON_AddNumberToObject(g, "pdo_forwarded", (double)gw.pdo_forwarded);
+			cJSON_AddNumberToObject(g, "pdo_applied", (double)gw.pdo_applied);
+			cJSON_AddNumberToObject(g, "pdo_dropped", (double)gw.pdo_dropped);
+			cJSON_AddNumberToObject(g, "emcy_forwarded", (double)gw.emcy_forwarded);
+			cJSON_AddNumberToObject(g, "emcy_sent", (double)gw.emcy_sent);
+		}
 		cJSON *na = cJSON_AddArrayToObject(o, "nodes");
 		for (int i = 0; i < n; i++) {
 			cJSON *e = cJSON_CreateObject();
@@ -93,6 +111,12 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 	       " denied, %" PRIu64 " events sent, %" PRIu64 " dropped\n",
 	       ms.clients, ms.clients == 1 ? "" : "s", ms.commands_ok, ms.malformed, ms.access_denied,
 	       ms.events_sent, ms.dropped);
+	if (has_gw)
+		printf("  gateway: network %u; SDO routed %" PRIu64 ", aborted %" PRIu64 ", timed out %" PRIu64
+		       ", refused %" PRIu64 ", relayed frames %" PRIu64 "; PDO forwarded %" PRIu64
+		       ", applied %" PRIu64 ", dropped %" PRIu64 "; EMCY forwarded %" PRIu64 ", sent %" PRIu64 "\n",
+		       gw.network_id, gw.routed, gw.aborted, gw.timed_out, gw.refused, gw.relayed_frames,
+		       gw.pdo_forwarded, gw.pdo_applied, gw.pdo_dropped, gw.emcy_forwarded, gw.emcy_sent);
 	if (n == 0) {
 		printf("  nodes: none heard yet\n");
 		return 0;
@@ -169,7 +193,8 @@ const ctl_cmd ctl_cmd_status = {
 		"For every line of the daemon (or the lines given): the CAN controller state, the\n"
 		"bit rate, the daemon's own node-ID and NMT state, frame counters (received, sent,\n"
 		"dropped on receive, failed to send, error frames, bus-off events) and mailbox\n"
-		"counters (clients, commands, malformed, denied, events sent, dropped). Then the\n"
+		"counters (clients, commands, malformed, denied, events sent, dropped), the gateway's\n"
+		"traffic through the line (routed SDO, PDO forwarding, EMCY routing). Then the\n"
 		"node table: every node the line has heard or supervises, with its NMT state\n"
 		"(from its last heartbeat or boot-up), heartbeat supervision (active, LOST, not\n"
 		"monitored), whether its boot-up was seen and whether it reported an EMCY error.\n"
