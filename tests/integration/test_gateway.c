@@ -19,6 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <cjson/cJSON.h>
@@ -441,7 +442,11 @@ static void test_pdo_forwarding(void)
 	TEST_ASSERT_EQUAL_INT(4, can_wait_id(fd1, 0x2FF, d, 3000));
 	TEST_ASSERT_EQUAL_HEX8_ARRAY(v, d, 4);
 
-	/* a burst of 1000: the last value always comes through */
+	/* a burst of 1000: the last value always comes through. The receiving
+	 * socket must hold what arrives while this thread still sends (its
+	 * default buffer drops the newest frames, not the gateway). */
+	int big = 4 * 1024 * 1024;
+	setsockopt(fd1, SOL_SOCKET, SO_RCVBUF, &big, sizeof big);
 	drain(fd1);
 	for (uint32_t i = 1; i <= 1000; i++) {
 		uint8_t b[4];
@@ -604,6 +609,65 @@ static void test_multi_hop_through_two_daemons(void)
 	cogw_close(h);
 }
 
+/* ---- 1F2Ch/1F2Fh writable over SDO and the mailbox, kept by 1010h (scenario 63) ------------ */
+
+static void test_routes_written_and_saved_survive_a_restart(void)
+{
+	cogw *h = NULL;
+	cogw_options o = { .instance = INSTANCE, .timeout_ms = 30000 };
+	uint8_t v[4], b[8];
+	size_t len = 0;
+	uint32_t abort = 0;
+	mbx_gw_status st;
+	mbx_gw_route routes[128];
+	size_t n = 0;
+
+	start_single();
+	/* over SDO on vcan0: network 20 behind router 33 on line 2 */
+	co_put_le32(v, 0x2103);
+	req_done = false;
+	TEST_ASSERT_EQUAL_INT(0, sdo_client_submit(req, 0, &(sdo_client_req){
+		.node_id = GW_NODE, .index = 0x1F2C, .sub = 20, .data = v, .size = 4 }, now_us()));
+	req_run(10000);
+	TEST_ASSERT_TRUE(req_done);
+	TEST_ASSERT_EQUAL_HEX32(0, req_result.abort);
+	/* a line that does not exist is refused */
+	co_put_le32(v, 0x0004);
+	req_done = false;
+	TEST_ASSERT_EQUAL_INT(0, sdo_client_submit(req, 0, &(sdo_client_req){
+		.node_id = GW_NODE, .index = 0x1F2C, .sub = 21, .data = v, .size = 4 }, now_us()));
+	req_run(10000);
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_VALUE, req_result.abort);
+	/* over the mailbox: node 5's EMCYs to network 3 */
+	TEST_ASSERT_EQUAL_INT(0, cogw_open_opts(&h, &o));
+	co_put_le32(v, 0x4);
+	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(h, 0, 0x1F2F, 5, v, 4, 30000, &abort));
+	TEST_ASSERT_EQUAL_INT(0, cogw_gw_routes(h, 0, &st, routes, 128, &n, 30000));
+	bool found = false;
+	for (size_t i = 0; i < n; i++)
+		found = found || (routes[i].net == 20 && routes[i].kind == 2 && routes[i].router == 33);
+	TEST_ASSERT_TRUE_MESSAGE(found, "the new route is not in the compiled table");
+	/* save (1010h:1), restart on the same state directory */
+	TEST_ASSERT_EQUAL_INT(0, cogw_store(h, 0, 1, 30000));
+	cogw_close(h);
+	h = NULL;
+	daemon_stop(&dmn, 10000);
+	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn_b, &(daemon_opts){ .config_json = config_json,
+								      .instance = INSTANCE, .n_lines = 3,
+								      .notify = true, .drop_notify = true,
+								      .state_dir = dmn.state_dir }));
+	TEST_ASSERT_EQUAL_INT(0, cogw_open_opts(&h, &o));
+	TEST_ASSERT_EQUAL_INT(0, cogw_od_read(h, 0, 0x1F2C, 20, b, sizeof b, &len, 30000, &abort));
+	TEST_ASSERT_EQUAL_HEX32(0x2103, co_get_le32(b));
+	TEST_ASSERT_EQUAL_INT(0, cogw_od_read(h, 0, 0x1F2F, 5, b, sizeof b, &len, 30000, &abort));
+	TEST_ASSERT_EQUAL_HEX32(0x4, co_get_le32(b));
+	TEST_ASSERT_EQUAL_INT(0, cogw_gw_routes(h, 0, &st, routes, 128, &n, 30000));
+	found = false;
+	for (size_t i = 0; i < n; i++)
+		found = found || (routes[i].net == 20 && routes[i].kind == 2);
+	TEST_ASSERT_TRUE_MESSAGE(found, "the saved route is not compiled after the restart");
+	cogw_close(h);
+}
 
 int main(void)
 {
@@ -615,5 +679,6 @@ int main(void)
 	RUN_TEST(test_pdo_forwarding);
 	RUN_TEST(test_mailbox_client_reaches_any_network);
 	RUN_TEST(test_multi_hop_through_two_daemons);
+	RUN_TEST(test_routes_written_and_saved_survive_a_restart);
 	return UNITY_END();
 }
