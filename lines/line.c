@@ -112,6 +112,58 @@ static void wake_extension(line *l, unsigned i)
 		x->ops->on_wake(x->ctx, l);
 }
 
+/* The core instance, its pending-request table, 1010h/1011h, the mailbox. */
+static int create_node_and_mailbox(line *l)
+{
+	const line_params *p = &l->p;
+	int rc;
+	co_node_config nc = p->node;
+	nc.send = line_send;
+	nc.send_ctx = l;
+	nc.event = line_on_core_event;
+	nc.event_ctx = l;
+	if ((rc = co_node_create(&l->node, &nc)) < 0) {
+		cogw_log(COGW_LOG_ERR, "line %s: cannot create the CANopen node %u: %s",
+			 l->name, p->node.node_id, strerror(-rc));
+		return rc;
+	}
+	if ((rc = line_pending_init(&l->pending, p->mbx.max_transfer ? p->mbx.max_transfer : 1024u * 1024u)) < 0)
+		return rc;
+	if (l->state_path[0] && (rc = line_store_attach(l)) < 0)
+		return rc;
+	mbx_server_config mc = p->mbx;
+	mc.line = p->index;
+	mc.dispatch.dispatch = line_dispatch;
+	mc.dispatch.client_gone = line_client_gone;
+	mc.dispatch_ctx = l;
+	if ((rc = mbx_server_create(&l->mbx, &mc)) < 0) {
+		cogw_log(COGW_LOG_ERR, "line %s: cannot create mailbox queue %s: %s",
+			 l->name, mc.queue_name ? mc.queue_name : "?", strerror(-rc));
+		return rc;
+	}
+	return 0;
+}
+
+/* What the thread sleeps on (the extensions' wake fds: attach_extensions). */
+static int create_epoll_set(line *l)
+{
+	int rc;
+	l->epfd = epoll_create1(EPOLL_CLOEXEC);
+	l->timerfd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
+	l->wakefd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+	if (l->epfd < 0 || l->timerfd < 0 || l->wakefd < 0) {
+		rc = -errno;
+		cogw_log(COGW_LOG_ERR, "line %s: epoll/timerfd/eventfd: %s", l->name, strerror(-rc));
+		return rc;
+	}
+	if ((rc = epoll_add(l->epfd, can_port_fd(l->port), EPOLLIN, TAG_CAN)) ||
+	    (rc = epoll_add(l->epfd, l->timerfd, EPOLLIN, TAG_TIMER)) ||
+	    (rc = epoll_add(l->epfd, mbx_server_fd(l->mbx), EPOLLIN, TAG_MBX)) ||
+	    (rc = epoll_add(l->epfd, l->wakefd, EPOLLIN, TAG_WAKE)))
+		return rc;
+	return 0;
+}
+
 int line_create(line **out, const line_params *p)
 {
 	*out = NULL;
@@ -129,7 +181,6 @@ int line_create(line **out, const line_params *p)
 	l->armed_us = UINT64_MAX;
 	atomic_init(&l->hb_producer_ms, -1);
 	pthread_mutex_init(&l->stats_lock, NULL);
-	l->next_tag = 1;
 
 	int rc;
 	const char *why = NULL;
@@ -149,56 +200,8 @@ int line_create(line **out, const line_params *p)
 		line_store_load(l);
 	}
 
-	co_node_config nc = p->node;
-	nc.send = line_send;
-	nc.send_ctx = l;
-	nc.event = line_on_core_event;
-	nc.event_ctx = l;
-	if ((rc = co_node_create(&l->node, &nc)) < 0) {
-		cogw_log(COGW_LOG_ERR, "line %s: cannot create the CANopen node %u: %s",
-			 l->name, p->node.node_id, strerror(-rc));
-		goto fail;
-	}
-
-	size_t per = p->mbx.max_transfer ? p->mbx.max_transfer : 1024u * 1024u;
-	l->sdo_bufs = malloc(per * LINE_BIG_SLOTS);
-	if (!l->sdo_bufs) {
-		rc = -ENOMEM;
-		goto fail;
-	}
-	for (int i = 0; i < LINE_PENDING_MAX; i++) {
-		l->pending[i].buf = i < LINE_BIG_SLOTS ? l->sdo_bufs + per * (size_t)i : NULL;
-		l->pending[i].cap = i < LINE_BIG_SLOTS ? (uint32_t)per : 0;
-	}
-
-	if (l->state_path[0] && (rc = line_store_attach(l)) < 0)
-		goto fail;
-
-	mbx_server_config mc = p->mbx;
-	mc.line = p->index;
-	mc.dispatch.dispatch = line_dispatch;
-	mc.dispatch.client_gone = line_client_gone;
-	mc.dispatch_ctx = l;
-	if ((rc = mbx_server_create(&l->mbx, &mc)) < 0) {
-		cogw_log(COGW_LOG_ERR, "line %s: cannot create mailbox queue %s: %s",
-			 l->name, mc.queue_name ? mc.queue_name : "?", strerror(-rc));
-		goto fail;
-	}
-
-	l->epfd = epoll_create1(EPOLL_CLOEXEC);
-	l->timerfd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
-	l->wakefd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-	if (l->epfd < 0 || l->timerfd < 0 || l->wakefd < 0) {
-		rc = -errno;
-		cogw_log(COGW_LOG_ERR, "line %s: epoll/timerfd/eventfd: %s", l->name, strerror(-rc));
-		goto fail;
-	}
-	if ((rc = epoll_add(l->epfd, can_port_fd(l->port), EPOLLIN, TAG_CAN)) ||
-	    (rc = epoll_add(l->epfd, l->timerfd, EPOLLIN, TAG_TIMER)) ||
-	    (rc = epoll_add(l->epfd, mbx_server_fd(l->mbx), EPOLLIN, TAG_MBX)) ||
-	    (rc = epoll_add(l->epfd, l->wakefd, EPOLLIN, TAG_WAKE)))
-		goto fail;
-	if ((rc = attach_extensions(l)) < 0)
+	if ((rc = create_node_and_mailbox(l)) < 0 || (rc = create_epoll_set(l)) < 0 ||
+	    (rc = attach_extensions(l)) < 0)
 		goto fail;
 	*out = l;
 	return 0;
@@ -345,6 +348,67 @@ static void publish_stats(line *l)
 	l->next_publish_us = l->now_us + PUBLISH_PERIOD_US;
 }
 
+/* The earliest time the thread must wake: extensions (which also run what
+ * is due now), core, mailbox, transmit retry, watchdog check-in. */
+static uint64_t next_deadline(line *l, uint64_t checkin_period)
+{
+	uint64_t next = poll_extensions(l);
+	uint64_t t = co_node_next_deadline_us(l->node);
+	if (t < next)
+		next = t;
+	t = mbx_server_tick(l->mbx, l->now_us);
+	if (t < next)
+		next = t;
+	t = can_port_retry_at_us(l->port);
+	if (t < next)
+		next = t;
+	if (l->now_us + checkin_period / 2 < next)
+		next = l->now_us + checkin_period / 2;
+	return next;
+}
+
+static void handle_event(line *l, const struct epoll_event *ev)
+{
+	switch (ev->data.u32) {
+	case TAG_CAN:
+		if (ev->events & EPOLLOUT)
+			can_port_flush(l->port, l->now_us);
+		if (ev->events & (EPOLLIN | EPOLLERR))
+			handle_can(l);
+		break;
+	case TAG_TIMER:
+		drain_fd(l->timerfd);
+		l->armed_us = UINT64_MAX; /* expired: re-arm */
+		break;
+	case TAG_MBX:
+		mbx_server_poll(l->mbx, l->now_us);
+		refresh_raw_subscribers(l);
+		break;
+	case TAG_WAKE:
+		drain_fd(l->wakefd);
+		handle_requests(l);
+		break;
+	default:
+		wake_extension(l, ev->data.u32 - TAG_EXT_WAKE);
+		break;
+	}
+}
+
+/* After the events of one iteration: the core's timers, a transmit retry,
+ * the transmit queue's watermark log. */
+static void run_due(line *l)
+{
+	if (l->now_us >= co_node_next_deadline_us(l->node))
+		co_node_tick(l->node, l->now_us);
+	if (can_port_retry_at_us(l->port) <= l->now_us)
+		can_port_flush(l->port, l->now_us);
+	int wm = can_port_take_watermark_event(l->port);
+	if (wm)
+		cogw_log(wm > 0 ? COGW_LOG_WARNING : COGW_LOG_INFO, "line %s: transmit queue %s (%zu frames queued)",
+			 l->name, wm > 0 ? "above its high-water mark" : "back below its low-water mark",
+			 can_port_tx_queued(l->port));
+}
+
 static void *line_main(void *arg)
 {
 	line *l = arg;
@@ -360,18 +424,7 @@ static void *line_main(void *arg)
 	atomic_store(&l->up, true);
 
 	while (!atomic_load(&l->stop)) {
-		uint64_t next = poll_extensions(l);
-		if (co_node_next_deadline_us(l->node) < next)
-			next = co_node_next_deadline_us(l->node);
-		uint64_t m = mbx_server_tick(l->mbx, l->now_us);
-		if (m < next)
-			next = m;
-		uint64_t r = can_port_retry_at_us(l->port);
-		if (r < next)
-			next = r;
-		if (l->now_us + checkin_period / 2 < next)
-			next = l->now_us + checkin_period / 2;
-		arm_timer(l, next);
+		arm_timer(l, next_deadline(l, checkin_period));
 		set_epollout(l, can_port_wants_writable(l->port));
 
 		struct epoll_event evs[8];
@@ -383,41 +436,9 @@ static void *line_main(void *arg)
 			cogw_log(COGW_LOG_ERR, "line %s: epoll_wait: %s", l->name, strerror(errno));
 			break;
 		}
-		for (int i = 0; i < n; i++) {
-			switch (evs[i].data.u32) {
-			case TAG_CAN:
-				if (evs[i].events & EPOLLOUT)
-					can_port_flush(l->port, l->now_us);
-				if (evs[i].events & (EPOLLIN | EPOLLERR))
-					handle_can(l);
-				break;
-			case TAG_TIMER:
-				drain_fd(l->timerfd);
-				l->armed_us = UINT64_MAX; /* expired: re-arm */
-				break;
-			case TAG_MBX:
-				mbx_server_poll(l->mbx, l->now_us);
-				refresh_raw_subscribers(l);
-				break;
-			case TAG_WAKE:
-				drain_fd(l->wakefd);
-				handle_requests(l);
-				break;
-			default:
-				wake_extension(l, evs[i].data.u32 - TAG_EXT_WAKE);
-				break;
-			}
-		}
-		if (l->now_us >= co_node_next_deadline_us(l->node))
-			co_node_tick(l->node, l->now_us);
-		if (can_port_retry_at_us(l->port) <= l->now_us)
-			can_port_flush(l->port, l->now_us);
-		int wm = can_port_take_watermark_event(l->port);
-		if (wm)
-			cogw_log(wm > 0 ? COGW_LOG_WARNING : COGW_LOG_INFO,
-				 "line %s: transmit queue %s (%zu frames queued)", l->name,
-				 wm > 0 ? "above its high-water mark" : "back below its low-water mark",
-				 can_port_tx_queued(l->port));
+		for (int i = 0; i < n; i++)
+			handle_event(l, &evs[i]);
+		run_due(l);
 		l->loops++;
 		uint64_t took = line_now_us() - woke;
 		if (took > l->max_loop_us)
@@ -477,12 +498,6 @@ int line_start(line *l)
 	return 0;
 }
 
-void line_wake(line *l)
-{
-	/* eventfd counter: never blocks, a pending wake-up just adds up */
-	eventfd_write(l->wakefd, 1);
-}
-
 void line_stop(line *l)
 {
 	if (!l || !l->started)
@@ -508,7 +523,7 @@ void line_destroy(line *l)
 		close(l->timerfd);
 	if (l->wakefd >= 0)
 		close(l->wakefd);
-	free(l->sdo_bufs);
+	line_pending_fini(&l->pending);
 	free(l->store.blob);
 	free(l->store.factory);
 	pthread_mutex_destroy(&l->stats_lock);

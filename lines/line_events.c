@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * lines/line_events.c - what the line's core and CAN port tell, turned into
- * mailbox events (and answers to requests that were waiting for them).
+ * mailbox events. Answers to requests are not here: each comes from the
+ * confirmation of its own request (line_sdo.c, line_lss.c, line_store.c).
  * Runs on the line thread, inside the core's event callback: nothing here
  * blocks; a full client queue is the mailbox server's business (drop,
  * count, flag).
@@ -63,46 +64,10 @@ static void publish_rpdo(line *l, const co_ev_pdo *p, uint64_t now)
 	mbx_server_publish(l->mbx, MBX_EV_PDO, 0, &ev, sizeof ev.head + n * sizeof ev.values[0]);
 }
 
-static void sdo_client_done(line *l, const co_ev_sdo_cli *c)
+/* Error control of remote nodes: boot-ups, heartbeat and guarding. */
+static void publish_errctrl(line *l, const co_event *ev)
 {
-	line_pending *pp = line_pending_find(l, c->tag);
-	mbx_ev_sdo_done done = {
-		.abort = c->abort, .size = c->size, .index = c->index, .sub = c->sub,
-		.node = c->node_id, .upload = c->upload, .mode = c->mode,
-	};
-	if (!pp)
-		return; /* the client went away meanwhile */
-	uint64_t corr = pp->reply.corr;
-	done.client = pp->reply.client;
-	if (c->abort)
-		mbx_server_respond(l->mbx, &pp->reply, MBX_E_ABORT, c->abort, NULL, 0);
-	else if (c->upload)
-		mbx_server_respond(l->mbx, &pp->reply, 0, 0, pp->buf, c->size);
-	else
-		mbx_server_respond(l->mbx, &pp->reply, 0, 0, NULL, 0);
-	/* SDO-class subscribers (a logger, say) see every transfer end */
-	mbx_server_publish(l->mbx, MBX_EV_SDO_DONE, corr, &done, sizeof done);
-	line_pending_release(l, pp);
-}
-
-void line_on_core_event(void *ctx, const co_event *ev)
-{
-	line *l = ctx;
-	uint64_t now = ev->now_us;
 	switch (ev->kind) {
-	case CO_EV_OD_WRITTEN: {
-		mbx_ev_od_written w = { .index = ev->u.od.index, .sub = ev->u.od.sub, .size = ev->u.od.size };
-		mbx_server_publish(l->mbx, MBX_EV_OD_WRITTEN, 0, &w, sizeof w);
-		break;
-	}
-	case CO_EV_SDO_CLIENT_DONE:
-		sdo_client_done(l, &ev->u.sdo_cli);
-		break;
-	case CO_EV_NMT_STATE:
-		cogw_log(COGW_LOG_INFO, "line %s: own NMT state %s -> %s", l->name,
-			 co_nmt_state_to_string(ev->u.nmt.prev), co_nmt_state_to_string(ev->u.nmt.state));
-		publish_node(l, MBX_EV_NMT_STATE, co_node_id(l->node), ev->u.nmt.state, ev->u.nmt.prev);
-		break;
 	case CO_EV_BOOTUP:
 		if (ev->u.errctrl.node < LINE_NODES)
 			l->nodes[ev->u.errctrl.node].bootups++;
@@ -121,6 +86,36 @@ void line_on_core_event(void *ctx, const co_event *ev)
 	case CO_EV_HB_STATE:
 		publish_node(l, MBX_EV_NMT_STATE, ev->u.errctrl.node, ev->u.errctrl.state, ev->u.errctrl.prev);
 		break;
+	default:
+		break;
+	}
+}
+
+/* Extensions observe every event, after the line's own handling. */
+static void tell_extensions(line *l, const co_event *ev)
+{
+	for (unsigned i = 0; i < l->ext_attached; i++) {
+		const line_ext *x = &l->p.ext[i];
+		if (x->ops && x->ops->on_core_event)
+			x->ops->on_core_event(x->ctx, l, ev);
+	}
+}
+
+void line_on_core_event(void *ctx, const co_event *ev)
+{
+	line *l = ctx;
+	uint64_t now = ev->now_us;
+	switch (ev->kind) {
+	case CO_EV_OD_WRITTEN: {
+		mbx_ev_od_written w = { .index = ev->u.od.index, .sub = ev->u.od.sub, .size = ev->u.od.size };
+		mbx_server_publish(l->mbx, MBX_EV_OD_WRITTEN, 0, &w, sizeof w);
+		break;
+	}
+	case CO_EV_NMT_STATE:
+		cogw_log(COGW_LOG_INFO, "line %s: own NMT state %s -> %s", l->name,
+			 co_nmt_state_to_string(ev->u.nmt.prev), co_nmt_state_to_string(ev->u.nmt.state));
+		publish_node(l, MBX_EV_NMT_STATE, co_node_id(l->node), ev->u.nmt.state, ev->u.nmt.prev);
+		break;
 	case CO_EV_EMCY_RX: {
 		const co_ev_emcy *e = &ev->u.emcy;
 		if (e->node < LINE_NODES) {
@@ -135,31 +130,14 @@ void line_on_core_event(void *ctx, const co_event *ev)
 	case CO_EV_RPDO:
 		publish_rpdo(l, &ev->u.pdo, now);
 		break;
-	case CO_EV_LSS_MASTER_DONE:
-		line_lss_done(l, &ev->u.lss_master);
-		break;
 	case CO_EV_TX_FAILED:
 		/* counted by the core and the port; the watermark log says more */
 		break;
 	default:
+		publish_errctrl(l, ev); /* boot-up, heartbeat, guarding; others: none */
 		break;
 	}
-	for (unsigned i = 0; i < l->ext_attached; i++) {
-		const line_ext *x = &l->p.ext[i];
-		if (x->ops && x->ops->on_core_event)
-			x->ops->on_core_event(x->ctx, l, ev);
-	}
-}
-
-uint8_t line_mbx_can_state(can_bus_state s)
-{
-	switch (s) {
-	case CAN_BUS_ACTIVE: return MBX_CAN_ACTIVE;
-	case CAN_BUS_WARNING: return MBX_CAN_WARNING;
-	case CAN_BUS_PASSIVE: return MBX_CAN_PASSIVE;
-	case CAN_BUS_OFF: return MBX_CAN_BUS_OFF;
-	}
-	return MBX_CAN_ACTIVE;
+	tell_extensions(l, ev);
 }
 
 void line_on_can_error(line *l, const can_rx_item *it)

@@ -1,22 +1,30 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * lines/line_internal.h - the line object, shared by the files of lines/
- * (line.c: thread and loop; line_events.c: core events -> mailbox events;
- * line_cmds.c: mailbox commands -> core calls; line_store.c: persistence).
+ * lines/line_internal.h - the line object, shared by the files of lines/.
  * Everything here belongs to the line thread unless marked atomic.
+ *
+ * Who does what (calls only go down this list, never back up):
+ *   line.c           the thread, its epoll loop and the extensions' ops
+ *   line_dispatch.c  mailbox command -> its handler, by a table
+ *   line_sdo.c, line_lss.c, line_od.c, line_nmt.c, line_bus.c,
+ *   line_store.c     one family of mailbox commands each: the request
+ *                    and its completion in the same file
+ *   line_events.c    core and CAN events -> mailbox events
+ *   line_pending.c   the table of requests waiting for the core
+ * The small helpers every file needs are inline below, so that no file
+ * has to call back into line.c.
  */
 #ifndef COGW_LINES_LINE_INTERNAL_H
 #define COGW_LINES_LINE_INTERNAL_H
 
 #include <pthread.h>
 #include <stdatomic.h>
+#include <sys/eventfd.h>
 
 #include "lines/line.h"
+#include "lines/line_pending.h"
 
 #define LINE_NODES 128
-#define LINE_PENDING_MAX 64 /* mailbox requests waiting for the core */
-#define LINE_BIG_SLOTS 4    /* of which with a max_transfer buffer */
-#define LINE_INLINE_MAX 1024
 
 /* What only the line counts about a remote node; states, supervision and
  * times come from the heartbeat consumer (core/heartbeat.h). */
@@ -25,17 +33,6 @@ typedef struct line_node_info {
 	uint16_t last_emcy;
 	uint32_t emcy_count;
 } line_node_info;
-
-/* A mailbox request waiting for an asynchronous core completion. */
-typedef struct line_pending {
-	bool used;
-	uint16_t code;      /* mailbox command */
-	uint64_t tag;       /* core tag (unique per line) */
-	mbx_reply_to reply;
-	uint8_t *buf;       /* big upload/download buffer, slots 0..3 only */
-	uint32_t cap;
-	uint8_t inline_data[LINE_INLINE_MAX]; /* small download copied here */
-} line_pending;
 
 /* Storage hand-off to the main thread (1010h "save", 1011h "load"). */
 typedef struct line_store_req {
@@ -98,9 +95,7 @@ struct line {
 	uint64_t loops, max_loop_us;
 
 	line_node_info nodes[LINE_NODES];
-	line_pending pending[LINE_PENDING_MAX];
-	uint8_t *sdo_bufs; /* LINE_PENDING_MAX x p.mbx.max_transfer */
-	uint64_t next_tag;
+	line_pending_table pending;
 	uint32_t raw_subscribers; /* cached: any client wants raw frames */
 	can_bus_state bus_state_prev;
 	line_store_req store;
@@ -108,21 +103,69 @@ struct line {
 	unsigned ext_attached; /* p.ext[0..ext_attached) attached */
 };
 
-/* line.c: wake the line thread (any thread may call it) */
-void line_wake(line *l);
+/* Wake the line thread (any thread may call it): an eventfd counter never
+ * blocks, a pending wake-up just adds up. */
+static inline void line_wake(line *l)
+{
+	eventfd_write(l->wakefd, 1);
+}
+
+/* Answer a mailbox request (now, or later with a saved reply address). */
+static inline void line_answer(line *l, const mbx_reply_to *to, int status, uint32_t abort,
+			       const void *payload, size_t len)
+{
+	mbx_server_respond(l->mbx, to, status, abort, payload, len);
+}
+
+/* The CAN controller state as the mailbox reports it. */
+static inline uint8_t line_mbx_can_state(can_bus_state s)
+{
+	switch (s) {
+	case CAN_BUS_ACTIVE: return MBX_CAN_ACTIVE;
+	case CAN_BUS_WARNING: return MBX_CAN_WARNING;
+	case CAN_BUS_PASSIVE: return MBX_CAN_PASSIVE;
+	case CAN_BUS_OFF: return MBX_CAN_BUS_OFF;
+	}
+	return MBX_CAN_ACTIVE;
+}
+
+/* A mailbox command handler: payload fields already validated by the
+ * mailbox (sizes, ranges, access). */
+typedef void (*line_cmd_fn)(line *l, const mbx_request *req);
+
+/* line_dispatch.c: the mailbox server's dispatch ops */
+void line_dispatch(void *ctx, mbx_server *srv, const mbx_request *req);
+void line_client_gone(void *ctx, mbx_server *srv, uint32_t client);
+
+/* line_sdo.c */
+void line_sdo_upload(line *l, const mbx_request *req);
+void line_sdo_download(line *l, const mbx_request *req);
+/* A client left: cancel its transfers (each exactly where it is). */
+void line_sdo_client_gone(line *l, uint32_t client);
+
+/* line_lss.c */
+void line_lss_command(line *l, const mbx_request *req);
+void line_lss_client_gone(line *l, uint32_t client);
+
+/* line_od.c */
+void line_od_read(line *l, const mbx_request *req);
+void line_od_write(line *l, const mbx_request *req);
+void line_pdo_write(line *l, const mbx_request *req);
+void line_pdo_request(line *l, const mbx_request *req);
+
+/* line_nmt.c */
+void line_nmt_command(line *l, const mbx_request *req);
+void line_node_table(line *l, const mbx_request *req);
+
+/* line_bus.c */
+void line_status(line *l, const mbx_request *req);
+void line_emcy_send(line *l, const mbx_request *req);
+void line_raw_send(line *l, const mbx_request *req);
 
 /* line_events.c */
-uint8_t line_mbx_can_state(can_bus_state s);
 void line_on_core_event(void *ctx, const co_event *ev);
 void line_on_can_error(line *l, const can_rx_item *it);
 void line_publish_raw(line *l, const co_frame *f, uint64_t ts_ns);
-
-/* line_cmds.c */
-void line_dispatch(void *ctx, mbx_server *srv, const mbx_request *req);
-void line_client_gone(void *ctx, mbx_server *srv, uint32_t client);
-line_pending *line_pending_find(line *l, uint64_t tag);
-void line_lss_done(line *l, const co_ev_lss_master *m);
-void line_pending_release(line *l, line_pending *pp);
 
 /* line_store.c */
 int line_store_attach(line *l);
@@ -131,8 +174,6 @@ int line_store_load(line *l);
  * parameters were damaged and the configured values are in use. */
 void line_store_started(line *l);
 void line_store_poll(line *l); /* on wake-up: finish a completed save */
-/* Start a save (op 1) or restore (op 2) for a mailbox request. Returns 0,
- * -EBUSY (one already running) or -EINVAL. */
-int line_store_request_mbx(line *l, uint8_t op, uint8_t sub, const mbx_reply_to *to);
+void line_store_command(line *l, const mbx_request *req); /* STORE, RESTORE */
 
 #endif /* COGW_LINES_LINE_INTERNAL_H */

@@ -133,7 +133,9 @@ int line_store_attach(line *l)
 	return rc == -EEXIST ? 0 : rc;
 }
 
-int line_store_request_mbx(line *l, uint8_t op, uint8_t sub, const mbx_reply_to *to)
+/* Start a save (op 1) or restore (op 2) for a mailbox request; answered
+ * by line_store_poll() when the main thread is done. */
+static int store_request_mbx(line *l, uint8_t op, uint8_t sub, const mbx_reply_to *to)
 {
 	if (sub < 1 || sub > 3 || (op != 1 && op != 2))
 		return -EINVAL;
@@ -145,6 +147,18 @@ int line_store_request_mbx(line *l, uint8_t op, uint8_t sub, const mbx_reply_to 
 		return -EIO;
 	l->store.reply = *to;
 	return 0;
+}
+
+/* Mailbox STORE / RESTORE. */
+void line_store_command(line *l, const mbx_request *req)
+{
+	mbx_store_req s;
+	memcpy(&s, req->payload, sizeof s);
+	if (!l->state_path[0])
+		return line_answer(l, &req->reply, MBX_E_UNSUPPORTED, 0, NULL, 0);
+	int rc = store_request_mbx(l, req->code == MBX_CMD_STORE ? 1 : 2, s.sub, &req->reply);
+	if (rc < 0)
+		line_answer(l, &req->reply, rc == -EBUSY ? MBX_E_BUSY : MBX_E_PARAM, 0, NULL, 0);
 }
 
 /* ---- main thread ---------------------------------------------------------- */

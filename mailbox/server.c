@@ -1146,9 +1146,13 @@ int mbx_server_notify(mbx_server *srv, const mbx_reply_to *to,
 	if (!mbx_event_class_of(ev_code))
 		return -EINVAL;
 	if (len > c->evt_msg - MBX_HDR_SIZE) {
-		if (ev_code != MBX_EV_SDO_DONE)
-			return -EMSGSIZE;
-		len = c->evt_msg - MBX_HDR_SIZE;
+		/* Never cut an event short (an SDO_DONE used to be truncated
+		 * to whatever fitted): it cannot reach this client, which is
+		 * counted and flagged like any other lost event. */
+		c->drop_evt++;
+		c->dropped++;
+		srv->stats.dropped++;
+		return -EMSGSIZE;
 	}
 	rc = send_to(srv, c, true, &h, payload, len, SEND_NORMAL);
 	return rc == -EPIPE ? -ENOENT : rc;

@@ -216,8 +216,9 @@ int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status,
 int mbx_server_publish(mbx_server *srv, uint16_t ev_code, uint64_t corr,
 		       const void *payload, size_t len);
 /* Send one event to the client of a request (whatever its subscriptions):
- * asynchronous events that belong to a request. Returns 0, -ENOENT,
- * -ENOBUFS. */
+ * asynchronous events that belong to a request. An event larger than the
+ * client's event messages is not sent (never truncated): dropped, counted
+ * and flagged, -EMSGSIZE. Returns 0, -ENOENT, -ENOBUFS, -EMSGSIZE. */
 int mbx_server_notify(mbx_server *srv, const mbx_reply_to *to,
 		      uint16_t ev_code, const void *payload, size_t len);
 

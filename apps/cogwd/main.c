@@ -118,6 +118,10 @@ static int create_lines(daemon_state *d)
 				.sdo_server_count = lc->sdo_servers,
 				.sdo_server_timeout_ms = lc->sdo_timeout_ms,
 				.sdo_client_count = lc->sdo_clients,
+				/* lines[].sdo_timeout_ms is the per-frame timeout of
+				 * both ends: mailbox SDO transfers that give none use
+				 * the client's own setting */
+				.sdo_client_timeout_ms = lc->sdo_timeout_ms,
 				.sdo_client_block_threshold = lc->sdo_block_threshold,
 				/* The manager is the LSS master of every line: without
 				 * this the mailbox's LSS commands all answered

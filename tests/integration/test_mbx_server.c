@@ -1167,6 +1167,47 @@ static void test_system_limit_check_names_the_sysctl(void)
 	printf("limits: %s\n", "ok");
 }
 
+
+/* mbx_server_notify never truncates an event (an SDO_DONE used to be cut
+ * to what fitted the client's event messages): one that does not fit is
+ * refused, counted and flagged; one that fits arrives whole. */
+static void test_notify_never_truncates(void)
+{
+	mbx_server_config cfg = base_cfg();
+	static uint8_t big[1024];
+	mbx_client_info ci;
+	sync2 s;
+	pid_t p;
+
+	start(&cfg);
+	sync_init(&s);
+	p = spawn(child_park, &s);
+	parent_wait_ready(&s);
+	pthread_mutex_lock(&fl.mu);
+	TEST_ASSERT_EQUAL_INT(0, mbx_server_client_info(fl.srv, 0, &ci));
+	mbx_reply_to to = { .client = ci.id, .code = MBX_CMD_SDO_UPLOAD, .corr = 7 };
+	/* the client's event messages are 1024 bytes, header included */
+	size_t room = 1024 - MBX_HDR_SIZE;
+	/* Results first, assertions after the unlock: a failed assertion
+	 * must not leave the loop thread's mutex held. */
+	int too_big_sdo = mbx_server_notify(fl.srv, &to, MBX_EV_SDO_DONE, big, room + 1);
+	int too_big_emcy = mbx_server_notify(fl.srv, &to, MBX_EV_EMCY, big, room + 1);
+	int info_rc = mbx_server_client_info(fl.srv, 0, &ci);
+	mbx_ev_sdo_done done = { .size = 4, .index = 0x1000, .node = 5, .upload = 1 };
+	int fits = mbx_server_notify(fl.srv, &to, MBX_EV_SDO_DONE, &done, sizeof done);
+	pthread_mutex_unlock(&fl.mu);
+	TEST_ASSERT_EQUAL_INT(-EMSGSIZE, too_big_sdo);
+	TEST_ASSERT_EQUAL_INT(-EMSGSIZE, too_big_emcy);
+	TEST_ASSERT_EQUAL_INT(0, info_rc);
+	TEST_ASSERT_EQUAL_UINT64(2, ci.dropped);
+	TEST_ASSERT_EQUAL_UINT32(2, ci.pending_drop_events);
+	TEST_ASSERT_EQUAL_UINT64(2, stats().dropped);
+	TEST_ASSERT_EQUAL_INT(0, fits);
+	parent_go(&s);
+	TEST_ASSERT_EQUAL_INT(0, reap(p));
+	sync_close(&s);
+}
+
 int main(void)
 {
 	pthread_mutex_init(&fl.mu, NULL);
@@ -1178,6 +1219,7 @@ int main(void)
 	RUN_TEST(test_subscription_filtering_and_unsubscribe);
 	RUN_TEST(test_three_clients_get_exactly_their_answers);
 	RUN_TEST(test_full_client_queue_drops_counts_and_flags);
+	RUN_TEST(test_notify_never_truncates);
 	RUN_TEST(test_killed_client_is_reaped);
 	RUN_TEST(test_client_with_unlinked_queue_is_reaped);
 	RUN_TEST(test_lease_expiry);

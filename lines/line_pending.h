@@ -1,0 +1,75 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * lines/line_pending.h - the mailbox requests a line has handed to its core
+ * and not yet answered (SDO transfers, LSS services).
+ *
+ * A fixed table allocated at line creation: LINE_PENDING_MAX slots, of
+ * which the first LINE_BIG_SLOTS own a buffer of max_transfer bytes (big
+ * uploads and downloads); the others carry LINE_INLINE_MAX bytes inline.
+ * Taking and releasing a slot are O(1) (a free stack per kind); so is
+ * finding one by its tag: the tag is the core tag of the request, built
+ * from the slot number (low 16 bits) and a per-slot generation, so a late
+ * completion for a slot that was released and reused never matches.
+ *
+ * Line thread only.
+ */
+#ifndef COGW_LINES_LINE_PENDING_H
+#define COGW_LINES_LINE_PENDING_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "mailbox/server.h"
+
+#define LINE_PENDING_MAX 64 /* mailbox requests waiting for the core */
+#define LINE_BIG_SLOTS 4    /* of which with a max_transfer buffer */
+#define LINE_INLINE_MAX 1024
+
+/* What a pending request waits for: how to cancel it. */
+typedef enum line_pending_kind {
+	LINE_PENDING_SDO = 1, /* SDO client request (any channel of the pool) */
+	LINE_PENDING_LSS,     /* LSS master request */
+} line_pending_kind;
+
+/* A mailbox request waiting for an asynchronous core completion. */
+typedef struct line_pending {
+	uint64_t tag;       /* core tag: (generation << 16) | slot */
+	uint16_t code;      /* mailbox command */
+	uint8_t kind;       /* line_pending_kind */
+	bool used;
+	mbx_reply_to reply;
+	uint8_t *buf;       /* big slots: max_transfer bytes; small: inline_data */
+	uint32_t cap;
+	uint8_t inline_data[LINE_INLINE_MAX]; /* small uploads/downloads */
+} line_pending;
+
+typedef struct line_pending_table {
+	line_pending slot[LINE_PENDING_MAX];
+	uint16_t free_big[LINE_BIG_SLOTS];
+	uint16_t free_small[LINE_PENDING_MAX - LINE_BIG_SLOTS];
+	uint16_t n_free_big, n_free_small;
+	uint16_t used;
+	uint8_t *big_bufs; /* LINE_BIG_SLOTS x big_cap, owned */
+} line_pending_table;
+
+/* big_cap: buffer of each big slot (max_transfer). 0 or -ENOMEM. */
+int line_pending_init(line_pending_table *t, uint32_t big_cap);
+void line_pending_fini(line_pending_table *t);
+
+/* A free slot for this request: big (with a max_transfer buffer) or small
+ * (inline buffer); NULL when none of that kind is free. The last free slot
+ * of each kind is kept for clients with write access. */
+line_pending *line_pending_take(line_pending_table *t, const mbx_request *req,
+				line_pending_kind kind, bool big);
+/* The slot waiting for this core tag, or NULL (released meanwhile). */
+line_pending *line_pending_find(line_pending_table *t, uint64_t tag);
+void line_pending_release(line_pending_table *t, line_pending *p);
+
+/* Slots in use (for the iteration in line_dispatch.c's client_gone):
+ * the i-th slot, used or not, i < LINE_PENDING_MAX. */
+static inline line_pending *line_pending_at(line_pending_table *t, unsigned i)
+{
+	return &t->slot[i];
+}
+
+#endif /* COGW_LINES_LINE_PENDING_H */

@@ -1,0 +1,124 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * lines/line_sdo.c - mailbox SDO_UPLOAD / SDO_DOWNLOAD: a client of the
+ * mailbox reads or writes an object of a remote node through the line's
+ * SDO client (core/sdo_client.c). The whole transaction is here:
+ *
+ *   1. sdo_transfer()     the command arrives (already validated by the
+ *                         mailbox); a pending slot keeps the reply address
+ *                         and the buffer; the request goes to the SDO
+ *                         client pool with sdo_done() as its confirmation.
+ *   2. core/sdo_client.c  borrows a free channel (or queues the request),
+ *                         runs the CiA 301 protocol, ends the transfer.
+ *   3. sdo_done()         the confirmation: answer the requester (data or
+ *                         abort code), tell SDO observers (MBX_EV_SDO_DONE),
+ *                         release the slot.
+ *
+ * A client that goes away has its transfers cancelled where they are
+ * (line_sdo_client_gone): the answer could not be delivered, and the
+ * channel would stay busy for nothing.
+ */
+#include "lines/line_internal.h"
+
+#include <errno.h>
+#include <string.h>
+
+#include "core/sdo_client.h"
+
+/* Step 3: the SDO client confirms the transfer (exactly once, on the line
+ * thread, never inside sdo_client_pool_submit). */
+static void sdo_done(void *arg, const co_ev_sdo_cli *c)
+{
+	line *l = arg;
+	line_pending *pp = line_pending_find(&l->pending, c->tag);
+	if (!pp)
+		return; /* its client went away and the slot was released */
+	if (c->abort)
+		line_answer(l, &pp->reply, MBX_E_ABORT, c->abort, NULL, 0);
+	else if (c->upload)
+		line_answer(l, &pp->reply, 0, 0, pp->buf, c->size);
+	else
+		line_answer(l, &pp->reply, 0, 0, NULL, 0);
+	/* SDO-class subscribers (a logger, say) see every transfer end */
+	mbx_ev_sdo_done done = {
+		.abort = c->abort, .size = c->size, .index = c->index, .sub = c->sub,
+		.node = c->node_id, .upload = c->upload, .mode = c->mode,
+		.client = pp->reply.client,
+	};
+	mbx_server_publish(l->mbx, MBX_EV_SDO_DONE, pp->reply.corr, &done, sizeof done);
+	line_pending_release(&l->pending, pp);
+}
+
+/* Step 1: park the request, hand it to the SDO client pool. */
+static void sdo_transfer(line *l, const mbx_request *req, bool upload)
+{
+	mbx_sdo_req s;
+	memcpy(&s, req->payload, sizeof s);
+	if (!sdo_client_channel_count(l->node))
+		return line_answer(l, &req->reply, MBX_E_UNSUPPORTED, 0, NULL, 0);
+	if (s.node == co_node_id(l->node))
+		return line_answer(l, &req->reply, MBX_E_PARAM, 0, NULL, 0);
+
+	/* Big transfers need a slot with a max_transfer buffer (uploads) or
+	 * keep the chunked command's data (downloads); a small upload also
+	 * fits a small slot's inline buffer. */
+	bool big = upload ? (s.size == 0 || s.size > LINE_INLINE_MAX) : req->data_len > LINE_INLINE_MAX;
+	line_pending *pp = line_pending_take(&l->pending, req, LINE_PENDING_SDO, big);
+	if (!pp && big && upload)
+		pp = line_pending_take(&l->pending, req, LINE_PENDING_SDO, false);
+	if (!pp)
+		return line_answer(l, &req->reply, MBX_E_BUSY, 0, NULL, 0);
+
+	/* timeout_ms 0 means "the line's default" (docs/mailbox.md): the SDO
+	 * client's own per-frame timeout (cfg.sdo_client_timeout_ms, which
+	 * cogwd sets from lines[].sdo_timeout_ms), not the SDO server's. */
+	sdo_client_req r = {
+		.upload = upload, .node_id = s.node, .index = s.index, .sub = s.sub,
+		.mode = s.mode, .timeout_ms = s.timeout_ms, .tag = pp->tag,
+		.con = sdo_done, .con_arg = l,
+	};
+	if (upload) {
+		r.size = s.size;
+		r.buf = pp->buf;
+		r.cap = pp->cap;
+	} else {
+		r.size = (uint32_t)req->data_len;
+		if (req->data_len <= LINE_INLINE_MAX) {
+			/* a single-message command's data lives only during dispatch */
+			memcpy(pp->inline_data, req->data, req->data_len);
+			r.data = pp->inline_data;
+		} else {
+			r.data = req->data; /* chunked: valid until answered */
+		}
+	}
+	int rc = sdo_client_pool_submit(l->node, &r, l->now_us);
+	if (rc < 0) {
+		line_pending_release(&l->pending, pp);
+		line_answer(l, &req->reply, rc == -ENOSPC ? MBX_E_BUSY : MBX_E_PARAM, 0, NULL, 0);
+	}
+}
+
+void line_sdo_upload(line *l, const mbx_request *req)
+{
+	sdo_transfer(l, req, true);
+}
+
+void line_sdo_download(line *l, const mbx_request *req)
+{
+	sdo_transfer(l, req, false);
+}
+
+void line_sdo_client_gone(line *l, uint32_t client)
+{
+	for (unsigned i = 0; i < LINE_PENDING_MAX; i++) {
+		line_pending *pp = line_pending_at(&l->pending, i);
+		if (!pp->used || pp->kind != LINE_PENDING_SDO || pp->reply.client != client)
+			continue;
+		/* Exactly this request, wherever it is: running (an abort
+		 * frame goes out) or still waiting for a channel. Its
+		 * confirmation (sdo_done) comes at once and releases the slot;
+		 * observers still see the transfer end. */
+		if (sdo_client_cancel_tag(l->node, pp->tag, SDO_AB_GENERAL, l->now_us) < 0)
+			line_pending_release(&l->pending, pp);
+	}
+}

@@ -1,0 +1,118 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * lines/line_pending: the table of mailbox requests waiting for the core.
+ * Slots of two kinds, O(1) take/find/release, the tag names the slot and
+ * its generation (a late completion for a reused slot never matches), the
+ * reply address and the buffers are the slot's.
+ */
+#include <string.h>
+
+#include "unity.h"
+
+#include "lines/line_pending.h"
+
+static line_pending_table t;
+
+void setUp(void)
+{
+	TEST_ASSERT_EQUAL(0, line_pending_init(&t, 4096));
+}
+
+void tearDown(void)
+{
+	line_pending_fini(&t);
+}
+
+static mbx_request req_from(uint32_t client, uint64_t corr)
+{
+	mbx_request r;
+	memset(&r, 0, sizeof r);
+	r.code = MBX_CMD_SDO_UPLOAD;
+	r.access = MBX_ACCESS_WRITE;
+	r.reply.client = client;
+	r.reply.corr = corr;
+	return r;
+}
+
+static void test_take_find_release(void)
+{
+	mbx_request r = req_from(7, 99);
+	line_pending *p = line_pending_take(&t, &r, LINE_PENDING_SDO, false);
+	TEST_ASSERT_NOT_NULL(p);
+	TEST_ASSERT_TRUE(p->used);
+	TEST_ASSERT_EQUAL_UINT8(LINE_PENDING_SDO, p->kind);
+	TEST_ASSERT_EQUAL_UINT32(7, p->reply.client);
+	TEST_ASSERT_EQUAL_UINT64(99, p->reply.corr);
+	TEST_ASSERT_EQUAL_UINT16(MBX_CMD_SDO_UPLOAD, p->code);
+	TEST_ASSERT_EQUAL_PTR(p->inline_data, p->buf);
+	TEST_ASSERT_EQUAL_UINT32(LINE_INLINE_MAX, p->cap);
+	TEST_ASSERT_EQUAL_PTR(p, line_pending_find(&t, p->tag));
+	TEST_ASSERT_EQUAL_UINT(1, t.used);
+	uint64_t tag = p->tag;
+	line_pending_release(&t, p);
+	TEST_ASSERT_NULL(line_pending_find(&t, tag));
+	TEST_ASSERT_EQUAL_UINT(0, t.used);
+	line_pending_release(&t, p); /* twice: harmless */
+	TEST_ASSERT_EQUAL_UINT(0, t.used);
+}
+
+static void test_reused_slot_gets_a_new_tag(void)
+{
+	mbx_request r = req_from(1, 1);
+	line_pending *p = line_pending_take(&t, &r, LINE_PENDING_SDO, false);
+	uint64_t old = p->tag;
+	line_pending_release(&t, p);
+	line_pending *q = line_pending_take(&t, &r, LINE_PENDING_LSS, false);
+	TEST_ASSERT_EQUAL_PTR(p, q); /* same slot (top of the stack) ... */
+	TEST_ASSERT_TRUE(q->tag != old); /* ... another generation */
+	TEST_ASSERT_NULL(line_pending_find(&t, old)); /* a late completion misses */
+	TEST_ASSERT_EQUAL_PTR(q, line_pending_find(&t, q->tag));
+	TEST_ASSERT_NULL(line_pending_find(&t, 0xFFFF)); /* slot out of range */
+}
+
+static void test_kinds_and_exhaustion(void)
+{
+	mbx_request r = req_from(1, 1);
+	line_pending *big[LINE_BIG_SLOTS];
+	for (int i = 0; i < LINE_BIG_SLOTS; i++) {
+		big[i] = line_pending_take(&t, &r, LINE_PENDING_SDO, true);
+		TEST_ASSERT_NOT_NULL(big[i]);
+		TEST_ASSERT_EQUAL_UINT32(4096, big[i]->cap);
+		TEST_ASSERT_TRUE(big[i]->buf != big[i]->inline_data);
+	}
+	TEST_ASSERT_NULL(line_pending_take(&t, &r, LINE_PENDING_SDO, true));
+	for (int i = 0; i < LINE_PENDING_MAX - LINE_BIG_SLOTS; i++)
+		TEST_ASSERT_NOT_NULL(line_pending_take(&t, &r, LINE_PENDING_SDO, false));
+	TEST_ASSERT_NULL(line_pending_take(&t, &r, LINE_PENDING_SDO, false));
+	TEST_ASSERT_EQUAL_UINT(LINE_PENDING_MAX, t.used);
+	/* all tags distinct and each finds its slot */
+	for (unsigned i = 0; i < LINE_PENDING_MAX; i++) {
+		line_pending *p = line_pending_at(&t, i);
+		TEST_ASSERT_EQUAL_PTR(p, line_pending_find(&t, p->tag));
+	}
+	line_pending_release(&t, big[2]);
+	TEST_ASSERT_EQUAL_PTR(big[2], line_pending_take(&t, &r, LINE_PENDING_SDO, true));
+}
+
+static void test_last_slot_of_each_kind_is_for_writers(void)
+{
+	mbx_request w = req_from(1, 1), rd = req_from(2, 2);
+	rd.access = MBX_ACCESS_READ;
+	for (int i = 0; i < LINE_BIG_SLOTS - 1; i++)
+		TEST_ASSERT_NOT_NULL(line_pending_take(&t, &rd, LINE_PENDING_SDO, true));
+	TEST_ASSERT_NULL(line_pending_take(&t, &rd, LINE_PENDING_SDO, true));
+	TEST_ASSERT_NOT_NULL(line_pending_take(&t, &w, LINE_PENDING_SDO, true));
+	TEST_ASSERT_NULL(line_pending_take(&t, &w, LINE_PENDING_SDO, true));
+	/* the small kind keeps its own writer slot */
+	TEST_ASSERT_NOT_NULL(line_pending_take(&t, &rd, LINE_PENDING_SDO, false));
+}
+
+int main(void)
+{
+	UNITY_BEGIN();
+	RUN_TEST(test_take_find_release);
+	RUN_TEST(test_reused_slot_gets_a_new_tag);
+	RUN_TEST(test_kinds_and_exhaustion);
+	RUN_TEST(test_last_slot_of_each_kind_is_for_writers);
+	return UNITY_END();
+}
