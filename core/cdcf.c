@@ -18,18 +18,30 @@
 const char *co_cdcf_error_to_string(co_cdcf_error e)
 {
 	switch (e) {
-	case CO_CDCF_OK: return "ok";
-	case CO_CDCF_ERR_NO_COUNT: return "no entry count (fewer than 4 bytes)";
-	case CO_CDCF_ERR_HEADER_TRUNC: return "entry header cut short";
-	case CO_CDCF_ERR_DATA_TRUNC: return "data cut short";
-	case CO_CDCF_ERR_INDEX_ZERO: return "index 0000h is not an object";
-	case CO_CDCF_ERR_SIZE_ZERO: return "size 0 (nothing to write)";
-	case CO_CDCF_ERR_TRAILING: return "bytes after the last counted entry";
-	case CO_CDCF_ERR_NO_OBJECT: return "object does not exist";
-	case CO_CDCF_ERR_NO_SUB: return "sub-index does not exist";
-	case CO_CDCF_ERR_SIZE_MISMATCH: return "size does not match the data type";
-	case CO_CDCF_ERR_VALUE: return "value refused";
-	case CO_CDCF_ERR_READ_ONLY: return "object is not writable";
+	case CO_CDCF_OK:
+		return "ok";
+	case CO_CDCF_ERR_NO_COUNT:
+		return "no entry count (fewer than 4 bytes)";
+	case CO_CDCF_ERR_HEADER_TRUNC:
+		return "entry header cut short";
+	case CO_CDCF_ERR_DATA_TRUNC:
+		return "data cut short";
+	case CO_CDCF_ERR_INDEX_ZERO:
+		return "index 0000h is not an object";
+	case CO_CDCF_ERR_SIZE_ZERO:
+		return "size 0 (nothing to write)";
+	case CO_CDCF_ERR_TRAILING:
+		return "bytes after the last counted entry";
+	case CO_CDCF_ERR_NO_OBJECT:
+		return "object does not exist";
+	case CO_CDCF_ERR_NO_SUB:
+		return "sub-index does not exist";
+	case CO_CDCF_ERR_SIZE_MISMATCH:
+		return "size does not match the data type";
+	case CO_CDCF_ERR_VALUE:
+		return "value refused";
+	case CO_CDCF_ERR_READ_ONLY:
+		return "object is not writable";
 	}
 	return "unknown error";
 }
@@ -53,8 +65,7 @@ static void put_u32(uint8_t *p, uint32_t v)
 	p[3] = (uint8_t)(v >> 24);
 }
 
-static int fail(co_cdcf_diag *d, co_cdcf_error err, uint32_t entry,
-		size_t offset)
+static int fail(co_cdcf_diag *d, co_cdcf_error err, uint32_t entry, size_t offset)
 {
 	if (d) {
 		d->error = err;
@@ -68,8 +79,8 @@ static int fail(co_cdcf_diag *d, co_cdcf_error err, uint32_t entry,
  * Parse the entry at *pos (number n). On success fills e and advances
  * *pos. Leaves index/sub/size in the diag as far as they were read.
  */
-static int parse_entry(const uint8_t *buf, size_t len, size_t *pos,
-		       uint32_t n, co_cdcf_entry *e, co_cdcf_diag *d)
+static int parse_entry(const uint8_t *buf, size_t len, size_t *pos, uint32_t n, co_cdcf_entry *e,
+		       co_cdcf_diag *d)
 {
 	size_t at = *pos, left = len - at;
 
@@ -101,16 +112,14 @@ static int parse_entry(const uint8_t *buf, size_t len, size_t *pos,
 	if (e->size > left) {
 		if (d)
 			d->have = left;
-		return fail(d, CO_CDCF_ERR_DATA_TRUNC, n,
-			    at + CO_CDCF_HEADER_SIZE);
+		return fail(d, CO_CDCF_ERR_DATA_TRUNC, n, at + CO_CDCF_HEADER_SIZE);
 	}
 	e->data = buf + at + CO_CDCF_HEADER_SIZE;
 	*pos = at + CO_CDCF_HEADER_SIZE + e->size;
 	return 0;
 }
 
-int co_cdcf_check(const uint8_t *buf, size_t len, uint32_t *count,
-		  co_cdcf_diag *diag)
+int co_cdcf_check(const uint8_t *buf, size_t len, uint32_t *count, co_cdcf_diag *diag)
 {
 	co_cdcf_entry e;
 	uint32_t n;
@@ -147,8 +156,7 @@ int co_cdcf_check(const uint8_t *buf, size_t len, uint32_t *count,
 	return 0;
 }
 
-int co_cdcf_iter_init(co_cdcf_iter *it, const uint8_t *buf, size_t len,
-		      co_cdcf_diag *diag)
+int co_cdcf_iter_init(co_cdcf_iter *it, const uint8_t *buf, size_t len, co_cdcf_diag *diag)
 {
 	uint32_t n = 0;
 	int rc = co_cdcf_check(buf, len, &n, diag);
@@ -174,8 +182,8 @@ bool co_cdcf_iter_next(co_cdcf_iter *it, co_cdcf_entry *e)
 	return true;
 }
 
-int co_cdcf_check_od(const uint8_t *buf, size_t len, const co_od *od,
-		     bool allow_read_only, co_cdcf_diag *diag)
+int co_cdcf_check_od(const uint8_t *buf, size_t len, const co_od *od, bool allow_read_only,
+		     co_cdcf_diag *diag)
 {
 	co_cdcf_iter it;
 	co_cdcf_entry e;
@@ -195,8 +203,9 @@ int co_cdcf_check_od(const uint8_t *buf, size_t len, const co_od *od,
 		if (!oe) {
 			if (diag)
 				diag->abort = abort;
-			return fail(diag, abort == 0x06020000u ? CO_CDCF_ERR_NO_OBJECT
-							       : CO_CDCF_ERR_NO_SUB,
+			return fail(diag,
+				    abort == 0x06020000u ? CO_CDCF_ERR_NO_OBJECT
+							 : CO_CDCF_ERR_NO_SUB,
 				    e.number, e.offset);
 		}
 		if (!allow_read_only && !(oe->access & CO_ACC_WRITE)) {
@@ -227,8 +236,8 @@ void co_cdcf_writer_init(co_cdcf_writer *w, uint8_t *buf, size_t cap)
 		w->error = -EMSGSIZE;
 }
 
-int co_cdcf_writer_add(co_cdcf_writer *w, uint16_t index, uint8_t sub,
-		       const void *data, uint32_t size)
+int co_cdcf_writer_add(co_cdcf_writer *w, uint16_t index, uint8_t sub, const void *data,
+		       uint32_t size)
 {
 	if (w->error)
 		return w->error;
@@ -275,22 +284,22 @@ int co_cdcf_diag_format(const co_cdcf_diag *d, char *buf, size_t n)
 	case CO_CDCF_ERR_NO_COUNT:
 		return snprintf(buf, n, "at byte 0: %s: %zu bytes", what, d->have);
 	case CO_CDCF_ERR_HEADER_TRUNC:
-		return snprintf(buf, n,
-				"entry %u of %u at byte %zu: %s (%zu of %u header bytes)",
-				(unsigned)d->entry, (unsigned)d->count, d->offset, what,
-				d->have, CO_CDCF_HEADER_SIZE);
+		return snprintf(buf, n, "entry %u of %u at byte %zu: %s (%zu of %u header bytes)",
+				(unsigned)d->entry, (unsigned)d->count, d->offset, what, d->have,
+				CO_CDCF_HEADER_SIZE);
 	case CO_CDCF_ERR_DATA_TRUNC:
-		return snprintf(buf, n,
-				"entry %u of %u (%04X:%02X) at byte %zu: %s (size %u, %zu bytes left)",
-				(unsigned)d->entry, (unsigned)d->count, d->index, d->sub,
-				d->offset, what, (unsigned)d->size, d->have);
+		return snprintf(
+			buf, n,
+			"entry %u of %u (%04X:%02X) at byte %zu: %s (size %u, %zu bytes left)",
+			(unsigned)d->entry, (unsigned)d->count, d->index, d->sub, d->offset, what,
+			(unsigned)d->size, d->have);
 	case CO_CDCF_ERR_TRAILING:
-		return snprintf(buf, n, "at byte %zu: %zu %s (count %u)", d->offset,
-				d->have, what, (unsigned)d->count);
+		return snprintf(buf, n, "at byte %zu: %zu %s (count %u)", d->offset, d->have, what,
+				(unsigned)d->count);
 	case CO_CDCF_ERR_INDEX_ZERO:
 	case CO_CDCF_ERR_SIZE_ZERO:
-		return snprintf(buf, n, "entry %u (%04X:%02X) at byte %zu: %s",
-				(unsigned)d->entry, d->index, d->sub, d->offset, what);
+		return snprintf(buf, n, "entry %u (%04X:%02X) at byte %zu: %s", (unsigned)d->entry,
+				d->index, d->sub, d->offset, what);
 	case CO_CDCF_ERR_NO_OBJECT:
 	case CO_CDCF_ERR_NO_SUB:
 	case CO_CDCF_ERR_SIZE_MISMATCH:
@@ -298,8 +307,8 @@ int co_cdcf_diag_format(const co_cdcf_diag *d, char *buf, size_t n)
 	case CO_CDCF_ERR_READ_ONLY:
 		return snprintf(buf, n,
 				"entry %u (%04X:%02X, size %u) at byte %zu: %s (abort %08X)",
-				(unsigned)d->entry, d->index, d->sub, (unsigned)d->size,
-				d->offset, what, (unsigned)d->abort);
+				(unsigned)d->entry, d->index, d->sub, (unsigned)d->size, d->offset,
+				what, (unsigned)d->abort);
 	}
 	return snprintf(buf, n, "%s", what);
 }

@@ -37,31 +37,31 @@
 
 typedef enum co_cdcf_error {
 	CO_CDCF_OK = 0,
-	CO_CDCF_ERR_NO_COUNT,       /* fewer than 4 bytes: no count field */
-	CO_CDCF_ERR_HEADER_TRUNC,   /* an entry header is cut short */
-	CO_CDCF_ERR_DATA_TRUNC,     /* an entry's data is cut short */
-	CO_CDCF_ERR_INDEX_ZERO,     /* index 0000h */
-	CO_CDCF_ERR_SIZE_ZERO,      /* size 0 */
-	CO_CDCF_ERR_TRAILING,       /* bytes after the last counted entry */
-	CO_CDCF_ERR_NO_OBJECT,      /* check_od: no such object */
-	CO_CDCF_ERR_NO_SUB,         /* check_od: no such sub-index */
-	CO_CDCF_ERR_SIZE_MISMATCH,  /* check_od: size differs from the type */
-	CO_CDCF_ERR_VALUE,          /* check_od: value refused by the OD */
-	CO_CDCF_ERR_READ_ONLY,      /* check_od: entry is not writable */
+	CO_CDCF_ERR_NO_COUNT,      /* fewer than 4 bytes: no count field */
+	CO_CDCF_ERR_HEADER_TRUNC,  /* an entry header is cut short */
+	CO_CDCF_ERR_DATA_TRUNC,    /* an entry's data is cut short */
+	CO_CDCF_ERR_INDEX_ZERO,    /* index 0000h */
+	CO_CDCF_ERR_SIZE_ZERO,     /* size 0 */
+	CO_CDCF_ERR_TRAILING,      /* bytes after the last counted entry */
+	CO_CDCF_ERR_NO_OBJECT,     /* check_od: no such object */
+	CO_CDCF_ERR_NO_SUB,        /* check_od: no such sub-index */
+	CO_CDCF_ERR_SIZE_MISMATCH, /* check_od: size differs from the type */
+	CO_CDCF_ERR_VALUE,         /* check_od: value refused by the OD */
+	CO_CDCF_ERR_READ_ONLY,     /* check_od: entry is not writable */
 } co_cdcf_error;
 
 const char *co_cdcf_error_to_string(co_cdcf_error e);
 
 typedef struct co_cdcf_diag {
 	co_cdcf_error error;
-	uint32_t entry;  /* 1-based entry number; 0 = the count field */
-	size_t offset;   /* byte offset in the buffer where the problem is */
-	uint32_t count;  /* the count field (when it could be read) */
-	uint16_t index;  /* the entry's fields, as far as read */
+	uint32_t entry; /* 1-based entry number; 0 = the count field */
+	size_t offset;  /* byte offset in the buffer where the problem is */
+	uint32_t count; /* the count field (when it could be read) */
+	uint16_t index; /* the entry's fields, as far as read */
 	uint8_t sub;
 	uint32_t size;
-	size_t have;     /* truncation: bytes that were left */
-	uint32_t abort;  /* check_od: the abort code an SDO write would get */
+	size_t have;    /* truncation: bytes that were left */
+	uint32_t abort; /* check_od: the abort code an SDO write would get */
 } co_cdcf_diag;
 
 /* One entry; data points into the parsed buffer. */
@@ -78,8 +78,7 @@ typedef struct co_cdcf_entry {
  * Check the whole buffer. Returns 0 (and *count, if given) or -EINVAL with
  * *diag filled (diag may be NULL).
  */
-int co_cdcf_check(const uint8_t *buf, size_t len, uint32_t *count,
-		  co_cdcf_diag *diag);
+int co_cdcf_check(const uint8_t *buf, size_t len, uint32_t *count, co_cdcf_diag *diag);
 
 /*
  * Check every entry against a dictionary, as an SDO download of it would:
@@ -87,8 +86,8 @@ int co_cdcf_check(const uint8_t *buf, size_t len, uint32_t *count,
  * passes co_od_check_value (size, BOOLEAN, limits). The buffer must pass
  * co_cdcf_check first (this calls it). 0 or -EINVAL with *diag.
  */
-int co_cdcf_check_od(const uint8_t *buf, size_t len, const co_od *od,
-		     bool allow_read_only, co_cdcf_diag *diag);
+int co_cdcf_check_od(const uint8_t *buf, size_t len, const co_od *od, bool allow_read_only,
+		     co_cdcf_diag *diag);
 
 /*
  * Iterate over a buffer that passed co_cdcf_check (init checks it again,
@@ -102,8 +101,7 @@ typedef struct co_cdcf_iter {
 	uint32_t next; /* 1-based number of the next entry */
 } co_cdcf_iter;
 
-int co_cdcf_iter_init(co_cdcf_iter *it, const uint8_t *buf, size_t len,
-		      co_cdcf_diag *diag);
+int co_cdcf_iter_init(co_cdcf_iter *it, const uint8_t *buf, size_t len, co_cdcf_diag *diag);
 /* Next entry into *e; false after the last one. */
 bool co_cdcf_iter_next(co_cdcf_iter *it, co_cdcf_entry *e);
 
@@ -123,8 +121,8 @@ void co_cdcf_writer_init(co_cdcf_writer *w, uint8_t *buf, size_t cap);
 /* Append one entry. -EINVAL for index 0 or size 0 or a NULL data pointer,
  * -EMSGSIZE if it does not fit (in measuring mode never), -EOVERFLOW past
  * 2^32-1 entries. An error is sticky: later adds fail with it too. */
-int co_cdcf_writer_add(co_cdcf_writer *w, uint16_t index, uint8_t sub,
-		       const void *data, uint32_t size);
+int co_cdcf_writer_add(co_cdcf_writer *w, uint16_t index, uint8_t sub, const void *data,
+		       uint32_t size);
 /* Patch the count field. Returns the total length, or the sticky error. */
 long co_cdcf_writer_finish(co_cdcf_writer *w);
 

@@ -36,10 +36,14 @@ const char *co_cfgmgr_state_to_string(int state)
 const char *co_cfgmgr_outcome_to_string(int outcome)
 {
 	switch (outcome) {
-	case CO_CFGMGR_CONFIGURED: return "configured";
-	case CO_CFGMGR_SKIPPED: return "skipped (1020h matches)";
-	case CO_CFGMGR_FAILED_J: return "failed (J)";
-	case CO_CFGMGR_CANCELLED: return "cancelled";
+	case CO_CFGMGR_CONFIGURED:
+		return "configured";
+	case CO_CFGMGR_SKIPPED:
+		return "skipped (1020h matches)";
+	case CO_CFGMGR_FAILED_J:
+		return "failed (J)";
+	case CO_CFGMGR_CANCELLED:
+		return "cancelled";
 	}
 	return "?";
 }
@@ -54,8 +58,7 @@ static void put_u32(uint8_t *p, uint32_t v)
 
 static uint32_t get_u32(const uint8_t *p)
 {
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-	       (uint32_t)p[3] << 24;
+	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
 /* ---- requests ------------------------------------------------------------ */
@@ -80,8 +83,8 @@ static void mark(co_cfgmgr *job, uint32_t entry, uint16_t index, uint8_t sub)
 
 /* Submit one request; returns 0, or the state to go to (FAILED) when it
  * cannot even be queued. */
-static int submit(co_cfgmgr *job, bool upload, uint16_t index, uint8_t sub,
-		  const uint8_t *data, uint32_t size, uint64_t now_us)
+static int submit(co_cfgmgr *job, bool upload, uint16_t index, uint8_t sub, const uint8_t *data,
+		  uint32_t size, uint64_t now_us)
 {
 	sdo_client_req r = {
 		.upload = upload,
@@ -116,8 +119,7 @@ static int submit(co_cfgmgr *job, bool upload, uint16_t index, uint8_t sub,
 	return 0;
 }
 
-static int write_u32(co_cfgmgr *job, uint16_t index, uint8_t sub, uint32_t v,
-		     uint64_t now_us)
+static int write_u32(co_cfgmgr *job, uint16_t index, uint8_t sub, uint32_t v, uint64_t now_us)
 {
 	int rc;
 
@@ -256,8 +258,7 @@ static int download_next(co_cfgmgr *job, uint64_t now_us)
 	if (!co_cdcf_iter_next(&job->it, &job->cur))
 		return after_download(job);
 	mark(job, job->cur.number, job->cur.index, job->cur.sub);
-	rc = submit(job, false, job->cur.index, job->cur.sub, job->cur.data, job->cur.size,
-		    now_us);
+	rc = submit(job, false, job->cur.index, job->cur.sub, job->cur.data, job->cur.size, now_us);
 	return rc ? rc : CO_FSM_STAY;
 }
 
@@ -354,20 +355,27 @@ static int failed_enter(void *obj, uint64_t now_us)
 
 static const co_fsm_state cfgmgr_states[CO_CFGMGR_N_STATES] = {
 	[CO_CFGMGR_IDLE] = { .name = "idle" },
-	[CO_CFGMGR_RESTORE_LOAD] = { .name = "restore-load", .on_enter = restore_load_enter,
+	[CO_CFGMGR_RESTORE_LOAD] = { .name = "restore-load",
+				     .on_enter = restore_load_enter,
 				     .on_con = restore_load_con },
-	[CO_CFGMGR_RESTORE_RESET] = { .name = "restore-reset", .on_enter = restore_reset_enter,
+	[CO_CFGMGR_RESTORE_RESET] = { .name = "restore-reset",
+				      .on_enter = restore_reset_enter,
 				      .on_timeout = restore_reset_timeout,
 				      .on_leave = restore_reset_leave },
-	[CO_CFGMGR_VERIFY_DATE] = { .name = "verify-date", .on_enter = verify_date_enter,
+	[CO_CFGMGR_VERIFY_DATE] = { .name = "verify-date",
+				    .on_enter = verify_date_enter,
 				    .on_con = verify_date_con },
-	[CO_CFGMGR_VERIFY_TIME] = { .name = "verify-time", .on_enter = verify_time_enter,
+	[CO_CFGMGR_VERIFY_TIME] = { .name = "verify-time",
+				    .on_enter = verify_time_enter,
 				    .on_con = verify_time_con },
-	[CO_CFGMGR_DOWNLOAD] = { .name = "download", .on_enter = download_enter,
+	[CO_CFGMGR_DOWNLOAD] = { .name = "download",
+				 .on_enter = download_enter,
 				 .on_con = download_con },
-	[CO_CFGMGR_WRITE_DATE] = { .name = "write-date", .on_enter = write_date_enter,
+	[CO_CFGMGR_WRITE_DATE] = { .name = "write-date",
+				   .on_enter = write_date_enter,
 				   .on_con = write_date_con },
-	[CO_CFGMGR_WRITE_TIME] = { .name = "write-time", .on_enter = write_time_enter,
+	[CO_CFGMGR_WRITE_TIME] = { .name = "write-time",
+				   .on_enter = write_time_enter,
 				   .on_con = write_time_con },
 	[CO_CFGMGR_STORE] = { .name = "store", .on_enter = store_enter, .on_con = store_con },
 	[CO_CFGMGR_DONE] = { .name = "done", .on_enter = done_enter },
@@ -389,8 +397,7 @@ bool co_cfgmgr_running(const co_cfgmgr *job)
 	return s != CO_CFGMGR_IDLE && s != CO_CFGMGR_DONE && s != CO_CFGMGR_FAILED;
 }
 
-int co_cfgmgr_start(co_cfgmgr *job, co_node *node, const co_cfgmgr_params *p,
-		    uint64_t now_us)
+int co_cfgmgr_start(co_cfgmgr *job, co_node *node, const co_cfgmgr_params *p, uint64_t now_us)
 {
 	if (!node || !p || p->node_id < 1 || p->node_id > 127 ||
 	    (p->cdcf_len && co_cdcf_check(p->cdcf, p->cdcf_len, NULL, NULL)) ||
@@ -511,8 +518,7 @@ static void line_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
 		l->done(l->done_ctx, r, now_us);
 }
 
-void co_cfgmgr_line_init(co_cfgmgr_line *l, co_node *node, co_cfgmgr_done_fn done,
-			 void *done_ctx)
+void co_cfgmgr_line_init(co_cfgmgr_line *l, co_node *node, co_cfgmgr_done_fn done, void *done_ctx)
 {
 	co_od *od = co_node_od(node);
 

@@ -76,32 +76,31 @@ const char *co_cfgmgr_outcome_to_string(int outcome);
 
 typedef struct co_cfgmgr_result {
 	uint8_t node_id;
-	uint8_t outcome;  /* co_cfgmgr_outcome */
-	char status;      /* 'J' when FAILED_J, else 0 */
-	uint32_t entry;   /* failing entry, 1-based; 0 = not a cDCF entry */
-	uint16_t index;   /* failing object */
+	uint8_t outcome; /* co_cfgmgr_outcome */
+	char status;     /* 'J' when FAILED_J, else 0 */
+	uint32_t entry;  /* failing entry, 1-based; 0 = not a cDCF entry */
+	uint16_t index;  /* failing object */
 	uint8_t sub;
 	uint32_t abort;   /* CiA abort code of the failure */
 	uint32_t written; /* concise DCF entries written */
 	bool restored;    /* the restore step ran */
 } co_cfgmgr_result;
 
-typedef void (*co_cfgmgr_done_fn)(void *ctx, const co_cfgmgr_result *r,
-				  uint64_t now_us);
+typedef void (*co_cfgmgr_done_fn)(void *ctx, const co_cfgmgr_result *r, uint64_t now_us);
 
 typedef struct co_cfgmgr_params {
-	uint8_t node_id;          /* slave 1..127 */
-	const uint8_t *cdcf;      /* concise DCF (NULL/0 = nothing to write) */
+	uint8_t node_id;     /* slave 1..127 */
+	const uint8_t *cdcf; /* concise DCF (NULL/0 = nothing to write) */
 	size_t cdcf_len;
-	bool verify;              /* compare/record 1020h with date/time */
-	uint32_t date;            /* 1F26h:node, days since 1984-01-01 */
-	uint32_t time;            /* 1F27h:node, ms after midnight */
-	bool store;               /* "save" to 1010h:1 after a download */
-	uint8_t restore_sub;      /* 1F8Ah:node: 1011h sub-index, 0 = none */
-	uint32_t bootup_wait_ms;  /* after the restore reset (0 = 5000) */
-	int channel;              /* SDO client channel, < 0 = the pool */
-	uint32_t sdo_timeout_ms;  /* per frame, 0 = the SDO client's */
-	co_cfgmgr_done_fn done;   /* called once when the job ends */
+	bool verify;             /* compare/record 1020h with date/time */
+	uint32_t date;           /* 1F26h:node, days since 1984-01-01 */
+	uint32_t time;           /* 1F27h:node, ms after midnight */
+	bool store;              /* "save" to 1010h:1 after a download */
+	uint8_t restore_sub;     /* 1F8Ah:node: 1011h sub-index, 0 = none */
+	uint32_t bootup_wait_ms; /* after the restore reset (0 = 5000) */
+	int channel;             /* SDO client channel, < 0 = the pool */
+	uint32_t sdo_timeout_ms; /* per frame, 0 = the SDO client's */
+	co_cfgmgr_done_fn done;  /* called once when the job ends */
 	void *done_ctx;
 } co_cfgmgr_params;
 
@@ -110,12 +109,12 @@ typedef struct co_cfgmgr {
 	co_node *node;
 	co_cfgmgr_params p;
 	co_cdcf_iter it;
-	co_cdcf_entry cur;     /* entry being written */
-	uint64_t tag;          /* tag of the request in flight, 0 = none */
+	co_cdcf_entry cur; /* entry being written */
+	uint64_t tag;      /* tag of the request in flight, 0 = none */
 	uint32_t seq;
-	uint64_t deadline_us;  /* boot-up wait; UINT64_MAX = none */
-	uint8_t rd[4];         /* 1020h reads */
-	uint8_t wr[4];         /* 1020h / 1010h / 1011h writes */
+	uint64_t deadline_us; /* boot-up wait; UINT64_MAX = none */
+	uint8_t rd[4];        /* 1020h reads */
+	uint8_t wr[4];        /* 1020h / 1010h / 1011h writes */
 	co_cfgmgr_result res;
 } co_cfgmgr;
 
@@ -126,8 +125,7 @@ typedef struct co_cfgmgr {
  * out now; the outcome arrives through p->done, never from inside this
  * call.
  */
-int co_cfgmgr_start(co_cfgmgr *job, co_node *node, const co_cfgmgr_params *p,
-		    uint64_t now_us);
+int co_cfgmgr_start(co_cfgmgr *job, co_node *node, const co_cfgmgr_params *p, uint64_t now_us);
 /* Every core event of the node (the boot-up of the restore step). */
 void co_cfgmgr_on_event(co_cfgmgr *job, const co_event *ev, uint64_t now_us);
 /* Run the job's timer; returns its next deadline (CO_NO_DEADLINE = none). */
@@ -185,8 +183,7 @@ typedef struct co_cfgmgr_line {
  * (0x08000022), one that is not a concise DCF too (0x06090030) when the
  * value is seen whole. Owning thread; no allocation.
  */
-void co_cfgmgr_line_init(co_cfgmgr_line *l, co_node *node, co_cfgmgr_done_fn done,
-			 void *done_ctx);
+void co_cfgmgr_line_init(co_cfgmgr_line *l, co_node *node, co_cfgmgr_done_fn done, void *done_ctx);
 /*
  * The 302-2 "configure" step of node n (the signature of the manager's
  * configure hook; ctx = the line). Reads 1F22h:n, 1F26h:n, 1F27h:n,

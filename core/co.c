@@ -31,17 +31,12 @@
 static const co_service *const co_services[] = {
 	&co_svc_lss, /* first: its reset_comm makes the LSS pending node-ID
 	              * active (node->node_id) before the others read it */
-	&co_svc_sdo_server,
-	&co_svc_sdo_client,
-	&co_svc_store,
-	&co_svc_nmt,   /* before the error control services: boot-up first */
-	&co_svc_emcy,
-	&co_svc_errctrl, /* before heartbeat and guarding, which report to it */
-	&co_svc_hb,
-	&co_svc_guard,
-	&co_svc_sync,  /* before PDO: a produced SYNC drives the PDOs */
-	&co_svc_time,
-	&co_svc_pdo,
+	&co_svc_sdo_server, &co_svc_sdo_client,
+	&co_svc_store,      &co_svc_nmt,     /* before the error control services: boot-up first */
+	&co_svc_emcy,       &co_svc_errctrl, /* before heartbeat and guarding, which report to it */
+	&co_svc_hb,         &co_svc_guard,
+	&co_svc_sync, /* before PDO: a produced SYNC drives the PDOs */
+	&co_svc_time,       &co_svc_pdo,
 };
 
 #define N_SERVICES (sizeof(co_services) / sizeof(co_services[0]))
@@ -66,8 +61,7 @@ struct co_rx_ext {
 
 static bool id_ok(uint32_t id, uint8_t flags)
 {
-	return (flags & CO_FRAME_EXT) ? !(id & ~CO_FRAME_EFF_MASK)
-				      : !(id & ~CO_FRAME_SFF_MASK);
+	return (flags & CO_FRAME_EXT) ? !(id & ~CO_FRAME_EFF_MASK) : !(id & ~CO_FRAME_SFF_MASK);
 }
 
 static size_t ext_find(const co_node *node, uint32_t id, bool *found)
@@ -430,8 +424,7 @@ int co_node_create(co_node **out, const co_node_config *cfg)
 		return -EINVAL;
 	if (!((cfg->node_id >= 1 && cfg->node_id <= 127) || cfg->node_id == 255))
 		return -EINVAL;
-	if (cfg->sdo_server_count > SDO_MAX_CHANNELS ||
-	    cfg->sdo_client_count > SDO_MAX_CHANNELS)
+	if (cfg->sdo_server_count > SDO_MAX_CHANNELS || cfg->sdo_client_count > SDO_MAX_CHANNELS)
 		return -EINVAL;
 	node = calloc(1, sizeof(*node));
 	if (!node)

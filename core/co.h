@@ -72,8 +72,8 @@ typedef struct co_node_config {
 	void *event_ctx;
 
 	/* Zero means "default" for every field below. */
-	uint16_t rx_max;      /* receiver pool (default 512) */
-	uint16_t rx_ext_max;  /* distinct 29-bit ids (default 32) */
+	uint16_t rx_max;       /* receiver pool (default 512) */
+	uint16_t rx_ext_max;   /* distinct 29-bit ids (default 32) */
 	bool report_unhandled; /* emit CO_EV_RX_UNHANDLED */
 
 	/* SDO server (see core/sdo_server.h) */
@@ -87,24 +87,24 @@ typedef struct co_node_config {
 	                                 * check-before-write (default 1024) */
 
 	/* SDO client (see core/sdo_client.h) */
-	uint8_t sdo_client_count;       /* channels 1280h.. (default 0) */
-	uint16_t sdo_client_queue_len;  /* requests per channel (default 8) */
-	uint16_t sdo_client_pool_len;   /* requests waiting for any channel
+	uint8_t sdo_client_count;            /* channels 1280h.. (default 0) */
+	uint16_t sdo_client_queue_len;       /* requests per channel (default 8) */
+	uint16_t sdo_client_pool_len;        /* requests waiting for any channel
 	                                 * (default queue_len x count) */
-	uint32_t sdo_client_timeout_ms; /* per frame, for requests that give
+	uint32_t sdo_client_timeout_ms;      /* per frame, for requests that give
 	                                 * none (default 1000) */
 	uint32_t sdo_client_block_threshold; /* auto: block at >= this size
 	                                      * (default 128; UINT32_MAX = never) */
-	uint8_t sdo_client_blksize;     /* requested in block upload (127) */
+	uint8_t sdo_client_blksize;          /* requested in block upload (127) */
 
 	/* LSS (CiA 305, see core/lss_master.h and core/lss_slave.h) */
-	bool lss_master;            /* run an LSS master (7E5h out, 7E4h in) */
-	uint32_t lss_timeout_ms;    /* confirmed services, identify windows
+	bool lss_master;                               /* run an LSS master (7E5h out, 7E4h in) */
+	uint32_t lss_timeout_ms;                       /* confirmed services, identify windows
 	                             * (default 1000) */
-	uint32_t lss_scan_step_ms;  /* Fastscan, per step (default 100) */
-	uint8_t lss_queue_len;      /* master requests queued (default 8) */
-	bool lss_slave;             /* run an LSS slave (answers 7E5h) */
-	bool lss_slave_constant_id; /* node-ID fixed: store answers error 1 */
+	uint32_t lss_scan_step_ms;                     /* Fastscan, per step (default 100) */
+	uint8_t lss_queue_len;                         /* master requests queued (default 8) */
+	bool lss_slave;                                /* run an LSS slave (answers 7E5h) */
+	bool lss_slave_constant_id;                    /* node-ID fixed: store answers error 1 */
 	const struct lss_slave_hooks *lss_slave_hooks; /* optional */
 	void *lss_slave_ctx;
 } co_node_config;
@@ -150,13 +150,11 @@ void co_node_reset_app(co_node *node, uint64_t now_us);
  * like the kernel's rx_sff), binary search over a small sorted table for
  * 29-bit ids. Several receivers may share an id (called in registration
  * order). Handles are small integers >= 0. */
-typedef void (*co_rx_fn)(co_node *node, void *arg, const co_frame *f,
-			 uint64_t now_us);
+typedef void (*co_rx_fn)(co_node *node, void *arg, const co_frame *f, uint64_t now_us);
 
 /* flags: CO_FRAME_EXT for a 29-bit id. RTR frames are delivered to the same
  * receiver (check f->flags). Returns a handle >= 0, -EINVAL, -ENOSPC. */
-int co_rx_register(co_node *node, uint32_t id, uint8_t flags, co_rx_fn fn,
-		   void *arg);
+int co_rx_register(co_node *node, uint32_t id, uint8_t flags, co_rx_fn fn, void *arg);
 /* Move a receiver to another id (e.g. an SDO client changing target). */
 int co_rx_move(co_node *node, int handle, uint32_t id, uint8_t flags);
 /* Detach the receiver from its id but keep the handle (a disabled channel). */

@@ -48,28 +48,28 @@ struct co_node {
 	co_node_stats stats;
 
 	/* receive dispatch */
-	uint16_t rx_sff[2048];     /* head receiver + 1 per 11-bit id, 0 = none */
-	struct co_rx *rx;          /* pool of cfg.rx_max receivers */
-	uint16_t rx_free;          /* free list head + 1 */
-	struct co_rx_ext *rx_ext;  /* sorted by id, cfg.rx_ext_max entries */
+	uint16_t rx_sff[2048];    /* head receiver + 1 per 11-bit id, 0 = none */
+	struct co_rx *rx;         /* pool of cfg.rx_max receivers */
+	uint16_t rx_free;         /* free list head + 1 */
+	struct co_rx_ext *rx_ext; /* sorted by id, cfg.rx_ext_max entries */
 	uint16_t rx_ext_count;
 
 	/* service slots: NULL until the module exists / is enabled */
-	struct sdo_server *sdo_srv; /* core/sdo_server.c */
-	struct sdo_client *sdo_cli; /* core/sdo_client.c */
-	struct co_store *store;     /* core/store.c (1010h/1011h) */
-	struct co_nmt *nmt;         /* core/nmt.c */
-	struct co_errctrl *errctrl; /* core/errctrl.c: what heartbeat and
+	struct sdo_server *sdo_srv;                     /* core/sdo_server.c */
+	struct sdo_client *sdo_cli;                     /* core/sdo_client.c */
+	struct co_store *store;                         /* core/store.c (1010h/1011h) */
+	struct co_nmt *nmt;                             /* core/nmt.c */
+	struct co_errctrl *errctrl;                     /* core/errctrl.c: what heartbeat and
 	                             * guarding share (losses, bus-off) */
-	struct co_hb *hb;           /* core/heartbeat.c: producer/consumer */
-	struct co_guard *guard;     /* core/guarding.c: node guarding, master
+	struct co_hb *hb;                               /* core/heartbeat.c: producer/consumer */
+	struct co_guard *guard;                         /* core/guarding.c: node guarding, master
 	                             * and slave (100Ch/100Dh) */
-	struct co_emcy *emcy;       /* core/emcy.c */
-	struct co_sync *sync;       /* core/sync.c */
-	struct co_time *time;       /* core/time.c */
-	struct co_pdo *pdo;         /* core/pdo.c */
-	struct co_lss *lss;         /* core/lss_service.c: master and slave */
-	struct co_manager *manager; /* the CiA 302 manager (NMT master, boot
+	struct co_emcy *emcy;                           /* core/emcy.c */
+	struct co_sync *sync;                           /* core/sync.c */
+	struct co_time *time;                           /* core/time.c */
+	struct co_pdo *pdo;                             /* core/pdo.c */
+	struct co_lss *lss;                             /* core/lss_service.c: master and slave */
+	struct co_manager *manager;                     /* the CiA 302 manager (NMT master, boot
 	                             * and configuration of slaves) */
 	const co_service *attached[CO_NODE_ATTACH_MAX]; /* co_node_attach_service */
 	unsigned n_attached;

@@ -39,8 +39,8 @@ struct emcy_active {
 
 struct co_emcy {
 	co_node *node;
-	uint8_t reg;        /* internal copy of 1001h */
-	uint8_t hist_len;   /* subs 1..hist_len of 1003h exist */
+	uint8_t reg;      /* internal copy of 1001h */
+	uint8_t hist_len; /* subs 1..hist_len of 1003h exist */
 	struct emcy_active active[CO_EMCY_ACTIVE_MAX];
 	uint8_t n_active;
 
@@ -58,18 +58,30 @@ struct co_emcy {
 const char *co_emcy_code_to_string(uint16_t code)
 {
 	switch (code) {
-	case CO_EMCY_NO_ERROR: return "error reset or no error";
-	case CO_EMCY_GENERIC: return "generic error";
-	case CO_EMCY_CAN_OVERRUN: return "CAN overrun";
-	case CO_EMCY_CAN_PASSIVE: return "CAN in error passive mode";
-	case CO_EMCY_LIFE_GUARD: return "life guard or heartbeat error";
-	case CO_EMCY_BUS_OFF_RECOVERED: return "recovered from bus off";
-	case CO_EMCY_CAN_ID_COLLISION: return "CAN-ID collision";
-	case CO_EMCY_PDO_LENGTH: return "PDO not processed due to length error";
-	case CO_EMCY_PDO_LENGTH_HIGH: return "PDO length exceeded";
-	case CO_EMCY_DAM_MPDO: return "DAM MPDO not processed";
-	case CO_EMCY_SYNC_LENGTH: return "unexpected SYNC data length";
-	case CO_EMCY_RPDO_TIMEOUT: return "RPDO timeout";
+	case CO_EMCY_NO_ERROR:
+		return "error reset or no error";
+	case CO_EMCY_GENERIC:
+		return "generic error";
+	case CO_EMCY_CAN_OVERRUN:
+		return "CAN overrun";
+	case CO_EMCY_CAN_PASSIVE:
+		return "CAN in error passive mode";
+	case CO_EMCY_LIFE_GUARD:
+		return "life guard or heartbeat error";
+	case CO_EMCY_BUS_OFF_RECOVERED:
+		return "recovered from bus off";
+	case CO_EMCY_CAN_ID_COLLISION:
+		return "CAN-ID collision";
+	case CO_EMCY_PDO_LENGTH:
+		return "PDO not processed due to length error";
+	case CO_EMCY_PDO_LENGTH_HIGH:
+		return "PDO length exceeded";
+	case CO_EMCY_DAM_MPDO:
+		return "DAM MPDO not processed";
+	case CO_EMCY_SYNC_LENGTH:
+		return "unexpected SYNC data length";
+	case CO_EMCY_RPDO_TIMEOUT:
+		return "RPDO timeout";
 	}
 	return "?";
 }
@@ -77,10 +89,10 @@ const char *co_emcy_code_to_string(uint16_t code)
 /* CiA 301 §7.3.5 table 72: CAN-IDs no configurable object may use. */
 static bool cob_restricted(uint32_t id)
 {
-	return id == 0x000 || (id >= 0x001 && id <= 0x07F) ||
-	       (id >= 0x101 && id <= 0x180) || (id >= 0x581 && id <= 0x5FF) ||
-	       (id >= 0x601 && id <= 0x67F) || (id >= 0x6E0 && id <= 0x6FF) ||
-	       (id >= 0x701 && id <= 0x77F) || (id >= 0x780 && id <= 0x7FF);
+	return id == 0x000 || (id >= 0x001 && id <= 0x07F) || (id >= 0x101 && id <= 0x180) ||
+	       (id >= 0x581 && id <= 0x5FF) || (id >= 0x601 && id <= 0x67F) ||
+	       (id >= 0x6E0 && id <= 0x6FF) || (id >= 0x701 && id <= 0x77F) ||
+	       (id >= 0x780 && id <= 0x7FF);
 }
 
 static co_od_entry *find(const co_node *node, uint16_t idx, uint8_t sub)
@@ -150,13 +162,11 @@ static void history_push(struct co_emcy *em, uint16_t code, const uint8_t *msef)
 	/* Shift down: sub k+1 <- sub k; the oldest falls off the end. */
 	for (unsigned s = (n < em->hist_len ? n + 1u : em->hist_len); s > 1; s--)
 		co_od_entry_set_raw(find(em->node, 0x1003, (uint8_t)s),
-				    co_od_entry_raw(find(em->node, 0x1003,
-							 (uint8_t)(s - 1))));
+				    co_od_entry_raw(find(em->node, 0x1003, (uint8_t)(s - 1))));
 	/* Bits 31..16: manufacturer-specific additional information; we
 	 * keep the first two manufacturer bytes of the EMCY there. */
 	co_od_entry_set_raw(find(em->node, 0x1003, 1),
-			    (uint32_t)code |
-				    ((uint32_t)co_get_le16(msef) << 16));
+			    (uint32_t)code | ((uint32_t)co_get_le16(msef) << 16));
 	if (n < em->hist_len)
 		n++;
 	co_od_entry_set_raw(e0, n);
@@ -213,8 +223,7 @@ static uint32_t cob_check(void *ctx, co_od_entry *e, const co_od_access *a)
 	if (v & COB_INVALID)
 		return 0;
 	id = v & ((v & COB_EXT) ? CO_FRAME_EFF_MASK : CO_FRAME_SFF_MASK);
-	if (v & ~(COB_INVALID | COB_EXT | ((v & COB_EXT) ? CO_FRAME_EFF_MASK
-							  : CO_FRAME_SFF_MASK)))
+	if (v & ~(COB_INVALID | COB_EXT | ((v & COB_EXT) ? CO_FRAME_EFF_MASK : CO_FRAME_SFF_MASK)))
 		return SDO_AB_VALUE;
 	if (!(v & COB_EXT) && cob_restricted(id))
 		return SDO_AB_VALUE;
@@ -264,8 +273,8 @@ static void queue_flush(struct co_emcy *em, uint64_t now_us)
 	}
 }
 
-static int produce(struct co_emcy *em, uint16_t code, uint8_t reg,
-		   const uint8_t *msef, uint64_t now_us)
+static int produce(struct co_emcy *em, uint16_t code, uint8_t reg, const uint8_t *msef,
+		   uint64_t now_us)
 {
 	co_frame f;
 	uint32_t id;
@@ -281,8 +290,7 @@ static int produce(struct co_emcy *em, uint16_t code, uint8_t reg,
 	f.data[2] = reg;
 	memcpy(&f.data[3], msef, 5);
 
-	if (!em->q_count &&
-	    (!em->tx_once || now_us >= em->last_tx_us + inhibit_us(em))) {
+	if (!em->q_count && (!em->tx_once || now_us >= em->last_tx_us + inhibit_us(em))) {
 		tx_now(em, &f, now_us);
 		return 0;
 	}
@@ -299,8 +307,8 @@ static int produce(struct co_emcy *em, uint16_t code, uint8_t reg,
 
 /* ---- public producer API ----------------------------------------------- */
 
-int co_emcy_send(co_node *node, uint16_t code, uint8_t reg_bits,
-		 const uint8_t msef[5], uint64_t now_us)
+int co_emcy_send(co_node *node, uint16_t code, uint8_t reg_bits, const uint8_t msef[5],
+		 uint64_t now_us)
 {
 	static const uint8_t zero[5];
 	struct co_emcy *em = node->emcy;
@@ -320,8 +328,7 @@ int co_emcy_send(co_node *node, uint16_t code, uint8_t reg_bits,
 	if (i < em->n_active)
 		em->active[i].bits = reg_bits;
 	else if (em->n_active < CO_EMCY_ACTIVE_MAX)
-		em->active[em->n_active++] =
-			(struct emcy_active){ .code = code, .bits = reg_bits };
+		em->active[em->n_active++] = (struct emcy_active){ .code = code, .bits = reg_bits };
 	else
 		rc_active = -ENOSPC;
 	reg_recompute(em);
@@ -393,8 +400,7 @@ const co_emcy_stats *co_emcy_get_stats(const co_node *node)
 
 /* ---- consumer (1028h) -------------------------------------------------- */
 
-static void cons_rx(co_node *node, void *arg, const co_frame *f,
-		   uint64_t now_us)
+static void cons_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	struct co_emcy *em = node->emcy;
 	co_event ev = { .kind = CO_EV_EMCY_RX };
@@ -540,8 +546,7 @@ const co_service co_svc_emcy = {
 
 /* ---- standard objects ---------------------------------------------------- */
 
-int co_od_add_comm_defaults_emcy(co_od *od, uint8_t node_id,
-				 uint8_t history_len, uint8_t consumers,
+int co_od_add_comm_defaults_emcy(co_od *od, uint8_t node_id, uint8_t history_len, uint8_t consumers,
 				 int consume_all)
 {
 	int rc;
@@ -549,36 +554,31 @@ int co_od_add_comm_defaults_emcy(co_od *od, uint8_t node_id,
 	if (!od || node_id < 1 || node_id > 127 || history_len > EMCY_HIST_MAX ||
 	    consumers > EMCY_CONS_MAX)
 		return -EINVAL;
-	if ((rc = co_od_ensure_num(od, 0x1001, 0, CO_T_UNSIGNED8,
-				   CO_ACC_RO | CO_ACC_TPDO, 0, 0)))
+	if ((rc = co_od_ensure_num(od, 0x1001, 0, CO_T_UNSIGNED8, CO_ACC_RO | CO_ACC_TPDO, 0, 0)))
 		return rc;
 	if (history_len) {
-		if ((rc = co_od_ensure_num(od, 0x1003, 0, CO_T_UNSIGNED8,
-					   CO_ACC_RW, 0, CO_OBJ_ARRAY)))
+		if ((rc = co_od_ensure_num(od, 0x1003, 0, CO_T_UNSIGNED8, CO_ACC_RW, 0,
+					   CO_OBJ_ARRAY)))
 			return rc;
 		for (unsigned s = 1; s <= history_len; s++)
-			if ((rc = co_od_ensure_num(od, 0x1003, (uint8_t)s,
-						   CO_T_UNSIGNED32, CO_ACC_RO, 0,
-						   CO_OBJ_ARRAY)))
+			if ((rc = co_od_ensure_num(od, 0x1003, (uint8_t)s, CO_T_UNSIGNED32,
+						   CO_ACC_RO, 0, CO_OBJ_ARRAY)))
 				return rc;
 	}
 	if ((rc = co_od_ensure_num(od, 0x1014, 0, CO_T_UNSIGNED32, CO_ACC_RW,
 				   CO_EMCY_COB_BASE + node_id, 0)))
 		return rc;
-	if ((rc = co_od_ensure_num(od, 0x1015, 0, CO_T_UNSIGNED16, CO_ACC_RW,
-				   0, 0)))
+	if ((rc = co_od_ensure_num(od, 0x1015, 0, CO_T_UNSIGNED16, CO_ACC_RW, 0, 0)))
 		return rc;
 	if (consumers) {
-		if ((rc = co_od_ensure_num(od, 0x1028, 0, CO_T_UNSIGNED8,
-					   CO_ACC_RO, consumers,
+		if ((rc = co_od_ensure_num(od, 0x1028, 0, CO_T_UNSIGNED8, CO_ACC_RO, consumers,
 					   CO_OBJ_ARRAY)))
 			return rc;
 		for (unsigned s = 1; s <= consumers; s++)
-			if ((rc = co_od_ensure_num(od, 0x1028, (uint8_t)s,
-						   CO_T_UNSIGNED32, CO_ACC_RW,
-						   (CO_EMCY_COB_BASE + s) |
-							   (consume_all ? 0 : COB_INVALID),
-						   CO_OBJ_ARRAY)))
+			if ((rc = co_od_ensure_num(
+				     od, 0x1028, (uint8_t)s, CO_T_UNSIGNED32, CO_ACC_RW,
+				     (CO_EMCY_COB_BASE + s) | (consume_all ? 0 : COB_INVALID),
+				     CO_OBJ_ARRAY)))
 				return rc;
 	}
 	return 0;

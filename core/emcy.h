@@ -42,7 +42,7 @@
 
 #include "core/co.h"
 
-#define CO_EMCY_QUEUE_LEN 8u  /* frames waiting for the inhibit time */
+#define CO_EMCY_QUEUE_LEN 8u   /* frames waiting for the inhibit time */
 #define CO_EMCY_ACTIVE_MAX 16u /* distinct active error codes */
 #define CO_EMCY_COB_BASE 0x80u
 
@@ -59,14 +59,14 @@ enum co_emcy_reg {
 
 /* Emergency error codes used by the core (CiA 301 table 21). */
 enum co_emcy_code {
-	CO_EMCY_NO_ERROR = 0x0000,      /* error reset or no error */
+	CO_EMCY_NO_ERROR = 0x0000, /* error reset or no error */
 	CO_EMCY_GENERIC = 0x1000,
-	CO_EMCY_CAN_OVERRUN = 0x8110,   /* CAN overrun (objects lost) */
-	CO_EMCY_CAN_PASSIVE = 0x8120,   /* CAN in error passive mode */
-	CO_EMCY_LIFE_GUARD = 0x8130,    /* life guard or heartbeat error */
+	CO_EMCY_CAN_OVERRUN = 0x8110, /* CAN overrun (objects lost) */
+	CO_EMCY_CAN_PASSIVE = 0x8120, /* CAN in error passive mode */
+	CO_EMCY_LIFE_GUARD = 0x8130,  /* life guard or heartbeat error */
 	CO_EMCY_BUS_OFF_RECOVERED = 0x8140,
 	CO_EMCY_CAN_ID_COLLISION = 0x8150,
-	CO_EMCY_PDO_LENGTH = 0x8210,    /* PDO not processed: length error */
+	CO_EMCY_PDO_LENGTH = 0x8210,      /* PDO not processed: length error */
 	CO_EMCY_PDO_LENGTH_HIGH = 0x8220, /* PDO length exceeded */
 	CO_EMCY_DAM_MPDO = 0x8230,
 	CO_EMCY_SYNC_LENGTH = 0x8240,
@@ -98,8 +98,8 @@ extern const co_service co_svc_emcy;
  * -ENOSPC (active list full; sent, but cannot be cleared individually),
  * -ENODEV if the node has no EMCY service.
  */
-int co_emcy_send(co_node *node, uint16_t code, uint8_t reg_bits,
-		 const uint8_t msef[5], uint64_t now_us);
+int co_emcy_send(co_node *node, uint16_t code, uint8_t reg_bits, const uint8_t msef[5],
+		 uint64_t now_us);
 
 /*
  * The error `code` has gone. 1001h is recomputed from the remaining active
@@ -126,8 +126,7 @@ const co_emcy_stats *co_emcy_get_stats(const co_node *node);
  * default 80h + n, i.e. every node's EMCY consumed; bit 31 set when
  * consume_all is 0). Returns 0, -EINVAL, -ENOMEM.
  */
-int co_od_add_comm_defaults_emcy(co_od *od, uint8_t node_id,
-				 uint8_t history_len, uint8_t consumers,
+int co_od_add_comm_defaults_emcy(co_od *od, uint8_t node_id, uint8_t history_len, uint8_t consumers,
 				 int consume_all);
 
 #endif /* COGW_CORE_EMCY_H */

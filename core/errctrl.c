@@ -24,8 +24,8 @@ struct co_errctrl {
 	bool bus_off;
 };
 
-void co_errctrl_emit(co_node *node, co_event_kind kind, uint8_t remote,
-		     uint8_t state, uint8_t prev, bool guarded, uint16_t time_ms)
+void co_errctrl_emit(co_node *node, co_event_kind kind, uint8_t remote, uint8_t state, uint8_t prev,
+		     bool guarded, uint16_t time_ms)
 {
 	co_event ev = { .kind = kind };
 
@@ -37,8 +37,7 @@ void co_errctrl_emit(co_node *node, co_event_kind kind, uint8_t remote,
 	co_node_emit(node, &ev);
 }
 
-void co_errctrl_comm_lost(co_node *node, co_errctrl_source src,
-			  uint8_t msef_node, uint64_t now_us)
+void co_errctrl_comm_lost(co_node *node, co_errctrl_source src, uint8_t msef_node, uint64_t now_us)
 {
 	uint8_t msef[5] = { msef_node, 0, 0, 0, 0 };
 
@@ -46,13 +45,11 @@ void co_errctrl_comm_lost(co_node *node, co_errctrl_source src,
 		node->errctrl->lost[src] = true;
 	/* CiA 301: an error-control event is a communication error: EMCY
 	 * first (while the state still allows it), then 1029h:1. */
-	(void)co_emcy_send(node, CO_EMCY_LIFE_GUARD, CO_EMCY_REG_COMM, msef,
-			   now_us);
+	(void)co_emcy_send(node, CO_EMCY_LIFE_GUARD, CO_EMCY_REG_COMM, msef, now_us);
 	(void)co_nmt_comm_error(node, now_us);
 }
 
-void co_errctrl_loss_update(co_node *node, co_errctrl_source src, bool lost,
-			    uint64_t now_us)
+void co_errctrl_loss_update(co_node *node, co_errctrl_source src, bool lost, uint64_t now_us)
 {
 	struct co_errctrl *ec = node->errctrl;
 
@@ -73,8 +70,7 @@ void co_errctrl_guarded_set(co_node *node, uint8_t remote, bool on)
 
 bool co_errctrl_guarded(const co_node *node, uint8_t remote)
 {
-	return node->errctrl && remote < ERRCTRL_NODES &&
-	       node->errctrl->guarded[remote];
+	return node->errctrl && remote < ERRCTRL_NODES && node->errctrl->guarded[remote];
 }
 
 /* ---- bus-off ------------------------------------------------------------- */
@@ -95,8 +91,7 @@ int co_errctrl_bus_off_recovered(co_node *node, uint64_t now_us)
 	if (!node->errctrl->bus_off)
 		return 0;
 	node->errctrl->bus_off = false;
-	return co_emcy_send(node, CO_EMCY_BUS_OFF_RECOVERED, CO_EMCY_REG_COMM,
-			    NULL, now_us);
+	return co_emcy_send(node, CO_EMCY_BUS_OFF_RECOVERED, CO_EMCY_REG_COMM, NULL, now_us);
 }
 
 /* ---- service ------------------------------------------------------------- */

@@ -34,17 +34,15 @@ typedef enum co_errctrl_source {
 
 /* Emit an error-control event (u.errctrl). guarded: seen through node
  * guarding rather than heartbeat. */
-void co_errctrl_emit(co_node *node, co_event_kind kind, uint8_t remote,
-		     uint8_t state, uint8_t prev, bool guarded, uint16_t time_ms);
+void co_errctrl_emit(co_node *node, co_event_kind kind, uint8_t remote, uint8_t state, uint8_t prev,
+		     bool guarded, uint16_t time_ms);
 
 /* A communication loss happened (src now reports a loss): EMCY 8130h with
  * msef[0] = msef_node, then 1029h:1 (may change the NMT state). */
-void co_errctrl_comm_lost(co_node *node, co_errctrl_source src,
-			  uint8_t msef_node, uint64_t now_us);
+void co_errctrl_comm_lost(co_node *node, co_errctrl_source src, uint8_t msef_node, uint64_t now_us);
 /* src reports whether it still has a loss; when no source has one, EMCY
  * 8130h is cleared (nothing happens if it was not active). */
-void co_errctrl_loss_update(co_node *node, co_errctrl_source src, bool lost,
-			    uint64_t now_us);
+void co_errctrl_loss_update(co_node *node, co_errctrl_source src, bool lost, uint64_t now_us);
 
 /* The guarding master polls (on) or stopped polling (off) `remote`. */
 void co_errctrl_guarded_set(co_node *node, uint8_t remote, bool on);

@@ -19,44 +19,44 @@
 
 typedef enum co_event_kind {
 	CO_EV_NONE = 0,
-	CO_EV_OD_WRITTEN,       /* an object was written over SDO: u.od */
-	CO_EV_SDO_SERVER_DONE,  /* a server transfer ended: u.sdo_srv */
-	CO_EV_SDO_CLIENT_DONE,  /* a client request completed: u.sdo_cli */
-	CO_EV_STORE,            /* 1010h "save" accepted: u.store */
-	CO_EV_RESTORE,          /* 1011h "load" accepted: u.store */
-	CO_EV_RX_UNHANDLED,     /* frame with no receiver: u.frame */
-	CO_EV_TX_FAILED,        /* send callback failed: u.frame */
+	CO_EV_OD_WRITTEN,      /* an object was written over SDO: u.od */
+	CO_EV_SDO_SERVER_DONE, /* a server transfer ended: u.sdo_srv */
+	CO_EV_SDO_CLIENT_DONE, /* a client request completed: u.sdo_cli */
+	CO_EV_STORE,           /* 1010h "save" accepted: u.store */
+	CO_EV_RESTORE,         /* 1011h "load" accepted: u.store */
+	CO_EV_RX_UNHANDLED,    /* frame with no receiver: u.frame */
+	CO_EV_TX_FAILED,       /* send callback failed: u.frame */
 	/* NMT and error control (core/nmt.c, heartbeat.c, guarding.c) */
-	CO_EV_NMT_STATE,        /* own NMT state changed: u.nmt */
-	CO_EV_BOOTUP,           /* boot-up from any node: u.errctrl */
-	CO_EV_HB_STARTED,       /* monitored heartbeat (re)started: u.errctrl */
-	CO_EV_HB_LOST,          /* heartbeat consumer timeout: u.errctrl */
-	CO_EV_HB_STATE,         /* remote node changed state: u.errctrl */
-	CO_EV_GUARD_LIFE_LOST,  /* slave: no guard RTR within life time */
+	CO_EV_NMT_STATE,          /* own NMT state changed: u.nmt */
+	CO_EV_BOOTUP,             /* boot-up from any node: u.errctrl */
+	CO_EV_HB_STARTED,         /* monitored heartbeat (re)started: u.errctrl */
+	CO_EV_HB_LOST,            /* heartbeat consumer timeout: u.errctrl */
+	CO_EV_HB_STATE,           /* remote node changed state: u.errctrl */
+	CO_EV_GUARD_LIFE_LOST,    /* slave: no guard RTR within life time */
 	CO_EV_GUARD_LIFE_RESUMED, /* slave: guard RTR again after a loss */
-	CO_EV_GUARD_FAILED,     /* master: guarded node silent: u.errctrl */
-	CO_EV_GUARD_TOGGLE,     /* master: toggle bit repeated: u.errctrl */
-	CO_EV_GUARD_RESUMED,    /* master: guarded node answers again */
+	CO_EV_GUARD_FAILED,       /* master: guarded node silent: u.errctrl */
+	CO_EV_GUARD_TOGGLE,       /* master: toggle bit repeated: u.errctrl */
+	CO_EV_GUARD_RESUMED,      /* master: guarded node answers again */
 	/* EMCY (core/emcy.c) */
-	CO_EV_EMCY_RX,          /* EMCY consumed (1028h): u.emcy */
+	CO_EV_EMCY_RX, /* EMCY consumed (1028h): u.emcy */
 	/* SYNC, TIME, PDO (core/sync.c, time.c, pdo.c) */
-	CO_EV_SYNC,             /* SYNC received or produced: u.sync */
-	CO_EV_TIME,             /* TIME stamp consumed: u.time */
-	CO_EV_RPDO,             /* RPDO committed to the OD: u.pdo */
-	CO_EV_RPDO_OBJECT,      /* one object written by an RPDO: u.pdo_obj */
-	CO_EV_RPDO_TIMEOUT,     /* RPDO deadline (event timer) ran out: u.pdo */
-	CO_EV_RPDO_LENGTH,      /* RPDO of the wrong length dropped: u.pdo */
+	CO_EV_SYNC,         /* SYNC received or produced: u.sync */
+	CO_EV_TIME,         /* TIME stamp consumed: u.time */
+	CO_EV_RPDO,         /* RPDO committed to the OD: u.pdo */
+	CO_EV_RPDO_OBJECT,  /* one object written by an RPDO: u.pdo_obj */
+	CO_EV_RPDO_TIMEOUT, /* RPDO deadline (event timer) ran out: u.pdo */
+	CO_EV_RPDO_LENGTH,  /* RPDO of the wrong length dropped: u.pdo */
 	/* LSS (core/lss_master.c, core/lss_slave.c) */
-	CO_EV_LSS_MASTER_DONE,  /* an LSS master request ended: u.lss_master */
-	CO_EV_LSS_SLAVE_STATE,  /* slave: waiting <-> configuration: u.lss_slave */
-	CO_EV_LSS_SLAVE_NODE_ID, /* slave: pending or active node-ID changed */
-	CO_EV_LSS_SLAVE_STORE,  /* slave: store configuration accepted */
+	CO_EV_LSS_MASTER_DONE,      /* an LSS master request ended: u.lss_master */
+	CO_EV_LSS_SLAVE_STATE,      /* slave: waiting <-> configuration: u.lss_slave */
+	CO_EV_LSS_SLAVE_NODE_ID,    /* slave: pending or active node-ID changed */
+	CO_EV_LSS_SLAVE_STORE,      /* slave: store configuration accepted */
 	CO_EV_LSS_SLAVE_BIT_TIMING, /* slave: activate bit timing (switch the
 	                             * controller after delay_ms) */
 	/* CiA 302-2 manager (core/manager.c): u.mgr */
-	CO_EV_MGR_STATE,        /* line state or flags changed */
-	CO_EV_MGR_BOOT,         /* one step of a node's boot slave process */
-	CO_EV_MGR_NODE,         /* unexpected/late/lost/duplicate node, ... */
+	CO_EV_MGR_STATE, /* line state or flags changed */
+	CO_EV_MGR_BOOT,  /* one step of a node's boot slave process */
+	CO_EV_MGR_NODE,  /* unexpected/late/lost/duplicate node, ... */
 	/* other services append here: NMT, HB, EMCY, SYNC, TIME, PDO, LSS */
 	CO_EV_KIND_COUNT
 } co_event_kind;
@@ -75,21 +75,21 @@ typedef struct co_ev_sdo_srv {
 	uint8_t upload; /* 1 = read by the client, 0 = written */
 	uint16_t index;
 	uint8_t sub;
-	uint8_t mode;  /* sdo_mode actually used */
+	uint8_t mode;   /* sdo_mode actually used */
 	uint32_t abort; /* 0 = success */
 	uint32_t size;  /* bytes transferred */
 } co_ev_sdo_srv;
 
 typedef struct co_ev_sdo_cli {
 	uint8_t channel;
-	uint8_t upload; /* 1 = upload (read), 0 = download (write) */
+	uint8_t upload;  /* 1 = upload (read), 0 = download (write) */
 	uint8_t node_id; /* target */
 	uint8_t mode;    /* sdo_mode actually used (after any fallback) */
 	uint16_t index;
 	uint8_t sub;
-	uint32_t abort; /* 0 = success, else CiA abort code (local or remote) */
-	uint32_t size;  /* bytes transferred */
-	uint64_t tag;   /* caller's correlation id, echoed */
+	uint32_t abort;      /* 0 = success, else CiA abort code (local or remote) */
+	uint32_t size;       /* bytes transferred */
+	uint64_t tag;        /* caller's correlation id, echoed */
 	const uint8_t *data; /* upload into a buffer: that buffer, else NULL */
 } co_ev_sdo_cli;
 
@@ -102,16 +102,16 @@ typedef struct co_ev_store {
 typedef struct co_ev_nmt {
 	uint8_t state; /* enum co_nmt_state (core/nmt.h) */
 	uint8_t prev;
-	uint8_t cs;    /* command that caused it; 0 = boot, error behaviour
+	uint8_t cs; /* command that caused it; 0 = boot, error behaviour
 	                * (1029h) or reset completion */
 } co_ev_nmt;
 
 /* CO_EV_BOOTUP, CO_EV_HB_*, CO_EV_GUARD_* */
 typedef struct co_ev_errctrl {
-	uint8_t node;   /* remote node-id (own id for GUARD_LIFE_*) */
-	uint8_t state;  /* state last seen (enum co_nmt_state), 0xFF unknown */
-	uint8_t prev;   /* HB_STATE: previous state, 0xFF unknown */
-	uint8_t guarded; /* 1: seen through node guarding, 0: heartbeat */
+	uint8_t node;     /* remote node-id (own id for GUARD_LIFE_*) */
+	uint8_t state;    /* state last seen (enum co_nmt_state), 0xFF unknown */
+	uint8_t prev;     /* HB_STATE: previous state, 0xFF unknown */
+	uint8_t guarded;  /* 1: seen through node guarding, 0: heartbeat */
 	uint16_t time_ms; /* consumer time / guard time in force */
 } co_ev_errctrl;
 
@@ -165,44 +165,44 @@ typedef struct co_ev_pdo_obj {
 
 /* CO_EV_LSS_MASTER_DONE (core/lss_master.h) */
 typedef struct co_ev_lss_master {
-	uint8_t service;    /* enum lss_master_service */
-	uint8_t result;     /* enum lss_result */
-	uint8_t error_code; /* LSS_RESULT_SLAVE_ERROR: the slave's code */
-	uint8_t error_spec; /* implementation specific byte (code 0xFF) */
-	uint8_t node_id;    /* INQUIRE_NODE_ID: answer; CONFIG_NODE_ID: sent */
-	uint16_t answers;   /* answer frames seen (identify, Fastscan) */
-	uint32_t value;     /* INQUIRE_VENDOR..SERIAL: answer */
+	uint8_t service;      /* enum lss_master_service */
+	uint8_t result;       /* enum lss_result */
+	uint8_t error_code;   /* LSS_RESULT_SLAVE_ERROR: the slave's code */
+	uint8_t error_spec;   /* implementation specific byte (code 0xFF) */
+	uint8_t node_id;      /* INQUIRE_NODE_ID: answer; CONFIG_NODE_ID: sent */
+	uint16_t answers;     /* answer frames seen (identify, Fastscan) */
+	uint32_t value;       /* INQUIRE_VENDOR..SERIAL: answer */
 	uint32_t identity[4]; /* FASTSCAN: vendor, product, revision, serial */
-	uint64_t tag;       /* caller's correlation id, echoed */
+	uint64_t tag;         /* caller's correlation id, echoed */
 } co_ev_lss_master;
 
 /* CO_EV_LSS_SLAVE_* (core/lss_slave.h) */
 typedef struct co_ev_lss_slave {
-	uint8_t state;      /* enum lss_state after the change */
-	uint8_t active_id;  /* node-IDs after the change (255 = none) */
+	uint8_t state;     /* enum lss_state after the change */
+	uint8_t active_id; /* node-IDs after the change (255 = none) */
 	uint8_t pending_id;
 	uint8_t persistent_id;
-	uint8_t bt_table;   /* STORE/BIT_TIMING: configured bit timing */
+	uint8_t bt_table; /* STORE/BIT_TIMING: configured bit timing */
 	uint8_t bt_index;
-	uint8_t bt_valid;   /* 1 if a bit timing was configured */
-	uint16_t delay_ms;  /* BIT_TIMING: switch delay */
+	uint8_t bt_valid;  /* 1 if a bit timing was configured */
+	uint16_t delay_ms; /* BIT_TIMING: switch delay */
 } co_ev_lss_slave;
 
 /* CO_EV_MGR_* (core/manager.h) */
 typedef struct co_ev_mgr {
-	uint8_t node;     /* 0 = the line (MGR_STATE) */
-	uint8_t state;    /* MGR_STATE: co_mgr_state */
-	uint8_t prev;     /* MGR_STATE: previous co_mgr_state */
-	uint8_t flags;    /* MGR_STATE/BOOT: CO_MGR_F_* of the line */
-	uint8_t step;     /* MGR_BOOT: co_mgr_step */
-	char status;      /* MGR_BOOT: CiA 302-2 letter, 0 = step passed */
-	uint8_t what;     /* MGR_NODE: co_mgr_node_what */
+	uint8_t node;      /* 0 = the line (MGR_STATE) */
+	uint8_t state;     /* MGR_STATE: co_mgr_state */
+	uint8_t prev;      /* MGR_STATE: previous co_mgr_state */
+	uint8_t flags;     /* MGR_STATE/BOOT: CO_MGR_F_* of the line */
+	uint8_t step;      /* MGR_BOOT: co_mgr_step */
+	char status;       /* MGR_BOOT: CiA 302-2 letter, 0 = step passed */
+	uint8_t what;      /* MGR_NODE: co_mgr_node_what */
 	uint8_t mandatory; /* MGR_BOOT/NODE: 1 = mandatory slave */
-	uint16_t index;   /* MGR_BOOT: object of the step (0 = none) */
+	uint16_t index;    /* MGR_BOOT: object of the step (0 = none) */
 	uint8_t sub;
-	uint8_t done;     /* MGR_BOOT: 1 = last step (booted or failed) */
-	uint32_t abort;   /* MGR_BOOT: SDO abort code, 0 = none */
-	uint32_t value;   /* BOOT: the value read; NODE: detail */
+	uint8_t done;      /* MGR_BOOT: 1 = last step (booted or failed) */
+	uint32_t abort;    /* MGR_BOOT: SDO abort code, 0 = none */
+	uint32_t value;    /* BOOT: the value read; NODE: detail */
 	uint32_t expected; /* MGR_BOOT: value expected (1F84h..1F88h) */
 } co_ev_mgr;
 

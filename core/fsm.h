@@ -39,15 +39,15 @@ typedef struct co_fsm_state {
 } co_fsm_state;
 
 typedef struct co_fsm_def {
-	const char *name;            /* "sdo_server", for diagnostics */
-	const co_fsm_state *states;  /* indexed by the owner's state enum */
+	const char *name;           /* "sdo_server", for diagnostics */
+	const co_fsm_state *states; /* indexed by the owner's state enum */
 	int n_states;
 } co_fsm_def;
 
 typedef struct co_fsm {
 	const co_fsm_def *def;
-	void *obj;   /* passed to every handler */
-	int state;   /* index into def->states */
+	void *obj; /* passed to every handler */
+	int state; /* index into def->states */
 } co_fsm;
 
 /* Put the machine in `initial` without calling any handler. */
@@ -60,7 +60,10 @@ void co_fsm_frame(co_fsm *m, const co_frame *f, uint64_t now_us);
 void co_fsm_timeout(co_fsm *m, uint64_t now_us);
 void co_fsm_con(co_fsm *m, const void *con, uint64_t now_us);
 
-static inline int co_fsm_state_of(const co_fsm *m) { return m->state; }
+static inline int co_fsm_state_of(const co_fsm *m)
+{
+	return m->state;
+}
 /* Name of a state of a table ("?" when out of range). */
 const char *co_fsm_state_name(const co_fsm_def *def, int state);
 

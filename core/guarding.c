@@ -47,8 +47,8 @@ struct co_guard {
 	struct guard_target t[GUARD_NODES];
 };
 
-static void emit(co_node *node, co_event_kind kind, uint8_t remote,
-		 uint8_t state, uint8_t prev, uint16_t time_ms)
+static void emit(co_node *node, co_event_kind kind, uint8_t remote, uint8_t state, uint8_t prev,
+		 uint16_t time_ms)
 {
 	co_errctrl_emit(node, kind, remote, state, prev, true, time_ms);
 }
@@ -78,8 +78,7 @@ static void slave_rtr(co_node *node, uint64_t now_us)
 	if (co_nmt_get_state(node) == CO_NMT_INITIALISING)
 		return;
 	co_frame_init(&f, CO_NMT_ERRCTRL_BASE + node->node_id, 1);
-	f.data[0] = (uint8_t)((co_nmt_get_state(node) & 0x7F) |
-			      (g->toggle ? CO_GUARD_TOGGLE : 0));
+	f.data[0] = (uint8_t)((co_nmt_get_state(node) & 0x7F) | (g->toggle ? CO_GUARD_TOGGLE : 0));
 	g->toggle ^= 1;
 	(void)co_node_send(node, &f);
 
@@ -93,10 +92,9 @@ static void slave_rtr(co_node *node, uint64_t now_us)
 	co_node_deadline_lower(node, g->life_deadline_us);
 	if (g->life_lost) {
 		g->life_lost = false;
-		emit(node, CO_EV_GUARD_LIFE_RESUMED, node->node_id,
-		     co_nmt_get_state(node), CO_HB_STATE_UNKNOWN, 0);
-		co_errctrl_loss_update(node, CO_ERRCTRL_SRC_LIFE_GUARD, false,
-				       now_us);
+		emit(node, CO_EV_GUARD_LIFE_RESUMED, node->node_id, co_nmt_get_state(node),
+		     CO_HB_STATE_UNKNOWN, 0);
+		co_errctrl_loss_update(node, CO_ERRCTRL_SRC_LIFE_GUARD, false, now_us);
 	}
 }
 
@@ -110,8 +108,7 @@ static void slave_tick(co_node *node, uint64_t now_us)
 	g->life_active = false;
 	emit(node, CO_EV_GUARD_LIFE_LOST, node->node_id, co_nmt_get_state(node),
 	     CO_HB_STATE_UNKNOWN, 0);
-	co_errctrl_comm_lost(node, CO_ERRCTRL_SRC_LIFE_GUARD, node->node_id,
-			     now_us);
+	co_errctrl_comm_lost(node, CO_ERRCTRL_SRC_LIFE_GUARD, node->node_id, now_us);
 }
 
 static void par_after(void *ctx, co_od_entry *e, const co_od_access *a)
@@ -138,8 +135,8 @@ bool co_guard_life_lost(const co_node *node)
 
 /* ---- master ---------------------------------------------------------------- */
 
-static void master_answer(co_node *node, struct guard_target *t, uint8_t id,
-			  uint8_t byte, uint64_t now_us)
+static void master_answer(co_node *node, struct guard_target *t, uint8_t id, uint8_t byte,
+			  uint64_t now_us)
 {
 	uint8_t toggle = byte >> 7, st = byte & 0x7F;
 
@@ -205,8 +202,8 @@ static void master_tick(co_node *node, uint64_t now_us)
 		 * valid answer (or since guarding started). */
 		if (!t->failed && now_us >= life_deadline(t)) {
 			t->failed = true;
-			emit(node, CO_EV_GUARD_FAILED, (uint8_t)id, t->state,
-			     t->state, t->guard_time_ms);
+			emit(node, CO_EV_GUARD_FAILED, (uint8_t)id, t->state, t->state,
+			     t->guard_time_ms);
 		}
 		if (now_us < t->next_rtr_us)
 			continue;
@@ -217,8 +214,8 @@ static void master_tick(co_node *node, uint64_t now_us)
 	}
 }
 
-int co_guard_master_add(co_node *node, uint8_t target, uint16_t guard_time_ms,
-			uint8_t life_factor, uint64_t now_us)
+int co_guard_master_add(co_node *node, uint8_t target, uint16_t guard_time_ms, uint8_t life_factor,
+			uint64_t now_us)
 {
 	struct co_guard *g = node->guard;
 	struct guard_target *t;
@@ -229,12 +226,11 @@ int co_guard_master_add(co_node *node, uint8_t target, uint16_t guard_time_ms,
 		return -EINVAL;
 	t = &g->t[target];
 	if (!t->used) {
-		int h = co_rx_register(node, CO_NMT_ERRCTRL_BASE + target, 0,
-				       guard_rx, (void *)(uintptr_t)target);
+		int h = co_rx_register(node, CO_NMT_ERRCTRL_BASE + target, 0, guard_rx,
+				       (void *)(uintptr_t)target);
 		if (h < 0)
 			return h;
-		*t = (struct guard_target){ .used = true, .rx = h,
-					    .state = CO_HB_STATE_UNKNOWN };
+		*t = (struct guard_target){ .used = true, .rx = h, .state = CO_HB_STATE_UNKNOWN };
 		co_errctrl_guarded_set(node, target, true);
 	}
 	t->guard_time_ms = guard_time_ms;
@@ -281,8 +277,8 @@ static int guard_init(co_node *node)
 	node->guard = g;
 	g->rx_self = -1;
 	if (node->node_id >= 1 && node->node_id <= 127) {
-		g->rx_self = co_rx_register(node, CO_NMT_ERRCTRL_BASE + node->node_id,
-					    0, guard_rx, NULL);
+		g->rx_self = co_rx_register(node, CO_NMT_ERRCTRL_BASE + node->node_id, 0, guard_rx,
+					    NULL);
 		if (g->rx_self < 0)
 			return g->rx_self;
 	}
@@ -330,8 +326,7 @@ static void slave_follow_id(co_node *node)
 		return;
 	}
 	if (g->rx_self < 0)
-		g->rx_self = co_rx_register(node, CO_NMT_ERRCTRL_BASE + id, 0,
-					    guard_rx, NULL);
+		g->rx_self = co_rx_register(node, CO_NMT_ERRCTRL_BASE + id, 0, guard_rx, NULL);
 	else
 		(void)co_rx_move(node, g->rx_self, CO_NMT_ERRCTRL_BASE + id, 0);
 }
@@ -348,8 +343,7 @@ static void guard_reset_comm(co_node *node, uint64_t now_us)
 	g->life_lost = false;
 	slave_follow_id(node);
 	if (was_lost)
-		co_errctrl_loss_update(node, CO_ERRCTRL_SRC_LIFE_GUARD, false,
-				       now_us);
+		co_errctrl_loss_update(node, CO_ERRCTRL_SRC_LIFE_GUARD, false, now_us);
 }
 
 const co_service co_svc_guard = {

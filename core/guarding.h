@@ -41,8 +41,8 @@ extern const co_service co_svc_guard;
 /* Start guarding `target` (1..127): first RTR now, then every
  * guard_time_ms (> 0); life_factor 0 counts as 1. Re-adding updates the
  * timing. -EINVAL, -ENOSPC (no receiver left). */
-int co_guard_master_add(co_node *node, uint8_t target, uint16_t guard_time_ms,
-			uint8_t life_factor, uint64_t now_us);
+int co_guard_master_add(co_node *node, uint8_t target, uint16_t guard_time_ms, uint8_t life_factor,
+			uint64_t now_us);
 int co_guard_master_remove(co_node *node, uint8_t target);
 bool co_guard_master_has(const co_node *node, uint8_t target);
 /* Master: guarded node currently failed. */

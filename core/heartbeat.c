@@ -38,28 +38,32 @@ struct co_hb {
 	uint64_t prod_next_us; /* CO_NO_DEADLINE = off */
 	/* consumer */
 	struct hb_entry ent[HB_ENTRIES + 1]; /* by 1016h sub, [0] unused */
-	uint8_t n_ent;                        /* subs 1..n_ent exist */
+	uint8_t n_ent;                       /* subs 1..n_ent exist */
 	uint8_t last_state[HB_NODES];
 	uint64_t last_heard_us[HB_NODES]; /* 0 = never */
 	int rx[HB_NODES];
 	unsigned lost;
 	unsigned rx_missing; /* node-ids not listened to: receiver pool full */
-	uint8_t own_id; /* id whose 700h+id we do not consume (LSS may change it) */
+	uint8_t own_id;      /* id whose 700h+id we do not consume (LSS may change it) */
 };
 
 const char *co_hb_mon_to_string(co_hb_mon m)
 {
 	switch (m) {
-	case CO_HB_MON_OFF: return "off";
-	case CO_HB_MON_WAITING: return "waiting";
-	case CO_HB_MON_ACTIVE: return "active";
-	case CO_HB_MON_LOST: return "lost";
+	case CO_HB_MON_OFF:
+		return "off";
+	case CO_HB_MON_WAITING:
+		return "waiting";
+	case CO_HB_MON_ACTIVE:
+		return "active";
+	case CO_HB_MON_LOST:
+		return "lost";
 	}
 	return "?";
 }
 
-static void emit(co_node *node, co_event_kind kind, uint8_t remote,
-		 uint8_t state, uint8_t prev, uint16_t time_ms)
+static void emit(co_node *node, co_event_kind kind, uint8_t remote, uint8_t state, uint8_t prev,
+		 uint16_t time_ms)
 {
 	co_errctrl_emit(node, kind, remote, state, prev, false, time_ms);
 }
@@ -164,8 +168,7 @@ static void ent_load(struct co_hb *ec, uint8_t sub)
 	en->node = (uint8_t)(v >> 16);
 	en->time_ms = (uint16_t)v;
 	en->deadline_us = CO_NO_DEADLINE;
-	en->mon = (en->node && en->node <= 127 && en->time_ms) ? CO_HB_MON_WAITING
-							       : CO_HB_MON_OFF;
+	en->mon = (en->node && en->node <= 127 && en->time_ms) ? CO_HB_MON_WAITING : CO_HB_MON_OFF;
 }
 
 static void loss(co_node *node, struct hb_entry *en, uint64_t now_us)
@@ -175,8 +178,8 @@ static void loss(co_node *node, struct hb_entry *en, uint64_t now_us)
 	en->mon = CO_HB_MON_LOST;
 	en->deadline_us = CO_NO_DEADLINE;
 	ec->lost++;
-	emit(node, CO_EV_HB_LOST, en->node, ec->last_state[en->node],
-	     CO_HB_STATE_UNKNOWN, en->time_ms);
+	emit(node, CO_EV_HB_LOST, en->node, ec->last_state[en->node], CO_HB_STATE_UNKNOWN,
+	     en->time_ms);
 	co_errctrl_comm_lost(node, CO_ERRCTRL_SRC_HEARTBEAT, en->node, now_us);
 }
 
@@ -184,8 +187,8 @@ static void loss(co_node *node, struct hb_entry *en, uint64_t now_us)
  * 8130h once neither heartbeat nor life guarding has one). */
 static void loss_update(co_node *node, uint64_t now_us)
 {
-	co_errctrl_loss_update(node, CO_ERRCTRL_SRC_HEARTBEAT,
-			       node->hb && node->hb->lost != 0, now_us);
+	co_errctrl_loss_update(node, CO_ERRCTRL_SRC_HEARTBEAT, node->hb && node->hb->lost != 0,
+			       now_us);
 }
 
 /* A lost entry is heard from again: one loss fewer. True if it was lost. */
@@ -219,8 +222,7 @@ static bool hb_bootup(co_node *node, uint8_t remote, uint8_t prev)
 
 /* Heartbeat of `remote` in state st: (re)start its entries' windows.
  * Returns true if a loss ended. */
-static bool hb_heard(co_node *node, uint8_t remote, uint8_t st, uint8_t prev,
-		     uint64_t now_us)
+static bool hb_heard(co_node *node, uint8_t remote, uint8_t st, uint8_t prev, uint64_t now_us)
 {
 	struct co_hb *ec = node->hb;
 	bool resolved = false;
@@ -309,8 +311,7 @@ static const co_od_hooks c1016_hooks = {
 	.after_write = c1016_after,
 };
 
-int co_hb_consumer_set(co_node *node, uint8_t remote_id, uint16_t time_ms,
-		       uint64_t now_us)
+int co_hb_consumer_set(co_node *node, uint8_t remote_id, uint16_t time_ms, uint64_t now_us)
 {
 	struct co_hb *ec = node->hb;
 	co_od_access a = { .origin = CO_OD_ORIGIN_LOCAL };
@@ -338,9 +339,7 @@ int co_hb_consumer_set(co_node *node, uint8_t remote_id, uint16_t time_ms,
 	}
 	node->now_us = now_us;
 	co_put_le32(buf, ((uint32_t)remote_id << 16) | time_ms);
-	return co_od_write(co_od_find(node->od, 0x1016, (uint8_t)s), buf, 4, &a)
-		       ? -EINVAL
-		       : 0;
+	return co_od_write(co_od_find(node->od, 0x1016, (uint8_t)s), buf, 4, &a) ? -EINVAL : 0;
 }
 
 co_hb_mon co_hb_consumer_status(const co_node *node, uint8_t remote_id)
@@ -412,8 +411,8 @@ static int hb_init(co_node *node)
 	for (unsigned n = 1; n <= 127; n++) {
 		if (n == node->node_id)
 			continue;
-		ec->rx[n] = co_rx_register(node, CO_NMT_ERRCTRL_BASE + n, 0,
-					   hb_rx, (void *)(uintptr_t)n);
+		ec->rx[n] = co_rx_register(node, CO_NMT_ERRCTRL_BASE + n, 0, hb_rx,
+					   (void *)(uintptr_t)n);
 		/* A node built with a small receiver pool (rx_max) still
 		 * works: it just does not see the remaining node-ids. */
 		if (ec->rx[n] == -ENOSPC) {
@@ -459,8 +458,8 @@ static void own_id_changed(co_node *node)
 	uint8_t old = ec->own_id, now = node->node_id;
 
 	if (old >= 1 && old <= 127 && ec->rx[old] < 0)
-		ec->rx[old] = co_rx_register(node, CO_NMT_ERRCTRL_BASE + old, 0,
-					     hb_rx, (void *)(uintptr_t)old);
+		ec->rx[old] = co_rx_register(node, CO_NMT_ERRCTRL_BASE + old, 0, hb_rx,
+					     (void *)(uintptr_t)old);
 	if (now >= 1 && now <= 127 && ec->rx[now] >= 0) {
 		(void)co_rx_unregister(node, ec->rx[now]);
 		ec->rx[now] = -1;
@@ -509,10 +508,8 @@ int co_od_add_comm_defaults_hb(co_od *od, uint8_t consumers, uint16_t producer_m
 	if (!od || consumers > HB_ENTRIES)
 		return -EINVAL;
 	if (consumers && !co_od_has_index(od, 0x1016)) {
-		if ((rc = co_od_add_array(od, 0x1016, CO_T_UNSIGNED32, consumers,
-					  CO_ACC_RW, 0)))
+		if ((rc = co_od_add_array(od, 0x1016, CO_T_UNSIGNED32, consumers, CO_ACC_RW, 0)))
 			return rc;
 	}
-	return co_od_ensure_num(od, 0x1017, 0, CO_T_UNSIGNED16, CO_ACC_RW,
-				producer_ms, 0);
+	return co_od_ensure_num(od, 0x1017, 0, CO_T_UNSIGNED16, CO_ACC_RW, producer_ms, 0);
 }

@@ -47,10 +47,10 @@ extern const co_service co_svc_hb;
 
 /* Monitoring status of one consumer entry. */
 typedef enum co_hb_mon {
-	CO_HB_MON_OFF = 0,  /* no entry, or node/time 0 */
-	CO_HB_MON_WAITING,  /* configured, no heartbeat yet (or after boot-up) */
-	CO_HB_MON_ACTIVE,   /* heartbeats arriving in time */
-	CO_HB_MON_LOST,     /* consumer time expired */
+	CO_HB_MON_OFF = 0, /* no entry, or node/time 0 */
+	CO_HB_MON_WAITING, /* configured, no heartbeat yet (or after boot-up) */
+	CO_HB_MON_ACTIVE,  /* heartbeats arriving in time */
+	CO_HB_MON_LOST,    /* consumer time expired */
 } co_hb_mon;
 
 const char *co_hb_mon_to_string(co_hb_mon m);
@@ -65,8 +65,7 @@ int co_hb_producer_set(co_node *node, uint16_t period_ms, uint64_t now_us);
  * Returns 0, -ENOSPC if 1016h is full, -ENOENT without 1016h, -EINVAL.
  * time_ms 0 disables monitoring of remote_id (the entry stays).
  */
-int co_hb_consumer_set(co_node *node, uint8_t remote_id, uint16_t time_ms,
-		       uint64_t now_us);
+int co_hb_consumer_set(co_node *node, uint8_t remote_id, uint16_t time_ms, uint64_t now_us);
 
 co_hb_mon co_hb_consumer_status(const co_node *node, uint8_t remote_id);
 /* Last state byte seen from remote_id (any node), CO_HB_STATE_UNKNOWN if
@@ -80,7 +79,6 @@ unsigned co_hb_lost_count(const co_node *node);
 
 /* Add 1016h (ARRAY, consumers entries 1..127, U32 rw, 0) and 1017h (U16
  * rw, default producer_ms) unless present. consumers 0 = no 1016h. */
-int co_od_add_comm_defaults_hb(co_od *od, uint8_t consumers,
-			       uint16_t producer_ms);
+int co_od_add_comm_defaults_hb(co_od *od, uint8_t consumers, uint16_t producer_ms);
 
 #endif /* COGW_CORE_HEARTBEAT_H */

@@ -10,31 +10,56 @@
 const char *lss_cs_to_string(uint8_t cs)
 {
 	switch ((lss_cs)cs) {
-	case LSS_CS_SWITCH_GLOBAL: return "switch-global";
-	case LSS_CS_CONFIG_NODE_ID: return "config-node-id";
-	case LSS_CS_CONFIG_BIT_TIMING: return "config-bit-timing";
-	case LSS_CS_ACTIVATE_BIT_TIMING: return "activate-bit-timing";
-	case LSS_CS_STORE: return "store";
-	case LSS_CS_SWITCH_SEL_VENDOR: return "switch-selective-vendor";
-	case LSS_CS_SWITCH_SEL_PRODUCT: return "switch-selective-product";
-	case LSS_CS_SWITCH_SEL_REVISION: return "switch-selective-revision";
-	case LSS_CS_SWITCH_SEL_SERIAL: return "switch-selective-serial";
-	case LSS_CS_SWITCH_SEL_RESPONSE: return "switch-selective-response";
-	case LSS_CS_IDENT_VENDOR: return "identify-vendor";
-	case LSS_CS_IDENT_PRODUCT: return "identify-product";
-	case LSS_CS_IDENT_REVISION_LOW: return "identify-revision-low";
-	case LSS_CS_IDENT_REVISION_HIGH: return "identify-revision-high";
-	case LSS_CS_IDENT_SERIAL_LOW: return "identify-serial-low";
-	case LSS_CS_IDENT_SERIAL_HIGH: return "identify-serial-high";
-	case LSS_CS_IDENT_NON_CONFIGURED: return "identify-non-configured";
-	case LSS_CS_IDENT_SLAVE: return "identify-slave";
-	case LSS_CS_IDENT_NON_CONFIGURED_SLAVE: return "identify-non-configured-slave";
-	case LSS_CS_FASTSCAN: return "fastscan";
-	case LSS_CS_INQUIRE_VENDOR: return "inquire-vendor";
-	case LSS_CS_INQUIRE_PRODUCT: return "inquire-product";
-	case LSS_CS_INQUIRE_REVISION: return "inquire-revision";
-	case LSS_CS_INQUIRE_SERIAL: return "inquire-serial";
-	case LSS_CS_INQUIRE_NODE_ID: return "inquire-node-id";
+	case LSS_CS_SWITCH_GLOBAL:
+		return "switch-global";
+	case LSS_CS_CONFIG_NODE_ID:
+		return "config-node-id";
+	case LSS_CS_CONFIG_BIT_TIMING:
+		return "config-bit-timing";
+	case LSS_CS_ACTIVATE_BIT_TIMING:
+		return "activate-bit-timing";
+	case LSS_CS_STORE:
+		return "store";
+	case LSS_CS_SWITCH_SEL_VENDOR:
+		return "switch-selective-vendor";
+	case LSS_CS_SWITCH_SEL_PRODUCT:
+		return "switch-selective-product";
+	case LSS_CS_SWITCH_SEL_REVISION:
+		return "switch-selective-revision";
+	case LSS_CS_SWITCH_SEL_SERIAL:
+		return "switch-selective-serial";
+	case LSS_CS_SWITCH_SEL_RESPONSE:
+		return "switch-selective-response";
+	case LSS_CS_IDENT_VENDOR:
+		return "identify-vendor";
+	case LSS_CS_IDENT_PRODUCT:
+		return "identify-product";
+	case LSS_CS_IDENT_REVISION_LOW:
+		return "identify-revision-low";
+	case LSS_CS_IDENT_REVISION_HIGH:
+		return "identify-revision-high";
+	case LSS_CS_IDENT_SERIAL_LOW:
+		return "identify-serial-low";
+	case LSS_CS_IDENT_SERIAL_HIGH:
+		return "identify-serial-high";
+	case LSS_CS_IDENT_NON_CONFIGURED:
+		return "identify-non-configured";
+	case LSS_CS_IDENT_SLAVE:
+		return "identify-slave";
+	case LSS_CS_IDENT_NON_CONFIGURED_SLAVE:
+		return "identify-non-configured-slave";
+	case LSS_CS_FASTSCAN:
+		return "fastscan";
+	case LSS_CS_INQUIRE_VENDOR:
+		return "inquire-vendor";
+	case LSS_CS_INQUIRE_PRODUCT:
+		return "inquire-product";
+	case LSS_CS_INQUIRE_REVISION:
+		return "inquire-revision";
+	case LSS_CS_INQUIRE_SERIAL:
+		return "inquire-serial";
+	case LSS_CS_INQUIRE_NODE_ID:
+		return "inquire-node-id";
 	}
 	return "?";
 }
@@ -42,8 +67,10 @@ const char *lss_cs_to_string(uint8_t cs)
 const char *lss_state_to_string(lss_state s)
 {
 	switch (s) {
-	case LSS_STATE_WAITING: return "waiting";
-	case LSS_STATE_CONFIGURATION: return "configuration";
+	case LSS_STATE_WAITING:
+		return "waiting";
+	case LSS_STATE_CONFIGURATION:
+		return "configuration";
 	}
 	return "?";
 }

@@ -24,7 +24,8 @@
 #define LSS_COBID_SLAVE 0x7E4u  /* slave -> master */
 
 #define LSS_NODE_ID_UNCONFIGURED 0xFFu /* no valid node-ID (CiA 305) */
-#define LSS_FASTSCAN_CONFIRM 0x80u     /* BitChecked value: reset the
+#define LSS_FASTSCAN_CONFIRM \
+	0x80u /* BitChecked value: reset the
 					* slaves' Fastscan position, every
 					* non-configured slave answers */
 
@@ -45,16 +46,16 @@ typedef enum lss_cs {
 	LSS_CS_IDENT_REVISION_LOW = 0x48,  /* range, bounds included */
 	LSS_CS_IDENT_REVISION_HIGH = 0x49,
 	LSS_CS_IDENT_SERIAL_LOW = 0x4A,
-	LSS_CS_IDENT_SERIAL_HIGH = 0x4B,   /* last frame: matching slaves answer */
-	LSS_CS_IDENT_NON_CONFIGURED = 0x4C, /* identify non-configured slaves */
-	LSS_CS_IDENT_SLAVE = 0x4F,          /* slave: "I match" (also Fastscan) */
+	LSS_CS_IDENT_SERIAL_HIGH = 0x4B,          /* last frame: matching slaves answer */
+	LSS_CS_IDENT_NON_CONFIGURED = 0x4C,       /* identify non-configured slaves */
+	LSS_CS_IDENT_SLAVE = 0x4F,                /* slave: "I match" (also Fastscan) */
 	LSS_CS_IDENT_NON_CONFIGURED_SLAVE = 0x50, /* slave: "I am unconfigured" */
-	LSS_CS_FASTSCAN = 0x51, /* 1-4 IDNumber, 5 BitChecked, 6 LSSSub, 7 LSSNext */
-	LSS_CS_INQUIRE_VENDOR = 0x5A,   /* answer bytes 1-4: 1018h:1 */
+	LSS_CS_FASTSCAN = 0x51,       /* 1-4 IDNumber, 5 BitChecked, 6 LSSSub, 7 LSSNext */
+	LSS_CS_INQUIRE_VENDOR = 0x5A, /* answer bytes 1-4: 1018h:1 */
 	LSS_CS_INQUIRE_PRODUCT = 0x5B,
 	LSS_CS_INQUIRE_REVISION = 0x5C,
 	LSS_CS_INQUIRE_SERIAL = 0x5D,
-	LSS_CS_INQUIRE_NODE_ID = 0x5E,  /* answer byte 1: active node-ID */
+	LSS_CS_INQUIRE_NODE_ID = 0x5E, /* answer byte 1: active node-ID */
 } lss_cs;
 
 /* "switch-global", "fastscan", ...; "?" for other values. */
@@ -73,11 +74,11 @@ const char *lss_state_to_string(lss_state s);
  * different per service; 0xFF says "see the implementation-specific
  * error byte" (byte 2). */
 #define LSS_EC_OK 0x00u
-#define LSS_EC_NODE_ID_RANGE 0x01u    /* 11h: node-ID out of range */
+#define LSS_EC_NODE_ID_RANGE 0x01u     /* 11h: node-ID out of range */
 #define LSS_EC_BIT_TIMING_UNSUPP 0x01u /* 13h: bit rate not supported */
-#define LSS_EC_STORE_UNSUPP 0x01u     /* 17h: store not supported */
-#define LSS_EC_STORE_ACCESS 0x02u     /* 17h: storage media access error */
-#define LSS_EC_SPECIFIC 0xFFu         /* implementation specific (spec) */
+#define LSS_EC_STORE_UNSUPP 0x01u      /* 17h: store not supported */
+#define LSS_EC_STORE_ACCESS 0x02u      /* 17h: storage media access error */
+#define LSS_EC_SPECIFIC 0xFFu          /* implementation specific (spec) */
 
 /* Text for an error code in the answer to cs (11h, 13h or 17h). */
 const char *lss_error_to_string(uint8_t cs, uint8_t code);

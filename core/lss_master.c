@@ -52,11 +52,11 @@ struct lss_master {
 	uint8_t q_len;
 	uint8_t q_head;
 	uint8_t q_count;
-	bool cancelling; /* lss_master_cancel_all() running: start nothing */
-	bool submitting; /* inside lss_master_submit(): end later */
+	bool cancelling;       /* lss_master_cancel_all() running: start nothing */
+	bool submitting;       /* inside lss_master_submit(): end later */
 	lss_result done_later; /* LSS_MASTER_DONE_LATER: the result */
 
-	co_fsm fsm;              /* state: lss_master_state */
+	co_fsm fsm; /* state: lss_master_state */
 	lss_master_req cur;
 	uint64_t deadline_us;    /* of the running state; CO_NO_DEADLINE */
 	uint64_t quiet_until_us; /* after activate bit timing */
@@ -66,9 +66,9 @@ struct lss_master {
 	                          * once the machine has settled in idle */
 	lss_result end_result;
 
-	uint8_t fs_sub;          /* Fastscan: field being scanned */
-	uint8_t fs_bit;          /* Fastscan: bit being probed */
-	bool fs_bit0_retry;      /* Fastscan: confirming with bit 0 = 1 */
+	uint8_t fs_sub;     /* Fastscan: field being scanned */
+	uint8_t fs_bit;     /* Fastscan: bit being probed */
+	bool fs_bit0_retry; /* Fastscan: confirming with bit 0 = 1 */
 };
 
 /* ---- names ------------------------------------------------------------------ */
@@ -76,22 +76,38 @@ struct lss_master {
 const char *lss_master_service_to_string(lss_master_service s)
 {
 	switch (s) {
-	case LSS_SVC_NONE: return "none";
-	case LSS_SVC_SWITCH_GLOBAL: return "switch-global";
-	case LSS_SVC_SWITCH_SELECTIVE: return "switch-selective";
-	case LSS_SVC_CONFIG_NODE_ID: return "config-node-id";
-	case LSS_SVC_CONFIG_BIT_TIMING: return "config-bit-timing";
-	case LSS_SVC_ACTIVATE_BIT_TIMING: return "activate-bit-timing";
-	case LSS_SVC_STORE: return "store";
-	case LSS_SVC_INQUIRE_VENDOR: return "inquire-vendor";
-	case LSS_SVC_INQUIRE_PRODUCT: return "inquire-product";
-	case LSS_SVC_INQUIRE_REVISION: return "inquire-revision";
-	case LSS_SVC_INQUIRE_SERIAL: return "inquire-serial";
-	case LSS_SVC_INQUIRE_NODE_ID: return "inquire-node-id";
-	case LSS_SVC_IDENTIFY_REMOTE: return "identify-remote";
-	case LSS_SVC_IDENTIFY_NON_CONFIGURED: return "identify-non-configured";
-	case LSS_SVC_FASTSCAN: return "fastscan";
-	case LSS_SVC_COUNT: break;
+	case LSS_SVC_NONE:
+		return "none";
+	case LSS_SVC_SWITCH_GLOBAL:
+		return "switch-global";
+	case LSS_SVC_SWITCH_SELECTIVE:
+		return "switch-selective";
+	case LSS_SVC_CONFIG_NODE_ID:
+		return "config-node-id";
+	case LSS_SVC_CONFIG_BIT_TIMING:
+		return "config-bit-timing";
+	case LSS_SVC_ACTIVATE_BIT_TIMING:
+		return "activate-bit-timing";
+	case LSS_SVC_STORE:
+		return "store";
+	case LSS_SVC_INQUIRE_VENDOR:
+		return "inquire-vendor";
+	case LSS_SVC_INQUIRE_PRODUCT:
+		return "inquire-product";
+	case LSS_SVC_INQUIRE_REVISION:
+		return "inquire-revision";
+	case LSS_SVC_INQUIRE_SERIAL:
+		return "inquire-serial";
+	case LSS_SVC_INQUIRE_NODE_ID:
+		return "inquire-node-id";
+	case LSS_SVC_IDENTIFY_REMOTE:
+		return "identify-remote";
+	case LSS_SVC_IDENTIFY_NON_CONFIGURED:
+		return "identify-non-configured";
+	case LSS_SVC_FASTSCAN:
+		return "fastscan";
+	case LSS_SVC_COUNT:
+		break;
 	}
 	return "?";
 }
@@ -99,13 +115,20 @@ const char *lss_master_service_to_string(lss_master_service s)
 const char *lss_result_to_string(lss_result r)
 {
 	switch (r) {
-	case LSS_RESULT_OK: return "ok";
-	case LSS_RESULT_SLAVE_ERROR: return "slave error";
-	case LSS_RESULT_TIMEOUT: return "timeout";
-	case LSS_RESULT_NOT_FOUND: return "no slave answered";
-	case LSS_RESULT_SCAN_LOST: return "fastscan lost the slave";
-	case LSS_RESULT_CANCELLED: return "cancelled";
-	case LSS_RESULT_TX_FAILED: return "send failed";
+	case LSS_RESULT_OK:
+		return "ok";
+	case LSS_RESULT_SLAVE_ERROR:
+		return "slave error";
+	case LSS_RESULT_TIMEOUT:
+		return "timeout";
+	case LSS_RESULT_NOT_FOUND:
+		return "no slave answered";
+	case LSS_RESULT_SCAN_LOST:
+		return "fastscan lost the slave";
+	case LSS_RESULT_CANCELLED:
+		return "cancelled";
+	case LSS_RESULT_TX_FAILED:
+		return "send failed";
 	}
 	return "?";
 }
@@ -184,8 +207,7 @@ static void report(struct lss_master *m, uint64_t now_us)
 }
 
 /* Send one LSS request: cs and up to 7 payload bytes, padded to 8. */
-static int send_cmd(struct lss_master *m, uint8_t cs, const uint8_t *p,
-		    unsigned n)
+static int send_cmd(struct lss_master *m, uint8_t cs, const uint8_t *p, unsigned n)
 {
 	co_frame f;
 
@@ -248,8 +270,7 @@ static int confirm_error_answer(struct lss_master *m, const co_frame *f)
 		return CO_FSM_STAY; /* no error code: not an answer */
 	m->res.error_code = f->data[1];
 	m->res.error_spec = f->len >= 3 ? f->data[2] : 0;
-	return end(m, f->data[1] == LSS_EC_OK ? LSS_RESULT_OK
-					      : LSS_RESULT_SLAVE_ERROR);
+	return end(m, f->data[1] == LSS_EC_OK ? LSS_RESULT_OK : LSS_RESULT_SLAVE_ERROR);
 }
 
 static int confirm_on_frame(void *obj, const co_frame *f, uint64_t now_us)
@@ -349,8 +370,7 @@ static int fs_probe(struct lss_master *m)
  * moves on (or, after the last field, into configuration state). */
 static int fs_confirm(struct lss_master *m)
 {
-	return fs_send(m, LSS_MASTER_FS_CONFIRM, 0,
-		       (uint8_t)((m->fs_sub + 1) % LSS_ID_COUNT));
+	return fs_send(m, LSS_MASTER_FS_CONFIRM, 0, (uint8_t)((m->fs_sub + 1) % LSS_ID_COUNT));
 }
 
 static int fs_begin_field(struct lss_master *m)
@@ -435,9 +455,8 @@ static int start_switch_global(struct lss_master *m)
 {
 	uint8_t mode = m->cur.mode;
 
-	return end(m, send_cmd(m, LSS_CS_SWITCH_GLOBAL, &mode, 1) < 0
-			      ? LSS_RESULT_TX_FAILED
-			      : LSS_RESULT_OK);
+	return end(m, send_cmd(m, LSS_CS_SWITCH_GLOBAL, &mode, 1) < 0 ? LSS_RESULT_TX_FAILED
+								      : LSS_RESULT_OK);
 }
 
 static int start_switch_selective(struct lss_master *m)
@@ -445,8 +464,7 @@ static int start_switch_selective(struct lss_master *m)
 	int rc = 0;
 
 	for (unsigned i = 0; i < LSS_ID_COUNT && rc == 0; i++)
-		rc = send_u32(m, (uint8_t)(LSS_CS_SWITCH_SEL_VENDOR + i),
-			      m->cur.addr.id[i]);
+		rc = send_u32(m, (uint8_t)(LSS_CS_SWITCH_SEL_VENDOR + i), m->cur.addr.id[i]);
 	return wait_for(m, rc, LSS_MASTER_CONFIRM, LSS_CS_SWITCH_SEL_RESPONSE);
 }
 
@@ -461,8 +479,8 @@ static int start_config_bit_timing(struct lss_master *m)
 {
 	uint8_t p[2] = { m->cur.table, m->cur.index };
 
-	return wait_for(m, send_cmd(m, LSS_CS_CONFIG_BIT_TIMING, p, 2),
-			LSS_MASTER_CONFIRM, LSS_CS_CONFIG_BIT_TIMING);
+	return wait_for(m, send_cmd(m, LSS_CS_CONFIG_BIT_TIMING, p, 2), LSS_MASTER_CONFIRM,
+			LSS_CS_CONFIG_BIT_TIMING);
 }
 
 static int start_activate_bit_timing(struct lss_master *m)
@@ -470,20 +488,17 @@ static int start_activate_bit_timing(struct lss_master *m)
 	uint8_t p[2];
 
 	co_put_le16(p, m->cur.delay_ms);
-	return wait_for(m, send_cmd(m, LSS_CS_ACTIVATE_BIT_TIMING, p, 2),
-			LSS_MASTER_ACTIVATE, 0);
+	return wait_for(m, send_cmd(m, LSS_CS_ACTIVATE_BIT_TIMING, p, 2), LSS_MASTER_ACTIVATE, 0);
 }
 
 static int start_store(struct lss_master *m)
 {
-	return wait_for(m, send_cmd(m, LSS_CS_STORE, NULL, 0),
-			LSS_MASTER_CONFIRM, LSS_CS_STORE);
+	return wait_for(m, send_cmd(m, LSS_CS_STORE, NULL, 0), LSS_MASTER_CONFIRM, LSS_CS_STORE);
 }
 
 static int start_inquire(struct lss_master *m)
 {
-	uint8_t cs = (uint8_t)(LSS_CS_INQUIRE_VENDOR +
-			       (m->cur.service - LSS_SVC_INQUIRE_VENDOR));
+	uint8_t cs = (uint8_t)(LSS_CS_INQUIRE_VENDOR + (m->cur.service - LSS_SVC_INQUIRE_VENDOR));
 
 	return wait_for(m, send_cmd(m, cs, NULL, 0), LSS_MASTER_CONFIRM, cs);
 }
@@ -491,11 +506,9 @@ static int start_inquire(struct lss_master *m)
 static int start_identify_remote(struct lss_master *m)
 {
 	const uint32_t v[6] = {
-		m->cur.addr.id[LSS_ID_VENDOR], m->cur.addr.id[LSS_ID_PRODUCT],
-		m->cur.addr.id[LSS_ID_REVISION],
-		m->cur.addr_high.id[LSS_ID_REVISION],
-		m->cur.addr.id[LSS_ID_SERIAL],
-		m->cur.addr_high.id[LSS_ID_SERIAL],
+		m->cur.addr.id[LSS_ID_VENDOR],   m->cur.addr.id[LSS_ID_PRODUCT],
+		m->cur.addr.id[LSS_ID_REVISION], m->cur.addr_high.id[LSS_ID_REVISION],
+		m->cur.addr.id[LSS_ID_SERIAL],   m->cur.addr_high.id[LSS_ID_SERIAL],
 	};
 	int rc = 0;
 
@@ -506,16 +519,14 @@ static int start_identify_remote(struct lss_master *m)
 
 static int start_identify_non_configured(struct lss_master *m)
 {
-	return wait_for(m, send_cmd(m, LSS_CS_IDENT_NON_CONFIGURED, NULL, 0),
-			LSS_MASTER_WINDOW, LSS_CS_IDENT_NON_CONFIGURED_SLAVE);
+	return wait_for(m, send_cmd(m, LSS_CS_IDENT_NON_CONFIGURED, NULL, 0), LSS_MASTER_WINDOW,
+			LSS_CS_IDENT_NON_CONFIGURED_SLAVE);
 }
 
 static int start_fastscan(struct lss_master *m)
 {
 	for (unsigned i = 0; i < LSS_ID_COUNT; i++)
-		m->res.identity[i] = (m->cur.known_mask & (1u << i))
-					     ? m->cur.addr.id[i]
-					     : 0;
+		m->res.identity[i] = (m->cur.known_mask & (1u << i)) ? m->cur.addr.id[i] : 0;
 	m->fs_sub = 0;
 	m->expect_cs = LSS_CS_IDENT_SLAVE;
 	/* IDNumber 0 and sub 0 as placeholders: with BitChecked 80h the
@@ -607,8 +618,7 @@ lss_master_state lss_master_state_of(const co_node *node)
  * submit more, hence the loop. */
 static void kick(struct lss_master *m, uint64_t now_us)
 {
-	while (!busy(m) && !m->cancelling && m->q_count &&
-	       now_us >= m->quiet_until_us) {
+	while (!busy(m) && !m->cancelling && m->q_count && now_us >= m->quiet_until_us) {
 		m->cur = m->queue[m->q_head];
 		m->q_head = (uint8_t)((m->q_head + 1) % m->q_len);
 		m->q_count--;
@@ -629,14 +639,12 @@ static void settle(struct lss_master *m, uint64_t now_us)
 
 /* ---- receive and tick ---------------------------------------------------------------- */
 
-static void lss_master_rx(co_node *node, void *arg, const co_frame *f,
-			  uint64_t now_us)
+static void lss_master_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	struct lss_master *m = arg;
 
 	(void)node;
-	if (!busy(m) || f->len < 1 || (f->flags & CO_FRAME_RTR) ||
-	    f->data[0] != m->expect_cs)
+	if (!busy(m) || f->len < 1 || (f->flags & CO_FRAME_RTR) || f->data[0] != m->expect_cs)
 		return; /* idle, or not what the running service waits for */
 	co_fsm_frame(&m->fsm, f, now_us);
 	settle(m, now_us);
@@ -656,16 +664,15 @@ static bool req_valid(const lss_master_req *r)
 {
 	if (r->service <= LSS_SVC_NONE || r->service >= LSS_SVC_COUNT)
 		return false;
-	if (r->service == LSS_SVC_SWITCH_GLOBAL &&
-	    r->mode != LSS_STATE_WAITING && r->mode != LSS_STATE_CONFIGURATION)
+	if (r->service == LSS_SVC_SWITCH_GLOBAL && r->mode != LSS_STATE_WAITING &&
+	    r->mode != LSS_STATE_CONFIGURATION)
 		return false;
 	if (r->service == LSS_SVC_FASTSCAN && (r->known_mask & ~0xFu))
 		return false;
 	return true;
 }
 
-int lss_master_submit(co_node *node, const lss_master_req *req,
-		      uint64_t now_us)
+int lss_master_submit(co_node *node, const lss_master_req *req, uint64_t now_us)
 {
 	struct lss_master *m = master_of(node);
 
@@ -721,16 +728,14 @@ unsigned lss_master_pending(const co_node *node)
 	return m ? m->q_count + (busy(m) ? 1u : 0u) : 0;
 }
 
-int lss_master_switch_global_req(co_node *node, lss_state mode, uint64_t tag,
-				 uint64_t now_us)
+int lss_master_switch_global_req(co_node *node, lss_state mode, uint64_t tag, uint64_t now_us)
 {
-	lss_master_req r = { .service = LSS_SVC_SWITCH_GLOBAL, .tag = tag,
-			     .mode = (uint8_t)mode };
+	lss_master_req r = { .service = LSS_SVC_SWITCH_GLOBAL, .tag = tag, .mode = (uint8_t)mode };
 	return lss_master_submit(node, &r, now_us);
 }
 
-int lss_master_switch_selective_req(co_node *node, const lss_address *addr,
-				    uint64_t tag, uint64_t now_us)
+int lss_master_switch_selective_req(co_node *node, const lss_address *addr, uint64_t tag,
+				    uint64_t now_us)
 {
 	lss_master_req r = { .service = LSS_SVC_SWITCH_SELECTIVE, .tag = tag };
 
@@ -740,28 +745,27 @@ int lss_master_switch_selective_req(co_node *node, const lss_address *addr,
 	return lss_master_submit(node, &r, now_us);
 }
 
-int lss_master_config_node_id_req(co_node *node, uint8_t node_id,
-				  uint64_t tag, uint64_t now_us)
+int lss_master_config_node_id_req(co_node *node, uint8_t node_id, uint64_t tag, uint64_t now_us)
 {
-	lss_master_req r = { .service = LSS_SVC_CONFIG_NODE_ID, .tag = tag,
-			     .node_id = node_id };
+	lss_master_req r = { .service = LSS_SVC_CONFIG_NODE_ID, .tag = tag, .node_id = node_id };
 	return lss_master_submit(node, &r, now_us);
 }
 
-int lss_master_config_bit_timing_req(co_node *node, uint8_t table,
-				     uint8_t index, uint64_t tag,
+int lss_master_config_bit_timing_req(co_node *node, uint8_t table, uint8_t index, uint64_t tag,
 				     uint64_t now_us)
 {
-	lss_master_req r = { .service = LSS_SVC_CONFIG_BIT_TIMING, .tag = tag,
-			     .table = table, .index = index };
+	lss_master_req r = {
+		.service = LSS_SVC_CONFIG_BIT_TIMING, .tag = tag, .table = table, .index = index
+	};
 	return lss_master_submit(node, &r, now_us);
 }
 
-int lss_master_activate_bit_timing_req(co_node *node, uint16_t delay_ms,
-				       uint64_t tag, uint64_t now_us)
+int lss_master_activate_bit_timing_req(co_node *node, uint16_t delay_ms, uint64_t tag,
+				       uint64_t now_us)
 {
 	lss_master_req r = { .service = LSS_SVC_ACTIVATE_BIT_TIMING,
-			     .tag = tag, .delay_ms = delay_ms };
+			     .tag = tag,
+			     .delay_ms = delay_ms };
 	return lss_master_submit(node, &r, now_us);
 }
 
@@ -772,8 +776,7 @@ int lss_master_store_req(co_node *node, uint64_t tag, uint64_t now_us)
 	return lss_master_submit(node, &r, now_us);
 }
 
-int lss_master_inquire_req(co_node *node, lss_master_service service,
-			   uint64_t tag, uint64_t now_us)
+int lss_master_inquire_req(co_node *node, lss_master_service service, uint64_t tag, uint64_t now_us)
 {
 	lss_master_req r = { .service = service, .tag = tag };
 
@@ -782,9 +785,8 @@ int lss_master_inquire_req(co_node *node, lss_master_service service,
 	return lss_master_submit(node, &r, now_us);
 }
 
-int lss_master_identify_remote_req(co_node *node, const lss_address *lo,
-				   const lss_address *hi, uint64_t tag,
-				   uint64_t now_us)
+int lss_master_identify_remote_req(co_node *node, const lss_address *lo, const lss_address *hi,
+				   uint64_t tag, uint64_t now_us)
 {
 	lss_master_req r = { .service = LSS_SVC_IDENTIFY_REMOTE, .tag = tag };
 
@@ -795,19 +797,16 @@ int lss_master_identify_remote_req(co_node *node, const lss_address *lo,
 	return lss_master_submit(node, &r, now_us);
 }
 
-int lss_master_identify_non_configured_req(co_node *node, uint64_t tag,
-					   uint64_t now_us)
+int lss_master_identify_non_configured_req(co_node *node, uint64_t tag, uint64_t now_us)
 {
-	lss_master_req r = { .service = LSS_SVC_IDENTIFY_NON_CONFIGURED,
-			     .tag = tag };
+	lss_master_req r = { .service = LSS_SVC_IDENTIFY_NON_CONFIGURED, .tag = tag };
 	return lss_master_submit(node, &r, now_us);
 }
 
-int lss_master_fastscan_req(co_node *node, const lss_address *known,
-			    uint8_t known_mask, uint64_t tag, uint64_t now_us)
+int lss_master_fastscan_req(co_node *node, const lss_address *known, uint8_t known_mask,
+			    uint64_t tag, uint64_t now_us)
 {
-	lss_master_req r = { .service = LSS_SVC_FASTSCAN, .tag = tag,
-			     .known_mask = known_mask };
+	lss_master_req r = { .service = LSS_SVC_FASTSCAN, .tag = tag, .known_mask = known_mask };
 
 	if (known_mask && !known)
 		return -EINVAL;
@@ -826,12 +825,9 @@ int lss_master_init(co_node *node, struct lss_master **out)
 	if (!m)
 		return -ENOMEM;
 	m->node = node;
-	m->timeout_ms = node->cfg.lss_timeout_ms ? node->cfg.lss_timeout_ms
-						 : DEFAULT_TIMEOUT_MS;
-	m->step_ms = node->cfg.lss_scan_step_ms ? node->cfg.lss_scan_step_ms
-						: DEFAULT_STEP_MS;
-	m->q_len = node->cfg.lss_queue_len ? node->cfg.lss_queue_len
-					   : DEFAULT_QUEUE_LEN;
+	m->timeout_ms = node->cfg.lss_timeout_ms ? node->cfg.lss_timeout_ms : DEFAULT_TIMEOUT_MS;
+	m->step_ms = node->cfg.lss_scan_step_ms ? node->cfg.lss_scan_step_ms : DEFAULT_STEP_MS;
+	m->q_len = node->cfg.lss_queue_len ? node->cfg.lss_queue_len : DEFAULT_QUEUE_LEN;
 	m->deadline_us = CO_NO_DEADLINE;
 	co_fsm_init(&m->fsm, &mst_def, m, LSS_MASTER_IDLE);
 	m->queue = calloc(m->q_len, sizeof(*m->queue));

@@ -51,22 +51,22 @@
 
 typedef enum lss_master_service {
 	LSS_SVC_NONE = 0,
-	LSS_SVC_SWITCH_GLOBAL,      /* mode: lss_state */
-	LSS_SVC_SWITCH_SELECTIVE,   /* addr */
-	LSS_SVC_CONFIG_NODE_ID,     /* node_id */
-	LSS_SVC_CONFIG_BIT_TIMING,  /* table, index */
+	LSS_SVC_SWITCH_GLOBAL,       /* mode: lss_state */
+	LSS_SVC_SWITCH_SELECTIVE,    /* addr */
+	LSS_SVC_CONFIG_NODE_ID,      /* node_id */
+	LSS_SVC_CONFIG_BIT_TIMING,   /* table, index */
 	LSS_SVC_ACTIVATE_BIT_TIMING, /* delay_ms */
 	LSS_SVC_STORE,
-	LSS_SVC_INQUIRE_VENDOR,     /* -> value */
+	LSS_SVC_INQUIRE_VENDOR, /* -> value */
 	LSS_SVC_INQUIRE_PRODUCT,
 	LSS_SVC_INQUIRE_REVISION,
 	LSS_SVC_INQUIRE_SERIAL,
-	LSS_SVC_INQUIRE_NODE_ID,    /* -> node_id */
-	LSS_SVC_IDENTIFY_REMOTE,    /* addr (vendor, product, revision low,
+	LSS_SVC_INQUIRE_NODE_ID,         /* -> node_id */
+	LSS_SVC_IDENTIFY_REMOTE,         /* addr (vendor, product, revision low,
 	                             * serial low), addr_high (revision high,
 	                             * serial high) -> answers */
 	LSS_SVC_IDENTIFY_NON_CONFIGURED, /* -> answers */
-	LSS_SVC_FASTSCAN,           /* addr + known_mask -> identity */
+	LSS_SVC_FASTSCAN,                /* addr + known_mask -> identity */
 	LSS_SVC_COUNT
 } lss_master_service;
 
@@ -91,16 +91,16 @@ typedef void (*lss_master_con_fn)(void *arg, const co_ev_lss_master *con);
 
 typedef struct lss_master_req {
 	lss_master_service service;
-	uint64_t tag;        /* echoed in CO_EV_LSS_MASTER_DONE */
-	uint32_t timeout_ms; /* 0 = the node's default for this service */
-	uint8_t mode;        /* SWITCH_GLOBAL: lss_state */
-	uint8_t node_id;     /* CONFIG_NODE_ID: 1..127, 255 = unconfigure */
-	uint8_t table;       /* CONFIG_BIT_TIMING: selector (0 = CiA table) */
-	uint8_t index;       /* CONFIG_BIT_TIMING: index in that table */
-	uint16_t delay_ms;   /* ACTIVATE_BIT_TIMING: switch delay */
-	uint8_t known_mask;  /* FASTSCAN: bit i set = addr.id[i] is known and
+	uint64_t tag;          /* echoed in CO_EV_LSS_MASTER_DONE */
+	uint32_t timeout_ms;   /* 0 = the node's default for this service */
+	uint8_t mode;          /* SWITCH_GLOBAL: lss_state */
+	uint8_t node_id;       /* CONFIG_NODE_ID: 1..127, 255 = unconfigure */
+	uint8_t table;         /* CONFIG_BIT_TIMING: selector (0 = CiA table) */
+	uint8_t index;         /* CONFIG_BIT_TIMING: index in that table */
+	uint16_t delay_ms;     /* ACTIVATE_BIT_TIMING: switch delay */
+	uint8_t known_mask;    /* FASTSCAN: bit i set = addr.id[i] is known and
 	                      * only confirmed, not scanned */
-	lss_address addr;    /* SWITCH_SELECTIVE, IDENTIFY_REMOTE, FASTSCAN */
+	lss_address addr;      /* SWITCH_SELECTIVE, IDENTIFY_REMOTE, FASTSCAN */
 	lss_address addr_high; /* IDENTIFY_REMOTE: only revision and serial
 	                        * (upper bounds) are used */
 	lss_master_con_fn con; /* NULL = event only */
@@ -110,36 +110,30 @@ typedef struct lss_master_req {
 /* Queue a request; it starts at once when the master is idle. Returns 0,
  * -ENODEV (no LSS master on this node), -EINVAL (bad service, mode, known
  * mask), -ENOSPC (queue full). */
-int lss_master_submit(co_node *node, const lss_master_req *req,
-		      uint64_t now_us);
+int lss_master_submit(co_node *node, const lss_master_req *req, uint64_t now_us);
 
 /* Convenience wrappers around lss_master_submit(). */
-int lss_master_switch_global_req(co_node *node, lss_state mode, uint64_t tag,
-				 uint64_t now_us);
-int lss_master_switch_selective_req(co_node *node, const lss_address *addr,
-				    uint64_t tag, uint64_t now_us);
-int lss_master_config_node_id_req(co_node *node, uint8_t node_id,
-				  uint64_t tag, uint64_t now_us);
-int lss_master_config_bit_timing_req(co_node *node, uint8_t table,
-				     uint8_t index, uint64_t tag,
+int lss_master_switch_global_req(co_node *node, lss_state mode, uint64_t tag, uint64_t now_us);
+int lss_master_switch_selective_req(co_node *node, const lss_address *addr, uint64_t tag,
+				    uint64_t now_us);
+int lss_master_config_node_id_req(co_node *node, uint8_t node_id, uint64_t tag, uint64_t now_us);
+int lss_master_config_bit_timing_req(co_node *node, uint8_t table, uint8_t index, uint64_t tag,
 				     uint64_t now_us);
-int lss_master_activate_bit_timing_req(co_node *node, uint16_t delay_ms,
-				       uint64_t tag, uint64_t now_us);
+int lss_master_activate_bit_timing_req(co_node *node, uint16_t delay_ms, uint64_t tag,
+				       uint64_t now_us);
 int lss_master_store_req(co_node *node, uint64_t tag, uint64_t now_us);
 /* service: one of LSS_SVC_INQUIRE_*. */
-int lss_master_inquire_req(co_node *node, lss_master_service service,
-			   uint64_t tag, uint64_t now_us);
+int lss_master_inquire_req(co_node *node, lss_master_service service, uint64_t tag,
+			   uint64_t now_us);
 /* lo: vendor, product, revision low, serial low; hi: revision and serial
  * high (vendor/product of hi are ignored). */
-int lss_master_identify_remote_req(co_node *node, const lss_address *lo,
-				   const lss_address *hi, uint64_t tag,
-				   uint64_t now_us);
-int lss_master_identify_non_configured_req(co_node *node, uint64_t tag,
-					   uint64_t now_us);
+int lss_master_identify_remote_req(co_node *node, const lss_address *lo, const lss_address *hi,
+				   uint64_t tag, uint64_t now_us);
+int lss_master_identify_non_configured_req(co_node *node, uint64_t tag, uint64_t now_us);
 /* known may be NULL (nothing known). On LSS_RESULT_OK the found slave is
  * in configuration state and the event carries its full identity. */
-int lss_master_fastscan_req(co_node *node, const lss_address *known,
-			    uint8_t known_mask, uint64_t tag, uint64_t now_us);
+int lss_master_fastscan_req(co_node *node, const lss_address *known, uint8_t known_mask,
+			    uint64_t tag, uint64_t now_us);
 
 /* End the running request and every queued one with LSS_RESULT_CANCELLED
  * (events in FIFO order). Frames already sent are not taken back. */

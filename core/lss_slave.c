@@ -40,8 +40,7 @@ struct lss_slave {
 	void *hook_ctx;
 };
 
-typedef void (*lss_slave_handler)(struct lss_slave *s, const co_frame *f,
-				  uint64_t now_us);
+typedef void (*lss_slave_handler)(struct lss_slave *s, const co_frame *f, uint64_t now_us);
 
 /* ---- helpers --------------------------------------------------------------- */
 
@@ -55,8 +54,7 @@ static uint32_t identity(const struct lss_slave *s, unsigned field)
 	return v;
 }
 
-static void answer(struct lss_slave *s, uint8_t cs, const uint8_t *payload,
-		   unsigned n)
+static void answer(struct lss_slave *s, uint8_t cs, const uint8_t *payload, unsigned n)
 {
 	co_frame f;
 
@@ -75,8 +73,7 @@ static void answer_u32(struct lss_slave *s, uint8_t cs, uint32_t v)
 	answer(s, cs, p, 4);
 }
 
-static void answer_code(struct lss_slave *s, uint8_t cs, uint8_t code,
-			uint8_t spec)
+static void answer_code(struct lss_slave *s, uint8_t cs, uint8_t code, uint8_t spec)
 {
 	uint8_t p[2] = { code, code == LSS_EC_SPECIFIC ? spec : 0 };
 
@@ -120,8 +117,7 @@ static void set_state(struct lss_slave *s, lss_state st)
 
 /* ---- switch state ---------------------------------------------------------- */
 
-static void on_switch_global(struct lss_slave *s, const co_frame *f,
-			     uint64_t now_us)
+static void on_switch_global(struct lss_slave *s, const co_frame *f, uint64_t now_us)
 {
 	uint8_t mode = f->data[1];
 	bool auto_reset;
@@ -143,19 +139,16 @@ static void on_switch_global(struct lss_slave *s, const co_frame *f,
 		co_node_reset_comm(s->node, now_us);
 }
 
-static void on_switch_selective(struct lss_slave *s, const co_frame *f,
-				uint64_t now_us)
+static void on_switch_selective(struct lss_slave *s, const co_frame *f, uint64_t now_us)
 {
 	unsigned field = (unsigned)(f->data[0] - LSS_CS_SWITCH_SEL_VENDOR);
 
 	(void)now_us;
 	if (s->state != LSS_STATE_WAITING)
 		return;
-	if (field != s->sel_matched ||
-	    co_get_le32(&f->data[1]) != identity(s, field)) {
+	if (field != s->sel_matched || co_get_le32(&f->data[1]) != identity(s, field)) {
 		/* A vendor frame always starts a new sequence. */
-		s->sel_matched = field == 0 &&
-				 co_get_le32(&f->data[1]) == identity(s, 0);
+		s->sel_matched = field == 0 && co_get_le32(&f->data[1]) == identity(s, 0);
 		return;
 	}
 	if (++s->sel_matched < LSS_ID_COUNT)
@@ -166,8 +159,7 @@ static void on_switch_selective(struct lss_slave *s, const co_frame *f,
 
 /* ---- configuration services (configuration state only) --------------------- */
 
-static void on_config_node_id(struct lss_slave *s, const co_frame *f,
-			      uint64_t now_us)
+static void on_config_node_id(struct lss_slave *s, const co_frame *f, uint64_t now_us)
 {
 	uint8_t id = f->data[1];
 
@@ -183,8 +175,7 @@ static void on_config_node_id(struct lss_slave *s, const co_frame *f,
 	}
 }
 
-static void on_config_bit_timing(struct lss_slave *s, const co_frame *f,
-				 uint64_t now_us)
+static void on_config_bit_timing(struct lss_slave *s, const co_frame *f, uint64_t now_us)
 {
 	uint8_t table = f->data[1], index = f->data[2], spec = 0, ec;
 
@@ -203,8 +194,7 @@ static void on_config_bit_timing(struct lss_slave *s, const co_frame *f,
 	answer_code(s, LSS_CS_CONFIG_BIT_TIMING, ec, spec);
 }
 
-static void on_activate_bit_timing(struct lss_slave *s, const co_frame *f,
-				   uint64_t now_us)
+static void on_activate_bit_timing(struct lss_slave *s, const co_frame *f, uint64_t now_us)
 {
 	(void)now_us;
 	/* Unconfirmed. Without a configured bit timing there is nothing to
@@ -223,8 +213,8 @@ static void on_store(struct lss_slave *s, const co_frame *f, uint64_t now_us)
 	if (s->constant_id)
 		ec = LSS_EC_STORE_UNSUPP;
 	else if (s->hooks && s->hooks->store)
-		ec = s->hooks->store(s->hook_ctx, s->pending_id, s->bt_valid,
-				     s->bt_table, s->bt_index, &spec);
+		ec = s->hooks->store(s->hook_ctx, s->pending_id, s->bt_valid, s->bt_table,
+				     s->bt_index, &spec);
 	if (ec == LSS_EC_OK)
 		s->persistent_id = s->pending_id;
 	answer_code(s, LSS_CS_STORE, ec, spec);
@@ -246,22 +236,27 @@ static void on_inquire(struct lss_slave *s, const co_frame *f, uint64_t now_us)
 
 /* ---- identification (waiting and configuration state) --------------------- */
 
-static bool ident_step_matches(const struct lss_slave *s, uint8_t cs,
-			       uint32_t v)
+static bool ident_step_matches(const struct lss_slave *s, uint8_t cs, uint32_t v)
 {
 	switch (cs) {
-	case LSS_CS_IDENT_VENDOR: return v == identity(s, LSS_ID_VENDOR);
-	case LSS_CS_IDENT_PRODUCT: return v == identity(s, LSS_ID_PRODUCT);
-	case LSS_CS_IDENT_REVISION_LOW: return identity(s, LSS_ID_REVISION) >= v;
-	case LSS_CS_IDENT_REVISION_HIGH: return identity(s, LSS_ID_REVISION) <= v;
-	case LSS_CS_IDENT_SERIAL_LOW: return identity(s, LSS_ID_SERIAL) >= v;
-	case LSS_CS_IDENT_SERIAL_HIGH: return identity(s, LSS_ID_SERIAL) <= v;
-	default: return false;
+	case LSS_CS_IDENT_VENDOR:
+		return v == identity(s, LSS_ID_VENDOR);
+	case LSS_CS_IDENT_PRODUCT:
+		return v == identity(s, LSS_ID_PRODUCT);
+	case LSS_CS_IDENT_REVISION_LOW:
+		return identity(s, LSS_ID_REVISION) >= v;
+	case LSS_CS_IDENT_REVISION_HIGH:
+		return identity(s, LSS_ID_REVISION) <= v;
+	case LSS_CS_IDENT_SERIAL_LOW:
+		return identity(s, LSS_ID_SERIAL) >= v;
+	case LSS_CS_IDENT_SERIAL_HIGH:
+		return identity(s, LSS_ID_SERIAL) <= v;
+	default:
+		return false;
 	}
 }
 
-static void on_identify_remote(struct lss_slave *s, const co_frame *f,
-			       uint64_t now_us)
+static void on_identify_remote(struct lss_slave *s, const co_frame *f, uint64_t now_us)
 {
 	uint8_t cs = f->data[0];
 	unsigned step = (unsigned)(cs - LSS_CS_IDENT_VENDOR);
@@ -269,8 +264,7 @@ static void on_identify_remote(struct lss_slave *s, const co_frame *f,
 	(void)now_us;
 	if (step == 0)
 		s->ident_matched = 0; /* the vendor frame starts a sequence */
-	if (step != s->ident_matched ||
-	    !ident_step_matches(s, cs, co_get_le32(&f->data[1]))) {
+	if (step != s->ident_matched || !ident_step_matches(s, cs, co_get_le32(&f->data[1]))) {
 		s->ident_matched = 0xFF; /* wait for the next vendor frame */
 		return;
 	}
@@ -280,8 +274,7 @@ static void on_identify_remote(struct lss_slave *s, const co_frame *f,
 	answer(s, LSS_CS_IDENT_SLAVE, NULL, 0);
 }
 
-static void on_identify_non_configured(struct lss_slave *s, const co_frame *f,
-				       uint64_t now_us)
+static void on_identify_non_configured(struct lss_slave *s, const co_frame *f, uint64_t now_us)
 {
 	(void)f;
 	(void)now_us;
@@ -312,8 +305,7 @@ static void on_fastscan(struct lss_slave *s, const co_frame *f, uint64_t now_us)
 		answer(s, LSS_CS_IDENT_SLAVE, NULL, 0);
 		return;
 	}
-	if (bit > 31 || sub >= LSS_ID_COUNT || next >= LSS_ID_COUNT ||
-	    sub != s->fs_pos)
+	if (bit > 31 || sub >= LSS_ID_COUNT || next >= LSS_ID_COUNT || sub != s->fs_pos)
 		return;
 	mask = 0xFFFFFFFFu << bit;
 	if ((id ^ identity(s, sub)) & mask)
@@ -359,8 +351,7 @@ static const lss_slave_cmd lss_slave_cmds[] = {
 	{ LSS_CS_INQUIRE_NODE_ID, 1, on_inquire },
 };
 
-static void lss_slave_rx(co_node *node, void *arg, const co_frame *f,
-			 uint64_t now_us)
+static void lss_slave_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	struct lss_slave *s = arg;
 	co_frame in;
@@ -373,8 +364,7 @@ static void lss_slave_rx(co_node *node, void *arg, const co_frame *f,
 	in = *f;
 	for (unsigned i = in.len; i < 8; i++)
 		in.data[i] = 0;
-	for (size_t i = 0; i < sizeof(lss_slave_cmds) / sizeof(lss_slave_cmds[0]);
-	     i++) {
+	for (size_t i = 0; i < sizeof(lss_slave_cmds) / sizeof(lss_slave_cmds[0]); i++) {
 		const lss_slave_cmd *c = &lss_slave_cmds[i];
 		if (c->cs != in.data[0])
 			continue;
@@ -431,8 +421,8 @@ void lss_slave_reset_comm(struct lss_slave *s, uint64_t now_us)
 	emit(s, CO_EV_LSS_SLAVE_NODE_ID, 0);
 }
 
-int lss_slave_get(const co_node *node, lss_state *state, uint8_t *active,
-		  uint8_t *pending, uint8_t *persistent)
+int lss_slave_get(const co_node *node, lss_state *state, uint8_t *active, uint8_t *pending,
+		  uint8_t *persistent)
 {
 	const struct lss_slave *s = node->lss ? node->lss->slave : NULL;
 

@@ -49,18 +49,17 @@
  * specific byte sent with LSS_EC_SPECIFIC. */
 typedef struct lss_slave_hooks {
 	/* May the device use this bit timing? (configure bit timing) */
-	uint8_t (*check_bit_timing)(void *ctx, uint8_t table, uint8_t index,
-				    uint8_t *spec);
+	uint8_t (*check_bit_timing)(void *ctx, uint8_t table, uint8_t index, uint8_t *spec);
 	/* Save node_id and the bit timing (table/index; bt_valid false when
 	 * none was configured) persistently. */
-	uint8_t (*store)(void *ctx, uint8_t node_id, bool bt_valid,
-			 uint8_t table, uint8_t index, uint8_t *spec);
+	uint8_t (*store)(void *ctx, uint8_t node_id, bool bt_valid, uint8_t table, uint8_t index,
+			 uint8_t *spec);
 } lss_slave_hooks;
 
 /* Current state and node-IDs; -ENODEV without an LSS slave. Any out
  * pointer may be NULL. */
-int lss_slave_get(const co_node *node, lss_state *state, uint8_t *active,
-		  uint8_t *pending, uint8_t *persistent);
+int lss_slave_get(const co_node *node, lss_state *state, uint8_t *active, uint8_t *pending,
+		  uint8_t *persistent);
 
 /* ---- for core/lss_service.c only ---------------------------------------------- */
 int lss_slave_init(co_node *node, struct lss_slave **out);

@@ -68,7 +68,14 @@ enum bs_state {
 	BS_COUNT
 };
 
-enum in_kind { IN_SDO, IN_BOOTUP, IN_HB, IN_CHANNEL, IN_CONFIGURED, IN_SOFTWARE };
+enum in_kind {
+	IN_SDO,
+	IN_BOOTUP,
+	IN_HB,
+	IN_CHANNEL,
+	IN_CONFIGURED,
+	IN_SOFTWARE
+};
 
 struct mgr_in {
 	enum in_kind kind;
@@ -84,29 +91,29 @@ struct mgr_slave {
 	uint8_t id;
 	co_fsm fsm;
 	uint64_t timer_us;
-	bool slot;            /* holds a boot slot */
+	bool slot; /* holds a boot slot */
 	bool sdo_pending;
-	uint64_t tag;         /* of the pending SDO request */
-	uint32_t gen;         /* bumps when a pending request is disowned */
+	uint64_t tag; /* of the pending SDO request */
+	uint32_t gen; /* bumps when a pending request is disowned */
 	uint8_t buf[4];
-	uint8_t id_sub;       /* 1018h sub being checked (1..4) */
-	bool network_boot;    /* this boot is part of the network boot */
-	bool wait_bootup;     /* reset communication was sent: wait */
-	bool already_op;      /* keep-alive node found OPERATIONAL (L) */
-	bool attempted;       /* a boot attempt ended since the network boot */
-	bool ever_booted;     /* booted since the network boot began */
+	uint8_t id_sub;    /* 1018h sub being checked (1..4) */
+	bool network_boot; /* this boot is part of the network boot */
+	bool wait_bootup;  /* reset communication was sent: wait */
+	bool already_op;   /* keep-alive node found OPERATIONAL (L) */
+	bool attempted;    /* a boot attempt ended since the network boot */
+	bool ever_booted;  /* booted since the network boot began */
 	bool keep_op;
-	bool lost;            /* error control lost after boot */
+	bool lost; /* error control lost after boot */
 	bool unexpected_reported;
 	bool dup_reported;
-	bool mismatch;        /* identity wrong (C, D, M, N, O) */
+	bool mismatch;         /* identity wrong (C, D, M, N, O) */
 	bool cmd_since_bootup; /* the manager sent it an NMT command */
 	bool emcy_active;
-	uint8_t last_state;   /* NMT state last heard (HB, guarding, boot-up) */
-	uint8_t expected_state; /* last state the manager commanded */
-	uint64_t bootup_us;   /* last boot-up heard (0 = none) */
+	uint8_t last_state;      /* NMT state last heard (HB, guarding, boot-up) */
+	uint8_t expected_state;  /* last state the manager commanded */
+	uint64_t bootup_us;      /* last boot-up heard (0 = none) */
 	bool bootup_since_reset; /* a boot-up came after our last reset */
-	char last_fail;       /* letter of the last reported failure */
+	char last_fail;          /* letter of the last reported failure */
 	uint8_t last_fail_step;
 	uint32_t last_fail_abort;
 	co_mgr_node_diag d;
@@ -118,9 +125,9 @@ struct co_manager {
 	co_manager_config cfg;
 	co_fsm fsm;
 	uint8_t own_id;
-	uint8_t reset_cs;       /* NMT command of the next network reset */
-	uint64_t timer_us;      /* end of the boot time, 1F89h */
-	uint64_t scan_us;       /* next scan for missing nodes */
+	uint8_t reset_cs;  /* NMT command of the next network reset */
+	uint64_t timer_us; /* end of the boot time, 1F89h */
+	uint64_t scan_us;  /* next scan for missing nodes */
 	bool autostart_pending;
 	bool boot_time_expired;
 	bool awaiting_mandatory; /* BOOTED because 1F89h ran out */
@@ -135,7 +142,7 @@ struct co_manager {
 	int rx[3];
 	uint8_t n_slots, slots_used;
 	bool destroying;
-	co_mgr_diag cnt; /* counters and first error (bit lists unused) */
+	co_mgr_diag cnt;         /* counters and first error (bit lists unused) */
 	struct mgr_slave s[128]; /* by node-ID, [0] unused */
 };
 
@@ -150,8 +157,8 @@ static void mgr_after(co_manager *m, uint64_t now_us);
 const char *co_mgr_state_to_string(uint8_t state)
 {
 	static const char *const n[CO_MGR_STATE_COUNT] = {
-		"slave", "resetting", "booting", "wait-mandatory", "booted",
-		"operational", "stopped", "pre-operational", "fatal",
+		"slave",       "resetting", "booting",         "wait-mandatory", "booted",
+		"operational", "stopped",   "pre-operational", "fatal",
 	};
 	return state < CO_MGR_STATE_COUNT ? n[state] : "?";
 }
@@ -159,9 +166,9 @@ const char *co_mgr_state_to_string(uint8_t state)
 const char *co_mgr_step_to_string(uint8_t step)
 {
 	static const char *const n[CO_MGR_STEP_COUNT] = {
-		"assignment", "keep-alive", "device-type", "vendor-id",
-		"product-code", "revision", "serial", "configure",
-		"error-control", "start", "boot-time", "software",
+		"assignment",    "keep-alive", "device-type", "vendor-id",
+		"product-code",  "revision",   "serial",      "configure",
+		"error-control", "start",      "boot-time",   "software",
 	};
 	return step < CO_MGR_STEP_COUNT ? n[step] : "?";
 }
@@ -169,22 +176,38 @@ const char *co_mgr_step_to_string(uint8_t step)
 const char *co_mgr_status_to_string(char status)
 {
 	switch (status) {
-	case 0: return "ok";
-	case 'A': return "not in the network list (1F81h)";
-	case 'B': return "no answer to the read of 1000h";
-	case 'C': return "device type differs from 1F84h";
-	case 'D': return "vendor-ID differs from 1F85h";
-	case 'E': return "heartbeat event";
-	case 'F': return "node guarding event";
-	case 'G': return "program download objects not configured";
-	case 'H': return "software update required but not allowed";
-	case 'I': return "program download failed";
-	case 'J': return "configuration download failed";
-	case 'K': return "no heartbeat during the start of error control";
-	case 'L': return "slave was operational already (keep-alive)";
-	case 'M': return "product code differs from 1F86h";
-	case 'N': return "revision number differs from 1F87h";
-	case 'O': return "serial number differs from 1F88h";
+	case 0:
+		return "ok";
+	case 'A':
+		return "not in the network list (1F81h)";
+	case 'B':
+		return "no answer to the read of 1000h";
+	case 'C':
+		return "device type differs from 1F84h";
+	case 'D':
+		return "vendor-ID differs from 1F85h";
+	case 'E':
+		return "heartbeat event";
+	case 'F':
+		return "node guarding event";
+	case 'G':
+		return "program download objects not configured";
+	case 'H':
+		return "software update required but not allowed";
+	case 'I':
+		return "program download failed";
+	case 'J':
+		return "configuration download failed";
+	case 'K':
+		return "no heartbeat during the start of error control";
+	case 'L':
+		return "slave was operational already (keep-alive)";
+	case 'M':
+		return "product code differs from 1F86h";
+	case 'N':
+		return "revision number differs from 1F87h";
+	case 'O':
+		return "serial number differs from 1F88h";
 	}
 	return "?";
 }
@@ -192,7 +215,7 @@ const char *co_mgr_status_to_string(char status)
 const char *co_mgr_node_what_to_string(uint8_t what)
 {
 	static const char *const n[CO_MGR_NODE_WHAT_COUNT] = {
-		"unexpected", "late", "lost", "back", "duplicate", "own-id",
+		"unexpected",  "late",    "lost",        "back",           "duplicate", "own-id",
 		"nmt-ignored", "keep-op", "request-nmt", "error-reaction", "program",
 	};
 	return what < CO_MGR_NODE_WHAT_COUNT ? n[what] : "?";
@@ -276,22 +299,28 @@ static void note_first_error(co_manager *m, uint8_t id, char status, uint32_t co
 
 static void emit_node(co_manager *m, uint8_t id, uint8_t what, uint32_t value)
 {
-	co_ev_mgr e = { .node = id, .what = what, .value = value,
-			.mandatory = is_mandatory(m, id) };
+	co_ev_mgr e = {
+		.node = id, .what = what, .value = value, .mandatory = is_mandatory(m, id)
+	};
 	emit(m, CO_EV_MGR_NODE, &e);
 }
 
 /* One step of a boot slave process: status 0 = passed. Failures that
  * repeat the previous one exactly (a node retried every second) are counted
  * but not reported again. */
-static void emit_boot(struct mgr_slave *s, uint8_t step, char status,
-		      uint32_t abort, uint16_t index, uint8_t sub,
-		      uint32_t value, uint32_t expected, bool done)
+static void emit_boot(struct mgr_slave *s, uint8_t step, char status, uint32_t abort,
+		      uint16_t index, uint8_t sub, uint32_t value, uint32_t expected, bool done)
 {
 	co_manager *m = s->m;
-	co_ev_mgr e = { .node = s->id, .step = step, .status = status,
-			.abort = abort, .index = index, .sub = sub,
-			.value = value, .expected = expected, .done = done,
+	co_ev_mgr e = { .node = s->id,
+			.step = step,
+			.status = status,
+			.abort = abort,
+			.index = index,
+			.sub = sub,
+			.value = value,
+			.expected = expected,
+			.done = done,
 			.mandatory = is_mandatory(m, s->id) };
 
 	if (step == CO_MGR_STEP_BOOT_TIME) {
@@ -327,9 +356,12 @@ static void emit_boot(struct mgr_slave *s, uint8_t step, char status,
 static uint8_t cs_result(uint8_t cs)
 {
 	switch (cs) {
-	case CO_NMT_CS_START: return CO_NMT_OPERATIONAL;
-	case CO_NMT_CS_STOP: return CO_NMT_STOPPED;
-	default: return CO_NMT_PRE_OPERATIONAL; /* resets end pre-op */
+	case CO_NMT_CS_START:
+		return CO_NMT_OPERATIONAL;
+	case CO_NMT_CS_STOP:
+		return CO_NMT_STOPPED;
+	default:
+		return CO_NMT_PRE_OPERATIONAL; /* resets end pre-op */
 	}
 }
 
@@ -376,8 +408,7 @@ static void sdo_con(void *arg, const co_ev_sdo_cli *c)
 	co_manager *m = s->m;
 	uint64_t now = m->node->now_us;
 	uint32_t v = 0;
-	struct mgr_in in = { .kind = IN_SDO, .abort = c->abort, .index = c->index,
-			     .sub = c->sub };
+	struct mgr_in in = { .kind = IN_SDO, .abort = c->abort, .index = c->index, .sub = c->sub };
 
 	if (m->destroying || !s->sdo_pending || s->tag != c->tag)
 		return; /* disowned */
@@ -394,10 +425,16 @@ static int sdo_read(struct mgr_slave *s, uint16_t index, uint8_t sub, uint64_t n
 {
 	co_manager *m = s->m;
 	sdo_client_req r = {
-		.upload = true, .node_id = s->id, .index = index, .sub = sub,
-		.mode = 0, .timeout_ms = m->cfg.sdo_timeout_ms,
-		.buf = s->buf, .cap = sizeof(s->buf),
-		.con = sdo_con, .con_arg = s,
+		.upload = true,
+		.node_id = s->id,
+		.index = index,
+		.sub = sub,
+		.mode = 0,
+		.timeout_ms = m->cfg.sdo_timeout_ms,
+		.buf = s->buf,
+		.cap = sizeof(s->buf),
+		.con = sdo_con,
+		.con_arg = s,
 	};
 	int rc;
 
@@ -423,8 +460,8 @@ static char letter_of_sub(uint8_t sub)
 }
 
 /* A failed step: report it and go to FAILED. */
-static int bs_fail(struct mgr_slave *s, uint8_t step, char status, uint32_t abort,
-		   uint16_t index, uint8_t sub, uint32_t value, uint32_t expected)
+static int bs_fail(struct mgr_slave *s, uint8_t step, char status, uint32_t abort, uint16_t index,
+		   uint8_t sub, uint32_t value, uint32_t expected)
 {
 	if (strchr("CDMNO", status))
 		s->mismatch = true;
@@ -566,8 +603,7 @@ static int device_type_enter(void *obj, uint64_t now_us)
 	struct mgr_slave *s = obj;
 	int rc = sdo_read(s, 0x1000, 0, now_us);
 	if (rc < 0)
-		return bs_fail(s, CO_MGR_STEP_DEVICE_TYPE, 'B', SDO_ABORT_GENERAL,
-			       0x1000, 0, 0, 0);
+		return bs_fail(s, CO_MGR_STEP_DEVICE_TYPE, 'B', SDO_ABORT_GENERAL, 0x1000, 0, 0, 0);
 	return CO_FSM_STAY;
 }
 
@@ -580,13 +616,10 @@ static int device_type_con(void *obj, const void *con, uint64_t now_us)
 	if (in->kind != IN_SDO)
 		return CO_FSM_STAY;
 	if (in->abort)
-		return bs_fail(s, CO_MGR_STEP_DEVICE_TYPE, 'B', in->abort, 0x1000, 0,
-			       0, expected);
+		return bs_fail(s, CO_MGR_STEP_DEVICE_TYPE, 'B', in->abort, 0x1000, 0, 0, expected);
 	if (expected && in->value != expected)
-		return bs_fail(s, CO_MGR_STEP_DEVICE_TYPE, 'C', 0, 0x1000, 0,
-			       in->value, expected);
-	emit_boot(s, CO_MGR_STEP_DEVICE_TYPE, 0, 0, 0x1000, 0, in->value, expected,
-		  false);
+		return bs_fail(s, CO_MGR_STEP_DEVICE_TYPE, 'C', 0, 0x1000, 0, in->value, expected);
+	emit_boot(s, CO_MGR_STEP_DEVICE_TYPE, 0, 0, 0x1000, 0, in->value, expected, false);
 	s->id_sub = 1;
 	return BS_IDENTITY;
 }
@@ -616,8 +649,8 @@ static int identity_con(void *obj, const void *con, uint64_t now_us)
 	if (in->kind != IN_SDO)
 		return CO_FSM_STAY;
 	if (in->abort || in->value != expected)
-		return bs_fail(s, step_of_sub(k), letter_of_sub(k), in->abort, 0x1018,
-			       k, in->abort ? 0 : in->value, expected);
+		return bs_fail(s, step_of_sub(k), letter_of_sub(k), in->abort, 0x1018, k,
+			       in->abort ? 0 : in->value, expected);
 	emit_boot(s, step_of_sub(k), 0, 0, 0x1018, k, in->value, expected, false);
 	s->id_sub++;
 	return BS_IDENTITY; /* re-entered: next sub */
@@ -635,8 +668,7 @@ static int software_enter(void *obj, uint64_t now_us)
 	if (rc == 1)
 		return CO_FSM_STAY;
 	if (rc < 0)
-		return bs_fail(s, CO_MGR_STEP_SOFTWARE, 'G', 0, 0x1F55, s->id,
-			       (uint32_t)-rc, 0);
+		return bs_fail(s, CO_MGR_STEP_SOFTWARE, 'G', 0, 0x1F55, s->id, (uint32_t)-rc, 0);
 	if (m->cfg.software && (assignment(m, s->id) & CO_MGR_1F81_VERIFY_SW))
 		emit_boot(s, CO_MGR_STEP_SOFTWARE, 0, 0, 0, 0, 0, 0, false);
 	return BS_CONFIGURE;
@@ -650,8 +682,8 @@ static int software_con(void *obj, const void *con, uint64_t now_us)
 	if (in->kind != IN_SOFTWARE)
 		return CO_FSM_STAY;
 	if (in->value)
-		return bs_fail(s, CO_MGR_STEP_SOFTWARE, (char)in->value, in->abort,
-			       in->index, in->sub, 0, 0);
+		return bs_fail(s, CO_MGR_STEP_SOFTWARE, (char)in->value, in->abort, in->index,
+			       in->sub, 0, 0);
 	emit_boot(s, CO_MGR_STEP_SOFTWARE, 0, 0, 0, 0, 0, 0, false);
 	return BS_CONFIGURE;
 }
@@ -682,8 +714,7 @@ static int configure_con(void *obj, const void *con, uint64_t now_us)
 	if (in->kind != IN_CONFIGURED)
 		return CO_FSM_STAY;
 	if (in->abort)
-		return bs_fail(s, CO_MGR_STEP_CONFIGURE, 'J', in->abort, in->index,
-			       in->sub, 0, 0);
+		return bs_fail(s, CO_MGR_STEP_CONFIGURE, 'J', in->abort, in->index, in->sub, 0, 0);
 	emit_boot(s, CO_MGR_STEP_CONFIGURE, 0, 0, 0, 0, 0, 0, false);
 	return BS_ERRCTRL;
 }
@@ -708,10 +739,8 @@ static int errctrl_enter(void *obj, uint64_t now_us)
 		return CO_FSM_STAY;
 	}
 	if (gt) {
-		if (co_guard_master_add(m->node, s->id, (uint16_t)gt, (uint8_t)lf,
-					now_us) < 0)
-			return bs_fail(s, CO_MGR_STEP_ERRCTRL, 'F', 0, 0x1F81, s->id,
-				       a, 0);
+		if (co_guard_master_add(m->node, s->id, (uint16_t)gt, (uint8_t)lf, now_us) < 0)
+			return bs_fail(s, CO_MGR_STEP_ERRCTRL, 'F', 0, 0x1F81, s->id, a, 0);
 		s->timer_us = now_us + (uint64_t)gt * (lf ? lf : 1) * 1000u;
 		return CO_FSM_STAY;
 	}
@@ -728,8 +757,7 @@ static int errctrl_con(void *obj, const void *con, uint64_t now_us)
 	(void)now_us;
 	if (in->kind != IN_HB || (!hb && !in->guarded))
 		return CO_FSM_STAY;
-	emit_boot(s, CO_MGR_STEP_ERRCTRL, 0, 0, hb ? 0x1016 : 0x1F81, hb ? 0 : s->id,
-		  hb, 0, false);
+	emit_boot(s, CO_MGR_STEP_ERRCTRL, 0, 0, hb ? 0x1016 : 0x1F81, hb ? 0 : s->id, hb, 0, false);
 	return BS_START;
 }
 
@@ -741,8 +769,7 @@ static int errctrl_timeout(void *obj, uint64_t now_us)
 	if (hb)
 		return bs_fail(s, CO_MGR_STEP_ERRCTRL, 'K', 0, 0x1016, 0, hb, 0);
 	(void)co_guard_master_remove(s->m->node, s->id);
-	return bs_fail(s, CO_MGR_STEP_ERRCTRL, 'F', 0, 0x1F81, s->id,
-		       assignment(s->m, s->id), 0);
+	return bs_fail(s, CO_MGR_STEP_ERRCTRL, 'F', 0, 0x1F81, s->id, assignment(s->m, s->id), 0);
 }
 
 /* 302-2 "start slave": individually once the network runs (1F80h bit 3
@@ -787,8 +814,7 @@ static int failed_enter(void *obj, uint64_t now_us)
 	s->d.booting = false;
 	s->attempted = true;
 	m->check_pending = true;
-	if (retryable && m->cfg.retry_ms &&
-	    (!is_mandatory(m, s->id) || !m->boot_time_expired))
+	if (retryable && m->cfg.retry_ms && (!is_mandatory(m, s->id) || !m->boot_time_expired))
 		s->timer_us = now_us + (uint64_t)m->cfg.retry_ms * 1000u;
 	return CO_FSM_STAY;
 }
@@ -804,31 +830,50 @@ static int failed_timeout(void *obj, uint64_t now_us)
 
 static const co_fsm_state bs_states[BS_COUNT] = {
 	[BS_IDLE] = { .name = "idle", .on_enter = idle_enter, .on_leave = bs_leave },
-	[BS_ASSIGNMENT] = { .name = "assignment", .on_enter = assignment_enter,
+	[BS_ASSIGNMENT] = { .name = "assignment",
+			    .on_enter = assignment_enter,
 			    .on_leave = bs_leave },
-	[BS_KEEP_ALIVE] = { .name = "keep-alive", .on_enter = keep_alive_enter,
+	[BS_KEEP_ALIVE] = { .name = "keep-alive",
+			    .on_enter = keep_alive_enter,
 			    .on_timeout = keep_alive_timeout,
-			    .on_con = keep_alive_con, .on_leave = bs_leave },
-	[BS_WAIT_BOOTUP] = { .name = "wait-boot-up", .on_enter = wait_bootup_enter,
+			    .on_con = keep_alive_con,
+			    .on_leave = bs_leave },
+	[BS_WAIT_BOOTUP] = { .name = "wait-boot-up",
+			     .on_enter = wait_bootup_enter,
 			     .on_timeout = wait_bootup_timeout,
-			     .on_con = wait_bootup_con, .on_leave = bs_leave },
-	[BS_WAIT_CHANNEL] = { .name = "wait-channel", .on_enter = wait_channel_enter,
-			      .on_con = wait_channel_con, .on_leave = bs_leave },
-	[BS_DEVICE_TYPE] = { .name = "device-type", .on_enter = device_type_enter,
-			     .on_con = device_type_con, .on_leave = bs_leave },
-	[BS_IDENTITY] = { .name = "identity", .on_enter = identity_enter,
-			  .on_con = identity_con, .on_leave = bs_leave },
-	[BS_SOFTWARE] = { .name = "software", .on_enter = software_enter,
-			  .on_con = software_con, .on_leave = bs_leave },
-	[BS_CONFIGURE] = { .name = "configure", .on_enter = configure_enter,
-			   .on_con = configure_con, .on_leave = bs_leave },
-	[BS_ERRCTRL] = { .name = "error-control", .on_enter = errctrl_enter,
-			 .on_timeout = errctrl_timeout, .on_con = errctrl_con,
+			     .on_con = wait_bootup_con,
+			     .on_leave = bs_leave },
+	[BS_WAIT_CHANNEL] = { .name = "wait-channel",
+			      .on_enter = wait_channel_enter,
+			      .on_con = wait_channel_con,
+			      .on_leave = bs_leave },
+	[BS_DEVICE_TYPE] = { .name = "device-type",
+			     .on_enter = device_type_enter,
+			     .on_con = device_type_con,
+			     .on_leave = bs_leave },
+	[BS_IDENTITY] = { .name = "identity",
+			  .on_enter = identity_enter,
+			  .on_con = identity_con,
+			  .on_leave = bs_leave },
+	[BS_SOFTWARE] = { .name = "software",
+			  .on_enter = software_enter,
+			  .on_con = software_con,
+			  .on_leave = bs_leave },
+	[BS_CONFIGURE] = { .name = "configure",
+			   .on_enter = configure_enter,
+			   .on_con = configure_con,
+			   .on_leave = bs_leave },
+	[BS_ERRCTRL] = { .name = "error-control",
+			 .on_enter = errctrl_enter,
+			 .on_timeout = errctrl_timeout,
+			 .on_con = errctrl_con,
 			 .on_leave = bs_leave },
 	[BS_START] = { .name = "start", .on_enter = start_enter, .on_leave = bs_leave },
 	[BS_BOOTED] = { .name = "booted", .on_leave = bs_leave },
-	[BS_FAILED] = { .name = "failed", .on_enter = failed_enter,
-			.on_timeout = failed_timeout, .on_leave = bs_leave },
+	[BS_FAILED] = { .name = "failed",
+			.on_enter = failed_enter,
+			.on_timeout = failed_timeout,
+			.on_leave = bs_leave },
 };
 static const co_fsm_def bs_def = { "boot-slave", bs_states, BS_COUNT };
 
@@ -849,8 +894,7 @@ static void bs_input(struct mgr_slave *s, const struct mgr_in *in, uint64_t now_
 }
 
 /* Start (or restart) the boot slave process of one node. */
-static void bs_begin(struct mgr_slave *s, bool network_boot, bool wait_bootup,
-		     uint64_t now_us)
+static void bs_begin(struct mgr_slave *s, bool network_boot, bool wait_bootup, uint64_t now_us)
 {
 	s->network_boot = network_boot;
 	s->wait_bootup = wait_bootup;
@@ -1093,8 +1137,8 @@ static int m_boot_time_out(void *obj, uint64_t now_us)
 		if (!is_mandatory(m, (uint8_t)id) || s->d.booted)
 			continue;
 		s->last_fail = 0; /* always reported */
-		emit_boot(s, CO_MGR_STEP_BOOT_TIME, s->d.status ? s->d.status : 'B',
-			  s->d.abort, 0x1F89, 0, od_u32(m, 0x1F89, 0), 0, true);
+		emit_boot(s, CO_MGR_STEP_BOOT_TIME, s->d.status ? s->d.status : 'B', s->d.abort,
+			  0x1F89, 0, od_u32(m, 0x1F89, 0), 0, true);
 		if (bs_state(s) == BS_FAILED)
 			s->timer_us = CO_NO_DEADLINE;
 	}
@@ -1134,7 +1178,8 @@ static int m_wait_enter(void *obj, uint64_t now_us)
 static const co_fsm_state mgr_states[CO_MGR_STATE_COUNT] = {
 	[CO_MGR_SLAVE] = { .name = "slave", .on_enter = m_slave_enter },
 	[CO_MGR_RESETTING] = { .name = "resetting", .on_enter = m_resetting_enter },
-	[CO_MGR_BOOTING] = { .name = "booting", .on_enter = m_booting_enter,
+	[CO_MGR_BOOTING] = { .name = "booting",
+			     .on_enter = m_booting_enter,
 			     .on_timeout = m_boot_time_out },
 	[CO_MGR_WAIT_MANDATORY] = { .name = "wait-mandatory",
 				    .on_enter = m_wait_enter,
@@ -1245,8 +1290,7 @@ static void on_bootup(co_manager *m, struct mgr_slave *s, uint64_t now_us)
 /* Error control lost (E: heartbeat, F: guarding) for a booted slave:
  * the 1F80h reaction for a mandatory one, else that node alone is reset
  * and booted again when it comes back. */
-static void on_errctrl_lost(co_manager *m, struct mgr_slave *s, char letter,
-			    uint64_t now_us)
+static void on_errctrl_lost(co_manager *m, struct mgr_slave *s, char letter, uint64_t now_us)
 {
 	uint32_t b80 = f80(m);
 	uint8_t mst = (uint8_t)co_fsm_state_of(&m->fsm);
@@ -1285,8 +1329,8 @@ static void on_errctrl_lost(co_manager *m, struct mgr_slave *s, char letter,
 	m->check_pending = true;
 }
 
-static void on_state(co_manager *m, struct mgr_slave *s, uint8_t st, uint8_t prev,
-		     bool guarded, uint64_t now_us)
+static void on_state(co_manager *m, struct mgr_slave *s, uint8_t st, uint8_t prev, bool guarded,
+		     uint64_t now_us)
 {
 	struct mgr_in in = { .kind = IN_HB, .value = st, .guarded = guarded };
 	uint8_t mine = s->last_state;
@@ -1307,16 +1351,14 @@ static void on_state(co_manager *m, struct mgr_slave *s, uint8_t st, uint8_t pre
 		bs_input(s, &in, now_us);
 	/* KEEP_OP (seed 003): it left OPERATIONAL without being told */
 	if (s->keep_op && bs_state(s) == BS_BOOTED && prev == CO_NMT_OPERATIONAL &&
-	    st != CO_NMT_OPERATIONAL && s->expected_state == CO_NMT_OPERATIONAL &&
-	    m->net_started) {
+	    st != CO_NMT_OPERATIONAL && s->expected_state == CO_NMT_OPERATIONAL && m->net_started) {
 		m->cnt.keep_op_restarts++;
 		emit_node(m, s->id, CO_MGR_NODE_KEEP_OP, st);
 		nmt_send(m, s->id, CO_NMT_CS_START, now_us);
 	}
 }
 
-static void on_emcy(co_manager *m, struct mgr_slave *s, const co_ev_emcy *e,
-		    uint64_t now_us)
+static void on_emcy(co_manager *m, struct mgr_slave *s, const co_ev_emcy *e, uint64_t now_us)
 {
 	co_mgr_emcy_rec *r = &s->d.emcy[s->d.emcy_next];
 	r->time_us = now_us;
@@ -1398,8 +1440,7 @@ void co_manager_on_event(co_manager *m, const co_event *ev)
 
 /* NMT commands from the bus addressed to the manager's own node: ignored
  * and counted while it is NMT master (unless configured otherwise). */
-static bool nmt_rx_filter(void *ctx, co_node *node, uint8_t cs, uint8_t target,
-			  uint64_t now_us)
+static bool nmt_rx_filter(void *ctx, co_node *node, uint8_t cs, uint8_t target, uint64_t now_us)
 {
 	co_manager *m = ctx;
 	(void)node;
@@ -1407,8 +1448,9 @@ static bool nmt_rx_filter(void *ctx, co_node *node, uint8_t cs, uint8_t target,
 		return true;
 	mgr_enter(m, now_us);
 	m->cnt.nmt_ignored++;
-	co_ev_mgr e = { .node = m->own_id, .what = CO_MGR_NODE_NMT_IGNORED,
-			.value = cs, .sub = target };
+	co_ev_mgr e = {
+		.node = m->own_id, .what = CO_MGR_NODE_NMT_IGNORED, .value = cs, .sub = target
+	};
 	emit(m, CO_EV_MGR_NODE, &e);
 	mgr_after(m, now_us);
 	return false;
@@ -1454,8 +1496,7 @@ uint64_t co_manager_tick(co_manager *m, uint64_t now_us)
 	mgr_enter(m, now_us);
 	if (m->autostart_pending) {
 		m->autostart_pending = false;
-		co_fsm_goto(&m->fsm, is_master(m) ? CO_MGR_RESETTING : CO_MGR_SLAVE,
-			    now_us);
+		co_fsm_goto(&m->fsm, is_master(m) ? CO_MGR_RESETTING : CO_MGR_SLAVE, now_us);
 	}
 	if (m->timer_us <= now_us) {
 		m->timer_us = CO_NO_DEADLINE;
@@ -1520,11 +1561,16 @@ int co_manager_start_network(co_manager *m, uint64_t now_us)
 static int cmd_to_cs(uint8_t cmd)
 {
 	switch (cmd) {
-	case CO_MGR_REQ_STOP: return CO_NMT_CS_STOP;
-	case CO_MGR_REQ_START: return CO_NMT_CS_START;
-	case CO_MGR_REQ_RESET_NODE: return CO_NMT_CS_RESET_NODE;
-	case CO_MGR_REQ_RESET_COMM: return CO_NMT_CS_RESET_COMM;
-	case CO_MGR_REQ_PREOP: return CO_NMT_CS_ENTER_PREOP;
+	case CO_MGR_REQ_STOP:
+		return CO_NMT_CS_STOP;
+	case CO_MGR_REQ_START:
+		return CO_NMT_CS_START;
+	case CO_MGR_REQ_RESET_NODE:
+		return CO_NMT_CS_RESET_NODE;
+	case CO_MGR_REQ_RESET_COMM:
+		return CO_NMT_CS_RESET_COMM;
+	case CO_MGR_REQ_PREOP:
+		return CO_NMT_CS_ENTER_PREOP;
 	}
 	return -EINVAL;
 }
@@ -1542,8 +1588,7 @@ static int request_all(co_manager *m, uint8_t cs, uint64_t now_us)
 	case CO_NMT_CS_ENTER_PREOP:
 		nmt_send(m, 0, cs, now_us);
 		m->net_started = false;
-		co_fsm_goto(&m->fsm, cs == CO_NMT_CS_STOP ? CO_MGR_STOPPED : CO_MGR_PREOP,
-			    now_us);
+		co_fsm_goto(&m->fsm, cs == CO_NMT_CS_STOP ? CO_MGR_STOPPED : CO_MGR_PREOP, now_us);
 		return 0;
 	default: /* resets: the network boot runs again */
 		m->reset_cs = cs;
@@ -1552,8 +1597,7 @@ static int request_all(co_manager *m, uint8_t cs, uint64_t now_us)
 	}
 }
 
-int co_manager_request_nmt(co_manager *m, uint8_t node_id, uint8_t cmd,
-			   uint64_t now_us)
+int co_manager_request_nmt(co_manager *m, uint8_t node_id, uint8_t cmd, uint64_t now_us)
 {
 	int cs = cmd_to_cs(cmd), rc = 0;
 
@@ -1564,7 +1608,8 @@ int co_manager_request_nmt(co_manager *m, uint8_t node_id, uint8_t cmd,
 	mgr_enter(m, now_us);
 	{
 		co_ev_mgr e = { .node = node_id == CO_MGR_ALL_NODES ? 0 : node_id,
-				.what = CO_MGR_NODE_REQUEST_NMT, .value = cmd };
+				.what = CO_MGR_NODE_REQUEST_NMT,
+				.value = cmd };
 		emit(m, CO_EV_MGR_NODE, &e);
 	}
 	if (node_id == CO_MGR_ALL_NODES) {
@@ -1603,17 +1648,16 @@ uint8_t co_manager_node_nmt_state(const co_manager *m, uint8_t node_id)
 		return CO_NMT_PRE_OPERATIONAL;
 	if (s->last_state != STATE_UNKNOWN)
 		return s->last_state;
-	if (is_slave(m, node_id) && (s->lost || bs_state(s) == BS_FAILED ||
-				     (m->boot_time_expired && !s->d.booted)))
+	if (is_slave(m, node_id) &&
+	    (s->lost || bs_state(s) == BS_FAILED || (m->boot_time_expired && !s->d.booted)))
 		return CO_MGR_NODE_MISSING;
 	return CO_MGR_NODE_UNKNOWN;
 }
 
-int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort,
-			      uint16_t index, uint8_t sub, uint64_t now_us)
+int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort, uint16_t index,
+			      uint8_t sub, uint64_t now_us)
 {
-	struct mgr_in in = { .kind = IN_CONFIGURED, .abort = abort, .index = index,
-			     .sub = sub };
+	struct mgr_in in = { .kind = IN_CONFIGURED, .abort = abort, .index = index, .sub = sub };
 	if (node_id < 1 || node_id > 127)
 		return -EINVAL;
 	if (bs_state(&m->s[node_id]) != BS_CONFIGURE)
@@ -1627,8 +1671,11 @@ int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort,
 int co_manager_software_done(co_manager *m, uint8_t node_id, char status, uint32_t abort,
 			     uint16_t index, uint8_t sub, uint64_t now_us)
 {
-	struct mgr_in in = { .kind = IN_SOFTWARE, .abort = abort, .index = index,
-			     .sub = sub, .value = (uint8_t)status };
+	struct mgr_in in = { .kind = IN_SOFTWARE,
+			     .abort = abort,
+			     .index = index,
+			     .sub = sub,
+			     .value = (uint8_t)status };
 	if (node_id < 1 || node_id > 127 || (status && !strchr("GHI", status)))
 		return -EINVAL;
 	if (bs_state(&m->s[node_id]) != BS_SOFTWARE)
@@ -1758,8 +1805,8 @@ static uint32_t f25_check(void *ctx, co_od_entry *e, const co_od_access *a)
 		return 0;
 	if (!a->data || a->size != 4)
 		return 0x06070010;
-	sig = (uint32_t)a->data[0] | (uint32_t)a->data[1] << 8 |
-	      (uint32_t)a->data[2] << 16 | (uint32_t)a->data[3] << 24;
+	sig = (uint32_t)a->data[0] | (uint32_t)a->data[1] << 8 | (uint32_t)a->data[2] << 16 |
+	      (uint32_t)a->data[3] << 24;
 	if (sig != CO_MGR_CONF_SIGNATURE)
 		return SDO_ABORT_SIGNATURE;
 	if (!mgr_active(m))
@@ -1785,14 +1832,13 @@ static const co_od_hooks f25_hooks = { .check_write = f25_check };
 int co_od_add_manager_defaults(co_od *od, uint32_t f80_def)
 {
 	int rc;
-	if ((rc = co_od_ensure_num(od, 0x1F80, 0, CO_T_UNSIGNED32,
-				   CO_ACC_RW | CO_ACC_PERSIST, f80_def, 0)) < 0)
+	if ((rc = co_od_ensure_num(od, 0x1F80, 0, CO_T_UNSIGNED32, CO_ACC_RW | CO_ACC_PERSIST,
+				   f80_def, 0)) < 0)
 		return rc;
-	if ((rc = co_od_ensure_num(od, 0x1F89, 0, CO_T_UNSIGNED32,
-				   CO_ACC_RW | CO_ACC_PERSIST, 0, 0)) < 0)
+	if ((rc = co_od_ensure_num(od, 0x1F89, 0, CO_T_UNSIGNED32, CO_ACC_RW | CO_ACC_PERSIST, 0,
+				   0)) < 0)
 		return rc;
-	static const uint16_t arrays[] = { 0x1F81, 0x1F84, 0x1F85, 0x1F86, 0x1F87,
-					   0x1F88 };
+	static const uint16_t arrays[] = { 0x1F81, 0x1F84, 0x1F85, 0x1F86, 0x1F87, 0x1F88 };
 	for (size_t i = 0; i < sizeof(arrays) / sizeof(arrays[0]); i++)
 		if (!co_od_has_index(od, arrays[i]) &&
 		    (rc = co_od_add_array(od, arrays[i], CO_T_UNSIGNED32, 127,
@@ -1826,8 +1872,8 @@ int co_manager_create(co_manager **out, co_node *node, const co_manager_config *
 	m->od = co_node_od(node);
 	m->cfg = *cfg;
 	m->own_id = co_node_id(node);
-	m->n_slots = m->cfg.max_parallel && m->cfg.max_parallel < n_cli
-			     ? m->cfg.max_parallel : n_cli;
+	m->n_slots = m->cfg.max_parallel && m->cfg.max_parallel < n_cli ? m->cfg.max_parallel
+									: n_cli;
 	if (!m->cfg.sdo_timeout_ms)
 		m->cfg.sdo_timeout_ms = 500;
 	if (!m->cfg.reset_wait_ms)

@@ -73,15 +73,15 @@
 
 /* Line state, modelled on seed 001 §2.2. */
 typedef enum co_mgr_state {
-	CO_MGR_SLAVE = 0,     /* 1F80h bit 0 clear: plain NMT slave */
-	CO_MGR_RESETTING,     /* reset communication of the network */
-	CO_MGR_BOOTING,       /* boot slave processes running */
+	CO_MGR_SLAVE = 0,      /* 1F80h bit 0 clear: plain NMT slave */
+	CO_MGR_RESETTING,      /* reset communication of the network */
+	CO_MGR_BOOTING,        /* boot slave processes running */
 	CO_MGR_WAIT_MANDATORY, /* first pass over, mandatory slaves missing */
-	CO_MGR_BOOTED,        /* booted, network not started */
-	CO_MGR_OPERATIONAL,   /* network started */
-	CO_MGR_STOPPED,       /* network stopped (request or error reaction) */
-	CO_MGR_PREOP,         /* network pre-operational (request) */
-	CO_MGR_FATAL,         /* a device on the manager's node-ID */
+	CO_MGR_BOOTED,         /* booted, network not started */
+	CO_MGR_OPERATIONAL,    /* network started */
+	CO_MGR_STOPPED,        /* network stopped (request or error reaction) */
+	CO_MGR_PREOP,          /* network pre-operational (request) */
+	CO_MGR_FATAL,          /* a device on the manager's node-ID */
 	CO_MGR_STATE_COUNT
 } co_mgr_state;
 
@@ -90,7 +90,8 @@ typedef enum co_mgr_state {
 const char *co_mgr_state_to_string(uint8_t state);
 
 /* Flags beside the state (seed 001 §2.2, low nibble). */
-#define CO_MGR_F_OPTIONAL_MISSING 0x01u /* optional missing/wrong, or an
+#define CO_MGR_F_OPTIONAL_MISSING \
+	0x01u /* optional missing/wrong, or an
                                          * unexpected node is present */
 #define CO_MGR_F_MANDATORY_MISSING 0x02u
 #define CO_MGR_F_SLAVE_OPERATIONAL 0x04u
@@ -189,26 +190,26 @@ typedef int (*co_mgr_configure_fn)(void *ctx, uint8_t node_id, uint64_t now_us);
 typedef int (*co_mgr_software_fn)(void *ctx, uint8_t node_id, uint64_t now_us);
 
 typedef struct co_manager_config {
-	uint8_t max_parallel;       /* nodes in their SDO steps at once
+	uint8_t max_parallel;          /* nodes in their SDO steps at once
 	                             * (0 = the node's SDO client channels);
 	                             * requests go through the client pool */
-	uint32_t sdo_timeout_ms;    /* per SDO frame during the boot (500) */
-	uint32_t reset_wait_ms;     /* longest wait for a boot-up after reset
+	uint32_t sdo_timeout_ms;       /* per SDO frame during the boot (500) */
+	uint32_t reset_wait_ms;        /* longest wait for a boot-up after reset
 	                             * communication (1000) */
-	uint32_t retry_ms;          /* retry interval of a node that did not
+	uint32_t retry_ms;             /* retry interval of a node that did not
 	                             * answer (1000); optional nodes for ever,
 	                             * mandatory ones until 1F89h runs out */
-	uint32_t scan_ms;           /* search for missing assigned nodes
+	uint32_t scan_ms;              /* search for missing assigned nodes
 	                             * every scan_ms after the boot (0 = off) */
-	bool accept_remote_nmt;     /* NMT commands from the bus to our own
+	bool accept_remote_nmt;        /* NMT commands from the bus to our own
 	                             * node are applied (default: ignored and
 	                             * counted while we are NMT master) */
-	bool no_autostart;          /* do not run the network boot at the
+	bool no_autostart;             /* do not run the network boot at the
 	                             * first tick (the application calls
 	                             * co_manager_boot_network) */
 	co_mgr_configure_fn configure; /* NULL: nothing to configure */
 	void *configure_ctx;
-	co_mgr_software_fn software;   /* NULL: software not checked */
+	co_mgr_software_fn software; /* NULL: software not checked */
 	void *software_ctx;
 } co_manager_config;
 
@@ -225,14 +226,14 @@ typedef struct co_mgr_emcy_rec {
 
 /* Diagnostics of one node. */
 typedef struct co_mgr_node_diag {
-	uint32_t assignment;  /* 1F81h:n when last read */
-	uint8_t step;         /* co_mgr_step of the last boot event */
-	char status;          /* CiA letter of the last failure, 0 = none */
-	uint32_t abort;       /* SDO abort code of that failure (0 = none) */
-	uint16_t index;       /* object of that failure */
+	uint32_t assignment; /* 1F81h:n when last read */
+	uint8_t step;        /* co_mgr_step of the last boot event */
+	char status;         /* CiA letter of the last failure, 0 = none */
+	uint32_t abort;      /* SDO abort code of that failure (0 = none) */
+	uint16_t index;      /* object of that failure */
 	uint8_t sub;
-	uint32_t value;       /* value read at that failure */
-	uint8_t bs_state;     /* boot slave machine state (internal index) */
+	uint32_t value;   /* value read at that failure */
+	uint8_t bs_state; /* boot slave machine state (internal index) */
 	bool booting;
 	bool booted;
 	uint64_t boot_started_us;
@@ -252,8 +253,8 @@ typedef struct co_mgr_bits {
 typedef struct co_mgr_diag {
 	uint8_t state; /* co_mgr_state */
 	uint8_t flags; /* CO_MGR_F_* */
-	co_mgr_bits assigned, present, booted, operational, stopped, preop,
-		mismatch, errctrl_lost, emcy_active;
+	co_mgr_bits assigned, present, booted, operational, stopped, preop, mismatch, errctrl_lost,
+		emcy_active;
 	uint8_t first_error_node;  /* 0 = none since the last reset */
 	char first_error_status;   /* boot status letter, 0 = an EMCY */
 	uint32_t first_error_code; /* EMCY error code, or the SDO abort code
@@ -274,8 +275,7 @@ static inline bool co_mgr_bit(const co_mgr_bits *b, unsigned n)
 /* Create a manager on `node` (not attached to anything: the owner
  * forwards events and ticks). Installs the 1F82h/1F25h hooks and the NMT
  * receive filter. -ENOMEM, -EINVAL (no SDO client channel). */
-int co_manager_create(co_manager **out, co_node *node,
-		      const co_manager_config *cfg);
+int co_manager_create(co_manager **out, co_node *node, const co_manager_config *cfg);
 /* Accepts NULL. Cancels the manager's SDO requests; call it before the
  * node is destroyed. */
 void co_manager_destroy(co_manager *m);
@@ -300,13 +300,12 @@ int co_manager_start_network(co_manager *m, uint64_t now_us);
 /* Request NMT (the 1F82h write): node 1..127 or CO_MGR_ALL_NODES, cmd one
  * of enum co_mgr_nmt_request. -EINVAL, -EPERM (slave mode), -EAGAIN
  * (start of the network while a mandatory slave is missing). */
-int co_manager_request_nmt(co_manager *m, uint8_t node_id, uint8_t cmd,
-			   uint64_t now_us);
+int co_manager_request_nmt(co_manager *m, uint8_t node_id, uint8_t cmd, uint64_t now_us);
 /* The 1F82h read value of node n (0 unknown, 1 missing, 4, 5, 127). */
 uint8_t co_manager_node_nmt_state(const co_manager *m, uint8_t node_id);
 /* The 302-3 configure step ended (abort 0 = configured). */
-int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort,
-			      uint16_t index, uint8_t sub, uint64_t now_us);
+int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort, uint16_t index,
+			      uint8_t sub, uint64_t now_us);
 /* The 302-3 check software step ended: status 0 = right software (or
  * updated), 'G', 'H' or 'I' = failed, with the object and abort code.
  * -EINVAL (bad node or letter), -ENOENT (node not in that step). */
@@ -321,8 +320,7 @@ uint8_t co_manager_flags(const co_manager *m);
 /* Snapshot of the diagnostics (bit lists computed now). */
 void co_manager_get_diag(const co_manager *m, co_mgr_diag *out);
 /* Node 1..127, NULL otherwise. */
-const co_mgr_node_diag *co_manager_node_diag(const co_manager *m,
-					     uint8_t node_id);
+const co_mgr_node_diag *co_manager_node_diag(const co_manager *m, uint8_t node_id);
 /* Zero counters, EMCY histories and the first error (not the states). */
 void co_manager_reset_counters(co_manager *m);
 

@@ -44,10 +44,14 @@ struct co_nmt {
 const char *co_nmt_state_to_string(uint8_t state)
 {
 	switch (state) {
-	case CO_NMT_INITIALISING: return "initialising";
-	case CO_NMT_STOPPED: return "stopped";
-	case CO_NMT_OPERATIONAL: return "operational";
-	case CO_NMT_PRE_OPERATIONAL: return "pre-operational";
+	case CO_NMT_INITIALISING:
+		return "initialising";
+	case CO_NMT_STOPPED:
+		return "stopped";
+	case CO_NMT_OPERATIONAL:
+		return "operational";
+	case CO_NMT_PRE_OPERATIONAL:
+		return "pre-operational";
 	}
 	return "?";
 }
@@ -55,20 +59,24 @@ const char *co_nmt_state_to_string(uint8_t state)
 const char *co_nmt_cs_to_string(uint8_t cs)
 {
 	switch (cs) {
-	case CO_NMT_CS_START: return "start";
-	case CO_NMT_CS_STOP: return "stop";
-	case CO_NMT_CS_ENTER_PREOP: return "enter-pre-operational";
-	case CO_NMT_CS_RESET_NODE: return "reset-node";
-	case CO_NMT_CS_RESET_COMM: return "reset-comm";
+	case CO_NMT_CS_START:
+		return "start";
+	case CO_NMT_CS_STOP:
+		return "stop";
+	case CO_NMT_CS_ENTER_PREOP:
+		return "enter-pre-operational";
+	case CO_NMT_CS_RESET_NODE:
+		return "reset-node";
+	case CO_NMT_CS_RESET_COMM:
+		return "reset-comm";
 	}
 	return "?";
 }
 
 bool co_nmt_cs_is_valid(uint8_t cs)
 {
-	return cs == CO_NMT_CS_START || cs == CO_NMT_CS_STOP ||
-	       cs == CO_NMT_CS_ENTER_PREOP || cs == CO_NMT_CS_RESET_NODE ||
-	       cs == CO_NMT_CS_RESET_COMM;
+	return cs == CO_NMT_CS_START || cs == CO_NMT_CS_STOP || cs == CO_NMT_CS_ENTER_PREOP ||
+	       cs == CO_NMT_CS_RESET_NODE || cs == CO_NMT_CS_RESET_COMM;
 }
 
 uint8_t co_nmt_get_state(const co_node *node)
@@ -141,8 +149,7 @@ static int h_start(co_node *node, uint8_t cs, uint64_t now_us)
 
 	if (nmt->state == CO_NMT_OPERATIONAL)
 		return 0;
-	if (nmt->veto && !nmt->veto(nmt->veto_ctx, node, nmt->state,
-				    CO_NMT_OPERATIONAL)) {
+	if (nmt->veto && !nmt->veto(nmt->veto_ctx, node, nmt->state, CO_NMT_OPERATIONAL)) {
 		nmt->stats.vetoed++;
 		return -EPERM;
 	}
@@ -183,8 +190,21 @@ static int h_ignore(co_node *node, uint8_t cs, uint64_t now_us)
 
 /* Which command does what in which state (CiA 301 figure 48). In
  * INITIALISING the node waits for its boot-up; only resets apply. */
-enum { ST_INIT, ST_PREOP, ST_OP, ST_STOPPED, ST_COUNT };
-enum { CMD_START, CMD_STOP, CMD_PREOP, CMD_RESET_NODE, CMD_RESET_COMM, CMD_COUNT };
+enum {
+	ST_INIT,
+	ST_PREOP,
+	ST_OP,
+	ST_STOPPED,
+	ST_COUNT
+};
+enum {
+	CMD_START,
+	CMD_STOP,
+	CMD_PREOP,
+	CMD_RESET_NODE,
+	CMD_RESET_COMM,
+	CMD_COUNT
+};
 
 static const nmt_handler nmt_table[ST_COUNT][CMD_COUNT] = {
 	[ST_INIT] = { h_ignore, h_ignore, h_ignore, h_reset, h_reset },
@@ -196,22 +216,32 @@ static const nmt_handler nmt_table[ST_COUNT][CMD_COUNT] = {
 static int state_row(uint8_t state)
 {
 	switch (state) {
-	case CO_NMT_PRE_OPERATIONAL: return ST_PREOP;
-	case CO_NMT_OPERATIONAL: return ST_OP;
-	case CO_NMT_STOPPED: return ST_STOPPED;
-	default: return ST_INIT;
+	case CO_NMT_PRE_OPERATIONAL:
+		return ST_PREOP;
+	case CO_NMT_OPERATIONAL:
+		return ST_OP;
+	case CO_NMT_STOPPED:
+		return ST_STOPPED;
+	default:
+		return ST_INIT;
 	}
 }
 
 static int cmd_col(uint8_t cs)
 {
 	switch (cs) {
-	case CO_NMT_CS_START: return CMD_START;
-	case CO_NMT_CS_STOP: return CMD_STOP;
-	case CO_NMT_CS_ENTER_PREOP: return CMD_PREOP;
-	case CO_NMT_CS_RESET_NODE: return CMD_RESET_NODE;
-	case CO_NMT_CS_RESET_COMM: return CMD_RESET_COMM;
-	default: return -1;
+	case CO_NMT_CS_START:
+		return CMD_START;
+	case CO_NMT_CS_STOP:
+		return CMD_STOP;
+	case CO_NMT_CS_ENTER_PREOP:
+		return CMD_PREOP;
+	case CO_NMT_CS_RESET_NODE:
+		return CMD_RESET_NODE;
+	case CO_NMT_CS_RESET_COMM:
+		return CMD_RESET_COMM;
+	default:
+		return -1;
 	}
 }
 
@@ -334,8 +364,8 @@ static void master_flush(co_node *node, uint64_t now_us)
 	}
 }
 
-int co_nmt_master_send_ex(co_node *node, uint8_t target, uint8_t cs,
-			  unsigned flags, uint64_t now_us)
+int co_nmt_master_send_ex(co_node *node, uint8_t target, uint8_t cs, unsigned flags,
+			  uint64_t now_us)
 {
 	struct co_nmt *nmt = node->nmt;
 	struct nmt_cmd c = { .target = target, .cs = cs, .flags = (uint8_t)flags };
@@ -345,8 +375,7 @@ int co_nmt_master_send_ex(co_node *node, uint8_t target, uint8_t cs,
 	if (target > 127 || !co_nmt_cs_is_valid(cs) || (flags & ~CO_NMT_SEND_SELF))
 		return -EINVAL;
 	node->now_us = now_us;
-	if (!nmt->q_count &&
-	    (!nmt->tx_once || now_us >= nmt->last_tx_us + inhibit_us(node))) {
+	if (!nmt->q_count && (!nmt->tx_once || now_us >= nmt->last_tx_us + inhibit_us(node))) {
 		master_tx(node, &c, now_us);
 		return 0;
 	}
@@ -361,8 +390,7 @@ int co_nmt_master_send_ex(co_node *node, uint8_t target, uint8_t cs,
 	return 0;
 }
 
-int co_nmt_master_send(co_node *node, uint8_t target, uint8_t cs,
-		       uint64_t now_us)
+int co_nmt_master_send(co_node *node, uint8_t target, uint8_t cs, uint64_t now_us)
 {
 	return co_nmt_master_send_ex(node, target, cs, 0, now_us);
 }
@@ -438,8 +466,8 @@ int co_od_add_comm_defaults_nmt(co_od *od, uint8_t n_subs)
 	if (!od || n_subs < 1 || n_subs > 254)
 		return -EINVAL;
 	if (!co_od_has_index(od, 0x1029)) {
-		if ((rc = co_od_add_array(od, 0x1029, CO_T_UNSIGNED8, n_subs,
-					  CO_ACC_RW, CO_NMT_ERR_PREOP)))
+		if ((rc = co_od_add_array(od, 0x1029, CO_T_UNSIGNED8, n_subs, CO_ACC_RW,
+					  CO_NMT_ERR_PREOP)))
 			return rc;
 	}
 	return co_od_ensure_num(od, 0x102A, 0, CO_T_UNSIGNED16, CO_ACC_RW, 0, 0);

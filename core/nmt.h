@@ -73,17 +73,17 @@ bool co_nmt_cs_is_valid(uint8_t cs);
 
 /* Values of 1029h subs (error behaviour). */
 enum co_nmt_err_behaviour {
-	CO_NMT_ERR_PREOP = 0,   /* to PRE-OPERATIONAL if OPERATIONAL */
+	CO_NMT_ERR_PREOP = 0, /* to PRE-OPERATIONAL if OPERATIONAL */
 	CO_NMT_ERR_NO_CHANGE = 1,
 	CO_NMT_ERR_STOPPED = 2,
 };
 
 typedef struct co_nmt_stats {
-	uint64_t cmd_rx;       /* NMT commands addressed to us */
-	uint64_t cmd_invalid;  /* wrong length / unknown cs */
-	uint64_t vetoed;       /* OPERATIONAL refused by the application */
-	uint64_t cmd_filtered; /* received commands the rx filter dropped */
-	uint64_t master_tx;    /* NMT frames sent as master */
+	uint64_t cmd_rx;          /* NMT commands addressed to us */
+	uint64_t cmd_invalid;     /* wrong length / unknown cs */
+	uint64_t vetoed;          /* OPERATIONAL refused by the application */
+	uint64_t cmd_filtered;    /* received commands the rx filter dropped */
+	uint64_t master_tx;       /* NMT frames sent as master */
 	uint64_t master_queued;   /* had to wait for 102Ah */
 	uint64_t master_overflow; /* refused: queue full */
 } co_nmt_stats;
@@ -97,8 +97,7 @@ uint8_t co_nmt_get_state(const co_node *node);
  * command or co_nmt_local_cmd). Return true to allow, false to stay.
  * NULL removes it.
  */
-typedef bool (*co_nmt_veto_fn)(void *ctx, co_node *node, uint8_t from_state,
-			       uint8_t to_state);
+typedef bool (*co_nmt_veto_fn)(void *ctx, co_node *node, uint8_t from_state, uint8_t to_state);
 void co_nmt_set_veto(co_node *node, co_nmt_veto_fn fn, void *ctx);
 
 /*
@@ -108,8 +107,8 @@ void co_nmt_set_veto(co_node *node, co_nmt_veto_fn fn, void *ctx);
  * it so that other nodes cannot stop or reset the NMT master. Local
  * commands (co_nmt_local_cmd) do not pass through it. NULL removes it.
  */
-typedef bool (*co_nmt_rx_filter_fn)(void *ctx, co_node *node, uint8_t cs,
-				    uint8_t target, uint64_t now_us);
+typedef bool (*co_nmt_rx_filter_fn)(void *ctx, co_node *node, uint8_t cs, uint8_t target,
+				    uint64_t now_us);
 void co_nmt_set_rx_filter(co_node *node, co_nmt_rx_filter_fn fn, void *ctx);
 
 /* Apply an NMT command to this node as if it had been received (the
@@ -119,10 +118,9 @@ int co_nmt_local_cmd(co_node *node, uint8_t cs, uint64_t now_us);
 
 /* Master: send [cs, target] (target 0 = all nodes, 1..127). */
 #define CO_NMT_SEND_SELF 0x1u /* target 0: also apply to this node */
-int co_nmt_master_send(co_node *node, uint8_t target, uint8_t cs,
-		       uint64_t now_us);
-int co_nmt_master_send_ex(co_node *node, uint8_t target, uint8_t cs,
-			  unsigned flags, uint64_t now_us);
+int co_nmt_master_send(co_node *node, uint8_t target, uint8_t cs, uint64_t now_us);
+int co_nmt_master_send_ex(co_node *node, uint8_t target, uint8_t cs, unsigned flags,
+			  uint64_t now_us);
 /* Frames waiting for the NMT inhibit time. */
 unsigned co_nmt_master_pending(const co_node *node);
 

@@ -29,31 +29,56 @@ struct co_od {
 const char *co_type_to_string(co_type t)
 {
 	switch (t) {
-	case CO_T_BOOLEAN: return "BOOLEAN";
-	case CO_T_INTEGER8: return "INTEGER8";
-	case CO_T_INTEGER16: return "INTEGER16";
-	case CO_T_INTEGER24: return "INTEGER24";
-	case CO_T_INTEGER32: return "INTEGER32";
-	case CO_T_INTEGER40: return "INTEGER40";
-	case CO_T_INTEGER48: return "INTEGER48";
-	case CO_T_INTEGER56: return "INTEGER56";
-	case CO_T_INTEGER64: return "INTEGER64";
-	case CO_T_UNSIGNED8: return "UNSIGNED8";
-	case CO_T_UNSIGNED16: return "UNSIGNED16";
-	case CO_T_UNSIGNED24: return "UNSIGNED24";
-	case CO_T_UNSIGNED32: return "UNSIGNED32";
-	case CO_T_UNSIGNED40: return "UNSIGNED40";
-	case CO_T_UNSIGNED48: return "UNSIGNED48";
-	case CO_T_UNSIGNED56: return "UNSIGNED56";
-	case CO_T_UNSIGNED64: return "UNSIGNED64";
-	case CO_T_REAL32: return "REAL32";
-	case CO_T_REAL64: return "REAL64";
-	case CO_T_VISIBLE_STRING: return "VISIBLE_STRING";
-	case CO_T_OCTET_STRING: return "OCTET_STRING";
-	case CO_T_UNICODE_STRING: return "UNICODE_STRING";
-	case CO_T_TIME_OF_DAY: return "TIME_OF_DAY";
-	case CO_T_TIME_DIFFERENCE: return "TIME_DIFFERENCE";
-	case CO_T_DOMAIN: return "DOMAIN";
+	case CO_T_BOOLEAN:
+		return "BOOLEAN";
+	case CO_T_INTEGER8:
+		return "INTEGER8";
+	case CO_T_INTEGER16:
+		return "INTEGER16";
+	case CO_T_INTEGER24:
+		return "INTEGER24";
+	case CO_T_INTEGER32:
+		return "INTEGER32";
+	case CO_T_INTEGER40:
+		return "INTEGER40";
+	case CO_T_INTEGER48:
+		return "INTEGER48";
+	case CO_T_INTEGER56:
+		return "INTEGER56";
+	case CO_T_INTEGER64:
+		return "INTEGER64";
+	case CO_T_UNSIGNED8:
+		return "UNSIGNED8";
+	case CO_T_UNSIGNED16:
+		return "UNSIGNED16";
+	case CO_T_UNSIGNED24:
+		return "UNSIGNED24";
+	case CO_T_UNSIGNED32:
+		return "UNSIGNED32";
+	case CO_T_UNSIGNED40:
+		return "UNSIGNED40";
+	case CO_T_UNSIGNED48:
+		return "UNSIGNED48";
+	case CO_T_UNSIGNED56:
+		return "UNSIGNED56";
+	case CO_T_UNSIGNED64:
+		return "UNSIGNED64";
+	case CO_T_REAL32:
+		return "REAL32";
+	case CO_T_REAL64:
+		return "REAL64";
+	case CO_T_VISIBLE_STRING:
+		return "VISIBLE_STRING";
+	case CO_T_OCTET_STRING:
+		return "OCTET_STRING";
+	case CO_T_UNICODE_STRING:
+		return "UNICODE_STRING";
+	case CO_T_TIME_OF_DAY:
+		return "TIME_OF_DAY";
+	case CO_T_TIME_DIFFERENCE:
+		return "TIME_DIFFERENCE";
+	case CO_T_DOMAIN:
+		return "DOMAIN";
 	}
 	return "?";
 }
@@ -63,37 +88,46 @@ uint32_t co_type_size(co_type t)
 	switch (t) {
 	case CO_T_BOOLEAN:
 	case CO_T_INTEGER8:
-	case CO_T_UNSIGNED8: return 1;
+	case CO_T_UNSIGNED8:
+		return 1;
 	case CO_T_INTEGER16:
-	case CO_T_UNSIGNED16: return 2;
+	case CO_T_UNSIGNED16:
+		return 2;
 	case CO_T_INTEGER24:
-	case CO_T_UNSIGNED24: return 3;
+	case CO_T_UNSIGNED24:
+		return 3;
 	case CO_T_INTEGER32:
 	case CO_T_UNSIGNED32:
-	case CO_T_REAL32: return 4;
+	case CO_T_REAL32:
+		return 4;
 	case CO_T_INTEGER40:
-	case CO_T_UNSIGNED40: return 5;
+	case CO_T_UNSIGNED40:
+		return 5;
 	case CO_T_INTEGER48:
 	case CO_T_UNSIGNED48:
 	case CO_T_TIME_OF_DAY: /* 28-bit ms + 4 reserved bits + 16-bit days */
-	case CO_T_TIME_DIFFERENCE: return 6;
+	case CO_T_TIME_DIFFERENCE:
+		return 6;
 	case CO_T_INTEGER56:
-	case CO_T_UNSIGNED56: return 7;
+	case CO_T_UNSIGNED56:
+		return 7;
 	case CO_T_INTEGER64:
 	case CO_T_UNSIGNED64:
-	case CO_T_REAL64: return 8;
+	case CO_T_REAL64:
+		return 8;
 	case CO_T_VISIBLE_STRING:
 	case CO_T_OCTET_STRING:
 	case CO_T_UNICODE_STRING:
-	case CO_T_DOMAIN: return 0;
+	case CO_T_DOMAIN:
+		return 0;
 	}
 	return 0;
 }
 
 bool co_type_is_variable(co_type t)
 {
-	return t == CO_T_VISIBLE_STRING || t == CO_T_OCTET_STRING ||
-	       t == CO_T_UNICODE_STRING || t == CO_T_DOMAIN;
+	return t == CO_T_VISIBLE_STRING || t == CO_T_OCTET_STRING || t == CO_T_UNICODE_STRING ||
+	       t == CO_T_DOMAIN;
 }
 
 bool co_type_is_valid(co_type t)
@@ -111,8 +145,10 @@ bool co_type_is_signed(co_type t)
 	case CO_T_INTEGER40:
 	case CO_T_INTEGER48:
 	case CO_T_INTEGER56:
-	case CO_T_INTEGER64: return true;
-	default: return false;
+	case CO_T_INTEGER64:
+		return true;
+	default:
+		return false;
 	}
 }
 
@@ -124,20 +160,27 @@ bool co_type_is_real(co_type t)
 /* Integer-like: has an ordering on which limits make sense. */
 static bool type_is_integer(co_type t)
 {
-	return co_type_size(t) != 0 && !co_type_is_real(t) &&
-	       t != CO_T_TIME_OF_DAY && t != CO_T_TIME_DIFFERENCE;
+	return co_type_size(t) != 0 && !co_type_is_real(t) && t != CO_T_TIME_OF_DAY &&
+	       t != CO_T_TIME_DIFFERENCE;
 }
 
 const char *co_obj_code_to_string(co_obj_code c)
 {
 	switch (c) {
-	case CO_OBJ_NULL: return "NULL";
-	case CO_OBJ_DOMAIN: return "DOMAIN";
-	case CO_OBJ_DEFTYPE: return "DEFTYPE";
-	case CO_OBJ_DEFSTRUCT: return "DEFSTRUCT";
-	case CO_OBJ_VAR: return "VAR";
-	case CO_OBJ_ARRAY: return "ARRAY";
-	case CO_OBJ_RECORD: return "RECORD";
+	case CO_OBJ_NULL:
+		return "NULL";
+	case CO_OBJ_DOMAIN:
+		return "DOMAIN";
+	case CO_OBJ_DEFTYPE:
+		return "DEFTYPE";
+	case CO_OBJ_DEFSTRUCT:
+		return "DEFSTRUCT";
+	case CO_OBJ_VAR:
+		return "VAR";
+	case CO_OBJ_ARRAY:
+		return "ARRAY";
+	case CO_OBJ_RECORD:
+		return "RECORD";
 	}
 	return "?";
 }
@@ -145,10 +188,14 @@ const char *co_obj_code_to_string(co_obj_code c)
 const char *co_od_origin_to_string(co_od_origin o)
 {
 	switch (o) {
-	case CO_OD_ORIGIN_LOCAL: return "local";
-	case CO_OD_ORIGIN_SDO: return "sdo";
-	case CO_OD_ORIGIN_PDO: return "pdo";
-	case CO_OD_ORIGIN_RESET: return "reset";
+	case CO_OD_ORIGIN_LOCAL:
+		return "local";
+	case CO_OD_ORIGIN_SDO:
+		return "sdo";
+	case CO_OD_ORIGIN_PDO:
+		return "pdo";
+	case CO_OD_ORIGIN_RESET:
+		return "reset";
 	}
 	return "?";
 }
@@ -239,8 +286,7 @@ static size_t lower_bound(const co_od *od, uint32_t key)
 	return lo;
 }
 
-co_od_entry *co_od_find_ex(const co_od *od, uint16_t index, uint8_t sub,
-			   uint32_t *abort)
+co_od_entry *co_od_find_ex(const co_od *od, uint16_t index, uint8_t sub, uint32_t *abort)
 {
 	size_t pos = lower_bound(od, key_of(index, sub));
 
@@ -405,8 +451,8 @@ int co_od_add(co_od *od, const co_od_desc *d, co_od_entry **out)
 	return 0;
 }
 
-int co_od_add_num(co_od *od, uint16_t index, uint8_t sub, co_type type,
-		  uint16_t access, uint64_t def_bits, co_od_entry **out)
+int co_od_add_num(co_od *od, uint16_t index, uint8_t sub, co_type type, uint16_t access,
+		  uint64_t def_bits, co_od_entry **out)
 {
 	uint8_t def[8];
 	uint32_t n = co_type_size(type);
@@ -414,13 +460,17 @@ int co_od_add_num(co_od *od, uint16_t index, uint8_t sub, co_type type,
 	if (n == 0)
 		return -EINVAL;
 	le_store(def, n, def_bits);
-	co_od_desc d = { .index = index, .sub = sub, .type = (uint8_t)type,
-			 .access = access, .def = def, .def_size = n };
+	co_od_desc d = { .index = index,
+			 .sub = sub,
+			 .type = (uint8_t)type,
+			 .access = access,
+			 .def = def,
+			 .def_size = n };
 	return co_od_add(od, &d, out);
 }
 
-int co_od_ensure_num(co_od *od, uint16_t index, uint8_t sub, co_type type,
-		     uint16_t access, uint64_t def_bits, uint8_t obj_code)
+int co_od_ensure_num(co_od *od, uint16_t index, uint8_t sub, co_type type, uint16_t access,
+		     uint64_t def_bits, uint8_t obj_code)
 {
 	co_od_entry *e;
 	int rc = co_od_add_num(od, index, sub, type, access, def_bits, &e);
@@ -432,12 +482,15 @@ int co_od_ensure_num(co_od *od, uint16_t index, uint8_t sub, co_type type,
 	return rc;
 }
 
-int co_od_add_bytes(co_od *od, uint16_t index, uint8_t sub, co_type type,
-		    uint16_t access, uint32_t max_size, const void *def,
-		    uint32_t def_size, co_od_entry **out)
+int co_od_add_bytes(co_od *od, uint16_t index, uint8_t sub, co_type type, uint16_t access,
+		    uint32_t max_size, const void *def, uint32_t def_size, co_od_entry **out)
 {
-	co_od_desc d = { .index = index, .sub = sub, .type = (uint8_t)type,
-			 .access = access, .max_size = max_size, .def = def,
+	co_od_desc d = { .index = index,
+			 .sub = sub,
+			 .type = (uint8_t)type,
+			 .access = access,
+			 .max_size = max_size,
+			 .def = def,
 			 .def_size = def_size };
 
 	if (!co_type_is_variable(type))
@@ -445,8 +498,8 @@ int co_od_add_bytes(co_od *od, uint16_t index, uint8_t sub, co_type type,
 	return co_od_add(od, &d, out);
 }
 
-int co_od_add_array(co_od *od, uint16_t index, co_type type, uint8_t n,
-		    uint16_t access, uint64_t def_bits)
+int co_od_add_array(co_od *od, uint16_t index, co_type type, uint8_t n, uint16_t access,
+		    uint64_t def_bits)
 {
 	co_od_entry *e;
 	int rc = co_od_add_num(od, index, 0, CO_T_UNSIGNED8, CO_ACC_RO, n, &e);
@@ -479,8 +532,7 @@ void co_od_entry_set_hooks(co_od_entry *e, const co_od_hooks *hooks, void *ctx)
 	e->hook_ctx = ctx;
 }
 
-int co_od_set_hooks(co_od *od, uint16_t index, uint8_t sub,
-		    const co_od_hooks *hooks, void *ctx)
+int co_od_set_hooks(co_od *od, uint16_t index, uint8_t sub, const co_od_hooks *hooks, void *ctx)
 {
 	co_od_entry *e = co_od_find(od, index, sub);
 
@@ -526,8 +578,8 @@ int co_od_entry_set_bytes(co_od_entry *e, const void *buf, uint32_t len)
 
 /* ---- typed helpers ------------------------------------------------------ */
 
-static int get_int(const co_od *od, uint16_t index, uint8_t sub, uint32_t width,
-		   bool want_signed, uint64_t *bits)
+static int get_int(const co_od *od, uint16_t index, uint8_t sub, uint32_t width, bool want_signed,
+		   uint64_t *bits)
 {
 	const co_od_entry *e = co_od_find(od, index, sub);
 
@@ -542,8 +594,7 @@ static int get_int(const co_od *od, uint16_t index, uint8_t sub, uint32_t width,
 	return 0;
 }
 
-static int set_int(co_od *od, uint16_t index, uint8_t sub, uint64_t v,
-		   bool is_signed)
+static int set_int(co_od *od, uint16_t index, uint8_t sub, uint64_t v, bool is_signed)
 {
 	co_od_entry *e = co_od_find(od, index, sub);
 
@@ -566,7 +617,7 @@ static int set_int(co_od *od, uint16_t index, uint8_t sub, uint64_t v,
 }
 
 #define OD_GET_UINT(name, ctype)                                               \
-	int co_od_get_##name(const co_od *od, uint16_t i, uint8_t s, ctype *v)  \
+	int co_od_get_##name(const co_od *od, uint16_t i, uint8_t s, ctype *v) \
 	{                                                                      \
 		uint64_t b;                                                    \
 		int rc = get_int(od, i, s, sizeof(ctype), false, &b);          \
@@ -574,13 +625,13 @@ static int set_int(co_od *od, uint16_t index, uint8_t sub, uint64_t v,
 			*v = (ctype)b;                                         \
 		return rc;                                                     \
 	}                                                                      \
-	int co_od_set_##name(co_od *od, uint16_t i, uint8_t s, ctype v)         \
+	int co_od_set_##name(co_od *od, uint16_t i, uint8_t s, ctype v)        \
 	{                                                                      \
 		return set_int(od, i, s, (uint64_t)v, false);                  \
 	}
 
 #define OD_GET_SINT(name, ctype)                                               \
-	int co_od_get_##name(const co_od *od, uint16_t i, uint8_t s, ctype *v)  \
+	int co_od_get_##name(const co_od *od, uint16_t i, uint8_t s, ctype *v) \
 	{                                                                      \
 		uint64_t b;                                                    \
 		int rc = get_int(od, i, s, sizeof(ctype), true, &b);           \
@@ -588,7 +639,7 @@ static int set_int(co_od *od, uint16_t index, uint8_t sub, uint64_t v,
 			*v = (ctype)(int64_t)b;                                \
 		return rc;                                                     \
 	}                                                                      \
-	int co_od_set_##name(co_od *od, uint16_t i, uint8_t s, ctype v)         \
+	int co_od_set_##name(co_od *od, uint16_t i, uint8_t s, ctype v)        \
 	{                                                                      \
 		return set_int(od, i, s, (uint64_t)(int64_t)v, true);          \
 	}
@@ -658,8 +709,8 @@ int co_od_set_r64(co_od *od, uint16_t index, uint8_t sub, double v)
 	return 0;
 }
 
-int co_od_get_bytes(const co_od *od, uint16_t index, uint8_t sub, void *buf,
-		    uint32_t cap, uint32_t *len)
+int co_od_get_bytes(const co_od *od, uint16_t index, uint8_t sub, void *buf, uint32_t cap,
+		    uint32_t *len)
 {
 	const co_od_entry *e = co_od_find(od, index, sub);
 
@@ -673,8 +724,7 @@ int co_od_get_bytes(const co_od *od, uint16_t index, uint8_t sub, void *buf,
 	return 0;
 }
 
-int co_od_set_bytes(co_od *od, uint16_t index, uint8_t sub, const void *buf,
-		    uint32_t len)
+int co_od_set_bytes(co_od *od, uint16_t index, uint8_t sub, const void *buf, uint32_t len)
 {
 	co_od_entry *e = co_od_find(od, index, sub);
 
@@ -748,16 +798,14 @@ uint32_t co_od_check_value(const co_od_entry *e, const uint8_t *data, uint32_t l
 	return 0;
 }
 
-void co_od_commit(co_od_entry *e, const uint8_t *data, uint32_t len,
-		  const co_od_access *a)
+void co_od_commit(co_od_entry *e, const uint8_t *data, uint32_t len, const co_od_access *a)
 {
 	store_bytes(e, data, len);
 	if (e->hooks && e->hooks->after_write)
 		e->hooks->after_write(e->hook_ctx, e, a);
 }
 
-uint32_t co_od_write(co_od_entry *e, const uint8_t *data, uint32_t len,
-		     const co_od_access *a)
+uint32_t co_od_write(co_od_entry *e, const uint8_t *data, uint32_t len, const co_od_access *a)
 {
 	uint32_t ab = co_od_check_value(e, data, len);
 
@@ -787,8 +835,8 @@ void co_od_entry_reset(co_od_entry *e)
 
 void co_od_reset_range(co_od *od, uint16_t first, uint16_t last)
 {
-	for (size_t i = lower_bound(od, key_of(first, 0));
-	     i < od->n && od->v[i]->index <= last; i++)
+	for (size_t i = lower_bound(od, key_of(first, 0)); i < od->n && od->v[i]->index <= last;
+	     i++)
 		co_od_entry_reset(od->v[i]);
 }
 

@@ -155,7 +155,7 @@ struct co_od_entry {
 	uint8_t obj_code; /* co_obj_code of the object this sub belongs to */
 	uint8_t type;     /* co_type */
 	uint8_t has_limits;
-	uint16_t access; /* enum co_access */
+	uint16_t access;   /* enum co_access */
 	uint32_t size;     /* current length in bytes */
 	uint32_t max_size; /* capacity (== size for numeric types) */
 	uint8_t *data;     /* -> val for numerics, owned buffer otherwise */
@@ -200,41 +200,36 @@ int co_od_add(co_od *od, const co_od_desc *d, co_od_entry **out);
 
 /* Convenience: numeric VAR/sub with a default given as the raw bit pattern
  * (two's complement for signed types, IEEE 754 bits for reals). */
-int co_od_add_num(co_od *od, uint16_t index, uint8_t sub, co_type type,
-		  uint16_t access, uint64_t def_bits, co_od_entry **out);
+int co_od_add_num(co_od *od, uint16_t index, uint8_t sub, co_type type, uint16_t access,
+		  uint64_t def_bits, co_od_entry **out);
 /* Like co_od_add_num, for building default layouts: an (index, sub) that
  * exists already is left as it is and counts as success. A new entry gets
  * obj_code unless that is 0 (VAR). 0, -EINVAL or -ENOMEM. */
-int co_od_ensure_num(co_od *od, uint16_t index, uint8_t sub, co_type type,
-		     uint16_t access, uint64_t def_bits, uint8_t obj_code);
+int co_od_ensure_num(co_od *od, uint16_t index, uint8_t sub, co_type type, uint16_t access,
+		     uint64_t def_bits, uint8_t obj_code);
 /* Convenience: string or domain with capacity max_size and a default. */
-int co_od_add_bytes(co_od *od, uint16_t index, uint8_t sub, co_type type,
-		    uint16_t access, uint32_t max_size, const void *def,
-		    uint32_t def_size, co_od_entry **out);
+int co_od_add_bytes(co_od *od, uint16_t index, uint8_t sub, co_type type, uint16_t access,
+		    uint32_t max_size, const void *def, uint32_t def_size, co_od_entry **out);
 /* Convenience: an ARRAY (obj_code ARRAY): sub0 = n (UNSIGNED8, ro) and
  * subs 1..n of a numeric type, all with default def_bits. */
-int co_od_add_array(co_od *od, uint16_t index, co_type type, uint8_t n,
-		    uint16_t access, uint64_t def_bits);
+int co_od_add_array(co_od *od, uint16_t index, co_type type, uint8_t n, uint16_t access,
+		    uint64_t def_bits);
 
 /* Limits for a numeric entry, as raw bit patterns of the entry's type.
  * Checked on SDO writes (and co_od_write); -EINVAL for non-numerics. */
-int co_od_entry_set_limits(co_od_entry *e, uint64_t min_bits,
-			   uint64_t max_bits);
+int co_od_entry_set_limits(co_od_entry *e, uint64_t min_bits, uint64_t max_bits);
 
 /* Attach hooks (NULL to detach). One hook set per entry: the service that
  * owns the object installs them; the application listens to events. */
-int co_od_set_hooks(co_od *od, uint16_t index, uint8_t sub,
-		    const co_od_hooks *hooks, void *ctx);
-void co_od_entry_set_hooks(co_od_entry *e, const co_od_hooks *hooks,
-			   void *ctx);
+int co_od_set_hooks(co_od *od, uint16_t index, uint8_t sub, const co_od_hooks *hooks, void *ctx);
+void co_od_entry_set_hooks(co_od_entry *e, const co_od_hooks *hooks, void *ctx);
 
 /* ---- lookup ------------------------------------------------------------ */
 
 co_od_entry *co_od_find(const co_od *od, uint16_t index, uint8_t sub);
 /* Like co_od_find, but tells why not: *abort = 0x06020000 (no object) or
  * 0x06090011 (no such sub-index). */
-co_od_entry *co_od_find_ex(const co_od *od, uint16_t index, uint8_t sub,
-			   uint32_t *abort);
+co_od_entry *co_od_find_ex(const co_od *od, uint16_t index, uint8_t sub, uint32_t *abort);
 bool co_od_has_index(const co_od *od, uint16_t index);
 size_t co_od_count(const co_od *od);
 /* Entries in (index, sub) order; NULL past the end. Invalidated (the
@@ -277,10 +272,9 @@ int co_od_set_r32(co_od *od, uint16_t index, uint8_t sub, float v);
 int co_od_set_r64(co_od *od, uint16_t index, uint8_t sub, double v);
 /* Copy the value out: *len = current size; -EMSGSIZE if cap is too small
  * (nothing copied, *len still set). */
-int co_od_get_bytes(const co_od *od, uint16_t index, uint8_t sub, void *buf,
-		    uint32_t cap, uint32_t *len);
-int co_od_set_bytes(co_od *od, uint16_t index, uint8_t sub, const void *buf,
-		    uint32_t len);
+int co_od_get_bytes(const co_od *od, uint16_t index, uint8_t sub, void *buf, uint32_t cap,
+		    uint32_t *len);
+int co_od_set_bytes(co_od *od, uint16_t index, uint8_t sub, const void *buf, uint32_t len);
 
 /* ---- checked writes (what SDO and RPDO use) ---------------------------- */
 
@@ -288,16 +282,13 @@ int co_od_set_bytes(co_od *od, uint16_t index, uint8_t sub, const void *buf,
  * BOOLEAN 0/1 (0x06090030), limits (0x06090031/32). Does not check the
  * access flags (the caller knows its own rules) and runs no hook.
  * Returns 0 or an abort code. */
-uint32_t co_od_check_value(const co_od_entry *e, const uint8_t *data,
-			   uint32_t len);
+uint32_t co_od_check_value(const co_od_entry *e, const uint8_t *data, uint32_t len);
 /* check_value, then the check_write hook, then store, then after_write.
  * Returns 0, an abort code (value unchanged) or CO_OD_DEFERRED (value
  * unchanged; the caller must later call co_od_commit()). */
-uint32_t co_od_write(co_od_entry *e, const uint8_t *data, uint32_t len,
-		     const co_od_access *a);
+uint32_t co_od_write(co_od_entry *e, const uint8_t *data, uint32_t len, const co_od_access *a);
 /* Store a value that has already passed its checks, then run after_write. */
-void co_od_commit(co_od_entry *e, const uint8_t *data, uint32_t len,
-		  const co_od_access *a);
+void co_od_commit(co_od_entry *e, const uint8_t *data, uint32_t len, const co_od_access *a);
 
 /* ---- defaults ---------------------------------------------------------- */
 
@@ -313,7 +304,6 @@ void co_od_entry_set_default_raw(co_od_entry *e, uint64_t bits);
  * value is not touched. Numerics: len must equal the size (-EINVAL).
  * Strings/domains: -EMSGSIZE if len > max_size, -ENOMEM (allocates: call
  * at OD build time, e.g. when the configuration sets initial values). */
-int co_od_entry_set_default_bytes(co_od_entry *e, const void *buf,
-				  uint32_t len);
+int co_od_entry_set_default_bytes(co_od_entry *e, const void *buf, uint32_t len);
 
 #endif /* COGW_CORE_OD_H */

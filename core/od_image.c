@@ -7,7 +7,9 @@
 #include "core/frame.h"
 #include "core/store.h"
 
-static const uint8_t image_magic[CO_OD_IMAGE_MAGIC_LEN] = { 'C', 'O', 'G', 'W', 'O', 'D', '1', '\n' };
+static const uint8_t image_magic[CO_OD_IMAGE_MAGIC_LEN] = {
+	'C', 'O', 'G', 'W', 'O', 'D', '1', '\n'
+};
 
 #define RECORD_HEAD 7u
 
@@ -44,8 +46,8 @@ long co_od_image_write(const co_od *od, unsigned parts, uint8_t *buf, size_t cap
 	return (long)used;
 }
 
-int co_od_image_apply(co_od *od, const uint8_t *buf, size_t len, unsigned flags,
-		      unsigned *applied, unsigned *skipped)
+int co_od_image_apply(co_od *od, const uint8_t *buf, size_t len, unsigned flags, unsigned *applied,
+		      unsigned *skipped)
 {
 	*applied = *skipped = 0;
 	if (len < sizeof image_magic || memcmp(buf, image_magic, sizeof image_magic) != 0)

@@ -27,8 +27,9 @@
 #define CO_OD_IMAGE_MAGIC_LEN 8u
 
 /* Apply flags */
-#define CO_OD_IMAGE_SET_VALUE 0x1u   /* the current value */
-#define CO_OD_IMAGE_SET_DEFAULT 0x2u /* the default, so a reset comm/app
+#define CO_OD_IMAGE_SET_VALUE 0x1u /* the current value */
+#define CO_OD_IMAGE_SET_DEFAULT \
+	0x2u /* the default, so a reset comm/app
                                       * returns to the saved value */
 
 /* Does this entry belong to the image of these parts? */
@@ -43,7 +44,7 @@ long co_od_image_write(const co_od *od, unsigned parts, uint8_t *buf, size_t cap
  * checks); records that fail are skipped and counted, never trusted. A
  * truncated tail counts as one skipped record. Returns 0, or -EINVAL if
  * the buffer is not an image at all (nothing applied). */
-int co_od_image_apply(co_od *od, const uint8_t *buf, size_t len, unsigned flags,
-		      unsigned *applied, unsigned *skipped);
+int co_od_image_apply(co_od *od, const uint8_t *buf, size_t len, unsigned flags, unsigned *applied,
+		      unsigned *skipped);
 
 #endif /* COGW_CORE_OD_IMAGE_H */

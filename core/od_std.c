@@ -53,21 +53,19 @@ static int add_string(co_od *od, uint16_t idx, const char *s)
 		return -EINVAL;
 	/* Capacity CO_OD_STD_STRING_MAX, not strlen: the configuration may
 	 * replace the text later with its "values". */
-	rc = co_od_add_bytes(od, idx, 0, CO_T_VISIBLE_STRING, CO_ACC_CO,
-			     CO_OD_STD_STRING_MAX, s, (uint32_t)n, NULL);
+	rc = co_od_add_bytes(od, idx, 0, CO_T_VISIBLE_STRING, CO_ACC_CO, CO_OD_STD_STRING_MAX, s,
+			     (uint32_t)n, NULL);
 	return rc == -EEXIST ? 0 : rc;
 }
 
 static int add_identity(co_od *od, const co_od_std_opts *o)
 {
-	const uint32_t v[4] = { o->vendor_id, o->product_code, o->revision,
-				o->serial };
-	int rc = co_od_ensure_num(od, 0x1018, 0, CO_T_UNSIGNED8, CO_ACC_CO, 4,
-				  CO_OBJ_RECORD);
+	const uint32_t v[4] = { o->vendor_id, o->product_code, o->revision, o->serial };
+	int rc = co_od_ensure_num(od, 0x1018, 0, CO_T_UNSIGNED8, CO_ACC_CO, 4, CO_OBJ_RECORD);
 
 	for (uint8_t s = 1; !rc && s <= 4; s++)
-		rc = co_od_ensure_num(od, 0x1018, s, CO_T_UNSIGNED32, CO_ACC_RO,
-				      v[s - 1], CO_OBJ_RECORD);
+		rc = co_od_ensure_num(od, 0x1018, s, CO_T_UNSIGNED32, CO_ACC_RO, v[s - 1],
+				      CO_OBJ_RECORD);
 	return rc;
 }
 
@@ -77,12 +75,10 @@ static int add_store(co_od *od, uint8_t subs)
 {
 	int rc = 0;
 
-	for (uint16_t idx = CO_STORE_IDX_SAVE; !rc && idx <= CO_STORE_IDX_LOAD;
-	     idx++) {
+	for (uint16_t idx = CO_STORE_IDX_SAVE; !rc && idx <= CO_STORE_IDX_LOAD; idx++) {
 		if (co_od_has_index(od, idx))
 			continue;
-		rc = co_od_add_array(od, idx, CO_T_UNSIGNED32, subs, CO_ACC_RW,
-				     CO_STORE_CAP_CMD);
+		rc = co_od_add_array(od, idx, CO_T_UNSIGNED32, subs, CO_ACC_RW, CO_STORE_CAP_CMD);
 	}
 	return rc;
 }
@@ -95,19 +91,17 @@ static int add_sdo_server_default(co_od *od, uint8_t node_id)
 
 	if (co_od_has_index(od, SDO_SERVER_PARAM))
 		return 0;
-	rc = co_od_ensure_num(od, SDO_SERVER_PARAM, 0, CO_T_UNSIGNED8,
-			      CO_ACC_CO, 2, CO_OBJ_RECORD);
+	rc = co_od_ensure_num(od, SDO_SERVER_PARAM, 0, CO_T_UNSIGNED8, CO_ACC_CO, 2, CO_OBJ_RECORD);
 	if (!rc)
-		rc = co_od_ensure_num(od, SDO_SERVER_PARAM, 1, CO_T_UNSIGNED32,
-				      CO_ACC_RO, 0x600u + node_id, CO_OBJ_RECORD);
+		rc = co_od_ensure_num(od, SDO_SERVER_PARAM, 1, CO_T_UNSIGNED32, CO_ACC_RO,
+				      0x600u + node_id, CO_OBJ_RECORD);
 	if (!rc)
-		rc = co_od_ensure_num(od, SDO_SERVER_PARAM, 2, CO_T_UNSIGNED32,
-				      CO_ACC_RO, 0x580u + node_id, CO_OBJ_RECORD);
+		rc = co_od_ensure_num(od, SDO_SERVER_PARAM, 2, CO_T_UNSIGNED32, CO_ACC_RO,
+				      0x580u + node_id, CO_OBJ_RECORD);
 	return rc;
 }
 
-static int add_pdos(co_od *od, uint8_t node_id, co_pdo_dir dir, uint16_t n,
-		    bool valid)
+static int add_pdos(co_od *od, uint8_t node_id, co_pdo_dir dir, uint16_t n, bool valid)
 {
 	uint16_t comm = dir == CO_PDO_RX ? 0x1400 : 0x1800;
 	int rc;
@@ -121,8 +115,7 @@ static int add_pdos(co_od *od, uint8_t node_id, co_pdo_dir dir, uint16_t n,
 			/* Predefined connection set (CiA 301 §7.3.3): RPDO k
 			 * = 100h * (k + 1) + id (200h..500h), TPDO k = 100h *
 			 * k + 80h + id (180h..480h). */
-			d.cob_id = (dir == CO_PDO_RX ? 0x100u * (k + 1u)
-						     : 0x100u * k + 0x80u) +
+			d.cob_id = (dir == CO_PDO_RX ? 0x100u * (k + 1u) : 0x100u * k + 0x80u) +
 				   node_id;
 			if (!valid)
 				d.cob_id |= COB_INVALID;
@@ -139,8 +132,7 @@ static int add_pdos(co_od *od, uint8_t node_id, co_pdo_dir dir, uint16_t n,
 static int add_emcy(co_od *od, uint8_t node_id, const co_od_std_opts *o)
 {
 	bool had_1028 = co_od_has_index(od, 0x1028);
-	int rc = co_od_add_comm_defaults_emcy(od, node_id, o->emcy_history,
-					      o->emcy_consumers,
+	int rc = co_od_add_comm_defaults_emcy(od, node_id, o->emcy_history, o->emcy_consumers,
 					      o->emcy_consume_all);
 	co_od_entry *e;
 
@@ -162,8 +154,7 @@ static int add_gateway(co_od *od, uint8_t emcy_subs)
 	if (!co_od_has_index(od, 0x1F2C))
 		rc = co_od_add_array(od, 0x1F2C, CO_T_UNSIGNED32, 127, CO_ACC_RW, 0);
 	if (!rc && emcy_subs && !co_od_has_index(od, 0x1F2F))
-		rc = co_od_add_array(od, 0x1F2F, CO_T_UNSIGNED32, emcy_subs,
-				     CO_ACC_RW, 0);
+		rc = co_od_add_array(od, 0x1F2F, CO_T_UNSIGNED32, emcy_subs, CO_ACC_RW, 0);
 	return rc;
 }
 
@@ -176,9 +167,8 @@ static int check_opts(uint8_t node_id, const co_od_std_opts *o)
 		return -EINVAL;
 	if (o->rpdos > PDO_MAX || o->tpdos > PDO_MAX)
 		return -EINVAL;
-	if (o->hb_consumers > 127 || o->emcy_consumers > 127 ||
-	    o->store_subs > 127 || o->error_behaviour_subs < 1 ||
-	    o->error_behaviour_subs > 254 || o->emcy_history > 254)
+	if (o->hb_consumers > 127 || o->emcy_consumers > 127 || o->store_subs > 127 ||
+	    o->error_behaviour_subs < 1 || o->error_behaviour_subs > 254 || o->emcy_history > 254)
 		return -EINVAL;
 	return 0;
 }
@@ -196,13 +186,11 @@ int co_od_add_std_comm(co_od *od, uint8_t node_id, const co_od_std_opts *opts)
 	if (!od || (rc = check_opts(node_id, o)))
 		return -EINVAL;
 
-	if ((rc = co_od_ensure_num(od, 0x1000, 0, CO_T_UNSIGNED32, CO_ACC_RO,
-				   o->device_type, 0)))
+	if ((rc = co_od_ensure_num(od, 0x1000, 0, CO_T_UNSIGNED32, CO_ACC_RO, o->device_type, 0)))
 		return rc;
 	if ((rc = add_emcy(od, node_id, o)))
 		return rc;
-	if ((rc = co_od_add_comm_defaults_sync(od, o->sync_cob_id,
-					       o->sync_period_us,
+	if ((rc = co_od_add_comm_defaults_sync(od, o->sync_cob_id, o->sync_period_us,
 					       o->sync_overflow)))
 		return rc;
 	if ((rc = add_string(od, 0x1008, o->device_name)) ||
@@ -215,8 +203,7 @@ int co_od_add_std_comm(co_od *od, uint8_t node_id, const co_od_std_opts *opts)
 		return rc;
 	if ((rc = co_od_add_comm_defaults_time(od, o->time_cob_id)))
 		return rc;
-	if ((rc = co_od_add_comm_defaults_hb(od, o->hb_consumers,
-					     o->heartbeat_ms)))
+	if ((rc = co_od_add_comm_defaults_hb(od, o->hb_consumers, o->heartbeat_ms)))
 		return rc;
 	if ((rc = add_identity(od, o)))
 		return rc;
@@ -225,12 +212,10 @@ int co_od_add_std_comm(co_od *od, uint8_t node_id, const co_od_std_opts *opts)
 	if ((rc = add_sdo_server_default(od, node_id)))
 		return rc;
 	for (unsigned i = 1; i < o->sdo_servers; i++)
-		if ((rc = sdo_param_od_add(od, (uint16_t)(SDO_SERVER_PARAM + i),
-					   CO_ACC_CO)))
+		if ((rc = sdo_param_od_add(od, (uint16_t)(SDO_SERVER_PARAM + i), CO_ACC_CO)))
 			return rc;
 	for (unsigned i = 0; i < o->sdo_clients; i++)
-		if ((rc = sdo_param_od_add(od, (uint16_t)(SDO_CLIENT_PARAM + i),
-					   CO_ACC_CO)))
+		if ((rc = sdo_param_od_add(od, (uint16_t)(SDO_CLIENT_PARAM + i), CO_ACC_CO)))
 			return rc;
 	if ((rc = add_pdos(od, node_id, CO_PDO_RX, o->rpdos, o->pdo_valid)) ||
 	    (rc = add_pdos(od, node_id, CO_PDO_TX, o->tpdos, o->pdo_valid)))

@@ -63,24 +63,24 @@ typedef struct co_od_std_opts {
 	uint32_t revision;
 	uint32_t serial;
 
-	uint8_t emcy_history;   /* 1003h subs, 0 = no 1003h (default 8) */
-	uint8_t emcy_consumers; /* 1028h subs, 0 = none (default 127) */
-	bool emcy_consume_all;  /* 1028h:n valid for every n except our own
+	uint8_t emcy_history;         /* 1003h subs, 0 = no 1003h (default 8) */
+	uint8_t emcy_consumers;       /* 1028h subs, 0 = none (default 127) */
+	bool emcy_consume_all;        /* 1028h:n valid for every n except our own
 	                         * id (default true: a manager listens) */
-	uint8_t hb_consumers;   /* 1016h subs (default 127) */
-	uint16_t heartbeat_ms;  /* 1017h (default 0) */
-	uint32_t sync_cob_id;   /* 1005h (default 80h: consumer only) */
-	uint32_t sync_period_us; /* 1006h (default 0) */
-	uint8_t sync_overflow;  /* 1019h (default 0) */
-	uint32_t time_cob_id;   /* 1012h (default 100h) */
-	uint8_t store_subs;     /* 1010h/1011h subs, 0 = none (default 3) */
+	uint8_t hb_consumers;         /* 1016h subs (default 127) */
+	uint16_t heartbeat_ms;        /* 1017h (default 0) */
+	uint32_t sync_cob_id;         /* 1005h (default 80h: consumer only) */
+	uint32_t sync_period_us;      /* 1006h (default 0) */
+	uint8_t sync_overflow;        /* 1019h (default 0) */
+	uint32_t time_cob_id;         /* 1012h (default 100h) */
+	uint8_t store_subs;           /* 1010h/1011h subs, 0 = none (default 3) */
 	uint8_t error_behaviour_subs; /* 1029h subs (default 1) */
-	uint8_t sdo_servers;    /* 1200h.. count, 1..128 (default 1) */
-	uint8_t sdo_clients;    /* 1280h.. count, 0..128 (default 0) */
-	uint16_t rpdos;         /* 0..512 (default 0) */
-	uint16_t tpdos;         /* 0..512 (default 0) */
-	bool pdo_valid;         /* PDO 1..4 valid by default (default false) */
-	bool gateway;           /* 1F2Ch/1F2Fh (default false) */
+	uint8_t sdo_servers;          /* 1200h.. count, 1..128 (default 1) */
+	uint8_t sdo_clients;          /* 1280h.. count, 0..128 (default 0) */
+	uint16_t rpdos;               /* 0..512 (default 0) */
+	uint16_t tpdos;               /* 0..512 (default 0) */
+	bool pdo_valid;               /* PDO 1..4 valid by default (default false) */
+	bool gateway;                 /* 1F2Ch/1F2Fh (default false) */
 } co_od_std_opts;
 
 /* Fill *o with the defaults named above. */

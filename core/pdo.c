@@ -44,11 +44,16 @@ const char *co_pdo_tt_to_string(uint8_t tt)
 	if (tt <= CO_PDO_TT_SYNC_MAX)
 		return "sync-cyclic";
 	switch (tt) {
-	case CO_PDO_TT_RTR_SYNC: return "rtr-sync";
-	case CO_PDO_TT_RTR_EVENT: return "rtr-event";
-	case CO_PDO_TT_EVENT_MANUF: return "event-manufacturer";
-	case CO_PDO_TT_EVENT_PROFILE: return "event-profile";
-	default: return "reserved";
+	case CO_PDO_TT_RTR_SYNC:
+		return "rtr-sync";
+	case CO_PDO_TT_RTR_EVENT:
+		return "rtr-event";
+	case CO_PDO_TT_EVENT_MANUF:
+		return "event-manufacturer";
+	case CO_PDO_TT_EVENT_PROFILE:
+		return "event-profile";
+	default:
+		return "reserved";
 	}
 }
 
@@ -178,9 +183,7 @@ static void len_err_release(struct co_pdo *P, struct pdo *p, uint64_t now_us)
 		return;
 	p->len_err = 0;
 	if (--P->len_err_count[k - 1] == 0)
-		co_emcy_clear(P->node,
-			      k == 1 ? CO_EMCY_PDO_LENGTH
-				     : CO_EMCY_PDO_LENGTH_HIGH,
+		co_emcy_clear(P->node, k == 1 ? CO_EMCY_PDO_LENGTH : CO_EMCY_PDO_LENGTH_HIGH,
 			      now_us);
 }
 
@@ -194,11 +197,10 @@ static void pdo_runtime_reset(struct co_pdo *P, struct pdo *p, uint64_t now_us)
 	p->sync_cnt = 0;
 	p->inhibit_until = 0;
 	p->buf_len = 0;
-	p->wait_start = p->dir == CO_PDO_TX && p->sync_start &&
-			p->tt >= CO_PDO_TT_SYNC_MIN && p->tt <= CO_PDO_TT_SYNC_MAX;
+	p->wait_start = p->dir == CO_PDO_TX && p->sync_start && p->tt >= CO_PDO_TT_SYNC_MIN &&
+			p->tt <= CO_PDO_TT_SYNC_MAX;
 	p->timer_us = CO_NO_DEADLINE;
-	if (P->operational && p->valid && p->dir == CO_PDO_TX &&
-	    tt_is_event(p->tt) && p->event_ms)
+	if (P->operational && p->valid && p->dir == CO_PDO_TX && tt_is_event(p->tt) && p->event_ms)
 		p->timer_us = now_us + (uint64_t)p->event_ms * 1000u;
 	heap_update(P, p);
 }
@@ -206,10 +208,8 @@ static void pdo_runtime_reset(struct co_pdo *P, struct pdo *p, uint64_t now_us)
 /* Re-read the communication record into p. */
 static void pdo_load_comm(struct pdo *p)
 {
-	p->cob = p->e_comm[1] ? (uint32_t)co_od_entry_raw(p->e_comm[1])
-			      : CO_PDO_COB_INVALID;
-	p->tt = p->e_comm[2] ? (uint8_t)co_od_entry_raw(p->e_comm[2])
-			     : CO_PDO_TT_EVENT_PROFILE;
+	p->cob = p->e_comm[1] ? (uint32_t)co_od_entry_raw(p->e_comm[1]) : CO_PDO_COB_INVALID;
+	p->tt = p->e_comm[2] ? (uint8_t)co_od_entry_raw(p->e_comm[2]) : CO_PDO_TT_EVENT_PROFILE;
 	p->inhibit_100us = p->e_comm[3] ? (uint16_t)co_od_entry_raw(p->e_comm[3]) : 0;
 	p->event_ms = p->e_comm[5] ? (uint16_t)co_od_entry_raw(p->e_comm[5]) : 0;
 	p->sync_start = p->e_comm[6] ? (uint8_t)co_od_entry_raw(p->e_comm[6]) : 0;
@@ -223,8 +223,7 @@ static void pdo_reconfigure(struct co_pdo *P, struct pdo *p, uint64_t now_us)
 	bool listen;
 
 	p->valid = !(p->cob & CO_PDO_COB_INVALID) && p->map_ok;
-	listen = p->valid &&
-		 (p->dir == CO_PDO_RX || !(p->cob & CO_PDO_COB_NO_RTR));
+	listen = p->valid && (p->dir == CO_PDO_RX || !(p->cob & CO_PDO_COB_NO_RTR));
 	cob_split(p->cob, &id, &flags);
 	if (p->rx_h >= 0) {
 		if (listen)
@@ -252,8 +251,7 @@ static void tpdo_frame(const struct pdo *p, co_frame *f)
 
 /* Send p: fresh sample, or the SYNC sample in buf (TT 252). Every
  * transmission starts the inhibit time and restarts the event timer. */
-static void tpdo_send(struct co_pdo *P, struct pdo *p, bool from_buf,
-		      uint64_t now_us)
+static void tpdo_send(struct co_pdo *P, struct pdo *p, bool from_buf, uint64_t now_us)
 {
 	co_frame f;
 
@@ -269,9 +267,7 @@ static void tpdo_send(struct co_pdo *P, struct pdo *p, bool from_buf,
 	p->inhibit_until = now_us + (uint64_t)p->inhibit_100us * 100u;
 	p->event_pending = false;
 	if (tt_is_event(p->tt))
-		p->timer_us = p->event_ms
-				      ? now_us + (uint64_t)p->event_ms * 1000u
-				      : CO_NO_DEADLINE;
+		p->timer_us = p->event_ms ? now_us + (uint64_t)p->event_ms * 1000u : CO_NO_DEADLINE;
 	heap_update(P, p);
 }
 
@@ -289,8 +285,7 @@ static void tpdo_trigger(struct co_pdo *P, struct pdo *p, uint64_t now_us)
 	tpdo_send(P, p, false, now_us);
 }
 
-static void tpdo_rx(co_node *node, void *arg, const co_frame *f,
-		    uint64_t now_us)
+static void tpdo_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	struct pdo *p = arg;
 	struct co_pdo *P = node->pdo;
@@ -307,8 +302,8 @@ static void tpdo_rx(co_node *node, void *arg, const co_frame *f,
 
 /* ---- RPDO ------------------------------------------------------------------- */
 
-static void rpdo_emit(struct co_pdo *P, const struct pdo *p, co_event_kind k,
-		      const uint8_t *data, uint8_t len)
+static void rpdo_emit(struct co_pdo *P, const struct pdo *p, co_event_kind k, const uint8_t *data,
+		      uint8_t len)
 {
 	co_event ev = { .kind = k };
 	uint32_t id;
@@ -324,8 +319,7 @@ static void rpdo_emit(struct co_pdo *P, const struct pdo *p, co_event_kind k,
 	co_node_emit(P->node, &ev);
 }
 
-static void rpdo_commit(struct co_pdo *P, struct pdo *p, const uint8_t *data,
-			uint8_t len)
+static void rpdo_commit(struct co_pdo *P, struct pdo *p, const uint8_t *data, uint8_t len)
 {
 	uint8_t n = p->n;
 
@@ -349,8 +343,7 @@ static void rpdo_commit(struct co_pdo *P, struct pdo *p, const uint8_t *data,
 	rpdo_emit(P, p, CO_EV_RPDO, data, len);
 }
 
-static void rpdo_length_error(struct co_pdo *P, struct pdo *p,
-			      const co_frame *f, uint64_t now_us)
+static void rpdo_length_error(struct co_pdo *P, struct pdo *p, const co_frame *f, uint64_t now_us)
 {
 	uint8_t kind = f->len < p->len ? 1 : 2;
 	uint8_t msef[5] = { (uint8_t)p->nr, (uint8_t)(p->nr >> 8), 0, 0, 0 };
@@ -362,16 +355,13 @@ static void rpdo_length_error(struct co_pdo *P, struct pdo *p,
 		P->len_err_count[kind - 1]++;
 		/* One EMCY when the error appears, not one per bad frame:
 		 * 1015h would queue them and the EMCY tells nothing new. */
-		co_emcy_send(P->node,
-			     kind == 1 ? CO_EMCY_PDO_LENGTH
-				       : CO_EMCY_PDO_LENGTH_HIGH,
+		co_emcy_send(P->node, kind == 1 ? CO_EMCY_PDO_LENGTH : CO_EMCY_PDO_LENGTH_HIGH,
 			     CO_EMCY_REG_COMM, msef, now_us);
 	}
 	rpdo_emit(P, p, CO_EV_RPDO_LENGTH, f->data, f->len);
 }
 
-static void rpdo_rx(co_node *node, void *arg, const co_frame *f,
-		    uint64_t now_us)
+static void rpdo_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	struct pdo *p = arg;
 	struct co_pdo *P = node->pdo;
@@ -412,16 +402,14 @@ static void sync_list_rebuild(struct co_pdo *P)
 	P->sync_n = 0;
 	for (uint16_t k = 0; k < P->n_rx + P->n_tx; k++) {
 		const struct pdo *p = &P->v[k];
-		if (p->valid && (tt_is_sync(p->tt) ||
-				 (p->dir == CO_PDO_TX &&
-				  p->tt == CO_PDO_TT_RTR_SYNC)))
+		if (p->valid &&
+		    (tt_is_sync(p->tt) || (p->dir == CO_PDO_TX && p->tt == CO_PDO_TT_RTR_SYNC)))
 			P->sync_list[P->sync_n++] = k;
 	}
 	P->sync_dirty = false;
 }
 
-static void tpdo_sync(struct co_pdo *P, struct pdo *p, uint8_t counter,
-		      uint64_t now_us)
+static void tpdo_sync(struct co_pdo *P, struct pdo *p, uint8_t counter, uint64_t now_us)
 {
 	if (p->tt == CO_PDO_TT_RTR_SYNC) {
 		pdo_map_pack(p, p->buf);
@@ -522,9 +510,8 @@ static uint64_t pdo_tick(co_node *node, uint64_t now_us)
  * TIME..., SDO, LSS, NMT error control). */
 static bool cob_restricted(uint32_t id)
 {
-	return id <= 0x07F || (id >= 0x101 && id <= 0x180) ||
-	       (id >= 0x581 && id <= 0x5FF) || (id >= 0x601 && id <= 0x67F) ||
-	       (id >= 0x6E0 && id <= 0x6FF) || id >= 0x701;
+	return id <= 0x07F || (id >= 0x101 && id <= 0x180) || (id >= 0x581 && id <= 0x5FF) ||
+	       (id >= 0x601 && id <= 0x67F) || (id >= 0x6E0 && id <= 0x6FF) || id >= 0x701;
 }
 
 static uint32_t check_cob(const struct pdo *p, uint32_t v)
@@ -538,8 +525,7 @@ static uint32_t check_cob(const struct pdo *p, uint32_t v)
 	if (v & CO_PDO_COB_INVALID)
 		return 0;
 	if (!(v & CO_PDO_COB_EXT) &&
-	    ((v & CO_FRAME_EFF_MASK & ~CO_FRAME_SFF_MASK) ||
-	     cob_restricted(v & CO_FRAME_SFF_MASK)))
+	    ((v & CO_FRAME_EFF_MASK & ~CO_FRAME_SFF_MASK) || cob_restricted(v & CO_FRAME_SFF_MASK)))
 		return SDO_AB_VALUE;
 	if (!p->map_ok)
 		return CO_PDO_AB_SEQUENCE; /* mapping broken: fix it first */
@@ -568,8 +554,7 @@ static uint32_t check_comm(struct pdo *p, uint8_t sub, const uint8_t *d)
 	}
 }
 
-static uint32_t pdo_check_write(void *ctx, co_od_entry *e,
-				const co_od_access *a)
+static uint32_t pdo_check_write(void *ctx, co_od_entry *e, const co_od_access *a)
 {
 	struct co_pdo *P = ctx;
 	bool is_map;
@@ -604,11 +589,9 @@ static void pdo_after_write(void *ctx, co_od_entry *e, const co_od_access *a)
 	pdo_load_comm(p);
 	if (e->sub == 5) {
 		/* a new event time applies from now on, nothing else moves */
-		if (p->dir == CO_PDO_TX && P->operational && p->valid &&
-		    tt_is_event(p->tt))
-			p->timer_us = p->event_ms
-					      ? now_us + (uint64_t)p->event_ms * 1000u
-					      : CO_NO_DEADLINE;
+		if (p->dir == CO_PDO_TX && P->operational && p->valid && tt_is_event(p->tt))
+			p->timer_us = p->event_ms ? now_us + (uint64_t)p->event_ms * 1000u
+						  : CO_NO_DEADLINE;
 		else if (p->dir == CO_PDO_RX && !p->event_ms)
 			p->timer_us = CO_NO_DEADLINE;
 		heap_update(P, p);
@@ -651,8 +634,7 @@ static void pdo_load_all(struct co_pdo *P, uint64_t now_us)
 	P->len_err_count[0] = P->len_err_count[1] = 0;
 }
 
-static void pdo_sync_observer(co_node *node, void *ctx, uint8_t counter,
-			      uint64_t now_us)
+static void pdo_sync_observer(co_node *node, void *ctx, uint8_t counter, uint64_t now_us)
 {
 	(void)ctx;
 	co_pdo_sync_ind(node, counter, now_us);
@@ -673,8 +655,7 @@ static int pdo_init(co_node *node)
 		return rc;
 	for (uint16_t k = 0; k < P->n_rx + P->n_tx; k++) {
 		struct pdo *p = &P->v[k];
-		int h = co_rx_register(node, 0, 0,
-				       p->dir == CO_PDO_RX ? rpdo_rx : tpdo_rx, p);
+		int h = co_rx_register(node, 0, 0, p->dir == CO_PDO_RX ? rpdo_rx : tpdo_rx, p);
 		if (h < 0)
 			return h;
 		p->rx_h = h;
@@ -765,8 +746,7 @@ int co_pdo_tpdo_event(co_node *node, uint16_t nr, uint64_t now_us)
 	return 0;
 }
 
-int co_pdo_object_changed(co_node *node, uint16_t index, uint8_t sub,
-			  uint64_t now_us)
+int co_pdo_object_changed(co_node *node, uint16_t index, uint8_t sub, uint64_t now_us)
 {
 	struct co_pdo *P = node->pdo;
 	uint32_t key = (uint32_t)index << 8 | sub;

@@ -116,7 +116,7 @@
 #define CO_PDO_AB_SEQUENCE SDO_AB_PARAM_INCOMPAT
 
 /* Mapping entry value. */
-#define CO_PDO_MAP(index, sub, bits)                                      \
+#define CO_PDO_MAP(index, sub, bits) \
 	(((uint32_t)(index) << 16) | ((uint32_t)(sub) << 8) | (uint32_t)(bits))
 
 typedef enum co_pdo_dir {
@@ -174,8 +174,7 @@ int co_pdo_tpdo_event(co_node *node, uint16_t nr, uint64_t now_us);
  * number of TPDOs triggered (0 when not OPERATIONAL). O(log n + k) through a
  * sorted (object -> TPDO) index rebuilt only when a mapping changes.
  */
-int co_pdo_object_changed(co_node *node, uint16_t index, uint8_t sub,
-			  uint64_t now_us);
+int co_pdo_object_changed(co_node *node, uint16_t index, uint8_t sub, uint64_t now_us);
 
 /* Ask the producer of RPDO nr for its data: an RTR frame with the mapped
  * length on the RPDO's COB-ID. -ENOENT, -EAGAIN (not OPERATIONAL/valid). */

@@ -68,8 +68,7 @@ struct pdo *pdo_of_index(struct co_pdo *P, uint16_t index, bool *is_map)
 /* ---- validation ---------------------------------------------------------- */
 
 /* Is v (index << 16 | sub << 8 | bits) something p may map? */
-static uint32_t entry_target(const struct co_pdo *P, co_pdo_dir dir,
-			     uint32_t v, co_od_entry **out)
+static uint32_t entry_target(const struct co_pdo *P, co_pdo_dir dir, uint32_t v, co_od_entry **out)
 {
 	uint16_t index = (uint16_t)(v >> 16);
 	uint8_t sub = (uint8_t)(v >> 8), bits = (uint8_t)v;
@@ -85,8 +84,7 @@ static uint32_t entry_target(const struct co_pdo *P, co_pdo_dir dir,
 		 * §7.4.7.1 defines dummy mapping for receivers) */
 		if (dir == CO_PDO_TX)
 			return SDO_AB_NO_MAP;
-		return bits <= co_type_size((co_type)index) * 8 ? 0
-								: SDO_AB_NO_MAP;
+		return bits <= co_type_size((co_type)index) * 8 ? 0 : SDO_AB_NO_MAP;
 	}
 	e = co_od_find_ex(P->node->od, index, sub, &ab);
 	if (!e)
@@ -112,8 +110,8 @@ static uint32_t entry_target(const struct co_pdo *P, co_pdo_dir dir,
 }
 
 /* Compile entries 1..n of p's mapping object into items/evmap. */
-static uint32_t compile(const struct co_pdo *P, const struct pdo *p, uint8_t n,
-			pdo_item *items, co_ev_pdo_map *evmap, uint8_t *len)
+static uint32_t compile(const struct co_pdo *P, const struct pdo *p, uint8_t n, pdo_item *items,
+			co_ev_pdo_map *evmap, uint8_t *len)
 {
 	uint32_t off = 0;
 
@@ -213,8 +211,7 @@ void pdo_map_pack(const struct pdo *p, uint8_t out[8])
 	le_store(out, 8, acc);
 }
 
-uint32_t pdo_map_unpack_one(const struct pdo *p, uint8_t i,
-			    const uint8_t *data, uint8_t len)
+uint32_t pdo_map_unpack_one(const struct pdo *p, uint8_t i, const uint8_t *data, uint8_t len)
 {
 	const pdo_item *it = &p->items[i];
 	co_od_access a = { .origin = CO_OD_ORIGIN_PDO };
@@ -232,8 +229,7 @@ uint32_t pdo_map_unpack_one(const struct pdo *p, uint8_t i,
 		size = it->bits / 8u;
 	} else {
 		size = e->size;
-		if (co_type_is_signed(t) && it->bits < size * 8 &&
-		    (v >> (it->bits - 1)) & 1)
+		if (co_type_is_signed(t) && it->bits < size * 8 && (v >> (it->bits - 1)) & 1)
 			v |= ~mask_bits(it->bits); /* sign-extend */
 	}
 	le_store(bytes, size, v);
@@ -261,8 +257,7 @@ void pdo_map_rev_rebuild(struct co_pdo *P)
 		for (uint8_t i = 0; i < p->n; i++) {
 			if (!p->items[i].e)
 				continue;
-			P->rev[P->rev_n].key = (uint32_t)p->evmap[i].index << 8 |
-					       p->evmap[i].sub;
+			P->rev[P->rev_n].key = (uint32_t)p->evmap[i].index << 8 | p->evmap[i].sub;
 			P->rev[P->rev_n].pdo = k;
 			P->rev_n++;
 		}
@@ -362,8 +357,7 @@ void pdo_map_free(struct co_pdo *P)
 
 /* ---- OD builder ------------------------------------------------------------- */
 
-static int add_rec(co_od *od, uint16_t index, uint8_t sub, co_type t,
-		   uint16_t access, uint64_t def)
+static int add_rec(co_od *od, uint16_t index, uint8_t sub, co_type t, uint16_t access, uint64_t def)
 {
 	uint8_t b[8];
 	co_od_desc d = {
@@ -386,8 +380,8 @@ int co_od_add_pdo(co_od *od, const co_pdo_desc *d)
 	uint8_t subs;
 	int rc;
 
-	if (!od || !d || d->nr < 1 || d->nr > CO_PDO_MAX ||
-	    d->map_subs > CO_PDO_MAX_MAP || (d->n_map && !d->map))
+	if (!od || !d || d->nr < 1 || d->nr > CO_PDO_MAX || d->map_subs > CO_PDO_MAX_MAP ||
+	    (d->n_map && !d->map))
 		return -EINVAL;
 	subs = d->map_subs ? d->map_subs : 8;
 	if (d->n_map > subs)
@@ -396,24 +390,21 @@ int co_od_add_pdo(co_od *od, const co_pdo_desc *d)
 	mi = (uint16_t)(map_base(d->dir) + d->nr - 1);
 	if (co_od_has_index(od, ci) || co_od_has_index(od, mi))
 		return -EEXIST;
-	rc = add_rec(od, ci, 0, CO_T_UNSIGNED8, CO_ACC_RO,
-		     d->dir == CO_PDO_TX ? 6 : 5);
+	rc = add_rec(od, ci, 0, CO_T_UNSIGNED8, CO_ACC_RO, d->dir == CO_PDO_TX ? 6 : 5);
 	if (!rc)
 		rc = add_rec(od, ci, 1, CO_T_UNSIGNED32, CO_ACC_RW, d->cob_id);
 	if (!rc)
 		rc = add_rec(od, ci, 2, CO_T_UNSIGNED8, CO_ACC_RW, d->tt);
 	if (!rc)
-		rc = add_rec(od, ci, 3, CO_T_UNSIGNED16, CO_ACC_RW,
-			     d->inhibit_100us);
+		rc = add_rec(od, ci, 3, CO_T_UNSIGNED16, CO_ACC_RW, d->inhibit_100us);
 	if (!rc)
 		rc = add_rec(od, ci, 5, CO_T_UNSIGNED16, CO_ACC_RW, d->event_ms);
 	if (!rc && d->dir == CO_PDO_TX)
-		rc = add_rec(od, ci, 6, CO_T_UNSIGNED8, CO_ACC_RW,
-			     d->sync_start);
+		rc = add_rec(od, ci, 6, CO_T_UNSIGNED8, CO_ACC_RW, d->sync_start);
 	if (!rc)
 		rc = add_rec(od, mi, 0, CO_T_UNSIGNED8, CO_ACC_RW, d->n_map);
 	for (uint8_t i = 0; !rc && i < subs; i++)
-		rc = add_rec(od, mi, (uint8_t)(i + 1), CO_T_UNSIGNED32,
-			     CO_ACC_RW, i < d->n_map ? d->map[i] : 0);
+		rc = add_rec(od, mi, (uint8_t)(i + 1), CO_T_UNSIGNED32, CO_ACC_RW,
+			     i < d->n_map ? d->map[i] : 0);
 	return rc;
 }

@@ -21,19 +21,19 @@ typedef struct pdo_item {
 } pdo_item;
 
 struct pdo {
-	uint16_t nr;  /* 1-based */
-	uint8_t dir;  /* co_pdo_dir */
+	uint16_t nr; /* 1-based */
+	uint8_t dir; /* co_pdo_dir */
 	uint8_t tt;
 	uint32_t cob; /* comm sub 1 in force */
 	uint16_t inhibit_100us;
 	uint16_t event_ms;
 	uint8_t sync_start;
-	uint8_t cap;  /* mapping subs 1..cap exist in the OD */
-	uint8_t n;    /* compiled entries in force */
-	uint8_t len;  /* PDO length in bytes */
-	bool map_ok;  /* mapping compiled (n may be 0) */
-	bool valid;   /* COB-ID valid and map_ok */
-	int rx_h;     /* receiver (RPDO data / TPDO RTR) */
+	uint8_t cap;            /* mapping subs 1..cap exist in the OD */
+	uint8_t n;              /* compiled entries in force */
+	uint8_t len;            /* PDO length in bytes */
+	bool map_ok;            /* mapping compiled (n may be 0) */
+	bool valid;             /* COB-ID valid and map_ok */
+	int rx_h;               /* receiver (RPDO data / TPDO RTR) */
 	co_od_entry *e_comm[7]; /* comm subs 0..6, NULL if absent */
 	co_od_entry *e_map0;    /* mapping sub 0 */
 	co_od_entry **e_map;    /* mapping subs 1..cap */
@@ -41,7 +41,7 @@ struct pdo {
 	co_ev_pdo_map *evmap;   /* same, as reported in events */
 
 	/* runtime, reset by pdo_runtime_reset() */
-	uint8_t buf[8];     /* RPDO: data waiting for SYNC; TPDO 252: sample */
+	uint8_t buf[8]; /* RPDO: data waiting for SYNC; TPDO 252: sample */
 	uint8_t buf_len;
 	bool pending;       /* RPDO: buf waits; TPDO TT 0: event since SYNC */
 	bool sampled;       /* TPDO TT 252: buf is valid */
@@ -50,9 +50,9 @@ struct pdo {
 	uint8_t len_err;    /* 0, 1 = EMCY 8210h raised, 2 = 8220h raised */
 	uint8_t sync_cnt;
 	uint64_t inhibit_until;
-	uint64_t timer_us;  /* event timer / RPDO deadline, CO_NO_DEADLINE off */
-	uint64_t due;       /* heap key */
-	uint16_t hpos;      /* heap position, 0xFFFF = not in the heap */
+	uint64_t timer_us; /* event timer / RPDO deadline, CO_NO_DEADLINE off */
+	uint64_t due;      /* heap key */
+	uint16_t hpos;     /* heap position, 0xFFFF = not in the heap */
 };
 
 /* (object -> TPDO) index entry */
@@ -99,8 +99,7 @@ uint32_t pdo_map_check_entry(struct co_pdo *P, const struct pdo *p, uint32_t v);
 /* TPDO: sample the mapped objects into out (8 bytes, zero padded). */
 void pdo_map_pack(const struct pdo *p, uint8_t out[8]);
 /* RPDO: write entry i from data into the OD; 0 or the OD's abort code. */
-uint32_t pdo_map_unpack_one(const struct pdo *p, uint8_t i,
-			    const uint8_t *data, uint8_t len);
+uint32_t pdo_map_unpack_one(const struct pdo *p, uint8_t i, const uint8_t *data, uint8_t len);
 
 void pdo_map_rev_rebuild(struct co_pdo *P);
 

@@ -14,40 +14,40 @@
  * this project uses for network indications, see DESIGN.md). */
 typedef enum sdo_abort {
 	SDO_OK = 0,
-	SDO_AB_TOGGLE = 0x05030000,         /* toggle bit not alternated */
-	SDO_AB_TIMEOUT = 0x05040000,        /* SDO protocol timed out */
-	SDO_AB_CMD = 0x05040001,            /* command specifier not valid */
-	SDO_AB_BLK_SIZE = 0x05040002,       /* invalid block size */
-	SDO_AB_SEQ = 0x05040003,            /* invalid sequence number */
-	SDO_AB_CRC = 0x05040004,            /* CRC error */
-	SDO_AB_NO_MEM = 0x05040005,         /* out of memory */
-	SDO_AB_UNSUPP_ACCESS = 0x06010000,  /* unsupported access */
-	SDO_AB_WRITE_ONLY = 0x06010001,     /* attempt to read a wo object */
-	SDO_AB_READ_ONLY = 0x06010002,      /* attempt to write a ro object */
-	SDO_AB_NO_OBJ = 0x06020000,         /* object does not exist */
-	SDO_AB_NO_MAP = 0x06040041,         /* object cannot be mapped */
-	SDO_AB_MAP_LEN = 0x06040042,        /* mapping exceeds PDO length */
-	SDO_AB_PARAM_INCOMPAT = 0x06040043, /* general parameter incompat. */
+	SDO_AB_TOGGLE = 0x05030000,            /* toggle bit not alternated */
+	SDO_AB_TIMEOUT = 0x05040000,           /* SDO protocol timed out */
+	SDO_AB_CMD = 0x05040001,               /* command specifier not valid */
+	SDO_AB_BLK_SIZE = 0x05040002,          /* invalid block size */
+	SDO_AB_SEQ = 0x05040003,               /* invalid sequence number */
+	SDO_AB_CRC = 0x05040004,               /* CRC error */
+	SDO_AB_NO_MEM = 0x05040005,            /* out of memory */
+	SDO_AB_UNSUPP_ACCESS = 0x06010000,     /* unsupported access */
+	SDO_AB_WRITE_ONLY = 0x06010001,        /* attempt to read a wo object */
+	SDO_AB_READ_ONLY = 0x06010002,         /* attempt to write a ro object */
+	SDO_AB_NO_OBJ = 0x06020000,            /* object does not exist */
+	SDO_AB_NO_MAP = 0x06040041,            /* object cannot be mapped */
+	SDO_AB_MAP_LEN = 0x06040042,           /* mapping exceeds PDO length */
+	SDO_AB_PARAM_INCOMPAT = 0x06040043,    /* general parameter incompat. */
 	SDO_AB_INTERNAL_INCOMPAT = 0x06040047, /* general internal incompat. */
-	SDO_AB_HW = 0x06060000,             /* access failed: hardware error */
-	SDO_AB_TYPE_LEN = 0x06070010,       /* type/length mismatch */
-	SDO_AB_LEN_HIGH = 0x06070012,       /* length too high */
-	SDO_AB_LEN_LOW = 0x06070013,        /* length too low */
-	SDO_AB_NO_SUB = 0x06090011,         /* sub-index does not exist */
-	SDO_AB_VALUE = 0x06090030,          /* invalid value */
-	SDO_AB_VALUE_HIGH = 0x06090031,     /* value too high */
-	SDO_AB_VALUE_LOW = 0x06090032,      /* value too low */
-	SDO_AB_MAX_LT_MIN = 0x06090036,     /* maximum less than minimum */
-	SDO_AB_NO_RESOURCE = 0x060A0023,    /* resource not available: SDO conn. */
-	SDO_AB_GENERAL = 0x08000000,        /* general error */
-	SDO_AB_STORE = 0x08000020,          /* cannot transfer/store */
-	SDO_AB_LOCAL_CTRL = 0x08000021,     /* ... because of local control */
-	SDO_AB_DEV_STATE = 0x08000022,      /* ... because of device state */
-	SDO_AB_NO_OD = 0x08000023,          /* no object dictionary */
-	SDO_AB_NO_DATA = 0x08000024,        /* no data available */
-	SDO_AB_NET_UNKNOWN = 0x0A000001,    /* CiA 302-7: network unknown */
-	SDO_AB_NODE_UNKNOWN = 0x0A000002,   /* CiA 302-7: node unknown/silent */
-	SDO_AB_ROUTE_BUSY = 0x0A000003,     /* CiA 302-7: routing channel busy */
+	SDO_AB_HW = 0x06060000,                /* access failed: hardware error */
+	SDO_AB_TYPE_LEN = 0x06070010,          /* type/length mismatch */
+	SDO_AB_LEN_HIGH = 0x06070012,          /* length too high */
+	SDO_AB_LEN_LOW = 0x06070013,           /* length too low */
+	SDO_AB_NO_SUB = 0x06090011,            /* sub-index does not exist */
+	SDO_AB_VALUE = 0x06090030,             /* invalid value */
+	SDO_AB_VALUE_HIGH = 0x06090031,        /* value too high */
+	SDO_AB_VALUE_LOW = 0x06090032,         /* value too low */
+	SDO_AB_MAX_LT_MIN = 0x06090036,        /* maximum less than minimum */
+	SDO_AB_NO_RESOURCE = 0x060A0023,       /* resource not available: SDO conn. */
+	SDO_AB_GENERAL = 0x08000000,           /* general error */
+	SDO_AB_STORE = 0x08000020,             /* cannot transfer/store */
+	SDO_AB_LOCAL_CTRL = 0x08000021,        /* ... because of local control */
+	SDO_AB_DEV_STATE = 0x08000022,         /* ... because of device state */
+	SDO_AB_NO_OD = 0x08000023,             /* no object dictionary */
+	SDO_AB_NO_DATA = 0x08000024,           /* no data available */
+	SDO_AB_NET_UNKNOWN = 0x0A000001,       /* CiA 302-7: network unknown */
+	SDO_AB_NODE_UNKNOWN = 0x0A000002,      /* CiA 302-7: node unknown/silent */
+	SDO_AB_ROUTE_BUSY = 0x0A000003,        /* CiA 302-7: routing channel busy */
 } sdo_abort;
 
 /* "object does not exist", ...; "unknown abort code" for others. */
@@ -99,11 +99,11 @@ enum sdo_blk_sub {
 };
 
 #define SDO_CS(b) ((uint8_t)((b) >> 5))
-#define SDO_TOGGLE 0x10u      /* t bit of segment frames */
-#define SDO_SEG_LAST 0x01u    /* c bit of segment frames */
-#define SDO_EXPEDITED 0x02u   /* e bit of initiate frames */
-#define SDO_SIZE_IND 0x01u    /* s bit of initiate frames */
-#define SDO_BLK_CRC 0x04u     /* cc / sc bit of block initiate frames */
+#define SDO_TOGGLE 0x10u       /* t bit of segment frames */
+#define SDO_SEG_LAST 0x01u     /* c bit of segment frames */
+#define SDO_EXPEDITED 0x02u    /* e bit of initiate frames */
+#define SDO_SIZE_IND 0x01u     /* s bit of initiate frames */
+#define SDO_BLK_CRC 0x04u      /* cc / sc bit of block initiate frames */
 #define SDO_BLK_SIZE_IND 0x02u /* s bit of block download/upload initiate */
 #define SDO_BLK_SEQ_LAST 0x80u /* c bit of a block sub-block segment */
 

@@ -43,11 +43,11 @@ static inline bool sdo_blk_seg_is_abort(const uint8_t d[8])
 /* ---- receiving side ----------------------------------------------------- */
 
 struct sdo_blk_rx {
-	uint16_t crc;     /* over all data accepted so far but the last segment */
+	uint16_t crc; /* over all data accepted so far but the last segment */
 	bool crc_on;
-	uint8_t blksize;  /* segments per sub-block, as we announced it */
-	uint8_t seq;      /* last in-sequence seqno of the current sub-block */
-	bool last_seen;   /* the segment with c = 1 was accepted */
+	uint8_t blksize; /* segments per sub-block, as we announced it */
+	uint8_t seq;     /* last in-sequence seqno of the current sub-block */
+	bool last_seen;  /* the segment with c = 1 was accepted */
 	bool prev_valid;
 	uint8_t prev_seg[8]; /* the segment that closed the last sub-block; once
 	                      * last_seen, the last segment of the data */
@@ -55,11 +55,11 @@ struct sdo_blk_rx {
 
 /* What sdo_blk_rx_segment() asks the caller to do (flags). */
 enum sdo_blk_rx_act {
-	SDO_BLK_RX_WAIT = 0,      /* nothing to store: wait for the next segment */
-	SDO_BLK_RX_STORE = 1u << 0, /* new in-sequence segment: take d[1..7]
+	SDO_BLK_RX_WAIT = 0,          /* nothing to store: wait for the next segment */
+	SDO_BLK_RX_STORE = 1u << 0,   /* new in-sequence segment: take d[1..7]
 	                             * (all 7 are data unless rx->last_seen:
 	                             * then the end request tells how many) */
-	SDO_BLK_RX_ACK = 1u << 1, /* sub-block ends: send sdo_blk_rx_ack() */
+	SDO_BLK_RX_ACK = 1u << 1,     /* sub-block ends: send sdo_blk_rx_ack() */
 	SDO_BLK_RX_BAD_SEQ = 1u << 2, /* seqno outside 1..blksize: abort with
 	                               * SDO_AB_SEQ */
 };
@@ -95,7 +95,7 @@ bool sdo_blk_rx_crc_ok(struct sdo_blk_rx *rx, const uint8_t d[8], uint32_t last_
 /* ---- sending side ------------------------------------------------------- */
 
 struct sdo_blk_tx {
-	uint16_t crc;    /* over all data acknowledged so far */
+	uint16_t crc; /* over all data acknowledged so far */
 	bool crc_on;
 	uint8_t blksize; /* segments per sub-block, as the receiver asks */
 	uint8_t segs;    /* segments in the sub-block sent */
@@ -113,8 +113,8 @@ uint8_t sdo_blk_tx_sub_block(struct sdo_blk_tx *tx, uint32_t avail, bool ends_da
 
 /* Segment seq (1..segs) of the planned sub-block into d[0..7]; data = the
  * first byte of the sub-block. */
-static inline void sdo_blk_tx_segment(const struct sdo_blk_tx *tx, uint8_t seq,
-				      const uint8_t *data, uint8_t d[8])
+static inline void sdo_blk_tx_segment(const struct sdo_blk_tx *tx, uint8_t seq, const uint8_t *data,
+				      uint8_t d[8])
 {
 	uint32_t off = (uint32_t)(seq - 1) * SDO_SEG_DATA;
 	uint32_t len = tx->bytes - off < SDO_SEG_DATA ? tx->bytes - off : SDO_SEG_DATA;

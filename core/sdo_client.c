@@ -35,26 +35,26 @@
 
 enum cli_state {
 	CS_IDLE,
-	CS_DN_INIT,     /* initiate download sent */
-	CS_DN_SEG,      /* download segment sent */
-	CS_UP_INIT,     /* initiate upload sent */
-	CS_UP_SEG,      /* upload segment request sent */
-	CS_BLK_DN_INIT, /* block download initiate sent */
-	CS_BLK_DN_ACK,  /* sub-block sent, waiting for the ack */
-	CS_BLK_DN_END,  /* end sent */
-	CS_BLK_UP_INIT, /* block upload initiate sent */
-	CS_BLK_UP_SUB,  /* receiving sub-block segments */
-	CS_BLK_UP_END,  /* last sub-block acked, waiting for the end */
+	CS_DN_INIT,      /* initiate download sent */
+	CS_DN_SEG,       /* download segment sent */
+	CS_UP_INIT,      /* initiate upload sent */
+	CS_UP_SEG,       /* upload segment request sent */
+	CS_BLK_DN_INIT,  /* block download initiate sent */
+	CS_BLK_DN_ACK,   /* sub-block sent, waiting for the ack */
+	CS_BLK_DN_END,   /* end sent */
+	CS_BLK_UP_INIT,  /* block upload initiate sent */
+	CS_BLK_UP_SUB,   /* receiving sub-block segments */
+	CS_BLK_UP_END,   /* last sub-block acked, waiting for the end */
 	CS_START_FAILED, /* could not start: completes at the next tick with
 	                  * start_abort (never inside the submitting call) */
-	CS_LEASED,      /* lent out raw (CiA 302-7 relay): frames go to lease_fn */
+	CS_LEASED,       /* lent out raw (CiA 302-7 relay): frames go to lease_fn */
 	CS_COUNT
 };
 
 struct cli_chan {
 	struct sdo_client *cli;
 	uint8_t num;
-	co_fsm fsm; /* state: enum cli_state (cli_states[]) */
+	co_fsm fsm;          /* state: enum cli_state (cli_states[]) */
 	bool done_pending;   /* the request ended: idle's on_enter confirms */
 	uint32_t done_abort; /* ... with this abort code (0 = success) */
 	int rx_handle;
@@ -72,18 +72,18 @@ struct cli_chan {
 	uint8_t mode;
 	bool fell_back;
 	uint8_t toggle;
-	uint32_t offset; /* bytes confirmed (download) / delivered (upload) */
-	uint32_t total;  /* download: size; upload: indicated or UNKNOWN */
-	uint32_t read_off; /* download: bytes taken from the source */
+	uint32_t offset;      /* bytes confirmed (download) / delivered (upload) */
+	uint32_t total;       /* download: size; upload: indicated or UNKNOWN */
+	uint32_t read_off;    /* download: bytes taken from the source */
 	uint32_t start_abort; /* CS_START_FAILED: the abort to report */
 
 	/* block */
 	struct sdo_blk_rx brx; /* upload: sequence, duplicates, CRC */
 	struct sdo_blk_tx btx; /* download: sub-block, CRC */
-	bool pend_valid;   /* upload: held-back segment (its length is only
+	bool pend_valid;       /* upload: held-back segment (its length is only
 	                    * known at the end request) */
 	uint8_t pend[SDO_SEG_DATA];
-	uint32_t sub_len;  /* download: bytes in sub_buf */
+	uint32_t sub_len; /* download: bytes in sub_buf */
 	uint8_t sub_buf[SUB_BLOCK_BYTES];
 
 	sdo_client_raw_fn lease_fn; /* CS_LEASED */
@@ -213,9 +213,12 @@ static int fail_start(struct cli_chan *ch, uint32_t abort)
 static int abort_local(struct cli_chan *ch, uint32_t code)
 {
 	tx_mux(ch, SDO_CCS_ABORT << 5, code);
-	ch->ended = (struct stale_xfer){ .valid = true, .upload = ch->cur.upload,
-					  .mode = ch->mode, .index = ch->cur.index,
-					  .sub = ch->cur.sub, .cob_resp = ch->cob_resp };
+	ch->ended = (struct stale_xfer){ .valid = true,
+					 .upload = ch->cur.upload,
+					 .mode = ch->mode,
+					 .index = ch->cur.index,
+					 .sub = ch->cur.sub,
+					 .cob_resp = ch->cob_resp };
 	return complete(ch, code);
 }
 
@@ -249,7 +252,8 @@ static bool is_stale(const struct cli_chan *ch, const uint8_t *d)
 	bool names_cur = co_get_le16(&d[1]) == ch->cur.index && d[3] == ch->cur.sub;
 	bool names_old = co_get_le16(&d[1]) == s->index && d[3] == s->sub;
 	bool initiate_or_abort = cs == SDO_SCS_UP_INIT || cs == SDO_SCS_DN_INIT ||
-				 cs == SDO_SCS_BLK_DN || cs == SDO_SCS_BLK_UP || cs == SDO_SCS_ABORT;
+				 cs == SDO_SCS_BLK_DN || cs == SDO_SCS_BLK_UP ||
+				 cs == SDO_SCS_ABORT;
 
 	if (!s->valid)
 		return false;
@@ -711,9 +715,11 @@ static int leased_on_enter(void *obj, uint64_t now_us)
 
 /* ---- the machine ----------------------------------------------------------------- */
 
-#define TRANSFER_STATE(nm, frame_fn)                                          \
-	{ .name = nm, .on_enter = transfer_on_enter, .on_frame = frame_fn,    \
-	  .on_timeout = transfer_on_timeout }
+#define TRANSFER_STATE(nm, frame_fn)                                             \
+	{                                                                        \
+		.name = nm, .on_enter = transfer_on_enter, .on_frame = frame_fn, \
+		.on_timeout = transfer_on_timeout                                \
+	}
 
 /* Frames of a leased channel and of the idle / start failed states never
  * reach the table (cli_rx). */
@@ -723,14 +729,11 @@ static const co_fsm_state cli_states[CS_COUNT] = {
 	[CS_DN_SEG] = TRANSFER_STATE("download segment", dn_seg_on_frame),
 	[CS_UP_INIT] = TRANSFER_STATE("upload initiate", up_init_on_frame),
 	[CS_UP_SEG] = TRANSFER_STATE("upload segment", up_seg_on_frame),
-	[CS_BLK_DN_INIT] = TRANSFER_STATE("block download initiate",
-					  blk_dn_init_on_frame),
+	[CS_BLK_DN_INIT] = TRANSFER_STATE("block download initiate", blk_dn_init_on_frame),
 	[CS_BLK_DN_ACK] = TRANSFER_STATE("block download ack", blk_dn_ack_on_frame),
 	[CS_BLK_DN_END] = TRANSFER_STATE("block download end", blk_dn_end_on_frame),
-	[CS_BLK_UP_INIT] = TRANSFER_STATE("block upload initiate",
-					  blk_up_init_on_frame),
-	[CS_BLK_UP_SUB] = TRANSFER_STATE("block upload sub-block",
-					 blk_up_sub_on_frame),
+	[CS_BLK_UP_INIT] = TRANSFER_STATE("block upload initiate", blk_up_init_on_frame),
+	[CS_BLK_UP_SUB] = TRANSFER_STATE("block upload sub-block", blk_up_sub_on_frame),
 	[CS_BLK_UP_END] = TRANSFER_STATE("block upload end", blk_up_end_on_frame),
 	[CS_START_FAILED] = { .name = "start failed",
 			      .on_enter = start_failed_on_enter,
@@ -759,9 +762,9 @@ static int restart_without_block(struct cli_chan *ch)
 {
 	ch->fell_back = true;
 	ch->offset = ch->read_off = 0;
-	ch->mode = ch->cur.upload ? SDO_MODE_SEGMENTED
+	ch->mode = ch->cur.upload                                  ? SDO_MODE_SEGMENTED
 		   : (ch->total >= 1 && ch->total <= SDO_EXP_DATA) ? SDO_MODE_EXPEDITED
-								     : SDO_MODE_SEGMENTED;
+								   : SDO_MODE_SEGMENTED;
 	return ch->cur.upload ? start_upload(ch) : start_download(ch);
 }
 
@@ -783,8 +786,7 @@ static void cli_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	int st = state_of(ch);
 
 	(void)node;
-	if (st == CS_IDLE || st == CS_START_FAILED || f->len != 8 ||
-	    (f->flags & CO_FRAME_RTR))
+	if (st == CS_IDLE || st == CS_START_FAILED || f->len != 8 || (f->flags & CO_FRAME_RTR))
 		return;
 	if (st == CS_LEASED) {
 		ch->lease_fn(ch->lease_arg, d, now_us);
@@ -811,8 +813,10 @@ static uint8_t pick_mode(const struct cli_chan *ch, const sdo_client_req *r)
 		return SDO_MODE_SEGMENTED;
 	}
 	switch (r->mode) {
-	case SDO_MODE_BLOCK: return SDO_MODE_BLOCK;
-	case SDO_MODE_SEGMENTED: return SDO_MODE_SEGMENTED;
+	case SDO_MODE_BLOCK:
+		return SDO_MODE_BLOCK;
+	case SDO_MODE_SEGMENTED:
+		return SDO_MODE_SEGMENTED;
 	case SDO_MODE_EXPEDITED:
 		return r->size >= 1 && r->size <= 4 ? SDO_MODE_EXPEDITED : SDO_MODE_SEGMENTED;
 	default:
@@ -862,7 +866,8 @@ static int start_state(struct cli_chan *ch, const sdo_client_req *r)
 			st->valid = false;
 		}
 	}
-	ch->timeout_us = (uint64_t)(r->timeout_ms ? r->timeout_ms : node->cfg.sdo_client_timeout_ms) * 1000u;
+	ch->timeout_us =
+		(uint64_t)(r->timeout_ms ? r->timeout_ms : node->cfg.sdo_client_timeout_ms) * 1000u;
 	ch->mode = pick_mode(ch, r);
 	ch->fell_back = false;
 	sdo_blk_rx_reset(&ch->brx);
@@ -924,7 +929,8 @@ static sdo_client_req *pool_at(struct sdo_client *cli, uint16_t i)
 static void pool_remove(struct sdo_client *cli, uint16_t i)
 {
 	if (i == 0) { /* the usual case: the oldest starts */
-		cli->pool_head = (uint16_t)((cli->pool_head + 1) % cli->node->cfg.sdo_client_pool_len);
+		cli->pool_head = (uint16_t)((cli->pool_head + 1) %
+					    cli->node->cfg.sdo_client_pool_len);
 		cli->pool_len--;
 		return;
 	}
@@ -998,23 +1004,32 @@ int sdo_client_submit(co_node *node, uint8_t channel, const sdo_client_req *req,
 	return 0;
 }
 
-int sdo_client_read(co_node *node, uint8_t channel, uint8_t node_id, uint16_t index,
-		    uint8_t sub, uint8_t *buf, uint32_t cap, uint32_t timeout_ms,
-		    uint64_t tag, uint64_t now_us)
+int sdo_client_read(co_node *node, uint8_t channel, uint8_t node_id, uint16_t index, uint8_t sub,
+		    uint8_t *buf, uint32_t cap, uint32_t timeout_ms, uint64_t tag, uint64_t now_us)
 {
-	sdo_client_req r = { .upload = true, .node_id = node_id, .index = index,
-			     .sub = sub, .timeout_ms = timeout_ms, .tag = tag,
-			     .buf = buf, .cap = cap };
+	sdo_client_req r = { .upload = true,
+			     .node_id = node_id,
+			     .index = index,
+			     .sub = sub,
+			     .timeout_ms = timeout_ms,
+			     .tag = tag,
+			     .buf = buf,
+			     .cap = cap };
 	return sdo_client_submit(node, channel, &r, now_us);
 }
 
-int sdo_client_write(co_node *node, uint8_t channel, uint8_t node_id, uint16_t index,
-		     uint8_t sub, const uint8_t *data, uint32_t size, uint32_t timeout_ms,
-		     uint64_t tag, uint64_t now_us)
+int sdo_client_write(co_node *node, uint8_t channel, uint8_t node_id, uint16_t index, uint8_t sub,
+		     const uint8_t *data, uint32_t size, uint32_t timeout_ms, uint64_t tag,
+		     uint64_t now_us)
 {
-	sdo_client_req r = { .upload = false, .node_id = node_id, .index = index,
-			     .sub = sub, .timeout_ms = timeout_ms, .tag = tag,
-			     .data = data, .size = size };
+	sdo_client_req r = { .upload = false,
+			     .node_id = node_id,
+			     .index = index,
+			     .sub = sub,
+			     .timeout_ms = timeout_ms,
+			     .tag = tag,
+			     .data = data,
+			     .size = size };
 	return sdo_client_submit(node, channel, &r, now_us);
 }
 
@@ -1050,8 +1065,7 @@ static bool cancel_queued(struct cli_chan *ch, uint64_t tag, uint32_t abort)
 	return false;
 }
 
-int sdo_client_cancel(co_node *node, uint8_t channel, uint64_t tag, uint32_t abort,
-		      uint64_t now_us)
+int sdo_client_cancel(co_node *node, uint8_t channel, uint64_t tag, uint32_t abort, uint64_t now_us)
 {
 	struct sdo_client *cli = node->sdo_cli;
 

@@ -82,24 +82,23 @@ typedef void (*sdo_client_con_fn)(void *arg, const co_ev_sdo_cli *con);
 /* Download source: copy up to len bytes of the value at offset into buf.
  * Offsets are strictly sequential. Return the count copied (len unless the
  * value ends), or a negative errno to abort (0x08000020 on the wire). */
-typedef int (*sdo_src_fn)(void *ctx, uint32_t offset, uint8_t *buf,
-			  uint32_t len);
+typedef int (*sdo_src_fn)(void *ctx, uint32_t offset, uint8_t *buf, uint32_t len);
 /* Upload sink: the next len bytes at offset (sequential, each byte once).
  * total is the size indicated by the server, or UINT32_MAX if none. Return
  * 0, or a negative errno to abort (0x08000020 on the wire). */
-typedef int (*sdo_sink_fn)(void *ctx, uint32_t offset, const uint8_t *data,
-			   uint32_t len, uint32_t total);
+typedef int (*sdo_sink_fn)(void *ctx, uint32_t offset, const uint8_t *data, uint32_t len,
+			   uint32_t total);
 
 typedef struct sdo_client_req {
-	bool upload;        /* true = read from the server, false = write */
-	uint8_t node_id;    /* target node 1..127 */
+	bool upload;     /* true = read from the server, false = write */
+	uint8_t node_id; /* target node 1..127 */
 	uint16_t index;
 	uint8_t sub;
-	uint8_t mode;       /* sdo_mode hint */
+	uint8_t mode;        /* sdo_mode hint */
 	uint32_t timeout_ms; /* per frame; 0 = cfg.sdo_client_timeout_ms */
-	uint64_t tag;       /* echoed in the completion event */
-	uint32_t cob_req;   /* client->server COB-ID; 0 = 600h + node_id */
-	uint32_t cob_resp;  /* server->client COB-ID; 0 = 580h + node_id */
+	uint64_t tag;        /* echoed in the completion event */
+	uint32_t cob_req;    /* client->server COB-ID; 0 = 600h + node_id */
+	uint32_t cob_resp;   /* server->client COB-ID; 0 = 580h + node_id */
 
 	/* Download: size bytes from data, or from src if data is NULL.
 	 * Upload: optional expected size (selects block in AUTO mode). */
@@ -126,37 +125,32 @@ typedef struct sdo_client_req {
  * channel is idle. The request is copied; data/buf it points to must stay
  * valid until completion. Returns 0, -EINVAL (bad request/channel),
  * -ENOSPC (queue full). */
-int sdo_client_submit(co_node *node, uint8_t channel,
-		      const sdo_client_req *req, uint64_t now_us);
+int sdo_client_submit(co_node *node, uint8_t channel, const sdo_client_req *req, uint64_t now_us);
 
 /* Convenience wrappers (AUTO mode). */
-int sdo_client_read(co_node *node, uint8_t channel, uint8_t node_id,
-		    uint16_t index, uint8_t sub, uint8_t *buf, uint32_t cap,
-		    uint32_t timeout_ms, uint64_t tag, uint64_t now_us);
-int sdo_client_write(co_node *node, uint8_t channel, uint8_t node_id,
-		     uint16_t index, uint8_t sub, const uint8_t *data,
-		     uint32_t size, uint32_t timeout_ms, uint64_t tag,
+int sdo_client_read(co_node *node, uint8_t channel, uint8_t node_id, uint16_t index, uint8_t sub,
+		    uint8_t *buf, uint32_t cap, uint32_t timeout_ms, uint64_t tag, uint64_t now_us);
+int sdo_client_write(co_node *node, uint8_t channel, uint8_t node_id, uint16_t index, uint8_t sub,
+		     const uint8_t *data, uint32_t size, uint32_t timeout_ms, uint64_t tag,
 		     uint64_t now_us);
 
 /* Cancel the request with this tag (running: an abort frame with `abort`
  * goes out; queued: removed). Its completion event carries `abort`.
  * Returns 0 or -ENOENT. */
-int sdo_client_cancel(co_node *node, uint8_t channel, uint64_t tag,
-		      uint32_t abort, uint64_t now_us);
+int sdo_client_cancel(co_node *node, uint8_t channel, uint64_t tag, uint32_t abort,
+		      uint64_t now_us);
 
 /* Borrow any free channel (see the pool, above). Returns 0, -EINVAL (bad
  * request, no client channels), -EBUSY (no_wait and it cannot start at
  * once), -ENOSPC (pool FIFO full). */
-int sdo_client_pool_submit(co_node *node, const sdo_client_req *req,
-			   uint64_t now_us);
+int sdo_client_pool_submit(co_node *node, const sdo_client_req *req, uint64_t now_us);
 
 /* Cancel the request with this tag wherever it is: running on a channel
  * (abort frame with `abort`), waiting in a channel's FIFO or in the pool
  * (removed). Its completion carries `abort`. If several requests share the
  * tag, the first found (running, then channel FIFOs, then pool). Returns 0
  * or -ENOENT. */
-int sdo_client_cancel_tag(co_node *node, uint64_t tag, uint32_t abort,
-			  uint64_t now_us);
+int sdo_client_cancel_tag(co_node *node, uint64_t tag, uint32_t abort, uint64_t now_us);
 
 /*
  * Relay lease (CiA 302-7 SDO routing, used by gateway/): borrow a free

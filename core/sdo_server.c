@@ -58,7 +58,7 @@ enum defer_kind {
 struct srv_chan {
 	struct sdo_server *srv;
 	uint8_t num;
-	co_fsm fsm; /* state: enum srv_state (srv_states[]) */
+	co_fsm fsm;          /* state: enum srv_state (srv_states[]) */
 	bool done_pending;   /* the transfer ended: idle's on_enter reports */
 	uint32_t done_abort; /* ... with this abort code (0 = success) */
 	co_frame route_ind;  /* the network indication handed to routing */
@@ -78,7 +78,7 @@ struct srv_chan {
 	uint32_t size;   /* indicated (download) or total (upload) size */
 	uint32_t offset; /* bytes done */
 
-	uint8_t *dst;     /* download: stage or e->data (in place) */
+	uint8_t *dst; /* download: stage or e->data (in place) */
 	uint32_t dst_cap;
 	bool in_place;
 	const uint8_t *src; /* upload: e->data or the deferred data */
@@ -214,8 +214,9 @@ static uint32_t open_entry(struct srv_chan *ch, const uint8_t *d, bool upload, u
 
 static co_od_access access_of(const struct srv_chan *ch, const uint8_t *data, uint32_t size)
 {
-	co_od_access a = { .origin = CO_OD_ORIGIN_SDO, .channel = ch->num,
-			   .data = data, .size = size };
+	co_od_access a = {
+		.origin = CO_OD_ORIGIN_SDO, .channel = ch->num, .data = data, .size = size
+	};
 	return a;
 }
 
@@ -229,8 +230,7 @@ static int park(struct srv_chan *ch, uint8_t kind)
 /* ---- download ----------------------------------------------------------- */
 
 /* Check an announced size against the entry and pick the data path. */
-static uint32_t dn_prepare(struct srv_chan *ch, bool size_ind, uint32_t size,
-			   bool force_stage)
+static uint32_t dn_prepare(struct srv_chan *ch, bool size_ind, uint32_t size, bool force_stage)
 {
 	co_od_entry *e = ch->e;
 
@@ -498,8 +498,10 @@ static int up_start_normal(struct srv_chan *ch)
 	if (ch->size >= 1 && ch->size <= SDO_EXP_DATA) {
 		ch->mode = SDO_MODE_EXPEDITED;
 		memcpy(p, ch->src, ch->size); /* 1..4 bytes */
-		send_mux(ch, (uint8_t)((SDO_SCS_UP_INIT << 5) | ((4u - ch->size) << 2) |
-				       SDO_EXPEDITED | SDO_SIZE_IND), p);
+		send_mux(ch,
+			 (uint8_t)((SDO_SCS_UP_INIT << 5) | ((4u - ch->size) << 2) | SDO_EXPEDITED |
+				   SDO_SIZE_IND),
+			 p);
 		return finish(ch, 0);
 	}
 	ch->mode = SDO_MODE_SEGMENTED;
@@ -521,8 +523,10 @@ static int up_start_block(struct srv_chan *ch)
 	co_put_le32(p, ch->size);
 	/* sc = 1 only if the client asked for a CRC (cc = 1): a client that
 	 * did not ask may reject an end frame that announces one. */
-	send_mux(ch, (uint8_t)((SDO_SCS_BLK_UP << 5) | (ch->btx.crc_on ? SDO_BLK_CRC : 0) |
-			       SDO_BLK_SIZE_IND), p);
+	send_mux(ch,
+		 (uint8_t)((SDO_SCS_BLK_UP << 5) | (ch->btx.crc_on ? SDO_BLK_CRC : 0) |
+			   SDO_BLK_SIZE_IND),
+		 p);
 	return SS_BLK_UP_START;
 }
 
@@ -572,8 +576,9 @@ static int up_seg_on_frame(void *obj, const co_frame *fr, uint64_t now_us)
 		return abort_transfer(ch, SDO_AB_CMD);
 	if (t != ch->toggle)
 		return abort_transfer(ch, SDO_AB_TOGGLE);
-	frame_init(ch, &f, (uint8_t)((SDO_SCS_UP_SEG << 5) | t | ((SDO_SEG_DATA - len) << 1) |
-				     (last ? SDO_SEG_LAST : 0)));
+	frame_init(ch, &f,
+		   (uint8_t)((SDO_SCS_UP_SEG << 5) | t | ((SDO_SEG_DATA - len) << 1) |
+			     (last ? SDO_SEG_LAST : 0)));
 	if (len)
 		memcpy(&f.data[1], ch->src + ch->offset, len);
 	co_node_send(node_of(ch), &f);
@@ -698,11 +703,16 @@ static int idle_on_frame(void *obj, const co_frame *f, uint64_t now_us)
 		return SS_ROUTED;
 	}
 	switch (SDO_CS(d[0])) {
-	case SDO_CCS_DN_INIT: return dn_init(ch, d);
-	case SDO_CCS_UP_INIT: return up_init(ch, d);
-	case SDO_CCS_BLK_DN: return blk_dn_init(ch, d);
-	case SDO_CCS_BLK_UP: return blk_up_init(ch, d);
-	case SDO_CCS_ABORT: return CO_FSM_STAY; /* nothing to abort */
+	case SDO_CCS_DN_INIT:
+		return dn_init(ch, d);
+	case SDO_CCS_UP_INIT:
+		return up_init(ch, d);
+	case SDO_CCS_BLK_DN:
+		return blk_dn_init(ch, d);
+	case SDO_CCS_BLK_UP:
+		return blk_up_init(ch, d);
+	case SDO_CCS_ABORT:
+		return CO_FSM_STAY; /* nothing to abort */
 	default:
 		ch->index = co_get_le16(&d[1]);
 		ch->sub = d[3];
@@ -785,26 +795,23 @@ static int deferred_on_con(void *obj, const void *con, uint64_t now_us)
 
 /* ---- the machine ------------------------------------------------------------- */
 
-#define TRANSFER_STATE(nm, frame_fn)                                          \
-	{ .name = nm, .on_enter = transfer_on_enter, .on_frame = frame_fn,    \
-	  .on_timeout = transfer_on_timeout }
+#define TRANSFER_STATE(nm, frame_fn)                                             \
+	{                                                                        \
+		.name = nm, .on_enter = transfer_on_enter, .on_frame = frame_fn, \
+		.on_timeout = transfer_on_timeout                                \
+	}
 
 static const co_fsm_state srv_states[SS_COUNT] = {
-	[SS_IDLE] = { .name = "idle", .on_enter = idle_on_enter,
-		      .on_frame = idle_on_frame },
+	[SS_IDLE] = { .name = "idle", .on_enter = idle_on_enter, .on_frame = idle_on_frame },
 	[SS_DN_SEG] = TRANSFER_STATE("download segment", dn_seg_on_frame),
 	[SS_UP_SEG] = TRANSFER_STATE("upload segment", up_seg_on_frame),
-	[SS_BLK_DN_SUB] = TRANSFER_STATE("block download sub-block",
-					 blk_dn_sub_on_frame),
-	[SS_BLK_DN_END] = TRANSFER_STATE("block download end",
-					 blk_dn_end_on_frame),
-	[SS_BLK_UP_START] = TRANSFER_STATE("block upload start",
-					   blk_up_start_on_frame),
-	[SS_BLK_UP_ACK] = TRANSFER_STATE("block upload ack",
-					 blk_up_ack_on_frame),
-	[SS_BLK_UP_END] = TRANSFER_STATE("block upload end",
-					 blk_up_end_on_frame),
-	[SS_DEFERRED] = { .name = "deferred", .on_enter = transfer_on_enter,
+	[SS_BLK_DN_SUB] = TRANSFER_STATE("block download sub-block", blk_dn_sub_on_frame),
+	[SS_BLK_DN_END] = TRANSFER_STATE("block download end", blk_dn_end_on_frame),
+	[SS_BLK_UP_START] = TRANSFER_STATE("block upload start", blk_up_start_on_frame),
+	[SS_BLK_UP_ACK] = TRANSFER_STATE("block upload ack", blk_up_ack_on_frame),
+	[SS_BLK_UP_END] = TRANSFER_STATE("block upload end", blk_up_end_on_frame),
+	[SS_DEFERRED] = { .name = "deferred",
+			  .on_enter = transfer_on_enter,
 			  .on_frame = deferred_on_frame,
 			  .on_timeout = transfer_on_timeout,
 			  .on_con = deferred_on_con },
@@ -844,8 +851,8 @@ static void srv_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 		ch->srv->route->frame(ch->srv->route_ctx, ch->num, f->data, now_us);
 		return;
 	}
-	if (st != SS_IDLE && st != SS_BLK_DN_SUB &&
-	    SDO_CS(f->data[0]) == SDO_CCS_ABORT && !sdo_blk_rx_is_dup(&ch->brx, f->data)) {
+	if (st != SS_IDLE && st != SS_BLK_DN_SUB && SDO_CS(f->data[0]) == SDO_CCS_ABORT &&
+	    !sdo_blk_rx_is_dup(&ch->brx, f->data)) {
 		co_fsm_goto(&ch->fsm, finish(ch, co_get_le32(&f->data[4])), now_us);
 		return;
 	}
@@ -854,8 +861,8 @@ static void srv_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 
 /* ---- deferred answers ---------------------------------------------------- */
 
-int sdo_server_continue(co_node *node, uint8_t channel, uint32_t abort,
-			const uint8_t *data, uint32_t size, uint64_t now_us)
+int sdo_server_continue(co_node *node, uint8_t channel, uint32_t abort, const uint8_t *data,
+			uint32_t size, uint64_t now_us)
 {
 	struct sdo_server *srv = node->sdo_srv;
 	struct srv_con con = { .abort = abort, .data = data, .size = size };

@@ -62,8 +62,8 @@ extern const co_service co_svc_sdo_server;
  * it timed out or the client aborted; CO_EV_SDO_SERVER_DONE told so),
  * -EINVAL for a bad channel.
  */
-int sdo_server_continue(co_node *node, uint8_t channel, uint32_t abort,
-			const uint8_t *data, uint32_t size, uint64_t now_us);
+int sdo_server_continue(co_node *node, uint8_t channel, uint32_t abort, const uint8_t *data,
+			uint32_t size, uint64_t now_us);
 
 /*
  * CiA 302-7 routing hook (used by gateway/; DESIGN.md conventions).

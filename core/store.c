@@ -36,8 +36,8 @@ static uint32_t store_check(void *ctx, co_od_entry *e, const co_od_access *a)
 	if (co_get_le32(a->data) != (save ? CO_STORE_SIG_SAVE : CO_STORE_SIG_LOAD))
 		return SDO_AB_STORE;
 	if (st->ops) {
-		uint32_t (*fn)(void *, uint8_t, const co_od_access *) =
-			save ? st->ops->save : st->ops->restore;
+		uint32_t (*fn)(void *, uint8_t, const co_od_access *) = save ? st->ops->save
+									     : st->ops->restore;
 		if (fn)
 			ab = fn(st->ctx, e->sub, a);
 	}

@@ -44,7 +44,7 @@ extern const co_service co_svc_store;
 
 /* n_subs 1..127. save_caps/restore_caps are the values reads return.
  * Returns 0, -EINVAL, -ENOMEM, -EEXIST if already attached. */
-int co_store_attach(co_node *node, const co_store_ops *ops, void *ctx,
-		    uint8_t n_subs, uint32_t save_caps, uint32_t restore_caps);
+int co_store_attach(co_node *node, const co_store_ops *ops, void *ctx, uint8_t n_subs,
+		    uint32_t save_caps, uint32_t restore_caps);
 
 #endif /* COGW_CORE_STORE_H */

@@ -31,8 +31,8 @@
 
 typedef struct co_store_file_info {
 	uint32_t generation;
-	uint32_t set;        /* parts (CO_OD_IMAGE_*) saved together */
-	size_t image_len;    /* the od_image at the start of the buffer */
+	uint32_t set;     /* parts (CO_OD_IMAGE_*) saved together */
+	size_t image_len; /* the od_image at the start of the buffer */
 } co_store_file_info;
 
 /* CRC-32 (IEEE, reflected 0xEDB88320, init and final xor 0xFFFFFFFF);

@@ -33,18 +33,21 @@ const char *co_swmgr_state_to_string(int state)
 const char *co_swmgr_outcome_to_string(int outcome)
 {
 	switch (outcome) {
-	case CO_SWMGR_UNCHANGED: return "unchanged (1F56h matches)";
-	case CO_SWMGR_UPDATED: return "updated";
-	case CO_SWMGR_FAILED_STATUS: return "failed";
-	case CO_SWMGR_CANCELLED: return "cancelled";
+	case CO_SWMGR_UNCHANGED:
+		return "unchanged (1F56h matches)";
+	case CO_SWMGR_UPDATED:
+		return "updated";
+	case CO_SWMGR_FAILED_STATUS:
+		return "failed";
+	case CO_SWMGR_CANCELLED:
+		return "cancelled";
 	}
 	return "?";
 }
 
 static uint32_t get_u32(const uint8_t *p)
 {
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-	       (uint32_t)p[3] << 24;
+	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
 /* ---- requests ------------------------------------------------------------ */
@@ -117,8 +120,12 @@ static int submit(co_swmgr *job, sdo_client_req *r, uint64_t now_us)
 
 static int read_id(co_swmgr *job, uint64_t now_us)
 {
-	sdo_client_req r = { .upload = true, .index = CO_SWMGR_IDX_ID, .sub = 1,
-			     .mode = SDO_MODE_AUTO, .buf = job->rd, .cap = sizeof(job->rd) };
+	sdo_client_req r = { .upload = true,
+			     .index = CO_SWMGR_IDX_ID,
+			     .sub = 1,
+			     .mode = SDO_MODE_AUTO,
+			     .buf = job->rd,
+			     .cap = sizeof(job->rd) };
 
 	memset(job->rd, 0, sizeof(job->rd));
 	return submit(job, &r, now_us);
@@ -126,8 +133,11 @@ static int read_id(co_swmgr *job, uint64_t now_us)
 
 static int write_control(co_swmgr *job, uint8_t cmd, uint64_t now_us)
 {
-	sdo_client_req r = { .index = CO_SWMGR_IDX_CONTROL, .sub = 1, .mode = SDO_MODE_AUTO,
-			     .data = job->wr, .size = 1 };
+	sdo_client_req r = { .index = CO_SWMGR_IDX_CONTROL,
+			     .sub = 1,
+			     .mode = SDO_MODE_AUTO,
+			     .data = job->wr,
+			     .size = 1 };
 
 	job->wr[0] = cmd;
 	return submit(job, &r, now_us);
@@ -216,12 +226,16 @@ static int clear_con(void *obj, const void *con, uint64_t now_us)
 static int download_enter(void *obj, uint64_t now_us)
 {
 	co_swmgr *job = obj;
-	sdo_client_req r = { .index = CO_SWMGR_IDX_DATA, .sub = 1, .mode = SDO_MODE_BLOCK,
-			     .size = job->image_size, .src = image_src, .ctx = job };
+	sdo_client_req r = { .index = CO_SWMGR_IDX_DATA,
+			     .sub = 1,
+			     .mode = SDO_MODE_BLOCK,
+			     .size = job->image_size,
+			     .src = image_src,
+			     .ctx = job };
 
 	job->res.bytes = 0;
 	job->next_progress = job->p.progress_step < job->image_size ? job->p.progress_step
-								     : job->image_size;
+								    : job->image_size;
 	return submit(job, &r, now_us);
 }
 
@@ -293,7 +307,8 @@ static const co_fsm_state swmgr_states[CO_SWMGR_N_STATES] = {
 	[CO_SWMGR_CHECK] = { .name = "check", .on_enter = check_enter, .on_con = check_con },
 	[CO_SWMGR_STOP] = { .name = "stop", .on_enter = stop_enter, .on_con = stop_con },
 	[CO_SWMGR_CLEAR] = { .name = "clear", .on_enter = clear_enter, .on_con = clear_con },
-	[CO_SWMGR_DOWNLOAD] = { .name = "download", .on_enter = download_enter,
+	[CO_SWMGR_DOWNLOAD] = { .name = "download",
+				.on_enter = download_enter,
 				.on_con = download_con },
 	[CO_SWMGR_START] = { .name = "start", .on_enter = start_enter, .on_con = start_con },
 	[CO_SWMGR_VERIFY] = { .name = "verify", .on_enter = verify_enter, .on_con = verify_con },

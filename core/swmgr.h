@@ -87,9 +87,9 @@ const char *co_swmgr_outcome_to_string(int outcome);
 
 typedef struct co_swmgr_result {
 	uint8_t node_id;
-	uint8_t outcome;   /* co_swmgr_outcome */
-	char status;       /* 'G', 'H', 'I' when FAILED_STATUS, else 0 */
-	uint16_t index;    /* object of the failure (0 = none) */
+	uint8_t outcome; /* co_swmgr_outcome */
+	char status;     /* 'G', 'H', 'I' when FAILED_STATUS, else 0 */
+	uint16_t index;  /* object of the failure (0 = none) */
 	uint8_t sub;
 	uint32_t abort;    /* CiA abort code of the failure (0 = none) */
 	uint32_t expected; /* 1F55h:n */
@@ -114,12 +114,12 @@ typedef struct co_swmgr_source {
 } co_swmgr_source;
 
 typedef struct co_swmgr_params {
-	uint8_t node_id;         /* slave 1..127 */
-	uint32_t expected;       /* 1F55h:n; 0 = none (G unless forced) */
-	bool update_allowed;     /* 1F81h:n bit 6 */
-	bool force;              /* manual update: no check, always download */
-	co_swmgr_source source;  /* image of the node (size 0 = none) */
-	uint32_t progress_step;  /* bytes between progress reports (0 = 4096) */
+	uint8_t node_id;        /* slave 1..127 */
+	uint32_t expected;      /* 1F55h:n; 0 = none (G unless forced) */
+	bool update_allowed;    /* 1F81h:n bit 6 */
+	bool force;             /* manual update: no check, always download */
+	co_swmgr_source source; /* image of the node (size 0 = none) */
+	uint32_t progress_step; /* bytes between progress reports (0 = 4096) */
 	co_swmgr_progress_fn progress;
 	void *progress_ctx;
 	int channel;             /* SDO client channel, < 0 = the pool */
@@ -138,7 +138,7 @@ typedef struct co_swmgr {
 	uint32_t seq;
 	uint8_t rd[4];
 	uint8_t wr[4];
-	bool started;           /* co_swmgr_start returned 0: done() reports */
+	bool started; /* co_swmgr_start returned 0: done() reports */
 	co_swmgr_result res;
 } co_swmgr;
 
@@ -176,7 +176,7 @@ typedef struct co_swmgr_line {
 	uint32_t sdo_timeout_ms; /* 0 = the SDO client's */
 	co_swmgr_progress_fn progress;
 	void *progress_ctx;
-	co_swmgr_done_fn done;   /* e.g. to co_manager_software_done */
+	co_swmgr_done_fn done; /* e.g. to co_manager_software_done */
 	void *done_ctx;
 } co_swmgr_line;
 

@@ -30,12 +30,12 @@ struct co_sync {
 	uint32_t period_us;
 	uint32_t window_us;
 	uint8_t overflow;
-	uint8_t counter;    /* last counter sent or received */
-	bool active_state;  /* NMT state allows SYNC (PRE-OP / OPERATIONAL) */
-	bool len_err;       /* EMCY 8240h raised and not yet cleared */
+	uint8_t counter;   /* last counter sent or received */
+	bool active_state; /* NMT state allows SYNC (PRE-OP / OPERATIONAL) */
+	bool len_err;      /* EMCY 8240h raised and not yet cleared */
 	int rx_h;
-	uint64_t next_us;   /* producer deadline, CO_NO_DEADLINE when idle */
-	uint64_t last_us;   /* last SYNC, CO_NO_DEADLINE when none */
+	uint64_t next_us; /* producer deadline, CO_NO_DEADLINE when idle */
+	uint64_t last_us; /* last SYNC, CO_NO_DEADLINE when none */
 	co_sync_stats stats;
 	struct {
 		co_sync_ind_fn fn;
@@ -66,8 +66,7 @@ static void cob_split(uint32_t cob, uint32_t *id, uint8_t *flags)
 }
 
 /* Everything that happens at a SYNC, produced or consumed. */
-static void sync_occurred(struct co_sync *S, uint8_t counter, bool produced,
-			  uint64_t now_us)
+static void sync_occurred(struct co_sync *S, uint8_t counter, bool produced, uint64_t now_us)
 {
 	co_event ev = { .kind = CO_EV_SYNC };
 
@@ -114,8 +113,7 @@ static void producer_send(struct co_sync *S, uint64_t now_us)
 	sync_occurred(S, f.len ? f.data[0] : 0, true, now_us);
 }
 
-static void sync_rx(co_node *node, void *arg, const co_frame *f,
-		    uint64_t now_us)
+static void sync_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	struct co_sync *S = arg;
 	uint8_t counter = 0;
@@ -131,8 +129,8 @@ static void sync_rx(co_node *node, void *arg, const co_frame *f,
 			S->stats.rx_invalid++;
 			if (!S->len_err) {
 				S->len_err = true;
-				co_emcy_send(node, CO_EMCY_SYNC_LENGTH,
-					     CO_EMCY_REG_COMM, NULL, now_us);
+				co_emcy_send(node, CO_EMCY_SYNC_LENGTH, CO_EMCY_REG_COMM, NULL,
+					     now_us);
 			}
 			return;
 		}
@@ -164,15 +162,13 @@ static void sync_apply(struct co_sync *S, uint64_t now_us)
 	cob_split(S->cob, &id, &flags);
 	if (S->rx_h >= 0)
 		co_rx_move(S->node, S->rx_h, id, flags);
-	if (old_cob != S->cob || old_period != S->period_us ||
-	    S->next_us == CO_NO_DEADLINE)
+	if (old_cob != S->cob || old_period != S->period_us || S->next_us == CO_NO_DEADLINE)
 		producer_restart(S, now_us);
 }
 
 /* ---- OD hooks ------------------------------------------------------------ */
 
-static uint32_t sync_check_write(void *ctx, co_od_entry *e,
-				 const co_od_access *a)
+static uint32_t sync_check_write(void *ctx, co_od_entry *e, const co_od_access *a)
 {
 	struct co_sync *S = ctx;
 	uint32_t v;
@@ -182,8 +178,7 @@ static uint32_t sync_check_write(void *ctx, co_od_entry *e,
 	switch (e->index) {
 	case SYNC_COB_IDX:
 		v = co_get_le32(a->data);
-		if (!(v & CO_SYNC_EXT) &&
-		    (v & CO_FRAME_EFF_MASK & ~CO_FRAME_SFF_MASK))
+		if (!(v & CO_SYNC_EXT) && (v & CO_FRAME_EFF_MASK & ~CO_FRAME_SFF_MASK))
 			return SDO_AB_VALUE;
 		/* CiA 301 §7.5.2.5: no new CAN-ID while producing */
 		if ((S->cob & CO_SYNC_PRODUCER) && (v & CO_SYNC_PRODUCER) &&
@@ -378,23 +373,20 @@ const co_sync_stats *co_sync_get_stats(const co_node *node)
 	return node->sync ? &node->sync->stats : &none;
 }
 
-int co_od_add_comm_defaults_sync(co_od *od, uint32_t cob_id,
-				 uint32_t period_us, uint8_t overflow)
+int co_od_add_comm_defaults_sync(co_od *od, uint32_t cob_id, uint32_t period_us, uint8_t overflow)
 {
 	int rc = 0;
 
 	if (!co_od_find(od, SYNC_COB_IDX, 0))
-		rc = co_od_add_num(od, SYNC_COB_IDX, 0, CO_T_UNSIGNED32,
-				   CO_ACC_RW,
+		rc = co_od_add_num(od, SYNC_COB_IDX, 0, CO_T_UNSIGNED32, CO_ACC_RW,
 				   cob_id ? cob_id : CO_SYNC_COB_DEFAULT, NULL);
 	if (!rc && !co_od_find(od, SYNC_PERIOD_IDX, 0))
-		rc = co_od_add_num(od, SYNC_PERIOD_IDX, 0, CO_T_UNSIGNED32,
-				   CO_ACC_RW, period_us, NULL);
+		rc = co_od_add_num(od, SYNC_PERIOD_IDX, 0, CO_T_UNSIGNED32, CO_ACC_RW, period_us,
+				   NULL);
 	if (!rc && !co_od_find(od, SYNC_WINDOW_IDX, 0))
-		rc = co_od_add_num(od, SYNC_WINDOW_IDX, 0, CO_T_UNSIGNED32,
-				   CO_ACC_RW, 0, NULL);
+		rc = co_od_add_num(od, SYNC_WINDOW_IDX, 0, CO_T_UNSIGNED32, CO_ACC_RW, 0, NULL);
 	if (!rc && !co_od_find(od, SYNC_OVERFLOW_IDX, 0))
-		rc = co_od_add_num(od, SYNC_OVERFLOW_IDX, 0, CO_T_UNSIGNED8,
-				   CO_ACC_RW, overflow, NULL);
+		rc = co_od_add_num(od, SYNC_OVERFLOW_IDX, 0, CO_T_UNSIGNED8, CO_ACC_RW, overflow,
+				   NULL);
 	return rc;
 }

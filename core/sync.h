@@ -51,19 +51,18 @@
 #define CO_SYNC_COUNTER_MAX 240u
 
 typedef struct co_sync_stats {
-	uint64_t tx;          /* SYNC frames produced */
-	uint64_t rx;          /* SYNC frames consumed */
-	uint64_t rx_invalid;  /* wrong length (EMCY 8240h) */
-	uint64_t rx_ignored;  /* while producing, or in STOPPED/INITIALISING */
-	uint64_t skipped;     /* producer periods skipped by a late tick */
+	uint64_t tx;         /* SYNC frames produced */
+	uint64_t rx;         /* SYNC frames consumed */
+	uint64_t rx_invalid; /* wrong length (EMCY 8240h) */
+	uint64_t rx_ignored; /* while producing, or in STOPPED/INITIALISING */
+	uint64_t skipped;    /* producer periods skipped by a late tick */
 } co_sync_stats;
 
 extern const co_service co_svc_sync;
 
 /* Something that acts on every SYNC, produced or consumed: called after
  * CO_EV_SYNC with the SYNC's counter (0 = none). */
-typedef void (*co_sync_ind_fn)(co_node *node, void *ctx, uint8_t counter,
-			       uint64_t now_us);
+typedef void (*co_sync_ind_fn)(co_node *node, void *ctx, uint8_t counter, uint64_t now_us);
 
 #define CO_SYNC_OBSERVERS_MAX 4
 
@@ -88,7 +87,6 @@ const co_sync_stats *co_sync_get_stats(const co_node *node);
 
 /* Add 1005h (U32 rw, cob_id; 0 = 80h), 1006h (U32 rw, period_us), 1007h
  * (U32 rw, 0) and 1019h (U8 rw, overflow) unless present. */
-int co_od_add_comm_defaults_sync(co_od *od, uint32_t cob_id,
-				 uint32_t period_us, uint8_t overflow);
+int co_od_add_comm_defaults_sync(co_od *od, uint32_t cob_id, uint32_t period_us, uint8_t overflow);
 
 #endif /* COGW_CORE_SYNC_H */

@@ -67,8 +67,7 @@ int co_time_from_unix_ms(int64_t unix_ms, co_time_of_day *t)
 
 int64_t co_time_to_unix_ms(const co_time_of_day *t)
 {
-	return CO_TIME_EPOCH_UNIX_S * 1000 +
-	       (int64_t)t->days * CO_TIME_MS_PER_DAY + t->ms;
+	return CO_TIME_EPOCH_UNIX_S * 1000 + (int64_t)t->days * CO_TIME_MS_PER_DAY + t->ms;
 }
 
 /* ---- service ------------------------------------------------------------- */
@@ -91,8 +90,7 @@ static void cob_split(uint32_t cob, uint32_t *id, uint8_t *flags)
 	}
 }
 
-static void time_rx(co_node *node, void *arg, const co_frame *f,
-		    uint64_t now_us)
+static void time_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	struct co_time *T = arg;
 	co_time_of_day t;
@@ -131,8 +129,7 @@ static void time_apply(struct co_time *T)
 }
 
 /* 1012h: the CAN-ID may change only while neither produced nor consumed. */
-static uint32_t time_check_write(void *ctx, co_od_entry *e,
-				 const co_od_access *a)
+static uint32_t time_check_write(void *ctx, co_od_entry *e, const co_od_access *a)
 {
 	struct co_time *T = ctx;
 	uint32_t v, keep = CO_TIME_EXT | CO_FRAME_EFF_MASK;
@@ -144,8 +141,7 @@ static uint32_t time_check_write(void *ctx, co_od_entry *e,
 	if (!(v & CO_TIME_EXT) && (v & CO_FRAME_EFF_MASK & ~CO_FRAME_SFF_MASK))
 		return SDO_AB_VALUE;
 	if ((T->cob & (CO_TIME_CONSUMER | CO_TIME_PRODUCER)) &&
-	    (v & (CO_TIME_CONSUMER | CO_TIME_PRODUCER)) &&
-	    (v & keep) != (T->cob & keep))
+	    (v & (CO_TIME_CONSUMER | CO_TIME_PRODUCER)) && (v & keep) != (T->cob & keep))
 		return SDO_AB_VALUE;
 	return 0;
 }

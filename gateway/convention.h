@@ -33,29 +33,34 @@
 #include "core/sdo.h"
 
 #define GW_NET_MIN 1u
-#define GW_NET_MAX 127u   /* network ids 1..127 (1F2Ch sub-indexes) */
-#define GW_LINES_MAX 16u  /* lines a daemon drives (config limit) */
+#define GW_NET_MAX 127u  /* network ids 1..127 (1F2Ch sub-indexes) */
+#define GW_LINES_MAX 16u /* lines a daemon drives (config limit) */
 
 #define GW_OBJ_ROUTES 0x1F2Cu      /* routing table */
 #define GW_OBJ_EMCY_ROUTES 0x1F2Fu /* EMCY routing */
-#define GW_OBJ_NETWORK_ID 0x5F00u  /* this line's own network id (U8 ro);
+#define GW_OBJ_NETWORK_ID \
+	0x5F00u                /* this line's own network id (U8 ro);
                                     * manufacturer-specific area, so that
                                     * it cannot clash with a CiA object */
-#define GW_IMAGE_FIRST 0xB000u     /* shared process image */
+#define GW_IMAGE_FIRST 0xB000u /* shared process image */
 #define GW_IMAGE_LAST 0xBFFFu
 
 /* ---- abort codes: which situation answers with which code ------------- */
-#define GW_AB_NET_UNKNOWN SDO_AB_NET_UNKNOWN  /* 0A000001: no route to the
+#define GW_AB_NET_UNKNOWN \
+	SDO_AB_NET_UNKNOWN /* 0A000001: no route to the
                                                * network, or the route leads
                                                * back where the request came
                                                * from (a loop) */
-#define GW_AB_NO_ANSWER SDO_AB_NODE_UNKNOWN   /* 0A000002: the target node is
+#define GW_AB_NO_ANSWER \
+	SDO_AB_NODE_UNKNOWN /* 0A000002: the target node is
                                                * known silent, its line is
                                                * down or bus-off, or it never
                                                * answered */
-#define GW_AB_ROUTE_BUSY SDO_AB_ROUTE_BUSY    /* 0A000003: the hand-off to
+#define GW_AB_ROUTE_BUSY \
+	SDO_AB_ROUTE_BUSY /* 0A000003: the hand-off to
                                                * the target line is full */
-#define GW_AB_NO_CLIENT SDO_AB_NO_RESOURCE    /* 060A0023: no SDO client of
+#define GW_AB_NO_CLIENT \
+	SDO_AB_NO_RESOURCE /* 060A0023: no SDO client of
                                                * the target line is free */
 
 /* ---- network indication ------------------------------------------------ */
@@ -106,10 +111,10 @@ static inline bool gw_emcy_route_has(uint32_t bits, uint16_t net)
 #define GW_EMCY_FWD_CODE 0xF000u
 
 typedef struct gw_emcy_fwd {
-	uint8_t err_reg;   /* the gateway's own 1001h on the sending line */
-	uint16_t src_net;  /* network the EMCY was consumed on */
-	uint8_t src_node;  /* its producer */
-	uint16_t code;     /* its error code */
+	uint8_t err_reg;  /* the gateway's own 1001h on the sending line */
+	uint16_t src_net; /* network the EMCY was consumed on */
+	uint8_t src_node; /* its producer */
+	uint16_t code;    /* its error code */
 } gw_emcy_fwd;
 
 void gw_emcy_fwd_encode(uint8_t d[8], const gw_emcy_fwd *e);

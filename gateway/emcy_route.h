@@ -22,18 +22,18 @@
 #include "gateway/route.h"
 
 typedef struct gw_emcy_plan {
-	uint16_t lines;       /* bit L set: send the forwarded EMCY on line L */
-	uint8_t unknown;      /* networks named but not reachable */
-	uint8_t loops;        /* networks whose route is the consuming line */
+	uint16_t lines;  /* bit L set: send the forwarded EMCY on line L */
+	uint8_t unknown; /* networks named but not reachable */
+	uint8_t loops;   /* networks whose route is the consuming line */
 } gw_emcy_plan;
 
 /* Counters a line keeps for EMCY routing. */
 typedef struct gw_emcy_counters {
-	uint64_t consumed;  /* EMCYs looked at (1F2Fh entry non-zero) */
-	uint64_t forwarded; /* forwarded frames handed to another line */
+	uint64_t consumed;   /* EMCYs looked at (1F2Fh entry non-zero) */
+	uint64_t forwarded;  /* forwarded frames handed to another line */
 	uint64_t unroutable; /* networks named without a usable route */
-	uint64_t dropped;   /* hand-offs lost (target line's ring full) */
-	uint64_t sent;      /* forwarded EMCYs this line sent on its bus */
+	uint64_t dropped;    /* hand-offs lost (target line's ring full) */
+	uint64_t sent;       /* forwarded EMCYs this line sent on its bus */
 } gw_emcy_counters;
 
 /* Plan the forwarding of an EMCY consumed on t->own_line whose 1F2Fh

@@ -31,8 +31,8 @@
 
 #define GW_RELAYS_MAX 128u
 #define GW_RING_SLOTS 1024u
-#define GW_RELAY_IDLE_FACTOR 8u  /* idle lease given back after 8 timeouts */
-#define GW_REBUILD_US 1000000u   /* forwarding list re-checked every 1 s */
+#define GW_RELAY_IDLE_FACTOR 8u /* idle lease given back after 8 timeouts */
+#define GW_REBUILD_US 1000000u  /* forwarding list re-checked every 1 s */
 
 enum gw_msg_kind {
 	M_FWD = 1,   /* a B-object changed: slot */
@@ -48,15 +48,15 @@ enum gw_msg_kind {
 
 typedef struct gw_msg {
 	uint8_t kind;
-	uint8_t from;     /* sending line */
-	uint8_t node;     /* M_OPEN: target or router; M_EMCY: source node */
+	uint8_t from; /* sending line */
+	uint8_t node; /* M_OPEN: target or router; M_EMCY: source node */
 	uint8_t pad;
-	uint32_t sid;     /* session: line << 24 | channel << 16 | generation */
-	uint32_t abort;   /* M_OPENED */
-	uint16_t slot;    /* M_FWD */
-	uint16_t net;     /* M_EMCY: source network */
-	uint16_t code;    /* M_EMCY: original error code */
-	uint8_t d[8];     /* frames */
+	uint32_t sid;       /* session: line << 24 | channel << 16 | generation */
+	uint32_t abort;     /* M_OPENED */
+	uint16_t slot;      /* M_FWD */
+	uint16_t net;       /* M_EMCY: source network */
+	uint16_t code;      /* M_EMCY: original error code */
+	uint8_t d[8];       /* frames */
 	struct gw_job *job; /* M_JOB, M_JOB_DONE: owned by the receiver meanwhile */
 } gw_msg;
 
@@ -66,7 +66,7 @@ struct gw_sess {
 	struct gw_line *gl;
 	uint8_t ch;
 	uint16_t gen;
-	uint16_t net;         /* the requested network (for the counters) */
+	uint16_t net; /* the requested network (for the counters) */
 	uint8_t target_line;
 	gw_sdo_route r;
 };
@@ -83,20 +83,25 @@ struct gw_relay {
 /* A mailbox SDO with a node of another network. Owned by the line whose
  * client asked (origin) except while in flight: M_JOB hands it to the
  * line that runs the transfer, M_JOB_DONE hands it back. */
-enum job_phase { JOB_FREE, JOB_SENT, JOB_HOP, JOB_SDO };
+enum job_phase {
+	JOB_FREE,
+	JOB_SENT,
+	JOB_HOP,
+	JOB_SDO
+};
 
 struct gw_job {
 	uint8_t phase;
-	uint8_t origin;       /* line whose client waits */
-	uint8_t runner;       /* line that runs the transfer */
+	uint8_t origin; /* line whose client waits */
+	uint8_t runner; /* line that runs the transfer */
 	bool upload;
 	mbx_reply_to reply;
 	gw_hop hop;
 	uint16_t net;
 	mbx_sdo_req sdo;
-	const uint8_t *data;  /* download: copied into buf */
+	const uint8_t *data; /* download: copied into buf */
 	uint32_t len;
-	uint8_t *buf;         /* upload: max_transfer bytes, allocated at attach */
+	uint8_t *buf; /* upload: max_transfer bytes, allocated at attach */
 	uint32_t cap;
 	int lease_ch;         /* JOB_HOP */
 	uint64_t deadline_us; /* JOB_HOP */
@@ -105,7 +110,7 @@ struct gw_job {
 	struct gw_line *gl_runner;
 };
 
-#define GW_JOBS 4u  /* routed mailbox SDO requests per line at once */
+#define GW_JOBS 4u /* routed mailbox SDO requests per line at once */
 #define GW_RUNNING_MAX 64u
 
 struct gw_line {
@@ -121,9 +126,9 @@ struct gw_line {
 	struct gw_sess *sess;
 	uint8_t n_sess;
 	struct gw_relay relay[GW_RELAYS_MAX];
-	struct gw_job jobs[GW_JOBS];          /* this line's clients' requests */
+	struct gw_job jobs[GW_JOBS];            /* this line's clients' requests */
 	struct gw_job *running[GW_RUNNING_MAX]; /* jobs this line runs now */
-	gw_line_counters c; /* written by this line, read relaxed elsewhere */
+	gw_line_counters c;                     /* written by this line, read relaxed elsewhere */
 };
 
 struct gw {
@@ -207,9 +212,13 @@ static void s_done(void *ctx, uint32_t abort, gw_route_outcome o)
 	struct gw_line *gl = s->gl;
 
 	mbx_ev_gw_sdo ev = {
-		.net = s->net, .node = s->r.target.node, .outcome = (uint8_t)o, .abort = abort,
+		.net = s->net,
+		.node = s->r.target.node,
+		.outcome = (uint8_t)o,
+		.abort = abort,
 		.target_line = s->r.opened || s->r.frames_to_target ? s->target_line : 0xFF,
-		.router = s->r.hop.via_router ? s->r.hop.node : 0, .channel = s->ch,
+		.router = s->r.hop.via_router ? s->r.hop.node : 0,
+		.channel = s->ch,
 		.frames = (uint32_t)(s->r.frames_to_target + s->r.frames_to_requester),
 	};
 
@@ -218,10 +227,18 @@ static void s_done(void *ctx, uint32_t abort, gw_route_outcome o)
 	gw_route_count(&gl->routes, s->net, o);
 	mbx_server_publish(line_mbx(gl->l), MBX_EV_GW_SDO, 0, &ev, sizeof ev);
 	switch (o) {
-	case GW_OUT_ROUTED: COUNT(gl->c.routed); break;
-	case GW_OUT_ABORTED: COUNT(gl->c.aborted); break;
-	case GW_OUT_TIMED_OUT: COUNT(gl->c.timed_out); break;
-	default: COUNT(gl->c.refused); break;
+	case GW_OUT_ROUTED:
+		COUNT(gl->c.routed);
+		break;
+	case GW_OUT_ABORTED:
+		COUNT(gl->c.aborted);
+		break;
+	case GW_OUT_TIMED_OUT:
+		COUNT(gl->c.timed_out);
+		break;
+	default:
+		COUNT(gl->c.refused);
+		break;
 	}
 	sdo_server_route_end(gl->node, s->ch);
 }
@@ -488,9 +505,15 @@ static void job_con(void *arg, const co_ev_sdo_cli *con)
 static void job_sdo(struct gw_line *gl, struct gw_job *j, bool no_wait, uint64_t now_us)
 {
 	sdo_client_req r = {
-		.upload = j->upload, .node_id = j->hop.node, .index = j->sdo.index,
-		.sub = j->sdo.sub, .mode = j->sdo.mode, .timeout_ms = j->sdo.timeout_ms,
-		.con = job_con, .con_arg = j, .no_wait = no_wait,
+		.upload = j->upload,
+		.node_id = j->hop.node,
+		.index = j->sdo.index,
+		.sub = j->sdo.sub,
+		.mode = j->sdo.mode,
+		.timeout_ms = j->sdo.timeout_ms,
+		.con = job_con,
+		.con_arg = j,
+		.no_wait = no_wait,
 	};
 	int rc;
 
@@ -646,7 +669,8 @@ static void mbx_gw_sdo(struct gw_line *gl, const mbx_request *req)
 	if (send_to(gl, hop.line, &m)) {
 		COUNT(gl->c.ring_drops);
 		j->phase = JOB_FREE;
-		mbx_server_respond(line_mbx(gl->l), &req->reply, MBX_E_ABORT, GW_AB_ROUTE_BUSY, NULL, 0);
+		mbx_server_respond(line_mbx(gl->l), &req->reply, MBX_E_ABORT, GW_AB_ROUTE_BUSY,
+				   NULL, 0);
 	}
 }
 
@@ -679,13 +703,17 @@ static void mbx_gw_routes(struct gw_line *gl, const mbx_request *req)
 		st.active += gw_sdo_route_busy(&gl->sess[i].r);
 	for (unsigned n = GW_NET_MIN; n <= GW_NET_MAX; n++) {
 		const gw_route *r = &gl->routes.r[n];
-		mbx_gw_route e = { .net = (uint8_t)n, .kind = r->kind, .line = r->line,
-				   .router = r->router, .raw = r->raw,
+		mbx_gw_route e = { .net = (uint8_t)n,
+				   .kind = r->kind,
+				   .line = r->line,
+				   .router = r->router,
+				   .raw = r->raw,
 				   .routed = r->count[GW_OUT_ROUTED],
 				   .aborted = r->count[GW_OUT_ABORTED],
 				   .timed_out = r->count[GW_OUT_TIMED_OUT],
 				   .refused = r->count[GW_OUT_REFUSED] };
-		if (r->kind == GW_ROUTE_NONE && !e.routed && !e.aborted && !e.timed_out && !e.refused)
+		if (r->kind == GW_ROUTE_NONE && !e.routed && !e.aborted && !e.timed_out &&
+		    !e.refused)
 			continue;
 		memcpy(buf + off, &e, sizeof e);
 		off += sizeof e;

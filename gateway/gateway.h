@@ -43,18 +43,18 @@ typedef struct gw_line_params {
 } gw_line_params;
 
 typedef struct gw_params {
-	unsigned n_lines;              /* 1..GW_LINES_MAX */
+	unsigned n_lines; /* 1..GW_LINES_MAX */
 	gw_line_params line[GW_LINES_MAX];
-	const co_od *image_od;         /* the B000h..BFFFh objects to share
+	const co_od *image_od; /* the B000h..BFFFh objects to share
 	                                * (any line's OD: they are the same) */
-	uint32_t ring_slots;           /* per ordered pair of lines (default 1024) */
-	uint32_t max_transfer;         /* largest routed mailbox SDO (default 1 MiB) */
+	uint32_t ring_slots;   /* per ordered pair of lines (default 1024) */
+	uint32_t max_transfer; /* largest routed mailbox SDO (default 1 MiB) */
 } gw_params;
 
 /* Counters of one line (published as relaxed atomics). */
 typedef struct gw_line_counters {
-	uint64_t sessions;       /* network indications taken */
-	uint64_t routed;         /* transfers completed */
+	uint64_t sessions; /* network indications taken */
+	uint64_t routed;   /* transfers completed */
 	uint64_t aborted, timed_out, refused;
 	uint64_t relayed_frames; /* frames through leases of this line */
 	uint64_t pdo_published;  /* RPDO values put into the image */
@@ -63,7 +63,7 @@ typedef struct gw_line_counters {
 	uint64_t pdo_applied;    /* updates applied to this line's OD */
 	uint64_t pdo_triggered;  /* of those, with a TPDO to send */
 	gw_emcy_counters emcy;
-	uint64_t ring_drops;     /* other hand-offs lost */
+	uint64_t ring_drops; /* other hand-offs lost */
 } gw_line_counters;
 
 int gw_create(gw **out, const gw_params *p);

@@ -17,8 +17,7 @@
 
 #include "core/pdo.h"
 
-_Static_assert(ATOMIC_LLONG_LOCK_FREE == 2,
-	       "the process image needs lock-free 64-bit atomics");
+_Static_assert(ATOMIC_LLONG_LOCK_FREE == 2, "the process image needs lock-free 64-bit atomics");
 
 struct gw_image {
 	size_t n, cap;
@@ -62,8 +61,7 @@ static int slot_cmp(const void *a, const void *b)
 	return kx < ky ? -1 : kx > ky;
 }
 
-int gw_image_add(gw_image *img, uint16_t index, uint8_t sub, uint8_t size,
-		 uint64_t initial)
+int gw_image_add(gw_image *img, uint16_t index, uint8_t sub, uint8_t size, uint64_t initial)
 {
 	gw_image_slot *s;
 
@@ -138,8 +136,7 @@ void gw_image_write(gw_image *img, int slot, uint64_t bits)
 
 uint64_t gw_image_read(const gw_image *img, int slot)
 {
-	return atomic_load_explicit(&((gw_image *)img)->slots[slot].value,
-				    memory_order_acquire);
+	return atomic_load_explicit(&((gw_image *)img)->slots[slot].value, memory_order_acquire);
 }
 
 uint64_t gw_image_bits_from(const uint8_t *p, uint8_t size)
@@ -188,8 +185,7 @@ void gw_fwd_list_fini(gw_fwd_list *l)
 }
 
 /* Mark the slots mapped by TPDO n (0-based) in words[]. */
-static unsigned mark_tpdo(const gw_image *img, const co_od *od, unsigned n,
-			  uint64_t *words)
+static unsigned mark_tpdo(const gw_image *img, const co_od *od, unsigned n, uint64_t *words)
 {
 	uint16_t comm = (uint16_t)(CO_PDO_TPDO_COMM + n);
 	uint16_t map = (uint16_t)(CO_PDO_TPDO_MAP + n);
@@ -242,6 +238,6 @@ bool gw_fwd_list_has(const gw_fwd_list *l, int slot)
 {
 	if (!l->bits || slot < 0 || (size_t)slot / 64 >= l->words)
 		return false;
-	return (atomic_load_explicit(&l->bits[slot / 64], memory_order_acquire) >>
-		(slot % 64)) & 1u;
+	return (atomic_load_explicit(&l->bits[slot / 64], memory_order_acquire) >> (slot % 64)) &
+	       1u;
 }

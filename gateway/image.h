@@ -36,9 +36,9 @@
 typedef struct gw_image_slot {
 	uint16_t index;
 	uint8_t sub;
-	uint8_t size;                 /* bytes, 1..8 */
-	_Atomic uint64_t value;       /* little-endian bit pattern */
-	_Atomic uint64_t writes;      /* publications so far */
+	uint8_t size;            /* bytes, 1..8 */
+	_Atomic uint64_t value;  /* little-endian bit pattern */
+	_Atomic uint64_t writes; /* publications so far */
 } gw_image_slot;
 
 typedef struct gw_image gw_image;
@@ -52,8 +52,7 @@ int gw_image_create(gw_image **out, size_t max_slots);
 void gw_image_destroy(gw_image *img); /* accepts NULL */
 /* Define a slot. -EINVAL (index outside B000h..BFFFh, size not 1..8),
  * -EEXIST, -ENOSPC, -EPERM (already sealed). */
-int gw_image_add(gw_image *img, uint16_t index, uint8_t sub, uint8_t size,
-		 uint64_t initial);
+int gw_image_add(gw_image *img, uint16_t index, uint8_t sub, uint8_t size, uint64_t initial);
 /* Freeze the shape (sorts the slots). Lookups need a sealed image. */
 void gw_image_seal(gw_image *img);
 size_t gw_image_count(const gw_image *img);
@@ -75,7 +74,7 @@ typedef struct gw_fwd_list {
 	_Atomic uint64_t *bits; /* bit s: slot s is mapped into a valid TPDO */
 	uint64_t *scratch;      /* rebuild area, allocated at init */
 	uint32_t rebuilds;
-	uint32_t slots;         /* slots in the list after the last rebuild */
+	uint32_t slots; /* slots in the list after the last rebuild */
 } gw_fwd_list;
 
 int gw_fwd_list_init(gw_fwd_list *l, const gw_image *img);

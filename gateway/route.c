@@ -11,9 +11,12 @@
 const char *gw_route_kind_to_string(gw_route_kind k)
 {
 	switch (k) {
-	case GW_ROUTE_NONE: return "none";
-	case GW_ROUTE_DIRECT: return "direct";
-	case GW_ROUTE_ROUTER: return "router";
+	case GW_ROUTE_NONE:
+		return "none";
+	case GW_ROUTE_DIRECT:
+		return "direct";
+	case GW_ROUTE_ROUTER:
+		return "router";
 	}
 	return "?";
 }
@@ -83,8 +86,7 @@ void gw_route_count(gw_route_table *t, uint16_t net, gw_route_outcome o)
 		t->r[net].count[o]++;
 }
 
-uint32_t gw_route_resolve(gw_route_table *t, uint16_t net, uint8_t node,
-			  int from_line, gw_hop *out)
+uint32_t gw_route_resolve(gw_route_table *t, uint16_t net, uint8_t node, int from_line, gw_hop *out)
 {
 	const gw_route *r;
 

@@ -49,17 +49,17 @@ typedef struct gw_route {
 } gw_route;
 
 typedef struct gw_route_table {
-	uint8_t own_line;          /* the line whose 1F2Ch this is */
-	uint8_t n_lines;           /* lines of the daemon */
-	uint32_t compiles;         /* times the table was compiled */
-	uint32_t bad_entries;      /* entries that did not decode (unreachable) */
+	uint8_t own_line;           /* the line whose 1F2Ch this is */
+	uint8_t n_lines;            /* lines of the daemon */
+	uint32_t compiles;          /* times the table was compiled */
+	uint32_t bad_entries;       /* entries that did not decode (unreachable) */
 	gw_route r[GW_NET_MAX + 1]; /* by network; r[0] unused */
 } gw_route_table;
 
 /* A resolved next hop. */
 typedef struct gw_hop {
-	uint8_t line;    /* line to send on */
-	uint8_t node;    /* node to address there: the target itself, or the
+	uint8_t line; /* line to send on */
+	uint8_t node; /* node to address there: the target itself, or the
 	                  * next router (then a network indication goes first) */
 	bool via_router;
 } gw_hop;
@@ -77,8 +77,8 @@ void gw_route_table_compile_od(gw_route_table *t, const co_od *od);
  * a mailbox client, which is on no line). Returns 0 and the hop, or
  * GW_AB_NET_UNKNOWN for no route and for a route back to from_line; a
  * refusal is counted (GW_OUT_REFUSED) on the network. */
-uint32_t gw_route_resolve(gw_route_table *t, uint16_t net, uint8_t node,
-			  int from_line, gw_hop *out);
+uint32_t gw_route_resolve(gw_route_table *t, uint16_t net, uint8_t node, int from_line,
+			  gw_hop *out);
 
 /* Count an outcome for a network (ignored for nets outside 1..127). */
 void gw_route_count(gw_route_table *t, uint16_t net, gw_route_outcome o);

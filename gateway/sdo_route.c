@@ -27,28 +27,23 @@
 
 #include "core/frame.h"
 
-enum side { SIDE_REQUESTER, SIDE_TARGET, SIDE_BOTH };
+enum side {
+	SIDE_REQUESTER,
+	SIDE_TARGET,
+	SIDE_BOTH
+};
 
 /* Whose frame the state waits for: picks the timeout and its code. */
 static const uint8_t waits_for[GW_SR_COUNT] = {
-	[GW_SR_OPENING] = SIDE_TARGET,
-	[GW_SR_HOP] = SIDE_TARGET,
-	[GW_SR_WAIT_INIT] = SIDE_REQUESTER,
-	[GW_SR_DN_INIT_RESP] = SIDE_TARGET,
-	[GW_SR_DN_SEG_REQ] = SIDE_REQUESTER,
-	[GW_SR_DN_SEG_RESP] = SIDE_TARGET,
-	[GW_SR_UP_INIT_RESP] = SIDE_TARGET,
-	[GW_SR_UP_SEG_REQ] = SIDE_REQUESTER,
-	[GW_SR_UP_SEG_RESP] = SIDE_TARGET,
-	[GW_SR_BLK_DN_INIT_RESP] = SIDE_TARGET,
-	[GW_SR_BLK_DN_SUB] = SIDE_BOTH,
-	[GW_SR_BLK_DN_END_REQ] = SIDE_REQUESTER,
-	[GW_SR_BLK_DN_END_RESP] = SIDE_TARGET,
-	[GW_SR_BLK_UP_INIT_RESP] = SIDE_TARGET,
-	[GW_SR_BLK_UP_START] = SIDE_REQUESTER,
-	[GW_SR_BLK_UP_SUB] = SIDE_BOTH,
-	[GW_SR_BLK_UP_END] = SIDE_TARGET,
-	[GW_SR_BLK_UP_END_RESP] = SIDE_REQUESTER,
+	[GW_SR_OPENING] = SIDE_TARGET,         [GW_SR_HOP] = SIDE_TARGET,
+	[GW_SR_WAIT_INIT] = SIDE_REQUESTER,    [GW_SR_DN_INIT_RESP] = SIDE_TARGET,
+	[GW_SR_DN_SEG_REQ] = SIDE_REQUESTER,   [GW_SR_DN_SEG_RESP] = SIDE_TARGET,
+	[GW_SR_UP_INIT_RESP] = SIDE_TARGET,    [GW_SR_UP_SEG_REQ] = SIDE_REQUESTER,
+	[GW_SR_UP_SEG_RESP] = SIDE_TARGET,     [GW_SR_BLK_DN_INIT_RESP] = SIDE_TARGET,
+	[GW_SR_BLK_DN_SUB] = SIDE_BOTH,        [GW_SR_BLK_DN_END_REQ] = SIDE_REQUESTER,
+	[GW_SR_BLK_DN_END_RESP] = SIDE_TARGET, [GW_SR_BLK_UP_INIT_RESP] = SIDE_TARGET,
+	[GW_SR_BLK_UP_START] = SIDE_REQUESTER, [GW_SR_BLK_UP_SUB] = SIDE_BOTH,
+	[GW_SR_BLK_UP_END] = SIDE_TARGET,      [GW_SR_BLK_UP_END_RESP] = SIDE_REQUESTER,
 };
 
 #define CS(d) ((uint8_t)((d)[0] >> 5))
@@ -140,19 +135,28 @@ static int on_timeout(void *obj, uint64_t now_us);
 static int on_requester(void *obj, const co_frame *f, uint64_t now_us);
 static int on_target(void *obj, const void *con, uint64_t now_us);
 
-#define RELAY(nm) { .name = nm, .on_frame = on_requester, .on_con = on_target, \
-		    .on_timeout = on_timeout }
+#define RELAY(nm)                                                          \
+	{                                                                  \
+		.name = nm, .on_frame = on_requester, .on_con = on_target, \
+		.on_timeout = on_timeout                                   \
+	}
 
 static const co_fsm_state states[GW_SR_COUNT] = {
 	[GW_SR_IDLE] = { .name = "idle" },
-	[GW_SR_OPENING] = { .name = "opening", .on_enter = opening_enter,
+	[GW_SR_OPENING] = { .name = "opening",
+			    .on_enter = opening_enter,
 			    .on_frame = on_requester,
-			    .on_con = opening_con, .on_timeout = on_timeout },
-	[GW_SR_HOP] = { .name = "next router", .on_enter = hop_enter,
-			.on_frame = on_requester, .on_con = hop_con,
+			    .on_con = opening_con,
+			    .on_timeout = on_timeout },
+	[GW_SR_HOP] = { .name = "next router",
+			.on_enter = hop_enter,
+			.on_frame = on_requester,
+			.on_con = hop_con,
 			.on_timeout = on_timeout },
-	[GW_SR_WAIT_INIT] = { .name = "wait initiate", .on_enter = wait_init_enter,
-			      .on_frame = on_requester, .on_con = on_target,
+	[GW_SR_WAIT_INIT] = { .name = "wait initiate",
+			      .on_enter = wait_init_enter,
+			      .on_frame = on_requester,
+			      .on_con = on_target,
 			      .on_timeout = on_timeout },
 	[GW_SR_DN_INIT_RESP] = RELAY("download initiate"),
 	[GW_SR_DN_SEG_REQ] = RELAY("download segment request"),
@@ -282,8 +286,8 @@ static int on_timeout(void *obj, uint64_t now_us)
 		return fail(s, GW_AB_NO_ANSWER, 0, GW_OUT_TIMED_OUT);
 	if (waits_for[st] == SIDE_REQUESTER)
 		return fail(s, SDO_AB_TIMEOUT, SDO_AB_TIMEOUT, GW_OUT_TIMED_OUT);
-	return fail(s, s->target_answered ? SDO_AB_TIMEOUT : GW_AB_NO_ANSWER,
-		    SDO_AB_TIMEOUT, GW_OUT_TIMED_OUT);
+	return fail(s, s->target_answered ? SDO_AB_TIMEOUT : GW_AB_NO_ANSWER, SDO_AB_TIMEOUT,
+		    GW_OUT_TIMED_OUT);
 }
 
 /* ---- requester frames --------------------------------------------------------- */
@@ -348,8 +352,7 @@ static int req_blk_up_ack(gw_sdo_route *s, const uint8_t *d)
 }
 
 /* Forward d if byte 0 matches (mask, value); go to next. */
-static int req_expect(gw_sdo_route *s, const uint8_t *d, uint8_t mask, uint8_t value,
-		      int next)
+static int req_expect(gw_sdo_route *s, const uint8_t *d, uint8_t mask, uint8_t value, int next)
 {
 	if ((d[0] & mask) != value)
 		return protocol_error(s);
@@ -399,8 +402,7 @@ static int on_requester(void *obj, const co_frame *f, uint64_t now_us)
 
 /* ---- target frames ------------------------------------------------------------ */
 
-static int tgt_expect(gw_sdo_route *s, const uint8_t *d, uint8_t mask, uint8_t value,
-		      int next)
+static int tgt_expect(gw_sdo_route *s, const uint8_t *d, uint8_t mask, uint8_t value, int next)
 {
 	if ((d[0] & mask) != value)
 		return protocol_error(s);
@@ -452,8 +454,7 @@ static int on_target(void *obj, const void *con, uint64_t now_us)
 
 	(void)now_us;
 	if (c->kind == GW_CON_LOST)
-		return fail(s, c->abort ? c->abort : GW_AB_NO_ANSWER,
-			    0, GW_OUT_ABORTED);
+		return fail(s, c->abort ? c->abort : GW_AB_NO_ANSWER, 0, GW_OUT_ABORTED);
 	if (c->kind != GW_CON_TARGET_FRAME)
 		return CO_FSM_STAY;
 	if (is_abort(d, st == GW_SR_BLK_UP_SUB))
@@ -514,11 +515,15 @@ static void rearm(gw_sdo_route *s, uint64_t now_us)
 		return;
 	}
 	switch (waits_for[st]) {
-	case SIDE_REQUESTER: ms = s->requester_timeout_ms; break;
-	case SIDE_TARGET: ms = s->target_timeout_ms; break;
+	case SIDE_REQUESTER:
+		ms = s->requester_timeout_ms;
+		break;
+	case SIDE_TARGET:
+		ms = s->target_timeout_ms;
+		break;
 	default:
-		ms = s->requester_timeout_ms > s->target_timeout_ms ?
-			     s->requester_timeout_ms : s->target_timeout_ms;
+		ms = s->requester_timeout_ms > s->target_timeout_ms ? s->requester_timeout_ms
+								    : s->target_timeout_ms;
 		break;
 	}
 	s->deadline_us = now_us + (uint64_t)ms * 1000u;
@@ -533,9 +538,8 @@ void gw_sdo_route_init(gw_sdo_route *s, const gw_sdo_route_ops *ops, void *ctx)
 	co_fsm_init(&s->fsm, &route_fsm, s, GW_SR_IDLE);
 }
 
-int gw_sdo_route_start(gw_sdo_route *s, gw_netind ni, uint32_t refuse,
-		       const gw_hop *hop, uint32_t requester_timeout_ms,
-		       uint32_t target_timeout_ms, uint64_t now_us)
+int gw_sdo_route_start(gw_sdo_route *s, gw_netind ni, uint32_t refuse, const gw_hop *hop,
+		       uint32_t requester_timeout_ms, uint32_t target_timeout_ms, uint64_t now_us)
 {
 	if (gw_sdo_route_busy(s))
 		return -EBUSY;

@@ -81,8 +81,8 @@ typedef struct gw_sdo_route {
 	const gw_sdo_route_ops *ops;
 	void *ctx;
 
-	gw_netind target;     /* what the requester asked for */
-	gw_hop hop;           /* where it goes */
+	gw_netind target; /* what the requester asked for */
+	gw_hop hop;       /* where it goes */
 	uint32_t requester_timeout_ms;
 	uint32_t target_timeout_ms;
 	uint64_t deadline_us; /* UINT64_MAX = none */
@@ -121,9 +121,8 @@ void gw_sdo_route_init(gw_sdo_route *s, const gw_sdo_route_ops *ops, void *ctx);
  * with that abort at once (caller's route lookup or decode said so; hop
  * is ignored). Otherwise the session opens the lease toward hop.
  * -EBUSY if the session is not idle. */
-int gw_sdo_route_start(gw_sdo_route *s, gw_netind ni, uint32_t refuse,
-		       const gw_hop *hop, uint32_t requester_timeout_ms,
-		       uint32_t target_timeout_ms, uint64_t now_us);
+int gw_sdo_route_start(gw_sdo_route *s, gw_netind ni, uint32_t refuse, const gw_hop *hop,
+		       uint32_t requester_timeout_ms, uint32_t target_timeout_ms, uint64_t now_us);
 
 /* A frame from the requester (8 bytes of the server channel). */
 void gw_sdo_route_requester_frame(gw_sdo_route *s, const uint8_t d[8], uint64_t now_us);

@@ -24,7 +24,13 @@
 #include "core/nmt.h"
 #include "lines/log.h"
 
-enum { TAG_CAN = 1, TAG_TIMER, TAG_MBX, TAG_WAKE, TAG_EXT_WAKE /* + extension index */ };
+enum {
+	TAG_CAN = 1,
+	TAG_TIMER,
+	TAG_MBX,
+	TAG_WAKE,
+	TAG_EXT_WAKE /* + extension index */
+};
 
 #define RX_BATCH 32
 #define PUBLISH_PERIOD_US 1000000u
@@ -59,7 +65,8 @@ static int attach_extensions(line *l)
 			continue;
 		if (x->ops->on_wake && x->wake_fd >= 0 &&
 		    (rc = epoll_add(l->epfd, x->wake_fd, EPOLLIN, TAG_EXT_WAKE + i)) < 0) {
-			cogw_log(COGW_LOG_ERR, "line %s: extension %s: cannot watch its wake fd: %s", l->name,
+			cogw_log(COGW_LOG_ERR,
+				 "line %s: extension %s: cannot watch its wake fd: %s", l->name,
 				 x->ops->name ? x->ops->name : "?", strerror(-rc));
 			return rc;
 		}
@@ -123,11 +130,12 @@ static int create_node_and_mailbox(line *l)
 	nc.event = line_on_core_event;
 	nc.event_ctx = l;
 	if ((rc = co_node_create(&l->node, &nc)) < 0) {
-		cogw_log(COGW_LOG_ERR, "line %s: cannot create the CANopen node %u: %s",
-			 l->name, p->node.node_id, strerror(-rc));
+		cogw_log(COGW_LOG_ERR, "line %s: cannot create the CANopen node %u: %s", l->name,
+			 p->node.node_id, strerror(-rc));
 		return rc;
 	}
-	if ((rc = line_pending_init(&l->pending, p->mbx.max_transfer ? p->mbx.max_transfer : 1024u * 1024u)) < 0)
+	if ((rc = line_pending_init(&l->pending,
+				    p->mbx.max_transfer ? p->mbx.max_transfer : 1024u * 1024u)) < 0)
 		return rc;
 	if (l->state_path[0] && (rc = line_store_attach(l)) < 0)
 		return rc;
@@ -137,8 +145,8 @@ static int create_node_and_mailbox(line *l)
 	mc.dispatch.client_gone = line_client_gone;
 	mc.dispatch_ctx = l;
 	if ((rc = mbx_server_create(&l->mbx, &mc)) < 0) {
-		cogw_log(COGW_LOG_ERR, "line %s: cannot create mailbox queue %s: %s",
-			 l->name, mc.queue_name ? mc.queue_name : "?", strerror(-rc));
+		cogw_log(COGW_LOG_ERR, "line %s: cannot create mailbox queue %s: %s", l->name,
+			 mc.queue_name ? mc.queue_name : "?", strerror(-rc));
 		return rc;
 	}
 	return 0;
@@ -153,7 +161,8 @@ static int create_epoll_set(line *l)
 	l->wakefd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
 	if (l->epfd < 0 || l->timerfd < 0 || l->wakefd < 0) {
 		rc = -errno;
-		cogw_log(COGW_LOG_ERR, "line %s: epoll/timerfd/eventfd: %s", l->name, strerror(-rc));
+		cogw_log(COGW_LOG_ERR, "line %s: epoll/timerfd/eventfd: %s", l->name,
+			 strerror(-rc));
 		return rc;
 	}
 	if ((rc = epoll_add(l->epfd, can_port_fd(l->port), EPOLLIN, TAG_CAN)) ||
@@ -255,7 +264,8 @@ static void handle_can(line *l)
 		int n = can_port_recv(l->port, items, RX_BATCH, l->now_us);
 		if (n <= 0) {
 			if (n < 0)
-				cogw_log(COGW_LOG_WARNING, "line %s: CAN receive: %s", l->name, strerror(-n));
+				cogw_log(COGW_LOG_WARNING, "line %s: CAN receive: %s", l->name,
+					 strerror(-n));
 			return;
 		}
 		for (int i = 0; i < n; i++) {
@@ -292,8 +302,10 @@ static void handle_requests(line *l)
 	unsigned stall = atomic_exchange(&l->stall_ms, 0);
 	if (stall) {
 		/* Test hook: a line that stops looping must stop the watchdog. */
-		cogw_log(COGW_LOG_WARNING, "line %s: stalling for %u ms on request (test hook)", l->name, stall);
-		struct timespec ts = { .tv_sec = stall / 1000u, .tv_nsec = (long)(stall % 1000u) * 1000000L };
+		cogw_log(COGW_LOG_WARNING, "line %s: stalling for %u ms on request (test hook)",
+			 l->name, stall);
+		struct timespec ts = { .tv_sec = stall / 1000u,
+				       .tv_nsec = (long)(stall % 1000u) * 1000000L };
 		while (nanosleep(&ts, &ts) == -1 && errno == EINTR)
 			;
 	}
@@ -303,7 +315,8 @@ static void handle_requests(line *l)
 	if (atomic_load_explicit(&l->access.state, memory_order_acquire) == 1) {
 		line_access_req *a = &l->access;
 		if (mbx_server_set_rules(l->mbx, a->rules, a->n_rules, a->default_access) < 0)
-			cogw_log(COGW_LOG_ERR, "line %s: reload: access rules refused by the mailbox", l->name);
+			cogw_log(COGW_LOG_ERR,
+				 "line %s: reload: access rules refused by the mailbox", l->name);
 		mbx_server_set_lease(l->mbx, a->lease_ms);
 		atomic_store_explicit(&a->state, 0, memory_order_release);
 	}
@@ -404,8 +417,9 @@ static void run_due(line *l)
 		can_port_flush(l->port, l->now_us);
 	int wm = can_port_take_watermark_event(l->port);
 	if (wm)
-		cogw_log(wm > 0 ? COGW_LOG_WARNING : COGW_LOG_INFO, "line %s: transmit queue %s (%zu frames queued)",
-			 l->name, wm > 0 ? "above its high-water mark" : "back below its low-water mark",
+		cogw_log(wm > 0 ? COGW_LOG_WARNING : COGW_LOG_INFO,
+			 "line %s: transmit queue %s (%zu frames queued)", l->name,
+			 wm > 0 ? "above its high-water mark" : "back below its low-water mark",
 			 can_port_tx_queued(l->port));
 }
 
@@ -468,7 +482,8 @@ int line_start(line *l)
 	int rc = pthread_create(&l->thread, &attr, line_main, l);
 	if (rc == EPERM && l->p.rt_priority > 0) {
 		cogw_log(COGW_LOG_WARNING,
-			 "line %s: SCHED_FIFO priority %d not permitted (needs CAP_SYS_NICE or an RT limit); running with normal scheduling",
+			 "line %s: SCHED_FIFO priority %d not permitted (needs CAP_SYS_NICE or an "
+			 "RT limit); running with normal scheduling",
 			 l->name, l->p.rt_priority);
 		pthread_attr_destroy(&attr);
 		pthread_attr_init(&attr);
@@ -476,7 +491,8 @@ int line_start(line *l)
 	}
 	pthread_attr_destroy(&attr);
 	if (rc) {
-		cogw_log(COGW_LOG_ERR, "line %s: cannot start its thread: %s", l->name, strerror(rc));
+		cogw_log(COGW_LOG_ERR, "line %s: cannot start its thread: %s", l->name,
+			 strerror(rc));
 		return -rc;
 	}
 	l->started = true;
@@ -492,8 +508,9 @@ int line_start(line *l)
 		CPU_SET(l->p.rt_cpu, &set);
 		rc = pthread_setaffinity_np(l->thread, sizeof set, &set);
 		if (rc)
-			cogw_log(COGW_LOG_WARNING, "line %s: cannot pin to CPU %d: %s; running unpinned",
-				 l->name, l->p.rt_cpu, strerror(rc));
+			cogw_log(COGW_LOG_WARNING,
+				 "line %s: cannot pin to CPU %d: %s; running unpinned", l->name,
+				 l->p.rt_cpu, strerror(rc));
 	}
 	return 0;
 }

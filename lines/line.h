@@ -29,19 +29,19 @@
 typedef struct line line;
 
 typedef struct line_params {
-	uint8_t index;            /* line number, as in mailbox messages */
-	const char *name;         /* "line0", for logs */
-	uint16_t network_id;      /* CiA 302-7 network id of this line */
-	can_port_config can;      /* interface, bit rate, queue sizes */
-	co_node_config node;      /* node id, OD (owned by the caller), SDO
+	uint8_t index;              /* line number, as in mailbox messages */
+	const char *name;           /* "line0", for logs */
+	uint16_t network_id;        /* CiA 302-7 network id of this line */
+	can_port_config can;        /* interface, bit rate, queue sizes */
+	co_node_config node;        /* node id, OD (owned by the caller), SDO
 	                           * settings; send/event are set by the line */
-	mbx_server_config mbx;    /* queue name, limits, access rules;
+	mbx_server_config mbx;      /* queue name, limits, access rules;
 	                           * dispatch is set by the line */
-	int rt_priority;          /* SCHED_FIFO 1..99, 0 = normal */
-	int rt_cpu;               /* CPU to pin to, -1 = any */
-	unsigned checkin_ms;      /* watchdog check-in period (default 500) */
-	const char *state_dir;    /* where 1010h "save" persists (NULL = off) */
-	int main_wakefd;          /* eventfd the line writes to when the main
+	int rt_priority;            /* SCHED_FIFO 1..99, 0 = normal */
+	int rt_cpu;                 /* CPU to pin to, -1 = any */
+	unsigned checkin_ms;        /* watchdog check-in period (default 500) */
+	const char *state_dir;      /* where 1010h "save" persists (NULL = off) */
+	int main_wakefd;            /* eventfd the line writes to when the main
 	                           * thread has storage work (-1 = none) */
 	line_ext ext[LINE_EXT_MAX]; /* extensions (lines/line_ext.h), in
 	                             * order; entries with ops NULL unused */
@@ -55,13 +55,13 @@ typedef struct line_stats {
 	uint64_t tx_drops, tx_errors;
 	uint64_t core_rx_invalid, core_tx_failed;
 	uint32_t bus_load_permille;
-	uint8_t bus_state;        /* can_bus_state */
-	uint8_t nmt_state;        /* our own NMT state */
-	uint16_t nodes_seen;      /* remote nodes heard (boot-up/heartbeat) */
+	uint8_t bus_state;   /* can_bus_state */
+	uint8_t nmt_state;   /* our own NMT state */
+	uint16_t nodes_seen; /* remote nodes heard (boot-up/heartbeat) */
 	uint32_t mbx_clients;
 	uint64_t mbx_commands, mbx_malformed, mbx_denied, mbx_dropped;
 	uint64_t events_sent;
-	uint64_t max_loop_us;     /* longest loop iteration seen */
+	uint64_t max_loop_us; /* longest loop iteration seen */
 } line_stats;
 
 /* Open the port, create the node and the mailbox server. Returns 0 or
@@ -85,7 +85,7 @@ bool line_is_up(const line *l);
 bool line_stats_snapshot(line *l, line_stats *out);
 
 /* Requests from the main thread (served by the line thread). */
-void line_request_stall(line *l, unsigned ms);     /* test hook */
+void line_request_stall(line *l, unsigned ms);       /* test hook */
 void line_request_hb_producer(line *l, uint16_t ms); /* reload */
 /* Reload: new mailbox access rules, default access and lease (applied by
  * the line thread with mbx_server_set_rules/_set_lease, also to clients

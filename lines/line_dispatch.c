@@ -15,19 +15,19 @@ static const struct {
 	uint16_t code;
 	line_cmd_fn fn;
 } commands[] = {
-	{ MBX_CMD_OD_READ, line_od_read },            /* line_od.c */
+	{ MBX_CMD_OD_READ, line_od_read }, /* line_od.c */
 	{ MBX_CMD_OD_WRITE, line_od_write },
 	{ MBX_CMD_PDO_READ, line_od_read },
 	{ MBX_CMD_PDO_WRITE, line_pdo_write },
 	{ MBX_CMD_PDO_REQUEST, line_pdo_request },
-	{ MBX_CMD_SDO_UPLOAD, line_sdo_upload },      /* line_sdo.c */
+	{ MBX_CMD_SDO_UPLOAD, line_sdo_upload }, /* line_sdo.c */
 	{ MBX_CMD_SDO_DOWNLOAD, line_sdo_download },
-	{ MBX_CMD_NMT, line_nmt_command },            /* line_nmt.c */
+	{ MBX_CMD_NMT, line_nmt_command }, /* line_nmt.c */
 	{ MBX_CMD_NODE_TABLE, line_node_table },
-	{ MBX_CMD_LINE_STATUS, line_status },         /* line_bus.c */
+	{ MBX_CMD_LINE_STATUS, line_status }, /* line_bus.c */
 	{ MBX_CMD_EMCY_SEND, line_emcy_send },
 	{ MBX_CMD_RAW_SEND, line_raw_send },
-	{ MBX_CMD_STORE, line_store_command },        /* line_store.c */
+	{ MBX_CMD_STORE, line_store_command }, /* line_store.c */
 	{ MBX_CMD_RESTORE, line_store_command },
 	{ MBX_CMD_LSS_SWITCH_GLOBAL, line_lss_command }, /* line_lss.c */
 	{ MBX_CMD_LSS_SWITCH_SELECTIVE, line_lss_command },
@@ -47,8 +47,8 @@ void line_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 	(void)srv;
 	for (unsigned i = 0; i < l->ext_attached; i++) {
 		const line_ext *x = &l->p.ext[i];
-		if (x->ops && x->ops->on_command && x->ops->cmd_last && req->code >= x->ops->cmd_first &&
-		    req->code <= x->ops->cmd_last)
+		if (x->ops && x->ops->on_command && x->ops->cmd_last &&
+		    req->code >= x->ops->cmd_first && req->code <= x->ops->cmd_last)
 			return x->ops->on_command(x->ctx, l, req);
 	}
 	for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)

@@ -75,16 +75,20 @@ static void publish_errctrl(line *l, const co_event *ev)
 		break;
 	case CO_EV_HB_STARTED:
 	case CO_EV_GUARD_RESUMED:
-		publish_node(l, MBX_EV_HB_STARTED, ev->u.errctrl.node, ev->u.errctrl.state, ev->u.errctrl.prev);
+		publish_node(l, MBX_EV_HB_STARTED, ev->u.errctrl.node, ev->u.errctrl.state,
+			     ev->u.errctrl.prev);
 		break;
 	case CO_EV_HB_LOST:
 	case CO_EV_GUARD_FAILED:
-		cogw_log(COGW_LOG_WARNING, "line %s: node %u %s lost (%u ms)", l->name, ev->u.errctrl.node,
-			 ev->kind == CO_EV_HB_LOST ? "heartbeat" : "guarding", ev->u.errctrl.time_ms);
-		publish_node(l, MBX_EV_HB_LOST, ev->u.errctrl.node, ev->u.errctrl.state, ev->u.errctrl.prev);
+		cogw_log(COGW_LOG_WARNING, "line %s: node %u %s lost (%u ms)", l->name,
+			 ev->u.errctrl.node, ev->kind == CO_EV_HB_LOST ? "heartbeat" : "guarding",
+			 ev->u.errctrl.time_ms);
+		publish_node(l, MBX_EV_HB_LOST, ev->u.errctrl.node, ev->u.errctrl.state,
+			     ev->u.errctrl.prev);
 		break;
 	case CO_EV_HB_STATE:
-		publish_node(l, MBX_EV_NMT_STATE, ev->u.errctrl.node, ev->u.errctrl.state, ev->u.errctrl.prev);
+		publish_node(l, MBX_EV_NMT_STATE, ev->u.errctrl.node, ev->u.errctrl.state,
+			     ev->u.errctrl.prev);
 		break;
 	default:
 		break;
@@ -107,14 +111,18 @@ void line_on_core_event(void *ctx, const co_event *ev)
 	uint64_t now = ev->now_us;
 	switch (ev->kind) {
 	case CO_EV_OD_WRITTEN: {
-		mbx_ev_od_written w = { .index = ev->u.od.index, .sub = ev->u.od.sub, .size = ev->u.od.size };
+		mbx_ev_od_written w = { .index = ev->u.od.index,
+					.sub = ev->u.od.sub,
+					.size = ev->u.od.size };
 		mbx_server_publish(l->mbx, MBX_EV_OD_WRITTEN, 0, &w, sizeof w);
 		break;
 	}
 	case CO_EV_NMT_STATE:
 		cogw_log(COGW_LOG_INFO, "line %s: own NMT state %s -> %s", l->name,
-			 co_nmt_state_to_string(ev->u.nmt.prev), co_nmt_state_to_string(ev->u.nmt.state));
-		publish_node(l, MBX_EV_NMT_STATE, co_node_id(l->node), ev->u.nmt.state, ev->u.nmt.prev);
+			 co_nmt_state_to_string(ev->u.nmt.prev),
+			 co_nmt_state_to_string(ev->u.nmt.state));
+		publish_node(l, MBX_EV_NMT_STATE, co_node_id(l->node), ev->u.nmt.state,
+			     ev->u.nmt.prev);
 		break;
 	case CO_EV_EMCY_RX: {
 		const co_ev_emcy *e = &ev->u.emcy;
@@ -148,8 +156,10 @@ void line_on_can_error(line *l, const can_rx_item *it)
 		cogw_log(e->state == CAN_BUS_ACTIVE ? COGW_LOG_NOTICE : COGW_LOG_WARNING,
 			 "line %s (%s): CAN controller %s -> %s", l->name, l->ifname,
 			 can_bus_state_to_string(prev), can_bus_state_to_string(e->state));
-		mbx_ev_can_state ev = { .state = line_mbx_can_state(e->state), .prev = line_mbx_can_state(prev),
-					.tec = e->tx_errors, .rec = e->rx_errors };
+		mbx_ev_can_state ev = { .state = line_mbx_can_state(e->state),
+					.prev = line_mbx_can_state(prev),
+					.tec = e->tx_errors,
+					.rec = e->rx_errors };
 		mbx_server_publish(l->mbx, MBX_EV_CAN_STATE, 0, &ev, sizeof ev);
 		/* CiA 301: bus-off is a communication error (1029h, EMCY 8140h on
 		 * recovery) */
@@ -160,7 +170,8 @@ void line_on_can_error(line *l, const can_rx_item *it)
 		l->bus_state_prev = e->state;
 	}
 	if (e->controller_problem)
-		cogw_log(COGW_LOG_WARNING, "line %s (%s): CAN controller reports an overflow", l->name, l->ifname);
+		cogw_log(COGW_LOG_WARNING, "line %s (%s): CAN controller reports an overflow",
+			 l->name, l->ifname);
 }
 
 void line_publish_raw(line *l, const co_frame *f, uint64_t ts_ns)

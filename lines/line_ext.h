@@ -46,7 +46,7 @@
 typedef struct line line;
 
 typedef struct line_ext_ops {
-	const char *name; /* for logs */
+	const char *name;                  /* for logs */
 	int (*attach)(void *ctx, line *l); /* 0 or -errno: line_create fails */
 	void (*detach)(void *ctx, line *l);
 	void (*on_core_event)(void *ctx, line *l, const co_event *ev);

@@ -44,12 +44,12 @@ typedef struct line_store_req {
 	uint8_t channel;    /* SDO server channel waiting */
 	mbx_reply_to reply; /* mailbox request waiting */
 	uint32_t len;
-	uint8_t *blob;      /* serialised values, LINE_STORE_MAX bytes */
+	uint8_t *blob; /* serialised values, LINE_STORE_MAX bytes */
 	/* The configured values (before any saved file was loaded), as the
 	 * blob's parts: what 1011h "load" makes the defaults again. */
 	uint8_t *factory;
 	uint32_t factory_len;
-	bool damaged;       /* the saved set could not be loaded: EMCY */
+	bool damaged; /* the saved set could not be loaded: EMCY */
 } line_store_req;
 
 #define LINE_STORE_MAX (256u * 1024u)
@@ -77,7 +77,7 @@ struct line {
 	int epfd, timerfd, wakefd;
 	uint64_t armed_us;
 	bool epollout;
-	uint64_t now_us;   /* read once per loop iteration */
+	uint64_t now_us; /* read once per loop iteration */
 
 	pthread_t thread;
 	bool started;
@@ -121,10 +121,14 @@ static inline void line_answer(line *l, const mbx_reply_to *to, int status, uint
 static inline uint8_t line_mbx_can_state(can_bus_state s)
 {
 	switch (s) {
-	case CAN_BUS_ACTIVE: return MBX_CAN_ACTIVE;
-	case CAN_BUS_WARNING: return MBX_CAN_WARNING;
-	case CAN_BUS_PASSIVE: return MBX_CAN_PASSIVE;
-	case CAN_BUS_OFF: return MBX_CAN_BUS_OFF;
+	case CAN_BUS_ACTIVE:
+		return MBX_CAN_ACTIVE;
+	case CAN_BUS_WARNING:
+		return MBX_CAN_WARNING;
+	case CAN_BUS_PASSIVE:
+		return MBX_CAN_PASSIVE;
+	case CAN_BUS_OFF:
+		return MBX_CAN_BUS_OFF;
 	}
 	return MBX_CAN_ACTIVE;
 }
@@ -173,7 +177,7 @@ int line_store_load(line *l);
 /* Line thread, once the node runs: EMCY 6300h (data set) if the saved
  * parameters were damaged and the configured values are in use. */
 void line_store_started(line *l);
-void line_store_poll(line *l); /* on wake-up: finish a completed save */
+void line_store_poll(line *l);                            /* on wake-up: finish a completed save */
 void line_store_command(line *l, const mbx_request *req); /* STORE, RESTORE */
 
 #endif /* COGW_LINES_LINE_INTERNAL_H */

@@ -16,11 +16,16 @@
 static lss_master_service inquire_service_of(uint8_t what)
 {
 	switch (what) {
-	case LSS_CS_INQUIRE_VENDOR: return LSS_SVC_INQUIRE_VENDOR;
-	case LSS_CS_INQUIRE_PRODUCT: return LSS_SVC_INQUIRE_PRODUCT;
-	case LSS_CS_INQUIRE_REVISION: return LSS_SVC_INQUIRE_REVISION;
-	case LSS_CS_INQUIRE_SERIAL: return LSS_SVC_INQUIRE_SERIAL;
-	case LSS_CS_INQUIRE_NODE_ID: return LSS_SVC_INQUIRE_NODE_ID;
+	case LSS_CS_INQUIRE_VENDOR:
+		return LSS_SVC_INQUIRE_VENDOR;
+	case LSS_CS_INQUIRE_PRODUCT:
+		return LSS_SVC_INQUIRE_PRODUCT;
+	case LSS_CS_INQUIRE_REVISION:
+		return LSS_SVC_INQUIRE_REVISION;
+	case LSS_CS_INQUIRE_SERIAL:
+		return LSS_SVC_INQUIRE_SERIAL;
+	case LSS_CS_INQUIRE_NODE_ID:
+		return LSS_SVC_INQUIRE_NODE_ID;
 	}
 	return LSS_SVC_NONE;
 }
@@ -28,16 +33,26 @@ static lss_master_service inquire_service_of(uint8_t what)
 static lss_master_service lss_service_of(uint16_t code, uint8_t what)
 {
 	switch (code) {
-	case MBX_CMD_LSS_SWITCH_GLOBAL: return LSS_SVC_SWITCH_GLOBAL;
-	case MBX_CMD_LSS_SWITCH_SELECTIVE: return LSS_SVC_SWITCH_SELECTIVE;
-	case MBX_CMD_LSS_SET_NODE_ID: return LSS_SVC_CONFIG_NODE_ID;
-	case MBX_CMD_LSS_SET_BIT_TIMING: return LSS_SVC_CONFIG_BIT_TIMING;
-	case MBX_CMD_LSS_ACTIVATE_BIT_TIMING: return LSS_SVC_ACTIVATE_BIT_TIMING;
-	case MBX_CMD_LSS_STORE: return LSS_SVC_STORE;
-	case MBX_CMD_LSS_IDENTIFY_REMOTE: return LSS_SVC_IDENTIFY_REMOTE;
-	case MBX_CMD_LSS_IDENTIFY_NONCONF: return LSS_SVC_IDENTIFY_NON_CONFIGURED;
-	case MBX_CMD_LSS_FASTSCAN: return LSS_SVC_FASTSCAN;
-	case MBX_CMD_LSS_INQUIRE: return inquire_service_of(what);
+	case MBX_CMD_LSS_SWITCH_GLOBAL:
+		return LSS_SVC_SWITCH_GLOBAL;
+	case MBX_CMD_LSS_SWITCH_SELECTIVE:
+		return LSS_SVC_SWITCH_SELECTIVE;
+	case MBX_CMD_LSS_SET_NODE_ID:
+		return LSS_SVC_CONFIG_NODE_ID;
+	case MBX_CMD_LSS_SET_BIT_TIMING:
+		return LSS_SVC_CONFIG_BIT_TIMING;
+	case MBX_CMD_LSS_ACTIVATE_BIT_TIMING:
+		return LSS_SVC_ACTIVATE_BIT_TIMING;
+	case MBX_CMD_LSS_STORE:
+		return LSS_SVC_STORE;
+	case MBX_CMD_LSS_IDENTIFY_REMOTE:
+		return LSS_SVC_IDENTIFY_REMOTE;
+	case MBX_CMD_LSS_IDENTIFY_NONCONF:
+		return LSS_SVC_IDENTIFY_NON_CONFIGURED;
+	case MBX_CMD_LSS_FASTSCAN:
+		return LSS_SVC_FASTSCAN;
+	case MBX_CMD_LSS_INQUIRE:
+		return inquire_service_of(what);
 	}
 	return LSS_SVC_NONE;
 }
@@ -45,11 +60,16 @@ static lss_master_service lss_service_of(uint16_t code, uint8_t what)
 static int status_of(lss_result r)
 {
 	switch (r) {
-	case LSS_RESULT_OK: return 0;
-	case LSS_RESULT_SLAVE_ERROR: return MBX_E_LSS;
-	case LSS_RESULT_TIMEOUT: return MBX_E_NO_ANSWER; /* the slave, not us */
-	case LSS_RESULT_NOT_FOUND: return MBX_E_NOT_FOUND;
-	default: return MBX_E_STATE;
+	case LSS_RESULT_OK:
+		return 0;
+	case LSS_RESULT_SLAVE_ERROR:
+		return MBX_E_LSS;
+	case LSS_RESULT_TIMEOUT:
+		return MBX_E_NO_ANSWER; /* the slave, not us */
+	case LSS_RESULT_NOT_FOUND:
+		return MBX_E_NOT_FOUND;
+	default:
+		return MBX_E_STATE;
 	}
 }
 
@@ -62,7 +82,8 @@ static void lss_done(void *arg, const co_ev_lss_master *m)
 	if (!pp)
 		return; /* its client went away meanwhile */
 	mbx_lss_resp resp = {
-		.error = m->error_code, .spec_error = m->error_spec,
+		.error = m->error_code,
+		.spec_error = m->error_spec,
 		.found = m->result == LSS_RESULT_OK && m->answers > 0,
 		.value = m->service == LSS_SVC_INQUIRE_NODE_ID ? m->node_id : m->value,
 	};
@@ -82,18 +103,27 @@ void line_lss_command(line *l, const mbx_request *req)
 	if (!pp)
 		return line_answer(l, &req->reply, MBX_E_BUSY, 0, NULL, 0);
 	lss_master_req r = {
-		.service = svc, .tag = pp->tag, .timeout_ms = q.timeout_ms, .mode = q.mode,
-		.node_id = q.node, .table = q.table, .index = q.bit_index, .delay_ms = q.delay_ms,
+		.service = svc,
+		.tag = pp->tag,
+		.timeout_ms = q.timeout_ms,
+		.mode = q.mode,
+		.node_id = q.node,
+		.table = q.table,
+		.index = q.bit_index,
+		.delay_ms = q.delay_ms,
 		.addr = { .id = { q.vendor, q.product, q.rev_lo, q.ser_lo } },
 		.addr_high = { .id = { q.vendor, q.product, q.rev_hi, q.ser_hi } },
-		.con = lss_done, .con_arg = l,
+		.con = lss_done,
+		.con_arg = l,
 	};
 	int rc = lss_master_submit(l->node, &r, l->now_us);
 	if (rc < 0) {
 		line_pending_release(&l->pending, pp);
 		line_answer(l, &req->reply,
-			    rc == -ENODEV ? MBX_E_UNSUPPORTED : rc == -ENOSPC ? MBX_E_BUSY : MBX_E_PARAM, 0,
-			    NULL, 0);
+			    rc == -ENODEV   ? MBX_E_UNSUPPORTED
+			    : rc == -ENOSPC ? MBX_E_BUSY
+					    : MBX_E_PARAM,
+			    0, NULL, 0);
 	}
 }
 

@@ -23,8 +23,11 @@ void line_nmt_command(line *l, const mbx_request *req)
 	 * state refusal. */
 	if (n.node == co_node_id(l->node)) {
 		int lrc = co_nmt_local_cmd(l->node, n.cs, l->now_us);
-		return line_answer(l, &req->reply, lrc == 0 ? 0 : lrc == -EPERM ? MBX_E_STATE : MBX_E_PARAM, 0,
-				   NULL, 0);
+		return line_answer(l, &req->reply,
+				   lrc == 0        ? 0
+				   : lrc == -EPERM ? MBX_E_STATE
+						   : MBX_E_PARAM,
+				   0, NULL, 0);
 	}
 	int rc = co_nmt_master_send(l->node, n.node, n.cs, l->now_us);
 	line_answer(l, &req->reply, rc < 0 ? MBX_E_PARAM : 0, 0, NULL, 0);
@@ -33,10 +36,14 @@ void line_nmt_command(line *l, const mbx_request *req)
 static uint8_t hb_code(co_hb_mon mon)
 {
 	switch (mon) {
-	case CO_HB_MON_LOST: return 2;
-	case CO_HB_MON_ACTIVE: return 1;
-	case CO_HB_MON_WAITING: return 3;
-	default: return 0;
+	case CO_HB_MON_LOST:
+		return 2;
+	case CO_HB_MON_ACTIVE:
+		return 1;
+	case CO_HB_MON_WAITING:
+		return 3;
+	default:
+		return 0;
 	}
 }
 
@@ -58,7 +65,8 @@ void line_node_table(line *l, const mbx_request *req)
 			.node = (uint8_t)i,
 			.nmt_state = state,
 			.hb = hb_code(mon),
-			.flags = (uint8_t)((ni->bootups ? 1 : 0) | (ni->emcy_count && ni->last_emcy ? 2 : 0)),
+			.flags = (uint8_t)((ni->bootups ? 1 : 0) |
+					   (ni->emcy_count && ni->last_emcy ? 2 : 0)),
 			.last_heard_ms = ago_ms > UINT32_MAX ? UINT32_MAX : (uint32_t)ago_ms,
 			.bootups = ni->bootups > UINT16_MAX ? UINT16_MAX : (uint16_t)ni->bootups,
 			.last_emcy = ni->last_emcy,

@@ -37,7 +37,9 @@ static void od_write(line *l, const mbx_request *req, bool trigger_pdo)
 		return line_answer(l, &req->reply, MBX_E_ABORT, abort, NULL, 0);
 	if (!(e->access & CO_ACC_WRITE) || (e->access & CO_ACC_CONST))
 		return line_answer(l, &req->reply, MBX_E_ABORT, SDO_AB_READ_ONLY, NULL, 0);
-	co_od_access a = { .origin = CO_OD_ORIGIN_LOCAL, .data = req->data, .size = (uint32_t)req->data_len };
+	co_od_access a = { .origin = CO_OD_ORIGIN_LOCAL,
+			   .data = req->data,
+			   .size = (uint32_t)req->data_len };
 	abort = co_od_write(e, req->data, (uint32_t)req->data_len, &a);
 	if (abort == CO_OD_DEFERRED)
 		abort = SDO_AB_LOCAL_CTRL; /* a local write cannot wait */
@@ -63,5 +65,9 @@ void line_pdo_request(line *l, const mbx_request *req)
 	mbx_pdo_num_req p;
 	memcpy(&p, req->payload, sizeof p);
 	int rc = co_pdo_tpdo_event(l->node, p.pdo, l->now_us);
-	line_answer(l, &req->reply, rc == 0 ? 0 : rc == -ENOENT ? MBX_E_PARAM : MBX_E_STATE, 0, NULL, 0);
+	line_answer(l, &req->reply,
+		    rc == 0         ? 0
+		    : rc == -ENOENT ? MBX_E_PARAM
+				    : MBX_E_STATE,
+		    0, NULL, 0);
 }

@@ -33,12 +33,12 @@ typedef enum line_pending_kind {
 
 /* A mailbox request waiting for an asynchronous core completion. */
 typedef struct line_pending {
-	uint64_t tag;       /* core tag: (generation << 16) | slot */
-	uint16_t code;      /* mailbox command */
-	uint8_t kind;       /* line_pending_kind */
+	uint64_t tag;  /* core tag: (generation << 16) | slot */
+	uint16_t code; /* mailbox command */
+	uint8_t kind;  /* line_pending_kind */
 	bool used;
 	mbx_reply_to reply;
-	uint8_t *buf;       /* big slots: max_transfer bytes; small: inline_data */
+	uint8_t *buf; /* big slots: max_transfer bytes; small: inline_data */
 	uint32_t cap;
 	uint8_t inline_data[LINE_INLINE_MAX]; /* small uploads/downloads */
 } line_pending;

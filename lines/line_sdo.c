@@ -41,8 +41,13 @@ static void sdo_done(void *arg, const co_ev_sdo_cli *c)
 		line_answer(l, &pp->reply, 0, 0, NULL, 0);
 	/* SDO-class subscribers (a logger, say) see every transfer end */
 	mbx_ev_sdo_done done = {
-		.abort = c->abort, .size = c->size, .index = c->index, .sub = c->sub,
-		.node = c->node_id, .upload = c->upload, .mode = c->mode,
+		.abort = c->abort,
+		.size = c->size,
+		.index = c->index,
+		.sub = c->sub,
+		.node = c->node_id,
+		.upload = c->upload,
+		.mode = c->mode,
 		.client = pp->reply.client,
 	};
 	mbx_server_publish(l->mbx, MBX_EV_SDO_DONE, pp->reply.corr, &done, sizeof done);
@@ -62,7 +67,8 @@ static void sdo_transfer(line *l, const mbx_request *req, bool upload)
 	/* Big transfers need a slot with a max_transfer buffer (uploads) or
 	 * keep the chunked command's data (downloads); a small upload also
 	 * fits a small slot's inline buffer. */
-	bool big = upload ? (s.size == 0 || s.size > LINE_INLINE_MAX) : req->data_len > LINE_INLINE_MAX;
+	bool big = upload ? (s.size == 0 || s.size > LINE_INLINE_MAX)
+			  : req->data_len > LINE_INLINE_MAX;
 	line_pending *pp = line_pending_take(&l->pending, req, LINE_PENDING_SDO, big);
 	if (!pp && big && upload)
 		pp = line_pending_take(&l->pending, req, LINE_PENDING_SDO, false);
@@ -73,9 +79,15 @@ static void sdo_transfer(line *l, const mbx_request *req, bool upload)
 	 * client's own per-frame timeout (cfg.sdo_client_timeout_ms, which
 	 * cogwd sets from lines[].sdo_timeout_ms), not the SDO server's. */
 	sdo_client_req r = {
-		.upload = upload, .node_id = s.node, .index = s.index, .sub = s.sub,
-		.mode = s.mode, .timeout_ms = s.timeout_ms, .tag = pp->tag,
-		.con = sdo_done, .con_arg = l,
+		.upload = upload,
+		.node_id = s.node,
+		.index = s.index,
+		.sub = s.sub,
+		.mode = s.mode,
+		.timeout_ms = s.timeout_ms,
+		.tag = pp->tag,
+		.con = sdo_done,
+		.con_arg = l,
 	};
 	if (upload) {
 		r.size = s.size;

@@ -71,7 +71,9 @@ static const unsigned parts[] = { CO_OD_IMAGE_COMM, CO_OD_IMAGE_APP };
 /* 1010h/1011h sub-index -> the parts it covers (CiA 301 §7.5.2.13). */
 static unsigned parts_of_sub(uint8_t sub)
 {
-	return sub == 2 ? CO_OD_IMAGE_COMM : sub == 3 ? CO_OD_IMAGE_APP : CO_OD_IMAGE_COMM | CO_OD_IMAGE_APP;
+	return sub == 2   ? CO_OD_IMAGE_COMM
+	       : sub == 3 ? CO_OD_IMAGE_APP
+			  : CO_OD_IMAGE_COMM | CO_OD_IMAGE_APP;
 }
 
 static long write_parts(const co_od *od, unsigned parts_mask, uint8_t *buf, uint32_t cap);
@@ -103,7 +105,8 @@ static uint32_t on_save(void *ctx, uint8_t sub, const co_od_access *a)
 	/* serialise now, on the line thread: the OD is only ever read here */
 	long n = write_parts(co_node_od(l->node), parts_of_sub(sub), l->store.blob, LINE_STORE_MAX);
 	if (n < 0) {
-		cogw_log(COGW_LOG_ERR, "line %s: save: values exceed %u bytes", l->name, LINE_STORE_MAX);
+		cogw_log(COGW_LOG_ERR, "line %s: save: values exceed %u bytes", l->name,
+			 LINE_STORE_MAX);
 		return SDO_AB_STORE;
 	}
 	l->store.len = (uint32_t)n;
@@ -129,7 +132,8 @@ int line_store_attach(line *l)
 {
 	int rc = co_store_attach(l->node, &store_ops, l, 3, CO_STORE_CAP_CMD, CO_STORE_CAP_CMD);
 	if (rc < 0 && rc != -EEXIST)
-		cogw_log(COGW_LOG_ERR, "line %s: cannot attach 1010h/1011h: %s", l->name, strerror(-rc));
+		cogw_log(COGW_LOG_ERR, "line %s: cannot attach 1010h/1011h: %s", l->name,
+			 strerror(-rc));
 	return rc == -EEXIST ? 0 : rc;
 }
 
@@ -246,7 +250,8 @@ static int restore_parts(line *l, unsigned del, uint8_t *tmp, size_t cap)
 		co_store_file_info info;
 		if (n < 0 || co_store_file_check(tmp, (size_t)n, &info) < 0 || !(info.set & del))
 			continue;
-		rc = write_part(path, tmp, (uint32_t)info.image_len, info.generation, info.set & ~del);
+		rc = write_part(path, tmp, (uint32_t)info.image_len, info.generation,
+				info.set & ~del);
 	}
 	for (int i = 0; i < N_PARTS && !rc; i++) {
 		part_path(l, parts[i], path, sizeof path);
@@ -293,7 +298,8 @@ bool line_store_service(line *l)
 			 l->store.op == 1 ? "save to" : "restore (delete)", path, strerror(-rc));
 	else
 		cogw_log(COGW_LOG_INFO, "line %s: %s (%s sub %u)", l->name,
-			 l->store.op == 1 ? "parameters saved" : "defaults restored for the next reset or start",
+			 l->store.op == 1 ? "parameters saved"
+					  : "defaults restored for the next reset or start",
 			 l->store.op == 1 ? "1010h" : "1011h", l->store.sub);
 	l->store.result = rc;
 	atomic_store(&l->store.state, 2);
@@ -338,8 +344,8 @@ static void set_defaults_from(line *l, const uint8_t *buf, uint32_t len, unsigne
 			return;
 		if (parts_mask & parts[i]) {
 			unsigned applied, skipped;
-			co_od_image_apply(co_node_od(l->node), buf + off + 4, n, CO_OD_IMAGE_SET_DEFAULT,
-					  &applied, &skipped);
+			co_od_image_apply(co_node_od(l->node), buf + off + 4, n,
+					  CO_OD_IMAGE_SET_DEFAULT, &applied, &skipped);
 		}
 		off += 4u + n;
 	}
@@ -361,7 +367,8 @@ void line_store_poll(line *l)
 	if (l->store.from_sdo)
 		sdo_server_continue(l->node, l->store.channel, abort, NULL, 0, l->now_us);
 	else
-		mbx_server_respond(l->mbx, &l->store.reply, l->store.result ? MBX_E_INTERNAL : 0, 0, NULL, 0);
+		mbx_server_respond(l->mbx, &l->store.reply, l->store.result ? MBX_E_INTERNAL : 0, 0,
+				   NULL, 0);
 	atomic_store(&l->store.state, 0);
 }
 
@@ -380,8 +387,10 @@ int line_store_load(line *l)
 		memcpy(l->store.factory, l->store.blob, (size_t)n);
 		l->store.factory_len = (uint32_t)n;
 	} else {
-		cogw_log(COGW_LOG_WARNING, "line %s: cannot keep the configured values; 1011h \"load\" "
-			 "takes effect at the next start only", l->name);
+		cogw_log(COGW_LOG_WARNING,
+			 "line %s: cannot keep the configured values; 1011h \"load\" "
+			 "takes effect at the next start only",
+			 l->name);
 	}
 	char path[N_PARTS][400];
 	long len[N_PARTS];
@@ -426,7 +435,8 @@ int line_store_load(line *l)
 	if (damage) {
 		/* never half-apply: all configured values, an error, an EMCY */
 		cogw_log(COGW_LOG_ERR,
-			 "line %s: saved parameters damaged: %s %s; none of them loaded, starting with "
+			 "line %s: saved parameters damaged: %s %s; none of them loaded, starting "
+			 "with "
 			 "the configured values (EMCY 6300h)",
 			 l->name, path[bad], damage);
 		l->store.damaged = true;
@@ -438,10 +448,12 @@ int line_store_load(line *l)
 			continue;
 		unsigned applied = 0, skipped = 0;
 		co_od_image_apply(l->p.node.od, buf[i], info[i].image_len,
-				  CO_OD_IMAGE_SET_VALUE | CO_OD_IMAGE_SET_DEFAULT, &applied, &skipped);
-		cogw_log(skipped ? COGW_LOG_WARNING : COGW_LOG_INFO, "line %s: loaded %u saved values from %s%s",
-			 l->name, applied, path[i],
-			 skipped ? " (some records did not match the dictionary and were skipped)" : "");
+				  CO_OD_IMAGE_SET_VALUE | CO_OD_IMAGE_SET_DEFAULT, &applied,
+				  &skipped);
+		cogw_log(skipped ? COGW_LOG_WARNING : COGW_LOG_INFO,
+			 "line %s: loaded %u saved values from %s%s", l->name, applied, path[i],
+			 skipped ? " (some records did not match the dictionary and were skipped)"
+				 : "");
 	}
 	free(buf[1]);
 	return 0;
@@ -452,6 +464,6 @@ void line_store_started(line *l)
 	static const uint8_t msef[5] = { 0 };
 
 	if (l->store.damaged)
-		co_emcy_send(l->node, 0x6300u /* data set (CiA 301 table 21) */, CO_EMCY_REG_GENERIC, msef,
-			     l->now_us);
+		co_emcy_send(l->node, 0x6300u /* data set (CiA 301 table 21) */,
+			     CO_EMCY_REG_GENERIC, msef, l->now_us);
 }

@@ -23,11 +23,16 @@ void cogw_log_set_max_level(int level)
 static const char *level_word(int level)
 {
 	switch (level) {
-	case COGW_LOG_ERR: return "error";
-	case COGW_LOG_WARNING: return "warning";
-	case COGW_LOG_NOTICE: return "notice";
-	case COGW_LOG_INFO: return "info";
-	default: return "debug";
+	case COGW_LOG_ERR:
+		return "error";
+	case COGW_LOG_WARNING:
+		return "warning";
+	case COGW_LOG_NOTICE:
+		return "notice";
+	case COGW_LOG_INFO:
+		return "info";
+	default:
+		return "debug";
 	}
 }
 
@@ -36,15 +41,18 @@ void cogw_log(int level, const char *fmt, ...)
 	if (level > atomic_load(&max_level))
 		return;
 	char buf[1024];
-	int n = atomic_load(&use_prefix) ? snprintf(buf, sizeof buf, "<%d>", level)
-					 : snprintf(buf, sizeof buf, "cogwd: %s: ", level_word(level));
+	int n = atomic_load(&use_prefix)
+			? snprintf(buf, sizeof buf, "<%d>", level)
+			: snprintf(buf, sizeof buf, "cogwd: %s: ", level_word(level));
 	va_list ap;
 	va_start(ap, fmt);
 	int m = vsnprintf(buf + n, sizeof buf - (size_t)n - 1, fmt, ap);
 	va_end(ap);
 	if (m < 0)
 		return;
-	size_t len = (size_t)n + ((size_t)m < sizeof buf - (size_t)n - 1 ? (size_t)m : sizeof buf - (size_t)n - 2);
+	size_t len = (size_t)n + ((size_t)m < sizeof buf - (size_t)n - 1
+					  ? (size_t)m
+					  : sizeof buf - (size_t)n - 2);
 	buf[len++] = '\n';
 	/* one write per line keeps lines from different threads whole */
 	ssize_t w = write(STDERR_FILENO, buf, len);

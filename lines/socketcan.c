@@ -41,16 +41,20 @@ struct can_port {
 const char *can_bus_state_to_string(can_bus_state s)
 {
 	switch (s) {
-	case CAN_BUS_ACTIVE: return "error-active";
-	case CAN_BUS_WARNING: return "error-warning";
-	case CAN_BUS_PASSIVE: return "error-passive";
-	case CAN_BUS_OFF: return "bus-off";
+	case CAN_BUS_ACTIVE:
+		return "error-active";
+	case CAN_BUS_WARNING:
+		return "error-warning";
+	case CAN_BUS_PASSIVE:
+		return "error-passive";
+	case CAN_BUS_OFF:
+		return "bus-off";
 	}
 	return "?";
 }
 
-void can_error_decode(uint32_t can_id, const uint8_t data[8],
-		      can_bus_state current, can_error_info *out)
+void can_error_decode(uint32_t can_id, const uint8_t data[8], can_bus_state current,
+		      can_error_info *out)
 {
 	memset(out, 0, sizeof *out);
 	uint32_t cls = can_id & CAN_ERR_MASK;
@@ -105,7 +109,8 @@ static void load_account(can_port *p, uint32_t bits, uint64_t now_us)
 		uint64_t elapsed = now_us - p->load_window_start_us;
 		/* a quiet gap of several seconds counts as zero load */
 		if (elapsed < 2000000u && p->cfg.bitrate)
-			p->stats.bus_load_permille = (uint32_t)(p->load_bits * 1000u / p->cfg.bitrate);
+			p->stats.bus_load_permille = (uint32_t)(p->load_bits * 1000u /
+								p->cfg.bitrate);
 		else
 			p->stats.bus_load_permille = 0;
 		p->load_window_start_us = now_us;
@@ -114,8 +119,8 @@ static void load_account(can_port *p, uint32_t bits, uint64_t now_us)
 	p->load_bits += bits;
 }
 
-static int set_opt(int fd, int level, int name, const void *v, socklen_t len,
-		   const char *what, const char **errmsg)
+static int set_opt(int fd, int level, int name, const void *v, socklen_t len, const char *what,
+		   const char **errmsg)
 {
 	if (setsockopt(fd, level, name, v, len) == 0)
 		return 0;
@@ -124,8 +129,7 @@ static int set_opt(int fd, int level, int name, const void *v, socklen_t len,
 	return -errno;
 }
 
-int can_port_open(can_port **out, const can_port_config *cfg,
-		  const char **errmsg)
+int can_port_open(can_port **out, const can_port_config *cfg, const char **errmsg)
 {
 	*out = NULL;
 	if (!cfg->ifname || !*cfg->ifname || strlen(cfg->ifname) >= IFNAMSIZ) {
@@ -260,8 +264,10 @@ int can_port_recv(can_port *p, can_rx_item *items, int max, uint64_t now_us)
 
 	for (int i = 0; i < max; i++) {
 		iov[i] = (struct iovec){ .iov_base = &kf[i], .iov_len = sizeof kf[i] };
-		mm[i].msg_hdr = (struct msghdr){ .msg_iov = &iov[i], .msg_iovlen = 1,
-						 .msg_control = ctl[i], .msg_controllen = sizeof ctl[i] };
+		mm[i].msg_hdr = (struct msghdr){ .msg_iov = &iov[i],
+						 .msg_iovlen = 1,
+						 .msg_control = ctl[i],
+						 .msg_controllen = sizeof ctl[i] };
 		mm[i].msg_len = 0;
 	}
 	int n = recvmmsg(p->fd, mm, (unsigned)max, MSG_DONTWAIT, NULL);

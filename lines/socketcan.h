@@ -26,10 +26,10 @@
 
 /* CAN controller state as seen through error frames. */
 typedef enum can_bus_state {
-	CAN_BUS_ACTIVE = 0,   /* error active (normal) */
-	CAN_BUS_WARNING,      /* an error counter >= 96 */
-	CAN_BUS_PASSIVE,      /* an error counter >= 128 */
-	CAN_BUS_OFF,          /* transmit error counter > 255 */
+	CAN_BUS_ACTIVE = 0, /* error active (normal) */
+	CAN_BUS_WARNING,    /* an error counter >= 96 */
+	CAN_BUS_PASSIVE,    /* an error counter >= 128 */
+	CAN_BUS_OFF,        /* transmit error counter > 255 */
 } can_bus_state;
 
 const char *can_bus_state_to_string(can_bus_state s);
@@ -38,30 +38,30 @@ const char *can_bus_state_to_string(can_bus_state s);
 typedef struct can_error_info {
 	bool state_changed;
 	can_bus_state state;
-	bool restarted;         /* controller restarted after bus-off */
+	bool restarted;          /* controller restarted after bus-off */
 	bool controller_problem; /* e.g. controller rx/tx overflow */
 	bool protocol_violation; /* form/stuff/bit errors */
 	bool tx_timeout;
 	bool lost_arbitration;
 	bool no_ack;
 	bool bus_error;
-	uint8_t tx_errors;      /* counters, if the driver reported them */
+	uint8_t tx_errors; /* counters, if the driver reported them */
 	uint8_t rx_errors;
-	uint32_t raw_class;     /* the error class bits of the frame id */
+	uint32_t raw_class; /* the error class bits of the frame id */
 } can_error_info;
 
 /* Decode an error frame (its can_id with CAN_ERR_FLAG and 8 data bytes).
  * Pure function: no port needed. */
-void can_error_decode(uint32_t can_id, const uint8_t data[8],
-		      can_bus_state current, can_error_info *out);
+void can_error_decode(uint32_t can_id, const uint8_t data[8], can_bus_state current,
+		      can_error_info *out);
 
 typedef struct can_port_config {
 	const char *ifname;
-	uint32_t bitrate;        /* bit/s, for the bus-load estimate */
-	uint16_t tx_queue_len;   /* frames (default 256) */
-	uint16_t tx_high_water;  /* percent (default 75) */
-	uint16_t tx_low_water;   /* percent (default 25) */
-	int rcvbuf_bytes;        /* socket receive buffer (default 256 KiB) */
+	uint32_t bitrate;       /* bit/s, for the bus-load estimate */
+	uint16_t tx_queue_len;  /* frames (default 256) */
+	uint16_t tx_high_water; /* percent (default 75) */
+	uint16_t tx_low_water;  /* percent (default 25) */
+	int rcvbuf_bytes;       /* socket receive buffer (default 256 KiB) */
 } can_port_config;
 
 typedef struct can_port_stats {
@@ -70,11 +70,11 @@ typedef struct can_port_stats {
 	uint64_t rx_overflow_drops; /* frames the kernel dropped (SO_RXQ_OVFL) */
 	uint64_t rx_invalid;        /* FD or malformed frames ignored */
 	uint64_t tx_frames;
-	uint64_t tx_queued_max;     /* high-water mark of the tx queue */
-	uint64_t tx_drops;          /* refused: tx queue full */
+	uint64_t tx_queued_max; /* high-water mark of the tx queue */
+	uint64_t tx_drops;      /* refused: tx queue full */
 	uint64_t tx_eagain;
 	uint64_t tx_enobufs;
-	uint64_t tx_errors;         /* other write errors */
+	uint64_t tx_errors; /* other write errors */
 	uint64_t bus_off_count;
 	/* bus load: bits on the wire (own + others) in the last full second,
 	 * as parts per thousand of the bit rate */
@@ -88,13 +88,12 @@ typedef struct can_rx_item {
 	co_frame frame;
 	uint64_t kernel_ts_ns; /* CLOCK_REALTIME of reception, from the kernel */
 	bool is_error;
-	can_error_info error;  /* valid when is_error */
+	can_error_info error; /* valid when is_error */
 } can_rx_item;
 
 /* Open and bind a raw socket on cfg->ifname. Returns 0 or -errno; on error
  * *errmsg (if not NULL) names the failing step. */
-int can_port_open(can_port **out, const can_port_config *cfg,
-		  const char **errmsg);
+int can_port_open(can_port **out, const can_port_config *cfg, const char **errmsg);
 void can_port_close(can_port *p); /* accepts NULL */
 
 int can_port_fd(const can_port *p);

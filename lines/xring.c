@@ -40,7 +40,8 @@ struct xring {
 static void add_relaxed(atomic_uint_fast64_t *c)
 {
 	/* single writer: a plain load + store, no locked instruction */
-	atomic_store_explicit(c, atomic_load_explicit(c, memory_order_relaxed) + 1, memory_order_relaxed);
+	atomic_store_explicit(c, atomic_load_explicit(c, memory_order_relaxed) + 1,
+			      memory_order_relaxed);
 }
 
 int xring_create(xring **out, uint32_t slots, uint32_t msg_max, int wakefd)
@@ -48,7 +49,8 @@ int xring_create(xring **out, uint32_t slots, uint32_t msg_max, int wakefd)
 	*out = NULL;
 	if (slots < 2 || slots > 65536 || (slots & (slots - 1)) || msg_max < 1 || msg_max > 65536)
 		return -EINVAL;
-	xring *r = aligned_alloc(CACHE_LINE, (sizeof *r + CACHE_LINE - 1) / CACHE_LINE * CACHE_LINE);
+	xring *r = aligned_alloc(CACHE_LINE,
+				 (sizeof *r + CACHE_LINE - 1) / CACHE_LINE * CACHE_LINE);
 	if (!r)
 		return -ENOMEM;
 	memset(r, 0, sizeof *r);
@@ -172,7 +174,8 @@ struct xring_mesh {
 	xring *ring[]; /* n x n, [from * n + to], NULL on the diagonal */
 };
 
-int xring_mesh_create(xring_mesh **out, unsigned n, const int *wakefds, uint32_t slots, uint32_t msg_max)
+int xring_mesh_create(xring_mesh **out, unsigned n, const int *wakefds, uint32_t slots,
+		      uint32_t msg_max)
 {
 	*out = NULL;
 	if (n < 2 || n > MESH_MAX)
@@ -196,7 +199,8 @@ int xring_mesh_create(xring_mesh **out, unsigned n, const int *wakefds, uint32_t
 		for (unsigned to = 0; to < n; to++) {
 			if (from == to)
 				continue;
-			int rc = xring_create(&m->ring[from * n + to], slots, msg_max, m->wakefd[to]);
+			int rc = xring_create(&m->ring[from * n + to], slots, msg_max,
+					      m->wakefd[to]);
 			if (rc < 0) {
 				xring_mesh_destroy(m);
 				return rc;

@@ -42,10 +42,10 @@
 typedef struct xring xring;
 
 typedef struct xring_stats {
-	uint64_t pushed;  /* messages accepted */
-	uint64_t popped;  /* messages taken by the consumer */
-	uint64_t dropped; /* refused: full or closed */
-	uint64_t wakes;   /* eventfd writes */
+	uint64_t pushed;     /* messages accepted */
+	uint64_t popped;     /* messages taken by the consumer */
+	uint64_t dropped;    /* refused: full or closed */
+	uint64_t wakes;      /* eventfd writes */
 	uint32_t high_water; /* most messages seen queued at a push */
 } xring_stats;
 
@@ -82,8 +82,8 @@ typedef struct xring_mesh xring_mesh;
  * or wakefds NULL: the mesh creates one eventfd per line (non-blocking,
  * owned, see xring_mesh_wake_fd; give it to the line as line_ext.wake_fd).
  * Returns 0, -EINVAL, -ENOMEM, or -errno of eventfd(). */
-int xring_mesh_create(xring_mesh **out, unsigned n, const int *wakefds,
-		      uint32_t slots, uint32_t msg_max);
+int xring_mesh_create(xring_mesh **out, unsigned n, const int *wakefds, uint32_t slots,
+		      uint32_t msg_max);
 /* The eventfd that wakes line `to` (all rings into it share it). */
 int xring_mesh_wake_fd(const xring_mesh *m, unsigned to);
 void xring_mesh_destroy(xring_mesh *m); /* accepts NULL */

@@ -55,7 +55,7 @@ typedef struct waiter {
 	uint32_t abort;
 	uint8_t *buf;
 	size_t cap;
-	size_t len;   /* bytes received (may exceed cap: truncated) */
+	size_t len; /* bytes received (may exceed cap: truncated) */
 	uint16_t next_chunk;
 } waiter;
 
@@ -80,11 +80,11 @@ typedef struct line_state {
 	 * registered again (line_ready). */
 	bool stale;
 	mqd_t cmd;
-	ino_t cmd_ino;     /* the queue cmd refers to */
-	unsigned restarts; /* counts restarts seen: a wait that began
+	ino_t cmd_ino;            /* the queue cmd refers to */
+	unsigned restarts;        /* counts restarts seen: a wait that began
 	                    * before one fails with COGW_E_RESTARTED */
 	unsigned restarts_failed; /* asyncs failed up to this count */
-	uint64_t checked_us; /* last cmd_queue_check */
+	uint64_t checked_us;      /* last cmd_queue_check */
 	/* what to subscribe again after a restart */
 	uint32_t sub_classes;
 	uint8_t n_filters;
@@ -187,14 +187,22 @@ const char *cogw_strerror(int err)
 	if (err <= 0 && err >= MBX_STATUS_MIN)
 		return mbx_status_to_string(err);
 	switch (err) {
-	case COGW_E_NO_DAEMON: return "daemon not running (no command queue)";
-	case COGW_E_SYSTEM: return "system call failed";
-	case COGW_E_INVAL: return "invalid argument";
-	case COGW_E_NOMEM: return "out of memory";
-	case COGW_E_AGAIN: return "nothing received";
-	case COGW_E_TRUNCATED: return "answer truncated (buffer too small)";
-	case COGW_E_CLOSED: return "handle closing";
-	case COGW_E_PROTOCOL: return "unexpected message from the daemon";
+	case COGW_E_NO_DAEMON:
+		return "daemon not running (no command queue)";
+	case COGW_E_SYSTEM:
+		return "system call failed";
+	case COGW_E_INVAL:
+		return "invalid argument";
+	case COGW_E_NOMEM:
+		return "out of memory";
+	case COGW_E_AGAIN:
+		return "nothing received";
+	case COGW_E_TRUNCATED:
+		return "answer truncated (buffer too small)";
+	case COGW_E_CLOSED:
+		return "handle closing";
+	case COGW_E_PROTOCOL:
+		return "unexpected message from the daemon";
 	case COGW_E_RESTARTED:
 		return "the daemon restarted: request not completed (retry)";
 	}
@@ -307,8 +315,8 @@ static int line_open_cmd(cogw *h, unsigned line)
 
 /* q is O_NONBLOCK: a full command queue is waited out with poll(), up to
  * the caller's monotonic deadline. */
-static int send_raw(cogw *h, unsigned line, mqd_t q, const uint8_t *msg,
-		    size_t n, uint64_t deadline_us)
+static int send_raw(cogw *h, unsigned line, mqd_t q, const uint8_t *msg, size_t n,
+		    uint64_t deadline_us)
 {
 	while (mq_send(q, (const char *)msg, n, 0) < 0) {
 		unsigned left;
@@ -323,17 +331,16 @@ static int send_raw(cogw *h, unsigned line, mqd_t q, const uint8_t *msg,
 		/* a full queue nobody reads any more: the daemon is gone */
 		if (cmd_queue_check(h, line))
 			return COGW_E_RESTARTED;
-		if (mq_wait(q, POLLOUT,
-			    left < RESTART_CHECK_MS ? left : RESTART_CHECK_MS) < 0)
+		if (mq_wait(q, POLLOUT, left < RESTART_CHECK_MS ? left : RESTART_CHECK_MS) < 0)
 			return COGW_E_SYSTEM;
 	}
 	return 0;
 }
 
 /* Send a command, chunked when payload + data do not fit one message. */
-static int send_cmd(cogw *h, unsigned line, uint16_t code, uint8_t flags,
-		    uint64_t corr, const void *fixed, size_t flen,
-		    const void *data, size_t dlen, uint64_t deadline_us)
+static int send_cmd(cogw *h, unsigned line, uint16_t code, uint8_t flags, uint64_t corr,
+		    const void *fixed, size_t flen, const void *data, size_t dlen,
+		    uint64_t deadline_us)
 {
 	line_state snap, *ls = &snap;
 	size_t max_msg;
@@ -351,9 +358,14 @@ static int send_cmd(cogw *h, unsigned line, uint16_t code, uint8_t flags,
 	uint8_t *msg;
 	int rc = 0;
 	mbx_hdr hd = {
-		.magic = MBX_MAGIC, .version = MBX_VERSION,
-		.kind = MBX_KIND_COMMAND, .code = code, .line = (uint8_t)line,
-		.flags = flags, .client = ls->client, .corr = corr,
+		.magic = MBX_MAGIC,
+		.version = MBX_VERSION,
+		.kind = MBX_KIND_COMMAND,
+		.code = code,
+		.line = (uint8_t)line,
+		.flags = flags,
+		.client = ls->client,
+		.corr = corr,
 		.token = ls->token,
 	};
 
@@ -369,14 +381,13 @@ static int send_cmd(cogw *h, unsigned line, uint16_t code, uint8_t flags,
 			memcpy(msg + MBX_HDR_SIZE + flen, d, dlen);
 		hd.len = (uint16_t)(flen + dlen);
 		mbx_hdr_encode(&hd, msg);
-		rc = send_raw(h, line, ls->cmd, msg, MBX_HDR_SIZE + hd.len,
-			      deadline_us);
+		rc = send_raw(h, line, ls->cmd, msg, MBX_HDR_SIZE + hd.len, deadline_us);
 		goto out;
 	}
 	const mbx_cmd_info *ci = mbx_cmd_lookup(code);
 
-	if (!ci || !(ci->flags & MBX_CI_DATA) || ci->max_data ||
-	    dlen > ls->max_transfer || dlen > UINT32_MAX) {
+	if (!ci || !(ci->flags & MBX_CI_DATA) || ci->max_data || dlen > ls->max_transfer ||
+	    dlen > UINT32_MAX) {
 		rc = COGW_E_TOO_BIG;
 		goto out;
 	}
@@ -396,8 +407,7 @@ static int send_cmd(cogw *h, unsigned line, uint16_t code, uint8_t flags,
 			memcpy(msg + MBX_HDR_SIZE, fixed, f);
 		memcpy(msg + MBX_HDR_SIZE + f, d + off, n);
 		mbx_hdr_encode(&hd, msg);
-		rc = send_raw(h, line, ls->cmd, msg, MBX_HDR_SIZE + hd.len,
-			      deadline_us);
+		rc = send_raw(h, line, ls->cmd, msg, MBX_HDR_SIZE + hd.len, deadline_us);
 		if (rc)
 			break;
 		off += n;
@@ -435,10 +445,9 @@ static uint64_t corr_new(cogw *h)
 }
 
 /* Send and wait for the answer with the same correlation id. */
-static int exchange(cogw *h, unsigned line, uint16_t code, const void *fixed,
-		    size_t flen, const void *data, size_t dlen, void *rbuf,
-		    size_t rcap, size_t *rlen, uint32_t *abort,
-		    uint64_t deadline_us)
+static int exchange(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t flen,
+		    const void *data, size_t dlen, void *rbuf, size_t rcap, size_t *rlen,
+		    uint32_t *abort, uint64_t deadline_us)
 {
 	waiter w = { .buf = rbuf, .cap = rcap };
 	unsigned restarts = restarts_of(h, line);
@@ -454,8 +463,7 @@ static int exchange(cogw *h, unsigned line, uint16_t code, const void *fixed,
 	h->waiters = &w;
 	pthread_mutex_unlock(&h->mu);
 
-	rc = send_cmd(h, line, code, 0, w.corr, fixed, flen, data, dlen,
-		      deadline_us);
+	rc = send_cmd(h, line, code, 0, w.corr, fixed, flen, data, dlen, deadline_us);
 
 	pthread_mutex_lock(&h->mu);
 	if (rc == 0) {
@@ -470,11 +478,8 @@ static int exchange(cogw *h, unsigned line, uint16_t code, const void *fixed,
 				break;
 			}
 			until = now + RESTART_CHECK_MS * 1000u;
-			ts = mono_deadline(until < deadline_us ? until
-							       : deadline_us);
-			if (pthread_cond_timedwait(&h->cond, &h->mu, &ts) !=
-				    ETIMEDOUT ||
-			    w.done)
+			ts = mono_deadline(until < deadline_us ? until : deadline_us);
+			if (pthread_cond_timedwait(&h->cond, &h->mu, &ts) != ETIMEDOUT || w.done)
 				continue;
 			pthread_mutex_unlock(&h->mu);
 			cmd_queue_check(h, line);
@@ -524,8 +529,7 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 	while (ls->registering && !ls->registered) {
 		struct timespec ts = mono_deadline(deadline_us);
 
-		if (pthread_cond_timedwait(&h->setup_cond, &h->setup_mu, &ts) ==
-		    ETIMEDOUT) {
+		if (pthread_cond_timedwait(&h->setup_cond, &h->setup_mu, &ts) == ETIMEDOUT) {
 			pthread_mutex_unlock(&h->setup_mu);
 			return COGW_E_TIMEOUT;
 		}
@@ -551,8 +555,8 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 	rq.uid = (uint32_t)geteuid();
 	memcpy(rq.resp_queue, h->resp_name, sizeof rq.resp_queue);
 	memcpy(rq.event_queue, h->evt_name, sizeof rq.event_queue);
-	rc = exchange(h, line, MBX_CMD_REGISTER, &rq, sizeof rq, NULL, 0, &rs,
-		      sizeof rs, &len, NULL, deadline_us);
+	rc = exchange(h, line, MBX_CMD_REGISTER, &rq, sizeof rq, NULL, 0, &rs, sizeof rs, &len,
+		      NULL, deadline_us);
 	if (rc == 0 && len != sizeof rs)
 		rc = COGW_E_PROTOCOL;
 
@@ -568,8 +572,7 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 		ls->registered = true;
 		ls->last_sent_us = mono_us();
 	}
-	mbx_subscribe_req sub = { .classes = ls->sub_classes,
-				  .n_filters = ls->n_filters };
+	mbx_subscribe_req sub = { .classes = ls->sub_classes, .n_filters = ls->n_filters };
 
 	memcpy(sub.filters, ls->filters, sizeof sub.filters);
 	ls->registering = false;
@@ -579,16 +582,16 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 	if (rc == 0 && sub.classes) {
 		mbx_subscribe_resp sr;
 
-		exchange(h, line, MBX_CMD_SUBSCRIBE, &sub, sizeof sub, NULL, 0,
-			 &sr, sizeof sr, NULL, NULL, deadline_us);
+		exchange(h, line, MBX_CMD_SUBSCRIBE, &sub, sizeof sub, NULL, 0, &sr, sizeof sr,
+			 NULL, NULL, deadline_us);
 	}
 	return rc;
 }
 
 /* The common shape of every blocking call. */
-static int call(cogw *h, unsigned line, uint16_t code, const void *fixed,
-		size_t flen, const void *data, size_t dlen, void *rbuf,
-		size_t rcap, size_t *rlen, uint32_t *abort, unsigned timeout_ms)
+static int call(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t flen,
+		const void *data, size_t dlen, void *rbuf, size_t rcap, size_t *rlen,
+		uint32_t *abort, unsigned timeout_ms)
 {
 	uint64_t deadline;
 	int rc;
@@ -603,8 +606,7 @@ static int call(cogw *h, unsigned line, uint16_t code, const void *fixed,
 	rc = line_ready(h, line, deadline);
 	if (rc)
 		return rc;
-	rc = exchange(h, line, code, fixed, flen, data, dlen, rbuf, rcap, rlen,
-		      abort, deadline);
+	rc = exchange(h, line, code, fixed, flen, data, dlen, rbuf, rcap, rlen, abort, deadline);
 	if (rc == COGW_E_NOT_REGISTERED) {
 		/* the daemon restarted or reaped us: register again, once */
 		pthread_mutex_lock(&h->setup_mu);
@@ -612,8 +614,8 @@ static int call(cogw *h, unsigned line, uint16_t code, const void *fixed,
 		pthread_mutex_unlock(&h->setup_mu);
 		rc = line_ready(h, line, deadline);
 		if (rc == 0)
-			rc = exchange(h, line, code, fixed, flen, data, dlen,
-				      rbuf, rcap, rlen, abort, deadline);
+			rc = exchange(h, line, code, fixed, flen, data, dlen, rbuf, rcap, rlen,
+				      abort, deadline);
 	}
 	return rc;
 }
@@ -670,8 +672,7 @@ static void want_ack(cogw *h, const mbx_hdr *hd, uint16_t next, ack_todo *ack)
 }
 
 /* Returns true when the waiter is complete. */
-static bool feed_waiter(cogw *h, waiter *w, const mbx_hdr *hd,
-			const uint8_t *p, ack_todo *ack)
+static bool feed_waiter(cogw *h, waiter *w, const mbx_hdr *hd, const uint8_t *p, ack_todo *ack)
 {
 	w->status = hd->status;
 	w->abort = hd->abort;
@@ -686,8 +687,7 @@ static bool feed_waiter(cogw *h, waiter *w, const mbx_hdr *hd,
 		return true;
 	}
 	if (w->len < w->cap)
-		memcpy(w->buf + w->len, p,
-		       w->cap - w->len < hd->len ? w->cap - w->len : hd->len);
+		memcpy(w->buf + w->len, p, w->cap - w->len < hd->len ? w->cap - w->len : hd->len);
 	w->len += hd->len;
 	w->next_chunk++;
 	want_ack(h, hd, w->next_chunk, ack);
@@ -698,8 +698,7 @@ static bool feed_waiter(cogw *h, waiter *w, const mbx_hdr *hd,
 	return true;
 }
 
-static void feed_async(cogw *h, async_op **pp, const mbx_hdr *hd,
-		       const uint8_t *p, ack_todo *ack)
+static void feed_async(cogw *h, async_op **pp, const mbx_hdr *hd, const uint8_t *p, ack_todo *ack)
 {
 	async_op *a = *pp;
 	bool done = true;
@@ -737,9 +736,14 @@ static void feed_async(cogw *h, async_op **pp, const mbx_hdr *hd,
 	if (!done)
 		return;
 	cogw_msg m = {
-		.kind = MBX_KIND_RESPONSE, .line = a->line, .code = a->code,
-		.status = a->status, .abort = a->abort, .corr = a->corr,
-		.dropped = a->dropped, .len = a->status ? 0 : a->len,
+		.kind = MBX_KIND_RESPONSE,
+		.line = a->line,
+		.code = a->code,
+		.status = a->status,
+		.abort = a->abort,
+		.corr = a->corr,
+		.dropped = a->dropped,
+		.len = a->status ? 0 : a->len,
 		.data = a->data,
 	};
 	*pp = a->next;
@@ -747,14 +751,12 @@ static void feed_async(cogw *h, async_op **pp, const mbx_hdr *hd,
 	ring_push(h, &m);
 }
 
-static void handle_response(cogw *h, const uint8_t *buf, size_t n,
-			    ack_todo *ack)
+static void handle_response(cogw *h, const uint8_t *buf, size_t n, ack_todo *ack)
 {
 	mbx_hdr hd;
 	const uint8_t *p = buf + MBX_HDR_SIZE;
 
-	if (mbx_hdr_decode(buf, n, &hd, NULL) < 0 ||
-	    hd.kind != MBX_KIND_RESPONSE) {
+	if (mbx_hdr_decode(buf, n, &hd, NULL) < 0 || hd.kind != MBX_KIND_RESPONSE) {
 		h->stats.stray_responses++;
 		return;
 	}
@@ -766,9 +768,7 @@ static void handle_response(cogw *h, const uint8_t *buf, size_t n,
 		ack->rereg = true;
 		ack->line = hd.line;
 		ack->corr = hd.corr;
-		ack->rereg_status = hd.len == sizeof ack->rereg_resp
-					    ? hd.status
-					    : COGW_E_PROTOCOL;
+		ack->rereg_status = hd.len == sizeof ack->rereg_resp ? hd.status : COGW_E_PROTOCOL;
 		if (hd.len == sizeof ack->rereg_resp)
 			memcpy(&ack->rereg_resp, p, sizeof ack->rereg_resp);
 		return;
@@ -800,14 +800,12 @@ static void send_pings(cogw *h)
 
 		pthread_mutex_lock(&h->setup_mu);
 		due = h->lines[i].registered && h->lines[i].lease_ms &&
-		      now - h->lines[i].last_sent_us >=
-			      (uint64_t)h->lines[i].lease_ms * 1000u / 3;
+		      now - h->lines[i].last_sent_us >= (uint64_t)h->lines[i].lease_ms * 1000u / 3;
 		pthread_mutex_unlock(&h->setup_mu);
 		if (!due)
 			continue;
 		/* NO_REPLY: a lease renewal needs no answer */
-		send_cmd(h, i, MBX_CMD_PING, MBX_F_NO_REPLY, 0, NULL, 0, NULL, 0,
-			 now + 100000u);
+		send_cmd(h, i, MBX_CMD_PING, MBX_F_NO_REPLY, 0, NULL, 0, NULL, 0, now + 100000u);
 	}
 }
 
@@ -827,8 +825,10 @@ static void fail_asyncs_of_line(cogw *h, unsigned line)
 		}
 		*pp = a->next;
 		free(a->data);
-		cogw_msg m = { .kind = MBX_KIND_RESPONSE, .line = a->line,
-			       .code = a->code, .status = COGW_E_RESTARTED,
+		cogw_msg m = { .kind = MBX_KIND_RESPONSE,
+			       .line = a->line,
+			       .code = a->code,
+			       .status = COGW_E_RESTARTED,
 			       .corr = a->corr };
 		free(a);
 		ring_push(h, &m);
@@ -868,8 +868,7 @@ static void reregister_async(cogw *h, unsigned line, uint64_t now)
 	rq.uid = (uint32_t)geteuid();
 	memcpy(rq.resp_queue, h->resp_name, sizeof rq.resp_queue);
 	memcpy(rq.event_queue, h->evt_name, sizeof rq.event_queue);
-	send_cmd(h, line, MBX_CMD_REGISTER, 0, corr, &rq, sizeof rq, NULL, 0,
-		 now + 100000u);
+	send_cmd(h, line, MBX_CMD_REGISTER, 0, corr, &rq, sizeof rq, NULL, 0, now + 100000u);
 }
 
 static void reregister_done(cogw *h, const ack_todo *t)
@@ -893,22 +892,20 @@ static void reregister_done(cogw *h, const ack_todo *t)
 		ls->client = rs->client;
 		ls->token = rs->token;
 		ls->lease_ms = rs->lease_ms;
-		ls->max_msg = rs->max_msg < MBX_MSG_MIN ? MBX_MSG_MIN
-							: rs->max_msg;
+		ls->max_msg = rs->max_msg < MBX_MSG_MIN ? MBX_MSG_MIN : rs->max_msg;
 		if (ls->max_msg > MBX_MSG_MAX)
 			ls->max_msg = MBX_MSG_MAX;
 		ls->max_transfer = rs->max_transfer;
 		ls->registered = true;
 		ls->last_sent_us = mono_us();
 	}
-	sub = (mbx_subscribe_req){ .classes = ls->sub_classes,
-				   .n_filters = ls->n_filters };
+	sub = (mbx_subscribe_req){ .classes = ls->sub_classes, .n_filters = ls->n_filters };
 	memcpy(sub.filters, ls->filters, sizeof sub.filters);
 	pthread_cond_broadcast(&h->setup_cond);
 	pthread_mutex_unlock(&h->setup_mu);
 	if (t->rereg_status == 0)
-		send_cmd(h, t->line, MBX_CMD_SUBSCRIBE, MBX_F_NO_REPLY, 0, &sub,
-			 sizeof sub, NULL, 0, mono_us() + 100000u);
+		send_cmd(h, t->line, MBX_CMD_SUBSCRIBE, MBX_F_NO_REPLY, 0, &sub, sizeof sub, NULL,
+			 0, mono_us() + 100000u);
 }
 
 static void check_restarts(cogw *h)
@@ -921,8 +918,7 @@ static void check_restarts(cogw *h)
 
 		pthread_mutex_lock(&h->setup_mu);
 		open = ls->cmd != (mqd_t)-1;
-		due = open && !ls->stale &&
-		      now - ls->checked_us >= RESTART_CHECK_MS * 5 * 1000u;
+		due = open && !ls->stale && now - ls->checked_us >= RESTART_CHECK_MS * 5 * 1000u;
 		pthread_mutex_unlock(&h->setup_mu);
 		if (!open)
 			continue;
@@ -983,14 +979,13 @@ static void *reader_main(void *arg)
 		pthread_mutex_unlock(&h->mu);
 		if (closing)
 			break;
-		if (ready < 0 ||
-		    (ready > 0 && n < 0 && err != EAGAIN && err != EINTR))
+		if (ready < 0 || (ready > 0 && n < 0 && err != EAGAIN && err != EINTR))
 			break; /* queue gone: nothing more to read */
 		if (ack.needed) {
 			mbx_xfer_ack a = { .next_chunk = ack.next_chunk };
 
-			send_cmd(h, ack.line, MBX_CMD_XFER_ACK, 0, ack.corr, &a,
-				 sizeof a, NULL, 0, mono_us() + 1000000u);
+			send_cmd(h, ack.line, MBX_CMD_XFER_ACK, 0, ack.corr, &a, sizeof a, NULL, 0,
+				 mono_us() + 1000000u);
 		}
 		if (ack.rereg)
 			reregister_done(h, &ack);
@@ -1003,12 +998,11 @@ static void *reader_main(void *arg)
 
 /* ---- open / close ------------------------------------------------------------------ */
 
-static mqd_t make_queue(const char *name, unsigned mode, unsigned depth,
-			unsigned msgsize, int oflags)
+static mqd_t make_queue(const char *name, unsigned mode, unsigned depth, unsigned msgsize,
+			int oflags)
 {
 	struct mq_attr attr = { .mq_maxmsg = depth, .mq_msgsize = msgsize };
-	mqd_t q = mq_open(name, O_CREAT | O_EXCL | O_CLOEXEC | oflags, mode,
-			  &attr);
+	mqd_t q = mq_open(name, O_CREAT | O_EXCL | O_CLOEXEC | oflags, mode, &attr);
 
 	/* the umask filters mode: make it exactly what we asked (0600
 	 * matters: the daemon refuses queues others could read) */
@@ -1085,19 +1079,17 @@ int cogw_open_opts(cogw **out, const cogw_options *o)
 		uint32_t rnd = (uint32_t)mono_us();
 
 		getrandom(&rnd, sizeof rnd, GRND_NONBLOCK);
-		snprintf(h->resp_name, sizeof h->resp_name,
-			 "/cogw.%s.c%d.%08x.resp", h->instance, (int)getpid(), rnd);
-		snprintf(h->evt_name, sizeof h->evt_name,
-			 "/cogw.%s.c%d.%08x.evt", h->instance, (int)getpid(), rnd);
-		h->resp = make_queue(h->resp_name, mode, rdepth, msgsize,
-				     O_RDONLY | O_NONBLOCK);
+		snprintf(h->resp_name, sizeof h->resp_name, "/cogw.%s.c%d.%08x.resp", h->instance,
+			 (int)getpid(), rnd);
+		snprintf(h->evt_name, sizeof h->evt_name, "/cogw.%s.c%d.%08x.evt", h->instance,
+			 (int)getpid(), rnd);
+		h->resp = make_queue(h->resp_name, mode, rdepth, msgsize, O_RDONLY | O_NONBLOCK);
 		if (h->resp != (mqd_t)-1 || errno != EEXIST)
 			break;
 	}
 	if (h->resp == (mqd_t)-1)
 		goto fail;
-	h->evt = make_queue(h->evt_name, mode, edepth, msgsize,
-			    O_RDONLY | O_NONBLOCK);
+	h->evt = make_queue(h->evt_name, mode, edepth, msgsize, O_RDONLY | O_NONBLOCK);
 	if (h->evt == (mqd_t)-1)
 		goto fail;
 	h->self = mq_open(h->resp_name, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
@@ -1127,13 +1119,12 @@ int cogw_open_opts(cogw **out, const cogw_options *o)
 	h->reader_started = true;
 	*out = h;
 	return 0;
-fail:
-	{
-		int e = errno;
+fail : {
+	int e = errno;
 
-		cogw_close(h);
-		errno = e;
-	}
+	cogw_close(h);
+	errno = e;
+}
 	return rc;
 }
 
@@ -1145,8 +1136,8 @@ void cogw_close(cogw *h)
 	 * the slot now rather than at the next liveness check. */
 	for (unsigned i = 0; i < MBX_LINES_MAX; i++)
 		if (h->lines[i].registered)
-			send_cmd(h, i, MBX_CMD_UNREGISTER, MBX_F_NO_REPLY, 0,
-				 NULL, 0, NULL, 0, mono_us() + 200000u);
+			send_cmd(h, i, MBX_CMD_UNREGISTER, MBX_F_NO_REPLY, 0, NULL, 0, NULL, 0,
+				 mono_us() + 200000u);
 
 	pthread_mutex_lock(&h->mu);
 	h->closing = true;
@@ -1199,8 +1190,8 @@ void cogw_close(cogw *h)
 
 /* ---- asynchronous interface -------------------------------------------------------- */
 
-int cogw_send_async(cogw *h, unsigned line, uint16_t cmd, const void *payload,
-		    size_t len, uint64_t *corr)
+int cogw_send_async(cogw *h, unsigned line, uint16_t cmd, const void *payload, size_t len,
+		    uint64_t *corr)
 {
 	const mbx_cmd_info *ci = mbx_cmd_lookup(cmd);
 	uint64_t deadline;
@@ -1229,8 +1220,8 @@ int cogw_send_async(cogw *h, unsigned line, uint16_t cmd, const void *payload,
 	pthread_mutex_unlock(&h->mu);
 	if (corr)
 		*corr = a->corr;
-	rc = send_cmd(h, line, cmd, 0, a->corr, payload, flen,
-		      (const uint8_t *)payload + flen, len - flen, deadline);
+	rc = send_cmd(h, line, cmd, 0, a->corr, payload, flen, (const uint8_t *)payload + flen,
+		      len - flen, deadline);
 	if (rc) {
 		pthread_mutex_lock(&h->mu);
 		for (async_op **pp = &h->asyncs; *pp; pp = &(*pp)->next) {
@@ -1288,8 +1279,7 @@ static int event_pop(cogw *h, cogw_msg *m, uint8_t *buf)
 
 		if (n < 0)
 			return errno == EAGAIN ? 0 : COGW_E_SYSTEM;
-		if (mbx_hdr_decode(buf, (size_t)n, &hd, NULL) < 0 ||
-		    hd.kind != MBX_KIND_EVENT ||
+		if (mbx_hdr_decode(buf, (size_t)n, &hd, NULL) < 0 || hd.kind != MBX_KIND_EVENT ||
 		    mbx_event_validate(hd.code, buf + MBX_HDR_SIZE, hd.len) < 0) {
 			pthread_mutex_lock(&h->mu);
 			h->stats.stray_responses++;
@@ -1302,9 +1292,12 @@ static int event_pop(cogw *h, cogw_msg *m, uint8_t *buf)
 			h->stats.dropped_reported += hd.dropped;
 			pthread_mutex_unlock(&h->mu);
 		}
-		*m = (cogw_msg){ .kind = MBX_KIND_EVENT, .line = hd.line,
-				 .code = hd.code, .abort = hd.abort,
-				 .corr = hd.corr, .dropped = hd.dropped,
+		*m = (cogw_msg){ .kind = MBX_KIND_EVENT,
+				 .line = hd.line,
+				 .code = hd.code,
+				 .abort = hd.abort,
+				 .corr = hd.corr,
+				 .dropped = hd.dropped,
 				 .len = hd.len };
 		m->data = malloc(hd.len ? hd.len : 1);
 		if (!m->data)
@@ -1326,8 +1319,7 @@ int cogw_recv(cogw *h, cogw_msg *m, int timeout_ms)
 	buf = malloc(h->evt_msg);
 	if (!buf)
 		return COGW_E_NOMEM;
-	deadline = timeout_ms < 0 ? UINT64_MAX
-				  : mono_us() + (uint64_t)timeout_ms * 1000u;
+	deadline = timeout_ms < 0 ? UINT64_MAX : mono_us() + (uint64_t)timeout_ms * 1000u;
 	for (;;) {
 		if (ring_pop(h, m)) {
 			rc = 0;
@@ -1344,8 +1336,7 @@ int cogw_recv(cogw *h, cogw_msg *m, int timeout_ms)
 		if (now >= deadline)
 			break;
 		struct pollfd pf = { .fd = h->epfd, .events = POLLIN };
-		int wait = deadline == UINT64_MAX ? -1
-			   : (int)((deadline - now + 999) / 1000);
+		int wait = deadline == UINT64_MAX ? -1 : (int)((deadline - now + 999) / 1000);
 
 		if (poll(&pf, 1, wait) < 0 && errno != EINTR) {
 			rc = COGW_E_SYSTEM;
@@ -1365,30 +1356,27 @@ void cogw_get_stats(cogw *h, cogw_stats *st)
 
 /* ---- services ------------------------------------------------------------------------ */
 
-int cogw_od_read(cogw *h, unsigned line, uint16_t index, uint8_t sub,
-		 void *buf, size_t cap, size_t *len, unsigned timeout_ms,
-		 uint32_t *abort)
+int cogw_od_read(cogw *h, unsigned line, uint16_t index, uint8_t sub, void *buf, size_t cap,
+		 size_t *len, unsigned timeout_ms, uint32_t *abort)
 {
 	mbx_obj_req r = { .index = index, .sub = sub };
 
-	return call(h, line, MBX_CMD_OD_READ, &r, sizeof r, NULL, 0, buf, cap,
-		    len, abort, timeout_ms);
+	return call(h, line, MBX_CMD_OD_READ, &r, sizeof r, NULL, 0, buf, cap, len, abort,
+		    timeout_ms);
 }
 
-int cogw_od_write(cogw *h, unsigned line, uint16_t index, uint8_t sub,
-		  const void *data, size_t len, unsigned timeout_ms,
-		  uint32_t *abort)
+int cogw_od_write(cogw *h, unsigned line, uint16_t index, uint8_t sub, const void *data, size_t len,
+		  unsigned timeout_ms, uint32_t *abort)
 {
 	mbx_obj_req r = { .index = index, .sub = sub };
 
-	return call(h, line, MBX_CMD_OD_WRITE, &r, sizeof r, data, len, NULL, 0,
-		    NULL, abort, timeout_ms);
+	return call(h, line, MBX_CMD_OD_WRITE, &r, sizeof r, data, len, NULL, 0, NULL, abort,
+		    timeout_ms);
 }
 
-int cogw_sdo_read_ex(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		     uint8_t sub, const cogw_sdo_opts *o, void *buf,
-		     size_t cap, size_t *len, unsigned timeout_ms,
-		     uint32_t *abort)
+int cogw_sdo_read_ex(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
+		     const cogw_sdo_opts *o, void *buf, size_t cap, size_t *len,
+		     unsigned timeout_ms, uint32_t *abort)
 {
 	mbx_sdo_req r = { .node = node, .index = index, .sub = sub };
 
@@ -1396,13 +1384,13 @@ int cogw_sdo_read_ex(cogw *h, unsigned line, uint8_t node, uint16_t index,
 		r.mode = o->mode;
 		r.timeout_ms = o->sdo_timeout_ms;
 	}
-	return call(h, line, MBX_CMD_SDO_UPLOAD, &r, sizeof r, NULL, 0, buf,
-		    cap, len, abort, timeout_ms);
+	return call(h, line, MBX_CMD_SDO_UPLOAD, &r, sizeof r, NULL, 0, buf, cap, len, abort,
+		    timeout_ms);
 }
 
-int cogw_sdo_write_ex(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		      uint8_t sub, const cogw_sdo_opts *o, const void *data,
-		      size_t len, unsigned timeout_ms, uint32_t *abort)
+int cogw_sdo_write_ex(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
+		      const cogw_sdo_opts *o, const void *data, size_t len, unsigned timeout_ms,
+		      uint32_t *abort)
 {
 	mbx_sdo_req r = { .node = node, .index = index, .sub = sub };
 
@@ -1410,8 +1398,8 @@ int cogw_sdo_write_ex(cogw *h, unsigned line, uint8_t node, uint16_t index,
 		r.mode = o->mode;
 		r.timeout_ms = o->sdo_timeout_ms;
 	}
-	return call(h, line, MBX_CMD_SDO_DOWNLOAD, &r, sizeof r, data, len,
-		    NULL, 0, NULL, abort, timeout_ms);
+	return call(h, line, MBX_CMD_SDO_DOWNLOAD, &r, sizeof r, data, len, NULL, 0, NULL, abort,
+		    timeout_ms);
 }
 
 static mbx_gw_sdo_req gw_sdo_req(uint16_t net, uint8_t node, uint16_t index, uint8_t sub,
@@ -1426,26 +1414,24 @@ static mbx_gw_sdo_req gw_sdo_req(uint16_t net, uint8_t node, uint16_t index, uin
 	return r;
 }
 
-int cogw_sdo_read_net(cogw *h, unsigned line, uint16_t net, uint8_t node,
-		      uint16_t index, uint8_t sub, const cogw_sdo_opts *o,
-		      void *buf, size_t cap, size_t *len, unsigned timeout_ms,
-		      uint32_t *abort)
+int cogw_sdo_read_net(cogw *h, unsigned line, uint16_t net, uint8_t node, uint16_t index,
+		      uint8_t sub, const cogw_sdo_opts *o, void *buf, size_t cap, size_t *len,
+		      unsigned timeout_ms, uint32_t *abort)
 {
 	mbx_gw_sdo_req r = gw_sdo_req(net, node, index, sub, o);
 
-	return call(h, line, MBX_CMD_GW_SDO_UPLOAD, &r, sizeof r, NULL, 0, buf, cap, len,
-		    abort, timeout_ms);
+	return call(h, line, MBX_CMD_GW_SDO_UPLOAD, &r, sizeof r, NULL, 0, buf, cap, len, abort,
+		    timeout_ms);
 }
 
-int cogw_sdo_write_net(cogw *h, unsigned line, uint16_t net, uint8_t node,
-		       uint16_t index, uint8_t sub, const cogw_sdo_opts *o,
-		       const void *data, size_t len, unsigned timeout_ms,
-		       uint32_t *abort)
+int cogw_sdo_write_net(cogw *h, unsigned line, uint16_t net, uint8_t node, uint16_t index,
+		       uint8_t sub, const cogw_sdo_opts *o, const void *data, size_t len,
+		       unsigned timeout_ms, uint32_t *abort)
 {
 	mbx_gw_sdo_req r = gw_sdo_req(net, node, index, sub, o);
 
-	return call(h, line, MBX_CMD_GW_SDO_DOWNLOAD, &r, sizeof r, data, len, NULL, 0, NULL,
-		    abort, timeout_ms);
+	return call(h, line, MBX_CMD_GW_SDO_DOWNLOAD, &r, sizeof r, data, len, NULL, 0, NULL, abort,
+		    timeout_ms);
 }
 
 int cogw_mgr_status(cogw *h, unsigned line, mbx_mgr_status *st, unsigned timeout_ms)
@@ -1484,8 +1470,7 @@ int cogw_mgr_start(cogw *h, unsigned line, unsigned timeout_ms)
 	return call(h, line, MBX_CMD_MGR_START, NULL, 0, NULL, 0, NULL, 0, NULL, NULL, timeout_ms);
 }
 
-int cogw_mgr_request_nmt(cogw *h, unsigned line, uint8_t node, uint8_t cmd,
-			 unsigned timeout_ms)
+int cogw_mgr_request_nmt(cogw *h, unsigned line, uint8_t node, uint8_t cmd, unsigned timeout_ms)
 {
 	mbx_mgr_nmt_req r = { .node = node, .cmd = cmd };
 	return call(h, line, MBX_CMD_MGR_REQUEST_NMT, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL,
@@ -1498,13 +1483,13 @@ int cogw_mgr_reset_counters(cogw *h, unsigned line, unsigned timeout_ms)
 		    timeout_ms);
 }
 
-int cogw_gw_routes(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes,
-		   size_t cap, size_t *n, unsigned timeout_ms)
+int cogw_gw_routes(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes, size_t cap,
+		   size_t *n, unsigned timeout_ms)
 {
 	uint8_t buf[sizeof(mbx_gw_status) + 128 * sizeof(mbx_gw_route)];
 	size_t len = 0, got;
-	int rc = call(h, line, MBX_CMD_GW_ROUTES, NULL, 0, NULL, 0, buf, sizeof buf, &len,
-		      NULL, timeout_ms);
+	int rc = call(h, line, MBX_CMD_GW_ROUTES, NULL, 0, NULL, 0, buf, sizeof buf, &len, NULL,
+		      timeout_ms);
 
 	if (rc)
 		return rc;
@@ -1519,32 +1504,26 @@ int cogw_gw_routes(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *rout
 	return 0;
 }
 
-int cogw_sdo_read(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		  uint8_t sub, void *buf, size_t cap, size_t *len,
-		  unsigned timeout_ms, uint32_t *abort)
+int cogw_sdo_read(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, void *buf,
+		  size_t cap, size_t *len, unsigned timeout_ms, uint32_t *abort)
 {
-	return cogw_sdo_read_ex(h, line, node, index, sub, NULL, buf, cap, len,
-				timeout_ms, abort);
+	return cogw_sdo_read_ex(h, line, node, index, sub, NULL, buf, cap, len, timeout_ms, abort);
 }
 
-int cogw_sdo_write(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		   uint8_t sub, const void *data, size_t len,
-		   unsigned timeout_ms, uint32_t *abort)
+int cogw_sdo_write(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
+		   const void *data, size_t len, unsigned timeout_ms, uint32_t *abort)
 {
-	return cogw_sdo_write_ex(h, line, node, index, sub, NULL, data, len,
-				 timeout_ms, abort);
+	return cogw_sdo_write_ex(h, line, node, index, sub, NULL, data, len, timeout_ms, abort);
 }
 
 /* Read exactly n bytes (a numeric value) into a little-endian integer. */
-static int read_num(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		    uint8_t sub, size_t n, uint64_t *v, unsigned timeout_ms,
-		    uint32_t *abort)
+static int read_num(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, size_t n,
+		    uint64_t *v, unsigned timeout_ms, uint32_t *abort)
 {
 	uint8_t b[8];
 	size_t len = 0;
 	uint32_t ab = 0;
-	int rc = cogw_sdo_read(h, line, node, index, sub, b, sizeof b, &len,
-			       timeout_ms, &ab);
+	int rc = cogw_sdo_read(h, line, node, index, sub, b, sizeof b, &len, timeout_ms, &ab);
 
 	if (rc == 0 && len != n) {
 		rc = COGW_E_ABORT;
@@ -1563,36 +1542,30 @@ static int read_num(cogw *h, unsigned line, uint8_t node, uint16_t index,
 	return 0;
 }
 
-static int write_num(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		     uint8_t sub, size_t n, uint64_t v, unsigned timeout_ms,
-		     uint32_t *abort)
+static int write_num(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, size_t n,
+		     uint64_t v, unsigned timeout_ms, uint32_t *abort)
 {
 	uint8_t b[8];
 
 	for (size_t i = 0; i < n; i++)
 		b[i] = (uint8_t)(v >> (8 * i));
-	return cogw_sdo_write(h, line, node, index, sub, b, n, timeout_ms,
-			      abort);
+	return cogw_sdo_write(h, line, node, index, sub, b, n, timeout_ms, abort);
 }
 
-#define TYPED(suffix, type, n)                                                   \
-	int cogw_sdo_read_##suffix(cogw *h, unsigned line, uint8_t node,         \
-				   uint16_t index, uint8_t sub, type *v,         \
-				   unsigned timeout_ms, uint32_t *abort)         \
-	{                                                                        \
-		uint64_t x;                                                      \
-		int rc = read_num(h, line, node, index, sub, n, &x, timeout_ms,  \
-				  abort);                                        \
-		if (rc == 0)                                                     \
-			*v = (type)x;                                            \
-		return rc;                                                       \
-	}                                                                        \
-	int cogw_sdo_write_##suffix(cogw *h, unsigned line, uint8_t node,        \
-				    uint16_t index, uint8_t sub, type v,         \
-				    unsigned timeout_ms, uint32_t *abort)        \
-	{                                                                        \
-		return write_num(h, line, node, index, sub, n, (uint64_t)v,      \
-				 timeout_ms, abort);                             \
+#define TYPED(suffix, type, n)                                                                  \
+	int cogw_sdo_read_##suffix(cogw *h, unsigned line, uint8_t node, uint16_t index,        \
+				   uint8_t sub, type *v, unsigned timeout_ms, uint32_t *abort)  \
+	{                                                                                       \
+		uint64_t x;                                                                     \
+		int rc = read_num(h, line, node, index, sub, n, &x, timeout_ms, abort);         \
+		if (rc == 0)                                                                    \
+			*v = (type)x;                                                           \
+		return rc;                                                                      \
+	}                                                                                       \
+	int cogw_sdo_write_##suffix(cogw *h, unsigned line, uint8_t node, uint16_t index,       \
+				    uint8_t sub, type v, unsigned timeout_ms, uint32_t *abort)  \
+	{                                                                                       \
+		return write_num(h, line, node, index, sub, n, (uint64_t)v, timeout_ms, abort); \
 	}
 
 TYPED(u8, uint8_t, 1)
@@ -1601,8 +1574,7 @@ TYPED(u32, uint32_t, 4)
 TYPED(u64, uint64_t, 8)
 #undef TYPED
 
-int cogw_sdo_read_float(cogw *h, unsigned line, uint8_t node,
-			uint16_t index, uint8_t sub, float *v,
+int cogw_sdo_read_float(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, float *v,
 			unsigned timeout_ms, uint32_t *abort)
 {
 	uint64_t x;
@@ -1616,8 +1588,7 @@ int cogw_sdo_read_float(cogw *h, unsigned line, uint8_t node,
 	return rc;
 }
 
-int cogw_sdo_write_float(cogw *h, unsigned line, uint8_t node,
-			 uint16_t index, uint8_t sub, float v,
+int cogw_sdo_write_float(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, float v,
 			 unsigned timeout_ms, uint32_t *abort)
 {
 	uint32_t bits;
@@ -1626,17 +1597,15 @@ int cogw_sdo_write_float(cogw *h, unsigned line, uint8_t node,
 	return write_num(h, line, node, index, sub, 4, bits, timeout_ms, abort);
 }
 
-int cogw_sdo_read_string(cogw *h, unsigned line, uint8_t node,
-			 uint16_t index, uint8_t sub, char *s, size_t cap,
-			 unsigned timeout_ms, uint32_t *abort)
+int cogw_sdo_read_string(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, char *s,
+			 size_t cap, unsigned timeout_ms, uint32_t *abort)
 {
 	size_t len = 0;
 	int rc;
 
 	if (!s || cap == 0)
 		return COGW_E_INVAL;
-	rc = cogw_sdo_read(h, line, node, index, sub, s, cap - 1, &len,
-			   timeout_ms, abort);
+	rc = cogw_sdo_read(h, line, node, index, sub, s, cap - 1, &len, timeout_ms, abort);
 	if (rc == 0 || rc == COGW_E_TRUNCATED)
 		s[len < cap - 1 ? len : cap - 1] = 0;
 	else
@@ -1644,32 +1613,27 @@ int cogw_sdo_read_string(cogw *h, unsigned line, uint8_t node,
 	return rc;
 }
 
-int cogw_sdo_write_string(cogw *h, unsigned line, uint8_t node,
-			  uint16_t index, uint8_t sub, const char *s,
-			  unsigned timeout_ms, uint32_t *abort)
+int cogw_sdo_write_string(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
+			  const char *s, unsigned timeout_ms, uint32_t *abort)
 {
 	if (!s)
 		return COGW_E_INVAL;
-	return cogw_sdo_write(h, line, node, index, sub, s, strlen(s),
-			      timeout_ms, abort);
+	return cogw_sdo_write(h, line, node, index, sub, s, strlen(s), timeout_ms, abort);
 }
 
-int cogw_nmt(cogw *h, unsigned line, uint8_t cs, uint8_t node,
-	     unsigned timeout_ms)
+int cogw_nmt(cogw *h, unsigned line, uint8_t cs, uint8_t node, unsigned timeout_ms)
 {
 	mbx_nmt_req r = { .cs = cs, .node = node };
 
-	return call(h, line, MBX_CMD_NMT, &r, sizeof r, NULL, 0, NULL, 0, NULL,
-		    NULL, timeout_ms);
+	return call(h, line, MBX_CMD_NMT, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL, timeout_ms);
 }
 
-int cogw_node_table(cogw *h, unsigned line, mbx_node_entry *tab, size_t cap,
-		    unsigned timeout_ms)
+int cogw_node_table(cogw *h, unsigned line, mbx_node_entry *tab, size_t cap, unsigned timeout_ms)
 {
 	mbx_node_entry all[128];
 	size_t len = 0;
-	int rc = call(h, line, MBX_CMD_NODE_TABLE, NULL, 0, NULL, 0, all,
-		      sizeof all, &len, NULL, timeout_ms);
+	int rc = call(h, line, MBX_CMD_NODE_TABLE, NULL, 0, NULL, 0, all, sizeof all, &len, NULL,
+		      timeout_ms);
 
 	if (rc)
 		return rc;
@@ -1681,59 +1645,56 @@ int cogw_node_table(cogw *h, unsigned line, mbx_node_entry *tab, size_t cap,
 	return (int)n;
 }
 
-int cogw_pdo_request(cogw *h, unsigned line, uint16_t tpdo,
-		     unsigned timeout_ms)
+int cogw_pdo_request(cogw *h, unsigned line, uint16_t tpdo, unsigned timeout_ms)
 {
 	mbx_pdo_num_req r = { .pdo = tpdo };
 
-	return call(h, line, MBX_CMD_PDO_REQUEST, &r, sizeof r, NULL, 0, NULL,
-		    0, NULL, NULL, timeout_ms);
+	return call(h, line, MBX_CMD_PDO_REQUEST, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL,
+		    timeout_ms);
 }
 
-int cogw_pdo_read(cogw *h, unsigned line, uint16_t index, uint8_t sub,
-		  void *buf, size_t cap, size_t *len, unsigned timeout_ms)
+int cogw_pdo_read(cogw *h, unsigned line, uint16_t index, uint8_t sub, void *buf, size_t cap,
+		  size_t *len, unsigned timeout_ms)
 {
 	mbx_obj_req r = { .index = index, .sub = sub };
 
-	return call(h, line, MBX_CMD_PDO_READ, &r, sizeof r, NULL, 0, buf, cap,
-		    len, NULL, timeout_ms);
+	return call(h, line, MBX_CMD_PDO_READ, &r, sizeof r, NULL, 0, buf, cap, len, NULL,
+		    timeout_ms);
 }
 
-int cogw_pdo_write(cogw *h, unsigned line, uint16_t index, uint8_t sub,
-		   const void *data, size_t len, int trigger,
-		   unsigned timeout_ms)
+int cogw_pdo_write(cogw *h, unsigned line, uint16_t index, uint8_t sub, const void *data,
+		   size_t len, int trigger, unsigned timeout_ms)
 {
-	mbx_obj_req r = { .index = index, .sub = sub,
-			  .flags = trigger ? MBX_PDO_TRIGGER : 0 };
+	mbx_obj_req r = { .index = index, .sub = sub, .flags = trigger ? MBX_PDO_TRIGGER : 0 };
 
 	if (len == 0 || len > 8)
 		return COGW_E_INVAL;
-	return call(h, line, MBX_CMD_PDO_WRITE, &r, sizeof r, data, len, NULL,
-		    0, NULL, NULL, timeout_ms);
+	return call(h, line, MBX_CMD_PDO_WRITE, &r, sizeof r, data, len, NULL, 0, NULL, NULL,
+		    timeout_ms);
 }
 
-int cogw_emcy_send(cogw *h, unsigned line, uint16_t code, uint8_t reg,
-		   const uint8_t msef[5], unsigned timeout_ms)
+int cogw_emcy_send(cogw *h, unsigned line, uint16_t code, uint8_t reg, const uint8_t msef[5],
+		   unsigned timeout_ms)
 {
 	mbx_emcy_req r = { .code = code, .reg = reg };
 
 	if (msef)
 		memcpy(r.msef, msef, sizeof r.msef);
-	return call(h, line, MBX_CMD_EMCY_SEND, &r, sizeof r, NULL, 0, NULL, 0,
-		    NULL, NULL, timeout_ms);
+	return call(h, line, MBX_CMD_EMCY_SEND, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL,
+		    timeout_ms);
 }
 
-int cogw_raw_send(cogw *h, unsigned line, const mbx_raw_frame *frames,
-		  size_t n, unsigned timeout_ms)
+int cogw_raw_send(cogw *h, unsigned line, const mbx_raw_frame *frames, size_t n,
+		  unsigned timeout_ms)
 {
 	if (!frames || n == 0 || n > MBX_RAW_SEND_MAX)
 		return COGW_E_INVAL;
-	return call(h, line, MBX_CMD_RAW_SEND, frames, n * sizeof *frames, NULL,
-		    0, NULL, 0, NULL, NULL, timeout_ms);
+	return call(h, line, MBX_CMD_RAW_SEND, frames, n * sizeof *frames, NULL, 0, NULL, 0, NULL,
+		    NULL, timeout_ms);
 }
 
-int cogw_lss(cogw *h, unsigned line, uint16_t cmd, const mbx_lss_req *req,
-	     mbx_lss_resp *resp, unsigned timeout_ms)
+int cogw_lss(cogw *h, unsigned line, uint16_t cmd, const mbx_lss_req *req, mbx_lss_resp *resp,
+	     unsigned timeout_ms)
 {
 	mbx_lss_resp tmp;
 	size_t len = 0;
@@ -1742,57 +1703,53 @@ int cogw_lss(cogw *h, unsigned line, uint16_t cmd, const mbx_lss_req *req,
 	if (!req || (cmd & 0xFF00u) != 0x0700u)
 		return COGW_E_INVAL;
 	memset(&tmp, 0, sizeof tmp);
-	rc = call(h, line, cmd, req, sizeof *req, NULL, 0, &tmp, sizeof tmp,
-		  &len, NULL, timeout_ms);
+	rc = call(h, line, cmd, req, sizeof *req, NULL, 0, &tmp, sizeof tmp, &len, NULL,
+		  timeout_ms);
 	if (resp)
 		*resp = tmp;
 	return rc;
 }
 
-int cogw_lss_switch_global(cogw *h, unsigned line, uint8_t mode,
-			   unsigned timeout_ms)
+int cogw_lss_switch_global(cogw *h, unsigned line, uint8_t mode, unsigned timeout_ms)
 {
 	mbx_lss_req r = { .mode = mode };
 
 	return cogw_lss(h, line, MBX_CMD_LSS_SWITCH_GLOBAL, &r, NULL, timeout_ms);
 }
 
-int cogw_lss_switch_selective(cogw *h, unsigned line, uint32_t vendor,
-			      uint32_t product, uint32_t revision,
-			      uint32_t serial, unsigned timeout_ms)
+int cogw_lss_switch_selective(cogw *h, unsigned line, uint32_t vendor, uint32_t product,
+			      uint32_t revision, uint32_t serial, unsigned timeout_ms)
 {
-	mbx_lss_req r = { .vendor = vendor, .product = product,
-			  .rev_lo = revision, .rev_hi = revision,
-			  .ser_lo = serial, .ser_hi = serial };
+	mbx_lss_req r = { .vendor = vendor,
+			  .product = product,
+			  .rev_lo = revision,
+			  .rev_hi = revision,
+			  .ser_lo = serial,
+			  .ser_hi = serial };
 
-	return cogw_lss(h, line, MBX_CMD_LSS_SWITCH_SELECTIVE, &r, NULL,
-			timeout_ms);
+	return cogw_lss(h, line, MBX_CMD_LSS_SWITCH_SELECTIVE, &r, NULL, timeout_ms);
 }
 
-int cogw_lss_set_node_id(cogw *h, unsigned line, uint8_t node,
-			 unsigned timeout_ms)
+int cogw_lss_set_node_id(cogw *h, unsigned line, uint8_t node, unsigned timeout_ms)
 {
 	mbx_lss_req r = { .node = node };
 
 	return cogw_lss(h, line, MBX_CMD_LSS_SET_NODE_ID, &r, NULL, timeout_ms);
 }
 
-int cogw_lss_set_bit_timing(cogw *h, unsigned line, uint8_t table,
-			    uint8_t index, unsigned timeout_ms)
+int cogw_lss_set_bit_timing(cogw *h, unsigned line, uint8_t table, uint8_t index,
+			    unsigned timeout_ms)
 {
 	mbx_lss_req r = { .table = table, .bit_index = index };
 
-	return cogw_lss(h, line, MBX_CMD_LSS_SET_BIT_TIMING, &r, NULL,
-			timeout_ms);
+	return cogw_lss(h, line, MBX_CMD_LSS_SET_BIT_TIMING, &r, NULL, timeout_ms);
 }
 
-int cogw_lss_activate_bit_timing(cogw *h, unsigned line, uint16_t delay_ms,
-				 unsigned timeout_ms)
+int cogw_lss_activate_bit_timing(cogw *h, unsigned line, uint16_t delay_ms, unsigned timeout_ms)
 {
 	mbx_lss_req r = { .delay_ms = delay_ms };
 
-	return cogw_lss(h, line, MBX_CMD_LSS_ACTIVATE_BIT_TIMING, &r, NULL,
-			timeout_ms);
+	return cogw_lss(h, line, MBX_CMD_LSS_ACTIVATE_BIT_TIMING, &r, NULL, timeout_ms);
 }
 
 int cogw_lss_store(cogw *h, unsigned line, unsigned timeout_ms)
@@ -1802,8 +1759,7 @@ int cogw_lss_store(cogw *h, unsigned line, unsigned timeout_ms)
 	return cogw_lss(h, line, MBX_CMD_LSS_STORE, &r, NULL, timeout_ms);
 }
 
-int cogw_lss_inquire(cogw *h, unsigned line, uint8_t what, uint32_t *value,
-		     unsigned timeout_ms)
+int cogw_lss_inquire(cogw *h, unsigned line, uint8_t what, uint32_t *value, unsigned timeout_ms)
 {
 	mbx_lss_req r = { .what = what };
 	mbx_lss_resp s;
@@ -1818,16 +1774,14 @@ int cogw_lss_identify_nonconf(cogw *h, unsigned line, unsigned timeout_ms)
 {
 	mbx_lss_req r = { 0 };
 	mbx_lss_resp s;
-	int rc = cogw_lss(h, line, MBX_CMD_LSS_IDENTIFY_NONCONF, &r, &s,
-			  timeout_ms);
+	int rc = cogw_lss(h, line, MBX_CMD_LSS_IDENTIFY_NONCONF, &r, &s, timeout_ms);
 
 	if (rc == COGW_E_NOT_FOUND)
 		return 0;
 	return rc ? rc : s.found != 0;
 }
 
-int cogw_lss_fastscan(cogw *h, unsigned line, uint32_t id[4],
-		      unsigned timeout_ms)
+int cogw_lss_fastscan(cogw *h, unsigned line, uint32_t id[4], unsigned timeout_ms)
 {
 	mbx_lss_req r = { 0 };
 	mbx_lss_resp s;
@@ -1838,12 +1792,11 @@ int cogw_lss_fastscan(cogw *h, unsigned line, uint32_t id[4],
 	return rc;
 }
 
-int cogw_line_status(cogw *h, unsigned line, mbx_line_status *st,
-		     unsigned timeout_ms)
+int cogw_line_status(cogw *h, unsigned line, mbx_line_status *st, unsigned timeout_ms)
 {
 	size_t len = 0;
-	int rc = call(h, line, MBX_CMD_LINE_STATUS, NULL, 0, NULL, 0, st,
-		      sizeof *st, &len, NULL, timeout_ms);
+	int rc = call(h, line, MBX_CMD_LINE_STATUS, NULL, 0, NULL, 0, st, sizeof *st, &len, NULL,
+		      timeout_ms);
 
 	return rc == 0 && len != sizeof *st ? COGW_E_PROTOCOL : rc;
 }
@@ -1852,24 +1805,22 @@ int cogw_store(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms)
 {
 	mbx_store_req r = { .sub = sub };
 
-	return call(h, line, MBX_CMD_STORE, &r, sizeof r, NULL, 0, NULL, 0, NULL,
-		    NULL, timeout_ms);
+	return call(h, line, MBX_CMD_STORE, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL, timeout_ms);
 }
 
 int cogw_restore(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms)
 {
 	mbx_store_req r = { .sub = sub };
 
-	return call(h, line, MBX_CMD_RESTORE, &r, sizeof r, NULL, 0, NULL, 0,
-		    NULL, NULL, timeout_ms);
+	return call(h, line, MBX_CMD_RESTORE, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL,
+		    timeout_ms);
 }
 
-int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st,
-		   unsigned timeout_ms)
+int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st, unsigned timeout_ms)
 {
 	size_t len = 0;
-	int rc = call(h, line, MBX_CMD_MBX_STATS, NULL, 0, NULL, 0, st,
-		      sizeof *st, &len, NULL, timeout_ms);
+	int rc = call(h, line, MBX_CMD_MBX_STATS, NULL, 0, NULL, 0, st, sizeof *st, &len, NULL,
+		      timeout_ms);
 
 	return rc == 0 && len != sizeof *st ? COGW_E_PROTOCOL : rc;
 }
@@ -1878,13 +1829,11 @@ int cogw_ping(cogw *h, unsigned line, unsigned timeout_ms)
 {
 	mbx_ping_resp r;
 
-	return call(h, line, MBX_CMD_PING, NULL, 0, NULL, 0, &r, sizeof r, NULL,
-		    NULL, timeout_ms);
+	return call(h, line, MBX_CMD_PING, NULL, 0, NULL, 0, &r, sizeof r, NULL, NULL, timeout_ms);
 }
 
-int cogw_subscribe(cogw *h, unsigned line, uint32_t classes,
-		   const mbx_raw_filter *filters, size_t n_filters,
-		   unsigned timeout_ms)
+int cogw_subscribe(cogw *h, unsigned line, uint32_t classes, const mbx_raw_filter *filters,
+		   size_t n_filters, unsigned timeout_ms)
 {
 	mbx_subscribe_req r = { .classes = classes };
 	mbx_subscribe_resp s;
@@ -1894,8 +1843,8 @@ int cogw_subscribe(cogw *h, unsigned line, uint32_t classes,
 	r.n_filters = (uint8_t)n_filters;
 	if (n_filters)
 		memcpy(r.filters, filters, n_filters * sizeof *filters);
-	int rc = call(h, line, MBX_CMD_SUBSCRIBE, &r, sizeof r, NULL, 0, &s,
-		      sizeof s, NULL, NULL, timeout_ms);
+	int rc = call(h, line, MBX_CMD_SUBSCRIBE, &r, sizeof r, NULL, 0, &s, sizeof s, NULL, NULL,
+		      timeout_ms);
 
 	if (rc == 0) { /* remembered for a re-registration */
 		line_state *ls = &h->lines[line];
@@ -1911,14 +1860,13 @@ int cogw_subscribe(cogw *h, unsigned line, uint32_t classes,
 	return rc;
 }
 
-int cogw_unsubscribe(cogw *h, unsigned line, uint32_t classes,
-		     unsigned timeout_ms)
+int cogw_unsubscribe(cogw *h, unsigned line, uint32_t classes, unsigned timeout_ms)
 {
 	mbx_unsubscribe_req r = { .classes = classes };
 	mbx_subscribe_resp s;
 
-	int rc = call(h, line, MBX_CMD_UNSUBSCRIBE, &r, sizeof r, NULL, 0, &s,
-		      sizeof s, NULL, NULL, timeout_ms);
+	int rc = call(h, line, MBX_CMD_UNSUBSCRIBE, &r, sizeof r, NULL, 0, &s, sizeof s, NULL, NULL,
+		      timeout_ms);
 
 	if (rc == 0) {
 		line_state *ls = &h->lines[line];

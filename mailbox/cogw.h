@@ -91,13 +91,13 @@ const char *cogw_strerror(int err);
 /* ---- handle ------------------------------------------------------------- */
 
 typedef struct cogw_options {
-	const char *instance;  /* daemon instance ("main"); required */
-	unsigned queue_mode;   /* own queues, 0 = 0600 (0620 when the daemon
+	const char *instance; /* daemon instance ("main"); required */
+	unsigned queue_mode;  /* own queues, 0 = 0600 (0620 when the daemon
 	                        * runs as a non-root user of your group) */
-	unsigned resp_depth;   /* 0 = 32, clamped to fs.mqueue.msg_max */
-	unsigned event_depth;  /* 0 = 32, same clamp */
-	unsigned msg_size;     /* own queues' message size, 0 = 1024 */
-	unsigned timeout_ms;   /* default for calls given 0, 0 = 5000 */
+	unsigned resp_depth;  /* 0 = 32, clamped to fs.mqueue.msg_max */
+	unsigned event_depth; /* 0 = 32, same clamp */
+	unsigned msg_size;    /* own queues' message size, 0 = 1024 */
+	unsigned timeout_ms;  /* default for calls given 0, 0 = 5000 */
 } cogw_options;
 
 int cogw_open(cogw **h, const char *instance);
@@ -107,12 +107,10 @@ void cogw_close(cogw *h);
 
 /* ---- local object dictionary of a line (the daemon's own OD) ----------- */
 
-int cogw_od_read(cogw *h, unsigned line, uint16_t index, uint8_t sub,
-		 void *buf, size_t cap, size_t *len, unsigned timeout_ms,
-		 uint32_t *abort);
-int cogw_od_write(cogw *h, unsigned line, uint16_t index, uint8_t sub,
-		  const void *data, size_t len, unsigned timeout_ms,
-		  uint32_t *abort);
+int cogw_od_read(cogw *h, unsigned line, uint16_t index, uint8_t sub, void *buf, size_t cap,
+		 size_t *len, unsigned timeout_ms, uint32_t *abort);
+int cogw_od_write(cogw *h, unsigned line, uint16_t index, uint8_t sub, const void *data, size_t len,
+		  unsigned timeout_ms, uint32_t *abort);
 
 /* ---- remote SDO (the daemon is the SDO client) -------------------------- */
 
@@ -123,134 +121,106 @@ typedef struct cogw_sdo_opts {
 	uint32_t sdo_timeout_ms;
 } cogw_sdo_opts;
 
-int cogw_sdo_read(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		  uint8_t sub, void *buf, size_t cap, size_t *len,
-		  unsigned timeout_ms, uint32_t *abort);
-int cogw_sdo_write(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		   uint8_t sub, const void *data, size_t len,
-		   unsigned timeout_ms, uint32_t *abort);
-int cogw_sdo_read_ex(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		     uint8_t sub, const cogw_sdo_opts *o, void *buf,
-		     size_t cap, size_t *len, unsigned timeout_ms,
-		     uint32_t *abort);
-int cogw_sdo_write_ex(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		      uint8_t sub, const cogw_sdo_opts *o, const void *data,
-		      size_t len, unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_read(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, void *buf,
+		  size_t cap, size_t *len, unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_write(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
+		   const void *data, size_t len, unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_read_ex(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
+		     const cogw_sdo_opts *o, void *buf, size_t cap, size_t *len,
+		     unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_write_ex(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
+		      const cogw_sdo_opts *o, const void *data, size_t len, unsigned timeout_ms,
+		      uint32_t *abort);
 
 /* The same with a node of network `net` (CiA 302-7 routing through the
  * daemon, docs/gateway.md): the line's 1F2Ch picks the local line, or the
  * next router. net = the line's own network is a plain transfer. Routing
  * refusals are COGW_E_ABORT with *abort 0A000001h (no route), 0A000002h
  * (no answer), 0A000003h (busy) or 060A0023h (no client free). */
-int cogw_sdo_read_net(cogw *h, unsigned line, uint16_t net, uint8_t node,
-		      uint16_t index, uint8_t sub, const cogw_sdo_opts *o,
-		      void *buf, size_t cap, size_t *len, unsigned timeout_ms,
-		      uint32_t *abort);
-int cogw_sdo_write_net(cogw *h, unsigned line, uint16_t net, uint8_t node,
-		       uint16_t index, uint8_t sub, const cogw_sdo_opts *o,
-		       const void *data, size_t len, unsigned timeout_ms,
-		       uint32_t *abort);
+int cogw_sdo_read_net(cogw *h, unsigned line, uint16_t net, uint8_t node, uint16_t index,
+		      uint8_t sub, const cogw_sdo_opts *o, void *buf, size_t cap, size_t *len,
+		      unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_write_net(cogw *h, unsigned line, uint16_t net, uint8_t node, uint16_t index,
+		       uint8_t sub, const cogw_sdo_opts *o, const void *data, size_t len,
+		       unsigned timeout_ms, uint32_t *abort);
 
 /* Typed helpers: values are little-endian on the bus; a reply of the wrong
  * size is COGW_E_ABORT with abort 0x06070010 (type/length mismatch).
  * Strings are NUL-terminated (COGW_E_TRUNCATED if cap is too small).
  * A DOMAIN is cogw_sdo_read/write with a buffer. */
-int cogw_sdo_read_u8(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		     uint8_t sub, uint8_t *v, unsigned timeout_ms,
-		     uint32_t *abort);
-int cogw_sdo_read_u16(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		      uint8_t sub, uint16_t *v, unsigned timeout_ms,
-		      uint32_t *abort);
-int cogw_sdo_read_u32(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		      uint8_t sub, uint32_t *v, unsigned timeout_ms,
-		      uint32_t *abort);
-int cogw_sdo_read_u64(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		      uint8_t sub, uint64_t *v, unsigned timeout_ms,
-		      uint32_t *abort);
-int cogw_sdo_read_float(cogw *h, unsigned line, uint8_t node,
-			uint16_t index, uint8_t sub, float *v,
+int cogw_sdo_read_u8(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, uint8_t *v,
+		     unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_read_u16(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
+		      uint16_t *v, unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_read_u32(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
+		      uint32_t *v, unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_read_u64(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
+		      uint64_t *v, unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_read_float(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, float *v,
 			unsigned timeout_ms, uint32_t *abort);
-int cogw_sdo_read_string(cogw *h, unsigned line, uint8_t node,
-			 uint16_t index, uint8_t sub, char *s, size_t cap,
+int cogw_sdo_read_string(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, char *s,
+			 size_t cap, unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_write_u8(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, uint8_t v,
+		      unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_write_u16(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
+		       uint16_t v, unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_write_u32(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
+		       uint32_t v, unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_write_u64(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
+		       uint64_t v, unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_write_float(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, float v,
 			 unsigned timeout_ms, uint32_t *abort);
-int cogw_sdo_write_u8(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		      uint8_t sub, uint8_t v, unsigned timeout_ms,
-		      uint32_t *abort);
-int cogw_sdo_write_u16(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		       uint8_t sub, uint16_t v, unsigned timeout_ms,
-		       uint32_t *abort);
-int cogw_sdo_write_u32(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		       uint8_t sub, uint32_t v, unsigned timeout_ms,
-		       uint32_t *abort);
-int cogw_sdo_write_u64(cogw *h, unsigned line, uint8_t node, uint16_t index,
-		       uint8_t sub, uint64_t v, unsigned timeout_ms,
-		       uint32_t *abort);
-int cogw_sdo_write_float(cogw *h, unsigned line, uint8_t node,
-			 uint16_t index, uint8_t sub, float v,
-			 unsigned timeout_ms, uint32_t *abort);
-int cogw_sdo_write_string(cogw *h, unsigned line, uint8_t node,
-			  uint16_t index, uint8_t sub, const char *s,
-			  unsigned timeout_ms, uint32_t *abort);
+int cogw_sdo_write_string(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
+			  const char *s, unsigned timeout_ms, uint32_t *abort);
 
 /* ---- NMT, nodes, PDO, EMCY, raw CAN ------------------------------------- */
 
 /* cs: 0x01 start, 0x02 stop, 0x80 pre-operational, 0x81 reset node,
  * 0x82 reset communication. node 0 = all nodes. */
-int cogw_nmt(cogw *h, unsigned line, uint8_t cs, uint8_t node,
-	     unsigned timeout_ms);
+int cogw_nmt(cogw *h, unsigned line, uint8_t cs, uint8_t node, unsigned timeout_ms);
 /* Fills up to cap entries; returns the number of nodes known (>= 0). */
-int cogw_node_table(cogw *h, unsigned line, mbx_node_entry *tab, size_t cap,
-		    unsigned timeout_ms);
-int cogw_pdo_request(cogw *h, unsigned line, uint16_t tpdo,
-		     unsigned timeout_ms);
-int cogw_pdo_read(cogw *h, unsigned line, uint16_t index, uint8_t sub,
-		  void *buf, size_t cap, size_t *len, unsigned timeout_ms);
+int cogw_node_table(cogw *h, unsigned line, mbx_node_entry *tab, size_t cap, unsigned timeout_ms);
+int cogw_pdo_request(cogw *h, unsigned line, uint16_t tpdo, unsigned timeout_ms);
+int cogw_pdo_read(cogw *h, unsigned line, uint16_t index, uint8_t sub, void *buf, size_t cap,
+		  size_t *len, unsigned timeout_ms);
 /* trigger: send event-driven TPDOs that map the object now. */
-int cogw_pdo_write(cogw *h, unsigned line, uint16_t index, uint8_t sub,
-		   const void *data, size_t len, int trigger,
+int cogw_pdo_write(cogw *h, unsigned line, uint16_t index, uint8_t sub, const void *data,
+		   size_t len, int trigger, unsigned timeout_ms);
+int cogw_emcy_send(cogw *h, unsigned line, uint16_t code, uint8_t reg, const uint8_t msef[5],
 		   unsigned timeout_ms);
-int cogw_emcy_send(cogw *h, unsigned line, uint16_t code, uint8_t reg,
-		   const uint8_t msef[5], unsigned timeout_ms);
 /* frames: id | MBX_RAW_EXT / MBX_RAW_RTR, len 0..8; n 1..32. */
-int cogw_raw_send(cogw *h, unsigned line, const mbx_raw_frame *frames,
-		  size_t n, unsigned timeout_ms);
+int cogw_raw_send(cogw *h, unsigned line, const mbx_raw_frame *frames, size_t n,
+		  unsigned timeout_ms);
 
 /* ---- LSS master (CiA 305) ------------------------------------------------ */
 
 /* Generic: cmd = MBX_CMD_LSS_*, fields of req as proto.h documents. */
-int cogw_lss(cogw *h, unsigned line, uint16_t cmd, const mbx_lss_req *req,
-	     mbx_lss_resp *resp, unsigned timeout_ms);
-int cogw_lss_switch_global(cogw *h, unsigned line, uint8_t mode,
-			   unsigned timeout_ms);
-int cogw_lss_switch_selective(cogw *h, unsigned line, uint32_t vendor,
-			      uint32_t product, uint32_t revision,
-			      uint32_t serial, unsigned timeout_ms);
-int cogw_lss_set_node_id(cogw *h, unsigned line, uint8_t node,
-			 unsigned timeout_ms);
-int cogw_lss_set_bit_timing(cogw *h, unsigned line, uint8_t table,
-			    uint8_t index, unsigned timeout_ms);
-int cogw_lss_activate_bit_timing(cogw *h, unsigned line, uint16_t delay_ms,
-				 unsigned timeout_ms);
+int cogw_lss(cogw *h, unsigned line, uint16_t cmd, const mbx_lss_req *req, mbx_lss_resp *resp,
+	     unsigned timeout_ms);
+int cogw_lss_switch_global(cogw *h, unsigned line, uint8_t mode, unsigned timeout_ms);
+int cogw_lss_switch_selective(cogw *h, unsigned line, uint32_t vendor, uint32_t product,
+			      uint32_t revision, uint32_t serial, unsigned timeout_ms);
+int cogw_lss_set_node_id(cogw *h, unsigned line, uint8_t node, unsigned timeout_ms);
+int cogw_lss_set_bit_timing(cogw *h, unsigned line, uint8_t table, uint8_t index,
+			    unsigned timeout_ms);
+int cogw_lss_activate_bit_timing(cogw *h, unsigned line, uint16_t delay_ms, unsigned timeout_ms);
 int cogw_lss_store(cogw *h, unsigned line, unsigned timeout_ms);
 /* what: 0x5A vendor, 0x5B product, 0x5C revision, 0x5D serial, 0x5E node */
-int cogw_lss_inquire(cogw *h, unsigned line, uint8_t what, uint32_t *value,
-		     unsigned timeout_ms);
+int cogw_lss_inquire(cogw *h, unsigned line, uint8_t what, uint32_t *value, unsigned timeout_ms);
 /* Returns 1 if non-configured slaves answered, 0 if none. */
 int cogw_lss_identify_nonconf(cogw *h, unsigned line, unsigned timeout_ms);
 /* id[4] = vendor, product, revision, serial of the slave found. */
-int cogw_lss_fastscan(cogw *h, unsigned line, uint32_t id[4],
-		      unsigned timeout_ms);
+int cogw_lss_fastscan(cogw *h, unsigned line, uint32_t id[4], unsigned timeout_ms);
 
 /* ---- line status, store/restore, mailbox counters ------------------------ */
 
-int cogw_line_status(cogw *h, unsigned line, mbx_line_status *st,
-		     unsigned timeout_ms);
+int cogw_line_status(cogw *h, unsigned line, mbx_line_status *st, unsigned timeout_ms);
 /* sub: 1 all, 2 communication, 3 application, 4..127 manufacturer. */
 int cogw_store(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms);
 /* The line's gateway: counters and its routes (at most cap of them, *n =
  * how many the daemon sent). */
-int cogw_gw_routes(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes,
-		   size_t cap, size_t *n, unsigned timeout_ms);
+int cogw_gw_routes(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes, size_t cap,
+		   size_t *n, unsigned timeout_ms);
 int cogw_restore(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms);
 
 /* ---- the line's CiA 302-2 manager (MBX_CMD_MGR_*) ------------------------- */
@@ -265,26 +235,22 @@ int cogw_mgr_boot(cogw *h, unsigned line, uint8_t node, unsigned timeout_ms);
 /* Start the network (when 1F80h leaves that to the application). */
 int cogw_mgr_start(cogw *h, unsigned line, unsigned timeout_ms);
 /* Request NMT (1F82h): node 1..127 or 128 = all; cmd 4, 5, 6, 7, 127. */
-int cogw_mgr_request_nmt(cogw *h, unsigned line, uint8_t node, uint8_t cmd,
-			 unsigned timeout_ms);
+int cogw_mgr_request_nmt(cogw *h, unsigned line, uint8_t node, uint8_t cmd, unsigned timeout_ms);
 int cogw_mgr_reset_counters(cogw *h, unsigned line, unsigned timeout_ms);
-int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st,
-		   unsigned timeout_ms);
+int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st, unsigned timeout_ms);
 int cogw_ping(cogw *h, unsigned line, unsigned timeout_ms);
 
 /* ---- events and asynchronous requests ------------------------------------ */
 
 /* Add classes (MBX_EVC_*). With MBX_EVC_RAW, filters (0..4, NULL/0 = all
  * frames) replace the previous ones. */
-int cogw_subscribe(cogw *h, unsigned line, uint32_t classes,
-		   const mbx_raw_filter *filters, size_t n_filters,
-		   unsigned timeout_ms);
-int cogw_unsubscribe(cogw *h, unsigned line, uint32_t classes,
-		     unsigned timeout_ms);
+int cogw_subscribe(cogw *h, unsigned line, uint32_t classes, const mbx_raw_filter *filters,
+		   size_t n_filters, unsigned timeout_ms);
+int cogw_unsubscribe(cogw *h, unsigned line, uint32_t classes, unsigned timeout_ms);
 
 /* What cogw_recv() returns: an event, or the answer to cogw_send_async(). */
 typedef struct cogw_msg {
-	uint8_t kind;     /* MBX_KIND_EVENT or MBX_KIND_RESPONSE */
+	uint8_t kind; /* MBX_KIND_EVENT or MBX_KIND_RESPONSE */
 	uint8_t line;
 	uint16_t code;    /* event code (mbx_event) or command code */
 	int status;       /* response: 0 or COGW_E_*; event: 0 */
@@ -298,8 +264,8 @@ typedef struct cogw_msg {
 /* Start a command without waiting: payload as proto.h defines for cmd
  * (any size for data commands: chunked here). *corr receives the
  * correlation id that the answer (and related events) will carry. */
-int cogw_send_async(cogw *h, unsigned line, uint16_t cmd,
-		    const void *payload, size_t len, uint64_t *corr);
+int cogw_send_async(cogw *h, unsigned line, uint16_t cmd, const void *payload, size_t len,
+		    uint64_t *corr);
 /* Next event or asynchronous answer, waiting up to timeout_ms (0 = do not
  * wait, -1 = forever). COGW_E_AGAIN if none came. Release with
  * cogw_msg_release(). Validates event payload sizes. */

@@ -93,9 +93,12 @@ static uint64_t get64(const uint8_t *p)
 const char *mbx_kind_to_string(unsigned k)
 {
 	switch (k) {
-	case MBX_KIND_COMMAND: return "command";
-	case MBX_KIND_RESPONSE: return "response";
-	case MBX_KIND_EVENT: return "event";
+	case MBX_KIND_COMMAND:
+		return "command";
+	case MBX_KIND_RESPONSE:
+		return "response";
+	case MBX_KIND_EVENT:
+		return "event";
 	}
 	return "?";
 }
@@ -103,29 +106,52 @@ const char *mbx_kind_to_string(unsigned k)
 const char *mbx_status_to_string(int status)
 {
 	switch (status) {
-	case MBX_OK: return "ok";
-	case MBX_E_VERSION: return "unsupported protocol version";
-	case MBX_E_MALFORMED: return "malformed message";
-	case MBX_E_UNKNOWN_CMD: return "unknown command";
-	case MBX_E_BAD_LINE: return "wrong line";
-	case MBX_E_NOT_REGISTERED: return "client not registered";
-	case MBX_E_ACCESS: return "access denied";
-	case MBX_E_PARAM: return "invalid parameter";
-	case MBX_E_TOO_BIG: return "data too large";
-	case MBX_E_BUSY: return "busy, retry";
-	case MBX_E_FULL: return "client table full";
-	case MBX_E_QUEUE: return "client queue unusable";
-	case MBX_E_TIMEOUT: return "timed out";
-	case MBX_E_ABORT: return "aborted (see abort code)";
-	case MBX_E_STATE: return "not possible in the current state";
-	case MBX_E_UNSUPPORTED: return "not supported on this line";
-	case MBX_E_SEQUENCE: return "chunk out of sequence";
-	case MBX_E_OVERFLOW: return "messages dropped (queue full)";
-	case MBX_E_INTERNAL: return "internal error";
-	case MBX_E_SHUTDOWN: return "line shutting down";
-	case MBX_E_LSS: return "LSS slave reported an error";
-	case MBX_E_NOT_FOUND: return "no LSS slave answered";
-	case MBX_E_NO_ANSWER: return "the device did not answer in time";
+	case MBX_OK:
+		return "ok";
+	case MBX_E_VERSION:
+		return "unsupported protocol version";
+	case MBX_E_MALFORMED:
+		return "malformed message";
+	case MBX_E_UNKNOWN_CMD:
+		return "unknown command";
+	case MBX_E_BAD_LINE:
+		return "wrong line";
+	case MBX_E_NOT_REGISTERED:
+		return "client not registered";
+	case MBX_E_ACCESS:
+		return "access denied";
+	case MBX_E_PARAM:
+		return "invalid parameter";
+	case MBX_E_TOO_BIG:
+		return "data too large";
+	case MBX_E_BUSY:
+		return "busy, retry";
+	case MBX_E_FULL:
+		return "client table full";
+	case MBX_E_QUEUE:
+		return "client queue unusable";
+	case MBX_E_TIMEOUT:
+		return "timed out";
+	case MBX_E_ABORT:
+		return "aborted (see abort code)";
+	case MBX_E_STATE:
+		return "not possible in the current state";
+	case MBX_E_UNSUPPORTED:
+		return "not supported on this line";
+	case MBX_E_SEQUENCE:
+		return "chunk out of sequence";
+	case MBX_E_OVERFLOW:
+		return "messages dropped (queue full)";
+	case MBX_E_INTERNAL:
+		return "internal error";
+	case MBX_E_SHUTDOWN:
+		return "line shutting down";
+	case MBX_E_LSS:
+		return "LSS slave reported an error";
+	case MBX_E_NOT_FOUND:
+		return "no LSS slave answered";
+	case MBX_E_NO_ANSWER:
+		return "the device did not answer in time";
 	}
 	return "unknown status";
 }
@@ -133,13 +159,13 @@ const char *mbx_status_to_string(int status)
 const char *mbx_bad_to_string(unsigned b)
 {
 	static const char *const names[MBX_BAD_COUNT] = {
-		[MBX_BAD_NONE] = "none",       [MBX_BAD_SHORT] = "short",
-		[MBX_BAD_MAGIC] = "magic",     [MBX_BAD_VERSION] = "version",
-		[MBX_BAD_KIND] = "kind",       [MBX_BAD_LEN] = "length",
-		[MBX_BAD_FLAGS] = "flags",     [MBX_BAD_CHUNK] = "chunk",
+		[MBX_BAD_NONE] = "none",         [MBX_BAD_SHORT] = "short",
+		[MBX_BAD_MAGIC] = "magic",       [MBX_BAD_VERSION] = "version",
+		[MBX_BAD_KIND] = "kind",         [MBX_BAD_LEN] = "length",
+		[MBX_BAD_FLAGS] = "flags",       [MBX_BAD_CHUNK] = "chunk",
 		[MBX_BAD_RESERVED] = "reserved", [MBX_BAD_LINE] = "line",
-		[MBX_BAD_CMD] = "command",     [MBX_BAD_SIZE] = "size",
-		[MBX_BAD_PARAM] = "parameter", [MBX_BAD_CLIENT] = "client",
+		[MBX_BAD_CMD] = "command",       [MBX_BAD_SIZE] = "size",
+		[MBX_BAD_PARAM] = "parameter",   [MBX_BAD_CLIENT] = "client",
 		[MBX_BAD_SEQUENCE] = "sequence", [MBX_BAD_QUEUE] = "queue",
 	};
 	return b < MBX_BAD_COUNT ? names[b] : "?";
@@ -148,24 +174,36 @@ const char *mbx_bad_to_string(unsigned b)
 int mbx_bad_status(mbx_bad b)
 {
 	switch (b) {
-	case MBX_BAD_NONE: return MBX_OK;
-	case MBX_BAD_VERSION: return MBX_E_VERSION;
-	case MBX_BAD_LINE: return MBX_E_BAD_LINE;
-	case MBX_BAD_CMD: return MBX_E_UNKNOWN_CMD;
-	case MBX_BAD_PARAM: return MBX_E_PARAM;
-	case MBX_BAD_CLIENT: return MBX_E_NOT_REGISTERED;
-	case MBX_BAD_SEQUENCE: return MBX_E_SEQUENCE;
-	case MBX_BAD_QUEUE: return MBX_E_QUEUE;
-	default: return MBX_E_MALFORMED;
+	case MBX_BAD_NONE:
+		return MBX_OK;
+	case MBX_BAD_VERSION:
+		return MBX_E_VERSION;
+	case MBX_BAD_LINE:
+		return MBX_E_BAD_LINE;
+	case MBX_BAD_CMD:
+		return MBX_E_UNKNOWN_CMD;
+	case MBX_BAD_PARAM:
+		return MBX_E_PARAM;
+	case MBX_BAD_CLIENT:
+		return MBX_E_NOT_REGISTERED;
+	case MBX_BAD_SEQUENCE:
+		return MBX_E_SEQUENCE;
+	case MBX_BAD_QUEUE:
+		return MBX_E_QUEUE;
+	default:
+		return MBX_E_MALFORMED;
 	}
 }
 
 const char *mbx_access_to_string(unsigned a)
 {
 	switch (a) {
-	case MBX_ACCESS_NONE: return "none";
-	case MBX_ACCESS_READ: return "read";
-	case MBX_ACCESS_WRITE: return "write";
+	case MBX_ACCESS_NONE:
+		return "none";
+	case MBX_ACCESS_READ:
+		return "read";
+	case MBX_ACCESS_WRITE:
+		return "write";
 	}
 	return "?";
 }
@@ -173,11 +211,16 @@ const char *mbx_access_to_string(unsigned a)
 const char *mbx_can_state_to_string(unsigned s)
 {
 	switch (s) {
-	case MBX_CAN_ACTIVE: return "error-active";
-	case MBX_CAN_WARNING: return "error-warning";
-	case MBX_CAN_PASSIVE: return "error-passive";
-	case MBX_CAN_BUS_OFF: return "bus-off";
-	case MBX_CAN_STOPPED: return "stopped";
+	case MBX_CAN_ACTIVE:
+		return "error-active";
+	case MBX_CAN_WARNING:
+		return "error-warning";
+	case MBX_CAN_PASSIVE:
+		return "error-passive";
+	case MBX_CAN_BUS_OFF:
+		return "bus-off";
+	case MBX_CAN_STOPPED:
+		return "stopped";
 	}
 	return "?";
 }
@@ -196,8 +239,7 @@ static const mbx_cmd_info cmd_table[] = {
 	{ MBX_CMD_REGISTER, R | S, sizeof(mbx_register_req), 0, "register" },
 	{ MBX_CMD_UNREGISTER, R | S, 0, 0, "unregister" },
 	{ MBX_CMD_SUBSCRIBE, R | S, sizeof(mbx_subscribe_req), 0, "subscribe" },
-	{ MBX_CMD_UNSUBSCRIBE, R | S, sizeof(mbx_unsubscribe_req), 0,
-	  "unsubscribe" },
+	{ MBX_CMD_UNSUBSCRIBE, R | S, sizeof(mbx_unsubscribe_req), 0, "unsubscribe" },
 	{ MBX_CMD_PING, R | S, 0, 0, "ping" },
 	{ MBX_CMD_XFER_ACK, R | S | Q, sizeof(mbx_xfer_ack), 0, "xfer-ack" },
 	{ MBX_CMD_MBX_STATS, R | S, 0, 0, "mbx-stats" },
@@ -211,24 +253,16 @@ static const mbx_cmd_info cmd_table[] = {
 	{ MBX_CMD_PDO_READ, R, sizeof(mbx_obj_req), 0, "pdo-read" },
 	{ MBX_CMD_PDO_WRITE, W | D, sizeof(mbx_obj_req), 8, "pdo-write" },
 	{ MBX_CMD_EMCY_SEND, W, sizeof(mbx_emcy_req), 0, "emcy-send" },
-	{ MBX_CMD_RAW_SEND, W | A, sizeof(mbx_raw_frame), MBX_RAW_SEND_MAX,
-	  "raw-send" },
-	{ MBX_CMD_LSS_SWITCH_GLOBAL, W, sizeof(mbx_lss_req), 0,
-	  "lss-switch-global" },
-	{ MBX_CMD_LSS_SWITCH_SELECTIVE, W, sizeof(mbx_lss_req), 0,
-	  "lss-switch-selective" },
-	{ MBX_CMD_LSS_SET_NODE_ID, W, sizeof(mbx_lss_req), 0,
-	  "lss-set-node-id" },
-	{ MBX_CMD_LSS_SET_BIT_TIMING, W, sizeof(mbx_lss_req), 0,
-	  "lss-set-bit-timing" },
-	{ MBX_CMD_LSS_ACTIVATE_BIT_TIMING, W, sizeof(mbx_lss_req), 0,
-	  "lss-activate-bit-timing" },
+	{ MBX_CMD_RAW_SEND, W | A, sizeof(mbx_raw_frame), MBX_RAW_SEND_MAX, "raw-send" },
+	{ MBX_CMD_LSS_SWITCH_GLOBAL, W, sizeof(mbx_lss_req), 0, "lss-switch-global" },
+	{ MBX_CMD_LSS_SWITCH_SELECTIVE, W, sizeof(mbx_lss_req), 0, "lss-switch-selective" },
+	{ MBX_CMD_LSS_SET_NODE_ID, W, sizeof(mbx_lss_req), 0, "lss-set-node-id" },
+	{ MBX_CMD_LSS_SET_BIT_TIMING, W, sizeof(mbx_lss_req), 0, "lss-set-bit-timing" },
+	{ MBX_CMD_LSS_ACTIVATE_BIT_TIMING, W, sizeof(mbx_lss_req), 0, "lss-activate-bit-timing" },
 	{ MBX_CMD_LSS_STORE, W, sizeof(mbx_lss_req), 0, "lss-store" },
 	{ MBX_CMD_LSS_INQUIRE, W, sizeof(mbx_lss_req), 0, "lss-inquire" },
-	{ MBX_CMD_LSS_IDENTIFY_REMOTE, W, sizeof(mbx_lss_req), 0,
-	  "lss-identify-remote" },
-	{ MBX_CMD_LSS_IDENTIFY_NONCONF, W, sizeof(mbx_lss_req), 0,
-	  "lss-identify-nonconf" },
+	{ MBX_CMD_LSS_IDENTIFY_REMOTE, W, sizeof(mbx_lss_req), 0, "lss-identify-remote" },
+	{ MBX_CMD_LSS_IDENTIFY_NONCONF, W, sizeof(mbx_lss_req), 0, "lss-identify-nonconf" },
 	{ MBX_CMD_LSS_FASTSCAN, W, sizeof(mbx_lss_req), 0, "lss-fastscan" },
 	{ MBX_CMD_LINE_STATUS, R, 0, 0, "line-status" },
 	{ MBX_CMD_STORE, W, sizeof(mbx_store_req), 0, "store" },
@@ -280,18 +314,30 @@ const char *mbx_cmd_to_string(unsigned code)
 const char *mbx_event_class_to_string(uint32_t cls)
 {
 	switch (cls) {
-	case MBX_EVC_NMT: return "nmt";
-	case MBX_EVC_HB: return "hb";
-	case MBX_EVC_BOOT: return "boot";
-	case MBX_EVC_EMCY: return "emcy";
-	case MBX_EVC_PDO: return "pdo";
-	case MBX_EVC_SDO: return "sdo";
-	case MBX_EVC_CAN: return "can";
-	case MBX_EVC_RAW: return "raw";
-	case MBX_EVC_OD: return "od";
-	case MBX_EVC_MANAGER: return "manager";
-	case MBX_EVC_GW: return "gateway";
-	case MBX_EVC_OVERFLOW: return "overflow";
+	case MBX_EVC_NMT:
+		return "nmt";
+	case MBX_EVC_HB:
+		return "hb";
+	case MBX_EVC_BOOT:
+		return "boot";
+	case MBX_EVC_EMCY:
+		return "emcy";
+	case MBX_EVC_PDO:
+		return "pdo";
+	case MBX_EVC_SDO:
+		return "sdo";
+	case MBX_EVC_CAN:
+		return "can";
+	case MBX_EVC_RAW:
+		return "raw";
+	case MBX_EVC_OD:
+		return "od";
+	case MBX_EVC_MANAGER:
+		return "manager";
+	case MBX_EVC_GW:
+		return "gateway";
+	case MBX_EVC_OVERFLOW:
+		return "overflow";
 	}
 	return "?";
 }
@@ -299,22 +345,38 @@ const char *mbx_event_class_to_string(uint32_t cls)
 const char *mbx_event_to_string(unsigned code)
 {
 	switch (code) {
-	case MBX_EV_OVERFLOW: return "overflow";
-	case MBX_EV_OD_WRITTEN: return "od-written";
-	case MBX_EV_SDO_DONE: return "sdo-done";
-	case MBX_EV_NMT_STATE: return "nmt-state";
-	case MBX_EV_BOOTUP: return "boot-up";
-	case MBX_EV_HB_STARTED: return "hb-started";
-	case MBX_EV_HB_LOST: return "hb-lost";
-	case MBX_EV_PDO: return "pdo";
-	case MBX_EV_EMCY: return "emcy";
-	case MBX_EV_RAW: return "raw";
-	case MBX_EV_CAN_STATE: return "can-state";
-	case MBX_EV_MGR_STATE: return "manager-state";
-	case MBX_EV_MGR_BOOT: return "manager-boot";
-	case MBX_EV_MGR_NODE: return "manager-node";
-	case MBX_EV_GW_SDO: return "gw-sdo";
-	case MBX_EV_GW_EMCY: return "gw-emcy";
+	case MBX_EV_OVERFLOW:
+		return "overflow";
+	case MBX_EV_OD_WRITTEN:
+		return "od-written";
+	case MBX_EV_SDO_DONE:
+		return "sdo-done";
+	case MBX_EV_NMT_STATE:
+		return "nmt-state";
+	case MBX_EV_BOOTUP:
+		return "boot-up";
+	case MBX_EV_HB_STARTED:
+		return "hb-started";
+	case MBX_EV_HB_LOST:
+		return "hb-lost";
+	case MBX_EV_PDO:
+		return "pdo";
+	case MBX_EV_EMCY:
+		return "emcy";
+	case MBX_EV_RAW:
+		return "raw";
+	case MBX_EV_CAN_STATE:
+		return "can-state";
+	case MBX_EV_MGR_STATE:
+		return "manager-state";
+	case MBX_EV_MGR_BOOT:
+		return "manager-boot";
+	case MBX_EV_MGR_NODE:
+		return "manager-node";
+	case MBX_EV_GW_SDO:
+		return "gw-sdo";
+	case MBX_EV_GW_EMCY:
+		return "gw-emcy";
 	}
 	return "?";
 }
@@ -322,22 +384,35 @@ const char *mbx_event_to_string(unsigned code)
 uint32_t mbx_event_class_of(unsigned code)
 {
 	switch (code) {
-	case MBX_EV_OVERFLOW: return MBX_EVC_OVERFLOW;
-	case MBX_EV_OD_WRITTEN: return MBX_EVC_OD;
-	case MBX_EV_SDO_DONE: return MBX_EVC_SDO;
-	case MBX_EV_NMT_STATE: return MBX_EVC_NMT;
-	case MBX_EV_BOOTUP: return MBX_EVC_BOOT;
+	case MBX_EV_OVERFLOW:
+		return MBX_EVC_OVERFLOW;
+	case MBX_EV_OD_WRITTEN:
+		return MBX_EVC_OD;
+	case MBX_EV_SDO_DONE:
+		return MBX_EVC_SDO;
+	case MBX_EV_NMT_STATE:
+		return MBX_EVC_NMT;
+	case MBX_EV_BOOTUP:
+		return MBX_EVC_BOOT;
 	case MBX_EV_HB_STARTED:
-	case MBX_EV_HB_LOST: return MBX_EVC_HB;
-	case MBX_EV_PDO: return MBX_EVC_PDO;
-	case MBX_EV_EMCY: return MBX_EVC_EMCY;
-	case MBX_EV_RAW: return MBX_EVC_RAW;
-	case MBX_EV_CAN_STATE: return MBX_EVC_CAN;
+	case MBX_EV_HB_LOST:
+		return MBX_EVC_HB;
+	case MBX_EV_PDO:
+		return MBX_EVC_PDO;
+	case MBX_EV_EMCY:
+		return MBX_EVC_EMCY;
+	case MBX_EV_RAW:
+		return MBX_EVC_RAW;
+	case MBX_EV_CAN_STATE:
+		return MBX_EVC_CAN;
 	case MBX_EV_MGR_STATE:
-	case MBX_EV_MGR_NODE: return MBX_EVC_MANAGER;
-	case MBX_EV_MGR_BOOT: return MBX_EVC_BOOT;
+	case MBX_EV_MGR_NODE:
+		return MBX_EVC_MANAGER;
+	case MBX_EV_MGR_BOOT:
+		return MBX_EVC_BOOT;
 	case MBX_EV_GW_SDO:
-	case MBX_EV_GW_EMCY: return MBX_EVC_GW;
+	case MBX_EV_GW_EMCY:
+		return MBX_EVC_GW;
 	}
 	return 0;
 }
@@ -428,13 +503,12 @@ int mbx_hdr_decode(const uint8_t *b, size_t n, mbx_hdr *h, mbx_bad *bad)
 	return 0;
 }
 
-int mbx_msg_build(uint8_t *buf, size_t cap, const mbx_hdr *h,
-		  const void *payload, size_t payload_len)
+int mbx_msg_build(uint8_t *buf, size_t cap, const mbx_hdr *h, const void *payload,
+		  size_t payload_len)
 {
 	mbx_hdr hh = *h;
 
-	if (payload_len > MBX_MSG_MAX - MBX_HDR_SIZE ||
-	    cap < MBX_HDR_SIZE + payload_len)
+	if (payload_len > MBX_MSG_MAX - MBX_HDR_SIZE || cap < MBX_HDR_SIZE + payload_len)
 		return -EMSGSIZE;
 	hh.len = (uint16_t)payload_len;
 	mbx_hdr_encode(&hh, buf);
@@ -447,8 +521,8 @@ int mbx_msg_build(uint8_t *buf, size_t cap, const mbx_hdr *h,
 
 static bool qchar_ok(char c)
 {
-	return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
-	       (c >= '0' && c <= '9') || c == '.' || c == '_' || c == '-';
+	return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+	       c == '.' || c == '_' || c == '-';
 }
 
 bool mbx_queue_name_is_valid(const char *name, size_t field)
@@ -486,8 +560,7 @@ bool mbx_instance_is_valid(const char *instance)
 	return true;
 }
 
-int mbx_queue_name(char *buf, size_t cap, const char *instance,
-		   unsigned line)
+int mbx_queue_name(char *buf, size_t cap, const char *instance, unsigned line)
 {
 	int n;
 
@@ -591,8 +664,7 @@ static int check_lss(uint16_t code, const uint8_t *p, mbx_bad *bad)
 }
 
 /* Fixed-part checks of the service commands. */
-static int check_fixed(uint16_t code, const uint8_t *p, size_t len,
-		       mbx_bad *bad)
+static int check_fixed(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
 {
 	switch (code) {
 	case MBX_CMD_REGISTER:
@@ -620,8 +692,7 @@ static int check_fixed(uint16_t code, const uint8_t *p, size_t len,
 		mbx_obj_req r;
 
 		memcpy(&r, p, sizeof r);
-		if (code == MBX_CMD_PDO_WRITE ? (r.flags & ~MBX_PDO_TRIGGER)
-					      : r.flags)
+		if (code == MBX_CMD_PDO_WRITE ? (r.flags & ~MBX_PDO_TRIGGER) : r.flags)
 			return refuse(bad, MBX_BAD_RESERVED);
 		return 0;
 	}
@@ -658,7 +729,11 @@ static int check_fixed(uint16_t code, const uint8_t *p, size_t len,
 		if (r.node < 1 || r.node > 128)
 			return refuse(bad, MBX_BAD_PARAM);
 		switch (r.cmd) {
-		case 4: case 5: case 6: case 7: case 127:
+		case 4:
+		case 5:
+		case 6:
+		case 7:
+		case 127:
 			return 0;
 		}
 		return refuse(bad, MBX_BAD_PARAM);
@@ -686,7 +761,11 @@ static int check_fixed(uint16_t code, const uint8_t *p, size_t len,
 		if (r.node > 127)
 			return refuse(bad, MBX_BAD_PARAM);
 		switch (r.cs) {
-		case 0x01: case 0x02: case 0x80: case 0x81: case 0x82:
+		case 0x01:
+		case 0x02:
+		case 0x80:
+		case 0x81:
+		case 0x82:
 			return 0;
 		}
 		return refuse(bad, MBX_BAD_PARAM);
@@ -749,20 +828,17 @@ int mbx_cmd_validate(const mbx_hdr *h, const uint8_t *payload, mbx_bad *bad)
 			return len ? 0 : refuse(bad, MBX_BAD_SIZE);
 		/* first chunk: fixed part + some data, and more must follow
 		 * (a transfer that fits one message is not chunked) */
-		if (len < ci->fixed || !(h->flags & MBX_F_MORE) ||
-		    h->total <= len - ci->fixed)
+		if (len < ci->fixed || !(h->flags & MBX_F_MORE) || h->total <= len - ci->fixed)
 			return refuse(bad, MBX_BAD_CHUNK);
 		return check_fixed(h->code, payload, len, bad);
 	}
 	if (ci->flags & MBX_CI_ARRAY) {
-		if (len == 0 || len % ci->fixed ||
-		    len / ci->fixed > ci->max_data)
+		if (len == 0 || len % ci->fixed || len / ci->fixed > ci->max_data)
 			return refuse(bad, MBX_BAD_SIZE);
 	} else if (ci->flags & MBX_CI_DATA) {
 		if (len < ci->fixed)
 			return refuse(bad, MBX_BAD_SIZE);
-		if (ci->max_data &&
-		    (len - ci->fixed > ci->max_data || len == ci->fixed))
+		if (ci->max_data && (len - ci->fixed > ci->max_data || len == ci->fixed))
 			return refuse(bad, MBX_BAD_SIZE);
 	} else if (len != ci->fixed) {
 		return refuse(bad, MBX_BAD_SIZE);
@@ -827,8 +903,7 @@ static int read_limit(const char *path, unsigned long *v)
 	return ok == 1 ? 0 : -EIO;
 }
 
-int mbx_check_system_limits(unsigned depth, unsigned msgsize, char *err,
-			    size_t errlen)
+int mbx_check_system_limits(unsigned depth, unsigned msgsize, char *err, size_t errlen)
 {
 	unsigned long msg_max, msgsize_max;
 	struct rlimit rl;
@@ -876,8 +951,8 @@ int mbx_check_system_limits(unsigned depth, unsigned msgsize, char *err,
 	/* RLIMIT_MSGQUEUE counts the bytes of all queues of one user; the
 	 * kernel charges about msgsize + a pointer per message. */
 	if (getrlimit(RLIMIT_MSGQUEUE, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY) {
-		unsigned long long need =
-			(unsigned long long)depth * (msgsize + sizeof(void *) * 2);
+		unsigned long long need = (unsigned long long)depth *
+					  (msgsize + sizeof(void *) * 2);
 
 		if (need > rl.rlim_cur) {
 			if (err)
@@ -885,8 +960,7 @@ int mbx_check_system_limits(unsigned depth, unsigned msgsize, char *err,
 					 "mailbox: RLIMIT_MSGQUEUE is %llu bytes but one"
 					 " queue of %u x %u bytes needs %llu: raise it"
 					 " (LimitMSGQUEUE= in the systemd unit, ulimit -q)",
-					 (unsigned long long)rl.rlim_cur, depth,
-					 msgsize, need);
+					 (unsigned long long)rl.rlim_cur, depth, msgsize, need);
 			return -ERANGE;
 		}
 	}

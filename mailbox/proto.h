@@ -44,8 +44,8 @@
 #define MBX_VERSION 1u
 #define MBX_HDR_SIZE 48u
 
-#define MBX_MSG_MIN 256u     /* smallest mq_msgsize any queue may have */
-#define MBX_MSG_MAX 65535u   /* largest message (hdr.len is 16 bits) */
+#define MBX_MSG_MIN 256u   /* smallest mq_msgsize any queue may have */
+#define MBX_MSG_MAX 65535u /* largest message (hdr.len is 16 bits) */
 #define MBX_MSG_DEFAULT 1024u
 #define MBX_QNAME_MAX 64u    /* queue name incl. the NUL */
 #define MBX_INSTANCE_MAX 32u /* instance name chars */
@@ -100,28 +100,28 @@ typedef struct mbx_hdr {
 
 typedef enum mbx_status {
 	MBX_OK = 0,
-	MBX_E_VERSION = -1,      /* unsupported protocol version */
-	MBX_E_MALFORMED = -2,    /* a header or payload field is invalid */
-	MBX_E_UNKNOWN_CMD = -3,  /* command code not known to this daemon */
-	MBX_E_BAD_LINE = -4,     /* line does not match the queue */
+	MBX_E_VERSION = -1,        /* unsupported protocol version */
+	MBX_E_MALFORMED = -2,      /* a header or payload field is invalid */
+	MBX_E_UNKNOWN_CMD = -3,    /* command code not known to this daemon */
+	MBX_E_BAD_LINE = -4,       /* line does not match the queue */
 	MBX_E_NOT_REGISTERED = -5, /* unknown client id or wrong token */
-	MBX_E_ACCESS = -6,       /* access denied (user / queue owner / mode) */
-	MBX_E_PARAM = -7,        /* parameter out of range (node, cs, ...) */
-	MBX_E_TOO_BIG = -8,      /* data larger than the configured limit */
-	MBX_E_BUSY = -9,         /* resource busy, retry later */
-	MBX_E_FULL = -10,        /* client table of this line full */
-	MBX_E_QUEUE = -11,       /* client queue cannot be opened / unusable */
-	MBX_E_TIMEOUT = -12,     /* no answer in time / chunk stream stalled */
-	MBX_E_ABORT = -13,       /* SDO or OD access aborted: hdr.abort */
-	MBX_E_STATE = -14,       /* not possible in the current state */
-	MBX_E_UNSUPPORTED = -15, /* service not available on this line */
-	MBX_E_SEQUENCE = -16,    /* chunk out of order / unexpected chunk */
-	MBX_E_OVERFLOW = -17,    /* messages were dropped (queue full) */
-	MBX_E_INTERNAL = -18,    /* daemon-side failure */
-	MBX_E_SHUTDOWN = -19,    /* line is stopping */
-	MBX_E_LSS = -20,         /* LSS slave answered an error (payload) */
-	MBX_E_NOT_FOUND = -21,   /* LSS identify/fastscan: nobody answered */
-	MBX_E_NO_ANSWER = -22,   /* the device on the bus did not answer a
+	MBX_E_ACCESS = -6,         /* access denied (user / queue owner / mode) */
+	MBX_E_PARAM = -7,          /* parameter out of range (node, cs, ...) */
+	MBX_E_TOO_BIG = -8,        /* data larger than the configured limit */
+	MBX_E_BUSY = -9,           /* resource busy, retry later */
+	MBX_E_FULL = -10,          /* client table of this line full */
+	MBX_E_QUEUE = -11,         /* client queue cannot be opened / unusable */
+	MBX_E_TIMEOUT = -12,       /* no answer in time / chunk stream stalled */
+	MBX_E_ABORT = -13,         /* SDO or OD access aborted: hdr.abort */
+	MBX_E_STATE = -14,         /* not possible in the current state */
+	MBX_E_UNSUPPORTED = -15,   /* service not available on this line */
+	MBX_E_SEQUENCE = -16,      /* chunk out of order / unexpected chunk */
+	MBX_E_OVERFLOW = -17,      /* messages were dropped (queue full) */
+	MBX_E_INTERNAL = -18,      /* daemon-side failure */
+	MBX_E_SHUTDOWN = -19,      /* line is stopping */
+	MBX_E_LSS = -20,           /* LSS slave answered an error (payload) */
+	MBX_E_NOT_FOUND = -21,     /* LSS identify/fastscan: nobody answered */
+	MBX_E_NO_ANSWER = -22,     /* the device on the bus did not answer a
 	                          * confirmed service in time (the daemon did:
 	                          * not to be confused with MBX_E_TIMEOUT) */
 	MBX_STATUS_MIN = -22,
@@ -132,7 +132,7 @@ const char *mbx_status_to_string(int status);
 /* Why a message was refused (counted per reason in mbx_server_stats). */
 typedef enum mbx_bad {
 	MBX_BAD_NONE = 0,
-	MBX_BAD_SHORT,    /* shorter than the header */
+	MBX_BAD_SHORT, /* shorter than the header */
 	MBX_BAD_MAGIC,
 	MBX_BAD_VERSION,
 	MBX_BAD_KIND,     /* not a command */
@@ -188,10 +188,10 @@ typedef enum mbx_cmd {
 	MBX_CMD_RAW_SEND = 0x0601, /* W mbx_raw_frame[1..MBX_RAW_SEND_MAX] */
 	/* 0x07xx LSS master (CiA 305): all W, payload mbx_lss_req,
 	 * resp mbx_lss_resp */
-	MBX_CMD_LSS_SWITCH_GLOBAL = 0x0701,    /* mode */
-	MBX_CMD_LSS_SWITCH_SELECTIVE = 0x0702, /* vendor product rev_lo ser_lo */
-	MBX_CMD_LSS_SET_NODE_ID = 0x0703,      /* node */
-	MBX_CMD_LSS_SET_BIT_TIMING = 0x0704,   /* table, bit_index */
+	MBX_CMD_LSS_SWITCH_GLOBAL = 0x0701,       /* mode */
+	MBX_CMD_LSS_SWITCH_SELECTIVE = 0x0702,    /* vendor product rev_lo ser_lo */
+	MBX_CMD_LSS_SET_NODE_ID = 0x0703,         /* node */
+	MBX_CMD_LSS_SET_BIT_TIMING = 0x0704,      /* table, bit_index */
 	MBX_CMD_LSS_ACTIVATE_BIT_TIMING = 0x0705, /* delay_ms */
 	MBX_CMD_LSS_STORE = 0x0706,
 	MBX_CMD_LSS_INQUIRE = 0x0707,          /* what -> value */
@@ -204,11 +204,11 @@ typedef enum mbx_cmd {
 	MBX_CMD_STORE = 0x0901,   /* W mbx_store_req */
 	MBX_CMD_RESTORE = 0x0902, /* W mbx_store_req */
 	/* 0x0Axx manager (CiA 302-2/-3; answered when the line has one) */
-	MBX_CMD_MGR_STATUS = 0x0A01,  /* R - -> mbx_mgr_status */
-	MBX_CMD_MGR_BOOT = 0x0A02,    /* W mbx_mgr_node_req: node 0 = the network */
-	MBX_CMD_MGR_START = 0x0A03,   /* W -: start the network (1F80h bit 2/3) */
-	MBX_CMD_MGR_REQUEST_NMT = 0x0A04, /* W mbx_mgr_nmt_req (1F82h) */
-	MBX_CMD_MGR_NODE_DIAG = 0x0A05, /* R mbx_mgr_node_req -> mbx_mgr_node_diag */
+	MBX_CMD_MGR_STATUS = 0x0A01,         /* R - -> mbx_mgr_status */
+	MBX_CMD_MGR_BOOT = 0x0A02,           /* W mbx_mgr_node_req: node 0 = the network */
+	MBX_CMD_MGR_START = 0x0A03,          /* W -: start the network (1F80h bit 2/3) */
+	MBX_CMD_MGR_REQUEST_NMT = 0x0A04,    /* W mbx_mgr_nmt_req (1F82h) */
+	MBX_CMD_MGR_NODE_DIAG = 0x0A05,      /* R mbx_mgr_node_req -> mbx_mgr_node_diag */
 	MBX_CMD_MGR_RESET_COUNTERS = 0x0A06, /* W - */
 	/* 0x0Bxx gateway (CiA 302-7, docs/gateway.md) */
 	MBX_CMD_GW_ROUTES = 0x0B01,       /* R - -> mbx_gw_status + mbx_gw_route[n] */
@@ -242,17 +242,17 @@ const mbx_cmd_info *mbx_cmd_lookup(unsigned code); /* NULL if unknown */
 
 /* Subscription classes (bit mask, per client and per line). */
 enum mbx_event_class {
-	MBX_EVC_NMT = 1u << 0,  /* NMT state changes of nodes */
-	MBX_EVC_HB = 1u << 1,   /* heartbeat / guarding started, lost */
-	MBX_EVC_BOOT = 1u << 2, /* boot-up messages */
-	MBX_EVC_EMCY = 1u << 3, /* EMCY received */
-	MBX_EVC_PDO = 1u << 4,  /* RPDO received, with mapped values */
-	MBX_EVC_SDO = 1u << 5,  /* SDO transfers of any client completed */
-	MBX_EVC_CAN = 1u << 6,  /* CAN controller state (bus-off, ...) */
-	MBX_EVC_RAW = 1u << 7,  /* raw frames, opt-in, id/mask filtered */
-	MBX_EVC_OD = 1u << 8,   /* local object written over SDO */
-	MBX_EVC_MANAGER = 1u << 9, /* manager state, unexpected/late/lost nodes */
-	MBX_EVC_GW = 1u << 10,  /* gateway: routed SDO sessions, EMCYs forwarded */
+	MBX_EVC_NMT = 1u << 0,       /* NMT state changes of nodes */
+	MBX_EVC_HB = 1u << 1,        /* heartbeat / guarding started, lost */
+	MBX_EVC_BOOT = 1u << 2,      /* boot-up messages */
+	MBX_EVC_EMCY = 1u << 3,      /* EMCY received */
+	MBX_EVC_PDO = 1u << 4,       /* RPDO received, with mapped values */
+	MBX_EVC_SDO = 1u << 5,       /* SDO transfers of any client completed */
+	MBX_EVC_CAN = 1u << 6,       /* CAN controller state (bus-off, ...) */
+	MBX_EVC_RAW = 1u << 7,       /* raw frames, opt-in, id/mask filtered */
+	MBX_EVC_OD = 1u << 8,        /* local object written over SDO */
+	MBX_EVC_MANAGER = 1u << 9,   /* manager state, unexpected/late/lost nodes */
+	MBX_EVC_GW = 1u << 10,       /* gateway: routed SDO sessions, EMCYs forwarded */
 	MBX_EVC_OVERFLOW = 1u << 31, /* always delivered, cannot be cleared */
 };
 #define MBX_EVC_ALL 0x000007FFu
@@ -286,10 +286,10 @@ uint32_t mbx_event_class_of(unsigned code);
 /* ---- payloads: protocol ------------------------------------------------- */
 
 typedef struct mbx_register_req {
-	uint32_t pid;                /* the client process, for liveness */
-	uint32_t uid;                /* claimed; must equal the queues' owner */
-	uint32_t reserved;           /* 0 */
-	char resp_queue[MBX_QNAME_MAX];  /* "/name", NUL-terminated, padded */
+	uint32_t pid;                   /* the client process, for liveness */
+	uint32_t uid;                   /* claimed; must equal the queues' owner */
+	uint32_t reserved;              /* 0 */
+	char resp_queue[MBX_QNAME_MAX]; /* "/name", NUL-terminated, padded */
 	char event_queue[MBX_QNAME_MAX];
 } mbx_register_req;
 
@@ -324,8 +324,8 @@ typedef struct mbx_raw_filter {
 } mbx_raw_filter;
 
 typedef struct mbx_subscribe_req {
-	uint32_t classes;    /* MBX_EVC_* to add */
-	uint8_t n_filters;   /* with MBX_EVC_RAW: 0 = every frame, else
+	uint32_t classes;  /* MBX_EVC_* to add */
+	uint8_t n_filters; /* with MBX_EVC_RAW: 0 = every frame, else
 	                      * replaces the raw filters; 0 otherwise */
 	uint8_t pad[3];
 	mbx_raw_filter filters[MBX_RAW_FILTERS_MAX];
@@ -377,8 +377,8 @@ typedef struct mbx_obj_req {
 #define MBX_PDO_TRIGGER 0x01u /* send event-driven TPDOs mapping it now */
 
 typedef struct mbx_sdo_req {
-	uint8_t node;  /* 1..127 */
-	uint8_t mode;  /* 0 auto, 1 expedited, 2 segmented, 3 block */
+	uint8_t node; /* 1..127 */
+	uint8_t mode; /* 0 auto, 1 expedited, 2 segmented, 3 block */
 	uint16_t index;
 	uint8_t sub;
 	uint8_t pad[3];
@@ -392,7 +392,7 @@ typedef struct mbx_sdo_req {
  * transfer on the line. Refusals come as SDO aborts (0A000001 no route,
  * 0A000002 no answer, 060A0023 no client free, ...). */
 typedef struct mbx_gw_sdo_req {
-	uint16_t net;    /* 1..127 */
+	uint16_t net; /* 1..127 */
 	uint16_t pad;
 	mbx_sdo_req sdo; /* node, index, sub, mode, timeout, size as for SDO */
 } mbx_gw_sdo_req;
@@ -400,15 +400,15 @@ typedef struct mbx_gw_sdo_req {
 /* MBX_EV_GW_SDO, on the line the request entered (routed by the SDO server
  * of that line after a network indication). */
 typedef struct mbx_ev_gw_sdo {
-	uint16_t net;      /* the network asked for */
-	uint8_t node;      /* the node asked for */
-	uint8_t outcome;   /* 0 routed, 1 aborted, 2 timed out, 3 refused */
-	uint32_t abort;    /* 0 or the abort code that ended it */
+	uint16_t net;        /* the network asked for */
+	uint8_t node;        /* the node asked for */
+	uint8_t outcome;     /* 0 routed, 1 aborted, 2 timed out, 3 refused */
+	uint32_t abort;      /* 0 or the abort code that ended it */
 	uint8_t target_line; /* the line it went out on (0xFF: refused before) */
-	uint8_t router;    /* next router's node-ID, 0 = attached */
-	uint8_t channel;   /* SDO server channel */
+	uint8_t router;      /* next router's node-ID, 0 = attached */
+	uint8_t channel;     /* SDO server channel */
 	uint8_t pad;
-	uint32_t frames;   /* frames relayed (both directions) */
+	uint32_t frames; /* frames relayed (both directions) */
 } mbx_ev_gw_sdo;
 
 /* MBX_EV_GW_EMCY, on the line that consumed it. */
@@ -416,8 +416,8 @@ typedef struct mbx_ev_gw_emcy {
 	uint16_t src_net;
 	uint8_t src_node;
 	uint8_t pad;
-	uint16_t code;     /* the original error code */
-	uint16_t lines;    /* bit L: handed to line L */
+	uint16_t code;  /* the original error code */
+	uint16_t lines; /* bit L: handed to line L */
 } mbx_ev_gw_emcy;
 
 /* MBX_CMD_GW_ROUTES: the line's gateway counters, then one mbx_gw_route
@@ -425,13 +425,13 @@ typedef struct mbx_ev_gw_emcy {
 /* ---- payloads: CiA 302-2 manager (docs/mailbox.md) ------------------------ */
 
 typedef struct mbx_mgr_node_req {
-	uint8_t node;   /* 1..127 (BOOT: 0 = the whole network) */
+	uint8_t node; /* 1..127 (BOOT: 0 = the whole network) */
 	uint8_t pad[3];
 } mbx_mgr_node_req;
 
 typedef struct mbx_mgr_nmt_req {
-	uint8_t node;   /* 1..127, 128 = all nodes */
-	uint8_t cmd;    /* 1F82h value: 4 stop, 5 start, 6 reset node,
+	uint8_t node; /* 1..127, 128 = all nodes */
+	uint8_t cmd;  /* 1F82h value: 4 stop, 5 start, 6 reset node,
 	                 * 7 reset communication, 127 pre-operational */
 	uint16_t pad;
 } mbx_mgr_nmt_req;
@@ -442,19 +442,19 @@ typedef struct mbx_mgr_bits {
 } mbx_mgr_bits;
 
 typedef struct mbx_mgr_status {
-	uint8_t state;      /* co_mgr_state (core/manager.h) */
-	uint8_t flags;      /* CO_MGR_F_* */
-	uint8_t first_error_node; /* 0 = none */
-	char first_error_status;  /* boot status letter, 0 = an EMCY */
+	uint8_t state;             /* co_mgr_state (core/manager.h) */
+	uint8_t flags;             /* CO_MGR_F_* */
+	uint8_t first_error_node;  /* 0 = none */
+	char first_error_status;   /* boot status letter, 0 = an EMCY */
 	uint32_t first_error_code; /* EMCY code or SDO abort code */
 	uint32_t nmt_ignored, unexpected, duplicates, errctrl_events;
 	uint32_t keep_op_restarts, network_boots;
-	mbx_mgr_bits assigned, present, booted, operational, stopped, preop,
-		mismatch, errctrl_lost, emcy_active;
+	mbx_mgr_bits assigned, present, booted, operational, stopped, preop, mismatch, errctrl_lost,
+		emcy_active;
 } mbx_mgr_status;
 
 typedef struct mbx_mgr_emcy {
-	uint64_t time_us;  /* daemon's monotonic clock */
+	uint64_t time_us; /* daemon's monotonic clock */
 	uint16_t code;
 	uint8_t reg;
 	uint8_t msef[5];
@@ -463,13 +463,13 @@ typedef struct mbx_mgr_emcy {
 #define MBX_MGR_EMCY_MAX 8
 typedef struct mbx_mgr_node_diag {
 	uint8_t node;
-	uint8_t step;       /* co_mgr_step of the last boot event */
-	char status;        /* CiA 302-2 letter of the last failure, 0 = none */
-	uint8_t booted;     /* 1 = booted */
+	uint8_t step;   /* co_mgr_step of the last boot event */
+	char status;    /* CiA 302-2 letter of the last failure, 0 = none */
+	uint8_t booted; /* 1 = booted */
 	uint8_t booting;
-	uint8_t nmt_state;  /* 1F82h read value (0 unknown, 1 missing, ...) */
-	uint8_t sub;        /* object of the last failure */
-	uint8_t n_emcy;     /* entries in emcy[], oldest first */
+	uint8_t nmt_state; /* 1F82h read value (0 unknown, 1 missing, ...) */
+	uint8_t sub;       /* object of the last failure */
+	uint8_t n_emcy;    /* entries in emcy[], oldest first */
 	uint16_t index;
 	uint16_t pad;
 	uint32_t assignment; /* 1F81h:n */
@@ -495,9 +495,9 @@ typedef struct mbx_ev_mgr {
 } mbx_ev_mgr;
 
 typedef struct mbx_gw_status {
-	uint16_t network_id;    /* this line's network */
-	uint8_t routes;         /* mbx_gw_route entries that follow */
-	uint8_t active;         /* routed sessions running now */
+	uint16_t network_id; /* this line's network */
+	uint8_t routes;      /* mbx_gw_route entries that follow */
+	uint8_t active;      /* routed sessions running now */
 	uint32_t pad;
 	uint64_t sessions, routed, aborted, timed_out, refused;
 	uint64_t relayed_frames; /* frames through this line's relay leases */
@@ -508,10 +508,10 @@ typedef struct mbx_gw_status {
 
 typedef struct mbx_gw_route {
 	uint8_t net;
-	uint8_t kind;   /* 0 none, 1 attached to `line`, 2 through `router` */
+	uint8_t kind; /* 0 none, 1 attached to `line`, 2 through `router` */
 	uint8_t line;
 	uint8_t router;
-	uint32_t raw;   /* the 1F2Ch value */
+	uint32_t raw; /* the 1F2Ch value */
 	uint64_t routed, aborted, timed_out, refused;
 } mbx_gw_route;
 
@@ -524,16 +524,16 @@ typedef struct mbx_nmt_req {
 
 typedef struct mbx_node_entry {
 	uint8_t node;
-	uint8_t nmt_state; /* CiA 301 NMT state byte (0 boot, 4 stopped,
+	uint8_t nmt_state;      /* CiA 301 NMT state byte (0 boot, 4 stopped,
 	                    * 5 operational, 127 pre-op), 0xFF unknown */
-	uint8_t hb;        /* 0 not monitored, 1 active, 2 lost, 3 monitored
+	uint8_t hb;             /* 0 not monitored, 1 active, 2 lost, 3 monitored
 	                    * but no heartbeat yet (or since its boot-up) */
-	uint8_t flags;     /* bit0 boot-up seen, bit1 EMCY active */
+	uint8_t flags;          /* bit0 boot-up seen, bit1 EMCY active */
 	uint32_t last_heard_ms; /* since its last heartbeat/boot-up frame;
 	                         * 0xFFFFFFFF = never heard */
-	uint16_t bootups;  /* boot-up messages seen (saturating) */
-	uint16_t last_emcy; /* error code of its last EMCY, 0 = none */
-	uint32_t emcy_count; /* EMCY messages received from it */
+	uint16_t bootups;       /* boot-up messages seen (saturating) */
+	uint16_t last_emcy;     /* error code of its last EMCY, 0 = none */
+	uint32_t emcy_count;    /* EMCY messages received from it */
 } mbx_node_entry;
 
 typedef struct mbx_pdo_num_req {
@@ -572,8 +572,8 @@ typedef struct mbx_lss_resp {
 	uint8_t spec_error; /* with error 255 */
 	uint8_t found;      /* IDENTIFY / FASTSCAN: 1 = a slave answered */
 	uint8_t pad;
-	uint32_t value;  /* INQUIRE */
-	uint32_t id[4];  /* FASTSCAN: vendor, product, revision, serial */
+	uint32_t value; /* INQUIRE */
+	uint32_t id[4]; /* FASTSCAN: vendor, product, revision, serial */
 } mbx_lss_resp;
 
 enum mbx_can_state {
@@ -590,10 +590,9 @@ typedef struct mbx_line_status {
 	uint8_t nmt_state; /* own NMT state */
 	uint8_t node_id;   /* own node-id */
 	uint8_t pad;
-	uint32_t bitrate;  /* bit/s, 0 = unknown */
-	uint64_t rx_frames, tx_frames, rx_dropped, tx_failed, err_frames,
-		bus_off_count;
-	uint32_t clients; /* mailbox clients on this line */
+	uint32_t bitrate; /* bit/s, 0 = unknown */
+	uint64_t rx_frames, tx_frames, rx_dropped, tx_failed, err_frames, bus_off_count;
+	uint32_t clients;           /* mailbox clients on this line */
 	uint32_t bus_load_permille; /* bits on the wire in the last full second,
 	                             * per mille of the configured bit rate */
 } mbx_line_status;
@@ -706,8 +705,8 @@ int mbx_event_validate(unsigned code, const uint8_t *payload, size_t len);
 
 /* Build a complete message: header (len set from payload_len) + payload.
  * Returns the message size, or -EMSGSIZE if it does not fit cap. */
-int mbx_msg_build(uint8_t *buf, size_t cap, const mbx_hdr *h,
-		  const void *payload, size_t payload_len);
+int mbx_msg_build(uint8_t *buf, size_t cap, const mbx_hdr *h, const void *payload,
+		  size_t payload_len);
 
 /* A valid queue name: "/" + 1..62 chars of [A-Za-z0-9._-], NUL within the
  * field of MBX_QNAME_MAX bytes. */
@@ -715,8 +714,7 @@ bool mbx_queue_name_is_valid(const char *name, size_t field);
 /* A valid instance name: 1..MBX_INSTANCE_MAX chars of [A-Za-z0-9_-]. */
 bool mbx_instance_is_valid(const char *instance);
 /* "/cogw.<instance>.line<N>.cmd". Returns 0, -EINVAL, -ENAMETOOLONG. */
-int mbx_queue_name(char *buf, size_t cap, const char *instance,
-		   unsigned line);
+int mbx_queue_name(char *buf, size_t cap, const char *instance, unsigned line);
 
 /* Does a raw frame match a filter? (see mbx_raw_filter) */
 bool mbx_raw_filter_match(const mbx_raw_filter *f, const mbx_raw_frame *fr);
@@ -728,7 +726,6 @@ bool mbx_raw_filter_match(const mbx_raw_filter *f, const mbx_raw_frame *fr);
  * ("fs.mqueue.msg_max is 10, the mailbox needs 64: sysctl -w ..."), or
  * -errno if the limits cannot be read. The daemon calls it at start-up.
  */
-int mbx_check_system_limits(unsigned depth, unsigned msgsize, char *err,
-			    size_t errlen);
+int mbx_check_system_limits(unsigned depth, unsigned msgsize, char *err, size_t errlen);
 
 #endif /* COGW_MAILBOX_PROTO_H */

@@ -51,14 +51,14 @@ typedef struct mbx_client {
 	uint8_t access;
 	bool confirmed;
 	bool pid_proven; /* at REGISTER, pid was a live process of uid */
-	bool dead; /* a send failed hard: reap at the next tick */
+	bool dead;       /* a send failed hard: reap at the next tick */
 	uint32_t classes;
 	uint8_t n_filters;
 	mbx_raw_filter filters[MBX_RAW_FILTERS_MAX];
 	uint64_t registered_us;
 	uint64_t lease_until;
 	uint32_t drop_resp, drop_evt; /* not yet reported to the client */
-	uint16_t outstanding; /* dispatched, not answered yet */
+	uint16_t outstanding;         /* dispatched, not answered yet */
 	uint64_t dropped;
 	bool discarding; /* chunks of a refused transfer are ignored */
 	uint64_t discard_corr;
@@ -186,8 +186,8 @@ enum send_mode {
 /* Send one message to a client's response or event queue, without
  * blocking. Returns 0, -EAGAIN (stream: queue full), -ENOBUFS (dropped),
  * -EPIPE (queue unusable: client marked dead). */
-static int send_to(mbx_server *srv, mbx_client *c, bool event, mbx_hdr *h,
-		   const void *payload, size_t len, enum send_mode mode)
+static int send_to(mbx_server *srv, mbx_client *c, bool event, mbx_hdr *h, const void *payload,
+		   size_t len, enum send_mode mode)
 {
 	uint32_t *pending = event ? &c->drop_evt : &c->drop_resp;
 	mqd_t q = event ? c->evt : c->resp;
@@ -229,12 +229,10 @@ static int send_to(mbx_server *srv, mbx_client *c, bool event, mbx_hdr *h,
 	return -EPIPE;
 }
 
-static int send_status(mbx_server *srv, mbx_client *c, uint16_t code,
-		       uint64_t corr, int status, uint32_t abort,
-		       const void *payload, size_t len)
+static int send_status(mbx_server *srv, mbx_client *c, uint16_t code, uint64_t corr, int status,
+		       uint32_t abort, const void *payload, size_t len)
 {
-	mbx_hdr h = { .code = code, .corr = corr, .status = status,
-		      .abort = abort };
+	mbx_hdr h = { .code = code, .corr = corr, .status = status, .abort = abort };
 
 	return send_to(srv, c, false, &h, payload, len, SEND_NORMAL);
 }
@@ -309,16 +307,15 @@ static void unlink_orphan_queues(const mbx_client *c)
 		mq_unlink(c->evt_name);
 }
 
-static bool client_is_dead(const mbx_server *srv, const mbx_client *c,
-			   uint64_t now_us, bool full_check)
+static bool client_is_dead(const mbx_server *srv, const mbx_client *c, uint64_t now_us,
+			   bool full_check)
 {
 	if (c->dead)
 		return true;
 	if (srv->cfg.lease_ms && now_us > c->lease_until)
 		return true;
 	if (!c->confirmed &&
-	    now_us > c->registered_us +
-			     (uint64_t)srv->cfg.register_timeout_ms * 1000u)
+	    now_us > c->registered_us + (uint64_t)srv->cfg.register_timeout_ms * 1000u)
 		return true;
 	if (!full_check)
 		return false;
@@ -330,8 +327,7 @@ static bool client_is_dead(const mbx_server *srv, const mbx_client *c,
 
 /* ---- transfers ------------------------------------------------------------------ */
 
-static mbx_xfer *xfer_find(mbx_server *srv, uint32_t client, uint64_t corr,
-			   xfer_state st)
+static mbx_xfer *xfer_find(mbx_server *srv, uint32_t client, uint64_t corr, xfer_state st)
 {
 	for (unsigned i = 0; i < srv->cfg.xfer_slots; i++) {
 		mbx_xfer *x = &srv->xfers[i];
@@ -415,13 +411,11 @@ static void xfer_pump(mbx_server *srv, mbx_xfer *x)
 			.corr = x->corr,
 			.status = x->status,
 			.abort = x->abort,
-			.flags = MBX_F_CHUNKED |
-				 (x->done + n < x->total ? MBX_F_MORE : 0),
+			.flags = MBX_F_CHUNKED | (x->done + n < x->total ? MBX_F_MORE : 0),
 			.chunk = x->next_chunk,
 			.total = (uint32_t)x->total,
 		};
-		rc = send_to(srv, c, false, &h, x->buf + x->done, n,
-			     SEND_STREAM);
+		rc = send_to(srv, c, false, &h, x->buf + x->done, n, SEND_STREAM);
 		if (rc == -EAGAIN) {
 			x->retry_us = srv->now_us + RETRY_US;
 			return;
@@ -433,8 +427,7 @@ static void xfer_pump(mbx_server *srv, mbx_xfer *x)
 		}
 		x->done += n;
 		x->next_chunk++;
-		x->deadline_us =
-			srv->now_us + (uint64_t)srv->cfg.xfer_timeout_ms * 1000u;
+		x->deadline_us = srv->now_us + (uint64_t)srv->cfg.xfer_timeout_ms * 1000u;
 	}
 	srv->stats.xfer_out++;
 	xfer_free(x);
@@ -447,16 +440,14 @@ static unsigned read_outstanding(const mbx_server *srv)
 	unsigned n = 0;
 
 	for (unsigned i = 0; i < srv->cfg.max_clients; i++)
-		if (srv->clients[i].id &&
-		    srv->clients[i].access < MBX_ACCESS_WRITE)
+		if (srv->clients[i].id && srv->clients[i].access < MBX_ACCESS_WRITE)
 			n += srv->clients[i].outstanding;
 	return n;
 }
 
 /* The request's own timeout (SDO per frame, LSS per answer) within the
  * ceiling: 0xFFFFFFFF would hold an SDO channel for ever. */
-static bool timeout_too_long(const mbx_server *srv, const mbx_hdr *h,
-			     const uint8_t *p)
+static bool timeout_too_long(const mbx_server *srv, const mbx_hdr *h, const uint8_t *p)
 {
 	uint32_t t;
 
@@ -474,13 +465,14 @@ static bool timeout_too_long(const mbx_server *srv, const mbx_hdr *h,
 	return t > srv->cfg.max_request_timeout_ms;
 }
 
-static void dispatch(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
-		     const uint8_t *fixed, size_t fixed_len,
-		     const uint8_t *data, size_t data_len, mbx_xfer *held)
+static void dispatch(mbx_server *srv, mbx_client *c, const mbx_hdr *h, const uint8_t *fixed,
+		     size_t fixed_len, const uint8_t *data, size_t data_len, mbx_xfer *held)
 {
 	mbx_request req = {
-		.reply = { .client = c->id, .code = h->code,
-			   .flags = h->flags & MBX_F_NO_REPLY, .corr = h->corr },
+		.reply = { .client = c->id,
+			   .code = h->code,
+			   .flags = h->flags & MBX_F_NO_REPLY,
+			   .corr = h->corr },
 		.code = h->code,
 		.line = srv->cfg.line,
 		.access = c->access,
@@ -499,15 +491,13 @@ static void dispatch(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
 	 * answered BUSY at once (which uncounts it again). */
 	c->outstanding++;
 	if (c->outstanding > srv->cfg.max_outstanding ||
-	    (c->access < MBX_ACCESS_WRITE &&
-	     read_outstanding(srv) > srv->cfg.read_outstanding)) {
+	    (c->access < MBX_ACCESS_WRITE && read_outstanding(srv) > srv->cfg.read_outstanding)) {
 		srv->stats.limited++;
 		mbx_server_respond(srv, &req.reply, MBX_E_BUSY, 0, NULL, 0);
 		return;
 	}
 	if (!srv->cfg.dispatch.dispatch) {
-		mbx_server_respond(srv, &req.reply, MBX_E_UNSUPPORTED, 0, NULL,
-				   0);
+		mbx_server_respond(srv, &req.reply, MBX_E_UNSUPPORTED, 0, NULL, 0);
 		return;
 	}
 	srv->cfg.dispatch.dispatch(srv->cfg.dispatch_ctx, srv, &req);
@@ -517,9 +507,8 @@ static void dispatch(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
 
 /* Open a client queue for sending and check it. Returns the mqd or -1 with
  * *status set. */
-static mqd_t open_client_queue(mbx_server *srv, const char *name,
-			       struct stat *st, struct mq_attr *attr,
-			       int *status)
+static mqd_t open_client_queue(mbx_server *srv, const char *name, struct stat *st,
+			       struct mq_attr *attr, int *status)
 {
 	mqd_t q = mq_open(name, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
 
@@ -563,8 +552,7 @@ static int pid_check(uint32_t pid, uint32_t uid)
 	while (fgets(line, sizeof line, f)) {
 		if (strncmp(line, "Uid:", 4) != 0)
 			continue;
-		if (sscanf(line + 4, "%lu %lu %lu %lu", &u[0], &u[1], &u[2],
-			   &u[3]) != 4)
+		if (sscanf(line + 4, "%lu %lu %lu %lu", &u[0], &u[1], &u[2], &u[3]) != 4)
 			break;
 		rc = 0;
 		for (int i = 0; i < 4; i++)
@@ -576,13 +564,12 @@ static int pid_check(uint32_t pid, uint32_t uid)
 	return rc;
 }
 
-static void register_refuse(mbx_server *srv, mqd_t resp, long resp_msg,
-			    const mbx_hdr *h, int status)
+static void register_refuse(mbx_server *srv, mqd_t resp, long resp_msg, const mbx_hdr *h,
+			    int status)
 {
 	/* Answer through a temporary client record so the normal send path
 	 * (size checks, non-blocking) is used; no token is given. */
-	mbx_client tmp = { .id = 0, .resp = resp, .evt = (mqd_t)-1,
-			   .resp_msg = (size_t)resp_msg };
+	mbx_client tmp = { .id = 0, .resp = resp, .evt = (mqd_t)-1, .resp_msg = (size_t)resp_msg };
 
 	if (status == MBX_E_ACCESS)
 		srv->stats.access_denied++;
@@ -590,8 +577,7 @@ static void register_refuse(mbx_server *srv, mqd_t resp, long resp_msg,
 		send_status(srv, &tmp, h->code, h->corr, status, 0, NULL, 0);
 }
 
-static void handle_register(mbx_server *srv, const mbx_hdr *h,
-			    const uint8_t *p)
+static void handle_register(mbx_server *srv, const mbx_hdr *h, const uint8_t *p)
 {
 	mbx_register_req r;
 	struct stat rst, est;
@@ -620,8 +606,7 @@ static void handle_register(mbx_server *srv, const mbx_hdr *h,
 	access = access_of(srv, (uint32_t)rst.st_uid);
 	status = 0;
 	if (est.st_uid != rst.st_uid || r.uid != (uint32_t)rst.st_uid ||
-	    access == MBX_ACCESS_NONE || rst.st_ino == srv->q_ino ||
-	    est.st_ino == srv->q_ino)
+	    access == MBX_ACCESS_NONE || rst.st_ino == srv->q_ino || est.st_ino == srv->q_ino)
 		status = MBX_E_ACCESS;
 	if (!status) {
 		pid_rc = pid_check(r.pid, r.uid);
@@ -668,8 +653,7 @@ static void handle_register(mbx_server *srv, const mbx_hdr *h,
 	/* One user cannot take every slot, and the last write_reserve slots
 	 * are for writers: a read-only client flooding REGISTER must not lock
 	 * a writer out with FULL. */
-	if (!status && (!c || (access < MBX_ACCESS_WRITE &&
-			       free_slots <= srv->cfg.write_reserve)))
+	if (!status && (!c || (access < MBX_ACCESS_WRITE && free_slots <= srv->cfg.write_reserve)))
 		status = MBX_E_FULL;
 	if (!status && rst.st_uid != 0 && of_uid >= srv->cfg.max_clients_per_uid)
 		status = MBX_E_FULL;
@@ -725,8 +709,7 @@ static void handle_register(mbx_server *srv, const mbx_hdr *h,
 		client_remove(srv, c, true);
 }
 
-static void handle_protocol(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
-			    const uint8_t *p)
+static void handle_protocol(mbx_server *srv, mbx_client *c, const mbx_hdr *h, const uint8_t *p)
 {
 	bool reply = !(h->flags & MBX_F_NO_REPLY);
 
@@ -749,8 +732,7 @@ static void handle_protocol(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
 		}
 		out.classes = c->classes | MBX_EVC_OVERFLOW;
 		if (reply)
-			send_status(srv, c, h->code, h->corr, 0, 0, &out,
-				    sizeof out);
+			send_status(srv, c, h->code, h->corr, 0, 0, &out, sizeof out);
 		return;
 	}
 	case MBX_CMD_UNSUBSCRIBE: {
@@ -765,17 +747,14 @@ static void handle_protocol(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
 		}
 		out.classes = c->classes | MBX_EVC_OVERFLOW;
 		if (reply)
-			send_status(srv, c, h->code, h->corr, 0, 0, &out,
-				    sizeof out);
+			send_status(srv, c, h->code, h->corr, 0, 0, &out, sizeof out);
 		return;
 	}
 	case MBX_CMD_PING: {
-		mbx_ping_resp out = { .lease_ms = srv->cfg.lease_ms,
-				      .now_us = srv->now_us };
+		mbx_ping_resp out = { .lease_ms = srv->cfg.lease_ms, .now_us = srv->now_us };
 
 		if (reply)
-			send_status(srv, c, h->code, h->corr, 0, 0, &out,
-				    sizeof out);
+			send_status(srv, c, h->code, h->corr, 0, 0, &out, sizeof out);
 		return;
 	}
 	case MBX_CMD_XFER_ACK: {
@@ -785,8 +764,7 @@ static void handle_protocol(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
 		memcpy(&r, p, sizeof r);
 		/* An ack for a finished transfer is normal (the last chunks
 		 * raced it); an ack beyond what was sent is ignored. */
-		if (x && r.next_chunk > x->acked &&
-		    r.next_chunk <= x->next_chunk) {
+		if (x && r.next_chunk > x->acked && r.next_chunk <= x->next_chunk) {
 			x->acked = r.next_chunk;
 			xfer_pump(srv, x);
 		}
@@ -805,8 +783,7 @@ static void handle_protocol(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
 			.clients = srv->stats.clients,
 		};
 		if (reply)
-			send_status(srv, c, h->code, h->corr, 0, 0, &out,
-				    sizeof out);
+			send_status(srv, c, h->code, h->corr, 0, 0, &out, sizeof out);
 		return;
 	}
 	}
@@ -814,8 +791,7 @@ static void handle_protocol(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
 
 /* ---- chunked commands ---------------------------------------------------------------- */
 
-static void refuse_transfer(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
-			    int status)
+static void refuse_transfer(mbx_server *srv, mbx_client *c, const mbx_hdr *h, int status)
 {
 	srv->stats.xfer_failed++;
 	if (h->flags & MBX_F_MORE) {
@@ -826,8 +802,7 @@ static void refuse_transfer(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
 		send_status(srv, c, h->code, h->corr, status, 0, NULL, 0);
 }
 
-static void handle_chunk(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
-			 const uint8_t *p)
+static void handle_chunk(mbx_server *srv, mbx_client *c, const mbx_hdr *h, const uint8_t *p)
 {
 	const mbx_cmd_info *ci = mbx_cmd_lookup(h->code);
 	mbx_xfer *x;
@@ -859,13 +834,12 @@ static void handle_chunk(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
 		x->done = h->len - ci->fixed;
 		memcpy(x->buf, p + ci->fixed, x->done);
 		x->next_chunk = 1;
-		x->deadline_us =
-			srv->now_us + (uint64_t)srv->cfg.xfer_timeout_ms * 1000u;
+		x->deadline_us = srv->now_us + (uint64_t)srv->cfg.xfer_timeout_ms * 1000u;
 		return;
 	}
 	x = xfer_find(srv, c->id, h->corr, XS_IN);
-	if (!x || x->code != h->code || x->next_chunk != h->chunk ||
-	    x->total != h->total || x->done + h->len > x->total ||
+	if (!x || x->code != h->code || x->next_chunk != h->chunk || x->total != h->total ||
+	    x->done + h->len > x->total ||
 	    (!(h->flags & MBX_F_MORE) && x->done + h->len != x->total)) {
 		count_bad(srv, MBX_BAD_SEQUENCE);
 		if (x) {
@@ -877,8 +851,7 @@ static void handle_chunk(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
 			c->discard_corr = h->corr;
 		}
 		if (!(h->flags & MBX_F_NO_REPLY))
-			send_status(srv, c, h->code, h->corr, MBX_E_SEQUENCE, 0,
-				    NULL, 0);
+			send_status(srv, c, h->code, h->corr, MBX_E_SEQUENCE, 0, NULL, 0);
 		return;
 	}
 	memcpy(x->buf + x->done, p, h->len);
@@ -946,8 +919,8 @@ static void handle_msg(mbx_server *srv, const uint8_t *buf, size_t n)
 	c->confirmed = true;
 	c->lease_until = srv->now_us + (uint64_t)srv->cfg.lease_ms * 1000u;
 
-	if (c->discarding && c->discard_corr == h.corr &&
-	    (h.flags & MBX_F_CHUNKED) && h.chunk > 0) {
+	if (c->discarding && c->discard_corr == h.corr && (h.flags & MBX_F_CHUNKED) &&
+	    h.chunk > 0) {
 		if (!(h.flags & MBX_F_MORE))
 			c->discarding = false;
 		return; /* rest of a transfer already refused */
@@ -973,20 +946,17 @@ static void handle_msg(mbx_server *srv, const uint8_t *buf, size_t n)
 			c->discard_corr = h.corr;
 		}
 		if (!(h.flags & MBX_F_NO_REPLY) && h.chunk == 0)
-			send_status(srv, c, h.code, h.corr, MBX_E_ACCESS, 0,
-				    NULL, 0);
+			send_status(srv, c, h.code, h.corr, MBX_E_ACCESS, 0, NULL, 0);
 		return;
 	}
-	if ((!(h.flags & MBX_F_CHUNKED) || h.chunk == 0) &&
-	    timeout_too_long(srv, &h, p)) {
+	if ((!(h.flags & MBX_F_CHUNKED) || h.chunk == 0) && timeout_too_long(srv, &h, p)) {
 		count_bad(srv, MBX_BAD_PARAM);
 		if ((h.flags & MBX_F_MORE) && h.chunk == 0) {
 			c->discarding = true;
 			c->discard_corr = h.corr;
 		}
 		if (!(h.flags & MBX_F_NO_REPLY))
-			send_status(srv, c, h.code, h.corr, MBX_E_PARAM, 0, NULL,
-				    0);
+			send_status(srv, c, h.code, h.corr, MBX_E_PARAM, 0, NULL, 0);
 		return;
 	}
 	if (h.flags & MBX_F_CHUNKED) {
@@ -998,8 +968,7 @@ static void handle_msg(mbx_server *srv, const uint8_t *buf, size_t n)
 		return;
 	}
 	if (ci->flags & MBX_CI_DATA)
-		dispatch(srv, c, &h, p, ci->fixed, p + ci->fixed,
-			 h.len - ci->fixed, NULL);
+		dispatch(srv, c, &h, p, ci->fixed, p + ci->fixed, h.len - ci->fixed, NULL);
 	else
 		dispatch(srv, c, &h, p, h.len, NULL, 0, NULL);
 }
@@ -1010,8 +979,7 @@ int mbx_server_poll(mbx_server *srv, uint64_t now_us)
 
 	srv->now_us = now_us;
 	while ((unsigned)n < srv->cfg.poll_budget) {
-		ssize_t r = mq_receive(srv->q, (char *)srv->rx, srv->rx_size,
-				       NULL);
+		ssize_t r = mq_receive(srv->q, (char *)srv->rx, srv->rx_size, NULL);
 
 		if (r < 0) {
 			if (errno == EAGAIN)
@@ -1028,8 +996,8 @@ int mbx_server_poll(mbx_server *srv, uint64_t now_us)
 
 /* ---- answering ---------------------------------------------------------------------- */
 
-int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status,
-		       uint32_t abort, const void *payload, size_t len)
+int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status, uint32_t abort,
+		       const void *payload, size_t len)
 {
 	mbx_client *c;
 	mbx_xfer *x;
@@ -1037,8 +1005,7 @@ int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status,
 
 	if (to->slot && to->slot <= srv->cfg.xfer_slots) {
 		x = &srv->xfers[to->slot - 1];
-		if (x->st == XS_HELD && x->client == to->client &&
-		    x->corr == to->corr)
+		if (x->st == XS_HELD && x->client == to->client && x->corr == to->corr)
 			xfer_free(x); /* buffer stays; payload may live in it */
 	}
 	c = client_find(srv, to->client);
@@ -1049,16 +1016,14 @@ int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status,
 	if (to->flags & MBX_F_NO_REPLY)
 		return 0;
 	if (len <= chunk_size(c)) {
-		int rc = send_status(srv, c, to->code, to->corr, status, abort,
-				     payload, len);
+		int rc = send_status(srv, c, to->code, to->corr, status, abort, payload, len);
 
 		return rc == -EPIPE ? -ENOENT : rc;
 	}
 	nchunks = (len + chunk_size(c) - 1) / chunk_size(c);
 	if (len > srv->cfg.max_transfer || nchunks > 0xFFFFu) {
 		srv->stats.xfer_failed++;
-		send_status(srv, c, to->code, to->corr, MBX_E_TOO_BIG, 0, NULL,
-			    0);
+		send_status(srv, c, to->code, to->corr, MBX_E_TOO_BIG, 0, NULL, 0);
 		return -EMSGSIZE;
 	}
 	x = xfer_alloc(srv, c);
@@ -1083,8 +1048,7 @@ int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status,
 	return 0;
 }
 
-static bool wants(const mbx_client *c, uint32_t cls, const uint8_t *payload,
-		  size_t len)
+static bool wants(const mbx_client *c, uint32_t cls, const uint8_t *payload, size_t len)
 {
 	mbx_ev_raw raw;
 
@@ -1103,8 +1067,8 @@ static bool wants(const mbx_client *c, uint32_t cls, const uint8_t *payload,
 	return false;
 }
 
-int mbx_server_publish(mbx_server *srv, uint16_t ev_code, uint64_t corr,
-		       const void *payload, size_t len)
+int mbx_server_publish(mbx_server *srv, uint16_t ev_code, uint64_t corr, const void *payload,
+		       size_t len)
 {
 	uint32_t cls = mbx_event_class_of(ev_code);
 	int reached = 0;
@@ -1134,8 +1098,8 @@ int mbx_server_publish(mbx_server *srv, uint16_t ev_code, uint64_t corr,
 	return reached;
 }
 
-int mbx_server_notify(mbx_server *srv, const mbx_reply_to *to,
-		      uint16_t ev_code, const void *payload, size_t len)
+int mbx_server_notify(mbx_server *srv, const mbx_reply_to *to, uint16_t ev_code,
+		      const void *payload, size_t len)
 {
 	mbx_client *c = client_find(srv, to->client);
 	mbx_hdr h = { .code = ev_code, .corr = to->corr };
@@ -1183,10 +1147,8 @@ uint64_t mbx_server_tick(mbx_server *srv, uint64_t now_us)
 			mbx_client *c = client_find(srv, x->client);
 
 			srv->stats.xfer_failed++;
-			if (c && x->st == XS_IN &&
-			    !(x->hflags & MBX_F_NO_REPLY))
-				send_status(srv, c, x->code, x->corr,
-					    MBX_E_TIMEOUT, 0, NULL, 0);
+			if (c && x->st == XS_IN && !(x->hflags & MBX_F_NO_REPLY))
+				send_status(srv, c, x->code, x->corr, MBX_E_TIMEOUT, 0, NULL, 0);
 			else if (c) /* an answer was lost: tell the client */
 				c->drop_resp++;
 			xfer_free(x);
@@ -1219,8 +1181,7 @@ uint64_t mbx_server_tick(mbx_server *srv, uint64_t now_us)
 			mbx_hdr h = { .code = MBX_EV_OVERFLOW };
 			uint32_t dr = c->drop_resp;
 
-			if (send_to(srv, c, true, &h, &ov, sizeof ov,
-				    SEND_STREAM) == 0) {
+			if (send_to(srv, c, true, &h, &ov, sizeof ov, SEND_STREAM) == 0) {
 				c->drop_resp -= dr;
 			} else {
 				next = min64(next, now_us + RETRY_US);
@@ -1229,11 +1190,9 @@ uint64_t mbx_server_tick(mbx_server *srv, uint64_t now_us)
 		if (srv->cfg.lease_ms)
 			next = min64(next, c->lease_until + 1);
 		if (!c->confirmed)
-			next = min64(next,
-				     c->registered_us +
-					     (uint64_t)srv->cfg.register_timeout_ms *
-						     1000u +
-					     1);
+			next = min64(next, c->registered_us +
+						   (uint64_t)srv->cfg.register_timeout_ms * 1000u +
+						   1);
 	}
 	if (srv->stats.clients)
 		next = min64(next, srv->next_check_us);
@@ -1303,8 +1262,8 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 	if (c->queue_mode & ~0777u || c->queue_mode & 0044 ||
 	    (c->queue_chown && c->queue_uid != geteuid()))
 		goto fail;
-	if (c->msg_size < MBX_MSG_MIN || c->msg_size > MBX_MSG_MAX ||
-	    c->max_clients > 0xFFFFu || c->xfer_slots > 255)
+	if (c->msg_size < MBX_MSG_MIN || c->msg_size > MBX_MSG_MAX || c->max_clients > 0xFFFFu ||
+	    c->xfer_slots > 255)
 		goto fail;
 	strcpy(srv->qname, cfg->queue_name);
 	c->queue_name = srv->qname;
@@ -1317,8 +1276,7 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 	srv->xfers = calloc(c->xfer_slots, sizeof *srv->xfers);
 	/* Room for a reload's rules too (mbx_server_set_rules), so that
 	 * nothing is allocated after create. */
-	srv->rules_cap = c->n_rules > MBX_SERVER_RULES_MAX ? c->n_rules
-							   : MBX_SERVER_RULES_MAX;
+	srv->rules_cap = c->n_rules > MBX_SERVER_RULES_MAX ? c->n_rules : MBX_SERVER_RULES_MAX;
 	srv->rules = calloc(srv->rules_cap, sizeof *srv->rules);
 	if (srv->rules && c->n_rules)
 		memcpy(srv->rules, cfg->rules, c->n_rules * sizeof *srv->rules);
@@ -1332,17 +1290,13 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 		if (!srv->xfers[i].buf)
 			goto fail;
 	}
-	if (getrandom(&srv->rng, sizeof srv->rng, GRND_NONBLOCK) !=
-	    (ssize_t)sizeof srv->rng)
-		srv->rng = (uint64_t)getpid() * 0x9E3779B97F4A7C15ull ^
-			   (uint64_t)(uintptr_t)srv;
+	if (getrandom(&srv->rng, sizeof srv->rng, GRND_NONBLOCK) != (ssize_t)sizeof srv->rng)
+		srv->rng = (uint64_t)getpid() * 0x9E3779B97F4A7C15ull ^ (uint64_t)(uintptr_t)srv;
 
 	if (c->unlink_existing)
 		mq_unlink(srv->qname);
-	attr = (struct mq_attr){ .mq_maxmsg = c->depth,
-				 .mq_msgsize = c->msg_size };
-	srv->q = mq_open(srv->qname,
-			 O_CREAT | O_EXCL | O_RDONLY | O_NONBLOCK | O_CLOEXEC,
+	attr = (struct mq_attr){ .mq_maxmsg = c->depth, .mq_msgsize = c->msg_size };
+	srv->q = mq_open(srv->qname, O_CREAT | O_EXCL | O_RDONLY | O_NONBLOCK | O_CLOEXEC,
 			 c->queue_mode, &attr);
 	if (srv->q == (mqd_t)-1) {
 		rc = -errno;
@@ -1353,8 +1307,7 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 	struct stat qst;
 
 	if (fchmod((int)srv->q, c->queue_mode) < 0 ||
-	    (c->queue_chown &&
-	     fchown((int)srv->q, c->queue_uid, c->queue_gid) < 0) ||
+	    (c->queue_chown && fchown((int)srv->q, c->queue_uid, c->queue_gid) < 0) ||
 	    fstat((int)srv->q, &qst) < 0) {
 		rc = -errno;
 		goto fail;
@@ -1399,11 +1352,10 @@ int mbx_server_fd(const mbx_server *srv)
 	return (int)srv->q;
 }
 
-int mbx_server_set_rules(mbx_server *srv, const mbx_access_rule *rules,
-			 size_t n_rules, uint8_t default_access)
+int mbx_server_set_rules(mbx_server *srv, const mbx_access_rule *rules, size_t n_rules,
+			 uint8_t default_access)
 {
-	if (n_rules > srv->rules_cap || (n_rules && !rules) ||
-	    default_access > MBX_ACCESS_WRITE)
+	if (n_rules > srv->rules_cap || (n_rules && !rules) || default_access > MBX_ACCESS_WRITE)
 		return -EINVAL;
 	if (n_rules)
 		memcpy(srv->rules, rules, n_rules * sizeof *srv->rules);
@@ -1434,8 +1386,7 @@ void mbx_server_set_lease(mbx_server *srv, unsigned lease_ms)
 	 * value (0 = none) would expire at once. */
 	for (unsigned i = 0; i < srv->cfg.max_clients; i++)
 		if (srv->clients[i].id)
-			srv->clients[i].lease_until =
-				srv->now_us + (uint64_t)lease_ms * 1000u;
+			srv->clients[i].lease_until = srv->now_us + (uint64_t)lease_ms * 1000u;
 }
 
 size_t mbx_server_buffer_bytes(const mbx_server *srv)
@@ -1450,8 +1401,7 @@ const mbx_server_stats *mbx_server_stats_get(const mbx_server *srv)
 	return &srv->stats;
 }
 
-int mbx_server_client_info(const mbx_server *srv, unsigned n,
-			   mbx_client_info *info)
+int mbx_server_client_info(const mbx_server *srv, unsigned n, mbx_client_info *info)
 {
 	for (unsigned i = 0; i < srv->cfg.max_clients; i++) {
 		const mbx_client *c = &srv->clients[i];
@@ -1459,9 +1409,13 @@ int mbx_server_client_info(const mbx_server *srv, unsigned n,
 		if (!c->id || n--)
 			continue;
 		*info = (mbx_client_info){
-			.id = c->id, .uid = c->uid, .pid = c->pid,
-			.access = c->access, .confirmed = c->confirmed,
-			.classes = c->classes, .dropped = c->dropped,
+			.id = c->id,
+			.uid = c->uid,
+			.pid = c->pid,
+			.access = c->access,
+			.confirmed = c->confirmed,
+			.classes = c->classes,
+			.dropped = c->dropped,
 			.pending_drop_events = c->drop_evt,
 			.pending_drop_responses = c->drop_resp,
 		};

@@ -56,14 +56,14 @@ typedef struct mbx_reply_to {
 /* One valid service command from a client allowed to send it. */
 typedef struct mbx_request {
 	mbx_reply_to reply;
-	uint16_t code;    /* enum mbx_cmd */
+	uint16_t code; /* enum mbx_cmd */
 	uint8_t line;
-	uint8_t access;   /* the client's enum mbx_access */
-	uint32_t uid;     /* owner of the client's queues */
-	uint32_t pid;     /* as registered */
+	uint8_t access;         /* the client's enum mbx_access */
+	uint32_t uid;           /* owner of the client's queues */
+	uint32_t pid;           /* as registered */
 	const uint8_t *payload; /* fixed part (validated), len = fixed_len */
 	size_t fixed_len;
-	const uint8_t *data;    /* trailing data (DATA commands), or NULL */
+	const uint8_t *data; /* trailing data (DATA commands), or NULL */
 	size_t data_len;
 } mbx_request;
 
@@ -92,38 +92,38 @@ typedef struct mbx_server_config {
 	/* Command queue mode (0 = 0620). Every command carries its client's
 	 * token, so no read bit for group/others is allowed (-EINVAL). */
 	unsigned queue_mode;
-	uid_t queue_uid;        /* chown the command queue (with queue_gid) */
-	gid_t queue_gid;        /*   if queue_chown is set; queue_uid must be
+	uid_t queue_uid; /* chown the command queue (with queue_gid) */
+	gid_t queue_gid; /*   if queue_chown is set; queue_uid must be
 	                         *   the daemon's own (the owner reads it) */
 	bool queue_chown;
-	unsigned depth;         /* command queue mq_maxmsg (0 = 64) */
-	unsigned msg_size;      /* command queue mq_msgsize (0 = 1024) */
-	unsigned max_clients;   /* per line (0 = 16) */
-	unsigned lease_ms;      /* 0 = no lease: only pid / queue checks */
-	unsigned check_ms;      /* liveness check period (0 = 1000) */
+	unsigned depth;               /* command queue mq_maxmsg (0 = 64) */
+	unsigned msg_size;            /* command queue mq_msgsize (0 = 1024) */
+	unsigned max_clients;         /* per line (0 = 16) */
+	unsigned lease_ms;            /* 0 = no lease: only pid / queue checks */
+	unsigned check_ms;            /* liveness check period (0 = 1000) */
 	unsigned register_timeout_ms; /* a client that never sends a command
 	                               * with its token is dropped (0 = 10000) */
-	unsigned xfer_slots;    /* concurrent chunked transfers (0 = 2) */
-	unsigned max_transfer;  /* bytes per chunked transfer (0 = 1 MiB) */
-	unsigned xfer_timeout_ms; /* a stalled transfer is dropped (0 = 5000) */
-	unsigned poll_budget;   /* messages per mbx_server_poll (0 = depth) */
+	unsigned xfer_slots;          /* concurrent chunked transfers (0 = 2) */
+	unsigned max_transfer;        /* bytes per chunked transfer (0 = 1 MiB) */
+	unsigned xfer_timeout_ms;     /* a stalled transfer is dropped (0 = 5000) */
+	unsigned poll_budget;         /* messages per mbx_server_poll (0 = depth) */
 	/* Per-user and per-client limits (docs/mailbox.md "Security model"):
 	 * nothing one client (or one user) does may make another's request
 	 * fail with FULL or BUSY. 0 = the default in brackets. */
-	unsigned max_clients_per_uid; /* registrations per uid, root exempt
+	unsigned max_clients_per_uid;    /* registrations per uid, root exempt
 	                               * (max(1, max_clients / 4)) */
-	unsigned write_reserve;  /* client slots only a writer may take
+	unsigned write_reserve;          /* client slots only a writer may take
 	                          * (max_clients / 4) */
-	unsigned max_outstanding; /* requests of one client dispatched and
+	unsigned max_outstanding;        /* requests of one client dispatched and
 	                           * not answered yet (16); more -> BUSY */
-	unsigned read_outstanding; /* all read-only clients together (32) */
-	unsigned xfer_per_client; /* transfer slots of one client
+	unsigned read_outstanding;       /* all read-only clients together (32) */
+	unsigned xfer_per_client;        /* transfer slots of one client
 	                           * (max(1, xfer_slots / 2)); read-only
 	                           * clients together leave one to writers */
 	unsigned max_request_timeout_ms; /* ceiling of a request's own
 	                                  * timeout_ms (SDO, LSS) (60000);
 	                                  * above -> PARAM */
-	unsigned xfer_max_ms;   /* a chunked transfer ends within this,
+	unsigned xfer_max_ms;            /* a chunked transfer ends within this,
 	                         * however slowly it progresses (60000) */
 	/* Access: root always gets WRITE; a uid in rules gets its access;
 	 * everyone else default_access (NONE = registration refused). */
@@ -141,20 +141,20 @@ typedef struct mbx_server_config {
 
 /* Counters (plain data, owner thread). */
 typedef struct mbx_server_stats {
-	uint64_t commands_ok;            /* valid commands accepted */
+	uint64_t commands_ok;              /* valid commands accepted */
 	uint64_t malformed[MBX_BAD_COUNT]; /* refused, per reason */
 	uint64_t malformed_total;
-	uint64_t access_denied;          /* registration or write refused */
+	uint64_t access_denied; /* registration or write refused */
 	uint64_t responses_sent;
 	uint64_t events_sent;
-	uint64_t dropped;                /* messages lost on full client queues */
+	uint64_t dropped; /* messages lost on full client queues */
 	uint64_t clients_registered;
 	uint64_t clients_unregistered;
-	uint64_t clients_reaped;         /* dead, lease expired, unconfirmed */
-	uint64_t xfer_in, xfer_out;      /* chunked transfers completed */
-	uint64_t xfer_failed;            /* timed out, too big, no slot */
-	uint64_t limited;                /* refused by a per-user/client limit */
-	uint32_t clients;                /* current */
+	uint64_t clients_reaped;    /* dead, lease expired, unconfirmed */
+	uint64_t xfer_in, xfer_out; /* chunked transfers completed */
+	uint64_t xfer_failed;       /* timed out, too big, no slot */
+	uint64_t limited;           /* refused by a per-user/client limit */
+	uint32_t clients;           /* current */
 } mbx_server_stats;
 
 /* Public view of one client (mbx_server_client_info). */
@@ -203,8 +203,8 @@ uint64_t mbx_server_tick(mbx_server *srv, uint64_t now_us);
  * was free (the client got MBX_E_BUSY instead); -EMSGSIZE if larger than
  * max_transfer (the client got MBX_E_TOO_BIG).
  */
-int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status,
-		       uint32_t abort, const void *payload, size_t len);
+int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status, uint32_t abort,
+		       const void *payload, size_t len);
 
 /*
  * Fan an event out to every client of this line subscribed to its class
@@ -213,14 +213,14 @@ int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status,
  * messages is dropped for that client (counted and flagged). Raw frames are matched against each client's filters. Returns the number
  * of clients it reached, or -EINVAL / -EMSGSIZE.
  */
-int mbx_server_publish(mbx_server *srv, uint16_t ev_code, uint64_t corr,
-		       const void *payload, size_t len);
+int mbx_server_publish(mbx_server *srv, uint16_t ev_code, uint64_t corr, const void *payload,
+		       size_t len);
 /* Send one event to the client of a request (whatever its subscriptions):
  * asynchronous events that belong to a request. An event larger than the
  * client's event messages is not sent (never truncated): dropped, counted
  * and flagged, -EMSGSIZE. Returns 0, -ENOENT, -ENOBUFS, -EMSGSIZE. */
-int mbx_server_notify(mbx_server *srv, const mbx_reply_to *to,
-		      uint16_t ev_code, const void *payload, size_t len);
+int mbx_server_notify(mbx_server *srv, const mbx_reply_to *to, uint16_t ev_code,
+		      const void *payload, size_t len);
 
 /*
  * Reload (SIGHUP) of the access settings, on the owner thread: replace the
@@ -230,8 +230,8 @@ int mbx_server_notify(mbx_server *srv, const mbx_reply_to *to,
  * dropped (reaped; client_gone is called). Returns 0 or -EINVAL.
  */
 #define MBX_SERVER_RULES_MAX 64u
-int mbx_server_set_rules(mbx_server *srv, const mbx_access_rule *rules,
-			 size_t n_rules, uint8_t default_access);
+int mbx_server_set_rules(mbx_server *srv, const mbx_access_rule *rules, size_t n_rules,
+			 uint8_t default_access);
 /* New lease (0 = none); every registered client's lease restarts now. */
 void mbx_server_set_lease(mbx_server *srv, unsigned lease_ms);
 
@@ -240,8 +240,7 @@ const mbx_server_stats *mbx_server_stats_get(const mbx_server *srv);
  * max_transfer bytes each, message buffers, client table). */
 size_t mbx_server_buffer_bytes(const mbx_server *srv);
 /* Info about the n-th live client (0-based); -ENOENT past the end. */
-int mbx_server_client_info(const mbx_server *srv, unsigned n,
-			   mbx_client_info *info);
+int mbx_server_client_info(const mbx_server *srv, unsigned n, mbx_client_info *info);
 /* Largest payload a response/event to this client can carry in one
  * message (the smaller of the line's and the client queue's size). */
 size_t mbx_server_client_max_payload(const mbx_server *srv, uint32_t client);

@@ -59,8 +59,8 @@ static void list_entries(ctl *c, cJSON *o, const uint8_t *buf, size_t len)
 			cJSON_AddStringToObject(x, "hex", hex ? hex : "");
 			cJSON_AddItemToArray(arr, x);
 		} else {
-			printf("  %4u  %04X:%02X  %6u bytes  %s\n", (unsigned)e.number, e.index, e.sub,
-			       (unsigned)e.size, hex ? hex : "");
+			printf("  %4u  %04X:%02X  %6u bytes  %s\n", (unsigned)e.number, e.index,
+			       e.sub, (unsigned)e.size, hex ? hex : "");
 		}
 		free(hex);
 	}
@@ -70,8 +70,8 @@ static void list_entries(ctl *c, cJSON *o, const uint8_t *buf, size_t len)
  * Convert FILE for node (0 = the file's own NodeID). For a check without
  * --node, a file that needs $NODEID is checked with node 1 and says so.
  */
-static int convert(ctl *c, const char *file, uint8_t node, bool check, uint8_t **out,
-		   size_t *len, eds_stats *st, bool *assumed_node)
+static int convert(ctl *c, const char *file, uint8_t node, bool check, uint8_t **out, size_t *len,
+		   eds_stats *st, bool *assumed_node)
 {
 	char err[600];
 	int rc = eds_convert_file(file, node, out, len, st, err, sizeof err);
@@ -89,7 +89,8 @@ static int convert(ctl *c, const char *file, uint8_t node, bool check, uint8_t *
 		return refuse(c, file, err);
 	if (rc) /* the file could not be read */
 		return c->json ? refuse(c, file, err)
-			       : (fprintf(stderr, "cogwctl %s: %s\n", c->what, err), CTL_EXIT_USAGE);
+			       : (fprintf(stderr, "cogwctl %s: %s\n", c->what, err),
+				  CTL_EXIT_USAGE);
 	return 0;
 }
 
@@ -151,7 +152,8 @@ static int write_file(ctl *c, const char *path, const uint8_t *buf, size_t len)
 		done += (size_t)n;
 	}
 	if (done != len || fsync(fd) < 0 || close(fd) < 0 || rename(tmp, path) < 0) {
-		fprintf(stderr, "cogwctl %s: cannot write %s: %s\n", c->what, path, strerror(errno));
+		fprintf(stderr, "cogwctl %s: cannot write %s: %s\n", c->what, path,
+			strerror(errno));
 		unlink(tmp);
 		return CTL_EXIT_REFUSED;
 	}
@@ -231,9 +233,9 @@ static int run_dcf(ctl *c, int argc, char **argv)
 				st.warnings);
 		if (assumed)
 			printf("note: $NODEID evaluated as 1 (give --node N for the real node)\n");
-		printf("%s: ok: %u objects, %u values, %u entries for the concise DCF (%zu bytes)%s",
-		       pos[1], st.objects, st.values, st.entries, len,
-		       st.node_id ? "" : "\n");
+		printf("%s: ok: %u objects, %u values, %u entries for the concise DCF (%zu "
+		       "bytes)%s",
+		       pos[1], st.objects, st.values, st.entries, len, st.node_id ? "" : "\n");
 		if (st.node_id)
 			printf(", node %u\n", st.node_id);
 		if (!check)
@@ -247,20 +249,25 @@ static int run_dcf(ctl *c, int argc, char **argv)
 
 const ctl_cmd ctl_cmd_dcf = {
 	.name = "dcf",
-	.synopsis = "  dcf check FILE [--node N] [--list]     validate a DCF/EDS or a concise DCF (offline)\n"
+	.synopsis = "  dcf check FILE [--node N] [--list]     validate a DCF/EDS or a concise DCF "
+		    "(offline)\n"
 		    "  dcf convert FILE --node N -o OUT.cdc   DCF/EDS to a concise DCF (offline)\n",
-	.help =
-		"usage: cogwctl dcf check FILE [--node N] [--list]\n"
+	.help = "usage: cogwctl dcf check FILE [--node N] [--list]\n"
 		"       cogwctl dcf convert FILE [--node N] -o OUT.cdc [--list]\n"
 		"\n"
-		"Offline (no daemon): the same reader as cogwd's \"nodes[].config\" (docs/config.md,\n"
+		"Offline (no daemon): the same reader as cogwd's \"nodes[].config\" "
+		"(docs/config.md,\n"
 		"\"DCF and EDS files\"), so a file that passes here loads there.\n"
 		"\n"
-		"check    reads a CiA 306 DCF or EDS, checks every section and value (types, ranges,\n"
-		"         limits, $NODEID expressions, sub-objects, CompactSubObj, ObjectLinks) and\n"
-		"         says how many entries its concise DCF has. A FILE ending in .cdc or .bin is\n"
+		"check    reads a CiA 306 DCF or EDS, checks every section and value (types, "
+		"ranges,\n"
+		"         limits, $NODEID expressions, sub-objects, CompactSubObj, ObjectLinks) "
+		"and\n"
+		"         says how many entries its concise DCF has. A FILE ending in .cdc or .bin "
+		"is\n"
 		"         checked as a binary concise DCF instead (count, entry framing).\n"
-		"convert  writes the concise DCF (1F22h format) of the writable values to OUT.cdc,\n"
+		"convert  writes the concise DCF (1F22h format) of the writable values to "
+		"OUT.cdc,\n"
 		"         PDO parameters in the CiA 301 re-mapping order.\n"
 		"\n"
 		"--node N   what $NODEID stands for (1..127); default: the file's\n"
@@ -270,7 +277,8 @@ const ctl_cmd ctl_cmd_dcf = {
 		"--list     print the entries: number, index:sub, size, data\n"
 		"\n"
 		"Errors name the file and line, e.g.\n"
-		"  cogwctl dcf check: dev.eds:41: DefaultValue '70000': out of range for UNSIGNED16 (max 65535)\n"
+		"  cogwctl dcf check: dev.eds:41: DefaultValue '70000': out of range for "
+		"UNSIGNED16 (max 65535)\n"
 		"Warnings (a listed object without a section, a wrong SupportedObjects count) do\n"
 		"not make the file fail. Exit status 1 for a refused file.\n"
 		"\n"

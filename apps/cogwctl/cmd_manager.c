@@ -66,9 +66,9 @@ static void status_out(ctl *c, unsigned line, const mbx_mgr_status *s)
 		cJSON_AddStringToObject(o, "state", co_mgr_state_to_string(s->state));
 		cJSON_AddNumberToObject(o, "flags", s->flags);
 		for (size_t i = 0; i < sizeof lists / sizeof lists[0]; i++)
-			cJSON_AddItemToObject(o, lists[i].name,
-					      bits_json((const mbx_mgr_bits *)((const char *)s +
-										lists[i].off)));
+			cJSON_AddItemToObject(
+				o, lists[i].name,
+				bits_json((const mbx_mgr_bits *)((const char *)s + lists[i].off)));
 		if (s->first_error_node) {
 			cJSON *e = cJSON_AddObjectToObject(o, "first_error");
 			cJSON_AddNumberToObject(e, "node", s->first_error_node);
@@ -92,8 +92,8 @@ static void status_out(ctl *c, unsigned line, const mbx_mgr_status *s)
 		printf("  %-16s %s\n", lists[i].name, b);
 	}
 	if (s->first_error_node)
-		printf("  first error      node %u %s%c code 0x%08" PRIX32 "\n", s->first_error_node,
-		       s->first_error_status ? "status " : "EMCY",
+		printf("  first error      node %u %s%c code 0x%08" PRIX32 "\n",
+		       s->first_error_node, s->first_error_status ? "status " : "EMCY",
 		       s->first_error_status ? s->first_error_status : ' ', s->first_error_code);
 	printf("  counters         network boots %" PRIu32 ", NMT ignored %" PRIu32
 	       ", unexpected %" PRIu32 ", duplicates %" PRIu32 ", error control lost %" PRIu32
@@ -107,8 +107,12 @@ static int req_value(const char *s)
 	static const struct {
 		const char *n;
 		int v;
-	} t[] = { { "stop", 4 }, { "start", 5 }, { "reset-node", 6 }, { "reset-comm", 7 },
-		  { "pre-operational", 127 }, { "preop", 127 } };
+	} t[] = { { "stop", 4 },
+		  { "start", 5 },
+		  { "reset-node", 6 },
+		  { "reset-comm", 7 },
+		  { "pre-operational", 127 },
+		  { "preop", 127 } };
 	for (size_t i = 0; i < sizeof t / sizeof t[0]; i++)
 		if (!strcmp(s, t[i].n))
 			return t[i].v;
@@ -170,8 +174,10 @@ static int run_manager(ctl *c, int argc, char **argv)
 		if (strcmp(pos[2], "all") && ctl_arg_node(c, pos[2], &node) < 0)
 			return CTL_EXIT_USAGE;
 		if (v < 0)
-			return ctl_usage_error(c, "'%s': expected start, stop, pre-operational, "
-						  "reset-node or reset-comm", pos[3]);
+			return ctl_usage_error(c,
+					       "'%s': expected start, stop, pre-operational, "
+					       "reset-node or reset-comm",
+					       pos[3]);
 		if ((rc = cogw_mgr_request_nmt(h, line, node, (uint8_t)v, c->timeout_ms)) < 0)
 			return ctl_fail(c, rc, 0, ctx);
 		return done(c, line, "requested");
@@ -244,9 +250,9 @@ static void diag_out(ctl *c, unsigned line, const mbx_mgr_node_diag *d)
 	if (d->status)
 		printf("  last failure: status %c (%s) at %s %04X:%02X, abort 0x%08" PRIX32
 		       " (%s), value 0x%08" PRIX32 "\n",
-		       d->status, co_mgr_status_to_string(d->status), co_mgr_step_to_string(d->step),
-		       d->index, d->sub, d->abort, d->abort ? sdo_abort_to_string(d->abort) : "none",
-		       d->value);
+		       d->status, co_mgr_status_to_string(d->status),
+		       co_mgr_step_to_string(d->step), d->index, d->sub, d->abort,
+		       d->abort ? sdo_abort_to_string(d->abort) : "none", d->value);
 	for (unsigned i = 0; i < d->n_emcy && i < MBX_MGR_EMCY_MAX; i++)
 		printf("  EMCY %04X (%s) register %02X at %.3f s\n", d->emcy[i].code,
 		       d->emcy[i].code ? co_emcy_code_to_string(d->emcy[i].code) : "error reset",
@@ -288,14 +294,18 @@ static int run_diag(ctl *c, int argc, char **argv)
 
 const ctl_cmd ctl_cmd_manager = {
 	.name = "manager",
-	.synopsis = "  manager LINE [start|request NODE|all CMD|reset-counters]  CiA 302-2 manager\n",
+	.synopsis =
+		"  manager LINE [start|request NODE|all CMD|reset-counters]  CiA 302-2 manager\n",
 	.help = "usage: cogwctl manager LINE [--json]\n"
 		"       cogwctl manager LINE start\n"
-		"       cogwctl manager LINE request NODE|all start|stop|pre-operational|reset-node|reset-comm\n"
+		"       cogwctl manager LINE request NODE|all "
+		"start|stop|pre-operational|reset-node|reset-comm\n"
 		"       cogwctl manager LINE reset-counters\n"
 		"\n"
-		"The CiA 302-2 manager of line LINE: its state (resetting, booting, wait-mandatory,\n"
-		"booted, operational, stopped, pre-operational, fatal), flags, the node bit lists,\n"
+		"The CiA 302-2 manager of line LINE: its state (resetting, booting, "
+		"wait-mandatory,\n"
+		"booted, operational, stopped, pre-operational, fatal), flags, the node bit "
+		"lists,\n"
 		"the first error and the counters. 'start' starts the network when 1F80h leaves\n"
 		"that to the application; 'request' is Request NMT (1F82h); 'reset-counters'\n"
 		"zeroes counters, EMCY histories and the first error. See docs/cogwctl.md.\n",
@@ -304,7 +314,8 @@ const ctl_cmd ctl_cmd_manager = {
 
 const ctl_cmd ctl_cmd_boot = {
 	.name = "boot",
-	.synopsis = "  boot LINE [NODE]                         boot the network or one node again\n",
+	.synopsis =
+		"  boot LINE [NODE]                         boot the network or one node again\n",
 	.help = "usage: cogwctl boot LINE [NODE] [--json]\n"
 		"\n"
 		"Runs the network boot of line LINE again (reset communication, boot every\n"
@@ -315,7 +326,8 @@ const ctl_cmd ctl_cmd_boot = {
 
 const ctl_cmd ctl_cmd_diag = {
 	.name = "diag",
-	.synopsis = "  diag LINE [NODE]                         manager diagnostics, EMCY history\n",
+	.synopsis =
+		"  diag LINE [NODE]                         manager diagnostics, EMCY history\n",
 	.help = "usage: cogwctl diag LINE [NODE] [--json]\n"
 		"\n"
 		"Without NODE: the line's bit lists, first error and counters (as 'manager').\n"

@@ -53,10 +53,8 @@ static const struct {
 	const char *name;
 	uint8_t cs;
 } nmt_actions[] = {
-	{ "start", CO_NMT_CS_START },
-	{ "stop", CO_NMT_CS_STOP },
-	{ "preop", CO_NMT_CS_ENTER_PREOP },
-	{ "reset-node", CO_NMT_CS_RESET_NODE },
+	{ "start", CO_NMT_CS_START },           { "stop", CO_NMT_CS_STOP },
+	{ "preop", CO_NMT_CS_ENTER_PREOP },     { "reset-node", CO_NMT_CS_RESET_NODE },
 	{ "reset-comm", CO_NMT_CS_RESET_COMM },
 };
 
@@ -76,7 +74,9 @@ static int run_nmt(ctl *c, int argc, char **argv)
 		if (strcmp(pos[0], nmt_actions[i].name) == 0)
 			act = (int)i;
 	if (act < 0)
-		return ctl_usage_error(c, "unknown ACTION '%s' (start, stop, preop, reset-node, reset-comm)", pos[0]);
+		return ctl_usage_error(
+			c, "unknown ACTION '%s' (start, stop, preop, reset-node, reset-comm)",
+			pos[0]);
 	unsigned line;
 	uint8_t node = 0;
 	bool self = strcmp(pos[2], "self") == 0;
@@ -110,7 +110,8 @@ static int run_nmt(ctl *c, int argc, char **argv)
 	} else if (node == 0) {
 		printf("line %u: NMT %s sent to all nodes\n", line, pos[0]);
 	} else {
-		printf("line %u: NMT %s sent to node %u%s\n", line, pos[0], node, self ? " (the daemon itself)" : "");
+		printf("line %u: NMT %s sent to node %u%s\n", line, pos[0], node,
+		       self ? " (the daemon itself)" : "");
 	}
 	return 0;
 }
@@ -118,9 +119,9 @@ static int run_nmt(ctl *c, int argc, char **argv)
 const ctl_cmd ctl_cmd_nmt = {
 	.name = "nmt",
 	.synopsis = "  nmt start|stop|preop|reset-node|reset-comm LINE NODE|all|self\n"
-		    "                                           NMT command to a node, all nodes or the daemon\n",
-	.help =
-		"usage: cogwctl nmt ACTION LINE NODE|all|self\n"
+		    "                                           NMT command to a node, all nodes "
+		    "or the daemon\n",
+	.help = "usage: cogwctl nmt ACTION LINE NODE|all|self\n"
 		"\n"
 		"The daemon, as NMT master of line LINE, sends an NMT command (COB-ID 000h):\n"
 		"  start       to OPERATIONAL (PDOs run)          cs 01h\n"
@@ -129,7 +130,8 @@ const ctl_cmd ctl_cmd_nmt = {
 		"  reset-node  reset application                  cs 81h\n"
 		"  reset-comm  reset communication                cs 82h\n"
 		"NODE 1..127 addresses one node, 'all' every node (node-ID 0 in the frame),\n"
-		"'self' the daemon's own node on that line (applied locally, no frame: the manager\n"
+		"'self' the daemon's own node on that line (applied locally, no frame: the "
+		"manager\n"
 		"must be OPERATIONAL itself for its RPDOs to deliver process data events).\n"
 		"The command succeeds when the frame is queued; watch the effect with\n"
 		"'cogwctl status' or 'cogwctl monitor --class nmt,hb'.\n"
@@ -165,7 +167,8 @@ static int run_pdo(ctl *c, int argc, char **argv)
 		uint64_t nr;
 		if (n_pos != 3)
 			return ctl_usage_error(c, "expected LINE TPDO");
-		if (ctl_arg_line(c, pos[1], &line) < 0 || ctl_arg_uint(c, pos[2], "TPDO", 512, &nr) < 0)
+		if (ctl_arg_line(c, pos[1], &line) < 0 ||
+		    ctl_arg_uint(c, pos[2], "TPDO", 512, &nr) < 0)
 			return CTL_EXIT_USAGE;
 		if (nr == 0)
 			return ctl_usage_error(c, "TPDO numbers are 1..512");
@@ -192,7 +195,8 @@ static int run_pdo(ctl *c, int argc, char **argv)
 	uint8_t sub;
 	const ctl_type *t = NULL;
 	if (write ? n_pos != 6 : (n_pos < 4 || n_pos > 5))
-		return ctl_usage_error(c, write ? "expected LINE INDEX SUB TYPE VALUE" : "expected LINE INDEX SUB [TYPE]");
+		return ctl_usage_error(c, write ? "expected LINE INDEX SUB TYPE VALUE"
+						: "expected LINE INDEX SUB [TYPE]");
 	if (ctl_arg_line(c, pos[1], &line) < 0 || ctl_arg_index(c, pos[2], &index) < 0 ||
 	    ctl_arg_sub(c, pos[3], &sub) < 0)
 		return CTL_EXIT_USAGE;
@@ -202,7 +206,8 @@ static int run_pdo(ctl *c, int argc, char **argv)
 		return ctl_usage_error(c, "process data values are 1..8 bytes: use a numeric type");
 	if (!write && trigger)
 		return ctl_usage_error(c, "--trigger is for write");
-	snprintf(ctx, sizeof ctx, "process data %s %04X:%02X on line %u", write ? "write" : "read", index, sub, line);
+	snprintf(ctx, sizeof ctx, "process data %s %04X:%02X on line %u", write ? "write" : "read",
+		 index, sub, line);
 	if (write) {
 		uint8_t *data;
 		size_t len;
@@ -224,7 +229,8 @@ static int run_pdo(ctl *c, int argc, char **argv)
 			cJSON_AddBoolToObject(o, "trigger", trigger);
 			ctl_json_print(o);
 		} else {
-			printf("%04X:%02X <- %s%s: ok\n", index, sub, pos[5], trigger ? " (TPDOs mapping it sent)" : "");
+			printf("%04X:%02X <- %s%s: ok\n", index, sub, pos[5],
+			       trigger ? " (TPDOs mapping it sent)" : "");
 		}
 		return 0;
 	}
@@ -236,7 +242,8 @@ static int run_pdo(ctl *c, int argc, char **argv)
 	if (rc < 0)
 		return ctl_fail(c, rc, 0, ctx);
 	if (t && len != t->size) {
-		fprintf(stderr, "cogwctl: %s: %zu bytes, %s needs %u\n", ctx, len, t->name, t->size);
+		fprintf(stderr, "cogwctl: %s: %zu bytes, %s needs %u\n", ctx, len, t->name,
+			t->size);
 		return CTL_EXIT_REFUSED;
 	}
 	if (c->json) {
@@ -259,16 +266,18 @@ const ctl_cmd ctl_cmd_pdo = {
 	.synopsis = "  pdo request LINE TPDO                    send a TPDO of the daemon now\n"
 		    "  pdo read|write LINE INDEX SUB [TYPE] [VALUE] [--trigger]\n"
 		    "                                           the daemon's process data image\n",
-	.help =
-		"usage: cogwctl pdo request LINE TPDO\n"
+	.help = "usage: cogwctl pdo request LINE TPDO\n"
 		"       cogwctl pdo read LINE INDEX SUB [TYPE]\n"
 		"       cogwctl pdo write LINE INDEX SUB TYPE VALUE [--trigger]\n"
 		"\n"
 		"Process data of the daemon's node on line LINE:\n"
-		"  request    send TPDO number TPDO (1..512) now (it must be valid, and the daemon\n"
+		"  request    send TPDO number TPDO (1..512) now (it must be valid, and the "
+		"daemon\n"
 		"             OPERATIONAL: 'cogwctl nmt start LINE self')\n"
-		"  read       the current value of a mapped object (what the last RPDO wrote), 1..8 bytes\n"
-		"  write      set an object that TPDOs map; --trigger sends the event-driven TPDOs\n"
+		"  read       the current value of a mapped object (what the last RPDO wrote), "
+		"1..8 bytes\n"
+		"  write      set an object that TPDOs map; --trigger sends the event-driven "
+		"TPDOs\n"
 		"             that map it at once (else they go with their timer or SYNC)\n"
 		"TYPE and VALUE as for 'sdo' (numeric types only for write).\n"
 		"To watch received PDOs as they come: 'cogwctl monitor --class pdo'.\n"
@@ -335,8 +344,7 @@ static int run_emcy(ctl *c, int argc, char **argv)
 const ctl_cmd ctl_cmd_emcy = {
 	.name = "emcy",
 	.synopsis = "  emcy send LINE CODE [REGISTER [DATA]]    the daemon sends an EMCY\n",
-	.help =
-		"usage: cogwctl emcy send LINE CODE [REGISTER [DATA]]\n"
+	.help = "usage: cogwctl emcy send LINE CODE [REGISTER [DATA]]\n"
 		"\n"
 		"The daemon's node on line LINE sends an emergency message (COB-ID 80h + its\n"
 		"node-ID, from 1014h): CODE is the 16-bit error code in hex (0 = error reset:\n"
@@ -368,8 +376,9 @@ static int lss_fail(ctl *c, int rc, const mbx_lss_resp *r, uint8_t cs, const cha
 		cJSON_AddNumberToObject(o, "exit", CTL_EXIT_REFUSED);
 		ctl_json_print(o);
 	} else if (r->error == LSS_EC_SPECIFIC) {
-		fprintf(stderr, "cogwctl: %s: LSS slave error 255 (implementation specific error %u)\n", ctx,
-			r->spec_error);
+		fprintf(stderr,
+			"cogwctl: %s: LSS slave error 255 (implementation specific error %u)\n",
+			ctx, r->spec_error);
 	} else {
 		fprintf(stderr, "cogwctl: %s: LSS slave error %u (%s)\n", ctx, r->error,
 			lss_error_to_string(cs, r->error));
@@ -415,7 +424,8 @@ static int run_lss(ctl *c, int argc, char **argv)
 		cmd = MBX_CMD_LSS_SWITCH_SELECTIVE;
 		want = 4;
 		if (n_pos != 6)
-			return ctl_usage_error(c, "expected 'select LINE VENDOR PRODUCT REVISION SERIAL'");
+			return ctl_usage_error(
+				c, "expected 'select LINE VENDOR PRODUCT REVISION SERIAL'");
 		uint32_t *f[4] = { &q.vendor, &q.product, &q.rev_lo, &q.ser_lo };
 		static const char *const names[4] = { "VENDOR", "PRODUCT", "REVISION", "SERIAL" };
 		for (int i = 0; i < 4; i++) {
@@ -448,18 +458,23 @@ static int run_lss(ctl *c, int argc, char **argv)
 		if (kbit) {
 			/* CiA table 0: find the index of that bit rate */
 			uint64_t k;
-			if (q.table != LSS_BT_TABLE_CIA || n_pos != 2 || ctl_arg_uint(c, kbit, "--kbit", 1000, &k) < 0)
-				return ctl_usage_error(c, "expected 'set-bit-timing LINE --kbit KBIT' (CiA table 0 only)");
+			if (q.table != LSS_BT_TABLE_CIA || n_pos != 2 ||
+			    ctl_arg_uint(c, kbit, "--kbit", 1000, &k) < 0)
+				return ctl_usage_error(c, "expected 'set-bit-timing LINE --kbit "
+							  "KBIT' (CiA table 0 only)");
 			int idx = -1;
 			for (uint8_t i = 0; i <= 8; i++)
 				if (lss_bit_rate_kbit(i) == k)
 					idx = i;
 			if (idx < 0)
-				return ctl_usage_error(c, "--kbit %" PRIu64 " is not in the CiA bit timing table", k);
+				return ctl_usage_error(
+					c, "--kbit %" PRIu64 " is not in the CiA bit timing table",
+					k);
 			q.bit_index = (uint8_t)idx;
 		} else {
 			if (n_pos != 3 || ctl_arg_uint(c, pos[2], "INDEX", 255, &v) < 0)
-				return ctl_usage_error(c, "expected 'set-bit-timing LINE INDEX [--table T]' or '--kbit KBIT'");
+				return ctl_usage_error(c, "expected 'set-bit-timing LINE INDEX "
+							  "[--table T]' or '--kbit KBIT'");
 			q.bit_index = (uint8_t)v;
 		}
 	} else if (!strcmp(act, "activate-bit-timing")) {
@@ -475,13 +490,15 @@ static int run_lss(ctl *c, int argc, char **argv)
 	} else if (!strcmp(act, "inquire")) {
 		cmd = MBX_CMD_LSS_INQUIRE;
 		want = 1;
-		static const char *const what[] = { "vendor", "product", "revision", "serial", "node" };
+		static const char *const what[] = { "vendor", "product", "revision", "serial",
+						    "node" };
 		q.what = 0;
 		for (int i = 0; i < 5 && n_pos == 3; i++)
 			if (!strcmp(pos[2], what[i]))
 				q.what = (uint8_t)(LSS_CS_INQUIRE_VENDOR + i);
 		if (!q.what)
-			return ctl_usage_error(c, "expected 'inquire LINE vendor|product|revision|serial|node'");
+			return ctl_usage_error(
+				c, "expected 'inquire LINE vendor|product|revision|serial|node'");
 	} else if (!strcmp(act, "identify")) {
 		cmd = MBX_CMD_LSS_IDENTIFY_NONCONF;
 		want = 0;
@@ -505,7 +522,8 @@ static int run_lss(ctl *c, int argc, char **argv)
 	mbx_lss_resp r;
 	memset(&r, 0, sizeof r);
 	rc = cogw_lss(h, line, cmd, &q, &r, c->timeout_ms);
-	if (rc == COGW_E_NOT_FOUND || (rc == 0 && cmd == MBX_CMD_LSS_IDENTIFY_NONCONF && !r.found)) {
+	if (rc == COGW_E_NOT_FOUND ||
+	    (rc == 0 && cmd == MBX_CMD_LSS_IDENTIFY_NONCONF && !r.found)) {
 		if (c->json) {
 			cJSON *o = json_ok(line);
 			cJSON_ReplaceItemInObject(o, "ok", cJSON_CreateBool(false));
@@ -515,7 +533,8 @@ static int run_lss(ctl *c, int argc, char **argv)
 		} else {
 			fprintf(stderr, "cogwctl: %s: no LSS slave answered%s\n", ctx,
 				cmd == MBX_CMD_LSS_FASTSCAN || cmd == MBX_CMD_LSS_IDENTIFY_NONCONF
-					? " (only unconfigured slaves, node-ID 255, take part)" : "");
+					? " (only unconfigured slaves, node-ID 255, take part)"
+					: "");
 		}
 		return CTL_EXIT_REFUSED;
 	}
@@ -533,9 +552,10 @@ static int run_lss(ctl *c, int argc, char **argv)
 			cJSON_AddNumberToObject(o, "revision", r.id[2]);
 			cJSON_AddNumberToObject(o, "serial", r.id[3]);
 		} else {
-			printf("line %u: found vendor 0x%08" PRIX32 " product 0x%08" PRIX32 " revision 0x%08" PRIX32
-			       " serial 0x%08" PRIX32 " (%" PRIu32 ")\n"
-			       "  that slave is now in LSS configuration state: 'lss set-node-id %u NODE', 'lss store %u'\n",
+			printf("line %u: found vendor 0x%08" PRIX32 " product 0x%08" PRIX32
+			       " revision 0x%08" PRIX32 " serial 0x%08" PRIX32 " (%" PRIu32 ")\n"
+			       "  that slave is now in LSS configuration state: 'lss set-node-id "
+			       "%u NODE', 'lss store %u'\n",
 			       line, r.id[0], r.id[1], r.id[2], r.id[3], r.id[3], line, line);
 		}
 		break;
@@ -543,7 +563,8 @@ static int run_lss(ctl *c, int argc, char **argv)
 		if (o)
 			cJSON_AddNumberToObject(o, "value", r.value);
 		else
-			printf("line %u: %s = %" PRIu32 " (0x%08" PRIX32 ")\n", line, pos[2], r.value, r.value);
+			printf("line %u: %s = %" PRIu32 " (0x%08" PRIX32 ")\n", line, pos[2],
+			       r.value, r.value);
 		break;
 	case MBX_CMD_LSS_IDENTIFY_NONCONF:
 		if (o)
@@ -566,16 +587,17 @@ const ctl_cmd ctl_cmd_lss = {
 	.synopsis = "  lss fastscan|identify|switch|select|set-node-id|set-bit-timing|\n"
 		    "      activate-bit-timing|store|inquire LINE ...\n"
 		    "                                           LSS master (CiA 305)\n",
-	.help =
-		"usage: cogwctl lss ACTION LINE [ARGS]\n"
+	.help = "usage: cogwctl lss ACTION LINE [ARGS]\n"
 		"\n"
 		"The daemon as LSS master (CiA 305) on line LINE:\n"
 		"  fastscan LINE                find one unconfigured slave (node-ID 255) by its\n"
-		"                               identity (1018h); it is left in configuration state\n"
+		"                               identity (1018h); it is left in configuration "
+		"state\n"
 		"  identify LINE                are there unconfigured slaves?\n"
 		"  switch LINE waiting|config   switch state global (all slaves)\n"
 		"  select LINE VENDOR PRODUCT REVISION SERIAL\n"
-		"                               switch state selective: that slave to configuration\n"
+		"                               switch state selective: that slave to "
+		"configuration\n"
 		"  set-node-id LINE NODE        configure node-ID (1..127, 255 = unconfigured)\n"
 		"  set-bit-timing LINE INDEX [--table T]   configure bit timing (table 0 = CiA)\n"
 		"  set-bit-timing LINE --kbit KBIT         the same by bit rate (CiA table)\n"

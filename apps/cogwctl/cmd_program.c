@@ -88,7 +88,8 @@ static int read_id(prog_run *r, const char *name, uint32_t *id, bool *have)
 				  r->c->timeout_ms, &abort);
 	*have = rc >= 0 && len == 4;
 	if (*have) {
-		*id = (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24;
+		*id = (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 |
+		      (uint32_t)b[3] << 24;
 		snprintf(detail, sizeof detail, "1F56:01 = 0x%08" PRIX32, *id);
 	} else if (rc >= 0) {
 		snprintf(detail, sizeof detail, "1F56:01 has %zu bytes, not 4", len);
@@ -142,7 +143,8 @@ static int run_program(ctl *c, int argc, char **argv)
 		return rc;
 	if (len == 0 || len > UINT32_MAX) {
 		free(image);
-		return ctl_usage_error(c, "%s: an image of 1..4294967295 bytes, not %zu", pos[2], len);
+		return ctl_usage_error(c, "%s: an image of 1..4294967295 bytes, not %zu", pos[2],
+				       len);
 	}
 	r.h = ctl_handle(c, &ex);
 	if (!r.h) {
@@ -193,7 +195,8 @@ static int run_program(ctl *c, int argc, char **argv)
 		r.steps = NULL;
 		ctl_json_print(o);
 	} else {
-		printf("node %u on line %u: program updated and running, software id 0x%08" PRIX32 "\n",
+		printf("node %u on line %u: program updated and running, software id 0x%08" PRIX32
+		       "\n",
 		       r.node, r.line, id);
 	}
 	rc = 0;
@@ -205,11 +208,12 @@ out:
 
 const ctl_cmd ctl_cmd_program = {
 	.name = "program",
-	.synopsis = "  program LINE NODE FILE [--expect ID]     update a node's program (1F50h..1F56h)\n",
-	.help =
-		"usage: cogwctl program LINE NODE FILE [--expect ID] [--sdo-timeout MS] [--json]\n"
+	.synopsis = "  program LINE NODE FILE [--expect ID]     update a node's program "
+		    "(1F50h..1F56h)\n",
+	.help = "usage: cogwctl program LINE NODE FILE [--expect ID] [--sdo-timeout MS] [--json]\n"
 		"\n"
-		"Manual program update of node NODE on line LINE, the CiA 302-3 software manager's\n"
+		"Manual program update of node NODE on line LINE, the CiA 302-3 software "
+		"manager's\n"
 		"steps done through the daemon's SDO client, each reported as it ends:\n"
 		"  check     read the software identification 1F56h:1 (shown; may be absent)\n"
 		"  stop      1F51h:1 = 0 (stop the program)\n"
@@ -218,14 +222,16 @@ const ctl_cmd ctl_cmd_program = {
 		"  start     1F51h:1 = 1 (the device checks and starts the new program)\n"
 		"  verify    read 1F56h:1 again; with --expect ID it must equal ID\n"
 		"\n"
-		"  FILE              the program image (any size up to the daemon's transfer limit,\n"
+		"  FILE              the program image (any size up to the daemon's transfer "
+		"limit,\n"
 		"                    1 MiB by default)\n"
 		"  --expect ID       expected software identification (as 1F55h:NODE), decimal or\n"
 		"                    0x hex\n"
 		"  --sdo-timeout MS  per-frame SDO timeout on the bus\n"
 		"\n"
 		"A failed step is boot status I (program download failed): the step, the object\n"
-		"and the SDO abort with its meaning are printed and the exit code is 1 (4 when the\n"
+		"and the SDO abort with its meaning are printed and the exit code is 1 (4 when "
+		"the\n"
 		"node did not answer). Raise --timeout for large images (the whole download is\n"
 		"one exchange with the daemon).\n"
 		"\n"
@@ -262,10 +268,11 @@ static int run_configure(ctl *c, int argc, char **argv)
 	if (!h)
 		return ex;
 	if (node)
-		snprintf(ctx, sizeof ctx, "configuration request 1F25:%02X (node %u) on line %u", sub,
-			 node, line);
+		snprintf(ctx, sizeof ctx, "configuration request 1F25:%02X (node %u) on line %u",
+			 sub, node, line);
 	else
-		snprintf(ctx, sizeof ctx, "configuration request 1F25:80 (all nodes) on line %u", line);
+		snprintf(ctx, sizeof ctx, "configuration request 1F25:80 (all nodes) on line %u",
+			 line);
 	rc = cogw_od_write(h, line, 0x1F25, sub, sig, sizeof sig, c->timeout_ms, &abort);
 	if (rc < 0)
 		return ctl_fail(c, rc, abort, ctx);
@@ -279,7 +286,8 @@ static int run_configure(ctl *c, int argc, char **argv)
 			cJSON_AddStringToObject(o, "node", "all");
 		ctl_json_print(o);
 	} else if (node) {
-		printf("line %u: node %u is booted and configured again (cogwctl monitor --class boot)\n",
+		printf("line %u: node %u is booted and configured again (cogwctl monitor --class "
+		       "boot)\n",
 		       line, node);
 	} else {
 		printf("line %u: every assigned node is booted and configured again\n", line);
@@ -290,8 +298,7 @@ static int run_configure(ctl *c, int argc, char **argv)
 const ctl_cmd ctl_cmd_configure = {
 	.name = "configure",
 	.synopsis = "  configure LINE NODE|all                  configuration request (1F25h)\n",
-	.help =
-		"usage: cogwctl configure LINE NODE|all [--json]\n"
+	.help = "usage: cogwctl configure LINE NODE|all [--json]\n"
 		"\n"
 		"The CiA 302-2 configuration request: writes the signature \"conf\" to 1F25h:NODE\n"
 		"(1F25h:128 for all) of the daemon's own object dictionary on line LINE. The\n"

@@ -88,7 +88,8 @@ static void line_text(unsigned line, const mbx_gw_status *st, const mbx_gw_route
 		if (r[i].kind == 1)
 			snprintf(how, sizeof how, "line %u", r[i].line);
 		else if (r[i].kind == 2)
-			snprintf(how, sizeof how, "line %u, router node %u", r[i].line, r[i].router);
+			snprintf(how, sizeof how, "line %u, router node %u", r[i].line,
+				 r[i].router);
 		else
 			snprintf(how, sizeof how, "-");
 		printf("  %7u  %-24s %7" PRIu64 "  %7" PRIu64 "  %9" PRIu64 "  %7" PRIu64 "\n",
@@ -155,9 +156,9 @@ static int run(ctl *c, int argc, char **argv)
 
 const ctl_cmd ctl_cmd_route = {
 	.name = "route",
-	.synopsis = "  route [LINE...]                          gateway: routing tables, counters\n",
-	.help =
-		"usage: cogwctl route [LINE...] [--json]\n"
+	.synopsis =
+		"  route [LINE...]                          gateway: routing tables, counters\n",
+	.help = "usage: cogwctl route [LINE...] [--json]\n"
 		"\n"
 		"The CiA 302-7 gateway of every line (or the lines given): the line's network,\n"
 		"routed SDO sessions (taken, routed, aborted, timed out, refused, running now,\n"

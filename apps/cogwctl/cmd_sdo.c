@@ -34,11 +34,11 @@ static void context(const obj_args *a, bool write, char *buf, size_t len)
 		snprintf(buf, len, "SDO %s %04X:%02X node %u of network %u via line %u",
 			 write ? "download" : "upload", a->index, a->sub, a->node, a->net, a->line);
 	else if (a->remote)
-		snprintf(buf, len, "SDO %s %04X:%02X node %u on line %u", write ? "download" : "upload",
-			 a->index, a->sub, a->node, a->line);
+		snprintf(buf, len, "SDO %s %04X:%02X node %u on line %u",
+			 write ? "download" : "upload", a->index, a->sub, a->node, a->line);
 	else
-		snprintf(buf, len, "local OD %s %04X:%02X on line %u", write ? "write" : "read", a->index,
-			 a->sub, a->line);
+		snprintf(buf, len, "local OD %s %04X:%02X on line %u", write ? "write" : "read",
+			 a->index, a->sub, a->line);
 }
 
 static cJSON *json_head(const obj_args *a)
@@ -71,11 +71,12 @@ static int do_read(ctl *c, cogw *h, const obj_args *a)
 			return CTL_EXIT_REFUSED;
 		}
 		if (a->net)
-			rc = cogw_sdo_read_net(h, a->line, a->net, a->node, a->index, a->sub, &a->opts,
-					       buf, cap, &len, c->timeout_ms, &abort);
+			rc = cogw_sdo_read_net(h, a->line, a->net, a->node, a->index, a->sub,
+					       &a->opts, buf, cap, &len, c->timeout_ms, &abort);
 		else
-			rc = a->remote ? cogw_sdo_read_ex(h, a->line, a->node, a->index, a->sub, &a->opts,
-							  buf, cap, &len, c->timeout_ms, &abort)
+			rc = a->remote ? cogw_sdo_read_ex(h, a->line, a->node, a->index, a->sub,
+							  &a->opts, buf, cap, &len, c->timeout_ms,
+							  &abort)
 				       : cogw_od_read(h, a->line, a->index, a->sub, buf, cap, &len,
 						      c->timeout_ms, &abort);
 		if (rc != COGW_E_TRUNCATED || attempt > 0 || len <= cap)
@@ -90,8 +91,8 @@ static int do_read(ctl *c, cogw *h, const obj_args *a)
 	}
 	if (a->type && a->type->size && len != a->type->size) {
 		char *hex = ctl_hex_text(buf, len, 16);
-		fprintf(stderr, "cogwctl: %s: the answer has %zu byte%s (%s), %s needs %u\n", ctx, len,
-			len == 1 ? "" : "s", hex, a->type->name, a->type->size);
+		fprintf(stderr, "cogwctl: %s: the answer has %zu byte%s (%s), %s needs %u\n", ctx,
+			len, len == 1 ? "" : "s", hex, a->type->name, a->type->size);
 		free(hex);
 		free(buf);
 		return CTL_EXIT_REFUSED;
@@ -145,13 +146,13 @@ static int do_write(ctl *c, cogw *h, const obj_args *a, const char *value)
 		return rc;
 	uint32_t abort = 0;
 	if (a->net)
-		rc = cogw_sdo_write_net(h, a->line, a->net, a->node, a->index, a->sub, &a->opts, data,
-					len, c->timeout_ms, &abort);
+		rc = cogw_sdo_write_net(h, a->line, a->net, a->node, a->index, a->sub, &a->opts,
+					data, len, c->timeout_ms, &abort);
 	else
 		rc = a->remote ? cogw_sdo_write_ex(h, a->line, a->node, a->index, a->sub, &a->opts,
 						   data, len, c->timeout_ms, &abort)
-			       : cogw_od_write(h, a->line, a->index, a->sub, data, len, c->timeout_ms,
-					       &abort);
+			       : cogw_od_write(h, a->line, a->index, a->sub, data, len,
+					       c->timeout_ms, &abort);
 	if (rc < 0) {
 		free(data);
 		return ctl_fail(c, rc, abort, ctx);
@@ -163,8 +164,8 @@ static int do_write(ctl *c, cogw *h, const obj_args *a, const char *value)
 		ctl_json_print(o);
 	} else {
 		char *text = value[0] == '@' ? NULL : ctl_value_text(a->type, data, len);
-		printf("%04X:%02X <- %s (%zu byte%s): ok\n", a->index, a->sub, text ? text : value, len,
-		       len == 1 ? "" : "s");
+		printf("%04X:%02X <- %s (%zu byte%s): ok\n", a->index, a->sub, text ? text : value,
+		       len, len == 1 ? "" : "s");
 		free(text);
 	}
 	free(data);
@@ -189,10 +190,8 @@ static int run_obj(ctl *c, int argc, char **argv, bool remote, const ctl_cmd *se
 	int n_pos;
 	const char *out = NULL, *mode = NULL, *sdo_timeout = NULL, *net = NULL;
 	ctl_opt sdo_opts[] = {
-		{ "--out", true, &out, NULL },
-		{ "--net", true, &net, NULL },
-		{ "--mode", true, &mode, NULL },
-		{ "--sdo-timeout", true, &sdo_timeout, NULL },
+		{ "--out", true, &out, NULL },   { "--net", true, &net, NULL },
+		{ "--mode", true, &mode, NULL }, { "--sdo-timeout", true, &sdo_timeout, NULL },
 		{ NULL, false, NULL, NULL },
 	};
 	ctl_opt od_opts[] = {
@@ -215,17 +214,21 @@ static int run_obj(ctl *c, int argc, char **argv, bool remote, const ctl_cmd *se
 	int k = 1;
 	int need = (remote ? 4 : 3) + (write ? 2 : 0);
 	if (n_pos - 1 < need || (!write && n_pos - 1 > need + 1) || (write && n_pos - 1 > need))
-		return ctl_usage_error(c, "%s", remote ? (write ? "expected LINE NODE INDEX SUB TYPE VALUE|@FILE"
-								 : "expected LINE NODE INDEX SUB [TYPE]")
-						       : (write ? "expected LINE INDEX SUB TYPE VALUE|@FILE"
-								: "expected LINE INDEX SUB [TYPE]"));
-	if (ctl_arg_line(c, pos[k++], &a.line) < 0 || (remote && ctl_arg_node(c, pos[k++], &a.node) < 0) ||
+		return ctl_usage_error(
+			c, "%s",
+			remote ? (write ? "expected LINE NODE INDEX SUB TYPE VALUE|@FILE"
+					: "expected LINE NODE INDEX SUB [TYPE]")
+			       : (write ? "expected LINE INDEX SUB TYPE VALUE|@FILE"
+					: "expected LINE INDEX SUB [TYPE]"));
+	if (ctl_arg_line(c, pos[k++], &a.line) < 0 ||
+	    (remote && ctl_arg_node(c, pos[k++], &a.node) < 0) ||
 	    ctl_arg_index(c, pos[k++], &a.index) < 0 || ctl_arg_sub(c, pos[k++], &a.sub) < 0)
 		return CTL_EXIT_USAGE;
 	if (k < n_pos) {
 		a.type = ctl_type_find(pos[k]);
 		if (!a.type)
-			return ctl_usage_error(c, "unknown TYPE '%s'; types: %s", pos[k], ctl_type_names());
+			return ctl_usage_error(c, "unknown TYPE '%s'; types: %s", pos[k],
+					       ctl_type_names());
 		k++;
 	}
 	if (write && out)
@@ -265,16 +268,20 @@ static int run_od(ctl *c, int argc, char **argv)
 
 const ctl_cmd ctl_cmd_sdo = {
 	.name = "sdo",
-	.synopsis = "  sdo read LINE NODE INDEX SUB [TYPE]      read an object of a node (SDO upload)\n"
-		    "  sdo write LINE NODE INDEX SUB TYPE VALUE|@FILE\n"
-		    "                                           write an object of a node (SDO download)\n",
-	.help =
-		"usage: cogwctl sdo read LINE NODE INDEX SUB [TYPE] [--out FILE] [--mode M] [--sdo-timeout MS]\n"
+	.synopsis =
+		"  sdo read LINE NODE INDEX SUB [TYPE]      read an object of a node (SDO upload)\n"
+		"  sdo write LINE NODE INDEX SUB TYPE VALUE|@FILE\n"
+		"                                           write an object of a node (SDO "
+		"download)\n",
+	.help = "usage: cogwctl sdo read LINE NODE INDEX SUB [TYPE] [--out FILE] [--mode M] "
+		"[--sdo-timeout MS]\n"
 		"                        [--net NET]\n"
-		"       cogwctl sdo write LINE NODE INDEX SUB TYPE VALUE|@FILE [--mode M] [--sdo-timeout MS]\n"
+		"       cogwctl sdo write LINE NODE INDEX SUB TYPE VALUE|@FILE [--mode M] "
+		"[--sdo-timeout MS]\n"
 		"                        [--net NET]\n"
 		"\n"
-		"The daemon reads (uploads) or writes (downloads) object INDEX:SUB of node NODE on\n"
+		"The daemon reads (uploads) or writes (downloads) object INDEX:SUB of node NODE "
+		"on\n"
 		"line LINE with its SDO client. Any size: expedited, segmented or block transfer\n"
 		"as the size requires (the daemon's limit is 1 MiB by default).\n"
 		"\n"
@@ -284,8 +291,10 @@ const ctl_cmd ctl_cmd_sdo = {
 		"                 bool, u8..u64 (also u24/u40/u48/u56), i8..i64, r32, r64,\n"
 		"                 string (VISIBLE_STRING), hex (OCTET_STRING), domain; the CiA\n"
 		"                 names (UNSIGNED32, REAL32, ...) work too. Without TYPE a read\n"
-		"                 prints the bytes in hex and, for 1/2/4/8 bytes, the unsigned value.\n"
-		"  VALUE          integers decimal or 0x hex, range-checked for the type; reals as\n"
+		"                 prints the bytes in hex and, for 1/2/4/8 bytes, the unsigned "
+		"value.\n"
+		"  VALUE          integers decimal or 0x hex, range-checked for the type; reals "
+		"as\n"
 		"                 decimal numbers; bool 0/1/true/false; string as given; hex and\n"
 		"                 domain as hex bytes (\"01 02 ff\" or 0102ff)\n"
 		"  @FILE          (string, hex, domain) the value is the contents of FILE\n"
@@ -293,14 +302,17 @@ const ctl_cmd ctl_cmd_sdo = {
 		"  --mode M       auto (default), expedited, segmented or block\n"
 		"  --sdo-timeout MS  per-frame SDO timeout on the bus (default: the line's, 1000)\n"
 		"  --net NET      node NODE of network NET (1..127), wherever it is: the daemon's\n"
-		"                 gateway routes the transfer by LINE's routing table 1F2Ch, to the\n"
+		"                 gateway routes the transfer by LINE's routing table 1F2Ch, to "
+		"the\n"
 		"                 line that network is attached to or through the next router\n"
 		"                 (docs/gateway.md). Refusals: abort 0x0A000001 (no route),\n"
 		"                 0x0A000002 (no answer), 0x060A0023 (no SDO client free)\n"
 		"\n"
 		"An SDO abort is printed with its CiA 301 meaning and exits 1, e.g.\n"
-		"  cogwctl sdo read: SDO upload 2001:00 node 1 on line 0: abort 0x06020000 (object does not exist)\n"
-		"A node that does not answer gives abort 0x05040000 (SDO protocol timed out) and exit 4.\n"
+		"  cogwctl sdo read: SDO upload 2001:00 node 1 on line 0: abort 0x06020000 (object "
+		"does not exist)\n"
+		"A node that does not answer gives abort 0x05040000 (SDO protocol timed out) and "
+		"exit 4.\n"
 		"For large transfers raise --timeout (the whole exchange with the daemon).\n"
 		"\n"
 		"Examples:\n"
@@ -310,16 +322,17 @@ const ctl_cmd ctl_cmd_sdo = {
 		"  cogwctl sdo write 0 1 2005 1 r32 98.5\n"
 		"  cogwctl sdo write 0 5 2100 0 domain @firmware.bin --mode block --timeout 60000\n"
 		"  cogwctl sdo read 0 5 2100 0 domain --out dump.bin\n"
-		"  cogwctl sdo read 0 2 1018 1 u32 --net 2   node 2 of network 2, asked on line 0\n",
+		"  cogwctl sdo read 0 2 1018 1 u32 --net 2   node 2 of network 2, asked on line "
+		"0\n",
 	.run = run_sdo,
 };
 
 const ctl_cmd ctl_cmd_od = {
 	.name = "od",
-	.synopsis = "  od read|write LINE INDEX SUB [TYPE] [VALUE]\n"
-		    "                                           the daemon's own object dictionary\n",
-	.help =
-		"usage: cogwctl od read LINE INDEX SUB [TYPE] [--out FILE]\n"
+	.synopsis =
+		"  od read|write LINE INDEX SUB [TYPE] [VALUE]\n"
+		"                                           the daemon's own object dictionary\n",
+	.help = "usage: cogwctl od read LINE INDEX SUB [TYPE] [--out FILE]\n"
 		"       cogwctl od write LINE INDEX SUB TYPE VALUE|@FILE\n"
 		"\n"
 		"Read or write an object of the daemon's own object dictionary on line LINE (the\n"

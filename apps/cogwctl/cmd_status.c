@@ -85,8 +85,10 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 			cJSON_AddNumberToObject(e, "node", nodes[i].node);
 			cJSON_AddStringToObject(e, "nmt_state", nmt_text(nodes[i].nmt_state));
 			cJSON_AddStringToObject(e, "heartbeat",
-						nodes[i].hb == 1 ? "active" : nodes[i].hb == 2 ? "lost"
-						: nodes[i].hb == 3 ? "waiting" : "off");
+						nodes[i].hb == 1   ? "active"
+						: nodes[i].hb == 2 ? "lost"
+						: nodes[i].hb == 3 ? "waiting"
+								   : "off");
 			if (nodes[i].last_heard_ms != UINT32_MAX)
 				cJSON_AddNumberToObject(e, "last_heard_ms", nodes[i].last_heard_ms);
 			else
@@ -101,28 +103,33 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 		cJSON_AddItemToArray(arr, o);
 		return 0;
 	}
-	printf("line %u: CAN %s, %" PRIu32 " kbit/s, bus load %" PRIu32 ".%" PRIu32 " %%, own node %u %s\n", line,
-	       mbx_can_state_to_string(st.can_state), st.bitrate / 1000u, st.bus_load_permille / 10u,
-	       st.bus_load_permille % 10u, st.node_id, nmt_text(st.nmt_state));
-	printf("  frames: rx %" PRIu64 ", tx %" PRIu64 ", rx dropped %" PRIu64 ", tx failed %" PRIu64
-	       ", error frames %" PRIu64 ", bus-off %" PRIu64 "\n",
-	       st.rx_frames, st.tx_frames, st.rx_dropped, st.tx_failed, st.err_frames, st.bus_off_count);
-	printf("  mailbox: %" PRIu32 " client%s, %" PRIu64 " commands, %" PRIu64 " malformed, %" PRIu64
-	       " denied, %" PRIu64 " events sent, %" PRIu64 " dropped\n",
-	       ms.clients, ms.clients == 1 ? "" : "s", ms.commands_ok, ms.malformed, ms.access_denied,
-	       ms.events_sent, ms.dropped);
+	printf("line %u: CAN %s, %" PRIu32 " kbit/s, bus load %" PRIu32 ".%" PRIu32
+	       " %%, own node %u %s\n",
+	       line, mbx_can_state_to_string(st.can_state), st.bitrate / 1000u,
+	       st.bus_load_permille / 10u, st.bus_load_permille % 10u, st.node_id,
+	       nmt_text(st.nmt_state));
+	printf("  frames: rx %" PRIu64 ", tx %" PRIu64 ", rx dropped %" PRIu64
+	       ", tx failed %" PRIu64 ", error frames %" PRIu64 ", bus-off %" PRIu64 "\n",
+	       st.rx_frames, st.tx_frames, st.rx_dropped, st.tx_failed, st.err_frames,
+	       st.bus_off_count);
+	printf("  mailbox: %" PRIu32 " client%s, %" PRIu64 " commands, %" PRIu64
+	       " malformed, %" PRIu64 " denied, %" PRIu64 " events sent, %" PRIu64 " dropped\n",
+	       ms.clients, ms.clients == 1 ? "" : "s", ms.commands_ok, ms.malformed,
+	       ms.access_denied, ms.events_sent, ms.dropped);
 	if (has_gw)
-		printf("  gateway: network %u; SDO routed %" PRIu64 ", aborted %" PRIu64 ", timed out %" PRIu64
-		       ", refused %" PRIu64 ", relayed frames %" PRIu64 "; PDO forwarded %" PRIu64
-		       ", applied %" PRIu64 ", dropped %" PRIu64 "; EMCY forwarded %" PRIu64 ", sent %" PRIu64 "\n",
-		       gw.network_id, gw.routed, gw.aborted, gw.timed_out, gw.refused, gw.relayed_frames,
-		       gw.pdo_forwarded, gw.pdo_applied, gw.pdo_dropped, gw.emcy_forwarded, gw.emcy_sent);
+		printf("  gateway: network %u; SDO routed %" PRIu64 ", aborted %" PRIu64
+		       ", timed out %" PRIu64 ", refused %" PRIu64 ", relayed frames %" PRIu64
+		       "; PDO forwarded %" PRIu64 ", applied %" PRIu64 ", dropped %" PRIu64
+		       "; EMCY forwarded %" PRIu64 ", sent %" PRIu64 "\n",
+		       gw.network_id, gw.routed, gw.aborted, gw.timed_out, gw.refused,
+		       gw.relayed_frames, gw.pdo_forwarded, gw.pdo_applied, gw.pdo_dropped,
+		       gw.emcy_forwarded, gw.emcy_sent);
 	if (n == 0) {
 		printf("  nodes: none heard yet\n");
 		return 0;
 	}
-	printf("  %4s  %-16s  %-13s  %-11s  %-7s  %s\n", "node", "NMT state", "heartbeat", "last heard",
-	       "boot-up", "EMCY");
+	printf("  %4s  %-16s  %-13s  %-11s  %-7s  %s\n", "node", "NMT state", "heartbeat",
+	       "last heard", "boot-up", "EMCY");
 	for (int i = 0; i < n; i++) {
 		char heard[24] = "never", emcy[40] = "-";
 		if (nodes[i].last_heard_ms != UINT32_MAX)
@@ -130,10 +137,11 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 				 nodes[i].last_heard_ms % 1000u / 100u);
 		if (nodes[i].emcy_count)
 			snprintf(emcy, sizeof emcy, "%s, last %04Xh (%u)",
-				 nodes[i].flags & 2 ? "error active" : "no error", nodes[i].last_emcy,
-				 nodes[i].emcy_count);
-		printf("  %4u  %-16s  %-13s  %-11s  %-7s  %s\n", nodes[i].node, nmt_text(nodes[i].nmt_state),
-		       hb_text(nodes[i].hb), heard, nodes[i].flags & 1 ? "seen" : "-", emcy);
+				 nodes[i].flags & 2 ? "error active" : "no error",
+				 nodes[i].last_emcy, nodes[i].emcy_count);
+		printf("  %4u  %-16s  %-13s  %-11s  %-7s  %s\n", nodes[i].node,
+		       nmt_text(nodes[i].nmt_state), hb_text(nodes[i].hb), heard,
+		       nodes[i].flags & 1 ? "seen" : "-", emcy);
 	}
 	return 0;
 }
@@ -187,13 +195,14 @@ static int run(ctl *c, int argc, char **argv)
 const ctl_cmd ctl_cmd_status = {
 	.name = "status",
 	.synopsis = "  status [LINE...]                         lines, node tables, counters\n",
-	.help =
-		"usage: cogwctl status [LINE...]\n"
+	.help = "usage: cogwctl status [LINE...]\n"
 		"\n"
 		"For every line of the daemon (or the lines given): the CAN controller state, the\n"
-		"bit rate, the daemon's own node-ID and NMT state, frame counters (received, sent,\n"
+		"bit rate, the daemon's own node-ID and NMT state, frame counters (received, "
+		"sent,\n"
 		"dropped on receive, failed to send, error frames, bus-off events) and mailbox\n"
-		"counters (clients, commands, malformed, denied, events sent, dropped), the gateway's\n"
+		"counters (clients, commands, malformed, denied, events sent, dropped), the "
+		"gateway's\n"
 		"traffic through the line (routed SDO, PDO forwarding, EMCY routing). Then the\n"
 		"node table: every node the line has heard or supervises, with its NMT state\n"
 		"(from its last heartbeat or boot-up), heartbeat supervision (active, LOST, not\n"

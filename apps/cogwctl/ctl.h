@@ -24,10 +24,10 @@
 /* Exit codes (docs/cogwctl.md). */
 enum ctl_exit {
 	CTL_EXIT_OK = 0,
-	CTL_EXIT_REFUSED = 1, /* SDO abort, LSS error, the daemon refused */
-	CTL_EXIT_USAGE = 2,   /* bad command line */
+	CTL_EXIT_REFUSED = 1,   /* SDO abort, LSS error, the daemon refused */
+	CTL_EXIT_USAGE = 2,     /* bad command line */
 	CTL_EXIT_NO_DAEMON = 3, /* daemon (or that line) not reachable */
-	CTL_EXIT_TIMEOUT = 4, /* no answer in time (daemon or device) */
+	CTL_EXIT_TIMEOUT = 4,   /* no answer in time (daemon or device) */
 };
 
 typedef struct ctl {
@@ -54,8 +54,8 @@ typedef struct ctl_opt {
 /* Split argv into options and positionals (at most max_pos). An argument
  * "-5" or "-0.5" is a positional (negative number), "--" ends options.
  * Returns 0 or CTL_EXIT_USAGE (message printed). */
-int ctl_parse(ctl *c, int argc, char **argv, const ctl_opt *opts,
-	      const char **pos, int max_pos, int *n_pos);
+int ctl_parse(ctl *c, int argc, char **argv, const ctl_opt *opts, const char **pos, int max_pos,
+	      int *n_pos);
 /* Parse one global option at argv[*i]; returns 1 if consumed, 0 if not a
  * global option, -1 on a usage error (message printed). */
 int ctl_global_option(ctl *c, int argc, char **argv, int *i);
@@ -106,7 +106,7 @@ typedef struct ctl_type {
 	const char *name;  /* short name: u8, i16, r32, string, hex, domain */
 	const char *alias; /* CiA name: UNSIGNED8, ... */
 	co_type type;
-	uint8_t size;      /* bytes; 0 = variable (string, hex, domain) */
+	uint8_t size; /* bytes; 0 = variable (string, hex, domain) */
 } ctl_type;
 
 /* By short name or CiA name, case-insensitive; NULL if unknown. */
@@ -129,28 +129,27 @@ char *ctl_hex_text(const uint8_t *data, size_t len, size_t max);
 
 typedef struct ctl_cmd {
 	const char *name;
-	const char *synopsis; /* for the overview */
-	const char *help;     /* full --help text */
+	const char *synopsis;                      /* for the overview */
+	const char *help;                          /* full --help text */
 	int (*run)(ctl *c, int argc, char **argv); /* argv[0] = the name */
 } ctl_cmd;
 
-extern const ctl_cmd ctl_cmd_status, ctl_cmd_sdo, ctl_cmd_od, ctl_cmd_nmt,
-	ctl_cmd_pdo, ctl_cmd_emcy, ctl_cmd_lss, ctl_cmd_monitor, ctl_cmd_raw,
-	ctl_cmd_dcf, ctl_cmd_route, ctl_cmd_manager, ctl_cmd_boot, ctl_cmd_diag,
-	ctl_cmd_program, ctl_cmd_configure;
+extern const ctl_cmd ctl_cmd_status, ctl_cmd_sdo, ctl_cmd_od, ctl_cmd_nmt, ctl_cmd_pdo,
+	ctl_cmd_emcy, ctl_cmd_lss, ctl_cmd_monitor, ctl_cmd_raw, ctl_cmd_dcf, ctl_cmd_route,
+	ctl_cmd_manager, ctl_cmd_boot, ctl_cmd_diag, ctl_cmd_program, ctl_cmd_configure;
 
 /* Print a subcommand's help (stdout) and return 0. */
 int ctl_print_help(const ctl_cmd *cmd);
 
 /* monitor.c: the event loop shared by "monitor" and "raw dump". */
 typedef struct ctl_monitor_spec {
-	uint64_t lines;       /* bit per line; 0 = every line of the daemon */
-	uint32_t classes;     /* MBX_EVC_* */
+	uint64_t lines;   /* bit per line; 0 = every line of the daemon */
+	uint32_t classes; /* MBX_EVC_* */
 	mbx_raw_filter filters[MBX_RAW_FILTERS_MAX];
 	size_t n_filters;
-	uint64_t count;       /* stop after this many events, 0 = no limit */
-	double duration_s;    /* stop after this long, 0 = no limit */
-	bool as_float;        /* PDO values of 4 bytes as REAL32 */
+	uint64_t count;    /* stop after this many events, 0 = no limit */
+	double duration_s; /* stop after this long, 0 = no limit */
+	bool as_float;     /* PDO values of 4 bytes as REAL32 */
 } ctl_monitor_spec;
 int ctl_monitor_run(ctl *c, const ctl_monitor_spec *spec);
 /* "ID[/MASK]" (3 hex digits or fewer = 11-bit, 8 = 29-bit). */

@@ -11,10 +11,10 @@
 #include "apps/cogwctl/ctl.h"
 
 static const ctl_cmd *const commands[] = {
-	&ctl_cmd_status, &ctl_cmd_sdo, &ctl_cmd_od, &ctl_cmd_nmt, &ctl_cmd_pdo,
-	&ctl_cmd_emcy, &ctl_cmd_lss, &ctl_cmd_monitor, &ctl_cmd_raw,
-	&ctl_cmd_dcf, &ctl_cmd_route, &ctl_cmd_manager, &ctl_cmd_boot, &ctl_cmd_diag,
-	&ctl_cmd_program, &ctl_cmd_configure,
+	&ctl_cmd_status, &ctl_cmd_sdo,  &ctl_cmd_od,      &ctl_cmd_nmt,
+	&ctl_cmd_pdo,    &ctl_cmd_emcy, &ctl_cmd_lss,     &ctl_cmd_monitor,
+	&ctl_cmd_raw,    &ctl_cmd_dcf,  &ctl_cmd_route,   &ctl_cmd_manager,
+	&ctl_cmd_boot,   &ctl_cmd_diag, &ctl_cmd_program, &ctl_cmd_configure,
 };
 #define N_COMMANDS (sizeof commands / sizeof commands[0])
 
@@ -33,7 +33,8 @@ static void overview(FILE *to)
 	fprintf(to,
 		"\n"
 		"Global options (accepted before or after the command):\n"
-		"  --instance NAME  mailbox instance of the daemon (default: $COGW_INSTANCE, else \"main\")\n"
+		"  --instance NAME  mailbox instance of the daemon (default: $COGW_INSTANCE, else "
+		"\"main\")\n"
 		"  --timeout MS     how long to wait for each answer of the daemon (default 5000)\n"
 		"  --json           machine-readable output: one JSON object per result or event\n"
 		"  --help, -h       this text; 'cogwctl COMMAND --help' explains one command\n"
@@ -41,7 +42,8 @@ static void overview(FILE *to)
 		"\n"
 		"Exit status:\n"
 		"  0  success\n"
-		"  1  refused: SDO abort (code and meaning printed), LSS error, the daemon refused\n"
+		"  1  refused: SDO abort (code and meaning printed), LSS error, the daemon "
+		"refused\n"
 		"  2  usage error (bad command line or value)\n"
 		"  3  daemon not reachable (no cogwd for this instance, or no such line)\n"
 		"  4  timeout: the daemon or the device did not answer in time; the message\n"
@@ -67,7 +69,8 @@ int main(int argc, char **argv)
 	const char *env = getenv("COGW_INSTANCE");
 	if (env && *env) {
 		if (!mbx_instance_is_valid(env)) {
-			fprintf(stderr, "cogwctl: $COGW_INSTANCE '%s' is not a valid instance name\n", env);
+			fprintf(stderr,
+				"cogwctl: $COGW_INSTANCE '%s' is not a valid instance name\n", env);
 			return CTL_EXIT_USAGE;
 		}
 		c.instance = env;

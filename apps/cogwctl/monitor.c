@@ -41,7 +41,8 @@ static const char *nmt_text(uint8_t s)
 static void frame_text(const mbx_raw_frame *f, char *buf, size_t len)
 {
 	uint32_t id = f->id & 0x1FFFFFFFu;
-	size_t off = (size_t)snprintf(buf, len, (f->id & MBX_RAW_EXT) ? "%08" PRIX32 "#" : "%03" PRIX32 "#", id);
+	size_t off = (size_t)snprintf(
+		buf, len, (f->id & MBX_RAW_EXT) ? "%08" PRIX32 "#" : "%03" PRIX32 "#", id);
 	if (f->id & MBX_RAW_RTR) {
 		if (f->len)
 			snprintf(buf + off, len - off, "R%u", f->len);
@@ -93,11 +94,13 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		mbx_ev_node e;
 		memcpy(&e, m->data, sizeof e);
 		if (m->code == MBX_EV_NMT_STATE)
-			snprintf(text, sizeof text, "node %u %s -> %s", e.node, nmt_text(e.prev), nmt_text(e.state));
+			snprintf(text, sizeof text, "node %u %s -> %s", e.node, nmt_text(e.prev),
+				 nmt_text(e.state));
 		else if (m->code == MBX_EV_BOOTUP)
 			snprintf(text, sizeof text, "node %u boot-up", e.node);
 		else if (m->code == MBX_EV_HB_STARTED)
-			snprintf(text, sizeof text, "node %u heartbeat started (%s)", e.node, nmt_text(e.state));
+			snprintf(text, sizeof text, "node %u heartbeat started (%s)", e.node,
+				 nmt_text(e.state));
 		else
 			snprintf(text, sizeof text, "node %u heartbeat LOST", e.node);
 		if (o) {
@@ -109,7 +112,8 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		break;
 	}
 	case MBX_EV_GW_SDO: {
-		static const char *const outcome[] = { "routed", "aborted", "timed out", "refused" };
+		static const char *const outcome[] = { "routed", "aborted", "timed out",
+						       "refused" };
 		mbx_ev_gw_sdo e;
 		char ab[96] = "";
 		memcpy(&e, m->data, sizeof e);
@@ -119,11 +123,13 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		if (e.target_line == 0xFF)
 			snprintf(sub, sizeof sub, "refused before leaving");
 		else if (e.router)
-			snprintf(sub, sizeof sub, "via line %u, router node %u", e.target_line, e.router);
+			snprintf(sub, sizeof sub, "via line %u, router node %u", e.target_line,
+				 e.router);
 		else
 			snprintf(sub, sizeof sub, "via line %u", e.target_line);
-		snprintf(text, sizeof text, "routed SDO to network %u node %u (%s): %s%s%s, %u frames",
-			 e.net, e.node, sub, oc, e.abort ? ", abort " : "", ab, e.frames);
+		snprintf(text, sizeof text,
+			 "routed SDO to network %u node %u (%s): %s%s%s, %u frames", e.net, e.node,
+			 sub, oc, e.abort ? ", abort " : "", ab, e.frames);
 		if (o) {
 			cJSON_AddNumberToObject(o, "net", e.net);
 			cJSON_AddNumberToObject(o, "node", e.node);
@@ -140,8 +146,9 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 	case MBX_EV_GW_EMCY: {
 		mbx_ev_gw_emcy e;
 		memcpy(&e, m->data, sizeof e);
-		snprintf(text, sizeof text, "EMCY %04X of node %u (network %u) forwarded to lines mask %04X",
-			 e.code, e.src_node, e.src_net, e.lines);
+		snprintf(text, sizeof text,
+			 "EMCY %04X of node %u (network %u) forwarded to lines mask %04X", e.code,
+			 e.src_node, e.src_net, e.lines);
 		if (o) {
 			cJSON_AddNumberToObject(o, "src_net", e.src_net);
 			cJSON_AddNumberToObject(o, "src_node", e.src_node);
@@ -154,13 +161,16 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		mbx_ev_emcy e;
 		memcpy(&e, m->data, sizeof e);
 		char *hex = ctl_hex_text(e.msef, 5, 5);
-		snprintf(text, sizeof text, "node %u EMCY %04X (%s) register %02X data %s", e.node, e.code,
-			 e.code ? co_emcy_code_to_string(e.code) : "error reset", e.reg, hex);
+		snprintf(text, sizeof text, "node %u EMCY %04X (%s) register %02X data %s", e.node,
+			 e.code, e.code ? co_emcy_code_to_string(e.code) : "error reset", e.reg,
+			 hex);
 		if (o) {
 			cJSON_AddNumberToObject(o, "ts_us", (double)e.ts_us);
 			cJSON_AddNumberToObject(o, "node", e.node);
 			cJSON_AddNumberToObject(o, "code", e.code);
-			cJSON_AddStringToObject(o, "code_text", e.code ? co_emcy_code_to_string(e.code) : "error reset");
+			cJSON_AddStringToObject(o, "code_text",
+						e.code ? co_emcy_code_to_string(e.code)
+						       : "error reset");
 			cJSON_AddNumberToObject(o, "register", e.reg);
 			cJSON_AddStringToObject(o, "data", hex);
 		}
@@ -172,7 +182,8 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		memcpy(&e, m->data, sizeof e);
 		size_t off = (size_t)snprintf(text, sizeof text, "RPDO %u:", e.pdo);
 		cJSON *vals = o ? cJSON_CreateArray() : NULL;
-		for (unsigned i = 0; i < e.n && sizeof e + (i + 1) * sizeof(mbx_pdo_value) <= m->len; i++) {
+		for (unsigned i = 0;
+		     i < e.n && sizeof e + (i + 1) * sizeof(mbx_pdo_value) <= m->len; i++) {
 			mbx_pdo_value v;
 			memcpy(&v, m->data + sizeof e + i * sizeof v, sizeof v);
 			pdo_value_text(&v, spec->as_float, sub, sizeof sub);
@@ -206,9 +217,12 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		memcpy(&e, m->data, sizeof e);
 		char ab[128] = "ok";
 		if (e.abort)
-			snprintf(ab, sizeof ab, "abort 0x%08" PRIX32 " (%s)", e.abort, sdo_abort_to_string(e.abort));
-		snprintf(text, sizeof text, "node %u SDO %s %04X:%02X %" PRIu32 " bytes: %s (client %" PRIu32 ")",
-			 e.node, e.upload ? "upload" : "download", e.index, e.sub, e.size, ab, e.client);
+			snprintf(ab, sizeof ab, "abort 0x%08" PRIX32 " (%s)", e.abort,
+				 sdo_abort_to_string(e.abort));
+		snprintf(text, sizeof text,
+			 "node %u SDO %s %04X:%02X %" PRIu32 " bytes: %s (client %" PRIu32 ")",
+			 e.node, e.upload ? "upload" : "download", e.index, e.sub, e.size, ab,
+			 e.client);
 		if (o) {
 			cJSON_AddNumberToObject(o, "node", e.node);
 			cJSON_AddBoolToObject(o, "upload", e.upload);
@@ -230,16 +244,18 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		st[1] = 0;
 		if (m->code == MBX_EV_MGR_STATE)
 			snprintf(text, sizeof text, "manager %s -> %s (flags %02X)",
-				 co_mgr_state_to_string(e.prev), co_mgr_state_to_string(e.state), e.flags);
+				 co_mgr_state_to_string(e.prev), co_mgr_state_to_string(e.state),
+				 e.flags);
 		else if (m->code == MBX_EV_MGR_BOOT && e.status && e.status != 'L')
 			snprintf(text, sizeof text,
-				 "node %u boot %s %04X:%02X FAILED: status %c (%s), abort 0x%08" PRIX32
-				 ", value 0x%08" PRIX32 " expected 0x%08" PRIX32,
+				 "node %u boot %s %04X:%02X FAILED: status %c (%s), abort "
+				 "0x%08" PRIX32 ", value 0x%08" PRIX32 " expected 0x%08" PRIX32,
 				 e.node, co_mgr_step_to_string(e.step), e.index, e.sub, e.status,
 				 co_mgr_status_to_string(e.status), e.abort, e.value, e.expected);
 		else if (m->code == MBX_EV_MGR_BOOT)
 			snprintf(text, sizeof text, "node %u boot %s%s%s", e.node,
-				 co_mgr_step_to_string(e.step), e.status == 'L' ? " L (was operational)" : " ok",
+				 co_mgr_step_to_string(e.step),
+				 e.status == 'L' ? " L (was operational)" : " ok",
 				 e.done ? ": booted" : "");
 		else
 			snprintf(text, sizeof text, "node %u %s (%" PRIu32 ")", e.node,
@@ -247,7 +263,8 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		if (o) {
 			cJSON_AddNumberToObject(o, "node", e.node);
 			if (m->code == MBX_EV_MGR_STATE) {
-				cJSON_AddStringToObject(o, "state", co_mgr_state_to_string(e.state));
+				cJSON_AddStringToObject(o, "state",
+							co_mgr_state_to_string(e.state));
 				cJSON_AddStringToObject(o, "prev", co_mgr_state_to_string(e.prev));
 				cJSON_AddNumberToObject(o, "flags", e.flags);
 			} else if (m->code == MBX_EV_MGR_BOOT) {
@@ -261,7 +278,8 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 				cJSON_AddBoolToObject(o, "done", e.done);
 				cJSON_AddBoolToObject(o, "mandatory", e.mandatory);
 			} else {
-				cJSON_AddStringToObject(o, "what", co_mgr_node_what_to_string(e.what));
+				cJSON_AddStringToObject(o, "what",
+							co_mgr_node_what_to_string(e.what));
 				cJSON_AddNumberToObject(o, "value", e.value);
 			}
 		}
@@ -271,7 +289,8 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		mbx_ev_can_state e;
 		memcpy(&e, m->data, sizeof e);
 		snprintf(text, sizeof text, "CAN %s -> %s (tx errors %u, rx errors %u)",
-			 mbx_can_state_to_string(e.prev), mbx_can_state_to_string(e.state), e.tec, e.rec);
+			 mbx_can_state_to_string(e.prev), mbx_can_state_to_string(e.state), e.tec,
+			 e.rec);
 		if (o) {
 			cJSON_AddStringToObject(o, "state", mbx_can_state_to_string(e.state));
 			cJSON_AddStringToObject(o, "prev", mbx_can_state_to_string(e.prev));
@@ -295,7 +314,8 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 	case MBX_EV_OD_WRITTEN: {
 		mbx_ev_od_written e;
 		memcpy(&e, m->data, sizeof e);
-		snprintf(text, sizeof text, "own OD %04X:%02X written (%" PRIu32 " bytes)", e.index, e.sub, e.size);
+		snprintf(text, sizeof text, "own OD %04X:%02X written (%" PRIu32 " bytes)", e.index,
+			 e.sub, e.size);
 		if (o) {
 			cJSON_AddNumberToObject(o, "index", e.index);
 			cJSON_AddNumberToObject(o, "sub", e.sub);
@@ -306,8 +326,10 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 	case MBX_EV_OVERFLOW: {
 		mbx_ev_overflow e;
 		memcpy(&e, m->data, sizeof e);
-		snprintf(text, sizeof text, "our event queue overflowed: %" PRIu32 " events and %" PRIu32
-			 " responses were lost", e.dropped_events, e.dropped_responses);
+		snprintf(text, sizeof text,
+			 "our event queue overflowed: %" PRIu32 " events and %" PRIu32
+			 " responses were lost",
+			 e.dropped_events, e.dropped_responses);
 		if (o) {
 			cJSON_AddNumberToObject(o, "dropped_events", e.dropped_events);
 			cJSON_AddNumberToObject(o, "dropped_responses", e.dropped_responses);
@@ -347,8 +369,9 @@ int ctl_monitor_run(ctl *c, const ctl_monitor_spec *spec)
 			continue;
 		char ctx[64];
 		snprintf(ctx, sizeof ctx, "subscribe on line %u", line);
-		int rc = cogw_subscribe(h, line, spec->classes, spec->n_filters ? spec->filters : NULL,
-					spec->n_filters, c->timeout_ms);
+		int rc = cogw_subscribe(h, line, spec->classes,
+					spec->n_filters ? spec->filters : NULL, spec->n_filters,
+					c->timeout_ms);
 		if (rc < 0)
 			return ctl_fail(c, rc, 0, ctx);
 	}
@@ -358,8 +381,8 @@ int ctl_monitor_run(ctl *c, const ctl_monitor_spec *spec)
 	size_t off = 0;
 	for (uint32_t bit = 1; bit && bit <= MBX_EVC_MANAGER; bit <<= 1)
 		if ((spec->classes & bit) && off < sizeof what)
-			off += (size_t)snprintf(what + off, sizeof what - off, "%s%s", off ? "," : "",
-						mbx_event_class_to_string(bit));
+			off += (size_t)snprintf(what + off, sizeof what - off, "%s%s",
+						off ? "," : "", mbx_event_class_to_string(bit));
 	fprintf(stderr, "cogwctl %s: watching %s events on line%s", c->what, what,
 		(lines & (lines - 1)) ? "s" : "");
 	for (unsigned line = 0; line < MBX_LINES_MAX; line++)
@@ -387,7 +410,8 @@ int ctl_monitor_run(ctl *c, const ctl_monitor_spec *spec)
 			continue;
 		if (rc < 0)
 			return ctl_fail(c, rc, 0, "receiving events");
-		if (m.kind == MBX_KIND_EVENT && m.line < MBX_LINES_MAX && (lines & ((uint64_t)1 << m.line))) {
+		if (m.kind == MBX_KIND_EVENT && m.line < MBX_LINES_MAX &&
+		    (lines & ((uint64_t)1 << m.line))) {
 			print_event(c, &m, spec);
 			if (m.code != MBX_EV_OVERFLOW)
 				seen++;
@@ -395,8 +419,8 @@ int ctl_monitor_run(ctl *c, const ctl_monitor_spec *spec)
 		cogw_msg_release(&m);
 	}
 	if (!c->json)
-		fprintf(stderr, "cogwctl %s: %" PRIu64 " event%s in %.1f s\n", c->what, seen, seen == 1 ? "" : "s",
-			mono_s() - start);
+		fprintf(stderr, "cogwctl %s: %" PRIu64 " event%s in %.1f s\n", c->what, seen,
+			seen == 1 ? "" : "s", mono_s() - start);
 	return 0;
 }
 
@@ -406,10 +430,10 @@ static const struct {
 	const char *name;
 	uint32_t bits;
 } class_names[] = {
-	{ "nmt", MBX_EVC_NMT }, { "hb", MBX_EVC_HB },   { "boot", MBX_EVC_BOOT }, { "emcy", MBX_EVC_EMCY },
-	{ "pdo", MBX_EVC_PDO }, { "sdo", MBX_EVC_SDO }, { "can", MBX_EVC_CAN },   { "raw", MBX_EVC_RAW },
-	{ "od", MBX_EVC_OD },   { "manager", MBX_EVC_MANAGER }, { "gateway", MBX_EVC_GW },
-	{ "all", MBX_EVC_ALL },
+	{ "nmt", MBX_EVC_NMT },         { "hb", MBX_EVC_HB },      { "boot", MBX_EVC_BOOT },
+	{ "emcy", MBX_EVC_EMCY },       { "pdo", MBX_EVC_PDO },    { "sdo", MBX_EVC_SDO },
+	{ "can", MBX_EVC_CAN },         { "raw", MBX_EVC_RAW },    { "od", MBX_EVC_OD },
+	{ "manager", MBX_EVC_MANAGER }, { "gateway", MBX_EVC_GW }, { "all", MBX_EVC_ALL },
 };
 
 /* Split "a,b,c" and call fn on each part. */
@@ -441,7 +465,10 @@ static int add_class(ctl *c, const char *s, void *arg)
 			*(uint32_t *)arg |= class_names[i].bits;
 			return 0;
 		}
-	return ctl_usage_error(c, "unknown event class '%s' (nmt, hb, boot, emcy, pdo, sdo, can, raw, od, manager, gateway, all)", s);
+	return ctl_usage_error(c,
+			       "unknown event class '%s' (nmt, hb, boot, emcy, pdo, sdo, can, raw, "
+			       "od, manager, gateway, all)",
+			       s);
 }
 
 static int add_filter(ctl *c, const char *s, void *arg)
@@ -465,7 +492,8 @@ static int parse_limits(ctl *c, ctl_monitor_spec *spec, const char *count, const
 		char *end;
 		double d = strtod(duration, &end);
 		if (end == duration || *end || !(d > 0) || d > 1e7)
-			return ctl_usage_error(c, "--duration '%s': seconds > 0 (e.g. 5 or 0.5)", duration);
+			return ctl_usage_error(c, "--duration '%s': seconds > 0 (e.g. 5 or 0.5)",
+					       duration);
 		spec->duration_s = d;
 	}
 	return 0;
@@ -478,9 +506,12 @@ static int run_monitor(ctl *c, int argc, char **argv)
 	const char *line = NULL, *cls = NULL, *filter = NULL, *count = NULL, *duration = NULL;
 	bool as_float = false;
 	ctl_opt opts[] = {
-		{ "--line", true, &line, NULL },       { "--class", true, &cls, NULL },
-		{ "--raw-filter", true, &filter, NULL }, { "--count", true, &count, NULL },
-		{ "--duration", true, &duration, NULL }, { "--float", false, NULL, &as_float },
+		{ "--line", true, &line, NULL },
+		{ "--class", true, &cls, NULL },
+		{ "--raw-filter", true, &filter, NULL },
+		{ "--count", true, &count, NULL },
+		{ "--duration", true, &duration, NULL },
+		{ "--float", false, NULL, &as_float },
 		{ NULL, false, NULL, NULL },
 	};
 	int rc = ctl_parse(c, argc, argv, opts, pos, 0, &n_pos);
@@ -511,8 +542,8 @@ const ctl_cmd ctl_cmd_monitor = {
 	.synopsis = "  monitor [--line L,..] [--class C,..] [--raw-filter ID[/MASK],..]\n"
 		    "          [--count N] [--duration S] [--float]\n"
 		    "                                           live events, one line each\n",
-	.help =
-		"usage: cogwctl monitor [--line L[,L..]] [--class C[,C..]] [--raw-filter ID[/MASK][,..]]\n"
+	.help = "usage: cogwctl monitor [--line L[,L..]] [--class C[,C..]] [--raw-filter "
+		"ID[/MASK][,..]]\n"
 		"                       [--count N] [--duration S] [--float]\n"
 		"\n"
 		"Subscribes to events of the daemon and prints one line per event, with the\n"
@@ -525,22 +556,27 @@ const ctl_cmd ctl_cmd_monitor = {
 		"  --line L,..      lines to watch (default: every line of the daemon)\n"
 		"  --class C,..     event classes (default: all but raw; gateway = routed SDO\n"
 		"                   sessions ending and EMCYs forwarded):\n"
-		"                   nmt   NMT state changes (from heartbeats and the daemon's own)\n"
+		"                   nmt   NMT state changes (from heartbeats and the daemon's "
+		"own)\n"
 		"                   hb    heartbeat supervision started / lost\n"
 		"                   boot  boot-up messages\n"
-		"                   emcy  emergency messages received, with the error code's meaning\n"
+		"                   emcy  emergency messages received, with the error code's "
+		"meaning\n"
 		"                   pdo   RPDOs received by the daemon, with the mapped values\n"
 		"                   sdo   SDO transfers of any client finished\n"
 		"                   can   CAN controller state (error-passive, bus-off, ...)\n"
 		"                   raw   every CAN frame (can-utils notation 181#0000A040)\n"
 		"                   od    the daemon's own object dictionary written over SDO\n"
 		"                   all   all of these (raw included)\n"
-		"  --raw-filter F,..  raw frames matching ID[/MASK] only (hex; 1..3 digits = 11-bit,\n"
+		"  --raw-filter F,..  raw frames matching ID[/MASK] only (hex; 1..3 digits = "
+		"11-bit,\n"
 		"                   8 digits = 29-bit; at most 4); implies --class raw\n"
 		"  --count N        stop after N events\n"
 		"  --duration S     stop after S seconds\n"
-		"  --float          show PDO values of 4 bytes as REAL32 numbers; without it every\n"
-		"                   value is shown as hex bytes plus the unsigned little-endian number\n"
+		"  --float          show PDO values of 4 bytes as REAL32 numbers; without it "
+		"every\n"
+		"                   value is shown as hex bytes plus the unsigned little-endian "
+		"number\n"
 		"With --json every event is one JSON object per line (4-byte PDO values always\n"
 		"carry an \"r32\" member as well as \"hex\").\n"
 		"\n"
@@ -593,8 +629,11 @@ static int parse_frame(ctl *c, const char *s, mbx_raw_frame *f)
 	f->len = (uint8_t)len;
 	return 0;
 bad:
-	ctl_usage_error(c, "frame '%s': ID#DATA as cansend writes it (123#DEADBEEF, 12345678#11.22, 123#R, 123#R2);"
-			   " 3 hex digits = 11-bit id, 8 = 29-bit; at most 8 data bytes", s);
+	ctl_usage_error(c,
+			"frame '%s': ID#DATA as cansend writes it (123#DEADBEEF, 12345678#11.22, "
+			"123#R, 123#R2);"
+			" 3 hex digits = 11-bit id, 8 = 29-bit; at most 8 data bytes",
+			s);
 	return -1;
 }
 
@@ -614,7 +653,8 @@ static int run_raw(ctl *c, int argc, char **argv)
 	if (c->help)
 		return ctl_print_help(&ctl_cmd_raw);
 	if (n_pos < 2)
-		return ctl_usage_error(c, "expected 'send LINE FRAME...' or 'dump LINE [FILTER...]'");
+		return ctl_usage_error(c,
+				       "expected 'send LINE FRAME...' or 'dump LINE [FILTER...]'");
 	unsigned line;
 	if (!strcmp(pos[0], "dump")) {
 		c->what = "raw dump";
@@ -670,20 +710,24 @@ static int run_raw(ctl *c, int argc, char **argv)
 
 const ctl_cmd ctl_cmd_raw = {
 	.name = "raw",
-	.synopsis = "  raw send LINE ID#DATA...                 send CAN frames through the daemon\n"
-		    "  raw dump LINE [ID[/MASK]...] [--count N] [--duration S]\n"
-		    "                                           print CAN frames the line receives\n",
-	.help =
-		"usage: cogwctl raw send LINE FRAME...\n"
+	.synopsis =
+		"  raw send LINE ID#DATA...                 send CAN frames through the daemon\n"
+		"  raw dump LINE [ID[/MASK]...] [--count N] [--duration S]\n"
+		"                                           print CAN frames the line receives\n",
+	.help = "usage: cogwctl raw send LINE FRAME...\n"
 		"       cogwctl raw dump LINE [ID[/MASK]...] [--count N] [--duration S]\n"
 		"\n"
-		"send   the daemon puts up to 32 frames on line LINE, in order. FRAME is written as\n"
+		"send   the daemon puts up to 32 frames on line LINE, in order. FRAME is written "
+		"as\n"
 		"       for can-utils' cansend: ID#DATA with ID 3 hex digits (11-bit) or 8 hex\n"
 		"       digits (29-bit) and DATA 0..8 bytes in hex ('.' separators allowed);\n"
 		"       ID#R is a remote frame (ID#R2: with DLC 2).\n"
-		"dump   prints the frames the daemon receives on line LINE (the monitor's raw class),\n"
-		"       optionally only those matching up to 4 filters ID[/MASK] (hex; 1..3 digits =\n"
-		"       11-bit, 8 digits = 29-bit; no MASK = exactly that id). Ends on Ctrl-C, --count\n"
+		"dump   prints the frames the daemon receives on line LINE (the monitor's raw "
+		"class),\n"
+		"       optionally only those matching up to 4 filters ID[/MASK] (hex; 1..3 digits "
+		"=\n"
+		"       11-bit, 8 digits = 29-bit; no MASK = exactly that id). Ends on Ctrl-C, "
+		"--count\n"
 		"       or --duration. Frames the daemon sends itself are not received by it.\n"
 		"\n"
 		"Examples:\n"

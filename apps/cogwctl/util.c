@@ -62,7 +62,8 @@ int ctl_global_option(ctl *c, int argc, char **argv, int *i)
 	if (opt_is(a, "--instance")) {
 		v = opt_value(argc, argv, i, a, "--instance", &missing);
 		if (missing || !mbx_instance_is_valid(v)) {
-			ctl_usage_error(c, "--instance needs a name of 1..%u characters [A-Za-z0-9_-]",
+			ctl_usage_error(c,
+					"--instance needs a name of 1..%u characters [A-Za-z0-9_-]",
 					MBX_INSTANCE_MAX - 1);
 			return -1;
 		}
@@ -85,7 +86,8 @@ int ctl_global_option(ctl *c, int argc, char **argv, int *i)
 
 static bool looks_negative_number(const char *a)
 {
-	return a[0] == '-' && (isdigit((unsigned char)a[1]) || (a[1] == '.' && isdigit((unsigned char)a[2])));
+	return a[0] == '-' &&
+	       (isdigit((unsigned char)a[1]) || (a[1] == '.' && isdigit((unsigned char)a[2])));
 }
 
 int ctl_parse(ctl *c, int argc, char **argv, const ctl_opt *opts, const char **pos, int max_pos,
@@ -140,7 +142,8 @@ int ctl_usage_error(ctl *c, const char *fmt, ...)
 	va_start(ap, fmt);
 	vfprintf(stderr, fmt, ap);
 	va_end(ap);
-	fprintf(stderr, "\n(see 'cogwctl%s%s --help')\n", c->what ? " " : "", c->what ? c->what : "");
+	fprintf(stderr, "\n(see 'cogwctl%s%s --help')\n", c->what ? " " : "",
+		c->what ? c->what : "");
 	return CTL_EXIT_USAGE;
 }
 
@@ -355,7 +358,8 @@ int ctl_arg_index(ctl *c, const char *s, uint16_t *index)
 	*index = (uint16_t)strtoul(buf, NULL, 16);
 	return 0;
 bad:
-	ctl_usage_error(c, "INDEX '%s': an object index is hex 0000..FFFF (\"1018\", \"0x1018\")", s);
+	ctl_usage_error(c, "INDEX '%s': an object index is hex 0000..FFFF (\"1018\", \"0x1018\")",
+			s);
 	return -1;
 }
 
@@ -380,7 +384,8 @@ int ctl_parse_hex_bytes(const char *s, uint8_t *out, size_t cap, size_t *n, cons
 			continue;
 		}
 		if (!isxdigit((unsigned char)p[0]) || !isxdigit((unsigned char)p[1])) {
-			*err = "not a hex byte string (pairs of hex digits, optionally separated by spaces, ':' or '.')";
+			*err = "not a hex byte string (pairs of hex digits, optionally separated "
+			       "by spaces, ':' or '.')";
 			return -1;
 		}
 		if (k >= cap) {
@@ -399,7 +404,8 @@ int ctl_read_file(ctl *c, const char *path, uint8_t **data, size_t *len)
 {
 	FILE *f = fopen(path, "rb");
 	if (!f) {
-		fprintf(stderr, "cogwctl %s: %s: %s\n", c->what ? c->what : "", path, strerror(errno));
+		fprintf(stderr, "cogwctl %s: %s: %s\n", c->what ? c->what : "", path,
+			strerror(errno));
 		return CTL_EXIT_USAGE;
 	}
 	size_t cap = 4096, n = 0;
@@ -471,7 +477,8 @@ const ctl_type *ctl_type_find(const char *name)
 
 const char *ctl_type_names(void)
 {
-	return "bool, u8, u16, u24, u32, u40, u48, u56, u64, i8, i16, i24, i32, i40, i48, i56, i64, "
+	return "bool, u8, u16, u24, u32, u40, u48, u56, u64, i8, i16, i24, i32, i40, i48, i56, "
+	       "i64, "
 	       "r32, r64, string, hex, domain (or the CiA names UNSIGNED8, REAL32, VISIBLE_STRING, "
 	       "OCTET_STRING, DOMAIN, ...)";
 }
@@ -501,7 +508,8 @@ int ctl_value_encode(ctl *c, const ctl_type *t, const char *value, uint8_t **dat
 		if (ctl_parse_hex_bytes(value, *data, cap, len, &err) < 0) {
 			free(*data);
 			*data = NULL;
-			return ctl_usage_error(c, "VALUE '%s' for %s: %s (or @FILE)", value, t->name, err);
+			return ctl_usage_error(c, "VALUE '%s' for %s: %s (or @FILE)", value,
+					       t->name, err);
 		}
 		return 0;
 	}
@@ -510,14 +518,16 @@ int ctl_value_encode(ctl *c, const ctl_type *t, const char *value, uint8_t **dat
 		if (!strcmp(value, "1") || !strcasecmp(value, "true"))
 			buf[0] = 1;
 		else if (strcmp(value, "0") && strcasecmp(value, "false"))
-			return ctl_usage_error(c, "VALUE '%s' for bool: use 0, 1, true or false", value);
+			return ctl_usage_error(c, "VALUE '%s' for bool: use 0, 1, true or false",
+					       value);
 	} else if (t->type == CO_T_REAL32 || t->type == CO_T_REAL64) {
 		char *end;
 		errno = 0;
 		double d = strtod(value, &end);
 		if (end == value || *end || isspace((unsigned char)value[0]) || !isfinite(d) ||
 		    (t->type == CO_T_REAL32 && fabs(d) > 3.4028234663852886e38))
-			return ctl_usage_error(c, "VALUE '%s' for %s: not a finite number%s", value, t->name,
+			return ctl_usage_error(c, "VALUE '%s' for %s: not a finite number%s", value,
+					       t->name,
 					       t->type == CO_T_REAL32 ? " within +-3.4e38" : "");
 		if (t->type == CO_T_REAL32) {
 			float f = (float)d;
@@ -531,8 +541,9 @@ int ctl_value_encode(ctl *c, const ctl_type *t, const char *value, uint8_t **dat
 		int64_t max = bits == 64 ? INT64_MAX : ((int64_t)1 << (bits - 1)) - 1;
 		int64_t v;
 		if (ctl_parse_i64(value, min, max, &v, &err) < 0)
-			return ctl_usage_error(c, "VALUE '%s' for %s: %s (%" PRId64 "..%" PRId64 ")", value,
-					       t->name, err, min, max);
+			return ctl_usage_error(c,
+					       "VALUE '%s' for %s: %s (%" PRId64 "..%" PRId64 ")",
+					       value, t->name, err, min, max);
 		for (unsigned i = 0; i < t->size; i++)
 			buf[i] = (uint8_t)((uint64_t)v >> (8 * i));
 	} else {
@@ -540,8 +551,8 @@ int ctl_value_encode(ctl *c, const ctl_type *t, const char *value, uint8_t **dat
 		uint64_t max = bits == 64 ? UINT64_MAX : ((uint64_t)1 << bits) - 1;
 		uint64_t v;
 		if (ctl_parse_u64(value, max, &v, &err) < 0)
-			return ctl_usage_error(c, "VALUE '%s' for %s: %s (0..%" PRIu64 ")", value, t->name, err,
-					       max);
+			return ctl_usage_error(c, "VALUE '%s' for %s: %s (0..%" PRIu64 ")", value,
+					       t->name, err, max);
 		for (unsigned i = 0; i < t->size; i++)
 			buf[i] = (uint8_t)(v >> (8 * i));
 	}
@@ -597,7 +608,8 @@ char *ctl_value_text(const ctl_type *t, const uint8_t *data, size_t len)
 	if (!t) {
 		char *hex = ctl_hex_text(data, len, 64);
 		if (len == 1 || len == 2 || len == 4 || len == 8) {
-			if (asprintf(&s, "%s (= %" PRIu64 " as u%zu)", hex, le_uint(data, len), len * 8) < 0)
+			if (asprintf(&s, "%s (= %" PRIu64 " as u%zu)", hex, le_uint(data, len),
+				     len * 8) < 0)
 				s = NULL;
 		} else if (printable(data, len) && len <= 256) {
 			if (asprintf(&s, "%s (\"%.*s\")", hex, (int)len, (const char *)data) < 0)
@@ -631,8 +643,8 @@ char *ctl_value_text(const ctl_type *t, const uint8_t *data, size_t len)
 	} else if (type_is_signed(t))
 		r = asprintf(&s, "%" PRId64, le_int(data, t->size));
 	else
-		r = asprintf(&s, "%" PRIu64 " (0x%0*" PRIX64 ")", le_uint(data, t->size), t->size * 2,
-			     le_uint(data, t->size));
+		r = asprintf(&s, "%" PRIu64 " (0x%0*" PRIX64 ")", le_uint(data, t->size),
+			     t->size * 2, le_uint(data, t->size));
 	return r < 0 ? NULL : s;
 }
 
@@ -724,7 +736,9 @@ int ctl_parse_raw_filter(ctl *c, const char *s, mbx_raw_filter *f)
 	f->mask = mask | MBX_RAW_EXT;
 	return 0;
 bad:
-	ctl_usage_error(c, "filter '%s': ID[/MASK] in hex, 1..3 digits = 11-bit, 8 digits = 29-bit (e.g. 181, 700/780, 18FF0001)",
+	ctl_usage_error(c,
+			"filter '%s': ID[/MASK] in hex, 1..3 digits = 11-bit, 8 digits = 29-bit "
+			"(e.g. 181, 700/780, 18FF0001)",
 			s);
 	return -1;
 }
@@ -746,7 +760,9 @@ int ctl_count_lines(ctl *c)
 	if (n == 0) {
 		char name[MBX_QNAME_MAX];
 		mbx_queue_name(name, sizeof name, c->instance, 0);
-		fprintf(stderr, "cogwctl: no daemon for mailbox instance '%s' (queue %s does not exist; is cogwd running?)\n",
+		fprintf(stderr,
+			"cogwctl: no daemon for mailbox instance '%s' (queue %s does not exist; is "
+			"cogwd running?)\n",
 			c->instance, name);
 		return -CTL_EXIT_NO_DAEMON;
 	}

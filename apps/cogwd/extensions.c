@@ -26,13 +26,15 @@ int cogwd_exts_setup(cogwd_exts *x, const cogw_config *cfg)
 	for (unsigned i = 0; cogwd_ext_providers[i]; i++) {
 		const cogwd_ext_provider *p = cogwd_ext_providers[i];
 		if (i >= LINE_EXT_MAX) {
-			cogw_log(COGW_LOG_ERR, "more extension providers than LINE_EXT_MAX (%d)", LINE_EXT_MAX);
+			cogw_log(COGW_LOG_ERR, "more extension providers than LINE_EXT_MAX (%d)",
+				 LINE_EXT_MAX);
 			cogwd_exts_teardown(x);
 			return -E2BIG;
 		}
 		int rc = p->setup ? p->setup(cfg, &x->state[i]) : 0;
 		if (rc < 0) {
-			cogw_log(COGW_LOG_ERR, "extension %s: cannot set up: %s", p->name, strerror(-rc));
+			cogw_log(COGW_LOG_ERR, "extension %s: cannot set up: %s", p->name,
+				 strerror(-rc));
 			cogwd_exts_teardown(x);
 			return rc;
 		}

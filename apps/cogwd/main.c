@@ -46,24 +46,24 @@ typedef struct daemon_state {
 
 static void usage(FILE *to)
 {
-	fprintf(to,
-		"usage: cogwd [OPTIONS]\n"
-		"  -c, --config FILE     configuration (default: the embedded default,\n"
-		"                        which is etc/cogw.json at build time)\n"
-		"  -s, --state-dir DIR   where 1010h \"save\" persists (overrides the config)\n"
-		"  -t, --check           validate the configuration and exit\n"
-		"      --print-default   print the embedded default configuration\n"
-		"  -v, --verbose         debug log lines\n"
-		"  -h, --help            this text\n"
-		"Signals: SIGTERM/SIGINT stop cleanly, SIGHUP reloads what can change at run time.\n");
+	fprintf(to, "usage: cogwd [OPTIONS]\n"
+		    "  -c, --config FILE     configuration (default: the embedded default,\n"
+		    "                        which is etc/cogw.json at build time)\n"
+		    "  -s, --state-dir DIR   where 1010h \"save\" persists (overrides the config)\n"
+		    "  -t, --check           validate the configuration and exit\n"
+		    "      --print-default   print the embedded default configuration\n"
+		    "  -v, --verbose         debug log lines\n"
+		    "  -h, --help            this text\n"
+		    "Signals: SIGTERM/SIGINT stop cleanly, SIGHUP reloads what can change at run "
+		    "time.\n");
 }
 
 static int load_config(daemon_state *d, cogw_config *cfg)
 {
 	char err[512];
-	int rc = d->config_path
-		? cogw_config_load_file(cfg, d->config_path, err, sizeof err)
-		: cogw_config_load_string(cfg, cogw_default_config_json, "<embedded default>", err, sizeof err);
+	int rc = d->config_path ? cogw_config_load_file(cfg, d->config_path, err, sizeof err)
+				: cogw_config_load_string(cfg, cogw_default_config_json,
+							  "<embedded default>", err, sizeof err);
 	if (rc < 0) {
 		cogw_log(COGW_LOG_ERR, "%s", err);
 		return rc;
@@ -82,7 +82,8 @@ static int prepare_state_dir(const char *dir)
 		return -errno;
 	}
 	if (access(dir, W_OK) != 0) {
-		cogw_log(COGW_LOG_ERR, "state directory %s is not writable: %s", dir, strerror(errno));
+		cogw_log(COGW_LOG_ERR, "state directory %s is not writable: %s", dir,
+			 strerror(errno));
 		return -errno;
 	}
 	return 0;
@@ -102,9 +103,12 @@ static int create_lines(daemon_state *d)
 	fill_rules(d);
 	for (size_t i = 0; i < c->n_lines; i++) {
 		const cogw_line_config *lc = &c->lines[i];
-		int rc = mbx_queue_name(d->queue_names[i], sizeof d->queue_names[i], c->mailbox.instance, (unsigned)i);
+		int rc = mbx_queue_name(d->queue_names[i], sizeof d->queue_names[i],
+					c->mailbox.instance, (unsigned)i);
 		if (rc < 0) {
-			cogw_log(COGW_LOG_ERR, "line %s: cannot form a queue name for instance '%s'", lc->name, c->mailbox.instance);
+			cogw_log(COGW_LOG_ERR,
+				 "line %s: cannot form a queue name for instance '%s'", lc->name,
+				 c->mailbox.instance);
 			return rc;
 		}
 		line_params p = {
@@ -162,18 +166,20 @@ static int create_lines(daemon_state *d)
 
 static void status_line(daemon_state *d, char *buf, size_t len)
 {
-	size_t off = (size_t)snprintf(buf, len, "%zu line%s:", d->n_lines, d->n_lines == 1 ? "" : "s");
+	size_t off = (size_t)snprintf(buf, len, "%zu line%s:", d->n_lines,
+				      d->n_lines == 1 ? "" : "s");
 	for (size_t i = 0; i < d->n_lines && off < len; i++) {
 		line_stats s;
 		if (!line_stats_snapshot(d->lines[i], &s)) {
-			off += (size_t)snprintf(buf + off, len - off, " %s starting;", line_name(d->lines[i]));
+			off += (size_t)snprintf(buf + off, len - off, " %s starting;",
+						line_name(d->lines[i]));
 			continue;
 		}
-		off += (size_t)snprintf(buf + off, len - off, " %s %s %u node%s %u.%u%% load %u client%s;",
-					line_name(d->lines[i]), can_bus_state_to_string(s.bus_state),
-					s.nodes_seen, s.nodes_seen == 1 ? "" : "s",
-					s.bus_load_permille / 10, s.bus_load_permille % 10,
-					s.mbx_clients, s.mbx_clients == 1 ? "" : "s");
+		off += (size_t)snprintf(
+			buf + off, len - off, " %s %s %u node%s %u.%u%% load %u client%s;",
+			line_name(d->lines[i]), can_bus_state_to_string(s.bus_state), s.nodes_seen,
+			s.nodes_seen == 1 ? "" : "s", s.bus_load_permille / 10,
+			s.bus_load_permille % 10, s.mbx_clients, s.mbx_clients == 1 ? "" : "s");
 	}
 	if (off > 0 && off < len && buf[off - 1] == ';')
 		buf[off - 1] = '\0';
@@ -211,12 +217,14 @@ static void log_memory(const daemon_state *d)
 	 * or not). */
 	if (d->cfg.mlockall)
 		cogw_log(COGW_LOG_NOTICE,
-			 "memory: %zu KiB of line buffers reserved (max_transfer %u bytes), %lu KiB pinned in "
+			 "memory: %zu KiB of line buffers reserved (max_transfer %u bytes), %lu "
+			 "KiB pinned in "
 			 "RAM (mlockall: buffers are locked as they are first used)",
 			 buffers / 1024, d->cfg.mailbox.max_transfer, proc_status_kb("VmRSS"));
 	else
 		cogw_log(COGW_LOG_NOTICE,
-			 "memory: %zu KiB of line buffers reserved (max_transfer %u bytes), %lu KiB resident",
+			 "memory: %zu KiB of line buffers reserved (max_transfer %u bytes), %lu "
+			 "KiB resident",
 			 buffers / 1024, d->cfg.mailbox.max_transfer, proc_status_kb("VmRSS"));
 }
 
@@ -230,8 +238,11 @@ static void watchdog_tick(daemon_state *d, uint64_t now)
 		uint64_t seen = line_last_checkin_us(d->lines[i]);
 		if (now > seen && now - seen > d->watchdog_usec / 2) {
 			if (!d->watchdog_withheld)
-				cogw_log(COGW_LOG_ERR, "line %s has not looped for %llu ms; withholding the watchdog ping",
-					 line_name(d->lines[i]), (unsigned long long)((now - seen) / 1000u));
+				cogw_log(COGW_LOG_ERR,
+					 "line %s has not looped for %llu ms; withholding the "
+					 "watchdog ping",
+					 line_name(d->lines[i]),
+					 (unsigned long long)((now - seen) / 1000u));
 			d->watchdog_withheld = true;
 			return;
 		}
@@ -267,20 +278,25 @@ static void apply_access_reload(daemon_state *d, const cogw_config *next)
 	}
 	bool all = true;
 	for (size_t i = 0; i < d->n_lines; i++) {
-		int rc = line_request_access(d->lines[i], rules, nm->n_rules, nm->default_access, nm->lease_ms);
+		int rc = line_request_access(d->lines[i], rules, nm->n_rules, nm->default_access,
+					     nm->lease_ms);
 		if (rc == -ETIMEDOUT) {
-			cogw_log(COGW_LOG_WARNING, "reload: line %s is busy; it applies the new access rules when it loops again",
+			cogw_log(COGW_LOG_WARNING,
+				 "reload: line %s is busy; it applies the new access rules when it "
+				 "loops again",
 				 line_name(d->lines[i]));
 		} else if (rc < 0) {
 			all = false;
-			cogw_log(COGW_LOG_ERR, "reload: line %s did not take the new access rules: %s",
+			cogw_log(COGW_LOG_ERR,
+				 "reload: line %s did not take the new access rules: %s",
 				 line_name(d->lines[i]), strerror(-rc));
 		}
 	}
 	if (!all)
 		return; /* keep the old values so that the next reload retries */
-	cogw_log(COGW_LOG_INFO, "reload: mailbox access: %zu rule%s, default %s, lease %u ms", nm->n_rules,
-		 nm->n_rules == 1 ? "" : "s", mbx_access_to_string(nm->default_access), nm->lease_ms);
+	cogw_log(COGW_LOG_INFO, "reload: mailbox access: %zu rule%s, default %s, lease %u ms",
+		 nm->n_rules, nm->n_rules == 1 ? "" : "s", mbx_access_to_string(nm->default_access),
+		 nm->lease_ms);
 	d->cfg.mailbox.n_rules = nm->n_rules;
 	memcpy(d->cfg.mailbox.rules, nm->rules, nm->n_rules * sizeof nm->rules[0]);
 	d->cfg.mailbox.default_access = nm->default_access;
@@ -294,13 +310,15 @@ static void warn_unapplied_reload(daemon_state *d, const cogw_config *next)
 	for (size_t i = 0; i < d->n_lines; i++) {
 		const cogw_line_config *a = &d->cfg.lines[i], *b = &next->lines[i];
 		bool hb = a->n_hb_consumers != b->n_hb_consumers ||
-			  memcmp(a->hb_consumers, b->hb_consumers, a->n_hb_consumers * sizeof a->hb_consumers[0]);
+			  memcmp(a->hb_consumers, b->hb_consumers,
+				 a->n_hb_consumers * sizeof a->hb_consumers[0]);
 		bool rt = a->rt.priority != b->rt.priority || a->rt.cpu != b->rt.cpu;
 		if (hb || rt)
 			cogw_log(COGW_LOG_WARNING,
-				 "reload: line %s: %s%s%s not applied at run time yet: restart the daemon for it",
-				 line_name(d->lines[i]), hb ? "heartbeat_consumers" : "", hb && rt ? " and " : "",
-				 rt ? "rt" : "");
+				 "reload: line %s: %s%s%s not applied at run time yet: restart the "
+				 "daemon for it",
+				 line_name(d->lines[i]), hb ? "heartbeat_consumers" : "",
+				 hb && rt ? " and " : "", rt ? "rt" : "");
 	}
 }
 
@@ -310,7 +328,8 @@ static void reload(daemon_state *d)
 	cogw_config next;
 	memset(&next, 0, sizeof next);
 	if (load_config(d, &next) < 0) {
-		cogw_log(COGW_LOG_ERR, "reload refused: the configuration has errors; keeping the running one");
+		cogw_log(COGW_LOG_ERR,
+			 "reload refused: the configuration has errors; keeping the running one");
 		cogw_config_free(&next);
 		sd_notify(0, "READY=1");
 		return;
@@ -323,12 +342,14 @@ static void reload(daemon_state *d)
 		return;
 	}
 	if (what[0])
-		cogw_log(COGW_LOG_WARNING, "reload: these settings need a restart and were not applied: %s", what);
+		cogw_log(COGW_LOG_WARNING,
+			 "reload: these settings need a restart and were not applied: %s", what);
 	for (size_t i = 0; i < d->n_lines; i++)
 		if (next.lines[i].heartbeat_ms != d->cfg.lines[i].heartbeat_ms) {
 			line_request_hb_producer(d->lines[i], next.lines[i].heartbeat_ms);
-			cogw_log(COGW_LOG_INFO, "reload: line %s heartbeat %u -> %u ms", line_name(d->lines[i]),
-				 d->cfg.lines[i].heartbeat_ms, next.lines[i].heartbeat_ms);
+			cogw_log(COGW_LOG_INFO, "reload: line %s heartbeat %u -> %u ms",
+				 line_name(d->lines[i]), d->cfg.lines[i].heartbeat_ms,
+				 next.lines[i].heartbeat_ms);
 			d->cfg.lines[i].heartbeat_ms = next.lines[i].heartbeat_ms;
 		}
 	apply_access_reload(d, &next);
@@ -369,7 +390,8 @@ static int run(daemon_state *d)
 			sd_notifyf(0, "STATUS=%s", status);
 			next_tick = now + period;
 		}
-		struct pollfd pfd[2] = { { .fd = d->sigfd, .events = POLLIN }, { .fd = d->wakefd, .events = POLLIN } };
+		struct pollfd pfd[2] = { { .fd = d->sigfd, .events = POLLIN },
+					 { .fd = d->wakefd, .events = POLLIN } };
 		int wait_ms = (int)((next_tick - now) / 1000u) + 1;
 		if (poll(pfd, 2, wait_ms) < 0 && errno != EINTR)
 			return -errno;
@@ -395,9 +417,12 @@ static int run(daemon_state *d)
 			break;
 		case SIGUSR2:
 			if (d->cfg.debug_stall_signal && d->n_lines)
-				line_request_stall(d->lines[0], d->cfg.debug_stall_ms ? d->cfg.debug_stall_ms : 5000);
+				line_request_stall(d->lines[0], d->cfg.debug_stall_ms
+									? d->cfg.debug_stall_ms
+									: 5000);
 			else
-				cogw_log(COGW_LOG_NOTICE, "SIGUSR2 ignored (debug.stall_signal is off)");
+				cogw_log(COGW_LOG_NOTICE,
+					 "SIGUSR2 ignored (debug.stall_signal is off)");
 			break;
 		}
 	}
@@ -421,13 +446,27 @@ int main(int argc, char **argv)
 	int c;
 	while ((c = getopt_long(argc, argv, "c:s:tvh", opts, NULL)) != -1) {
 		switch (c) {
-		case 'c': d.config_path = optarg; break;
-		case 's': d.state_dir_override = optarg; break;
-		case 't': check_only = true; break;
-		case 'P': fputs(cogw_default_config_json, stdout); return 0;
-		case 'v': cogw_log_set_max_level(COGW_LOG_DEBUG); break;
-		case 'h': usage(stdout); return 0;
-		default: usage(stderr); return 2;
+		case 'c':
+			d.config_path = optarg;
+			break;
+		case 's':
+			d.state_dir_override = optarg;
+			break;
+		case 't':
+			check_only = true;
+			break;
+		case 'P':
+			fputs(cogw_default_config_json, stdout);
+			return 0;
+		case 'v':
+			cogw_log_set_max_level(COGW_LOG_DEBUG);
+			break;
+		case 'h':
+			usage(stdout);
+			return 0;
+		default:
+			usage(stderr);
+			return 2;
 		}
 	}
 	if (optind < argc) {
@@ -447,7 +486,8 @@ int main(int argc, char **argv)
 
 	int rc = 1;
 	char err[512];
-	if (mbx_check_system_limits(d.cfg.mailbox.depth, d.cfg.mailbox.msg_size, err, sizeof err) < 0) {
+	if (mbx_check_system_limits(d.cfg.mailbox.depth, d.cfg.mailbox.msg_size, err, sizeof err) <
+	    0) {
 		cogw_log(COGW_LOG_ERR, "%s", err);
 		goto out;
 	}
@@ -461,7 +501,8 @@ int main(int argc, char **argv)
 	 * the real-time path touches at start-up is locked at once. */
 	if (d.cfg.mlockall && mlockall(MCL_CURRENT | MCL_FUTURE | MCL_ONFAULT) != 0 &&
 	    mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
-		cogw_log(COGW_LOG_WARNING, "mlockall not permitted (%s): memory may be paged out", strerror(errno));
+		cogw_log(COGW_LOG_WARNING, "mlockall not permitted (%s): memory may be paged out",
+			 strerror(errno));
 
 	sigset_t mask;
 	sigemptyset(&mask);
@@ -489,8 +530,10 @@ int main(int argc, char **argv)
 	 * under WatchdogSec=5s). Refused, with what would fit. */
 	if (d.watchdog_usec && (uint64_t)d.cfg.watchdog_check_ms * 1000u > d.watchdog_usec / 2) {
 		cogw_log(COGW_LOG_ERR,
-			 "watchdog_check_ms %u does not fit the systemd watchdog period of %llu ms: an idle "
-			 "line checks in every watchdog_check_ms/2 and must do so within half the period; "
+			 "watchdog_check_ms %u does not fit the systemd watchdog period of %llu "
+			 "ms: an idle "
+			 "line checks in every watchdog_check_ms/2 and must do so within half the "
+			 "period; "
 			 "use at most %llu",
 			 d.cfg.watchdog_check_ms, (unsigned long long)(d.watchdog_usec / 1000u),
 			 (unsigned long long)(d.watchdog_usec / 2000u));

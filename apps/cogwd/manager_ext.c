@@ -39,17 +39,21 @@ static void cfgm_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
 				 : 0;
 	if (r->outcome == CO_CFGMGR_FAILED_J)
 		cogw_log(COGW_LOG_ERR,
-			 "line %s: node %u: configuration failed at entry %u (%04X:%02X): abort %08X (%s)",
-			 ml->name, r->node_id, (unsigned)r->entry, r->index, r->sub, (unsigned)r->abort,
-			 sdo_abort_to_string(r->abort));
+			 "line %s: node %u: configuration failed at entry %u (%04X:%02X): abort "
+			 "%08X (%s)",
+			 ml->name, r->node_id, (unsigned)r->entry, r->index, r->sub,
+			 (unsigned)r->abort, sdo_abort_to_string(r->abort));
 	else if (r->outcome == CO_CFGMGR_CONFIGURED)
 		cogw_log(COGW_LOG_INFO, "line %s: node %u: configured (%u entries%s)", ml->name,
-			 r->node_id, (unsigned)r->written, r->restored ? ", defaults restored first" : "");
+			 r->node_id, (unsigned)r->written,
+			 r->restored ? ", defaults restored first" : "");
 	else if (r->outcome == CO_CFGMGR_SKIPPED)
-		cogw_log(COGW_LOG_INFO, "line %s: node %u: configuration unchanged (1020h matches 1F26h/1F27h)",
+		cogw_log(COGW_LOG_INFO,
+			 "line %s: node %u: configuration unchanged (1020h matches 1F26h/1F27h)",
 			 ml->name, r->node_id);
 	if (ml->mgr)
-		(void)co_manager_configure_done(ml->mgr, r->node_id, abort, r->index, r->sub, now_us);
+		(void)co_manager_configure_done(ml->mgr, r->node_id, abort, r->index, r->sub,
+						now_us);
 }
 
 /* 1F58h:n: the images read from the files of nodes[].program at load. */
@@ -80,12 +84,12 @@ static int image_read(void *ctx, uint8_t node_id, uint32_t offset, uint8_t *buf,
 
 /* Progress of a program download: an MGR_NODE event "program" (value =
  * bytes sent, expected = image size) and a log line at the end. */
-static void swm_progress(void *ctx, uint8_t node_id, uint32_t sent, uint32_t total,
-			 uint64_t now_us)
+static void swm_progress(void *ctx, uint8_t node_id, uint32_t sent, uint32_t total, uint64_t now_us)
 {
 	struct mgr_line *ml = ctx;
-	mbx_ev_mgr w = { .node = node_id, .what = CO_MGR_NODE_PROGRAM, .value = sent,
-			 .expected = total };
+	mbx_ev_mgr w = {
+		.node = node_id, .what = CO_MGR_NODE_PROGRAM, .value = sent, .expected = total
+	};
 	(void)now_us;
 	if (sent == total)
 		cogw_log(COGW_LOG_INFO, "line %s: node %u: program image sent (%u bytes)", ml->name,
@@ -104,12 +108,14 @@ static void swm_done(void *ctx, const co_swmgr_result *r, uint64_t now_us)
 							   : 0;
 	if (status)
 		cogw_log(COGW_LOG_ERR,
-			 "line %s: node %u: software %c (%s) at %04X:%02X: abort %08X, 1F56h:1 = %08X, expected %08X",
-			 ml->name, r->node_id, status, co_mgr_status_to_string(status), r->index, r->sub,
-			 (unsigned)r->abort, (unsigned)r->found, (unsigned)r->expected);
+			 "line %s: node %u: software %c (%s) at %04X:%02X: abort %08X, 1F56h:1 = "
+			 "%08X, expected %08X",
+			 ml->name, r->node_id, status, co_mgr_status_to_string(status), r->index,
+			 r->sub, (unsigned)r->abort, (unsigned)r->found, (unsigned)r->expected);
 	else if (r->outcome == CO_SWMGR_UPDATED)
-		cogw_log(COGW_LOG_INFO, "line %s: node %u: program updated (%u bytes), software %08X",
-			 ml->name, r->node_id, (unsigned)r->bytes, (unsigned)r->found);
+		cogw_log(COGW_LOG_INFO,
+			 "line %s: node %u: program updated (%u bytes), software %08X", ml->name,
+			 r->node_id, (unsigned)r->bytes, (unsigned)r->found);
 	else
 		cogw_log(COGW_LOG_INFO, "line %s: node %u: software %08X as expected", ml->name,
 			 r->node_id, (unsigned)r->found);
@@ -180,9 +186,10 @@ static void log_event(const struct mgr_line *ml, const co_event *ev)
 	case CO_EV_MGR_BOOT:
 		if (e->status && e->status != 'L')
 			cogw_log(COGW_LOG_WARNING,
-				 "line %s: boot of node %u failed at %s %04X:%02X: status %c (%s), abort %08X (%s)",
-				 ml->name, e->node, co_mgr_step_to_string(e->step), e->index, e->sub,
-				 e->status, co_mgr_status_to_string(e->status), e->abort,
+				 "line %s: boot of node %u failed at %s %04X:%02X: status %c (%s), "
+				 "abort %08X (%s)",
+				 ml->name, e->node, co_mgr_step_to_string(e->step), e->index,
+				 e->sub, e->status, co_mgr_status_to_string(e->status), e->abort,
 				 e->abort ? sdo_abort_to_string(e->abort) : "none");
 		else if (e->done)
 			cogw_log(COGW_LOG_INFO, "line %s: node %u booted", ml->name, e->node);
@@ -205,20 +212,35 @@ static void mgr_on_core_event(void *ctx, line *l, const co_event *ev)
 	uint16_t code;
 
 	switch (ev->kind) {
-	case CO_EV_MGR_STATE: code = MBX_EV_MGR_STATE; break;
-	case CO_EV_MGR_BOOT: code = MBX_EV_MGR_BOOT; break;
-	case CO_EV_MGR_NODE: code = MBX_EV_MGR_NODE; break;
+	case CO_EV_MGR_STATE:
+		code = MBX_EV_MGR_STATE;
+		break;
+	case CO_EV_MGR_BOOT:
+		code = MBX_EV_MGR_BOOT;
+		break;
+	case CO_EV_MGR_NODE:
+		code = MBX_EV_MGR_NODE;
+		break;
 	default:
 		co_cfgmgr_line_on_event(&ml->cfgm, ev, ev->now_us);
 		co_manager_on_event(ml->mgr, ev);
 		return;
 	}
 	const co_ev_mgr *e = &ev->u.mgr;
-	mbx_ev_mgr w = { .node = e->node, .state = e->state, .prev = e->prev,
-			 .flags = e->flags, .step = e->step, .status = e->status,
-			 .what = e->what, .mandatory = e->mandatory, .index = e->index,
-			 .sub = e->sub, .done = e->done, .abort = e->abort,
-			 .value = e->value, .expected = e->expected };
+	mbx_ev_mgr w = { .node = e->node,
+			 .state = e->state,
+			 .prev = e->prev,
+			 .flags = e->flags,
+			 .step = e->step,
+			 .status = e->status,
+			 .what = e->what,
+			 .mandatory = e->mandatory,
+			 .index = e->index,
+			 .sub = e->sub,
+			 .done = e->done,
+			 .abort = e->abort,
+			 .value = e->value,
+			 .expected = e->expected };
 	log_event(ml, ev);
 	(void)mbx_server_publish(line_mbx(l), code, 0, &w, sizeof w);
 }
@@ -299,12 +321,16 @@ static void node_diag(struct mgr_line *ml, uint8_t node, mbx_mgr_node_diag *o)
 static int status_of(int rc)
 {
 	switch (rc) {
-	case 0: return 0;
+	case 0:
+		return 0;
 	case -EAGAIN:
-	case -EPERM: return MBX_E_STATE;
+	case -EPERM:
+		return MBX_E_STATE;
 	case -EINVAL:
-	case -ENOENT: return MBX_E_PARAM;
-	default: return MBX_E_INTERNAL;
+	case -ENOENT:
+		return MBX_E_PARAM;
+	default:
+		return MBX_E_INTERNAL;
 	}
 }
 

@@ -39,58 +39,89 @@
 
 #define CONFIG_FILE_MAX (4u * 1024u * 1024u)
 #define CONFIG_READ_TIMEOUT_S 5 /* reading the config file, at most */
-#define IFNAME_MAX 15u /* IFNAMSIZ - 1 */
+#define IFNAME_MAX 15u          /* IFNAMSIZ - 1 */
 /* mirror mailbox/proto.h MBX_MSG_MIN / MBX_MSG_MAX */
 #define MSG_SIZE_MIN 256u
 #define MSG_SIZE_MAX 65535u
 
-static const char *const top_keys[] = { "version", "state_dir", "mlockall",
-					"watchdog_check_ms", "mailbox",
-					"lines", "gateway", "debug", "comment", NULL };
+static const char *const top_keys[] = { "version", "state_dir", "mlockall", "watchdog_check_ms",
+					"mailbox", "lines",     "gateway",  "debug",
+					"comment", NULL };
 static const char *const gateway_keys[] = { "routes", "process_image", "comment", NULL };
 static const char *const route_keys[] = { "network", "line", "router", "comment", NULL };
-static const char *const mailbox_keys[] = { "instance", "depth", "msg_size",
-					    "queue_mode", "max_clients",
-					    "lease_ms", "max_transfer",
-					    "max_clients_per_uid",
-					    "max_outstanding",
-					    "max_request_timeout_ms",
-					    "default_access", "rules",
-					    "comment", NULL };
-static const char *const rule_keys[] = { "user", "uid", "access", "comment",
+static const char *const mailbox_keys[] = { "instance",        "depth",
+					    "msg_size",        "queue_mode",
+					    "max_clients",     "lease_ms",
+					    "max_transfer",    "max_clients_per_uid",
+					    "max_outstanding", "max_request_timeout_ms",
+					    "default_access",  "rules",
+					    "comment",         NULL };
+static const char *const rule_keys[] = { "user", "uid", "access", "comment", NULL };
+static const char *const debug_keys[] = { "stall_signal", "stall_ms", "comment", NULL };
+static const char *const line_keys[] = { "name",
+					 "interface",
+					 "bitrate",
+					 "node_id",
+					 "network_id",
+					 "rt",
+					 "sdo_servers",
+					 "sdo_clients",
+					 "sdo_timeout_ms",
+					 "sdo_block_threshold",
+					 "heartbeat_ms",
+					 "sync_period_us",
+					 "heartbeat_consumers",
+					 "device",
+					 "rpdos",
+					 "tpdos",
+					 "objects",
+					 "values",
+					 "nodes",
+					 "manager",
+					 "comment",
 					 NULL };
-static const char *const debug_keys[] = { "stall_signal", "stall_ms",
-					  "comment", NULL };
-static const char *const line_keys[] = {
-	"name",	      "interface",	     "bitrate",		 "node_id",
-	"network_id", "rt",		     "sdo_servers",	 "sdo_clients",
-	"sdo_timeout_ms", "sdo_block_threshold", "heartbeat_ms",
-	"sync_period_us", "heartbeat_consumers", "device",	 "rpdos",
-	"tpdos",      "objects",	     "values",		 "nodes",
-	"manager",    "comment",    NULL
-};
-static const char *const node_keys[] = { "id", "config", "mandatory", "boot",
-					 "keep_alive", "retry_factor", "guard_time_ms",
-					 "heartbeat_ms", "device_type", "vendor_id",
-					 "product_code", "revision", "serial", "keep_op",
-					 "software_id", "software_update", "program",
-					 "comment", NULL };
-static const char *const manager_keys[] = { "master", "start_all", "self_start",
-					    "start_slaves", "on_mandatory_error",
-					    "boot_time_ms", "retry_ms", "scan_ms",
-					    "reset_wait_ms", "sdo_timeout_ms",
-					    "max_parallel", "accept_remote_nmt",
-					    "comment", NULL };
+static const char *const node_keys[] = { "id",
+					 "config",
+					 "mandatory",
+					 "boot",
+					 "keep_alive",
+					 "retry_factor",
+					 "guard_time_ms",
+					 "heartbeat_ms",
+					 "device_type",
+					 "vendor_id",
+					 "product_code",
+					 "revision",
+					 "serial",
+					 "keep_op",
+					 "software_id",
+					 "software_update",
+					 "program",
+					 "comment",
+					 NULL };
+static const char *const manager_keys[] = { "master",
+					    "start_all",
+					    "self_start",
+					    "start_slaves",
+					    "on_mandatory_error",
+					    "boot_time_ms",
+					    "retry_ms",
+					    "scan_ms",
+					    "reset_wait_ms",
+					    "sdo_timeout_ms",
+					    "max_parallel",
+					    "accept_remote_nmt",
+					    "comment",
+					    NULL };
 static const char *const rt_keys[] = { "priority", "cpu", "comment", NULL };
 static const char *const hb_keys[] = { "node_id", "time_ms", "comment", NULL };
-static const char *const device_keys[] = { "device_type", "name",
-					   "hw_version", "sw_version",
-					   "vendor_id", "product_code",
-					   "revision", "serial", "comment",
+static const char *const device_keys[] = { "device_type", "name",      "hw_version",
+					   "sw_version",  "vendor_id", "product_code",
+					   "revision",    "serial",    "comment",
 					   NULL };
 
 /* CiA 301 §7.2.2 / CiA 102 bit timing table (10 kbit/s .. 1 Mbit/s). */
-static const uint32_t cia_bitrates[] = { 10000,	 20000,	 50000,	 125000,
+static const uint32_t cia_bitrates[] = { 10000,  20000,  50000,  125000,
 					 250000, 500000, 800000, 1000000 };
 
 /* Everything a load needs, passed down instead of a dozen parameters. */
@@ -103,9 +134,9 @@ struct ctx {
 	/* CiA 302-7 gateway, known before the lines are built (every line's
 	 * 1F2Ch gets the routes to all lines' networks as defaults) */
 	size_t n_lines;
-	uint16_t line_net[COGW_LINES_MAX];          /* network of each line */
-	uint32_t route_default[GW_NET_MAX + 1];     /* 1F2Ch defaults */
-	const cJSON *process_image;                 /* gateway.process_image */
+	uint16_t line_net[COGW_LINES_MAX];      /* network of each line */
+	uint32_t route_default[GW_NET_MAX + 1]; /* 1F2Ch defaults */
+	const cJSON *process_image;             /* gateway.process_image */
 };
 
 static int fail(struct ctx *c, const char *path, const char *fmt, ...)
@@ -124,20 +155,19 @@ static int fail(struct ctx *c, const char *path, const char *fmt, ...)
 
 /* ---- small typed readers into struct fields ----------------------------------- */
 
-static int opt_u32(struct ctx *c, const cJSON *o, const char *key,
-		   const char *path, uint64_t min, uint64_t max, uint32_t *out)
+static int opt_u32(struct ctx *c, const cJSON *o, const char *key, const char *path, uint64_t min,
+		   uint64_t max, uint32_t *out)
 {
 	uint64_t v = *out;
-	int rc = json_util_opt_uint(o, key, path, min, max, &v, c->msg,
-				    sizeof(c->msg));
+	int rc = json_util_opt_uint(o, key, path, min, max, &v, c->msg, sizeof(c->msg));
 
 	if (!rc)
 		*out = (uint32_t)v;
 	return rc;
 }
 
-static int opt_u16(struct ctx *c, const cJSON *o, const char *key,
-		   const char *path, uint64_t min, uint64_t max, uint16_t *out)
+static int opt_u16(struct ctx *c, const cJSON *o, const char *key, const char *path, uint64_t min,
+		   uint64_t max, uint16_t *out)
 {
 	uint32_t v = *out;
 	int rc = opt_u32(c, o, key, path, min, max, &v);
@@ -147,8 +177,8 @@ static int opt_u16(struct ctx *c, const cJSON *o, const char *key,
 	return rc;
 }
 
-static int opt_u8(struct ctx *c, const cJSON *o, const char *key,
-		  const char *path, uint64_t min, uint64_t max, uint8_t *out)
+static int opt_u8(struct ctx *c, const cJSON *o, const char *key, const char *path, uint64_t min,
+		  uint64_t max, uint8_t *out)
 {
 	uint32_t v = *out;
 	int rc = opt_u32(c, o, key, path, min, max, &v);
@@ -158,9 +188,8 @@ static int opt_u8(struct ctx *c, const cJSON *o, const char *key,
 	return rc;
 }
 
-static int opt_unsigned(struct ctx *c, const cJSON *o, const char *key,
-			const char *path, uint64_t min, uint64_t max,
-			unsigned *out)
+static int opt_unsigned(struct ctx *c, const cJSON *o, const char *key, const char *path,
+			uint64_t min, uint64_t max, unsigned *out)
 {
 	uint32_t v = *out;
 	int rc = opt_u32(c, o, key, path, min, max, &v);
@@ -170,8 +199,7 @@ static int opt_unsigned(struct ctx *c, const cJSON *o, const char *key,
 	return rc;
 }
 
-static int check_object(struct ctx *c, const cJSON *o, const char *path,
-			const char *const *keys)
+static int check_object(struct ctx *c, const cJSON *o, const char *path, const char *const *keys)
 {
 	return json_util_check_object(o, path, keys, c->msg, sizeof(c->msg));
 }
@@ -183,15 +211,12 @@ static int check_name_chars(struct ctx *c, const char *path, const char *s)
 		if ((*p >= 'a' && *p <= 'z') || (*p >= 'A' && *p <= 'Z') ||
 		    (*p >= '0' && *p <= '9') || *p == '_' || *p == '-')
 			continue;
-		return fail(c, path,
-			    "\"%s\" may contain only letters, digits, '_' and '-'",
-			    s);
+		return fail(c, path, "\"%s\" may contain only letters, digits, '_' and '-'", s);
 	}
 	return 0;
 }
 
-static int parse_access_word(struct ctx *c, const cJSON *v, const char *path,
-			     uint8_t *out)
+static int parse_access_word(struct ctx *c, const cJSON *v, const char *path, uint8_t *out)
 {
 	static const char *const words[] = { "none", "read", "write" };
 	char r[64];
@@ -210,8 +235,7 @@ static int parse_access_word(struct ctx *c, const cJSON *v, const char *path,
 
 /* ---- mailbox ------------------------------------------------------------------ */
 
-static int parse_rule(struct ctx *c, const cJSON *o, const char *path,
-		      cogw_access_rule *r)
+static int parse_rule(struct ctx *c, const cJSON *o, const char *path, cogw_access_rule *r)
 {
 	char p[JSON_PATH_MAX];
 	const cJSON *user, *uid, *acc;
@@ -228,8 +252,7 @@ static int parse_rule(struct ctx *c, const cJSON *o, const char *path,
 		struct passwd pw, *res = NULL;
 
 		json_util_path_key(p, sizeof(p), path, "user");
-		if ((rc = json_util_string(user, p, 1, name, sizeof(name), c->msg,
-					   sizeof(c->msg))))
+		if ((rc = json_util_string(user, p, 1, name, sizeof(name), c->msg, sizeof(c->msg))))
 			return rc;
 		if (getpwnam_r(name, &pw, buf, sizeof(buf), &res) != 0 || !res)
 			return fail(c, p, "unknown user \"%s\"", name);
@@ -238,13 +261,12 @@ static int parse_rule(struct ctx *c, const cJSON *o, const char *path,
 		uint64_t u;
 
 		json_util_path_key(p, sizeof(p), path, "uid");
-		if ((rc = json_util_uint(uid, p, 0, UINT32_MAX - 1, false, &u,
-					 c->msg, sizeof(c->msg))))
+		if ((rc = json_util_uint(uid, p, 0, UINT32_MAX - 1, false, &u, c->msg,
+					 sizeof(c->msg))))
 			return rc;
 		r->uid = (uid_t)u;
 	}
-	if ((rc = json_util_require(o, "access", path, &acc, c->msg,
-				    sizeof(c->msg))))
+	if ((rc = json_util_require(o, "access", path, &acc, c->msg, sizeof(c->msg))))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "access");
 	return parse_access_word(c, acc, p, &r->access);
@@ -259,27 +281,21 @@ static int parse_mailbox(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
 
 	if ((rc = check_object(c, o, path, mailbox_keys)))
 		return rc;
-	if ((rc = json_util_opt_string(o, "instance", path, 1, m->instance,
-				       sizeof(m->instance), c->msg,
-				       sizeof(c->msg))))
+	if ((rc = json_util_opt_string(o, "instance", path, 1, m->instance, sizeof(m->instance),
+				       c->msg, sizeof(c->msg))))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "instance");
 	if ((rc = check_name_chars(c, p, m->instance)) ||
 	    (rc = opt_unsigned(c, o, "depth", path, 1, 65536, &m->depth)) ||
-	    (rc = opt_unsigned(c, o, "msg_size", path, MSG_SIZE_MIN,
-			       MSG_SIZE_MAX, &m->msg_size)) ||
-	    (rc = opt_unsigned(c, o, "max_clients", path, 1, 1024,
-			       &m->max_clients)) ||
-	    (rc = opt_unsigned(c, o, "lease_ms", path, 0, 86400000u,
-			       &m->lease_ms)) ||
-	    (rc = opt_unsigned(c, o, "max_transfer", path, 1, 256u << 20,
-			       &m->max_transfer)) ||
+	    (rc = opt_unsigned(c, o, "msg_size", path, MSG_SIZE_MIN, MSG_SIZE_MAX, &m->msg_size)) ||
+	    (rc = opt_unsigned(c, o, "max_clients", path, 1, 1024, &m->max_clients)) ||
+	    (rc = opt_unsigned(c, o, "lease_ms", path, 0, 86400000u, &m->lease_ms)) ||
+	    (rc = opt_unsigned(c, o, "max_transfer", path, 1, 256u << 20, &m->max_transfer)) ||
 	    (rc = opt_unsigned(c, o, "max_clients_per_uid", path, 1, 1024,
 			       &m->max_clients_per_uid)) ||
-	    (rc = opt_unsigned(c, o, "max_outstanding", path, 1, 1024,
-			       &m->max_outstanding)) ||
-	    (rc = opt_unsigned(c, o, "max_request_timeout_ms", path, 1,
-			       3600000u, &m->max_request_timeout_ms)))
+	    (rc = opt_unsigned(c, o, "max_outstanding", path, 1, 1024, &m->max_outstanding)) ||
+	    (rc = opt_unsigned(c, o, "max_request_timeout_ms", path, 1, 3600000u,
+			       &m->max_request_timeout_ms)))
 		return rc;
 	v = json_util_get(o, "queue_mode");
 	if (v) {
@@ -288,10 +304,8 @@ static int parse_mailbox(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
 		/* A string, because JSON has no octal: 660 would be 01224. */
 		json_util_path_key(p, sizeof(p), path, "queue_mode");
 		if (!cJSON_IsString(v) || v->valuestring[0] != '0')
-			return fail(c, p,
-				    "expected an octal string like \"0620\"");
-		if ((rc = json_util_uint(v, p, 0, 0777, false, &mode, c->msg,
-					 sizeof(c->msg))))
+			return fail(c, p, "expected an octal string like \"0620\"");
+		if ((rc = json_util_uint(v, p, 0, 0777, false, &mode, c->msg, sizeof(c->msg))))
 			return rc;
 		/* Every command carries its client's token: a command queue
 		 * others can read gives them every client's rights. */
@@ -315,12 +329,12 @@ static int parse_mailbox(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
 
 		json_util_path_key(p, sizeof(p), path, "rules");
 		if (!cJSON_IsArray(v))
-			return fail(c, p, "expected an array, got %s",
-				    json_util_kind(v));
+			return fail(c, p, "expected an array, got %s", json_util_kind(v));
 		if (cJSON_GetArraySize(v) > COGW_ACCESS_RULES_MAX)
-			return fail(c, p, "%d rules, at most %d",
-				    cJSON_GetArraySize(v), COGW_ACCESS_RULES_MAX);
-		cJSON_ArrayForEach(it, v) {
+			return fail(c, p, "%d rules, at most %d", cJSON_GetArraySize(v),
+				    COGW_ACCESS_RULES_MAX);
+		cJSON_ArrayForEach(it, v)
+		{
 			cogw_access_rule *r = &m->rules[m->n_rules];
 
 			json_util_path_index(rp, sizeof(rp), p, m->n_rules);
@@ -328,8 +342,7 @@ static int parse_mailbox(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
 				return rc;
 			for (size_t j = 0; j < m->n_rules; j++)
 				if (m->rules[j].uid == r->uid)
-					return fail(c, rp,
-						    "uid %u already has a rule (%s[%zu])",
+					return fail(c, rp, "uid %u already has a rule (%s[%zu])",
 						    (unsigned)r->uid, p, j);
 			m->n_rules++;
 		}
@@ -339,75 +352,61 @@ static int parse_mailbox(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
 
 /* ---- lines --------------------------------------------------------------------- */
 
-static int parse_device(struct ctx *c, const cJSON *o, const char *path,
-			co_od_std_opts *so, char *name, char *hw, char *sw)
+static int parse_device(struct ctx *c, const cJSON *o, const char *path, co_od_std_opts *so,
+			char *name, char *hw, char *sw)
 {
 	int rc;
 
 	if ((rc = check_object(c, o, path, device_keys)) ||
-	    (rc = opt_u32(c, o, "device_type", path, 0, UINT32_MAX,
-			  &so->device_type)) ||
-	    (rc = opt_u32(c, o, "vendor_id", path, 0, UINT32_MAX,
-			  &so->vendor_id)) ||
-	    (rc = opt_u32(c, o, "product_code", path, 0, UINT32_MAX,
-			  &so->product_code)) ||
-	    (rc = opt_u32(c, o, "revision", path, 0, UINT32_MAX,
-			  &so->revision)) ||
+	    (rc = opt_u32(c, o, "device_type", path, 0, UINT32_MAX, &so->device_type)) ||
+	    (rc = opt_u32(c, o, "vendor_id", path, 0, UINT32_MAX, &so->vendor_id)) ||
+	    (rc = opt_u32(c, o, "product_code", path, 0, UINT32_MAX, &so->product_code)) ||
+	    (rc = opt_u32(c, o, "revision", path, 0, UINT32_MAX, &so->revision)) ||
 	    (rc = opt_u32(c, o, "serial", path, 0, UINT32_MAX, &so->serial)) ||
-	    (rc = json_util_opt_string(o, "name", path, 0, name,
-				       CO_OD_STD_STRING_MAX + 1, c->msg,
+	    (rc = json_util_opt_string(o, "name", path, 0, name, CO_OD_STD_STRING_MAX + 1, c->msg,
 				       sizeof(c->msg))) ||
-	    (rc = json_util_opt_string(o, "hw_version", path, 0, hw,
-				       CO_OD_STD_STRING_MAX + 1, c->msg,
-				       sizeof(c->msg))) ||
-	    (rc = json_util_opt_string(o, "sw_version", path, 0, sw,
-				       CO_OD_STD_STRING_MAX + 1, c->msg,
-				       sizeof(c->msg))))
+	    (rc = json_util_opt_string(o, "hw_version", path, 0, hw, CO_OD_STD_STRING_MAX + 1,
+				       c->msg, sizeof(c->msg))) ||
+	    (rc = json_util_opt_string(o, "sw_version", path, 0, sw, CO_OD_STD_STRING_MAX + 1,
+				       c->msg, sizeof(c->msg))))
 		return rc;
 	return 0;
 }
 
-static int parse_hb_consumers(struct ctx *c, const cJSON *v, const char *path,
-			      cogw_line_config *l)
+static int parse_hb_consumers(struct ctx *c, const cJSON *v, const char *path, cogw_line_config *l)
 {
 	const cJSON *it;
 	char p[JSON_PATH_MAX], kp[JSON_PATH_MAX];
 	int rc;
 
 	if (!cJSON_IsArray(v))
-		return fail(c, path, "expected an array, got %s",
-			    json_util_kind(v));
+		return fail(c, path, "expected an array, got %s", json_util_kind(v));
 	if (cJSON_GetArraySize(v) > COGW_HB_CONSUMERS_MAX)
-		return fail(c, path, "%d entries, at most %d",
-			    cJSON_GetArraySize(v), COGW_HB_CONSUMERS_MAX);
-	cJSON_ArrayForEach(it, v) {
+		return fail(c, path, "%d entries, at most %d", cJSON_GetArraySize(v),
+			    COGW_HB_CONSUMERS_MAX);
+	cJSON_ArrayForEach(it, v)
+	{
 		cogw_hb_consumer *h = &l->hb_consumers[l->n_hb_consumers];
 		const cJSON *nv, *tv;
 		uint64_t u;
 
 		json_util_path_index(p, sizeof(p), path, l->n_hb_consumers);
 		if ((rc = check_object(c, it, p, hb_keys)) ||
-		    (rc = json_util_require(it, "node_id", p, &nv, c->msg,
-					    sizeof(c->msg))) ||
-		    (rc = json_util_require(it, "time_ms", p, &tv, c->msg,
-					    sizeof(c->msg))))
+		    (rc = json_util_require(it, "node_id", p, &nv, c->msg, sizeof(c->msg))) ||
+		    (rc = json_util_require(it, "time_ms", p, &tv, c->msg, sizeof(c->msg))))
 			return rc;
 		json_util_path_key(kp, sizeof(kp), p, "node_id");
-		if ((rc = json_util_uint(nv, kp, 1, 127, false, &u, c->msg,
-					 sizeof(c->msg))))
+		if ((rc = json_util_uint(nv, kp, 1, 127, false, &u, c->msg, sizeof(c->msg))))
 			return rc;
 		h->node_id = (uint8_t)u;
 		if (h->node_id == l->node_id)
-			return fail(c, kp, "%u is this line's own node id",
-				    h->node_id);
+			return fail(c, kp, "%u is this line's own node id", h->node_id);
 		for (size_t j = 0; j < l->n_hb_consumers; j++)
 			if (l->hb_consumers[j].node_id == h->node_id)
-				return fail(c, kp,
-					    "node %u is already monitored (%s[%zu])",
+				return fail(c, kp, "node %u is already monitored (%s[%zu])",
 					    h->node_id, path, j);
 		json_util_path_key(kp, sizeof(kp), p, "time_ms");
-		if ((rc = json_util_uint(tv, kp, 1, 65535, false, &u, c->msg,
-					 sizeof(c->msg))))
+		if ((rc = json_util_uint(tv, kp, 1, 65535, false, &u, c->msg, sizeof(c->msg))))
 			return rc;
 		h->time_ms = (uint16_t)u;
 		l->n_hb_consumers++;
@@ -451,11 +450,10 @@ static int gateway_objects(struct ctx *c, cogw_line_config *l)
 	co_od_entry *e;
 	int rc;
 
-	rc = co_od_add_num(l->od, GW_OBJ_NETWORK_ID, 0, CO_T_UNSIGNED8, CO_ACC_CO,
-			   l->network_id, &e);
+	rc = co_od_add_num(l->od, GW_OBJ_NETWORK_ID, 0, CO_T_UNSIGNED8, CO_ACC_CO, l->network_id,
+			   &e);
 	if (rc)
-		return fail(c, "lines", "cannot add %04Xh (%s)", GW_OBJ_NETWORK_ID,
-			    strerror(-rc));
+		return fail(c, "lines", "cannot add %04Xh (%s)", GW_OBJ_NETWORK_ID, strerror(-rc));
 	for (unsigned n = GW_NET_MIN; n <= GW_NET_MAX; n++) {
 		if (!c->route_default[n] || !(e = co_od_find(l->od, GW_OBJ_ROUTES, (uint8_t)n)))
 			continue;
@@ -463,8 +461,8 @@ static int gateway_objects(struct ctx *c, cogw_line_config *l)
 		co_od_entry_reset(e);
 	}
 	if (c->process_image &&
-	    (rc = json_od_add_objects(l->od, c->process_image, "gateway.process_image",
-				      c->msg, sizeof(c->msg))))
+	    (rc = json_od_add_objects(l->od, c->process_image, "gateway.process_image", c->msg,
+				      sizeof(c->msg))))
 		return rc;
 	return 0;
 }
@@ -475,7 +473,8 @@ static int refuse_image_objects(struct ctx *c, const cJSON *objects, const char 
 	const cJSON *it;
 	size_t i = 0;
 
-	cJSON_ArrayForEach(it, objects) {
+	cJSON_ArrayForEach(it, objects)
+	{
 		char p[JSON_PATH_MAX];
 		const cJSON *v = cJSON_IsObject(it) ? json_util_get(it, "index") : NULL;
 		uint16_t index;
@@ -483,8 +482,10 @@ static int refuse_image_objects(struct ctx *c, const cJSON *objects, const char 
 		json_util_path_index(p, sizeof(p), path, i++);
 		if (v && json_od_parse_index(v, p, &index, c->msg, sizeof(c->msg)) == 0 &&
 		    gw_image_in_range(index))
-			return fail(c, p, "%04Xh: B000h..BFFFh is the shared process image of all "
-				    "lines: define it in gateway.process_image", index);
+			return fail(c, p,
+				    "%04Xh: B000h..BFFFh is the shared process image of all "
+				    "lines: define it in gateway.process_image",
+				    index);
 	}
 	return 0;
 }
@@ -508,8 +509,8 @@ static int check_image(struct ctx *c, const co_od *od)
 				    e->index, e->sub, co_type_to_string((co_type)e->type));
 		if (!(e->access & (CO_ACC_RPDO | CO_ACC_TPDO)))
 			return fail(c, "gateway.process_image",
-				    "%04Xh:%02X is not PDO-mappable (set \"pdo\": true)",
-				    e->index, e->sub);
+				    "%04Xh:%02X is not PDO-mappable (set \"pdo\": true)", e->index,
+				    e->sub);
 	}
 	return 0;
 }
@@ -521,7 +522,8 @@ static void scan_networks(struct ctx *c, const cJSON *lines)
 	const cJSON *it;
 
 	c->n_lines = 0;
-	cJSON_ArrayForEach(it, lines) {
+	cJSON_ArrayForEach(it, lines)
+	{
 		const cJSON *v = cJSON_IsObject(it) ? json_util_get(it, "network_id") : NULL;
 		uint16_t net = (uint16_t)(c->n_lines + 1);
 
@@ -534,8 +536,8 @@ static void scan_networks(struct ctx *c, const cJSON *lines)
 	}
 	memset(c->route_default, 0, sizeof(c->route_default));
 	for (size_t i = 0; i < c->n_lines; i++)
-		c->route_default[c->line_net[i]] =
-			gw_route_entry_encode((gw_route_entry){ true, (uint8_t)i, 0 });
+		c->route_default[c->line_net[i]] = gw_route_entry_encode(
+			(gw_route_entry){ true, (uint8_t)i, 0 });
 }
 
 static int parse_route(struct ctx *c, const cJSON *o, size_t idx)
@@ -562,12 +564,12 @@ static int parse_route(struct ctx *c, const cJSON *o, size_t idx)
 		return fail(c, pl, "line %u does not exist (%zu lines)", (unsigned)line,
 			    c->n_lines);
 	v = json_util_get(o, "router");
-	if (v && (rc = json_util_uint(v, pr, 1, 127, false, &router, c->msg,
-				      sizeof(c->msg))))
+	if (v && (rc = json_util_uint(v, pr, 1, 127, false, &router, c->msg, sizeof(c->msg))))
 		return rc;
 	for (size_t i = 0; i < c->n_lines; i++)
 		if (c->line_net[i] == net)
-			return fail(c, path, "network %u is attached to lines[%zu]: it needs no route",
+			return fail(c, path,
+				    "network %u is attached to lines[%zu]: it needs no route",
 				    (unsigned)net, i);
 	if (!router)
 		return fail(c, path, "network %u is not attached here: name its next router",
@@ -590,7 +592,8 @@ static int parse_gateway(struct ctx *c, const cJSON *o)
 		if (!cJSON_IsArray(v))
 			return fail(c, "gateway.routes", "expected an array, got %s",
 				    json_util_kind(v));
-		cJSON_ArrayForEach(it, v) {
+		cJSON_ArrayForEach(it, v)
+		{
 			if ((rc = parse_route(c, it, i++)))
 				return rc;
 		}
@@ -636,8 +639,11 @@ static int node_objects(struct ctx *c, const char *path, cogw_line_config *l)
 			return fail(c, path, "cannot add 1F22h:%u for node %u (%s)", n->id, n->id,
 				    strerror(rc ? -rc : ENOENT));
 		if (nc->cdcf_len) {
-			if ((rc = co_od_entry_set_default_bytes(e, nc->cdcf, (uint32_t)nc->cdcf_len)))
-				return rc == -ENOMEM ? rc : fail(c, path, "1F22h:%u: %s", n->id, strerror(-rc));
+			if ((rc = co_od_entry_set_default_bytes(e, nc->cdcf,
+								(uint32_t)nc->cdcf_len)))
+				return rc == -ENOMEM ? rc
+						     : fail(c, path, "1F22h:%u: %s", n->id,
+							    strerror(-rc));
 			co_od_entry_reset(e);
 		}
 		if (nc->verify) {
@@ -657,8 +663,8 @@ static int node_objects(struct ctx *c, const char *path, cogw_line_config *l)
 
 static int manager_objects(struct ctx *c, const char *path, cogw_line_config *l);
 
-static int build_od(struct ctx *c, const cJSON *o, const char *path,
-		    cogw_line_config *l, co_od_std_opts *so)
+static int build_od(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l,
+		    co_od_std_opts *so)
 {
 	char p[JSON_PATH_MAX];
 	const cJSON *v;
@@ -671,16 +677,14 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path,
 	if (rc == -ENOMEM)
 		return rc;
 	if (rc)
-		return fail(c, path, "cannot build the standard objects (%s)",
-			    strerror(-rc));
+		return fail(c, path, "cannot build the standard objects (%s)", strerror(-rc));
 	for (size_t i = 0; i < l->n_hb_consumers; i++) {
 		co_od_entry *e = co_od_find(l->od, 0x1016, (uint8_t)(i + 1));
 
 		if (!e)
 			return fail(c, path, "1016h:%zu missing", i + 1);
-		co_od_entry_set_default_raw(e, (uint32_t)l->hb_consumers[i].node_id
-							<< 16 |
-						l->hb_consumers[i].time_ms);
+		co_od_entry_set_default_raw(e, (uint32_t)l->hb_consumers[i].node_id << 16 |
+						       l->hb_consumers[i].time_ms);
 		co_od_entry_reset(e);
 	}
 	/* A manager must keep running when one slave's heartbeat is lost:
@@ -705,16 +709,15 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path,
 	v = json_util_get(o, "values");
 	if (v) {
 		json_util_path_key(p, sizeof(p), path, "values");
-		if ((rc = json_od_apply_values(l->od, v, p, c->msg,
-					       sizeof(c->msg))))
+		if ((rc = json_od_apply_values(l->od, v, p, c->msg, sizeof(c->msg))))
 			return rc;
 	}
 	line_sync_from_od(l);
 	return 0;
 }
 
-static int opt_flag(struct ctx *c, const cJSON *o, const char *key, const char *path,
-		    uint32_t bit, bool def, uint32_t *bits)
+static int opt_flag(struct ctx *c, const cJSON *o, const char *key, const char *path, uint32_t bit,
+		    bool def, uint32_t *bits)
 {
 	bool b = def;
 	int rc = json_util_opt_bool(o, key, path, &b, c->msg, sizeof(c->msg));
@@ -800,8 +803,10 @@ static int parse_node_software(struct ctx *c, const cJSON *it, const char *np, c
 		return 0;
 	json_util_path_key(p, sizeof(p), np, update ? "software_update" : "program");
 	if (!update || !prog || !n->software_id)
-		return fail(c, p, "\"software_update\": true, \"program\" and a non-zero "
-				  "\"software_id\" go together (node %u)", n->id);
+		return fail(c, p,
+			    "\"software_update\": true, \"program\" and a non-zero "
+			    "\"software_id\" go together (node %u)",
+			    n->id);
 	*a |= CO_SWMGR_F81_UPDATE;
 	json_util_path_key(p, sizeof(p), np, "program");
 	if ((rc = json_util_string(prog, p, 1, name, sizeof(name), c->msg, sizeof(c->msg))))
@@ -845,8 +850,7 @@ static int parse_node_manager(struct ctx *c, const cJSON *it, const char *np, co
 }
 
 /* "manager": the line's CiA 302-2 manager; 1F80h from names. */
-static int parse_manager(struct ctx *c, const cJSON *o, const char *path,
-			 cogw_manager_config *m)
+static int parse_manager(struct ctx *c, const cJSON *o, const char *path, cogw_manager_config *m)
 {
 	char p[JSON_PATH_MAX], what[16] = "node";
 	uint32_t b = 0;
@@ -872,8 +876,8 @@ static int parse_manager(struct ctx *c, const cJSON *o, const char *path,
 		b |= CO_MGR_1F80_NO_SELF_START;
 	if (!slaves)
 		b |= CO_MGR_1F80_APP_STARTS_SLAVES;
-	if ((rc = json_util_opt_string(o, "on_mandatory_error", path, 1, what, sizeof(what),
-				       c->msg, sizeof(c->msg))))
+	if ((rc = json_util_opt_string(o, "on_mandatory_error", path, 1, what, sizeof(what), c->msg,
+				       sizeof(c->msg))))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "on_mandatory_error");
 	if (!strcmp(what, "reset_all"))
@@ -889,8 +893,8 @@ static int parse_manager(struct ctx *c, const cJSON *o, const char *path,
 	    (rc = opt_u32(c, o, "reset_wait_ms", path, 1, 60000, &m->reset_wait_ms)) ||
 	    (rc = opt_u32(c, o, "sdo_timeout_ms", path, 1, 60000, &m->sdo_timeout_ms)) ||
 	    (rc = opt_u8(c, o, "max_parallel", path, 0, 128, &m->max_parallel)) ||
-	    (rc = json_util_opt_bool(o, "accept_remote_nmt", path, &m->accept_remote_nmt,
-				     c->msg, sizeof(c->msg))))
+	    (rc = json_util_opt_bool(o, "accept_remote_nmt", path, &m->accept_remote_nmt, c->msg,
+				     sizeof(c->msg))))
 		return rc;
 	return 0;
 }
@@ -916,8 +920,9 @@ static int manager_objects(struct ctx *c, const char *path, cogw_line_config *l)
 	if (!m->enabled)
 		return 0;
 	if ((rc = co_od_add_manager_defaults(l->od, m->nmt_startup)) < 0)
-		return rc == -ENOMEM ? rc : fail(c, path, "cannot add the manager objects (%s)",
-						 strerror(-rc));
+		return rc == -ENOMEM ? rc
+				     : fail(c, path, "cannot add the manager objects (%s)",
+					    strerror(-rc));
 	if ((rc = set_default(l->od, 0x1F80, 0, m->nmt_startup)) ||
 	    (rc = set_default(l->od, 0x1F89, 0, m->boot_time_ms)))
 		return fail(c, path, "1F80h/1F89h: %s", strerror(-rc));
@@ -926,7 +931,8 @@ static int manager_objects(struct ctx *c, const char *path, cogw_line_config *l)
 		if ((rc = set_default(l->od, 0x1F81, n->id, n->assignment)))
 			return fail(c, path, "1F81h:%u: %s", n->id, strerror(-rc));
 		for (int k = 0; k < 5; k++)
-			if ((rc = set_default(l->od, (uint16_t)(0x1F84 + k), n->id, n->identity[k])))
+			if ((rc = set_default(l->od, (uint16_t)(0x1F84 + k), n->id,
+					      n->identity[k])))
 				return fail(c, path, "%04Xh:%u: %s", 0x1F84 + k, n->id,
 					    strerror(-rc));
 		if (n->software_id &&
@@ -961,22 +967,21 @@ static int manager_objects(struct ctx *c, const char *path, cogw_line_config *l)
 
 /* "nodes": [{"id": N, "config": {...}}]. Node configurations are loaded
  * (files read, DCFs converted) here, so a broken one stops the start. */
-static int parse_nodes(struct ctx *c, const cJSON *v, const char *path,
-		       cogw_line_config *l)
+static int parse_nodes(struct ctx *c, const cJSON *v, const char *path, cogw_line_config *l)
 {
 	const cJSON *it;
 	size_t i = 0;
 	int rc;
 
 	if (!cJSON_IsArray(v))
-		return fail(c, path, "expected an array of nodes, got %s",
-			    json_util_kind(v));
+		return fail(c, path, "expected an array of nodes, got %s", json_util_kind(v));
 	if (cJSON_GetArraySize(v) > 127)
 		return fail(c, path, "%d nodes, at most 127", cJSON_GetArraySize(v));
 	l->nodes = calloc((size_t)cJSON_GetArraySize(v) + 1, sizeof(*l->nodes));
 	if (!l->nodes)
 		return -ENOMEM;
-	cJSON_ArrayForEach(it, v) {
+	cJSON_ArrayForEach(it, v)
+	{
 		char np[JSON_PATH_MAX], p[JSON_PATH_MAX];
 		cogw_node *n = &l->nodes[i];
 		const cJSON *x;
@@ -990,8 +995,7 @@ static int parse_nodes(struct ctx *c, const cJSON *v, const char *path,
 		if ((rc = json_util_uint(x, p, 1, 127, false, &id, c->msg, sizeof(c->msg))))
 			return rc;
 		if (id == l->node_id)
-			return fail(c, p, "%llu is the line's own node_id",
-				    (unsigned long long)id);
+			return fail(c, p, "%llu is the line's own node_id", (unsigned long long)id);
 		for (size_t j = 0; j < l->n_nodes; j++)
 			if (l->nodes[j].id == id)
 				return fail(c, p, "node %llu is already in %s[%zu]",
@@ -1004,15 +1008,14 @@ static int parse_nodes(struct ctx *c, const cJSON *v, const char *path,
 		if (!x)
 			continue;
 		json_util_path_key(p, sizeof(p), np, "config");
-		if ((rc = cogw_node_config_parse(x, p, n->id, c->base_dir, &n->config,
-						 c->msg, sizeof(c->msg))))
+		if ((rc = cogw_node_config_parse(x, p, n->id, c->base_dir, &n->config, c->msg,
+						 sizeof(c->msg))))
 			return rc;
 	}
 	return 0;
 }
 
-static int parse_line(struct ctx *c, const cJSON *o, size_t idx,
-		      cogw_line_config *l)
+static int parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_config *l)
 {
 	char path[JSON_PATH_MAX], p[JSON_PATH_MAX];
 	char dev_name[CO_OD_STD_STRING_MAX + 1] = "cogw";
@@ -1036,33 +1039,27 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx,
 	l->sdo_block_threshold = 128;
 	l->heartbeat_ms = 1000;
 
-	if ((rc = json_util_opt_string(o, "name", path, 1, l->name,
-				       sizeof(l->name), c->msg,
+	if ((rc = json_util_opt_string(o, "name", path, 1, l->name, sizeof(l->name), c->msg,
 				       sizeof(c->msg))))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "name");
 	if ((rc = check_name_chars(c, p, l->name)))
 		return rc;
 
-	if ((rc = json_util_require(o, "interface", path, &v, c->msg,
-				    sizeof(c->msg))))
+	if ((rc = json_util_require(o, "interface", path, &v, c->msg, sizeof(c->msg))))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "interface");
-	if ((rc = json_util_string(v, p, 1, l->interface, IFNAME_MAX + 1,
-				   c->msg, sizeof(c->msg))))
+	if ((rc = json_util_string(v, p, 1, l->interface, IFNAME_MAX + 1, c->msg, sizeof(c->msg))))
 		return rc;
 	/* What the kernel's dev_valid_name() refuses. */
 	if (!strcmp(l->interface, ".") || !strcmp(l->interface, "..") ||
 	    strpbrk(l->interface, "/: \t\n"))
-		return fail(c, p, "\"%s\" is not a valid interface name",
-			    l->interface);
+		return fail(c, p, "\"%s\" is not a valid interface name", l->interface);
 
-	if ((rc = json_util_require(o, "bitrate", path, &v, c->msg,
-				    sizeof(c->msg))))
+	if ((rc = json_util_require(o, "bitrate", path, &v, c->msg, sizeof(c->msg))))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "bitrate");
-	if ((rc = json_util_uint(v, p, 1, UINT32_MAX, false, &u, c->msg,
-				 sizeof(c->msg))))
+	if ((rc = json_util_uint(v, p, 1, UINT32_MAX, false, &u, c->msg, sizeof(c->msg))))
 		return rc;
 	l->bitrate = 0;
 	for (size_t i = 0; i < sizeof(cia_bitrates) / sizeof(cia_bitrates[0]); i++)
@@ -1070,15 +1067,14 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx,
 			l->bitrate = (uint32_t)u;
 	if (!l->bitrate)
 		return fail(c, p,
-			    "%llu is not a CiA 301 bit rate (10000, 20000, 50000, 125000, 250000, 500000, 800000, 1000000)",
+			    "%llu is not a CiA 301 bit rate (10000, 20000, 50000, 125000, 250000, "
+			    "500000, 800000, 1000000)",
 			    (unsigned long long)u);
 
-	if ((rc = json_util_require(o, "node_id", path, &v, c->msg,
-				    sizeof(c->msg))))
+	if ((rc = json_util_require(o, "node_id", path, &v, c->msg, sizeof(c->msg))))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "node_id");
-	if ((rc = json_util_uint(v, p, 1, 127, false, &u, c->msg,
-				 sizeof(c->msg))))
+	if ((rc = json_util_uint(v, p, 1, 127, false, &u, c->msg, sizeof(c->msg))))
 		return rc;
 	l->node_id = (uint8_t)u;
 
@@ -1090,13 +1086,11 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx,
 		if ((rc = check_object(c, v, p, rt_keys)))
 			return rc;
 		s = l->rt.priority;
-		if ((rc = json_util_opt_sint(v, "priority", p, 0, 99, &s, c->msg,
-					     sizeof(c->msg))))
+		if ((rc = json_util_opt_sint(v, "priority", p, 0, 99, &s, c->msg, sizeof(c->msg))))
 			return rc;
 		l->rt.priority = (int)s;
 		s = l->rt.cpu;
-		if ((rc = json_util_opt_sint(v, "cpu", p, -1, 1023, &s, c->msg,
-					     sizeof(c->msg))))
+		if ((rc = json_util_opt_sint(v, "cpu", p, -1, 1023, &s, c->msg, sizeof(c->msg))))
 			return rc;
 		l->rt.cpu = (int)s;
 	}
@@ -1105,14 +1099,11 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx,
 	if ((rc = opt_u16(c, o, "network_id", path, 1, 127, &l->network_id)) ||
 	    (rc = opt_u8(c, o, "sdo_servers", path, 1, 128, &l->sdo_servers)) ||
 	    (rc = opt_u8(c, o, "sdo_clients", path, 0, 128, &l->sdo_clients)) ||
-	    (rc = opt_u32(c, o, "sdo_timeout_ms", path, 1, 600000,
-			  &l->sdo_timeout_ms)) ||
+	    (rc = opt_u32(c, o, "sdo_timeout_ms", path, 1, 600000, &l->sdo_timeout_ms)) ||
 	    (rc = opt_u32(c, o, "sdo_block_threshold", path, 1, UINT32_MAX,
 			  &l->sdo_block_threshold)) ||
-	    (rc = opt_u16(c, o, "heartbeat_ms", path, 0, 65535,
-			  &l->heartbeat_ms)) ||
-	    (rc = opt_u32(c, o, "sync_period_us", path, 0, UINT32_MAX,
-			  &l->sync_period_us)) ||
+	    (rc = opt_u16(c, o, "heartbeat_ms", path, 0, 65535, &l->heartbeat_ms)) ||
+	    (rc = opt_u32(c, o, "sync_period_us", path, 0, UINT32_MAX, &l->sync_period_us)) ||
 	    (rc = opt_u16(c, o, "rpdos", path, 0, 512, &so.rpdos)) ||
 	    (rc = opt_u16(c, o, "tpdos", path, 0, 512, &so.tpdos)))
 		return rc;
@@ -1166,18 +1157,15 @@ static int check_unique(struct ctx *c, const cogw_config *cfg, size_t i)
 
 		if (!strcmp(o->name, l->name)) {
 			snprintf(p, sizeof(p), "lines[%zu].name", i);
-			return fail(c, p, "\"%s\" is already used by lines[%zu]",
-				    l->name, j);
+			return fail(c, p, "\"%s\" is already used by lines[%zu]", l->name, j);
 		}
 		if (!strcmp(o->interface, l->interface)) {
 			snprintf(p, sizeof(p), "lines[%zu].interface", i);
-			return fail(c, p, "\"%s\" is already used by lines[%zu]",
-				    l->interface, j);
+			return fail(c, p, "\"%s\" is already used by lines[%zu]", l->interface, j);
 		}
 		if (o->network_id == l->network_id) {
 			snprintf(p, sizeof(p), "lines[%zu].network_id", i);
-			return fail(c, p, "%u is already used by lines[%zu]",
-				    l->network_id, j);
+			return fail(c, p, "%u is already used by lines[%zu]", l->network_id, j);
 		}
 	}
 	return 0;
@@ -1196,7 +1184,7 @@ static void set_defaults(cogw_config *cfg, const char *source)
 	cfg->mailbox.msg_size = 1024;
 	cfg->mailbox.queue_mode = 0620;
 	cfg->mailbox.max_clients = 16;
-	cfg->mailbox.max_outstanding = 16;          /* = mbx_server's defaults */
+	cfg->mailbox.max_outstanding = 16; /* = mbx_server's defaults */
 	cfg->mailbox.max_request_timeout_ms = 60000;
 	cfg->mailbox.lease_ms = 0;
 	cfg->mailbox.max_transfer = 1u << 20;
@@ -1214,15 +1202,13 @@ static int parse_root(struct ctx *c, const cJSON *root, cogw_config *cfg)
 	if (v) {
 		uint64_t ver;
 
-		if ((rc = json_util_uint(v, "version", 1, 1, false, &ver, c->msg,
-					 sizeof(c->msg))))
+		if ((rc = json_util_uint(v, "version", 1, 1, false, &ver, c->msg, sizeof(c->msg))))
 			return rc;
 	}
 	if ((rc = json_util_opt_string(root, "state_dir", "", 1, cfg->state_dir,
-				       sizeof(cfg->state_dir), c->msg,
-				       sizeof(c->msg))) ||
-	    (rc = json_util_opt_bool(root, "mlockall", "", &cfg->mlockall,
-				     c->msg, sizeof(c->msg))) ||
+				       sizeof(cfg->state_dir), c->msg, sizeof(c->msg))) ||
+	    (rc = json_util_opt_bool(root, "mlockall", "", &cfg->mlockall, c->msg,
+				     sizeof(c->msg))) ||
 	    (rc = opt_unsigned(c, root, "watchdog_check_ms", "", 10, 60000,
 			       &cfg->watchdog_check_ms)))
 		return rc;
@@ -1232,45 +1218,43 @@ static int parse_root(struct ctx *c, const cJSON *root, cogw_config *cfg)
 	v = json_util_get(root, "debug");
 	if (v) {
 		if ((rc = check_object(c, v, "debug", debug_keys)) ||
-		    (rc = json_util_opt_bool(v, "stall_signal", "debug",
-					     &cfg->debug_stall_signal, c->msg,
-					     sizeof(c->msg))) ||
+		    (rc = json_util_opt_bool(v, "stall_signal", "debug", &cfg->debug_stall_signal,
+					     c->msg, sizeof(c->msg))) ||
 		    (rc = opt_unsigned(c, v, "stall_ms", "debug", 0, 3600000,
 				       &cfg->debug_stall_ms)))
 			return rc;
 	}
-	if ((rc = json_util_require(root, "lines", "", &v, c->msg,
-				    sizeof(c->msg))))
+	if ((rc = json_util_require(root, "lines", "", &v, c->msg, sizeof(c->msg))))
 		return rc;
 	if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) == 0)
 		return fail(c, "lines", "expected a non-empty array, got %s",
-			    cJSON_IsArray(v) ? "an empty array"
-					     : json_util_kind(v));
+			    cJSON_IsArray(v) ? "an empty array" : json_util_kind(v));
 	if (cJSON_GetArraySize(v) > COGW_LINES_MAX)
-		return fail(c, "lines", "%d lines, at most %d",
-			    cJSON_GetArraySize(v), COGW_LINES_MAX);
+		return fail(c, "lines", "%d lines, at most %d", cJSON_GetArraySize(v),
+			    COGW_LINES_MAX);
 	scan_networks(c, v);
 	it = json_util_get(root, "gateway");
 	if (it && (rc = parse_gateway(c, it)))
 		return rc;
-	cJSON_ArrayForEach(it, v) {
+	cJSON_ArrayForEach(it, v)
+	{
 		size_t i = cfg->n_lines;
 
 		/* Count the line first: cogw_config_free then frees its OD
 		 * even when the line fails half-way. */
 		cfg->n_lines++;
-		if ((rc = parse_line(c, it, i, &cfg->lines[i])) ||
-		    (rc = check_unique(c, cfg, i)))
+		if ((rc = parse_line(c, it, i, &cfg->lines[i])) || (rc = check_unique(c, cfg, i)))
 			return rc;
 	}
 	return 0;
 }
 
-int cogw_config_load_string(cogw_config *cfg, const char *json,
-			    const char *source_name, char *err, size_t errlen)
+int cogw_config_load_string(cogw_config *cfg, const char *json, const char *source_name, char *err,
+			    size_t errlen)
 {
 	struct ctx c = { .source = source_name ? source_name : "<string>",
-			 .err = err, .errlen = errlen };
+			 .err = err,
+			 .errlen = errlen };
 	cJSON *root = NULL;
 	int rc;
 
@@ -1288,8 +1272,7 @@ int cogw_config_load_string(cogw_config *cfg, const char *json,
 	if (rc) {
 		if (err && errlen) {
 			if (rc == -ENOMEM)
-				snprintf(err, errlen, "%s: out of memory",
-					 c.source);
+				snprintf(err, errlen, "%s: out of memory", c.source);
 			else
 				snprintf(err, errlen, "%s: %s", c.source, c.msg);
 		}
@@ -1300,8 +1283,7 @@ int cogw_config_load_string(cogw_config *cfg, const char *json,
 	return 0;
 }
 
-int cogw_config_load_file(cogw_config *cfg, const char *path, char *err,
-			  size_t errlen)
+int cogw_config_load_file(cogw_config *cfg, const char *path, char *err, size_t errlen)
 {
 	struct stat st;
 	char *buf;
@@ -1329,8 +1311,7 @@ int cogw_config_load_file(cogw_config *cfg, const char *path, char *err,
 
 	clock_gettime(CLOCK_MONOTONIC, &t0);
 	if ((uint64_t)st.st_size > CONFIG_FILE_MAX) {
-		snprintf(err, errlen, "%s: larger than %u bytes", path,
-			 CONFIG_FILE_MAX);
+		snprintf(err, errlen, "%s: larger than %u bytes", path, CONFIG_FILE_MAX);
 		close(fd);
 		return -EINVAL;
 	}
@@ -1362,8 +1343,7 @@ int cogw_config_load_file(cogw_config *cfg, const char *path, char *err,
 		if (n < 0) {
 			if (errno == EINTR)
 				continue;
-			snprintf(err, errlen, "%s: read error: %s", path,
-				 strerror(errno));
+			snprintf(err, errlen, "%s: read error: %s", path, strerror(errno));
 			free(buf);
 			close(fd);
 			return -EIO;
@@ -1422,15 +1402,13 @@ static void note(char *what, size_t len, bool *changed, const char *name)
 static bool entry_same(const co_od_entry *a, const co_od_entry *b)
 {
 	if (a->index != b->index || a->sub != b->sub || a->type != b->type ||
-	    a->access != b->access || a->max_size != b->max_size ||
-	    a->obj_code != b->obj_code || a->has_limits != b->has_limits)
+	    a->access != b->access || a->max_size != b->max_size || a->obj_code != b->obj_code ||
+	    a->has_limits != b->has_limits)
 		return false;
 	if (co_type_is_variable((co_type)a->type))
 		return a->def_size == b->def_size &&
-		       (!a->def_size ||
-			!memcmp(a->def_data, b->def_data, a->def_size));
-	if (a->has_limits && (memcmp(a->min, b->min, a->size) ||
-			      memcmp(a->max, b->max, a->size)))
+		       (!a->def_size || !memcmp(a->def_data, b->def_data, a->def_size));
+	if (a->has_limits && (memcmp(a->min, b->min, a->size) || memcmp(a->max, b->max, a->size)))
 		return false;
 	return !memcmp(a->def, b->def, a->size);
 }
@@ -1481,8 +1459,8 @@ static bool nodes_same(const cogw_line_config *a, const cogw_line_config *b)
 	return true;
 }
 
-bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next,
-			      char *what, size_t whatlen)
+bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next, char *what,
+			      size_t whatlen)
 {
 	const cogw_mailbox_config *a = &cur->mailbox, *b = &next->mailbox;
 	char name[64];
@@ -1490,15 +1468,14 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next,
 
 	if (what && whatlen)
 		what[0] = '\0';
-#define DIFF(cond, label)                          \
-	do {                                       \
-		if (cond)                          \
+#define DIFF(cond, label)                                     \
+	do {                                                  \
+		if (cond)                                     \
 			note(what, whatlen, &changed, label); \
 	} while (0)
 	DIFF(strcmp(cur->state_dir, next->state_dir), "state_dir");
 	DIFF(cur->mlockall != next->mlockall, "mlockall");
-	DIFF(cur->watchdog_check_ms != next->watchdog_check_ms,
-	     "watchdog_check_ms");
+	DIFF(cur->watchdog_check_ms != next->watchdog_check_ms, "watchdog_check_ms");
 	DIFF(cur->debug_stall_signal != next->debug_stall_signal ||
 		     cur->debug_stall_ms != next->debug_stall_ms,
 	     "debug");
@@ -1508,8 +1485,7 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next,
 	DIFF(a->queue_mode != b->queue_mode, "mailbox.queue_mode");
 	DIFF(a->max_clients != b->max_clients, "mailbox.max_clients");
 	DIFF(a->max_transfer != b->max_transfer, "mailbox.max_transfer");
-	DIFF(a->max_clients_per_uid != b->max_clients_per_uid,
-	     "mailbox.max_clients_per_uid");
+	DIFF(a->max_clients_per_uid != b->max_clients_per_uid, "mailbox.max_clients_per_uid");
 	DIFF(a->max_outstanding != b->max_outstanding, "mailbox.max_outstanding");
 	DIFF(a->max_request_timeout_ms != b->max_request_timeout_ms,
 	     "mailbox.max_request_timeout_ms");
@@ -1522,12 +1498,12 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next,
 			bool before = changed;
 
 			changed = false;
-#define LDIFF(cond, key)                                                      \
-	do {                                                                  \
-		if (cond) {                                                   \
+#define LDIFF(cond, key)                                                       \
+	do {                                                                   \
+		if (cond) {                                                    \
 			snprintf(name, sizeof(name), "lines[%zu].%s", i, key); \
-			note(what, whatlen, &changed, name);                  \
-		}                                                             \
+			note(what, whatlen, &changed, name);                   \
+		}                                                              \
 	} while (0)
 			LDIFF(strcmp(x->name, y->name), "name");
 			LDIFF(strcmp(x->interface, y->interface), "interface");
@@ -1536,12 +1512,10 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next,
 			LDIFF(x->network_id != y->network_id, "network_id");
 			LDIFF(x->sdo_servers != y->sdo_servers, "sdo_servers");
 			LDIFF(x->sdo_clients != y->sdo_clients, "sdo_clients");
-			LDIFF(x->sdo_timeout_ms != y->sdo_timeout_ms,
-			      "sdo_timeout_ms");
+			LDIFF(x->sdo_timeout_ms != y->sdo_timeout_ms, "sdo_timeout_ms");
 			LDIFF(x->sdo_block_threshold != y->sdo_block_threshold,
 			      "sdo_block_threshold");
-			LDIFF(x->sync_period_us != y->sync_period_us,
-			      "sync_period_us");
+			LDIFF(x->sync_period_us != y->sync_period_us, "sync_period_us");
 			/* The OD follows from the keys above: name it only when
 			 * they do not explain the difference. */
 			LDIFF(!changed && x->od && y->od && !od_same(x->od, y->od),

@@ -37,8 +37,8 @@ typedef struct cogw_access_rule {
 } cogw_access_rule;
 
 typedef struct cogw_rt_config {
-	int priority;   /* SCHED_FIFO 1..99, 0 = normal scheduling */
-	int cpu;        /* pin to this CPU, -1 = no affinity */
+	int priority; /* SCHED_FIFO 1..99, 0 = normal scheduling */
+	int cpu;      /* pin to this CPU, -1 = no affinity */
 } cogw_rt_config;
 
 typedef struct cogw_hb_consumer {
@@ -50,16 +50,16 @@ typedef struct cogw_hb_consumer {
  * comes from (apps/common/node_config.h) and, for the line's CiA 302-2
  * manager, its assignment and expected identity. */
 typedef struct cogw_node {
-	uint8_t id;                 /* 1..127, not the line's own node_id */
-	cogw_node_config config;    /* source NONE: nothing to download */
-	uint32_t assignment;        /* 1F81h:n built from the names */
-	uint32_t identity[5];       /* 1F84h..1F88h:n (0 = do not check) */
-	uint16_t heartbeat_ms;      /* 1016h consumer time, 0 = none */
-	bool keep_op;               /* restart it when it leaves OPERATIONAL */
-	uint32_t software_id;       /* 1F55h:n expected software (0 = none);
+	uint8_t id;              /* 1..127, not the line's own node_id */
+	cogw_node_config config; /* source NONE: nothing to download */
+	uint32_t assignment;     /* 1F81h:n built from the names */
+	uint32_t identity[5];    /* 1F84h..1F88h:n (0 = do not check) */
+	uint16_t heartbeat_ms;   /* 1016h consumer time, 0 = none */
+	bool keep_op;            /* restart it when it leaves OPERATIONAL */
+	uint32_t software_id;    /* 1F55h:n expected software (0 = none);
 	                             * non-zero sets 1F81h:n bit 5 */
-	char program_file[256];     /* "program": the image file (resolved) */
-	uint8_t *program;           /* its bytes (owned, read at load time):
+	char program_file[256];  /* "program": the image file (resolved) */
+	uint8_t *program;        /* its bytes (owned, read at load time):
 	                             * the 1F58h:n image; "software_update"
 	                             * sets 1F81h:n bit 6 */
 	size_t program_len;
@@ -69,15 +69,15 @@ typedef struct cogw_node {
 
 /* The CiA 302-2 manager of a line ("manager"; docs/config.md). */
 typedef struct cogw_manager_config {
-	bool enabled;               /* the section is present */
-	uint32_t nmt_startup;       /* 1F80h built from the names */
-	uint32_t boot_time_ms;      /* 1F89h (0 = wait for ever) */
-	uint32_t retry_ms;          /* retry interval of missing nodes */
-	uint32_t scan_ms;           /* scan for missing nodes, 0 = off */
-	uint32_t reset_wait_ms;     /* longest wait for a boot-up */
-	uint32_t sdo_timeout_ms;    /* per SDO frame during the boot */
-	uint8_t max_parallel;       /* nodes booting at once, 0 = channels */
-	bool accept_remote_nmt;     /* NMT to our node from the bus applies */
+	bool enabled;            /* the section is present */
+	uint32_t nmt_startup;    /* 1F80h built from the names */
+	uint32_t boot_time_ms;   /* 1F89h (0 = wait for ever) */
+	uint32_t retry_ms;       /* retry interval of missing nodes */
+	uint32_t scan_ms;        /* scan for missing nodes, 0 = off */
+	uint32_t reset_wait_ms;  /* longest wait for a boot-up */
+	uint32_t sdo_timeout_ms; /* per SDO frame during the boot */
+	uint8_t max_parallel;    /* nodes booting at once, 0 = channels */
+	bool accept_remote_nmt;  /* NMT to our node from the bus applies */
 } cogw_manager_config;
 
 typedef struct cogw_line_config {
@@ -88,43 +88,43 @@ typedef struct cogw_line_config {
 	uint16_t network_id;           /* CiA 302-7 network id, 1..127, unique */
 	cogw_rt_config rt;
 	/* SDO channels of our own node */
-	uint8_t sdo_servers;           /* 1..128 (default 1) */
-	uint8_t sdo_clients;           /* 0..128 (default 4) */
-	uint32_t sdo_timeout_ms;       /* per frame (default 1000) */
-	uint32_t sdo_block_threshold;  /* bytes (default 128) */
-	uint16_t heartbeat_ms;         /* 1017h (default 1000, 0 = off) */
-	uint32_t sync_period_us;       /* 1006h, 0 = no SYNC producer */
+	uint8_t sdo_servers;                                  /* 1..128 (default 1) */
+	uint8_t sdo_clients;                                  /* 0..128 (default 4) */
+	uint32_t sdo_timeout_ms;                              /* per frame (default 1000) */
+	uint32_t sdo_block_threshold;                         /* bytes (default 128) */
+	uint16_t heartbeat_ms;                                /* 1017h (default 1000, 0 = off) */
+	uint32_t sync_period_us;                              /* 1006h, 0 = no SYNC producer */
 	cogw_hb_consumer hb_consumers[COGW_HB_CONSUMERS_MAX]; /* 1016h */
 	size_t n_hb_consumers;
 	/* The line's object dictionary: the standard communication objects
 	 * for node_id, then "objects" (manufacturer/profile additions), then
 	 * "values" (initial values of any object). Owned by the config. */
 	co_od *od;
-	cogw_node *nodes;              /* "nodes" (owned, n_nodes entries) */
+	cogw_node *nodes; /* "nodes" (owned, n_nodes entries) */
 	size_t n_nodes;
-	cogw_manager_config manager;   /* "manager" */
+	cogw_manager_config manager; /* "manager" */
 } cogw_line_config;
 
 typedef struct cogw_mailbox_config {
 	char instance[COGW_NAME_MAX]; /* queue names /<instance>.line<N>.cmd */
-	unsigned depth;          /* mq_maxmsg of the command queues (64) */
-	unsigned msg_size;       /* mq_msgsize (1024) */
-	unsigned queue_mode;     /* command queue mode (0620) */
-	unsigned max_clients;    /* per line (16) */
-	unsigned lease_ms;       /* 0 = no lease */
-	unsigned max_transfer;   /* bytes of one chunked transfer (1 MiB) */
+	unsigned depth;               /* mq_maxmsg of the command queues (64) */
+	unsigned msg_size;            /* mq_msgsize (1024) */
+	unsigned queue_mode;          /* command queue mode (0620) */
+	unsigned max_clients;         /* per line (16) */
+	unsigned lease_ms;            /* 0 = no lease */
+	unsigned max_transfer;        /* bytes of one chunked transfer (1 MiB) */
 	/* per-user / per-client limits (0 = mbx_server's default) */
 	unsigned max_clients_per_uid;
 	unsigned max_outstanding;
 	unsigned max_request_timeout_ms;
-	uint8_t default_access;  /* for uids not in rules (WRITE) */
+	uint8_t default_access; /* for uids not in rules (WRITE) */
 	cogw_access_rule rules[COGW_ACCESS_RULES_MAX];
 	size_t n_rules;
 } cogw_mailbox_config;
 
 typedef struct cogw_config {
-	char source[256];        /* file name or "<embedded default>" */
-	char state_dir[256];     /* 1010h/1011h storage (/var/lib/cogw) */
+	char source[256];    /* file name or "<embedded default>" */
+	char state_dir[256]; /* 1010h/1011h storage (/var/lib/cogw) */
 	bool mlockall;
 	unsigned watchdog_check_ms; /* line check-in period (default 500) */
 	cogw_mailbox_config mailbox;
@@ -142,17 +142,16 @@ extern const char cogw_default_config_json[];
 /* Parse and validate. On error returns -EINVAL (or -ENOENT/-EIO/-ENOMEM
  * for the file) and writes one line "source: path: reason" into err.
  * On success *cfg is complete and owns its ODs (cogw_config_free). */
-int cogw_config_load_file(cogw_config *cfg, const char *path, char *err,
-			  size_t errlen);
-int cogw_config_load_string(cogw_config *cfg, const char *json,
-			    const char *source_name, char *err, size_t errlen);
+int cogw_config_load_file(cogw_config *cfg, const char *path, char *err, size_t errlen);
+int cogw_config_load_string(cogw_config *cfg, const char *json, const char *source_name, char *err,
+			    size_t errlen);
 void cogw_config_free(cogw_config *cfg); /* accepts a zeroed config */
 
 /* What a reload may change without restarting: access rules, lease,
  * heartbeat consumers/producer time, RT settings. Fills `what` with the
  * settings that differ but cannot change at run time ("" if none).
  * Returns true if `next` is acceptable as a reload of `cur`. */
-bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next,
-			      char *what, size_t whatlen);
+bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next, char *what,
+			      size_t whatlen);
 
 #endif /* COGW_APPS_CONFIG_H */

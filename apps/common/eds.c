@@ -132,7 +132,8 @@ static void warn(eds_ctx *c, unsigned line, const char *fmt, ...)
 	n = snprintf(c->st.first_warning, sizeof(c->st.first_warning), "%s:%u: ", c->file, line);
 	if (n >= 0 && (size_t)n < sizeof(c->st.first_warning)) {
 		va_start(ap, fmt);
-		vsnprintf(c->st.first_warning + n, sizeof(c->st.first_warning) - (size_t)n, fmt, ap);
+		vsnprintf(c->st.first_warning + n, sizeof(c->st.first_warning) - (size_t)n, fmt,
+			  ap);
 		va_end(ap);
 	}
 }
@@ -254,10 +255,13 @@ static int parse_ini(eds_ctx *c, size_t len)
 			cur->line = line;
 			classify(cur);
 			if (cur->kind == SEC_OTHER && strlen(name) > 4 &&
-			    hexval((unsigned char)name[0]) >= 0 && hexval((unsigned char)name[1]) >= 0 &&
-			    hexval((unsigned char)name[2]) >= 0 && hexval((unsigned char)name[3]) >= 0 &&
-			    !strncasecmp(name + 4, "sub", 3))
-				return fail(c, line, "[%s]: sub-index must be 1 or 2 hex digits (00..FF)", name);
+			    hexval((unsigned char)name[0]) >= 0 &&
+			    hexval((unsigned char)name[1]) >= 0 &&
+			    hexval((unsigned char)name[2]) >= 0 &&
+			    hexval((unsigned char)name[3]) >= 0 && !strncasecmp(name + 4, "sub", 3))
+				return fail(c, line,
+					    "[%s]: sub-index must be 1 or 2 hex digits (00..FF)",
+					    name);
 			continue;
 		}
 		char *eq = strchr(s, '=');
@@ -271,11 +275,12 @@ static int parse_ini(eds_ctx *c, size_t len)
 			return fail(c, line, "no key before '='");
 		for (size_t i = 0; i < cur->nkeys; i++)
 			if (!strcasecmp(cur->keys[i].key, key))
-				return fail(c, line, "duplicate key '%s' in [%s] (first at line %u)", key,
+				return fail(c, line,
+					    "duplicate key '%s' in [%s] (first at line %u)", key,
 					    cur->name, cur->keys[i].line);
 		if (grow((void **)&cur->keys, &cur->cap, cur->nkeys + 1, sizeof(*cur->keys)))
 			return -ENOMEM;
-		cur->keys[cur->nkeys++] = (ini_key){.key = key, .val = val, .line = line};
+		cur->keys[cur->nkeys++] = (ini_key){ .key = key, .val = val, .line = line };
 	}
 	return 0;
 }
@@ -315,15 +320,16 @@ static int sort_sections(eds_ctx *c)
 	qsort(c->sorted, c->nsecs, sizeof(*c->sorted), sec_qcmp);
 	for (size_t i = 1; i < c->nsecs; i++)
 		if (!sec_cmp(c->sorted[i - 1], c->sorted[i]))
-			return fail(c, c->sorted[i]->line, "duplicate section [%s] (first at line %u)",
-				    c->sorted[i]->name, c->sorted[i - 1]->line);
+			return fail(c, c->sorted[i]->line,
+				    "duplicate section [%s] (first at line %u)", c->sorted[i]->name,
+				    c->sorted[i - 1]->line);
 	return 0;
 }
 
 static ini_sec *find_sec(const eds_ctx *c, enum sec_kind kind, uint16_t index, uint8_t sub,
 			 const char *name)
 {
-	ini_sec key = {.name = name, .kind = kind, .index = index, .sub = sub};
+	ini_sec key = { .name = name, .kind = kind, .index = index, .sub = sub };
 	size_t lo = 0, hi = c->nsecs;
 
 	while (lo < hi) {
@@ -342,7 +348,7 @@ static ini_sec *find_sec(const eds_ctx *c, enum sec_kind kind, uint16_t index, u
 /* Position of the first sorted section at or after (kind, index, 0). */
 static size_t lower_bound(const eds_ctx *c, enum sec_kind kind, uint16_t index)
 {
-	ini_sec key = {.kind = kind, .index = index};
+	ini_sec key = { .kind = kind, .index = index };
 	size_t lo = 0, hi = c->nsecs;
 
 	while (lo < hi) {
@@ -419,7 +425,8 @@ static int parse_int_expr(eds_ctx *c, const ini_key *k, num_val *out)
 	for (char *p = buf + 1; *p; p++) {
 		if (*p == '+') {
 			if (nterms == 2)
-				return fail(c, k->line, "%s '%s': more than two terms", k->key, k->val);
+				return fail(c, k->line, "%s '%s': more than two terms", k->key,
+					    k->val);
 			*p = '\0';
 			terms[nterms++] = p + 1;
 		}
@@ -431,20 +438,24 @@ static int parse_int_expr(eds_ctx *c, const ini_key *k, num_val *out)
 			if (nodes++)
 				return fail(c, k->line, "%s '%s': $NODEID twice", k->key, k->val);
 			if (!c->node_id)
-				return fail(c, k->line, "%s '%s': $NODEID needs a node id (none given and no [DeviceComissioning] NodeID)",
+				return fail(c, k->line,
+					    "%s '%s': $NODEID needs a node id (none given and no "
+					    "[DeviceComissioning] NodeID)",
 					    k->key, k->val);
 			continue;
 		}
 		if (strchr(t, '$'))
-			return fail(c, k->line, "%s '%s': bad expression (only $NODEID, '+' and numbers)",
+			return fail(c, k->line,
+				    "%s '%s': bad expression (only $NODEID, '+' and numbers)",
 				    k->key, k->val);
 		num_val lit;
 		int rc = parse_literal(t, &lit.neg, &lit.mag, &lit.pattern);
 		if (rc == -2)
 			return fail(c, k->line, "%s '%s': number too large", k->key, k->val);
 		if (rc)
-			return fail(c, k->line, "%s '%s': not a number (decimal, 0x hex or 0 octal)",
-				    k->key, k->val);
+			return fail(c, k->line,
+				    "%s '%s': not a number (decimal, 0x hex or 0 octal)", k->key,
+				    k->val);
 		lits++;
 		*out = lit;
 	}
@@ -452,7 +463,8 @@ static int parse_int_expr(eds_ctx *c, const ini_key *k, num_val *out)
 		return fail(c, k->line, "%s '%s': bad expression (two numbers)", k->key, k->val);
 	if (nodes) {
 		if (out->neg && out->mag)
-			return fail(c, k->line, "%s '%s': $NODEID with a negative number", k->key, k->val);
+			return fail(c, k->line, "%s '%s': $NODEID with a negative number", k->key,
+				    k->val);
 		if (out->mag > UINT64_MAX - c->node_id)
 			return fail(c, k->line, "%s '%s': number too large", k->key, k->val);
 		out->neg = false;
@@ -462,8 +474,7 @@ static int parse_int_expr(eds_ctx *c, const ini_key *k, num_val *out)
 }
 
 /* Range-check an integer for type t and give its bit pattern. */
-static int int_to_bits(eds_ctx *c, const ini_key *k, co_type t, const num_val *v,
-		       uint64_t *bits)
+static int int_to_bits(eds_ctx *c, const ini_key *k, co_type t, const num_val *v, uint64_t *bits)
 {
 	unsigned w = co_type_size(t) * 8;
 	uint64_t umax = w == 64 ? UINT64_MAX : (UINT64_C(1) << w) - 1;
@@ -508,16 +519,19 @@ static int parse_real(eds_ctx *c, const ini_key *k, co_type t, uint64_t *bits)
 		if (rc)
 			return fail(c, k->line, "%s '%s': not a hex bit pattern", k->key, s);
 		if (t == CO_T_REAL32 && v.mag > UINT32_MAX)
-			return fail(c, k->line, "%s '%s': REAL32 bit pattern wider than 32 bits", k->key, s);
+			return fail(c, k->line, "%s '%s': REAL32 bit pattern wider than 32 bits",
+				    k->key, s);
 		*bits = v.mag;
 		return 0;
 	}
 	errno = 0;
 	d = strtod(s, &end);
 	if (end == s || *end || strchr(s, 'x') || strchr(s, 'X'))
-		return fail(c, k->line, "%s '%s': not a number for %s", k->key, s, co_type_to_string(t));
+		return fail(c, k->line, "%s '%s': not a number for %s", k->key, s,
+			    co_type_to_string(t));
 	if (errno == ERANGE || !isfinite(d))
-		return fail(c, k->line, "%s '%s': out of range for %s", k->key, s, co_type_to_string(t));
+		return fail(c, k->line, "%s '%s': out of range for %s", k->key, s,
+			    co_type_to_string(t));
 	if (t == CO_T_REAL32) {
 		float f;
 		uint32_t u;
@@ -575,14 +589,14 @@ static int num_cmp(co_type t, uint64_t a, uint64_t b)
 typedef struct var_spec {
 	uint16_t index;
 	uint8_t sub;
-	const ini_sec *sec;     /* where DataType/AccessType/limits live */
-	const ini_key *value;   /* ParameterValue or DefaultValue; NULL = none */
-	const char *where;      /* section name for messages */
+	const ini_sec *sec;   /* where DataType/AccessType/limits live */
+	const ini_key *value; /* ParameterValue or DefaultValue; NULL = none */
+	const char *where;    /* section name for messages */
 } var_spec;
 
 static int parse_access(eds_ctx *c, const ini_key *k, bool *writable)
 {
-	static const char *const wr[] = {"wo", "rw", "rwr", "rww"};
+	static const char *const wr[] = { "wo", "rw", "rwr", "rww" };
 	if (!strcasecmp(k->val, "ro") || !strcasecmp(k->val, "const")) {
 		*writable = false;
 		return 0;
@@ -633,13 +647,12 @@ static int add_var(eds_ctx *c, uint16_t index, uint8_t sub, unsigned line, uint8
 		free(data);
 		return -ENOMEM;
 	}
-	c->vars[c->nvars++] = (out_var){.index = index, .sub = sub, .line = line, .data = data,
-					.size = size};
+	c->vars[c->nvars++] =
+		(out_var){ .index = index, .sub = sub, .line = line, .data = data, .size = size };
 	return 0;
 }
 
-static int encode_bytes(eds_ctx *c, const ini_key *k, co_type t, uint8_t **data,
-			uint32_t *size)
+static int encode_bytes(eds_ctx *c, const ini_key *k, co_type t, uint8_t **data, uint32_t *size)
 {
 	const char *s = k->val;
 	size_t n = strlen(s);
@@ -649,7 +662,8 @@ static int encode_bytes(eds_ctx *c, const ini_key *k, co_type t, uint8_t **data,
 	case CO_T_VISIBLE_STRING:
 		for (size_t i = 0; i < n; i++)
 			if ((unsigned char)s[i] < 0x20 || (unsigned char)s[i] == 0x7F)
-				return fail(c, k->line, "%s: control character in a VISIBLE_STRING", k->key);
+				return fail(c, k->line, "%s: control character in a VISIBLE_STRING",
+					    k->key);
 		b = malloc(n);
 		if (!b)
 			return -ENOMEM;
@@ -674,8 +688,8 @@ static int encode_bytes(eds_ctx *c, const ini_key *k, co_type t, uint8_t **data,
 			if (s[i] == ' ' || s[i] == '\t')
 				continue;
 			if (hexval((unsigned char)s[i]) < 0)
-				return fail(c, k->line, "%s '%.40s': %s value must be hex digits", k->key, s,
-					    co_type_to_string(t));
+				return fail(c, k->line, "%s '%.40s': %s value must be hex digits",
+					    k->key, s, co_type_to_string(t));
 			digits++;
 		}
 		if (digits % 2)
@@ -700,8 +714,8 @@ static int encode_bytes(eds_ctx *c, const ini_key *k, co_type t, uint8_t **data,
 		break;
 	}
 	default:
-		return fail(c, k->line, "%s: values of %s are not supported in EDS/DCF files", k->key,
-			    co_type_to_string(t));
+		return fail(c, k->line, "%s: values of %s are not supported in EDS/DCF files",
+			    k->key, co_type_to_string(t));
 	}
 	*data = b;
 	return 0;
@@ -779,7 +793,9 @@ static const ini_key *value_key(const ini_sec *s)
 static int do_plain(eds_ctx *c, const ini_sec *s, uint16_t index, uint8_t sub, bool is_domain)
 {
 	const ini_key *ak = get_key(s, "AccessType");
-	var_spec v = {.index = index, .sub = sub, .sec = s, .value = value_key(s), .where = s->name};
+	var_spec v = {
+		.index = index, .sub = sub, .sec = s, .value = value_key(s), .where = s->name
+	};
 	co_type t = CO_T_DOMAIN;
 	bool writable;
 	int rc;
@@ -843,8 +859,8 @@ static int check_compact_list(eds_ctx *c, const ini_sec *s, uint64_t n)
 		if (*end || end == e->key || errno || e->key[0] == '-' || e->key[0] == '+')
 			return fail(c, e->line, "[%s]: unexpected key '%s'", s->name, e->key);
 		if (sub < 1 || sub > n)
-			return fail(c, e->line, "[%s]: sub-index %s beyond CompactSubObj=%llu", s->name,
-				    e->key, (unsigned long long)n);
+			return fail(c, e->line, "[%s]: sub-index %s beyond CompactSubObj=%llu",
+				    s->name, e->key, (unsigned long long)n);
 	}
 	if (cnt != s->nkeys - 1)
 		return fail(c, k->line, "[%s]: NrOfEntries=%llu but %zu entries", s->name,
@@ -893,7 +909,7 @@ static int do_compact(eds_ctx *c, const ini_sec *o, const ini_key *ck)
 		return rc;
 	/* sub0 = n, UNSIGNED8 read-only: nothing to write */
 	for (unsigned s = 1; s <= n; s++) {
-		var_spec v = {.index = o->index, .sub = (uint8_t)s, .sec = o, .where = o->name};
+		var_spec v = { .index = o->index, .sub = (uint8_t)s, .sec = o, .where = o->name };
 		v.value = compact_value(vals, s);
 		if (!v.value)
 			v.value = value_key(o);
@@ -926,7 +942,8 @@ static int do_object(eds_ctx *c, const ini_sec *o)
 	case CO_OBJ_DOMAIN:
 		if (first < last)
 			return fail(c, c->sorted[first]->line, "[%s]: sub-object of %s object [%s]",
-				    c->sorted[first]->name, ot == CO_OBJ_VAR ? "VAR" : "DOMAIN", o->name);
+				    c->sorted[first]->name, ot == CO_OBJ_VAR ? "VAR" : "DOMAIN",
+				    o->name);
 		if (sn || ck)
 			return fail(c, (sn ? sn : ck)->line, "[%s]: %s on a %s object", o->name,
 				    (sn ? sn : ck)->key, ot == CO_OBJ_VAR ? "VAR" : "DOMAIN");
@@ -935,18 +952,22 @@ static int do_object(eds_ctx *c, const ini_sec *o)
 	case CO_OBJ_RECORD:
 		break;
 	default:
-		return fail(c, otk->line, "ObjectType '%s' is not one of 0x2 (DOMAIN), 0x5 (DEFTYPE), 0x6 (DEFSTRUCT), 0x7 (VAR), 0x8 (ARRAY), 0x9 (RECORD)",
+		return fail(c, otk->line,
+			    "ObjectType '%s' is not one of 0x2 (DOMAIN), 0x5 (DEFTYPE), 0x6 "
+			    "(DEFSTRUCT), 0x7 (VAR), 0x8 (ARRAY), 0x9 (RECORD)",
 			    otk->val);
 	}
 	if (ck) {
 		if (ot != CO_OBJ_ARRAY)
-			return fail(c, ck->line, "[%s]: CompactSubObj on a RECORD (only ARRAY)", o->name);
+			return fail(c, ck->line, "[%s]: CompactSubObj on a RECORD (only ARRAY)",
+				    o->name);
 		if (sn && *sn->val) {
 			uint64_t n;
 			if ((rc = parse_uint_key(c, sn, 255, &n)))
 				return rc;
 			if (n != 0)
-				return fail(c, sn->line, "[%s]: SubNumber and CompactSubObj together", o->name);
+				return fail(c, sn->line,
+					    "[%s]: SubNumber and CompactSubObj together", o->name);
 		}
 		return do_compact(c, o, ck);
 	}
@@ -957,13 +978,15 @@ static int do_object(eds_ctx *c, const ini_sec *o)
 	if ((rc = parse_uint_key(c, sn, 255, &n)))
 		return rc;
 	if (n == 0)
-		return fail(c, sn->line, "[%s]: SubNumber 0 (an %s has at least sub-index 0)", o->name,
-			    ot == CO_OBJ_ARRAY ? "ARRAY" : "RECORD");
+		return fail(c, sn->line, "[%s]: SubNumber 0 (an %s has at least sub-index 0)",
+			    o->name, ot == CO_OBJ_ARRAY ? "ARRAY" : "RECORD");
 	if (last - first != n)
-		return fail(c, sn->line, "[%s]: SubNumber=%llu but %zu sub-object sections [%04XsubN]",
-			    o->name, (unsigned long long)n, last - first, o->index);
+		return fail(c, sn->line,
+			    "[%s]: SubNumber=%llu but %zu sub-object sections [%04XsubN]", o->name,
+			    (unsigned long long)n, last - first, o->index);
 	if (c->sorted[first]->sub != 0)
-		return fail(c, o->line, "[%s]: no sub-object section [%04Xsub0]", o->name, o->index);
+		return fail(c, o->line, "[%s]: no sub-object section [%04Xsub0]", o->name,
+			    o->index);
 	for (size_t i = first; i < last; i++) {
 		const ini_sec *s = c->sorted[i];
 		const ini_key *sot = get_key(s, "ObjectType");
@@ -971,8 +994,8 @@ static int do_object(eds_ctx *c, const ini_sec *o)
 		if (sot && (rc = parse_uint_key(c, sot, 0xFF, &so)))
 			return rc;
 		if (sot && so != CO_OBJ_VAR)
-			return fail(c, sot->line, "[%s]: a sub-object must have ObjectType 0x7 (VAR)",
-				    s->name);
+			return fail(c, sot->line,
+				    "[%s]: a sub-object must have ObjectType 0x7 (VAR)", s->name);
 		if ((rc = do_plain(c, s, s->index, s->sub, false)))
 			return rc;
 	}
@@ -1036,8 +1059,8 @@ static int do_list(eds_ctx *c, const char *name)
 		if ((rc = parse_uint_key(c, k, 0xFFFF, &idx)))
 			return rc;
 		if (!find_sec(c, SEC_OBJ, (uint16_t)idx, 0, NULL))
-			warn(c, k->line, "[%s]: object 0x%04llX listed but no section [%04llX]", name,
-			     (unsigned long long)idx, (unsigned long long)idx);
+			warn(c, k->line, "[%s]: object 0x%04llX listed but no section [%04llX]",
+			     name, (unsigned long long)idx, (unsigned long long)idx);
 	}
 	return 0;
 }
@@ -1053,7 +1076,8 @@ static int check_orphans(eds_ctx *c)
 		if (!o)
 			return fail(c, s->line, "[%s] without object [%04X]", s->name, s->index);
 		if ((s->kind == SEC_NAME || s->kind == SEC_VALUE) && !get_key(o, "CompactSubObj"))
-			return fail(c, s->line, "[%s] but [%s] has no CompactSubObj", s->name, o->name);
+			return fail(c, s->line, "[%s] but [%s] has no CompactSubObj", s->name,
+				    o->name);
 	}
 	return 0;
 }
@@ -1123,7 +1147,7 @@ static int emit_const(eds_ctx *c, uint16_t index, uint8_t sub, uint32_t val, uin
 		return -ENOMEM;
 	for (int i = 0; i < 4; i++)
 		d[i] = (uint8_t)(val >> (8 * i));
-	v = (out_var){.index = index, .sub = sub, .line = line, .data = d, .size = size};
+	v = (out_var){ .index = index, .sub = sub, .line = line, .data = d, .size = size };
 	if ((rc = add_var(c, index, sub, line, d, size)))
 		return rc;
 	return emit(c, &v);
@@ -1146,13 +1170,16 @@ static int emit_pdo(eds_ctx *c, uint16_t comm, uint16_t map, size_t nvars)
 		uint8_t n = m0->data[0];
 		unsigned line = m0->line;
 		if (n > 0x40)
-			return fail(c, line, "PDO mapping %04Xh: sub0=%u, at most 64 entries", map, n);
+			return fail(c, line, "PDO mapping %04Xh: sub0=%u, at most 64 entries", map,
+				    n);
 		if ((rc = emit_const(c, map, 0, 0, 1, line)))
 			return rc;
 		for (unsigned s = 1; s <= n; s++) {
 			const out_var *e = find_var(c, map, (uint8_t)s);
 			if (!e)
-				return fail(c, line, "PDO mapping %04Xh: sub0=%u but sub %u has no writable value",
+				return fail(c, line,
+					    "PDO mapping %04Xh: sub0=%u but sub %u has no writable "
+					    "value",
 					    map, n, s);
 			if ((rc = emit(c, e)))
 				return rc;
@@ -1241,11 +1268,12 @@ static void ctx_free(eds_ctx *c)
 	free(c->text);
 }
 
-int eds_convert(const char *text, size_t len, const char *file, uint8_t node_id,
-		uint8_t **out, size_t *out_len, eds_stats *stats, char *err, size_t errlen)
+int eds_convert(const char *text, size_t len, const char *file, uint8_t node_id, uint8_t **out,
+		size_t *out_len, eds_stats *stats, char *err, size_t errlen)
 {
-	eds_ctx c = {.file = file ? file : "(buffer)", .node_id = node_id, .err = err,
-		     .errlen = errlen};
+	eds_ctx c = {
+		.file = file ? file : "(buffer)", .node_id = node_id, .err = err, .errlen = errlen
+	};
 	int rc;
 
 	*out = NULL;

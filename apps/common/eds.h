@@ -46,11 +46,11 @@
 #define EDS_FILE_MAX (16u * 1024u * 1024u)
 
 typedef struct eds_stats {
-	unsigned objects;   /* object sections read */
-	unsigned values;    /* values parsed (all access types) */
-	unsigned entries;   /* entries in the concise DCF */
-	unsigned skipped;   /* writable sub-objects without a value */
-	uint8_t node_id;    /* node id the $NODEID expressions used (0 = none) */
+	unsigned objects; /* object sections read */
+	unsigned values;  /* values parsed (all access types) */
+	unsigned entries; /* entries in the concise DCF */
+	unsigned skipped; /* writable sub-objects without a value */
+	uint8_t node_id;  /* node id the $NODEID expressions used (0 = none) */
 	/* Inconsistencies that lose nothing (an object list naming an object
 	 * the file does not describe, a wrong SupportedObjects count): real
 	 * device files have them, so they are reported, not refused. */
@@ -65,13 +65,11 @@ typedef struct eds_stats {
  * stands for; 0 = take [DeviceComissioning] NodeID, and a $NODEID with no
  * node id at all is an error. stats may be NULL.
  */
-int eds_convert(const char *text, size_t len, const char *file,
-		uint8_t node_id, uint8_t **out, size_t *out_len,
-		eds_stats *stats, char *err, size_t errlen);
+int eds_convert(const char *text, size_t len, const char *file, uint8_t node_id, uint8_t **out,
+		size_t *out_len, eds_stats *stats, char *err, size_t errlen);
 
 /* Read a file (at most EDS_FILE_MAX bytes) and eds_convert it. */
-int eds_convert_file(const char *path, uint8_t node_id, uint8_t **out,
-		     size_t *out_len, eds_stats *stats, char *err,
-		     size_t errlen);
+int eds_convert_file(const char *path, uint8_t node_id, uint8_t **out, size_t *out_len,
+		     eds_stats *stats, char *err, size_t errlen);
 
 #endif /* COGW_APPS_EDS_H */

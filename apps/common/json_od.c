@@ -26,14 +26,12 @@
 /* ---- names ----------------------------------------------------------------- */
 
 static const co_type all_types[] = {
-	CO_T_BOOLEAN,	     CO_T_INTEGER8,	CO_T_INTEGER16,
-	CO_T_INTEGER32,	     CO_T_UNSIGNED8,	CO_T_UNSIGNED16,
-	CO_T_UNSIGNED32,     CO_T_REAL32,	CO_T_VISIBLE_STRING,
-	CO_T_OCTET_STRING,   CO_T_UNICODE_STRING, CO_T_TIME_OF_DAY,
-	CO_T_TIME_DIFFERENCE, CO_T_DOMAIN,	CO_T_INTEGER24,
-	CO_T_REAL64,	     CO_T_INTEGER40,	CO_T_INTEGER48,
-	CO_T_INTEGER56,	     CO_T_INTEGER64,	CO_T_UNSIGNED24,
-	CO_T_UNSIGNED40,     CO_T_UNSIGNED48,	CO_T_UNSIGNED56,
+	CO_T_BOOLEAN,         CO_T_INTEGER8,     CO_T_INTEGER16,      CO_T_INTEGER32,
+	CO_T_UNSIGNED8,       CO_T_UNSIGNED16,   CO_T_UNSIGNED32,     CO_T_REAL32,
+	CO_T_VISIBLE_STRING,  CO_T_OCTET_STRING, CO_T_UNICODE_STRING, CO_T_TIME_OF_DAY,
+	CO_T_TIME_DIFFERENCE, CO_T_DOMAIN,       CO_T_INTEGER24,      CO_T_REAL64,
+	CO_T_INTEGER40,       CO_T_INTEGER48,    CO_T_INTEGER56,      CO_T_INTEGER64,
+	CO_T_UNSIGNED24,      CO_T_UNSIGNED40,   CO_T_UNSIGNED48,     CO_T_UNSIGNED56,
 	CO_T_UNSIGNED64,
 };
 
@@ -58,8 +56,7 @@ static const struct {
 
 bool json_od_access_from_string(const char *s, uint16_t *acc)
 {
-	for (size_t i = 0; i < sizeof(access_words) / sizeof(access_words[0]);
-	     i++) {
+	for (size_t i = 0; i < sizeof(access_words) / sizeof(access_words[0]); i++) {
 		if (!strcmp(s, access_words[i].word)) {
 			*acc = access_words[i].acc;
 			return true;
@@ -70,9 +67,8 @@ bool json_od_access_from_string(const char *s, uint16_t *acc)
 
 static bool type_is_int(co_type t)
 {
-	return !co_type_is_variable(t) && !co_type_is_real(t) &&
-	       t != CO_T_BOOLEAN && t != CO_T_TIME_OF_DAY &&
-	       t != CO_T_TIME_DIFFERENCE;
+	return !co_type_is_variable(t) && !co_type_is_real(t) && t != CO_T_BOOLEAN &&
+	       t != CO_T_TIME_OF_DAY && t != CO_T_TIME_DIFFERENCE;
 }
 
 /* ---- value encoding ---------------------------------------------------------- */
@@ -147,8 +143,8 @@ long json_od_utf8_to_utf16le(const char *s, uint8_t *out, uint32_t cap)
 	return (long)n;
 }
 
-static int parse_time(const cJSON *v, co_type t, const char *path,
-		      uint8_t *buf, char *err, size_t errlen)
+static int parse_time(const cJSON *v, co_type t, const char *path, uint8_t *buf, char *err,
+		      size_t errlen)
 {
 	static const char *const keys[] = { "ms", "days", NULL };
 	uint64_t ms = 0, days = 0;
@@ -162,19 +158,16 @@ static int parse_time(const cJSON *v, co_type t, const char *path,
 				      "expected {\"ms\": .., \"days\": ..} for %s, got %s",
 				      co_type_to_string(t), json_util_kind(v));
 	if ((rc = json_util_check_object(v, path, keys, err, errlen)) ||
-	    (rc = json_util_opt_uint(v, "ms", path, 0, 0x0FFFFFFF, &ms, err,
-				     errlen)) ||
-	    (rc = json_util_opt_uint(v, "days", path, 0, 0xFFFF, &days, err,
-				     errlen)))
+	    (rc = json_util_opt_uint(v, "ms", path, 0, 0x0FFFFFFF, &ms, err, errlen)) ||
+	    (rc = json_util_opt_uint(v, "days", path, 0, 0xFFFF, &days, err, errlen)))
 		return rc;
 	le_put(buf, 4, ms);
 	le_put(buf + 4, 2, days);
 	return 0;
 }
 
-int json_od_parse_value(const cJSON *v, co_type t, const char *path,
-			uint8_t *buf, uint32_t cap, uint32_t *len, char *err,
-			size_t errlen)
+int json_od_parse_value(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
+			uint32_t *len, char *err, size_t errlen)
 {
 	uint32_t size = co_type_size(t);
 	int rc;
@@ -191,8 +184,7 @@ int json_od_parse_value(const cJSON *v, co_type t, const char *path,
 		if (cJSON_IsBool(v))
 			b = cJSON_IsTrue(v);
 		else if (cJSON_IsNumber(v)) {
-			if ((rc = json_util_uint(v, path, 0, 1, false, &u, err,
-						 errlen)))
+			if ((rc = json_util_uint(v, path, 0, 1, false, &u, err, errlen)))
 				return rc;
 			b = u != 0;
 		} else
@@ -213,10 +205,8 @@ int json_od_parse_value(const cJSON *v, co_type t, const char *path,
 		double d;
 
 		if (!cJSON_IsNumber(v))
-			return json_util_fail(err, errlen, path,
-					      "expected a number for %s, got %s",
-					      co_type_to_string(t),
-					      json_util_kind(v));
+			return json_util_fail(err, errlen, path, "expected a number for %s, got %s",
+					      co_type_to_string(t), json_util_kind(v));
 		if ((rc = json_util_real(v, path, &d, err, errlen)))
 			return rc;
 		if (t == CO_T_REAL32) {
@@ -225,8 +215,7 @@ int json_od_parse_value(const cJSON *v, co_type t, const char *path,
 
 			if (fabs(d) > FLT_MAX)
 				return json_util_fail(err, errlen, path,
-						      "%g is out of range for REAL32",
-						      d);
+						      "%g is out of range for REAL32", d);
 			f = (float)d;
 			memcpy(&bits, &f, 4);
 			le_put(buf, 4, bits);
@@ -245,25 +234,20 @@ int json_od_parse_value(const cJSON *v, co_type t, const char *path,
 		if (!cJSON_IsNumber(v) && !cJSON_IsString(v))
 			return json_util_fail(err, errlen, path,
 					      "expected an integer for %s, got %s",
-					      co_type_to_string(t),
-					      json_util_kind(v));
+					      co_type_to_string(t), json_util_kind(v));
 		if (co_type_is_signed(t)) {
-			int64_t lo = size == 8 ? INT64_MIN
-					       : -((int64_t)1 << (8 * size - 1));
-			int64_t hi = size == 8 ? INT64_MAX
-					       : ((int64_t)1 << (8 * size - 1)) - 1;
+			int64_t lo = size == 8 ? INT64_MIN : -((int64_t)1 << (8 * size - 1));
+			int64_t hi = size == 8 ? INT64_MAX : ((int64_t)1 << (8 * size - 1)) - 1;
 			int64_t s;
 
 			if ((rc = json_util_sint(v, p, lo, hi, &s, err, errlen)))
 				return rc;
 			le_put(buf, size, (uint64_t)s);
 		} else {
-			uint64_t hi = size == 8 ? UINT64_MAX
-					       : ((uint64_t)1 << (8 * size)) - 1;
+			uint64_t hi = size == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * size)) - 1;
 			uint64_t u;
 
-			if ((rc = json_util_uint(v, p, 0, hi, false, &u, err,
-						 errlen)))
+			if ((rc = json_util_uint(v, p, 0, hi, false, &u, err, errlen)))
 				return rc;
 			le_put(buf, size, u);
 		}
@@ -281,8 +265,8 @@ int json_od_parse_value(const cJSON *v, co_type t, const char *path,
 		n = strlen(v->valuestring);
 		if (n > cap)
 			return json_util_fail(err, errlen, path,
-					      "string of %zu bytes is longer than max_size %u",
-					      n, cap);
+					      "string of %zu bytes is longer than max_size %u", n,
+					      cap);
 		memcpy(buf, v->valuestring, n);
 		*len = (uint32_t)n;
 		return 0;
@@ -296,8 +280,7 @@ int json_od_parse_value(const cJSON *v, co_type t, const char *path,
 					      json_util_kind(v));
 		n = json_od_utf8_to_utf16le(v->valuestring, buf, cap);
 		if (n == -1)
-			return json_util_fail(err, errlen, path,
-					      "string is not valid UTF-8");
+			return json_util_fail(err, errlen, path, "string is not valid UTF-8");
 		if (n == -2)
 			return json_util_fail(err, errlen, path,
 					      "string is longer than max_size %u bytes (UTF-16)",
@@ -316,8 +299,7 @@ int json_od_parse_value(const cJSON *v, co_type t, const char *path,
 	}
 }
 
-int json_od_parse_index(const cJSON *v, const char *path, uint16_t *out,
-			char *err, size_t errlen)
+int json_od_parse_index(const cJSON *v, const char *path, uint16_t *out, char *err, size_t errlen)
 {
 	uint64_t u;
 	int rc = json_util_uint(v, path, 0x1000, 0xFFFF, true, &u, err, errlen);
@@ -334,8 +316,7 @@ static long var_value_len(const cJSON *v, co_type t)
 	if (t == CO_T_VISIBLE_STRING)
 		return cJSON_IsString(v) ? (long)strlen(v->valuestring) : -1;
 	if (t == CO_T_UNICODE_STRING)
-		return cJSON_IsString(v) ? json_od_utf8_to_utf16le(v->valuestring, NULL, 0)
-					 : -1;
+		return cJSON_IsString(v) ? json_od_utf8_to_utf16le(v->valuestring, NULL, 0) : -1;
 	return json_util_hex_len(v);
 }
 
@@ -382,8 +363,8 @@ struct ent_spec {
 	uint8_t min_b[8], max_b[8];
 };
 
-static int parse_common(const cJSON *o, const char *path, struct ent_spec *s,
-			char *err, size_t errlen)
+static int parse_common(const cJSON *o, const char *path, struct ent_spec *s, char *err,
+			size_t errlen)
 {
 	char p[JSON_PATH_MAX];
 	const cJSON *v;
@@ -400,21 +381,19 @@ static int parse_common(const cJSON *o, const char *path, struct ent_spec *s,
 				      "expected a type name like \"UNSIGNED16\", got %s",
 				      json_util_kind(v));
 	if (!json_od_type_from_string(v->valuestring, &s->type))
-		return json_util_fail(err, errlen, p, "unknown type \"%.40s\"",
-				      v->valuestring);
+		return json_util_fail(err, errlen, p, "unknown type \"%.40s\"", v->valuestring);
 
 	s->access = CO_ACC_RW;
 	v = json_util_get(o, "access");
 	if (v) {
 		json_util_path_key(p, sizeof(p), path, "access");
-		if (!cJSON_IsString(v) ||
-		    !json_od_access_from_string(v->valuestring, &s->access)) {
+		if (!cJSON_IsString(v) || !json_od_access_from_string(v->valuestring, &s->access)) {
 			char r[64];
 
 			json_util_repr(v, r, sizeof(r));
-			return json_util_fail(err, errlen, p,
-					      "unknown access %s (one of ro, wo, rw, rwr, rww, const)",
-					      r);
+			return json_util_fail(
+				err, errlen, p,
+				"unknown access %s (one of ro, wo, rw, rwr, rww, const)", r);
 		}
 	}
 	if ((rc = json_util_opt_bool(o, "pdo", path, &pdo, err, errlen)) ||
@@ -434,12 +413,10 @@ static int parse_common(const cJSON *o, const char *path, struct ent_spec *s,
 	if (v) {
 		json_util_path_key(p, sizeof(p), path, "name");
 		if (!cJSON_IsString(v))
-			return json_util_fail(err, errlen, p,
-					      "expected a string, got %s",
+			return json_util_fail(err, errlen, p, "expected a string, got %s",
 					      json_util_kind(v));
 		if (strlen(v->valuestring) > NAME_MAX_LEN)
-			return json_util_fail(err, errlen, p,
-					      "longer than %u bytes", NAME_MAX_LEN);
+			return json_util_fail(err, errlen, p, "longer than %u bytes", NAME_MAX_LEN);
 		s->name = v->valuestring;
 	}
 
@@ -448,8 +425,7 @@ static int parse_common(const cJSON *o, const char *path, struct ent_spec *s,
 	v = json_util_get(o, "max_size");
 	if (co_type_is_variable(s->type)) {
 		if (s->min || s->max) {
-			json_util_path_key(p, sizeof(p), path,
-					   s->min ? "min" : "max");
+			json_util_path_key(p, sizeof(p), path, s->min ? "min" : "max");
 			return json_util_fail(err, errlen, p,
 					      "limits apply to numeric types only, not %s",
 					      co_type_to_string(s->type));
@@ -458,8 +434,8 @@ static int parse_common(const cJSON *o, const char *path, struct ent_spec *s,
 			uint64_t u;
 
 			json_util_path_key(p, sizeof(p), path, "max_size");
-			if ((rc = json_util_uint(v, p, 1, JSON_OD_MAX_SIZE, false,
-						 &u, err, errlen)))
+			if ((rc = json_util_uint(v, p, 1, JSON_OD_MAX_SIZE, false, &u, err,
+						 errlen)))
 				return rc;
 			s->max_size = (uint32_t)u;
 		}
@@ -467,12 +443,10 @@ static int parse_common(const cJSON *o, const char *path, struct ent_spec *s,
 	}
 	if (v) {
 		json_util_path_key(p, sizeof(p), path, "max_size");
-		return json_util_fail(err, errlen, p,
-				      "applies to strings and domains only, not %s",
+		return json_util_fail(err, errlen, p, "applies to strings and domains only, not %s",
 				      co_type_to_string(s->type));
 	}
-	if ((s->min || s->max) && !type_is_int(s->type) &&
-	    !co_type_is_real(s->type)) {
+	if ((s->min || s->max) && !type_is_int(s->type) && !co_type_is_real(s->type)) {
 		json_util_path_key(p, sizeof(p), path, s->min ? "min" : "max");
 		return json_util_fail(err, errlen, p,
 				      "limits apply to integer and real types only, not %s",
@@ -480,14 +454,12 @@ static int parse_common(const cJSON *o, const char *path, struct ent_spec *s,
 	}
 	if (s->min) {
 		json_util_path_key(p, sizeof(p), path, "min");
-		if ((rc = json_od_parse_value(s->min, s->type, p, s->min_b, 8, &l,
-					      err, errlen)))
+		if ((rc = json_od_parse_value(s->min, s->type, p, s->min_b, 8, &l, err, errlen)))
 			return rc;
 	}
 	if (s->max) {
 		json_util_path_key(p, sizeof(p), path, "max");
-		if ((rc = json_od_parse_value(s->max, s->type, p, s->max_b, 8, &l,
-					      err, errlen)))
+		if ((rc = json_od_parse_value(s->max, s->type, p, s->max_b, 8, &l, err, errlen)))
 			return rc;
 	}
 	if (s->min && s->max && num_cmp(s->type, s->min_b, s->max_b) > 0) {
@@ -496,23 +468,25 @@ static int parse_common(const cJSON *o, const char *path, struct ent_spec *s,
 		json_util_repr(s->min, a, sizeof(a));
 		json_util_repr(s->max, b, sizeof(b));
 		json_util_path_key(p, sizeof(p), path, "min");
-		return json_util_fail(err, errlen, p,
-				      "min %s is greater than max %s", a, b);
+		return json_util_fail(err, errlen, p, "min %s is greater than max %s", a, b);
 	}
 	return 0;
 }
 
 /* Add (index, sub) as described by s with default JSON value def (NULL =
  * zero / empty). def_path names def in messages. */
-static int add_entry(co_od *od, uint16_t index, uint8_t sub, uint8_t obj_code,
-		     struct ent_spec *s, const cJSON *def, const char *path,
-		     const char *def_path, char *err, size_t errlen)
+static int add_entry(co_od *od, uint16_t index, uint8_t sub, uint8_t obj_code, struct ent_spec *s,
+		     const cJSON *def, const char *path, const char *def_path, char *err,
+		     size_t errlen)
 {
 	uint8_t num[8] = { 0 };
 	uint8_t *buf = num;
 	uint32_t len = 0;
-	co_od_desc d = { .index = index, .sub = sub, .obj_code = obj_code,
-			 .type = (uint8_t)s->type, .access = s->access,
+	co_od_desc d = { .index = index,
+			 .sub = sub,
+			 .obj_code = obj_code,
+			 .type = (uint8_t)s->type,
+			 .access = s->access,
 			 .name = s->name };
 	int rc;
 
@@ -524,8 +498,8 @@ static int add_entry(co_od *od, uint16_t index, uint8_t sub, uint8_t obj_code,
 			/* Malformed default: let the parser say why. */
 			uint8_t none;
 
-			return json_od_parse_value(def, s->type, def_path, &none,
-						   0, &len, err, errlen);
+			return json_od_parse_value(def, s->type, def_path, &none, 0, &len, err,
+						   errlen);
 		}
 		if (!cap) {
 			/* No max_size: the default's length is the capacity. */
@@ -545,8 +519,8 @@ static int add_entry(co_od *od, uint16_t index, uint8_t sub, uint8_t obj_code,
 			buf = malloc(cap ? cap : 1);
 			if (!buf)
 				return -ENOMEM;
-			rc = json_od_parse_value(def, s->type, def_path, buf, cap,
-						 &len, err, errlen);
+			rc = json_od_parse_value(def, s->type, def_path, buf, cap, &len, err,
+						 errlen);
 			if (rc) {
 				free(buf);
 				return rc;
@@ -557,8 +531,8 @@ static int add_entry(co_od *od, uint16_t index, uint8_t sub, uint8_t obj_code,
 		d.def_size = len;
 	} else {
 		if (def) {
-			if ((rc = json_od_parse_value(def, s->type, def_path, num,
-						      8, &len, err, errlen)))
+			if ((rc = json_od_parse_value(def, s->type, def_path, num, 8, &len, err,
+						      errlen)))
 				return rc;
 		}
 		if (s->min && num_cmp(s->type, num, s->min_b) < 0) {
@@ -590,34 +564,29 @@ static int add_entry(co_od *od, uint16_t index, uint8_t sub, uint8_t obj_code,
 	if (buf != num)
 		free(buf);
 	if (rc == -EEXIST)
-		return json_util_fail(err, errlen, path,
-				      "0x%04X:%02X is defined twice", index, sub);
+		return json_util_fail(err, errlen, path, "0x%04X:%02X is defined twice", index,
+				      sub);
 	if (rc == -ENOMEM)
 		return rc;
 	if (rc)
 		return json_util_fail(err, errlen, path,
-				      "the object dictionary refused 0x%04X:%02X (%s)",
-				      index, sub, strerror(-rc));
+				      "the object dictionary refused 0x%04X:%02X (%s)", index, sub,
+				      strerror(-rc));
 	return 0;
 }
 
-static const char *const var_keys[] = { "index", "object", "name", "type",
-					"access", "pdo", "persist", "default",
-					"min", "max", "max_size", "comment",
-					NULL };
-static const char *const array_keys[] = { "index", "object", "name", "type",
-					  "access", "pdo", "persist",
-					  "length", "default", "defaults",
-					  "min", "max", "max_size", "comment",
-					  NULL };
-static const char *const record_keys[] = { "index", "object", "name", "subs",
-					   "comment", NULL };
-static const char *const sub_keys[] = { "sub", "name", "type", "access",
-					"pdo", "persist", "default", "min",
-					"max", "max_size", "comment", NULL };
+static const char *const var_keys[] = { "index",    "object",  "name",    "type", "access",
+					"pdo",      "persist", "default", "min",  "max",
+					"max_size", "comment", NULL };
+static const char *const array_keys[] = { "index", "object",  "name",     "type",    "access",
+					  "pdo",   "persist", "length",   "default", "defaults",
+					  "min",   "max",     "max_size", "comment", NULL };
+static const char *const record_keys[] = { "index", "object", "name", "subs", "comment", NULL };
+static const char *const sub_keys[] = { "sub",     "name", "type", "access",   "pdo",     "persist",
+					"default", "min",  "max",  "max_size", "comment", NULL };
 
-static int add_var(co_od *od, uint16_t index, const cJSON *o,
-		   const char *path, char *err, size_t errlen)
+static int add_var(co_od *od, uint16_t index, const cJSON *o, const char *path, char *err,
+		   size_t errlen)
 {
 	struct ent_spec s;
 	char dp[JSON_PATH_MAX];
@@ -627,12 +596,12 @@ static int add_var(co_od *od, uint16_t index, const cJSON *o,
 	    (rc = parse_common(o, path, &s, err, errlen)))
 		return rc;
 	json_util_path_key(dp, sizeof(dp), path, "default");
-	return add_entry(od, index, 0, CO_OBJ_VAR, &s,
-			 json_util_get(o, "default"), path, dp, err, errlen);
+	return add_entry(od, index, 0, CO_OBJ_VAR, &s, json_util_get(o, "default"), path, dp, err,
+			 errlen);
 }
 
-static int add_sub0(co_od *od, uint16_t index, uint8_t obj_code, uint8_t n,
-		    const char *path, char *err, size_t errlen)
+static int add_sub0(co_od *od, uint16_t index, uint8_t obj_code, uint8_t n, const char *path,
+		    char *err, size_t errlen)
 {
 	co_od_entry *e;
 	int rc = co_od_add_num(od, index, 0, CO_T_UNSIGNED8, CO_ACC_RO, n, &e);
@@ -640,14 +609,13 @@ static int add_sub0(co_od *od, uint16_t index, uint8_t obj_code, uint8_t n,
 	if (rc == -ENOMEM)
 		return rc;
 	if (rc)
-		return json_util_fail(err, errlen, path,
-				      "0x%04X:00 is defined twice", index);
+		return json_util_fail(err, errlen, path, "0x%04X:00 is defined twice", index);
 	e->obj_code = obj_code;
 	return 0;
 }
 
-static int add_array(co_od *od, uint16_t index, const cJSON *o,
-		     const char *path, char *err, size_t errlen)
+static int add_array(co_od *od, uint16_t index, const cJSON *o, const char *path, char *err,
+		     size_t errlen)
 {
 	struct ent_spec s;
 	const cJSON *lv, *def = NULL, *defs;
@@ -667,22 +635,19 @@ static int add_array(co_od *od, uint16_t index, const cJSON *o,
 	if (def && defs) {
 		json_util_path_key(p, sizeof(p), path, "defaults");
 		return json_util_fail(err, errlen, p,
-				      "give either \"default\" (all subs) or \"defaults\" (one per sub), not both");
+				      "give either \"default\" (all subs) or \"defaults\" (one per "
+				      "sub), not both");
 	}
 	if (defs) {
 		json_util_path_key(p, sizeof(p), path, "defaults");
 		if (!cJSON_IsArray(defs))
-			return json_util_fail(err, errlen, p,
-					      "expected an array, got %s",
+			return json_util_fail(err, errlen, p, "expected an array, got %s",
 					      json_util_kind(defs));
 		if ((uint64_t)cJSON_GetArraySize(defs) != n)
-			return json_util_fail(err, errlen, p,
-					      "has %d values, length is %llu",
-					      cJSON_GetArraySize(defs),
-					      (unsigned long long)n);
+			return json_util_fail(err, errlen, p, "has %d values, length is %llu",
+					      cJSON_GetArraySize(defs), (unsigned long long)n);
 	}
-	if ((rc = add_sub0(od, index, CO_OBJ_ARRAY, (uint8_t)n, path, err,
-			   errlen)))
+	if ((rc = add_sub0(od, index, CO_OBJ_ARRAY, (uint8_t)n, path, err, errlen)))
 		return rc;
 	for (unsigned i = 1; i <= n; i++) {
 		const cJSON *dv = def;
@@ -694,15 +659,15 @@ static int add_array(co_od *od, uint16_t index, const cJSON *o,
 		} else {
 			json_util_path_key(dp, sizeof(dp), path, "default");
 		}
-		if ((rc = add_entry(od, index, (uint8_t)i, CO_OBJ_ARRAY, &s, dv,
-				    path, dp, err, errlen)))
+		if ((rc = add_entry(od, index, (uint8_t)i, CO_OBJ_ARRAY, &s, dv, path, dp, err,
+				    errlen)))
 			return rc;
 	}
 	return 0;
 }
 
-static int add_record(co_od *od, uint16_t index, const cJSON *o,
-		      const char *path, char *err, size_t errlen)
+static int add_record(co_od *od, uint16_t index, const cJSON *o, const char *path, char *err,
+		      size_t errlen)
 {
 	const cJSON *subs, *it;
 	char sp[JSON_PATH_MAX], p[JSON_PATH_MAX], dp[JSON_PATH_MAX];
@@ -720,7 +685,8 @@ static int add_record(co_od *od, uint16_t index, const cJSON *o,
 				      "expected a non-empty array of sub-index definitions");
 	/* First pass: sub numbers, so that sub 0 (the highest sub-index,
 	 * CiA 301 §7.4.3) is known before anything is added. */
-	cJSON_ArrayForEach(it, subs) {
+	cJSON_ArrayForEach(it, subs)
+	{
 		const cJSON *sv;
 		uint64_t sub;
 
@@ -729,41 +695,37 @@ static int add_record(co_od *od, uint16_t index, const cJSON *o,
 		    (rc = json_util_require(it, "sub", p, &sv, err, errlen)))
 			return rc;
 		json_util_path_key(dp, sizeof(dp), p, "sub");
-		if ((rc = json_util_uint(sv, dp, 1, SUB_MAX, false, &sub, err,
-					 errlen)))
+		if ((rc = json_util_uint(sv, dp, 1, SUB_MAX, false, &sub, err, errlen)))
 			return rc;
 		if (seen[sub])
-			return json_util_fail(err, errlen, dp,
-					      "sub-index %llu is defined twice",
+			return json_util_fail(err, errlen, dp, "sub-index %llu is defined twice",
 					      (unsigned long long)sub);
 		seen[sub] = 1;
 		if (sub > highest)
 			highest = (unsigned)sub;
 	}
-	if ((rc = add_sub0(od, index, CO_OBJ_RECORD, (uint8_t)highest, path, err,
-			   errlen)))
+	if ((rc = add_sub0(od, index, CO_OBJ_RECORD, (uint8_t)highest, path, err, errlen)))
 		return rc;
 	i = 0;
-	cJSON_ArrayForEach(it, subs) {
+	cJSON_ArrayForEach(it, subs)
+	{
 		struct ent_spec s;
 		uint64_t sub = 0;
 
 		json_util_path_index(p, sizeof(p), sp, i++);
-		json_util_uint(json_util_get(it, "sub"), p, 1, SUB_MAX, false,
-			       &sub, err, errlen);
+		json_util_uint(json_util_get(it, "sub"), p, 1, SUB_MAX, false, &sub, err, errlen);
 		if ((rc = parse_common(it, p, &s, err, errlen)))
 			return rc;
 		json_util_path_key(dp, sizeof(dp), p, "default");
 		if ((rc = add_entry(od, index, (uint8_t)sub, CO_OBJ_RECORD, &s,
-				    json_util_get(it, "default"), p, dp, err,
-				    errlen)))
+				    json_util_get(it, "default"), p, dp, err, errlen)))
 			return rc;
 	}
 	return 0;
 }
 
-int json_od_add_objects(co_od *od, const cJSON *objects,
-			const char *path_prefix, char *err, size_t errlen)
+int json_od_add_objects(co_od *od, const cJSON *objects, const char *path_prefix, char *err,
+			size_t errlen)
 {
 	const cJSON *o;
 	char p[JSON_PATH_MAX], kp[JSON_PATH_MAX];
@@ -774,15 +736,15 @@ int json_od_add_objects(co_od *od, const cJSON *objects,
 		return json_util_fail(err, errlen, path_prefix,
 				      "expected an array of object definitions, got %s",
 				      json_util_kind(objects));
-	cJSON_ArrayForEach(o, objects) {
+	cJSON_ArrayForEach(o, objects)
+	{
 		const cJSON *iv, *kind;
 		uint16_t index;
 		const char *k = "VAR";
 
 		json_util_path_index(p, sizeof(p), path_prefix, i++);
 		if (!cJSON_IsObject(o))
-			return json_util_fail(err, errlen, p,
-					      "expected an object, got %s",
+			return json_util_fail(err, errlen, p, "expected an object, got %s",
 					      json_util_kind(o));
 		if ((rc = json_util_require(o, "index", p, &iv, err, errlen)))
 			return rc;
@@ -791,15 +753,17 @@ int json_od_add_objects(co_od *od, const cJSON *objects,
 			return rc;
 		if (co_od_has_index(od, index))
 			return json_util_fail(err, errlen, kp,
-					      "object 0x%04X already exists (a standard object or defined twice; set values in \"values\")",
+					      "object 0x%04X already exists (a standard object or "
+					      "defined twice; set values in \"values\")",
 					      index);
 		kind = json_util_get(o, "object");
 		if (kind) {
 			json_util_path_key(kp, sizeof(kp), p, "object");
 			if (!cJSON_IsString(kind))
-				return json_util_fail(err, errlen, kp,
-						      "expected \"VAR\", \"ARRAY\" or \"RECORD\", got %s",
-						      json_util_kind(kind));
+				return json_util_fail(
+					err, errlen, kp,
+					"expected \"VAR\", \"ARRAY\" or \"RECORD\", got %s",
+					json_util_kind(kind));
 			k = kind->valuestring;
 		}
 		if (!strcmp(k, "VAR"))
@@ -820,11 +784,10 @@ int json_od_add_objects(co_od *od, const cJSON *objects,
 
 /* ---- values -------------------------------------------------------------------- */
 
-static const char *const value_keys[] = { "index", "sub", "value", "comment",
-					  NULL };
+static const char *const value_keys[] = { "index", "sub", "value", "comment", NULL };
 
-static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key,
-		     char *err, size_t errlen)
+static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key, char *err,
+		     size_t errlen)
 {
 	char kp[JSON_PATH_MAX];
 	const cJSON *iv, *vv, *sv;
@@ -844,20 +807,18 @@ static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key,
 	if ((rc = json_od_parse_index(iv, kp, &index, err, errlen)))
 		return rc;
 	if (!co_od_has_index(od, index))
-		return json_util_fail(err, errlen, kp,
-				      "object 0x%04X does not exist", index);
+		return json_util_fail(err, errlen, kp, "object 0x%04X does not exist", index);
 	sv = json_util_get(o, "sub");
 	if (sv) {
 		json_util_path_key(kp, sizeof(kp), p, "sub");
-		if ((rc = json_util_uint(sv, kp, 0, 255, false, &sub, err,
-					 errlen)))
+		if ((rc = json_util_uint(sv, kp, 0, 255, false, &sub, err, errlen)))
 			return rc;
 	}
 	e = co_od_find_ex(od, index, (uint8_t)sub, &abort);
 	if (!e)
 		return json_util_fail(err, errlen, sv ? kp : p,
-				      "object 0x%04X has no sub-index %llu",
-				      index, (unsigned long long)sub);
+				      "object 0x%04X has no sub-index %llu", index,
+				      (unsigned long long)sub);
 	*key = (uint32_t)index << 8 | (uint32_t)sub;
 
 	json_util_path_key(kp, sizeof(kp), p, "value");
@@ -867,8 +828,7 @@ static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key,
 		if (!buf)
 			return -ENOMEM;
 	}
-	rc = json_od_parse_value(vv, (co_type)e->type, kp, buf, cap, &len, err,
-				 errlen);
+	rc = json_od_parse_value(vv, (co_type)e->type, kp, buf, cap, &len, err, errlen);
 	if (rc)
 		goto out;
 	abort = co_od_check_value(e, buf, len);
@@ -876,8 +836,7 @@ static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key,
 		char r[64];
 
 		json_util_repr(vv, r, sizeof(r));
-		rc = json_util_fail(err, errlen, kp,
-				    "%s refused for 0x%04X:%02X (%s)", r, index,
+		rc = json_util_fail(err, errlen, kp, "%s refused for 0x%04X:%02X (%s)", r, index,
 				    (unsigned)sub, sdo_abort_to_string(abort));
 		goto out;
 	}
@@ -885,8 +844,7 @@ static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key,
 	if (rc == -ENOMEM)
 		goto out;
 	if (rc) {
-		rc = json_util_fail(err, errlen, kp,
-				    "cannot store the value (%s)", strerror(-rc));
+		rc = json_util_fail(err, errlen, kp, "cannot store the value (%s)", strerror(-rc));
 		goto out;
 	}
 	co_od_entry_reset(e);
@@ -896,8 +854,8 @@ out:
 	return rc;
 }
 
-int json_od_apply_values(co_od *od, const cJSON *values,
-			 const char *path_prefix, char *err, size_t errlen)
+int json_od_apply_values(co_od *od, const cJSON *values, const char *path_prefix, char *err,
+			 size_t errlen)
 {
 	const cJSON *o;
 	char p[JSON_PATH_MAX];
@@ -906,18 +864,19 @@ int json_od_apply_values(co_od *od, const cJSON *values,
 	int rc = 0;
 
 	if (!cJSON_IsArray(values))
-		return json_util_fail(err, errlen, path_prefix,
-				      "expected an array of {\"index\", \"sub\", \"value\"}, got %s",
-				      json_util_kind(values));
+		return json_util_fail(
+			err, errlen, path_prefix,
+			"expected an array of {\"index\", \"sub\", \"value\"}, got %s",
+			json_util_kind(values));
 	n = (size_t)cJSON_GetArraySize(values);
 	keys = calloc(n ? n : 1, sizeof(*keys));
 	if (!keys)
 		return -ENOMEM;
-	cJSON_ArrayForEach(o, values) {
+	cJSON_ArrayForEach(o, values)
+	{
 		json_util_path_index(p, sizeof(p), path_prefix, i);
 		if (!cJSON_IsObject(o)) {
-			rc = json_util_fail(err, errlen, p,
-					    "expected an object, got %s",
+			rc = json_util_fail(err, errlen, p, "expected an object, got %s",
 					    json_util_kind(o));
 			break;
 		}
@@ -929,8 +888,7 @@ int json_od_apply_values(co_od *od, const cJSON *values,
 			if (keys[j] == keys[i]) {
 				rc = json_util_fail(err, errlen, p,
 						    "0x%04X:%02X is already set by %s[%zu]",
-						    keys[i] >> 8, keys[i] & 0xFF,
-						    path_prefix, j);
+						    keys[i] >> 8, keys[i] & 0xFF, path_prefix, j);
 				break;
 			}
 		}

@@ -33,8 +33,8 @@
  * object, or one defined twice) is refused: initial values of existing
  * objects belong in "values".
  */
-int json_od_add_objects(co_od *od, const cJSON *objects,
-			const char *path_prefix, char *err, size_t errlen);
+int json_od_add_objects(co_od *od, const cJSON *objects, const char *path_prefix, char *err,
+			size_t errlen);
 
 /*
  * Apply the JSON array `values`: [{"index": .., "sub": .., "value": ..}].
@@ -44,21 +44,19 @@ int json_od_add_objects(co_od *od, const cJSON *objects,
  * rights are not checked: the configuration may set read-only and const
  * objects (1008h, 1018h, ...).
  */
-int json_od_apply_values(co_od *od, const cJSON *values,
-			 const char *path_prefix, char *err, size_t errlen);
+int json_od_apply_values(co_od *od, const cJSON *values, const char *path_prefix, char *err,
+			 size_t errlen);
 
 /*
  * Encode one JSON value as the wire bytes of type t (see docs/config.md,
  * "Values by type"); at most cap bytes. Numbers are range-checked against
  * the type; strings against cap.
  */
-int json_od_parse_value(const cJSON *v, co_type t, const char *path,
-			uint8_t *buf, uint32_t cap, uint32_t *len, char *err,
-			size_t errlen);
+int json_od_parse_value(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
+			uint32_t *len, char *err, size_t errlen);
 
 /* An index 0x1000..0xFFFF: a number or a string "0x1A00". */
-int json_od_parse_index(const cJSON *v, const char *path, uint16_t *out,
-			char *err, size_t errlen);
+int json_od_parse_index(const cJSON *v, const char *path, uint16_t *out, char *err, size_t errlen);
 
 /* UTF-8 text (NUL-terminated) to UTF-16LE, the wire form of
  * UNICODE_STRING. out NULL: only count. Returns the byte length, -1 for

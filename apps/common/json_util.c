@@ -17,8 +17,7 @@
 #include <stdio.h>
 #include <string.h>
 
-int json_util_fail(char *err, size_t errlen, const char *path,
-		   const char *fmt, ...)
+int json_util_fail(char *err, size_t errlen, const char *path, const char *fmt, ...)
 {
 	char reason[256];
 	va_list ap;
@@ -27,8 +26,7 @@ int json_util_fail(char *err, size_t errlen, const char *path,
 	vsnprintf(reason, sizeof(reason), fmt, ap);
 	va_end(ap);
 	if (err && errlen)
-		snprintf(err, errlen, "%s: %s", path && *path ? path : "(top)",
-			 reason);
+		snprintf(err, errlen, "%s: %s", path && *path ? path : "(top)", reason);
 	return -EINVAL;
 }
 
@@ -54,8 +52,7 @@ int json_util_parse(const char *text, cJSON **out, char *err, size_t errlen)
 			}
 		}
 		if (err && errlen)
-			snprintf(err, errlen, "line %u column %u: invalid JSON",
-				 line, col);
+			snprintf(err, errlen, "line %u column %u: invalid JSON", line, col);
 		return -EINVAL;
 	}
 	*out = root;
@@ -154,8 +151,8 @@ static unsigned edit_distance(const char *a, const char *b)
 	return row[lb];
 }
 
-int json_util_check_object(const cJSON *obj, const char *path,
-			   const char *const *allowed, char *err, size_t errlen)
+int json_util_check_object(const cJSON *obj, const char *path, const char *const *allowed,
+			   char *err, size_t errlen)
 {
 	char p[JSON_PATH_MAX];
 	const cJSON *c, *d;
@@ -185,14 +182,12 @@ int json_util_check_object(const cJSON *obj, const char *path,
 		if (!known) {
 			if (hint)
 				return json_util_fail(err, errlen, p,
-						      "unknown key (did you mean \"%s\"?)",
-						      hint);
+						      "unknown key (did you mean \"%s\"?)", hint);
 			return json_util_fail(err, errlen, p, "unknown key");
 		}
 		for (d = obj->child; d != c; d = d->next)
 			if (!strcmp(d->string, c->string))
-				return json_util_fail(err, errlen, p,
-						      "duplicate key");
+				return json_util_fail(err, errlen, p, "duplicate key");
 	}
 	return 0;
 }
@@ -202,8 +197,8 @@ const cJSON *json_util_get(const cJSON *obj, const char *key)
 	return cJSON_GetObjectItemCaseSensitive(obj, key);
 }
 
-int json_util_require(const cJSON *obj, const char *key, const char *path,
-		      const cJSON **out, char *err, size_t errlen)
+int json_util_require(const cJSON *obj, const char *key, const char *path, const cJSON **out,
+		      char *err, size_t errlen)
 {
 	char p[JSON_PATH_MAX];
 
@@ -258,8 +253,8 @@ static bool parse_int_string(const char *s, bool *neg, uint64_t *mag)
 	return true;
 }
 
-int json_util_int(const cJSON *v, const char *path, bool *neg, uint64_t *mag,
-		  char *err, size_t errlen)
+int json_util_int(const cJSON *v, const char *path, bool *neg, uint64_t *mag, char *err,
+		  size_t errlen)
 {
 	char r[64];
 
@@ -268,11 +263,11 @@ int json_util_int(const cJSON *v, const char *path, bool *neg, uint64_t *mag,
 
 		json_util_repr(v, r, sizeof(r));
 		if (!isfinite(d) || d != floor(d))
-			return json_util_fail(err, errlen, path,
-					      "%s is not an integer", r);
+			return json_util_fail(err, errlen, path, "%s is not an integer", r);
 		if (fabs(d) > JSON_EXACT_INT_MAX)
 			return json_util_fail(err, errlen, path,
-					      "%s is beyond the exact range of JSON numbers; write it as a string (\"0x...\")",
+					      "%s is beyond the exact range of JSON numbers; write "
+					      "it as a string (\"0x...\")",
 					      r);
 		*neg = d < 0;
 		*mag = (uint64_t)fabs(d);
@@ -281,18 +276,15 @@ int json_util_int(const cJSON *v, const char *path, bool *neg, uint64_t *mag,
 	if (cJSON_IsString(v)) {
 		if (!parse_int_string(v->valuestring, neg, mag)) {
 			json_util_repr(v, r, sizeof(r));
-			return json_util_fail(err, errlen, path,
-					      "%s is not an integer", r);
+			return json_util_fail(err, errlen, path, "%s is not an integer", r);
 		}
 		return 0;
 	}
-	return json_util_fail(err, errlen, path, "expected an integer, got %s",
-			      json_util_kind(v));
+	return json_util_fail(err, errlen, path, "expected an integer, got %s", json_util_kind(v));
 }
 
-int json_util_uint(const cJSON *v, const char *path, uint64_t min,
-		   uint64_t max, bool hex, uint64_t *out, char *err,
-		   size_t errlen)
+int json_util_uint(const cJSON *v, const char *path, uint64_t min, uint64_t max, bool hex,
+		   uint64_t *out, char *err, size_t errlen)
 {
 	bool neg;
 	uint64_t mag;
@@ -305,20 +297,17 @@ int json_util_uint(const cJSON *v, const char *path, uint64_t min,
 		json_util_repr(v, r, sizeof(r));
 		if (hex)
 			return json_util_fail(err, errlen, path,
-					      "%s is out of range 0x%04llX..0x%04llX",
-					      r, (unsigned long long)min,
-					      (unsigned long long)max);
-		return json_util_fail(err, errlen, path,
-				      "%s is out of range %llu..%llu", r,
-				      (unsigned long long)min,
-				      (unsigned long long)max);
+					      "%s is out of range 0x%04llX..0x%04llX", r,
+					      (unsigned long long)min, (unsigned long long)max);
+		return json_util_fail(err, errlen, path, "%s is out of range %llu..%llu", r,
+				      (unsigned long long)min, (unsigned long long)max);
 	}
 	*out = mag;
 	return 0;
 }
 
-int json_util_sint(const cJSON *v, const char *path, int64_t min, int64_t max,
-		   int64_t *out, char *err, size_t errlen)
+int json_util_sint(const cJSON *v, const char *path, int64_t min, int64_t max, int64_t *out,
+		   char *err, size_t errlen)
 {
 	bool neg;
 	uint64_t mag;
@@ -339,43 +328,37 @@ int json_util_sint(const cJSON *v, const char *path, int64_t min, int64_t max,
 	return 0;
 range:
 	json_util_repr(v, r, sizeof(r));
-	return json_util_fail(err, errlen, path, "%s is out of range %lld..%lld",
-			      r, (long long)min, (long long)max);
+	return json_util_fail(err, errlen, path, "%s is out of range %lld..%lld", r, (long long)min,
+			      (long long)max);
 }
 
-int json_util_real(const cJSON *v, const char *path, double *out, char *err,
-		   size_t errlen)
+int json_util_real(const cJSON *v, const char *path, double *out, char *err, size_t errlen)
 {
 	if (!cJSON_IsNumber(v))
-		return json_util_fail(err, errlen, path,
-				      "expected a number, got %s",
+		return json_util_fail(err, errlen, path, "expected a number, got %s",
 				      json_util_kind(v));
 	if (!isfinite(v->valuedouble))
-		return json_util_fail(err, errlen, path,
-				      "number is not finite");
+		return json_util_fail(err, errlen, path, "number is not finite");
 	*out = v->valuedouble;
 	return 0;
 }
 
-int json_util_bool(const cJSON *v, const char *path, bool *out, char *err,
-		   size_t errlen)
+int json_util_bool(const cJSON *v, const char *path, bool *out, char *err, size_t errlen)
 {
 	if (!cJSON_IsBool(v))
-		return json_util_fail(err, errlen, path,
-				      "expected true or false, got %s",
+		return json_util_fail(err, errlen, path, "expected true or false, got %s",
 				      json_util_kind(v));
 	*out = cJSON_IsTrue(v);
 	return 0;
 }
 
-int json_util_string(const cJSON *v, const char *path, size_t min_len,
-		     char *buf, size_t cap, char *err, size_t errlen)
+int json_util_string(const cJSON *v, const char *path, size_t min_len, char *buf, size_t cap,
+		     char *err, size_t errlen)
 {
 	size_t len;
 
 	if (!cJSON_IsString(v))
-		return json_util_fail(err, errlen, path,
-				      "expected a string, got %s",
+		return json_util_fail(err, errlen, path, "expected a string, got %s",
 				      json_util_kind(v));
 	len = strlen(v->valuestring);
 	if (len < min_len)
@@ -383,15 +366,13 @@ int json_util_string(const cJSON *v, const char *path, size_t min_len,
 	if (len >= cap)
 		return json_util_fail(err, errlen, path,
 				      "\"%.40s%s\" is too long (%zu bytes, at most %zu)",
-				      v->valuestring, len > 40 ? "..." : "", len,
-				      cap - 1);
+				      v->valuestring, len > 40 ? "..." : "", len, cap - 1);
 	memcpy(buf, v->valuestring, len + 1);
 	return 0;
 }
 
-int json_util_opt_uint(const cJSON *obj, const char *key, const char *path,
-		       uint64_t min, uint64_t max, uint64_t *out, char *err,
-		       size_t errlen)
+int json_util_opt_uint(const cJSON *obj, const char *key, const char *path, uint64_t min,
+		       uint64_t max, uint64_t *out, char *err, size_t errlen)
 {
 	const cJSON *v = json_util_get(obj, key);
 	char p[JSON_PATH_MAX];
@@ -402,9 +383,8 @@ int json_util_opt_uint(const cJSON *obj, const char *key, const char *path,
 	return json_util_uint(v, p, min, max, false, out, err, errlen);
 }
 
-int json_util_opt_sint(const cJSON *obj, const char *key, const char *path,
-		       int64_t min, int64_t max, int64_t *out, char *err,
-		       size_t errlen)
+int json_util_opt_sint(const cJSON *obj, const char *key, const char *path, int64_t min,
+		       int64_t max, int64_t *out, char *err, size_t errlen)
 {
 	const cJSON *v = json_util_get(obj, key);
 	char p[JSON_PATH_MAX];
@@ -415,8 +395,8 @@ int json_util_opt_sint(const cJSON *obj, const char *key, const char *path,
 	return json_util_sint(v, p, min, max, out, err, errlen);
 }
 
-int json_util_opt_bool(const cJSON *obj, const char *key, const char *path,
-		       bool *out, char *err, size_t errlen)
+int json_util_opt_bool(const cJSON *obj, const char *key, const char *path, bool *out, char *err,
+		       size_t errlen)
 {
 	const cJSON *v = json_util_get(obj, key);
 	char p[JSON_PATH_MAX];
@@ -427,9 +407,8 @@ int json_util_opt_bool(const cJSON *obj, const char *key, const char *path,
 	return json_util_bool(v, p, out, err, errlen);
 }
 
-int json_util_opt_string(const cJSON *obj, const char *key, const char *path,
-			 size_t min_len, char *buf, size_t cap, char *err,
-			 size_t errlen)
+int json_util_opt_string(const cJSON *obj, const char *key, const char *path, size_t min_len,
+			 char *buf, size_t cap, char *err, size_t errlen)
 {
 	const cJSON *v = json_util_get(obj, key);
 	char p[JSON_PATH_MAX];
@@ -474,8 +453,8 @@ long json_util_hex_len(const cJSON *v)
 	return hex_decode(v->valuestring, NULL, 0);
 }
 
-int json_util_hex(const cJSON *v, const char *path, uint8_t *buf, size_t cap,
-		  size_t *len, char *err, size_t errlen)
+int json_util_hex(const cJSON *v, const char *path, uint8_t *buf, size_t cap, size_t *len,
+		  char *err, size_t errlen)
 {
 	long n;
 
@@ -485,11 +464,11 @@ int json_util_hex(const cJSON *v, const char *path, uint8_t *buf, size_t cap,
 				      json_util_kind(v));
 	n = json_util_hex_len(v);
 	if (n < 0)
-		return json_util_fail(err, errlen, path,
-				      "not a hex string (pairs of hex digits, optionally separated by spaces)");
+		return json_util_fail(
+			err, errlen, path,
+			"not a hex string (pairs of hex digits, optionally separated by spaces)");
 	if ((size_t)n > cap)
-		return json_util_fail(err, errlen, path,
-				      "%ld bytes are longer than max_size %zu",
+		return json_util_fail(err, errlen, path, "%ld bytes are longer than max_size %zu",
 				      n, cap);
 	hex_decode(v->valuestring, buf, cap);
 	*len = (size_t)n;

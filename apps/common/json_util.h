@@ -34,8 +34,8 @@ void json_util_path_key(char *buf, size_t n, const char *path, const char *key);
 void json_util_path_index(char *buf, size_t n, const char *path, size_t i);
 
 /* Write "path: reason" (printf-style reason). Always returns -EINVAL. */
-int json_util_fail(char *err, size_t errlen, const char *path,
-		   const char *fmt, ...) __attribute__((format(printf, 4, 5)));
+int json_util_fail(char *err, size_t errlen, const char *path, const char *fmt, ...)
+	__attribute__((format(printf, 4, 5)));
 
 /* A short rendering of a value for messages: 200, 1.5, "abc", true, an
  * object, an array. */
@@ -48,14 +48,14 @@ const char *json_util_kind(const cJSON *v);
  * and appear once; "path.key: unknown key" (with a "did you mean" hint
  * for a near miss) or "path.key: duplicate key" otherwise.
  */
-int json_util_check_object(const cJSON *obj, const char *path,
-			   const char *const *allowed, char *err, size_t errlen);
+int json_util_check_object(const cJSON *obj, const char *path, const char *const *allowed,
+			   char *err, size_t errlen);
 
 /* Member lookup (exact, case-sensitive). */
 const cJSON *json_util_get(const cJSON *obj, const char *key);
 /* A required member: "path.key: required key is missing". */
-int json_util_require(const cJSON *obj, const char *key, const char *path,
-		      const cJSON **out, char *err, size_t errlen);
+int json_util_require(const cJSON *obj, const char *key, const char *path, const cJSON **out,
+		      char *err, size_t errlen);
 
 /*
  * Integers: a JSON number without a fraction and within +-2^53, or a
@@ -63,40 +63,34 @@ int json_util_require(const cJSON *obj, const char *key, const char *path,
  * ("0660", leading 0) integer. neg and mag give sign and magnitude, so that
  * the full INTEGER64 and UNSIGNED64 ranges are representable.
  */
-int json_util_int(const cJSON *v, const char *path, bool *neg, uint64_t *mag,
-		  char *err, size_t errlen);
+int json_util_int(const cJSON *v, const char *path, bool *neg, uint64_t *mag, char *err,
+		  size_t errlen);
 /* Range-checked forms. hex: print the range in hex (indexes, COB-IDs). */
-int json_util_uint(const cJSON *v, const char *path, uint64_t min,
-		   uint64_t max, bool hex, uint64_t *out, char *err,
-		   size_t errlen);
-int json_util_sint(const cJSON *v, const char *path, int64_t min, int64_t max,
-		   int64_t *out, char *err, size_t errlen);
+int json_util_uint(const cJSON *v, const char *path, uint64_t min, uint64_t max, bool hex,
+		   uint64_t *out, char *err, size_t errlen);
+int json_util_sint(const cJSON *v, const char *path, int64_t min, int64_t max, int64_t *out,
+		   char *err, size_t errlen);
 /* A JSON number (any, finite). */
-int json_util_real(const cJSON *v, const char *path, double *out, char *err,
-		   size_t errlen);
-int json_util_bool(const cJSON *v, const char *path, bool *out, char *err,
-		   size_t errlen);
+int json_util_real(const cJSON *v, const char *path, double *out, char *err, size_t errlen);
+int json_util_bool(const cJSON *v, const char *path, bool *out, char *err, size_t errlen);
 /* A string of 1..cap-1 bytes (min_len 0 allows ""), copied into buf. */
-int json_util_string(const cJSON *v, const char *path, size_t min_len,
-		     char *buf, size_t cap, char *err, size_t errlen);
+int json_util_string(const cJSON *v, const char *path, size_t min_len, char *buf, size_t cap,
+		     char *err, size_t errlen);
 
 /* Optional member forms: absent leaves *out unchanged. */
-int json_util_opt_uint(const cJSON *obj, const char *key, const char *path,
-		       uint64_t min, uint64_t max, uint64_t *out, char *err,
+int json_util_opt_uint(const cJSON *obj, const char *key, const char *path, uint64_t min,
+		       uint64_t max, uint64_t *out, char *err, size_t errlen);
+int json_util_opt_sint(const cJSON *obj, const char *key, const char *path, int64_t min,
+		       int64_t max, int64_t *out, char *err, size_t errlen);
+int json_util_opt_bool(const cJSON *obj, const char *key, const char *path, bool *out, char *err,
 		       size_t errlen);
-int json_util_opt_sint(const cJSON *obj, const char *key, const char *path,
-		       int64_t min, int64_t max, int64_t *out, char *err,
-		       size_t errlen);
-int json_util_opt_bool(const cJSON *obj, const char *key, const char *path,
-		       bool *out, char *err, size_t errlen);
-int json_util_opt_string(const cJSON *obj, const char *key, const char *path,
-			 size_t min_len, char *buf, size_t cap, char *err,
-			 size_t errlen);
+int json_util_opt_string(const cJSON *obj, const char *key, const char *path, size_t min_len,
+			 char *buf, size_t cap, char *err, size_t errlen);
 
 /* Hex bytes "01 02 0a" / "01020A" (spaces allowed between byte pairs).
  * *len = bytes decoded; "path: ..." if odd, not hex, or longer than cap. */
-int json_util_hex(const cJSON *v, const char *path, uint8_t *buf, size_t cap,
-		  size_t *len, char *err, size_t errlen);
+int json_util_hex(const cJSON *v, const char *path, uint8_t *buf, size_t cap, size_t *len,
+		  char *err, size_t errlen);
 /* Bytes the hex string in v decodes to, or -1 if it is not valid hex. */
 long json_util_hex_len(const cJSON *v);
 

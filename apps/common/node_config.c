@@ -19,18 +19,21 @@
 #include "apps/common/json_util.h"
 #include "core/cdcf.h"
 
-static const char *const config_keys[] = { "entries", "dcf", "concise", "store",
-					   "date", "time", "comment", NULL };
-static const char *const entry_keys[] = { "index", "sub", "type", "value",
-					  "comment", NULL };
+static const char *const config_keys[] = { "entries", "dcf",  "concise", "store",
+					   "date",    "time", "comment", NULL };
+static const char *const entry_keys[] = { "index", "sub", "type", "value", "comment", NULL };
 
 const char *cogw_node_config_source_to_string(cogw_node_config_source s)
 {
 	switch (s) {
-	case COGW_NODE_CONFIG_NONE: return "none";
-	case COGW_NODE_CONFIG_ENTRIES: return "entries";
-	case COGW_NODE_CONFIG_DCF: return "dcf";
-	case COGW_NODE_CONFIG_CONCISE: return "concise";
+	case COGW_NODE_CONFIG_NONE:
+		return "none";
+	case COGW_NODE_CONFIG_ENTRIES:
+		return "entries";
+	case COGW_NODE_CONFIG_DCF:
+		return "dcf";
+	case COGW_NODE_CONFIG_CONCISE:
+		return "concise";
 	}
 	return "?";
 }
@@ -43,17 +46,14 @@ void cogw_node_config_free(cogw_node_config *nc)
 	memset(nc, 0, sizeof(*nc));
 }
 
-bool cogw_node_config_equal(const cogw_node_config *a,
-			    const cogw_node_config *b)
+bool cogw_node_config_equal(const cogw_node_config *a, const cogw_node_config *b)
 {
-	return a->source == b->source && a->store == b->store &&
-	       a->verify == b->verify && a->date == b->date &&
-	       a->time == b->time && a->cdcf_len == b->cdcf_len &&
+	return a->source == b->source && a->store == b->store && a->verify == b->verify &&
+	       a->date == b->date && a->time == b->time && a->cdcf_len == b->cdcf_len &&
 	       (!a->cdcf_len || !memcmp(a->cdcf, b->cdcf, a->cdcf_len));
 }
 
-int cogw_cdcf_load_file(const char *file, uint8_t **out, size_t *len,
-			char *err, size_t errlen)
+int cogw_cdcf_load_file(const char *file, uint8_t **out, size_t *len, char *err, size_t errlen)
 {
 	struct stat st;
 	co_cdcf_diag d;
@@ -76,8 +76,7 @@ int cogw_cdcf_load_file(const char *file, uint8_t **out, size_t *len,
 		return -EIO;
 	}
 	if ((uint64_t)st.st_size > COGW_NODE_CONFIG_MAX) {
-		snprintf(err, errlen, "%s: larger than %u bytes", file,
-			 COGW_NODE_CONFIG_MAX);
+		snprintf(err, errlen, "%s: larger than %u bytes", file, COGW_NODE_CONFIG_MAX);
 		close(fd);
 		return -EFBIG;
 	}
@@ -114,8 +113,8 @@ int cogw_cdcf_load_file(const char *file, uint8_t **out, size_t *len,
 
 /* "entries": a JSON list, written with the cdcf writer in two passes
  * (measure, then fill) so the buffer is allocated once. */
-static int parse_entries(const cJSON *list, const char *path,
-			 cogw_node_config *nc, char *err, size_t errlen)
+static int parse_entries(const cJSON *list, const char *path, cogw_node_config *nc, char *err,
+			 size_t errlen)
 {
 	uint8_t *val = NULL;
 	co_cdcf_writer w;
@@ -123,8 +122,7 @@ static int parse_entries(const cJSON *list, const char *path,
 	int rc = 0;
 
 	if (!cJSON_IsArray(list))
-		return json_util_fail(err, errlen, path,
-				      "expected an array of entries, got %s",
+		return json_util_fail(err, errlen, path, "expected an array of entries, got %s",
 				      json_util_kind(list));
 	val = malloc(COGW_NODE_ENTRY_MAX);
 	if (!val)
@@ -134,7 +132,8 @@ static int parse_entries(const cJSON *list, const char *path,
 		size_t i = 0;
 
 		co_cdcf_writer_init(&w, nc->cdcf, nc->cdcf_len);
-		cJSON_ArrayForEach(e, list) {
+		cJSON_ArrayForEach(e, list)
+		{
 			char ep[JSON_PATH_MAX], p[JSON_PATH_MAX];
 			const cJSON *v;
 			uint16_t index;
@@ -157,19 +156,21 @@ static int parse_entries(const cJSON *list, const char *path,
 				break;
 			if (!json_od_type_from_string(tname, &t)) {
 				rc = json_util_fail(err, errlen, p,
-						    "\"%s\" is not a CiA 301 data type name (e.g. UNSIGNED16, VISIBLE_STRING)",
+						    "\"%s\" is not a CiA 301 data type name (e.g. "
+						    "UNSIGNED16, VISIBLE_STRING)",
 						    tname);
 				break;
 			}
 			if ((rc = json_util_require(e, "value", ep, &v, err, errlen)))
 				break;
 			json_util_path_key(p, sizeof(p), ep, "value");
-			if ((rc = json_od_parse_value(v, t, p, val, COGW_NODE_ENTRY_MAX, &len,
-						      err, errlen)))
+			if ((rc = json_od_parse_value(v, t, p, val, COGW_NODE_ENTRY_MAX, &len, err,
+						      errlen)))
 				break;
 			if (len == 0) {
 				rc = json_util_fail(err, errlen, p,
-						    "empty value (a concise DCF entry needs at least one byte)");
+						    "empty value (a concise DCF entry needs at "
+						    "least one byte)");
 				break;
 			}
 			rc = co_cdcf_writer_add(&w, index, (uint8_t)sub, val, len);
@@ -220,9 +221,8 @@ static bool resolve(char *buf, size_t n, const char *base_dir, const char *file)
 	return true;
 }
 
-int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id,
-			   const char *base_dir, cogw_node_config *nc,
-			   char *err, size_t errlen)
+int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
+			   cogw_node_config *nc, char *err, size_t errlen)
 {
 	const char *srcs[] = { "entries", "dcf", "concise" };
 	const cJSON *src = NULL, *x;
@@ -240,7 +240,8 @@ int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id,
 		if (src) {
 			json_util_path_key(p, sizeof(p), path, srcs[i]);
 			return json_util_fail(err, errlen, p,
-					      "only one of \"entries\", \"dcf\" and \"concise\" (\"%s\" is given too)",
+					      "only one of \"entries\", \"dcf\" and \"concise\" "
+					      "(\"%s\" is given too)",
 					      srcs[which]);
 		}
 		src = x;
@@ -279,8 +280,8 @@ int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id,
 		eds_stats st;
 
 		nc->source = COGW_NODE_CONFIG_DCF;
-		rc = eds_convert_file(nc->file, node_id, &nc->cdcf, &nc->cdcf_len, &st,
-				      why, sizeof(why));
+		rc = eds_convert_file(nc->file, node_id, &nc->cdcf, &nc->cdcf_len, &st, why,
+				      sizeof(why));
 		nc->entries = st.entries;
 	} else {
 		nc->source = COGW_NODE_CONFIG_CONCISE;

@@ -49,29 +49,26 @@ typedef enum cogw_node_config_source {
 const char *cogw_node_config_source_to_string(cogw_node_config_source s);
 
 typedef struct cogw_node_config {
-	uint8_t source;      /* cogw_node_config_source */
-	char file[256];      /* dcf/concise: the file read (resolved path) */
-	uint8_t *cdcf;       /* the concise DCF (owned, malloc'd) */
+	uint8_t source; /* cogw_node_config_source */
+	char file[256]; /* dcf/concise: the file read (resolved path) */
+	uint8_t *cdcf;  /* the concise DCF (owned, malloc'd) */
 	size_t cdcf_len;
-	uint32_t entries;    /* entries in cdcf */
-	bool store;          /* 1010h:1 "save" after a download */
-	bool verify;         /* date/time given */
-	uint32_t date;       /* 1F26h: days since 1984-01-01 */
-	uint32_t time;       /* 1F27h: ms after midnight */
+	uint32_t entries; /* entries in cdcf */
+	bool store;       /* 1010h:1 "save" after a download */
+	bool verify;      /* date/time given */
+	uint32_t date;    /* 1F26h: days since 1984-01-01 */
+	uint32_t time;    /* 1F27h: ms after midnight */
 } cogw_node_config;
 
-int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id,
-			   const char *base_dir, cogw_node_config *out,
-			   char *err, size_t errlen);
+int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
+			   cogw_node_config *out, char *err, size_t errlen);
 void cogw_node_config_free(cogw_node_config *nc); /* accepts zeroed */
 /* Same source and bytes (what a reload compares). */
-bool cogw_node_config_equal(const cogw_node_config *a,
-			    const cogw_node_config *b);
+bool cogw_node_config_equal(const cogw_node_config *a, const cogw_node_config *b);
 
 /* Read a binary concise DCF file and check it (core/cdcf.h). Errors:
  * "file: entry 3 (1800:02) at byte 25: ..." in err, -EINVAL, -ENOENT,
  * -EIO, -EFBIG, -ENOMEM. */
-int cogw_cdcf_load_file(const char *file, uint8_t **out, size_t *len,
-			char *err, size_t errlen);
+int cogw_cdcf_load_file(const char *file, uint8_t **out, size_t *len, char *err, size_t errlen);
 
 #endif /* COGW_APPS_NODE_CONFIG_H */

@@ -31,10 +31,10 @@
 #include "core/od_image.h"
 
 #define COSIM_NAME_MAX 64
-#define COSIM_PDO_MAX 32u      /* PDOs per direction in a device file */
+#define COSIM_PDO_MAX 32u /* PDOs per direction in a device file */
 #define COSIM_SIGNAL_MAX 32u
 #define COSIM_LOOPBACK_MAX 32u
-#define COSIM_DELAY_QUEUE 64u  /* SDO answers held back by "sdo delay" */
+#define COSIM_DELAY_QUEUE 64u /* SDO answers held back by "sdo delay" */
 #define COSIM_ERR_MAX 512
 
 /* ---- device description (device.c) ------------------------------------ */
@@ -55,8 +55,8 @@ typedef struct cosim_signal_desc {
 	cosim_signal_kind kind;
 	double min, max, value; /* value: const */
 	uint32_t period_ms;
-	uint32_t update_ms;     /* how often the object is refreshed */
-	bool notify;            /* trigger event-driven TPDOs on change */
+	uint32_t update_ms; /* how often the object is refreshed */
+	bool notify;        /* trigger event-driven TPDOs on change */
 	/* Optional scaling, value = (raw + offset) * span / 100, with offset
 	 * and span read from these objects at each update (the transducer's
 	 * 2004h:1 zero offset and 2005h:1 span in %). index 0 = none. */
@@ -69,7 +69,7 @@ typedef struct cosim_signal_desc {
 typedef struct cosim_loopback_desc {
 	uint16_t from_index; /* an output (RPDO/SDO written) */
 	uint8_t from_sub;
-	uint16_t to_index;   /* the input it is echoed into */
+	uint16_t to_index; /* the input it is echoed into */
 	uint8_t to_sub;
 } cosim_loopback_desc;
 
@@ -79,7 +79,7 @@ typedef struct cosim_loopback_desc {
 typedef struct cosim_rel_cob {
 	uint16_t index;
 	uint8_t sub;
-	uint32_t base;  /* value with node-ID 0 (flag bits included) */
+	uint32_t base; /* value with node-ID 0 (flag bits included) */
 } cosim_rel_cob;
 
 #define COSIM_REL_COB_MAX (4u + 2u * COSIM_PDO_MAX)
@@ -87,26 +87,26 @@ typedef struct cosim_rel_cob {
 /* The program download objects of CiA 302-3 (device file "program"). */
 typedef struct cosim_program_desc {
 	bool enabled;
-	uint32_t flash_max;   /* capacity of 1F50h:1 (the simulated flash) */
-	bool refuse;          /* refuse every image on start (a device that
+	uint32_t flash_max; /* capacity of 1F50h:1 (the simulated flash) */
+	bool refuse;        /* refuse every image on start (a device that
 	                       * rejects the firmware it is given) */
 } cosim_program_desc;
 
 /* Program state machine (1F51h:1 read value). */
 typedef enum cosim_program_state {
-	COSIM_PROG_STOPPED = 0,  /* an image, not running */
+	COSIM_PROG_STOPPED = 0, /* an image, not running */
 	COSIM_PROG_RUNNING = 1,
-	COSIM_PROG_CLEARED = 3,  /* flash erased: 1F50h:1 may be written */
+	COSIM_PROG_CLEARED = 3, /* flash erased: 1F50h:1 may be written */
 } cosim_program_state;
 
 typedef struct cosim_program {
 	co_od *od;
 	const cosim_program_desc *desc;
-	uint8_t state;        /* cosim_program_state */
-	uint32_t image_len;   /* bytes in the flash */
-	uint32_t refused;     /* starts refused */
+	uint8_t state;      /* cosim_program_state */
+	uint32_t image_len; /* bytes in the flash */
+	uint32_t refused;   /* starts refused */
 	bool quiet;
-	uint8_t node_id;      /* for log lines */
+	uint8_t node_id; /* for log lines */
 } cosim_program;
 
 /* Hook 1F50h:1/1F51h:1 (built by the device) into the state machine:
@@ -125,10 +125,10 @@ int cosim_program_attach(cosim_program *p, co_od *od, const cosim_program_desc *
 uint32_t cosim_crc32(const uint8_t *data, size_t len);
 
 typedef struct cosim_device {
-	char file[256];              /* for messages */
+	char file[256]; /* for messages */
 	char name[COSIM_NAME_MAX];
-	uint8_t node_id;             /* after --node-id; 255 = unconfigured */
-	co_od *od;                   /* owned */
+	uint8_t node_id; /* after --node-id; 255 = unconfigured */
+	co_od *od;       /* owned */
 	bool lss_enabled;
 	bool lss_constant_id;
 	uint16_t lss_bit_timing_mask; /* bit i = CiA table 0 index i allowed;
@@ -149,19 +149,18 @@ void cosim_device_rebase(cosim_device *dev, co_od *od, uint8_t node_id);
 
 /* Per-device command-line overrides (--node-id, --serial after --device). */
 typedef struct cosim_device_opts {
-	int node_id;      /* -1 = from the file */
-	int64_t serial;   /* -1 = from the file */
+	int node_id;    /* -1 = from the file */
+	int64_t serial; /* -1 = from the file */
 } cosim_device_opts;
 
 /* Load and check a device file and build its OD. Errors: -EINVAL with
  * "file: json.path: reason" in err, -ENOENT/-EIO for the file itself,
  * -ENOMEM. */
-int cosim_device_load(cosim_device *dev, const char *path,
-		      const cosim_device_opts *opts, char *err, size_t errlen);
+int cosim_device_load(cosim_device *dev, const char *path, const cosim_device_opts *opts, char *err,
+		      size_t errlen);
 /* Same from a string (tests, fuzzing); `file` names it in messages. */
-int cosim_device_load_string(cosim_device *dev, const char *file,
-			     const char *json, const cosim_device_opts *opts,
-			     char *err, size_t errlen);
+int cosim_device_load_string(cosim_device *dev, const char *file, const char *json,
+			     const cosim_device_opts *opts, char *err, size_t errlen);
 void cosim_device_free(cosim_device *dev); /* accepts a zeroed device */
 
 /* "0x2003:00" (sub optional, default 0) -> index/sub. */
@@ -170,17 +169,17 @@ int cosim_parse_object(const char *s, uint16_t *index, uint8_t *sub);
 /* ---- faults ------------------------------------------------------------- */
 
 typedef struct cosim_faults {
-	bool silent;       /* cable pulled: nothing out, nothing in */
-	bool hb_stop;      /* heartbeats (not boot-ups) are dropped */
-	bool sdo_silent;   /* SDO server answers are dropped */
-	uint32_t sdo_abort; /* != 0: every SDO initiate is answered with it */
+	bool silent;              /* cable pulled: nothing out, nothing in */
+	bool hb_stop;             /* heartbeats (not boot-ups) are dropped */
+	bool sdo_silent;          /* SDO server answers are dropped */
+	uint32_t sdo_abort;       /* != 0: every SDO initiate is answered with it */
 	uint16_t sdo_abort_index; /* restrict sdo_abort to one object
 	                           * (0 = every object) */
 	uint8_t sdo_abort_sub;
 	bool sdo_abort_any_sub;
 	uint32_t sdo_delay_ms; /* SDO answers go out this much later */
-	bool pdo_badlen;   /* TPDOs go out one byte short (or one long if 0) */
-	bool sdo_lenient;  /* accept printed-sheet frames: a too small size
+	bool pdo_badlen;       /* TPDOs go out one byte short (or one long if 0) */
+	bool sdo_lenient;      /* accept printed-sheet frames: a too small size
 	                    * indicated for a numeric object, and the
 	                    * reversed "save" signature (seed 004 E2/E4) */
 } cosim_faults;
@@ -190,25 +189,23 @@ typedef struct cosim_faults {
 typedef struct cosim_node cosim_node;
 
 /* How a node's frames leave the process: main.c's port and local bus. */
-typedef int (*cosim_out_fn)(void *ctx, cosim_node *from, const co_frame *f,
-			    uint64_t now_us);
+typedef int (*cosim_out_fn)(void *ctx, cosim_node *from, const co_frame *f, uint64_t now_us);
 
 typedef struct cosim_node_config {
 	cosim_device *dev;  /* ownership passes to the node */
 	const char *nv_dir; /* NULL = nothing persists */
 	const char *nv_key; /* file name stem in nv_dir */
 	cosim_faults faults;
-	bool autostart;     /* enter OPERATIONAL after boot-up by itself */
+	bool autostart; /* enter OPERATIONAL after boot-up by itself */
 	bool quiet;
 	uint32_t sdo_timeout_ms; /* SDO server, per frame; 0 = core default
 	                          * (1000 ms) */
 	cosim_out_fn out;
 	void *out_ctx;
-	uint64_t now_us;    /* start time (signals count from here) */
+	uint64_t now_us; /* start time (signals count from here) */
 } cosim_node_config;
 
-int cosim_node_create(cosim_node **out, const cosim_node_config *cfg,
-		      char *err, size_t errlen);
+int cosim_node_create(cosim_node **out, const cosim_node_config *cfg, char *err, size_t errlen);
 void cosim_node_destroy(cosim_node *n); /* accepts NULL */
 
 /* A frame from the bus (or from another local node). */
@@ -226,12 +223,11 @@ cosim_faults *cosim_node_faults(cosim_node *n);
  * Apply one control command (docs/cosim.md) to this node. Returns 0 and
  * a short answer in reply, or -EINVAL with the reason in reply.
  */
-int cosim_node_command(cosim_node *n, const char *line, uint64_t now_us,
-		       char *reply, size_t replylen);
+int cosim_node_command(cosim_node *n, const char *line, uint64_t now_us, char *reply,
+		       size_t replylen);
 
 /* Log one line on stderr unless quiet ("cosim: node 1: ..."). */
-void cosim_log(bool quiet, const char *fmt, ...)
-	__attribute__((format(printf, 2, 3)));
+void cosim_log(bool quiet, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
 /* ---- persistence (nv.c) ----------------------------------------------- */
 
@@ -241,13 +237,11 @@ void cosim_log(bool quiet, const char *fmt, ...)
 
 /* Write the persistent entries of `parts` to <dir>/<key>.comm / .app,
  * atomically (temp file + rename). 0 or -errno. */
-int cosim_nv_save(const co_od *od, const char *dir, const char *key,
-		  unsigned parts);
+int cosim_nv_save(const co_od *od, const char *dir, const char *key, unsigned parts);
 /* Load whatever is stored; each value becomes default and current value.
  * Bad records are skipped and counted in *skipped. 0 (also when no file
  * exists; *loaded = 0) or -errno. */
-int cosim_nv_load(co_od *od, const char *dir, const char *key,
-		  unsigned *loaded, unsigned *skipped);
+int cosim_nv_load(co_od *od, const char *dir, const char *key, unsigned *loaded, unsigned *skipped);
 /* Delete the stored parts. */
 int cosim_nv_erase(const char *dir, const char *key, unsigned parts);
 /* LSS: the persistent node-ID (<key>.lss). load: -ENOENT if none. */

@@ -113,8 +113,9 @@ static int get_object(const cJSON *o, const char *key, const char *path, bool re
 		return 0;
 	}
 	if (!cJSON_IsString(v) || cosim_parse_object(v->valuestring, index, sub))
-		return json_util_fail(err, errlen, p,
-				      "expected an object as \"0xINDEX:SUB\" (hex), e.g. \"0x2003:00\"");
+		return json_util_fail(
+			err, errlen, p,
+			"expected an object as \"0xINDEX:SUB\" (hex), e.g. \"0x2003:00\"");
 	return 0;
 }
 
@@ -137,12 +138,11 @@ static int check_numeric(const co_od *od, uint16_t index, uint8_t sub, const cha
 
 /* ---- top level ------------------------------------------------------------ */
 
-static const char *const top_keys[] = {
-	"name",	       "comment",    "node_id", "identity", "device_type", "device_name",
-	"hw_version",  "sw_version", "heartbeat_ms", "emcy_history", "store_subs",
-	"objects",     "values",     "tpdos",	"rpdos",    "lss",	   "signals",
-	"loopback",    "program",    NULL
-};
+static const char *const top_keys[] = { "name",         "comment",      "node_id",    "identity",
+					"device_type",  "device_name",  "hw_version", "sw_version",
+					"heartbeat_ms", "emcy_history", "store_subs", "objects",
+					"values",       "tpdos",        "rpdos",      "lss",
+					"signals",      "loopback",     "program",    NULL };
 
 struct parsed_top {
 	co_od_std_opts std;
@@ -153,8 +153,8 @@ struct parsed_top {
 
 static int parse_identity(const cJSON *root, struct parsed_top *t, char *err, size_t errlen)
 {
-	static const char *const keys[] = { "vendor", "product", "revision", "serial",
-					    "comment", NULL };
+	static const char *const keys[] = { "vendor", "product", "revision",
+					    "serial", "comment", NULL };
 	const cJSON *id = json_util_get(root, "identity");
 	uint64_t v[4] = { 0, 0, 0, 0 };
 	int rc;
@@ -168,8 +168,7 @@ static int parse_identity(const cJSON *root, struct parsed_top *t, char *err, si
 				     errlen)) ||
 	    (rc = json_util_opt_uint(id, "revision", "identity", 0, UINT32_MAX, &v[2], err,
 				     errlen)) ||
-	    (rc = json_util_opt_uint(id, "serial", "identity", 0, UINT32_MAX, &v[3], err,
-				     errlen)))
+	    (rc = json_util_opt_uint(id, "serial", "identity", 0, UINT32_MAX, &v[3], err, errlen)))
 		return rc;
 	t->std.vendor_id = (uint32_t)v[0];
 	t->std.product_code = (uint32_t)v[1];
@@ -191,8 +190,7 @@ static int parse_top(const cJSON *root, cosim_device *dev, const cosim_device_op
 	    (rc = json_util_opt_string(root, "name", "", 1, dev->name, sizeof dev->name, err,
 				       errlen)) ||
 	    (rc = json_util_opt_uint(root, "node_id", "", 1, 255, &node, err, errlen)) ||
-	    (rc = json_util_opt_uint(root, "device_type", "", 0, UINT32_MAX, &dt, err,
-				     errlen)) ||
+	    (rc = json_util_opt_uint(root, "device_type", "", 0, UINT32_MAX, &dt, err, errlen)) ||
 	    (rc = json_util_opt_string(root, "device_name", "", 0, t->device_name,
 				       sizeof t->device_name, err, errlen)) ||
 	    (rc = json_util_opt_string(root, "hw_version", "", 0, t->hw, sizeof t->hw, err,
@@ -232,9 +230,10 @@ static int parse_top(const cJSON *root, cosim_device *dev, const cosim_device_op
 
 /* ---- PDOs ------------------------------------------------------------------- */
 
-static const char *const pdo_keys[] = { "nr",	  "cob_id",	"add_node_id", "valid",
-					"transmission", "inhibit_100us", "event_ms",
-					"sync_start", "map", "comment", NULL };
+static const char *const pdo_keys[] = {
+	"nr",         "cob_id", "add_node_id", "valid", "transmission", "inhibit_100us", "event_ms",
+	"sync_start", "map",    "comment",     NULL
+};
 
 static void add_rel(cosim_device *dev, uint16_t index, uint8_t sub, uint32_t base)
 {
@@ -256,14 +255,15 @@ static int parse_map(const cJSON *m, const co_od *od, co_pdo_dir dir, const char
 	json_util_path_key(p, sizeof p, path, "map");
 	if (!cJSON_IsArray(m))
 		return json_util_fail(err, errlen, p, "expected an array of \"0xINDEX:SUB:BITS\"");
-	cJSON_ArrayForEach(it, m) {
+	cJSON_ArrayForEach(it, m)
+	{
 		json_util_path_index(ip, sizeof ip, p, i++);
 		if (i > 8)
-			return json_util_fail(err, errlen, ip,
-					      "more than 8 mapping entries");
+			return json_util_fail(err, errlen, ip, "more than 8 mapping entries");
 		if (!cJSON_IsString(it) || parse_map_entry(it->valuestring, &map[i - 1]))
 			return json_util_fail(err, errlen, ip,
-					      "expected \"0xINDEX:SUB:BITS\" (hex object, decimal bits), e.g. \"0x2003:00:32\"");
+					      "expected \"0xINDEX:SUB:BITS\" (hex object, decimal "
+					      "bits), e.g. \"0x2003:00:32\"");
 		uint16_t index = (uint16_t)(map[i - 1] >> 16);
 		uint8_t sub = (uint8_t)(map[i - 1] >> 8);
 		unsigned len = map[i - 1] & 0xFF;
@@ -276,13 +276,14 @@ static int parse_map(const cJSON *m, const co_od *od, co_pdo_dir dir, const char
 					      index, sub);
 		if (!(e->access & (dir == CO_PDO_TX ? CO_ACC_TPDO : CO_ACC_RPDO)))
 			return json_util_fail(err, errlen, ip,
-					      "object 0x%04X:%02X cannot be mapped into a%s (give it \"pdo\": true%s)",
+					      "object 0x%04X:%02X cannot be mapped into a%s (give "
+					      "it \"pdo\": true%s)",
 					      index, sub, dir == CO_PDO_TX ? " TPDO" : "n RPDO",
 					      dir == CO_PDO_RX ? " and a writable access" : "");
 		if (!co_type_is_variable((co_type)e->type) && len > e->size * 8u)
-			return json_util_fail(err, errlen, ip,
-					      "%u bits is longer than the object (%s, %u bits)", len,
-					      co_type_to_string((co_type)e->type), e->size * 8u);
+			return json_util_fail(
+				err, errlen, ip, "%u bits is longer than the object (%s, %u bits)",
+				len, co_type_to_string((co_type)e->type), e->size * 8u);
 	}
 	if (bits > 64)
 		return json_util_fail(err, errlen, p, "%u bits do not fit one CAN frame (64)",
@@ -305,7 +306,8 @@ static int parse_pdos(const cJSON *root, cosim_device *dev, co_pdo_dir dir, char
 		return 0;
 	if (!cJSON_IsArray(arr))
 		return json_util_fail(err, errlen, key, "expected an array of PDO objects");
-	cJSON_ArrayForEach(it, arr) {
+	cJSON_ArrayForEach(it, arr)
+	{
 		uint64_t nr = i + 1, cob = 0, tt = 254, inhibit = 0, event = 0, start = 0;
 		bool add_id = true, valid = true;
 		uint32_t map[8];
@@ -322,7 +324,8 @@ static int parse_pdos(const cJSON *root, cosim_device *dev, co_pdo_dir dir, char
 					       : CO_PDO_RPDO_DEFAULT_COB(nr, 0);
 		else if (!json_util_get(it, "cob_id"))
 			return json_util_fail(err, errlen, p,
-					      "\"cob_id\" is required for PDO %llu (only 1..4 have predefined ones)",
+					      "\"cob_id\" is required for PDO %llu (only 1..4 have "
+					      "predefined ones)",
 					      (unsigned long long)nr);
 		if ((rc = json_util_opt_uint(it, "cob_id", p, 1, 0x7FF, &cob, err, errlen)) ||
 		    (rc = json_util_opt_bool(it, "add_node_id", p, &add_id, err, errlen)) ||
@@ -330,17 +333,15 @@ static int parse_pdos(const cJSON *root, cosim_device *dev, co_pdo_dir dir, char
 		    (rc = json_util_opt_uint(it, "transmission", p, 0, 255, &tt, err, errlen)) ||
 		    (rc = json_util_opt_uint(it, "inhibit_100us", p, 0, 0xFFFF, &inhibit, err,
 					     errlen)) ||
-		    (rc = json_util_opt_uint(it, "event_ms", p, 0, 0xFFFF, &event, err,
-					     errlen)) ||
+		    (rc = json_util_opt_uint(it, "event_ms", p, 0, 0xFFFF, &event, err, errlen)) ||
 		    (rc = json_util_opt_uint(it, "sync_start", p, 0, 255, &start, err, errlen)))
 			return rc;
 		if ((tt >= 241 && tt <= 251) || (dir == CO_PDO_RX && (tt == 252 || tt == 253))) {
 			char tp[JSON_PATH_MAX];
 			json_util_path_key(tp, sizeof tp, p, "transmission");
-			return json_util_fail(err, errlen, tp,
-					      "%llu is a reserved transmission type for a%s",
-					      (unsigned long long)tt,
-					      dir == CO_PDO_TX ? " TPDO" : "n RPDO");
+			return json_util_fail(
+				err, errlen, tp, "%llu is a reserved transmission type for a%s",
+				(unsigned long long)tt, dir == CO_PDO_TX ? " TPDO" : "n RPDO");
 		}
 		if (add_id && cob + 127 > 0x7FF)
 			return json_util_fail(err, errlen, p,
@@ -373,9 +374,10 @@ static int parse_pdos(const cJSON *root, cosim_device *dev, co_pdo_dir dir, char
 			return json_util_fail(err, errlen, p, "cannot build the PDO records (%s)",
 					      strerror(-rc));
 		if (add_id)
-			add_rel(dev, (uint16_t)((dir == CO_PDO_TX ? CO_PDO_TPDO_COMM
-								  : CO_PDO_RPDO_COMM) +
-						nr - 1),
+			add_rel(dev,
+				(uint16_t)((dir == CO_PDO_TX ? CO_PDO_TPDO_COMM
+							     : CO_PDO_RPDO_COMM) +
+					   nr - 1),
 				1, base);
 	}
 	return 0;
@@ -397,8 +399,7 @@ static int parse_lss(const cJSON *root, cosim_device *dev, char *err, size_t err
 		return 0;
 	if ((rc = json_util_check_object(l, "lss", keys, err, errlen)) ||
 	    (rc = json_util_opt_bool(l, "enabled", "lss", &dev->lss_enabled, err, errlen)) ||
-	    (rc = json_util_opt_bool(l, "constant_id", "lss", &dev->lss_constant_id, err,
-				     errlen)))
+	    (rc = json_util_opt_bool(l, "constant_id", "lss", &dev->lss_constant_id, err, errlen)))
 		return rc;
 	bt = json_util_get(l, "bit_timing");
 	if (!bt)
@@ -407,7 +408,8 @@ static int parse_lss(const cJSON *root, cosim_device *dev, char *err, size_t err
 	if (!cJSON_IsArray(bt) || cJSON_GetArraySize(bt) == 0)
 		return json_util_fail(err, errlen, p,
 				      "expected a non-empty array of CiA table indexes 0..8");
-	cJSON_ArrayForEach(it, bt) {
+	cJSON_ArrayForEach(it, bt)
+	{
 		uint64_t v;
 		json_util_path_index(ip, sizeof ip, p, i++);
 		if ((rc = json_util_uint(it, ip, 0, 8, false, &v, err, errlen)))
@@ -421,13 +423,13 @@ static int parse_lss(const cJSON *root, cosim_device *dev, char *err, size_t err
 
 /* ---- signals and loopback ------------------------------------------------------ */
 
-static const char *const signal_keys[] = { "name",	"object",     "kind",	   "min",
-					   "max",	"value",      "period_ms", "update_ms",
-					   "notify",	"offset_object", "span_object",
-					   "comment",	NULL };
+static const char *const signal_keys[] = { "name",   "object",        "kind",        "min",
+					   "max",    "value",         "period_ms",   "update_ms",
+					   "notify", "offset_object", "span_object", "comment",
+					   NULL };
 
-static int opt_real(const cJSON *o, const char *key, const char *path, double *out,
-		    bool required, char *err, size_t errlen)
+static int opt_real(const cJSON *o, const char *key, const char *path, double *out, bool required,
+		    char *err, size_t errlen)
 {
 	char p[JSON_PATH_MAX];
 	const cJSON *v = json_util_get(o, key);
@@ -438,8 +440,8 @@ static int opt_real(const cJSON *o, const char *key, const char *path, double *o
 	return json_util_real(v, p, out, err, errlen);
 }
 
-static int parse_signal(const cJSON *it, const char *p, cosim_device *dev,
-			cosim_signal_desc *s, char *err, size_t errlen)
+static int parse_signal(const cJSON *it, const char *p, cosim_device *dev, cosim_signal_desc *s,
+			char *err, size_t errlen)
 {
 	char kp[JSON_PATH_MAX], kind[16] = "const";
 	uint64_t period = 0, update = 100;
@@ -447,16 +449,15 @@ static int parse_signal(const cJSON *it, const char *p, cosim_device *dev,
 
 	memset(s, 0, sizeof *s);
 	if ((rc = json_util_check_object(it, p, signal_keys, err, errlen)) ||
-	    (rc = json_util_opt_string(it, "name", p, 1, s->name, sizeof s->name, err,
-				       errlen)) ||
+	    (rc = json_util_opt_string(it, "name", p, 1, s->name, sizeof s->name, err, errlen)) ||
 	    (rc = get_object(it, "object", p, true, &s->index, &s->sub, err, errlen)) ||
 	    (rc = check_numeric(dev->od, s->index, s->sub, p, "object", err, errlen)) ||
 	    (rc = json_util_opt_string(it, "kind", p, 1, kind, sizeof kind, err, errlen)) ||
 	    (rc = json_util_opt_uint(it, "period_ms", p, 1, 86400000, &period, err, errlen)) ||
 	    (rc = json_util_opt_uint(it, "update_ms", p, 1, 3600000, &update, err, errlen)) ||
 	    (rc = json_util_opt_bool(it, "notify", p, &s->notify, err, errlen)) ||
-	    (rc = get_object(it, "offset_object", p, false, &s->offset_index, &s->offset_sub,
-			     err, errlen)) ||
+	    (rc = get_object(it, "offset_object", p, false, &s->offset_index, &s->offset_sub, err,
+			     errlen)) ||
 	    (rc = get_object(it, "span_object", p, false, &s->span_index, &s->span_sub, err,
 			     errlen)))
 		return rc;
@@ -464,9 +465,8 @@ static int parse_signal(const cJSON *it, const char *p, cosim_device *dev,
 	if (!signal_kind_from_string(kind, &s->kind))
 		return json_util_fail(err, errlen, kp,
 				      "unknown kind \"%s\" (const, ramp, sine or square)", kind);
-	if (s->offset_index &&
-	    (rc = check_numeric(dev->od, s->offset_index, s->offset_sub, p, "offset_object",
-				err, errlen)))
+	if (s->offset_index && (rc = check_numeric(dev->od, s->offset_index, s->offset_sub, p,
+						   "offset_object", err, errlen)))
 		return rc;
 	if (s->span_index && (rc = check_numeric(dev->od, s->span_index, s->span_sub, p,
 						 "span_object", err, errlen)))
@@ -503,7 +503,8 @@ static int parse_signals(const cJSON *root, cosim_device *dev, char *err, size_t
 		return 0;
 	if (!cJSON_IsArray(arr))
 		return json_util_fail(err, errlen, "signals", "expected an array");
-	cJSON_ArrayForEach(it, arr) {
+	cJSON_ArrayForEach(it, arr)
+	{
 		json_util_path_index(p, sizeof p, "signals", i++);
 		if (dev->n_signals >= COSIM_SIGNAL_MAX)
 			return json_util_fail(err, errlen, p, "more than %u signals",
@@ -536,7 +537,8 @@ static int parse_loopback(const cJSON *root, cosim_device *dev, char *err, size_
 	json_util_path_key(p, sizeof p, "loopback", "pairs");
 	if (!cJSON_IsArray(pairs))
 		return json_util_fail(err, errlen, p, "expected an array of {\"from\", \"to\"}");
-	cJSON_ArrayForEach(it, pairs) {
+	cJSON_ArrayForEach(it, pairs)
+	{
 		cosim_loopback_desc *d = &dev->loopback[dev->n_loopback];
 		json_util_path_index(ip, sizeof ip, p, i++);
 		if (dev->n_loopback >= COSIM_LOOPBACK_MAX)
@@ -547,8 +549,7 @@ static int parse_loopback(const cJSON *root, cosim_device *dev, char *err, size_
 				     errlen)) ||
 		    (rc = check_numeric(dev->od, d->from_index, d->from_sub, ip, "from", err,
 					errlen)) ||
-		    (rc = get_object(it, "to", ip, true, &d->to_index, &d->to_sub, err,
-				     errlen)) ||
+		    (rc = get_object(it, "to", ip, true, &d->to_index, &d->to_sub, err, errlen)) ||
 		    (rc = check_numeric(dev->od, d->to_index, d->to_sub, ip, "to", err, errlen)))
 			return rc;
 		dev->n_loopback++;
@@ -599,22 +600,29 @@ static int parse_program(const cJSON *root, cosim_device *dev, char *err, size_t
 				      "1F50h/1F51h/1F56h are defined already (in \"objects\")");
 	dev->program.enabled = true;
 	dev->program.flash_max = (uint32_t)flash;
-	if ((rc = co_od_ensure_num(dev->od, 0x1F50, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1, CO_OBJ_ARRAY)) ||
-	    (rc = co_od_add_bytes(dev->od, 0x1F50, 1, CO_T_DOMAIN, CO_ACC_WO, (uint32_t)flash,
-				  NULL, 0, &e)))
-		return rc == -ENOMEM ? rc : json_util_fail(err, errlen, "program", "cannot add 1F50h");
-	e->obj_code = CO_OBJ_ARRAY;
-	if ((rc = co_od_ensure_num(dev->od, 0x1F51, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1, CO_OBJ_ARRAY)) ||
-	    (rc = co_od_ensure_num(dev->od, 0x1F51, 1, CO_T_UNSIGNED8, CO_ACC_RW, COSIM_PROG_CLEARED,
+	if ((rc = co_od_ensure_num(dev->od, 0x1F50, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
 				   CO_OBJ_ARRAY)) ||
-	    (rc = co_od_ensure_num(dev->od, 0x1F56, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1, CO_OBJ_ARRAY)) ||
-	    (rc = co_od_ensure_num(dev->od, 0x1F56, 1, CO_T_UNSIGNED32, CO_ACC_RO, 0, CO_OBJ_ARRAY)))
-		return rc == -ENOMEM ? rc : json_util_fail(err, errlen, "program", "cannot add 1F51h/1F56h");
+	    (rc = co_od_add_bytes(dev->od, 0x1F50, 1, CO_T_DOMAIN, CO_ACC_WO, (uint32_t)flash, NULL,
+				  0, &e)))
+		return rc == -ENOMEM ? rc
+				     : json_util_fail(err, errlen, "program", "cannot add 1F50h");
+	e->obj_code = CO_OBJ_ARRAY;
+	if ((rc = co_od_ensure_num(dev->od, 0x1F51, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
+				   CO_OBJ_ARRAY)) ||
+	    (rc = co_od_ensure_num(dev->od, 0x1F51, 1, CO_T_UNSIGNED8, CO_ACC_RW,
+				   COSIM_PROG_CLEARED, CO_OBJ_ARRAY)) ||
+	    (rc = co_od_ensure_num(dev->od, 0x1F56, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
+				   CO_OBJ_ARRAY)) ||
+	    (rc = co_od_ensure_num(dev->od, 0x1F56, 1, CO_T_UNSIGNED32, CO_ACC_RO, 0,
+				   CO_OBJ_ARRAY)))
+		return rc == -ENOMEM
+			       ? rc
+			       : json_util_fail(err, errlen, "program", "cannot add 1F51h/1F56h");
 	return 0;
 }
 
-static int build(cosim_device *dev, const cJSON *root, const cosim_device_opts *opts,
-		 char *err, size_t errlen)
+static int build(cosim_device *dev, const cJSON *root, const cosim_device_opts *opts, char *err,
+		 size_t errlen)
 {
 	struct parsed_top t;
 	const cJSON *v;
@@ -655,8 +663,9 @@ static int build(cosim_device *dev, const cJSON *root, const cosim_device_opts *
 		return rc;
 	if (dev->node_id == 255) {
 		if (!dev->lss_enabled)
-			return json_util_fail(err, errlen, "node_id",
-					      "255 (unconfigured) needs \"lss\": {\"enabled\": true}");
+			return json_util_fail(
+				err, errlen, "node_id",
+				"255 (unconfigured) needs \"lss\": {\"enabled\": true}");
 		cosim_device_rebase(dev, dev->od, 255);
 	}
 	return 0;
@@ -686,8 +695,8 @@ int cosim_device_load_string(cosim_device *dev, const char *file, const char *js
 	return rc;
 }
 
-int cosim_device_load(cosim_device *dev, const char *path, const cosim_device_opts *opts,
-		      char *err, size_t errlen)
+int cosim_device_load(cosim_device *dev, const char *path, const cosim_device_opts *opts, char *err,
+		      size_t errlen)
 {
 	FILE *f = fopen(path, "rb");
 	char *text;
@@ -702,8 +711,7 @@ int cosim_device_load(cosim_device *dev, const char *path, const cosim_device_op
 	if (fseek(f, 0, SEEK_END) < 0 || (n = ftell(f)) < 0 || fseek(f, 0, SEEK_SET) < 0 ||
 	    n > 4 * 1024 * 1024) {
 		fclose(f);
-		snprintf(err, errlen, "%s: cannot read (not a regular file, or above 4 MiB)",
-			 path);
+		snprintf(err, errlen, "%s: cannot read (not a regular file, or above 4 MiB)", path);
 		return -EIO;
 	}
 	text = malloc((size_t)n + 1);

@@ -220,8 +220,7 @@ static void handle_control(struct app *a, int cfd, uint64_t now_us)
 		    co_node_id(cosim_node_core(n)) != only)
 			continue;
 		cosim_node_command(n, cmd, now_us, one, sizeof one);
-		int k = snprintf(reply + used, sizeof reply - used, "%s%s",
-				 used ? "; " : "", one);
+		int k = snprintf(reply + used, sizeof reply - used, "%s%s", used ? "; " : "", one);
 		if (k > 0 && (size_t)k < sizeof reply - used)
 			used += (size_t)k;
 	}
@@ -494,8 +493,8 @@ int main(int argc, char **argv)
 	if (optind < argc || !ifname || !n_devs) {
 		fprintf(stderr, "cosim: %s\n",
 			optind < argc ? "unexpected argument"
-				      : !ifname ? "--interface is required"
-						: "at least one --device is required");
+			: !ifname     ? "--interface is required"
+				      : "at least one --device is required");
 		usage(stderr);
 		return EXIT_USAGE;
 	}
@@ -520,7 +519,8 @@ int main(int argc, char **argv)
 			goto out;
 		}
 		for (int k = 0; k < app.n_nodes; k++) {
-			if (cosim_node_config_id(app.nodes[k]) == dev.node_id && dev.node_id != 255) {
+			if (cosim_node_config_id(app.nodes[k]) == dev.node_id &&
+			    dev.node_id != 255) {
 				fprintf(stderr, "cosim: %s: node-ID %u is used twice\n",
 					devs[i].file, dev.node_id);
 				cosim_device_free(&dev);
@@ -628,13 +628,14 @@ int main(int argc, char **argv)
 				while (read(sfd, &si, sizeof si) == sizeof si) {
 					if (si.ssi_signo == SIGUSR1) {
 						for (int i = 0; i < app.n_nodes; i++) {
-							cosim_faults *f =
-								cosim_node_faults(app.nodes[i]);
+							cosim_faults *f = cosim_node_faults(
+								app.nodes[i]);
 							f->hb_stop = !f->hb_stop;
-							cosim_log(app.quiet,
-								  "SIGUSR1: node %u heartbeat %s",
-								  cosim_node_config_id(app.nodes[i]),
-								  f->hb_stop ? "stopped" : "running");
+							cosim_log(
+								app.quiet,
+								"SIGUSR1: node %u heartbeat %s",
+								cosim_node_config_id(app.nodes[i]),
+								f->hb_stop ? "stopped" : "running");
 						}
 					} else if (si.ssi_signo != SIGHUP) {
 						cosim_log(app.quiet, "%s: exiting",

@@ -86,8 +86,7 @@ int cosim_nv_save(const co_od *od, const char *dir, const char *key, unsigned pa
 	return rc;
 }
 
-int cosim_nv_load(co_od *od, const char *dir, const char *key, unsigned *loaded,
-		  unsigned *skipped)
+int cosim_nv_load(co_od *od, const char *dir, const char *key, unsigned *loaded, unsigned *skipped)
 {
 	static const char *const exts[] = { "comm", "app" };
 	char path[520];
@@ -103,7 +102,8 @@ int cosim_nv_load(co_od *od, const char *dir, const char *key, unsigned *loaded,
 			continue;
 		if (rc)
 			return rc;
-		rc = co_od_image_apply(od, buf, len, CO_OD_IMAGE_SET_DEFAULT | CO_OD_IMAGE_SET_VALUE, &l, &s);
+		rc = co_od_image_apply(od, buf, len,
+				       CO_OD_IMAGE_SET_DEFAULT | CO_OD_IMAGE_SET_VALUE, &l, &s);
 		free(buf);
 		if (rc) {
 			(*skipped)++; /* not one of our files: ignored whole */

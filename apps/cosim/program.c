@@ -19,7 +19,12 @@
 #define AB_CANNOT_STORE 0x08000020u  /* data cannot be transferred or stored */
 #define AB_STATE 0x08000022u         /* ... because of the present device state */
 
-enum prog_cmd { CMD_STOP = 0, CMD_START = 1, CMD_RESET = 2, CMD_CLEAR = 3 };
+enum prog_cmd {
+	CMD_STOP = 0,
+	CMD_START = 1,
+	CMD_RESET = 2,
+	CMD_CLEAR = 3
+};
 
 uint32_t cosim_crc32(const uint8_t *data, size_t len)
 {
@@ -36,9 +41,12 @@ uint32_t cosim_crc32(const uint8_t *data, size_t len)
 static const char *state_name(uint8_t s)
 {
 	switch (s) {
-	case COSIM_PROG_STOPPED: return "stopped";
-	case COSIM_PROG_RUNNING: return "running";
-	case COSIM_PROG_CLEARED: return "cleared";
+	case COSIM_PROG_STOPPED:
+		return "stopped";
+	case COSIM_PROG_RUNNING:
+		return "running";
+	case COSIM_PROG_CLEARED:
+		return "cleared";
 	}
 	return "?";
 }

@@ -239,11 +239,10 @@ static void signal_update(cosim_node *n, unsigned i, uint64_t now_us)
 	if (s->offset_index || s->span_index) {
 		/* The transducer's process value (seed 004 §4): (raw + zero
 		 * offset) * span / 100, with the current 2004h:1 / 2005h:1. */
-		const co_od_entry *o = s->offset_index ? co_od_find(od, s->offset_index,
-								     s->offset_sub)
-						       : NULL;
-		const co_od_entry *sp = s->span_index ? co_od_find(od, s->span_index,
-								    s->span_sub)
+		const co_od_entry *o = s->offset_index
+					       ? co_od_find(od, s->offset_index, s->offset_sub)
+					       : NULL;
+		const co_od_entry *sp = s->span_index ? co_od_find(od, s->span_index, s->span_sub)
 						      : NULL;
 		double off = entry_numeric(o) ? entry_get(o) : 0.0;
 		double span = entry_numeric(sp) ? entry_get(sp) : 100.0;
@@ -270,8 +269,7 @@ static void signals_run(cosim_node *n, uint64_t now_us)
 
 /* Copy an output written at index:sub into its input(s); with notify,
  * also tell the PDO module that the input changed. */
-static void loopback_copy(cosim_node *n, uint16_t index, uint8_t sub, bool notify,
-			  uint64_t now_us)
+static void loopback_copy(cosim_node *n, uint16_t index, uint8_t sub, bool notify, uint64_t now_us)
 {
 	if (!n->dev.loopback_enabled)
 		return;
@@ -531,7 +529,8 @@ static uint32_t store_restore(void *ctx, uint8_t sub, const co_od_access *a)
 	 * so only the defaults change now. The snapshot holds both parts;
 	 * applying it whole is right for sub 1 and close enough for 2/3. */
 	if (n->snapshot)
-		co_od_image_apply(n->dev.od, n->snapshot, n->snapshot_len, CO_OD_IMAGE_SET_DEFAULT, &l, &s);
+		co_od_image_apply(n->dev.od, n->snapshot, n->snapshot_len, CO_OD_IMAGE_SET_DEFAULT,
+				  &l, &s);
 	logn(n, "1011h:%02X load: device file defaults after the next reset", sub);
 	return 0;
 }
@@ -555,8 +554,7 @@ static uint32_t store_check_wrap(void *ctx, co_od_entry *e, const co_od_access *
 		b.data = sig;
 		logn(n, "lenient: reversed \"save\" signature accepted");
 	}
-	return n->store_hooks->check_write ? n->store_hooks->check_write(n->store_ctx, e, &b)
-					   : 0;
+	return n->store_hooks->check_write ? n->store_hooks->check_write(n->store_ctx, e, &b) : 0;
 }
 
 static void store_after_wrap(void *ctx, co_od_entry *e, const co_od_access *a)
@@ -602,8 +600,8 @@ static uint8_t lss_check_bt(void *ctx, uint8_t table, uint8_t index, uint8_t *sp
 	return LSS_EC_OK;
 }
 
-static uint8_t lss_store(void *ctx, uint8_t node_id, bool bt_valid, uint8_t table,
-			 uint8_t index, uint8_t *spec)
+static uint8_t lss_store(void *ctx, uint8_t node_id, bool bt_valid, uint8_t table, uint8_t index,
+			 uint8_t *spec)
 {
 	cosim_node *n = ctx;
 
@@ -697,8 +695,7 @@ static void on_event(void *ctx, const co_event *ev)
 
 /* ---- lifetime ---------------------------------------------------------------------- */
 
-int cosim_node_create(cosim_node **out, const cosim_node_config *cfg, char *err,
-		      size_t errlen)
+int cosim_node_create(cosim_node **out, const cosim_node_config *cfg, char *err, size_t errlen)
 {
 	cosim_node *n = calloc(1, sizeof *n);
 	co_node_config nc;
@@ -729,7 +726,7 @@ int cosim_node_create(cosim_node **out, const cosim_node_config *cfg, char *err,
 	n->snapshot = malloc(SNAPSHOT_MAX);
 	if (n->snapshot) {
 		long len = co_od_image_write(n->dev.od, COSIM_NV_COMM | COSIM_NV_APP, n->snapshot,
-					      SNAPSHOT_MAX);
+					     SNAPSHOT_MAX);
 		if (len < 0) {
 			free(n->snapshot);
 			n->snapshot = NULL;
@@ -773,8 +770,7 @@ int cosim_node_create(cosim_node **out, const cosim_node_config *cfg, char *err,
 	nc.lss_slave_ctx = n;
 	rc = co_node_create(&n->node, &nc);
 	if (rc) {
-		snprintf(err, errlen, "%s: cannot create the node: %s", n->dev.file,
-			 strerror(-rc));
+		snprintf(err, errlen, "%s: cannot create the node: %s", n->dev.file, strerror(-rc));
 		goto fail;
 	}
 	rc = store_setup(n);
@@ -784,8 +780,10 @@ int cosim_node_create(cosim_node **out, const cosim_node_config *cfg, char *err,
 		goto fail;
 	}
 	if (n->dev.program.enabled &&
-	    (rc = cosim_program_attach(&n->prog, n->dev.od, &n->dev.program, n->cfg_id, n->quiet))) {
-		snprintf(err, errlen, "%s: cannot attach 1F50h/1F51h: %s", n->dev.file, strerror(-rc));
+	    (rc = cosim_program_attach(&n->prog, n->dev.od, &n->dev.program, n->cfg_id,
+				       n->quiet))) {
+		snprintf(err, errlen, "%s: cannot attach 1F50h/1F51h: %s", n->dev.file,
+			 strerror(-rc));
 		goto fail;
 	}
 	for (unsigned i = 0; i < n->dev.n_signals; i++)
@@ -951,13 +949,15 @@ static int cmd_sdo(cosim_node *n, char **w, int nw, char *reply, size_t rl)
 			return snprintf(reply, rl, "ok sdo abort off"), 0;
 		}
 		if (!parse_u32(w[2], &v) || v == 0)
-			return reply_err(reply, rl, "sdo abort wants a code like 0x06060000 or off");
+			return reply_err(reply, rl,
+					 "sdo abort wants a code like 0x06060000 or off");
 		uint16_t index = 0;
 		uint8_t sub = 0;
 		bool any = true;
 		if (nw >= 4) {
 			if (cosim_parse_object(w[3], &index, &sub))
-				return reply_err(reply, rl, "bad object \"%s\" (0xINDEX[:SUB])", w[3]);
+				return reply_err(reply, rl, "bad object \"%s\" (0xINDEX[:SUB])",
+						 w[3]);
 			any = !strchr(w[3], ':');
 		}
 		n->f.sdo_abort = v;
@@ -966,8 +966,9 @@ static int cmd_sdo(cosim_node *n, char **w, int nw, char *reply, size_t rl)
 		n->f.sdo_abort_any_sub = any;
 		return snprintf(reply, rl, "ok sdo abort %08X (%s)", v, sdo_abort_to_string(v)), 0;
 	}
-	return reply_err(reply, rl,
-			 "sdo silent on|off, sdo abort CODE [OBJECT]|off, sdo delay MS, sdo lenient on|off");
+	return reply_err(
+		reply, rl,
+		"sdo silent on|off, sdo abort CODE [OBJECT]|off, sdo delay MS, sdo lenient on|off");
 }
 
 static int cmd_nmt(cosim_node *n, const char *w, uint64_t now_us, char *reply, size_t rl)
@@ -975,8 +976,10 @@ static int cmd_nmt(cosim_node *n, const char *w, uint64_t now_us, char *reply, s
 	static const struct {
 		const char *word;
 		uint8_t cs;
-	} words[] = { { "start", CO_NMT_CS_START },	  { "stop", CO_NMT_CS_STOP },
-		      { "preop", CO_NMT_CS_ENTER_PREOP }, { "reset-node", CO_NMT_CS_RESET_NODE },
+	} words[] = { { "start", CO_NMT_CS_START },
+		      { "stop", CO_NMT_CS_STOP },
+		      { "preop", CO_NMT_CS_ENTER_PREOP },
+		      { "reset-node", CO_NMT_CS_RESET_NODE },
 		      { "reset-comm", CO_NMT_CS_RESET_COMM } };
 
 	for (size_t i = 0; w && i < sizeof words / sizeof words[0]; i++) {
@@ -992,8 +995,7 @@ static int cmd_nmt(cosim_node *n, const char *w, uint64_t now_us, char *reply, s
 	return reply_err(reply, rl, "nmt start|stop|preop|reset-node|reset-comm");
 }
 
-static int cmd_set_get(cosim_node *n, char **w, int nw, uint64_t now_us, char *reply,
-		       size_t rl)
+static int cmd_set_get(cosim_node *n, char **w, int nw, uint64_t now_us, char *reply, size_t rl)
 {
 	uint16_t index;
 	uint8_t sub;
@@ -1030,8 +1032,7 @@ static int cmd_set_get(cosim_node *n, char **w, int nw, uint64_t now_us, char *r
 
 static int cmd_status(cosim_node *n, char *reply, size_t rl)
 {
-	snprintf(reply, rl,
-		 "ok node %u state %s%s%s%s%s%s%s dropped %llu delayed %llu aborts %llu",
+	snprintf(reply, rl, "ok node %u state %s%s%s%s%s%s%s dropped %llu delayed %llu aborts %llu",
 		 n->active_id, co_nmt_state_to_string(co_nmt_get_state(n->node)),
 		 n->f.silent ? " silent" : "", n->f.hb_stop ? " hb-stop" : "",
 		 n->f.sdo_silent ? " sdo-silent" : "", n->f.sdo_abort ? " sdo-abort" : "",
@@ -1041,8 +1042,7 @@ static int cmd_status(cosim_node *n, char *reply, size_t rl)
 	return 0;
 }
 
-int cosim_node_command(cosim_node *n, const char *line, uint64_t now_us, char *reply,
-		       size_t rl)
+int cosim_node_command(cosim_node *n, const char *line, uint64_t now_us, char *reply, size_t rl)
 {
 	char buf[256], *w[8], *save = NULL;
 	int nw = 0;

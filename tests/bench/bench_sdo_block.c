@@ -115,21 +115,30 @@ int main(void)
 	if (co_od_add_bytes(sod, 0x2200, 0, CO_T_DOMAIN, CO_ACC_RW, SIZE, NULL, 0, &dom))
 		return 1;
 
-	co_node_config sc = { .node_id = 5, .od = sod, .send = bus_send, .send_ctx = &ps,
-			      .event = on_event };
-	co_node_config cc = { .node_id = 1, .od = cod, .send = bus_send, .send_ctx = &pc,
-			      .event = on_event, .sdo_client_count = 1 };
+	co_node_config sc = {
+		.node_id = 5, .od = sod, .send = bus_send, .send_ctx = &ps, .event = on_event
+	};
+	co_node_config cc = { .node_id = 1,
+			      .od = cod,
+			      .send = bus_send,
+			      .send_ctx = &pc,
+			      .event = on_event,
+			      .sdo_client_count = 1 };
 	if (co_node_create(&bus.node[0], &sc) || co_node_create(&bus.node[1], &cc))
 		return 1;
 
 	printf("bench_sdo_block: %u KiB block transfer with CRC, 2 core instances in memory, "
-	       "%d rounds each way\n", SIZE / 1024, ROUNDS);
+	       "%d rounds each way\n",
+	       SIZE / 1024, ROUNDS);
 	for (int dir = 0; dir < 2; dir++) {
 		uint64_t frames0 = bus.frames;
 		double c0 = cpu_s(), w0 = wall_s();
 		for (int r = 0; r < ROUNDS; r++) {
-			sdo_client_req req = { .upload = dir == 1, .node_id = 5, .index = 0x2200,
-					       .mode = SDO_MODE_BLOCK, .timeout_ms = 1000 };
+			sdo_client_req req = { .upload = dir == 1,
+					       .node_id = 5,
+					       .index = 0x2200,
+					       .mode = SDO_MODE_BLOCK,
+					       .timeout_ms = 1000 };
 			if (dir == 0) {
 				req.data = src;
 				req.size = SIZE;

@@ -49,29 +49,37 @@ static int write_config(const char *path, unsigned depth)
 	char *t = malloc(cap);
 	if (!t)
 		return -ENOMEM;
-	n += (size_t)snprintf(t + n, cap - n,
+	n += (size_t)snprintf(
+		t + n, cap - n,
 		"{\"version\": 1, \"state_dir\": \"%s/state\",\n"
 		" \"mailbox\": {\"instance\": \"%s\", \"depth\": %u},\n \"lines\": [\n",
 		tmpdir, instance, depth);
 	for (int l = 0; l < LINES; l++) {
-		n += (size_t)snprintf(t + n, cap - n,
-			"  {\"name\": \"cpu%d\", \"interface\": \"vcan%d\", \"bitrate\": 1000000, \"node_id\": 127,\n"
+		n += (size_t)snprintf(
+			t + n, cap - n,
+			"  {\"name\": \"cpu%d\", \"interface\": \"vcan%d\", \"bitrate\": 1000000, "
+			"\"node_id\": 127,\n"
 			"   \"heartbeat_ms\": 1000, \"rpdos\": 4,\n   \"heartbeat_consumers\": [",
 			l, l);
 		for (int node = 1; node <= HB_NODES; node++)
-			n += (size_t)snprintf(t + n, cap - n, "%s{\"node_id\": %d, \"time_ms\": 2000}",
+			n += (size_t)snprintf(t + n, cap - n,
+					      "%s{\"node_id\": %d, \"time_ms\": 2000}",
 					      node > 1 ? ", " : "", node);
 		n += (size_t)snprintf(t + n, cap - n,
-			"],\n   \"objects\": [{\"index\": \"0x2000\", \"object\": \"ARRAY\", \"type\": \"UNSIGNED32\",\n"
-			"     \"length\": 8, \"access\": \"rww\", \"pdo\": true, \"default\": 0}],\n   \"values\": [");
+				      "],\n   \"objects\": [{\"index\": \"0x2000\", \"object\": "
+				      "\"ARRAY\", \"type\": \"UNSIGNED32\",\n"
+				      "     \"length\": 8, \"access\": \"rww\", \"pdo\": true, "
+				      "\"default\": 0}],\n   \"values\": [");
 		for (int p = 0; p < 4; p++)
-			n += (size_t)snprintf(t + n, cap - n,
-				"%s\n    {\"index\": \"0x%04X\", \"sub\": 1, \"value\": \"0x%03X\"},"
+			n += (size_t)snprintf(
+				t + n, cap - n,
+				"%s\n    {\"index\": \"0x%04X\", \"sub\": 1, \"value\": "
+				"\"0x%03X\"},"
 				" {\"index\": \"0x%04X\", \"sub\": 0, \"value\": 2},"
 				" {\"index\": \"0x%04X\", \"sub\": 1, \"value\": \"0x2000%02X20\"},"
 				" {\"index\": \"0x%04X\", \"sub\": 2, \"value\": \"0x2000%02X20\"}",
-				p ? "," : "", 0x1400 + p, 0x181 + p, 0x1600 + p, 0x1600 + p, 2 * p + 1,
-				0x1600 + p, 2 * p + 2);
+				p ? "," : "", 0x1400 + p, 0x181 + p, 0x1600 + p, 0x1600 + p,
+				2 * p + 1, 0x1600 + p, 2 * p + 2);
 		n += (size_t)snprintf(t + n, cap - n, "]}%s\n", l < LINES - 1 ? "," : "");
 	}
 	snprintf(t + n, cap - n, " ]}\n");
@@ -100,7 +108,9 @@ static void injector(struct shared *s)
 	}
 	/* sendmmsg: one system call per line and batch, so that the injector
 	 * (not the daemon) is not what limits the rate in a slow VM */
-	enum { BATCH = 64 };
+	enum {
+		BATCH = 64
+	};
 	struct can_frame frames[LINES][BATCH];
 	struct iovec iov[LINES][BATCH];
 	struct mmsghdr msgs[LINES][BATCH];
@@ -122,7 +132,8 @@ static void injector(struct shared *s)
 				for (int l = 0; l < LINES; l++) {
 					struct can_frame *f = &frames[l][i];
 					if (k % HB_EVERY == 0) {
-						f->can_id = 0x700 + 1 + (uint32_t)(k / HB_EVERY % HB_NODES);
+						f->can_id = 0x700 + 1 +
+							    (uint32_t)(k / HB_EVERY % HB_NODES);
 						f->can_dlc = 1;
 						memset(f->data, 0, sizeof f->data);
 						f->data[0] = 0x05; /* operational */
@@ -136,10 +147,13 @@ static void injector(struct shared *s)
 			for (int l = 0; l < LINES; l++) {
 				int sent = sendmmsg(fd[l], msgs[l], n, 0);
 				if (sent > 0)
-					atomic_fetch_add_explicit(&s->sent[l], (uint64_t)sent, memory_order_relaxed);
-				if (sent < (int)n)
-					atomic_fetch_add_explicit(&s->send_failed, n - (unsigned)(sent > 0 ? sent : 0),
+					atomic_fetch_add_explicit(&s->sent[l], (uint64_t)sent,
 								  memory_order_relaxed);
+				if (sent < (int)n)
+					atomic_fetch_add_explicit(
+						&s->send_failed,
+						n - (unsigned)(sent > 0 ? sent : 0),
+						memory_order_relaxed);
 			}
 		}
 		/* 1 ms steps: 9 frames per line each, like a busy bus */
@@ -178,7 +192,8 @@ static void reader(struct shared *s)
 			/* batched like the line's own receive path (recvmmsg) */
 			int got;
 			while ((got = recvmmsg(evs[i].data.fd, msgs, 32, MSG_DONTWAIT, NULL)) > 0)
-				atomic_fetch_add_explicit(&s->reader_frames, (uint64_t)got, memory_order_relaxed);
+				atomic_fetch_add_explicit(&s->reader_frames, (uint64_t)got,
+							  memory_order_relaxed);
 		}
 	}
 	_exit(0);
@@ -199,7 +214,8 @@ static int lines_operational(cogw *h)
 		bool op = false;
 		for (uint64_t until = mono_ms() + 5000; !op && mono_ms() < until; sleep_ms(20)) {
 			mbx_line_status st;
-			op = cogw_line_status(h, (unsigned)l, &st, 5000) == 0 && st.nmt_state == 0x05;
+			op = cogw_line_status(h, (unsigned)l, &st, 5000) == 0 &&
+			     st.nmt_state == 0x05;
 		}
 		if (!op) {
 			printf("line %d did not become operational\n", l);
@@ -229,7 +245,8 @@ int main(void)
 	cogw *h = NULL;
 	pid_t inj = -1, rd = -1;
 	int status = 1;
-	struct shared *s = mmap(NULL, sizeof *s, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+	struct shared *s = mmap(NULL, sizeof *s, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS,
+				-1, 0);
 	if (s == MAP_FAILED)
 		return 1;
 	memset(s, 0, sizeof *s);
@@ -238,7 +255,8 @@ int main(void)
 	       "(RPDO 181h..184h + heartbeats of %d nodes), %.1f s window\n",
 	       LINES, RATE_PER_LINE, HB_NODES, window_s);
 	cogw_options o = { .instance = instance, .timeout_ms = 10000 };
-	if (write_config(cfg, msg_max < 64 ? msg_max : 64) < 0 || bench_daemon_start(&d, cfg, instance, log) < 0)
+	if (write_config(cfg, msg_max < 64 ? msg_max : 64) < 0 ||
+	    bench_daemon_start(&d, cfg, instance, log) < 0)
 		goto out;
 	if (cogw_open_opts(&h, &o) < 0 || lines_operational(h) < 0)
 		goto out;
@@ -267,13 +285,15 @@ int main(void)
 		if (cogw_line_status(h, (unsigned)l, &st0[l], 5000) < 0)
 			goto out;
 	uint64_t rframes0 = atomic_load(&s->reader_frames);
-	double rcpu0 = bench_thread_cpu_s(rd, rd), pcpu0 = bench_process_cpu_s(d.pid), t0 = bench_now_s();
+	double rcpu0 = bench_thread_cpu_s(rd, rd), pcpu0 = bench_process_cpu_s(d.pid),
+	       t0 = bench_now_s();
 	for (int l = 0; l < LINES; l++) {
 		cpu0[l] = bench_thread_cpu_s(d.pid, tid[l]);
 		sent0[l] = atomic_load(&s->sent[l]);
 	}
 	sleep_ms((unsigned)(window_s * 1000));
-	double t1 = bench_now_s(), rcpu1 = bench_thread_cpu_s(rd, rd), pcpu1 = bench_process_cpu_s(d.pid);
+	double t1 = bench_now_s(), rcpu1 = bench_thread_cpu_s(rd, rd),
+	       pcpu1 = bench_process_cpu_s(d.pid);
 	uint64_t rframes1 = atomic_load(&s->reader_frames);
 	for (int l = 0; l < LINES; l++) {
 		cpu1[l] = bench_thread_cpu_s(d.pid, tid[l]);
@@ -300,24 +320,33 @@ int main(void)
 		double value = pct * scale, base = reader_pct * base_scale;
 		char name[160], verdict[64];
 		if (scaled)
-			snprintf(name, sizeof name, "CPU of line thread cogw-cpu%d, measured at %.0f frames/s, "
-				 "scaled to 9000 frames/s", l, rx_rate);
+			snprintf(name, sizeof name,
+				 "CPU of line thread cogw-cpu%d, measured at %.0f frames/s, "
+				 "scaled to 9000 frames/s",
+				 l, rx_rate);
 		else
-			snprintf(name, sizeof name, "CPU of line thread cogw-cpu%d at %.0f frames/s", l, rx_rate);
+			snprintf(name, sizeof name,
+				 "CPU of line thread cogw-cpu%d at %.0f frames/s", l, rx_rate);
 		snprintf(verdict, sizeof verdict, "%s%s", bench_verdict(value < 5.0),
 			 vm ? " (in the VM: the target applies natively)" : "");
-		bench_print_figure(&(bench_figure){
-			.name = name, .value = value, .unit = "% of one core",
-			.base_name = "bare reader process CPU per line", .base_value = base,
-			.base_unit = "% of one core", .ratio = base > 0 ? value / base : -1,
-			.target = "< 5 % of one core per line (native)", .verdict = verdict });
-		bench_note("line cpu%d: injected %.0f frames/s, the line received %.0f/s (rx dropped %llu), "
-			   "its thread used %.2f %% of one core (%.1f us per frame)", l,
-			   (double)(sent1[l] - sent0[l]) / wall, rx_rate,
+		bench_print_figure(&(bench_figure){ .name = name,
+						    .value = value,
+						    .unit = "% of one core",
+						    .base_name = "bare reader process CPU per line",
+						    .base_value = base,
+						    .base_unit = "% of one core",
+						    .ratio = base > 0 ? value / base : -1,
+						    .target = "< 5 % of one core per line (native)",
+						    .verdict = verdict });
+		bench_note("line cpu%d: injected %.0f frames/s, the line received %.0f/s (rx "
+			   "dropped %llu), "
+			   "its thread used %.2f %% of one core (%.1f us per frame)",
+			   l, (double)(sent1[l] - sent0[l]) / wall, rx_rate,
 			   (unsigned long long)(st1[l].rx_dropped - st0[l].rx_dropped), pct,
 			   rx_rate > 0 ? pct / 100.0 / rx_rate * 1e6 : 0.0);
 	}
-	bench_note("bare reader: %.0f frames/s per line, %.2f %% of one core per line; whole cogwd process: %.1f %% of one core; "
+	bench_note("bare reader: %.0f frames/s per line, %.2f %% of one core per line; whole cogwd "
+		   "process: %.1f %% of one core; "
 		   "injector send failures %llu; %s",
 		   reader_rate, reader_pct, (pcpu1 - pcpu0) / wall * 100.0,
 		   (unsigned long long)atomic_load(&s->send_failed),

@@ -101,7 +101,8 @@ static int raw_pingpong(double *rtt, size_t max, double seconds)
 	while (n < max && bench_now_s() < end) {
 		uint64_t t0 = bench_now_ns();
 		msg[0] = 'x';
-		if (mq_send(ping, msg, PING_SIZE, 0) < 0 || mq_receive(pong, in, sizeof in, NULL) != (ssize_t)PONG_SIZE)
+		if (mq_send(ping, msg, PING_SIZE, 0) < 0 ||
+		    mq_receive(pong, in, sizeof in, NULL) != (ssize_t)PONG_SIZE)
 			break;
 		rtt[n++] = (double)(bench_now_ns() - t0) * 1e-3;
 	}
@@ -126,11 +127,14 @@ static int write_config(const char *path, unsigned depth)
 		 " \"state_dir\": \"%s/state\",\n"
 		 " \"mailbox\": {\"instance\": \"%s\", \"depth\": %u, \"max_clients\": 32},\n"
 		 " \"lines\": [{\n"
-		 "  \"name\": \"bench0\", \"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,\n"
+		 "  \"name\": \"bench0\", \"interface\": \"vcan0\", \"bitrate\": 1000000, "
+		 "\"node_id\": 127,\n"
 		 "  \"heartbeat_ms\": 1000, \"rpdos\": 1,\n"
 		 "  \"device\": {\"name\": \"cogw bench\", \"vendor_id\": \"0x%08X\"},\n"
-		 "  \"objects\": [{\"index\": \"0x2000\", \"object\": \"ARRAY\", \"type\": \"UNSIGNED32\",\n"
-		 "               \"length\": 2, \"access\": \"rww\", \"pdo\": true, \"default\": 0}],\n"
+		 "  \"objects\": [{\"index\": \"0x2000\", \"object\": \"ARRAY\", \"type\": "
+		 "\"UNSIGNED32\",\n"
+		 "               \"length\": 2, \"access\": \"rww\", \"pdo\": true, \"default\": "
+		 "0}],\n"
 		 "  \"values\": [\n"
 		 "   {\"index\": \"0x1400\", \"sub\": 1, \"value\": \"0x%03X\"},\n"
 		 "   {\"index\": \"0x1600\", \"sub\": 0, \"value\": 2},\n"
@@ -148,7 +152,8 @@ static cogw *client_open(bool deep_events)
 {
 	cogw *h = NULL;
 	unsigned depth = bench_mq_msg_max();
-	cogw_options o = { .instance = instance, .timeout_ms = 10000,
+	cogw_options o = { .instance = instance,
+			   .timeout_ms = 10000,
 			   .event_depth = deep_events ? (depth > 256 ? 256 : depth) : 0 };
 	int rc = cogw_open_opts(&h, &o);
 	if (rc < 0) {
@@ -167,7 +172,8 @@ static int od_read_vendor(cogw *h)
 	int rc = cogw_od_read(h, 0, 0x1018, 1, v, sizeof v, &len, 10000, &abort);
 	if (rc < 0)
 		return rc;
-	uint32_t got = (uint32_t)v[0] | (uint32_t)v[1] << 8 | (uint32_t)v[2] << 16 | (uint32_t)v[3] << 24;
+	uint32_t got = (uint32_t)v[0] | (uint32_t)v[1] << 8 | (uint32_t)v[2] << 16 |
+		       (uint32_t)v[3] << 24;
 	return len == 4 && got == VENDOR_ID ? 0 : COGW_E_PROTOCOL;
 }
 
@@ -190,7 +196,8 @@ static int mailbox_rtt(double *rtt, size_t max, double seconds, int *errors)
 		double us = (double)(bench_now_ns() - t0) * 1e-3;
 		if (rc < 0) {
 			if ((*errors)++ < 3)
-				printf("mailbox round trip: OD read 1018:01: %s\n", cogw_strerror(rc));
+				printf("mailbox round trip: OD read 1018:01: %s\n",
+				       cogw_strerror(rc));
 			continue;
 		}
 		rtt[n++] = us;
@@ -270,9 +277,12 @@ static double commands_per_s(int clients, double seconds, uint64_t *errors_out)
 		int st = 0;
 		waitpid(pids[i], &st, 0);
 		if (!WIFEXITED(st) || WEXITSTATUS(st) != 0)
-			printf("commands/s: client %d of %d ended with status 0x%x\n", i + 1, clients, (unsigned)st);
+			printf("commands/s: client %d of %d ended with status 0x%x\n", i + 1,
+			       clients, (unsigned)st);
 	}
-	close(ready[0]); close(go[0]); close(go[1]);
+	close(ready[0]);
+	close(go[0]);
+	close(go[1]);
 	close(results[0]);
 	*errors_out = errors;
 	return (double)ok / elapsed;
@@ -283,7 +293,7 @@ static double commands_per_s(int clients, double seconds, uint64_t *errors_out)
 struct fanout_shared {
 	_Atomic uint64_t next_seq[SUBSCRIBERS]; /* highest sequence seen + 1 */
 	_Atomic uint64_t received[SUBSCRIBERS];
-	_Atomic uint64_t dropped[SUBSCRIBERS];  /* overflow reported */
+	_Atomic uint64_t dropped[SUBSCRIBERS]; /* overflow reported */
 	_Atomic int ready;
 	double lat_p50[SUBSCRIBERS], lat_p99[SUBSCRIBERS];
 };
@@ -392,7 +402,8 @@ static int fanout_run(struct fanout_shared *s, pid_t *pids, uint64_t total, unsi
 	while (atomic_load(&s->ready) < SUBSCRIBERS && bench_now_ns() < wait_until)
 		sched_yield();
 	if (atomic_load(&s->ready) < SUBSCRIBERS)
-		printf("fan-out: only %d of %d subscribers came up\n", atomic_load(&s->ready), SUBSCRIBERS);
+		printf("fan-out: only %d of %d subscribers came up\n", atomic_load(&s->ready),
+		       SUBSCRIBERS);
 	double t0 = bench_now_s();
 	uint64_t last_progress = bench_now_ns(), last_min = 0;
 	for (uint64_t seq = 0; seq < total; seq++) {
@@ -411,7 +422,8 @@ static int fanout_run(struct fanout_shared *s, pid_t *pids, uint64_t total, unsi
 			nanosleep(&ts, NULL);
 		}
 		if (send(ctx, (uint32_t)seq) < 0) {
-			printf("fan-out: send %llu failed: %s\n", (unsigned long long)seq, strerror(errno));
+			printf("fan-out: send %llu failed: %s\n", (unsigned long long)seq,
+			       strerror(errno));
 			break;
 		}
 	}
@@ -550,10 +562,15 @@ out:
 
 static void print_rate(const char *name, double value, const char *bname, double base)
 {
-	bench_print_figure(&(bench_figure){ .name = name, .value = value, .unit = "1/s",
-					    .base_name = bname, .base_value = base, .base_unit = "1/s",
+	bench_print_figure(&(bench_figure){ .name = name,
+					    .value = value,
+					    .unit = "1/s",
+					    .base_name = bname,
+					    .base_value = base,
+					    .base_unit = "1/s",
 					    .ratio = base > 0 ? value / base : -1,
-					    .target = "none (context)", .verdict = "-" });
+					    .target = "none (context)",
+					    .verdict = "-" });
 }
 
 int main(void)
@@ -582,7 +599,8 @@ int main(void)
 	if (mq_limit != UINT64_MAX)
 		snprintf(limit, sizeof limit, "%llu bytes", (unsigned long long)mq_limit);
 	printf("bench_vcan_mailbox: cogwd on vcan0, %.1f s per measurement, fs.mqueue.msg_max %u, "
-	       "RLIMIT_MSGQUEUE %s\n", run_seconds, msg_max, limit);
+	       "RLIMIT_MSGQUEUE %s\n",
+	       run_seconds, msg_max, limit);
 
 	/* baseline first, while nothing else runs */
 	int nraw = raw_pingpong(samples, SAMPLES_MAX, run_seconds);
@@ -605,23 +623,33 @@ int main(void)
 		goto out;
 	double p50 = bench_percentile(samples, (size_t)n, 50);
 	double p99 = bench_percentile(samples, (size_t)n, 99);
-	bench_print_figure(&(bench_figure){
-		.name = "mailbox round trip p50 (OD read 1018h:01)", .value = p50, .unit = "us",
-		.base_name = "raw mq ping-pong p50", .base_value = raw_p50, .base_unit = "us",
-		.ratio = p50 / raw_p50, .target = "ratio <= 2.00",
-		.verdict = bench_verdict(p50 <= 2 * raw_p50) });
-	bench_print_figure(&(bench_figure){
-		.name = "mailbox round trip p99 (OD read 1018h:01)", .value = p99, .unit = "us",
-		.base_name = "raw mq ping-pong p99", .base_value = raw_p99, .base_unit = "us",
-		.ratio = p99 / raw_p99, .target = "ratio <= 2.00",
-		.verdict = bench_verdict(p99 <= 2 * raw_p99) });
+	bench_print_figure(&(bench_figure){ .name = "mailbox round trip p50 (OD read 1018h:01)",
+					    .value = p50,
+					    .unit = "us",
+					    .base_name = "raw mq ping-pong p50",
+					    .base_value = raw_p50,
+					    .base_unit = "us",
+					    .ratio = p50 / raw_p50,
+					    .target = "ratio <= 2.00",
+					    .verdict = bench_verdict(p50 <= 2 * raw_p50) });
+	bench_print_figure(&(bench_figure){ .name = "mailbox round trip p99 (OD read 1018h:01)",
+					    .value = p99,
+					    .unit = "us",
+					    .base_name = "raw mq ping-pong p99",
+					    .base_value = raw_p99,
+					    .base_unit = "us",
+					    .ratio = p99 / raw_p99,
+					    .target = "ratio <= 2.00",
+					    .verdict = bench_verdict(p99 <= 2 * raw_p99) });
 	double mean = 0;
 	for (int i = 0; i < n; i++)
 		mean += samples[i];
 	mean /= n;
-	bench_note("round trips: %d mailbox (%d failed or wrong value), mean %.0f us; %d raw, mean %.0f us; "
-		   "raw messages %zu/%zu bytes in queues of %d", n, errors, mean, nraw, raw_mean,
-		   (size_t)PING_SIZE, (size_t)PONG_SIZE, QUEUE_MSGSIZE);
+	bench_note("round trips: %d mailbox (%d failed or wrong value), mean %.0f us; %d raw, mean "
+		   "%.0f us; "
+		   "raw messages %zu/%zu bytes in queues of %d",
+		   n, errors, mean, nraw, raw_mean, (size_t)PING_SIZE, (size_t)PONG_SIZE,
+		   QUEUE_MSGSIZE);
 
 	static const int counts[] = { 1, 4, 16 };
 	for (size_t i = 0; i < sizeof counts / sizeof counts[0]; i++) {
@@ -632,7 +660,8 @@ int main(void)
 			 counts[i] == 1 ? "" : "s");
 		print_rate(name, rate, "raw mq ping-pong round trips/s", raw_rate);
 		if (errs)
-			bench_note("%s: %llu commands failed or read a wrong value", name, (unsigned long long)errs);
+			bench_note("%s: %llu commands failed or read a wrong value", name,
+				   (unsigned long long)errs);
 	}
 
 	/* Fan-out: window = half the subscribers' event queue depth. */
@@ -644,27 +673,34 @@ int main(void)
 	 * window divided by the rate). */
 	uint64_t lat_total = bench_in_vm() ? 200 : 2000;
 	struct fanout_result raw, dmn, raw_lat, dmn_lat;
-	if (fanout_raw(total, window, evdepth, &raw) < 0 || fanout_raw(lat_total, 1, evdepth, &raw_lat) < 0 ||
-	    daemon_go_operational() < 0 || fanout_daemon(total, window, &dmn) < 0 ||
-	    fanout_daemon(lat_total, 1, &dmn_lat) < 0)
+	if (fanout_raw(total, window, evdepth, &raw) < 0 ||
+	    fanout_raw(lat_total, 1, evdepth, &raw_lat) < 0 || daemon_go_operational() < 0 ||
+	    fanout_daemon(total, window, &dmn) < 0 || fanout_daemon(lat_total, 1, &dmn_lat) < 0)
 		goto out;
 	print_rate("event fan-out to 8 subscribers (RPDO events delivered)", dmn.events_per_s,
 		   "raw mq fan-out 1 writer to 8 readers", raw.events_per_s);
 	bench_print_figure(&(bench_figure){
 		.name = "event fan-out latency p50, one event in flight (frame sent to event read)",
-		.value = dmn_lat.lat_p50, .unit = "us",
-		.base_name = "raw mq fan-out latency p50", .base_value = raw_lat.lat_p50, .base_unit = "us",
+		.value = dmn_lat.lat_p50,
+		.unit = "us",
+		.base_name = "raw mq fan-out latency p50",
+		.base_value = raw_lat.lat_p50,
+		.base_unit = "us",
 		.ratio = raw_lat.lat_p50 > 0 ? dmn_lat.lat_p50 / raw_lat.lat_p50 : -1,
-		.target = "none (context)", .verdict = "-" });
-	bench_note("fan-out: %llu RPDO frames, window %u; daemon delivered %llu of %llu events (overflow reported %llu), "
-		   "raw %llu of %llu; latency pass %llu frames, worst subscriber p99 %.0f us (raw %.0f us)",
+		.target = "none (context)",
+		.verdict = "-" });
+	bench_note("fan-out: %llu RPDO frames, window %u; daemon delivered %llu of %llu events "
+		   "(overflow reported %llu), "
+		   "raw %llu of %llu; latency pass %llu frames, worst subscriber p99 %.0f us (raw "
+		   "%.0f us)",
 		   (unsigned long long)total, window, (unsigned long long)dmn.delivered,
 		   (unsigned long long)dmn.expected, (unsigned long long)dmn.dropped,
 		   (unsigned long long)raw.delivered, (unsigned long long)raw.expected,
 		   (unsigned long long)lat_total, dmn_lat.lat_p99, raw_lat.lat_p99);
 	if (dmn.delivered != dmn.expected || dmn_lat.delivered != dmn_lat.expected)
 		printf("WARNING: the daemon lost %llu events\n",
-		       (unsigned long long)(dmn.expected + dmn_lat.expected - dmn.delivered - dmn_lat.delivered));
+		       (unsigned long long)(dmn.expected + dmn_lat.expected - dmn.delivered -
+					    dmn_lat.delivered));
 	status = 0;
 out:
 	bench_daemon_stop(&d);

@@ -51,7 +51,8 @@ static int open_filtered(const char *ifname, uint32_t id)
 	int fd = can_open_raw(ifname);
 	if (fd < 0)
 		return fd;
-	struct can_filter f = { .can_id = id, .can_mask = CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG };
+	struct can_filter f = { .can_id = id,
+				.can_mask = CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG };
 	setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, &f, sizeof f);
 	int big = 4 * 1024 * 1024;
 	setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &big, sizeof big);
@@ -61,7 +62,8 @@ static int open_filtered(const char *ifname, uint32_t id)
 /* A child counts frames with RAW_ID arriving on rx_if while the parent
  * writes them on tx_if for `seconds`. Returns received frames/s; *sent_rate
  * tells what the sender managed. */
-static double frame_throughput(const char *tx_if, const char *rx_if, double seconds, double *sent_rate)
+static double frame_throughput(const char *tx_if, const char *rx_if, double seconds,
+			       double *sent_rate)
 {
 	int counts[2];
 	if (pipe(counts))
@@ -177,18 +179,23 @@ static int write_device(const char *path)
 	if (!text)
 		return -ENOMEM;
 	static const char hex[] = "0123456789ABCDEF";
-	size_t n = (size_t)snprintf(text, cap,
+	size_t n = (size_t)snprintf(
+		text, cap,
 		"{\"name\": \"bench-domain\", \"node_id\": %d, \"heartbeat_ms\": 1000,\n"
 		" \"objects\": [\n"
-		"  {\"index\": \"0x%04X\", \"name\": \"1 MiB domain\", \"type\": \"DOMAIN\", \"access\": \"ro\",\n"
-		"   \"max_size\": %u, \"default\": \"", NODE, BLOCK_INDEX, BLOCK_SIZE);
+		"  {\"index\": \"0x%04X\", \"name\": \"1 MiB domain\", \"type\": \"DOMAIN\", "
+		"\"access\": \"ro\",\n"
+		"   \"max_size\": %u, \"default\": \"",
+		NODE, BLOCK_INDEX, BLOCK_SIZE);
 	for (uint32_t i = 0; i < BLOCK_SIZE; i++) {
 		text[n++] = hex[pattern(i) >> 4];
 		text[n++] = hex[pattern(i) & 15];
 	}
 	n += (size_t)snprintf(text + n, cap - n,
-		"\"},\n  {\"index\": \"0x%04X\", \"name\": \"segmented\", \"type\": \"OCTET_STRING\", \"access\": \"ro\",\n"
-		"   \"max_size\": %u, \"default\": \"", SEG_INDEX, SEG_SIZE);
+			      "\"},\n  {\"index\": \"0x%04X\", \"name\": \"segmented\", \"type\": "
+			      "\"OCTET_STRING\", \"access\": \"ro\",\n"
+			      "   \"max_size\": %u, \"default\": \"",
+			      SEG_INDEX, SEG_SIZE);
 	for (uint32_t i = 0; i < SEG_SIZE; i++) {
 		text[n++] = hex[pattern(i + 7) >> 4];
 		text[n++] = hex[pattern(i + 7) & 15];
@@ -205,7 +212,8 @@ static int write_config(const char *path, unsigned depth)
 	snprintf(text, sizeof text,
 		 "{\"version\": 1, \"state_dir\": \"%s/state\",\n"
 		 " \"mailbox\": {\"instance\": \"%s\", \"depth\": %u},\n"
-		 " \"lines\": [{\"name\": \"bench0\", \"interface\": \"vcan0\", \"bitrate\": 1000000,\n"
+		 " \"lines\": [{\"name\": \"bench0\", \"interface\": \"vcan0\", \"bitrate\": "
+		 "1000000,\n"
 		 "   \"node_id\": 127, \"sdo_timeout_ms\": 5000}]}\n",
 		 tmpdir, instance, depth);
 	return bench_write_file(path, text);
@@ -247,7 +255,8 @@ static double timed_upload(cogw *h, uint16_t index, uint8_t mode, uint8_t *buf, 
 	int rc = cogw_sdo_read_ex(h, 0, NODE, index, 0, &o, buf, size, &len, 300000, &abort);
 	double took = bench_now_s() - t0;
 	if (rc < 0) {
-		printf("SDO upload %04X (mode %u): %s, abort %08X\n", index, mode, cogw_strerror(rc), abort);
+		printf("SDO upload %04X (mode %u): %s, abort %08X\n", index, mode,
+		       cogw_strerror(rc), abort);
 		return -1;
 	}
 	if (len != size) {
@@ -256,8 +265,8 @@ static double timed_upload(cogw *h, uint16_t index, uint8_t mode, uint8_t *buf, 
 	}
 	for (uint32_t i = 0; i < size; i++) {
 		if (buf[i] != pattern(i + offset)) {
-			printf("SDO upload %04X: byte %u is %02X, expected %02X\n", index, i, buf[i],
-			       pattern(i + offset));
+			printf("SDO upload %04X: byte %u is %02X, expected %02X\n", index, i,
+			       buf[i], pattern(i + offset));
 			return -1;
 		}
 	}
@@ -286,8 +295,8 @@ int main(void)
 	cogw *h = NULL;
 	int status = 1;
 
-	printf("bench_vcan_sdo: cogwd + cosim (node %d) on vcan0, %.1f s per raw measurement\n", NODE,
-	       run_seconds);
+	printf("bench_vcan_sdo: cogwd + cosim (node %d) on vcan0, %.1f s per raw measurement\n",
+	       NODE, run_seconds);
 
 	double sent_rate = 0;
 	double raw_rate = frame_throughput("vcan0", "vcan0", run_seconds + 1, &sent_rate);
@@ -297,21 +306,34 @@ int main(void)
 		   sent_rate, raw_rate);
 	double gw_sent = 0, gw_rate = cangw_throughput(run_seconds, &gw_sent);
 	if (gw_rate > 0)
-		bench_print_figure(&(bench_figure){
-			.name = "kernel can-gw forwarding vcan0 to vcan1", .value = gw_rate, .unit = "frames/s",
-			.base_name = "raw vcan0 frame throughput", .base_value = raw_rate, .base_unit = "frames/s",
-			.ratio = gw_rate / raw_rate, .target = "none (context)", .verdict = "-" });
+		bench_print_figure(
+			&(bench_figure){ .name = "kernel can-gw forwarding vcan0 to vcan1",
+					 .value = gw_rate,
+					 .unit = "frames/s",
+					 .base_name = "raw vcan0 frame throughput",
+					 .base_value = raw_rate,
+					 .base_unit = "frames/s",
+					 .ratio = gw_rate / raw_rate,
+					 .target = "none (context)",
+					 .verdict = "-" });
 	else
-		bench_note("kernel can-gw forwarding: not measured (needs cangw(8), root and the can-gw module)");
+		bench_note("kernel can-gw forwarding: not measured (needs cangw(8), root and the "
+			   "can-gw module)");
 	int pp_samples = 0;
 	double pp_us = frame_pingpong_us(run_seconds, &pp_samples);
 
 	if (!buf || write_device(dev) < 0 || write_config(cfg, msg_max < 64 ? msg_max : 64) < 0)
 		goto out;
-	const char *sim_argv[] = { bench_program("cosim", prog, sizeof prog), "--interface", "vcan0",
-				   "--device", dev, "--quiet", NULL };
+	const char *sim_argv[] = { bench_program("cosim", prog, sizeof prog),
+				   "--interface",
+				   "vcan0",
+				   "--device",
+				   dev,
+				   "--quiet",
+				   NULL };
 	sim = proc_spawn(sim_argv, simlog, NULL);
-	if (bench_daemon_start(&d, cfg, instance, log) < 0 || !(h = client_open()) || wait_device(h) < 0) {
+	if (bench_daemon_start(&d, cfg, instance, log) < 0 || !(h = client_open()) ||
+	    wait_device(h) < 0) {
 		proc_dump_log(simlog, 10);
 		goto out;
 	}
@@ -328,12 +350,18 @@ int main(void)
 	}
 	double block_bps = BLOCK_SIZE / best;
 	double target_bps = raw_rate * 7.0;
-	bench_print_figure(&(bench_figure){
-		.name = "SDO block upload 1 MiB from cosim (data bytes/s)", .value = block_bps, .unit = "B/s",
-		.base_name = "raw vcan0 frames/s x 7 bytes", .base_value = target_bps, .base_unit = "B/s",
-		.ratio = block_bps / target_bps, .target = "ratio >= 0.70",
-		.verdict = bench_verdict(block_bps >= 0.70 * target_bps) });
-	bench_note("block upload: best of %d round%s %.2f s for %u bytes (%u data frames), checked byte for byte",
+	bench_print_figure(
+		&(bench_figure){ .name = "SDO block upload 1 MiB from cosim (data bytes/s)",
+				 .value = block_bps,
+				 .unit = "B/s",
+				 .base_name = "raw vcan0 frames/s x 7 bytes",
+				 .base_value = target_bps,
+				 .base_unit = "B/s",
+				 .ratio = block_bps / target_bps,
+				 .target = "ratio >= 0.70",
+				 .verdict = bench_verdict(block_bps >= 0.70 * target_bps) });
+	bench_note("block upload: best of %d round%s %.2f s for %u bytes (%u data frames), checked "
+		   "byte for byte",
 		   rounds, rounds == 1 ? "" : "s", best, BLOCK_SIZE, (BLOCK_SIZE + 6) / 7);
 
 	/* segmented: SEG_SIZE bytes = 100 segments + the initiate exchange */
@@ -347,11 +375,17 @@ int main(void)
 		transfers++;
 	}
 	double per_seg_us = total / transfers / segments * 1e6;
-	bench_print_figure(&(bench_figure){
-		.name = "segmented SDO upload round trip per segment", .value = per_seg_us, .unit = "us",
-		.base_name = "raw CAN frame ping-pong on vcan0", .base_value = pp_us, .base_unit = "us",
-		.ratio = pp_us > 0 ? per_seg_us / pp_us : -1, .target = "none (context)", .verdict = "-" });
-	bench_note("segmented: %u uploads of %u bytes (%u segments each, initiate and mailbox included); %d raw ping-pongs",
+	bench_print_figure(&(bench_figure){ .name = "segmented SDO upload round trip per segment",
+					    .value = per_seg_us,
+					    .unit = "us",
+					    .base_name = "raw CAN frame ping-pong on vcan0",
+					    .base_value = pp_us,
+					    .base_unit = "us",
+					    .ratio = pp_us > 0 ? per_seg_us / pp_us : -1,
+					    .target = "none (context)",
+					    .verdict = "-" });
+	bench_note("segmented: %u uploads of %u bytes (%u segments each, initiate and mailbox "
+		   "included); %d raw ping-pongs",
 		   transfers, SEG_SIZE, segments, pp_samples);
 	status = 0;
 out:

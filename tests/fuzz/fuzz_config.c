@@ -47,8 +47,7 @@ int fuzz_config_one(const uint8_t *data, size_t size)
 	} else {
 		if (cfg.n_lines < 1 || cfg.n_lines > COGW_LINES_MAX)
 			bad = 4;
-		else if (!cogw_config_reload_check(&cfg, &cfg, what, sizeof(what)) ||
-			 what[0])
+		else if (!cogw_config_reload_check(&cfg, &cfg, what, sizeof(what)) || what[0])
 			bad = 5;
 	}
 	cogw_config_free(&cfg);

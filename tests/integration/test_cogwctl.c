@@ -52,9 +52,9 @@ static char tmpdir[64]; /* for tests without a daemon */
 
 /* One finished cogwctl run. */
 typedef struct ctl_result {
-	int exit;          /* exit status, -1 if it did not exit normally */
-	char out[16384];   /* stdout */
-	char err[4096];    /* stderr */
+	int exit;        /* exit status, -1 if it did not exit normally */
+	char out[16384]; /* stdout */
+	char err[4096];  /* stderr */
 } ctl_result;
 
 static ctl_result res;
@@ -200,7 +200,8 @@ static void start_system(void)
 		 * once its boot-up and first heartbeat were heard */
 		if (r->exit == 0 && strstr(r->out, "\"node\":1,\"nmt_state\":\"pre-operational\""))
 			break;
-		TEST_ASSERT_TRUE_MESSAGE(mono_ms() < until, "node 1 never appeared in the node table");
+		TEST_ASSERT_TRUE_MESSAGE(mono_ms() < until,
+					 "node 1 never appeared in the node table");
 		sleep_ms(200);
 	}
 }
@@ -242,8 +243,12 @@ static void test_help_documents_every_subcommand(void)
 		{ "nmt", { "start", "stop", "preop", "reset-node", "reset-comm", "self", NULL } },
 		{ "pdo", { "request", "read", "write", "--trigger", NULL } },
 		{ "emcy", { "send", "CODE", "REGISTER", NULL } },
-		{ "lss", { "fastscan", "set-node-id", "set-bit-timing", "store", "--kbit", "inquire", NULL } },
-		{ "monitor", { "--line", "--class", "--raw-filter", "--count", "--duration", "--float", NULL } },
+		{ "lss",
+		  { "fastscan", "set-node-id", "set-bit-timing", "store", "--kbit", "inquire",
+		    NULL } },
+		{ "monitor",
+		  { "--line", "--class", "--raw-filter", "--count", "--duration", "--float",
+		    NULL } },
 		{ "raw", { "send", "dump", "--count", "--duration", "ID#DATA", NULL } },
 	};
 	ctl_result *r = ctl_run("--help");
@@ -283,7 +288,8 @@ static void test_usage_errors_exit_2_and_no_daemon_exits_3(void)
 		{ "sdo read 0 1 10180 1", "INDEX '10180'" },
 		{ "sdo read 0 1 1018 256", "SUB '256'" },
 		{ "sdo read 0 1 1018 1 u33", "unknown TYPE 'u33'" },
-		{ "sdo write 0 1 1017 0 u16 70000", "VALUE '70000' for u16: out of range (0..65535)" },
+		{ "sdo write 0 1 1017 0 u16 70000",
+		  "VALUE '70000' for u16: out of range (0..65535)" },
 		{ "sdo write 0 1 1017 0 i8 -129", "VALUE '-129' for i8: out of range (-128..127)" },
 		{ "sdo write 0 1 1017 0 u16 12abc", "not an integer" },
 		{ "sdo write 0 1 2005 1 r32 1e39", "not a finite number within +-3.4e38" },
@@ -301,7 +307,8 @@ static void test_usage_errors_exit_2_and_no_daemon_exits_3(void)
 		{ "status --bogus", "unknown option '--bogus'" },
 		{ "--timeout 0 status", "--timeout needs milliseconds" },
 		{ "lss set-node-id 0 128", "NODE: 1..127, or 255" },
-		{ "lss set-bit-timing 0 --kbit 333", "--kbit 333 is not in the CiA bit timing table" },
+		{ "lss set-bit-timing 0 --kbit 333",
+		  "--kbit 333 is not in the CiA bit timing table" },
 		{ "emcy send 0 12345", "CODE '12345'" },
 	};
 	for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
@@ -366,7 +373,9 @@ static void test_status_sdo_types_json_and_aborts(void)
 	/* refusals: the abort code with its meaning, exit 1 */
 	r = ctl_run("sdo read 0 1 2001 0 u32");
 	expect_exit(1, r);
-	expect_contains(r->err, "SDO upload 2001:00 node 1 on line 0: abort 0x06020000 (object does not exist");
+	expect_contains(
+		r->err,
+		"SDO upload 2001:00 node 1 on line 0: abort 0x06020000 (object does not exist");
 	r = ctl_run("sdo write 0 1 1018 1 u32 5");
 	expect_exit(1, r);
 	expect_contains(r->err, "abort 0x06010002");
@@ -408,12 +417,14 @@ static void test_sdo_domain_from_file_and_to_file(void)
 
 	static const char *const modes[] = { "segmented", "block" };
 	for (int m = 0; m < 2; m++) {
-		ctl_result *r = ctl_run("sdo write 0 1 2200 0 domain @%s --mode %s --timeout 20000", in, modes[m]);
+		ctl_result *r = ctl_run("sdo write 0 1 2200 0 domain @%s --mode %s --timeout 20000",
+					in, modes[m]);
 		expect_exit(0, r);
 		expect_contains(r->out, "2200:00 <- @");
 		expect_contains(r->out, "(3000 bytes): ok");
 		unlink(out);
-		r = ctl_run("sdo read 0 1 2200 0 domain --out %s --mode %s --timeout 20000", out, modes[m]);
+		r = ctl_run("sdo read 0 1 2200 0 domain --out %s --mode %s --timeout 20000", out,
+			    modes[m]);
 		expect_exit(0, r);
 		expect_contains(r->out, "3000 bytes written to");
 		f = fopen(out, "rb");
@@ -444,7 +455,8 @@ static void test_nmt_monitor_pdo_and_process_image(void)
 		sleep_ms(100);
 	}
 	expect_exit(0, ctl_run("nmt start 0 self"));
-	TEST_ASSERT_EQUAL_STRING("line 0: NMT start sent to node 127 (the daemon itself)\n", res.out);
+	TEST_ASSERT_EQUAL_STRING("line 0: NMT start sent to node 127 (the daemon itself)\n",
+				 res.out);
 	expect_exit(0, ctl_run("status 0"));
 	expect_contains(res.out, "own node 127 operational");
 
@@ -530,7 +542,8 @@ static void test_emcy_both_ways(void)
 	expect_exit(0, r);
 	uint8_t d[8];
 	TEST_ASSERT_EQUAL_INT(8, can_wait_id(fd, 0x80 + 127, d, 3000));
-	TEST_ASSERT_EQUAL_HEX8_ARRAY(((uint8_t[]){ 0x00, 0x10, 0x01, 0x01, 0x02, 0x03, 0x00, 0x00 }), d, 8);
+	TEST_ASSERT_EQUAL_HEX8_ARRAY(
+		((uint8_t[]){ 0x00, 0x10, 0x01, 0x01, 0x02, 0x03, 0x00, 0x00 }), d, 8);
 	close(fd);
 
 	/* the daemon receives node 1's EMCY: the monitor prints it */
@@ -601,11 +614,11 @@ static void test_timeouts_name_who_did_not_answer(void)
 
 /* COGW_TEST_ONLY=substring runs only the tests whose name contains it. */
 #undef RUN_TEST
-#define RUN_TEST(fn)                                                                  \
-	do {                                                                          \
-		const char *only_ = getenv("COGW_TEST_ONLY");                         \
-		if (!only_ || strstr(#fn, only_))                                     \
-			UnityDefaultTestRun(fn, #fn, __LINE__);                       \
+#define RUN_TEST(fn)                                            \
+	do {                                                    \
+		const char *only_ = getenv("COGW_TEST_ONLY");   \
+		if (!only_ || strstr(#fn, only_))               \
+			UnityDefaultTestRun(fn, #fn, __LINE__); \
 	} while (0)
 
 int main(void)

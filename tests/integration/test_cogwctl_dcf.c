@@ -74,7 +74,8 @@ void setUp(void)
 {
 	snprintf(dir, sizeof dir, "/tmp/test_cogwctl_dcf_XXXXXX");
 	TEST_ASSERT_NOT_NULL(mkdtemp(dir));
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, access(CTL, X_OK), "build/san/bin/cogwctl missing (make tests-build)");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, access(CTL, X_OK),
+				      "build/san/bin/cogwctl missing (make tests-build)");
 }
 
 void tearDown(void)
@@ -102,8 +103,12 @@ static void test_check_and_convert(void)
 	put("dev.dcf", dcf_text);
 	ctl_run("dcf check %s/dev.dcf --list", dir);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
-	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "ok: 3 objects, 6 values, 7 entries for the concise DCF (71 bytes), node 3"), res.out);
-	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "1800:01       4 bytes  83 01 00 80"), res.out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(
+		strstr(res.out,
+		       "ok: 3 objects, 6 values, 7 entries for the concise DCF (71 bytes), node 3"),
+		res.out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "1800:01       4 bytes  83 01 00 80"),
+				     res.out);
 
 	/* --node overrides the file's NodeID */
 	ctl_run("dcf convert %s/dev.dcf --node 5 -o %s/dev.cdc", dir, dir);
@@ -124,10 +129,9 @@ static void test_check_and_convert(void)
 		uint8_t sub;
 		uint32_t size, value;
 	} want[] = {
-		{0x1017, 0, 2, 250},
-		{0x1800, 1, 4, 0x80000185}, {0x1800, 5, 2, 100},
-		{0x1A00, 0, 1, 0}, {0x1A00, 1, 4, 0x61300120}, {0x1A00, 0, 1, 1},
-		{0x1800, 1, 4, 0x185},
+		{ 0x1017, 0, 2, 250 },   { 0x1800, 1, 4, 0x80000185 }, { 0x1800, 5, 2, 100 },
+		{ 0x1A00, 0, 1, 0 },     { 0x1A00, 1, 4, 0x61300120 }, { 0x1A00, 0, 1, 1 },
+		{ 0x1800, 1, 4, 0x185 },
 	};
 	TEST_ASSERT_EQUAL_UINT32(sizeof want / sizeof want[0], it.count);
 	for (size_t i = 0; co_cdcf_iter_next(&it, &e); i++) {
@@ -150,8 +154,10 @@ static void test_check_and_convert(void)
 	fclose(f);
 	ctl_run("dcf check %s/dev.cdc", dir);
 	TEST_ASSERT_EQUAL_INT(1, res.exit);
-	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "not a concise DCF: entry 7 of 7 (1800:01)"), res.err);
-	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "data cut short (size 4, 1 bytes left)"), res.err);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "not a concise DCF: entry 7 of 7 (1800:01)"),
+				     res.err);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "data cut short (size 4, 1 bytes left)"),
+				     res.err);
 }
 
 static void test_refused_file_names_the_line(void)
@@ -160,7 +166,10 @@ static void test_refused_file_names_the_line(void)
 	ctl_run("dcf check %s/bad.eds", dir);
 	TEST_ASSERT_EQUAL_INT(1, res.exit);
 	char want[200];
-	snprintf(want, sizeof want, "cogwctl dcf check: %s/bad.eds:4: DefaultValue '256': out of range for UNSIGNED8 (max 255)\n", dir);
+	snprintf(want, sizeof want,
+		 "cogwctl dcf check: %s/bad.eds:4: DefaultValue '256': out of range for UNSIGNED8 "
+		 "(max 255)\n",
+		 dir);
 	TEST_ASSERT_EQUAL_STRING(want, res.err);
 
 	ctl_run("--json dcf check %s/bad.eds", dir);
@@ -178,7 +187,9 @@ static void test_refused_file_names_the_line(void)
 	TEST_ASSERT_NOT_NULL(strstr(res.out, "note: $NODEID evaluated as 1"));
 	ctl_run("dcf convert %s/n.eds -o %s/n.cdc", dir, dir);
 	TEST_ASSERT_EQUAL_INT(1, res.exit);
-	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "n.eds:4: DefaultValue '$NODEID+0x80': $NODEID needs a node id"), res.err);
+	TEST_ASSERT_NOT_NULL_MESSAGE(
+		strstr(res.err, "n.eds:4: DefaultValue '$NODEID+0x80': $NODEID needs a node id"),
+		res.err);
 	char path[128];
 	snprintf(path, sizeof path, "%s/n.cdc", dir);
 	TEST_ASSERT_NOT_EQUAL(0, access(path, F_OK)); /* nothing written */
@@ -215,7 +226,8 @@ static void test_vendor_eds(void)
 	snprintf(eds, sizeof eds, "%s/examples/eds/e35.eds",
 		 env ? env : "build/deps/python-canopen/canopen-2.4.1");
 	if (access(eds, R_OK))
-		TEST_IGNORE_MESSAGE("python-canopen sdist not fetched (scripts/fetch-python-canopen.sh)");
+		TEST_IGNORE_MESSAGE(
+			"python-canopen sdist not fetched (scripts/fetch-python-canopen.sh)");
 	ctl_run("--json dcf convert %s --node 5 -o %s/e35.cdc", eds, dir);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
 	cJSON *o = cJSON_Parse(res.out);

@@ -103,7 +103,8 @@ static void start(const char *node_config)
 		 " {\"interface\": \"vcan1\", \"bitrate\": 500000, \"node_id\": 127},"
 		 " {\"interface\": \"vcan2\", \"bitrate\": 500000, \"node_id\": 127}]}",
 		 node_config);
-	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = cfg, .n_lines = 3 }));
+	TEST_ASSERT_EQUAL_INT(
+		0, daemon_start(&dmn, &(daemon_opts){ .config_json = cfg, .n_lines = 3 }));
 	const char *devices[] = { "etc/devices/sti-pressure.json", NULL };
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, NULL));
 }
@@ -163,9 +164,11 @@ static uint32_t start_software(bool corrupt, char *mon_path, size_t cap)
 		 " {\"interface\": \"vcan2\", \"bitrate\": 500000, \"node_id\": 127}]}",
 		 (unsigned)(corrupt ? crc ^ 1u : crc), image_path);
 	snprintf(cfg, sizeof cfg, "%s", node_cfg);
-	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = cfg, .n_lines = 3 }));
+	TEST_ASSERT_EQUAL_INT(
+		0, daemon_start(&dmn, &(daemon_opts){ .config_json = cfg, .n_lines = 3 }));
 	snprintf(mon_path, cap, "%s/monitor.out", dmn.dir);
-	snprintf(cmd, sizeof cmd, "%s --json monitor --line 0 --class manager,boot --duration 40 >%s 2>&1 &", CTL,
+	snprintf(cmd, sizeof cmd,
+		 "%s --json monitor --line 0 --class manager,boot --duration 40 >%s 2>&1 &", CTL,
 		 mon_path);
 	TEST_ASSERT_EQUAL_INT(0, system(cmd));
 	sleep_ms(1000);
@@ -187,11 +190,14 @@ static void test_program_updated_during_boot(void)
 	}
 	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
 	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8")); /* running */
-	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(dmn.log_path, "node 1: program updated (65536 bytes)", 5000),
-				 "no 'program updated' line in the daemon log");
+	TEST_ASSERT_TRUE_MESSAGE(
+		file_wait_contains(dmn.log_path, "node 1: program updated (65536 bytes)", 5000),
+		"no 'program updated' line in the daemon log");
 	/* progress events on the mailbox: the last one has all bytes */
-	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "\"what\":\"program\"", 5000), "no progress event");
-	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "\"value\":65536", 5000), "no final progress event");
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "\"what\":\"program\"", 5000),
+				 "no progress event");
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "\"value\":65536", 5000),
+				 "no final progress event");
 	unlink(image_path);
 }
 
@@ -205,7 +211,8 @@ static void test_refused_image_is_i(void)
 	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(dmn.log_path, "1F51:01: abort 08000020", 1000),
 				 "not refused by the start");
 	TEST_ASSERT_FALSE(wait_state("operational", 3000));
-	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "\"status\":\"I\"", 5000), "no boot event with I");
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "\"status\":\"I\"", 5000),
+				 "no boot event with I");
 	unlink(image_path);
 }
 
@@ -238,8 +245,9 @@ static void test_dcf_downloaded_during_boot(void)
 	TEST_ASSERT_EQUAL_DOUBLE(0x181, read_value("1800", "1", "u32"));
 	TEST_ASSERT_EQUAL_DOUBLE(15000, read_value("1020", "1", "u32"));
 	TEST_ASSERT_EQUAL_DOUBLE(1000, read_value("1020", "2", "u32"));
-	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(dmn.log_path, "node 1: configured (10 entries)", 5000),
-				 "no 'configured' line in the daemon log");
+	TEST_ASSERT_TRUE_MESSAGE(
+		file_wait_contains(dmn.log_path, "node 1: configured (10 entries)", 5000),
+		"no 'configured' line in the daemon log");
 
 	/* cogwctl configure (1F25h): the device's configuration was changed
 	 * behind the manager's back (1020h no longer matches): configured again */
@@ -272,8 +280,10 @@ static void test_abort_on_entry_7_is_j(void)
 	      "{\"index\": \"0x2000\", \"sub\": 2, \"type\": \"REAL32\", \"value\": 2.0},"
 	      "{\"index\": \"0x1000\", \"type\": \"UNSIGNED32\", \"value\": 1},"
 	      "{\"index\": \"0x1017\", \"type\": \"UNSIGNED16\", \"value\": 900}]}");
-	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(dmn.log_path, "node 1: configuration failed at entry 7 (1000:00)", 30000),
-				 "no J for entry 7 in the daemon log");
+	TEST_ASSERT_TRUE_MESSAGE(
+		file_wait_contains(dmn.log_path,
+				   "node 1: configuration failed at entry 7 (1000:00)", 30000),
+		"no J for entry 7 in the daemon log");
 	TEST_ASSERT_FALSE(wait_state("operational", 3000));
 	TEST_ASSERT_EQUAL_DOUBLE(700, read_value("1017", "0", "u16")); /* entry 8 not written */
 	TEST_ASSERT_EQUAL_DOUBLE(800, read_value("1800", "5", "u16"));

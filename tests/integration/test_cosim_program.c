@@ -199,7 +199,8 @@ static void test_cogwctl_program(void)
 		TEST_ASSERT_NOT_NULL_MESSAGE(p, res.out); /* in this order */
 		at = p;
 	}
-	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "65536 bytes to 1F50:01 by block transfer"), res.out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "65536 bytes to 1F50:01 by block transfer"),
+				     res.out);
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "program updated and running"), res.out);
 	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
 	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
@@ -267,12 +268,13 @@ static void test_transducer_dcf_fits_the_device(void)
 			p += sprintf(p, "%02x", e.data[i]);
 		ctl_run("sdo write 0 1 %04X %u hex %s", e.index, e.sub, hex);
 		char what[160];
-		snprintf(what, sizeof what, "entry %u %04X:%02X: %.100s", (unsigned)e.number, e.index, e.sub, res.err);
+		snprintf(what, sizeof what, "entry %u %04X:%02X: %.100s", (unsigned)e.number,
+			 e.index, e.sub, res.err);
 		TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, what);
 	}
-	TEST_ASSERT_EQUAL_DOUBLE(500, read_value("1017", "0", "u16"));      /* heartbeat */
-	TEST_ASSERT_EQUAL_DOUBLE(500, read_value("1800", "5", "u16"));      /* event timer */
-	TEST_ASSERT_EQUAL_DOUBLE(0x181, read_value("1800", "1", "u32"));    /* valid again */
+	TEST_ASSERT_EQUAL_DOUBLE(500, read_value("1017", "0", "u16"));   /* heartbeat */
+	TEST_ASSERT_EQUAL_DOUBLE(500, read_value("1800", "5", "u16"));   /* event timer */
+	TEST_ASSERT_EQUAL_DOUBLE(0x181, read_value("1800", "1", "u32")); /* valid again */
 	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1A00", "0", "u8"));
 	TEST_ASSERT_EQUAL_DOUBLE(0x20030020, read_value("1A00", "1", "u32"));
 }

@@ -66,21 +66,25 @@ static const char config_json[] =
 	" \"mailbox\": {\"instance\": \"" INSTANCE "\", \"depth\": 64, \"msg_size\": 1024,\n"
 	"             \"max_clients\": 16},\n"
 	" \"lines\": [\n"
-	"  {\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,\n"
+	"  {\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": "
+	"127,\n"
 	"   \"sdo_timeout_ms\": 10000, \"heartbeat_ms\": 1000,\n"
 	"   \"heartbeat_consumers\": [{\"node_id\": 1, \"time_ms\": 10000}],\n"
 	"   \"rpdos\": 1,\n"
-	"   \"objects\": [{\"index\": \"0x2003\", \"name\": \"pressure of node 1\", \"type\": \"REAL32\",\n"
+	"   \"objects\": [{\"index\": \"0x2003\", \"name\": \"pressure of node 1\", \"type\": "
+	"\"REAL32\",\n"
 	"                \"access\": \"rww\", \"pdo\": true, \"default\": 0.0}],\n"
 	"   \"values\": [\n"
 	"    {\"index\": \"0x1400\", \"sub\": 1, \"value\": \"0x181\"},\n"
 	"    {\"index\": \"0x1400\", \"sub\": 2, \"value\": 254},\n"
 	"    {\"index\": \"0x1600\", \"sub\": 0, \"value\": 1},\n"
 	"    {\"index\": \"0x1600\", \"sub\": 1, \"value\": \"0x20030020\"}]},\n"
-	"  {\"name\": \"line1\", \"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127,\n"
+	"  {\"name\": \"line1\", \"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": "
+	"127,\n"
 	"   \"sdo_timeout_ms\": 10000, \"heartbeat_ms\": 1000,\n"
 	"   \"heartbeat_consumers\": [{\"node_id\": 2, \"time_ms\": 10000}]},\n"
-	"  {\"name\": \"line2\", \"interface\": \"vcan2\", \"bitrate\": 1000000, \"node_id\": 127,\n"
+	"  {\"name\": \"line2\", \"interface\": \"vcan2\", \"bitrate\": 1000000, \"node_id\": "
+	"127,\n"
 	"   \"heartbeat_ms\": 1000}\n"
 	" ]\n"
 	"}\n";
@@ -150,7 +154,9 @@ static void start_system(void)
 {
 	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = config_json,
 								    .instance = INSTANCE,
-								    .n_lines = 3, .notify = true, .drop_notify = true }));
+								    .n_lines = 3,
+								    .notify = true,
+								    .drop_notify = true }));
 	char pt[128], io[128];
 	snprintf(pt, sizeof pt, "%s/sti-pressure.json", dmn.dir);
 	snprintf(io, sizeof io, "%s/io-generic.json", dmn.dir);
@@ -180,7 +186,7 @@ typedef struct child {
 	char name[24];
 	char out[16384]; /* everything it reported */
 	size_t out_len;
-	size_t scanned;  /* child_expect consumed up to here */
+	size_t scanned; /* child_expect consumed up to here */
 	int status;
 	bool reaped;
 } child;
@@ -252,14 +258,14 @@ static bool child_told(child_ctx *cx, const char *word)
 	return child_wait(cx, word, 0);
 }
 
-#define CK(cond, ...)                                                                  \
-	do {                                                                           \
-		if (!(cond)) {                                                         \
-			char ck_msg_[768];                                             \
-			snprintf(ck_msg_, sizeof ck_msg_, __VA_ARGS__);                \
+#define CK(cond, ...)                                                                 \
+	do {                                                                          \
+		if (!(cond)) {                                                        \
+			char ck_msg_[768];                                            \
+			snprintf(ck_msg_, sizeof ck_msg_, __VA_ARGS__);               \
 			child_say(cx, "FAIL %s:%d: %s", cx->name, __LINE__, ck_msg_); \
-			goto out;                                                      \
-		}                                                                      \
+			goto out;                                                     \
+		}                                                                     \
 	} while (0)
 
 static child *child_start(const char *name, child_fn fn, void *arg)
@@ -455,9 +461,9 @@ static void stop_system_and_check(void)
 typedef struct sdo_outcome {
 	int status;
 	uint32_t abort;
-	uint8_t mode_used; /* from the SDO_DONE event */
-	uint32_t size;     /* from the SDO_DONE event */
-	size_t len;        /* response data */
+	uint8_t mode_used;       /* from the SDO_DONE event */
+	uint32_t size;           /* from the SDO_DONE event */
+	size_t len;              /* response data */
 	unsigned foreign_events; /* SDO_DONE of other clients' transfers */
 } sdo_outcome;
 
@@ -469,9 +475,9 @@ typedef struct sdo_outcome {
  * object is another client's (counted), and one for ours must be ours.
  * Returns 0, or -1 with a reason in err.
  */
-static int sdo_async(cogw *h, unsigned line, uint8_t node, uint16_t index, bool upload, uint8_t mode,
-		     const uint8_t *data, size_t len, uint8_t *out, size_t cap, sdo_outcome *res,
-		     char *err, size_t errcap)
+static int sdo_async(cogw *h, unsigned line, uint8_t node, uint16_t index, bool upload,
+		     uint8_t mode, const uint8_t *data, size_t len, uint8_t *out, size_t cap,
+		     sdo_outcome *res, char *err, size_t errcap)
 {
 	memset(res, 0, sizeof *res);
 	size_t plen = sizeof(mbx_sdo_req) + (upload ? 0 : len);
@@ -483,8 +489,8 @@ static int sdo_async(cogw *h, unsigned line, uint8_t node, uint16_t index, bool 
 	if (!upload && len)
 		memcpy(payload + sizeof rq, data, len);
 	uint64_t corr = 0;
-	int rc = cogw_send_async(h, line, upload ? MBX_CMD_SDO_UPLOAD : MBX_CMD_SDO_DOWNLOAD, payload,
-				 plen, &corr);
+	int rc = cogw_send_async(h, line, upload ? MBX_CMD_SDO_UPLOAD : MBX_CMD_SDO_DOWNLOAD,
+				 payload, plen, &corr);
 	free(payload);
 	if (rc < 0)
 		return snprintf(err, errcap, "send_async: %s", cogw_strerror(rc)), -1;
@@ -497,16 +503,21 @@ static int sdo_async(cogw *h, unsigned line, uint8_t node, uint16_t index, bool 
 		rc = cogw_recv(h, &m, left);
 		if (rc == COGW_E_AGAIN)
 			return snprintf(err, errcap, "%04X %s: no %s within 120 s", index,
-					upload ? "upload" : "download", got_resp ? "SDO_DONE" : "response"),
+					upload ? "upload" : "download",
+					got_resp ? "SDO_DONE" : "response"),
 			       -1;
 		if (rc < 0)
 			return snprintf(err, errcap, "cogw_recv: %s", cogw_strerror(rc)), -1;
 		int bad = 0;
 		if (m.kind == MBX_KIND_RESPONSE) {
 			if (m.corr != corr || got_resp ||
-			    m.code != (upload ? MBX_CMD_SDO_UPLOAD : MBX_CMD_SDO_DOWNLOAD) || m.line != line) {
-				snprintf(err, errcap, "unexpected response corr %llu code %04x line %u (mine %llu)",
-					 (unsigned long long)m.corr, m.code, m.line, (unsigned long long)corr);
+			    m.code != (upload ? MBX_CMD_SDO_UPLOAD : MBX_CMD_SDO_DOWNLOAD) ||
+			    m.line != line) {
+				snprintf(err, errcap,
+					 "unexpected response corr %llu code %04x line %u (mine "
+					 "%llu)",
+					 (unsigned long long)m.corr, m.code, m.line,
+					 (unsigned long long)corr);
 				bad = 1;
 			} else {
 				got_resp = true;
@@ -515,7 +526,8 @@ static int sdo_async(cogw *h, unsigned line, uint8_t node, uint16_t index, bool 
 				res->len = m.len;
 				if (upload && m.status == 0) {
 					if (m.len > cap) {
-						snprintf(err, errcap, "upload of %zu bytes > %zu", m.len, cap);
+						snprintf(err, errcap, "upload of %zu bytes > %zu",
+							 m.len, cap);
 						bad = 1;
 					} else {
 						memcpy(out, m.data, m.len);
@@ -528,7 +540,8 @@ static int sdo_async(cogw *h, unsigned line, uint8_t node, uint16_t index, bool 
 			if (m.line == line && ev.index == index && ev.node == node) {
 				if (m.corr != corr || got_event || ev.upload != upload) {
 					snprintf(err, errcap,
-						 "SDO_DONE of my object %04X with corr %llu upload %u (mine %llu)",
+						 "SDO_DONE of my object %04X with corr %llu upload "
+						 "%u (mine %llu)",
 						 index, (unsigned long long)m.corr, ev.upload,
 						 (unsigned long long)corr);
 					bad = 1;
@@ -537,8 +550,8 @@ static int sdo_async(cogw *h, unsigned line, uint8_t node, uint16_t index, bool 
 				res->mode_used = ev.mode;
 				res->size = ev.size;
 				if (ev.abort != res->abort && got_resp) {
-					snprintf(err, errcap, "SDO_DONE abort %08x, response %08x", ev.abort,
-						 res->abort);
+					snprintf(err, errcap, "SDO_DONE abort %08x, response %08x",
+						 ev.abort, res->abort);
 					bad = 1;
 				}
 			} else {
@@ -559,7 +572,7 @@ static int sdo_async(cogw *h, unsigned line, uint8_t node, uint16_t index, bool 
 /* ---- 1. three clients, every size class and mode, two lines ----------------------------- */
 
 typedef struct xfer_plan {
-	unsigned id;          /* seeds the data */
+	unsigned id; /* seeds the data */
 	unsigned n_targets;
 	struct {
 		unsigned line;
@@ -603,7 +616,8 @@ static int child_transfers(child_ctx *cx)
 			const unsigned line = plan->targets[t].line;
 			const uint8_t node = plan->targets[t].node;
 			const uint16_t index = plan->targets[t].index;
-			const uint8_t up_mode = len == BIG_SIZE || (k / plan->n_targets) % 2 ? 3 : 2;
+			const uint8_t up_mode = len == BIG_SIZE || (k / plan->n_targets) % 2 ? 3
+											     : 2;
 			k++;
 			fill_pattern(data, len, plan->id * 1000u + k);
 			sdo_outcome r;
@@ -611,27 +625,29 @@ static int child_transfers(child_ctx *cx)
 			CK(sdo_async(h, line, node, index, false, mode, data, len, NULL, 0, &r, err,
 				     sizeof err) == 0,
 			   "download %zu B %s line %u: %s", len, mode_name(mode), line, err);
-			CK(r.status == 0, "download %zu B %s to %u:%04X: %s abort %08x", len, mode_name(mode),
-			   node, index, cogw_strerror(r.status), r.abort);
+			CK(r.status == 0, "download %zu B %s to %u:%04X: %s abort %08x", len,
+			   mode_name(mode), node, index, cogw_strerror(r.status), r.abort);
 			CK(r.size == len, "download %zu B: SDO_DONE says %u bytes", len, r.size);
 			uint8_t want = mode == 1 || (len >= 1 && len <= 4 && mode == 0) ? 1 : mode;
-			CK(r.mode_used == want, "download %zu B asked %s, used %s", len, mode_name(mode),
-			   mode_name(r.mode_used));
+			CK(r.mode_used == want, "download %zu B asked %s, used %s", len,
+			   mode_name(mode), mode_name(r.mode_used));
 			foreign += r.foreign_events;
 			uint64_t b = mono_us();
 
 			memset(back, 0xEE, len + 16 < DOMAIN_MAX ? len + 16 : DOMAIN_MAX);
-			CK(sdo_async(h, line, node, index, true, up_mode, NULL, 0, back, DOMAIN_MAX, &r, err,
-				     sizeof err) == 0,
+			CK(sdo_async(h, line, node, index, true, up_mode, NULL, 0, back, DOMAIN_MAX,
+				     &r, err, sizeof err) == 0,
 			   "upload %zu B %s line %u: %s", len, mode_name(up_mode), line, err);
 			CK(r.status == 0, "upload %zu B %s from %u:%04X: %s abort %08x", len,
 			   mode_name(up_mode), node, index, cogw_strerror(r.status), r.abort);
 			CK(r.len == len, "upload returned %zu bytes, wrote %zu", r.len, len);
-			CK(len == 0 || memcmp(back, data, len) == 0, "upload of %zu B differs from download", len);
+			CK(len == 0 || memcmp(back, data, len) == 0,
+			   "upload of %zu B differs from download", len);
 			/* a block upload may switch to segmented/expedited below the
 			 * protocol switch threshold (CiA 301); above it, it is block */
 			if (up_mode == 3 && len >= 256)
-				CK(r.mode_used == 3, "upload %zu B asked block, used %s", len, mode_name(r.mode_used));
+				CK(r.mode_used == 3, "upload %zu B asked block, used %s", len,
+				   mode_name(r.mode_used));
 			if (up_mode == 2 && len > 4)
 				CK(r.mode_used == 2, "upload %zu B asked segmented, used %s", len,
 				   mode_name(r.mode_used));
@@ -640,17 +656,21 @@ static int child_transfers(child_ctx *cx)
 			transfers += 2;
 			bytes += 2 * len;
 			if (len >= 3000)
-				child_say(cx, "line %u %6zu B: download %-9s %7.1f ms, upload %-9s %7.1f ms", line,
-					  len, mode_name(mode), (double)(b - a) / 1000.0, mode_name(r.mode_used),
-					  (double)(c - b) / 1000.0);
+				child_say(cx,
+					  "line %u %6zu B: download %-9s %7.1f ms, upload %-9s "
+					  "%7.1f ms",
+					  line, len, mode_name(mode), (double)(b - a) / 1000.0,
+					  mode_name(r.mode_used), (double)(c - b) / 1000.0);
 		}
 	}
 	cogw_stats st;
 	cogw_get_stats(h, &st);
 	CK(st.stray_responses == 0, "%llu stray responses", (unsigned long long)st.stray_responses);
-	CK(st.async_dropped == 0 && st.overflow_flags == 0, "async dropped %llu, overflow flags %llu",
-	   (unsigned long long)st.async_dropped, (unsigned long long)st.overflow_flags);
-	child_say(cx, "%u transfers, %llu bytes in %.1f s; %u SDO_DONE events of other clients seen",
+	CK(st.async_dropped == 0 && st.overflow_flags == 0,
+	   "async dropped %llu, overflow flags %llu", (unsigned long long)st.async_dropped,
+	   (unsigned long long)st.overflow_flags);
+	child_say(cx,
+		  "%u transfers, %llu bytes in %.1f s; %u SDO_DONE events of other clients seen",
 		  transfers, (unsigned long long)bytes, (double)(mono_us() - t0) / 1e6, foreign);
 	rc = 0;
 out:
@@ -668,7 +688,9 @@ static void test_three_clients_transfer_every_size_and_mode_on_two_lines(void)
 	static const xfer_plan plans[3] = {
 		{ .id = 1, .n_targets = 1, .targets = { { 0, NODE_PT, DOMAIN_A } } },
 		{ .id = 2, .n_targets = 1, .targets = { { 1, NODE_IO, DOMAIN_A } } },
-		{ .id = 3, .n_targets = 2, .targets = { { 0, NODE_PT, DOMAIN_B }, { 1, NODE_IO, DOMAIN_B } } },
+		{ .id = 3,
+		  .n_targets = 2,
+		  .targets = { { 0, NODE_PT, DOMAIN_B }, { 1, NODE_IO, DOMAIN_B } } },
 	};
 	child *c[3];
 	for (int i = 0; i < 3; i++) {
@@ -698,10 +720,12 @@ typedef struct event_count {
 /* Receive events for up to wait_ms; each must come from `line` and be of a
  * class in `classes` (anything else is a FAIL with the reason in err).
  * Calls on_event for each, which may set *done. */
-typedef bool (*event_check_fn)(child_ctx *cx, const cogw_msg *m, event_count *n, char *err, size_t cap);
+typedef bool (*event_check_fn)(child_ctx *cx, const cogw_msg *m, event_count *n, char *err,
+			       size_t cap);
 
 static int receive_events(child_ctx *cx, cogw *h, unsigned line, uint32_t classes, event_count *n,
-			  event_check_fn check, const char *until_word, int wait_ms, char *err, size_t cap)
+			  event_check_fn check, const char *until_word, int wait_ms, char *err,
+			  size_t cap)
 {
 	uint64_t until = mono_ms() + (uint64_t)wait_ms;
 	while (mono_ms() < until) {
@@ -717,12 +741,12 @@ static int receive_events(child_ctx *cx, cogw *h, unsigned line, uint32_t classe
 		uint32_t cls = mbx_event_class_of(m.code);
 		if (m.kind != MBX_KIND_EVENT) {
 			ok = false;
-			snprintf(err, cap, "a response (code %04x corr %llu) nobody asked for", m.code,
-				 (unsigned long long)m.corr);
+			snprintf(err, cap, "a response (code %04x corr %llu) nobody asked for",
+				 m.code, (unsigned long long)m.corr);
 		} else if (m.line != line || !(cls & classes)) {
 			ok = false;
-			snprintf(err, cap, "event %s on line %u: not subscribed", mbx_event_to_string(m.code),
-				 m.line);
+			snprintf(err, cap, "event %s on line %u: not subscribed",
+				 mbx_event_to_string(m.code), m.line);
 		} else {
 			n->total++;
 			n->nmt += m.code == MBX_EV_NMT_STATE;
@@ -750,7 +774,8 @@ static bool check_a(child_ctx *cx, const cogw_msg *m, event_count *n, char *err,
 		return snprintf(err, cap, "node event of %zu bytes", m->len), false;
 	memcpy(&ev, m->data, sizeof ev);
 	if (m->corr != 0)
-		return snprintf(err, cap, "node event with corr %llu", (unsigned long long)m->corr), false;
+		return snprintf(err, cap, "node event with corr %llu", (unsigned long long)m->corr),
+		       false;
 	if (m->code == MBX_EV_NMT_STATE && ev.node == NODE_PT && ev.state == 5)
 		a_saw_operational = true;
 	if (m->code == MBX_EV_BOOTUP && ev.node == NODE_PT && !a_saw_bootup) {
@@ -771,14 +796,14 @@ static int child_events_a(child_ctx *cx)
 	int s = cogw_subscribe(h, 0, MBX_EVC_NMT | MBX_EVC_HB | MBX_EVC_BOOT, NULL, 0, 0);
 	CK(s == 0, "subscribe: %s", cogw_strerror(s));
 	child_say(cx, "ready");
-	CK(receive_events(cx, h, 0, MBX_EVC_NMT | MBX_EVC_HB | MBX_EVC_BOOT, &n, check_a, "go", 120000, err,
-			  sizeof err) == 0,
+	CK(receive_events(cx, h, 0, MBX_EVC_NMT | MBX_EVC_HB | MBX_EVC_BOOT, &n, check_a, "go",
+			  120000, err, sizeof err) == 0,
 	   "%s", err);
 	CK(a_saw_operational, "no NMT_STATE operational of node 1 (C started it)");
 	s = cogw_nmt(h, 0, 0x81, NODE_PT, 0); /* reset node */
 	CK(s == 0, "NMT reset node: %s", cogw_strerror(s));
-	CK(receive_events(cx, h, 0, MBX_EVC_NMT | MBX_EVC_HB | MBX_EVC_BOOT, &n, check_a, "finish", 120000,
-			  err, sizeof err) == 0,
+	CK(receive_events(cx, h, 0, MBX_EVC_NMT | MBX_EVC_HB | MBX_EVC_BOOT, &n, check_a, "finish",
+			  120000, err, sizeof err) == 0,
 	   "%s", err);
 	CK(a_saw_bootup, "no BOOTUP of node 1 after the reset");
 	child_say(cx, "events: %u (nmt %u, hb %u, boot %u)", n.total, n.nmt, n.hb, n.boot);
@@ -802,8 +827,8 @@ static bool check_emcy(child_ctx *cx, const cogw_msg *m, event_count *n, char *e
 	if (ev.code == 0)
 		return true; /* an error reset is allowed */
 	if (ev.code != emcy_expected_code || ev.node != emcy_expected_node)
-		return snprintf(err, cap, "EMCY %04X from node %u, expected %04X from node %u", ev.code, ev.node,
-				emcy_expected_code, emcy_expected_node),
+		return snprintf(err, cap, "EMCY %04X from node %u, expected %04X from node %u",
+				ev.code, ev.node, emcy_expected_code, emcy_expected_node),
 		       false;
 	if (!(ev.reg & 0x01))
 		return snprintf(err, cap, "EMCY error register %02X without bit 0", ev.reg), false;
@@ -833,7 +858,8 @@ static int child_events_emcy(child_ctx *cx)
 	int s = cogw_subscribe(h, p->line, MBX_EVC_EMCY, NULL, 0, 0);
 	CK(s == 0, "subscribe: %s", cogw_strerror(s));
 	child_say(cx, "ready");
-	CK(receive_events(cx, h, p->line, MBX_EVC_EMCY, &n, check_emcy, "finish", 180000, err, sizeof err) == 0,
+	CK(receive_events(cx, h, p->line, MBX_EVC_EMCY, &n, check_emcy, "finish", 180000, err,
+			  sizeof err) == 0,
 	   "%s", err);
 	CK(emcy_seen, "no EMCY %04X from node %u on line %u", p->code, p->node, p->line);
 	child_say(cx, "events: %u (emcy %u)", n.total, n.emcy);
@@ -852,12 +878,13 @@ static bool check_c(child_ctx *cx, const cogw_msg *m, event_count *n, char *err,
 	mbx_ev_pdo head;
 	mbx_pdo_value v;
 	if (m->len != sizeof head + sizeof v)
-		return snprintf(err, cap, "PDO event of %zu bytes (one value expected)", m->len), false;
+		return snprintf(err, cap, "PDO event of %zu bytes (one value expected)", m->len),
+		       false;
 	memcpy(&head, m->data, sizeof head);
 	memcpy(&v, m->data + sizeof head, sizeof v);
 	if (head.pdo != 1 || head.n != 1 || v.index != 0x2003 || v.sub != 0 || v.len != 4)
-		return snprintf(err, cap, "PDO %u n %u value %04X:%02X len %u", head.pdo, head.n, v.index, v.sub,
-				v.len),
+		return snprintf(err, cap, "PDO %u n %u value %04X:%02X len %u", head.pdo, head.n,
+				v.index, v.sub, v.len),
 		       false;
 	float f;
 	memcpy(&f, v.data, sizeof f);
@@ -886,8 +913,9 @@ static int child_events_c(child_ctx *cx)
 	CK(s == 0, "NMT start of our own node 127: %s", cogw_strerror(s));
 	s = cogw_nmt(h, 0, 0x01, NODE_PT, 0);
 	CK(s == 0, "NMT start of node 1: %s", cogw_strerror(s));
-	CK(receive_events(cx, h, 0, MBX_EVC_PDO, &n, check_c, "finish", 180000, err, sizeof err) == 0, "%s",
-	   err);
+	CK(receive_events(cx, h, 0, MBX_EVC_PDO, &n, check_c, "finish", 180000, err, sizeof err) ==
+		   0,
+	   "%s", err);
 	CK(c_pdos_ok >= 3, "only %u PDO events with the pressure", c_pdos_ok);
 	child_say(cx, "events: %u (pdo %u)", n.total, n.pdo);
 	rc = 0;
@@ -964,7 +992,8 @@ static int child_many_uploads(child_ctx *cx)
 		bool got[6] = { false };
 		mbx_sdo_req rq = { .node = node, .index = 0x1008, .sub = 0 };
 		for (unsigned i = 0; i < n; i++) {
-			int s = cogw_send_async(h, line, MBX_CMD_SDO_UPLOAD, &rq, sizeof rq, &corr[i]);
+			int s = cogw_send_async(h, line, MBX_CMD_SDO_UPLOAD, &rq, sizeof rq,
+						&corr[i]);
 			CK(s == 0, "send_async: %s", cogw_strerror(s));
 		}
 		/* n responses. docs/mailbox.md also promises the requester its
@@ -973,16 +1002,21 @@ static int child_many_uploads(child_ctx *cx)
 		for (unsigned left = n; left;) {
 			cogw_msg m;
 			int s = cogw_recv(h, &m, 60000);
-			CK(s == 0, "round %u: %s with %u answers missing", round, cogw_strerror(s), left);
+			CK(s == 0, "round %u: %s with %u answers missing", round, cogw_strerror(s),
+			   left);
 			unsigned i = 0;
 			while (i < n && corr[i] != m.corr)
 				i++;
-			bool own_done = m.kind == MBX_KIND_EVENT && m.code == MBX_EV_SDO_DONE && i < n;
-			bool good = own_done || (m.kind == MBX_KIND_RESPONSE && i < n && !got[i] && m.status == 0 &&
-						 m.len == strlen(want) && memcmp(m.data, want, m.len) == 0);
+			bool own_done = m.kind == MBX_KIND_EVENT && m.code == MBX_EV_SDO_DONE &&
+					i < n;
+			bool good = own_done || (m.kind == MBX_KIND_RESPONSE && i < n && !got[i] &&
+						 m.status == 0 && m.len == strlen(want) &&
+						 memcmp(m.data, want, m.len) == 0);
 			char what[160];
-			snprintf(what, sizeof what, "kind %u code %04x corr %llu status %s abort %08x len %zu", m.kind,
-				 m.code, (unsigned long long)m.corr, cogw_strerror(m.status), m.abort, m.len);
+			snprintf(what, sizeof what,
+				 "kind %u code %04x corr %llu status %s abort %08x len %zu", m.kind,
+				 m.code, (unsigned long long)m.corr, cogw_strerror(m.status),
+				 m.abort, m.len);
 			cogw_msg_release(&m);
 			CK(good, "round %u: upload of 1008h: %s", round, what);
 			if (own_done)
@@ -1038,11 +1072,13 @@ static int child_victim(child_ctx *cx)
 	CK(child_wait(cx, "go", 60000), "no go");
 	fill_pattern(data, BIG_SIZE, KILL_SEED);
 	cogw_sdo_opts block = { .mode = 3 };
-	int s = cogw_sdo_write_ex(h, 0, NODE_PT, DOMAIN_A, 0, &block, data, BIG_SIZE, 120000, &abort);
+	int s = cogw_sdo_write_ex(h, 0, NODE_PT, DOMAIN_A, 0, &block, data, BIG_SIZE, 120000,
+				  &abort);
 	CK(s == 0, "download: %s abort %08x", cogw_strerror(s), abort);
 	child_say(cx, "uploading");
 	size_t len = 0;
-	s = cogw_sdo_read_ex(h, 0, NODE_PT, DOMAIN_A, 0, &block, back, DOMAIN_MAX, &len, 120000, &abort);
+	s = cogw_sdo_read_ex(h, 0, NODE_PT, DOMAIN_A, 0, &block, back, DOMAIN_MAX, &len, 120000,
+			     &abort);
 	child_say(cx, "FAIL the upload finished (%d, %zu bytes) before the kill", s, len);
 out:
 	cogw_close(h);
@@ -1087,7 +1123,8 @@ static void test_killed_client_is_reaped_and_others_are_served(void)
 	TEST_ASSERT_EQUAL_INT(0, open_client(&h, 0));
 	mbx_stats_wire st0, st;
 	TEST_ASSERT_EQUAL_INT(0, cogw_mbx_stats(h, 0, &st0, 0));
-	TEST_ASSERT_EQUAL_UINT32(1, st0.clients); /* this process; the victim registers on first use */
+	TEST_ASSERT_EQUAL_UINT32(1,
+				 st0.clients); /* this process; the victim registers on first use */
 	child_send(v, "go");
 	bool ready = child_expect(v, "uploading", 120000);
 	if (!ready)
@@ -1120,7 +1157,8 @@ static void test_killed_client_is_reaped_and_others_are_served(void)
 			sleep_ms(100);
 	}
 	printf("victim reaped %llu ms after SIGKILL (clients %u, reaped %llu)\n",
-	       (unsigned long long)(mono_ms() - killed_at), st.clients, (unsigned long long)st.clients_reaped);
+	       (unsigned long long)(mono_ms() - killed_at), st.clients,
+	       (unsigned long long)st.clients_reaped);
 	TEST_ASSERT_TRUE_MESSAGE(reaped, "the killed client was not reaped");
 	mbx_line_status ls;
 	TEST_ASSERT_EQUAL_INT(0, cogw_line_status(h, 0, &ls, 0));
@@ -1138,7 +1176,8 @@ static void test_killed_client_is_reaped_and_others_are_served(void)
 	size_t len = 0;
 	uint32_t abort = 0;
 	uint64_t t0 = mono_ms();
-	int rc = cogw_sdo_read_ex(h, 0, NODE_PT, DOMAIN_A, 0, &block, back, DOMAIN_MAX, &len, 120000, &abort);
+	int rc = cogw_sdo_read_ex(h, 0, NODE_PT, DOMAIN_A, 0, &block, back, DOMAIN_MAX, &len,
+				  120000, &abort);
 	printf("100 KiB block upload after the kill: %s in %llu ms\n", cogw_strerror(rc),
 	       (unsigned long long)(mono_ms() - t0));
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, cogw_strerror(rc));
@@ -1174,8 +1213,8 @@ static int child_flooder(child_ctx *cx)
 		/* read answers lazily: whatever is there, no waiting */
 		cogw_msg m;
 		while (cogw_recv(h, &m, 0) == 0) {
-			if (m.kind == MBX_KIND_RESPONSE && m.status == 0 && m.len == 2 && m.data[0] == 0xE8 &&
-			    m.data[1] == 0x03)
+			if (m.kind == MBX_KIND_RESPONSE && m.status == 0 && m.len == 2 &&
+			    m.data[0] == 0xE8 && m.data[1] == 0x03)
 				answered++;
 			cogw_msg_release(&m);
 		}
@@ -1188,7 +1227,8 @@ static int child_flooder(child_ctx *cx)
 	double secs = (double)(mono_us() - t0) / 1e6;
 	cogw_stats st;
 	cogw_get_stats(h, &st);
-	child_say(cx, "flood: %llu commands in %.1f s (%.0f/s), %llu answers read, %llu sends failed, "
+	child_say(cx,
+		  "flood: %llu commands in %.1f s (%.0f/s), %llu answers read, %llu sends failed, "
 		  "%llu async answers dropped by libcogw, %llu overflow flags",
 		  (unsigned long long)sent, secs, (double)sent / secs, (unsigned long long)answered,
 		  (unsigned long long)refused, (unsigned long long)st.async_dropped,
@@ -1228,11 +1268,12 @@ static int child_served(child_ctx *cx)
 		int s;
 		if (line == 0) {
 			s = cogw_sdo_read_u32(h, 0, NODE_PT, 0x1018, 1, &v, 10000, &abort);
-			CK(s == 0 && v == 0x250, "SDO 1018:01 of node 1: %s %08x value %x", cogw_strerror(s), abort, v);
+			CK(s == 0 && v == 0x250, "SDO 1018:01 of node 1: %s %08x value %x",
+			   cogw_strerror(s), abort, v);
 		} else if (line == 1) {
 			s = cogw_sdo_read_u32(h, 1, NODE_IO, 0x1018, 4, &v, 10000, &abort);
-			CK(s == 0 && v == 200001, "SDO 1018:04 of node 2: %s %08x value %u", cogw_strerror(s), abort,
-			   v);
+			CK(s == 0 && v == 200001, "SDO 1018:04 of node 2: %s %08x value %u",
+			   cogw_strerror(s), abort, v);
 		} else {
 			s = cogw_ping(h, line, 10000);
 			CK(s == 0, "ping: %s", cogw_strerror(s));
@@ -1242,14 +1283,16 @@ static int child_served(child_ctx *cx)
 		size_t len = 0;
 		t = mono_us();
 		s = cogw_od_read(h, line, 0x1017, 0, b, sizeof b, &len, 10000, &abort);
-		CK(s == 0 && len == 2 && b[0] == 0xE8 && b[1] == 0x03, "local 1017h: %s len %zu", cogw_strerror(s),
-		   len);
+		CK(s == 0 && len == 2 && b[0] == 0xE8 && b[1] == 0x03, "local 1017h: %s len %zu",
+		   cogw_strerror(s), len);
 		lat[n++] = mono_us() - t;
 	}
 	qsort(lat, n, sizeof lat[0], cmp_u64);
-	child_say(cx, "line %u: %u requests, latency p50 %.1f ms, p90 %.1f ms, max %.1f ms", line, n,
-		  (double)lat[n / 2] / 1000.0, (double)lat[n * 9 / 10] / 1000.0, (double)lat[n - 1] / 1000.0);
-	CK(lat[n - 1] < 2000000u, "a request took %.1f ms (liveness bound 2 s)", (double)lat[n - 1] / 1000.0);
+	child_say(cx, "line %u: %u requests, latency p50 %.1f ms, p90 %.1f ms, max %.1f ms", line,
+		  n, (double)lat[n / 2] / 1000.0, (double)lat[n * 9 / 10] / 1000.0,
+		  (double)lat[n - 1] / 1000.0);
+	CK(lat[n - 1] < 2000000u, "a request took %.1f ms (liveness bound 2 s)",
+	   (double)lat[n - 1] / 1000.0);
 	rc = 0;
 out:
 	cogw_close(h);
@@ -1268,7 +1311,8 @@ static void test_flooding_client_does_not_starve_the_others(void)
 		served[i] = child_start(name, child_served, (void *)(uintptr_t)lines[i]);
 	}
 	for (int i = 0; i < 4; i++)
-		TEST_ASSERT_TRUE_MESSAGE(child_expect(served[i], "ready", 60000), "client not ready");
+		TEST_ASSERT_TRUE_MESSAGE(child_expect(served[i], "ready", 60000),
+					 "client not ready");
 	/* the same requests without the flood, for comparison */
 	printf("without flood:\n");
 	child *base = child_start("baseline", child_served, (void *)(uintptr_t)0);
@@ -1277,7 +1321,8 @@ static void test_flooding_client_does_not_starve_the_others(void)
 	TEST_ASSERT_TRUE_MESSAGE(child_join(base, 300000), "baseline client failed");
 
 	child *flood = child_start("flooder", child_flooder, NULL);
-	TEST_ASSERT_TRUE_MESSAGE(child_expect(flood, "flooding", 60000), "the flooder did not get going");
+	TEST_ASSERT_TRUE_MESSAGE(child_expect(flood, "flooding", 60000),
+				 "the flooder did not get going");
 	mbx_stats_wire st0;
 	cogw *h = NULL;
 	TEST_ASSERT_EQUAL_INT(0, open_client(&h, 0));
@@ -1326,15 +1371,21 @@ static int async_batch(cogw *h, unsigned line, unsigned n, tally *t, char *err, 
 		cogw_msg m;
 		int s = cogw_recv(h, &m, 30000);
 		if (s)
-			return snprintf(err, cap, "recv: %s (%u answers missing)", cogw_strerror(s), left), -1;
+			return snprintf(err, cap, "recv: %s (%u answers missing)", cogw_strerror(s),
+					left),
+			       -1;
 		unsigned i = 0;
 		while (i < n && (corr[i] != m.corr || got[i]))
 			i++;
-		bool ok = m.kind == MBX_KIND_RESPONSE && i < n && m.code == MBX_CMD_OD_READ && m.line == line &&
-			  m.status == 0 && m.len == 2 && m.data[0] == 0xE8 && m.data[1] == 0x03;
+		bool ok = m.kind == MBX_KIND_RESPONSE && i < n && m.code == MBX_CMD_OD_READ &&
+			  m.line == line && m.status == 0 && m.len == 2 && m.data[0] == 0xE8 &&
+			  m.data[1] == 0x03;
 		if (!ok)
-			snprintf(err, cap, "unexpected message kind %u code %04x line %u corr %llu status %d len %zu",
-				 m.kind, m.code, m.line, (unsigned long long)m.corr, m.status, m.len);
+			snprintf(err, cap,
+				 "unexpected message kind %u code %04x line %u corr %llu status %d "
+				 "len %zu",
+				 m.kind, m.code, m.line, (unsigned long long)m.corr, m.status,
+				 m.len);
 		cogw_msg_release(&m);
 		if (!ok)
 			return -1;
@@ -1363,60 +1414,70 @@ static int child_default(child_ctx *cx)
 		int s;
 		if (which == 0) { /* line 0, the transducer */
 			s = cogw_sdo_read_u32(h, 0, NODE_PT, 0x1000, 0, &v, 0, &abort);
-			CK(COUNT(t, s == 0 && v == 0x00040194), "1000h: %s %08x value %08x", cogw_strerror(s), abort, v);
-			s = cogw_sdo_read_string(h, 0, NODE_PT, 0x1008, 0, str, sizeof str, 0, &abort);
-			CK(COUNT(t, s == 0 && strcmp(str, "STI-SIM") == 0), "1008h: %s '%s'", cogw_strerror(s), str);
+			CK(COUNT(t, s == 0 && v == 0x00040194), "1000h: %s %08x value %08x",
+			   cogw_strerror(s), abort, v);
+			s = cogw_sdo_read_string(h, 0, NODE_PT, 0x1008, 0, str, sizeof str, 0,
+						 &abort);
+			CK(COUNT(t, s == 0 && strcmp(str, "STI-SIM") == 0), "1008h: %s '%s'",
+			   cogw_strerror(s), str);
 			float f = 0.25f * (float)(r + 1), g = 0;
 			s = cogw_sdo_write_float(h, 0, NODE_PT, 0x2000, 1, f, 0, &abort);
 			CK(COUNT(t, s == 0), "write 2000:01: %s %08x", cogw_strerror(s), abort);
 			s = cogw_sdo_read_float(h, 0, NODE_PT, 0x2000, 1, &g, 0, &abort);
-			CK(COUNT(t, s == 0 && g == f), "2000:01 read back %g, wrote %g (%s)", (double)g, (double)f,
-			   cogw_strerror(s));
+			CK(COUNT(t, s == 0 && g == f), "2000:01 read back %g, wrote %g (%s)",
+			   (double)g, (double)f, cogw_strerror(s));
 			CK(async_batch(h, 0, 4, &t, err, sizeof err) == 0, "%s", err);
 		} else if (which == 1) { /* line 1, the I/O module */
 			s = cogw_sdo_read_u32(h, 1, NODE_IO, 0x1018, 4, &v, 0, &abort);
-			CK(COUNT(t, s == 0 && v == 200001), "1018:04: %s value %u", cogw_strerror(s), v);
-			s = cogw_sdo_read_string(h, 1, NODE_IO, 0x1008, 0, str, sizeof str, 0, &abort);
-			CK(COUNT(t, s == 0 && strcmp(str, "IO-SIM") == 0), "1008h: %s '%s'", cogw_strerror(s), str);
+			CK(COUNT(t, s == 0 && v == 200001), "1018:04: %s value %u",
+			   cogw_strerror(s), v);
+			s = cogw_sdo_read_string(h, 1, NODE_IO, 0x1008, 0, str, sizeof str, 0,
+						 &abort);
+			CK(COUNT(t, s == 0 && strcmp(str, "IO-SIM") == 0), "1008h: %s '%s'",
+			   cogw_strerror(s), str);
 			uint8_t out = (uint8_t)(0x11 * r), in = 0;
 			s = cogw_sdo_write_u8(h, 1, NODE_IO, 0x6200, 1, out, 0, &abort);
 			CK(COUNT(t, s == 0), "write 6200:01: %s %08x", cogw_strerror(s), abort);
 			s = cogw_sdo_read_u8(h, 1, NODE_IO, 0x6200, 1, &in, 0, &abort);
-			CK(COUNT(t, s == 0 && in == out), "6200:01 read back %u, wrote %u", in, out);
+			CK(COUNT(t, s == 0 && in == out), "6200:01 read back %u, wrote %u", in,
+			   out);
 			CK(async_batch(h, 1, 4, &t, err, sizeof err) == 0, "%s", err);
 		} else { /* every line */
 			s = cogw_ping(h, 2, 0);
 			CK(COUNT(t, s == 0), "ping line 2: %s", cogw_strerror(s));
 			mbx_line_status ls;
 			s = cogw_line_status(h, r % 3, &ls, 0);
-			CK(COUNT(t, s == 0 && ls.node_id == 127), "line status %u: %s node %u", r % 3,
-			   cogw_strerror(s), ls.node_id);
+			CK(COUNT(t, s == 0 && ls.node_id == 127), "line status %u: %s node %u",
+			   r % 3, cogw_strerror(s), ls.node_id);
 			mbx_node_entry tab[8];
 			s = cogw_node_table(h, 0, tab, 8, 0);
 			bool has1 = false;
 			for (int i = 0; i < s && i < 8; i++)
 				has1 |= tab[i].node == NODE_PT;
-			CK(COUNT(t, s >= 1 && has1), "node table of line 0: %d entries, node 1 %s", s,
-			   has1 ? "present" : "missing");
+			CK(COUNT(t, s >= 1 && has1), "node table of line 0: %d entries, node 1 %s",
+			   s, has1 ? "present" : "missing");
 			s = cogw_sdo_read_u32(h, 0, NODE_PT, 0x1018, 1, &v, 0, &abort);
-			CK(COUNT(t, s == 0 && v == 0x250), "line 0 1018:01: %s value %x", cogw_strerror(s), v);
+			CK(COUNT(t, s == 0 && v == 0x250), "line 0 1018:01: %s value %x",
+			   cogw_strerror(s), v);
 			s = cogw_sdo_read_u32(h, 1, NODE_IO, 0x1018, 1, &v, 0, &abort);
-			CK(COUNT(t, s == 0 && v == 0x1234), "line 1 1018:01: %s value %x", cogw_strerror(s), v);
+			CK(COUNT(t, s == 0 && v == 0x1234), "line 1 1018:01: %s value %x",
+			   cogw_strerror(s), v);
 			size_t len = 0;
 			s = cogw_od_read(h, 2, 0x1008, 0, str, sizeof str - 1, &len, 0, &abort);
 			str[s == 0 ? len : 0] = '\0';
-			CK(COUNT(t, s == 0 && strcmp(str, "cogw gateway") == 0), "line 2 1008h: %s '%s'",
-			   cogw_strerror(s), str);
+			CK(COUNT(t, s == 0 && strcmp(str, "cogw gateway") == 0),
+			   "line 2 1008h: %s '%s'", cogw_strerror(s), str);
 			CK(async_batch(h, r % 3, 4, &t, err, sizeof err) == 0, "%s", err);
 		}
 	}
 	cogw_stats st;
 	cogw_get_stats(h, &st);
-	child_say(cx, "sent %u, received %u; stray %llu, overflow flags %llu, async dropped %llu", t.sent, t.received,
-		  (unsigned long long)st.stray_responses, (unsigned long long)st.overflow_flags,
-		  (unsigned long long)st.async_dropped);
+	child_say(cx, "sent %u, received %u; stray %llu, overflow flags %llu, async dropped %llu",
+		  t.sent, t.received, (unsigned long long)st.stray_responses,
+		  (unsigned long long)st.overflow_flags, (unsigned long long)st.async_dropped);
 	CK(t.sent == t.received, "sent %u != received %u", t.sent, t.received);
-	CK(st.stray_responses == 0 && st.overflow_flags == 0 && st.async_dropped == 0, "messages lost or misrouted");
+	CK(st.stray_responses == 0 && st.overflow_flags == 0 && st.async_dropped == 0,
+	   "messages lost or misrouted");
 	rc = 0;
 out:
 	cogw_close(h);
@@ -1427,8 +1488,11 @@ static void test_default_config_three_clients_nothing_lost(void)
 {
 	instance = "main";
 	/* no --config: the embedded default (etc/cogw.json at build time) */
-	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = NULL, .instance = "main",
-								    .n_lines = 3, .notify = true, .drop_notify = true }));
+	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = NULL,
+								    .instance = "main",
+								    .n_lines = 3,
+								    .notify = true,
+								    .drop_notify = true }));
 	const char *dev0[] = { "etc/devices/sti-pressure.json", NULL };
 	const char *dev1[] = { "etc/devices/io-generic.json", NULL };
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim0, dmn.dir, 0, dev0, NULL));
@@ -1459,13 +1523,20 @@ static void test_release_daemon_under_valgrind_no_leak_no_error(void)
 	if (access("build/rel/bin/cogwd", X_OK) != 0)
 		TEST_IGNORE_MESSAGE("build/rel/bin/cogwd not built (make)");
 	instance = "main";
-	static const char *const vg[] = { "/usr/bin/valgrind", "--leak-check=full",
-					  "--errors-for-leak-kinds=definite,indirect", "--error-exitcode=99",
-					  "--quiet", NULL };
+	static const char *const vg[] = { "/usr/bin/valgrind",
+					  "--leak-check=full",
+					  "--errors-for-leak-kinds=definite,indirect",
+					  "--error-exitcode=99",
+					  "--quiet",
+					  NULL };
 	uint64_t t0 = mono_ms();
-	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = NULL, .instance = "main",
-								    .n_lines = 3, .notify = true, .drop_notify = true,
-								    .binary = "build/rel/bin/cogwd", .wrapper = vg,
+	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = NULL,
+								    .instance = "main",
+								    .n_lines = 3,
+								    .notify = true,
+								    .drop_notify = true,
+								    .binary = "build/rel/bin/cogwd",
+								    .wrapper = vg,
 								    .ready_timeout_ms = 300000 }));
 	printf("cogwd under valgrind ready after %.1f s\n", (double)(mono_ms() - t0) / 1000.0);
 	const char *dev0[] = { "etc/devices/sti-pressure.json", NULL };
@@ -1478,7 +1549,8 @@ static void test_release_daemon_under_valgrind_no_leak_no_error(void)
 	char name[64];
 	size_t len = 0;
 	uint32_t abort = 0, v = 0;
-	TEST_ASSERT_EQUAL_INT(0, cogw_od_read(h, 0, 0x1008, 0, name, sizeof name - 1, &len, 0, &abort));
+	TEST_ASSERT_EQUAL_INT(
+		0, cogw_od_read(h, 0, 0x1008, 0, name, sizeof name - 1, &len, 0, &abort));
 	name[len] = '\0';
 	TEST_ASSERT_EQUAL_STRING("cogw gateway", name);
 	int rc = cogw_sdo_read_u32(h, 0, NODE_PT, 0x1018, 1, &v, 0, &abort);
@@ -1493,11 +1565,13 @@ static void test_release_daemon_under_valgrind_no_leak_no_error(void)
 	TEST_ASSERT_EQUAL_INT(0, cosim_stop(&sim0, 5000));
 	t0 = mono_ms();
 	int st = daemon_stop(&dmn, 180000);
-	printf("cogwd under valgrind stopped after %.1f s, status 0x%x\n", (double)(mono_ms() - t0) / 1000.0, st);
+	printf("cogwd under valgrind stopped after %.1f s, status 0x%x\n",
+	       (double)(mono_ms() - t0) / 1000.0, st);
 	if (!(st != -1 && WIFEXITED(st) && WEXITSTATUS(st) == 0))
 		proc_dump_log(dmn.log_path, 80);
 	TEST_ASSERT_TRUE_MESSAGE(st != -1 && WIFEXITED(st), "cogwd under valgrind did not exit");
-	TEST_ASSERT_NOT_EQUAL_MESSAGE(99, WEXITSTATUS(st), "valgrind found errors or leaks (log above)");
+	TEST_ASSERT_NOT_EQUAL_MESSAGE(99, WEXITSTATUS(st),
+				      "valgrind found errors or leaks (log above)");
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, WEXITSTATUS(st), "cogwd exit status");
 	TEST_ASSERT_EQUAL_INT(0, daemon_leftovers("main", NULL, 0, NULL, 0));
 }
@@ -1505,11 +1579,11 @@ static void test_release_daemon_under_valgrind_no_leak_no_error(void)
 /* ---- main --------------------------------------------------------------------------------- */
 
 /* COGW_TEST_ONLY=substring runs only the tests whose name contains it. */
-#define RUN(fn)                                                                        \
-	do {                                                                           \
-		const char *only_ = getenv("COGW_TEST_ONLY");                          \
-		if (!only_ || strstr(#fn, only_))                                      \
-			RUN_TEST(fn);                                                  \
+#define RUN(fn)                                               \
+	do {                                                  \
+		const char *only_ = getenv("COGW_TEST_ONLY"); \
+		if (!only_ || strstr(#fn, only_))             \
+			RUN_TEST(fn);                         \
 	} while (0)
 
 int main(void)

@@ -63,12 +63,12 @@ static void raw_close(void);
 
 typedef struct cfg_params {
 	const char *instance;
-	unsigned n_lines;     /* 1..3 */
-	const char *top;      /* extra top-level keys, each ending with ',' */
-	const char *mailbox;  /* extra mailbox keys, each ending with ',' */
-	const char *line0;    /* extra keys of lines[0], each ending with ',' */
-	unsigned bitrate0;    /* 0 = 1000000 */
-	const char *iface1;   /* lines[1].interface (NULL = vcan1) */
+	unsigned n_lines;    /* 1..3 */
+	const char *top;     /* extra top-level keys, each ending with ',' */
+	const char *mailbox; /* extra mailbox keys, each ending with ',' */
+	const char *line0;   /* extra keys of lines[0], each ending with ',' */
+	unsigned bitrate0;   /* 0 = 1000000 */
+	const char *iface1;  /* lines[1].interface (NULL = vcan1) */
 } cfg_params;
 
 static const char *config_text(char *buf, size_t cap, const cfg_params *p)
@@ -76,17 +76,21 @@ static const char *config_text(char *buf, size_t cap, const cfg_params *p)
 	char more[512] = "";
 	if (p->n_lines >= 2)
 		snprintf(more, sizeof more,
-			 ",\n    {\"name\": \"line1\", \"interface\": \"%s\", \"bitrate\": 1000000, \"node_id\": 127}%s",
+			 ",\n    {\"name\": \"line1\", \"interface\": \"%s\", \"bitrate\": "
+			 "1000000, \"node_id\": 127}%s",
 			 p->iface1 ? p->iface1 : "vcan1",
-			 p->n_lines >= 3 ? ",\n    {\"name\": \"line2\", \"interface\": \"vcan2\", \"bitrate\": 1000000, \"node_id\": 127}" : "");
+			 p->n_lines >= 3 ? ",\n    {\"name\": \"line2\", \"interface\": \"vcan2\", "
+					   "\"bitrate\": 1000000, \"node_id\": 127}"
+					 : "");
 	snprintf(buf, cap,
 		 "{\n  %s\"version\": 1,\n"
 		 "  \"mailbox\": {%s\"instance\": \"%s\"},\n"
 		 "  \"lines\": [\n"
-		 "    {%s\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": %u, \"node_id\": 127}%s\n"
+		 "    {%s\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": %u, "
+		 "\"node_id\": 127}%s\n"
 		 "  ]\n}\n",
-		 p->top ? p->top : "", p->mailbox ? p->mailbox : "", p->instance, p->line0 ? p->line0 : "",
-		 p->bitrate0 ? p->bitrate0 : 1000000u, more);
+		 p->top ? p->top : "", p->mailbox ? p->mailbox : "", p->instance,
+		 p->line0 ? p->line0 : "", p->bitrate0 ? p->bitrate0 : 1000000u, more);
 	return buf;
 }
 
@@ -164,8 +168,8 @@ static long state_file_value(const char *path, uint16_t index, uint8_t sub)
 		return -1;
 	for (size_t pos = 8; pos + 7 <= n;) {
 		uint16_t idx = (uint16_t)(buf[pos] | buf[pos + 1] << 8);
-		uint32_t len = (uint32_t)buf[pos + 3] | (uint32_t)buf[pos + 4] << 8 | (uint32_t)buf[pos + 5] << 16 |
-			       (uint32_t)buf[pos + 6] << 24;
+		uint32_t len = (uint32_t)buf[pos + 3] | (uint32_t)buf[pos + 4] << 8 |
+			       (uint32_t)buf[pos + 5] << 16 | (uint32_t)buf[pos + 6] << 24;
 		if (len > n - pos - 7)
 			return -1;
 		if (idx == index && buf[pos + 2] == sub) {
@@ -182,9 +186,12 @@ static long state_file_value(const char *path, uint16_t index, uint8_t sub)
 static void start_daemon(daemon_run *dr, const char *json, const char *instance, unsigned n_lines,
 			 uint64_t watchdog_usec, const char *state_dir)
 {
-	int rc = daemon_start(dr, &(daemon_opts){ .config_json = json, .instance = instance, .n_lines = n_lines,
-						   .notify = true, .watchdog_usec = watchdog_usec,
-						   .state_dir = state_dir });
+	int rc = daemon_start(dr, &(daemon_opts){ .config_json = json,
+						  .instance = instance,
+						  .n_lines = n_lines,
+						  .notify = true,
+						  .watchdog_usec = watchdog_usec,
+						  .state_dir = state_dir });
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, "cogwd did not come up");
 }
 
@@ -252,8 +259,10 @@ static void test_notify_ready_status_watchdog_stall_stopping(void)
 {
 	char json[4096];
 	config_text(json, sizeof json,
-		    &(cfg_params){ .instance = "sys1", .n_lines = 3,
-				   .top = "\"debug\": {\"stall_signal\": true, \"stall_ms\": 6000}, " });
+		    &(cfg_params){
+			    .instance = "sys1",
+			    .n_lines = 3,
+			    .top = "\"debug\": {\"stall_signal\": true, \"stall_ms\": 6000}, " });
 	start_daemon(&d, json, "sys1", 3, 2000000, NULL);
 
 	/* READY=1 came together with a one-line STATUS naming every line
@@ -288,8 +297,9 @@ static void test_notify_ready_status_watchdog_stall_stopping(void)
 	 * looped for > WATCHDOG_USEC/2), no ping may leave */
 	TEST_ASSERT_EQUAL_INT(0, kill(d.pid, SIGUSR2));
 	TEST_ASSERT_TRUE(file_wait_contains(d.log_path, "line line0: stalling for 6000 ms", 5000));
-	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(d.log_path, "withholding the watchdog ping", 5000),
-				 "the stall was not detected");
+	TEST_ASSERT_TRUE_MESSAGE(
+		file_wait_contains(d.log_path, "withholding the watchdog ping", 5000),
+		"the stall was not detected");
 	drain_notify(&d.ns);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, notify_count(&d.ns, "WATCHDOG=1", 2000),
 				      "WATCHDOG=1 sent while line0 was stalled");
@@ -307,22 +317,29 @@ static void test_notify_ready_status_watchdog_stall_stopping(void)
 	TEST_ASSERT_TRUE(st != -1 && WIFEXITED(st));
 	TEST_ASSERT_EQUAL_INT(0, WEXITSTATUS(st));
 	char report[256];
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, daemon_leftovers("sys1", NULL, 0, report, sizeof report), report);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, daemon_leftovers("sys1", NULL, 0, report, sizeof report),
+				      report);
 }
 
 /* A line that cannot come up: no READY=1 at all, a clear log line, exit 1. */
 static void test_no_ready_when_a_line_fails(void)
 {
 	char json[4096];
-	config_text(json, sizeof json, &(cfg_params){ .instance = "sys1b", .n_lines = 2, .iface1 = "vcan9" });
-	int rc = daemon_start(&d, &(daemon_opts){ .config_json = json, .instance = "sys1b", .n_lines = 2,
-						  .notify = true, .ready_timeout_ms = 20000 });
+	config_text(json, sizeof json,
+		    &(cfg_params){ .instance = "sys1b", .n_lines = 2, .iface1 = "vcan9" });
+	int rc = daemon_start(&d, &(daemon_opts){ .config_json = json,
+						  .instance = "sys1b",
+						  .n_lines = 2,
+						  .notify = true,
+						  .ready_timeout_ms = 20000 });
 	TEST_ASSERT_EQUAL_INT(-ECHILD, rc); /* exited before any READY=1 */
 	TEST_ASSERT_TRUE(WIFEXITED(d.exit_status));
 	TEST_ASSERT_NOT_EQUAL(0, WEXITSTATUS(d.exit_status));
-	TEST_ASSERT_TRUE(file_contains(d.log_path, "line line1 (vcan9): cannot open the CAN interface"));
+	TEST_ASSERT_TRUE(
+		file_contains(d.log_path, "line line1 (vcan9): cannot open the CAN interface"));
 	char report[256];
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, daemon_leftovers("sys1b", NULL, 0, report, sizeof report), report);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, daemon_leftovers("sys1b", NULL, 0, report, sizeof report),
+				      report);
 }
 
 /* issue 11: a valid watchdog_check_ms longer than an idle line sleeps used
@@ -333,19 +350,27 @@ static void test_watchdog_check_period_fits_the_watchdog(void)
 {
 	char json[4096];
 	config_text(json, sizeof json,
-		    &(cfg_params){ .instance = "sys1w", .n_lines = 2, .top = "\"watchdog_check_ms\": 60000," });
-	int rc = daemon_start(&d, &(daemon_opts){ .config_json = json, .instance = "sys1w", .n_lines = 2,
-						  .notify = true, .watchdog_usec = 2000000,
+		    &(cfg_params){ .instance = "sys1w",
+				   .n_lines = 2,
+				   .top = "\"watchdog_check_ms\": 60000," });
+	int rc = daemon_start(&d, &(daemon_opts){ .config_json = json,
+						  .instance = "sys1w",
+						  .n_lines = 2,
+						  .notify = true,
+						  .watchdog_usec = 2000000,
 						  .ready_timeout_ms = 20000 });
 	TEST_ASSERT_EQUAL_INT_MESSAGE(-ECHILD, rc, "a check period that cannot fit was accepted");
 	TEST_ASSERT_TRUE(WIFEXITED(d.exit_status) && WEXITSTATUS(d.exit_status) != 0);
-	TEST_ASSERT_TRUE(file_contains(d.log_path, "watchdog_check_ms 60000 does not fit the systemd watchdog "
-						   "period of 2000 ms"));
+	TEST_ASSERT_TRUE(file_contains(d.log_path,
+				       "watchdog_check_ms 60000 does not fit the systemd watchdog "
+				       "period of 2000 ms"));
 	daemon_cleanup(&d);
 
 	/* the largest that fits: idle lines, pings all the time */
 	config_text(json, sizeof json,
-		    &(cfg_params){ .instance = "sys1w", .n_lines = 2, .top = "\"watchdog_check_ms\": 1000," });
+		    &(cfg_params){ .instance = "sys1w",
+				   .n_lines = 2,
+				   .top = "\"watchdog_check_ms\": 1000," });
 	start_daemon(&d, json, "sys1w", 2, 2000000, NULL);
 	drain_notify(&d.ns);
 	TEST_ASSERT_GREATER_OR_EQUAL_INT(6, notify_count(&d.ns, "WATCHDOG=1", 5000));
@@ -407,7 +432,8 @@ static long daemon_status_kb(pid_t pid, const char *name)
 	if (!f)
 		return -1;
 	while (fgets(text, sizeof text, f))
-		if (!strncmp(text, name, n) && text[n] == ':' && sscanf(text + n + 1, "%ld", &kb) == 1)
+		if (!strncmp(text, name, n) && text[n] == ':' &&
+		    sscanf(text + n + 1, "%ld", &kb) == 1)
 			break;
 	fclose(f);
 	return kb;
@@ -417,20 +443,28 @@ static void test_memory_locked_by_need_and_reported(void)
 {
 	char json[4096];
 	config_text(json, sizeof json,
-		    &(cfg_params){ .instance = "sys1m", .n_lines = 2, .top = "\"mlockall\": true,",
+		    &(cfg_params){ .instance = "sys1m",
+				   .n_lines = 2,
+				   .top = "\"mlockall\": true,",
 				   .mailbox = "\"max_transfer\": 33554432, " });
 	/* the release build: the sanitizers' shadow memory cannot be locked */
-	int rc = daemon_start(&d, &(daemon_opts){ .config_json = json, .instance = "sys1m", .n_lines = 2,
-						  .notify = true, .binary = "build/rel/bin/cogwd" });
+	int rc = daemon_start(&d, &(daemon_opts){ .config_json = json,
+						  .instance = "sys1m",
+						  .n_lines = 2,
+						  .notify = true,
+						  .binary = "build/rel/bin/cogwd" });
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, "cogwd did not come up");
-	TEST_ASSERT_TRUE(file_contains(d.log_path, "KiB of line buffers reserved (max_transfer 33554432 bytes)"));
+	TEST_ASSERT_TRUE(file_contains(
+		d.log_path, "KiB of line buffers reserved (max_transfer 33554432 bytes)"));
 	TEST_ASSERT_TRUE(file_contains(d.log_path, "KiB pinned in RAM"));
 	/* VmLck counts every locked mapping in full; what is pinned in RAM
 	 * under mlockall is what is resident: VmRSS */
 	long locked = daemon_status_kb(d.pid, "VmLck"), pinned = daemon_status_kb(d.pid, "VmRSS");
-	printf("memory: VmLck %ld KiB, VmRSS %ld KiB with 2 lines x max_transfer 32 MiB\n", locked, pinned);
+	printf("memory: VmLck %ld KiB, VmRSS %ld KiB with 2 lines x max_transfer 32 MiB\n", locked,
+	       pinned);
 	TEST_ASSERT_TRUE_MESSAGE(locked > 0, "nothing locked: mlockall did not run");
-	TEST_ASSERT_TRUE_MESSAGE(pinned > 0 && pinned < 64 * 1024, "the transfer buffers were pinned at start-up");
+	TEST_ASSERT_TRUE_MESSAGE(pinned > 0 && pinned < 64 * 1024,
+				 "the transfer buffers were pinned at start-up");
 }
 
 /* ---- 2. store / restore across restarts ---------------------------------------------- */
@@ -478,12 +512,15 @@ static void restart_on_same_state(const char *json, const char *instance)
 	open_client(instance);
 }
 
-static void sdo_expedited_download(uint16_t index, uint8_t sub, const uint8_t val[4], uint8_t resp[8])
+static void sdo_expedited_download(uint16_t index, uint8_t sub, const uint8_t val[4],
+				   uint8_t resp[8])
 {
-	uint8_t req[8] = { 0x23, (uint8_t)index, (uint8_t)(index >> 8), sub, val[0], val[1], val[2], val[3] };
+	uint8_t req[8] = { 0x23,   (uint8_t)index, (uint8_t)(index >> 8), sub, val[0], val[1],
+			   val[2], val[3] };
 	drain_can(can_fd);
 	TEST_ASSERT_EQUAL_INT(0, can_send_std(can_fd, SDO_RX_COB_ID, req, 8));
-	TEST_ASSERT_EQUAL_INT_MESSAGE(8, can_wait_id(can_fd, SDO_TX_COB_ID, resp, 5000), "no SDO answer");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(8, can_wait_id(can_fd, SDO_TX_COB_ID, resp, 5000),
+				      "no SDO answer");
 }
 
 static void test_store_restore_survives_restart(void)
@@ -520,7 +557,8 @@ static void test_store_restore_survives_restart(void)
 	static const uint8_t confirm[8] = { 0x60, 0x10, 0x10, 0x01, 0, 0, 0, 0 };
 	TEST_ASSERT_EQUAL_HEX8_ARRAY(confirm, resp, 8);
 	TEST_ASSERT_EQUAL_INT32(300, state_file_value(comm, 0x1017, 0));
-	TEST_ASSERT_TRUE(file_wait_contains(d.log_path, "line line0: parameters saved (1010h sub 1)", 3000));
+	TEST_ASSERT_TRUE(
+		file_wait_contains(d.log_path, "line line0: parameters saved (1010h sub 1)", 3000));
 
 	/* restart: the value survived */
 	restart_on_same_state(json, "sys2");
@@ -547,10 +585,10 @@ static void test_store_restore_survives_restart(void)
 	 * does not exist and a truncated one: the good one is applied, the
 	 * others skipped and said so */
 	static const uint8_t mixed[] = {
-		'C', 'O', 'G', 'W', 'O', 'D', '1', '\n',
-		0x17, 0x10, 0x00, 0x02, 0x00, 0x00, 0x00, 0x90, 0x01,             /* 1017h:0 = 400 */
-		0xFF, 0x5F, 0x00, 0x02, 0x00, 0x00, 0x00, 0x01, 0x00,             /* 5FFFh: absent */
-		0x05, 0x10, 0x00, 0xFF, 0x00, 0x00, 0x00, 0x01,                   /* truncated */
+		'C',  'O',  'G',  'W',  'O',  'D',  '1',  '\n', 0x17,
+		0x10, 0x00, 0x02, 0x00, 0x00, 0x00, 0x90, 0x01,       /* 1017h:0 = 400 */
+		0xFF, 0x5F, 0x00, 0x02, 0x00, 0x00, 0x00, 0x01, 0x00, /* 5FFFh: absent */
+		0x05, 0x10, 0x00, 0xFF, 0x00, 0x00, 0x00, 0x01,       /* truncated */
 	};
 	/* issue 11: damaged saved values are never half-applied. Before,
 	 * each of these loaded 1017h = 400 (a truncated file with a warning,
@@ -563,14 +601,16 @@ static void test_store_restore_survives_restart(void)
 	TEST_ASSERT_TRUE(file_contains(d2.log_path, "none of them loaded"));
 	TEST_ASSERT_EQUAL_UINT16(1000, od_read_u16(client, 0x1017));
 	TEST_ASSERT_EQUAL_HEX8(0x01, error_register() & 0x01);
-	write_state_file(comm, mixed, sizeof mixed, 5, CO_OD_IMAGE_COMM, 16); /* 400 -> another value */
+	write_state_file(comm, mixed, sizeof mixed, 5, CO_OD_IMAGE_COMM,
+			 16); /* 400 -> another value */
 	restart_on_same_state(json, "sys2");
 	TEST_ASSERT_TRUE(file_contains(d2.log_path, "fails its checksum (damaged)"));
 	TEST_ASSERT_EQUAL_UINT16(1000, od_read_u16(client, 0x1017));
 	TEST_ASSERT_EQUAL_HEX8(0x01, error_register() & 0x01);
 	static const uint8_t app_image[] = { 'C', 'O', 'G', 'W', 'O', 'D', '1', '\n' };
 	write_state_file(comm, mixed, sizeof mixed, 7, CO_OD_IMAGE_COMM | CO_OD_IMAGE_APP, -1);
-	write_state_file(app, app_image, sizeof app_image, 6, CO_OD_IMAGE_COMM | CO_OD_IMAGE_APP, -1);
+	write_state_file(app, app_image, sizeof app_image, 6, CO_OD_IMAGE_COMM | CO_OD_IMAGE_APP,
+			 -1);
 	restart_on_same_state(json, "sys2");
 	TEST_ASSERT_TRUE(file_contains(d2.log_path, "belongs to an interrupted save"));
 	TEST_ASSERT_EQUAL_UINT16(1000, od_read_u16(client, 0x1017));
@@ -581,7 +621,8 @@ static void test_store_restore_survives_restart(void)
 	 * know are skipped: a configuration that changed, not damage) */
 	write_state_file(comm, mixed, sizeof mixed, 8, CO_OD_IMAGE_COMM, -1);
 	restart_on_same_state(json, "sys2");
-	TEST_ASSERT_TRUE(file_contains(d2.log_path, "did not match the dictionary and were skipped"));
+	TEST_ASSERT_TRUE(
+		file_contains(d2.log_path, "did not match the dictionary and were skipped"));
 	TEST_ASSERT_EQUAL_UINT16(400, od_read_u16(client, 0x1017));
 }
 
@@ -696,8 +737,7 @@ static void test_invalid_config_refused_with_path(void)
 		  "{\"version\": 1, \"mailbox\": {\"instance\": \"sys3\"}, \"lines\": [\n"
 		  " {\"interface\": \"vcan0\", \"bitrat\": 1000000, \"node_id\": 127}]}\n",
 		  "lines[0].bitrat: unknown key (did you mean \"bitrate\"?)" },
-		{ "bad-json.json",
-		  "{\n  \"version\": 1\n  \"lines\": []\n}\n",
+		{ "bad-json.json", "{\n  \"version\": 1\n  \"lines\": []\n}\n",
 		  "line 3 column 3: invalid JSON" },
 		{ "missing-bitrate.json",
 		  "{\"version\": 1, \"mailbox\": {\"instance\": \"sys3\"}, \"lines\": [\n"
@@ -723,7 +763,8 @@ static void test_invalid_config_refused_with_path(void)
 		TEST_ASSERT_TRUE_MESSAGE(file_contains(log, want), cases[i].name);
 	}
 	char report[256];
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, daemon_leftovers("sys3", NULL, 0, report, sizeof report), report);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, daemon_leftovers("sys3", NULL, 0, report, sizeof report),
+				      report);
 
 	/* a file that does not exist */
 	snprintf(path, sizeof path, "%s/absent.json", scratch_dir);
@@ -755,17 +796,21 @@ static void test_depth_above_msg_max_refused(void)
 	char path[128], log[128], want[256], json[4096];
 	snprintf(path, sizeof path, "%s/deep.json", scratch_dir);
 	snprintf(log, sizeof log, "%s/cogwd.log", scratch_dir);
-	config_text(json, sizeof json, &(cfg_params){ .instance = "sys6", .n_lines = 1, .mailbox = "\"depth\": 1000, " });
+	config_text(
+		json, sizeof json,
+		&(cfg_params){ .instance = "sys6", .n_lines = 1, .mailbox = "\"depth\": 1000, " });
 	TEST_ASSERT_EQUAL_INT(0, write_text_file(path, json));
 	TEST_ASSERT_NOT_EQUAL(0, run_cogwd(path, NULL, log, 10000));
 	snprintf(want, sizeof want,
-		 "mailbox: fs.mqueue.msg_max is %lu but the mailbox queue depth is 1000: run 'sysctl -w fs.mqueue.msg_max=1000'",
+		 "mailbox: fs.mqueue.msg_max is %lu but the mailbox queue depth is 1000: run "
+		 "'sysctl -w fs.mqueue.msg_max=1000'",
 		 msg_max);
 	if (!file_contains(log, want))
 		proc_dump_log(log, 10);
 	TEST_ASSERT_TRUE(file_contains(log, want));
 	char report[256];
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, daemon_leftovers("sys6", NULL, 0, report, sizeof report), report);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, daemon_leftovers("sys6", NULL, 0, report, sizeof report),
+				      report);
 }
 
 /* ---- 4. SIGHUP reload ----------------------------------------------------------------- */
@@ -840,7 +885,8 @@ static void stop_child(void)
 	close(child_res_fd);
 	child_cmd_fd = child_res_fd = -1;
 	int st = 0;
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, wait_exit(child_pid, 10000, &st), "client child did not exit");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, wait_exit(child_pid, 10000, &st),
+				      "client child did not exit");
 	child_pid = 0;
 	TEST_ASSERT_TRUE(WIFEXITED(st));
 	TEST_ASSERT_EQUAL_INT(0, WEXITSTATUS(st));
@@ -851,16 +897,20 @@ static void reload_with(const char *json)
 	TEST_ASSERT_EQUAL_INT(0, write_text_file(d.config_path, json));
 	drain_notify(&d.ns);
 	TEST_ASSERT_EQUAL_INT(0, kill(d.pid, SIGHUP));
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, notify_wait(&d.ns, "RELOADING=1", 5000, NULL, 0), "no RELOADING=1");
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, notify_wait(&d.ns, "READY=1", 5000, NULL, 0), "no READY=1 after RELOADING=1");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, notify_wait(&d.ns, "RELOADING=1", 5000, NULL, 0),
+				      "no RELOADING=1");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, notify_wait(&d.ns, "READY=1", 5000, NULL, 0),
+				      "no READY=1 after RELOADING=1");
 }
 
-#define RELOAD_OBJ "\"objects\": [{\"index\": \"0x2000\", \"type\": \"UNSIGNED16\", \"default\": 7}], "
+#define RELOAD_OBJ \
+	"\"objects\": [{\"index\": \"0x2000\", \"type\": \"UNSIGNED16\", \"default\": 7}], "
 
 static void test_sighup_reload(void)
 {
 	char json[4096];
-	cfg_params p = { .instance = "sys4", .n_lines = 1,
+	cfg_params p = { .instance = "sys4",
+			 .n_lines = 1,
 			 .mailbox = "\"queue_mode\": \"0622\", \"default_access\": \"read\", ",
 			 .line0 = "\"heartbeat_ms\": 1000, " RELOAD_OBJ };
 	can_fd = can_open_raw("vcan0");
@@ -874,7 +924,8 @@ static void test_sighup_reload(void)
 	/* heartbeat_ms 1000 -> 200: applied at run time */
 	p.line0 = "\"heartbeat_ms\": 200, " RELOAD_OBJ;
 	reload_with(config_text(json, sizeof json, &p));
-	TEST_ASSERT_TRUE(file_wait_contains(d.log_path, "reload: line line0 heartbeat 1000 -> 200 ms", 3000));
+	TEST_ASSERT_TRUE(file_wait_contains(d.log_path,
+					    "reload: line line0 heartbeat 1000 -> 200 ms", 3000));
 	drain_can(can_fd);
 	ms = mean_frame_spacing_ms(can_fd, HB_COB_ID, 5, 5000);
 	printf("heartbeat spacing after reload: %ld ms\n", ms);
@@ -900,7 +951,8 @@ static void test_sighup_reload(void)
 	p.mailbox = "\"queue_mode\": \"0622\", \"default_access\": \"read\", "
 		    "\"rules\": [{\"uid\": 65534, \"access\": \"write\"}], ";
 	reload_with(config_text(json, sizeof json, &p));
-	TEST_ASSERT_TRUE(file_wait_contains(d.log_path, "reload: mailbox access: 1 rule, default read", 3000));
+	TEST_ASSERT_TRUE(file_wait_contains(d.log_path,
+					    "reload: mailbox access: 1 rule, default read", 3000));
 	TEST_ASSERT_EQUAL_INT(0, child_do('w'));
 	TEST_ASSERT_EQUAL_INT(0, child_do('r'));
 	/* "none": the registered client is dropped, a new registration of
@@ -908,7 +960,8 @@ static void test_sighup_reload(void)
 	p.mailbox = "\"queue_mode\": \"0622\", \"default_access\": \"read\", "
 		    "\"rules\": [{\"uid\": 65534, \"access\": \"none\"}], ";
 	reload_with(config_text(json, sizeof json, &p));
-	TEST_ASSERT_TRUE(file_wait_contains(d.log_path, "reload: mailbox access: 1 rule, default read", 3000));
+	TEST_ASSERT_TRUE(file_wait_contains(d.log_path,
+					    "reload: mailbox access: 1 rule, default read", 3000));
 	/* the dropped client's command is not answered (its token is void) */
 	TEST_ASSERT_EQUAL_INT(COGW_E_TIMEOUT, child_do('r'));
 	TEST_ASSERT_EQUAL_INT(0, child_do('n')); /* queues only */
@@ -954,8 +1007,14 @@ static int mq_recv_ms(mqd_t q, uint8_t *buf, size_t cap, int timeout_ms)
 
 static mbx_hdr cmd_hdr(uint16_t code)
 {
-	mbx_hdr h = { .magic = MBX_MAGIC, .version = MBX_VERSION, .kind = MBX_KIND_COMMAND, .code = code,
-		      .line = 0, .client = rc_.id, .token = rc_.token, .corr = ++rc_.corr };
+	mbx_hdr h = { .magic = MBX_MAGIC,
+		      .version = MBX_VERSION,
+		      .kind = MBX_KIND_COMMAND,
+		      .code = code,
+		      .line = 0,
+		      .client = rc_.id,
+		      .token = rc_.token,
+		      .corr = ++rc_.corr };
 	return h;
 }
 
@@ -983,7 +1042,8 @@ static void raw_open(const char *instance)
 {
 	memset(&rc_, 0, sizeof rc_);
 	rc_.resp = rc_.evt = rc_.cmd = (mqd_t)-1;
-	snprintf(rc_.resp_name, sizeof rc_.resp_name, "/cogw.%s.raw%d.resp", instance, (int)getpid());
+	snprintf(rc_.resp_name, sizeof rc_.resp_name, "/cogw.%s.raw%d.resp", instance,
+		 (int)getpid());
 	snprintf(rc_.evt_name, sizeof rc_.evt_name, "/cogw.%s.raw%d.evt", instance, (int)getpid());
 	struct mq_attr a = { .mq_maxmsg = 8, .mq_msgsize = 1024 };
 	mq_unlink(rc_.resp_name);
@@ -1039,8 +1099,10 @@ static mbx_stats_wire raw_stats(void)
 	raw_send_bytes(msg, sizeof msg);
 	mbx_stats_wire st;
 	memset(&st, 0, sizeof st);
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, raw_recv(&rh, (uint8_t *)&st, sizeof st, 5000), "no MBX_STATS answer");
-	TEST_ASSERT_EQUAL_UINT64_MESSAGE(h.corr, rh.corr, "an unexpected answer came before MBX_STATS");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, raw_recv(&rh, (uint8_t *)&st, sizeof st, 5000),
+				      "no MBX_STATS answer");
+	TEST_ASSERT_EQUAL_UINT64_MESSAGE(h.corr, rh.corr,
+					 "an unexpected answer came before MBX_STATS");
 	TEST_ASSERT_EQUAL_INT(0, rh.status);
 	return st;
 }
@@ -1052,11 +1114,11 @@ typedef struct bad_case {
 	uint16_t code;
 	uint8_t payload[600];
 	size_t plen;
-	int patch_off;       /* header byte to patch, -1 = none */
-	int patch_size;      /* 1, 2, 4 or 8 bytes, little-endian */
+	int patch_off;  /* header byte to patch, -1 = none */
+	int patch_size; /* 1, 2, 4 or 8 bytes, little-endian */
 	uint64_t patch_val;
-	size_t truncate_to;  /* send only this many bytes (0 = all) */
-	int expect_status;   /* MBX_E_* answered, or NO_ANSWER */
+	size_t truncate_to; /* send only this many bytes (0 = all) */
+	int expect_status;  /* MBX_E_* answered, or NO_ANSWER */
 	uint32_t expect_abort;
 	int malformed_delta; /* how much the malformed counter moves */
 } bad_case;
@@ -1091,7 +1153,8 @@ static void run_bad_case(const bad_case *c)
 	/* raw_stats() checks that the very next answer is its own, so a
 	 * NO_ANSWER case that was answered fails here */
 	mbx_stats_wire after = raw_stats();
-	TEST_ASSERT_EQUAL_UINT64_MESSAGE(before.malformed + (uint64_t)c->malformed_delta, after.malformed, c->what);
+	TEST_ASSERT_EQUAL_UINT64_MESSAGE(before.malformed + (uint64_t)c->malformed_delta,
+					 after.malformed, c->what);
 }
 
 static void test_malformed_messages_against_daemon(void)
@@ -1102,29 +1165,192 @@ static void test_malformed_messages_against_daemon(void)
 	raw_open("sys5");
 
 	/* header field offsets: docs/mailbox.md */
-	enum { OFF_MAGIC = 0, OFF_VERSION = 2, OFF_KIND = 3, OFF_CODE = 4, OFF_LINE = 6, OFF_FLAGS = 7,
-	       OFF_CLIENT = 8, OFF_STATUS = 12, OFF_TOKEN = 24, OFF_ABORT = 32, OFF_DROPPED = 36,
-	       OFF_CHUNK = 40, OFF_LEN = 42, OFF_TOTAL = 44 };
+	enum {
+		OFF_MAGIC = 0,
+		OFF_VERSION = 2,
+		OFF_KIND = 3,
+		OFF_CODE = 4,
+		OFF_LINE = 6,
+		OFF_FLAGS = 7,
+		OFF_CLIENT = 8,
+		OFF_STATUS = 12,
+		OFF_TOKEN = 24,
+		OFF_ABORT = 32,
+		OFF_DROPPED = 36,
+		OFF_CHUNK = 40,
+		OFF_LEN = 42,
+		OFF_TOTAL = 44
+	};
 	const bad_case header_cases[] = {
-		{ "short message", MBX_CMD_PING, {0}, 0, -1, 0, 0, 20, NO_ANSWER, 0, 1 },
-		{ "magic", MBX_CMD_PING, {0}, 0, OFF_MAGIC, 2, 0x1234, 0, NO_ANSWER, 0, 1 },
-		{ "version 2", MBX_CMD_PING, {0}, 0, OFF_VERSION, 1, 2, 0, MBX_E_VERSION, 0, 1 },
-		{ "kind response", MBX_CMD_PING, {0}, 0, OFF_KIND, 1, MBX_KIND_RESPONSE, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "kind 9", MBX_CMD_PING, {0}, 0, OFF_KIND, 1, 9, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "code unknown", MBX_CMD_PING, {0}, 0, OFF_CODE, 2, 0x0999, 0, MBX_E_UNKNOWN_CMD, 0, 1 },
-		{ "line of another queue", MBX_CMD_PING, {0}, 0, OFF_LINE, 1, 1, 0, MBX_E_BAD_LINE, 0, 1 },
-		{ "flags unknown bit", MBX_CMD_PING, {0}, 0, OFF_FLAGS, 1, 0x10, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "flags OVERFLOW from a client", MBX_CMD_PING, {0}, 0, OFF_FLAGS, 1, MBX_F_OVERFLOW, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "flags MORE without CHUNKED", MBX_CMD_PING, {0}, 0, OFF_FLAGS, 1, MBX_F_MORE, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "client id unknown", MBX_CMD_PING, {0}, 0, OFF_CLIENT, 4, 0x7FFF0003, 0, NO_ANSWER, 0, 1 },
-		{ "token wrong", MBX_CMD_PING, {0}, 0, OFF_TOKEN, 8, 0x0123456789ABCDEFull, 0, NO_ANSWER, 0, 1 },
-		{ "status set by a client", MBX_CMD_PING, {0}, 0, OFF_STATUS, 4, 0xFFFFFFFF, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "abort set by a client", MBX_CMD_PING, {0}, 0, OFF_ABORT, 4, 0x06020000, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "dropped set by a client", MBX_CMD_PING, {0}, 0, OFF_DROPPED, 4, 5, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "len larger than sent", MBX_CMD_PING, {0}, 0, OFF_LEN, 2, 12, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "chunk without CHUNKED", MBX_CMD_PING, {0}, 0, OFF_CHUNK, 2, 3, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "total without CHUNKED", MBX_CMD_PING, {0}, 0, OFF_TOTAL, 4, 100, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "CHUNKED with total 0", MBX_CMD_PING, {0}, 0, OFF_FLAGS, 1, MBX_F_CHUNKED, 0, MBX_E_MALFORMED, 0, 1 },
+		{ "short message", MBX_CMD_PING, { 0 }, 0, -1, 0, 0, 20, NO_ANSWER, 0, 1 },
+		{ "magic", MBX_CMD_PING, { 0 }, 0, OFF_MAGIC, 2, 0x1234, 0, NO_ANSWER, 0, 1 },
+		{ "version 2", MBX_CMD_PING, { 0 }, 0, OFF_VERSION, 1, 2, 0, MBX_E_VERSION, 0, 1 },
+		{ "kind response",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_KIND,
+		  1,
+		  MBX_KIND_RESPONSE,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "kind 9", MBX_CMD_PING, { 0 }, 0, OFF_KIND, 1, 9, 0, MBX_E_MALFORMED, 0, 1 },
+		{ "code unknown",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_CODE,
+		  2,
+		  0x0999,
+		  0,
+		  MBX_E_UNKNOWN_CMD,
+		  0,
+		  1 },
+		{ "line of another queue",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_LINE,
+		  1,
+		  1,
+		  0,
+		  MBX_E_BAD_LINE,
+		  0,
+		  1 },
+		{ "flags unknown bit",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_FLAGS,
+		  1,
+		  0x10,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "flags OVERFLOW from a client",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_FLAGS,
+		  1,
+		  MBX_F_OVERFLOW,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "flags MORE without CHUNKED",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_FLAGS,
+		  1,
+		  MBX_F_MORE,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "client id unknown",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_CLIENT,
+		  4,
+		  0x7FFF0003,
+		  0,
+		  NO_ANSWER,
+		  0,
+		  1 },
+		{ "token wrong",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_TOKEN,
+		  8,
+		  0x0123456789ABCDEFull,
+		  0,
+		  NO_ANSWER,
+		  0,
+		  1 },
+		{ "status set by a client",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_STATUS,
+		  4,
+		  0xFFFFFFFF,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "abort set by a client",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_ABORT,
+		  4,
+		  0x06020000,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "dropped set by a client",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_DROPPED,
+		  4,
+		  5,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "len larger than sent",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_LEN,
+		  2,
+		  12,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "chunk without CHUNKED",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_CHUNK,
+		  2,
+		  3,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "total without CHUNKED",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_TOTAL,
+		  4,
+		  100,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "CHUNKED with total 0",
+		  MBX_CMD_PING,
+		  { 0 },
+		  0,
+		  OFF_FLAGS,
+		  1,
+		  MBX_F_CHUNKED,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
 	};
 	for (size_t i = 0; i < sizeof header_cases / sizeof header_cases[0]; i++)
 		run_bad_case(&header_cases[i]);
@@ -1192,33 +1418,201 @@ static void test_malformed_messages_against_daemon(void)
 	mbx_store_req store0 = { .sub = 0 };
 	mbx_pdo_num_req pdo0 = { .pdo = 0 };
 	bad_case payload_cases[] = {
-		{ "NMT node 128", MBX_CMD_NMT, {0}, sizeof nmt_node, -1, 0, 0, 0, MBX_E_PARAM, 0, 1 },
-		{ "NMT cs 0x03", MBX_CMD_NMT, {0}, sizeof nmt_cs, -1, 0, 0, 0, MBX_E_PARAM, 0, 1 },
-		{ "NMT pad", MBX_CMD_NMT, {0}, sizeof nmt_pad, -1, 0, 0, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "NMT short payload", MBX_CMD_NMT, {0}, 3, -1, 0, 0, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "SDO node 0", MBX_CMD_SDO_UPLOAD, {0}, sizeof sdo_node0, -1, 0, 0, 0, MBX_E_PARAM, 0, 1 },
-		{ "SDO node 128", MBX_CMD_SDO_UPLOAD, {0}, sizeof sdo_node128, -1, 0, 0, 0, MBX_E_PARAM, 0, 1 },
-		{ "SDO mode 9", MBX_CMD_SDO_UPLOAD, {0}, sizeof sdo_mode9, -1, 0, 0, 0, MBX_E_PARAM, 0, 1 },
-		{ "OD read of a missing object", MBX_CMD_OD_READ, {0}, sizeof obj_missing, -1, 0, 0, 0, MBX_E_ABORT,
-		  0x06020000u, 0 },
-		{ "OD read of a missing sub-index", MBX_CMD_OD_READ, {0}, sizeof obj_bad_sub, -1, 0, 0, 0, MBX_E_ABORT,
-		  0x06090011u, 0 },
-		{ "OD read with flags", MBX_CMD_OD_READ, {0}, sizeof obj_flags, -1, 0, 0, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "raw frame len 9", MBX_CMD_RAW_SEND, {0}, sizeof raw_len9, -1, 0, 0, 0, MBX_E_PARAM, 0, 1 },
-		{ "raw frame id 0x800 without EXT", MBX_CMD_RAW_SEND, {0}, sizeof raw_id, -1, 0, 0, 0, MBX_E_PARAM, 0, 1 },
-		{ "raw frame data beyond len", MBX_CMD_RAW_SEND, {0}, sizeof raw_dirty, -1, 0, 0, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "raw send 17 bytes", MBX_CMD_RAW_SEND, {0}, 17, -1, 0, 0, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "raw send 33 frames", MBX_CMD_RAW_SEND, {0}, 33 * sizeof(mbx_raw_frame), -1, 0, 0, 0, MBX_E_MALFORMED,
-		  0, 1 },
-		{ "store sub 0", MBX_CMD_STORE, {0}, sizeof store0, -1, 0, 0, 0, MBX_E_PARAM, 0, 1 },
-		{ "PDO request 0", MBX_CMD_PDO_REQUEST, {0}, sizeof pdo0, -1, 0, 0, 0, MBX_E_PARAM, 0, 1 },
-		{ "NMT cs 0x03 with NO_REPLY", MBX_CMD_NMT, {0}, sizeof nmt_cs, OFF_FLAGS, 1, MBX_F_NO_REPLY, 0,
-		  NO_ANSWER, 0, 1 },
+		{ "NMT node 128",
+		  MBX_CMD_NMT,
+		  { 0 },
+		  sizeof nmt_node,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_PARAM,
+		  0,
+		  1 },
+		{ "NMT cs 0x03",
+		  MBX_CMD_NMT,
+		  { 0 },
+		  sizeof nmt_cs,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_PARAM,
+		  0,
+		  1 },
+		{ "NMT pad",
+		  MBX_CMD_NMT,
+		  { 0 },
+		  sizeof nmt_pad,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "NMT short payload", MBX_CMD_NMT, { 0 }, 3, -1, 0, 0, 0, MBX_E_MALFORMED, 0, 1 },
+		{ "SDO node 0",
+		  MBX_CMD_SDO_UPLOAD,
+		  { 0 },
+		  sizeof sdo_node0,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_PARAM,
+		  0,
+		  1 },
+		{ "SDO node 128",
+		  MBX_CMD_SDO_UPLOAD,
+		  { 0 },
+		  sizeof sdo_node128,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_PARAM,
+		  0,
+		  1 },
+		{ "SDO mode 9",
+		  MBX_CMD_SDO_UPLOAD,
+		  { 0 },
+		  sizeof sdo_mode9,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_PARAM,
+		  0,
+		  1 },
+		{ "OD read of a missing object",
+		  MBX_CMD_OD_READ,
+		  { 0 },
+		  sizeof obj_missing,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_ABORT,
+		  0x06020000u,
+		  0 },
+		{ "OD read of a missing sub-index",
+		  MBX_CMD_OD_READ,
+		  { 0 },
+		  sizeof obj_bad_sub,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_ABORT,
+		  0x06090011u,
+		  0 },
+		{ "OD read with flags",
+		  MBX_CMD_OD_READ,
+		  { 0 },
+		  sizeof obj_flags,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "raw frame len 9",
+		  MBX_CMD_RAW_SEND,
+		  { 0 },
+		  sizeof raw_len9,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_PARAM,
+		  0,
+		  1 },
+		{ "raw frame id 0x800 without EXT",
+		  MBX_CMD_RAW_SEND,
+		  { 0 },
+		  sizeof raw_id,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_PARAM,
+		  0,
+		  1 },
+		{ "raw frame data beyond len",
+		  MBX_CMD_RAW_SEND,
+		  { 0 },
+		  sizeof raw_dirty,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "raw send 17 bytes",
+		  MBX_CMD_RAW_SEND,
+		  { 0 },
+		  17,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "raw send 33 frames",
+		  MBX_CMD_RAW_SEND,
+		  { 0 },
+		  33 * sizeof(mbx_raw_frame),
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_MALFORMED,
+		  0,
+		  1 },
+		{ "store sub 0",
+		  MBX_CMD_STORE,
+		  { 0 },
+		  sizeof store0,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_PARAM,
+		  0,
+		  1 },
+		{ "PDO request 0",
+		  MBX_CMD_PDO_REQUEST,
+		  { 0 },
+		  sizeof pdo0,
+		  -1,
+		  0,
+		  0,
+		  0,
+		  MBX_E_PARAM,
+		  0,
+		  1 },
+		{ "NMT cs 0x03 with NO_REPLY",
+		  MBX_CMD_NMT,
+		  { 0 },
+		  sizeof nmt_cs,
+		  OFF_FLAGS,
+		  1,
+		  MBX_F_NO_REPLY,
+		  0,
+		  NO_ANSWER,
+		  0,
+		  1 },
 	};
-	const void *src[] = { &nmt_node, &nmt_cs, &nmt_pad, &nmt_node, &sdo_node0, &sdo_node128, &sdo_mode9,
-			      &obj_missing, &obj_bad_sub, &obj_flags, &raw_len9, &raw_id, &raw_dirty, NULL, NULL,
-			      &store0, &pdo0, &nmt_cs };
-	TEST_ASSERT_EQUAL_size_t(sizeof payload_cases / sizeof payload_cases[0], sizeof src / sizeof src[0]);
+	const void *src[] = { &nmt_node,    &nmt_cs,    &nmt_pad,     &nmt_node,    &sdo_node0,
+			      &sdo_node128, &sdo_mode9, &obj_missing, &obj_bad_sub, &obj_flags,
+			      &raw_len9,    &raw_id,    &raw_dirty,   NULL,         NULL,
+			      &store0,      &pdo0,      &nmt_cs };
+	TEST_ASSERT_EQUAL_size_t(sizeof payload_cases / sizeof payload_cases[0],
+				 sizeof src / sizeof src[0]);
 	for (size_t i = 0; i < sizeof payload_cases / sizeof payload_cases[0]; i++) {
 		bad_case *c = &payload_cases[i];
 		if (src[i])
@@ -1250,7 +1644,9 @@ static void test_malformed_messages_against_daemon(void)
 	{
 		mbx_stats_wire before = raw_stats();
 		uint64_t seed = 0x5eed;
-		enum { BURST = 300 };
+		enum {
+			BURST = 300
+		};
 		for (int i = 0; i < BURST; i++) {
 			uint8_t msg[256];
 			size_t n = 1 + (size_t)(i * 37 % 255);
@@ -1266,7 +1662,8 @@ static void test_malformed_messages_against_daemon(void)
 		}
 		mbx_stats_wire after = raw_stats();
 		TEST_ASSERT_EQUAL_UINT64(before.malformed + BURST, after.malformed);
-		printf("malformed counter after the burst: %llu\n", (unsigned long long)after.malformed);
+		printf("malformed counter after the burst: %llu\n",
+		       (unsigned long long)after.malformed);
 	}
 
 	/* still serving: another client's normal work, a raw frame on the bus */
@@ -1301,7 +1698,8 @@ static void test_systemd_unit_verifies(void)
 	snprintf(log, sizeof log, "%s/verify.log", scratch_dir);
 	/* the unit as shipped, but starting the binary just built */
 	snprintf(cmd, sizeof cmd,
-		 "sed 's#^ExecStart=/usr/local/bin/cogwd#ExecStart=%s/build/rel/bin/cogwd#' etc/cogwd.service > %s/cogwd.service"
+		 "sed 's#^ExecStart=/usr/local/bin/cogwd#ExecStart=%s/build/rel/bin/cogwd#' "
+		 "etc/cogwd.service > %s/cogwd.service"
 		 " && grep -q '^ExecStart=%s/build/rel/bin/cogwd ' %s/cogwd.service"
 		 " && SYSTEMD_LOG_LEVEL=notice systemd-analyze verify %s/cogwd.service > %s 2>&1",
 		 cwd, scratch_dir, cwd, scratch_dir, scratch_dir, log);
@@ -1345,12 +1743,16 @@ static void test_unit_capabilities_serve_a_non_root_client(void)
 	printf("daemon under %s\n", bset);
 	const char *const wrapper[] = { "/usr/bin/setpriv", bset, NULL };
 	char json[4096];
-	cfg_params p = { .instance = "sys1c", .n_lines = 1,
+	cfg_params p = { .instance = "sys1c",
+			 .n_lines = 1,
 			 .mailbox = "\"queue_mode\": \"0622\", \"default_access\": \"read\", ",
 			 .line0 = RELOAD_OBJ };
 	config_text(json, sizeof json, &p);
-	int rc = daemon_start(&d, &(daemon_opts){ .config_json = json, .instance = "sys1c", .n_lines = 1,
-						  .notify = true, .wrapper = wrapper });
+	int rc = daemon_start(&d, &(daemon_opts){ .config_json = json,
+						  .instance = "sys1c",
+						  .n_lines = 1,
+						  .notify = true,
+						  .wrapper = wrapper });
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, "cogwd did not come up under the unit's capabilities");
 	start_child("sys1c");
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, child_do('r'), "a non-root client was not served");
@@ -1360,11 +1762,11 @@ static void test_unit_capabilities_serve_a_non_root_client(void)
 
 /* COGW_TEST_ONLY=substring runs only the tests whose name contains it. */
 #undef RUN_TEST
-#define RUN_TEST(fn)                                                                  \
-	do {                                                                          \
-		const char *only_ = getenv("COGW_TEST_ONLY");                         \
-		if (!only_ || strstr(#fn, only_))                                     \
-			UnityDefaultTestRun(fn, #fn, __LINE__);                       \
+#define RUN_TEST(fn)                                            \
+	do {                                                    \
+		const char *only_ = getenv("COGW_TEST_ONLY");   \
+		if (!only_ || strstr(#fn, only_))               \
+			UnityDefaultTestRun(fn, #fn, __LINE__); \
 	} while (0)
 
 int main(void)

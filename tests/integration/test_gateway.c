@@ -35,8 +35,8 @@
 
 #define INSTANCE "gwtest"
 #define GW_NODE 127
-#define TGT_NODE 5   /* device on vcan2 (network 3) */
-#define EMCY_NODE 7  /* device on vcan0 (network 1) */
+#define TGT_NODE 5  /* device on vcan2 (network 3) */
+#define EMCY_NODE 7 /* device on vcan0 (network 1) */
 #define DOMAIN_IDX 0x2200u
 #define DOMAIN_MAX (1024u * 1024u)
 /* The largest routed transfer here: with the ASan daemon and device in the
@@ -59,7 +59,8 @@ static const char config_json[] =
 	"    {\"index\": \"0x1600\", \"sub\": 0, \"value\": 1},\n"
 	"    {\"index\": \"0x1F2F\", \"sub\": 7, \"value\": 6}]},\n"
 	"  {\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127, \"network_id\": 2,\n"
-	"   \"sdo_timeout_ms\": 3000, \"heartbeat_ms\": 0, \"tpdos\": 2, \"sync_period_us\": 200000,\n"
+	"   \"sdo_timeout_ms\": 3000, \"heartbeat_ms\": 0, \"tpdos\": 2, \"sync_period_us\": "
+	"200000,\n"
 	"   \"values\": [\n"
 	"    {\"index\": \"0x1800\", \"sub\": 1, \"value\": \"0x1FF\"},\n"
 	"    {\"index\": \"0x1A00\", \"sub\": 1, \"value\": \"0xB0000020\"},\n"
@@ -229,8 +230,10 @@ static void start_single(void)
 	static const char *const slow_vm[] = { "--sdo-timeout", "10000", NULL };
 
 	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = config_json,
-								    .instance = INSTANCE, .n_lines = 3,
-								    .notify = true, .drop_notify = true }));
+								    .instance = INSTANCE,
+								    .n_lines = 3,
+								    .notify = true,
+								    .drop_notify = true }));
 	snprintf(dev, sizeof dev, "%s/device.json", dmn.dir);
 	write_device(dev);
 	snprintf(dev_tgt, sizeof dev_tgt, "%s:%d", dev, TGT_NODE);
@@ -242,8 +245,11 @@ static void start_single(void)
 
 void setUp(void)
 {
-	co_node_config rc = { .node_id = 1, .sdo_client_count = 1, .sdo_client_timeout_ms = 10000,
-			      .send = req_send, .event = req_event };
+	co_node_config rc = { .node_id = 1,
+			      .sdo_client_count = 1,
+			      .sdo_client_timeout_ms = 10000,
+			      .send = req_send,
+			      .event = req_event };
 
 	fd0 = can_open_raw("vcan0");
 	fd1 = can_open_raw("vcan1");
@@ -291,8 +297,8 @@ static void test_routed_sdo_every_mode_byte_exact(void)
 	start_single();
 
 	/* expedited read of 1000h on the device behind the gateway */
-	r = routed(&(sdo_client_req){ .upload = true, .node_id = GW_NODE, .index = 0x1000,
-				      .buf = id, .cap = 4 });
+	r = routed(&(sdo_client_req){
+		.upload = true, .node_id = GW_NODE, .index = 0x1000, .buf = id, .cap = 4 });
 	TEST_ASSERT_EQUAL_HEX32(0, r->abort);
 	TEST_ASSERT_EQUAL_HEX32(0x00040194, co_get_le32(id));
 	for (size_t m = 0; m < sizeof modes; m++) {
@@ -300,13 +306,20 @@ static void test_routed_sdo_every_mode_byte_exact(void)
 			uint32_t size = sizes[i];
 			snprintf(msg, sizeof msg, "%u bytes, mode %u", size, modes[m]);
 			fill(in, size, (unsigned)(m * 10 + i));
-			r = routed(&(sdo_client_req){ .node_id = GW_NODE, .index = DOMAIN_IDX,
-						      .mode = modes[m], .data = in, .size = size });
+			r = routed(&(sdo_client_req){ .node_id = GW_NODE,
+						      .index = DOMAIN_IDX,
+						      .mode = modes[m],
+						      .data = in,
+						      .size = size });
 			TEST_ASSERT_EQUAL_HEX32_MESSAGE(0, r->abort, msg);
 			memset(out, 0, size);
-			r = routed(&(sdo_client_req){ .upload = true, .node_id = GW_NODE,
-						      .index = DOMAIN_IDX, .mode = modes[m],
-						      .buf = out, .cap = DOMAIN_MAX, .size = size });
+			r = routed(&(sdo_client_req){ .upload = true,
+						      .node_id = GW_NODE,
+						      .index = DOMAIN_IDX,
+						      .mode = modes[m],
+						      .buf = out,
+						      .cap = DOMAIN_MAX,
+						      .size = size });
 			TEST_ASSERT_EQUAL_HEX32_MESSAGE(0, r->abort, msg);
 			TEST_ASSERT_EQUAL_UINT32_MESSAGE(size, r->size, msg);
 			TEST_ASSERT_EQUAL_MEMORY_MESSAGE(in, out, size, msg);
@@ -314,12 +327,19 @@ static void test_routed_sdo_every_mode_byte_exact(void)
 	}
 	/* BIG by block, both ways */
 	fill(in, BIG, 99);
-	r = routed(&(sdo_client_req){ .node_id = GW_NODE, .index = DOMAIN_IDX, .mode = SDO_MODE_BLOCK,
-				      .data = in, .size = BIG });
+	r = routed(&(sdo_client_req){ .node_id = GW_NODE,
+				      .index = DOMAIN_IDX,
+				      .mode = SDO_MODE_BLOCK,
+				      .data = in,
+				      .size = BIG });
 	TEST_ASSERT_EQUAL_HEX32(0, r->abort);
 	memset(out, 0, BIG);
-	r = routed(&(sdo_client_req){ .upload = true, .node_id = GW_NODE, .index = DOMAIN_IDX,
-				      .mode = SDO_MODE_BLOCK, .buf = out, .cap = DOMAIN_MAX,
+	r = routed(&(sdo_client_req){ .upload = true,
+				      .node_id = GW_NODE,
+				      .index = DOMAIN_IDX,
+				      .mode = SDO_MODE_BLOCK,
+				      .buf = out,
+				      .cap = DOMAIN_MAX,
 				      .size = BIG });
 	TEST_ASSERT_EQUAL_HEX32(0, r->abort);
 	TEST_ASSERT_EQUAL_UINT32(BIG, r->size);
@@ -352,8 +372,8 @@ static void test_refusals(void)
 	/* the gateway still routes afterwards */
 	const co_ev_sdo_cli *r;
 	uint8_t id[4];
-	r = routed(&(sdo_client_req){ .upload = true, .node_id = GW_NODE, .index = 0x1000,
-				      .buf = id, .cap = 4 });
+	r = routed(&(sdo_client_req){
+		.upload = true, .node_id = GW_NODE, .index = 0x1000, .buf = id, .cap = 4 });
 	TEST_ASSERT_EQUAL_HEX32(0, r->abort);
 }
 
@@ -380,8 +400,8 @@ static void test_requester_vanishing_mid_block_releases_the_session(void)
 	/* the channel and the lease are free again */
 	const co_ev_sdo_cli *r;
 	uint8_t id[4];
-	r = routed(&(sdo_client_req){ .upload = true, .node_id = GW_NODE, .index = 0x1000,
-				      .buf = id, .cap = 4 });
+	r = routed(&(sdo_client_req){
+		.upload = true, .node_id = GW_NODE, .index = 0x1000, .buf = id, .cap = 4 });
 	TEST_ASSERT_EQUAL_HEX32(0, r->abort);
 }
 
@@ -400,7 +420,7 @@ static void test_emcy_routing_follows_1f2f(void)
 	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sim_emcy, "emcy 0x1234", NULL, 0, 5000));
 	TEST_ASSERT_EQUAL_INT(8, can_wait_id(fd1, 0x80 + GW_NODE, d, 5000));
 	TEST_ASSERT_EQUAL_HEX16(GW_EMCY_FWD_CODE, co_get_le16(&d[0]));
-	TEST_ASSERT_EQUAL_HEX16(1, co_get_le16(&d[3]));      /* from network 1 */
+	TEST_ASSERT_EQUAL_HEX16(1, co_get_le16(&d[3])); /* from network 1 */
 	TEST_ASSERT_EQUAL_HEX8(EMCY_NODE, d[5]);
 	TEST_ASSERT_EQUAL_HEX16(0x1234, co_get_le16(&d[6]));
 	TEST_ASSERT_EQUAL_INT(8, can_wait_id(fd2, 0x80 + GW_NODE, d, 5000));
@@ -408,9 +428,13 @@ static void test_emcy_routing_follows_1f2f(void)
 
 	/* 1F2Fh:7 = 0 over SDO on vcan0 (plain, not routed) */
 	req_done = false;
-	TEST_ASSERT_EQUAL_INT(0, sdo_client_submit(req, 0, &(sdo_client_req){
-		.node_id = GW_NODE, .index = 0x1F2F, .sub = EMCY_NODE, .data = zero, .size = 4 },
-		now_us()));
+	TEST_ASSERT_EQUAL_INT(0, sdo_client_submit(req, 0,
+						   &(sdo_client_req){ .node_id = GW_NODE,
+								      .index = 0x1F2F,
+								      .sub = EMCY_NODE,
+								      .data = zero,
+								      .size = 4 },
+						   now_us()));
 	req_run(10000);
 	r = &req_result;
 	TEST_ASSERT_TRUE(req_done);
@@ -496,8 +520,9 @@ static void test_mailbox_client_reaches_any_network(void)
 	TEST_ASSERT_EQUAL_UINT(sizeof data, len);
 	TEST_ASSERT_EQUAL_MEMORY(data, buf, sizeof data);
 	/* no route */
-	TEST_ASSERT_EQUAL_INT(COGW_E_ABORT, cogw_sdo_read_net(h, 0, 9, TGT_NODE, 0x1000, 0, NULL,
-							      buf, sizeof buf, &len, 30000, &abort));
+	TEST_ASSERT_EQUAL_INT(COGW_E_ABORT,
+			      cogw_sdo_read_net(h, 0, 9, TGT_NODE, 0x1000, 0, NULL, buf, sizeof buf,
+						&len, 30000, &abort));
 	TEST_ASSERT_EQUAL_HEX32(GW_AB_NET_UNKNOWN, abort);
 	/* the gateway event class: a refused indication on line 0 */
 	TEST_ASSERT_EQUAL_INT(0, cogw_subscribe(h, 0, MBX_EVC_GW, NULL, 0, 30000));
@@ -567,11 +592,15 @@ static void test_multi_hop_through_two_daemons(void)
 	uint32_t abort = 0;
 
 	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = config_a,
-								    .instance = "gwA", .n_lines = 2,
-								    .notify = true, .drop_notify = true }));
+								    .instance = "gwA",
+								    .n_lines = 2,
+								    .notify = true,
+								    .drop_notify = true }));
 	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn_b, &(daemon_opts){ .config_json = config_b,
-								      .instance = "gwB", .n_lines = 2,
-								      .notify = true, .drop_notify = true }));
+								      .instance = "gwB",
+								      .n_lines = 2,
+								      .notify = true,
+								      .drop_notify = true }));
 	snprintf(dev, sizeof dev, "%s/device.json", dmn_b.dir);
 	write_device(dev);
 	snprintf(dev_tgt, sizeof dev_tgt, "%s:%d", dev, TGT_NODE);
@@ -579,16 +608,23 @@ static void test_multi_hop_through_two_daemons(void)
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim_tgt, dmn_b.dir, 2, d2, slow_vm));
 
 	/* a request entering on vcan0 reaches node 5 on vcan2 through A and B */
-	r = routed(&(sdo_client_req){ .upload = true, .node_id = GW_NODE, .index = 0x1000,
-				      .buf = id, .cap = 4 });
+	r = routed(&(sdo_client_req){
+		.upload = true, .node_id = GW_NODE, .index = 0x1000, .buf = id, .cap = 4 });
 	TEST_ASSERT_EQUAL_HEX32(0, r->abort);
 	TEST_ASSERT_EQUAL_HEX32(0x00040194, co_get_le32(id));
 	fill(in, 4000, 3);
-	r = routed(&(sdo_client_req){ .node_id = GW_NODE, .index = DOMAIN_IDX, .mode = SDO_MODE_BLOCK,
-				      .data = in, .size = 4000 });
+	r = routed(&(sdo_client_req){ .node_id = GW_NODE,
+				      .index = DOMAIN_IDX,
+				      .mode = SDO_MODE_BLOCK,
+				      .data = in,
+				      .size = 4000 });
 	TEST_ASSERT_EQUAL_HEX32(0, r->abort);
-	r = routed(&(sdo_client_req){ .upload = true, .node_id = GW_NODE, .index = DOMAIN_IDX,
-				      .mode = SDO_MODE_SEGMENTED, .buf = out, .cap = 4000 });
+	r = routed(&(sdo_client_req){ .upload = true,
+				      .node_id = GW_NODE,
+				      .index = DOMAIN_IDX,
+				      .mode = SDO_MODE_SEGMENTED,
+				      .buf = out,
+				      .cap = 4000 });
 	TEST_ASSERT_EQUAL_HEX32(0, r->abort);
 	TEST_ASSERT_EQUAL_UINT32(4000, r->size);
 	TEST_ASSERT_EQUAL_MEMORY(in, out, 4000);
@@ -603,8 +639,9 @@ static void test_multi_hop_through_two_daemons(void)
 	TEST_ASSERT_EQUAL_INT(0, cogw_sdo_read_net(h, 0, 3, TGT_NODE, 0x1000, 0, NULL, buf,
 						   sizeof buf, &len, 30000, &abort));
 	TEST_ASSERT_EQUAL_HEX32(0x00040194, co_get_le32(buf));
-	TEST_ASSERT_EQUAL_INT(COGW_E_ABORT, cogw_sdo_read_net(h, 0, 9, TGT_NODE, 0x1000, 0, NULL,
-							      buf, sizeof buf, &len, 30000, &abort));
+	TEST_ASSERT_EQUAL_INT(COGW_E_ABORT,
+			      cogw_sdo_read_net(h, 0, 9, TGT_NODE, 0x1000, 0, NULL, buf, sizeof buf,
+						&len, 30000, &abort));
 	TEST_ASSERT_EQUAL_HEX32(GW_AB_NET_UNKNOWN, abort);
 	cogw_close(h);
 }
@@ -626,16 +663,26 @@ static void test_routes_written_and_saved_survive_a_restart(void)
 	/* over SDO on vcan0: network 20 behind router 33 on line 2 */
 	co_put_le32(v, 0x2103);
 	req_done = false;
-	TEST_ASSERT_EQUAL_INT(0, sdo_client_submit(req, 0, &(sdo_client_req){
-		.node_id = GW_NODE, .index = 0x1F2C, .sub = 20, .data = v, .size = 4 }, now_us()));
+	TEST_ASSERT_EQUAL_INT(0, sdo_client_submit(req, 0,
+						   &(sdo_client_req){ .node_id = GW_NODE,
+								      .index = 0x1F2C,
+								      .sub = 20,
+								      .data = v,
+								      .size = 4 },
+						   now_us()));
 	req_run(10000);
 	TEST_ASSERT_TRUE(req_done);
 	TEST_ASSERT_EQUAL_HEX32(0, req_result.abort);
 	/* a line that does not exist is refused */
 	co_put_le32(v, 0x0004);
 	req_done = false;
-	TEST_ASSERT_EQUAL_INT(0, sdo_client_submit(req, 0, &(sdo_client_req){
-		.node_id = GW_NODE, .index = 0x1F2C, .sub = 21, .data = v, .size = 4 }, now_us()));
+	TEST_ASSERT_EQUAL_INT(0, sdo_client_submit(req, 0,
+						   &(sdo_client_req){ .node_id = GW_NODE,
+								      .index = 0x1F2C,
+								      .sub = 21,
+								      .data = v,
+								      .size = 4 },
+						   now_us()));
 	req_run(10000);
 	TEST_ASSERT_EQUAL_HEX32(SDO_AB_VALUE, req_result.abort);
 	/* over the mailbox: node 5's EMCYs to network 3 */
@@ -645,17 +692,21 @@ static void test_routes_written_and_saved_survive_a_restart(void)
 	TEST_ASSERT_EQUAL_INT(0, cogw_gw_routes(h, 0, &st, routes, 128, &n, 30000));
 	bool found = false;
 	for (size_t i = 0; i < n; i++)
-		found = found || (routes[i].net == 20 && routes[i].kind == 2 && routes[i].router == 33);
+		found = found ||
+			(routes[i].net == 20 && routes[i].kind == 2 && routes[i].router == 33);
 	TEST_ASSERT_TRUE_MESSAGE(found, "the new route is not in the compiled table");
 	/* save (1010h:1), restart on the same state directory */
 	TEST_ASSERT_EQUAL_INT(0, cogw_store(h, 0, 1, 30000));
 	cogw_close(h);
 	h = NULL;
 	daemon_stop(&dmn, 10000);
-	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn_b, &(daemon_opts){ .config_json = config_json,
-								      .instance = INSTANCE, .n_lines = 3,
-								      .notify = true, .drop_notify = true,
-								      .state_dir = dmn.state_dir }));
+	TEST_ASSERT_EQUAL_INT(0,
+			      daemon_start(&dmn_b, &(daemon_opts){ .config_json = config_json,
+								   .instance = INSTANCE,
+								   .n_lines = 3,
+								   .notify = true,
+								   .drop_notify = true,
+								   .state_dir = dmn.state_dir }));
 	TEST_ASSERT_EQUAL_INT(0, cogw_open_opts(&h, &o));
 	TEST_ASSERT_EQUAL_INT(0, cogw_od_read(h, 0, 0x1F2C, 20, b, sizeof b, &len, 30000, &abort));
 	TEST_ASSERT_EQUAL_HEX32(0x2103, co_get_le32(b));

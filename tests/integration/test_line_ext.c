@@ -148,14 +148,17 @@ void setUp(void)
 
 	can_port_config wc = { .ifname = "vcan0", .bitrate = 1000000, .tx_queue_len = 16 };
 	const char *why = NULL;
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, can_port_open(&watch, &wc, &why), why ? why : "watch port");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, can_port_open(&watch, &wc, &why),
+				      why ? why : "watch port");
 
 	line_params p = {
 		.index = 0,
 		.name = "ext0",
 		.can = { .ifname = "vcan0", .bitrate = 1000000 },
 		.node = { .node_id = 0x7F, .od = od },
-		.mbx = { .queue_name = qname, .unlink_existing = true, .default_access = MBX_ACCESS_WRITE },
+		.mbx = { .queue_name = qname,
+			 .unlink_existing = true,
+			 .default_access = MBX_ACCESS_WRITE },
 		.rt_cpu = -1,
 		.main_wakefd = -1,
 		.ext = { { .ops = &test_ops, .ctx = &ext, .wake_fd = wakefd } },

@@ -50,10 +50,14 @@ void setUp(void)
 		.index = 0,
 		.name = "sdo0",
 		.can = { .ifname = "vcan0", .bitrate = 1000000 },
-		.node = { .node_id = 0x7F, .od = od, .sdo_client_count = 2,
+		.node = { .node_id = 0x7F,
+			  .od = od,
+			  .sdo_client_count = 2,
 			  .sdo_client_timeout_ms = CLIENT_TIMEOUT_MS,
 			  .sdo_server_timeout_ms = SERVER_TIMEOUT_MS },
-		.mbx = { .queue_name = qname, .unlink_existing = true, .default_access = MBX_ACCESS_WRITE },
+		.mbx = { .queue_name = qname,
+			 .unlink_existing = true,
+			 .default_access = MBX_ACCESS_WRITE },
 		.rt_cpu = -1,
 		.main_wakefd = -1,
 	};
@@ -204,8 +208,10 @@ static void test_client_gone_cancels_exactly_its_transfer(void)
 	mbx_sdo_req slow = { .node = 5, .index = 0x1000, .timeout_ms = 4000 };
 	mbx_sdo_req other = { .node = 6, .index = 0x1000, .timeout_ms = 4000 };
 	uint64_t ca = 0, cb = 0;
-	TEST_ASSERT_EQUAL_INT(0, cogw_send_async(a, 0, MBX_CMD_SDO_UPLOAD, &slow, sizeof slow, &ca));
-	TEST_ASSERT_EQUAL_INT(0, cogw_send_async(b, 0, MBX_CMD_SDO_UPLOAD, &other, sizeof other, &cb));
+	TEST_ASSERT_EQUAL_INT(0,
+			      cogw_send_async(a, 0, MBX_CMD_SDO_UPLOAD, &slow, sizeof slow, &ca));
+	TEST_ASSERT_EQUAL_INT(0,
+			      cogw_send_async(b, 0, MBX_CMD_SDO_UPLOAD, &other, sizeof other, &cb));
 	co_frame f;
 	uint8_t n1 = next_request(&f, 5000), n2 = next_request(&f, 5000);
 	TEST_ASSERT_EQUAL_UINT(5 + 6, n1 + n2);

@@ -121,7 +121,8 @@ static void test_malformed_frames_are_refused(void)
 static void limit_rate(const char *ifname, const char *rate)
 {
 	char cmd[160];
-	snprintf(cmd, sizeof cmd, "tc qdisc replace dev %s root tbf rate %s burst 1600 latency 900ms", ifname, rate);
+	snprintf(cmd, sizeof cmd,
+		 "tc qdisc replace dev %s root tbf rate %s burst 1600 latency 900ms", ifname, rate);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, system(cmd), "tc tbf on a vcan line failed");
 }
 
@@ -151,7 +152,8 @@ static void test_transmit_back_pressure_drains_in_order(void)
 			refused++;
 	}
 	TEST_ASSERT_EQUAL_INT(0, refused);
-	TEST_ASSERT_TRUE_MESSAGE(can_port_tx_queued(src) > 0, "kernel took the whole burst; no back-pressure seen");
+	TEST_ASSERT_TRUE_MESSAGE(can_port_tx_queued(src) > 0,
+				 "kernel took the whole burst; no back-pressure seen");
 	TEST_ASSERT_EQUAL_INT(1, can_port_take_watermark_event(src));
 
 	int received = 0, wakeups = 0;
@@ -159,7 +161,8 @@ static void test_transmit_back_pressure_drains_in_order(void)
 	can_rx_item items[32];
 	while (received < total && now_us() < deadline) {
 		struct pollfd pfd[2] = { { .fd = can_port_fd(sink), .events = POLLIN },
-					 { .fd = can_port_fd(src), .events = can_port_wants_writable(src) ? POLLOUT : 0 } };
+					 { .fd = can_port_fd(src),
+					   .events = can_port_wants_writable(src) ? POLLOUT : 0 } };
 		uint64_t retry = can_port_retry_at_us(src);
 		int timeout = 100;
 		if (retry != UINT64_MAX)
@@ -210,7 +213,8 @@ static void test_receive_overflow_is_counted(void)
 {
 	int raw = socket(PF_CAN, SOCK_RAW, CAN_RAW);
 	TEST_ASSERT_TRUE(raw >= 0);
-	struct sockaddr_can addr = { .can_family = AF_CAN, .can_ifindex = (int)if_nametoindex("vcan2") };
+	struct sockaddr_can addr = { .can_family = AF_CAN,
+				     .can_ifindex = (int)if_nametoindex("vcan2") };
 	TEST_ASSERT_EQUAL_INT(0, bind(raw, (struct sockaddr *)&addr, sizeof addr));
 
 	can_port_config cfg = { .ifname = "vcan2", .bitrate = 500000, .rcvbuf_bytes = 1 };
@@ -233,7 +237,8 @@ static void test_receive_overflow_is_counted(void)
 	TEST_ASSERT_EQUAL_INT(1, wait_readable(slow, 1000));
 	while (can_port_recv(slow, items, 32, 0) > 0)
 		;
-	TEST_ASSERT_TRUE_MESSAGE(can_port_get_stats(slow)->rx_overflow_drops > 0, "no overflow counted");
+	TEST_ASSERT_TRUE_MESSAGE(can_port_get_stats(slow)->rx_overflow_drops > 0,
+				 "no overflow counted");
 	can_port_close(slow);
 	close(raw);
 }

@@ -29,16 +29,16 @@
 #include "tests/integration/support/proc.h"
 #include "unity.h"
 
-#define CONFIG                                                                              \
-	"{\"version\": 1, \"mailbox\": {\"instance\": \"mgrt\"}, \"lines\": ["                     \
+#define CONFIG                                                                                  \
+	"{\"version\": 1, \"mailbox\": {\"instance\": \"mgrt\"}, \"lines\": ["                  \
 	"{\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127, "                   \
-	" \"manager\": {\"boot_time_ms\": 20000, \"retry_ms\": 500}, \"nodes\": ["                \
-	"  {\"id\": 1, \"mandatory\": true, \"heartbeat_ms\": 1500, \"vendor_id\": \"0x250\", "    \
-	"   \"device_type\": \"0x00040194\", \"serial\": 123456},"                               \
-	"  {\"id\": 2, \"heartbeat_ms\": 800, \"vendor_id\": \"0x9999\"}]},"                     \
+	" \"manager\": {\"boot_time_ms\": 20000, \"retry_ms\": 500}, \"nodes\": ["              \
+	"  {\"id\": 1, \"mandatory\": true, \"heartbeat_ms\": 1500, \"vendor_id\": \"0x250\", " \
+	"   \"device_type\": \"0x00040194\", \"serial\": 123456},"                              \
+	"  {\"id\": 2, \"heartbeat_ms\": 800, \"vendor_id\": \"0x9999\"}]},"                    \
 	"{\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127, "                   \
-	" \"manager\": {\"retry_ms\": 500}, \"nodes\": ["                                        \
-	"  {\"id\": 2, \"mandatory\": true, \"heartbeat_ms\": 800, \"vendor_id\": \"0x1234\", "    \
+	" \"manager\": {\"retry_ms\": 500}, \"nodes\": ["                                       \
+	"  {\"id\": 2, \"mandatory\": true, \"heartbeat_ms\": 800, \"vendor_id\": \"0x1234\", " \
 	"   \"product_code\": \"0x401\"}]}]}"
 
 static daemon_run dmn;
@@ -99,10 +99,11 @@ static void test_two_lines_boot_identity_request_own_id(void)
 	bool booted1 = false, failed_d = false;
 
 	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = CONFIG,
-								     .instance = "mgrt",
-								     .n_lines = 2 }));
+								    .instance = "mgrt",
+								    .n_lines = 2 }));
 	TEST_ASSERT_EQUAL_INT(0, cogw_open(&h, "mgrt"));
-	TEST_ASSERT_EQUAL_INT(0, cogw_subscribe(h, 0, MBX_EVC_BOOT | MBX_EVC_MANAGER, NULL, 0, 3000));
+	TEST_ASSERT_EQUAL_INT(0,
+			      cogw_subscribe(h, 0, MBX_EVC_BOOT | MBX_EVC_MANAGER, NULL, 0, 3000));
 	/* the devices are switched on after the daemon: late nodes */
 	const char *dev0[] = { "etc/devices/sti-pressure.json:1", "etc/devices/io-generic.json:2",
 			       NULL };
@@ -168,15 +169,23 @@ static void test_two_lines_boot_identity_request_own_id(void)
 	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, st.state);
 }
 
-#define NODE(id, extra) "{\"id\": " #id ", \"heartbeat_ms\": 1500, \"vendor_id\": \"0x1234\"" extra "}"
-#define CONFIG10                                                                            \
-	"{\"version\": 1, \"mailbox\": {\"instance\": \"mgrt\"}, \"lines\": ["                     \
-	"{\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127, \"sdo_clients\": 4, " \
-	" \"manager\": {\"boot_time_ms\": 3000, \"retry_ms\": 500, "                             \
-	"   \"on_mandatory_error\": \"stop_all\"}, \"nodes\": ["                                  \
-	NODE(1, ", \"mandatory\": true") "," NODE(2, "") "," NODE(3, "") "," NODE(4, "") ","     \
-	NODE(5, "") "," NODE(6, "") "," NODE(7, "") "," NODE(8, "") "," NODE(9, "") ","           \
-	NODE(10, "") "," NODE(11, ", \"mandatory\": true") "]}]}"
+#define NODE(id, extra) \
+	"{\"id\": " #id ", \"heartbeat_ms\": 1500, \"vendor_id\": \"0x1234\"" extra "}"
+#define CONFIG10                                                                                                            \
+	"{\"version\": 1, \"mailbox\": {\"instance\": \"mgrt\"}, \"lines\": ["                                              \
+	"{\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127, \"sdo_clients\": 4, "                           \
+	" \"manager\": {\"boot_time_ms\": 3000, \"retry_ms\": 500, "                                                        \
+	"   \"on_mandatory_error\": \"stop_all\"}, \"nodes\": [" NODE(1, ", \"mandatory\": true") "," NODE(2, "") "," NODE( \
+		3,                                                                                                          \
+		"") "," NODE(4,                                                                                             \
+			     "") "," NODE(5,                                                                                \
+					  "") "," NODE(6,                                                                   \
+						       "") "," NODE(7,                                                      \
+								    "") "," NODE(8,                                         \
+										 "") "," NODE(9,                            \
+											      "") "," NODE(10,              \
+													   "") "," NODE(11, \
+															", \"mandatory\": true") "]}]}"
 
 static unsigned count_bits(const mbx_mgr_bits *b)
 {
@@ -192,15 +201,16 @@ static void test_ten_devices_missing_mandatory_request_over_sdo_stop_all(void)
 	mbx_mgr_node_diag d;
 
 	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = CONFIG10,
-								     .instance = "mgrt",
-								     .n_lines = 1 }));
+								    .instance = "mgrt",
+								    .n_lines = 1 }));
 	TEST_ASSERT_EQUAL_INT(0, cogw_open(&h, "mgrt"));
 	const char *a[] = { "etc/devices/io-generic.json:1", NULL };
 	const char *b[] = { "etc/devices/io-generic.json:2", "etc/devices/io-generic.json:3",
 			    "etc/devices/io-generic.json:4", "etc/devices/io-generic.json:5",
 			    "etc/devices/io-generic.json:6", NULL };
 	const char *c[] = { "etc/devices/io-generic.json:7", "etc/devices/io-generic.json:8",
-			    "etc/devices/io-generic.json:9", "etc/devices/io-generic.json:10", NULL };
+			    "etc/devices/io-generic.json:9", "etc/devices/io-generic.json:10",
+			    NULL };
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&simA, dmn.dir, 0, a, NULL));
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&simB, dmn.dir, 0, b, NULL));
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&simC, dmn.dir, 0, c, NULL));

@@ -88,31 +88,27 @@ static void fake_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 			/* never answered: a request "in flight", parked in a
 			 * bounded table like the line's pending requests */
 			if (f->held >= HELD_MAX)
-				mbx_server_respond(srv, &req->reply, MBX_E_BUSY, 0,
-						   NULL, 0);
+				mbx_server_respond(srv, &req->reply, MBX_E_BUSY, 0, NULL, 0);
 			else
 				f->held++;
 			return;
 		}
 		if (o.index == 0x2001) { /* a chunked answer */
-			mbx_server_respond(srv, &req->reply, 0, 0, f->big,
-					   sizeof f->big);
+			mbx_server_respond(srv, &req->reply, 0, 0, f->big, sizeof f->big);
 			return;
 		}
 		mbx_server_respond(srv, &req->reply, 0, 0, v, sizeof v);
 		return;
 	case MBX_CMD_OD_WRITE:
 		if (f->held >= HELD_MAX) { /* needs a table entry too */
-			mbx_server_respond(srv, &req->reply, MBX_E_BUSY, 0, NULL,
-					   0);
+			mbx_server_respond(srv, &req->reply, MBX_E_BUSY, 0, NULL, 0);
 			return;
 		}
 		f->writes_ok++;
 		mbx_server_respond(srv, &req->reply, 0, 0, NULL, 0);
 		return;
 	default:
-		mbx_server_respond(srv, &req->reply, MBX_E_UNSUPPORTED, 0, NULL,
-				   0);
+		mbx_server_respond(srv, &req->reply, MBX_E_UNSUPPORTED, 0, NULL, 0);
 	}
 }
 
@@ -122,8 +118,7 @@ static void *loop_main(void *arg)
 
 	f->running = true;
 	while (!f->stop) {
-		struct pollfd pf = { .fd = mbx_server_fd(f->srv),
-				     .events = POLLIN };
+		struct pollfd pf = { .fd = mbx_server_fd(f->srv), .events = POLLIN };
 
 		poll(&pf, 1, 2);
 		pthread_mutex_lock(&f->mu);
@@ -205,8 +200,7 @@ void setUp(void)
 	if (geteuid() != 0)
 		TEST_IGNORE_MESSAGE("needs root (attacks run as uid 65534)");
 	snprintf(instance, sizeof instance, "s%d", (int)getpid());
-	TEST_ASSERT_EQUAL_INT(0, mbx_queue_name(qname, sizeof qname, instance,
-						 LINE));
+	TEST_ASSERT_EQUAL_INT(0, mbx_queue_name(qname, sizeof qname, instance, LINE));
 	fl.srv = NULL;
 }
 
@@ -220,13 +214,13 @@ void tearDown(void)
 
 /* Children report failures as the line number in the exit code (0 = ok):
  * Unity's assertions must not run in a forked child. */
-#define CHECK(c)                                                              \
-	do {                                                                   \
-		if (!(c)) {                                                    \
-			fprintf(stderr, "child %d: %s:%d: %s\n", (int)getpid(), \
-				__FILE__, __LINE__, #c);                       \
-			return __LINE__ % 250 + 1;                             \
-		}                                                              \
+#define CHECK(c)                                                                          \
+	do {                                                                              \
+		if (!(c)) {                                                               \
+			fprintf(stderr, "child %d: %s:%d: %s\n", (int)getpid(), __FILE__, \
+				__LINE__, #c);                                            \
+			return __LINE__ % 250 + 1;                                        \
+		}                                                                         \
 	} while (0)
 
 typedef int (*child_fn)(void *arg);
@@ -332,8 +326,7 @@ static int child_victim(void *arg)
 	child_ready(s);
 	child_wait_go(s);
 	/* after the attack: the very same registration still works */
-	CHECK(cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, 3000,
-			   &abort) == 0);
+	CHECK(cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, 3000, &abort) == 0);
 	CHECK(len == 4 && v[0] == 1);
 	cogw_close(h);
 	return 0;
@@ -364,9 +357,11 @@ static int child_register_as_nobody(void *arg)
 	memcpy(r.resp_queue, a->resp, sizeof r.resp_queue);
 	memcpy(r.event_queue, a->evt, sizeof r.event_queue);
 	for (unsigned i = 0; i < a->times; i++) {
-		mbx_hdr h = { .magic = MBX_MAGIC, .version = MBX_VERSION,
+		mbx_hdr h = { .magic = MBX_MAGIC,
+			      .version = MBX_VERSION,
 			      .kind = MBX_KIND_COMMAND,
-			      .code = MBX_CMD_REGISTER, .line = LINE,
+			      .code = MBX_CMD_REGISTER,
+			      .line = LINE,
 			      .corr = 4242 + i };
 		int n;
 
@@ -439,8 +434,7 @@ static void test_register_cannot_replace_a_live_client(void)
 					 "the victim's entry was replaced");
 	TEST_ASSERT_TRUE(ci.confirmed);
 	parent_go(&s);
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(victim),
-				      "the victim lost its registration");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(victim), "the victim lost its registration");
 	sync_close(&s);
 }
 
@@ -575,7 +569,7 @@ static void test_command_queue_is_write_only_for_clients(void)
 	mbx_server_config cfg = base_cfg();
 	struct stat st;
 
-	cfg.queue_mode = 0; /* the default */
+	cfg.queue_mode = 0;     /* the default */
 	cfg.queue_chown = true; /* the clients' group: nobody's */
 	cfg.queue_uid = 0;
 	cfg.queue_gid = NOBODY;
@@ -593,8 +587,7 @@ static void test_readable_command_queue_modes_are_refused(void)
 
 	for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
 		cfg.queue_mode = bad[i];
-		TEST_ASSERT_EQUAL_INT_MESSAGE(-EINVAL,
-					      mbx_server_create(&srv, &cfg),
+		TEST_ASSERT_EQUAL_INT_MESSAGE(-EINVAL, mbx_server_create(&srv, &cfg),
 					      "a readable command queue");
 		TEST_ASSERT_NULL(srv);
 		TEST_ASSERT_EQUAL_UINT64(0, queue_ino(qname));
@@ -623,19 +616,16 @@ static int child_caller(void *arg)
 	child_ready(s);
 	t0 = now_us();
 	/* in flight while the daemon goes away and comes back */
-	int rc = cogw_od_read(h, LINE, 0x2002, 0, v, sizeof v, &len, CALL_MS,
-			      &abort);
+	int rc = cogw_od_read(h, LINE, 0x2002, 0, v, sizeof v, &len, CALL_MS, &abort);
 	if (rc != COGW_E_RESTARTED)
 		fprintf(stderr, "in flight: %s\n", cogw_strerror(rc));
 	CHECK(rc == COGW_E_RESTARTED);
 	CHECK(now_us() - t0 < 5000000u); /* found out well before the timeout */
 	CHECK(cogw_recv(h, &m, CALL_MS) == 0);
-	CHECK(m.kind == MBX_KIND_RESPONSE && m.corr == corr &&
-	      m.status == COGW_E_RESTARTED);
+	CHECK(m.kind == MBX_KIND_RESPONSE && m.corr == corr && m.status == COGW_E_RESTARTED);
 	cogw_msg_release(&m);
 	/* then normal service, on a new registration */
-	CHECK(cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, CALL_MS,
-			   &abort) == 0);
+	CHECK(cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, CALL_MS, &abort) == 0);
 	CHECK(len == 4 && v[0] == 1);
 	CHECK(cogw_od_write(h, LINE, 0x2001, 0, v, 4, CALL_MS, &abort) == 0);
 	cogw_close(h);
@@ -704,8 +694,7 @@ static void test_clients_survive_a_daemon_restart(void)
 	}
 	TEST_ASSERT_TRUE_MESSAGE(WIFEXITED(st) && WEXITSTATUS(st) == 0,
 				 "the logger got no event after the restart");
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(caller),
-				      "the caller did not recover");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(caller), "the caller did not recover");
 	TEST_ASSERT_EQUAL_UINT(1, fl.writes_ok);
 	sync_close(&a);
 	sync_close(&b);
@@ -721,13 +710,18 @@ typedef struct rawc {
 	uint64_t token;
 } rawc;
 
-static int rawc_send(rawc *r, uint16_t code, uint8_t flags, uint64_t corr,
-		     const void *p, size_t len)
+static int rawc_send(rawc *r, uint16_t code, uint8_t flags, uint64_t corr, const void *p,
+		     size_t len)
 {
 	uint8_t buf[1024];
-	mbx_hdr h = { .magic = MBX_MAGIC, .version = MBX_VERSION,
-		      .kind = MBX_KIND_COMMAND, .code = code, .line = LINE,
-		      .flags = flags, .client = r->id, .token = r->token,
+	mbx_hdr h = { .magic = MBX_MAGIC,
+		      .version = MBX_VERSION,
+		      .kind = MBX_KIND_COMMAND,
+		      .code = code,
+		      .line = LINE,
+		      .flags = flags,
+		      .client = r->id,
+		      .token = r->token,
 		      .corr = corr };
 	int n = mbx_msg_build(buf, sizeof buf, &h, p, len);
 
@@ -828,8 +822,7 @@ static int child_greedy_reader(void *arg)
 	CHECK(ok >= 1);
 	/* an SDO request that would hold a channel for ever (asked first: its
 	 * answer must find room in the small response queue) */
-	mbx_sdo_req sdo = { .node = 5, .index = 0x1018, .sub = 1,
-			    .timeout_ms = 0xFFFFFFFFu };
+	mbx_sdo_req sdo = { .node = 5, .index = 0x1018, .sub = 1, .timeout_ms = 0xFFFFFFFFu };
 	int got_param = 0;
 
 	CHECK(rawc_send(&r[0], MBX_CMD_SDO_UPLOAD, 0, 300, &sdo, sizeof sdo) == 0);
@@ -841,15 +834,14 @@ static int child_greedy_reader(void *arg)
 	mbx_obj_req hold = { .index = 0x2002 };
 
 	for (unsigned i = 0; i < 20; i++)
-		CHECK(rawc_send(&r[0], MBX_CMD_OD_READ, MBX_F_NO_REPLY, 100 + i,
-				&hold, sizeof hold) == 0);
+		CHECK(rawc_send(&r[0], MBX_CMD_OD_READ, MBX_F_NO_REPLY, 100 + i, &hold,
+				sizeof hold) == 0);
 	/* big answers it never acknowledges, from every client it has */
 	mbx_obj_req big = { .index = 0x2001 };
 
 	for (unsigned i = 0; i < ok; i++)
 		for (unsigned k = 0; k < 2; k++)
-			CHECK(rawc_send(&r[i], MBX_CMD_OD_READ, 0, 200 + k, &big,
-					sizeof big) == 0);
+			CHECK(rawc_send(&r[i], MBX_CMD_OD_READ, 0, 200 + k, &big, sizeof big) == 0);
 	child_ready(s);
 	child_wait_go(s);
 	for (unsigned i = 0; i < ok; i++)

@@ -88,11 +88,9 @@ static void fake_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 
 			mbx_server_respond(srv, &req->reply, 0, 0, v, 4);
 		} else if (o.index == 0x2001) {
-			mbx_server_respond(srv, &req->reply, 0, 0, f->big,
-					   f->big_len);
+			mbx_server_respond(srv, &req->reply, 0, 0, f->big, f->big_len);
 		} else {
-			mbx_server_respond(srv, &req->reply, MBX_E_ABORT,
-					   0x06020000, NULL, 0);
+			mbx_server_respond(srv, &req->reply, MBX_E_ABORT, 0x06020000, NULL, 0);
 		}
 		return;
 	case MBX_CMD_OD_WRITE:
@@ -103,8 +101,7 @@ static void fake_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 			f->writes_ok++;
 			mbx_server_respond(srv, &req->reply, 0, 0, NULL, 0);
 		} else {
-			mbx_server_respond(srv, &req->reply, MBX_E_ABORT,
-					   0x06070012, NULL, 0);
+			mbx_server_respond(srv, &req->reply, MBX_E_ABORT, 0x06070012, NULL, 0);
 		}
 		return;
 	case MBX_CMD_SDO_UPLOAD:
@@ -117,8 +114,10 @@ static void fake_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 			if (p->used)
 				continue;
 			f->rng = f->rng * 6364136223846793005ull + 1;
-			*p = (pending){ .used = true, .to = req->reply,
-					.node = s.node, .index = s.index,
+			*p = (pending){ .used = true,
+					.to = req->reply,
+					.node = s.node,
+					.index = s.index,
 					.sub = s.sub,
 					.due_us = now_us() + (f->rng >> 33) % 20000 };
 			return;
@@ -129,8 +128,7 @@ static void fake_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 		mbx_server_respond(srv, &req->reply, 0, 0, NULL, 0);
 		return;
 	default:
-		mbx_server_respond(srv, &req->reply, MBX_E_UNSUPPORTED, 0, NULL,
-				   0);
+		mbx_server_respond(srv, &req->reply, MBX_E_UNSUPPORTED, 0, NULL, 0);
 	}
 }
 
@@ -150,18 +148,15 @@ static void run_pending(fake_line *f, uint64_t now)
 			continue;
 		p->used = false;
 		if (p->node == 99) {
-			mbx_server_respond(f->srv, &p->to, MBX_E_ABORT,
-					   0x06020000, NULL, 0);
+			mbx_server_respond(f->srv, &p->to, MBX_E_ABORT, 0x06020000, NULL, 0);
 			continue;
 		}
-		uint8_t d[4] = { p->node, (uint8_t)p->index,
-				 (uint8_t)(p->index >> 8), p->sub };
-		mbx_ev_sdo_done ev = { .size = 4, .index = p->index,
-				       .sub = p->sub, .node = p->node,
-				       .upload = 1 };
+		uint8_t d[4] = { p->node, (uint8_t)p->index, (uint8_t)(p->index >> 8), p->sub };
+		mbx_ev_sdo_done ev = {
+			.size = 4, .index = p->index, .sub = p->sub, .node = p->node, .upload = 1
+		};
 
-		mbx_server_notify(f->srv, &p->to, MBX_EV_SDO_DONE, &ev,
-				  sizeof ev);
+		mbx_server_notify(f->srv, &p->to, MBX_EV_SDO_DONE, &ev, sizeof ev);
 		mbx_server_respond(f->srv, &p->to, 0, 0, d, 4);
 	}
 }
@@ -172,8 +167,7 @@ static void *loop_main(void *arg)
 
 	f->running = true;
 	while (!f->stop) {
-		struct pollfd pf = { .fd = mbx_server_fd(f->srv),
-				     .events = POLLIN };
+		struct pollfd pf = { .fd = mbx_server_fd(f->srv), .events = POLLIN };
 
 		poll(&pf, 1, 2);
 		pthread_mutex_lock(&f->mu);
@@ -201,8 +195,7 @@ static mbx_server_config base_cfg(void)
 		.max_transfer = 256 * 1024,
 		.default_access = MBX_ACCESS_WRITE,
 		.unlink_existing = true,
-		.dispatch = { .dispatch = fake_dispatch,
-			      .client_gone = fake_gone },
+		.dispatch = { .dispatch = fake_dispatch, .client_gone = fake_gone },
 		.dispatch_ctx = &fl,
 	};
 }
@@ -249,17 +242,16 @@ static mbx_server_stats stats(void)
 }
 
 /* Wait until cond(stats) holds or ms pass. */
-#define WAIT_FOR(expr, ms)                                                    \
-	do {                                                                   \
-		for (unsigned w_ = 0; w_ < (ms) / 5 && !(expr); w_++)          \
-			sleep_ms(5);                                           \
+#define WAIT_FOR(expr, ms)                                            \
+	do {                                                          \
+		for (unsigned w_ = 0; w_ < (ms) / 5 && !(expr); w_++) \
+			sleep_ms(5);                                  \
 	} while (0)
 
 void setUp(void)
 {
 	snprintf(instance, sizeof instance, "t%d", (int)getpid());
-	TEST_ASSERT_EQUAL_INT(0, mbx_queue_name(qname, sizeof qname, instance,
-						 LINE));
+	TEST_ASSERT_EQUAL_INT(0, mbx_queue_name(qname, sizeof qname, instance, LINE));
 	fl.srv = NULL;
 }
 
@@ -273,13 +265,13 @@ void tearDown(void)
 
 /* Children report failures as the line number in the exit code (0 = ok):
  * Unity's assertions must not run in a forked child. */
-#define CHECK(c)                                                              \
-	do {                                                                   \
-		if (!(c)) {                                                    \
-			fprintf(stderr, "child %d: %s:%d: %s\n", (int)getpid(), \
-				__FILE__, __LINE__, #c);                       \
-			return __LINE__ % 250 + 1;                             \
-		}                                                              \
+#define CHECK(c)                                                                          \
+	do {                                                                              \
+		if (!(c)) {                                                               \
+			fprintf(stderr, "child %d: %s:%d: %s\n", (int)getpid(), __FILE__, \
+				__LINE__, #c);                                            \
+			return __LINE__ % 250 + 1;                                        \
+		}                                                                         \
 	} while (0)
 
 typedef int (*child_fn)(void *arg);
@@ -388,8 +380,7 @@ static int child_basic(void *arg)
 	CHECK(cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, CALL_MS, &abort) == 0);
 	CHECK(len == 4 && v[0] == 0x78 && v[3] == 0x12);
 	/* local OD refusal: abort code surfaces */
-	CHECK(cogw_od_read(h, LINE, 0x3000, 0, v, sizeof v, &len, CALL_MS, &abort) ==
-	      COGW_E_ABORT);
+	CHECK(cogw_od_read(h, LINE, 0x3000, 0, v, sizeof v, &len, CALL_MS, &abort) == COGW_E_ABORT);
 	CHECK(abort == 0x06020000);
 	/* asynchronous: correlation ids echoed */
 	CHECK(cogw_send_async(h, LINE, MBX_CMD_OD_READ, &o, sizeof o, &c1) == 0);
@@ -408,8 +399,8 @@ static int child_basic(void *arg)
 	CHECK(cogw_emcy_send(h, LINE, 0x1000, 1, NULL, CALL_MS) == COGW_E_UNSUPPORTED);
 	/* NMT, and an SDO read with its abort code */
 	CHECK(cogw_nmt(h, LINE, 0x01, 0, CALL_MS) == 0);
-	CHECK(cogw_sdo_read(h, LINE, 99, 0x1018, 1, v, sizeof v, &len, CALL_MS,
-			    &abort) == COGW_E_ABORT);
+	CHECK(cogw_sdo_read(h, LINE, 99, 0x1018, 1, v, sizeof v, &len, CALL_MS, &abort) ==
+	      COGW_E_ABORT);
 	CHECK(abort == 0x06020000);
 	uint32_t u32;
 
@@ -417,8 +408,7 @@ static int child_basic(void *arg)
 	CHECK(u32 == (5u | 0x18u << 8 | 0x10u << 16 | 2u << 24));
 	uint16_t u16; /* 4 bytes come back: type/length mismatch */
 
-	CHECK(cogw_sdo_read_u16(h, LINE, 5, 0x1018, 2, &u16, CALL_MS, &abort) ==
-	      COGW_E_ABORT);
+	CHECK(cogw_sdo_read_u16(h, LINE, 5, 0x1018, 2, &u16, CALL_MS, &abort) == COGW_E_ABORT);
 	CHECK(abort == 0x06070010);
 	/* a line without a daemon */
 	CHECK(cogw_ping(h, 7, 500) == COGW_E_NO_DAEMON);
@@ -460,20 +450,17 @@ static int child_big(void *arg)
 		out[i] = (uint8_t)(i * 13 + 1);
 	CHECK(cogw_open(&h, instance) == 0);
 	CHECK(cogw_od_write(h, LINE, 0x2001, 0, out, BIG, 5000, &abort) == 0);
-	CHECK(cogw_od_read(h, LINE, 0x2001, 0, in, sizeof in, &len, 5000,
-			   &abort) == 0);
+	CHECK(cogw_od_read(h, LINE, 0x2001, 0, in, sizeof in, &len, 5000, &abort) == 0);
 	CHECK(len == BIG);
 	CHECK(memcmp(in, out, BIG) == 0);
 	/* buffer too small: truncated, full size told */
-	CHECK(cogw_od_read(h, LINE, 0x2001, 0, in, 1000, &len, 5000, &abort) ==
-	      COGW_E_TRUNCATED);
+	CHECK(cogw_od_read(h, LINE, 0x2001, 0, in, 1000, &len, 5000, &abort) == COGW_E_TRUNCATED);
 	CHECK(len == BIG && memcmp(in, out, 1000) == 0);
 	/* larger than the line's max_transfer (256 KiB) */
 	uint8_t *huge = calloc(1, 300 * 1024);
 
 	CHECK(huge);
-	CHECK(cogw_od_write(h, LINE, 0x2001, 0, huge, 300 * 1024, 5000,
-			    &abort) == COGW_E_TOO_BIG);
+	CHECK(cogw_od_write(h, LINE, 0x2001, 0, huge, 300 * 1024, 5000, &abort) == COGW_E_TOO_BIG);
 	free(huge);
 	cogw_close(h);
 	return 0;
@@ -600,11 +587,10 @@ static void *sdo_thread(void *p)
 		uint16_t index = (uint16_t)(0x2000 + i);
 		uint8_t sub = (uint8_t)(a->node * 2 + (i & 1));
 
-		if (cogw_sdo_read(a->h, LINE, a->node, index, sub, d, sizeof d,
-				  &len, 5000, &abort) != 0 ||
-		    len != 4 || abort != 0 || d[0] != a->node ||
-		    d[1] != (uint8_t)index || d[2] != (uint8_t)(index >> 8) ||
-		    d[3] != sub)
+		if (cogw_sdo_read(a->h, LINE, a->node, index, sub, d, sizeof d, &len, 5000,
+				  &abort) != 0 ||
+		    len != 4 || abort != 0 || d[0] != a->node || d[1] != (uint8_t)index ||
+		    d[2] != (uint8_t)(index >> 8) || d[3] != sub)
 			a->fail = (int)i + 1;
 	}
 	return NULL;
@@ -866,8 +852,7 @@ static int child_as_user(void *arg)
 	CHECK(cogw_nmt(h, LINE, 0x81, 0, CALL_MS) == COGW_E_ACCESS);
 	uint8_t big[5000] = { 0 }; /* chunked write: refused, rest ignored */
 
-	CHECK(cogw_od_write(h, LINE, 0x2001, 0, big, sizeof big, CALL_MS, &abort) ==
-	      COGW_E_ACCESS);
+	CHECK(cogw_od_write(h, LINE, 0x2001, 0, big, sizeof big, CALL_MS, &abort) == COGW_E_ACCESS);
 	CHECK(cogw_ping(h, LINE, CALL_MS) == 0); /* still fine afterwards */
 	cogw_close(h);
 	return 0;
@@ -875,8 +860,7 @@ static int child_as_user(void *arg)
 
 static int child_open_queue(void *arg)
 {
-	cogw_options o = { .instance = instance, .queue_mode = 0644,
-			   .timeout_ms = 500 };
+	cogw_options o = { .instance = instance, .queue_mode = 0644, .timeout_ms = 500 };
 	cogw *h;
 
 	(void)arg;
@@ -922,8 +906,7 @@ typedef struct raw_client {
 	uint64_t token;
 } raw_client;
 
-static void raw_send(raw_client *rc, const mbx_hdr *h, const void *p,
-		     size_t len)
+static void raw_send(raw_client *rc, const mbx_hdr *h, const void *p, size_t len)
 {
 	uint8_t buf[1024];
 	int n = mbx_msg_build(buf, sizeof buf, h, p, len);
@@ -951,9 +934,14 @@ static int raw_recv(raw_client *rc, mbx_hdr *h, void *p, size_t cap)
 
 static mbx_hdr raw_hdr(raw_client *rc, uint16_t code, uint64_t corr)
 {
-	return (mbx_hdr){ .magic = MBX_MAGIC, .version = MBX_VERSION,
-			  .kind = MBX_KIND_COMMAND, .code = code, .line = LINE,
-			  .client = rc->id, .token = rc->token, .corr = corr };
+	return (mbx_hdr){ .magic = MBX_MAGIC,
+			  .version = MBX_VERSION,
+			  .kind = MBX_KIND_COMMAND,
+			  .code = code,
+			  .line = LINE,
+			  .client = rc->id,
+			  .token = rc->token,
+			  .corr = corr };
 }
 
 static void raw_open(raw_client *rc)
@@ -970,8 +958,7 @@ static void raw_open(raw_client *rc)
 	rc->resp = mq_open(rc->rname, O_CREAT | O_EXCL | O_RDONLY, 0600, &a);
 	rc->evt = mq_open(rc->ename, O_CREAT | O_EXCL | O_RDONLY, 0600, &a);
 	rc->cmd = mq_open(qname, O_WRONLY | O_NONBLOCK);
-	TEST_ASSERT_TRUE(rc->resp != (mqd_t)-1 && rc->evt != (mqd_t)-1 &&
-			 rc->cmd != (mqd_t)-1);
+	TEST_ASSERT_TRUE(rc->resp != (mqd_t)-1 && rc->evt != (mqd_t)-1 && rc->cmd != (mqd_t)-1);
 	fchmod((int)rc->resp, 0600);
 	fchmod((int)rc->evt, 0600);
 	memset(&r, 0, sizeof r);
@@ -1007,8 +994,8 @@ static void raw_close(raw_client *rc)
 
 /* send h (+ payload), expect an error answer with status and one more
  * count for reason */
-static void expect_refused(raw_client *rc, mbx_hdr h, const void *p,
-			   size_t len, int status, mbx_bad reason)
+static void expect_refused(raw_client *rc, mbx_hdr h, const void *p, size_t len, int status,
+			   mbx_bad reason)
 {
 	uint64_t before = stats().malformed[reason];
 	mbx_hdr r;
@@ -1025,8 +1012,7 @@ static void expect_refused(raw_client *rc, mbx_hdr h, const void *p,
 }
 
 /* a refusal nobody can be told about: counted, nothing answered */
-static void expect_silent(raw_client *rc, const uint8_t *buf, size_t n,
-			  mbx_bad reason)
+static void expect_silent(raw_client *rc, const uint8_t *buf, size_t n, mbx_bad reason)
 {
 	uint64_t before = stats().malformed[reason];
 	struct mq_attr a;
@@ -1157,16 +1143,13 @@ static void test_system_limit_check_names_the_sysctl(void)
 	TEST_ASSERT_NOT_NULL(f);
 	TEST_ASSERT_EQUAL_INT(1, fscanf(f, "%lu", &msg_max));
 	fclose(f);
-	TEST_ASSERT_EQUAL_INT(-ERANGE,
-			      mbx_check_system_limits((unsigned)msg_max + 1, 1024,
-						      err, sizeof err));
+	TEST_ASSERT_EQUAL_INT(
+		-ERANGE, mbx_check_system_limits((unsigned)msg_max + 1, 1024, err, sizeof err));
 	snprintf(want, sizeof want, "fs.mqueue.msg_max is %lu", msg_max);
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(err, want), err);
-	TEST_ASSERT_EQUAL_INT(0, mbx_check_system_limits((unsigned)msg_max, 1024,
-							  err, sizeof err));
+	TEST_ASSERT_EQUAL_INT(0, mbx_check_system_limits((unsigned)msg_max, 1024, err, sizeof err));
 	printf("limits: %s\n", "ok");
 }
-
 
 /* mbx_server_notify never truncates an event (an SDO_DONE used to be cut
  * to what fitted the client's event messages): one that does not fit is

@@ -56,13 +56,9 @@ typedef struct line_sim {
 
 static atomic_uint producers_left;
 
-void setUp(void)
-{
-}
+void setUp(void) {}
 
-void tearDown(void)
-{
-}
+void tearDown(void) {}
 
 static void fill(msg *m)
 {
@@ -91,8 +87,8 @@ static void drain(line_sim *s)
 				continue;
 			while ((n = xring_pop(r, &m, sizeof m)) > 0) {
 				any = true;
-				if (n != (int)sizeof m || m.from != from || m.to != s->id || !intact(&m) ||
-				    m.seq < s->next_seq[from]) {
+				if (n != (int)sizeof m || m.from != from || m.to != s->id ||
+				    !intact(&m) || m.seq < s->next_seq[from]) {
 					s->bad++;
 					continue;
 				}
@@ -130,9 +126,12 @@ static void *line_main(void *arg)
 				if (to == s->id || seq[to] >= PER_PAIR)
 					continue;
 				for (int k = 0; k < 8 && seq[to] < PER_PAIR; k++) {
-					msg m = { .from = (uint16_t)s->id, .to = (uint16_t)to, .seq = seq[to]++ };
+					msg m = { .from = (uint16_t)s->id,
+						  .to = (uint16_t)to,
+						  .seq = seq[to]++ };
 					fill(&m);
-					int rc = xring_push(xring_mesh_get(s->mesh, s->id, to), &m, sizeof m);
+					int rc = xring_push(xring_mesh_get(s->mesh, s->id, to), &m,
+							    sizeof m);
 					if (rc == 0) {
 						s->sent[to]++;
 					} else if (rc == -ENOBUFS) {
@@ -212,7 +211,8 @@ static void run(bool with_dead_line, bool paced)
 
 	uint64_t accepted = 0, refused = 0, dropped = 0;
 	for (unsigned to = 0; to < LINES; to++) {
-		TEST_ASSERT_EQUAL_UINT_MESSAGE(0, sim[to].bad, "corrupt, reordered or duplicated message");
+		TEST_ASSERT_EQUAL_UINT_MESSAGE(0, sim[to].bad,
+					       "corrupt, reordered or duplicated message");
 		TEST_ASSERT_EQUAL_UINT_MESSAGE(0, sim[to].lost_wakes, "lost wake-up");
 		for (unsigned from = 0; from < LINES; from++) {
 			xring *r = xring_mesh_get(mesh, from, to);
@@ -223,13 +223,15 @@ static void run(bool with_dead_line, bool paced)
 			const line_sim *p = &sim[from];
 			/* every refusal the producer saw is a counted drop, and
 			 * every accepted message arrived exactly once */
-			TEST_ASSERT_EQUAL_UINT64(p->refused_full[to] + p->refused_closed[to], st.dropped);
+			TEST_ASSERT_EQUAL_UINT64(p->refused_full[to] + p->refused_closed[to],
+						 st.dropped);
 			TEST_ASSERT_EQUAL_UINT64(p->sent[to], st.pushed);
 			TEST_ASSERT_EQUAL_UINT64(p->sent[to], sim[to].received[from]);
 			if (paced)
 				TEST_ASSERT_EQUAL_UINT64(PER_PAIR, p->sent[to]); /* all, in order */
 			else
-				TEST_ASSERT_EQUAL_UINT64(PER_PAIR, p->sent[to] + p->refused_full[to] +
+				TEST_ASSERT_EQUAL_UINT64(PER_PAIR, p->sent[to] +
+									   p->refused_full[to] +
 									   p->refused_closed[to]);
 			accepted += p->sent[to];
 			refused += p->refused_full[to] + p->refused_closed[to];
@@ -244,9 +246,10 @@ static void run(bool with_dead_line, bool paced)
 	TEST_ASSERT_TRUE(accepted > 0);
 	char line[160];
 	snprintf(line, sizeof line, "%s: %llu accepted and received, %llu refused and counted",
-		 with_dead_line ? "with a dead line" : paced ? "paced senders" : "all alive",
-		 (unsigned long long)accepted,
-		 (unsigned long long)refused);
+		 with_dead_line ? "with a dead line"
+		 : paced        ? "paced senders"
+				: "all alive",
+		 (unsigned long long)accepted, (unsigned long long)refused);
 	TEST_MESSAGE(line);
 	xring_mesh_destroy(mesh);
 }

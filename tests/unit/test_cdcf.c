@@ -5,19 +5,14 @@
 #include "core/cdcf.h"
 #include "unity.h"
 
-void setUp(void)
-{
-}
+void setUp(void) {}
 
-void tearDown(void)
-{
-}
+void tearDown(void) {}
 
 /* Two entries: 1017:00 = 1000 (u16), 1800:02 = 0xFE (u8). */
 static const uint8_t two[] = {
-	0x02, 0x00, 0x00, 0x00,
-	0x17, 0x10, 0x00, 0x02, 0x00, 0x00, 0x00, 0xE8, 0x03,
-	0x00, 0x18, 0x02, 0x01, 0x00, 0x00, 0x00, 0xFE,
+	0x02, 0x00, 0x00, 0x00, 0x17, 0x10, 0x00, 0x02, 0x00, 0x00, 0x00,
+	0xE8, 0x03, 0x00, 0x18, 0x02, 0x01, 0x00, 0x00, 0x00, 0xFE,
 };
 
 static co_cdcf_diag check_fail(const uint8_t *b, size_t n)
@@ -58,7 +53,7 @@ static void test_parse_two_entries(void)
 
 static void test_empty_configuration_is_valid(void)
 {
-	static const uint8_t zero[] = {0, 0, 0, 0};
+	static const uint8_t zero[] = { 0, 0, 0, 0 };
 	uint32_t count = 7;
 	TEST_ASSERT_EQUAL_INT(0, co_cdcf_check(zero, sizeof zero, &count, NULL));
 	TEST_ASSERT_EQUAL_UINT32(0, count);
@@ -152,7 +147,7 @@ static void test_index_zero_and_size_zero(void)
 	TEST_ASSERT_EQUAL_size_t(13, d.offset);
 
 	/* size 0 in entry 1 */
-	static const uint8_t z[] = {1, 0, 0, 0, 0x17, 0x10, 0x00, 0, 0, 0, 0};
+	static const uint8_t z[] = { 1, 0, 0, 0, 0x17, 0x10, 0x00, 0, 0, 0, 0 };
 	d = check_fail(z, sizeof z);
 	TEST_ASSERT_EQUAL_INT(CO_CDCF_ERR_SIZE_ZERO, d.error);
 	TEST_ASSERT_EQUAL_UINT32(1, d.entry);
@@ -163,7 +158,7 @@ static void test_index_zero_and_size_zero(void)
 static void test_huge_size_does_not_wrap(void)
 {
 	/* size 0xFFFFFFFF with 2 data bytes: truncated, never an overflowed position */
-	static const uint8_t h[] = {1, 0, 0, 0, 0x00, 0x20, 0x01, 0xFF, 0xFF, 0xFF, 0xFF, 1, 2};
+	static const uint8_t h[] = { 1, 0, 0, 0, 0x00, 0x20, 0x01, 0xFF, 0xFF, 0xFF, 0xFF, 1, 2 };
 	co_cdcf_diag d = check_fail(h, sizeof h);
 	TEST_ASSERT_EQUAL_INT(CO_CDCF_ERR_DATA_TRUNC, d.error);
 	TEST_ASSERT_EQUAL_UINT32(0xFFFFFFFFu, d.size);
@@ -232,7 +227,8 @@ static co_od *make_od(void)
 	return od;
 }
 
-static long one_entry(uint8_t *buf, size_t cap, uint16_t index, uint8_t sub, const void *data, uint32_t size)
+static long one_entry(uint8_t *buf, size_t cap, uint16_t index, uint8_t sub, const void *data,
+		      uint32_t size)
 {
 	co_cdcf_writer w;
 	co_cdcf_writer_init(&w, buf, cap);
@@ -257,7 +253,9 @@ static void test_check_against_od(void)
 	TEST_ASSERT_EQUAL_INT(CO_CDCF_ERR_SIZE_MISMATCH, d.error);
 	TEST_ASSERT_EQUAL_HEX32(0x06070012, d.abort);
 	co_cdcf_diag_format(&d, text, sizeof text);
-	TEST_ASSERT_EQUAL_STRING("entry 1 (1017:00, size 4) at byte 7: size does not match the data type (abort 06070012)", text);
+	TEST_ASSERT_EQUAL_STRING("entry 1 (1017:00, size 4) at byte 7: size does not match the "
+				 "data type (abort 06070012)",
+				 text);
 
 	n = one_entry(buf, sizeof buf, 0x1017, 1, &u32, 2);
 	TEST_ASSERT_EQUAL_INT(-EINVAL, co_cdcf_check_od(buf, (size_t)n, od, false, &d));
@@ -290,15 +288,18 @@ static void test_diag_texts(void)
 	TEST_ASSERT_EQUAL_STRING("at byte 0: no entry count (fewer than 4 bytes): 2 bytes", text);
 	d = check_fail(two, 8);
 	co_cdcf_diag_format(&d, text, sizeof text);
-	TEST_ASSERT_EQUAL_STRING("entry 1 of 2 at byte 4: entry header cut short (4 of 7 header bytes)", text);
+	TEST_ASSERT_EQUAL_STRING(
+		"entry 1 of 2 at byte 4: entry header cut short (4 of 7 header bytes)", text);
 	d = check_fail(two, 20);
 	co_cdcf_diag_format(&d, text, sizeof text);
-	TEST_ASSERT_EQUAL_STRING("entry 2 of 2 (1800:02) at byte 20: data cut short (size 1, 0 bytes left)", text);
+	TEST_ASSERT_EQUAL_STRING(
+		"entry 2 of 2 (1800:02) at byte 20: data cut short (size 1, 0 bytes left)", text);
 	uint8_t c[sizeof two + 3];
 	memcpy(c, two, sizeof two);
 	d = check_fail(c, sizeof c);
 	co_cdcf_diag_format(&d, text, sizeof text);
-	TEST_ASSERT_EQUAL_STRING("at byte 21: 3 bytes after the last counted entry (count 2)", text);
+	TEST_ASSERT_EQUAL_STRING("at byte 21: 3 bytes after the last counted entry (count 2)",
+				 text);
 }
 
 int main(void)

@@ -10,13 +10,9 @@
 #include "tests/fuzz/fuzz_cdcf.c"
 #include "tests/unit/support/corpus.h"
 
-void setUp(void)
-{
-}
+void setUp(void) {}
 
-void tearDown(void)
-{
-}
+void tearDown(void) {}
 
 static bool accepts(const uint8_t *data, size_t size)
 {

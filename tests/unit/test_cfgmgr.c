@@ -60,19 +60,23 @@ static void on_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
 void setUp(void)
 {
 	co_node_config scfg = { .node_id = SLAVE };
-	co_node_config mcfg = { .node_id = 1, .sdo_client_count = 2, .sdo_client_block_threshold = 64 };
+	co_node_config mcfg = { .node_id = 1,
+				.sdo_client_count = 2,
+				.sdo_client_block_threshold = 64 };
 	co_od *sod = fx_od_new(), *mod;
 
 	tb_init(&bus);
 	TEST_ASSERT_EQUAL_INT(0, co_od_add_array(sod, 0x1020, CO_T_UNSIGNED32, 2, CO_ACC_RW, 0));
 	/* TPDO 1 mapping (the fixture has its communication record only) */
-	TEST_ASSERT_EQUAL_INT(0, co_od_ensure_num(sod, 0x1A00, 0, CO_T_UNSIGNED8, CO_ACC_RW, 0, CO_OBJ_RECORD));
+	TEST_ASSERT_EQUAL_INT(
+		0, co_od_ensure_num(sod, 0x1A00, 0, CO_T_UNSIGNED8, CO_ACC_RW, 0, CO_OBJ_RECORD));
 	for (uint8_t s = 1; s <= 8; s++)
-		TEST_ASSERT_EQUAL_INT(0, co_od_ensure_num(sod, 0x1A00, s, CO_T_UNSIGNED32, CO_ACC_RW, 0,
-							  CO_OBJ_RECORD));
+		TEST_ASSERT_EQUAL_INT(0, co_od_ensure_num(sod, 0x1A00, s, CO_T_UNSIGNED32,
+							  CO_ACC_RW, 0, CO_OBJ_RECORD));
 	slv = tb_add_node(&bus, &scfg, sod);
 	TEST_ASSERT_NOT_NULL(slv);
-	TEST_ASSERT_EQUAL_INT(0, co_store_attach(slv->node, &store_ops, NULL, 3, CO_STORE_CAP_CMD, CO_STORE_CAP_CMD));
+	TEST_ASSERT_EQUAL_INT(0, co_store_attach(slv->node, &store_ops, NULL, 3, CO_STORE_CAP_CMD,
+						 CO_STORE_CAP_CMD));
 	TEST_ASSERT_EQUAL_INT(0, co_od_create(&mod, 16));
 	mgr = tb_add_node(&bus, &mcfg, mod);
 	TEST_ASSERT_NOT_NULL(mgr);
@@ -119,8 +123,9 @@ static void finish_cdcf(void)
 
 static co_cfgmgr_params params(void)
 {
-	co_cfgmgr_params p = { .node_id = SLAVE, .cdcf = cdcf, .cdcf_len = cdcf_len, .channel = 0,
-			       .done = on_done };
+	co_cfgmgr_params p = {
+		.node_id = SLAVE, .cdcf = cdcf, .cdcf_len = cdcf_len, .channel = 0, .done = on_done
+	};
 	return p;
 }
 
@@ -167,26 +172,26 @@ static size_t requests(size_t since)
  * string and a domain (expedited, segmented and block downloads). */
 static void twenty_entries(uint8_t *domain, uint32_t dsize)
 {
-	add_u(0x1800, 1, 0x80000185u, 4);  /* 1: TPDO invalid */
-	add_u(0x1800, 2, 254, 1);          /* 2 */
-	add_u(0x1800, 3, 100, 2);          /* 3: inhibit 10 ms */
-	add_u(0x1800, 5, 500, 2);          /* 4: event timer */
-	add_u(0x1A00, 0, 0, 1);            /* 5 */
-	add_u(0x1A00, 1, 0x20030020u, 4);  /* 6 */
-	add_u(0x1A00, 0, 1, 1);            /* 7 */
-	add_u(0x1800, 1, 0x185u, 4);       /* 8: valid again */
-	add_u(0x1017, 0, 250, 2);          /* 9: heartbeat */
-	add_u(FX_IDX_LIMITED, 0, 500, 2);  /* 10 */
-	add_u(FX_IDX_SIGNED, 0, (uint16_t)-50, 2); /* 11 */
-	add_u(FX_IDX_BOOL, 0, 1, 1);       /* 12 */
+	add_u(0x1800, 1, 0x80000185u, 4);               /* 1: TPDO invalid */
+	add_u(0x1800, 2, 254, 1);                       /* 2 */
+	add_u(0x1800, 3, 100, 2);                       /* 3: inhibit 10 ms */
+	add_u(0x1800, 5, 500, 2);                       /* 4: event timer */
+	add_u(0x1A00, 0, 0, 1);                         /* 5 */
+	add_u(0x1A00, 1, 0x20030020u, 4);               /* 6 */
+	add_u(0x1A00, 0, 1, 1);                         /* 7 */
+	add_u(0x1800, 1, 0x185u, 4);                    /* 8: valid again */
+	add_u(0x1017, 0, 250, 2);                       /* 9: heartbeat */
+	add_u(FX_IDX_LIMITED, 0, 500, 2);               /* 10 */
+	add_u(FX_IDX_SIGNED, 0, (uint16_t)-50, 2);      /* 11 */
+	add_u(FX_IDX_BOOL, 0, 1, 1);                    /* 12 */
 	add_u(FX_IDX_U64, 0, 0x1122334455667788ull, 8); /* 13: segmented */
-	add(FX_IDX_STR, 0, "configured by cogw", 18); /* 14: segmented */
-	add_u(FX_IDX_WO, 0, 7, 1);         /* 15 */
-	add_u(FX_IDX_HOOKED, 0, 0xDEADBEEFu, 4); /* 16 */
-	add_u(0x1017, 0, 300, 2);          /* 17: the last value wins */
-	add(FX_IDX_DOMAIN, 0, domain, dsize); /* 18: block */
-	add_u(FX_IDX_LIMITED, 0, 999, 2);  /* 19 */
-	add_u(FX_IDX_SIGNED, 0, 42, 2);    /* 20 */
+	add(FX_IDX_STR, 0, "configured by cogw", 18);   /* 14: segmented */
+	add_u(FX_IDX_WO, 0, 7, 1);                      /* 15 */
+	add_u(FX_IDX_HOOKED, 0, 0xDEADBEEFu, 4);        /* 16 */
+	add_u(0x1017, 0, 300, 2);                       /* 17: the last value wins */
+	add(FX_IDX_DOMAIN, 0, domain, dsize);           /* 18: block */
+	add_u(FX_IDX_LIMITED, 0, 999, 2);               /* 19 */
+	add_u(FX_IDX_SIGNED, 0, 42, 2);                 /* 20 */
 	finish_cdcf();
 }
 
@@ -201,8 +206,8 @@ static void test_twenty_entries_downloaded_in_order_and_read_back(void)
 	start(&p);
 
 	char why[96];
-	snprintf(why, sizeof why, "entry %u %04X:%02X abort %08X", (unsigned)res.entry, res.index, res.sub,
-		 (unsigned)res.abort);
+	snprintf(why, sizeof why, "entry %u %04X:%02X abort %08X", (unsigned)res.entry, res.index,
+		 res.sub, (unsigned)res.abort);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(CO_CFGMGR_CONFIGURED, res.outcome, why);
 	TEST_ASSERT_EQUAL_INT(0, res.status);
 	TEST_ASSERT_EQUAL_UINT32(20, res.written);
@@ -226,7 +231,8 @@ static void test_twenty_entries_downloaded_in_order_and_read_back(void)
 	TEST_ASSERT_EQUAL_UINT32(18, len);
 	TEST_ASSERT_EQUAL_MEMORY("configured by cogw", s, 18);
 	static uint8_t back[sizeof domain];
-	TEST_ASSERT_EQUAL_INT(0, co_od_get_bytes(slv->od, FX_IDX_DOMAIN, 0, back, sizeof back, &len));
+	TEST_ASSERT_EQUAL_INT(0,
+			      co_od_get_bytes(slv->od, FX_IDX_DOMAIN, 0, back, sizeof back, &len));
 	TEST_ASSERT_EQUAL_UINT32(sizeof domain, len);
 	TEST_ASSERT_EQUAL_MEMORY(domain, back, sizeof domain);
 
@@ -249,14 +255,14 @@ static void test_twenty_entries_downloaded_in_order_and_read_back(void)
 
 static void test_first_abort_stops_with_j(void)
 {
-	add_u(0x1017, 0, 100, 2);          /* 1 */
-	add_u(FX_IDX_LIMITED, 0, 500, 2);  /* 2 */
-	add_u(FX_IDX_BOOL, 0, 1, 1);       /* 3 */
-	add_u(0x1800, 5, 77, 2);           /* 4 */
-	add_u(FX_IDX_SIGNED, 0, 5, 2);     /* 5 */
-	add_u(0x1800, 2, 1, 1);            /* 6 */
-	add_u(FX_IDX_LIMITED, 0, 5, 2);    /* 7: below the limit 10 */
-	add_u(0x1017, 0, 900, 2);          /* 8: never written */
+	add_u(0x1017, 0, 100, 2);         /* 1 */
+	add_u(FX_IDX_LIMITED, 0, 500, 2); /* 2 */
+	add_u(FX_IDX_BOOL, 0, 1, 1);      /* 3 */
+	add_u(0x1800, 5, 77, 2);          /* 4 */
+	add_u(FX_IDX_SIGNED, 0, 5, 2);    /* 5 */
+	add_u(0x1800, 2, 1, 1);           /* 6 */
+	add_u(FX_IDX_LIMITED, 0, 5, 2);   /* 7: below the limit 10 */
+	add_u(0x1017, 0, 900, 2);         /* 8: never written */
 	finish_cdcf();
 	size_t ev0 = mgr->n_ev;
 	co_cfgmgr_params p = params();
@@ -298,7 +304,7 @@ static void test_verify_equal_skips_download(void)
 	start(&p);
 	TEST_ASSERT_EQUAL_INT(CO_CFGMGR_SKIPPED, res.outcome);
 	TEST_ASSERT_EQUAL_UINT32(0, res.written);
-	TEST_ASSERT_EQUAL_UINT(2, requests(ev0)); /* the two 1020h reads only */
+	TEST_ASSERT_EQUAL_UINT(2, requests(ev0));           /* the two 1020h reads only */
 	TEST_ASSERT_EQUAL_UINT64(1000, slave_u(0x1017, 0)); /* fixture default untouched */
 	TEST_ASSERT_EQUAL_UINT(0, tb_event_count(slv, CO_EV_STORE));
 }
@@ -457,7 +463,7 @@ static void test_refused_restore_load_fails(void)
 
 static void test_start_checks_and_cancel(void)
 {
-	static const uint8_t broken[] = {1, 0, 0, 0, 0x17, 0x10, 0};
+	static const uint8_t broken[] = { 1, 0, 0, 0, 0x17, 0x10, 0 };
 	co_cfgmgr_params p = params();
 	p.cdcf = broken;
 	p.cdcf_len = sizeof broken;
@@ -519,7 +525,8 @@ static void line_setup(void)
 {
 	TEST_ASSERT_EQUAL_INT(0, co_od_add_cfgmgr_node(mgr->od, SLAVE, 4096));
 	TEST_ASSERT_EQUAL_INT(0, co_od_add_cfgmgr_node(mgr->od, SLAVE, 4096)); /* kept */
-	TEST_ASSERT_EQUAL_INT(0, co_od_add_array(mgr->od, 0x1F81, CO_T_UNSIGNED32, 127, CO_ACC_RW, 0));
+	TEST_ASSERT_EQUAL_INT(0,
+			      co_od_add_array(mgr->od, 0x1F81, CO_T_UNSIGNED32, 127, CO_ACC_RW, 0));
 	co_cfgmgr_line_init(&line, mgr->node, on_done, NULL);
 }
 
@@ -534,7 +541,8 @@ static uint32_t sdo_write(uint16_t index, uint8_t sub, const void *data, uint32_
 static void test_line_configures_from_the_od(void)
 {
 	line_setup();
-	TEST_ASSERT_EQUAL_INT(0, co_cfgmgr_line_configure(&line, SLAVE, bus.now)); /* nothing to do */
+	TEST_ASSERT_EQUAL_INT(0,
+			      co_cfgmgr_line_configure(&line, SLAVE, bus.now)); /* nothing to do */
 	TEST_ASSERT_EQUAL_INT(0, co_cfgmgr_line_configure(&line, 9, bus.now));
 	TEST_ASSERT_EQUAL_INT(-EINVAL, co_cfgmgr_line_configure(&line, 0, bus.now));
 
@@ -582,7 +590,7 @@ static void test_line_configures_from_the_od(void)
 
 static void test_line_refuses_a_broken_cdcf(void)
 {
-	static const uint8_t broken[] = {2, 0, 0, 0, 0x17, 0x10, 0, 2, 0, 0, 0, 1, 0};
+	static const uint8_t broken[] = { 2, 0, 0, 0, 0x17, 0x10, 0, 2, 0, 0, 0, 1, 0 };
 	line_setup();
 	/* a local write is not checked; the configure step is */
 	TEST_ASSERT_EQUAL_INT(0, co_od_set_bytes(mgr->od, 0x1F22, SLAVE, broken, sizeof broken));

@@ -37,14 +37,16 @@ static unsigned restores;
 static void ev_glue(void *ctx, const co_event *ev)
 {
 	(void)ctx;
-	if (ev->kind == CO_EV_MGR_STATE || ev->kind == CO_EV_MGR_BOOT || ev->kind == CO_EV_MGR_NODE) {
+	if (ev->kind == CO_EV_MGR_STATE || ev->kind == CO_EV_MGR_BOOT ||
+	    ev->kind == CO_EV_MGR_NODE) {
 		if (f.n_ev < MF_EVENTS)
 			f.ev[f.n_ev++] = *ev;
 		if (getenv("MF_TRACE"))
 			fprintf(stderr, "%8.3f %s node %u step %s status %c abort %08x %04x:%u\n",
-				(double)ev->now_us / 1e6, co_event_kind_to_string(ev->kind), ev->u.mgr.node,
-				co_mgr_step_to_string(ev->u.mgr.step), ev->u.mgr.status ? ev->u.mgr.status : '-',
-				ev->u.mgr.abort, ev->u.mgr.index, ev->u.mgr.sub);
+				(double)ev->now_us / 1e6, co_event_kind_to_string(ev->kind),
+				ev->u.mgr.node, co_mgr_step_to_string(ev->u.mgr.step),
+				ev->u.mgr.status ? ev->u.mgr.status : '-', ev->u.mgr.abort,
+				ev->u.mgr.index, ev->u.mgr.sub);
 		return;
 	}
 	if (f.mgr)
@@ -75,8 +77,9 @@ static void cfg_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
 	last = *r;
 	results++;
 	co_manager_configure_done(f.mgr, r->node_id,
-				  r->outcome == CO_CFGMGR_FAILED_J ? r->abort
-				  : r->outcome == CO_CFGMGR_CANCELLED ? 0x08000000u : 0,
+				  r->outcome == CO_CFGMGR_FAILED_J    ? r->abort
+				  : r->outcome == CO_CFGMGR_CANCELLED ? 0x08000000u
+								      : 0,
 				  r->index, r->sub, now_us);
 }
 
@@ -116,11 +119,13 @@ void setUp(void)
 	mf_init(&f, CO_MGR_1F80_MASTER, 4);
 	slave = mf_slave(&f, NODE, 100);
 	/* the slave's own objects: 1020h, 2000h..2013h (u16 rw), 1010h/1011h */
-	TEST_ASSERT_EQUAL_INT(0, co_od_add_array(slave->od, 0x1020, CO_T_UNSIGNED32, 2, CO_ACC_RW, 0));
+	TEST_ASSERT_EQUAL_INT(0,
+			      co_od_add_array(slave->od, 0x1020, CO_T_UNSIGNED32, 2, CO_ACC_RW, 0));
 	for (uint16_t i = 0; i < 20; i++)
-		TEST_ASSERT_EQUAL_INT(0, co_od_add_num(slave->od, (uint16_t)(0x2000 + i), 0, CO_T_UNSIGNED16,
-						       CO_ACC_RW, 0, NULL));
-	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(slave->od, 0x2100, 0, CO_T_UNSIGNED16, CO_ACC_RO, 0, NULL));
+		TEST_ASSERT_EQUAL_INT(0, co_od_add_num(slave->od, (uint16_t)(0x2000 + i), 0,
+						       CO_T_UNSIGNED16, CO_ACC_RW, 0, NULL));
+	TEST_ASSERT_EQUAL_INT(
+		0, co_od_add_num(slave->od, 0x2100, 0, CO_T_UNSIGNED16, CO_ACC_RO, 0, NULL));
 	TEST_ASSERT_EQUAL_INT(0, co_store_attach(slave->node, &store_ops, NULL, 3, 1, 1));
 	mf_assign(&f, NODE, MANDATORY, 300);
 	mf_expect(&f, NODE, MF_DEVICE_TYPE, MF_VENDOR, MF_PRODUCT, MF_REVISION, 1000u + NODE);
@@ -178,7 +183,9 @@ static void test_boot_downloads_then_skips_when_1020h_matches(void)
 	co_od_set_u32(f.mp->od, 0x1F26, NODE, 15000);
 	co_od_set_u32(f.mp->od, 0x1F27, NODE, 3600000);
 	line.store[NODE] = true; /* 1020h must survive the next reset communication */
-	mf_start(&f, &(co_manager_config){ .sdo_timeout_ms = 200, .configure = co_cfgmgr_line_configure, .configure_ctx = &line });
+	mf_start(&f, &(co_manager_config){ .sdo_timeout_ms = 200,
+					   .configure = co_cfgmgr_line_configure,
+					   .configure_ctx = &line });
 	tb_advance(&f.bus, 3 * S);
 
 	TEST_ASSERT_EQUAL_UINT(1, results);
@@ -211,7 +218,9 @@ static void test_boot_downloads_then_skips_when_1020h_matches(void)
 static void test_abort_on_entry_7_is_j_and_the_node_is_not_started(void)
 {
 	put_cdcf(7);
-	mf_start(&f, &(co_manager_config){ .sdo_timeout_ms = 200, .configure = co_cfgmgr_line_configure, .configure_ctx = &line });
+	mf_start(&f, &(co_manager_config){ .sdo_timeout_ms = 200,
+					   .configure = co_cfgmgr_line_configure,
+					   .configure_ctx = &line });
 	tb_advance(&f.bus, 2 * S);
 
 	TEST_ASSERT_TRUE(results >= 1);
@@ -222,7 +231,7 @@ static void test_abort_on_entry_7_is_j_and_the_node_is_not_started(void)
 	TEST_ASSERT_NOT_NULL(e);
 	TEST_ASSERT_EQUAL_HEX16(0x2100, e->index);
 	TEST_ASSERT_EQUAL_UINT8(0, e->sub);
-	TEST_ASSERT_EQUAL_HEX32(0x06010002, e->abort); /* read-only object */
+	TEST_ASSERT_EQUAL_HEX32(0x06010002, e->abort);  /* read-only object */
 	TEST_ASSERT_EQUAL_UINT16(0, slave_u16(0x2007)); /* entry 8 never written */
 	TEST_ASSERT_NULL(mf_boot(&f, NODE, CO_MGR_STEP_START, 0));
 	TEST_ASSERT_EQUAL_UINT(0, mf_sent(&f, 0x000, "01 02"));
@@ -235,7 +244,9 @@ static void test_restore_inside_the_configure_step(void)
 	put_cdcf(0);
 	co_od_set_u32(f.mp->od, 0x1F81, NODE, MANDATORY | CO_CFGMGR_F81_RESTORE);
 	co_od_set_u8(f.mp->od, 0x1F8A, NODE, 1);
-	mf_start(&f, &(co_manager_config){ .sdo_timeout_ms = 200, .configure = co_cfgmgr_line_configure, .configure_ctx = &line });
+	mf_start(&f, &(co_manager_config){ .sdo_timeout_ms = 200,
+					   .configure = co_cfgmgr_line_configure,
+					   .configure_ctx = &line });
 	tb_advance(&f.bus, 4 * S);
 
 	TEST_ASSERT_EQUAL_UINT(1, restores);

@@ -41,8 +41,12 @@ static void event_cb(void *ctx, const co_event *ev)
 
 void setUp(void)
 {
-	co_node_config cfg = { .node_id = 3, .send = send_cb, .event = event_cb,
-			       .rx_max = 0, .rx_ext_max = 2, .report_unhandled = true };
+	co_node_config cfg = { .node_id = 3,
+			       .send = send_cb,
+			       .event = event_cb,
+			       .rx_max = 0,
+			       .rx_ext_max = 2,
+			       .report_unhandled = true };
 
 	n_sent = n_events = fail_send = 0;
 	TEST_ASSERT_EQUAL(0, co_od_create(&od, 4));
@@ -255,7 +259,6 @@ static void test_two_instances_are_independent(void)
 	tb_fini(&b);
 }
 
-
 /* ---- services attached at start-up ------------------------------------------ */
 
 static struct {
@@ -293,8 +296,11 @@ static void att_reset(co_node *n, uint64_t now_us)
 	att.resets++;
 }
 
-static const co_service att_svc = { .name = "attached", .init = att_init, .fini = att_fini,
-				    .tick = att_tick, .reset_comm = att_reset };
+static const co_service att_svc = { .name = "attached",
+				    .init = att_init,
+				    .fini = att_fini,
+				    .tick = att_tick,
+				    .reset_comm = att_reset };
 static const co_service plain_svc = { .name = "plain" };
 
 static void test_attached_service_ticked_and_counted_in_deadline(void)

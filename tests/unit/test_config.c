@@ -34,9 +34,7 @@ void tearDown(void)
 }
 
 /* One line around the given extra line keys. */
-#define LINE(extra)                                                        \
-	"{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 5" extra \
-	"}"
+#define LINE(extra) "{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 5" extra "}"
 #define CFG1(extra) "{\"lines\": [" LINE(extra) "]}"
 
 static void expect_error(const char *json, const char *msg)
@@ -112,8 +110,7 @@ static void test_embedded_default_parses(void)
 	TEST_ASSERT_EQUAL_HEX64(0x80000000u, raw(od, 0x1283, 1));
 	TEST_ASSERT_NULL(co_od_find(od, 0x1284, 0));
 	TEST_ASSERT_EQUAL_HEX64(127, raw(od, 0x1F2C, 0));
-	TEST_ASSERT_EQUAL_INT(0, co_od_get_bytes(od, 0x1008, 0, name,
-						 sizeof(name), &len));
+	TEST_ASSERT_EQUAL_INT(0, co_od_get_bytes(od, 0x1008, 0, name, sizeof(name), &len));
 	TEST_ASSERT_EQUAL_UINT32(12, len);
 	TEST_ASSERT_EQUAL_MEMORY("cogw gateway", name, 12);
 	TEST_ASSERT_EQUAL_HEX16(CO_ACC_CO, co_od_find(od, 0x1008, 0)->access);
@@ -156,20 +153,18 @@ static void test_wrong_types(void)
 		     "t.json: lines[0].heartbeat_ms: 1.5 is not an integer");
 	expect_error("{\"mlockall\": 1, \"lines\": [" LINE("") "]}",
 		     "t.json: mlockall: expected true or false, got a number");
-	expect_error("{\"lines\": {}}",
-		     "t.json: lines: expected a non-empty array, got an object");
+	expect_error("{\"lines\": {}}", "t.json: lines: expected a non-empty array, got an object");
 	expect_error("[]", "t.json: (top): expected an object, got an array");
 	expect_error("{\"mailbox\": {\"queue_mode\": 432}, \"lines\": [" LINE("") "]}",
 		     "t.json: mailbox.queue_mode: expected an octal string like \"0620\"");
 	/* issue 11: a command queue clients can read leaks their tokens */
-	static const char *const readable[] = { "0660", "0666", "0640",
-						"0604", "0777" };
+	static const char *const readable[] = { "0660", "0666", "0640", "0604", "0777" };
 	for (size_t i = 0; i < sizeof readable / sizeof readable[0]; i++) {
 		char json[256];
 
 		snprintf(json, sizeof json,
-			 "{\"mailbox\": {\"queue_mode\": \"%s\"}, \"lines\": ["
-			 LINE("") "]}", readable[i]);
+			 "{\"mailbox\": {\"queue_mode\": \"%s\"}, \"lines\": [" LINE("") "]}",
+			 readable[i]);
 		expect_error(json, "t.json: mailbox.queue_mode: clients could "
 				   "read other clients' tokens: no read bit for "
 				   "group or others (e.g. \"0620\" or \"0622\")");
@@ -190,7 +185,7 @@ static void test_missing_required_keys(void)
 static void test_out_of_range(void)
 {
 	expect_error("{\"lines\": [" LINE("") ", {\"interface\": \"vcan1\", "
-		     "\"bitrate\": 500000, \"node_id\": 200}]}",
+					      "\"bitrate\": 500000, \"node_id\": 200}]}",
 		     "t.json: lines[1].node_id: 200 is out of range 1..127");
 	expect_error(CFG1(", \"heartbeat_ms\": 70000"),
 		     "t.json: lines[0].heartbeat_ms: 70000 is out of range 0..65535");
@@ -200,11 +195,13 @@ static void test_out_of_range(void)
 		     "t.json: lines[0].network_id: 0 is out of range 1..127");
 	expect_error("{\"mailbox\": {\"msg_size\": 100}, \"lines\": [" LINE("") "]}",
 		     "t.json: mailbox.msg_size: 100 is out of range 256..65535");
-	expect_error(CFG1(", \"heartbeat_consumers\": [{\"node_id\": 5, \"time_ms\": 100}]"),
-		     "t.json: lines[0].heartbeat_consumers[0].node_id: 5 is this line's own node id");
+	expect_error(
+		CFG1(", \"heartbeat_consumers\": [{\"node_id\": 5, \"time_ms\": 100}]"),
+		"t.json: lines[0].heartbeat_consumers[0].node_id: 5 is this line's own node id");
 	expect_error(CFG1(", \"heartbeat_consumers\": [{\"node_id\": 3, \"time_ms\": 100},"
 			  " {\"node_id\": 3, \"time_ms\": 200}]"),
-		     "t.json: lines[0].heartbeat_consumers[1].node_id: node 3 is already monitored (lines[0].heartbeat_consumers[0])");
+		     "t.json: lines[0].heartbeat_consumers[1].node_id: node 3 is already monitored "
+		     "(lines[0].heartbeat_consumers[0])");
 }
 
 static void test_unknown_keys(void)
@@ -213,8 +210,7 @@ static void test_unknown_keys(void)
 		     "t.json: lines[0].bitrat: unknown key (did you mean \"bitrate\"?)");
 	expect_error("{\"lines\": [" LINE("") "], \"frobnicate\": 1}",
 		     "t.json: frobnicate: unknown key");
-	expect_error(CFG1(", \"rt\": {\"prio\": 10}"),
-		     "t.json: lines[0].rt.prio: unknown key");
+	expect_error(CFG1(", \"rt\": {\"prio\": 10}"), "t.json: lines[0].rt.prio: unknown key");
 	expect_error("{\"mailbox\": {\"instanse\": \"x\"}, \"lines\": [" LINE("") "]}",
 		     "t.json: mailbox.instanse: unknown key (did you mean \"instance\"?)");
 	/* cJSON keeps duplicate keys; we do not. */
@@ -223,40 +219,51 @@ static void test_unknown_keys(void)
 
 static void test_duplicate_lines(void)
 {
-	expect_error("{\"lines\": [" LINE(", \"name\": \"a\"") ", "
-		     "{\"name\": \"a\", \"interface\": \"vcan1\", \"bitrate\": 500000, \"node_id\": 5}]}",
+	expect_error("{\"lines\": [" LINE(
+			     ", \"name\": \"a\"") ", "
+						  "{\"name\": \"a\", \"interface\": \"vcan1\", "
+						  "\"bitrate\": 500000, \"node_id\": 5}]}",
 		     "t.json: lines[1].name: \"a\" is already used by lines[0]");
 	expect_error("{\"lines\": [" LINE("") ", " LINE("") "]}",
 		     "t.json: lines[1].interface: \"vcan0\" is already used by lines[0]");
-	expect_error("{\"lines\": [" LINE(", \"network_id\": 7") ", "
-		     "{\"interface\": \"vcan1\", \"bitrate\": 500000, \"node_id\": 5, \"network_id\": 7}]}",
+	expect_error("{\"lines\": [" LINE(
+			     ", \"network_id\": 7") ", "
+						    "{\"interface\": \"vcan1\", \"bitrate\": "
+						    "500000, \"node_id\": 5, \"network_id\": 7}]}",
 		     "t.json: lines[1].network_id: 7 is already used by lines[0]");
 }
 
 static void test_interface_and_names(void)
 {
-	expect_error("{\"lines\": [{\"interface\": \"averyveryverylongcan0\", \"bitrate\": 500000, \"node_id\": 5}]}",
-		     "t.json: lines[0].interface: \"averyveryverylongcan0\" is too long (21 bytes, at most 15)");
-	expect_error("{\"lines\": [{\"interface\": \"can/0\", \"bitrate\": 500000, \"node_id\": 5}]}",
-		     "t.json: lines[0].interface: \"can/0\" is not a valid interface name");
-	expect_error(CFG1(", \"name\": \"line 0\""),
-		     "t.json: lines[0].name: \"line 0\" may contain only letters, digits, '_' and '-'");
+	expect_error("{\"lines\": [{\"interface\": \"averyveryverylongcan0\", \"bitrate\": 500000, "
+		     "\"node_id\": 5}]}",
+		     "t.json: lines[0].interface: \"averyveryverylongcan0\" is too long (21 bytes, "
+		     "at most 15)");
+	expect_error(
+		"{\"lines\": [{\"interface\": \"can/0\", \"bitrate\": 500000, \"node_id\": 5}]}",
+		"t.json: lines[0].interface: \"can/0\" is not a valid interface name");
+	expect_error(
+		CFG1(", \"name\": \"line 0\""),
+		"t.json: lines[0].name: \"line 0\" may contain only letters, digits, '_' and '-'");
 	expect_error("{\"mailbox\": {\"instance\": \"\"}, \"lines\": [" LINE("") "]}",
 		     "t.json: mailbox.instance: must not be empty");
 }
 
 static void test_bitrate_not_cia(void)
 {
-	expect_error("{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 100000, \"node_id\": 5}]}",
-		     "t.json: lines[0].bitrate: 100000 is not a CiA 301 bit rate (10000, 20000, 50000, 125000, 250000, 500000, 800000, 1000000)");
+	expect_error(
+		"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 100000, \"node_id\": 5}]}",
+		"t.json: lines[0].bitrate: 100000 is not a CiA 301 bit rate (10000, 20000, 50000, "
+		"125000, 250000, 500000, 800000, 1000000)");
 	/* Every CiA 301 rate is accepted. */
-	static const char *const ok[] = { "10000", "20000", "50000", "125000",
+	static const char *const ok[] = { "10000",  "20000",  "50000",  "125000",
 					  "250000", "500000", "800000", "1000000" };
 	for (size_t i = 0; i < 8; i++) {
 		char json[160];
 
 		snprintf(json, sizeof(json),
-			 "{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": %s, \"node_id\": 5}]}",
+			 "{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": %s, \"node_id\": "
+			 "5}]}",
 			 ok[i]);
 		load_ok(json);
 		TEST_ASSERT_EQUAL_UINT32(strtoul(ok[i], NULL, 10), cfg.lines[0].bitrate);
@@ -271,9 +278,10 @@ static void test_too_many_lines_and_rules(void)
 
 	n += (size_t)snprintf(json + n, sizeof(json) - n, "{\"lines\": [");
 	for (int i = 0; i <= COGW_LINES_MAX; i++)
-		n += (size_t)snprintf(json + n, sizeof(json) - n,
-				      "%s{\"interface\": \"vcan%d\", \"bitrate\": 500000, \"node_id\": 5}",
-				      i ? ", " : "", i);
+		n += (size_t)snprintf(
+			json + n, sizeof(json) - n,
+			"%s{\"interface\": \"vcan%d\", \"bitrate\": 500000, \"node_id\": 5}",
+			i ? ", " : "", i);
 	snprintf(json + n, sizeof(json) - n, "]}");
 	expect_error(json, "t.json: lines: 17 lines, at most 16");
 
@@ -281,27 +289,34 @@ static void test_too_many_lines_and_rules(void)
 	n += (size_t)snprintf(json + n, sizeof(json) - n, "{\"mailbox\": {\"rules\": [");
 	for (int i = 0; i <= COGW_ACCESS_RULES_MAX; i++)
 		n += (size_t)snprintf(json + n, sizeof(json) - n,
-				      "%s{\"uid\": %d, \"access\": \"read\"}",
-				      i ? ", " : "", 1000 + i);
+				      "%s{\"uid\": %d, \"access\": \"read\"}", i ? ", " : "",
+				      1000 + i);
 	snprintf(json + n, sizeof(json) - n, "]}, \"lines\": [" LINE("") "]}");
 	expect_error(json, "t.json: mailbox.rules: 65 rules, at most 64");
 }
 
 static void test_access_rules(void)
 {
-	expect_error("{\"mailbox\": {\"rules\": [{\"user\": \"no-such-user-cogw\", \"access\": \"read\"}]}, \"lines\": [" LINE("") "]}",
+	expect_error("{\"mailbox\": {\"rules\": [{\"user\": \"no-such-user-cogw\", \"access\": "
+		     "\"read\"}]}, \"lines\": [" LINE("") "]}",
 		     "t.json: mailbox.rules[0].user: unknown user \"no-such-user-cogw\"");
-	expect_error("{\"mailbox\": {\"rules\": [{\"uid\": 0, \"access\": \"admin\"}]}, \"lines\": [" LINE("") "]}",
-		     "t.json: mailbox.rules[0].access: unknown access \"admin\" (one of none, read, write)");
-	expect_error("{\"mailbox\": {\"rules\": [{\"uid\": 0, \"user\": \"root\", \"access\": \"read\"}]}, \"lines\": [" LINE("") "]}",
+	expect_error("{\"mailbox\": {\"rules\": [{\"uid\": 0, \"access\": \"admin\"}]}, \"lines\": "
+		     "[" LINE("") "]}",
+		     "t.json: mailbox.rules[0].access: unknown access \"admin\" (one of none, "
+		     "read, write)");
+	expect_error("{\"mailbox\": {\"rules\": [{\"uid\": 0, \"user\": \"root\", \"access\": "
+		     "\"read\"}]}, \"lines\": [" LINE("") "]}",
 		     "t.json: mailbox.rules[0]: give either \"user\" or \"uid\"");
-	expect_error("{\"mailbox\": {\"rules\": [{\"uid\": 0, \"access\": \"read\"}, {\"user\": \"root\", \"access\": \"write\"}]}, \"lines\": [" LINE("") "]}",
+	expect_error("{\"mailbox\": {\"rules\": [{\"uid\": 0, \"access\": \"read\"}, {\"user\": "
+		     "\"root\", \"access\": \"write\"}]}, \"lines\": [" LINE("") "]}",
 		     "t.json: mailbox.rules[1]: uid 0 already has a rule (mailbox.rules[0])");
 	expect_error("{\"mailbox\": {\"default_access\": \"all\"}, \"lines\": [" LINE("") "]}",
-		     "t.json: mailbox.default_access: unknown access \"all\" (one of none, read, write)");
+		     "t.json: mailbox.default_access: unknown access \"all\" (one of none, read, "
+		     "write)");
 
 	load_ok("{\"mailbox\": {\"default_access\": \"none\", \"lease_ms\": 5000, \"rules\": ["
-		"{\"user\": \"root\", \"access\": \"write\"}, {\"uid\": 1000, \"access\": \"read\"}]}, "
+		"{\"user\": \"root\", \"access\": \"write\"}, {\"uid\": 1000, \"access\": "
+		"\"read\"}]}, "
 		"\"lines\": [" LINE("") "]}");
 	TEST_ASSERT_EQUAL_UINT8(COGW_ACCESS_NONE, cfg.mailbox.default_access);
 	TEST_ASSERT_EQUAL_size_t(2, cfg.mailbox.n_rules);
@@ -316,18 +331,23 @@ static void test_bad_object_definitions(void)
 {
 	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2000\", \"type\": \"UNSIGNED33\"}]"),
 		     "t.json: lines[0].objects[0].type: unknown type \"UNSIGNED33\"");
-	expect_error(CFG1(", \"objects\": [{\"index\": \"0x0FFF\", \"type\": \"UNSIGNED8\"}]"),
-		     "t.json: lines[0].objects[0].index: \"0x0FFF\" is out of range 0x1000..0xFFFF");
+	expect_error(
+		CFG1(", \"objects\": [{\"index\": \"0x0FFF\", \"type\": \"UNSIGNED8\"}]"),
+		"t.json: lines[0].objects[0].index: \"0x0FFF\" is out of range 0x1000..0xFFFF");
 	expect_error(CFG1(", \"objects\": [{\"index\": 70000, \"type\": \"UNSIGNED8\"}]"),
 		     "t.json: lines[0].objects[0].index: 70000 is out of range 0x1000..0xFFFF");
 	expect_error(CFG1(", \"objects\": [{\"index\": \"0x1017\", \"type\": \"UNSIGNED16\"}]"),
-		     "t.json: lines[0].objects[0].index: object 0x1017 already exists (a standard object or defined twice; set values in \"values\")");
+		     "t.json: lines[0].objects[0].index: object 0x1017 already exists (a standard "
+		     "object or defined twice; set values in \"values\")");
 	expect_error(CFG1(", \"objects\": [{\"index\": 8192, \"type\": \"UNSIGNED8\"},"
 			  " {\"index\": \"0x2000\", \"type\": \"UNSIGNED8\"}]"),
-		     "t.json: lines[0].objects[1].index: object 0x2000 already exists (a standard object or defined twice; set values in \"values\")");
-	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2001\", \"object\": \"RECORD\", \"subs\": ["
-			  "{\"sub\": 1, \"type\": \"UNSIGNED8\"}, {\"sub\": 1, \"type\": \"UNSIGNED16\"}]}]"),
-		     "t.json: lines[0].objects[0].subs[1].sub: sub-index 1 is defined twice");
+		     "t.json: lines[0].objects[1].index: object 0x2000 already exists (a standard "
+		     "object or defined twice; set values in \"values\")");
+	expect_error(
+		CFG1(", \"objects\": [{\"index\": \"0x2001\", \"object\": \"RECORD\", \"subs\": ["
+		     "{\"sub\": 1, \"type\": \"UNSIGNED8\"}, {\"sub\": 1, \"type\": "
+		     "\"UNSIGNED16\"}]}]"),
+		"t.json: lines[0].objects[0].subs[1].sub: sub-index 1 is defined twice");
 	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2002\", \"type\": \"INTEGER16\", "
 			  "\"min\": -100, \"max\": 100, \"default\": 2000}]"),
 		     "t.json: lines[0].objects[0].default: default 2000 is above max 100");
@@ -337,28 +357,42 @@ static void test_bad_object_definitions(void)
 	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2002\", \"type\": \"REAL32\", "
 			  "\"min\": 5.5, \"max\": 1.25}]"),
 		     "t.json: lines[0].objects[0].min: min 5.5 is greater than max 1.25");
-	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2003\", \"type\": \"VISIBLE_STRING\", "
-			  "\"max_size\": 4, \"default\": \"hello\"}]"),
-		     "t.json: lines[0].objects[0].default: string of 5 bytes is longer than max_size 4");
+	expect_error(
+		CFG1(", \"objects\": [{\"index\": \"0x2003\", \"type\": \"VISIBLE_STRING\", "
+		     "\"max_size\": 4, \"default\": \"hello\"}]"),
+		"t.json: lines[0].objects[0].default: string of 5 bytes is longer than max_size 4");
 	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2003\", \"type\": \"VISIBLE_STRING\"}]"),
-		     "t.json: lines[0].objects[0].max_size: required for VISIBLE_STRING without a non-empty default");
-	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2004\", \"type\": \"UNSIGNED8\", \"access\": \"rx\"}]"),
-		     "t.json: lines[0].objects[0].access: unknown access \"rx\" (one of ro, wo, rw, rwr, rww, const)");
-	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2004\", \"type\": \"UNSIGNED8\", \"default\": 256}]"),
+		     "t.json: lines[0].objects[0].max_size: required for VISIBLE_STRING without a "
+		     "non-empty default");
+	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2004\", \"type\": \"UNSIGNED8\", "
+			  "\"access\": \"rx\"}]"),
+		     "t.json: lines[0].objects[0].access: unknown access \"rx\" (one of ro, wo, "
+		     "rw, rwr, rww, const)");
+	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2004\", \"type\": \"UNSIGNED8\", "
+			  "\"default\": 256}]"),
 		     "t.json: lines[0].objects[0].default: 256 is out of range 0..255");
-	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2004\", \"type\": \"UNSIGNED8\", \"lenght\": 2}]"),
+	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2004\", \"type\": \"UNSIGNED8\", "
+			  "\"lenght\": 2}]"),
 		     "t.json: lines[0].objects[0].lenght: unknown key");
-	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2005\", \"object\": \"ARRAY\", \"type\": \"UNSIGNED8\","
+	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2005\", \"object\": \"ARRAY\", "
+			  "\"type\": \"UNSIGNED8\","
 			  " \"length\": 2, \"defaults\": [1, 2, 3]}]"),
 		     "t.json: lines[0].objects[0].defaults: has 3 values, length is 2");
-	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2006\", \"type\": \"OCTET_STRING\", \"default\": \"0g\"}]"),
-		     "t.json: lines[0].objects[0].default: not a hex string (pairs of hex digits, optionally separated by spaces)");
-	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2007\", \"type\": \"VISIBLE_STRING\", \"max_size\": 8, \"min\": 1}]"),
-		     "t.json: lines[0].objects[0].min: limits apply to numeric types only, not VISIBLE_STRING");
+	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2006\", \"type\": \"OCTET_STRING\", "
+			  "\"default\": \"0g\"}]"),
+		     "t.json: lines[0].objects[0].default: not a hex string (pairs of hex digits, "
+		     "optionally separated by spaces)");
+	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2007\", \"type\": \"VISIBLE_STRING\", "
+			  "\"max_size\": 8, \"min\": 1}]"),
+		     "t.json: lines[0].objects[0].min: limits apply to numeric types only, not "
+		     "VISIBLE_STRING");
 	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2008\", \"object\": \"STRUCT\"}]"),
-		     "t.json: lines[0].objects[0].object: unknown object code \"STRUCT\" (VAR, ARRAY or RECORD)");
-	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2009\", \"type\": \"UNSIGNED64\", \"default\": 18446744073709551615}]"),
-		     "t.json: lines[0].objects[0].default: 1.8446744073709552e+19 is beyond the exact range of JSON numbers; write it as a string (\"0x...\")");
+		     "t.json: lines[0].objects[0].object: unknown object code \"STRUCT\" (VAR, "
+		     "ARRAY or RECORD)");
+	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2009\", \"type\": \"UNSIGNED64\", "
+			  "\"default\": 18446744073709551615}]"),
+		     "t.json: lines[0].objects[0].default: 1.8446744073709552e+19 is beyond the "
+		     "exact range of JSON numbers; write it as a string (\"0x...\")");
 }
 
 static void test_bad_values(void)
@@ -370,51 +404,59 @@ static void test_bad_values(void)
 	expect_error(CFG1(", \"values\": [{\"index\": \"0x1017\", \"value\": \"fast\"}]"),
 		     "t.json: lines[0].values[0].value: \"fast\" is not an integer");
 	expect_error(CFG1(", \"values\": [{\"index\": \"0x1008\", \"value\": 5}]"),
-		     "t.json: lines[0].values[0].value: expected a string for VISIBLE_STRING, got a number");
+		     "t.json: lines[0].values[0].value: expected a string for VISIBLE_STRING, got "
+		     "a number");
 	expect_error(CFG1(", \"values\": [{\"index\": \"0x1017\", \"value\": 65536}]"),
 		     "t.json: lines[0].values[0].value: 65536 is out of range 0..65535");
-	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2000\", \"type\": \"UNSIGNED16\", \"min\": 10, \"max\": 1000, \"default\": 10}],"
+	expect_error(CFG1(", \"objects\": [{\"index\": \"0x2000\", \"type\": \"UNSIGNED16\", "
+			  "\"min\": 10, \"max\": 1000, \"default\": 10}],"
 			  " \"values\": [{\"index\": \"0x2000\", \"value\": 1001}]"),
-		     "t.json: lines[0].values[0].value: 1001 refused for 0x2000:00 (value of parameter too high)");
+		     "t.json: lines[0].values[0].value: 1001 refused for 0x2000:00 (value of "
+		     "parameter too high)");
 	expect_error(CFG1(", \"values\": [{\"index\": \"0x1017\", \"value\": 10},"
 			  " {\"index\": 4119, \"sub\": 0, \"value\": 20}]"),
 		     "t.json: lines[0].values[1]: 0x1017:00 is already set by lines[0].values[0]");
 	expect_error(CFG1(", \"values\": [{\"index\": \"0x1017\"}]"),
 		     "t.json: lines[0].values[0].value: required key is missing");
 	expect_error(CFG1(", \"values\": {\"0x1017\": 5}"),
-		     "t.json: lines[0].values: expected an array of {\"index\", \"sub\", \"value\"}, got an object");
+		     "t.json: lines[0].values: expected an array of {\"index\", \"sub\", "
+		     "\"value\"}, got an object");
 }
 
 /* ---- what the ODs contain ----------------------------------------------------------- */
 
-static const char *typed_json =
-	CFG1(", \"objects\": ["
-	     "{\"index\": \"0x2000\", \"name\": \"Pressure\", \"type\": \"INTEGER16\", \"access\": \"rwr\","
-	     " \"min\": -1000, \"max\": 1000, \"default\": -5},"
-	     "{\"index\": \"0x2001\", \"type\": \"REAL32\", \"default\": 1.5},"
-	     "{\"index\": \"0x2002\", \"type\": \"REAL64\", \"default\": -0.25, \"access\": \"ro\"},"
-	     "{\"index\": \"0x2003\", \"type\": \"INTEGER64\", \"default\": \"-9223372036854775808\"},"
-	     "{\"index\": \"0x2004\", \"type\": \"UNSIGNED64\", \"default\": \"0xFFFFFFFFFFFFFFFF\"},"
-	     "{\"index\": \"0x2005\", \"type\": \"INTEGER24\", \"default\": -2},"
-	     "{\"index\": \"0x2006\", \"type\": \"BOOLEAN\", \"default\": true, \"pdo\": true},"
-	     "{\"index\": \"0x2007\", \"type\": \"VISIBLE_STRING\", \"max_size\": 16, \"default\": \"abc\"},"
-	     "{\"index\": \"0x2008\", \"type\": \"OCTET_STRING\", \"default\": \"01 02 ff\"},"
-	     "{\"index\": \"0x2009\", \"type\": \"DOMAIN\", \"max_size\": 4096},"
-	     "{\"index\": \"0x200A\", \"type\": \"UNICODE_STRING\", \"default\": \"A\\u00e9\"},"
-	     "{\"index\": \"0x200B\", \"type\": \"TIME_OF_DAY\", \"default\": {\"ms\": 1000, \"days\": 2}},"
-	     "{\"index\": \"0x200C\", \"type\": \"UNSIGNED48\", \"default\": \"0x123456789ABC\", \"persist\": true},"
-	     "{\"index\": \"0x2100\", \"object\": \"ARRAY\", \"type\": \"UNSIGNED16\", \"length\": 3,"
-	     " \"defaults\": [1, 2, \"0x10\"], \"access\": \"rww\"},"
-	     "{\"index\": \"0x2200\", \"object\": \"RECORD\", \"name\": \"rec\", \"subs\": ["
-	     " {\"sub\": 1, \"type\": \"UNSIGNED8\", \"default\": 7},"
-	     " {\"sub\": 3, \"type\": \"INTEGER32\", \"access\": \"const\", \"default\": -7}]}"
-	     "], \"values\": ["
-	     "{\"index\": \"0x2000\", \"value\": 999},"
-	     "{\"index\": \"0x2007\", \"value\": \"changed\"},"
-	     "{\"index\": \"0x1008\", \"value\": \"my gateway\"},"
-	     "{\"index\": \"0x1018\", \"sub\": 1, \"value\": \"0x0000ABCD\"},"
-	     "{\"index\": \"0x2001\", \"value\": -3.25}"
-	     "]");
+static const char *typed_json = CFG1(
+	", \"objects\": ["
+	"{\"index\": \"0x2000\", \"name\": \"Pressure\", \"type\": \"INTEGER16\", \"access\": "
+	"\"rwr\","
+	" \"min\": -1000, \"max\": 1000, \"default\": -5},"
+	"{\"index\": \"0x2001\", \"type\": \"REAL32\", \"default\": 1.5},"
+	"{\"index\": \"0x2002\", \"type\": \"REAL64\", \"default\": -0.25, \"access\": \"ro\"},"
+	"{\"index\": \"0x2003\", \"type\": \"INTEGER64\", \"default\": \"-9223372036854775808\"},"
+	"{\"index\": \"0x2004\", \"type\": \"UNSIGNED64\", \"default\": \"0xFFFFFFFFFFFFFFFF\"},"
+	"{\"index\": \"0x2005\", \"type\": \"INTEGER24\", \"default\": -2},"
+	"{\"index\": \"0x2006\", \"type\": \"BOOLEAN\", \"default\": true, \"pdo\": true},"
+	"{\"index\": \"0x2007\", \"type\": \"VISIBLE_STRING\", \"max_size\": 16, \"default\": "
+	"\"abc\"},"
+	"{\"index\": \"0x2008\", \"type\": \"OCTET_STRING\", \"default\": \"01 02 ff\"},"
+	"{\"index\": \"0x2009\", \"type\": \"DOMAIN\", \"max_size\": 4096},"
+	"{\"index\": \"0x200A\", \"type\": \"UNICODE_STRING\", \"default\": \"A\\u00e9\"},"
+	"{\"index\": \"0x200B\", \"type\": \"TIME_OF_DAY\", \"default\": {\"ms\": 1000, \"days\": "
+	"2}},"
+	"{\"index\": \"0x200C\", \"type\": \"UNSIGNED48\", \"default\": \"0x123456789ABC\", "
+	"\"persist\": true},"
+	"{\"index\": \"0x2100\", \"object\": \"ARRAY\", \"type\": \"UNSIGNED16\", \"length\": 3,"
+	" \"defaults\": [1, 2, \"0x10\"], \"access\": \"rww\"},"
+	"{\"index\": \"0x2200\", \"object\": \"RECORD\", \"name\": \"rec\", \"subs\": ["
+	" {\"sub\": 1, \"type\": \"UNSIGNED8\", \"default\": 7},"
+	" {\"sub\": 3, \"type\": \"INTEGER32\", \"access\": \"const\", \"default\": -7}]}"
+	"], \"values\": ["
+	"{\"index\": \"0x2000\", \"value\": 999},"
+	"{\"index\": \"0x2007\", \"value\": \"changed\"},"
+	"{\"index\": \"0x1008\", \"value\": \"my gateway\"},"
+	"{\"index\": \"0x1018\", \"sub\": 1, \"value\": \"0x0000ABCD\"},"
+	"{\"index\": \"0x2001\", \"value\": -3.25}"
+	"]");
 
 static void test_od_typed_values(void)
 {
@@ -477,8 +519,7 @@ static void test_od_typed_values(void)
 
 	TEST_ASSERT_EQUAL_INT(0, co_od_get_bytes(od, 0x200B, 0, buf, sizeof(buf), &len));
 	TEST_ASSERT_EQUAL_UINT32(6, len);
-	TEST_ASSERT_EQUAL_HEX8_ARRAY(((uint8_t[]){ 0xE8, 0x03, 0x00, 0x00, 0x02, 0x00 }),
-				     buf, 6);
+	TEST_ASSERT_EQUAL_HEX8_ARRAY(((uint8_t[]){ 0xE8, 0x03, 0x00, 0x00, 0x02, 0x00 }), buf, 6);
 
 	e = co_od_find(od, 0x200C, 0);
 	TEST_ASSERT_EQUAL_HEX64(0x123456789ABCull, co_od_entry_raw(e));
@@ -550,7 +591,8 @@ static void test_sync_producer_and_pdos(void)
 {
 	co_od *od;
 
-	load_ok(CFG1(", \"sync_period_us\": 10000, \"rpdos\": 5, \"tpdos\": 2, \"sdo_servers\": 2"));
+	load_ok(CFG1(
+		", \"sync_period_us\": 10000, \"rpdos\": 5, \"tpdos\": 2, \"sdo_servers\": 2"));
 	od = cfg.lines[0].od;
 	TEST_ASSERT_EQUAL_HEX64(0x40000080u, raw(od, 0x1005, 0));
 	TEST_ASSERT_EQUAL_HEX64(10000, raw(od, 0x1006, 0));
@@ -577,58 +619,77 @@ static void test_reload_check(void)
 
 	load_ok(cogw_default_config_json);
 	memset(&next, 0, sizeof(next));
-	TEST_ASSERT_EQUAL_INT(0, cogw_config_load_string(&next, cogw_default_config_json,
-							 "next", err, sizeof(err)));
+	TEST_ASSERT_EQUAL_INT(0, cogw_config_load_string(&next, cogw_default_config_json, "next",
+							 err, sizeof(err)));
 	TEST_ASSERT_TRUE(cogw_config_reload_check(&cfg, &next, what, sizeof(what)));
 	TEST_ASSERT_EQUAL_STRING("", what);
 	cogw_config_free(&next);
 
 	/* What may change: rules, lease, heartbeat, RT. */
-	TEST_ASSERT_EQUAL_INT(0, cogw_config_load_string(&next,
-		"{\"mailbox\": {\"lease_ms\": 3000, \"default_access\": \"read\","
-		" \"rules\": [{\"uid\": 0, \"access\": \"write\"}]},"
-		/* the default's shared process image B000h, unchanged */
-		" \"gateway\": {\"process_image\": [{\"index\": \"0xB000\", \"type\": \"REAL32\","
-		" \"access\": \"rw\", \"pdo\": true, \"name\": \"pressure of node 1 (PSI, shared process image)\"}]},"
-		" \"lines\": ["
-		"{\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,"
-		" \"network_id\": 1, \"heartbeat_ms\": 500, \"rt\": {\"priority\": 50, \"cpu\": 1},"
-		" \"heartbeat_consumers\": [{\"node_id\": 1, \"time_ms\": 3000}, {\"node_id\": 9, \"time_ms\": 3000}],"
-		" \"device\": {\"name\": \"cogw gateway\"},"
-		/* the default's demo RPDO into B000h, unchanged */
-		" \"rpdos\": 1,"
-		" \"values\": [{\"index\": \"0x1400\", \"sub\": 1, \"value\": \"0x00000181\"},"
-		" {\"index\": \"0x1600\", \"sub\": 1, \"value\": \"0xB0000020\"}, {\"index\": \"0x1600\", \"sub\": 0, \"value\": 1}]},"
-		"{\"name\": \"line1\", \"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127,"
-		" \"network_id\": 2, \"device\": {\"name\": \"cogw gateway\"}},"
-		"{\"name\": \"line2\", \"interface\": \"vcan2\", \"bitrate\": 1000000, \"node_id\": 127,"
-		" \"network_id\": 3, \"device\": {\"name\": \"cogw gateway\"}}]}",
-		"next", err, sizeof(err)));
+	TEST_ASSERT_EQUAL_INT(
+		0, cogw_config_load_string(
+			   &next,
+			   "{\"mailbox\": {\"lease_ms\": 3000, \"default_access\": \"read\","
+			   " \"rules\": [{\"uid\": 0, \"access\": \"write\"}]},"
+			   /* the default's shared process image B000h, unchanged */
+			   " \"gateway\": {\"process_image\": [{\"index\": \"0xB000\", \"type\": "
+			   "\"REAL32\","
+			   " \"access\": \"rw\", \"pdo\": true, \"name\": \"pressure of node 1 "
+			   "(PSI, shared process image)\"}]},"
+			   " \"lines\": ["
+			   "{\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": 1000000, "
+			   "\"node_id\": 127,"
+			   " \"network_id\": 1, \"heartbeat_ms\": 500, \"rt\": {\"priority\": 50, "
+			   "\"cpu\": 1},"
+			   " \"heartbeat_consumers\": [{\"node_id\": 1, \"time_ms\": 3000}, "
+			   "{\"node_id\": 9, \"time_ms\": 3000}],"
+			   " \"device\": {\"name\": \"cogw gateway\"},"
+			   /* the default's demo RPDO into B000h, unchanged */
+			   " \"rpdos\": 1,"
+			   " \"values\": [{\"index\": \"0x1400\", \"sub\": 1, \"value\": "
+			   "\"0x00000181\"},"
+			   " {\"index\": \"0x1600\", \"sub\": 1, \"value\": \"0xB0000020\"}, "
+			   "{\"index\": \"0x1600\", \"sub\": 0, \"value\": 1}]},"
+			   "{\"name\": \"line1\", \"interface\": \"vcan1\", \"bitrate\": 1000000, "
+			   "\"node_id\": 127,"
+			   " \"network_id\": 2, \"device\": {\"name\": \"cogw gateway\"}},"
+			   "{\"name\": \"line2\", \"interface\": \"vcan2\", \"bitrate\": 1000000, "
+			   "\"node_id\": 127,"
+			   " \"network_id\": 3, \"device\": {\"name\": \"cogw gateway\"}}]}",
+			   "next", err, sizeof(err)));
 	TEST_ASSERT_TRUE_MESSAGE(cogw_config_reload_check(&cfg, &next, what, sizeof(what)), what);
 	TEST_ASSERT_EQUAL_STRING("", what);
 	cogw_config_free(&next);
 
 	/* What may not. */
-	TEST_ASSERT_EQUAL_INT(0, cogw_config_load_string(&next,
-		"{\"mailbox\": {\"depth\": 32},"
-		" \"gateway\": {\"process_image\": [{\"index\": \"0xB000\", \"type\": \"REAL32\","
-		" \"access\": \"rw\", \"pdo\": true, \"name\": \"pressure of node 1 (PSI, shared process image)\"}]},"
-		" \"lines\": ["
-		"{\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 127,"
-		" \"network_id\": 1, \"device\": {\"name\": \"cogw gateway\"}},"
-		"{\"name\": \"line1\", \"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127,"
-		" \"network_id\": 2, \"device\": {\"name\": \"cogw gateway\"},"
-		" \"objects\": [{\"index\": \"0x2000\", \"type\": \"UNSIGNED8\"}]},"
-		"{\"name\": \"line2\", \"interface\": \"vcan2\", \"bitrate\": 1000000, \"node_id\": 127,"
-		" \"network_id\": 3}]}",
-		"next", err, sizeof(err)));
+	TEST_ASSERT_EQUAL_INT(
+		0, cogw_config_load_string(
+			   &next,
+			   "{\"mailbox\": {\"depth\": 32},"
+			   " \"gateway\": {\"process_image\": [{\"index\": \"0xB000\", \"type\": "
+			   "\"REAL32\","
+			   " \"access\": \"rw\", \"pdo\": true, \"name\": \"pressure of node 1 "
+			   "(PSI, shared process image)\"}]},"
+			   " \"lines\": ["
+			   "{\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": 500000, "
+			   "\"node_id\": 127,"
+			   " \"network_id\": 1, \"device\": {\"name\": \"cogw gateway\"}},"
+			   "{\"name\": \"line1\", \"interface\": \"vcan1\", \"bitrate\": 1000000, "
+			   "\"node_id\": 127,"
+			   " \"network_id\": 2, \"device\": {\"name\": \"cogw gateway\"},"
+			   " \"objects\": [{\"index\": \"0x2000\", \"type\": \"UNSIGNED8\"}]},"
+			   "{\"name\": \"line2\", \"interface\": \"vcan2\", \"bitrate\": 1000000, "
+			   "\"node_id\": 127,"
+			   " \"network_id\": 3}]}",
+			   "next", err, sizeof(err)));
 	TEST_ASSERT_FALSE(cogw_config_reload_check(&cfg, &next, what, sizeof(what)));
 	TEST_ASSERT_EQUAL_STRING("mailbox.depth, lines[0].bitrate, lines[1].objects/values, "
-				 "lines[2].objects/values", what);
+				 "lines[2].objects/values",
+				 what);
 	cogw_config_free(&next);
 
-	TEST_ASSERT_EQUAL_INT(0, cogw_config_load_string(&next, CFG1(""), "next", err,
-							 sizeof(err)));
+	TEST_ASSERT_EQUAL_INT(0,
+			      cogw_config_load_string(&next, CFG1(""), "next", err, sizeof(err)));
 	TEST_ASSERT_FALSE(cogw_config_reload_check(&cfg, &next, NULL, 0));
 	TEST_ASSERT_FALSE(cogw_config_reload_check(&cfg, &next, what, sizeof(what)));
 	TEST_ASSERT_EQUAL_STRING("lines (count)", what);
@@ -670,8 +731,9 @@ static void test_load_file(void)
 static void test_json_od_standalone(void)
 {
 	co_od *od = NULL;
-	cJSON *objs = cJSON_Parse("[{\"index\": \"0x6000\", \"object\": \"ARRAY\", \"type\": \"UNSIGNED8\","
-				  " \"length\": 2, \"default\": 9, \"access\": \"rwr\"}]");
+	cJSON *objs = cJSON_Parse(
+		"[{\"index\": \"0x6000\", \"object\": \"ARRAY\", \"type\": \"UNSIGNED8\","
+		" \"length\": 2, \"default\": 9, \"access\": \"rwr\"}]");
 	cJSON *vals = cJSON_Parse("[{\"index\": 24576, \"sub\": 2, \"value\": 3}]");
 
 	TEST_ASSERT_EQUAL_INT(0, co_od_create(&od, 8));
@@ -680,8 +742,11 @@ static void test_json_od_standalone(void)
 	TEST_ASSERT_EQUAL_HEX64(2, raw(od, 0x6000, 0));
 	TEST_ASSERT_EQUAL_HEX64(9, raw(od, 0x6000, 1));
 	TEST_ASSERT_EQUAL_HEX64(3, raw(od, 0x6000, 2));
-	TEST_ASSERT_EQUAL_INT(-EINVAL, json_od_add_objects(od, objs, "dev.objects", err, sizeof(err)));
-	TEST_ASSERT_EQUAL_STRING("dev.objects[0].index: object 0x6000 already exists (a standard object or defined twice; set values in \"values\")", err);
+	TEST_ASSERT_EQUAL_INT(-EINVAL,
+			      json_od_add_objects(od, objs, "dev.objects", err, sizeof(err)));
+	TEST_ASSERT_EQUAL_STRING("dev.objects[0].index: object 0x6000 already exists (a standard "
+				 "object or defined twice; set values in \"values\")",
+				 err);
 	cJSON_Delete(objs);
 	cJSON_Delete(vals);
 	co_od_destroy(od);
@@ -689,8 +754,9 @@ static void test_json_od_standalone(void)
 
 /* ---- the CiA 302-7 gateway --------------------------------------------------------------- */
 
-#define LINE_N(i, net) \
-	"{\"interface\": \"vcan" #i "\", \"bitrate\": 500000, \"node_id\": 5, \"network_id\": " #net "}"
+#define LINE_N(i, net)              \
+	"{\"interface\": \"vcan" #i \
+	"\", \"bitrate\": 500000, \"node_id\": 5, \"network_id\": " #net "}"
 #define CFG3(gw) "{" gw "\"lines\": [" LINE_N(0, 7) ", " LINE_N(1, 3) ", " LINE_N(2, 9) "]}"
 
 static void test_gateway_routes_and_network_ids(void)
@@ -716,7 +782,8 @@ static void test_gateway_routes_and_network_ids(void)
 	/* a line's values may still override its own table */
 	cogw_config_free(&cfg);
 	load_ok("{\"lines\": [" LINE_N(0, 1) ", {\"interface\": \"vcan1\", \"bitrate\": 500000,"
-		" \"node_id\": 5, \"values\": [{\"index\": \"0x1F2C\", \"sub\": 1, \"value\": 0}]}]}");
+					     " \"node_id\": 5, \"values\": [{\"index\": "
+					     "\"0x1F2C\", \"sub\": 1, \"value\": 0}]}]}");
 	TEST_ASSERT_EQUAL_HEX64(0x01, raw(cfg.lines[0].od, 0x1F2C, 1));
 	TEST_ASSERT_EQUAL_HEX64(0x02, raw(cfg.lines[0].od, 0x1F2C, 2));
 	TEST_ASSERT_EQUAL_HEX64(0, raw(cfg.lines[1].od, 0x1F2C, 1));
@@ -724,26 +791,33 @@ static void test_gateway_routes_and_network_ids(void)
 
 static void test_gateway_errors(void)
 {
-	expect_error(CFG3("\"gateway\": {\"routes\": [{\"network\": 3, \"line\": 0, \"router\": 2}]},"),
-		     "t.json: gateway.routes[0]: network 3 is attached to lines[1]: it needs no route");
-	expect_error(CFG3("\"gateway\": {\"routes\": [{\"network\": 4, \"line\": 0}]},"),
-		     "t.json: gateway.routes[0]: network 4 is not attached here: name its next router");
-	expect_error(CFG3("\"gateway\": {\"routes\": [{\"network\": 4, \"line\": 3, \"router\": 2}]},"),
-		     "t.json: gateway.routes[0].line: line 3 does not exist (3 lines)");
-	expect_error(CFG3("\"gateway\": {\"routes\": [{\"network\": 128, \"line\": 0, \"router\": 2}]},"),
+	expect_error(
+		CFG3("\"gateway\": {\"routes\": [{\"network\": 3, \"line\": 0, \"router\": 2}]},"),
+		"t.json: gateway.routes[0]: network 3 is attached to lines[1]: it needs no route");
+	expect_error(
+		CFG3("\"gateway\": {\"routes\": [{\"network\": 4, \"line\": 0}]},"),
+		"t.json: gateway.routes[0]: network 4 is not attached here: name its next router");
+	expect_error(
+		CFG3("\"gateway\": {\"routes\": [{\"network\": 4, \"line\": 3, \"router\": 2}]},"),
+		"t.json: gateway.routes[0].line: line 3 does not exist (3 lines)");
+	expect_error(CFG3("\"gateway\": {\"routes\": [{\"network\": 128, \"line\": 0, \"router\": "
+			  "2}]},"),
 		     "t.json: gateway.routes[0].network: 128 is out of range 1..127");
 	expect_error(CFG3("\"gateway\": {\"route\": []},"),
 		     "t.json: gateway.route: unknown key (did you mean \"routes\"?)");
-	expect_error(CFG3("\"gateway\": {\"process_image\": [{\"index\": \"0xA000\", \"type\": \"UNSIGNED8\","
+	expect_error(CFG3("\"gateway\": {\"process_image\": [{\"index\": \"0xA000\", \"type\": "
+			  "\"UNSIGNED8\","
 			  " \"pdo\": true}]},"),
 		     "t.json: gateway.process_image: A000h is outside B000h..BFFFh");
-	expect_error(CFG3("\"gateway\": {\"process_image\": [{\"index\": \"0xB000\","
-			  " \"type\": \"VISIBLE_STRING\", \"max_size\": 8, \"pdo\": true}]},"),
-		     "t.json: gateway.process_image: B000h:00: a VISIBLE_STRING cannot be forwarded "
-		     "by PDO (numeric types of at most 8 bytes)");
-	expect_error(CFG3("\"gateway\": {\"process_image\": [{\"index\": \"0xB000\","
-			  " \"type\": \"UNSIGNED8\"}]},"),
-		     "t.json: gateway.process_image: B000h:00 is not PDO-mappable (set \"pdo\": true)");
+	expect_error(
+		CFG3("\"gateway\": {\"process_image\": [{\"index\": \"0xB000\","
+		     " \"type\": \"VISIBLE_STRING\", \"max_size\": 8, \"pdo\": true}]},"),
+		"t.json: gateway.process_image: B000h:00: a VISIBLE_STRING cannot be forwarded "
+		"by PDO (numeric types of at most 8 bytes)");
+	expect_error(
+		CFG3("\"gateway\": {\"process_image\": [{\"index\": \"0xB000\","
+		     " \"type\": \"UNSIGNED8\"}]},"),
+		"t.json: gateway.process_image: B000h:00 is not PDO-mappable (set \"pdo\": true)");
 	expect_error(CFG1(", \"objects\": [{\"index\": \"0xB010\", \"type\": \"UNSIGNED8\"}]"),
 		     "t.json: lines[0].objects[0]: B010h: B000h..BFFFh is the shared process image "
 		     "of all lines: define it in gateway.process_image");

@@ -19,13 +19,9 @@
 
 #include "tests/fuzz/fuzz_config.c"
 
-void setUp(void)
-{
-}
+void setUp(void) {}
 
-void tearDown(void)
-{
-}
+void tearDown(void) {}
 
 static char *read_all(const char *path, size_t *len)
 {
@@ -35,9 +31,8 @@ static char *read_all(const char *path, size_t *len)
 
 	if (!f)
 		return NULL;
-	if (fseek(f, 0, SEEK_END) == 0 && (n = ftell(f)) >= 0 &&
-	    fseek(f, 0, SEEK_SET) == 0 && (buf = malloc((size_t)n + 1)) &&
-	    fread(buf, 1, (size_t)n, f) == (size_t)n) {
+	if (fseek(f, 0, SEEK_END) == 0 && (n = ftell(f)) >= 0 && fseek(f, 0, SEEK_SET) == 0 &&
+	    (buf = malloc((size_t)n + 1)) && fread(buf, 1, (size_t)n, f) == (size_t)n) {
 		buf[n] = '\0';
 		*len = (size_t)n;
 	} else {
@@ -56,10 +51,11 @@ static void test_corpus_replay(void)
 	DIR *d;
 	unsigned files = 0;
 
-	snprintf(dir, sizeof(dir), "%s%stests/fuzz/corpus/config",
-		 root ? root : "", root ? "/" : "");
+	snprintf(dir, sizeof(dir), "%s%stests/fuzz/corpus/config", root ? root : "",
+		 root ? "/" : "");
 	d = opendir(dir);
-	TEST_ASSERT_NOT_NULL_MESSAGE(d, "corpus directory not found (run from the repository root)");
+	TEST_ASSERT_NOT_NULL_MESSAGE(d,
+				     "corpus directory not found (run from the repository root)");
 	while ((de = readdir(d))) {
 		static cogw_config cfg;
 		char err[512];
@@ -86,7 +82,8 @@ static void test_corpus_replay(void)
 
 		for (size_t cut = 0; cut < len; cut++) {
 			snprintf(msg, sizeof(msg), "%s cut at %zu", de->d_name, cut);
-			TEST_ASSERT_EQUAL_INT_MESSAGE(0, fuzz_config_one((const uint8_t *)text, cut), msg);
+			TEST_ASSERT_EQUAL_INT_MESSAGE(
+				0, fuzz_config_one((const uint8_t *)text, cut), msg);
 		}
 		free(text);
 	}

@@ -37,7 +37,7 @@
  * (for the defaults of the node configuration keys). */
 #define MIN_CFG                                                                         \
 	"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 5, " \
-	"\"nodes\": [{\"id\": 7, \"config\": {\"entries\": [{\"index\": \"0x1017\", "         \
+	"\"nodes\": [{\"id\": 7, \"config\": {\"entries\": [{\"index\": \"0x1017\", "   \
 	"\"type\": \"UNSIGNED16\", \"value\": 500}]}}]}]}"
 
 static cogw_config cfg;
@@ -47,8 +47,8 @@ static char *doc;
 void setUp(void)
 {
 	memset(&cfg, 0, sizeof cfg);
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, cogw_config_load_string(&cfg, MIN_CFG, "t.json", err, sizeof err),
-				      err);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(
+		0, cogw_config_load_string(&cfg, MIN_CFG, "t.json", err, sizeof err), err);
 }
 
 void tearDown(void)
@@ -119,7 +119,7 @@ static int fill_key_defaults(struct key_default *k)
 	const cogw_line_config *l = &cfg.lines[0];
 	const cogw_mailbox_config *m = &cfg.mailbox;
 	int n = 0;
-#define KD(sec, name, fmt, val) \
+#define KD(sec, name, fmt, val)                        \
 	(k[n] = (struct key_default){ sec, name, "" }, \
 	 snprintf(k[n].actual, sizeof k[n].actual, fmt, val), n++)
 	KD("Top level", "version", "%d", 1); /* the loader refuses anything else */
@@ -158,10 +158,11 @@ static int fill_key_defaults(struct key_default *k)
 		memset(&mc, 0, sizeof mc);
 		TEST_ASSERT_EQUAL_INT_MESSAGE(
 			0,
-			cogw_config_load_string(&mc,
-						"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, "
-						"\"node_id\": 5, \"manager\": {}, \"nodes\": [{\"id\": 7}]}]}",
-						"m.json", err, sizeof err),
+			cogw_config_load_string(
+				&mc,
+				"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, "
+				"\"node_id\": 5, \"manager\": {}, \"nodes\": [{\"id\": 7}]}]}",
+				"m.json", err, sizeof err),
 			err);
 		const cogw_manager_config *g = &mc.lines[0].manager;
 		const cogw_node *nd = &mc.lines[0].nodes[0];
@@ -277,16 +278,19 @@ static void test_key_tables_match_the_loader(void)
 			for (i = 0; i < nk; i++)
 				if (!strcmp(k[i].section, section) && !strcmp(k[i].key, key))
 					break;
-			snprintf(msg, sizeof msg, DOC ": section \"%s\", key %s: documented default %s",
-				 section, key, want);
-			TEST_ASSERT_TRUE_MESSAGE(i < nk, msg); /* a default this test does not check */
+			snprintf(msg, sizeof msg,
+				 DOC ": section \"%s\", key %s: documented default %s", section,
+				 key, want);
+			TEST_ASSERT_TRUE_MESSAGE(i < nk,
+						 msg); /* a default this test does not check */
 			TEST_ASSERT_EQUAL_STRING_MESSAGE(k[i].actual, want, msg);
 			seen[i] = true;
 			checked++;
 		}
 	}
 	for (int i = 0; i < nk; i++) {
-		snprintf(msg, sizeof msg, DOC ": no default documented for %s / %s", k[i].section, k[i].key);
+		snprintf(msg, sizeof msg, DOC ": no default documented for %s / %s", k[i].section,
+			 k[i].key);
 		TEST_ASSERT_TRUE_MESSAGE(seen[i], msg);
 	}
 	TEST_ASSERT_EQUAL_INT(nk, checked);

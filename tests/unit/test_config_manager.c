@@ -27,8 +27,7 @@ void tearDown(void)
 	cogw_config_free(&cfg);
 }
 
-#define LINE(extra) \
-	"{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 5" extra "}"
+#define LINE(extra) "{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 5" extra "}"
 #define CFG1(extra) "{\"lines\": [" LINE(extra) "]}"
 
 static void expect_error(const char *json, const char *msg)
@@ -83,9 +82,8 @@ static void test_manager_bits_by_name(void)
 		     "\"start_slaves\": false, \"on_mandatory_error\": \"stop_all\", "
 		     "\"boot_time_ms\": 5000, \"scan_ms\": 2000, \"retry_ms\": 500, "
 		     "\"max_parallel\": 3, \"accept_remote_nmt\": true}"));
-	uint32_t want = CO_MGR_1F80_MASTER | CO_MGR_1F80_START_ALL |
-			CO_MGR_1F80_NO_SELF_START | CO_MGR_1F80_APP_STARTS_SLAVES |
-			CO_MGR_1F80_STOP_ALL_ON_ERROR;
+	uint32_t want = CO_MGR_1F80_MASTER | CO_MGR_1F80_START_ALL | CO_MGR_1F80_NO_SELF_START |
+			CO_MGR_1F80_APP_STARTS_SLAVES | CO_MGR_1F80_STOP_ALL_ON_ERROR;
 	TEST_ASSERT_EQUAL_HEX64(want, raw(cfg.lines[0].od, 0x1F80, 0));
 	TEST_ASSERT_EQUAL_HEX64(5000, raw(cfg.lines[0].od, 0x1F89, 0));
 	const cogw_manager_config *m = &cfg.lines[0].manager;
@@ -100,12 +98,13 @@ static void test_manager_bits_by_name(void)
 
 static void test_nodes_fill_assignment_identity_heartbeat(void)
 {
-	load_ok(CFG1(", \"manager\": {}, \"nodes\": ["
-		     "{\"id\": 2, \"mandatory\": true, \"heartbeat_ms\": 1500, "
-		     " \"vendor_id\": \"0x250\", \"product_code\": 4660, \"keep_op\": true},"
-		     "{\"id\": 3, \"keep_alive\": true, \"guard_time_ms\": 100, \"retry_factor\": 3,"
-		     " \"device_type\": \"0x00040194\", \"serial\": 99},"
-		     "{\"id\": 4, \"boot\": false}]"));
+	load_ok(CFG1(
+		", \"manager\": {}, \"nodes\": ["
+		"{\"id\": 2, \"mandatory\": true, \"heartbeat_ms\": 1500, "
+		" \"vendor_id\": \"0x250\", \"product_code\": 4660, \"keep_op\": true},"
+		"{\"id\": 3, \"keep_alive\": true, \"guard_time_ms\": 100, \"retry_factor\": 3,"
+		" \"device_type\": \"0x00040194\", \"serial\": 99},"
+		"{\"id\": 4, \"boot\": false}]"));
 	const co_od *od = cfg.lines[0].od;
 	TEST_ASSERT_EQUAL_HEX64(CO_MGR_1F81_SLAVE | CO_MGR_1F81_BOOT | CO_MGR_1F81_MANDATORY,
 				raw(od, 0x1F81, 2));
@@ -163,15 +162,18 @@ static void test_node_software_keys(void)
 	cogw_config_free(&cfg);
 
 	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"software_update\": true}]"),
-		     "t.json: lines[0].nodes[0].software_update: \"software_update\": true, \"program\" and a "
+		     "t.json: lines[0].nodes[0].software_update: \"software_update\": true, "
+		     "\"program\" and a "
 		     "non-zero \"software_id\" go together (node 2)");
-	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"software_id\": 1,"
-			  " \"program\": \"/tmp/cogw-test-config-program.bin\"}]"),
-		     "t.json: lines[0].nodes[0].program: \"software_update\": true, \"program\" and a "
-		     "non-zero \"software_id\" go together (node 2)");
-	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"software_id\": 1, \"software_update\": true,"
-			  " \"program\": \"/nonexistent/x.bin\"}]"),
-		     "t.json: lines[0].nodes[0].program: /nonexistent/x.bin: No such file or directory");
+	expect_error(
+		CFG1(", \"nodes\": [{\"id\": 2, \"software_id\": 1,"
+		     " \"program\": \"/tmp/cogw-test-config-program.bin\"}]"),
+		"t.json: lines[0].nodes[0].program: \"software_update\": true, \"program\" and a "
+		"non-zero \"software_id\" go together (node 2)");
+	expect_error(
+		CFG1(", \"nodes\": [{\"id\": 2, \"software_id\": 1, \"software_update\": true,"
+		     " \"program\": \"/nonexistent/x.bin\"}]"),
+		"t.json: lines[0].nodes[0].program: /nonexistent/x.bin: No such file or directory");
 	remove(img);
 }
 
@@ -189,13 +191,17 @@ static void test_bad_values_with_paths(void)
 	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"retry_factor\": 256}]"),
 		     "t.json: lines[0].nodes[0].retry_factor: 256 is out of range 0..255");
 	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"vendor_id\": \"0x1FFFFFFFF\"}]"),
-		     "t.json: lines[0].nodes[0].vendor_id: \"0x1FFFFFFFF\" is out of range 0x0000..0xFFFFFFFF");
-	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"heartbeat_ms\": 100, \"guard_time_ms\": 100}]"),
-		     "t.json: lines[0].nodes[0].guard_time_ms: node 2 has heartbeat_ms too: "
-		     "supervise it one way");
-	expect_error(CFG1(", \"manager\": {}, \"heartbeat_consumers\": [{\"node_id\": 2, \"time_ms\": 500}], "
-			  "\"nodes\": [{\"id\": 2, \"heartbeat_ms\": 100}]"),
-		     "t.json: lines[0].nodes[0].heartbeat_ms: node 2 is in heartbeat_consumers too");
+		     "t.json: lines[0].nodes[0].vendor_id: \"0x1FFFFFFFF\" is out of range "
+		     "0x0000..0xFFFFFFFF");
+	expect_error(
+		CFG1(", \"nodes\": [{\"id\": 2, \"heartbeat_ms\": 100, \"guard_time_ms\": 100}]"),
+		"t.json: lines[0].nodes[0].guard_time_ms: node 2 has heartbeat_ms too: "
+		"supervise it one way");
+	expect_error(
+		CFG1(", \"manager\": {}, \"heartbeat_consumers\": [{\"node_id\": 2, \"time_ms\": "
+		     "500}], "
+		     "\"nodes\": [{\"id\": 2, \"heartbeat_ms\": 100}]"),
+		"t.json: lines[0].nodes[0].heartbeat_ms: node 2 is in heartbeat_consumers too");
 	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"mandatory\": \"yes\"}]"),
 		     "t.json: lines[0].nodes[0].mandatory: expected true or false, got a string");
 }

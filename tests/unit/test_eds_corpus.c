@@ -10,20 +10,17 @@
 #include "tests/fuzz/fuzz_eds.c"
 #include "tests/unit/support/corpus.h"
 
-void setUp(void)
-{
-}
+void setUp(void) {}
 
-void tearDown(void)
-{
-}
+void tearDown(void) {}
 
 static bool accepts(const uint8_t *data, size_t size)
 {
 	uint8_t *out = NULL;
 	size_t len = 0;
 	char err[512];
-	int rc = eds_convert((const char *)data, size, "corpus", 5, &out, &len, NULL, err, sizeof(err));
+	int rc = eds_convert((const char *)data, size, "corpus", 5, &out, &len, NULL, err,
+			     sizeof(err));
 
 	free(out);
 	if (rc)

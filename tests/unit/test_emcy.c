@@ -48,8 +48,7 @@ static void test_send_frame_and_history(void)
 {
 	ecf_boot(&x, ID);
 	const uint8_t msef[5] = { '1', '2', '3', '4', '5' };
-	TEST_ASSERT_EQUAL_INT(0, co_emcy_send(x.node, 0xFF00, CO_EMCY_REG_MANUF,
-					      msef, 0));
+	TEST_ASSERT_EQUAL_INT(0, co_emcy_send(x.node, 0xFF00, CO_EMCY_REG_MANUF, msef, 0));
 	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
 	const uint8_t exp[8] = { 0x00, 0xFF, 0x81, '1', '2', '3', '4', '5' };
 	TEST_ASSERT_EQUAL_HEX32(EMCY_COB, x.tx[0].id);
@@ -59,8 +58,7 @@ static void test_send_frame_and_history(void)
 	TEST_ASSERT_EQUAL_UINT8(1, u8(0x1003, 0));
 	TEST_ASSERT_EQUAL_HEX32(0x3231FF00, u32(0x1003, 1));
 
-	TEST_ASSERT_EQUAL_INT(0, co_emcy_send(x.node, 0x2310, CO_EMCY_REG_CURRENT,
-					      NULL, 0));
+	TEST_ASSERT_EQUAL_INT(0, co_emcy_send(x.node, 0x2310, CO_EMCY_REG_CURRENT, NULL, 0));
 	TEST_ASSERT_EQUAL_UINT8(2, u8(0x1003, 0));
 	TEST_ASSERT_EQUAL_HEX32(0x00002310, u32(0x1003, 1)); /* newest */
 	TEST_ASSERT_EQUAL_HEX32(0x3231FF00, u32(0x1003, 2));
@@ -122,8 +120,8 @@ static void test_inhibit_delays_second(void)
 	/* Bounded queue: the 9th waiting frame is refused, not dropped
 	 * silently; the ones queued all go out, 10 ms apart. */
 	for (unsigned i = 0; i < CO_EMCY_QUEUE_LEN; i++)
-		TEST_ASSERT_EQUAL_INT(0, co_emcy_send(x.node, (uint16_t)(0x6000 + i),
-						      0, NULL, x.now));
+		TEST_ASSERT_EQUAL_INT(0,
+				      co_emcy_send(x.node, (uint16_t)(0x6000 + i), 0, NULL, x.now));
 	TEST_ASSERT_EQUAL_INT(-ENOBUFS, co_emcy_send(x.node, 0x6100, 0, NULL, x.now));
 	TEST_ASSERT_EQUAL_UINT64(1, co_emcy_get_stats(x.node)->overflow);
 	ecf_advance(&x, 1010 * MS + CO_EMCY_QUEUE_LEN * 10 * MS);
@@ -261,8 +259,7 @@ static void test_without_objects(void)
 static void test_strings(void)
 {
 	memset(&x, 0, sizeof(x));
-	TEST_ASSERT_EQUAL_STRING("life guard or heartbeat error",
-				 co_emcy_code_to_string(0x8130));
+	TEST_ASSERT_EQUAL_STRING("life guard or heartbeat error", co_emcy_code_to_string(0x8130));
 	TEST_ASSERT_EQUAL_STRING("?", co_emcy_code_to_string(0xFF00));
 }
 

@@ -9,7 +9,13 @@
 
 #include "core/fsm.h"
 
-enum { S_IDLE, S_WAIT, S_PASS, S_DONE, S_COUNT };
+enum {
+	S_IDLE,
+	S_WAIT,
+	S_PASS,
+	S_DONE,
+	S_COUNT
+};
 
 typedef struct trace {
 	char log[128];
@@ -70,8 +76,10 @@ static int done_con(void *obj, const void *con, uint64_t now_us)
 
 static const co_fsm_state states[S_COUNT] = {
 	[S_IDLE] = { .name = "idle", .on_frame = idle_frame, .on_leave = idle_leave },
-	[S_WAIT] = { .name = "wait", .on_enter = wait_enter,
-		     .on_timeout = wait_timeout, .on_leave = wait_leave },
+	[S_WAIT] = { .name = "wait",
+		     .on_enter = wait_enter,
+		     .on_timeout = wait_timeout,
+		     .on_leave = wait_leave },
 	[S_PASS] = { .name = "pass", .on_enter = pass_enter },
 	[S_DONE] = { .name = "done", .on_enter = done_enter, .on_con = done_con },
 };
@@ -116,8 +124,8 @@ static void test_enter_chain_and_leave_order(void)
 
 static void test_missing_handler_ignores_input(void)
 {
-	co_fsm_timeout(&m, 0);       /* idle has no on_timeout */
-	co_fsm_con(&m, "x", 0);      /* nor on_con */
+	co_fsm_timeout(&m, 0);  /* idle has no on_timeout */
+	co_fsm_con(&m, "x", 0); /* nor on_con */
 	TEST_ASSERT_EQUAL(S_IDLE, co_fsm_state_of(&m));
 	TEST_ASSERT_EQUAL_STRING("", t.log);
 }

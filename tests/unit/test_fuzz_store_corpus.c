@@ -18,13 +18,9 @@
 
 #include "tests/fuzz/fuzz_store.c"
 
-void setUp(void)
-{
-}
+void setUp(void) {}
 
-void tearDown(void)
-{
-}
+void tearDown(void) {}
 
 static bool accepted(const uint8_t *data, size_t len)
 {
@@ -64,9 +60,11 @@ static void test_corpus_replay(void)
 	unsigned files = 0;
 	DIR *d;
 
-	snprintf(dir, sizeof dir, "%s%stests/fuzz/corpus/" CORPUS, root ? root : "", root ? "/" : "");
+	snprintf(dir, sizeof dir, "%s%stests/fuzz/corpus/" CORPUS, root ? root : "",
+		 root ? "/" : "");
 	d = opendir(dir);
-	TEST_ASSERT_NOT_NULL_MESSAGE(d, "corpus directory not found (run from the repository root)");
+	TEST_ASSERT_NOT_NULL_MESSAGE(d,
+				     "corpus directory not found (run from the repository root)");
 	while ((de = readdir(d))) {
 		size_t len = 0;
 		uint8_t *data;
@@ -80,7 +78,8 @@ static void test_corpus_replay(void)
 		snprintf(msg, sizeof msg, "%s: fuzz properties", de->d_name);
 		TEST_ASSERT_EQUAL_INT_MESSAGE(0, FUZZ_ONE(data, len), msg);
 		snprintf(msg, sizeof msg, "%s: %s", de->d_name,
-			 strncmp(de->d_name, "bad_", 4) == 0 ? "must be refused" : "must be accepted");
+			 strncmp(de->d_name, "bad_", 4) == 0 ? "must be refused"
+							     : "must be accepted");
 		if (strncmp(de->d_name, "bad_", 4) == 0)
 			TEST_ASSERT_FALSE_MESSAGE(accepted(data, len), msg);
 		else if (strncmp(de->d_name, GOOD_PREFIX, strlen(GOOD_PREFIX)) == 0)

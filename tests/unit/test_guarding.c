@@ -157,11 +157,11 @@ static void test_master_toggle_and_failure(void)
 	ecf_boot(&m, 1);
 	TEST_ASSERT_EQUAL_INT(0, co_guard_master_add(m.node, 9, 100, 3, 0));
 	TEST_ASSERT_EQUAL_UINT(1, ecf_tx_count(&m, 0x709));
-	ecf_rx1(&m, 0x709, 0x7F);       /* toggle 0 */
+	ecf_rx1(&m, 0x709, 0x7F); /* toggle 0 */
 	ecf_advance(&m, 100 * MS);
-	ecf_rx1(&m, 0x709, 0xFF);       /* toggle 1 */
+	ecf_rx1(&m, 0x709, 0xFF); /* toggle 1 */
 	ecf_advance(&m, 200 * MS);
-	ecf_rx1(&m, 0x709, 0xFF);       /* toggle 1 again */
+	ecf_rx1(&m, 0x709, 0xFF); /* toggle 1 again */
 	int e = ecf_ev_find(&m, 0, CO_EV_GUARD_TOGGLE);
 	TEST_ASSERT_TRUE(e >= 0);
 	TEST_ASSERT_EQUAL_UINT8(9, m.ev[e].u.errctrl.node);

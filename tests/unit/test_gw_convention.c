@@ -199,7 +199,8 @@ static void test_route_compile_from_od(void)
 	gw_hop h;
 
 	TEST_ASSERT_EQUAL(0, co_od_create(&od, 8));
-	TEST_ASSERT_EQUAL(0, co_od_add_array(od, GW_OBJ_ROUTES, CO_T_UNSIGNED32, 127, CO_ACC_RW, 0));
+	TEST_ASSERT_EQUAL(0,
+			  co_od_add_array(od, GW_OBJ_ROUTES, CO_T_UNSIGNED32, 127, CO_ACC_RW, 0));
 	TEST_ASSERT_EQUAL(0, co_od_set_u32(od, GW_OBJ_ROUTES, 5, 0x0302));
 	gw_route_table_init(&t, 0, 2);
 	gw_route_table_compile_od(&t, od);

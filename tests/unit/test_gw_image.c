@@ -108,7 +108,8 @@ static void test_no_torn_values_between_threads(void)
 	atomic_store(&torn_stop, false);
 	TEST_ASSERT_EQUAL(0, pthread_create(&r, NULL, torn_reader, &bad));
 	TEST_ASSERT_EQUAL(0, pthread_create(&w1, NULL, torn_writer, (void *)(uintptr_t)1));
-	TEST_ASSERT_EQUAL(0, pthread_create(&w2, NULL, torn_writer, (void *)(uintptr_t)0x40000000u));
+	TEST_ASSERT_EQUAL(0,
+			  pthread_create(&w2, NULL, torn_writer, (void *)(uintptr_t)0x40000000u));
 	pthread_join(w1, NULL);
 	pthread_join(w2, NULL);
 	atomic_store(&torn_stop, true);
@@ -119,9 +120,12 @@ static void test_no_torn_values_between_threads(void)
 
 static void add_tpdo(co_od *od, uint16_t nr, bool valid, uint8_t n_map, const uint32_t *map)
 {
-	co_pdo_desc d = { .dir = CO_PDO_TX, .nr = nr,
+	co_pdo_desc d = { .dir = CO_PDO_TX,
+			  .nr = nr,
 			  .cob_id = (valid ? 0 : CO_PDO_COB_INVALID) | (0x180u + nr),
-			  .tt = 255, .n_map = n_map, .map = map };
+			  .tt = 255,
+			  .n_map = n_map,
+			  .map = map };
 	TEST_ASSERT_EQUAL(0, co_od_add_pdo(od, &d));
 }
 

@@ -20,7 +20,7 @@
 #include "tests/unit/support/test_bus.h"
 #include "tests/unit/support/test_od_fixture.h"
 
-#define GW_ID 0x7F   /* the gateway's node-ID on the requester's bus */
+#define GW_ID 0x7F /* the gateway's node-ID on the requester's bus */
 #define TGT_ID 5
 #define NET 2
 #define Q_LEN 4096
@@ -46,11 +46,11 @@ static bool fq_pop(fq *q, uint8_t d[8])
 	return true;
 }
 
-static tb_bus bus_a, bus_b;       /* requester's and target's lines */
+static tb_bus bus_a, bus_b; /* requester's and target's lines */
 static tb_port *req, *tgt;
 static gw_sdo_route s;
-static fq from_req, from_tgt;     /* captured off the buses */
-static fq to_req, to_tgt;         /* what the session sent */
+static fq from_req, from_tgt; /* captured off the buses */
+static fq to_req, to_tgt;     /* what the session sent */
 static uint8_t last_to_req[8], last_to_tgt[8];
 static unsigned n_to_req, n_to_tgt;
 static unsigned opens, closes, dones;
@@ -223,8 +223,8 @@ static void indicate(void)
 {
 	gw_hop hop = { .line = 1, .node = TGT_ID };
 
-	TEST_ASSERT_EQUAL(0, gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop,
-						1000, 1000, bus_a.now));
+	TEST_ASSERT_EQUAL(0, gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 1000, 1000,
+						bus_a.now));
 	TEST_ASSERT_EQUAL(GW_SR_OPENING, gw_sdo_route_state_of(&s));
 	gw_sdo_route_opened(&s, 0, bus_a.now);
 	TEST_ASSERT_EQUAL(GW_SR_WAIT_INIT, gw_sdo_route_state_of(&s));
@@ -254,10 +254,19 @@ static void routed_roundtrip(uint32_t size, uint8_t mode)
 	co_od_entry *e = co_od_find(tgt->od, FX_IDX_DOMAIN, 0);
 	unsigned d0 = dones;
 	const co_event *ev;
-	sdo_client_req dn = { .node_id = GW_ID, .index = FX_IDX_DOMAIN, .mode = mode,
-			      .data = big_in, .size = size, .tag = 1 };
-	sdo_client_req up = { .upload = true, .node_id = GW_ID, .index = FX_IDX_DOMAIN,
-			      .mode = mode, .buf = big_out, .cap = FX_DOMAIN_MAX, .size = size,
+	sdo_client_req dn = { .node_id = GW_ID,
+			      .index = FX_IDX_DOMAIN,
+			      .mode = mode,
+			      .data = big_in,
+			      .size = size,
+			      .tag = 1 };
+	sdo_client_req up = { .upload = true,
+			      .node_id = GW_ID,
+			      .index = FX_IDX_DOMAIN,
+			      .mode = mode,
+			      .buf = big_out,
+			      .cap = FX_DOMAIN_MAX,
+			      .size = size,
 			      .tag = 2 };
 
 	snprintf(msg, sizeof(msg), "size %u mode %s", size, sdo_mode_to_string((sdo_mode)mode));
@@ -311,8 +320,8 @@ static void test_refusals_come_at_once(void)
 	gw_hop hop = { .line = 1, .node = TGT_ID };
 
 	/* the caller's route lookup refused: no lease asked */
-	TEST_ASSERT_EQUAL(0, gw_sdo_route_start(&s, (gw_netind){ 9, 3 }, GW_AB_NET_UNKNOWN,
-						NULL, 0, 0, 0));
+	TEST_ASSERT_EQUAL(
+		0, gw_sdo_route_start(&s, (gw_netind){ 9, 3 }, GW_AB_NET_UNKNOWN, NULL, 0, 0, 0));
 	hex_eq("80 09 00 03 01 00 00 0A", last_to_req);
 	TEST_ASSERT_EQUAL(0, opens);
 	TEST_ASSERT_EQUAL(1, dones);
@@ -338,8 +347,8 @@ static void test_refusals_come_at_once(void)
 	TEST_ASSERT_EQUAL(4, dones);
 	TEST_ASSERT_EQUAL(0, n_to_tgt);
 	TEST_ASSERT_EQUAL(0, gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 0, 0, 0));
-	TEST_ASSERT_EQUAL(-EBUSY, gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop,
-						     0, 0, 0));
+	TEST_ASSERT_EQUAL(-EBUSY,
+			  gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 0, 0, 0));
 }
 
 static void test_multi_hop_confirms_after_the_next_router(void)
@@ -443,8 +452,7 @@ static void test_requester_vanishing_in_a_block_download_releases_both(void)
 	TEST_ASSERT_FALSE(gw_sdo_route_busy(&s));
 	TEST_ASSERT_EQUAL(GW_OUT_TIMED_OUT, done_outcome);
 	TEST_ASSERT_EQUAL(1, closes);
-	TEST_ASSERT_EQUAL(CO_EV_SDO_SERVER_DONE,
-			  tb_last_event(tgt, CO_EV_SDO_SERVER_DONE)->kind);
+	TEST_ASSERT_EQUAL(CO_EV_SDO_SERVER_DONE, tb_last_event(tgt, CO_EV_SDO_SERVER_DONE)->kind);
 	TEST_ASSERT_NOT_EQUAL(0, tb_last_event(tgt, CO_EV_SDO_SERVER_DONE)->u.sdo_srv.abort);
 }
 

@@ -65,8 +65,8 @@ static void test_producer_after_boot_and_in_stopped(void)
 	co_od *od = NULL;
 	co_od_create(&od, 32);
 	/* default 100 ms; the standard set keeps what exists */
-	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x1017, 0, CO_T_UNSIGNED16,
-					       CO_ACC_RW, 100, NULL));
+	TEST_ASSERT_EQUAL_INT(0,
+			      co_od_add_num(od, 0x1017, 0, CO_T_UNSIGNED16, CO_ACC_RW, 100, NULL));
 	TEST_ASSERT_EQUAL_INT(0, co_od_add_comm_defaults_hb(od, 4, 0));
 	ecf_create(&x, ID, od);
 	ecf_advance(&x, 0);
@@ -201,8 +201,8 @@ static void test_consumer_set_full(void)
 {
 	ecf_boot(&x, ID);
 	for (uint8_t n = 1; n <= 4; n++)
-		TEST_ASSERT_EQUAL_INT(0, co_hb_consumer_set(x.node, (uint8_t)(10 + n),
-							    (uint16_t)(100 * n), 0));
+		TEST_ASSERT_EQUAL_INT(
+			0, co_hb_consumer_set(x.node, (uint8_t)(10 + n), (uint16_t)(100 * n), 0));
 	TEST_ASSERT_EQUAL_INT(-ENOSPC, co_hb_consumer_set(x.node, 20, 100, 0));
 	/* Updating a node already present needs no free slot. */
 	TEST_ASSERT_EQUAL_INT(0, co_hb_consumer_set(x.node, 12, 999, 0));
@@ -251,12 +251,10 @@ static void test_reset_comm_clears_monitoring(void)
 	co_od *od = NULL;
 	co_od_create(&od, 32);
 	/* 1016h:1 defaults to node 7, 100 ms */
-	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x1016, 0, CO_T_UNSIGNED8,
-					       CO_ACC_RO, 2, NULL));
-	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x1016, 1, CO_T_UNSIGNED32,
-					       CO_ACC_RW, 0x00070064, NULL));
-	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x1016, 2, CO_T_UNSIGNED32,
-					       CO_ACC_RW, 0, NULL));
+	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x1016, 0, CO_T_UNSIGNED8, CO_ACC_RO, 2, NULL));
+	TEST_ASSERT_EQUAL_INT(
+		0, co_od_add_num(od, 0x1016, 1, CO_T_UNSIGNED32, CO_ACC_RW, 0x00070064, NULL));
+	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x1016, 2, CO_T_UNSIGNED32, CO_ACC_RW, 0, NULL));
 	TEST_ASSERT_EQUAL_INT(0, co_od_add_comm_defaults_hb(od, 4, 0));
 	TEST_ASSERT_EQUAL_INT(0, co_od_add_comm_defaults_emcy(od, ID, 4, 0, 0));
 	ecf_create(&x, ID, od);

@@ -63,8 +63,8 @@ static void test_reused_slot_gets_a_new_tag(void)
 	uint64_t old = p->tag;
 	line_pending_release(&t, p);
 	line_pending *q = line_pending_take(&t, &r, LINE_PENDING_LSS, false);
-	TEST_ASSERT_EQUAL_PTR(p, q); /* same slot (top of the stack) ... */
-	TEST_ASSERT_TRUE(q->tag != old); /* ... another generation */
+	TEST_ASSERT_EQUAL_PTR(p, q);                  /* same slot (top of the stack) ... */
+	TEST_ASSERT_TRUE(q->tag != old);              /* ... another generation */
 	TEST_ASSERT_NULL(line_pending_find(&t, old)); /* a late completion misses */
 	TEST_ASSERT_EQUAL_PTR(q, line_pending_find(&t, q->tag));
 	TEST_ASSERT_NULL(line_pending_find(&t, 0xFFFF)); /* slot out of range */

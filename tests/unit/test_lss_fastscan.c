@@ -149,8 +149,10 @@ static void test_scenario_54_fastscan_then_assign_node_id_5(void)
 	TEST_ASSERT_EQUAL_UINT8(1, last_done()->error_code);
 
 	/* Back to waiting: the slave applies id 5 by itself. */
-	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_global_req(mst.node, LSS_STATE_WAITING, 5, bus.now_us));
-	co_node_tick(mst.node, bus.now_us); /* confirmed by the next tick, never inside the request */
+	TEST_ASSERT_EQUAL_INT(
+		0, lss_master_switch_global_req(mst.node, LSS_STATE_WAITING, 5, bus.now_us));
+	co_node_tick(mst.node,
+		     bus.now_us); /* confirmed by the next tick, never inside the request */
 	TEST_ASSERT_EQUAL_INT(LSS_RESULT_OK, (lss_result)last_done()->result);
 	membus_run(&bus);
 	uint8_t a, p, s;
@@ -191,7 +193,8 @@ static void test_two_unconfigured_slaves_found_one_at_a_time(void)
 	TEST_ASSERT_EQUAL_INT(LSS_STATE_WAITING, slave_state(2));
 	TEST_ASSERT_EQUAL_INT(0, lss_master_config_node_id_req(mst.node, 5, 2, bus.now_us));
 	TEST_ASSERT_EQUAL_INT(LSS_RESULT_OK, run(1000 * MS));
-	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_global_req(mst.node, LSS_STATE_WAITING, 3, bus.now_us));
+	TEST_ASSERT_EQUAL_INT(
+		0, lss_master_switch_global_req(mst.node, LSS_STATE_WAITING, 3, bus.now_us));
 	membus_advance(&bus, bus.now_us);
 
 	TEST_ASSERT_EQUAL_INT(0, lss_master_fastscan_req(mst.node, NULL, 0, 4, bus.now_us));
@@ -200,7 +203,8 @@ static void test_two_unconfigured_slaves_found_one_at_a_time(void)
 	TEST_ASSERT_EQUAL_INT(LSS_STATE_CONFIGURATION, slave_state(0));
 	TEST_ASSERT_EQUAL_INT(0, lss_master_config_node_id_req(mst.node, 6, 5, bus.now_us));
 	TEST_ASSERT_EQUAL_INT(LSS_RESULT_OK, run(1000 * MS));
-	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_global_req(mst.node, LSS_STATE_WAITING, 6, bus.now_us));
+	TEST_ASSERT_EQUAL_INT(
+		0, lss_master_switch_global_req(mst.node, LSS_STATE_WAITING, 6, bus.now_us));
 	membus_advance(&bus, bus.now_us);
 
 	TEST_ASSERT_EQUAL_INT(0, lss_slave_get(slv[0].node, NULL, &id, NULL, NULL));
@@ -295,8 +299,14 @@ static void test_slave_lost_mid_scan(void)
 
 static void probe(uint32_t id, uint8_t bit, uint8_t sub, uint8_t next)
 {
-	const uint8_t d[8] = { 0x51, (uint8_t)id, (uint8_t)(id >> 8), (uint8_t)(id >> 16),
-			       (uint8_t)(id >> 24), bit, sub, next };
+	const uint8_t d[8] = { 0x51,
+			       (uint8_t)id,
+			       (uint8_t)(id >> 8),
+			       (uint8_t)(id >> 16),
+			       (uint8_t)(id >> 24),
+			       bit,
+			       sub,
+			       next };
 
 	membus_inject(&bus, LSS_COBID_MASTER, d);
 	membus_run(&bus);

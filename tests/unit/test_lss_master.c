@@ -36,8 +36,7 @@ void tearDown(void)
 }
 
 /* Answer as the scripted slave and deliver. */
-static void slave_says(uint8_t b0, uint8_t b1, uint8_t b2, uint8_t b3,
-		       uint8_t b4)
+static void slave_says(uint8_t b0, uint8_t b1, uint8_t b2, uint8_t b3, uint8_t b4)
 {
 	const uint8_t d[8] = { b0, b1, b2, b3, b4, 0, 0, 0 };
 
@@ -87,8 +86,7 @@ static void expect_done(lss_master_service svc, lss_result r, uint64_t tag)
 
 	TEST_ASSERT_EQUAL_STRING(lss_master_service_to_string(svc),
 				 lss_master_service_to_string(d->service));
-	TEST_ASSERT_EQUAL_STRING(lss_result_to_string(r),
-				 lss_result_to_string(d->result));
+	TEST_ASSERT_EQUAL_STRING(lss_result_to_string(r), lss_result_to_string(d->result));
 	TEST_ASSERT_EQUAL_UINT64(tag, d->tag);
 }
 
@@ -130,7 +128,8 @@ static void test_golden_configure_sequence(void)
 	const uint8_t l10[8] = { 0x04, 0x00, 0, 0, 0, 0, 0, 0 };
 
 	/* L1: unconfirmed, done as soon as it is out. */
-	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_global_req(mst.node, LSS_STATE_CONFIGURATION, 1, 0));
+	TEST_ASSERT_EQUAL_INT(
+		0, lss_master_switch_global_req(mst.node, LSS_STATE_CONFIGURATION, 1, 0));
 	lss_fixture_expect_frame(&bus, 0, 0x7E5, l1);
 	membus_advance(&bus, bus.now_us); /* confirmed by the next tick, never inside the request */
 	expect_done(LSS_SVC_SWITCH_GLOBAL, LSS_RESULT_OK, 1);
@@ -333,7 +332,7 @@ static void test_identify_remote_frames_and_window(void)
 	const uint8_t want[6][8] = {
 		{ 0x46, 0x50, 0x02, 0x00, 0x00 }, { 0x47, 0x10, 0, 0, 0 },
 		{ 0x48, 0x00, 0x00, 0x01, 0x00 }, { 0x49, 0xFF, 0xFF, 0x01, 0x00 },
-		{ 0x4A, 100, 0, 0, 0 },            { 0x4B, 200, 0, 0, 0 },
+		{ 0x4A, 100, 0, 0, 0 },           { 0x4B, 200, 0, 0, 0 },
 	};
 
 	TEST_ASSERT_EQUAL_INT(0, lss_master_identify_remote_req(mst.node, &lo, &hi, 5, 0));
@@ -343,7 +342,7 @@ static void test_identify_remote_frames_and_window(void)
 	membus_advance(&bus, 3 * MS);
 	slave_says(0x4F, 0, 0, 0, 0);
 	slave_says(0x4F, 0, 0, 0, 0);
-	slave_says(0x50, 0, 0, 0, 0); /* not ours */
+	slave_says(0x50, 0, 0, 0, 0);        /* not ours */
 	TEST_ASSERT_EQUAL_UINT(0, n_done()); /* the window stays open */
 	membus_advance(&bus, 1000 * MS);
 	expect_done(LSS_SVC_IDENTIFY_REMOTE, LSS_RESULT_OK, 5);
@@ -359,7 +358,9 @@ static void test_identify_remote_frames_and_window(void)
 static void test_identify_non_configured(void)
 {
 	const uint8_t req[8] = { 0x4C, 0, 0, 0, 0, 0, 0, 0 };
-	lss_master_req r = { .service = LSS_SVC_IDENTIFY_NON_CONFIGURED, .tag = 3, .timeout_ms = 50 };
+	lss_master_req r = { .service = LSS_SVC_IDENTIFY_NON_CONFIGURED,
+			     .tag = 3,
+			     .timeout_ms = 50 };
 
 	TEST_ASSERT_EQUAL_INT(0, lss_master_submit(mst.node, &r, 0));
 	lss_fixture_expect_frame(&bus, 0, 0x7E5, req);
@@ -425,9 +426,11 @@ static void test_cancel_all(void)
 static void test_tx_failure_completes_the_request(void)
 {
 	bus.fail_send = true;
-	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_selective_req(mst.node, &(lss_address){ { 1, 2, 3, 4 } }, 1, 0));
+	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_selective_req(
+					 mst.node, &(lss_address){ { 1, 2, 3, 4 } }, 1, 0));
 	TEST_ASSERT_EQUAL_UINT(1, evlog_count(&mst.ev, CO_EV_TX_FAILED)); /* stops at the first */
-	co_node_tick(mst.node, bus.now_us); /* confirmed by the next tick, never inside the request */
+	co_node_tick(mst.node,
+		     bus.now_us); /* confirmed by the next tick, never inside the request */
 	expect_done(LSS_SVC_SWITCH_SELECTIVE, LSS_RESULT_TX_FAILED, 1);
 	TEST_ASSERT_EQUAL_UINT(0, lss_master_pending(mst.node));
 }
@@ -444,7 +447,8 @@ static void test_bad_requests(void)
 	r.service = LSS_SVC_NONE;
 	TEST_ASSERT_EQUAL_INT(-EINVAL, lss_master_submit(mst.node, &r, 0));
 	TEST_ASSERT_EQUAL_INT(-EINVAL, lss_master_fastscan_req(mst.node, NULL, 1, 0, 0));
-	TEST_ASSERT_EQUAL_INT(-EINVAL, lss_master_fastscan_req(mst.node, &(lss_address){ { 0 } }, 0x10, 0, 0));
+	TEST_ASSERT_EQUAL_INT(
+		-EINVAL, lss_master_fastscan_req(mst.node, &(lss_address){ { 0 } }, 0x10, 0, 0));
 	TEST_ASSERT_EQUAL_UINT(0, n_tx());
 	/* A node without LSS master. */
 	TEST_ASSERT_EQUAL_INT(0, lss_fixture_create(&s, &bus, &c, NULL));
@@ -471,7 +475,6 @@ static void test_names(void)
 	TEST_ASSERT_EQUAL_STRING("done-later", lss_master_state_to_string(LSS_MASTER_DONE_LATER));
 	TEST_ASSERT_EQUAL_STRING("?", lss_master_state_to_string(LSS_MASTER_STATE_COUNT));
 }
-
 
 /* ---- per-request confirmation ------------------------------------------------ */
 
@@ -507,7 +510,8 @@ static void test_confirmation_once_never_inside_submit(void)
 	memset(&cons, 0, sizeof(cons));
 	/* Unconfirmed service: done once out, confirmed at the next tick. */
 	TEST_ASSERT_EQUAL_INT(0, submit_with_con((lss_master_req){ .service = LSS_SVC_SWITCH_GLOBAL,
-								    .mode = LSS_STATE_CONFIGURATION, .tag = 1 }));
+								   .mode = LSS_STATE_CONFIGURATION,
+								   .tag = 1 }));
 	TEST_ASSERT_EQUAL_UINT(0, cons.n);
 	TEST_ASSERT_EQUAL_UINT(0, n_done());
 	TEST_ASSERT_TRUE(co_node_next_deadline_us(mst.node) <= bus.now_us);
@@ -518,15 +522,18 @@ static void test_confirmation_once_never_inside_submit(void)
 	TEST_ASSERT_EQUAL_UINT(1, n_done()); /* the event for observers too */
 
 	/* Confirmed service: con with the slave's answer. */
-	TEST_ASSERT_EQUAL_INT(0, submit_with_con((lss_master_req){ .service = LSS_SVC_INQUIRE_NODE_ID, .tag = 2 }));
+	TEST_ASSERT_EQUAL_INT(0, submit_with_con((lss_master_req){
+					 .service = LSS_SVC_INQUIRE_NODE_ID, .tag = 2 }));
 	slave_says(0x5E, 0x21, 0, 0, 0);
 	TEST_ASSERT_EQUAL_UINT(2, cons.n);
 	TEST_ASSERT_EQUAL_UINT64(2, cons.last.tag);
 	TEST_ASSERT_EQUAL_UINT8(0x21, cons.last.node_id);
 
 	/* Cancelled: still exactly once. */
-	TEST_ASSERT_EQUAL_INT(0, submit_with_con((lss_master_req){ .service = LSS_SVC_STORE, .tag = 3 }));
-	TEST_ASSERT_EQUAL_INT(0, submit_with_con((lss_master_req){ .service = LSS_SVC_STORE, .tag = 4 }));
+	TEST_ASSERT_EQUAL_INT(
+		0, submit_with_con((lss_master_req){ .service = LSS_SVC_STORE, .tag = 3 }));
+	TEST_ASSERT_EQUAL_INT(
+		0, submit_with_con((lss_master_req){ .service = LSS_SVC_STORE, .tag = 4 }));
 	lss_master_cancel_all(mst.node, bus.now_us);
 	TEST_ASSERT_EQUAL_UINT(4, cons.n);
 	TEST_ASSERT_EQUAL_UINT64(4, cons.last.tag);

@@ -22,9 +22,11 @@ static const lss_address sti = { { 0x250, 0, 0, 123456 } }; /* the transducer */
 static void make_slave(uint8_t node_id, const lss_address *id, bool constant,
 		       const lss_slave_hooks *hooks, void *ctx)
 {
-	co_node_config c = { .node_id = node_id, .lss_slave = true,
+	co_node_config c = { .node_id = node_id,
+			     .lss_slave = true,
 			     .lss_slave_constant_id = constant,
-			     .lss_slave_hooks = hooks, .lss_slave_ctx = ctx };
+			     .lss_slave_hooks = hooks,
+			     .lss_slave_ctx = ctx };
 	TEST_ASSERT_EQUAL_INT(0, lss_fixture_create(&slv, &bus, &c, id));
 }
 
@@ -39,8 +41,7 @@ void tearDown(void)
 	lss_fixture_destroy(&slv);
 }
 
-static void master_says(uint8_t b0, uint8_t b1, uint8_t b2, uint8_t b3,
-			uint8_t b4)
+static void master_says(uint8_t b0, uint8_t b1, uint8_t b2, uint8_t b3, uint8_t b4)
 {
 	const uint8_t d[8] = { b0, b1, b2, b3, b4, 0, 0, 0 };
 
@@ -89,7 +90,7 @@ static void test_golden_global_sequence(void)
 	const uint8_t l9[8] = { 0x17, 0x00, 0x00, 0, 0, 0, 0, 0 };
 
 	TEST_ASSERT_EQUAL_INT(LSS_STATE_WAITING, state());
-	master_says(0x04, 0x01, 0, 0, 0); /* L1 */
+	master_says(0x04, 0x01, 0, 0, 0);       /* L1 */
 	TEST_ASSERT_EQUAL_UINT(0, n_answers()); /* switch global is unanswered */
 	TEST_ASSERT_EQUAL_INT(LSS_STATE_CONFIGURATION, state());
 	int e = evlog_find(&slv.ev, 0, CO_EV_LSS_SLAVE_STATE);
@@ -191,8 +192,14 @@ static void test_inquire_identity_from_1018(void)
 	master_says(0x04, 0x01, 0, 0, 0);
 	for (unsigned i = 0; i < 4; i++) {
 		uint32_t v = id.id[i];
-		const uint8_t want[8] = { (uint8_t)(0x5A + i), (uint8_t)v, (uint8_t)(v >> 8),
-					  (uint8_t)(v >> 16), (uint8_t)(v >> 24), 0, 0, 0 };
+		const uint8_t want[8] = { (uint8_t)(0x5A + i),
+					  (uint8_t)v,
+					  (uint8_t)(v >> 8),
+					  (uint8_t)(v >> 16),
+					  (uint8_t)(v >> 24),
+					  0,
+					  0,
+					  0 };
 		master_says((uint8_t)(0x5A + i), 0, 0, 0, 0);
 		expect_answer(want);
 	}
@@ -282,8 +289,8 @@ static uint8_t hook_bt(void *ctx, uint8_t table, uint8_t index, uint8_t *spec)
 	return (index == 2 || index == 3) ? LSS_EC_OK : LSS_EC_BIT_TIMING_UNSUPP;
 }
 
-static uint8_t hook_store(void *ctx, uint8_t node_id, bool bt_valid,
-			  uint8_t table, uint8_t index, uint8_t *spec)
+static uint8_t hook_store(void *ctx, uint8_t node_id, bool bt_valid, uint8_t table, uint8_t index,
+			  uint8_t *spec)
 {
 	hook_state *h = ctx;
 
@@ -349,7 +356,7 @@ static void test_default_bit_timing_table_and_activate(void)
 	}
 	master_says(0x13, 1, 0, 0, 0); /* other tables: unsupported */
 	expect_answer(no);
-	master_says(0x13, 0, 2, 0, 0); /* 500 kbit/s */
+	master_says(0x13, 0, 2, 0, 0);       /* 500 kbit/s */
 	master_says(0x15, 0xF4, 0x01, 0, 0); /* 500 ms */
 	int e = evlog_find(&slv.ev, 0, CO_EV_LSS_SLAVE_BIT_TIMING);
 	TEST_ASSERT_TRUE(e >= 0);
@@ -360,8 +367,7 @@ static void test_default_bit_timing_table_and_activate(void)
 
 /* ---- identification ------------------------------------------------------------------- */
 
-static void identify(uint32_t v, uint32_t p, uint32_t rlo, uint32_t rhi,
-		     uint32_t slo, uint32_t shi)
+static void identify(uint32_t v, uint32_t p, uint32_t rlo, uint32_t rhi, uint32_t slo, uint32_t shi)
 {
 	const uint32_t x[6] = { v, p, rlo, rhi, slo, shi };
 
@@ -479,7 +485,8 @@ static void test_master_and_slave_in_memory(void)
 	TEST_ASSERT_EQUAL_INT(0, lss_master_config_bit_timing_req(mst.node, 0, 3, 9, bus.now_us));
 	TEST_ASSERT_EQUAL_INT(0, lss_master_store_req(mst.node, 10, bus.now_us));
 	TEST_ASSERT_EQUAL_INT(0, lss_master_activate_bit_timing_req(mst.node, 100, 11, bus.now_us));
-	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_global_req(mst.node, LSS_STATE_WAITING, 12, bus.now_us));
+	TEST_ASSERT_EQUAL_INT(
+		0, lss_master_switch_global_req(mst.node, LSS_STATE_WAITING, 12, bus.now_us));
 	TEST_ASSERT_EQUAL_INT(0, lss_master_identify_non_configured_req(mst.node, 13, bus.now_us));
 	membus_advance_by(&bus, 5000 * MS);
 

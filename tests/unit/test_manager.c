@@ -165,9 +165,8 @@ static void test_s47_silent_mandatory_B_then_late(void)
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 3));
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 1));
 	/* the line's transitions, in order (repeats = flag changes) */
-	static const uint8_t want[] = { CO_MGR_RESETTING, CO_MGR_BOOTING,
-					CO_MGR_WAIT_MANDATORY, CO_MGR_BOOTED,
-					CO_MGR_OPERATIONAL };
+	static const uint8_t want[] = { CO_MGR_RESETTING, CO_MGR_BOOTING, CO_MGR_WAIT_MANDATORY,
+					CO_MGR_BOOTED, CO_MGR_OPERATIONAL };
 	unsigned k = 0;
 	for (unsigned i = 0; i < f.n_ev; i++) {
 		if (f.ev[i].kind != CO_EV_MGR_STATE)
@@ -197,7 +196,8 @@ static int configure_pending(void *ctx, uint8_t node, uint64_t now)
 
 static void test_s48_configure_hook_then_start(void)
 {
-	co_manager_config c = { .sdo_timeout_ms = 100, .reset_wait_ms = 500,
+	co_manager_config c = { .sdo_timeout_ms = 100,
+				.reset_wait_ms = 500,
 				.configure = configure_pending };
 	line_2_3(MASTER);
 	cfg_calls = 0;
@@ -207,8 +207,8 @@ static void test_s48_configure_hook_then_start(void)
 	TEST_ASSERT_EQUAL(CO_MGR_BOOTING, mstate());
 	TEST_ASSERT_EQUAL_UINT(0, mf_sent(&f, 0x000, "01"));
 	TEST_ASSERT_EQUAL_INT(0, co_manager_configure_done(f.mgr, 2, 0, 0, 0, f.bus.now));
-	TEST_ASSERT_EQUAL_INT(0, co_manager_configure_done(f.mgr, 3, 0x06020000, 0x2000, 1,
-							   f.bus.now));
+	TEST_ASSERT_EQUAL_INT(
+		0, co_manager_configure_done(f.mgr, 3, 0x06020000, 0x2000, 1, f.bus.now));
 	TEST_ASSERT_EQUAL_INT(-ENOENT, co_manager_configure_done(f.mgr, 3, 0, 0, 0, f.bus.now));
 	tb_advance(&f.bus, 1 * S);
 	const co_ev_mgr *e = mf_boot(&f, 3, CO_MGR_STEP_CONFIGURE, 'J');
@@ -227,9 +227,9 @@ static void test_s49_keep_alive_operational_not_reset_L(void)
 {
 	line_2_3(MASTER);
 	mf_assign(&f, 2, MANDATORY | KEEP_ALIVE, 300);
-	tb_advance(&f.bus, 10 * MS);             /* slaves boot */
+	tb_advance(&f.bus, 10 * MS); /* slaves boot */
 	co_nmt_local_cmd(f.bus.port[1].node, CO_NMT_CS_START, f.bus.now);
-	tb_advance(&f.bus, 200 * MS);            /* its heartbeat says 05 */
+	tb_advance(&f.bus, 200 * MS); /* its heartbeat says 05 */
 	tb_log_clear(&f.bus);
 	mf_start(&f, NULL);
 	tb_advance(&f.bus, 2 * S);
@@ -564,7 +564,8 @@ static void test_nmt_to_manager_ignored_and_counted(void)
 
 static void test_nmt_to_manager_accepted_when_configured(void)
 {
-	co_manager_config c = { .sdo_timeout_ms = 100, .reset_wait_ms = 500,
+	co_manager_config c = { .sdo_timeout_ms = 100,
+				.reset_wait_ms = 500,
 				.accept_remote_nmt = true };
 	line_2_3(MASTER);
 	mf_start(&f, &c);
@@ -600,8 +601,7 @@ static void test_duplicate_node_id(void)
 
 static void test_scan_finds_missing_node(void)
 {
-	co_manager_config c = { .sdo_timeout_ms = 100, .reset_wait_ms = 500,
-				.scan_ms = 2000 };
+	co_manager_config c = { .sdo_timeout_ms = 100, .reset_wait_ms = 500, .scan_ms = 2000 };
 	line_2_3(MASTER);
 	mf_assign(&f, 2, MANDATORY, 300);
 	f.bus.port[2].deliver = false; /* node 3 deaf: no boot-up seen later */
@@ -670,11 +670,13 @@ static void test_1f25_configuration_request(void)
 	mf_start(&f, NULL);
 	tb_advance(&f.bus, 2 * S);
 	TEST_ASSERT_EQUAL_HEX32(0x08000020, tb_od_write(&f.bus, f.mp->node, 0x1F25, 3, 0x12345678));
-	TEST_ASSERT_EQUAL_HEX32(0, tb_od_write(&f.bus, f.mp->node, 0x1F25, 3, CO_MGR_CONF_SIGNATURE));
+	TEST_ASSERT_EQUAL_HEX32(0,
+				tb_od_write(&f.bus, f.mp->node, 0x1F25, 3, CO_MGR_CONF_SIGNATURE));
 	tb_advance(&f.bus, 1 * S);
 	TEST_ASSERT_EQUAL_UINT32(2, co_manager_node_diag(f.mgr, 3)->boot_count);
 	TEST_ASSERT_EQUAL_UINT32(1, co_manager_node_diag(f.mgr, 2)->boot_count);
-	TEST_ASSERT_EQUAL_HEX32(0, tb_od_write(&f.bus, f.mp->node, 0x1F25, 128, CO_MGR_CONF_SIGNATURE));
+	TEST_ASSERT_EQUAL_HEX32(
+		0, tb_od_write(&f.bus, f.mp->node, 0x1F25, 128, CO_MGR_CONF_SIGNATURE));
 	tb_advance(&f.bus, 1 * S);
 	TEST_ASSERT_EQUAL_UINT32(2, co_manager_node_diag(f.mgr, 2)->boot_count);
 	TEST_ASSERT_EQUAL_UINT32(3, co_manager_node_diag(f.mgr, 3)->boot_count);

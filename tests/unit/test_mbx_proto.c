@@ -16,22 +16,23 @@ void setUp(void)
 	memset(msg, 0, sizeof msg);
 }
 
-void tearDown(void)
-{
-}
+void tearDown(void) {}
 
 static mbx_hdr cmd_hdr(uint16_t code)
 {
-	return (mbx_hdr){ .magic = MBX_MAGIC, .version = MBX_VERSION,
-			  .kind = MBX_KIND_COMMAND, .code = code, .line = 1,
-			  .client = 0x00010002, .corr = 0x1122334455667788ull,
+	return (mbx_hdr){ .magic = MBX_MAGIC,
+			  .version = MBX_VERSION,
+			  .kind = MBX_KIND_COMMAND,
+			  .code = code,
+			  .line = 1,
+			  .client = 0x00010002,
+			  .corr = 0x1122334455667788ull,
 			  .token = 0xA1A2A3A4A5A6A7A8ull };
 }
 
 /* Build, decode and validate a command; returns the status, *bad the
  * reason. */
-static int check(const mbx_hdr *h, const void *payload, size_t len,
-		 mbx_bad *bad)
+static int check(const mbx_hdr *h, const void *payload, size_t len, mbx_bad *bad)
 {
 	mbx_hdr d;
 	int n = mbx_msg_build(msg, sizeof msg, h, payload, len);
@@ -44,14 +45,12 @@ static int check(const mbx_hdr *h, const void *payload, size_t len,
 	return mbx_cmd_validate(&d, msg + MBX_HDR_SIZE, bad);
 }
 
-#define ASSERT_BAD(expect_status, expect_bad, h, p, len)                      \
-	do {                                                                   \
-		mbx_bad b_ = MBX_BAD_NONE;                                     \
-		int rc_ = check(&(h), (p), (len), &b_);                        \
-		TEST_ASSERT_EQUAL_INT_MESSAGE(expect_status, rc_,              \
-					      mbx_bad_to_string(b_));          \
-		TEST_ASSERT_EQUAL_STRING(mbx_bad_to_string(expect_bad),        \
-					 mbx_bad_to_string(b_));               \
+#define ASSERT_BAD(expect_status, expect_bad, h, p, len)                                        \
+	do {                                                                                    \
+		mbx_bad b_ = MBX_BAD_NONE;                                                      \
+		int rc_ = check(&(h), (p), (len), &b_);                                         \
+		TEST_ASSERT_EQUAL_INT_MESSAGE(expect_status, rc_, mbx_bad_to_string(b_));       \
+		TEST_ASSERT_EQUAL_STRING(mbx_bad_to_string(expect_bad), mbx_bad_to_string(b_)); \
 	} while (0)
 
 #define ASSERT_OK(h, p, len) ASSERT_BAD(0, MBX_BAD_NONE, h, p, len)
@@ -61,18 +60,28 @@ static int check(const mbx_hdr *h, const void *payload, size_t len,
 static void test_header_encoding_is_little_endian_byte_by_byte(void)
 {
 	mbx_hdr h = {
-		.magic = MBX_MAGIC, .version = 1, .kind = MBX_KIND_RESPONSE,
-		.code = 0x0201, .line = 3, .flags = MBX_F_CHUNKED | MBX_F_MORE,
-		.client = 0x04030201, .status = -13, .corr = 0x0807060504030201ull,
-		.token = 0, .abort = 0x06020000, .dropped = 0, .chunk = 0x0102,
-		.len = 0, .total = 0x00030201,
+		.magic = MBX_MAGIC,
+		.version = 1,
+		.kind = MBX_KIND_RESPONSE,
+		.code = 0x0201,
+		.line = 3,
+		.flags = MBX_F_CHUNKED | MBX_F_MORE,
+		.client = 0x04030201,
+		.status = -13,
+		.corr = 0x0807060504030201ull,
+		.token = 0,
+		.abort = 0x06020000,
+		.dropped = 0,
+		.chunk = 0x0102,
+		.len = 0,
+		.total = 0x00030201,
 	};
 	static const uint8_t expect[MBX_HDR_SIZE] = {
 		0x43, 0x57, 0x01, 0x02, 0x01, 0x02, 0x03, 0x03, /* 0..7 */
 		0x01, 0x02, 0x03, 0x04, 0xF3, 0xFF, 0xFF, 0xFF, /* client, -13 */
 		0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x07, 0x08, /* corr */
-		0, 0, 0, 0, 0, 0, 0, 0,                         /* token */
-		0x00, 0x00, 0x02, 0x06, 0, 0, 0, 0,             /* abort, dropped */
+		0,    0,    0,    0,    0,    0,    0,    0,    /* token */
+		0x00, 0x00, 0x02, 0x06, 0,    0,    0,    0,    /* abort, dropped */
 		0x02, 0x01, 0x00, 0x00, 0x01, 0x02, 0x03, 0x00, /* chunk len total */
 	};
 	uint8_t buf[MBX_HDR_SIZE];
@@ -87,8 +96,7 @@ static void test_header_encoding_is_little_endian_byte_by_byte(void)
 static void test_round_trip_with_payload(void)
 {
 	mbx_hdr h = cmd_hdr(MBX_CMD_SDO_UPLOAD), d;
-	mbx_sdo_req r = { .node = 5, .index = 0x1018, .sub = 1,
-			  .timeout_ms = 500 };
+	mbx_sdo_req r = { .node = 5, .index = 0x1018, .sub = 1, .timeout_ms = 500 };
 	mbx_sdo_req back;
 	int n = mbx_msg_build(msg, sizeof msg, &h, &r, sizeof r);
 
@@ -116,10 +124,8 @@ static void test_msg_build_refuses_overflow(void)
 	mbx_hdr h = cmd_hdr(MBX_CMD_OD_WRITE);
 	uint8_t small[60];
 
-	TEST_ASSERT_EQUAL_INT(-EMSGSIZE,
-			      mbx_msg_build(small, sizeof small, &h, msg, 13));
-	TEST_ASSERT_EQUAL_INT(-EMSGSIZE,
-			      mbx_msg_build(msg, sizeof msg, &h, msg, 70000));
+	TEST_ASSERT_EQUAL_INT(-EMSGSIZE, mbx_msg_build(small, sizeof small, &h, msg, 13));
+	TEST_ASSERT_EQUAL_INT(-EMSGSIZE, mbx_msg_build(msg, sizeof msg, &h, msg, 70000));
 }
 
 static void test_bad_short_message(void)
@@ -127,8 +133,7 @@ static void test_bad_short_message(void)
 	mbx_hdr d;
 	mbx_bad b;
 
-	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED,
-			      mbx_hdr_decode(msg, MBX_HDR_SIZE - 1, &d, &b));
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_hdr_decode(msg, MBX_HDR_SIZE - 1, &d, &b));
 	TEST_ASSERT_EQUAL_INT(MBX_BAD_SHORT, b);
 	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_hdr_decode(msg, 0, &d, &b));
 }
@@ -168,12 +173,10 @@ static void test_bad_len_field(void)
 
 	mbx_msg_build(msg, sizeof msg, &h, NULL, 0);
 	msg[42] = 4; /* claims 4 payload bytes, none follow */
-	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED,
-			      mbx_hdr_decode(msg, MBX_HDR_SIZE, &d, &b));
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_hdr_decode(msg, MBX_HDR_SIZE, &d, &b));
 	TEST_ASSERT_EQUAL_INT(MBX_BAD_LEN, b);
 	msg[42] = 0; /* claims none, 4 follow */
-	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED,
-			      mbx_hdr_decode(msg, MBX_HDR_SIZE + 4, &d, &b));
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_hdr_decode(msg, MBX_HDR_SIZE + 4, &d, &b));
 	TEST_ASSERT_EQUAL_INT(MBX_BAD_LEN, b);
 }
 
@@ -213,14 +216,12 @@ static void test_bad_token_or_dropped_in_response(void)
 
 	h.kind = MBX_KIND_RESPONSE; /* token still set */
 	n = mbx_msg_build(msg, sizeof msg, &h, NULL, 0);
-	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED,
-			      mbx_hdr_decode(msg, (size_t)n, &d, &b));
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_hdr_decode(msg, (size_t)n, &d, &b));
 	TEST_ASSERT_EQUAL_INT(MBX_BAD_RESERVED, b);
 	h.token = 0;
 	h.dropped = 3; /* without OVERFLOW */
 	n = mbx_msg_build(msg, sizeof msg, &h, NULL, 0);
-	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED,
-			      mbx_hdr_decode(msg, (size_t)n, &d, &b));
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_hdr_decode(msg, (size_t)n, &d, &b));
 	TEST_ASSERT_EQUAL_INT(MBX_BAD_RESERVED, b);
 	h.flags = MBX_F_OVERFLOW;
 	n = mbx_msg_build(msg, sizeof msg, &h, NULL, 0);
@@ -228,8 +229,7 @@ static void test_bad_token_or_dropped_in_response(void)
 	TEST_ASSERT_EQUAL_UINT32(3, d.dropped);
 	h.flags = MBX_F_NO_REPLY; /* a command flag */
 	n = mbx_msg_build(msg, sizeof msg, &h, NULL, 0);
-	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED,
-			      mbx_hdr_decode(msg, (size_t)n, &d, &b));
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_hdr_decode(msg, (size_t)n, &d, &b));
 	TEST_ASSERT_EQUAL_INT(MBX_BAD_FLAGS, b);
 }
 
@@ -516,7 +516,7 @@ static void test_raw_send_fields(void)
 	ASSERT_BAD(MBX_E_MALFORMED, MBX_BAD_SIZE, h, f, 0);
 	ASSERT_BAD(MBX_E_MALFORMED, MBX_BAD_SIZE, h, f, 33 * sizeof f[0]);
 	ASSERT_BAD(MBX_E_MALFORMED, MBX_BAD_SIZE, h, f, 20); /* not n*16 */
-	f[0].id = 0x800; /* 12 bits without EXT */
+	f[0].id = 0x800;                                     /* 12 bits without EXT */
 	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, f, sizeof f[0]);
 	f[0].id = 0x20000000u | MBX_RAW_EXT; /* 30 bits */
 	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, f, sizeof f[0]);
@@ -566,8 +566,7 @@ static void test_names(void)
 	TEST_ASSERT_EQUAL_STRING("register", mbx_cmd_to_string(0x0001));
 	TEST_ASSERT_EQUAL_STRING("restore", mbx_cmd_to_string(0x0902));
 	TEST_ASSERT_EQUAL_STRING("?", mbx_cmd_to_string(0x0A00));
-	TEST_ASSERT_EQUAL_STRING("access denied",
-				 mbx_status_to_string(MBX_E_ACCESS));
+	TEST_ASSERT_EQUAL_STRING("access denied", mbx_status_to_string(MBX_E_ACCESS));
 	TEST_ASSERT_EQUAL_STRING("unknown status", mbx_status_to_string(-99));
 	TEST_ASSERT_EQUAL_STRING("hb", mbx_event_class_to_string(MBX_EVC_HB));
 	TEST_ASSERT_EQUAL_STRING("?", mbx_event_class_to_string(3));
@@ -580,9 +579,8 @@ static void test_names(void)
 	for (unsigned b = 0; b < MBX_BAD_COUNT; b++)
 		TEST_ASSERT_NOT_EQUAL(0, strcmp("?", mbx_bad_to_string(b)));
 	/* every command in the table is found and named */
-	static const uint16_t codes[] = { 0x0001, 0x0007, 0x0101, 0x0202,
-					  0x0302, 0x0403, 0x0501, 0x0601,
-					  0x070A, 0x0801, 0x0901 };
+	static const uint16_t codes[] = { 0x0001, 0x0007, 0x0101, 0x0202, 0x0302, 0x0403,
+					  0x0501, 0x0601, 0x070A, 0x0801, 0x0901 };
 	for (unsigned i = 0; i < sizeof codes / sizeof codes[0]; i++) {
 		const mbx_cmd_info *ci = mbx_cmd_lookup(codes[i]);
 
@@ -635,22 +633,18 @@ static void test_event_validation(void)
 	mbx_ev_pdo e = { .pdo = 1, .n = 2 };
 
 	TEST_ASSERT_EQUAL_INT(0, mbx_event_validate(MBX_EV_HB_LOST, p, 4));
-	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED,
-			      mbx_event_validate(MBX_EV_HB_LOST, p, 5));
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_event_validate(MBX_EV_HB_LOST, p, 5));
 	TEST_ASSERT_EQUAL_INT(0, mbx_event_validate(MBX_EV_RAW, p, 24));
-	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED,
-			      mbx_event_validate(MBX_EV_EMCY, p, 23));
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_event_validate(MBX_EV_EMCY, p, 23));
 	TEST_ASSERT_EQUAL_INT(0, mbx_event_validate(MBX_EV_SDO_DONE, p, 24));
 	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_event_validate(MBX_EV_SDO_DONE, p, 20));
 	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_event_validate(MBX_EV_SDO_DONE, p, 28));
 	memcpy(p, &e, sizeof e);
 	TEST_ASSERT_EQUAL_INT(0, mbx_event_validate(MBX_EV_PDO, p, 16 + 24));
-	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED,
-			      mbx_event_validate(MBX_EV_PDO, p, 16 + 12));
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_event_validate(MBX_EV_PDO, p, 16 + 12));
 	e.n = 65;
 	memcpy(p, &e, sizeof e);
-	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED,
-			      mbx_event_validate(MBX_EV_PDO, p, 16 + 65 * 12));
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_event_validate(MBX_EV_PDO, p, 16 + 65 * 12));
 	TEST_ASSERT_EQUAL_INT(MBX_E_UNKNOWN_CMD, mbx_event_validate(0x9999, p, 0));
 }
 
@@ -668,10 +662,8 @@ static void test_system_limits_message(void)
 		TEST_ASSERT_EQUAL_INT(-ERANGE, rc);
 		TEST_ASSERT_NOT_NULL(strstr(err, "fs.mqueue.msgsize_max"));
 	}
-	TEST_ASSERT_EQUAL_INT(-EINVAL, mbx_check_system_limits(0, 1024, err,
-								 sizeof err));
-	TEST_ASSERT_EQUAL_INT(-EINVAL, mbx_check_system_limits(8, 100, err,
-								 sizeof err));
+	TEST_ASSERT_EQUAL_INT(-EINVAL, mbx_check_system_limits(0, 1024, err, sizeof err));
+	TEST_ASSERT_EQUAL_INT(-EINVAL, mbx_check_system_limits(8, 100, err, sizeof err));
 	TEST_ASSERT_EQUAL_INT(0, mbx_check_system_limits(1, 256, err, sizeof err));
 	TEST_ASSERT_EQUAL_STRING("", err);
 }

@@ -226,8 +226,8 @@ static void test_master_inhibit(void)
 static void test_master_self(void)
 {
 	ecf_boot(&x, ID);
-	TEST_ASSERT_EQUAL_INT(0, co_nmt_master_send_ex(x.node, 0, CO_NMT_CS_START,
-						       CO_NMT_SEND_SELF, 0));
+	TEST_ASSERT_EQUAL_INT(
+		0, co_nmt_master_send_ex(x.node, 0, CO_NMT_CS_START, CO_NMT_SEND_SELF, 0));
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_OPERATIONAL, co_nmt_get_state(x.node));
 	TEST_ASSERT_EQUAL_HEX8(0x01, x.tx[0].data[0]);
 	/* Reset comm to all incl. us: the NMT frame, then our boot-up. */

@@ -50,9 +50,9 @@ void tearDown(void)
 	TEST_ASSERT_EQUAL_INT(0, system(cmd));
 }
 
-#define NODES(nodes)                                                                              \
-	"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 1, \"nodes\": " nodes \
-	"}]}"
+#define NODES(nodes)                                                                    \
+	"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 1, " \
+	"\"nodes\": " nodes "}]}"
 
 /* Load the JSON as a file in dir, so relative paths resolve there. */
 static int load(const char *json)
@@ -75,12 +75,13 @@ static void expect_error(const char *json, const char *want_after_source)
 
 static void test_entries_become_a_concise_dcf(void)
 {
-	const char *j = NODES("[{\"id\": 5, \"config\": {\"store\": true, \"date\": 15000, \"time\": 3600000,"
-			      " \"entries\": ["
-			      "{\"index\": \"0x1017\", \"type\": \"UNSIGNED16\", \"value\": 500},"
-			      "{\"index\": \"0x1800\", \"sub\": 2, \"type\": \"UNSIGNED8\", \"value\": 254},"
-			      "{\"index\": 8192, \"sub\": 1, \"type\": \"VISIBLE_STRING\", \"value\": \"ab\"}]}},"
-			      " {\"id\": 6}]");
+	const char *j = NODES(
+		"[{\"id\": 5, \"config\": {\"store\": true, \"date\": 15000, \"time\": 3600000,"
+		" \"entries\": ["
+		"{\"index\": \"0x1017\", \"type\": \"UNSIGNED16\", \"value\": 500},"
+		"{\"index\": \"0x1800\", \"sub\": 2, \"type\": \"UNSIGNED8\", \"value\": 254},"
+		"{\"index\": 8192, \"sub\": 1, \"type\": \"VISIBLE_STRING\", \"value\": \"ab\"}]}},"
+		" {\"id\": 6}]");
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, load(j), err);
 	TEST_ASSERT_EQUAL_size_t(2, cfg.lines[0].n_nodes);
 	const cogw_node *n = &cfg.lines[0].nodes[0];
@@ -91,9 +92,9 @@ static void test_entries_become_a_concise_dcf(void)
 	TEST_ASSERT_EQUAL_UINT32(15000, n->config.date);
 	TEST_ASSERT_EQUAL_UINT32(3600000, n->config.time);
 	TEST_ASSERT_EQUAL_UINT32(3, n->config.entries);
-	static const uint8_t want[] = {3, 0, 0, 0, 0x17, 0x10, 0, 2, 0, 0, 0, 0xF4, 0x01,
-				       0x00, 0x18, 2, 1, 0, 0, 0, 0xFE,
-				       0x00, 0x20, 1, 2, 0, 0, 0, 'a', 'b'};
+	static const uint8_t want[] = { 3,    0,    0,    0,    0x17, 0x10, 0, 2, 0,   0,
+					0,    0xF4, 0x01, 0x00, 0x18, 2,    1, 0, 0,   0,
+					0xFE, 0x00, 0x20, 1,    2,    0,    0, 0, 'a', 'b' };
 	TEST_ASSERT_EQUAL_size_t(sizeof want, n->config.cdcf_len);
 	TEST_ASSERT_EQUAL_MEMORY(want, n->config.cdcf, sizeof want);
 	/* the line's OD carries it for the configuration manager: 1F22h:5 (also
@@ -127,7 +128,8 @@ static void test_entries_become_a_concise_dcf(void)
 	TEST_ASSERT_TRUE(cogw_config_reload_check(&cfg, &cfg, what, sizeof what));
 	char path[128];
 	snprintf(path, sizeof path, "%s/cogw.json", dir);
-	put_file("cogw.json", NODES("[{\"id\": 5}, {\"id\": 6}]"), strlen(NODES("[{\"id\": 5}, {\"id\": 6}]")));
+	put_file("cogw.json", NODES("[{\"id\": 5}, {\"id\": 6}]"),
+		 strlen(NODES("[{\"id\": 5}, {\"id\": 6}]")));
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, cogw_config_load_file(&other, path, err, sizeof err), err);
 	TEST_ASSERT_FALSE(cogw_config_reload_check(&cfg, &other, what, sizeof what));
 	TEST_ASSERT_EQUAL_STRING("lines[0].nodes", what);
@@ -136,39 +138,54 @@ static void test_entries_become_a_concise_dcf(void)
 
 static void test_entry_errors_name_the_json_path(void)
 {
-	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": [{\"index\": \"0x1017\", \"type\": \"UNSIGNED8\", \"value\": 300}]}}]"),
+	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": [{\"index\": \"0x1017\", "
+			   "\"type\": \"UNSIGNED8\", \"value\": 300}]}}]"),
 		     "lines[0].nodes[0].config.entries[0].value: 300 is out of range 0..255");
-	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": [{\"index\": \"0x1017\", \"type\": \"UINT8\", \"value\": 3}]}}]"),
-		     "lines[0].nodes[0].config.entries[0].type: \"UINT8\" is not a CiA 301 data type name (e.g. UNSIGNED16, VISIBLE_STRING)");
-	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": [{\"type\": \"UNSIGNED8\", \"value\": 3}]}}]"),
+	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": [{\"index\": \"0x1017\", "
+			   "\"type\": \"UINT8\", \"value\": 3}]}}]"),
+		     "lines[0].nodes[0].config.entries[0].type: \"UINT8\" is not a CiA 301 data "
+		     "type name (e.g. UNSIGNED16, VISIBLE_STRING)");
+	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": [{\"type\": \"UNSIGNED8\", "
+			   "\"value\": 3}]}}]"),
 		     "lines[0].nodes[0].config.entries[0].index: required key is missing");
-	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": [{\"index\": \"0x2000\", \"sub\": 256, \"type\": \"UNSIGNED8\", \"value\": 3}]}}]"),
+	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": [{\"index\": \"0x2000\", "
+			   "\"sub\": 256, \"type\": \"UNSIGNED8\", \"value\": 3}]}}]"),
 		     "lines[0].nodes[0].config.entries[0].sub: 256 is out of range 0..255");
-	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": [{\"index\": \"0x2000\", \"type\": \"VISIBLE_STRING\", \"value\": \"\"}]}}]"),
-		     "lines[0].nodes[0].config.entries[0].value: empty value (a concise DCF entry needs at least one byte)");
-	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": {}}}]"),
-		     "lines[0].nodes[0].config.entries: expected an array of entries, got an object");
-	expect_error(NODES("[{\"id\": 5, \"config\": {\"store\": true}}]"),
-		     "lines[0].nodes[0].config: one of \"entries\", \"dcf\" or \"concise\" is required");
+	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": [{\"index\": \"0x2000\", "
+			   "\"type\": \"VISIBLE_STRING\", \"value\": \"\"}]}}]"),
+		     "lines[0].nodes[0].config.entries[0].value: empty value (a concise DCF entry "
+		     "needs at least one byte)");
+	expect_error(
+		NODES("[{\"id\": 5, \"config\": {\"entries\": {}}}]"),
+		"lines[0].nodes[0].config.entries: expected an array of entries, got an object");
+	expect_error(
+		NODES("[{\"id\": 5, \"config\": {\"store\": true}}]"),
+		"lines[0].nodes[0].config: one of \"entries\", \"dcf\" or \"concise\" is required");
 	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": [], \"dcf\": \"x.dcf\"}}]"),
-		     "lines[0].nodes[0].config.dcf: only one of \"entries\", \"dcf\" and \"concise\" (\"entries\" is given too)");
+		     "lines[0].nodes[0].config.dcf: only one of \"entries\", \"dcf\" and "
+		     "\"concise\" (\"entries\" is given too)");
 	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": [], \"date\": 3}}]"),
-		     "lines[0].nodes[0].config.time: \"date\" and \"time\" go together (the expected 1020h:1/2)");
-	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": [], \"time\": 86400000, \"date\": 1}}]"),
+		     "lines[0].nodes[0].config.time: \"date\" and \"time\" go together (the "
+		     "expected 1020h:1/2)");
+	expect_error(NODES("[{\"id\": 5, \"config\": {\"entries\": [], \"time\": 86400000, "
+			   "\"date\": 1}}]"),
 		     "lines[0].nodes[0].config.time: 86400000 is out of range 0..86399999");
 	expect_error(NODES("[{\"id\": 1}]"), "lines[0].nodes[0].id: 1 is the line's own node_id");
-	expect_error(NODES("[{\"id\": 5}, {\"id\": 5}]"), "lines[0].nodes[1].id: node 5 is already in lines[0].nodes[0]");
+	expect_error(NODES("[{\"id\": 5}, {\"id\": 5}]"),
+		     "lines[0].nodes[1].id: node 5 is already in lines[0].nodes[0]");
 	expect_error(NODES("[{\"id\": 5, \"cfg\": {}}]"), "lines[0].nodes[0].cfg: unknown key");
 	expect_error(NODES("{}"), "lines[0].nodes: expected an array of nodes, got an object");
 }
 
 static void test_dcf_file_relative_to_the_config(void)
 {
-	const char *dcf = "[DeviceComissioning]\nNodeID=9\n"
-			  "[1017]\nDataType=0x0006\nAccessType=rw\nDefaultValue=100\nParameterValue=250\n"
-			  "[1014]\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x80\n";
+	const char *dcf =
+		"[DeviceComissioning]\nNodeID=9\n"
+		"[1017]\nDataType=0x0006\nAccessType=rw\nDefaultValue=100\nParameterValue=250\n"
+		"[1014]\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x80\n";
 	put_file("dev.dcf", dcf, strlen(dcf));
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, load(NODES("[{\"id\": 7, \"config\": {\"dcf\": \"dev.dcf\"}}]")), err);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(
+		0, load(NODES("[{\"id\": 7, \"config\": {\"dcf\": \"dev.dcf\"}}]")), err);
 	const cogw_node_config *nc = &cfg.lines[0].nodes[0].config;
 	TEST_ASSERT_EQUAL_INT(COGW_NODE_CONFIG_DCF, nc->source);
 	TEST_ASSERT_EQUAL_UINT32(2, nc->entries);
@@ -176,8 +193,8 @@ static void test_dcf_file_relative_to_the_config(void)
 	snprintf(want_file, sizeof want_file, "%s/dev.dcf", dir);
 	TEST_ASSERT_EQUAL_STRING(want_file, nc->file);
 	/* $NODEID is the node's id from cogw.json (7), not the DCF's NodeID */
-	static const uint8_t want[] = {2, 0, 0, 0, 0x14, 0x10, 0, 4, 0, 0, 0, 0x87, 0, 0, 0,
-				       0x17, 0x10, 0, 2, 0, 0, 0, 250, 0};
+	static const uint8_t want[] = { 2, 0, 0, 0,    0x14, 0x10, 0, 4, 0, 0, 0,   0x87,
+					0, 0, 0, 0x17, 0x10, 0,    2, 0, 0, 0, 250, 0 };
 	TEST_ASSERT_EQUAL_size_t(sizeof want, nc->cdcf_len);
 	TEST_ASSERT_EQUAL_MEMORY(want, nc->cdcf, sizeof want);
 
@@ -185,9 +202,12 @@ static void test_dcf_file_relative_to_the_config(void)
 	put_file("bad.dcf", bad, strlen(bad));
 	char want_err[300];
 	snprintf(want_err, sizeof want_err,
-		 "lines[0].nodes[0].config.dcf: %s/bad.dcf:4: DefaultValue '70000': out of range for UNSIGNED16 (max 65535)", dir);
+		 "lines[0].nodes[0].config.dcf: %s/bad.dcf:4: DefaultValue '70000': out of range "
+		 "for UNSIGNED16 (max 65535)",
+		 dir);
 	expect_error(NODES("[{\"id\": 7, \"config\": {\"dcf\": \"bad.dcf\"}}]"), want_err);
-	snprintf(want_err, sizeof want_err, "lines[0].nodes[0].config.dcf: %s/none.dcf: No such file or directory", dir);
+	snprintf(want_err, sizeof want_err,
+		 "lines[0].nodes[0].config.dcf: %s/none.dcf: No such file or directory", dir);
 	expect_error(NODES("[{\"id\": 7, \"config\": {\"dcf\": \"none.dcf\"}}]"), want_err);
 }
 
@@ -200,7 +220,8 @@ static void test_concise_file(void)
 	co_cdcf_writer_add(&w, 0x1017, 0, &hb, 2);
 	long n = co_cdcf_writer_finish(&w);
 	put_file("dev.cdc", buf, (size_t)n);
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, load(NODES("[{\"id\": 7, \"config\": {\"concise\": \"dev.cdc\"}}]")), err);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(
+		0, load(NODES("[{\"id\": 7, \"config\": {\"concise\": \"dev.cdc\"}}]")), err);
 	const cogw_node_config *nc = &cfg.lines[0].nodes[0].config;
 	TEST_ASSERT_EQUAL_INT(COGW_NODE_CONFIG_CONCISE, nc->source);
 	TEST_ASSERT_EQUAL_UINT32(1, nc->entries);
@@ -211,7 +232,8 @@ static void test_concise_file(void)
 	put_file("cut.cdc", buf, (size_t)n - 1);
 	char want_err[300];
 	snprintf(want_err, sizeof want_err,
-		 "lines[0].nodes[0].config.concise: %s/cut.cdc: not a concise DCF: entry 1 of 1 (1017:00) at byte 11: data cut short (size 2, 1 bytes left)",
+		 "lines[0].nodes[0].config.concise: %s/cut.cdc: not a concise DCF: entry 1 of 1 "
+		 "(1017:00) at byte 11: data cut short (size 2, 1 bytes left)",
 		 dir);
 	expect_error(NODES("[{\"id\": 7, \"config\": {\"concise\": \"cut.cdc\"}}]"), want_err);
 }

@@ -55,36 +55,45 @@ static void test_type_table(void)
 static void test_every_basic_type_can_be_added(void)
 {
 	static const co_type types[] = {
-		CO_T_BOOLEAN, CO_T_INTEGER8, CO_T_INTEGER16, CO_T_INTEGER24, CO_T_INTEGER32,
-		CO_T_INTEGER40, CO_T_INTEGER48, CO_T_INTEGER56, CO_T_INTEGER64, CO_T_UNSIGNED8,
-		CO_T_UNSIGNED16, CO_T_UNSIGNED24, CO_T_UNSIGNED32, CO_T_UNSIGNED40,
-		CO_T_UNSIGNED48, CO_T_UNSIGNED56, CO_T_UNSIGNED64, CO_T_REAL32, CO_T_REAL64,
-		CO_T_TIME_OF_DAY, CO_T_TIME_DIFFERENCE,
+		CO_T_BOOLEAN,         CO_T_INTEGER8,   CO_T_INTEGER16,  CO_T_INTEGER24,
+		CO_T_INTEGER32,       CO_T_INTEGER40,  CO_T_INTEGER48,  CO_T_INTEGER56,
+		CO_T_INTEGER64,       CO_T_UNSIGNED8,  CO_T_UNSIGNED16, CO_T_UNSIGNED24,
+		CO_T_UNSIGNED32,      CO_T_UNSIGNED40, CO_T_UNSIGNED48, CO_T_UNSIGNED56,
+		CO_T_UNSIGNED64,      CO_T_REAL32,     CO_T_REAL64,     CO_T_TIME_OF_DAY,
+		CO_T_TIME_DIFFERENCE,
 	};
 	co_od_entry *e;
 
 	for (unsigned i = 0; i < sizeof(types) / sizeof(types[0]); i++) {
-		TEST_ASSERT_EQUAL(0, co_od_add_num(od, 0x3000, (uint8_t)(i + 1), types[i], CO_ACC_RW, 1, &e));
+		TEST_ASSERT_EQUAL(
+			0, co_od_add_num(od, 0x3000, (uint8_t)(i + 1), types[i], CO_ACC_RW, 1, &e));
 		TEST_ASSERT_EQUAL_UINT32(co_type_size(types[i]), e->size);
 		TEST_ASSERT_EQUAL_UINT64(1, co_od_entry_raw(e));
 	}
-	TEST_ASSERT_EQUAL(0, co_od_add_bytes(od, 0x3001, 0, CO_T_VISIBLE_STRING, CO_ACC_RW, 10, "abc", 3, &e));
+	TEST_ASSERT_EQUAL(0, co_od_add_bytes(od, 0x3001, 0, CO_T_VISIBLE_STRING, CO_ACC_RW, 10,
+					     "abc", 3, &e));
 	TEST_ASSERT_EQUAL_STRING("abc", (const char *)e->data);
-	TEST_ASSERT_EQUAL(0, co_od_add_bytes(od, 0x3002, 0, CO_T_OCTET_STRING, CO_ACC_RW, 4, NULL, 0, NULL));
-	TEST_ASSERT_EQUAL(0, co_od_add_bytes(od, 0x3003, 0, CO_T_UNICODE_STRING, CO_ACC_RW, 8, "a\0b\0", 4, NULL));
-	TEST_ASSERT_EQUAL(0, co_od_add_bytes(od, 0x3004, 0, CO_T_DOMAIN, CO_ACC_RW, 0, NULL, 0, &e));
+	TEST_ASSERT_EQUAL(
+		0, co_od_add_bytes(od, 0x3002, 0, CO_T_OCTET_STRING, CO_ACC_RW, 4, NULL, 0, NULL));
+	TEST_ASSERT_EQUAL(0, co_od_add_bytes(od, 0x3003, 0, CO_T_UNICODE_STRING, CO_ACC_RW, 8,
+					     "a\0b\0", 4, NULL));
+	TEST_ASSERT_EQUAL(0,
+			  co_od_add_bytes(od, 0x3004, 0, CO_T_DOMAIN, CO_ACC_RW, 0, NULL, 0, &e));
 	TEST_ASSERT_EQUAL_UINT32(0, e->size);
 	/* Bad descriptors. */
 	TEST_ASSERT_EQUAL(-EINVAL, co_od_add_num(od, 0x3005, 0, CO_T_DOMAIN, CO_ACC_RW, 0, NULL));
-	TEST_ASSERT_EQUAL(-EINVAL, co_od_add_bytes(od, 0x3005, 0, CO_T_UNSIGNED8, CO_ACC_RW, 1, NULL, 0, NULL));
-	TEST_ASSERT_EQUAL(-EINVAL, co_od_add_bytes(od, 0x3005, 0, CO_T_DOMAIN, CO_ACC_RW, 2, "abc", 3, NULL));
+	TEST_ASSERT_EQUAL(-EINVAL, co_od_add_bytes(od, 0x3005, 0, CO_T_UNSIGNED8, CO_ACC_RW, 1,
+						   NULL, 0, NULL));
+	TEST_ASSERT_EQUAL(
+		-EINVAL, co_od_add_bytes(od, 0x3005, 0, CO_T_DOMAIN, CO_ACC_RW, 2, "abc", 3, NULL));
 	co_od_desc d = { .index = 0x3005, .type = 0x0E };
 	TEST_ASSERT_EQUAL(-EINVAL, co_od_add(od, &d, NULL));
 	d.type = CO_T_UNSIGNED16;
 	d.def = "x";
 	d.def_size = 1;
 	TEST_ASSERT_EQUAL(-EINVAL, co_od_add(od, &d, NULL));
-	TEST_ASSERT_EQUAL(-EEXIST, co_od_add_num(od, 0x1000, 0, CO_T_UNSIGNED32, CO_ACC_RO, 0, NULL));
+	TEST_ASSERT_EQUAL(-EEXIST,
+			  co_od_add_num(od, 0x1000, 0, CO_T_UNSIGNED32, CO_ACC_RO, 0, NULL));
 }
 
 static void test_lookup_and_abort_reasons(void)
@@ -119,12 +128,15 @@ static void test_lookup_and_abort_reasons(void)
 
 static void test_runtime_add_many_random_order_pointers_stable(void)
 {
-	enum { N = 4000 };
+	enum {
+		N = 4000
+	};
 	co_od_entry *first;
 	unsigned seed = 12345;
 	static uint16_t idx[N];
 
-	TEST_ASSERT_EQUAL(0, co_od_add_num(od, 0x4000, 0, CO_T_UNSIGNED32, CO_ACC_RW, 0xAB, &first));
+	TEST_ASSERT_EQUAL(0,
+			  co_od_add_num(od, 0x4000, 0, CO_T_UNSIGNED32, CO_ACC_RW, 0xAB, &first));
 	for (unsigned i = 0; i < N; i++)
 		idx[i] = (uint16_t)(0x4001 + i);
 	for (unsigned i = N - 1; i > 0; i--) { /* shuffle */
@@ -135,8 +147,8 @@ static void test_runtime_add_many_random_order_pointers_stable(void)
 		idx[j] = t;
 	}
 	for (unsigned i = 0; i < N; i++)
-		TEST_ASSERT_EQUAL(0, co_od_add_num(od, idx[i], (uint8_t)(idx[i] & 0x7F), CO_T_UNSIGNED16,
-						   CO_ACC_RW, idx[i], NULL));
+		TEST_ASSERT_EQUAL(0, co_od_add_num(od, idx[i], (uint8_t)(idx[i] & 0x7F),
+						   CO_T_UNSIGNED16, CO_ACC_RW, idx[i], NULL));
 	TEST_ASSERT_EQUAL_PTR(first, co_od_find(od, 0x4000, 0));
 	TEST_ASSERT_EQUAL_UINT64(0xAB, co_od_entry_raw(first));
 	for (unsigned i = 0; i < N; i++) {
@@ -163,7 +175,7 @@ static void test_typed_get_set(void)
 
 	TEST_ASSERT_EQUAL(0, co_od_get_u32(od, 0x1000, 0, &u32));
 	TEST_ASSERT_EQUAL_HEX32(0x00040194, u32);
-	TEST_ASSERT_EQUAL(0, co_od_get_u64(od, 0x1000, 0, &u64)); /* widening ok */
+	TEST_ASSERT_EQUAL(0, co_od_get_u64(od, 0x1000, 0, &u64));       /* widening ok */
 	TEST_ASSERT_EQUAL(-EINVAL, co_od_get_u16(od, 0x1000, 0, &u16)); /* narrowing not */
 	TEST_ASSERT_EQUAL(-ENOENT, co_od_get_u8(od, 0x2001, 0, &u8));
 	TEST_ASSERT_EQUAL(-EINVAL, co_od_get_u32(od, 0x1008, 0, &u32)); /* string */
@@ -203,7 +215,8 @@ static void test_typed_get_set(void)
 	TEST_ASSERT_TRUE(r64 == -2.5);
 
 	/* INTEGER24 sign extension */
-	TEST_ASSERT_EQUAL(0, co_od_add_num(od, 0x3101, 0, CO_T_INTEGER24, CO_ACC_RW, 0xFFFFFE, NULL));
+	TEST_ASSERT_EQUAL(0,
+			  co_od_add_num(od, 0x3101, 0, CO_T_INTEGER24, CO_ACC_RW, 0xFFFFFE, NULL));
 	TEST_ASSERT_EQUAL(0, co_od_get_i32(od, 0x3101, 0, &i32));
 	TEST_ASSERT_EQUAL_INT32(-2, i32);
 	TEST_ASSERT_EQUAL(-ERANGE, co_od_set_i32(od, 0x3101, 0, 0x800000));
@@ -271,7 +284,9 @@ static void test_check_value_lengths_and_limits(void)
 
 	/* Limits given in the descriptor; a missing bound = type extreme. */
 	int8_t lo = -3;
-	co_od_desc desc = { .index = 0x3201, .type = CO_T_INTEGER8, .access = CO_ACC_RW, .min = &lo };
+	co_od_desc desc = {
+		.index = 0x3201, .type = CO_T_INTEGER8, .access = CO_ACC_RW, .min = &lo
+	};
 	TEST_ASSERT_EQUAL(0, co_od_add(od, &desc, &r));
 	d[0] = (uint8_t)-4;
 	TEST_ASSERT_EQUAL_HEX32(SDO_AB_VALUE_LOW, co_od_check_value(r, d, 1));
@@ -374,8 +389,9 @@ static void test_array_helper_and_flags(void)
 	e = co_od_find(od, 0x2003, 0);
 	TEST_ASSERT_TRUE(e->access & CO_ACC_TPDO);
 	TEST_ASSERT_FALSE(e->access & CO_ACC_RPDO);
-	co_od_desc d = { .index = 0x3300, .type = CO_T_UNSIGNED8, .access = CO_ACC_RWW,
-			 .name = "Output byte" };
+	co_od_desc d = {
+		.index = 0x3300, .type = CO_T_UNSIGNED8, .access = CO_ACC_RWW, .name = "Output byte"
+	};
 	TEST_ASSERT_EQUAL(0, co_od_add(od, &d, &e));
 	TEST_ASSERT_EQUAL_STRING("Output byte", e->name);
 	TEST_ASSERT_EQUAL(CO_OBJ_VAR, e->obj_code);

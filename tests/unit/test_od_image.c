@@ -11,10 +11,13 @@ static co_od *od;
 void setUp(void)
 {
 	TEST_ASSERT_EQUAL_INT(0, co_od_create(&od, 16));
-	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x1017, 0, CO_T_UNSIGNED16, CO_ACC_RW, 1000, NULL));
-	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x1000, 0, CO_T_UNSIGNED32, CO_ACC_CO, 0x40194, NULL));
+	TEST_ASSERT_EQUAL_INT(0,
+			      co_od_add_num(od, 0x1017, 0, CO_T_UNSIGNED16, CO_ACC_RW, 1000, NULL));
+	TEST_ASSERT_EQUAL_INT(
+		0, co_od_add_num(od, 0x1000, 0, CO_T_UNSIGNED32, CO_ACC_CO, 0x40194, NULL));
 	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x1010, 1, CO_T_UNSIGNED32, CO_ACC_RW, 1, NULL));
-	TEST_ASSERT_EQUAL_INT(0, co_od_add_bytes(od, 0x2001, 0, CO_T_VISIBLE_STRING, CO_ACC_RW, 32, "abc", 3, NULL));
+	TEST_ASSERT_EQUAL_INT(0, co_od_add_bytes(od, 0x2001, 0, CO_T_VISIBLE_STRING, CO_ACC_RW, 32,
+						 "abc", 3, NULL));
 	co_od_entry *lim = NULL;
 	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x2002, 0, CO_T_UNSIGNED8, CO_ACC_RW, 5, &lim));
 	TEST_ASSERT_EQUAL_INT(0, co_od_entry_set_limits(lim, 1, 10));
@@ -41,7 +44,8 @@ static void test_round_trip_restores_values_and_defaults(void)
 	TEST_ASSERT_EQUAL_UINT16(1000, hb);
 
 	unsigned applied, skipped;
-	TEST_ASSERT_EQUAL_INT(0, co_od_image_apply(od, img, (size_t)n, CO_OD_IMAGE_SET_VALUE | CO_OD_IMAGE_SET_DEFAULT,
+	TEST_ASSERT_EQUAL_INT(0, co_od_image_apply(od, img, (size_t)n,
+						   CO_OD_IMAGE_SET_VALUE | CO_OD_IMAGE_SET_DEFAULT,
 						   &applied, &skipped));
 	TEST_ASSERT_EQUAL_UINT(3, applied);
 	TEST_ASSERT_EQUAL_UINT(0, skipped);
@@ -67,7 +71,8 @@ static void test_parts_and_what_is_left_out(void)
 	TEST_ASSERT_EQUAL_HEX8(0x17, img[8]);
 	TEST_ASSERT_EQUAL_HEX8(0x10, img[9]);
 	long app = co_od_image_write(od, CO_OD_IMAGE_APP, img, sizeof img);
-	TEST_ASSERT_EQUAL_INT(CO_OD_IMAGE_MAGIC_LEN + 7 + 3 + 7 + 1, app); /* 2001h, 2002h; not ro 2003h */
+	TEST_ASSERT_EQUAL_INT(CO_OD_IMAGE_MAGIC_LEN + 7 + 3 + 7 + 1,
+			      app); /* 2001h, 2002h; not ro 2003h */
 	TEST_ASSERT_EQUAL_INT(-EMSGSIZE, co_od_image_write(od, CO_OD_IMAGE_APP, img, 12));
 }
 
@@ -81,7 +86,8 @@ static void test_bad_records_are_skipped_not_trusted(void)
 	memcpy(img + n, missing, sizeof missing);
 	n += (long)sizeof missing;
 	unsigned applied, skipped;
-	TEST_ASSERT_EQUAL_INT(0, co_od_image_apply(od, img, (size_t)n, CO_OD_IMAGE_SET_VALUE, &applied, &skipped));
+	TEST_ASSERT_EQUAL_INT(0, co_od_image_apply(od, img, (size_t)n, CO_OD_IMAGE_SET_VALUE,
+						   &applied, &skipped));
 	TEST_ASSERT_EQUAL_UINT(1, applied);
 	TEST_ASSERT_EQUAL_UINT(2, skipped);
 	uint8_t v = 0;
@@ -90,12 +96,14 @@ static void test_bad_records_are_skipped_not_trusted(void)
 
 	/* truncated tail: what came before is kept, the rest counted once */
 	n = co_od_image_write(od, CO_OD_IMAGE_APP, img, sizeof img);
-	TEST_ASSERT_EQUAL_INT(0, co_od_image_apply(od, img, (size_t)n - 3, CO_OD_IMAGE_SET_VALUE, &applied, &skipped));
+	TEST_ASSERT_EQUAL_INT(0, co_od_image_apply(od, img, (size_t)n - 3, CO_OD_IMAGE_SET_VALUE,
+						   &applied, &skipped));
 	TEST_ASSERT_EQUAL_UINT(1, applied);
 	TEST_ASSERT_EQUAL_UINT(1, skipped);
 	/* a record that claims to be longer than the buffer */
 	co_put_le32(img + 8 + 3, 0xFFFFFFF0u);
-	TEST_ASSERT_EQUAL_INT(0, co_od_image_apply(od, img, (size_t)n, CO_OD_IMAGE_SET_VALUE, &applied, &skipped));
+	TEST_ASSERT_EQUAL_INT(0, co_od_image_apply(od, img, (size_t)n, CO_OD_IMAGE_SET_VALUE,
+						   &applied, &skipped));
 	TEST_ASSERT_EQUAL_UINT(0, applied);
 	TEST_ASSERT_EQUAL_UINT(1, skipped);
 }
@@ -104,8 +112,11 @@ static void test_foreign_data_is_refused_whole(void)
 {
 	const uint8_t junk[] = "not an image at all";
 	unsigned applied, skipped;
-	TEST_ASSERT_EQUAL_INT(-EINVAL, co_od_image_apply(od, junk, sizeof junk, CO_OD_IMAGE_SET_VALUE, &applied, &skipped));
-	TEST_ASSERT_EQUAL_INT(-EINVAL, co_od_image_apply(od, junk, 3, CO_OD_IMAGE_SET_VALUE, &applied, &skipped));
+	TEST_ASSERT_EQUAL_INT(-EINVAL,
+			      co_od_image_apply(od, junk, sizeof junk, CO_OD_IMAGE_SET_VALUE,
+						&applied, &skipped));
+	TEST_ASSERT_EQUAL_INT(
+		-EINVAL, co_od_image_apply(od, junk, 3, CO_OD_IMAGE_SET_VALUE, &applied, &skipped));
 	TEST_ASSERT_EQUAL_UINT(0, applied);
 }
 

@@ -46,22 +46,26 @@ static co_od *make_od(void)
 	TEST_ASSERT_EQUAL(0, co_od_create(&o, 256));
 	TEST_ASSERT_EQUAL(0, co_od_add_num(o, IDX_U16, 0, CO_T_UNSIGNED16, rww_rwr, 0x1234, NULL));
 	TEST_ASSERT_EQUAL(0, co_od_add_num(o, IDX_U8, 0, CO_T_UNSIGNED8, rww_rwr, 0x56, NULL));
-	TEST_ASSERT_EQUAL(0, co_od_add_num(o, IDX_U32, 0, CO_T_UNSIGNED32, rww_rwr, 0xDEADBEEF, NULL));
+	TEST_ASSERT_EQUAL(0,
+			  co_od_add_num(o, IDX_U32, 0, CO_T_UNSIGNED32, rww_rwr, 0xDEADBEEF, NULL));
 	TEST_ASSERT_EQUAL(0, co_od_add_num(o, IDX_BOOL, 0, CO_T_BOOLEAN, rww_rwr, 0, NULL));
 	TEST_ASSERT_EQUAL(0, co_od_add_num(o, IDX_I16, 0, CO_T_INTEGER16, rww_rwr, 0, NULL));
 	TEST_ASSERT_EQUAL(0, co_od_add_num(o, IDX_U24, 0, CO_T_UNSIGNED24, rww_rwr, 0, NULL));
 	TEST_ASSERT_EQUAL(0, co_od_add_num(o, IDX_NOMAP, 0, CO_T_UNSIGNED8, CO_ACC_RW, 0, NULL));
-	TEST_ASSERT_EQUAL(0, co_od_add_bytes(o, IDX_STR, 0, CO_T_VISIBLE_STRING, rww_rwr, 4, "ab", 2, NULL));
+	TEST_ASSERT_EQUAL(
+		0, co_od_add_bytes(o, IDX_STR, 0, CO_T_VISIBLE_STRING, rww_rwr, 4, "ab", 2, NULL));
 	co_od_entry *lim;
 	TEST_ASSERT_EQUAL(0, co_od_add_num(o, IDX_LIM, 0, CO_T_UNSIGNED16, rww_rwr, 50, &lim));
 	TEST_ASSERT_EQUAL(0, co_od_entry_set_limits(lim, 0, 100));
 	TEST_ASSERT_EQUAL(0, co_od_add_comm_defaults_emcy(o, NODE, 8, 0, 0));
 	TEST_ASSERT_EQUAL(0, co_od_add_comm_defaults_sync(o, 0, 0, 0));
 	for (uint16_t n = 1; n <= 8; n++) {
-		co_pdo_desc r = { .dir = CO_PDO_RX, .nr = n,
+		co_pdo_desc r = { .dir = CO_PDO_RX,
+				  .nr = n,
 				  .cob_id = CO_PDO_COB_INVALID | (0x200u + n),
 				  .tt = 254 };
-		co_pdo_desc t = { .dir = CO_PDO_TX, .nr = n,
+		co_pdo_desc t = { .dir = CO_PDO_TX,
+				  .nr = n,
 				  .cob_id = CO_PDO_COB_INVALID | (0x180u + n),
 				  .tt = 254 };
 		TEST_ASSERT_EQUAL(0, co_od_add_pdo(o, &r));
@@ -104,9 +108,8 @@ static uint64_t odr(uint16_t index, uint8_t sub)
 }
 
 /* The CiA 301 5-step sequence, every step must succeed. */
-static void pdo_setup(co_pdo_dir dir, uint16_t nr, uint32_t cob, uint8_t tt,
-		      uint16_t inhibit, uint16_t event_ms, uint8_t start,
-		      uint8_t n, const uint32_t *map)
+static void pdo_setup(co_pdo_dir dir, uint16_t nr, uint32_t cob, uint8_t tt, uint16_t inhibit,
+		      uint16_t event_ms, uint8_t start, uint8_t n, const uint32_t *map)
 {
 	uint16_t comm = (uint16_t)((dir == CO_PDO_TX ? 0x1800 : 0x1400) + nr - 1);
 	uint16_t mapi = (uint16_t)(comm + 0x200);
@@ -185,13 +188,13 @@ static const co_frame *last_id(uint32_t id)
 	return NULL;
 }
 
-#define ASSERT_LAST_ID(id, hex)                                                 \
-	do {                                                                    \
-		const co_frame *f_ = last_id(id);                               \
-		char b_[96];                                                    \
-		TEST_ASSERT_NOT_NULL_MESSAGE(f_, "no frame with that id");      \
-		TEST_ASSERT_TRUE_MESSAGE(tb_frame_is(f_, (id), (hex)),          \
-					 tb_frame_str(f_, b_, sizeof(b_)));     \
+#define ASSERT_LAST_ID(id, hex)                                             \
+	do {                                                                \
+		const co_frame *f_ = last_id(id);                           \
+		char b_[96];                                                \
+		TEST_ASSERT_NOT_NULL_MESSAGE(f_, "no frame with that id");  \
+		TEST_ASSERT_TRUE_MESSAGE(tb_frame_is(f_, (id), (hex)),      \
+					 tb_frame_str(f_, b_, sizeof(b_))); \
 	} while (0)
 
 static const co_event *nth_event(co_event_kind k, unsigned n)
@@ -544,7 +547,8 @@ static void test_remap_sequence_and_aborts(void)
 	TEST_ASSERT_EQUAL_HEX32(SDO_AB_NO_OBJ, odw(0x1A00, 1, CO_PDO_MAP(0x2999, 0, 8)));
 	TEST_ASSERT_EQUAL_HEX32(SDO_AB_NO_SUB, odw(0x1A00, 1, CO_PDO_MAP(IDX_U8, 7, 8)));
 	TEST_ASSERT_EQUAL_HEX32(SDO_AB_NO_MAP, odw(0x1A00, 1, CO_PDO_MAP(IDX_U8, 0, 9)));
-	TEST_ASSERT_EQUAL_HEX32(SDO_AB_NO_MAP, odw(0x1A00, 1, CO_PDO_MAP(0x0005, 0, 8))); /* dummy in a TPDO */
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_NO_MAP,
+				odw(0x1A00, 1, CO_PDO_MAP(0x0005, 0, 8))); /* dummy in a TPDO */
 	TEST_ASSERT_EQUAL_HEX32(0, odw(0x1A00, 1, CO_PDO_MAP(IDX_U32, 0, 32)));
 	TEST_ASSERT_EQUAL_HEX32(0, odw(0x1A00, 2, CO_PDO_MAP(IDX_U16, 0, 16)));
 	TEST_ASSERT_EQUAL_HEX32(0, odw(0x1A00, 3, CO_PDO_MAP(IDX_U32, 0, 32)));
@@ -787,20 +791,27 @@ static void test_512_tpdos_with_event_timers(void)
 					   CO_ACC_RW | CO_ACC_TPDO | CO_ACC_RPDO, 1, NULL));
 	for (uint16_t n = 1; n <= 512; n++) {
 		/* event timers 10..521 ms, all different */
-		co_pdo_desc t = { .dir = CO_PDO_TX, .nr = n,
+		co_pdo_desc t = { .dir = CO_PDO_TX,
+				  .nr = n,
 				  .cob_id = CO_PDO_COB_EXT | (0x10000u + n),
-				  .tt = 254, .event_ms = (uint16_t)(9 + n),
-				  .map_subs = 1, .n_map = 1, .map = map };
-		co_pdo_desc r = { .dir = CO_PDO_RX, .nr = n,
+				  .tt = 254,
+				  .event_ms = (uint16_t)(9 + n),
+				  .map_subs = 1,
+				  .n_map = 1,
+				  .map = map };
+		co_pdo_desc r = { .dir = CO_PDO_RX,
+				  .nr = n,
 				  .cob_id = CO_PDO_COB_EXT | (0x20000u + n),
-				  .tt = 254, .map_subs = 1, .n_map = 1, .map = map };
+				  .tt = 254,
+				  .map_subs = 1,
+				  .n_map = 1,
+				  .map = map };
 		TEST_ASSERT_EQUAL(0, co_od_add_pdo(big, &t));
 		TEST_ASSERT_EQUAL(0, co_od_add_pdo(big, &r));
 	}
 	/* the default receiver pool (512) is too small: a clear error */
 	{
-		co_node_config small = { .node_id = 7, .od = big,
-					 .send = null_send };
+		co_node_config small = { .node_id = 7, .od = big, .send = null_send };
 		co_node *x = NULL;
 		TEST_ASSERT_EQUAL(-ENOSPC, co_node_create(&x, &small));
 		TEST_ASSERT_NULL(x);

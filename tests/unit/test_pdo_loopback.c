@@ -37,14 +37,16 @@ static co_od *slave_od(void)
 	co_od *o;
 
 	TEST_ASSERT_EQUAL(0, co_od_create(&o, 64));
-	TEST_ASSERT_EQUAL(0, co_od_add_num(o, 0x2000, 0, CO_T_UNSIGNED16, CO_ACC_RWR, 0x1234, NULL));
+	TEST_ASSERT_EQUAL(0,
+			  co_od_add_num(o, 0x2000, 0, CO_T_UNSIGNED16, CO_ACC_RWR, 0x1234, NULL));
 	TEST_ASSERT_EQUAL(0, co_od_add_num(o, 0x2001, 0, CO_T_UNSIGNED8, CO_ACC_RWR, 0x56, NULL));
-	TEST_ASSERT_EQUAL(0, co_od_add_num(o, 0x2002, 0, CO_T_UNSIGNED32, CO_ACC_RWR, 0xCAFEF00D, NULL));
+	TEST_ASSERT_EQUAL(
+		0, co_od_add_num(o, 0x2002, 0, CO_T_UNSIGNED32, CO_ACC_RWR, 0xCAFEF00D, NULL));
 	TEST_ASSERT_EQUAL(0, co_od_add_comm_defaults_sync(o, 0, 0, 0));
 	for (uint16_t n = 1; n <= 3; n++) {
-		co_pdo_desc t = { .dir = CO_PDO_TX, .nr = n,
-				  .cob_id = CO_PDO_COB_INVALID |
-					    CO_PDO_TPDO_DEFAULT_COB(n, SLAVE),
+		co_pdo_desc t = { .dir = CO_PDO_TX,
+				  .nr = n,
+				  .cob_id = CO_PDO_COB_INVALID | CO_PDO_TPDO_DEFAULT_COB(n, SLAVE),
 				  .tt = 254 };
 		TEST_ASSERT_EQUAL(0, co_od_add_pdo(o, &t));
 	}
@@ -58,12 +60,24 @@ static co_od *master_od(void)
 	const uint32_t m2[] = { CO_PDO_MAP(0x3002, 0, 32) };
 	const uint32_t m3[] = { CO_PDO_MAP(0x3003, 0, 16) };
 	co_pdo_desc r[3] = {
-		{ .dir = CO_PDO_RX, .nr = 1, .cob_id = CO_PDO_TPDO_DEFAULT_COB(1, SLAVE),
-		  .tt = 254, .n_map = 2, .map = m1 },
-		{ .dir = CO_PDO_RX, .nr = 2, .cob_id = CO_PDO_TPDO_DEFAULT_COB(2, SLAVE),
-		  .tt = 254, .n_map = 1, .map = m2 },
-		{ .dir = CO_PDO_RX, .nr = 3, .cob_id = CO_PDO_TPDO_DEFAULT_COB(3, SLAVE),
-		  .tt = 254, .n_map = 1, .map = m3 },
+		{ .dir = CO_PDO_RX,
+		  .nr = 1,
+		  .cob_id = CO_PDO_TPDO_DEFAULT_COB(1, SLAVE),
+		  .tt = 254,
+		  .n_map = 2,
+		  .map = m1 },
+		{ .dir = CO_PDO_RX,
+		  .nr = 2,
+		  .cob_id = CO_PDO_TPDO_DEFAULT_COB(2, SLAVE),
+		  .tt = 254,
+		  .n_map = 1,
+		  .map = m2 },
+		{ .dir = CO_PDO_RX,
+		  .nr = 3,
+		  .cob_id = CO_PDO_TPDO_DEFAULT_COB(3, SLAVE),
+		  .tt = 254,
+		  .n_map = 1,
+		  .map = m3 },
 	};
 
 	TEST_ASSERT_EQUAL(0, co_od_create(&o, 64));
@@ -79,7 +93,8 @@ static co_od *master_od(void)
 
 void setUp(void)
 {
-	co_node_config mc = { .node_id = MASTER, .sdo_client_count = 1,
+	co_node_config mc = { .node_id = MASTER,
+			      .sdo_client_count = 1,
 			      .sdo_client_queue_len = 16 };
 	co_node_config sc = { .node_id = SLAVE };
 
@@ -114,8 +129,8 @@ static void sdo_dl(uint16_t index, uint8_t sub, uint32_t v, uint8_t size)
 	TEST_ASSERT_TRUE(dl_n < 64);
 	b = dl_buf[dl_n++];
 	co_put_le32(b, v);
-	TEST_ASSERT_EQUAL(0, sdo_client_write(master, 0, SLAVE, index, sub, b,
-					      size, 500, dl_n, bus.now));
+	TEST_ASSERT_EQUAL(
+		0, sdo_client_write(master, 0, SLAVE, index, sub, b, size, 500, dl_n, bus.now));
 }
 
 /* Run the bus until the master's SDO queue is empty; return the number of
@@ -141,37 +156,36 @@ static void sdo_finish(unsigned expect_done, uint32_t last_abort)
 }
 
 /* The CiA 301 remap sequence over SDO (7 downloads). */
-static void remote_map_tpdo(uint16_t nr, uint8_t tt, uint16_t inhibit,
-			    uint16_t event_ms, uint8_t n, const uint32_t *map)
+static void remote_map_tpdo(uint16_t nr, uint8_t tt, uint16_t inhibit, uint16_t event_ms, uint8_t n,
+			    const uint32_t *map)
 {
 	uint16_t comm = (uint16_t)(0x1800 + nr - 1), mapi = (uint16_t)(0x1A00 + nr - 1);
 	uint32_t cob = CO_PDO_TPDO_DEFAULT_COB(nr, SLAVE);
 	unsigned reqs = 0;
 
 	sdo_dl(comm, 1, CO_PDO_COB_INVALID | cob, 4), reqs++; /* 1 */
-	sdo_dl(mapi, 0, 0, 1), reqs++;                         /* 2 */
+	sdo_dl(mapi, 0, 0, 1), reqs++;                        /* 2 */
 	for (uint8_t i = 0; i < n; i++)
 		sdo_dl(mapi, (uint8_t)(i + 1), map[i], 4), reqs++; /* 3 */
-	sdo_dl(mapi, 0, n, 1), reqs++;                         /* 4 */
+	sdo_dl(mapi, 0, n, 1), reqs++;                             /* 4 */
 	sdo_dl(comm, 2, tt, 1), reqs++;
 	sdo_dl(comm, 3, inhibit, 2), reqs++;
 	sdo_dl(comm, 5, event_ms, 2), reqs++;
-	sdo_dl(comm, 1, cob, 4), reqs++;                       /* 5 */
+	sdo_dl(comm, 1, cob, 4), reqs++; /* 5 */
 	sdo_finish(reqs, 0);
 	TEST_ASSERT_TRUE(co_pdo_is_valid(slave, CO_PDO_TX, nr));
 }
 
 static void start_network(void)
 {
-	TEST_ASSERT_EQUAL(0, co_nmt_master_send_ex(master, 0, CO_NMT_CS_START,
-						   CO_NMT_SEND_SELF, bus.now));
+	TEST_ASSERT_EQUAL(
+		0, co_nmt_master_send_ex(master, 0, CO_NMT_CS_START, CO_NMT_SEND_SELF, bus.now));
 	tb_settle(&bus, 1000);
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, co_nmt_get_state(slave));
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, co_nmt_get_state(master));
 }
 
-static uint32_t local_write(co_node *n, co_od *o, uint16_t index, uint8_t sub,
-			    uint32_t v)
+static uint32_t local_write(co_node *n, co_od *o, uint16_t index, uint8_t sub, uint32_t v)
 {
 	co_od_entry *e = co_od_find(o, index, sub);
 	co_od_access a = { .origin = CO_OD_ORIGIN_LOCAL };
@@ -290,8 +304,7 @@ static tb_action stamp(void *ctx, const co_frame *f, int from, uint64_t n)
 {
 	(void)ctx;
 	(void)n;
-	if (f->id == CO_PDO_TPDO_DEFAULT_COB(3, SLAVE) && from == sp->idx &&
-	    n3 < 64)
+	if (f->id == CO_PDO_TPDO_DEFAULT_COB(3, SLAVE) && from == sp->idx && n3 < 64)
 		t3[n3++] = bus.now;
 	return TB_DELIVER;
 }

@@ -60,7 +60,7 @@ static void test_expedited_command_specifier_follows_size(void)
 {
 	static const uint8_t d[4] = { 0x11, 0x22, 0x33, 0x44 };
 	static const char *const want[] = { "2F 00 20 01 11 00 00 00", "2B 00 20 01 11 22 00 00",
-					     "27 00 20 01 11 22 33 00", "23 00 20 01 11 22 33 44" };
+					    "27 00 20 01 11 22 33 00", "23 00 20 01 11 22 33 44" };
 
 	for (uint32_t n = 1; n <= 4; n++) {
 		TEST_ASSERT_EQUAL(0, write_n(d, n, n));
@@ -114,7 +114,11 @@ static void test_golden_writes_v1_v3_v7(void)
 static void test_segmented_download_frames(void)
 {
 	static const uint8_t d[10] = "0123456789";
-	sdo_client_req r = { .node_id = 5, .index = 0x2000, .sub = 1, .data = d, .size = 10,
+	sdo_client_req r = { .node_id = 5,
+			     .index = 0x2000,
+			     .sub = 1,
+			     .data = d,
+			     .size = 10,
 			     .mode = SDO_MODE_SEGMENTED };
 
 	TEST_ASSERT_EQUAL(0, sdo_client_submit(cli->node, 0, &r, bus.now));
@@ -220,8 +224,14 @@ static void test_late_segments_of_cancelled_upload_do_not_poison_next(void)
 /* The same for a block upload: its sub-block segments carry any byte 0. */
 static void test_late_block_segments_of_cancelled_upload_ignored(void)
 {
-	sdo_client_req r = { .upload = true, .node_id = 5, .index = 0x2200, .sub = 0,
-			     .mode = SDO_MODE_BLOCK, .tag = 1, .buf = buf, .cap = sizeof(buf) };
+	sdo_client_req r = { .upload = true,
+			     .node_id = 5,
+			     .index = 0x2200,
+			     .sub = 0,
+			     .mode = SDO_MODE_BLOCK,
+			     .tag = 1,
+			     .buf = buf,
+			     .cap = sizeof(buf) };
 	TEST_ASSERT_EQUAL(0, sdo_client_submit(cli->node, 0, &r, bus.now));
 	reply("C6 00 22 00 00 01 00 00");
 	reply("01 01 02 03 04 05 06 07");
@@ -385,8 +395,12 @@ static void test_invalid_requests(void)
 	r = (sdo_client_req){ .node_id = 5, .index = 0x1000, .size = 4 }; /* no data */
 	TEST_ASSERT_EQUAL(-EINVAL, sdo_client_submit(cli->node, 0, &r, bus.now));
 	/* Explicit COB-IDs (a gateway's routed client): any node-id. */
-	r = (sdo_client_req){ .upload = true, .index = 0x1000, .buf = buf, .cap = 4,
-			      .cob_req = 0x640, .cob_resp = 0x5C0 };
+	r = (sdo_client_req){ .upload = true,
+			      .index = 0x1000,
+			      .buf = buf,
+			      .cap = 4,
+			      .cob_req = 0x640,
+			      .cob_resp = 0x5C0 };
 	TEST_ASSERT_EQUAL(0, sdo_client_submit(cli->node, 0, &r, bus.now));
 	EXPECT_REQ(0x640, "40 00 10 00 00 00 00 00");
 	tb_send_hex(&bus, 0x5C0, "4F 00 10 00 07 00 00 00");
@@ -423,7 +437,11 @@ static void test_block_refused_falls_back_to_segmented(void)
 static void test_block_download_scripted_frames(void)
 {
 	static uint8_t d[10] = "abcdefghij";
-	sdo_client_req r = { .node_id = 5, .index = 0x2000, .sub = 1, .data = d, .size = 10,
+	sdo_client_req r = { .node_id = 5,
+			     .index = 0x2000,
+			     .sub = 1,
+			     .data = d,
+			     .size = 10,
 			     .mode = SDO_MODE_BLOCK };
 	char hex[64];
 	uint16_t crc = crc16_ccitt(0, d, 10);
@@ -448,7 +466,11 @@ static void test_block_download_scripted_frames(void)
 static void test_block_download_server_bad_ack(void)
 {
 	static uint8_t d[10];
-	sdo_client_req r = { .node_id = 5, .index = 0x2000, .sub = 1, .data = d, .size = 10,
+	sdo_client_req r = { .node_id = 5,
+			     .index = 0x2000,
+			     .sub = 1,
+			     .data = d,
+			     .size = 10,
 			     .mode = SDO_MODE_BLOCK };
 
 	TEST_ASSERT_EQUAL(0, sdo_client_submit(cli->node, 0, &r, bus.now));
@@ -462,8 +484,13 @@ static void test_block_download_server_bad_ack(void)
 
 static void test_block_upload_scripted_crc_error(void)
 {
-	sdo_client_req r = { .upload = true, .node_id = 5, .index = 0x2000, .sub = 1,
-			     .buf = buf, .cap = sizeof(buf), .mode = SDO_MODE_BLOCK };
+	sdo_client_req r = { .upload = true,
+			     .node_id = 5,
+			     .index = 0x2000,
+			     .sub = 1,
+			     .buf = buf,
+			     .cap = sizeof(buf),
+			     .mode = SDO_MODE_BLOCK };
 
 	TEST_ASSERT_EQUAL(0, sdo_client_submit(cli->node, 0, &r, bus.now));
 	EXPECT_REQ(0x605, "A4 00 20 01 7F 00 00 00"); /* pst 0: explicit block */
@@ -480,8 +507,13 @@ static void test_block_upload_scripted_crc_error(void)
 
 static void test_block_upload_scripted_ok_with_resend(void)
 {
-	sdo_client_req r = { .upload = true, .node_id = 5, .index = 0x2000, .sub = 1,
-			     .buf = buf, .cap = sizeof(buf), .mode = SDO_MODE_BLOCK };
+	sdo_client_req r = { .upload = true,
+			     .node_id = 5,
+			     .index = 0x2000,
+			     .sub = 1,
+			     .buf = buf,
+			     .cap = sizeof(buf),
+			     .mode = SDO_MODE_BLOCK };
 	uint16_t crc = crc16_ccitt(0, "abcdefghi", 9);
 	char hex[64];
 
@@ -499,20 +531,23 @@ static void test_block_upload_scripted_ok_with_resend(void)
 	TEST_ASSERT_EQUAL_MEMORY("abcdefghi", buf, 9);
 }
 
-
 /* Garbage answers never crash the client; every request completes. */
 static void test_random_answers_fuzz(void)
 {
-	static const uint8_t cs[] = { 0x00, 0x10, 0x20, 0x30, 0x41, 0x43, 0x60, 0x80, 0xA0, 0xA1,
-				      0xA2, 0xA4, 0xC0, 0xC1, 0xC4, 0xC6, 0x01, 0x82 };
+	static const uint8_t cs[] = { 0x00, 0x10, 0x20, 0x30, 0x41, 0x43, 0x60, 0x80, 0xA0,
+				      0xA1, 0xA2, 0xA4, 0xC0, 0xC1, 0xC4, 0xC6, 0x01, 0x82 };
 	static uint8_t d[3000];
 	uint32_t seed = 777;
 	size_t started = 0;
 
 	bus.log_on = false;
 	for (int round = 0; round < 3000; round++) {
-		sdo_client_req r = { .node_id = 5, .index = 0x2000, .sub = 1, .timeout_ms = 100,
-				     .mode = (uint8_t)(round % 4), .tag = (uint64_t)round };
+		sdo_client_req r = { .node_id = 5,
+				     .index = 0x2000,
+				     .sub = 1,
+				     .timeout_ms = 100,
+				     .mode = (uint8_t)(round % 4),
+				     .tag = (uint64_t)round };
 		if (round & 1) {
 			r.upload = true;
 			r.buf = buf;

@@ -40,8 +40,10 @@ static void on_con(void *arg, const co_ev_sdo_cli *con)
 
 static void make_client(uint8_t channels, uint16_t pool_len, uint32_t timeout_ms)
 {
-	co_node_config cfg = { .node_id = 1, .sdo_client_count = channels,
-			       .sdo_client_queue_len = 2, .sdo_client_pool_len = pool_len,
+	co_node_config cfg = { .node_id = 1,
+			       .sdo_client_count = channels,
+			       .sdo_client_queue_len = 2,
+			       .sdo_client_pool_len = pool_len,
 			       .sdo_client_timeout_ms = timeout_ms,
 			       /* must not be what the client uses */
 			       .sdo_server_timeout_ms = 5000 };
@@ -67,9 +69,15 @@ void tearDown(void)
 
 static sdo_client_req read_req(uint8_t node, uint64_t tag)
 {
-	return (sdo_client_req){ .upload = true, .node_id = node, .index = 0x1000,
-				 .buf = buf, .cap = sizeof(buf), .timeout_ms = 500,
-				 .tag = tag, .con = on_con, .con_arg = &seen };
+	return (sdo_client_req){ .upload = true,
+				 .node_id = node,
+				 .index = 0x1000,
+				 .buf = buf,
+				 .cap = sizeof(buf),
+				 .timeout_ms = 500,
+				 .tag = tag,
+				 .con = on_con,
+				 .con_arg = &seen };
 }
 
 static int pool_read(uint8_t node, uint64_t tag, bool no_wait)
@@ -187,12 +195,12 @@ static void test_confirmation_once_per_request(void)
 	 * while running: one confirmation each, one event each. */
 	TEST_ASSERT_EQUAL(0, pool_read(5, 1, false));
 	TEST_ASSERT_EQUAL(0, pool_read(6, 2, false));
-	TEST_ASSERT_EQUAL(0, pool_read(7, 3, false)); /* waits */
-	TEST_ASSERT_EQUAL(0, pool_read(8, 4, false)); /* waits */
-	answer(5);                                    /* 1 ok, 3 starts */
+	TEST_ASSERT_EQUAL(0, pool_read(7, 3, false));        /* waits */
+	TEST_ASSERT_EQUAL(0, pool_read(8, 4, false));        /* waits */
+	answer(5);                                           /* 1 ok, 3 starts */
 	tb_send_hex(&bus, 0x586, "80 00 10 00 00 00 02 06"); /* 2 aborted, 4 starts */
 	TEST_ASSERT_EQUAL(0, sdo_client_cancel_tag(cli->node, 4, SDO_AB_GENERAL, bus.now));
-	tb_advance(&bus, 500000);                     /* 3 times out */
+	tb_advance(&bus, 500000); /* 3 times out */
 	tb_advance(&bus, 2000000);
 	TEST_ASSERT_EQUAL(4, seen.n);
 	TEST_ASSERT_EQUAL(4, tb_event_count(cli, CO_EV_SDO_CLIENT_DONE));
@@ -220,8 +228,13 @@ static int failing_source(void *ctx, uint32_t offset, uint8_t *out, uint32_t len
 
 static void test_start_failure_confirmed_at_next_tick(void)
 {
-	sdo_client_req r = { .node_id = 5, .index = 0x2000, .size = 2, .src = failing_source,
-			     .tag = 7, .con = on_con, .con_arg = &seen };
+	sdo_client_req r = { .node_id = 5,
+			     .index = 0x2000,
+			     .size = 2,
+			     .src = failing_source,
+			     .tag = 7,
+			     .con = on_con,
+			     .con_arg = &seen };
 
 	seen.in_submit = true;
 	TEST_ASSERT_EQUAL(0, sdo_client_pool_submit(cli->node, &r, bus.now));
@@ -318,7 +331,6 @@ static void test_without_client_channels(void)
 	TEST_ASSERT_EQUAL(-ENOENT, sdo_client_cancel_tag(p->node, 1, SDO_AB_GENERAL, bus.now));
 	TEST_ASSERT_EQUAL(0, sdo_client_pool_waiting(p->node));
 }
-
 
 /* ---- relay lease (CiA 302-7) ------------------------------------------------ */
 

@@ -69,15 +69,27 @@ static const co_event *run(const sdo_client_req *r)
 
 static const co_event *download(uint16_t idx, const uint8_t *data, uint32_t size, uint8_t mode)
 {
-	sdo_client_req r = { .node_id = SRV_ID, .index = idx, .sub = 0, .mode = mode,
-			     .data = data, .size = size, .tag = 0xD0 + size };
+	sdo_client_req r = { .node_id = SRV_ID,
+			     .index = idx,
+			     .sub = 0,
+			     .mode = mode,
+			     .data = data,
+			     .size = size,
+			     .tag = 0xD0 + size };
 	return run(&r);
 }
 
 static const co_event *upload(uint16_t idx, uint8_t *buf, uint32_t cap, uint8_t mode, uint32_t hint)
 {
-	sdo_client_req r = { .upload = true, .node_id = SRV_ID, .index = idx, .sub = 0,
-			     .mode = mode, .buf = buf, .cap = cap, .size = hint, .tag = 0x0A };
+	sdo_client_req r = { .upload = true,
+			     .node_id = SRV_ID,
+			     .index = idx,
+			     .sub = 0,
+			     .mode = mode,
+			     .buf = buf,
+			     .cap = cap,
+			     .size = hint,
+			     .tag = 0x0A };
 	return run(&r);
 }
 
@@ -89,8 +101,10 @@ static uint8_t expected_mode(uint8_t hint, uint32_t size, bool upload_dir)
 		return size >= 1 && size <= 4 ? SDO_MODE_EXPEDITED : SDO_MODE_SEGMENTED;
 	}
 	switch (hint) {
-	case SDO_MODE_BLOCK: return SDO_MODE_BLOCK;
-	case SDO_MODE_SEGMENTED: return SDO_MODE_SEGMENTED;
+	case SDO_MODE_BLOCK:
+		return SDO_MODE_BLOCK;
+	case SDO_MODE_SEGMENTED:
+		return SDO_MODE_SEGMENTED;
 	case SDO_MODE_EXPEDITED:
 		return size >= 1 && size <= 4 ? SDO_MODE_EXPEDITED : SDO_MODE_SEGMENTED;
 	default:
@@ -128,8 +142,8 @@ static void roundtrip(uint16_t idx, uint32_t size, uint8_t mode)
 	TEST_ASSERT_EQUAL_HEX8_MESSAGE(0xEE, big_out[size], msg);
 }
 
-static const uint32_t sizes[] = { 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 13, 14, 15, 100, 127, 128,
-				   888, 889, 890, 891, 895, 896, 1778, 1779, 5000 };
+static const uint32_t sizes[] = { 0,   1,   2,   3,   4,   5,   6,   7,   8,   9,    13,   14,  15,
+				  100, 127, 128, 888, 889, 890, 891, 895, 896, 1778, 1779, 5000 };
 static const uint8_t modes[] = { SDO_MODE_AUTO, SDO_MODE_EXPEDITED, SDO_MODE_SEGMENTED,
 				 SDO_MODE_BLOCK };
 
@@ -157,8 +171,12 @@ static void test_numeric_values_and_remote_aborts(void)
 
 	ev = run(&r);
 	TEST_ASSERT_EQUAL_HEX32(0, ev->u.sdo_cli.abort);
-	r = (sdo_client_req){ .upload = true, .node_id = SRV_ID, .index = 0x2004, .sub = 1,
-			      .buf = out, .cap = sizeof(out) };
+	r = (sdo_client_req){ .upload = true,
+			      .node_id = SRV_ID,
+			      .index = 0x2004,
+			      .sub = 1,
+			      .buf = out,
+			      .cap = sizeof(out) };
 	ev = run(&r);
 	TEST_ASSERT_EQUAL_UINT32(4, ev->u.sdo_cli.size);
 	TEST_ASSERT_EQUAL_MEMORY(v4, out, 4);
@@ -171,14 +189,18 @@ static void test_numeric_values_and_remote_aborts(void)
 	TEST_ASSERT_EQUAL_HEX32(0x06010002, ev->u.sdo_cli.abort);
 	/* Too long for a U16, in every mode. */
 	for (size_t m = 0; m < sizeof(modes); m++) {
-		r = (sdo_client_req){ .node_id = SRV_ID, .index = 0x1017, .data = big_in,
-				      .size = 300, .mode = modes[m] };
+		r = (sdo_client_req){ .node_id = SRV_ID,
+				      .index = 0x1017,
+				      .data = big_in,
+				      .size = 300,
+				      .mode = modes[m] };
 		ev = run(&r);
 		TEST_ASSERT_EQUAL_HEX32(0x06070012, ev->u.sdo_cli.abort);
 	}
 	/* Upload buffer too small: the client aborts with 0x05040005. */
-	r = (sdo_client_req){ .upload = true, .node_id = SRV_ID, .index = 0x1008,
-			      .buf = out, .cap = sizeof(out) };
+	r = (sdo_client_req){
+		.upload = true, .node_id = SRV_ID, .index = 0x1008, .buf = out, .cap = sizeof(out)
+	};
 	ev = run(&r);
 	TEST_ASSERT_EQUAL_HEX32(0x05040005, ev->u.sdo_cli.abort);
 	TB_ASSERT_LAST(&bus, 1, 0x605, "80 08 10 00 05 00 04 05");
@@ -188,9 +210,9 @@ static void test_numeric_values_and_remote_aborts(void)
 /* ---- 100 KiB with loss and repetition ------------------------------------ */
 
 struct fault {
-	int from;          /* port whose frames are hit */
-	uint64_t seen;     /* block segments from that port so far */
-	uint64_t drop_at;  /* 1-based segment count to drop (0 = none) */
+	int from;         /* port whose frames are hit */
+	uint64_t seen;    /* block segments from that port so far */
+	uint64_t drop_at; /* 1-based segment count to drop (0 = none) */
 	uint64_t dup_at;
 	int dropped, duped;
 };
@@ -270,7 +292,6 @@ static void test_block_1k_lost_and_repeated(void)
 	bus.filter = NULL;
 }
 
-
 /* CAN may deliver a frame twice (ACK error on its last bit). A repeated
  * copy of the segment that closes a sub-block, or of the very last
  * segment, must neither corrupt the data nor break the transfer. */
@@ -317,11 +338,11 @@ static void test_block_100k_clean_and_segmented(void)
 /* ---- streaming --------------------------------------------------------- */
 
 struct stream {
-	uint32_t next;   /* next offset expected / produced */
+	uint32_t next; /* next offset expected / produced */
 	uint32_t total;
 	uint32_t calls;
 	uint32_t bad;
-	int fail_at;     /* offset at which to fail (-1 = never) */
+	int fail_at; /* offset at which to fail (-1 = never) */
 };
 
 static uint8_t gen(uint32_t i)
@@ -366,16 +387,24 @@ static void test_streaming_domains(void)
 
 	for (size_t m = 0; m < sizeof(stream_modes); m++) {
 		struct stream s = { .fail_at = -1 };
-		sdo_client_req r = { .node_id = SRV_ID, .index = FX_IDX_DOMAIN, .size = size,
-				     .src = src_cb, .ctx = &s, .mode = stream_modes[m] };
+		sdo_client_req r = { .node_id = SRV_ID,
+				     .index = FX_IDX_DOMAIN,
+				     .size = size,
+				     .src = src_cb,
+				     .ctx = &s,
+				     .mode = stream_modes[m] };
 		const co_event *ev = run(&r);
 		TEST_ASSERT_EQUAL_HEX32(0, ev->u.sdo_cli.abort);
 		TEST_ASSERT_EQUAL_UINT32(size, s.next);
 		TEST_ASSERT_EQUAL_UINT32(0, s.bad);
 
 		struct stream k = { .fail_at = -1 };
-		r = (sdo_client_req){ .upload = true, .node_id = SRV_ID, .index = FX_IDX_DOMAIN,
-				      .sink = sink_cb, .ctx = &k, .mode = stream_modes[m] };
+		r = (sdo_client_req){ .upload = true,
+				      .node_id = SRV_ID,
+				      .index = FX_IDX_DOMAIN,
+				      .sink = sink_cb,
+				      .ctx = &k,
+				      .mode = stream_modes[m] };
 		ev = run(&r);
 		TEST_ASSERT_EQUAL_HEX32(0, ev->u.sdo_cli.abort);
 		TEST_ASSERT_EQUAL_UINT32(size, ev->u.sdo_cli.size);
@@ -389,8 +418,12 @@ static void test_streaming_domains(void)
 static void test_streaming_callback_failure_aborts(void)
 {
 	struct stream s = { .fail_at = 5000 };
-	sdo_client_req r = { .node_id = SRV_ID, .index = FX_IDX_DOMAIN, .size = 20000,
-			     .src = src_cb, .ctx = &s, .mode = SDO_MODE_BLOCK };
+	sdo_client_req r = { .node_id = SRV_ID,
+			     .index = FX_IDX_DOMAIN,
+			     .size = 20000,
+			     .src = src_cb,
+			     .ctx = &s,
+			     .mode = SDO_MODE_BLOCK };
 	const co_event *ev = run(&r);
 
 	TEST_ASSERT_EQUAL_HEX32(0x08000020, ev->u.sdo_cli.abort);
@@ -402,8 +435,12 @@ static void test_streaming_callback_failure_aborts(void)
 	 * give the upload something to stream. */
 	TEST_ASSERT_EQUAL(0, co_od_set_bytes(srv->od, FX_IDX_DOMAIN, 0, big_in, 20000));
 	struct stream k = { .fail_at = 700 };
-	r = (sdo_client_req){ .upload = true, .node_id = SRV_ID, .index = FX_IDX_DOMAIN,
-			      .sink = sink_cb, .ctx = &k, .mode = SDO_MODE_SEGMENTED };
+	r = (sdo_client_req){ .upload = true,
+			      .node_id = SRV_ID,
+			      .index = FX_IDX_DOMAIN,
+			      .sink = sink_cb,
+			      .ctx = &k,
+			      .mode = SDO_MODE_SEGMENTED };
 	ev = run(&r);
 	TEST_ASSERT_EQUAL_HEX32(0x08000020, ev->u.sdo_cli.abort);
 	TEST_ASSERT_FALSE(sdo_server_busy(srv->node, 0));
@@ -453,10 +490,15 @@ static void test_two_client_channels_two_servers(void)
 	 * at once, each to its own node. */
 	co_node_config cfg = { .node_id = 6 };
 	tb_port *srv2 = tb_add_node(&bus, &cfg, fx_od_new());
-	sdo_client_req a = { .node_id = SRV_ID, .index = FX_IDX_DOMAIN, .data = big_in,
-			     .size = 3000, .tag = 1 };
-	sdo_client_req b = { .node_id = 6, .index = FX_IDX_DOMAIN, .data = big_in + 1,
-			     .size = 2000, .tag = 2, .mode = SDO_MODE_SEGMENTED };
+	sdo_client_req a = {
+		.node_id = SRV_ID, .index = FX_IDX_DOMAIN, .data = big_in, .size = 3000, .tag = 1
+	};
+	sdo_client_req b = { .node_id = 6,
+			     .index = FX_IDX_DOMAIN,
+			     .data = big_in + 1,
+			     .size = 2000,
+			     .tag = 2,
+			     .mode = SDO_MODE_SEGMENTED };
 
 	TEST_ASSERT_NOT_NULL(srv2);
 	TEST_ASSERT_EQUAL(0, sdo_client_submit(cli->node, 0, &a, bus.now));

@@ -51,9 +51,8 @@ static void expect_abort(uint16_t idx, uint8_t sub, uint32_t code)
 {
 	char hex[64];
 
-	snprintf(hex, sizeof(hex), "80 %02X %02X %02X %02X %02X %02X %02X", idx & 0xFF,
-		 idx >> 8, sub, code & 0xFF, (code >> 8) & 0xFF, (code >> 16) & 0xFF,
-		 code >> 24);
+	snprintf(hex, sizeof(hex), "80 %02X %02X %02X %02X %02X %02X %02X", idx & 0xFF, idx >> 8,
+		 sub, code & 0xFF, (code >> 8) & 0xFF, (code >> 16) & 0xFF, code >> 24);
 	EXPECT(hex);
 	const co_event *ev = tb_last_event(srv, CO_EV_SDO_SERVER_DONE);
 	TEST_ASSERT_NOT_NULL(ev);
@@ -97,8 +96,8 @@ static void test_golden_v3_to_v6_real32_write_read(void)
 
 static void test_golden_v7_v8_store_save(void)
 {
-	TEST_ASSERT_EQUAL(0, co_store_attach(srv->node, NULL, NULL, 3, CO_STORE_CAP_CMD,
-					     CO_STORE_CAP_CMD));
+	TEST_ASSERT_EQUAL(
+		0, co_store_attach(srv->node, NULL, NULL, 3, CO_STORE_CAP_CMD, CO_STORE_CAP_CMD));
 	req("23 10 10 01 73 61 76 65");
 	EXPECT("60 10 10 01 00 00 00 00");
 	TEST_ASSERT_EQUAL(1, tb_event_count(srv, CO_EV_STORE));
@@ -204,7 +203,7 @@ static void test_abort_out_of_range(void)
 	expect_abort(0x2101, 0, 0x06090031);
 	TEST_ASSERT_EQUAL(0, co_od_get_u16(srv->od, FX_IDX_LIMITED, 0, &v));
 	TEST_ASSERT_EQUAL_UINT16(100, v); /* unchanged */
-	req("2B 01 21 00 E8 03 00 00"); /* 1000 is the limit itself */
+	req("2B 01 21 00 E8 03 00 00");   /* 1000 is the limit itself */
 	EXPECT("60 01 21 00 00 00 00 00");
 	req("2B 03 21 00 9B FF 00 00"); /* -101 */
 	expect_abort(0x2103, 0, 0x06090032);
@@ -650,7 +649,6 @@ static void test_deferred_write_commit_and_refuse(void)
 	TEST_ASSERT_EQUAL_UINT32(1, v);
 }
 
-
 static uint32_t in_place_size;
 static uint32_t defer_in_place(void *ctx, co_od_entry *e, const co_od_access *a)
 {
@@ -773,14 +771,13 @@ static void test_two_channels_in_parallel(void)
 	TEST_ASSERT_TRUE(sdo_server_busy(srv->node, 1));
 }
 
-
 /* ---- CiA 302-7 routing hook ---------------------------------------------- */
 
 static struct {
 	unsigned ind, frames, ended;
 	uint8_t ch, last[8];
-	uint32_t answer;  /* what indication returns */
-	bool end_inside;  /* end the route from inside indication */
+	uint32_t answer; /* what indication returns */
+	bool end_inside; /* end the route from inside indication */
 } rt;
 
 static uint32_t rt_indication(void *ctx, uint8_t ch, const uint8_t d[8], uint64_t now_us)
@@ -903,7 +900,7 @@ static void test_stopped_node_answers_no_sdo(void)
 	uint16_t v;
 	TEST_ASSERT_EQUAL(0, co_od_get_u16(srv->od, 0x1017, 0, &v));
 	TEST_ASSERT_NOT_EQUAL(1234, v); /* the write was not applied */
-	nmt("80 01"); /* pre-operational: SDO again */
+	nmt("80 01");                   /* pre-operational: SDO again */
 	req("40 00 10 00 00 00 00 00");
 	EXPECT("43 00 10 00 94 01 04 00");
 }

@@ -52,7 +52,8 @@ void setUp(void)
 	tb_init(&bus);
 	p = tb_add_node(&bus, &cfg, fx_od_new());
 	TEST_ASSERT_NOT_NULL(p);
-	TEST_ASSERT_EQUAL(0, co_store_attach(p->node, &ops, &be, 4, CO_STORE_CAP_CMD, CO_STORE_CAP_CMD));
+	TEST_ASSERT_EQUAL(
+		0, co_store_attach(p->node, &ops, &be, 4, CO_STORE_CAP_CMD, CO_STORE_CAP_CMD));
 }
 
 void tearDown(void)
@@ -144,7 +145,8 @@ static void test_attach_to_configured_objects(void)
 	co_od_add_num(od, 0x1010, 1, CO_T_UNSIGNED32, CO_ACC_RW, 0, NULL);
 	co_od_add_num(od, 0x1010, 2, CO_T_UNSIGNED32, CO_ACC_RW, 0, NULL);
 	p = tb_add_node(&bus, &cfg, od);
-	TEST_ASSERT_EQUAL(0, co_store_attach(p->node, NULL, NULL, 1, CO_STORE_CAP_CMD | CO_STORE_CAP_AUTO, 0));
+	TEST_ASSERT_EQUAL(0, co_store_attach(p->node, NULL, NULL, 1,
+					     CO_STORE_CAP_CMD | CO_STORE_CAP_AUTO, 0));
 	REQ("40 10 10 02 00 00 00 00");
 	EXPECT("43 10 10 02 03 00 00 00");
 	REQ("40 11 10 00 00 00 00 00");

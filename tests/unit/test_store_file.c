@@ -8,18 +8,14 @@
 #include "core/store_file.h"
 #include "unity.h"
 
-void setUp(void)
-{
-}
+void setUp(void) {}
 
-void tearDown(void)
-{
-}
+void tearDown(void) {}
 
 static const uint8_t image[] = {
-	'C', 'O', 'G', 'W', 'O', 'D', '1', '\n',
-	0x17, 0x10, 0x00, 0x02, 0x00, 0x00, 0x00, 0x90, 0x01, /* 1017h:0 = 400 */
-	0x00, 0x20, 0x01, 0x04, 0x00, 0x00, 0x00, 1, 2, 3, 4, /* 2000h:1 */
+	'C',  'O',  'G',  'W',  'O',  'D',  '1',  '\n', 0x17, 0x10, 0x00,
+	0x02, 0x00, 0x00, 0x00, 0x90, 0x01,                            /* 1017h:0 = 400 */
+	0x00, 0x20, 0x01, 0x04, 0x00, 0x00, 0x00, 1,    2,    3,    4, /* 2000h:1 */
 };
 
 static size_t sealed(uint8_t *buf, size_t cap, uint32_t gen, uint32_t set)
@@ -52,7 +48,8 @@ static void test_seal_and_check(void)
 	TEST_ASSERT_EQUAL_MEMORY(image, buf, sizeof image);
 	/* no room for the trailer */
 	memcpy(buf, image, sizeof image);
-	TEST_ASSERT_EQUAL_INT(-EMSGSIZE, co_store_file_seal(buf, sizeof image, sizeof image + 23, 1, 1));
+	TEST_ASSERT_EQUAL_INT(-EMSGSIZE,
+			      co_store_file_seal(buf, sizeof image, sizeof image + 23, 1, 1));
 }
 
 static void test_every_truncation_is_refused(void)
@@ -62,7 +59,8 @@ static void test_every_truncation_is_refused(void)
 	size_t n = sealed(buf, sizeof buf, 1, CO_OD_IMAGE_COMM);
 
 	for (size_t cut = 0; cut < n; cut++)
-		TEST_ASSERT_NOT_EQUAL_MESSAGE(0, co_store_file_check(buf, cut, &info), "truncated file accepted");
+		TEST_ASSERT_NOT_EQUAL_MESSAGE(0, co_store_file_check(buf, cut, &info),
+					      "truncated file accepted");
 	/* an unsealed image (what older versions wrote) has no trailer */
 	TEST_ASSERT_EQUAL_INT(-ENODATA, co_store_file_check(image, sizeof image, &info));
 }

@@ -47,7 +47,11 @@ static unsigned progress_calls;
 static uint32_t progress_last, progress_total;
 
 /* The simulated device's program. */
-enum { PROG_STOPPED, PROG_RUNNING, PROG_CLEARED };
+enum {
+	PROG_STOPPED,
+	PROG_RUNNING,
+	PROG_CLEARED
+};
 static uint8_t prog_state;
 static bool refuse_all;
 static unsigned commands[4];
@@ -55,14 +59,16 @@ static unsigned commands[4];
 static void ev_glue(void *ctx, const co_event *ev)
 {
 	(void)ctx;
-	if (ev->kind == CO_EV_MGR_STATE || ev->kind == CO_EV_MGR_BOOT || ev->kind == CO_EV_MGR_NODE) {
+	if (ev->kind == CO_EV_MGR_STATE || ev->kind == CO_EV_MGR_BOOT ||
+	    ev->kind == CO_EV_MGR_NODE) {
 		if (f.n_ev < MF_EVENTS)
 			f.ev[f.n_ev++] = *ev;
 		if (getenv("MF_TRACE"))
 			fprintf(stderr, "%8.3f %s node %u step %s status %c abort %08x %04x:%u\n",
-				(double)ev->now_us / 1e6, co_event_kind_to_string(ev->kind), ev->u.mgr.node,
-				co_mgr_step_to_string(ev->u.mgr.step), ev->u.mgr.status ? ev->u.mgr.status : '-',
-				ev->u.mgr.abort, ev->u.mgr.index, ev->u.mgr.sub);
+				(double)ev->now_us / 1e6, co_event_kind_to_string(ev->kind),
+				ev->u.mgr.node, co_mgr_step_to_string(ev->u.mgr.step),
+				ev->u.mgr.status ? ev->u.mgr.status : '-', ev->u.mgr.abort,
+				ev->u.mgr.index, ev->u.mgr.sub);
 		return;
 	}
 	if (f.mgr)
@@ -197,8 +203,13 @@ static void make_image(uint32_t id, bool bad)
 
 void setUp(void)
 {
-	co_od_desc d = { .index = 0x1F50, .sub = 1, .obj_code = CO_OBJ_ARRAY, .type = CO_T_DOMAIN,
-			 .access = CO_ACC_RW, .max_size = IMAGE_SIZE + 1024, .name = "ProgramData" };
+	co_od_desc d = { .index = 0x1F50,
+			 .sub = 1,
+			 .obj_code = CO_OBJ_ARRAY,
+			 .type = CO_T_DOMAIN,
+			 .access = CO_ACC_RW,
+			 .max_size = IMAGE_SIZE + 1024,
+			 .name = "ProgramData" };
 	co_swmgr_source src = { .size = src_size, .read = src_read };
 
 	memset(&last, 0, sizeof last);
@@ -210,11 +221,13 @@ void setUp(void)
 	mf_init(&f, CO_MGR_1F80_MASTER, 4);
 	slave = mf_slave(&f, NODE, 100);
 	/* the slave's program objects, running its old program */
-	TEST_ASSERT_EQUAL_INT(0, co_od_ensure_num(slave->od, 0x1F50, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
-						  CO_OBJ_ARRAY));
+	TEST_ASSERT_EQUAL_INT(0, co_od_ensure_num(slave->od, 0x1F50, 0, CO_T_UNSIGNED8, CO_ACC_RO,
+						  1, CO_OBJ_ARRAY));
 	TEST_ASSERT_EQUAL_INT(0, co_od_add(slave->od, &d, NULL));
-	TEST_ASSERT_EQUAL_INT(0, co_od_add_array(slave->od, 0x1F51, CO_T_UNSIGNED8, 1, CO_ACC_RW, 0));
-	TEST_ASSERT_EQUAL_INT(0, co_od_add_array(slave->od, 0x1F56, CO_T_UNSIGNED32, 1, CO_ACC_RO, 0));
+	TEST_ASSERT_EQUAL_INT(0,
+			      co_od_add_array(slave->od, 0x1F51, CO_T_UNSIGNED8, 1, CO_ACC_RW, 0));
+	TEST_ASSERT_EQUAL_INT(0,
+			      co_od_add_array(slave->od, 0x1F56, CO_T_UNSIGNED32, 1, CO_ACC_RO, 0));
 	TEST_ASSERT_EQUAL_INT(0, co_od_set_hooks(slave->od, 0x1F50, 1, &data_hooks, NULL));
 	TEST_ASSERT_EQUAL_INT(0, co_od_set_hooks(slave->od, 0x1F51, 1, &control_hooks, NULL));
 	set_id(OLD_ID);
@@ -240,8 +253,9 @@ void tearDown(void)
 
 static void boot(void)
 {
-	mf_start(&f, &(co_manager_config){ .sdo_timeout_ms = 200, .software = co_swmgr_line_check,
-					    .software_ctx = &line });
+	mf_start(&f, &(co_manager_config){ .sdo_timeout_ms = 200,
+					   .software = co_swmgr_line_check,
+					   .software_ctx = &line });
 	tb_advance(&f.bus, 4 * S);
 }
 
@@ -296,7 +310,8 @@ static void test_update_64k_by_block_transfer_then_verified_and_started(void)
 	TEST_ASSERT_EQUAL_MEMORY(image, e->data, IMAGE_SIZE);
 	TEST_ASSERT_EQUAL_HEX32(NEW_ID, slave_id());
 	/* block transfer: block download initiate (ccs 6) on 602h */
-	TEST_ASSERT_TRUE(mf_sent(&f, 0x602, "C6 50 1F 01") + mf_sent(&f, 0x602, "C2 50 1F 01") >= 1);
+	TEST_ASSERT_TRUE(mf_sent(&f, 0x602, "C6 50 1F 01") + mf_sent(&f, 0x602, "C2 50 1F 01") >=
+			 1);
 	/* progress every 4 KiB and at the end */
 	TEST_ASSERT_EQUAL_UINT(IMAGE_SIZE / CO_SWMGR_PROGRESS_STEP, progress_calls);
 	TEST_ASSERT_EQUAL_UINT32(IMAGE_SIZE, progress_last);

@@ -26,13 +26,14 @@ void setUp(void)
 {
 	co_node_config cfg = { .node_id = NODE };
 	const uint32_t map[] = { CO_PDO_MAP(0x2000, 0, 16) };
-	co_pdo_desc t = { .dir = CO_PDO_TX, .nr = 1, .cob_id = 0x185, .tt = 1,
-			  .n_map = 1, .map = map };
+	co_pdo_desc t = {
+		.dir = CO_PDO_TX, .nr = 1, .cob_id = 0x185, .tt = 1, .n_map = 1, .map = map
+	};
 
 	tb_init(&bus);
 	TEST_ASSERT_EQUAL(0, co_od_create(&od, 64));
-	TEST_ASSERT_EQUAL(0, co_od_add_num(od, 0x2000, 0, CO_T_UNSIGNED16,
-					   CO_ACC_RWR, 0xBEEF, NULL));
+	TEST_ASSERT_EQUAL(0,
+			  co_od_add_num(od, 0x2000, 0, CO_T_UNSIGNED16, CO_ACC_RWR, 0xBEEF, NULL));
 	TEST_ASSERT_EQUAL(0, co_od_add_comm_defaults_emcy(od, NODE, 4, 0, 0));
 	TEST_ASSERT_EQUAL(0, co_od_add_comm_defaults_sync(od, 0, 0, 0));
 	TEST_ASSERT_EQUAL(0, co_od_add_pdo(od, &t));
@@ -68,8 +69,7 @@ static unsigned count_id(uint32_t id)
 static const co_frame *nth_id(uint32_t id, unsigned k)
 {
 	for (size_t i = 0; i < tb_log_count(&bus); i++)
-		if (tb_log_at(&bus, i)->id == id && bus.log_from[i] == port->idx &&
-		    k-- == 0)
+		if (tb_log_at(&bus, i)->id == id && bus.log_from[i] == port->idx && k-- == 0)
 			return tb_log_at(&bus, i);
 	return NULL;
 }

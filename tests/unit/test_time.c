@@ -83,8 +83,7 @@ static void test_golden_encode_decode(void)
 static void test_round_trip_many(void)
 {
 	/* every ~37 hours + odd ms across the whole range */
-	for (int64_t ms = CO_TIME_EPOCH_UNIX_S * 1000; ms < 5000000000000LL;
-	     ms += 133333337LL) {
+	for (int64_t ms = CO_TIME_EPOCH_UNIX_S * 1000; ms < 5000000000000LL; ms += 133333337LL) {
 		co_time_of_day t, back;
 		uint8_t b[6];
 		TEST_ASSERT_EQUAL(0, co_time_from_unix_ms(ms, &t));
@@ -107,11 +106,13 @@ static void test_range_and_invalid(void)
 	TEST_ASSERT_EQUAL(-ERANGE, co_time_from_unix_ms(CO_TIME_EPOCH_UNIX_S * 1000 - 1, &t));
 	/* last representable millisecond, day 65535 */
 	TEST_ASSERT_EQUAL(0, co_time_from_unix_ms(CO_TIME_EPOCH_UNIX_S * 1000 +
-						  65536LL * CO_TIME_MS_PER_DAY - 1, &t));
+							  65536LL * CO_TIME_MS_PER_DAY - 1,
+						  &t));
 	TEST_ASSERT_EQUAL(65535, t.days);
 	TEST_ASSERT_EQUAL(CO_TIME_MS_PER_DAY - 1, t.ms);
-	TEST_ASSERT_EQUAL(-ERANGE, co_time_from_unix_ms(CO_TIME_EPOCH_UNIX_S * 1000 +
-							65536LL * CO_TIME_MS_PER_DAY, &t));
+	TEST_ASSERT_EQUAL(-ERANGE,
+			  co_time_from_unix_ms(
+				  CO_TIME_EPOCH_UNIX_S * 1000 + 65536LL * CO_TIME_MS_PER_DAY, &t));
 	/* reserved bits 28..31 ignored */
 	TEST_ASSERT_EQUAL(0, co_time_decode(reserved_set, 6, &t));
 	TEST_ASSERT_EQUAL(43200123, t.ms);

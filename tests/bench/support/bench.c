@@ -182,7 +182,8 @@ int bench_daemon_start(bench_daemon *d, const char *config_path, const char *ins
 		printf("bench: cannot open a NOTIFY_SOCKET\n");
 		return -1;
 	}
-	const char *argv[] = { bench_program("cogwd", prog, sizeof prog), "--config", config_path, NULL };
+	const char *argv[] = { bench_program("cogwd", prog, sizeof prog), "--config", config_path,
+			       NULL };
 	const char *env[] = { d->ns.env, NULL };
 	d->pid = proc_spawn(argv, log_path, env);
 	if (d->pid < 0 || notify_wait(&d->ns, "READY=1", 20000, NULL, 0) < 0) {
@@ -238,8 +239,8 @@ double bench_thread_cpu_s(pid_t pid, pid_t tid)
 	/* the name (field 2) may hold blanks: fields count from its ')' */
 	const char *p = strrchr(buf, ')');
 	unsigned long long utime, stime;
-	if (!p || sscanf(p + 2, "%*c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %llu %llu",
-			 &utime, &stime) != 2)
+	if (!p || sscanf(p + 2, "%*c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %llu %llu", &utime,
+			 &stime) != 2)
 		return -1;
 	return (double)(utime + stime) / (double)sysconf(_SC_CLK_TCK);
 }

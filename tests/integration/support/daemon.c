@@ -131,7 +131,8 @@ int daemon_start(daemon_run *d, const daemon_opts *opts)
 			}
 			if (proc_exited(d->pid, &d->exit_status)) {
 				d->pid = 0;
-				printf("cogwd exited during start-up (status 0x%x)\n", d->exit_status);
+				printf("cogwd exited during start-up (status 0x%x)\n",
+				       d->exit_status);
 				proc_dump_log(d->log_path, 40);
 				return -ECHILD;
 			}
@@ -154,7 +155,8 @@ int daemon_start(daemon_run *d, const daemon_opts *opts)
 		while (!queue_exists(q)) {
 			if (proc_exited(d->pid, &d->exit_status)) {
 				d->pid = 0;
-				printf("cogwd exited during start-up (status 0x%x)\n", d->exit_status);
+				printf("cogwd exited during start-up (status 0x%x)\n",
+				       d->exit_status);
 				proc_dump_log(d->log_path, 40);
 				return -ECHILD;
 			}
@@ -252,8 +254,8 @@ static int device_node_id(const char *spec)
 	return id;
 }
 
-int cosim_start(cosim_run *c, const char *dir, unsigned line,
-		const char *const devices[], const char *const extra[])
+int cosim_start(cosim_run *c, const char *dir, unsigned line, const char *const devices[],
+		const char *const extra[])
 {
 	memset(c, 0, sizeof *c);
 	c->exit_status = -1;
@@ -303,7 +305,8 @@ int cosim_start(cosim_run *c, const char *dir, unsigned line,
 			proc_dump_log(c->log_path, 20);
 			rc = -ETIMEDOUT;
 		} else if (n != 1 || data[0] != 0x00) {
-			printf("cosim on %s: node %u first 700h frame is not a boot-up (len %d, %02x)\n",
+			printf("cosim on %s: node %u first 700h frame is not a boot-up (len %d, "
+			       "%02x)\n",
 			       ifname, c->node_ids[i], n, data[0]);
 			rc = -EPROTO;
 		}
@@ -363,8 +366,8 @@ int cosim_stop(cosim_run *c, int timeout_ms)
 
 /* ---- leftovers ------------------------------------------------------------ */
 
-int daemon_leftovers(const char *instance, const pid_t *pids, size_t n_pids,
-		     char *report, size_t cap)
+int daemon_leftovers(const char *instance, const pid_t *pids, size_t n_pids, char *report,
+		     size_t cap)
 {
 	char prefix[64];
 	snprintf(prefix, sizeof prefix, "cogw.%s.", instance);
@@ -373,13 +376,13 @@ int daemon_leftovers(const char *instance, const pid_t *pids, size_t n_pids,
 	size_t used = 0;
 	if (report && cap)
 		report[0] = '\0';
-#define REPORT(...)                                                                  \
-	do {                                                                         \
-		if (report && used < cap) {                                          \
-			int w = snprintf(report + used, cap - used, __VA_ARGS__);    \
-			if (w > 0)                                                   \
-				used += (size_t)w;                                   \
-		}                                                                    \
+#define REPORT(...)                                                               \
+	do {                                                                      \
+		if (report && used < cap) {                                       \
+			int w = snprintf(report + used, cap - used, __VA_ARGS__); \
+			if (w > 0)                                                \
+				used += (size_t)w;                                \
+		}                                                                 \
 	} while (0)
 	DIR *dir = opendir("/dev/mqueue");
 	if (dir) {

@@ -74,17 +74,17 @@ typedef struct daemon_opts {
 } daemon_opts;
 
 typedef struct daemon_run {
-	pid_t pid;                        /* 0 = not running */
-	char dir[64];                     /* temp dir (created by daemon_start) */
-	char config_path[DAEMON_PATH_MAX];/* "" = embedded default */
-	char log_path[DAEMON_PATH_MAX];   /* daemon stdout+stderr */
-	char state_dir[DAEMON_PATH_MAX];  /* --state-dir, inside dir */
+	pid_t pid;                         /* 0 = not running */
+	char dir[64];                      /* temp dir (created by daemon_start) */
+	char config_path[DAEMON_PATH_MAX]; /* "" = embedded default */
+	char log_path[DAEMON_PATH_MAX];    /* daemon stdout+stderr */
+	char state_dir[DAEMON_PATH_MAX];   /* --state-dir, inside dir */
 	char instance[32];
 	unsigned n_lines;
 	bool has_notify;
-	notify_sock ns;                   /* valid while has_notify */
-	char ready_text[512];             /* the datagram that carried READY=1 */
-	int exit_status;                  /* waitpid status after stop, -1 */
+	notify_sock ns;       /* valid while has_notify */
+	char ready_text[512]; /* the datagram that carried READY=1 */
+	int exit_status;      /* waitpid status after stop, -1 */
 } daemon_run;
 
 /* Create a temp dir, write the configuration, start the daemon with
@@ -107,11 +107,11 @@ int write_text_file(const char *path, const char *text);
 
 /* One cosim process on one vcan line. */
 typedef struct cosim_run {
-	pid_t pid;                        /* 0 = not running */
-	unsigned line;                    /* vcan<line> */
-	char ctl_path[100];               /* control socket (fits sun_path) */
+	pid_t pid;          /* 0 = not running */
+	unsigned line;      /* vcan<line> */
+	char ctl_path[100]; /* control socket (fits sun_path) */
 	char log_path[DAEMON_PATH_MAX];
-	uint8_t node_ids[8];              /* nodes whose boot-up was seen */
+	uint8_t node_ids[8]; /* nodes whose boot-up was seen */
 	unsigned n_nodes;
 	int exit_status;
 } cosim_run;
@@ -122,8 +122,8 @@ typedef struct cosim_run {
  * (NULL-terminated, or NULL, e.g. "--autostart"). Waits (10 s) for the
  * boot-up frame 700h+id of every node: the node id is the ":N" suffix, or
  * read from the file's "node_id" (default 1). Returns 0 or -errno. */
-int cosim_start(cosim_run *c, const char *dir, unsigned line,
-		const char *const devices[], const char *const extra[]);
+int cosim_start(cosim_run *c, const char *dir, unsigned line, const char *const devices[],
+		const char *const extra[]);
 /* One control command; the answer ("ok ..." / "error: ...") goes to reply
  * (may be NULL). Returns 0 if the answer starts with "ok", -EIO on
  * "error", -ETIMEDOUT, or -errno. */
@@ -135,8 +135,8 @@ int cosim_stop(cosim_run *c, int timeout_ms);
  * (all of them: daemon command queues and client queues) and, if pids are
  * given, those still alive. Writes a one-line description to report
  * (may be NULL) and returns the number of leftovers (0 = clean). */
-int daemon_leftovers(const char *instance, const pid_t *pids, size_t n_pids,
-		     char *report, size_t cap);
+int daemon_leftovers(const char *instance, const pid_t *pids, size_t n_pids, char *report,
+		     size_t cap);
 /* Remove every /dev/mqueue/cogw.<instance>.* (tearDown after a failure). */
 void daemon_unlink_queues(const char *instance);
 

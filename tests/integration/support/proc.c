@@ -84,7 +84,8 @@ int proc_stop(pid_t pid, int sig, int timeout_ms)
 void proc_dump_log(const char *path, int lines)
 {
 	char cmd[512];
-	snprintf(cmd, sizeof cmd, "echo '--- %s (last %d lines)'; tail -n %d '%s'", path, lines, lines, path);
+	snprintf(cmd, sizeof cmd, "echo '--- %s (last %d lines)'; tail -n %d '%s'", path, lines,
+		 lines, path);
 	fflush(stdout);
 	int rc = system(cmd);
 	(void)rc;
@@ -196,7 +197,8 @@ int can_open_raw(const char *ifname)
 	int fd = socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW);
 	if (fd < 0)
 		return -errno;
-	struct sockaddr_can a = { .can_family = AF_CAN, .can_ifindex = (int)if_nametoindex(ifname) };
+	struct sockaddr_can a = { .can_family = AF_CAN,
+				  .can_ifindex = (int)if_nametoindex(ifname) };
 	if (!a.can_ifindex || bind(fd, (struct sockaddr *)&a, sizeof a) != 0) {
 		close(fd);
 		return -ENODEV;

@@ -35,9 +35,11 @@ unsigned corpus_replay(const char *name, corpus_one_fn one, corpus_accept_fn acc
 	unsigned files = 0;
 	DIR *d;
 
-	snprintf(dir, sizeof(dir), "%s%stests/fuzz/corpus/%s", root ? root : "", root ? "/" : "", name);
+	snprintf(dir, sizeof(dir), "%s%stests/fuzz/corpus/%s", root ? root : "", root ? "/" : "",
+		 name);
 	d = opendir(dir);
-	TEST_ASSERT_NOT_NULL_MESSAGE(d, "corpus directory not found (run from the repository root)");
+	TEST_ASSERT_NOT_NULL_MESSAGE(d,
+				     "corpus directory not found (run from the repository root)");
 	while ((de = readdir(d))) {
 		size_t len = 0;
 		uint8_t *data;

@@ -19,8 +19,8 @@ int lss_fixture_create(lss_fixture *t, membus *bus, const co_node_config *tmpl,
 	if (id) {
 		co_od_add_num(t->od, 0x1018, 0, CO_T_UNSIGNED8, CO_ACC_CO, 4, NULL);
 		for (uint8_t s = 1; s <= 4; s++)
-			co_od_add_num(t->od, 0x1018, s, CO_T_UNSIGNED32, CO_ACC_CO,
-				      id->id[s - 1], NULL);
+			co_od_add_num(t->od, 0x1018, s, CO_T_UNSIGNED32, CO_ACC_CO, id->id[s - 1],
+				      NULL);
 	}
 	cfg.od = t->od;
 	cfg.send = membus_send;
@@ -42,8 +42,7 @@ void lss_fixture_destroy(lss_fixture *t)
 	t->od = NULL;
 }
 
-void lss_fixture_expect_frame(const membus *bus, unsigned n, uint32_t id,
-			      const uint8_t want[8])
+void lss_fixture_expect_frame(const membus *bus, unsigned n, uint32_t id, const uint8_t want[8])
 {
 	char msg[48];
 	int i = membus_log_nth(bus, id, n);

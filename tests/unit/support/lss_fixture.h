@@ -24,7 +24,6 @@ void lss_fixture_destroy(lss_fixture *t);
 
 /* The n-th (0-based) logged frame with COB-ID id must carry these 8
  * bytes. Other services' frames (boot-up, heartbeat) are skipped. */
-void lss_fixture_expect_frame(const membus *bus, unsigned n, uint32_t id,
-			      const uint8_t want[8]);
+void lss_fixture_expect_frame(const membus *bus, unsigned n, uint32_t id, const uint8_t want[8]);
 
 #endif

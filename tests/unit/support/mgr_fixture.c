@@ -19,7 +19,9 @@ static void mf_event(void *ctx, const co_event *ev)
 		if (f->n_ev < MF_EVENTS)
 			f->ev[f->n_ev++] = *ev;
 		if (getenv("MF_TRACE"))
-			fprintf(stderr, "%8.3f %s node %u state %s step %s status %c what %s abort %08x %04x:%u v %x\n",
+			fprintf(stderr,
+				"%8.3f %s node %u state %s step %s status %c what %s abort %08x "
+				"%04x:%u v %x\n",
 				(double)ev->now_us / 1e6, co_event_kind_to_string(ev->kind),
 				ev->u.mgr.node, co_mgr_state_to_string(ev->u.mgr.state),
 				co_mgr_step_to_string(ev->u.mgr.step),
@@ -75,8 +77,7 @@ void mf_fini(mf *f)
 	tb_fini(&f->bus);
 }
 
-tb_port *mf_slave_ex(mf *f, uint8_t id, uint16_t hb_ms, uint32_t device_type,
-		     uint32_t vendor)
+tb_port *mf_slave_ex(mf *f, uint8_t id, uint16_t hb_ms, uint32_t device_type, uint32_t vendor)
 {
 	co_od *od = NULL;
 	co_node_config cfg = { 0 };
@@ -110,12 +111,12 @@ void mf_assign(mf *f, uint8_t id, uint32_t f81, uint16_t hb_ms)
 	assert(co_od_set_u32(od, 0x1F81, id, f81) == 0);
 	/* through the hooks, so that the heartbeat consumer takes it */
 	if (hb_ms)
-		assert(tb_od_write(&f->bus, f->mp->node, 0x1016, id,
-				   (uint32_t)id << 16 | hb_ms) == 0);
+		assert(tb_od_write(&f->bus, f->mp->node, 0x1016, id, (uint32_t)id << 16 | hb_ms) ==
+		       0);
 }
 
-void mf_expect(mf *f, uint8_t id, uint32_t device_type, uint32_t vendor,
-	       uint32_t product, uint32_t revision, uint32_t serial)
+void mf_expect(mf *f, uint8_t id, uint32_t device_type, uint32_t vendor, uint32_t product,
+	       uint32_t revision, uint32_t serial)
 {
 	co_od *od = f->mp->od;
 	assert(co_od_set_u32(od, 0x1F84, id, device_type) == 0);
@@ -127,8 +128,7 @@ void mf_expect(mf *f, uint8_t id, uint32_t device_type, uint32_t vendor,
 
 void mf_start(mf *f, const co_manager_config *cfg)
 {
-	co_manager_config def = { .sdo_timeout_ms = 100, .reset_wait_ms = 500,
-				  .retry_ms = 1000 };
+	co_manager_config def = { .sdo_timeout_ms = 100, .reset_wait_ms = 500, .retry_ms = 1000 };
 	assert(co_manager_create(&f->mgr, f->mp->node, cfg ? cfg : &def) == 0);
 }
 
@@ -143,8 +143,7 @@ unsigned mf_count(const mf *f, co_event_kind kind)
 static bool boot_match(const co_event *e, uint8_t node, int step, int status)
 {
 	return e->kind == CO_EV_MGR_BOOT && e->u.mgr.node == node &&
-	       (step < 0 || e->u.mgr.step == step) &&
-	       (status < 0 || e->u.mgr.status == status);
+	       (step < 0 || e->u.mgr.step == step) && (status < 0 || e->u.mgr.status == status);
 }
 
 const co_ev_mgr *mf_boot(const mf *f, uint8_t node, int step, int status)

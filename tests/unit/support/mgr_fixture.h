@@ -27,8 +27,8 @@
 
 typedef struct mf {
 	tb_bus bus;
-	tb_port *mp;      /* the manager's port */
-	co_manager *mgr;  /* NULL until mf_start */
+	tb_port *mp;     /* the manager's port */
+	co_manager *mgr; /* NULL until mf_start */
 	co_event ev[MF_EVENTS];
 	unsigned n_ev;
 } mf;
@@ -42,14 +42,13 @@ void mf_fini(mf *f);
  * bus now; sends its boot-up at its first tick. */
 tb_port *mf_slave(mf *f, uint8_t id, uint16_t hb_ms);
 /* Same, with a device type and vendor of the test's choice. */
-tb_port *mf_slave_ex(mf *f, uint8_t id, uint16_t hb_ms, uint32_t device_type,
-		     uint32_t vendor);
+tb_port *mf_slave_ex(mf *f, uint8_t id, uint16_t hb_ms, uint32_t device_type, uint32_t vendor);
 
 /* 1F81h:id = f81; a heartbeat consumer entry for id with hb_ms (0 none). */
 void mf_assign(mf *f, uint8_t id, uint32_t f81, uint16_t hb_ms);
 /* 1F84h..1F88h:id */
-void mf_expect(mf *f, uint8_t id, uint32_t device_type, uint32_t vendor,
-	       uint32_t product, uint32_t revision, uint32_t serial);
+void mf_expect(mf *f, uint8_t id, uint32_t device_type, uint32_t vendor, uint32_t product,
+	       uint32_t revision, uint32_t serial);
 
 /* Create the manager (cfg NULL = defaults) and attach it to the port. */
 void mf_start(mf *f, const co_manager_config *cfg);

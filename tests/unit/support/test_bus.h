@@ -21,7 +21,11 @@
 #define TB_MAX_EVENTS 256
 #define TB_TESTER (-1) /* "from" of frames injected by the test itself */
 
-typedef enum tb_action { TB_DELIVER, TB_DROP, TB_DUP } tb_action;
+typedef enum tb_action {
+	TB_DELIVER,
+	TB_DROP,
+	TB_DUP
+} tb_action;
 
 /* Called for every frame entering the bus; n counts frames from 0. */
 typedef tb_action (*tb_filter_fn)(void *ctx, const co_frame *f, int from, uint64_t n);
@@ -112,13 +116,13 @@ void tb_events_clear(tb_port *p);
 
 /* Unity helper: assert that the last frame with this id from `from` has
  * exactly these bytes. */
-#define TB_ASSERT_LAST(bus, from, id, hex)                                        \
-	do {                                                                      \
-		const co_frame *f_ = tb_last_from_id((bus), (from), (id));        \
-		char b_[96];                                                      \
-		TEST_ASSERT_NOT_NULL_MESSAGE(f_, "no frame sent");                \
-		TEST_ASSERT_TRUE_MESSAGE(tb_frame_is(f_, (id), (hex)),            \
-					 tb_frame_str(f_, b_, sizeof(b_)));       \
+#define TB_ASSERT_LAST(bus, from, id, hex)                                  \
+	do {                                                                \
+		const co_frame *f_ = tb_last_from_id((bus), (from), (id));  \
+		char b_[96];                                                \
+		TEST_ASSERT_NOT_NULL_MESSAGE(f_, "no frame sent");          \
+		TEST_ASSERT_TRUE_MESSAGE(tb_frame_is(f_, (id), (hex)),      \
+					 tb_frame_str(f_, b_, sizeof(b_))); \
 	} while (0)
 
 #endif

@@ -4,7 +4,12 @@
 
 #include "tests/unit/support/test_od_fixture.h"
 
-#define OK(x) do { int rc_ = (x); assert(rc_ == 0); (void)rc_; } while (0)
+#define OK(x)                     \
+	do {                      \
+		int rc_ = (x);    \
+		assert(rc_ == 0); \
+		(void)rc_;        \
+	} while (0)
 
 static void rec_sub0(co_od *od, uint16_t idx, uint8_t n)
 {
@@ -52,8 +57,10 @@ co_od *fx_od_new(void)
 	rec_sub0(od, FX_IDX_GAPS, 3);
 	OK(co_od_add_num(od, FX_IDX_GAPS, 1, CO_T_UNSIGNED8, CO_ACC_RW, 1, NULL));
 	OK(co_od_add_num(od, FX_IDX_GAPS, 3, CO_T_UNSIGNED8, CO_ACC_RW, 3, NULL));
-	OK(co_od_add_bytes(od, FX_IDX_DOMAIN, 0, CO_T_DOMAIN, CO_ACC_RW, FX_DOMAIN_MAX, NULL, 0, NULL));
-	OK(co_od_add_bytes(od, FX_IDX_OCTETS, 0, CO_T_OCTET_STRING, CO_ACC_RW, 1000, NULL, 0, NULL));
+	OK(co_od_add_bytes(od, FX_IDX_DOMAIN, 0, CO_T_DOMAIN, CO_ACC_RW, FX_DOMAIN_MAX, NULL, 0,
+			   NULL));
+	OK(co_od_add_bytes(od, FX_IDX_OCTETS, 0, CO_T_OCTET_STRING, CO_ACC_RW, 1000, NULL, 0,
+			   NULL));
 	OK(co_od_add_num(od, FX_IDX_CONST, 0, CO_T_UNSIGNED32, CO_ACC_CO, 0xC0FFEE, NULL));
 	OK(co_od_add_num(od, FX_IDX_HOOKED, 0, CO_T_UNSIGNED32, CO_ACC_RW, 7, NULL));
 	OK(co_od_add_num(od, FX_IDX_U64, 0, CO_T_UNSIGNED64, CO_ACC_RW, 0, NULL));
