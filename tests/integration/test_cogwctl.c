@@ -108,6 +108,13 @@ static void bg_start(const char *args)
 	char cmd[1400];
 	snprintf(bg.out_path, sizeof bg.out_path, "%s/bg.out", work_dir());
 	snprintf(bg.err_path, sizeof bg.err_path, "%s/bg.err", work_dir());
+	/* The files of the previous background cogwctl of this test must not
+	 * survive into this one: its "watching" line would let
+	 * wait_subscribed() return before this cogwctl has even started, and
+	 * an event sent right after would be missed (seen as an empty stdout
+	 * after --duration under load). */
+	unlink(bg.out_path);
+	unlink(bg.err_path);
 	snprintf(cmd, sizeof cmd, "exec %s %s >%s 2>%s", CTL, args, bg.out_path, bg.err_path);
 	const char *argv[] = { "/bin/sh", "-c", cmd, NULL };
 	bg.pid = proc_spawn(argv, NULL, NULL);
