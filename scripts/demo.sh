@@ -69,15 +69,16 @@ explain "cogwd drives one SocketCAN interface per line. Here they are vcan0..vca
 explain "the kernel's virtual CAN: real sockets and frames, no hardware."
 show ip -br link show type vcan
 
-say "2. The daemon cogwd, with the demo configuration"
-explain "etc/cogw-demo.json is the embedded default (etc/cogw.json: 3 lines vcan0..vcan2,"
-explain "its own node-ID 127 on each, on line 0 an RPDO that receives the transducer's"
-explain "TPDO into object B000h) plus a CiA 302-2 manager on lines 0 and 1: node 1 on"
-explain "line 0 and node 2 on line 1 are mandatory, their identity is checked against"
-explain "1018h, their heartbeats are supervised. --state-dir only moves where 1010h"
-explain "\"save\" would write, into /tmp (the rest of this machine is read-only in the VM)."
-printf '\n$ cogwd --config etc/cogw-demo.json --state-dir %s\n' "$work/state"
-"$bin/cogwd" --config etc/cogw-demo.json --state-dir "$work/state" >"$work/cogwd.log" 2>&1 &
+say "2. The daemon cogwd, on its embedded default configuration"
+explain "No --config: cogwd runs on the configuration compiled into it (etc/cogw.json:"
+explain "3 lines vcan0..vcan2, its own node-ID 127 on each, on line 0 an RPDO that"
+explain "receives the transducer's TPDO into object B000h) with a CiA 302-2 manager on"
+explain "lines 0 and 1: node 1 on line 0 and node 2 on line 1 are mandatory, their"
+explain "identity is checked against 1018h, their heartbeats are supervised. --state-dir"
+explain "only moves where 1010h \"save\" would write, into /tmp (the rest of this machine"
+explain "is read-only in the VM)."
+printf '\n$ cogwd --state-dir %s\n' "$work/state"
+"$bin/cogwd" --state-dir "$work/state" >"$work/cogwd.log" 2>&1 &
 pids+=($!)
 cogwd_pid=$!
 wait_for "cogwd's mailbox" 10 "$bin/cogwctl" --timeout 1000 status
@@ -187,8 +188,8 @@ cat "$work/emcy.txt"
 grep -q "00 F0 .. 01 00 01 34 12" "$work/emcy.txt" || fail "unexpected forwarded EMCY"
 explain "" "PDO forwarding: B000h is one process image for all lines. Line 1's TPDO 1 (1FFh)"
 explain "maps it, so the pressure that line 0 receives from the transducer goes out on"
-explain "vcan1 as soon as it changes, with the daemon's node on line 1 OPERATIONAL:"
-ctl nmt start 1 self
+explain "vcan1 as soon as it changes: the manager of line 1 started the daemon's own node"
+explain "there (OPERATIONAL) when it started the network:"
 timeout 10 candump -n 3 vcan1,1FF:7FF >"$work/fwd.txt" 2>&1 || fail "no forwarded pressure PDO on vcan1"
 cat "$work/fwd.txt"
 ctl pdo read 1 b000 0 r32

@@ -1,7 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * tests/integration/test_cogwctl.c - the CLI end to end: the real cogwd on
- * its embedded default configuration, the simulated transducer (node 1)
+ * the lines of its default configuration without a manager (the nodes are
+ * started by hand here: tests/integration/config/hand-started.json), the
+ * simulated transducer (node 1)
  * on vcan0, and cogwctl run as a separate process for every command, its
  * stdout, stderr and exit status checked:
  *
@@ -190,11 +192,13 @@ static void write_device_copy(const char *dst)
 	cJSON_Delete(root);
 }
 
-/* cogwd on the embedded default (instance "main") + the transducer on
- * vcan0; returns once the daemon's node table lists node 1. */
+/* cogwd (instance "main", no manager: node 1 stays pre-operational until
+ * a test starts it) + the transducer on vcan0; returns once the daemon's
+ * node table lists node 1. */
 static void start_system(void)
 {
-	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .n_lines = 3 }));
+	TEST_ASSERT_EQUAL_INT(
+		0, daemon_start(&dmn, &(daemon_opts){ .config_file = HAND_STARTED, .n_lines = 3 }));
 	char dev[DAEMON_PATH_MAX + 16];
 	snprintf(dev, sizeof dev, "%s/pt.json", dmn.dir);
 	write_device_copy(dev);

@@ -116,7 +116,10 @@ void setUp(void)
 {
 	memset(&dmn, 0, sizeof dmn);
 	memset(&sim, 0, sizeof sim);
-	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .n_lines = 3 }));
+	/* no manager: it would start node 1 again whenever cogwctl program
+	 * stops it (keep_op in the default configuration) */
+	TEST_ASSERT_EQUAL_INT(
+		0, daemon_start(&dmn, &(daemon_opts){ .config_file = HAND_STARTED, .n_lines = 3 }));
 	const char *devices[] = { "etc/devices/sti-pressure.json", NULL };
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, NULL));
 }

@@ -206,11 +206,21 @@ static void test_bad_values_with_paths(void)
 		     "t.json: lines[0].nodes[0].mandatory: expected true or false, got a string");
 }
 
-/* make demo's configuration: the managers of lines 0 and 1 know the two
- * simulated devices (identity of the files in etc/devices). */
-static void test_demo_configuration(void)
+/* The default configuration (make demo runs on it): the managers of lines 0
+ * and 1 know the two simulated devices (identity of the files in
+ * etc/devices); the configuration for tests that start nodes by hand has
+ * no manager. */
+static void test_default_configuration(void)
 {
-	int rc = cogw_config_load_file(&cfg, "etc/cogw-demo.json", err, sizeof(err));
+	int rc = cogw_config_load_file(&cfg, "tests/integration/config/hand-started.json", err,
+				       sizeof(err));
+	TEST_ASSERT_EQUAL_STRING("", err);
+	TEST_ASSERT_EQUAL_INT(0, rc);
+	for (size_t i = 0; i < cfg.n_lines; i++)
+		TEST_ASSERT_FALSE(cfg.lines[i].manager.enabled);
+	cogw_config_free(&cfg);
+	memset(&cfg, 0, sizeof(cfg));
+	rc = cogw_config_load_file(&cfg, "etc/cogw.json", err, sizeof(err));
 	TEST_ASSERT_EQUAL_STRING("", err);
 	TEST_ASSERT_EQUAL_INT(0, rc);
 	TEST_ASSERT_TRUE(cfg.lines[0].manager.enabled);
@@ -229,6 +239,6 @@ int main(void)
 	RUN_TEST(test_nodes_fill_assignment_identity_heartbeat);
 	RUN_TEST(test_node_software_keys);
 	RUN_TEST(test_bad_values_with_paths);
-	RUN_TEST(test_demo_configuration);
+	RUN_TEST(test_default_configuration);
 	return UNITY_END();
 }

@@ -73,6 +73,8 @@ int daemon_start(daemon_run *d, const daemon_opts *opts)
 		int rc = write_text_file(d->config_path, opts->config_json);
 		if (rc < 0)
 			return rc;
+	} else if (opts->config_file) {
+		snprintf(d->config_path, sizeof d->config_path, "%s", opts->config_file);
 	}
 
 	/* A stale queue of an earlier failed run would make the wait below
@@ -87,7 +89,7 @@ int daemon_start(daemon_run *d, const daemon_opts *opts)
 	 * (e.g. an older one, to see a regression test fail there). */
 	const char *bin = getenv("COGW_TEST_COGWD");
 	argv[argc++] = opts->binary ? opts->binary : bin && *bin ? bin : DEFAULT_COGWD;
-	if (opts->config_json) {
+	if (d->config_path[0]) {
 		argv[argc++] = "--config";
 		argv[argc++] = d->config_path;
 	}

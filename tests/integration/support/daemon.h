@@ -38,10 +38,17 @@
 
 #define DAEMON_PATH_MAX 160
 
+/* The default configuration's lines without a CiA 302-2 manager. */
+#define HAND_STARTED "tests/integration/config/hand-started.json"
+
 typedef struct daemon_opts {
 	/* Configuration text written to <dir>/cogw.json and passed with
 	 * --config; NULL = no --config (the embedded default, instance "main"). */
 	const char *config_json;
+	/* Or a configuration file passed with --config as it is, relative to
+	 * the repository root (e.g. HAND_STARTED for tests that start the
+	 * nodes by hand: the embedded default boots them with its manager). */
+	const char *config_file;
 	/* Mailbox instance the configuration names (NULL = "main"): used to
 	 * find the command queues /cogw.<instance>.line<N>.cmd. */
 	const char *instance;
