@@ -17,13 +17,22 @@
  *       and the network starts with all 11. A 1F82h write over SDO from
  *       another node (raw frames to the daemon's SDO server) stops node 3.
  *       Node 11's heartbeat stops: 1F80h "stop_all" stops every node.
+ *   (d) a keep-alive node found OPERATIONAL is not reset (no reset frame,
+ *       no boot-up), the other node of its line is.
+ *   (e) 1F80h "reset_all": a mandatory node's heartbeat stops -> NMT reset
+ *       node to all nodes, the network boots again.
  * Run: tests/vcan/run -n 2 -- build/san/tests/integration/test_manager_boot
  */
+#include <linux/can.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "core/manager.h"
+#include "core/nmt.h"
 #include "mailbox/cogw.h"
 #include "tests/integration/support/daemon.h"
 #include "tests/integration/support/proc.h"
@@ -273,10 +282,200 @@ static void test_ten_devices_missing_mandatory_request_over_sdo_stop_all(void)
 	TEST_ASSERT_EQUAL_UINT32(1, st.errctrl_events);
 }
 
+/* What a line's bus showed: the NMT commands and boot-ups that matter. */
+typedef struct bus_watch {
+	int fd;
+	bool reset_of[128];   /* NMT reset node/comm addressed to n (0 = all) */
+	uint8_t reset_cs_all; /* cs of the last reset to all (0 = none) */
+	bool bootup_of[128];
+} bus_watch;
+
+static void watch_open(bus_watch *w, const char *ifname)
+{
+	memset(w, 0, sizeof *w);
+	w->fd = can_open_raw(ifname);
+	TEST_ASSERT_TRUE(w->fd >= 0);
+}
+
+static void watch_reset(bus_watch *w)
+{
+	int fd = w->fd;
+	memset(w, 0, sizeof *w);
+	w->fd = fd;
+}
+
+/* Read what came since the last call (the socket keeps the frames). */
+static void watch_drain(bus_watch *w)
+{
+	uint8_t d[8];
+	for (;;) {
+		struct can_frame f;
+		ssize_t n = recv(w->fd, &f, sizeof f, MSG_DONTWAIT);
+		if (n != (ssize_t)sizeof f)
+			return;
+		memcpy(d, f.data, 8);
+		if (f.can_id == 0 && f.len == 2 && (d[0] == 0x81 || d[0] == 0x82) && d[1] < 128) {
+			w->reset_of[d[1]] = true;
+			if (d[1] == 0)
+				w->reset_cs_all = d[0];
+		}
+		if (f.can_id > 0x700 && f.can_id < 0x780 && f.len == 1 && d[0] == 0)
+			w->bootup_of[f.can_id - 0x700] = true;
+	}
+}
+
+/* Poll the manager status of `line` until `done` holds, draining the
+ * watches meanwhile. */
+static bool wait_for(unsigned line, bus_watch *w0, bus_watch *w1, int timeout_ms,
+		     bool (*done)(const mbx_mgr_status *), mbx_mgr_status *st)
+{
+	uint64_t until = mono_ms() + (uint64_t)timeout_ms;
+	for (;;) {
+		watch_drain(w0);
+		watch_drain(w1);
+		if (cogw_mgr_status(h, line, st, 3000) == 0 && done(st))
+			return true;
+		if (mono_ms() > until)
+			return false;
+		sleep_ms(100);
+	}
+}
+
+static bool both_operational(const mbx_mgr_status *st)
+{
+	return st->state == CO_MGR_OPERATIONAL && bit(&st->booted, 1) && bit(&st->booted, 2) &&
+	       bit(&st->operational, 1) && bit(&st->operational, 2);
+}
+
+static bool rebooted_after_loss(const mbx_mgr_status *st)
+{
+	return st->network_boots >= 2 && both_operational(st);
+}
+
+#define CONFIG_KEEP_RESET                                                                        \
+	"{\"version\": 1, \"mailbox\": {\"instance\": \"mgrt\"}, \"lines\": ["                   \
+	"{\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127, "                    \
+	" \"manager\": {\"boot_time_ms\": 20000, \"retry_ms\": 500}, \"nodes\": ["               \
+	"  {\"id\": 1, \"mandatory\": true, \"keep_alive\": true, \"heartbeat_ms\": 1500, "      \
+	"   \"vendor_id\": \"0x1234\"},"                                                         \
+	"  {\"id\": 2, \"heartbeat_ms\": 1500, \"vendor_id\": \"0x1234\"}]},"                    \
+	"{\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127, "                    \
+	" \"manager\": {\"boot_time_ms\": 20000, \"retry_ms\": 500, "                            \
+	"   \"on_mandatory_error\": \"reset_all\"}, \"nodes\": ["                                \
+	"  {\"id\": 1, \"mandatory\": true, \"heartbeat_ms\": 1500, \"vendor_id\": \"0x1234\"}," \
+	"  {\"id\": 2, \"heartbeat_ms\": 1500, \"vendor_id\": \"0x1234\"}]}]}"
+
+/*
+ * (d) line 0: node 1 has the keep-alive bit and is OPERATIONAL already
+ * (it started itself) when the daemon comes up: the network boot resets
+ * node 2 alone, node 1 gets no reset and sends no boot-up, and is booted
+ * (status L, informational) and supervised.
+ * (e) line 1, 1F80h bit 4 ("reset_all"): the mandatory node 1's heartbeat
+ * stops: NMT reset node to all nodes, both reboot, the network boots again
+ * and is started once node 1's heartbeat is back.
+ */
+static void test_keep_alive_not_reset_and_reset_all_on_mandatory_loss(void)
+{
+	mbx_mgr_status st;
+	bus_watch w0, w1;
+	cogw_msg m;
+
+	watch_open(&w0, "vcan0");
+	watch_open(&w1, "vcan1");
+	const char *alive[] = { "etc/devices/io-generic.json:1", NULL };
+	const char *plain[] = { "etc/devices/io-generic.json:2", NULL };
+	const char *pair[] = { "etc/devices/io-generic.json:1", "etc/devices/io-generic.json:2",
+			       NULL };
+	const char *autostart[] = { "--autostart", NULL };
+	/* the devices run before the daemon (and its directory) exists; two
+	 * on line 0: a directory each for their control socket and log */
+	char dir[32] = "/tmp/mgrt-XXXXXX", dir_b[48];
+	TEST_ASSERT_NOT_NULL(mkdtemp(dir));
+	snprintf(dir_b, sizeof dir_b, "%s/b", dir);
+	TEST_ASSERT_EQUAL_INT(0, mkdir(dir_b, 0700));
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&simA, dir, 0, alive, autostart));
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&simB, dir_b, 0, plain, NULL));
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim1, dir, 1, pair, NULL));
+	/* node 1 on line 0 is OPERATIONAL before the manager exists */
+	uint8_t hb[8] = { 0 };
+	for (uint64_t t = mono_ms() + 5000; hb[0] != 0x05 && mono_ms() < t;)
+		(void)can_wait_id(w0.fd, 0x701, hb, 1000);
+	TEST_ASSERT_EQUAL_HEX8(0x05, hb[0]);
+	watch_reset(&w0);
+	watch_drain(&w0);
+	watch_reset(&w0); /* only what comes once the daemon runs */
+	watch_drain(&w1);
+	watch_reset(&w1);
+
+	TEST_ASSERT_EQUAL_INT(0,
+			      daemon_start(&dmn, &(daemon_opts){ .config_json = CONFIG_KEEP_RESET,
+								 .instance = "mgrt",
+								 .n_lines = 2 }));
+	TEST_ASSERT_EQUAL_INT(0, cogw_open(&h, "mgrt"));
+	TEST_ASSERT_EQUAL_INT(0, cogw_subscribe(h, 1, MBX_EVC_MANAGER, NULL, 0, 3000));
+
+	/* (d) */
+	TEST_ASSERT_TRUE_MESSAGE(wait_for(0, &w0, &w1, 30000, both_operational, &st),
+				 "line 0 did not boot and start nodes 1 and 2");
+	TEST_ASSERT_TRUE_MESSAGE(w0.reset_of[2], "node 2 was not reset at the network boot");
+	TEST_ASSERT_TRUE_MESSAGE(w0.bootup_of[2], "node 2 sent no boot-up after its reset");
+	TEST_ASSERT_FALSE_MESSAGE(w0.reset_of[1], "the keep-alive node 1 was reset");
+	TEST_ASSERT_FALSE_MESSAGE(w0.reset_of[0], "a reset went to all nodes");
+	TEST_ASSERT_FALSE_MESSAGE(w0.bootup_of[1], "the keep-alive node 1 rebooted");
+	mbx_mgr_node_diag d;
+	TEST_ASSERT_EQUAL_INT(0, cogw_mgr_node_diag(h, 0, 1, &d, 3000));
+	TEST_ASSERT_EQUAL_UINT8(1, d.booted);
+	TEST_ASSERT_EQUAL_UINT32(1, d.boot_count);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_OPERATIONAL, d.nmt_state);
+
+	/* (e) 1F80h bit 4 */
+	TEST_ASSERT_TRUE_MESSAGE(wait_for(1, &w0, &w1, 30000, both_operational, &st),
+				 "line 1 did not boot and start nodes 1 and 2");
+	TEST_ASSERT_EQUAL_UINT32(1, st.network_boots);
+	watch_reset(&w1);
+	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sim1, "node 1 hb stop", NULL, 0, 3000));
+	for (uint64_t t = mono_ms() + 10000; !w1.reset_cs_all && mono_ms() < t;) {
+		sleep_ms(100);
+		watch_drain(&w1);
+	}
+	TEST_ASSERT_EQUAL_HEX8_MESSAGE(0x81, w1.reset_cs_all, "no NMT reset node to all nodes");
+	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sim1, "node 1 hb start", NULL, 0, 3000));
+	TEST_ASSERT_TRUE_MESSAGE(wait_for(1, &w0, &w1, 30000, rebooted_after_loss, &st),
+				 "line 1 did not boot again after the reset of all nodes");
+	TEST_ASSERT_TRUE(w1.bootup_of[1]);
+	TEST_ASSERT_TRUE(w1.bootup_of[2]);
+	TEST_ASSERT_EQUAL_UINT32(2, st.network_boots);
+	/* the reaction was reported: node 1 lost (E), then "reset node" to all */
+	bool lost = false, reaction = false;
+	while (cogw_recv(h, &m, 200) == 0) {
+		if (m.code == MBX_EV_MGR_NODE && m.line == 1) {
+			mbx_ev_mgr e;
+			memcpy(&e, m.data, sizeof e);
+			lost = lost ||
+			       (e.node == 1 && e.what == CO_MGR_NODE_LOST && e.value == 'E');
+			reaction = reaction ||
+				   (e.node == 1 && e.what == CO_MGR_NODE_ERROR_REACTION &&
+				    e.value == 0x81);
+		}
+		cogw_msg_release(&m);
+	}
+	TEST_ASSERT_TRUE_MESSAGE(lost, "no 'lost' event for node 1");
+	TEST_ASSERT_TRUE_MESSAGE(reaction, "no error-reaction event (reset node to all)");
+	close(w0.fd);
+	close(w1.fd);
+	cosim_stop(&simA, 3000);
+	cosim_stop(&simB, 3000);
+	cosim_stop(&sim1, 3000);
+	char rm[64];
+	snprintf(rm, sizeof rm, "rm -rf %s", dir);
+	TEST_ASSERT_EQUAL_INT(0, system(rm));
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
 	RUN_TEST(test_two_lines_boot_identity_request_own_id);
 	RUN_TEST(test_ten_devices_missing_mandatory_request_over_sdo_stop_all);
+	RUN_TEST(test_keep_alive_not_reset_and_reset_all_on_mandatory_loss);
 	return UNITY_END();
 }
