@@ -699,9 +699,10 @@ static int configure_enter(void *obj, uint64_t now_us)
 		rc = m->cfg.configure(m->cfg.configure_ctx, s->id, now_us);
 	if (rc == 1)
 		return CO_FSM_STAY;
-	if (rc < 0)
-		return bs_fail(s, CO_MGR_STEP_CONFIGURE, 'J', SDO_ABORT_GENERAL, 0, 0,
-			       (uint32_t)-rc, 0);
+	if (rc < 0) /* 1F22h:n is no concise DCF (or the node's job is busy):
+		     * J on that object, no entry of it was written (value 0) */
+		return bs_fail(s, CO_MGR_STEP_CONFIGURE, 'J', SDO_ABORT_GENERAL, 0x1F22, s->id, 0,
+			       0);
 	emit_boot(s, CO_MGR_STEP_CONFIGURE, 0, 0, 0, 0, 0, 0, false);
 	return BS_ERRCTRL;
 }
@@ -713,8 +714,9 @@ static int configure_con(void *obj, const void *con, uint64_t now_us)
 	(void)now_us;
 	if (in->kind != IN_CONFIGURED)
 		return CO_FSM_STAY;
-	if (in->abort)
-		return bs_fail(s, CO_MGR_STEP_CONFIGURE, 'J', in->abort, in->index, in->sub, 0, 0);
+	if (in->abort) /* value: the concise DCF entry that failed */
+		return bs_fail(s, CO_MGR_STEP_CONFIGURE, 'J', in->abort, in->index, in->sub,
+			       in->value, 0);
 	emit_boot(s, CO_MGR_STEP_CONFIGURE, 0, 0, 0, 0, 0, 0, false);
 	return BS_ERRCTRL;
 }
@@ -1655,9 +1657,11 @@ uint8_t co_manager_node_nmt_state(const co_manager *m, uint8_t node_id)
 }
 
 int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort, uint16_t index,
-			      uint8_t sub, uint64_t now_us)
+			      uint8_t sub, uint32_t entry, uint64_t now_us)
 {
-	struct mgr_in in = { .kind = IN_CONFIGURED, .abort = abort, .index = index, .sub = sub };
+	struct mgr_in in = {
+		.kind = IN_CONFIGURED, .abort = abort, .value = entry, .index = index, .sub = sub
+	};
 	if (node_id < 1 || node_id > 127)
 		return -EINVAL;
 	if (bs_state(&m->s[node_id]) != BS_CONFIGURE)

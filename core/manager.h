@@ -303,9 +303,12 @@ int co_manager_start_network(co_manager *m, uint64_t now_us);
 int co_manager_request_nmt(co_manager *m, uint8_t node_id, uint8_t cmd, uint64_t now_us);
 /* The 1F82h read value of node n (0 unknown, 1 missing, 4, 5, 127). */
 uint8_t co_manager_node_nmt_state(const co_manager *m, uint8_t node_id);
-/* The 302-3 configure step ended (abort 0 = configured). */
+/* The 302-3 configure step ended (abort 0 = configured). On a failure
+ * (J), index:sub is the object refused and entry the concise DCF entry
+ * that wrote it (1-based; 0 = a write outside the concise DCF, such as
+ * 1020h or 1010h): the boot event carries the entry as its value. */
 int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort, uint16_t index,
-			      uint8_t sub, uint64_t now_us);
+			      uint8_t sub, uint32_t entry, uint64_t now_us);
 /* The 302-3 check software step ended: status 0 = right software (or
  * updated), 'G', 'H' or 'I' = failed, with the object and abort code.
  * -EINVAL (bad node or letter), -ENOENT (node not in that step). */

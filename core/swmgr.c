@@ -89,6 +89,7 @@ static int image_src(void *ctx, uint32_t offset, uint8_t *buf, uint32_t len)
 
 static void mark(co_swmgr *job, uint16_t index, uint8_t sub)
 {
+	job->res.step = (uint8_t)co_fsm_state_of(&job->fsm);
 	job->res.index = index;
 	job->res.sub = sub;
 }
@@ -283,6 +284,7 @@ static int done_enter(void *obj, uint64_t now_us)
 	if (job->res.outcome != CO_SWMGR_CANCELLED) {
 		job->res.outcome = job->res.downloaded ? CO_SWMGR_UPDATED : CO_SWMGR_UNCHANGED;
 		mark(job, 0, 0);
+		job->res.step = 0;
 		job->res.abort = 0;
 	}
 	if (job->p.done)
@@ -406,16 +408,17 @@ static uint32_t od_u32(const co_od *od, uint16_t index, uint8_t sub)
 	return v;
 }
 
-static int line_start(co_swmgr_line *l, uint8_t node_id, bool force, uint64_t now_us)
+static int line_start(co_swmgr_line *l, uint8_t node_id, bool force, const co_swmgr_source *image,
+		      uint32_t expected, uint64_t now_us)
 {
 	const co_od *od = co_node_od(l->node);
 	uint32_t a = od_u32(od, 0x1F81, node_id);
 	co_swmgr_params p = {
 		.node_id = node_id,
-		.expected = od_u32(od, CO_SWMGR_IDX_EXPECTED, node_id),
+		.expected = expected ? expected : od_u32(od, CO_SWMGR_IDX_EXPECTED, node_id),
 		.update_allowed = force || (a & CO_SWMGR_F81_UPDATE),
 		.force = force,
-		.source = l->source,
+		.source = image ? *image : l->source,
 		.progress = l->progress,
 		.progress_ctx = l->progress_ctx,
 		.channel = l->channel,
@@ -436,15 +439,16 @@ int co_swmgr_line_check(void *ctx, uint8_t node_id, uint64_t now_us)
 		return -EINVAL;
 	if (!(od_u32(co_node_od(l->node), 0x1F81, node_id) & CO_SWMGR_F81_CHECK))
 		return 0;
-	rc = line_start(l, node_id, false, now_us);
+	rc = line_start(l, node_id, false, NULL, 0, now_us);
 	return rc ? rc : 1;
 }
 
-int co_swmgr_line_program(co_swmgr_line *l, uint8_t node_id, uint64_t now_us)
+int co_swmgr_line_program(co_swmgr_line *l, uint8_t node_id, const co_swmgr_source *image,
+			  uint32_t expected, uint64_t now_us)
 {
 	if (!l || !l->node || node_id < 1 || node_id > 127)
 		return -EINVAL;
-	return line_start(l, node_id, true, now_us);
+	return line_start(l, node_id, true, image, expected, now_us);
 }
 
 void co_swmgr_line_cancel_all(co_swmgr_line *l, uint64_t now_us)

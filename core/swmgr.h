@@ -89,6 +89,7 @@ typedef struct co_swmgr_result {
 	uint8_t node_id;
 	uint8_t outcome; /* co_swmgr_outcome */
 	char status;     /* 'G', 'H', 'I' when FAILED_STATUS, else 0 */
+	uint8_t step;    /* co_swmgr_state of the failure (0 = none) */
 	uint16_t index;  /* object of the failure (0 = none) */
 	uint8_t sub;
 	uint32_t abort;    /* CiA abort code of the failure (0 = none) */
@@ -191,10 +192,15 @@ void co_swmgr_line_init(co_swmgr_line *l, co_node *node, const co_swmgr_source *
  * SDO request could be queued), -EINVAL for a bad node.
  */
 int co_swmgr_line_check(void *ctx, uint8_t node_id, uint64_t now_us);
-/* A manual update of node n (cogwctl program): no check, download the
- * source's image, start and verify against 1F55h:n when it is not 0.
- * 0 (done() reports), -ENOENT (no image), -EBUSY, -EINVAL. */
-int co_swmgr_line_program(co_swmgr_line *l, uint8_t node_id, uint64_t now_us);
+/* A manual update of node n (cogwctl program, the mailbox's MGR_PROGRAM):
+ * no check; stop, clear, download the image, start, and verify against
+ * `expected`, or 1F55h:n when expected is 0 (nothing compared when both
+ * are 0). image: where the bytes come from (NULL = the line's source, the
+ * configured 1F58h:n); it must stay valid until done() reports. Progress
+ * and done() go to the line's callbacks. 0 (done() reports), -ENOENT (no
+ * image), -EBUSY (node n's job is running), -EINVAL, -EAGAIN. */
+int co_swmgr_line_program(co_swmgr_line *l, uint8_t node_id, const co_swmgr_source *image,
+			  uint32_t expected, uint64_t now_us);
 void co_swmgr_line_cancel_all(co_swmgr_line *l, uint64_t now_us);
 
 #endif /* COGW_CORE_SWMGR_H */

@@ -45,6 +45,8 @@ _Static_assert(sizeof(mbx_ev_emcy) == 24, "wire layout");
 _Static_assert(sizeof(mbx_ev_raw) == 24, "wire layout");
 _Static_assert(sizeof(mbx_ev_can_state) == 4, "wire layout");
 _Static_assert(sizeof(mbx_gw_sdo_req) == 20, "wire layout");
+_Static_assert(sizeof(mbx_mgr_program_req) == 12, "wire layout");
+_Static_assert(sizeof(mbx_mgr_program_resp) == 24, "wire layout");
 _Static_assert(sizeof(mbx_gw_status) == 144, "wire layout");
 _Static_assert(sizeof(mbx_gw_route) == 40, "wire layout");
 _Static_assert(sizeof(mbx_ev_gw_sdo) == 16, "wire layout");
@@ -273,6 +275,7 @@ static const mbx_cmd_info cmd_table[] = {
 	{ MBX_CMD_MGR_REQUEST_NMT, W, sizeof(mbx_mgr_nmt_req), 0, "manager-request-nmt" },
 	{ MBX_CMD_MGR_NODE_DIAG, R, sizeof(mbx_mgr_node_req), 0, "manager-node-diag" },
 	{ MBX_CMD_MGR_RESET_COUNTERS, W, 0, 0, "manager-reset-counters" },
+	{ MBX_CMD_MGR_PROGRAM, W | D, sizeof(mbx_mgr_program_req), 0, "manager-program" },
 	{ MBX_CMD_GW_ROUTES, R, 0, 0, "gw-routes" },
 	{ MBX_CMD_GW_SDO_UPLOAD, R, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-upload" },
 	{ MBX_CMD_GW_SDO_DOWNLOAD, W | D, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-download" },
@@ -717,6 +720,18 @@ static int check_fixed(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad
 		if (!all_zero(r.pad, sizeof r.pad))
 			return refuse(bad, MBX_BAD_RESERVED);
 		if (r.node > 127 || (code == MBX_CMD_MGR_NODE_DIAG && r.node < 1))
+			return refuse(bad, MBX_BAD_PARAM);
+		return 0;
+	}
+	case MBX_CMD_MGR_PROGRAM: {
+		mbx_mgr_program_req r;
+
+		memcpy(&r, p, sizeof r);
+		if (!all_zero(r.pad, sizeof r.pad))
+			return refuse(bad, MBX_BAD_RESERVED);
+		/* an image of at least one byte (chunked ones always have more) */
+		if (r.node < 1 || r.node > 127 || r.sdo_timeout_ms > MBX_PROGRAM_SDO_TIMEOUT_MAX ||
+		    len <= sizeof r)
 			return refuse(bad, MBX_BAD_PARAM);
 		return 0;
 	}

@@ -210,6 +210,8 @@ typedef enum mbx_cmd {
 	MBX_CMD_MGR_REQUEST_NMT = 0x0A04,    /* W mbx_mgr_nmt_req (1F82h) */
 	MBX_CMD_MGR_NODE_DIAG = 0x0A05,      /* R mbx_mgr_node_req -> mbx_mgr_node_diag */
 	MBX_CMD_MGR_RESET_COUNTERS = 0x0A06, /* W - */
+	MBX_CMD_MGR_PROGRAM = 0x0A07,        /* W mbx_mgr_program_req + image
+	                                      * -> mbx_mgr_program_resp */
 	/* 0x0Bxx gateway (CiA 302-7, docs/gateway.md) */
 	MBX_CMD_GW_ROUTES = 0x0B01,       /* R - -> mbx_gw_status + mbx_gw_route[n] */
 	MBX_CMD_GW_SDO_UPLOAD = 0x0B02,   /* R mbx_gw_sdo_req -> data, hdr.abort */
@@ -480,6 +482,34 @@ typedef struct mbx_mgr_node_diag {
 	uint64_t boot_time_us; /* duration of the last boot */
 	mbx_mgr_emcy emcy[MBX_MGR_EMCY_MAX];
 } mbx_mgr_node_diag;
+
+/* MBX_CMD_MGR_PROGRAM: a manual program update of one node by the line's
+ * CiA 302-3 software manager (core/swmgr.h: stop 1F51h, clear, block
+ * download of the image that follows this fixed part to 1F50h:1, start,
+ * verify 1F56h:1). The image: 1 byte up to the line's max_transfer,
+ * chunked as any data. While it runs, MGR_NODE events "program" (value =
+ * bytes sent, expected = image size) carry the request's corr. */
+#define MBX_PROGRAM_SDO_TIMEOUT_MAX 60000u
+typedef struct mbx_mgr_program_req {
+	uint8_t node; /* 1..127, not the line's own node-ID */
+	uint8_t pad[3];
+	uint32_t expected;       /* 1F56h:1 after the start; 0 = 1F55h:node
+	                          * (nothing compared when that is 0 too) */
+	uint32_t sdo_timeout_ms; /* per SDO frame; 0 = the manager's */
+} mbx_mgr_program_req;
+
+/* The answer (status 0) once the update ran to its end: */
+typedef struct mbx_mgr_program_resp {
+	char status;    /* 0 = updated and verified; 'I' failed (core/swmgr.h) */
+	uint8_t step;   /* co_swmgr_state of the failure (0 = none) */
+	uint16_t index; /* object of the failure (0 = none) */
+	uint8_t sub;
+	uint8_t pad[3];
+	uint32_t abort;    /* SDO abort code (0 = none: a wrong 1F56h:1) */
+	uint32_t found;    /* 1F56h:1 read after the start */
+	uint32_t expected; /* what it was compared with (0 = nothing) */
+	uint32_t bytes;    /* image bytes sent */
+} mbx_mgr_program_resp;
 
 /* MBX_EV_MGR_*: the fields of co_ev_mgr (core/event.h). */
 typedef struct mbx_ev_mgr {

@@ -228,6 +228,8 @@ static void diag_out(ctl *c, unsigned line, const mbx_mgr_node_diag *d)
 		cJSON_AddNumberToObject(o, "index", d->index);
 		cJSON_AddNumberToObject(o, "sub", d->sub);
 		cJSON_AddNumberToObject(o, "value", d->value);
+		if (d->status == 'J')
+			cJSON_AddNumberToObject(o, "entry", d->value);
 		cJSON_AddNumberToObject(o, "boot_count", d->boot_count);
 		cJSON_AddNumberToObject(o, "fail_count", d->fail_count);
 		cJSON_AddNumberToObject(o, "boot_time_ms", (double)d->boot_time_us / 1000.0);
@@ -247,7 +249,13 @@ static void diag_out(ctl *c, unsigned line, const mbx_mgr_node_diag *d)
 	       d->nmt_state);
 	printf("  boots %" PRIu32 " (last took %.1f ms), failed attempts %" PRIu32 "\n",
 	       d->boot_count, (double)d->boot_time_us / 1000.0, d->fail_count);
-	if (d->status)
+	if (d->status == 'J') /* value: the concise DCF entry refused */
+		printf("  last failure: status J (%s) at %s %04X:%02X, entry %" PRIu32
+		       ", abort 0x%08" PRIX32 " (%s)\n",
+		       co_mgr_status_to_string(d->status), co_mgr_step_to_string(d->step), d->index,
+		       d->sub, d->value, d->abort,
+		       d->abort ? sdo_abort_to_string(d->abort) : "none");
+	else if (d->status)
 		printf("  last failure: status %c (%s) at %s %04X:%02X, abort 0x%08" PRIX32
 		       " (%s), value 0x%08" PRIX32 "\n",
 		       d->status, co_mgr_status_to_string(d->status),

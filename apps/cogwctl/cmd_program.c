@@ -1,10 +1,13 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * cogwctl program LINE NODE FILE: a manual program update of a node, the
- * steps of the CiA 302-3 software manager (core/swmgr.h) composed from the
- * daemon's SDO client commands: read 1F56h:1, stop (1F51h:1 = 0), clear
- * (= 3), block download of FILE to 1F50h:1, start (= 1), read 1F56h:1
- * again and, with --expect, compare it. Each step is reported as it ends.
+ * cogwctl program LINE NODE FILE: a manual program update of a node by the
+ * line's CiA 302-3 software manager in the daemon (core/swmgr.h): the image
+ * goes to the daemon in one MGR_PROGRAM request (chunked), and the daemon
+ * runs stop (1F51h:1 = 0), clear (= 3), block download to 1F50h:1, start
+ * (= 1) and verify (1F56h:1 against --expect, else 1F55h:NODE). Progress
+ * events (MGR_NODE "program" with this request's corr) are printed while
+ * it runs; the answer tells the outcome (status I with the step, object
+ * and abort on failure).
  *
  * cogwctl configure LINE NODE|all: the CiA 302-2 configuration request,
  * "conf" written to 1F25h:NODE (128 = all) of the daemon's own OD; the
@@ -15,9 +18,16 @@
 #include <inttypes.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 
 #include "apps/cogwctl/ctl.h"
+#include "core/manager.h"
+#include "core/swmgr.h"
+
+/* The largest image cogwctl reads: the daemon's mailbox.max_transfer can
+ * be set up to 256 MiB; the daemon refuses what exceeds its own (TOO_BIG). */
+#define PROGRAM_FILE_MAX (256u << 20)
 
 static double now_s(void)
 {
@@ -26,80 +36,122 @@ static double now_s(void)
 	return (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;
 }
 
+/* The image file: a regular file of 1 byte .. PROGRAM_FILE_MAX, read whole. */
+static int read_image(ctl *c, const char *path, uint8_t **image, size_t *len)
+{
+	struct stat st;
+	if (stat(path, &st) < 0) {
+		fprintf(stderr, "cogwctl program: %s: %s\n", path, strerror(errno));
+		return CTL_EXIT_USAGE;
+	}
+	if (!S_ISREG(st.st_mode))
+		return ctl_usage_error(c, "%s: not a regular file", path);
+	if (st.st_size < 1 || (uint64_t)st.st_size > PROGRAM_FILE_MAX)
+		return ctl_usage_error(c, "%s: an image of 1..%u bytes, not %lld", path,
+				       PROGRAM_FILE_MAX, (long long)st.st_size);
+	int rc = ctl_read_file(c, path, image, len);
+	if (rc)
+		return rc;
+	if (*len < 1 || *len > PROGRAM_FILE_MAX) { /* changed while read */
+		free(*image);
+		return ctl_usage_error(c, "%s: an image of 1..%u bytes, not %zu", path,
+				       PROGRAM_FILE_MAX, *len);
+	}
+	return 0;
+}
+
 typedef struct prog_run {
 	ctl *c;
 	cogw *h;
 	unsigned line;
 	uint8_t node;
-	cogw_sdo_opts opts;
-	cJSON *steps; /* --json */
+	uint64_t corr;
+	cJSON *progress; /* --json: the progress events */
+	unsigned last_pct;
 } prog_run;
 
-static void step_done(prog_run *r, const char *name, const char *detail, double t0)
+static void show_progress(prog_run *r, const mbx_ev_mgr *e, double t0)
 {
-	double dt = now_s() - t0;
-	if (r->steps) {
-		cJSON *s = cJSON_CreateObject();
-		cJSON_AddStringToObject(s, "step", name);
-		cJSON_AddStringToObject(s, "result", detail);
-		cJSON_AddNumberToObject(s, "seconds", dt);
-		cJSON_AddItemToArray(r->steps, s);
-	} else {
-		printf("%-9s %s (%.3f s)\n", name, detail, dt);
-		fflush(stdout);
+	unsigned pct = e->expected ? (unsigned)((uint64_t)e->value * 100u / e->expected) : 100u;
+	if (r->progress) {
+		cJSON *o = cJSON_CreateObject();
+		cJSON_AddNumberToObject(o, "sent", e->value);
+		cJSON_AddNumberToObject(o, "total", e->expected);
+		cJSON_AddNumberToObject(o, "seconds", now_s() - t0);
+		cJSON_AddItemToArray(r->progress, o);
+		return;
+	}
+	printf("download  %" PRIu32 " of %" PRIu32 " bytes (%u %%)\n", e->value, e->expected, pct);
+	fflush(stdout);
+	r->last_pct = pct;
+}
+
+/* Wait for the answer to our request, showing its progress events. The
+ * timeout runs from the last sign of life (a progress event), so a large
+ * image needs no guess of its total time. */
+static int wait_answer(prog_run *r, mbx_mgr_program_resp *a, double t0)
+{
+	for (;;) {
+		cogw_msg m;
+		int rc = cogw_recv(r->h, &m, (int)r->c->timeout_ms);
+		if (rc == COGW_E_AGAIN)
+			return COGW_E_TIMEOUT;
+		if (rc < 0)
+			return rc;
+		if (m.corr != r->corr) {
+			cogw_msg_release(&m);
+			continue;
+		}
+		if (m.kind == MBX_KIND_EVENT && m.code == MBX_EV_MGR_NODE &&
+		    m.len == sizeof(mbx_ev_mgr)) {
+			mbx_ev_mgr e;
+			memcpy(&e, m.data, sizeof e);
+			if (e.what == CO_MGR_NODE_PROGRAM && e.node == r->node)
+				show_progress(r, &e, t0);
+			cogw_msg_release(&m);
+			continue;
+		}
+		if (m.kind != MBX_KIND_RESPONSE) {
+			cogw_msg_release(&m);
+			continue;
+		}
+		rc = m.status;
+		if (rc == 0 && m.len == sizeof *a)
+			memcpy(a, m.data, sizeof *a);
+		else if (rc == 0)
+			rc = COGW_E_PROTOCOL;
+		cogw_msg_release(&m);
+		return rc;
 	}
 }
 
-/* A failed step: status I (program download failed) with the abort. */
-static int step_failed(prog_run *r, int rc, uint32_t abort, const char *what)
+static int program_failed(prog_run *r, const mbx_mgr_program_resp *a)
 {
-	char ctx[160];
-	snprintf(ctx, sizeof ctx, "node %u on line %u: %s: status I (program download failed)",
-		 r->node, r->line, what);
-	cJSON_Delete(r->steps);
-	r->steps = NULL;
-	return ctl_fail(r->c, rc, abort, ctx);
-}
-
-static int control(prog_run *r, const char *name, uint8_t cmd)
-{
-	uint32_t abort = 0;
-	double t0 = now_s();
-	char what[64];
-	int rc = cogw_sdo_write_ex(r->h, r->line, r->node, 0x1F51, 1, &r->opts, &cmd, 1,
-				   r->c->timeout_ms, &abort);
-	if (rc < 0) {
-		snprintf(what, sizeof what, "%s (1F51:01 = %u)", name, cmd);
-		return step_failed(r, rc, abort, what);
-	}
-	snprintf(what, sizeof what, "1F51:01 = %u", cmd);
-	step_done(r, name, what, t0);
-	return 0;
-}
-
-static int read_id(prog_run *r, const char *name, uint32_t *id, bool *have)
-{
-	uint8_t b[8];
-	size_t len = 0;
-	uint32_t abort = 0;
-	double t0 = now_s();
-	char detail[64];
-	int rc = cogw_sdo_read_ex(r->h, r->line, r->node, 0x1F56, 1, &r->opts, b, sizeof b, &len,
-				  r->c->timeout_ms, &abort);
-	*have = rc >= 0 && len == 4;
-	if (*have) {
-		*id = (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 |
-		      (uint32_t)b[3] << 24;
-		snprintf(detail, sizeof detail, "1F56:01 = 0x%08" PRIX32, *id);
-	} else if (rc >= 0) {
-		snprintf(detail, sizeof detail, "1F56:01 has %zu bytes, not 4", len);
-	} else {
-		char ab[96];
-		snprintf(detail, sizeof detail, "1F56:01 not read: %s",
-			 abort ? ctl_abort_text(abort, ab, sizeof ab) : "no answer");
-	}
-	step_done(r, name, detail, t0);
-	return rc;
+	char ctx[256];
+	const char *step = co_swmgr_state_to_string(a->step);
+	if (!a->abort && a->index == CO_SWMGR_IDX_ID)
+		snprintf(ctx, sizeof ctx,
+			 "node %u on line %u: %s: 1F56:01 = 0x%08" PRIX32 ", expected 0x%08" PRIX32
+			 ": status %c (%s)",
+			 r->node, r->line, step, a->found, a->expected, a->status,
+			 co_mgr_status_to_string(a->status));
+	else if (a->index == CO_SWMGR_IDX_CONTROL)
+		snprintf(ctx, sizeof ctx,
+			 "node %u on line %u: %s (1F51:01 = %u): status %c (%s), %" PRIu32
+			 " bytes sent",
+			 r->node, r->line, step,
+			 a->step == CO_SWMGR_STOP    ? CO_SWMGR_CTL_STOP
+			 : a->step == CO_SWMGR_CLEAR ? CO_SWMGR_CTL_CLEAR
+						     : CO_SWMGR_CTL_START,
+			 a->status, co_mgr_status_to_string(a->status), a->bytes);
+	else
+		snprintf(ctx, sizeof ctx,
+			 "node %u on line %u: %s %04X:%02X: status %c (%s), %" PRIu32 " bytes sent",
+			 r->node, r->line, step, a->index, a->sub, a->status,
+			 co_mgr_status_to_string(a->status), a->bytes);
+	/* an abort is reported with its code and meaning; a wrong
+	 * identification is a refusal of its own (no abort code) */
+	return ctl_fail(r->c, a->abort ? COGW_E_ABORT : COGW_E_STATE, a->abort, ctx);
 }
 
 static int run_program(ctl *c, int argc, char **argv)
@@ -112,14 +164,14 @@ static int run_program(ctl *c, int argc, char **argv)
 		{ "--sdo-timeout", true, &sdo_timeout, NULL },
 		{ NULL, false, NULL, NULL },
 	};
-	prog_run r = { .c = c, .opts = { .mode = 0 } };
+	prog_run r = { .c = c };
+	mbx_mgr_program_req q = { 0 };
+	mbx_mgr_program_resp a = { 0 };
 	uint64_t want = 0;
-	uint32_t id = 0, abort = 0;
-	bool have = false;
-	uint8_t *image;
-	size_t len;
+	uint8_t *msg = NULL, *image = NULL;
+	size_t len = 0;
+	char ctx[128];
 	double t0;
-	char detail[96];
 	int rc = ctl_parse(c, argc, argv, opts, pos, 4, &n_pos);
 
 	if (rc)
@@ -133,77 +185,85 @@ static int run_program(ctl *c, int argc, char **argv)
 		return CTL_EXIT_USAGE;
 	if (expect && ctl_arg_uint(c, expect, "--expect", UINT32_MAX, &want) < 0)
 		return CTL_EXIT_USAGE;
+	if (expect && !want)
+		return ctl_usage_error(c, "--expect: a software identification is not 0");
 	if (sdo_timeout) {
 		uint64_t ms;
-		if (ctl_arg_uint(c, sdo_timeout, "--sdo-timeout", 600000, &ms) < 0)
+		if (ctl_arg_uint(c, sdo_timeout, "--sdo-timeout", MBX_PROGRAM_SDO_TIMEOUT_MAX,
+				 &ms) < 0)
 			return CTL_EXIT_USAGE;
-		r.opts.sdo_timeout_ms = (uint32_t)ms;
+		q.sdo_timeout_ms = (uint32_t)ms;
 	}
-	if ((rc = ctl_read_file(c, pos[2], &image, &len)))
+	if ((rc = read_image(c, pos[2], &image, &len)))
 		return rc;
-	if (len == 0 || len > UINT32_MAX) {
+	q.node = r.node;
+	q.expected = (uint32_t)want;
+	msg = malloc(sizeof q + len);
+	if (!msg) {
 		free(image);
-		return ctl_usage_error(c, "%s: an image of 1..4294967295 bytes, not %zu", pos[2],
-				       len);
+		fprintf(stderr, "cogwctl program: out of memory for %zu bytes\n", len);
+		return CTL_EXIT_REFUSED;
 	}
+	memcpy(msg, &q, sizeof q);
+	memcpy(msg + sizeof q, image, len);
+	free(image);
+	snprintf(ctx, sizeof ctx, "program update of node %u on line %u", r.node, r.line);
 	r.h = ctl_handle(c, &ex);
 	if (!r.h) {
-		free(image);
+		free(msg);
 		return ex;
 	}
+	/* progress events are manager-class events of this line */
+	if ((rc = cogw_subscribe(r.h, r.line, MBX_EVC_MANAGER, NULL, 0, c->timeout_ms)) < 0) {
+		free(msg);
+		return ctl_fail(c, rc, 0, ctx);
+	}
 	if (c->json)
-		r.steps = cJSON_CreateArray();
-
-	(void)read_id(&r, "check", &id, &have); /* informative: the old program */
-	if ((rc = control(&r, "stop", 0)) || (rc = control(&r, "clear", 3)))
-		goto out;
+		r.progress = cJSON_CreateArray();
 	t0 = now_s();
-	r.opts.mode = 3; /* SDO_MODE_BLOCK */
-	rc = cogw_sdo_write_ex(r.h, r.line, r.node, 0x1F50, 1, &r.opts, image, len, c->timeout_ms,
-			       &abort);
-	r.opts.mode = 0;
+	rc = cogw_send_async(r.h, r.line, MBX_CMD_MGR_PROGRAM, msg, sizeof q + len, &r.corr);
+	free(msg);
+	if (rc >= 0)
+		rc = wait_answer(&r, &a, t0);
 	if (rc < 0) {
-		rc = step_failed(&r, rc, abort, "download to 1F50:01");
-		goto out;
+		cJSON_Delete(r.progress);
+		if (rc == COGW_E_BUSY)
+			snprintf(ctx, sizeof ctx,
+				 "program update of node %u on line %u: the node is booting or "
+				 "being updated already",
+				 r.node, r.line);
+		else if (rc == COGW_E_UNSUPPORTED)
+			snprintf(ctx, sizeof ctx,
+				 "program update of node %u on line %u: the line has no manager",
+				 r.node, r.line);
+		return ctl_fail(c, rc, 0, ctx);
 	}
-	snprintf(detail, sizeof detail, "%zu bytes to 1F50:01 by block transfer, %.1f KiB/s", len,
-		 (double)len / 1024.0 / (now_s() - t0 > 1e-6 ? now_s() - t0 : 1e-6));
-	step_done(&r, "download", detail, t0);
-	if ((rc = control(&r, "start", 1)))
-		goto out;
-	if (read_id(&r, "verify", &id, &have) < 0 || !have) {
-		rc = step_failed(&r, COGW_E_STATE, 0, "1F56:01 not readable after the start");
-		goto out;
+	if (a.status) {
+		cJSON_Delete(r.progress);
+		return program_failed(&r, &a);
 	}
-	if (expect && id != (uint32_t)want) {
-		char what[96];
-		snprintf(what, sizeof what, "1F56:01 = 0x%08" PRIX32 ", expected 0x%08" PRIX32, id,
-			 (uint32_t)want);
-		rc = step_failed(&r, COGW_E_STATE, 0, what);
-		goto out;
-	}
+	double dt = now_s() - t0;
 	if (c->json) {
 		cJSON *o = cJSON_CreateObject();
 		char idtxt[16];
 		cJSON_AddBoolToObject(o, "ok", true);
 		cJSON_AddNumberToObject(o, "line", r.line);
 		cJSON_AddNumberToObject(o, "node", r.node);
-		cJSON_AddNumberToObject(o, "size", (double)len);
-		snprintf(idtxt, sizeof idtxt, "0x%08" PRIX32, id);
+		cJSON_AddNumberToObject(o, "size", (double)a.bytes);
+		snprintf(idtxt, sizeof idtxt, "0x%08" PRIX32, a.found);
 		cJSON_AddStringToObject(o, "software_id", idtxt);
-		cJSON_AddItemToObject(o, "steps", r.steps);
-		r.steps = NULL;
+		cJSON_AddBoolToObject(o, "verified", a.expected != 0);
+		cJSON_AddNumberToObject(o, "seconds", dt);
+		cJSON_AddItemToObject(o, "progress", r.progress);
 		ctl_json_print(o);
 	} else {
-		printf("node %u on line %u: program updated and running, software id 0x%08" PRIX32
-		       "\n",
-		       r.node, r.line, id);
+		printf("node %u on line %u: program updated and running: stop, clear, %" PRIu32
+		       " bytes to 1F50:01 by block transfer (%.1f KiB/s), start, verify%s; "
+		       "software id 0x%08" PRIX32 "\n",
+		       r.node, r.line, a.bytes, (double)a.bytes / 1024.0 / (dt > 1e-6 ? dt : 1e-6),
+		       a.expected ? "" : " (nothing to compare with)", a.found);
 	}
-	rc = 0;
-out:
-	cJSON_Delete(r.steps);
-	free(image);
-	return rc;
+	return 0;
 }
 
 const ctl_cmd ctl_cmd_program = {
@@ -212,31 +272,30 @@ const ctl_cmd ctl_cmd_program = {
 		    "(1F50h..1F56h)\n",
 	.help = "usage: cogwctl program LINE NODE FILE [--expect ID] [--sdo-timeout MS] [--json]\n"
 		"\n"
-		"Manual program update of node NODE on line LINE, the CiA 302-3 software "
-		"manager's\n"
-		"steps done through the daemon's SDO client, each reported as it ends:\n"
-		"  check     read the software identification 1F56h:1 (shown; may be absent)\n"
+		"Manual program update of node NODE on line LINE by the line's CiA 302-3 software\n"
+		"manager in the daemon (the line needs a manager section). FILE goes to the\n"
+		"daemon, which then runs:\n"
 		"  stop      1F51h:1 = 0 (stop the program)\n"
 		"  clear     1F51h:1 = 3 (clear the program memory)\n"
-		"  download  FILE to 1F50h:1 by SDO block transfer\n"
+		"  download  FILE to 1F50h:1 by SDO block transfer (progress shown)\n"
 		"  start     1F51h:1 = 1 (the device checks and starts the new program)\n"
-		"  verify    read 1F56h:1 again; with --expect ID it must equal ID\n"
+		"  verify    read 1F56h:1; it must equal ID (--expect) or else 1F55h:NODE\n"
+		"            (not compared when neither is set)\n"
 		"\n"
-		"  FILE              the program image (any size up to the daemon's transfer "
-		"limit,\n"
-		"                    1 MiB by default)\n"
-		"  --expect ID       expected software identification (as 1F55h:NODE), decimal or\n"
-		"                    0x hex\n"
-		"  --sdo-timeout MS  per-frame SDO timeout on the bus\n"
+		"  FILE              the program image: a regular file of 1 byte up to the\n"
+		"                    daemon's transfer limit (mailbox.max_transfer, 1 MiB)\n"
+		"  --expect ID       expected software identification, decimal or 0x hex\n"
+		"  --sdo-timeout MS  per-frame SDO timeout on the bus (at most 60000)\n"
 		"\n"
 		"A failed step is boot status I (program download failed): the step, the object\n"
 		"and the SDO abort with its meaning are printed and the exit code is 1 (4 when "
 		"the\n"
-		"node did not answer). Raise --timeout for large images (the whole download is\n"
-		"one exchange with the daemon).\n"
+		"node did not answer). Refused at once (exit 1): the node is booting or being\n"
+		"updated already (busy), the line has no manager (unsupported), the file is too\n"
+		"large for the daemon (too big). --timeout counts from the last progress event.\n"
 		"\n"
 		"Example:\n"
-		"  cogwctl --timeout 60000 program 0 1 firmware.bin --expect 0x3C2A91F0\n",
+		"  cogwctl program 0 1 firmware.bin --expect 0x3C2A91F0\n",
 	.run = run_program,
 };
 

@@ -246,6 +246,14 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 			snprintf(text, sizeof text, "manager %s -> %s (flags %02X)",
 				 co_mgr_state_to_string(e.prev), co_mgr_state_to_string(e.state),
 				 e.flags);
+		else if (m->code == MBX_EV_MGR_BOOT && e.status == 'J')
+			/* the configuration download: value = the concise DCF entry */
+			snprintf(text, sizeof text,
+				 "node %u boot %s %04X:%02X FAILED: status J (%s), entry %" PRIu32
+				 ", abort 0x%08" PRIX32 " (%s)",
+				 e.node, co_mgr_step_to_string(e.step), e.index, e.sub,
+				 co_mgr_status_to_string(e.status), e.value, e.abort,
+				 sdo_abort_to_string(e.abort));
 		else if (m->code == MBX_EV_MGR_BOOT && e.status && e.status != 'L')
 			snprintf(text, sizeof text,
 				 "node %u boot %s %04X:%02X FAILED: status %c (%s), abort "
@@ -274,6 +282,8 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 				cJSON_AddNumberToObject(o, "index", e.index);
 				cJSON_AddNumberToObject(o, "sub", e.sub);
 				cJSON_AddNumberToObject(o, "value", e.value);
+				if (e.status == 'J')
+					cJSON_AddNumberToObject(o, "entry", e.value);
 				cJSON_AddNumberToObject(o, "expected", e.expected);
 				cJSON_AddBoolToObject(o, "done", e.done);
 				cJSON_AddBoolToObject(o, "mandatory", e.mandatory);

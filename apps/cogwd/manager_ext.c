@@ -17,6 +17,26 @@
 #include "lines/log.h"
 #include "mailbox/proto.h"
 
+/*
+ * A manual program update asked for over the mailbox (MBX_CMD_MGR_PROGRAM):
+ * the request waits here until the node's software manager job ends. A
+ * chunked image stays in the mailbox's transfer slot until the request is
+ * answered; one that came in a single message lives only during dispatch
+ * and is copied into `copy` (the largest single-message image, allocated
+ * at setup). Two at a time per line, like the mailbox's default transfer
+ * slots: more -> BUSY.
+ */
+#define MGR_PROGRAM_MAX 2
+
+struct mgr_program {
+	bool used;
+	uint8_t node;
+	mbx_reply_to reply;
+	const uint8_t *image;
+	uint32_t size;
+	uint8_t *copy;
+};
+
 struct mgr_line {
 	const cogw_line_config *lc;
 	co_manager *mgr;
@@ -24,11 +44,21 @@ struct mgr_line {
 	co_swmgr_line swm;
 	line *l; /* while attached: progress events go to its mailbox */
 	char name[COGW_NAME_MAX];
+	struct mgr_program prog[MGR_PROGRAM_MAX];
+	size_t copy_cap; /* bytes of each prog[].copy */
 };
 
 struct mgr_state {
 	struct mgr_line lines[COGW_LINES_MAX];
 };
+
+static struct mgr_program *program_of(struct mgr_line *ml, uint8_t node_id)
+{
+	for (unsigned i = 0; i < MGR_PROGRAM_MAX; i++)
+		if (ml->prog[i].used && ml->prog[i].node == node_id)
+			return &ml->prog[i];
+	return NULL;
+}
 
 /* The 302-3 job ended: the boot slave process goes on (J on failure). */
 static void cfgm_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
@@ -53,7 +83,7 @@ static void cfgm_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
 			 ml->name, r->node_id);
 	if (ml->mgr)
 		(void)co_manager_configure_done(ml->mgr, r->node_id, abort, r->index, r->sub,
-						now_us);
+						r->entry, now_us);
 }
 
 /* 1F58h:n: the images read from the files of nodes[].program at load. */
@@ -82,11 +112,32 @@ static int image_read(void *ctx, uint8_t node_id, uint32_t offset, uint8_t *buf,
 	return (int)len;
 }
 
+/* The image of a manual update (MBX_CMD_MGR_PROGRAM), read from the
+ * request's data. */
+static uint32_t program_size(void *ctx, uint8_t node_id)
+{
+	const struct mgr_program *p = ctx;
+	return p->used && p->node == node_id ? p->size : 0;
+}
+
+static int program_read(void *ctx, uint8_t node_id, uint32_t offset, uint8_t *buf, uint32_t len)
+{
+	const struct mgr_program *p = ctx;
+	if (!p->used || p->node != node_id || offset > p->size)
+		return -EINVAL;
+	if (len > p->size - offset)
+		len = p->size - offset;
+	memcpy(buf, p->image + offset, len);
+	return (int)len;
+}
+
 /* Progress of a program download: an MGR_NODE event "program" (value =
- * bytes sent, expected = image size) and a log line at the end. */
+ * bytes sent, expected = image size; corr = the MGR_PROGRAM request of a
+ * manual update, 0 during the boot) and a log line at the end. */
 static void swm_progress(void *ctx, uint8_t node_id, uint32_t sent, uint32_t total, uint64_t now_us)
 {
 	struct mgr_line *ml = ctx;
+	const struct mgr_program *p = program_of(ml, node_id);
 	mbx_ev_mgr w = {
 		.node = node_id, .what = CO_MGR_NODE_PROGRAM, .value = sent, .expected = total
 	};
@@ -95,7 +146,30 @@ static void swm_progress(void *ctx, uint8_t node_id, uint32_t sent, uint32_t tot
 		cogw_log(COGW_LOG_INFO, "line %s: node %u: program image sent (%u bytes)", ml->name,
 			 node_id, (unsigned)total);
 	if (ml->l)
-		(void)mbx_server_publish(line_mbx(ml->l), MBX_EV_MGR_NODE, 0, &w, sizeof w);
+		(void)mbx_server_publish(line_mbx(ml->l), MBX_EV_MGR_NODE, p ? p->reply.corr : 0,
+					 &w, sizeof w);
+}
+
+/* A manual update ended: answer its requester (a gone client's answer is
+ * discarded by the mailbox) and free the entry. */
+static void program_answer(struct mgr_line *ml, struct mgr_program *p, const co_swmgr_result *r)
+{
+	mbx_mgr_program_resp a = {
+		.status = r->outcome == CO_SWMGR_UPDATED ? 0
+			  : r->status                    ? r->status
+							 : 'I',
+		.step = r->step,
+		.index = r->index,
+		.sub = r->sub,
+		.abort = r->outcome == CO_SWMGR_CANCELLED && !r->abort ? 0x08000000u : r->abort,
+		.found = r->found,
+		.expected = r->expected,
+		.bytes = r->bytes,
+	};
+	if (ml->l)
+		(void)mbx_server_respond(line_mbx(ml->l), &p->reply, 0, 0, &a, sizeof a);
+	p->used = false;
+	p->image = NULL;
 }
 
 /* The 302-3 software check/update ended: the boot slave process goes on
@@ -103,6 +177,7 @@ static void swm_progress(void *ctx, uint8_t node_id, uint32_t sent, uint32_t tot
 static void swm_done(void *ctx, const co_swmgr_result *r, uint64_t now_us)
 {
 	struct mgr_line *ml = ctx;
+	struct mgr_program *p = program_of(ml, r->node_id);
 	char status = r->outcome == CO_SWMGR_FAILED_STATUS ? r->status
 		      : r->outcome == CO_SWMGR_CANCELLED   ? 'I'
 							   : 0;
@@ -119,6 +194,10 @@ static void swm_done(void *ctx, const co_swmgr_result *r, uint64_t now_us)
 	else
 		cogw_log(COGW_LOG_INFO, "line %s: node %u: software %08X as expected", ml->name,
 			 r->node_id, (unsigned)r->found);
+	if (p) { /* a manual update, not the boot's check software step */
+		program_answer(ml, p, r);
+		return;
+	}
 	if (ml->mgr)
 		(void)co_manager_software_done(ml->mgr, r->node_id, status, r->abort, r->index,
 					       r->sub, now_us);
@@ -168,6 +247,7 @@ static void mgr_detach(void *ctx, line *l)
 {
 	struct mgr_line *ml = ctx;
 	(void)l;
+	ml->l = NULL; /* the line is stopping: nobody is answered any more */
 	co_cfgmgr_line_cancel_all(&ml->cfgm, line_loop_now_us(l));
 	co_swmgr_line_cancel_all(&ml->swm, line_loop_now_us(l));
 	co_manager_destroy(ml->mgr);
@@ -334,6 +414,63 @@ static int status_of(int rc)
 	}
 }
 
+/*
+ * MBX_CMD_MGR_PROGRAM: the software manager's sequence for one node with
+ * the image of the request (validated by the mailbox: node 1..127, an
+ * image of 1 byte .. max_transfer). Answered when the job ends; a refusal
+ * at once: PARAM for the line's own node-ID, BUSY when the node's job
+ * runs (its boot or another update) or MGR_PROGRAM_MAX updates run,
+ * STATE when no SDO request can be queued.
+ */
+static void program_request(struct mgr_line *ml, line *l, const mbx_request *req, uint64_t now)
+{
+	mbx_server *srv = line_mbx(l);
+	mbx_mgr_program_req r;
+	struct mgr_program *p = NULL;
+	int rc;
+
+	memcpy(&r, req->payload, sizeof r);
+	if (r.node == co_node_id(line_node(l)) || !req->data_len || req->data_len > UINT32_MAX) {
+		(void)mbx_server_respond(srv, &req->reply, MBX_E_PARAM, 0, NULL, 0);
+		return;
+	}
+	if (co_swmgr_running(&ml->swm.job[r.node - 1]) || program_of(ml, r.node)) {
+		(void)mbx_server_respond(srv, &req->reply, MBX_E_BUSY, 0, NULL, 0);
+		return;
+	}
+	for (unsigned i = 0; i < MGR_PROGRAM_MAX && !p; i++)
+		if (!ml->prog[i].used)
+			p = &ml->prog[i];
+	if (!p || (!req->reply.slot && req->data_len > ml->copy_cap)) {
+		(void)mbx_server_respond(srv, &req->reply, MBX_E_BUSY, 0, NULL, 0);
+		return;
+	}
+	if (req->reply.slot) {
+		p->image = req->data; /* chunked: valid until answered */
+	} else {
+		memcpy(p->copy, req->data, req->data_len);
+		p->image = p->copy;
+	}
+	p->size = (uint32_t)req->data_len;
+	p->node = r.node;
+	p->reply = req->reply;
+	p->used = true;
+	const co_swmgr_source src = { .size = program_size, .read = program_read, .ctx = p };
+	uint32_t timeout = ml->swm.sdo_timeout_ms;
+	if (r.sdo_timeout_ms)
+		ml->swm.sdo_timeout_ms = r.sdo_timeout_ms;
+	cogw_log(COGW_LOG_NOTICE, "line %s: node %u: program update requested (%u bytes)", ml->name,
+		 r.node, (unsigned)p->size);
+	rc = co_swmgr_line_program(&ml->swm, r.node, &src, r.expected, now);
+	ml->swm.sdo_timeout_ms = timeout;
+	if (rc < 0) {
+		p->used = false;
+		p->image = NULL;
+		(void)mbx_server_respond(srv, &req->reply,
+					 rc == -EBUSY ? MBX_E_BUSY : status_of(rc), 0, NULL, 0);
+	}
+}
+
 static void mgr_on_command(void *ctx, line *l, const mbx_request *req)
 {
 	struct mgr_line *ml = ctx;
@@ -375,6 +512,9 @@ static void mgr_on_command(void *ctx, line *l, const mbx_request *req)
 	case MBX_CMD_MGR_RESET_COUNTERS:
 		co_manager_reset_counters(ml->mgr);
 		break;
+	case MBX_CMD_MGR_PROGRAM:
+		program_request(ml, l, req, now);
+		return;
 	default:
 		rc = -EINVAL;
 		(void)mbx_server_respond(srv, &req->reply, MBX_E_UNKNOWN_CMD, 0, NULL, 0);
@@ -389,10 +529,21 @@ static const line_ext_ops mgr_ops = {
 	.detach = mgr_detach,
 	.on_core_event = mgr_on_core_event,
 	.cmd_first = MBX_CMD_MGR_STATUS,
-	.cmd_last = MBX_CMD_MGR_RESET_COUNTERS,
+	.cmd_last = MBX_CMD_MGR_PROGRAM,
 	.on_command = mgr_on_command,
 	.poll = mgr_poll,
 };
+
+static void mgr_teardown(void *state)
+{
+	struct mgr_state *st = state;
+	if (!st)
+		return;
+	for (unsigned i = 0; i < COGW_LINES_MAX; i++)
+		for (unsigned k = 0; k < MGR_PROGRAM_MAX; k++)
+			free(st->lines[i].prog[k].copy);
+	free(st);
+}
 
 static int mgr_setup(const cogw_config *cfg, void **state)
 {
@@ -408,8 +559,23 @@ static int mgr_setup(const cogw_config *cfg, void **state)
 	if (!st)
 		return -ENOMEM;
 	for (size_t i = 0; i < cfg->n_lines; i++) {
-		st->lines[i].lc = &cfg->lines[i];
-		memcpy(st->lines[i].name, cfg->lines[i].name, sizeof st->lines[i].name);
+		struct mgr_line *ml = &st->lines[i];
+		ml->lc = &cfg->lines[i];
+		memcpy(ml->name, cfg->lines[i].name, sizeof ml->name);
+		if (!ml->lc->manager.enabled)
+			continue;
+		/* the largest image that arrives in one message (not chunked) */
+		ml->copy_cap = cfg->mailbox.msg_size > MBX_HDR_SIZE + sizeof(mbx_mgr_program_req)
+				       ? cfg->mailbox.msg_size - MBX_HDR_SIZE -
+						 sizeof(mbx_mgr_program_req)
+				       : 0;
+		for (unsigned k = 0; k < MGR_PROGRAM_MAX; k++) {
+			ml->prog[k].copy = malloc(ml->copy_cap ? ml->copy_cap : 1);
+			if (!ml->prog[k].copy) {
+				mgr_teardown(st);
+				return -ENOMEM;
+			}
+		}
 	}
 	*state = st;
 	return 0;
@@ -423,11 +589,6 @@ static void mgr_line_ext(void *state, unsigned line_no, line_ext *out)
 		return;
 	out->ops = &mgr_ops;
 	out->ctx = &st->lines[line_no];
-}
-
-static void mgr_teardown(void *state)
-{
-	free(state);
 }
 
 const cogwd_ext_provider cogwd_manager_provider = {

@@ -6,8 +6,13 @@
  *  - a node whose "config" is etc/transducer.dcf is configured while it
  *    boots (heartbeat 500 ms, TPDO 1 event timer 500 ms, 1020h = the
  *    configured date/time) and then started;
+ *  - a 20-entry concise DCF (heartbeat, TPDO 1 remapped, calibration
+ *    parameters) downloaded during the boot and read back byte-exact, then
+ *    stored by the device (1010h); on the next boot of the node the
+ *    download is skipped because its 1020h matches 1F26h/1F27h;
  *  - a configuration whose entry 7 the device refuses stops the boot with
- *    J (logged with the entry and index:sub) and the node is not started.
+ *    J (logged, and in the boot event and the node's diagnostics with the
+ *    entry number and index:sub) and the node is not started.
  *
  *   make build/san/tests/integration/test_config_boot build/san/bin/cogwd \
  *        build/san/bin/cosim build/san/bin/cogwctl
@@ -24,6 +29,7 @@
 
 #include <cjson/cJSON.h>
 
+#include "core/cdcf.h"
 #include "tests/integration/support/daemon.h"
 #include "tests/integration/support/proc.h"
 #include "unity.h"
@@ -93,8 +99,12 @@ static bool wait_state(const char *state, unsigned ms)
 	return false;
 }
 
-static void start(const char *node_config)
+/* The daemon with node 1 configured by node_config; with mon, a monitor of
+ * the boot and manager events (JSON, to the file mon) runs from before the
+ * device is switched on. */
+static void start_monitored(const char *node_config, char *mon, size_t cap)
 {
+	char cmd[700];
 	snprintf(cfg, sizeof cfg,
 		 "{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 127,"
 		 " \"sdo_clients\": 4,"
@@ -105,8 +115,21 @@ static void start(const char *node_config)
 		 node_config);
 	TEST_ASSERT_EQUAL_INT(
 		0, daemon_start(&dmn, &(daemon_opts){ .config_json = cfg, .n_lines = 3 }));
+	if (mon) {
+		snprintf(mon, cap, "%s/monitor.out", dmn.dir);
+		snprintf(cmd, sizeof cmd,
+			 "%s --json monitor --line 0 --class manager,boot --duration 60 >%s 2>&1 &",
+			 CTL, mon);
+		TEST_ASSERT_EQUAL_INT(0, system(cmd));
+		TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "watching", 5000), "no monitor");
+	}
 	const char *devices[] = { "etc/devices/sti-pressure.json", NULL };
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, NULL));
+}
+
+static void start(const char *node_config)
+{
+	start_monitored(node_config, NULL, 0);
 }
 
 /* An independent CRC-32 (IEEE 802.3): the simulated device's software
@@ -269,17 +292,134 @@ static void test_dcf_downloaded_during_boot(void)
 	TEST_ASSERT_TRUE(wait_state("operational", 20000));
 }
 
+/* 20 entries as the transducer takes them: heartbeat, TPDO 1 disabled,
+ * remapped to two objects and enabled again with new timing, 2000h:1..8,
+ * 2004h:1, 2005h:1 (REAL32 calibration parameters). */
+static const struct cfg_entry {
+	uint16_t index;
+	uint8_t sub;
+	uint8_t size;
+	uint8_t data[4];
+} twenty[] = {
+	{ 0x1017, 0, 2, { 0xBC, 0x02 } },             /* 700 ms */
+	{ 0x1800, 1, 4, { 0x81, 0x01, 0x00, 0x80 } }, /* TPDO 1 off */
+	{ 0x1A00, 0, 1, { 0 } },
+	{ 0x1A00, 1, 4, { 0x20, 0x00, 0x03, 0x20 } }, /* 2003h, 32 bits */
+	{ 0x1A00, 2, 4, { 0x20, 0x00, 0x03, 0x20 } }, /* twice: 8 bytes */
+	{ 0x1A00, 0, 1, { 2 } },
+	{ 0x1800, 2, 1, { 254 } },
+	{ 0x1800, 3, 2, { 0xC8, 0x00 } },             /* inhibit 20 ms */
+	{ 0x1800, 5, 2, { 0xEE, 0x02 } },             /* event 750 ms */
+	{ 0x1800, 1, 4, { 0x81, 0x01, 0x00, 0x00 } }, /* TPDO 1 on */
+	{ 0x2000, 1, 4, { 0x00, 0x00, 0xC8, 0x41 } }, /* 25.0 */
+	{ 0x2000, 2, 4, { 0x00, 0x00, 0x80, 0x3F } },
+	{ 0x2000, 3, 4, { 0x00, 0x00, 0x00, 0x40 } },
+	{ 0x2000, 4, 4, { 0x00, 0x00, 0x40, 0x40 } },
+	{ 0x2000, 5, 4, { 0x00, 0x00, 0x80, 0x40 } },
+	{ 0x2000, 6, 4, { 0x00, 0x00, 0xA0, 0x40 } },
+	{ 0x2000, 7, 4, { 0x00, 0x00, 0xC0, 0x40 } },
+	{ 0x2000, 8, 4, { 0x00, 0x00, 0xE0, 0x40 } },
+	{ 0x2004, 1, 4, { 0x00, 0x00, 0x00, 0x3F } }, /* zero offset 0.5 */
+	{ 0x2005, 1, 4, { 0x00, 0x00, 0xC6, 0x42 } }, /* span 99.0 */
+};
+#define N_TWENTY (sizeof twenty / sizeof twenty[0])
+
+/* The bytes node 1 holds in index:sub, as lowercase hex "xx xx ..". */
+static void read_hex(uint16_t index, uint8_t sub, char *hex, size_t cap)
+{
+	ctl_run("--json sdo read 0 1 %04X %u", index, sub);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	cJSON *o = cJSON_Parse(res.out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(o, res.out);
+	cJSON *h = cJSON_GetObjectItem(o, "hex");
+	TEST_ASSERT_TRUE_MESSAGE(cJSON_IsString(h), res.out);
+	snprintf(hex, cap, "%s", h->valuestring);
+	cJSON_Delete(o);
+}
+
+static void test_twenty_entries_byte_exact_then_skipped_on_the_next_boot(void)
+{
+	static uint8_t cdc[1024];
+	char path[128], node_cfg[300], mon[200];
+	co_cdcf_writer w;
+
+	co_cdcf_writer_init(&w, cdc, sizeof cdc);
+	for (size_t i = 0; i < N_TWENTY; i++)
+		co_cdcf_writer_add(&w, twenty[i].index, twenty[i].sub, twenty[i].data,
+				   twenty[i].size);
+	long len = co_cdcf_writer_finish(&w);
+	TEST_ASSERT_TRUE(len > 0);
+	TEST_ASSERT_EQUAL_UINT32(20, w.count);
+	snprintf(path, sizeof path, "/tmp/cogw-test-twenty-%d.cdc", (int)getpid());
+	FILE *f = fopen(path, "wb");
+	TEST_ASSERT_NOT_NULL(f);
+	TEST_ASSERT_EQUAL_size_t((size_t)len, fwrite(cdc, 1, (size_t)len, f));
+	fclose(f);
+	snprintf(node_cfg, sizeof node_cfg,
+		 "{\"concise\": \"%s\", \"date\": 15100, \"time\": 7200000, \"store\": true}",
+		 path);
+	start_monitored(node_cfg, mon, sizeof mon);
+	if (!wait_state("operational", 30000)) {
+		proc_dump_log(dmn.log_path, 40);
+		TEST_FAIL_MESSAGE("node 1 was not started");
+	}
+	TEST_ASSERT_TRUE_MESSAGE(
+		file_wait_contains(dmn.log_path, "node 1: configured (20 entries)", 5000),
+		"no 'configured (20 entries)' line in the daemon log");
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "\"step\":\"configure\"", 5000),
+				 "no configure step in the boot events");
+
+	/* byte-exact: the last write of each index:sub is what the node holds */
+	for (size_t i = 0; i < N_TWENTY; i++) {
+		size_t last = i;
+		for (size_t k = i + 1; k < N_TWENTY; k++)
+			if (twenty[k].index == twenty[i].index && twenty[k].sub == twenty[i].sub)
+				last = k;
+		if (last != i)
+			continue;
+		char want[16] = "", got[64], what[96];
+		for (unsigned b = 0; b < twenty[i].size; b++)
+			sprintf(want + strlen(want), "%s%02x", b ? " " : "", twenty[i].data[b]);
+		read_hex(twenty[i].index, twenty[i].sub, got, sizeof got);
+		snprintf(what, sizeof what, "entry %zu (%04X:%02X)", i + 1, twenty[i].index,
+			 twenty[i].sub);
+		TEST_ASSERT_EQUAL_STRING_MESSAGE(want, got, what);
+	}
+	TEST_ASSERT_EQUAL_DOUBLE(15100, read_value("1020", "1", "u32"));
+	TEST_ASSERT_EQUAL_DOUBLE(7200000, read_value("1020", "2", "u32"));
+
+	/* the next boot of the node: 1020h (stored by the device with the rest)
+	 * matches, so nothing is downloaded - a parameter changed behind the
+	 * manager's back keeps its value */
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 2000 1 r32 30.5")->exit);
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("boot 0 1")->exit);
+	TEST_ASSERT_TRUE_MESSAGE(
+		file_wait_contains(dmn.log_path,
+				   "node 1: configuration unchanged (1020h matches 1F26h/1F27h)",
+				   30000),
+		"the second boot did not skip the download");
+	TEST_ASSERT_TRUE(wait_state("operational", 30000));
+	TEST_ASSERT_EQUAL_DOUBLE(30.5, read_value("2000", "1", "r32"));
+	char got[64];
+	read_hex(0x1017, 0, got, sizeof got); /* stored: kept over the reset */
+	TEST_ASSERT_EQUAL_STRING("bc 02", got);
+	unlink(path);
+}
+
 static void test_abort_on_entry_7_is_j(void)
 {
-	start("{\"entries\": ["
-	      "{\"index\": \"0x1017\", \"type\": \"UNSIGNED16\", \"value\": 700},"
-	      "{\"index\": \"0x2004\", \"sub\": 1, \"type\": \"REAL32\", \"value\": 0.5},"
-	      "{\"index\": \"0x2005\", \"sub\": 1, \"type\": \"REAL32\", \"value\": 99.0},"
-	      "{\"index\": \"0x1800\", \"sub\": 5, \"type\": \"UNSIGNED16\", \"value\": 800},"
-	      "{\"index\": \"0x2000\", \"sub\": 1, \"type\": \"REAL32\", \"value\": 1.0},"
-	      "{\"index\": \"0x2000\", \"sub\": 2, \"type\": \"REAL32\", \"value\": 2.0},"
-	      "{\"index\": \"0x1000\", \"type\": \"UNSIGNED32\", \"value\": 1},"
-	      "{\"index\": \"0x1017\", \"type\": \"UNSIGNED16\", \"value\": 900}]}");
+	char mon[200];
+	start_monitored(
+		"{\"entries\": ["
+		"{\"index\": \"0x1017\", \"type\": \"UNSIGNED16\", \"value\": 700},"
+		"{\"index\": \"0x2004\", \"sub\": 1, \"type\": \"REAL32\", \"value\": 0.5},"
+		"{\"index\": \"0x2005\", \"sub\": 1, \"type\": \"REAL32\", \"value\": 99.0},"
+		"{\"index\": \"0x1800\", \"sub\": 5, \"type\": \"UNSIGNED16\", \"value\": 800},"
+		"{\"index\": \"0x2000\", \"sub\": 1, \"type\": \"REAL32\", \"value\": 1.0},"
+		"{\"index\": \"0x2000\", \"sub\": 2, \"type\": \"REAL32\", \"value\": 2.0},"
+		"{\"index\": \"0x1000\", \"type\": \"UNSIGNED32\", \"value\": 1},"
+		"{\"index\": \"0x1017\", \"type\": \"UNSIGNED16\", \"value\": 900}]}",
+		mon, sizeof mon);
 	TEST_ASSERT_TRUE_MESSAGE(
 		file_wait_contains(dmn.log_path,
 				   "node 1: configuration failed at entry 7 (1000:00)", 30000),
@@ -287,12 +427,25 @@ static void test_abort_on_entry_7_is_j(void)
 	TEST_ASSERT_FALSE(wait_state("operational", 3000));
 	TEST_ASSERT_EQUAL_DOUBLE(700, read_value("1017", "0", "u16")); /* entry 8 not written */
 	TEST_ASSERT_EQUAL_DOUBLE(800, read_value("1800", "5", "u16"));
+	/* the boot event on the mailbox: J with the entry and its index:sub */
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "\"status\":\"J\"", 5000),
+				 "no boot event with J");
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "\"index\":4096,\"sub\":0", 1000),
+				 "the J event does not name 1000:00");
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "\"entry\":7", 1000),
+				 "the J event does not name entry 7");
+	/* and the node's diagnostics */
+	ctl_run("diag 0 1");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "status J"), res.out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "1000:00, entry 7"), res.out);
 }
 
 int main(void)
 {
 	UNITY_BEGIN();
 	RUN_TEST(test_dcf_downloaded_during_boot);
+	RUN_TEST(test_twenty_entries_byte_exact_then_skipped_on_the_next_boot);
 	RUN_TEST(test_abort_on_entry_7_is_j);
 	RUN_TEST(test_program_updated_during_boot);
 	RUN_TEST(test_refused_image_is_i);

@@ -7,7 +7,9 @@
  * started (its CRC-32 checked by the device and shown in 1F56h:1);
  * downloads refused while running or before a clear; a corrupted image
  * refused on start; 1020h written and read back; etc/transducer.dcf's
- * concise DCF accepted by the device entry by entry.
+ * concise DCF accepted by the device entry by entry; cogwctl program, the
+ * software manager of the daemon's line 0 (MGR_PROGRAM), with progress,
+ * verification and refusals.
  *
  *   make build/san/tests/integration/test_cosim_program build/san/bin/cogwd \
  *        build/san/bin/cosim build/san/bin/cogwctl
@@ -112,14 +114,21 @@ static double read_value(const char *obj, const char *sub, const char *type)
 	return d;
 }
 
+/* Line 0 has a manager (its software manager serves cogwctl program) that
+ * boots no node of its own: the tests drive node 1 themselves. Line 1 has
+ * none. */
+static const char config[] =
+	"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 127,"
+	" \"sdo_clients\": 4, \"manager\": {\"sdo_timeout_ms\": 2000}, \"nodes\": []},"
+	" {\"interface\": \"vcan1\", \"bitrate\": 500000, \"node_id\": 127},"
+	" {\"interface\": \"vcan2\", \"bitrate\": 500000, \"node_id\": 127}]}";
+
 void setUp(void)
 {
 	memset(&dmn, 0, sizeof dmn);
 	memset(&sim, 0, sizeof sim);
-	/* no manager: it would start node 1 again whenever cogwctl program
-	 * stops it (keep_op in the default configuration) */
 	TEST_ASSERT_EQUAL_INT(
-		0, daemon_start(&dmn, &(daemon_opts){ .config_file = HAND_STARTED, .n_lines = 3 }));
+		0, daemon_start(&dmn, &(daemon_opts){ .config_json = config, .n_lines = 3 }));
 	const char *devices[] = { "etc/devices/sti-pressure.json", NULL };
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, NULL));
 }
@@ -183,44 +192,51 @@ static void test_program_download_start_and_refusals(void)
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "06090030"), res.err);
 }
 
-/* cogwctl program: the software manager's steps through the daemon
- * (check, stop, clear, 64 KiB block download, start, verify), each
- * reported as it ends; a refused image is status I with the abort. */
+/* cogwctl program: the daemon's software manager (MGR_PROGRAM) runs stop,
+ * clear, 64 KiB block download with progress events, start and verify; a
+ * refused image is status I with the step and abort; refusals up front. */
 static void test_cogwctl_program(void)
 {
-	char good[200], bad[200];
+	char good[200], bad[200], empty[200], cmd[600], bg_out[200];
 	uint32_t crc = write_image("good.bin", false, good, sizeof good);
 	write_image("bad.bin", true, bad, sizeof bad);
 
 	/* the first update of a fresh device, verified against --expect */
 	ctl_run("program 0 1 %s --expect 0x%08X", good, (unsigned)crc);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
-	const char *steps[] = { "check", "stop", "clear", "download", "start", "verify" };
-	const char *at = res.out;
-	for (size_t i = 0; i < sizeof steps / sizeof steps[0]; i++) {
-		const char *p = strstr(at, steps[i]);
-		TEST_ASSERT_NOT_NULL_MESSAGE(p, res.out); /* in this order */
-		at = p;
-	}
+	/* a progress line about every 4 KiB (as the block transfer pulls data) */
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, " of 65536 bytes (6 %)"), res.out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "download  65536 of 65536 bytes (100 %)"),
+				     res.out);
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "65536 bytes to 1F50:01 by block transfer"),
 				     res.out);
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "program updated and running"), res.out);
 	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
 	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
+	TEST_ASSERT_TRUE_MESSAGE(
+		file_wait_contains(dmn.log_path, "node 1: program updated (65536 bytes)", 2000),
+		"no 'program updated' line in the daemon log");
 
-	/* again, over a running program (stopped and cleared first), --json */
+	/* again, over a running program (stopped and cleared first), --json:
+	 * the progress events, the last with every byte */
 	ctl_run("--json program 0 1 %s --expect %u", good, (unsigned)crc);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
 	cJSON *o = cJSON_Parse(res.out);
 	TEST_ASSERT_NOT_NULL_MESSAGE(o, res.out);
 	TEST_ASSERT_TRUE(cJSON_IsTrue(cJSON_GetObjectItem(o, "ok")));
+	TEST_ASSERT_TRUE(cJSON_IsTrue(cJSON_GetObjectItem(o, "verified")));
 	TEST_ASSERT_EQUAL_INT(65536, cJSON_GetObjectItem(o, "size")->valueint);
-	TEST_ASSERT_EQUAL_INT(6, cJSON_GetArraySize(cJSON_GetObjectItem(o, "steps")));
+	cJSON *prog = cJSON_GetObjectItem(o, "progress");
+	int n = cJSON_GetArraySize(prog);
+	TEST_ASSERT_EQUAL_INT(16, n); /* one per 4 KiB step reached */
+	TEST_ASSERT_EQUAL_INT(
+		65536, cJSON_GetObjectItem(cJSON_GetArrayItem(prog, n - 1), "sent")->valueint);
 	cJSON_Delete(o);
 
-	/* the wrong identification expected: I after the start */
+	/* the wrong identification expected: I at the verify */
 	ctl_run("program 0 1 %s --expect 0x12345678", good);
 	TEST_ASSERT_EQUAL_INT(1, res.exit);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "verify"), res.err);
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "status I"), res.err);
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "expected 0x12345678"), res.err);
 
@@ -228,14 +244,52 @@ static void test_cogwctl_program(void)
 	ctl_run("program 0 1 %s", bad);
 	TEST_ASSERT_EQUAL_INT(1, res.exit);
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "status I"), res.err);
-	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "1F51:01 = 1"), res.err);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "start (1F51:01 = 1)"), res.err);
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "08000020"), res.err);
 	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F51", "1", "u8"));
 	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F56", "1", "u32"));
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(dmn.log_path, "node 1: software I", 2000),
+				 "no status I in the daemon log");
 
-	/* bad arguments */
+	/* one update of a node at a time: a second one while the first
+	 * downloads is refused (busy), the first ends well */
+	snprintf(bg_out, sizeof bg_out, "%s/bg.out", dmn.dir);
+	snprintf(cmd, sizeof cmd, "%s --timeout 60000 program 0 1 %s >%s 2>&1 &", CTL, good,
+		 bg_out);
+	TEST_ASSERT_EQUAL_INT(0, system(cmd));
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(bg_out, "download  ", 20000),
+				 "the first update shows no progress");
+	ctl_run("program 0 1 %s", good);
+	TEST_ASSERT_EQUAL_INT(1, res.exit);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "being updated already"), res.err);
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(bg_out, "program updated and running", 20000),
+				 "the first update did not end well");
+
+	/* refusals before anything reaches the bus */
 	TEST_ASSERT_EQUAL_INT(2, ctl_run("program 0 1")->exit);
 	TEST_ASSERT_EQUAL_INT(2, ctl_run("program 0 1 %s --expect 0x1FFFFFFFF", good)->exit);
+	TEST_ASSERT_EQUAL_INT(2, ctl_run("program 0 0 %s", good)->exit);
+	TEST_ASSERT_EQUAL_INT(2, ctl_run("program 0 128 %s", good)->exit);
+	TEST_ASSERT_EQUAL_INT(2, ctl_run("program 0 1 %s/no-such.bin", dmn.dir)->exit);
+	ctl_run("program 0 1 %s", dmn.dir); /* a directory */
+	TEST_ASSERT_EQUAL_INT(2, res.exit);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "not a regular file"), res.err);
+	snprintf(empty, sizeof empty, "%s/empty.bin", dmn.dir);
+	FILE *f = fopen(empty, "wb");
+	TEST_ASSERT_NOT_NULL(f);
+	fclose(f);
+	ctl_run("program 0 1 %s", empty);
+	TEST_ASSERT_EQUAL_INT(2, res.exit);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "not 0"), res.err);
+	/* the daemon: its own node-ID, a line without a manager */
+	ctl_run("program 0 127 %s", good);
+	TEST_ASSERT_EQUAL_INT(1, res.exit);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "program update of node 127"), res.err);
+	ctl_run("program 1 1 %s", good);
+	TEST_ASSERT_EQUAL_INT(1, res.exit);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "no manager"), res.err);
+	/* the device kept the good program of the background update */
+	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
 }
 
 static void test_verify_configuration_object(void)

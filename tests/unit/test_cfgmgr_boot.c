@@ -80,7 +80,7 @@ static void cfg_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
 				  r->outcome == CO_CFGMGR_FAILED_J    ? r->abort
 				  : r->outcome == CO_CFGMGR_CANCELLED ? 0x08000000u
 								      : 0,
-				  r->index, r->sub, now_us);
+				  r->index, r->sub, r->entry, now_us);
 }
 
 static uint32_t on_restore(void *ctx, uint8_t sub, const co_od_access *a)
@@ -231,6 +231,7 @@ static void test_abort_on_entry_7_is_j_and_the_node_is_not_started(void)
 	TEST_ASSERT_NOT_NULL(e);
 	TEST_ASSERT_EQUAL_HEX16(0x2100, e->index);
 	TEST_ASSERT_EQUAL_UINT8(0, e->sub);
+	TEST_ASSERT_EQUAL_UINT32(7, e->value);          /* the entry number */
 	TEST_ASSERT_EQUAL_HEX32(0x06010002, e->abort);  /* read-only object */
 	TEST_ASSERT_EQUAL_UINT16(0, slave_u16(0x2007)); /* entry 8 never written */
 	TEST_ASSERT_NULL(mf_boot(&f, NODE, CO_MGR_STEP_START, 0));

@@ -206,16 +206,17 @@ static void test_s48_configure_hook_then_start(void)
 	TEST_ASSERT_EQUAL_INT(2, cfg_calls);
 	TEST_ASSERT_EQUAL(CO_MGR_BOOTING, mstate());
 	TEST_ASSERT_EQUAL_UINT(0, mf_sent(&f, 0x000, "01"));
-	TEST_ASSERT_EQUAL_INT(0, co_manager_configure_done(f.mgr, 2, 0, 0, 0, f.bus.now));
+	TEST_ASSERT_EQUAL_INT(0, co_manager_configure_done(f.mgr, 2, 0, 0, 0, 0, f.bus.now));
 	TEST_ASSERT_EQUAL_INT(
-		0, co_manager_configure_done(f.mgr, 3, 0x06020000, 0x2000, 1, f.bus.now));
-	TEST_ASSERT_EQUAL_INT(-ENOENT, co_manager_configure_done(f.mgr, 3, 0, 0, 0, f.bus.now));
+		0, co_manager_configure_done(f.mgr, 3, 0x06020000, 0x2000, 1, 4, f.bus.now));
+	TEST_ASSERT_EQUAL_INT(-ENOENT, co_manager_configure_done(f.mgr, 3, 0, 0, 0, 0, f.bus.now));
 	tb_advance(&f.bus, 1 * S);
 	const co_ev_mgr *e = mf_boot(&f, 3, CO_MGR_STEP_CONFIGURE, 'J');
 	TEST_ASSERT_NOT_NULL(e);
 	TEST_ASSERT_EQUAL_HEX32(0x06020000, e->abort);
 	TEST_ASSERT_EQUAL_HEX16(0x2000, e->index);
 	TEST_ASSERT_EQUAL_UINT8(1, e->sub);
+	TEST_ASSERT_EQUAL_UINT32(4, e->value); /* the concise DCF entry */
 	TEST_ASSERT_NOT_NULL(mf_boot(&f, 2, CO_MGR_STEP_START, 0));
 	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 1));

@@ -270,6 +270,36 @@ static void test_manager_commands(void)
 	n.node = 128;
 	h = cmd_hdr(MBX_CMD_MGR_BOOT);
 	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &n, sizeof n);
+
+	/* a manual program update: node range, an image of at least one byte,
+	 * the per-frame SDO timeout, reserved bytes */
+	uint8_t prog[sizeof(mbx_mgr_program_req) + 4] = { 0 };
+	mbx_mgr_program_req pr = { .node = 5, .expected = 0x3C2A91F0u, .sdo_timeout_ms = 500 };
+	h = cmd_hdr(MBX_CMD_MGR_PROGRAM);
+	TEST_ASSERT_TRUE(mbx_cmd_lookup(MBX_CMD_MGR_PROGRAM)->flags & MBX_CI_WRITE);
+	memcpy(prog, &pr, sizeof pr);
+	ASSERT_OK(h, prog, sizeof prog);
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, prog, sizeof pr); /* no image */
+	pr.node = 0;
+	memcpy(prog, &pr, sizeof pr);
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, prog, sizeof prog);
+	pr.node = 128;
+	memcpy(prog, &pr, sizeof pr);
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, prog, sizeof prog);
+	pr.node = 5;
+	pr.sdo_timeout_ms = MBX_PROGRAM_SDO_TIMEOUT_MAX + 1;
+	memcpy(prog, &pr, sizeof pr);
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, prog, sizeof prog);
+	pr.sdo_timeout_ms = 0;
+	pr.pad[1] = 1;
+	memcpy(prog, &pr, sizeof pr);
+	ASSERT_BAD(MBX_E_MALFORMED, MBX_BAD_RESERVED, h, prog, sizeof prog);
+	pr.pad[1] = 0;
+	memcpy(prog, &pr, sizeof pr);
+	h.flags = MBX_F_CHUNKED | MBX_F_MORE; /* a large image: chunked */
+	h.total = 65536;
+	ASSERT_OK(h, prog, sizeof prog);
+
 	TEST_ASSERT_EQUAL_UINT32(MBX_EVC_BOOT, mbx_event_class_of(MBX_EV_MGR_BOOT));
 	TEST_ASSERT_EQUAL_UINT32(MBX_EVC_MANAGER, mbx_event_class_of(MBX_EV_MGR_STATE));
 	TEST_ASSERT_EQUAL_STRING("manager", mbx_event_class_to_string(MBX_EVC_MANAGER));

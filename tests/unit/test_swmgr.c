@@ -380,6 +380,7 @@ static void test_i_when_the_device_refuses_the_image(void)
 	TEST_ASSERT_EQUAL_INT('I', last.status);
 	TEST_ASSERT_EQUAL_HEX16(0x1F51, last.index);
 	TEST_ASSERT_EQUAL_UINT8(1, last.sub);
+	TEST_ASSERT_EQUAL_INT(CO_SWMGR_START, last.step); /* refused on the start */
 	TEST_ASSERT_EQUAL_HEX32(0x08000020, last.abort);
 	TEST_ASSERT_EQUAL_UINT32(IMAGE_SIZE, last.bytes);
 	const co_ev_mgr *e = mf_boot(&f, NODE, CO_MGR_STEP_SOFTWARE, 'I');
@@ -423,17 +424,34 @@ static void test_manual_update_of_a_running_node(void)
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, co_nmt_get_state(slave->node));
 	co_swmgr_line_init(&manual, f.mp->node, &src, NULL, NULL);
 	manual.progress = sw_progress;
-	TEST_ASSERT_EQUAL_INT(-ENOENT, co_swmgr_line_program(&manual, NODE, f.bus.now));
+	TEST_ASSERT_EQUAL_INT(-ENOENT, co_swmgr_line_program(&manual, NODE, NULL, 0, f.bus.now));
 	make_image(NEW_ID, false);
-	TEST_ASSERT_EQUAL_INT(-EINVAL, co_swmgr_line_program(&manual, 0, f.bus.now));
-	TEST_ASSERT_EQUAL_INT(0, co_swmgr_line_program(&manual, NODE, f.bus.now));
-	TEST_ASSERT_EQUAL_INT(-EBUSY, co_swmgr_line_program(&manual, NODE, f.bus.now));
+	TEST_ASSERT_EQUAL_INT(-EINVAL, co_swmgr_line_program(&manual, 0, NULL, 0, f.bus.now));
+	TEST_ASSERT_EQUAL_INT(0, co_swmgr_line_program(&manual, NODE, NULL, 0, f.bus.now));
+	TEST_ASSERT_EQUAL_INT(-EBUSY, co_swmgr_line_program(&manual, NODE, NULL, 0, f.bus.now));
 	tb_advance(&f.bus, 3 * S);
 	TEST_ASSERT_FALSE(co_swmgr_running(&manual.job[NODE - 1]));
 	TEST_ASSERT_EQUAL_INT(CO_SWMGR_UPDATED, manual.job[NODE - 1].res.outcome);
 	TEST_ASSERT_EQUAL_HEX32(NEW_ID, slave_id());
 	TEST_ASSERT_EQUAL_UINT(1, commands[CO_SWMGR_CTL_STOP]); /* stopped first */
 	TEST_ASSERT_EQUAL_UINT32(IMAGE_SIZE, progress_last);
+
+	/* an image given with the request (the mailbox's MGR_PROGRAM) and an
+	 * expected identification the new program does not report: I at the
+	 * verify, the program itself was sent and started */
+	progress_calls = 0;
+	progress_last = 0;
+	TEST_ASSERT_EQUAL_INT(0,
+			      co_swmgr_line_program(&manual, NODE, &src, 0x12345678u, f.bus.now));
+	tb_advance(&f.bus, 3 * S);
+	const co_swmgr_result *r = &manual.job[NODE - 1].res;
+	TEST_ASSERT_EQUAL_INT(CO_SWMGR_FAILED_STATUS, r->outcome);
+	TEST_ASSERT_EQUAL_INT('I', r->status);
+	TEST_ASSERT_EQUAL_INT(CO_SWMGR_VERIFY, r->step);
+	TEST_ASSERT_EQUAL_HEX16(0x1F56, r->index);
+	TEST_ASSERT_EQUAL_HEX32(0x12345678u, r->expected);
+	TEST_ASSERT_EQUAL_HEX32(NEW_ID, r->found);
+	TEST_ASSERT_EQUAL_UINT32(IMAGE_SIZE, r->bytes);
 	co_swmgr_line_cancel_all(&manual, f.bus.now);
 }
 
