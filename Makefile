@@ -73,11 +73,11 @@ INTEG_BINS := $(patsubst tests/integration/%.c,$(SAN)/tests/integration/%,$(INTE
 TSAN := build/tsan
 TSAN_CFLAGS := $(BASE) -O1 -g -fno-omit-frame-pointer -fsanitize=thread
 TSAN_SRC := $(sort $(wildcard tests/tsan/test_*.c))
-TSAN_LIB_SRC := lines/xring.c
+TSAN_LIB_SRC := lines/xring.c mailbox/proto.c mailbox/client.c mailbox/server.c
 TSAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_SRC))
 BENCH_BINS := $(patsubst tests/bench/%.c,$(REL)/tests/bench/%,$(BENCH_SRC))
 
-.PHONY: all deps test unit tsan integration interop bench demo install clean tests-build check check-core-io check-layering format check-callgraph
+.PHONY: all deps test unit tsan integration interop bench bench-costs demo install clean tests-build check check-core-io check-layering format check-callgraph
 .DEFAULT_GOAL := all
 .SECONDARY:
 
@@ -175,7 +175,7 @@ $(TSAN)/obj/unity.o: $(UNITY_SRC)/unity.c
 
 $(TSAN)/tests/tsan/%: $(TSAN)/obj/tests/tsan/%.o $(call obj,$(TSAN),$(TSAN_LIB_SRC)) $(TSAN)/obj/unity.o
 	@mkdir -p $(@D)
-	$(CC) -fsanitize=thread -o $@ $^ -lpthread
+	$(CC) -fsanitize=thread -o $@ $^ -lrt -lpthread
 
 tsan: $(TSAN_BINS)
 	tests/run-tests tsan $(TSAN_BINS)
@@ -268,6 +268,12 @@ BENCH_OUT := build/bench/output.txt
 $(REL)/tests/bench/%: $(REL)/obj/tests/bench/%.o $(BENCH_SUP_OBJS) $(REL_LIBS)
 	@mkdir -p $(@D)
 	$(CC) -o $@ $^ $(SYS_LIBS)
+
+# The cost breakdown behind docs/fastpath.md: system calls and context
+# switches per mailbox round trip and per event, counted with strace in the
+# vcan harness (counts, not timings).
+bench-costs: all $(REL)/tests/bench/probe_mbx_loop
+	tests/vcan/run -n 1 -- tests/bench/costs
 
 # Figures only, never pass/fail: all output goes to $(BENCH_OUT) as well, and
 # tests/bench/report turns it into docs/benchmarks.md.

@@ -3,23 +3,34 @@
  * mailbox/client.c - libcogw.
  *
  * Structure: one handle = one response queue + one event queue of this
- * process, a reader thread on the response queue, and per line the
- * registration (client id + token) and the line's command queue.
- * - Blocking calls put a waiter (keyed by a correlation id unique in the
- *   handle) on a list, send, and sleep on the handle's condition variable;
- *   the reader thread fills the waiter's buffer chunk by chunk and wakes
- *   them. So answers can come back in any order, from any line, to any
- *   number of threads.
- * - Asynchronous answers (cogw_send_async) are reassembled by the reader
- *   thread into heap buffers and queued in a bounded ring for cogw_recv();
- *   an eventfd makes them visible to epoll next to the event queue.
+ * process, a helper thread, and per line the registration (client id +
+ * token) and the line's command queue.
+ * - The response queue is read by one thread at a time, the leader
+ *   (leader/follower): a blocking call puts a waiter (keyed by a
+ *   correlation id unique in the handle) on a list, sends, and when no
+ *   other thread is reading becomes the leader itself and receives its own
+ *   answer directly (no hand-off, no wake-up of another thread). Whatever
+ *   the leader receives for someone else fills that waiter's buffer and
+ *   wakes it; when the leader's own answer is complete it steps down and
+ *   wakes one of the threads still waiting to lead. So answers can come
+ *   back in any order, from any line, to any number of threads.
+ * - The helper thread leads only when no caller is waiting and something
+ *   else is due: asynchronous answers (cogw_send_async), which it
+ *   reassembles into heap buffers queued in a bounded ring for cogw_recv()
+ *   (an eventfd makes them visible to epoll next to the event queue), and
+ *   the answer to its own re-registration after a daemon restart. It also
+ *   renews the leases (PING) and watches for restarts.
  * - Chunked answers are flow-controlled: the server keeps at most half of
  *   our response queue filled with chunks of one transfer and waits for
- *   XFER_ACK, which the reader thread sends every quarter queue.
- * - Every wait on a queue is poll() on the mqd (a descriptor on Linux) with
- *   a CLOCK_MONOTONIC timeout, and the mq_send/mq_receive after it is
- *   non-blocking: mq_timed* take CLOCK_REALTIME deadlines, which a clock
- *   step (early boot, NTP) would stretch or cut.
+ *   XFER_ACK, which whoever reads them sends every quarter queue.
+ * - The leader waits with mq_timedreceive, one system call, in slices of
+ *   at most RESTART_CHECK_MS: each slice's CLOCK_REALTIME deadline is
+ *   derived from the CLOCK_MONOTONIC time left, so a step of the wall
+ *   clock (early boot, NTP) cuts a slice short (the loop goes on by the
+ *   monotonic clock) or stretches it; a stretched slice is cut by the
+ *   helper thread, which wakes a leader that overran its monotonic slice
+ *   end with an empty message. Waits for room in a full command queue are
+ *   poll() with a monotonic timeout on a non-blocking descriptor.
  * This is not on a real-time path: mutexes, malloc and sends that wait
  * (up to a deadline) for room in a full command queue are fine here.
  */
@@ -104,7 +115,7 @@ typedef struct line_state {
 struct cogw {
 	char instance[MBX_INSTANCE_MAX + 1];
 	char resp_name[MBX_QNAME_MAX], evt_name[MBX_QNAME_MAX];
-	mqd_t resp, evt, self; /* self: O_WRONLY on resp, to wake the reader */
+	mqd_t resp, evt, self; /* self: O_WRONLY on resp, to wake the leader */
 	size_t resp_msg, evt_msg;
 	unsigned resp_depth;
 	int efd, epfd;
@@ -112,9 +123,15 @@ struct cogw {
 	pthread_t reader;
 	bool reader_started;
 
-	pthread_mutex_t mu; /* everything below */
-	pthread_cond_t cond;
+	pthread_mutex_t mu;         /* everything below */
+	pthread_cond_t cond;        /* waiters: an answer came, or the lead is free */
+	pthread_cond_t reader_cond; /* the helper thread: an async is due, closing */
 	bool closing;
+	/* A thread is reading the response queue, until lead_until_us
+	 * (monotonic) at the latest; lead_buf is its receive buffer. */
+	bool leader;
+	uint64_t lead_until_us;
+	uint8_t *lead_buf;
 	uint64_t next_corr;
 	waiter *waiters;
 	async_op *asyncs;
@@ -444,6 +461,65 @@ static uint64_t corr_new(cogw *h)
 	return c;
 }
 
+static int lead_read(cogw *h, uint64_t until_us);
+static void lead_release(cogw *h);
+
+/* Wait (h->mu held) for w to be done, as the leader reading the response
+ * queue when no other thread is, else as a follower woken by the leader.
+ * Between slices of RESTART_CHECK_MS, make sure the daemon did not restart
+ * under us (then no answer can ever come). */
+static int wait_answer(cogw *h, waiter *w, unsigned line, unsigned restarts, uint64_t deadline_us)
+{
+	uint64_t check_at = mono_us() + RESTART_CHECK_MS * 1000u;
+	int rc = 0;
+
+	while (!w->done && !h->closing) {
+		uint64_t now = mono_us();
+		uint64_t until = check_at < deadline_us ? check_at : deadline_us;
+
+		if (now >= deadline_us) {
+			rc = COGW_E_TIMEOUT;
+			break;
+		}
+		if (now >= check_at) {
+			pthread_mutex_unlock(&h->mu);
+			cmd_queue_check(h, line);
+			bool restarted = restarts_of(h, line) != restarts;
+
+			pthread_mutex_lock(&h->mu);
+			if (restarted && !w->done) {
+				rc = COGW_E_RESTARTED;
+				break;
+			}
+			check_at = now + RESTART_CHECK_MS * 1000u;
+			continue;
+		}
+		if (!h->leader) {
+			h->leader = true;
+			h->lead_until_us = until;
+			pthread_mutex_unlock(&h->mu);
+			int r = lead_read(h, until);
+
+			pthread_mutex_lock(&h->mu);
+			if (r < 0 || w->done || h->closing)
+				lead_release(h);
+			else
+				h->leader = false; /* taken again at once: nobody to wake */
+			if (r < 0 && !w->done) {
+				rc = COGW_E_SYSTEM;
+				break;
+			}
+			continue;
+		}
+		struct timespec ts = mono_deadline(until);
+
+		pthread_cond_timedwait(&h->cond, &h->mu, &ts);
+	}
+	if (!w->done && rc == 0)
+		rc = COGW_E_CLOSED;
+	return rc;
+}
+
 /* Send and wait for the answer with the same correlation id. */
 static int exchange(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t flen,
 		    const void *data, size_t dlen, void *rbuf, size_t rcap, size_t *rlen,
@@ -466,34 +542,8 @@ static int exchange(cogw *h, unsigned line, uint16_t code, const void *fixed, si
 	rc = send_cmd(h, line, code, 0, w.corr, fixed, flen, data, dlen, deadline_us);
 
 	pthread_mutex_lock(&h->mu);
-	if (rc == 0) {
-		/* Wait in slices: between them, make sure the daemon did not
-		 * restart under us (then no answer can ever come). */
-		while (!w.done && !h->closing) {
-			uint64_t now = mono_us(), until;
-			struct timespec ts;
-
-			if (now >= deadline_us) {
-				rc = COGW_E_TIMEOUT;
-				break;
-			}
-			until = now + RESTART_CHECK_MS * 1000u;
-			ts = mono_deadline(until < deadline_us ? until : deadline_us);
-			if (pthread_cond_timedwait(&h->cond, &h->mu, &ts) != ETIMEDOUT || w.done)
-				continue;
-			pthread_mutex_unlock(&h->mu);
-			cmd_queue_check(h, line);
-			bool restarted = restarts_of(h, line) != restarts;
-
-			pthread_mutex_lock(&h->mu);
-			if (restarted && !w.done) {
-				rc = COGW_E_RESTARTED;
-				break;
-			}
-		}
-		if (!w.done && rc == 0)
-			rc = COGW_E_CLOSED;
-	}
+	if (rc == 0)
+		rc = wait_answer(h, &w, line, restarts, deadline_us);
 	waiter_unlink(h, &w);
 	pthread_mutex_unlock(&h->mu);
 	if (rc)
@@ -952,47 +1002,134 @@ static unsigned reader_period_ms(cogw *h)
 	return p;
 }
 
+/* After a message: the XFER_ACK it asked for, the re-registration it
+ * answered. Called without h->mu. */
+static void after_response(cogw *h, const ack_todo *ack)
+{
+	if (ack->needed) {
+		mbx_xfer_ack a = { .next_chunk = ack->next_chunk };
+
+		send_cmd(h, ack->line, MBX_CMD_XFER_ACK, 0, ack->corr, &a, sizeof a, NULL, 0,
+			 mono_us() + 1000000u);
+	}
+	if (ack->rereg)
+		reregister_done(h, ack);
+}
+
+/* The leader (h->leader set by the caller, h->mu not held): receive one
+ * message from the response queue, waiting until until_us (monotonic) at
+ * most, and handle it. Returns 1 a message, 0 none (timeout, signal, a
+ * wake-up), -1 the queue is unusable. */
+static int lead_read(cogw *h, uint64_t until_us)
+{
+	uint64_t now = mono_us(), left = until_us > now ? until_us - now : 0;
+	struct timespec at;
+	ack_todo ack = { 0 };
+	ssize_t n;
+
+	clock_gettime(CLOCK_REALTIME, &at);
+	at.tv_sec += (time_t)(left / 1000000u);
+	at.tv_nsec += (long)(left % 1000000u) * 1000L;
+	if (at.tv_nsec >= 1000000000L) {
+		at.tv_sec++;
+		at.tv_nsec -= 1000000000L;
+	}
+	n = mq_timedreceive(h->resp, (char *)h->lead_buf, h->resp_msg, NULL, &at);
+	if (n < 0)
+		return errno == ETIMEDOUT || errno == EINTR ? 0 : -1;
+	if (n == 0)
+		return 0; /* a wake-up (close, or a slice stretched by a clock step) */
+	pthread_mutex_lock(&h->mu);
+	if (!h->closing)
+		handle_response(h, h->lead_buf, (size_t)n, &ack);
+	pthread_mutex_unlock(&h->mu);
+	after_response(h, &ack);
+	return 1;
+}
+
+/* Step down as leader (h->mu held): one waiting caller, else the helper
+ * thread when an asynchronous answer is due, takes the lead. */
+static void lead_release(cogw *h)
+{
+	h->leader = false;
+	for (waiter *w = h->waiters; w; w = w->next) {
+		if (!w->done) {
+			pthread_cond_broadcast(&h->cond);
+			return;
+		}
+	}
+	if (h->asyncs)
+		pthread_cond_signal(&h->reader_cond);
+}
+
+static bool rereg_pending(cogw *h)
+{
+	bool any = false;
+
+	pthread_mutex_lock(&h->setup_mu);
+	for (unsigned i = 0; i < MBX_LINES_MAX && !any; i++)
+		any = h->lines[i].rereg_corr != 0;
+	pthread_mutex_unlock(&h->setup_mu);
+	return any;
+}
+
+/* A leader that overran its slice by this much was stretched by a step of
+ * the wall clock (its deadline is CLOCK_REALTIME): the helper wakes it. */
+#define LEAD_OVERRUN_US 100000u
+
+/* The helper thread (h->mu held): lead when nobody does and something only
+ * it waits for is due; otherwise sleep until woken, the period passed, or
+ * the leader's slice should have ended. Returns true when it took the lead. */
+static bool helper_lead_or_sleep(cogw *h, bool rereg, unsigned period_ms)
+{
+	uint64_t now = mono_us(), until = now + (uint64_t)period_ms * 1000u;
+	struct timespec ts;
+
+	if (!h->leader && (rereg || h->asyncs)) {
+		h->leader = true;
+		h->lead_until_us = until;
+		return true;
+	}
+	if (h->leader) {
+		uint64_t overdue = h->lead_until_us + LEAD_OVERRUN_US;
+
+		if (now >= overdue)
+			mq_send(h->self, "", 0, 0); /* a full queue wakes it anyway */
+		else if (overdue < until)
+			until = overdue;
+	}
+	ts = mono_deadline(until);
+	pthread_cond_timedwait(&h->reader_cond, &h->mu, &ts);
+	return false;
+}
+
 static void *reader_main(void *arg)
 {
 	cogw *h = arg;
-	uint8_t *buf = malloc(h->resp_msg);
 
-	if (!buf)
-		return NULL;
 	for (;;) {
-		int ready = mq_wait(h->resp, POLLIN, reader_period_ms(h));
-		ssize_t n = -1;
-		int err = ready < 0 ? errno : 0;
-		ack_todo ack = { 0 };
-		bool closing;
-
-		if (ready > 0) {
-			/* errno is kept now: the locking below may change it */
-			n = mq_receive(h->resp, (char *)buf, h->resp_msg, NULL);
-			err = n < 0 ? errno : 0;
-		}
+		bool rereg = rereg_pending(h);
+		unsigned period = reader_period_ms(h);
+		bool lead;
 
 		pthread_mutex_lock(&h->mu);
-		closing = h->closing;
-		if (!closing && n > 0)
-			handle_response(h, buf, (size_t)n, &ack);
+		lead = !h->closing && helper_lead_or_sleep(h, rereg, period);
+		bool closing = h->closing;
 		pthread_mutex_unlock(&h->mu);
 		if (closing)
 			break;
-		if (ready < 0 || (ready > 0 && n < 0 && err != EAGAIN && err != EINTR))
-			break; /* queue gone: nothing more to read */
-		if (ack.needed) {
-			mbx_xfer_ack a = { .next_chunk = ack.next_chunk };
+		if (lead) {
+			int r = lead_read(h, mono_us() + (uint64_t)period * 1000u);
 
-			send_cmd(h, ack.line, MBX_CMD_XFER_ACK, 0, ack.corr, &a, sizeof a, NULL, 0,
-				 mono_us() + 1000000u);
+			pthread_mutex_lock(&h->mu);
+			lead_release(h);
+			pthread_mutex_unlock(&h->mu);
+			if (r < 0)
+				break; /* queue gone: nothing more to read */
 		}
-		if (ack.rereg)
-			reregister_done(h, &ack);
 		send_pings(h);
 		check_restarts(h);
 	}
-	free(buf);
 	return NULL;
 }
 
@@ -1050,6 +1187,7 @@ int cogw_open_opts(cogw **out, const cogw_options *o)
 	pthread_condattr_init(&ca);
 	pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
 	pthread_cond_init(&h->cond, &ca);
+	pthread_cond_init(&h->reader_cond, &ca);
 	pthread_cond_init(&h->setup_cond, &ca);
 	pthread_condattr_destroy(&ca);
 	getrandom(&h->next_corr, sizeof h->next_corr, GRND_NONBLOCK);
@@ -1083,7 +1221,8 @@ int cogw_open_opts(cogw **out, const cogw_options *o)
 			 (int)getpid(), rnd);
 		snprintf(h->evt_name, sizeof h->evt_name, "/cogw.%s.c%d.%08x.evt", h->instance,
 			 (int)getpid(), rnd);
-		h->resp = make_queue(h->resp_name, mode, rdepth, msgsize, O_RDONLY | O_NONBLOCK);
+		/* blocking: the leader waits in mq_timedreceive */
+		h->resp = make_queue(h->resp_name, mode, rdepth, msgsize, O_RDONLY);
 		if (h->resp != (mqd_t)-1 || errno != EEXIST)
 			break;
 	}
@@ -1101,6 +1240,11 @@ int cogw_open_opts(cogw **out, const cogw_options *o)
 		goto fail;
 	h->resp_msg = (size_t)attr.mq_msgsize;
 	h->resp_depth = (unsigned)attr.mq_maxmsg;
+	h->lead_buf = malloc(h->resp_msg);
+	if (!h->lead_buf) {
+		rc = COGW_E_NOMEM;
+		goto fail;
+	}
 	if (mq_getattr(h->evt, &attr) < 0)
 		goto fail;
 	h->evt_msg = (size_t)attr.mq_msgsize;
@@ -1142,13 +1286,13 @@ void cogw_close(cogw *h)
 	pthread_mutex_lock(&h->mu);
 	h->closing = true;
 	pthread_cond_broadcast(&h->cond);
+	pthread_cond_signal(&h->reader_cond);
 	pthread_mutex_unlock(&h->mu);
-	if (h->reader_started) {
-		/* wake the reader (if the queue is full it wakes anyway) */
-		if (h->self != (mqd_t)-1)
-			mq_send(h->self, "", 0, 0);
+	/* wake a leader (if the queue is full it wakes anyway) */
+	if (h->self != (mqd_t)-1)
+		mq_send(h->self, "", 0, 0);
+	if (h->reader_started)
 		pthread_join(h->reader, NULL);
-	}
 	for (unsigned i = 0; i < MBX_LINES_MAX; i++) {
 		if (h->lines[i].cmd != (mqd_t)-1)
 			mq_close(h->lines[i].cmd);
@@ -1181,7 +1325,9 @@ void cogw_close(cogw *h)
 		mq_close(h->evt);
 		mq_unlink(h->evt_name);
 	}
+	free(h->lead_buf);
 	pthread_cond_destroy(&h->cond);
+	pthread_cond_destroy(&h->reader_cond);
 	pthread_mutex_destroy(&h->mu);
 	pthread_cond_destroy(&h->setup_cond);
 	pthread_mutex_destroy(&h->setup_mu);
@@ -1211,16 +1357,20 @@ int cogw_send_async(cogw *h, unsigned line, uint16_t cmd, const void *payload, s
 	a = calloc(1, sizeof *a);
 	if (!a)
 		return COGW_E_NOMEM;
-	a->corr = corr_new(h);
+	uint64_t id = corr_new(h);
+
+	a->corr = id;
 	a->line = (uint8_t)line;
 	a->code = cmd;
 	pthread_mutex_lock(&h->mu);
 	a->next = h->asyncs;
 	h->asyncs = a;
+	pthread_cond_signal(&h->reader_cond); /* its answer needs a reader */
 	pthread_mutex_unlock(&h->mu);
+	/* a is the reader's from here on: its answer may free it */
 	if (corr)
-		*corr = a->corr;
-	rc = send_cmd(h, line, cmd, 0, a->corr, payload, flen, (const uint8_t *)payload + flen,
+		*corr = id;
+	rc = send_cmd(h, line, cmd, 0, id, payload, flen, (const uint8_t *)payload + flen,
 		      len - flen, deadline);
 	if (rc) {
 		pthread_mutex_lock(&h->mu);

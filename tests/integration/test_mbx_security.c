@@ -624,8 +624,17 @@ static int child_caller(void *arg)
 	CHECK(cogw_recv(h, &m, CALL_MS) == 0);
 	CHECK(m.kind == MBX_KIND_RESPONSE && m.corr == corr && m.status == COGW_E_RESTARTED);
 	cogw_msg_release(&m);
-	/* then normal service, on a new registration */
-	CHECK(cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, CALL_MS, &abort) == 0);
+	/* then normal service, on a new registration; the restart may be
+	 * found out before the new daemon is there: "no daemon" until then */
+	for (unsigned i = 0; i < 50; i++) {
+		rc = cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, CALL_MS, &abort);
+		if (rc != COGW_E_NO_DAEMON)
+			break;
+		sleep_ms(100);
+	}
+	if (rc != 0)
+		fprintf(stderr, "after the restart: %s\n", cogw_strerror(rc));
+	CHECK(rc == 0);
 	CHECK(len == 4 && v[0] == 1);
 	CHECK(cogw_od_write(h, LINE, 0x2001, 0, v, 4, CALL_MS, &abort) == 0);
 	cogw_close(h);

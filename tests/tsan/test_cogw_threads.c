@@ -1,0 +1,230 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * libcogw's leader/follower reading under ThreadSanitizer (build/tsan): an
+ * in-process mbx_server on a loop thread (as a line thread drives it) with
+ * real POSIX message queues, and one libcogw handle shared by several
+ * threads at once:
+ * - callers whose answers come at once (OD read: each caller reads its own
+ *   sub-index and checks the value names it), so that usually one of them
+ *   reads its own answer as the leader;
+ * - callers whose answers come later and out of order (index 3000h: held
+ *   by the fake line for 0..3 loop turns), so that a leader receives the
+ *   answers of the others and hands them over;
+ * - one thread sending asynchronously and collecting with cogw_recv()
+ *   while the callers run, so that the helper thread and the callers take
+ *   turns at leading.
+ * Checked: no data race (TSan fails the run on one), every answer reaches
+ * exactly the thread that asked with its own value, every asynchronous
+ * answer arrives once, and no answer is left over as stray.
+ */
+#include <errno.h>
+#include <poll.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "unity.h"
+
+#include "mailbox/cogw.h"
+#include "mailbox/server.h"
+
+#define LINE 0
+#define CALLERS 4
+#define LATE_CALLERS 2
+#define CALLS 300
+#define ASYNCS 200
+#define HELD_MAX 64
+
+typedef struct held {
+	mbx_reply_to to;
+	uint8_t sub;
+	unsigned turns;
+} held;
+
+static mbx_server *srv;
+static pthread_t loop_thr;
+static atomic_bool stop;
+static held hold[HELD_MAX];
+static unsigned n_held;
+static uint64_t rng = 1;
+static char instance[32], qname[MBX_QNAME_MAX];
+static cogw *handle;
+static atomic_uint wrong, failed;
+
+static uint64_t now_us(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+}
+
+static void answer(mbx_server *s, const mbx_reply_to *to, uint16_t index, uint8_t sub)
+{
+	uint8_t v[4] = { (uint8_t)index, (uint8_t)(index >> 8), sub, 0xA5 };
+
+	mbx_server_respond(s, to, 0, 0, v, sizeof v);
+}
+
+static void fake_dispatch(void *ctx, mbx_server *s, const mbx_request *req)
+{
+	mbx_obj_req o;
+
+	(void)ctx;
+	if (req->code != MBX_CMD_OD_READ) {
+		mbx_server_respond(s, &req->reply, MBX_E_UNSUPPORTED, 0, NULL, 0);
+		return;
+	}
+	memcpy(&o, req->payload, sizeof o);
+	if (o.index == 0x3000 && n_held < HELD_MAX) {
+		rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+		hold[n_held++] = (held){ .to = req->reply, .sub = o.sub, .turns = (rng >> 60) & 3 };
+		return;
+	}
+	answer(s, &req->reply, o.index, o.sub);
+}
+
+/* The held answers whose turn came, in the order they are found: later
+ * requests overtake earlier ones. */
+static void release_held(void)
+{
+	for (unsigned i = 0; i < n_held;) {
+		if (hold[i].turns--) {
+			i++;
+			continue;
+		}
+		answer(srv, &hold[i].to, 0x3000, hold[i].sub);
+		hold[i] = hold[--n_held];
+	}
+}
+
+static void *loop_main(void *arg)
+{
+	(void)arg;
+	while (!atomic_load(&stop)) {
+		struct pollfd pf = { .fd = mbx_server_fd(srv), .events = POLLIN };
+
+		poll(&pf, 1, 1);
+		uint64_t now = now_us();
+
+		mbx_server_poll(srv, now);
+		release_held();
+		mbx_server_tick(srv, now);
+	}
+	return NULL;
+}
+
+static void *caller(void *arg)
+{
+	unsigned id = (unsigned)(uintptr_t)arg;
+	uint16_t index = id >= CALLERS ? 0x3000 : 0x2000;
+
+	for (unsigned i = 0; i < CALLS; i++) {
+		uint8_t v[4] = { 0 };
+		size_t len = 0;
+		int rc = cogw_od_read(handle, LINE, index, (uint8_t)id, v, sizeof v, &len, 20000,
+				      NULL);
+
+		if (rc != 0) {
+			fprintf(stderr, "caller %u, call %u: %s\n", id, i, cogw_strerror(rc));
+			atomic_fetch_add(&failed, 1);
+		} else if (len != 4 || v[0] != (uint8_t)index || v[1] != index >> 8 || v[2] != id ||
+			   v[3] != 0xA5)
+			atomic_fetch_add(&wrong, 1);
+	}
+	return NULL;
+}
+
+static unsigned async_answers;
+
+/* At most 4 in flight (the server answers BUSY past its per-client limit),
+ * until ASYNCS were answered, or a wait of 20 s saw nothing. */
+static void *async_user(void *arg)
+{
+	mbx_obj_req r = { .index = 0x2000, .sub = 0xEE };
+	unsigned sent = 0;
+
+	(void)arg;
+	while (async_answers < ASYNCS) {
+		uint64_t corr;
+		cogw_msg m;
+
+		while (sent - async_answers < 4 && sent < ASYNCS) {
+			if (cogw_send_async(handle, LINE, MBX_CMD_OD_READ, &r, sizeof r, &corr) !=
+			    0)
+				break;
+			sent++;
+		}
+		if (cogw_recv(handle, &m, 20000) != 0) {
+			atomic_fetch_add(&failed, 1);
+			break;
+		}
+		async_answers++;
+		if (m.kind != MBX_KIND_RESPONSE || m.status != 0 || m.len != 4 || m.data[2] != 0xEE)
+			atomic_fetch_add(&wrong, 1);
+		cogw_msg_release(&m);
+	}
+	return NULL;
+}
+
+void setUp(void)
+{
+	snprintf(instance, sizeof instance, "ts%d", (int)getpid());
+	TEST_ASSERT_EQUAL_INT(0, mbx_queue_name(qname, sizeof qname, instance, LINE));
+	mbx_server_config cfg = {
+		.line = LINE,
+		.queue_name = qname,
+		.queue_mode = 0600,
+		.depth = 10,
+		.msg_size = 1024,
+		.max_clients = 4,
+		.check_ms = 100,
+		.xfer_slots = 4,
+		.max_transfer = 64 * 1024,
+		.default_access = MBX_ACCESS_WRITE,
+		.unlink_existing = true,
+		.dispatch = { .dispatch = fake_dispatch },
+	};
+	int rc = mbx_server_create(&srv, &cfg);
+
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, strerror(-rc));
+	TEST_ASSERT_EQUAL_INT(0, pthread_create(&loop_thr, NULL, loop_main, NULL));
+}
+
+void tearDown(void)
+{
+	atomic_store(&stop, true);
+	pthread_join(loop_thr, NULL);
+	mbx_server_destroy(srv);
+}
+
+static void test_threads_share_one_handle(void)
+{
+	pthread_t t[CALLERS + LATE_CALLERS + 1];
+	cogw_stats st;
+
+	TEST_ASSERT_EQUAL_INT(0, cogw_open(&handle, instance));
+	for (unsigned i = 0; i < CALLERS + LATE_CALLERS; i++)
+		TEST_ASSERT_EQUAL_INT(0, pthread_create(&t[i], NULL, caller, (void *)(uintptr_t)i));
+	TEST_ASSERT_EQUAL_INT(0,
+			      pthread_create(&t[CALLERS + LATE_CALLERS], NULL, async_user, NULL));
+	for (unsigned i = 0; i < CALLERS + LATE_CALLERS + 1; i++)
+		pthread_join(t[i], NULL);
+	cogw_get_stats(handle, &st);
+	cogw_close(handle);
+	TEST_ASSERT_EQUAL_UINT_MESSAGE(0, atomic_load(&failed), "calls failed");
+	TEST_ASSERT_EQUAL_UINT_MESSAGE(0, atomic_load(&wrong), "answers reached the wrong caller");
+	TEST_ASSERT_EQUAL_UINT(ASYNCS, async_answers);
+	TEST_ASSERT_EQUAL_UINT64(0, st.stray_responses);
+	TEST_ASSERT_EQUAL_UINT64(0, st.async_dropped);
+}
+
+int main(void)
+{
+	UNITY_BEGIN();
+	RUN_TEST(test_threads_share_one_handle);
+	return UNITY_END();
+}
