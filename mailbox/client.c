@@ -31,6 +31,12 @@
  *   helper thread, which wakes a leader that overran its monotonic slice
  *   end with an empty message. Waits for room in a full command queue are
  *   poll() with a monotonic timeout on a non-blocking descriptor.
+ * - cogw_recv() waits the same way on the event queue itself while no
+ *   asynchronous answer is due (one system call per event); a
+ *   cogw_send_async() meanwhile wakes it with an empty message, and with
+ *   answers due it polls the epoll descriptor (event queue + eventfd). The
+ *   eventfd is written once when the ring of answers becomes non-empty and
+ *   read once when it empties, not on every push and pop.
  * This is not on a real-time path: mutexes, malloc and sends that wait
  * (up to a deadline) for room in a full command queue are fine here.
  */
@@ -116,6 +122,7 @@ struct cogw {
 	char instance[MBX_INSTANCE_MAX + 1];
 	char resp_name[MBX_QNAME_MAX], evt_name[MBX_QNAME_MAX];
 	mqd_t resp, evt, self; /* self: O_WRONLY on resp, to wake the leader */
+	mqd_t evt_self;        /* O_WRONLY on evt, to wake a cogw_recv() waiting on it */
 	size_t resp_msg, evt_msg;
 	unsigned resp_depth;
 	int efd, epfd;
@@ -132,6 +139,12 @@ struct cogw {
 	bool leader;
 	uint64_t lead_until_us;
 	uint8_t *lead_buf;
+	/* cogw_recv() callers waiting in mq_timedreceive on the event queue
+	 * (no asynchronous answer can come meanwhile), the latest one's slice
+	 * end; efd_set: the eventfd was written and not read since. */
+	unsigned evt_waiters;
+	uint64_t evt_wait_until_us;
+	bool efd_set;
 	uint64_t next_corr;
 	waiter *waiters;
 	async_op *asyncs;
@@ -160,6 +173,26 @@ static struct timespec mono_deadline(uint64_t at_us)
 {
 	return (struct timespec){ .tv_sec = (time_t)(at_us / 1000000u),
 				  .tv_nsec = (long)(at_us % 1000000u) * 1000L };
+}
+
+/* CLOCK_REALTIME deadline for mq_timed*: until_us (monotonic) from now;
+ * 0 = already passed (do not wait). */
+static struct timespec realtime_deadline(uint64_t until_us)
+{
+	struct timespec at = { 0, 0 };
+	uint64_t now = mono_us(), left;
+
+	if (until_us <= now)
+		return at;
+	left = until_us - now;
+	clock_gettime(CLOCK_REALTIME, &at);
+	at.tv_sec += (time_t)(left / 1000000u);
+	at.tv_nsec += (long)(left % 1000000u) * 1000L;
+	if (at.tv_nsec >= 1000000000L) {
+		at.tv_sec++;
+		at.tv_nsec -= 1000000000L;
+	}
+	return at;
 }
 
 static unsigned ms_left(uint64_t deadline_us)
@@ -683,6 +716,9 @@ static void ring_push(cogw *h, cogw_msg *m)
 	}
 	h->ring[(h->ring_head + h->ring_count) % ASYNC_RING] = *m;
 	h->ring_count++;
+	if (h->efd_set)
+		return; /* readable already: one write per non-empty spell */
+	h->efd_set = true;
 	if (write(h->efd, &one, sizeof one) < 0) {
 		/* counter saturated: it is readable anyway */
 	}
@@ -1022,18 +1058,10 @@ static void after_response(cogw *h, const ack_todo *ack)
  * wake-up), -1 the queue is unusable. */
 static int lead_read(cogw *h, uint64_t until_us)
 {
-	uint64_t now = mono_us(), left = until_us > now ? until_us - now : 0;
-	struct timespec at;
+	struct timespec at = realtime_deadline(until_us);
 	ack_todo ack = { 0 };
 	ssize_t n;
 
-	clock_gettime(CLOCK_REALTIME, &at);
-	at.tv_sec += (time_t)(left / 1000000u);
-	at.tv_nsec += (long)(left % 1000000u) * 1000L;
-	if (at.tv_nsec >= 1000000000L) {
-		at.tv_sec++;
-		at.tv_nsec -= 1000000000L;
-	}
 	n = mq_timedreceive(h->resp, (char *)h->lead_buf, h->resp_msg, NULL, &at);
 	if (n < 0)
 		return errno == ETIMEDOUT || errno == EINTR ? 0 : -1;
@@ -1095,6 +1123,14 @@ static bool helper_lead_or_sleep(cogw *h, bool rereg, unsigned period_ms)
 
 		if (now >= overdue)
 			mq_send(h->self, "", 0, 0); /* a full queue wakes it anyway */
+		else if (overdue < until)
+			until = overdue;
+	}
+	if (h->evt_waiters) {
+		uint64_t overdue = h->evt_wait_until_us + LEAD_OVERRUN_US;
+
+		if (now >= overdue)
+			mq_send(h->evt_self, "", 0, 0);
 		else if (overdue < until)
 			until = overdue;
 	}
@@ -1174,7 +1210,7 @@ int cogw_open_opts(cogw **out, const cogw_options *o)
 	h = calloc(1, sizeof *h);
 	if (!h)
 		return COGW_E_NOMEM;
-	h->resp = h->evt = h->self = (mqd_t)-1;
+	h->resp = h->evt = h->self = h->evt_self = (mqd_t)-1;
 	h->efd = h->epfd = -1;
 	for (unsigned i = 0; i < MBX_LINES_MAX; i++)
 		h->lines[i].cmd = (mqd_t)-1;
@@ -1228,8 +1264,12 @@ int cogw_open_opts(cogw **out, const cogw_options *o)
 	}
 	if (h->resp == (mqd_t)-1)
 		goto fail;
-	h->evt = make_queue(h->evt_name, mode, edepth, msgsize, O_RDONLY | O_NONBLOCK);
+	/* blocking: cogw_recv() waits in mq_timedreceive when only events can come */
+	h->evt = make_queue(h->evt_name, mode, edepth, msgsize, O_RDONLY);
 	if (h->evt == (mqd_t)-1)
+		goto fail;
+	h->evt_self = mq_open(h->evt_name, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
+	if (h->evt_self == (mqd_t)-1)
 		goto fail;
 	h->self = mq_open(h->resp_name, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
 	if (h->self == (mqd_t)-1)
@@ -1317,6 +1357,8 @@ void cogw_close(cogw *h)
 		close(h->efd);
 	if (h->self != (mqd_t)-1)
 		mq_close(h->self);
+	if (h->evt_self != (mqd_t)-1)
+		mq_close(h->evt_self);
 	if (h->resp != (mqd_t)-1) {
 		mq_close(h->resp);
 		mq_unlink(h->resp_name);
@@ -1366,6 +1408,8 @@ int cogw_send_async(cogw *h, unsigned line, uint16_t cmd, const void *payload, s
 	a->next = h->asyncs;
 	h->asyncs = a;
 	pthread_cond_signal(&h->reader_cond); /* its answer needs a reader */
+	if (h->evt_waiters)                   /* its answer will not come on the event queue */
+		mq_send(h->evt_self, "", 0, 0);
 	pthread_mutex_unlock(&h->mu);
 	/* a is the reader's from here on: its answer may free it */
 	if (corr)
@@ -1413,22 +1457,31 @@ static bool ring_pop(cogw *h, cogw_msg *m)
 		h->ring_count--;
 		got = true;
 	}
-	if (!h->ring_count && read(h->efd, &v, sizeof v) < 0) {
-		/* already zero */
+	if (!h->ring_count && h->efd_set) {
+		h->efd_set = false;
+		if (read(h->efd, &v, sizeof v) < 0) {
+			/* already zero */
+		}
 	}
 	pthread_mutex_unlock(&h->mu);
 	return got;
 }
 
-/* One event from the event queue; 1 = got one, 0 = none, < 0 error. */
-static int event_pop(cogw *h, cogw_msg *m, uint8_t *buf)
+/* One event from the event queue, waiting until until_us (monotonic; 0:
+ * not at all); 1 = got one, 0 = none, < 0 error. */
+static int event_pop(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t until_us)
 {
 	for (;;) {
-		ssize_t n = mq_receive(h->evt, (char *)buf, h->evt_msg, NULL);
+		struct timespec at = realtime_deadline(until_us);
+		ssize_t n = mq_timedreceive(h->evt, (char *)buf, h->evt_msg, NULL, &at);
 		mbx_hdr hd;
 
 		if (n < 0)
-			return errno == EAGAIN ? 0 : COGW_E_SYSTEM;
+			return errno == ETIMEDOUT || errno == EAGAIN || errno == EINTR
+				       ? 0
+				       : COGW_E_SYSTEM;
+		if (n == 0)
+			return 0; /* a wake-up: an async answer is due, or a stretched slice */
 		if (mbx_hdr_decode(buf, (size_t)n, &hd, NULL) < 0 || hd.kind != MBX_KIND_EVENT ||
 		    mbx_event_validate(hd.code, buf + MBX_HDR_SIZE, hd.len) < 0) {
 			pthread_mutex_lock(&h->mu);
@@ -1457,11 +1510,53 @@ static int event_pop(cogw *h, cogw_msg *m, uint8_t *buf)
 	}
 }
 
+/* Wait for an event or an asynchronous answer until deadline. When no
+ * asynchronous answer is due, only the event queue can deliver: wait in
+ * mq_timedreceive on it (one system call per event, in monotonic slices
+ * like the leader's); otherwise poll() both through the epoll descriptor. */
+static int recv_wait(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t deadline)
+{
+	for (;;) {
+		uint64_t now = mono_us(), slice = now + RESTART_CHECK_MS * 1000u;
+		bool direct;
+
+		if (ring_pop(h, m))
+			return 0;
+		if (slice > deadline)
+			slice = deadline;
+		pthread_mutex_lock(&h->mu);
+		direct = !h->asyncs && !h->ring_count && !h->closing;
+		if (direct) {
+			h->evt_waiters++;
+			h->evt_wait_until_us = slice;
+		}
+		pthread_mutex_unlock(&h->mu);
+		int got = event_pop(h, m, buf, direct ? slice : 0);
+
+		if (direct) {
+			pthread_mutex_lock(&h->mu);
+			h->evt_waiters--;
+			pthread_mutex_unlock(&h->mu);
+		}
+		if (got != 0)
+			return got > 0 ? 0 : got;
+		now = mono_us();
+		if (now >= deadline)
+			return COGW_E_AGAIN;
+		if (direct)
+			continue;
+		struct pollfd pf = { .fd = h->epfd, .events = POLLIN };
+		uint64_t wait_ms = (deadline - now + 999) / 1000;
+
+		if (poll(&pf, 1, wait_ms > INT_MAX ? INT_MAX : (int)wait_ms) < 0 && errno != EINTR)
+			return COGW_E_SYSTEM;
+	}
+}
+
 int cogw_recv(cogw *h, cogw_msg *m, int timeout_ms)
 {
-	uint64_t deadline;
 	uint8_t *buf;
-	int rc = COGW_E_AGAIN;
+	int rc;
 
 	if (!h || !m)
 		return COGW_E_INVAL;
@@ -1469,30 +1564,8 @@ int cogw_recv(cogw *h, cogw_msg *m, int timeout_ms)
 	buf = malloc(h->evt_msg);
 	if (!buf)
 		return COGW_E_NOMEM;
-	deadline = timeout_ms < 0 ? UINT64_MAX : mono_us() + (uint64_t)timeout_ms * 1000u;
-	for (;;) {
-		if (ring_pop(h, m)) {
-			rc = 0;
-			break;
-		}
-		int got = event_pop(h, m, buf);
-
-		if (got != 0) {
-			rc = got > 0 ? 0 : got;
-			break;
-		}
-		uint64_t now = mono_us();
-
-		if (now >= deadline)
-			break;
-		struct pollfd pf = { .fd = h->epfd, .events = POLLIN };
-		int wait = deadline == UINT64_MAX ? -1 : (int)((deadline - now + 999) / 1000);
-
-		if (poll(&pf, 1, wait) < 0 && errno != EINTR) {
-			rc = COGW_E_SYSTEM;
-			break;
-		}
-	}
+	rc = recv_wait(h, m, buf,
+		       timeout_ms < 0 ? UINT64_MAX : mono_us() + (uint64_t)timeout_ms * 1000u);
 	free(buf);
 	return rc;
 }

@@ -12,10 +12,14 @@
  *   answers of the others and hands them over;
  * - one thread sending asynchronously and collecting with cogw_recv()
  *   while the callers run, so that the helper thread and the callers take
- *   turns at leading.
+ *   turns at leading;
+ * - one thread waiting for events with cogw_recv() (the line publishes an
+ *   EMCY every few turns), which waits on the event queue itself while no
+ *   asynchronous answer is due and is woken when one becomes due; both
+ *   receiving threads take whatever comes, events or answers.
  * Checked: no data race (TSan fails the run on one), every answer reaches
  * exactly the thread that asked with its own value, every asynchronous
- * answer arrives once, and no answer is left over as stray.
+ * answer arrives once, events arrive, and no answer is left over as stray.
  */
 #include <errno.h>
 #include <poll.h>
@@ -104,7 +108,9 @@ static void release_held(void)
 static void *loop_main(void *arg)
 {
 	(void)arg;
-	while (!atomic_load(&stop)) {
+	mbx_ev_emcy e = { .node = 5, .code = 0x8130 };
+
+	for (unsigned turn = 0; !atomic_load(&stop); turn++) {
 		struct pollfd pf = { .fd = mbx_server_fd(srv), .events = POLLIN };
 
 		poll(&pf, 1, 1);
@@ -112,6 +118,8 @@ static void *loop_main(void *arg)
 
 		mbx_server_poll(srv, now);
 		release_held();
+		if (turn % 8 == 0)
+			mbx_server_publish(srv, MBX_EV_EMCY, 0, &e, sizeof e);
 		mbx_server_tick(srv, now);
 	}
 	return NULL;
@@ -138,35 +146,64 @@ static void *caller(void *arg)
 	return NULL;
 }
 
-static unsigned async_answers;
+static atomic_uint async_answers, events;
+static atomic_bool asyncs_done;
+
+/* One message from cogw_recv (either receiving thread): an event or an
+ * asynchronous answer, checked. */
+static bool take_one(int timeout_ms)
+{
+	cogw_msg m;
+
+	if (cogw_recv(handle, &m, timeout_ms) != 0)
+		return false;
+	if (m.kind == MBX_KIND_EVENT && (m.code == MBX_EV_EMCY || m.code == MBX_EV_OVERFLOW))
+		atomic_fetch_add(&events, 1); /* a slow turn under TSan may overflow the queue */
+	else if (m.kind == MBX_KIND_RESPONSE && m.status == 0 && m.len == 4 && m.data[2] == 0xEE)
+		atomic_fetch_add(&async_answers, 1);
+	else {
+		fprintf(stderr, "unexpected: kind %u code %04X status %d len %zu\n",
+			(unsigned)m.kind, (unsigned)m.code, m.status, m.len);
+		atomic_fetch_add(&wrong, 1);
+	}
+	cogw_msg_release(&m);
+	return true;
+}
 
 /* At most 4 in flight (the server answers BUSY past its per-client limit),
- * until ASYNCS were answered, or a wait of 20 s saw nothing. */
+ * until ASYNCS were answered, or 20 s passed without a message. */
 static void *async_user(void *arg)
 {
 	mbx_obj_req r = { .index = 0x2000, .sub = 0xEE };
 	unsigned sent = 0;
+	uint64_t since = now_us();
 
 	(void)arg;
-	while (async_answers < ASYNCS) {
+	while (atomic_load(&async_answers) < ASYNCS) {
 		uint64_t corr;
-		cogw_msg m;
 
-		while (sent - async_answers < 4 && sent < ASYNCS) {
+		while (sent - atomic_load(&async_answers) < 4 && sent < ASYNCS) {
 			if (cogw_send_async(handle, LINE, MBX_CMD_OD_READ, &r, sizeof r, &corr) !=
 			    0)
 				break;
 			sent++;
 		}
-		if (cogw_recv(handle, &m, 20000) != 0) {
+		if (take_one(100)) {
+			since = now_us();
+		} else if (now_us() - since > 20000000u) {
 			atomic_fetch_add(&failed, 1);
 			break;
 		}
-		async_answers++;
-		if (m.kind != MBX_KIND_RESPONSE || m.status != 0 || m.len != 4 || m.data[2] != 0xEE)
-			atomic_fetch_add(&wrong, 1);
-		cogw_msg_release(&m);
 	}
+	atomic_store(&asyncs_done, true);
+	return NULL;
+}
+
+static void *event_user(void *arg)
+{
+	(void)arg;
+	while (!atomic_load(&asyncs_done))
+		take_one(50);
 	return NULL;
 }
 
@@ -203,21 +240,25 @@ void tearDown(void)
 
 static void test_threads_share_one_handle(void)
 {
-	pthread_t t[CALLERS + LATE_CALLERS + 1];
+	pthread_t t[CALLERS + LATE_CALLERS + 2];
 	cogw_stats st;
 
 	TEST_ASSERT_EQUAL_INT(0, cogw_open(&handle, instance));
+	TEST_ASSERT_EQUAL_INT(0, cogw_subscribe(handle, LINE, MBX_EVC_EMCY, NULL, 0, 20000));
 	for (unsigned i = 0; i < CALLERS + LATE_CALLERS; i++)
 		TEST_ASSERT_EQUAL_INT(0, pthread_create(&t[i], NULL, caller, (void *)(uintptr_t)i));
 	TEST_ASSERT_EQUAL_INT(0,
 			      pthread_create(&t[CALLERS + LATE_CALLERS], NULL, async_user, NULL));
-	for (unsigned i = 0; i < CALLERS + LATE_CALLERS + 1; i++)
+	TEST_ASSERT_EQUAL_INT(
+		0, pthread_create(&t[CALLERS + LATE_CALLERS + 1], NULL, event_user, NULL));
+	for (unsigned i = 0; i < CALLERS + LATE_CALLERS + 2; i++)
 		pthread_join(t[i], NULL);
 	cogw_get_stats(handle, &st);
 	cogw_close(handle);
 	TEST_ASSERT_EQUAL_UINT_MESSAGE(0, atomic_load(&failed), "calls failed");
 	TEST_ASSERT_EQUAL_UINT_MESSAGE(0, atomic_load(&wrong), "answers reached the wrong caller");
-	TEST_ASSERT_EQUAL_UINT(ASYNCS, async_answers);
+	TEST_ASSERT_EQUAL_UINT(ASYNCS, atomic_load(&async_answers));
+	TEST_ASSERT_TRUE_MESSAGE(atomic_load(&events) > 0, "no event arrived");
 	TEST_ASSERT_EQUAL_UINT64(0, st.stray_responses);
 	TEST_ASSERT_EQUAL_UINT64(0, st.async_dropped);
 }
