@@ -506,6 +506,16 @@ int mbx_hdr_decode(const uint8_t *b, size_t n, mbx_hdr *h, mbx_bad *bad)
 	return 0;
 }
 
+void mbx_hdr_set_recipient(uint8_t *b, uint32_t client, uint32_t dropped)
+{
+	put32(b + 8, client);
+	put32(b + 36, dropped);
+	if (dropped)
+		b[7] |= MBX_F_OVERFLOW;
+	else
+		b[7] &= (uint8_t)~MBX_F_OVERFLOW;
+}
+
 int mbx_msg_build(uint8_t *buf, size_t cap, const mbx_hdr *h, const void *payload,
 		  size_t payload_len)
 {

@@ -733,6 +733,11 @@ int mbx_cmd_validate(const mbx_hdr *h, const uint8_t *payload, mbx_bad *bad);
 /* Check an event payload as a client receives it (sizes and counts). */
 int mbx_event_validate(unsigned code, const uint8_t *payload, size_t len);
 
+/* Readdress an encoded message (b: at least MBX_HDR_SIZE bytes) to
+ * client: its id, and MBX_F_OVERFLOW with dropped when dropped != 0
+ * (cleared otherwise). Lets one encoding serve every recipient of an event. */
+void mbx_hdr_set_recipient(uint8_t *b, uint32_t client, uint32_t dropped);
+
 /* Build a complete message: header (len set from payload_len) + payload.
  * Returns the message size, or -EMSGSIZE if it does not fit cap. */
 int mbx_msg_build(uint8_t *buf, size_t cap, const mbx_hdr *h, const void *payload,

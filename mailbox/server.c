@@ -103,6 +103,12 @@ struct mbx_server {
 	mbx_access_rule *rules;
 	size_t rules_cap; /* room for MBX_SERVER_RULES_MAX (set_rules) */
 	mbx_client *clients;
+	/* Subscribers by event class: for class bit b, bit i of the words
+	 * sub_bits[b * sub_words ..] says client slot i subscribed to it, so a
+	 * publish visits the subscribers of its class only (each line has its
+	 * own server: class x line). */
+	uint64_t *sub_bits;
+	size_t sub_words;
 	mbx_xfer *xfers;
 	uint16_t gen;
 	uint64_t rng; /* fallback token source */
@@ -183,32 +189,16 @@ enum send_mode {
 	SEND_STREAM, /* a full queue = wait (flow-controlled chunk stream) */
 };
 
-/* Send one message to a client's response or event queue, without
- * blocking. Returns 0, -EAGAIN (stream: queue full), -ENOBUFS (dropped),
- * -EPIPE (queue unusable: client marked dead). */
-static int send_to(mbx_server *srv, mbx_client *c, bool event, mbx_hdr *h, const void *payload,
-		   size_t len, enum send_mode mode)
+/* Send the message encoded in srv->tx (n bytes) to a client's response
+ * or event queue, without blocking, readdressed to it (id, and the count
+ * of its messages lost before this one). Returns 0, -EAGAIN (stream: queue
+ * full), -ENOBUFS (dropped), -EPIPE (queue unusable: client marked dead). */
+static int deliver(mbx_server *srv, mbx_client *c, bool event, size_t n, enum send_mode mode)
 {
 	uint32_t *pending = event ? &c->drop_evt : &c->drop_resp;
-	mqd_t q = event ? c->evt : c->resp;
-	int n;
 
-	h->magic = MBX_MAGIC;
-	h->version = MBX_VERSION;
-	h->kind = event ? MBX_KIND_EVENT : MBX_KIND_RESPONSE;
-	h->line = srv->cfg.line;
-	h->client = c->id;
-	h->token = 0;
-	h->flags &= (uint8_t)~MBX_F_OVERFLOW;
-	h->dropped = 0;
-	if (*pending) {
-		h->flags |= MBX_F_OVERFLOW;
-		h->dropped = *pending;
-	}
-	n = mbx_msg_build(srv->tx, MBX_MSG_MAX, h, payload, len);
-	if (n < 0 || (size_t)n > (event ? c->evt_msg : c->resp_msg))
-		return -EMSGSIZE;
-	if (mq_send(q, (const char *)srv->tx, (size_t)n, 0) == 0) {
+	mbx_hdr_set_recipient(srv->tx, c->id, *pending);
+	if (mq_send(event ? c->evt : c->resp, (const char *)srv->tx, n, 0) == 0) {
 		*pending = 0;
 		if (event)
 			srv->stats.events_sent++;
@@ -227,6 +217,49 @@ static int send_to(mbx_server *srv, mbx_client *c, bool event, mbx_hdr *h, const
 	/* EBADF & co: the descriptor is unusable; reap at the next tick */
 	c->dead = true;
 	return -EPIPE;
+}
+
+/* Encode one message into srv->tx (addressed to nobody yet). */
+static int encode(mbx_server *srv, bool event, mbx_hdr *h, const void *payload, size_t len)
+{
+	h->magic = MBX_MAGIC;
+	h->version = MBX_VERSION;
+	h->kind = event ? MBX_KIND_EVENT : MBX_KIND_RESPONSE;
+	h->line = srv->cfg.line;
+	h->client = 0;
+	h->token = 0;
+	h->flags &= (uint8_t)~MBX_F_OVERFLOW;
+	h->dropped = 0;
+	return mbx_msg_build(srv->tx, MBX_MSG_MAX, h, payload, len);
+}
+
+/* Send one message to a client's response or event queue, without
+ * blocking: encode + deliver. */
+static int send_to(mbx_server *srv, mbx_client *c, bool event, mbx_hdr *h, const void *payload,
+		   size_t len, enum send_mode mode)
+{
+	int n = encode(srv, event, h, payload, len);
+
+	if (n < 0 || (size_t)n > (event ? c->evt_msg : c->resp_msg))
+		return -EMSGSIZE;
+	return deliver(srv, c, event, (size_t)n, mode);
+}
+
+/* Keep the class index of client c in step with c->classes (and c->id:
+ * a free slot subscribes to nothing). */
+static void sub_index_update(mbx_server *srv, const mbx_client *c)
+{
+	size_t slot = (size_t)(c - srv->clients);
+	uint64_t bit = 1ull << (slot % 64);
+
+	for (unsigned b = 0; b < 32; b++) {
+		uint64_t *w = &srv->sub_bits[b * srv->sub_words + slot / 64];
+
+		if (c->id && (c->classes & (1u << b)))
+			*w |= bit;
+		else
+			*w &= ~bit;
+	}
 }
 
 static int send_status(mbx_server *srv, mbx_client *c, uint16_t code, uint64_t corr, int status,
@@ -259,6 +292,7 @@ static void client_remove(mbx_server *srv, mbx_client *c, bool reaped)
 		mq_close(c->evt);
 	memset(c, 0, sizeof *c);
 	c->resp = c->evt = (mqd_t)-1;
+	sub_index_update(srv, c);
 	srv->stats.clients--;
 	if (reaped)
 		srv->stats.clients_reaped++;
@@ -730,6 +764,7 @@ static void handle_protocol(mbx_server *srv, mbx_client *c, const mbx_hdr *h, co
 			c->n_filters = r.n_filters;
 			memcpy(c->filters, r.filters, sizeof c->filters);
 		}
+		sub_index_update(srv, c);
 		out.classes = c->classes | MBX_EVC_OVERFLOW;
 		if (reply)
 			send_status(srv, c, h->code, h->corr, 0, 0, &out, sizeof out);
@@ -745,6 +780,7 @@ static void handle_protocol(mbx_server *srv, mbx_client *c, const mbx_hdr *h, co
 			c->n_filters = 0;
 			memset(c->filters, 0, sizeof c->filters);
 		}
+		sub_index_update(srv, c);
 		out.classes = c->classes | MBX_EVC_OVERFLOW;
 		if (reply)
 			send_status(srv, c, h->code, h->corr, 0, 0, &out, sizeof out);
@@ -1048,14 +1084,11 @@ int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status, uint
 	return 0;
 }
 
-static bool wants(const mbx_client *c, uint32_t cls, const uint8_t *payload, size_t len)
+/* A subscriber of the class: does a raw frame pass its filters? */
+static bool raw_passes(const mbx_client *c, uint32_t cls, const uint8_t *payload, size_t len)
 {
 	mbx_ev_raw raw;
 
-	if (cls == MBX_EVC_OVERFLOW)
-		return true;
-	if (!(c->classes & cls))
-		return false;
 	if (cls != MBX_EVC_RAW || c->n_filters == 0)
 		return true;
 	if (len < sizeof raw)
@@ -1067,33 +1100,52 @@ static bool wants(const mbx_client *c, uint32_t cls, const uint8_t *payload, siz
 	return false;
 }
 
+/* The event in srv->tx (n bytes, payload len) to one client. */
+static bool publish_to(mbx_server *srv, mbx_client *c, uint32_t cls, size_t n, size_t len)
+{
+	const uint8_t *payload = srv->tx + MBX_HDR_SIZE;
+
+	if (!c->id || c->dead || !raw_passes(c, cls, payload, len))
+		return false;
+	if (len > c->evt_msg - MBX_HDR_SIZE) {
+		/* cannot fit this client's queue: lost, counted, flagged */
+		c->drop_evt++;
+		c->dropped++;
+		srv->stats.dropped++;
+		return false;
+	}
+	return deliver(srv, c, true, n, SEND_NORMAL) == 0;
+}
+
+/* Encoded once for all; the recipients are the set bits of the class's
+ * index (every client for an overflow notice). */
 int mbx_server_publish(mbx_server *srv, uint16_t ev_code, uint64_t corr, const void *payload,
 		       size_t len)
 {
 	uint32_t cls = mbx_event_class_of(ev_code);
-	int reached = 0;
+	mbx_hdr h = { .code = ev_code, .corr = corr };
+	int reached = 0, n;
 
 	if (!cls || (len && !payload))
 		return -EINVAL;
 	if (len > MBX_MSG_MAX - MBX_HDR_SIZE)
 		return -EMSGSIZE;
-	for (unsigned i = 0; i < srv->cfg.max_clients; i++) {
-		mbx_client *c = &srv->clients[i];
-		size_t n = len;
+	n = encode(srv, true, &h, payload, len);
+	if (n < 0)
+		return n;
+	if (cls == MBX_EVC_OVERFLOW) {
+		for (unsigned i = 0; i < srv->cfg.max_clients; i++)
+			reached += publish_to(srv, &srv->clients[i], cls, (size_t)n, len);
+		return reached;
+	}
+	const uint64_t *words = &srv->sub_bits[(unsigned)__builtin_ctz(cls) * srv->sub_words];
 
-		if (!c->id || c->dead || !wants(c, cls, payload, len))
-			continue;
-		if (n > c->evt_msg - MBX_HDR_SIZE) {
-			/* cannot fit this client's queue: lost, counted, flagged */
-			c->drop_evt++;
-			c->dropped++;
-			srv->stats.dropped++;
-			continue;
+	for (size_t w = 0; w < srv->sub_words; w++) {
+		for (uint64_t bits = words[w]; bits; bits &= bits - 1) {
+			size_t slot = w * 64 + (size_t)__builtin_ctzll(bits);
+
+			reached += publish_to(srv, &srv->clients[slot], cls, (size_t)n, len);
 		}
-		mbx_hdr h = { .code = ev_code, .corr = corr };
-
-		if (send_to(srv, c, true, &h, payload, n, SEND_NORMAL) == 0)
-			reached++;
 	}
 	return reached;
 }
@@ -1273,6 +1325,8 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 	srv->rx = malloc(srv->rx_size);
 	srv->tx = malloc(MBX_MSG_MAX);
 	srv->clients = calloc(c->max_clients, sizeof *srv->clients);
+	srv->sub_words = (c->max_clients + 63) / 64;
+	srv->sub_bits = calloc(32 * srv->sub_words, sizeof *srv->sub_bits);
 	srv->xfers = calloc(c->xfer_slots, sizeof *srv->xfers);
 	/* Room for a reload's rules too (mbx_server_set_rules), so that
 	 * nothing is allocated after create. */
@@ -1280,7 +1334,7 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 	srv->rules = calloc(srv->rules_cap, sizeof *srv->rules);
 	if (srv->rules && c->n_rules)
 		memcpy(srv->rules, cfg->rules, c->n_rules * sizeof *srv->rules);
-	if (!srv->rx || !srv->tx || !srv->clients || !srv->xfers || !srv->rules)
+	if (!srv->rx || !srv->tx || !srv->clients || !srv->sub_bits || !srv->xfers || !srv->rules)
 		goto fail;
 	c->rules = srv->rules;
 	for (unsigned i = 0; i < c->max_clients; i++)
@@ -1341,6 +1395,7 @@ void mbx_server_destroy(mbx_server *srv)
 	}
 	free(srv->xfers);
 	free(srv->clients);
+	free(srv->sub_bits);
 	free(srv->rules);
 	free(srv->tx);
 	free(srv->rx);
