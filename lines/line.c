@@ -290,11 +290,7 @@ static void handle_can(line *l)
  * set until the next command; publishing then reaches nobody, harmlessly. */
 static void refresh_raw_subscribers(line *l)
 {
-	uint32_t n = 0;
-	mbx_client_info ci;
-	for (unsigned i = 0; mbx_server_client_info(l->mbx, i, &ci) == 0; i++)
-		n += (ci.classes & MBX_EVC_RAW) != 0;
-	l->raw_subscribers = n;
+	l->raw_subscribers = mbx_server_subscribers(l->mbx, MBX_EVC_RAW);
 }
 
 static void handle_requests(line *l)
@@ -445,7 +441,8 @@ static void *line_main(void *arg)
 		int n = epoll_wait(l->epfd, evs, 8, -1);
 		uint64_t woke = line_now_us();
 		l->now_us = woke;
-		atomic_store(&l->checkin_us, woke);
+		/* read by the watchdog only: no ordering with anything else */
+		atomic_store_explicit(&l->checkin_us, woke, memory_order_relaxed);
 		if (n < 0 && errno != EINTR) {
 			cogw_log(COGW_LOG_ERR, "line %s: epoll_wait: %s", l->name, strerror(errno));
 			break;

@@ -1456,6 +1456,19 @@ const mbx_server_stats *mbx_server_stats_get(const mbx_server *srv)
 	return &srv->stats;
 }
 
+unsigned mbx_server_subscribers(const mbx_server *srv, uint32_t cls)
+{
+	unsigned n = 0;
+
+	if (!cls || (cls & (cls - 1)) || cls == MBX_EVC_OVERFLOW)
+		return cls == MBX_EVC_OVERFLOW ? (unsigned)srv->stats.clients : 0;
+	const uint64_t *words = &srv->sub_bits[(unsigned)__builtin_ctz(cls) * srv->sub_words];
+
+	for (size_t w = 0; w < srv->sub_words; w++)
+		n += (unsigned)__builtin_popcountll(words[w]);
+	return n;
+}
+
 int mbx_server_client_info(const mbx_server *srv, unsigned n, mbx_client_info *info)
 {
 	for (unsigned i = 0; i < srv->cfg.max_clients; i++) {

@@ -241,6 +241,10 @@ const mbx_server_stats *mbx_server_stats_get(const mbx_server *srv);
 size_t mbx_server_buffer_bytes(const mbx_server *srv);
 /* Info about the n-th live client (0-based); -ENOENT past the end. */
 int mbx_server_client_info(const mbx_server *srv, unsigned n, mbx_client_info *info);
+
+/* How many clients subscribed to event class cls (one MBX_EVC_* bit):
+ * a count of the class's subscriber bitmap, not a walk of the clients. */
+unsigned mbx_server_subscribers(const mbx_server *srv, uint32_t cls);
 /* Largest payload a response/event to this client can carry in one
  * message (the smaller of the line's and the client queue's size). */
 size_t mbx_server_client_max_payload(const mbx_server *srv, uint32_t client);

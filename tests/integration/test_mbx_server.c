@@ -553,11 +553,21 @@ static void test_subscription_filtering_and_unsubscribe(void)
 	pb = spawn(child_sub, &b);
 	parent_wait_ready(&a);
 	parent_wait_ready(&b);
+	/* the class index the publishing goes by: one subscriber each */
+	pthread_mutex_lock(&fl.mu);
+	TEST_ASSERT_EQUAL_UINT(1, mbx_server_subscribers(fl.srv, MBX_EVC_HB));
+	TEST_ASSERT_EQUAL_UINT(1, mbx_server_subscribers(fl.srv, MBX_EVC_EMCY));
+	TEST_ASSERT_EQUAL_UINT(0, mbx_server_subscribers(fl.srv, MBX_EVC_RAW));
+	pthread_mutex_unlock(&fl.mu);
 	publish_mix();
 	parent_go(&a);
 	parent_go(&b);
 	parent_wait_ready(&a);
 	parent_wait_ready(&b);
+	pthread_mutex_lock(&fl.mu);
+	TEST_ASSERT_EQUAL_UINT(0, mbx_server_subscribers(fl.srv, MBX_EVC_HB));
+	TEST_ASSERT_EQUAL_UINT(0, mbx_server_subscribers(fl.srv, MBX_EVC_EMCY));
+	pthread_mutex_unlock(&fl.mu);
 	publish_mix();
 	parent_go(&a);
 	parent_go(&b);
