@@ -1159,6 +1159,16 @@ static int emit_pdo(eds_ctx *c, uint16_t comm, uint16_t map, size_t nvars)
 	uint32_t cob_val = cob ? u32_of(cob) : 0;
 	int rc;
 
+	/* The re-mapping steps rewrite these two: they must have the sizes
+	 * CiA 301 gives them (found by fuzzing: a string COB-ID was read past
+	 * the 4 bytes of its "disabled" copy). */
+	if (cob && cob->size != 4)
+		return fail(c, cob->line, "PDO %04Xh sub 1 (COB-ID): %u bytes, UNSIGNED32 has 4",
+			    comm, (unsigned)cob->size);
+	if (m0 && m0->size != 1)
+		return fail(c, m0->line,
+			    "PDO mapping %04Xh sub 0 (number of entries): %u bytes, UNSIGNED8 has 1",
+			    map, (unsigned)m0->size);
 	if (cob && (rc = emit_const(c, comm, 1, cob_val | 0x80000000u, cob->size, cob->line)))
 		return rc;
 	cob = find_var(c, comm, 1); /* add_var may have moved the array */
