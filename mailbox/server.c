@@ -906,42 +906,119 @@ static void handle_chunk(mbx_server *srv, mbx_client *c, const mbx_hdr *h, const
 
 /* ---- receiving ---------------------------------------------------------------------- */
 
+/* The header checks every command passes first: 0 or a status, *bad the
+ * reason. */
+static int check_header(const mbx_server *srv, const uint8_t *buf, size_t n, mbx_hdr *h,
+			mbx_bad *bad)
+{
+	int rc = mbx_hdr_decode(buf, n, h, bad);
+
+	if (rc == 0 && h->kind != MBX_KIND_COMMAND) {
+		*bad = MBX_BAD_KIND;
+		return MBX_E_MALFORMED;
+	}
+	if (rc == 0 && h->line != srv->cfg.line) {
+		*bad = MBX_BAD_LINE;
+		return MBX_E_BAD_LINE;
+	}
+	return rc;
+}
+
+/* The sender, authenticated by its token; NULL when unknown, or when the
+ * header is too broken to name one. Only an authenticated sender gets an
+ * answer, even an error answer: a forged client id must not make us write
+ * to somebody else's queue. */
+static mbx_client *sender_of(const mbx_server *srv, const mbx_hdr *h, mbx_bad bad)
+{
+	mbx_client *c;
+
+	if (bad == MBX_BAD_SHORT || bad == MBX_BAD_MAGIC)
+		return NULL;
+	c = client_find(srv, h->client);
+	return c && c->token == h->token ? c : NULL;
+}
+
+/* A chunk of a transfer already refused: ignored (the last one ends it). */
+static bool discarded(mbx_client *c, const mbx_hdr *h)
+{
+	if (!c->discarding || c->discard_corr != h->corr || !(h->flags & MBX_F_CHUNKED) ||
+	    h->chunk == 0)
+		return false;
+	if (!(h->flags & MBX_F_MORE))
+		c->discarding = false;
+	return true;
+}
+
+/* A command of c refused with status: the rest of its transfer (when this
+ * is the first of several chunks) is ignored, and the client is told when
+ * tell and it did not ask for no reply. */
+static void refuse_command(mbx_server *srv, mbx_client *c, const mbx_hdr *h, int status, bool tell)
+{
+	if ((h->flags & MBX_F_MORE) && h->chunk == 0) {
+		c->discarding = true;
+		c->discard_corr = h->corr;
+	}
+	if (tell && !(h->flags & MBX_F_NO_REPLY))
+		send_status(srv, c, h->code, h->corr, status, 0, NULL, 0);
+}
+
+/* Validation, access and the request's own timeout: 0 when c may run the
+ * command, else a status (refused and counted here). */
+static int admit(mbx_server *srv, mbx_client *c, const mbx_hdr *h, const uint8_t *p)
+{
+	mbx_bad bad = MBX_BAD_NONE;
+	int rc = mbx_cmd_validate(h, p, &bad);
+
+	if (rc) {
+		count_bad(srv, bad);
+		refuse_command(srv, c, h, rc, true);
+		return rc;
+	}
+	if ((mbx_cmd_lookup(h->code)->flags & MBX_CI_WRITE) && c->access < MBX_ACCESS_WRITE) {
+		srv->stats.access_denied++;
+		refuse_command(srv, c, h, MBX_E_ACCESS, h->chunk == 0);
+		return MBX_E_ACCESS;
+	}
+	if ((!(h->flags & MBX_F_CHUNKED) || h->chunk == 0) && timeout_too_long(srv, h, p)) {
+		count_bad(srv, MBX_BAD_PARAM);
+		refuse_command(srv, c, h, MBX_E_PARAM, true);
+		return MBX_E_PARAM;
+	}
+	return 0;
+}
+
+/* An admitted command to where it is handled. */
+static void run_command(mbx_server *srv, mbx_client *c, const mbx_hdr *h, const uint8_t *p)
+{
+	const mbx_cmd_info *ci = mbx_cmd_lookup(h->code);
+
+	if (h->flags & MBX_F_CHUNKED)
+		handle_chunk(srv, c, h, p);
+	else if (ci->flags & MBX_CI_SERVER)
+		handle_protocol(srv, c, h, p);
+	else if (ci->flags & MBX_CI_DATA)
+		dispatch(srv, c, h, p, ci->fixed, p + ci->fixed, h->len - ci->fixed, NULL);
+	else
+		dispatch(srv, c, h, p, h->len, NULL, 0, NULL);
+}
+
 static void handle_msg(mbx_server *srv, const uint8_t *buf, size_t n)
 {
 	mbx_hdr h;
 	mbx_bad bad = MBX_BAD_NONE;
 	const uint8_t *p = buf + MBX_HDR_SIZE;
+	int rc = check_header(srv, buf, n, &h, &bad);
 	mbx_client *c;
-	int rc;
 
-	rc = mbx_hdr_decode(buf, n, &h, &bad);
-	if (rc == 0 && h.kind != MBX_KIND_COMMAND) {
-		rc = MBX_E_MALFORMED;
-		bad = MBX_BAD_KIND;
-	}
-	if (rc == 0 && h.line != srv->cfg.line) {
-		rc = MBX_E_BAD_LINE;
-		bad = MBX_BAD_LINE;
-	}
 	if (rc == 0 && h.code == MBX_CMD_REGISTER) {
 		rc = mbx_cmd_validate(&h, p, &bad);
-		if (rc) {
+		if (rc)
 			count_bad(srv, bad); /* no queue to answer to */
-			return;
-		}
-		handle_register(srv, &h, p);
+		else
+			handle_register(srv, &h, p);
 		return;
 	}
-
-	/* Who is it? Only an authenticated sender gets an answer, even an
-	 * error answer: a forged client id must not make us write to
-	 * somebody else's queue. */
-	c = NULL;
-	if (bad != MBX_BAD_SHORT && bad != MBX_BAD_MAGIC) {
-		c = client_find(srv, h.client);
-		if (c && c->token != h.token)
-			c = NULL;
-	}
+	c = sender_of(srv, &h, bad);
 	if (rc) {
 		count_bad(srv, bad);
 		if (c && !(h.flags & MBX_F_NO_REPLY))
@@ -954,59 +1031,9 @@ static void handle_msg(mbx_server *srv, const uint8_t *buf, size_t n)
 	}
 	c->confirmed = true;
 	c->lease_until = srv->now_us + (uint64_t)srv->cfg.lease_ms * 1000u;
-
-	if (c->discarding && c->discard_corr == h.corr && (h.flags & MBX_F_CHUNKED) &&
-	    h.chunk > 0) {
-		if (!(h.flags & MBX_F_MORE))
-			c->discarding = false;
-		return; /* rest of a transfer already refused */
-	}
-
-	rc = mbx_cmd_validate(&h, p, &bad);
-	if (rc) {
-		count_bad(srv, bad);
-		if ((h.flags & MBX_F_MORE) && h.chunk == 0) {
-			c->discarding = true;
-			c->discard_corr = h.corr;
-		}
-		if (!(h.flags & MBX_F_NO_REPLY))
-			send_status(srv, c, h.code, h.corr, rc, 0, NULL, 0);
+	if (discarded(c, &h) || admit(srv, c, &h, p) != 0)
 		return;
-	}
-	const mbx_cmd_info *ci = mbx_cmd_lookup(h.code);
-
-	if ((ci->flags & MBX_CI_WRITE) && c->access < MBX_ACCESS_WRITE) {
-		srv->stats.access_denied++;
-		if ((h.flags & MBX_F_MORE) && h.chunk == 0) {
-			c->discarding = true;
-			c->discard_corr = h.corr;
-		}
-		if (!(h.flags & MBX_F_NO_REPLY) && h.chunk == 0)
-			send_status(srv, c, h.code, h.corr, MBX_E_ACCESS, 0, NULL, 0);
-		return;
-	}
-	if ((!(h.flags & MBX_F_CHUNKED) || h.chunk == 0) && timeout_too_long(srv, &h, p)) {
-		count_bad(srv, MBX_BAD_PARAM);
-		if ((h.flags & MBX_F_MORE) && h.chunk == 0) {
-			c->discarding = true;
-			c->discard_corr = h.corr;
-		}
-		if (!(h.flags & MBX_F_NO_REPLY))
-			send_status(srv, c, h.code, h.corr, MBX_E_PARAM, 0, NULL, 0);
-		return;
-	}
-	if (h.flags & MBX_F_CHUNKED) {
-		handle_chunk(srv, c, &h, p);
-		return;
-	}
-	if (ci->flags & MBX_CI_SERVER) {
-		handle_protocol(srv, c, &h, p);
-		return;
-	}
-	if (ci->flags & MBX_CI_DATA)
-		dispatch(srv, c, &h, p, ci->fixed, p + ci->fixed, h.len - ci->fixed, NULL);
-	else
-		dispatch(srv, c, &h, p, h.len, NULL, 0, NULL);
+	run_command(srv, c, &h, p);
 }
 
 int mbx_server_poll(mbx_server *srv, uint64_t now_us)
