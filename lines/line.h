@@ -61,7 +61,7 @@ typedef struct line_stats {
 	uint32_t mbx_clients;
 	uint64_t mbx_commands, mbx_malformed, mbx_denied, mbx_dropped;
 	uint64_t events_sent;
-	uint64_t max_loop_us; /* longest loop iteration seen */
+	uint64_t max_loop_us; /* longest loop iteration seen (one loop in 64 timed) */
 } line_stats;
 
 /* Open the port, create the node and the mailbox server. Returns 0 or

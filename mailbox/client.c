@@ -115,7 +115,10 @@ typedef struct line_state {
 	uint32_t lease_ms;
 	uint32_t max_msg;
 	uint32_t max_transfer;
-	uint64_t last_sent_us;
+	/* lease renewal: something was sent since the helper last looked
+	 * (at ping_checked_us); if not, it sends a PING. No clock read per send. */
+	bool sent_since_ping;
+	uint64_t ping_checked_us;
 } line_state;
 
 struct cogw {
@@ -175,12 +178,13 @@ static struct timespec mono_deadline(uint64_t at_us)
 				  .tv_nsec = (long)(at_us % 1000000u) * 1000L };
 }
 
-/* CLOCK_REALTIME deadline for mq_timed*: until_us (monotonic) from now;
- * 0 = already passed (do not wait). */
-static struct timespec realtime_deadline(uint64_t until_us)
+/* CLOCK_REALTIME deadline for mq_timed*: until_us (monotonic) as seen at
+ * now (monotonic, read by the caller: in a VM every clock read can be a
+ * system call); {0, 0} = already passed (do not wait). */
+static struct timespec realtime_deadline(uint64_t now, uint64_t until_us)
 {
 	struct timespec at = { 0, 0 };
-	uint64_t now = mono_us(), left;
+	uint64_t left;
 
 	if (until_us <= now)
 		return at;
@@ -466,7 +470,7 @@ out:
 	free(msg);
 	if (rc == 0) {
 		pthread_mutex_lock(&h->setup_mu);
-		h->lines[line].last_sent_us = mono_us();
+		h->lines[line].sent_since_ping = true;
 		pthread_mutex_unlock(&h->setup_mu);
 	}
 	return rc;
@@ -494,69 +498,77 @@ static uint64_t corr_new(cogw *h)
 	return c;
 }
 
-static int lead_read(cogw *h, uint64_t until_us);
+static int lead_read(cogw *h, uint64_t now, uint64_t until_us);
 static void lead_release(cogw *h);
 
-/* Wait (h->mu held) for w to be done, as the leader reading the response
- * queue when no other thread is, else as a follower woken by the leader.
- * Between slices of RESTART_CHECK_MS, make sure the daemon did not restart
- * under us (then no answer can ever come). */
-static int wait_answer(cogw *h, waiter *w, unsigned line, unsigned restarts, uint64_t deadline_us)
+/* One turn as the leader (h->mu held, released around the receive).
+ * Returns < 0 when the response queue is unusable. */
+static int lead_turn(cogw *h, const waiter *w, uint64_t now, uint64_t until)
 {
-	uint64_t check_at = mono_us() + RESTART_CHECK_MS * 1000u;
-	int rc = 0;
+	int r;
+
+	h->leader = true;
+	h->lead_until_us = until;
+	pthread_mutex_unlock(&h->mu);
+	r = lead_read(h, now, until);
+	pthread_mutex_lock(&h->mu);
+	if (r < 0 || w->done || h->closing)
+		lead_release(h);
+	else
+		h->leader = false; /* taken again at once: nobody to wake */
+	return r;
+}
+
+/* Did the daemon restart under us (then no answer can ever come)? h->mu
+ * held, released around the check. */
+static bool restarted_meanwhile(cogw *h, unsigned line, unsigned restarts)
+{
+	bool restarted;
+
+	pthread_mutex_unlock(&h->mu);
+	cmd_queue_check(h, line);
+	restarted = restarts_of(h, line) != restarts;
+	pthread_mutex_lock(&h->mu);
+	return restarted;
+}
+
+/* Wait (h->mu held) for w to be done, as the leader reading the response
+ * queue when no other thread is, else as a follower woken by the leader;
+ * between slices of RESTART_CHECK_MS, look for a daemon restart. now: the
+ * caller's clock reading; the clock is read again only when a turn ends
+ * without the answer. */
+static int wait_answer(cogw *h, waiter *w, unsigned line, unsigned restarts, uint64_t now,
+		       uint64_t deadline_us)
+{
+	uint64_t check_at = now + RESTART_CHECK_MS * 1000u;
 
 	while (!w->done && !h->closing) {
-		uint64_t now = mono_us();
 		uint64_t until = check_at < deadline_us ? check_at : deadline_us;
 
-		if (now >= deadline_us) {
-			rc = COGW_E_TIMEOUT;
-			break;
-		}
+		if (now >= deadline_us)
+			return COGW_E_TIMEOUT;
 		if (now >= check_at) {
-			pthread_mutex_unlock(&h->mu);
-			cmd_queue_check(h, line);
-			bool restarted = restarts_of(h, line) != restarts;
-
-			pthread_mutex_lock(&h->mu);
-			if (restarted && !w->done) {
-				rc = COGW_E_RESTARTED;
-				break;
-			}
+			if (restarted_meanwhile(h, line, restarts) && !w->done)
+				return COGW_E_RESTARTED;
 			check_at = now + RESTART_CHECK_MS * 1000u;
-			continue;
-		}
-		if (!h->leader) {
-			h->leader = true;
-			h->lead_until_us = until;
-			pthread_mutex_unlock(&h->mu);
-			int r = lead_read(h, until);
+		} else if (!h->leader) {
+			if (lead_turn(h, w, now, until) < 0 && !w->done)
+				return COGW_E_SYSTEM;
+		} else {
+			struct timespec ts = mono_deadline(until);
 
-			pthread_mutex_lock(&h->mu);
-			if (r < 0 || w->done || h->closing)
-				lead_release(h);
-			else
-				h->leader = false; /* taken again at once: nobody to wake */
-			if (r < 0 && !w->done) {
-				rc = COGW_E_SYSTEM;
-				break;
-			}
-			continue;
+			pthread_cond_timedwait(&h->cond, &h->mu, &ts);
 		}
-		struct timespec ts = mono_deadline(until);
-
-		pthread_cond_timedwait(&h->cond, &h->mu, &ts);
+		if (!w->done)
+			now = mono_us();
 	}
-	if (!w->done && rc == 0)
-		rc = COGW_E_CLOSED;
-	return rc;
+	return w->done ? 0 : COGW_E_CLOSED;
 }
 
 /* Send and wait for the answer with the same correlation id. */
 static int exchange(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t flen,
 		    const void *data, size_t dlen, void *rbuf, size_t rcap, size_t *rlen,
-		    uint32_t *abort, uint64_t deadline_us)
+		    uint32_t *abort, uint64_t now, uint64_t deadline_us)
 {
 	waiter w = { .buf = rbuf, .cap = rcap };
 	unsigned restarts = restarts_of(h, line);
@@ -576,7 +588,7 @@ static int exchange(cogw *h, unsigned line, uint16_t code, const void *fixed, si
 
 	pthread_mutex_lock(&h->mu);
 	if (rc == 0)
-		rc = wait_answer(h, &w, line, restarts, deadline_us);
+		rc = wait_answer(h, &w, line, restarts, now, deadline_us);
 	waiter_unlink(h, &w);
 	pthread_mutex_unlock(&h->mu);
 	if (rc)
@@ -639,7 +651,7 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 	memcpy(rq.resp_queue, h->resp_name, sizeof rq.resp_queue);
 	memcpy(rq.event_queue, h->evt_name, sizeof rq.event_queue);
 	rc = exchange(h, line, MBX_CMD_REGISTER, &rq, sizeof rq, NULL, 0, &rs, sizeof rs, &len,
-		      NULL, deadline_us);
+		      NULL, mono_us(), deadline_us);
 	if (rc == 0 && len != sizeof rs)
 		rc = COGW_E_PROTOCOL;
 
@@ -653,7 +665,8 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 			ls->max_msg = MBX_MSG_MAX;
 		ls->max_transfer = rs.max_transfer;
 		ls->registered = true;
-		ls->last_sent_us = mono_us();
+		ls->sent_since_ping = true;
+		ls->ping_checked_us = mono_us();
 	}
 	mbx_subscribe_req sub = { .classes = ls->sub_classes, .n_filters = ls->n_filters };
 
@@ -666,7 +679,7 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 		mbx_subscribe_resp sr;
 
 		exchange(h, line, MBX_CMD_SUBSCRIBE, &sub, sizeof sub, NULL, 0, &sr, sizeof sr,
-			 NULL, NULL, deadline_us);
+			 NULL, NULL, mono_us(), deadline_us);
 	}
 	return rc;
 }
@@ -676,7 +689,7 @@ static int call(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t
 		const void *data, size_t dlen, void *rbuf, size_t rcap, size_t *rlen,
 		uint32_t *abort, unsigned timeout_ms)
 {
-	uint64_t deadline;
+	uint64_t now, deadline;
 	int rc;
 
 	if (!h)
@@ -685,11 +698,13 @@ static int call(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t
 		*abort = 0;
 	if (rlen)
 		*rlen = 0;
-	deadline = deadline_of(h, timeout_ms);
+	now = mono_us(); /* the one clock read of a call that is answered at once */
+	deadline = now + (uint64_t)(timeout_ms ? timeout_ms : h->timeout_ms) * 1000u;
 	rc = line_ready(h, line, deadline);
 	if (rc)
 		return rc;
-	rc = exchange(h, line, code, fixed, flen, data, dlen, rbuf, rcap, rlen, abort, deadline);
+	rc = exchange(h, line, code, fixed, flen, data, dlen, rbuf, rcap, rlen, abort, now,
+		      deadline);
 	if (rc == COGW_E_NOT_REGISTERED) {
 		/* the daemon restarted or reaped us: register again, once */
 		pthread_mutex_lock(&h->setup_mu);
@@ -698,7 +713,7 @@ static int call(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t
 		rc = line_ready(h, line, deadline);
 		if (rc == 0)
 			rc = exchange(h, line, code, fixed, flen, data, dlen, rbuf, rcap, rlen,
-				      abort, deadline);
+				      abort, mono_us(), deadline);
 	}
 	return rc;
 }
@@ -877,16 +892,26 @@ static void handle_response(cogw *h, const uint8_t *buf, size_t n, ack_todo *ack
 	h->stats.stray_responses++;
 }
 
+/* Each time the helper wakes (every lease/6) it looks at each registered
+ * line: one that sent nothing since the last look gets a PING, so the
+ * daemon hears from us about every lease/3 (two looks), well within the
+ * lease even when a wake-up comes late. */
 static void send_pings(cogw *h)
 {
 	uint64_t now = mono_us();
 
 	for (unsigned i = 0; i < MBX_LINES_MAX; i++) {
+		line_state *ls = &h->lines[i];
 		bool due;
 
 		pthread_mutex_lock(&h->setup_mu);
-		due = h->lines[i].registered && h->lines[i].lease_ms &&
-		      now - h->lines[i].last_sent_us >= (uint64_t)h->lines[i].lease_ms * 1000u / 3;
+		due = ls->registered && ls->lease_ms &&
+		      now - ls->ping_checked_us >= (uint64_t)ls->lease_ms * 1000u / 12;
+		if (due) {
+			due = !ls->sent_since_ping;
+			ls->sent_since_ping = false;
+			ls->ping_checked_us = now;
+		}
 		pthread_mutex_unlock(&h->setup_mu);
 		if (!due)
 			continue;
@@ -983,7 +1008,8 @@ static void reregister_done(cogw *h, const ack_todo *t)
 			ls->max_msg = MBX_MSG_MAX;
 		ls->max_transfer = rs->max_transfer;
 		ls->registered = true;
-		ls->last_sent_us = mono_us();
+		ls->sent_since_ping = true;
+		ls->ping_checked_us = mono_us();
 	}
 	sub = (mbx_subscribe_req){ .classes = ls->sub_classes, .n_filters = ls->n_filters };
 	memcpy(sub.filters, ls->filters, sizeof sub.filters);
@@ -1029,7 +1055,7 @@ static unsigned reader_period_ms(cogw *h)
 
 	pthread_mutex_lock(&h->setup_mu);
 	for (unsigned i = 0; i < MBX_LINES_MAX; i++) {
-		unsigned l = h->lines[i].lease_ms / 3;
+		unsigned l = h->lines[i].lease_ms / 6;
 
 		if (h->lines[i].registered && h->lines[i].lease_ms && l < p)
 			p = l ? l : 1;
@@ -1056,9 +1082,9 @@ static void after_response(cogw *h, const ack_todo *ack)
  * message from the response queue, waiting until until_us (monotonic) at
  * most, and handle it. Returns 1 a message, 0 none (timeout, signal, a
  * wake-up), -1 the queue is unusable. */
-static int lead_read(cogw *h, uint64_t until_us)
+static int lead_read(cogw *h, uint64_t now, uint64_t until_us)
 {
-	struct timespec at = realtime_deadline(until_us);
+	struct timespec at = realtime_deadline(now, until_us);
 	ack_todo ack = { 0 };
 	ssize_t n;
 
@@ -1155,7 +1181,8 @@ static void *reader_main(void *arg)
 		if (closing)
 			break;
 		if (lead) {
-			int r = lead_read(h, mono_us() + (uint64_t)period * 1000u);
+			uint64_t now = mono_us();
+			int r = lead_read(h, now, now + (uint64_t)period * 1000u);
 
 			pthread_mutex_lock(&h->mu);
 			lead_release(h);
@@ -1469,10 +1496,10 @@ static bool ring_pop(cogw *h, cogw_msg *m)
 
 /* One event from the event queue, waiting until until_us (monotonic; 0:
  * not at all); 1 = got one, 0 = none, < 0 error. */
-static int event_pop(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t until_us)
+static int event_pop(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t now, uint64_t until_us)
 {
 	for (;;) {
-		struct timespec at = realtime_deadline(until_us);
+		struct timespec at = realtime_deadline(now, until_us);
 		ssize_t n = mq_timedreceive(h->evt, (char *)buf, h->evt_msg, NULL, &at);
 		mbx_hdr hd;
 
@@ -1531,7 +1558,7 @@ static int recv_wait(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t deadline)
 			h->evt_wait_until_us = slice;
 		}
 		pthread_mutex_unlock(&h->mu);
-		int got = event_pop(h, m, buf, direct ? slice : 0);
+		int got = event_pop(h, m, buf, now, direct ? slice : 0);
 
 		if (direct) {
 			pthread_mutex_lock(&h->mu);
