@@ -13,6 +13,8 @@
 #include "gateway/gateway.h"
 
 #include <errno.h>
+#include <stdatomic.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -35,7 +37,7 @@
 #define GW_REBUILD_US 1000000u  /* forwarding list re-checked every 1 s */
 
 enum gw_msg_kind {
-	M_FWD = 1,   /* a B-object changed: slot */
+	M_FWD = 1,   /* a B-object changed: slot, its new value in bits */
 	M_EMCY,      /* send a forwarded EMCY: net, src_node, code */
 	M_OPEN,      /* lease a client toward node for session sid */
 	M_OPENED,    /* the answer: abort */
@@ -56,6 +58,7 @@ typedef struct gw_msg {
 	uint16_t slot;      /* M_FWD */
 	uint16_t net;       /* M_EMCY: source network */
 	uint16_t code;      /* M_EMCY: original error code */
+	uint64_t bits;      /* M_FWD: the value written (gw_image_bits_from) */
 	uint8_t d[8];       /* frames */
 	struct gw_job *job; /* M_JOB, M_JOB_DONE: owned by the receiver meanwhile */
 } gw_msg;
@@ -68,6 +71,7 @@ struct gw_sess {
 	uint16_t gen;
 	uint16_t net; /* the requested network (for the counters) */
 	uint8_t target_line;
+	uint64_t started_us; /* the network indication (for the listing) */
 	gw_sdo_route r;
 };
 
@@ -121,6 +125,12 @@ struct gw_line {
 	gw_line_params p;
 	gw_route_table routes;
 	gw_fwd_list fwd;
+	/* Slots whose update could not be handed to this line (its ring was
+	 * full): set by the other lines (atomic OR), taken by this one, which
+	 * then applies the image's latest value - a lost update is counted
+	 * but the last value still arrives. */
+	_Atomic uint64_t *resync;
+	size_t resync_words;
 	bool fwd_dirty;
 	uint64_t next_rebuild_us;
 	struct gw_sess *sess;
@@ -275,6 +285,7 @@ static uint32_t on_indication(void *ctx, uint8_t ch, const uint8_t d[8], uint64_
 		target_ms *= 2;
 	s->gen++;
 	s->net = ni.net;
+	s->started_us = now_us;
 	gw_sdo_route_start(&s->r, ni, refuse, &hop, gl->p.sdo_timeout_ms, target_ms, now_us);
 	return 0;
 }
@@ -336,8 +347,8 @@ static uint32_t relay_check(struct gw_line *gl, uint8_t node)
 {
 	line_stats st;
 
-	if (!line_is_up(gl->l))
-		return GW_AB_NO_ANSWER;
+	if (!line_is_up(gl->l) || !line_link_up(gl->l))
+		return GW_AB_NO_ANSWER; /* interface down: nothing would answer */
 	if (line_stats_snapshot(gl->l, &st) && st.bus_state == CAN_BUS_OFF)
 		return GW_AB_NO_ANSWER;
 	if (co_hb_consumer_status(gl->node, node) == CO_HB_MON_LOST)
@@ -433,48 +444,74 @@ static void emcy_send(struct gw_line *gl, const gw_msg *m)
 
 /* ---- PDO forwarding ---------------------------------------------------------------------- */
 
-static void pdo_published(struct gw_line *gl, const co_ev_pdo_obj *o)
+/* A B-object of this line's OD was written - by an RPDO, over SDO or by a
+ * mailbox client (its after_write hook): into the shared image, and to
+ * every other line whose TPDOs map it. */
+static void image_written(void *ctx, co_od_entry *e, const co_od_access *a)
 {
+	struct gw_line *gl = ctx;
 	gw *g = gl->g;
 	int slot;
-	co_od_entry *e;
 	gw_msg m = { .kind = M_FWD };
 
-	if (o->abort || !gw_image_in_range(o->index))
+	if (a->origin == CO_OD_ORIGIN_RESET)
+		return; /* defaults restored on this line only */
+	slot = gw_image_find(g->img, e->index, e->sub);
+	if (slot < 0)
 		return;
-	slot = gw_image_find(g->img, o->index, o->sub);
-	e = co_od_find(co_node_od(gl->node), o->index, o->sub);
-	if (slot < 0 || !e)
-		return;
-	gw_image_write(g->img, slot, gw_image_bits_from(e->data, (uint8_t)e->size));
+	m.bits = gw_image_bits_from(e->data, (uint8_t)e->size);
+	gw_image_write(g->img, slot, m.bits);
 	COUNT(gl->c.pdo_published);
 	m.slot = (uint16_t)slot;
 	for (unsigned j = 0; j < g->n; j++) {
 		if (j == gl->idx || !gw_fwd_list_has(&g->line[j].fwd, slot))
 			continue;
-		if (send_to(gl, j, &m))
+		if (send_to(gl, j, &m)) {
 			COUNT(gl->c.pdo_dropped);
-		else
+			atomic_fetch_or_explicit(&g->line[j].resync[slot / 64],
+						 (uint64_t)1 << (slot % 64), memory_order_release);
+		} else {
 			COUNT(gl->c.pdo_forwarded);
+		}
 	}
 }
 
-static void pdo_apply(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
+static const co_od_hooks image_hooks = {
+	.after_write = image_written,
+};
+
+static void pdo_apply(struct gw_line *gl, int slot, uint64_t bits, uint64_t now_us)
 {
-	const gw_image_slot *s = gw_image_slot_at(gl->g->img, m->slot);
+	const gw_image_slot *s = gw_image_slot_at(gl->g->img, slot);
 	uint8_t buf[8];
 	co_od_entry *e;
 
 	if (!s || !(e = co_od_find(co_node_od(gl->node), s->index, s->sub)))
 		return;
-	/* The latest value, not the one of the moment of the message: a
-	 * burst collapses into what the TPDO timing lets through. */
-	gw_image_bits_to(gw_image_read(gl->g->img, m->slot), buf, s->size);
+	gw_image_bits_to(bits, buf, s->size);
+	/* The store runs no hook: the update does not come back as ours. */
 	if (co_od_entry_set_bytes(e, buf, s->size))
 		return;
 	COUNT(gl->c.pdo_applied);
 	if (co_pdo_object_changed(gl->node, s->index, s->sub, now_us) > 0)
 		COUNT(gl->c.pdo_triggered);
+}
+
+/* Updates lost on the way here: apply the latest value of each. */
+static void pdo_resync(struct gw_line *gl, uint64_t now_us)
+{
+	for (size_t w = 0; w < gl->resync_words; w++) {
+		uint64_t bits;
+
+		if (!atomic_load_explicit(&gl->resync[w], memory_order_relaxed))
+			continue;
+		bits = atomic_exchange_explicit(&gl->resync[w], 0, memory_order_acquire);
+		while (bits) {
+			int slot = (int)(w * 64 + (size_t)__builtin_ctzll(bits));
+			bits &= bits - 1;
+			pdo_apply(gl, slot, gw_image_read(gl->g->img, slot), now_us);
+		}
+	}
 }
 
 /* ---- mailbox: routed SDO for clients ------------------------------------------------ */
@@ -674,9 +711,39 @@ static void mbx_gw_sdo(struct gw_line *gl, const mbx_request *req)
 	}
 }
 
+/* The routed sessions running on this line, after the routes. */
+static size_t list_sessions(struct gw_line *gl, uint8_t *out, uint8_t *count)
+{
+	uint64_t now_us = line_loop_now_us(gl->l);
+	size_t off = 0;
+
+	*count = 0;
+	for (uint8_t i = 0; i < gl->n_sess; i++) {
+		const struct gw_sess *s = &gl->sess[i];
+		mbx_gw_session e = { .channel = i, .target_line = 0xFF };
+
+		if (!gw_sdo_route_busy(&s->r))
+			continue;
+		if (s->r.opened)
+			e.target_line = s->target_line;
+		e.router = s->r.hop.via_router ? s->r.hop.node : 0;
+		e.node = s->r.target.node;
+		e.net = s->net;
+		e.age_ms = (uint32_t)((now_us - s->started_us) / 1000u);
+		e.frames = (uint32_t)(s->r.frames_to_target + s->r.frames_to_requester);
+		snprintf(e.state, sizeof e.state, "%s",
+			 gw_sdo_route_state_to_string(gw_sdo_route_state_of(&s->r)));
+		memcpy(out + off, &e, sizeof e);
+		off += sizeof e;
+		(*count)++;
+	}
+	return off;
+}
+
 static void mbx_gw_routes(struct gw_line *gl, const mbx_request *req)
 {
-	static __thread uint8_t buf[sizeof(mbx_gw_status) + GW_NET_MAX * sizeof(mbx_gw_route)];
+	static __thread uint8_t buf[sizeof(mbx_gw_status) + GW_NET_MAX * sizeof(mbx_gw_route) +
+				    255 * sizeof(mbx_gw_session)];
 	mbx_gw_status st = { .network_id = gl->p.network_id };
 	gw_line_counters c;
 	size_t off = sizeof st;
@@ -699,8 +766,8 @@ static void mbx_gw_routes(struct gw_line *gl, const mbx_request *req)
 	st.emcy_dropped = c.emcy.dropped;
 	st.emcy_sent = c.emcy.sent;
 	st.ring_drops = c.ring_drops;
-	for (uint8_t i = 0; i < gl->n_sess; i++)
-		st.active += gw_sdo_route_busy(&gl->sess[i].r);
+	for (unsigned i = 0; i < GW_RELAYS_MAX; i++)
+		st.leases += gl->relay[i].used;
 	for (unsigned n = GW_NET_MIN; n <= GW_NET_MAX; n++) {
 		const gw_route *r = &gl->routes.r[n];
 		mbx_gw_route e = { .net = (uint8_t)n,
@@ -719,6 +786,7 @@ static void mbx_gw_routes(struct gw_line *gl, const mbx_request *req)
 		off += sizeof e;
 		st.routes++;
 	}
+	off += list_sessions(gl, buf + off, &st.active);
 	memcpy(buf, &st, sizeof st);
 	mbx_server_respond(line_mbx(gl->l), &req->reply, 0, 0, buf, off);
 }
@@ -783,8 +851,16 @@ static int ext_attach(void *ctx, line *l)
 	for (unsigned n = GW_NET_MIN; n <= GW_NET_MAX; n++)
 		co_od_set_hooks(od, GW_OBJ_ROUTES, (uint8_t)n, &routes_hooks, gl);
 	gw_route_table_compile_od(&gl->routes, od);
+	for (size_t i = 0; i < gw_image_count(gl->g->img); i++) {
+		const gw_image_slot *is = gw_image_slot_at(gl->g->img, (int)i);
+		co_od_set_hooks(od, is->index, is->sub, &image_hooks, gl);
+	}
 	if ((rc = gw_fwd_list_init(&gl->fwd, gl->g->img)))
 		return rc;
+	gl->resync_words = (gw_image_count(gl->g->img) + 63) / 64;
+	gl->resync = calloc(gl->resync_words ? gl->resync_words : 1, sizeof(*gl->resync));
+	if (!gl->resync)
+		return -ENOMEM;
 	gw_fwd_list_rebuild(&gl->fwd, gl->g->img, od);
 	gl->n_sess = sdo_server_channel_count(gl->node);
 	gl->sess = calloc(gl->n_sess ? gl->n_sess : 1, sizeof(*gl->sess));
@@ -817,6 +893,12 @@ static void ext_detach(void *ctx, line *l)
 		if (e && e->hook_ctx == gl)
 			co_od_entry_set_hooks(e, NULL, NULL);
 	}
+	for (size_t i = 0; i < gw_image_count(gl->g->img); i++) {
+		const gw_image_slot *is = gw_image_slot_at(gl->g->img, (int)i);
+		co_od_entry *e = co_od_find(od, is->index, is->sub);
+		if (e && e->hook_ctx == gl)
+			co_od_entry_set_hooks(e, NULL, NULL);
+	}
 	free(gl->sess);
 	gl->sess = NULL;
 	gl->n_sess = 0;
@@ -825,6 +907,9 @@ static void ext_detach(void *ctx, line *l)
 		gl->jobs[i].buf = NULL;
 	}
 	gw_fwd_list_fini(&gl->fwd);
+	free((void *)gl->resync);
+	gl->resync = NULL;
+	gl->resync_words = 0;
 }
 
 static void ext_event(void *ctx, line *l, const co_event *ev)
@@ -833,9 +918,6 @@ static void ext_event(void *ctx, line *l, const co_event *ev)
 
 	(void)l;
 	switch (ev->kind) {
-	case CO_EV_RPDO_OBJECT:
-		pdo_published(gl, &ev->u.pdo_obj);
-		break;
 	case CO_EV_EMCY_RX:
 		emcy_consumed(gl, &ev->u.emcy);
 		break;
@@ -861,7 +943,10 @@ static void handle(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 
 	switch (m->kind) {
 	case M_FWD:
-		pdo_apply(gl, m, now_us);
+		/* The value this update carried, in the order the source wrote
+		 * them: each gets its own TPDO when the TPDO's timing allows
+		 * one (an inhibit time sends the latest at its end). */
+		pdo_apply(gl, m->slot, m->bits, now_us);
 		break;
 	case M_EMCY:
 		emcy_send(gl, m);
@@ -918,6 +1003,9 @@ static void ext_wake(void *ctx, line *l)
 		while (xring_pop(r, &m, sizeof(m)) > 0)
 			handle(gl, &m, now_us);
 	}
+	/* After the rings: a resync bit is set only on a full ring, whose
+	 * messages have woken us, so it is seen here at the latest. */
+	pdo_resync(gl, now_us);
 }
 
 static uint64_t ext_poll(void *ctx, line *l, uint64_t now_us)

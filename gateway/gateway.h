@@ -11,8 +11,11 @@
  * - lends SDO client channels of its pool to sessions of other lines
  *   (relay leases, core/sdo_client.h) and relays their frames;
  * - forwards consumed EMCYs per 1F2Fh and sends those forwarded to it;
- * - publishes B-objects written by its RPDOs into the shared image and
- *   applies updates of other lines to its own OD, triggering its TPDOs;
+ * - publishes B-objects written on it (by its RPDOs, over SDO, by mailbox
+ *   clients: an after_write hook) into the shared image and hands each
+ *   update, value included, to the lines whose TPDOs map it; applies the
+ *   updates of other lines to its own OD, triggering its TPDOs (after a
+ *   drop, the image's latest value);
  * - serves the mailbox's gateway commands (MBX_CMD_GW_*): the routing
  *   table with its counters, and SDO transfers with a node of any network,
  *   run by an SDO client of the line the route names (after a network
@@ -57,7 +60,7 @@ typedef struct gw_line_counters {
 	uint64_t routed;   /* transfers completed */
 	uint64_t aborted, timed_out, refused;
 	uint64_t relayed_frames; /* frames through leases of this line */
-	uint64_t pdo_published;  /* RPDO values put into the image */
+	uint64_t pdo_published;  /* B-object writes put into the image */
 	uint64_t pdo_forwarded;  /* updates handed to other lines */
 	uint64_t pdo_dropped;    /* updates lost (ring full / closed) */
 	uint64_t pdo_applied;    /* updates applied to this line's OD */

@@ -594,6 +594,11 @@ bool line_is_up(const line *l)
 	return atomic_load(&((line *)l)->up);
 }
 
+bool line_link_up(const line *l)
+{
+	return can_port_link_up(l->port);
+}
+
 bool line_stats_snapshot(line *l, line_stats *out)
 {
 	pthread_mutex_lock(&l->stats_lock);

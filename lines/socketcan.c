@@ -12,6 +12,7 @@
 #include <net/if.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -21,6 +22,7 @@
 
 struct can_port {
 	int fd;
+	unsigned ifindex;
 	can_port_config cfg;
 	can_port_stats stats;
 	can_bus_state state;
@@ -190,6 +192,7 @@ int can_port_open(can_port **out, const can_port_config *cfg, const char **errms
 	 * nothing signals). Our own queue holds the backlog instead. */
 	(void)setsockopt(p->fd, SOL_SOCKET, SO_SNDBUF, &zero, sizeof zero);
 
+	p->ifindex = ifindex;
 	struct sockaddr_can addr = { .can_family = AF_CAN, .can_ifindex = (int)ifindex };
 	if (bind(p->fd, (struct sockaddr *)&addr, sizeof addr) != 0) {
 		rc = -errno;
@@ -408,6 +411,18 @@ int can_port_take_watermark_event(can_port *p)
 	int e = p->watermark_event;
 	p->watermark_event = 0;
 	return e;
+}
+
+bool can_port_link_up(const can_port *p)
+{
+	struct ifreq ifr = { 0 };
+
+	/* By index: the name may have changed since the port was opened. */
+	if (!if_indextoname(p->ifindex, ifr.ifr_name))
+		return false; /* the interface is gone */
+	if (ioctl(p->fd, SIOCGIFFLAGS, &ifr) != 0)
+		return true; /* cannot tell: do not refuse on a guess */
+	return (ifr.ifr_flags & IFF_UP) && (ifr.ifr_flags & IFF_RUNNING);
 }
 
 can_bus_state can_port_bus_state(const can_port *p)

@@ -120,6 +120,11 @@ uint64_t can_port_retry_at_us(const can_port *p);
 int can_port_take_watermark_event(can_port *p);
 
 can_bus_state can_port_bus_state(const can_port *p);
+/* Is the interface administratively up and running (ip link set ... up,
+ * carrier present)? A frame sent on a link that is down only fails
+ * (ENETDOWN): callers that would wait for an answer ask first. One ioctl;
+ * no blocking. */
+bool can_port_link_up(const can_port *p);
 const can_port_stats *can_port_get_stats(const can_port *p);
 
 #endif /* COGW_LINES_SOCKETCAN_H */

@@ -1733,25 +1733,42 @@ int cogw_mgr_reset_counters(cogw *h, unsigned line, unsigned timeout_ms)
 		    timeout_ms);
 }
 
-int cogw_gw_routes(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes, size_t cap,
-		   size_t *n, unsigned timeout_ms)
+int cogw_gw_status(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes, size_t cap,
+		   size_t *n, mbx_gw_session *sessions, size_t s_cap, size_t *n_s,
+		   unsigned timeout_ms)
 {
-	uint8_t buf[sizeof(mbx_gw_status) + 128 * sizeof(mbx_gw_route)];
-	size_t len = 0, got;
+	static __thread uint8_t buf[sizeof(mbx_gw_status) + 255 * sizeof(mbx_gw_route) +
+				    255 * sizeof(mbx_gw_session)];
+	size_t len = 0, off = sizeof *st;
 	int rc = call(h, line, MBX_CMD_GW_ROUTES, NULL, 0, NULL, 0, buf, sizeof buf, &len, NULL,
 		      timeout_ms);
 
 	if (rc)
 		return rc;
-	if (len < sizeof *st || (len - sizeof *st) % sizeof(mbx_gw_route))
+	if (len < sizeof *st)
 		return COGW_E_PROTOCOL;
 	memcpy(st, buf, sizeof *st);
-	got = (len - sizeof *st) / sizeof(mbx_gw_route);
+	if (len !=
+	    sizeof *st + st->routes * sizeof(mbx_gw_route) + st->active * sizeof(mbx_gw_session))
+		return COGW_E_PROTOCOL;
 	if (n)
-		*n = got;
-	for (size_t i = 0; i < got && i < cap; i++)
-		memcpy(&routes[i], buf + sizeof *st + i * sizeof(mbx_gw_route), sizeof routes[i]);
+		*n = st->routes;
+	for (size_t i = 0; routes && i < st->routes && i < cap; i++)
+		memcpy(&routes[i], buf + off + i * sizeof(mbx_gw_route), sizeof routes[i]);
+	off += st->routes * sizeof(mbx_gw_route);
+	if (n_s)
+		*n_s = st->active;
+	for (size_t i = 0; sessions && i < st->active && i < s_cap; i++) {
+		memcpy(&sessions[i], buf + off + i * sizeof(mbx_gw_session), sizeof sessions[i]);
+		sessions[i].state[sizeof sessions[i].state - 1] = '\0';
+	}
 	return 0;
+}
+
+int cogw_gw_routes(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes, size_t cap,
+		   size_t *n, unsigned timeout_ms)
+{
+	return cogw_gw_status(h, line, st, routes, cap, n, NULL, 0, NULL, timeout_ms);
 }
 
 int cogw_sdo_read(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, void *buf,

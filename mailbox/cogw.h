@@ -221,6 +221,11 @@ int cogw_store(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms);
  * how many the daemon sent). */
 int cogw_gw_routes(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes, size_t cap,
 		   size_t *n, unsigned timeout_ms);
+/* The same, and the routed sessions running now (at most s_cap of them,
+ * *n_s = how many the daemon sent = st->active). Arrays may be NULL. */
+int cogw_gw_status(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes, size_t cap,
+		   size_t *n, mbx_gw_session *sessions, size_t s_cap, size_t *n_s,
+		   unsigned timeout_ms);
 int cogw_restore(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms);
 
 /* ---- the line's CiA 302-2 manager (MBX_CMD_MGR_*) ------------------------- */

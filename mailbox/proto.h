@@ -423,7 +423,8 @@ typedef struct mbx_ev_gw_emcy {
 } mbx_ev_gw_emcy;
 
 /* MBX_CMD_GW_ROUTES: the line's gateway counters, then one mbx_gw_route
- * per network with a route or any counted traffic. */
+ * per network with a route or any counted traffic (status.routes), then
+ * one mbx_gw_session per routed session running (status.active). */
 /* ---- payloads: CiA 302-2 manager (docs/mailbox.md) ------------------------ */
 
 typedef struct mbx_mgr_node_req {
@@ -527,8 +528,11 @@ typedef struct mbx_ev_mgr {
 typedef struct mbx_gw_status {
 	uint16_t network_id; /* this line's network */
 	uint8_t routes;      /* mbx_gw_route entries that follow */
-	uint8_t active;      /* routed sessions running now */
-	uint32_t pad;
+	uint8_t active;      /* routed sessions running now: the
+	                      * mbx_gw_session entries after the routes */
+	uint16_t leases;     /* SDO clients of this line lent to routed
+	                      * sessions of other lines now */
+	uint16_t pad;
 	uint64_t sessions, routed, aborted, timed_out, refused;
 	uint64_t relayed_frames; /* frames through this line's relay leases */
 	uint64_t pdo_published, pdo_forwarded, pdo_dropped, pdo_applied, pdo_triggered;
@@ -544,6 +548,20 @@ typedef struct mbx_gw_route {
 	uint32_t raw; /* the 1F2Ch value */
 	uint64_t routed, aborted, timed_out, refused;
 } mbx_gw_route;
+
+/* One routed SDO session running on the line (entered on its SDO server). */
+typedef struct mbx_gw_session {
+	uint8_t channel;     /* SDO server channel (0-based) */
+	uint8_t target_line; /* line it was routed to, 0xFF = not yet */
+	uint8_t router;      /* next router's node-ID, 0 = network attached */
+	uint8_t node;        /* target node */
+	uint16_t net;        /* target network */
+	uint16_t pad;
+	uint32_t age_ms; /* since the network indication */
+	uint32_t frames; /* relayed so far, both ways */
+	char state[32];  /* where the transfer stands ("wait initiate",
+	                      * "block upload sub-block", ...), NUL-terminated */
+} mbx_gw_session;
 
 typedef struct mbx_nmt_req {
 	uint8_t cs;   /* 0x01 start, 0x02 stop, 0x80 pre-op, 0x81 reset node,

@@ -2,7 +2,8 @@
 /*
  * cogwctl route: the CiA 302-7 gateway of each line - its network, its
  * routing table 1F2Ch with the counters per network, routed sessions,
- * relayed frames, PDO forwarding and EMCY routing counters.
+ * relayed frames, PDO forwarding and EMCY routing counters, and the routed
+ * sessions running now. The counters' printers serve cogwctl status too.
  */
 #include <inttypes.h>
 #include <string.h>
@@ -19,14 +20,13 @@ static void add_u64(cJSON *o, const char *name, uint64_t v)
 	cJSON_AddNumberToObject(o, name, (double)v);
 }
 
-static cJSON *line_json(unsigned line, const mbx_gw_status *st, const mbx_gw_route *r, size_t n)
+void ctl_gw_counters_json(cJSON *o, const mbx_gw_status *st)
 {
-	cJSON *o = cJSON_CreateObject();
-	cJSON *s, *routes;
+	cJSON *s;
 
-	cJSON_AddNumberToObject(o, "line", line);
 	cJSON_AddNumberToObject(o, "network", st->network_id);
 	cJSON_AddNumberToObject(o, "active_sessions", st->active);
+	cJSON_AddNumberToObject(o, "leases", st->leases);
 	s = cJSON_AddObjectToObject(o, "sdo");
 	add_u64(s, "sessions", st->sessions);
 	add_u64(s, "routed", st->routed);
@@ -47,6 +47,32 @@ static cJSON *line_json(unsigned line, const mbx_gw_status *st, const mbx_gw_rou
 	add_u64(s, "dropped", st->emcy_dropped);
 	add_u64(s, "sent", st->emcy_sent);
 	add_u64(o, "ring_drops", st->ring_drops);
+}
+
+void ctl_gw_counters_text(const mbx_gw_status *st, const char *indent)
+{
+	printf("%sSDO   sessions %" PRIu64 ", routed %" PRIu64 ", aborted %" PRIu64
+	       ", timed out %" PRIu64 ", refused %" PRIu64 ", relayed frames %" PRIu64 "\n",
+	       indent, st->sessions, st->routed, st->aborted, st->timed_out, st->refused,
+	       st->relayed_frames);
+	printf("%sPDO   published %" PRIu64 ", forwarded %" PRIu64 ", dropped %" PRIu64
+	       ", applied %" PRIu64 " (TPDOs triggered %" PRIu64 ")\n",
+	       indent, st->pdo_published, st->pdo_forwarded, st->pdo_dropped, st->pdo_applied,
+	       st->pdo_triggered);
+	printf("%sEMCY  consumed %" PRIu64 ", forwarded %" PRIu64 ", unroutable %" PRIu64
+	       ", dropped %" PRIu64 ", sent %" PRIu64 "\n",
+	       indent, st->emcy_consumed, st->emcy_forwarded, st->emcy_unroutable, st->emcy_dropped,
+	       st->emcy_sent);
+}
+
+static cJSON *line_json(unsigned line, const mbx_gw_status *st, const mbx_gw_route *r, size_t n,
+			const mbx_gw_session *ss, size_t n_s)
+{
+	cJSON *o = cJSON_CreateObject();
+	cJSON *routes, *sessions;
+
+	cJSON_AddNumberToObject(o, "line", line);
+	ctl_gw_counters_json(o, st);
 	routes = cJSON_AddArrayToObject(o, "routes");
 	for (size_t i = 0; i < n; i++) {
 		cJSON *e = cJSON_CreateObject();
@@ -63,25 +89,34 @@ static cJSON *line_json(unsigned line, const mbx_gw_status *st, const mbx_gw_rou
 		add_u64(e, "refused", r[i].refused);
 		cJSON_AddItemToArray(routes, e);
 	}
+	sessions = cJSON_AddArrayToObject(o, "sessions");
+	for (size_t i = 0; i < n_s; i++) {
+		cJSON *e = cJSON_CreateObject();
+		cJSON_AddNumberToObject(e, "channel", ss[i].channel);
+		cJSON_AddNumberToObject(e, "network", ss[i].net);
+		cJSON_AddNumberToObject(e, "node", ss[i].node);
+		if (ss[i].target_line != 0xFF)
+			cJSON_AddNumberToObject(e, "target_line", ss[i].target_line);
+		else
+			cJSON_AddNullToObject(e, "target_line");
+		if (ss[i].router)
+			cJSON_AddNumberToObject(e, "router", ss[i].router);
+		cJSON_AddStringToObject(e, "state", ss[i].state);
+		cJSON_AddNumberToObject(e, "age_ms", ss[i].age_ms);
+		cJSON_AddNumberToObject(e, "frames", ss[i].frames);
+		cJSON_AddItemToArray(sessions, e);
+	}
 	return o;
 }
 
-static void line_text(unsigned line, const mbx_gw_status *st, const mbx_gw_route *r, size_t n)
+static void line_text(unsigned line, const mbx_gw_status *st, const mbx_gw_route *r, size_t n,
+		      const mbx_gw_session *ss, size_t n_s)
 {
-	printf("line %u: network %u, %u routed session%s running\n", line, st->network_id,
-	       st->active, st->active == 1 ? "" : "s");
-	printf("  SDO   sessions %" PRIu64 ", routed %" PRIu64 ", aborted %" PRIu64
-	       ", timed out %" PRIu64 ", refused %" PRIu64 ", relayed frames %" PRIu64 "\n",
-	       st->sessions, st->routed, st->aborted, st->timed_out, st->refused,
-	       st->relayed_frames);
-	printf("  PDO   published %" PRIu64 ", forwarded %" PRIu64 ", dropped %" PRIu64
-	       ", applied %" PRIu64 " (TPDOs triggered %" PRIu64 ")\n",
-	       st->pdo_published, st->pdo_forwarded, st->pdo_dropped, st->pdo_applied,
-	       st->pdo_triggered);
-	printf("  EMCY  consumed %" PRIu64 ", forwarded %" PRIu64 ", unroutable %" PRIu64
-	       ", dropped %" PRIu64 ", sent %" PRIu64 "\n",
-	       st->emcy_consumed, st->emcy_forwarded, st->emcy_unroutable, st->emcy_dropped,
-	       st->emcy_sent);
+	printf("line %u: network %u, %u routed session%s running, %u client%s lent to other "
+	       "lines\n",
+	       line, st->network_id, st->active, st->active == 1 ? "" : "s", st->leases,
+	       st->leases == 1 ? "" : "s");
+	ctl_gw_counters_text(st, "  ");
 	printf("  network  route                     routed  aborted  timed-out  refused\n");
 	for (size_t i = 0; i < n; i++) {
 		char how[40];
@@ -94,6 +129,24 @@ static void line_text(unsigned line, const mbx_gw_status *st, const mbx_gw_route
 			snprintf(how, sizeof how, "-");
 		printf("  %7u  %-24s %7" PRIu64 "  %7" PRIu64 "  %9" PRIu64 "  %7" PRIu64 "\n",
 		       r[i].net, how, r[i].routed, r[i].aborted, r[i].timed_out, r[i].refused);
+	}
+	if (!n_s)
+		return;
+	printf("  channel  target               via                 state                     "
+	       "age      frames\n");
+	for (size_t i = 0; i < n_s; i++) {
+		char tgt[24], via[24];
+		snprintf(tgt, sizeof tgt, "network %u node %u", ss[i].net, ss[i].node);
+		if (ss[i].target_line == 0xFF)
+			snprintf(via, sizeof via, "-");
+		else if (ss[i].router)
+			snprintf(via, sizeof via, "line %u, router %u", ss[i].target_line,
+				 ss[i].router);
+		else
+			snprintf(via, sizeof via, "line %u", ss[i].target_line);
+		printf("  %7u  %-19s  %-18s  %-24s  %4u.%u s  %6u\n", ss[i].channel, tgt, via,
+		       ss[i].state, ss[i].age_ms / 1000u, ss[i].age_ms % 1000u / 100u,
+		       ss[i].frames);
 	}
 }
 
@@ -125,24 +178,29 @@ static int run(ctl *c, int argc, char **argv)
 		return ex;
 	cJSON *arr = c->json ? cJSON_CreateArray() : NULL;
 	static mbx_gw_route routes[128];
+	static mbx_gw_session sessions[255];
 	for (int i = 0; i < n_lines; i++) {
 		mbx_gw_status st;
-		size_t n = 0;
+		size_t n = 0, n_s = 0;
 		char ctx[48];
 		snprintf(ctx, sizeof ctx, "gateway of line %u", lines[i]);
-		rc = cogw_gw_routes(h, lines[i], &st, routes, 128, &n, c->timeout_ms);
+		rc = cogw_gw_status(h, lines[i], &st, routes, 128, &n, sessions, 255, &n_s,
+				    c->timeout_ms);
 		if (rc < 0) {
 			cJSON_Delete(arr);
 			return ctl_fail(c, rc, 0, ctx);
 		}
 		if (n > 128)
 			n = 128;
+		if (n_s > 255)
+			n_s = 255;
 		if (c->json) {
-			cJSON_AddItemToArray(arr, line_json(lines[i], &st, routes, n));
+			cJSON_AddItemToArray(arr,
+					     line_json(lines[i], &st, routes, n, sessions, n_s));
 		} else {
 			if (i)
 				printf("\n");
-			line_text(lines[i], &st, routes, n);
+			line_text(lines[i], &st, routes, n, sessions, n_s);
 		}
 	}
 	if (c->json) {
@@ -167,7 +225,10 @@ const ctl_cmd ctl_cmd_route = {
 		"TPDOs triggered), EMCY routing (consumed with a 1F2Fh entry, forwarded,\n"
 		"unroutable, dropped, sent here), then the routing table 1F2Ch: every network\n"
 		"with a route (attached to a line, or through a router node on a line) and its\n"
-		"counters. See docs/gateway.md.\n"
+		"counters, then the routed SDO sessions running now (server channel, target\n"
+		"network and node, the line and router it went to, where the transfer stands,\n"
+		"age, frames relayed) and how many of the line's SDO clients are lent to\n"
+		"sessions of other lines. See docs/gateway.md.\n"
 		"\n"
 		"Examples:\n"
 		"  cogwctl route\n"

@@ -65,20 +65,8 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 		cJSON_AddNumberToObject(mb, "access_denied", (double)ms.access_denied);
 		cJSON_AddNumberToObject(mb, "events_sent", (double)ms.events_sent);
 		cJSON_AddNumberToObject(mb, "dropped", (double)ms.dropped);
-		if (has_gw) {
-			cJSON *g = cJSON_AddObjectToObject(o, "gateway");
-			cJSON_AddNumberToObject(g, "network", gw.network_id);
-			cJSON_AddNumberToObject(g, "sdo_routed", (double)gw.routed);
-			cJSON_AddNumberToObject(g, "sdo_aborted", (double)gw.aborted);
-			cJSON_AddNumberToObject(g, "sdo_timed_out", (double)gw.timed_out);
-			cJSON_AddNumberToObject(g, "sdo_refused", (double)gw.refused);
-			cJSON_AddNumberToObject(g, "relayed_frames", (double)gw.relayed_frames);
-			cJSON_AddNumberToObject(g, "pdo_forwarded", (double)gw.pdo_forwarded);
-			cJSON_AddNumberToObject(g, "pdo_applied", (double)gw.pdo_applied);
-			cJSON_AddNumberToObject(g, "pdo_dropped", (double)gw.pdo_dropped);
-			cJSON_AddNumberToObject(g, "emcy_forwarded", (double)gw.emcy_forwarded);
-			cJSON_AddNumberToObject(g, "emcy_sent", (double)gw.emcy_sent);
-		}
+		if (has_gw)
+			ctl_gw_counters_json(cJSON_AddObjectToObject(o, "gateway"), &gw);
 		cJSON *na = cJSON_AddArrayToObject(o, "nodes");
 		for (int i = 0; i < n; i++) {
 			cJSON *e = cJSON_CreateObject();
@@ -116,14 +104,12 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 	       " malformed, %" PRIu64 " denied, %" PRIu64 " events sent, %" PRIu64 " dropped\n",
 	       ms.clients, ms.clients == 1 ? "" : "s", ms.commands_ok, ms.malformed,
 	       ms.access_denied, ms.events_sent, ms.dropped);
-	if (has_gw)
-		printf("  gateway: network %u; SDO routed %" PRIu64 ", aborted %" PRIu64
-		       ", timed out %" PRIu64 ", refused %" PRIu64 ", relayed frames %" PRIu64
-		       "; PDO forwarded %" PRIu64 ", applied %" PRIu64 ", dropped %" PRIu64
-		       "; EMCY forwarded %" PRIu64 ", sent %" PRIu64 "\n",
-		       gw.network_id, gw.routed, gw.aborted, gw.timed_out, gw.refused,
-		       gw.relayed_frames, gw.pdo_forwarded, gw.pdo_applied, gw.pdo_dropped,
-		       gw.emcy_forwarded, gw.emcy_sent);
+	if (has_gw) {
+		printf("  gateway: network %u, %u routed session%s running, %u client%s lent\n",
+		       gw.network_id, gw.active, gw.active == 1 ? "" : "s", gw.leases,
+		       gw.leases == 1 ? "" : "s");
+		ctl_gw_counters_text(&gw, "    ");
+	}
 	if (n == 0) {
 		printf("  nodes: none heard yet\n");
 		return 0;

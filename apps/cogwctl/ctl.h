@@ -157,5 +157,9 @@ int ctl_parse_raw_filter(ctl *c, const char *s, mbx_raw_filter *f);
 /* Number of lines of the daemon (probes line queues 0, 1, ...). Returns
  * >= 1 or an exit code as a negative number. */
 int ctl_count_lines(ctl *c);
+/* The gateway counters of one line (cmd_route.c; also cogwctl status):
+ * as members of o, and as three text lines after indent. */
+void ctl_gw_counters_json(cJSON *o, const mbx_gw_status *st);
+void ctl_gw_counters_text(const mbx_gw_status *st, const char *indent);
 
 #endif /* COGW_APPS_COGWCTL_CTL_H */

@@ -173,7 +173,11 @@ static int handle_can(struct app *a, uint64_t now_us)
 		if (n < 32)
 			break;
 	}
-	if (n < 0 && n != -EAGAIN) {
+	if (n == -ENETDOWN) {
+		/* The interface went down (ip link set ... down): a device on
+		 * that bus waits for it to come back, as a real one would. */
+		cosim_log(a->quiet, "CAN interface down");
+	} else if (n < 0 && n != -EAGAIN) {
 		cosim_log(false, "CAN receive failed: %s", strerror(-n));
 		return n;
 	}
