@@ -1541,6 +1541,29 @@ static int event_pop(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t now, uint64_t 
  * asynchronous answer is due, only the event queue can deliver: wait in
  * mq_timedreceive on it (one system call per event, in monotonic slices
  * like the leader's); otherwise poll() both through the epoll descriptor. */
+/* A receive from the event queue: waiting until slice when only events
+ * can come (*direct), else a look without waiting. */
+static int event_take(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t now, uint64_t slice,
+		      bool *direct)
+{
+	int got;
+
+	pthread_mutex_lock(&h->mu);
+	*direct = !h->asyncs && !h->ring_count && !h->closing;
+	if (*direct) {
+		h->evt_waiters++;
+		h->evt_wait_until_us = slice;
+	}
+	pthread_mutex_unlock(&h->mu);
+	got = event_pop(h, m, buf, now, *direct ? slice : 0);
+	if (*direct) {
+		pthread_mutex_lock(&h->mu);
+		h->evt_waiters--;
+		pthread_mutex_unlock(&h->mu);
+	}
+	return got;
+}
+
 static int recv_wait(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t deadline)
 {
 	for (;;) {
@@ -1549,22 +1572,8 @@ static int recv_wait(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t deadline)
 
 		if (ring_pop(h, m))
 			return 0;
-		if (slice > deadline)
-			slice = deadline;
-		pthread_mutex_lock(&h->mu);
-		direct = !h->asyncs && !h->ring_count && !h->closing;
-		if (direct) {
-			h->evt_waiters++;
-			h->evt_wait_until_us = slice;
-		}
-		pthread_mutex_unlock(&h->mu);
-		int got = event_pop(h, m, buf, now, direct ? slice : 0);
+		int got = event_take(h, m, buf, now, slice < deadline ? slice : deadline, &direct);
 
-		if (direct) {
-			pthread_mutex_lock(&h->mu);
-			h->evt_waiters--;
-			pthread_mutex_unlock(&h->mu);
-		}
 		if (got != 0)
 			return got > 0 ? 0 : got;
 		now = mono_us();
