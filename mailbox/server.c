@@ -611,122 +611,167 @@ static void register_refuse(mbx_server *srv, mqd_t resp, long resp_msg, const mb
 		send_status(srv, &tmp, h->code, h->corr, status, 0, NULL, 0);
 }
 
-static void handle_register(mbx_server *srv, const mbx_hdr *h, const uint8_t *p)
+/* The queues' owner, the pid and the access rule: 0 or MBX_E_ACCESS.
+ * *pid_rc: pid_check's answer (1 = proven). */
+static int register_identity(const mbx_server *srv, const mbx_register_req *r,
+			     const struct stat *rst, const struct stat *est, uint8_t access,
+			     int *pid_rc)
 {
-	mbx_register_req r;
-	struct stat rst, est;
-	struct mq_attr rattr, eattr;
-	mqd_t resp, evt;
-	mbx_client *c = NULL;
-	int status, pid_rc = -EACCES;
-	uint8_t access;
+	*pid_rc = -EACCES;
+	if (est->st_uid != rst->st_uid || r->uid != (uint32_t)rst->st_uid ||
+	    access == MBX_ACCESS_NONE || rst->st_ino == srv->q_ino || est->st_ino == srv->q_ino)
+		return MBX_E_ACCESS;
+	*pid_rc = pid_check(r->pid, r->uid);
+	if (*pid_rc == 0 || *pid_rc == -ESRCH)
+		return MBX_E_ACCESS; /* not the owner's process */
+	return 0;
+}
 
-	memcpy(&r, p, sizeof r);
-	resp = open_client_queue(srv, r.resp_queue, &rst, &rattr, &status);
-	if (resp == (mqd_t)-1) {
-		/* nowhere to answer (or must not answer: readable by all) */
-		count_bad(srv, MBX_BAD_QUEUE);
-		if (status == MBX_E_ACCESS)
-			srv->stats.access_denied++;
-		return;
-	}
-	evt = open_client_queue(srv, r.event_queue, &est, &eattr, &status);
-	if (evt == (mqd_t)-1) {
-		count_bad(srv, MBX_BAD_QUEUE);
-		register_refuse(srv, resp, rattr.mq_msgsize, h, status);
-		mq_close(resp);
-		return;
-	}
-	access = access_of(srv, (uint32_t)rst.st_uid);
-	status = 0;
-	if (est.st_uid != rst.st_uid || r.uid != (uint32_t)rst.st_uid ||
-	    access == MBX_ACCESS_NONE || rst.st_ino == srv->q_ino || est.st_ino == srv->q_ino)
-		status = MBX_E_ACCESS;
-	if (!status) {
-		pid_rc = pid_check(r.pid, r.uid);
-		if (pid_rc == 0 || pid_rc == -ESRCH)
-			status = MBX_E_ACCESS; /* not the owner's process */
-	}
-
-	/* Who sends REGISTER is unknown (a message queue has no peer
-	 * credentials), so an existing entry on the same response queue is
-	 * replaced only by a REGISTER that proves to be that client: it
-	 * carries the entry's id and token in its header (only the reader of
-	 * the response queue knows them). A live, used entry is never
-	 * replaced otherwise (issue 11: naming a client's queues and pid
-	 * kicked it out for good), and the refusal is not even written to its
-	 * queue (a stranger's corr must not complete the victim's call). An
-	 * unused entry stays too: the new one is added next to it and the
-	 * old one expires after register_timeout_ms. */
-	for (unsigned i = 0; !status && i < srv->cfg.max_clients; i++) {
+/* Who sends REGISTER is unknown (a message queue has no peer
+ * credentials), so an existing entry on the same response queue is
+ * replaced only by a REGISTER that proves to be that client: it carries
+ * the entry's id and token in its header (only the reader of the response
+ * queue knows them). A live, used entry is never replaced otherwise (issue
+ * 11: naming a client's queues and pid kicked it out for good): returns
+ * false then, and the refusal is not even written to its queue (a
+ * stranger's corr must not complete the victim's call). An unused entry
+ * stays too: the new one is added next to it and the old one expires
+ * after register_timeout_ms. */
+static bool register_may_replace(mbx_server *srv, const mbx_hdr *h, ino_t resp_ino)
+{
+	for (unsigned i = 0; i < srv->cfg.max_clients; i++) {
 		mbx_client *o = &srv->clients[i];
 
-		if (!o->id || o->resp_ino != rst.st_ino)
+		if (!o->id || o->resp_ino != resp_ino)
 			continue;
 		if (h->client == o->id && h->token == o->token) {
 			client_remove(srv, o, false);
 		} else if (o->confirmed) {
 			srv->stats.access_denied++;
 			count_bad(srv, MBX_BAD_CLIENT);
-			mq_close(resp);
-			mq_close(evt);
-			return;
+			return false;
 		}
 	}
-	unsigned free_slots = 0, of_uid = 0;
+	return true;
+}
 
-	for (unsigned i = 0; !status && i < srv->cfg.max_clients; i++) {
+/* A free slot for a client of uid with access, or NULL (*status
+ * MBX_E_FULL): one user cannot take every slot, and the last write_reserve
+ * slots are for writers: a read-only client flooding REGISTER must not
+ * lock a writer out with FULL. */
+static mbx_client *register_slot(mbx_server *srv, uint32_t uid, uint8_t access, int *status)
+{
+	unsigned free_slots = 0, of_uid = 0;
+	mbx_client *c = NULL;
+
+	for (unsigned i = 0; i < srv->cfg.max_clients; i++) {
 		if (!srv->clients[i].id) {
 			if (!c)
 				c = &srv->clients[i];
 			free_slots++;
-		} else if (srv->clients[i].uid == (uint32_t)rst.st_uid) {
+		} else if (srv->clients[i].uid == uid) {
 			of_uid++;
 		}
 	}
-	/* One user cannot take every slot, and the last write_reserve slots
-	 * are for writers: a read-only client flooding REGISTER must not lock
-	 * a writer out with FULL. */
-	if (!status && (!c || (access < MBX_ACCESS_WRITE && free_slots <= srv->cfg.write_reserve)))
-		status = MBX_E_FULL;
-	if (!status && rst.st_uid != 0 && of_uid >= srv->cfg.max_clients_per_uid)
-		status = MBX_E_FULL;
-	if (status == MBX_E_FULL)
+	if (!c || (access < MBX_ACCESS_WRITE && free_slots <= srv->cfg.write_reserve) ||
+	    (uid != 0 && of_uid >= srv->cfg.max_clients_per_uid)) {
 		srv->stats.limited++;
-	if (status) {
-		register_refuse(srv, resp, rattr.mq_msgsize, h, status);
-		mq_close(resp);
-		mq_close(evt);
-		return;
+		*status = MBX_E_FULL;
+		return NULL;
 	}
+	return c;
+}
 
+typedef struct reg_queues {
+	mqd_t resp, evt;
+	struct stat rst, est;
+	struct mq_attr rattr, eattr;
+} reg_queues;
+
+static void client_init(mbx_server *srv, mbx_client *c, const mbx_register_req *r,
+			const reg_queues *q, uint8_t access, int pid_rc)
+{
 	if (++srv->gen == 0)
 		srv->gen = 1;
 	memset(c, 0, sizeof *c);
 	c->id = ((uint32_t)srv->gen << 16) | (uint32_t)(c - srv->clients + 1);
 	c->token = new_token(srv);
-	c->resp = resp;
-	c->evt = evt;
-	c->resp_msg = (size_t)rattr.mq_msgsize;
-	c->evt_msg = (size_t)eattr.mq_msgsize;
+	c->resp = q->resp;
+	c->evt = q->evt;
+	c->resp_msg = (size_t)q->rattr.mq_msgsize;
+	c->evt_msg = (size_t)q->eattr.mq_msgsize;
 	if (c->resp_msg > MBX_MSG_MAX)
 		c->resp_msg = MBX_MSG_MAX;
 	if (c->evt_msg > MBX_MSG_MAX)
 		c->evt_msg = MBX_MSG_MAX;
-	c->resp_depth = (unsigned)rattr.mq_maxmsg;
-	c->resp_ino = rst.st_ino;
-	c->evt_ino = est.st_ino;
-	c->uid = (uint32_t)rst.st_uid;
-	c->pid = r.pid;
+	c->resp_depth = (unsigned)q->rattr.mq_maxmsg;
+	c->resp_ino = q->rst.st_ino;
+	c->evt_ino = q->est.st_ino;
+	c->uid = (uint32_t)q->rst.st_uid;
+	c->pid = r->pid;
 	c->pid_proven = pid_rc == 1;
 	c->access = access;
 	c->registered_us = srv->now_us;
 	c->lease_until = srv->now_us + (uint64_t)srv->cfg.lease_ms * 1000u;
-	memcpy(c->resp_name, r.resp_queue, MBX_QNAME_MAX);
-	memcpy(c->evt_name, r.event_queue, MBX_QNAME_MAX);
+	memcpy(c->resp_name, r->resp_queue, MBX_QNAME_MAX);
+	memcpy(c->evt_name, r->event_queue, MBX_QNAME_MAX);
 	srv->stats.clients++;
 	srv->stats.clients_registered++;
 	srv->stats.commands_ok++;
+}
+
+/* Open both queues named by the request; false (counted, refused where
+ * an answer may go) when either cannot be a client queue. */
+static bool register_open_queues(mbx_server *srv, const mbx_hdr *h, const mbx_register_req *r,
+				 reg_queues *q)
+{
+	int status;
+
+	q->resp = open_client_queue(srv, r->resp_queue, &q->rst, &q->rattr, &status);
+	if (q->resp == (mqd_t)-1) {
+		/* nowhere to answer (or must not answer: readable by all) */
+		count_bad(srv, MBX_BAD_QUEUE);
+		if (status == MBX_E_ACCESS)
+			srv->stats.access_denied++;
+		return false;
+	}
+	q->evt = open_client_queue(srv, r->event_queue, &q->est, &q->eattr, &status);
+	if (q->evt == (mqd_t)-1) {
+		count_bad(srv, MBX_BAD_QUEUE);
+		register_refuse(srv, q->resp, q->rattr.mq_msgsize, h, status);
+		mq_close(q->resp);
+		return false;
+	}
+	return true;
+}
+
+static void handle_register(mbx_server *srv, const mbx_hdr *h, const uint8_t *p)
+{
+	mbx_register_req r;
+	reg_queues q;
+	mbx_client *c = NULL;
+	int status, pid_rc;
+	uint8_t access;
+
+	memcpy(&r, p, sizeof r);
+	if (!register_open_queues(srv, h, &r, &q))
+		return;
+	access = access_of(srv, (uint32_t)q.rst.st_uid);
+	status = register_identity(srv, &r, &q.rst, &q.est, access, &pid_rc);
+	if (!status && !register_may_replace(srv, h, q.rst.st_ino)) {
+		mq_close(q.resp);
+		mq_close(q.evt);
+		return;
+	}
+	if (!status)
+		c = register_slot(srv, (uint32_t)q.rst.st_uid, access, &status);
+	if (status) {
+		register_refuse(srv, q.resp, q.rattr.mq_msgsize, h, status);
+		mq_close(q.resp);
+		mq_close(q.evt);
+		return;
+	}
+	client_init(srv, c, &r, &q, access, pid_rc);
 
 	mbx_register_resp out = {
 		.token = c->token,
