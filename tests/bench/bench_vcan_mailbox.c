@@ -144,9 +144,16 @@ static int write_config(const char *path, unsigned depth)
 		 "   {\"index\": \"0x1600\", \"sub\": 0, \"value\": 2},\n"
 		 "   {\"index\": \"0x1600\", \"sub\": 1, \"value\": \"0x20000120\"},\n"
 		 "   {\"index\": \"0x1600\", \"sub\": 2, \"value\": \"0x20000220\"}]\n"
-		 " }]\n"
+		 " },\n"
+		 /* two more lines for commands/s spread over three lines */
+		 " {\"name\": \"bench1\", \"interface\": \"vcan1\", \"bitrate\": 1000000, "
+		 "\"node_id\": 127,\n"
+		 "  \"device\": {\"name\": \"cogw bench\", \"vendor_id\": \"0x%08X\"}},\n"
+		 " {\"name\": \"bench2\", \"interface\": \"vcan2\", \"bitrate\": 1000000, "
+		 "\"node_id\": 127,\n"
+		 "  \"device\": {\"name\": \"cogw bench\", \"vendor_id\": \"0x%08X\"}}]\n"
 		 "}\n",
-		 tmpdir, instance, depth, VENDOR_ID, RPDO_COB_ID);
+		 tmpdir, instance, depth, VENDOR_ID, RPDO_COB_ID, VENDOR_ID, VENDOR_ID);
 	return bench_write_file(path, text);
 }
 
@@ -168,17 +175,22 @@ static cogw *client_open(bool deep_events)
 }
 
 /* One OD read of 1018h:01, checked. Returns 0, or the error. */
-static int od_read_vendor(cogw *h)
+static int od_read_vendor_on(cogw *h, unsigned line)
 {
 	uint8_t v[4];
 	size_t len = 0;
 	uint32_t abort = 0;
-	int rc = cogw_od_read(h, 0, 0x1018, 1, v, sizeof v, &len, 10000, &abort);
+	int rc = cogw_od_read(h, line, 0x1018, 1, v, sizeof v, &len, 10000, &abort);
 	if (rc < 0)
 		return rc;
 	uint32_t got = (uint32_t)v[0] | (uint32_t)v[1] << 8 | (uint32_t)v[2] << 16 |
 		       (uint32_t)v[3] << 24;
 	return len == 4 && got == VENDOR_ID ? 0 : COGW_E_PROTOCOL;
+}
+
+static int od_read_vendor(cogw *h)
+{
+	return od_read_vendor_on(h, 0);
 }
 
 /* ---- mailbox round trip ----------------------------------------------------------- */
@@ -216,7 +228,11 @@ struct client_result {
 	uint64_t ok, errors;
 };
 
-static double commands_per_s(int clients, double seconds, uint64_t *errors_out)
+/* clients processes, client i on line i % lines, for seconds: commands/s
+ * of all together; *slowest_out: the rate of the slowest client (none may
+ * starve). */
+static double commands_per_s(int clients, unsigned lines, double seconds, uint64_t *errors_out,
+			     double *slowest_out)
 {
 	int ready[2], go[2], results[2];
 	if (pipe(ready) || pipe(go) || pipe(results))
@@ -231,15 +247,16 @@ static double commands_per_s(int clients, double seconds, uint64_t *errors_out)
 			close(ready[0]);
 			close(results[0]);
 			cogw *h = client_open(false);
+			unsigned line = (unsigned)i % lines;
 			/* the first command registers with the line: not timed */
-			if (!h || od_read_vendor(h) < 0)
+			if (!h || od_read_vendor_on(h, line) < 0)
 				c = 'e';
 			fflush(stdout);
 			if (write(ready[1], &c, 1) != 1 || read(go[0], &c, 1) != 1 || !h)
 				_exit(2);
 			double end = bench_now_s() + seconds;
 			while (bench_now_s() < end) {
-				if (od_read_vendor(h) == 0)
+				if (od_read_vendor_on(h, line) == 0)
 					r.ok++;
 				else
 					r.errors++;
@@ -268,15 +285,20 @@ static double commands_per_s(int clients, double seconds, uint64_t *errors_out)
 	memset(gos, 'g', sizeof gos);
 	if (write(go[1], gos, (size_t)clients) != clients)
 		printf("commands/s: cannot start the clients\n");
-	uint64_t ok = 0, errors = 0;
+	uint64_t ok = 0, errors = 0, slowest = UINT64_MAX;
 	for (int i = 0; i < clients; i++) {
 		struct client_result r;
 		if (read(results[0], &r, sizeof r) == (ssize_t)sizeof r) {
 			ok += r.ok;
 			errors += r.errors;
+			if (r.ok < slowest)
+				slowest = r.ok;
+		} else {
+			slowest = 0;
 		}
 	}
 	double elapsed = bench_now_s() - t0;
+	*slowest_out = slowest == UINT64_MAX ? 0 : (double)slowest / seconds;
 	for (int i = 0; i < clients; i++) {
 		int st = 0;
 		waitpid(pids[i], &st, 0);
@@ -796,17 +818,30 @@ int main(int argc, char **argv)
 
 	static const int counts[] = { 1, 4, 16 };
 	double rates[3] = { 0 };
-	for (size_t i = 0; i < sizeof counts / sizeof counts[0]; i++) {
-		uint64_t errs = 0;
-		double rate = commands_per_s(counts[i], run_seconds, &errs);
-		rates[i] = rate;
-		char name[96];
-		snprintf(name, sizeof name, "mailbox commands/s, %d client%s (OD read)", counts[i],
-			 counts[i] == 1 ? "" : "s");
-		print_rate(name, rate, "raw mq ping-pong round trips/s", raw_rate);
-		if (errs)
-			bench_note("%s: %llu commands failed or read a wrong value", name,
-				   (unsigned long long)errs);
+	for (unsigned lines = 1; lines <= 3; lines += 2) {
+		for (size_t i = 0; i < sizeof counts / sizeof counts[0]; i++) {
+			uint64_t errs = 0;
+			double slowest = 0;
+			if (lines == 3 && counts[i] == 1)
+				continue; /* one client is on one line */
+			double rate = commands_per_s(counts[i], lines, run_seconds, &errs,
+						     &slowest);
+			if (lines == 1)
+				rates[i] = rate;
+			char name[128];
+			snprintf(name, sizeof name, "mailbox commands/s, %d client%s (OD read)%s",
+				 counts[i], counts[i] == 1 ? "" : "s",
+				 lines == 3 ? " spread over 3 lines" : "");
+			print_rate(name, rate, "raw mq ping-pong round trips/s", raw_rate);
+			if (counts[i] > 1)
+				bench_note("%s: the slowest client made %.0f commands/s (an even "
+					   "share: "
+					   "%.0f)",
+					   name, slowest, rate / counts[i]);
+			if (errs)
+				bench_note("%s: %llu commands failed or read a wrong value", name,
+					   (unsigned long long)errs);
+		}
 	}
 	bench_print_figure(
 		&(bench_figure){ .name = "mailbox commands/s, 16 clients against 1 client",
