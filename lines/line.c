@@ -105,16 +105,24 @@ static uint64_t poll_extensions(line *l)
 	return next;
 }
 
+/* An eventfd (not EFD_SEMAPHORE) or a timerfd: one read returns the whole
+ * count and resets it, so a second read could only fail with EAGAIN. On the
+ * forwarding path that second system call sat between the wake-up and the
+ * work (a few µs each under emulation). */
+static void drain_fd(int fd)
+{
+	uint64_t v;
+	(void)!read(fd, &v, sizeof v);
+}
+
 static void wake_extension(line *l, unsigned i)
 {
 	const line_ext *x = i < l->ext_attached ? &l->p.ext[i] : NULL;
 	if (!x || !x->ops)
 		return;
-	uint64_t v;
 	/* read the counter first: a hand-off pushed after this read wakes us
-	 * again, one pushed before it is drained below */
-	while (read(x->wake_fd, &v, sizeof v) == (ssize_t)sizeof v)
-		;
+	 * again, one pushed before it is taken by on_wake below */
+	drain_fd(x->wake_fd);
 	if (x->ops->on_wake)
 		x->ops->on_wake(x->ctx, l);
 }
@@ -246,13 +254,6 @@ static void set_epollout(line *l, bool on)
 	l->epollout = on;
 	struct epoll_event ev = { .events = EPOLLIN | (on ? EPOLLOUT : 0), .data.u32 = TAG_CAN };
 	epoll_ctl(l->epfd, EPOLL_CTL_MOD, can_port_fd(l->port), &ev);
-}
-
-static void drain_fd(int fd)
-{
-	uint64_t v;
-	while (read(fd, &v, sizeof v) == (ssize_t)sizeof v)
-		;
 }
 
 static void handle_can(line *l)

@@ -60,8 +60,9 @@ typedef struct line_ext_ops {
 typedef struct line_ext {
 	const line_ext_ops *ops; /* NULL = unused entry */
 	void *ctx;
-	int wake_fd; /* eventfd the line watches when ops->on_wake is set;
-	              * -1 = none. Not owned (e.g. xring_mesh_wake_fd()). */
+	int wake_fd; /* eventfd (not EFD_SEMAPHORE: one read resets it) the
+	              * line watches when ops->on_wake is set; -1 = none. Not
+	              * owned (e.g. xring_mesh_wake_fd()). */
 } line_ext;
 
 #define LINE_EXT_MAX 4
