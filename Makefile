@@ -73,7 +73,7 @@ INTEG_BINS := $(patsubst tests/integration/%.c,$(SAN)/tests/integration/%,$(INTE
 TSAN := build/tsan
 TSAN_CFLAGS := $(BASE) -O1 -g -fno-omit-frame-pointer -fsanitize=thread
 TSAN_SRC := $(sort $(wildcard tests/tsan/test_*.c))
-TSAN_LIB_SRC := lines/xring.c mailbox/proto.c mailbox/client.c mailbox/server.c
+TSAN_LIB_SRC := lines/xring.c mailbox/proto.c mailbox/client.c mailbox/server.c mailbox/budget.c
 TSAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_SRC))
 BENCH_BINS := $(patsubst tests/bench/%.c,$(REL)/tests/bench/%,$(BENCH_SRC))
 
@@ -322,7 +322,7 @@ clean:
 # libcogw_mbxsrv.a: the daemon side, linked into lines/apps; libcogw.a and
 # libcogw.so: the client library for applications (public header mailbox/cogw.h).
 MBX_PROTO_SRC  := mailbox/proto.c
-MBX_SERVER_SRC := $(MBX_PROTO_SRC) mailbox/server.c
+MBX_SERVER_SRC := $(MBX_PROTO_SRC) mailbox/server.c mailbox/budget.c
 MBX_CLIENT_SRC := $(MBX_PROTO_SRC) mailbox/client.c
 
 $(REL)/pic/%.o: %.c

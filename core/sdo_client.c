@@ -294,8 +294,10 @@ static uint32_t sink_put(struct cli_chan *ch, const uint8_t *data, uint32_t len)
 		if (len)
 			memcpy(ch->cur.buf + ch->offset, data, len);
 	} else if (ch->cur.sink && len) {
-		if (ch->cur.sink(ch->cur.ctx, ch->offset, data, len, ch->total) < 0)
-			return SDO_AB_STORE;
+		int rc = ch->cur.sink(ch->cur.ctx, ch->offset, data, len, ch->total);
+
+		if (rc < 0)
+			return rc == -ENOMEM ? SDO_AB_NO_MEM : SDO_AB_STORE;
 	}
 	ch->offset += len;
 	return 0;

@@ -85,7 +85,8 @@ typedef void (*sdo_client_con_fn)(void *arg, const co_ev_sdo_cli *con);
 typedef int (*sdo_src_fn)(void *ctx, uint32_t offset, uint8_t *buf, uint32_t len);
 /* Upload sink: the next len bytes at offset (sequential, each byte once).
  * total is the size indicated by the server, or UINT32_MAX if none. Return
- * 0, or a negative errno to abort (0x08000020 on the wire). */
+ * 0, or a negative errno to abort (-ENOMEM: 0x05040005 on the wire, any
+ * other: 0x08000020). */
 typedef int (*sdo_sink_fn)(void *ctx, uint32_t offset, const uint8_t *data, uint32_t len,
 			   uint32_t total);
 

@@ -143,7 +143,8 @@ static int create_node_and_mailbox(line *l)
 		return rc;
 	}
 	if ((rc = line_pending_init(&l->pending,
-				    p->mbx.max_transfer ? p->mbx.max_transfer : 1024u * 1024u)) < 0)
+				    p->mbx.max_transfer ? p->mbx.max_transfer : 1024u * 1024u,
+				    p->mbx.budget)) < 0)
 		return rc;
 	if (l->state_path[0] && (rc = line_store_attach(l)) < 0)
 		return rc;

@@ -12,18 +12,20 @@
 #define SLOT_BITS 16u
 #define SLOT_MASK ((1u << SLOT_BITS) - 1u)
 
-int line_pending_init(line_pending_table *t, uint32_t big_cap)
+int line_pending_init(line_pending_table *t, uint32_t big_cap, mbx_budget *budget)
 {
 	memset(t, 0, sizeof *t);
-	t->big_bufs = malloc((size_t)big_cap * LINE_BIG_SLOTS);
-	if (!t->big_bufs)
-		return -ENOMEM;
 	for (uint16_t i = 0; i < LINE_PENDING_MAX; i++) {
 		line_pending *p = &t->slot[i];
 		p->tag = i; /* generation 0 */
 		if (i < LINE_BIG_SLOTS) {
-			p->buf = t->big_bufs + (size_t)big_cap * i;
+			p->buf = mbx_buffer_reserve(big_cap);
+			if (!p->buf) {
+				line_pending_fini(t);
+				return -ENOMEM;
+			}
 			p->cap = big_cap;
+			p->budget = budget;
 		} else {
 			p->buf = p->inline_data;
 			p->cap = LINE_INLINE_MAX;
@@ -39,8 +41,42 @@ int line_pending_init(line_pending_table *t, uint32_t big_cap)
 
 void line_pending_fini(line_pending_table *t)
 {
-	free(t->big_bufs);
-	t->big_bufs = NULL;
+	for (uint16_t i = 0; i < LINE_BIG_SLOTS; i++) {
+		line_pending *p = &t->slot[i];
+		mbx_buffer_free(p->buf, p->cap);
+		p->buf = NULL;
+	}
+}
+
+int line_pending_grow(line_pending *p, uint32_t end, uint32_t total)
+{
+	uint32_t want;
+
+	if (end > p->cap)
+		return -ENOMEM;
+	if (end > p->touched)
+		p->touched = end;
+	if (end <= p->reserved)
+		return 0;
+	if (total != UINT32_MAX && total >= end && total <= p->cap) {
+		want = total;
+	} else {
+		uint64_t step = ((uint64_t)end + MBX_BUFFER_KEEP - 1) / MBX_BUFFER_KEEP *
+				MBX_BUFFER_KEEP;
+		want = step < p->cap ? (uint32_t)step : p->cap;
+	}
+	if (!mbx_budget_take(p->budget, want - p->reserved, p->keep_free)) {
+		p->over_budget = true;
+		return -ENOMEM;
+	}
+	p->reserved = want;
+	return 0;
+}
+
+void line_pending_pay_back(line_pending *p)
+{
+	mbx_budget_give(p->budget, p->reserved);
+	p->reserved = 0;
 }
 
 line_pending *line_pending_take(line_pending_table *t, const mbx_request *req,
@@ -61,6 +97,7 @@ line_pending *line_pending_take(line_pending_table *t, const mbx_request *req,
 	p->kind = (uint8_t)kind;
 	p->code = req->code;
 	p->reply = req->reply;
+	p->keep_free = req->access < MBX_ACCESS_WRITE ? p->cap : 0;
 	/* a new generation: completions for the slot's previous use miss */
 	p->tag = ((p->tag >> SLOT_BITS) + 1u) << SLOT_BITS | i;
 	t->used++;
@@ -85,6 +122,11 @@ void line_pending_release(line_pending_table *t, line_pending *p)
 		return;
 	p->used = false;
 	t->used--;
+	line_pending_pay_back(p);
+	if (p->touched > MBX_BUFFER_KEEP)
+		mbx_buffer_release(p->buf, p->touched);
+	p->touched = 0;
+	p->over_budget = false;
 	if (i < LINE_BIG_SLOTS)
 		t->free_big[t->n_free_big++] = i;
 	else

@@ -38,8 +38,17 @@ typedef struct line_pending {
 	uint8_t kind;  /* line_pending_kind */
 	bool used;
 	mbx_reply_to reply;
-	uint8_t *buf; /* big slots: max_transfer bytes; small: inline_data */
+	uint8_t *buf; /* big slots: max_transfer bytes of address space
+		       * (mailbox/budget.h); small: inline_data */
 	uint32_t cap;
+	/* Big slots: an upload is paid from the transfer memory budget as its
+	 * data arrives (line_pending_grow); released with the slot, pages
+	 * beyond MBX_BUFFER_KEEP included. */
+	mbx_budget *budget;
+	uint32_t keep_free; /* read-only requester: leave cap to writers */
+	uint32_t reserved;
+	uint32_t touched;
+	bool over_budget;                     /* the budget refused this upload more room */
 	uint8_t inline_data[LINE_INLINE_MAX]; /* small uploads/downloads */
 } line_pending;
 
@@ -49,11 +58,11 @@ typedef struct line_pending_table {
 	uint16_t free_small[LINE_PENDING_MAX - LINE_BIG_SLOTS];
 	uint16_t n_free_big, n_free_small;
 	uint16_t used;
-	uint8_t *big_bufs; /* LINE_BIG_SLOTS x big_cap, owned */
 } line_pending_table;
 
-/* big_cap: buffer of each big slot (max_transfer). 0 or -ENOMEM. */
-int line_pending_init(line_pending_table *t, uint32_t big_cap);
+/* big_cap: buffer of each big slot (max_transfer); budget: the daemon's
+ * transfer memory (NULL = unlimited). 0 or -ENOMEM. */
+int line_pending_init(line_pending_table *t, uint32_t big_cap, mbx_budget *budget);
 void line_pending_fini(line_pending_table *t);
 
 /* A free slot for this request: big (with a max_transfer buffer) or small
@@ -64,6 +73,14 @@ line_pending *line_pending_take(line_pending_table *t, const mbx_request *req,
 /* The slot waiting for this core tag, or NULL (released meanwhile). */
 line_pending *line_pending_find(line_pending_table *t, uint64_t tag);
 void line_pending_release(line_pending_table *t, line_pending *p);
+/* Room for bytes [0, end) of a big slot's buffer, `total` the size the
+ * server announced (UINT32_MAX: none): paid from the budget in one go for
+ * an announced size, else in MBX_BUFFER_KEEP steps. 0, or -ENOMEM (beyond
+ * cap, or the budget is spent: over_budget set). */
+int line_pending_grow(line_pending *p, uint32_t end, uint32_t total);
+/* Give the slot's budget back now (before its data is copied into the
+ * answer, which pays its own); the pages go with line_pending_release. */
+void line_pending_pay_back(line_pending *p);
 
 /* Slots in use (for the iteration in line_dispatch.c's client_gone):
  * the i-th slot, used or not, i < LINE_PENDING_MAX. */

@@ -33,7 +33,11 @@ static void sdo_done(void *arg, const co_ev_sdo_cli *c)
 	line_pending *pp = line_pending_find(&l->pending, c->tag);
 	if (!pp)
 		return; /* its client went away and the slot was released */
-	if (c->abort)
+	/* the answer pays its own copy of the data from the budget */
+	line_pending_pay_back(pp);
+	if (pp->over_budget)
+		line_answer(l, &pp->reply, MBX_E_NO_MEMORY, 0, NULL, 0);
+	else if (c->abort)
 		line_answer(l, &pp->reply, MBX_E_ABORT, c->abort, NULL, 0);
 	else if (c->upload)
 		line_answer(l, &pp->reply, 0, 0, pp->buf, c->size);
@@ -52,6 +56,20 @@ static void sdo_done(void *arg, const co_ev_sdo_cli *c)
 	};
 	mbx_server_publish(l->mbx, MBX_EV_SDO_DONE, pp->reply.corr, &done, sizeof done);
 	line_pending_release(&l->pending, pp);
+}
+
+/* A big upload's data: into the slot's buffer, paid from the daemon's
+ * transfer memory budget as it arrives (-ENOMEM aborts the transfer with
+ * 05040005 and the requester gets MBX_E_NO_MEMORY). */
+static int upload_sink(void *ctx, uint32_t offset, const uint8_t *data, uint32_t len,
+		       uint32_t total)
+{
+	line_pending *pp = ctx;
+	int rc = line_pending_grow(pp, offset + len, total);
+	if (rc < 0)
+		return rc;
+	memcpy(pp->buf + offset, data, len);
+	return 0;
 }
 
 /* Step 1: park the request, hand it to the SDO client pool. */
@@ -89,7 +107,11 @@ static void sdo_transfer(line *l, const mbx_request *req, bool upload)
 		.con = sdo_done,
 		.con_arg = l,
 	};
-	if (upload) {
+	if (upload && pp->budget) {
+		r.size = s.size;
+		r.sink = upload_sink;
+		r.ctx = pp;
+	} else if (upload) {
 		r.size = s.size;
 		r.buf = pp->buf;
 		r.cap = pp->cap;

@@ -47,6 +47,7 @@
 #include <limits.h>
 #include <mqueue.h>
 #include <poll.h>
+#include <stddef.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -58,7 +59,7 @@
 #include <time.h>
 #include <unistd.h>
 
-_Static_assert((int)COGW_E_NO_ANSWER == (int)MBX_STATUS_MIN,
+_Static_assert((int)COGW_E_NO_MEMORY == (int)MBX_STATUS_MIN,
 	       "cogw_err must cover every mbx_status");
 
 #define ASYNC_RING 64u
@@ -2095,10 +2096,15 @@ int cogw_restore(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms)
 int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st, unsigned timeout_ms)
 {
 	size_t len = 0;
-	int rc = call(h, line, MBX_CMD_MBX_STATS, NULL, 0, NULL, 0, st, sizeof *st, &len, NULL,
-		      timeout_ms);
+	int rc;
 
-	return rc == 0 && len != sizeof *st ? COGW_E_PROTOCOL : rc;
+	memset(st, 0, sizeof *st);
+	rc = call(h, line, MBX_CMD_MBX_STATS, NULL, 0, NULL, 0, st, sizeof *st, &len, NULL,
+		  timeout_ms);
+	/* An older daemon's answer ends at the issue-11 counters (left 0). */
+	return rc == 0 && len != sizeof *st && len != offsetof(mbx_stats_wire, xfer_failed)
+		       ? COGW_E_PROTOCOL
+		       : rc;
 }
 
 int cogw_ping(cogw *h, unsigned line, unsigned timeout_ms)

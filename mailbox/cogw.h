@@ -71,6 +71,7 @@ enum cogw_err {
 	COGW_E_LSS = MBX_E_LSS,
 	COGW_E_NOT_FOUND = MBX_E_NOT_FOUND,
 	COGW_E_NO_ANSWER = MBX_E_NO_ANSWER, /* the device, not the daemon */
+	COGW_E_NO_MEMORY = MBX_E_NO_MEMORY, /* transfer memory budget spent */
 	/* found by the library */
 	COGW_E_NO_DAEMON = -100, /* the line's command queue does not exist */
 	COGW_E_SYSTEM = -101,    /* a system call failed: errno tells */

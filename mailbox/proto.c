@@ -23,7 +23,7 @@ _Static_assert(sizeof(mbx_unsubscribe_req) == 4, "wire layout");
 _Static_assert(sizeof(mbx_subscribe_resp) == 4, "wire layout");
 _Static_assert(sizeof(mbx_ping_resp) == 16, "wire layout");
 _Static_assert(sizeof(mbx_xfer_ack) == 4, "wire layout");
-_Static_assert(sizeof(mbx_stats_wire) == 72, "wire layout");
+_Static_assert(sizeof(mbx_stats_wire) == 112, "wire layout");
 _Static_assert(sizeof(mbx_obj_req) == 4, "wire layout");
 _Static_assert(sizeof(mbx_sdo_req) == 16, "wire layout");
 _Static_assert(sizeof(mbx_nmt_req) == 4, "wire layout");
@@ -154,6 +154,8 @@ const char *mbx_status_to_string(int status)
 		return "no LSS slave answered";
 	case MBX_E_NO_ANSWER:
 		return "the device did not answer in time";
+	case MBX_E_NO_MEMORY:
+		return "the daemon's transfer memory budget is spent (retry later)";
 	}
 	return "unknown status";
 }

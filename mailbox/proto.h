@@ -124,7 +124,9 @@ typedef enum mbx_status {
 	MBX_E_NO_ANSWER = -22,     /* the device on the bus did not answer a
 	                          * confirmed service in time (the daemon did:
 	                          * not to be confused with MBX_E_TIMEOUT) */
-	MBX_STATUS_MIN = -22,
+	MBX_E_NO_MEMORY = -23,     /* the daemon's transfer memory budget
+	                          * (mailbox.transfer_memory) is spent: retry */
+	MBX_STATUS_MIN = -23,
 } mbx_status;
 
 const char *mbx_status_to_string(int status);
@@ -366,6 +368,13 @@ typedef struct mbx_stats_wire {
 	uint64_t clients_reaped;
 	uint32_t clients; /* current */
 	uint32_t pad;
+	/* Added by issue 11 (an older daemon's answer ends before them:
+	 * libcogw leaves them 0). */
+	uint64_t xfer_failed;    /* chunked transfers refused or ended early */
+	uint64_t xfer_expired;   /*   of which: stalled or over their lifetime */
+	uint64_t limited;        /* refused by a per-user/per-client limit */
+	uint64_t budget_refused; /* refused by the memory budget, all lines */
+	uint64_t budget_used;    /* transfer memory in use now, all lines */
 } mbx_stats_wire;
 
 /* ---- payloads: services ------------------------------------------------- */

@@ -21,7 +21,11 @@
  *   of that queue's owner. Naming somebody else's queue in REGISTER gains
  *   nothing (the token goes to that queue).
  * - No allocation after create: the client table, the transfer slots and
- *   both message buffers are sized from the config.
+ *   both message buffers are sized from the config. A transfer slot's
+ *   buffer is address space: a transfer pays its size from the budget
+ *   shared by all lines before it touches the buffer, and gives the pages
+ *   beyond MBX_BUFFER_KEEP back when it ends (mailbox/budget.h), so what
+ *   transfers pin is bounded by the budget, not by max_transfer x slots.
  */
 #include "mailbox/server.h"
 
@@ -81,7 +85,9 @@ typedef struct mbx_xfer {
 	uint8_t hflags; /* command header flags (NO_REPLY) */
 	uint8_t fixed[64];
 	size_t fixed_len;
-	uint8_t *buf; /* cfg.max_transfer bytes */
+	uint8_t *buf;    /* cfg.max_transfer bytes of address space */
+	size_t touched;  /* bytes of buf written since its pages were given back */
+	size_t reserved; /* taken from cfg.budget for this transfer */
 	size_t total, done;
 	uint16_t next_chunk; /* in: expected; out: next to send */
 	uint16_t acked;      /* out: client consumed chunks below this */
@@ -174,12 +180,34 @@ static void count_bad(mbx_server *srv, mbx_bad b)
 	srv->stats.malformed_total++;
 }
 
-static void xfer_free(mbx_xfer *x)
+/* End a transfer: its budget goes back now; its pages too, unless the
+ * caller still reads the buffer (mbx_server_respond: an answer may live in
+ * the request's data) and gives them back itself once it is copied. */
+static void xfer_end(mbx_server *srv, mbx_xfer *x, bool keep_pages)
 {
 	uint8_t *buf = x->buf;
+	size_t touched = x->touched;
 
+	mbx_budget_give(srv->cfg.budget, x->reserved);
 	memset(x, 0, sizeof *x);
 	x->buf = buf;
+	x->touched = touched;
+	if (!keep_pages && x->touched > MBX_BUFFER_KEEP) {
+		mbx_buffer_release(x->buf, x->touched);
+		x->touched = MBX_BUFFER_KEEP;
+	}
+}
+
+static void xfer_free(mbx_server *srv, mbx_xfer *x)
+{
+	xfer_end(srv, x, false);
+}
+
+/* Mark bytes [0, n) of the slot's buffer as about to be written. */
+static void xfer_touch(mbx_xfer *x, size_t n)
+{
+	if (n > x->touched)
+		x->touched = n;
 }
 
 /* ---- sending ------------------------------------------------------------------ */
@@ -283,7 +311,7 @@ static void client_remove(mbx_server *srv, mbx_client *c, bool reaped)
 		 * at their data; answering the request frees them. */
 		if (x->client == id && (x->st == XS_IN || x->st == XS_OUT)) {
 			srv->stats.xfer_failed++;
-			xfer_free(x);
+			xfer_free(srv, x);
 		}
 	}
 	if (c->resp != (mqd_t)-1)
@@ -372,11 +400,14 @@ static mbx_xfer *xfer_find(mbx_server *srv, uint32_t client, uint64_t corr, xfer
 	return NULL;
 }
 
-/* A free transfer slot for client c, or NULL: a client holds at most
- * xfer_per_client slots, and read-only clients together leave one slot to
- * writers (a reader that never acknowledges its big answers must not make
- * a writer's download fail with BUSY). */
-static mbx_xfer *xfer_alloc(mbx_server *srv, const mbx_client *c)
+/* A free transfer slot for client c and a transfer of size bytes, or NULL
+ * with *status: a client holds at most xfer_per_client slots, and
+ * read-only clients together leave one slot to writers (a reader that
+ * never acknowledges its big answers must not make a writer's download
+ * fail with BUSY) - MBX_E_BUSY; the size must fit the transfer memory
+ * budget of all lines - MBX_E_NO_MEMORY. A refusal by a limit or by the
+ * budget is counted here, the failed transfer by the caller. */
+static mbx_xfer *xfer_alloc(mbx_server *srv, const mbx_client *c, size_t size, int *status)
 {
 	unsigned mine = 0, readers = 0;
 	mbx_xfer *free_slot = NULL;
@@ -396,11 +427,25 @@ static mbx_xfer *xfer_alloc(mbx_server *srv, const mbx_client *c)
 		if (o && o->access < MBX_ACCESS_WRITE)
 			readers++;
 	}
-	if (!free_slot || mine >= srv->cfg.xfer_per_client)
-		return NULL;
-	if (c->access < MBX_ACCESS_WRITE && srv->cfg.xfer_slots > 1 &&
-	    readers + 1 >= srv->cfg.xfer_slots)
-		return NULL;
+	*status = MBX_E_BUSY;
+	if (free_slot && (mine >= srv->cfg.xfer_per_client ||
+			  (c->access < MBX_ACCESS_WRITE && srv->cfg.xfer_slots > 1 &&
+			   readers + 1 >= srv->cfg.xfer_slots))) {
+		srv->stats.limited++;
+		free_slot = NULL;
+	}
+	/* read-only clients leave one max_transfer of the budget to writers */
+	if (free_slot &&
+	    !mbx_budget_take(srv->cfg.budget, size,
+			     c->access < MBX_ACCESS_WRITE ? srv->cfg.max_transfer : 0)) {
+		*status = MBX_E_NO_MEMORY;
+		srv->stats.budget_refused++;
+		free_slot = NULL;
+	}
+	if (!free_slot)
+		return NULL; /* the caller counts the failed transfer */
+	*status = 0;
+	free_slot->reserved = size;
 	free_slot->end_us = srv->now_us + (uint64_t)srv->cfg.xfer_max_ms * 1000u;
 	return free_slot;
 }
@@ -427,7 +472,7 @@ static void xfer_pump(mbx_server *srv, mbx_xfer *x)
 	size_t csz;
 
 	if (!c) {
-		xfer_free(x);
+		xfer_free(srv, x);
 		return;
 	}
 	csz = chunk_size(c);
@@ -456,7 +501,7 @@ static void xfer_pump(mbx_server *srv, mbx_xfer *x)
 		}
 		if (rc < 0) {
 			srv->stats.xfer_failed++;
-			xfer_free(x);
+			xfer_free(srv, x);
 			return;
 		}
 		x->done += n;
@@ -464,7 +509,7 @@ static void xfer_pump(mbx_server *srv, mbx_xfer *x)
 		x->deadline_us = srv->now_us + (uint64_t)srv->cfg.xfer_timeout_ms * 1000u;
 	}
 	srv->stats.xfer_out++;
-	xfer_free(x);
+	xfer_free(srv, x);
 }
 
 /* ---- dispatch --------------------------------------------------------------------- */
@@ -862,6 +907,14 @@ static void handle_protocol(mbx_server *srv, mbx_client *c, const mbx_hdr *h, co
 			.clients_registered = srv->stats.clients_registered,
 			.clients_reaped = srv->stats.clients_reaped,
 			.clients = srv->stats.clients,
+			.xfer_failed = srv->stats.xfer_failed,
+			.xfer_expired = srv->stats.xfer_expired,
+			.limited = srv->stats.limited,
+			/* the budget is one for all lines: so are its counts
+			 * (SDO uploads of the lines included) */
+			.budget_refused = srv->cfg.budget ? atomic_load(&srv->cfg.budget->refused)
+							  : srv->stats.budget_refused,
+			.budget_used = mbx_budget_used(srv->cfg.budget),
 		};
 		if (reply)
 			send_status(srv, c, h->code, h->corr, 0, 0, &out, sizeof out);
@@ -898,10 +951,11 @@ static void handle_chunk(mbx_server *srv, mbx_client *c, const mbx_hdr *h, const
 			refuse_transfer(srv, c, h, MBX_E_SEQUENCE);
 			return;
 		}
-		x = xfer_alloc(srv, c);
+		int st;
+
+		x = xfer_alloc(srv, c, h->total, &st);
 		if (!x) {
-			srv->stats.limited++;
-			refuse_transfer(srv, c, h, MBX_E_BUSY);
+			refuse_transfer(srv, c, h, st);
 			return;
 		}
 		x->st = XS_IN;
@@ -913,6 +967,7 @@ static void handle_chunk(mbx_server *srv, mbx_client *c, const mbx_hdr *h, const
 		memcpy(x->fixed, p, ci->fixed);
 		x->total = h->total;
 		x->done = h->len - ci->fixed;
+		xfer_touch(x, x->total);
 		memcpy(x->buf, p + ci->fixed, x->done);
 		x->next_chunk = 1;
 		x->deadline_us = srv->now_us + (uint64_t)srv->cfg.xfer_timeout_ms * 1000u;
@@ -925,7 +980,7 @@ static void handle_chunk(mbx_server *srv, mbx_client *c, const mbx_hdr *h, const
 		count_bad(srv, MBX_BAD_SEQUENCE);
 		if (x) {
 			srv->stats.xfer_failed++;
-			xfer_free(x);
+			xfer_free(srv, x);
 		}
 		if (h->flags & MBX_F_MORE) {
 			c->discarding = true;
@@ -1104,18 +1159,40 @@ int mbx_server_poll(mbx_server *srv, uint64_t now_us)
 
 /* ---- answering ---------------------------------------------------------------------- */
 
+static int respond(mbx_server *srv, const mbx_reply_to *to, int status, uint32_t abort,
+		   const void *payload, size_t len);
+
 int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status, uint32_t abort,
 		       const void *payload, size_t len)
+{
+	mbx_xfer *x, *held = NULL;
+	int rc;
+
+	if (to->slot && to->slot <= srv->cfg.xfer_slots) {
+		x = &srv->xfers[to->slot - 1];
+		if (x->st == XS_HELD && x->client == to->client && x->corr == to->corr) {
+			/* the slot is free again, but payload may live in
+			 * its buffer: its pages go back once it is copied */
+			held = x;
+			xfer_end(srv, x, true);
+		}
+	}
+	rc = respond(srv, to, status, abort, payload, len);
+	if (held && held->st == XS_FREE && held->touched > MBX_BUFFER_KEEP) {
+		mbx_buffer_release(held->buf, held->touched);
+		held->touched = MBX_BUFFER_KEEP;
+	}
+	return rc;
+}
+
+static int respond(mbx_server *srv, const mbx_reply_to *to, int status, uint32_t abort,
+		   const void *payload, size_t len)
 {
 	mbx_client *c;
 	mbx_xfer *x;
 	size_t nchunks;
+	int st;
 
-	if (to->slot && to->slot <= srv->cfg.xfer_slots) {
-		x = &srv->xfers[to->slot - 1];
-		if (x->st == XS_HELD && x->client == to->client && x->corr == to->corr)
-			xfer_free(x); /* buffer stays; payload may live in it */
-	}
 	c = client_find(srv, to->client);
 	if (!c)
 		return -ENOENT;
@@ -1134,10 +1211,10 @@ int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status, uint
 		send_status(srv, c, to->code, to->corr, MBX_E_TOO_BIG, 0, NULL, 0);
 		return -EMSGSIZE;
 	}
-	x = xfer_alloc(srv, c);
+	x = xfer_alloc(srv, c, len, &st);
 	if (!x) {
 		srv->stats.xfer_failed++;
-		send_status(srv, c, to->code, to->corr, MBX_E_BUSY, 0, NULL, 0);
+		send_status(srv, c, to->code, to->corr, st, 0, NULL, 0);
 		return -EBUSY;
 	}
 	x->st = XS_OUT;
@@ -1146,6 +1223,7 @@ int mbx_server_respond(mbx_server *srv, const mbx_reply_to *to, int status, uint
 	x->code = to->code;
 	x->status = status;
 	x->abort = abort;
+	xfer_touch(x, len);
 	memmove(x->buf, payload, len);
 	x->total = len;
 	x->done = 0;
@@ -1271,11 +1349,12 @@ uint64_t mbx_server_tick(mbx_server *srv, uint64_t now_us)
 			mbx_client *c = client_find(srv, x->client);
 
 			srv->stats.xfer_failed++;
+			srv->stats.xfer_expired++;
 			if (c && x->st == XS_IN && !(x->hflags & MBX_F_NO_REPLY))
 				send_status(srv, c, x->code, x->corr, MBX_E_TIMEOUT, 0, NULL, 0);
 			else if (c) /* an answer was lost: tell the client */
 				c->drop_resp++;
-			xfer_free(x);
+			xfer_free(srv, x);
 			continue;
 		}
 		if (x->st == XS_OUT && x->retry_us && now_us >= x->retry_us)
@@ -1365,8 +1444,10 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 		c->poll_budget = c->depth;
 	if (!c->max_clients_per_uid)
 		c->max_clients_per_uid = c->max_clients / 4 ? c->max_clients / 4 : 1;
-	if (!c->write_reserve)
-		c->write_reserve = c->max_clients / 4;
+	/* at least one slot for writers (a table of 2 or 3 included): the
+	 * rule "a reader never makes a writer's REGISTER fail with FULL" */
+	if (!c->write_reserve && c->max_clients >= 2)
+		c->write_reserve = c->max_clients / 4 ? c->max_clients / 4 : 1;
 	if (!c->max_outstanding)
 		c->max_outstanding = 16;
 	if (!c->read_outstanding)
@@ -1412,7 +1493,7 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 	for (unsigned i = 0; i < c->max_clients; i++)
 		srv->clients[i].resp = srv->clients[i].evt = (mqd_t)-1;
 	for (unsigned i = 0; i < c->xfer_slots; i++) {
-		srv->xfers[i].buf = malloc(c->max_transfer);
+		srv->xfers[i].buf = mbx_buffer_reserve(c->max_transfer);
 		if (!srv->xfers[i].buf)
 			goto fail;
 	}
@@ -1460,7 +1541,7 @@ void mbx_server_destroy(mbx_server *srv)
 	}
 	if (srv->xfers)
 		for (unsigned i = 0; i < srv->cfg.xfer_slots; i++)
-			free(srv->xfers[i].buf);
+			mbx_buffer_free(srv->xfers[i].buf, srv->cfg.max_transfer);
 	if (srv->q != (mqd_t)-1) {
 		mq_close(srv->q);
 		mq_unlink(srv->qname);

@@ -22,7 +22,9 @@
  *
  * Large data (see docs/mailbox.md "Chunking"):
  *  - client -> daemon: the server reassembles a chunked command into one of
- *    cfg.xfer_slots buffers of cfg.max_transfer bytes (allocated at create)
+ *    cfg.xfer_slots buffers of cfg.max_transfer bytes (reserved at create,
+ *    paid from cfg.budget per transfer, pages beyond MBX_BUFFER_KEEP given
+ *    back after it: mailbox/budget.h)
  *    and dispatches it once complete. req->data then stays valid until the
  *    request is answered (so an SDO download can point the SDO client at
  *    it); for a single-message request it is valid only during dispatch.
@@ -39,6 +41,7 @@
 #include <stdint.h>
 #include <sys/types.h>
 
+#include "mailbox/budget.h"
 #include "mailbox/proto.h"
 
 typedef struct mbx_server mbx_server;
@@ -113,7 +116,7 @@ typedef struct mbx_server_config {
 	unsigned max_clients_per_uid;    /* registrations per uid, root exempt
 	                               * (max(1, max_clients / 4)) */
 	unsigned write_reserve;          /* client slots only a writer may take
-	                          * (max_clients / 4) */
+	                          * (max(1, max_clients / 4); 0 with one slot) */
 	unsigned max_outstanding;        /* requests of one client dispatched and
 	                           * not answered yet (16); more -> BUSY */
 	unsigned read_outstanding;       /* all read-only clients together (32) */
@@ -125,6 +128,10 @@ typedef struct mbx_server_config {
 	                                  * above -> PARAM */
 	unsigned xfer_max_ms;            /* a chunked transfer ends within this,
 	                         * however slowly it progresses (60000) */
+	/* Transfer memory shared by all lines (NULL = none): a chunked
+	 * transfer takes its size before it touches a slot's buffer; refused
+	 * (MBX_E_NO_MEMORY) when it does not fit. */
+	mbx_budget *budget;
 	/* Access: root always gets WRITE; a uid in rules gets its access;
 	 * everyone else default_access (NONE = registration refused). */
 	const mbx_access_rule *rules;
@@ -153,7 +160,10 @@ typedef struct mbx_server_stats {
 	uint64_t clients_reaped;    /* dead, lease expired, unconfirmed */
 	uint64_t xfer_in, xfer_out; /* chunked transfers completed */
 	uint64_t xfer_failed;       /* timed out, too big, no slot */
+	uint64_t xfer_expired;      /* of xfer_failed: stalled, or over the
+				     * transfer lifetime */
 	uint64_t limited;           /* refused by a per-user/client limit */
+	uint64_t budget_refused;    /* refused by the transfer memory budget */
 	uint32_t clients;           /* current */
 } mbx_server_stats;
 
@@ -236,8 +246,9 @@ int mbx_server_set_rules(mbx_server *srv, const mbx_access_rule *rules, size_t n
 void mbx_server_set_lease(mbx_server *srv, unsigned lease_ms);
 
 const mbx_server_stats *mbx_server_stats_get(const mbx_server *srv);
-/* Bytes allocated at create for buffers and tables (transfer slots of
- * max_transfer bytes each, message buffers, client table). */
+/* Bytes reserved at create for buffers and tables (transfer slots of
+ * max_transfer bytes each - address space, see mailbox/budget.h -,
+ * message buffers, client table). */
 size_t mbx_server_buffer_bytes(const mbx_server *srv);
 /* Info about the n-th live client (0-based); -ENOENT past the end. */
 int mbx_server_client_info(const mbx_server *srv, unsigned n, mbx_client_info *info);

@@ -41,7 +41,8 @@ typedef struct daemon_state {
 	int sigfd, wakefd;
 	uint64_t watchdog_usec; /* 0 = no systemd watchdog */
 	bool watchdog_withheld;
-	cogwd_exts exts; /* manager, gateway: plugged into the lines */
+	cogwd_exts exts;            /* manager, gateway: plugged into the lines */
+	mbx_budget transfer_memory; /* shared by every line (lock-free) */
 } daemon_state;
 
 static void usage(FILE *to)
@@ -101,6 +102,7 @@ static int create_lines(daemon_state *d)
 {
 	const cogw_config *c = &d->cfg;
 	fill_rules(d);
+	mbx_budget_init(&d->transfer_memory, c->mailbox.transfer_memory);
 	for (size_t i = 0; i < c->n_lines; i++) {
 		const cogw_line_config *lc = &c->lines[i];
 		int rc = mbx_queue_name(d->queue_names[i], sizeof d->queue_names[i],
@@ -143,6 +145,13 @@ static int create_lines(daemon_state *d)
 				.max_clients_per_uid = c->mailbox.max_clients_per_uid,
 				.max_outstanding = c->mailbox.max_outstanding,
 				.max_request_timeout_ms = c->mailbox.max_request_timeout_ms,
+				.read_outstanding = c->mailbox.max_read_outstanding,
+				.write_reserve = c->mailbox.write_reserve,
+				.xfer_slots = c->mailbox.transfer_slots,
+				.xfer_per_client = c->mailbox.max_transfers_per_client,
+				.xfer_timeout_ms = c->mailbox.transfer_stall_ms,
+				.xfer_max_ms = c->mailbox.transfer_lifetime_ms,
+				.budget = &d->transfer_memory,
 				.rules = d->rules,
 				.n_rules = c->mailbox.n_rules,
 				.default_access = c->mailbox.default_access,
@@ -203,29 +212,26 @@ static unsigned long proc_status_kb(const char *name)
 	return kb;
 }
 
-/* Start-up report: what the configuration reserved for buffers and what
- * is pinned in RAM now (issue 11: a large max_transfer silently pinned
- * gigabytes). */
+/* Start-up report: what the configuration reserved for buffers, what big
+ * transfers may pin at most, and what is pinned in RAM now (issue 11: a
+ * large max_transfer silently pinned gigabytes). */
 static void log_memory(const daemon_state *d)
 {
 	size_t buffers = 0;
 
 	for (size_t i = 0; i < d->n_lines; i++)
 		buffers += line_buffer_bytes(d->lines[i]);
-	/* Under mlockall every mapping is locked, so what is pinned in RAM is
-	 * what is resident (VmLck counts the locked mappings in full, touched
-	 * or not). */
-	if (d->cfg.mlockall)
-		cogw_log(COGW_LOG_NOTICE,
-			 "memory: %zu KiB of line buffers reserved (max_transfer %u bytes), %lu "
-			 "KiB pinned in "
-			 "RAM (mlockall: buffers are locked as they are first used)",
-			 buffers / 1024, d->cfg.mailbox.max_transfer, proc_status_kb("VmRSS"));
-	else
-		cogw_log(COGW_LOG_NOTICE,
-			 "memory: %zu KiB of line buffers reserved (max_transfer %u bytes), %lu "
-			 "KiB resident",
-			 buffers / 1024, d->cfg.mailbox.max_transfer, proc_status_kb("VmRSS"));
+	/* Under mlockall(MCL_ONFAULT) what is pinned is what is resident
+	 * (VmRSS; VmLck counts locked mappings in full, touched or not);
+	 * transfer buffers are address space until a transfer, paid from the
+	 * budget, touches them, and give their pages back when it ends. */
+	cogw_log(COGW_LOG_NOTICE,
+		 "memory: %zu KiB of line buffers reserved as address space (max_transfer %u "
+		 "bytes), transfers use at most %u KiB at once (mailbox.transfer_memory), %lu KiB "
+		 "%s now",
+		 buffers / 1024, d->cfg.mailbox.max_transfer, d->cfg.mailbox.transfer_memory / 1024,
+		 proc_status_kb("VmRSS"),
+		 d->cfg.mlockall ? "pinned in RAM (mlockall)" : "resident");
 }
 
 /* WATCHDOG=1 only while every line thread has looped within the period:

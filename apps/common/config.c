@@ -49,13 +49,27 @@ static const char *const top_keys[] = { "version", "state_dir", "mlockall", "wat
 					"comment", NULL };
 static const char *const gateway_keys[] = { "routes", "process_image", "comment", NULL };
 static const char *const route_keys[] = { "network", "line", "router", "comment", NULL };
-static const char *const mailbox_keys[] = { "instance",        "depth",
-					    "msg_size",        "queue_mode",
-					    "max_clients",     "lease_ms",
-					    "max_transfer",    "max_clients_per_uid",
-					    "max_outstanding", "max_request_timeout_ms",
-					    "default_access",  "rules",
-					    "comment",         NULL };
+static const char *const mailbox_keys[] = { "instance",
+					    "depth",
+					    "msg_size",
+					    "queue_mode",
+					    "max_clients",
+					    "lease_ms",
+					    "max_transfer",
+					    "max_clients_per_uid",
+					    "max_outstanding",
+					    "max_read_outstanding",
+					    "write_reserve",
+					    "max_request_timeout_ms",
+					    "transfer_slots",
+					    "max_transfers_per_client",
+					    "transfer_stall_ms",
+					    "transfer_lifetime_ms",
+					    "transfer_memory",
+					    "default_access",
+					    "rules",
+					    "comment",
+					    NULL };
 static const char *const rule_keys[] = { "user", "uid", "access", "comment", NULL };
 static const char *const debug_keys[] = { "stall_signal", "stall_ms", "comment", NULL };
 static const char *const line_keys[] = { "name",
@@ -272,6 +286,56 @@ static int parse_rule(struct ctx *c, const cJSON *o, const char *path, cogw_acce
 	return parse_access_word(c, acc, p, &r->access);
 }
 
+/* The per-user / per-client limits that depend on each other (ranges and
+ * defaults: docs/config.md, docs/mailbox.md "Security model"). */
+static int parse_mailbox_limits(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
+{
+	const char *path = "mailbox";
+	char p[JSON_PATH_MAX];
+	int rc;
+
+	if ((rc = opt_unsigned(c, o, "max_read_outstanding", path, 1, 65535,
+			       &m->max_read_outstanding)) ||
+	    (rc = opt_unsigned(c, o, "write_reserve", path, 1, 1023, &m->write_reserve)) ||
+	    (rc = opt_unsigned(c, o, "transfer_slots", path, 1, 255, &m->transfer_slots)) ||
+	    (rc = opt_unsigned(c, o, "max_transfers_per_client", path, 1, 255,
+			       &m->max_transfers_per_client)) ||
+	    (rc = opt_unsigned(c, o, "transfer_stall_ms", path, 10, 600000u,
+			       &m->transfer_stall_ms)) ||
+	    (rc = opt_unsigned(c, o, "transfer_lifetime_ms", path, 100, 86400000u,
+			       &m->transfer_lifetime_ms)) ||
+	    (rc = opt_unsigned(c, o, "transfer_memory", path, 4096, UINT32_MAX,
+			       &m->transfer_memory)))
+		return rc;
+	/* A budget below max_transfer would refuse the largest transfer the
+	 * configuration allows, every time. */
+	if (m->transfer_memory < m->max_transfer) {
+		json_util_path_key(p, sizeof(p), path, "transfer_memory");
+		return fail(c, p,
+			    "%u is less than max_transfer (%u): no transfer that large could run",
+			    m->transfer_memory, m->max_transfer);
+	}
+	/* A reserve as large as the table would lock every read-only client
+	 * out; 0 is not offered: one slot kept for writers is what makes a
+	 * flood of read-only registrations harmless. */
+	if (m->write_reserve && m->write_reserve >= m->max_clients) {
+		json_util_path_key(p, sizeof(p), path, "write_reserve");
+		return fail(c, p, "%u leaves read-only clients no slot (max_clients is %u)",
+			    m->write_reserve, m->max_clients);
+	}
+	if (m->max_transfers_per_client && m->max_transfers_per_client > m->transfer_slots) {
+		json_util_path_key(p, sizeof(p), path, "max_transfers_per_client");
+		return fail(c, p, "%u is more than transfer_slots (%u)",
+			    m->max_transfers_per_client, m->transfer_slots);
+	}
+	if (m->max_clients_per_uid > m->max_clients) {
+		json_util_path_key(p, sizeof(p), path, "max_clients_per_uid");
+		return fail(c, p, "%u is more than max_clients (%u)", m->max_clients_per_uid,
+			    m->max_clients);
+	}
+	return 0;
+}
+
 static int parse_mailbox(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
 {
 	const char *path = "mailbox";
@@ -295,7 +359,8 @@ static int parse_mailbox(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
 			       &m->max_clients_per_uid)) ||
 	    (rc = opt_unsigned(c, o, "max_outstanding", path, 1, 1024, &m->max_outstanding)) ||
 	    (rc = opt_unsigned(c, o, "max_request_timeout_ms", path, 1, 3600000u,
-			       &m->max_request_timeout_ms)))
+			       &m->max_request_timeout_ms)) ||
+	    (rc = parse_mailbox_limits(c, o, m)))
 		return rc;
 	v = json_util_get(o, "queue_mode");
 	if (v) {
@@ -1186,6 +1251,11 @@ static void set_defaults(cogw_config *cfg, const char *source)
 	cfg->mailbox.max_clients = 16;
 	cfg->mailbox.max_outstanding = 16; /* = mbx_server's defaults */
 	cfg->mailbox.max_request_timeout_ms = 60000;
+	cfg->mailbox.max_read_outstanding = 32;
+	cfg->mailbox.transfer_slots = 2;
+	cfg->mailbox.transfer_stall_ms = 5000;
+	cfg->mailbox.transfer_lifetime_ms = 60000;
+	cfg->mailbox.transfer_memory = 16u << 20;
 	cfg->mailbox.lease_ms = 0;
 	cfg->mailbox.max_transfer = 1u << 20;
 	cfg->mailbox.default_access = COGW_ACCESS_WRITE;
@@ -1489,6 +1559,14 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next, c
 	DIFF(a->max_outstanding != b->max_outstanding, "mailbox.max_outstanding");
 	DIFF(a->max_request_timeout_ms != b->max_request_timeout_ms,
 	     "mailbox.max_request_timeout_ms");
+	DIFF(a->max_read_outstanding != b->max_read_outstanding, "mailbox.max_read_outstanding");
+	DIFF(a->write_reserve != b->write_reserve, "mailbox.write_reserve");
+	DIFF(a->transfer_slots != b->transfer_slots, "mailbox.transfer_slots");
+	DIFF(a->max_transfers_per_client != b->max_transfers_per_client,
+	     "mailbox.max_transfers_per_client");
+	DIFF(a->transfer_stall_ms != b->transfer_stall_ms, "mailbox.transfer_stall_ms");
+	DIFF(a->transfer_lifetime_ms != b->transfer_lifetime_ms, "mailbox.transfer_lifetime_ms");
+	DIFF(a->transfer_memory != b->transfer_memory, "mailbox.transfer_memory");
 	if (cur->n_lines != next->n_lines) {
 		note(what, whatlen, &changed, "lines (count)");
 	} else {

@@ -113,10 +113,21 @@ typedef struct cogw_mailbox_config {
 	unsigned max_clients;         /* per line (16) */
 	unsigned lease_ms;            /* 0 = no lease */
 	unsigned max_transfer;        /* bytes of one chunked transfer (1 MiB) */
-	/* per-user / per-client limits (0 = mbx_server's default) */
+	/* per-user / per-client limits (docs/mailbox.md "Security model";
+	 * 0 = mbx_server's default, which depends on max_clients or
+	 * transfer_slots) */
 	unsigned max_clients_per_uid;
-	unsigned max_outstanding;
-	unsigned max_request_timeout_ms;
+	unsigned max_outstanding;        /* requests of one client (16) */
+	unsigned max_read_outstanding;   /* of all read-only clients (32) */
+	unsigned write_reserve;          /* client slots for writers only */
+	unsigned max_request_timeout_ms; /* ceiling of a request's timeout */
+	unsigned transfer_slots;         /* chunked transfers at once (2) */
+	unsigned max_transfers_per_client;
+	unsigned transfer_stall_ms;    /* no progress: slot freed (5000) */
+	unsigned transfer_lifetime_ms; /* in all: slot freed (60000) */
+	/* Bytes all lines' transfers may use at once (16 MiB): what big
+	 * transfers can pin, whatever max_transfer (mailbox/budget.h). */
+	unsigned transfer_memory;
 	uint8_t default_access; /* for uids not in rules (WRITE) */
 	cogw_access_rule rules[COGW_ACCESS_RULES_MAX];
 	size_t n_rules;

@@ -27,6 +27,7 @@
 #include <grp.h>
 #include <linux/can.h>
 #include <mqueue.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -58,6 +59,7 @@ static pid_t child_pid;
 static char scratch_dir[64]; /* for tests that spawn cogwd themselves */
 
 static void raw_close(void);
+static int mq_recv_ms(mqd_t q, uint8_t *buf, size_t cap, int timeout_ms);
 
 /* ---- configuration text ----------------------------------------------------- */
 
@@ -439,6 +441,347 @@ static long daemon_status_kb(pid_t pid, const char *name)
 	return kb;
 }
 
+/* ---- issue 11 item 3: a client carries on after the daemon is killed and
+ * restarted (the systemd watchdog's restart) ---------------------------------- */
+
+static int in_flight_rc;
+
+/* An SDO upload from node 5, which nobody plays: under way for seconds. */
+static void *sdo_in_flight(void *arg)
+{
+	uint8_t buf[8];
+	size_t len = 0;
+	uint32_t abort = 0;
+	cogw_sdo_opts o = { .sdo_timeout_ms = 8000 };
+	(void)arg;
+	in_flight_rc = cogw_sdo_read_ex(client, 0, 5, 0x1000, 0, &o, buf, sizeof buf, &len, 30000,
+					&abort);
+	return NULL;
+}
+
+static void test_client_survives_a_daemon_kill_and_restart(void)
+{
+	char json[4096];
+	cfg_params p = { .instance = "sys1r",
+			 .n_lines = 1,
+			 .line0 = "\"objects\": [{\"index\": \"0x2000\", \"type\": "
+				  "\"UNSIGNED16\", \"default\": 7}], " };
+	config_text(json, sizeof json, &p);
+	start_daemon(&d, json, "sys1r", 1, 0, NULL);
+	open_client("sys1r");
+	TEST_ASSERT_EQUAL_UINT16(7, od_read_u16(client, 0x2000));
+	pthread_t t;
+	TEST_ASSERT_EQUAL_INT(0, pthread_create(&t, NULL, sdo_in_flight, NULL));
+	struct timespec ts = { 0, 500 * 1000000L };
+	nanosleep(&ts, NULL); /* the upload is under way */
+	/* killed, as a watchdog restart or a crash ends it: nothing cleaned up */
+	kill(d.pid, SIGKILL);
+	int st = 0;
+	TEST_ASSERT_EQUAL_INT(0, wait_exit(d.pid, 5000, &st));
+	d.pid = 0;
+	start_daemon(&d2, json, "sys1r", 1, 0, d.state_dir);
+	pthread_join(t, NULL);
+	/* the request under way: one clear error, long before its timeout */
+	TEST_ASSERT_EQUAL_INT_MESSAGE(COGW_E_RESTARTED, in_flight_rc, cogw_strerror(in_flight_rc));
+	/* then normal service, on a new registration, as before */
+	TEST_ASSERT_EQUAL_UINT16(7, od_read_u16(client, 0x2000));
+	od_write_u16(client, 0x2000, 9);
+	TEST_ASSERT_EQUAL_UINT16(9, od_read_u16(client, 0x2000));
+}
+
+/* ---- issue 11 items 5 and 9: transfers that are never acknowledged, the
+ * transfer memory budget ------------------------------------------------------ */
+
+#define XFER_OBJ_SIZE (1u << 20) /* 1 MiB DOMAIN 2100h on both lines */
+#define XFER_MAX_TRANSFER XFER_OBJ_SIZE
+#define XFER_BUDGET (2 * XFER_OBJ_SIZE) /* readers: all but max_transfer of it */
+
+/* A raw mailbox client of the uid that runs it (the misbehaving side runs
+ * as 65534 in a forked child, as `setpriv --reuid=65534 --regid=65534
+ * --clear-groups` would run it). A response queue of depth 2: the line
+ * streams a chunked answer one unacknowledged chunk at a time. */
+typedef struct nobody_client {
+	mqd_t cmd, resp, evt;
+	char rn[64], en[64];
+	uint32_t id;
+	uint64_t token;
+	uint8_t line;
+} nobody_client;
+
+static int nobody_send(nobody_client *c, uint16_t code, uint64_t corr, const void *p, size_t len)
+{
+	mbx_hdr h = { .magic = MBX_MAGIC,
+		      .version = MBX_VERSION,
+		      .kind = MBX_KIND_COMMAND,
+		      .code = code,
+		      .line = c->line,
+		      .client = c->id,
+		      .token = c->token,
+		      .corr = corr };
+	uint8_t msg[1024];
+	int n = mbx_msg_build(msg, sizeof msg, &h, p, len);
+	return n > 0 && mq_send(c->cmd, (const char *)msg, (size_t)n, 0) == 0 ? 0 : -1;
+}
+
+/* Next response (header only, payload dropped); -1 if none in time. */
+static int nobody_recv(nobody_client *c, mbx_hdr *h, int timeout_ms)
+{
+	uint8_t buf[1024];
+	mbx_bad bad;
+	int n = mq_recv_ms(c->resp, buf, sizeof buf, timeout_ms);
+	return n > 0 && mbx_hdr_decode(buf, (size_t)n, h, &bad) == 0 ? 0 : -1;
+}
+
+static int nobody_register(nobody_client *c, const char *instance, unsigned line, const char *tag)
+{
+	struct mq_attr a = { .mq_maxmsg = 2, .mq_msgsize = 1024 };
+	char q[96];
+	mbx_register_req r = { .pid = (uint32_t)getpid(), .uid = (uint32_t)getuid() };
+
+	memset(c, 0, sizeof *c);
+	snprintf(c->rn, sizeof c->rn, "/cogw.%s.%s%d.resp", instance, tag, (int)getpid());
+	snprintf(c->en, sizeof c->en, "/cogw.%s.%s%d.evt", instance, tag, (int)getpid());
+	c->resp = mq_open(c->rn, O_RDONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600, &a);
+	c->evt = mq_open(c->en, O_RDONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600, &a);
+	daemon_cmd_queue(&d, line, q, sizeof q);
+	c->line = (uint8_t)line;
+	c->cmd = mq_open(q, O_WRONLY | O_CLOEXEC);
+	if (c->resp == (mqd_t)-1 || c->evt == (mqd_t)-1 || c->cmd == (mqd_t)-1)
+		return -1;
+	snprintf(r.resp_queue, sizeof r.resp_queue, "%s", c->rn);
+	snprintf(r.event_queue, sizeof r.event_queue, "%s", c->en);
+	uint8_t out[1024]; /* mq_receive wants room for the queue's message size */
+	if (nobody_send(c, MBX_CMD_REGISTER, 1, &r, sizeof r) < 0 ||
+	    mq_recv_ms(c->resp, out, sizeof out, 5000) !=
+		    (int)(MBX_HDR_SIZE + sizeof(mbx_register_resp)))
+		return -1;
+	mbx_register_resp rr;
+	memcpy(&rr, out + MBX_HDR_SIZE, sizeof rr);
+	c->id = rr.client;
+	c->token = rr.token;
+	return c->id ? 0 : -1;
+}
+
+static void nobody_close(nobody_client *c)
+{
+	mq_close(c->cmd);
+	mq_close(c->resp);
+	mq_close(c->evt);
+	mq_unlink(c->rn);
+	mq_unlink(c->en);
+}
+
+/* Child: as uid 65534, start the big read on line 0 and never acknowledge
+ * it (mode 'n'), or acknowledge one chunk every 300 ms, well within the
+ * stall timeout, for ever (mode 't'): exits 0 when the daemon cut the
+ * stream before its end (the slot was taken back), after `go` is closed.
+ * Mode 'b': the big read on line 1 must be refused NO_MEMORY. */
+static int nobody_reader(const char *instance, char mode, int ready_fd, int go_fd)
+{
+	nobody_client c;
+	mbx_obj_req o = { .index = 0x2100 };
+	mbx_hdr h;
+	unsigned chunks = 0, last = 0;
+	char x = 1;
+
+	if (setgroups(0, NULL) < 0 || setresgid(NOBODY_UID, NOBODY_UID, NOBODY_UID) < 0 ||
+	    setresuid(NOBODY_UID, NOBODY_UID, NOBODY_UID) < 0)
+		return 10;
+	if (nobody_register(&c, instance, mode == 'b' ? 1 : 0, (char[]){ mode, 0 }) < 0)
+		return 11;
+	if (nobody_send(&c, MBX_CMD_OD_READ, 7, &o, sizeof o) < 0)
+		return 12;
+	if (nobody_recv(&c, &h, 5000) < 0)
+		return 13;
+	if (mode == 'b' && h.status != MBX_E_NO_MEMORY)
+		return 20 + (h.status < 0 ? -h.status : 0) % 30;
+	if (mode != 'b' && !(h.flags & MBX_F_CHUNKED))
+		return 13; /* the first chunk: the transfer holds the slot */
+	chunks = 1;
+	last = h.chunk;
+	if (write(ready_fd, &x, 1) != 1)
+		return 14;
+	if (mode == 't') {
+		/* acknowledge every chunk after 300 ms until none comes */
+		for (;;) {
+			struct timespec ts = { 0, 300 * 1000000L };
+			nanosleep(&ts, NULL);
+			mbx_xfer_ack a = { .next_chunk = (uint16_t)(last + 1) };
+			nobody_send(&c, MBX_CMD_XFER_ACK, 7, &a, sizeof a);
+			if (nobody_recv(&c, &h, 2000) < 0)
+				break; /* stream cut */
+			chunks++;
+			last = h.chunk;
+			if (!(h.flags & MBX_F_MORE))
+				return 15; /* the whole answer came: nothing cut it */
+		}
+		if (chunks < 4)
+			return 16; /* it should have kept the stream going a while */
+	}
+	if (read(go_fd, &x, 1) < 0)
+		return 17;
+	nobody_close(&c);
+	return 0;
+}
+
+static pid_t start_nobody_reader(const char *instance, char mode, int *go_wr)
+{
+	int ready[2], go[2];
+	char x;
+	TEST_ASSERT_EQUAL_INT(0, pipe(ready));
+	TEST_ASSERT_EQUAL_INT(0, pipe(go));
+	pid_t pid = fork();
+	TEST_ASSERT_TRUE(pid >= 0);
+	if (pid == 0) {
+		close(ready[0]);
+		close(go[1]);
+		_exit(nobody_reader(instance, mode, ready[1], go[0]));
+	}
+	close(ready[1]);
+	close(go[0]);
+	if (read(ready[0], &x, 1) != 1) {
+		int st = 0;
+		waitpid(pid, &st, 0);
+		printf("uid 65534 reader: exit %d\n", WIFEXITED(st) ? WEXITSTATUS(st) : -1);
+		TEST_FAIL_MESSAGE("the uid 65534 reader did not start its transfer");
+	}
+	close(ready[0]);
+	*go_wr = go[1];
+	return pid;
+}
+
+static int finish_nobody_reader(pid_t pid, int go_wr)
+{
+	int st = 0;
+	close(go_wr);
+	if (wait_exit(pid, 10000, &st) < 0) {
+		kill(pid, SIGKILL);
+		waitpid(pid, &st, 0);
+		return -1;
+	}
+	return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+/* Wait until line's MBX_STATS shows at least n expired transfers. */
+static mbx_stats_wire wait_expired(unsigned line, uint64_t n)
+{
+	mbx_stats_wire st;
+	for (int i = 0; i < 150; i++) {
+		TEST_ASSERT_EQUAL_INT(0, cogw_mbx_stats(client, line, &st, 5000));
+		if (st.xfer_expired >= n)
+			return st;
+		struct timespec ts = { 0, 200 * 1000000L };
+		nanosleep(&ts, NULL);
+	}
+	TEST_FAIL_MESSAGE("the transfer never lost its slot");
+	return st;
+}
+
+static int read_big(unsigned line, uint8_t *buf)
+{
+	size_t len = 0;
+	uint32_t abort = 0;
+	int rc = cogw_od_read(client, line, 0x2100, 0, buf, XFER_OBJ_SIZE, &len, 20000, &abort);
+	if (rc == 0)
+		TEST_ASSERT_EQUAL_size_t(XFER_OBJ_SIZE, len);
+	return rc;
+}
+
+/* Item 5: a client (uid 65534, read-only) that starts a chunked transfer
+ * and never acknowledges it, and one that acknowledges a chunk now and
+ * then for ever, lose the line's only transfer slot after
+ * transfer_stall_ms / transfer_lifetime_ms; each is counted, and another
+ * client gets the slot. Item 9: the transfer memory budget is one for all
+ * lines - while the stalled 1 MiB answer on line 0 holds its memory,
+ * another read-only client's 1 MiB answer on line 1 is refused NO_MEMORY
+ * (counted; readers leave max_transfer to writers) and a writer's is
+ * served; with mlockall what the daemon pins after the transfers grew by
+ * less than the budget (before, every buffer a transfer had touched stayed
+ * pinned), and start-up reports the budget. Release build: the
+ * sanitizers' shadow memory cannot be locked. */
+static void test_transfers_never_acknowledged_and_the_memory_budget(void)
+{
+	static const char *const inst = "sys1x";
+	static char json[4096];
+	static uint8_t pattern[XFER_OBJ_SIZE], back[XFER_OBJ_SIZE];
+	const char *obj = "\"objects\": [{\"index\": \"0x2100\", \"type\": \"DOMAIN\", "
+			  "\"max_size\": 1048576}]";
+	snprintf(json, sizeof json,
+		 "{\"version\": 1, \"mlockall\": true,\n"
+		 " \"mailbox\": {\"instance\": \"%s\", \"queue_mode\": \"0622\",\n"
+		 "  \"rules\": [{\"uid\": 65534, \"access\": \"read\"}],\n"
+		 "  \"transfer_slots\": 1, \"transfer_stall_ms\": 1000,\n"
+		 "  \"transfer_lifetime_ms\": 3000, \"max_transfer\": %u,\n"
+		 "  \"transfer_memory\": %u},\n"
+		 " \"lines\": [\n"
+		 "  {\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": 1000000, "
+		 "\"node_id\": 127, %s},\n"
+		 "  {\"name\": \"line1\", \"interface\": \"vcan1\", \"bitrate\": 1000000, "
+		 "\"node_id\": 127, %s}]}\n",
+		 inst, XFER_MAX_TRANSFER, XFER_BUDGET, obj, obj);
+	int rc = daemon_start(&d, &(daemon_opts){ .config_json = json,
+						  .instance = inst,
+						  .n_lines = 2,
+						  .notify = true,
+						  .binary = "build/rel/bin/cogwd" });
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, "cogwd did not come up");
+	TEST_ASSERT_TRUE(file_contains(d.log_path, "transfers use at most 2048 KiB at once "
+						   "(mailbox.transfer_memory)"));
+	TEST_ASSERT_TRUE(file_contains(d.log_path, "pinned in RAM (mlockall)"));
+	long rss_start = daemon_status_kb(d.pid, "VmRSS");
+	open_client(inst);
+	/* the objects' own storage (2 x 1 MiB) becomes resident: it holds data */
+	const long od_kb = 2 * XFER_OBJ_SIZE / 1024;
+	for (size_t i = 0; i < sizeof pattern; i++)
+		pattern[i] = (uint8_t)(i * 7 + i / 4096);
+	uint32_t abort = 0;
+	for (unsigned line = 0; line < 2; line++) {
+		rc = cogw_od_write(client, line, 0x2100, 0, pattern, sizeof pattern, 20000, &abort);
+		TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, cogw_strerror(rc));
+	}
+
+	/* never acknowledged */
+	int go;
+	pid_t never = start_nobody_reader(inst, 'n', &go);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(COGW_E_BUSY, read_big(0, back),
+				      "the slot was free while the reader held it");
+	/* the budget is one for all lines: another reader's 1 MiB on line 1
+	 * does not fit what readers may use (all but max_transfer) */
+	int go_b;
+	pid_t refused = start_nobody_reader(inst, 'b', &go_b);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, finish_nobody_reader(refused, go_b),
+				      "line 1 ignored the memory line 0's transfer holds");
+	mbx_stats_wire st1;
+	TEST_ASSERT_EQUAL_INT(0, cogw_mbx_stats(client, 1, &st1, 5000));
+	TEST_ASSERT_TRUE(st1.budget_refused >= 1);
+	/* a writer still has its max_transfer of the budget */
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, read_big(1, back), "the reader starved a writer");
+	mbx_stats_wire st0 = wait_expired(0, 1);
+	TEST_ASSERT_TRUE(st0.xfer_failed >= st0.xfer_expired);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, read_big(0, back), "the slot was not given to another");
+	TEST_ASSERT_EQUAL_MEMORY(pattern, back, sizeof back);
+	TEST_ASSERT_EQUAL_INT(0, finish_nobody_reader(never, go));
+
+	/* acknowledged now and then, for ever: the lifetime ends it */
+	pid_t trickle = start_nobody_reader(inst, 't', &go);
+	TEST_ASSERT_EQUAL_INT(COGW_E_BUSY, read_big(0, back));
+	wait_expired(0, 2);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, read_big(0, back), "the slot was not given to another");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, finish_nobody_reader(trickle, go),
+				      "the slowly acknowledged stream was not cut");
+
+	/* what the transfers touched went back to the kernel */
+	long rss_end = daemon_status_kb(d.pid, "VmRSS");
+	printf("memory: VmRSS %ld KiB at start, %ld KiB after 2 MiB written to the objects and "
+	       "6 transfers of 1 MiB (budget %u KiB)\n",
+	       rss_start, rss_end, XFER_BUDGET / 1024);
+	/* before: each line's slot stayed pinned with the 1 MiB it carried */
+	TEST_ASSERT_TRUE_MESSAGE(rss_end - rss_start < od_kb + (long)(XFER_OBJ_SIZE / 2 / 1024),
+				 "the transfers' pages stayed pinned");
+	cogw_close(client);
+	client = NULL;
+}
+
 static void test_memory_locked_by_need_and_reported(void)
 {
 	char json[4096];
@@ -446,7 +789,8 @@ static void test_memory_locked_by_need_and_reported(void)
 		    &(cfg_params){ .instance = "sys1m",
 				   .n_lines = 2,
 				   .top = "\"mlockall\": true,",
-				   .mailbox = "\"max_transfer\": 33554432, " });
+				   .mailbox = "\"max_transfer\": 33554432, "
+					      "\"transfer_memory\": 33554432, " });
 	/* the release build: the sanitizers' shadow memory cannot be locked */
 	int rc = daemon_start(&d, &(daemon_opts){ .config_json = json,
 						  .instance = "sys1m",
@@ -454,8 +798,8 @@ static void test_memory_locked_by_need_and_reported(void)
 						  .notify = true,
 						  .binary = "build/rel/bin/cogwd" });
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, "cogwd did not come up");
-	TEST_ASSERT_TRUE(file_contains(
-		d.log_path, "KiB of line buffers reserved (max_transfer 33554432 bytes)"));
+	TEST_ASSERT_TRUE(file_contains(d.log_path, "KiB of line buffers reserved as address space "
+						   "(max_transfer 33554432 bytes)"));
 	TEST_ASSERT_TRUE(file_contains(d.log_path, "KiB pinned in RAM"));
 	/* VmLck counts every locked mapping in full; what is pinned in RAM
 	 * under mlockall is what is resident: VmRSS */
@@ -1781,6 +2125,8 @@ int main(void)
 	RUN_TEST(test_watchdog_check_period_fits_the_watchdog);
 	RUN_TEST(test_special_files_do_not_block);
 	RUN_TEST(test_memory_locked_by_need_and_reported);
+	RUN_TEST(test_transfers_never_acknowledged_and_the_memory_budget);
+	RUN_TEST(test_client_survives_a_daemon_kill_and_restart);
 	RUN_TEST(test_store_restore_survives_restart);
 	RUN_TEST(test_store_takes_effect_at_reset);
 	RUN_TEST(test_restore_takes_effect_at_reset);

@@ -910,6 +910,85 @@ static void test_a_reader_cannot_starve_a_writer(void)
 				      "a request timeout above the ceiling was accepted");
 }
 
+/* ---- 5 and 9: a transfer never acknowledged, the transfer memory budget ------- */
+
+/* uid 65534 (read-only): a big answer it never acknowledges, and a second
+ * one (another registration) that the budget must refuse. */
+static int child_budget_reader(void *arg)
+{
+	sync2 *s = arg;
+	rawc r[2];
+	mbx_hdr h;
+	mbx_obj_req big = { .index = 0x2001 };
+
+	CHECK(become_nobody() == 0);
+	CHECK(rawc_register(&r[0], 0) == 0 && rawc_register(&r[1], 1) == 0);
+	CHECK(rawc_send(&r[0], MBX_CMD_OD_READ, 0, 10, &big, sizeof big) == 0);
+	CHECK(rawc_recv(&r[0], &h, NULL, 0) == 0 && (h.flags & MBX_F_CHUNKED));
+	CHECK(rawc_send(&r[1], MBX_CMD_OD_READ, 0, 11, &big, sizeof big) == 0);
+	CHECK(rawc_recv(&r[1], &h, NULL, 0) == 0);
+	if (h.status != MBX_E_NO_MEMORY)
+		fprintf(stderr, "budget reader: %s\n", mbx_status_to_string(h.status));
+	CHECK(h.status == MBX_E_NO_MEMORY);
+	child_ready(s);
+	child_wait_go(s);
+	rawc_close(&r[0]);
+	rawc_close(&r[1]);
+	return 0;
+}
+
+static int child_big_reader(void *arg)
+{
+	cogw *h;
+	uint8_t v[BIG_ANSWER];
+	size_t len = 0;
+	uint32_t abort = 0;
+	int rc;
+
+	(void)arg;
+	CHECK(cogw_open(&h, instance) == 0);
+	rc = cogw_od_read(h, LINE, 0x2001, 0, v, sizeof v, &len, 3000, &abort);
+	if (rc)
+		fprintf(stderr, "big reader: %s\n", cogw_strerror(rc));
+	CHECK(rc == 0 && len == sizeof v);
+	cogw_close(h);
+	return 0;
+}
+
+static void test_an_unacknowledged_transfer_and_the_memory_budget(void)
+{
+	mbx_access_rule rules[] = { { .uid = NOBODY, .access = MBX_ACCESS_READ } };
+	mbx_server_config cfg = base_cfg();
+	mbx_budget budget;
+	sync2 s;
+
+	mbx_budget_init(&budget, 2 * BIG_ANSWER);
+	cfg.rules = rules;
+	cfg.n_rules = 1;
+	cfg.register_timeout_ms = 10000;
+	cfg.xfer_slots = 3;
+	cfg.max_transfer = BIG_ANSWER;
+	cfg.xfer_timeout_ms = 300;
+	cfg.xfer_max_ms = 1000;
+	cfg.budget = &budget;
+	start(&cfg);
+	sync_init(&s);
+	pid_t reader = spawn(child_budget_reader, &s);
+	parent_wait_ready(&s);
+	/* readers leave max_transfer of the budget to writers */
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_big_reader, NULL)),
+				      "the reader starved a writer of transfer memory");
+	TEST_ASSERT_TRUE(stats().budget_refused >= 1);
+	/* the never acknowledged answer loses its slot and its memory */
+	for (unsigned i = 0; i < 500 && stats().xfer_expired == 0; i++)
+		sleep_ms(10);
+	TEST_ASSERT_EQUAL_UINT64(1, stats().xfer_expired);
+	TEST_ASSERT_EQUAL_UINT64(0, mbx_budget_used(&budget));
+	parent_go(&s);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(reader), "the budget did not refuse the reader");
+	sync_close(&s);
+}
+
 int main(void)
 {
 	pthread_mutex_init(&fl.mu, NULL);
@@ -923,5 +1002,6 @@ int main(void)
 	RUN_TEST(test_readable_command_queue_modes_are_refused);
 	RUN_TEST(test_clients_survive_a_daemon_restart);
 	RUN_TEST(test_a_reader_cannot_starve_a_writer);
+	RUN_TEST(test_an_unacknowledged_transfer_and_the_memory_budget);
 	return UNITY_END();
 }

@@ -171,6 +171,68 @@ static void test_wrong_types(void)
 	}
 }
 
+/* issue 11: every mailbox limit is a key with a range, and the limits that
+ * depend on each other are refused together, each with its JSON path. */
+static void test_mailbox_limits_refused_with_path(void)
+{
+	static const struct {
+		const char *mailbox, *error;
+	} bad[] = {
+		{ "\"max_clients_per_uid\": 0",
+		  "mailbox.max_clients_per_uid: 0 is out of range 1..1024" },
+		{ "\"max_clients\": 8, \"max_clients_per_uid\": 9",
+		  "mailbox.max_clients_per_uid: 9 is more than max_clients (8)" },
+		{ "\"max_outstanding\": 0", "mailbox.max_outstanding: 0 is out of range 1..1024" },
+		{ "\"max_outstanding\": 1025",
+		  "mailbox.max_outstanding: 1025 is out of range 1..1024" },
+		{ "\"max_read_outstanding\": 0",
+		  "mailbox.max_read_outstanding: 0 is out of range 1..65535" },
+		{ "\"write_reserve\": 0", "mailbox.write_reserve: 0 is out of range 1..1023" },
+		{ "\"max_clients\": 4, \"write_reserve\": 4",
+		  "mailbox.write_reserve: 4 leaves read-only clients no slot (max_clients is 4)" },
+		{ "\"max_request_timeout_ms\": 0",
+		  "mailbox.max_request_timeout_ms: 0 is out of range 1..3600000" },
+		{ "\"max_request_timeout_ms\": 4294967295",
+		  "mailbox.max_request_timeout_ms: 4294967295 is out of range 1..3600000" },
+		{ "\"transfer_slots\": 0", "mailbox.transfer_slots: 0 is out of range 1..255" },
+		{ "\"transfer_slots\": 256", "mailbox.transfer_slots: 256 is out of range 1..255" },
+		{ "\"max_transfers_per_client\": 3",
+		  "mailbox.max_transfers_per_client: 3 is more than transfer_slots (2)" },
+		{ "\"transfer_stall_ms\": 5",
+		  "mailbox.transfer_stall_ms: 5 is out of range 10..600000" },
+		{ "\"transfer_lifetime_ms\": 0",
+		  "mailbox.transfer_lifetime_ms: 0 is out of range 100..86400000" },
+		{ "\"transfer_lifetime_ms\": 86400001",
+		  "mailbox.transfer_lifetime_ms: 86400001 is out of range 100..86400000" },
+		{ "\"transfer_memory\": 100",
+		  "mailbox.transfer_memory: 100 is out of range 4096..4294967295" },
+		{ "\"max_transfer\": 33554432",
+		  "mailbox.transfer_memory: 16777216 is less than max_transfer (33554432): no "
+		  "transfer that large could run" },
+	};
+	for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+		char json[512], want[256];
+
+		snprintf(json, sizeof json, "{\"mailbox\": {%s}, \"lines\": [" LINE("") "]}",
+			 bad[i].mailbox);
+		snprintf(want, sizeof want, "t.json: %s", bad[i].error);
+		expect_error(json, want);
+	}
+	/* and the good ones reach the configuration */
+	load_ok("{\"mailbox\": {\"max_clients\": 8, \"write_reserve\": 3, "
+		"\"max_read_outstanding\": 5, \"transfer_slots\": 4, "
+		"\"max_transfers_per_client\": 3, \"transfer_stall_ms\": 700, "
+		"\"transfer_lifetime_ms\": 2500, \"max_transfer\": 33554432, "
+		"\"transfer_memory\": 67108864}, \"lines\": [" LINE("") "]}");
+	TEST_ASSERT_EQUAL_UINT(3, cfg.mailbox.write_reserve);
+	TEST_ASSERT_EQUAL_UINT(5, cfg.mailbox.max_read_outstanding);
+	TEST_ASSERT_EQUAL_UINT(4, cfg.mailbox.transfer_slots);
+	TEST_ASSERT_EQUAL_UINT(3, cfg.mailbox.max_transfers_per_client);
+	TEST_ASSERT_EQUAL_UINT(700, cfg.mailbox.transfer_stall_ms);
+	TEST_ASSERT_EQUAL_UINT(2500, cfg.mailbox.transfer_lifetime_ms);
+	TEST_ASSERT_EQUAL_UINT(64u << 20, cfg.mailbox.transfer_memory);
+}
+
 static void test_missing_required_keys(void)
 {
 	expect_error("{}", "t.json: lines: required key is missing");
@@ -862,6 +924,7 @@ int main(void)
 	RUN_TEST(test_invalid_json_line_column);
 	RUN_TEST(test_wrong_types);
 	RUN_TEST(test_missing_required_keys);
+	RUN_TEST(test_mailbox_limits_refused_with_path);
 	RUN_TEST(test_out_of_range);
 	RUN_TEST(test_unknown_keys);
 	RUN_TEST(test_duplicate_lines);

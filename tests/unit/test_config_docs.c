@@ -135,6 +135,11 @@ static int fill_key_defaults(struct key_default *k)
 	KD("`mailbox`", "max_transfer", "%u", m->max_transfer);
 	KD("`mailbox`", "max_outstanding", "%u", m->max_outstanding);
 	KD("`mailbox`", "max_request_timeout_ms", "%u", m->max_request_timeout_ms);
+	KD("`mailbox`", "max_read_outstanding", "%u", m->max_read_outstanding);
+	KD("`mailbox`", "transfer_slots", "%u", m->transfer_slots);
+	KD("`mailbox`", "transfer_stall_ms", "%u", m->transfer_stall_ms);
+	KD("`mailbox`", "transfer_lifetime_ms", "%u", m->transfer_lifetime_ms);
+	KD("`mailbox`", "transfer_memory", "%u", m->transfer_memory);
 	KD("`mailbox`", "default_access", "%s",
 	   m->default_access == COGW_ACCESS_WRITE  ? "write"
 	   : m->default_access == COGW_ACCESS_READ ? "read"

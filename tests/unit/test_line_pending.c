@@ -5,6 +5,7 @@
  * its generation (a late completion for a reused slot never matches), the
  * reply address and the buffers are the slot's.
  */
+#include <errno.h>
 #include <string.h>
 
 #include "unity.h"
@@ -15,7 +16,7 @@ static line_pending_table t;
 
 void setUp(void)
 {
-	TEST_ASSERT_EQUAL(0, line_pending_init(&t, 4096));
+	TEST_ASSERT_EQUAL(0, line_pending_init(&t, 4096, NULL));
 }
 
 void tearDown(void)
@@ -107,10 +108,54 @@ static void test_last_slot_of_each_kind_is_for_writers(void)
 	TEST_ASSERT_NOT_NULL(line_pending_take(&t, &rd, LINE_PENDING_SDO, false));
 }
 
+/* Big uploads are paid from the transfer memory budget as their data
+ * arrives (issue 11 item 9): an announced size at once, otherwise in
+ * MBX_BUFFER_KEEP steps; a read-only requester leaves cap to writers; the
+ * release gives everything back. */
+static void test_big_upload_pays_the_budget_as_it_grows(void)
+{
+	static line_pending_table b;
+	mbx_budget budget;
+	const uint32_t cap = 4 * MBX_BUFFER_KEEP;
+
+	mbx_budget_init(&budget, 6 * MBX_BUFFER_KEEP);
+	TEST_ASSERT_EQUAL(0, line_pending_init(&b, cap, &budget));
+	mbx_request w = req_from(1, 1), r = req_from(2, 2);
+	r.access = MBX_ACCESS_READ;
+	line_pending *pw = line_pending_take(&b, &w, LINE_PENDING_SDO, true);
+	line_pending *pr = line_pending_take(&b, &r, LINE_PENDING_SDO, true);
+	TEST_ASSERT_NOT_NULL(pw);
+	TEST_ASSERT_NOT_NULL(pr);
+	/* size unknown: one step at a time */
+	TEST_ASSERT_EQUAL_INT(0, line_pending_grow(pw, 100, UINT32_MAX));
+	TEST_ASSERT_EQUAL_UINT64(MBX_BUFFER_KEEP, mbx_budget_used(&budget));
+	TEST_ASSERT_EQUAL_INT(0, line_pending_grow(pw, MBX_BUFFER_KEEP + 1, UINT32_MAX));
+	TEST_ASSERT_EQUAL_UINT64(2 * MBX_BUFFER_KEEP, mbx_budget_used(&budget));
+	/* announced: all of it at once when it outgrows what it has; beyond
+	 * cap: refused */
+	TEST_ASSERT_EQUAL_INT(0, line_pending_grow(pw, 2 * MBX_BUFFER_KEEP + 1, cap));
+	TEST_ASSERT_EQUAL_UINT64(cap, mbx_budget_used(&budget));
+	TEST_ASSERT_EQUAL_INT(-ENOMEM, line_pending_grow(pw, cap + 1, UINT32_MAX));
+	/* the reader may only use what leaves cap free: 6 - 4 - 4 < 0 */
+	TEST_ASSERT_EQUAL_INT(-ENOMEM, line_pending_grow(pr, MBX_BUFFER_KEEP + 1, cap));
+	TEST_ASSERT_TRUE(pr->over_budget);
+	TEST_ASSERT_EQUAL_UINT64(1, atomic_load(&budget.refused));
+	line_pending_release(&b, pw);
+	TEST_ASSERT_EQUAL_UINT64(0, mbx_budget_used(&budget));
+	/* now it fits (6 - 2 >= 4 left for writers) */
+	TEST_ASSERT_EQUAL_INT(0, line_pending_grow(pr, 2 * MBX_BUFFER_KEEP, UINT32_MAX));
+	line_pending_pay_back(pr);
+	TEST_ASSERT_EQUAL_UINT64(0, mbx_budget_used(&budget));
+	line_pending_release(&b, pr);
+	TEST_ASSERT_EQUAL_UINT64(0, mbx_budget_used(&budget));
+	line_pending_fini(&b);
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
 	RUN_TEST(test_take_find_release);
+	RUN_TEST(test_big_upload_pays_the_budget_as_it_grows);
 	RUN_TEST(test_reused_slot_gets_a_new_tag);
 	RUN_TEST(test_kinds_and_exhaustion);
 	RUN_TEST(test_last_slot_of_each_kind_is_for_writers);
