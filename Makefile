@@ -259,10 +259,11 @@ endif
 # tests/bench/bench_vcan_*.c need vcan lines and the release daemon/simulator:
 # they run through the vcan harness (4 lines, in the VM where needed); the
 # other bench_*.c are core-only and run natively. Both link the bench support
-# and the integration tests' process/CAN helpers (release build).
+# and the integration tests' process/CAN helpers and SDO requester (release
+# build).
 BENCH_VCAN_BINS := $(filter $(REL)/tests/bench/bench_vcan_%,$(BENCH_BINS))
 BENCH_CORE_BINS := $(filter-out $(BENCH_VCAN_BINS),$(BENCH_BINS))
-BENCH_SUP_OBJS  := $(call obj,$(REL),$(sort $(wildcard tests/bench/support/*.c)) tests/integration/support/proc.c)
+BENCH_SUP_OBJS  := $(call obj,$(REL),$(sort $(wildcard tests/bench/support/*.c)) tests/integration/support/proc.c tests/integration/support/sdo_req.c)
 BENCH_OUT := build/bench/output.txt
 
 $(REL)/tests/bench/%: $(REL)/obj/tests/bench/%.o $(BENCH_SUP_OBJS) $(REL_LIBS)

@@ -1166,9 +1166,10 @@ static int emit_pdo(eds_ctx *c, uint16_t comm, uint16_t map, size_t nvars)
 		return fail(c, cob->line, "PDO %04Xh sub 1 (COB-ID): %u bytes, UNSIGNED32 has 4",
 			    comm, (unsigned)cob->size);
 	if (m0 && m0->size != 1)
-		return fail(c, m0->line,
-			    "PDO mapping %04Xh sub 0 (number of entries): %u bytes, UNSIGNED8 has 1",
-			    map, (unsigned)m0->size);
+		return fail(
+			c, m0->line,
+			"PDO mapping %04Xh sub 0 (number of entries): %u bytes, UNSIGNED8 has 1",
+			map, (unsigned)m0->size);
 	if (cob && (rc = emit_const(c, comm, 1, cob_val | 0x80000000u, cob->size, cob->line)))
 		return rc;
 	cob = find_var(c, comm, 1); /* add_var may have moved the array */

@@ -36,6 +36,7 @@
 #include "core/sdo_client.h"
 #include "gateway/convention.h"
 #include "tests/bench/support/bench.h"
+#include "tests/integration/support/sdo_req.h"
 
 #define NODE 5
 #define GW 127
@@ -262,83 +263,29 @@ static pid_t relay_start(const char *from, const char *to, uint32_t id)
 	return ok ? pid : -1;
 }
 
-/* ---- the requester: a core SDO client on a raw socket ------------------------------ */
+/* ---- the requester: a core SDO client on a raw socket (tests/integration/support) --- */
 
 typedef struct requester {
-	int fd;
-	co_od *od;
-	co_node *node;
-	bool done;
-	co_ev_sdo_cli res;
+	sdo_req sr;
 	double indication_s; /* the last network indication's round trip */
 } requester;
 
-static int rq_send(void *ctx, const co_frame *f)
-{
-	requester *q = ctx;
-	while (can_send_std(q->fd, f->id, f->data, f->len) != 0)
-		sleep_ms(0);
-	return 0;
-}
-
-static void rq_event(void *ctx, const co_event *ev)
-{
-	requester *q = ctx;
-	if (ev->kind == CO_EV_SDO_CLIENT_DONE) {
-		q->res = ev->u.sdo_cli;
-		q->done = true;
-	}
-}
-
 static int rq_open(requester *q, const char *ifname)
 {
-	co_node_config c = { .node_id = 1,
-			     .sdo_client_count = 1,
-			     .sdo_client_timeout_ms = 5000,
-			     .send = rq_send,
-			     .send_ctx = q,
-			     .event = rq_event,
-			     .event_ctx = q };
-	memset(q, 0, sizeof *q);
-	q->fd = can_open_raw(ifname);
-	if (q->fd < 0 || co_od_create(&q->od, 16))
+	int fd = can_open_raw(ifname), big = 4 * 1024 * 1024;
+
+	q->sr.fd = fd;
+	if (fd < 0)
 		return -1;
-	int big = 4 * 1024 * 1024;
-	setsockopt(q->fd, SOL_SOCKET, SO_RCVBUF, &big, sizeof big);
-	c.od = q->od;
-	return co_node_create(&q->node, &c);
+	setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &big, sizeof big);
+	return sdo_req_init(&q->sr, fd, 1, 5000);
 }
 
 static void rq_close(requester *q)
 {
-	co_node_destroy(q->node);
-	co_od_destroy(q->od);
-	if (q->fd >= 0)
-		close(q->fd);
-}
-
-static uint64_t now_us(void)
-{
-	return bench_now_ns() / 1000u;
-}
-
-static void rq_run(requester *q, int timeout_ms)
-{
-	uint64_t until = now_us() + (uint64_t)timeout_ms * 1000u;
-	while (!q->done && now_us() < until) {
-		struct pollfd p = { .fd = q->fd, .events = POLLIN };
-		if (poll(&p, 1, 5) > 0) {
-			struct can_frame cf;
-			if (read(q->fd, &cf, sizeof cf) == (ssize_t)sizeof cf &&
-			    !(cf.can_id & (CAN_EFF_FLAG | CAN_RTR_FLAG | CAN_ERR_FLAG))) {
-				co_frame f;
-				co_frame_init(&f, cf.can_id, cf.len);
-				memcpy(f.data, cf.data, 8);
-				co_node_recv(q->node, &f, now_us());
-			}
-		}
-		co_node_tick(q->node, now_us());
-	}
+	sdo_req_fini(&q->sr);
+	if (q->sr.fd >= 0)
+		close(q->sr.fd);
 }
 
 /* The network indication for (2, NODE) to the gateway; 0 when confirmed. */
@@ -346,9 +293,9 @@ static int indicate(requester *q)
 {
 	uint8_t d[8], a[8];
 	gw_netind_encode(d, (gw_netind){ 2, NODE });
-	drain(q->fd);
-	if (can_send_std(q->fd, 0x600 + GW, d, 8) != 0 ||
-	    can_wait_id(q->fd, 0x580 + GW, a, 5000) != 8)
+	drain(q->sr.fd);
+	if (can_send_std(q->sr.fd, 0x600 + GW, d, 8) != 0 ||
+	    can_wait_id(q->sr.fd, 0x580 + GW, a, 5000) != 8)
 		return -1;
 	return memcmp(a, d, 8) == 0 ? 0 : -1;
 }
@@ -363,21 +310,18 @@ static double transfer(requester *q, bool routed, const sdo_client_req *r0)
 	 * the same COB-IDs (605h/585h) as the direct requester on vcan1, so
 	 * its frames wait there, and the first one would answer this
 	 * transfer's initiate out of turn (05040001 from our own client). */
-	drain(q->fd);
+	drain(q->sr.fd);
 	double t0 = bench_now_s();
 	if (routed && indicate(q) < 0) {
 		printf("bench_vcan_gateway: the gateway did not confirm the network indication\n");
 		return -1;
 	}
 	q->indication_s = routed ? bench_now_s() - t0 : 0;
-	q->done = false;
-	if (sdo_client_submit(q->node, 0, &r, now_us()) != 0)
-		return -1;
-	rq_run(q, 300000);
+	int rc = sdo_req_transfer(&q->sr, &r, 300000);
 	double took = bench_now_s() - t0;
-	if (!q->done || q->res.abort) {
+	if (rc || q->sr.res.abort) {
 		printf("bench_vcan_gateway: %s SDO %04X failed: abort %08X\n",
-		       routed ? "routed" : "direct", r.index, q->done ? q->res.abort : 0);
+		       routed ? "routed" : "direct", r.index, rc ? 0 : q->sr.res.abort);
 		return -1;
 	}
 	return took;
@@ -568,7 +512,7 @@ int main(void)
 	uint8_t *buf = malloc(BLOCK_SIZE);
 	bench_daemon d = { .pid = -1 };
 	pid_t sim = -1;
-	requester q0 = { .fd = -1 }, q1 = { .fd = -1 };
+	requester q0 = { .sr.fd = -1 }, q1 = { .sr.fd = -1 };
 	int tx0 = -1, rx1 = -1, tx2 = -1, rx3 = -1, status = 1;
 
 	printf("bench_vcan_gateway: cogwd on vcan0 + vcan1, cosim (node %d) on vcan1\n", NODE);
@@ -598,7 +542,7 @@ int main(void)
 	/* the daemon's node OPERATIONAL on both lines (PDOs run only there) */
 	uint8_t start[2] = { 0x01, GW };
 	can_send_std(tx0, 0, start, 2);
-	can_send_std(q1.fd, 0, start, 2);
+	can_send_std(q1.sr.fd, 0, start, 2);
 	sleep_ms(500);
 
 	/* Before the simulated device starts: on real lines the devices do not
@@ -620,7 +564,7 @@ int main(void)
 	}
 	sim = proc_spawn(sim_argv, simlog, NULL);
 	uint8_t boot[8];
-	if (can_wait_id(q1.fd, 0x700 + NODE, boot, 10000) < 0)
+	if (can_wait_id(q1.sr.fd, 0x700 + NODE, boot, 10000) < 0)
 		bench_note("cosim: no boot-up seen within 10 s");
 	/* the device's domain holds the pattern: write it directly once */
 	for (uint32_t i = 0; i < BLOCK_SIZE; i++)

@@ -50,9 +50,10 @@ typedef struct boot_run {
 static int write_device(const char *path)
 {
 	return bench_write_file(
-		path, "{\"name\": \"bench-slave\", \"node_id\": 1, \"device_type\": \"0x000F0191\",\n"
-		      " \"identity\": {\"vendor\": \"0x00001234\", \"product\": \"0x00000401\",\n"
-		      "   \"revision\": \"0x00010000\", \"serial\": 4711}}\n");
+		path,
+		"{\"name\": \"bench-slave\", \"node_id\": 1, \"device_type\": \"0x000F0191\",\n"
+		" \"identity\": {\"vendor\": \"0x00001234\", \"product\": \"0x00000401\",\n"
+		"   \"revision\": \"0x00010000\", \"serial\": 4711}}\n");
 }
 
 /* The line's manager knows nodes 1..n with their full identity; no error
@@ -64,18 +65,20 @@ static int write_config(const char *path, unsigned n, unsigned sdo_clients)
 		text, sizeof text,
 		"{\"version\": 1, \"state_dir\": \"%s/state\",\n"
 		" \"mailbox\": {\"instance\": \"%s\"},\n"
-		" \"lines\": [{\"name\": \"bench0\", \"interface\": \"vcan0\", \"bitrate\": 1000000,\n"
+		" \"lines\": [{\"name\": \"bench0\", \"interface\": \"vcan0\", \"bitrate\": "
+		"1000000,\n"
 		"   \"node_id\": 127, \"sdo_clients\": %u,\n"
 		"   \"manager\": {\"boot_time_ms\": 0, \"sdo_timeout_ms\": 2000},\n"
 		"   \"nodes\": [",
 		tmpdir, instance, sdo_clients);
 	for (unsigned id = 1; id <= n && len < sizeof text; id++)
-		len += (size_t)snprintf(text + len, sizeof text - len,
-					"%s\n    {\"id\": %u, \"mandatory\": true, "
-					"\"device_type\": \"0x000F0191\", \"vendor_id\": \"0x1234\", "
-					"\"product_code\": \"0x401\", \"revision\": \"0x10000\", "
-					"\"serial\": 4711}",
-					id == 1 ? "" : ",", id);
+		len += (size_t)snprintf(
+			text + len, sizeof text - len,
+			"%s\n    {\"id\": %u, \"mandatory\": true, "
+			"\"device_type\": \"0x000F0191\", \"vendor_id\": \"0x1234\", "
+			"\"product_code\": \"0x401\", \"revision\": \"0x10000\", "
+			"\"serial\": 4711}",
+			id == 1 ? "" : ",", id);
 	if (len >= sizeof text - 8)
 		return -ENOSPC;
 	snprintf(text + len, sizeof text - len, "]}]}\n");
@@ -146,7 +149,8 @@ static double raw_baseline(unsigned n, int rounds)
 		double t0 = bench_now_s();
 		for (unsigned id = 1; id <= n; id++)
 			for (unsigned k = 0; k < READS_PER_NODE; k++)
-				if (raw_read(fd, (uint8_t)id, k ? 0x1018 : 0x1000, id_subs[k]) < 0) {
+				if (raw_read(fd, (uint8_t)id, k ? 0x1018 : 0x1000, id_subs[k]) <
+				    0) {
 					printf("raw SDO read of node %u failed\n", id);
 					close(fd);
 					return -1;
@@ -222,8 +226,7 @@ static int manager_boot(unsigned n, unsigned sdo_clients, int rounds, boot_run *
 	if (write_config(cfg, n, sdo_clients) < 0 || bench_daemon_start(&d, cfg, instance, log) < 0)
 		goto out;
 	cogw_options o = { .instance = instance, .timeout_ms = 10000 };
-	if (cogw_open_opts(&h, &o) < 0 ||
-	    cogw_subscribe(h, 0, MBX_EVC_MANAGER, NULL, 0, 5000) != 0)
+	if (cogw_open_opts(&h, &o) < 0 || cogw_subscribe(h, 0, MBX_EVC_MANAGER, NULL, 0, 5000) != 0)
 		goto out;
 	/* the first boot, at the daemon's start */
 	for (uint64_t until = mono_ms() + 30000; booted_count(h) < n; sleep_ms(50))
@@ -271,8 +274,7 @@ out:
 	return rc;
 }
 
-static int measure(unsigned n, unsigned sdo_clients, const char *dev, boot_run *boot,
-		   double *raw_s)
+static int measure(unsigned n, unsigned sdo_clients, const char *dev, boot_run *boot, double *raw_s)
 {
 	pid_t sims[MAX_DEV / PER_SIM + 1] = { 0 };
 	static char devs[MAX_DEV + 1][300];
@@ -323,16 +325,16 @@ int main(void)
 			   sizes[i], sizes[i] == 1 ? "" : "s", boot[i].frames, boot[i].bus_s * 1e3);
 	}
 	double limit = 1.5 * boot[0].seconds + boot[2].bus_s;
-	bench_print_figure(&(bench_figure){
-		.name = "manager network boot of 32 nodes against the boot of 1",
-		.value = boot[2].seconds * 1e3,
-		.unit = "ms",
-		.base_name = "1.5 x boot of 1 node + bus time of the 32-node boot",
-		.base_value = limit * 1e3,
-		.base_unit = "ms",
-		.ratio = boot[2].seconds / limit,
-		.target = "ratio <= 1.00",
-		.verdict = bench_verdict(boot[2].seconds <= limit) });
+	bench_print_figure(
+		&(bench_figure){ .name = "manager network boot of 32 nodes against the boot of 1",
+				 .value = boot[2].seconds * 1e3,
+				 .unit = "ms",
+				 .base_name = "1.5 x boot of 1 node + bus time of the 32-node boot",
+				 .base_value = limit * 1e3,
+				 .base_unit = "ms",
+				 .ratio = boot[2].seconds / limit,
+				 .target = "ratio <= 1.00",
+				 .verdict = bench_verdict(boot[2].seconds <= limit) });
 	if (measure(MAX_DEV, 4, dev, &boot_pool4, &raw_pool4) < 0)
 		goto out;
 	bench_print_figure(&(bench_figure){

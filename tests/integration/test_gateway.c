@@ -43,6 +43,7 @@
 #include "gateway/convention.h"
 #include "mailbox/cogw.h"
 #include "tests/integration/support/daemon.h"
+#include "tests/integration/support/sdo_req.h"
 
 #define INSTANCE "gwtest"
 #define GW_NODE 127
@@ -97,61 +98,9 @@ static daemon_run dmn, dmn_b; /* dmn_b: the second router of the multi-hop test 
 static cosim_run sim_tgt, sim_emcy;
 static int fd0, fd1, fd2; /* raw sockets on vcan0..2 */
 
-/* ---- the requester: a core SDO client on vcan0 over a raw socket ------------------------ */
+/* ---- the requester: a core SDO client on vcan0 over a raw socket (support/sdo_req) ----- */
 
-static co_node *req;
-static co_od *req_od;
-static bool req_done;
-static co_ev_sdo_cli req_result;
-
-static uint64_t now_us(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
-}
-
-static int req_send(void *ctx, const co_frame *f)
-{
-	(void)ctx;
-	return can_send_std(fd0, f->id, f->data, f->len);
-}
-
-static void req_event(void *ctx, const co_event *ev)
-{
-	(void)ctx;
-	if (ev->kind == CO_EV_SDO_CLIENT_DONE) {
-		req_result = ev->u.sdo_cli;
-		req_done = true;
-	}
-}
-
-/* Feed vcan0 frames to the requester until it completed or timeout_ms. */
-static void req_run(int timeout_ms)
-{
-	uint64_t until = now_us() + (uint64_t)timeout_ms * 1000u;
-
-	while (!req_done && now_us() < until) {
-		struct pollfd p = { .fd = fd0, .events = POLLIN };
-		uint64_t dl = co_node_next_deadline_us(req), t = now_us();
-		int wait = 50;
-
-		if (dl != CO_NO_DEADLINE && dl > t && (dl - t) / 1000u < 50u)
-			wait = (int)((dl - t) / 1000u) + 1;
-		if (poll(&p, 1, wait) > 0) {
-			struct can_frame cf;
-			if (read(fd0, &cf, sizeof cf) == (ssize_t)sizeof cf &&
-			    !(cf.can_id & (CAN_EFF_FLAG | CAN_RTR_FLAG | CAN_ERR_FLAG))) {
-				co_frame f;
-				co_frame_init(&f, cf.can_id, cf.len);
-				memcpy(f.data, cf.data, 8);
-				co_node_recv(req, &f, now_us());
-			}
-		}
-		co_node_tick(req, now_us());
-	}
-}
+static sdo_req rq; /* on fd0 */
 
 /* Empty a raw socket. */
 static void drain(int fd)
@@ -191,12 +140,17 @@ static const co_ev_sdo_cli *routed(const sdo_client_req *r)
 	snprintf(msg, sizeof msg, "routed %s %04X:%02X, %u bytes, mode %u did not complete",
 		 r->upload ? "upload" : "download", r->index, r->sub, r->upload ? r->cap : r->size,
 		 r->mode);
-	req_done = false;
 	expect_confirm(3, TGT_NODE);
-	TEST_ASSERT_EQUAL_INT(0, sdo_client_submit(req, 0, r, now_us()));
-	req_run(240000);
-	TEST_ASSERT_TRUE_MESSAGE(req_done, msg);
-	return &req_result;
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, sdo_req_transfer(&rq, r, 240000), msg);
+	return &rq.res;
+}
+
+/* A plain (not routed) transfer with the gateway's own server on vcan0. */
+static const co_ev_sdo_cli *plain(const sdo_client_req *r)
+{
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, sdo_req_transfer(&rq, r, 10000),
+				      "plain SDO transfer did not complete");
+	return &rq.res;
 }
 
 static uint8_t big_in[DOMAIN_MAX], big_out[DOMAIN_MAX];
@@ -278,53 +232,18 @@ static void expect_other_route_works(const char *when)
 
 /* ---- a direct requester: a second core SDO client, on another line ------------------- */
 
-typedef struct direct_req {
-	int fd;
-	co_od *od;
-	co_node *node;
-	bool done;
-	co_ev_sdo_cli res;
-} direct_req;
-
-static int direct_send(void *ctx, const co_frame *f)
+static void direct_open(sdo_req *q, const char *ifname)
 {
-	direct_req *q = ctx;
-	return can_send_std(q->fd, f->id, f->data, f->len);
+	int fd = can_open_raw(ifname), big = 4 * 1024 * 1024;
+
+	TEST_ASSERT_TRUE(fd >= 0);
+	setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &big, sizeof big);
+	TEST_ASSERT_EQUAL_INT(0, sdo_req_init(q, fd, 2, 10000));
 }
 
-static void direct_event(void *ctx, const co_event *ev)
+static void direct_close(sdo_req *q)
 {
-	direct_req *q = ctx;
-	if (ev->kind == CO_EV_SDO_CLIENT_DONE) {
-		q->res = ev->u.sdo_cli;
-		q->done = true;
-	}
-}
-
-static void direct_open(direct_req *q, const char *ifname)
-{
-	co_node_config c = { .node_id = 2,
-			     .sdo_client_count = 1,
-			     .sdo_client_timeout_ms = 10000,
-			     .send = direct_send,
-			     .send_ctx = q,
-			     .event = direct_event,
-			     .event_ctx = q };
-	int big = 4 * 1024 * 1024;
-
-	memset(q, 0, sizeof *q);
-	q->fd = can_open_raw(ifname);
-	TEST_ASSERT_TRUE(q->fd >= 0);
-	setsockopt(q->fd, SOL_SOCKET, SO_RCVBUF, &big, sizeof big);
-	TEST_ASSERT_EQUAL_INT(0, co_od_create(&q->od, 16));
-	c.od = q->od;
-	TEST_ASSERT_EQUAL_INT(0, co_node_create(&q->node, &c));
-}
-
-static void direct_close(direct_req *q)
-{
-	co_node_destroy(q->node);
-	co_od_destroy(q->od);
+	sdo_req_fini(q);
 	close(q->fd);
 }
 
@@ -341,34 +260,19 @@ static unsigned drain_count(int fd, uint32_t id)
 }
 
 /* An expedited read of 1000h of node on the requester's own line. */
-static uint32_t direct_read_1000(direct_req *q, uint8_t node, uint32_t *value)
+static uint32_t direct_read_1000(sdo_req *q, uint8_t node, uint32_t *value)
 {
 	uint8_t b[4] = { 0 };
-	uint64_t until = now_us() + 15000000u;
 
-	q->done = false;
-	TEST_ASSERT_EQUAL_INT(0, sdo_client_submit(q->node, 0,
-						   &(sdo_client_req){ .upload = true,
-								      .node_id = node,
-								      .index = 0x1000,
-								      .buf = b,
-								      .cap = 4 },
-						   now_us()));
-	while (!q->done && now_us() < until) {
-		struct pollfd p = { .fd = q->fd, .events = POLLIN };
-		if (poll(&p, 1, 20) > 0) {
-			struct can_frame cf;
-			if (read(q->fd, &cf, sizeof cf) == (ssize_t)sizeof cf &&
-			    !(cf.can_id & (CAN_EFF_FLAG | CAN_RTR_FLAG | CAN_ERR_FLAG))) {
-				co_frame f;
-				co_frame_init(&f, cf.can_id, cf.len);
-				memcpy(f.data, cf.data, 8);
-				co_node_recv(q->node, &f, now_us());
-			}
-		}
-		co_node_tick(q->node, now_us());
-	}
-	TEST_ASSERT_TRUE_MESSAGE(q->done, "the direct read did not complete");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0,
+				      sdo_req_transfer(q,
+						       &(sdo_client_req){ .upload = true,
+									  .node_id = node,
+									  .index = 0x1000,
+									  .buf = b,
+									  .cap = 4 },
+						       15000),
+				      "the direct read did not complete");
 	*value = co_get_le32(b);
 	return q->res.abort;
 }
@@ -436,19 +340,11 @@ static void start_single(void)
 
 void setUp(void)
 {
-	co_node_config rc = { .node_id = 1,
-			      .sdo_client_count = 1,
-			      .sdo_client_timeout_ms = 10000,
-			      .send = req_send,
-			      .event = req_event };
-
 	fd0 = can_open_raw("vcan0");
 	fd1 = can_open_raw("vcan1");
 	fd2 = can_open_raw("vcan2");
 	TEST_ASSERT_TRUE(fd0 >= 0 && fd1 >= 0 && fd2 >= 0);
-	TEST_ASSERT_EQUAL_INT(0, co_od_create(&req_od, 16));
-	rc.od = req_od;
-	TEST_ASSERT_EQUAL_INT(0, co_node_create(&req, &rc));
+	TEST_ASSERT_EQUAL_INT(0, sdo_req_init(&rq, fd0, 1, 10000));
 }
 
 void tearDown(void)
@@ -456,10 +352,7 @@ void tearDown(void)
 	if (mbx)
 		cogw_close(mbx);
 	mbx = NULL;
-	co_node_destroy(req);
-	co_od_destroy(req_od);
-	req = NULL;
-	req_od = NULL;
+	sdo_req_fini(&rq);
 	close(fd0);
 	close(fd1);
 	close(fd2);
@@ -521,7 +414,7 @@ static void test_routed_sdo_every_mode_byte_exact(void)
 	}
 	/* BIG by block, both ways. A direct requester on vcan2 listens all the
 	 * while (as a service tool on the target line would). */
-	direct_req dq;
+	sdo_req dq;
 	direct_open(&dq, "vcan2");
 	fill(in, BIG, 99);
 	r = routed(&(sdo_client_req){ .node_id = GW_NODE,
@@ -725,11 +618,24 @@ static void expect_refused(uint16_t net, uint8_t node, uint32_t code, const char
 	TEST_ASSERT_EQUAL_UINT64_MESSAGE(before.timed_out, after.timed_out, what);
 }
 
-static void test_faults_refused_at_once_other_routes_work_sessions_released(void)
+/* The same request from a mailbox client of line (cogw_sdo_read_net). */
+static void expect_mbx_refused(unsigned line, uint16_t net, uint8_t node, uint32_t code,
+			       const char *what)
 {
-	uint8_t hb[1] = { 0x05 }, buf[8], id[4];
+	uint8_t buf[8];
 	size_t len = 0;
 	uint32_t abort = 0;
+
+	TEST_ASSERT_EQUAL_INT_MESSAGE(COGW_E_ABORT,
+				      cogw_sdo_read_net(mbx, line, net, node, 0x1000, 0, NULL, buf,
+							sizeof buf, &len, 30000, &abort),
+				      what);
+	TEST_ASSERT_EQUAL_HEX32_MESSAGE(code, abort, what);
+}
+
+static void test_faults_refused_at_once_other_routes_work_sessions_released(void)
+{
+	uint8_t hb[1] = { 0x05 }, id[4];
 	const co_ev_sdo_cli *r;
 
 	start_single();
@@ -743,10 +649,7 @@ static void test_faults_refused_at_once_other_routes_work_sessions_released(void
 	}
 	sleep_ms(1500); /* well past its 400 ms consumer time */
 	expect_refused(3, HB_NODE, GW_AB_NO_ANSWER, "node lost by heartbeat");
-	TEST_ASSERT_EQUAL_INT(COGW_E_ABORT,
-			      cogw_sdo_read_net(mbx, 0, 3, HB_NODE, 0x1000, 0, NULL, buf,
-						sizeof buf, &len, 30000, &abort));
-	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, abort);
+	expect_mbx_refused(0, 3, HB_NODE, GW_AB_NO_ANSWER, "node lost by heartbeat");
 	expect_all_released("after the lost node");
 
 	/* 2. a silent node nobody supervises: confirmed, then "no answer"
@@ -763,10 +666,7 @@ static void test_faults_refused_at_once_other_routes_work_sessions_released(void
 	 * mailbox client; the other route works meanwhile */
 	link_set("vcan2", false);
 	expect_refused(3, TGT_NODE, GW_AB_NO_ANSWER, "target line down");
-	TEST_ASSERT_EQUAL_INT(COGW_E_ABORT,
-			      cogw_sdo_read_net(mbx, 1, 3, TGT_NODE, 0x1000, 0, NULL, buf,
-						sizeof buf, &len, 30000, &abort));
-	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, abort);
+	expect_mbx_refused(1, 3, TGT_NODE, GW_AB_NO_ANSWER, "target line down");
 	expect_other_route_works("while vcan2 is down");
 	link_set("vcan2", true);
 	expect_all_released("after the line was down");
@@ -793,20 +693,18 @@ static void test_faults_refused_at_once_other_routes_work_sessions_released(void
 	fill(big_in, 4000, 5);
 	indicate(3, TGT_NODE, a);
 	if (a[0] == GW_NETIND_CS) {
-		req_done = false;
-		TEST_ASSERT_EQUAL_INT(
-			0, sdo_client_submit(req, 0,
-					     &(sdo_client_req){ .node_id = GW_NODE,
-								.index = DOMAIN_IDX,
-								.mode = SDO_MODE_SEGMENTED,
-								.data = big_in,
-								.size = 4000 },
-					     now_us()));
-		req_run(120000);
-		TEST_ASSERT_TRUE_MESSAGE(req_done,
-					 "the routed download to flooded vcan2 never ended");
+		TEST_ASSERT_EQUAL_INT_MESSAGE(
+			0,
+			sdo_req_transfer(&rq,
+					 &(sdo_client_req){ .node_id = GW_NODE,
+							    .index = DOMAIN_IDX,
+							    .mode = SDO_MODE_SEGMENTED,
+							    .data = big_in,
+							    .size = 4000 },
+					 120000),
+			"the routed download to flooded vcan2 never ended");
 		printf("routed 4000-byte download to the flooded vcan2: abort %08X\n",
-		       req_result.abort);
+		       rq.res.abort);
 	} else {
 		TEST_ASSERT_EQUAL_HEX8(0x80, a[0]);
 		printf("indication for the flooded vcan2 refused: %08X\n", co_get_le32(&a[4]));
@@ -873,17 +771,8 @@ static void test_emcy_routing_follows_1f2f(void)
 	}
 
 	/* 1F2Fh:7 = 0 over SDO on vcan0 (plain, not routed) */
-	req_done = false;
-	TEST_ASSERT_EQUAL_INT(0, sdo_client_submit(req, 0,
-						   &(sdo_client_req){ .node_id = GW_NODE,
-								      .index = 0x1F2F,
-								      .sub = EMCY_NODE,
-								      .data = zero,
-								      .size = 4 },
-						   now_us()));
-	req_run(10000);
-	r = &req_result;
-	TEST_ASSERT_TRUE(req_done);
+	r = plain(&(sdo_client_req){
+		.node_id = GW_NODE, .index = 0x1F2F, .sub = EMCY_NODE, .data = zero, .size = 4 });
 	TEST_ASSERT_EQUAL_HEX32(0, r->abort);
 	drain(fd1);
 	drain(fd2);
@@ -973,16 +862,8 @@ static void test_pdo_forwarding(void)
 	 * by a mailbox client of line 0: published like an RPDO write */
 	uint8_t w[4];
 	co_put_le32(w, 0x5D0B000Au);
-	req_done = false;
-	TEST_ASSERT_EQUAL_INT(0, sdo_client_submit(req, 0,
-						   &(sdo_client_req){ .node_id = GW_NODE,
-								      .index = 0xB000,
-								      .data = w,
-								      .size = 4 },
-						   now_us()));
-	req_run(10000);
-	TEST_ASSERT_TRUE(req_done);
-	TEST_ASSERT_EQUAL_HEX32(0, req_result.abort);
+	plain(&(sdo_client_req){ .node_id = GW_NODE, .index = 0xB000, .data = w, .size = 4 });
+	TEST_ASSERT_EQUAL_HEX32(0, rq.res.abort);
 	TEST_ASSERT_EQUAL_INT64_MESSAGE(0x5D0B000A, next_value(fd1, 0x1FF, 3000),
 					"SDO write of B000h not forwarded");
 	uint32_t abort = 0;
@@ -1250,29 +1131,14 @@ static void test_routes_written_and_saved_survive_a_restart(void)
 	start_single();
 	/* over SDO on vcan0: network 20 behind router 33 on line 2 */
 	co_put_le32(v, 0x2103);
-	req_done = false;
-	TEST_ASSERT_EQUAL_INT(0, sdo_client_submit(req, 0,
-						   &(sdo_client_req){ .node_id = GW_NODE,
-								      .index = 0x1F2C,
-								      .sub = 20,
-								      .data = v,
-								      .size = 4 },
-						   now_us()));
-	req_run(10000);
-	TEST_ASSERT_TRUE(req_done);
-	TEST_ASSERT_EQUAL_HEX32(0, req_result.abort);
+	plain(&(sdo_client_req){
+		.node_id = GW_NODE, .index = 0x1F2C, .sub = 20, .data = v, .size = 4 });
+	TEST_ASSERT_EQUAL_HEX32(0, rq.res.abort);
 	/* a line that does not exist is refused */
 	co_put_le32(v, 0x0004);
-	req_done = false;
-	TEST_ASSERT_EQUAL_INT(0, sdo_client_submit(req, 0,
-						   &(sdo_client_req){ .node_id = GW_NODE,
-								      .index = 0x1F2C,
-								      .sub = 21,
-								      .data = v,
-								      .size = 4 },
-						   now_us()));
-	req_run(10000);
-	TEST_ASSERT_EQUAL_HEX32(SDO_AB_VALUE, req_result.abort);
+	plain(&(sdo_client_req){
+		.node_id = GW_NODE, .index = 0x1F2C, .sub = 21, .data = v, .size = 4 });
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_VALUE, rq.res.abort);
 	/* over the mailbox: node 5's EMCYs to network 3 */
 	TEST_ASSERT_EQUAL_INT(0, cogw_open_opts(&h, &o));
 	co_put_le32(v, 0x4);
