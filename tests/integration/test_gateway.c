@@ -48,6 +48,7 @@
 #define INSTANCE "gwtest"
 #define GW_NODE 127
 #define TGT_NODE 5  /* device on vcan2 (network 3) */
+#define TGT2_NODE 6 /* a second one there */
 #define EMCY_NODE 7 /* device on vcan0 (network 1) */
 #define DOMAIN_IDX 0x2200u
 #define DOMAIN_MAX (1024u * 1024u)
@@ -65,7 +66,12 @@ static const char config_json[] =
 	" \"lines\": [\n"
 	"  {\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127, \"network_id\": 1,\n"
 	"   \"sdo_timeout_ms\": 3000, \"heartbeat_ms\": 0, \"rpdos\": 1, \"tpdos\": 1,\n"
+	"   \"sdo_servers\": 3,\n"
 	"   \"values\": [\n"
+	"    {\"index\": \"0x1201\", \"sub\": 1, \"value\": \"0x67E\"},\n"
+	"    {\"index\": \"0x1201\", \"sub\": 2, \"value\": \"0x5FE\"},\n"
+	"    {\"index\": \"0x1202\", \"sub\": 1, \"value\": \"0x67D\"},\n"
+	"    {\"index\": \"0x1202\", \"sub\": 2, \"value\": \"0x5FD\"},\n"
 	"    {\"index\": \"0x1400\", \"sub\": 1, \"value\": \"0x181\"},\n"
 	"    {\"index\": \"0x1600\", \"sub\": 1, \"value\": \"0xB0000020\"},\n"
 	"    {\"index\": \"0x1600\", \"sub\": 0, \"value\": 1},\n"
@@ -88,7 +94,7 @@ static const char config_json[] =
 	"    {\"index\": \"0x1A01\", \"sub\": 1, \"value\": \"0xB0000020\"},\n"
 	"    {\"index\": \"0x1A01\", \"sub\": 0, \"value\": 1}]},\n"
 	"  {\"interface\": \"vcan2\", \"bitrate\": 1000000, \"node_id\": 127, \"network_id\": 3,\n"
-	"   \"sdo_timeout_ms\": 3000, \"heartbeat_ms\": 0,\n"
+	"   \"sdo_timeout_ms\": 3000, \"heartbeat_ms\": 0, \"sdo_clients\": 2,\n"
 	"   \"heartbeat_consumers\": [{\"node_id\": 9, \"time_ms\": 400}]}\n"
 	" ],\n"
 	" \"debug\": {\"stall_signal\": true, \"stall_ms\": 4000}\n"
@@ -321,7 +327,7 @@ static void nmt_start_all_daemon_nodes(void)
  * the EMCY producer on vcan0. */
 static void start_single(void)
 {
-	char dev[160], dev_tgt[200], dev_emcy[200];
+	char dev[160], dev_tgt[200], dev_tgt2[200], dev_emcy[200];
 	static const char *const slow_vm[] = { "--sdo-timeout", "10000", NULL };
 
 	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = config_json,
@@ -332,8 +338,9 @@ static void start_single(void)
 	snprintf(dev, sizeof dev, "%s/device.json", dmn.dir);
 	write_device(dev);
 	snprintf(dev_tgt, sizeof dev_tgt, "%s:%d", dev, TGT_NODE);
+	snprintf(dev_tgt2, sizeof dev_tgt2, "%s:%d", dev, TGT2_NODE);
 	snprintf(dev_emcy, sizeof dev_emcy, "%s:%d", dev, EMCY_NODE);
-	const char *d2[] = { dev_tgt, NULL }, *d0[] = { dev_emcy, NULL };
+	const char *d2[] = { dev_tgt, dev_tgt2, NULL }, *d0[] = { dev_emcy, NULL };
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim_tgt, dmn.dir, 2, d2, slow_vm));
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim_emcy, dmn.dir, 0, d0, slow_vm));
 }
@@ -588,6 +595,104 @@ static void test_requester_vanishing_mid_block_releases_the_session(void)
 		.upload = true, .node_id = GW_NODE, .index = 0x1000, .buf = id, .cap = 4 });
 	TEST_ASSERT_EQUAL_HEX32(0, r->abort);
 	expect_all_released("after the next routed read");
+}
+
+/* ---- several routed transfers at once, one per server channel ---------------------------------- */
+
+/* A network indication on line 0's server channel `chan` (0..2: COB-IDs
+ * 67Fh/5FFh, 67Eh/5FEh, 67Dh/5FDh); the answer in a[8]. */
+static void indicate_on(unsigned chan, uint16_t net, uint8_t node, uint8_t a[8])
+{
+	uint8_t d[8];
+
+	gw_netind_encode(d, (gw_netind){ net, node });
+	drain(fd0);
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x67F - chan, d, 8));
+	TEST_ASSERT_EQUAL_INT_MESSAGE(8, can_wait_id(fd0, 0x5FF - chan, a, 10000),
+				      "no answer to the network indication");
+}
+
+static void test_concurrent_sessions_and_no_free_client(void)
+{
+	uint8_t a[8], want[8];
+	sdo_req q2;
+	int fd = can_open_raw("vcan0");
+	static uint8_t in2[3000], out2[3000];
+
+	start_single();
+	mbx_open(INSTANCE);
+	TEST_ASSERT_TRUE(fd >= 0);
+	TEST_ASSERT_EQUAL_INT(0, sdo_req_init(&q2, fd, 2, 10000));
+
+	/* channel 0 -> node 5, channel 1 -> node 6: both confirmed; line 2's
+	 * two SDO clients are lent to them */
+	indicate_on(0, 3, TGT_NODE, a);
+	gw_netind_encode(want, (gw_netind){ 3, TGT_NODE });
+	TEST_ASSERT_EQUAL_HEX8_ARRAY(want, a, 8);
+	indicate_on(1, 3, TGT2_NODE, a);
+	gw_netind_encode(want, (gw_netind){ 3, TGT2_NODE });
+	TEST_ASSERT_EQUAL_HEX8_ARRAY(want, a, 8);
+	TEST_ASSERT_EQUAL_UINT(2, gw_status(0).active);
+	TEST_ASSERT_EQUAL_UINT(2, gw_status(2).leases);
+	/* channel 2: node 5 is in a transfer with a client of the gateway
+	 * (0A000003); node 9 finds no free client (060A0023) - at once */
+	indicate_on(2, 3, TGT_NODE, a);
+	TEST_ASSERT_EQUAL_HEX8(0x80, a[0]);
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, co_get_le32(&a[4]));
+	indicate_on(2, 3, HB_NODE, a);
+	TEST_ASSERT_EQUAL_HEX8(0x80, a[0]);
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, co_get_le32(&a[4]));
+	TEST_ASSERT_EQUAL_UINT64(2, gw_route_of(0, 3).refused);
+
+	/* the two transfers run at the same time, frames interleaved: a
+	 * segmented download to node 5 on channel 0, one to node 6 on
+	 * channel 1 (its client addresses 67Eh, "node 126"), each then read
+	 * back the same way */
+	fill(big_in, 3000, 11);
+	fill(in2, 3000, 12);
+	for (int pass = 0; pass < 2; pass++) {
+		sdo_client_req r1 = { .node_id = GW_NODE,
+				      .index = DOMAIN_IDX,
+				      .mode = SDO_MODE_SEGMENTED };
+		sdo_client_req r2 = { .node_id = GW_NODE - 1,
+				      .index = DOMAIN_IDX,
+				      .mode = SDO_MODE_SEGMENTED };
+		if (pass == 0) {
+			r1.data = big_in, r1.size = 3000;
+			r2.data = in2, r2.size = 3000;
+		} else {
+			indicate_on(0, 3, TGT_NODE, a);
+			TEST_ASSERT_EQUAL_HEX8(GW_NETIND_CS, a[0]);
+			indicate_on(1, 3, TGT2_NODE, a);
+			TEST_ASSERT_EQUAL_HEX8(GW_NETIND_CS, a[0]);
+			r1.upload = r2.upload = true;
+			r1.buf = big_out, r1.cap = 3000;
+			r2.buf = out2, r2.cap = 3000;
+		}
+		/* both sessions are there before either transfer starts */
+		TEST_ASSERT_EQUAL_UINT(2, gw_status(0).active);
+		/* q2's socket heard channel 1's confirmation (5FEh): it must not
+		 * take it for the answer to its initiate */
+		drain(fd);
+		TEST_ASSERT_EQUAL_INT(0, sdo_req_submit(&rq, &r1));
+		TEST_ASSERT_EQUAL_INT(0, sdo_req_submit(&q2, &r2));
+		for (uint64_t until = mono_ms() + 120000;
+		     (!rq.done || !q2.done) && mono_ms() < until;) {
+			if (!rq.done)
+				sdo_req_step(&rq, 1);
+			if (!q2.done)
+				sdo_req_step(&q2, 1);
+		}
+		TEST_ASSERT_TRUE_MESSAGE(rq.done && q2.done,
+					 "the two routed transfers did not end");
+		TEST_ASSERT_EQUAL_HEX32(0, rq.res.abort);
+		TEST_ASSERT_EQUAL_HEX32(0, q2.res.abort);
+	}
+	TEST_ASSERT_EQUAL_MEMORY(big_in, big_out, 3000);
+	TEST_ASSERT_EQUAL_MEMORY(in2, out2, 3000);
+	expect_all_released("after the concurrent transfers");
+	sdo_req_fini(&q2);
+	close(fd);
 }
 
 /* ---- faults on the target line ---------------------------------------------------------------- */
@@ -1018,6 +1123,15 @@ static void test_mailbox_client_reaches_any_network(void)
 	/* the routing table with its counters */
 	TEST_ASSERT_EQUAL_INT(0, cogw_gw_routes(h, 0, &st, routes, 128, &n, 30000));
 	TEST_ASSERT_EQUAL_UINT(1, st.network_id);
+	/* every line's network id is in its OD (5F00h, read-only) */
+	for (unsigned l = 0; l < 3; l++) {
+		TEST_ASSERT_EQUAL_INT(0, cogw_od_read(h, l, GW_OBJ_NETWORK_ID, 0, buf, sizeof buf,
+						      &len, 30000, &abort));
+		TEST_ASSERT_EQUAL_UINT(1, len);
+		TEST_ASSERT_EQUAL_UINT(l + 1, buf[0]);
+	}
+	TEST_ASSERT_EQUAL_INT(COGW_E_ABORT,
+			      cogw_od_write(h, 0, GW_OBJ_NETWORK_ID, 0, buf, 1, 30000, &abort));
 	TEST_ASSERT_TRUE(n >= 3);
 	TEST_ASSERT_EQUAL_UINT(1, routes[0].net);
 	TEST_ASSERT_EQUAL_UINT(1, routes[0].kind);
@@ -1143,6 +1257,12 @@ static void test_routes_written_and_saved_survive_a_restart(void)
 	TEST_ASSERT_EQUAL_INT(0, cogw_open_opts(&h, &o));
 	co_put_le32(v, 0x4);
 	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(h, 0, 0x1F2F, 5, v, 4, 30000, &abort));
+	/* and 1F2Ch too: network 22 behind router 34 on line 1 */
+	co_put_le32(v, 0x2202);
+	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(h, 0, 0x1F2C, 22, v, 4, 30000, &abort));
+	co_put_le32(v, 0x10002);
+	TEST_ASSERT_EQUAL_INT(COGW_E_ABORT, cogw_od_write(h, 0, 0x1F2C, 23, v, 4, 30000, &abort));
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_VALUE, abort);
 	TEST_ASSERT_EQUAL_INT(0, cogw_gw_routes(h, 0, &st, routes, 128, &n, 30000));
 	bool found = false;
 	for (size_t i = 0; i < n; i++)
@@ -1171,6 +1291,8 @@ static void test_routes_written_and_saved_survive_a_restart(void)
 	for (size_t i = 0; i < n; i++)
 		found = found || (routes[i].net == 20 && routes[i].kind == 2);
 	TEST_ASSERT_TRUE_MESSAGE(found, "the saved route is not compiled after the restart");
+	TEST_ASSERT_EQUAL_INT(0, cogw_od_read(h, 0, 0x1F2C, 22, b, sizeof b, &len, 30000, &abort));
+	TEST_ASSERT_EQUAL_HEX32(0x2202, co_get_le32(b));
 	cogw_close(h);
 }
 
@@ -1181,6 +1303,7 @@ int main(void)
 	RUN_TEST(test_refusals);
 	RUN_TEST(test_requester_vanishing_mid_block_releases_the_session);
 	RUN_TEST(test_faults_refused_at_once_other_routes_work_sessions_released);
+	RUN_TEST(test_concurrent_sessions_and_no_free_client);
 	RUN_TEST(test_emcy_routing_follows_1f2f);
 	RUN_TEST(test_pdo_forwarding);
 	RUN_TEST(test_mailbox_client_reaches_any_network);

@@ -70,32 +70,40 @@ void sdo_req_fini(sdo_req *q)
 	q->od = NULL;
 }
 
+int sdo_req_submit(sdo_req *q, const sdo_client_req *r)
+{
+	q->done = false;
+	return sdo_client_submit(q->node, 0, r, sdo_req_now_us());
+}
+
+void sdo_req_step(sdo_req *q, int wait_ms)
+{
+	struct pollfd p = { .fd = q->fd, .events = POLLIN };
+	uint64_t dl = co_node_next_deadline_us(q->node), t = sdo_req_now_us();
+
+	if (dl != CO_NO_DEADLINE && dl > t && (dl - t) / 1000u < (uint64_t)wait_ms)
+		wait_ms = (int)((dl - t) / 1000u) + 1;
+	if (poll(&p, 1, wait_ms) > 0) {
+		struct can_frame cf;
+		if (read(q->fd, &cf, sizeof cf) == (ssize_t)sizeof cf &&
+		    !(cf.can_id & (CAN_EFF_FLAG | CAN_RTR_FLAG | CAN_ERR_FLAG))) {
+			co_frame f;
+			co_frame_init(&f, cf.can_id, cf.len);
+			memcpy(f.data, cf.data, 8);
+			co_node_recv(q->node, &f, sdo_req_now_us());
+		}
+	}
+	co_node_tick(q->node, sdo_req_now_us());
+}
+
 int sdo_req_transfer(sdo_req *q, const sdo_client_req *r, int timeout_ms)
 {
 	uint64_t until = sdo_req_now_us() + (uint64_t)timeout_ms * 1000u;
 	int rc;
 
-	q->done = false;
-	if ((rc = sdo_client_submit(q->node, 0, r, sdo_req_now_us())))
+	if ((rc = sdo_req_submit(q, r)))
 		return rc;
-	while (!q->done && sdo_req_now_us() < until) {
-		struct pollfd p = { .fd = q->fd, .events = POLLIN };
-		uint64_t dl = co_node_next_deadline_us(q->node), t = sdo_req_now_us();
-		int wait = 5;
-
-		if (dl != CO_NO_DEADLINE && dl > t && (dl - t) / 1000u < 5u)
-			wait = (int)((dl - t) / 1000u) + 1;
-		if (poll(&p, 1, wait) > 0) {
-			struct can_frame cf;
-			if (read(q->fd, &cf, sizeof cf) == (ssize_t)sizeof cf &&
-			    !(cf.can_id & (CAN_EFF_FLAG | CAN_RTR_FLAG | CAN_ERR_FLAG))) {
-				co_frame f;
-				co_frame_init(&f, cf.can_id, cf.len);
-				memcpy(f.data, cf.data, 8);
-				co_node_recv(q->node, &f, sdo_req_now_us());
-			}
-		}
-		co_node_tick(q->node, sdo_req_now_us());
-	}
+	while (!q->done && sdo_req_now_us() < until)
+		sdo_req_step(q, 5);
 	return q->done ? 0 : -ETIMEDOUT;
 }
