@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * The CiA 302-7 gateway with the real daemon, cosim devices and raw CAN on
- * three vcan lines (spec 002 scenarios 60-63):
+ * three vcan lines (spec 002 scenarios 59-63; 59: a reset of line 0 leaves
+ * line 1 running):
  * - a requester on vcan0 that speaks the network indication (the core's
  *   own SDO client driven over a raw socket, after a hand-made indication
  *   frame) reads and writes a device on vcan2 in every SDO mode, byte-exact;
@@ -1065,6 +1066,38 @@ static void test_pdo_forwarding(void)
 	TEST_ASSERT_EQUAL_UINT64(1, e0.pdo_forwarded - s0.pdo_forwarded);
 }
 
+/* ---- lines are independent (scenario 59) ------------------------------------------------------ */
+
+static void test_reset_on_line_0_leaves_line_1_untouched(void)
+{
+	uint8_t reset[2] = { 0x81, GW_NODE }, d[8];
+	mbx_line_status ls;
+	unsigned syncs = 0;
+
+	start_single();
+	mbx_open(INSTANCE);
+	nmt_start_all_daemon_nodes();
+	TEST_ASSERT_EQUAL_INT(0, cogw_line_status(mbx, 1, &ls, 30000));
+	TEST_ASSERT_EQUAL_UINT(5, ls.nmt_state);
+
+	drain(fd0);
+	drain(fd1);
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x000, reset, 2));
+	/* line 0 resets: its boot-up on vcan0, pre-operational after it */
+	TEST_ASSERT_EQUAL_INT(1, can_wait_id(fd0, 0x700 + GW_NODE, d, 5000));
+	TEST_ASSERT_EQUAL_HEX8(0x00, d[0]);
+	TEST_ASSERT_EQUAL_INT(0, cogw_line_status(mbx, 0, &ls, 30000));
+	TEST_ASSERT_EQUAL_UINT(127, ls.nmt_state);
+	/* line 1: still operational, its SYNC producer (200 ms) still runs,
+	 * no boot-up of its own */
+	TEST_ASSERT_EQUAL_INT(0, cogw_line_status(mbx, 1, &ls, 30000));
+	TEST_ASSERT_EQUAL_UINT(5, ls.nmt_state);
+	for (uint64_t until = mono_ms() + 1500; mono_ms() < until;)
+		syncs += can_wait_id(fd1, 0x080, d, 100) >= 0;
+	TEST_ASSERT_TRUE_MESSAGE(syncs >= 2, "line 1's SYNC stopped with line 0's reset");
+	TEST_ASSERT_EQUAL_INT(-ETIMEDOUT, can_wait_id(fd1, 0x700 + GW_NODE, d, 300));
+}
+
 /* ---- mailbox clients (libcogw) ------------------------------------------------------------ */
 
 static void test_mailbox_client_reaches_any_network(void)
@@ -1306,6 +1339,7 @@ int main(void)
 	RUN_TEST(test_concurrent_sessions_and_no_free_client);
 	RUN_TEST(test_emcy_routing_follows_1f2f);
 	RUN_TEST(test_pdo_forwarding);
+	RUN_TEST(test_reset_on_line_0_leaves_line_1_untouched);
 	RUN_TEST(test_mailbox_client_reaches_any_network);
 	RUN_TEST(test_multi_hop_through_two_daemons);
 	RUN_TEST(test_routes_written_and_saved_survive_a_restart);
