@@ -132,7 +132,7 @@ static void line_text(unsigned line, const mbx_gw_status *st, const mbx_gw_route
 	}
 	if (!n_s)
 		return;
-	printf("  channel  target               via                 state                     "
+	printf("  channel  target               via                 state                        "
 	       "age      frames\n");
 	for (size_t i = 0; i < n_s; i++) {
 		char tgt[24], via[24];
@@ -144,7 +144,7 @@ static void line_text(unsigned line, const mbx_gw_status *st, const mbx_gw_route
 				 ss[i].router);
 		else
 			snprintf(via, sizeof via, "line %u", ss[i].target_line);
-		printf("  %7u  %-19s  %-18s  %-24s  %4u.%u s  %6u\n", ss[i].channel, tgt, via,
+		printf("  %7u  %-19s  %-18s  %-27s  %4u.%u s  %6u\n", ss[i].channel, tgt, via,
 		       ss[i].state, ss[i].age_ms / 1000u, ss[i].age_ms % 1000u / 100u,
 		       ss[i].frames);
 	}
