@@ -12,6 +12,8 @@ const char *co_event_kind_to_string(co_event_kind k)
 		return "sdo-server-done";
 	case CO_EV_SDO_CLIENT_DONE:
 		return "sdo-client-done";
+	case CO_EV_SDO_CLIENT_SECOND_ANSWER:
+		return "sdo-client-second-answer";
 	case CO_EV_STORE:
 		return "store";
 	case CO_EV_RESTORE:

@@ -57,6 +57,10 @@ typedef enum co_event_kind {
 	CO_EV_MGR_STATE, /* line state or flags changed */
 	CO_EV_MGR_BOOT,  /* one step of a node's boot slave process */
 	CO_EV_MGR_NODE,  /* unexpected/late/lost/duplicate node, ... */
+	/* SDO client (core/sdo_client.c): a second answer to a request the
+	 * server already answered (two devices on one node-ID): u.sdo_cli
+	 * (node_id, index, sub; abort = that answer's abort code or 0) */
+	CO_EV_SDO_CLIENT_SECOND_ANSWER,
 	/* other services append here: NMT, HB, EMCY, SYNC, TIME, PDO, LSS */
 	CO_EV_KIND_COUNT
 } co_event_kind;

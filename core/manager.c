@@ -103,7 +103,11 @@ struct mgr_slave {
 	bool attempted;    /* a boot attempt ended since the network boot */
 	bool ever_booted;  /* booted since the network boot began */
 	bool keep_op;
-	bool lost; /* error control lost after boot */
+	uint8_t target_state; /* NMT state after its boot (CO_NMT_OPERATIONAL,
+	                       * PRE_OPERATIONAL or STOPPED) */
+	bool boot_deferred;   /* boot-up while the network was stopped: booted
+	                       * when the network leaves STOPPED */
+	bool lost;            /* error control lost after boot */
 	bool unexpected_reported;
 	bool dup_reported;
 	bool mismatch;         /* identity wrong (C, D, M, N, O) */
@@ -125,9 +129,10 @@ struct co_manager {
 	co_manager_config cfg;
 	co_fsm fsm;
 	uint8_t own_id;
-	uint8_t reset_cs;  /* NMT command of the next network reset */
-	uint64_t timer_us; /* end of the boot time, 1F89h */
-	uint64_t scan_us;  /* next scan for missing nodes */
+	uint8_t reset_cs;         /* NMT command of the next network reset */
+	uint64_t timer_us;        /* end of the boot time, 1F89h */
+	uint64_t boot_started_us; /* the network boot began (1F89h counts) */
+	uint64_t scan_us;         /* next scan for missing nodes */
 	bool autostart_pending;
 	bool boot_time_expired;
 	bool awaiting_mandatory; /* BOOTED because 1F89h ran out */
@@ -784,9 +789,16 @@ static int start_enter(void *obj, uint64_t now_us)
 	bool app = f80(m) & CO_MGR_1F80_APP_STARTS_SLAVES;
 	bool sent = false;
 
-	if (!s->already_op && m->net_started && (!app || m->net_started_explicit)) {
-		nmt_send(m, s->id, CO_NMT_CS_START, now_us);
-		sent = true;
+	if (co_fsm_state_of(&m->fsm) == CO_MGR_STOPPED) {
+		/* the network is stopped: so is a node booted meanwhile */
+		nmt_send(m, s->id, CO_NMT_CS_STOP, now_us);
+	} else if (!s->already_op && m->net_started && (!app || m->net_started_explicit)) {
+		/* its configured state: OPERATIONAL unless told otherwise */
+		if (s->target_state == CO_NMT_OPERATIONAL)
+			nmt_send(m, s->id, CO_NMT_CS_START, now_us);
+		else if (s->target_state == CO_NMT_STOPPED)
+			nmt_send(m, s->id, CO_NMT_CS_STOP, now_us);
+		sent = s->target_state == CO_NMT_OPERATIONAL;
 	}
 	s->d.booted = true;
 	s->d.booting = false;
@@ -965,15 +977,20 @@ static void start_network_now(co_manager *m, bool explicit, uint64_t now_us)
 	if (co_nmt_get_state(m->node) != CO_NMT_OPERATIONAL)
 		(void)co_nmt_local_cmd(m->node, CO_NMT_CS_START, now_us);
 	for (unsigned id = 1; id <= 127; id++)
-		if (is_bootable(m, (uint8_t)id) && !m->s[id].d.booted)
+		if (is_bootable(m, (uint8_t)id) &&
+		    (!m->s[id].d.booted || m->s[id].target_state != CO_NMT_OPERATIONAL))
 			all = false;
 	if ((f80(m) & CO_MGR_1F80_START_ALL) && all) {
 		nmt_send(m, 0, CO_NMT_CS_START, now_us);
 	} else {
 		for (unsigned id = 1; id <= 127; id++) {
 			struct mgr_slave *s = &m->s[id];
-			if (s->d.booted && s->expected_state != CO_NMT_OPERATIONAL)
+			if (!s->d.booted || s->expected_state == s->target_state)
+				continue;
+			if (s->target_state == CO_NMT_OPERATIONAL)
 				nmt_send(m, (uint8_t)id, CO_NMT_CS_START, now_us);
+			else if (s->target_state == CO_NMT_STOPPED)
+				nmt_send(m, (uint8_t)id, CO_NMT_CS_STOP, now_us);
 		}
 	}
 	m->net_started = true;
@@ -1090,6 +1107,7 @@ static int m_resetting_enter(void *obj, uint64_t now_us)
 		s->lost = false;
 		s->mismatch = false;
 		s->last_fail = 0;
+		s->boot_deferred = false;
 		if (is_slave(m, (uint8_t)id) &&
 		    (assignment(m, (uint8_t)id) & CO_MGR_1F81_KEEP_ALIVE))
 			keep_alive = true;
@@ -1113,6 +1131,7 @@ static int m_booting_enter(void *obj, uint64_t now_us)
 	uint32_t bt = od_u32(m, 0x1F89, 0);
 
 	report_state(m);
+	m->boot_started_us = now_us;
 	m->timer_us = bt ? now_us + (uint64_t)bt * 1000u : CO_NO_DEADLINE;
 	for (unsigned id = 1; id <= 127; id++) {
 		struct mgr_slave *s = &m->s[id];
@@ -1278,6 +1297,15 @@ static void on_bootup(co_manager *m, struct mgr_slave *s, uint64_t now_us)
 	}
 	if (!is_bootable(m, s->id) && bs_state(s) == BS_BOOTED)
 		return;
+	if (mst == CO_MGR_STOPPED) {
+		/* seed 001 §2.2 STOP: no SDO services; the node is stopped too
+		 * and booted when the network leaves STOPPED */
+		co_fsm_goto(&s->fsm, BS_IDLE, now_us);
+		s->d.booted = false;
+		s->boot_deferred = true;
+		nmt_send(m, s->id, CO_NMT_CS_STOP, now_us);
+		return;
+	}
 	/* late or rebooted node: its boot slave process runs again */
 	/* late: it was looked for and missing, and shows up now */
 	if (!s->ever_booted && s->attempted)
@@ -1314,6 +1342,11 @@ static void on_errctrl_lost(co_manager *m, struct mgr_slave *s, char letter, uin
 		(void)co_guard_master_remove(m->node, s->id);
 	if (is_mandatory(m, s->id) && (b80 & CO_MGR_1F80_RESET_ALL_ON_ERROR)) {
 		emit_node(m, s->id, CO_MGR_NODE_ERROR_REACTION, CO_NMT_CS_RESET_NODE);
+		/* "reset all nodes, including itself" (seed 001 §2.2 transition
+		 * 26): our own node leaves OPERATIONAL like the others and is
+		 * started again with the network; its OD is kept (a reset of
+		 * it would lose what clients wrote through the mailbox) */
+		(void)co_nmt_local_cmd(m->node, CO_NMT_CS_ENTER_PREOP, now_us);
 		m->reset_cs = CO_NMT_CS_RESET_NODE;
 		co_fsm_goto(&m->fsm, CO_MGR_RESETTING, now_us);
 		return;
@@ -1397,6 +1430,20 @@ void co_manager_on_event(co_manager *m, const co_event *ev)
 		if (ev->u.emcy.node < 1 || ev->u.emcy.node > 127)
 			return;
 		on_emcy(m, &m->s[ev->u.emcy.node], &ev->u.emcy, now);
+		return;
+	case CO_EV_SDO_CLIENT_SECOND_ANSWER:
+		/* two answers to one SDO request: two devices on that ID */
+		if (ev->u.sdo_cli.node_id < 1 || ev->u.sdo_cli.node_id > 127 ||
+		    ev->u.sdo_cli.node_id == m->own_id)
+			return;
+		mgr_enter(m, now);
+		duplicate(m, &m->s[ev->u.sdo_cli.node_id], CO_MGR_DUP_SDO_ANSWERS);
+		mgr_after(m, now);
+		return;
+	case CO_EV_NMT_STATE:
+		/* our own state is a flag of the line state (manager operational) */
+		mgr_enter(m, now);
+		mgr_after(m, now);
 		return;
 	default:
 		return;
@@ -1577,10 +1624,37 @@ static int cmd_to_cs(uint8_t cmd)
 	return -EINVAL;
 }
 
+/* The network leaves STOPPED: the nodes that booted up meanwhile are
+ * booted now. True if there were any. */
+static bool boot_deferred_nodes(co_manager *m, uint64_t now_us)
+{
+	bool any = false;
+	for (unsigned id = 1; id <= 127; id++) {
+		struct mgr_slave *s = &m->s[id];
+		if (!s->boot_deferred)
+			continue;
+		s->boot_deferred = false;
+		any = true;
+		/* it was stopped: no SDO before it is pre-operational again */
+		nmt_send(m, (uint8_t)id, CO_NMT_CS_ENTER_PREOP, now_us);
+		bs_begin(s, false, false, now_us);
+	}
+	if (any)
+		m->check_pending = true;
+	return any;
+}
+
 static int request_all(co_manager *m, uint8_t cs, uint64_t now_us)
 {
 	switch (cs) {
 	case CO_NMT_CS_START:
+		if (co_fsm_state_of(&m->fsm) == CO_MGR_STOPPED && boot_deferred_nodes(m, now_us) &&
+		    !all_mandatory_booted(m)) {
+			/* started once the rebooted mandatory nodes booted */
+			m->awaiting_mandatory = true;
+			co_fsm_goto(&m->fsm, CO_MGR_BOOTED, now_us);
+			return 0;
+		}
 		if (!all_mandatory_booted(m))
 			return -EAGAIN;
 		m->awaiting_mandatory = false;
@@ -1588,6 +1662,8 @@ static int request_all(co_manager *m, uint8_t cs, uint64_t now_us)
 		return 0;
 	case CO_NMT_CS_STOP:
 	case CO_NMT_CS_ENTER_PREOP:
+		if (cs == CO_NMT_CS_ENTER_PREOP)
+			(void)boot_deferred_nodes(m, now_us);
 		nmt_send(m, 0, cs, now_us);
 		m->net_started = false;
 		co_fsm_goto(&m->fsm, cs == CO_NMT_CS_STOP ? CO_MGR_STOPPED : CO_MGR_PREOP, now_us);
@@ -1695,6 +1771,17 @@ int co_manager_set_keep_op(co_manager *m, uint8_t node_id, bool on)
 	if (node_id < 1 || node_id > 127)
 		return -EINVAL;
 	m->s[node_id].keep_op = on;
+	return 0;
+}
+
+int co_manager_set_target_state(co_manager *m, uint8_t node_id, uint8_t nmt_state)
+{
+	if (node_id < 1 || node_id > 127)
+		return -EINVAL;
+	if (nmt_state != CO_NMT_OPERATIONAL && nmt_state != CO_NMT_PRE_OPERATIONAL &&
+	    nmt_state != CO_NMT_STOPPED)
+		return -EINVAL;
+	m->s[node_id].target_state = nmt_state;
 	return 0;
 }
 
@@ -1833,6 +1920,68 @@ static uint32_t f25_check(void *ctx, co_od_entry *e, const co_od_access *a)
 
 static const co_od_hooks f25_hooks = { .check_write = f25_check };
 
+/* 1F80h, 1F81h, 1F84h..1F89h while the network boots (seed 001 §2.7: locked
+ * during the network initialisation): the boot reads them step by step, a
+ * change in the middle would boot a node against half old, half new
+ * values. 1F89h stays writable while the line waits for mandatory slaves
+ * (seed 001 §2.1 step 5: 0 = wait for ever, else a new limit). The
+ * flying master (1F80h bit 5) is not supported. Writes are refused with
+ * 08000022h (device state) or 06090030h (value range). */
+static uint32_t lock_check(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	co_manager *m = ctx;
+	uint8_t st = (uint8_t)co_fsm_state_of(&m->fsm);
+	if (a->origin == CO_OD_ORIGIN_RESET)
+		return 0;
+	if (e->index == 0x1F80 && a->data && a->size >= 1 &&
+	    (a->data[0] & CO_MGR_1F80_FLYING_MASTER))
+		return SDO_ABORT_VALUE;
+	if (st == CO_MGR_RESETTING || st == CO_MGR_BOOTING)
+		return SDO_ABORT_STATE;
+	if (st == CO_MGR_WAIT_MANDATORY && e->index != 0x1F89)
+		return SDO_ABORT_STATE;
+	return 0;
+}
+
+static const co_od_hooks lock_hooks = { .check_write = lock_check };
+
+/* 1F89h written while the line waits for mandatory slaves: the new boot
+ * time counts from the start of the boot (0 = wait for ever); one that
+ * has passed ends the wait at the next tick. */
+static void boot_time_written(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	co_manager *m = ctx;
+	uint32_t bt = od_u32(m, 0x1F89, 0);
+	(void)e;
+	(void)a;
+	if (co_fsm_state_of(&m->fsm) != CO_MGR_WAIT_MANDATORY)
+		return;
+	m->timer_us = bt ? m->boot_started_us + (uint64_t)bt * 1000u : CO_NO_DEADLINE;
+}
+
+static const co_od_hooks boot_time_hooks = { .check_write = lock_check,
+					     .after_write = boot_time_written };
+
+/* The objects lock_check guards (sub-index ranges). */
+static const struct locked_object {
+	uint16_t index;
+	uint8_t first, last;
+} locked_objects[] = {
+	{ 0x1F80, 0, 0 },   { 0x1F81, 1, 127 }, { 0x1F84, 1, 127 }, { 0x1F85, 1, 127 },
+	{ 0x1F86, 1, 127 }, { 0x1F87, 1, 127 }, { 0x1F88, 1, 127 }, { 0x1F89, 0, 0 },
+};
+
+static void set_lock_hooks(co_manager *m, bool on)
+{
+	for (size_t i = 0; i < sizeof(locked_objects) / sizeof(locked_objects[0]); i++)
+		for (unsigned sub = locked_objects[i].first; sub <= locked_objects[i].last; sub++)
+			(void)co_od_set_hooks(m->od, locked_objects[i].index, (uint8_t)sub,
+					      !on                                 ? NULL
+					      : locked_objects[i].index == 0x1F89 ? &boot_time_hooks
+										  : &lock_hooks,
+					      on ? m : NULL);
+}
+
 int co_od_add_manager_defaults(co_od *od, uint32_t f80_def)
 {
 	int rc;
@@ -1895,6 +2044,7 @@ int co_manager_create(co_manager **out, co_node *node, const co_manager_config *
 		s->timer_us = CO_NO_DEADLINE;
 		s->last_state = STATE_UNKNOWN;
 		s->expected_state = STATE_UNKNOWN;
+		s->target_state = CO_NMT_OPERATIONAL;
 		co_fsm_init(&s->fsm, &bs_def, s, BS_IDLE);
 	}
 	for (unsigned i = 0; i < 3; i++)
@@ -1910,6 +2060,7 @@ int co_manager_create(co_manager **out, co_node *node, const co_manager_config *
 		(void)co_od_set_hooks(m->od, 0x1F82, (uint8_t)sub, &f82_hooks, m);
 		(void)co_od_set_hooks(m->od, 0x1F25, (uint8_t)sub, &f25_hooks, m);
 	}
+	set_lock_hooks(m, true);
 	co_nmt_set_rx_filter(node, nmt_rx_filter, m);
 	*out = m;
 	return 0;
@@ -1930,6 +2081,7 @@ void co_manager_destroy(co_manager *m)
 		(void)co_od_set_hooks(m->od, 0x1F82, (uint8_t)sub, NULL, NULL);
 		(void)co_od_set_hooks(m->od, 0x1F25, (uint8_t)sub, NULL, NULL);
 	}
+	set_lock_hooks(m, false);
 	for (unsigned i = 0; i < 3; i++)
 		if (m->rx[i] >= 0)
 			(void)co_rx_unregister(m->node, m->rx[i]);

@@ -135,7 +135,10 @@ typedef enum co_mgr_node_what {
 	                             * network boot had ended */
 	CO_MGR_NODE_LOST,           /* error control lost: status E or F */
 	CO_MGR_NODE_BACK,           /* error control of a lost node resumed */
-	CO_MGR_NODE_DUPLICATE,      /* two devices seem to share this ID */
+	CO_MGR_NODE_DUPLICATE,      /* two devices seem to share this ID:
+	                             * value = the NMT state a heartbeat
+	                             * contradicting its boot-up reported, or
+	                             * CO_MGR_DUP_SDO_ANSWERS */
 	CO_MGR_NODE_OWN_ID,         /* a device uses the manager's node-ID */
 	CO_MGR_NODE_NMT_IGNORED,    /* an NMT command to the manager was
 	                             * ignored; value = cs, sub = target */
@@ -152,6 +155,9 @@ typedef enum co_mgr_node_what {
 } co_mgr_node_what;
 
 const char *co_mgr_node_what_to_string(uint8_t what);
+
+/* CO_MGR_NODE_DUPLICATE value: two answers to one SDO request. */
+#define CO_MGR_DUP_SDO_ANSWERS 0x100u
 
 /* 1F82h values */
 enum co_mgr_nmt_request {
@@ -317,6 +323,11 @@ int co_manager_software_done(co_manager *m, uint8_t node_id, char status, uint32
 /* KEEP_OP (seed 003): a node that leaves OPERATIONAL without being told is
  * started again. */
 int co_manager_set_keep_op(co_manager *m, uint8_t node_id, bool on);
+/* The NMT state a node is put in after its boot once the network runs
+ * (CO_NMT_OPERATIONAL, the default; CO_NMT_PRE_OPERATIONAL: left as it is;
+ * CO_NMT_STOPPED). In a stopped network a booted node is stopped whatever
+ * its target. -EINVAL for another state or node. */
+int co_manager_set_target_state(co_manager *m, uint8_t node_id, uint8_t nmt_state);
 
 uint8_t co_manager_state(const co_manager *m);
 uint8_t co_manager_flags(const co_manager *m);

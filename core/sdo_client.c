@@ -97,14 +97,20 @@ struct cli_chan {
 	 * more frames of it before it saw the abort; the next transfer to
 	 * the same server (on any channel) takes it as its `filter` and
 	 * ignores those frames until its own first answer arrives (see
-	 * is_stale()). */
+	 * is_stale()). Also the last transfer it completed successfully
+	 * (`answered`): another answer to that request, arriving within the
+	 * timeout while the channel is idle or before the next transfer's
+	 * first answer, comes from a second device on the server's node-ID
+	 * (CO_EV_SDO_CLIENT_SECOND_ANSWER). */
 	struct stale_xfer {
 		bool valid;
+		bool answered; /* it ended with the server's answer */
 		bool upload;
 		uint8_t mode;
 		uint16_t index;
 		uint8_t sub;
 		uint32_t cob_resp;
+		uint64_t at_us; /* answered: when */
 	} ended, filter;
 };
 
@@ -196,6 +202,15 @@ static void confirm(co_node *node, const sdo_client_req *r, uint8_t channel, uin
  * whose on_enter confirms it and starts what waits. */
 static int complete(struct cli_chan *ch, uint32_t abort)
 {
+	if (!abort)
+		ch->ended = (struct stale_xfer){ .valid = true,
+						 .answered = true,
+						 .upload = ch->cur.upload,
+						 .mode = ch->mode,
+						 .index = ch->cur.index,
+						 .sub = ch->cur.sub,
+						 .cob_resp = ch->cob_resp,
+						 .at_us = node_of(ch)->now_us };
 	ch->done_pending = true;
 	ch->done_abort = abort;
 	return CS_IDLE;
@@ -228,6 +243,8 @@ static bool is_old_data_phase(const struct stale_xfer *s, const uint8_t *d)
 {
 	uint8_t cs = SDO_CS(d[0]);
 
+	if (s->answered)
+		return false; /* its data phase ended with the answer */
 	switch (s->mode) {
 	case SDO_MODE_SEGMENTED:
 		return cs == (s->upload ? SDO_SCS_UP_SEG : SDO_SCS_DN_SEG);
@@ -245,23 +262,55 @@ static bool is_old_data_phase(const struct stale_xfer *s, const uint8_t *d)
  * abort naming the old object. An initiate answer or abort naming the
  * current object is the current answer; anything else is judged as an
  * answer to the current request. */
+static bool is_initiate_or_abort(const uint8_t *d)
+{
+	uint8_t cs = SDO_CS(d[0]);
+	return cs == SDO_SCS_UP_INIT || cs == SDO_SCS_DN_INIT || cs == SDO_SCS_BLK_DN ||
+	       cs == SDO_SCS_BLK_UP || cs == SDO_SCS_ABORT;
+}
+
+static bool names_transfer(const struct stale_xfer *s, const uint8_t *d)
+{
+	return co_get_le16(&d[1]) == s->index && d[3] == s->sub;
+}
+
 static bool is_stale(const struct cli_chan *ch, const uint8_t *d)
 {
 	const struct stale_xfer *s = &ch->filter;
-	uint8_t cs = SDO_CS(d[0]);
 	bool names_cur = co_get_le16(&d[1]) == ch->cur.index && d[3] == ch->cur.sub;
-	bool names_old = co_get_le16(&d[1]) == s->index && d[3] == s->sub;
-	bool initiate_or_abort = cs == SDO_SCS_UP_INIT || cs == SDO_SCS_DN_INIT ||
-				 cs == SDO_SCS_BLK_DN || cs == SDO_SCS_BLK_UP ||
-				 cs == SDO_SCS_ABORT;
 
 	if (!s->valid)
 		return false;
-	if (initiate_or_abort && names_cur)
+	if (is_initiate_or_abort(d) && names_cur)
 		return false;
-	if (initiate_or_abort && names_old)
+	if (is_initiate_or_abort(d) && names_transfer(s, d))
 		return true;
 	return is_old_data_phase(s, d);
+}
+
+/* Another initiate answer (or abort) naming the object of a transfer the
+ * server already answered: a second device answers on that node-ID. Only
+ * the default channels (580h + node-ID) name a node. */
+static void second_answer(struct cli_chan *ch, const struct stale_xfer *s, const uint8_t *d,
+			  uint64_t now_us)
+{
+	uint32_t cob = s->cob_resp;
+	co_event ev = { .kind = CO_EV_SDO_CLIENT_SECOND_ANSWER, .now_us = now_us };
+
+	/* (frames may carry a receive time a little before the answer's) */
+	if (!s->valid || !s->answered || !is_initiate_or_abort(d) || !names_transfer(s, d) ||
+	    (now_us > s->at_us && now_us - s->at_us > ch->timeout_us))
+		return;
+	if ((cob & SDO_COB_EXT) || cob <= SDO_COB_TX_BASE || cob > SDO_COB_TX_BASE + 127)
+		return;
+	ev.u.sdo_cli.channel = ch->num;
+	ev.u.sdo_cli.upload = s->upload;
+	ev.u.sdo_cli.node_id = (uint8_t)(cob - SDO_COB_TX_BASE);
+	ev.u.sdo_cli.mode = s->mode;
+	ev.u.sdo_cli.index = s->index;
+	ev.u.sdo_cli.sub = s->sub;
+	ev.u.sdo_cli.abort = SDO_CS(d[0]) == SDO_SCS_ABORT ? co_get_le32(&d[4]) : 0;
+	co_node_emit(node_of(ch), &ev);
 }
 
 /* Take up to len bytes from the download source. */
@@ -668,7 +717,10 @@ static int idle_on_enter(void *obj, uint64_t now_us)
 	if (!ch->done_pending)
 		return CO_FSM_STAY;
 	ch->done_pending = false;
-	co_rx_disable(node_of(ch), ch->rx_handle);
+	/* an answered transfer keeps listening: a second answer to it means
+	 * a second device on that node-ID (second_answer()) */
+	if (ch->done_abort)
+		co_rx_disable(node_of(ch), ch->rx_handle);
 	confirm(node_of(ch), &r, ch->num, ch->mode, ch->done_abort, ch->offset);
 	kick_all(ch->cli);
 	return CO_FSM_STAY;
@@ -788,14 +840,24 @@ static void cli_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	int st = state_of(ch);
 
 	(void)node;
-	if (st == CS_IDLE || st == CS_START_FAILED || f->len != 8 || (f->flags & CO_FRAME_RTR))
+	if (f->len != 8 || (f->flags & CO_FRAME_RTR))
+		return;
+	if (st == CS_IDLE) {
+		/* no transfer to this server started since (that would have
+		 * taken `ended` as its filter) */
+		second_answer(ch, &ch->ended, d, now_us);
+		return;
+	}
+	if (st == CS_START_FAILED)
 		return;
 	if (st == CS_LEASED) {
 		ch->lease_fn(ch->lease_arg, d, now_us);
 		return;
 	}
-	if (is_stale(ch, d))
+	if (is_stale(ch, d)) {
+		second_answer(ch, &ch->filter, d, now_us);
 		return;
+	}
 	ch->filter.valid = false; /* the server answers the current request */
 	if (st == CS_BLK_UP_SUB ? sdo_blk_seg_is_abort(d)
 				: is_abort(d) && !sdo_blk_rx_is_dup(&ch->brx, d)) {
@@ -1146,6 +1208,10 @@ int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t 
 	if (co_rx_move(node, ch->rx_handle, req_cob_resp(&r) & CO_FRAME_EFF_MASK,
 		       (req_cob_resp(&r) & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0)
 		return -ENOSPC;
+	/* the relay's frames to and from that server are not answers of ours */
+	for (uint8_t i = 0; i < cli->n; i++)
+		if (cli->ch[i].ended.cob_resp == req_cob_resp(&r))
+			cli->ch[i].ended.valid = false;
 	ch->cur = r;
 	ch->cob_req = req_cob_req(&r);
 	ch->cob_resp = req_cob_resp(&r);

@@ -237,9 +237,12 @@ static int mgr_attach(void *ctx, line *l)
 			 ml->name, strerror(-rc));
 		return rc;
 	}
-	for (size_t i = 0; i < ml->lc->n_nodes; i++)
-		if (ml->lc->nodes[i].keep_op)
-			(void)co_manager_set_keep_op(ml->mgr, ml->lc->nodes[i].id, true);
+	for (size_t i = 0; i < ml->lc->n_nodes; i++) {
+		const cogw_node *n = &ml->lc->nodes[i];
+		if (n->keep_op)
+			(void)co_manager_set_keep_op(ml->mgr, n->id, true);
+		(void)co_manager_set_target_state(ml->mgr, n->id, n->target_state);
+	}
 	return 0;
 }
 

@@ -34,6 +34,7 @@
 #include "apps/common/json_util.h"
 #include "core/cfgmgr.h"
 #include "core/manager.h"
+#include "core/nmt.h"
 #include "core/swmgr.h"
 #include "core/od_std.h"
 
@@ -94,25 +95,12 @@ static const char *const line_keys[] = { "name",
 					 "manager",
 					 "comment",
 					 NULL };
-static const char *const node_keys[] = { "id",
-					 "config",
-					 "mandatory",
-					 "boot",
-					 "keep_alive",
-					 "retry_factor",
-					 "guard_time_ms",
-					 "heartbeat_ms",
-					 "device_type",
-					 "vendor_id",
-					 "product_code",
-					 "revision",
-					 "serial",
-					 "keep_op",
-					 "software_id",
-					 "software_update",
-					 "program",
-					 "comment",
-					 NULL };
+static const char *const node_keys[] = {
+	"id",           "config",          "mandatory",    "boot",        "keep_alive",
+	"retry_factor", "guard_time_ms",   "heartbeat_ms", "device_type", "vendor_id",
+	"product_code", "revision",        "serial",       "keep_op",     "state",
+	"software_id",  "software_update", "program",      "comment",     NULL
+};
 static const char *const manager_keys[] = { "master",
 					    "start_all",
 					    "self_start",
@@ -879,6 +867,31 @@ static int parse_node_software(struct ctx *c, const cJSON *it, const char *np, c
 	return load_program(c, p, name, n);
 }
 
+/* "state": the NMT state the manager puts the node in after its boot. */
+static int parse_node_state(struct ctx *c, const cJSON *it, const char *np, uint8_t *state)
+{
+	static const struct {
+		const char *name;
+		uint8_t nmt;
+	} names[] = { { "operational", CO_NMT_OPERATIONAL },
+		      { "pre-operational", CO_NMT_PRE_OPERATIONAL },
+		      { "stopped", CO_NMT_STOPPED } };
+	char what[20] = "operational", p[JSON_PATH_MAX];
+	int rc;
+
+	if ((rc = json_util_opt_string(it, "state", np, 1, what, sizeof(what), c->msg,
+				       sizeof(c->msg))))
+		return rc;
+	for (size_t i = 0; i < sizeof(names) / sizeof(names[0]); i++)
+		if (!strcmp(what, names[i].name)) {
+			*state = names[i].nmt;
+			return 0;
+		}
+	json_util_path_key(p, sizeof(p), np, "state");
+	return fail(c, p, "\"%s\": expected \"operational\", \"pre-operational\" or \"stopped\"",
+		    what);
+}
+
 /* The CiA 302-2 settings of one entry of "nodes" (1F81h:n, 1F84h..1F88h:n,
  * the 1016h consumer time, KEEP_OP). */
 static int parse_node_manager(struct ctx *c, const cJSON *it, const char *np, cogw_node *n)
@@ -906,7 +919,8 @@ static int parse_node_manager(struct ctx *c, const cJSON *it, const char *np, co
 		json_util_path_key(p, sizeof(p), np, "guard_time_ms");
 		return fail(c, p, "node %u has heartbeat_ms too: supervise it one way", n->id);
 	}
-	if ((rc = parse_node_software(c, it, np, n, &a)))
+	if ((rc = parse_node_software(c, it, np, n, &a)) ||
+	    (rc = parse_node_state(c, it, np, &n->target_state)))
 		return rc;
 	n->assignment = a | factor << 8 | guard << 16;
 	n->heartbeat_ms = hb;
@@ -1524,7 +1538,8 @@ static bool nodes_same(const cogw_line_config *a, const cogw_line_config *b)
 		    memcmp(a->nodes[i].identity, b->nodes[i].identity,
 			   sizeof(a->nodes[i].identity)) ||
 		    a->nodes[i].heartbeat_ms != b->nodes[i].heartbeat_ms ||
-		    a->nodes[i].keep_op != b->nodes[i].keep_op)
+		    a->nodes[i].keep_op != b->nodes[i].keep_op ||
+		    a->nodes[i].target_state != b->nodes[i].target_state)
 			return false;
 	return true;
 }

@@ -56,6 +56,9 @@ typedef struct cogw_node {
 	uint32_t identity[5];    /* 1F84h..1F88h:n (0 = do not check) */
 	uint16_t heartbeat_ms;   /* 1016h consumer time, 0 = none */
 	bool keep_op;            /* restart it when it leaves OPERATIONAL */
+	uint8_t target_state;    /* "state": NMT state after its boot
+	                             * (CO_NMT_OPERATIONAL, PRE_OPERATIONAL or
+	                             * STOPPED, core/nmt.h) */
 	uint32_t software_id;    /* 1F55h:n expected software (0 = none);
 	                             * non-zero sets 1F81h:n bit 5 */
 	char program_file[256];  /* "program": the image file (resolved) */

@@ -18,7 +18,9 @@
  *       another node (raw frames to the daemon's SDO server) stops node 3.
  *       Node 11's heartbeat stops: 1F80h "stop_all" stops every node.
  *   (d) a keep-alive node found OPERATIONAL is not reset (no reset frame,
- *       no boot-up), the other node of its line is.
+ *       no boot-up), the other node of its line is. A second device with
+ *       node 2's ID (no boot-up, no heartbeat) answers an SDO read too:
+ *       two answers to one request, reported as a duplicate node-ID.
  *   (e) 1F80h "reset_all": a mandatory node's heartbeat stops -> NMT reset
  *       node to all nodes, the network boots again.
  * Run: tests/vcan/run -n 2 -- build/san/tests/integration/test_manager_boot
@@ -165,13 +167,17 @@ static void test_two_lines_boot_identity_request_own_id(void)
 	} while (!bit(&st.stopped, 1) && mono_ms() < until);
 	TEST_ASSERT_TRUE(bit(&st.stopped, 1));
 
-	/* (h) a device claims the manager's node-ID on line 1 */
-	/* its boot-up frame on 77Fh, as a device configured with ID 127 sends */
-	int fd = can_open_raw("vcan1");
-	TEST_ASSERT_TRUE(fd >= 0);
-	uint8_t zero = 0;
-	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd, 0x77F, &zero, 1));
-	close(fd);
+	/* (h) a device claims the manager's node-ID on line 1: a simulated
+	 * I/O module configured with node-ID 127 is plugged in (its first
+	 * frames, heartbeats on 77Fh, cannot be told from the daemon's own
+	 * by cosim_start: it starts off the bus) */
+	char dir_h[DAEMON_PATH_MAX + 4];
+	snprintf(dir_h, sizeof dir_h, "%s/h", dmn.dir);
+	TEST_ASSERT_EQUAL_INT(0, mkdir(dir_h, 0700));
+	const char *dev_h[] = { "etc/devices/io-generic.json:127", NULL };
+	const char *off_bus[] = { "--silent", NULL };
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&intruder, dir_h, 1, dev_h, off_bus));
+	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&intruder, "silent off", NULL, 0, 3000));
 	TEST_ASSERT_EQUAL_INT(0, wait_state(1, CO_MGR_FATAL, 5000, &st));
 	TEST_ASSERT_EQUAL_INT(0, cogw_mgr_node_diag(h, 1, 2, &d, 3000));
 	TEST_ASSERT_EQUAL_INT(0, cogw_mgr_status(h, 0, &st, 3000));
@@ -427,6 +433,36 @@ static void test_keep_alive_not_reset_and_reset_all_on_mandatory_loss(void)
 	TEST_ASSERT_EQUAL_UINT8(1, d.booted);
 	TEST_ASSERT_EQUAL_UINT32(1, d.boot_count);
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_OPERATIONAL, d.nmt_state);
+
+	/* a second device with node 2's ID, plugged in without a boot-up and
+	 * without heartbeats: only its SDO answers give it away. A read of
+	 * node 2 gets two answers; the manager reports the duplicate. */
+	char dir_c[48];
+	snprintf(dir_c, sizeof dir_c, "%s/c", dir);
+	TEST_ASSERT_EQUAL_INT(0, mkdir(dir_c, 0700));
+	const char *twin_args[] = { "--silent", "--hb-stop", NULL };
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&simC, dir_c, 0, plain, twin_args));
+	TEST_ASSERT_EQUAL_INT(0, cogw_subscribe(h, 0, MBX_EVC_MANAGER, NULL, 0, 3000));
+	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&simC, "silent off", NULL, 0, 3000));
+	uint32_t v = 0, abort = 0;
+	TEST_ASSERT_EQUAL_INT(0, cogw_sdo_read_u32(h, 0, 2, 0x1018, 1, &v, 3000, &abort));
+	TEST_ASSERT_EQUAL_HEX32(0x1234, v);
+	bool twin = false;
+	for (uint64_t t = mono_ms() + 5000; !twin && mono_ms() < t;) {
+		if (cogw_recv(h, &m, 200) != 0)
+			continue;
+		if (m.code == MBX_EV_MGR_NODE && m.line == 0) {
+			mbx_ev_mgr e;
+			memcpy(&e, m.data, sizeof e);
+			twin = e.node == 2 && e.what == CO_MGR_NODE_DUPLICATE &&
+			       e.value == CO_MGR_DUP_SDO_ANSWERS;
+		}
+		cogw_msg_release(&m);
+	}
+	TEST_ASSERT_TRUE_MESSAGE(twin, "no duplicate event (two SDO answers) for node 2");
+	TEST_ASSERT_EQUAL_INT(0, cogw_mgr_status(h, 0, &st, 3000));
+	TEST_ASSERT_EQUAL_UINT32(1, st.duplicates);
+	cosim_stop(&simC, 3000);
 
 	/* (e) 1F80h bit 4 */
 	TEST_ASSERT_TRUE_MESSAGE(wait_for(1, &w0, &w1, 30000, both_operational, &st),

@@ -30,6 +30,7 @@
 #include "core/od.h"
 
 #include "core/manager.h"
+#include "core/nmt.h"
 
 #define DOC "docs/config.md"
 #define NODE_ID 5
@@ -200,6 +201,10 @@ static int fill_key_defaults(struct key_default *k)
 		KD(sec, "revision", "%u", nd->identity[3]);
 		KD(sec, "serial", "%u", nd->identity[4]);
 		KD(sec, "keep_op", "%s", TF(nd->keep_op));
+		KD(sec, "state", "%s",
+		   nd->target_state == CO_NMT_STOPPED           ? "stopped"
+		   : nd->target_state == CO_NMT_PRE_OPERATIONAL ? "pre-operational"
+								: "operational");
 		KD(sec, "software_id", "%u", nd->software_id);
 		KD(sec, "software_update", "%s", TF(a & CO_MGR_1F81_UPDATE_SW));
 #undef TF

@@ -10,6 +10,7 @@
 
 #include "apps/common/config.h"
 #include "core/manager.h"
+#include "core/nmt.h"
 #include "core/od.h"
 #include "unity.h"
 
@@ -103,8 +104,8 @@ static void test_nodes_fill_assignment_identity_heartbeat(void)
 		"{\"id\": 2, \"mandatory\": true, \"heartbeat_ms\": 1500, "
 		" \"vendor_id\": \"0x250\", \"product_code\": 4660, \"keep_op\": true},"
 		"{\"id\": 3, \"keep_alive\": true, \"guard_time_ms\": 100, \"retry_factor\": 3,"
-		" \"device_type\": \"0x00040194\", \"serial\": 99},"
-		"{\"id\": 4, \"boot\": false}]"));
+		" \"device_type\": \"0x00040194\", \"serial\": 99, \"state\": \"pre-operational\"},"
+		"{\"id\": 4, \"boot\": false, \"state\": \"stopped\"}]"));
 	const co_od *od = cfg.lines[0].od;
 	TEST_ASSERT_EQUAL_HEX64(CO_MGR_1F81_SLAVE | CO_MGR_1F81_BOOT | CO_MGR_1F81_MANDATORY,
 				raw(od, 0x1F81, 2));
@@ -127,6 +128,10 @@ static void test_nodes_fill_assignment_identity_heartbeat(void)
 	TEST_ASSERT_TRUE(found);
 	TEST_ASSERT_TRUE(cfg.lines[0].nodes[0].keep_op);
 	TEST_ASSERT_FALSE(cfg.lines[0].nodes[1].keep_op);
+	/* "state": operational unless said otherwise */
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, cfg.lines[0].nodes[0].target_state);
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_PRE_OPERATIONAL, cfg.lines[0].nodes[1].target_state);
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_STOPPED, cfg.lines[0].nodes[2].target_state);
 	/* defaults: a reset communication keeps them */
 	co_od_entry *e = co_od_find(od, 0x1F81, 2);
 	co_od_entry_set_raw(e, 0);
@@ -202,6 +207,9 @@ static void test_bad_values_with_paths(void)
 		     "500}], "
 		     "\"nodes\": [{\"id\": 2, \"heartbeat_ms\": 100}]"),
 		"t.json: lines[0].nodes[0].heartbeat_ms: node 2 is in heartbeat_consumers too");
+	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"state\": \"running\"}]"),
+		     "t.json: lines[0].nodes[0].state: \"running\": expected \"operational\", "
+		     "\"pre-operational\" or \"stopped\"");
 	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"mandatory\": \"yes\"}]"),
 		     "t.json: lines[0].nodes[0].mandatory: expected true or false, got a string");
 }

@@ -290,6 +290,8 @@ static void test_s51_bit4_reset_all(void)
 	lose_node2();
 	TEST_ASSERT_EQUAL_UINT(1, mf_sent(&f, 0x000, "81 00"));
 	TEST_ASSERT_NOT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	/* the manager's own node left OPERATIONAL too */
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(f.mp->node));
 	/* node 2 comes back: the network boots again and starts */
 	f.bus.port[1].deliver = true;
 	co_hb_producer_set(f.bus.port[1].node, 100, f.bus.now);
@@ -297,6 +299,7 @@ static void test_s51_bit4_reset_all(void)
 	tb_advance(&f.bus, 2 * S);
 	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
 	TEST_ASSERT_EQUAL_UINT32(2, co_manager_node_diag(f.mgr, 2)->boot_count);
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, co_nmt_get_state(f.mp->node));
 }
 
 /* An optional node's loss is handled alone: reset comm of that node. */
@@ -600,6 +603,33 @@ static void test_duplicate_node_id(void)
 	TEST_ASSERT_EQUAL_UINT(1, mf_node_count(&f, 3, CO_MGR_NODE_DUPLICATE));
 }
 
+/* A second device with node 3's ID answers every SDO request too: two
+ * answers to one request are reported (once); the boot is not disturbed
+ * by the extra answers. */
+static void test_duplicate_node_id_two_sdo_answers(void)
+{
+	mf_init(&f, MASTER, 4);
+	mf_slave(&f, 2, 100);
+	mf_slave(&f, 3, 100);
+	mf_slave(&f, 3, 0); /* the twin: no heartbeat, same answers */
+	mf_assign(&f, 2, MANDATORY, 300);
+	mf_assign(&f, 3, SLAVE_BOOT, 300);
+	mf_expect(&f, 3, MF_DEVICE_TYPE, MF_VENDOR, 0, 0, 0);
+	tb_advance(&f.bus, 10 * MS);
+	mf_start(&f, NULL);
+	tb_advance(&f.bus, 2 * S);
+	const co_ev_mgr *e = mf_node_ev(&f, 3, CO_MGR_NODE_DUPLICATE);
+	TEST_ASSERT_NOT_NULL(e);
+	TEST_ASSERT_EQUAL_HEX32(CO_MGR_DUP_SDO_ANSWERS, e->value);
+	TEST_ASSERT_EQUAL_UINT(1, mf_node_count(&f, 3, CO_MGR_NODE_DUPLICATE));
+	TEST_ASSERT_EQUAL_UINT(0, mf_node_count(&f, 2, CO_MGR_NODE_DUPLICATE));
+	co_mgr_diag d;
+	co_manager_get_diag(f.mgr, &d);
+	TEST_ASSERT_EQUAL_UINT32(1, d.duplicates);
+	TEST_ASSERT_TRUE(co_manager_node_diag(f.mgr, 3)->booted);
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+}
+
 static void test_scan_finds_missing_node(void)
 {
 	co_manager_config c = { .sdo_timeout_ms = 100, .reset_wait_ms = 500, .scan_ms = 2000 };
@@ -637,6 +667,131 @@ static void test_keep_op_restarts_node(void)
 	co_manager_request_nmt(f.mgr, 3, CO_MGR_REQ_STOP, f.bus.now);
 	tb_advance(&f.bus, 300 * MS);
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_STOPPED, hb_of(f.bus.port + 2));
+}
+
+/* Per node, the state after its boot: node 2 stopped, node 3 left
+ * pre-operational; neither gets a start, the network runs. */
+static void test_target_state_per_node(void)
+{
+	line_2_3(MASTER);
+	mf_start(&f, NULL);
+	TEST_ASSERT_EQUAL_INT(0, co_manager_set_target_state(f.mgr, 2, CO_NMT_STOPPED));
+	TEST_ASSERT_EQUAL_INT(0, co_manager_set_target_state(f.mgr, 3, CO_NMT_PRE_OPERATIONAL));
+	TEST_ASSERT_EQUAL_INT(-EINVAL, co_manager_set_target_state(f.mgr, 3, 0x42));
+	TEST_ASSERT_EQUAL_INT(-EINVAL, co_manager_set_target_state(f.mgr, 0, CO_NMT_STOPPED));
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	TEST_ASSERT_TRUE(co_manager_node_diag(f.mgr, 2)->booted);
+	TEST_ASSERT_TRUE(co_manager_node_diag(f.mgr, 3)->booted);
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_STOPPED, hb_of(f.bus.port + 1));
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_PRE_OPERATIONAL, hb_of(f.bus.port + 2));
+	TEST_ASSERT_EQUAL_UINT(0, mf_sent(&f, 0x000, "01 02"));
+	TEST_ASSERT_EQUAL_UINT(0, mf_sent(&f, 0x000, "01 03"));
+	TEST_ASSERT_EQUAL_UINT(0, mf_sent(&f, 0x000, "01 00"));
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, co_nmt_get_state(f.mp->node));
+}
+
+/* A node that boots up while the network is stopped is stopped too and
+ * not booted (no SDO in a stopped network); it is booted and started when
+ * the network is started again. */
+static void test_bootup_in_stopped_network(void)
+{
+	line_2_3(MASTER);
+	mf_start(&f, NULL);
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL_INT(
+		0, co_manager_request_nmt(f.mgr, CO_MGR_ALL_NODES, CO_MGR_REQ_STOP, f.bus.now));
+	tb_advance(&f.bus, 300 * MS);
+	TEST_ASSERT_EQUAL(CO_MGR_STOPPED, mstate());
+	size_t reads = mf_sent(&f, 0x603, "40 00 10 00");
+	co_nmt_local_cmd(f.bus.port[2].node, CO_NMT_CS_RESET_NODE, f.bus.now);
+	tb_advance(&f.bus, 1 * S);
+	TEST_ASSERT_EQUAL_UINT(1, mf_sent(&f, 0x000, "02 03"));
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_STOPPED, hb_of(f.bus.port + 2));
+	TEST_ASSERT_EQUAL_UINT(reads, mf_sent(&f, 0x603, "40 00 10 00"));
+	TEST_ASSERT_FALSE(co_manager_node_diag(f.mgr, 3)->booted);
+	TEST_ASSERT_EQUAL(CO_MGR_STOPPED, mstate());
+	/* the network starts again: node 3 is booted, then started */
+	TEST_ASSERT_EQUAL_INT(
+		0, co_manager_request_nmt(f.mgr, CO_MGR_ALL_NODES, CO_MGR_REQ_START, f.bus.now));
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL_UINT(reads + 1, mf_sent(&f, 0x603, "40 00 10 00"));
+	TEST_ASSERT_EQUAL_UINT32(2, co_manager_node_diag(f.mgr, 3)->boot_count);
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 2));
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+}
+
+/* A mandatory node booted meanwhile is waited for before the start. */
+static void test_bootup_in_stopped_network_mandatory(void)
+{
+	line_2_3(MASTER);
+	mf_start(&f, NULL);
+	tb_advance(&f.bus, 2 * S);
+	co_manager_request_nmt(f.mgr, CO_MGR_ALL_NODES, CO_MGR_REQ_STOP, f.bus.now);
+	tb_advance(&f.bus, 300 * MS);
+	co_nmt_local_cmd(f.bus.port[1].node, CO_NMT_CS_RESET_NODE, f.bus.now);
+	tb_advance(&f.bus, 1 * S);
+	TEST_ASSERT_FALSE(co_manager_node_diag(f.mgr, 2)->booted);
+	TEST_ASSERT_EQUAL_INT(
+		0, co_manager_request_nmt(f.mgr, CO_MGR_ALL_NODES, CO_MGR_REQ_START, f.bus.now));
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	TEST_ASSERT_EQUAL_UINT32(2, co_manager_node_diag(f.mgr, 2)->boot_count);
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 1));
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 2));
+}
+
+/* 1F80h, 1F81h, 1F84h..1F89h are locked while the network boots; 1F89h
+ * stays writable while the line waits for a mandatory slave. */
+static void test_boot_objects_locked_during_boot(void)
+{
+	co_manager_config c = { .sdo_timeout_ms = 100, .reset_wait_ms = 300 };
+	line_2_3(MASTER);
+	f.bus.port[2].deliver = false; /* node 3 deaf: the line waits for it */
+	mf_assign(&f, 3, MANDATORY, 300);
+	mf_start(&f, &c);
+	tb_advance(&f.bus, 50 * MS);
+	TEST_ASSERT_EQUAL(CO_MGR_BOOTING, mstate());
+	TEST_ASSERT_EQUAL_HEX32(0x08000022, tb_od_write(&f.bus, f.mp->node, 0x1F81, 3, SLAVE_BOOT));
+	TEST_ASSERT_EQUAL_HEX32(0x08000022, tb_od_write(&f.bus, f.mp->node, 0x1F80, 0, MASTER));
+	TEST_ASSERT_EQUAL_HEX32(0x08000022, tb_od_write(&f.bus, f.mp->node, 0x1F85, 2, 0));
+	TEST_ASSERT_EQUAL_HEX32(0x08000022, tb_od_write(&f.bus, f.mp->node, 0x1F89, 0, 0));
+	uint32_t v = 0;
+	co_od_get_u32(f.mp->od, 0x1F81, 3, &v);
+	TEST_ASSERT_EQUAL_HEX32(MANDATORY, v);
+	tb_advance(&f.bus, 1 * S);
+	TEST_ASSERT_EQUAL(CO_MGR_WAIT_MANDATORY, mstate());
+	TEST_ASSERT_EQUAL_HEX32(0x08000022, tb_od_write(&f.bus, f.mp->node, 0x1F81, 3, SLAVE_BOOT));
+	TEST_ASSERT_EQUAL_HEX32(0, tb_od_write(&f.bus, f.mp->node, 0x1F89, 0, 100));
+	/* the new boot time ran out: booted, not started; writable again */
+	tb_advance(&f.bus, 500 * MS);
+	TEST_ASSERT_EQUAL(CO_MGR_BOOTED, mstate());
+	TEST_ASSERT_EQUAL_HEX32(0, tb_od_write(&f.bus, f.mp->node, 0x1F81, 3, SLAVE_BOOT));
+	/* the flying master (bit 5) is not supported */
+	TEST_ASSERT_EQUAL_HEX32(0x06090030, tb_od_write(&f.bus, f.mp->node, 0x1F80, 0,
+							MASTER | CO_MGR_1F80_FLYING_MASTER));
+}
+
+/* The manager's own NMT state is a flag of the line: a change of it alone
+ * is reported as a state event (same state, new flags). */
+static void test_state_event_on_flag_change(void)
+{
+	line_2_3(MASTER);
+	mf_start(&f, NULL);
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_TRUE(co_manager_flags(f.mgr) & CO_MGR_F_MANAGER_OPERATIONAL);
+	unsigned before = mf_count(&f, CO_EV_MGR_STATE);
+	co_nmt_local_cmd(f.mp->node, CO_NMT_CS_ENTER_PREOP, f.bus.now);
+	tb_advance(&f.bus, 10 * MS);
+	TEST_ASSERT_EQUAL_UINT(before + 1, mf_count(&f, CO_EV_MGR_STATE));
+	const co_event *last = NULL;
+	for (unsigned i = 0; i < f.n_ev; i++)
+		if (f.ev[i].kind == CO_EV_MGR_STATE)
+			last = &f.ev[i];
+	TEST_ASSERT_NOT_NULL(last);
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, last->u.mgr.state);
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, last->u.mgr.prev);
+	TEST_ASSERT_FALSE(last->u.mgr.flags & CO_MGR_F_MANAGER_OPERATIONAL);
 }
 
 /* ---- 1F82h, 1F25h ----------------------------------------------------------------- */
@@ -764,6 +919,12 @@ int main(void)
 	RUN_TEST(test_nmt_to_manager_accepted_when_configured);
 	RUN_TEST(test_rebooted_node_boots_again);
 	RUN_TEST(test_duplicate_node_id);
+	RUN_TEST(test_duplicate_node_id_two_sdo_answers);
+	RUN_TEST(test_target_state_per_node);
+	RUN_TEST(test_bootup_in_stopped_network);
+	RUN_TEST(test_bootup_in_stopped_network_mandatory);
+	RUN_TEST(test_boot_objects_locked_during_boot);
+	RUN_TEST(test_state_event_on_flag_change);
 	RUN_TEST(test_scan_finds_missing_node);
 	RUN_TEST(test_keep_op_restarts_node);
 	RUN_TEST(test_1f82_request_nmt_over_od);

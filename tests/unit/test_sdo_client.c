@@ -92,6 +92,41 @@ static void test_golden_read_1000_from_simulated_slave(void)
 	TEST_ASSERT_EQUAL_HEX32(0x585, v);
 }
 
+/* A second answer to a request already answered (two devices on node 5):
+ * reported once as CO_EV_SDO_CLIENT_SECOND_ANSWER, with the idle channel
+ * or before the next transfer's own answer; the next transfer is not
+ * disturbed by it. Past the timeout, or naming another object, it is not. */
+static void test_second_answer_reported(void)
+{
+	uint32_t v = 0;
+
+	TEST_ASSERT_EQUAL(0, sdo_client_read(cli->node, 0, 5, 0x1000, 0, buf, 4, 500, 1, bus.now));
+	reply("43 00 10 00 94 01 04 00");
+	TEST_ASSERT_EQUAL_HEX32(0, done()->u.sdo_cli.abort);
+	reply("43 00 10 00 94 01 04 00"); /* the twin, channel idle */
+	TEST_ASSERT_EQUAL(1, tb_event_count(cli, CO_EV_SDO_CLIENT_SECOND_ANSWER));
+	const co_event *e = tb_last_event(cli, CO_EV_SDO_CLIENT_SECOND_ANSWER);
+	TEST_ASSERT_EQUAL_UINT8(5, e->u.sdo_cli.node_id);
+	TEST_ASSERT_EQUAL_HEX16(0x1000, e->u.sdo_cli.index);
+	TEST_ASSERT_EQUAL_UINT8(0, e->u.sdo_cli.sub);
+
+	/* the next read runs when the twin's answer to the previous one comes */
+	TEST_ASSERT_EQUAL(0, sdo_client_read(cli->node, 0, 5, 0x1018, 1, buf, 4, 500, 2, bus.now));
+	reply("43 00 10 00 94 01 04 00");
+	TEST_ASSERT_EQUAL(2, tb_event_count(cli, CO_EV_SDO_CLIENT_SECOND_ANSWER));
+	TEST_ASSERT_EQUAL(1, tb_event_count(cli, CO_EV_SDO_CLIENT_DONE));
+	reply("43 18 10 01 50 02 00 00");
+	TEST_ASSERT_EQUAL_HEX32(0, done()->u.sdo_cli.abort);
+	memcpy(&v, buf, 4);
+	TEST_ASSERT_EQUAL_HEX32(0x250, v);
+
+	/* an answer naming another object, or one after the timeout: no */
+	reply("43 00 10 00 94 01 04 00");
+	tb_advance(&bus, 600 * 1000);
+	reply("43 18 10 01 50 02 00 00");
+	TEST_ASSERT_EQUAL(2, tb_event_count(cli, CO_EV_SDO_CLIENT_SECOND_ANSWER));
+}
+
 static void test_golden_writes_v1_v3_v7(void)
 {
 	static const uint8_t hb[2] = { 0xA0, 0x0F };
@@ -587,6 +622,7 @@ int main(void)
 	UNITY_BEGIN();
 	RUN_TEST(test_expedited_command_specifier_follows_size);
 	RUN_TEST(test_golden_read_1000_from_simulated_slave);
+	RUN_TEST(test_second_answer_reported);
 	RUN_TEST(test_golden_writes_v1_v3_v7);
 	RUN_TEST(test_segmented_download_frames);
 	RUN_TEST(test_client_detects_toggle_error);

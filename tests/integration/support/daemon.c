@@ -282,8 +282,11 @@ int cosim_start(cosim_run *c, const char *dir, unsigned line, const char *const 
 		argv[argc++] = "--device";
 		argv[argc++] = devices[i];
 	}
-	for (size_t i = 0; extra && extra[i] && argc < 46; i++)
+	bool silent = false; /* cable pulled from the start: no boot-up to wait for */
+	for (size_t i = 0; extra && extra[i] && argc < 46; i++) {
+		silent |= !strcmp(extra[i], "--silent");
 		argv[argc++] = extra[i];
+	}
 	argv[argc] = NULL;
 
 	/* listen before the start so that the boot-up frames are not missed */
@@ -297,7 +300,7 @@ int cosim_start(cosim_run *c, const char *dir, unsigned line, const char *const 
 		return -ECHILD;
 	}
 	int rc = 0;
-	for (unsigned i = 0; i < c->n_nodes && rc == 0; i++) {
+	for (unsigned i = 0; i < c->n_nodes && rc == 0 && !silent; i++) {
 		uint8_t data[8];
 		int n = can_wait_id(fd, 0x700u + c->node_ids[i], data, 10000);
 		if (n < 0) {

@@ -128,7 +128,8 @@ typedef struct cosim_run {
  * allows), control socket and log in dir, extra arguments extra[]
  * (NULL-terminated, or NULL, e.g. "--autostart"). Waits (10 s) for the
  * boot-up frame 700h+id of every node: the node id is the ":N" suffix, or
- * read from the file's "node_id" (default 1). Returns 0 or -errno. */
+ * read from the file's "node_id" (default 1); not with "--silent" in extra
+ * (the devices are off the bus until "silent off"). Returns 0 or -errno. */
 int cosim_start(cosim_run *c, const char *dir, unsigned line, const char *const devices[],
 		const char *const extra[]);
 /* One control command; the answer ("ok ..." / "error: ...") goes to reply
