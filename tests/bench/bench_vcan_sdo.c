@@ -358,8 +358,8 @@ int main(void)
 				 .base_value = target_bps,
 				 .base_unit = "B/s",
 				 .ratio = block_bps / target_bps,
-				 .target = "ratio >= 0.70",
-				 .verdict = bench_verdict(block_bps >= 0.70 * target_bps) });
+				 .target = "ratio >= 0.80",
+				 .verdict = bench_verdict(block_bps >= 0.80 * target_bps) });
 	bench_note("block upload: best of %d round%s %.2f s for %u bytes (%u data frames), checked "
 		   "byte for byte",
 		   rounds, rounds == 1 ? "" : "s", best, BLOCK_SIZE, (BLOCK_SIZE + 6) / 7);
