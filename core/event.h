@@ -206,8 +206,9 @@ typedef struct co_ev_mgr {
 	uint8_t sub;
 	uint8_t done;      /* MGR_BOOT: 1 = last step (booted or failed) */
 	uint32_t abort;    /* MGR_BOOT: SDO abort code, 0 = none */
-	uint32_t value;    /* BOOT: the value read, or with status J the
-	                    * concise DCF entry (1-based); NODE: detail */
+	uint32_t value;    /* BOOT: the value read; configure step: the
+	                    * concise DCF entry refused (status J, 1-based)
+	                    * or the entries written; NODE: detail */
 	uint32_t expected; /* MGR_BOOT: value expected (1F84h..1F88h) */
 } co_ev_mgr;
 

@@ -719,10 +719,11 @@ static int configure_con(void *obj, const void *con, uint64_t now_us)
 	(void)now_us;
 	if (in->kind != IN_CONFIGURED)
 		return CO_FSM_STAY;
-	if (in->abort) /* value: the concise DCF entry that failed */
+	/* value: the concise DCF entry that failed, or the entries written */
+	if (in->abort)
 		return bs_fail(s, CO_MGR_STEP_CONFIGURE, 'J', in->abort, in->index, in->sub,
 			       in->value, 0);
-	emit_boot(s, CO_MGR_STEP_CONFIGURE, 0, 0, 0, 0, 0, 0, false);
+	emit_boot(s, CO_MGR_STEP_CONFIGURE, 0, 0, 0, 0, in->value, 0, false);
 	return BS_ERRCTRL;
 }
 

@@ -312,7 +312,9 @@ uint8_t co_manager_node_nmt_state(const co_manager *m, uint8_t node_id);
 /* The 302-3 configure step ended (abort 0 = configured). On a failure
  * (J), index:sub is the object refused and entry the concise DCF entry
  * that wrote it (1-based; 0 = a write outside the concise DCF, such as
- * 1020h or 1010h): the boot event carries the entry as its value. */
+ * 1020h or 1010h); on success entry is the number of entries written (0 =
+ * nothing downloaded, e.g. 1020h matched). The boot event carries it as
+ * its value. */
 int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort, uint16_t index,
 			      uint8_t sub, uint32_t entry, uint64_t now_us);
 /* The 302-3 check software step ended: status 0 = right software (or

@@ -260,6 +260,18 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 				 "0x%08" PRIX32 ", value 0x%08" PRIX32 " expected 0x%08" PRIX32,
 				 e.node, co_mgr_step_to_string(e.step), e.index, e.sub, e.status,
 				 co_mgr_status_to_string(e.status), e.abort, e.value, e.expected);
+		else if (m->code == MBX_EV_MGR_BOOT && e.step == CO_MGR_STEP_CONFIGURE && e.value)
+			/* value: the concise DCF entries written */
+			snprintf(text, sizeof text,
+				 "node %u boot configure ok: %" PRIu32
+				 " concise DCF entries downloaded",
+				 e.node, e.value);
+		else if (m->code == MBX_EV_MGR_BOOT && e.step == CO_MGR_STEP_CONFIGURE)
+			snprintf(text, sizeof text,
+				 "node %u boot configure ok: nothing downloaded (no configuration, "
+				 "or "
+				 "1020h matches)",
+				 e.node);
 		else if (m->code == MBX_EV_MGR_BOOT)
 			snprintf(text, sizeof text, "node %u boot %s%s%s", e.node,
 				 co_mgr_step_to_string(e.step),

@@ -83,7 +83,7 @@ static void cfgm_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
 			 ml->name, r->node_id);
 	if (ml->mgr)
 		(void)co_manager_configure_done(ml->mgr, r->node_id, abort, r->index, r->sub,
-						r->entry, now_us);
+						abort ? r->entry : r->written, now_us);
 }
 
 /* 1F58h:n: the images read from the files of nodes[].program at load. */

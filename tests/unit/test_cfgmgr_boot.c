@@ -80,7 +80,8 @@ static void cfg_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
 				  r->outcome == CO_CFGMGR_FAILED_J    ? r->abort
 				  : r->outcome == CO_CFGMGR_CANCELLED ? 0x08000000u
 								      : 0,
-				  r->index, r->sub, r->entry, now_us);
+				  r->index, r->sub,
+				  r->outcome == CO_CFGMGR_FAILED_J ? r->entry : r->written, now_us);
 }
 
 static uint32_t on_restore(void *ctx, uint8_t sub, const co_od_access *a)
@@ -196,7 +197,9 @@ static void test_boot_downloads_then_skips_when_1020h_matches(void)
 	TEST_ASSERT_EQUAL_UINT32(15000, slave_u32(0x1020, 1));
 	TEST_ASSERT_EQUAL_UINT32(3600000, slave_u32(0x1020, 2));
 	TEST_ASSERT_EQUAL_UINT(1, tb_event_count(slave, CO_EV_STORE));
-	TEST_ASSERT_NOT_NULL(mf_boot(&f, NODE, CO_MGR_STEP_CONFIGURE, 0));
+	const co_ev_mgr *e = mf_boot(&f, NODE, CO_MGR_STEP_CONFIGURE, 0);
+	TEST_ASSERT_NOT_NULL(e);
+	TEST_ASSERT_EQUAL_UINT32(20, e->value); /* entries written */
 	TEST_ASSERT_NOT_NULL(mf_boot(&f, NODE, CO_MGR_STEP_START, 0));
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, co_nmt_get_state(slave->node));
 	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, co_manager_state(f.mgr));
@@ -209,6 +212,9 @@ static void test_boot_downloads_then_skips_when_1020h_matches(void)
 	TEST_ASSERT_EQUAL_UINT(2, results);
 	TEST_ASSERT_EQUAL_INT(CO_CFGMGR_SKIPPED, last.outcome);
 	TEST_ASSERT_EQUAL_UINT32(0, last.written);
+	e = mf_boot(&f, NODE, CO_MGR_STEP_CONFIGURE, 0);
+	TEST_ASSERT_NOT_NULL(e);
+	TEST_ASSERT_EQUAL_UINT32(0, e->value); /* nothing downloaded */
 	/* the reset communication of the new boot does not touch 2000h */
 	TEST_ASSERT_EQUAL_UINT16(7, slave_u16(0x2000));
 	TEST_ASSERT_NOT_NULL(mf_boot(&f, NODE, CO_MGR_STEP_START, 0));
