@@ -508,6 +508,21 @@ static void slurp(const char *path, char *buf, size_t cap)
 	buf[n] = '\0';
 }
 
+/* Run "cogwctl --instance INSTANCE ARGS" (through sh), its stdout and
+ * stderr into out; returns its exit status (-1: it did not exit). */
+static int ctl_capture(const char *args, char *out, size_t cap)
+{
+	char cmd[2 * DAEMON_PATH_MAX + 256], out_path[DAEMON_PATH_MAX + 16];
+	int st;
+
+	snprintf(out_path, sizeof out_path, "%s/ctl.txt", dmn.dir);
+	snprintf(cmd, sizeof cmd, "%s --instance %s %s >%s 2>&1", ctl_path(), INSTANCE, args,
+		 out_path);
+	st = system(cmd);
+	slurp(out_path, out, cap);
+	return st != -1 && WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
 static void test_requester_vanishing_mid_block_releases_the_session(void)
 {
 	uint8_t a[8];
@@ -829,13 +844,8 @@ static void test_faults_refused_at_once_other_routes_work_sessions_released(void
 	expect_all_released("at the end");
 
 	/* the line status shows the routed traffic (cogwctl status) */
-	char cmd[2 * DAEMON_PATH_MAX + 128], out_path[DAEMON_PATH_MAX + 16];
 	static char out[16384];
-	snprintf(out_path, sizeof out_path, "%s/status.txt", dmn.dir);
-	snprintf(cmd, sizeof cmd, "%s --instance %s status 0 >%s 2>&1", ctl_path(), INSTANCE,
-		 out_path);
-	TEST_ASSERT_EQUAL_INT(0, system(cmd));
-	slurp(out_path, out, sizeof out);
+	TEST_ASSERT_EQUAL_INT(0, ctl_capture("status 0", out, sizeof out));
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(out, "gateway: network 1, 0 routed sessions running"),
 				     out);
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(out, "SDO   sessions"), out);
@@ -1126,6 +1136,18 @@ static void test_mailbox_client_reaches_any_network(void)
 						   sizeof buf, &len, 30000, &abort));
 	TEST_ASSERT_EQUAL_UINT(sizeof data, len);
 	TEST_ASSERT_EQUAL_MEMORY(data, buf, sizeof data);
+	/* the same with cogwctl sdo --net (a mailbox client too) */
+	static char out[4096];
+	TEST_ASSERT_EQUAL_INT_MESSAGE(
+		0,
+		ctl_capture("sdo write 0 5 2200 0 hex 'de ad be ef 01' --net 3", out, sizeof out),
+		out);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(
+		0, ctl_capture("sdo read 1 5 2200 0 hex --net 3", out, sizeof out), out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(out, "de ad be ef 01"), out);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(
+		1, ctl_capture("sdo read 0 5 1000 0 u32 --net 9", out, sizeof out), out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(out, "0x0A000001"), out);
 	/* no route */
 	TEST_ASSERT_EQUAL_INT(COGW_E_ABORT,
 			      cogw_sdo_read_net(h, 0, 9, TGT_NODE, 0x1000, 0, NULL, buf, sizeof buf,
