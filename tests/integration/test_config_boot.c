@@ -290,6 +290,31 @@ static void test_dcf_downloaded_during_boot(void)
 	TEST_ASSERT_EQUAL_INT(2, ctl_run("configure 0 128")->exit);
 	TEST_ASSERT_EQUAL_INT(2, ctl_run("configure 0")->exit);
 	TEST_ASSERT_TRUE(wait_state("operational", 20000));
+
+	/* a new configuration written into the manager's 1F22h:1 over the
+	 * mailbox (with a new expected date, else 1020h would still match),
+	 * then configured: downloaded; a value that is no concise DCF is
+	 * refused */
+	static const uint8_t hb650[] = { 0x01, 0, 0, 0, 0x17, 0x10, 0, 0x02, 0, 0, 0, 0x8A, 0x02 };
+	char cdc[200];
+	snprintf(cdc, sizeof cdc, "%s/hb650.cdc", dmn.dir);
+	FILE *f = fopen(cdc, "wb");
+	TEST_ASSERT_NOT_NULL(f);
+	TEST_ASSERT_EQUAL_size_t(sizeof hb650, fwrite(hb650, 1, sizeof hb650, f));
+	fclose(f);
+	ctl_run("od write 0 1F22 1 domain 01000000171000");
+	TEST_ASSERT_EQUAL_INT(1, res.exit);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "06090030"), res.err);
+	ctl_run("od write 0 1F22 1 domain @%s", cdc);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("od write 0 1F26 1 u32 15001")->exit);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, ctl_run("configure 0 1")->exit, res.err);
+	back = false;
+	for (uint64_t until = mono_ms() + 20000; !back && mono_ms() < until; sleep_ms(250))
+		back = wait_state("operational", 1000) && read_value("1017", "0", "u16") == 650 &&
+		       read_value("1020", "1", "u32") == 15001;
+	TEST_ASSERT_TRUE_MESSAGE(back, "1F22h:1 written over the mailbox was not downloaded");
+	TEST_ASSERT_TRUE(file_wait_contains(dmn.log_path, "node 1: configured (1 entries)", 2000));
 }
 
 /* 20 entries as the transducer takes them: heartbeat, TPDO 1 disabled,
