@@ -310,6 +310,7 @@ install: all
 	sed 's|/usr/local/bin/cogwd|$(PREFIX)/bin/cogwd|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogwd.service \
 		> $(DESTDIR)$(UNITDIR)/cogwd.service
 	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw.json || install -m 644 etc/cogw.json $(DESTDIR)$(SYSCONFDIR)/cogw/cogw.json
+	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/transducer.dcf || install -m 644 etc/transducer.dcf $(DESTDIR)$(SYSCONFDIR)/cogw/transducer.dcf
 
 deps:
 	scripts/deps.sh

@@ -74,7 +74,9 @@ explain "No --config: cogwd runs on the configuration compiled into it (etc/cogw
 explain "3 lines vcan0..vcan2, its own node-ID 127 on each, on line 0 an RPDO that"
 explain "receives the transducer's TPDO into object B000h) with a CiA 302-2 manager on"
 explain "lines 0 and 1: node 1 on line 0 and node 2 on line 1 are mandatory, their"
-explain "identity is checked against 1018h, their heartbeats are supervised. --state-dir"
+explain "identity is checked against 1018h, their heartbeats are supervised. Node 1 also"
+explain "gets a configuration (CiA 302-3) from the DCF file etc/transducer.dcf, converted"
+explain "to a concise DCF when cogwd loads its configuration. --state-dir"
 explain "only moves where 1010h \"save\" would write, into /tmp (the rest of this machine"
 explain "is read-only in the VM)."
 printf '\n$ cogwd --state-dir %s\n' "$work/state"
@@ -92,8 +94,9 @@ explain "vcan0: the pressure transducer of seed 004, node 1. It sends its pressu
 explain "       (REAL32, PSI) in TPDO 1 (COB-ID 181h) once a second while OPERATIONAL."
 explain "vcan1: a CiA 401-style I/O module, node 2."
 explain "Their boot-up messages make the managers boot them: device type 1000h,"
-explain "identity 1018h, error control, then NMT start. The boot events, as any client"
-explain "sees them (cogwctl monitor --class boot,manager):"
+explain "identity 1018h, node 1's configuration download, error control, then NMT"
+explain "start. The boot events, as any client sees them (cogwctl monitor --class"
+explain "boot,manager):"
 "$bin/cogwctl" monitor --class boot,manager --duration 6 >"$work/boot.txt" 2>&1 &
 mon_pid=$!
 sleep 0.5
@@ -105,9 +108,26 @@ wait "$mon_pid" || true
 cat "$work/boot.txt"
 grep -q "node 1 boot start ok: booted" "$work/boot.txt" || fail "node 1 was not booted by the manager"
 grep -q "node 2 boot start ok: booted" "$work/boot.txt" || fail "node 2 was not booted by the manager"
+grep -q "node 1 boot configure ok: [0-9]* concise DCF entries downloaded" "$work/boot.txt" ||
+	fail "node 1's configuration was not downloaded during its boot"
 printf '   started: cosim on vcan0 (pid %s), cosim on vcan1 (pid %s)\n' "${pids[1]}" "${pids[2]}"
 ctl manager 0
 ctl diag 0 1
+
+say "3b. The transducer's configuration came from a DCF file"
+explain "The \"configure\" step above wrote what etc/transducer.dcf holds into node 1,"
+explain "entry by entry, as cogwctl shows offline (the same conversion cogwd made):"
+ctl dcf check etc/transducer.dcf --list --node 1
+explain "" "Read back from the device: its heartbeat time 1017h (the device's own default"
+explain "is 1000 ms), its TPDO 1 event timer 1800h:5 (default 1000 ms), and 1020h, the"
+explain "configuration date/time the manager wrote after the download (a later boot with"
+explain "the same 1020h skips the download):"
+ctl sdo read 0 1 1017 0 u16 | tee "$work/hb.txt"
+ctl sdo read 0 1 1800 5 u16 | tee "$work/et.txt"
+ctl sdo read 0 1 1020 1 u32
+ctl sdo read 0 1 1020 2 u32
+grep -q "= 500\b" "$work/hb.txt" || fail "node 1's heartbeat time is not the DCF's 500 ms"
+grep -q "= 500\b" "$work/et.txt" || fail "node 1's TPDO 1 event timer is not the DCF's 500 ms"
 
 say "4. The node table"
 explain "Clients never touch CAN: cogwctl asks the daemon through its mailbox."
@@ -135,12 +155,12 @@ set -e
 explain "(exit status $rc, as expected)"
 
 say "6. An SDO write: the transducer's heartbeat time 1017h"
-explain "Faster heartbeats from node 1: 500 ms instead of 1000 ms, then read back."
-ctl sdo write 0 1 1017 0 u16 500
+explain "Faster heartbeats from node 1: 250 ms instead of the DCF's 500 ms, then read back."
+ctl sdo write 0 1 1017 0 u16 250
 ctl sdo read 0 1 1017 0 u16
 explain "" "The heartbeats (700h + 1) on line 0 for 2 seconds, as raw frames the daemon receives:"
 ctl raw dump 0 701 --duration 2
-explain "(about 4 frames: one every 500 ms now)"
+explain "(about 8 frames: one every 250 ms now)"
 
 say "7. Live pressure: PDO events"
 explain "PDOs only run in OPERATIONAL. The manager started node 1 and the daemon's own"
@@ -216,8 +236,10 @@ say "Summary ($((SECONDS - t_start)) s)"
 explain "- cogwd drove 3 CAN lines; its CiA 302-2 managers booted the two simulated"
 explain "  devices by themselves when they were switched on (device type, identity,"
 explain "  heartbeat, NMT start: step 3) and supervise their heartbeats (step 4)."
+explain "- During its boot the transducer got its heartbeat time and TPDO 1 settings from"
+explain "  etc/transducer.dcf (CiA 302-3 configuration download, step 3b)."
 explain "- cogwctl read the transducer's identity 1018h and name 1008h over SDO, showed an"
-explain "  SDO abort with its meaning, and set its heartbeat time 1017h to 500 ms."
+explain "  SDO abort with its meaning, and set its heartbeat time 1017h to 250 ms."
 explain "- Started by the manager, the transducer sent $n_pdo pressure PDOs as live events (step 7)."
 explain "- As a gateway (step 8) cogwd relayed an SDO request entering on vcan0 to node 2 on"
 explain "  vcan1, forwarded an EMCY from vcan0 to vcan1, and the pressure by PDO to vcan1."

@@ -62,9 +62,10 @@ static void usage(FILE *to)
 static int load_config(daemon_state *d, cogw_config *cfg)
 {
 	char err[512];
-	int rc = d->config_path ? cogw_config_load_file(cfg, d->config_path, err, sizeof err)
-				: cogw_config_load_string(cfg, cogw_default_config_json,
-							  "<embedded default>", err, sizeof err);
+	int rc = d->config_path
+			 ? cogw_config_load_file(cfg, d->config_path, err, sizeof err)
+			 : cogw_config_load_string(cfg, cogw_default_config_json,
+						   COGW_DEFAULT_CONFIG_SOURCE, err, sizeof err);
 	if (rc < 0) {
 		cogw_log(COGW_LOG_ERR, "%s", err);
 		return rc;

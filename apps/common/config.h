@@ -152,6 +152,10 @@ typedef struct cogw_config {
 
 /* The configuration compiled into cogwd (etc/cogw.json at build time). */
 extern const char cogw_default_config_json[];
+/* Its source name for cogw_config_load_string: the files it names (the
+ * demo transducer's DCF) are taken from etc/ below the working directory,
+ * as if etc/cogw.json were loaded from the source tree. */
+#define COGW_DEFAULT_CONFIG_SOURCE "etc/cogw.json (embedded default)"
 
 /* Parse and validate. On error returns -EINVAL (or -ENOENT/-EIO/-ENOMEM
  * for the file) and writes one line "source: path: reason" into err.

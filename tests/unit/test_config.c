@@ -56,6 +56,16 @@ static void load_ok(const char *json)
 	TEST_ASSERT_EQUAL_INT(0, rc);
 }
 
+/* The embedded default, as cogwd loads it (its DCF from etc/). */
+static void load_default(void)
+{
+	int rc = cogw_config_load_string(&cfg, cogw_default_config_json, COGW_DEFAULT_CONFIG_SOURCE,
+					 err, sizeof(err));
+
+	TEST_ASSERT_EQUAL_STRING("", err);
+	TEST_ASSERT_EQUAL_INT(0, rc);
+}
+
 static uint64_t raw(const co_od *od, uint16_t index, uint8_t sub)
 {
 	co_od_entry *e = co_od_find(od, index, sub);
@@ -72,7 +82,7 @@ static void test_embedded_default_parses(void)
 	char name[80];
 	uint32_t len;
 
-	load_ok(cogw_default_config_json);
+	load_default();
 	TEST_ASSERT_EQUAL_size_t(3, cfg.n_lines);
 	TEST_ASSERT_EQUAL_STRING("/var/lib/cogw", cfg.state_dir);
 	TEST_ASSERT_EQUAL_STRING("main", cfg.mailbox.instance);
@@ -679,10 +689,11 @@ static void test_reload_check(void)
 	cogw_config next;
 	char what[256];
 
-	load_ok(cogw_default_config_json);
+	load_default();
 	memset(&next, 0, sizeof(next));
-	TEST_ASSERT_EQUAL_INT(0, cogw_config_load_string(&next, cogw_default_config_json, "next",
-							 err, sizeof(err)));
+	TEST_ASSERT_EQUAL_INT(0, cogw_config_load_string(&next, cogw_default_config_json,
+							 COGW_DEFAULT_CONFIG_SOURCE, err,
+							 sizeof(err)));
 	TEST_ASSERT_TRUE(cogw_config_reload_check(&cfg, &next, what, sizeof(what)));
 	TEST_ASSERT_EQUAL_STRING("", what);
 	cogw_config_free(&next);

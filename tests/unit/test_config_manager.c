@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "apps/common/config.h"
+#include "core/cdcf.h"
 #include "core/manager.h"
 #include "core/nmt.h"
 #include "core/od.h"
@@ -236,6 +237,23 @@ static void test_default_configuration(void)
 	TEST_ASSERT_FALSE(cfg.lines[2].manager.enabled);
 	TEST_ASSERT_EQUAL_HEX64(0x250, raw(cfg.lines[0].od, 0x1F85, 1));
 	TEST_ASSERT_EQUAL_HEX64(0x1234, raw(cfg.lines[1].od, 0x1F85, 2));
+	/* the transducer's configuration from etc/transducer.dcf (CiA 302-3),
+	 * with the date/time its 1020h is compared with */
+	const cogw_node_config *nc = &cfg.lines[0].nodes[0].config;
+	TEST_ASSERT_EQUAL_STRING("etc/transducer.dcf", nc->file);
+	TEST_ASSERT_TRUE(nc->entries >= 5);
+	TEST_ASSERT_EQUAL_UINT64(15300, raw(cfg.lines[0].od, 0x1F26, 1));
+	TEST_ASSERT_EQUAL_UINT64(43200000, raw(cfg.lines[0].od, 0x1F27, 1));
+	co_cdcf_iter it;
+	co_cdcf_entry e;
+	bool heartbeat = false, event_timer = false;
+	TEST_ASSERT_EQUAL_INT(0, co_cdcf_iter_init(&it, nc->cdcf, nc->cdcf_len, NULL));
+	while (co_cdcf_iter_next(&it, &e)) {
+		heartbeat |= e.index == 0x1017 && e.sub == 0 && e.size == 2 && e.data[0] == 0xF4;
+		event_timer |= e.index == 0x1800 && e.sub == 5 && e.size == 2 && e.data[0] == 0xF4;
+	}
+	TEST_ASSERT_TRUE_MESSAGE(heartbeat, "no 1017h = 500 in the concise DCF");
+	TEST_ASSERT_TRUE_MESSAGE(event_timer, "no 1800h:5 = 500 in the concise DCF");
 }
 
 int main(void)
