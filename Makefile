@@ -69,11 +69,14 @@ SAN_PROGRAM_BINS := $(addprefix $(SAN)/bin/,$(PROGRAMS))
 UNIT_BINS  := $(patsubst tests/unit/%.c,$(SAN)/tests/unit/%,$(UNIT_SRC))
 INTEG_BINS := $(patsubst tests/integration/%.c,$(SAN)/tests/integration/%,$(INTEG_SRC))
 # ThreadSanitizer: tests/tsan/test_*.c, linked with the modules threads share
-# (TSAN_LIB_SRC), all compiled with -fsanitize=thread.
+# (TSAN_LIB_SRC) and core/ as an archive (only what they call is pulled in),
+# all compiled with -fsanitize=thread.
 TSAN := build/tsan
 TSAN_CFLAGS := $(BASE) -O1 -g -fno-omit-frame-pointer -fsanitize=thread
 TSAN_SRC := $(sort $(wildcard tests/tsan/test_*.c))
-TSAN_LIB_SRC := lines/xring.c mailbox/proto.c mailbox/client.c mailbox/server.c mailbox/budget.c
+TSAN_LIB_SRC := lines/xring.c mailbox/proto.c mailbox/client.c mailbox/server.c mailbox/budget.c \
+		gateway/image.c
+TSAN_CORE_LIB := $(TSAN)/lib/libcogw-core.a
 TSAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_SRC))
 BENCH_BINS := $(patsubst tests/bench/%.c,$(REL)/tests/bench/%,$(BENCH_SRC))
 
@@ -173,7 +176,11 @@ $(TSAN)/obj/unity.o: $(UNITY_SRC)/unity.c
 	@mkdir -p $(@D)
 	$(CC) -std=gnu11 -O1 -g $(UNITY_CFLAGS) -fsanitize=thread -c $< -o $@
 
-$(TSAN)/tests/tsan/%: $(TSAN)/obj/tests/tsan/%.o $(call obj,$(TSAN),$(TSAN_LIB_SRC)) $(TSAN)/obj/unity.o
+$(TSAN_CORE_LIB): $(call obj,$(TSAN),$(CORE_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+$(TSAN)/tests/tsan/%: $(TSAN)/obj/tests/tsan/%.o $(call obj,$(TSAN),$(TSAN_LIB_SRC)) $(TSAN)/obj/unity.o $(TSAN_CORE_LIB)
 	@mkdir -p $(@D)
 	$(CC) -fsanitize=thread -o $@ $^ -lrt -lpthread
 
