@@ -8,7 +8,8 @@
  *     (REAL32 parameters 2000h:1..20, five rounds: 100 expedited SDO
  *     downloads, 200 frames);
  *   - figure: the configuration download time of 1 node, and of 16 nodes
- *     booting in parallel (first download started to last one ended), from
+ *     booting in parallel (first download started to last one ended), the
+ *     best of 3 boots (fresh daemon and devices each time), from
  *     the manager's boot events on the mailbox: the event that precedes the
  *     node's configure step (its last identity check) to its "configure
  *     passed" event;
@@ -295,11 +296,29 @@ out:
 	return span;
 }
 
+/* The best of a few boots, each with a fresh daemon and devices: the
+ * first run of a code path in the software-emulated VM pays for its
+ * translation (the first transfers of a cold boot took ms each where the
+ * later ones took 0.5 ms), which is not the download's cost. */
+static double boot_best_s(unsigned nodes, const char *cdc, int rounds, double *mean, double *worst)
+{
+	double best = -1;
+	for (int r = 0; r < rounds; r++) {
+		double m = 0, w = 0, span = measure_boot(nodes, cdc, &m, &w);
+		if (span > 0 && (best < 0 || span < best)) {
+			best = span;
+			*mean = m;
+			*worst = w;
+		}
+	}
+	return best;
+}
+
 static int figure(unsigned nodes, const char *cdc, int rounds)
 {
 	char name[128], base[128];
 	double raw = raw_best_s(nodes, rounds), mean = 0, worst = 0;
-	double span = measure_boot(nodes, cdc, &mean, &worst);
+	double span = boot_best_s(nodes, cdc, 3, &mean, &worst);
 	if (raw <= 0 || span <= 0)
 		return -1;
 	snprintf(name, sizeof name, "concise DCF download of %u entries, %u node%s booting%s",
@@ -317,8 +336,9 @@ static int figure(unsigned nodes, const char *cdc, int rounds)
 					    .verdict = bench_verdict(span <= 1.5 * raw) });
 	/* an 8-byte frame with an 11-bit id: 111 bits plus stuff bits (at most
 	 * 24 in the stuffed part), so ~125 us at 1 Mbit/s */
-	bench_note("%u node%s: per node %.1f ms on average, %.1f ms at worst (%.0f us per entry); "
-		   "raw: best of %d exchanges, %.0f us per round trip and node; the %u frames "
+	bench_note("%u node%s: best of 3 boots, per node %.1f ms on average, %.1f ms at worst "
+		   "(%.0f us per entry); raw: best of %d exchanges, %.0f us per round trip and "
+		   "node; the %u frames "
 		   "would take %.1f ms on a real 1 Mbit/s bus (about 125 us each)",
 		   nodes, nodes == 1 ? "" : "s", mean * 1e3, worst * 1e3, mean * 1e6 / ENTRIES,
 		   rounds, raw * 1e6 / ENTRIES, 2 * ENTRIES * nodes, 2.0 * ENTRIES * nodes * 0.125);
