@@ -49,6 +49,42 @@ static bool queue_exists(const char *name)
 	return true;
 }
 
+/* Is name (after "cogw.<instance>.") a client queue "c<pid>.<rand>.resp|evt"
+ * of a process that is still alive? */
+static bool live_client_queue(const char *rest)
+{
+	int pid = 0;
+	return sscanf(rest, "c%d.", &pid) == 1 && pid > 0 && (kill(pid, 0) == 0 || errno != ESRCH);
+}
+
+/* Remove /dev/mqueue/cogw.<instance>.*; with keep_live_clients not the
+ * queues of a client process that is still alive. */
+static void unlink_queues(const char *instance, bool keep_live_clients)
+{
+	char prefix[64];
+	snprintf(prefix, sizeof prefix, "cogw.%s.", instance);
+	size_t plen = strlen(prefix);
+	DIR *dir = opendir("/dev/mqueue");
+	if (!dir)
+		return;
+	struct dirent *e;
+	while ((e = readdir(dir)) != NULL) {
+		if (strncmp(e->d_name, prefix, plen) != 0)
+			continue;
+		if (keep_live_clients && live_client_queue(e->d_name + plen))
+			continue;
+		char name[300];
+		snprintf(name, sizeof name, "/%s", e->d_name);
+		mq_unlink(name);
+	}
+	closedir(dir);
+}
+
+void daemon_unlink_queues(const char *instance)
+{
+	unlink_queues(instance, false);
+}
+
 int daemon_start(daemon_run *d, const daemon_opts *opts)
 {
 	memset(d, 0, sizeof *d);
@@ -77,9 +113,14 @@ int daemon_start(daemon_run *d, const daemon_opts *opts)
 		snprintf(d->config_path, sizeof d->config_path, "%s", opts->config_file);
 	}
 
-	/* A stale queue of an earlier failed run would make the wait below
-	 * succeed before the daemon is up (and the daemon may refuse it). */
-	daemon_unlink_queues(d->instance);
+	/* A stale command queue of an earlier failed run would make the wait
+	 * below succeed before the daemon is up (and the daemon may refuse
+	 * it); a dead client's queues are litter. A live client's queues
+	 * stay: a client of the previous daemon carries on across a restart
+	 * (test_daemon_system: a client survives a daemon kill and restart),
+	 * as it does when systemd restarts cogwd; unlinked, the new daemon
+	 * cannot open them to answer the client's new REGISTER. */
+	unlink_queues(d->instance, true);
 
 	const char *argv[32];
 	size_t argc = 0;
@@ -412,23 +453,4 @@ int daemon_leftovers(const char *instance, const pid_t *pids, size_t n_pids, cha
 	}
 #undef REPORT
 	return count;
-}
-
-void daemon_unlink_queues(const char *instance)
-{
-	char prefix[64];
-	snprintf(prefix, sizeof prefix, "cogw.%s.", instance);
-	size_t plen = strlen(prefix);
-	DIR *dir = opendir("/dev/mqueue");
-	if (!dir)
-		return;
-	struct dirent *e;
-	while ((e = readdir(dir)) != NULL) {
-		if (strncmp(e->d_name, prefix, plen) != 0)
-			continue;
-		char name[300];
-		snprintf(name, sizeof name, "/%s", e->d_name);
-		mq_unlink(name);
-	}
-	closedir(dir);
 }
