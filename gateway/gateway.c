@@ -130,6 +130,9 @@ struct gw_line {
 	 * then applies the image's latest value - a lost update is counted
 	 * but the last value still arrives. */
 	_Atomic uint64_t *resync;
+	/* Slots where a resync applied a value newer than messages that may
+	 * still be queued (this line's own, resync_words long). */
+	uint64_t *ahead;
 	size_t resync_words;
 	bool fwd_dirty;
 	uint64_t next_rebuild_us;
@@ -444,6 +447,13 @@ static void emcy_send(struct gw_line *gl, const gw_msg *m)
 
 /* ---- PDO forwarding ---------------------------------------------------------------------- */
 
+/* The next wake of line `to` applies the image's value of slot. */
+static void resync_mark(struct gw_line *to, int slot)
+{
+	atomic_fetch_or_explicit(&to->resync[slot / 64], (uint64_t)1 << (slot % 64),
+				 memory_order_release);
+}
+
 /* A B-object of this line's OD was written - by an RPDO, over SDO or by a
  * mailbox client (its after_write hook): into the shared image, and to
  * every other line whose TPDOs map it. */
@@ -468,8 +478,7 @@ static void image_written(void *ctx, co_od_entry *e, const co_od_access *a)
 			continue;
 		if (send_to(gl, j, &m)) {
 			COUNT(gl->c.pdo_dropped);
-			atomic_fetch_or_explicit(&g->line[j].resync[slot / 64],
-						 (uint64_t)1 << (slot % 64), memory_order_release);
+			resync_mark(&g->line[j], slot);
 		} else {
 			COUNT(gl->c.pdo_forwarded);
 		}
@@ -480,21 +489,46 @@ static const co_od_hooks image_hooks = {
 	.after_write = image_written,
 };
 
-static void pdo_apply(struct gw_line *gl, int slot, uint64_t bits, uint64_t now_us)
+/* only_if_changed: a resync, which must not trigger a TPDO for a value
+ * this line already holds. Returns whether the value was stored. */
+static bool pdo_apply(struct gw_line *gl, int slot, uint64_t bits, bool only_if_changed,
+		      uint64_t now_us)
 {
 	const gw_image_slot *s = gw_image_slot_at(gl->g->img, slot);
 	uint8_t buf[8];
 	co_od_entry *e;
 
 	if (!s || !(e = co_od_find(co_node_od(gl->node), s->index, s->sub)))
-		return;
+		return false;
 	gw_image_bits_to(bits, buf, s->size);
+	if (only_if_changed && e->size == s->size && memcmp(e->data, buf, s->size) == 0)
+		return false;
 	/* The store runs no hook: the update does not come back as ours. */
 	if (co_od_entry_set_bytes(e, buf, s->size))
-		return;
+		return false;
 	COUNT(gl->c.pdo_applied);
 	if (co_pdo_object_changed(gl->node, s->index, s->sub, now_us) > 0)
 		COUNT(gl->c.pdo_triggered);
+	return true;
+}
+
+/* An update from another line. A resync may already have applied a newer
+ * value than this message, queued before it: then, while the image holds
+ * another value, the resync after the rings puts the newest one back
+ * (else this line would keep the older one until the object changes
+ * again). Without a resync before, the message is the newest this line
+ * can know of, and no extra apply (nor TPDO) happens. */
+static void pdo_fwd_received(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
+{
+	uint64_t bit = (uint64_t)1 << (m->slot % 64);
+
+	pdo_apply(gl, m->slot, m->bits, false, now_us);
+	if (m->slot >= gw_image_count(gl->g->img) || !(gl->ahead[m->slot / 64] & bit))
+		return;
+	if (gw_image_read(gl->g->img, m->slot) == m->bits)
+		gl->ahead[m->slot / 64] &= ~bit; /* caught up */
+	else
+		resync_mark(gl, m->slot);
 }
 
 /* Updates lost on the way here: apply the latest value of each. */
@@ -509,7 +543,8 @@ static void pdo_resync(struct gw_line *gl, uint64_t now_us)
 		while (bits) {
 			int slot = (int)(w * 64 + (size_t)__builtin_ctzll(bits));
 			bits &= bits - 1;
-			pdo_apply(gl, slot, gw_image_read(gl->g->img, slot), now_us);
+			if (pdo_apply(gl, slot, gw_image_read(gl->g->img, slot), true, now_us))
+				gl->ahead[w] |= (uint64_t)1 << (slot % 64);
 		}
 	}
 }
@@ -859,7 +894,8 @@ static int ext_attach(void *ctx, line *l)
 		return rc;
 	gl->resync_words = (gw_image_count(gl->g->img) + 63) / 64;
 	gl->resync = calloc(gl->resync_words ? gl->resync_words : 1, sizeof(*gl->resync));
-	if (!gl->resync)
+	gl->ahead = calloc(gl->resync_words ? gl->resync_words : 1, sizeof(*gl->ahead));
+	if (!gl->resync || !gl->ahead)
 		return -ENOMEM;
 	gw_fwd_list_rebuild(&gl->fwd, gl->g->img, od);
 	gl->n_sess = sdo_server_channel_count(gl->node);
@@ -909,6 +945,8 @@ static void ext_detach(void *ctx, line *l)
 	gw_fwd_list_fini(&gl->fwd);
 	free((void *)gl->resync);
 	gl->resync = NULL;
+	free(gl->ahead);
+	gl->ahead = NULL;
 	gl->resync_words = 0;
 }
 
@@ -946,7 +984,7 @@ static void handle(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 		/* The value this update carried, in the order the source wrote
 		 * them: each gets its own TPDO when the TPDO's timing allows
 		 * one (an inhibit time sends the latest at its end). */
-		pdo_apply(gl, m->slot, m->bits, now_us);
+		pdo_fwd_received(gl, m, now_us);
 		break;
 	case M_EMCY:
 		emcy_send(gl, m);
