@@ -27,6 +27,7 @@
 #include <grp.h>
 #include <linux/can.h>
 #include <mqueue.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -438,6 +439,54 @@ static long daemon_status_kb(pid_t pid, const char *name)
 			break;
 	fclose(f);
 	return kb;
+}
+
+/* ---- issue 11 item 3: a client carries on after the daemon is killed and
+ * restarted (the systemd watchdog's restart) ---------------------------------- */
+
+static int in_flight_rc;
+
+/* An SDO upload from node 5, which nobody plays: under way for seconds. */
+static void *sdo_in_flight(void *arg)
+{
+	uint8_t buf[8];
+	size_t len = 0;
+	uint32_t abort = 0;
+	cogw_sdo_opts o = { .sdo_timeout_ms = 8000 };
+	(void)arg;
+	in_flight_rc = cogw_sdo_read_ex(client, 0, 5, 0x1000, 0, &o, buf, sizeof buf, &len, 30000,
+					&abort);
+	return NULL;
+}
+
+static void test_client_survives_a_daemon_kill_and_restart(void)
+{
+	char json[4096];
+	cfg_params p = { .instance = "sys1r",
+			 .n_lines = 1,
+			 .line0 = "\"objects\": [{\"index\": \"0x2000\", \"type\": "
+				  "\"UNSIGNED16\", \"default\": 7}], " };
+	config_text(json, sizeof json, &p);
+	start_daemon(&d, json, "sys1r", 1, 0, NULL);
+	open_client("sys1r");
+	TEST_ASSERT_EQUAL_UINT16(7, od_read_u16(client, 0x2000));
+	pthread_t t;
+	TEST_ASSERT_EQUAL_INT(0, pthread_create(&t, NULL, sdo_in_flight, NULL));
+	struct timespec ts = { 0, 500 * 1000000L };
+	nanosleep(&ts, NULL); /* the upload is under way */
+	/* killed, as a watchdog restart or a crash ends it: nothing cleaned up */
+	kill(d.pid, SIGKILL);
+	int st = 0;
+	TEST_ASSERT_EQUAL_INT(0, wait_exit(d.pid, 5000, &st));
+	d.pid = 0;
+	start_daemon(&d2, json, "sys1r", 1, 0, d.state_dir);
+	pthread_join(t, NULL);
+	/* the request under way: one clear error, long before its timeout */
+	TEST_ASSERT_EQUAL_INT_MESSAGE(COGW_E_RESTARTED, in_flight_rc, cogw_strerror(in_flight_rc));
+	/* then normal service, on a new registration, as before */
+	TEST_ASSERT_EQUAL_UINT16(7, od_read_u16(client, 0x2000));
+	od_write_u16(client, 0x2000, 9);
+	TEST_ASSERT_EQUAL_UINT16(9, od_read_u16(client, 0x2000));
 }
 
 /* ---- issue 11 items 5 and 9: transfers that are never acknowledged, the
@@ -2080,6 +2129,7 @@ int main(void)
 	RUN_TEST(test_special_files_do_not_block);
 	RUN_TEST(test_memory_locked_by_need_and_reported);
 	RUN_TEST(test_transfers_never_acknowledged_and_the_memory_budget);
+	RUN_TEST(test_client_survives_a_daemon_kill_and_restart);
 	RUN_TEST(test_store_restore_survives_restart);
 	RUN_TEST(test_store_takes_effect_at_reset);
 	RUN_TEST(test_restore_takes_effect_at_reset);
