@@ -30,7 +30,9 @@ GATEWAY_SRC := $(sort $(wildcard gateway/*.c))
 APPCOMMON_SRC := $(sort $(wildcard apps/common/*.c))
 # Generated at build time, never committed: etc/cogw.json as a C string.
 GEN := build/gen
-APPCOMMON_GEN := $(GEN)/default_config.c
+APPCOMMON_GEN := $(GEN)/default_config.c $(GEN)/default_files.c
+# files the embedded default configuration names (node configurations)
+DEFAULT_FILES := $(sort $(wildcard etc/*.dcf))
 PROGRAMS    := $(notdir $(patsubst %/main.c,%,$(wildcard apps/*/main.c)))
 UNIT_SRC    := $(sort $(wildcard tests/unit/test_*.c))
 UNIT_SUP    := $(sort $(wildcard tests/unit/support/*.c))
@@ -232,13 +234,28 @@ format:
 # ---- generated sources -----------------------------------------------------------
 # cogw_default_config_json[]: the bytes of etc/cogw.json plus a NUL, written with
 # od(1) so that no xxd is needed.
-$(APPCOMMON_GEN): etc/cogw.json
+$(GEN)/default_config.c: etc/cogw.json
 	@mkdir -p $(@D)
 	{ echo '/* generated from etc/cogw.json by make: do not edit */'; \
 	  echo '#include "apps/common/config.h"'; \
 	  echo 'const char cogw_default_config_json[] = {'; \
 	  od -An -v -tx1 $< | sed -e 's/\([0-9a-f][0-9a-f]\)/0x\1,/g'; \
 	  echo '0x00 };'; } > $@.tmp && mv $@.tmp $@
+
+# cogw_default_files[]: the files etc/cogw.json names, compiled in with it so
+# that the embedded default needs nothing from the working directory.
+$(GEN)/default_files.c: $(DEFAULT_FILES)
+	@mkdir -p $(@D)
+	{ echo '/* generated from $(DEFAULT_FILES) by make: do not edit */'; \
+	  echo '#include "apps/common/config.h"'; \
+	  i=0; for f in $(DEFAULT_FILES); do \
+	    echo "static const char file$$i[] = {"; \
+	    od -An -v -tx1 $$f | sed -e 's/\([0-9a-f][0-9a-f]\)/0x\1,/g'; \
+	    echo '0x00 };'; i=$$((i + 1)); done; \
+	  echo 'const cogw_embedded_file cogw_default_files[] = {'; \
+	  i=0; for f in $(DEFAULT_FILES); do \
+	    echo "{ \"$${f#etc/}\", file$$i, sizeof(file$$i) - 1 },"; i=$$((i + 1)); done; \
+	  echo '{ 0, 0, 0 } };'; } > $@.tmp && mv $@.tmp $@
 
 # ---- fuzz targets (libFuzzer; only where clang is installed) ---------------------
 # tests/fuzz/fuzz_<name>.c -> build/fuzz/fuzz_<name>, linked with the core and

@@ -129,7 +129,8 @@ static const uint32_t cia_bitrates[] = { 10000,  20000,  50000,  125000,
 /* Everything a load needs, passed down instead of a dozen parameters. */
 struct ctx {
 	const char *source;
-	char base_dir[256]; /* directory of the source file ("" = cwd) */
+	char base_dir[256];              /* directory of the source file ("" = cwd) */
+	const cogw_embedded_file *files; /* the embedded default's own files */
 	char *err;
 	size_t errlen;
 	char msg[512]; /* "path: reason" before the source is prefixed */
@@ -1087,8 +1088,8 @@ static int parse_nodes(struct ctx *c, const cJSON *v, const char *path, cogw_lin
 		if (!x)
 			continue;
 		json_util_path_key(p, sizeof(p), np, "config");
-		if ((rc = cogw_node_config_parse(x, p, n->id, c->base_dir, &n->config, c->msg,
-						 sizeof(c->msg))))
+		if ((rc = cogw_node_config_parse(x, p, n->id, c->base_dir, c->files, &n->config,
+						 c->msg, sizeof(c->msg))))
 			return rc;
 	}
 	return 0;
@@ -1347,6 +1348,8 @@ int cogw_config_load_string(cogw_config *cfg, const char *json, const char *sour
 	if (source_name && strrchr(source_name, '/'))
 		snprintf(c.base_dir, sizeof(c.base_dir), "%.*s",
 			 (int)(strrchr(source_name, '/') - source_name), source_name);
+	if (source_name && !strcmp(source_name, COGW_DEFAULT_CONFIG_SOURCE))
+		c.files = cogw_default_files;
 	if (err && errlen)
 		err[0] = '\0';
 	rc = json_util_parse(json ? json : "", &root, c.msg, sizeof(c.msg));

@@ -152,10 +152,13 @@ typedef struct cogw_config {
 
 /* The configuration compiled into cogwd (etc/cogw.json at build time). */
 extern const char cogw_default_config_json[];
-/* Its source name for cogw_config_load_string: the files it names (the
- * demo transducer's DCF) are taken from etc/ below the working directory,
- * as if etc/cogw.json were loaded from the source tree. */
+/* Its source name for cogw_config_load_string. Loaded under this name, the
+ * files it names (the demo transducer's DCF) come from cogw_default_files,
+ * compiled in with it from the .dcf files of etc/: a bare cogwd starts from any working
+ * directory. */
 #define COGW_DEFAULT_CONFIG_SOURCE "etc/cogw.json (embedded default)"
+
+extern const cogw_embedded_file cogw_default_files[]; /* ends with name NULL */
 
 /* Parse and validate. On error returns -EINVAL (or -ENOENT/-EIO/-ENOMEM
  * for the file) and writes one line "source: path: reason" into err.

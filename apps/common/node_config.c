@@ -221,8 +221,17 @@ static bool resolve(char *buf, size_t n, const char *base_dir, const char *file)
 	return true;
 }
 
+static const cogw_embedded_file *embedded_find(const cogw_embedded_file *files, const char *name)
+{
+	for (; files && files->name; files++)
+		if (!strcmp(files->name, name))
+			return files;
+	return NULL;
+}
+
 int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
-			   cogw_node_config *nc, char *err, size_t errlen)
+			   const cogw_embedded_file *files, cogw_node_config *nc, char *err,
+			   size_t errlen)
 {
 	const char *srcs[] = { "entries", "dcf", "concise" };
 	const cJSON *src = NULL, *x;
@@ -277,11 +286,14 @@ int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, co
 		return json_util_fail(err, errlen, p, "file name longer than %zu bytes",
 				      sizeof(nc->file) - 1);
 	if (which == 1) {
+		const cogw_embedded_file *f = embedded_find(files, name);
 		eds_stats st;
 
 		nc->source = COGW_NODE_CONFIG_DCF;
-		rc = eds_convert_file(nc->file, node_id, &nc->cdcf, &nc->cdcf_len, &st, why,
-				      sizeof(why));
+		rc = f ? eds_convert(f->data, f->len, nc->file, node_id, &nc->cdcf, &nc->cdcf_len,
+				     &st, why, sizeof(why))
+		       : eds_convert_file(nc->file, node_id, &nc->cdcf, &nc->cdcf_len, &st, why,
+					  sizeof(why));
 		nc->entries = st.entries;
 	} else {
 		nc->source = COGW_NODE_CONFIG_CONCISE;

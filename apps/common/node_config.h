@@ -60,8 +60,18 @@ typedef struct cogw_node_config {
 	uint32_t time;    /* 1F27h: ms after midnight */
 } cogw_node_config;
 
+/* A file compiled into the program (see cogw_default_files). */
+typedef struct cogw_embedded_file {
+	const char *name; /* as the configuration names it, e.g. "transducer.dcf" */
+	const char *data; /* NUL-terminated copy of the bytes */
+	size_t len;
+} cogw_embedded_file;
+
+/* files: where a "dcf" file name is looked up first (the embedded default's
+ * own files), NULL for a configuration read from disk. */
 int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
-			   cogw_node_config *out, char *err, size_t errlen);
+			   const cogw_embedded_file *files, cogw_node_config *out, char *err,
+			   size_t errlen);
 void cogw_node_config_free(cogw_node_config *nc); /* accepts zeroed */
 /* Same source and bytes (what a reload compares). */
 bool cogw_node_config_equal(const cogw_node_config *a, const cogw_node_config *b);

@@ -56,7 +56,7 @@ static void load_ok(const char *json)
 	TEST_ASSERT_EQUAL_INT(0, rc);
 }
 
-/* The embedded default, as cogwd loads it (its DCF from etc/). */
+/* The embedded default, as cogwd loads it (its DCF compiled in with it). */
 static void load_default(void)
 {
 	int rc = cogw_config_load_string(&cfg, cogw_default_config_json, COGW_DEFAULT_CONFIG_SOURCE,
@@ -124,6 +124,31 @@ static void test_embedded_default_parses(void)
 	TEST_ASSERT_EQUAL_UINT32(12, len);
 	TEST_ASSERT_EQUAL_MEMORY("cogw gateway", name, 12);
 	TEST_ASSERT_EQUAL_HEX16(CO_ACC_CO, co_od_find(od, 0x1008, 0)->access);
+}
+
+/* A bare cogwd started outside the source tree: the embedded default needs
+ * nothing from the working directory, its node configuration included. */
+static void test_embedded_default_loads_from_any_directory(void)
+{
+	char here[4096];
+	char tmp[] = "/tmp/cogw-cfg-XXXXXX";
+	const cogw_node_config *nc = NULL;
+
+	TEST_ASSERT_NOT_NULL(getcwd(here, sizeof(here)));
+	TEST_ASSERT_NOT_NULL(mkdtemp(tmp));
+	TEST_ASSERT_EQUAL_INT(0, chdir(tmp));
+	int rc = cogw_config_load_string(&cfg, cogw_default_config_json, COGW_DEFAULT_CONFIG_SOURCE,
+					 err, sizeof(err));
+	TEST_ASSERT_EQUAL_INT(0, chdir(here));
+	TEST_ASSERT_EQUAL_INT(0, rmdir(tmp));
+	TEST_ASSERT_EQUAL_STRING("", err);
+	TEST_ASSERT_EQUAL_INT(0, rc);
+	for (size_t i = 0; i < cfg.lines[0].n_nodes; i++) /* the demo transducer */
+		if (cfg.lines[0].nodes[i].config.source == COGW_NODE_CONFIG_DCF)
+			nc = &cfg.lines[0].nodes[i].config;
+	TEST_ASSERT_NOT_NULL_MESSAGE(nc, "the default's transducer has no DCF configuration");
+	TEST_ASSERT_TRUE(nc->entries > 0);
+	TEST_ASSERT_NOT_NULL(nc->cdcf);
 }
 
 static void test_defaults_of_optional_keys(void)
@@ -932,6 +957,7 @@ int main(void)
 	RUN_TEST(test_fifo_config_refused_at_once);
 	RUN_TEST(test_embedded_default_parses);
 	RUN_TEST(test_defaults_of_optional_keys);
+	RUN_TEST(test_embedded_default_loads_from_any_directory);
 	RUN_TEST(test_invalid_json_line_column);
 	RUN_TEST(test_wrong_types);
 	RUN_TEST(test_missing_required_keys);
