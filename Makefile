@@ -77,7 +77,7 @@ TSAN := build/tsan
 TSAN_CFLAGS := $(BASE) -O1 -g -fno-omit-frame-pointer -fsanitize=thread
 TSAN_SRC := $(sort $(wildcard tests/tsan/test_*.c))
 TSAN_LIB_SRC := lines/xring.c mailbox/proto.c mailbox/client.c mailbox/server.c mailbox/budget.c \
-		gateway/image.c
+		gateway/image.c gateway/pdo_sync.c
 TSAN_CORE_LIB := $(TSAN)/lib/libcogw-core.a
 TSAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_SRC))
 BENCH_BINS := $(patsubst tests/bench/%.c,$(REL)/tests/bench/%,$(BENCH_SRC))

@@ -13,7 +13,6 @@
 #include "gateway/gateway.h"
 
 #include <errno.h>
-#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -24,6 +23,7 @@
 #include "core/sdo_server.h"
 #include "gateway/convention.h"
 #include "gateway/image.h"
+#include "gateway/pdo_sync.h"
 #include "gateway/route.h"
 #include "gateway/sdo_route.h"
 #include "lines/line.h"
@@ -125,15 +125,7 @@ struct gw_line {
 	gw_line_params p;
 	gw_route_table routes;
 	gw_fwd_list fwd;
-	/* Slots whose update could not be handed to this line (its ring was
-	 * full): set by the other lines (atomic OR), taken by this one, which
-	 * then applies the image's latest value - a lost update is counted
-	 * but the last value still arrives. */
-	_Atomic uint64_t *resync;
-	/* Slots where a resync applied a value newer than messages that may
-	 * still be queued (this line's own, resync_words long). */
-	uint64_t *ahead;
-	size_t resync_words;
+	gw_pdo_sync lost; /* updates that could not be handed to this line */
 	bool fwd_dirty;
 	uint64_t next_rebuild_us;
 	struct gw_sess *sess;
@@ -447,13 +439,6 @@ static void emcy_send(struct gw_line *gl, const gw_msg *m)
 
 /* ---- PDO forwarding ---------------------------------------------------------------------- */
 
-/* The next wake of line `to` applies the image's value of slot. */
-static void resync_mark(struct gw_line *to, int slot)
-{
-	atomic_fetch_or_explicit(&to->resync[slot / 64], (uint64_t)1 << (slot % 64),
-				 memory_order_release);
-}
-
 /* A B-object of this line's OD was written - by an RPDO, over SDO or by a
  * mailbox client (its after_write hook): into the shared image, and to
  * every other line whose TPDOs map it. */
@@ -478,7 +463,7 @@ static void image_written(void *ctx, co_od_entry *e, const co_od_access *a)
 			continue;
 		if (send_to(gl, j, &m)) {
 			COUNT(gl->c.pdo_dropped);
-			resync_mark(&g->line[j], slot);
+			gw_pdo_sync_mark(&g->line[j].lost, slot);
 		} else {
 			COUNT(gl->c.pdo_forwarded);
 		}
@@ -512,41 +497,20 @@ static bool pdo_apply(struct gw_line *gl, int slot, uint64_t bits, bool only_if_
 	return true;
 }
 
-/* An update from another line. A resync may already have applied a newer
- * value than this message, queued before it: then, while the image holds
- * another value, the resync after the rings puts the newest one back
- * (else this line would keep the older one until the object changes
- * again). Without a resync before, the message is the newest this line
- * can know of, and no extra apply (nor TPDO) happens. */
+/* An update from another line, in the order its source wrote them. */
 static void pdo_fwd_received(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
-	uint64_t bit = (uint64_t)1 << (m->slot % 64);
-
 	pdo_apply(gl, m->slot, m->bits, false, now_us);
-	if (m->slot >= gw_image_count(gl->g->img) || !(gl->ahead[m->slot / 64] & bit))
-		return;
-	if (gw_image_read(gl->g->img, m->slot) == m->bits)
-		gl->ahead[m->slot / 64] &= ~bit; /* caught up */
-	else
-		resync_mark(gl, m->slot);
+	gw_pdo_sync_received(&gl->lost, gl->g->img, m->slot, m->bits);
 }
 
-/* Updates lost on the way here: apply the latest value of each. */
-static void pdo_resync(struct gw_line *gl, uint64_t now_us)
+/* gw_pdo_sync_apply_fn: a resync, which must not trigger a TPDO for a
+ * value this line already holds. */
+static bool pdo_resync_apply(void *ctx, int slot, uint64_t bits)
 {
-	for (size_t w = 0; w < gl->resync_words; w++) {
-		uint64_t bits;
+	struct gw_line *gl = ctx;
 
-		if (!atomic_load_explicit(&gl->resync[w], memory_order_relaxed))
-			continue;
-		bits = atomic_exchange_explicit(&gl->resync[w], 0, memory_order_acquire);
-		while (bits) {
-			int slot = (int)(w * 64 + (size_t)__builtin_ctzll(bits));
-			bits &= bits - 1;
-			if (pdo_apply(gl, slot, gw_image_read(gl->g->img, slot), true, now_us))
-				gl->ahead[w] |= (uint64_t)1 << (slot % 64);
-		}
-	}
+	return pdo_apply(gl, slot, bits, true, line_loop_now_us(gl->l));
 }
 
 /* ---- mailbox: routed SDO for clients ------------------------------------------------ */
@@ -892,11 +856,8 @@ static int ext_attach(void *ctx, line *l)
 	}
 	if ((rc = gw_fwd_list_init(&gl->fwd, gl->g->img)))
 		return rc;
-	gl->resync_words = (gw_image_count(gl->g->img) + 63) / 64;
-	gl->resync = calloc(gl->resync_words ? gl->resync_words : 1, sizeof(*gl->resync));
-	gl->ahead = calloc(gl->resync_words ? gl->resync_words : 1, sizeof(*gl->ahead));
-	if (!gl->resync || !gl->ahead)
-		return -ENOMEM;
+	if ((rc = gw_pdo_sync_init(&gl->lost, gw_image_count(gl->g->img))))
+		return rc;
 	gw_fwd_list_rebuild(&gl->fwd, gl->g->img, od);
 	gl->n_sess = sdo_server_channel_count(gl->node);
 	gl->sess = calloc(gl->n_sess ? gl->n_sess : 1, sizeof(*gl->sess));
@@ -918,22 +879,26 @@ static int ext_attach(void *ctx, line *l)
 	return sdo_server_route_attach(gl->node, &server_hook, gl);
 }
 
+/* Remove the hooks this line's gateway set on index:sub (and no other). */
+static void unhook(co_od *od, uint16_t index, uint8_t sub, const struct gw_line *gl)
+{
+	co_od_entry *e = co_od_find(od, index, sub);
+
+	if (e && e->hook_ctx == gl)
+		co_od_entry_set_hooks(e, NULL, NULL);
+}
+
 static void ext_detach(void *ctx, line *l)
 {
 	struct gw_line *gl = ctx;
 	co_od *od = co_node_od(line_node(l));
 
 	sdo_server_route_attach(line_node(l), NULL, NULL);
-	for (unsigned n = GW_NET_MIN; n <= GW_NET_MAX; n++) {
-		co_od_entry *e = co_od_find(od, GW_OBJ_ROUTES, (uint8_t)n);
-		if (e && e->hook_ctx == gl)
-			co_od_entry_set_hooks(e, NULL, NULL);
-	}
+	for (unsigned n = GW_NET_MIN; n <= GW_NET_MAX; n++)
+		unhook(od, GW_OBJ_ROUTES, (uint8_t)n, gl);
 	for (size_t i = 0; i < gw_image_count(gl->g->img); i++) {
 		const gw_image_slot *is = gw_image_slot_at(gl->g->img, (int)i);
-		co_od_entry *e = co_od_find(od, is->index, is->sub);
-		if (e && e->hook_ctx == gl)
-			co_od_entry_set_hooks(e, NULL, NULL);
+		unhook(od, is->index, is->sub, gl);
 	}
 	free(gl->sess);
 	gl->sess = NULL;
@@ -943,11 +908,7 @@ static void ext_detach(void *ctx, line *l)
 		gl->jobs[i].buf = NULL;
 	}
 	gw_fwd_list_fini(&gl->fwd);
-	free((void *)gl->resync);
-	gl->resync = NULL;
-	free(gl->ahead);
-	gl->ahead = NULL;
-	gl->resync_words = 0;
+	gw_pdo_sync_fini(&gl->lost);
 }
 
 static void ext_event(void *ctx, line *l, const co_event *ev)
@@ -1043,7 +1004,7 @@ static void ext_wake(void *ctx, line *l)
 	}
 	/* After the rings: a resync bit is set only on a full ring, whose
 	 * messages have woken us, so it is seen here at the latest. */
-	pdo_resync(gl, now_us);
+	gw_pdo_sync_take(&gl->lost, gl->g->img, pdo_resync_apply, gl);
 }
 
 static uint64_t ext_poll(void *ctx, line *l, uint64_t now_us)

@@ -7,10 +7,11 @@
  * Every line owns four B-objects (1, 2, 4 and 8 bytes) that its RPDO would
  * write: it publishes each new value into the image (gw_image_write), then
  * sends it to every other line whose forwarding list holds the slot (one
- * ring message per update); a full ring is a counted drop plus a resync bit
- * for the target, as in image_written(). Every line also reads the objects
- * its TPDOs map: the messages it gets, the image itself after a resync bit,
- * and the image directly at random moments. Each line rebuilds its own
+ * ring message per update); a full ring is a counted drop plus a mark in
+ * the target's gw_pdo_sync (gateway/pdo_sync.c, the real one), as in
+ * image_written(). Every line also reads the objects its TPDOs map: the
+ * messages it gets (each reported to gw_pdo_sync_received), the image values
+ * gw_pdo_sync_take hands over, and the image directly at random moments. Each line rebuilds its own
  * forwarding list from its OD now and then while the others query it.
  *
  * The values are self-checking: an object of n >= 2 bytes holds a counter
@@ -41,6 +42,7 @@
 #include "core/od.h"
 #include "core/pdo.h"
 #include "gateway/image.h"
+#include "gateway/pdo_sync.h"
 #include "lines/xring.h"
 
 #define LINES 3u
@@ -65,7 +67,7 @@ typedef struct line_sim {
 	unsigned id;
 	co_od *od; /* its TPDOs: what the others forward to it */
 	gw_fwd_list fwd;
-	_Atomic uint64_t resync;     /* bit s: an update of slot s was lost on the way here */
+	gw_pdo_sync lost;            /* updates lost on the way here */
 	atomic_bool saw_full[LINES]; /* a push toward line j was refused */
 	int own_slot[OBJS];
 	/* written by this line's thread only, read by main after join */
@@ -76,7 +78,6 @@ typedef struct line_sim {
 	uint64_t last_image[SLOTS]; /* counter last read from the image */
 	uint64_t applied[SLOTS];    /* this line's copy (its OD entry) */
 	uint64_t resynced[SLOTS];
-	uint64_t ahead; /* bit s: a resync applied a value newer than queued messages */
 	uint64_t image_reads, regressions;
 	unsigned torn, backwards, unmapped, misrouted;
 } line_sim;
@@ -131,30 +132,36 @@ static bool maps(const line_sim *me, int slot)
 	return gw_fwd_list_has(&me->fwd, slot);
 }
 
-/* A value of slot read from the image, as a TPDO would, or applied as
- * pdo_resync() does: only if it differs from this line's copy. */
-static void read_image(line_sim *me, int slot, bool apply)
+/* The counter of a value of slot read from the image, as a TPDO would
+ * read it; -1 if torn. */
+static int64_t image_value_seen(line_sim *me, int slot, uint64_t bits)
 {
-	uint8_t size = gw_image_slot_at(img, slot)->size;
-	int64_t c = counter_of(gw_image_read(img, slot), size);
+	int64_t c = counter_of(bits, gw_image_slot_at(img, slot)->size);
 
 	me->image_reads++;
 	if (c < 0) {
 		me->torn++;
-		return;
+		return -1;
 	}
 	if ((uint64_t)c < me->last_image[slot])
 		me->backwards++;
 	me->last_image[slot] = (uint64_t)c;
-	if (apply && (uint64_t)c != me->applied[slot]) {
-		me->applied[slot] = (uint64_t)c;
-		me->ahead |= UINT64_C(1) << slot;
-	}
+	return c;
 }
 
-static void resync_mark(line_sim *to, int slot)
+/* gw_pdo_sync_apply_fn: as pdo_apply() on a resync, stored only if it
+ * differs from this line's copy. */
+static bool resync_apply(void *ctx, int slot, uint64_t bits)
 {
-	atomic_fetch_or_explicit(&to->resync, UINT64_C(1) << slot, memory_order_release);
+	line_sim *me = ctx;
+	int64_t c;
+
+	me->resynced[slot]++;
+	c = image_value_seen(me, slot, bits);
+	if (c < 0 || (uint64_t)c == me->applied[slot])
+		return false;
+	me->applied[slot] = (uint64_t)c;
+	return true;
 }
 
 static void publish(line_sim *me, unsigned k)
@@ -173,14 +180,13 @@ static void publish(line_sim *me, unsigned k)
 		}
 		me->dropped[j][k]++;
 		atomic_store(&me->saw_full[j], true);
-		resync_mark(&sim[j], slot);
+		gw_pdo_sync_mark(&sim[j].lost, slot);
 	}
 }
 
 /* Pop every inbound ring until all are empty, then apply the resyncs. */
 static void drain(line_sim *me)
 {
-	uint64_t bits;
 	bool any;
 
 	do {
@@ -210,28 +216,17 @@ static void drain(line_sim *me)
 					me->backwards++;
 				me->last_msg[m.slot] = (uint64_t)c;
 				/* Not an error: a resync may have applied a newer
-				 * value than a message queued before it. Then, as
-				 * pdo_fwd_received() does, the newest comes again. */
+				 * value than a message queued before it. Then
+				 * gw_pdo_sync_received brings the newest again. */
 				if ((uint64_t)c < me->applied[m.slot])
 					me->regressions++;
 				me->applied[m.slot] = (uint64_t)c;
 				me->received[from][k]++;
-				if (me->ahead >> m.slot & 1u) {
-					if (gw_image_read(img, m.slot) == m.bits)
-						me->ahead &= ~(UINT64_C(1) << m.slot);
-					else
-						resync_mark(me, m.slot);
-				}
+				gw_pdo_sync_received(&me->lost, img, m.slot, m.bits);
 			}
 		}
 	} while (any);
-	bits = atomic_exchange_explicit(&me->resync, 0, memory_order_acquire);
-	while (bits) {
-		int slot = __builtin_ctzll(bits);
-		bits &= bits - 1;
-		me->resynced[slot]++;
-		read_image(me, slot, true);
-	}
+	gw_pdo_sync_take(&me->lost, img, resync_apply, me);
 }
 
 static bool late_line_may_drain(void)
@@ -254,7 +249,7 @@ static void *line_main(void *arg)
 		/* a TPDO of this line sampling a mapped object of another line */
 		peek = (peek + 1) % SLOTS;
 		if (owner_of((int)peek) != me->id && maps(me, (int)peek))
-			read_image(me, (int)peek, false);
+			image_value_seen(me, (int)peek, gw_image_read(img, (int)peek));
 		if (round % REBUILD_EVERY == 0)
 			gw_fwd_list_rebuild(&me->fwd, img, me->od);
 		if (me->id != LATE_LINE || late_line_may_drain())
@@ -361,6 +356,7 @@ static void test_lines_share_the_image_without_torn_values(void)
 		sim[i].id = i;
 		for (unsigned k = 0; k < OBJS; k++)
 			sim[i].own_slot[k] = gw_image_find(img, obj_index(i, k), 0);
+		TEST_ASSERT_EQUAL(0, gw_pdo_sync_init(&sim[i].lost, SLOTS));
 		build_od(&sim[i]);
 	}
 	atomic_store(&writers_left, LINES);
@@ -394,6 +390,7 @@ static void test_lines_share_the_image_without_torn_values(void)
 	TEST_MESSAGE(line);
 	for (unsigned i = 0; i < LINES; i++) {
 		gw_fwd_list_fini(&sim[i].fwd);
+		gw_pdo_sync_fini(&sim[i].lost);
 		co_od_destroy(sim[i].od);
 	}
 	xring_mesh_destroy(mesh);
