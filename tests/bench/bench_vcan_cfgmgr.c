@@ -350,9 +350,7 @@ int main(void)
 	char cdc[256], state[256];
 	int status = 1;
 
-	signal(SIGPIPE, SIG_IGN);
-	snprintf(instance, sizeof instance, "bench%d", (int)getpid());
-	if (bench_tmpdir_create(tmpdir, sizeof tmpdir, "cfgmgr") < 0)
+	if (bench_setup(instance, sizeof instance, "bench", tmpdir, sizeof tmpdir, "cfgmgr") < 0)
 		return 1;
 	snprintf(cdc, sizeof cdc, "%s/config100.cdc", tmpdir);
 	snprintf(state, sizeof state, "%s/state", tmpdir);

@@ -490,9 +490,7 @@ static void note_clock_cost(void)
 
 int main(void)
 {
-	signal(SIGPIPE, SIG_IGN);
-	snprintf(instance, sizeof instance, "benchgw%d", (int)getpid());
-	if (bench_tmpdir_create(tmpdir, sizeof tmpdir, "gw") < 0)
+	if (bench_setup(instance, sizeof instance, "benchgw", tmpdir, sizeof tmpdir, "gw") < 0)
 		return 1;
 	char cfg[256], dev[256], log[256], simlog[256], prog[256];
 	snprintf(cfg, sizeof cfg, "%s/cogw.json", tmpdir);

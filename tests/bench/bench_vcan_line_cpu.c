@@ -231,10 +231,8 @@ int main(void)
 	const char *secs = getenv("COGW_BENCH_SECONDS");
 	if (secs && atof(secs) > 0)
 		window_s = 2.5 * atof(secs);
-	signal(SIGPIPE, SIG_IGN);
 	bench_raise_mq_limit();
-	snprintf(instance, sizeof instance, "bench%d", (int)getpid());
-	if (bench_tmpdir_create(tmpdir, sizeof tmpdir, "cpu") < 0)
+	if (bench_setup(instance, sizeof instance, "bench", tmpdir, sizeof tmpdir, "cpu") < 0)
 		return 1;
 	char cfg[256], log[256], state[256];
 	snprintf(cfg, sizeof cfg, "%s/cogw.json", tmpdir);

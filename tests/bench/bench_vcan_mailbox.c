@@ -70,6 +70,25 @@ static mqd_t queue_create(const char *name, unsigned depth, int flags)
 	return mq_open(name, O_CREAT | O_EXCL | flags | O_CLOEXEC, 0600, &a);
 }
 
+/* The raw baseline's other side: a child process answering every message
+ * on ping with a PONG_SIZE message on pong, until a message starting 'q'. */
+static pid_t raw_echo_start(mqd_t ping, mqd_t pong)
+{
+	pid_t child = fork();
+
+	if (child == 0) {
+		char buf[QUEUE_MSGSIZE] = { 0 };
+		for (;;) {
+			ssize_t n = mq_receive(ping, buf, sizeof buf, NULL);
+			if (n <= 0 || buf[0] == 'q')
+				_exit(0);
+			buf[0] = 'p';
+			mq_send(pong, buf, PONG_SIZE, 0);
+		}
+	}
+	return child;
+}
+
 /* Returns the number of samples (RTTs in µs in rtt[]), or -1. */
 static int raw_pingpong(double *rtt, size_t max, double seconds)
 {
@@ -82,17 +101,7 @@ static int raw_pingpong(double *rtt, size_t max, double seconds)
 		return -1;
 	}
 	fflush(stdout);
-	pid_t child = fork();
-	if (child == 0) {
-		char buf[QUEUE_MSGSIZE] = { 0 };
-		for (;;) {
-			ssize_t n = mq_receive(ping, buf, sizeof buf, NULL);
-			if (n <= 0 || buf[0] == 'q')
-				_exit(0);
-			buf[0] = 'p';
-			mq_send(pong, buf, PONG_SIZE, 0);
-		}
-	}
+	pid_t child = raw_echo_start(ping, pong);
 	char msg[QUEUE_MSGSIZE] = { 0 }, in[QUEUE_MSGSIZE];
 	size_t n = 0;
 	double end = bench_now_s() + seconds;
@@ -636,17 +645,7 @@ static void oneshot_figure(void)
 		return;
 	}
 	self[sl] = '\0';
-	pid_t child = fork();
-	if (child == 0) {
-		char buf[QUEUE_MSGSIZE] = { 0 };
-		for (;;) {
-			ssize_t n = mq_receive(ping, buf, sizeof buf, NULL);
-			if (n <= 0 || buf[0] == 'q')
-				_exit(0);
-			buf[0] = 'p';
-			mq_send(pong, buf, PONG_SIZE, 0);
-		}
-	}
+	pid_t child = raw_echo_start(ping, pong);
 	char *base_argv[] = { self, "--raw-once", ping_name, pong_name, NULL };
 	char *ctl_argv[] = { (char *)bench_program("cogwctl", ctl, sizeof ctl),
 			     "--instance",
@@ -743,9 +742,7 @@ int main(int argc, char **argv)
 	const char *secs = getenv("COGW_BENCH_SECONDS");
 	if (secs && atof(secs) > 0)
 		run_seconds = atof(secs);
-	signal(SIGPIPE, SIG_IGN);
-	snprintf(instance, sizeof instance, "bench%d", (int)getpid());
-	if (bench_tmpdir_create(tmpdir, sizeof tmpdir, "mbx") < 0) {
+	if (bench_setup(instance, sizeof instance, "bench", tmpdir, sizeof tmpdir, "mbx") < 0) {
 		printf("bench_vcan_mailbox: cannot create a temp directory\n");
 		return 1;
 	}

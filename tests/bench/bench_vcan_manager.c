@@ -293,9 +293,7 @@ int main(void)
 	char dev[256], state[256];
 	int status = 1;
 
-	signal(SIGPIPE, SIG_IGN);
-	snprintf(instance, sizeof instance, "bench%d", (int)getpid());
-	if (bench_tmpdir_create(tmpdir, sizeof tmpdir, "mgr") < 0)
+	if (bench_setup(instance, sizeof instance, "bench", tmpdir, sizeof tmpdir, "mgr") < 0)
 		return 1;
 	snprintf(dev, sizeof dev, "%s/slave.json", tmpdir);
 	snprintf(state, sizeof state, "%s/state", tmpdir);

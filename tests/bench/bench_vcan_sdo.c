@@ -278,9 +278,7 @@ int main(void)
 	const char *secs = getenv("COGW_BENCH_SECONDS");
 	if (secs && atof(secs) > 0)
 		run_seconds = atof(secs);
-	signal(SIGPIPE, SIG_IGN);
-	snprintf(instance, sizeof instance, "bench%d", (int)getpid());
-	if (bench_tmpdir_create(tmpdir, sizeof tmpdir, "sdo") < 0)
+	if (bench_setup(instance, sizeof instance, "bench", tmpdir, sizeof tmpdir, "sdo") < 0)
 		return 1;
 	char cfg[256], dev[256], log[256], simlog[256], state[256], prog[256];
 	snprintf(cfg, sizeof cfg, "%s/cogw.json", tmpdir);

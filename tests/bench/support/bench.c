@@ -121,6 +121,14 @@ int bench_tmpdir_create(char *dir, size_t len, const char *tag)
 	return mkdtemp(dir) ? 0 : -errno;
 }
 
+int bench_setup(char *instance, size_t ilen, const char *prefix, char *dir, size_t dlen,
+		const char *tag)
+{
+	signal(SIGPIPE, SIG_IGN);
+	snprintf(instance, ilen, "%s%d", prefix, (int)getpid());
+	return bench_tmpdir_create(dir, dlen, tag);
+}
+
 void bench_tmpdir_remove(const char *dir)
 {
 	DIR *d = opendir(dir);

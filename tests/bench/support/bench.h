@@ -59,6 +59,11 @@ const char *bench_program(const char *name, char *buf, size_t len);
 /* A temporary directory below /tmp, removed (with its files) by
  * bench_tmpdir_remove. */
 int bench_tmpdir_create(char *dir, size_t len, const char *tag);
+/* What every benchmark does first: SIGPIPE ignored (a dying peer must not
+ * end the run), a mailbox instance "<prefix><pid>" of its own and a
+ * temporary directory tagged tag. 0, or -errno. */
+int bench_setup(char *instance, size_t ilen, const char *prefix, char *dir, size_t dlen,
+		const char *tag);
 void bench_tmpdir_remove(const char *dir);
 int bench_write_file(const char *path, const char *text);
 
