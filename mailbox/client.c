@@ -260,6 +260,9 @@ const char *cogw_strerror(int err)
 		return "unexpected message from the daemon";
 	case COGW_E_RESTARTED:
 		return "the daemon restarted: request not completed (retry)";
+	case COGW_E_QUEUE_LIMIT:
+		return "this user's message-queue memory is used up (RLIMIT_MSGQUEUE:"
+		       " raise it with ulimit -q or LimitMSGQUEUE=)";
 	}
 	return "unknown error";
 }
@@ -1218,6 +1221,24 @@ static mqd_t make_queue(const char *name, unsigned mode, unsigned depth, unsigne
 	return q;
 }
 
+/* mq_open says EMFILE both when the process has no file descriptor left and
+ * when the user's RLIMIT_MSGQUEUE bytes are spent; only the second leaves a
+ * descriptor free, and it wants a different remedy. */
+static int queue_create_error(void)
+{
+	if (errno != EMFILE)
+		return COGW_E_SYSTEM;
+	int probe = eventfd(0, EFD_CLOEXEC);
+
+	if (probe < 0) {
+		errno = EMFILE;
+		return COGW_E_SYSTEM;
+	}
+	close(probe);
+	errno = EMFILE;
+	return COGW_E_QUEUE_LIMIT;
+}
+
 int cogw_open(cogw **out, const char *instance)
 {
 	cogw_options o = { .instance = instance };
@@ -1290,12 +1311,16 @@ int cogw_open_opts(cogw **out, const cogw_options *o)
 		if (h->resp != (mqd_t)-1 || errno != EEXIST)
 			break;
 	}
-	if (h->resp == (mqd_t)-1)
+	if (h->resp == (mqd_t)-1) {
+		rc = queue_create_error();
 		goto fail;
+	}
 	/* blocking: cogw_recv() waits in mq_timedreceive when only events can come */
 	h->evt = make_queue(h->evt_name, mode, edepth, msgsize, O_RDONLY);
-	if (h->evt == (mqd_t)-1)
+	if (h->evt == (mqd_t)-1) {
+		rc = queue_create_error();
 		goto fail;
+	}
 	h->evt_self = mq_open(h->evt_name, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
 	if (h->evt_self == (mqd_t)-1)
 		goto fail;

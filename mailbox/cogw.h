@@ -85,6 +85,10 @@ enum cogw_err {
 	/* the daemon restarted while the request was under way: it may or may
 	 * not have been carried out; the next call registers again */
 	COGW_E_RESTARTED = -108,
+	/* cogw_open: the message-queue memory of this user (RLIMIT_MSGQUEUE,
+	 * shared by all its processes, the daemon's queues included when it
+	 * runs as the same user) is used up; the kernel says EMFILE */
+	COGW_E_QUEUE_LIMIT = -109,
 };
 
 const char *cogw_strerror(int err);

@@ -237,8 +237,13 @@ cogw *ctl_handle(ctl *c, int *exit_code)
 	cogw_options o = { .instance = c->instance, .timeout_ms = c->timeout_ms };
 	int rc = cogw_open_opts(&c->h, &o);
 	if (rc < 0) {
-		fprintf(stderr, "cogwctl: cannot create the client message queues: %s (%s)\n",
-			cogw_strerror(rc), strerror(errno));
+		if (rc == COGW_E_SYSTEM)
+			fprintf(stderr,
+				"cogwctl: cannot create the client message queues: %s (%s)\n",
+				cogw_strerror(rc), strerror(errno));
+		else
+			fprintf(stderr, "cogwctl: cannot create the client message queues: %s\n",
+				cogw_strerror(rc));
 		*exit_code = CTL_EXIT_NO_DAEMON;
 		c->h = NULL;
 	}

@@ -18,6 +18,7 @@
  *        build/san/bin/cosim build/san/bin/cogwctl
  *   tests/vcan/run -n 3 -- build/san/tests/integration/test_config_boot
  */
+#include <signal.h>
 #include <stdarg.h>
 #include <stdbool.h>
 #include <stdint.h>
@@ -99,12 +100,24 @@ static bool wait_state(const char *state, unsigned ms)
 	return false;
 }
 
+/* A `cogwctl monitor` of line 0's boot and manager events, JSON to out_path;
+ * tearDown stops it (left running, it would hold its queues, and so its
+ * user's RLIMIT_MSGQUEUE, into the tests that follow). */
+static pid_t monitor_pid = -1;
+
+static void monitor_start(const char *out_path, const char *duration_s)
+{
+	const char *argv[] = { CTL,       "--json",       "monitor",    "--line",   "0",
+			       "--class", "manager,boot", "--duration", duration_s, NULL };
+	monitor_pid = proc_spawn(argv, out_path, NULL);
+	TEST_ASSERT_TRUE_MESSAGE(monitor_pid > 0, "cannot start cogwctl monitor");
+}
+
 /* The daemon with node 1 configured by node_config; with mon, a monitor of
  * the boot and manager events (JSON, to the file mon) runs from before the
  * device is switched on. */
 static void start_monitored(const char *node_config, char *mon, size_t cap)
 {
-	char cmd[700];
 	snprintf(cfg, sizeof cfg,
 		 "{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 127,"
 		 " \"sdo_clients\": 4,"
@@ -117,10 +130,7 @@ static void start_monitored(const char *node_config, char *mon, size_t cap)
 		0, daemon_start(&dmn, &(daemon_opts){ .config_json = cfg, .n_lines = 3 }));
 	if (mon) {
 		snprintf(mon, cap, "%s/monitor.out", dmn.dir);
-		snprintf(cmd, sizeof cmd,
-			 "%s --json monitor --line 0 --class manager,boot --duration 60 >%s 2>&1 &",
-			 CTL, mon);
-		TEST_ASSERT_EQUAL_INT(0, system(cmd));
+		monitor_start(mon, "60");
 		TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon, "watching", 5000), "no monitor");
 	}
 	const char *devices[] = { "etc/devices/sti-pressure.json", NULL };
@@ -173,7 +183,7 @@ static char image_path[128];
 
 static uint32_t start_software(bool corrupt, char *mon_path, size_t cap)
 {
-	char node_cfg[600], cmd[700];
+	char node_cfg[600];
 	uint32_t crc;
 	snprintf(image_path, sizeof image_path, "/tmp/cogw-test-program-%d.bin", (int)getpid());
 	crc = write_image(image_path, corrupt);
@@ -190,11 +200,8 @@ static uint32_t start_software(bool corrupt, char *mon_path, size_t cap)
 	TEST_ASSERT_EQUAL_INT(
 		0, daemon_start(&dmn, &(daemon_opts){ .config_json = cfg, .n_lines = 3 }));
 	snprintf(mon_path, cap, "%s/monitor.out", dmn.dir);
-	snprintf(cmd, sizeof cmd,
-		 "%s --json monitor --line 0 --class manager,boot --duration 40 >%s 2>&1 &", CTL,
-		 mon_path);
-	TEST_ASSERT_EQUAL_INT(0, system(cmd));
-	sleep_ms(1000);
+	monitor_start(mon_path, "40");
+	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(mon_path, "watching", 5000), "no monitor");
 	const char *devices[] = { "etc/devices/sti-pressure.json", NULL };
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, NULL));
 	return crc;
@@ -247,6 +254,9 @@ void setUp(void)
 
 void tearDown(void)
 {
+	if (monitor_pid > 0)
+		proc_stop(monitor_pid, SIGTERM, 3000);
+	monitor_pid = -1;
 	cosim_stop(&sim, 3000);
 	daemon_cleanup(&dmn);
 	daemon_unlink_queues("main");

@@ -16,6 +16,7 @@
  *   tests/vcan/run -n 3 -- build/san/tests/integration/test_cosim_program
  */
 #include <cjson/cJSON.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -133,8 +134,15 @@ void setUp(void)
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, NULL));
 }
 
+/* a cogwctl running beside the test; tearDown stops it, so that it holds
+ * no queues (and no RLIMIT_MSGQUEUE bytes) into the tests that follow */
+static pid_t background_pid = -1;
+
 void tearDown(void)
 {
+	if (background_pid > 0)
+		proc_stop(background_pid, SIGTERM, 3000);
+	background_pid = -1;
 	cosim_stop(&sim, 3000);
 	daemon_cleanup(&dmn);
 	daemon_unlink_queues("main");
@@ -197,7 +205,7 @@ static void test_program_download_start_and_refusals(void)
  * refused image is status I with the step and abort; refusals up front. */
 static void test_cogwctl_program(void)
 {
-	char good[200], bad[200], empty[200], cmd[600], bg_out[200];
+	char good[200], bad[200], empty[200], bg_out[200];
 	uint32_t crc = write_image("good.bin", false, good, sizeof good);
 	write_image("bad.bin", true, bad, sizeof bad);
 
@@ -254,9 +262,9 @@ static void test_cogwctl_program(void)
 	/* one update of a node at a time: a second one while the first
 	 * downloads is refused (busy), the first ends well */
 	snprintf(bg_out, sizeof bg_out, "%s/bg.out", dmn.dir);
-	snprintf(cmd, sizeof cmd, "%s --timeout 60000 program 0 1 %s >%s 2>&1 &", CTL, good,
-		 bg_out);
-	TEST_ASSERT_EQUAL_INT(0, system(cmd));
+	const char *bg_argv[] = { CTL, "--timeout", "60000", "program", "0", "1", good, NULL };
+	background_pid = proc_spawn(bg_argv, bg_out, NULL);
+	TEST_ASSERT_TRUE(background_pid > 0);
 	TEST_ASSERT_TRUE_MESSAGE(file_wait_contains(bg_out, "download  ", 20000),
 				 "the first update shows no progress");
 	ctl_run("program 0 1 %s", good);

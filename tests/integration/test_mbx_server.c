@@ -17,6 +17,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -1161,6 +1162,53 @@ static void test_system_limit_check_names_the_sysctl(void)
 	printf("limits: %s\n", "ok");
 }
 
+/* cogw_open in a child whose RLIMIT_MSGQUEUE cannot hold one queue, or
+ * whose descriptor table is full: the kernel says EMFILE for both, the
+ * library tells them apart (the remedies differ). */
+static int child_open_with_no_queue_memory(void *arg)
+{
+	struct rlimit rl = { .rlim_cur = 4096, .rlim_max = 4096 };
+	cogw *h = NULL;
+
+	(void)arg;
+	if (setrlimit(RLIMIT_MSGQUEUE, &rl) < 0)
+		return 90;
+	int rc = cogw_open(&h, "limitq");
+	if (rc == 0) {
+		cogw_close(h);
+		return 91;
+	}
+	fprintf(stderr, "no queue memory: %s\n", cogw_strerror(rc));
+	return rc == COGW_E_QUEUE_LIMIT && errno == EMFILE ? 0 : 92;
+}
+
+static int child_open_with_no_descriptor_left(void *arg)
+{
+	struct rlimit rl = { .rlim_cur = 64, .rlim_max = 64 };
+	cogw *h = NULL;
+
+	(void)arg;
+	if (setrlimit(RLIMIT_NOFILE, &rl) < 0)
+		return 90;
+	while (dup(1) >= 0)
+		;
+	int rc = cogw_open(&h, "limitq");
+	if (rc == 0) {
+		cogw_close(h);
+		return 91;
+	}
+	return rc == COGW_E_SYSTEM && errno == EMFILE ? 0 : 92;
+}
+
+static void test_open_tells_queue_memory_from_descriptor_exhaustion(void)
+{
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_open_with_no_queue_memory, NULL)),
+				      "RLIMIT_MSGQUEUE spent: want COGW_E_QUEUE_LIMIT");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_open_with_no_descriptor_left, NULL)),
+				      "no descriptor left: want COGW_E_SYSTEM, errno EMFILE");
+	TEST_ASSERT_NOT_NULL(strstr(cogw_strerror(COGW_E_QUEUE_LIMIT), "RLIMIT_MSGQUEUE"));
+}
+
 /* mbx_server_notify never truncates an event (an SDO_DONE used to be cut
  * to what fitted the client's event messages): one that does not fit is
  * refused, counted and flagged; one that fits arrives whole. */
@@ -1219,5 +1267,6 @@ int main(void)
 	RUN_TEST(test_access_control_by_queue_owner);
 	RUN_TEST(test_malformed_commands_answered_and_counted);
 	RUN_TEST(test_system_limit_check_names_the_sysctl);
+	RUN_TEST(test_open_tells_queue_memory_from_descriptor_exhaustion);
 	return UNITY_END();
 }
