@@ -1165,46 +1165,39 @@ static void test_system_limit_check_names_the_sysctl(void)
 /* cogw_open in a child whose RLIMIT_MSGQUEUE cannot hold one queue, or
  * whose descriptor table is full: the kernel says EMFILE for both, the
  * library tells them apart (the remedies differ). */
-static int child_open_with_no_queue_memory(void *arg)
+typedef struct open_limit_case {
+	int resource; /* lowered to `limit` */
+	rlim_t limit;
+	bool fill_descriptor_table;
+	int want_rc;
+} open_limit_case;
+
+static int child_open_under_limit(void *arg)
 {
-	struct rlimit rl = { .rlim_cur = 4096, .rlim_max = 4096 };
+	const open_limit_case *c = arg;
+	struct rlimit rl = { .rlim_cur = c->limit, .rlim_max = c->limit };
 	cogw *h = NULL;
 
-	(void)arg;
-	if (setrlimit(RLIMIT_MSGQUEUE, &rl) < 0)
+	if (setrlimit(c->resource, &rl) < 0)
 		return 90;
-	int rc = cogw_open(&h, "limitq");
-	if (rc == 0) {
-		cogw_close(h);
-		return 91;
-	}
-	fprintf(stderr, "no queue memory: %s\n", cogw_strerror(rc));
-	return rc == COGW_E_QUEUE_LIMIT && errno == EMFILE ? 0 : 92;
-}
-
-static int child_open_with_no_descriptor_left(void *arg)
-{
-	struct rlimit rl = { .rlim_cur = 64, .rlim_max = 64 };
-	cogw *h = NULL;
-
-	(void)arg;
-	if (setrlimit(RLIMIT_NOFILE, &rl) < 0)
-		return 90;
-	while (dup(1) >= 0)
+	while (c->fill_descriptor_table && dup(1) >= 0)
 		;
 	int rc = cogw_open(&h, "limitq");
 	if (rc == 0) {
 		cogw_close(h);
 		return 91;
 	}
-	return rc == COGW_E_SYSTEM && errno == EMFILE ? 0 : 92;
+	return rc == c->want_rc && errno == EMFILE ? 0 : 92;
 }
 
 static void test_open_tells_queue_memory_from_descriptor_exhaustion(void)
 {
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_open_with_no_queue_memory, NULL)),
+	open_limit_case no_queue_memory = { RLIMIT_MSGQUEUE, 4096, false, COGW_E_QUEUE_LIMIT };
+	open_limit_case no_descriptor = { RLIMIT_NOFILE, 64, true, COGW_E_SYSTEM };
+
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_open_under_limit, &no_queue_memory)),
 				      "RLIMIT_MSGQUEUE spent: want COGW_E_QUEUE_LIMIT");
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_open_with_no_descriptor_left, NULL)),
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_open_under_limit, &no_descriptor)),
 				      "no descriptor left: want COGW_E_SYSTEM, errno EMFILE");
 	TEST_ASSERT_NOT_NULL(strstr(cogw_strerror(COGW_E_QUEUE_LIMIT), "RLIMIT_MSGQUEUE"));
 }
