@@ -33,8 +33,9 @@
 
 #define GW_RELAYS_MAX 128u
 #define GW_RING_SLOTS 1024u
-#define GW_RELAY_IDLE_FACTOR 8u /* idle lease given back after 8 timeouts */
-#define GW_REBUILD_US 1000000u  /* forwarding list re-checked every 1 s */
+#define GW_RELAY_IDLE_FACTOR 8u  /* idle lease given back after 8 timeouts */
+#define GW_REBUILD_US 1000000u   /* forwarding list re-checked every 1 s */
+#define GW_LINK_CHECK_US 100000u /* link of a line holding leases: every 100 ms */
 
 enum gw_msg_kind {
 	M_FWD = 1,   /* a B-object changed: slot, its new value in bits */
@@ -44,6 +45,7 @@ enum gw_msg_kind {
 	M_TO_TARGET, /* a requester frame: d */
 	M_TO_REQ,    /* a target frame: d */
 	M_CLOSE,     /* give the lease of sid back */
+	M_LOST,      /* the target line's link went down: the lease of sid is gone */
 	M_JOB,       /* run a mailbox SDO job (job) */
 	M_JOB_DONE,  /* its outcome (job->abort, job->size) */
 };
@@ -54,7 +56,7 @@ typedef struct gw_msg {
 	uint8_t node; /* M_OPEN: target or router; M_EMCY: source node */
 	uint8_t pad;
 	uint32_t sid;       /* session: line << 24 | channel << 16 | generation */
-	uint32_t abort;     /* M_OPENED */
+	uint32_t abort;     /* M_OPENED, M_LOST */
 	uint16_t slot;      /* M_FWD */
 	uint16_t net;       /* M_EMCY: source network */
 	uint16_t code;      /* M_EMCY: original error code */
@@ -77,9 +79,16 @@ struct gw_sess {
 
 struct gw_relay {
 	bool used;
+	/* The link went down under it: the session was told and is gone,
+	 * the device may still be in the transfer. Kept (the channel not
+	 * lent again) until the link is back, then the device gets an
+	 * abort; or freed by the idle limit. */
+	bool orphaned;
 	uint8_t from;
+	uint8_t mux[3]; /* index, sub-index of the transfer (its first frame) */
 	int cli_ch;
 	uint32_t sid;
+	uint64_t frames; /* requester frames sent to the device */
 	uint64_t last_us;
 	struct gw_line *gl;
 };
@@ -128,6 +137,7 @@ struct gw_line {
 	gw_pdo_sync lost; /* updates that could not be handed to this line */
 	bool fwd_dirty;
 	uint64_t next_rebuild_us;
+	uint64_t next_link_check_us;
 	struct gw_sess *sess;
 	uint8_t n_sess;
 	struct gw_relay relay[GW_RELAYS_MAX];
@@ -315,6 +325,7 @@ static void relay_free(struct gw_relay *r, uint64_t now_us)
 		return;
 	sdo_client_lease_end(r->gl->node, (uint8_t)r->cli_ch, now_us);
 	r->used = false;
+	r->orphaned = false;
 }
 
 static void relay_rx(void *arg, const uint8_t d[8], uint64_t now_us)
@@ -329,10 +340,70 @@ static void relay_rx(void *arg, const uint8_t d[8], uint64_t now_us)
 		COUNT(r->gl->c.ring_drops);
 }
 
+/* This line's link went down: tell each requester's line, so that its
+ * session ends now with `abort`; the leases stay, orphaned, until the
+ * device can be told as well (relays_link_back). */
+static void relays_link_lost(struct gw_line *gl, uint32_t abort)
+{
+	for (unsigned i = 0; i < GW_RELAYS_MAX; i++) {
+		struct gw_relay *r = &gl->relay[i];
+		gw_msg m = { .kind = M_LOST, .sid = r->sid, .abort = abort };
+
+		if (!r->used || r->orphaned)
+			continue;
+		if (send_to(gl, r->from, &m))
+			COUNT(gl->c.ring_drops); /* the requester's timeout ends it */
+		r->orphaned = true;
+	}
+}
+
+/* The link is back: a device left in the middle of an orphaned transfer
+ * gets an abort (else it would refuse the next request toward it until
+ * its own timeout, if it has one), and the channel is free again. */
+static void relays_link_back(struct gw_line *gl, uint64_t now_us)
+{
+	for (unsigned i = 0; i < GW_RELAYS_MAX; i++) {
+		struct gw_relay *r = &gl->relay[i];
+		uint8_t d[8] = { SDO_CCS_ABORT << 5, r->mux[0], r->mux[1], r->mux[2] };
+
+		if (!r->used || !r->orphaned)
+			continue;
+		if (r->frames) {
+			co_put_le32(&d[4], SDO_AB_GENERAL);
+			sdo_client_lease_send(gl->node, (uint8_t)r->cli_ch, d);
+		}
+		relay_free(r, now_us);
+	}
+}
+
+/* A lease toward a line whose interface went down (ip link set down,
+ * carrier lost) would otherwise end only by the requester's per-frame
+ * timeout: while leases are held, look at the link (one ioctl) every
+ * GW_LINK_CHECK_US. */
+static void relays_check_link(struct gw_line *gl, uint64_t now_us, uint64_t *next)
+{
+	bool held = false;
+
+	for (unsigned i = 0; i < GW_RELAYS_MAX && !held; i++)
+		held = gl->relay[i].used;
+	if (!held)
+		return;
+	if (now_us >= gl->next_link_check_us) {
+		gl->next_link_check_us = now_us + GW_LINK_CHECK_US;
+		if (!line_is_up(gl->l) || !line_link_up(gl->l))
+			relays_link_lost(gl, GW_AB_NO_ANSWER);
+		else
+			relays_link_back(gl, now_us);
+	}
+	if (gl->next_link_check_us < *next)
+		*next = gl->next_link_check_us;
+}
+
 static struct gw_relay *relay_by_sid(struct gw_line *gl, uint8_t from, uint32_t sid)
 {
 	for (unsigned i = 0; i < GW_RELAYS_MAX; i++)
-		if (gl->relay[i].used && gl->relay[i].from == from && gl->relay[i].sid == sid)
+		if (gl->relay[i].used && !gl->relay[i].orphaned && gl->relay[i].from == from &&
+		    gl->relay[i].sid == sid)
 			return &gl->relay[i];
 	return NULL;
 }
@@ -367,9 +438,11 @@ static void relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 		ch = sdo_client_lease(gl->node, m->node, 0, 0, relay_rx, r, now_us);
 		if (ch >= 0) {
 			r->used = true;
+			r->orphaned = false;
 			r->from = m->from;
 			r->sid = m->sid;
 			r->cli_ch = ch;
+			r->frames = 0;
 			r->last_us = now_us;
 		} else {
 			ans.abort = ch == -EALREADY ? GW_AB_ROUTE_BUSY : GW_AB_NO_CLIENT;
@@ -955,6 +1028,8 @@ static void handle(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 		break;
 	case M_TO_TARGET:
 		if ((r = relay_by_sid(gl, m->from, m->sid))) {
+			if (!r->frames++)
+				memcpy(r->mux, &m->d[1], sizeof r->mux);
 			r->last_us = now_us;
 			COUNT(gl->c.relayed_frames);
 			sdo_client_lease_send(gl->node, (uint8_t)r->cli_ch, m->d);
@@ -977,6 +1052,10 @@ static void handle(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 	case M_TO_REQ:
 		if ((s = sess_by_sid(gl, m->sid)))
 			gw_sdo_route_target_frame(&s->r, m->d, now_us);
+		break;
+	case M_LOST:
+		if ((s = sess_by_sid(gl, m->sid)))
+			gw_sdo_route_lost(&s->r, m->abort, now_us);
 		break;
 	case M_JOB:
 		job_run(gl, m->job, now_us);
@@ -1028,6 +1107,7 @@ static uint64_t ext_poll(void *ctx, line *l, uint64_t now_us)
 		else if (r->last_us + idle < next)
 			next = r->last_us + idle;
 	}
+	relays_check_link(gl, now_us, &next);
 	jobs_tick(gl, now_us, &next);
 	/* Mailbox writes to the mapping leave no event: look once a second. */
 	if (gl->fwd_dirty || now_us >= gl->next_rebuild_us) {

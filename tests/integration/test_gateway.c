@@ -7,8 +7,9 @@
  *   own SDO client driven over a raw socket, after a hand-made indication
  *   frame) reads and writes a device on vcan2 in every SDO mode, byte-exact;
  * - refusals: unknown network at once, a silent target node, a loop;
- * - faults: the target line down, flooded, a node lost by heartbeat, the
- *   requester vanishing mid block transfer - refused at once where the
+ * - faults: the target line down (before and in the middle of a transfer),
+ *   flooded, a node lost by heartbeat, the requester vanishing mid block
+ *   transfer - refused or aborted at once where the
  *   convention says so (counted "refused", not "timed out"), the other
  *   lines and routes keep working, every session and lease is released
  *   (the live counts of cogw_gw_status / cogwctl route go back to 0);
@@ -791,6 +792,32 @@ static void test_faults_refused_at_once_other_routes_work_sessions_released(void
 	expect_other_route_works("while vcan2 is down");
 	link_set("vcan2", true);
 	expect_all_released("after the line was down");
+
+	/* 3b. the target line goes down in the middle of a transfer: the
+	 * session ends at once with 0A000002, counted aborted (the per-frame
+	 * timeout, 3 s, would give 05040000 and count timed out), and its
+	 * lease is given back */
+	mbx_gw_route before = gw_route_of(0, 3), after;
+	uint8_t seg_init[8] = { 0x21, DOMAIN_IDX & 0xFF, DOMAIN_IDX >> 8, 0, 100, 0, 0, 0 };
+	expect_confirm(3, TGT_NODE);
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x600 + GW_NODE, seg_init, 8));
+	TEST_ASSERT_EQUAL_INT(8, can_wait_id(fd0, 0x580 + GW_NODE, a, 10000));
+	TEST_ASSERT_EQUAL_HEX8_MESSAGE(0x60, a[0], "the routed download was not initiated");
+	uint64_t down_ms = mono_ms();
+	link_set("vcan2", false);
+	TEST_ASSERT_EQUAL_INT(8, can_wait_id(fd0, 0x580 + GW_NODE, a, 10000));
+	printf("target line down mid-transfer: the requester's abort after %llu ms\n",
+	       (unsigned long long)(mono_ms() - down_ms));
+	TEST_ASSERT_EQUAL_HEX8(0x80, a[0]);
+	TEST_ASSERT_EQUAL_HEX32_MESSAGE(GW_AB_NO_ANSWER, co_get_le32(&a[4]),
+					"target line down mid-transfer");
+	after = gw_route_of(0, 3);
+	TEST_ASSERT_EQUAL_UINT64(before.aborted + 1, after.aborted);
+	TEST_ASSERT_EQUAL_UINT64(before.timed_out, after.timed_out);
+	link_set("vcan2", true);
+	expect_all_released("after the line went down mid-transfer");
+	/* the device was told (08000000) when the link came back: it takes
+	 * the next request at once, not only after its own timeout */
 	r = routed(&(sdo_client_req){
 		.upload = true, .node_id = GW_NODE, .index = 0x1000, .buf = id, .cap = 4 });
 	TEST_ASSERT_EQUAL_HEX32_MESSAGE(0, r->abort, "vcan2 up again: routing to it resumes");
