@@ -229,84 +229,6 @@ const char *mbx_can_state_to_string(unsigned s)
 	return "?";
 }
 
-/* ---- command table ------------------------------------------------------- */
-
-#define R 0
-#define W MBX_CI_WRITE
-#define S MBX_CI_SERVER
-#define D MBX_CI_DATA
-#define A MBX_CI_ARRAY
-#define Q MBX_CI_QUIET
-
-/* Sorted by code (binary search). */
-static const mbx_cmd_info cmd_table[] = {
-	{ MBX_CMD_REGISTER, R | S, sizeof(mbx_register_req), 0, "register" },
-	{ MBX_CMD_UNREGISTER, R | S, 0, 0, "unregister" },
-	{ MBX_CMD_SUBSCRIBE, R | S, sizeof(mbx_subscribe_req), 0, "subscribe" },
-	{ MBX_CMD_UNSUBSCRIBE, R | S, sizeof(mbx_unsubscribe_req), 0, "unsubscribe" },
-	{ MBX_CMD_PING, R | S, 0, 0, "ping" },
-	{ MBX_CMD_XFER_ACK, R | S | Q, sizeof(mbx_xfer_ack), 0, "xfer-ack" },
-	{ MBX_CMD_MBX_STATS, R | S, 0, 0, "mbx-stats" },
-	{ MBX_CMD_OD_READ, R, sizeof(mbx_obj_req), 0, "od-read" },
-	{ MBX_CMD_OD_WRITE, W | D, sizeof(mbx_obj_req), 0, "od-write" },
-	{ MBX_CMD_SDO_UPLOAD, R, sizeof(mbx_sdo_req), 0, "sdo-upload" },
-	{ MBX_CMD_SDO_DOWNLOAD, W | D, sizeof(mbx_sdo_req), 0, "sdo-download" },
-	{ MBX_CMD_NMT, W, sizeof(mbx_nmt_req), 0, "nmt" },
-	{ MBX_CMD_NODE_TABLE, R, 0, 0, "node-table" },
-	{ MBX_CMD_PDO_REQUEST, W, sizeof(mbx_pdo_num_req), 0, "pdo-request" },
-	{ MBX_CMD_PDO_READ, R, sizeof(mbx_obj_req), 0, "pdo-read" },
-	{ MBX_CMD_PDO_WRITE, W | D, sizeof(mbx_obj_req), 8, "pdo-write" },
-	{ MBX_CMD_EMCY_SEND, W, sizeof(mbx_emcy_req), 0, "emcy-send" },
-	{ MBX_CMD_RAW_SEND, W | A, sizeof(mbx_raw_frame), MBX_RAW_SEND_MAX, "raw-send" },
-	{ MBX_CMD_LSS_SWITCH_GLOBAL, W, sizeof(mbx_lss_req), 0, "lss-switch-global" },
-	{ MBX_CMD_LSS_SWITCH_SELECTIVE, W, sizeof(mbx_lss_req), 0, "lss-switch-selective" },
-	{ MBX_CMD_LSS_SET_NODE_ID, W, sizeof(mbx_lss_req), 0, "lss-set-node-id" },
-	{ MBX_CMD_LSS_SET_BIT_TIMING, W, sizeof(mbx_lss_req), 0, "lss-set-bit-timing" },
-	{ MBX_CMD_LSS_ACTIVATE_BIT_TIMING, W, sizeof(mbx_lss_req), 0, "lss-activate-bit-timing" },
-	{ MBX_CMD_LSS_STORE, W, sizeof(mbx_lss_req), 0, "lss-store" },
-	{ MBX_CMD_LSS_INQUIRE, W, sizeof(mbx_lss_req), 0, "lss-inquire" },
-	{ MBX_CMD_LSS_IDENTIFY_REMOTE, W, sizeof(mbx_lss_req), 0, "lss-identify-remote" },
-	{ MBX_CMD_LSS_IDENTIFY_NONCONF, W, sizeof(mbx_lss_req), 0, "lss-identify-nonconf" },
-	{ MBX_CMD_LSS_FASTSCAN, W, sizeof(mbx_lss_req), 0, "lss-fastscan" },
-	{ MBX_CMD_LINE_STATUS, R, 0, 0, "line-status" },
-	{ MBX_CMD_STORE, W, sizeof(mbx_store_req), 0, "store" },
-	{ MBX_CMD_RESTORE, W, sizeof(mbx_store_req), 0, "restore" },
-	{ MBX_CMD_MGR_STATUS, R, 0, 0, "manager-status" },
-	{ MBX_CMD_MGR_BOOT, W, sizeof(mbx_mgr_node_req), 0, "manager-boot" },
-	{ MBX_CMD_MGR_START, W, 0, 0, "manager-start" },
-	{ MBX_CMD_MGR_REQUEST_NMT, W, sizeof(mbx_mgr_nmt_req), 0, "manager-request-nmt" },
-	{ MBX_CMD_MGR_NODE_DIAG, R, sizeof(mbx_mgr_node_req), 0, "manager-node-diag" },
-	{ MBX_CMD_MGR_RESET_COUNTERS, W, 0, 0, "manager-reset-counters" },
-	{ MBX_CMD_MGR_PROGRAM, W | D, sizeof(mbx_mgr_program_req), 0, "manager-program" },
-	{ MBX_CMD_GW_ROUTES, R, 0, 0, "gw-routes" },
-	{ MBX_CMD_GW_SDO_UPLOAD, R, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-upload" },
-	{ MBX_CMD_GW_SDO_DOWNLOAD, W | D, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-download" },
-};
-
-#undef R
-#undef W
-#undef S
-#undef D
-#undef A
-#undef Q
-
-const mbx_cmd_info *mbx_cmd_lookup(unsigned code)
-{
-	size_t lo = 0, hi = sizeof cmd_table / sizeof cmd_table[0];
-
-	while (lo < hi) {
-		size_t mid = (lo + hi) / 2;
-
-		if (cmd_table[mid].code == code)
-			return &cmd_table[mid];
-		if (cmd_table[mid].code < code)
-			lo = mid + 1;
-		else
-			hi = mid;
-	}
-	return NULL;
-}
-
 const char *mbx_cmd_to_string(unsigned code)
 {
 	const mbx_cmd_info *ci = mbx_cmd_lookup(code);
@@ -613,10 +535,11 @@ static bool raw_id_ok(uint32_t id)
 	return bare <= 0x7FFu;
 }
 
-static int check_register(const uint8_t *p, mbx_bad *bad)
+static int check_register(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
 {
 	mbx_register_req r;
 
+	(void)code, (void)len;
 	memcpy(&r, p, sizeof r);
 	if (r.reserved)
 		return refuse(bad, MBX_BAD_RESERVED);
@@ -629,10 +552,11 @@ static int check_register(const uint8_t *p, mbx_bad *bad)
 	return 0;
 }
 
-static int check_subscribe(const uint8_t *p, mbx_bad *bad)
+static int check_subscribe(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
 {
 	mbx_subscribe_req r;
 
+	(void)code, (void)len;
 	memcpy(&r, p, sizeof r);
 	if (!all_zero(r.pad, sizeof r.pad))
 		return refuse(bad, MBX_BAD_RESERVED);
@@ -648,10 +572,11 @@ static int check_subscribe(const uint8_t *p, mbx_bad *bad)
 	return 0;
 }
 
-static int check_lss(uint16_t code, const uint8_t *p, mbx_bad *bad)
+static int check_lss(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
 {
 	mbx_lss_req r;
 
+	(void)len;
 	memcpy(&r, p, sizeof r);
 	if (r.pad)
 		return refuse(bad, MBX_BAD_RESERVED);
@@ -678,164 +603,280 @@ static int check_lss(uint16_t code, const uint8_t *p, mbx_bad *bad)
 	return 0;
 }
 
-/* Fixed-part checks of the service commands. */
-static int check_fixed(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+static int check_unsubscribe(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
 {
-	switch (code) {
-	case MBX_CMD_REGISTER:
-		return check_register(p, bad);
-	case MBX_CMD_SUBSCRIBE:
-		return check_subscribe(p, bad);
-	case MBX_CMD_UNSUBSCRIBE: {
-		mbx_unsubscribe_req r;
+	mbx_unsubscribe_req r;
 
-		memcpy(&r, p, sizeof r);
-		if (r.classes & ~(MBX_EVC_ALL | MBX_EVC_OVERFLOW))
-			return refuse(bad, MBX_BAD_PARAM);
-		return 0;
-	}
-	case MBX_CMD_XFER_ACK: {
-		mbx_xfer_ack r;
-
-		memcpy(&r, p, sizeof r);
-		return r.pad ? refuse(bad, MBX_BAD_RESERVED) : 0;
-	}
-	case MBX_CMD_OD_READ:
-	case MBX_CMD_OD_WRITE:
-	case MBX_CMD_PDO_READ:
-	case MBX_CMD_PDO_WRITE: {
-		mbx_obj_req r;
-
-		memcpy(&r, p, sizeof r);
-		if (code == MBX_CMD_PDO_WRITE ? (r.flags & ~MBX_PDO_TRIGGER) : r.flags)
-			return refuse(bad, MBX_BAD_RESERVED);
-		return 0;
-	}
-	case MBX_CMD_SDO_UPLOAD:
-	case MBX_CMD_SDO_DOWNLOAD: {
-		mbx_sdo_req r;
-
-		memcpy(&r, p, sizeof r);
-		if (!all_zero(r.pad, sizeof r.pad))
-			return refuse(bad, MBX_BAD_RESERVED);
-		if (r.node < 1 || r.node > 127 || r.mode > MBX_SDO_MODE_MAX)
-			return refuse(bad, MBX_BAD_PARAM);
-		if (code == MBX_CMD_SDO_DOWNLOAD && r.size)
-			return refuse(bad, MBX_BAD_RESERVED);
-		return 0;
-	}
-	case MBX_CMD_MGR_BOOT:
-	case MBX_CMD_MGR_NODE_DIAG: {
-		mbx_mgr_node_req r;
-
-		memcpy(&r, p, sizeof r);
-		if (!all_zero(r.pad, sizeof r.pad))
-			return refuse(bad, MBX_BAD_RESERVED);
-		if (r.node > 127 || (code == MBX_CMD_MGR_NODE_DIAG && r.node < 1))
-			return refuse(bad, MBX_BAD_PARAM);
-		return 0;
-	}
-	case MBX_CMD_MGR_PROGRAM: {
-		mbx_mgr_program_req r;
-
-		memcpy(&r, p, sizeof r);
-		if (!all_zero(r.pad, sizeof r.pad))
-			return refuse(bad, MBX_BAD_RESERVED);
-		/* an image of at least one byte (chunked ones always have more) */
-		if (r.node < 1 || r.node > 127 || r.sdo_timeout_ms > MBX_PROGRAM_SDO_TIMEOUT_MAX ||
-		    len <= sizeof r)
-			return refuse(bad, MBX_BAD_PARAM);
-		return 0;
-	}
-	case MBX_CMD_MGR_REQUEST_NMT: {
-		mbx_mgr_nmt_req r;
-
-		memcpy(&r, p, sizeof r);
-		if (r.pad)
-			return refuse(bad, MBX_BAD_RESERVED);
-		if (r.node < 1 || r.node > 128)
-			return refuse(bad, MBX_BAD_PARAM);
-		switch (r.cmd) {
-		case 4:
-		case 5:
-		case 6:
-		case 7:
-		case 127:
-			return 0;
-		}
+	(void)code, (void)len;
+	memcpy(&r, p, sizeof r);
+	if (r.classes & ~(MBX_EVC_ALL | MBX_EVC_OVERFLOW))
 		return refuse(bad, MBX_BAD_PARAM);
-	}
-	case MBX_CMD_GW_SDO_UPLOAD:
-	case MBX_CMD_GW_SDO_DOWNLOAD: {
-		mbx_gw_sdo_req r;
+	return 0;
+}
 
-		memcpy(&r, p, sizeof r);
-		if (r.pad || !all_zero(r.sdo.pad, sizeof r.sdo.pad))
-			return refuse(bad, MBX_BAD_RESERVED);
-		if (r.net < 1 || r.net > 127 || r.sdo.node < 1 || r.sdo.node > 127 ||
-		    r.sdo.mode > MBX_SDO_MODE_MAX)
-			return refuse(bad, MBX_BAD_PARAM);
-		if (code == MBX_CMD_GW_SDO_DOWNLOAD && r.sdo.size)
-			return refuse(bad, MBX_BAD_RESERVED);
-		return 0;
-	}
-	case MBX_CMD_NMT: {
-		mbx_nmt_req r;
+static int check_xfer_ack(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_xfer_ack r;
 
-		memcpy(&r, p, sizeof r);
-		if (r.pad)
-			return refuse(bad, MBX_BAD_RESERVED);
-		if (r.node > 127)
-			return refuse(bad, MBX_BAD_PARAM);
-		switch (r.cs) {
-		case 0x01:
-		case 0x02:
-		case 0x80:
-		case 0x81:
-		case 0x82:
-			return 0;
-		}
+	(void)code, (void)len;
+	memcpy(&r, p, sizeof r);
+	return r.pad ? refuse(bad, MBX_BAD_RESERVED) : 0;
+}
+
+/* OD and PDO reads and writes: only PDO_WRITE has a flag (trigger). */
+static int check_obj_req(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_obj_req r;
+
+	(void)len;
+	memcpy(&r, p, sizeof r);
+	if (code == MBX_CMD_PDO_WRITE ? (r.flags & ~MBX_PDO_TRIGGER) : r.flags)
+		return refuse(bad, MBX_BAD_RESERVED);
+	return 0;
+}
+
+/* A download's size is its data's: the field is for uploads. */
+static int check_sdo_fields(uint16_t code, const mbx_sdo_req *r, mbx_bad *bad)
+{
+	if (!all_zero(r->pad, sizeof r->pad))
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (r->node < 1 || r->node > 127 || r->mode > MBX_SDO_MODE_MAX)
 		return refuse(bad, MBX_BAD_PARAM);
-	}
-	case MBX_CMD_PDO_REQUEST: {
-		mbx_pdo_num_req r;
+	if ((code == MBX_CMD_SDO_DOWNLOAD || code == MBX_CMD_GW_SDO_DOWNLOAD) && r->size)
+		return refuse(bad, MBX_BAD_RESERVED);
+	return 0;
+}
 
-		memcpy(&r, p, sizeof r);
-		if (r.pad)
+static int check_sdo_req(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_sdo_req r;
+
+	(void)len;
+	memcpy(&r, p, sizeof r);
+	return check_sdo_fields(code, &r, bad);
+}
+
+static int check_gw_sdo_req(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_gw_sdo_req r;
+
+	(void)len;
+	memcpy(&r, p, sizeof r);
+	if (r.pad || !all_zero(r.sdo.pad, sizeof r.sdo.pad))
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (r.net < 1 || r.net > 127)
+		return refuse(bad, MBX_BAD_PARAM);
+	return check_sdo_fields(code, &r.sdo, bad);
+}
+
+/* MGR_BOOT takes node 0 (all nodes), MGR_NODE_DIAG one node. */
+static int check_mgr_node_req(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_mgr_node_req r;
+
+	(void)len;
+	memcpy(&r, p, sizeof r);
+	if (!all_zero(r.pad, sizeof r.pad))
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (r.node > 127 || (code == MBX_CMD_MGR_NODE_DIAG && r.node < 1))
+		return refuse(bad, MBX_BAD_PARAM);
+	return 0;
+}
+
+static int check_mgr_program(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_mgr_program_req r;
+
+	(void)code;
+	memcpy(&r, p, sizeof r);
+	if (!all_zero(r.pad, sizeof r.pad))
+		return refuse(bad, MBX_BAD_RESERVED);
+	/* an image of at least one byte (chunked ones always have more) */
+	if (r.node < 1 || r.node > 127 || r.sdo_timeout_ms > MBX_PROGRAM_SDO_TIMEOUT_MAX ||
+	    len <= sizeof r)
+		return refuse(bad, MBX_BAD_PARAM);
+	return 0;
+}
+
+/* Request NMT (CiA 302-2): start, stop, pre-operational, reset node or
+ * communication; node 128 = all nodes. */
+static int check_mgr_request_nmt(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_mgr_nmt_req r;
+
+	(void)code, (void)len;
+	memcpy(&r, p, sizeof r);
+	if (r.pad)
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (r.node < 1 || r.node > 128)
+		return refuse(bad, MBX_BAD_PARAM);
+	switch (r.cmd) {
+	case 4:
+	case 5:
+	case 6:
+	case 7:
+	case 127:
+		return 0;
+	}
+	return refuse(bad, MBX_BAD_PARAM);
+}
+
+/* The NMT command specifiers of CiA 301; node 0 = broadcast. */
+static int check_nmt(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_nmt_req r;
+
+	(void)code, (void)len;
+	memcpy(&r, p, sizeof r);
+	if (r.pad)
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (r.node > 127)
+		return refuse(bad, MBX_BAD_PARAM);
+	switch (r.cs) {
+	case 0x01:
+	case 0x02:
+	case 0x80:
+	case 0x81:
+	case 0x82:
+		return 0;
+	}
+	return refuse(bad, MBX_BAD_PARAM);
+}
+
+static int check_pdo_request(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_pdo_num_req r;
+
+	(void)code, (void)len;
+	memcpy(&r, p, sizeof r);
+	if (r.pad)
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (r.pdo < 1 || r.pdo > 512)
+		return refuse(bad, MBX_BAD_PARAM);
+	return 0;
+}
+
+/* Every frame of the array: a valid identifier, at most 8 bytes, and
+ * nothing after its data. */
+static int check_raw_send(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	(void)code;
+	for (size_t off = 0; off < len; off += sizeof(mbx_raw_frame)) {
+		mbx_raw_frame f;
+
+		memcpy(&f, p + off, sizeof f);
+		if (!all_zero(f.pad, sizeof f.pad))
 			return refuse(bad, MBX_BAD_RESERVED);
-		if (r.pdo < 1 || r.pdo > 512)
+		if (!raw_id_ok(f.id) || f.len > 8)
 			return refuse(bad, MBX_BAD_PARAM);
-		return 0;
-	}
-	case MBX_CMD_RAW_SEND:
-		for (size_t off = 0; off < len; off += sizeof(mbx_raw_frame)) {
-			mbx_raw_frame f;
-
-			memcpy(&f, p + off, sizeof f);
-			if (!all_zero(f.pad, sizeof f.pad))
-				return refuse(bad, MBX_BAD_RESERVED);
-			if (!raw_id_ok(f.id) || f.len > 8)
-				return refuse(bad, MBX_BAD_PARAM);
-			if (!all_zero(f.data + f.len, 8u - f.len))
-				return refuse(bad, MBX_BAD_RESERVED);
-		}
-		return 0;
-	case MBX_CMD_STORE:
-	case MBX_CMD_RESTORE: {
-		mbx_store_req r;
-
-		memcpy(&r, p, sizeof r);
-		if (!all_zero(r.pad, sizeof r.pad))
+		if (!all_zero(f.data + f.len, 8u - f.len))
 			return refuse(bad, MBX_BAD_RESERVED);
-		if (r.sub < 1 || r.sub > 127)
-			return refuse(bad, MBX_BAD_PARAM);
-		return 0;
 	}
-	default:
-		if ((code & 0xFF00) == 0x0700)
-			return check_lss(code, p, bad);
-		return 0; /* no fixed part or nothing to check (EMCY: any) */
+	return 0;
+}
+
+/* 1010h/1011h: sub-index 1..127 */
+static int check_store_req(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_store_req r;
+
+	(void)code, (void)len;
+	memcpy(&r, p, sizeof r);
+	if (!all_zero(r.pad, sizeof r.pad))
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (r.sub < 1 || r.sub > 127)
+		return refuse(bad, MBX_BAD_PARAM);
+	return 0;
+}
+
+/* ---- command table ------------------------------------------------------- */
+
+#define R 0
+#define W MBX_CI_WRITE
+#define S MBX_CI_SERVER
+#define D MBX_CI_DATA
+#define A MBX_CI_ARRAY
+#define Q MBX_CI_QUIET
+
+/* Sorted by code (binary search). The last column checks the fields of
+ * the fixed part once its size is right (NULL: nothing to check; EMCY_SEND
+ * takes any code and data). */
+static const mbx_cmd_info cmd_table[] = {
+	{ MBX_CMD_REGISTER, R | S, sizeof(mbx_register_req), 0, "register", check_register },
+	{ MBX_CMD_UNREGISTER, R | S, 0, 0, "unregister", NULL },
+	{ MBX_CMD_SUBSCRIBE, R | S, sizeof(mbx_subscribe_req), 0, "subscribe", check_subscribe },
+	{ MBX_CMD_UNSUBSCRIBE, R | S, sizeof(mbx_unsubscribe_req), 0, "unsubscribe",
+	  check_unsubscribe },
+	{ MBX_CMD_PING, R | S, 0, 0, "ping", NULL },
+	{ MBX_CMD_XFER_ACK, R | S | Q, sizeof(mbx_xfer_ack), 0, "xfer-ack", check_xfer_ack },
+	{ MBX_CMD_MBX_STATS, R | S, 0, 0, "mbx-stats", NULL },
+	{ MBX_CMD_OD_READ, R, sizeof(mbx_obj_req), 0, "od-read", check_obj_req },
+	{ MBX_CMD_OD_WRITE, W | D, sizeof(mbx_obj_req), 0, "od-write", check_obj_req },
+	{ MBX_CMD_SDO_UPLOAD, R, sizeof(mbx_sdo_req), 0, "sdo-upload", check_sdo_req },
+	{ MBX_CMD_SDO_DOWNLOAD, W | D, sizeof(mbx_sdo_req), 0, "sdo-download", check_sdo_req },
+	{ MBX_CMD_NMT, W, sizeof(mbx_nmt_req), 0, "nmt", check_nmt },
+	{ MBX_CMD_NODE_TABLE, R, 0, 0, "node-table", NULL },
+	{ MBX_CMD_PDO_REQUEST, W, sizeof(mbx_pdo_num_req), 0, "pdo-request", check_pdo_request },
+	{ MBX_CMD_PDO_READ, R, sizeof(mbx_obj_req), 0, "pdo-read", check_obj_req },
+	{ MBX_CMD_PDO_WRITE, W | D, sizeof(mbx_obj_req), 8, "pdo-write", check_obj_req },
+	{ MBX_CMD_EMCY_SEND, W, sizeof(mbx_emcy_req), 0, "emcy-send", NULL },
+	{ MBX_CMD_RAW_SEND, W | A, sizeof(mbx_raw_frame), MBX_RAW_SEND_MAX, "raw-send",
+	  check_raw_send },
+	{ MBX_CMD_LSS_SWITCH_GLOBAL, W, sizeof(mbx_lss_req), 0, "lss-switch-global", check_lss },
+	{ MBX_CMD_LSS_SWITCH_SELECTIVE, W, sizeof(mbx_lss_req), 0, "lss-switch-selective",
+	  check_lss },
+	{ MBX_CMD_LSS_SET_NODE_ID, W, sizeof(mbx_lss_req), 0, "lss-set-node-id", check_lss },
+	{ MBX_CMD_LSS_SET_BIT_TIMING, W, sizeof(mbx_lss_req), 0, "lss-set-bit-timing", check_lss },
+	{ MBX_CMD_LSS_ACTIVATE_BIT_TIMING, W, sizeof(mbx_lss_req), 0, "lss-activate-bit-timing",
+	  check_lss },
+	{ MBX_CMD_LSS_STORE, W, sizeof(mbx_lss_req), 0, "lss-store", check_lss },
+	{ MBX_CMD_LSS_INQUIRE, W, sizeof(mbx_lss_req), 0, "lss-inquire", check_lss },
+	{ MBX_CMD_LSS_IDENTIFY_REMOTE, W, sizeof(mbx_lss_req), 0, "lss-identify-remote",
+	  check_lss },
+	{ MBX_CMD_LSS_IDENTIFY_NONCONF, W, sizeof(mbx_lss_req), 0, "lss-identify-nonconf",
+	  check_lss },
+	{ MBX_CMD_LSS_FASTSCAN, W, sizeof(mbx_lss_req), 0, "lss-fastscan", check_lss },
+	{ MBX_CMD_LINE_STATUS, R, 0, 0, "line-status", NULL },
+	{ MBX_CMD_STORE, W, sizeof(mbx_store_req), 0, "store", check_store_req },
+	{ MBX_CMD_RESTORE, W, sizeof(mbx_store_req), 0, "restore", check_store_req },
+	{ MBX_CMD_MGR_STATUS, R, 0, 0, "manager-status", NULL },
+	{ MBX_CMD_MGR_BOOT, W, sizeof(mbx_mgr_node_req), 0, "manager-boot", check_mgr_node_req },
+	{ MBX_CMD_MGR_START, W, 0, 0, "manager-start", NULL },
+	{ MBX_CMD_MGR_REQUEST_NMT, W, sizeof(mbx_mgr_nmt_req), 0, "manager-request-nmt",
+	  check_mgr_request_nmt },
+	{ MBX_CMD_MGR_NODE_DIAG, R, sizeof(mbx_mgr_node_req), 0, "manager-node-diag",
+	  check_mgr_node_req },
+	{ MBX_CMD_MGR_RESET_COUNTERS, W, 0, 0, "manager-reset-counters", NULL },
+	{ MBX_CMD_MGR_PROGRAM, W | D, sizeof(mbx_mgr_program_req), 0, "manager-program",
+	  check_mgr_program },
+	{ MBX_CMD_GW_ROUTES, R, 0, 0, "gw-routes", NULL },
+	{ MBX_CMD_GW_SDO_UPLOAD, R, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-upload", check_gw_sdo_req },
+	{ MBX_CMD_GW_SDO_DOWNLOAD, W | D, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-download",
+	  check_gw_sdo_req },
+};
+
+#undef R
+#undef W
+#undef S
+#undef D
+#undef A
+#undef Q
+
+const mbx_cmd_info *mbx_cmd_lookup(unsigned code)
+{
+	size_t lo = 0, hi = sizeof cmd_table / sizeof cmd_table[0];
+
+	while (lo < hi) {
+		size_t mid = (lo + hi) / 2;
+
+		if (cmd_table[mid].code == code)
+			return &cmd_table[mid];
+		if (cmd_table[mid].code < code)
+			lo = mid + 1;
+		else
+			hi = mid;
 	}
+	return NULL;
 }
 
 int mbx_cmd_validate(const mbx_hdr *h, const uint8_t *payload, mbx_bad *bad)
@@ -857,7 +898,7 @@ int mbx_cmd_validate(const mbx_hdr *h, const uint8_t *payload, mbx_bad *bad)
 		 * (a transfer that fits one message is not chunked) */
 		if (len < ci->fixed || !(h->flags & MBX_F_MORE) || h->total <= len - ci->fixed)
 			return refuse(bad, MBX_BAD_CHUNK);
-		return check_fixed(h->code, payload, len, bad);
+		return ci->check ? ci->check(h->code, payload, len, bad) : 0;
 	}
 	if (ci->flags & MBX_CI_ARRAY) {
 		if (len == 0 || len % ci->fixed || len / ci->fixed > ci->max_data)
@@ -870,7 +911,7 @@ int mbx_cmd_validate(const mbx_hdr *h, const uint8_t *payload, mbx_bad *bad)
 	} else if (len != ci->fixed) {
 		return refuse(bad, MBX_BAD_SIZE);
 	}
-	return check_fixed(h->code, payload, len, bad);
+	return ci->check ? ci->check(h->code, payload, len, bad) : 0;
 }
 
 int mbx_event_validate(unsigned code, const uint8_t *p, size_t len)

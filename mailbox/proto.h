@@ -238,6 +238,9 @@ typedef struct mbx_cmd_info {
 	uint16_t max_data; /* DATA: max trailing bytes, 0 = any (chunked);
 	                    * ARRAY: max elements */
 	const char *name;
+	/* the fixed part's fields, once its size is right: 0 or a refusal
+	 * (mbx_cmd_validate's); NULL = nothing to check */
+	int (*check)(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad);
 } mbx_cmd_info;
 
 const mbx_cmd_info *mbx_cmd_lookup(unsigned code); /* NULL if unknown */
