@@ -1404,24 +1404,9 @@ uint64_t mbx_server_tick(mbx_server *srv, uint64_t now_us)
 
 /* ---- lifetime ------------------------------------------------------------------------ */
 
-int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
+/* The documented default of every limit left 0 in the config. */
+static void config_fill_defaults(mbx_server_config *c)
 {
-	mbx_server *srv;
-	struct mq_attr attr;
-	int rc;
-
-	*out = NULL;
-	if (!cfg || !cfg->queue_name || cfg->line >= MBX_LINES_MAX ||
-	    !mbx_queue_name_is_valid(cfg->queue_name, strlen(cfg->queue_name) + 1) ||
-	    (cfg->n_rules && !cfg->rules) || cfg->default_access > MBX_ACCESS_WRITE)
-		return -EINVAL;
-	srv = calloc(1, sizeof *srv);
-	if (!srv)
-		return -ENOMEM;
-	srv->q = (mqd_t)-1;
-	srv->cfg = *cfg;
-	mbx_server_config *c = &srv->cfg;
-
 	if (!c->queue_mode)
 		c->queue_mode = 0620;
 	if (!c->depth)
@@ -1460,20 +1445,27 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 		c->xfer_max_ms = 60000;
 	/* A client queue others can read leaks the token: never allowed. */
 	c->forbidden_client_mode |= 0044;
-	rc = -EINVAL;
+}
+
+static bool config_is_valid(const mbx_server_config *c)
+{
 	/* The command queue carries every client's token: only the daemon
 	 * may read it (issue 11: with 0660 any member of the group read the
 	 * tokens of other clients and acted with their rights). */
 	if (c->queue_mode & ~0777u || c->queue_mode & 0044 ||
 	    (c->queue_chown && c->queue_uid != geteuid()))
-		goto fail;
-	if (c->msg_size < MBX_MSG_MIN || c->msg_size > MBX_MSG_MAX || c->max_clients > 0xFFFFu ||
-	    c->xfer_slots > 255)
-		goto fail;
-	strcpy(srv->qname, cfg->queue_name);
-	c->queue_name = srv->qname;
+		return false;
+	return c->msg_size >= MBX_MSG_MIN && c->msg_size <= MBX_MSG_MAX &&
+	       c->max_clients <= 0xFFFFu && c->xfer_slots <= 255;
+}
 
-	rc = -ENOMEM;
+/* Everything the server will ever use, so that nothing is allocated
+ * after create: buffers, the client and transfer tables, room for a
+ * reload's access rules (mbx_server_set_rules). */
+static int allocate_tables(mbx_server *srv, const mbx_access_rule *rules)
+{
+	mbx_server_config *c = &srv->cfg;
+
 	srv->rx_size = c->msg_size;
 	srv->rx = malloc(srv->rx_size);
 	srv->tx = malloc(MBX_MSG_MAX);
@@ -1481,45 +1473,74 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 	srv->sub_words = (c->max_clients + 63) / 64;
 	srv->sub_bits = calloc(32 * srv->sub_words, sizeof *srv->sub_bits);
 	srv->xfers = calloc(c->xfer_slots, sizeof *srv->xfers);
-	/* Room for a reload's rules too (mbx_server_set_rules), so that
-	 * nothing is allocated after create. */
 	srv->rules_cap = c->n_rules > MBX_SERVER_RULES_MAX ? c->n_rules : MBX_SERVER_RULES_MAX;
 	srv->rules = calloc(srv->rules_cap, sizeof *srv->rules);
 	if (srv->rules && c->n_rules)
-		memcpy(srv->rules, cfg->rules, c->n_rules * sizeof *srv->rules);
+		memcpy(srv->rules, rules, c->n_rules * sizeof *srv->rules);
 	if (!srv->rx || !srv->tx || !srv->clients || !srv->sub_bits || !srv->xfers || !srv->rules)
-		goto fail;
+		return -ENOMEM;
 	c->rules = srv->rules;
 	for (unsigned i = 0; i < c->max_clients; i++)
 		srv->clients[i].resp = srv->clients[i].evt = (mqd_t)-1;
 	for (unsigned i = 0; i < c->xfer_slots; i++) {
 		srv->xfers[i].buf = mbx_buffer_reserve(c->max_transfer);
 		if (!srv->xfers[i].buf)
-			goto fail;
+			return -ENOMEM;
 	}
-	if (getrandom(&srv->rng, sizeof srv->rng, GRND_NONBLOCK) != (ssize_t)sizeof srv->rng)
-		srv->rng = (uint64_t)getpid() * 0x9E3779B97F4A7C15ull ^ (uint64_t)(uintptr_t)srv;
+	return 0;
+}
+
+static int open_command_queue(mbx_server *srv)
+{
+	const mbx_server_config *c = &srv->cfg;
+	struct mq_attr attr = { .mq_maxmsg = c->depth, .mq_msgsize = c->msg_size };
+	struct stat qst;
 
 	if (c->unlink_existing)
 		mq_unlink(srv->qname);
-	attr = (struct mq_attr){ .mq_maxmsg = c->depth, .mq_msgsize = c->msg_size };
 	srv->q = mq_open(srv->qname, O_CREAT | O_EXCL | O_RDONLY | O_NONBLOCK | O_CLOEXEC,
 			 c->queue_mode, &attr);
-	if (srv->q == (mqd_t)-1) {
-		rc = -errno;
-		goto fail;
-	}
+	if (srv->q == (mqd_t)-1)
+		return -errno;
 	/* The mode given to mq_open is filtered by the umask: set it
 	 * exactly, as the config says. */
-	struct stat qst;
-
 	if (fchmod((int)srv->q, c->queue_mode) < 0 ||
 	    (c->queue_chown && fchown((int)srv->q, c->queue_uid, c->queue_gid) < 0) ||
-	    fstat((int)srv->q, &qst) < 0) {
-		rc = -errno;
-		goto fail;
-	}
+	    fstat((int)srv->q, &qst) < 0)
+		return -errno;
 	srv->q_ino = qst.st_ino;
+	return 0;
+}
+
+int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
+{
+	mbx_server *srv;
+	int rc;
+
+	*out = NULL;
+	if (!cfg || !cfg->queue_name || cfg->line >= MBX_LINES_MAX ||
+	    !mbx_queue_name_is_valid(cfg->queue_name, strlen(cfg->queue_name) + 1) ||
+	    (cfg->n_rules && !cfg->rules) || cfg->default_access > MBX_ACCESS_WRITE)
+		return -EINVAL;
+	srv = calloc(1, sizeof *srv);
+	if (!srv)
+		return -ENOMEM;
+	srv->q = (mqd_t)-1;
+	srv->cfg = *cfg;
+	config_fill_defaults(&srv->cfg);
+	rc = -EINVAL;
+	if (!config_is_valid(&srv->cfg))
+		goto fail;
+	strcpy(srv->qname, cfg->queue_name);
+	srv->cfg.queue_name = srv->qname;
+	rc = allocate_tables(srv, cfg->rules);
+	if (rc)
+		goto fail;
+	if (getrandom(&srv->rng, sizeof srv->rng, GRND_NONBLOCK) != (ssize_t)sizeof srv->rng)
+		srv->rng = (uint64_t)getpid() * 0x9E3779B97F4A7C15ull ^ (uint64_t)(uintptr_t)srv;
+	rc = open_command_queue(srv);
+	if (rc)
+		goto fail;
 	*out = srv;
 	return 0;
 fail:
