@@ -340,6 +340,17 @@ static void relay_rx(void *arg, const uint8_t d[8], uint64_t now_us)
 		COUNT(r->gl->c.ring_drops);
 }
 
+/* Can frames go out on this line at all? Not with its interface down
+ * (nothing would answer) nor bus-off. */
+static bool line_can_carry(struct gw_line *gl)
+{
+	line_stats st;
+
+	if (!line_is_up(gl->l) || !line_link_up(gl->l))
+		return false;
+	return !(line_stats_snapshot(gl->l, &st) && st.bus_state == CAN_BUS_OFF);
+}
+
 /* This line's link went down: tell each requester's line, so that its
  * session ends now with `abort`; the leases stay, orphaned, until the
  * device can be told as well (relays_link_back). */
@@ -377,9 +388,9 @@ static void relays_link_back(struct gw_line *gl, uint64_t now_us)
 }
 
 /* A lease toward a line whose interface went down (ip link set down,
- * carrier lost) would otherwise end only by the requester's per-frame
- * timeout: while leases are held, look at the link (one ioctl) every
- * GW_LINK_CHECK_US. */
+ * carrier lost) or bus-off would otherwise end only by the requester's
+ * per-frame timeout: while leases are held, look at the line (one ioctl)
+ * every GW_LINK_CHECK_US. */
 static void relays_check_link(struct gw_line *gl, uint64_t now_us, uint64_t *next)
 {
 	bool held = false;
@@ -390,7 +401,7 @@ static void relays_check_link(struct gw_line *gl, uint64_t now_us, uint64_t *nex
 		return;
 	if (now_us >= gl->next_link_check_us) {
 		gl->next_link_check_us = now_us + GW_LINK_CHECK_US;
-		if (!line_is_up(gl->l) || !line_link_up(gl->l))
+		if (!line_can_carry(gl))
 			relays_link_lost(gl, GW_AB_NO_ANSWER);
 		else
 			relays_link_back(gl, now_us);
@@ -411,11 +422,7 @@ static struct gw_relay *relay_by_sid(struct gw_line *gl, uint8_t from, uint32_t 
 /* Can this line serve a lease toward node now? 0 or the refusal. */
 static uint32_t relay_check(struct gw_line *gl, uint8_t node)
 {
-	line_stats st;
-
-	if (!line_is_up(gl->l) || !line_link_up(gl->l))
-		return GW_AB_NO_ANSWER; /* interface down: nothing would answer */
-	if (line_stats_snapshot(gl->l, &st) && st.bus_state == CAN_BUS_OFF)
+	if (!line_can_carry(gl))
 		return GW_AB_NO_ANSWER;
 	if (co_hb_consumer_status(gl->node, node) == CO_HB_MON_LOST)
 		return GW_AB_NO_ANSWER; /* known silent: refuse now, not by a timeout */
