@@ -45,7 +45,7 @@ enum gw_msg_kind {
 	M_TO_TARGET, /* a requester frame: d */
 	M_TO_REQ,    /* a target frame: d */
 	M_CLOSE,     /* give the lease of sid back */
-	M_LOST,      /* the target line's link went down: the lease of sid is gone */
+	M_LOST,      /* the target line carries no frames (link down, bus-off): sid ends */
 	M_JOB,       /* run a mailbox SDO job (job) */
 	M_JOB_DONE,  /* its outcome (job->abort, job->size) */
 };
@@ -79,10 +79,11 @@ struct gw_sess {
 
 struct gw_relay {
 	bool used;
-	/* The link went down under it: the session was told and is gone,
-	 * the device may still be in the transfer. Kept (the channel not
-	 * lent again) until the link is back, then the device gets an
-	 * abort; or freed by the idle limit. */
+	/* The line stopped carrying frames under it (link down, bus-off):
+	 * the session was told and is gone, the device may still be in the
+	 * transfer. Kept (the channel not lent again) until the line carries
+	 * frames again, then the device gets an abort; or freed by the idle
+	 * limit. */
 	bool orphaned;
 	uint8_t from;
 	uint8_t mux[3]; /* index, sub-index of the transfer (its first frame) */
