@@ -31,12 +31,18 @@ void gw_netind_encode(uint8_t d[8], gw_netind ni)
 	d[3] = ni.node;
 }
 
-void gw_netind_abort_encode(uint8_t d[8], gw_netind ni, uint32_t code)
+void gw_sdo_abort_encode(uint8_t d[8], const uint8_t mux[3], uint32_t code)
 {
 	d[0] = SDO_CCS_ABORT << 5;
-	co_put_le16(&d[1], ni.net);
-	d[3] = ni.node;
+	memcpy(&d[1], mux, 3);
 	co_put_le32(&d[4], code);
+}
+
+void gw_netind_abort_encode(uint8_t d[8], gw_netind ni, uint32_t code)
+{
+	const uint8_t mux[3] = { (uint8_t)ni.net, (uint8_t)(ni.net >> 8), ni.node };
+
+	gw_sdo_abort_encode(d, mux, code);
 }
 
 uint32_t gw_route_entry_encode(gw_route_entry e)

@@ -84,6 +84,9 @@ static inline bool gw_netind_is(const uint8_t d[8])
 uint32_t gw_netind_decode(const uint8_t d[8], gw_netind *out);
 /* Indication and confirmation have the same layout. */
 void gw_netind_encode(uint8_t d[8], gw_netind ni);
+/* An SDO abort: 80, bytes 1..3 = mux (index, sub-index, or what the
+ * aborted frame carried there), bytes 4..7 = code. */
+void gw_sdo_abort_encode(uint8_t d[8], const uint8_t mux[3], uint32_t code);
 /* The refusal: 80, bytes 1..3 = network/node, bytes 4..7 = code. */
 void gw_netind_abort_encode(uint8_t d[8], gw_netind ni, uint32_t code);
 

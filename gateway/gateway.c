@@ -86,10 +86,10 @@ struct gw_relay {
 	 * limit. */
 	bool orphaned;
 	uint8_t from;
-	uint8_t mux[3]; /* index, sub-index of the transfer (its first frame) */
+	bool engaged;   /* the device got a frame of the transfer */
+	uint8_t mux[3]; /* its index, sub-index (from that first frame) */
 	int cli_ch;
 	uint32_t sid;
-	uint64_t frames; /* requester frames sent to the device */
 	uint64_t last_us;
 	struct gw_line *gl;
 };
@@ -376,12 +376,12 @@ static void relays_link_back(struct gw_line *gl, uint64_t now_us)
 {
 	for (unsigned i = 0; i < GW_RELAYS_MAX; i++) {
 		struct gw_relay *r = &gl->relay[i];
-		uint8_t d[8] = { SDO_CCS_ABORT << 5, r->mux[0], r->mux[1], r->mux[2] };
+		uint8_t d[8];
 
 		if (!r->used || !r->orphaned)
 			continue;
-		if (r->frames) {
-			co_put_le32(&d[4], SDO_AB_GENERAL);
+		if (r->engaged) {
+			gw_sdo_abort_encode(d, r->mux, SDO_AB_GENERAL);
 			sdo_client_lease_send(gl->node, (uint8_t)r->cli_ch, d);
 		}
 		relay_free(r, now_us);
@@ -390,16 +390,10 @@ static void relays_link_back(struct gw_line *gl, uint64_t now_us)
 
 /* A lease toward a line whose interface went down (ip link set down,
  * carrier lost) or bus-off would otherwise end only by the requester's
- * per-frame timeout: while leases are held, look at the line (one ioctl)
- * every GW_LINK_CHECK_US. */
+ * per-frame timeout: while leases are held (the caller knows), look at
+ * the line (one ioctl) every GW_LINK_CHECK_US. */
 static void relays_check_link(struct gw_line *gl, uint64_t now_us, uint64_t *next)
 {
-	bool held = false;
-
-	for (unsigned i = 0; i < GW_RELAYS_MAX && !held; i++)
-		held = gl->relay[i].used;
-	if (!held)
-		return;
 	if (now_us >= gl->next_link_check_us) {
 		gl->next_link_check_us = now_us + GW_LINK_CHECK_US;
 		if (!line_can_carry(gl))
@@ -450,7 +444,7 @@ static void relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 			r->from = m->from;
 			r->sid = m->sid;
 			r->cli_ch = ch;
-			r->frames = 0;
+			r->engaged = false;
 			r->last_us = now_us;
 		} else {
 			ans.abort = ch == -EALREADY ? GW_AB_ROUTE_BUSY : GW_AB_NO_CLIENT;
@@ -1036,8 +1030,9 @@ static void handle(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 		break;
 	case M_TO_TARGET:
 		if ((r = relay_by_sid(gl, m->from, m->sid))) {
-			if (!r->frames++)
+			if (!r->engaged)
 				memcpy(r->mux, &m->d[1], sizeof r->mux);
+			r->engaged = true;
 			r->last_us = now_us;
 			COUNT(gl->c.relayed_frames);
 			sdo_client_lease_send(gl->node, (uint8_t)r->cli_ch, m->d);
@@ -1106,16 +1101,22 @@ static uint64_t ext_poll(void *ctx, line *l, uint64_t now_us)
 		if (gw_sdo_route_deadline(&gl->sess[i].r) < next)
 			next = gw_sdo_route_deadline(&gl->sess[i].r);
 	}
+	bool held = false;
+
 	for (unsigned i = 0; i < GW_RELAYS_MAX; i++) {
 		struct gw_relay *r = &gl->relay[i];
 		if (!r->used)
 			continue;
-		if (now_us - r->last_us >= idle)
+		if (now_us - r->last_us >= idle) {
 			relay_free(r, now_us);
-		else if (r->last_us + idle < next)
+			continue;
+		}
+		held = true;
+		if (r->last_us + idle < next)
 			next = r->last_us + idle;
 	}
-	relays_check_link(gl, now_us, &next);
+	if (held)
+		relays_check_link(gl, now_us, &next);
 	jobs_tick(gl, now_us, &next);
 	/* Mailbox writes to the mapping leave no event: look once a second. */
 	if (gl->fwd_dirty || now_us >= gl->next_rebuild_us) {

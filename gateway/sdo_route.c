@@ -62,13 +62,6 @@ static void to_target(gw_sdo_route *s, const uint8_t d[8])
 	s->ops->to_target(s->ctx, d);
 }
 
-static void abort_frame(const gw_sdo_route *s, uint8_t d[8], uint32_t code)
-{
-	d[0] = SDO_CCS_ABORT << 5;
-	memcpy(&d[1], s->mux, 3);
-	co_put_le32(&d[4], code);
-}
-
 /* Has the target (or router) seen anything it would wait on? */
 static bool target_engaged(const gw_sdo_route *s)
 {
@@ -82,10 +75,10 @@ static int fail(gw_sdo_route *s, uint32_t req, uint32_t tgt, gw_route_outcome o)
 	uint8_t d[8];
 
 	if (tgt && target_engaged(s)) {
-		abort_frame(s, d, tgt);
+		gw_sdo_abort_encode(d, s->mux, tgt);
 		to_target(s, d);
 	}
-	abort_frame(s, d, req);
+	gw_sdo_abort_encode(d, s->mux, req);
 	to_requester(s, d);
 	s->abort = req;
 	s->outcome = (uint8_t)o;
