@@ -1230,13 +1230,10 @@ static int queue_create_error(void)
 		return COGW_E_SYSTEM;
 	int probe = eventfd(0, EFD_CLOEXEC);
 
-	if (probe < 0) {
-		errno = EMFILE;
-		return COGW_E_SYSTEM;
-	}
-	close(probe);
+	if (probe >= 0)
+		close(probe);
 	errno = EMFILE;
-	return COGW_E_QUEUE_LIMIT;
+	return probe >= 0 ? COGW_E_QUEUE_LIMIT : COGW_E_SYSTEM;
 }
 
 int cogw_open(cogw **out, const char *instance)
