@@ -2123,8 +2123,10 @@ int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st, unsigned timeout_
 	memset(st, 0, sizeof *st);
 	rc = call(h, line, MBX_CMD_MBX_STATS, NULL, 0, NULL, 0, st, sizeof *st, &len, NULL,
 		  timeout_ms);
-	/* An older daemon's answer ends at the issue-11 counters (left 0). */
-	return rc == 0 && len != sizeof *st && len != offsetof(mbx_stats_wire, xfer_failed)
+	/* An older daemon's answer ends before the counters added later
+	 * (left 0). */
+	return rc == 0 && len != sizeof *st && len != offsetof(mbx_stats_wire, late_wakes) &&
+			       len != offsetof(mbx_stats_wire, xfer_failed)
 		       ? COGW_E_PROTOCOL
 		       : rc;
 }

@@ -23,7 +23,7 @@ _Static_assert(sizeof(mbx_unsubscribe_req) == 4, "wire layout");
 _Static_assert(sizeof(mbx_subscribe_resp) == 4, "wire layout");
 _Static_assert(sizeof(mbx_ping_resp) == 16, "wire layout");
 _Static_assert(sizeof(mbx_xfer_ack) == 4, "wire layout");
-_Static_assert(sizeof(mbx_stats_wire) == 112, "wire layout");
+_Static_assert(sizeof(mbx_stats_wire) == 120, "wire layout");
 _Static_assert(sizeof(mbx_obj_req) == 4, "wire layout");
 _Static_assert(sizeof(mbx_sdo_req) == 16, "wire layout");
 _Static_assert(sizeof(mbx_nmt_req) == 4, "wire layout");

@@ -378,6 +378,8 @@ typedef struct mbx_stats_wire {
 	uint64_t limited;        /* refused by a per-user/per-client limit */
 	uint64_t budget_refused; /* refused by the memory budget, all lines */
 	uint64_t budget_used;    /* transfer memory in use now, all lines */
+	/* Added after issue 15 (an older daemon's answer ends before it). */
+	uint64_t late_wakes; /* line woke too late to judge client leases */
 } mbx_stats_wire;
 
 /* ---- payloads: services ------------------------------------------------- */

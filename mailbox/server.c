@@ -43,6 +43,9 @@
 #include <unistd.h>
 
 #define RETRY_US 20000u /* resume a chunk stream / overflow notice */
+/* A tick later than this past the time it asked for means this thread (or
+ * the whole machine) stood still: see forgive_late_wake. */
+#define LATE_WAKE_US 100000u
 
 typedef struct mbx_client {
 	uint32_t id; /* 0 = free slot */
@@ -120,6 +123,7 @@ struct mbx_server {
 	uint64_t rng; /* fallback token source */
 	uint64_t now_us;
 	uint64_t next_check_us;
+	uint64_t wake_by_us; /* what the last tick asked for */
 	mbx_server_stats stats;
 };
 
@@ -915,6 +919,7 @@ static void handle_protocol(mbx_server *srv, mbx_client *c, const mbx_hdr *h, co
 			.budget_refused = srv->cfg.budget ? atomic_load(&srv->cfg.budget->refused)
 							  : srv->stats.budget_refused,
 			.budget_used = mbx_budget_used(srv->cfg.budget),
+			.late_wakes = srv->stats.late_wakes,
 		};
 		if (reply)
 			send_status(srv, c, h->code, h->corr, 0, 0, &out, sizeof out);
@@ -1331,11 +1336,36 @@ static uint64_t min64(uint64_t a, uint64_t b)
 	return a < b ? a : b;
 }
 
+/* A client's silence is judged only by a server that was awake to hear it.
+ * Woken late - this thread, the daemon or the whole machine stood still (a
+ * paused VM, a stopped process, an overloaded box) - the renewals it missed
+ * may simply not have run yet: every lapsed lease and registration window
+ * starts again, once per late wake. A client whose process is gone is still
+ * dropped by the next full check. */
+static void forgive_late_wake(mbx_server *srv, uint64_t now_us)
+{
+	const uint64_t reg_us = (uint64_t)srv->cfg.register_timeout_ms * 1000u;
+
+	srv->stats.late_wakes++;
+	for (unsigned i = 0; i < srv->cfg.max_clients; i++) {
+		mbx_client *c = &srv->clients[i];
+
+		if (!c->id)
+			continue;
+		if (srv->cfg.lease_ms && now_us > c->lease_until)
+			c->lease_until = now_us + (uint64_t)srv->cfg.lease_ms * 1000u;
+		if (!c->confirmed && now_us > c->registered_us + reg_us)
+			c->registered_us = now_us;
+	}
+}
+
 uint64_t mbx_server_tick(mbx_server *srv, uint64_t now_us)
 {
 	uint64_t next = UINT64_MAX;
 	bool full = now_us >= srv->next_check_us;
 
+	if (srv->wake_by_us != UINT64_MAX && now_us > srv->wake_by_us + LATE_WAKE_US)
+		forgive_late_wake(srv, now_us);
 	srv->now_us = now_us;
 	if (full)
 		srv->next_check_us = now_us + (uint64_t)srv->cfg.check_ms * 1000u;
@@ -1399,6 +1429,7 @@ uint64_t mbx_server_tick(mbx_server *srv, uint64_t now_us)
 	}
 	if (srv->stats.clients)
 		next = min64(next, srv->next_check_us);
+	srv->wake_by_us = next;
 	return next;
 }
 
@@ -1526,6 +1557,7 @@ int mbx_server_create(mbx_server **out, const mbx_server_config *cfg)
 	if (!srv)
 		return -ENOMEM;
 	srv->q = (mqd_t)-1;
+	srv->wake_by_us = UINT64_MAX;
 	srv->cfg = *cfg;
 	config_fill_defaults(&srv->cfg);
 	rc = -EINVAL;

@@ -164,6 +164,7 @@ typedef struct mbx_server_stats {
 				     * transfer lifetime */
 	uint64_t limited;           /* refused by a per-user/client limit */
 	uint64_t budget_refused;    /* refused by the transfer memory budget */
+	uint64_t late_wakes;        /* ticks that came too late to judge leases */
 	uint32_t clients;           /* current */
 } mbx_server_stats;
 

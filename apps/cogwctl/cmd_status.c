@@ -65,6 +65,8 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 		cJSON_AddNumberToObject(mb, "access_denied", (double)ms.access_denied);
 		cJSON_AddNumberToObject(mb, "events_sent", (double)ms.events_sent);
 		cJSON_AddNumberToObject(mb, "dropped", (double)ms.dropped);
+		cJSON_AddNumberToObject(mb, "clients_reaped", (double)ms.clients_reaped);
+		cJSON_AddNumberToObject(mb, "late_wakes", (double)ms.late_wakes);
 		if (has_gw)
 			ctl_gw_counters_json(cJSON_AddObjectToObject(o, "gateway"), &gw);
 		cJSON *na = cJSON_AddArrayToObject(o, "nodes");
@@ -104,6 +106,9 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 	       " malformed, %" PRIu64 " denied, %" PRIu64 " events sent, %" PRIu64 " dropped\n",
 	       ms.clients, ms.clients == 1 ? "" : "s", ms.commands_ok, ms.malformed,
 	       ms.access_denied, ms.events_sent, ms.dropped);
+	if (ms.late_wakes) /* leases were not judged then: say why clients outlived one */
+		printf("  mailbox woke late %" PRIu64 " time%s (a stall): client leases renewed\n",
+		       ms.late_wakes, ms.late_wakes == 1 ? "" : "s");
 	if (has_gw) {
 		printf("  gateway: network %u, %u routed session%s running, %u client%s lent\n",
 		       gw.network_id, gw.active, gw.active == 1 ? "" : "s", gw.leases,
