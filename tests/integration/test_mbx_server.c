@@ -909,7 +909,7 @@ static void test_late_wake_renews_lapsed_leases_once(void)
 	pthread_mutex_lock(&fl.mu); /* the server thread stands still too */
 	sleep_ms(1500);
 	pthread_mutex_unlock(&fl.mu);
-	sleep_ms(100); /* the server runs first, */
+	sleep_ms(100);     /* the server runs first, */
 	kill(pa, SIGCONT); /* then a sends its renewal; b never does */
 	sleep_ms(500);
 
