@@ -804,43 +804,88 @@ static void test_client_with_unlinked_queue_is_reaped(void)
 	sync_close(&s);
 }
 
-static void test_lease_expiry(void)
-{
-	mbx_server_config cfg = base_cfg();
+/* Two clients parked by child_park on a server with a 1 s lease: a goes on
+ * renewing, b is what the test stops. */
+typedef struct lease_pair {
 	sync2 a, b;
 	pid_t pa, pb;
+} lease_pair;
+
+static void lease_pair_start(lease_pair *lp)
+{
+	mbx_server_config cfg = base_cfg();
 
 	cfg.lease_ms = 1000;
 	start(&cfg);
-	sync_init(&a);
-	sync_init(&b);
-	pa = spawn(child_park, &a);
-	pb = spawn(child_park, &b);
-	parent_wait_ready(&a);
-	parent_wait_ready(&b);
+	sync_init(&lp->a);
+	sync_init(&lp->b);
+	lp->pa = spawn(child_park, &lp->a);
+	lp->pb = spawn(child_park, &lp->b);
+	parent_wait_ready(&lp->a);
+	parent_wait_ready(&lp->b);
 	TEST_ASSERT_EQUAL_UINT32(2, stats().clients);
-	kill(pb, SIGSTOP); /* alive, but renews nothing */
-	sleep_ms(4000);    /* > 3 leases: a keeps pinging, b expires */
-	/* (a stall of this machine renews b's lapsed lease once: give it one
-	 * more lease rather than fail on a slow CI host) */
-	WAIT_FOR(stats().clients_reaped == 1, 2000);
+}
+
+/* b (stopped) was dropped, a is the one client left; both then end. */
+static void lease_pair_expect_only_a_and_end(lease_pair *lp)
+{
 	mbx_server_stats st = stats();
+	mbx_client_info ci;
 
 	TEST_ASSERT_EQUAL_UINT32(1, st.clients);
 	TEST_ASSERT_EQUAL_UINT64(1, st.clients_reaped);
-	mbx_client_info ci;
-
 	pthread_mutex_lock(&fl.mu);
 	TEST_ASSERT_EQUAL_INT(0, mbx_server_client_info(fl.srv, 0, &ci));
 	pthread_mutex_unlock(&fl.mu);
-	TEST_ASSERT_EQUAL_UINT32((uint32_t)pa, ci.pid);
-	parent_go(&a);
-	TEST_ASSERT_EQUAL_INT(0, reap(pa));
-	kill(pb, SIGCONT);
-	parent_go(&b);
-	TEST_ASSERT_EQUAL_INT(0, reap(pb)); /* closes cleanly after all */
-	sync_close(&a);
-	sync_close(&b);
+	TEST_ASSERT_EQUAL_UINT32((uint32_t)lp->pa, ci.pid);
+	parent_go(&lp->a);
+	TEST_ASSERT_EQUAL_INT(0, reap(lp->pa));
+	kill(lp->pb, SIGCONT);
+	parent_go(&lp->b);
+	TEST_ASSERT_EQUAL_INT(0, reap(lp->pb)); /* closes cleanly after all */
+	sync_close(&lp->a);
+	sync_close(&lp->b);
+}
+
+static void test_lease_expiry(void)
+{
+	lease_pair lp;
+
+	lease_pair_start(&lp);
+	kill(lp.pb, SIGSTOP); /* alive, but renews nothing */
+	sleep_ms(4000);       /* > 3 leases: a keeps pinging, b expires */
+	/* (a stall of this machine renews b's lapsed lease once: give it one
+	 * more lease rather than fail on a slow CI host) */
+	WAIT_FOR(stats().clients_reaped == 1, 2000);
+	lease_pair_expect_only_a_and_end(&lp);
+}
+
+/* The whole machine stands still (a paused VM, an overloaded host): the
+ * server thread and the clients stop together, and when they run again the
+ * server may tick before a client's renewal has been sent. It must not
+ * take that silence for the client's: lapsed leases start again once, and
+ * a client that really renews nothing expires one lease later. */
+static void test_late_wake_renews_lapsed_leases_once(void)
+{
+	lease_pair lp;
+
+	lease_pair_start(&lp);
+	kill(lp.pa, SIGSTOP);
+	kill(lp.pb, SIGSTOP);
+	pthread_mutex_lock(&fl.mu); /* the server thread stands still too */
+	sleep_ms(1500);
+	pthread_mutex_unlock(&fl.mu);
+	sleep_ms(100);        /* the server runs first, */
+	kill(lp.pa, SIGCONT); /* then a sends its renewal; b never does */
+	sleep_ms(500);
+
+	mbx_server_stats st = stats();
+
+	TEST_ASSERT_EQUAL_UINT32(2, st.clients);
+	TEST_ASSERT_EQUAL_UINT64(0, st.clients_reaped);
+	TEST_ASSERT_EQUAL_UINT64(1, st.late_wakes);
+	WAIT_FOR(stats().clients_reaped == 1, 3000);
+	lease_pair_expect_only_a_and_end(&lp);
 }
 
 static int child_as_user(void *arg)
@@ -883,59 +928,6 @@ static int child_open_queue(void *arg)
 	CHECK(cogw_ping(h, LINE, 500) == COGW_E_TIMEOUT);
 	cogw_close(h);
 	return 0;
-}
-
-/* The whole machine stands still (a paused VM, an overloaded host): the
- * server thread and the clients stop together, and when they run again the
- * server may tick before a client's renewal has been sent. It must not
- * take that silence for the client's: lapsed leases start again once, and
- * a client that really renews nothing expires one lease later. */
-static void test_late_wake_renews_lapsed_leases_once(void)
-{
-	mbx_server_config cfg = base_cfg();
-	sync2 a, b;
-	pid_t pa, pb;
-
-	cfg.lease_ms = 1000;
-	start(&cfg);
-	sync_init(&a);
-	sync_init(&b);
-	pa = spawn(child_park, &a);
-	pb = spawn(child_park, &b);
-	parent_wait_ready(&a);
-	parent_wait_ready(&b);
-	kill(pa, SIGSTOP);
-	kill(pb, SIGSTOP);
-	pthread_mutex_lock(&fl.mu); /* the server thread stands still too */
-	sleep_ms(1500);
-	pthread_mutex_unlock(&fl.mu);
-	sleep_ms(100);     /* the server runs first, */
-	kill(pa, SIGCONT); /* then a sends its renewal; b never does */
-	sleep_ms(500);
-
-	mbx_server_stats st = stats();
-
-	TEST_ASSERT_EQUAL_UINT32(2, st.clients);
-	TEST_ASSERT_EQUAL_UINT64(0, st.clients_reaped);
-	TEST_ASSERT_EQUAL_UINT64(1, st.late_wakes);
-	WAIT_FOR(stats().clients_reaped == 1, 3000);
-	st = stats();
-	TEST_ASSERT_EQUAL_UINT64(1, st.clients_reaped);
-	TEST_ASSERT_EQUAL_UINT32(1, st.clients);
-
-	mbx_client_info ci;
-
-	pthread_mutex_lock(&fl.mu);
-	TEST_ASSERT_EQUAL_INT(0, mbx_server_client_info(fl.srv, 0, &ci));
-	pthread_mutex_unlock(&fl.mu);
-	TEST_ASSERT_EQUAL_UINT32((uint32_t)pa, ci.pid);
-	parent_go(&a);
-	TEST_ASSERT_EQUAL_INT(0, reap(pa));
-	kill(pb, SIGCONT);
-	parent_go(&b);
-	TEST_ASSERT_EQUAL_INT(0, reap(pb));
-	sync_close(&a);
-	sync_close(&b);
 }
 
 static void test_access_control_by_queue_owner(void)
