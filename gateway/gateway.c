@@ -139,6 +139,7 @@ struct gw_line {
 	bool fwd_dirty;
 	uint64_t next_rebuild_us;
 	uint64_t next_link_check_us;
+	bool carried; /* what the last link check saw (relays_check_link) */
 	struct gw_sess *sess;
 	uint8_t n_sess;
 	struct gw_relay relay[GW_RELAYS_MAX];
@@ -341,17 +342,6 @@ static void relay_rx(void *arg, const uint8_t d[8], uint64_t now_us)
 		COUNT(r->gl->c.ring_drops);
 }
 
-/* Can frames go out on this line at all? Not with its interface down
- * (nothing would answer) nor bus-off. */
-static bool line_can_carry(struct gw_line *gl)
-{
-	line_stats st;
-
-	if (!line_is_up(gl->l) || !line_link_up(gl->l))
-		return false;
-	return !(line_stats_snapshot(gl->l, &st) && st.bus_state == CAN_BUS_OFF);
-}
-
 /* This line's link went down: tell each requester's line, so that its
  * session ends now with `abort`; the leases stay, orphaned, until the
  * device can be told as well (relays_link_back). */
@@ -388,18 +378,32 @@ static void relays_link_back(struct gw_line *gl, uint64_t now_us)
 	}
 }
 
+/* Can this line carry frames now? Each look that sees a change from the
+ * last one ends the leases it cut off, or frees them once it carries
+ * again - whichever look saw it (the periodic check or a lease request). */
+static bool link_look(struct gw_line *gl, uint64_t now_us)
+{
+	bool carries = line_can_carry(gl->l);
+
+	if (carries != gl->carried) {
+		gl->carried = carries;
+		if (carries)
+			relays_link_back(gl, now_us);
+		else
+			relays_link_lost(gl, GW_AB_NO_ANSWER);
+	}
+	return carries;
+}
+
 /* A lease toward a line whose interface went down (ip link set down,
  * carrier lost) or bus-off would otherwise end only by the requester's
  * per-frame timeout: while leases are held (the caller knows), look at
- * the line (one ioctl) every GW_LINK_CHECK_US. */
+ * the line every GW_LINK_CHECK_US. */
 static void relays_check_link(struct gw_line *gl, uint64_t now_us, uint64_t *next)
 {
 	if (now_us >= gl->next_link_check_us) {
 		gl->next_link_check_us = now_us + GW_LINK_CHECK_US;
-		if (!line_can_carry(gl))
-			relays_link_lost(gl, GW_AB_NO_ANSWER);
-		else
-			relays_link_back(gl, now_us);
+		link_look(gl, now_us);
 	}
 	if (gl->next_link_check_us < *next)
 		*next = gl->next_link_check_us;
@@ -415,9 +419,9 @@ static struct gw_relay *relay_by_sid(struct gw_line *gl, uint8_t from, uint32_t 
 }
 
 /* Can this line serve a lease toward node now? 0 or the refusal. */
-static uint32_t relay_check(struct gw_line *gl, uint8_t node)
+static uint32_t relay_check(struct gw_line *gl, uint8_t node, uint64_t now_us)
 {
-	if (!line_can_carry(gl))
+	if (!link_look(gl, now_us))
 		return GW_AB_NO_ANSWER;
 	if (co_hb_consumer_status(gl->node, node) == CO_HB_MON_LOST)
 		return GW_AB_NO_ANSWER; /* known silent: refuse now, not by a timeout */
@@ -430,7 +434,7 @@ static void relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 	struct gw_relay *r = NULL;
 	int ch;
 
-	ans.abort = relay_check(gl, m->node);
+	ans.abort = relay_check(gl, m->node, now_us);
 	for (unsigned i = 0; !ans.abort && i < GW_RELAYS_MAX && !r; i++)
 		if (!gl->relay[i].used)
 			r = &gl->relay[i];
@@ -666,7 +670,7 @@ static void job_lease_rx(void *arg, const uint8_t d[8], uint64_t now_us)
 static void job_run(struct gw_line *gl, struct gw_job *j, uint64_t now_us)
 {
 	uint8_t d[8];
-	uint32_t ab = relay_check(gl, j->hop.node);
+	uint32_t ab = relay_check(gl, j->hop.node, now_us);
 	int ch;
 	unsigned k;
 
@@ -920,6 +924,7 @@ static int ext_attach(void *ctx, line *l)
 
 	gl->l = l;
 	gl->node = line_node(l);
+	gl->carried = true; /* no lease to end before the first look */
 	od = co_node_od(gl->node);
 	gw_route_table_init(&gl->routes, (uint8_t)gl->idx, (uint8_t)gl->g->n);
 	for (unsigned n = GW_NET_MIN; n <= GW_NET_MAX; n++)

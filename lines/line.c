@@ -596,9 +596,10 @@ bool line_is_up(const line *l)
 	return atomic_load(&((line *)l)->up);
 }
 
-bool line_link_up(const line *l)
+bool line_can_carry(const line *l)
 {
-	return can_port_link_up(l->port);
+	return line_is_up(l) && can_port_bus_state(l->port) != CAN_BUS_OFF &&
+	       can_port_link_up(l->port);
 }
 
 bool line_stats_snapshot(line *l, line_stats *out)

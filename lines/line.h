@@ -81,9 +81,11 @@ uint64_t line_last_checkin_us(const line *l);
  * pin once touched. Any thread, after line_create. */
 size_t line_buffer_bytes(const line *l);
 bool line_is_up(const line *l);
-/* The line's CAN interface is up and running (can_port_link_up). Line
- * thread only (its extensions): a caller about to send and wait. */
-bool line_link_up(const line *l);
+/* Can frames go out on this line and be answered: the line is up, not
+ * bus-off (its own CAN state, no lock) and its interface is up and running
+ * (can_port_link_up). Line thread only (its extensions): a caller about to
+ * send and wait. */
+bool line_can_carry(const line *l);
 /* Copy the latest published counters. Returns false if none yet. */
 bool line_stats_snapshot(line *l, line_stats *out);
 

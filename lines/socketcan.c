@@ -415,10 +415,12 @@ int can_port_take_watermark_event(can_port *p)
 
 bool can_port_link_up(const can_port *p)
 {
-	struct ifreq ifr = { 0 };
+	struct ifreq ifr = { .ifr_ifindex = p->ifindex };
 
-	/* By index: the name may have changed since the port was opened. */
-	if (!if_indextoname(p->ifindex, ifr.ifr_name))
+	/* By index: the name may have changed since the port was opened.
+	 * Asked on the port's own socket (if_indextoname would open and
+	 * close one for every look). */
+	if (ioctl(p->fd, SIOCGIFNAME, &ifr) != 0)
 		return false; /* the interface is gone */
 	if (ioctl(p->fd, SIOCGIFFLAGS, &ifr) != 0)
 		return true; /* cannot tell: do not refuse on a guess */

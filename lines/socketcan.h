@@ -122,8 +122,8 @@ int can_port_take_watermark_event(can_port *p);
 can_bus_state can_port_bus_state(const can_port *p);
 /* Is the interface administratively up and running (ip link set ... up,
  * carrier present)? A frame sent on a link that is down only fails
- * (ENETDOWN): callers that would wait for an answer ask first. One ioctl;
- * no blocking. */
+ * (ENETDOWN): callers that would wait for an answer ask first. Two ioctls
+ * on the port's socket; no blocking. */
 bool can_port_link_up(const can_port *p);
 const can_port_stats *can_port_get_stats(const can_port *p);
 
