@@ -373,6 +373,12 @@ static void unlink_orphan_queues(const mbx_client *c)
 		mq_unlink(c->evt_name);
 }
 
+/* A full lease from now (any command renews it; 0 = no lease, never read). */
+static void lease_renew(const mbx_server *srv, mbx_client *c, uint64_t now_us)
+{
+	c->lease_until = now_us + (uint64_t)srv->cfg.lease_ms * 1000u;
+}
+
 static bool client_is_dead(const mbx_server *srv, const mbx_client *c, uint64_t now_us,
 			   bool full_check)
 {
@@ -761,7 +767,7 @@ static void client_init(mbx_server *srv, mbx_client *c, const mbx_register_req *
 	c->pid_proven = pid_rc == 1;
 	c->access = access;
 	c->registered_us = srv->now_us;
-	c->lease_until = srv->now_us + (uint64_t)srv->cfg.lease_ms * 1000u;
+	lease_renew(srv, c, srv->now_us);
 	memcpy(c->resp_name, r->resp_queue, MBX_QNAME_MAX);
 	memcpy(c->evt_name, r->event_queue, MBX_QNAME_MAX);
 	srv->stats.clients++;
@@ -1135,7 +1141,7 @@ static void handle_msg(mbx_server *srv, const uint8_t *buf, size_t n)
 		return;
 	}
 	c->confirmed = true;
-	c->lease_until = srv->now_us + (uint64_t)srv->cfg.lease_ms * 1000u;
+	lease_renew(srv, c, srv->now_us);
 	if (discarded(c, &h) || admit(srv, c, &h, p) != 0)
 		return;
 	run_command(srv, c, &h, p);
@@ -1353,7 +1359,7 @@ static void forgive_late_wake(mbx_server *srv, uint64_t now_us)
 		if (!c->id)
 			continue;
 		if (srv->cfg.lease_ms && now_us > c->lease_until)
-			c->lease_until = now_us + (uint64_t)srv->cfg.lease_ms * 1000u;
+			lease_renew(srv, c, now_us);
 		if (!c->confirmed && now_us > c->registered_us + reg_us)
 			c->registered_us = now_us;
 	}
@@ -1647,7 +1653,7 @@ void mbx_server_set_lease(mbx_server *srv, unsigned lease_ms)
 	 * value (0 = none) would expire at once. */
 	for (unsigned i = 0; i < srv->cfg.max_clients; i++)
 		if (srv->clients[i].id)
-			srv->clients[i].lease_until = srv->now_us + (uint64_t)lease_ms * 1000u;
+			lease_renew(srv, &srv->clients[i], srv->now_us);
 }
 
 size_t mbx_server_buffer_bytes(const mbx_server *srv)

@@ -237,13 +237,12 @@ cogw *ctl_handle(ctl *c, int *exit_code)
 	cogw_options o = { .instance = c->instance, .timeout_ms = c->timeout_ms };
 	int rc = cogw_open_opts(&c->h, &o);
 	if (rc < 0) {
+		char cause[128] = ""; /* only a system error leaves errno to name it */
+
 		if (rc == COGW_E_SYSTEM)
-			fprintf(stderr,
-				"cogwctl: cannot create the client message queues: %s (%s)\n",
-				cogw_strerror(rc), strerror(errno));
-		else
-			fprintf(stderr, "cogwctl: cannot create the client message queues: %s\n",
-				cogw_strerror(rc));
+			snprintf(cause, sizeof cause, " (%s)", strerror(errno));
+		fprintf(stderr, "cogwctl: cannot create the client message queues: %s%s\n",
+			cogw_strerror(rc), cause);
 		*exit_code = CTL_EXIT_NO_DAEMON;
 		c->h = NULL;
 	}
