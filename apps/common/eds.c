@@ -1012,9 +1012,16 @@ static int check_listed_objects(eds_ctx *c, const ini_sec *s, const ini_key *cou
 				return rc;
 			continue;
 		}
-		if (!find_sec(c, SEC_OBJ, (uint16_t)idx, 0, NULL))
-			warn(c, k->line, "[%s]: object 0x%04llX listed but no section [%04llX]",
-			     s->name, (unsigned long long)idx, (unsigned long long)idx);
+		if (find_sec(c, SEC_OBJ, (uint16_t)idx, 0, NULL))
+			continue;
+		if (s->kind == SEC_LINKS)
+			rc = tolerate(c, k->line, "[%s]: linked object 0x%04llX has no section",
+				      s->name, (unsigned long long)idx);
+		else
+			rc = tolerate(c, k->line, "[%s]: object 0x%04llX listed but no section [%04llX]",
+				      s->name, (unsigned long long)idx, (unsigned long long)idx);
+		if (rc)
+			return rc;
 	}
 	return 0;
 }
@@ -1043,8 +1050,8 @@ static int check_compact_list(eds_ctx *c, const ini_sec *s, uint64_t n, bool val
 		errno = 0;
 		sub = strtoul(e->key, &end, 10);
 		if (*end || end == e->key || errno || e->key[0] == '-' || e->key[0] == '+') {
-			if ((rc = tolerate(c, e->line, "[%s]: unexpected key '%s' (ignored)",
-					   s->name, e->key)))
+			if ((rc = tolerate(c, e->line, "[%s]: unexpected key '%s'%s", s->name,
+					   e->key, c->strict ? "" : " (ignored)")))
 				return rc;
 			continue;
 		}
@@ -1053,8 +1060,9 @@ static int check_compact_list(eds_ctx *c, const ini_sec *s, uint64_t n, bool val
 		if (values)
 			return fail(c, e->line, "[%s]: sub-index %s beyond CompactSubObj=%llu",
 				    s->name, e->key, (unsigned long long)n);
-		if ((rc = tolerate(c, e->line, "[%s]: sub-index %s beyond CompactSubObj=%llu (ignored)",
-				   s->name, e->key, (unsigned long long)n)))
+		if ((rc = tolerate(c, e->line, "[%s]: sub-index %s beyond CompactSubObj=%llu%s",
+				   s->name, e->key, (unsigned long long)n,
+				   c->strict ? "" : " (ignored)")))
 			return rc;
 	}
 	if (k && cnt != s->nkeys - 1)
@@ -1086,15 +1094,18 @@ static int do_compact(eds_ctx *c, const ini_sec *o, const ini_key *ck)
 
 	if ((rc = parse_uint_key(c, ck, 255, &n)))
 		return rc;
-	if (n == 0)
-		return tolerate(c, ck->line, "[%s]: CompactSubObj=0: no sub-objects", o->name);
+	if (n == 0 && c->strict)
+		return fail(c, ck->line, "CompactSubObj must be 1..254");
+	if (n == 0) {
+		warn(c, ck->line, "[%s]: CompactSubObj=0: no sub-objects", o->name);
+		return 0;
+	}
 	/* python-canopen makes sub-objects 1..255 of it; sub-index FFh is
 	 * the object's structure (CiA 301), not an element */
 	if (n == 255 &&
 	    (rc = tolerate(c, ck->line,
-			   "[%s]: CompactSubObj=255, but sub-index FFh is reserved (CiA 301): "
-			   "sub-objects 1..254 are used",
-			   o->name)))
+			   "[%s]: CompactSubObj=255, but sub-index FFh is reserved (CiA 301)%s",
+			   o->name, c->strict ? "" : ": sub-objects 1..254 are used")))
 		return rc;
 	if (n == 255)
 		n = 254;
@@ -1140,11 +1151,13 @@ static int do_var_object(eds_ctx *c, const ini_sec *o, uint64_t ot, const ini_ke
 	int rc;
 
 	if (first < last &&
-	    (rc = tolerate(c, c->sorted[first]->line, "[%s]: sub-object of %s object [%s] (ignored)",
-			   c->sorted[first]->name, object_type_name(ot), o->name)))
+	    (rc = tolerate(c, c->sorted[first]->line, "[%s]: sub-object of %s object [%s]%s",
+			   c->sorted[first]->name, object_type_name(ot), o->name,
+			   c->strict ? "" : " (ignored)")))
 		return rc;
-	if ((sn || ck) && (rc = tolerate(c, (sn ? sn : ck)->line, "[%s]: %s on a %s object (ignored)",
-					 o->name, (sn ? sn : ck)->key, object_type_name(ot))))
+	if ((sn || ck) && (rc = tolerate(c, (sn ? sn : ck)->line, "[%s]: %s on a %s object%s",
+					 o->name, (sn ? sn : ck)->key, object_type_name(ot),
+					 c->strict ? "" : " (ignored)")))
 		return rc;
 	return do_plain(c, o, o->index, 0, ot == CO_OBJ_DOMAIN);
 }
