@@ -79,6 +79,7 @@ typedef struct eds_ctx {
 	size_t nemit, ecap;
 	eds_stats st;
 	bool strict;
+	bool node_id_missing; /* a refusal for want of an input, not a file fault */
 	eds_warning_fn on_warning;
 	void *warning_arg;
 	char msg[512]; /* the refusal, "file:line: reason", copied to err */
@@ -173,7 +174,7 @@ static int tolerate_failure(eds_ctx *c, int rc, const char *left_out)
 {
 	char text[sizeof(c->msg) + 80];
 
-	if (rc != -EINVAL || c->strict)
+	if (rc != -EINVAL || c->strict || c->node_id_missing)
 		return rc;
 	snprintf(text, sizeof(text), "%s: %s", c->msg, left_out);
 	c->msg[0] = '\0';
@@ -504,6 +505,7 @@ static int parse_int_expr(eds_ctx *c, const ini_key *k, num_val *out)
 		if (!strcasecmp(t, "$NODEID")) {
 			if (nodes++)
 				return fail(c, k->line, "%s '%s': $NODEID twice", k->key, k->val);
+			c->node_id_missing = !c->node_id;
 			if (!c->node_id)
 				return fail(c, k->line,
 					    "%s '%s': $NODEID needs a node id (none given and no "

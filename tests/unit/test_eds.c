@@ -612,6 +612,12 @@ static void test_lenient_values(void)
 	expect_entries(e, 2);
 	TEST_ASSERT_EQUAL_UINT(3, st.skipped);
 
+	/* $NODEID with no node id is a missing input, not a fault of the file */
+	expect_refused(HEAD "[2000]\nDataType=0x0007\nAccessType=ro\nDefaultValue=$NODEID+0x180\n",
+		       0,
+		       "t.dcf:7: DefaultValue '$NODEID+0x180': $NODEID needs a node id (none given "
+		       "and no [DeviceComissioning] NodeID)");
+
 	/* a DCF's configured value of a written entry cannot be left out */
 	expect_refused(HEAD "[2000]\nDataType=0x0004\nAccessType=rw\nDefaultValue=0\n"
 			    "ParameterValue=2147483648\n",
