@@ -87,8 +87,7 @@ static void print_warnings(const warnings *w)
 {
 	const cJSON *item;
 
-	cJSON_ArrayForEach(item, w->list)
-		fprintf(stderr, "warning: %s\n", item->valuestring);
+	cJSON_ArrayForEach(item, w->list) fprintf(stderr, "warning: %s\n", item->valuestring);
 	if (w->count > 1)
 		fprintf(stderr, "warning: %u warnings in all%s\n", w->count,
 			w->count > WARNINGS_KEPT ? " (the first ones are shown)" : "");
@@ -242,12 +241,9 @@ static int run_dcf(ctl *c, int argc, char **argv)
 	const char *pos[4], *node_s = NULL, *out_s = NULL, *out_long = NULL;
 	bool list = false, strict = false;
 	int n_pos;
-	ctl_opt opts[] = { { "--node", true, &node_s, NULL },
-			   { "-o", true, &out_s, NULL },
-			   { "--output", true, &out_long, NULL },
-			   { "--list", false, NULL, &list },
-			   { "--strict", false, NULL, &strict },
-			   { NULL, false, NULL, NULL } };
+	ctl_opt opts[] = { { "--node", true, &node_s, NULL },     { "-o", true, &out_s, NULL },
+			   { "--output", true, &out_long, NULL }, { "--list", false, NULL, &list },
+			   { "--strict", false, NULL, &strict },  { NULL, false, NULL, NULL } };
 	int rc = ctl_parse(c, argc, argv, opts, pos, 4, &n_pos);
 	uint8_t node = 0, *buf = NULL;
 	size_t len = 0;

@@ -159,8 +159,8 @@ static int tolerate(eds_ctx *c, unsigned line, const char *fmt, ...)
 	va_list ap;
 
 	va_start(ap, fmt);
-	vformat(c, c->strict ? c->msg : text, c->strict ? sizeof(c->msg) : sizeof(text), line,
-		fmt, ap);
+	vformat(c, c->strict ? c->msg : text, c->strict ? sizeof(c->msg) : sizeof(text), line, fmt,
+		ap);
 	va_end(ap);
 	if (c->strict)
 		return -EINVAL;
@@ -1020,7 +1020,8 @@ static int check_listed_objects(eds_ctx *c, const ini_sec *s, const ini_key *cou
 			rc = tolerate(c, k->line, "[%s]: linked object 0x%04llX has no section",
 				      s->name, (unsigned long long)idx);
 		else
-			rc = tolerate(c, k->line, "[%s]: object 0x%04llX listed but no section [%04llX]",
+			rc = tolerate(c, k->line,
+				      "[%s]: object 0x%04llX listed but no section [%04llX]",
 				      s->name, (unsigned long long)idx, (unsigned long long)idx);
 		if (rc)
 			return rc;
@@ -1140,9 +1141,10 @@ static int do_compact(eds_ctx *c, const ini_sec *o, const ini_key *ck)
 
 static const char *object_type_name(uint64_t ot)
 {
-	return ot == CO_OBJ_VAR ? "VAR" : ot == CO_OBJ_DOMAIN ? "DOMAIN"
-				: ot == CO_OBJ_ARRAY ? "ARRAY"
-						     : "RECORD";
+	return ot == CO_OBJ_VAR      ? "VAR"
+	       : ot == CO_OBJ_DOMAIN ? "DOMAIN"
+	       : ot == CO_OBJ_ARRAY  ? "ARRAY"
+				     : "RECORD";
 }
 
 /* A VAR or DOMAIN object: sub-object sections, SubNumber and
@@ -1631,8 +1633,8 @@ int eds_convert(const char *text, size_t len, const char *file, uint8_t node_id,
 	return eds_convert_opts(text, len, file, &o, out, out_len, stats, err, errlen);
 }
 
-int eds_convert_file_opts(const char *path, const eds_options *opts, uint8_t **out,
-			  size_t *out_len, eds_stats *stats, char *err, size_t errlen)
+int eds_convert_file_opts(const char *path, const eds_options *opts, uint8_t **out, size_t *out_len,
+			  eds_stats *stats, char *err, size_t errlen)
 {
 	struct stat st;
 	char *buf = NULL;

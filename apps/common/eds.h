@@ -63,8 +63,8 @@ typedef struct eds_stats {
 typedef void (*eds_warning_fn)(void *arg, const char *warning);
 
 typedef struct eds_options {
-	uint8_t node_id; /* what $NODEID stands for, 1..127; 0 = the file's NodeID */
-	bool strict;     /* refuse what is otherwise a warning (see above) */
+	uint8_t node_id;           /* what $NODEID stands for, 1..127; 0 = the file's NodeID */
+	bool strict;               /* refuse what is otherwise a warning (see above) */
 	eds_warning_fn on_warning; /* NULL: only counted in eds_stats */
 	void *warning_arg;
 } eds_options;
@@ -86,7 +86,7 @@ int eds_convert_file(const char *path, uint8_t node_id, uint8_t **out, size_t *o
 /* The same with options (eds_convert reads leniently, without a callback). */
 int eds_convert_opts(const char *text, size_t len, const char *file, const eds_options *opts,
 		     uint8_t **out, size_t *out_len, eds_stats *stats, char *err, size_t errlen);
-int eds_convert_file_opts(const char *path, const eds_options *opts, uint8_t **out,
-			  size_t *out_len, eds_stats *stats, char *err, size_t errlen);
+int eds_convert_file_opts(const char *path, const eds_options *opts, uint8_t **out, size_t *out_len,
+			  eds_stats *stats, char *err, size_t errlen);
 
 #endif /* COGW_APPS_EDS_H */

@@ -167,10 +167,11 @@ static void test_refused_file_names_the_line(void)
 	ctl_run("dcf check %s/bad.dcf", dir);
 	TEST_ASSERT_EQUAL_INT(1, res.exit);
 	char want[1024];
-	snprintf(want, sizeof want,
-		 "cogwctl dcf check: %s/bad.dcf:4: ParameterValue '256': out of range for UNSIGNED8 "
-		 "(max 255)\n",
-		 dir);
+	snprintf(
+		want, sizeof want,
+		"cogwctl dcf check: %s/bad.dcf:4: ParameterValue '256': out of range for UNSIGNED8 "
+		"(max 255)\n",
+		dir);
 	TEST_ASSERT_EQUAL_STRING(want, res.err);
 
 	ctl_run("--json dcf check %s/bad.dcf", dir);
@@ -199,16 +200,17 @@ static void test_refused_file_names_the_line(void)
 		 "warning: 3 warnings in all\n",
 		 dir, dir, dir);
 	TEST_ASSERT_EQUAL_STRING(want, res.err);
-	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "ok: 2 objects, 3 values, 1 entries"), res.out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "ok: 2 objects, 3 values, 1 entries"),
+				     res.out);
 	ctl_run("--json dcf check %s/bad.eds", dir);
 	TEST_ASSERT_EQUAL_INT(0, res.exit);
 	o = cJSON_Parse(res.out);
 	TEST_ASSERT_NOT_NULL_MESSAGE(o, res.out);
 	TEST_ASSERT_EQUAL_INT(3, cJSON_GetObjectItem(o, "warnings")->valueint);
 	TEST_ASSERT_EQUAL_INT(3, cJSON_GetArraySize(cJSON_GetObjectItem(o, "warning_list")));
-	TEST_ASSERT_NOT_NULL(strstr(
-		cJSON_GetArrayItem(cJSON_GetObjectItem(o, "warning_list"), 1)->valuestring,
-		"bad.eds:7: [2001]: SubNumber=3"));
+	TEST_ASSERT_NOT_NULL(
+		strstr(cJSON_GetArrayItem(cJSON_GetObjectItem(o, "warning_list"), 1)->valuestring,
+		       "bad.eds:7: [2001]: SubNumber=3"));
 	cJSON_Delete(o);
 	ctl_run("dcf check %s/bad.eds --strict", dir);
 	TEST_ASSERT_EQUAL_INT(1, res.exit);

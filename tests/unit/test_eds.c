@@ -541,13 +541,14 @@ static void test_lenient_visible_string(void)
 			     "DefaultValue=up\t\xE2\x82\xAC\n";
 	const char *w[] = { "t.dcf:14: DefaultValue: control character in a VISIBLE_STRING "
 			    "(CiA 301: 20h..7Eh); the bytes are sent as they are" };
-	expect_warnings(t, 1, w, 1, "t.dcf:14: DefaultValue: control character in a VISIBLE_STRING");
+	expect_warnings(t, 1, w, 1,
+			"t.dcf:14: DefaultValue: control character in a VISIBLE_STRING");
 	const want_ent e[] = { { 0x2121, 1, 6, 0xAC82E2097075 } };
 	expect_entries(e, 1);
 	const char *u[] = { "t.dcf:7: DefaultValue: non-ASCII text in a VISIBLE_STRING (CiA 301: "
 			    "20h..7Eh); the bytes are sent as they are" };
-	expect_warnings(HEAD "[2000]\nDataType=0x0009\nAccessType=rw\nDefaultValue=5 \xC2\xB5s\n", 1,
-			u, 1, NULL); /* strict reading took UTF-8 as it is, too */
+	expect_warnings(HEAD "[2000]\nDataType=0x0009\nAccessType=rw\nDefaultValue=5 \xC2\xB5s\n",
+			1, u, 1, NULL); /* strict reading took UTF-8 as it is, too */
 }
 
 static void test_lenient_sub_numbers(void)
@@ -581,9 +582,11 @@ static void test_lenient_sub_numbers(void)
 	/* CompactSubObj=255: sub-index FFh is not an element (CiA 301) */
 	const char *c[] = { "t.dcf:6: [1003]: CompactSubObj=255, but sub-index FFh is reserved "
 			    "(CiA 301): sub-objects 1..254 are used" };
-	expect_warnings(HEAD "[1003]\nObjectType=0x8\nCompactSubObj=255\nDataType=7\nAccessType=ro\n",
-			1, c, 1, "t.dcf:6: [1003]: CompactSubObj=255, but sub-index FFh is reserved "
-				 "(CiA 301)");
+	expect_warnings(HEAD
+			"[1003]\nObjectType=0x8\nCompactSubObj=255\nDataType=7\nAccessType=ro\n",
+			1, c, 1,
+			"t.dcf:6: [1003]: CompactSubObj=255, but sub-index FFh is reserved "
+			"(CiA 301)");
 }
 
 static void test_lenient_values(void)
@@ -601,10 +604,12 @@ static void test_lenient_values(void)
 		"t.dcf:7: DefaultValue '2147483648': out of range for INTEGER32: the value is not "
 		"used",
 		"t.dcf:11: DefaultValue '0': odd number of hex digits: the value is not used",
-		"t.dcf:17: DefaultValue '5' is below LowLimit '10' (line 15): the value is not used",
+		"t.dcf:17: DefaultValue '5' is below LowLimit '10' (line 15): the value is not "
+		"used",
 		"t.dcf:21: LowLimit 'x': not a number (decimal, 0x hex or 0 octal): the limit is "
 		"not checked",
-		"t.dcf:26: ParameterValue '-1': negative value for UNSIGNED32: the value is not used",
+		"t.dcf:26: ParameterValue '-1': negative value for UNSIGNED32: the value is not "
+		"used",
 	};
 	expect_warnings(t, 1, w, 5,
 			"t.dcf:7: DefaultValue '2147483648': out of range for INTEGER32");
@@ -641,8 +646,7 @@ static void test_lenient_types_and_objects(void)
 		"t.dcf:12: ObjectType '0x3' is not one of 0x2 (DOMAIN), 0x5 (DEFTYPE), 0x6 "
 		"(DEFSTRUCT), 0x7 (VAR), 0x8 (ARRAY), 0x9 (RECORD): the object is not used",
 	};
-	expect_warnings(t, 1, w, 3,
-			"t.dcf:5: DataType 0x0020 is not a CiA 301 basic data type");
+	expect_warnings(t, 1, w, 3, "t.dcf:5: DataType 0x0020 is not a CiA 301 basic data type");
 	const want_ent e[] = { { 0x2003, 0, 1, 2 } };
 	expect_entries(e, 1);
 	expect_refused(HEAD "[2000]\nDataType=0x0020\nAccessType=rw\nParameterValue=1\n", 1,
@@ -664,8 +668,9 @@ static void test_lenient_syntax(void)
 			"[2000]\r\nDataType=0x0006 ; UNSIGNED16\r\nAccessType=rw \t\r\n"
 			"DefaultValue=0x10\t; sixteen\r\n"
 			"[2001]\r\nDataType=9\r\nAccessType=rw\r\nDefaultValue=a;b\r\n";
-	expect_warnings(t, 1, NULL, 0, "t.dcf:1: expected [section] or key=value, got '\xEF\xBB\xBF"
-				       "[FileInfo] ; generated'");
+	expect_warnings(t, 1, NULL, 0,
+			"t.dcf:1: expected [section] or key=value, got '\xEF\xBB\xBF"
+			"[FileInfo] ; generated'");
 	const want_ent e[] = { { 0x2000, 0, 2, 0x10 }, { 0x2001, 0, 3, 0x623B61 } };
 	expect_entries(e, 2);
 	/* NodeID=0 ("not commissioned") is not used */

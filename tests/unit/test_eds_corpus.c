@@ -46,10 +46,10 @@ static void test_corpus_replay(void)
 /* ---- files this project did not write ---------------------------------- */
 
 typedef struct foreign_file {
-	const char *path;     /* under build/deps/eds-corpus/ */
-	int warnings;         /* read leniently; -1 = refused */
-	unsigned entries;     /* of the concise DCF */
-	const char *reason;   /* the refusal, or the first warning ("" = none) */
+	const char *path;             /* under build/deps/eds-corpus/ */
+	int warnings;                 /* read leniently; -1 = refused */
+	unsigned entries;             /* of the concise DCF */
+	const char *reason;           /* the refusal, or the first warning ("" = none) */
 	const char *refused_strictly; /* the refusal of strict reading; NULL = accepted */
 } foreign_file;
 
@@ -59,51 +59,54 @@ typedef struct foreign_file {
  * objects, SubNumber against the sections present, CompactSubObj=255,
  * wrong object-list counts. */
 static const foreign_file foreign[] = {
-	{ "crate-canopen-0.1.0/canopen-0.1.0/rsc/full.eds", 5, 219, "DefaultValue '2147483648': out of range for INTEGER32: the value is not used",
+	{ "crate-canopen-0.1.0/canopen-0.1.0/rsc/full.eds", 5, 219,
+	  "DefaultValue '2147483648': out of range for INTEGER32: the value is not used",
 	  "DefaultValue '2147483648': out of range for INTEGER32" },
-	{ "crate-canopen-0.1.0/canopen-0.1.0/rsc/short.eds", -1, 0, "[1200sub1] without object [1200]",
-	  "[1200sub1] without object [1200]" },
-	{ "npm-canopen-1.3.0/package/test/common/test.eds", 4, 28, "DataType 0x0020 is not a CiA 301 basic data type: the entry is not used",
+	{ "crate-canopen-0.1.0/canopen-0.1.0/rsc/short.eds", -1, 0,
+	  "[1200sub1] without object [1200]", "[1200sub1] without object [1200]" },
+	{ "npm-canopen-1.3.0/package/test/common/test.eds", 4, 28,
+	  "DataType 0x0020 is not a CiA 301 basic data type: the entry is not used",
 	  "DataType 0x0020 is not a CiA 301 basic data type" },
-	{ "npm-canopen-4.0.1/package/examples/example.eds", 0, 3, "",
-	  NULL },
-	{ "npm-canopen-4.0.1/package/test/sample.eds", 0, 0, "",
-	  NULL },
-	{ "npm-canopen-6.2.1/package/examples/eds/example.eds", 0, 2, "",
-	  NULL },
-	{ "pypi-sdist-canopen-0.8.0/canopen-0.8.0/test/sample.eds", 3, 55, "[ManufacturerObjects]: SupportedObjects=0 but 1 entries",
+	{ "npm-canopen-4.0.1/package/examples/example.eds", 0, 3, "", NULL },
+	{ "npm-canopen-4.0.1/package/test/sample.eds", 0, 0, "", NULL },
+	{ "npm-canopen-6.2.1/package/examples/eds/example.eds", 0, 2, "", NULL },
+	{ "pypi-sdist-canopen-0.8.0/canopen-0.8.0/test/sample.eds", 3, 55,
+	  "[ManufacturerObjects]: SupportedObjects=0 but 1 entries",
 	  "[1003]: CompactSubObj=255, but sub-index FFh is reserved (CiA 301)" },
-	{ "pypi-sdist-canopen-1.2.1/canopen-1.2.1/examples/eds/e35.eds", 2, 658, "[OptionalObjects]: object 0x6505 listed but no section [6505]",
-	  NULL },
-	{ "pypi-sdist-canopen-1.2.1/canopen-1.2.1/test/sample.eds", 4, 55, "[ManufacturerObjects]: SupportedObjects=0 but 1 entries",
+	{ "pypi-sdist-canopen-1.2.1/canopen-1.2.1/examples/eds/e35.eds", 2, 658,
+	  "[OptionalObjects]: object 0x6505 listed but no section [6505]", NULL },
+	{ "pypi-sdist-canopen-1.2.1/canopen-1.2.1/test/sample.eds", 4, 55,
+	  "[ManufacturerObjects]: SupportedObjects=0 but 1 entries",
 	  "[1003]: CompactSubObj=255, but sub-index FFh is reserved (CiA 301)" },
-	{ "pypi-sdist-canopen-2.0.0/canopen-2.0.0/examples/eds/e35.eds", 2, 658, "[OptionalObjects]: object 0x6505 listed but no section [6505]",
-	  NULL },
-	{ "pypi-sdist-canopen-2.0.0/canopen-2.0.0/test/sample.eds", 4, 55, "[ManufacturerObjects]: SupportedObjects=0 but 1 entries",
+	{ "pypi-sdist-canopen-2.0.0/canopen-2.0.0/examples/eds/e35.eds", 2, 658,
+	  "[OptionalObjects]: object 0x6505 listed but no section [6505]", NULL },
+	{ "pypi-sdist-canopen-2.0.0/canopen-2.0.0/test/sample.eds", 4, 55,
+	  "[ManufacturerObjects]: SupportedObjects=0 but 1 entries",
 	  "[1003]: CompactSubObj=255, but sub-index FFh is reserved (CiA 301)" },
-	{ "pypi-sdist-canopen-2.4.1/canopen-2.4.1/examples/eds/e35.eds", 2, 658, "[OptionalObjects]: object 0x6505 listed but no section [6505]",
-	  NULL },
-	{ "pypi-sdist-canopen-2.4.1/canopen-2.4.1/test/datatypes.eds", 1, 22, "DefaultValue '@ABCD': DOMAIN value must be hex digits: the value is not used",
+	{ "pypi-sdist-canopen-2.4.1/canopen-2.4.1/examples/eds/e35.eds", 2, 658,
+	  "[OptionalObjects]: object 0x6505 listed but no section [6505]", NULL },
+	{ "pypi-sdist-canopen-2.4.1/canopen-2.4.1/test/datatypes.eds", 1, 22,
+	  "DefaultValue '@ABCD': DOMAIN value must be hex digits: the value is not used",
 	  "DefaultValue '@ABCD': DOMAIN value must be hex digits" },
-	{ "pypi-sdist-canopen-2.4.1/canopen-2.4.1/test/sample.eds", 6, 55, "[ManufacturerObjects]: SupportedObjects=0 but 1 entries",
+	{ "pypi-sdist-canopen-2.4.1/canopen-2.4.1/test/sample.eds", 6, 55,
+	  "[ManufacturerObjects]: SupportedObjects=0 but 1 entries",
 	  "[1003]: SubNumber=9 but 6 sub-object sections [1003subN]" },
-	{ "pypi-sdist-oresat-dxwifi-0.2.0/oresat-dxwifi-0.2.0/oresat_dxwifi/data/oresat_dxwifi.dcf", 5, 427, "DefaultValue '0': odd number of hex digits: the value is not used",
+	{ "pypi-sdist-oresat-dxwifi-0.2.0/oresat-dxwifi-0.2.0/oresat_dxwifi/data/oresat_dxwifi.dcf",
+	  5, 427, "DefaultValue '0': odd number of hex digits: the value is not used",
 	  "DefaultValue '0': odd number of hex digits" },
-	{ "pypi-sdist-oresat-dxwifi-0.2.0/oresat-dxwifi-0.2.0/oresat_dxwifi/data/oresat_dxwifi.eds", 5, 427, "DefaultValue '0': odd number of hex digits: the value is not used",
+	{ "pypi-sdist-oresat-dxwifi-0.2.0/oresat-dxwifi-0.2.0/oresat_dxwifi/data/oresat_dxwifi.eds",
+	  5, 427, "DefaultValue '0': odd number of hex digits: the value is not used",
 	  "DefaultValue '0': odd number of hex digits" },
 	{ "pypi-sdist-oresat-gps-1.1.0/oresat-gps-1.1.0/oresat_gps/data/oresat_gps.dcf", 0, 439, "",
 	  NULL },
 	{ "pypi-sdist-oresat-gps-1.1.0/oresat-gps-1.1.0/oresat_gps/data/oresat_gps.eds", 0, 439, "",
 	  NULL },
-	{ "pypi-wheel-oresat-dxwifi-0.1.0/oresat_dxwifi/data/oresat_dxwifi.dcf", 0, 431, "",
-	  NULL },
-	{ "pypi-wheel-oresat-dxwifi-0.1.0/oresat_dxwifi/data/oresat_dxwifi.eds", 0, 431, "",
-	  NULL },
-	{ "pypi-wheel-oresat-olaf-0.3.0/olaf/data/oresat_app.eds", 0, 221, "",
-	  NULL },
-	{ "pypi-wheel-oresat-olaf-1.0.0/olaf/_internals/data/oresat_app.eds", 0, 430, "",
-	  NULL },
-	{ "pypi-wheel-oresat-olaf-2.2.0/olaf/_internals/data/oresat_app.eds", 5, 428, "DefaultValue '0': odd number of hex digits: the value is not used",
+	{ "pypi-wheel-oresat-dxwifi-0.1.0/oresat_dxwifi/data/oresat_dxwifi.dcf", 0, 431, "", NULL },
+	{ "pypi-wheel-oresat-dxwifi-0.1.0/oresat_dxwifi/data/oresat_dxwifi.eds", 0, 431, "", NULL },
+	{ "pypi-wheel-oresat-olaf-0.3.0/olaf/data/oresat_app.eds", 0, 221, "", NULL },
+	{ "pypi-wheel-oresat-olaf-1.0.0/olaf/_internals/data/oresat_app.eds", 0, 430, "", NULL },
+	{ "pypi-wheel-oresat-olaf-2.2.0/olaf/_internals/data/oresat_app.eds", 5, 428,
+	  "DefaultValue '0': odd number of hex digits: the value is not used",
 	  "DefaultValue '0': odd number of hex digits" },
 };
 
