@@ -135,18 +135,24 @@ static void warn_text(eds_ctx *c, const char *text)
 		c->on_warning(c->warning_arg, text);
 }
 
+static void vwarn(eds_ctx *c, unsigned line, const char *fmt, va_list ap)
+{
+	char text[600];
+
+	vformat(c, text, sizeof(text), line, fmt, ap);
+	warn_text(c, text);
+}
+
 static void warn(eds_ctx *c, unsigned line, const char *fmt, ...)
 	__attribute__((format(printf, 3, 4)));
 
 static void warn(eds_ctx *c, unsigned line, const char *fmt, ...)
 {
-	char text[600];
 	va_list ap;
 
 	va_start(ap, fmt);
-	vformat(c, text, sizeof(text), line, fmt, ap);
+	vwarn(c, line, fmt, ap);
 	va_end(ap);
-	warn_text(c, text);
 }
 
 /* Inconsistent but usable: a warning, or a refusal when reading strictly. */
@@ -155,17 +161,15 @@ static int tolerate(eds_ctx *c, unsigned line, const char *fmt, ...)
 
 static int tolerate(eds_ctx *c, unsigned line, const char *fmt, ...)
 {
-	char text[600];
 	va_list ap;
 
 	va_start(ap, fmt);
-	vformat(c, c->strict ? c->msg : text, c->strict ? sizeof(c->msg) : sizeof(text), line, fmt,
-		ap);
-	va_end(ap);
 	if (c->strict)
-		return -EINVAL;
-	warn_text(c, text);
-	return 0;
+		vformat(c, c->msg, sizeof(c->msg), line, fmt, ap);
+	else
+		vwarn(c, line, fmt, ap);
+	va_end(ap);
+	return c->strict ? -EINVAL : 0;
 }
 
 /* A refusal (rc, reason in c->msg) turned into a warning that says what

@@ -7,6 +7,7 @@
 
 #include "apps/common/eds.h"
 #include "core/cdcf.h"
+#include "tests/unit/support/fetch.h"
 #include "unity.h"
 
 static char err[512];
@@ -714,20 +715,8 @@ static const char *foreign_dir(void)
 {
 	static char dir[1024];
 	const char *env = getenv("COGW_PYCANOPEN_DIR");
-	FILE *p;
 
-	if (env)
-		return env;
-	/* idempotent: returns at once when build/deps has it already */
-	p = popen("scripts/fetch-python-canopen.sh", "r");
-	if (!p)
-		return NULL;
-	if (!fgets(dir, sizeof dir, p))
-		dir[0] = '\0';
-	if (pclose(p) != 0 || !dir[0])
-		return NULL;
-	dir[strcspn(dir, "\n")] = '\0';
-	return dir;
+	return env ? env : fetch_deps_dir("scripts/fetch-python-canopen.sh", dir, sizeof dir);
 }
 
 static void test_foreign_eds_files(void)

@@ -18,6 +18,7 @@
 
 #include "tests/fuzz/fuzz_eds.c"
 #include "tests/unit/support/corpus.h"
+#include "tests/unit/support/fetch.h"
 
 void setUp(void) {}
 
@@ -115,20 +116,6 @@ static const foreign_file foreign[] = {
 static char corpus_dir[1024];
 static unsigned files_found;
 
-static const char *fetch_corpus(void)
-{
-	FILE *p = popen("scripts/fetch-eds-corpus.sh", "r");
-
-	if (!p)
-		return NULL;
-	if (!fgets(corpus_dir, sizeof corpus_dir, p))
-		corpus_dir[0] = '\0';
-	if (pclose(p) != 0 || !corpus_dir[0])
-		return NULL;
-	corpus_dir[strcspn(corpus_dir, "\n")] = '\0';
-	return corpus_dir;
-}
-
 static int count_device_file(const char *path, const struct stat *sb, int type, struct FTW *ftw)
 {
 	const char *dot = strrchr(path, '.');
@@ -192,8 +179,9 @@ static void check_foreign(const foreign_file *f)
 
 static void test_foreign_device_files(void)
 {
-	TEST_ASSERT_NOT_NULL_MESSAGE(fetch_corpus(),
-				     "scripts/fetch-eds-corpus.sh failed (see its messages)");
+	TEST_ASSERT_NOT_NULL_MESSAGE(
+		fetch_deps_dir("scripts/fetch-eds-corpus.sh", corpus_dir, sizeof corpus_dir),
+		"scripts/fetch-eds-corpus.sh failed (see its messages)");
 	/* every fetched file is judged here, and there are at least 20 */
 	files_found = 0;
 	TEST_ASSERT_EQUAL_INT(0, nftw(corpus_dir, count_device_file, 16, FTW_PHYS));
