@@ -294,9 +294,12 @@ static int run_dcf(ctl *c, int argc, char **argv)
 
 const ctl_cmd ctl_cmd_dcf = {
 	.name = "dcf",
-	.synopsis = "  dcf check FILE [--node N] [--list] [--strict]  validate a DCF/EDS or a "
-		    "concise DCF (offline)\n"
-		    "  dcf convert FILE --node N -o OUT.cdc   DCF/EDS to a concise DCF (offline)\n",
+	.synopsis =
+		"  dcf check FILE [--node N] [--list] [--strict]\n"
+		"                                           validate a DCF/EDS or a concise DCF "
+		"(offline)\n"
+		"  dcf convert FILE --node N -o OUT.cdc [--strict]\n"
+		"                                           DCF/EDS to a concise DCF (offline)\n",
 	.help = "usage: cogwctl dcf check FILE [--node N] [--list] [--strict]\n"
 		"       cogwctl dcf convert FILE [--node N] -o OUT.cdc [--list] [--strict]\n"
 		"\n"

@@ -49,7 +49,7 @@ typedef struct eds_stats {
 	unsigned objects; /* object sections read */
 	unsigned values;  /* values parsed (all access types) */
 	unsigned entries; /* entries in the concise DCF */
-	unsigned skipped; /* writable sub-objects without a value */
+	unsigned skipped; /* writable sub-objects without a (usable) value */
 	uint8_t node_id;  /* node id the $NODEID expressions used (0 = none) */
 	/* Inconsistent but usable things (a SubNumber that disagrees with
 	 * the sub-object sections, a default value that cannot be used, an
