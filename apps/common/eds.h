@@ -5,24 +5,23 @@
  * form a manager downloads into a slave (1F22h). Used by cogwd for a
  * node's "config" and by `cogwctl dcf`, so both give the same result.
  *
- * What is read (docs/config.md, "DCF and EDS files"):
- * - INI syntax: [section], key=value, ';' comments; keys and section names
- *   are case-insensitive. Duplicate sections or keys are errors.
- * - Object sections [XXXX], sub-objects [XXXXsubY], ObjectType (VAR,
- *   ARRAY, RECORD, DOMAIN, DEFTYPE, DEFSTRUCT), DataType (CiA 301 basic
- *   types), AccessType (ro, wo, rw, rwr, rww, const), SubNumber,
- *   CompactSubObj with [XXXXName] and [XXXXValue], [XXXXObjectLinks],
- *   LowLimit/HighLimit, the object lists [MandatoryObjects],
- *   [OptionalObjects], [ManufacturerObjects], and [DeviceComissioning]
- *   NodeID.
- * - Values: ParameterValue (a DCF's configured value) is preferred over
- *   DefaultValue. Integers in decimal, hex (0x..) or octal (leading 0),
- *   with $NODEID expressions: "$NODEID", "$NODEID+0x180", "0x180+$NODEID".
- *   Hex and octal literals of signed types may be given as the two's
- *   complement bit pattern (0xFFFFFFFF = -1 for INTEGER32). REAL32/REAL64
- *   as decimal floating point, or 0x.. for the IEEE 754 bit pattern.
- *   VISIBLE_STRING as text, UNICODE_STRING as UTF-8 text (sent as
- *   UTF-16LE), OCTET_STRING and DOMAIN as hex digits.
+ * How files are read (docs/config.md, "DCF and EDS files"): the CiA 306
+ * INI form - [section], key=value, ';' comment lines, case-insensitive
+ * section names and keys; object sections [XXXX], sub-objects [XXXXsubY],
+ * CompactSubObj with [XXXXName]/[XXXXValue], [XXXXObjectLinks], the object
+ * lists and [DeviceComissioning] NodeID. Values: ParameterValue (a DCF's
+ * configured value) before DefaultValue; integers in decimal, 0x hex or
+ * leading-0 octal with $NODEID expressions ("$NODEID+0x180"), hex/octal
+ * as a signed type's two's complement; REAL32/REAL64 in decimal or as 0x
+ * IEEE 754 bits; VISIBLE_STRING as text, UNICODE_STRING as UTF-8 (sent as
+ * UTF-16LE), OCTET_STRING and DOMAIN as hex digits.
+ *
+ * Like the widely used tools, the reader takes what real device files
+ * contain: what is inconsistent but usable is a warning ("file:line:
+ * reason", eds_stats and the on_warning callback) and the file is used;
+ * only what cannot be used is refused. eds_options.strict refuses every
+ * one of those warnings except the object-list ones (the reader's rules
+ * before it read leniently). The full list is in docs/config.md.
  *
  * What is written: every value that a configuration can write - entries
  * whose AccessType is wo, rw, rwr or rww and that have a non-empty value -
@@ -39,6 +38,7 @@
 #ifndef COGW_APPS_EDS_H
 #define COGW_APPS_EDS_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -49,14 +49,25 @@ typedef struct eds_stats {
 	unsigned objects; /* object sections read */
 	unsigned values;  /* values parsed (all access types) */
 	unsigned entries; /* entries in the concise DCF */
-	unsigned skipped; /* writable sub-objects without a value */
+	unsigned skipped; /* writable sub-objects without a (usable) value */
 	uint8_t node_id;  /* node id the $NODEID expressions used (0 = none) */
-	/* Inconsistencies that lose nothing (an object list naming an object
-	 * the file does not describe, a wrong SupportedObjects count): real
-	 * device files have them, so they are reported, not refused. */
+	/* Inconsistent but usable things (a SubNumber that disagrees with
+	 * the sub-object sections, a default value that cannot be used, an
+	 * object list naming an object the file does not describe, ...):
+	 * real device files have them, so they are reported, not refused. */
 	unsigned warnings;
 	char first_warning[200]; /* "file:line: reason" of the first one */
 } eds_stats;
+
+/* Called with every warning, "file:line: reason" (no newline). */
+typedef void (*eds_warning_fn)(void *arg, const char *warning);
+
+typedef struct eds_options {
+	uint8_t node_id;           /* what $NODEID stands for, 1..127; 0 = the file's NodeID */
+	bool strict;               /* refuse what is otherwise a warning (see above) */
+	eds_warning_fn on_warning; /* NULL: only counted in eds_stats */
+	void *warning_arg;
+} eds_options;
 
 /*
  * Convert the text of an EDS/DCF (len bytes, need not be NUL-terminated;
@@ -71,5 +82,11 @@ int eds_convert(const char *text, size_t len, const char *file, uint8_t node_id,
 /* Read a file (at most EDS_FILE_MAX bytes) and eds_convert it. */
 int eds_convert_file(const char *path, uint8_t node_id, uint8_t **out, size_t *out_len,
 		     eds_stats *stats, char *err, size_t errlen);
+
+/* The same with options (eds_convert reads leniently, without a callback). */
+int eds_convert_opts(const char *text, size_t len, const char *file, const eds_options *opts,
+		     uint8_t **out, size_t *out_len, eds_stats *stats, char *err, size_t errlen);
+int eds_convert_file_opts(const char *path, const eds_options *opts, uint8_t **out, size_t *out_len,
+			  eds_stats *stats, char *err, size_t errlen);
 
 #endif /* COGW_APPS_EDS_H */

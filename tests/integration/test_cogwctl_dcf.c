@@ -162,23 +162,63 @@ static void test_check_and_convert(void)
 
 static void test_refused_file_names_the_line(void)
 {
-	put("bad.eds", "[2000]\nDataType=0x0005\nAccessType=rw\nDefaultValue=256\n");
-	ctl_run("dcf check %s/bad.eds", dir);
+	/* a configured value that does not fit: refused */
+	put("bad.dcf", "[2000]\nDataType=0x0005\nAccessType=rw\nParameterValue=256\n");
+	ctl_run("dcf check %s/bad.dcf", dir);
 	TEST_ASSERT_EQUAL_INT(1, res.exit);
-	char want[200];
+	char want[1024];
+	snprintf(
+		want, sizeof want,
+		"cogwctl dcf check: %s/bad.dcf:4: ParameterValue '256': out of range for UNSIGNED8 "
+		"(max 255)\n",
+		dir);
+	TEST_ASSERT_EQUAL_STRING(want, res.err);
+
+	ctl_run("--json dcf check %s/bad.dcf", dir);
+	TEST_ASSERT_EQUAL_INT(1, res.exit);
+	cJSON *o = cJSON_Parse(res.out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(o, res.out);
+	TEST_ASSERT_TRUE(cJSON_IsFalse(cJSON_GetObjectItem(o, "ok")));
+	TEST_ASSERT_NOT_NULL(strstr(cJSON_GetObjectItem(o, "error")->valuestring, "bad.dcf:4: "));
+	cJSON_Delete(o);
+
+	/* a default value that does not fit: left out with a warning naming
+	 * the line, every warning printed; --strict refuses the file */
+	put("bad.eds", "[2000]\nDataType=0x0005\nAccessType=rw\nDefaultValue=256\n"
+		       "[2001]\nObjectType=0x8\nSubNumber=3\n[2001sub0]\nDataType=5\n"
+		       "AccessType=ro\nDefaultValue=1\n[2001sub1]\nDataType=9\nAccessType=rw\n"
+		       "DefaultValue=a\tb\n");
+	ctl_run("dcf check %s/bad.eds", dir);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	snprintf(want, sizeof want,
+		 "warning: %s/bad.eds:4: DefaultValue '256': out of range for UNSIGNED8 (max 255): "
+		 "the value is not used\n"
+		 "warning: %s/bad.eds:7: [2001]: SubNumber=3 but 2 sub-object sections [2001subN]: "
+		 "the sections present are used\n"
+		 "warning: %s/bad.eds:15: DefaultValue: control character in a VISIBLE_STRING (CiA "
+		 "301: 20h..7Eh); the bytes are sent as they are\n"
+		 "warning: 3 warnings in all\n",
+		 dir, dir, dir);
+	TEST_ASSERT_EQUAL_STRING(want, res.err);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.out, "ok: 2 objects, 3 values, 1 entries"),
+				     res.out);
+	ctl_run("--json dcf check %s/bad.eds", dir);
+	TEST_ASSERT_EQUAL_INT(0, res.exit);
+	o = cJSON_Parse(res.out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(o, res.out);
+	TEST_ASSERT_EQUAL_INT(3, cJSON_GetObjectItem(o, "warnings")->valueint);
+	TEST_ASSERT_EQUAL_INT(3, cJSON_GetArraySize(cJSON_GetObjectItem(o, "warning_list")));
+	TEST_ASSERT_NOT_NULL(
+		strstr(cJSON_GetArrayItem(cJSON_GetObjectItem(o, "warning_list"), 1)->valuestring,
+		       "bad.eds:7: [2001]: SubNumber=3"));
+	cJSON_Delete(o);
+	ctl_run("dcf check %s/bad.eds --strict", dir);
+	TEST_ASSERT_EQUAL_INT(1, res.exit);
 	snprintf(want, sizeof want,
 		 "cogwctl dcf check: %s/bad.eds:4: DefaultValue '256': out of range for UNSIGNED8 "
 		 "(max 255)\n",
 		 dir);
 	TEST_ASSERT_EQUAL_STRING(want, res.err);
-
-	ctl_run("--json dcf check %s/bad.eds", dir);
-	TEST_ASSERT_EQUAL_INT(1, res.exit);
-	cJSON *o = cJSON_Parse(res.out);
-	TEST_ASSERT_NOT_NULL_MESSAGE(o, res.out);
-	TEST_ASSERT_TRUE(cJSON_IsFalse(cJSON_GetObjectItem(o, "ok")));
-	TEST_ASSERT_NOT_NULL(strstr(cJSON_GetObjectItem(o, "error")->valuestring, "bad.eds:4: "));
-	cJSON_Delete(o);
 
 	/* $NODEID without a node id: check evaluates it as 1 and says so, convert refuses */
 	put("n.eds", "[1014]\nDataType=7\nAccessType=rw\nDefaultValue=$NODEID+0x80\n");
@@ -235,6 +275,7 @@ static void test_vendor_eds(void)
 	TEST_ASSERT_TRUE(cJSON_IsTrue(cJSON_GetObjectItem(o, "ok")));
 	TEST_ASSERT_EQUAL_INT(658, cJSON_GetObjectItem(o, "entries")->valueint);
 	TEST_ASSERT_EQUAL_INT(2, cJSON_GetObjectItem(o, "warnings")->valueint);
+	TEST_ASSERT_EQUAL_INT(2, cJSON_GetArraySize(cJSON_GetObjectItem(o, "warning_list")));
 	cJSON_Delete(o);
 	ctl_run("dcf check %s/e35.cdc", dir);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);

@@ -7,6 +7,7 @@
 
 #include "apps/common/eds.h"
 #include "core/cdcf.h"
+#include "tests/unit/support/fetch.h"
 #include "unity.h"
 
 static char err[512];
@@ -33,12 +34,23 @@ static int conv(const char *text, uint8_t node)
 	return eds_convert(text, strlen(text), "t.dcf", node, &out, &out_len, &st, err, sizeof err);
 }
 
+static int conv_strict(const char *text, uint8_t node)
+{
+	eds_options o = { .node_id = node, .strict = true };
+
+	free(out);
+	out = NULL;
+	return eds_convert_opts(text, strlen(text), "t.dcf", &o, &out, &out_len, &st, err,
+				sizeof err);
+}
+
 #define HEAD "[FileInfo]\nFileName=t.dcf\n\n"
 
-/* The conversion fails and the message is exactly `want`. */
+/* Strict reading (the rules before lenient reading) refuses the file
+ * and the message is exactly `want`; lenient reading: test_lenient_reading. */
 static void expect_err(const char *text, uint8_t node, const char *want)
 {
-	TEST_ASSERT_EQUAL_INT_MESSAGE(-EINVAL, conv(text, node), text);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(-EINVAL, conv_strict(text, node), text);
 	TEST_ASSERT_EQUAL_STRING(want, err);
 	TEST_ASSERT_NULL(out);
 }
@@ -463,6 +475,217 @@ static void test_pdo_remapping_order(void)
 		   1, "t.dcf:10: PDO mapping 1A00h: sub0=65, at most 64 entries");
 }
 
+/* ---- lenient reading: warnings with file:line, the file is used ---- */
+
+static char warned[16][300];
+static unsigned n_warned;
+
+static void record_warning(void *arg, const char *text)
+{
+	(void)arg;
+	if (n_warned < 16)
+		snprintf(warned[n_warned], sizeof warned[0], "%s", text);
+	n_warned++;
+}
+
+/* Read leniently, with the warning callback: accepted, with exactly the
+ * warnings `want` (in order), and strict reading refuses it with the
+ * first of them (without what lenient reading adds after ':' or '('). */
+static void expect_warnings(const char *text, uint8_t node, const char *const *want, unsigned n,
+			    const char *strict_err)
+{
+	eds_options o = { .node_id = node, .on_warning = record_warning };
+
+	free(out);
+	out = NULL;
+	n_warned = 0;
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0,
+				      eds_convert_opts(text, strlen(text), "t.dcf", &o, &out,
+						       &out_len, &st, err, sizeof err),
+				      err);
+	TEST_ASSERT_EQUAL_UINT_MESSAGE(n, n_warned, n_warned ? warned[0] : text);
+	TEST_ASSERT_EQUAL_UINT(n, st.warnings);
+	for (unsigned i = 0; i < n && i < 16; i++)
+		TEST_ASSERT_EQUAL_STRING(want[i], warned[i]);
+	if (n)
+		TEST_ASSERT_EQUAL_STRING(want[0], st.first_warning);
+	TEST_ASSERT_EQUAL_INT(0, co_cdcf_check(out, out_len, NULL, NULL));
+	if (strict_err) {
+		uint8_t *keep = out;
+		size_t keep_len = out_len;
+		eds_stats keep_st = st;
+		out = NULL;
+		TEST_ASSERT_EQUAL_INT_MESSAGE(-EINVAL, conv_strict(text, node), text);
+		TEST_ASSERT_EQUAL_STRING(strict_err, err);
+		out = keep;
+		out_len = keep_len;
+		st = keep_st;
+	}
+}
+
+/* Refused also when read leniently (and strictly). */
+static void expect_refused(const char *text, uint8_t node, const char *want)
+{
+	TEST_ASSERT_EQUAL_INT_MESSAGE(-EINVAL, conv(text, node), text);
+	TEST_ASSERT_EQUAL_STRING(want, err);
+	TEST_ASSERT_NULL(out);
+	expect_err(text, node, want);
+}
+
+static void test_lenient_visible_string(void)
+{
+	/* the CANopenNode editor writes tabs and UTF-8 into VISIBLE_STRING
+	 * defaults: the bytes are sent as they are */
+	const char *t = HEAD "[2121]\nObjectType=0x9\nSubNumber=0x2\n"
+			     "[2121sub0]\nDataType=0x0005\nAccessType=ro\nDefaultValue=0x01\n"
+			     "[2121sub1]\nDataType=0x0009\nAccessType=rw\n"
+			     "DefaultValue=up\t\xE2\x82\xAC\n";
+	const char *w[] = { "t.dcf:14: DefaultValue: control character in a VISIBLE_STRING "
+			    "(CiA 301: 20h..7Eh); the bytes are sent as they are" };
+	expect_warnings(t, 1, w, 1,
+			"t.dcf:14: DefaultValue: control character in a VISIBLE_STRING");
+	const want_ent e[] = { { 0x2121, 1, 6, 0xAC82E2097075 } };
+	expect_entries(e, 1);
+	const char *u[] = { "t.dcf:7: DefaultValue: non-ASCII text in a VISIBLE_STRING (CiA 301: "
+			    "20h..7Eh); the bytes are sent as they are" };
+	expect_warnings(HEAD "[2000]\nDataType=0x0009\nAccessType=rw\nDefaultValue=5 \xC2\xB5s\n",
+			1, u, 1, NULL); /* strict reading took UTF-8 as it is, too */
+}
+
+static void test_lenient_sub_numbers(void)
+{
+	/* python-canopen reads the sub-object sections present, whatever
+	 * SubNumber says; so do we */
+	const char *t = HEAD "[1016]\nObjectType=0x8\nSubNumber=3\n"
+			     "[1016sub0]\nDataType=5\nAccessType=ro\nDefaultValue=2\n"
+			     "[1016sub2]\nDataType=7\nAccessType=rw\nDefaultValue=0x000501F4\n"
+			     "[1018]\nObjectType=0x9\n"
+			     "[1018sub1]\nDataType=7\nAccessType=rw\nDefaultValue=9\n";
+	const char *w[] = {
+		"t.dcf:6: [1016]: SubNumber=3 but 2 sub-object sections [1016subN]: the sections "
+		"present are used",
+		"t.dcf:15: [1018]: RECORD without SubNumber or CompactSubObj",
+		"t.dcf:15: [1018]: no sub-object section [1018sub0]",
+	};
+	expect_warnings(t, 1, w, 3,
+			"t.dcf:6: [1016]: SubNumber=3 but 2 sub-object sections [1016subN]");
+	const want_ent e[] = { { 0x1016, 2, 4, 0x000501F4 }, { 0x1018, 1, 4, 9 } };
+	expect_entries(e, 2);
+
+	/* sub-objects of a VAR, SubNumber on a VAR: ignored, as python-canopen does */
+	const char *v[] = { "t.dcf:8: [2000sub1]: sub-object of VAR object [2000] (ignored)" };
+	expect_warnings(HEAD "[2000]\nDataType=5\nAccessType=rw\nDefaultValue=3\n"
+			     "[2000sub1]\nDataType=5\nAccessType=rw\nDefaultValue=4\n",
+			1, v, 1, "t.dcf:8: [2000sub1]: sub-object of VAR object [2000]");
+	const want_ent e2[] = { { 0x2000, 0, 1, 3 } };
+	expect_entries(e2, 1);
+
+	/* CompactSubObj=255: sub-index FFh is not an element (CiA 301) */
+	const char *c[] = { "t.dcf:6: [1003]: CompactSubObj=255, but sub-index FFh is reserved "
+			    "(CiA 301): sub-objects 1..254 are used" };
+	expect_warnings(HEAD
+			"[1003]\nObjectType=0x8\nCompactSubObj=255\nDataType=7\nAccessType=ro\n",
+			1, c, 1,
+			"t.dcf:6: [1003]: CompactSubObj=255, but sub-index FFh is reserved "
+			"(CiA 301)");
+}
+
+static void test_lenient_values(void)
+{
+	/* a default value that cannot be used is left out (python-canopen
+	 * leaves it out too); the device keeps its own default */
+	const char *t = HEAD "[2000]\nDataType=0x0004\nAccessType=rw\nDefaultValue=2147483648\n"
+			     "[2001]\nDataType=0x000A\nAccessType=rw\nDefaultValue=0\n"
+			     "[2002]\nDataType=0x0006\nAccessType=rw\nLowLimit=10\nHighLimit=20\n"
+			     "DefaultValue=5\n"
+			     "[2003]\nDataType=0x0006\nAccessType=rw\nLowLimit=x\nDefaultValue=5\n"
+			     "[2004]\nDataType=0x0007\nAccessType=ro\nParameterValue=-1\n"
+			     "[2005]\nDataType=0x0006\nAccessType=rw\nDefaultValue=7\n";
+	const char *w[] = {
+		"t.dcf:7: DefaultValue '2147483648': out of range for INTEGER32: the value is not "
+		"used",
+		"t.dcf:11: DefaultValue '0': odd number of hex digits: the value is not used",
+		"t.dcf:17: DefaultValue '5' is below LowLimit '10' (line 15): the value is not "
+		"used",
+		"t.dcf:21: LowLimit 'x': not a number (decimal, 0x hex or 0 octal): the limit is "
+		"not checked",
+		"t.dcf:26: ParameterValue '-1': negative value for UNSIGNED32: the value is not "
+		"used",
+	};
+	expect_warnings(t, 1, w, 5,
+			"t.dcf:7: DefaultValue '2147483648': out of range for INTEGER32");
+	const want_ent e[] = { { 0x2003, 0, 2, 5 }, { 0x2005, 0, 2, 7 } };
+	expect_entries(e, 2);
+	TEST_ASSERT_EQUAL_UINT(3, st.skipped);
+
+	/* $NODEID with no node id is a missing input, not a fault of the file */
+	expect_refused(HEAD "[2000]\nDataType=0x0007\nAccessType=ro\nDefaultValue=$NODEID+0x180\n",
+		       0,
+		       "t.dcf:7: DefaultValue '$NODEID+0x180': $NODEID needs a node id (none given "
+		       "and no [DeviceComissioning] NodeID)");
+
+	/* a DCF's configured value of a written entry cannot be left out */
+	expect_refused(HEAD "[2000]\nDataType=0x0004\nAccessType=rw\nDefaultValue=0\n"
+			    "ParameterValue=2147483648\n",
+		       1, "t.dcf:8: ParameterValue '2147483648': out of range for INTEGER32");
+	expect_refused(HEAD "[2100]\nObjectType=0x8\nCompactSubObj=2\nDataType=5\nAccessType=rw\n"
+			    "[2100Value]\nNrOfEntries=1\n2=300\n",
+		       1, "t.dcf:11: 2 '300': out of range for UNSIGNED8 (max 255)");
+}
+
+static void test_lenient_types_and_objects(void)
+{
+	/* structured or unknown types, no AccessType, unknown ObjectType:
+	 * the entry is not used unless it carries a configured value */
+	const char *t = HEAD "[2000]\nDataType=0x0020\nAccessType=rw\nDefaultValue=\n"
+			     "[2001]\nDataType=0x0005\nDefaultValue=1\n"
+			     "[2002]\nObjectType=0x3\nDataType=5\nAccessType=rw\nDefaultValue=1\n"
+			     "[2003]\nObjectType=\nDataType=5\nAccessType=rw\nDefaultValue=2\n";
+	const char *w[] = {
+		"t.dcf:5: DataType 0x0020 is not a CiA 301 basic data type: the entry is not used",
+		"t.dcf:8: [2001]: AccessType missing: the entry is not used",
+		"t.dcf:12: ObjectType '0x3' is not one of 0x2 (DOMAIN), 0x5 (DEFTYPE), 0x6 "
+		"(DEFSTRUCT), 0x7 (VAR), 0x8 (ARRAY), 0x9 (RECORD): the object is not used",
+	};
+	expect_warnings(t, 1, w, 3, "t.dcf:5: DataType 0x0020 is not a CiA 301 basic data type");
+	const want_ent e[] = { { 0x2003, 0, 1, 2 } };
+	expect_entries(e, 1);
+	expect_refused(HEAD "[2000]\nDataType=0x0020\nAccessType=rw\nParameterValue=1\n", 1,
+		       "t.dcf:5: DataType 0x0020 is not a CiA 301 basic data type");
+	/* a sub-object without its object: no object type (python-canopen
+	 * refuses it too) */
+	expect_refused(HEAD "[1200sub1]\nDataType=7\nAccessType=ro\n", 1,
+		       "t.dcf:4: [1200sub1] without object [1200]");
+	/* configured compact values without CompactSubObj: nowhere to go */
+	expect_refused(HEAD "[2000]\nDataType=5\nAccessType=rw\n[2000Value]\nNrOfEntries=1\n1=2\n",
+		       1, "t.dcf:7: [2000Value] but [2000] has no CompactSubObj");
+}
+
+static void test_lenient_syntax(void)
+{
+	/* BOM, CRLF, inline comments after white space, trailing blanks:
+	 * what Windows tools and hand-edited files carry, taken silently */
+	const char *t = "\xEF\xBB\xBF[FileInfo] ; generated\r\nFileName=t.eds\r\n"
+			"[2000]\r\nDataType=0x0006 ; UNSIGNED16\r\nAccessType=rw \t\r\n"
+			"DefaultValue=0x10\t; sixteen\r\n"
+			"[2001]\r\nDataType=9\r\nAccessType=rw\r\nDefaultValue=a;b\r\n";
+	expect_warnings(t, 1, NULL, 0,
+			"t.dcf:1: expected [section] or key=value, got '\xEF\xBB\xBF"
+			"[FileInfo] ; generated'");
+	const want_ent e[] = { { 0x2000, 0, 2, 0x10 }, { 0x2001, 0, 3, 0x623B61 } };
+	expect_entries(e, 2);
+	/* NodeID=0 ("not commissioned") is not used */
+	const char *n[] = { "t.dcf:5: NodeID must be 1..127: NodeID is not used" };
+	expect_warnings(HEAD "[DeviceComissioning]\nNodeID=0\n[2000]\nDataType=5\nAccessType=rw\n"
+			     "DefaultValue=1\n",
+			0, n, 1, "t.dcf:5: NodeID must be 1..127");
+	/* object links and lists only describe: warnings in both readings */
+	const char *l[] = { "t.dcf:9: [2000ObjectLinks]: linked object 0x2001 has no section" };
+	expect_warnings(HEAD "[2000]\nDataType=5\nAccessType=rw\n[2000ObjectLinks]\nObjectLinks=1\n"
+			     "1=0x2001\n",
+			1, l, 1, "t.dcf:9: [2000ObjectLinks]: linked object 0x2001 has no section");
+}
+
 static void test_file_loader(void)
 {
 	char path[] = "/tmp/test_eds_XXXXXX";
@@ -492,20 +715,8 @@ static const char *foreign_dir(void)
 {
 	static char dir[1024];
 	const char *env = getenv("COGW_PYCANOPEN_DIR");
-	FILE *p;
 
-	if (env)
-		return env;
-	/* idempotent: returns at once when build/deps has it already */
-	p = popen("scripts/fetch-python-canopen.sh", "r");
-	if (!p)
-		return NULL;
-	if (!fgets(dir, sizeof dir, p))
-		dir[0] = '\0';
-	if (pclose(p) != 0 || !dir[0])
-		return NULL;
-	dir[strcspn(dir, "\n")] = '\0';
-	return dir;
+	return env ? env : fetch_deps_dir("scripts/fetch-python-canopen.sh", dir, sizeof dir);
 }
 
 static void test_foreign_eds_files(void)
@@ -543,10 +754,18 @@ static void test_foreign_eds_files(void)
 	free(out);
 	out = NULL;
 
-	/* the library's own test file has deliberate gaps: refused with the line */
+	/* the library's own test file has deliberate gaps: python-canopen
+	 * reads the sections present, and so do we, with a warning each;
+	 * strict reading refuses it with the line */
 	snprintf(path, sizeof path, "%s/test/sample.eds", dir);
-	TEST_ASSERT_EQUAL_INT(-EINVAL,
-			      eds_convert_file(path, 5, &out, &out_len, &st, err, sizeof err));
+	TEST_ASSERT_EQUAL_INT_MESSAGE(
+		0, eds_convert_file(path, 5, &out, &out_len, &st, err, sizeof err), err);
+	TEST_ASSERT_EQUAL_UINT(6, st.warnings);
+	free(out);
+	out = NULL;
+	eds_options strict = { .node_id = 5, .strict = true };
+	TEST_ASSERT_EQUAL_INT(-EINVAL, eds_convert_file_opts(path, &strict, &out, &out_len, &st,
+							     err, sizeof err));
 	TEST_ASSERT_NOT_NULL_MESSAGE(
 		strstr(err, "sample.eds:121: [1003]: SubNumber=9 but 6 sub-object sections"), err);
 }
@@ -567,6 +786,11 @@ int main(void)
 	RUN_TEST(test_limits);
 	RUN_TEST(test_commands_and_read_only_not_written);
 	RUN_TEST(test_pdo_remapping_order);
+	RUN_TEST(test_lenient_visible_string);
+	RUN_TEST(test_lenient_sub_numbers);
+	RUN_TEST(test_lenient_values);
+	RUN_TEST(test_lenient_types_and_objects);
+	RUN_TEST(test_lenient_syntax);
 	RUN_TEST(test_file_loader);
 	RUN_TEST(test_foreign_eds_files);
 	return UNITY_END();

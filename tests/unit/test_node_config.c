@@ -198,11 +198,13 @@ static void test_dcf_file_relative_to_the_config(void)
 	TEST_ASSERT_EQUAL_size_t(sizeof want, nc->cdcf_len);
 	TEST_ASSERT_EQUAL_MEMORY(want, nc->cdcf, sizeof want);
 
-	const char *bad = "[1017]\nDataType=0x0006\nAccessType=rw\nDefaultValue=70000\n";
+	/* a configured value that does not fit is refused (a default value
+	 * would be left out with a warning: docs/config.md) */
+	const char *bad = "[1017]\nDataType=0x0006\nAccessType=rw\nParameterValue=70000\n";
 	put_file("bad.dcf", bad, strlen(bad));
 	char want_err[300];
 	snprintf(want_err, sizeof want_err,
-		 "lines[0].nodes[0].config.dcf: %s/bad.dcf:4: DefaultValue '70000': out of range "
+		 "lines[0].nodes[0].config.dcf: %s/bad.dcf:4: ParameterValue '70000': out of range "
 		 "for UNSIGNED16 (max 65535)",
 		 dir);
 	expect_error(NODES("[{\"id\": 7, \"config\": {\"dcf\": \"bad.dcf\"}}]"), want_err);
