@@ -21,7 +21,7 @@ if [ "$(id -u)" -ne 0 ]; then
     SUDO="sudo"
 fi
 
-packages=(gcc make pkg-config libsystemd-dev libcjson-dev can-utils iproute2 clang-format
+packages=(gcc make curl pkg-config libsystemd-dev libcjson-dev can-utils iproute2 clang-format
           qemu-system-x86 busybox-static cpio kmod valgrind systemd python3 python3-venv)
 
 missing=()

