@@ -138,6 +138,7 @@ struct co_manager {
 	bool awaiting_mandatory; /* BOOTED because 1F89h ran out */
 	bool net_started;
 	bool net_started_explicit;
+	bool start_requested; /* a start from STOPPED waits for mandatory slaves */
 	bool own_id_reported;
 	bool wake_pending;
 	bool check_pending;
@@ -1015,6 +1016,7 @@ static void start_network_now(co_manager *m, bool explicit, uint64_t now_us)
 	}
 	m->net_started = true;
 	m->net_started_explicit = explicit;
+	m->start_requested = false;
 	co_fsm_goto(&m->fsm, CO_MGR_OPERATIONAL, now_us);
 }
 
@@ -1036,11 +1038,12 @@ static void mgr_check(co_manager *m, uint64_t now_us)
 	}
 	if (all_mandatory_booted(m) && (all_attempted || st != CO_MGR_BOOTING)) {
 		m->awaiting_mandatory = false;
-		if (b80 & (CO_MGR_1F80_NO_SELF_START | CO_MGR_1F80_APP_STARTS_SLAVES)) {
+		if ((b80 & (CO_MGR_1F80_NO_SELF_START | CO_MGR_1F80_APP_STARTS_SLAVES)) &&
+		    !m->start_requested) {
 			if (st != CO_MGR_BOOTED)
 				co_fsm_goto(&m->fsm, CO_MGR_BOOTED, now_us);
 		} else {
-			start_network_now(m, false, now_us);
+			start_network_now(m, m->start_requested, now_us);
 		}
 		return;
 	}
@@ -1118,6 +1121,7 @@ static int m_resetting_enter(void *obj, uint64_t now_us)
 	m->net_started_explicit = false;
 	m->boot_time_expired = false;
 	m->awaiting_mandatory = false;
+	m->start_requested = false;
 	for (unsigned id = 1; id <= 127; id++) {
 		struct mgr_slave *s = &m->s[id];
 		co_fsm_goto(&s->fsm, BS_IDLE, now_us);
@@ -1213,6 +1217,7 @@ static int m_net_enter(void *obj, uint64_t now_us)
 static int m_stopped_enter(void *obj, uint64_t now_us)
 {
 	co_manager *m = obj;
+	m->start_requested = false;
 	for (unsigned id = 1; id <= 127; id++) {
 		struct mgr_slave *s = &m->s[id];
 		if (bs_running(s) || (bs_state(s) == BS_FAILED && s->timer_us != CO_NO_DEADLINE)) {
@@ -1687,6 +1692,7 @@ static void start_from_stopped(co_manager *m, uint64_t now_us)
 		start_network_now(m, true, now_us);
 	} else {
 		m->awaiting_mandatory = true;
+		m->start_requested = true; /* whatever 1F80h bits 2/3 say */
 		co_fsm_goto(&m->fsm, CO_MGR_BOOTED, now_us);
 	}
 	boot_deferred_nodes(m, now_us);

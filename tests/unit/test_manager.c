@@ -263,15 +263,20 @@ static void test_s50_bit2_waits_for_application(void)
 }
 
 /* 51: mandatory heartbeat lost: bit 6 -> stop all; bit 4 -> reset all. */
+static void node2_goes_silent(void)
+{
+	f.bus.port[1].deliver = false;
+	co_hb_producer_set(f.bus.port[1].node, 0, f.bus.now);
+	tb_advance(&f.bus, 500 * MS);
+	TEST_ASSERT_NOT_NULL(mf_node_ev(&f, 2, CO_MGR_NODE_LOST));
+}
+
 static void lose_node2(void)
 {
 	mf_start(&f, NULL);
 	tb_advance(&f.bus, 2 * S);
 	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
-	f.bus.port[1].deliver = false;
-	co_hb_producer_set(f.bus.port[1].node, 0, f.bus.now);
-	tb_advance(&f.bus, 500 * MS);
-	TEST_ASSERT_NOT_NULL(mf_node_ev(&f, 2, CO_MGR_NODE_LOST));
+	node2_goes_silent();
 }
 
 static void test_s51_bit6_stop_all(void)
@@ -669,6 +674,16 @@ static void test_keep_op_restarts_node(void)
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_STOPPED, hb_of(f.bus.port + 2));
 }
 
+/* The network runs, nodes 2 and 3 booted and in these NMT states. */
+static void assert_network_runs(uint8_t nmt2, uint8_t nmt3)
+{
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	TEST_ASSERT_TRUE(co_manager_node_diag(f.mgr, 2)->booted);
+	TEST_ASSERT_TRUE(co_manager_node_diag(f.mgr, 3)->booted);
+	TEST_ASSERT_EQUAL_HEX8(nmt2, hb_of(f.bus.port + 1));
+	TEST_ASSERT_EQUAL_HEX8(nmt3, hb_of(f.bus.port + 2));
+}
+
 /* Per node, the state after its boot: node 2 stopped, node 3 left
  * pre-operational; neither gets a start, the network runs. */
 static void test_target_state_per_node(void)
@@ -680,11 +695,7 @@ static void test_target_state_per_node(void)
 	TEST_ASSERT_EQUAL_INT(-EINVAL, co_manager_set_target_state(f.mgr, 3, 0x42));
 	TEST_ASSERT_EQUAL_INT(-EINVAL, co_manager_set_target_state(f.mgr, 0, CO_NMT_STOPPED));
 	tb_advance(&f.bus, 2 * S);
-	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
-	TEST_ASSERT_TRUE(co_manager_node_diag(f.mgr, 2)->booted);
-	TEST_ASSERT_TRUE(co_manager_node_diag(f.mgr, 3)->booted);
-	TEST_ASSERT_EQUAL_HEX8(CO_NMT_STOPPED, hb_of(f.bus.port + 1));
-	TEST_ASSERT_EQUAL_HEX8(CO_NMT_PRE_OPERATIONAL, hb_of(f.bus.port + 2));
+	assert_network_runs(CO_NMT_STOPPED, CO_NMT_PRE_OPERATIONAL);
 	TEST_ASSERT_EQUAL_UINT(0, mf_sent(&f, 0x000, "01 02"));
 	TEST_ASSERT_EQUAL_UINT(0, mf_sent(&f, 0x000, "01 03"));
 	TEST_ASSERT_EQUAL_UINT(0, mf_sent(&f, 0x000, "01 00"));
@@ -791,6 +802,30 @@ static void test_stopped_network_no_sdo_then_application_start(void)
 	TEST_ASSERT_TRUE(mf_sent(&f, 0x604, "40 00 10 00") > 0);
 }
 
+/* With 1F80h bit 2 (the application starts the network) one start brings
+ * the stopped network back too: it starts once node 2 has booted. */
+static void test_stopped_network_application_start_without_self_start(void)
+{
+	line_2_3(MASTER | CO_MGR_1F80_NO_SELF_START | CO_MGR_1F80_STOP_ALL_ON_ERROR);
+	mf_start(&f, NULL);
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL(CO_MGR_BOOTED, mstate());
+	TEST_ASSERT_EQUAL_INT(0, co_manager_start_network(f.mgr, f.bus.now));
+	tb_advance(&f.bus, 100 * MS);
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	node2_goes_silent();
+	TEST_ASSERT_EQUAL(CO_MGR_STOPPED, mstate());
+	size_t mark = f.bus.log_len;
+	node2_reboots();
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL_UINT(0, sdo_requests_since(mark));
+	TEST_ASSERT_EQUAL_INT(0, co_manager_start_network(f.mgr, f.bus.now));
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 1));
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 2));
+}
+
 /* Same stop; a boot asked for while the network is stopped (one node, or
  * 1F25h) waits too, and a new network boot is the other way out. */
 static void test_stopped_network_no_sdo_then_network_boot(void)
@@ -810,11 +845,7 @@ static void test_stopped_network_no_sdo_then_network_boot(void)
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_STOPPED, hb_of(f.bus.port + 2));
 	TEST_ASSERT_EQUAL_INT(0, co_manager_boot_network(f.mgr, f.bus.now));
 	tb_advance(&f.bus, 3 * S);
-	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
-	TEST_ASSERT_TRUE(co_manager_node_diag(f.mgr, 2)->booted);
-	TEST_ASSERT_TRUE(co_manager_node_diag(f.mgr, 3)->booted);
-	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 1));
-	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 2));
+	assert_network_runs(CO_NMT_OPERATIONAL, CO_NMT_OPERATIONAL);
 }
 
 /* 1F80h, 1F81h, 1F84h..1F89h are locked while the network boots; 1F89h
@@ -1000,6 +1031,7 @@ int main(void)
 	RUN_TEST(test_bootup_in_stopped_network);
 	RUN_TEST(test_bootup_in_stopped_network_mandatory);
 	RUN_TEST(test_stopped_network_no_sdo_then_application_start);
+	RUN_TEST(test_stopped_network_application_start_without_self_start);
 	RUN_TEST(test_stopped_network_no_sdo_then_network_boot);
 	RUN_TEST(test_boot_objects_locked_during_boot);
 	RUN_TEST(test_state_event_on_flag_change);
