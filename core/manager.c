@@ -138,6 +138,7 @@ struct co_manager {
 	bool awaiting_mandatory; /* BOOTED because 1F89h ran out */
 	bool net_started;
 	bool net_started_explicit;
+	bool start_requested; /* a start from STOPPED waits for mandatory slaves */
 	bool own_id_reported;
 	bool wake_pending;
 	bool check_pending;
@@ -908,9 +909,28 @@ static void bs_input(struct mgr_slave *s, const struct mgr_in *in, uint64_t now_
 	co_fsm_con(&s->fsm, in, now_us);
 }
 
+/* No SDO in a stopped network (CiA 301 §7.3.2.2: a node in STOPPED takes
+ * part in NMT and error control only): while the line is STOPPED a boot
+ * slave process does not run; the node is held stopped and booted when
+ * the network leaves STOPPED (boot_deferred_nodes). True if it was held. */
+static bool bs_hold_stopped(struct mgr_slave *s, uint64_t now_us)
+{
+	co_manager *m = s->m;
+	if (co_fsm_state_of(&m->fsm) != CO_MGR_STOPPED)
+		return false;
+	co_fsm_goto(&s->fsm, BS_IDLE, now_us);
+	s->d.booted = false;
+	s->boot_deferred = true;
+	if (s->expected_state != CO_NMT_STOPPED)
+		nmt_send(m, s->id, CO_NMT_CS_STOP, now_us);
+	return true;
+}
+
 /* Start (or restart) the boot slave process of one node. */
 static void bs_begin(struct mgr_slave *s, bool network_boot, bool wait_bootup, uint64_t now_us)
 {
+	if (bs_hold_stopped(s, now_us))
+		return;
 	s->network_boot = network_boot;
 	s->wait_bootup = wait_bootup;
 	co_fsm_goto(&s->fsm, BS_ASSIGNMENT, now_us);
@@ -996,6 +1016,7 @@ static void start_network_now(co_manager *m, bool explicit, uint64_t now_us)
 	}
 	m->net_started = true;
 	m->net_started_explicit = explicit;
+	m->start_requested = false;
 	co_fsm_goto(&m->fsm, CO_MGR_OPERATIONAL, now_us);
 }
 
@@ -1017,11 +1038,12 @@ static void mgr_check(co_manager *m, uint64_t now_us)
 	}
 	if (all_mandatory_booted(m) && (all_attempted || st != CO_MGR_BOOTING)) {
 		m->awaiting_mandatory = false;
-		if (b80 & (CO_MGR_1F80_NO_SELF_START | CO_MGR_1F80_APP_STARTS_SLAVES)) {
+		if ((b80 & (CO_MGR_1F80_NO_SELF_START | CO_MGR_1F80_APP_STARTS_SLAVES)) &&
+		    !m->start_requested) {
 			if (st != CO_MGR_BOOTED)
 				co_fsm_goto(&m->fsm, CO_MGR_BOOTED, now_us);
 		} else {
-			start_network_now(m, false, now_us);
+			start_network_now(m, m->start_requested, now_us);
 		}
 		return;
 	}
@@ -1099,6 +1121,7 @@ static int m_resetting_enter(void *obj, uint64_t now_us)
 	m->net_started_explicit = false;
 	m->boot_time_expired = false;
 	m->awaiting_mandatory = false;
+	m->start_requested = false;
 	for (unsigned id = 1; id <= 127; id++) {
 		struct mgr_slave *s = &m->s[id];
 		co_fsm_goto(&s->fsm, BS_IDLE, now_us);
@@ -1188,6 +1211,23 @@ static int m_net_enter(void *obj, uint64_t now_us)
 	return CO_FSM_STAY;
 }
 
+/* 302-2 network stopped: the boots that run and the retries of failed
+ * nodes wait until the network leaves STOPPED (bs_hold_stopped); a request
+ * already on the bus is disowned. */
+static int m_stopped_enter(void *obj, uint64_t now_us)
+{
+	co_manager *m = obj;
+	m->start_requested = false;
+	for (unsigned id = 1; id <= 127; id++) {
+		struct mgr_slave *s = &m->s[id];
+		if (bs_running(s) || (bs_state(s) == BS_FAILED && s->timer_us != CO_NO_DEADLINE)) {
+			co_fsm_goto(&s->fsm, BS_IDLE, now_us);
+			s->boot_deferred = true;
+		}
+	}
+	return m_net_enter(obj, now_us);
+}
+
 /* 302-2: first pass over, mandatory slaves still missing; they are
  * retried until the boot time (1F89h) runs out */
 static int m_wait_enter(void *obj, uint64_t now_us)
@@ -1208,7 +1248,7 @@ static const co_fsm_state mgr_states[CO_MGR_STATE_COUNT] = {
 				    .on_timeout = m_boot_time_out },
 	[CO_MGR_BOOTED] = { .name = "booted", .on_enter = m_net_enter },
 	[CO_MGR_OPERATIONAL] = { .name = "operational", .on_enter = m_net_enter },
-	[CO_MGR_STOPPED] = { .name = "stopped", .on_enter = m_net_enter },
+	[CO_MGR_STOPPED] = { .name = "stopped", .on_enter = m_stopped_enter },
 	[CO_MGR_PREOP] = { .name = "pre-operational", .on_enter = m_net_enter },
 	[CO_MGR_FATAL] = { .name = "fatal", .on_enter = m_fatal_enter },
 };
@@ -1298,15 +1338,8 @@ static void on_bootup(co_manager *m, struct mgr_slave *s, uint64_t now_us)
 	}
 	if (!is_bootable(m, s->id) && bs_state(s) == BS_BOOTED)
 		return;
-	if (mst == CO_MGR_STOPPED) {
-		/* seed 001 §2.2 STOP: no SDO services; the node is stopped too
-		 * and booted when the network leaves STOPPED */
-		co_fsm_goto(&s->fsm, BS_IDLE, now_us);
-		s->d.booted = false;
-		s->boot_deferred = true;
-		nmt_send(m, s->id, CO_NMT_CS_STOP, now_us);
+	if (bs_hold_stopped(s, now_us))
 		return;
-	}
 	/* late or rebooted node: its boot slave process runs again */
 	/* late: it was looked for and missing, and shows up now */
 	if (!s->ever_booted && s->attempted)
@@ -1595,15 +1628,22 @@ int co_manager_boot_node(co_manager *m, uint8_t node_id, uint64_t now_us)
 	return 0;
 }
 
+static void start_from_stopped(co_manager *m, uint64_t now_us);
+
 int co_manager_start_network(co_manager *m, uint64_t now_us)
 {
+	bool stopped = co_fsm_state_of(&m->fsm) == CO_MGR_STOPPED;
 	if (!mgr_active(m))
 		return -EPERM;
-	if (!all_mandatory_booted(m))
+	if (!stopped && !all_mandatory_booted(m))
 		return -EAGAIN;
 	mgr_enter(m, now_us);
-	m->awaiting_mandatory = false;
-	start_network_now(m, true, now_us);
+	if (stopped) {
+		start_from_stopped(m, now_us);
+	} else {
+		m->awaiting_mandatory = false;
+		start_network_now(m, true, now_us);
+	}
 	mgr_after(m, now_us);
 	return 0;
 }
@@ -1625,35 +1665,53 @@ static int cmd_to_cs(uint8_t cmd)
 	return -EINVAL;
 }
 
-/* The network leaves STOPPED: the nodes that booted up meanwhile are
- * booted now. True if there were any. */
-static bool boot_deferred_nodes(co_manager *m, uint64_t now_us)
+/* The network left STOPPED (the line is in its next state already): the
+ * nodes held stopped are booted now. */
+static void boot_deferred_nodes(co_manager *m, uint64_t now_us)
 {
-	bool any = false;
 	for (unsigned id = 1; id <= 127; id++) {
 		struct mgr_slave *s = &m->s[id];
 		if (!s->boot_deferred)
 			continue;
 		s->boot_deferred = false;
-		any = true;
 		/* it was stopped: no SDO before it is pre-operational again */
 		nmt_send(m, (uint8_t)id, CO_NMT_CS_ENTER_PREOP, now_us);
 		bs_begin(s, false, false, now_us);
-	}
-	if (any)
 		m->check_pending = true;
-	return any;
+	}
+}
+
+/* Start of a stopped network (Request NMT start all, or the application's
+ * start): with every mandatory slave booted it starts at once; else the
+ * line waits in BOOTED for them (held and missing ones are booted now) and
+ * starts when they have booted. */
+static void start_from_stopped(co_manager *m, uint64_t now_us)
+{
+	if (all_mandatory_booted(m)) {
+		m->awaiting_mandatory = false;
+		start_network_now(m, true, now_us);
+	} else {
+		m->awaiting_mandatory = true;
+		m->start_requested = true; /* whatever 1F80h bits 2/3 say */
+		co_fsm_goto(&m->fsm, CO_MGR_BOOTED, now_us);
+	}
+	boot_deferred_nodes(m, now_us);
+	for (unsigned id = 1; id <= 127; id++) {
+		struct mgr_slave *s = &m->s[id];
+		if (is_mandatory(m, (uint8_t)id) && is_bootable(m, (uint8_t)id) && !s->d.booted &&
+		    !bs_running(s)) {
+			bs_begin(s, false, false, now_us);
+			m->check_pending = true;
+		}
+	}
 }
 
 static int request_all(co_manager *m, uint8_t cs, uint64_t now_us)
 {
 	switch (cs) {
 	case CO_NMT_CS_START:
-		if (co_fsm_state_of(&m->fsm) == CO_MGR_STOPPED && boot_deferred_nodes(m, now_us) &&
-		    !all_mandatory_booted(m)) {
-			/* started once the rebooted mandatory nodes booted */
-			m->awaiting_mandatory = true;
-			co_fsm_goto(&m->fsm, CO_MGR_BOOTED, now_us);
+		if (co_fsm_state_of(&m->fsm) == CO_MGR_STOPPED) {
+			start_from_stopped(m, now_us);
 			return 0;
 		}
 		if (!all_mandatory_booted(m))
@@ -1663,11 +1721,11 @@ static int request_all(co_manager *m, uint8_t cs, uint64_t now_us)
 		return 0;
 	case CO_NMT_CS_STOP:
 	case CO_NMT_CS_ENTER_PREOP:
-		if (cs == CO_NMT_CS_ENTER_PREOP)
-			(void)boot_deferred_nodes(m, now_us);
 		nmt_send(m, 0, cs, now_us);
 		m->net_started = false;
 		co_fsm_goto(&m->fsm, cs == CO_NMT_CS_STOP ? CO_MGR_STOPPED : CO_MGR_PREOP, now_us);
+		if (cs == CO_NMT_CS_ENTER_PREOP)
+			boot_deferred_nodes(m, now_us);
 		return 0;
 	default: /* resets: the network boot runs again */
 		m->reset_cs = cs;

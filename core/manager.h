@@ -296,16 +296,24 @@ uint64_t co_manager_next_deadline_us(const co_manager *m);
 /* Re-run the network boot (NMT start-up from the reset on). Leaves FATAL.
  * -EPERM in slave mode (1F80h bit 0 clear). */
 int co_manager_boot_network(co_manager *m, uint64_t now_us);
-/* Run the boot slave process of one node again. -EINVAL for a bad node,
- * -ENOENT if not assigned, -EPERM in slave mode or FATAL. */
+/* Run the boot slave process of one node again (in a stopped network:
+ * once the network leaves STOPPED, the node held stopped until then).
+ * -EINVAL for a bad node, -ENOENT if not assigned, -EPERM in slave mode or
+ * FATAL. */
 int co_manager_boot_node(co_manager *m, uint8_t node_id, uint64_t now_us);
 /* Start the network (when 1F80h leaves it to the application): the
  * manager itself, then the slaves. -EAGAIN while a mandatory slave has not
- * booted, -EPERM in slave mode or FATAL. */
+ * booted, -EPERM in slave mode or FATAL. A stopped network always leaves
+ * STOPPED: the nodes held stopped (and missing mandatory ones) are booted,
+ * and the network starts once every mandatory slave has booted. */
 int co_manager_start_network(co_manager *m, uint64_t now_us);
 /* Request NMT (the 1F82h write): node 1..127 or CO_MGR_ALL_NODES, cmd one
  * of enum co_mgr_nmt_request. -EINVAL, -EPERM (slave mode), -EAGAIN
- * (start of the network while a mandatory slave is missing). */
+ * (start of the network while a mandatory slave is missing; from STOPPED
+ * as co_manager_start_network). While the network is STOPPED the manager
+ * sends no SDO request: a node that boots up, or whose boot is asked for,
+ * is held stopped and booted when the network leaves STOPPED (start,
+ * pre-operational, or a new network boot). */
 int co_manager_request_nmt(co_manager *m, uint8_t node_id, uint8_t cmd, uint64_t now_us);
 /* The 1F82h read value of node n (0 unknown, 1 missing, 4, 5, 127). */
 uint8_t co_manager_node_nmt_state(const co_manager *m, uint8_t node_id);

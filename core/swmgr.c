@@ -242,8 +242,13 @@ static int download_enter(void *obj, uint64_t now_us)
 
 static int download_con(void *obj, const void *con, uint64_t now_us)
 {
+	co_swmgr *job = obj;
+	const co_ev_sdo_cli *c = con;
+
 	(void)now_us;
-	return after(obj, con, CO_SWMGR_START);
+	if (!c->abort)
+		job->res.mode = c->mode;
+	return after(job, c, CO_SWMGR_START);
 }
 
 static int start_enter(void *obj, uint64_t now_us)

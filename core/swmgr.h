@@ -97,6 +97,9 @@ typedef struct co_swmgr_result {
 	uint32_t found;    /* last 1F56h:1 read from the slave */
 	uint32_t bytes;    /* image bytes sent */
 	bool downloaded;   /* steps 2-6 ran */
+	uint8_t mode;      /* sdo_mode the image went by: block, or segmented
+	                    * when the device refused block (SDO client
+	                    * fallback, core/sdo_client.h); 0 = not sent */
 } co_swmgr_result;
 
 typedef void (*co_swmgr_done_fn)(void *ctx, const co_swmgr_result *r, uint64_t now_us);

@@ -519,7 +519,9 @@ typedef struct mbx_mgr_program_resp {
 	uint8_t step;   /* co_swmgr_state of the failure (0 = none) */
 	uint16_t index; /* object of the failure (0 = none) */
 	uint8_t sub;
-	uint8_t pad[3];
+	uint8_t mode; /* sdo_mode the image went by (block, or segmented after
+	               * the device refused block); 0 = not sent */
+	uint8_t pad[2];
 	uint32_t abort;    /* SDO abort code (0 = none: a wrong 1F56h:1) */
 	uint32_t found;    /* 1F56h:1 read after the start */
 	uint32_t expected; /* what it was compared with (0 = nothing) */

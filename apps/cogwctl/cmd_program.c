@@ -23,6 +23,7 @@
 
 #include "apps/cogwctl/ctl.h"
 #include "core/manager.h"
+#include "core/sdo.h"
 #include "core/swmgr.h"
 
 /* The largest image cogwctl reads: the daemon's mailbox.max_transfer can
@@ -232,6 +233,11 @@ static int run_program(ctl *c, int argc, char **argv)
 				 "program update of node %u on line %u: the node is booting or "
 				 "being updated already",
 				 r.node, r.line);
+		else if (rc == COGW_E_STATE)
+			snprintf(ctx, sizeof ctx,
+				 "program update of node %u on line %u: not now (the network is "
+				 "stopped, or no SDO request can be queued)",
+				 r.node, r.line);
 		else if (rc == COGW_E_UNSUPPORTED)
 			snprintf(ctx, sizeof ctx,
 				 "program update of node %u on line %u: the line has no manager",
@@ -250,6 +256,7 @@ static int run_program(ctl *c, int argc, char **argv)
 		cJSON_AddNumberToObject(o, "line", r.line);
 		cJSON_AddNumberToObject(o, "node", r.node);
 		cJSON_AddNumberToObject(o, "size", (double)a.bytes);
+		cJSON_AddStringToObject(o, "transfer", sdo_mode_to_string(a.mode));
 		snprintf(idtxt, sizeof idtxt, "0x%08" PRIX32, a.found);
 		cJSON_AddStringToObject(o, "software_id", idtxt);
 		cJSON_AddBoolToObject(o, "verified", a.expected != 0);
@@ -258,9 +265,10 @@ static int run_program(ctl *c, int argc, char **argv)
 		ctl_json_print(o);
 	} else {
 		printf("node %u on line %u: program updated and running: stop, clear, %" PRIu32
-		       " bytes to 1F50:01 by block transfer (%.1f KiB/s), start, verify%s; "
+		       " bytes to 1F50:01 by %s transfer (%.1f KiB/s), start, verify%s; "
 		       "software id 0x%08" PRIX32 "\n",
-		       r.node, r.line, a.bytes, (double)a.bytes / 1024.0 / (dt > 1e-6 ? dt : 1e-6),
+		       r.node, r.line, a.bytes, sdo_mode_to_string(a.mode),
+		       (double)a.bytes / 1024.0 / (dt > 1e-6 ? dt : 1e-6),
 		       a.expected ? "" : " (nothing to compare with)", a.found);
 	}
 	return 0;
@@ -277,7 +285,8 @@ const ctl_cmd ctl_cmd_program = {
 		"daemon, which then runs:\n"
 		"  stop      1F51h:1 = 0 (stop the program)\n"
 		"  clear     1F51h:1 = 3 (clear the program memory)\n"
-		"  download  FILE to 1F50h:1 by SDO block transfer (progress shown)\n"
+		"  download  FILE to 1F50h:1 by SDO block transfer, segmented when the device\n"
+		"            refuses block (progress shown; the report names the transfer used)\n"
 		"  start     1F51h:1 = 1 (the device checks and starts the new program)\n"
 		"  verify    read 1F56h:1; it must equal ID (--expect) or else 1F55h:NODE\n"
 		"            (not compared when neither is set)\n"

@@ -161,6 +161,7 @@ static void program_answer(struct mgr_line *ml, struct mgr_program *p, const co_
 		.step = r->step,
 		.index = r->index,
 		.sub = r->sub,
+		.mode = r->mode,
 		.abort = r->outcome == CO_SWMGR_CANCELLED && !r->abort ? 0x08000000u : r->abort,
 		.found = r->found,
 		.expected = r->expected,
@@ -423,7 +424,8 @@ static int status_of(int rc)
  * image of 1 byte .. max_transfer). Answered when the job ends; a refusal
  * at once: PARAM for the line's own node-ID, BUSY when the node's job
  * runs (its boot or another update) or MGR_PROGRAM_MAX updates run,
- * STATE when no SDO request can be queued.
+ * STATE when the manager holds the network stopped (no SDO there,
+ * docs/config.md) or no SDO request can be queued.
  */
 static void program_request(struct mgr_line *ml, line *l, const mbx_request *req, uint64_t now)
 {
@@ -435,6 +437,10 @@ static void program_request(struct mgr_line *ml, line *l, const mbx_request *req
 	memcpy(&r, req->payload, sizeof r);
 	if (r.node == co_node_id(line_node(l)) || !req->data_len || req->data_len > UINT32_MAX) {
 		(void)mbx_server_respond(srv, &req->reply, MBX_E_PARAM, 0, NULL, 0);
+		return;
+	}
+	if (co_manager_state(ml->mgr) == CO_MGR_STOPPED) {
+		(void)mbx_server_respond(srv, &req->reply, MBX_E_STATE, 0, NULL, 0);
 		return;
 	}
 	if (co_swmgr_running(&ml->swm.job[r.node - 1]) || program_of(ml, r.node)) {

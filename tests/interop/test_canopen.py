@@ -21,7 +21,13 @@ vcan0. It catches bugs that cosim, which runs our own core, would mirror.
     clear, map, enable), then the remapped TPDO received with its values;
   - EMCY from cosim (control socket) and from cogwd (cogwctl emcy send);
   - LSS: Fastscan of an unconfigured cosim node, node-ID assignment, boot
-    with the new id.
+    with the new id;
+  - the CiA 302-2 manager of cogwd's second line (vcan1) with python-canopen
+    slaves: no SDO frame on the bus while the network is stopped (after
+    the "stop all" error reaction and after a Request NMT stop), both ways
+    out of STOPPED (cogwctl manager start, cogwctl boot); a program update
+    (cogwctl program) to a slave that refuses block transfer, delivered
+    and reported by segmented transfer.
 
 Output is in Unity's format (file:line:name:PASS/FAIL, then the summary
 line) so that tests/run-tests counts it like the C tests. Runs inside the
@@ -53,6 +59,17 @@ OUR_ID = 127       # cogwd's node on line 0
 DEV_ID = 1         # cosim device with a big DOMAIN, TPDOs, EMCY
 LSS_SERIAL = 777001
 INSTANCE = "interop"
+MGR_LINE = 1       # cogwd's line with a CiA 302-2 manager
+MGR_IFACE = "vcan1"
+MGR_OWN_ID = 1
+MANDATORY_ID = 10  # python-canopen slaves the manager boots
+OPTIONAL_ID = 11
+PROGRAM_ID = 12    # python-canopen device with program download objects
+SLAVE_DEVICE_TYPE = 0x00020192
+SLAVE_HB_MS = 200
+# the manager's heartbeat consumer time: generous, since the emulated VM
+# can stand still for a while under load (a loss stops the network)
+SLAVE_HB_TIMEOUT_MS = 3000
 SDO_TIMEOUT_S = 5.0  # python-canopen, cogwd and cosim alike (slow VM)
 
 # ---------------------------------------------------------------------------
@@ -94,6 +111,9 @@ def run_test(fn):
         print("  step: " + STEP[0])
         print("  last frames on the bus:")
         RECORDER.dump()
+        if RECORDER1.frames:
+            print(f"  last frames on {MGR_IFACE}:")
+            RECORDER1.dump()
         print("  cogwd log:\n" + read_log("cogwd")[-800:])
         print("  cosim log:\n" + read_log("cosim")[-800:], flush=True)
         RESULTS.append(False)
@@ -168,6 +188,20 @@ CONFIG = {
              "max_size": 4096},
             {"index": "0x2001", "name": "setting", "type": "UNSIGNED32", "access": "rw",
              "persist": True, "default": 7},
+        ],
+    }, {
+        # a CiA 302-2 manager of python-canopen slaves (MANAGED), alone on
+        # vcan1: nothing of it reaches the tests on vcan0
+        "name": "line1", "interface": MGR_IFACE, "bitrate": 1000000, "node_id": MGR_OWN_ID,
+        "heartbeat_ms": 200,
+        "sdo_timeout_ms": int(SDO_TIMEOUT_S * 1000),
+        "manager": {"on_mandatory_error": "stop_all", "retry_ms": 500,
+                    "reset_wait_ms": 2000, "sdo_timeout_ms": 2000},
+        "nodes": [
+            {"id": MANDATORY_ID, "mandatory": True, "heartbeat_ms": SLAVE_HB_TIMEOUT_MS,
+             "device_type": hex(SLAVE_DEVICE_TYPE)},
+            {"id": OPTIONAL_ID, "heartbeat_ms": SLAVE_HB_TIMEOUT_MS,
+             "device_type": hex(SLAVE_DEVICE_TYPE)},
         ],
     }],
 }
@@ -599,12 +633,192 @@ def test_lss_fastscan_and_node_id_assignment():
     eq(LSS_SERIAL, struct.unpack("<L", node.sdo.upload(0x1018, 4))[0], "1018h:4 of the new node 42")
 
 
+# ---------------------------------------------------------------------------
+# the CiA 302-2 manager of line 1 with python-canopen slaves on vcan1
+
+NET1 = canopen.Network()
+RECORDER1 = Recorder()
+
+
+class StrictSlave:
+    """A python-canopen LocalNode made to behave as CiA 301 asks where
+    python-canopen's own NMT slave does not: a reset command (or a power
+    cycle) ends with its boot-up and PRE-OPERATIONAL with the heartbeat of
+    1017h, and its SDO server is silent while it is STOPPED (CiA 301
+    §7.3.2.2: no SDO in STOPPED). An NMT command that comes in while it
+    boots acts after the boot (the lock), as on a device."""
+
+    def __init__(self, node_id):
+        od = ObjectDictionary()
+        dt = var("device type", 0x1000, 0, datatypes.UNSIGNED32, "ro")
+        dt.default = SLAVE_DEVICE_TYPE
+        od.add_object(dt)
+        hb = var("producer heartbeat time", 0x1017, 0, datatypes.UNSIGNED16)
+        hb.default = SLAVE_HB_MS
+        od.add_object(hb)
+        self.node = canopen.LocalNode(node_id, od)
+        self.lock = threading.Lock()
+        NET1.add_node(self.node)
+        NET1.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
+        NET1.subscribe(self.node.sdo.rx_cobid, self._sdo_request)
+        NET1.unsubscribe(0, self.node.nmt.on_command)
+        NET1.subscribe(0, self._nmt_command)
+        self.power_on()
+
+    def _sdo_request(self, can_id, data, timestamp):
+        with self.lock:
+            if self.node.nmt.state != "STOPPED":
+                self.node.sdo.on_request(can_id, data, timestamp)
+
+    def _nmt_command(self, can_id, data, timestamp):
+        with self.lock:
+            self.node.nmt.on_command(can_id, data, timestamp)
+            if data[1] in (0, self.node.id) and data[0] in (0x81, 0x82):
+                self._boot()
+
+    def _boot(self):
+        self.node.nmt.send_command(0x81)  # INITIALISING: the boot-up
+        self.node.nmt.send_command(0x80)  # PRE-OPERATIONAL: heartbeat on
+
+    def power_on(self):
+        with self.lock:
+            self._boot()
+
+    def state(self):
+        return self.node.nmt.state
+
+    def remove(self):
+        NET1.unsubscribe(0, self._nmt_command)
+        NET1.subscribe(0, self.node.nmt.on_command)
+        NET1.unsubscribe(self.node.sdo.rx_cobid, self._sdo_request)
+        NET1.subscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
+        self.node.nmt.stop_heartbeat()
+        self.node.remove_network()
+
+
+def manager_state():
+    import json
+    r = ctl("manager", str(MGR_LINE), "--json")
+    return json.loads(r.stdout)["state"]
+
+
+def wait_manager(state, slaves=(), slave_state=None, timeout=30.0):
+    """Until line 1's manager is in `state` and every slave reports
+    slave_state."""
+    step(f"line {MGR_LINE}: wait for manager {state}, slaves {slave_state}")
+    deadline = time.monotonic() + timeout
+    got = None
+    while time.monotonic() < deadline:
+        got = manager_state()
+        if got == state and all(s.state() == slave_state for s in slaves):
+            return
+        time.sleep(0.3)
+    diag = ctl("diag", str(MGR_LINE), check_rc=False).stdout
+    raise AssertionError(f"manager {got} (want {state}), slaves "
+                         f"{[s.state() for s in slaves]} (want {slave_state}); {diag}")
+
+
+def sdo_frames_since(mark):
+    return [f"{m.arbitration_id:03X}#{bytes(m.data).hex().upper()}"
+            for m in RECORDER1.frames[mark:]
+            if 0x580 < m.arbitration_id < 0x600 or 0x600 < m.arbitration_id < 0x680]
+
+
+def sdo_requests_to(node_id, mark):
+    return sum(1 for m in RECORDER1.frames[mark:] if m.arbitration_id == 0x600 + node_id)
+
+
+HELD_S = 4.0  # how long the stopped network is watched: retry_ms 500 x 8
+
+
+def test_manager_no_sdo_while_network_stopped_and_both_ways_out():
+    mandatory, optional = StrictSlave(MANDATORY_ID), StrictSlave(OPTIONAL_ID)
+    try:
+        ctl("boot", str(MGR_LINE))
+        wait_manager("operational", (mandatory, optional), "OPERATIONAL")
+
+        step("the mandatory node's heartbeat is lost: 1F80h 'stop all'")
+        mandatory.node.nmt.stop_heartbeat()
+        wait_manager("stopped", (optional,), "STOPPED")
+        step("the mandatory node boots up again in the stopped network")
+        mark = len(RECORDER1.frames)
+        mandatory.power_on()
+        time.sleep(HELD_S)
+        eq([], sdo_frames_since(mark), f"SDO frames in {HELD_S} s of stopped network")
+        eq("stopped", manager_state(), "manager after the boot-up")
+        eq("STOPPED", mandatory.state(), "the node that booted up (held stopped)")
+
+        step("way out 1: cogwctl manager start, the mandatory node not booted yet")
+        mark = len(RECORDER1.frames)
+        ctl("manager", str(MGR_LINE), "start")
+        wait_manager("operational", (mandatory, optional), "OPERATIONAL")
+        check(sdo_requests_to(MANDATORY_ID, mark) >= 1, "the held node was not booted")
+
+        step("Request NMT stop all; a boot-up and a boot of one node while stopped")
+        ctl("manager", str(MGR_LINE), "request", "all", "stop")
+        wait_manager("stopped", (mandatory, optional), "STOPPED")
+        mark = len(RECORDER1.frames)
+        mandatory.power_on()
+        ctl("boot", str(MGR_LINE), str(OPTIONAL_ID))
+        time.sleep(HELD_S)
+        eq([], sdo_frames_since(mark), f"SDO frames in {HELD_S} s of stopped network")
+        eq("STOPPED", mandatory.state(), "the node that booted up (held stopped)")
+        eq("STOPPED", optional.state(), "the node whose boot was asked for")
+
+        step("way out 2: cogwctl boot (the network boot)")
+        mark = len(RECORDER1.frames)
+        ctl("boot", str(MGR_LINE))
+        wait_manager("operational", (mandatory, optional), "OPERATIONAL")
+        for node_id in (MANDATORY_ID, OPTIONAL_ID):
+            check(sdo_requests_to(node_id, mark) >= 1, f"node {node_id} was not booted")
+    finally:
+        mandatory.remove()
+        optional.remove()
+
+
+def test_program_by_segmented_transfer_when_block_is_refused():
+    """python-canopen's SDO server refuses a block download (05040001h):
+    the software manager's image goes by segmented transfer and cogwctl
+    says so."""
+    od = ObjectDictionary()
+    for index, name, dtype, default in ((0x1F50, "program data", datatypes.DOMAIN, None),
+                                        (0x1F51, "program control", datatypes.UNSIGNED8, 0),
+                                        (0x1F56, "software id", datatypes.UNSIGNED32,
+                                         0x3C2A91F0)):
+        rec = ODRecord(name, index)
+        n = var("highest sub-index", index, 0, datatypes.UNSIGNED8, "ro")
+        n.default = 1
+        rec.add_member(n)
+        v = var(name, index, 1, dtype, "ro" if index == 0x1F56 else "rw")
+        if default is not None:
+            v.default = default
+        rec.add_member(v)
+        od.add_object(rec)
+    local = canopen.LocalNode(PROGRAM_ID, od)
+    NET1.add_node(local)
+    try:
+        image = pattern(1000, 9)
+        path = os.path.join(WORK, "program.bin")
+        with open(path, "wb") as f:
+            f.write(image)
+        r = ctl("program", str(MGR_LINE), str(PROGRAM_ID), path, "--expect", "0x3C2A91F0",
+                "--sdo-timeout", str(int(SDO_TIMEOUT_S * 1000)))
+        eq(image, bytes(local.get_data(0x1F50, 1)), "image in 1F50h:1")
+        check("1000 bytes to 1F50:01 by segmented transfer" in r.stdout, r.stdout)
+        eq(1, local.get_data(0x1F51, 1)[0], "1F51h:1 after the update (started)")
+    finally:
+        NET1.nodes.pop(PROGRAM_ID, None)
+        local.remove_network()
+
+
 def main():
     logging.basicConfig(level=logging.CRITICAL)  # the tests report, not the library
     # a hang shows where it is: every thread's stack, every 5 minutes
     faulthandler.dump_traceback_later(300, repeat=True)
     NET.listeners.append(RECORDER)
     NET.connect(interface="socketcan", channel=IFACE)
+    NET1.listeners.append(RECORDER1)
+    NET1.connect(interface="socketcan", channel=MGR_IFACE)
     try:
         start_system()
         for t in (test_sdo_client_all_modes_and_sizes_against_cogwd_and_cosim,
@@ -613,7 +827,10 @@ def main():
                   test_store_restore_across_resets,
                   test_pdo_remapping_over_sdo,
                   test_emcy_from_cosim_and_from_cogwd,
-                  test_lss_fastscan_and_node_id_assignment):
+                  test_lss_fastscan_and_node_id_assignment,
+                  # before the manager test: its end leaves line 1 stopped
+                  test_program_by_segmented_transfer_when_block_is_refused,
+                  test_manager_no_sdo_while_network_stopped_and_both_ways_out):
             only = os.environ.get("COGW_TEST_ONLY")  # comma-separated substrings
             if only and not any(o in t.__name__ for o in only.split(",")):
                 continue
@@ -624,6 +841,7 @@ def main():
         print("cogwd log:\n" + read_log("cogwd") + "\ncosim log:\n" + read_log("cosim"))
     finally:
         NET.disconnect()
+        NET1.disconnect()
         stop_system()
     failed = RESULTS.count(False)
     print("\n-----------------------")

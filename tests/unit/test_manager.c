@@ -263,15 +263,20 @@ static void test_s50_bit2_waits_for_application(void)
 }
 
 /* 51: mandatory heartbeat lost: bit 6 -> stop all; bit 4 -> reset all. */
+static void node2_goes_silent(void)
+{
+	f.bus.port[1].deliver = false;
+	co_hb_producer_set(f.bus.port[1].node, 0, f.bus.now);
+	tb_advance(&f.bus, 500 * MS);
+	TEST_ASSERT_NOT_NULL(mf_node_ev(&f, 2, CO_MGR_NODE_LOST));
+}
+
 static void lose_node2(void)
 {
 	mf_start(&f, NULL);
 	tb_advance(&f.bus, 2 * S);
 	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
-	f.bus.port[1].deliver = false;
-	co_hb_producer_set(f.bus.port[1].node, 0, f.bus.now);
-	tb_advance(&f.bus, 500 * MS);
-	TEST_ASSERT_NOT_NULL(mf_node_ev(&f, 2, CO_MGR_NODE_LOST));
+	node2_goes_silent();
 }
 
 static void test_s51_bit6_stop_all(void)
@@ -669,6 +674,16 @@ static void test_keep_op_restarts_node(void)
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_STOPPED, hb_of(f.bus.port + 2));
 }
 
+/* The network runs, nodes 2 and 3 booted and in these NMT states. */
+static void assert_network_runs(uint8_t nmt2, uint8_t nmt3)
+{
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	TEST_ASSERT_TRUE(co_manager_node_diag(f.mgr, 2)->booted);
+	TEST_ASSERT_TRUE(co_manager_node_diag(f.mgr, 3)->booted);
+	TEST_ASSERT_EQUAL_HEX8(nmt2, hb_of(f.bus.port + 1));
+	TEST_ASSERT_EQUAL_HEX8(nmt3, hb_of(f.bus.port + 2));
+}
+
 /* Per node, the state after its boot: node 2 stopped, node 3 left
  * pre-operational; neither gets a start, the network runs. */
 static void test_target_state_per_node(void)
@@ -680,11 +695,7 @@ static void test_target_state_per_node(void)
 	TEST_ASSERT_EQUAL_INT(-EINVAL, co_manager_set_target_state(f.mgr, 3, 0x42));
 	TEST_ASSERT_EQUAL_INT(-EINVAL, co_manager_set_target_state(f.mgr, 0, CO_NMT_STOPPED));
 	tb_advance(&f.bus, 2 * S);
-	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
-	TEST_ASSERT_TRUE(co_manager_node_diag(f.mgr, 2)->booted);
-	TEST_ASSERT_TRUE(co_manager_node_diag(f.mgr, 3)->booted);
-	TEST_ASSERT_EQUAL_HEX8(CO_NMT_STOPPED, hb_of(f.bus.port + 1));
-	TEST_ASSERT_EQUAL_HEX8(CO_NMT_PRE_OPERATIONAL, hb_of(f.bus.port + 2));
+	assert_network_runs(CO_NMT_STOPPED, CO_NMT_PRE_OPERATIONAL);
 	TEST_ASSERT_EQUAL_UINT(0, mf_sent(&f, 0x000, "01 02"));
 	TEST_ASSERT_EQUAL_UINT(0, mf_sent(&f, 0x000, "01 03"));
 	TEST_ASSERT_EQUAL_UINT(0, mf_sent(&f, 0x000, "01 00"));
@@ -739,6 +750,102 @@ static void test_bootup_in_stopped_network_mandatory(void)
 	TEST_ASSERT_EQUAL_UINT32(2, co_manager_node_diag(f.mgr, 2)->boot_count);
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 1));
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 2));
+}
+
+/* SDO requests of the manager (to any node) among the frames logged from
+ * `from` on. */
+static unsigned sdo_requests_since(size_t from)
+{
+	unsigned n = 0;
+	for (size_t i = from; i < f.bus.log_len; i++)
+		n += f.bus.log_from[i] == f.mp->idx && f.bus.log[i].id > 0x600 &&
+		     f.bus.log[i].id < 0x680;
+	return n;
+}
+
+/* Mandatory node 2 comes back after its loss with a boot-up. */
+static void node2_reboots(void)
+{
+	f.bus.port[1].deliver = true;
+	co_hb_producer_set(f.bus.port[1].node, 100, f.bus.now);
+	co_nmt_local_cmd(f.bus.port[1].node, CO_NMT_CS_RESET_NODE, f.bus.now);
+}
+
+/* The error reaction stopped the network (1F80h bit 6): the lost mandatory
+ * node that boots up again, and a silent optional node retried until then,
+ * get no SDO request while the network is stopped (CiA 301 §7.3.2.2); the
+ * application's start brings the network back although the mandatory node
+ * has not booted yet: it is booted, then everything is started. */
+static void test_stopped_network_no_sdo_then_application_start(void)
+{
+	line_2_3(MASTER | CO_MGR_1F80_STOP_ALL_ON_ERROR);
+	mf_assign(&f, 4, SLAVE_BOOT, 0); /* absent: 1000h retried every second */
+	lose_node2();
+	TEST_ASSERT_EQUAL(CO_MGR_STOPPED, mstate());
+	size_t mark = f.bus.log_len;
+	node2_reboots();
+	tb_advance(&f.bus, 5 * S);
+	TEST_ASSERT_EQUAL(CO_MGR_STOPPED, mstate());
+	TEST_ASSERT_EQUAL_UINT(0, sdo_requests_since(mark));
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_STOPPED, hb_of(f.bus.port + 1));
+	TEST_ASSERT_FALSE(co_manager_node_diag(f.mgr, 2)->booted);
+	/* way out: the application starts the network */
+	unsigned reads2 = mf_sent(&f, 0x602, "40 00 10 00");
+	TEST_ASSERT_EQUAL_INT(0, co_manager_start_network(f.mgr, f.bus.now));
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL_UINT(reads2 + 1, mf_sent(&f, 0x602, "40 00 10 00"));
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	TEST_ASSERT_EQUAL_UINT32(2, co_manager_node_diag(f.mgr, 2)->boot_count);
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 1));
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 2));
+	/* the silent optional node is looked for again */
+	TEST_ASSERT_TRUE(mf_sent(&f, 0x604, "40 00 10 00") > 0);
+}
+
+/* With 1F80h bit 2 (the application starts the network) one start brings
+ * the stopped network back too: it starts once node 2 has booted. */
+static void test_stopped_network_application_start_without_self_start(void)
+{
+	line_2_3(MASTER | CO_MGR_1F80_NO_SELF_START | CO_MGR_1F80_STOP_ALL_ON_ERROR);
+	mf_start(&f, NULL);
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL(CO_MGR_BOOTED, mstate());
+	TEST_ASSERT_EQUAL_INT(0, co_manager_start_network(f.mgr, f.bus.now));
+	tb_advance(&f.bus, 100 * MS);
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	node2_goes_silent();
+	TEST_ASSERT_EQUAL(CO_MGR_STOPPED, mstate());
+	size_t mark = f.bus.log_len;
+	node2_reboots();
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL_UINT(0, sdo_requests_since(mark));
+	TEST_ASSERT_EQUAL_INT(0, co_manager_start_network(f.mgr, f.bus.now));
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 1));
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 2));
+}
+
+/* Same stop; a boot asked for while the network is stopped (one node, or
+ * 1F25h) waits too, and a new network boot is the other way out. */
+static void test_stopped_network_no_sdo_then_network_boot(void)
+{
+	line_2_3(MASTER | CO_MGR_1F80_STOP_ALL_ON_ERROR);
+	lose_node2();
+	size_t mark = f.bus.log_len;
+	node2_reboots();
+	tb_advance(&f.bus, 1 * S);
+	TEST_ASSERT_EQUAL_INT(0, co_manager_boot_node(f.mgr, 3, f.bus.now));
+	TEST_ASSERT_EQUAL_HEX32(
+		0, tb_od_write(&f.bus, f.mp->node, 0x1F25, 128, CO_MGR_CONF_SIGNATURE));
+	tb_advance(&f.bus, 3 * S);
+	TEST_ASSERT_EQUAL(CO_MGR_STOPPED, mstate());
+	TEST_ASSERT_EQUAL_UINT(0, sdo_requests_since(mark));
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_STOPPED, hb_of(f.bus.port + 1));
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_STOPPED, hb_of(f.bus.port + 2));
+	TEST_ASSERT_EQUAL_INT(0, co_manager_boot_network(f.mgr, f.bus.now));
+	tb_advance(&f.bus, 3 * S);
+	assert_network_runs(CO_NMT_OPERATIONAL, CO_NMT_OPERATIONAL);
 }
 
 /* 1F80h, 1F81h, 1F84h..1F89h are locked while the network boots; 1F89h
@@ -923,6 +1030,9 @@ int main(void)
 	RUN_TEST(test_target_state_per_node);
 	RUN_TEST(test_bootup_in_stopped_network);
 	RUN_TEST(test_bootup_in_stopped_network_mandatory);
+	RUN_TEST(test_stopped_network_no_sdo_then_application_start);
+	RUN_TEST(test_stopped_network_application_start_without_self_start);
+	RUN_TEST(test_stopped_network_no_sdo_then_network_boot);
 	RUN_TEST(test_boot_objects_locked_during_boot);
 	RUN_TEST(test_state_event_on_flag_change);
 	RUN_TEST(test_scan_finds_missing_node);

@@ -23,6 +23,7 @@
 #include <string.h>
 
 #include "core/nmt.h"
+#include "core/sdo.h"
 #include "core/swmgr.h"
 #include "tests/unit/support/mgr_fixture.h"
 #include "unity.h"
@@ -299,6 +300,7 @@ static void test_update_64k_by_block_transfer_then_verified_and_started(void)
 	TEST_ASSERT_EQUAL_INT(CO_SWMGR_UPDATED, last.outcome);
 	TEST_ASSERT_EQUAL_HEX32(NEW_ID, last.found);
 	TEST_ASSERT_EQUAL_UINT32(IMAGE_SIZE, last.bytes);
+	TEST_ASSERT_EQUAL_STRING("block", sdo_mode_to_string(last.mode));
 	/* stop, clear, start once each, in that order (the device checks) */
 	TEST_ASSERT_EQUAL_UINT(1, commands[CO_SWMGR_CTL_STOP]);
 	TEST_ASSERT_EQUAL_UINT(1, commands[CO_SWMGR_CTL_CLEAR]);
