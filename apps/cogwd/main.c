@@ -214,8 +214,8 @@ static unsigned long proc_status_kb(const char *name)
 }
 
 /* Start-up report: what the configuration reserved for buffers, what big
- * transfers may pin at most, and what is pinned in RAM now (issue 11: a
- * large max_transfer silently pinned gigabytes). */
+ * transfers may pin at most, and what is pinned in RAM now (a large
+ * max_transfer once silently pinned gigabytes; docs/config.md). */
 static void log_memory(const daemon_state *d)
 {
 	size_t buffers = 0;
@@ -503,7 +503,7 @@ int main(int argc, char **argv)
 	/* MCL_ONFAULT: pages are locked as they are first touched, not when
 	 * mapped. The transfer buffers are sized for the largest transfer
 	 * (max_transfer each, several per line): locking them all up front
-	 * pinned 1.2 GB for max_transfer 64 MiB on 3 lines (issue 11), while
+	 * pinned 1.2 GB for max_transfer 64 MiB on 3 lines, while
 	 * only what transfers actually use needs to stay in RAM. Everything
 	 * the real-time path touches at start-up is locked at once. */
 	if (d.cfg.mlockall && mlockall(MCL_CURRENT | MCL_FUTURE | MCL_ONFAULT) != 0 &&
@@ -533,8 +533,8 @@ int main(int argc, char **argv)
 	/* An idle line wakes every watchdog_check_ms/2 to check in, and a
 	 * ping is withheld when a line has not checked in for half the
 	 * watchdog period: a check period that does not fit would stop the
-	 * pings of a healthy idle line (issue 11: watchdog_check_ms 60000
-	 * under WatchdogSec=5s). Refused, with what would fit. */
+	 * pings of a healthy idle line (watchdog_check_ms 60000 under
+	 * WatchdogSec=5s). Refused, with what would fit. */
 	if (d.watchdog_usec && (uint64_t)d.cfg.watchdog_check_ms * 1000u > d.watchdog_usec / 2) {
 		cogw_log(COGW_LOG_ERR,
 			 "watchdog_check_ms %u does not fit the systemd watchdog period of %llu "

@@ -1380,8 +1380,8 @@ int cogw_config_load_file(cogw_config *cfg, const char *path, char *err, size_t 
 
 	memset(cfg, 0, sizeof(*cfg));
 	/* O_NONBLOCK: opening a FIFO (or a device) for reading would wait for
-	 * a writer for ever, and with it start-up, --check and a reload
-	 * (issue 11). It is refused by the regular-file check below; for a
+	 * a writer for ever, and with it start-up, --check and a reload.
+	 * It is refused by the regular-file check below; for a
 	 * regular file the flag changes nothing. */
 	fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
 	if (fd < 0) {

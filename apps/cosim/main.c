@@ -288,7 +288,7 @@ static void usage(FILE *out)
 	      "      --sdo-silent       no SDO answers\n"
 	      "      --sdo-abort CODE   answer every SDO request with this abort code\n"
 	      "      --sdo-delay MS     send SDO answers MS milliseconds late\n"
-	      "      --sdo-lenient      accept seed 004's printed frames: too small sizes in\n"
+	      "      --sdo-lenient      accept printed-sheet frames: too small sizes in\n"
 	      "                         expedited writes (2Bh for 4 bytes), reversed \"save\"\n"
 	      "      --pdo-badlen       TPDOs one byte short\n"
 	      "      SIGUSR1            toggles --hb-stop\n"

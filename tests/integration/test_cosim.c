@@ -2,7 +2,7 @@
 /*
  * tests/integration/test_cosim.c - the simulated STI pressure transducer
  * (apps/cosim + etc/devices/sti-pressure.json) against the golden frames of
- * spec 003-004 §3.1 (V1-V9 and the derived extras) and §3.2 (LSS L1-L15),
+ * the transducer (SDO V1-V9 and the derived extras, LSS L1-L15; docs/cosim.md),
  * its non-volatile memory, and every fault the control socket switches.
  *
  * Real processes on a real vcan line: cosim is fork/exec'ed, the test

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * tests/integration/test_daemon_system.c - cogwd as a system service
- * (issue 5, §4 and §6), against the real daemon on vcan lines:
+ * against the real daemon on vcan lines:
  *
  *  - sd_notify on a real NOTIFY_SOCKET: READY=1 only once every line is up,
  *    STATUS= one line, WATCHDOG=1 while WATCHDOG_USEC is set, no pings
@@ -344,7 +344,7 @@ static void test_no_ready_when_a_line_fails(void)
 				      report);
 }
 
-/* issue 11: a valid watchdog_check_ms longer than an idle line sleeps used
+/* A valid watchdog_check_ms longer than an idle line sleeps used
  * to stop every WATCHDOG=1 (seen with 60000 and idle lines): systemd then
  * kills a healthy daemon. Now a period that cannot fit is refused at start,
  * and one that fits keeps an idle daemon pinging. */
@@ -381,7 +381,7 @@ static void test_watchdog_check_period_fits_the_watchdog(void)
 
 static int run_cogwd(const char *config, const char *extra, const char *log, int timeout_ms);
 
-/* issue 11: a FIFO at the configuration path or at a state-file path
+/* A FIFO at the configuration path or at a state-file path
  * blocked start-up, --check and a reload for ever (and with a reload,
  * SIGTERM too). Now: refused as "not a regular file", at once. */
 static void test_special_files_do_not_block(void)
@@ -420,7 +420,7 @@ static void test_special_files_do_not_block(void)
 	TEST_ASSERT_TRUE(file_contains(d2.log_path, "line0.od.comm is not a regular file"));
 }
 
-/* issue 11 item 9: with mlockall, max_transfer 64 MiB on 3 lines pinned
+/* With mlockall, max_transfer 64 MiB on 3 lines pinned
  * 1.2 GB (every transfer buffer locked at start-up). Now buffers are
  * locked as they are first used, and start-up reports what is reserved
  * and what is locked. 2 lines x 32 MiB here: 384 MiB of buffers. */
@@ -441,7 +441,7 @@ static long daemon_status_kb(pid_t pid, const char *name)
 	return kb;
 }
 
-/* ---- issue 11 item 3: a client carries on after the daemon is killed and
+/* ---- a client carries on after the daemon is killed and
  * restarted (the systemd watchdog's restart) ---------------------------------- */
 
 static int in_flight_rc;
@@ -489,7 +489,7 @@ static void test_client_survives_a_daemon_kill_and_restart(void)
 	TEST_ASSERT_EQUAL_UINT16(9, od_read_u16(client, 0x2000));
 }
 
-/* ---- issue 11 items 5 and 9: transfers that are never acknowledged, the
+/* ---- transfers that are never acknowledged, the
  * transfer memory budget ------------------------------------------------------ */
 
 #define XFER_OBJ_SIZE (1u << 20) /* 1 MiB DOMAIN 2100h on both lines */
@@ -937,7 +937,7 @@ static void test_store_restore_survives_restart(void)
 		0xFF, 0x5F, 0x00, 0x02, 0x00, 0x00, 0x00, 0x01, 0x00, /* 5FFFh: absent */
 		0x05, 0x10, 0x00, 0xFF, 0x00, 0x00, 0x00, 0x01,       /* truncated */
 	};
-	/* issue 11: damaged saved values are never half-applied. Before,
+	/* Damaged saved values are never half-applied. Before,
 	 * each of these loaded 1017h = 400 (a truncated file with a warning,
 	 * a flipped bit silently as another value, a save cut between its two
 	 * files half old, half new); now: the configured values, an error
@@ -973,9 +973,9 @@ static void test_store_restore_survives_restart(void)
 	TEST_ASSERT_EQUAL_UINT16(400, od_read_u16(client, 0x1017));
 }
 
-/* Issue 10 items 2 and 3: what NMT reset node / reset communication bring
+/* What NMT reset node / reset communication bring
  * back follows 1010h/1011h at run time, not only at the next start. The
- * frames are the issue's: 67F#2310100173617665 -> 5FF#60..., 000#817F. */
+ * frames (CiA 301 §7.5.2.13 "save" signature): 67F#2310100173617665 -> 5FF#60..., 000#817F. */
 static void nmt_reset_own(uint8_t cs)
 {
 	uint8_t f[2] = { cs, 0x7F }, boot[8];
@@ -2061,7 +2061,7 @@ static void test_systemd_unit_verifies(void)
 	TEST_ASSERT_FALSE(file_contains(log, "is not executable"));
 }
 
-/* issue 11 item 4: under the shipped unit's capability set a non-root
+/* Under the shipped unit's capability set a non-root
  * client could not register (without CAP_DAC_OVERRIDE the root daemon
  * cannot open a 0600 queue of another user, so REGISTER went unanswered).
  * The daemon runs here with exactly the unit's CapabilityBoundingSet

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * LSS Fastscan: the master finds slaves with unknown identities bit by bit
- * (spec 002 scenario 54), against real LSS slaves wired in memory, and the
+ * (CiA 305 LSS Fastscan), against real LSS slaves wired in memory, and the
  * slave's side of the protocol against scripted probes.
  */
 #include <errno.h>

@@ -2,7 +2,8 @@
 /*
  * LSS master against a scripted slave: every frame the master sends is
  * checked byte by byte, answers are injected by the test, the clock is
- * stepped explicitly. Golden frames: spec 003-004 §3.2 (L1-L15).
+ * stepped explicitly. Golden frames: the transducer's LSS
+ * frames L1-L15 (docs/cosim.md), CiA 305 §8.
  */
 #include <errno.h>
 #include <string.h>
