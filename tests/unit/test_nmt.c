@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* NMT slave state machine, NMT master with 102Ah, 1029h error behaviour,
- * bus-off reaction (stack manual §3 scenarios 31, 32, 33, 37). */
+ * bus-off reaction (CiA 301 §7.3.2, §7.5.2.32, §7.5.2.33). */
 #include <errno.h>
 #include <string.h>
 
@@ -70,6 +70,21 @@ static void test_bootup_after_reset_comm_command(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_INITIALISING, x.ev[0].u.nmt.state);
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_CS_RESET_COMM, x.ev[0].u.nmt.cs);
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, x.ev[1].u.nmt.state);
+}
+
+/* A reset command while still INITIALISING (before the first tick)
+ * resets and boots; the state it was in is not announced again: one
+ * event, INITIALISING -> PRE-OPERATIONAL. */
+static void test_reset_while_initialising_announces_only_the_boot(void)
+{
+	ecf_create(&x, ID, NULL);
+	nmt_cmd(CO_NMT_CS_RESET_COMM, 0);
+	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
+	assert_frame1(&x.tx[0], HB_COB, 0x00);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(x.node));
+	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&x, CO_EV_NMT_STATE));
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_INITIALISING, x.ev[0].u.nmt.prev);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, x.ev[0].u.nmt.state);
 }
 
 /* The application resetting communication itself: the boot-up follows at
@@ -329,6 +344,7 @@ int main(void)
 	RUN_TEST(test_bootup_at_start);
 	RUN_TEST(test_bootup_after_reset_comm_command);
 	RUN_TEST(test_bootup_after_app_reset_comm);
+	RUN_TEST(test_reset_while_initialising_announces_only_the_boot);
 	RUN_TEST(test_commands_and_heartbeat_byte);
 	RUN_TEST(test_reset_comm_restores_defaults);
 	RUN_TEST(test_veto_operational);
