@@ -446,7 +446,7 @@ void test_fault_silent_and_emcy(void)
 }
 
 /* Several nodes in one process: two transducers told apart by their serial
- * (scenario 14) and an I/O module whose outputs loop back to its inputs. */
+ * and an I/O module whose outputs loop back to its inputs. */
 void test_three_nodes_in_one_process(void)
 {
 	stop_sim();

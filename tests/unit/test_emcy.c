@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* EMCY producer (1001h, 1003h, 1014h, 1015h) and consumer (1028h)
- * (stack manual §3 scenarios 39, 40, 41). */
+ * (CiA 301 §7.2.7). */
 #include <errno.h>
 #include <string.h>
 
@@ -43,7 +43,7 @@ static uint8_t u8(uint16_t idx, uint8_t sub)
 	return v;
 }
 
-/* 39: 8 bytes on 80h+id with 1001h in byte 2; 1003h newest at sub 1. */
+/* 8 bytes on 80h+id with 1001h in byte 2; 1003h newest at sub 1. */
 static void test_send_frame_and_history(void)
 {
 	ecf_boot(&x, ID);
@@ -98,7 +98,7 @@ static void test_history_clear_over_sdo(void)
 	assert_last_sdo(nodata);
 }
 
-/* 40: 1015h = 10 ms, two EMCYs 1 ms apart: the second is delayed. */
+/* 1015h = 10 ms, two EMCYs 1 ms apart: the second is delayed. */
 static void test_inhibit_delays_second(void)
 {
 	ecf_boot(&x, ID);
@@ -198,7 +198,7 @@ static void test_1014_cob_id(void)
 	TEST_ASSERT_EQUAL_HEX32(EMCY_COB, u32(0x1014, 0));
 }
 
-/* 41: EMCY on a COB-ID in 1028h -> event; other COB-IDs ignored. */
+/* EMCY on a COB-ID in 1028h -> event; other COB-IDs ignored. */
 static void test_consumer(void)
 {
 	ecf_boot(&x, ID);

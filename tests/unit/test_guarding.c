@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* Node guarding master and life guarding slave (stack manual §3
- * scenario 38; master protocol scenarios 19/20). */
+/* Node guarding master and life guarding slave (CiA 301
+ * §7.2.8.3.2.1, 100Ch/100Dh). */
 #include <errno.h>
 #include <string.h>
 
@@ -56,7 +56,7 @@ static void test_slave_answers_with_toggle(void)
 	TEST_ASSERT_EQUAL_HEX8(0x7F, x.tx[0].data[0]);
 }
 
-/* 38: 100Ch = 100, 100Dh = 3; the RTRs stop -> GUARD_LIFE_LOST after
+/* 100Ch = 100, 100Dh = 3; the RTRs stop -> GUARD_LIFE_LOST after
  * 300 ms, EMCY 8130h, 1029h. */
 static void test_slave_life_guarding(void)
 {

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* Heartbeat producer (1017h) and consumer (1016h), boot-up reception
- * (stack manual §3 scenarios 1, 34, 35, 36). */
+ * (CiA 301 §7.2.8.3.2.2, §7.2.8.3.2.3, 1016h/1017h). */
 #include <errno.h>
 #include <string.h>
 
@@ -30,7 +30,7 @@ static void assert_last_sdo(const uint8_t exp[8])
 	TEST_ASSERT_EQUAL_HEX8_ARRAY(exp, f->data, 8);
 }
 
-/* 1: 1017h over SDO; the first heartbeat goes out at once. */
+/* 1017h over SDO; the first heartbeat goes out at once. */
 static void test_1017_sdo_write_first_hb_at_once(void)
 {
 	ecf_boot(&x, ID);
@@ -82,7 +82,7 @@ static void test_producer_after_boot_and_in_stopped(void)
 	TEST_ASSERT_EQUAL_UINT64(200 * MS, x.tx_t[x.n_tx - 1]);
 }
 
-/* 34: 1016h node 7 at 500 ms. */
+/* 1016h node 7 at 500 ms. */
 static void test_consumer_start_loss_1029_emcy(void)
 {
 	ecf_boot(&x, ID);
@@ -157,7 +157,7 @@ static void test_consumer_loss_stopped(void)
 	TEST_ASSERT_EQUAL_UINT(1, ecf_tx_count(&x, 0x80 + ID));
 }
 
-/* 35: boot-up from an unmonitored node -> BOOTUP; state change -> HB_STATE. */
+/* Boot-up from an unmonitored node -> BOOTUP; state change -> HB_STATE. */
 static void test_bootup_and_state_from_any_node(void)
 {
 	ecf_boot(&x, ID);
@@ -196,7 +196,7 @@ static void test_bootup_of_monitored_node(void)
 	TEST_ASSERT_EQUAL_UINT(2, ecf_ev_count(&x, CO_EV_HB_STARTED));
 }
 
-/* 36: consumer_set fails when 1016h is full, fills a free slot otherwise. */
+/* Consumer_set fails when 1016h is full, fills a free slot otherwise. */
 static void test_consumer_set_full(void)
 {
 	ecf_boot(&x, ID);

@@ -103,9 +103,9 @@ static unsigned fastscan_frames(void)
 	return n;
 }
 
-/* ---- scenario 54 ---------------------------------------------------------------------- */
+/* ---- Fastscan, then a node-ID ---------------------------------------------------------------------- */
 
-static void test_scenario_54_fastscan_then_assign_node_id_5(void)
+static void test_fastscan_then_assign_node_id_5(void)
 {
 	uint64_t t0;
 
@@ -361,7 +361,7 @@ static void test_slave_fastscan_protocol(void)
 int main(void)
 {
 	UNITY_BEGIN();
-	RUN_TEST(test_scenario_54_fastscan_then_assign_node_id_5);
+	RUN_TEST(test_fastscan_then_assign_node_id_5);
 	RUN_TEST(test_two_unconfigured_slaves_found_one_at_a_time);
 	RUN_TEST(test_known_fields_are_only_confirmed);
 	RUN_TEST(test_known_value_nobody_has_is_not_found);

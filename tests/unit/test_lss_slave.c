@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * LSS slave driven by scripted master frames (golden frames from spec
- * 003-004 §3.2), then every master service against a real slave wired in
- * memory.
+ * LSS slave driven by scripted master frames (the transducer's golden
+ * LSS frames, docs/cosim.md), then every master service against a real
+ * slave wired in memory.
  */
 #include <errno.h>
 #include <string.h>

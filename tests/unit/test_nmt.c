@@ -35,7 +35,7 @@ static void assert_frame1(const co_frame *f, uint32_t id, uint8_t b0)
 	TEST_ASSERT_EQUAL_HEX8(b0, f->data[0]);
 }
 
-/* 31: boot-up [00] on 700h+id at start, and after every reset comm. */
+/* Boot-up [00] on 700h+id at start, and after every reset comm. */
 static void test_bootup_at_start(void)
 {
 	ecf_create(&x, ID, NULL);
@@ -103,7 +103,7 @@ static void test_bootup_after_app_reset_comm(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(x.node));
 }
 
-/* 32: commands to our id and to 0 -> heartbeat byte 05/04/7F. */
+/* Commands to our id and to 0 -> heartbeat byte 05/04/7F. */
 static void test_commands_and_heartbeat_byte(void)
 {
 	ecf_boot(&x, ID);
@@ -136,7 +136,7 @@ static void test_commands_and_heartbeat_byte(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_OPERATIONAL, co_nmt_get_state(x.node));
 }
 
-/* 32: reset comm restores the default COB-IDs (and the other 1xxxh). */
+/* Reset comm restores the default COB-IDs (and the other 1xxxh). */
 static void test_reset_comm_restores_defaults(void)
 {
 	ecf_boot(&x, ID);
@@ -166,7 +166,7 @@ static void test_reset_comm_restores_defaults(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_CS_RESET_NODE, x.ev[0].u.nmt.cs);
 }
 
-/* 33: the application vetoes OPERATIONAL -> stays PRE-OP. */
+/* The application vetoes OPERATIONAL -> stays PRE-OP. */
 static int veto_calls;
 static bool veto(void *ctx, co_node *node, uint8_t from, uint8_t to)
 {
@@ -294,7 +294,7 @@ static void test_error_behaviour_without_1029(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(x.node));
 }
 
-/* 37: bus-off (faked: the driver shim would call this) -> 1029h; after
+/* Bus-off (faked: the driver shim would call this) -> 1029h; after
  * the recovery EMCY 8140h. */
 static void test_bus_off(void)
 {
