@@ -116,7 +116,6 @@ void ecf_clear(ecf *x)
 {
 	x->n_tx = 0;
 	x->n_ev = 0;
-	x->pumped = 0;
 }
 
 int ecf_tx_find(const ecf *x, unsigned from, uint32_t id)
@@ -164,40 +163,4 @@ unsigned ecf_ev_count(const ecf *x, co_event_kind kind)
 	for (unsigned i = 0; i < x->n_ev; i++)
 		n += x->ev[i].kind == kind;
 	return n;
-}
-
-void ecf_pump(ecf *a, ecf *b)
-{
-	while (a->pumped < a->n_tx || b->pumped < b->n_tx) {
-		while (a->pumped < a->n_tx) {
-			co_frame f = a->tx[a->pumped++];
-			co_node_recv(b->node, &f, b->now);
-		}
-		while (b->pumped < b->n_tx) {
-			co_frame f = b->tx[b->pumped++];
-			co_node_recv(a->node, &f, a->now);
-		}
-	}
-}
-
-void ecf_advance2(ecf *a, ecf *b, uint64_t t)
-{
-	ecf_pump(a, b);
-	for (unsigned guard = 0;; guard++) {
-		assert(guard < 1000000);
-		uint64_t da = co_node_next_deadline_us(a->node);
-		uint64_t db = co_node_next_deadline_us(b->node);
-		uint64_t d = da < db ? da : db;
-		if (d > t)
-			break;
-		if (d > a->now)
-			a->now = b->now = d;
-		if (da <= a->now)
-			co_node_tick(a->node, a->now);
-		if (db <= b->now)
-			co_node_tick(b->node, b->now);
-		ecf_pump(a, b);
-	}
-	if (t > a->now)
-		a->now = b->now = t;
 }
