@@ -205,7 +205,7 @@ static void test_consumer(void)
 	const uint8_t d[8] = { 0x10, 0x82, 0x11, 0xA1, 0xA2, 0xA3, 0xA4, 0xA5 };
 	ecf_rx(&x, 0x83, 0, 8, d);
 	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&x, CO_EV_EMCY_RX));
-	const co_ev_emcy *e = &x.ev[ecf_ev_find(&x, 0, CO_EV_EMCY_RX)].u.emcy;
+	const co_ev_emcy *e = &x.ev.ev[ecf_ev_find(&x, 0, CO_EV_EMCY_RX)].u.emcy;
 	TEST_ASSERT_EQUAL_UINT8(3, e->node);
 	TEST_ASSERT_EQUAL_HEX16(0x8210, e->code);
 	TEST_ASSERT_EQUAL_HEX8(0x11, e->reg);
@@ -234,7 +234,7 @@ static void test_consumer(void)
 	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&x, CO_EV_EMCY_RX));
 	ecf_rx(&x, 0xF0, 0, 8, d);
 	TEST_ASSERT_EQUAL_UINT(2, ecf_ev_count(&x, CO_EV_EMCY_RX));
-	TEST_ASSERT_EQUAL_UINT8(2, x.ev[x.n_ev - 1].u.emcy.node);
+	TEST_ASSERT_EQUAL_UINT8(2, x.ev.ev[x.ev.n - 1].u.emcy.node);
 	/* reset comm restores the consumer COB-IDs */
 	co_nmt_local_cmd(x.node, CO_NMT_CS_RESET_COMM, 0);
 	ecf_rx(&x, 0x83, 0, 8, d);

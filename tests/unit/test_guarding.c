@@ -82,7 +82,7 @@ static void test_slave_life_guarding(void)
 	ecf_advance(&x, 5700 * MS);
 	int e = ecf_ev_find(&x, 0, CO_EV_GUARD_LIFE_LOST);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT64(5700 * MS, x.ev[e].now_us);
+	TEST_ASSERT_EQUAL_UINT64(5700 * MS, x.ev.ev[e].now_us);
 	TEST_ASSERT_TRUE(co_guard_life_lost(x.node));
 	const uint8_t emcy[8] = { 0x30, 0x81, 0x11, ID, 0, 0, 0, 0 };
 	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
@@ -195,7 +195,7 @@ static void test_master_toggle_and_failure(void)
 	ecf_rx1(&m, 0x709, 0xFF); /* toggle 1 again */
 	int e = ecf_ev_find(&m, 0, CO_EV_GUARD_TOGGLE);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT8(9, m.ev[e].u.errctrl.node);
+	TEST_ASSERT_EQUAL_UINT8(9, m.ev.ev[e].u.errctrl.node);
 	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&m, CO_EV_GUARD_TOGGLE));
 	/* Resynchronised: the next alternation is fine. */
 	ecf_advance(&m, 300 * MS);
@@ -209,7 +209,7 @@ static void test_master_toggle_and_failure(void)
 	ecf_advance(&m, 600 * MS);
 	e = ecf_ev_find(&m, 0, CO_EV_GUARD_FAILED);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT64(600 * MS, m.ev[e].now_us);
+	TEST_ASSERT_EQUAL_UINT64(600 * MS, m.ev.ev[e].now_us);
 	TEST_ASSERT_TRUE(co_guard_master_failed(m.node, 9));
 	ecf_advance(&m, 2000 * MS);
 	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&m, CO_EV_GUARD_FAILED));

@@ -101,8 +101,8 @@ static void test_consumer_start_loss_1029_emcy(void)
 	ecf_rx1(&x, 0x707, 0x05);
 	int e = ecf_ev_find(&x, 0, CO_EV_HB_STARTED);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT8(7, x.ev[e].u.errctrl.node);
-	TEST_ASSERT_EQUAL_UINT16(500, x.ev[e].u.errctrl.time_ms);
+	TEST_ASSERT_EQUAL_UINT8(7, x.ev.ev[e].u.errctrl.node);
+	TEST_ASSERT_EQUAL_UINT16(500, x.ev.ev[e].u.errctrl.time_ms);
 	TEST_ASSERT_EQUAL_INT(CO_HB_MON_ACTIVE, co_hb_consumer_status(x.node, 7));
 
 	/* A heartbeat 400 ms later restarts the window. */
@@ -117,8 +117,8 @@ static void test_consumer_start_loss_1029_emcy(void)
 	ecf_advance(&x, 5900 * MS);
 	e = ecf_ev_find(&x, 0, CO_EV_HB_LOST);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT8(7, x.ev[e].u.errctrl.node);
-	TEST_ASSERT_EQUAL_UINT64(5900 * MS, x.ev[e].now_us);
+	TEST_ASSERT_EQUAL_UINT8(7, x.ev.ev[e].u.errctrl.node);
+	TEST_ASSERT_EQUAL_UINT64(5900 * MS, x.ev.ev[e].now_us);
 	/* EMCY 8130h, register generic|communication, node in byte 3 */
 	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
 	const uint8_t emcy[8] = { 0x30, 0x81, 0x11, 0x07, 0, 0, 0, 0 };
@@ -164,15 +164,15 @@ static void test_bootup_and_state_from_any_node(void)
 	ecf_rx1(&x, 0x77F, 0x00);
 	int e = ecf_ev_find(&x, 0, CO_EV_BOOTUP);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT8(127, x.ev[e].u.errctrl.node);
+	TEST_ASSERT_EQUAL_UINT8(127, x.ev.ev[e].u.errctrl.node);
 	ecf_rx1(&x, 0x77F, 0x7F);
 	ecf_rx1(&x, 0x77F, 0x7F); /* same state: no event */
 	ecf_rx1(&x, 0x77F, 0x05);
 	TEST_ASSERT_EQUAL_UINT(2, ecf_ev_count(&x, CO_EV_HB_STATE));
 	e = ecf_ev_find(&x, 0, CO_EV_HB_STATE);
 	e = ecf_ev_find(&x, (unsigned)e + 1, CO_EV_HB_STATE);
-	TEST_ASSERT_EQUAL_UINT8(0x7F, x.ev[e].u.errctrl.prev);
-	TEST_ASSERT_EQUAL_UINT8(0x05, x.ev[e].u.errctrl.state);
+	TEST_ASSERT_EQUAL_UINT8(0x7F, x.ev.ev[e].u.errctrl.prev);
+	TEST_ASSERT_EQUAL_UINT8(0x05, x.ev.ev[e].u.errctrl.state);
 	TEST_ASSERT_EQUAL_UINT8(0x05, co_hb_remote_state(x.node, 127));
 	TEST_ASSERT_EQUAL_UINT8(CO_HB_STATE_UNKNOWN, co_hb_remote_state(x.node, 3));
 	/* Not monitored: no HB_STARTED, never lost. */

@@ -48,8 +48,8 @@ static void test_bootup_at_start(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(x.node));
 	int e = ecf_ev_find(&x, 0, CO_EV_NMT_STATE);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_INITIALISING, x.ev[e].u.nmt.prev);
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, x.ev[e].u.nmt.state);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_INITIALISING, x.ev.ev[e].u.nmt.prev);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, x.ev.ev[e].u.nmt.state);
 	/* A second tick does not boot again. */
 	co_node_tick(x.node, 10);
 	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
@@ -67,9 +67,9 @@ static void test_bootup_after_reset_comm_command(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(x.node));
 	/* OP -> INIT (cause 82h) -> PRE-OP */
 	TEST_ASSERT_EQUAL_UINT(2, ecf_ev_count(&x, CO_EV_NMT_STATE));
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_INITIALISING, x.ev[0].u.nmt.state);
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_CS_RESET_COMM, x.ev[0].u.nmt.cs);
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, x.ev[1].u.nmt.state);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_INITIALISING, x.ev.ev[0].u.nmt.state);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_CS_RESET_COMM, x.ev.ev[0].u.nmt.cs);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, x.ev.ev[1].u.nmt.state);
 }
 
 /* A reset command while still INITIALISING (before the first tick)
@@ -83,8 +83,8 @@ static void test_reset_while_initialising_announces_only_the_boot(void)
 	assert_frame1(&x.tx[0], HB_COB, 0x00);
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(x.node));
 	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&x, CO_EV_NMT_STATE));
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_INITIALISING, x.ev[0].u.nmt.prev);
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, x.ev[0].u.nmt.state);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_INITIALISING, x.ev.ev[0].u.nmt.prev);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, x.ev.ev[0].u.nmt.state);
 }
 
 /* The application resetting communication itself: the boot-up follows at
@@ -163,7 +163,7 @@ static void test_reset_comm_restores_defaults(void)
 	TEST_ASSERT_EQUAL_UINT8(7, app);
 	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
 	assert_frame1(&x.tx[0], HB_COB, 0x00);
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_CS_RESET_NODE, x.ev[0].u.nmt.cs);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_CS_RESET_NODE, x.ev.ev[0].u.nmt.cs);
 }
 
 /* The application vetoes OPERATIONAL -> stays PRE-OP. */
@@ -280,7 +280,7 @@ static void test_error_behaviour(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_STOPPED, co_nmt_get_state(x.node));
 	int e = ecf_ev_find(&x, 0, CO_EV_NMT_STATE);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT8(0, x.ev[x.n_ev - 1].u.nmt.cs);
+	TEST_ASSERT_EQUAL_UINT8(0, x.ev.ev[x.ev.n - 1].u.nmt.cs);
 }
 
 static void test_error_behaviour_without_1029(void)

@@ -17,6 +17,7 @@
 #include <stdint.h>
 
 #include "core/co.h"
+#include "tests/unit/support/test_bus.h"
 
 #define ECF_LOG 512
 
@@ -27,8 +28,7 @@ typedef struct ecf {
 	co_frame tx[ECF_LOG];
 	uint64_t tx_t[ECF_LOG];
 	unsigned n_tx;
-	co_event ev[ECF_LOG];
-	unsigned n_ev;
+	evlog ev; /* the node's events */
 } ecf;
 
 /* OD with 1000h, 1001h, 1003h(8), 1014h, 1015h, 1016h(4), 1017h,
