@@ -2125,7 +2125,8 @@ int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st, unsigned timeout_
 		  timeout_ms);
 	/* An older daemon's answer ends before the counters added later
 	 * (left 0). */
-	return rc == 0 && len != sizeof *st && len != offsetof(mbx_stats_wire, late_wakes) &&
+	return rc == 0 && len != sizeof *st && len != offsetof(mbx_stats_wire, reg_refused) &&
+			       len != offsetof(mbx_stats_wire, late_wakes) &&
 			       len != offsetof(mbx_stats_wire, xfer_failed)
 		       ? COGW_E_PROTOCOL
 		       : rc;
