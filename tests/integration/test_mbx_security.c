@@ -14,11 +14,19 @@
  *    command queue);
  *  - the command queue carries every client's token: nobody but the
  *    daemon may read it (default mode, and modes with read bits for
- *    group/others refused at create).
+ *    group/others refused at create);
+ *  - REGISTER naming the command queues of other lines (root's, with pid
+ *    1) must register nobody and write nothing into them;
+ *  - REGISTER naming another user's queues (swapped, mixed, or a pair it
+ *    has not registered yet) must not take that user's quota;
+ *  - a flood of REGISTERs whose refusals would go to a victim's queue
+ *    must write nothing there (figures printed: refused, dropped, the
+ *    victim's slowest call).
  */
 #include <errno.h>
 #include <fcntl.h>
 #include <grp.h>
+#include <inttypes.h>
 #include <mqueue.h>
 #include <poll.h>
 #include <pthread.h>
@@ -26,6 +34,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -38,6 +47,7 @@
 #define LINE 2
 #define CALL_MS 10000
 #define NOBODY 65534u
+#define VICTIM_UID 1000u
 
 /* ---- the fake line: answers OD_READ 2000h and OD_WRITE, nothing else ---------- */
 
@@ -97,6 +107,9 @@ static void fake_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 			mbx_server_respond(srv, &req->reply, 0, 0, f->big, sizeof f->big);
 			return;
 		}
+		mbx_server_respond(srv, &req->reply, 0, 0, v, sizeof v);
+		return;
+	case MBX_CMD_SDO_UPLOAD: /* a device that answers at once */
 		mbx_server_respond(srv, &req->reply, 0, 0, v, sizeof v);
 		return;
 	case MBX_CMD_OD_WRITE:
@@ -251,14 +264,18 @@ static int reap(pid_t pid)
 	return WEXITSTATUS(st);
 }
 
-/* Become uid/gid 65534 with no supplementary groups (setpriv --reuid
+/* Become uid/gid id with no supplementary groups (setpriv --reuid
  * --regid --clear-groups). */
+static int become(unsigned id)
+{
+	if (setgroups(0, NULL) < 0 || setresgid(id, id, id) < 0 || setresuid(id, id, id) < 0)
+		return -1;
+	return geteuid() == id && getegid() == id ? 0 : -1;
+}
+
 static int become_nobody(void)
 {
-	if (setgroups(0, NULL) < 0 || setresgid(NOBODY, NOBODY, NOBODY) < 0 ||
-	    setresuid(NOBODY, NOBODY, NOBODY) < 0)
-		return -1;
-	return geteuid() == NOBODY && getegid() == NOBODY ? 0 : -1;
+	return become(NOBODY);
 }
 
 typedef struct sync2 {
@@ -349,7 +366,7 @@ static int child_register_as_nobody(void *arg)
 	mqd_t cmd;
 
 	CHECK(become_nobody() == 0);
-	cmd = mq_open(qname, O_WRONLY | O_NONBLOCK);
+	cmd = mq_open(qname, O_WRONLY); /* a full queue: wait for the line */
 	CHECK(cmd != (mqd_t)-1);
 	memset(&r, 0, sizeof r);
 	r.pid = a->pid;
@@ -763,17 +780,18 @@ static int rawc_recv(rawc *r, mbx_hdr *h, void *p, size_t cap)
 	return 0;
 }
 
-/* Create queues n (depth 2: a chunk window of one) and register; returns
- * the status of the answer. */
-static int rawc_register(rawc *r, unsigned n)
+static void rawc_names(rawc *r, unsigned n)
 {
-	struct mq_attr a = { .mq_maxmsg = 2, .mq_msgsize = 1024 };
-	mbx_register_req rq;
-	mbx_register_resp rs;
-	mbx_hdr h;
-
 	snprintf(r->rn, sizeof r->rn, "/%s.n%u.resp", instance, n);
 	snprintf(r->en, sizeof r->en, "/%s.n%u.evt", instance, n);
+}
+
+/* Create queues n (depth 2: a chunk window of one), not registered yet. */
+static int rawc_create(rawc *r, unsigned n)
+{
+	struct mq_attr a = { .mq_maxmsg = 2, .mq_msgsize = 1024 };
+
+	rawc_names(r, n);
 	mq_unlink(r->rn);
 	mq_unlink(r->en);
 	r->resp = mq_open(r->rn, O_CREAT | O_EXCL | O_RDONLY | O_NONBLOCK, 0600, &a);
@@ -781,6 +799,16 @@ static int rawc_register(rawc *r, unsigned n)
 	r->cmd = mq_open(qname, O_WRONLY | O_NONBLOCK);
 	if (r->resp == (mqd_t)-1 || r->evt == (mqd_t)-1 || r->cmd == (mqd_t)-1)
 		return -errno;
+	return 0;
+}
+
+/* Register created queues; returns the status of the answer. */
+static int rawc_register_created(rawc *r)
+{
+	mbx_register_req rq;
+	mbx_register_resp rs;
+	mbx_hdr h;
+
 	memset(&rq, 0, sizeof rq);
 	rq.pid = (uint32_t)getpid();
 	rq.uid = (uint32_t)geteuid();
@@ -797,6 +825,13 @@ static int rawc_register(rawc *r, unsigned n)
 		rawc_send(r, MBX_CMD_PING, MBX_F_NO_REPLY, 2, NULL, 0); /* confirm */
 	}
 	return h.status;
+}
+
+static int rawc_register(rawc *r, unsigned n)
+{
+	int rc = rawc_create(r, n);
+
+	return rc ? rc : rawc_register_created(r);
 }
 
 static void rawc_close(rawc *r)
@@ -989,6 +1024,280 @@ static void test_an_unacknowledged_transfer_and_the_memory_budget(void)
 	sync_close(&s);
 }
 
+/* ---- 6. registration cannot be turned against others ----------------------------- */
+
+/* A root client (libcogw) and a client of 65534 (raw) that must register
+ * and be served after an attack. */
+static int child_nobody_registers(void *arg)
+{
+	rawc r;
+	int st;
+
+	(void)arg;
+	CHECK(become_nobody() == 0);
+	st = rawc_register(&r, 7);
+	if (st)
+		fprintf(stderr, "nobody: register: %s\n", mbx_status_to_string(st));
+	CHECK(st == 0);
+	rawc_close(&r);
+	return 0;
+}
+
+/* Messages waiting in the queue behind name (-1: cannot tell). */
+static long queue_waiting(const char *name)
+{
+	mqd_t q = mq_open(name, O_RDONLY | O_NONBLOCK);
+	struct mq_attr a;
+	long n = -1;
+
+	if (q == (mqd_t)-1)
+		return -1;
+	if (mq_getattr(q, &a) == 0)
+		n = a.mq_curmsgs;
+	mq_close(q);
+	return n;
+}
+
+/* Before: uid 65534 named the command queues of lines 0 and 3 (root,
+ * 0620) with pid 1; each REGISTER made a root client (root is exempt from
+ * the per-user limit) until the table was full for everybody, and the
+ * tokens went into the other lines' command queues. */
+static void test_register_cannot_name_the_command_queues_of_any_line(void)
+{
+	mbx_server_config cfg = base_cfg(), other = base_cfg();
+	char q0[MBX_QNAME_MAX], q3[MBX_QNAME_MAX];
+	mbx_server *line0 = NULL, *line3 = NULL;
+	attack a = { .times = 40, .uid = 0, .pid = 1 };
+
+	start(&cfg);
+	TEST_ASSERT_EQUAL_INT(0, mbx_queue_name(q0, sizeof q0, instance, 0));
+	TEST_ASSERT_EQUAL_INT(0, mbx_queue_name(q3, sizeof q3, instance, 3));
+	other.queue_mode = 0620;
+	other.line = 0;
+	other.queue_name = q0;
+	TEST_ASSERT_EQUAL_INT(0, mbx_server_create(&line0, &other));
+	other.line = 3;
+	other.queue_name = q3;
+	TEST_ASSERT_EQUAL_INT(0, mbx_server_create(&line3, &other));
+	memcpy(a.resp, q3, sizeof a.resp);
+	memcpy(a.evt, q0, sizeof a.evt);
+	TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_register_as_nobody, &a)));
+	sleep_ms(300);
+	mbx_server_stats st = stats();
+	long w0 = queue_waiting(q0), w3 = queue_waiting(q3);
+
+	printf("other lines' command queues: %u REGISTERs, %" PRIu64 " clients registered, "
+	       "%ld + %ld messages written into them\n",
+	       a.times, st.clients_registered, w3, w0);
+	TEST_ASSERT_EQUAL_UINT64_MESSAGE(0, st.clients_registered, "the attack registered clients");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, w3 + w0, "written into another line's command queue");
+	TEST_ASSERT_EQUAL_UINT64(a.times, st.reg_refused);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_writer, NULL)), "root was locked out");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_nobody_registers, NULL)),
+				      "65534 was locked out");
+	mbx_server_destroy(line0);
+	mbx_server_destroy(line3);
+	mq_unlink(q0);
+	mq_unlink(q3);
+}
+
+/* uid 1000 with a per-user limit of 2: one registration used, the queues
+ * of a second made but not registered yet; during the attack it waits.
+ * Its queues are numbered apart from those other tests leave behind. */
+#define QUOTA_PAIRS 20
+static int child_quota_victim(void *arg)
+{
+	sync2 *s = arg;
+	rawc r[3];
+	int st;
+
+	CHECK(become(VICTIM_UID) == 0);
+	CHECK(rawc_register(&r[0], QUOTA_PAIRS) == 0);
+	CHECK(rawc_create(&r[1], QUOTA_PAIRS + 1) == 0);
+	child_ready(s);
+	child_wait_go(s);
+	st = rawc_register_created(&r[1]);
+	if (st)
+		fprintf(stderr, "victim: second registration: %s\n", mbx_status_to_string(st));
+	CHECK(st == 0);
+	/* the limit itself still holds */
+	st = rawc_register(&r[2], QUOTA_PAIRS + 2);
+	if (st != MBX_E_FULL)
+		fprintf(stderr, "victim: third registration: %d\n", st);
+	CHECK(st == MBX_E_FULL);
+	for (unsigned i = 0; i < 3; i++)
+		rawc_close(&r[i]);
+	return 0;
+}
+
+/* Before: naming the victim's queues swapped (event queue as response
+ * queue), mixed, or a pair it had not registered yet, with its pid, made
+ * entries of uid 1000 until its quota was full: its own registration got
+ * FULL for the attack's duration plus the registration window. */
+static void test_register_cannot_fill_another_users_quota(void)
+{
+	mbx_server_config cfg = base_cfg();
+	sync2 s;
+	pid_t victim;
+	rawc n0, n1;
+
+	cfg.max_clients_per_uid = 2;
+	cfg.register_timeout_ms = 10000;
+	start(&cfg);
+	sync_init(&s);
+	victim = spawn(child_quota_victim, &s);
+	parent_wait_ready(&s);
+	rawc_names(&n0, QUOTA_PAIRS);
+	rawc_names(&n1, QUOTA_PAIRS + 1);
+	const char *const named[][2] = {
+		{ n0.en, n0.rn }, /* swapped */
+		{ n1.en, n1.rn },
+		{ n0.rn, n1.en }, /* mixed */
+		{ n1.rn, n1.en }, /* the pair not registered yet */
+		{ n0.rn, n0.en }, /* the pair in use */
+	};
+	for (size_t i = 0; i < sizeof named / sizeof named[0]; i++) {
+		attack a = { .times = 5, .uid = VICTIM_UID, .pid = (uint32_t)victim };
+
+		snprintf(a.resp, sizeof a.resp, "%s", named[i][0]);
+		snprintf(a.evt, sizeof a.evt, "%s", named[i][1]);
+		TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_register_as_nobody, &a)));
+	}
+	sleep_ms(300);
+	printf("another user's quota: 25 REGISTERs, %u entries of uid %u (limit 2)\n",
+	       stats().clients, VICTIM_UID);
+	TEST_ASSERT_TRUE_MESSAGE(stats().clients <= 2, "the attack took the victim's quota");
+	parent_go(&s);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(victim), "the victim was refused");
+	sync_close(&s);
+}
+
+/* Shared (mmap) between the parent and the flood test's victim. */
+typedef struct flood_shared {
+	sync2 s;
+	unsigned calls, failed;
+	uint64_t slowest_us;
+	cogw_stats lib;
+} flood_shared;
+
+#define FLOOD_MS 3000
+
+/* uid 1000 (libcogw): SDO uploads one after the other while the flood
+ * runs; the slowest call is the figure. */
+static int child_flood_victim(void *arg)
+{
+	flood_shared *rep = arg;
+	sync2 *s = &rep->s;
+	cogw *h;
+	uint8_t v[8];
+	size_t len;
+	uint32_t abort;
+
+	CHECK(become(VICTIM_UID) == 0);
+	CHECK(cogw_open(&h, instance) == 0);
+	CHECK(cogw_ping(h, LINE, CALL_MS) == 0);
+	child_ready(s);
+	child_wait_go(s);
+	for (uint64_t end = now_us() + FLOOD_MS * 1000u; now_us() < end;) {
+		uint64_t t0 = now_us();
+		int rc = cogw_sdo_read(h, LINE, 5, 0x1018, 1, v, sizeof v, &len, CALL_MS, &abort);
+		uint64_t took = now_us() - t0;
+
+		rep->calls++;
+		if (rc)
+			rep->failed++;
+		if (took > rep->slowest_us)
+			rep->slowest_us = took;
+	}
+	cogw_get_stats(h, &rep->lib);
+	cogw_close(h);
+	return 0;
+}
+
+/* 65534: REGISTERs naming the victim's queues, as fast as the command
+ * queue takes them, for FLOOD_MS: claims that do not match (root's uid, a
+ * dead pid) and an event queue that does not exist. Returns how many. */
+static int child_register_flood(void *arg)
+{
+	const attack *a = arg;
+	uint8_t buf[MBX_MSG_MIN];
+	mbx_register_req r;
+	unsigned sent = 0;
+	mqd_t cmd;
+
+	CHECK(become_nobody() == 0);
+	cmd = mq_open(qname, O_WRONLY);
+	CHECK(cmd != (mqd_t)-1);
+	for (uint64_t end = now_us() + FLOOD_MS * 1000u; now_us() < end; sent++) {
+		mbx_hdr h = { .magic = MBX_MAGIC,
+			      .version = MBX_VERSION,
+			      .kind = MBX_KIND_COMMAND,
+			      .code = MBX_CMD_REGISTER,
+			      .line = LINE,
+			      .corr = sent };
+		int n;
+
+		memset(&r, 0, sizeof r);
+		memcpy(r.resp_queue, a->resp, sizeof r.resp_queue);
+		memcpy(r.event_queue, a->evt, sizeof r.event_queue);
+		r.uid = sent % 2 ? 0 : a->uid;
+		r.pid = sent % 2 ? a->pid : dead_pid();
+		n = mbx_msg_build(buf, sizeof buf, &h, &r, sizeof r);
+		CHECK(n > 0);
+		CHECK(mq_send(cmd, (const char *)buf, (size_t)n, 0) == 0);
+	}
+	mq_close(cmd);
+	printf("flood: %u REGISTERs in %u ms\n", sent, FLOOD_MS);
+	fflush(stdout);
+	return 0;
+}
+
+/* Before: every refusal went to the response queue the REGISTER named:
+ * the victim's queue filled with answers nobody asked for, its own
+ * answers were dropped and its calls timed out. */
+static void test_register_refusals_are_no_weapon(void)
+{
+	mbx_server_config cfg = base_cfg();
+	flood_shared *sh = mmap(NULL, sizeof *sh, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+	attack a = { .uid = VICTIM_UID };
+	mbx_client_info ci;
+	pid_t victim, flood;
+
+	TEST_ASSERT_TRUE(sh != MAP_FAILED);
+	memset(sh, 0, sizeof *sh);
+	start(&cfg);
+	sync_init(&sh->s);
+	victim = spawn(child_flood_victim, sh);
+	parent_wait_ready(&sh->s);
+	ci = client_info(0);
+	memcpy(a.resp, ci.resp_queue, sizeof a.resp);
+	memcpy(a.evt, ci.event_queue, sizeof a.evt);
+	a.pid = ci.pid;
+	mbx_server_stats before = stats();
+
+	flood = spawn(child_register_flood, &a);
+	parent_go(&sh->s);
+	TEST_ASSERT_EQUAL_INT(0, reap(flood));
+	TEST_ASSERT_EQUAL_INT(0, reap(victim));
+	mbx_server_stats st = stats();
+	const flood_shared *r = sh;
+
+	printf("refusal flood: %" PRIu64 " refused, %" PRIu64 " unanswered, %" PRIu64
+	       " messages dropped; victim: %u calls, %u failed, slowest %.1f ms, %" PRIu64
+	       " answers it never asked for\n",
+	       st.reg_refused - before.reg_refused, st.reg_unanswered - before.reg_unanswered,
+	       st.dropped - before.dropped, r->calls, r->failed, r->slowest_us / 1000.0,
+	       r->lib.stray_responses);
+	TEST_ASSERT_TRUE(st.reg_refused > before.reg_refused);
+	TEST_ASSERT_EQUAL_UINT64_MESSAGE(0, r->lib.stray_responses,
+					 "refusals were written to the victim's queue");
+	TEST_ASSERT_EQUAL_UINT64_MESSAGE(0, st.dropped - before.dropped, "messages were dropped");
+	TEST_ASSERT_EQUAL_UINT_MESSAGE(0, r->failed, "the victim's calls failed");
+	TEST_ASSERT_TRUE(r->calls > 0);
+	sync_close(&sh->s);
+	munmap(sh, sizeof *sh);
+}
+
 int main(void)
 {
 	pthread_mutex_init(&fl.mu, NULL);
@@ -1003,5 +1312,8 @@ int main(void)
 	RUN_TEST(test_clients_survive_a_daemon_restart);
 	RUN_TEST(test_a_reader_cannot_starve_a_writer);
 	RUN_TEST(test_an_unacknowledged_transfer_and_the_memory_budget);
+	RUN_TEST(test_register_cannot_name_the_command_queues_of_any_line);
+	RUN_TEST(test_register_cannot_fill_another_users_quota);
+	RUN_TEST(test_register_refusals_are_no_weapon);
 	return UNITY_END();
 }
