@@ -356,6 +356,7 @@ typedef struct attack {
 	uint32_t pid, uid;
 	uint32_t first_pid; /* if set: the first REGISTER names this pid */
 	unsigned times;
+	bool as_owner; /* flood: claims that match the queues (uid, pid) */
 } attack;
 
 static int child_register_as_nobody(void *arg)
@@ -1216,7 +1217,7 @@ static int child_flood_victim(void *arg)
 
 /* 65534: REGISTERs naming the victim's queues, as fast as the command
  * queue takes them, for FLOOD_MS: claims that do not match (root's uid, a
- * dead pid) and an event queue that does not exist. Returns how many. */
+ * dead pid), or (as_owner) the owner's uid and the victim's pid. */
 static int child_register_flood(void *arg)
 {
 	const attack *a = arg;
@@ -1240,8 +1241,8 @@ static int child_register_flood(void *arg)
 		memset(&r, 0, sizeof r);
 		memcpy(r.resp_queue, a->resp, sizeof r.resp_queue);
 		memcpy(r.event_queue, a->evt, sizeof r.event_queue);
-		r.uid = sent % 2 ? 0 : a->uid;
-		r.pid = sent % 2 ? a->pid : dead_pid();
+		r.uid = sent % 2 && !a->as_owner ? 0 : a->uid;
+		r.pid = sent % 2 || a->as_owner ? a->pid : dead_pid();
 		n = mbx_msg_build(buf, sizeof buf, &h, &r, sizeof r);
 		CHECK(n > 0);
 		CHECK(mq_send(cmd, (const char *)buf, (size_t)n, 0) == 0);
@@ -1298,6 +1299,71 @@ static void test_register_refusals_are_no_weapon(void)
 	munmap(sh, sizeof *sh);
 }
 
+
+/* uid 1000 (libcogw): registered; after the daemon restarted, its next
+ * call must register again while somebody floods REGISTERs of its
+ * queues. */
+static int child_registers_during_flood(void *arg)
+{
+	sync2 *s = arg;
+	cogw *h;
+	uint8_t v[8];
+	size_t len;
+	uint32_t abort;
+	int rc = COGW_E_RESTARTED;
+
+	CHECK(become(VICTIM_UID) == 0);
+	CHECK(cogw_open(&h, instance) == 0);
+	CHECK(cogw_ping(h, LINE, CALL_MS) == 0);
+	child_ready(s);
+	child_wait_go(s);
+	for (unsigned i = 0; i < 5 && (rc == COGW_E_RESTARTED || rc == COGW_E_NO_DAEMON); i++)
+		rc = cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, CALL_MS, &abort);
+	if (rc)
+		fprintf(stderr, "victim: after the restart: %s\n", cogw_strerror(rc));
+	CHECK(rc == 0 && len == 4);
+	cogw_close(h);
+	return 0;
+}
+
+/* The victim's queues named with its uid and pid (as its own REGISTER
+ * would) while it registers: before, each such REGISTER was one more
+ * entry of uid 1000 until its quota was full and its own REGISTER got
+ * FULL. Now the pair has one registration, answered again at most every
+ * 100 ms under the flood's corr; libcogw takes such an answer as its own. */
+static void test_a_flood_of_its_own_pair_does_not_stop_a_registration(void)
+{
+	mbx_server_config cfg = base_cfg();
+	attack a = { .uid = VICTIM_UID, .as_owner = true };
+	mbx_client_info ci;
+	sync2 s;
+	pid_t victim, flood;
+
+	cfg.max_clients_per_uid = 2;
+	cfg.register_timeout_ms = 10000; /* as the daemon's */
+	start(&cfg);
+	sync_init(&s);
+	victim = spawn(child_registers_during_flood, &s);
+	parent_wait_ready(&s);
+	ci = client_info(0);
+	memcpy(a.resp, ci.resp_queue, sizeof a.resp);
+	memcpy(a.evt, ci.event_queue, sizeof a.evt);
+	a.pid = ci.pid;
+	stop(); /* a restarted daemon knows no client */
+	start(&cfg);
+	flood = spawn(child_register_flood, &a);
+	sleep_ms(300);
+	parent_go(&s);
+	int rc = reap(victim);
+
+	TEST_ASSERT_EQUAL_INT(0, reap(flood));
+	printf("own pair flooded: %u registration%s of uid %u\n", stats().clients,
+	       stats().clients == 1 ? "" : "s", VICTIM_UID);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, "the victim could not register again");
+	TEST_ASSERT_TRUE(stats().clients <= 1);
+	sync_close(&s);
+}
+
 int main(void)
 {
 	pthread_mutex_init(&fl.mu, NULL);
@@ -1315,5 +1381,6 @@ int main(void)
 	RUN_TEST(test_register_cannot_name_the_command_queues_of_any_line);
 	RUN_TEST(test_register_cannot_fill_another_users_quota);
 	RUN_TEST(test_register_refusals_are_no_weapon);
+	RUN_TEST(test_a_flood_of_its_own_pair_does_not_stop_a_registration);
 	return UNITY_END();
 }
