@@ -1364,6 +1364,62 @@ static void test_a_flood_of_its_own_pair_does_not_stop_a_registration(void)
 	sync_close(&s);
 }
 
+
+/* uid 1000, limit 2: three pairs made; the first two are registered by
+ * somebody else (never confirmed), the third it registers itself. */
+static int child_stale_victim(void *arg)
+{
+	sync2 *s = arg;
+	rawc r[3];
+	int st;
+
+	CHECK(become(VICTIM_UID) == 0);
+	for (unsigned i = 0; i < 3; i++)
+		CHECK(rawc_create(&r[i], QUOTA_PAIRS + 5 + i) == 0);
+	child_ready(s);
+	child_wait_go(s);
+	st = rawc_register_created(&r[2]);
+	if (st)
+		fprintf(stderr, "victim: own registration: %s\n", mbx_status_to_string(st));
+	CHECK(st == 0);
+	for (unsigned i = 0; i < 3; i++)
+		rawc_close(&r[i]);
+	return 0;
+}
+
+/* Pairs of a user registered by somebody else and never confirmed (the
+ * user does not use them on this line) hold that user's quota for the
+ * registration window, renewed by the next REGISTER. Past its confirm
+ * grace (1 s), such a registration gives way to a new one. */
+static void test_unconfirmed_registrations_give_way(void)
+{
+	mbx_server_config cfg = base_cfg();
+	sync2 s;
+	pid_t victim;
+
+	cfg.max_clients_per_uid = 2;
+	cfg.register_timeout_ms = 10000;
+	start(&cfg);
+	sync_init(&s);
+	victim = spawn(child_stale_victim, &s);
+	parent_wait_ready(&s);
+	for (unsigned i = 0; i < 2; i++) {
+		attack a = { .times = 1, .uid = VICTIM_UID, .pid = (uint32_t)victim };
+		rawc n;
+
+		rawc_names(&n, QUOTA_PAIRS + 5 + i);
+		memcpy(a.resp, n.rn, sizeof a.resp);
+		memcpy(a.evt, n.en, sizeof a.evt);
+		TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_register_as_nobody, &a)));
+	}
+	sleep_ms(200);
+	TEST_ASSERT_EQUAL_UINT32(2, stats().clients);
+	sleep_ms(1000);
+	parent_go(&s);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(victim), "the victim's quota stayed taken");
+	sync_close(&s);
+}
+
 int main(void)
 {
 	pthread_mutex_init(&fl.mu, NULL);
@@ -1382,5 +1438,6 @@ int main(void)
 	RUN_TEST(test_register_cannot_fill_another_users_quota);
 	RUN_TEST(test_register_refusals_are_no_weapon);
 	RUN_TEST(test_a_flood_of_its_own_pair_does_not_stop_a_registration);
+	RUN_TEST(test_unconfirmed_registrations_give_way);
 	return UNITY_END();
 }
