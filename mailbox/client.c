@@ -898,7 +898,8 @@ static void handle_response(cogw *h, const uint8_t *buf, size_t n, ack_todo *ack
 	/* A line answers a registration of our queues again, under the corr
 	 * of whichever REGISTER named them, at most every 100 ms: ours may
 	 * have gone unanswered (docs/mailbox.md "Security model"). */
-	for (waiter *w = h->waiters; w && hd.code == MBX_CMD_REGISTER && hd.status == 0; w = w->next) {
+	for (waiter *w = h->waiters; w && hd.code == MBX_CMD_REGISTER && hd.status == 0;
+	     w = w->next) {
 		if (w->code == MBX_CMD_REGISTER && w->line == hd.line && !w->done &&
 		    feed_waiter(h, w, &hd, p, ack)) {
 			w->done = true;

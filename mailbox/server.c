@@ -64,10 +64,10 @@ typedef struct mbx_client {
 	uint32_t uid, pid;
 	uint8_t access;
 	bool confirmed;
-	bool pid_proven; /* at REGISTER, pid was a live process of uid */
-	bool pid_disputed; /* REGISTERs named other pids: pid tells nothing */
+	bool pid_proven;      /* at REGISTER, pid was a live process of uid */
+	bool pid_disputed;    /* REGISTERs named other pids: pid tells nothing */
 	uint64_t answered_us; /* last REGISTER answer sent */
-	bool dead;       /* a send failed hard: reap at the next tick */
+	bool dead;            /* a send failed hard: reap at the next tick */
 	uint32_t classes;
 	uint8_t n_filters;
 	mbx_raw_filter filters[MBX_RAW_FILTERS_MAX];
@@ -705,7 +705,9 @@ static void register_refuse(mbx_server *srv, const reg_queues *q, const mbx_hdr 
 			    bool about_owner)
 {
 	struct refusal_sender *s = refusal_sender_of(srv, (uint32_t)q->rst.st_uid);
-	mbx_client tmp = { .resp = q->resp, .evt = (mqd_t)-1, .resp_msg = (size_t)q->rattr.mq_msgsize };
+	mbx_client tmp = { .resp = q->resp,
+			   .evt = (mqd_t)-1,
+			   .resp_msg = (size_t)q->rattr.mq_msgsize };
 
 	s->refused++;
 	s->seen_us = srv->now_us;
@@ -823,7 +825,8 @@ static mbx_client *register_slot(mbx_server *srv, uint32_t uid, uint8_t access, 
 			}
 		}
 		bool uid_full = uid != 0 && of_uid >= srv->cfg.max_clients_per_uid;
-		bool no_room = !c || (access < MBX_ACCESS_WRITE && free_slots <= srv->cfg.write_reserve);
+		bool no_room = !c ||
+			       (access < MBX_ACCESS_WRITE && free_slots <= srv->cfg.write_reserve);
 
 		if (!uid_full && !no_room)
 			return c;

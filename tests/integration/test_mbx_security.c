@@ -1152,7 +1152,7 @@ static void test_register_cannot_fill_another_users_quota(void)
 	rawc_names(&n1, QUOTA_PAIRS + 1);
 	const char *const named[][2] = {
 		{ n0.en, n0.rn }, /* swapped */
-		{ n1.en, n1.rn },
+		{ n1.en, n1.rn }, /* swapped, the pair not registered yet */
 		{ n0.rn, n1.en }, /* mixed */
 		{ n1.rn, n1.en }, /* the pair not registered yet */
 		{ n0.rn, n0.en }, /* the pair in use */
@@ -1259,7 +1259,8 @@ static int child_register_flood(void *arg)
 static void test_register_refusals_are_no_weapon(void)
 {
 	mbx_server_config cfg = base_cfg();
-	flood_shared *sh = mmap(NULL, sizeof *sh, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+	flood_shared *sh = mmap(NULL, sizeof *sh, PROT_READ | PROT_WRITE,
+				MAP_SHARED | MAP_ANONYMOUS, -1, 0);
 	attack a = { .uid = VICTIM_UID };
 	mbx_client_info ci;
 	pid_t victim, flood;
@@ -1298,7 +1299,6 @@ static void test_register_refusals_are_no_weapon(void)
 	sync_close(&sh->s);
 	munmap(sh, sizeof *sh);
 }
-
 
 /* uid 1000 (libcogw): registered; after the daemon restarted, its next
  * call must register again while somebody floods REGISTERs of its
@@ -1363,7 +1363,6 @@ static void test_a_flood_of_its_own_pair_does_not_stop_a_registration(void)
 	TEST_ASSERT_TRUE(stats().clients <= 1);
 	sync_close(&s);
 }
-
 
 /* uid 1000, limit 2: three pairs made; the first two are registered by
  * somebody else (never confirmed), the third it registers itself. */
