@@ -42,6 +42,7 @@
 
 #include "mailbox/cogw.h"
 #include "mailbox/server.h"
+#include "tests/integration/support/daemon.h"
 #include "unity.h"
 
 #define LINE 2
@@ -75,13 +76,6 @@ static uint64_t now_us(void)
 
 	clock_gettime(CLOCK_MONOTONIC, &ts);
 	return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
-}
-
-static void sleep_ms(unsigned ms)
-{
-	struct timespec ts = { ms / 1000, (long)(ms % 1000) * 1000000L };
-
-	nanosleep(&ts, NULL);
 }
 
 static void fake_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
@@ -356,7 +350,9 @@ typedef struct attack {
 	uint32_t pid, uid;
 	uint32_t first_pid; /* if set: the first REGISTER names this pid */
 	unsigned times;
-	bool as_owner; /* flood: claims that match the queues (uid, pid) */
+	bool as_owner;   /* flood: claims that match the queues (uid, pid) */
+	const char *cmd; /* the command queue sent to (NULL: qname, LINE) */
+	uint8_t line;
 } attack;
 
 static int child_register_as_nobody(void *arg)
@@ -367,7 +363,7 @@ static int child_register_as_nobody(void *arg)
 	mqd_t cmd;
 
 	CHECK(become_nobody() == 0);
-	cmd = mq_open(qname, O_WRONLY); /* a full queue: wait for the line */
+	cmd = mq_open(a->cmd ? a->cmd : qname, O_WRONLY); /* a full queue: wait for the line */
 	CHECK(cmd != (mqd_t)-1);
 	memset(&r, 0, sizeof r);
 	r.pid = a->pid;
@@ -379,7 +375,7 @@ static int child_register_as_nobody(void *arg)
 			      .version = MBX_VERSION,
 			      .kind = MBX_KIND_COMMAND,
 			      .code = MBX_CMD_REGISTER,
-			      .line = LINE,
+			      .line = a->cmd ? a->line : LINE,
 			      .corr = 4242 + i };
 		int n;
 
@@ -1419,6 +1415,87 @@ static void test_unconfirmed_registrations_give_way(void)
 	sync_close(&s);
 }
 
+/* ---- 7. the daemon itself, under the unit's capabilities --------------------------- */
+
+#define DAEMON_INSTANCE "secd"
+#define DAEMON_LINE_JSON(n)                                                                \
+	"{\"name\": \"line" #n "\", \"interface\": \"vcan" #n "\", \"bitrate\": 1000000, " \
+	"\"node_id\": 127}"
+
+static const char daemon_json[] =
+	"{\"version\": 1, \"mailbox\": {\"instance\": \"" DAEMON_INSTANCE "\", "
+	"\"queue_mode\": \"0622\", \"max_clients\": 8, \"default_access\": \"read\"}, "
+	"\"lines\": [" DAEMON_LINE_JSON(0) ", " DAEMON_LINE_JSON(1) ", " DAEMON_LINE_JSON(2) "]}";
+
+/* uid 1000 (libcogw): registers on every line and reads their counters. */
+static int child_daemon_client(void *arg)
+{
+	const attack *a = arg;
+	mbx_stats_wire ms[3];
+	cogw *h;
+
+	CHECK(become(VICTIM_UID) == 0);
+	CHECK(cogw_open(&h, DAEMON_INSTANCE) == 0);
+	for (unsigned l = 0; l < 3; l++) {
+		int rc = cogw_mbx_stats(h, l, &ms[l], CALL_MS);
+
+		if (rc)
+			fprintf(stderr, "uid %u: line %u: %s\n", VICTIM_UID, l, cogw_strerror(rc));
+		CHECK(rc == 0);
+	}
+	printf("cogwd, line 1: %u REGISTERs naming the command queues of lines 2 and 0 "
+	       "with pid 1: %u client on line 1 (uid %u), %" PRIu64 " refused; malformed "
+	       "messages on line 0: %" PRIu64 ", line 2: %" PRIu64 "\n",
+	       a->times, ms[1].clients, VICTIM_UID, ms[1].reg_refused, ms[0].malformed,
+	       ms[2].malformed);
+	fflush(stdout);
+	CHECK(ms[1].clients == 1);
+	CHECK(ms[1].reg_refused == a->times);
+	CHECK(ms[0].malformed == 0 && ms[2].malformed == 0);
+	cogw_close(h);
+	return 0;
+}
+
+/* The attack of test_register_cannot_name_the_command_queues_of_any_line
+ * against cogwd itself with three lines, run with exactly the capability
+ * bounding set of etc/cogwd.service: 65534 names the command queues of
+ * lines 2 and 0 in REGISTERs to line 1; uid 1000 and root must still
+ * register there, and nothing may reach lines 0 and 2. */
+static void test_the_daemon_keeps_its_lines_open(void)
+{
+	static daemon_run d;
+	char bset[512], q[3][MBX_QNAME_MAX];
+	attack a = { .times = 40, .uid = 0, .pid = 1, .line = 1 };
+	cogw *h;
+
+	if (access("/sys/class/net/vcan2", F_OK) != 0)
+		TEST_IGNORE_MESSAGE("needs vcan0..2 (tests/vcan/run -n 3)");
+	if (access("/usr/bin/setpriv", X_OK) != 0)
+		TEST_IGNORE_MESSAGE("setpriv not installed");
+	TEST_ASSERT_EQUAL_INT(0, daemon_unit_bounding_set(bset, sizeof bset));
+	const char *const wrapper[] = { "/usr/bin/setpriv", bset, NULL };
+	int rc = daemon_start(&d, &(daemon_opts){ .config_json = daemon_json,
+						  .instance = DAEMON_INSTANCE,
+						  .n_lines = 3,
+						  .notify = true,
+						  .drop_notify = true,
+						  .wrapper = wrapper });
+
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, "cogwd did not come up under the unit's capabilities");
+	for (unsigned l = 0; l < 3; l++)
+		daemon_cmd_queue(&d, l, q[l], sizeof q[l]);
+	a.cmd = q[1];
+	snprintf(a.resp, sizeof a.resp, "%s", q[2]);
+	snprintf(a.evt, sizeof a.evt, "%s", q[0]);
+	TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_register_as_nobody, &a)));
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_daemon_client, &a)),
+				      "uid 1000 was locked out, or the attack reached other lines");
+	TEST_ASSERT_EQUAL_INT(0, cogw_open(&h, DAEMON_INSTANCE));
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, cogw_ping(h, 1, CALL_MS), "root was locked out");
+	cogw_close(h);
+	daemon_cleanup(&d);
+}
+
 int main(void)
 {
 	pthread_mutex_init(&fl.mu, NULL);
@@ -1438,5 +1515,6 @@ int main(void)
 	RUN_TEST(test_register_refusals_are_no_weapon);
 	RUN_TEST(test_a_flood_of_its_own_pair_does_not_stop_a_registration);
 	RUN_TEST(test_unconfirmed_registrations_give_way);
+	RUN_TEST(test_the_daemon_keeps_its_lines_open);
 	return UNITY_END();
 }
