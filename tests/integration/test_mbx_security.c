@@ -355,36 +355,39 @@ typedef struct attack {
 	uint8_t line;
 } attack;
 
+/* Send a's REGISTER (naming uid and pid) to its command queue: 0 or -errno.
+ * A full queue is waited out: the line drains it. */
+static int send_register(mqd_t cmd, const attack *a, uint64_t corr, uint32_t uid, uint32_t pid)
+{
+	uint8_t buf[MBX_MSG_MIN];
+	mbx_register_req r = { .pid = pid, .uid = uid };
+	mbx_hdr h = { .magic = MBX_MAGIC,
+		      .version = MBX_VERSION,
+		      .kind = MBX_KIND_COMMAND,
+		      .code = MBX_CMD_REGISTER,
+		      .line = a->cmd ? a->line : LINE,
+		      .corr = corr };
+	int n;
+
+	memcpy(r.resp_queue, a->resp, sizeof r.resp_queue);
+	memcpy(r.event_queue, a->evt, sizeof r.event_queue);
+	n = mbx_msg_build(buf, sizeof buf, &h, &r, sizeof r);
+	if (n < 0)
+		return n;
+	return mq_send(cmd, (const char *)buf, (size_t)n, 0) == 0 ? 0 : -errno;
+}
+
 static int child_register_as_nobody(void *arg)
 {
 	const attack *a = arg;
-	uint8_t buf[MBX_MSG_MIN];
-	mbx_register_req r;
 	mqd_t cmd;
 
 	CHECK(become_nobody() == 0);
-	cmd = mq_open(a->cmd ? a->cmd : qname, O_WRONLY); /* a full queue: wait for the line */
+	cmd = mq_open(a->cmd ? a->cmd : qname, O_WRONLY);
 	CHECK(cmd != (mqd_t)-1);
-	memset(&r, 0, sizeof r);
-	r.pid = a->pid;
-	r.uid = a->uid;
-	memcpy(r.resp_queue, a->resp, sizeof r.resp_queue);
-	memcpy(r.event_queue, a->evt, sizeof r.event_queue);
-	for (unsigned i = 0; i < a->times; i++) {
-		mbx_hdr h = { .magic = MBX_MAGIC,
-			      .version = MBX_VERSION,
-			      .kind = MBX_KIND_COMMAND,
-			      .code = MBX_CMD_REGISTER,
-			      .line = a->cmd ? a->line : LINE,
-			      .corr = 4242 + i };
-		int n;
-
-		r.pid = i == 0 && a->first_pid ? a->first_pid : a->pid;
-		n = mbx_msg_build(buf, sizeof buf, &h, &r, sizeof r);
-
-		CHECK(n > 0);
-		CHECK(mq_send(cmd, (const char *)buf, (size_t)n, 0) == 0);
-	}
+	for (unsigned i = 0; i < a->times; i++)
+		CHECK(send_register(cmd, a, 4242 + i, a->uid,
+				    i == 0 && a->first_pid ? a->first_pid : a->pid) == 0);
 	mq_close(cmd);
 	return 0;
 }
@@ -1217,32 +1220,15 @@ static int child_flood_victim(void *arg)
 static int child_register_flood(void *arg)
 {
 	const attack *a = arg;
-	uint8_t buf[MBX_MSG_MIN];
-	mbx_register_req r;
 	unsigned sent = 0;
 	mqd_t cmd;
 
 	CHECK(become_nobody() == 0);
 	cmd = mq_open(qname, O_WRONLY);
 	CHECK(cmd != (mqd_t)-1);
-	for (uint64_t end = now_us() + FLOOD_MS * 1000u; now_us() < end; sent++) {
-		mbx_hdr h = { .magic = MBX_MAGIC,
-			      .version = MBX_VERSION,
-			      .kind = MBX_KIND_COMMAND,
-			      .code = MBX_CMD_REGISTER,
-			      .line = LINE,
-			      .corr = sent };
-		int n;
-
-		memset(&r, 0, sizeof r);
-		memcpy(r.resp_queue, a->resp, sizeof r.resp_queue);
-		memcpy(r.event_queue, a->evt, sizeof r.event_queue);
-		r.uid = sent % 2 && !a->as_owner ? 0 : a->uid;
-		r.pid = sent % 2 || a->as_owner ? a->pid : dead_pid();
-		n = mbx_msg_build(buf, sizeof buf, &h, &r, sizeof r);
-		CHECK(n > 0);
-		CHECK(mq_send(cmd, (const char *)buf, (size_t)n, 0) == 0);
-	}
+	for (uint64_t end = now_us() + FLOOD_MS * 1000u; now_us() < end; sent++)
+		CHECK(send_register(cmd, a, sent, sent % 2 && !a->as_owner ? 0 : a->uid,
+				    sent % 2 || a->as_owner ? a->pid : dead_pid()) == 0);
 	mq_close(cmd);
 	printf("flood: %u REGISTERs in %u ms\n", sent, FLOOD_MS);
 	fflush(stdout);
