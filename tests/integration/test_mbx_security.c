@@ -21,7 +21,12 @@
  *    has not registered yet) must not take that user's quota;
  *  - a flood of REGISTERs whose refusals would go to a victim's queue
  *    must write nothing there (figures printed: refused, dropped, the
- *    victim's slowest call).
+ *    victim's slowest call);
+ *  - a flood of REGISTERs naming a client's own pair while it registers
+ *    must not keep it out, nor must registrations of its pairs that
+ *    somebody else made and nobody confirmed;
+ *  - the line-lockout attack against cogwd itself, with three lines and
+ *    the capability bounding set of etc/cogwd.service (needs vcan0..2).
  */
 #include <errno.h>
 #include <fcntl.h>
