@@ -68,6 +68,8 @@ _Static_assert((int)COGW_E_NO_MEMORY == (int)MBX_STATUS_MIN,
 typedef struct waiter {
 	struct waiter *next;
 	uint64_t corr;
+	uint16_t code;
+	uint8_t line;
 	bool done;
 	int status;
 	uint32_t abort;
@@ -574,7 +576,7 @@ static int exchange(cogw *h, unsigned line, uint16_t code, const void *fixed, si
 		    const void *data, size_t dlen, void *rbuf, size_t rcap, size_t *rlen,
 		    uint32_t *abort, uint64_t now, uint64_t deadline_us)
 {
-	waiter w = { .buf = rbuf, .cap = rcap };
+	waiter w = { .buf = rbuf, .cap = rcap, .code = code, .line = (uint8_t)line };
 	unsigned restarts = restarts_of(h, line);
 	int rc;
 
@@ -890,6 +892,18 @@ static void handle_response(cogw *h, const uint8_t *buf, size_t n, ack_todo *ack
 	for (async_op **pp = &h->asyncs; *pp; pp = &(*pp)->next) {
 		if ((*pp)->corr == hd.corr) {
 			feed_async(h, pp, &hd, p, ack);
+			return;
+		}
+	}
+	/* A line answers a registration of our queues again, under the corr
+	 * of whichever REGISTER named them, at most every 100 ms: ours may
+	 * have gone unanswered (docs/mailbox.md "Security model"). */
+	for (waiter *w = h->waiters; w && hd.code == MBX_CMD_REGISTER && hd.status == 0;
+	     w = w->next) {
+		if (w->code == MBX_CMD_REGISTER && w->line == hd.line && !w->done &&
+		    feed_waiter(h, w, &hd, p, ack)) {
+			w->done = true;
+			pthread_cond_broadcast(&h->cond);
 			return;
 		}
 	}
@@ -2125,7 +2139,8 @@ int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st, unsigned timeout_
 		  timeout_ms);
 	/* An older daemon's answer ends before the counters added later
 	 * (left 0). */
-	return rc == 0 && len != sizeof *st && len != offsetof(mbx_stats_wire, late_wakes) &&
+	return rc == 0 && len != sizeof *st && len != offsetof(mbx_stats_wire, reg_refused) &&
+			       len != offsetof(mbx_stats_wire, late_wakes) &&
 			       len != offsetof(mbx_stats_wire, xfer_failed)
 		       ? COGW_E_PROTOCOL
 		       : rc;

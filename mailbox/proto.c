@@ -23,7 +23,7 @@ _Static_assert(sizeof(mbx_unsubscribe_req) == 4, "wire layout");
 _Static_assert(sizeof(mbx_subscribe_resp) == 4, "wire layout");
 _Static_assert(sizeof(mbx_ping_resp) == 16, "wire layout");
 _Static_assert(sizeof(mbx_xfer_ack) == 4, "wire layout");
-_Static_assert(sizeof(mbx_stats_wire) == 120, "wire layout");
+_Static_assert(sizeof(mbx_stats_wire) == 136, "wire layout");
 _Static_assert(sizeof(mbx_obj_req) == 4, "wire layout");
 _Static_assert(sizeof(mbx_sdo_req) == 16, "wire layout");
 _Static_assert(sizeof(mbx_nmt_req) == 4, "wire layout");
@@ -482,6 +482,22 @@ bool mbx_queue_name_is_valid(const char *name, size_t field)
 	return true;
 }
 
+/* The two queues of one client are named as one pair (docs/mailbox.md
+ * "Security model"): a command queue of any line ("...cmd"), another
+ * program's queue, or a client's event queue named as its response queue
+ * (swapped or mixed) is no pair. */
+bool mbx_client_queues_pair(const char *resp, const char *evt)
+{
+	static const char rs[] = ".resp", es[] = ".evt";
+	size_t rn = strlen(resp), stem;
+
+	if (rn <= sizeof rs || strcmp(resp + rn - (sizeof rs - 1), rs) != 0)
+		return false;
+	stem = rn - (sizeof rs - 1);
+	return strlen(evt) == stem + sizeof es - 1 && strncmp(resp, evt, stem) == 0 &&
+	       strcmp(evt + stem, es) == 0;
+}
+
 bool mbx_instance_is_valid(const char *instance)
 {
 	size_t i;
@@ -547,7 +563,7 @@ static int check_register(uint16_t code, const uint8_t *p, size_t len, mbx_bad *
 		return refuse(bad, MBX_BAD_PARAM);
 	if (!mbx_queue_name_is_valid(r.resp_queue, MBX_QNAME_MAX) ||
 	    !mbx_queue_name_is_valid(r.event_queue, MBX_QNAME_MAX) ||
-	    strcmp(r.resp_queue, r.event_queue) == 0)
+	    !mbx_client_queues_pair(r.resp_queue, r.event_queue))
 		return refuse(bad, MBX_BAD_QUEUE);
 	return 0;
 }

@@ -380,6 +380,10 @@ typedef struct mbx_stats_wire {
 	uint64_t budget_used;    /* transfer memory in use now, all lines */
 	/* Added later still (an older daemon's answer ends before it). */
 	uint64_t late_wakes; /* line woke too late to judge client leases */
+	/* Added later still (an older daemon's answer ends before them). */
+	uint64_t reg_refused;    /* REGISTERs refused, for any reason */
+	uint64_t reg_unanswered; /*   and REGISTERs not answered: their sender may not
+				  *   own the queues they name (docs/mailbox.md) */
 } mbx_stats_wire;
 
 /* ---- payloads: services ------------------------------------------------- */
@@ -780,6 +784,9 @@ int mbx_msg_build(uint8_t *buf, size_t cap, const mbx_hdr *h, const void *payloa
 /* A valid queue name: "/" + 1..62 chars of [A-Za-z0-9._-], NUL within the
  * field of MBX_QNAME_MAX bytes. */
 bool mbx_queue_name_is_valid(const char *name, size_t field);
+/* The queues of one client: "<stem>.resp" and "<stem>.evt", same stem of
+ * at least "/" + one char (both names valid). */
+bool mbx_client_queues_pair(const char *resp, const char *evt);
 /* A valid instance name: 1..MBX_INSTANCE_MAX chars of [A-Za-z0-9_-]. */
 bool mbx_instance_is_valid(const char *instance);
 /* "/cogw.<instance>.line<N>.cmd". Returns 0, -EINVAL, -ENAMETOOLONG. */

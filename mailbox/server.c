@@ -46,6 +46,13 @@
 /* A tick later than this past the time it asked for means this thread (or
  * the whole machine) stood still: see forgive_late_wake. */
 #define LATE_WAKE_US 100000u
+/* At most one unsolicited REGISTER answer (a refusal, or the answer of a
+ * registration not confirmed yet, again) per this interval to the queues
+ * of one user, resp. of one registration: whoever sends REGISTER may not
+ * be that user (docs/mailbox.md "Security model"). */
+#define REG_ANSWER_INTERVAL_US 100000u
+/* Users whose REGISTER refusals are tracked at once (least recent out). */
+#define REFUSAL_SENDERS 8u
 
 typedef struct mbx_client {
 	uint32_t id; /* 0 = free slot */
@@ -57,8 +64,10 @@ typedef struct mbx_client {
 	uint32_t uid, pid;
 	uint8_t access;
 	bool confirmed;
-	bool pid_proven; /* at REGISTER, pid was a live process of uid */
-	bool dead;       /* a send failed hard: reap at the next tick */
+	bool pid_proven;      /* at REGISTER, pid was a live process of uid */
+	bool pid_disputed;    /* REGISTERs named other pids: pid tells nothing */
+	uint64_t answered_us; /* last REGISTER answer sent */
+	bool dead;            /* a send failed hard: reap at the next tick */
 	uint32_t classes;
 	uint8_t n_filters;
 	mbx_raw_filter filters[MBX_RAW_FILTERS_MAX];
@@ -124,6 +133,13 @@ struct mbx_server {
 	uint64_t now_us;
 	uint64_t next_check_us;
 	uint64_t wake_by_us; /* what the last tick asked for */
+	/* REGISTER refusals by the owner of the queues they named: the
+	 * only sender identity the kernel confirms (docs/mailbox.md). */
+	struct refusal_sender {
+		uint32_t uid;
+		uint64_t refused;
+		uint64_t seen_us, answered_us;
+	} refusals[REFUSAL_SENDERS];
 	mbx_server_stats stats;
 };
 
@@ -363,7 +379,7 @@ static bool queue_still_there(const char *name, ino_t ino)
  * other clients' queues and its own command queues) unlinks nothing. */
 static void unlink_orphan_queues(const mbx_client *c)
 {
-	if (!c->confirmed || !c->pid_proven)
+	if (!c->confirmed || !c->pid_proven || c->pid_disputed)
 		return;
 	if (kill((pid_t)c->pid, 0) == 0 || errno != ESRCH)
 		return;
@@ -391,7 +407,7 @@ static bool client_is_dead(const mbx_server *srv, const mbx_client *c, uint64_t 
 		return true;
 	if (!full_check)
 		return false;
-	if (kill((pid_t)c->pid, 0) < 0 && errno == ESRCH)
+	if (!c->pid_disputed && kill((pid_t)c->pid, 0) < 0 && errno == ESRCH)
 		return true;
 	return !queue_still_there(c->resp_name, c->resp_ino) ||
 	       !queue_still_there(c->evt_name, c->evt_ino);
@@ -653,28 +669,73 @@ static int pid_check(uint32_t pid, uint32_t uid)
 	return rc;
 }
 
-static void register_refuse(mbx_server *srv, mqd_t resp, long resp_msg, const mbx_hdr *h,
-			    int status)
-{
-	/* Answer through a temporary client record so the normal send path
-	 * (size checks, non-blocking) is used; no token is given. */
-	mbx_client tmp = { .id = 0, .resp = resp, .evt = (mqd_t)-1, .resp_msg = (size_t)resp_msg };
+typedef struct reg_queues {
+	mqd_t resp, evt;
+	struct stat rst, est;
+	struct mq_attr rattr, eattr;
+} reg_queues;
 
-	if (status == MBX_E_ACCESS)
-		srv->stats.access_denied++;
-	if (resp != (mqd_t)-1 && !(h->flags & MBX_F_NO_REPLY))
-		send_status(srv, &tmp, h->code, h->corr, status, 0, NULL, 0);
+/* The refusal record of the user uid (the least recently seen one is
+ * reused for a newcomer). */
+static struct refusal_sender *refusal_sender_of(mbx_server *srv, uint32_t uid)
+{
+	struct refusal_sender *lru = &srv->refusals[0];
+
+	for (unsigned i = 0; i < REFUSAL_SENDERS; i++) {
+		struct refusal_sender *s = &srv->refusals[i];
+
+		if (s->refused && s->uid == uid)
+			return s;
+		if (!s->refused || (lru->refused && s->seen_us < lru->seen_us))
+			lru = s;
+	}
+	memset(lru, 0, sizeof *lru);
+	lru->uid = uid;
+	return lru;
 }
 
-/* The queues' owner, the pid and the access rule: 0 or MBX_E_ACCESS.
+/* A REGISTER refused, counted for the owner of the queues it named (the
+ * only sender identity the kernel confirms). Whoever sent it may be
+ * somebody else, so the refusal is written to the response queue only
+ * when it is about that owner (its access, its quota, its event queue) -
+ * never when the REGISTER's claims do not match the queues - and then at
+ * most once per REG_ANSWER_INTERVAL_US per owner: a flood of REGISTERs
+ * naming a victim's queues must not become a flood into them. */
+static void register_refuse(mbx_server *srv, const reg_queues *q, const mbx_hdr *h, int status,
+			    bool about_owner)
+{
+	struct refusal_sender *s = refusal_sender_of(srv, (uint32_t)q->rst.st_uid);
+	mbx_client tmp = { .resp = q->resp,
+			   .evt = (mqd_t)-1,
+			   .resp_msg = (size_t)q->rattr.mq_msgsize };
+
+	s->refused++;
+	s->seen_us = srv->now_us;
+	srv->stats.reg_refused++;
+	if (status == MBX_E_ACCESS)
+		srv->stats.access_denied++;
+	if (h->flags & MBX_F_NO_REPLY)
+		return;
+	if (!about_owner || srv->now_us < s->answered_us) {
+		srv->stats.reg_unanswered++;
+		return;
+	}
+	s->answered_us = srv->now_us + REG_ANSWER_INTERVAL_US;
+	/* through a temporary client record: the normal send path (size
+	 * checks, non-blocking); no token is given */
+	send_status(srv, &tmp, h->code, h->corr, status, 0, NULL, 0);
+}
+
+/* Do the REGISTER's claims match the queues? 0 or MBX_E_ACCESS: both
+ * queues of one owner, the claimed uid that owner, neither queue this
+ * line's command queue, and the claimed pid a live process of the owner.
  * *pid_rc: pid_check's answer (1 = proven). */
 static int register_identity(const mbx_server *srv, const mbx_register_req *r,
-			     const struct stat *rst, const struct stat *est, uint8_t access,
-			     int *pid_rc)
+			     const struct stat *rst, const struct stat *est, int *pid_rc)
 {
 	*pid_rc = -EACCES;
 	if (est->st_uid != rst->st_uid || r->uid != (uint32_t)rst->st_uid ||
-	    access == MBX_ACCESS_NONE || rst->st_ino == srv->q_ino || est->st_ino == srv->q_ino)
+	    rst->st_ino == srv->q_ino || est->st_ino == srv->q_ino)
 		return MBX_E_ACCESS;
 	*pid_rc = pid_check(r->pid, r->uid);
 	if (*pid_rc == 0 || *pid_rc == -ESRCH)
@@ -682,18 +743,18 @@ static int register_identity(const mbx_server *srv, const mbx_register_req *r,
 	return 0;
 }
 
-/* Who sends REGISTER is unknown (a message queue has no peer
- * credentials), so an existing entry on the same response queue is
- * replaced only by a REGISTER that proves to be that client: it carries
- * the entry's id and token in its header (only the reader of the response
- * queue knows them). A live, used entry is never replaced otherwise (issue
- * 11: naming a client's queues and pid kicked it out for good): returns
- * false then, and the refusal is not even written to its queue (a
- * stranger's corr must not complete the victim's call). An unused entry
- * stays too: the new one is added next to it and the old one expires
- * after register_timeout_ms. */
-static bool register_may_replace(mbx_server *srv, const mbx_hdr *h, ino_t resp_ino)
+/* The registration already made for this response queue, if any. Who
+ * sends REGISTER is unknown (a message queue has no peer credentials), so
+ * a used registration is replaced only by a REGISTER that proves to be
+ * that client: it carries the entry's id and token in its header (only
+ * the reader of the response queue knows them); otherwise it is refused,
+ * unanswered (*refused; a stranger's corr must not complete the victim's
+ * call). A registration not confirmed yet is returned: the caller
+ * answers it again rather than adding a second one for the same queues. */
+static mbx_client *register_existing(mbx_server *srv, const mbx_hdr *h, ino_t resp_ino,
+				     bool *refused)
 {
+	*refused = false;
 	for (unsigned i = 0; i < srv->cfg.max_clients; i++) {
 		mbx_client *o = &srv->clients[i];
 
@@ -701,47 +762,84 @@ static bool register_may_replace(mbx_server *srv, const mbx_hdr *h, ino_t resp_i
 			continue;
 		if (h->client == o->id && h->token == o->token) {
 			client_remove(srv, o, false);
-		} else if (o->confirmed) {
-			srv->stats.access_denied++;
-			count_bad(srv, MBX_BAD_CLIENT);
-			return false;
+			return NULL;
 		}
+		if (o->confirmed) {
+			count_bad(srv, MBX_BAD_CLIENT);
+			*refused = true;
+			return NULL;
+		}
+		return o;
 	}
-	return true;
+	return NULL;
+}
+
+/* A legitimate client confirms its registration as soon as it has read
+ * the answer; one still unconfirmed after this long may give its slot to
+ * a new registration (it may well be somebody else's REGISTER naming
+ * queues their owner does not use on this line). */
+static uint64_t confirm_grace_us(const mbx_server *srv)
+{
+	uint64_t half = (uint64_t)srv->cfg.register_timeout_ms * 500u;
+
+	return half < 1000000u ? half : 1000000u;
+}
+
+/* The oldest registration past its confirm grace, of uid only when
+ * of_uid: NULL if none. */
+static mbx_client *stale_unconfirmed(const mbx_server *srv, bool of_uid, uint32_t uid)
+{
+	mbx_client *old = NULL;
+
+	for (unsigned i = 0; i < srv->cfg.max_clients; i++) {
+		mbx_client *c = &srv->clients[i];
+
+		if (!c->id || c->confirmed || (of_uid && c->uid != uid) ||
+		    srv->now_us < c->registered_us + confirm_grace_us(srv))
+			continue;
+		if (!old || c->registered_us < old->registered_us)
+			old = c;
+	}
+	return old;
 }
 
 /* A free slot for a client of uid with access, or NULL (*status
  * MBX_E_FULL): one user cannot take every slot, and the last write_reserve
  * slots are for writers: a read-only client flooding REGISTER must not
- * lock a writer out with FULL. */
+ * lock a writer out with FULL. Where a limit is reached, the oldest
+ * registration still unconfirmed past its grace (of that user, for the
+ * per-user limit) gives way. */
 static mbx_client *register_slot(mbx_server *srv, uint32_t uid, uint8_t access, int *status)
 {
-	unsigned free_slots = 0, of_uid = 0;
-	mbx_client *c = NULL;
+	for (unsigned pass = 0; pass < 2; pass++) {
+		unsigned free_slots = 0, of_uid = 0;
+		mbx_client *c = NULL;
 
-	for (unsigned i = 0; i < srv->cfg.max_clients; i++) {
-		if (!srv->clients[i].id) {
-			if (!c)
-				c = &srv->clients[i];
-			free_slots++;
-		} else if (srv->clients[i].uid == uid) {
-			of_uid++;
+		for (unsigned i = 0; i < srv->cfg.max_clients; i++) {
+			if (!srv->clients[i].id) {
+				if (!c)
+					c = &srv->clients[i];
+				free_slots++;
+			} else if (srv->clients[i].uid == uid) {
+				of_uid++;
+			}
 		}
-	}
-	if (!c || (access < MBX_ACCESS_WRITE && free_slots <= srv->cfg.write_reserve) ||
-	    (uid != 0 && of_uid >= srv->cfg.max_clients_per_uid)) {
-		srv->stats.limited++;
-		*status = MBX_E_FULL;
-		return NULL;
-	}
-	return c;
-}
+		bool uid_full = uid != 0 && of_uid >= srv->cfg.max_clients_per_uid;
+		bool no_room = !c ||
+			       (access < MBX_ACCESS_WRITE && free_slots <= srv->cfg.write_reserve);
 
-typedef struct reg_queues {
-	mqd_t resp, evt;
-	struct stat rst, est;
-	struct mq_attr rattr, eattr;
-} reg_queues;
+		if (!uid_full && !no_room)
+			return c;
+		mbx_client *old = pass == 0 ? stale_unconfirmed(srv, uid_full, uid) : NULL;
+
+		if (!old)
+			break;
+		client_remove(srv, old, true);
+	}
+	srv->stats.limited++;
+	*status = MBX_E_FULL;
+	return NULL;
+}
 
 static void client_init(mbx_server *srv, mbx_client *c, const mbx_register_req *r,
 			const reg_queues *q, uint8_t access, int pid_rc)
@@ -786,6 +884,7 @@ static bool register_open_queues(mbx_server *srv, const mbx_hdr *h, const mbx_re
 	if (q->resp == (mqd_t)-1) {
 		/* nowhere to answer (or must not answer: readable by all) */
 		count_bad(srv, MBX_BAD_QUEUE);
+		srv->stats.reg_refused++;
 		if (status == MBX_E_ACCESS)
 			srv->stats.access_denied++;
 		return false;
@@ -793,54 +892,90 @@ static bool register_open_queues(mbx_server *srv, const mbx_hdr *h, const mbx_re
 	q->evt = open_client_queue(srv, r->event_queue, &q->est, &q->eattr, &status);
 	if (q->evt == (mqd_t)-1) {
 		count_bad(srv, MBX_BAD_QUEUE);
-		register_refuse(srv, q->resp, q->rattr.mq_msgsize, h, status);
+		register_refuse(srv, q, h, status, true);
 		mq_close(q->resp);
 		return false;
 	}
 	return true;
 }
 
-static void handle_register(mbx_server *srv, const mbx_hdr *h, const uint8_t *p)
+/* The answer that carries the token (NO_REPLY does not apply to it). */
+static int register_answer(mbx_server *srv, mbx_client *c, const mbx_hdr *h)
 {
-	mbx_register_req r;
-	reg_queues q;
-	mbx_client *c = NULL;
-	int status, pid_rc;
-	uint8_t access;
-
-	memcpy(&r, p, sizeof r);
-	if (!register_open_queues(srv, h, &r, &q))
-		return;
-	access = access_of(srv, (uint32_t)q.rst.st_uid);
-	status = register_identity(srv, &r, &q.rst, &q.est, access, &pid_rc);
-	if (!status && !register_may_replace(srv, h, q.rst.st_ino)) {
-		mq_close(q.resp);
-		mq_close(q.evt);
-		return;
-	}
-	if (!status)
-		c = register_slot(srv, (uint32_t)q.rst.st_uid, access, &status);
-	if (status) {
-		register_refuse(srv, q.resp, q.rattr.mq_msgsize, h, status);
-		mq_close(q.resp);
-		mq_close(q.evt);
-		return;
-	}
-	client_init(srv, c, &r, &q, access, pid_rc);
-
 	mbx_register_resp out = {
 		.token = c->token,
 		.client = c->id,
 		.lease_ms = srv->cfg.lease_ms,
 		.max_msg = srv->cfg.msg_size,
 		.max_transfer = srv->cfg.max_transfer,
-		.access = access,
+		.access = c->access,
 		.line = srv->cfg.line,
 	};
-	/* The answer is mandatory (it carries the token): NO_REPLY is
-	 * ignored here. */
-	if (send_status(srv, c, h->code, h->corr, 0, 0, &out, sizeof out) < 0)
+
+	c->answered_us = srv->now_us;
+	return send_status(srv, c, h->code, h->corr, 0, 0, &out, sizeof out);
+}
+
+/* Another REGISTER for the queues of a registration not confirmed yet:
+ * the same answer (id, token) again, never a second entry, so repeating a
+ * user's REGISTER takes no more of that user's quota than the user's own
+ * does. At most once per REG_ANSWER_INTERVAL_US (the rest counted). A
+ * REGISTER naming another pid makes the pid worthless for liveness and
+ * for removing the queues after the client's death. */
+static void register_answer_again(mbx_server *srv, mbx_client *c, const mbx_hdr *h,
+				  const mbx_register_req *r)
+{
+	if (r->pid != c->pid)
+		c->pid_disputed = true;
+	if (srv->now_us < c->answered_us + REG_ANSWER_INTERVAL_US) {
+		srv->stats.reg_unanswered++;
+		return;
+	}
+	register_answer(srv, c, h);
+}
+
+static void handle_register(mbx_server *srv, const mbx_hdr *h, const uint8_t *p)
+{
+	mbx_register_req r;
+	reg_queues q;
+	mbx_client *c;
+	int status, pid_rc;
+	uint8_t access;
+	bool used;
+
+	memcpy(&r, p, sizeof r);
+	if (!register_open_queues(srv, h, &r, &q))
+		return;
+	status = register_identity(srv, &r, &q.rst, &q.est, &pid_rc);
+	if (status) {
+		register_refuse(srv, &q, h, status, false);
+		goto close;
+	}
+	c = register_existing(srv, h, q.rst.st_ino, &used);
+	if (used) {
+		register_refuse(srv, &q, h, MBX_E_ACCESS, false);
+		goto close;
+	}
+	if (c) {
+		register_answer_again(srv, c, h, &r);
+		goto close;
+	}
+	access = access_of(srv, (uint32_t)q.rst.st_uid);
+	if (access == MBX_ACCESS_NONE)
+		status = MBX_E_ACCESS;
+	else
+		c = register_slot(srv, (uint32_t)q.rst.st_uid, access, &status);
+	if (status) {
+		register_refuse(srv, &q, h, status, true);
+		goto close;
+	}
+	client_init(srv, c, &r, &q, access, pid_rc);
+	if (register_answer(srv, c, h) < 0)
 		client_remove(srv, c, true);
+	return;
+close:
+	mq_close(q.resp);
+	mq_close(q.evt);
 }
 
 static void handle_protocol(mbx_server *srv, mbx_client *c, const mbx_hdr *h, const uint8_t *p)
@@ -926,6 +1061,8 @@ static void handle_protocol(mbx_server *srv, mbx_client *c, const mbx_hdr *h, co
 							  : srv->stats.budget_refused,
 			.budget_used = mbx_budget_used(srv->cfg.budget),
 			.late_wakes = srv->stats.late_wakes,
+			.reg_refused = srv->stats.reg_refused,
+			.reg_unanswered = srv->stats.reg_unanswered,
 		};
 		if (reply)
 			send_status(srv, c, h->code, h->corr, 0, 0, &out, sizeof out);
@@ -1123,10 +1260,12 @@ static void handle_msg(mbx_server *srv, const uint8_t *buf, size_t n)
 
 	if (rc == 0 && h.code == MBX_CMD_REGISTER) {
 		rc = mbx_cmd_validate(&h, p, &bad);
-		if (rc)
+		if (rc) {
 			count_bad(srv, bad); /* no queue to answer to */
-		else
+			srv->stats.reg_refused++;
+		} else {
 			handle_register(srv, &h, p);
+		}
 		return;
 	}
 	c = sender_of(srv, &h, bad);

@@ -165,6 +165,9 @@ typedef struct mbx_server_stats {
 	uint64_t limited;           /* refused by a per-user/client limit */
 	uint64_t budget_refused;    /* refused by the transfer memory budget */
 	uint64_t late_wakes;        /* ticks that came too late to judge leases */
+	uint64_t reg_refused;       /* REGISTERs refused (any reason) */
+	uint64_t reg_unanswered;    /* REGISTERs left unanswered because their
+				     * sender may not own the queues they name */
 	uint32_t clients;           /* current */
 } mbx_server_stats;
 

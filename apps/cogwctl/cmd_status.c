@@ -67,6 +67,8 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 		cJSON_AddNumberToObject(mb, "dropped", (double)ms.dropped);
 		cJSON_AddNumberToObject(mb, "clients_reaped", (double)ms.clients_reaped);
 		cJSON_AddNumberToObject(mb, "late_wakes", (double)ms.late_wakes);
+		cJSON_AddNumberToObject(mb, "reg_refused", (double)ms.reg_refused);
+		cJSON_AddNumberToObject(mb, "reg_unanswered", (double)ms.reg_unanswered);
 		if (has_gw)
 			ctl_gw_counters_json(cJSON_AddObjectToObject(o, "gateway"), &gw);
 		cJSON *na = cJSON_AddArrayToObject(o, "nodes");
@@ -109,6 +111,10 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 	if (ms.late_wakes) /* leases were not judged then: say why clients outlived one */
 		printf("  mailbox woke late %" PRIu64 " time%s (a stall): client leases renewed\n",
 		       ms.late_wakes, ms.late_wakes == 1 ? "" : "s");
+	if (ms.reg_refused) /* a REGISTER flood shows here, not in "malformed" */
+		printf("  mailbox refused %" PRIu64 " registration%s, %" PRIu64
+		       " unanswered (sender may not own the queues named)\n",
+		       ms.reg_refused, ms.reg_refused == 1 ? "" : "s", ms.reg_unanswered);
 	if (has_gw) {
 		printf("  gateway: network %u, %u routed session%s running, %u client%s lent\n",
 		       gw.network_id, gw.active, gw.active == 1 ? "" : "s", gw.leases,

@@ -1800,23 +1800,9 @@ static void test_unit_capabilities_serve_a_non_root_client(void)
 {
 	if (access("/usr/bin/setpriv", X_OK) != 0)
 		TEST_IGNORE_MESSAGE("setpriv not installed");
-	FILE *f = fopen("etc/cogwd.service", "r");
-	TEST_ASSERT_NOT_NULL(f);
-	char line[512], bset[512] = "--bounding-set=-all";
-	bool found = false;
-	while (fgets(line, sizeof line, f)) {
-		if (strncmp(line, "CapabilityBoundingSet=", 22) != 0)
-			continue;
-		found = true;
-		for (char *tok = strtok(line + 22, " \t\n"); tok; tok = strtok(NULL, " \t\n")) {
-			size_t n = strlen(bset);
-			snprintf(bset + n, sizeof bset - n, ",+%s", tok + 4); /* CAP_X -> +X */
-			for (char *q = bset + n; *q; q++)
-				*q = (char)(*q >= 'A' && *q <= 'Z' ? *q - 'A' + 'a' : *q);
-		}
-	}
-	fclose(f);
-	TEST_ASSERT_TRUE_MESSAGE(found, "no CapabilityBoundingSet in etc/cogwd.service");
+	char bset[512];
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, daemon_unit_bounding_set(bset, sizeof bset),
+				      "no CapabilityBoundingSet in etc/cogwd.service");
 	printf("daemon under %s\n", bset);
 	const char *const wrapper[] = { "/usr/bin/setpriv", bset, NULL };
 	char json[4096];

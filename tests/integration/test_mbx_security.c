@@ -14,11 +14,24 @@
  *    command queue);
  *  - the command queue carries every client's token: nobody but the
  *    daemon may read it (default mode, and modes with read bits for
- *    group/others refused at create).
+ *    group/others refused at create);
+ *  - REGISTER naming the command queues of other lines (root's, with pid
+ *    1) must register nobody and write nothing into them;
+ *  - REGISTER naming another user's queues (swapped, mixed, or a pair it
+ *    has not registered yet) must not take that user's quota;
+ *  - a flood of REGISTERs whose refusals would go to a victim's queue
+ *    must write nothing there (figures printed: refused, dropped, the
+ *    victim's slowest call);
+ *  - a flood of REGISTERs naming a client's own pair while it registers
+ *    must not keep it out, nor must registrations of its pairs that
+ *    somebody else made and nobody confirmed;
+ *  - the line-lockout attack against cogwd itself, with three lines and
+ *    the capability bounding set of etc/cogwd.service (needs vcan0..2).
  */
 #include <errno.h>
 #include <fcntl.h>
 #include <grp.h>
+#include <inttypes.h>
 #include <mqueue.h>
 #include <poll.h>
 #include <pthread.h>
@@ -26,6 +39,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -33,11 +47,13 @@
 
 #include "mailbox/cogw.h"
 #include "mailbox/server.h"
+#include "tests/integration/support/daemon.h"
 #include "unity.h"
 
 #define LINE 2
 #define CALL_MS 10000
 #define NOBODY 65534u
+#define VICTIM_UID 1000u
 
 /* ---- the fake line: answers OD_READ 2000h and OD_WRITE, nothing else ---------- */
 
@@ -67,13 +83,6 @@ static uint64_t now_us(void)
 	return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
 }
 
-static void sleep_ms(unsigned ms)
-{
-	struct timespec ts = { ms / 1000, (long)(ms % 1000) * 1000000L };
-
-	nanosleep(&ts, NULL);
-}
-
 static void fake_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 {
 	fake_line *f = ctx;
@@ -97,6 +106,9 @@ static void fake_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 			mbx_server_respond(srv, &req->reply, 0, 0, f->big, sizeof f->big);
 			return;
 		}
+		mbx_server_respond(srv, &req->reply, 0, 0, v, sizeof v);
+		return;
+	case MBX_CMD_SDO_UPLOAD: /* a device that answers at once */
 		mbx_server_respond(srv, &req->reply, 0, 0, v, sizeof v);
 		return;
 	case MBX_CMD_OD_WRITE:
@@ -251,14 +263,18 @@ static int reap(pid_t pid)
 	return WEXITSTATUS(st);
 }
 
-/* Become uid/gid 65534 with no supplementary groups (setpriv --reuid
+/* Become uid/gid id with no supplementary groups (setpriv --reuid
  * --regid --clear-groups). */
+static int become(unsigned id)
+{
+	if (setgroups(0, NULL) < 0 || setresgid(id, id, id) < 0 || setresuid(id, id, id) < 0)
+		return -1;
+	return geteuid() == id && getegid() == id ? 0 : -1;
+}
+
 static int become_nobody(void)
 {
-	if (setgroups(0, NULL) < 0 || setresgid(NOBODY, NOBODY, NOBODY) < 0 ||
-	    setresuid(NOBODY, NOBODY, NOBODY) < 0)
-		return -1;
-	return geteuid() == NOBODY && getegid() == NOBODY ? 0 : -1;
+	return become(NOBODY);
 }
 
 typedef struct sync2 {
@@ -339,38 +355,44 @@ typedef struct attack {
 	uint32_t pid, uid;
 	uint32_t first_pid; /* if set: the first REGISTER names this pid */
 	unsigned times;
+	bool as_owner;   /* flood: claims that match the queues (uid, pid) */
+	const char *cmd; /* the command queue sent to (NULL: qname, LINE) */
+	uint8_t line;
 } attack;
+
+/* Send a's REGISTER (naming uid and pid) to its command queue: 0 or -errno.
+ * A full queue is waited out: the line drains it. */
+static int send_register(mqd_t cmd, const attack *a, uint64_t corr, uint32_t uid, uint32_t pid)
+{
+	uint8_t buf[MBX_MSG_MIN];
+	mbx_register_req r = { .pid = pid, .uid = uid };
+	mbx_hdr h = { .magic = MBX_MAGIC,
+		      .version = MBX_VERSION,
+		      .kind = MBX_KIND_COMMAND,
+		      .code = MBX_CMD_REGISTER,
+		      .line = a->cmd ? a->line : LINE,
+		      .corr = corr };
+	int n;
+
+	memcpy(r.resp_queue, a->resp, sizeof r.resp_queue);
+	memcpy(r.event_queue, a->evt, sizeof r.event_queue);
+	n = mbx_msg_build(buf, sizeof buf, &h, &r, sizeof r);
+	if (n < 0)
+		return n;
+	return mq_send(cmd, (const char *)buf, (size_t)n, 0) == 0 ? 0 : -errno;
+}
 
 static int child_register_as_nobody(void *arg)
 {
 	const attack *a = arg;
-	uint8_t buf[MBX_MSG_MIN];
-	mbx_register_req r;
 	mqd_t cmd;
 
 	CHECK(become_nobody() == 0);
-	cmd = mq_open(qname, O_WRONLY | O_NONBLOCK);
+	cmd = mq_open(a->cmd ? a->cmd : qname, O_WRONLY);
 	CHECK(cmd != (mqd_t)-1);
-	memset(&r, 0, sizeof r);
-	r.pid = a->pid;
-	r.uid = a->uid;
-	memcpy(r.resp_queue, a->resp, sizeof r.resp_queue);
-	memcpy(r.event_queue, a->evt, sizeof r.event_queue);
-	for (unsigned i = 0; i < a->times; i++) {
-		mbx_hdr h = { .magic = MBX_MAGIC,
-			      .version = MBX_VERSION,
-			      .kind = MBX_KIND_COMMAND,
-			      .code = MBX_CMD_REGISTER,
-			      .line = LINE,
-			      .corr = 4242 + i };
-		int n;
-
-		r.pid = i == 0 && a->first_pid ? a->first_pid : a->pid;
-		n = mbx_msg_build(buf, sizeof buf, &h, &r, sizeof r);
-
-		CHECK(n > 0);
-		CHECK(mq_send(cmd, (const char *)buf, (size_t)n, 0) == 0);
-	}
+	for (unsigned i = 0; i < a->times; i++)
+		CHECK(send_register(cmd, a, 4242 + i, a->uid,
+				    i == 0 && a->first_pid ? a->first_pid : a->pid) == 0);
 	mq_close(cmd);
 	return 0;
 }
@@ -763,17 +785,18 @@ static int rawc_recv(rawc *r, mbx_hdr *h, void *p, size_t cap)
 	return 0;
 }
 
-/* Create queues n (depth 2: a chunk window of one) and register; returns
- * the status of the answer. */
-static int rawc_register(rawc *r, unsigned n)
+static void rawc_names(rawc *r, unsigned n)
 {
-	struct mq_attr a = { .mq_maxmsg = 2, .mq_msgsize = 1024 };
-	mbx_register_req rq;
-	mbx_register_resp rs;
-	mbx_hdr h;
-
 	snprintf(r->rn, sizeof r->rn, "/%s.n%u.resp", instance, n);
 	snprintf(r->en, sizeof r->en, "/%s.n%u.evt", instance, n);
+}
+
+/* Create queues n (depth 2: a chunk window of one), not registered yet. */
+static int rawc_create(rawc *r, unsigned n)
+{
+	struct mq_attr a = { .mq_maxmsg = 2, .mq_msgsize = 1024 };
+
+	rawc_names(r, n);
 	mq_unlink(r->rn);
 	mq_unlink(r->en);
 	r->resp = mq_open(r->rn, O_CREAT | O_EXCL | O_RDONLY | O_NONBLOCK, 0600, &a);
@@ -781,6 +804,16 @@ static int rawc_register(rawc *r, unsigned n)
 	r->cmd = mq_open(qname, O_WRONLY | O_NONBLOCK);
 	if (r->resp == (mqd_t)-1 || r->evt == (mqd_t)-1 || r->cmd == (mqd_t)-1)
 		return -errno;
+	return 0;
+}
+
+/* Register created queues; returns the status of the answer. */
+static int rawc_register_created(rawc *r)
+{
+	mbx_register_req rq;
+	mbx_register_resp rs;
+	mbx_hdr h;
+
 	memset(&rq, 0, sizeof rq);
 	rq.pid = (uint32_t)getpid();
 	rq.uid = (uint32_t)geteuid();
@@ -797,6 +830,13 @@ static int rawc_register(rawc *r, unsigned n)
 		rawc_send(r, MBX_CMD_PING, MBX_F_NO_REPLY, 2, NULL, 0); /* confirm */
 	}
 	return h.status;
+}
+
+static int rawc_register(rawc *r, unsigned n)
+{
+	int rc = rawc_create(r, n);
+
+	return rc ? rc : rawc_register_created(r);
 }
 
 static void rawc_close(rawc *r)
@@ -989,6 +1029,464 @@ static void test_an_unacknowledged_transfer_and_the_memory_budget(void)
 	sync_close(&s);
 }
 
+/* ---- 6. registration cannot be turned against others ----------------------------- */
+
+/* A root client (libcogw) and a client of 65534 (raw) that must register
+ * and be served after an attack. */
+static int child_nobody_registers(void *arg)
+{
+	rawc r;
+	int st;
+
+	(void)arg;
+	CHECK(become_nobody() == 0);
+	st = rawc_register(&r, 7);
+	if (st)
+		fprintf(stderr, "nobody: register: %s\n", mbx_status_to_string(st));
+	CHECK(st == 0);
+	rawc_close(&r);
+	return 0;
+}
+
+/* Messages waiting in the queue behind name (-1: cannot tell). */
+static long queue_waiting(const char *name)
+{
+	mqd_t q = mq_open(name, O_RDONLY | O_NONBLOCK);
+	struct mq_attr a;
+	long n = -1;
+
+	if (q == (mqd_t)-1)
+		return -1;
+	if (mq_getattr(q, &a) == 0)
+		n = a.mq_curmsgs;
+	mq_close(q);
+	return n;
+}
+
+/* Before: uid 65534 named the command queues of lines 0 and 3 (root,
+ * 0620) with pid 1; each REGISTER made a root client (root is exempt from
+ * the per-user limit) until the table was full for everybody, and the
+ * tokens went into the other lines' command queues. */
+static void test_register_cannot_name_the_command_queues_of_any_line(void)
+{
+	mbx_server_config cfg = base_cfg(), other = base_cfg();
+	char q0[MBX_QNAME_MAX], q3[MBX_QNAME_MAX];
+	mbx_server *line0 = NULL, *line3 = NULL;
+	attack a = { .times = 40, .uid = 0, .pid = 1 };
+
+	start(&cfg);
+	TEST_ASSERT_EQUAL_INT(0, mbx_queue_name(q0, sizeof q0, instance, 0));
+	TEST_ASSERT_EQUAL_INT(0, mbx_queue_name(q3, sizeof q3, instance, 3));
+	other.queue_mode = 0620;
+	other.line = 0;
+	other.queue_name = q0;
+	TEST_ASSERT_EQUAL_INT(0, mbx_server_create(&line0, &other));
+	other.line = 3;
+	other.queue_name = q3;
+	TEST_ASSERT_EQUAL_INT(0, mbx_server_create(&line3, &other));
+	memcpy(a.resp, q3, sizeof a.resp);
+	memcpy(a.evt, q0, sizeof a.evt);
+	TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_register_as_nobody, &a)));
+	sleep_ms(300);
+	mbx_server_stats st = stats();
+	long w0 = queue_waiting(q0), w3 = queue_waiting(q3);
+
+	printf("other lines' command queues: %u REGISTERs, %" PRIu64 " clients registered, "
+	       "%ld + %ld messages written into them\n",
+	       a.times, st.clients_registered, w3, w0);
+	TEST_ASSERT_EQUAL_UINT64_MESSAGE(0, st.clients_registered, "the attack registered clients");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, w3 + w0, "written into another line's command queue");
+	TEST_ASSERT_EQUAL_UINT64(a.times, st.reg_refused);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_writer, NULL)), "root was locked out");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_nobody_registers, NULL)),
+				      "65534 was locked out");
+	mbx_server_destroy(line0);
+	mbx_server_destroy(line3);
+	mq_unlink(q0);
+	mq_unlink(q3);
+}
+
+/* uid 1000 with a per-user limit of 2: one registration used, the queues
+ * of a second made but not registered yet; during the attack it waits.
+ * Its queues are numbered apart from those other tests leave behind. */
+#define QUOTA_PAIRS 20
+static int child_quota_victim(void *arg)
+{
+	sync2 *s = arg;
+	rawc r[3];
+	int st;
+
+	CHECK(become(VICTIM_UID) == 0);
+	CHECK(rawc_register(&r[0], QUOTA_PAIRS) == 0);
+	CHECK(rawc_create(&r[1], QUOTA_PAIRS + 1) == 0);
+	child_ready(s);
+	child_wait_go(s);
+	st = rawc_register_created(&r[1]);
+	if (st)
+		fprintf(stderr, "victim: second registration: %s\n", mbx_status_to_string(st));
+	CHECK(st == 0);
+	/* the limit itself still holds */
+	st = rawc_register(&r[2], QUOTA_PAIRS + 2);
+	if (st != MBX_E_FULL)
+		fprintf(stderr, "victim: third registration: %d\n", st);
+	CHECK(st == MBX_E_FULL);
+	for (unsigned i = 0; i < 3; i++)
+		rawc_close(&r[i]);
+	return 0;
+}
+
+/* Before: naming the victim's queues swapped (event queue as response
+ * queue), mixed, or a pair it had not registered yet, with its pid, made
+ * entries of uid 1000 until its quota was full: its own registration got
+ * FULL for the attack's duration plus the registration window. */
+static void test_register_cannot_fill_another_users_quota(void)
+{
+	mbx_server_config cfg = base_cfg();
+	sync2 s;
+	pid_t victim;
+	rawc n0, n1;
+
+	cfg.max_clients_per_uid = 2;
+	cfg.register_timeout_ms = 10000;
+	start(&cfg);
+	sync_init(&s);
+	victim = spawn(child_quota_victim, &s);
+	parent_wait_ready(&s);
+	rawc_names(&n0, QUOTA_PAIRS);
+	rawc_names(&n1, QUOTA_PAIRS + 1);
+	const char *const named[][2] = {
+		{ n0.en, n0.rn }, /* swapped */
+		{ n1.en, n1.rn }, /* swapped, the pair not registered yet */
+		{ n0.rn, n1.en }, /* mixed */
+		{ n1.rn, n1.en }, /* the pair not registered yet */
+		{ n0.rn, n0.en }, /* the pair in use */
+	};
+	for (size_t i = 0; i < sizeof named / sizeof named[0]; i++) {
+		attack a = { .times = 5, .uid = VICTIM_UID, .pid = (uint32_t)victim };
+
+		snprintf(a.resp, sizeof a.resp, "%s", named[i][0]);
+		snprintf(a.evt, sizeof a.evt, "%s", named[i][1]);
+		TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_register_as_nobody, &a)));
+	}
+	sleep_ms(300);
+	printf("another user's quota: 25 REGISTERs, %u entries of uid %u (limit 2)\n",
+	       stats().clients, VICTIM_UID);
+	TEST_ASSERT_TRUE_MESSAGE(stats().clients <= 2, "the attack took the victim's quota");
+	parent_go(&s);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(victim), "the victim was refused");
+	sync_close(&s);
+}
+
+/* Shared (mmap) between the parent and the flood test's victim. */
+typedef struct flood_shared {
+	sync2 s;
+	unsigned calls, failed;
+	uint64_t slowest_us;
+	cogw_stats lib;
+} flood_shared;
+
+#define FLOOD_MS 3000
+
+/* uid 1000 (libcogw): SDO uploads one after the other while the flood
+ * runs; the slowest call is the figure. */
+static int child_flood_victim(void *arg)
+{
+	flood_shared *rep = arg;
+	sync2 *s = &rep->s;
+	cogw *h;
+	uint8_t v[8];
+	size_t len;
+	uint32_t abort;
+
+	CHECK(become(VICTIM_UID) == 0);
+	CHECK(cogw_open(&h, instance) == 0);
+	CHECK(cogw_ping(h, LINE, CALL_MS) == 0);
+	child_ready(s);
+	child_wait_go(s);
+	for (uint64_t end = now_us() + FLOOD_MS * 1000u; now_us() < end;) {
+		uint64_t t0 = now_us();
+		int rc = cogw_sdo_read(h, LINE, 5, 0x1018, 1, v, sizeof v, &len, CALL_MS, &abort);
+		uint64_t took = now_us() - t0;
+
+		rep->calls++;
+		if (rc)
+			rep->failed++;
+		if (took > rep->slowest_us)
+			rep->slowest_us = took;
+	}
+	cogw_get_stats(h, &rep->lib);
+	cogw_close(h);
+	return 0;
+}
+
+/* 65534: REGISTERs naming the victim's queues, as fast as the command
+ * queue takes them, for FLOOD_MS: claims that do not match (root's uid, a
+ * dead pid), or (as_owner) the owner's uid and the victim's pid. */
+static int child_register_flood(void *arg)
+{
+	const attack *a = arg;
+	unsigned sent = 0;
+	mqd_t cmd;
+
+	CHECK(become_nobody() == 0);
+	cmd = mq_open(qname, O_WRONLY);
+	CHECK(cmd != (mqd_t)-1);
+	for (uint64_t end = now_us() + FLOOD_MS * 1000u; now_us() < end; sent++)
+		CHECK(send_register(cmd, a, sent, sent % 2 && !a->as_owner ? 0 : a->uid,
+				    sent % 2 || a->as_owner ? a->pid : dead_pid()) == 0);
+	mq_close(cmd);
+	printf("flood: %u REGISTERs in %u ms\n", sent, FLOOD_MS);
+	fflush(stdout);
+	return 0;
+}
+
+/* Before: every refusal went to the response queue the REGISTER named:
+ * the victim's queue filled with answers nobody asked for, its own
+ * answers were dropped and its calls timed out. */
+static void test_register_refusals_are_no_weapon(void)
+{
+	mbx_server_config cfg = base_cfg();
+	flood_shared *sh = mmap(NULL, sizeof *sh, PROT_READ | PROT_WRITE,
+				MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+	attack a = { .uid = VICTIM_UID };
+	mbx_client_info ci;
+	pid_t victim, flood;
+
+	TEST_ASSERT_TRUE(sh != MAP_FAILED);
+	memset(sh, 0, sizeof *sh);
+	start(&cfg);
+	sync_init(&sh->s);
+	victim = spawn(child_flood_victim, sh);
+	parent_wait_ready(&sh->s);
+	ci = client_info(0);
+	memcpy(a.resp, ci.resp_queue, sizeof a.resp);
+	memcpy(a.evt, ci.event_queue, sizeof a.evt);
+	a.pid = ci.pid;
+	mbx_server_stats before = stats();
+
+	flood = spawn(child_register_flood, &a);
+	parent_go(&sh->s);
+	TEST_ASSERT_EQUAL_INT(0, reap(flood));
+	TEST_ASSERT_EQUAL_INT(0, reap(victim));
+	mbx_server_stats st = stats();
+	const flood_shared *r = sh;
+
+	printf("refusal flood: %" PRIu64 " refused, %" PRIu64 " unanswered, %" PRIu64
+	       " messages dropped; victim: %u calls, %u failed, slowest %.1f ms, %" PRIu64
+	       " answers it never asked for\n",
+	       st.reg_refused - before.reg_refused, st.reg_unanswered - before.reg_unanswered,
+	       st.dropped - before.dropped, r->calls, r->failed, r->slowest_us / 1000.0,
+	       r->lib.stray_responses);
+	TEST_ASSERT_TRUE(st.reg_refused > before.reg_refused);
+	TEST_ASSERT_EQUAL_UINT64_MESSAGE(0, r->lib.stray_responses,
+					 "refusals were written to the victim's queue");
+	TEST_ASSERT_EQUAL_UINT64_MESSAGE(0, st.dropped - before.dropped, "messages were dropped");
+	TEST_ASSERT_EQUAL_UINT_MESSAGE(0, r->failed, "the victim's calls failed");
+	TEST_ASSERT_TRUE(r->calls > 0);
+	sync_close(&sh->s);
+	munmap(sh, sizeof *sh);
+}
+
+/* uid 1000 (libcogw): registered; after the daemon restarted, its next
+ * call must register again while somebody floods REGISTERs of its
+ * queues. */
+static int child_registers_during_flood(void *arg)
+{
+	sync2 *s = arg;
+	cogw *h;
+	uint8_t v[8];
+	size_t len;
+	uint32_t abort;
+	int rc = COGW_E_RESTARTED;
+
+	CHECK(become(VICTIM_UID) == 0);
+	CHECK(cogw_open(&h, instance) == 0);
+	CHECK(cogw_ping(h, LINE, CALL_MS) == 0);
+	child_ready(s);
+	child_wait_go(s);
+	for (unsigned i = 0; i < 5 && (rc == COGW_E_RESTARTED || rc == COGW_E_NO_DAEMON); i++)
+		rc = cogw_od_read(h, LINE, 0x2000, 0, v, sizeof v, &len, CALL_MS, &abort);
+	if (rc)
+		fprintf(stderr, "victim: after the restart: %s\n", cogw_strerror(rc));
+	CHECK(rc == 0 && len == 4);
+	cogw_close(h);
+	return 0;
+}
+
+/* The victim's queues named with its uid and pid (as its own REGISTER
+ * would) while it registers: before, each such REGISTER was one more
+ * entry of uid 1000 until its quota was full and its own REGISTER got
+ * FULL. Now the pair has one registration, answered again at most every
+ * 100 ms under the flood's corr; libcogw takes such an answer as its own. */
+static void test_a_flood_of_its_own_pair_does_not_stop_a_registration(void)
+{
+	mbx_server_config cfg = base_cfg();
+	attack a = { .uid = VICTIM_UID, .as_owner = true };
+	mbx_client_info ci;
+	sync2 s;
+	pid_t victim, flood;
+
+	cfg.max_clients_per_uid = 2;
+	cfg.register_timeout_ms = 10000; /* as the daemon's */
+	start(&cfg);
+	sync_init(&s);
+	victim = spawn(child_registers_during_flood, &s);
+	parent_wait_ready(&s);
+	ci = client_info(0);
+	memcpy(a.resp, ci.resp_queue, sizeof a.resp);
+	memcpy(a.evt, ci.event_queue, sizeof a.evt);
+	a.pid = ci.pid;
+	stop(); /* a restarted daemon knows no client */
+	start(&cfg);
+	flood = spawn(child_register_flood, &a);
+	sleep_ms(300);
+	parent_go(&s);
+	int rc = reap(victim);
+
+	TEST_ASSERT_EQUAL_INT(0, reap(flood));
+	printf("own pair flooded: %u registration%s of uid %u\n", stats().clients,
+	       stats().clients == 1 ? "" : "s", VICTIM_UID);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, "the victim could not register again");
+	TEST_ASSERT_TRUE(stats().clients <= 1);
+	sync_close(&s);
+}
+
+/* uid 1000, limit 2: three pairs made; the first two are registered by
+ * somebody else (never confirmed), the third it registers itself. */
+static int child_stale_victim(void *arg)
+{
+	sync2 *s = arg;
+	rawc r[3];
+	int st;
+
+	CHECK(become(VICTIM_UID) == 0);
+	for (unsigned i = 0; i < 3; i++)
+		CHECK(rawc_create(&r[i], QUOTA_PAIRS + 5 + i) == 0);
+	child_ready(s);
+	child_wait_go(s);
+	st = rawc_register_created(&r[2]);
+	if (st)
+		fprintf(stderr, "victim: own registration: %s\n", mbx_status_to_string(st));
+	CHECK(st == 0);
+	for (unsigned i = 0; i < 3; i++)
+		rawc_close(&r[i]);
+	return 0;
+}
+
+/* Pairs of a user registered by somebody else and never confirmed (the
+ * user does not use them on this line) hold that user's quota for the
+ * registration window, renewed by the next REGISTER. Past its confirm
+ * grace (1 s), such a registration gives way to a new one. */
+static void test_unconfirmed_registrations_give_way(void)
+{
+	mbx_server_config cfg = base_cfg();
+	sync2 s;
+	pid_t victim;
+
+	cfg.max_clients_per_uid = 2;
+	cfg.register_timeout_ms = 10000;
+	start(&cfg);
+	sync_init(&s);
+	victim = spawn(child_stale_victim, &s);
+	parent_wait_ready(&s);
+	for (unsigned i = 0; i < 2; i++) {
+		attack a = { .times = 1, .uid = VICTIM_UID, .pid = (uint32_t)victim };
+		rawc n;
+
+		rawc_names(&n, QUOTA_PAIRS + 5 + i);
+		memcpy(a.resp, n.rn, sizeof a.resp);
+		memcpy(a.evt, n.en, sizeof a.evt);
+		TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_register_as_nobody, &a)));
+	}
+	sleep_ms(200);
+	TEST_ASSERT_EQUAL_UINT32(2, stats().clients);
+	sleep_ms(1000);
+	parent_go(&s);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(victim), "the victim's quota stayed taken");
+	sync_close(&s);
+}
+
+/* ---- 7. the daemon itself, under the unit's capabilities --------------------------- */
+
+#define DAEMON_INSTANCE "secd"
+#define DAEMON_LINE_JSON(n)                                                                \
+	"{\"name\": \"line" #n "\", \"interface\": \"vcan" #n "\", \"bitrate\": 1000000, " \
+	"\"node_id\": 127}"
+
+static const char daemon_json[] =
+	"{\"version\": 1, \"mailbox\": {\"instance\": \"" DAEMON_INSTANCE "\", "
+	"\"queue_mode\": \"0622\", \"max_clients\": 8, \"default_access\": \"read\"}, "
+	"\"lines\": [" DAEMON_LINE_JSON(0) ", " DAEMON_LINE_JSON(1) ", " DAEMON_LINE_JSON(2) "]}";
+
+/* uid 1000 (libcogw): registers on every line and reads their counters. */
+static int child_daemon_client(void *arg)
+{
+	const attack *a = arg;
+	mbx_stats_wire ms[3];
+	cogw *h;
+
+	CHECK(become(VICTIM_UID) == 0);
+	CHECK(cogw_open(&h, DAEMON_INSTANCE) == 0);
+	for (unsigned l = 0; l < 3; l++) {
+		int rc = cogw_mbx_stats(h, l, &ms[l], CALL_MS);
+
+		if (rc)
+			fprintf(stderr, "uid %u: line %u: %s\n", VICTIM_UID, l, cogw_strerror(rc));
+		CHECK(rc == 0);
+	}
+	printf("cogwd, line 1: %u REGISTERs naming the command queues of lines 2 and 0 "
+	       "with pid 1: %u client on line 1 (uid %u), %" PRIu64 " refused; malformed "
+	       "messages on line 0: %" PRIu64 ", line 2: %" PRIu64 "\n",
+	       a->times, ms[1].clients, VICTIM_UID, ms[1].reg_refused, ms[0].malformed,
+	       ms[2].malformed);
+	fflush(stdout);
+	CHECK(ms[1].clients == 1);
+	CHECK(ms[1].reg_refused == a->times);
+	CHECK(ms[0].malformed == 0 && ms[2].malformed == 0);
+	cogw_close(h);
+	return 0;
+}
+
+/* The attack of test_register_cannot_name_the_command_queues_of_any_line
+ * against cogwd itself with three lines, run with exactly the capability
+ * bounding set of etc/cogwd.service: 65534 names the command queues of
+ * lines 2 and 0 in REGISTERs to line 1; uid 1000 and root must still
+ * register there, and nothing may reach lines 0 and 2. */
+static void test_the_daemon_keeps_its_lines_open(void)
+{
+	static daemon_run d;
+	char bset[512], q[3][MBX_QNAME_MAX];
+	attack a = { .times = 40, .uid = 0, .pid = 1, .line = 1 };
+	cogw *h;
+
+	if (access("/sys/class/net/vcan2", F_OK) != 0)
+		TEST_IGNORE_MESSAGE("needs vcan0..2 (tests/vcan/run -n 3)");
+	if (access("/usr/bin/setpriv", X_OK) != 0)
+		TEST_IGNORE_MESSAGE("setpriv not installed");
+	TEST_ASSERT_EQUAL_INT(0, daemon_unit_bounding_set(bset, sizeof bset));
+	const char *const wrapper[] = { "/usr/bin/setpriv", bset, NULL };
+	int rc = daemon_start(&d, &(daemon_opts){ .config_json = daemon_json,
+						  .instance = DAEMON_INSTANCE,
+						  .n_lines = 3,
+						  .notify = true,
+						  .drop_notify = true,
+						  .wrapper = wrapper });
+
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, "cogwd did not come up under the unit's capabilities");
+	for (unsigned l = 0; l < 3; l++)
+		daemon_cmd_queue(&d, l, q[l], sizeof q[l]);
+	a.cmd = q[1];
+	snprintf(a.resp, sizeof a.resp, "%s", q[2]);
+	snprintf(a.evt, sizeof a.evt, "%s", q[0]);
+	TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_register_as_nobody, &a)));
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_daemon_client, &a)),
+				      "uid 1000 was locked out, or the attack reached other lines");
+	TEST_ASSERT_EQUAL_INT(0, cogw_open(&h, DAEMON_INSTANCE));
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, cogw_ping(h, 1, CALL_MS), "root was locked out");
+	cogw_close(h);
+	daemon_cleanup(&d);
+}
+
 int main(void)
 {
 	pthread_mutex_init(&fl.mu, NULL);
@@ -1003,5 +1501,11 @@ int main(void)
 	RUN_TEST(test_clients_survive_a_daemon_restart);
 	RUN_TEST(test_a_reader_cannot_starve_a_writer);
 	RUN_TEST(test_an_unacknowledged_transfer_and_the_memory_budget);
+	RUN_TEST(test_register_cannot_name_the_command_queues_of_any_line);
+	RUN_TEST(test_register_cannot_fill_another_users_quota);
+	RUN_TEST(test_register_refusals_are_no_weapon);
+	RUN_TEST(test_a_flood_of_its_own_pair_does_not_stop_a_registration);
+	RUN_TEST(test_unconfirmed_registrations_give_way);
+	RUN_TEST(test_the_daemon_keeps_its_lines_open);
 	return UNITY_END();
 }

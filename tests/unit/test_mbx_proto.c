@@ -409,6 +409,27 @@ static void test_register_fields(void)
 	r = good_register();
 	strcpy(r.resp_queue, "/"); /* empty name */
 	ASSERT_BAD(MBX_E_QUEUE, MBX_BAD_QUEUE, h, &r, sizeof r);
+	/* the two queues of one client, named as a pair: no command queue
+	 * of any line, no swapped or mixed queues */
+	static const char *const not_pairs[][2] = {
+		{ "/cogw.main.line1.cmd", "/cogw.main.line0.cmd" },
+		{ "/cogw.main.line1.cmd", "/cogw.main.c1234.1.evt" },
+		{ "/cogw.main.c1234.1.evt", "/cogw.main.c1234.1.resp" },
+		{ "/cogw.main.c1234.1.resp", "/cogw.main.c1234.2.evt" },
+		{ "/cogw.main.c1234.1.resp", "/cogw.main.c1234.1.resp.evt" },
+		{ "/.resp", "/.evt" },
+		{ "/x.resp", "/x.evtx" },
+	};
+	for (size_t i = 0; i < sizeof not_pairs / sizeof not_pairs[0]; i++) {
+		r = good_register();
+		strcpy(r.resp_queue, not_pairs[i][0]);
+		strcpy(r.event_queue, not_pairs[i][1]);
+		ASSERT_BAD(MBX_E_QUEUE, MBX_BAD_QUEUE, h, &r, sizeof r);
+	}
+	r = good_register();
+	strcpy(r.resp_queue, "/x.resp"); /* the shortest pair */
+	strcpy(r.event_queue, "/x.evt");
+	ASSERT_OK(h, &r, sizeof r);
 }
 
 static void test_subscribe_fields(void)

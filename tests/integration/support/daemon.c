@@ -38,6 +38,31 @@ void daemon_cmd_queue(const daemon_run *d, unsigned line, char *buf, size_t cap)
 	snprintf(buf, cap, "/cogw.%s.line%u.cmd", d->instance, line);
 }
 
+int daemon_unit_bounding_set(char *buf, size_t cap)
+{
+	FILE *f = fopen("etc/cogwd.service", "r");
+	char line[512];
+	int rc = -ENOENT;
+
+	if (!f)
+		return -errno;
+	snprintf(buf, cap, "--bounding-set=-all");
+	while (fgets(line, sizeof line, f)) {
+		if (strncmp(line, "CapabilityBoundingSet=", 22) != 0)
+			continue;
+		rc = 0;
+		for (char *tok = strtok(line + 22, " \t\n"); tok; tok = strtok(NULL, " \t\n")) {
+			size_t n = strlen(buf);
+
+			snprintf(buf + n, cap - n, ",+%s", tok + 4); /* CAP_X -> +X */
+			for (char *q = buf + n; *q; q++)
+				*q = (char)(*q >= 'A' && *q <= 'Z' ? *q - 'A' + 'a' : *q);
+		}
+	}
+	fclose(f);
+	return rc;
+}
+
 static bool queue_exists(const char *name)
 {
 	/* Opening for writing (non-blocking) consumes nothing; the daemon

@@ -106,6 +106,10 @@ int daemon_start(daemon_run *d, const daemon_opts *opts);
 int daemon_stop(daemon_run *d, int timeout_ms);
 /* Stop (if running) and remove d->dir recursively. Idempotent. */
 void daemon_cleanup(daemon_run *d);
+/* The setpriv argument that gives a process exactly the capability
+ * bounding set of etc/cogwd.service ("--bounding-set=-all,+sys_nice,...").
+ * 0, or -ENOENT when the unit names none, or -errno. */
+int daemon_unit_bounding_set(char *buf, size_t cap);
 /* Path of line `line`'s command queue, "/cogw.<instance>.line<N>.cmd". */
 void daemon_cmd_queue(const daemon_run *d, unsigned line, char *buf, size_t cap);
 
