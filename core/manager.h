@@ -139,7 +139,11 @@ typedef enum co_mgr_node_what {
 	                             * value = the NMT state a heartbeat
 	                             * contradicting its boot-up reported, or
 	                             * CO_MGR_DUP_SDO_ANSWERS */
-	CO_MGR_NODE_OWN_ID,         /* a device uses the manager's node-ID */
+	CO_MGR_NODE_OWN_ID,         /* a frame on the manager's own node-ID:
+	                             * value = its COB-ID; 700h+id (boot-up or
+	                             * heartbeat) = a device uses it, the line
+	                             * goes FATAL; 080h+id, 580h+id: reported,
+	                             * boot and supervision go on */
 	CO_MGR_NODE_NMT_IGNORED,    /* an NMT command to the manager was
 	                             * ignored; value = cs, sub = target */
 	CO_MGR_NODE_KEEP_OP,        /* KEEP_OP: started again; value = state
@@ -271,6 +275,8 @@ typedef struct co_mgr_diag {
 	uint32_t errctrl_events;   /* error-control losses of booted slaves */
 	uint32_t keep_op_restarts;
 	uint32_t network_boots;
+	uint32_t own_id_frames; /* EMCY, SDO answers or malformed error-control
+	                         * frames on the manager's own node-ID */
 } co_mgr_diag;
 
 static inline bool co_mgr_bit(const co_mgr_bits *b, unsigned n)

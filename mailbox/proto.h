@@ -466,6 +466,9 @@ typedef struct mbx_mgr_status {
 	uint32_t first_error_code; /* EMCY code or SDO abort code */
 	uint32_t nmt_ignored, unexpected, duplicates, errctrl_events;
 	uint32_t keep_op_restarts, network_boots;
+	uint32_t own_id_frames; /* EMCY/SDO answers/malformed error control on
+	                         * the manager's own node-ID */
+	uint32_t pad;
 	mbx_mgr_bits assigned, present, booted, operational, stopped, preop, mismatch, errctrl_lost,
 		emcy_active;
 } mbx_mgr_status;

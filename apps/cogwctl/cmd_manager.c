@@ -83,6 +83,7 @@ static void status_out(ctl *c, unsigned line, const mbx_mgr_status *s)
 		cJSON_AddNumberToObject(k, "duplicates", s->duplicates);
 		cJSON_AddNumberToObject(k, "errctrl_events", s->errctrl_events);
 		cJSON_AddNumberToObject(k, "keep_op_restarts", s->keep_op_restarts);
+		cJSON_AddNumberToObject(k, "own_id_frames", s->own_id_frames);
 		ctl_json_print(o);
 		return;
 	}
@@ -97,9 +98,9 @@ static void status_out(ctl *c, unsigned line, const mbx_mgr_status *s)
 		       s->first_error_status ? s->first_error_status : ' ', s->first_error_code);
 	printf("  counters         network boots %" PRIu32 ", NMT ignored %" PRIu32
 	       ", unexpected %" PRIu32 ", duplicates %" PRIu32 ", error control lost %" PRIu32
-	       ", KEEP_OP restarts %" PRIu32 "\n",
+	       ", KEEP_OP restarts %" PRIu32 ", frames on our own node-ID %" PRIu32 "\n",
 	       s->network_boots, s->nmt_ignored, s->unexpected, s->duplicates, s->errctrl_events,
-	       s->keep_op_restarts);
+	       s->keep_op_restarts, s->own_id_frames);
 }
 
 static int req_value(const char *s)

@@ -359,6 +359,7 @@ static int answer_status(struct mgr_line *ml, mbx_mgr_status *s)
 	s->errctrl_events = d.errctrl_events;
 	s->keep_op_restarts = d.keep_op_restarts;
 	s->network_boots = d.network_boots;
+	s->own_id_frames = d.own_id_frames;
 	copy_bits(&s->assigned, &d.assigned);
 	copy_bits(&s->present, &d.present);
 	copy_bits(&s->booted, &d.booted);
