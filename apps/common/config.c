@@ -1500,6 +1500,7 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next, c
 	DIFF(strcmp(cur->state_dir, next->state_dir), "state_dir");
 	DIFF(cur->mlockall != next->mlockall, "mlockall");
 	DIFF(cur->watchdog_check_ms != next->watchdog_check_ms, "watchdog_check_ms");
+	DIFF(cur->file_memory != next->file_memory, "file_memory");
 	DIFF(cur->debug_stall_signal != next->debug_stall_signal ||
 		     cur->debug_stall_ms != next->debug_stall_ms,
 	     "debug");
