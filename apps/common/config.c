@@ -139,6 +139,7 @@ struct ctx {
 	size_t n_lines;
 	uint16_t line_net[COGW_LINES_MAX];      /* network of each line */
 	uint32_t route_default[GW_NET_MAX + 1]; /* 1F2Ch defaults */
+	uint16_t route_seen[GW_NET_MAX + 1];    /* gateway.routes[i] + 1 */
 	const cJSON *process_image;             /* gateway.process_image */
 	cogw_file_set *read; /* the files loaded so far (the config's) */
 };
@@ -595,6 +596,47 @@ static void scan_networks(struct ctx *c, const cJSON *lines)
 			(gw_route_entry){ true, (uint8_t)i, 0 });
 }
 
+/* "values" for 1F2Ch:n go through the check of a run-time write (SDO or
+ * mailbox, gateway/route.h gw_route_write_check): bits 16..31 set or a
+ * line that does not exist are refused when the file is loaded, not left
+ * to be silently no route. */
+static uint32_t config_route_check(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	const struct ctx *c = ctx;
+	(void)e;
+	return gw_route_write_check(a, (uint8_t)c->n_lines);
+}
+
+static const co_od_hooks config_route_hooks = { .check_write = config_route_check };
+
+static void route_checks(struct ctx *c, co_od *od, bool on)
+{
+	for (unsigned n = GW_NET_MIN; n <= GW_NET_MAX; n++)
+		(void)co_od_set_hooks(od, GW_OBJ_ROUTES, (uint8_t)n, on ? &config_route_hooks : NULL,
+				      on ? c : NULL);
+}
+
+/* A network attached to one of our lines has one route, to that line: a
+ * "values" entry that sends it elsewhere is a second route for it. */
+static int check_attached_routes(struct ctx *c, const char *path, const co_od *od)
+{
+	for (size_t i = 0; i < c->n_lines; i++) {
+		uint16_t net = c->line_net[i];
+		const co_od_entry *e = co_od_find(od, GW_OBJ_ROUTES, (uint8_t)net);
+		uint32_t v = e ? (uint32_t)co_od_entry_raw(e) : 0;
+		char p[JSON_PATH_MAX];
+
+		if (!v || v == c->route_default[net])
+			continue;
+		json_util_path_key(p, sizeof(p), path, "values");
+		return fail(c, p,
+			    "0x%04X:%02X = 0x%08X: network %u is attached to lines[%zu], its "
+			    "only route",
+			    GW_OBJ_ROUTES, net, v, net, i);
+	}
+	return 0;
+}
+
 static int parse_route(struct ctx *c, const cJSON *o, size_t idx)
 {
 	char path[JSON_PATH_MAX], pn[JSON_PATH_MAX], pl[JSON_PATH_MAX], pr[JSON_PATH_MAX];
@@ -629,6 +671,10 @@ static int parse_route(struct ctx *c, const cJSON *o, size_t idx)
 	if (!router)
 		return fail(c, path, "network %u is not attached here: name its next router",
 			    (unsigned)net);
+	if (c->route_seen[net])
+		return fail(c, pn, "network %u has a route already (gateway.routes[%u])",
+			    (unsigned)net, c->route_seen[net] - 1);
+	c->route_seen[net] = (uint16_t)(idx + 1);
 	c->route_default[net] = gw_route_entry_encode(
 		(gw_route_entry){ true, (uint8_t)line, (uint8_t)router });
 	return 0;
@@ -647,6 +693,10 @@ static int parse_gateway(struct ctx *c, const cJSON *o)
 		if (!cJSON_IsArray(v))
 			return fail(c, "gateway.routes", "expected an array, got %s",
 				    json_util_kind(v));
+		/* one route per network at most, networks 1..127 */
+		if (cJSON_GetArraySize(v) > (int)GW_NET_MAX)
+			return fail(c, "gateway.routes", "%d routes, at most %u (one per network)",
+				    cJSON_GetArraySize(v), GW_NET_MAX);
 		cJSON_ArrayForEach(it, v)
 		{
 			if ((rc = parse_route(c, it, i++)))
@@ -764,7 +814,10 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path, cogw_line_c
 	v = json_util_get(o, "values");
 	if (v) {
 		json_util_path_key(p, sizeof(p), path, "values");
-		if ((rc = json_od_apply_values(l->od, v, p, c->msg, sizeof(c->msg))))
+		route_checks(c, l->od, true);
+		rc = json_od_apply_values(l->od, v, p, c->msg, sizeof(c->msg));
+		route_checks(c, l->od, false);
+		if (rc || (rc = check_attached_routes(c, path, l->od)))
 			return rc;
 	}
 	line_sync_from_od(l);
