@@ -83,7 +83,6 @@ static void status_out(ctl *c, unsigned line, const mbx_mgr_status *s)
 		cJSON_AddNumberToObject(k, "duplicates", s->duplicates);
 		cJSON_AddNumberToObject(k, "errctrl_events", s->errctrl_events);
 		cJSON_AddNumberToObject(k, "keep_op_restarts", s->keep_op_restarts);
-		cJSON_AddNumberToObject(k, "own_id_frames", s->own_id_frames);
 		ctl_json_print(o);
 		return;
 	}
@@ -98,9 +97,9 @@ static void status_out(ctl *c, unsigned line, const mbx_mgr_status *s)
 		       s->first_error_status ? s->first_error_status : ' ', s->first_error_code);
 	printf("  counters         network boots %" PRIu32 ", NMT ignored %" PRIu32
 	       ", unexpected %" PRIu32 ", duplicates %" PRIu32 ", error control lost %" PRIu32
-	       ", KEEP_OP restarts %" PRIu32 ", frames on our own node-ID %" PRIu32 "\n",
+	       ", KEEP_OP restarts %" PRIu32 "\n",
 	       s->network_boots, s->nmt_ignored, s->unexpected, s->duplicates, s->errctrl_events,
-	       s->keep_op_restarts, s->own_id_frames);
+	       s->keep_op_restarts);
 }
 
 static int req_value(const char *s)
@@ -233,6 +232,7 @@ static void diag_out(ctl *c, unsigned line, const mbx_mgr_node_diag *d)
 			cJSON_AddNumberToObject(o, "entry", d->value);
 		cJSON_AddNumberToObject(o, "boot_count", d->boot_count);
 		cJSON_AddNumberToObject(o, "fail_count", d->fail_count);
+		cJSON_AddNumberToObject(o, "own_id_frames", d->own_id_frames);
 		cJSON_AddNumberToObject(o, "boot_time_ms", (double)d->boot_time_us / 1000.0);
 		a = cJSON_AddArrayToObject(o, "emcy");
 		for (unsigned i = 0; i < d->n_emcy && i < MBX_MGR_EMCY_MAX; i++) {
@@ -250,6 +250,10 @@ static void diag_out(ctl *c, unsigned line, const mbx_mgr_node_diag *d)
 	       d->nmt_state);
 	printf("  boots %" PRIu32 " (last took %.1f ms), failed attempts %" PRIu32 "\n",
 	       d->boot_count, (double)d->boot_time_us / 1000.0, d->fail_count);
+	if (d->own_id_frames) /* only for the line's own node-ID */
+		printf("  frames of another device on our node-ID (EMCY, SDO answer, malformed "
+		       "heartbeat): %" PRIu32 "\n",
+		       d->own_id_frames);
 	if (d->status == 'J') /* value: the concise DCF entry refused */
 		printf("  last failure: status J (%s) at %s %04X:%02X, entry %" PRIu32
 		       ", abort 0x%08" PRIX32 " (%s)\n",

@@ -111,6 +111,22 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		}
 		break;
 	}
+	case MBX_EV_DUP_NODE: {
+		mbx_ev_dup_node e;
+		memcpy(&e, m->data, sizeof e);
+		snprintf(text, sizeof text,
+			 "node %u: two answers to one SDO request (%04X:%02X), %" PRIu32
+			 " so far: two devices on this node-ID",
+			 e.node, e.index, e.sub, e.count);
+		if (o) {
+			cJSON_AddNumberToObject(o, "node", e.node);
+			cJSON_AddNumberToObject(o, "index", e.index);
+			cJSON_AddNumberToObject(o, "sub", e.sub);
+			cJSON_AddNumberToObject(o, "count", e.count);
+			cJSON_AddNumberToObject(o, "abort", e.abort);
+		}
+		break;
+	}
 	case MBX_EV_GW_SDO: {
 		static const char *const outcome[] = { "routed", "aborted", "timed out",
 						       "refused" };

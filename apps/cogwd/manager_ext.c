@@ -359,7 +359,6 @@ static int answer_status(struct mgr_line *ml, mbx_mgr_status *s)
 	s->errctrl_events = d.errctrl_events;
 	s->keep_op_restarts = d.keep_op_restarts;
 	s->network_boots = d.network_boots;
-	s->own_id_frames = d.own_id_frames;
 	copy_bits(&s->assigned, &d.assigned);
 	copy_bits(&s->present, &d.present);
 	copy_bits(&s->booted, &d.booted);
@@ -389,6 +388,11 @@ static void node_diag(struct mgr_line *ml, uint8_t node, mbx_mgr_node_diag *o)
 	o->value = d->value;
 	o->boot_count = d->boot_count;
 	o->fail_count = d->fail_count;
+	if (ml->l && node == co_node_id(line_node(ml->l))) {
+		co_mgr_diag all;
+		co_manager_get_diag(ml->mgr, &all);
+		o->own_id_frames = all.own_id_frames;
+	}
 	o->boot_time_us = d->boot_time_us;
 	o->n_emcy = d->emcy_count;
 	for (unsigned i = 0; i < d->emcy_count; i++) {

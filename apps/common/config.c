@@ -40,7 +40,7 @@
 #include "core/od_std.h"
 
 #define CONFIG_FILE_MAX (4u * 1024u * 1024u)
-#define IFNAME_MAX 15u          /* IFNAMSIZ - 1 */
+#define IFNAME_MAX 15u /* IFNAMSIZ - 1 */
 /* mirror mailbox/proto.h MBX_MSG_MIN / MBX_MSG_MAX */
 #define MSG_SIZE_MIN 256u
 #define MSG_SIZE_MAX 65535u
@@ -141,7 +141,7 @@ struct ctx {
 	uint32_t route_default[GW_NET_MAX + 1]; /* 1F2Ch defaults */
 	uint16_t route_seen[GW_NET_MAX + 1];    /* gateway.routes[i] + 1 */
 	const cJSON *process_image;             /* gateway.process_image */
-	cogw_file_set *read; /* the files loaded so far (the config's) */
+	cogw_file_set *read;                    /* the files loaded so far (the config's) */
 };
 
 static int fail(struct ctx *c, const char *path, const char *fmt, ...)
@@ -612,8 +612,8 @@ static const co_od_hooks config_route_hooks = { .check_write = config_route_chec
 static void route_checks(struct ctx *c, co_od *od, bool on)
 {
 	for (unsigned n = GW_NET_MIN; n <= GW_NET_MAX; n++)
-		(void)co_od_set_hooks(od, GW_OBJ_ROUTES, (uint8_t)n, on ? &config_route_hooks : NULL,
-				      on ? c : NULL);
+		(void)co_od_set_hooks(od, GW_OBJ_ROUTES, (uint8_t)n,
+				      on ? &config_route_hooks : NULL, on ? c : NULL);
 }
 
 /* A network attached to one of our lines has one route, to that line: a

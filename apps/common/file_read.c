@@ -113,7 +113,8 @@ int cogw_file_set_charge(cogw_file_set *s, const char *path, uint64_t bytes, cha
 {
 	if (bytes > s->limit - s->held) {
 		snprintf(err, errlen,
-			 "%s: %" PRIu64 " more bytes do not fit: the files named before hold %" PRIu64
+			 "%s: %" PRIu64
+			 " more bytes do not fit: the files named before hold %" PRIu64
 			 " of file_memory %" PRIu64,
 			 path, bytes, s->held, s->limit);
 		return -ENOSPC;

@@ -205,8 +205,8 @@ static const cogw_embedded_file *embedded_find(const cogw_embedded_file *files, 
 }
 
 int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
-			   const cogw_embedded_file *files, cogw_file_set *read, cogw_node_config *nc,
-			   char *err, size_t errlen)
+			   const cogw_embedded_file *files, cogw_file_set *read,
+			   cogw_node_config *nc, char *err, size_t errlen)
 {
 	const char *srcs[] = { "entries", "dcf", "concise" };
 	const cJSON *src = NULL, *x;

@@ -937,18 +937,21 @@ static void test_gateway_route_values_checked_as_at_run_time(void)
 	n += (size_t)snprintf(big + n, cap - n, "{\"gateway\": {\"routes\": [");
 	for (unsigned i = 0; i < 200; i++)
 		n += (size_t)snprintf(big + n, cap - n,
-				      "%s{\"network\": 40, \"line\": 0, \"router\": 2}", i ? "," : "");
+				      "%s{\"network\": 40, \"line\": 0, \"router\": 2}",
+				      i ? "," : "");
 	n += (size_t)snprintf(big + n, cap - n, "]}, \"lines\": [" LINE_N(0, 1) "]}");
 	TEST_ASSERT_LESS_THAN_size_t(cap, n);
 	expect_error(big, "t.json: gateway.routes: 200 routes, at most 127 (one per network)");
-	n = (size_t)snprintf(big, cap, "{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": "
-				       "500000, \"node_id\": 5, \"values\": [");
+	n = (size_t)snprintf(big, cap,
+			     "{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": "
+			     "500000, \"node_id\": 5, \"values\": [");
 	for (unsigned i = 0; i < 2000; i++)
-		n += (size_t)snprintf(big + n, cap - n,
-				      "%s{\"index\": \"0x1017\", \"value\": 1}", i ? "," : "");
+		n += (size_t)snprintf(big + n, cap - n, "%s{\"index\": \"0x1017\", \"value\": 1}",
+				      i ? "," : "");
 	n += (size_t)snprintf(big + n, cap - n, "]}]}");
 	TEST_ASSERT_LESS_THAN_size_t(cap, n);
-	TEST_ASSERT_EQUAL_INT(-EINVAL, cogw_config_load_string(&cfg, big, "t.json", err, sizeof err));
+	TEST_ASSERT_EQUAL_INT(-EINVAL,
+			      cogw_config_load_string(&cfg, big, "t.json", err, sizeof err));
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(err, "t.json: lines[0].values: 2000 values, more than "
 						 "the "),
 				     err);

@@ -179,10 +179,10 @@ static void test_node_software_keys(void)
 		     " \"program\": \"/tmp/cogw-test-config-program.bin\"}]"),
 		"t.json: lines[0].nodes[0].program: \"software_update\": true, \"program\" and a "
 		"non-zero \"software_id\" go together (node 2)");
-	expect_error(
-		CFG1(", \"nodes\": [{\"id\": 2, \"software_id\": 1, \"software_update\": true,"
-		     " \"program\": \"/nonexistent/x.bin\"}]"),
-		"t.json: lines[0].nodes[0].program: /nonexistent/x.bin: cannot open: No such file or directory");
+	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"software_id\": 1, \"software_update\": true,"
+			  " \"program\": \"/nonexistent/x.bin\"}]"),
+		     "t.json: lines[0].nodes[0].program: /nonexistent/x.bin: cannot open: No such "
+		     "file or directory");
 	remove(img);
 }
 
@@ -239,19 +239,22 @@ static void test_program_image_read_once_for_all_nodes(void)
 			      "{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, "
 			      "\"node_id\": 127, \"manager\": {}, \"nodes\": [");
 	for (unsigned id = 1; id <= 126; id++)
-		n += (size_t)snprintf(json + n, sizeof json - n,
-				      "%s{\"id\": %u, \"software_id\": 1, \"software_update\": true, "
-				      "\"program\": \"%s%s\"}",
-				      id > 1 ? "," : "", id, id % 2 ? dir : "/tmp/./",
-				      id % 2 ? "/app.bin" : img + 5);
-	n += (size_t)snprintf(json + n, sizeof json - n,
-			      "]}, {\"interface\": \"vcan1\", \"bitrate\": 500000, \"node_id\": 127, "
-			      "\"manager\": {}, \"nodes\": [");
+		n += (size_t)snprintf(
+			json + n, sizeof json - n,
+			"%s{\"id\": %u, \"software_id\": 1, \"software_update\": true, "
+			"\"program\": \"%s%s\"}",
+			id > 1 ? "," : "", id, id % 2 ? dir : "/tmp/./",
+			id % 2 ? "/app.bin" : img + 5);
+	n += (size_t)snprintf(
+		json + n, sizeof json - n,
+		"]}, {\"interface\": \"vcan1\", \"bitrate\": 500000, \"node_id\": 127, "
+		"\"manager\": {}, \"nodes\": [");
 	for (unsigned id = 1; id <= 3; id++)
-		n += (size_t)snprintf(json + n, sizeof json - n,
-				      "%s{\"id\": %u, \"software_id\": 1, \"software_update\": true, "
-				      "\"program\": \"%s\"}",
-				      id > 1 ? "," : "", id, img);
+		n += (size_t)snprintf(
+			json + n, sizeof json - n,
+			"%s{\"id\": %u, \"software_id\": 1, \"software_update\": true, "
+			"\"program\": \"%s\"}",
+			id > 1 ? "," : "", id, img);
 	n += (size_t)snprintf(json + n, sizeof json - n, "]}]}");
 	TEST_ASSERT_LESS_THAN_size_t(sizeof json, n);
 	load_ok(json);
