@@ -83,7 +83,8 @@ struct mgr_in {
 	uint32_t value;
 	uint16_t index;
 	uint8_t sub;
-	bool guarded; /* IN_HB: seen through node guarding */
+	uint32_t found; /* IN_SOFTWARE: the value read at index:sub */
+	bool guarded;   /* IN_HB: seen through node guarding */
 };
 
 struct mgr_slave {
@@ -689,8 +690,10 @@ static int software_con(void *obj, const void *con, uint64_t now_us)
 		return CO_FSM_STAY;
 	if (in->value)
 		return bs_fail(s, CO_MGR_STEP_SOFTWARE, (char)in->value, in->abort, in->index,
-			       in->sub, 0, 0);
-	emit_boot(s, CO_MGR_STEP_SOFTWARE, 0, 0, 0, 0, 0, 0, false);
+			       in->sub, in->found, 0);
+	/* passed; index:sub = value is what the software manager saw (its
+	 * program state, 1F51h:1, when the software is not checked) */
+	emit_boot(s, CO_MGR_STEP_SOFTWARE, 0, 0, in->index, in->sub, in->found, 0, false);
 	return BS_CONFIGURE;
 }
 
@@ -1786,12 +1789,13 @@ int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort, ui
 }
 
 int co_manager_software_done(co_manager *m, uint8_t node_id, char status, uint32_t abort,
-			     uint16_t index, uint8_t sub, uint64_t now_us)
+			     uint16_t index, uint8_t sub, uint32_t value, uint64_t now_us)
 {
 	struct mgr_in in = { .kind = IN_SOFTWARE,
 			     .abort = abort,
 			     .index = index,
 			     .sub = sub,
+			     .found = value,
 			     .value = (uint8_t)status };
 	if (node_id < 1 || node_id > 127 || (status && !strchr("GHI", status)))
 		return -EINVAL;

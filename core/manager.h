@@ -324,10 +324,13 @@ uint8_t co_manager_node_nmt_state(const co_manager *m, uint8_t node_id);
 int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort, uint16_t index,
 			      uint8_t sub, uint32_t entry, uint64_t now_us);
 /* The 302-3 check software step ended: status 0 = right software (or
- * updated), 'G', 'H' or 'I' = failed, with the object and abort code.
- * -EINVAL (bad node or letter), -ENOENT (node not in that step). */
+ * updated), 'G', 'H' or 'I' = failed, with the object, the value read
+ * there and the abort code; a passed step may name what was seen too (the
+ * program state 1F51h:1 when the software is not checked). The boot event
+ * carries index:sub and value. -EINVAL (bad node or letter), -ENOENT (node
+ * not in that step). */
 int co_manager_software_done(co_manager *m, uint8_t node_id, char status, uint32_t abort,
-			     uint16_t index, uint8_t sub, uint64_t now_us);
+			     uint16_t index, uint8_t sub, uint32_t value, uint64_t now_us);
 /* KEEP_OP (seed 003): a node that leaves OPERATIONAL without being told is
  * started again. */
 int co_manager_set_keep_op(co_manager *m, uint8_t node_id, bool on);

@@ -12,6 +12,7 @@
 #include <time.h>
 
 #include "apps/cogwctl/ctl.h"
+#include "core/swmgr.h"
 #include "core/manager.h"
 #include "core/emcy.h"
 #include "core/nmt.h"
@@ -276,6 +277,13 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 				 "0x%08" PRIX32 ", value 0x%08" PRIX32 " expected 0x%08" PRIX32,
 				 e.node, co_mgr_step_to_string(e.step), e.index, e.sub, e.status,
 				 co_mgr_status_to_string(e.status), e.abort, e.value, e.expected);
+		else if (m->code == MBX_EV_MGR_BOOT && e.step == CO_MGR_STEP_SOFTWARE &&
+			 e.index == CO_SWMGR_IDX_CONTROL && e.value != CO_SWMGR_PROG_STARTED)
+			/* the program state seen although the software is not checked */
+			snprintf(text, sizeof text,
+				 "node %u boot software: its program does not run (1F51:01 = "
+				 "%" PRIu32 ", %s)",
+				 e.node, e.value, co_swmgr_program_to_string((uint8_t)e.value));
 		else if (m->code == MBX_EV_MGR_BOOT && e.step == CO_MGR_STEP_CONFIGURE && e.value)
 			/* value: the concise DCF entries written */
 			snprintf(text, sizeof text,
