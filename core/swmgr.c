@@ -153,23 +153,12 @@ static int submit(co_swmgr *job, sdo_client_req *r, uint64_t now_us)
 	return CO_FSM_STAY;
 }
 
-static int read_id(co_swmgr *job, uint64_t now_us)
+/* Read sub 1 of the slave's 1F51h (program control) or 1F56h (software
+ * identification) into job->rd. */
+static int read_sub1(co_swmgr *job, uint16_t index, uint64_t now_us)
 {
 	sdo_client_req r = { .upload = true,
-			     .index = CO_SWMGR_IDX_ID,
-			     .sub = 1,
-			     .mode = SDO_MODE_AUTO,
-			     .buf = job->rd,
-			     .cap = sizeof(job->rd) };
-
-	memset(job->rd, 0, sizeof(job->rd));
-	return submit(job, &r, now_us);
-}
-
-static int read_program(co_swmgr *job, uint64_t now_us)
-{
-	sdo_client_req r = { .upload = true,
-			     .index = CO_SWMGR_IDX_CONTROL,
+			     .index = index,
 			     .sub = 1,
 			     .mode = SDO_MODE_AUTO,
 			     .buf = job->rd,
@@ -237,9 +226,9 @@ static int program_enter(void *obj, uint64_t now_us)
 {
 	co_swmgr *job = obj;
 
-	if (job->p.force)
+	if (job->p.force) /* a manual update: no check */
 		return CO_SWMGR_STOP;
-	return read_program(job, now_us);
+	return read_sub1(job, CO_SWMGR_IDX_CONTROL, now_us);
 }
 
 /* CiA 302-3 1F51h:1: after a download cut short (the manager restarted,
@@ -258,17 +247,12 @@ static int program_con(void *obj, const void *con, uint64_t now_us)
 		return CO_SWMGR_DONE;
 	if (job->res.program == CO_SWMGR_PROG_STARTED)
 		return CO_SWMGR_CHECK;
-	job->res.found = 0;
 	return update_needed(job, CO_SWMGR_IDX_CONTROL, 1);
 }
 
 static int check_enter(void *obj, uint64_t now_us)
 {
-	co_swmgr *job = obj;
-
-	if (job->p.force)
-		return CO_SWMGR_STOP;
-	return read_id(job, now_us);
+	return read_sub1(obj, CO_SWMGR_IDX_ID, now_us);
 }
 
 static int check_con(void *obj, const void *con, uint64_t now_us)
@@ -343,7 +327,7 @@ static int start_con(void *obj, const void *con, uint64_t now_us)
 
 static int verify_enter(void *obj, uint64_t now_us)
 {
-	return read_id(obj, now_us);
+	return read_sub1(obj, CO_SWMGR_IDX_ID, now_us);
 }
 
 static int verify_con(void *obj, const void *con, uint64_t now_us)
