@@ -16,7 +16,9 @@
  *    pdo read of the process image;
  *  - raw send (frames checked on the bus) and raw dump with a filter;
  *  - emcy: one sent by the daemon (on the bus), one received (monitor);
- *  - lss: switch, inquire, fastscan finding nobody.
+ *  - lss: switch, inquire, fastscan finding nobody;
+ *  - two devices on one node-ID of this unmanaged line: dup-node event,
+ *    status flag.
  *
  * Run from the repository root:
  *   make build/san/tests/integration/test_cogwctl build/san/bin/cogwd \
