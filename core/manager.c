@@ -1227,9 +1227,9 @@ static bool mgr_active(const co_manager *m)
 }
 
 /* A boot-up or heartbeat of another device on the manager's own node-ID:
- * a node-ID conflict (CiA 301 7.5.2: node-IDs are unique), and CiA 302-2
- * halts the NMT start-up of the line: fatal until the network is booted
- * again (docs/config.md "A device on the manager's node-ID"). */
+ * a node-ID conflict (CiA 301 wants node-IDs unique). The manager halts
+ * the line's NMT start-up and supervision: fatal until the network is
+ * booted again (docs/config.md "A device on the manager's node-ID"). */
 static void own_id_conflict(co_manager *m, uint64_t now_us)
 {
 	if (!is_master(m) || co_fsm_state_of(&m->fsm) == CO_MGR_FATAL)
