@@ -12,6 +12,7 @@
 #include <time.h>
 
 #include "apps/cogwctl/ctl.h"
+#include "core/swmgr.h"
 #include "core/manager.h"
 #include "core/emcy.h"
 #include "core/nmt.h"
@@ -166,6 +167,25 @@ static void print_gw_sdo(const cogw_msg *m, const ctl_monitor_spec *spec, event_
 	cJSON_AddNumberToObject(out->o, "frames", e.frames);
 }
 
+static void print_dup_node(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_dup_node e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len,
+		 "node %u: two answers to one SDO request (%04X:%02X), %" PRIu32
+		 " so far: two devices on this node-ID",
+		 e.node, e.index, e.sub, e.count);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "node", e.node);
+	cJSON_AddNumberToObject(out->o, "index", e.index);
+	cJSON_AddNumberToObject(out->o, "sub", e.sub);
+	cJSON_AddNumberToObject(out->o, "count", e.count);
+	cJSON_AddNumberToObject(out->o, "abort", e.abort);
+}
+
 static void print_gw_emcy(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
 {
 	mbx_ev_gw_emcy e;
@@ -305,6 +325,13 @@ static void mgr_boot_text(const mbx_ev_mgr *e, char *text, size_t len)
 			 "0x%08" PRIX32 ", value 0x%08" PRIX32 " expected 0x%08" PRIX32,
 			 e->node, step, e->index, e->sub, e->status,
 			 co_mgr_status_to_string(e->status), e->abort, e->value, e->expected);
+	else if (e->step == CO_MGR_STEP_SOFTWARE && e->index == CO_SWMGR_IDX_CONTROL &&
+		 e->value != CO_SWMGR_PROG_STARTED)
+		/* the program state seen although the software is not checked */
+		snprintf(text, len,
+			 "node %u boot software: its program does not run (1F51:01 = %" PRIu32
+			 ", %s)",
+			 e->node, e->value, co_swmgr_program_to_string((uint8_t)e->value));
 	else if (e->step == CO_MGR_STEP_CONFIGURE && e->value)
 		/* value: the concise DCF entries written */
 		snprintf(text, len,
@@ -435,6 +462,7 @@ static const struct {
 	{ MBX_EV_BOOTUP, print_bootup },
 	{ MBX_EV_HB_STARTED, print_hb_started },
 	{ MBX_EV_HB_LOST, print_hb_lost },
+	{ MBX_EV_DUP_NODE, print_dup_node },
 	{ MBX_EV_GW_SDO, print_gw_sdo },
 	{ MBX_EV_GW_EMCY, print_gw_emcy },
 	{ MBX_EV_EMCY, print_emcy },
