@@ -271,7 +271,10 @@ FUZZ_CFLAGS := -std=gnu11 -Wall -Wextra -Wshadow -I. -D_GNU_SOURCE -g -O1 \
 .PHONY: fuzz
 ifneq ($(HAVE_FUZZ_CC),)
 fuzz: $(FUZZ_BINS)
-build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) mailbox/proto.c
+# apps/common checks 1F2Ch entries with the gateway's own rules (route.c,
+# convention.c: core/ only below them)
+FUZZ_GATEWAY_SRC := gateway/route.c gateway/convention.c
+build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) $(FUZZ_GATEWAY_SRC) mailbox/proto.c
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -o $@ $(filter %.c,$^) $(SYS_LIBS)
 else
