@@ -83,7 +83,8 @@ struct mgr_in {
 	uint32_t value;
 	uint16_t index;
 	uint8_t sub;
-	bool guarded; /* IN_HB: seen through node guarding */
+	uint32_t found; /* IN_SOFTWARE: the value read at index:sub */
+	bool guarded;   /* IN_HB: seen through node guarding */
 };
 
 struct mgr_slave {
@@ -140,6 +141,7 @@ struct co_manager {
 	bool net_started_explicit;
 	bool start_requested; /* a start from STOPPED waits for mandatory slaves */
 	bool own_id_reported;
+	uint8_t own_id_frame_reported; /* bit per kind: heartbeat, EMCY, SDO */
 	bool wake_pending;
 	bool check_pending;
 	int depth;
@@ -689,8 +691,10 @@ static int software_con(void *obj, const void *con, uint64_t now_us)
 		return CO_FSM_STAY;
 	if (in->value)
 		return bs_fail(s, CO_MGR_STEP_SOFTWARE, (char)in->value, in->abort, in->index,
-			       in->sub, 0, 0);
-	emit_boot(s, CO_MGR_STEP_SOFTWARE, 0, 0, 0, 0, 0, 0, false);
+			       in->sub, in->found, 0);
+	/* passed; index:sub = value is what the software manager saw (its
+	 * program state, 1F51h:1, when the software is not checked) */
+	emit_boot(s, CO_MGR_STEP_SOFTWARE, 0, 0, in->index, in->sub, in->found, 0, false);
 	return BS_CONFIGURE;
 }
 
@@ -1262,7 +1266,10 @@ static bool mgr_active(const co_manager *m)
 	return st != CO_MGR_SLAVE && st != CO_MGR_FATAL;
 }
 
-/* A node answers on the manager's own node-ID: fatal for this line. */
+/* A boot-up or heartbeat of another device on the manager's own node-ID:
+ * a node-ID conflict (CiA 301 7.5.2: node-IDs are unique), and CiA 302-2
+ * halts the NMT start-up of the line: fatal until the network is booted
+ * again (docs/config.md "A device on the manager's node-ID"). */
 static void own_id_conflict(co_manager *m, uint64_t now_us)
 {
 	if (!is_master(m) || co_fsm_state_of(&m->fsm) == CO_MGR_FATAL)
@@ -1271,18 +1278,49 @@ static void own_id_conflict(co_manager *m, uint64_t now_us)
 		m->own_id_reported = true;
 		m->cnt.duplicates++;
 		note_first_error(m, m->own_id, 0, 0);
-		emit_node(m, m->own_id, CO_MGR_NODE_OWN_ID, 0);
+		emit_node(m, m->own_id, CO_MGR_NODE_OWN_ID, CO_NMT_ERRCTRL_BASE + m->own_id);
 	}
 	co_fsm_goto(&m->fsm, CO_MGR_FATAL, now_us);
+}
+
+/* Only a well-formed error-control message (CiA 301 7.2.8.3.2: one byte,
+ * an NMT state; bit 7 is the guarding toggle) shows a device; a remote
+ * request on 700h+id is someone guarding us. */
+static bool is_error_control_message(const co_frame *f)
+{
+	uint8_t state;
+	if (f->flags & CO_FRAME_RTR || f->len != 1)
+		return false;
+	state = f->data[0] & 0x7Fu;
+	return state == CO_NMT_INITIALISING || state == CO_NMT_STOPPED ||
+	       state == CO_NMT_OPERATIONAL || state == CO_NMT_PRE_OPERATIONAL;
+}
+
+/* Any other frame on our own identities (an EMCY on 080h+id, an SDO answer
+ * on 580h+id, a malformed 700h+id): one frame proves no second device and
+ * anyone on the bus can send it, so it is counted and reported once per
+ * network boot and kind, and boot and supervision go on. */
+static void own_id_frame(co_manager *m, uint32_t cob_id)
+{
+	unsigned kind = cob_id >= CO_NMT_ERRCTRL_BASE ? 0 : cob_id >= SDO_COB_TX_BASE ? 2 : 1;
+	m->cnt.own_id_frames++;
+	if (m->own_id_frame_reported & (1u << kind))
+		return;
+	m->own_id_frame_reported |= (uint8_t)(1u << kind);
+	emit_node(m, m->own_id, CO_MGR_NODE_OWN_ID, cob_id);
 }
 
 static void own_id_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	co_manager *m = arg;
 	(void)node;
-	(void)f;
+	if (!is_master(m) || (f->id >= CO_NMT_ERRCTRL_BASE && f->flags & CO_FRAME_RTR))
+		return;
 	mgr_enter(m, now_us);
-	own_id_conflict(m, now_us);
+	if (f->id >= CO_NMT_ERRCTRL_BASE && is_error_control_message(f))
+		own_id_conflict(m, now_us);
+	else
+		own_id_frame(m, f->id);
 	mgr_after(m, now_us);
 }
 
@@ -1609,6 +1647,7 @@ int co_manager_boot_network(co_manager *m, uint64_t now_us)
 	mgr_enter(m, now_us);
 	m->autostart_pending = false;
 	m->own_id_reported = false;
+	m->own_id_frame_reported = 0;
 	co_fsm_goto(&m->fsm, CO_MGR_RESETTING, now_us);
 	mgr_after(m, now_us);
 	return 0;
@@ -1808,12 +1847,13 @@ int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort, ui
 }
 
 int co_manager_software_done(co_manager *m, uint8_t node_id, char status, uint32_t abort,
-			     uint16_t index, uint8_t sub, uint64_t now_us)
+			     uint16_t index, uint8_t sub, uint32_t value, uint64_t now_us)
 {
 	struct mgr_in in = { .kind = IN_SOFTWARE,
 			     .abort = abort,
 			     .index = index,
 			     .sub = sub,
+			     .found = value,
 			     .value = (uint8_t)status };
 	if (node_id < 1 || node_id > 127 || (status && !strchr("GHI", status)))
 		return -EINVAL;
@@ -1907,6 +1947,7 @@ void co_manager_reset_counters(co_manager *m)
 	m->cnt.errctrl_events = 0;
 	m->cnt.keep_op_restarts = 0;
 	m->cnt.network_boots = 0;
+	m->cnt.own_id_frames = 0;
 	for (unsigned id = 1; id <= 127; id++) {
 		co_mgr_node_diag *d = &m->s[id].d;
 		d->boot_count = 0;
@@ -1918,6 +1959,7 @@ void co_manager_reset_counters(co_manager *m)
 		m->s[id].dup_reported = false;
 	}
 	m->own_id_reported = false;
+	m->own_id_frame_reported = 0;
 }
 
 /* ---- 1F82h, 1F25h ------------------------------------------------------------------ */

@@ -139,7 +139,11 @@ typedef enum co_mgr_node_what {
 	                             * value = the NMT state a heartbeat
 	                             * contradicting its boot-up reported, or
 	                             * CO_MGR_DUP_SDO_ANSWERS */
-	CO_MGR_NODE_OWN_ID,         /* a device uses the manager's node-ID */
+	CO_MGR_NODE_OWN_ID,         /* a frame on the manager's own node-ID:
+	                             * value = its COB-ID; 700h+id (boot-up or
+	                             * heartbeat) = a device uses it, the line
+	                             * goes FATAL; 080h+id, 580h+id: reported,
+	                             * boot and supervision go on */
 	CO_MGR_NODE_NMT_IGNORED,    /* an NMT command to the manager was
 	                             * ignored; value = cs, sub = target */
 	CO_MGR_NODE_KEEP_OP,        /* KEEP_OP: started again; value = state
@@ -271,6 +275,8 @@ typedef struct co_mgr_diag {
 	uint32_t errctrl_events;   /* error-control losses of booted slaves */
 	uint32_t keep_op_restarts;
 	uint32_t network_boots;
+	uint32_t own_id_frames; /* EMCY, SDO answers or malformed error-control
+	                         * frames on the manager's own node-ID */
 } co_mgr_diag;
 
 static inline bool co_mgr_bit(const co_mgr_bits *b, unsigned n)
@@ -326,10 +332,13 @@ uint8_t co_manager_node_nmt_state(const co_manager *m, uint8_t node_id);
 int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort, uint16_t index,
 			      uint8_t sub, uint32_t entry, uint64_t now_us);
 /* The 302-3 check software step ended: status 0 = right software (or
- * updated), 'G', 'H' or 'I' = failed, with the object and abort code.
- * -EINVAL (bad node or letter), -ENOENT (node not in that step). */
+ * updated), 'G', 'H' or 'I' = failed, with the object, the value read
+ * there and the abort code; a passed step may name what was seen too (the
+ * program state 1F51h:1 when the software is not checked). The boot event
+ * carries index:sub and value. -EINVAL (bad node or letter), -ENOENT (node
+ * not in that step). */
 int co_manager_software_done(co_manager *m, uint8_t node_id, char status, uint32_t abort,
-			     uint16_t index, uint8_t sub, uint64_t now_us);
+			     uint16_t index, uint8_t sub, uint32_t value, uint64_t now_us);
 /* KEEP_OP (seed 003): a node that leaves OPERATIONAL without being told is
  * started again. */
 int co_manager_set_keep_op(co_manager *m, uint8_t node_id, bool on);

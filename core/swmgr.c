@@ -45,6 +45,40 @@ const char *co_swmgr_outcome_to_string(int outcome)
 	return "?";
 }
 
+const char *co_swmgr_program_to_string(uint8_t program)
+{
+	switch (program) {
+	case CO_SWMGR_PROG_STOPPED:
+		return "stopped";
+	case CO_SWMGR_PROG_STARTED:
+		return "started";
+	case CO_SWMGR_PROG_NONE:
+		return "no program";
+	case CO_SWMGR_PROGRAM_UNKNOWN:
+		return "unknown";
+	}
+	return "?";
+}
+
+bool co_swmgr_program_down(const co_swmgr_result *r)
+{
+	return r->program != CO_SWMGR_PROGRAM_UNKNOWN && r->program != CO_SWMGR_PROG_STARTED;
+}
+
+void co_swmgr_result_finding(const co_swmgr_result *r, uint16_t *index, uint8_t *sub,
+			     uint32_t *value)
+{
+	if (co_swmgr_program_down(r) && (r->look_only || r->index == CO_SWMGR_IDX_CONTROL)) {
+		*index = CO_SWMGR_IDX_CONTROL;
+		*sub = 1;
+		*value = r->program;
+		return;
+	}
+	*index = r->index;
+	*sub = r->sub;
+	*value = r->found;
+}
+
 static uint32_t get_u32(const uint8_t *p)
 {
 	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
@@ -132,6 +166,19 @@ static int read_id(co_swmgr *job, uint64_t now_us)
 	return submit(job, &r, now_us);
 }
 
+static int read_program(co_swmgr *job, uint64_t now_us)
+{
+	sdo_client_req r = { .upload = true,
+			     .index = CO_SWMGR_IDX_CONTROL,
+			     .sub = 1,
+			     .mode = SDO_MODE_AUTO,
+			     .buf = job->rd,
+			     .cap = sizeof(job->rd) };
+
+	memset(job->rd, 0, sizeof(job->rd));
+	return submit(job, &r, now_us);
+}
+
 static int write_control(co_swmgr *job, uint8_t cmd, uint64_t now_us)
 {
 	sdo_client_req r = { .index = CO_SWMGR_IDX_CONTROL,
@@ -169,6 +216,52 @@ static int got_id(co_swmgr *job, const co_ev_sdo_cli *con)
 
 /* ---- states ------------------------------------------------------------------ */
 
+/* An update is needed (a program that does not run, or another
+ * identification): allowed and possible, or H / G. */
+static int update_needed(co_swmgr *job, uint16_t index, uint8_t sub)
+{
+	if (!job->p.update_allowed) {
+		mark(job, index, sub);
+		job->res.status = 'H';
+		return CO_SWMGR_FAILED;
+	}
+	if (!job->image_size) {
+		mark(job, CO_SWMGR_IDX_IMAGE, job->p.node_id);
+		job->res.status = 'G';
+		return CO_SWMGR_FAILED;
+	}
+	return CO_SWMGR_STOP;
+}
+
+static int program_enter(void *obj, uint64_t now_us)
+{
+	co_swmgr *job = obj;
+
+	if (job->p.force)
+		return CO_SWMGR_STOP;
+	return read_program(job, now_us);
+}
+
+/* CiA 302-3 1F51h:1: after a download cut short (the manager restarted,
+ * the line went down) the slave sits in its boot loader with a cleared or
+ * stopped program, and its 1F56h:1 may still name the old one. */
+static int program_con(void *obj, const void *con, uint64_t now_us)
+{
+	co_swmgr *job = obj;
+	const co_ev_sdo_cli *c = con;
+
+	(void)now_us;
+	if (c->abort || c->size != 1) /* no program control: nothing to see */
+		return job->p.look_only ? CO_SWMGR_DONE : CO_SWMGR_CHECK;
+	job->res.program = job->rd[0];
+	if (job->p.look_only)
+		return CO_SWMGR_DONE;
+	if (job->res.program == CO_SWMGR_PROG_STARTED)
+		return CO_SWMGR_CHECK;
+	job->res.found = 0;
+	return update_needed(job, CO_SWMGR_IDX_CONTROL, 1);
+}
+
 static int check_enter(void *obj, uint64_t now_us)
 {
 	co_swmgr *job = obj;
@@ -187,16 +280,7 @@ static int check_con(void *obj, const void *con, uint64_t now_us)
 		return CO_SWMGR_FAILED;
 	if (job->res.found == job->p.expected)
 		return CO_SWMGR_DONE;
-	if (!job->p.update_allowed) {
-		job->res.status = 'H';
-		return CO_SWMGR_FAILED;
-	}
-	if (!job->image_size) {
-		mark(job, CO_SWMGR_IDX_IMAGE, job->p.node_id);
-		job->res.status = 'G';
-		return CO_SWMGR_FAILED;
-	}
-	return CO_SWMGR_STOP;
+	return update_needed(job, CO_SWMGR_IDX_ID, 1);
 }
 
 static int stop_enter(void *obj, uint64_t now_us)
@@ -311,6 +395,9 @@ static int failed_enter(void *obj, uint64_t now_us)
 
 static const co_fsm_state swmgr_states[CO_SWMGR_N_STATES] = {
 	[CO_SWMGR_IDLE] = { .name = "idle" },
+	[CO_SWMGR_PROGRAM] = { .name = "program",
+			       .on_enter = program_enter,
+			       .on_con = program_con },
 	[CO_SWMGR_CHECK] = { .name = "check", .on_enter = check_enter, .on_con = check_con },
 	[CO_SWMGR_STOP] = { .name = "stop", .on_enter = stop_enter, .on_con = stop_con },
 	[CO_SWMGR_CLEAR] = { .name = "clear", .on_enter = clear_enter, .on_con = clear_con },
@@ -349,7 +436,7 @@ int co_swmgr_start(co_swmgr *job, co_node *node, const co_swmgr_params *p, uint6
 	if (co_swmgr_running(job))
 		return -EBUSY;
 	size = p->source.size && p->source.read ? p->source.size(p->source.ctx, p->node_id) : 0;
-	if ((!p->force && !p->expected) || (p->force && !size))
+	if ((!p->force && !p->look_only && !p->expected) || (p->force && !size))
 		return -ENOENT; /* G: nothing to compare with, or nothing to load */
 	memset(job, 0, sizeof(*job));
 	job->node = node;
@@ -359,8 +446,10 @@ int co_swmgr_start(co_swmgr *job, co_node *node, const co_swmgr_params *p, uint6
 		job->p.progress_step = CO_SWMGR_PROGRESS_STEP;
 	job->res.node_id = p->node_id;
 	job->res.expected = p->expected;
+	job->res.program = CO_SWMGR_PROGRAM_UNKNOWN;
+	job->res.look_only = p->look_only;
 	co_fsm_init(&job->fsm, &swmgr_fsm, job, CO_SWMGR_IDLE);
-	co_fsm_goto(&job->fsm, CO_SWMGR_CHECK, now_us);
+	co_fsm_goto(&job->fsm, CO_SWMGR_PROGRAM, now_us);
 	if (co_fsm_state_of(&job->fsm) == CO_SWMGR_FAILED)
 		return -EAGAIN; /* the first request could not be queued */
 	job->started = true;
@@ -423,6 +512,7 @@ static int line_start(co_swmgr_line *l, uint8_t node_id, bool force, const co_sw
 		.expected = expected ? expected : od_u32(od, CO_SWMGR_IDX_EXPECTED, node_id),
 		.update_allowed = force || (a & CO_SWMGR_F81_UPDATE),
 		.force = force,
+		.look_only = !force && !(a & CO_SWMGR_F81_CHECK),
 		.source = image ? *image : l->source,
 		.progress = l->progress,
 		.progress_ctx = l->progress_ctx,
@@ -442,8 +532,6 @@ int co_swmgr_line_check(void *ctx, uint8_t node_id, uint64_t now_us)
 
 	if (!l || !l->node || node_id < 1 || node_id > 127)
 		return -EINVAL;
-	if (!(od_u32(co_node_od(l->node), 0x1F81, node_id) & CO_SWMGR_F81_CHECK))
-		return 0;
 	rc = line_start(l, node_id, false, NULL, 0, now_us);
 	return rc ? rc : 1;
 }

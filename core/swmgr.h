@@ -6,6 +6,14 @@
  * I/O-free (the image is read through a source callback).
  *
  * Steps (each a state, see co_swmgr_state_to_string):
+ *   0. program: read the slave's program control 1F51h:1 (CiA 302-3: 1
+ *      = the program runs, 0 = stopped, 3 = no program, e.g. a flash
+ *      cleared by a download that was cut short). A slave without the
+ *      object (any abort) has no program control: go on. A program that
+ *      does not run needs an update whatever 1F56h:1 says (H when not
+ *      allowed, G without an image). A job that only looks (check_id
+ *      false: 1F81h:n bit 5 clear) ends here, always UNCHANGED, with the
+ *      state in the result for its owner to report;
  *   1. check: read the slave's 1F56h:1 (application software
  *      identification); equal to the expected one (1F55h:n) -> done,
  *      nothing downloaded (outcome UNCHANGED). A difference without
@@ -63,6 +71,7 @@ enum co_swmgr_control {
 
 typedef enum co_swmgr_state {
 	CO_SWMGR_IDLE = 0,
+	CO_SWMGR_PROGRAM,  /* read 1F51h:1 */
 	CO_SWMGR_CHECK,    /* read 1F56h:1 */
 	CO_SWMGR_STOP,     /* 1F51h:1 = 0 */
 	CO_SWMGR_CLEAR,    /* 1F51h:1 = 3 */
@@ -100,7 +109,31 @@ typedef struct co_swmgr_result {
 	uint8_t mode;      /* sdo_mode the image went by: block, or segmented
 	                    * when the device refused block (SDO client
 	                    * fallback, core/sdo_client.h); 0 = not sent */
+	uint8_t program;   /* 1F51h:1 read in step 0, CO_SWMGR_PROGRAM_UNKNOWN
+	                    * when not read (forced update, no such object) */
+	bool look_only;    /* the job only read 1F51h:1 (params.look_only) */
 } co_swmgr_result;
+
+#define CO_SWMGR_PROGRAM_UNKNOWN 0xFFu
+/* 1F51h:1 read values (CiA 302-3) */
+enum co_swmgr_program_state {
+	CO_SWMGR_PROG_STOPPED = 0,
+	CO_SWMGR_PROG_STARTED = 1,
+	CO_SWMGR_PROG_NONE = 3, /* no program available */
+};
+
+/* "stopped", "started", "no program", "unknown" (not read), else "?" */
+const char *co_swmgr_program_to_string(uint8_t program);
+
+/* The slave's program was read and does not run (1F51h:1 not "started"). */
+bool co_swmgr_program_down(const co_swmgr_result *r);
+
+/* What the boot's "check software" event names (co_manager_software_done):
+ * 1F51h:1 and the program state when that was the finding (a look-only
+ * job that saw a program not running, or a failure on it), else the
+ * object of the failure and the 1F56h:1 read (0:0 when nothing failed). */
+void co_swmgr_result_finding(const co_swmgr_result *r, uint16_t *index, uint8_t *sub,
+			     uint32_t *value);
 
 typedef void (*co_swmgr_done_fn)(void *ctx, const co_swmgr_result *r, uint64_t now_us);
 /* Progress of the download: sent of total bytes (total = image size). */
@@ -122,6 +155,8 @@ typedef struct co_swmgr_params {
 	uint32_t expected;      /* 1F55h:n; 0 = none (G unless forced) */
 	bool update_allowed;    /* 1F81h:n bit 6 */
 	bool force;             /* manual update: no check, always download */
+	bool look_only;         /* read 1F51h:1 alone, never fail (1F81h:n
+	                         * bit 5 clear: software not checked) */
 	co_swmgr_source source; /* image of the node (size 0 = none) */
 	uint32_t progress_step; /* bytes between progress reports (0 = 4096) */
 	co_swmgr_progress_fn progress;
@@ -189,10 +224,12 @@ void co_swmgr_line_init(co_swmgr_line *l, co_node *node, const co_swmgr_source *
 /*
  * The 302-2 "check software" step of node n (the signature of the
  * manager's software hook; ctx = the line). Reads 1F81h:n bits 5/6 and
- * 1F55h:n now. Returns 0 when there is nothing to check (bit 5 clear), 1
- * when a job started (done() reports it), -ENOENT for status G found at
- * once (1F55h:n is 0), -EBUSY if node n's job is running, -EAGAIN (no
- * SDO request could be queued), -EINVAL for a bad node.
+ * 1F55h:n now. With bit 5 clear the software is not checked, but the
+ * program state (1F51h:1) is still read (a look-only job, which never
+ * fails: the owner reports a program that does not run). Returns 1 when
+ * a job started (done() reports it), -ENOENT for status G found at once
+ * (1F55h:n is 0), -EBUSY if node n's job is running, -EAGAIN (no SDO
+ * request could be queued), -EINVAL for a bad node.
  */
 int co_swmgr_line_check(void *ctx, uint8_t node_id, uint64_t now_us);
 /* A manual update of node n (cogwctl program, the mailbox's MGR_PROGRAM):

@@ -895,9 +895,7 @@ static uint32_t routes_check(void *ctx, co_od_entry *e, const co_od_access *a)
 	struct gw_line *gl = ctx;
 
 	(void)e;
-	if (!a->data || a->size != 4)
-		return SDO_AB_TYPE_LEN;
-	return gw_route_entry_check(co_get_le32(a->data), (uint8_t)gl->g->n);
+	return gw_route_write_check(a, (uint8_t)gl->g->n);
 }
 
 static void routes_written(void *ctx, co_od_entry *e, const co_od_access *a)

@@ -8,6 +8,9 @@
 
 #include <string.h>
 
+#include "core/frame.h"
+#include "core/sdo.h"
+
 const char *gw_route_kind_to_string(gw_route_kind k)
 {
 	switch (k) {
@@ -44,6 +47,13 @@ uint32_t gw_route_entry_check(uint32_t v, uint8_t n_lines)
 	gw_route_entry e;
 
 	return gw_route_entry_decode(v, n_lines, &e);
+}
+
+uint32_t gw_route_write_check(const co_od_access *a, uint8_t n_lines)
+{
+	if (!a->data || a->size != 4)
+		return SDO_AB_TYPE_LEN;
+	return gw_route_entry_check(co_get_le32(a->data), n_lines);
 }
 
 void gw_route_table_compile(gw_route_table *t, const uint32_t raw[GW_NET_MAX + 1])

@@ -86,5 +86,9 @@ void gw_route_count(gw_route_table *t, uint16_t net, gw_route_outcome o);
 /* The check_write rule for 1F2Ch:n: 0 or SDO_AB_VALUE (see
  * gw_route_entry_decode). */
 uint32_t gw_route_entry_check(uint32_t v, uint8_t n_lines);
+/* The whole check of a write to 1F2Ch:n (an SDO or mailbox write at run
+ * time, a "values" entry at load time): SDO_AB_TYPE_LEN unless 4 bytes,
+ * then gw_route_entry_check. */
+uint32_t gw_route_write_check(const co_od_access *a, uint8_t n_lines);
 
 #endif /* COGW_GATEWAY_ROUTE_H */

@@ -95,6 +95,29 @@ static void publish_errctrl(line *l, const co_event *ev)
 	}
 }
 
+/* Two answers to one SDO request of this line's client: two devices share
+ * that node-ID (CiA 301 wants them unique). Every line notices it, with or
+ * without a manager: counted per node (the node table), published to the
+ * nmt class, logged the first time per node (the counter tells the rest). */
+static void publish_duplicate(line *l, const co_ev_sdo_cli *c)
+{
+	line_node_info *ni;
+	if (c->node_id < 1 || c->node_id >= LINE_NODES)
+		return;
+	ni = &l->nodes[c->node_id];
+	if (!ni->duplicate_answers++)
+		cogw_log(COGW_LOG_ERR,
+			 "line %s: node %u: two answers to one SDO request (%04X:%02X): two "
+			 "devices use node-ID %u",
+			 l->name, c->node_id, c->index, c->sub, c->node_id);
+	mbx_ev_dup_node e = { .node = c->node_id,
+			      .sub = c->sub,
+			      .index = c->index,
+			      .count = ni->duplicate_answers,
+			      .abort = c->abort };
+	mbx_server_publish(l->mbx, MBX_EV_DUP_NODE, 0, &e, sizeof e);
+}
+
 /* Extensions observe every event, after the line's own handling. */
 static void tell_extensions(line *l, const co_event *ev)
 {
@@ -140,6 +163,9 @@ void line_on_core_event(void *ctx, const co_event *ev)
 		break;
 	case CO_EV_TX_FAILED:
 		/* counted by the core and the port; the watermark log says more */
+		break;
+	case CO_EV_SDO_CLIENT_SECOND_ANSWER:
+		publish_duplicate(l, &ev->u.sdo_cli);
 		break;
 	default:
 		publish_errctrl(l, ev); /* boot-up, heartbeat, guarding; others: none */

@@ -32,6 +32,7 @@ typedef struct line_node_info {
 	uint32_t bootups;
 	uint16_t last_emcy;
 	uint32_t emcy_count;
+	uint32_t duplicate_answers; /* second answers to one SDO request */
 } line_node_info;
 
 /* Storage hand-off to the main thread (1010h "save", 1011h "load"). */

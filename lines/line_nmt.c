@@ -58,7 +58,8 @@ void line_node_table(line *l, const mbx_request *req)
 		uint8_t state = co_hb_remote_state(l->node, (uint8_t)i);
 		co_hb_mon mon = co_hb_consumer_status(l->node, (uint8_t)i);
 		uint64_t heard = co_hb_last_heard_us(l->node, (uint8_t)i);
-		if (state == CO_HB_STATE_UNKNOWN && mon == CO_HB_MON_OFF && !ni->emcy_count)
+		if (state == CO_HB_STATE_UNKNOWN && mon == CO_HB_MON_OFF && !ni->emcy_count &&
+		    !ni->duplicate_answers)
 			continue;
 		uint64_t ago_ms = heard ? (l->now_us - heard) / 1000u : UINT32_MAX;
 		rows[n++] = (mbx_node_entry){
@@ -66,7 +67,8 @@ void line_node_table(line *l, const mbx_request *req)
 			.nmt_state = state,
 			.hb = hb_code(mon),
 			.flags = (uint8_t)((ni->bootups ? 1 : 0) |
-					   (ni->emcy_count && ni->last_emcy ? 2 : 0)),
+					   (ni->emcy_count && ni->last_emcy ? 2 : 0) |
+					   (ni->duplicate_answers ? 4 : 0)),
 			.last_heard_ms = ago_ms > UINT32_MAX ? UINT32_MAX : (uint32_t)ago_ms,
 			.bootups = ni->bootups > UINT16_MAX ? UINT16_MAX : (uint16_t)ni->bootups,
 			.last_emcy = ni->last_emcy,

@@ -39,6 +39,7 @@ _Static_assert(sizeof(mbx_ev_overflow) == 8, "wire layout");
 _Static_assert(sizeof(mbx_ev_od_written) == 8, "wire layout");
 _Static_assert(sizeof(mbx_ev_sdo_done) == 24, "wire layout");
 _Static_assert(sizeof(mbx_ev_node) == 4, "wire layout");
+_Static_assert(sizeof(mbx_ev_dup_node) == 12, "wire layout");
 _Static_assert(sizeof(mbx_pdo_value) == 12, "wire layout");
 _Static_assert(sizeof(mbx_ev_pdo) == 16, "wire layout");
 _Static_assert(sizeof(mbx_ev_emcy) == 24, "wire layout");
@@ -286,6 +287,8 @@ const char *mbx_event_to_string(unsigned code)
 		return "hb-started";
 	case MBX_EV_HB_LOST:
 		return "hb-lost";
+	case MBX_EV_DUP_NODE:
+		return "dup-node";
 	case MBX_EV_PDO:
 		return "pdo";
 	case MBX_EV_EMCY:
@@ -318,6 +321,7 @@ uint32_t mbx_event_class_of(unsigned code)
 	case MBX_EV_SDO_DONE:
 		return MBX_EVC_SDO;
 	case MBX_EV_NMT_STATE:
+	case MBX_EV_DUP_NODE:
 		return MBX_EVC_NMT;
 	case MBX_EV_BOOTUP:
 		return MBX_EVC_BOOT;
@@ -928,6 +932,8 @@ int mbx_event_validate(unsigned code, const uint8_t *p, size_t len)
 	case MBX_EV_HB_STARTED:
 	case MBX_EV_HB_LOST:
 		return len == sizeof(mbx_ev_node) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_DUP_NODE:
+		return len == sizeof(mbx_ev_dup_node) ? 0 : MBX_E_MALFORMED;
 	case MBX_EV_PDO: {
 		mbx_ev_pdo e;
 

@@ -275,6 +275,7 @@ typedef enum mbx_event {
 	MBX_EV_BOOTUP = 0x0302,     /* BOOT mbx_ev_node */
 	MBX_EV_HB_STARTED = 0x0303, /* HB mbx_ev_node */
 	MBX_EV_HB_LOST = 0x0304,    /* HB mbx_ev_node */
+	MBX_EV_DUP_NODE = 0x0305,   /* NMT mbx_ev_dup_node */
 	MBX_EV_PDO = 0x0401,        /* PDO mbx_ev_pdo + mbx_pdo_value[n] */
 	MBX_EV_EMCY = 0x0501,       /* EMCY mbx_ev_emcy */
 	MBX_EV_RAW = 0x0601,        /* RAW mbx_ev_raw */
@@ -493,8 +494,10 @@ typedef struct mbx_mgr_node_diag {
 	uint32_t abort;      /* SDO abort code of the last failure */
 	uint32_t value;      /* value read at that failure */
 	uint32_t boot_count, fail_count;
-	uint32_t pad2;
-	uint64_t boot_time_us; /* duration of the last boot */
+	uint32_t own_id_frames; /* node = the line's own node-ID: EMCYs, SDO
+	                         * answers and malformed error-control frames
+	                         * seen on its identities; 0 for other nodes */
+	uint64_t boot_time_us;  /* duration of the last boot */
 	mbx_mgr_emcy emcy[MBX_MGR_EMCY_MAX];
 } mbx_mgr_node_diag;
 
@@ -592,7 +595,8 @@ typedef struct mbx_node_entry {
 	                    * 5 operational, 127 pre-op), 0xFF unknown */
 	uint8_t hb;             /* 0 not monitored, 1 active, 2 lost, 3 monitored
 	                    * but no heartbeat yet (or since its boot-up) */
-	uint8_t flags;          /* bit0 boot-up seen, bit1 EMCY active */
+	uint8_t flags;          /* bit0 boot-up seen, bit1 EMCY active,
+	                         * bit2 two devices answered on this node-ID */
 	uint32_t last_heard_ms; /* since its last heartbeat/boot-up frame;
 	                         * 0xFFFFFFFF = never heard */
 	uint16_t bootups;       /* boot-up messages seen (saturating) */
@@ -705,6 +709,16 @@ typedef struct mbx_ev_node {
 	uint8_t prev;  /* NMT_STATE: previous state */
 	uint8_t pad;
 } mbx_ev_node;
+
+/* DUP_NODE: two answers came to one SDO request of the line's client: two
+ * devices answer on this node-ID (any line, with or without a manager). */
+typedef struct mbx_ev_dup_node {
+	uint8_t node;
+	uint8_t sub; /* the object the request named */
+	uint16_t index;
+	uint32_t count; /* second answers from this node-ID so far */
+	uint32_t abort; /* the second answer's abort code, 0 = none */
+} mbx_ev_dup_node;
 
 typedef struct mbx_pdo_value {
 	uint16_t index;

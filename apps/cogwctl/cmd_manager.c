@@ -232,6 +232,7 @@ static void diag_out(ctl *c, unsigned line, const mbx_mgr_node_diag *d)
 			cJSON_AddNumberToObject(o, "entry", d->value);
 		cJSON_AddNumberToObject(o, "boot_count", d->boot_count);
 		cJSON_AddNumberToObject(o, "fail_count", d->fail_count);
+		cJSON_AddNumberToObject(o, "own_id_frames", d->own_id_frames);
 		cJSON_AddNumberToObject(o, "boot_time_ms", (double)d->boot_time_us / 1000.0);
 		a = cJSON_AddArrayToObject(o, "emcy");
 		for (unsigned i = 0; i < d->n_emcy && i < MBX_MGR_EMCY_MAX; i++) {
@@ -249,6 +250,10 @@ static void diag_out(ctl *c, unsigned line, const mbx_mgr_node_diag *d)
 	       d->nmt_state);
 	printf("  boots %" PRIu32 " (last took %.1f ms), failed attempts %" PRIu32 "\n",
 	       d->boot_count, (double)d->boot_time_us / 1000.0, d->fail_count);
+	if (d->own_id_frames) /* only for the line's own node-ID */
+		printf("  frames of another device on our node-ID (EMCY, SDO answer, malformed "
+		       "heartbeat): %" PRIu32 "\n",
+		       d->own_id_frames);
 	if (d->status == 'J') /* value: the concise DCF entry refused */
 		printf("  last failure: status J (%s) at %s %04X:%02X, entry %" PRIu32
 		       ", abort 0x%08" PRIX32 " (%s)\n",

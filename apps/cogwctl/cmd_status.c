@@ -88,6 +88,7 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 			cJSON_AddBoolToObject(e, "emcy_active", nodes[i].flags & 2);
 			cJSON_AddNumberToObject(e, "emcy_count", nodes[i].emcy_count);
 			cJSON_AddNumberToObject(e, "last_emcy", nodes[i].last_emcy);
+			cJSON_AddBoolToObject(e, "duplicate_id", nodes[i].flags & 4);
 			cJSON_AddItemToArray(na, e);
 		}
 		cJSON_AddItemToArray(arr, o);
@@ -133,6 +134,10 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 		printf("  %4u  %-16s  %-13s  %-11s  %-7s  %s\n", nodes[i].node,
 		       nmt_text(nodes[i].nmt_state), hb_text(nodes[i].hb), heard,
 		       nodes[i].flags & 1 ? "seen" : "-", emcy);
+		if (nodes[i].flags & 4)
+			printf("        TWO DEVICES on node-ID %u: two answers came to one SDO "
+			       "request\n",
+			       nodes[i].node);
 	}
 	return 0;
 }

@@ -12,6 +12,7 @@
 #include <time.h>
 
 #include "apps/cogwctl/ctl.h"
+#include "core/swmgr.h"
 #include "core/manager.h"
 #include "core/emcy.h"
 #include "core/nmt.h"
@@ -108,6 +109,22 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 			cJSON_AddStringToObject(o, "state", nmt_text(e.state));
 			if (m->code == MBX_EV_NMT_STATE)
 				cJSON_AddStringToObject(o, "prev", nmt_text(e.prev));
+		}
+		break;
+	}
+	case MBX_EV_DUP_NODE: {
+		mbx_ev_dup_node e;
+		memcpy(&e, m->data, sizeof e);
+		snprintf(text, sizeof text,
+			 "node %u: two answers to one SDO request (%04X:%02X), %" PRIu32
+			 " so far: two devices on this node-ID",
+			 e.node, e.index, e.sub, e.count);
+		if (o) {
+			cJSON_AddNumberToObject(o, "node", e.node);
+			cJSON_AddNumberToObject(o, "index", e.index);
+			cJSON_AddNumberToObject(o, "sub", e.sub);
+			cJSON_AddNumberToObject(o, "count", e.count);
+			cJSON_AddNumberToObject(o, "abort", e.abort);
 		}
 		break;
 	}
@@ -260,6 +277,13 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 				 "0x%08" PRIX32 ", value 0x%08" PRIX32 " expected 0x%08" PRIX32,
 				 e.node, co_mgr_step_to_string(e.step), e.index, e.sub, e.status,
 				 co_mgr_status_to_string(e.status), e.abort, e.value, e.expected);
+		else if (m->code == MBX_EV_MGR_BOOT && e.step == CO_MGR_STEP_SOFTWARE &&
+			 e.index == CO_SWMGR_IDX_CONTROL && e.value != CO_SWMGR_PROG_STARTED)
+			/* the program state seen although the software is not checked */
+			snprintf(text, sizeof text,
+				 "node %u boot software: its program does not run (1F51:01 = "
+				 "%" PRIu32 ", %s)",
+				 e.node, e.value, co_swmgr_program_to_string((uint8_t)e.value));
 		else if (m->code == MBX_EV_MGR_BOOT && e.step == CO_MGR_STEP_CONFIGURE && e.value)
 			/* value: the concise DCF entries written */
 			snprintf(text, sizeof text,

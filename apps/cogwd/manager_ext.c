@@ -182,12 +182,26 @@ static void swm_done(void *ctx, const co_swmgr_result *r, uint64_t now_us)
 	char status = r->outcome == CO_SWMGR_FAILED_STATUS ? r->status
 		      : r->outcome == CO_SWMGR_CANCELLED   ? 'I'
 							   : 0;
+	uint16_t index;
+	uint8_t sub;
+	uint32_t value;
+	co_swmgr_result_finding(r, &index, &sub, &value);
 	if (status)
 		cogw_log(COGW_LOG_ERR,
 			 "line %s: node %u: software %c (%s) at %04X:%02X: abort %08X, 1F56h:1 = "
-			 "%08X, expected %08X",
+			 "%08X, expected %08X, program %s (1F51h:1)",
 			 ml->name, r->node_id, status, co_mgr_status_to_string(status), r->index,
-			 r->sub, (unsigned)r->abort, (unsigned)r->found, (unsigned)r->expected);
+			 r->sub, (unsigned)r->abort, (unsigned)r->found, (unsigned)r->expected,
+			 co_swmgr_program_to_string(r->program));
+	else if (r->look_only && co_swmgr_program_down(r))
+		/* CiA 302-3: a program that does not run after a download was cut
+		 * short (docs/config.md "Program state") */
+		cogw_log(COGW_LOG_WARNING,
+			 "line %s: node %u: its program does not run (1F51h:1 = %u, %s): a program "
+			 "download cut short? No software_id is configured to check or restore it",
+			 ml->name, r->node_id, r->program, co_swmgr_program_to_string(r->program));
+	else if (r->look_only)
+		; /* software not checked, program running or without program control */
 	else if (r->outcome == CO_SWMGR_UPDATED)
 		cogw_log(COGW_LOG_INFO,
 			 "line %s: node %u: program updated (%u bytes), software %08X", ml->name,
@@ -200,8 +214,8 @@ static void swm_done(void *ctx, const co_swmgr_result *r, uint64_t now_us)
 		return;
 	}
 	if (ml->mgr)
-		(void)co_manager_software_done(ml->mgr, r->node_id, status, r->abort, r->index,
-					       r->sub, now_us);
+		(void)co_manager_software_done(ml->mgr, r->node_id, status, r->abort, index, sub,
+					       value, now_us);
 }
 
 static int mgr_attach(void *ctx, line *l)
@@ -389,6 +403,11 @@ static void node_diag(struct mgr_line *ml, uint8_t node, mbx_mgr_node_diag *o)
 	o->value = d->value;
 	o->boot_count = d->boot_count;
 	o->fail_count = d->fail_count;
+	if (ml->l && node == co_node_id(line_node(ml->l))) {
+		co_mgr_diag all;
+		co_manager_get_diag(ml->mgr, &all);
+		o->own_id_frames = all.own_id_frames;
+	}
 	o->boot_time_us = d->boot_time_us;
 	o->n_emcy = d->emcy_count;
 	for (unsigned i = 0; i < d->emcy_count; i++) {

@@ -13,6 +13,7 @@
  * error ends the load with one message "source: path: reason".
  */
 #include "apps/common/config.h"
+#include "apps/common/file_read.h"
 #include "gateway/convention.h"
 #include "gateway/image.h"
 #include "gateway/route.h"
@@ -39,15 +40,14 @@
 #include "core/od_std.h"
 
 #define CONFIG_FILE_MAX (4u * 1024u * 1024u)
-#define CONFIG_READ_TIMEOUT_S 5 /* reading the config file, at most */
-#define IFNAME_MAX 15u          /* IFNAMSIZ - 1 */
+#define IFNAME_MAX 15u /* IFNAMSIZ - 1 */
 /* mirror mailbox/proto.h MBX_MSG_MIN / MBX_MSG_MAX */
 #define MSG_SIZE_MIN 256u
 #define MSG_SIZE_MAX 65535u
 
-static const char *const top_keys[] = { "version", "state_dir", "mlockall", "watchdog_check_ms",
-					"mailbox", "lines",     "gateway",  "debug",
-					"comment", NULL };
+static const char *const top_keys[] = { "version", "state_dir",   "mlockall", "watchdog_check_ms",
+					"mailbox", "file_memory", "lines",    "gateway",
+					"debug",   "comment",     NULL };
 static const char *const gateway_keys[] = { "routes", "process_image", "comment", NULL };
 static const char *const route_keys[] = { "network", "line", "router", "comment", NULL };
 static const char *const mailbox_keys[] = { "instance",
@@ -139,7 +139,9 @@ struct ctx {
 	size_t n_lines;
 	uint16_t line_net[COGW_LINES_MAX];      /* network of each line */
 	uint32_t route_default[GW_NET_MAX + 1]; /* 1F2Ch defaults */
+	uint16_t route_seen[GW_NET_MAX + 1];    /* gateway.routes[i] + 1 */
 	const cJSON *process_image;             /* gateway.process_image */
+	cogw_file_set *read;                    /* the files loaded so far (the config's) */
 };
 
 static int fail(struct ctx *c, const char *path, const char *fmt, ...)
@@ -594,6 +596,47 @@ static void scan_networks(struct ctx *c, const cJSON *lines)
 			(gw_route_entry){ true, (uint8_t)i, 0 });
 }
 
+/* "values" for 1F2Ch:n go through the check of a run-time write (SDO or
+ * mailbox, gateway/route.h gw_route_write_check): bits 16..31 set or a
+ * line that does not exist are refused when the file is loaded, not left
+ * to be silently no route. */
+static uint32_t config_route_check(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	const struct ctx *c = ctx;
+	(void)e;
+	return gw_route_write_check(a, (uint8_t)c->n_lines);
+}
+
+static const co_od_hooks config_route_hooks = { .check_write = config_route_check };
+
+static void route_checks(struct ctx *c, co_od *od, bool on)
+{
+	for (unsigned n = GW_NET_MIN; n <= GW_NET_MAX; n++)
+		(void)co_od_set_hooks(od, GW_OBJ_ROUTES, (uint8_t)n,
+				      on ? &config_route_hooks : NULL, on ? c : NULL);
+}
+
+/* A network attached to one of our lines has one route, to that line: a
+ * "values" entry that sends it elsewhere is a second route for it. */
+static int check_attached_routes(struct ctx *c, const char *path, const co_od *od)
+{
+	for (size_t i = 0; i < c->n_lines; i++) {
+		uint16_t net = c->line_net[i];
+		const co_od_entry *e = co_od_find(od, GW_OBJ_ROUTES, (uint8_t)net);
+		uint32_t v = e ? (uint32_t)co_od_entry_raw(e) : 0;
+		char p[JSON_PATH_MAX];
+
+		if (!v || v == c->route_default[net])
+			continue;
+		json_util_path_key(p, sizeof(p), path, "values");
+		return fail(c, p,
+			    "0x%04X:%02X = 0x%08X: network %u is attached to lines[%zu], its "
+			    "only route",
+			    GW_OBJ_ROUTES, net, v, net, i);
+	}
+	return 0;
+}
+
 static int parse_route(struct ctx *c, const cJSON *o, size_t idx)
 {
 	char path[JSON_PATH_MAX], pn[JSON_PATH_MAX], pl[JSON_PATH_MAX], pr[JSON_PATH_MAX];
@@ -628,6 +671,10 @@ static int parse_route(struct ctx *c, const cJSON *o, size_t idx)
 	if (!router)
 		return fail(c, path, "network %u is not attached here: name its next router",
 			    (unsigned)net);
+	if (c->route_seen[net])
+		return fail(c, pn, "network %u has a route already (gateway.routes[%u])",
+			    (unsigned)net, c->route_seen[net] - 1);
+	c->route_seen[net] = (uint16_t)(idx + 1);
 	c->route_default[net] = gw_route_entry_encode(
 		(gw_route_entry){ true, (uint8_t)line, (uint8_t)router });
 	return 0;
@@ -646,6 +693,10 @@ static int parse_gateway(struct ctx *c, const cJSON *o)
 		if (!cJSON_IsArray(v))
 			return fail(c, "gateway.routes", "expected an array, got %s",
 				    json_util_kind(v));
+		/* one route per network at most, networks 1..127 */
+		if (cJSON_GetArraySize(v) > (int)GW_NET_MAX)
+			return fail(c, "gateway.routes", "%d routes, at most %u (one per network)",
+				    cJSON_GetArraySize(v), GW_NET_MAX);
 		cJSON_ArrayForEach(it, v)
 		{
 			if ((rc = parse_route(c, it, i++)))
@@ -763,7 +814,10 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path, cogw_line_c
 	v = json_util_get(o, "values");
 	if (v) {
 		json_util_path_key(p, sizeof(p), path, "values");
-		if ((rc = json_od_apply_values(l->od, v, p, c->msg, sizeof(c->msg))))
+		route_checks(c, l->od, true);
+		rc = json_od_apply_values(l->od, v, p, c->msg, sizeof(c->msg));
+		route_checks(c, l->od, false);
+		if (rc || (rc = check_attached_routes(c, path, l->od)))
 			return rc;
 	}
 	line_sync_from_od(l);
@@ -800,40 +854,28 @@ static int opt_u32_hex(struct ctx *c, const cJSON *o, const char *key, const cha
 }
 
 /* The image file of "program", read whole now (start-up: the line thread
- * later reads it from memory). */
+ * later reads it from memory), once for all nodes that name it. */
 static int load_program(struct ctx *c, const char *p, const char *name, cogw_node *n)
 {
-	FILE *f;
-	long len;
+	char why[512];
+	int rc;
 
 	if (name[0] == '/' || !c->base_dir[0])
 		snprintf(n->program_file, sizeof(n->program_file), "%s", name);
 	else if ((size_t)snprintf(n->program_file, sizeof(n->program_file), "%s/%s", c->base_dir,
 				  name) >= sizeof(n->program_file))
 		return fail(c, p, "file name too long");
-	f = fopen(n->program_file, "rb");
-	if (!f)
-		return fail(c, p, "%s: %s", n->program_file, strerror(errno));
-	if (fseek(f, 0, SEEK_END) || (len = ftell(f)) < 0 || fseek(f, 0, SEEK_SET)) {
-		fclose(f);
-		return fail(c, p, "%s: %s", n->program_file, strerror(errno));
+	rc = cogw_file_set_get(c->read, n->program_file, COGW_PROGRAM_MAX, &n->program,
+			       &n->program_len, why, sizeof(why));
+	if (rc == -ENOMEM)
+		return rc;
+	if (rc)
+		return fail(c, p, "%s", why);
+	if (!n->program_len) {
+		n->program = NULL;
+		return fail(c, p, "%s: a program image of 1..%u bytes, not 0", n->program_file,
+			    COGW_PROGRAM_MAX);
 	}
-	if (len == 0 || (unsigned long)len > COGW_PROGRAM_MAX) {
-		fclose(f);
-		return fail(c, p, "%s: a program image of 1..%u bytes, not %ld", n->program_file,
-			    COGW_PROGRAM_MAX, len);
-	}
-	n->program = malloc((size_t)len);
-	if (!n->program) {
-		fclose(f);
-		return -ENOMEM;
-	}
-	if (fread(n->program, 1, (size_t)len, f) != (size_t)len) {
-		fclose(f);
-		return fail(c, p, "%s: short read", n->program_file);
-	}
-	fclose(f);
-	n->program_len = (size_t)len;
 	return 0;
 }
 
@@ -1088,8 +1130,8 @@ static int parse_nodes(struct ctx *c, const cJSON *v, const char *path, cogw_lin
 		if (!x)
 			continue;
 		json_util_path_key(p, sizeof(p), np, "config");
-		if ((rc = cogw_node_config_parse(x, p, n->id, c->base_dir, c->files, &n->config,
-						 c->msg, sizeof(c->msg))))
+		if ((rc = cogw_node_config_parse(x, p, n->id, c->base_dir, c->files, c->read,
+						 &n->config, c->msg, sizeof(c->msg))))
 			return rc;
 	}
 	return 0;
@@ -1259,6 +1301,7 @@ static void set_defaults(cogw_config *cfg, const char *source)
 	snprintf(cfg->source, sizeof(cfg->source), "%s", source);
 	snprintf(cfg->state_dir, sizeof(cfg->state_dir), "/var/lib/cogw");
 	cfg->watchdog_check_ms = 500;
+	cfg->file_memory = 64u << 20;
 	snprintf(cfg->mailbox.instance, sizeof(cfg->mailbox.instance), "main");
 	cfg->mailbox.depth = 64;
 	cfg->mailbox.msg_size = 1024;
@@ -1295,8 +1338,10 @@ static int parse_root(struct ctx *c, const cJSON *root, cogw_config *cfg)
 	    (rc = json_util_opt_bool(root, "mlockall", "", &cfg->mlockall, c->msg,
 				     sizeof(c->msg))) ||
 	    (rc = opt_unsigned(c, root, "watchdog_check_ms", "", 10, 60000,
-			       &cfg->watchdog_check_ms)))
+			       &cfg->watchdog_check_ms)) ||
+	    (rc = opt_unsigned(c, root, "file_memory", "", 4096, UINT32_MAX, &cfg->file_memory)))
 		return rc;
+	cfg->files.limit = cfg->file_memory;
 	v = json_util_get(root, "mailbox");
 	if (v && (rc = parse_mailbox(c, v, &cfg->mailbox)))
 		return rc;
@@ -1339,7 +1384,8 @@ int cogw_config_load_string(cogw_config *cfg, const char *json, const char *sour
 {
 	struct ctx c = { .source = source_name ? source_name : "<string>",
 			 .err = err,
-			 .errlen = errlen };
+			 .errlen = errlen,
+			 .read = &cfg->files };
 	cJSON *root = NULL;
 	int rc;
 
@@ -1372,73 +1418,16 @@ int cogw_config_load_string(cogw_config *cfg, const char *json, const char *sour
 
 int cogw_config_load_file(cogw_config *cfg, const char *path, char *err, size_t errlen)
 {
-	struct stat st;
+	uint8_t *bytes;
 	char *buf;
-	ssize_t n;
-	size_t got = 0;
-	int fd, rc;
+	size_t got;
+	int rc;
 
 	memset(cfg, 0, sizeof(*cfg));
-	/* O_NONBLOCK: opening a FIFO (or a device) for reading would wait for
-	 * a writer for ever, and with it start-up, --check and a reload
-	 * (issue 11). It is refused by the regular-file check below; for a
-	 * regular file the flag changes nothing. */
-	fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
-	if (fd < 0) {
-		rc = errno == ENOENT ? -ENOENT : -EIO;
-		snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
-		return rc;
-	}
-	if (fstat(fd, &st) < 0 || !S_ISREG(st.st_mode)) {
-		snprintf(err, errlen, "%s: not a regular file", path);
-		close(fd);
-		return -EIO;
-	}
-	struct timespec t0, t1;
-
-	clock_gettime(CLOCK_MONOTONIC, &t0);
-	if ((uint64_t)st.st_size > CONFIG_FILE_MAX) {
-		snprintf(err, errlen, "%s: larger than %u bytes", path, CONFIG_FILE_MAX);
-		close(fd);
-		return -EINVAL;
-	}
-	buf = malloc((size_t)st.st_size + 1);
-	if (!buf) {
-		close(fd);
-		snprintf(err, errlen, "%s: out of memory", path);
-		return -ENOMEM;
-	}
-	while (got < (size_t)st.st_size &&
-	       (n = read(fd, buf + got, (size_t)st.st_size - got)) != 0) {
-		/* time-boxed: a file system that trickles (FUSE, a dead NFS
-		 * server answering slowly) must not hold start-up or a
-		 * reload for ever */
-		clock_gettime(CLOCK_MONOTONIC, &t1);
-		if (t1.tv_sec - t0.tv_sec > CONFIG_READ_TIMEOUT_S) {
-			snprintf(err, errlen, "%s: reading took more than %d s", path,
-				 CONFIG_READ_TIMEOUT_S);
-			free(buf);
-			close(fd);
-			return -EIO;
-		}
-		if (n < 0 && errno == EAGAIN) {
-			struct timespec pause = { 0, 10000000 };
-
-			nanosleep(&pause, NULL);
-			continue;
-		}
-		if (n < 0) {
-			if (errno == EINTR)
-				continue;
-			snprintf(err, errlen, "%s: read error: %s", path, strerror(errno));
-			free(buf);
-			close(fd);
-			return -EIO;
-		}
-		got += (size_t)n;
-	}
-	close(fd);
-	buf[got] = '\0';
+	rc = cogw_file_read(path, CONFIG_FILE_MAX, &bytes, &got, err, errlen);
+	if (rc)
+		return rc == -EFBIG ? -EINVAL : rc;
+	buf = (char *)bytes;
 	if (strlen(buf) != got) {
 		/* cJSON would stop at the NUL and miss the rest. */
 		unsigned line = 1;
@@ -1465,11 +1454,11 @@ void cogw_config_free(cogw_config *cfg)
 		l->od = NULL;
 		for (size_t j = 0; l->nodes && j < l->n_nodes + 1; j++) {
 			cogw_node_config_free(&l->nodes[j].config);
-			free(l->nodes[j].program);
 		}
 		free(l->nodes);
 		l->nodes = NULL;
 	}
+	cogw_file_set_free(&cfg->files);
 	memset(cfg, 0, sizeof(*cfg));
 }
 
@@ -1564,6 +1553,7 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next, c
 	DIFF(strcmp(cur->state_dir, next->state_dir), "state_dir");
 	DIFF(cur->mlockall != next->mlockall, "mlockall");
 	DIFF(cur->watchdog_check_ms != next->watchdog_check_ms, "watchdog_check_ms");
+	DIFF(cur->file_memory != next->file_memory, "file_memory");
 	DIFF(cur->debug_stall_signal != next->debug_stall_signal ||
 		     cur->debug_stall_ms != next->debug_stall_ms,
 	     "debug");

@@ -62,7 +62,9 @@ typedef struct cogw_node {
 	uint32_t software_id;    /* 1F55h:n expected software (0 = none);
 	                             * non-zero sets 1F81h:n bit 5 */
 	char program_file[256];  /* "program": the image file (resolved) */
-	uint8_t *program;        /* its bytes (owned, read at load time):
+	const uint8_t *program;  /* its bytes (read at load time, held by
+	                             * cogw_config.files, shared by the nodes
+	                             * naming the same file):
 	                             * the 1F58h:n image; "software_update"
 	                             * sets 1F81h:n bit 6 */
 	size_t program_len;
@@ -144,6 +146,10 @@ typedef struct cogw_config {
 	cogw_mailbox_config mailbox;
 	cogw_line_config lines[COGW_LINES_MAX];
 	size_t n_lines;
+	/* "file_memory": bytes the files the configuration names may hold
+	 * together (64 MiB): every file once, plus each node's concise DCF */
+	unsigned file_memory;
+	cogw_file_set files; /* those files (owned) */
 	/* Test hooks (off by default): SIGUSR2 stalls line 0 for stall_ms,
 	 * to prove that a stuck line stops the systemd watchdog pings. */
 	bool debug_stall_signal;

@@ -27,6 +27,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "apps/common/file_read.h"
 #include "apps/common/json_od.h"
 #include "core/cdcf.h"
 #include "core/od.h"
@@ -1640,50 +1641,15 @@ int eds_convert(const char *text, size_t len, const char *file, uint8_t node_id,
 int eds_convert_file_opts(const char *path, const eds_options *opts, uint8_t **out, size_t *out_len,
 			  eds_stats *stats, char *err, size_t errlen)
 {
-	struct stat st;
-	char *buf = NULL;
-	size_t got = 0;
-	int fd, rc;
+	uint8_t *buf;
+	size_t len;
+	int rc;
 
 	*out = NULL;
 	*out_len = 0;
-	fd = open(path, O_RDONLY | O_CLOEXEC);
-	if (fd < 0) {
-		rc = -errno;
-		snprintf(err, errlen, "%s: %s", path, strerror(-rc));
+	if ((rc = cogw_file_read(path, EDS_FILE_MAX, &buf, &len, err, errlen)))
 		return rc;
-	}
-	if (fstat(fd, &st) < 0 || !S_ISREG(st.st_mode)) {
-		rc = S_ISDIR(st.st_mode) ? -EISDIR : -EINVAL;
-		snprintf(err, errlen, "%s: not a regular file", path);
-		close(fd);
-		return rc;
-	}
-	if ((uint64_t)st.st_size > EDS_FILE_MAX) {
-		snprintf(err, errlen, "%s: file larger than %u bytes", path, EDS_FILE_MAX);
-		close(fd);
-		return -EFBIG;
-	}
-	buf = malloc((size_t)st.st_size + 1);
-	if (!buf) {
-		close(fd);
-		return -ENOMEM;
-	}
-	while (got < (size_t)st.st_size) {
-		ssize_t n = read(fd, buf + got, (size_t)st.st_size - got);
-		if (n < 0 && errno == EINTR)
-			continue;
-		if (n <= 0) {
-			rc = n < 0 ? -errno : -EIO;
-			snprintf(err, errlen, "%s: read failed: %s", path, strerror(-rc));
-			free(buf);
-			close(fd);
-			return rc;
-		}
-		got += (size_t)n;
-	}
-	close(fd);
-	rc = eds_convert_opts(buf, got, path, opts, out, out_len, stats, err, errlen);
+	rc = eds_convert_opts((const char *)buf, len, path, opts, out, out_len, stats, err, errlen);
 	free(buf);
 	return rc;
 }

@@ -832,6 +832,12 @@ static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key, ch
 	if (rc)
 		goto out;
 	abort = co_od_check_value(e, buf, len);
+	/* an object with a write check (installed by the caller) refuses here
+	 * what a run-time write would refuse */
+	if (!abort && e->hooks && e->hooks->check_write) {
+		co_od_access a = { .origin = CO_OD_ORIGIN_LOCAL, .data = buf, .size = len };
+		abort = e->hooks->check_write(e->hook_ctx, e, &a);
+	}
 	if (abort) {
 		char r[64];
 
@@ -869,6 +875,12 @@ int json_od_apply_values(co_od *od, const cJSON *values, const char *path_prefix
 			"expected an array of {\"index\", \"sub\", \"value\"}, got %s",
 			json_util_kind(values));
 	n = (size_t)cJSON_GetArraySize(values);
+	/* each entry may be set once: more values than entries is a file
+	 * gone wrong (and the duplicate check below is quadratic) */
+	if (n > co_od_count(od))
+		return json_util_fail(err, errlen, path_prefix,
+				      "%zu values, more than the %zu entries of the dictionary", n,
+				      co_od_count(od));
 	keys = calloc(n ? n : 1, sizeof(*keys));
 	if (!keys)
 		return -ENOMEM;

@@ -7,14 +7,12 @@
 #include "apps/common/node_config.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include "apps/common/eds.h"
+#include "apps/common/file_read.h"
 #include "apps/common/json_od.h"
 #include "apps/common/json_util.h"
 #include "core/cdcf.h"
@@ -53,62 +51,39 @@ bool cogw_node_config_equal(const cogw_node_config *a, const cogw_node_config *b
 	       (!a->cdcf_len || !memcmp(a->cdcf, b->cdcf, a->cdcf_len));
 }
 
+/* A copy of bytes read from `file` when they are a concise DCF. */
+static int cdcf_copy_checked(const char *file, const uint8_t *data, size_t len, uint8_t **out,
+			     size_t *out_len, char *err, size_t errlen)
+{
+	co_cdcf_diag d;
+	char why[200];
+
+	if (co_cdcf_check(data, len, NULL, &d)) {
+		co_cdcf_diag_format(&d, why, sizeof(why));
+		snprintf(err, errlen, "%s: not a concise DCF: %s", file, why);
+		return -EINVAL;
+	}
+	*out = malloc(len ? len : 1);
+	if (!*out)
+		return -ENOMEM;
+	memcpy(*out, data, len);
+	*out_len = len;
+	return 0;
+}
+
 int cogw_cdcf_load_file(const char *file, uint8_t **out, size_t *len, char *err, size_t errlen)
 {
-	struct stat st;
-	co_cdcf_diag d;
 	uint8_t *buf;
-	size_t got = 0;
-	char why[200];
-	int fd, rc;
+	size_t got;
+	int rc;
 
 	*out = NULL;
 	*len = 0;
-	fd = open(file, O_RDONLY | O_CLOEXEC);
-	if (fd < 0) {
-		rc = -errno;
-		snprintf(err, errlen, "%s: %s", file, strerror(-rc));
+	if ((rc = cogw_file_read(file, COGW_NODE_CONFIG_MAX, &buf, &got, err, errlen)))
 		return rc;
-	}
-	if (fstat(fd, &st) < 0 || !S_ISREG(st.st_mode)) {
-		snprintf(err, errlen, "%s: not a regular file", file);
-		close(fd);
-		return -EIO;
-	}
-	if ((uint64_t)st.st_size > COGW_NODE_CONFIG_MAX) {
-		snprintf(err, errlen, "%s: larger than %u bytes", file, COGW_NODE_CONFIG_MAX);
-		close(fd);
-		return -EFBIG;
-	}
-	buf = malloc((size_t)st.st_size ? (size_t)st.st_size : 1);
-	if (!buf) {
-		close(fd);
-		return -ENOMEM;
-	}
-	while (got < (size_t)st.st_size) {
-		ssize_t n = read(fd, buf + got, (size_t)st.st_size - got);
-
-		if (n < 0 && errno == EINTR)
-			continue;
-		if (n <= 0) {
-			snprintf(err, errlen, "%s: read error: %s", file,
-				 n < 0 ? strerror(errno) : "file shrank");
-			free(buf);
-			close(fd);
-			return -EIO;
-		}
-		got += (size_t)n;
-	}
-	close(fd);
-	if (co_cdcf_check(buf, got, NULL, &d)) {
-		co_cdcf_diag_format(&d, why, sizeof(why));
-		snprintf(err, errlen, "%s: not a concise DCF: %s", file, why);
-		free(buf);
-		return -EINVAL;
-	}
-	*out = buf;
-	*len = got;
-	return 0;
+	rc = cdcf_copy_checked(file, buf, got, out, len, err, errlen);
+	free(buf);
+	return rc;
 }
 
 /* "entries": a JSON list, written with the cdcf writer in two passes
@@ -230,8 +205,8 @@ static const cogw_embedded_file *embedded_find(const cogw_embedded_file *files, 
 }
 
 int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
-			   const cogw_embedded_file *files, cogw_node_config *nc, char *err,
-			   size_t errlen)
+			   const cogw_embedded_file *files, cogw_file_set *read,
+			   cogw_node_config *nc, char *err, size_t errlen)
 {
 	const char *srcs[] = { "entries", "dcf", "concise" };
 	const cJSON *src = NULL, *x;
@@ -287,17 +262,28 @@ int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, co
 				      sizeof(nc->file) - 1);
 	if (which == 1) {
 		const cogw_embedded_file *f = embedded_find(files, name);
-		eds_stats st;
+		const uint8_t *text = f ? (const uint8_t *)f->data : NULL;
+		size_t text_len = f ? f->len : 0;
+		eds_stats st = { 0 };
 
 		nc->source = COGW_NODE_CONFIG_DCF;
-		rc = f ? eds_convert(f->data, f->len, nc->file, node_id, &nc->cdcf, &nc->cdcf_len,
-				     &st, why, sizeof(why))
-		       : eds_convert_file(nc->file, node_id, &nc->cdcf, &nc->cdcf_len, &st, why,
-					  sizeof(why));
+		rc = f ? 0
+		       : cogw_file_set_get(read, nc->file, EDS_FILE_MAX, &text, &text_len, why,
+					   sizeof(why));
+		if (!rc)
+			rc = eds_convert((const char *)text, text_len, nc->file, node_id, &nc->cdcf,
+					 &nc->cdcf_len, &st, why, sizeof(why));
 		nc->entries = st.entries;
 	} else {
+		const uint8_t *bytes;
+		size_t n_bytes;
+
 		nc->source = COGW_NODE_CONFIG_CONCISE;
-		rc = cogw_cdcf_load_file(nc->file, &nc->cdcf, &nc->cdcf_len, why, sizeof(why));
+		rc = cogw_file_set_get(read, nc->file, COGW_NODE_CONFIG_MAX, &bytes, &n_bytes, why,
+				       sizeof(why));
+		if (!rc)
+			rc = cdcf_copy_checked(nc->file, bytes, n_bytes, &nc->cdcf, &nc->cdcf_len,
+					       why, sizeof(why));
 		if (!rc) {
 			uint32_t count = 0;
 			co_cdcf_check(nc->cdcf, nc->cdcf_len, &count, NULL);
@@ -309,6 +295,9 @@ int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, co
 			 COGW_NODE_CONFIG_MAX);
 		rc = -EINVAL;
 	}
+	/* the node's own concise DCF is held as long as the configuration */
+	if (!rc)
+		rc = cogw_file_set_charge(read, nc->file, nc->cdcf_len, why, sizeof(why));
 	if (rc) {
 		cogw_node_config_free(nc);
 		if (rc == -ENOMEM)

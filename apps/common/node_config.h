@@ -34,6 +34,8 @@
 
 #include <cjson/cJSON.h>
 
+#include "apps/common/file_read.h"
+
 /* Largest concise DCF of one node (also the largest .cdc file read). */
 #define COGW_NODE_CONFIG_MAX (1u << 20)
 /* Largest value of one JSON entry (strings, domains). */
@@ -68,10 +70,13 @@ typedef struct cogw_embedded_file {
 } cogw_embedded_file;
 
 /* files: where a "dcf" file name is looked up first (the embedded default's
- * own files), NULL for a configuration read from disk. */
+ * own files), NULL for a configuration read from disk. read: the files the
+ * configuration has loaded so far; a file named again is not read again, and
+ * the file and the node's concise DCF are counted against read->limit
+ * (-EINVAL with "path: file: ... do not fit" when they do not fit). */
 int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
-			   const cogw_embedded_file *files, cogw_node_config *out, char *err,
-			   size_t errlen);
+			   const cogw_embedded_file *files, cogw_file_set *read,
+			   cogw_node_config *out, char *err, size_t errlen);
 void cogw_node_config_free(cogw_node_config *nc); /* accepts zeroed */
 /* Same source and bytes (what a reload compares). */
 bool cogw_node_config_equal(const cogw_node_config *a, const cogw_node_config *b);

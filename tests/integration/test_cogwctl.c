@@ -30,6 +30,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -50,6 +51,7 @@ static const char *ctl_path(void)
 
 static daemon_run dmn;
 static cosim_run sim;
+static cosim_run twin;  /* a second device on node 1 */
 static char tmpdir[64]; /* for tests without a daemon */
 
 /* One finished cogwctl run. */
@@ -221,6 +223,7 @@ void setUp(void)
 {
 	memset(&dmn, 0, sizeof dmn);
 	memset(&sim, 0, sizeof sim);
+	memset(&twin, 0, sizeof twin);
 	memset(&bg, 0, sizeof bg);
 	snprintf(tmpdir, sizeof tmpdir, "/tmp/test_cogwctl.XXXXXX");
 	TEST_ASSERT_NOT_NULL(mkdtemp(tmpdir));
@@ -232,6 +235,7 @@ void tearDown(void)
 		proc_stop(bg.pid, SIGKILL, 1000);
 	bg.pid = 0;
 	cosim_stop(&sim, 3000);
+	cosim_stop(&twin, 3000);
 	daemon_cleanup(&dmn);
 	daemon_unlink_queues("main");
 	char cmd[128];
@@ -573,6 +577,46 @@ static void test_emcy_both_ways(void)
 	expect_contains(r->out, "error active");
 }
 
+/* Two devices on node-ID 1 of a line without a manager: both answer one
+ * SDO request. The daemon says so: a dup-node event (nmt class) naming the
+ * node and the object, the node table's flag, a line in status. */
+static void test_two_devices_on_one_node_id_reported(void)
+{
+	start_system();
+	char dir[DAEMON_PATH_MAX + 8];
+	snprintf(dir, sizeof dir, "%s/twin", dmn.dir);
+	TEST_ASSERT_EQUAL_INT(0, mkdir(dir, 0700));
+	const char *devices[] = { "etc/devices/sti-pressure.json:1", NULL };
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&twin, dir, 0, devices, NULL));
+	expect_exit(0, ctl_run("--json status 0"));
+	expect_contains(res.out, "\"duplicate_id\":false");
+
+	bg_start("--json monitor --line 0 --class nmt --duration 6");
+	wait_subscribed();
+	expect_exit(0, ctl_run("sdo read 0 1 1018 1 u32"));
+	ctl_result *r = bg_finish(30000);
+	expect_exit(0, r);
+	expect_contains(r->out, "\"event\":\"dup-node\"");
+	/* one JSON object per line: parse the line of that event */
+	const char *ev = strstr(r->out, "\"event\":\"dup-node\"");
+	while (ev > r->out && ev[-1] != '\n')
+		ev--;
+	cJSON *o = cJSON_Parse(ev);
+	TEST_ASSERT_NOT_NULL_MESSAGE(o, r->out);
+	TEST_ASSERT_EQUAL_INT(1, cJSON_GetObjectItem(o, "node")->valueint);
+	TEST_ASSERT_EQUAL_INT(0x1018, cJSON_GetObjectItem(o, "index")->valueint);
+	TEST_ASSERT_EQUAL_INT(1, cJSON_GetObjectItem(o, "sub")->valueint);
+	TEST_ASSERT_EQUAL_INT(1, cJSON_GetObjectItem(o, "count")->valueint);
+	cJSON_Delete(o);
+
+	r = ctl_run("status 0");
+	expect_exit(0, r);
+	expect_contains(r->out, "TWO DEVICES on node-ID 1");
+	expect_exit(0, ctl_run("--json status 0"));
+	expect_contains(res.out, "\"duplicate_id\":true");
+	cosim_stop(&twin, 3000);
+}
+
 static void test_lss_inquire_and_fastscan(void)
 {
 	start_system();
@@ -642,6 +686,7 @@ int main(void)
 	RUN_TEST(test_nmt_monitor_pdo_and_process_image);
 	RUN_TEST(test_raw_send_and_dump);
 	RUN_TEST(test_emcy_both_ways);
+	RUN_TEST(test_two_devices_on_one_node_id_reported);
 	RUN_TEST(test_lss_inquire_and_fastscan);
 	RUN_TEST(test_timeouts_name_who_did_not_answer);
 	return UNITY_END();

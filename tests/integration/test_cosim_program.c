@@ -300,6 +300,40 @@ static void test_cogwctl_program(void)
 	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
 }
 
+/* A program download cut short by a restart: the device's program was
+ * stopped and its flash cleared (1F51h:1 = 3), then cogwd went away. The
+ * restarted daemon boots node 1, for which no software_id is configured:
+ * it reads the program state during the boot and reports it (a warning in
+ * the log, the software step's boot event naming 1F51h:01 = 3). */
+static void test_cut_download_seen_at_the_next_boot(void)
+{
+	char good[200];
+	static const char managed[] =
+		"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 127,"
+		" \"sdo_clients\": 4, \"manager\": {\"sdo_timeout_ms\": 2000}, \"nodes\": "
+		"[{\"id\": 1}]}]}";
+
+	write_image("good.bin", false, good, sizeof good);
+	ctl_run("program 0 1 %s", good);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
+	/* the update of the next cogwd got as far as the clear */
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1F51 1 u8 0")->exit);
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1F51 1 u8 3")->exit);
+	TEST_ASSERT_EQUAL_DOUBLE(3, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_NOT_EQUAL(-1, daemon_stop(&dmn, 5000));
+	daemon_cleanup(&dmn);
+	daemon_unlink_queues("main");
+
+	TEST_ASSERT_EQUAL_INT(
+		0, daemon_start(&dmn, &(daemon_opts){ .config_json = managed, .n_lines = 1 }));
+	TEST_ASSERT_TRUE_MESSAGE(
+		file_wait_contains(dmn.log_path,
+				   "node 1: its program does not run (1F51h:1 = 3, no program)",
+				   20000),
+		"the program state was not reported");
+}
+
 static void test_verify_configuration_object(void)
 {
 	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1020", "1", "u32"));
@@ -349,6 +383,7 @@ int main(void)
 	UNITY_BEGIN();
 	RUN_TEST(test_program_download_start_and_refusals);
 	RUN_TEST(test_cogwctl_program);
+	RUN_TEST(test_cut_download_seen_at_the_next_boot);
 	RUN_TEST(test_verify_configuration_object);
 	RUN_TEST(test_transducer_dcf_fits_the_device);
 	return UNITY_END();

@@ -397,12 +397,52 @@ static void test_special_files_do_not_block(void)
 	TEST_ASSERT_NOT_EQUAL(0, run_cogwd(fifo, "--check", log, 10000));
 	TEST_ASSERT_TRUE(file_contains(log, "not a regular file"));
 
+	/* a FIFO at a file the configuration names (a node's DCF, its concise
+	 * DCF, its program image): --check refuses at once, with the path */
+	char named[300], cfg_path[300], line0[600], json2[4096];
+	static const char *const node_keys[] = {
+		"\"config\": {\"dcf\": \"%s\"}",
+		"\"config\": {\"concise\": \"%s\"}",
+		"\"software_id\": 1, \"software_update\": true, \"program\": \"%s\"",
+	};
+	snprintf(named, sizeof named, "%s/node.fifo", d.dir);
+	snprintf(cfg_path, sizeof cfg_path, "%s/named.json", d.dir);
+	TEST_ASSERT_EQUAL_INT(0, mkfifo(named, 0600));
+	for (size_t i = 0; i < sizeof node_keys / sizeof node_keys[0]; i++) {
+		char keys[400];
+		snprintf(keys, sizeof keys, node_keys[i], named);
+		snprintf(line0, sizeof line0, "\"manager\": {}, \"nodes\": [{\"id\": 2, %s}],",
+			 keys);
+		config_text(json2, sizeof json2,
+			    &(cfg_params){ .instance = "sys1f", .n_lines = 1, .line0 = line0 });
+		TEST_ASSERT_EQUAL_INT(0, write_text_file(cfg_path, json2));
+		TEST_ASSERT_NOT_EQUAL(0, run_cogwd(cfg_path, "--check", log, 10000));
+		TEST_ASSERT_TRUE_MESSAGE(file_contains(log, "node.fifo: not a regular file"), keys);
+		TEST_ASSERT_TRUE_MESSAGE(file_contains(log, "lines[0].nodes[0]."), keys);
+	}
+	/* a reload whose node DCF is a FIFO: refused at once, the daemon
+	 * goes on serving */
+	snprintf(line0, sizeof line0,
+		 "\"manager\": {}, \"nodes\": [{\"id\": 2, \"config\": {\"dcf\": \"%s\"}}],",
+		 named);
+	config_text(json2, sizeof json2,
+		    &(cfg_params){ .instance = "sys1f", .n_lines = 1, .line0 = line0 });
+	TEST_ASSERT_EQUAL_INT(0, write_text_file(d.config_path, json2));
+	TEST_ASSERT_EQUAL_INT(0, kill(d.pid, SIGHUP));
+	TEST_ASSERT_TRUE(file_wait_contains(d.log_path, "node.fifo: not a regular file", 5000));
+	open_client("sys1f");
+	TEST_ASSERT_EQUAL_INT(0, cogw_ping(client, 0, 5000));
+	cogw_close(client);
+	client = NULL;
+
 	/* reload with the config path turned into a FIFO: refused, the daemon
 	 * goes on and still stops on SIGTERM */
 	TEST_ASSERT_EQUAL_INT(0, unlink(d.config_path));
 	TEST_ASSERT_EQUAL_INT(0, mkfifo(d.config_path, 0600));
 	TEST_ASSERT_EQUAL_INT(0, kill(d.pid, SIGHUP));
-	TEST_ASSERT_TRUE(file_wait_contains(d.log_path, "not a regular file", 5000));
+	char config_fifo[400];
+	snprintf(config_fifo, sizeof config_fifo, "%s: not a regular file", d.config_path);
+	TEST_ASSERT_TRUE(file_wait_contains(d.log_path, config_fifo, 5000));
 	open_client("sys1f");
 	TEST_ASSERT_EQUAL_INT(0, cogw_ping(client, 0, 5000));
 	cogw_close(client);

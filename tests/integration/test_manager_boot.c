@@ -167,6 +167,40 @@ static void test_two_lines_boot_identity_request_own_id(void)
 	} while (!bit(&st.stopped, 1) && mono_ms() < until);
 	TEST_ASSERT_TRUE(bit(&st.stopped, 1));
 
+	/* (g) one frame on the manager's own EMCY and SDO answer identities
+	 * (0FFh, 5FFh) on line 1: anyone can send it, it proves no second
+	 * device. Reported and counted; the line stays operational. */
+	int fd = can_open_raw("vcan1");
+	TEST_ASSERT_TRUE(fd >= 0);
+	TEST_ASSERT_EQUAL_INT(0, cogw_subscribe(h, 1, MBX_EVC_MANAGER, NULL, 0, 3000));
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd, 0x080 + 127,
+					      (const uint8_t[]){ 0x00, 0x81, 0x11, 0, 0, 0, 0, 0 },
+					      8));
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd, 0x580 + 127,
+					      (const uint8_t[]){ 0x43, 0x00, 0x10, 0, 0, 0, 0, 0 },
+					      8));
+	close(fd);
+	bool own_emcy = false, own_sdo = false;
+	until = mono_ms() + 5000;
+	while ((!own_emcy || !own_sdo) && mono_ms() < until) {
+		if (cogw_recv(h, &m, 200) != 0)
+			continue;
+		if (m.code == MBX_EV_MGR_NODE && m.line == 1) {
+			mbx_ev_mgr e;
+			memcpy(&e, m.data, sizeof e);
+			own_emcy = own_emcy || (e.what == CO_MGR_NODE_OWN_ID && e.value == 0x0FF);
+			own_sdo = own_sdo || (e.what == CO_MGR_NODE_OWN_ID && e.value == 0x5FF);
+		}
+		cogw_msg_release(&m);
+	}
+	TEST_ASSERT_TRUE_MESSAGE(own_emcy, "no own-id event for 0FFh");
+	TEST_ASSERT_TRUE_MESSAGE(own_sdo, "no own-id event for 5FFh");
+	sleep_ms(300);
+	TEST_ASSERT_EQUAL_INT(0, cogw_mgr_status(h, 1, &st, 3000));
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, st.state);
+	TEST_ASSERT_EQUAL_INT(0, cogw_mgr_node_diag(h, 1, 127, &d, 3000));
+	TEST_ASSERT_EQUAL_UINT32(2, d.own_id_frames);
+
 	/* (h) a device claims the manager's node-ID on line 1: a simulated
 	 * I/O module configured with node-ID 127 is plugged in (its first
 	 * frames, heartbeats on 77Fh, cannot be told from the daemon's own

@@ -894,6 +894,70 @@ static void test_gateway_routes_and_network_ids(void)
 	TEST_ASSERT_EQUAL_HEX64(0, raw(cfg.lines[1].od, 0x1F2C, 1));
 }
 
+/* 1F2Ch in "values" is checked as an SDO or mailbox write checks it, and
+ * what would be two routes for one network is refused with its path. */
+static void test_gateway_route_values_checked_as_at_run_time(void)
+{
+	char want[256], *big;
+	size_t n = 0, cap = 64 * 1024;
+
+	snprintf(want, sizeof want,
+		 "t.json: lines[0].values[0].value: 65537 refused for 0x1F2C:28 (%s)",
+		 sdo_abort_to_string(SDO_AB_VALUE));
+	expect_error("{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 5,"
+		     " \"values\": [{\"index\": \"0x1F2C\", \"sub\": 40, \"value\": 65537}]}]}",
+		     want); /* bits 16..31 set */
+	snprintf(want, sizeof want,
+		 "t.json: lines[0].values[0].value: 4 refused for 0x1F2C:28 (%s)",
+		 sdo_abort_to_string(SDO_AB_VALUE));
+	expect_error("{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 5,"
+		     " \"values\": [{\"index\": \"0x1F2C\", \"sub\": 40, \"value\": 4}]},"
+		     " {\"interface\": \"vcan1\", \"bitrate\": 500000, \"node_id\": 5}]}",
+		     want); /* line 4 of 2 */
+	expect_error("{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 5,"
+		     " \"network_id\": 7, \"values\": [{\"index\": \"0x1F2C\", \"sub\": 3,"
+		     " \"value\": 1}]}, " LINE_N(1, 3) "]}",
+		     "t.json: lines[0].values: 0x1F2C:03 = 0x00000001: network 3 is attached to "
+		     "lines[1], its only route");
+	expect_error(CFG3("\"gateway\": {\"routes\": [{\"network\": 40, \"line\": 2, \"router\": "
+			  "33}, {\"network\": 40, \"line\": 0, \"router\": 2}]},"),
+		     "t.json: gateway.routes[1].network: network 40 has a route already "
+		     "(gateway.routes[0])");
+	/* a route within the rules still loads, a network switched off too */
+	load_ok("{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 5,"
+		" \"values\": [{\"index\": \"0x1F2C\", \"sub\": 40, \"value\": \"0x2101\"},"
+		" {\"index\": \"0x1F2C\", \"sub\": 2, \"value\": 0}]},"
+		" {\"interface\": \"vcan1\", \"bitrate\": 500000, \"node_id\": 5}]}");
+	TEST_ASSERT_EQUAL_HEX64(0x2101, raw(cfg.lines[0].od, 0x1F2C, 40));
+	cogw_config_free(&cfg);
+
+	/* absurd counts are refused before they are worked through */
+	big = malloc(cap);
+	TEST_ASSERT_NOT_NULL(big);
+	n += (size_t)snprintf(big + n, cap - n, "{\"gateway\": {\"routes\": [");
+	for (unsigned i = 0; i < 200; i++)
+		n += (size_t)snprintf(big + n, cap - n,
+				      "%s{\"network\": 40, \"line\": 0, \"router\": 2}",
+				      i ? "," : "");
+	n += (size_t)snprintf(big + n, cap - n, "]}, \"lines\": [" LINE_N(0, 1) "]}");
+	TEST_ASSERT_LESS_THAN_size_t(cap, n);
+	expect_error(big, "t.json: gateway.routes: 200 routes, at most 127 (one per network)");
+	n = (size_t)snprintf(big, cap,
+			     "{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": "
+			     "500000, \"node_id\": 5, \"values\": [");
+	for (unsigned i = 0; i < 2000; i++)
+		n += (size_t)snprintf(big + n, cap - n, "%s{\"index\": \"0x1017\", \"value\": 1}",
+				      i ? "," : "");
+	n += (size_t)snprintf(big + n, cap - n, "]}]}");
+	TEST_ASSERT_LESS_THAN_size_t(cap, n);
+	TEST_ASSERT_EQUAL_INT(-EINVAL,
+			      cogw_config_load_string(&cfg, big, "t.json", err, sizeof err));
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(err, "t.json: lines[0].values: 2000 values, more than "
+						 "the "),
+				     err);
+	free(big);
+}
+
 static void test_gateway_errors(void)
 {
 	expect_error(
@@ -978,6 +1042,7 @@ int main(void)
 	RUN_TEST(test_reload_check);
 	RUN_TEST(test_gateway_routes_and_network_ids);
 	RUN_TEST(test_gateway_errors);
+	RUN_TEST(test_gateway_route_values_checked_as_at_run_time);
 	RUN_TEST(test_load_file);
 	RUN_TEST(test_json_od_standalone);
 	return UNITY_END();

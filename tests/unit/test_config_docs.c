@@ -127,6 +127,7 @@ static int fill_key_defaults(struct key_default *k)
 	KD("Top level", "state_dir", "%s", cfg.state_dir);
 	KD("Top level", "mlockall", "%s", cfg.mlockall ? "true" : "false");
 	KD("Top level", "watchdog_check_ms", "%u", cfg.watchdog_check_ms);
+	KD("Top level", "file_memory", "%u", cfg.file_memory);
 	KD("`mailbox`", "instance", "%s", m->instance);
 	KD("`mailbox`", "depth", "%u", m->depth);
 	KD("`mailbox`", "msg_size", "%u", m->msg_size);

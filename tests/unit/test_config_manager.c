@@ -6,7 +6,10 @@
  */
 #include <errno.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "apps/common/config.h"
 #include "core/cdcf.h"
@@ -176,11 +179,129 @@ static void test_node_software_keys(void)
 		     " \"program\": \"/tmp/cogw-test-config-program.bin\"}]"),
 		"t.json: lines[0].nodes[0].program: \"software_update\": true, \"program\" and a "
 		"non-zero \"software_id\" go together (node 2)");
-	expect_error(
-		CFG1(", \"nodes\": [{\"id\": 2, \"software_id\": 1, \"software_update\": true,"
-		     " \"program\": \"/nonexistent/x.bin\"}]"),
-		"t.json: lines[0].nodes[0].program: /nonexistent/x.bin: No such file or directory");
+	expect_error(CFG1(", \"nodes\": [{\"id\": 2, \"software_id\": 1, \"software_update\": true,"
+			  " \"program\": \"/nonexistent/x.bin\"}]"),
+		     "t.json: lines[0].nodes[0].program: /nonexistent/x.bin: cannot open: No such "
+		     "file or directory");
 	remove(img);
+}
+
+/* Every file the configuration names gets the configuration file's own
+ * treatment: a FIFO (or a device) is refused at once, never opened for a
+ * blocking read (docs/config.md "Files"). */
+static void test_named_files_that_are_fifos_refused_at_once(void)
+{
+	char dir[] = "/tmp/cogw-test-fifo-XXXXXX", fifo[64], json[512];
+	const char *const named[] = {
+		"\"config\": {\"dcf\": \"%s\"}",
+		"\"config\": {\"concise\": \"%s\"}",
+		"\"software_id\": 1, \"software_update\": true, \"program\": \"%s\"",
+	};
+	TEST_ASSERT_NOT_NULL(mkdtemp(dir));
+	snprintf(fifo, sizeof fifo, "%s/p.fifo", dir);
+	TEST_ASSERT_EQUAL_INT(0, mkfifo(fifo, 0600));
+	for (size_t i = 0; i < sizeof named / sizeof named[0]; i++) {
+		char node[256];
+		snprintf(node, sizeof node, named[i], fifo);
+		snprintf(json, sizeof json, CFG1(", \"manager\": {}, \"nodes\": [{\"id\": 2, %s}]"),
+			 node);
+		alarm(10); /* a blocking open of the FIFO would wait for a writer */
+		int rc = cogw_config_load_string(&cfg, json, "t.json", err, sizeof(err));
+		alarm(0);
+		TEST_ASSERT_EQUAL_INT_MESSAGE(-EINVAL, rc, json);
+		TEST_ASSERT_NOT_NULL_MESSAGE(strstr(err, "lines[0].nodes[0]."), err);
+		TEST_ASSERT_NOT_NULL_MESSAGE(strstr(err, "p.fifo: not a regular file"), err);
+	}
+	unlink(fifo);
+	rmdir(dir);
+}
+
+static void write_image(const char *path, size_t len, uint8_t fill)
+{
+	FILE *f = fopen(path, "wb");
+	TEST_ASSERT_NOT_NULL(f);
+	for (size_t i = 0; i < len; i++)
+		TEST_ASSERT_NOT_EQUAL(EOF, fputc((int)(uint8_t)(fill + i), f));
+	TEST_ASSERT_EQUAL_INT(0, fclose(f));
+}
+
+/* 126 nodes on one line and 3 on another name one program image (under two
+ * names): it is read once and held once, 1 MiB and not 129 MiB (which the
+ * default file_memory of 64 MiB would refuse). */
+static void test_program_image_read_once_for_all_nodes(void)
+{
+	char dir[] = "/tmp/cogw-test-image-XXXXXX", img[64], json[40000];
+	size_t n = 0;
+	TEST_ASSERT_NOT_NULL(mkdtemp(dir));
+	snprintf(img, sizeof img, "%s/app.bin", dir);
+	write_image(img, 1u << 20, 7);
+	n += (size_t)snprintf(json + n, sizeof json - n,
+			      "{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, "
+			      "\"node_id\": 127, \"manager\": {}, \"nodes\": [");
+	for (unsigned id = 1; id <= 126; id++)
+		n += (size_t)snprintf(
+			json + n, sizeof json - n,
+			"%s{\"id\": %u, \"software_id\": 1, \"software_update\": true, "
+			"\"program\": \"%s%s\"}",
+			id > 1 ? "," : "", id, id % 2 ? dir : "/tmp/./",
+			id % 2 ? "/app.bin" : img + 5);
+	n += (size_t)snprintf(
+		json + n, sizeof json - n,
+		"]}, {\"interface\": \"vcan1\", \"bitrate\": 500000, \"node_id\": 127, "
+		"\"manager\": {}, \"nodes\": [");
+	for (unsigned id = 1; id <= 3; id++)
+		n += (size_t)snprintf(
+			json + n, sizeof json - n,
+			"%s{\"id\": %u, \"software_id\": 1, \"software_update\": true, "
+			"\"program\": \"%s\"}",
+			id > 1 ? "," : "", id, img);
+	n += (size_t)snprintf(json + n, sizeof json - n, "]}]}");
+	TEST_ASSERT_LESS_THAN_size_t(sizeof json, n);
+	load_ok(json);
+	const uint8_t *first = cfg.lines[0].nodes[0].program;
+	TEST_ASSERT_NOT_NULL(first);
+	TEST_ASSERT_EQUAL_UINT8(7, first[0]);
+	for (size_t i = 0; i < 126; i++)
+		TEST_ASSERT_EQUAL_PTR(first, cfg.lines[0].nodes[i].program);
+	for (size_t i = 0; i < 3; i++)
+		TEST_ASSERT_EQUAL_PTR(first, cfg.lines[1].nodes[i].program);
+	TEST_ASSERT_EQUAL_size_t(1u << 20, cfg.lines[1].nodes[2].program_len);
+	TEST_ASSERT_EQUAL_UINT64(1u << 20, cfg.files.held);
+	cogw_config_free(&cfg);
+	unlink(img);
+	rmdir(dir);
+}
+
+/* file_memory bounds what the named files hold together: the file that does
+ * not fit is refused with its JSON path. */
+static void test_file_memory_bounds_the_named_files(void)
+{
+	char dir[] = "/tmp/cogw-test-files-XXXXXX", a[64], b[64], json[1024], want[512];
+	TEST_ASSERT_NOT_NULL(mkdtemp(dir));
+	snprintf(a, sizeof a, "%s/a.bin", dir);
+	snprintf(b, sizeof b, "%s/b.bin", dir);
+	write_image(a, 5000, 1);
+	write_image(b, 5000, 2);
+	snprintf(json, sizeof json,
+		 "{\"file_memory\": 8192, \"lines\": [" LINE(
+			 ", \"manager\": {}, \"nodes\": ["
+			 "{\"id\": 2, \"software_id\": 1, \"software_update\": true, \"program\": "
+			 "\"%s\"},"
+			 "{\"id\": 3, \"software_id\": 1, \"software_update\": true, \"program\": "
+			 "\"%s\"},"
+			 "{\"id\": 4, \"software_id\": 1, \"software_update\": true, \"program\": "
+			 "\"%s\"}]") "]}",
+		 a, a, b);
+	snprintf(want, sizeof want,
+		 "t.json: lines[0].nodes[2].program: %s: 5000 more bytes do not fit: the files "
+		 "named before hold 5000 of file_memory 8192",
+		 b);
+	expect_error(json, want);
+	expect_error("{\"file_memory\": 100, \"lines\": [" LINE("") "]}",
+		     "t.json: file_memory: 100 is out of range 4096..4294967295");
+	unlink(a);
+	unlink(b);
+	rmdir(dir);
 }
 
 static void test_bad_values_with_paths(void)
@@ -264,6 +385,9 @@ int main(void)
 	RUN_TEST(test_manager_bits_by_name);
 	RUN_TEST(test_nodes_fill_assignment_identity_heartbeat);
 	RUN_TEST(test_node_software_keys);
+	RUN_TEST(test_named_files_that_are_fifos_refused_at_once);
+	RUN_TEST(test_program_image_read_once_for_all_nodes);
+	RUN_TEST(test_file_memory_bounds_the_named_files);
 	RUN_TEST(test_bad_values_with_paths);
 	RUN_TEST(test_default_configuration);
 	return UNITY_END();

@@ -703,9 +703,9 @@ static void test_file_loader(void)
 	TEST_ASSERT_EQUAL_INT(-ENOENT,
 			      eds_convert_file(path, 1, &out, &out_len, &st, err, sizeof err));
 	char want[128];
-	snprintf(want, sizeof want, "%s: No such file or directory", path);
+	snprintf(want, sizeof want, "%s: cannot open: No such file or directory", path);
 	TEST_ASSERT_EQUAL_STRING(want, err);
-	TEST_ASSERT_EQUAL_INT(-EISDIR,
+	TEST_ASSERT_EQUAL_INT(-EIO,
 			      eds_convert_file("/tmp", 1, &out, &out_len, &st, err, sizeof err));
 }
 

@@ -548,11 +548,71 @@ static void test_own_node_id_is_fatal(void)
 	tb_send_hex(&f.bus, 0x701, "05");
 	TEST_ASSERT_EQUAL(CO_MGR_FATAL, mstate());
 	TEST_ASSERT_NOT_NULL(mf_node_ev(&f, MF_MANAGER_ID, CO_MGR_NODE_OWN_ID));
+	TEST_ASSERT_EQUAL_HEX32(0x701, mf_node_ev(&f, MF_MANAGER_ID, CO_MGR_NODE_OWN_ID)->value);
 	TEST_ASSERT_EQUAL_INT(-EPERM, co_manager_boot_node(f.mgr, 2, f.bus.now));
 	/* re-init leaves FATAL */
 	TEST_ASSERT_EQUAL_INT(0, co_manager_boot_network(f.mgr, f.bus.now));
 	tb_advance(&f.bus, 2 * S);
 	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+}
+
+/* EMCY and SDO answers on the manager's own identities (081h, 581h) are
+ * frames anyone can send: reported once per kind, counted each time, and
+ * the boot goes on to the end. */
+static void test_own_id_emcy_and_sdo_answer_reported_boot_goes_on(void)
+{
+	co_mgr_diag d;
+	line_2_3(MASTER);
+	mf_start(&f, NULL);
+	tb_advance(&f.bus, 1 * MS);
+	tb_send_hex(&f.bus, 0x080 + MF_MANAGER_ID, "00 81 11 00 00 00 00 00");
+	tb_send_hex(&f.bus, 0x580 + MF_MANAGER_ID, "43 00 10 00 94 01 04 00");
+	tb_send_hex(&f.bus, 0x080 + MF_MANAGER_ID, "00 81 11 00 00 00 00 00");
+	TEST_ASSERT_NOT_EQUAL(CO_MGR_FATAL, mstate());
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	TEST_ASSERT_FALSE(mf_went_through(&f, CO_MGR_FATAL));
+	TEST_ASSERT_NOT_NULL(mf_boot(&f, 2, CO_MGR_STEP_START, 0));
+	TEST_ASSERT_NOT_NULL(mf_boot(&f, 3, CO_MGR_STEP_START, 0));
+	TEST_ASSERT_EQUAL_UINT(2, mf_node_count(&f, MF_MANAGER_ID, CO_MGR_NODE_OWN_ID));
+	unsigned emcy = 0, sdo = 0;
+	for (unsigned i = 0; i < f.n_ev; i++) {
+		const co_ev_mgr *e = &f.ev[i].u.mgr;
+		if (f.ev[i].kind != CO_EV_MGR_NODE || e->what != CO_MGR_NODE_OWN_ID)
+			continue;
+		emcy += e->value == 0x080 + MF_MANAGER_ID;
+		sdo += e->value == 0x580 + MF_MANAGER_ID;
+	}
+	TEST_ASSERT_EQUAL_UINT(1, emcy);
+	TEST_ASSERT_EQUAL_UINT(1, sdo);
+	co_manager_get_diag(f.mgr, &d);
+	TEST_ASSERT_EQUAL_UINT32(3, d.own_id_frames);
+	TEST_ASSERT_EQUAL_UINT32(0, d.duplicates);
+	/* supervision goes on: node 3 falls silent and is reported lost */
+	co_hb_producer_set(f.bus.port[2].node, 0, f.bus.now);
+	tb_advance(&f.bus, 500 * MS);
+	TEST_ASSERT_NOT_NULL(mf_node_ev(&f, 3, CO_MGR_NODE_LOST));
+}
+
+/* A remote request on 701h is a guarding request to the manager and a
+ * 701h frame that is no error-control message shows no device: neither
+ * stops the line. */
+static void test_own_id_guarding_request_and_malformed_heartbeat_not_fatal(void)
+{
+	co_frame rtr;
+	co_mgr_diag d;
+	line_2_3(MASTER);
+	mf_start(&f, NULL);
+	tb_advance(&f.bus, 2 * S);
+	co_frame_init(&rtr, 0x700 + MF_MANAGER_ID, 1);
+	rtr.flags |= CO_FRAME_RTR;
+	tb_send(&f.bus, &rtr);
+	tb_send_hex(&f.bus, 0x700 + MF_MANAGER_ID, "05 00");
+	tb_send_hex(&f.bus, 0x700 + MF_MANAGER_ID, "42");
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	co_manager_get_diag(f.mgr, &d);
+	TEST_ASSERT_EQUAL_UINT32(2, d.own_id_frames);
+	TEST_ASSERT_EQUAL_UINT(1, mf_node_count(&f, MF_MANAGER_ID, CO_MGR_NODE_OWN_ID));
 }
 
 static void test_nmt_to_manager_ignored_and_counted(void)
@@ -1022,6 +1082,8 @@ int main(void)
 	RUN_TEST(test_parallel_boot_bounded_by_pool);
 	RUN_TEST(test_unexpected_node_reported_once);
 	RUN_TEST(test_own_node_id_is_fatal);
+	RUN_TEST(test_own_id_emcy_and_sdo_answer_reported_boot_goes_on);
+	RUN_TEST(test_own_id_guarding_request_and_malformed_heartbeat_not_fatal);
 	RUN_TEST(test_nmt_to_manager_ignored_and_counted);
 	RUN_TEST(test_nmt_to_manager_accepted_when_configured);
 	RUN_TEST(test_rebooted_node_boots_again);

@@ -602,6 +602,8 @@ static void test_names(void)
 	TEST_ASSERT_EQUAL_STRING("?", mbx_event_class_to_string(3));
 	TEST_ASSERT_EQUAL_STRING("hb-lost", mbx_event_to_string(MBX_EV_HB_LOST));
 	TEST_ASSERT_EQUAL_UINT32(MBX_EVC_HB, mbx_event_class_of(MBX_EV_HB_LOST));
+	TEST_ASSERT_EQUAL_STRING("dup-node", mbx_event_to_string(MBX_EV_DUP_NODE));
+	TEST_ASSERT_EQUAL_UINT32(MBX_EVC_NMT, mbx_event_class_of(MBX_EV_DUP_NODE));
 	TEST_ASSERT_EQUAL_UINT32(0, mbx_event_class_of(0x7777));
 	TEST_ASSERT_EQUAL_STRING("bus-off", mbx_can_state_to_string(3));
 	TEST_ASSERT_EQUAL_STRING("write", mbx_access_to_string(2));
@@ -664,6 +666,8 @@ static void test_event_validation(void)
 
 	TEST_ASSERT_EQUAL_INT(0, mbx_event_validate(MBX_EV_HB_LOST, p, 4));
 	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_event_validate(MBX_EV_HB_LOST, p, 5));
+	TEST_ASSERT_EQUAL_INT(0, mbx_event_validate(MBX_EV_DUP_NODE, p, 12));
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_event_validate(MBX_EV_DUP_NODE, p, 4));
 	TEST_ASSERT_EQUAL_INT(0, mbx_event_validate(MBX_EV_RAW, p, 24));
 	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, mbx_event_validate(MBX_EV_EMCY, p, 23));
 	TEST_ASSERT_EQUAL_INT(0, mbx_event_validate(MBX_EV_SDO_DONE, p, 24));

@@ -208,8 +208,10 @@ static void test_dcf_file_relative_to_the_config(void)
 		 "for UNSIGNED16 (max 65535)",
 		 dir);
 	expect_error(NODES("[{\"id\": 7, \"config\": {\"dcf\": \"bad.dcf\"}}]"), want_err);
-	snprintf(want_err, sizeof want_err,
-		 "lines[0].nodes[0].config.dcf: %s/none.dcf: No such file or directory", dir);
+	snprintf(
+		want_err, sizeof want_err,
+		"lines[0].nodes[0].config.dcf: %s/none.dcf: cannot open: No such file or directory",
+		dir);
 	expect_error(NODES("[{\"id\": 7, \"config\": {\"dcf\": \"none.dcf\"}}]"), want_err);
 }
 

@@ -47,11 +47,11 @@ static uint32_t image_len;
 static unsigned progress_calls;
 static uint32_t progress_last, progress_total;
 
-/* The simulated device's program. */
+/* The simulated device's program, valued as its 1F51h:1 reads (CiA 302-3). */
 enum {
-	PROG_STOPPED,
-	PROG_RUNNING,
-	PROG_CLEARED
+	PROG_STOPPED = CO_SWMGR_PROG_STOPPED,
+	PROG_RUNNING = CO_SWMGR_PROG_STARTED,
+	PROG_CLEARED = CO_SWMGR_PROG_NONE
 };
 static uint8_t prog_state;
 static bool refuse_all;
@@ -79,12 +79,16 @@ static void ev_glue(void *ctx, const co_event *ev)
 /* The software manager's outcome goes back to the boot process. */
 static void sw_done(void *ctx, const co_swmgr_result *r, uint64_t now_us)
 {
+	uint16_t index;
+	uint8_t sub;
+	uint32_t value;
 	(void)ctx;
 	last = *r;
 	results++;
+	co_swmgr_result_finding(r, &index, &sub, &value);
 	co_manager_software_done(f.mgr, r->node_id,
 				 r->outcome == CO_SWMGR_FAILED_STATUS ? r->status : 0, r->abort,
-				 r->index, r->sub, now_us);
+				 index, sub, value, now_us);
 }
 
 static void sw_progress(void *ctx, uint8_t node_id, uint32_t sent, uint32_t total, uint64_t now_us)
@@ -139,6 +143,15 @@ static void set_id(uint32_t id)
 	co_od_entry_set_default_raw(e, id);
 }
 
+/* The device's program (the flash: it survives resets). */
+static void set_program(uint8_t state)
+{
+	co_od_entry *e = co_od_find(slave->od, 0x1F51, 1);
+	prog_state = state;
+	co_od_entry_set_raw(e, state);
+	co_od_entry_set_default_raw(e, state);
+}
+
 static uint32_t data_check(void *ctx, co_od_entry *e, const co_od_access *a)
 {
 	(void)ctx;
@@ -152,7 +165,7 @@ static void data_written(void *ctx, co_od_entry *e, const co_od_access *a)
 	(void)ctx;
 	(void)e;
 	(void)a;
-	prog_state = PROG_STOPPED;
+	set_program(PROG_STOPPED);
 }
 
 static uint32_t control_check(void *ctx, co_od_entry *e, const co_od_access *a)
@@ -188,8 +201,18 @@ static uint32_t control_check(void *ctx, co_od_entry *e, const co_od_access *a)
 	}
 }
 
+/* The write stores the command; a read gives the program's state. */
+static void control_written(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	(void)ctx;
+	(void)e;
+	(void)a;
+	set_program(prog_state);
+}
+
 static const co_od_hooks data_hooks = { .check_write = data_check, .after_write = data_written };
-static const co_od_hooks control_hooks = { .check_write = control_check };
+static const co_od_hooks control_hooks = { .check_write = control_check,
+					   .after_write = control_written };
 
 /* An image whose first 4 bytes are its identification and whose last 4
  * are the trailer the device checks (or not, with `bad`). */
@@ -232,7 +255,7 @@ void setUp(void)
 	TEST_ASSERT_EQUAL_INT(0, co_od_set_hooks(slave->od, 0x1F50, 1, &data_hooks, NULL));
 	TEST_ASSERT_EQUAL_INT(0, co_od_set_hooks(slave->od, 0x1F51, 1, &control_hooks, NULL));
 	set_id(OLD_ID);
-	prog_state = PROG_RUNNING;
+	set_program(PROG_RUNNING);
 
 	mf_assign(&f, NODE, MANDATORY | CO_SWMGR_F81_CHECK | CO_SWMGR_F81_UPDATE, 300);
 	mf_expect(&f, NODE, MF_DEVICE_TYPE, MF_VENDOR, MF_PRODUCT, MF_REVISION, 1000u + NODE);
@@ -406,14 +429,80 @@ static void test_i_when_the_started_program_is_not_the_expected_one(void)
 	assert_not_started();
 }
 
+/* Without bit 5 the software is not checked, but the program state is
+ * read (a look-only job): a running program, nothing more to say. */
 static void test_software_not_checked_without_bit_5(void)
 {
 	mf_assign(&f, NODE, MANDATORY | CO_SWMGR_F81_UPDATE, 300);
 	make_image(NEW_ID, false);
 	boot();
-	TEST_ASSERT_EQUAL_UINT(0, results);
+	TEST_ASSERT_EQUAL_UINT(1, results);
+	TEST_ASSERT_TRUE(last.look_only);
+	TEST_ASSERT_EQUAL_INT(CO_SWMGR_UNCHANGED, last.outcome);
+	TEST_ASSERT_EQUAL_UINT8(PROG_RUNNING, last.program);
+	TEST_ASSERT_FALSE(co_swmgr_program_down(&last));
+	TEST_ASSERT_EQUAL_UINT(0, commands[CO_SWMGR_CTL_STOP]);
 	TEST_ASSERT_EQUAL_HEX32(OLD_ID, slave_id());
 	TEST_ASSERT_NOT_NULL(mf_boot(&f, NODE, CO_MGR_STEP_START, 0));
+}
+
+/* A program download cut short (the manager restarted between the clear
+ * and the start) left the flash cleared; no software_id is configured
+ * (bit 5 clear). The boot reads 1F51h:1 and names it in the check
+ * software event (1F51h:01 = 3), which the owner reports; with the
+ * software unchecked the boot goes on as 1F81h says. */
+static void test_cut_download_seen_without_software_id(void)
+{
+	const co_ev_mgr *e;
+	mf_assign(&f, NODE, MANDATORY, 300);
+	set_program(PROG_CLEARED);
+	set_id(0);
+	boot();
+	TEST_ASSERT_EQUAL_UINT(1, results);
+	TEST_ASSERT_TRUE(last.look_only);
+	TEST_ASSERT_EQUAL_UINT8(CO_SWMGR_PROG_NONE, last.program);
+	TEST_ASSERT_TRUE(co_swmgr_program_down(&last));
+	TEST_ASSERT_EQUAL_STRING("no program", co_swmgr_program_to_string(last.program));
+	e = mf_boot(&f, NODE, CO_MGR_STEP_SOFTWARE, 0);
+	TEST_ASSERT_NOT_NULL(e);
+	TEST_ASSERT_EQUAL_HEX16(0x1F51, e->index);
+	TEST_ASSERT_EQUAL_UINT8(1, e->sub);
+	TEST_ASSERT_EQUAL_UINT32(CO_SWMGR_PROG_NONE, e->value);
+	TEST_ASSERT_EQUAL_UINT(0, commands[CO_SWMGR_CTL_START]); /* nothing written */
+	TEST_ASSERT_NOT_NULL(mf_boot(&f, NODE, CO_MGR_STEP_START, 0));
+}
+
+/* With bit 5 a program that does not run is updated even though 1F56h:1
+ * still names the expected software (the boot loader keeps the old
+ * identification); without update permission: H on 1F51h:1. */
+static void test_program_not_running_updated_although_1f56h_matches(void)
+{
+	co_od_set_u32(f.mp->od, CO_SWMGR_IDX_EXPECTED, NODE, OLD_ID);
+	make_image(OLD_ID, false);
+	set_program(PROG_STOPPED);
+	boot();
+	TEST_ASSERT_EQUAL_INT(CO_SWMGR_UPDATED, last.outcome);
+	TEST_ASSERT_EQUAL_UINT8(CO_SWMGR_PROG_STOPPED, last.program);
+	TEST_ASSERT_EQUAL_UINT(1, commands[CO_SWMGR_CTL_CLEAR]);
+	TEST_ASSERT_EQUAL_UINT(1, commands[CO_SWMGR_CTL_START]);
+	TEST_ASSERT_EQUAL_UINT8(PROG_RUNNING, prog_state);
+	TEST_ASSERT_NOT_NULL(mf_boot(&f, NODE, CO_MGR_STEP_START, 0));
+}
+
+static void test_h_on_1f51h_when_a_stopped_program_may_not_be_updated(void)
+{
+	const co_ev_mgr *e;
+	mf_assign(&f, NODE, MANDATORY | CO_SWMGR_F81_CHECK, 300);
+	co_od_set_u32(f.mp->od, CO_SWMGR_IDX_EXPECTED, NODE, OLD_ID);
+	set_program(PROG_CLEARED);
+	boot();
+	TEST_ASSERT_EQUAL_INT('H', last.status);
+	TEST_ASSERT_EQUAL_HEX16(0x1F51, last.index);
+	e = mf_boot(&f, NODE, CO_MGR_STEP_SOFTWARE, 'H');
+	TEST_ASSERT_NOT_NULL(e);
+	TEST_ASSERT_EQUAL_HEX16(0x1F51, e->index);
+	TEST_ASSERT_EQUAL_UINT32(CO_SWMGR_PROG_NONE, e->value);
+	assert_not_started();
 }
 
 static void test_manual_update_of_a_running_node(void)
@@ -462,7 +551,7 @@ static void test_names(void)
 	TEST_ASSERT_EQUAL_STRING("download", co_swmgr_state_to_string(CO_SWMGR_DOWNLOAD));
 	TEST_ASSERT_EQUAL_STRING("updated", co_swmgr_outcome_to_string(CO_SWMGR_UPDATED));
 	TEST_ASSERT_EQUAL_STRING("software", co_mgr_step_to_string(CO_MGR_STEP_SOFTWARE));
-	TEST_ASSERT_EQUAL_INT(-EINVAL, co_manager_software_done(NULL, 0, 0, 0, 0, 0, 0));
+	TEST_ASSERT_EQUAL_INT(-EINVAL, co_manager_software_done(NULL, 0, 0, 0, 0, 0, 0, 0));
 }
 
 int main(void)
@@ -476,6 +565,9 @@ int main(void)
 	RUN_TEST(test_i_when_the_device_refuses_the_image);
 	RUN_TEST(test_i_when_the_started_program_is_not_the_expected_one);
 	RUN_TEST(test_software_not_checked_without_bit_5);
+	RUN_TEST(test_cut_download_seen_without_software_id);
+	RUN_TEST(test_program_not_running_updated_although_1f56h_matches);
+	RUN_TEST(test_h_on_1f51h_when_a_stopped_program_may_not_be_updated);
 	RUN_TEST(test_manual_update_of_a_running_node);
 	RUN_TEST(test_names);
 	return UNITY_END();
