@@ -11,6 +11,12 @@
  * One receiver per remote node-id, not per consumer entry, because boot-ups
  * must be seen from every node, configured or not (a manager learns about
  * new nodes that way).
+ *
+ * Each consumer entry is a core/fsm.h machine (co_hb_mon: off, waiting,
+ * active, lost): the remote's heartbeat or boot-up is its on_frame, the
+ * consumer time its on_timeout. A write of 1016h (or a reset
+ * communication) loads the entry again: the machine restarts in off or
+ * waiting, which is no transition of the protocol.
  */
 #include <errno.h>
 #include <stdlib.h>
@@ -18,6 +24,7 @@
 
 #include "core/co_internal.h"
 #include "core/errctrl.h"
+#include "core/fsm.h"
 #include "core/heartbeat.h"
 #include "core/nmt.h"
 #include "core/sdo.h"
@@ -25,10 +32,13 @@
 #define HB_NODES 128u   /* index = node-id 1..127 */
 #define HB_ENTRIES 127u /* 1016h subs 1..127 */
 
+struct co_hb;
+
 struct hb_entry {
+	struct co_hb *hb;
+	co_fsm fsm; /* state: co_hb_mon */
 	uint8_t node;
 	uint16_t time_ms;
-	uint8_t mon; /* co_hb_mon */
 	uint64_t deadline_us;
 };
 
@@ -45,21 +55,22 @@ struct co_hb {
 	unsigned lost;
 	unsigned rx_missing; /* node-ids not listened to: receiver pool full */
 	uint8_t own_id;      /* id whose 700h+id we do not consume (LSS may change it) */
+	/* While a remote's frame goes through its entries: its state byte
+	 * and the one before (for the events), and whether a loss ended. */
+	uint8_t rx_state, rx_prev;
+	bool loss_ended;
 };
+
+static const co_fsm_def hb_mon_def;
 
 const char *co_hb_mon_to_string(co_hb_mon m)
 {
-	switch (m) {
-	case CO_HB_MON_OFF:
-		return "off";
-	case CO_HB_MON_WAITING:
-		return "waiting";
-	case CO_HB_MON_ACTIVE:
-		return "active";
-	case CO_HB_MON_LOST:
-		return "lost";
-	}
-	return "?";
+	return co_fsm_state_name(&hb_mon_def, (int)m);
+}
+
+static co_hb_mon mon_of(const struct hb_entry *en)
+{
+	return (co_hb_mon)co_fsm_state_of(&en->fsm);
 }
 
 static void emit(co_node *node, co_event_kind kind, uint8_t remote, uint8_t state, uint8_t prev,
@@ -163,24 +174,14 @@ static void ent_load(struct co_hb *ec, uint8_t sub)
 	uint32_t v = 0;
 
 	(void)co_od_get_u32(ec->node->od, 0x1016, sub, &v);
-	if (en->mon == CO_HB_MON_LOST && ec->lost)
+	if (mon_of(en) == CO_HB_MON_LOST && ec->lost)
 		ec->lost--;
 	en->node = (uint8_t)(v >> 16);
 	en->time_ms = (uint16_t)v;
 	en->deadline_us = CO_NO_DEADLINE;
-	en->mon = (en->node && en->node <= 127 && en->time_ms) ? CO_HB_MON_WAITING : CO_HB_MON_OFF;
-}
-
-static void loss(co_node *node, struct hb_entry *en, uint64_t now_us)
-{
-	struct co_hb *ec = node->hb;
-
-	en->mon = CO_HB_MON_LOST;
-	en->deadline_us = CO_NO_DEADLINE;
-	ec->lost++;
-	emit(node, CO_EV_HB_LOST, en->node, ec->last_state[en->node], CO_HB_STATE_UNKNOWN,
-	     en->time_ms);
-	co_errctrl_comm_lost(node, CO_ERRCTRL_SRC_HEARTBEAT, en->node, now_us);
+	co_fsm_init(&en->fsm, &hb_mon_def, en,
+		    (en->node && en->node <= 127 && en->time_ms) ? CO_HB_MON_WAITING
+								 : CO_HB_MON_OFF);
 }
 
 /* Tell core/errctrl.c whether a heartbeat loss remains (it clears EMCY
@@ -191,65 +192,120 @@ static void loss_update(co_node *node, uint64_t now_us)
 			       now_us);
 }
 
-/* A lost entry is heard from again: one loss fewer. True if it was lost. */
-static bool ent_unlose(struct co_hb *ec, struct hb_entry *en)
+/* ---- one consumer entry's machine ----------------------------------------- */
+
+static bool is_bootup(const co_frame *f)
 {
-	if (en->mon != CO_HB_MON_LOST)
-		return false;
-	ec->lost--;
-	return true;
+	return f->data[0] == CO_NMT_INITIALISING;
 }
 
-/* Boot-up of `remote`: its entries wait for the first heartbeat again (a
- * rebooted node's producer may be off until it is configured: no loss).
- * Returns true if a loss ended. */
-static bool hb_bootup(co_node *node, uint8_t remote, uint8_t prev)
+/* A heartbeat in time: the window starts again. */
+static void arm(struct hb_entry *en, uint64_t now_us)
 {
-	struct co_hb *ec = node->hb;
-	bool resolved = false;
-
-	emit(node, CO_EV_BOOTUP, remote, CO_NMT_INITIALISING, prev, 0);
-	for (unsigned s = 1; s <= ec->n_ent; s++) {
-		struct hb_entry *en = &ec->ent[s];
-		if (en->node != remote || en->mon == CO_HB_MON_OFF)
-			continue;
-		resolved |= ent_unlose(ec, en);
-		en->mon = CO_HB_MON_WAITING;
-		en->deadline_us = CO_NO_DEADLINE;
-	}
-	return resolved;
+	en->deadline_us = now_us + (uint64_t)en->time_ms * 1000u;
+	co_node_deadline_lower(en->hb->node, en->deadline_us);
 }
 
-/* Heartbeat of `remote` in state st: (re)start its entries' windows.
- * Returns true if a loss ended. */
-static bool hb_heard(co_node *node, uint8_t remote, uint8_t st, uint8_t prev, uint64_t now_us)
+/* The first heartbeat (after configuration, a boot-up or a loss). */
+static int active_enter(void *obj, uint64_t now_us)
 {
-	struct co_hb *ec = node->hb;
-	bool resolved = false;
+	struct hb_entry *en = obj;
 
-	if (prev != st)
-		emit(node, CO_EV_HB_STATE, remote, st, prev, 0);
-	for (unsigned s = 1; s <= ec->n_ent; s++) {
-		struct hb_entry *en = &ec->ent[s];
-		if (en->node != remote || en->mon == CO_HB_MON_OFF)
-			continue;
-		if (en->mon != CO_HB_MON_ACTIVE) {
-			resolved |= ent_unlose(ec, en);
-			en->mon = CO_HB_MON_ACTIVE;
-			emit(node, CO_EV_HB_STARTED, remote, st, prev, en->time_ms);
-		}
-		en->deadline_us = now_us + (uint64_t)en->time_ms * 1000u;
-		co_node_deadline_lower(node, en->deadline_us);
-	}
-	return resolved;
+	emit(en->hb->node, CO_EV_HB_STARTED, en->node, en->hb->rx_state, en->hb->rx_prev,
+	     en->time_ms);
+	arm(en, now_us);
+	return CO_FSM_STAY;
 }
+
+/* A boot-up: wait for the first heartbeat again (a rebooted node's
+ * producer may be off until it is configured: no loss). */
+static int waiting_enter(void *obj, uint64_t now_us)
+{
+	struct hb_entry *en = obj;
+
+	(void)now_us;
+	en->deadline_us = CO_NO_DEADLINE;
+	return CO_FSM_STAY;
+}
+
+static int waiting_frame(void *obj, const co_frame *f, uint64_t now_us)
+{
+	(void)obj;
+	(void)now_us;
+	return is_bootup(f) ? CO_FSM_STAY : CO_HB_MON_ACTIVE;
+}
+
+static int active_frame(void *obj, const co_frame *f, uint64_t now_us)
+{
+	if (is_bootup(f))
+		return CO_HB_MON_WAITING;
+	arm(obj, now_us);
+	return CO_FSM_STAY;
+}
+
+static int active_timeout(void *obj, uint64_t now_us)
+{
+	(void)obj;
+	(void)now_us;
+	return CO_HB_MON_LOST;
+}
+
+static int lost_enter(void *obj, uint64_t now_us)
+{
+	struct hb_entry *en = obj;
+	struct co_hb *ec = en->hb;
+
+	en->deadline_us = CO_NO_DEADLINE;
+	ec->lost++;
+	emit(ec->node, CO_EV_HB_LOST, en->node, ec->last_state[en->node], CO_HB_STATE_UNKNOWN,
+	     en->time_ms);
+	co_errctrl_comm_lost(ec->node, CO_ERRCTRL_SRC_HEARTBEAT, en->node, now_us);
+	return CO_FSM_STAY;
+}
+
+static int lost_frame(void *obj, const co_frame *f, uint64_t now_us)
+{
+	(void)obj;
+	(void)now_us;
+	return is_bootup(f) ? CO_HB_MON_WAITING : CO_HB_MON_ACTIVE;
+}
+
+/* Heard from again (heartbeat or boot-up): one loss fewer. */
+static void lost_leave(void *obj, uint64_t now_us)
+{
+	struct hb_entry *en = obj;
+
+	(void)now_us;
+	en->hb->lost--;
+	en->hb->loss_ended = true;
+}
+
+static const co_fsm_state hb_mon_states[] = {
+	[CO_HB_MON_OFF] = { .name = "off" },
+	[CO_HB_MON_WAITING] = { .name = "waiting",
+				.on_enter = waiting_enter,
+				.on_frame = waiting_frame },
+	[CO_HB_MON_ACTIVE] = { .name = "active",
+			       .on_enter = active_enter,
+			       .on_frame = active_frame,
+			       .on_timeout = active_timeout },
+	[CO_HB_MON_LOST] = { .name = "lost",
+			     .on_enter = lost_enter,
+			     .on_frame = lost_frame,
+			     .on_leave = lost_leave },
+};
+
+static const co_fsm_def hb_mon_def = {
+	.name = "hb_consumer",
+	.states = hb_mon_states,
+	.n_states = sizeof hb_mon_states / sizeof hb_mon_states[0],
+};
 
 static void hb_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	struct co_hb *ec = node->hb;
 	uint8_t remote = (uint8_t)(uintptr_t)arg;
-	uint8_t st, prev;
-	bool resolved;
+	uint8_t st;
 
 	if ((f->flags & CO_FRAME_RTR) || f->len < 1)
 		return;
@@ -258,14 +314,19 @@ static void hb_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	if (f->data[0] != CO_NMT_INITIALISING && co_errctrl_guarded(node, remote))
 		return;
 	st = f->data[0] & 0x7F;
-	prev = ec->last_state[remote];
+	ec->rx_state = st;
+	ec->rx_prev = ec->last_state[remote];
 	ec->last_state[remote] = st;
 	ec->last_heard_us[remote] = now_us ? now_us : 1;
 	if (st == CO_NMT_INITIALISING)
-		resolved = hb_bootup(node, remote, prev);
-	else
-		resolved = hb_heard(node, remote, st, prev, now_us);
-	if (resolved)
+		emit(node, CO_EV_BOOTUP, remote, CO_NMT_INITIALISING, ec->rx_prev, 0);
+	else if (ec->rx_prev != st)
+		emit(node, CO_EV_HB_STATE, remote, st, ec->rx_prev, 0);
+	ec->loss_ended = false;
+	for (unsigned s = 1; s <= ec->n_ent; s++)
+		if (ec->ent[s].node == remote)
+			co_fsm_frame(&ec->ent[s].fsm, f, now_us);
+	if (ec->loss_ended)
 		loss_update(node, now_us);
 }
 
@@ -349,8 +410,8 @@ co_hb_mon co_hb_consumer_status(const co_node *node, uint8_t remote_id)
 	if (!ec)
 		return CO_HB_MON_OFF;
 	for (unsigned s = 1; s <= ec->n_ent; s++)
-		if (ec->ent[s].node == remote_id && ec->ent[s].mon != CO_HB_MON_OFF)
-			return (co_hb_mon)ec->ent[s].mon;
+		if (ec->ent[s].node == remote_id && mon_of(&ec->ent[s]) != CO_HB_MON_OFF)
+			return mon_of(&ec->ent[s]);
 	return CO_HB_MON_OFF;
 }
 
@@ -379,7 +440,7 @@ static void load_all(struct co_hb *ec)
 {
 	ec->lost = 0;
 	for (unsigned s = 1; s <= ec->n_ent; s++) {
-		ec->ent[s].mon = CO_HB_MON_OFF;
+		co_fsm_init(&ec->ent[s].fsm, &hb_mon_def, &ec->ent[s], CO_HB_MON_OFF);
 		ent_load(ec, (uint8_t)s);
 	}
 }
@@ -394,6 +455,10 @@ static int hb_init(co_node *node)
 	node->hb = ec;
 	ec->node = node;
 	ec->prod_next_us = CO_NO_DEADLINE;
+	for (unsigned s = 0; s <= HB_ENTRIES; s++) {
+		ec->ent[s].hb = ec;
+		co_fsm_init(&ec->ent[s].fsm, &hb_mon_def, &ec->ent[s], CO_HB_MON_OFF);
+	}
 	memset(ec->last_state, CO_HB_STATE_UNKNOWN, sizeof(ec->last_state));
 	for (unsigned n = 0; n < HB_NODES; n++)
 		ec->rx[n] = -1;
@@ -439,13 +504,13 @@ static uint64_t hb_tick(co_node *node, uint64_t now_us)
 	prod_tick(node, now_us);
 	for (unsigned s = 1; s <= ec->n_ent; s++) {
 		struct hb_entry *en = &ec->ent[s];
-		if (en->mon == CO_HB_MON_ACTIVE && now_us >= en->deadline_us)
-			loss(node, en, now_us);
+		if (mon_of(en) == CO_HB_MON_ACTIVE && now_us >= en->deadline_us)
+			co_fsm_timeout(&en->fsm, now_us);
 	}
-	/* loss() may have changed the NMT state and the producer with it. */
+	/* A loss may have changed the NMT state and the producer with it. */
 	next = ec->prod_next_us;
 	for (unsigned s = 1; s <= ec->n_ent; s++)
-		if (ec->ent[s].mon == CO_HB_MON_ACTIVE && ec->ent[s].deadline_us < next)
+		if (mon_of(&ec->ent[s]) == CO_HB_MON_ACTIVE && ec->ent[s].deadline_us < next)
 			next = ec->ent[s].deadline_us;
 	return next;
 }

@@ -71,7 +71,7 @@
 #define CO_MGR_CONF_SIGNATURE 0x666E6F63u
 #define CO_MGR_ALL_NODES 128u
 
-/* Line state, modelled on seed 001 §2.2. */
+/* Line state of the CiA 302-2 network boot (docs/cogwctl.md "manager"). */
 typedef enum co_mgr_state {
 	CO_MGR_SLAVE = 0,      /* 1F80h bit 0 clear: plain NMT slave */
 	CO_MGR_RESETTING,      /* reset communication of the network */
@@ -89,7 +89,7 @@ typedef enum co_mgr_state {
  * "operational", "stopped", "pre-operational", "fatal" */
 const char *co_mgr_state_to_string(uint8_t state);
 
-/* Flags beside the state (seed 001 §2.2, low nibble). */
+/* Flags beside the state (low nibble; docs/cogwctl.md "manager"). */
 #define CO_MGR_F_OPTIONAL_MISSING \
 	0x01u /* optional missing/wrong, or an
                                          * unexpected node is present */
@@ -339,8 +339,8 @@ int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort, ui
  * not in that step). */
 int co_manager_software_done(co_manager *m, uint8_t node_id, char status, uint32_t abort,
 			     uint16_t index, uint8_t sub, uint32_t value, uint64_t now_us);
-/* KEEP_OP (seed 003): a node that leaves OPERATIONAL without being told is
- * started again. */
+/* KEEP_OP (`keep_op` in docs/config.md): a node that leaves OPERATIONAL
+ * without being told is started again. */
 int co_manager_set_keep_op(co_manager *m, uint8_t node_id, bool on);
 /* The NMT state a node is put in after its boot once the network runs
  * (CO_NMT_OPERATIONAL, the default; CO_NMT_PRE_OPERATIONAL: left as it is;

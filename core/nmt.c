@@ -3,18 +3,26 @@
  * NMT slave state machine and NMT master command sender (CiA 301 §7.3.2,
  * figure 48 "NMT state diagram"; §7.2.8.3.1 NMT services).
  *
- * The slave is a table of (state, command) -> handler. Resets are two
- * steps on purpose: the command puts the node into INITIALISING and runs
- * co_node_reset_app/comm (every service re-reads its objects), and only
- * then the boot-up goes out and the node enters PRE-OPERATIONAL. If the
- * application calls co_node_reset_comm() itself, our reset_comm op marks
- * the boot-up as pending and asks for an immediate tick, so the boot-up
- * still follows the reset of *all* services, never precedes it.
+ * The slave is a core/fsm.h machine, one handler per state. Its inputs:
+ * an NMT command (the 2-byte frame of 000h; a local command or our own
+ * broadcast goes through the same handlers as that frame), the boot-up
+ * at the first tick after a reset (on_timeout of INITIALISING), and two
+ * forced changes that are no command: 1029h error behaviour and a reset
+ * communication the application starts itself.
+ *
+ * Resets are two steps on purpose: the command puts the node into
+ * INITIALISING, whose on_enter runs co_node_reset_app/comm (every service
+ * re-reads its objects), and only then the boot-up goes out and the node
+ * enters PRE-OPERATIONAL. If the application calls co_node_reset_comm()
+ * itself, our reset_comm op enters INITIALISING with the boot-up pending
+ * and asks for an immediate tick, so the boot-up still follows the reset
+ * of *all* services, never precedes it.
  */
 #include <errno.h>
 #include <stdlib.h>
 
 #include "core/co_internal.h"
+#include "core/fsm.h"
 #include "core/nmt.h"
 
 struct nmt_cmd {
@@ -24,8 +32,12 @@ struct nmt_cmd {
 };
 
 struct co_nmt {
-	uint8_t state;
-	bool boot_pending;
+	co_node *node;
+	co_fsm fsm;        /* state: enum nmt_fsm_state */
+	uint8_t leaving;   /* state byte being left (on_leave), for the event */
+	uint8_t cmd_cs;    /* command being applied, 0 for a forced change */
+	int cmd_rc;        /* its outcome: 0, or -EPERM when vetoed */
+	bool boot_pending; /* INITIALISING: boot-up at the next tick */
 
 	co_nmt_veto_fn veto;
 	void *veto_ctx;
@@ -41,19 +53,36 @@ struct co_nmt {
 	co_nmt_stats stats;
 };
 
+/* The machine's states, in the order of the table below. */
+enum nmt_fsm_state {
+	NMT_ST_INITIALISING,
+	NMT_ST_PRE_OPERATIONAL,
+	NMT_ST_OPERATIONAL,
+	NMT_ST_STOPPED,
+	NMT_ST_COUNT
+};
+
+/* The heartbeat / guarding byte of each state (CiA 301 §7.2.8.3.2). */
+static const uint8_t nmt_state_byte[NMT_ST_COUNT] = {
+	[NMT_ST_INITIALISING] = CO_NMT_INITIALISING,
+	[NMT_ST_PRE_OPERATIONAL] = CO_NMT_PRE_OPERATIONAL,
+	[NMT_ST_OPERATIONAL] = CO_NMT_OPERATIONAL,
+	[NMT_ST_STOPPED] = CO_NMT_STOPPED,
+};
+
+static const co_fsm_def nmt_fsm_def;
+
+static int state_of_byte(uint8_t state)
+{
+	for (int i = 0; i < NMT_ST_COUNT; i++)
+		if (nmt_state_byte[i] == state)
+			return i;
+	return -1;
+}
+
 const char *co_nmt_state_to_string(uint8_t state)
 {
-	switch (state) {
-	case CO_NMT_INITIALISING:
-		return "initialising";
-	case CO_NMT_STOPPED:
-		return "stopped";
-	case CO_NMT_OPERATIONAL:
-		return "operational";
-	case CO_NMT_PRE_OPERATIONAL:
-		return "pre-operational";
-	}
-	return "?";
+	return co_fsm_state_name(&nmt_fsm_def, state_of_byte(state));
 }
 
 const char *co_nmt_cs_to_string(uint8_t cs)
@@ -83,7 +112,7 @@ uint8_t co_nmt_get_state(const co_node *node)
 {
 	/* Without the NMT service the node behaves as always operational
 	 * (a bare test node): nothing is held back. */
-	return node->nmt ? node->nmt->state : CO_NMT_OPERATIONAL;
+	return node->nmt ? nmt_state_byte[co_fsm_state_of(&node->nmt->fsm)] : CO_NMT_OPERATIONAL;
 }
 
 const co_nmt_stats *co_nmt_get_stats(const co_node *node)
@@ -109,155 +138,205 @@ void co_nmt_set_rx_filter(co_node *node, co_nmt_rx_filter_fn fn, void *ctx)
 	node->nmt->rx_filter_ctx = ctx;
 }
 
-static void enter(co_node *node, uint8_t state, uint8_t cs, uint64_t now_us)
+static uint8_t state_byte(const struct co_nmt *nmt)
 {
-	struct co_nmt *nmt = node->nmt;
-	uint8_t prev = nmt->state;
-	co_event ev = { .kind = CO_EV_NMT_STATE };
+	return nmt_state_byte[co_fsm_state_of(&nmt->fsm)];
+}
 
-	if (prev == state)
+static void nmt_leave(void *obj, uint64_t now_us)
+{
+	struct co_nmt *nmt = obj;
+
+	(void)now_us;
+	nmt->leaving = state_byte(nmt);
+}
+
+/* Every state's entry: CO_EV_NMT_STATE and every service's nmt_changed,
+ * unless the state was entered again (a reset while INITIALISING). */
+static void announce(struct co_nmt *nmt, uint64_t now_us)
+{
+	co_node *node = nmt->node;
+	co_event ev = { .kind = CO_EV_NMT_STATE };
+	uint8_t state = state_byte(nmt);
+
+	if (nmt->leaving == state)
 		return;
-	nmt->state = state;
 	node->now_us = now_us;
 	ev.u.nmt.state = state;
-	ev.u.nmt.prev = prev;
-	ev.u.nmt.cs = cs;
+	ev.u.nmt.prev = nmt->leaving;
+	ev.u.nmt.cs = nmt->cmd_cs;
 	co_node_emit(node, &ev);
 	co_node_nmt_changed(node, state, now_us);
 }
 
-/* Boot-up message (CiA 301 §7.2.8.3.2.3): 700h + id, one byte 00h. */
-static void boot(co_node *node, uint64_t now_us)
+static int announce_and_stay(void *obj, uint64_t now_us)
 {
-	struct co_nmt *nmt = node->nmt;
+	announce(obj, now_us);
+	return CO_FSM_STAY;
+}
+
+/* Boot-up message (CiA 301 §7.2.8.3.2.3): 700h + id, one byte 00h; then
+ * PRE-OPERATIONAL. */
+static int boot(struct co_nmt *nmt)
+{
+	co_node *node = nmt->node;
 	co_frame f;
 
 	nmt->boot_pending = false;
 	if (node->node_id < 1 || node->node_id > 127)
-		return; /* LSS unconfigured: stay INITIALISING (CiA 305) */
+		return CO_FSM_STAY; /* LSS unconfigured: stay INITIALISING (CiA 305) */
 	co_frame_init(&f, CO_NMT_ERRCTRL_BASE + node->node_id, 1);
 	f.data[0] = CO_NMT_INITIALISING;
 	(void)co_node_send(node, &f);
-	enter(node, CO_NMT_PRE_OPERATIONAL, 0, now_us);
+	nmt->cmd_cs = 0; /* PRE-OPERATIONAL is no command's doing */
+	return NMT_ST_PRE_OPERATIONAL;
 }
 
-typedef int (*nmt_handler)(co_node *node, uint8_t cs, uint64_t now_us);
-
-static int h_start(co_node *node, uint8_t cs, uint64_t now_us)
+/* INITIALISING entered: by a reset command, which resets the services
+ * and boots at once; or by a forced reset communication, which boots at
+ * the next tick. */
+static int initialising_enter(void *obj, uint64_t now_us)
 {
-	struct co_nmt *nmt = node->nmt;
+	struct co_nmt *nmt = obj;
+	uint8_t cs = nmt->cmd_cs;
 
-	if (nmt->state == CO_NMT_OPERATIONAL)
-		return 0;
-	if (nmt->veto && !nmt->veto(nmt->veto_ctx, node, nmt->state, CO_NMT_OPERATIONAL)) {
-		nmt->stats.vetoed++;
-		return -EPERM;
-	}
-	enter(node, CO_NMT_OPERATIONAL, cs, now_us);
-	return 0;
-}
-
-static int h_stop(co_node *node, uint8_t cs, uint64_t now_us)
-{
-	enter(node, CO_NMT_STOPPED, cs, now_us);
-	return 0;
-}
-
-static int h_preop(co_node *node, uint8_t cs, uint64_t now_us)
-{
-	enter(node, CO_NMT_PRE_OPERATIONAL, cs, now_us);
-	return 0;
-}
-
-static int h_reset(co_node *node, uint8_t cs, uint64_t now_us)
-{
-	enter(node, CO_NMT_INITIALISING, cs, now_us);
+	announce(nmt, now_us);
 	if (cs == CO_NMT_CS_RESET_NODE)
-		co_node_reset_app(node, now_us);
+		co_node_reset_app(nmt->node, now_us);
+	else if (cs == CO_NMT_CS_RESET_COMM)
+		co_node_reset_comm(nmt->node, now_us);
 	else
-		co_node_reset_comm(node, now_us);
-	boot(node, now_us);
-	return 0;
+		return CO_FSM_STAY;
+	return boot(nmt);
 }
 
-static int h_ignore(co_node *node, uint8_t cs, uint64_t now_us)
+static int initialising_timeout(void *obj, uint64_t now_us)
 {
-	(void)node;
-	(void)cs;
+	struct co_nmt *nmt = obj;
+
 	(void)now_us;
-	return 0;
+	return nmt->boot_pending ? boot(nmt) : CO_FSM_STAY;
 }
 
-/* Which command does what in which state (CiA 301 figure 48). In
- * INITIALISING the node waits for its boot-up; only resets apply. */
-enum {
-	ST_INIT,
-	ST_PREOP,
-	ST_OP,
-	ST_STOPPED,
-	ST_COUNT
-};
-enum {
-	CMD_START,
-	CMD_STOP,
-	CMD_PREOP,
-	CMD_RESET_NODE,
-	CMD_RESET_COMM,
-	CMD_COUNT
-};
-
-static const nmt_handler nmt_table[ST_COUNT][CMD_COUNT] = {
-	[ST_INIT] = { h_ignore, h_ignore, h_ignore, h_reset, h_reset },
-	[ST_PREOP] = { h_start, h_stop, h_ignore, h_reset, h_reset },
-	[ST_OP] = { h_ignore, h_stop, h_preop, h_reset, h_reset },
-	[ST_STOPPED] = { h_start, h_ignore, h_preop, h_reset, h_reset },
-};
-
-static int state_row(uint8_t state)
+static bool is_reset(uint8_t cs)
 {
-	switch (state) {
-	case CO_NMT_PRE_OPERATIONAL:
-		return ST_PREOP;
-	case CO_NMT_OPERATIONAL:
-		return ST_OP;
-	case CO_NMT_STOPPED:
-		return ST_STOPPED;
-	default:
-		return ST_INIT;
+	return cs == CO_NMT_CS_RESET_NODE || cs == CO_NMT_CS_RESET_COMM;
+}
+
+/* START, unless the application vetoes it (co_nmt_set_veto). */
+static int start(struct co_nmt *nmt)
+{
+	if (nmt->veto &&
+	    !nmt->veto(nmt->veto_ctx, nmt->node, state_byte(nmt), CO_NMT_OPERATIONAL)) {
+		nmt->stats.vetoed++;
+		nmt->cmd_rc = -EPERM;
+		return CO_FSM_STAY;
 	}
+	return NMT_ST_OPERATIONAL;
 }
 
-static int cmd_col(uint8_t cs)
+/* Which command does what in which state (CiA 301 figure 48); a command
+ * a state does not name leaves it as it is. In INITIALISING the node
+ * waits for its boot-up; only resets apply. */
+static int initialising_cmd(void *obj, const co_frame *f, uint64_t now_us)
 {
-	switch (cs) {
+	(void)obj;
+	(void)now_us;
+	return is_reset(f->data[0]) ? NMT_ST_INITIALISING : CO_FSM_STAY;
+}
+
+static int pre_operational_cmd(void *obj, const co_frame *f, uint64_t now_us)
+{
+	(void)now_us;
+	switch (f->data[0]) {
 	case CO_NMT_CS_START:
-		return CMD_START;
+		return start(obj);
 	case CO_NMT_CS_STOP:
-		return CMD_STOP;
-	case CO_NMT_CS_ENTER_PREOP:
-		return CMD_PREOP;
-	case CO_NMT_CS_RESET_NODE:
-		return CMD_RESET_NODE;
-	case CO_NMT_CS_RESET_COMM:
-		return CMD_RESET_COMM;
-	default:
-		return -1;
+		return NMT_ST_STOPPED;
 	}
+	return is_reset(f->data[0]) ? NMT_ST_INITIALISING : CO_FSM_STAY;
 }
 
+static int operational_cmd(void *obj, const co_frame *f, uint64_t now_us)
+{
+	(void)obj;
+	(void)now_us;
+	switch (f->data[0]) {
+	case CO_NMT_CS_STOP:
+		return NMT_ST_STOPPED;
+	case CO_NMT_CS_ENTER_PREOP:
+		return NMT_ST_PRE_OPERATIONAL;
+	}
+	return is_reset(f->data[0]) ? NMT_ST_INITIALISING : CO_FSM_STAY;
+}
+
+static int stopped_cmd(void *obj, const co_frame *f, uint64_t now_us)
+{
+	(void)now_us;
+	switch (f->data[0]) {
+	case CO_NMT_CS_START:
+		return start(obj);
+	case CO_NMT_CS_ENTER_PREOP:
+		return NMT_ST_PRE_OPERATIONAL;
+	}
+	return is_reset(f->data[0]) ? NMT_ST_INITIALISING : CO_FSM_STAY;
+}
+
+static const co_fsm_state nmt_states[NMT_ST_COUNT] = {
+	[NMT_ST_INITIALISING] = { .name = "initialising",
+				  .on_enter = initialising_enter,
+				  .on_frame = initialising_cmd,
+				  .on_timeout = initialising_timeout,
+				  .on_leave = nmt_leave },
+	[NMT_ST_PRE_OPERATIONAL] = { .name = "pre-operational",
+				     .on_enter = announce_and_stay,
+				     .on_frame = pre_operational_cmd,
+				     .on_leave = nmt_leave },
+	[NMT_ST_OPERATIONAL] = { .name = "operational",
+				 .on_enter = announce_and_stay,
+				 .on_frame = operational_cmd,
+				 .on_leave = nmt_leave },
+	[NMT_ST_STOPPED] = { .name = "stopped",
+			     .on_enter = announce_and_stay,
+			     .on_frame = stopped_cmd,
+			     .on_leave = nmt_leave },
+};
+
+static const co_fsm_def nmt_fsm_def = {
+	.name = "nmt",
+	.states = nmt_states,
+	.n_states = NMT_ST_COUNT,
+};
+
+/* A state change that is no NMT command (1029h, an application's reset
+ * communication). */
+static void force(struct co_nmt *nmt, int state, uint64_t now_us)
+{
+	nmt->cmd_cs = 0;
+	co_fsm_goto(&nmt->fsm, state, now_us);
+}
+
+/* Apply command cs (valid) as the frame 000h would: 0 or -EPERM. */
 static int apply(co_node *node, uint8_t cs, uint64_t now_us)
 {
-	int col = cmd_col(cs);
+	struct co_nmt *nmt = node->nmt;
+	co_frame f;
 
-	if (col < 0)
-		return -EINVAL;
-	return nmt_table[state_row(node->nmt->state)][col](node, cs, now_us);
+	co_frame_init(&f, CO_NMT_COB_ID, 2);
+	f.data[0] = cs;
+	f.data[1] = node->node_id;
+	nmt->cmd_cs = cs;
+	nmt->cmd_rc = 0;
+	co_fsm_frame(&nmt->fsm, &f, now_us);
+	return nmt->cmd_rc;
 }
 
 int co_nmt_local_cmd(co_node *node, uint8_t cs, uint64_t now_us)
 {
 	if (!node->nmt)
 		return -ENODEV;
+	if (!co_nmt_cs_is_valid(cs))
+		return -EINVAL;
 	node->now_us = now_us;
 	return apply(node, cs, now_us);
 }
@@ -296,12 +375,13 @@ int co_nmt_error_behaviour(co_node *node, uint8_t sub, uint64_t now_us)
 	node->now_us = now_us;
 	switch (b) {
 	case CO_NMT_ERR_PREOP:
-		if (node->nmt->state == CO_NMT_OPERATIONAL)
-			enter(node, CO_NMT_PRE_OPERATIONAL, 0, now_us);
+		if (co_fsm_state_of(&node->nmt->fsm) == NMT_ST_OPERATIONAL)
+			force(node->nmt, NMT_ST_PRE_OPERATIONAL, now_us);
 		break;
 	case CO_NMT_ERR_STOPPED:
-		if (node->nmt->state != CO_NMT_INITIALISING)
-			enter(node, CO_NMT_STOPPED, 0, now_us);
+		if (co_fsm_state_of(&node->nmt->fsm) == NMT_ST_PRE_OPERATIONAL ||
+		    co_fsm_state_of(&node->nmt->fsm) == NMT_ST_OPERATIONAL)
+			force(node->nmt, NMT_ST_STOPPED, now_us);
 		break;
 	default: /* 1 = no change; 3.. reserved: no change either */
 		b = CO_NMT_ERR_NO_CHANGE;
@@ -410,7 +490,8 @@ static int nmt_init(co_node *node)
 	if (!nmt)
 		return -ENOMEM;
 	node->nmt = nmt;
-	nmt->state = CO_NMT_INITIALISING;
+	nmt->node = node;
+	co_fsm_init(&nmt->fsm, &nmt_fsm_def, nmt, NMT_ST_INITIALISING);
 	h = co_rx_register(node, CO_NMT_COB_ID, 0, nmt_rx, NULL);
 	if (h < 0)
 		return h;
@@ -431,8 +512,7 @@ static uint64_t nmt_tick(co_node *node, uint64_t now_us)
 {
 	struct co_nmt *nmt = node->nmt;
 
-	if (nmt->boot_pending && nmt->state == CO_NMT_INITIALISING)
-		boot(node, now_us);
+	co_fsm_timeout(&nmt->fsm, now_us); /* the boot-up, if one is pending */
 	master_flush(node, now_us);
 	return master_next_us(node);
 }
@@ -441,10 +521,12 @@ static void nmt_reset_comm(co_node *node, uint64_t now_us)
 {
 	struct co_nmt *nmt = node->nmt;
 
-	/* Reached through an NMT command (h_reset boots right after) or
-	 * through the application calling co_node_reset_comm(): then the
-	 * boot-up goes out at the next tick, after every service reset. */
-	enter(node, CO_NMT_INITIALISING, 0, now_us);
+	/* Reached through an NMT command (INITIALISING's on_enter boots right
+	 * after) or through the application calling co_node_reset_comm():
+	 * then the boot-up goes out at the next tick, after every service
+	 * reset. */
+	if (co_fsm_state_of(&nmt->fsm) != NMT_ST_INITIALISING)
+		force(nmt, NMT_ST_INITIALISING, now_us);
 	nmt->boot_pending = true;
 	co_node_deadline_lower(node, now_us);
 }

@@ -11,7 +11,7 @@
 #include "core/od.h"
 
 /* SDO abort codes (CiA 301 §7.2.4.3.17, plus the CiA 302-7 routing codes
- * this project uses for network indications, see DESIGN.md). */
+ * this project uses for network indications, see docs/gateway.md). */
 typedef enum sdo_abort {
 	SDO_OK = 0,
 	SDO_AB_TOGGLE = 0x05030000,            /* toggle bit not alternated */

@@ -328,8 +328,8 @@ static int dn_expedited(struct srv_chan *ch, const uint8_t *d)
 	/* Size not indicated: the object's own size, if it fits in 4 bytes. */
 	if (!s && !co_type_is_variable((co_type)e->type) && e->size <= 4)
 		len = e->size;
-	/* Lenient mode: tolerate clients that always send 4 bytes (seed 004's
-	 * 0x2B/0x23 confusion) as long as the surplus bytes are zero. */
+	/* Lenient mode: tolerate clients that always send 4 bytes (the
+	 * 0x2B/0x23 confusion of printed device sheets, docs/cosim.md) as long as the surplus bytes are zero. */
 	if (cfg_of(ch)->sdo_server_lenient_size && s && !co_type_is_variable((co_type)e->type) &&
 	    len > e->size) {
 		bool zero = true;

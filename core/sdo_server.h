@@ -66,7 +66,7 @@ int sdo_server_continue(co_node *node, uint8_t channel, uint32_t abort, const ui
 			uint32_t size, uint64_t now_us);
 
 /*
- * CiA 302-7 routing hook (used by gateway/; DESIGN.md conventions).
+ * CiA 302-7 routing hook (used by gateway/; docs/gateway.md).
  * A frame with command specifier 7 (a network indication) arriving on an
  * idle channel goes to ops->indication. The channel is then "routed":
  * every later frame received on it goes to ops->frame untouched (aborts

@@ -9,8 +9,8 @@
  *     "COGWSUM1" | u32 generation | u32 set | u32 image length | u32 crc
  * crc = CRC-32 (IEEE 802.3, reflected, as zlib) over the image and the 12
  * bytes generation..length. A truncated file, a bit flip or a file from
- * another writer fails the check and is not applied at all (issue 11: a
- * truncated image used to half-apply, a flipped bit loaded as another
+ * another writer fails the check and is not applied at all (a truncated
+ * image must not half-apply, a flipped bit must not load as another
  * value).
  *
  * Generations make a save of several files atomic as a whole: every file

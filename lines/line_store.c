@@ -36,8 +36,9 @@
  * files (the newest file names a part whose file has another
  * generation), is damaged: nothing at all is loaded, the line starts on
  * its configured values, logs an error and sends EMCY 6300h "data set"
- * (issue 11: a kill between the two renames left them inconsistent, a bit
- * flip loaded as another value and a truncated file half-applied).
+ * (a kill between the two renames must not leave them inconsistent, a
+ * bit flip must not load as another value, a truncated file must not
+ * half-apply).
  * 1011h "load" first re-seals the parts that stay (so they no longer name
  * the deleted ones), then deletes. On load every record is checked
  * against the OD and bad ones are skipped and counted in the log line,

@@ -2,7 +2,7 @@
 /*
  * mailbox/budget.h - the daemon's transfer memory: one budget shared by
  * every line, and transfer buffers whose pages go back to the kernel after
- * a big transfer (issue 11 item 9).
+ * a big transfer (docs/config.md).
  *
  * Why: each line keeps several buffers of max_transfer bytes (mailbox
  * transfer slots, SDO upload slots). Allocated in full and locked by

@@ -372,14 +372,14 @@ typedef struct mbx_stats_wire {
 	uint64_t clients_reaped;
 	uint32_t clients; /* current */
 	uint32_t pad;
-	/* Added by issue 11 (an older daemon's answer ends before them:
+	/* Added in wire version 1's second revision (an older daemon's answer ends before them:
 	 * libcogw leaves them 0). */
 	uint64_t xfer_failed;    /* chunked transfers refused or ended early */
 	uint64_t xfer_expired;   /*   of which: stalled or over their lifetime */
 	uint64_t limited;        /* refused by a per-user/per-client limit */
 	uint64_t budget_refused; /* refused by the memory budget, all lines */
 	uint64_t budget_used;    /* transfer memory in use now, all lines */
-	/* Added after issue 15 (an older daemon's answer ends before it). */
+	/* Added later still (an older daemon's answer ends before it). */
 	uint64_t late_wakes; /* line woke too late to judge client leases */
 } mbx_stats_wire;
 

@@ -90,7 +90,7 @@ explain "" "No device answers yet: the managers wait for their mandatory nodes."
 ctl manager 0
 
 say "3. Two simulated CANopen devices (cosim) are switched on"
-explain "vcan0: the pressure transducer of seed 004, node 1. It sends its pressure"
+explain "vcan0: the STI pressure transducer (etc/devices/sti-pressure.json), node 1. It sends its pressure"
 explain "       (REAL32, PSI) in TPDO 1 (COB-ID 181h) once a second while OPERATIONAL."
 explain "vcan1: a CiA 401-style I/O module, node 2."
 explain "Their boot-up messages make the managers boot them: device type 1000h,"

@@ -386,160 +386,170 @@ static int lss_fail(ctl *c, int rc, const mbx_lss_resp *r, uint8_t cs, const cha
 	return CTL_EXIT_REFUSED;
 }
 
-static int run_lss(ctl *c, int argc, char **argv)
-{
-	const char *pos[8];
+/* What an LSS action's parser sees: the positionals (ACTION LINE ...)
+ * and the set-bit-timing options. */
+typedef struct lss_args {
+	const char *const *pos;
 	int n_pos;
-	const char *table = NULL, *kbit = NULL;
-	ctl_opt opts[] = {
-		{ "--table", true, &table, NULL },
-		{ "--kbit", true, &kbit, NULL },
-		{ NULL, false, NULL, NULL },
-	};
-	int rc = ctl_parse(c, argc, argv, opts, pos, 8, &n_pos);
-	if (rc)
-		return rc;
-	if (c->help)
-		return ctl_print_help(&ctl_cmd_lss);
-	if (n_pos < 2)
-		return ctl_usage_error(c, "expected ACTION LINE ...");
-	const char *act = pos[0];
-	unsigned line;
-	if (ctl_arg_line(c, pos[1], &line) < 0)
-		return CTL_EXIT_USAGE;
-	mbx_lss_req q;
-	memset(&q, 0, sizeof q);
-	uint16_t cmd;
-	uint8_t cs = 0; /* LSS command specifier whose error codes apply */
-	uint64_t v;
-	int want; /* positionals after LINE */
-	if (!strcmp(act, "switch")) {
-		cmd = MBX_CMD_LSS_SWITCH_GLOBAL;
-		want = 1;
-		if (n_pos == 3 && !strcmp(pos[2], "config"))
-			q.mode = LSS_STATE_CONFIGURATION;
-		else if (!(n_pos == 3 && !strcmp(pos[2], "waiting")))
-			return ctl_usage_error(c, "expected 'switch LINE waiting|config'");
-	} else if (!strcmp(act, "select")) {
-		cmd = MBX_CMD_LSS_SWITCH_SELECTIVE;
-		want = 4;
-		if (n_pos != 6)
-			return ctl_usage_error(
-				c, "expected 'select LINE VENDOR PRODUCT REVISION SERIAL'");
-		uint32_t *f[4] = { &q.vendor, &q.product, &q.rev_lo, &q.ser_lo };
-		static const char *const names[4] = { "VENDOR", "PRODUCT", "REVISION", "SERIAL" };
-		for (int i = 0; i < 4; i++) {
-			if (ctl_arg_uint(c, pos[2 + i], names[i], UINT32_MAX, &v) < 0)
-				return CTL_EXIT_USAGE;
-			*f[i] = (uint32_t)v;
-		}
-		q.rev_hi = q.rev_lo;
-		q.ser_hi = q.ser_lo;
-	} else if (!strcmp(act, "set-node-id")) {
-		cmd = MBX_CMD_LSS_SET_NODE_ID;
-		cs = LSS_CS_CONFIG_NODE_ID;
-		want = 1;
-		if (n_pos != 3)
-			return ctl_usage_error(c, "expected 'set-node-id LINE NODE'");
-		if (ctl_arg_uint(c, pos[2], "NODE", 255, &v) < 0)
-			return CTL_EXIT_USAGE;
-		if (v == 0 || (v > 127 && v != 255))
-			return ctl_usage_error(c, "NODE: 1..127, or 255 = unconfigured");
-		q.node = (uint8_t)v;
-	} else if (!strcmp(act, "set-bit-timing")) {
-		cmd = MBX_CMD_LSS_SET_BIT_TIMING;
-		cs = LSS_CS_CONFIG_BIT_TIMING;
-		want = kbit ? 0 : 1;
-		if (table) {
-			if (ctl_arg_uint(c, table, "--table", 255, &v) < 0)
-				return CTL_EXIT_USAGE;
-			q.table = (uint8_t)v;
-		}
-		if (kbit) {
-			/* CiA table 0: find the index of that bit rate */
-			uint64_t k;
-			if (q.table != LSS_BT_TABLE_CIA || n_pos != 2 ||
-			    ctl_arg_uint(c, kbit, "--kbit", 1000, &k) < 0)
-				return ctl_usage_error(c, "expected 'set-bit-timing LINE --kbit "
-							  "KBIT' (CiA table 0 only)");
-			int idx = -1;
-			for (uint8_t i = 0; i <= 8; i++)
-				if (lss_bit_rate_kbit(i) == k)
-					idx = i;
-			if (idx < 0)
-				return ctl_usage_error(
-					c, "--kbit %" PRIu64 " is not in the CiA bit timing table",
-					k);
-			q.bit_index = (uint8_t)idx;
-		} else {
-			if (n_pos != 3 || ctl_arg_uint(c, pos[2], "INDEX", 255, &v) < 0)
-				return ctl_usage_error(c, "expected 'set-bit-timing LINE INDEX "
-							  "[--table T]' or '--kbit KBIT'");
-			q.bit_index = (uint8_t)v;
-		}
-	} else if (!strcmp(act, "activate-bit-timing")) {
-		cmd = MBX_CMD_LSS_ACTIVATE_BIT_TIMING;
-		want = 1;
-		if (n_pos != 3 || ctl_arg_uint(c, pos[2], "DELAY_MS", 65535, &v) < 0)
-			return ctl_usage_error(c, "expected 'activate-bit-timing LINE DELAY_MS'");
-		q.delay_ms = (uint16_t)v;
-	} else if (!strcmp(act, "store")) {
-		cmd = MBX_CMD_LSS_STORE;
-		cs = LSS_CS_STORE;
-		want = 0;
-	} else if (!strcmp(act, "inquire")) {
-		cmd = MBX_CMD_LSS_INQUIRE;
-		want = 1;
-		static const char *const what[] = { "vendor", "product", "revision", "serial",
-						    "node" };
-		q.what = 0;
-		for (int i = 0; i < 5 && n_pos == 3; i++)
-			if (!strcmp(pos[2], what[i]))
-				q.what = (uint8_t)(LSS_CS_INQUIRE_VENDOR + i);
-		if (!q.what)
-			return ctl_usage_error(
-				c, "expected 'inquire LINE vendor|product|revision|serial|node'");
-	} else if (!strcmp(act, "identify")) {
-		cmd = MBX_CMD_LSS_IDENTIFY_NONCONF;
-		want = 0;
-	} else if (!strcmp(act, "fastscan")) {
-		cmd = MBX_CMD_LSS_FASTSCAN;
-		want = 0;
-	} else {
-		return ctl_usage_error(c, "unknown ACTION '%s'", act);
-	}
-	if (n_pos != 2 + want)
-		return ctl_usage_error(c, "wrong number of arguments for '%s'", act);
-	if ((table || kbit) && cmd != MBX_CMD_LSS_SET_BIT_TIMING)
-		return ctl_usage_error(c, "--table/--kbit are for set-bit-timing");
+	const char *table, *kbit;
+} lss_args;
 
-	int ex = 0;
-	cogw *h = ctl_handle(c, &ex);
-	if (!h)
-		return ex;
-	char ctx[64];
-	snprintf(ctx, sizeof ctx, "LSS %s on line %u", act, line);
-	mbx_lss_resp r;
-	memset(&r, 0, sizeof r);
-	rc = cogw_lss(h, line, cmd, &q, &r, c->timeout_ms);
-	if (rc == COGW_E_NOT_FOUND ||
-	    (rc == 0 && cmd == MBX_CMD_LSS_IDENTIFY_NONCONF && !r.found)) {
-		if (c->json) {
-			cJSON *o = json_ok(line);
-			cJSON_ReplaceItemInObject(o, "ok", cJSON_CreateBool(false));
-			cJSON_AddBoolToObject(o, "found", false);
-			cJSON_AddNumberToObject(o, "exit", CTL_EXIT_REFUSED);
-			ctl_json_print(o);
-		} else {
-			fprintf(stderr, "cogwctl: %s: no LSS slave answered%s\n", ctx,
-				cmd == MBX_CMD_LSS_FASTSCAN || cmd == MBX_CMD_LSS_IDENTIFY_NONCONF
-					? " (only unconfigured slaves, node-ID 255, take part)"
-					: "");
-		}
-		return CTL_EXIT_REFUSED;
+static int lss_parse_switch(ctl *c, const lss_args *a, mbx_lss_req *q)
+{
+	if (a->n_pos == 3 && !strcmp(a->pos[2], "config"))
+		q->mode = LSS_STATE_CONFIGURATION;
+	else if (!(a->n_pos == 3 && !strcmp(a->pos[2], "waiting")))
+		return ctl_usage_error(c, "expected 'switch LINE waiting|config'");
+	return 0;
+}
+
+static int lss_parse_select(ctl *c, const lss_args *a, mbx_lss_req *q)
+{
+	static const char *const names[4] = { "VENDOR", "PRODUCT", "REVISION", "SERIAL" };
+	uint32_t *f[4] = { &q->vendor, &q->product, &q->rev_lo, &q->ser_lo };
+	uint64_t v;
+
+	if (a->n_pos != 6)
+		return ctl_usage_error(c, "expected 'select LINE VENDOR PRODUCT REVISION SERIAL'");
+	for (int i = 0; i < 4; i++) {
+		if (ctl_arg_uint(c, a->pos[2 + i], names[i], UINT32_MAX, &v) < 0)
+			return CTL_EXIT_USAGE;
+		*f[i] = (uint32_t)v;
 	}
-	if (rc < 0)
-		return lss_fail(c, rc, &r, cs, ctx);
+	q->rev_hi = q->rev_lo;
+	q->ser_hi = q->ser_lo;
+	return 0;
+}
+
+static int lss_parse_set_node_id(ctl *c, const lss_args *a, mbx_lss_req *q)
+{
+	uint64_t v;
+
+	if (a->n_pos != 3)
+		return ctl_usage_error(c, "expected 'set-node-id LINE NODE'");
+	if (ctl_arg_uint(c, a->pos[2], "NODE", 255, &v) < 0)
+		return CTL_EXIT_USAGE;
+	if (v == 0 || (v > 127 && v != 255))
+		return ctl_usage_error(c, "NODE: 1..127, or 255 = unconfigured");
+	q->node = (uint8_t)v;
+	return 0;
+}
+
+/* --kbit: the index of that bit rate in CiA table 0 (CiA 305). */
+static int lss_parse_kbit(ctl *c, const lss_args *a, mbx_lss_req *q)
+{
+	uint64_t k;
+	int idx = -1;
+
+	if (q->table != LSS_BT_TABLE_CIA || a->n_pos != 2 ||
+	    ctl_arg_uint(c, a->kbit, "--kbit", 1000, &k) < 0)
+		return ctl_usage_error(c, "expected 'set-bit-timing LINE --kbit "
+					  "KBIT' (CiA table 0 only)");
+	for (uint8_t i = 0; i <= 8; i++)
+		if (lss_bit_rate_kbit(i) == k)
+			idx = i;
+	if (idx < 0)
+		return ctl_usage_error(c, "--kbit %" PRIu64 " is not in the CiA bit timing table",
+				       k);
+	q->bit_index = (uint8_t)idx;
+	return 0;
+}
+
+static int lss_parse_set_bit_timing(ctl *c, const lss_args *a, mbx_lss_req *q)
+{
+	uint64_t v;
+
+	if (a->table) {
+		if (ctl_arg_uint(c, a->table, "--table", 255, &v) < 0)
+			return CTL_EXIT_USAGE;
+		q->table = (uint8_t)v;
+	}
+	if (a->kbit)
+		return lss_parse_kbit(c, a, q);
+	if (a->n_pos != 3 || ctl_arg_uint(c, a->pos[2], "INDEX", 255, &v) < 0)
+		return ctl_usage_error(c, "expected 'set-bit-timing LINE INDEX "
+					  "[--table T]' or '--kbit KBIT'");
+	q->bit_index = (uint8_t)v;
+	return 0;
+}
+
+static int lss_parse_activate(ctl *c, const lss_args *a, mbx_lss_req *q)
+{
+	uint64_t v;
+
+	if (a->n_pos != 3 || ctl_arg_uint(c, a->pos[2], "DELAY_MS", 65535, &v) < 0)
+		return ctl_usage_error(c, "expected 'activate-bit-timing LINE DELAY_MS'");
+	q->delay_ms = (uint16_t)v;
+	return 0;
+}
+
+static int lss_parse_inquire(ctl *c, const lss_args *a, mbx_lss_req *q)
+{
+	static const char *const what[] = { "vendor", "product", "revision", "serial", "node" };
+
+	q->what = 0;
+	for (int i = 0; i < 5 && a->n_pos == 3; i++)
+		if (!strcmp(a->pos[2], what[i]))
+			q->what = (uint8_t)(LSS_CS_INQUIRE_VENDOR + i);
+	if (!q->what)
+		return ctl_usage_error(
+			c, "expected 'inquire LINE vendor|product|revision|serial|node'");
+	return 0;
+}
+
+#define LSS_WANT_BY_KBIT (-1) /* set-bit-timing: no INDEX with --kbit */
+
+/* The LSS master's actions (CiA 305): the mailbox command, the command
+ * specifier whose error codes apply (0: none), the positionals after
+ * LINE, and the parser of those (NULL: none). */
+static const struct lss_action {
+	const char *name;
+	uint16_t cmd;
+	uint8_t cs;
+	int want;
+	int (*parse)(ctl *c, const lss_args *a, mbx_lss_req *q);
+} lss_actions[] = {
+	{ "switch", MBX_CMD_LSS_SWITCH_GLOBAL, 0, 1, lss_parse_switch },
+	{ "select", MBX_CMD_LSS_SWITCH_SELECTIVE, 0, 4, lss_parse_select },
+	{ "set-node-id", MBX_CMD_LSS_SET_NODE_ID, LSS_CS_CONFIG_NODE_ID, 1, lss_parse_set_node_id },
+	{ "set-bit-timing", MBX_CMD_LSS_SET_BIT_TIMING, LSS_CS_CONFIG_BIT_TIMING, LSS_WANT_BY_KBIT,
+	  lss_parse_set_bit_timing },
+	{ "activate-bit-timing", MBX_CMD_LSS_ACTIVATE_BIT_TIMING, 0, 1, lss_parse_activate },
+	{ "store", MBX_CMD_LSS_STORE, LSS_CS_STORE, 0, NULL },
+	{ "inquire", MBX_CMD_LSS_INQUIRE, 0, 1, lss_parse_inquire },
+	{ "identify", MBX_CMD_LSS_IDENTIFY_NONCONF, 0, 0, NULL },
+	{ "fastscan", MBX_CMD_LSS_FASTSCAN, 0, 0, NULL },
+};
+
+static const struct lss_action *lss_action_of(const char *name)
+{
+	for (size_t i = 0; i < sizeof lss_actions / sizeof lss_actions[0]; i++)
+		if (!strcmp(lss_actions[i].name, name))
+			return &lss_actions[i];
+	return NULL;
+}
+
+/* No slave answered (or identify found none): exit 3. */
+static int lss_none_found(ctl *c, unsigned line, uint16_t cmd, const char *ctx)
+{
+	if (c->json) {
+		cJSON *o = json_ok(line);
+		cJSON_ReplaceItemInObject(o, "ok", cJSON_CreateBool(false));
+		cJSON_AddBoolToObject(o, "found", false);
+		cJSON_AddNumberToObject(o, "exit", CTL_EXIT_REFUSED);
+		ctl_json_print(o);
+	} else {
+		fprintf(stderr, "cogwctl: %s: no LSS slave answered%s\n", ctx,
+			cmd == MBX_CMD_LSS_FASTSCAN || cmd == MBX_CMD_LSS_IDENTIFY_NONCONF
+				? " (only unconfigured slaves, node-ID 255, take part)"
+				: "");
+	}
+	return CTL_EXIT_REFUSED;
+}
+
+static void lss_print_result(ctl *c, unsigned line, const char *act, const char *inquired,
+			     uint16_t cmd, const mbx_lss_resp *r)
+{
 	cJSON *o = c->json ? json_ok(line) : NULL;
 	if (o)
 		cJSON_AddStringToObject(o, "lss", act);
@@ -547,24 +557,24 @@ static int run_lss(ctl *c, int argc, char **argv)
 	case MBX_CMD_LSS_FASTSCAN:
 		if (o) {
 			cJSON_AddBoolToObject(o, "found", true);
-			cJSON_AddNumberToObject(o, "vendor", r.id[0]);
-			cJSON_AddNumberToObject(o, "product", r.id[1]);
-			cJSON_AddNumberToObject(o, "revision", r.id[2]);
-			cJSON_AddNumberToObject(o, "serial", r.id[3]);
+			cJSON_AddNumberToObject(o, "vendor", r->id[0]);
+			cJSON_AddNumberToObject(o, "product", r->id[1]);
+			cJSON_AddNumberToObject(o, "revision", r->id[2]);
+			cJSON_AddNumberToObject(o, "serial", r->id[3]);
 		} else {
 			printf("line %u: found vendor 0x%08" PRIX32 " product 0x%08" PRIX32
 			       " revision 0x%08" PRIX32 " serial 0x%08" PRIX32 " (%" PRIu32 ")\n"
 			       "  that slave is now in LSS configuration state: 'lss set-node-id "
 			       "%u NODE', 'lss store %u'\n",
-			       line, r.id[0], r.id[1], r.id[2], r.id[3], r.id[3], line, line);
+			       line, r->id[0], r->id[1], r->id[2], r->id[3], r->id[3], line, line);
 		}
 		break;
 	case MBX_CMD_LSS_INQUIRE:
 		if (o)
-			cJSON_AddNumberToObject(o, "value", r.value);
+			cJSON_AddNumberToObject(o, "value", r->value);
 		else
-			printf("line %u: %s = %" PRIu32 " (0x%08" PRIX32 ")\n", line, pos[2],
-			       r.value, r.value);
+			printf("line %u: %s = %" PRIu32 " (0x%08" PRIX32 ")\n", line, inquired,
+			       r->value, r->value);
 		break;
 	case MBX_CMD_LSS_IDENTIFY_NONCONF:
 		if (o)
@@ -579,6 +589,56 @@ static int run_lss(ctl *c, int argc, char **argv)
 	}
 	if (o)
 		ctl_json_print(o);
+}
+
+static int run_lss(ctl *c, int argc, char **argv)
+{
+	const char *pos[8];
+	lss_args a = { .pos = pos };
+	ctl_opt opts[] = {
+		{ "--table", true, &a.table, NULL },
+		{ "--kbit", true, &a.kbit, NULL },
+		{ NULL, false, NULL, NULL },
+	};
+	int rc = ctl_parse(c, argc, argv, opts, pos, 8, &a.n_pos);
+	if (rc)
+		return rc;
+	if (c->help)
+		return ctl_print_help(&ctl_cmd_lss);
+	if (a.n_pos < 2)
+		return ctl_usage_error(c, "expected ACTION LINE ...");
+	const char *act = pos[0];
+	unsigned line;
+	if (ctl_arg_line(c, pos[1], &line) < 0)
+		return CTL_EXIT_USAGE;
+	const struct lss_action *la = lss_action_of(act);
+	if (!la)
+		return ctl_usage_error(c, "unknown ACTION '%s'", act);
+	mbx_lss_req q;
+	memset(&q, 0, sizeof q);
+	if (la->parse && (rc = la->parse(c, &a, &q)) != 0)
+		return rc;
+	int want = la->want == LSS_WANT_BY_KBIT ? (a.kbit ? 0 : 1) : la->want;
+	if (a.n_pos != 2 + want)
+		return ctl_usage_error(c, "wrong number of arguments for '%s'", act);
+	if ((a.table || a.kbit) && la->cmd != MBX_CMD_LSS_SET_BIT_TIMING)
+		return ctl_usage_error(c, "--table/--kbit are for set-bit-timing");
+
+	int ex = 0;
+	cogw *h = ctl_handle(c, &ex);
+	if (!h)
+		return ex;
+	char ctx[64];
+	snprintf(ctx, sizeof ctx, "LSS %s on line %u", act, line);
+	mbx_lss_resp r;
+	memset(&r, 0, sizeof r);
+	rc = cogw_lss(h, line, la->cmd, &q, &r, c->timeout_ms);
+	if (rc == COGW_E_NOT_FOUND ||
+	    (rc == 0 && la->cmd == MBX_CMD_LSS_IDENTIFY_NONCONF && !r.found))
+		return lss_none_found(c, line, la->cmd, ctx);
+	if (rc < 0)
+		return lss_fail(c, rc, &r, la->cs, ctx);
+	lss_print_result(c, line, act, a.n_pos > 2 ? pos[2] : NULL, la->cmd, &r);
 	return 0;
 }
 

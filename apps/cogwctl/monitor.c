@@ -72,322 +72,450 @@ static void pdo_value_text(const mbx_pdo_value *v, bool as_float, char *buf, siz
 	free(hex);
 }
 
+/* ---- one printer per event kind ---------------------------------------- */
+
+/* What a printer writes: the text line's words and, with --json, the
+ * event's own members of the JSON object (NULL without --json). */
+typedef struct event_out {
+	char *text;
+	size_t len;
+	cJSON *o;
+} event_out;
+
+typedef void (*event_printer)(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out);
+
+static void print_node_json(const cogw_msg *m, const mbx_ev_node *e, event_out *out)
+{
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "node", e->node);
+	cJSON_AddStringToObject(out->o, "state", nmt_text(e->state));
+	if (m->code == MBX_EV_NMT_STATE)
+		cJSON_AddStringToObject(out->o, "prev", nmt_text(e->prev));
+}
+
+static void print_nmt_state(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_node e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len, "node %u %s -> %s", e.node, nmt_text(e.prev),
+		 nmt_text(e.state));
+	print_node_json(m, &e, out);
+}
+
+static void print_bootup(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_node e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len, "node %u boot-up", e.node);
+	print_node_json(m, &e, out);
+}
+
+static void print_hb_started(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_node e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len, "node %u heartbeat started (%s)", e.node, nmt_text(e.state));
+	print_node_json(m, &e, out);
+}
+
+static void print_hb_lost(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_node e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len, "node %u heartbeat LOST", e.node);
+	print_node_json(m, &e, out);
+}
+
+static void print_gw_sdo(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	static const char *const outcome[] = { "routed", "aborted", "timed out", "refused" };
+	mbx_ev_gw_sdo e;
+	char ab[96] = "", via[256];
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	const char *oc = e.outcome < 4 ? outcome[e.outcome] : "?";
+	if (e.abort)
+		ctl_abort_text(e.abort, ab, sizeof ab);
+	if (e.target_line == 0xFF)
+		snprintf(via, sizeof via, "refused before leaving");
+	else if (e.router)
+		snprintf(via, sizeof via, "via line %u, router node %u", e.target_line, e.router);
+	else
+		snprintf(via, sizeof via, "via line %u", e.target_line);
+	snprintf(out->text, out->len, "routed SDO to network %u node %u (%s): %s%s%s, %u frames",
+		 e.net, e.node, via, oc, e.abort ? ", abort " : "", ab, e.frames);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "net", e.net);
+	cJSON_AddNumberToObject(out->o, "node", e.node);
+	cJSON_AddStringToObject(out->o, "outcome", oc);
+	cJSON_AddNumberToObject(out->o, "abort", e.abort);
+	if (e.target_line != 0xFF)
+		cJSON_AddNumberToObject(out->o, "target_line", e.target_line);
+	cJSON_AddNumberToObject(out->o, "router", e.router);
+	cJSON_AddNumberToObject(out->o, "channel", e.channel);
+	cJSON_AddNumberToObject(out->o, "frames", e.frames);
+}
+
+static void print_dup_node(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_dup_node e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len,
+		 "node %u: two answers to one SDO request (%04X:%02X), %" PRIu32
+		 " so far: two devices on this node-ID",
+		 e.node, e.index, e.sub, e.count);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "node", e.node);
+	cJSON_AddNumberToObject(out->o, "index", e.index);
+	cJSON_AddNumberToObject(out->o, "sub", e.sub);
+	cJSON_AddNumberToObject(out->o, "count", e.count);
+	cJSON_AddNumberToObject(out->o, "abort", e.abort);
+}
+
+static void print_gw_emcy(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_gw_emcy e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len,
+		 "EMCY %04X of node %u (network %u) forwarded to lines mask %04X", e.code,
+		 e.src_node, e.src_net, e.lines);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "src_net", e.src_net);
+	cJSON_AddNumberToObject(out->o, "src_node", e.src_node);
+	cJSON_AddNumberToObject(out->o, "code", e.code);
+	cJSON_AddNumberToObject(out->o, "lines", e.lines);
+}
+
+static void print_emcy(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_emcy e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	char *hex = ctl_hex_text(e.msef, 5, 5);
+	const char *what = e.code ? co_emcy_code_to_string(e.code) : "error reset";
+	snprintf(out->text, out->len, "node %u EMCY %04X (%s) register %02X data %s", e.node,
+		 e.code, what, e.reg, hex);
+	if (out->o) {
+		cJSON_AddNumberToObject(out->o, "ts_us", (double)e.ts_us);
+		cJSON_AddNumberToObject(out->o, "node", e.node);
+		cJSON_AddNumberToObject(out->o, "code", e.code);
+		cJSON_AddStringToObject(out->o, "code_text", what);
+		cJSON_AddNumberToObject(out->o, "register", e.reg);
+		cJSON_AddStringToObject(out->o, "data", hex);
+	}
+	free(hex);
+}
+
+static cJSON *pdo_value_json(const mbx_pdo_value *v)
+{
+	cJSON *jv = cJSON_CreateObject();
+	uint8_t n = v->len > 8 ? 8 : v->len;
+	char *hex = ctl_hex_text(v->data, n, 8);
+
+	cJSON_AddNumberToObject(jv, "index", v->index);
+	cJSON_AddNumberToObject(jv, "sub", v->sub);
+	cJSON_AddStringToObject(jv, "hex", hex);
+	free(hex);
+	if (n == 4) {
+		float f;
+		memcpy(&f, v->data, 4);
+		cJSON_AddNumberToObject(jv, "r32", (double)f);
+	}
+	return jv;
+}
+
+static void print_pdo(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_pdo e;
+	char one[256];
+
+	memcpy(&e, m->data, sizeof e);
+	size_t off = (size_t)snprintf(out->text, out->len, "RPDO %u:", e.pdo);
+	cJSON *vals = out->o ? cJSON_CreateArray() : NULL;
+	for (unsigned i = 0; i < e.n && sizeof e + (i + 1) * sizeof(mbx_pdo_value) <= m->len; i++) {
+		mbx_pdo_value v;
+		memcpy(&v, m->data + sizeof e + i * sizeof v, sizeof v);
+		pdo_value_text(&v, spec->as_float, one, sizeof one);
+		if (off < out->len)
+			off += (size_t)snprintf(out->text + off, out->len - off, " %s", one);
+		if (vals)
+			cJSON_AddItemToArray(vals, pdo_value_json(&v));
+	}
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "ts_us", (double)e.ts_us);
+	cJSON_AddNumberToObject(out->o, "pdo", e.pdo);
+	cJSON_AddItemToObject(out->o, "values", vals);
+}
+
+static void print_sdo_done(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_sdo_done e;
+	char ab[128] = "ok";
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	if (e.abort)
+		snprintf(ab, sizeof ab, "abort 0x%08" PRIX32 " (%s)", e.abort,
+			 sdo_abort_to_string(e.abort));
+	snprintf(out->text, out->len,
+		 "node %u SDO %s %04X:%02X %" PRIu32 " bytes: %s (client %" PRIu32 ")", e.node,
+		 e.upload ? "upload" : "download", e.index, e.sub, e.size, ab, e.client);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "node", e.node);
+	cJSON_AddBoolToObject(out->o, "upload", e.upload);
+	cJSON_AddNumberToObject(out->o, "index", e.index);
+	cJSON_AddNumberToObject(out->o, "sub", e.sub);
+	cJSON_AddNumberToObject(out->o, "size", e.size);
+	cJSON_AddNumberToObject(out->o, "abort", e.abort);
+	cJSON_AddNumberToObject(out->o, "client", e.client);
+}
+
+static void print_mgr_state(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_mgr e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len, "manager %s -> %s (flags %02X)",
+		 co_mgr_state_to_string(e.prev), co_mgr_state_to_string(e.state), e.flags);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "node", e.node);
+	cJSON_AddStringToObject(out->o, "state", co_mgr_state_to_string(e.state));
+	cJSON_AddStringToObject(out->o, "prev", co_mgr_state_to_string(e.prev));
+	cJSON_AddNumberToObject(out->o, "flags", e.flags);
+}
+
+/* The text of one boot step: a failed step with its status letter, the
+ * configuration download's count, or the step passed. */
+static void mgr_boot_text(const mbx_ev_mgr *e, char *text, size_t len)
+{
+	const char *step = co_mgr_step_to_string(e->step);
+
+	if (e->status == 'J')
+		/* the configuration download: value = the concise DCF entry */
+		snprintf(text, len,
+			 "node %u boot %s %04X:%02X FAILED: status J (%s), entry %" PRIu32
+			 ", abort 0x%08" PRIX32 " (%s)",
+			 e->node, step, e->index, e->sub, co_mgr_status_to_string(e->status),
+			 e->value, e->abort, sdo_abort_to_string(e->abort));
+	else if (e->status && e->status != 'L')
+		snprintf(text, len,
+			 "node %u boot %s %04X:%02X FAILED: status %c (%s), abort "
+			 "0x%08" PRIX32 ", value 0x%08" PRIX32 " expected 0x%08" PRIX32,
+			 e->node, step, e->index, e->sub, e->status,
+			 co_mgr_status_to_string(e->status), e->abort, e->value, e->expected);
+	else if (e->step == CO_MGR_STEP_SOFTWARE && e->index == CO_SWMGR_IDX_CONTROL &&
+		 e->value != CO_SWMGR_PROG_STARTED)
+		/* the program state seen although the software is not checked */
+		snprintf(text, len,
+			 "node %u boot software: its program does not run (1F51:01 = %" PRIu32
+			 ", %s)",
+			 e->node, e->value, co_swmgr_program_to_string((uint8_t)e->value));
+	else if (e->step == CO_MGR_STEP_CONFIGURE && e->value)
+		/* value: the concise DCF entries written */
+		snprintf(text, len,
+			 "node %u boot configure ok: %" PRIu32 " concise DCF entries downloaded",
+			 e->node, e->value);
+	else if (e->step == CO_MGR_STEP_CONFIGURE)
+		snprintf(text, len,
+			 "node %u boot configure ok: nothing downloaded (no configuration, or "
+			 "1020h matches)",
+			 e->node);
+	else
+		snprintf(text, len, "node %u boot %s%s%s", e->node, step,
+			 e->status == 'L' ? " L (was operational)" : " ok",
+			 e->done ? ": booted" : "");
+}
+
+static void print_mgr_boot(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_mgr e;
+	char st[2];
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	mgr_boot_text(&e, out->text, out->len);
+	if (!out->o)
+		return;
+	st[0] = e.status;
+	st[1] = 0;
+	cJSON_AddNumberToObject(out->o, "node", e.node);
+	cJSON_AddStringToObject(out->o, "step", co_mgr_step_to_string(e.step));
+	cJSON_AddStringToObject(out->o, "status", st);
+	cJSON_AddNumberToObject(out->o, "abort", e.abort);
+	cJSON_AddNumberToObject(out->o, "index", e.index);
+	cJSON_AddNumberToObject(out->o, "sub", e.sub);
+	cJSON_AddNumberToObject(out->o, "value", e.value);
+	if (e.status == 'J')
+		cJSON_AddNumberToObject(out->o, "entry", e.value);
+	cJSON_AddNumberToObject(out->o, "expected", e.expected);
+	cJSON_AddBoolToObject(out->o, "done", e.done);
+	cJSON_AddBoolToObject(out->o, "mandatory", e.mandatory);
+}
+
+static void print_mgr_node(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_mgr e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len, "node %u %s (%" PRIu32 ")", e.node,
+		 co_mgr_node_what_to_string(e.what), e.value);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "node", e.node);
+	cJSON_AddStringToObject(out->o, "what", co_mgr_node_what_to_string(e.what));
+	cJSON_AddNumberToObject(out->o, "value", e.value);
+}
+
+static void print_can_state(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_can_state e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len, "CAN %s -> %s (tx errors %u, rx errors %u)",
+		 mbx_can_state_to_string(e.prev), mbx_can_state_to_string(e.state), e.tec, e.rec);
+	if (!out->o)
+		return;
+	cJSON_AddStringToObject(out->o, "state", mbx_can_state_to_string(e.state));
+	cJSON_AddStringToObject(out->o, "prev", mbx_can_state_to_string(e.prev));
+}
+
+static void print_raw(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_raw e;
+	char frame[256];
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	frame_text(&e.frame, frame, sizeof frame);
+	snprintf(out->text, out->len, "%s", frame);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "ts_us", (double)e.ts_us);
+	cJSON_AddStringToObject(out->o, "frame", frame);
+	cJSON_AddNumberToObject(out->o, "id", e.frame.id & 0x1FFFFFFFu);
+	cJSON_AddBoolToObject(out->o, "ext", e.frame.id & MBX_RAW_EXT);
+	cJSON_AddBoolToObject(out->o, "rtr", e.frame.id & MBX_RAW_RTR);
+}
+
+static void print_od_written(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_od_written e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len, "own OD %04X:%02X written (%" PRIu32 " bytes)", e.index,
+		 e.sub, e.size);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "index", e.index);
+	cJSON_AddNumberToObject(out->o, "sub", e.sub);
+	cJSON_AddNumberToObject(out->o, "size", e.size);
+}
+
+static void print_overflow(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_overflow e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len,
+		 "our event queue overflowed: %" PRIu32 " events and %" PRIu32
+		 " responses were lost",
+		 e.dropped_events, e.dropped_responses);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "dropped_events", e.dropped_events);
+	cJSON_AddNumberToObject(out->o, "dropped_responses", e.dropped_responses);
+}
+
+/* Every event kind cogwctl knows (mailbox/proto.h, docs/cogwctl.md
+ * "monitor"); another is printed by its code and size. */
+static const struct {
+	uint16_t code;
+	event_printer print;
+} event_printers[] = {
+	{ MBX_EV_NMT_STATE, print_nmt_state },
+	{ MBX_EV_BOOTUP, print_bootup },
+	{ MBX_EV_HB_STARTED, print_hb_started },
+	{ MBX_EV_HB_LOST, print_hb_lost },
+	{ MBX_EV_DUP_NODE, print_dup_node },
+	{ MBX_EV_GW_SDO, print_gw_sdo },
+	{ MBX_EV_GW_EMCY, print_gw_emcy },
+	{ MBX_EV_EMCY, print_emcy },
+	{ MBX_EV_PDO, print_pdo },
+	{ MBX_EV_SDO_DONE, print_sdo_done },
+	{ MBX_EV_MGR_STATE, print_mgr_state },
+	{ MBX_EV_MGR_BOOT, print_mgr_boot },
+	{ MBX_EV_MGR_NODE, print_mgr_node },
+	{ MBX_EV_CAN_STATE, print_can_state },
+	{ MBX_EV_RAW, print_raw },
+	{ MBX_EV_OD_WRITTEN, print_od_written },
+	{ MBX_EV_OVERFLOW, print_overflow },
+};
+
+static event_printer printer_of(uint16_t code)
+{
+	for (size_t i = 0; i < sizeof event_printers / sizeof event_printers[0]; i++)
+		if (event_printers[i].code == code)
+			return event_printers[i].print;
+	return NULL;
+}
+
+/* The members every event's JSON object starts with. */
+static cJSON *event_json_head(const cogw_msg *m, const char *cls, double epoch)
+{
+	cJSON *o = cJSON_CreateObject();
+
+	if (!o)
+		return NULL;
+	cJSON_AddNumberToObject(o, "time", epoch);
+	cJSON_AddNumberToObject(o, "line", m->line);
+	cJSON_AddStringToObject(o, "class", m->code == MBX_EV_OVERFLOW ? "overflow" : cls);
+	cJSON_AddStringToObject(o, "event", mbx_event_to_string(m->code));
+	if (m->dropped)
+		cJSON_AddNumberToObject(o, "dropped_before", m->dropped);
+	return o;
+}
+
 static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 {
-	char ts[32], text[1024] = "", sub[256];
+	char ts[32], text[1024] = "";
 	double epoch;
 	ctl_timestamp(ts, sizeof ts, &epoch);
 	const char *cls = mbx_event_class_to_string(mbx_event_class_of(m->code));
-	cJSON *o = c->json ? cJSON_CreateObject() : NULL;
-	if (o) {
-		cJSON_AddNumberToObject(o, "time", epoch);
-		cJSON_AddNumberToObject(o, "line", m->line);
-		cJSON_AddStringToObject(o, "class", m->code == MBX_EV_OVERFLOW ? "overflow" : cls);
-		cJSON_AddStringToObject(o, "event", mbx_event_to_string(m->code));
-		if (m->dropped)
-			cJSON_AddNumberToObject(o, "dropped_before", m->dropped);
-	}
-	switch (m->code) {
-	case MBX_EV_NMT_STATE:
-	case MBX_EV_BOOTUP:
-	case MBX_EV_HB_STARTED:
-	case MBX_EV_HB_LOST: {
-		mbx_ev_node e;
-		memcpy(&e, m->data, sizeof e);
-		if (m->code == MBX_EV_NMT_STATE)
-			snprintf(text, sizeof text, "node %u %s -> %s", e.node, nmt_text(e.prev),
-				 nmt_text(e.state));
-		else if (m->code == MBX_EV_BOOTUP)
-			snprintf(text, sizeof text, "node %u boot-up", e.node);
-		else if (m->code == MBX_EV_HB_STARTED)
-			snprintf(text, sizeof text, "node %u heartbeat started (%s)", e.node,
-				 nmt_text(e.state));
-		else
-			snprintf(text, sizeof text, "node %u heartbeat LOST", e.node);
-		if (o) {
-			cJSON_AddNumberToObject(o, "node", e.node);
-			cJSON_AddStringToObject(o, "state", nmt_text(e.state));
-			if (m->code == MBX_EV_NMT_STATE)
-				cJSON_AddStringToObject(o, "prev", nmt_text(e.prev));
-		}
-		break;
-	}
-	case MBX_EV_DUP_NODE: {
-		mbx_ev_dup_node e;
-		memcpy(&e, m->data, sizeof e);
-		snprintf(text, sizeof text,
-			 "node %u: two answers to one SDO request (%04X:%02X), %" PRIu32
-			 " so far: two devices on this node-ID",
-			 e.node, e.index, e.sub, e.count);
-		if (o) {
-			cJSON_AddNumberToObject(o, "node", e.node);
-			cJSON_AddNumberToObject(o, "index", e.index);
-			cJSON_AddNumberToObject(o, "sub", e.sub);
-			cJSON_AddNumberToObject(o, "count", e.count);
-			cJSON_AddNumberToObject(o, "abort", e.abort);
-		}
-		break;
-	}
-	case MBX_EV_GW_SDO: {
-		static const char *const outcome[] = { "routed", "aborted", "timed out",
-						       "refused" };
-		mbx_ev_gw_sdo e;
-		char ab[96] = "";
-		memcpy(&e, m->data, sizeof e);
-		const char *oc = e.outcome < 4 ? outcome[e.outcome] : "?";
-		if (e.abort)
-			ctl_abort_text(e.abort, ab, sizeof ab);
-		if (e.target_line == 0xFF)
-			snprintf(sub, sizeof sub, "refused before leaving");
-		else if (e.router)
-			snprintf(sub, sizeof sub, "via line %u, router node %u", e.target_line,
-				 e.router);
-		else
-			snprintf(sub, sizeof sub, "via line %u", e.target_line);
-		snprintf(text, sizeof text,
-			 "routed SDO to network %u node %u (%s): %s%s%s, %u frames", e.net, e.node,
-			 sub, oc, e.abort ? ", abort " : "", ab, e.frames);
-		if (o) {
-			cJSON_AddNumberToObject(o, "net", e.net);
-			cJSON_AddNumberToObject(o, "node", e.node);
-			cJSON_AddStringToObject(o, "outcome", oc);
-			cJSON_AddNumberToObject(o, "abort", e.abort);
-			if (e.target_line != 0xFF)
-				cJSON_AddNumberToObject(o, "target_line", e.target_line);
-			cJSON_AddNumberToObject(o, "router", e.router);
-			cJSON_AddNumberToObject(o, "channel", e.channel);
-			cJSON_AddNumberToObject(o, "frames", e.frames);
-		}
-		break;
-	}
-	case MBX_EV_GW_EMCY: {
-		mbx_ev_gw_emcy e;
-		memcpy(&e, m->data, sizeof e);
-		snprintf(text, sizeof text,
-			 "EMCY %04X of node %u (network %u) forwarded to lines mask %04X", e.code,
-			 e.src_node, e.src_net, e.lines);
-		if (o) {
-			cJSON_AddNumberToObject(o, "src_net", e.src_net);
-			cJSON_AddNumberToObject(o, "src_node", e.src_node);
-			cJSON_AddNumberToObject(o, "code", e.code);
-			cJSON_AddNumberToObject(o, "lines", e.lines);
-		}
-		break;
-	}
-	case MBX_EV_EMCY: {
-		mbx_ev_emcy e;
-		memcpy(&e, m->data, sizeof e);
-		char *hex = ctl_hex_text(e.msef, 5, 5);
-		snprintf(text, sizeof text, "node %u EMCY %04X (%s) register %02X data %s", e.node,
-			 e.code, e.code ? co_emcy_code_to_string(e.code) : "error reset", e.reg,
-			 hex);
-		if (o) {
-			cJSON_AddNumberToObject(o, "ts_us", (double)e.ts_us);
-			cJSON_AddNumberToObject(o, "node", e.node);
-			cJSON_AddNumberToObject(o, "code", e.code);
-			cJSON_AddStringToObject(o, "code_text",
-						e.code ? co_emcy_code_to_string(e.code)
-						       : "error reset");
-			cJSON_AddNumberToObject(o, "register", e.reg);
-			cJSON_AddStringToObject(o, "data", hex);
-		}
-		free(hex);
-		break;
-	}
-	case MBX_EV_PDO: {
-		mbx_ev_pdo e;
-		memcpy(&e, m->data, sizeof e);
-		size_t off = (size_t)snprintf(text, sizeof text, "RPDO %u:", e.pdo);
-		cJSON *vals = o ? cJSON_CreateArray() : NULL;
-		for (unsigned i = 0;
-		     i < e.n && sizeof e + (i + 1) * sizeof(mbx_pdo_value) <= m->len; i++) {
-			mbx_pdo_value v;
-			memcpy(&v, m->data + sizeof e + i * sizeof v, sizeof v);
-			pdo_value_text(&v, spec->as_float, sub, sizeof sub);
-			if (off < sizeof text)
-				off += (size_t)snprintf(text + off, sizeof text - off, " %s", sub);
-			if (vals) {
-				cJSON *jv = cJSON_CreateObject();
-				cJSON_AddNumberToObject(jv, "index", v.index);
-				cJSON_AddNumberToObject(jv, "sub", v.sub);
-				uint8_t n = v.len > 8 ? 8 : v.len;
-				char *hex = ctl_hex_text(v.data, n, 8);
-				cJSON_AddStringToObject(jv, "hex", hex);
-				free(hex);
-				if (n == 4) {
-					float f;
-					memcpy(&f, v.data, 4);
-					cJSON_AddNumberToObject(jv, "r32", (double)f);
-				}
-				cJSON_AddItemToArray(vals, jv);
-			}
-		}
-		if (o) {
-			cJSON_AddNumberToObject(o, "ts_us", (double)e.ts_us);
-			cJSON_AddNumberToObject(o, "pdo", e.pdo);
-			cJSON_AddItemToObject(o, "values", vals);
-		}
-		break;
-	}
-	case MBX_EV_SDO_DONE: {
-		mbx_ev_sdo_done e;
-		memcpy(&e, m->data, sizeof e);
-		char ab[128] = "ok";
-		if (e.abort)
-			snprintf(ab, sizeof ab, "abort 0x%08" PRIX32 " (%s)", e.abort,
-				 sdo_abort_to_string(e.abort));
-		snprintf(text, sizeof text,
-			 "node %u SDO %s %04X:%02X %" PRIu32 " bytes: %s (client %" PRIu32 ")",
-			 e.node, e.upload ? "upload" : "download", e.index, e.sub, e.size, ab,
-			 e.client);
-		if (o) {
-			cJSON_AddNumberToObject(o, "node", e.node);
-			cJSON_AddBoolToObject(o, "upload", e.upload);
-			cJSON_AddNumberToObject(o, "index", e.index);
-			cJSON_AddNumberToObject(o, "sub", e.sub);
-			cJSON_AddNumberToObject(o, "size", e.size);
-			cJSON_AddNumberToObject(o, "abort", e.abort);
-			cJSON_AddNumberToObject(o, "client", e.client);
-		}
-		break;
-	}
-	case MBX_EV_MGR_STATE:
-	case MBX_EV_MGR_BOOT:
-	case MBX_EV_MGR_NODE: {
-		mbx_ev_mgr e;
-		char st[2];
-		memcpy(&e, m->data, sizeof e);
-		st[0] = e.status;
-		st[1] = 0;
-		if (m->code == MBX_EV_MGR_STATE)
-			snprintf(text, sizeof text, "manager %s -> %s (flags %02X)",
-				 co_mgr_state_to_string(e.prev), co_mgr_state_to_string(e.state),
-				 e.flags);
-		else if (m->code == MBX_EV_MGR_BOOT && e.status == 'J')
-			/* the configuration download: value = the concise DCF entry */
-			snprintf(text, sizeof text,
-				 "node %u boot %s %04X:%02X FAILED: status J (%s), entry %" PRIu32
-				 ", abort 0x%08" PRIX32 " (%s)",
-				 e.node, co_mgr_step_to_string(e.step), e.index, e.sub,
-				 co_mgr_status_to_string(e.status), e.value, e.abort,
-				 sdo_abort_to_string(e.abort));
-		else if (m->code == MBX_EV_MGR_BOOT && e.status && e.status != 'L')
-			snprintf(text, sizeof text,
-				 "node %u boot %s %04X:%02X FAILED: status %c (%s), abort "
-				 "0x%08" PRIX32 ", value 0x%08" PRIX32 " expected 0x%08" PRIX32,
-				 e.node, co_mgr_step_to_string(e.step), e.index, e.sub, e.status,
-				 co_mgr_status_to_string(e.status), e.abort, e.value, e.expected);
-		else if (m->code == MBX_EV_MGR_BOOT && e.step == CO_MGR_STEP_SOFTWARE &&
-			 e.index == CO_SWMGR_IDX_CONTROL && e.value != CO_SWMGR_PROG_STARTED)
-			/* the program state seen although the software is not checked */
-			snprintf(text, sizeof text,
-				 "node %u boot software: its program does not run (1F51:01 = "
-				 "%" PRIu32 ", %s)",
-				 e.node, e.value, co_swmgr_program_to_string((uint8_t)e.value));
-		else if (m->code == MBX_EV_MGR_BOOT && e.step == CO_MGR_STEP_CONFIGURE && e.value)
-			/* value: the concise DCF entries written */
-			snprintf(text, sizeof text,
-				 "node %u boot configure ok: %" PRIu32
-				 " concise DCF entries downloaded",
-				 e.node, e.value);
-		else if (m->code == MBX_EV_MGR_BOOT && e.step == CO_MGR_STEP_CONFIGURE)
-			snprintf(text, sizeof text,
-				 "node %u boot configure ok: nothing downloaded (no configuration, "
-				 "or "
-				 "1020h matches)",
-				 e.node);
-		else if (m->code == MBX_EV_MGR_BOOT)
-			snprintf(text, sizeof text, "node %u boot %s%s%s", e.node,
-				 co_mgr_step_to_string(e.step),
-				 e.status == 'L' ? " L (was operational)" : " ok",
-				 e.done ? ": booted" : "");
-		else
-			snprintf(text, sizeof text, "node %u %s (%" PRIu32 ")", e.node,
-				 co_mgr_node_what_to_string(e.what), e.value);
-		if (o) {
-			cJSON_AddNumberToObject(o, "node", e.node);
-			if (m->code == MBX_EV_MGR_STATE) {
-				cJSON_AddStringToObject(o, "state",
-							co_mgr_state_to_string(e.state));
-				cJSON_AddStringToObject(o, "prev", co_mgr_state_to_string(e.prev));
-				cJSON_AddNumberToObject(o, "flags", e.flags);
-			} else if (m->code == MBX_EV_MGR_BOOT) {
-				cJSON_AddStringToObject(o, "step", co_mgr_step_to_string(e.step));
-				cJSON_AddStringToObject(o, "status", st);
-				cJSON_AddNumberToObject(o, "abort", e.abort);
-				cJSON_AddNumberToObject(o, "index", e.index);
-				cJSON_AddNumberToObject(o, "sub", e.sub);
-				cJSON_AddNumberToObject(o, "value", e.value);
-				if (e.status == 'J')
-					cJSON_AddNumberToObject(o, "entry", e.value);
-				cJSON_AddNumberToObject(o, "expected", e.expected);
-				cJSON_AddBoolToObject(o, "done", e.done);
-				cJSON_AddBoolToObject(o, "mandatory", e.mandatory);
-			} else {
-				cJSON_AddStringToObject(o, "what",
-							co_mgr_node_what_to_string(e.what));
-				cJSON_AddNumberToObject(o, "value", e.value);
-			}
-		}
-		break;
-	}
-	case MBX_EV_CAN_STATE: {
-		mbx_ev_can_state e;
-		memcpy(&e, m->data, sizeof e);
-		snprintf(text, sizeof text, "CAN %s -> %s (tx errors %u, rx errors %u)",
-			 mbx_can_state_to_string(e.prev), mbx_can_state_to_string(e.state), e.tec,
-			 e.rec);
-		if (o) {
-			cJSON_AddStringToObject(o, "state", mbx_can_state_to_string(e.state));
-			cJSON_AddStringToObject(o, "prev", mbx_can_state_to_string(e.prev));
-		}
-		break;
-	}
-	case MBX_EV_RAW: {
-		mbx_ev_raw e;
-		memcpy(&e, m->data, sizeof e);
-		frame_text(&e.frame, sub, sizeof sub);
-		snprintf(text, sizeof text, "%s", sub);
-		if (o) {
-			cJSON_AddNumberToObject(o, "ts_us", (double)e.ts_us);
-			cJSON_AddStringToObject(o, "frame", sub);
-			cJSON_AddNumberToObject(o, "id", e.frame.id & 0x1FFFFFFFu);
-			cJSON_AddBoolToObject(o, "ext", e.frame.id & MBX_RAW_EXT);
-			cJSON_AddBoolToObject(o, "rtr", e.frame.id & MBX_RAW_RTR);
-		}
-		break;
-	}
-	case MBX_EV_OD_WRITTEN: {
-		mbx_ev_od_written e;
-		memcpy(&e, m->data, sizeof e);
-		snprintf(text, sizeof text, "own OD %04X:%02X written (%" PRIu32 " bytes)", e.index,
-			 e.sub, e.size);
-		if (o) {
-			cJSON_AddNumberToObject(o, "index", e.index);
-			cJSON_AddNumberToObject(o, "sub", e.sub);
-			cJSON_AddNumberToObject(o, "size", e.size);
-		}
-		break;
-	}
-	case MBX_EV_OVERFLOW: {
-		mbx_ev_overflow e;
-		memcpy(&e, m->data, sizeof e);
-		snprintf(text, sizeof text,
-			 "our event queue overflowed: %" PRIu32 " events and %" PRIu32
-			 " responses were lost",
-			 e.dropped_events, e.dropped_responses);
-		if (o) {
-			cJSON_AddNumberToObject(o, "dropped_events", e.dropped_events);
-			cJSON_AddNumberToObject(o, "dropped_responses", e.dropped_responses);
-		}
-		break;
-	}
-	default:
+	event_out out = { text, sizeof text, c->json ? event_json_head(m, cls, epoch) : NULL };
+	event_printer print = printer_of(m->code);
+
+	if (print)
+		print(m, spec, &out);
+	else
 		snprintf(text, sizeof text, "event 0x%04X (%zu bytes)", m->code, m->len);
-		break;
-	}
-	if (o) {
-		ctl_json_print(o);
+	if (out.o) {
+		ctl_json_print(out.o);
 		return;
 	}
 	printf("%s line %u %-5s %s", ts, m->line, m->code == MBX_EV_OVERFLOW ? "!" : cls, text);

@@ -214,8 +214,8 @@ static unsigned long proc_status_kb(const char *name)
 }
 
 /* Start-up report: what the configuration reserved for buffers, what big
- * transfers may pin at most, and what is pinned in RAM now (issue 11: a
- * large max_transfer silently pinned gigabytes). */
+ * transfers may pin at most, and what is pinned in RAM now (a large
+ * max_transfer once silently pinned gigabytes; docs/config.md). */
 static void log_memory(const daemon_state *d)
 {
 	size_t buffers = 0;
@@ -435,7 +435,10 @@ static int run(daemon_state *d)
 	}
 }
 
-int main(int argc, char **argv)
+#define ARGS_GO_ON (-1) /* parse_args: start the daemon */
+
+/* The command line; returns ARGS_GO_ON or the exit code to stop with. */
+static int parse_args(daemon_state *d, int argc, char **argv, bool *check_only)
 {
 	static const struct option opts[] = {
 		{ "config", required_argument, NULL, 'c' },
@@ -446,21 +449,18 @@ int main(int argc, char **argv)
 		{ "help", no_argument, NULL, 'h' },
 		{ NULL, 0, NULL, 0 },
 	};
-	daemon_state d;
-	memset(&d, 0, sizeof d);
-	d.sigfd = d.wakefd = -1;
-	bool check_only = false;
 	int c;
+
 	while ((c = getopt_long(argc, argv, "c:s:tvh", opts, NULL)) != -1) {
 		switch (c) {
 		case 'c':
-			d.config_path = optarg;
+			d->config_path = optarg;
 			break;
 		case 's':
-			d.state_dir_override = optarg;
+			d->state_dir_override = optarg;
 			break;
 		case 't':
-			check_only = true;
+			*check_only = true;
 			break;
 		case 'P':
 			fputs(cogw_default_config_json, stdout);
@@ -481,6 +481,112 @@ int main(int argc, char **argv)
 		usage(stderr);
 		return 2;
 	}
+	return ARGS_GO_ON;
+}
+
+/* What the system must allow before any line starts: the mailbox's
+ * queue limits, the state directory, locked memory. */
+static int prepare_system(const daemon_state *d)
+{
+	char err[512];
+
+	if (mbx_check_system_limits(d->cfg.mailbox.depth, d->cfg.mailbox.msg_size, err,
+				    sizeof err) < 0) {
+		cogw_log(COGW_LOG_ERR, "%s", err);
+		return -1;
+	}
+	if (prepare_state_dir(d->cfg.state_dir) < 0)
+		return -1;
+	/* MCL_ONFAULT: pages are locked as they are first touched, not when
+	 * mapped. The transfer buffers are sized for the largest transfer
+	 * (max_transfer each, several per line): locking them all up front
+	 * pinned 1.2 GB for max_transfer 64 MiB on 3 lines, while
+	 * only what transfers actually use needs to stay in RAM. Everything
+	 * the real-time path touches at start-up is locked at once. */
+	if (d->cfg.mlockall && mlockall(MCL_CURRENT | MCL_FUTURE | MCL_ONFAULT) != 0 &&
+	    mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
+		cogw_log(COGW_LOG_WARNING, "mlockall not permitted (%s): memory may be paged out",
+			 strerror(errno));
+	return 0;
+}
+
+static int open_signals(daemon_state *d)
+{
+	sigset_t mask;
+
+	sigemptyset(&mask);
+	sigaddset(&mask, SIGTERM);
+	sigaddset(&mask, SIGINT);
+	sigaddset(&mask, SIGHUP);
+	sigaddset(&mask, SIGUSR2);
+	/* blocked before any thread starts, so every thread inherits it and
+	 * only the signalfd sees these signals */
+	pthread_sigmask(SIG_BLOCK, &mask, NULL);
+	signal(SIGPIPE, SIG_IGN);
+	d->sigfd = signalfd(-1, &mask, SFD_CLOEXEC);
+	d->wakefd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+	if (d->sigfd < 0 || d->wakefd < 0) {
+		cogw_log(COGW_LOG_ERR, "signalfd/eventfd: %s", strerror(errno));
+		return -1;
+	}
+	return 0;
+}
+
+static int check_watchdog(daemon_state *d)
+{
+	if (sd_watchdog_enabled(0, &d->watchdog_usec) <= 0)
+		d->watchdog_usec = 0;
+	/* An idle line wakes every watchdog_check_ms/2 to check in, and a
+	 * ping is withheld when a line has not checked in for half the
+	 * watchdog period: a check period that does not fit would stop the
+	 * pings of a healthy idle line (watchdog_check_ms 60000 under
+	 * WatchdogSec=5s). Refused, with what would fit. */
+	if (d->watchdog_usec && (uint64_t)d->cfg.watchdog_check_ms * 1000u > d->watchdog_usec / 2) {
+		cogw_log(COGW_LOG_ERR,
+			 "watchdog_check_ms %u does not fit the systemd watchdog period of %llu "
+			 "ms: an idle "
+			 "line checks in every watchdog_check_ms/2 and must do so within half the "
+			 "period; "
+			 "use at most %llu",
+			 d->cfg.watchdog_check_ms, (unsigned long long)(d->watchdog_usec / 1000u),
+			 (unsigned long long)(d->watchdog_usec / 2000u));
+		return -1;
+	}
+	return 0;
+}
+
+/* The extensions and the lines, started and up. */
+static int start_lines(daemon_state *d)
+{
+	if (cogwd_exts_setup(&d->exts, &d->cfg) < 0 || create_lines(d) < 0)
+		return -1;
+	for (size_t i = 0; i < d->n_lines; i++)
+		if (line_start(d->lines[i]) < 0)
+			return -1;
+	return wait_lines_up(d);
+}
+
+static void announce_ready(daemon_state *d)
+{
+	char status[1024];
+
+	log_memory(d);
+	status_line(d, status, sizeof status);
+	sd_notifyf(0, "READY=1\nSTATUS=%s", status);
+	cogw_log(COGW_LOG_NOTICE, "ready: %zu line%s (%s), mailbox instance '%s'%s", d->n_lines,
+		 d->n_lines == 1 ? "" : "s", d->cfg.source, d->cfg.mailbox.instance,
+		 d->watchdog_usec ? ", systemd watchdog on" : "");
+}
+
+int main(int argc, char **argv)
+{
+	daemon_state d;
+	memset(&d, 0, sizeof d);
+	d.sigfd = d.wakefd = -1;
+	bool check_only = false;
+	int rc = parse_args(&d, argc, argv, &check_only);
+	if (rc != ARGS_GO_ON)
+		return rc;
 	cogw_log_use_prefix(getenv("JOURNAL_STREAM") || getenv("NOTIFY_SOCKET"));
 
 	if (load_config(&d, &d.cfg) < 0)
@@ -491,81 +597,13 @@ int main(int argc, char **argv)
 		return 0;
 	}
 
-	int rc = 1;
-	char err[512];
-	if (mbx_check_system_limits(d.cfg.mailbox.depth, d.cfg.mailbox.msg_size, err, sizeof err) <
-	    0) {
-		cogw_log(COGW_LOG_ERR, "%s", err);
-		goto out;
+	rc = 1;
+	if (prepare_system(&d) == 0 && open_signals(&d) == 0 && check_watchdog(&d) == 0 &&
+	    start_lines(&d) == 0) {
+		announce_ready(&d);
+		rc = run(&d) < 0 ? 1 : 0;
+		sd_notify(0, "STOPPING=1");
 	}
-	if (prepare_state_dir(d.cfg.state_dir) < 0)
-		goto out;
-	/* MCL_ONFAULT: pages are locked as they are first touched, not when
-	 * mapped. The transfer buffers are sized for the largest transfer
-	 * (max_transfer each, several per line): locking them all up front
-	 * pinned 1.2 GB for max_transfer 64 MiB on 3 lines (issue 11), while
-	 * only what transfers actually use needs to stay in RAM. Everything
-	 * the real-time path touches at start-up is locked at once. */
-	if (d.cfg.mlockall && mlockall(MCL_CURRENT | MCL_FUTURE | MCL_ONFAULT) != 0 &&
-	    mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
-		cogw_log(COGW_LOG_WARNING, "mlockall not permitted (%s): memory may be paged out",
-			 strerror(errno));
-
-	sigset_t mask;
-	sigemptyset(&mask);
-	sigaddset(&mask, SIGTERM);
-	sigaddset(&mask, SIGINT);
-	sigaddset(&mask, SIGHUP);
-	sigaddset(&mask, SIGUSR2);
-	/* blocked before any thread starts, so every thread inherits it and
-	 * only the signalfd sees these signals */
-	pthread_sigmask(SIG_BLOCK, &mask, NULL);
-	signal(SIGPIPE, SIG_IGN);
-	d.sigfd = signalfd(-1, &mask, SFD_CLOEXEC);
-	d.wakefd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-	if (d.sigfd < 0 || d.wakefd < 0) {
-		cogw_log(COGW_LOG_ERR, "signalfd/eventfd: %s", strerror(errno));
-		goto out;
-	}
-
-	if (sd_watchdog_enabled(0, &d.watchdog_usec) <= 0)
-		d.watchdog_usec = 0;
-	/* An idle line wakes every watchdog_check_ms/2 to check in, and a
-	 * ping is withheld when a line has not checked in for half the
-	 * watchdog period: a check period that does not fit would stop the
-	 * pings of a healthy idle line (issue 11: watchdog_check_ms 60000
-	 * under WatchdogSec=5s). Refused, with what would fit. */
-	if (d.watchdog_usec && (uint64_t)d.cfg.watchdog_check_ms * 1000u > d.watchdog_usec / 2) {
-		cogw_log(COGW_LOG_ERR,
-			 "watchdog_check_ms %u does not fit the systemd watchdog period of %llu "
-			 "ms: an idle "
-			 "line checks in every watchdog_check_ms/2 and must do so within half the "
-			 "period; "
-			 "use at most %llu",
-			 d.cfg.watchdog_check_ms, (unsigned long long)(d.watchdog_usec / 1000u),
-			 (unsigned long long)(d.watchdog_usec / 2000u));
-		goto out;
-	}
-	if (cogwd_exts_setup(&d.exts, &d.cfg) < 0)
-		goto out;
-	if (create_lines(&d) < 0)
-		goto out;
-	for (size_t i = 0; i < d.n_lines; i++)
-		if (line_start(d.lines[i]) < 0)
-			goto out;
-	if (wait_lines_up(&d) < 0)
-		goto out;
-
-	log_memory(&d);
-	char status[1024];
-	status_line(&d, status, sizeof status);
-	sd_notifyf(0, "READY=1\nSTATUS=%s", status);
-	cogw_log(COGW_LOG_NOTICE, "ready: %zu line%s (%s), mailbox instance '%s'%s", d.n_lines,
-		 d.n_lines == 1 ? "" : "s", d.cfg.source, d.cfg.mailbox.instance,
-		 d.watchdog_usec ? ", systemd watchdog on" : "");
-	rc = run(&d) < 0 ? 1 : 0;
-	sd_notify(0, "STOPPING=1");
-out:
 	for (size_t i = 0; i < d.n_lines; i++)
 		line_destroy(d.lines[i]);
 	cogwd_exts_teardown(&d.exts);

@@ -1137,20 +1137,8 @@ static int parse_nodes(struct ctx *c, const cJSON *v, const char *path, cogw_lin
 	return 0;
 }
 
-static int parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_config *l)
+static void line_defaults(cogw_line_config *l, size_t idx)
 {
-	char path[JSON_PATH_MAX], p[JSON_PATH_MAX];
-	char dev_name[CO_OD_STD_STRING_MAX + 1] = "cogw";
-	char hw[CO_OD_STD_STRING_MAX + 1] = "", sw[CO_OD_STD_STRING_MAX + 1] = "";
-	co_od_std_opts so;
-	const cJSON *v;
-	uint64_t u;
-	int rc;
-
-	json_util_path_index(path, sizeof(path), "lines", idx);
-	if ((rc = check_object(c, o, path, line_keys)))
-		return rc;
-
 	snprintf(l->name, sizeof(l->name), "line%zu", idx);
 	l->network_id = (uint16_t)(idx + 1);
 	l->rt.priority = 0;
@@ -1160,13 +1148,13 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_confi
 	l->sdo_timeout_ms = 1000;
 	l->sdo_block_threshold = 128;
 	l->heartbeat_ms = 1000;
+}
 
-	if ((rc = json_util_opt_string(o, "name", path, 1, l->name, sizeof(l->name), c->msg,
-				       sizeof(c->msg))))
-		return rc;
-	json_util_path_key(p, sizeof(p), path, "name");
-	if ((rc = check_name_chars(c, p, l->name)))
-		return rc;
+static int parse_interface(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l)
+{
+	char p[JSON_PATH_MAX];
+	const cJSON *v;
+	int rc;
 
 	if ((rc = json_util_require(o, "interface", path, &v, c->msg, sizeof(c->msg))))
 		return rc;
@@ -1177,6 +1165,15 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_confi
 	if (!strcmp(l->interface, ".") || !strcmp(l->interface, "..") ||
 	    strpbrk(l->interface, "/: \t\n"))
 		return fail(c, p, "\"%s\" is not a valid interface name", l->interface);
+	return 0;
+}
+
+static int parse_bitrate(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l)
+{
+	char p[JSON_PATH_MAX];
+	const cJSON *v;
+	uint64_t u;
+	int rc;
 
 	if ((rc = json_util_require(o, "bitrate", path, &v, c->msg, sizeof(c->msg))))
 		return rc;
@@ -1192,6 +1189,44 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_confi
 			    "%llu is not a CiA 301 bit rate (10000, 20000, 50000, 125000, 250000, "
 			    "500000, 800000, 1000000)",
 			    (unsigned long long)u);
+	return 0;
+}
+
+static int parse_rt(struct ctx *c, const cJSON *v, const char *path, cogw_line_config *l)
+{
+	char p[JSON_PATH_MAX];
+	int64_t s;
+	int rc;
+
+	json_util_path_key(p, sizeof(p), path, "rt");
+	if ((rc = check_object(c, v, p, rt_keys)))
+		return rc;
+	s = l->rt.priority;
+	if ((rc = json_util_opt_sint(v, "priority", p, 0, 99, &s, c->msg, sizeof(c->msg))))
+		return rc;
+	l->rt.priority = (int)s;
+	s = l->rt.cpu;
+	if ((rc = json_util_opt_sint(v, "cpu", p, -1, 1023, &s, c->msg, sizeof(c->msg))))
+		return rc;
+	l->rt.cpu = (int)s;
+	return 0;
+}
+
+/* name, interface, bitrate, node_id and rt: who the line is. */
+static int parse_line_identity(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l)
+{
+	char p[JSON_PATH_MAX];
+	const cJSON *v;
+	uint64_t u;
+	int rc;
+
+	if ((rc = json_util_opt_string(o, "name", path, 1, l->name, sizeof(l->name), c->msg,
+				       sizeof(c->msg))))
+		return rc;
+	json_util_path_key(p, sizeof(p), path, "name");
+	if ((rc = check_name_chars(c, p, l->name)) || (rc = parse_interface(c, o, path, l)) ||
+	    (rc = parse_bitrate(c, o, path, l)))
+		return rc;
 
 	if ((rc = json_util_require(o, "node_id", path, &v, c->msg, sizeof(c->msg))))
 		return rc;
@@ -1201,21 +1236,58 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_confi
 	l->node_id = (uint8_t)u;
 
 	v = json_util_get(o, "rt");
-	if (v) {
-		int64_t s;
+	return v ? parse_rt(c, v, path, l) : 0;
+}
 
-		json_util_path_key(p, sizeof(p), path, "rt");
-		if ((rc = check_object(c, v, p, rt_keys)))
+/* heartbeat_consumers, device, nodes and manager: each parsed where present. */
+static int parse_line_sections(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l,
+			       co_od_std_opts *so, char *dev_name, char *hw, char *sw)
+{
+	char p[JSON_PATH_MAX];
+	const cJSON *v;
+	int rc;
+
+	v = json_util_get(o, "heartbeat_consumers");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "heartbeat_consumers");
+		if ((rc = parse_hb_consumers(c, v, p, l)))
 			return rc;
-		s = l->rt.priority;
-		if ((rc = json_util_opt_sint(v, "priority", p, 0, 99, &s, c->msg, sizeof(c->msg))))
-			return rc;
-		l->rt.priority = (int)s;
-		s = l->rt.cpu;
-		if ((rc = json_util_opt_sint(v, "cpu", p, -1, 1023, &s, c->msg, sizeof(c->msg))))
-			return rc;
-		l->rt.cpu = (int)s;
 	}
+	v = json_util_get(o, "device");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "device");
+		if ((rc = parse_device(c, v, p, so, dev_name, hw, sw)))
+			return rc;
+	}
+	v = json_util_get(o, "nodes");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "nodes");
+		if ((rc = parse_nodes(c, v, p, l)))
+			return rc;
+	}
+	v = json_util_get(o, "manager");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "manager");
+		if ((rc = parse_manager(c, v, p, &l->manager)))
+			return rc;
+	}
+	return 0;
+}
+
+static int parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_config *l)
+{
+	char path[JSON_PATH_MAX];
+	char dev_name[CO_OD_STD_STRING_MAX + 1] = "cogw";
+	char hw[CO_OD_STD_STRING_MAX + 1] = "", sw[CO_OD_STD_STRING_MAX + 1] = "";
+	co_od_std_opts so;
+	int rc;
+
+	json_util_path_index(path, sizeof(path), "lines", idx);
+	if ((rc = check_object(c, o, path, line_keys)))
+		return rc;
+	line_defaults(l, idx);
+	if ((rc = parse_line_identity(c, o, path, l)))
+		return rc;
 
 	co_od_std_opts_init(&so);
 	if ((rc = opt_u16(c, o, "network_id", path, 1, 127, &l->network_id)) ||
@@ -1229,32 +1301,8 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_confi
 	    (rc = opt_u16(c, o, "rpdos", path, 0, 512, &so.rpdos)) ||
 	    (rc = opt_u16(c, o, "tpdos", path, 0, 512, &so.tpdos)))
 		return rc;
-
-	v = json_util_get(o, "heartbeat_consumers");
-	if (v) {
-		json_util_path_key(p, sizeof(p), path, "heartbeat_consumers");
-		if ((rc = parse_hb_consumers(c, v, p, l)))
-			return rc;
-	}
-	v = json_util_get(o, "device");
-	if (v) {
-		json_util_path_key(p, sizeof(p), path, "device");
-		if ((rc = parse_device(c, v, p, &so, dev_name, hw, sw)))
-			return rc;
-	}
-
-	v = json_util_get(o, "nodes");
-	if (v) {
-		json_util_path_key(p, sizeof(p), path, "nodes");
-		if ((rc = parse_nodes(c, v, p, l)))
-			return rc;
-	}
-	v = json_util_get(o, "manager");
-	if (v) {
-		json_util_path_key(p, sizeof(p), path, "manager");
-		if ((rc = parse_manager(c, v, p, &l->manager)))
-			return rc;
-	}
+	if ((rc = parse_line_sections(c, o, path, l, &so, dev_name, hw, sw)))
+		return rc;
 
 	so.device_name = dev_name;
 	so.hw_version = hw;

@@ -166,137 +166,187 @@ static int parse_time(const cJSON *v, co_type t, const char *path, uint8_t *buf,
 	return 0;
 }
 
-int json_od_parse_value(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-			uint32_t *len, char *err, size_t errlen)
+/* One parser per kind of type: the value v of type t at path into buf
+ * (cap bytes), its size in *len. */
+typedef int (*value_parser)(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
+			    uint32_t *len, char *err, size_t errlen);
+
+static int parse_boolean(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
+			 uint32_t *len, char *err, size_t errlen)
+{
+	bool b;
+	uint64_t u;
+	int rc;
+
+	(void)t;
+	(void)cap;
+	if (cJSON_IsBool(v))
+		b = cJSON_IsTrue(v);
+	else if (cJSON_IsNumber(v)) {
+		if ((rc = json_util_uint(v, path, 0, 1, false, &u, err, errlen)))
+			return rc;
+		b = u != 0;
+	} else
+		return json_util_fail(err, errlen, path,
+				      "expected true or false for BOOLEAN, got %s",
+				      json_util_kind(v));
+	buf[0] = b;
+	*len = 1;
+	return 0;
+}
+
+static int parse_time_value(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
+			    uint32_t *len, char *err, size_t errlen)
+{
+	int rc;
+
+	(void)cap;
+	if ((rc = parse_time(v, t, path, buf, err, errlen)))
+		return rc;
+	*len = co_type_size(t);
+	return 0;
+}
+
+static int parse_real(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
+		      uint32_t *len, char *err, size_t errlen)
+{
+	double d;
+	int rc;
+
+	(void)cap;
+	if (!cJSON_IsNumber(v))
+		return json_util_fail(err, errlen, path, "expected a number for %s, got %s",
+				      co_type_to_string(t), json_util_kind(v));
+	if ((rc = json_util_real(v, path, &d, err, errlen)))
+		return rc;
+	if (t == CO_T_REAL32) {
+		float f;
+		uint32_t bits;
+
+		if (fabs(d) > FLT_MAX)
+			return json_util_fail(err, errlen, path, "%g is out of range for REAL32",
+					      d);
+		f = (float)d;
+		memcpy(&bits, &f, 4);
+		le_put(buf, 4, bits);
+	} else {
+		uint64_t bits;
+
+		memcpy(&bits, &d, 8);
+		le_put(buf, 8, bits);
+	}
+	*len = co_type_size(t);
+	return 0;
+}
+
+static int parse_integer(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
+			 uint32_t *len, char *err, size_t errlen)
 {
 	uint32_t size = co_type_size(t);
 	int rc;
 
-	if (!co_type_is_valid(t))
-		return json_util_fail(err, errlen, path, "invalid type");
-	if (!co_type_is_variable(t) && cap < size)
-		return json_util_fail(err, errlen, path, "no room for the value");
+	(void)cap;
+	if (!cJSON_IsNumber(v) && !cJSON_IsString(v))
+		return json_util_fail(err, errlen, path, "expected an integer for %s, got %s",
+				      co_type_to_string(t), json_util_kind(v));
+	if (co_type_is_signed(t)) {
+		int64_t lo = size == 8 ? INT64_MIN : -((int64_t)1 << (8 * size - 1));
+		int64_t hi = size == 8 ? INT64_MAX : ((int64_t)1 << (8 * size - 1)) - 1;
+		int64_t s;
 
-	if (t == CO_T_BOOLEAN) {
-		bool b;
+		if ((rc = json_util_sint(v, path, lo, hi, &s, err, errlen)))
+			return rc;
+		le_put(buf, size, (uint64_t)s);
+	} else {
+		uint64_t hi = size == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * size)) - 1;
 		uint64_t u;
 
-		if (cJSON_IsBool(v))
-			b = cJSON_IsTrue(v);
-		else if (cJSON_IsNumber(v)) {
-			if ((rc = json_util_uint(v, path, 0, 1, false, &u, err, errlen)))
-				return rc;
-			b = u != 0;
-		} else
-			return json_util_fail(err, errlen, path,
-					      "expected true or false for BOOLEAN, got %s",
-					      json_util_kind(v));
-		buf[0] = b;
-		*len = 1;
-		return 0;
-	}
-	if (t == CO_T_TIME_OF_DAY || t == CO_T_TIME_DIFFERENCE) {
-		if ((rc = parse_time(v, t, path, buf, err, errlen)))
+		if ((rc = json_util_uint(v, path, 0, hi, false, &u, err, errlen)))
 			return rc;
-		*len = size;
-		return 0;
+		le_put(buf, size, u);
 	}
-	if (co_type_is_real(t)) {
-		double d;
+	*len = size;
+	return 0;
+}
 
-		if (!cJSON_IsNumber(v))
-			return json_util_fail(err, errlen, path, "expected a number for %s, got %s",
-					      co_type_to_string(t), json_util_kind(v));
-		if ((rc = json_util_real(v, path, &d, err, errlen)))
-			return rc;
-		if (t == CO_T_REAL32) {
-			float f;
-			uint32_t bits;
+static int parse_visible_string(const cJSON *v, co_type t, const char *path, uint8_t *buf,
+				uint32_t cap, uint32_t *len, char *err, size_t errlen)
+{
+	size_t n;
 
-			if (fabs(d) > FLT_MAX)
-				return json_util_fail(err, errlen, path,
-						      "%g is out of range for REAL32", d);
-			f = (float)d;
-			memcpy(&bits, &f, 4);
-			le_put(buf, 4, bits);
-		} else {
-			uint64_t bits;
+	(void)t;
+	if (!cJSON_IsString(v))
+		return json_util_fail(err, errlen, path,
+				      "expected a string for VISIBLE_STRING, got %s",
+				      json_util_kind(v));
+	n = strlen(v->valuestring);
+	if (n > cap)
+		return json_util_fail(err, errlen, path,
+				      "string of %zu bytes is longer than max_size %u", n, cap);
+	memcpy(buf, v->valuestring, n);
+	*len = (uint32_t)n;
+	return 0;
+}
 
-			memcpy(&bits, &d, 8);
-			le_put(buf, 8, bits);
-		}
-		*len = size;
-		return 0;
-	}
-	if (type_is_int(t)) {
-		const char *p = path;
+static int parse_unicode_string(const cJSON *v, co_type t, const char *path, uint8_t *buf,
+				uint32_t cap, uint32_t *len, char *err, size_t errlen)
+{
+	long n;
 
-		if (!cJSON_IsNumber(v) && !cJSON_IsString(v))
-			return json_util_fail(err, errlen, path,
-					      "expected an integer for %s, got %s",
-					      co_type_to_string(t), json_util_kind(v));
-		if (co_type_is_signed(t)) {
-			int64_t lo = size == 8 ? INT64_MIN : -((int64_t)1 << (8 * size - 1));
-			int64_t hi = size == 8 ? INT64_MAX : ((int64_t)1 << (8 * size - 1)) - 1;
-			int64_t s;
+	(void)t;
+	if (!cJSON_IsString(v))
+		return json_util_fail(err, errlen, path,
+				      "expected a string for UNICODE_STRING, got %s",
+				      json_util_kind(v));
+	n = json_od_utf8_to_utf16le(v->valuestring, buf, cap);
+	if (n == -1)
+		return json_util_fail(err, errlen, path, "string is not valid UTF-8");
+	if (n == -2)
+		return json_util_fail(err, errlen, path,
+				      "string is longer than max_size %u bytes (UTF-16)", cap);
+	*len = (uint32_t)n;
+	return 0;
+}
 
-			if ((rc = json_util_sint(v, p, lo, hi, &s, err, errlen)))
-				return rc;
-			le_put(buf, size, (uint64_t)s);
-		} else {
-			uint64_t hi = size == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * size)) - 1;
-			uint64_t u;
+/* OCTET_STRING and DOMAIN: hex. */
+static int parse_hex_bytes(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
+			   uint32_t *len, char *err, size_t errlen)
+{
+	size_t n;
+	int rc;
 
-			if ((rc = json_util_uint(v, p, 0, hi, false, &u, err, errlen)))
-				return rc;
-			le_put(buf, size, u);
-		}
-		*len = size;
-		return 0;
-	}
-	/* Variable-length types. */
-	if (t == CO_T_VISIBLE_STRING) {
-		size_t n;
+	(void)t;
+	if ((rc = json_util_hex(v, path, buf, cap, &n, err, errlen)))
+		return rc;
+	*len = (uint32_t)n;
+	return 0;
+}
 
-		if (!cJSON_IsString(v))
-			return json_util_fail(err, errlen, path,
-					      "expected a string for VISIBLE_STRING, got %s",
-					      json_util_kind(v));
-		n = strlen(v->valuestring);
-		if (n > cap)
-			return json_util_fail(err, errlen, path,
-					      "string of %zu bytes is longer than max_size %u", n,
-					      cap);
-		memcpy(buf, v->valuestring, n);
-		*len = (uint32_t)n;
-		return 0;
-	}
-	if (t == CO_T_UNICODE_STRING) {
-		long n;
+static value_parser value_parser_of(co_type t)
+{
+	if (t == CO_T_BOOLEAN)
+		return parse_boolean;
+	if (t == CO_T_TIME_OF_DAY || t == CO_T_TIME_DIFFERENCE)
+		return parse_time_value;
+	if (co_type_is_real(t))
+		return parse_real;
+	if (type_is_int(t))
+		return parse_integer;
+	if (t == CO_T_VISIBLE_STRING)
+		return parse_visible_string;
+	if (t == CO_T_UNICODE_STRING)
+		return parse_unicode_string;
+	return parse_hex_bytes;
+}
 
-		if (!cJSON_IsString(v))
-			return json_util_fail(err, errlen, path,
-					      "expected a string for UNICODE_STRING, got %s",
-					      json_util_kind(v));
-		n = json_od_utf8_to_utf16le(v->valuestring, buf, cap);
-		if (n == -1)
-			return json_util_fail(err, errlen, path, "string is not valid UTF-8");
-		if (n == -2)
-			return json_util_fail(err, errlen, path,
-					      "string is longer than max_size %u bytes (UTF-16)",
-					      cap);
-		*len = (uint32_t)n;
-		return 0;
-	}
-	/* OCTET_STRING and DOMAIN: hex. */
-	{
-		size_t n;
-
-		if ((rc = json_util_hex(v, path, buf, cap, &n, err, errlen)))
-			return rc;
-		*len = (uint32_t)n;
-		return 0;
-	}
+int json_od_parse_value(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
+			uint32_t *len, char *err, size_t errlen)
+{
+	if (!co_type_is_valid(t))
+		return json_util_fail(err, errlen, path, "invalid type");
+	if (!co_type_is_variable(t) && cap < co_type_size(t))
+		return json_util_fail(err, errlen, path, "no room for the value");
+	return value_parser_of(t)(v, t, path, buf, cap, len, err, errlen);
 }
 
 int json_od_parse_index(const cJSON *v, const char *path, uint16_t *out, char *err, size_t errlen)

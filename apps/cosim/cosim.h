@@ -181,7 +181,7 @@ typedef struct cosim_faults {
 	bool pdo_badlen;       /* TPDOs go out one byte short (or one long if 0) */
 	bool sdo_lenient;      /* accept printed-sheet frames: a too small size
 	                    * indicated for a numeric object, and the
-	                    * reversed "save" signature (seed 004 E2/E4) */
+	                    * reversed "save" signature (docs/cosim.md) */
 } cosim_faults;
 
 /* ---- one running node (sim.c) ------------------------------------------ */

@@ -18,6 +18,7 @@
 #include <getopt.h>
 #include <limits.h>
 #include <signal.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -288,7 +289,7 @@ static void usage(FILE *out)
 	      "      --sdo-silent       no SDO answers\n"
 	      "      --sdo-abort CODE   answer every SDO request with this abort code\n"
 	      "      --sdo-delay MS     send SDO answers MS milliseconds late\n"
-	      "      --sdo-lenient      accept seed 004's printed frames: too small sizes in\n"
+	      "      --sdo-lenient      accept printed-sheet frames: too small sizes in\n"
 	      "                         expedited writes (2Bh for 4 bytes), reversed \"save\"\n"
 	      "      --pdo-badlen       TPDOs one byte short\n"
 	      "      SIGUSR1            toggles --hb-stop\n"
@@ -342,277 +343,343 @@ static void nv_key(char *out, size_t n, const char *file, unsigned node)
 	snprintf(out, n, "%.*s-%u", (int)len, base, node);
 }
 
-enum {
-	OPT_NV = 1000,
-	OPT_AUTOSTART,
-	OPT_LOOPBACK,
-	OPT_SILENT,
-	OPT_HB_STOP,
-	OPT_SDO_SILENT,
-	OPT_SDO_ABORT,
-	OPT_SDO_DELAY,
-	OPT_SDO_LENIENT,
-	OPT_PDO_BADLEN,
-	OPT_SDO_TIMEOUT,
+/* ---- command line ------------------------------------------------------ */
+
+struct cmdline {
+	const char *ifname, *nv_dir, *control;
+	struct dev_arg devs[MAX_NODES];
+	int n_devs;
+	bool autostart, loopback, quiet;
+	uint32_t sdo_timeout_ms; /* 0 = the core's default */
+	cosim_faults faults;
 };
 
-int main(int argc, char **argv)
-{
-	static const struct option longopts[] = {
-		{ "interface", required_argument, NULL, 'i' },
-		{ "device", required_argument, NULL, 'd' },
-		{ "node-id", required_argument, NULL, 'n' },
-		{ "serial", required_argument, NULL, 's' },
-		{ "control", required_argument, NULL, 'c' },
-		{ "quiet", no_argument, NULL, 'q' },
-		{ "help", no_argument, NULL, 'h' },
-		{ "nv", required_argument, NULL, OPT_NV },
-		{ "autostart", no_argument, NULL, OPT_AUTOSTART },
-		{ "loopback", no_argument, NULL, OPT_LOOPBACK },
-		{ "silent", no_argument, NULL, OPT_SILENT },
-		{ "hb-stop", no_argument, NULL, OPT_HB_STOP },
-		{ "sdo-silent", no_argument, NULL, OPT_SDO_SILENT },
-		{ "sdo-abort", required_argument, NULL, OPT_SDO_ABORT },
-		{ "sdo-delay", required_argument, NULL, OPT_SDO_DELAY },
-		{ "sdo-lenient", no_argument, NULL, OPT_SDO_LENIENT },
-		{ "pdo-badlen", no_argument, NULL, OPT_PDO_BADLEN },
-		{ "sdo-timeout", required_argument, NULL, OPT_SDO_TIMEOUT },
-		{ NULL, 0, NULL, 0 },
-	};
-	static struct app app; /* large (local queue): not on the stack */
-	struct dev_arg devs[MAX_NODES];
-	int n_devs = 0, opt, rc = EXIT_OK;
-	const char *ifname = NULL, *nv_dir = NULL, *control = NULL;
-	bool autostart = false, loopback = false;
-	uint32_t sdo_timeout_ms = 0; /* core default */
-	cosim_faults faults = { 0 };
-	long v;
-	char err[COSIM_ERR_MAX];
-	int efd = -1, tfd = -1, sfd = -1, cfd = -1;
-	sigset_t mask;
+#define OPT_GO_ON (-1) /* an option handler's "parse the next one" */
 
-	while ((opt = getopt_long(argc, argv, "i:d:n:s:c:qh", longopts, NULL)) != -1) {
-		switch (opt) {
-		case 'i':
-			ifname = optarg;
-			break;
-		case 'd': {
-			if (n_devs == MAX_NODES) {
-				fprintf(stderr, "cosim: at most %d devices\n", MAX_NODES);
-				return EXIT_USAGE;
-			}
-			struct dev_arg *d = &devs[n_devs++];
-			char *colon = strrchr(optarg, ':');
-			d->file = optarg;
-			d->opts.node_id = -1;
-			d->opts.serial = -1;
-			if (colon && parse_int(colon + 1, 1, 255, &v)) {
-				*colon = 0;
-				d->opts.node_id = (int)v;
-			}
-			break;
+struct opt_def;
+/* Applies one option; returns OPT_GO_ON or the exit code to stop with. */
+typedef int (*opt_apply_fn)(struct cmdline *cl, const struct opt_def *o, const char *arg);
+
+/* One command-line option: its names, how it is applied and, for the
+ * generic handlers, which field of struct cmdline it sets and its range. */
+struct opt_def {
+	const char *name;
+	char short_name; /* 0: long form only */
+	bool has_arg;
+	opt_apply_fn apply;
+	size_t field; /* offsetof(struct cmdline, ...) */
+	long min, max;
+	const char *range; /* "cosim: --NAME ARG: <range>" */
+};
+
+#define CMDLINE_FIELD(type, cl, o) ((type *)((char *)(cl) + (o)->field))
+
+static int opt_flag(struct cmdline *cl, const struct opt_def *o, const char *arg)
+{
+	(void)arg;
+	*CMDLINE_FIELD(bool, cl, o) = true;
+	return OPT_GO_ON;
+}
+
+static int opt_string(struct cmdline *cl, const struct opt_def *o, const char *arg)
+{
+	*CMDLINE_FIELD(const char *, cl, o) = arg;
+	return OPT_GO_ON;
+}
+
+static int opt_u32(struct cmdline *cl, const struct opt_def *o, const char *arg)
+{
+	long v;
+
+	if (!parse_int(arg, o->min, o->max, &v)) {
+		fprintf(stderr, "cosim: --%s %s: %s\n", o->name, arg, o->range);
+		return EXIT_USAGE;
+	}
+	*CMDLINE_FIELD(uint32_t, cl, o) = (uint32_t)v;
+	return OPT_GO_ON;
+}
+
+static int opt_help(struct cmdline *cl, const struct opt_def *o, const char *arg)
+{
+	(void)cl;
+	(void)o;
+	(void)arg;
+	usage(stdout);
+	return EXIT_OK;
+}
+
+static int opt_device(struct cmdline *cl, const struct opt_def *o, const char *arg)
+{
+	long v;
+
+	(void)o;
+	if (cl->n_devs == MAX_NODES) {
+		fprintf(stderr, "cosim: at most %d devices\n", MAX_NODES);
+		return EXIT_USAGE;
+	}
+	struct dev_arg *d = &cl->devs[cl->n_devs++];
+	char *colon = strrchr(arg, ':');
+	d->file = arg;
+	d->opts.node_id = -1;
+	d->opts.serial = -1;
+	if (colon && parse_int(colon + 1, 1, 255, &v)) {
+		*colon = 0;
+		d->opts.node_id = (int)v;
+	}
+	return OPT_GO_ON;
+}
+
+/* --node-id and --serial: a value of the --device before them. */
+static struct dev_arg *last_device(struct cmdline *cl, const struct opt_def *o)
+{
+	if (!cl->n_devs) {
+		fprintf(stderr, "cosim: --%s applies to the --device before it\n", o->name);
+		return NULL;
+	}
+	return &cl->devs[cl->n_devs - 1];
+}
+
+static int opt_node_id(struct cmdline *cl, const struct opt_def *o, const char *arg)
+{
+	struct dev_arg *d = last_device(cl, o);
+	long v;
+
+	if (!d)
+		return EXIT_USAGE;
+	if (!parse_int(arg, o->min, o->max, &v) || (v > 127 && v != 255)) {
+		fprintf(stderr, "cosim: --%s %s: %s\n", o->name, arg, o->range);
+		return EXIT_USAGE;
+	}
+	d->opts.node_id = (int)v;
+	return OPT_GO_ON;
+}
+
+static int opt_serial(struct cmdline *cl, const struct opt_def *o, const char *arg)
+{
+	struct dev_arg *d = last_device(cl, o);
+	long v;
+
+	if (!d)
+		return EXIT_USAGE;
+	if (!parse_int(arg, o->min, o->max, &v)) {
+		fprintf(stderr, "cosim: --%s %s: %s\n", o->name, arg, o->range);
+		return EXIT_USAGE;
+	}
+	d->opts.serial = v;
+	return OPT_GO_ON;
+}
+
+#define F(member) offsetof(struct cmdline, member)
+
+/* Every option of cosim (usage() explains them; docs/cosim.md too). */
+static const struct opt_def options[] = {
+	{ "interface", 'i', true, opt_string, F(ifname), 0, 0, NULL },
+	{ "device", 'd', true, opt_device, 0, 0, 0, NULL },
+	{ "node-id", 'n', true, opt_node_id, 0, 1, 255, "1..127 or 255" },
+	{ "serial", 's', true, opt_serial, 0, 0, 0xFFFFFFFFL, "0..0xFFFFFFFF" },
+	{ "control", 'c', true, opt_string, F(control), 0, 0, NULL },
+	{ "quiet", 'q', false, opt_flag, F(quiet), 0, 0, NULL },
+	{ "help", 'h', false, opt_help, 0, 0, 0, NULL },
+	{ "nv", 0, true, opt_string, F(nv_dir), 0, 0, NULL },
+	{ "autostart", 0, false, opt_flag, F(autostart), 0, 0, NULL },
+	{ "loopback", 0, false, opt_flag, F(loopback), 0, 0, NULL },
+	{ "silent", 0, false, opt_flag, F(faults.silent), 0, 0, NULL },
+	{ "hb-stop", 0, false, opt_flag, F(faults.hb_stop), 0, 0, NULL },
+	{ "sdo-silent", 0, false, opt_flag, F(faults.sdo_silent), 0, 0, NULL },
+	{ "sdo-abort", 0, true, opt_u32, F(faults.sdo_abort), 1, 0xFFFFFFFFL, "an abort code" },
+	{ "sdo-delay", 0, true, opt_u32, F(faults.sdo_delay_ms), 0, 600000, "0..600000 ms" },
+	{ "sdo-lenient", 0, false, opt_flag, F(faults.sdo_lenient), 0, 0, NULL },
+	{ "pdo-badlen", 0, false, opt_flag, F(faults.pdo_badlen), 0, 0, NULL },
+	{ "sdo-timeout", 0, true, opt_u32, F(sdo_timeout_ms), 1, 600000, "1..600000 ms" },
+};
+
+#undef F
+
+#define N_OPTIONS (sizeof options / sizeof options[0])
+#define OPT_INDEX_BASE 256 /* getopt_long's value for options[i]: base + i */
+
+/* Returns OPT_GO_ON when the line is complete and valid, else the exit code. */
+static int parse_cmdline(struct cmdline *cl, int argc, char **argv)
+{
+	struct option longopts[N_OPTIONS + 1];
+	char shortopts[2 * N_OPTIONS + 1];
+	size_t n_short = 0;
+	int opt;
+
+	for (size_t i = 0; i < N_OPTIONS; i++) {
+		longopts[i] = (struct option){ options[i].name,
+					       options[i].has_arg ? required_argument : no_argument,
+					       NULL, OPT_INDEX_BASE + (int)i };
+		if (options[i].short_name) {
+			shortopts[n_short++] = options[i].short_name;
+			if (options[i].has_arg)
+				shortopts[n_short++] = ':';
 		}
-		case 'n':
-		case 's':
-			if (!n_devs) {
-				fprintf(stderr, "cosim: --%s applies to the --device before it\n",
-					opt == 'n' ? "node-id" : "serial");
-				return EXIT_USAGE;
-			}
-			if (opt == 'n') {
-				if (!parse_int(optarg, 1, 255, &v) || (v > 127 && v != 255)) {
-					fprintf(stderr, "cosim: --node-id %s: 1..127 or 255\n",
-						optarg);
-					return EXIT_USAGE;
-				}
-				devs[n_devs - 1].opts.node_id = (int)v;
-			} else {
-				if (!parse_int(optarg, 0, 0xFFFFFFFFL, &v)) {
-					fprintf(stderr, "cosim: --serial %s: 0..0xFFFFFFFF\n",
-						optarg);
-					return EXIT_USAGE;
-				}
-				devs[n_devs - 1].opts.serial = v;
-			}
-			break;
-		case 'c':
-			control = optarg;
-			break;
-		case 'q':
-			app.quiet = true;
-			break;
-		case 'h':
-			usage(stdout);
-			return EXIT_OK;
-		case OPT_NV:
-			nv_dir = optarg;
-			break;
-		case OPT_AUTOSTART:
-			autostart = true;
-			break;
-		case OPT_LOOPBACK:
-			loopback = true;
-			break;
-		case OPT_SILENT:
-			faults.silent = true;
-			break;
-		case OPT_HB_STOP:
-			faults.hb_stop = true;
-			break;
-		case OPT_SDO_SILENT:
-			faults.sdo_silent = true;
-			break;
-		case OPT_SDO_ABORT:
-			if (!parse_int(optarg, 1, 0xFFFFFFFFL, &v)) {
-				fprintf(stderr, "cosim: --sdo-abort %s: an abort code\n", optarg);
-				return EXIT_USAGE;
-			}
-			faults.sdo_abort = (uint32_t)v;
-			break;
-		case OPT_SDO_DELAY:
-			if (!parse_int(optarg, 0, 600000, &v)) {
-				fprintf(stderr, "cosim: --sdo-delay %s: 0..600000 ms\n", optarg);
-				return EXIT_USAGE;
-			}
-			faults.sdo_delay_ms = (uint32_t)v;
-			break;
-		case OPT_SDO_LENIENT:
-			faults.sdo_lenient = true;
-			break;
-		case OPT_SDO_TIMEOUT:
-			if (!parse_int(optarg, 1, 600000, &v)) {
-				fprintf(stderr, "cosim: --sdo-timeout %s: 1..600000 ms\n", optarg);
-				return EXIT_USAGE;
-			}
-			sdo_timeout_ms = (uint32_t)v;
-			break;
-		case OPT_PDO_BADLEN:
-			faults.pdo_badlen = true;
-			break;
-		default:
+	}
+	longopts[N_OPTIONS] = (struct option){ NULL, 0, NULL, 0 };
+	shortopts[n_short] = 0;
+
+	while ((opt = getopt_long(argc, argv, shortopts, longopts, NULL)) != -1) {
+		const struct opt_def *o = NULL;
+		if (opt >= OPT_INDEX_BASE)
+			o = &options[opt - OPT_INDEX_BASE];
+		for (size_t i = 0; !o && opt != '?' && i < N_OPTIONS; i++)
+			if (options[i].short_name == opt)
+				o = &options[i];
+		if (!o) {
 			usage(stderr);
 			return EXIT_USAGE;
 		}
+		int rc = o->apply(cl, o, optarg);
+		if (rc != OPT_GO_ON)
+			return rc;
 	}
-	if (optind < argc || !ifname || !n_devs) {
+	if (optind < argc || !cl->ifname || !cl->n_devs) {
 		fprintf(stderr, "cosim: %s\n",
 			optind < argc ? "unexpected argument"
-			: !ifname     ? "--interface is required"
+			: !cl->ifname ? "--interface is required"
 				      : "at least one --device is required");
 		usage(stderr);
 		return EXIT_USAGE;
 	}
+	return OPT_GO_ON;
+}
 
-	/* Signals first: a SIGTERM during start-up is not lost. */
-	sigemptyset(&mask);
-	sigaddset(&mask, SIGTERM);
-	sigaddset(&mask, SIGINT);
-	sigaddset(&mask, SIGUSR1);
-	sigaddset(&mask, SIGHUP);
-	sigprocmask(SIG_BLOCK, &mask, NULL);
-	signal(SIGPIPE, SIG_IGN);
+/* ---- start-up ------------------------------------------------------------ */
 
-	uint64_t now = mono_us();
-	for (int i = 0; i < n_devs; i++) {
+/* Loads every --device and creates its node; returns an exit code. */
+static int create_nodes(struct app *app, const struct cmdline *cl, uint64_t now)
+{
+	char err[COSIM_ERR_MAX];
+
+	for (int i = 0; i < cl->n_devs; i++) {
 		cosim_device dev;
 		cosim_node_config nc = { 0 };
 		char key[128];
-		if (cosim_device_load(&dev, devs[i].file, &devs[i].opts, err, sizeof err)) {
+		if (cosim_device_load(&dev, cl->devs[i].file, &cl->devs[i].opts, err, sizeof err)) {
 			fprintf(stderr, "cosim: %s\n", err);
-			rc = EXIT_DEVICE;
-			goto out;
+			return EXIT_DEVICE;
 		}
-		for (int k = 0; k < app.n_nodes; k++) {
-			if (cosim_node_config_id(app.nodes[k]) == dev.node_id &&
+		for (int k = 0; k < app->n_nodes; k++) {
+			if (cosim_node_config_id(app->nodes[k]) == dev.node_id &&
 			    dev.node_id != 255) {
 				fprintf(stderr, "cosim: %s: node-ID %u is used twice\n",
-					devs[i].file, dev.node_id);
+					cl->devs[i].file, dev.node_id);
 				cosim_device_free(&dev);
-				rc = EXIT_USAGE;
-				goto out;
+				return EXIT_USAGE;
 			}
 		}
-		if (loopback)
+		if (cl->loopback)
 			dev.loopback_enabled = true;
-		nv_key(key, sizeof key, devs[i].file, dev.node_id);
+		nv_key(key, sizeof key, cl->devs[i].file, dev.node_id);
 		nc.dev = &dev;
-		nc.nv_dir = nv_dir;
+		nc.nv_dir = cl->nv_dir;
 		nc.nv_key = key;
-		nc.faults = faults;
-		nc.autostart = autostart;
-		nc.sdo_timeout_ms = sdo_timeout_ms;
-		nc.quiet = app.quiet;
+		nc.faults = cl->faults;
+		nc.autostart = cl->autostart;
+		nc.sdo_timeout_ms = cl->sdo_timeout_ms;
+		nc.quiet = app->quiet;
 		nc.out = out_frame;
-		nc.out_ctx = &app;
+		nc.out_ctx = app;
 		nc.now_us = now;
-		if (cosim_node_create(&app.nodes[app.n_nodes], &nc, err, sizeof err)) {
+		if (cosim_node_create(&app->nodes[app->n_nodes], &nc, err, sizeof err)) {
 			fprintf(stderr, "cosim: %s\n", err);
-			rc = EXIT_DEVICE;
-			goto out;
+			return EXIT_DEVICE;
 		}
-		app.n_nodes++;
+		app->n_nodes++;
 	}
+	return EXIT_OK;
+}
 
+/* The descriptors of the loop; -1 = not open. */
+struct loop_fds {
+	int efd, tfd, sfd, cfd;
+};
+
+/* Opens the CAN port, epoll, the timer, the signals and the control
+ * socket; returns an exit code. */
+static int open_loop(struct app *app, const struct cmdline *cl, const sigset_t *mask,
+		     struct loop_fds *fds)
+{
 	/* After the device files: a bad file is reported as such (exit 3)
 	 * even where there is no CAN. Nodes send nothing before their first
 	 * tick, in the loop below. */
-	can_port_config pc = { .ifname = ifname, .bitrate = 125000 };
+	can_port_config pc = { .ifname = cl->ifname, .bitrate = 125000 };
 	const char *what = NULL;
-	int prc = can_port_open(&app.port, &pc, &what);
+	int prc = can_port_open(&app->port, &pc, &what);
 	if (prc) {
-		fprintf(stderr, "cosim: %s: %s: %s\n", ifname, what ? what : "open",
+		fprintf(stderr, "cosim: %s: %s: %s\n", cl->ifname, what ? what : "open",
 			strerror(-prc));
-		rc = EXIT_CAN;
-		goto out;
+		return EXIT_CAN;
 	}
 
-	efd = epoll_create1(EPOLL_CLOEXEC);
-	tfd = timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC | TFD_NONBLOCK);
-	sfd = signalfd(-1, &mask, SFD_CLOEXEC | SFD_NONBLOCK);
-	if (efd < 0 || tfd < 0 || sfd < 0) {
+	fds->efd = epoll_create1(EPOLL_CLOEXEC);
+	fds->tfd = timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC | TFD_NONBLOCK);
+	fds->sfd = signalfd(-1, mask, SFD_CLOEXEC | SFD_NONBLOCK);
+	if (fds->efd < 0 || fds->tfd < 0 || fds->sfd < 0) {
 		fprintf(stderr, "cosim: epoll/timerfd/signalfd: %s\n", strerror(errno));
-		rc = EXIT_RUNTIME;
-		goto out;
+		return EXIT_RUNTIME;
 	}
-	if (control) {
-		cfd = open_control(control);
-		if (cfd < 0) {
-			fprintf(stderr, "cosim: --control %s: %s\n", control, strerror(errno));
-			rc = EXIT_USAGE;
-			goto out;
+	if (cl->control) {
+		fds->cfd = open_control(cl->control);
+		if (fds->cfd < 0) {
+			fprintf(stderr, "cosim: --control %s: %s\n", cl->control, strerror(errno));
+			return EXIT_USAGE;
 		}
 	}
-	struct epoll_event ev = { .events = EPOLLIN };
-	ev.data.fd = can_port_fd(app.port);
-	epoll_ctl(efd, EPOLL_CTL_ADD, ev.data.fd, &ev);
-	ev.data.fd = tfd;
-	epoll_ctl(efd, EPOLL_CTL_ADD, tfd, &ev);
-	ev.data.fd = sfd;
-	epoll_ctl(efd, EPOLL_CTL_ADD, sfd, &ev);
-	if (cfd >= 0) {
-		ev.data.fd = cfd;
-		epoll_ctl(efd, EPOLL_CTL_ADD, cfd, &ev);
+	const int watched[] = { can_port_fd(app->port), fds->tfd, fds->sfd, fds->cfd };
+	for (size_t i = 0; i < sizeof watched / sizeof watched[0]; i++) {
+		struct epoll_event ev = { .events = EPOLLIN, .data.fd = watched[i] };
+		if (watched[i] >= 0)
+			epoll_ctl(fds->efd, EPOLL_CTL_ADD, watched[i], &ev);
 	}
-	cosim_log(app.quiet, "%d node(s) on %s%s%s", app.n_nodes, ifname,
-		  control ? ", control " : "", control ? control : "");
+	return EXIT_OK;
+}
 
+/* ---- the loop ------------------------------------------------------------ */
+
+static void handle_signals(struct app *app, int sfd)
+{
+	struct signalfd_siginfo si;
+
+	while (read(sfd, &si, sizeof si) == sizeof si) {
+		if (si.ssi_signo == SIGUSR1) {
+			for (int i = 0; i < app->n_nodes; i++) {
+				cosim_faults *f = cosim_node_faults(app->nodes[i]);
+				f->hb_stop = !f->hb_stop;
+				cosim_log(app->quiet, "SIGUSR1: node %u heartbeat %s",
+					  cosim_node_config_id(app->nodes[i]),
+					  f->hb_stop ? "stopped" : "running");
+			}
+		} else if (si.ssi_signo != SIGHUP) {
+			cosim_log(app->quiet, "%s: exiting", strsignal((int)si.ssi_signo));
+			app->quit = true;
+		}
+	}
+}
+
+/* Runs until quit; returns an exit code. */
+static int run_loop(struct app *app, const struct loop_fds *fds)
+{
 	bool want_out = false;
-	while (!app.quit) {
+	int rc = EXIT_OK;
+
+	while (!app->quit) {
 		struct epoll_event evs[8];
 
-		now = mono_us();
-		run_timers(&app, now);
-		can_port_flush(app.port, now);
-		bool w = can_port_wants_writable(app.port);
+		uint64_t now = mono_us();
+		run_timers(app, now);
+		can_port_flush(app->port, now);
+		bool w = can_port_wants_writable(app->port);
 		if (w != want_out) {
 			struct epoll_event ce = { .events = EPOLLIN | (w ? EPOLLOUT : 0),
-						  .data.fd = can_port_fd(app.port) };
-			epoll_ctl(efd, EPOLL_CTL_MOD, ce.data.fd, &ce);
+						  .data.fd = can_port_fd(app->port) };
+			epoll_ctl(fds->efd, EPOLL_CTL_MOD, ce.data.fd, &ce);
 			want_out = w;
 		}
-		arm_timer(&app, tfd, now);
+		arm_timer(app, fds->tfd, now);
 
-		int nev = epoll_wait(efd, evs, 8, -1);
+		int nev = epoll_wait(fds->efd, evs, 8, -1);
 		if (nev < 0) {
 			if (errno == EINTR)
 				continue;
@@ -623,61 +690,78 @@ int main(int argc, char **argv)
 		now = mono_us();
 		for (int k = 0; k < nev; k++) {
 			int fd = evs[k].data.fd;
-			if (fd == tfd) {
+			if (fd == fds->tfd) {
 				uint64_t exp;
-				while (read(tfd, &exp, sizeof exp) > 0)
+				while (read(fds->tfd, &exp, sizeof exp) > 0)
 					;
-			} else if (fd == sfd) {
-				struct signalfd_siginfo si;
-				while (read(sfd, &si, sizeof si) == sizeof si) {
-					if (si.ssi_signo == SIGUSR1) {
-						for (int i = 0; i < app.n_nodes; i++) {
-							cosim_faults *f = cosim_node_faults(
-								app.nodes[i]);
-							f->hb_stop = !f->hb_stop;
-							cosim_log(
-								app.quiet,
-								"SIGUSR1: node %u heartbeat %s",
-								cosim_node_config_id(app.nodes[i]),
-								f->hb_stop ? "stopped" : "running");
-						}
-					} else if (si.ssi_signo != SIGHUP) {
-						cosim_log(app.quiet, "%s: exiting",
-							  strsignal((int)si.ssi_signo));
-						app.quit = true;
-					}
-				}
-			} else if (fd == cfd) {
-				handle_control(&app, cfd, now);
-			} else if (fd == can_port_fd(app.port)) {
-				if ((evs[k].events & EPOLLIN) && handle_can(&app, now)) {
+			} else if (fd == fds->sfd) {
+				handle_signals(app, fds->sfd);
+			} else if (fd == fds->cfd) {
+				handle_control(app, fds->cfd, now);
+			} else if (fd == can_port_fd(app->port)) {
+				if ((evs[k].events & EPOLLIN) && handle_can(app, now)) {
 					rc = EXIT_RUNTIME;
-					app.quit = true;
+					app->quit = true;
 				}
 				if (evs[k].events & EPOLLOUT)
-					can_port_flush(app.port, now);
+					can_port_flush(app->port, now);
 			}
 		}
 	}
 	/* Frames still queued (an answer to the last request) go out first. */
-	can_port_flush(app.port, mono_us());
+	can_port_flush(app->port, mono_us());
+	return rc;
+}
 
-out:
-	if (app.local_dropped)
-		cosim_log(app.quiet, "%llu local frames dropped (queue full)",
-			  (unsigned long long)app.local_dropped);
-	for (int i = 0; i < app.n_nodes; i++)
-		cosim_node_destroy(app.nodes[i]);
-	can_port_close(app.port);
-	if (cfd >= 0) {
-		close(cfd);
-		unlink(control);
+static void close_all(struct app *app, const struct cmdline *cl, const struct loop_fds *fds)
+{
+	if (app->local_dropped)
+		cosim_log(app->quiet, "%llu local frames dropped (queue full)",
+			  (unsigned long long)app->local_dropped);
+	for (int i = 0; i < app->n_nodes; i++)
+		cosim_node_destroy(app->nodes[i]);
+	can_port_close(app->port);
+	if (fds->cfd >= 0) {
+		close(fds->cfd);
+		unlink(cl->control);
 	}
-	if (sfd >= 0)
-		close(sfd);
-	if (tfd >= 0)
-		close(tfd);
-	if (efd >= 0)
-		close(efd);
+	if (fds->sfd >= 0)
+		close(fds->sfd);
+	if (fds->tfd >= 0)
+		close(fds->tfd);
+	if (fds->efd >= 0)
+		close(fds->efd);
+}
+
+int main(int argc, char **argv)
+{
+	static struct app app; /* large (local queue): not on the stack */
+	static struct cmdline cl;
+	struct loop_fds fds = { -1, -1, -1, -1 };
+	sigset_t mask;
+	int rc = parse_cmdline(&cl, argc, argv);
+
+	if (rc != OPT_GO_ON)
+		return rc;
+	app.quiet = cl.quiet;
+
+	/* Signals first: a SIGTERM during start-up is not lost. */
+	sigemptyset(&mask);
+	sigaddset(&mask, SIGTERM);
+	sigaddset(&mask, SIGINT);
+	sigaddset(&mask, SIGUSR1);
+	sigaddset(&mask, SIGHUP);
+	sigprocmask(SIG_BLOCK, &mask, NULL);
+	signal(SIGPIPE, SIG_IGN);
+
+	rc = create_nodes(&app, &cl, mono_us());
+	if (rc == EXIT_OK)
+		rc = open_loop(&app, &cl, &mask, &fds);
+	if (rc == EXIT_OK) {
+		cosim_log(app.quiet, "%d node(s) on %s%s%s", app.n_nodes, cl.ifname,
+			  cl.control ? ", control " : "", cl.control ? cl.control : "");
+		rc = run_loop(&app, &fds);
+	}
+	close_all(&app, &cl, &fds);
 	return rc;
 }

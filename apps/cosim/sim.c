@@ -13,7 +13,7 @@
  *     or changed (TPDO one byte short);
  *   - incoming frames pass rx_filter(): ignored (silent), answered in the
  *     core's place (forced SDO abort), or normalised (lenient mode accepts
- *     the sizes printed in seed 004, E2).
+ *     the too small sizes of printed device sheets, docs/cosim.md).
  */
 #include "apps/cosim/cosim.h"
 
@@ -237,7 +237,7 @@ static void signal_update(cosim_node *n, unsigned i, uint64_t now_us)
 	if (!e || loopback_target(n, s->index, s->sub))
 		return;
 	if (s->offset_index || s->span_index) {
-		/* The transducer's process value (seed 004 §4): (raw + zero
+		/* The transducer's process value (docs/cosim.md): (raw + zero
 		 * offset) * span / 100, with the current 2004h:1 / 2005h:1. */
 		const co_od_entry *o = s->offset_index
 					       ? co_od_find(od, s->offset_index, s->offset_sub)
@@ -417,7 +417,8 @@ static void send_abort(cosim_node *n, const co_frame *req, uint32_t code)
 	tx_filter(n, &a);
 }
 
-/* Seed 004 prints 4-byte writes with command 2Bh ("2 bytes", E2). A
+/* Device sheets print 4-byte writes with command 2Bh ("2 bytes",
+ * CiA 301 §7.2.4.3.3: n = 2 unused bytes). A
  * lenient device takes the object's own size instead of the indicated
  * one; the strict core would answer 0x06070010. */
 static void lenient_size(cosim_node *n, co_frame *f)
@@ -540,7 +541,8 @@ static const co_store_ops store_ops = {
 	.restore = store_restore,
 };
 
-/* Seed 004 prints the signature reversed (E4, "evas"). A lenient device
+/* Device sheets print the 1010h signature reversed ("evas"; CiA 301
+ * §7.5.2.13 wants 73 61 76 65). A lenient device
  * accepts it; the core's store hook, which we wrap, sees the right one. */
 static uint32_t store_check_wrap(void *ctx, co_od_entry *e, const co_od_access *a)
 {

@@ -4,7 +4,7 @@
  * CRC) between two core instances wired in memory. Prints frames/s,
  * bytes/s and CPU ns per frame beside the target; asserts nothing.
  *
- * Target (issue 3): <= 1 us of CPU per frame, so that one core carries
+ * Target (docs/testing.md): <= 1 us of CPU per frame, so that one core carries
  * 8 lines at full 1 Mbit/s load (about 9,000 frames/s each) with < 10 %
  * of one CPU. "Per frame" here is everything one frame costs in this
  * process: the sender's core, the in-memory hop and the receiver's core.

@@ -735,53 +735,25 @@ static void print_rate(const char *name, double value, const char *bname, double
 					    .verdict = "-" });
 }
 
-int main(int argc, char **argv)
+/* The raw mq ping-pong before the daemon starts, while nothing else
+ * runs: its mean round trip in *raw_mean. */
+static int baseline(double *samples, double *raw_mean)
 {
-	if (argc == 4 && strcmp(argv[1], "--raw-once") == 0)
-		return raw_once(argv[2], argv[3]);
-	const char *secs = getenv("COGW_BENCH_SECONDS");
-	if (secs && atof(secs) > 0)
-		run_seconds = atof(secs);
-	if (bench_setup(instance, sizeof instance, "bench", tmpdir, sizeof tmpdir, "mbx") < 0) {
-		printf("bench_vcan_mailbox: cannot create a temp directory\n");
-		return 1;
-	}
-	char cfg[256], log[256], state[256];
-	snprintf(cfg, sizeof cfg, "%s/cogw.json", tmpdir);
-	snprintf(log, sizeof log, "%s/cogwd.log", tmpdir);
-	snprintf(state, sizeof state, "%s/state", tmpdir);
-	unsigned msg_max = bench_mq_msg_max();
-	unsigned depth = msg_max < 64 ? msg_max : 64;
-	double *samples = malloc(sizeof(double) * SAMPLES_MAX);
-	int status = 1;
-	bench_daemon d = { .pid = -1 };
-
-	uint64_t mq_limit = bench_raise_mq_limit();
-	char limit[32] = "unlimited";
-	if (mq_limit != UINT64_MAX)
-		snprintf(limit, sizeof limit, "%llu bytes", (unsigned long long)mq_limit);
-	printf("bench_vcan_mailbox: cogwd on vcan0, %.1f s per measurement, fs.mqueue.msg_max %u, "
-	       "RLIMIT_MSGQUEUE %s\n",
-	       run_seconds, msg_max, limit);
-
-	/* baseline first, while nothing else runs */
 	int nraw = raw_pingpong(samples, SAMPLES_MAX, run_seconds);
 	if (nraw <= 0)
-		goto out;
-	double raw_mean = 0;
+		return -1;
+	*raw_mean = 0;
 	for (int i = 0; i < nraw; i++)
-		raw_mean += samples[i];
-	raw_mean /= nraw;
-	double raw_p50 = bench_percentile(samples, (size_t)nraw, 50);
-	double raw_p99 = bench_percentile(samples, (size_t)nraw, 99);
-	double raw_rate = 1e6 / raw_mean;
+		*raw_mean += samples[i];
+	*raw_mean /= nraw;
+	return 0;
+}
 
-	if (write_config(cfg, depth) < 0 || bench_daemon_start(&d, cfg, instance, log) < 0)
-		goto out;
-
-	/* Round trips in ROUNDS rounds, each a raw ping-pong then the mailbox
-	 * (host load falls on both alike); the figures are the medians of
-	 * the rounds' percentiles, the note gives every round (the spread). */
+/* Round trips in ROUNDS rounds, each a raw ping-pong then the mailbox
+ * (host load falls on both alike); the figures are the medians of the
+ * rounds' percentiles, the note gives every round (the spread). */
+static int round_trip_figures(double *samples, double raw_mean)
+{
 	enum {
 		ROUNDS = 3
 	};
@@ -791,12 +763,12 @@ int main(int argc, char **argv)
 	for (int r = 0; r < ROUNDS; r++) {
 		int nr = raw_pingpong(samples, SAMPLES_MAX, run_seconds / ROUNDS);
 		if (nr <= 0)
-			goto out;
+			return -1;
 		r50[r] = bench_percentile(samples, (size_t)nr, 50);
 		r99[r] = bench_percentile(samples, (size_t)nr, 99);
 		int nm = mailbox_rtt(samples, SAMPLES_MAX, run_seconds / ROUNDS, &errors);
 		if (nm <= 0)
-			goto out;
+			return -1;
 		n += nm;
 		m50[r] = bench_percentile(samples, (size_t)nm, 50);
 		m99[r] = bench_percentile(samples, (size_t)nm, 99);
@@ -805,8 +777,8 @@ int main(int argc, char **argv)
 			 r ? "; " : "", m50[r], m99[r], r50[r], r99[r]);
 	}
 	double p50 = bench_percentile(m50, ROUNDS, 50), p99 = bench_percentile(m99, ROUNDS, 50);
-	raw_p50 = bench_percentile(r50, ROUNDS, 50);
-	raw_p99 = bench_percentile(r99, ROUNDS, 50);
+	double raw_p50 = bench_percentile(r50, ROUNDS, 50);
+	double raw_p99 = bench_percentile(r99, ROUNDS, 50);
 	bench_print_figure(&(bench_figure){ .name = "mailbox round trip p50 (OD read 1018h:01)",
 					    .value = p50,
 					    .unit = "us",
@@ -830,7 +802,12 @@ int main(int argc, char **argv)
 		   "queues of %d; raw mean before the daemon started %.0f us",
 		   n, errors, ROUNDS, spread, (size_t)PING_SIZE, (size_t)PONG_SIZE, QUEUE_MSGSIZE,
 		   raw_mean);
+	return 0;
+}
 
+/* Commands/s with 1, 4, 16 clients on one line and 4, 16 over three. */
+static void command_rate_figures(double raw_rate)
+{
 	static const int counts[] = { 1, 4, 16 };
 	double rates[3] = { 0 };
 	for (unsigned lines = 1; lines <= 3; lines += 2) {
@@ -868,8 +845,12 @@ int main(int argc, char **argv)
 				 .ratio = rates[0] > 0 ? rates[2] / rates[0] : -1,
 				 .target = "ratio >= 4.00",
 				 .verdict = bench_verdict(rates[2] >= 4 * rates[0]) });
-	oneshot_figure();
+}
 
+/* Event fan-out to 8 subscribers (throughput and latency), latency to 1
+ * and 32 for context. */
+static int fanout_figures(unsigned msg_max)
+{
 	/* Fan-out: window = half the subscribers' event queue depth. */
 	unsigned evdepth = msg_max > 256 ? 256 : msg_max;
 	unsigned window = evdepth / 2 ? evdepth / 2 : 1;
@@ -882,7 +863,7 @@ int main(int argc, char **argv)
 	if (fanout_raw(total, window, evdepth, &raw) < 0 ||
 	    fanout_raw(lat_total, 1, evdepth, &raw_lat) < 0 || daemon_go_operational() < 0 ||
 	    fanout_daemon(total, window, &dmn) < 0 || fanout_daemon(lat_total, 1, &dmn_lat) < 0)
-		goto out;
+		return -1;
 	print_rate("event fan-out to 8 subscribers (RPDO events delivered)", dmn.events_per_s,
 		   "raw mq fan-out 1 writer to 8 readers", raw.events_per_s);
 	fanout_latency_figure(&dmn_lat, &raw_lat, "ratio <= 1.50");
@@ -893,7 +874,7 @@ int main(int argc, char **argv)
 		subscribers = others[i];
 		if (fanout_raw(lat_total, 1, evdepth, &r1) < 0 ||
 		    fanout_daemon(lat_total, 1, &d1) < 0)
-			goto out;
+			return -1;
 		fanout_latency_figure(&d1, &r1, "none (context)");
 		if (d1.delivered != d1.expected)
 			printf("WARNING: the daemon lost %llu events to %d subscribers\n",
@@ -912,8 +893,47 @@ int main(int argc, char **argv)
 		printf("WARNING: the daemon lost %llu events\n",
 		       (unsigned long long)(dmn.expected + dmn_lat.expected - dmn.delivered -
 					    dmn_lat.delivered));
-	status = 0;
-out:
+	return 0;
+}
+
+int main(int argc, char **argv)
+{
+	if (argc == 4 && strcmp(argv[1], "--raw-once") == 0)
+		return raw_once(argv[2], argv[3]);
+	const char *secs = getenv("COGW_BENCH_SECONDS");
+	if (secs && atof(secs) > 0)
+		run_seconds = atof(secs);
+	if (bench_setup(instance, sizeof instance, "bench", tmpdir, sizeof tmpdir, "mbx") < 0) {
+		printf("bench_vcan_mailbox: cannot create a temp directory\n");
+		return 1;
+	}
+	char cfg[256], log[256], state[256];
+	snprintf(cfg, sizeof cfg, "%s/cogw.json", tmpdir);
+	snprintf(log, sizeof log, "%s/cogwd.log", tmpdir);
+	snprintf(state, sizeof state, "%s/state", tmpdir);
+	unsigned msg_max = bench_mq_msg_max();
+	unsigned depth = msg_max < 64 ? msg_max : 64;
+	double *samples = malloc(sizeof(double) * SAMPLES_MAX);
+	int status = 1;
+	bench_daemon d = { .pid = -1 };
+
+	uint64_t mq_limit = bench_raise_mq_limit();
+	char limit[32] = "unlimited";
+	if (mq_limit != UINT64_MAX)
+		snprintf(limit, sizeof limit, "%llu bytes", (unsigned long long)mq_limit);
+	printf("bench_vcan_mailbox: cogwd on vcan0, %.1f s per measurement, fs.mqueue.msg_max %u, "
+	       "RLIMIT_MSGQUEUE %s\n",
+	       run_seconds, msg_max, limit);
+
+	double raw_mean;
+	if (baseline(samples, &raw_mean) == 0 && write_config(cfg, depth) == 0 &&
+	    bench_daemon_start(&d, cfg, instance, log) == 0 &&
+	    round_trip_figures(samples, raw_mean) == 0) {
+		command_rate_figures(1e6 / raw_mean);
+		oneshot_figure();
+		if (fanout_figures(msg_max) == 0)
+			status = 0;
+	}
 	bench_daemon_stop(&d);
 	bench_unlink_instance_queues(instance);
 	snprintf(state, sizeof state, "%s/state", tmpdir);

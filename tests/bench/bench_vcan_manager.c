@@ -13,7 +13,7 @@
  *     NMT start of each node); the time from the request to the manager's
  *     "operational" event with all N booted, best of a few rounds. The
  *     frames of the boot (NMT, SDO, boot-ups) are counted on the bus.
- * Target (issue 12): 32 nodes boot in at most 1.5 x the boot of one node
+ * Target (docs/testing.md): 32 nodes boot in at most 1.5 x the boot of one node
  * plus the bus time of the 32-node boot's frames at the line's 1 Mbit/s
  * (47 + 8 x DLC bits per standard frame, without stuffing). The line's SDO
  * client pool (sdo_clients) is 32, so that the manager may boot every node

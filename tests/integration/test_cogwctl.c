@@ -635,7 +635,7 @@ static void test_lss_inquire_and_fastscan(void)
 	expect_contains(r->err, "no LSS slave answered");
 }
 
-/* Issue 10 item 6: exit 4 either way, but the message says who did not
+/* Exit 4 either way, but the message says who did not
  * answer. Before the fix an LSS service nobody answered printed "the
  * daemon did not answer in time; --timeout MS" although the daemon had
  * answered with the LSS timeout. */

@@ -2,7 +2,7 @@
 /*
  * tests/integration/test_cosim.c - the simulated STI pressure transducer
  * (apps/cosim + etc/devices/sti-pressure.json) against the golden frames of
- * spec 003-004 §3.1 (V1-V9 and the derived extras) and §3.2 (LSS L1-L15),
+ * the transducer (SDO V1-V9 and the derived extras, LSS L1-L15; docs/cosim.md),
  * its non-volatile memory, and every fault the control socket switches.
  *
  * Real processes on a real vcan line: cosim is fork/exec'ed, the test
@@ -446,7 +446,7 @@ void test_fault_silent_and_emcy(void)
 }
 
 /* Several nodes in one process: two transducers told apart by their serial
- * (scenario 14) and an I/O module whose outputs loop back to its inputs. */
+ * and an I/O module whose outputs loop back to its inputs. */
 void test_three_nodes_in_one_process(void)
 {
 	stop_sim();

@@ -2,7 +2,7 @@
 /*
  * tests/integration/test_daemon_clients.c - several client processes
  * (libcogw) against the real cogwd, with simulated devices (cosim) on the
- * vcan lines (issue 5 §6, part A):
+ * vcan lines:
  *
  *  - three clients at once doing SDO transfers of every size class in every
  *    mode on two lines, data checked byte for byte, correlation ids of the

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * tests/integration/test_daemon_system.c - cogwd as a system service
- * (issue 5, §4 and §6), against the real daemon on vcan lines:
+ * against the real daemon on vcan lines:
  *
  *  - sd_notify on a real NOTIFY_SOCKET: READY=1 only once every line is up,
  *    STATUS= one line, WATCHDOG=1 while WATCHDOG_USEC is set, no pings
@@ -344,7 +344,7 @@ static void test_no_ready_when_a_line_fails(void)
 				      report);
 }
 
-/* issue 11: a valid watchdog_check_ms longer than an idle line sleeps used
+/* A valid watchdog_check_ms longer than an idle line sleeps used
  * to stop every WATCHDOG=1 (seen with 60000 and idle lines): systemd then
  * kills a healthy daemon. Now a period that cannot fit is refused at start,
  * and one that fits keeps an idle daemon pinging. */
@@ -381,7 +381,7 @@ static void test_watchdog_check_period_fits_the_watchdog(void)
 
 static int run_cogwd(const char *config, const char *extra, const char *log, int timeout_ms);
 
-/* issue 11: a FIFO at the configuration path or at a state-file path
+/* A FIFO at the configuration path or at a state-file path
  * blocked start-up, --check and a reload for ever (and with a reload,
  * SIGTERM too). Now: refused as "not a regular file", at once. */
 static void test_special_files_do_not_block(void)
@@ -460,7 +460,7 @@ static void test_special_files_do_not_block(void)
 	TEST_ASSERT_TRUE(file_contains(d2.log_path, "line0.od.comm is not a regular file"));
 }
 
-/* issue 11 item 9: with mlockall, max_transfer 64 MiB on 3 lines pinned
+/* With mlockall, max_transfer 64 MiB on 3 lines pinned
  * 1.2 GB (every transfer buffer locked at start-up). Now buffers are
  * locked as they are first used, and start-up reports what is reserved
  * and what is locked. 2 lines x 32 MiB here: 384 MiB of buffers. */
@@ -481,7 +481,7 @@ static long daemon_status_kb(pid_t pid, const char *name)
 	return kb;
 }
 
-/* ---- issue 11 item 3: a client carries on after the daemon is killed and
+/* ---- a client carries on after the daemon is killed and
  * restarted (the systemd watchdog's restart) ---------------------------------- */
 
 static int in_flight_rc;
@@ -529,7 +529,7 @@ static void test_client_survives_a_daemon_kill_and_restart(void)
 	TEST_ASSERT_EQUAL_UINT16(9, od_read_u16(client, 0x2000));
 }
 
-/* ---- issue 11 items 5 and 9: transfers that are never acknowledged, the
+/* ---- transfers that are never acknowledged, the
  * transfer memory budget ------------------------------------------------------ */
 
 #define XFER_OBJ_SIZE (1u << 20) /* 1 MiB DOMAIN 2100h on both lines */
@@ -977,7 +977,7 @@ static void test_store_restore_survives_restart(void)
 		0xFF, 0x5F, 0x00, 0x02, 0x00, 0x00, 0x00, 0x01, 0x00, /* 5FFFh: absent */
 		0x05, 0x10, 0x00, 0xFF, 0x00, 0x00, 0x00, 0x01,       /* truncated */
 	};
-	/* issue 11: damaged saved values are never half-applied. Before,
+	/* Damaged saved values are never half-applied. Before,
 	 * each of these loaded 1017h = 400 (a truncated file with a warning,
 	 * a flipped bit silently as another value, a save cut between its two
 	 * files half old, half new); now: the configured values, an error
@@ -1013,9 +1013,9 @@ static void test_store_restore_survives_restart(void)
 	TEST_ASSERT_EQUAL_UINT16(400, od_read_u16(client, 0x1017));
 }
 
-/* Issue 10 items 2 and 3: what NMT reset node / reset communication bring
+/* What NMT reset node / reset communication bring
  * back follows 1010h/1011h at run time, not only at the next start. The
- * frames are the issue's: 67F#2310100173617665 -> 5FF#60..., 000#817F. */
+ * frames (CiA 301 §7.5.2.13 "save" signature): 67F#2310100173617665 -> 5FF#60..., 000#817F. */
 static void nmt_reset_own(uint8_t cs)
 {
 	uint8_t f[2] = { cs, 0x7F }, boot[8];
@@ -1544,252 +1544,114 @@ static void run_bad_case(const bad_case *c)
 					 after.malformed, c->what);
 }
 
-static void test_malformed_messages_against_daemon(void)
-{
-	char json[4096];
-	config_text(json, sizeof json, &(cfg_params){ .instance = "sys5", .n_lines = 2 });
-	start_daemon(&d, json, "sys5", 2, 0, NULL);
-	raw_open("sys5");
+/* header field offsets: docs/mailbox.md */
+enum {
+	OFF_MAGIC = 0,
+	OFF_VERSION = 2,
+	OFF_KIND = 3,
+	OFF_CODE = 4,
+	OFF_LINE = 6,
+	OFF_FLAGS = 7,
+	OFF_CLIENT = 8,
+	OFF_STATUS = 12,
+	OFF_TOKEN = 24,
+	OFF_ABORT = 32,
+	OFF_DROPPED = 36,
+	OFF_CHUNK = 40,
+	OFF_LEN = 42,
+	OFF_TOTAL = 44
+};
 
-	/* header field offsets: docs/mailbox.md */
-	enum {
-		OFF_MAGIC = 0,
-		OFF_VERSION = 2,
-		OFF_KIND = 3,
-		OFF_CODE = 4,
-		OFF_LINE = 6,
-		OFF_FLAGS = 7,
-		OFF_CLIENT = 8,
-		OFF_STATUS = 12,
-		OFF_TOKEN = 24,
-		OFF_ABORT = 32,
-		OFF_DROPPED = 36,
-		OFF_CHUNK = 40,
-		OFF_LEN = 42,
-		OFF_TOTAL = 44
-	};
-	const bad_case header_cases[] = {
+/* A PING with one header field patched; counted malformed once. */
+#define HEADER_CASE(what, off, size, val, status)                             \
+	{                                                                     \
+		what, MBX_CMD_PING, { 0 }, 0, off, size, val, 0, status, 0, 1 \
+	}
+/* A command with a payload of plen bytes (filled in by the step). */
+#define PAYLOAD_CASE(what, code, plen, status, abort, malformed)               \
+	{                                                                      \
+		what, code, { 0 }, plen, -1, 0, 0, 0, status, abort, malformed \
+	}
+
+static void malformed_header_fields(void)
+{
+	static const bad_case header_cases[] = {
 		{ "short message", MBX_CMD_PING, { 0 }, 0, -1, 0, 0, 20, NO_ANSWER, 0, 1 },
-		{ "magic", MBX_CMD_PING, { 0 }, 0, OFF_MAGIC, 2, 0x1234, 0, NO_ANSWER, 0, 1 },
-		{ "version 2", MBX_CMD_PING, { 0 }, 0, OFF_VERSION, 1, 2, 0, MBX_E_VERSION, 0, 1 },
-		{ "kind response",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_KIND,
-		  1,
-		  MBX_KIND_RESPONSE,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "kind 9", MBX_CMD_PING, { 0 }, 0, OFF_KIND, 1, 9, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "code unknown",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_CODE,
-		  2,
-		  0x0999,
-		  0,
-		  MBX_E_UNKNOWN_CMD,
-		  0,
-		  1 },
-		{ "line of another queue",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_LINE,
-		  1,
-		  1,
-		  0,
-		  MBX_E_BAD_LINE,
-		  0,
-		  1 },
-		{ "flags unknown bit",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_FLAGS,
-		  1,
-		  0x10,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "flags OVERFLOW from a client",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_FLAGS,
-		  1,
-		  MBX_F_OVERFLOW,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "flags MORE without CHUNKED",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_FLAGS,
-		  1,
-		  MBX_F_MORE,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "client id unknown",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_CLIENT,
-		  4,
-		  0x7FFF0003,
-		  0,
-		  NO_ANSWER,
-		  0,
-		  1 },
-		{ "token wrong",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_TOKEN,
-		  8,
-		  0x0123456789ABCDEFull,
-		  0,
-		  NO_ANSWER,
-		  0,
-		  1 },
-		{ "status set by a client",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_STATUS,
-		  4,
-		  0xFFFFFFFF,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "abort set by a client",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_ABORT,
-		  4,
-		  0x06020000,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "dropped set by a client",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_DROPPED,
-		  4,
-		  5,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "len larger than sent",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_LEN,
-		  2,
-		  12,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "chunk without CHUNKED",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_CHUNK,
-		  2,
-		  3,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "total without CHUNKED",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_TOTAL,
-		  4,
-		  100,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "CHUNKED with total 0",
-		  MBX_CMD_PING,
-		  { 0 },
-		  0,
-		  OFF_FLAGS,
-		  1,
-		  MBX_F_CHUNKED,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
+		HEADER_CASE("magic", OFF_MAGIC, 2, 0x1234, NO_ANSWER),
+		HEADER_CASE("version 2", OFF_VERSION, 1, 2, MBX_E_VERSION),
+		HEADER_CASE("kind response", OFF_KIND, 1, MBX_KIND_RESPONSE, MBX_E_MALFORMED),
+		HEADER_CASE("kind 9", OFF_KIND, 1, 9, MBX_E_MALFORMED),
+		HEADER_CASE("code unknown", OFF_CODE, 2, 0x0999, MBX_E_UNKNOWN_CMD),
+		HEADER_CASE("line of another queue", OFF_LINE, 1, 1, MBX_E_BAD_LINE),
+		HEADER_CASE("flags unknown bit", OFF_FLAGS, 1, 0x10, MBX_E_MALFORMED),
+		HEADER_CASE("flags OVERFLOW from a client", OFF_FLAGS, 1, MBX_F_OVERFLOW,
+			    MBX_E_MALFORMED),
+		HEADER_CASE("flags MORE without CHUNKED", OFF_FLAGS, 1, MBX_F_MORE,
+			    MBX_E_MALFORMED),
+		HEADER_CASE("client id unknown", OFF_CLIENT, 4, 0x7FFF0003, NO_ANSWER),
+		HEADER_CASE("token wrong", OFF_TOKEN, 8, 0x0123456789ABCDEFull, NO_ANSWER),
+		HEADER_CASE("status set by a client", OFF_STATUS, 4, 0xFFFFFFFF, MBX_E_MALFORMED),
+		HEADER_CASE("abort set by a client", OFF_ABORT, 4, 0x06020000, MBX_E_MALFORMED),
+		HEADER_CASE("dropped set by a client", OFF_DROPPED, 4, 5, MBX_E_MALFORMED),
+		HEADER_CASE("len larger than sent", OFF_LEN, 2, 12, MBX_E_MALFORMED),
+		HEADER_CASE("chunk without CHUNKED", OFF_CHUNK, 2, 3, MBX_E_MALFORMED),
+		HEADER_CASE("total without CHUNKED", OFF_TOTAL, 4, 100, MBX_E_MALFORMED),
+		HEADER_CASE("CHUNKED with total 0", OFF_FLAGS, 1, MBX_F_CHUNKED, MBX_E_MALFORMED),
 	};
 	for (size_t i = 0; i < sizeof header_cases / sizeof header_cases[0]; i++)
 		run_bad_case(&header_cases[i]);
+}
 
-	/* chunk fields of a data command */
-	{
-		/* CHUNKED on a command that never is (PING): flags + total */
-		uint8_t msg[MBX_HDR_SIZE];
-		mbx_stats_wire before = raw_stats();
-		mbx_hdr h = cmd_hdr(MBX_CMD_PING);
-		h.flags = MBX_F_CHUNKED;
-		h.total = 4;
-		mbx_msg_build(msg, sizeof msg, &h, NULL, 0);
-		raw_send_bytes(msg, sizeof msg);
-		mbx_hdr rh;
-		TEST_ASSERT_EQUAL_INT(0, raw_recv(&rh, NULL, 0, 5000));
-		TEST_ASSERT_EQUAL_UINT64(h.corr, rh.corr);
-		TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, rh.status);
-		TEST_ASSERT_EQUAL_UINT64(before.malformed + 1, raw_stats().malformed);
+/* Chunk fields of a data command. */
+static void malformed_chunk_fields(void)
+{
+	/* CHUNKED on a command that never is (PING): flags + total */
+	uint8_t msg[MBX_HDR_SIZE];
+	mbx_stats_wire before = raw_stats();
+	mbx_hdr h = cmd_hdr(MBX_CMD_PING);
+	h.flags = MBX_F_CHUNKED;
+	h.total = 4;
+	mbx_msg_build(msg, sizeof msg, &h, NULL, 0);
+	raw_send_bytes(msg, sizeof msg);
+	mbx_hdr rh;
+	TEST_ASSERT_EQUAL_INT(0, raw_recv(&rh, NULL, 0, 5000));
+	TEST_ASSERT_EQUAL_UINT64(h.corr, rh.corr);
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, rh.status);
+	TEST_ASSERT_EQUAL_UINT64(before.malformed + 1, raw_stats().malformed);
 
-		/* chunk 5 of an OD_WRITE transfer that was never opened */
-		uint8_t data[16] = { 1, 2, 3, 4 };
-		before = raw_stats();
-		h = cmd_hdr(MBX_CMD_OD_WRITE);
-		h.flags = MBX_F_CHUNKED | MBX_F_MORE;
-		h.chunk = 5;
-		h.total = 4096;
-		uint8_t big[MBX_HDR_SIZE + 16];
-		mbx_msg_build(big, sizeof big, &h, data, sizeof data);
-		raw_send_bytes(big, sizeof big);
-		TEST_ASSERT_EQUAL_INT(0, raw_recv(&rh, NULL, 0, 5000));
-		TEST_ASSERT_EQUAL_UINT64(h.corr, rh.corr);
-		TEST_ASSERT_EQUAL_INT(MBX_E_SEQUENCE, rh.status);
-		TEST_ASSERT_EQUAL_UINT64(before.malformed + 1, raw_stats().malformed);
+	/* chunk 5 of an OD_WRITE transfer that was never opened */
+	uint8_t data[16] = { 1, 2, 3, 4 };
+	before = raw_stats();
+	h = cmd_hdr(MBX_CMD_OD_WRITE);
+	h.flags = MBX_F_CHUNKED | MBX_F_MORE;
+	h.chunk = 5;
+	h.total = 4096;
+	uint8_t big[MBX_HDR_SIZE + 16];
+	mbx_msg_build(big, sizeof big, &h, data, sizeof data);
+	raw_send_bytes(big, sizeof big);
+	TEST_ASSERT_EQUAL_INT(0, raw_recv(&rh, NULL, 0, 5000));
+	TEST_ASSERT_EQUAL_UINT64(h.corr, rh.corr);
+	TEST_ASSERT_EQUAL_INT(MBX_E_SEQUENCE, rh.status);
+	TEST_ASSERT_EQUAL_UINT64(before.malformed + 1, raw_stats().malformed);
 
-		/* chunk 0 that says everything fits (no MORE): not a transfer */
-		before = raw_stats();
-		mbx_obj_req o = { .index = 0x1017 };
-		uint8_t first[4 + 8];
-		memcpy(first, &o, sizeof o);
-		h = cmd_hdr(MBX_CMD_OD_WRITE);
-		h.flags = MBX_F_CHUNKED;
-		h.total = 8;
-		uint8_t m0[MBX_HDR_SIZE + sizeof first];
-		mbx_msg_build(m0, sizeof m0, &h, first, sizeof first);
-		raw_send_bytes(m0, sizeof m0);
-		TEST_ASSERT_EQUAL_INT(0, raw_recv(&rh, NULL, 0, 5000));
-		TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, rh.status);
-		TEST_ASSERT_EQUAL_UINT64(before.malformed + 1, raw_stats().malformed);
-	}
+	/* chunk 0 that says everything fits (no MORE): not a transfer */
+	before = raw_stats();
+	mbx_obj_req o = { .index = 0x1017 };
+	uint8_t first[4 + 8];
+	memcpy(first, &o, sizeof o);
+	h = cmd_hdr(MBX_CMD_OD_WRITE);
+	h.flags = MBX_F_CHUNKED;
+	h.total = 8;
+	uint8_t m0[MBX_HDR_SIZE + sizeof first];
+	mbx_msg_build(m0, sizeof m0, &h, first, sizeof first);
+	raw_send_bytes(m0, sizeof m0);
+	TEST_ASSERT_EQUAL_INT(0, raw_recv(&rh, NULL, 0, 5000));
+	TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED, rh.status);
+	TEST_ASSERT_EQUAL_UINT64(before.malformed + 1, raw_stats().malformed);
+}
 
-	/* payload fields */
+static void malformed_payload_fields(void)
+{
 	mbx_nmt_req nmt_node = { .cs = 0x01, .node = 128 };
 	mbx_nmt_req nmt_cs = { .cs = 0x03, .node = 1 };
 	mbx_nmt_req nmt_pad = { .cs = 0x01, .node = 1, .pad = 1 };
@@ -1805,183 +1667,31 @@ static void test_malformed_messages_against_daemon(void)
 	mbx_store_req store0 = { .sub = 0 };
 	mbx_pdo_num_req pdo0 = { .pdo = 0 };
 	bad_case payload_cases[] = {
-		{ "NMT node 128",
-		  MBX_CMD_NMT,
-		  { 0 },
-		  sizeof nmt_node,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_PARAM,
-		  0,
-		  1 },
-		{ "NMT cs 0x03",
-		  MBX_CMD_NMT,
-		  { 0 },
-		  sizeof nmt_cs,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_PARAM,
-		  0,
-		  1 },
-		{ "NMT pad",
-		  MBX_CMD_NMT,
-		  { 0 },
-		  sizeof nmt_pad,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "NMT short payload", MBX_CMD_NMT, { 0 }, 3, -1, 0, 0, 0, MBX_E_MALFORMED, 0, 1 },
-		{ "SDO node 0",
-		  MBX_CMD_SDO_UPLOAD,
-		  { 0 },
-		  sizeof sdo_node0,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_PARAM,
-		  0,
-		  1 },
-		{ "SDO node 128",
-		  MBX_CMD_SDO_UPLOAD,
-		  { 0 },
-		  sizeof sdo_node128,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_PARAM,
-		  0,
-		  1 },
-		{ "SDO mode 9",
-		  MBX_CMD_SDO_UPLOAD,
-		  { 0 },
-		  sizeof sdo_mode9,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_PARAM,
-		  0,
-		  1 },
-		{ "OD read of a missing object",
-		  MBX_CMD_OD_READ,
-		  { 0 },
-		  sizeof obj_missing,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_ABORT,
-		  0x06020000u,
-		  0 },
-		{ "OD read of a missing sub-index",
-		  MBX_CMD_OD_READ,
-		  { 0 },
-		  sizeof obj_bad_sub,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_ABORT,
-		  0x06090011u,
-		  0 },
-		{ "OD read with flags",
-		  MBX_CMD_OD_READ,
-		  { 0 },
-		  sizeof obj_flags,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "raw frame len 9",
-		  MBX_CMD_RAW_SEND,
-		  { 0 },
-		  sizeof raw_len9,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_PARAM,
-		  0,
-		  1 },
-		{ "raw frame id 0x800 without EXT",
-		  MBX_CMD_RAW_SEND,
-		  { 0 },
-		  sizeof raw_id,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_PARAM,
-		  0,
-		  1 },
-		{ "raw frame data beyond len",
-		  MBX_CMD_RAW_SEND,
-		  { 0 },
-		  sizeof raw_dirty,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "raw send 17 bytes",
-		  MBX_CMD_RAW_SEND,
-		  { 0 },
-		  17,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "raw send 33 frames",
-		  MBX_CMD_RAW_SEND,
-		  { 0 },
-		  33 * sizeof(mbx_raw_frame),
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_MALFORMED,
-		  0,
-		  1 },
-		{ "store sub 0",
-		  MBX_CMD_STORE,
-		  { 0 },
-		  sizeof store0,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_PARAM,
-		  0,
-		  1 },
-		{ "PDO request 0",
-		  MBX_CMD_PDO_REQUEST,
-		  { 0 },
-		  sizeof pdo0,
-		  -1,
-		  0,
-		  0,
-		  0,
-		  MBX_E_PARAM,
-		  0,
-		  1 },
+		PAYLOAD_CASE("NMT node 128", MBX_CMD_NMT, sizeof nmt_node, MBX_E_PARAM, 0, 1),
+		PAYLOAD_CASE("NMT cs 0x03", MBX_CMD_NMT, sizeof nmt_cs, MBX_E_PARAM, 0, 1),
+		PAYLOAD_CASE("NMT pad", MBX_CMD_NMT, sizeof nmt_pad, MBX_E_MALFORMED, 0, 1),
+		PAYLOAD_CASE("NMT short payload", MBX_CMD_NMT, 3, MBX_E_MALFORMED, 0, 1),
+		PAYLOAD_CASE("SDO node 0", MBX_CMD_SDO_UPLOAD, sizeof sdo_node0, MBX_E_PARAM, 0, 1),
+		PAYLOAD_CASE("SDO node 128", MBX_CMD_SDO_UPLOAD, sizeof sdo_node128, MBX_E_PARAM, 0,
+			     1),
+		PAYLOAD_CASE("SDO mode 9", MBX_CMD_SDO_UPLOAD, sizeof sdo_mode9, MBX_E_PARAM, 0, 1),
+		PAYLOAD_CASE("OD read of a missing object", MBX_CMD_OD_READ, sizeof obj_missing,
+			     MBX_E_ABORT, 0x06020000u, 0),
+		PAYLOAD_CASE("OD read of a missing sub-index", MBX_CMD_OD_READ, sizeof obj_bad_sub,
+			     MBX_E_ABORT, 0x06090011u, 0),
+		PAYLOAD_CASE("OD read with flags", MBX_CMD_OD_READ, sizeof obj_flags,
+			     MBX_E_MALFORMED, 0, 1),
+		PAYLOAD_CASE("raw frame len 9", MBX_CMD_RAW_SEND, sizeof raw_len9, MBX_E_PARAM, 0,
+			     1),
+		PAYLOAD_CASE("raw frame id 0x800 without EXT", MBX_CMD_RAW_SEND, sizeof raw_id,
+			     MBX_E_PARAM, 0, 1),
+		PAYLOAD_CASE("raw frame data beyond len", MBX_CMD_RAW_SEND, sizeof raw_dirty,
+			     MBX_E_MALFORMED, 0, 1),
+		PAYLOAD_CASE("raw send 17 bytes", MBX_CMD_RAW_SEND, 17, MBX_E_MALFORMED, 0, 1),
+		PAYLOAD_CASE("raw send 33 frames", MBX_CMD_RAW_SEND, 33 * sizeof(mbx_raw_frame),
+			     MBX_E_MALFORMED, 0, 1),
+		PAYLOAD_CASE("store sub 0", MBX_CMD_STORE, sizeof store0, MBX_E_PARAM, 0, 1),
+		PAYLOAD_CASE("PDO request 0", MBX_CMD_PDO_REQUEST, sizeof pdo0, MBX_E_PARAM, 0, 1),
 		{ "NMT cs 0x03 with NO_REPLY",
 		  MBX_CMD_NMT,
 		  { 0 },
@@ -2009,51 +1719,55 @@ static void test_malformed_messages_against_daemon(void)
 				put_le(c->payload + off, 4, 0x100);
 		run_bad_case(c);
 	}
+}
 
-	/* a REGISTER naming queues that do not exist: nowhere to answer,
-	 * counted all the same */
-	{
-		mbx_stats_wire before = raw_stats();
-		mbx_register_req r = { .pid = (uint32_t)getpid(), .uid = 0 };
-		snprintf(r.resp_queue, sizeof r.resp_queue, "/cogw.sys5.nothere.resp");
-		snprintf(r.event_queue, sizeof r.event_queue, "/cogw.sys5.nothere.evt");
-		mbx_hdr h = cmd_hdr(MBX_CMD_REGISTER);
-		h.client = 0;
-		h.token = 0;
-		uint8_t msg[1024];
-		int n = mbx_msg_build(msg, sizeof msg, &h, &r, sizeof r);
-		raw_send_bytes(msg, (size_t)n);
-		TEST_ASSERT_EQUAL_UINT64(before.malformed + 1, raw_stats().malformed);
-	}
+/* A REGISTER naming queues that do not exist: nowhere to answer, counted
+ * all the same. */
+static void register_naming_missing_queues(void)
+{
+	mbx_stats_wire before = raw_stats();
+	mbx_register_req r = { .pid = (uint32_t)getpid(), .uid = 0 };
+	snprintf(r.resp_queue, sizeof r.resp_queue, "/cogw.sys5.nothere.resp");
+	snprintf(r.event_queue, sizeof r.event_queue, "/cogw.sys5.nothere.evt");
+	mbx_hdr h = cmd_hdr(MBX_CMD_REGISTER);
+	h.client = 0;
+	h.token = 0;
+	uint8_t msg[1024];
+	int n = mbx_msg_build(msg, sizeof msg, &h, &r, sizeof r);
+	raw_send_bytes(msg, (size_t)n);
+	TEST_ASSERT_EQUAL_UINT64(before.malformed + 1, raw_stats().malformed);
+}
 
-	/* a burst of garbage: every message refused and counted once, the
-	 * line keeps serving (the queue is drained, nothing blocks) */
-	{
-		mbx_stats_wire before = raw_stats();
-		uint64_t seed = 0x5eed;
-		enum {
-			BURST = 300
-		};
-		for (int i = 0; i < BURST; i++) {
-			uint8_t msg[256];
-			size_t n = 1 + (size_t)(i * 37 % 255);
-			for (size_t k = 0; k < n; k++) {
-				seed = seed * 6364136223846793005ull + 1442695040888963407ull;
-				msg[k] = (uint8_t)(seed >> 56);
-			}
-			if (n >= MBX_HDR_SIZE && (i & 1)) { /* get past magic/version */
-				put_le(msg + OFF_MAGIC, 2, MBX_MAGIC);
-				msg[OFF_VERSION] = MBX_VERSION;
-			}
-			raw_send_bytes(msg, n);
+/* A burst of garbage: every message refused and counted once, the line
+ * keeps serving (the queue is drained, nothing blocks). */
+static void garbage_burst_counted(void)
+{
+	mbx_stats_wire before = raw_stats();
+	uint64_t seed = 0x5eed;
+	enum {
+		BURST = 300
+	};
+	for (int i = 0; i < BURST; i++) {
+		uint8_t msg[256];
+		size_t n = 1 + (size_t)(i * 37 % 255);
+		for (size_t k = 0; k < n; k++) {
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			msg[k] = (uint8_t)(seed >> 56);
 		}
-		mbx_stats_wire after = raw_stats();
-		TEST_ASSERT_EQUAL_UINT64(before.malformed + BURST, after.malformed);
-		printf("malformed counter after the burst: %llu\n",
-		       (unsigned long long)after.malformed);
+		if (n >= MBX_HDR_SIZE && (i & 1)) { /* get past magic/version */
+			put_le(msg + OFF_MAGIC, 2, MBX_MAGIC);
+			msg[OFF_VERSION] = MBX_VERSION;
+		}
+		raw_send_bytes(msg, n);
 	}
+	mbx_stats_wire after = raw_stats();
+	TEST_ASSERT_EQUAL_UINT64(before.malformed + BURST, after.malformed);
+	printf("malformed counter after the burst: %llu\n", (unsigned long long)after.malformed);
+}
 
-	/* still serving: another client's normal work, a raw frame on the bus */
+/* Still serving: another client's normal work, a raw frame on the bus. */
+static void still_serving_after_garbage(void)
+{
 	open_client("sys5");
 	TEST_ASSERT_EQUAL_UINT16(1000, od_read_u16(client, 0x1017));
 	can_fd = can_open_raw("vcan0");
@@ -2064,6 +1778,22 @@ static void test_malformed_messages_against_daemon(void)
 	TEST_ASSERT_EQUAL_INT(2, can_wait_id(can_fd, 0x321, data, 5000));
 	TEST_ASSERT_EQUAL_HEX8(0xAB, data[0]);
 	TEST_ASSERT_EQUAL_HEX8(0xCD, data[1]);
+}
+
+static void test_malformed_messages_against_daemon(void)
+{
+	char json[4096];
+	config_text(json, sizeof json, &(cfg_params){ .instance = "sys5", .n_lines = 2 });
+	start_daemon(&d, json, "sys5", 2, 0, NULL);
+	raw_open("sys5");
+
+	malformed_header_fields();
+	malformed_chunk_fields();
+	malformed_payload_fields();
+	register_naming_missing_queues();
+	garbage_burst_counted();
+	still_serving_after_garbage();
+
 	raw_close();
 	cogw_close(client);
 	client = NULL;
@@ -2101,7 +1831,7 @@ static void test_systemd_unit_verifies(void)
 	TEST_ASSERT_FALSE(file_contains(log, "is not executable"));
 }
 
-/* issue 11 item 4: under the shipped unit's capability set a non-root
+/* Under the shipped unit's capability set a non-root
  * client could not register (without CAP_DAC_OVERRIDE the root daemon
  * cannot open a 0600 queue of another user, so REGISTER went unanswered).
  * The daemon runs here with exactly the unit's CapabilityBoundingSet

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * The CiA 302-2 manager in the real daemon on vcan with cosim devices
- * (issue 12 integration items, grouped into one VM boot):
+ * (grouped into one VM boot):
  *   (c)+(g) two lines booting at once: line 0 has the transducer (node 1,
  *       mandatory, identity checked) and an I/O module (node 2, optional,
  *       expected with a wrong vendor -> status D, not started); line 1 has

@@ -13,10 +13,10 @@ vcan0. It catches bugs that cosim, which runs our own core, would mirror.
     every mode it offers (block falls back to segmented: python-canopen
     has no block server);
   - NMT: every state, heartbeat state byte, no SDO answer while STOPPED
-    (issue 10 item 1), cogwd's own SDO client refusing while its node is
+    (CiA 301 §7.3.2.2), cogwd's own SDO client refusing while its node is
     STOPPED;
   - 1010h/1011h: save / load across reset node and reset communication,
-    on cogwd and on cosim (issue 10 items 2 and 3);
+    on cogwd and on cosim;
   - PDO remapping over SDO (python-canopen's PdoMap.save(): disable,
     clear, map, enable), then the remapped TPDO received with its values;
   - EMCY from cosim (control socket) and from cogwd (cogwctl emcy send);
@@ -505,7 +505,7 @@ def test_nmt_states_and_no_sdo_while_stopped():
         eq(struct.pack("<H", 200), node.sdo.upload(0x1017, 0), "SDO in OPERATIONAL")
         node.nmt.send_command(0x02)
         wait_state(node_id, "STOPPED")
-        # CiA 301: no SDO in STOPPED, not even an abort (issue 10 item 1)
+        # CiA 301 §7.3.2.2: no SDO in STOPPED, not even an abort
         expect_silence(node, 0x1000, 0)
         node.nmt.send_command(0x80)
         wait_state(node_id, "PRE-OPERATIONAL")

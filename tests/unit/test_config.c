@@ -192,7 +192,7 @@ static void test_wrong_types(void)
 	expect_error("[]", "t.json: (top): expected an object, got an array");
 	expect_error("{\"mailbox\": {\"queue_mode\": 432}, \"lines\": [" LINE("") "]}",
 		     "t.json: mailbox.queue_mode: expected an octal string like \"0620\"");
-	/* issue 11: a command queue clients can read leaks their tokens */
+	/* A command queue clients can read leaks their tokens */
 	static const char *const readable[] = { "0660", "0666", "0640", "0604", "0777" };
 	for (size_t i = 0; i < sizeof readable / sizeof readable[0]; i++) {
 		char json[256];
@@ -206,7 +206,7 @@ static void test_wrong_types(void)
 	}
 }
 
-/* issue 11: every mailbox limit is a key with a range, and the limits that
+/* Every mailbox limit is a key with a range, and the limits that
  * depend on each other are refused together, each with its JSON path. */
 static void test_mailbox_limits_refused_with_path(void)
 {
@@ -992,7 +992,7 @@ static void test_gateway_errors(void)
 		     "of all lines: define it in gateway.process_image");
 }
 
-/* issue 11: a FIFO at the config path made the loader (start-up, --check,
+/* A FIFO at the config path made the loader (start-up, --check,
  * reload) wait for a writer for ever. alarm() turns a hang into a failure. */
 static void test_fifo_config_refused_at_once(void)
 {

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * tests/unit/test_config_docs.c - the defaults docs/config.md promises are
- * the ones the code uses (issue 10 item 7: the document gave 0 as 1029h's
+ * the ones the code uses (the document once gave 0 as 1029h's
  * default while the daemon deliberately uses 1).
  *
  * - The key tables (top level, `mailbox`, `lines[]`, `debug`): every row

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* EMCY producer (1001h, 1003h, 1014h, 1015h) and consumer (1028h)
- * (stack manual §3 scenarios 39, 40, 41). */
+ * (CiA 301 §7.2.7). */
 #include <errno.h>
 #include <string.h>
 
@@ -43,7 +43,7 @@ static uint8_t u8(uint16_t idx, uint8_t sub)
 	return v;
 }
 
-/* 39: 8 bytes on 80h+id with 1001h in byte 2; 1003h newest at sub 1. */
+/* 8 bytes on 80h+id with 1001h in byte 2; 1003h newest at sub 1. */
 static void test_send_frame_and_history(void)
 {
 	ecf_boot(&x, ID);
@@ -98,7 +98,7 @@ static void test_history_clear_over_sdo(void)
 	assert_last_sdo(nodata);
 }
 
-/* 40: 1015h = 10 ms, two EMCYs 1 ms apart: the second is delayed. */
+/* 1015h = 10 ms, two EMCYs 1 ms apart: the second is delayed. */
 static void test_inhibit_delays_second(void)
 {
 	ecf_boot(&x, ID);
@@ -198,14 +198,14 @@ static void test_1014_cob_id(void)
 	TEST_ASSERT_EQUAL_HEX32(EMCY_COB, u32(0x1014, 0));
 }
 
-/* 41: EMCY on a COB-ID in 1028h -> event; other COB-IDs ignored. */
+/* EMCY on a COB-ID in 1028h -> event; other COB-IDs ignored. */
 static void test_consumer(void)
 {
 	ecf_boot(&x, ID);
 	const uint8_t d[8] = { 0x10, 0x82, 0x11, 0xA1, 0xA2, 0xA3, 0xA4, 0xA5 };
 	ecf_rx(&x, 0x83, 0, 8, d);
 	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&x, CO_EV_EMCY_RX));
-	const co_ev_emcy *e = &x.ev[ecf_ev_find(&x, 0, CO_EV_EMCY_RX)].u.emcy;
+	const co_ev_emcy *e = &x.ev.ev[ecf_ev_find(&x, 0, CO_EV_EMCY_RX)].u.emcy;
 	TEST_ASSERT_EQUAL_UINT8(3, e->node);
 	TEST_ASSERT_EQUAL_HEX16(0x8210, e->code);
 	TEST_ASSERT_EQUAL_HEX8(0x11, e->reg);
@@ -234,7 +234,7 @@ static void test_consumer(void)
 	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&x, CO_EV_EMCY_RX));
 	ecf_rx(&x, 0xF0, 0, 8, d);
 	TEST_ASSERT_EQUAL_UINT(2, ecf_ev_count(&x, CO_EV_EMCY_RX));
-	TEST_ASSERT_EQUAL_UINT8(2, x.ev[x.n_ev - 1].u.emcy.node);
+	TEST_ASSERT_EQUAL_UINT8(2, x.ev.ev[x.ev.n - 1].u.emcy.node);
 	/* reset comm restores the consumer COB-IDs */
 	co_nmt_local_cmd(x.node, CO_NMT_CS_RESET_COMM, 0);
 	ecf_rx(&x, 0x83, 0, 8, d);

@@ -4,7 +4,7 @@
  * tests/fuzz/corpus/store/ through the very fuzz target body
  * (tests/fuzz/fuzz_store.c, included below), so that the gcc sanitizer
  * build checks the same properties where clang/libFuzzer is not installed
- * (issue 11 item 10). Files named ok_* must be accepted, bad_* refused;
+ * (tests/fuzz/). Files named ok_* must be accepted, bad_* refused;
  * every prefix of every file is replayed too (cut-off writes and reads).
  *
  * Run from the repository root (make unit does), or set COGW_SRC_DIR.

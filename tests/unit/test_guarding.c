@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* Node guarding master and life guarding slave (stack manual §3
- * scenario 38; master protocol scenarios 19/20). */
+/* Node guarding master and life guarding slave (CiA 301
+ * §7.2.8.3.2.1, 100Ch/100Dh). */
 #include <errno.h>
 #include <string.h>
 
@@ -9,13 +9,14 @@
 #include "core/heartbeat.h"
 #include "core/nmt.h"
 #include "tests/unit/support/errctrl_fixture.h"
+#include "tests/unit/support/test_bus.h"
 #include "unity.h"
 
 #define ID 5
 #define GUARD_COB (0x700 + ID)
 #define MS 1000u
 
-static ecf x, m; /* x = slave under test, m = master (wired tests) */
+static ecf x, m; /* x = slave under test, m = master */
 
 void setUp(void)
 {
@@ -56,7 +57,7 @@ static void test_slave_answers_with_toggle(void)
 	TEST_ASSERT_EQUAL_HEX8(0x7F, x.tx[0].data[0]);
 }
 
-/* 38: 100Ch = 100, 100Dh = 3; the RTRs stop -> GUARD_LIFE_LOST after
+/* 100Ch = 100, 100Dh = 3; the RTRs stop -> GUARD_LIFE_LOST after
  * 300 ms, EMCY 8130h, 1029h. */
 static void test_slave_life_guarding(void)
 {
@@ -81,7 +82,7 @@ static void test_slave_life_guarding(void)
 	ecf_advance(&x, 5700 * MS);
 	int e = ecf_ev_find(&x, 0, CO_EV_GUARD_LIFE_LOST);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT64(5700 * MS, x.ev[e].now_us);
+	TEST_ASSERT_EQUAL_UINT64(5700 * MS, x.ev.ev[e].now_us);
 	TEST_ASSERT_TRUE(co_guard_life_lost(x.node));
 	const uint8_t emcy[8] = { 0x30, 0x81, 0x11, ID, 0, 0, 0, 0 };
 	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
@@ -117,37 +118,67 @@ static void test_slave_silent_when_heartbeat(void)
 	TEST_ASSERT_EQUAL_UINT(0, x.n_tx);
 }
 
+/* The first frame node `from` put on the bus; fails if none. */
+static const co_frame *first_from(const tb_bus *bus, int from)
+{
+	for (size_t i = 0; i < tb_log_count(bus); i++)
+		if (bus->log_from[i] == from)
+			return tb_log_at(bus, i);
+	TEST_FAIL_MESSAGE("no frame from that node");
+	return NULL;
+}
+
 /* Master and slave wired together: steady guarding, no events. */
 static void test_master_with_real_slave(void)
 {
-	ecf_boot(&m, 1);
-	ecf_boot(&x, ID);
-	co_od_set_u16(x.od, 0x100C, 0, 100);
-	co_od_set_u8(x.od, 0x100D, 0, 3);
-	TEST_ASSERT_EQUAL_INT(0, co_guard_master_add(m.node, ID, 100, 3, 0));
-	TEST_ASSERT_TRUE(co_guard_master_has(m.node, ID));
-	ecf_advance2(&m, &x, 1000 * MS);
+	tb_bus bus;
+	co_node_config mc = { .node_id = 1 }, sc = { .node_id = ID };
+
+	tb_init(&bus);
+	bus.now = 0;
+	tb_port *pm = tb_add_node(&bus, &mc, ecf_od_std(1));
+	tb_port *ps = tb_add_node(&bus, &sc, ecf_od_std(ID));
+	TEST_ASSERT_NOT_NULL(pm);
+	TEST_ASSERT_NOT_NULL(ps);
+	/* Both boot on their own (as ecf_boot does), then are wired. */
+	pm->deliver = ps->deliver = false;
+	co_node_tick(pm->node, 0);
+	co_node_tick(ps->node, 0);
+	tb_pump(&bus);
+	pm->deliver = ps->deliver = true;
+	tb_log_clear(&bus);
+	tb_events_clear(pm);
+	tb_events_clear(ps);
+	co_node *master = pm->node;
+	co_od *slave_od = ps->od;
+
+	co_od_set_u16(slave_od, 0x100C, 0, 100);
+	co_od_set_u8(slave_od, 0x100D, 0, 3);
+	TEST_ASSERT_EQUAL_INT(0, co_guard_master_add(master, ID, 100, 3, 0));
+	TEST_ASSERT_TRUE(co_guard_master_has(master, ID));
+	tb_advance_to(&bus, 1000 * MS);
 	/* RTRs at 0, 100, ..., 1000 ms */
-	TEST_ASSERT_EQUAL_UINT(11, ecf_tx_count(&m, GUARD_COB));
-	TEST_ASSERT_TRUE(m.tx[0].flags & CO_FRAME_RTR);
-	TEST_ASSERT_EQUAL_UINT(11, ecf_tx_count(&x, GUARD_COB));
-	TEST_ASSERT_EQUAL_UINT(0, ecf_ev_count(&m, CO_EV_GUARD_TOGGLE));
-	TEST_ASSERT_EQUAL_UINT(0, ecf_ev_count(&m, CO_EV_GUARD_FAILED));
-	TEST_ASSERT_EQUAL_UINT(0, ecf_ev_count(&x, CO_EV_GUARD_LIFE_LOST));
+	TEST_ASSERT_EQUAL_UINT(11, tb_count_from_id(&bus, pm->idx, GUARD_COB, 0));
+	TEST_ASSERT_TRUE(first_from(&bus, pm->idx)->flags & CO_FRAME_RTR);
+	TEST_ASSERT_EQUAL_UINT(11, tb_count_from_id(&bus, ps->idx, GUARD_COB, 0));
+	TEST_ASSERT_EQUAL_UINT(0, tb_event_count(pm, CO_EV_GUARD_TOGGLE));
+	TEST_ASSERT_EQUAL_UINT(0, tb_event_count(pm, CO_EV_GUARD_FAILED));
+	TEST_ASSERT_EQUAL_UINT(0, tb_event_count(ps, CO_EV_GUARD_LIFE_LOST));
 	/* The slave's state is reported once (unknown -> pre-op). */
-	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&m, CO_EV_HB_STATE));
-	co_nmt_master_send(m.node, ID, CO_NMT_CS_START, m.now);
-	ecf_advance2(&m, &x, 1100 * MS);
-	TEST_ASSERT_EQUAL_UINT(2, ecf_ev_count(&m, CO_EV_HB_STATE));
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_OPERATIONAL, m.ev[m.n_ev - 1].u.errctrl.state);
-	TEST_ASSERT_EQUAL_UINT8(1, m.ev[m.n_ev - 1].u.errctrl.guarded);
+	TEST_ASSERT_EQUAL_UINT(1, tb_event_count(pm, CO_EV_HB_STATE));
+	co_nmt_master_send(master, ID, CO_NMT_CS_START, bus.now);
+	tb_advance_to(&bus, 1100 * MS);
+	TEST_ASSERT_EQUAL_UINT(2, tb_event_count(pm, CO_EV_HB_STATE));
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_OPERATIONAL, pm->ev[pm->n_ev - 1].u.errctrl.state);
+	TEST_ASSERT_EQUAL_UINT8(1, pm->ev[pm->n_ev - 1].u.errctrl.guarded);
 	/* The guard answers did not look like heartbeats to the consumer. */
-	TEST_ASSERT_EQUAL_UINT(0, ecf_ev_count(&m, CO_EV_HB_STARTED));
+	TEST_ASSERT_EQUAL_UINT(0, tb_event_count(pm, CO_EV_HB_STARTED));
 
 	/* The master stops polling: the slave's life guarding fires. */
-	co_guard_master_remove(m.node, ID);
-	ecf_advance2(&m, &x, 1500 * MS);
-	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&x, CO_EV_GUARD_LIFE_LOST));
+	co_guard_master_remove(master, ID);
+	tb_advance_to(&bus, 1500 * MS);
+	TEST_ASSERT_EQUAL_UINT(1, tb_event_count(ps, CO_EV_GUARD_LIFE_LOST));
+	tb_fini(&bus);
 }
 
 /* 38 master side: repeated toggle -> GUARD_TOGGLE; no answer for
@@ -164,7 +195,7 @@ static void test_master_toggle_and_failure(void)
 	ecf_rx1(&m, 0x709, 0xFF); /* toggle 1 again */
 	int e = ecf_ev_find(&m, 0, CO_EV_GUARD_TOGGLE);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT8(9, m.ev[e].u.errctrl.node);
+	TEST_ASSERT_EQUAL_UINT8(9, m.ev.ev[e].u.errctrl.node);
 	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&m, CO_EV_GUARD_TOGGLE));
 	/* Resynchronised: the next alternation is fine. */
 	ecf_advance(&m, 300 * MS);
@@ -178,7 +209,7 @@ static void test_master_toggle_and_failure(void)
 	ecf_advance(&m, 600 * MS);
 	e = ecf_ev_find(&m, 0, CO_EV_GUARD_FAILED);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT64(600 * MS, m.ev[e].now_us);
+	TEST_ASSERT_EQUAL_UINT64(600 * MS, m.ev.ev[e].now_us);
 	TEST_ASSERT_TRUE(co_guard_master_failed(m.node, 9));
 	ecf_advance(&m, 2000 * MS);
 	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&m, CO_EV_GUARD_FAILED));

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* Heartbeat producer (1017h) and consumer (1016h), boot-up reception
- * (stack manual §3 scenarios 1, 34, 35, 36). */
+ * (CiA 301 §7.2.8.3.2.2, §7.2.8.3.2.3, 1016h/1017h). */
 #include <errno.h>
 #include <string.h>
 
@@ -30,7 +30,7 @@ static void assert_last_sdo(const uint8_t exp[8])
 	TEST_ASSERT_EQUAL_HEX8_ARRAY(exp, f->data, 8);
 }
 
-/* 1: 1017h over SDO; the first heartbeat goes out at once. */
+/* 1017h over SDO; the first heartbeat goes out at once. */
 static void test_1017_sdo_write_first_hb_at_once(void)
 {
 	ecf_boot(&x, ID);
@@ -82,7 +82,7 @@ static void test_producer_after_boot_and_in_stopped(void)
 	TEST_ASSERT_EQUAL_UINT64(200 * MS, x.tx_t[x.n_tx - 1]);
 }
 
-/* 34: 1016h node 7 at 500 ms. */
+/* 1016h node 7 at 500 ms. */
 static void test_consumer_start_loss_1029_emcy(void)
 {
 	ecf_boot(&x, ID);
@@ -101,8 +101,8 @@ static void test_consumer_start_loss_1029_emcy(void)
 	ecf_rx1(&x, 0x707, 0x05);
 	int e = ecf_ev_find(&x, 0, CO_EV_HB_STARTED);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT8(7, x.ev[e].u.errctrl.node);
-	TEST_ASSERT_EQUAL_UINT16(500, x.ev[e].u.errctrl.time_ms);
+	TEST_ASSERT_EQUAL_UINT8(7, x.ev.ev[e].u.errctrl.node);
+	TEST_ASSERT_EQUAL_UINT16(500, x.ev.ev[e].u.errctrl.time_ms);
 	TEST_ASSERT_EQUAL_INT(CO_HB_MON_ACTIVE, co_hb_consumer_status(x.node, 7));
 
 	/* A heartbeat 400 ms later restarts the window. */
@@ -117,8 +117,8 @@ static void test_consumer_start_loss_1029_emcy(void)
 	ecf_advance(&x, 5900 * MS);
 	e = ecf_ev_find(&x, 0, CO_EV_HB_LOST);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT8(7, x.ev[e].u.errctrl.node);
-	TEST_ASSERT_EQUAL_UINT64(5900 * MS, x.ev[e].now_us);
+	TEST_ASSERT_EQUAL_UINT8(7, x.ev.ev[e].u.errctrl.node);
+	TEST_ASSERT_EQUAL_UINT64(5900 * MS, x.ev.ev[e].now_us);
 	/* EMCY 8130h, register generic|communication, node in byte 3 */
 	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
 	const uint8_t emcy[8] = { 0x30, 0x81, 0x11, 0x07, 0, 0, 0, 0 };
@@ -157,22 +157,22 @@ static void test_consumer_loss_stopped(void)
 	TEST_ASSERT_EQUAL_UINT(1, ecf_tx_count(&x, 0x80 + ID));
 }
 
-/* 35: boot-up from an unmonitored node -> BOOTUP; state change -> HB_STATE. */
+/* Boot-up from an unmonitored node -> BOOTUP; state change -> HB_STATE. */
 static void test_bootup_and_state_from_any_node(void)
 {
 	ecf_boot(&x, ID);
 	ecf_rx1(&x, 0x77F, 0x00);
 	int e = ecf_ev_find(&x, 0, CO_EV_BOOTUP);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT8(127, x.ev[e].u.errctrl.node);
+	TEST_ASSERT_EQUAL_UINT8(127, x.ev.ev[e].u.errctrl.node);
 	ecf_rx1(&x, 0x77F, 0x7F);
 	ecf_rx1(&x, 0x77F, 0x7F); /* same state: no event */
 	ecf_rx1(&x, 0x77F, 0x05);
 	TEST_ASSERT_EQUAL_UINT(2, ecf_ev_count(&x, CO_EV_HB_STATE));
 	e = ecf_ev_find(&x, 0, CO_EV_HB_STATE);
 	e = ecf_ev_find(&x, (unsigned)e + 1, CO_EV_HB_STATE);
-	TEST_ASSERT_EQUAL_UINT8(0x7F, x.ev[e].u.errctrl.prev);
-	TEST_ASSERT_EQUAL_UINT8(0x05, x.ev[e].u.errctrl.state);
+	TEST_ASSERT_EQUAL_UINT8(0x7F, x.ev.ev[e].u.errctrl.prev);
+	TEST_ASSERT_EQUAL_UINT8(0x05, x.ev.ev[e].u.errctrl.state);
 	TEST_ASSERT_EQUAL_UINT8(0x05, co_hb_remote_state(x.node, 127));
 	TEST_ASSERT_EQUAL_UINT8(CO_HB_STATE_UNKNOWN, co_hb_remote_state(x.node, 3));
 	/* Not monitored: no HB_STARTED, never lost. */
@@ -196,7 +196,7 @@ static void test_bootup_of_monitored_node(void)
 	TEST_ASSERT_EQUAL_UINT(2, ecf_ev_count(&x, CO_EV_HB_STARTED));
 }
 
-/* 36: consumer_set fails when 1016h is full, fills a free slot otherwise. */
+/* Consumer_set fails when 1016h is full, fills a free slot otherwise. */
 static void test_consumer_set_full(void)
 {
 	ecf_boot(&x, ID);

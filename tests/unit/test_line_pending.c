@@ -109,7 +109,7 @@ static void test_last_slot_of_each_kind_is_for_writers(void)
 }
 
 /* Big uploads are paid from the transfer memory budget as their data
- * arrives (issue 11 item 9): an announced size at once, otherwise in
+ * arrives (docs/config.md transfer_memory): an announced size at once, otherwise in
  * MBX_BUFFER_KEEP steps; a read-only requester leaves cap to writers; the
  * release gives everything back. */
 static void test_big_upload_pays_the_budget_as_it_grows(void)

@@ -2,7 +2,8 @@
 /*
  * LSS master against a scripted slave: every frame the master sends is
  * checked byte by byte, answers are injected by the test, the clock is
- * stepped explicitly. Golden frames: spec 003-004 §3.2 (L1-L15).
+ * stepped explicitly. Golden frames: the transducer's LSS
+ * frames L1-L15 (docs/cosim.md), CiA 305 §8.
  */
 #include <errno.h>
 #include <string.h>
@@ -13,7 +14,7 @@
 
 #define MS 1000u
 
-static membus bus;
+static tb_bus bus;
 static lss_fixture mst;
 
 static co_node_config master_cfg(void)
@@ -26,13 +27,13 @@ void setUp(void)
 {
 	co_node_config c = master_cfg();
 
-	membus_init(&bus);
+	lss_bus_init(&bus);
 	TEST_ASSERT_EQUAL_INT(0, lss_fixture_create(&mst, &bus, &c, NULL));
 }
 
 void tearDown(void)
 {
-	lss_fixture_destroy(&mst);
+	tb_fini(&bus); /* the bus owns every node */
 }
 
 /* Answer as the scripted slave and deliver. */
@@ -40,8 +41,7 @@ static void slave_says(uint8_t b0, uint8_t b1, uint8_t b2, uint8_t b3, uint8_t b
 {
 	const uint8_t d[8] = { b0, b1, b2, b3, b4, 0, 0, 0 };
 
-	membus_inject(&bus, LSS_COBID_SLAVE, d);
-	membus_run(&bus);
+	lss_bus_inject(&bus, LSS_COBID_SLAVE, d);
 }
 
 /* The last LSS_MASTER_DONE event; fails if none. */
@@ -57,22 +57,31 @@ static const co_ev_lss_master *last_done(void)
 /* Frames the master sent (other services' frames do not count). */
 static unsigned n_tx(void)
 {
-	return membus_log_count(&bus, LSS_COBID_MASTER);
+	return tb_log_count_id(&bus, LSS_COBID_MASTER);
 }
 
-static const membus_entry *tx(unsigned n)
+/* The n-th frame the master sent, and the time it went out. */
+static const co_frame *tx(unsigned n)
 {
-	int i = membus_log_nth(&bus, LSS_COBID_MASTER, n);
+	int i = tb_log_nth_id(&bus, LSS_COBID_MASTER, n);
 
 	TEST_ASSERT_TRUE(i >= 0);
-	return &bus.log[i];
+	return tb_log_at(&bus, (size_t)i);
+}
+
+static uint64_t tx_time(unsigned n)
+{
+	int i = tb_log_nth_id(&bus, LSS_COBID_MASTER, n);
+
+	TEST_ASSERT_TRUE(i >= 0);
+	return tb_log_time(&bus, (size_t)i);
 }
 
 /* The master's real next deadline (ticking settles the node's cached one,
  * which may be early). */
 static uint64_t deadline(void)
 {
-	return co_node_tick(mst.node, bus.now_us);
+	return co_node_tick(mst.node, bus.now);
 }
 
 static unsigned n_done(void)
@@ -101,7 +110,7 @@ static void test_golden_switch_selective_serial_123456(void)
 	const uint8_t l14[8] = { 0x43, 0x40, 0xE2, 0x01, 0, 0, 0, 0 };
 
 	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_selective_req(mst.node, &a, 42, 0));
-	membus_run(&bus);
+	tb_pump(&bus);
 	TEST_ASSERT_EQUAL_UINT(4, n_tx());
 	lss_fixture_expect_frame(&bus, 0, 0x7E5, l11);
 	lss_fixture_expect_frame(&bus, 1, 0x7E5, l12);
@@ -109,7 +118,7 @@ static void test_golden_switch_selective_serial_123456(void)
 	lss_fixture_expect_frame(&bus, 3, 0x7E5, l14);
 	TEST_ASSERT_EQUAL_UINT(0, n_done());
 	TEST_ASSERT_EQUAL_UINT(1, lss_master_pending(mst.node));
-	membus_advance(&bus, 10 * MS);
+	tb_advance_to(&bus, 10 * MS);
 	slave_says(0x44, 0, 0, 0, 0); /* L15 */
 	TEST_ASSERT_EQUAL_UINT(1, n_done());
 	expect_done(LSS_SVC_SWITCH_SELECTIVE, LSS_RESULT_OK, 42);
@@ -131,7 +140,7 @@ static void test_golden_configure_sequence(void)
 	TEST_ASSERT_EQUAL_INT(
 		0, lss_master_switch_global_req(mst.node, LSS_STATE_CONFIGURATION, 1, 0));
 	lss_fixture_expect_frame(&bus, 0, 0x7E5, l1);
-	membus_advance(&bus, bus.now_us); /* confirmed by the next tick, never inside the request */
+	tb_advance_to(&bus, bus.now); /* confirmed by the next tick, never inside the request */
 	expect_done(LSS_SVC_SWITCH_GLOBAL, LSS_RESULT_OK, 1);
 
 	/* L2/L3 */
@@ -164,7 +173,7 @@ static void test_golden_configure_sequence(void)
 	/* L10 */
 	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_global_req(mst.node, LSS_STATE_WAITING, 6, 0));
 	lss_fixture_expect_frame(&bus, 5, 0x7E5, l10);
-	membus_advance(&bus, bus.now_us); /* confirmed by the next tick, never inside the request */
+	tb_advance_to(&bus, bus.now); /* confirmed by the next tick, never inside the request */
 	expect_done(LSS_SVC_SWITCH_GLOBAL, LSS_RESULT_OK, 6);
 	TEST_ASSERT_EQUAL_UINT(6, n_done());
 	TEST_ASSERT_EQUAL_UINT(6, n_tx());
@@ -246,9 +255,9 @@ static void test_confirmed_service_times_out_by_the_clock(void)
 {
 	TEST_ASSERT_EQUAL_INT(0, lss_master_store_req(mst.node, 9, 5 * MS));
 	TEST_ASSERT_EQUAL_UINT64(1005 * MS, deadline());
-	membus_advance(&bus, 1005 * MS - 1);
+	tb_advance_to(&bus, 1005 * MS - 1);
 	TEST_ASSERT_EQUAL_UINT(0, n_done());
-	membus_advance(&bus, 1005 * MS);
+	tb_advance_to(&bus, 1005 * MS);
 	TEST_ASSERT_EQUAL_UINT(1, n_done());
 	expect_done(LSS_SVC_STORE, LSS_RESULT_TIMEOUT, 9);
 	TEST_ASSERT_EQUAL_UINT64(1005 * MS, mst.ev.ev[mst.ev.n - 1].now_us);
@@ -258,10 +267,10 @@ static void test_confirmed_service_times_out_by_the_clock(void)
 
 	/* Per-request timeout. */
 	lss_master_req r = { .service = LSS_SVC_INQUIRE_SERIAL, .tag = 10, .timeout_ms = 20 };
-	TEST_ASSERT_EQUAL_INT(0, lss_master_submit(mst.node, &r, bus.now_us));
-	membus_advance_by(&bus, 19 * MS);
+	TEST_ASSERT_EQUAL_INT(0, lss_master_submit(mst.node, &r, bus.now));
+	tb_advance(&bus, 19 * MS);
 	TEST_ASSERT_EQUAL_UINT(1, n_done());
-	membus_advance_by(&bus, 1 * MS);
+	tb_advance(&bus, 1 * MS);
 	expect_done(LSS_SVC_INQUIRE_SERIAL, LSS_RESULT_TIMEOUT, 10);
 }
 
@@ -269,13 +278,13 @@ static void test_configured_default_timeout(void)
 {
 	co_node_config c = master_cfg();
 
-	lss_fixture_destroy(&mst);
-	membus_init(&bus);
+	tb_fini(&bus);
+	lss_bus_init(&bus);
 	c.lss_timeout_ms = 250;
 	TEST_ASSERT_EQUAL_INT(0, lss_fixture_create(&mst, &bus, &c, NULL));
 	TEST_ASSERT_EQUAL_INT(0, lss_master_config_node_id_req(mst.node, 3, 1, 0));
 	TEST_ASSERT_EQUAL_UINT64(250 * MS, deadline());
-	membus_advance(&bus, 250 * MS);
+	tb_advance_to(&bus, 250 * MS);
 	expect_done(LSS_SVC_CONFIG_NODE_ID, LSS_RESULT_TIMEOUT, 1);
 }
 
@@ -305,22 +314,22 @@ static void test_activate_bit_timing_holds_the_bus(void)
 	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_global_req(mst.node, LSS_STATE_WAITING, 2, 0));
 	lss_fixture_expect_frame(&bus, 0, 0x7E5, act);
 	TEST_ASSERT_EQUAL_UINT(1, n_tx());
-	membus_advance(&bus, 999 * MS);
+	tb_advance_to(&bus, 999 * MS);
 	TEST_ASSERT_EQUAL_UINT(0, n_done());
-	membus_advance(&bus, 1000 * MS);
+	tb_advance_to(&bus, 1000 * MS);
 	TEST_ASSERT_EQUAL_UINT(1, n_done());
 	expect_done(LSS_SVC_ACTIVATE_BIT_TIMING, LSS_RESULT_OK, 1);
 	/* Second delay: the next request waits until 2000 ms. */
 	TEST_ASSERT_EQUAL_UINT(1, n_tx());
 	TEST_ASSERT_EQUAL_UINT64(2000 * MS, deadline());
-	membus_advance(&bus, 1999 * MS);
+	tb_advance_to(&bus, 1999 * MS);
 	TEST_ASSERT_EQUAL_UINT(1, n_tx());
 	TEST_ASSERT_EQUAL_INT(LSS_MASTER_IDLE, lss_master_state_of(mst.node));
-	membus_advance(&bus, 2000 * MS);
+	tb_advance_to(&bus, 2000 * MS);
 	TEST_ASSERT_EQUAL_UINT(2, n_tx());
 	expect_done(LSS_SVC_SWITCH_GLOBAL, LSS_RESULT_OK, 2);
 	TEST_ASSERT_EQUAL_INT(LSS_MASTER_IDLE, lss_master_state_of(mst.node));
-	TEST_ASSERT_EQUAL_UINT64(2000 * MS, tx(1)->t_us);
+	TEST_ASSERT_EQUAL_UINT64(2000 * MS, tx_time(1));
 }
 
 /* ---- identify ---------------------------------------------------------------------------- */
@@ -339,18 +348,18 @@ static void test_identify_remote_frames_and_window(void)
 	TEST_ASSERT_EQUAL_UINT(6, n_tx());
 	for (unsigned i = 0; i < 6; i++)
 		lss_fixture_expect_frame(&bus, i, 0x7E5, want[i]);
-	membus_advance(&bus, 3 * MS);
+	tb_advance_to(&bus, 3 * MS);
 	slave_says(0x4F, 0, 0, 0, 0);
 	slave_says(0x4F, 0, 0, 0, 0);
 	slave_says(0x50, 0, 0, 0, 0);        /* not ours */
 	TEST_ASSERT_EQUAL_UINT(0, n_done()); /* the window stays open */
-	membus_advance(&bus, 1000 * MS);
+	tb_advance_to(&bus, 1000 * MS);
 	expect_done(LSS_SVC_IDENTIFY_REMOTE, LSS_RESULT_OK, 5);
 	TEST_ASSERT_EQUAL_UINT16(2, last_done()->answers);
 
 	/* Nobody: NOT_FOUND, not an error. */
-	TEST_ASSERT_EQUAL_INT(0, lss_master_identify_remote_req(mst.node, &lo, &hi, 6, bus.now_us));
-	membus_advance_by(&bus, 1000 * MS);
+	TEST_ASSERT_EQUAL_INT(0, lss_master_identify_remote_req(mst.node, &lo, &hi, 6, bus.now));
+	tb_advance(&bus, 1000 * MS);
 	expect_done(LSS_SVC_IDENTIFY_REMOTE, LSS_RESULT_NOT_FOUND, 6);
 	TEST_ASSERT_EQUAL_UINT16(0, last_done()->answers);
 }
@@ -365,9 +374,9 @@ static void test_identify_non_configured(void)
 	TEST_ASSERT_EQUAL_INT(0, lss_master_submit(mst.node, &r, 0));
 	lss_fixture_expect_frame(&bus, 0, 0x7E5, req);
 	slave_says(0x50, 0, 0, 0, 0);
-	membus_advance(&bus, 49 * MS);
+	tb_advance_to(&bus, 49 * MS);
 	TEST_ASSERT_EQUAL_UINT(0, n_done());
-	membus_advance(&bus, 50 * MS);
+	tb_advance_to(&bus, 50 * MS);
 	expect_done(LSS_SVC_IDENTIFY_NON_CONFIGURED, LSS_RESULT_OK, 3);
 	TEST_ASSERT_EQUAL_UINT16(1, last_done()->answers);
 }
@@ -378,8 +387,8 @@ static void test_queue_is_fifo_and_bounded(void)
 {
 	co_node_config c = master_cfg();
 
-	lss_fixture_destroy(&mst);
-	membus_init(&bus);
+	tb_fini(&bus);
+	lss_bus_init(&bus);
 	c.lss_queue_len = 2;
 	TEST_ASSERT_EQUAL_INT(0, lss_fixture_create(&mst, &bus, &c, NULL));
 
@@ -390,15 +399,15 @@ static void test_queue_is_fifo_and_bounded(void)
 	TEST_ASSERT_EQUAL_UINT(3, lss_master_pending(mst.node));
 	/* One service on the bus at a time. */
 	TEST_ASSERT_EQUAL_UINT(1, n_tx());
-	TEST_ASSERT_EQUAL_HEX8(0x17, tx(0)->f.data[0]);
+	TEST_ASSERT_EQUAL_HEX8(0x17, tx(0)->data[0]);
 
 	slave_says(0x17, 0, 0, 0, 0);
 	expect_done(LSS_SVC_STORE, LSS_RESULT_OK, 1);
 	TEST_ASSERT_EQUAL_UINT(2, n_tx());
-	TEST_ASSERT_EQUAL_HEX8(0x11, tx(1)->f.data[0]);
+	TEST_ASSERT_EQUAL_HEX8(0x11, tx(1)->data[0]);
 	slave_says(0x11, 0, 0, 0, 0);
 	expect_done(LSS_SVC_CONFIG_NODE_ID, LSS_RESULT_OK, 2);
-	TEST_ASSERT_EQUAL_HEX8(0x5E, tx(2)->f.data[0]);
+	TEST_ASSERT_EQUAL_HEX8(0x5E, tx(2)->data[0]);
 	slave_says(0x5E, 4, 0, 0, 0);
 	expect_done(LSS_SVC_INQUIRE_NODE_ID, LSS_RESULT_OK, 3);
 	TEST_ASSERT_EQUAL_UINT(3, n_done());
@@ -429,8 +438,7 @@ static void test_tx_failure_completes_the_request(void)
 	TEST_ASSERT_EQUAL_INT(0, lss_master_switch_selective_req(
 					 mst.node, &(lss_address){ { 1, 2, 3, 4 } }, 1, 0));
 	TEST_ASSERT_EQUAL_UINT(1, evlog_count(&mst.ev, CO_EV_TX_FAILED)); /* stops at the first */
-	co_node_tick(mst.node,
-		     bus.now_us); /* confirmed by the next tick, never inside the request */
+	co_node_tick(mst.node, bus.now); /* confirmed by the next tick, never inside the request */
 	expect_done(LSS_SVC_SWITCH_SELECTIVE, LSS_RESULT_TX_FAILED, 1);
 	TEST_ASSERT_EQUAL_UINT(0, lss_master_pending(mst.node));
 }
@@ -454,7 +462,6 @@ static void test_bad_requests(void)
 	TEST_ASSERT_EQUAL_INT(0, lss_fixture_create(&s, &bus, &c, NULL));
 	TEST_ASSERT_EQUAL_INT(-ENODEV, lss_master_store_req(s.node, 1, 0));
 	TEST_ASSERT_EQUAL_UINT(0, lss_master_pending(s.node));
-	lss_fixture_destroy(&s);
 }
 
 static void test_names(void)
@@ -500,7 +507,7 @@ static int submit_with_con(lss_master_req r)
 	r.con = on_con;
 	r.con_arg = &cons;
 	cons.in_submit = true;
-	rc = lss_master_submit(mst.node, &r, bus.now_us);
+	rc = lss_master_submit(mst.node, &r, bus.now);
 	cons.in_submit = false;
 	return rc;
 }
@@ -514,8 +521,8 @@ static void test_confirmation_once_never_inside_submit(void)
 								   .tag = 1 }));
 	TEST_ASSERT_EQUAL_UINT(0, cons.n);
 	TEST_ASSERT_EQUAL_UINT(0, n_done());
-	TEST_ASSERT_TRUE(co_node_next_deadline_us(mst.node) <= bus.now_us);
-	co_node_tick(mst.node, bus.now_us);
+	TEST_ASSERT_TRUE(co_node_next_deadline_us(mst.node) <= bus.now);
+	co_node_tick(mst.node, bus.now);
 	TEST_ASSERT_EQUAL_UINT(1, cons.n);
 	TEST_ASSERT_EQUAL_UINT64(1, cons.last.tag);
 	TEST_ASSERT_EQUAL_UINT8(LSS_RESULT_OK, cons.last.result);
@@ -534,11 +541,11 @@ static void test_confirmation_once_never_inside_submit(void)
 		0, submit_with_con((lss_master_req){ .service = LSS_SVC_STORE, .tag = 3 }));
 	TEST_ASSERT_EQUAL_INT(
 		0, submit_with_con((lss_master_req){ .service = LSS_SVC_STORE, .tag = 4 }));
-	lss_master_cancel_all(mst.node, bus.now_us);
+	lss_master_cancel_all(mst.node, bus.now);
 	TEST_ASSERT_EQUAL_UINT(4, cons.n);
 	TEST_ASSERT_EQUAL_UINT64(4, cons.last.tag);
 	TEST_ASSERT_EQUAL_UINT8(LSS_RESULT_CANCELLED, cons.last.result);
-	membus_advance(&bus, bus.now_us + 5000 * MS);
+	tb_advance_to(&bus, bus.now + 5000 * MS);
 	TEST_ASSERT_EQUAL_UINT(4, cons.n);
 	TEST_ASSERT_EQUAL_UINT(0, cons.during_submit);
 	TEST_ASSERT_EQUAL_UINT(4, n_done());

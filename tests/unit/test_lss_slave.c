@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * LSS slave driven by scripted master frames (golden frames from spec
- * 003-004 §3.2), then every master service against a real slave wired in
- * memory.
+ * LSS slave driven by scripted master frames (the transducer's golden
+ * LSS frames, docs/cosim.md), then every master service against a real
+ * slave wired in memory.
  */
 #include <errno.h>
 #include <string.h>
@@ -15,7 +15,7 @@
 
 #define MS 1000u
 
-static membus bus;
+static tb_bus bus;
 static lss_fixture slv;
 static const lss_address sti = { { 0x250, 0, 0, 123456 } }; /* the transducer */
 
@@ -32,26 +32,25 @@ static void make_slave(uint8_t node_id, const lss_address *id, bool constant,
 
 void setUp(void)
 {
-	membus_init(&bus);
+	lss_bus_init(&bus);
 	make_slave(1, &sti, false, NULL, NULL);
 }
 
 void tearDown(void)
 {
-	lss_fixture_destroy(&slv);
+	tb_fini(&bus); /* the bus owns every node */
 }
 
 static void master_says(uint8_t b0, uint8_t b1, uint8_t b2, uint8_t b3, uint8_t b4)
 {
 	const uint8_t d[8] = { b0, b1, b2, b3, b4, 0, 0, 0 };
 
-	membus_inject(&bus, LSS_COBID_MASTER, d);
-	membus_run(&bus);
+	lss_bus_inject(&bus, LSS_COBID_MASTER, d);
 }
 
 static unsigned n_answers(void)
 {
-	return membus_log_count(&bus, LSS_COBID_SLAVE);
+	return tb_log_count_id(&bus, LSS_COBID_SLAVE);
 }
 
 /* The last answer must be these bytes. */
@@ -186,8 +185,8 @@ static void test_inquire_identity_from_1018(void)
 {
 	const lss_address id = { { 0x11223344, 0x55667788, 0x00020001, 0xCAFEBABE } };
 
-	lss_fixture_destroy(&slv);
-	membus_init(&bus);
+	tb_fini(&bus);
+	lss_bus_init(&bus);
 	make_slave(9, &id, false, NULL, NULL);
 	master_says(0x04, 0x01, 0, 0, 0);
 	for (unsigned i = 0; i < 4; i++) {
@@ -237,8 +236,8 @@ static void test_config_node_id_range(void)
 
 static void test_unconfigured_slave_resets_itself_on_waiting(void)
 {
-	lss_fixture_destroy(&slv);
-	membus_init(&bus);
+	tb_fini(&bus);
+	lss_bus_init(&bus);
 	make_slave(LSS_NODE_ID_UNCONFIGURED, &sti, false, NULL, NULL);
 	expect_ids(255, 255, 255);
 	master_says(0x04, 0x01, 0, 0, 0);
@@ -263,8 +262,8 @@ static void test_constant_id_refuses_store(void)
 {
 	const uint8_t unsupported[8] = { 0x17, 0x01, 0, 0, 0, 0, 0, 0 };
 
-	lss_fixture_destroy(&slv);
-	membus_init(&bus);
+	tb_fini(&bus);
+	lss_bus_init(&bus);
 	make_slave(3, &sti, true, NULL, NULL);
 	master_says(0x04, 0x01, 0, 0, 0);
 	master_says(0x17, 0, 0, 0, 0);
@@ -314,8 +313,8 @@ static void test_hooks_decide_store_and_bit_timing(void)
 	const uint8_t bt_no[8] = { 0x13, 0x01, 0, 0, 0, 0, 0, 0 };
 	const uint8_t bt_spec[8] = { 0x13, 0xFF, 0x42, 0, 0, 0, 0, 0 };
 
-	lss_fixture_destroy(&slv);
-	membus_init(&bus);
+	tb_fini(&bus);
+	lss_bus_init(&bus);
 	make_slave(4, &sti, false, &hooks, &h);
 	master_says(0x04, 0x01, 0, 0, 0);
 	master_says(0x11, 6, 0, 0, 0);
@@ -410,8 +409,8 @@ static void test_identify_non_configured(void)
 
 	master_says(0x4C, 0, 0, 0, 0); /* configured (id 1): silent */
 	TEST_ASSERT_EQUAL_UINT(0, n_answers());
-	lss_fixture_destroy(&slv);
-	membus_init(&bus);
+	tb_fini(&bus);
+	lss_bus_init(&bus);
 	make_slave(LSS_NODE_ID_UNCONFIGURED, &sti, false, NULL, NULL);
 	master_says(0x4C, 0, 0, 0, 0);
 	expect_answer(hit);
@@ -421,7 +420,8 @@ static void test_identify_non_configured(void)
 	master_says(0x11, 9, 0, 0, 0); /* pending valid: no longer "non-configured" */
 	master_says(0x4C, 0, 0, 0, 0);
 	TEST_ASSERT_EQUAL_UINT(3, n_answers()); /* only the 11h answer */
-	TEST_ASSERT_EQUAL_HEX8(0x11, bus.log[membus_log_nth(&bus, 0x7E4, 2)].f.data[0]);
+	TEST_ASSERT_EQUAL_HEX8(0x11,
+			       tb_log_at(&bus, (size_t)tb_log_nth_id(&bus, 0x7E4, 2))->data[0]);
 }
 
 static void test_short_and_rtr_frames(void)
@@ -440,7 +440,7 @@ static void test_short_and_rtr_frames(void)
 	f.flags = CO_FRAME_RTR;
 	f.data[0] = 0x5E;
 	co_node_recv(slv.node, &f, 0);
-	membus_run(&bus);
+	tb_pump(&bus);
 	TEST_ASSERT_EQUAL_UINT(0, n_answers());
 }
 
@@ -481,14 +481,14 @@ static void test_master_and_slave_in_memory(void)
 	TEST_ASSERT_EQUAL_INT(0, lss_master_config_node_id_req(mst.node, 0, 6, t));
 	TEST_ASSERT_EQUAL_INT(0, lss_master_config_node_id_req(mst.node, 12, 7, t));
 	TEST_ASSERT_EQUAL_INT(0, lss_master_config_bit_timing_req(mst.node, 0, 5, 8, t));
-	membus_advance(&bus, 5000 * MS);
-	TEST_ASSERT_EQUAL_INT(0, lss_master_config_bit_timing_req(mst.node, 0, 3, 9, bus.now_us));
-	TEST_ASSERT_EQUAL_INT(0, lss_master_store_req(mst.node, 10, bus.now_us));
-	TEST_ASSERT_EQUAL_INT(0, lss_master_activate_bit_timing_req(mst.node, 100, 11, bus.now_us));
+	tb_advance_to(&bus, 5000 * MS);
+	TEST_ASSERT_EQUAL_INT(0, lss_master_config_bit_timing_req(mst.node, 0, 3, 9, bus.now));
+	TEST_ASSERT_EQUAL_INT(0, lss_master_store_req(mst.node, 10, bus.now));
+	TEST_ASSERT_EQUAL_INT(0, lss_master_activate_bit_timing_req(mst.node, 100, 11, bus.now));
 	TEST_ASSERT_EQUAL_INT(
-		0, lss_master_switch_global_req(mst.node, LSS_STATE_WAITING, 12, bus.now_us));
-	TEST_ASSERT_EQUAL_INT(0, lss_master_identify_non_configured_req(mst.node, 13, bus.now_us));
-	membus_advance_by(&bus, 5000 * MS);
+		0, lss_master_switch_global_req(mst.node, LSS_STATE_WAITING, 12, bus.now));
+	TEST_ASSERT_EQUAL_INT(0, lss_master_identify_non_configured_req(mst.node, 13, bus.now));
+	tb_advance(&bus, 5000 * MS);
 
 	TEST_ASSERT_EQUAL_UINT(13, evlog_count(&mst.ev, CO_EV_LSS_MASTER_DONE));
 	for (unsigned i = 0; i < 13; i++)
@@ -516,7 +516,6 @@ static void test_master_and_slave_in_memory(void)
 	TEST_ASSERT_TRUE(e >= 0);
 	TEST_ASSERT_EQUAL_UINT8(3, slv.ev.ev[e].u.lss_slave.bt_index);
 	TEST_ASSERT_EQUAL_UINT16(100, slv.ev.ev[e].u.lss_slave.delay_ms);
-	lss_fixture_destroy(&mst);
 }
 
 static void test_master_times_out_against_silent_slave(void)
@@ -524,12 +523,11 @@ static void test_master_times_out_against_silent_slave(void)
 	make_master();
 	/* The slave is in waiting state: inquire goes unanswered. */
 	TEST_ASSERT_EQUAL_INT(0, lss_master_inquire_req(mst.node, LSS_SVC_INQUIRE_NODE_ID, 1, 0));
-	membus_advance(&bus, 999 * MS);
+	tb_advance_to(&bus, 999 * MS);
 	TEST_ASSERT_EQUAL_UINT(0, evlog_count(&mst.ev, CO_EV_LSS_MASTER_DONE));
-	membus_advance(&bus, 1000 * MS);
+	tb_advance_to(&bus, 1000 * MS);
 	TEST_ASSERT_EQUAL_UINT8(LSS_RESULT_TIMEOUT, done(0)->result);
 	TEST_ASSERT_EQUAL_UINT(0, n_answers());
-	lss_fixture_destroy(&mst);
 }
 
 static void test_node_without_slave(void)
@@ -540,7 +538,6 @@ static void test_node_without_slave(void)
 	TEST_ASSERT_EQUAL_INT(0, lss_fixture_create(&n, &bus, &c, &sti));
 	TEST_ASSERT_EQUAL_INT(-ENODEV, lss_slave_get(n.node, NULL, NULL, NULL, NULL));
 	TEST_ASSERT_NULL(n.node->lss);
-	lss_fixture_destroy(&n);
 }
 
 int main(void)

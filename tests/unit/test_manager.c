@@ -3,7 +3,7 @@
  * The CiA 302-2 manager (core/manager.c) against slaves built from the core
  * itself on the in-memory bus: NMT start-up per 1F80h bit, the network boot,
  * the boot slave process and its status letters, after-boot supervision,
- * Request NMT (1F82h), 1F25h, diagnostics; stack manual §3 scenarios 44-51.
+ * Request NMT (1F82h), 1F25h, diagnostics (CiA 302-2).
  */
 #include <errno.h>
 #include <string.h>
@@ -59,9 +59,9 @@ static void line_2_3(uint32_t f80)
 	line_2_3_hb(f80, 100);
 }
 
-/* ---- scenarios 44-51 ------------------------------------------------------------ */
+/* ---- the network boot ------------------------------------------------------------ */
 
-/* 44: node 2 mandatory, 3 optional -> both booted, started, network up. */
+/* Node 2 mandatory, 3 optional -> both booted, started, network up. */
 static void test_s44_two_nodes_boot_and_start(void)
 {
 	line_2_3(MASTER);
@@ -85,7 +85,7 @@ static void test_s44_two_nodes_boot_and_start(void)
 	TEST_ASSERT_TRUE(d->boot_time_us > 0 && d->boot_time_us < 1 * S);
 }
 
-/* 45: 1F84h mismatch on the mandatory node -> C, network not started. */
+/* 1F84h mismatch on the mandatory node -> C, network not started. */
 static void test_s45_device_type_mismatch_C(void)
 {
 	line_2_3(MASTER);
@@ -110,7 +110,7 @@ static void test_s45_device_type_mismatch_C(void)
 	TEST_ASSERT_EQUAL('C', dg.first_error_status);
 }
 
-/* 46: 1F85h = 0 -> no SDO read of 1018h:1 on the bus. */
+/* 1F85h = 0 -> no SDO read of 1018h:1 on the bus. */
 static void test_s46_zero_expected_not_read(void)
 {
 	line_2_3(MASTER);
@@ -123,7 +123,7 @@ static void test_s46_zero_expected_not_read(void)
 	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
 }
 
-/* 47: a silent mandatory node: 1000h retried every second until 1F89h
+/* A silent mandatory node: 1000h retried every second until 1F89h
  * runs out -> B, network not started; when it shows up it is booted and
  * the network starts. */
 static void test_s47_silent_mandatory_B_then_late(void)
@@ -223,7 +223,7 @@ static void test_s48_configure_hook_then_start(void)
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_PRE_OPERATIONAL, hb_of(f.bus.port + 2));
 }
 
-/* 49: keep-alive on an operational node: no reset comm to it, L. */
+/* Keep-alive on an operational node: no reset comm to it, L. */
 static void test_s49_keep_alive_operational_not_reset_L(void)
 {
 	line_2_3(MASTER);
@@ -245,7 +245,7 @@ static void test_s49_keep_alive_operational_not_reset_L(void)
 	TEST_ASSERT_EQUAL(0, co_manager_node_diag(f.mgr, 2)->status);
 }
 
-/* 50: 1F80h bit 2 -> booted, nothing started until the application. */
+/* 1F80h bit 2 -> booted, nothing started until the application. */
 static void test_s50_bit2_waits_for_application(void)
 {
 	line_2_3(MASTER | CO_MGR_1F80_NO_SELF_START);
@@ -262,7 +262,7 @@ static void test_s50_bit2_waits_for_application(void)
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 2));
 }
 
-/* 51: mandatory heartbeat lost: bit 6 -> stop all; bit 4 -> reset all. */
+/* Mandatory heartbeat lost: bit 6 -> stop all; bit 4 -> reset all. */
 static void node2_goes_silent(void)
 {
 	f.bus.port[1].deliver = false;

@@ -2,7 +2,7 @@
 /*
  * mailbox/budget.h: the transfer memory budget (limits, what read-only
  * transfers leave to writers, counters) and the transfer buffers whose
- * pages go back to the kernel after a big transfer (issue 11 item 9).
+ * pages go back to the kernel after a big transfer (docs/config.md transfer_memory).
  */
 #include <stdint.h>
 #include <stdio.h>

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* NMT slave state machine, NMT master with 102Ah, 1029h error behaviour,
- * bus-off reaction (stack manual §3 scenarios 31, 32, 33, 37). */
+ * bus-off reaction (CiA 301 §7.3.2, §7.5.2.32, §7.5.2.33). */
 #include <errno.h>
 #include <string.h>
 
@@ -35,7 +35,7 @@ static void assert_frame1(const co_frame *f, uint32_t id, uint8_t b0)
 	TEST_ASSERT_EQUAL_HEX8(b0, f->data[0]);
 }
 
-/* 31: boot-up [00] on 700h+id at start, and after every reset comm. */
+/* Boot-up [00] on 700h+id at start, and after every reset comm. */
 static void test_bootup_at_start(void)
 {
 	ecf_create(&x, ID, NULL);
@@ -48,8 +48,8 @@ static void test_bootup_at_start(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(x.node));
 	int e = ecf_ev_find(&x, 0, CO_EV_NMT_STATE);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_INITIALISING, x.ev[e].u.nmt.prev);
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, x.ev[e].u.nmt.state);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_INITIALISING, x.ev.ev[e].u.nmt.prev);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, x.ev.ev[e].u.nmt.state);
 	/* A second tick does not boot again. */
 	co_node_tick(x.node, 10);
 	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
@@ -67,9 +67,24 @@ static void test_bootup_after_reset_comm_command(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(x.node));
 	/* OP -> INIT (cause 82h) -> PRE-OP */
 	TEST_ASSERT_EQUAL_UINT(2, ecf_ev_count(&x, CO_EV_NMT_STATE));
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_INITIALISING, x.ev[0].u.nmt.state);
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_CS_RESET_COMM, x.ev[0].u.nmt.cs);
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, x.ev[1].u.nmt.state);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_INITIALISING, x.ev.ev[0].u.nmt.state);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_CS_RESET_COMM, x.ev.ev[0].u.nmt.cs);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, x.ev.ev[1].u.nmt.state);
+}
+
+/* A reset command while still INITIALISING (before the first tick)
+ * resets and boots; the state it was in is not announced again: one
+ * event, INITIALISING -> PRE-OPERATIONAL. */
+static void test_reset_while_initialising_announces_only_the_boot(void)
+{
+	ecf_create(&x, ID, NULL);
+	nmt_cmd(CO_NMT_CS_RESET_COMM, 0);
+	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
+	assert_frame1(&x.tx[0], HB_COB, 0x00);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(x.node));
+	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&x, CO_EV_NMT_STATE));
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_INITIALISING, x.ev.ev[0].u.nmt.prev);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, x.ev.ev[0].u.nmt.state);
 }
 
 /* The application resetting communication itself: the boot-up follows at
@@ -88,7 +103,7 @@ static void test_bootup_after_app_reset_comm(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(x.node));
 }
 
-/* 32: commands to our id and to 0 -> heartbeat byte 05/04/7F. */
+/* Commands to our id and to 0 -> heartbeat byte 05/04/7F. */
 static void test_commands_and_heartbeat_byte(void)
 {
 	ecf_boot(&x, ID);
@@ -121,7 +136,7 @@ static void test_commands_and_heartbeat_byte(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_OPERATIONAL, co_nmt_get_state(x.node));
 }
 
-/* 32: reset comm restores the default COB-IDs (and the other 1xxxh). */
+/* Reset comm restores the default COB-IDs (and the other 1xxxh). */
 static void test_reset_comm_restores_defaults(void)
 {
 	ecf_boot(&x, ID);
@@ -148,10 +163,10 @@ static void test_reset_comm_restores_defaults(void)
 	TEST_ASSERT_EQUAL_UINT8(7, app);
 	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
 	assert_frame1(&x.tx[0], HB_COB, 0x00);
-	TEST_ASSERT_EQUAL_UINT8(CO_NMT_CS_RESET_NODE, x.ev[0].u.nmt.cs);
+	TEST_ASSERT_EQUAL_UINT8(CO_NMT_CS_RESET_NODE, x.ev.ev[0].u.nmt.cs);
 }
 
-/* 33: the application vetoes OPERATIONAL -> stays PRE-OP. */
+/* The application vetoes OPERATIONAL -> stays PRE-OP. */
 static int veto_calls;
 static bool veto(void *ctx, co_node *node, uint8_t from, uint8_t to)
 {
@@ -265,7 +280,7 @@ static void test_error_behaviour(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_STOPPED, co_nmt_get_state(x.node));
 	int e = ecf_ev_find(&x, 0, CO_EV_NMT_STATE);
 	TEST_ASSERT_TRUE(e >= 0);
-	TEST_ASSERT_EQUAL_UINT8(0, x.ev[x.n_ev - 1].u.nmt.cs);
+	TEST_ASSERT_EQUAL_UINT8(0, x.ev.ev[x.ev.n - 1].u.nmt.cs);
 }
 
 static void test_error_behaviour_without_1029(void)
@@ -279,7 +294,7 @@ static void test_error_behaviour_without_1029(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(x.node));
 }
 
-/* 37: bus-off (faked: the driver shim would call this) -> 1029h; after
+/* Bus-off (faked: the driver shim would call this) -> 1029h; after
  * the recovery EMCY 8140h. */
 static void test_bus_off(void)
 {
@@ -329,6 +344,7 @@ int main(void)
 	RUN_TEST(test_bootup_at_start);
 	RUN_TEST(test_bootup_after_reset_comm_command);
 	RUN_TEST(test_bootup_after_app_reset_comm);
+	RUN_TEST(test_reset_while_initialising_announces_only_the_boot);
 	RUN_TEST(test_commands_and_heartbeat_byte);
 	RUN_TEST(test_reset_comm_restores_defaults);
 	RUN_TEST(test_veto_operational);

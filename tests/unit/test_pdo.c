@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * PDO unit tests: one node (id 5) and a scripted peer (the test) on the
- * in-memory bus; the test owns the clock. Scenarios 22-30 of
- * spec/002-stack-manual.md §3, plus mapping edge cases (bit-sized and
+ * in-memory bus; the test owns the clock. PDO services of CiA 301
+ * §7.2.2, plus mapping edge cases (bit-sized and
  * odd-length entries, dummies, OD limits, hooks with origin PDO).
  */
 #include <errno.h>
@@ -205,7 +205,7 @@ static const co_event *nth_event(co_event_kind k, unsigned n)
 	return NULL;
 }
 
-/* ---- 22: valid RPDO ------------------------------------------------------------ */
+/* ---- valid RPDO ------------------------------------------------------------ */
 
 static void test_rpdo_event_driven_updates_od_and_reports(void)
 {
@@ -283,7 +283,7 @@ static void test_rpdo_value_outside_limits_is_refused_per_object(void)
 	TEST_ASSERT_EQUAL(1, co_pdo_get_stats(node)->od_refused);
 }
 
-/* ---- 23: wrong length ----------------------------------------------------------- */
+/* ---- wrong length ----------------------------------------------------------- */
 
 static void test_rpdo_wrong_length_emcy_and_od_unchanged(void)
 {
@@ -317,7 +317,7 @@ static void test_rpdo_wrong_length_emcy_and_od_unchanged(void)
 	TEST_ASSERT_EQUAL_HEX64(0x01, odr(IDX_U8, 0));
 }
 
-/* ---- 24: RPDO deadline ----------------------------------------------------------- */
+/* ---- RPDO deadline ----------------------------------------------------------- */
 
 static void test_rpdo_event_timer_is_a_receive_deadline(void)
 {
@@ -385,7 +385,7 @@ static void test_rpdo_sync_outside_window_dropped(void)
 	TEST_ASSERT_EQUAL(1, co_pdo_get_stats(node)->rx_late);
 }
 
-/* ---- 25: synchronous TPDOs ------------------------------------------------------- */
+/* ---- synchronous TPDOs ------------------------------------------------------- */
 
 static void test_tpdo_sync_types(void)
 {
@@ -423,7 +423,7 @@ static void test_tpdo_sync_types(void)
 	TEST_ASSERT_EQUAL(2, count_id(0x385, 0));
 }
 
-/* ---- 26: event-driven, inhibit, event timer --------------------------------------- */
+/* ---- event-driven, inhibit, event timer --------------------------------------- */
 
 /* Bus filter recording when frames with one id went out. */
 struct tstamps {
@@ -494,7 +494,7 @@ static void test_tpdo_event_inhibit_and_event_timer(void)
 	TEST_ASSERT_EQUAL(5, count_id(0x485, mark));
 }
 
-/* ---- 27: SYNC start value ----------------------------------------------------------- */
+/* ---- SYNC start value ----------------------------------------------------------- */
 
 static void test_tpdo_sync_start_value_with_counter(void)
 {
@@ -523,7 +523,7 @@ static void test_tpdo_sync_start_value_with_counter(void)
 	TEST_ASSERT_EQUAL(1, co_sync_get_stats(node)->rx_invalid);
 }
 
-/* ---- 28: remapping ------------------------------------------------------------------ */
+/* ---- remapping ------------------------------------------------------------------ */
 
 static void test_remap_sequence_and_aborts(void)
 {
@@ -627,7 +627,7 @@ static void test_string_mapping(void)
 	TEST_ASSERT_EQUAL_MEMORY("wxyz", buf, 4);
 }
 
-/* ---- 29: invalid PDO, pdo request, RTR ------------------------------------------------ */
+/* ---- invalid PDO, pdo request, RTR ------------------------------------------------ */
 
 static void test_invalid_pdo_silent_and_pdo_request_rules(void)
 {
@@ -687,7 +687,7 @@ static void test_rtr_answered_only_without_bit30(void)
 	TEST_ASSERT_EQUAL(-EPERM, co_pdo_tpdo_event(node, 3, bus.now));
 }
 
-/* ---- 30: OPERATIONAL only ----------------------------------------------------------- */
+/* ---- OPERATIONAL only ----------------------------------------------------------- */
 
 static void test_no_pdo_traffic_outside_operational(void)
 {

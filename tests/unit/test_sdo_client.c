@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * SDO client against a scripted server: frame formats (seed 004 E2: the
- * command specifier follows the size), the per-frame timeout driven by the
+ * SDO client against a scripted server: frame formats (the command
+ * specifier follows the size, CiA 301 §7.2.4.3.3), the per-frame timeout driven by the
  * injected clock, remote aborts, queueing, cancel, fallback from block,
  * protocol errors detected by the client.
  */
@@ -191,7 +191,7 @@ static void test_client_detects_size_mismatch_and_bad_command(void)
 	TEST_ASSERT_EQUAL_HEX32(0x05040001, done()->u.sdo_cli.abort);
 }
 
-/* Issue 10 item 5: an answer naming another object (3005h for a request
+/* An answer naming another object (3005h for a request
  * for 3004h) aborts at once with 06040043; before, it was ignored and the
  * request timed out. */
 static void test_answer_for_other_object_aborts_at_once(void)
@@ -227,7 +227,7 @@ static void test_stale_answer_of_cancelled_request_is_ignored(void)
 	TEST_ASSERT_EQUAL_HEX32(0, done()->u.sdo_cli.abort);
 }
 
-/* Issue 10 item 9: a segmented upload cancelled (its client died) while
+/* A segmented upload cancelled (its client died) while
  * the server's next segment was on its way. The cancel puts an abort on
  * the bus; the new upload ignores the late segments (before the fix it
  * aborted 05040001 on them). */
@@ -281,7 +281,7 @@ static void test_late_block_segments_of_cancelled_upload_ignored(void)
 	EXPECT_REQ(0x605, "A3 00 00 00 00 00 00 00");
 }
 
-/* ---- NMT state (issue 10 item 1) ---------------------------------------- */
+/* ---- NMT state (CiA 301 §7.3.2.2) -------------------------------------- */
 
 static void own_nmt(const char *hex)
 {

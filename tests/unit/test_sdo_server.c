@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * SDO server against a scripted client: golden frames of seed 004 (as
- * corrected in spec 003-004 §3.1), every abort path, segmented and block
+ * SDO server against a scripted client: golden frames of the STI
+ * transducer (docs/cosim.md), every abort path, segmented and block
  * protocol details, deferred answers, channel COB-ID rules, timeouts.
  */
 #include <errno.h>
@@ -67,7 +67,7 @@ static void send_frame_raw(uint32_t id, const uint8_t d[8])
 	tb_send(&bus, &f);
 }
 
-/* ---- golden frames (seed 004, corrected) --------------------------------- */
+/* ---- golden frames (the STI transducer) ---------------------------------- */
 
 static void test_golden_v1_v2_heartbeat_time(void)
 {
@@ -138,7 +138,7 @@ static void test_printed_v7_reversed_signature_refused(void)
 	TEST_ASSERT_EQUAL(0, tb_event_count(srv, CO_EV_STORE));
 }
 
-/* Issue 3 quotes "23 17 10 00 A0 0F 00 00" (4 bytes to the U16 1017h).
+/* Device sheets print "23 17 10 00 A0 0F 00 00" (4 bytes to the U16 1017h).
  * Strict: too long. Lenient mode accepts it because the surplus is zero. */
 static void test_4_bytes_to_u16_strict_and_lenient(void)
 {
@@ -878,7 +878,7 @@ static void test_reset_ends_a_route(void)
 	TEST_ASSERT_EQUAL(-ENOENT, sdo_server_route_end(srv->node, 0));
 }
 
-/* ---- NMT state (issue 10 item 1) and block CRC negotiation (item 4) ---- */
+/* ---- NMT state (CiA 301 §7.3.2.2) and block CRC negotiation ---------- */
 
 static void nmt(const char *hex)
 {
@@ -886,7 +886,7 @@ static void nmt(const char *hex)
 	tb_send_hex(&bus, 0x000, hex);
 }
 
-/* CiA 301 §7.3.2.2: in STOPPED only NMT and error control; no SDO answer
+/* CiA 301 §7.3.2: in STOPPED only NMT and error control; no SDO answer
  * at all. Before the fix the server answered 43 00 10 00 ... */
 static void test_stopped_node_answers_no_sdo(void)
 {

@@ -1,4 +1,4 @@
-/* core/store_file: the seal of saved parameter files (issue 11 item 7):
+/* core/store_file: the seal of saved parameter files (core/store_file.h):
  * every truncation and every flipped bit is found, generations tell a save
  * that was cut between its files. */
 #include <errno.h>

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * SYNC producer/consumer (spec/002-stack-manual.md §3 scenario 42 and the
+ * SYNC producer/consumer (CiA 301 §7.2.5 and the
  * 1005h/1006h/1007h/1019h rules). One node (id 5), the test is the rest
  * of the bus and owns the clock.
  */

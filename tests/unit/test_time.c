@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * TIME producer/consumer and TIME_OF_DAY coding (spec/002-stack-manual.md
- * §3 scenario 43). Golden value: 2024-01-01T12:00:00.123Z = day 14610
+ * TIME producer/consumer and TIME_OF_DAY coding (CiA 301
+ * §7.2.6). Golden value: 2024-01-01T12:00:00.123Z = day 14610
  * since 1984-01-01, 43200123 ms after midnight = 7B 2E 93 02 12 39.
  */
 #include <errno.h>

@@ -20,14 +20,6 @@ static int ecf_send(void *ctx, const co_frame *f)
 	return 0;
 }
 
-static void ecf_event(void *ctx, const co_event *ev)
-{
-	ecf *x = ctx;
-
-	if (x->n_ev < ECF_LOG)
-		x->ev[x->n_ev++] = *ev;
-}
-
 co_od *ecf_od_std(uint8_t node_id)
 {
 	co_od *od = NULL;
@@ -59,8 +51,8 @@ void ecf_create(ecf *x, uint8_t node_id, co_od *od)
 	cfg.od = x->od;
 	cfg.send = ecf_send;
 	cfg.send_ctx = x;
-	cfg.event = ecf_event;
-	cfg.event_ctx = x;
+	cfg.event = evlog_fn;
+	cfg.event_ctx = &x->ev;
 	rc = co_node_create(&x->node, &cfg);
 	assert(rc == 0);
 	(void)rc;
@@ -115,8 +107,7 @@ void ecf_advance(ecf *x, uint64_t t)
 void ecf_clear(ecf *x)
 {
 	x->n_tx = 0;
-	x->n_ev = 0;
-	x->pumped = 0;
+	x->ev.n = 0;
 }
 
 int ecf_tx_find(const ecf *x, unsigned from, uint32_t id)
@@ -151,53 +142,10 @@ unsigned ecf_tx_count(const ecf *x, uint32_t id)
 
 int ecf_ev_find(const ecf *x, unsigned from, co_event_kind kind)
 {
-	for (unsigned i = from; i < x->n_ev; i++)
-		if (x->ev[i].kind == kind)
-			return (int)i;
-	return -1;
+	return evlog_find(&x->ev, from, kind);
 }
 
 unsigned ecf_ev_count(const ecf *x, co_event_kind kind)
 {
-	unsigned n = 0;
-
-	for (unsigned i = 0; i < x->n_ev; i++)
-		n += x->ev[i].kind == kind;
-	return n;
-}
-
-void ecf_pump(ecf *a, ecf *b)
-{
-	while (a->pumped < a->n_tx || b->pumped < b->n_tx) {
-		while (a->pumped < a->n_tx) {
-			co_frame f = a->tx[a->pumped++];
-			co_node_recv(b->node, &f, b->now);
-		}
-		while (b->pumped < b->n_tx) {
-			co_frame f = b->tx[b->pumped++];
-			co_node_recv(a->node, &f, a->now);
-		}
-	}
-}
-
-void ecf_advance2(ecf *a, ecf *b, uint64_t t)
-{
-	ecf_pump(a, b);
-	for (unsigned guard = 0;; guard++) {
-		assert(guard < 1000000);
-		uint64_t da = co_node_next_deadline_us(a->node);
-		uint64_t db = co_node_next_deadline_us(b->node);
-		uint64_t d = da < db ? da : db;
-		if (d > t)
-			break;
-		if (d > a->now)
-			a->now = b->now = d;
-		if (da <= a->now)
-			co_node_tick(a->node, a->now);
-		if (db <= b->now)
-			co_node_tick(b->node, b->now);
-		ecf_pump(a, b);
-	}
-	if (t > a->now)
-		a->now = b->now = t;
+	return evlog_count(&x->ev, kind);
 }

@@ -7,7 +7,9 @@
  * (any length, RTR, 11-bit). The fixture owns the clock: ecf_advance()
  * steps to each deadline of the node in turn (ticking exactly there), so
  * "lost at T, not before" can be asserted to the microsecond.
- * Two fixtures can be wired: ecf_pump() moves new frames between them.
+ * No bus: the test is the node's only peer. Nodes that talk to each other
+ * share the in-memory bus of test_bus.h (ecf_od_std() gives them this
+ * fixture's dictionary).
  */
 #ifndef COGW_TESTS_ERRCTRL_FIXTURE_H
 #define COGW_TESTS_ERRCTRL_FIXTURE_H
@@ -15,6 +17,7 @@
 #include <stdint.h>
 
 #include "core/co.h"
+#include "tests/unit/support/test_bus.h"
 
 #define ECF_LOG 512
 
@@ -25,9 +28,7 @@ typedef struct ecf {
 	co_frame tx[ECF_LOG];
 	uint64_t tx_t[ECF_LOG];
 	unsigned n_tx;
-	co_event ev[ECF_LOG];
-	unsigned n_ev;
-	unsigned pumped; /* tx frames already given to the peer */
+	evlog ev; /* the node's events */
 } ecf;
 
 /* OD with 1000h, 1001h, 1003h(8), 1014h, 1015h, 1016h(4), 1017h,
@@ -53,10 +54,5 @@ void ecf_sdo_req(ecf *x, const uint8_t req[8]);
 unsigned ecf_tx_count(const ecf *x, uint32_t id);
 int ecf_ev_find(const ecf *x, unsigned from, co_event_kind kind);
 unsigned ecf_ev_count(const ecf *x, co_event_kind kind);
-
-/* Two wired nodes: deliver new frames both ways until quiet. */
-void ecf_pump(ecf *a, ecf *b);
-/* Advance both to t, pumping after every tick. */
-void ecf_advance2(ecf *a, ecf *b, uint64_t t);
 
 #endif

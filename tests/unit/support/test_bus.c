@@ -1,4 +1,5 @@
 /* SPDX-License-Identifier: MIT */
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -22,6 +23,7 @@ void tb_fini(tb_bus *bus)
 	free(bus->q_from);
 	free(bus->log);
 	free(bus->log_from);
+	free(bus->log_t);
 	memset(bus, 0, sizeof(*bus));
 }
 
@@ -57,12 +59,14 @@ static void log_frame(tb_bus *bus, const co_frame *f, int from)
 		size_t cap = bus->log_cap ? bus->log_cap * 2 : 1024;
 		bus->log = realloc(bus->log, cap * sizeof(*bus->log));
 		bus->log_from = realloc(bus->log_from, cap * sizeof(*bus->log_from));
-		if (!bus->log || !bus->log_from)
+		bus->log_t = realloc(bus->log_t, cap * sizeof(*bus->log_t));
+		if (!bus->log || !bus->log_from || !bus->log_t)
 			abort();
 		bus->log_cap = cap;
 	}
 	bus->log[bus->log_len] = *f;
 	bus->log_from[bus->log_len] = from;
+	bus->log_t[bus->log_len] = bus->now;
 	bus->log_len++;
 }
 
@@ -86,6 +90,8 @@ static int port_send(void *ctx, const co_frame *f)
 {
 	tb_port *p = ctx;
 
+	if (p->bus->fail_send)
+		return -ENOBUFS;
 	put(p->bus, f, p->idx);
 	return 0;
 }
@@ -198,6 +204,11 @@ void tb_advance(tb_bus *bus, uint64_t dt_us)
 	bus->now = end;
 }
 
+void tb_advance_to(tb_bus *bus, uint64_t t_us)
+{
+	tb_advance(bus, t_us > bus->now ? t_us - bus->now : 0);
+}
+
 void tb_settle(tb_bus *bus, uint64_t limit_us)
 {
 	uint64_t end = bus->now + limit_us;
@@ -219,6 +230,28 @@ size_t tb_log_count(const tb_bus *bus)
 const co_frame *tb_log_at(const tb_bus *bus, size_t i)
 {
 	return i < bus->log_len ? &bus->log[i] : NULL;
+}
+
+uint64_t tb_log_time(const tb_bus *bus, size_t i)
+{
+	return i < bus->log_len ? bus->log_t[i] : 0;
+}
+
+size_t tb_log_count_id(const tb_bus *bus, uint32_t id)
+{
+	size_t n = 0;
+
+	for (size_t i = 0; i < bus->log_len; i++)
+		n += bus->log[i].id == id;
+	return n;
+}
+
+int tb_log_nth_id(const tb_bus *bus, uint32_t id, unsigned n)
+{
+	for (size_t i = 0; i < bus->log_len; i++)
+		if (bus->log[i].id == id && n-- == 0)
+			return (int)i;
+	return -1;
 }
 
 const co_frame *tb_last_from(const tb_bus *bus, int from)
@@ -326,4 +359,29 @@ uint32_t tb_od_write(tb_bus *bus, co_node *node, uint16_t index, uint8_t sub, ui
 		b[i] = (uint8_t)(v >> (8 * i));
 	co_node_tick(node, bus->now);
 	return co_od_write(e, b, e->size > 8 ? 8 : e->size, &a);
+}
+
+void evlog_fn(void *ctx, const co_event *ev)
+{
+	evlog *log = ctx;
+
+	if (log->n < EVLOG_LEN)
+		log->ev[log->n++] = *ev;
+}
+
+int evlog_find(const evlog *log, unsigned from, co_event_kind kind)
+{
+	for (unsigned i = from; i < log->n; i++)
+		if (log->ev[i].kind == kind)
+			return (int)i;
+	return -1;
+}
+
+unsigned evlog_count(const evlog *log, co_event_kind kind)
+{
+	unsigned n = 0;
+
+	for (unsigned i = 0; i < log->n; i++)
+		n += log->ev[i].kind == kind;
+	return n;
 }

@@ -6,7 +6,13 @@
  * callback, exactly like a real bus: a node never sees its own answer
  * arrive while it is still sending). tb_pump() delivers the queue to every
  * other node, in order. The clock is owned by the test: tb_advance() moves
- * it and runs the nodes' timers. Every frame on the bus is logged.
+ * it and runs the nodes' timers. Every frame on the bus is logged, with
+ * its sender and the bus time it was sent at.
+ *
+ * The one in-memory bus of the unit tests: the SDO, PDO, SYNC, TIME,
+ * store, manager and gateway tests and, through lss_fixture.h, the LSS
+ * tests. (errctrl_fixture.h is no bus: one node and the test as its only
+ * peer, for NMT, heartbeat, guarding and EMCY.)
  */
 #ifndef COGW_TESTS_TEST_BUS_H
 #define COGW_TESTS_TEST_BUS_H
@@ -55,8 +61,10 @@ struct tb_bus {
 	size_t q_head, q_len, q_cap;
 	co_frame *log;
 	int *log_from;
+	uint64_t *log_t; /* bus time when sent */
 	size_t log_len, log_cap;
 	bool log_on;
+	bool fail_send; /* every node's send fails with -ENOBUFS (not logged) */
 	tb_port port[TB_MAX_NODES];
 	int n;
 	tb_filter_fn filter;
@@ -86,6 +94,8 @@ void tb_send_hex(tb_bus *bus, uint32_t id, const char *hex);
 /* Move the clock by dt_us in steps to each node deadline, ticking and
  * pumping on the way. */
 void tb_advance(tb_bus *bus, uint64_t dt_us);
+/* The same, to the time t_us (no step back). */
+void tb_advance_to(tb_bus *bus, uint64_t t_us);
 /* Pump and advance through deadlines until nothing is pending or limit_us
  * of bus time has passed. */
 void tb_settle(tb_bus *bus, uint64_t limit_us);
@@ -95,6 +105,12 @@ size_t tb_log_count(const tb_bus *bus);
 const co_frame *tb_log_at(const tb_bus *bus, size_t i);
 const co_frame *tb_last_from(const tb_bus *bus, int from);
 void tb_log_clear(tb_bus *bus);
+/* Bus time the i-th logged frame was sent at. */
+uint64_t tb_log_time(const tb_bus *bus, size_t i);
+/* Frames logged with this CAN-ID from any sender; log index of the n-th
+ * (0-based) of them, -1 if none. */
+size_t tb_log_count_id(const tb_bus *bus, uint32_t id);
+int tb_log_nth_id(const tb_bus *bus, uint32_t id, unsigned n);
 /* Frames logged from `from` since index `since`. */
 size_t tb_count_from(const tb_bus *bus, int from, size_t since);
 /* The same, restricted to one CAN-ID (other services, e.g. a heartbeat
@@ -113,6 +129,18 @@ bool tb_frame_is(const co_frame *f, uint32_t id, const char *hex);
 size_t tb_event_count(const tb_port *p, co_event_kind k);
 const co_event *tb_last_event(const tb_port *p, co_event_kind k);
 void tb_events_clear(tb_port *p);
+
+/* An event recorder for nodes made outside tb_add_node's event log (a
+ * port's ext_event, see lss_fixture.h): stops recording when full. */
+#define EVLOG_LEN 512
+typedef struct evlog {
+	co_event ev[EVLOG_LEN];
+	unsigned n;
+} evlog;
+void evlog_fn(void *ctx, const co_event *ev);
+/* Index of the first event of this kind at or after from; -1 if none. */
+int evlog_find(const evlog *log, unsigned from, co_event_kind kind);
+unsigned evlog_count(const evlog *log, co_event_kind kind);
 
 /* Unity helper: assert that the last frame with this id from `from` has
  * exactly these bytes. */

@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * tests/unit/support/test_od_fixture.h - the object dictionaries the unit
- * tests share: the STI pressure transducer of seed 004 (as corrected in
- * spec 003-004 §2.12/§3.1) plus objects that exercise every abort path.
+ * tests share: the STI pressure transducer (etc/devices/sti-pressure.json,
+ * docs/cosim.md) plus objects that exercise every abort path.
  */
 #ifndef COGW_TESTS_TEST_OD_FIXTURE_H
 #define COGW_TESTS_TEST_OD_FIXTURE_H
