@@ -131,7 +131,9 @@ static int fail(eds_ctx *c, unsigned line, const char *fmt, ...)
 static void warn_text(eds_ctx *c, const char *text)
 {
 	if (!c->st.warnings++)
-		snprintf(c->st.first_warning, sizeof(c->st.first_warning), "%s", text);
+		/* cut to the stats' field: the callback still gets it whole */
+		snprintf(c->st.first_warning, sizeof(c->st.first_warning), "%.*s",
+			 (int)sizeof(c->st.first_warning) - 1, text);
 	if (c->on_warning)
 		c->on_warning(c->warning_arg, text);
 }
