@@ -87,6 +87,15 @@ struct mgr_in {
 	bool guarded;   /* IN_HB: seen through node guarding */
 };
 
+/* Inputs of the network machine (co_fsm_con). */
+enum net_in_kind {
+	NET_IN_CHECK /* after every input: can the boot end, the network start? */
+};
+
+struct mgr_net_in {
+	enum net_in_kind kind;
+};
+
 struct mgr_slave {
 	co_manager *m;
 	uint8_t id;
@@ -164,11 +173,7 @@ static void mgr_after(co_manager *m, uint64_t now_us);
 
 const char *co_mgr_state_to_string(uint8_t state)
 {
-	static const char *const n[CO_MGR_STATE_COUNT] = {
-		"slave",       "resetting", "booting",         "wait-mandatory", "booted",
-		"operational", "stopped",   "pre-operational", "fatal",
-	};
-	return state < CO_MGR_STATE_COUNT ? n[state] : "?";
+	return co_fsm_state_name(&mgr_def, state);
 }
 
 const char *co_mgr_step_to_string(uint8_t step)
@@ -995,7 +1000,7 @@ static void report_state(co_manager *m)
  * one broadcast when 1F80h bit 1 asks for it and every assigned node has
  * booted (a broadcast would otherwise start a wrong device too), else one
  * command per booted node. */
-static void start_network_now(co_manager *m, bool explicit, uint64_t now_us)
+static int start_network_now(co_manager *m, bool explicit, uint64_t now_us)
 {
 	bool all = true;
 
@@ -1021,19 +1026,21 @@ static void start_network_now(co_manager *m, bool explicit, uint64_t now_us)
 	m->net_started = true;
 	m->net_started_explicit = explicit;
 	m->start_requested = false;
-	co_fsm_goto(&m->fsm, CO_MGR_OPERATIONAL, now_us);
+	return CO_MGR_OPERATIONAL;
 }
 
-/* The whole-line decisions, after every input (see the file comment). */
-static void mgr_check(co_manager *m, uint64_t now_us)
+/* The whole-line decisions, after every input (see the file comment): the
+ * network machine's answer to NET_IN_CHECK in the states where the boot
+ * can end (BOOTING, WAIT_MANDATORY, and BOOTED while it waits for
+ * mandatory slaves). */
+static int mgr_check(co_manager *m, uint64_t now_us)
 {
 	uint8_t st = (uint8_t)co_fsm_state_of(&m->fsm);
 	uint32_t b80 = f80(m);
 	bool all_attempted = true;
 
-	if (st != CO_MGR_BOOTING && st != CO_MGR_WAIT_MANDATORY &&
-	    !(st == CO_MGR_BOOTED && m->awaiting_mandatory))
-		return;
+	if (st == CO_MGR_BOOTED && !m->awaiting_mandatory)
+		return CO_FSM_STAY;
 	for (unsigned id = 1; id <= 127; id++) {
 		const struct mgr_slave *s = &m->s[id];
 		if (is_bootable(m, (uint8_t)id) && !s->attempted && !s->d.booted &&
@@ -1043,16 +1050,13 @@ static void mgr_check(co_manager *m, uint64_t now_us)
 	if (all_mandatory_booted(m) && (all_attempted || st != CO_MGR_BOOTING)) {
 		m->awaiting_mandatory = false;
 		if ((b80 & (CO_MGR_1F80_NO_SELF_START | CO_MGR_1F80_APP_STARTS_SLAVES)) &&
-		    !m->start_requested) {
-			if (st != CO_MGR_BOOTED)
-				co_fsm_goto(&m->fsm, CO_MGR_BOOTED, now_us);
-		} else {
-			start_network_now(m, m->start_requested, now_us);
-		}
-		return;
+		    !m->start_requested)
+			return st != CO_MGR_BOOTED ? CO_MGR_BOOTED : CO_FSM_STAY;
+		return start_network_now(m, m->start_requested, now_us);
 	}
 	if (st == CO_MGR_BOOTING && all_attempted)
-		co_fsm_goto(&m->fsm, CO_MGR_WAIT_MANDATORY, now_us);
+		return CO_MGR_WAIT_MANDATORY;
+	return CO_FSM_STAY;
 }
 
 static void wake_waiting(co_manager *m, uint64_t now_us)
@@ -1077,6 +1081,7 @@ static void mgr_enter(co_manager *m, uint64_t now_us)
 
 static void mgr_after(co_manager *m, uint64_t now_us)
 {
+	static const struct mgr_net_in check = { .kind = NET_IN_CHECK };
 	if (--m->depth > 0)
 		return;
 	m->depth++;
@@ -1087,7 +1092,7 @@ static void mgr_after(co_manager *m, uint64_t now_us)
 		}
 		if (m->check_pending) {
 			m->check_pending = false;
-			mgr_check(m, now_us);
+			co_fsm_con(&m->fsm, &check, now_us);
 		}
 	}
 	report_state(m);
@@ -1241,16 +1246,24 @@ static int m_wait_enter(void *obj, uint64_t now_us)
 	return CO_FSM_STAY;
 }
 
+static int m_check_con(void *obj, const void *con, uint64_t now_us)
+{
+	const struct mgr_net_in *in = con;
+	return in->kind == NET_IN_CHECK ? mgr_check(obj, now_us) : CO_FSM_STAY;
+}
+
 static const co_fsm_state mgr_states[CO_MGR_STATE_COUNT] = {
 	[CO_MGR_SLAVE] = { .name = "slave", .on_enter = m_slave_enter },
 	[CO_MGR_RESETTING] = { .name = "resetting", .on_enter = m_resetting_enter },
 	[CO_MGR_BOOTING] = { .name = "booting",
 			     .on_enter = m_booting_enter,
-			     .on_timeout = m_boot_time_out },
+			     .on_timeout = m_boot_time_out,
+			     .on_con = m_check_con },
 	[CO_MGR_WAIT_MANDATORY] = { .name = "wait-mandatory",
 				    .on_enter = m_wait_enter,
-				    .on_timeout = m_boot_time_out },
-	[CO_MGR_BOOTED] = { .name = "booted", .on_enter = m_net_enter },
+				    .on_timeout = m_boot_time_out,
+				    .on_con = m_check_con },
+	[CO_MGR_BOOTED] = { .name = "booted", .on_enter = m_net_enter, .on_con = m_check_con },
 	[CO_MGR_OPERATIONAL] = { .name = "operational", .on_enter = m_net_enter },
 	[CO_MGR_STOPPED] = { .name = "stopped", .on_enter = m_stopped_enter },
 	[CO_MGR_PREOP] = { .name = "pre-operational", .on_enter = m_net_enter },
@@ -1681,7 +1694,7 @@ int co_manager_start_network(co_manager *m, uint64_t now_us)
 		start_from_stopped(m, now_us);
 	} else {
 		m->awaiting_mandatory = false;
-		start_network_now(m, true, now_us);
+		co_fsm_goto(&m->fsm, start_network_now(m, true, now_us), now_us);
 	}
 	mgr_after(m, now_us);
 	return 0;
@@ -1728,7 +1741,7 @@ static void start_from_stopped(co_manager *m, uint64_t now_us)
 {
 	if (all_mandatory_booted(m)) {
 		m->awaiting_mandatory = false;
-		start_network_now(m, true, now_us);
+		co_fsm_goto(&m->fsm, start_network_now(m, true, now_us), now_us);
 	} else {
 		m->awaiting_mandatory = true;
 		m->start_requested = true; /* whatever 1F80h bits 2/3 say */
@@ -1756,7 +1769,7 @@ static int request_all(co_manager *m, uint8_t cs, uint64_t now_us)
 		if (!all_mandatory_booted(m))
 			return -EAGAIN;
 		m->awaiting_mandatory = false;
-		start_network_now(m, true, now_us);
+		co_fsm_goto(&m->fsm, start_network_now(m, true, now_us), now_us);
 		return 0;
 	case CO_NMT_CS_STOP:
 	case CO_NMT_CS_ENTER_PREOP:
