@@ -48,6 +48,12 @@ static void wake_waiting(co_manager *m, uint64_t now_us)
 		}
 }
 
+void mgr_net_input(co_manager *m, enum net_in_kind kind, uint64_t now_us)
+{
+	const struct mgr_net_in in = { .kind = kind };
+	co_fsm_con(&m->fsm, &in, now_us);
+}
+
 void mgr_enter(co_manager *m, uint64_t now_us)
 {
 	if (now_us > m->node->now_us)
@@ -57,7 +63,6 @@ void mgr_enter(co_manager *m, uint64_t now_us)
 
 void mgr_after(co_manager *m, uint64_t now_us)
 {
-	static const struct mgr_net_in check = { .kind = NET_IN_CHECK };
 	if (--m->depth > 0)
 		return;
 	m->depth++;
@@ -68,7 +73,7 @@ void mgr_after(co_manager *m, uint64_t now_us)
 		}
 		if (m->check_pending) {
 			m->check_pending = false;
-			co_fsm_con(&m->fsm, &check, now_us);
+			mgr_net_input(m, NET_IN_CHECK, now_us);
 		}
 	}
 	mgr_report_state(m);

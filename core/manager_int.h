@@ -103,7 +103,12 @@ struct mgr_in {
 
 /* Inputs of the network machine (co_fsm_con). */
 enum net_in_kind {
-	NET_IN_CHECK /* after every input: can the boot end, the network start? */
+	NET_IN_CHECK,              /* after every input: can the boot end, the
+	                            * network start? (mgr_after) */
+	NET_IN_OWN_ID_CONFLICT,    /* another device on our node-ID: FATAL */
+	NET_IN_RESET_ALL_ON_ERROR, /* a mandatory slave lost error control,
+	                            * 1F80h bit 4: the network boots again */
+	NET_IN_STOP_ALL_ON_ERROR   /* ... 1F80h bit 6: the network stops */
 };
 
 struct mgr_net_in {
@@ -263,6 +268,8 @@ static inline bool mgr_active(const co_manager *m)
 void mgr_enter(co_manager *m, uint64_t now_us);
 void mgr_after(co_manager *m, uint64_t now_us);
 void mgr_nmt_send(co_manager *m, uint8_t target, uint8_t cs, uint64_t now_us);
+/* Feed an input to the network machine. */
+void mgr_net_input(co_manager *m, enum net_in_kind kind, uint64_t now_us);
 
 /* ---- manager_diag.c ------------------------------------------------------------- */
 void mgr_emit(co_manager *m, co_event_kind kind, const co_ev_mgr *e);

@@ -222,27 +222,79 @@ static int m_wait_enter(void *obj, uint64_t now_us)
 	return CO_FSM_STAY;
 }
 
-static int m_check_con(void *obj, const void *con, uint64_t now_us)
+/* A mandatory slave lost error control and 1F80h bit 4 asks to "reset
+ * all nodes, including itself" (CiA 302-2, NMT master start-up, error
+ * handling): our own node leaves OPERATIONAL like the others and is
+ * started again with the network; its OD is kept (a reset of it would
+ * lose what clients wrote through the mailbox). */
+static int reset_all_on_error(co_manager *m, uint64_t now_us)
 {
-	const struct mgr_net_in *in = con;
-	return in->kind == NET_IN_CHECK ? mgr_check(obj, now_us) : CO_FSM_STAY;
+	(void)co_nmt_local_cmd(m->node, CO_NMT_CS_ENTER_PREOP, now_us);
+	m->reset_cs = CO_NMT_CS_RESET_NODE;
+	return CO_MGR_RESETTING;
 }
 
+/* ... and 1F80h bit 6 asks to stop all nodes. */
+static void stop_all_on_error(co_manager *m, uint64_t now_us)
+{
+	mgr_nmt_send(m, 0, CO_NMT_CS_STOP, now_us);
+	m->net_started = false;
+}
+
+/* The inputs every state but FATAL reacts to alike. */
+static int m_con(void *obj, const void *con, uint64_t now_us)
+{
+	const struct mgr_net_in *in = con;
+	switch (in->kind) {
+	case NET_IN_OWN_ID_CONFLICT:
+		return CO_MGR_FATAL;
+	case NET_IN_RESET_ALL_ON_ERROR:
+		return reset_all_on_error(obj, now_us);
+	case NET_IN_STOP_ALL_ON_ERROR:
+		stop_all_on_error(obj, now_us);
+		return CO_MGR_STOPPED;
+	default:
+		return CO_FSM_STAY;
+	}
+}
+
+/* While the boot can end: the check, and the common inputs. */
+static int m_boot_con(void *obj, const void *con, uint64_t now_us)
+{
+	const struct mgr_net_in *in = con;
+	return in->kind == NET_IN_CHECK ? mgr_check(obj, now_us) : m_con(obj, con, now_us);
+}
+
+/* Stopped already: a stop on error sends the stop and stays. */
+static int m_stopped_con(void *obj, const void *con, uint64_t now_us)
+{
+	const struct mgr_net_in *in = con;
+	if (in->kind != NET_IN_STOP_ALL_ON_ERROR)
+		return m_con(obj, con, now_us);
+	stop_all_on_error(obj, now_us);
+	return CO_FSM_STAY;
+}
+
+/* FATAL reacts to nothing: only a request (boot the network) leaves it. */
 static const co_fsm_state mgr_states[CO_MGR_STATE_COUNT] = {
-	[CO_MGR_SLAVE] = { .name = "slave", .on_enter = m_slave_enter },
-	[CO_MGR_RESETTING] = { .name = "resetting", .on_enter = m_resetting_enter },
+	[CO_MGR_SLAVE] = { .name = "slave", .on_enter = m_slave_enter, .on_con = m_con },
+	[CO_MGR_RESETTING] = { .name = "resetting",
+			       .on_enter = m_resetting_enter,
+			       .on_con = m_con },
 	[CO_MGR_BOOTING] = { .name = "booting",
 			     .on_enter = m_booting_enter,
 			     .on_timeout = m_boot_time_out,
-			     .on_con = m_check_con },
+			     .on_con = m_boot_con },
 	[CO_MGR_WAIT_MANDATORY] = { .name = "wait-mandatory",
 				    .on_enter = m_wait_enter,
 				    .on_timeout = m_boot_time_out,
-				    .on_con = m_check_con },
-	[CO_MGR_BOOTED] = { .name = "booted", .on_enter = m_net_enter, .on_con = m_check_con },
-	[CO_MGR_OPERATIONAL] = { .name = "operational", .on_enter = m_net_enter },
-	[CO_MGR_STOPPED] = { .name = "stopped", .on_enter = m_stopped_enter },
-	[CO_MGR_PREOP] = { .name = "pre-operational", .on_enter = m_net_enter },
+				    .on_con = m_boot_con },
+	[CO_MGR_BOOTED] = { .name = "booted", .on_enter = m_net_enter, .on_con = m_boot_con },
+	[CO_MGR_OPERATIONAL] = { .name = "operational", .on_enter = m_net_enter, .on_con = m_con },
+	[CO_MGR_STOPPED] = { .name = "stopped",
+			     .on_enter = m_stopped_enter,
+			     .on_con = m_stopped_con },
+	[CO_MGR_PREOP] = { .name = "pre-operational", .on_enter = m_net_enter, .on_con = m_con },
 	[CO_MGR_FATAL] = { .name = "fatal", .on_enter = m_fatal_enter },
 };
 

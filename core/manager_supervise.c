@@ -26,7 +26,7 @@ static void own_id_conflict(co_manager *m, uint64_t now_us)
 		mgr_note_first_error(m, m->own_id, 0, 0);
 		mgr_emit_node(m, m->own_id, CO_MGR_NODE_OWN_ID, CO_NMT_ERRCTRL_BASE + m->own_id);
 	}
-	co_fsm_goto(&m->fsm, CO_MGR_FATAL, now_us);
+	mgr_net_input(m, NET_IN_OWN_ID_CONFLICT, now_us);
 }
 
 /* Only a well-formed error-control message (CiA 301 7.2.8.3.2: one byte,
@@ -141,7 +141,6 @@ static void on_bootup(co_manager *m, struct mgr_slave *s, uint64_t now_us)
 static void on_errctrl_lost(co_manager *m, struct mgr_slave *s, char letter, uint64_t now_us)
 {
 	uint32_t b80 = f80(m);
-	uint8_t mst = (uint8_t)co_fsm_state_of(&m->fsm);
 
 	s->last_state = STATE_UNKNOWN;
 	if (bs_state(s) != BS_BOOTED || !mgr_active(m))
@@ -160,21 +159,12 @@ static void on_errctrl_lost(co_manager *m, struct mgr_slave *s, char letter, uin
 		(void)co_guard_master_remove(m->node, s->id);
 	if (is_mandatory(m, s->id) && (b80 & CO_MGR_1F80_RESET_ALL_ON_ERROR)) {
 		mgr_emit_node(m, s->id, CO_MGR_NODE_ERROR_REACTION, CO_NMT_CS_RESET_NODE);
-		/* "reset all nodes, including itself" (seed 001 §2.2 transition
-		 * 26): our own node leaves OPERATIONAL like the others and is
-		 * started again with the network; its OD is kept (a reset of
-		 * it would lose what clients wrote through the mailbox) */
-		(void)co_nmt_local_cmd(m->node, CO_NMT_CS_ENTER_PREOP, now_us);
-		m->reset_cs = CO_NMT_CS_RESET_NODE;
-		co_fsm_goto(&m->fsm, CO_MGR_RESETTING, now_us);
+		mgr_net_input(m, NET_IN_RESET_ALL_ON_ERROR, now_us);
 		return;
 	}
 	if (is_mandatory(m, s->id) && (b80 & CO_MGR_1F80_STOP_ALL_ON_ERROR)) {
 		mgr_emit_node(m, s->id, CO_MGR_NODE_ERROR_REACTION, CO_NMT_CS_STOP);
-		mgr_nmt_send(m, 0, CO_NMT_CS_STOP, now_us);
-		m->net_started = false;
-		if (mst != CO_MGR_STOPPED)
-			co_fsm_goto(&m->fsm, CO_MGR_STOPPED, now_us);
+		mgr_net_input(m, NET_IN_STOP_ALL_ON_ERROR, now_us);
 		return;
 	}
 	mgr_emit_node(m, s->id, CO_MGR_NODE_ERROR_REACTION, 0);
