@@ -38,7 +38,8 @@ void mgr_nmt_send(co_manager *m, uint8_t target, uint8_t cs, uint64_t now_us)
 static void wake_waiting(co_manager *m, uint64_t now_us)
 {
 	struct mgr_in in = { .kind = IN_CHANNEL };
-	/* mandatory slaves first (seed 001 §2.1, late nodes), then by ID */
+	/* mandatory slaves first (the network waits for them, CiA 302-2
+	 * 1F81h bit 3), then by ID */
 	for (int pass = 0; pass < 2; pass++)
 		for (unsigned id = 1; id <= 127; id++) {
 			struct mgr_slave *s = &m->s[id];

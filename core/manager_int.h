@@ -21,8 +21,8 @@
  * 1F84h..1F89h), error control supervision, Request NMT (1F82h),
  * configuration request (1F25h) and the diagnostics of the line.
  *
- * Why the boot runs in parallel: the reference manuals boot node 1, then
- * node 2, ...; a silent node then costs every node behind it one SDO
+ * Why the boot runs in parallel: booted one after another (node 1, then
+ * node 2, ...), a silent node would cost every node behind it one SDO
  * timeout. Here every assigned node runs its own machine and only the SDO
  * client pool bounds how many talk at once (a node holds one "boot slot"
  * from its 1000h read to the end of the configure step; there are as many

@@ -83,8 +83,8 @@ static int m_slave_enter(void *obj, uint64_t now_us)
 	mgr_report_state(m);
 	m->net_started = false;
 	m->timer_us = CO_NO_DEADLINE;
-	/* seed 001 §2.2 transition 2: a plain slave starts itself unless 1F80h
-	 * bit 2 says not to */
+	/* CiA 302-2 1F80h bit 2: a plain slave enters OPERATIONAL by itself
+	 * unless the bit says not to (docs/config.md "self_start") */
 	if (!(f80(m) & CO_MGR_1F80_NO_SELF_START) &&
 	    co_nmt_get_state(m->node) == CO_NMT_PRE_OPERATIONAL)
 		(void)co_nmt_local_cmd(m->node, CO_NMT_CS_START, now_us);

@@ -192,7 +192,8 @@ static void on_state(co_manager *m, struct mgr_slave *s, uint8_t st, uint8_t pre
 		duplicate(m, s, st);
 	if (bs_state(s) == BS_KEEP_ALIVE || (guarded && bs_state(s) == BS_ERRCTRL))
 		bs_input(s, &in, now_us);
-	/* KEEP_OP (seed 003): it left OPERATIONAL without being told */
+	/* KEEP_OP (docs/config.md, nodes[].keep_op): it left OPERATIONAL
+	 * without being told */
 	if (s->keep_op && bs_state(s) == BS_BOOTED && prev == CO_NMT_OPERATIONAL &&
 	    st != CO_NMT_OPERATIONAL && s->expected_state == CO_NMT_OPERATIONAL && m->net_started) {
 		m->cnt.keep_op_restarts++;
