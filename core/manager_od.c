@@ -66,9 +66,8 @@ static uint32_t f25_check(void *ctx, co_od_entry *e, const co_od_access *a)
 static const co_od_hooks f25_hooks = { .check_write = f25_check };
 
 /* 1F80h, 1F81h, 1F84h..1F89h while the network boots: the boot reads
- * them step by step, a change in the
- * middle would boot a node against half old, half new values. 1F89h
- * stays writable while the line waits for mandatory slaves (a new limit,
+ * them step by step, a change in the middle would boot a node against
+ * half old, half new values. 1F89h stays writable while the line waits for mandatory slaves (a new limit,
  * 0 = wait for ever). The flying master (1F80h bit 5) is not supported.
  * Writes are refused with 08000022h (device state) or 06090030h (value
  * range); docs/config.md "The manager" describes the lock. */
