@@ -23,43 +23,29 @@ const char *co_mgr_step_to_string(uint8_t step)
 	return step < CO_MGR_STEP_COUNT ? n[step] : "?";
 }
 
+/* The error status letters of the boot slave process (CiA 302-2). */
 const char *co_mgr_status_to_string(char status)
 {
-	switch (status) {
-	case 0:
+	static const char *const text['O' - 'A' + 1] = {
+		"not in the network list (1F81h)",
+		"no answer to the read of 1000h",
+		"device type differs from 1F84h",
+		"vendor-ID differs from 1F85h",
+		"heartbeat event",
+		"node guarding event",
+		"program download objects not configured",
+		"software update required but not allowed",
+		"program download failed",
+		"configuration download failed",
+		"no heartbeat during the start of error control",
+		"slave was operational already (keep-alive)",
+		"product code differs from 1F86h",
+		"revision number differs from 1F87h",
+		"serial number differs from 1F88h",
+	};
+	if (status == 0)
 		return "ok";
-	case 'A':
-		return "not in the network list (1F81h)";
-	case 'B':
-		return "no answer to the read of 1000h";
-	case 'C':
-		return "device type differs from 1F84h";
-	case 'D':
-		return "vendor-ID differs from 1F85h";
-	case 'E':
-		return "heartbeat event";
-	case 'F':
-		return "node guarding event";
-	case 'G':
-		return "program download objects not configured";
-	case 'H':
-		return "software update required but not allowed";
-	case 'I':
-		return "program download failed";
-	case 'J':
-		return "configuration download failed";
-	case 'K':
-		return "no heartbeat during the start of error control";
-	case 'L':
-		return "slave was operational already (keep-alive)";
-	case 'M':
-		return "product code differs from 1F86h";
-	case 'N':
-		return "revision number differs from 1F87h";
-	case 'O':
-		return "serial number differs from 1F88h";
-	}
-	return "?";
+	return status >= 'A' && status <= 'O' ? text[status - 'A'] : "?";
 }
 
 const char *co_mgr_node_what_to_string(uint8_t what)

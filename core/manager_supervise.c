@@ -172,6 +172,32 @@ static void on_errctrl_lost(co_manager *m, struct mgr_slave *s, char letter, uin
 	m->check_pending = true;
 }
 
+/* A node that just sent its boot-up is pre-operational; it reporting
+ * OPERATIONAL or STOPPED before anybody told it so means a second device
+ * answers on that ID (or the first never rebooted). `mine` is the state
+ * the manager heard before this one. */
+static bool second_device_state(const co_manager *m, const struct mgr_slave *s, uint8_t st,
+				uint8_t prev, uint8_t mine, bool guarded)
+{
+	return s->bootup_us && !s->cmd_since_bootup && !guarded &&
+	       (st == CO_NMT_OPERATIONAL || st == CO_NMT_STOPPED) &&
+	       (mine == CO_NMT_PRE_OPERATIONAL || prev == CO_NMT_INITIALISING) &&
+	       !(assignment(m, s->id) & CO_MGR_1F81_KEEP_ALIVE);
+}
+
+/* KEEP_OP (docs/config.md, nodes[].keep_op): a booted node left
+ * OPERATIONAL without being told: started again. */
+static void keep_op_check(co_manager *m, struct mgr_slave *s, uint8_t st, uint8_t prev,
+			  uint64_t now_us)
+{
+	if (!s->keep_op || bs_state(s) != BS_BOOTED || prev != CO_NMT_OPERATIONAL ||
+	    st == CO_NMT_OPERATIONAL || s->expected_state != CO_NMT_OPERATIONAL || !m->net_started)
+		return;
+	m->cnt.keep_op_restarts++;
+	mgr_emit_node(m, s->id, CO_MGR_NODE_KEEP_OP, st);
+	mgr_nmt_send(m, s->id, CO_NMT_CS_START, now_us);
+}
+
 static void on_state(co_manager *m, struct mgr_slave *s, uint8_t st, uint8_t prev, bool guarded,
 		     uint64_t now_us)
 {
@@ -182,24 +208,11 @@ static void on_state(co_manager *m, struct mgr_slave *s, uint8_t st, uint8_t pre
 		unexpected(m, s);
 		return;
 	}
-	/* A node that just sent its boot-up is pre-operational; it reporting
-	 * OPERATIONAL or STOPPED before anybody told it so means a second
-	 * device answers on that ID (or the first never rebooted). */
-	if (s->bootup_us && !s->cmd_since_bootup && !guarded &&
-	    (st == CO_NMT_OPERATIONAL || st == CO_NMT_STOPPED) &&
-	    (mine == CO_NMT_PRE_OPERATIONAL || prev == CO_NMT_INITIALISING) &&
-	    !(assignment(m, s->id) & CO_MGR_1F81_KEEP_ALIVE))
+	if (second_device_state(m, s, st, prev, mine, guarded))
 		duplicate(m, s, st);
 	if (bs_state(s) == BS_KEEP_ALIVE || (guarded && bs_state(s) == BS_ERRCTRL))
 		bs_input(s, &in, now_us);
-	/* KEEP_OP (docs/config.md, nodes[].keep_op): it left OPERATIONAL
-	 * without being told */
-	if (s->keep_op && bs_state(s) == BS_BOOTED && prev == CO_NMT_OPERATIONAL &&
-	    st != CO_NMT_OPERATIONAL && s->expected_state == CO_NMT_OPERATIONAL && m->net_started) {
-		m->cnt.keep_op_restarts++;
-		mgr_emit_node(m, s->id, CO_MGR_NODE_KEEP_OP, st);
-		mgr_nmt_send(m, s->id, CO_NMT_CS_START, now_us);
-	}
+	keep_op_check(m, s, st, prev, now_us);
 }
 
 static void on_emcy(co_manager *m, struct mgr_slave *s, const co_ev_emcy *e, uint64_t now_us)
@@ -218,11 +231,79 @@ static void on_emcy(co_manager *m, struct mgr_slave *s, const co_ev_emcy *e, uin
 		mgr_note_first_error(m, s->id, 0, e->code);
 }
 
+/* Heartbeat or guarding of a node that was lost came back: its boot
+ * slave process waits for that in ERRCTRL, or it is booted again. */
+static void on_errctrl_back(co_manager *m, struct mgr_slave *s, const co_ev_errctrl *ec,
+			    uint64_t now_us)
+{
+	struct mgr_in in = { .kind = IN_HB, .guarded = ec->guarded };
+	if (ec->state != CO_HB_STATE_UNKNOWN)
+		s->last_state = ec->state;
+	if (bs_state(s) == BS_ERRCTRL) {
+		bs_input(s, &in, now_us);
+	} else if (s->lost && bs_state(s) == BS_IDLE && mgr_active(m) && is_bootable(m, s->id)) {
+		mgr_emit_node(m, s->id, CO_MGR_NODE_BACK, 0);
+		mgr_boot_begin(s, false, false, now_us);
+	}
+}
+
+static void on_errctrl_kind(co_manager *m, struct mgr_slave *s, co_event_kind kind,
+			    const co_ev_errctrl *ec, uint64_t now_us)
+{
+	switch (kind) {
+	case CO_EV_BOOTUP:
+		on_bootup(m, s, now_us);
+		break;
+	case CO_EV_HB_STATE:
+		on_state(m, s, ec->state, ec->prev, ec->guarded, now_us);
+		break;
+	case CO_EV_HB_STARTED:
+	case CO_EV_GUARD_RESUMED:
+		on_errctrl_back(m, s, ec, now_us);
+		break;
+	case CO_EV_HB_LOST:
+		on_errctrl_lost(m, s, 'E', now_us);
+		break;
+	case CO_EV_GUARD_FAILED:
+		on_errctrl_lost(m, s, 'F', now_us);
+		break;
+	default:
+		break;
+	}
+}
+
+/* Boot-up, heartbeat and guarding events: the node's, or another device
+ * on the manager's own node-ID. */
+static void on_errctrl_event(co_manager *m, const co_event *ev)
+{
+	const co_ev_errctrl *ec = &ev->u.errctrl;
+	uint64_t now = ev->now_us;
+
+	if (ec->node < 1 || ec->node > 127)
+		return;
+	if (!is_master(m) && co_fsm_state_of(&m->fsm) == CO_MGR_SLAVE)
+		return;
+	mgr_enter(m, now);
+	if (ec->node == m->own_id)
+		own_id_conflict(m, now);
+	else
+		on_errctrl_kind(m, &m->s[ec->node], ev->kind, ec, now);
+	mgr_after(m, now);
+}
+
+/* Two answers to one SDO request: two devices on that ID. */
+static void on_second_answer(co_manager *m, const co_ev_sdo_cli *c, uint64_t now_us)
+{
+	if (c->node_id < 1 || c->node_id > 127 || c->node_id == m->own_id)
+		return;
+	mgr_enter(m, now_us);
+	duplicate(m, &m->s[c->node_id], CO_MGR_DUP_SDO_ANSWERS);
+	mgr_after(m, now_us);
+}
+
 void co_manager_on_event(co_manager *m, const co_event *ev)
 {
 	uint64_t now = ev->now_us;
-	const co_ev_errctrl *ec = &ev->u.errctrl;
-	struct mgr_slave *s = NULL;
 
 	switch (ev->kind) {
 	case CO_EV_BOOTUP:
@@ -231,23 +312,14 @@ void co_manager_on_event(co_manager *m, const co_event *ev)
 	case CO_EV_HB_LOST:
 	case CO_EV_GUARD_FAILED:
 	case CO_EV_GUARD_RESUMED:
-		if (ec->node < 1 || ec->node > 127)
-			return;
-		s = &m->s[ec->node];
-		break;
+		on_errctrl_event(m, ev);
+		return;
 	case CO_EV_EMCY_RX:
-		if (ev->u.emcy.node < 1 || ev->u.emcy.node > 127)
-			return;
-		on_emcy(m, &m->s[ev->u.emcy.node], &ev->u.emcy, now);
+		if (ev->u.emcy.node >= 1 && ev->u.emcy.node <= 127)
+			on_emcy(m, &m->s[ev->u.emcy.node], &ev->u.emcy, now);
 		return;
 	case CO_EV_SDO_CLIENT_SECOND_ANSWER:
-		/* two answers to one SDO request: two devices on that ID */
-		if (ev->u.sdo_cli.node_id < 1 || ev->u.sdo_cli.node_id > 127 ||
-		    ev->u.sdo_cli.node_id == m->own_id)
-			return;
-		mgr_enter(m, now);
-		duplicate(m, &m->s[ev->u.sdo_cli.node_id], CO_MGR_DUP_SDO_ANSWERS);
-		mgr_after(m, now);
+		on_second_answer(m, &ev->u.sdo_cli, now);
 		return;
 	case CO_EV_NMT_STATE:
 		/* our own state is a flag of the line state (manager operational) */
@@ -257,43 +329,6 @@ void co_manager_on_event(co_manager *m, const co_event *ev)
 	default:
 		return;
 	}
-	if (!is_master(m) && co_fsm_state_of(&m->fsm) == CO_MGR_SLAVE)
-		return;
-	mgr_enter(m, now);
-	if (ec->node == m->own_id) {
-		own_id_conflict(m, now);
-	} else {
-		struct mgr_in in = { .kind = IN_HB, .guarded = ec->guarded };
-		switch (ev->kind) {
-		case CO_EV_BOOTUP:
-			on_bootup(m, s, now);
-			break;
-		case CO_EV_HB_STATE:
-			on_state(m, s, ec->state, ec->prev, ec->guarded, now);
-			break;
-		case CO_EV_HB_STARTED:
-		case CO_EV_GUARD_RESUMED:
-			if (ec->state != CO_HB_STATE_UNKNOWN)
-				s->last_state = ec->state;
-			if (bs_state(s) == BS_ERRCTRL) {
-				bs_input(s, &in, now);
-			} else if (s->lost && bs_state(s) == BS_IDLE && mgr_active(m) &&
-				   is_bootable(m, s->id)) {
-				mgr_emit_node(m, s->id, CO_MGR_NODE_BACK, 0);
-				mgr_boot_begin(s, false, false, now);
-			}
-			break;
-		case CO_EV_HB_LOST:
-			on_errctrl_lost(m, s, 'E', now);
-			break;
-		case CO_EV_GUARD_FAILED:
-			on_errctrl_lost(m, s, 'F', now);
-			break;
-		default:
-			break;
-		}
-	}
-	mgr_after(m, now);
 }
 
 /* NMT commands from the bus addressed to the manager's own node: ignored
