@@ -439,31 +439,35 @@ static int status_of(int rc)
  * STATE when the manager holds the network stopped (no SDO there,
  * docs/config.md) or no SDO request can be queued.
  */
+/* The refusal of a program update (0: none) and the free entry it takes. */
+static int program_refusal(struct mgr_line *ml, line *l, const mbx_request *req,
+			   const mbx_mgr_program_req *r, struct mgr_program **out)
+{
+	*out = NULL;
+	if (r->node == co_node_id(line_node(l)) || !req->data_len || req->data_len > UINT32_MAX)
+		return MBX_E_PARAM;
+	if (co_manager_state(ml->mgr) == CO_MGR_STOPPED)
+		return MBX_E_STATE;
+	if (co_swmgr_running(&ml->swm.job[r->node - 1]) || program_of(ml, r->node))
+		return MBX_E_BUSY;
+	for (unsigned i = 0; i < MGR_PROGRAM_MAX && !*out; i++)
+		if (!ml->prog[i].used)
+			*out = &ml->prog[i];
+	if (!*out || (!req->reply.slot && req->data_len > ml->copy_cap))
+		return MBX_E_BUSY;
+	return 0;
+}
+
 static void program_request(struct mgr_line *ml, line *l, const mbx_request *req, uint64_t now)
 {
 	mbx_server *srv = line_mbx(l);
 	mbx_mgr_program_req r;
-	struct mgr_program *p = NULL;
+	struct mgr_program *p;
 	int rc;
 
 	memcpy(&r, req->payload, sizeof r);
-	if (r.node == co_node_id(line_node(l)) || !req->data_len || req->data_len > UINT32_MAX) {
-		(void)mbx_server_respond(srv, &req->reply, MBX_E_PARAM, 0, NULL, 0);
-		return;
-	}
-	if (co_manager_state(ml->mgr) == CO_MGR_STOPPED) {
-		(void)mbx_server_respond(srv, &req->reply, MBX_E_STATE, 0, NULL, 0);
-		return;
-	}
-	if (co_swmgr_running(&ml->swm.job[r.node - 1]) || program_of(ml, r.node)) {
-		(void)mbx_server_respond(srv, &req->reply, MBX_E_BUSY, 0, NULL, 0);
-		return;
-	}
-	for (unsigned i = 0; i < MGR_PROGRAM_MAX && !p; i++)
-		if (!ml->prog[i].used)
-			p = &ml->prog[i];
-	if (!p || (!req->reply.slot && req->data_len > ml->copy_cap)) {
-		(void)mbx_server_respond(srv, &req->reply, MBX_E_BUSY, 0, NULL, 0);
+	if ((rc = program_refusal(ml, l, req, &r, &p)) != 0) {
+		(void)mbx_server_respond(srv, &req->reply, rc, 0, NULL, 0);
 		return;
 	}
 	if (req->reply.slot) {
