@@ -27,6 +27,7 @@ UNITY_CFLAGS := -I$(UNITY_SRC) -DUNITY_INCLUDE_DOUBLE -DUNITY_SUPPORT_64 -DUNITY
 CORE_SRC    := $(sort $(wildcard core/*.c))
 LINES_SRC   := $(sort $(wildcard lines/*.c))
 GATEWAY_SRC := $(sort $(wildcard gateway/*.c))
+MANAGER_SRC := $(sort $(wildcard manager/*.c))
 APPCOMMON_SRC := $(sort $(wildcard apps/common/*.c))
 # Generated at build time, never committed: etc/cogw.json as a C string.
 GEN := build/gen
@@ -51,6 +52,8 @@ REL_LINES_LIB := $(REL)/lib/libcogw_lines.a
 SAN_LINES_LIB := $(SAN)/lib/libcogw_lines.a
 REL_GATEWAY_LIB := $(REL)/lib/libcogw_gateway.a
 SAN_GATEWAY_LIB := $(SAN)/lib/libcogw_gateway.a
+REL_MANAGER_LIB := $(REL)/lib/libcogw_manager.a
+SAN_MANAGER_LIB := $(SAN)/lib/libcogw_manager.a
 REL_APPCOMMON_LIB := $(REL)/lib/libcogw_appcommon.a
 SAN_APPCOMMON_LIB := $(SAN)/lib/libcogw_appcommon.a
 # Libraries every program and test links, most dependent first.
@@ -62,8 +65,8 @@ SAN_MBXSRV_LIB := $(SAN)/lib/libcogw_mbxsrv.a
 REL_COGW_LIB := $(REL)/lib/libcogw.a
 SAN_COGW_LIB := $(SAN)/lib/libcogw.a
 REL_COGW_SO := $(REL)/lib/libcogw.so
-REL_LIBS = $(REL_APPCOMMON_LIB) $(REL_GATEWAY_LIB) $(REL_LINES_LIB) $(REL_MBXSRV_LIB) $(REL_COGW_LIB) $(REL_CORE_LIB)
-SAN_LIBS = $(SAN_APPCOMMON_LIB) $(SAN_GATEWAY_LIB) $(SAN_LINES_LIB) $(SAN_MBXSRV_LIB) $(SAN_COGW_LIB) $(SAN_CORE_LIB)
+REL_LIBS = $(REL_APPCOMMON_LIB) $(REL_MANAGER_LIB) $(REL_GATEWAY_LIB) $(REL_LINES_LIB) $(REL_MBXSRV_LIB) $(REL_COGW_LIB) $(REL_CORE_LIB)
+SAN_LIBS = $(SAN_APPCOMMON_LIB) $(SAN_MANAGER_LIB) $(SAN_GATEWAY_LIB) $(SAN_LINES_LIB) $(SAN_MBXSRV_LIB) $(SAN_COGW_LIB) $(SAN_CORE_LIB)
 SYS_LIBS := $(shell pkg-config --libs libcjson libsystemd 2>/dev/null || echo -lcjson -lsystemd) -lrt -lpthread -lm
 PROGRAM_BINS := $(addprefix $(REL)/bin/,$(PROGRAMS))
 SAN_PROGRAM_BINS := $(addprefix $(SAN)/bin/,$(PROGRAMS))
@@ -131,6 +134,14 @@ $(REL_GATEWAY_LIB): $(call obj,$(REL),$(GATEWAY_SRC))
 	rm -f $@ && ar rcs $@ $^
 
 $(SAN_GATEWAY_LIB): $(call obj,$(SAN),$(GATEWAY_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+$(REL_MANAGER_LIB): $(call obj,$(REL),$(MANAGER_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+$(SAN_MANAGER_LIB): $(call obj,$(SAN),$(MANAGER_SRC))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 

@@ -300,38 +300,8 @@ uint64_t co_node_tick(co_node *node, uint64_t now_us)
 		if (t < next)
 			next = t;
 	}
-	for (unsigned i = 0; i < node->n_attached; i++) {
-		if (!node->attached[i]->tick)
-			continue;
-		uint64_t t = node->attached[i]->tick(node, now_us);
-		if (t < next)
-			next = t;
-	}
 	co_node_deadline_lower(node, next);
 	return node->deadline_us;
-}
-
-int co_node_attach_service(co_node *node, const co_service *svc, uint64_t now_us)
-{
-	int rc;
-
-	if (!node || !svc)
-		return -EINVAL;
-	for (unsigned i = 0; i < node->n_attached; i++)
-		if (node->attached[i] == svc)
-			return -EEXIST;
-	if (node->n_attached >= CO_NODE_ATTACH_MAX)
-		return -ENOSPC;
-	node->now_us = now_us;
-	if (svc->init && (rc = svc->init(node)) != 0) {
-		if (svc->fini)
-			svc->fini(node);
-		return rc;
-	}
-	node->attached[node->n_attached++] = svc;
-	/* Its first tick comes at once: it returns its real deadline. */
-	co_node_deadline_lower(node, now_us);
-	return 0;
 }
 
 uint64_t co_node_next_deadline_us(const co_node *node)
@@ -361,9 +331,6 @@ void co_node_reset_comm(co_node *node, uint64_t now_us)
 	for (size_t i = 0; i < N_SERVICES; i++)
 		if (co_services[i]->reset_comm)
 			co_services[i]->reset_comm(node, now_us);
-	for (unsigned i = 0; i < node->n_attached; i++)
-		if (node->attached[i]->reset_comm)
-			node->attached[i]->reset_comm(node, now_us);
 }
 
 void co_node_reset_app(co_node *node, uint64_t now_us)
@@ -378,9 +345,6 @@ void co_node_nmt_changed(co_node *node, uint8_t new_state, uint64_t now_us)
 	for (size_t i = 0; i < N_SERVICES; i++)
 		if (co_services[i]->nmt_changed)
 			co_services[i]->nmt_changed(node, new_state, now_us);
-	for (unsigned i = 0; i < node->n_attached; i++)
-		if (node->attached[i]->nmt_changed)
-			node->attached[i]->nmt_changed(node, new_state, now_us);
 }
 
 /* ---- lifetime ---------------------------------------------------------- */
@@ -458,9 +422,6 @@ void co_node_destroy(co_node *node)
 {
 	if (!node)
 		return;
-	for (unsigned i = node->n_attached; i-- > 0;)
-		if (node->attached[i]->fini)
-			node->attached[i]->fini(node);
 	for (size_t i = N_SERVICES; i-- > 0;)
 		if (co_services[i]->fini)
 			co_services[i]->fini(node);

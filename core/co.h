@@ -141,8 +141,7 @@ void co_node_reset_comm(co_node *node, uint64_t now_us);
 void co_node_reset_app(co_node *node, uint64_t now_us);
 
 /* ======================================================================
- * For services (the built-in ones of core/ and those attached with
- * co_node_attach_service), not for the application. The node's fields
+ * For the services of core/, not for the application. The node's fields
  * and what only core/ calls are in core/co_internal.h.
  * ====================================================================== */
 
@@ -182,16 +181,5 @@ typedef struct co_service {
 	 * service in table order, after the change took effect. */
 	void (*nmt_changed)(co_node *node, uint8_t new_state, uint64_t now_us);
 } co_service;
-
-/* Attach a service that is not in the built-in table (the CiA 302
- * manager, a gateway's glue) to a running node, at start-up, on the
- * owning thread: its init runs now (on failure its fini runs and the
- * error is returned), then it is ticked, reset and told NMT changes after
- * the built-in services, in attach order, and contributes to the node's
- * deadline like them; its fini runs at co_node_destroy(), before the
- * built-in ones. At most CO_NODE_ATTACH_MAX services. Returns 0,
- * -EINVAL, -EEXIST (already attached), -ENOSPC, or the init's error. */
-#define CO_NODE_ATTACH_MAX 4
-int co_node_attach_service(co_node *node, const co_service *svc, uint64_t now_us);
 
 #endif /* COGW_CORE_CO_H */

@@ -2,9 +2,9 @@
 /*
  * core/co_internal.h - the node as the built-in services of core/ see it:
  * the fields of struct co_node, with one typed slot per service, and what
- * only core/ calls. The application API, and what any service (built-in
- * or attached) may call (receive dispatch, events, deadlines, the service
- * ops), stay in core/co.h. Include it from the .c files of core/ only
+ * only core/ calls. The application API, and what any service may call
+ * (receive dispatch, events, deadlines, the service ops), stay in
+ * core/co.h. Include it from the .c files of core/ only
  * (and from unit tests of core internals). Same threading rule as
  * core/co.h: owning thread only.
  *
@@ -36,7 +36,6 @@ struct co_sync;
 struct co_time;
 struct co_pdo;
 struct co_lss;
-struct co_manager;
 
 /* Fields are private to core/ services: applications use the functions. */
 struct co_node {
@@ -55,24 +54,20 @@ struct co_node {
 	uint16_t rx_ext_count;
 
 	/* service slots: NULL until the module exists / is enabled */
-	struct sdo_server *sdo_srv;                     /* core/sdo_server.c */
-	struct sdo_client *sdo_cli;                     /* core/sdo_client.c */
-	struct co_store *store;                         /* core/store.c (1010h/1011h) */
-	struct co_nmt *nmt;                             /* core/nmt.c */
-	struct co_errctrl *errctrl;                     /* core/errctrl.c: what heartbeat and
+	struct sdo_server *sdo_srv; /* core/sdo_server.c */
+	struct sdo_client *sdo_cli; /* core/sdo_client.c */
+	struct co_store *store;     /* core/store.c (1010h/1011h) */
+	struct co_nmt *nmt;         /* core/nmt.c */
+	struct co_errctrl *errctrl; /* core/errctrl.c: what heartbeat and
 	                             * guarding share (losses, bus-off) */
-	struct co_hb *hb;                               /* core/heartbeat.c: producer/consumer */
-	struct co_guard *guard;                         /* core/guarding.c: node guarding, master
+	struct co_hb *hb;           /* core/heartbeat.c: producer/consumer */
+	struct co_guard *guard;     /* core/guarding.c: node guarding, master
 	                             * and slave (100Ch/100Dh) */
-	struct co_emcy *emcy;                           /* core/emcy.c */
-	struct co_sync *sync;                           /* core/sync.c */
-	struct co_time *time;                           /* core/time.c */
-	struct co_pdo *pdo;                             /* core/pdo.c */
-	struct co_lss *lss;                             /* core/lss_service.c: master and slave */
-	struct co_manager *manager;                     /* the CiA 302 manager (NMT master, boot
-	                             * and configuration of slaves) */
-	const co_service *attached[CO_NODE_ATTACH_MAX]; /* co_node_attach_service */
-	unsigned n_attached;
+	struct co_emcy *emcy;       /* core/emcy.c */
+	struct co_sync *sync;       /* core/sync.c */
+	struct co_time *time;       /* core/time.c */
+	struct co_pdo *pdo;         /* core/pdo.c */
+	struct co_lss *lss;         /* core/lss_service.c: master and slave */
 };
 
 #endif /* COGW_CORE_CO_INTERNAL_H */

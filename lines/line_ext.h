@@ -13,10 +13,10 @@
  * is wake_fd, or the mailbox).
  *
  * What an extension can do, op by op (all optional):
- *   attach        at start-up: allocate, attach core services to the
- *                 line's node (co_node_attach_service(line_node(l), ...):
- *                 they are then ticked and counted in the deadline like
- *                 the built-in services), hook OD entries.
+ *   attach        at start-up: allocate, create what runs on the line's
+ *                 node (line_node(l)), hook OD entries. Its timers are
+ *                 the extension's own: poll runs them and returns the
+ *                 next deadline.
  *   on_core_event observe every event of the line's core, after the line's
  *                 own handling (mailbox answers and events).
  *   on_command    mailbox commands with cmd_first <= code <= cmd_last

@@ -4,18 +4,18 @@
  * start-up and shutdown (see extensions.h).
  */
 #include "apps/cogwd/extensions.h"
-#include "apps/cogwd/manager_ext.h"
 
 #include <errno.h>
 #include <string.h>
 
 #include "lines/log.h"
 
+extern const cogwd_ext_provider cogwd_ext_manager;
 extern const cogwd_ext_provider cogwd_ext_gateway;
 
 const cogwd_ext_provider *const cogwd_ext_providers[] = {
 	/* the manager and the gateway add their providers here */
-	&cogwd_manager_provider,
+	&cogwd_ext_manager,
 	&cogwd_ext_gateway,
 	NULL,
 };

@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * The extension seam of a line (lines/line_ext.h) on a real line thread
- * over vcan0: a test extension attached at start-up attaches a core
- * service that the line ticks, observes the core's events, takes over a
+ * over vcan0: a test extension attached at start-up observes the core's
+ * events, takes over a
  * range of mailbox commands, is woken through a cross-line ring
  * (lines/xring.h) fed by another thread, gets the line to sleep no longer
  * than its own deadline, and is detached at the end.
@@ -26,14 +26,12 @@
 #include "mailbox/cogw.h"
 #include "mailbox/proto.h"
 
-#define EXT_PERIOD_US 10000u  /* the extension's own deadline */
-#define SVC_PERIOD_US 100000u /* the attached core service's period */
-#define HANDOFF_ID 0x123u     /* frames the extension sends per hand-off */
+#define EXT_PERIOD_US 10000u /* the extension's own deadline */
+#define HANDOFF_ID 0x123u    /* frames the extension sends per hand-off */
 
 /* Everything the line thread writes and the test reads is atomic. */
 static struct {
 	atomic_int attached, detached;
-	atomic_uint svc_ticks;
 	atomic_uint events, nmt_events;
 	atomic_uint commands;
 	atomic_uint wakes, handoffs;
@@ -42,26 +40,12 @@ static struct {
 	xring *inbox;      /* ring from the test thread to the line */
 } ext;
 
-static uint64_t svc_next; /* written by the line thread only (service tick) */
-
-static uint64_t svc_tick(co_node *node, uint64_t now_us)
-{
-	(void)node;
-	if (now_us >= svc_next) {
-		atomic_fetch_add(&ext.svc_ticks, 1);
-		svc_next = now_us + SVC_PERIOD_US;
-	}
-	return svc_next;
-}
-
-static const co_service test_svc = { .name = "ext-test-service", .tick = svc_tick };
-
 static int ext_attach(void *ctx, line *l)
 {
 	TEST_ASSERT_EQUAL_PTR(&ext, ctx);
-	svc_next = 0;
+	(void)l;
 	atomic_store(&ext.attached, 1);
-	return co_node_attach_service(line_node(l), &test_svc, line_now_us());
+	return 0;
 }
 
 static void ext_detach(void *ctx, line *l)
@@ -181,13 +165,9 @@ void tearDown(void)
 	close(wakefd);
 }
 
-static void test_attached_service_ticked_and_events_observed(void)
+static void test_events_observed(void)
 {
 	usleep(300000);
-	/* 300 ms at a 100 ms period: the line ticked the attached service
-	 * (first tick at attach, then on its deadline). */
-	unsigned ticks = atomic_load(&ext.svc_ticks);
-	TEST_ASSERT_TRUE_MESSAGE(ticks >= 3, "attached core service not ticked");
 	/* The node booted (NMT state change) and the extension saw it. */
 	TEST_ASSERT_TRUE(atomic_load(&ext.nmt_events) >= 1);
 	TEST_ASSERT_TRUE(atomic_load(&ext.events) >= atomic_load(&ext.nmt_events));
@@ -196,8 +176,8 @@ static void test_attached_service_ticked_and_events_observed(void)
 static void test_extension_deadline_drives_the_loop(void)
 {
 	usleep(300000);
-	/* 300 ms at a 10 ms deadline; the other timers (the attached
-	 * service every 100 ms, the check-in every 250 ms) wake the line a
+	/* 300 ms at a 10 ms deadline; the other timers (the check-in
+	 * every 250 ms) wake the line a
 	 * handful of times: only the extension's deadline explains this
 	 * many due polls. */
 	TEST_ASSERT_TRUE_MESSAGE(atomic_load(&ext.polls_due) >= 15, "extension deadline ignored");
@@ -286,7 +266,7 @@ static void test_failing_attach_fails_the_line(void)
 int main(void)
 {
 	UNITY_BEGIN();
-	RUN_TEST(test_attached_service_ticked_and_events_observed);
+	RUN_TEST(test_events_observed);
 	RUN_TEST(test_extension_deadline_drives_the_loop);
 	RUN_TEST(test_command_range_goes_to_the_extension);
 	RUN_TEST(test_handoff_through_a_ring_wakes_the_line);

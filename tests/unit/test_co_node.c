@@ -259,89 +259,6 @@ static void test_two_instances_are_independent(void)
 	tb_fini(&b);
 }
 
-/* ---- services attached at start-up ------------------------------------------ */
-
-static struct {
-	int init, fini, ticks, resets;
-	uint64_t due;
-	int init_rc;
-} att;
-
-static int att_init(co_node *n)
-{
-	(void)n;
-	att.init++;
-	return att.init_rc;
-}
-
-static void att_fini(co_node *n)
-{
-	(void)n;
-	att.fini++;
-}
-
-static uint64_t att_tick(co_node *n, uint64_t now_us)
-{
-	(void)n;
-	att.ticks++;
-	if (now_us >= att.due)
-		att.due = now_us + 1000;
-	return att.due;
-}
-
-static void att_reset(co_node *n, uint64_t now_us)
-{
-	(void)n;
-	(void)now_us;
-	att.resets++;
-}
-
-static const co_service att_svc = { .name = "attached",
-				    .init = att_init,
-				    .fini = att_fini,
-				    .tick = att_tick,
-				    .reset_comm = att_reset };
-static const co_service plain_svc = { .name = "plain" };
-
-static void test_attached_service_ticked_and_counted_in_deadline(void)
-{
-	memset(&att, 0, sizeof(att));
-	att.due = 5000;
-	co_node_tick(node, 0);
-	TEST_ASSERT_EQUAL(0, co_node_attach_service(node, &att_svc, 10));
-	TEST_ASSERT_EQUAL(1, att.init);
-	TEST_ASSERT_TRUE(co_node_next_deadline_us(node) <= 10); /* first tick at once */
-	co_node_tick(node, 10);
-	TEST_ASSERT_EQUAL(1, att.ticks);
-	TEST_ASSERT_TRUE(co_node_next_deadline_us(node) <= 5000);
-	co_node_tick(node, 5000);
-	TEST_ASSERT_EQUAL_UINT64(6000, att.due);
-	TEST_ASSERT_TRUE(co_node_next_deadline_us(node) <= 6000);
-	co_node_reset_comm(node, 5000);
-	TEST_ASSERT_EQUAL(1, att.resets);
-	TEST_ASSERT_EQUAL(-EEXIST, co_node_attach_service(node, &att_svc, 5000));
-	TEST_ASSERT_EQUAL(-EINVAL, co_node_attach_service(node, NULL, 5000));
-	for (int i = 1; i < CO_NODE_ATTACH_MAX; i++) {
-		static co_service more[CO_NODE_ATTACH_MAX];
-		more[i] = plain_svc;
-		TEST_ASSERT_EQUAL(0, co_node_attach_service(node, &more[i], 5000));
-	}
-	TEST_ASSERT_EQUAL(-ENOSPC, co_node_attach_service(node, &plain_svc, 5000));
-	co_node_destroy(node);
-	node = NULL;
-	TEST_ASSERT_EQUAL(1, att.fini);
-}
-
-static void test_attached_service_init_failure(void)
-{
-	memset(&att, 0, sizeof(att));
-	att.init_rc = -ENOMEM;
-	TEST_ASSERT_EQUAL(-ENOMEM, co_node_attach_service(node, &att_svc, 0));
-	TEST_ASSERT_EQUAL(1, att.fini); /* cleans up after itself */
-	co_node_tick(node, 0);
-	TEST_ASSERT_EQUAL(0, att.ticks);
-}
-
 int main(void)
 {
 	UNITY_BEGIN();
@@ -352,7 +269,5 @@ int main(void)
 	RUN_TEST(test_send_failure_counted_and_reported);
 	RUN_TEST(test_deadline_none_when_idle);
 	RUN_TEST(test_two_instances_are_independent);
-	RUN_TEST(test_attached_service_ticked_and_counted_in_deadline);
-	RUN_TEST(test_attached_service_init_failure);
 	return UNITY_END();
 }

@@ -1,10 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * apps/cogwd/manager_ext.c - see manager_ext.h. Everything here runs on
- * the line thread (attach/detach while it does not run): each line owns its
+ * manager/manager_ext.c - see manager_ext.h. Everything here runs on the
+ * line thread (attach/detach while it does not run): each line owns its
  * manager alone.
  */
-#include "apps/cogwd/manager_ext.h"
+#include "manager/manager_ext.h"
 
 #include <errno.h>
 #include <stdlib.h>
@@ -38,18 +38,18 @@ struct mgr_program {
 };
 
 struct mgr_line {
-	const cogw_line_config *lc;
+	mgr_ext_line_params lc;
 	co_manager *mgr;
 	co_cfgmgr_line cfgm;
 	co_swmgr_line swm;
 	line *l; /* while attached: progress events go to its mailbox */
-	char name[COGW_NAME_MAX];
 	struct mgr_program prog[MGR_PROGRAM_MAX];
 	size_t copy_cap; /* bytes of each prog[].copy */
 };
 
-struct mgr_state {
-	struct mgr_line lines[COGW_LINES_MAX];
+struct mgr_ext {
+	unsigned n_lines;
+	struct mgr_line lines[MGR_EXT_LINES_MAX];
 };
 
 static struct mgr_program *program_of(struct mgr_line *ml, uint8_t node_id)
@@ -71,39 +71,39 @@ static void cfgm_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
 		cogw_log(COGW_LOG_ERR,
 			 "line %s: node %u: configuration failed at entry %u (%04X:%02X): abort "
 			 "%08X (%s)",
-			 ml->name, r->node_id, (unsigned)r->entry, r->index, r->sub,
+			 ml->lc.name, r->node_id, (unsigned)r->entry, r->index, r->sub,
 			 (unsigned)r->abort, sdo_abort_to_string(r->abort));
 	else if (r->outcome == CO_CFGMGR_CONFIGURED)
-		cogw_log(COGW_LOG_INFO, "line %s: node %u: configured (%u entries%s)", ml->name,
+		cogw_log(COGW_LOG_INFO, "line %s: node %u: configured (%u entries%s)", ml->lc.name,
 			 r->node_id, (unsigned)r->written,
 			 r->restored ? ", defaults restored first" : "");
 	else if (r->outcome == CO_CFGMGR_SKIPPED)
 		cogw_log(COGW_LOG_INFO,
 			 "line %s: node %u: configuration unchanged (1020h matches 1F26h/1F27h)",
-			 ml->name, r->node_id);
+			 ml->lc.name, r->node_id);
 	if (ml->mgr)
 		(void)co_manager_configure_done(ml->mgr, r->node_id, abort, r->index, r->sub,
 						abort ? r->entry : r->written, now_us);
 }
 
 /* 1F58h:n: the images read from the files of nodes[].program at load. */
-static const cogw_node *node_of(const struct mgr_line *ml, uint8_t id)
+static const mgr_ext_node *node_of(const struct mgr_line *ml, uint8_t id)
 {
-	for (size_t i = 0; i < ml->lc->n_nodes; i++)
-		if (ml->lc->nodes[i].id == id)
-			return &ml->lc->nodes[i];
+	for (size_t i = 0; i < ml->lc.n_nodes; i++)
+		if (ml->lc.nodes[i].id == id)
+			return &ml->lc.nodes[i];
 	return NULL;
 }
 
 static uint32_t image_size(void *ctx, uint8_t node_id)
 {
-	const cogw_node *n = node_of(ctx, node_id);
+	const mgr_ext_node *n = node_of(ctx, node_id);
 	return n && n->program ? (uint32_t)n->program_len : 0;
 }
 
 static int image_read(void *ctx, uint8_t node_id, uint32_t offset, uint8_t *buf, uint32_t len)
 {
-	const cogw_node *n = node_of(ctx, node_id);
+	const mgr_ext_node *n = node_of(ctx, node_id);
 	if (!n || !n->program || offset > n->program_len)
 		return -EINVAL;
 	if (len > n->program_len - offset)
@@ -143,8 +143,8 @@ static void swm_progress(void *ctx, uint8_t node_id, uint32_t sent, uint32_t tot
 	};
 	(void)now_us;
 	if (sent == total)
-		cogw_log(COGW_LOG_INFO, "line %s: node %u: program image sent (%u bytes)", ml->name,
-			 node_id, (unsigned)total);
+		cogw_log(COGW_LOG_INFO, "line %s: node %u: program image sent (%u bytes)",
+			 ml->lc.name, node_id, (unsigned)total);
 	if (ml->l)
 		(void)mbx_server_publish(line_mbx(ml->l), MBX_EV_MGR_NODE, p ? p->reply.corr : 0,
 					 &w, sizeof w);
@@ -190,7 +190,7 @@ static void swm_done(void *ctx, const co_swmgr_result *r, uint64_t now_us)
 		cogw_log(COGW_LOG_ERR,
 			 "line %s: node %u: software %c (%s) at %04X:%02X: abort %08X, 1F56h:1 = "
 			 "%08X, expected %08X, program %s (1F51h:1)",
-			 ml->name, r->node_id, status, co_mgr_status_to_string(status), r->index,
+			 ml->lc.name, r->node_id, status, co_mgr_status_to_string(status), r->index,
 			 r->sub, (unsigned)r->abort, (unsigned)r->found, (unsigned)r->expected,
 			 co_swmgr_program_to_string(r->program));
 	else if (r->look_only && co_swmgr_program_down(r))
@@ -199,15 +199,16 @@ static void swm_done(void *ctx, const co_swmgr_result *r, uint64_t now_us)
 		cogw_log(COGW_LOG_WARNING,
 			 "line %s: node %u: its program does not run (1F51h:1 = %u, %s): a program "
 			 "download cut short? No software_id is configured to check or restore it",
-			 ml->name, r->node_id, r->program, co_swmgr_program_to_string(r->program));
+			 ml->lc.name, r->node_id, r->program,
+			 co_swmgr_program_to_string(r->program));
 	else if (r->look_only)
 		; /* software not checked, program running or without program control */
 	else if (r->outcome == CO_SWMGR_UPDATED)
 		cogw_log(COGW_LOG_INFO,
-			 "line %s: node %u: program updated (%u bytes), software %08X", ml->name,
+			 "line %s: node %u: program updated (%u bytes), software %08X", ml->lc.name,
 			 r->node_id, (unsigned)r->bytes, (unsigned)r->found);
 	else
-		cogw_log(COGW_LOG_INFO, "line %s: node %u: software %08X as expected", ml->name,
+		cogw_log(COGW_LOG_INFO, "line %s: node %u: software %08X as expected", ml->lc.name,
 			 r->node_id, (unsigned)r->found);
 	if (p) { /* a manual update, not the boot's check software step */
 		program_answer(ml, p, r);
@@ -221,39 +222,31 @@ static void swm_done(void *ctx, const co_swmgr_result *r, uint64_t now_us)
 static int mgr_attach(void *ctx, line *l)
 {
 	struct mgr_line *ml = ctx;
-	const cogw_manager_config *mc = &ml->lc->manager;
 	co_node *node = line_node(l);
-	co_manager_config c = {
-		.max_parallel = mc->max_parallel,
-		.sdo_timeout_ms = mc->sdo_timeout_ms,
-		.reset_wait_ms = mc->reset_wait_ms,
-		.retry_ms = mc->retry_ms,
-		.scan_ms = mc->scan_ms,
-		.accept_remote_nmt = mc->accept_remote_nmt,
-		.configure = co_cfgmgr_line_configure,
-		.configure_ctx = &ml->cfgm,
-		.software = co_swmgr_line_check,
-		.software_ctx = &ml->swm,
-	};
+	co_manager_config c = ml->lc.mgr;
 	const co_swmgr_source src = { .size = image_size, .read = image_read, .ctx = ml };
 	int rc;
 
+	c.configure = co_cfgmgr_line_configure;
+	c.configure_ctx = &ml->cfgm;
+	c.software = co_swmgr_line_check;
+	c.software_ctx = &ml->swm;
 	co_cfgmgr_line_init(&ml->cfgm, node, cfgm_done, ml);
 	co_swmgr_line_init(&ml->swm, node, &src, swm_done, ml);
-	ml->swm.sdo_timeout_ms = mc->sdo_timeout_ms;
+	ml->swm.sdo_timeout_ms = c.sdo_timeout_ms;
 	ml->swm.progress = swm_progress;
 	ml->swm.progress_ctx = ml;
 	ml->l = l;
-	ml->cfgm.sdo_timeout_ms = mc->sdo_timeout_ms;
-	for (size_t i = 0; i < ml->lc->n_nodes; i++) /* "store": 1010h after a download */
-		ml->cfgm.store[ml->lc->nodes[i].id] = ml->lc->nodes[i].config.store;
+	ml->cfgm.sdo_timeout_ms = c.sdo_timeout_ms;
+	for (size_t i = 0; i < ml->lc.n_nodes; i++) /* "store": 1010h after a download */
+		ml->cfgm.store[ml->lc.nodes[i].id] = ml->lc.nodes[i].store;
 	if ((rc = co_manager_create(&ml->mgr, node, &c)) < 0) {
 		cogw_log(COGW_LOG_ERR, "line %s: manager: %s (the line needs sdo_clients >= 1)",
-			 ml->name, strerror(-rc));
+			 ml->lc.name, strerror(-rc));
 		return rc;
 	}
-	for (size_t i = 0; i < ml->lc->n_nodes; i++) {
-		const cogw_node *n = &ml->lc->nodes[i];
+	for (size_t i = 0; i < ml->lc.n_nodes; i++) {
+		const mgr_ext_node *n = &ml->lc.nodes[i];
 		if (n->keep_op)
 			(void)co_manager_set_keep_op(ml->mgr, n->id, true);
 		(void)co_manager_set_target_state(ml->mgr, n->id, n->target_state);
@@ -278,7 +271,7 @@ static void log_event(const struct mgr_line *ml, const co_event *ev)
 	const co_ev_mgr *e = &ev->u.mgr;
 	switch (ev->kind) {
 	case CO_EV_MGR_STATE:
-		cogw_log(COGW_LOG_INFO, "line %s: manager %s (flags %02x)", ml->name,
+		cogw_log(COGW_LOG_INFO, "line %s: manager %s (flags %02x)", ml->lc.name,
 			 co_mgr_state_to_string(e->state), e->flags);
 		break;
 	case CO_EV_MGR_BOOT:
@@ -286,17 +279,17 @@ static void log_event(const struct mgr_line *ml, const co_event *ev)
 			cogw_log(COGW_LOG_WARNING,
 				 "line %s: boot of node %u failed at %s %04X:%02X: status %c (%s), "
 				 "abort %08X (%s)",
-				 ml->name, e->node, co_mgr_step_to_string(e->step), e->index,
+				 ml->lc.name, e->node, co_mgr_step_to_string(e->step), e->index,
 				 e->sub, e->status, co_mgr_status_to_string(e->status), e->abort,
 				 e->abort ? sdo_abort_to_string(e->abort) : "none");
 		else if (e->done)
-			cogw_log(COGW_LOG_INFO, "line %s: node %u booted", ml->name, e->node);
+			cogw_log(COGW_LOG_INFO, "line %s: node %u booted", ml->lc.name, e->node);
 		break;
 	case CO_EV_MGR_NODE:
 		cogw_log(e->what == CO_MGR_NODE_OWN_ID || e->what == CO_MGR_NODE_DUPLICATE
 				 ? COGW_LOG_ERR
 				 : COGW_LOG_NOTICE,
-			 "line %s: node %u: %s (%u)", ml->name, e->node,
+			 "line %s: node %u: %s (%u)", ml->lc.name, e->node,
 			 co_mgr_node_what_to_string(e->what), e->value);
 		break;
 	default:
@@ -446,31 +439,35 @@ static int status_of(int rc)
  * STATE when the manager holds the network stopped (no SDO there,
  * docs/config.md) or no SDO request can be queued.
  */
+/* The refusal of a program update (0: none) and the free entry it takes. */
+static int program_refusal(struct mgr_line *ml, line *l, const mbx_request *req,
+			   const mbx_mgr_program_req *r, struct mgr_program **out)
+{
+	*out = NULL;
+	if (r->node == co_node_id(line_node(l)) || !req->data_len || req->data_len > UINT32_MAX)
+		return MBX_E_PARAM;
+	if (co_manager_state(ml->mgr) == CO_MGR_STOPPED)
+		return MBX_E_STATE;
+	if (co_swmgr_running(&ml->swm.job[r->node - 1]) || program_of(ml, r->node))
+		return MBX_E_BUSY;
+	for (unsigned i = 0; i < MGR_PROGRAM_MAX && !*out; i++)
+		if (!ml->prog[i].used)
+			*out = &ml->prog[i];
+	if (!*out || (!req->reply.slot && req->data_len > ml->copy_cap))
+		return MBX_E_BUSY;
+	return 0;
+}
+
 static void program_request(struct mgr_line *ml, line *l, const mbx_request *req, uint64_t now)
 {
 	mbx_server *srv = line_mbx(l);
 	mbx_mgr_program_req r;
-	struct mgr_program *p = NULL;
+	struct mgr_program *p;
 	int rc;
 
 	memcpy(&r, req->payload, sizeof r);
-	if (r.node == co_node_id(line_node(l)) || !req->data_len || req->data_len > UINT32_MAX) {
-		(void)mbx_server_respond(srv, &req->reply, MBX_E_PARAM, 0, NULL, 0);
-		return;
-	}
-	if (co_manager_state(ml->mgr) == CO_MGR_STOPPED) {
-		(void)mbx_server_respond(srv, &req->reply, MBX_E_STATE, 0, NULL, 0);
-		return;
-	}
-	if (co_swmgr_running(&ml->swm.job[r.node - 1]) || program_of(ml, r.node)) {
-		(void)mbx_server_respond(srv, &req->reply, MBX_E_BUSY, 0, NULL, 0);
-		return;
-	}
-	for (unsigned i = 0; i < MGR_PROGRAM_MAX && !p; i++)
-		if (!ml->prog[i].used)
-			p = &ml->prog[i];
-	if (!p || (!req->reply.slot && req->data_len > ml->copy_cap)) {
-		(void)mbx_server_respond(srv, &req->reply, MBX_E_BUSY, 0, NULL, 0);
+	if ((rc = program_refusal(ml, l, req, &r, &p)) != 0) {
+		(void)mbx_server_respond(srv, &req->reply, rc, 0, NULL, 0);
 		return;
 	}
 	if (req->reply.slot) {
@@ -487,8 +484,8 @@ static void program_request(struct mgr_line *ml, line *l, const mbx_request *req
 	uint32_t timeout = ml->swm.sdo_timeout_ms;
 	if (r.sdo_timeout_ms)
 		ml->swm.sdo_timeout_ms = r.sdo_timeout_ms;
-	cogw_log(COGW_LOG_NOTICE, "line %s: node %u: program update requested (%u bytes)", ml->name,
-		 r.node, (unsigned)p->size);
+	cogw_log(COGW_LOG_NOTICE, "line %s: node %u: program update requested (%u bytes)",
+		 ml->lc.name, r.node, (unsigned)p->size);
 	rc = co_swmgr_line_program(&ml->swm, r.node, &src, r.expected, now);
 	ml->swm.sdo_timeout_ms = timeout;
 	if (rc < 0) {
@@ -562,66 +559,60 @@ static const line_ext_ops mgr_ops = {
 	.poll = mgr_poll,
 };
 
-static void mgr_teardown(void *state)
+void mgr_ext_destroy(mgr_ext *x)
 {
-	struct mgr_state *st = state;
-	if (!st)
+	if (!x)
 		return;
-	for (unsigned i = 0; i < COGW_LINES_MAX; i++)
+	for (unsigned i = 0; i < MGR_EXT_LINES_MAX; i++)
 		for (unsigned k = 0; k < MGR_PROGRAM_MAX; k++)
-			free(st->lines[i].prog[k].copy);
-	free(st);
+			free(x->lines[i].prog[k].copy);
+	free(x);
 }
 
-static int mgr_setup(const cogw_config *cfg, void **state)
+int mgr_ext_create(mgr_ext **out, const mgr_ext_params *p)
 {
-	struct mgr_state *st;
+	mgr_ext *x;
 	bool any = false;
 
-	*state = NULL;
-	for (size_t i = 0; i < cfg->n_lines; i++)
-		any = any || cfg->lines[i].manager.enabled;
+	*out = NULL;
+	if (!p || p->n_lines > MGR_EXT_LINES_MAX)
+		return -EINVAL;
+	for (unsigned i = 0; i < p->n_lines; i++)
+		any = any || p->line[i].enabled;
 	if (!any)
 		return 0;
-	st = calloc(1, sizeof *st);
-	if (!st)
+	x = calloc(1, sizeof *x);
+	if (!x)
 		return -ENOMEM;
-	for (size_t i = 0; i < cfg->n_lines; i++) {
-		struct mgr_line *ml = &st->lines[i];
-		ml->lc = &cfg->lines[i];
-		memcpy(ml->name, cfg->lines[i].name, sizeof ml->name);
-		if (!ml->lc->manager.enabled)
+	x->n_lines = p->n_lines;
+	for (unsigned i = 0; i < p->n_lines; i++) {
+		struct mgr_line *ml = &x->lines[i];
+		ml->lc = p->line[i];
+		if (!ml->lc.enabled)
 			continue;
 		/* the largest image that arrives in one message (not chunked) */
-		ml->copy_cap = cfg->mailbox.msg_size > MBX_HDR_SIZE + sizeof(mbx_mgr_program_req)
-				       ? cfg->mailbox.msg_size - MBX_HDR_SIZE -
-						 sizeof(mbx_mgr_program_req)
+		ml->copy_cap = p->msg_size > MBX_HDR_SIZE + sizeof(mbx_mgr_program_req)
+				       ? p->msg_size - MBX_HDR_SIZE - sizeof(mbx_mgr_program_req)
 				       : 0;
 		for (unsigned k = 0; k < MGR_PROGRAM_MAX; k++) {
 			ml->prog[k].copy = malloc(ml->copy_cap ? ml->copy_cap : 1);
 			if (!ml->prog[k].copy) {
-				mgr_teardown(st);
+				mgr_ext_destroy(x);
 				return -ENOMEM;
 			}
 		}
 	}
-	*state = st;
+	*out = x;
 	return 0;
 }
 
-static void mgr_line_ext(void *state, unsigned line_no, line_ext *out)
+void mgr_ext_line(mgr_ext *x, unsigned line_no, line_ext *out)
 {
-	struct mgr_state *st = state;
-	if (line_no >= COGW_LINES_MAX || !st->lines[line_no].lc ||
-	    !st->lines[line_no].lc->manager.enabled)
+	out->ops = NULL;
+	out->ctx = NULL;
+	out->wake_fd = -1;
+	if (!x || line_no >= x->n_lines || !x->lines[line_no].lc.enabled)
 		return;
 	out->ops = &mgr_ops;
-	out->ctx = &st->lines[line_no];
+	out->ctx = &x->lines[line_no];
 }
-
-const cogwd_ext_provider cogwd_manager_provider = {
-	.name = "manager",
-	.setup = mgr_setup,
-	.line_ext = mgr_line_ext,
-	.teardown = mgr_teardown,
-};
