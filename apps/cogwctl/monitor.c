@@ -71,6 +71,28 @@ static void pdo_value_text(const mbx_pdo_value *v, bool as_float, char *buf, siz
 	free(hex);
 }
 
+/* "deadline missed", "short", "long", or those joined by '+' */
+static void rpdo_fault_text(const mbx_ev_rpdo_fault *e, char *buf, size_t len)
+{
+	static const char *const names[] = { "deadline missed", "short", "long" };
+	size_t off = 0;
+	buf[0] = 0;
+	for (unsigned k = 0; k < 3; k++)
+		if ((e->fault & (1u << k)) && off < len)
+			off += (size_t)snprintf(buf + off, len - off, "%s%s", off ? "+" : "",
+						names[k]);
+}
+
+/* ISO 8601 UTC with milliseconds */
+static void time_text(int64_t unix_ms, char *buf, size_t len)
+{
+	time_t s = (time_t)(unix_ms / 1000);
+	struct tm tm;
+	gmtime_r(&s, &tm);
+	size_t n = strftime(buf, len, "%Y-%m-%dT%H:%M:%S", &tm);
+	snprintf(buf + n, len - n, ".%03dZ", (int)(unix_ms % 1000));
+}
+
 static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 {
 	char ts[32], text[1024] = "", sub[256];
@@ -90,7 +112,10 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 	case MBX_EV_NMT_STATE:
 	case MBX_EV_BOOTUP:
 	case MBX_EV_HB_STARTED:
-	case MBX_EV_HB_LOST: {
+	case MBX_EV_HB_LOST:
+	case MBX_EV_GUARD_TOGGLE:
+	case MBX_EV_LIFE_LOST:
+	case MBX_EV_LIFE_RESUMED: {
 		mbx_ev_node e;
 		memcpy(&e, m->data, sizeof e);
 		if (m->code == MBX_EV_NMT_STATE)
@@ -101,6 +126,13 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		else if (m->code == MBX_EV_HB_STARTED)
 			snprintf(text, sizeof text, "node %u heartbeat started (%s)", e.node,
 				 nmt_text(e.state));
+		else if (m->code == MBX_EV_GUARD_TOGGLE)
+			snprintf(text, sizeof text, "node %u guarding: toggle bit repeated (%s)",
+				 e.node, nmt_text(e.state));
+		else if (m->code == MBX_EV_LIFE_LOST)
+			snprintf(text, sizeof text, "our node %u: life guarding LOST", e.node);
+		else if (m->code == MBX_EV_LIFE_RESUMED)
+			snprintf(text, sizeof text, "our node %u: guarded again", e.node);
 		else
 			snprintf(text, sizeof text, "node %u heartbeat LOST", e.node);
 		if (o) {
@@ -209,6 +241,64 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 			cJSON_AddNumberToObject(o, "ts_us", (double)e.ts_us);
 			cJSON_AddNumberToObject(o, "pdo", e.pdo);
 			cJSON_AddItemToObject(o, "values", vals);
+		}
+		break;
+	}
+	case MBX_EV_RPDO_FAULT:
+	case MBX_EV_RPDO_RECOVERED: {
+		mbx_ev_rpdo_fault e;
+		memcpy(&e, m->data, sizeof e);
+		rpdo_fault_text(&e, sub, sizeof sub);
+		if (m->code == MBX_EV_RPDO_FAULT && e.fault == MBX_RPDO_FAULT_TIMEOUT)
+			snprintf(text, sizeof text,
+				 "RPDO %u (COB-ID %" PRIX32 "h): %s, %u ms; EMCY %04X sent", e.pdo,
+				 e.cob_id, sub, e.event_ms, e.emcy);
+		else if (m->code == MBX_EV_RPDO_FAULT)
+			snprintf(text, sizeof text,
+				 "RPDO %u (COB-ID %" PRIX32 "h): %s, %u bytes, %u mapped; EMCY %04X sent",
+				 e.pdo, e.cob_id, sub, e.len, e.mapped_len, e.emcy);
+		else
+			snprintf(text, sizeof text, "RPDO %u (COB-ID %" PRIX32 "h): %s ended (%s)",
+				 e.pdo, e.cob_id, sub,
+				 e.len ? "a correct frame" : "reconfigured");
+		if (o) {
+			cJSON_AddNumberToObject(o, "ts_us", (double)e.ts_us);
+			cJSON_AddNumberToObject(o, "pdo", e.pdo);
+			cJSON_AddNumberToObject(o, "cob_id", e.cob_id);
+			cJSON_AddStringToObject(o, "fault", sub);
+			cJSON_AddNumberToObject(o, "len", e.len);
+			cJSON_AddNumberToObject(o, "mapped_len", e.mapped_len);
+			cJSON_AddNumberToObject(o, "event_ms", e.event_ms);
+			if (m->code == MBX_EV_RPDO_FAULT)
+				cJSON_AddNumberToObject(o, "emcy", e.emcy);
+		}
+		break;
+	}
+	case MBX_EV_SYNC: {
+		mbx_ev_sync e;
+		memcpy(&e, m->data, sizeof e);
+		snprintf(text, sizeof text, "SYNC %s, counter %u", e.produced ? "sent" : "received",
+			 e.counter);
+		if (o) {
+			cJSON_AddNumberToObject(o, "ts_us", (double)e.ts_us);
+			cJSON_AddNumberToObject(o, "counter", e.counter);
+			cJSON_AddBoolToObject(o, "produced", e.produced);
+		}
+		break;
+	}
+	case MBX_EV_TIME: {
+		mbx_ev_time e;
+		memcpy(&e, m->data, sizeof e);
+		time_text(e.unix_ms, sub, sizeof sub);
+		snprintf(text, sizeof text, "TIME %s %s (day %u, %" PRIu32 " ms)",
+			 e.produced ? "sent" : "received", sub, e.days, e.ms);
+		if (o) {
+			cJSON_AddNumberToObject(o, "ts_us", (double)e.ts_us);
+			cJSON_AddNumberToObject(o, "days", e.days);
+			cJSON_AddNumberToObject(o, "ms", e.ms);
+			cJSON_AddNumberToObject(o, "unix_ms", (double)e.unix_ms);
+			cJSON_AddStringToObject(o, "utc", sub);
+			cJSON_AddBoolToObject(o, "produced", e.produced);
 		}
 		break;
 	}
@@ -401,7 +491,7 @@ int ctl_monitor_run(ctl *c, const ctl_monitor_spec *spec)
 	 * events): a person knows it is listening, a script can wait for it. */
 	char what[256] = "";
 	size_t off = 0;
-	for (uint32_t bit = 1; bit && bit <= MBX_EVC_MANAGER; bit <<= 1)
+	for (uint32_t bit = 1; bit && bit <= MBX_EVC_ALL; bit <<= 1)
 		if ((spec->classes & bit) && off < sizeof what)
 			off += (size_t)snprintf(what + off, sizeof what - off, "%s%s",
 						off ? "," : "", mbx_event_class_to_string(bit));
@@ -456,6 +546,7 @@ static const struct {
 	{ "emcy", MBX_EVC_EMCY },       { "pdo", MBX_EVC_PDO },    { "sdo", MBX_EVC_SDO },
 	{ "can", MBX_EVC_CAN },         { "raw", MBX_EVC_RAW },    { "od", MBX_EVC_OD },
 	{ "manager", MBX_EVC_MANAGER }, { "gateway", MBX_EVC_GW }, { "all", MBX_EVC_ALL },
+	{ "sync", MBX_EVC_SYNC },       { "time", MBX_EVC_TIME },  { "pdo-fault", MBX_EVC_PDO_FAULT },
 };
 
 /* Split "a,b,c" and call fn on each part. */
@@ -489,7 +580,7 @@ static int add_class(ctl *c, const char *s, void *arg)
 		}
 	return ctl_usage_error(c,
 			       "unknown event class '%s' (nmt, hb, boot, emcy, pdo, sdo, can, raw, "
-			       "od, manager, gateway, all)",
+			       "od, manager, gateway, pdo-fault, sync, time, all)",
 			       s);
 }
 
@@ -551,7 +642,8 @@ static int run_monitor(ctl *c, int argc, char **argv)
 	if (filter && (rc = each_item(c, filter, add_filter, &spec)))
 		return rc;
 	if (!cls)
-		spec.classes = MBX_EVC_ALL & ~MBX_EVC_RAW; /* raw frames only on request */
+		/* raw frames and SYNCs (up to one per ms) only on request */
+		spec.classes = MBX_EVC_ALL & ~(MBX_EVC_RAW | MBX_EVC_SYNC);
 	if (spec.n_filters)
 		spec.classes |= MBX_EVC_RAW;
 	if ((rc = parse_limits(c, &spec, count, duration)))
@@ -576,11 +668,12 @@ const ctl_cmd ctl_cmd_monitor = {
 		"(--duration, fractions allowed); then prints how many events it saw (stderr).\n"
 		"\n"
 		"  --line L,..      lines to watch (default: every line of the daemon)\n"
-		"  --class C,..     event classes (default: all but raw; gateway = routed SDO\n"
-		"                   sessions ending and EMCYs forwarded):\n"
+		"  --class C,..     event classes (default: all but raw and sync; gateway =\n"
+		"                   routed SDO sessions ending and EMCYs forwarded):\n"
 		"                   nmt   NMT state changes (from heartbeats and the daemon's "
 		"own)\n"
-		"                   hb    heartbeat supervision started / lost\n"
+		"                   hb    heartbeat supervision started / lost, guarding\n"
+		"                         toggle errors, our node's life guarding\n"
 		"                   boot  boot-up messages\n"
 		"                   emcy  emergency messages received, with the error code's "
 		"meaning\n"
@@ -589,7 +682,11 @@ const ctl_cmd ctl_cmd_monitor = {
 		"                   can   CAN controller state (error-passive, bus-off, ...)\n"
 		"                   raw   every CAN frame (can-utils notation 181#0000A040)\n"
 		"                   od    the daemon's own object dictionary written over SDO\n"
-		"                   all   all of these (raw included)\n"
+		"                   pdo-fault  the daemon's RPDOs: deadline missed, too short,\n"
+		"                         too long (with the EMCY it sent), and when it ends\n"
+		"                   sync  every SYNC sent or received, with its counter\n"
+		"                   time  every TIME stamp sent or received\n"
+		"                   all   all of these (raw and sync included)\n"
 		"  --raw-filter F,..  raw frames matching ID[/MASK] only (hex; 1..3 digits = "
 		"11-bit,\n"
 		"                   8 digits = 29-bit; at most 4); implies --class raw\n"
