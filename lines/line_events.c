@@ -96,8 +96,9 @@ static void publish_errctrl(line *l, const co_event *ev)
 			     ev->u.errctrl.prev);
 		break;
 	case CO_EV_GUARD_LIFE_LOST:
-		cogw_log(COGW_LOG_WARNING, "line %s: our node is no longer guarded (life time %u ms)",
-			 l->name, ev->u.errctrl.time_ms);
+		cogw_log(COGW_LOG_WARNING,
+			 "line %s: our node is no longer guarded (life time %u ms)", l->name,
+			 ev->u.errctrl.time_ms);
 		publish_node(l, MBX_EV_LIFE_LOST, ev->u.errctrl.node, ev->u.errctrl.state,
 			     ev->u.errctrl.prev);
 		break;

@@ -99,11 +99,14 @@ struct line {
 
 	line_node_info nodes[LINE_NODES];
 	line_pending_table pending;
-	uint32_t raw_subscribers;  /* cached: any client wants raw frames */
-	uint32_t sync_subscribers; /* cached likewise: SYNC can come every ms */
-	uint32_t rpdo_episodes[CO_PDO_FAULT_KINDS]; /* begun, by fault kind */
-	uint64_t time_next_us;     /* next TIME to produce (p.time_period_ms) */
-	uint64_t time_unusable;    /* TIME not produced: clock outside 1984..2163 */
+	uint32_t raw_subscribers; /* cached: any client wants raw frames */
+	/* SYNC can come every ms: cached like raw_subscribers */
+	uint32_t sync_subscribers;
+	/* RPDO supervision episodes begun, by fault kind (line_pdo.c) */
+	uint32_t rpdo_episodes[CO_PDO_FAULT_KINDS];
+	/* the TIME producer (line_time.c) */
+	uint64_t time_next_us;  /* next TIME due (p.time_period_ms) */
+	uint64_t time_unusable; /* not produced: clock outside 1984..2163 */
 	bool time_clock_logged;
 	can_bus_state bus_state_prev;
 	line_store_req store;

@@ -62,7 +62,8 @@ void line_publish_rpdo_fault(line *l, const co_event *ev)
 			l->rpdo_episodes[k]++;
 		if (p->fault == CO_PDO_FAULT_TIMEOUT)
 			cogw_log(COGW_LOG_WARNING,
-				 "line %s: RPDO %u (COB-ID %03" PRIX32 "h) missed its %u ms deadline",
+				 "line %s: RPDO %u (COB-ID %03" PRIX32
+				 "h) missed its %u ms deadline",
 				 l->name, p->nr, p->cob_id, p->event_ms);
 		else
 			cogw_log(COGW_LOG_WARNING,

@@ -261,10 +261,11 @@ enum mbx_event_class {
 	MBX_EVC_OD = 1u << 8,        /* local object written over SDO */
 	MBX_EVC_MANAGER = 1u << 9,   /* manager state, unexpected/late/lost nodes */
 	MBX_EVC_GW = 1u << 10,       /* gateway: routed SDO sessions, EMCYs forwarded */
+	MBX_EVC_OVERFLOW = 1u << 31, /* always delivered, cannot be cleared */
+
 	MBX_EVC_SYNC = 1u << 11,      /* SYNC produced or received (up to 1 per ms) */
 	MBX_EVC_TIME = 1u << 12,      /* TIME stamp produced or received */
 	MBX_EVC_PDO_FAULT = 1u << 13, /* RPDO supervision: deadline, length */
-	MBX_EVC_OVERFLOW = 1u << 31,  /* always delivered, cannot be cleared */
 };
 #define MBX_EVC_ALL 0x00003FFFu
 
@@ -279,12 +280,7 @@ typedef enum mbx_event {
 	MBX_EV_BOOTUP = 0x0302,     /* BOOT mbx_ev_node */
 	MBX_EV_HB_STARTED = 0x0303, /* HB mbx_ev_node */
 	MBX_EV_HB_LOST = 0x0304,    /* HB mbx_ev_node */
-	MBX_EV_GUARD_TOGGLE = 0x0305, /* HB mbx_ev_node: toggle bit repeated */
-	MBX_EV_LIFE_LOST = 0x0306,    /* HB mbx_ev_node: our node no longer guarded */
-	MBX_EV_LIFE_RESUMED = 0x0307, /* HB mbx_ev_node: guarded again */
 	MBX_EV_PDO = 0x0401,        /* PDO mbx_ev_pdo + mbx_pdo_value[n] */
-	MBX_EV_RPDO_FAULT = 0x0402,     /* PDO_FAULT mbx_ev_rpdo_fault: episode began */
-	MBX_EV_RPDO_RECOVERED = 0x0403, /* PDO_FAULT mbx_ev_rpdo_fault: episodes ended */
 	MBX_EV_EMCY = 0x0501,       /* EMCY mbx_ev_emcy */
 	MBX_EV_RAW = 0x0601,        /* RAW mbx_ev_raw */
 	MBX_EV_CAN_STATE = 0x0801,  /* CAN mbx_ev_can_state */
@@ -293,8 +289,14 @@ typedef enum mbx_event {
 	MBX_EV_MGR_NODE = 0x0A03,   /* MANAGER mbx_ev_mgr: a node event */
 	MBX_EV_GW_SDO = 0x0B01,     /* GW mbx_ev_gw_sdo: a routed session ended */
 	MBX_EV_GW_EMCY = 0x0B02,    /* GW mbx_ev_gw_emcy: an EMCY was forwarded */
-	MBX_EV_SYNC = 0x0C01,       /* SYNC mbx_ev_sync */
-	MBX_EV_TIME = 0x0D01,       /* TIME mbx_ev_time */
+
+	MBX_EV_GUARD_TOGGLE = 0x0305,   /* HB mbx_ev_node: toggle bit repeated */
+	MBX_EV_LIFE_LOST = 0x0306,      /* HB mbx_ev_node: our node no longer guarded */
+	MBX_EV_LIFE_RESUMED = 0x0307,   /* HB mbx_ev_node: guarded again */
+	MBX_EV_RPDO_FAULT = 0x0402,     /* PDO_FAULT mbx_ev_rpdo_fault: episode began */
+	MBX_EV_RPDO_RECOVERED = 0x0403, /* PDO_FAULT mbx_ev_rpdo_fault: episodes ended */
+	MBX_EV_SYNC = 0x0C01,           /* SYNC mbx_ev_sync */
+	MBX_EV_TIME = 0x0D01,           /* TIME mbx_ev_time */
 } mbx_event;
 
 const char *mbx_event_to_string(unsigned code); /* "?" if unknown */
@@ -797,11 +799,11 @@ typedef struct mbx_ev_time {
 /* RPDO_STATUS: the line's RPDO supervision, then one mbx_rpdo_fault_entry
  * per RPDO with an episode open. */
 typedef struct mbx_rpdo_status {
-	uint64_t rx;         /* RPDO frames used */
-	uint64_t rx_length;  /* frames of the wrong length */
-	uint64_t rx_timeout; /* deadlines missed */
-	uint64_t rx_late;    /* synchronous RPDOs after the SYNC window */
-	uint64_t od_refused; /* mapped values the OD refused */
+	uint64_t rx;          /* RPDO frames used */
+	uint64_t rx_length;   /* frames of the wrong length */
+	uint64_t rx_timeout;  /* deadlines missed */
+	uint64_t rx_late;     /* synchronous RPDOs after the SYNC window */
+	uint64_t od_refused;  /* mapped values the OD refused */
 	uint32_t episodes[3]; /* begun since start: deadline, short, long */
 	uint16_t rpdos;       /* RPDOs the node has */
 	uint16_t n;           /* entries that follow */

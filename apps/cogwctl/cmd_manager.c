@@ -66,8 +66,8 @@ typedef struct rpdo_diag {
 
 static void rpdo_faults_text(uint8_t f, char *buf, size_t len)
 {
-	static const char *const names[] = { "deadline missed (8250h)",
-					     "too short (8210h)", "too long (8220h)" };
+	static const char *const names[] = { "deadline missed (8250h)", "too short (8210h)",
+					     "too long (8220h)" };
 	size_t off = 0;
 	buf[0] = 0;
 	for (unsigned k = 0; k < 3; k++)

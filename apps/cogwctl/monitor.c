@@ -71,26 +71,119 @@ static void pdo_value_text(const mbx_pdo_value *v, bool as_float, char *buf, siz
 	free(hex);
 }
 
+/* ---- the events of RPDO supervision, SYNC, TIME, guarding ---------------
+ * One printer per event kind, the shape of docs/cogwctl.md "monitor":
+ * the text line's words into out->text and, with --json, the event's own
+ * members into out->o (NULL without --json). */
+typedef struct event_out {
+	char *text;
+	size_t len;
+	cJSON *o;
+} event_out;
+
 /* "deadline missed", "short", "long", or those joined by '+' */
-static void rpdo_fault_text(const mbx_ev_rpdo_fault *e, char *buf, size_t len)
+static void rpdo_fault_text(uint8_t fault, char *buf, size_t len)
 {
 	static const char *const names[] = { "deadline missed", "short", "long" };
 	size_t off = 0;
 	buf[0] = 0;
 	for (unsigned k = 0; k < 3; k++)
-		if ((e->fault & (1u << k)) && off < len)
+		if ((fault & (1u << k)) && off < len)
 			off += (size_t)snprintf(buf + off, len - off, "%s%s", off ? "+" : "",
 						names[k]);
 }
 
-/* ISO 8601 UTC with milliseconds */
-static void time_text(int64_t unix_ms, char *buf, size_t len)
+static void print_rpdo_fault(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
 {
-	time_t s = (time_t)(unix_ms / 1000);
+	mbx_ev_rpdo_fault e;
+	char f[64];
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	rpdo_fault_text(e.fault, f, sizeof f);
+	if (m->code == MBX_EV_RPDO_RECOVERED)
+		snprintf(out->text, out->len, "RPDO %u (COB-ID %" PRIX32 "h): %s ended (%s)", e.pdo,
+			 e.cob_id, f, e.len ? "a correct frame" : "reconfigured");
+	else if (e.fault == MBX_RPDO_FAULT_TIMEOUT)
+		snprintf(out->text, out->len,
+			 "RPDO %u (COB-ID %" PRIX32 "h): %s, %u ms; EMCY %04X sent", e.pdo,
+			 e.cob_id, f, e.event_ms, e.emcy);
+	else
+		snprintf(out->text, out->len,
+			 "RPDO %u (COB-ID %" PRIX32 "h): %s, %u bytes, %u mapped; EMCY %04X sent",
+			 e.pdo, e.cob_id, f, e.len, e.mapped_len, e.emcy);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "ts_us", (double)e.ts_us);
+	cJSON_AddNumberToObject(out->o, "pdo", e.pdo);
+	cJSON_AddNumberToObject(out->o, "cob_id", e.cob_id);
+	cJSON_AddStringToObject(out->o, "fault", f);
+	cJSON_AddNumberToObject(out->o, "len", e.len);
+	cJSON_AddNumberToObject(out->o, "mapped_len", e.mapped_len);
+	cJSON_AddNumberToObject(out->o, "event_ms", e.event_ms);
+	if (m->code == MBX_EV_RPDO_FAULT)
+		cJSON_AddNumberToObject(out->o, "emcy", e.emcy);
+}
+
+static void print_sync(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_sync e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len, "SYNC %s, counter %u", e.produced ? "sent" : "received",
+		 e.counter);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "ts_us", (double)e.ts_us);
+	cJSON_AddNumberToObject(out->o, "counter", e.counter);
+	cJSON_AddBoolToObject(out->o, "produced", e.produced);
+}
+
+static void print_time(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_time e;
+	char utc[48];
 	struct tm tm;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	time_t s = (time_t)(e.unix_ms / 1000);
 	gmtime_r(&s, &tm);
-	size_t n = strftime(buf, len, "%Y-%m-%dT%H:%M:%S", &tm);
-	snprintf(buf + n, len - n, ".%03dZ", (int)(unix_ms % 1000));
+	size_t n = strftime(utc, sizeof utc, "%Y-%m-%dT%H:%M:%S", &tm);
+	snprintf(utc + n, sizeof utc - n, ".%03dZ", (int)(e.unix_ms % 1000));
+	snprintf(out->text, out->len, "TIME %s %s (day %u, %" PRIu32 " ms)",
+		 e.produced ? "sent" : "received", utc, e.days, e.ms);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "ts_us", (double)e.ts_us);
+	cJSON_AddNumberToObject(out->o, "days", e.days);
+	cJSON_AddNumberToObject(out->o, "ms", e.ms);
+	cJSON_AddNumberToObject(out->o, "unix_ms", (double)e.unix_ms);
+	cJSON_AddStringToObject(out->o, "utc", utc);
+	cJSON_AddBoolToObject(out->o, "produced", e.produced);
+}
+
+/* GUARD_TOGGLE, LIFE_LOST, LIFE_RESUMED */
+static void print_guarding(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_node e;
+	const char *st;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	st = nmt_text(e.state);
+	if (m->code == MBX_EV_GUARD_TOGGLE)
+		snprintf(out->text, out->len, "node %u guarding: toggle bit repeated (%s)", e.node,
+			 st);
+	else if (m->code == MBX_EV_LIFE_LOST)
+		snprintf(out->text, out->len, "our node %u: life guarding LOST", e.node);
+	else
+		snprintf(out->text, out->len, "our node %u: guarded again", e.node);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "node", e.node);
+	cJSON_AddStringToObject(out->o, "state", st);
 }
 
 static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
@@ -112,10 +205,7 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 	case MBX_EV_NMT_STATE:
 	case MBX_EV_BOOTUP:
 	case MBX_EV_HB_STARTED:
-	case MBX_EV_HB_LOST:
-	case MBX_EV_GUARD_TOGGLE:
-	case MBX_EV_LIFE_LOST:
-	case MBX_EV_LIFE_RESUMED: {
+	case MBX_EV_HB_LOST: {
 		mbx_ev_node e;
 		memcpy(&e, m->data, sizeof e);
 		if (m->code == MBX_EV_NMT_STATE)
@@ -126,13 +216,6 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		else if (m->code == MBX_EV_HB_STARTED)
 			snprintf(text, sizeof text, "node %u heartbeat started (%s)", e.node,
 				 nmt_text(e.state));
-		else if (m->code == MBX_EV_GUARD_TOGGLE)
-			snprintf(text, sizeof text, "node %u guarding: toggle bit repeated (%s)",
-				 e.node, nmt_text(e.state));
-		else if (m->code == MBX_EV_LIFE_LOST)
-			snprintf(text, sizeof text, "our node %u: life guarding LOST", e.node);
-		else if (m->code == MBX_EV_LIFE_RESUMED)
-			snprintf(text, sizeof text, "our node %u: guarded again", e.node);
 		else
 			snprintf(text, sizeof text, "node %u heartbeat LOST", e.node);
 		if (o) {
@@ -245,63 +328,20 @@ static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 		break;
 	}
 	case MBX_EV_RPDO_FAULT:
-	case MBX_EV_RPDO_RECOVERED: {
-		mbx_ev_rpdo_fault e;
-		memcpy(&e, m->data, sizeof e);
-		rpdo_fault_text(&e, sub, sizeof sub);
-		if (m->code == MBX_EV_RPDO_FAULT && e.fault == MBX_RPDO_FAULT_TIMEOUT)
-			snprintf(text, sizeof text,
-				 "RPDO %u (COB-ID %" PRIX32 "h): %s, %u ms; EMCY %04X sent", e.pdo,
-				 e.cob_id, sub, e.event_ms, e.emcy);
-		else if (m->code == MBX_EV_RPDO_FAULT)
-			snprintf(text, sizeof text,
-				 "RPDO %u (COB-ID %" PRIX32 "h): %s, %u bytes, %u mapped; EMCY %04X sent",
-				 e.pdo, e.cob_id, sub, e.len, e.mapped_len, e.emcy);
-		else
-			snprintf(text, sizeof text, "RPDO %u (COB-ID %" PRIX32 "h): %s ended (%s)",
-				 e.pdo, e.cob_id, sub,
-				 e.len ? "a correct frame" : "reconfigured");
-		if (o) {
-			cJSON_AddNumberToObject(o, "ts_us", (double)e.ts_us);
-			cJSON_AddNumberToObject(o, "pdo", e.pdo);
-			cJSON_AddNumberToObject(o, "cob_id", e.cob_id);
-			cJSON_AddStringToObject(o, "fault", sub);
-			cJSON_AddNumberToObject(o, "len", e.len);
-			cJSON_AddNumberToObject(o, "mapped_len", e.mapped_len);
-			cJSON_AddNumberToObject(o, "event_ms", e.event_ms);
-			if (m->code == MBX_EV_RPDO_FAULT)
-				cJSON_AddNumberToObject(o, "emcy", e.emcy);
-		}
+	case MBX_EV_RPDO_RECOVERED:
+		print_rpdo_fault(m, spec, &(event_out){ text, sizeof text, o });
 		break;
-	}
-	case MBX_EV_SYNC: {
-		mbx_ev_sync e;
-		memcpy(&e, m->data, sizeof e);
-		snprintf(text, sizeof text, "SYNC %s, counter %u", e.produced ? "sent" : "received",
-			 e.counter);
-		if (o) {
-			cJSON_AddNumberToObject(o, "ts_us", (double)e.ts_us);
-			cJSON_AddNumberToObject(o, "counter", e.counter);
-			cJSON_AddBoolToObject(o, "produced", e.produced);
-		}
+	case MBX_EV_SYNC:
+		print_sync(m, spec, &(event_out){ text, sizeof text, o });
 		break;
-	}
-	case MBX_EV_TIME: {
-		mbx_ev_time e;
-		memcpy(&e, m->data, sizeof e);
-		time_text(e.unix_ms, sub, sizeof sub);
-		snprintf(text, sizeof text, "TIME %s %s (day %u, %" PRIu32 " ms)",
-			 e.produced ? "sent" : "received", sub, e.days, e.ms);
-		if (o) {
-			cJSON_AddNumberToObject(o, "ts_us", (double)e.ts_us);
-			cJSON_AddNumberToObject(o, "days", e.days);
-			cJSON_AddNumberToObject(o, "ms", e.ms);
-			cJSON_AddNumberToObject(o, "unix_ms", (double)e.unix_ms);
-			cJSON_AddStringToObject(o, "utc", sub);
-			cJSON_AddBoolToObject(o, "produced", e.produced);
-		}
+	case MBX_EV_TIME:
+		print_time(m, spec, &(event_out){ text, sizeof text, o });
 		break;
-	}
+	case MBX_EV_GUARD_TOGGLE:
+	case MBX_EV_LIFE_LOST:
+	case MBX_EV_LIFE_RESUMED:
+		print_guarding(m, spec, &(event_out){ text, sizeof text, o });
+		break;
 	case MBX_EV_SDO_DONE: {
 		mbx_ev_sdo_done e;
 		memcpy(&e, m->data, sizeof e);
@@ -546,7 +586,6 @@ static const struct {
 	{ "emcy", MBX_EVC_EMCY },       { "pdo", MBX_EVC_PDO },    { "sdo", MBX_EVC_SDO },
 	{ "can", MBX_EVC_CAN },         { "raw", MBX_EVC_RAW },    { "od", MBX_EVC_OD },
 	{ "manager", MBX_EVC_MANAGER }, { "gateway", MBX_EVC_GW }, { "all", MBX_EVC_ALL },
-	{ "sync", MBX_EVC_SYNC },       { "time", MBX_EVC_TIME },  { "pdo-fault", MBX_EVC_PDO_FAULT },
 };
 
 /* Split "a,b,c" and call fn on each part. */
@@ -576,6 +615,12 @@ static int add_class(ctl *c, const char *s, void *arg)
 	for (size_t i = 0; i < sizeof class_names / sizeof class_names[0]; i++)
 		if (strcmp(s, class_names[i].name) == 0) {
 			*(uint32_t *)arg |= class_names[i].bits;
+			return 0;
+		}
+	/* the other classes by the mailbox's own names (sync, time, pdo-fault) */
+	for (uint32_t bit = 1; bit & MBX_EVC_ALL; bit <<= 1)
+		if (strcmp(s, mbx_event_class_to_string(bit)) == 0) {
+			*(uint32_t *)arg |= bit;
 			return 0;
 		}
 	return ctl_usage_error(c,
