@@ -91,20 +91,18 @@ static void publish_errctrl(line *l, const co_event *ev)
 		publish_node(l, MBX_EV_NMT_STATE, ev->u.errctrl.node, ev->u.errctrl.state,
 			     ev->u.errctrl.prev);
 		break;
-	case CO_EV_GUARD_TOGGLE:
-		publish_node(l, MBX_EV_GUARD_TOGGLE, ev->u.errctrl.node, ev->u.errctrl.state,
-			     ev->u.errctrl.prev);
-		break;
 	case CO_EV_GUARD_LIFE_LOST:
 		cogw_log(COGW_LOG_WARNING,
 			 "line %s: our node is no longer guarded (life time %u ms)", l->name,
 			 ev->u.errctrl.time_ms);
-		publish_node(l, MBX_EV_LIFE_LOST, ev->u.errctrl.node, ev->u.errctrl.state,
-			     ev->u.errctrl.prev);
-		break;
+		/* fall through */
+	case CO_EV_GUARD_TOGGLE:
 	case CO_EV_GUARD_LIFE_RESUMED:
-		publish_node(l, MBX_EV_LIFE_RESUMED, ev->u.errctrl.node, ev->u.errctrl.state,
-			     ev->u.errctrl.prev);
+		publish_node(l,
+			     ev->kind == CO_EV_GUARD_TOGGLE      ? MBX_EV_GUARD_TOGGLE
+			     : ev->kind == CO_EV_GUARD_LIFE_LOST ? MBX_EV_LIFE_LOST
+								 : MBX_EV_LIFE_RESUMED,
+			     ev->u.errctrl.node, ev->u.errctrl.state, ev->u.errctrl.prev);
 		break;
 	default:
 		break;

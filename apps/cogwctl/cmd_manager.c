@@ -64,18 +64,6 @@ typedef struct rpdo_diag {
 	unsigned n; /* RPDOs with an episode open (may exceed the rows) */
 } rpdo_diag;
 
-static void rpdo_faults_text(uint8_t f, char *buf, size_t len)
-{
-	static const char *const names[] = { "deadline missed (8250h)", "too short (8210h)",
-					     "too long (8220h)" };
-	size_t off = 0;
-	buf[0] = 0;
-	for (unsigned k = 0; k < 3; k++)
-		if ((f & (1u << k)) && off < len)
-			off += (size_t)snprintf(buf + off, len - off, "%s%s", off ? ", " : "",
-						names[k]);
-}
-
 static void rpdo_out(ctl *c, cJSON *o, const rpdo_diag *r)
 {
 	const mbx_rpdo_status *st = &r->st;
@@ -116,7 +104,7 @@ static void rpdo_out(ctl *c, cJSON *o, const rpdo_diag *r)
 	       "; open now: %u\n",
 	       st->episodes[0], st->episodes[1], st->episodes[2], r->n);
 	for (unsigned i = 0; i < shown; i++) {
-		rpdo_faults_text(r->rows[i].faults, f, sizeof f);
+		ctl_rpdo_fault_text(r->rows[i].faults, ", ", true, f, sizeof f);
 		printf("    RPDO %u COB-ID %" PRIX32 "h (%u bytes mapped, deadline %u ms): %s\n",
 		       r->rows[i].pdo, r->rows[i].cob_id, r->rows[i].mapped_len,
 		       r->rows[i].event_ms, f);

@@ -81,18 +81,6 @@ typedef struct event_out {
 	cJSON *o;
 } event_out;
 
-/* "deadline missed", "short", "long", or those joined by '+' */
-static void rpdo_fault_text(uint8_t fault, char *buf, size_t len)
-{
-	static const char *const names[] = { "deadline missed", "short", "long" };
-	size_t off = 0;
-	buf[0] = 0;
-	for (unsigned k = 0; k < 3; k++)
-		if ((fault & (1u << k)) && off < len)
-			off += (size_t)snprintf(buf + off, len - off, "%s%s", off ? "+" : "",
-						names[k]);
-}
-
 static void print_rpdo_fault(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
 {
 	mbx_ev_rpdo_fault e;
@@ -100,7 +88,7 @@ static void print_rpdo_fault(const cogw_msg *m, const ctl_monitor_spec *spec, ev
 
 	(void)spec;
 	memcpy(&e, m->data, sizeof e);
-	rpdo_fault_text(e.fault, f, sizeof f);
+	ctl_rpdo_fault_text(e.fault, "+", false, f, sizeof f);
 	if (m->code == MBX_EV_RPDO_RECOVERED)
 		snprintf(out->text, out->len, "RPDO %u (COB-ID %" PRIX32 "h): %s ended (%s)", e.pdo,
 			 e.cob_id, f, e.len ? "a correct frame" : "reconfigured");

@@ -34,7 +34,9 @@ Output is in Unity's format (file:line:name:PASS/FAIL, then the summary
 line) so that tests/run-tests counts it like the C tests. Runs inside the
 vcan VM (tests/interop/run), from the repository root.
 """
+import contextlib
 import faulthandler
+import json
 import logging
 import os
 import shutil
@@ -615,7 +617,6 @@ class Monitor:
         threading.Thread(target=self._read, daemon=True).start()
 
     def _read(self):
-        import json
         for line in self.proc.stdout:
             self.events.append(json.loads(line))
 
@@ -678,13 +679,24 @@ def rpdo_correct(data, what):
     eq([EMCY_RESET.hex()], [f.hex() for f in got], f"error reset after {what}")
 
 
-def test_rpdo_supervision_time_and_sync_events():
+@contextlib.contextmanager
+def operational_and_watched(classes):
+    """cogwd OPERATIONAL (PDOs only there) and a mailbox subscriber to
+    classes; PRE-OPERATIONAL again afterwards."""
     ours = remote(OUR_ID)
-    mon = Monitor("pdo-fault,time,sync")
+    mon = Monitor(classes)
     try:
         ours.nmt.send_command(0x01)
         wait_state(OUR_ID, "OPERATIONAL")
+        yield ours, mon
+    finally:
+        mon.stop()
+        ours.nmt.send_command(0x80)
+        wait_state(OUR_ID, "PRE-OPERATIONAL")
 
+
+def test_time_produced_and_sync_events():
+    with operational_and_watched("time,sync") as (ours, mon):
         step("TIME produced by cogwd, byte-exact against its own event")
         mark = len(RECORDER.frames)
         times = wait_frames(mark, 0x100, 2, timeout=10)
@@ -713,6 +725,9 @@ def test_rpdo_supervision_time_and_sync_events():
         eq([False] * 3, [e["produced"] for e in mon.of("sync")[before:before + 3]],
            "SYNC events: received, not produced")
 
+
+def test_rpdo_supervision_emcys_and_events():
+    with operational_and_watched("pdo-fault") as (ours, mon):
         step("RPDO 1 too short: not processed, 8210h once")
         eq(0, set_point(ours), "2003h before")
         rpdo_episode(b"\x01", EMCY_SHORT, "short")
@@ -734,9 +749,7 @@ def test_rpdo_supervision_time_and_sync_events():
         eq([EMCY_TIMEOUT.hex()], [f.hex() for f in frames_since(mark, OUR_EMCY)],
            "EMCYs after a missed deadline")
         check(got, "no EMCY 8250h")
-        r = ctl("--json", "diag", "0")
-        import json
-        d = json.loads(r.stdout)
+        d = json.loads(ctl("--json", "diag", "0").stdout)
         eq(False, d["manager"], "diag: line 0 has no manager")
         eq([(1, OUR_RPDO1, True, False, False)],
            [(f["pdo"], f["cob_id"], f["timeout"], f["short"], f["long"])
@@ -757,10 +770,6 @@ def test_rpdo_supervision_time_and_sync_events():
             ("rpdo-recovered", 1, OUR_RPDO1, "deadline missed", 2, 2, None)],
            got, "pdo-fault events")
         eq(300, mon.of("rpdo-fault")[2]["event_ms"], "deadline in the event")
-    finally:
-        mon.stop()
-        ours.nmt.send_command(0x80)
-        wait_state(OUR_ID, "PRE-OPERATIONAL")
 
 
 def test_lss_fastscan_and_node_id_assignment():
@@ -794,7 +803,8 @@ def main():
                   test_nmt_states_and_no_sdo_while_stopped,
                   test_store_restore_across_resets,
                   test_pdo_remapping_over_sdo,
-                  test_rpdo_supervision_time_and_sync_events,
+                  test_time_produced_and_sync_events,
+                  test_rpdo_supervision_emcys_and_events,
                   test_emcy_from_cosim_and_from_cogwd,
                   test_lss_fastscan_and_node_id_assignment):
             only = os.environ.get("COGW_TEST_ONLY")  # comma-separated substrings
