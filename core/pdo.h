@@ -203,7 +203,7 @@ const co_pdo_stats *co_pdo_get_stats(const co_node *node);
 /* Supervision state of one RPDO (see "RPDO supervision" above). */
 typedef struct co_pdo_rpdo_state {
 	bool valid;
-	uint8_t faults;     /* CO_PDO_FAULT_* episodes open (core/event.h) */
+	uint8_t faults;     /* CO_PDO_FAULT_* episodes under way (core/event.h) */
 	uint8_t mapped_len; /* bytes */
 	uint16_t event_ms;  /* deadline, 0 = none */
 	uint32_t cob_id;    /* 1400h+nr-1:1 in force */

@@ -47,7 +47,7 @@ struct pdo {
 	bool sampled;       /* TPDO TT 252: buf is valid */
 	bool event_pending; /* TPDO 254/255: event waits for the inhibit time */
 	bool wait_start;    /* TPDO 1..240: waiting for the SYNC start value */
-	uint8_t faults;     /* RPDO supervision episodes open (CO_PDO_FAULT_*) */
+	uint8_t faults;     /* RPDO supervision episodes under way (CO_PDO_FAULT_*) */
 	uint8_t sync_cnt;
 	uint64_t inhibit_until;
 	uint64_t timer_us; /* event timer / RPDO deadline, CO_NO_DEADLINE off */
