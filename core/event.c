@@ -14,6 +14,8 @@ const char *co_event_kind_to_string(co_event_kind k)
 		return "sdo-client-done";
 	case CO_EV_SDO_CLIENT_SECOND_ANSWER:
 		return "sdo-client-second-answer";
+	case CO_EV_RPDO_RECOVERED:
+		return "rpdo-recovered";
 	case CO_EV_STORE:
 		return "store";
 	case CO_EV_RESTORE:

@@ -45,7 +45,7 @@ typedef enum co_event_kind {
 	CO_EV_RPDO,         /* RPDO committed to the OD: u.pdo */
 	CO_EV_RPDO_OBJECT,  /* one object written by an RPDO: u.pdo_obj */
 	CO_EV_RPDO_TIMEOUT, /* RPDO deadline (event timer) ran out: u.pdo */
-	CO_EV_RPDO_LENGTH,  /* RPDO of the wrong length dropped: u.pdo */
+	CO_EV_RPDO_LENGTH,  /* RPDO of the wrong length: u.pdo */
 	/* LSS (core/lss_master.c, core/lss_slave.c) */
 	CO_EV_LSS_MASTER_DONE,      /* an LSS master request ended: u.lss_master */
 	CO_EV_LSS_SLAVE_STATE,      /* slave: waiting <-> configuration: u.lss_slave */
@@ -61,6 +61,9 @@ typedef enum co_event_kind {
 	 * server already answered (two devices on one node-ID): u.sdo_cli
 	 * (node_id, index, sub; abort = that answer's abort code or 0) */
 	CO_EV_SDO_CLIENT_SECOND_ANSWER,
+	/* PDO (core/pdo.c): a correct RPDO (or a reconfiguration) ended the
+	 * supervision episodes u.pdo.fault of that RPDO */
+	CO_EV_RPDO_RECOVERED,
 	/* other services append here: NMT, HB, EMCY, SYNC, TIME, PDO, LSS */
 	CO_EV_KIND_COUNT
 } co_event_kind;
@@ -136,8 +139,9 @@ typedef struct co_ev_sync {
 
 /* CO_EV_TIME: TIME_OF_DAY (core/time.h) */
 typedef struct co_ev_time {
-	uint32_t ms;   /* milliseconds after midnight */
-	uint16_t days; /* days since 1984-01-01 */
+	uint32_t ms;      /* milliseconds after midnight */
+	uint16_t days;    /* days since 1984-01-01 */
+	uint8_t produced; /* 1 = this node sent it, 0 = consumed */
 } co_ev_time;
 
 /* One mapped object of a PDO (dummy entries have index 0001h..0007h). */
@@ -147,12 +151,26 @@ typedef struct co_ev_pdo_map {
 	uint8_t bits;
 } co_ev_pdo_map;
 
-/* CO_EV_RPDO, CO_EV_RPDO_TIMEOUT, CO_EV_RPDO_LENGTH */
+/* RPDO supervision faults (CiA 301 §7.5.2.35 deadline, §7.5.2.36 length),
+ * one bit each so that one CO_EV_RPDO_RECOVERED can end several. */
+enum co_pdo_fault {
+	CO_PDO_FAULT_TIMEOUT = 1u << 0, /* deadline missed: EMCY 8250h */
+	CO_PDO_FAULT_SHORT = 1u << 1,   /* shorter than mapped, not processed: 8210h */
+	CO_PDO_FAULT_LONG = 1u << 2,    /* longer than mapped, leading bytes used: 8220h */
+};
+#define CO_PDO_FAULT_KINDS 3u
+
+/* CO_EV_RPDO, CO_EV_RPDO_TIMEOUT, CO_EV_RPDO_LENGTH, CO_EV_RPDO_RECOVERED */
 typedef struct co_ev_pdo {
-	uint16_t nr;     /* 1-based PDO number (RPDO n = 1400h + n - 1) */
-	uint8_t len;     /* bytes in data (RPDO: received length) */
-	uint8_t n_map;   /* entries in map */
-	uint32_t cob_id; /* CAN-ID (with CO_FRAME_EXT in flags) */
+	uint16_t nr;        /* 1-based PDO number (RPDO n = 1400h + n - 1) */
+	uint8_t len;        /* bytes in data (RPDO: received length; 0 for
+	                      * TIMEOUT, and RECOVERED by a reconfiguration) */
+	uint8_t mapped_len; /* bytes the mapping in force needs */
+	uint8_t fault;      /* TIMEOUT/LENGTH: the CO_PDO_FAULT_* that began;
+	                      * RECOVERED: those that ended; else 0 */
+	uint16_t event_ms;  /* RPDO deadline in force (1400h+n-1:5), 0 = none */
+	uint8_t n_map;      /* entries in map */
+	uint32_t cob_id;    /* CAN-ID (with CO_FRAME_EXT in flags) */
 	uint8_t flags;
 	uint8_t data[8];
 	const co_ev_pdo_map *map; /* the mapping in force, n_map entries */

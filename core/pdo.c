@@ -175,16 +175,44 @@ static void heap_update(struct co_pdo *P, struct pdo *p)
 
 /* ---- runtime state ------------------------------------------------------------ */
 
-static void len_err_release(struct co_pdo *P, struct pdo *p, uint64_t now_us)
-{
-	uint8_t k = p->len_err;
+/* The EMCY of each supervision fault, in CO_PDO_FAULT_* bit order. */
+static const uint16_t fault_emcy[CO_PDO_FAULT_KINDS] = {
+	CO_EMCY_RPDO_TIMEOUT,
+	CO_EMCY_PDO_LENGTH,
+	CO_EMCY_PDO_LENGTH_HIGH,
+};
 
-	if (!k)
+static void rpdo_emit(struct co_pdo *P, const struct pdo *p, co_event_kind k, const uint8_t *data,
+		      uint8_t len, uint8_t fault);
+
+/* A supervision episode begins: its EMCY once (CiA 301 §7.2.7: an error
+ * is signalled when it occurs, not per frame; 1015h would only queue
+ * copies that tell nothing new), manufacturer bytes 0..1 = RPDO number. */
+static void fault_begin(struct co_pdo *P, struct pdo *p, uint8_t fault, uint64_t now_us)
+{
+	uint8_t msef[5] = { (uint8_t)p->nr, (uint8_t)(p->nr >> 8), 0, 0, 0 };
+	unsigned k = (unsigned)__builtin_ctz(fault);
+
+	p->faults |= fault;
+	P->fault_count[k]++;
+	co_emcy_send(P->node, fault_emcy[k], CO_EMCY_REG_COMM, msef, now_us);
+}
+
+/* End the episodes in `which` that p has open. An error code leaves the
+ * active list (co_emcy_clear: the error-reset EMCY once none is left) only
+ * when no other RPDO has it open too. Reports the end with `len` = the
+ * frame that ended it (0: a reconfiguration did). */
+static void faults_end(struct co_pdo *P, struct pdo *p, uint8_t which, uint8_t len, uint64_t now_us)
+{
+	uint8_t ended = p->faults & which;
+
+	if (!ended)
 		return;
-	p->len_err = 0;
-	if (--P->len_err_count[k - 1] == 0)
-		co_emcy_clear(P->node, k == 1 ? CO_EMCY_PDO_LENGTH : CO_EMCY_PDO_LENGTH_HIGH,
-			      now_us);
+	p->faults &= (uint8_t)~ended;
+	for (unsigned k = 0; k < CO_PDO_FAULT_KINDS; k++)
+		if ((ended & (1u << k)) && --P->fault_count[k] == 0)
+			co_emcy_clear(P->node, fault_emcy[k], now_us);
+	rpdo_emit(P, p, CO_EV_RPDO_RECOVERED, NULL, len, ended);
 }
 
 /* Start p afresh: on entering OPERATIONAL, after a configuration change,
@@ -232,7 +260,7 @@ static void pdo_reconfigure(struct co_pdo *P, struct pdo *p, uint64_t now_us)
 			co_rx_disable(P->node, p->rx_h);
 	}
 	if (!p->valid)
-		len_err_release(P, p, now_us);
+		faults_end(P, p, p->faults, 0, now_us);
 	P->sync_dirty = true;
 	pdo_runtime_reset(P, p, now_us);
 }
@@ -303,7 +331,7 @@ static void tpdo_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us
 /* ---- RPDO ------------------------------------------------------------------- */
 
 static void rpdo_emit(struct co_pdo *P, const struct pdo *p, co_event_kind k, const uint8_t *data,
-		      uint8_t len)
+		      uint8_t len, uint8_t fault)
 {
 	co_event ev = { .kind = k };
 	uint32_t id;
@@ -312,6 +340,9 @@ static void rpdo_emit(struct co_pdo *P, const struct pdo *p, co_event_kind k, co
 	ev.u.pdo.nr = p->nr;
 	ev.u.pdo.cob_id = id;
 	ev.u.pdo.len = len;
+	ev.u.pdo.mapped_len = p->len;
+	ev.u.pdo.fault = fault;
+	ev.u.pdo.event_ms = p->event_ms;
 	if (data && len)
 		memcpy(ev.u.pdo.data, data, len > 8 ? 8 : len);
 	ev.u.pdo.n_map = p->n;
@@ -340,25 +371,26 @@ static void rpdo_commit(struct co_pdo *P, struct pdo *p, const uint8_t *data, ui
 		if (!p->valid)
 			return; /* a hook or callback reconfigured it */
 	}
-	rpdo_emit(P, p, CO_EV_RPDO, data, len);
+	rpdo_emit(P, p, CO_EV_RPDO, data, len, 0);
 }
 
+/* CiA 301 §7.5.2.36: a frame shorter than the mapping is not processed
+ * (EMCY 8210h "PDO not processed due to length error"); of a longer one
+ * the leading bytes the mapping covers are used (EMCY 8220h "PDO length
+ * exceeded"). Either begins an episode unless one of that kind is open;
+ * a short frame ends a "long" episode and the other way round. */
 static void rpdo_length_error(struct co_pdo *P, struct pdo *p, const co_frame *f, uint64_t now_us)
 {
-	uint8_t kind = f->len < p->len ? 1 : 2;
-	uint8_t msef[5] = { (uint8_t)p->nr, (uint8_t)(p->nr >> 8), 0, 0, 0 };
+	uint8_t fault = f->len < p->len ? CO_PDO_FAULT_SHORT : CO_PDO_FAULT_LONG;
 
 	P->stats.rx_length++;
-	if (p->len_err != kind) {
-		len_err_release(P, p, now_us);
-		p->len_err = kind;
-		P->len_err_count[kind - 1]++;
-		/* One EMCY when the error appears, not one per bad frame:
-		 * 1015h would queue them and the EMCY tells nothing new. */
-		co_emcy_send(P->node, kind == 1 ? CO_EMCY_PDO_LENGTH : CO_EMCY_PDO_LENGTH_HIGH,
-			     CO_EMCY_REG_COMM, msef, now_us);
-	}
-	rpdo_emit(P, p, CO_EV_RPDO_LENGTH, f->data, f->len);
+	if (p->faults & fault)
+		return;
+	/* the new error first: ending the other one must not look like
+	 * "no error left" (an error-reset EMCY between the two) */
+	fault_begin(P, p, fault, now_us);
+	faults_end(P, p, (CO_PDO_FAULT_SHORT | CO_PDO_FAULT_LONG) & ~fault, f->len, now_us);
+	rpdo_emit(P, p, CO_EV_RPDO_LENGTH, f->data, f->len, fault);
 }
 
 static void rpdo_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
@@ -374,25 +406,29 @@ static void rpdo_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us
 	}
 	if (f->len != p->len) {
 		rpdo_length_error(P, p, f, now_us);
-		return;
+		if (f->len < p->len)
+			return;
 	}
-	len_err_release(P, p, now_us);
 	if (tt_is_sync(p->tt) && !co_sync_in_window(node, now_us)) {
 		P->stats.rx_late++;
 		return;
 	}
+	/* the deadline is met by data that is used, whatever its length */
+	faults_end(P, p, f->len == p->len ? p->faults : CO_PDO_FAULT_TIMEOUT, f->len, now_us);
+	if (!p->valid)
+		return; /* a hook reconfigured it */
 	P->stats.rx++;
 	if (p->event_ms) {
 		p->timer_us = now_us + (uint64_t)p->event_ms * 1000u;
 		heap_update(P, p);
 	}
 	if (tt_is_sync(p->tt)) {
-		memcpy(p->buf, f->data, f->len);
-		p->buf_len = f->len;
+		memcpy(p->buf, f->data, p->len);
+		p->buf_len = p->len;
 		p->pending = true;
 		return;
 	}
-	rpdo_commit(P, p, f->data, f->len);
+	rpdo_commit(P, p, f->data, p->len);
 }
 
 /* ---- SYNC ------------------------------------------------------------------- */
@@ -474,11 +510,14 @@ static void pdo_expired(struct co_pdo *P, struct pdo *p, uint64_t now_us)
 	bool fire = false;
 
 	if (p->dir == CO_PDO_RX) {
-		/* deadline missed; re-armed by the next frame */
+		/* deadline missed; re-armed by the next frame used, so this
+		 * runs once per episode */
 		p->timer_us = CO_NO_DEADLINE;
 		heap_update(P, p);
 		P->stats.rx_timeout++;
-		rpdo_emit(P, p, CO_EV_RPDO_TIMEOUT, NULL, 0);
+		if (!(p->faults & CO_PDO_FAULT_TIMEOUT))
+			fault_begin(P, p, CO_PDO_FAULT_TIMEOUT, now_us);
+		rpdo_emit(P, p, CO_EV_RPDO_TIMEOUT, NULL, 0, CO_PDO_FAULT_TIMEOUT);
 		return;
 	}
 	if (p->timer_us <= now_us) {
@@ -625,13 +664,13 @@ static void pdo_load_all(struct co_pdo *P, uint64_t now_us)
 {
 	for (uint16_t k = 0; k < P->n_rx + P->n_tx; k++) {
 		struct pdo *p = &P->v[k];
-		p->len_err = 0;
+		/* the configuration the episodes were about is gone */
+		faults_end(P, p, p->faults, 0, now_us);
 		pdo_load_comm(p);
 		if (!pdo_map_compile(P, p))
 			P->stats.map_errors++;
 		pdo_reconfigure(P, p, now_us);
 	}
-	P->len_err_count[0] = P->len_err_count[1] = 0;
 }
 
 static void pdo_sync_observer(co_node *node, void *ctx, uint8_t counter, uint64_t now_us)
@@ -826,6 +865,20 @@ int co_pdo_length(const co_node *node, co_pdo_dir dir, uint16_t nr)
 	const struct pdo *p = pdo_get(node, dir, nr);
 
 	return p ? p->len : -ENOENT;
+}
+
+int co_pdo_rpdo_state_get(const co_node *node, uint16_t nr, co_pdo_rpdo_state *out)
+{
+	const struct pdo *p = pdo_get(node, CO_PDO_RX, nr);
+
+	if (!p)
+		return -ENOENT;
+	*out = (co_pdo_rpdo_state){ .valid = p->valid,
+				    .faults = p->faults,
+				    .mapped_len = p->len,
+				    .event_ms = p->event_ms,
+				    .cob_id = p->cob };
+	return 0;
 }
 
 const co_pdo_stats *co_pdo_get_stats(const co_node *node)

@@ -67,13 +67,25 @@
  *   RTR         A TPDO with bit 30 = 0 answers an RTR on its COB-ID (TT 252
  *               with the data sampled at the last SYNC, else with fresh
  *               data); with bit 30 = 1 the RTR is ignored.
- *   RPDO length A frame shorter than the mapping raises EMCY 8210h, longer
- *               raises 8220h (manufacturer bytes 0..1 = RPDO number, LE,
- *               2..4 = 0); the OD is not changed (CiA 301 lets a device use
- *               the leading bytes of a too long PDO; a gateway must not
- *               guess) and CO_EV_RPDO_LENGTH is emitted. The error is
- *               cleared (co_emcy_clear) when that RPDO is received with the
- *               right length again.
+ *   RPDO supervision (CiA 301 §7.5.2.35, §7.5.2.36), per RPDO, in episodes:
+ *               an episode begins with the first faulty frame (or the
+ *               deadline running out) and raises its EMCY once
+ *               (manufacturer bytes 0..1 = RPDO number, LE, 2..4 = 0;
+ *               error register bit 4, communication); it ends when a
+ *               frame of the mapped length is used, which clears the
+ *               code (co_emcy_clear: error-reset EMCY 0000h once no error
+ *               is left) and emits CO_EV_RPDO_RECOVERED.
+ *               - shorter than mapped: not processed, EMCY 8210h;
+ *               - longer than mapped: the leading bytes the mapping covers
+ *                 are used, EMCY 8220h (a short frame ends a "long"
+ *                 episode and the other way round);
+ *               - deadline missed: EMCY 8250h; a frame that is used (of
+ *                 the mapped length or longer) ends this episode.
+ *               CO_EV_RPDO_TIMEOUT / CO_EV_RPDO_LENGTH are emitted when an
+ *               episode begins (u.pdo.fault says which), every faulty
+ *               frame is counted (rx_length). A PDO made invalid and a
+ *               reset communication end its episodes. Episodes stay open
+ *               across NMT state changes.
  *   OD writes   RPDO values go through co_od_write() with origin
  *               CO_OD_ORIGIN_PDO: limits and check_write hooks apply (a
  *               refused value leaves that object unchanged; the event says
@@ -143,7 +155,7 @@ const char *co_pdo_dir_to_string(co_pdo_dir d); /* "rpdo", "tpdo" */
 typedef struct co_pdo_stats {
 	uint64_t rx;           /* RPDO frames accepted */
 	uint64_t rx_ignored;   /* RPDO/RTR frames outside OPERATIONAL */
-	uint64_t rx_length;    /* RPDO of the wrong length (EMCY) */
+	uint64_t rx_length;    /* RPDO frames of the wrong length */
 	uint64_t rx_late;      /* sync RPDO after the SYNC window: dropped */
 	uint64_t od_refused;   /* mapped value refused by the OD (limits,
 	                        * check_write hook) */
@@ -187,6 +199,18 @@ bool co_pdo_is_valid(const co_node *node, co_pdo_dir dir, uint16_t nr);
 /* Mapped length in bytes; -ENOENT if the PDO does not exist. */
 int co_pdo_length(const co_node *node, co_pdo_dir dir, uint16_t nr);
 const co_pdo_stats *co_pdo_get_stats(const co_node *node);
+
+/* Supervision state of one RPDO (see "RPDO supervision" above). */
+typedef struct co_pdo_rpdo_state {
+	bool valid;
+	uint8_t faults;     /* CO_PDO_FAULT_* episodes under way (core/event.h) */
+	uint8_t mapped_len; /* bytes */
+	uint16_t event_ms;  /* deadline, 0 = none */
+	uint32_t cob_id;    /* 1400h+nr-1:1 in force */
+} co_pdo_rpdo_state;
+
+/* 0, or -ENOENT if RPDO nr does not exist. */
+int co_pdo_rpdo_state_get(const co_node *node, uint16_t nr, co_pdo_rpdo_state *out);
 
 /* A SYNC with this counter (0 = none) happened; the PDO service's SYNC
  * observer (core/sync.h, registered at init) calls it. */

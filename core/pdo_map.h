@@ -47,7 +47,7 @@ struct pdo {
 	bool sampled;       /* TPDO TT 252: buf is valid */
 	bool event_pending; /* TPDO 254/255: event waits for the inhibit time */
 	bool wait_start;    /* TPDO 1..240: waiting for the SYNC start value */
-	uint8_t len_err;    /* 0, 1 = EMCY 8210h raised, 2 = 8220h raised */
+	uint8_t faults;     /* RPDO supervision episodes under way (CO_PDO_FAULT_*) */
 	uint8_t sync_cnt;
 	uint64_t inhibit_until;
 	uint64_t timer_us; /* event timer / RPDO deadline, CO_NO_DEADLINE off */
@@ -78,7 +78,7 @@ struct co_pdo {
 	uint32_t rev_n;
 	bool rev_dirty;
 	bool operational;
-	uint16_t len_err_count[2]; /* PDOs with 8210h / 8220h raised */
+	uint16_t fault_count[CO_PDO_FAULT_KINDS]; /* RPDOs with each fault's EMCY */
 	co_pdo_stats stats;
 };
 

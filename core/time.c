@@ -216,7 +216,6 @@ int co_time_send(co_node *node, const co_time_of_day *t, uint64_t now_us)
 	uint8_t flags;
 	int rc;
 
-	(void)now_us;
 	if (!T)
 		return -ENODEV;
 	if (!(T->cob & CO_TIME_PRODUCER))
@@ -229,8 +228,15 @@ int co_time_send(co_node *node, const co_time_of_day *t, uint64_t now_us)
 	if (co_time_encode(t, f.data) != 0)
 		return -EINVAL;
 	rc = co_node_send(node, &f);
-	if (rc == 0)
+	if (rc == 0) {
+		co_event ev = { .kind = CO_EV_TIME };
 		T->stats.tx++;
+		node->now_us = now_us; /* the event's time stamp */
+		ev.u.time.ms = t->ms;
+		ev.u.time.days = t->days;
+		ev.u.time.produced = 1;
+		co_node_emit(node, &ev);
+	}
 	return rc;
 }
 

@@ -68,7 +68,8 @@ typedef struct co_time_stats {
 extern const co_service co_svc_time;
 
 /*
- * Produce one TIME frame with t. Returns 0, -EINVAL (bad t), -EPERM (1012h
+ * Produce one TIME frame with t; once sent, CO_EV_TIME with produced = 1
+ * (as the SYNC producer reports its own SYNCs). Returns 0, -EINVAL (bad t), -EPERM (1012h
  * bit 30 clear or no 1012h), -EAGAIN (NMT state is not PRE-OPERATIONAL or
  * OPERATIONAL), -ENODEV (no TIME service), or the send callback's error.
  */

@@ -293,6 +293,7 @@ static void handle_can(line *l)
 static void refresh_raw_subscribers(line *l)
 {
 	l->raw_subscribers = mbx_server_subscribers(l->mbx, MBX_EVC_RAW);
+	l->sync_subscribers = mbx_server_subscribers(l->mbx, MBX_EVC_SYNC);
 }
 
 static void handle_requests(line *l)
@@ -359,8 +360,9 @@ static void publish_stats(line *l)
 	l->next_publish_us = l->now_us + PUBLISH_PERIOD_US;
 }
 
-/* The earliest time the thread must wake: extensions (which also run what
- * is due now), core, mailbox, transmit retry, watchdog check-in. */
+/* The earliest time the thread must wake: extensions and the TIME producer
+ * (which also run what is due now), core, mailbox, transmit retry,
+ * watchdog check-in. */
 static uint64_t next_deadline(line *l, uint64_t checkin_period)
 {
 	uint64_t next = poll_extensions(l);
@@ -371,6 +373,9 @@ static uint64_t next_deadline(line *l, uint64_t checkin_period)
 	if (t < next)
 		next = t;
 	t = can_port_retry_at_us(l->port);
+	if (t < next)
+		next = t;
+	t = line_time_poll(l); /* produces the TIME that is due */
 	if (t < next)
 		next = t;
 	if (l->now_us + checkin_period / 2 < next)

@@ -40,6 +40,8 @@ typedef struct line_params {
 	int rt_priority;            /* SCHED_FIFO 1..99, 0 = normal */
 	int rt_cpu;                 /* CPU to pin to, -1 = any */
 	unsigned checkin_ms;        /* watchdog check-in period (default 500) */
+	unsigned time_period_ms;    /* TIME producer period (lines/line_time.c);
+	                             * 0 = the line produces no TIME */
 	const char *state_dir;      /* where 1010h "save" persists (NULL = off) */
 	int main_wakefd;            /* eventfd the line writes to when the main
 	                           * thread has storage work (-1 = none) */

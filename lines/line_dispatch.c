@@ -20,7 +20,8 @@ static const struct {
 	{ MBX_CMD_PDO_READ, line_od_read },
 	{ MBX_CMD_PDO_WRITE, line_pdo_write },
 	{ MBX_CMD_PDO_REQUEST, line_pdo_request },
-	{ MBX_CMD_SDO_UPLOAD, line_sdo_upload }, /* line_sdo.c */
+	{ MBX_CMD_RPDO_STATUS, line_rpdo_status }, /* line_pdo.c */
+	{ MBX_CMD_SDO_UPLOAD, line_sdo_upload },   /* line_sdo.c */
 	{ MBX_CMD_SDO_DOWNLOAD, line_sdo_download },
 	{ MBX_CMD_NMT, line_nmt_command }, /* line_nmt.c */
 	{ MBX_CMD_NODE_TABLE, line_node_table },

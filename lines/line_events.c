@@ -13,6 +13,7 @@
 
 #include "core/heartbeat.h"
 #include "core/nmt.h"
+#include "core/time.h"
 #include "lines/log.h"
 
 static void publish_node(line *l, uint16_t code, uint8_t node, uint8_t state, uint8_t prev)
@@ -90,6 +91,19 @@ static void publish_errctrl(line *l, const co_event *ev)
 		publish_node(l, MBX_EV_NMT_STATE, ev->u.errctrl.node, ev->u.errctrl.state,
 			     ev->u.errctrl.prev);
 		break;
+	case CO_EV_GUARD_LIFE_LOST:
+		cogw_log(COGW_LOG_WARNING,
+			 "line %s: our node is no longer guarded (life time %u ms)", l->name,
+			 ev->u.errctrl.time_ms);
+		/* fall through */
+	case CO_EV_GUARD_TOGGLE:
+	case CO_EV_GUARD_LIFE_RESUMED:
+		publish_node(l,
+			     ev->kind == CO_EV_GUARD_TOGGLE      ? MBX_EV_GUARD_TOGGLE
+			     : ev->kind == CO_EV_GUARD_LIFE_LOST ? MBX_EV_LIFE_LOST
+								 : MBX_EV_LIFE_RESUMED,
+			     ev->u.errctrl.node, ev->u.errctrl.state, ev->u.errctrl.prev);
+		break;
 	default:
 		break;
 	}
@@ -116,6 +130,30 @@ static void publish_duplicate(line *l, const co_ev_sdo_cli *c)
 			      .count = ni->duplicate_answers,
 			      .abort = c->abort };
 	mbx_server_publish(l->mbx, MBX_EV_DUP_NODE, 0, &e, sizeof e);
+}
+
+/* SYNC can come every millisecond: the event is built only while some
+ * client subscribed to the class (cached like the raw class's, see
+ * line.c), so an unwatched SYNC costs one comparison. */
+static void publish_sync(line *l, const co_event *ev)
+{
+	if (!l->sync_subscribers)
+		return;
+	mbx_ev_sync m = { .ts_us = ev->now_us,
+			  .counter = ev->u.sync.counter,
+			  .produced = ev->u.sync.produced };
+	mbx_server_publish(l->mbx, MBX_EV_SYNC, 0, &m, sizeof m);
+}
+
+static void publish_time(line *l, const co_event *ev)
+{
+	co_time_of_day t = { .ms = ev->u.time.ms, .days = ev->u.time.days };
+	mbx_ev_time m = { .ts_us = ev->now_us,
+			  .unix_ms = co_time_to_unix_ms(&t),
+			  .ms = t.ms,
+			  .days = t.days,
+			  .produced = ev->u.time.produced };
+	mbx_server_publish(l->mbx, MBX_EV_TIME, 0, &m, sizeof m);
 }
 
 /* Extensions observe every event, after the line's own handling. */
@@ -161,6 +199,17 @@ void line_on_core_event(void *ctx, const co_event *ev)
 	case CO_EV_RPDO:
 		publish_rpdo(l, &ev->u.pdo, now);
 		break;
+	case CO_EV_RPDO_TIMEOUT:
+	case CO_EV_RPDO_LENGTH:
+	case CO_EV_RPDO_RECOVERED:
+		line_publish_rpdo_fault(l, ev);
+		break;
+	case CO_EV_SYNC:
+		publish_sync(l, ev);
+		break;
+	case CO_EV_TIME:
+		publish_time(l, ev);
+		break;
 	case CO_EV_TX_FAILED:
 		/* counted by the core and the port; the watermark log says more */
 		break;
@@ -168,7 +217,9 @@ void line_on_core_event(void *ctx, const co_event *ev)
 		publish_duplicate(l, &ev->u.sdo_cli);
 		break;
 	default:
-		publish_errctrl(l, ev); /* boot-up, heartbeat, guarding; others: none */
+		/* boot-up, heartbeat, guarding; the core events no mailbox
+		 * event carries are listed, with why, in docs/mailbox.md */
+		publish_errctrl(l, ev);
 		break;
 	}
 	tell_extensions(l, ev);

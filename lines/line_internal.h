@@ -10,6 +10,8 @@
  *   line_store.c     one family of mailbox commands each: the request
  *                    and its completion in the same file
  *   line_events.c    core and CAN events -> mailbox events
+ *   line_pdo.c       RPDO supervision: its events and RPDO_STATUS
+ *   line_time.c      the TIME producer's clock
  *   line_pending.c   the table of requests waiting for the core
  * The small helpers every file needs are inline below, so that no file
  * has to call back into line.c.
@@ -21,6 +23,7 @@
 #include <stdatomic.h>
 #include <sys/eventfd.h>
 
+#include "core/event.h"
 #include "lines/line.h"
 #include "lines/line_pending.h"
 
@@ -98,6 +101,14 @@ struct line {
 	line_node_info nodes[LINE_NODES];
 	line_pending_table pending;
 	uint32_t raw_subscribers; /* cached: any client wants raw frames */
+	/* SYNC can come every ms: cached like raw_subscribers */
+	uint32_t sync_subscribers;
+	/* RPDO supervision episodes begun, by fault kind (line_pdo.c) */
+	uint32_t rpdo_episodes[CO_PDO_FAULT_KINDS];
+	/* the TIME producer (line_time.c) */
+	uint64_t time_next_us;  /* next TIME due (p.time_period_ms) */
+	uint64_t time_unusable; /* not produced: clock outside 1984..2163 */
+	bool time_clock_logged;
 	can_bus_state bus_state_prev;
 	line_store_req store;
 	line_access_req access;
@@ -171,6 +182,14 @@ void line_raw_send(line *l, const mbx_request *req);
 void line_on_core_event(void *ctx, const co_event *ev);
 void line_on_can_error(line *l, const can_rx_item *it);
 void line_publish_raw(line *l, const co_frame *f, uint64_t ts_ns);
+
+/* line_pdo.c */
+void line_publish_rpdo_fault(line *l, const co_event *ev);
+void line_rpdo_status(line *l, const mbx_request *req);
+
+/* line_time.c: produce the TIME that is due; the next one's time
+ * (UINT64_MAX: the line produces none). */
+uint64_t line_time_poll(line *l);
 
 /* line_store.c */
 int line_store_attach(line *l);

@@ -1958,6 +1958,32 @@ int cogw_node_table(cogw *h, unsigned line, mbx_node_entry *tab, size_t cap, uns
 	return (int)n;
 }
 
+int cogw_rpdo_status(cogw *h, unsigned line, mbx_rpdo_status *st, mbx_rpdo_fault_entry *tab,
+		     size_t cap, unsigned timeout_ms)
+{
+	struct {
+		mbx_rpdo_status head;
+		mbx_rpdo_fault_entry rows[512];
+	} *a = malloc(sizeof *a);
+	size_t len = 0;
+	int rc;
+
+	if (!a)
+		return COGW_E_NOMEM;
+	rc = call(h, line, MBX_CMD_RPDO_STATUS, NULL, 0, NULL, 0, a, sizeof *a, &len, NULL,
+		  timeout_ms);
+	if (rc == 0 && (len < sizeof a->head || a->head.n > 512 ||
+			len != sizeof a->head + a->head.n * sizeof a->rows[0]))
+		rc = COGW_E_PROTOCOL;
+	if (rc == 0) {
+		*st = a->head;
+		memcpy(tab, a->rows, (a->head.n < cap ? a->head.n : cap) * sizeof *tab);
+		rc = a->head.n;
+	}
+	free(a);
+	return rc;
+}
+
 int cogw_pdo_request(cogw *h, unsigned line, uint16_t tpdo, unsigned timeout_ms)
 {
 	mbx_pdo_num_req r = { .pdo = tpdo };

@@ -186,6 +186,11 @@ int cogw_nmt(cogw *h, unsigned line, uint8_t cs, uint8_t node, unsigned timeout_
 /* Fills up to cap entries; returns the number of nodes known (>= 0). */
 int cogw_node_table(cogw *h, unsigned line, mbx_node_entry *tab, size_t cap, unsigned timeout_ms);
 int cogw_pdo_request(cogw *h, unsigned line, uint16_t tpdo, unsigned timeout_ms);
+/* Supervision of the line's own RPDOs: counters into *st, the RPDOs with
+ * a deadline or length episode open into tab (at most cap). Returns how
+ * many RPDOs have one open (>= 0), or an error. */
+int cogw_rpdo_status(cogw *h, unsigned line, mbx_rpdo_status *st, mbx_rpdo_fault_entry *tab,
+		     size_t cap, unsigned timeout_ms);
 int cogw_pdo_read(cogw *h, unsigned line, uint16_t index, uint8_t sub, void *buf, size_t cap,
 		  size_t *len, unsigned timeout_ms);
 /* trigger: send event-driven TPDOs that map the object now. */

@@ -45,6 +45,11 @@ _Static_assert(sizeof(mbx_ev_pdo) == 16, "wire layout");
 _Static_assert(sizeof(mbx_ev_emcy) == 24, "wire layout");
 _Static_assert(sizeof(mbx_ev_raw) == 24, "wire layout");
 _Static_assert(sizeof(mbx_ev_can_state) == 4, "wire layout");
+_Static_assert(sizeof(mbx_ev_rpdo_fault) == 24, "wire layout");
+_Static_assert(sizeof(mbx_ev_sync) == 16, "wire layout");
+_Static_assert(sizeof(mbx_ev_time) == 24, "wire layout");
+_Static_assert(sizeof(mbx_rpdo_status) == 56, "wire layout");
+_Static_assert(sizeof(mbx_rpdo_fault_entry) == 12, "wire layout");
 _Static_assert(sizeof(mbx_gw_sdo_req) == 20, "wire layout");
 _Static_assert(sizeof(mbx_mgr_program_req) == 12, "wire layout");
 _Static_assert(sizeof(mbx_mgr_program_resp) == 24, "wire layout");
@@ -264,6 +269,12 @@ const char *mbx_event_class_to_string(uint32_t cls)
 		return "manager";
 	case MBX_EVC_GW:
 		return "gateway";
+	case MBX_EVC_SYNC:
+		return "sync";
+	case MBX_EVC_TIME:
+		return "time";
+	case MBX_EVC_PDO_FAULT:
+		return "pdo-fault";
 	case MBX_EVC_OVERFLOW:
 		return "overflow";
 	}
@@ -289,8 +300,22 @@ const char *mbx_event_to_string(unsigned code)
 		return "hb-lost";
 	case MBX_EV_DUP_NODE:
 		return "dup-node";
+	case MBX_EV_GUARD_TOGGLE:
+		return "guard-toggle";
+	case MBX_EV_LIFE_LOST:
+		return "life-lost";
+	case MBX_EV_LIFE_RESUMED:
+		return "life-resumed";
 	case MBX_EV_PDO:
 		return "pdo";
+	case MBX_EV_RPDO_FAULT:
+		return "rpdo-fault";
+	case MBX_EV_RPDO_RECOVERED:
+		return "rpdo-recovered";
+	case MBX_EV_SYNC:
+		return "sync";
+	case MBX_EV_TIME:
+		return "time";
 	case MBX_EV_EMCY:
 		return "emcy";
 	case MBX_EV_RAW:
@@ -327,9 +352,19 @@ uint32_t mbx_event_class_of(unsigned code)
 		return MBX_EVC_BOOT;
 	case MBX_EV_HB_STARTED:
 	case MBX_EV_HB_LOST:
+	case MBX_EV_GUARD_TOGGLE:
+	case MBX_EV_LIFE_LOST:
+	case MBX_EV_LIFE_RESUMED:
 		return MBX_EVC_HB;
 	case MBX_EV_PDO:
 		return MBX_EVC_PDO;
+	case MBX_EV_RPDO_FAULT:
+	case MBX_EV_RPDO_RECOVERED:
+		return MBX_EVC_PDO_FAULT;
+	case MBX_EV_SYNC:
+		return MBX_EVC_SYNC;
+	case MBX_EV_TIME:
+		return MBX_EVC_TIME;
 	case MBX_EV_EMCY:
 		return MBX_EVC_EMCY;
 	case MBX_EV_RAW:
@@ -839,6 +874,7 @@ static const mbx_cmd_info cmd_table[] = {
 	{ MBX_CMD_PDO_REQUEST, W, sizeof(mbx_pdo_num_req), 0, "pdo-request", check_pdo_request },
 	{ MBX_CMD_PDO_READ, R, sizeof(mbx_obj_req), 0, "pdo-read", check_obj_req },
 	{ MBX_CMD_PDO_WRITE, W | D, sizeof(mbx_obj_req), 8, "pdo-write", check_obj_req },
+	{ MBX_CMD_RPDO_STATUS, R, 0, 0, "rpdo-status", NULL },
 	{ MBX_CMD_EMCY_SEND, W, sizeof(mbx_emcy_req), 0, "emcy-send", NULL },
 	{ MBX_CMD_RAW_SEND, W | A, sizeof(mbx_raw_frame), MBX_RAW_SEND_MAX, "raw-send",
 	  check_raw_send },
@@ -947,9 +983,19 @@ int mbx_event_validate(unsigned code, const uint8_t *p, size_t len)
 	case MBX_EV_BOOTUP:
 	case MBX_EV_HB_STARTED:
 	case MBX_EV_HB_LOST:
+	case MBX_EV_GUARD_TOGGLE:
+	case MBX_EV_LIFE_LOST:
+	case MBX_EV_LIFE_RESUMED:
 		return len == sizeof(mbx_ev_node) ? 0 : MBX_E_MALFORMED;
 	case MBX_EV_DUP_NODE:
 		return len == sizeof(mbx_ev_dup_node) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_RPDO_FAULT:
+	case MBX_EV_RPDO_RECOVERED:
+		return len == sizeof(mbx_ev_rpdo_fault) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_SYNC:
+		return len == sizeof(mbx_ev_sync) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_TIME:
+		return len == sizeof(mbx_ev_time) ? 0 : MBX_E_MALFORMED;
 	case MBX_EV_PDO: {
 		mbx_ev_pdo e;
 

@@ -184,6 +184,7 @@ typedef enum mbx_cmd {
 	MBX_CMD_PDO_REQUEST = 0x0401, /* W mbx_pdo_num_req: send a TPDO now */
 	MBX_CMD_PDO_READ = 0x0402,    /* R mbx_obj_req -> data (<= 8 bytes) */
 	MBX_CMD_PDO_WRITE = 0x0403,   /* W mbx_obj_req + data (<= 8 bytes) */
+	MBX_CMD_RPDO_STATUS = 0x0408, /* R - -> mbx_rpdo_status + mbx_rpdo_fault_entry[n] */
 	/* 0x05xx EMCY */
 	MBX_CMD_EMCY_SEND = 0x0501, /* W mbx_emcy_req */
 	/* 0x06xx raw CAN */
@@ -261,8 +262,12 @@ enum mbx_event_class {
 	MBX_EVC_MANAGER = 1u << 9,   /* manager state, unexpected/late/lost nodes */
 	MBX_EVC_GW = 1u << 10,       /* gateway: routed SDO sessions, EMCYs forwarded */
 	MBX_EVC_OVERFLOW = 1u << 31, /* always delivered, cannot be cleared */
+
+	MBX_EVC_SYNC = 1u << 11,      /* SYNC produced or received (up to 1 per ms) */
+	MBX_EVC_TIME = 1u << 12,      /* TIME stamp produced or received */
+	MBX_EVC_PDO_FAULT = 1u << 13, /* RPDO supervision: deadline, length */
 };
-#define MBX_EVC_ALL 0x000007FFu
+#define MBX_EVC_ALL 0x00003FFFu
 
 /* Name of a single class bit ("nmt", "hb", ...); "?" otherwise. */
 const char *mbx_event_class_to_string(uint32_t cls);
@@ -285,6 +290,14 @@ typedef enum mbx_event {
 	MBX_EV_MGR_NODE = 0x0A03,   /* MANAGER mbx_ev_mgr: a node event */
 	MBX_EV_GW_SDO = 0x0B01,     /* GW mbx_ev_gw_sdo: a routed session ended */
 	MBX_EV_GW_EMCY = 0x0B02,    /* GW mbx_ev_gw_emcy: an EMCY was forwarded */
+
+	MBX_EV_GUARD_TOGGLE = 0x0306,   /* HB mbx_ev_node: toggle bit repeated */
+	MBX_EV_LIFE_LOST = 0x0307,      /* HB mbx_ev_node: our node no longer guarded */
+	MBX_EV_LIFE_RESUMED = 0x0308,   /* HB mbx_ev_node: guarded again */
+	MBX_EV_RPDO_FAULT = 0x0402,     /* PDO_FAULT mbx_ev_rpdo_fault: episode began */
+	MBX_EV_RPDO_RECOVERED = 0x0403, /* PDO_FAULT mbx_ev_rpdo_fault: episodes ended */
+	MBX_EV_SYNC = 0x0C01,           /* SYNC mbx_ev_sync */
+	MBX_EV_TIME = 0x0D01,           /* TIME mbx_ev_time */
 } mbx_event;
 
 const char *mbx_event_to_string(unsigned code); /* "?" if unknown */
@@ -759,6 +772,71 @@ typedef struct mbx_ev_can_state {
 	uint8_t tec; /* transmit error counter, if known */
 	uint8_t rec; /* receive error counter, if known */
 } mbx_ev_can_state;
+
+/* RPDO supervision faults of the line's own node (CiA 301 §7.5.2.35/36),
+ * one bit each. */
+enum mbx_rpdo_fault {
+	MBX_RPDO_FAULT_TIMEOUT = 1u << 0, /* deadline (1400h+n-1:5) missed: EMCY 8250h */
+	MBX_RPDO_FAULT_SHORT = 1u << 1,   /* shorter than mapped, not used: 8210h */
+	MBX_RPDO_FAULT_LONG = 1u << 2,    /* longer than mapped, leading bytes used: 8220h */
+};
+#define MBX_RPDO_FAULT_ALL 0x07u
+
+/* RPDO_FAULT: an episode began (one event, however many bad frames
+ * follow); RPDO_RECOVERED: a frame of the mapped length (or the RPDO's
+ * reconfiguration, len 0) ended the episodes in `fault`. */
+typedef struct mbx_ev_rpdo_fault {
+	uint64_t ts_us;
+	uint32_t cob_id; /* CAN-ID; bit 29 = 29-bit (as in 1400h:1) */
+	uint16_t pdo;    /* RPDO number 1..512 */
+	uint8_t fault;   /* MBX_RPDO_FAULT_*: begun (one bit) or ended */
+	uint8_t len;     /* bytes received; 0 for a missed deadline */
+	uint8_t mapped_len;
+	uint8_t pad;
+	uint16_t event_ms; /* the deadline in force, 0 = none */
+	uint16_t emcy;     /* RPDO_FAULT: the EMCY code our node produced */
+	uint16_t pad2;
+} mbx_ev_rpdo_fault;
+
+/* SYNC: produced by this line's node or received. */
+typedef struct mbx_ev_sync {
+	uint64_t ts_us;
+	uint8_t counter;  /* 1..1019h, 0 = the SYNC carries none */
+	uint8_t produced; /* 1 = our node sent it */
+	uint8_t pad[6];
+} mbx_ev_sync;
+
+/* TIME: TIME_OF_DAY produced by this line's node or received. */
+typedef struct mbx_ev_time {
+	uint64_t ts_us;
+	int64_t unix_ms;  /* the same instant, ms since 1970-01-01 UTC */
+	uint32_t ms;      /* ms after midnight */
+	uint16_t days;    /* days since 1984-01-01 */
+	uint8_t produced; /* 1 = our node sent it */
+	uint8_t pad;
+} mbx_ev_time;
+
+/* RPDO_STATUS: the line's RPDO supervision, then one mbx_rpdo_fault_entry
+ * per RPDO with an episode open. */
+typedef struct mbx_rpdo_status {
+	uint64_t rx;          /* RPDO frames used */
+	uint64_t rx_length;   /* frames of the wrong length */
+	uint64_t rx_timeout;  /* deadlines missed */
+	uint64_t rx_late;     /* synchronous RPDOs after the SYNC window */
+	uint64_t od_refused;  /* mapped values the OD refused */
+	uint32_t episodes[3]; /* begun since start: deadline, short, long */
+	uint16_t rpdos;       /* RPDOs the node has */
+	uint16_t n;           /* entries that follow */
+} mbx_rpdo_status;
+
+typedef struct mbx_rpdo_fault_entry {
+	uint32_t cob_id;
+	uint16_t pdo;
+	uint8_t faults; /* MBX_RPDO_FAULT_* open */
+	uint8_t mapped_len;
+	uint16_t event_ms;
+	uint16_t pad;
+} mbx_rpdo_fault_entry;
 
 /* ---- functions ----------------------------------------------------------- */
 

@@ -55,7 +55,63 @@ static const struct {
 	{ "emcy_active", offsetof(mbx_mgr_status, emcy_active) },
 };
 
-static void status_out(ctl *c, unsigned line, const mbx_mgr_status *s)
+/* The supervision of the line's own RPDOs (docs/cogwctl.md, diag):
+ * counters and the RPDOs with a deadline or length episode open. */
+#define RPDO_ROWS_SHOWN 64
+typedef struct rpdo_diag {
+	mbx_rpdo_status st;
+	mbx_rpdo_fault_entry rows[RPDO_ROWS_SHOWN];
+	unsigned n; /* RPDOs with an episode open (may exceed the rows) */
+} rpdo_diag;
+
+static void rpdo_out(ctl *c, cJSON *o, const rpdo_diag *r)
+{
+	const mbx_rpdo_status *st = &r->st;
+	unsigned shown = r->n < RPDO_ROWS_SHOWN ? r->n : RPDO_ROWS_SHOWN;
+	char f[96];
+	if (o) {
+		cJSON *p = cJSON_AddObjectToObject(o, "rpdo");
+		cJSON_AddNumberToObject(p, "rpdos", st->rpdos);
+		cJSON_AddNumberToObject(p, "rx", (double)st->rx);
+		cJSON_AddNumberToObject(p, "rx_length", (double)st->rx_length);
+		cJSON_AddNumberToObject(p, "rx_timeout", (double)st->rx_timeout);
+		cJSON_AddNumberToObject(p, "rx_late", (double)st->rx_late);
+		cJSON_AddNumberToObject(p, "od_refused", (double)st->od_refused);
+		cJSON_AddNumberToObject(p, "timeout_episodes", st->episodes[0]);
+		cJSON_AddNumberToObject(p, "short_episodes", st->episodes[1]);
+		cJSON_AddNumberToObject(p, "long_episodes", st->episodes[2]);
+		cJSON *a = cJSON_AddArrayToObject(p, "faults");
+		for (unsigned i = 0; i < shown; i++) {
+			cJSON *e = cJSON_CreateObject();
+			cJSON_AddNumberToObject(e, "pdo", r->rows[i].pdo);
+			cJSON_AddNumberToObject(e, "cob_id", r->rows[i].cob_id);
+			cJSON_AddBoolToObject(e, "timeout",
+					      r->rows[i].faults & MBX_RPDO_FAULT_TIMEOUT);
+			cJSON_AddBoolToObject(e, "short", r->rows[i].faults & MBX_RPDO_FAULT_SHORT);
+			cJSON_AddBoolToObject(e, "long", r->rows[i].faults & MBX_RPDO_FAULT_LONG);
+			cJSON_AddNumberToObject(e, "mapped_len", r->rows[i].mapped_len);
+			cJSON_AddNumberToObject(e, "event_ms", r->rows[i].event_ms);
+			cJSON_AddItemToArray(a, e);
+		}
+		return;
+	}
+	(void)c;
+	printf("  RPDOs            %u, frames used %" PRIu64 ", wrong length %" PRIu64
+	       ", deadlines missed %" PRIu64 ", after the SYNC window %" PRIu64
+	       ", values refused %" PRIu64 "\n",
+	       st->rpdos, st->rx, st->rx_length, st->rx_timeout, st->rx_late, st->od_refused);
+	printf("  RPDO episodes    deadline %" PRIu32 ", short %" PRIu32 ", long %" PRIu32
+	       "; open now: %u\n",
+	       st->episodes[0], st->episodes[1], st->episodes[2], r->n);
+	for (unsigned i = 0; i < shown; i++) {
+		ctl_rpdo_fault_text(r->rows[i].faults, ", ", true, f, sizeof f);
+		printf("    RPDO %u COB-ID %" PRIX32 "h (%u bytes mapped, deadline %u ms): %s\n",
+		       r->rows[i].pdo, r->rows[i].cob_id, r->rows[i].mapped_len,
+		       r->rows[i].event_ms, f);
+	}
+}
+
+static void status_out(ctl *c, unsigned line, const mbx_mgr_status *s, const rpdo_diag *r)
 {
 	char fl[96], b[512];
 	flags_text(s->flags, fl, sizeof fl);
@@ -83,6 +139,8 @@ static void status_out(ctl *c, unsigned line, const mbx_mgr_status *s)
 		cJSON_AddNumberToObject(k, "duplicates", s->duplicates);
 		cJSON_AddNumberToObject(k, "errctrl_events", s->errctrl_events);
 		cJSON_AddNumberToObject(k, "keep_op_restarts", s->keep_op_restarts);
+		if (r)
+			rpdo_out(c, o, r);
 		ctl_json_print(o);
 		return;
 	}
@@ -100,6 +158,8 @@ static void status_out(ctl *c, unsigned line, const mbx_mgr_status *s)
 	       ", KEEP_OP restarts %" PRIu32 "\n",
 	       s->network_boots, s->nmt_ignored, s->unexpected, s->duplicates, s->errctrl_events,
 	       s->keep_op_restarts);
+	if (r)
+		rpdo_out(c, NULL, r);
 }
 
 static int req_value(const char *s)
@@ -155,7 +215,7 @@ static int run_manager(ctl *c, int argc, char **argv)
 		mbx_mgr_status s;
 		if ((rc = cogw_mgr_status(h, line, &s, c->timeout_ms)) < 0)
 			return ctl_fail(c, rc, 0, ctx);
-		status_out(c, line, &s);
+		status_out(c, line, &s, NULL);
 		return 0;
 	}
 	if (!strcmp(pos[1], "start") && n_pos == 2) {
@@ -293,9 +353,29 @@ static int run_diag(ctl *c, int argc, char **argv)
 	snprintf(ctx, sizeof ctx, "diagnostics of line %u", line);
 	if (!node) {
 		mbx_mgr_status s;
-		if ((rc = cogw_mgr_status(h, line, &s, c->timeout_ms)) < 0)
+		rpdo_diag r;
+		if ((rc = cogw_rpdo_status(h, line, &r.st, r.rows, RPDO_ROWS_SHOWN,
+					   c->timeout_ms)) < 0)
 			return ctl_fail(c, rc, 0, ctx);
-		status_out(c, line, &s);
+		r.n = (unsigned)rc;
+		if ((rc = cogw_mgr_status(h, line, &s, c->timeout_ms)) == COGW_E_UNSUPPORTED) {
+			/* a line without a manager still supervises its RPDOs */
+			cJSON *o = c->json ? cJSON_CreateObject() : NULL;
+			if (o) {
+				cJSON_AddBoolToObject(o, "ok", true);
+				cJSON_AddNumberToObject(o, "line", line);
+				cJSON_AddBoolToObject(o, "manager", false);
+			} else {
+				printf("line %u: no manager\n", line);
+			}
+			rpdo_out(c, o, &r);
+			if (o)
+				ctl_json_print(o);
+			return 0;
+		}
+		if (rc < 0)
+			return ctl_fail(c, rc, 0, ctx);
+		status_out(c, line, &s, &r);
 		return 0;
 	}
 	mbx_mgr_node_diag d;
@@ -340,10 +420,13 @@ const ctl_cmd ctl_cmd_boot = {
 const ctl_cmd ctl_cmd_diag = {
 	.name = "diag",
 	.synopsis =
-		"  diag LINE [NODE]                         manager diagnostics, EMCY history\n",
+		"  diag LINE [NODE]                         manager and RPDO diagnostics, EMCYs\n",
 	.help = "usage: cogwctl diag LINE [NODE] [--json]\n"
 		"\n"
-		"Without NODE: the line's bit lists, first error and counters (as 'manager').\n"
+		"Without NODE: the line's bit lists, first error and counters (as 'manager'),\n"
+		"and the supervision of the daemon's own RPDOs on that line: frame counters,\n"
+		"deadline and length episodes, and the RPDOs with one open now (also on a\n"
+		"line without a manager).\n"
 		"With NODE: its last boot status letter with abort code and index:sub, boot\n"
 		"count and time, failed attempts, and its last 8 EMCYs with timestamps.\n",
 	.run = run_diag,

@@ -124,6 +124,10 @@ char *ctl_value_text(const ctl_type *t, const uint8_t *data, size_t len);
 void ctl_value_json(cJSON *o, const ctl_type *t, const uint8_t *data, size_t len);
 /* "01 02 03" (no more than max bytes, then "..."); malloc'd. */
 char *ctl_hex_text(const uint8_t *data, size_t len, size_t max);
+/* The RPDO supervision faults in bits (MBX_RPDO_FAULT_*): "deadline missed",
+ * "short", "long", joined by sep; with_emcy adds the EMCY code, e.g.
+ * "short (8210h)". */
+void ctl_rpdo_fault_text(uint8_t faults, const char *sep, bool with_emcy, char *buf, size_t len);
 
 /* ---- subcommands ------------------------------------------------------- */
 

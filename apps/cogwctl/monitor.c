@@ -454,6 +454,99 @@ static void print_overflow(const cogw_msg *m, const ctl_monitor_spec *spec, even
 
 /* Every event kind cogwctl knows (mailbox/proto.h, docs/cogwctl.md
  * "monitor"); another is printed by its code and size. */
+static void print_rpdo_fault(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_rpdo_fault e;
+	char f[64];
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	ctl_rpdo_fault_text(e.fault, "+", false, f, sizeof f);
+	if (m->code == MBX_EV_RPDO_RECOVERED)
+		snprintf(out->text, out->len, "RPDO %u (COB-ID %" PRIX32 "h): %s ended (%s)", e.pdo,
+			 e.cob_id, f, e.len ? "a correct frame" : "reconfigured");
+	else if (e.fault == MBX_RPDO_FAULT_TIMEOUT)
+		snprintf(out->text, out->len,
+			 "RPDO %u (COB-ID %" PRIX32 "h): %s, %u ms; EMCY %04X sent", e.pdo,
+			 e.cob_id, f, e.event_ms, e.emcy);
+	else
+		snprintf(out->text, out->len,
+			 "RPDO %u (COB-ID %" PRIX32 "h): %s, %u bytes, %u mapped; EMCY %04X sent",
+			 e.pdo, e.cob_id, f, e.len, e.mapped_len, e.emcy);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "ts_us", (double)e.ts_us);
+	cJSON_AddNumberToObject(out->o, "pdo", e.pdo);
+	cJSON_AddNumberToObject(out->o, "cob_id", e.cob_id);
+	cJSON_AddStringToObject(out->o, "fault", f);
+	cJSON_AddNumberToObject(out->o, "len", e.len);
+	cJSON_AddNumberToObject(out->o, "mapped_len", e.mapped_len);
+	cJSON_AddNumberToObject(out->o, "event_ms", e.event_ms);
+	if (m->code == MBX_EV_RPDO_FAULT)
+		cJSON_AddNumberToObject(out->o, "emcy", e.emcy);
+}
+
+static void print_sync(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_sync e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len, "SYNC %s, counter %u", e.produced ? "sent" : "received",
+		 e.counter);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "ts_us", (double)e.ts_us);
+	cJSON_AddNumberToObject(out->o, "counter", e.counter);
+	cJSON_AddBoolToObject(out->o, "produced", e.produced);
+}
+
+static void print_time(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_time e;
+	char utc[48];
+	struct tm tm;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	time_t s = (time_t)(e.unix_ms / 1000);
+	gmtime_r(&s, &tm);
+	size_t n = strftime(utc, sizeof utc, "%Y-%m-%dT%H:%M:%S", &tm);
+	snprintf(utc + n, sizeof utc - n, ".%03dZ", (int)(e.unix_ms % 1000));
+	snprintf(out->text, out->len, "TIME %s %s (day %u, %" PRIu32 " ms)",
+		 e.produced ? "sent" : "received", utc, e.days, e.ms);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "ts_us", (double)e.ts_us);
+	cJSON_AddNumberToObject(out->o, "days", e.days);
+	cJSON_AddNumberToObject(out->o, "ms", e.ms);
+	cJSON_AddNumberToObject(out->o, "unix_ms", (double)e.unix_ms);
+	cJSON_AddStringToObject(out->o, "utc", utc);
+	cJSON_AddBoolToObject(out->o, "produced", e.produced);
+}
+
+/* GUARD_TOGGLE, LIFE_LOST, LIFE_RESUMED */
+static void print_guarding(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_node e;
+	const char *st;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	st = nmt_text(e.state);
+	if (m->code == MBX_EV_GUARD_TOGGLE)
+		snprintf(out->text, out->len, "node %u guarding: toggle bit repeated (%s)", e.node,
+			 st);
+	else if (m->code == MBX_EV_LIFE_LOST)
+		snprintf(out->text, out->len, "our node %u: life guarding LOST", e.node);
+	else
+		snprintf(out->text, out->len, "our node %u: guarded again", e.node);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "node", e.node);
+	cJSON_AddStringToObject(out->o, "state", st);
+}
+
 static const struct {
 	uint16_t code;
 	event_printer print;
@@ -474,6 +567,13 @@ static const struct {
 	{ MBX_EV_CAN_STATE, print_can_state },
 	{ MBX_EV_RAW, print_raw },
 	{ MBX_EV_OD_WRITTEN, print_od_written },
+	{ MBX_EV_RPDO_FAULT, print_rpdo_fault },
+	{ MBX_EV_RPDO_RECOVERED, print_rpdo_fault },
+	{ MBX_EV_SYNC, print_sync },
+	{ MBX_EV_TIME, print_time },
+	{ MBX_EV_GUARD_TOGGLE, print_guarding },
+	{ MBX_EV_LIFE_LOST, print_guarding },
+	{ MBX_EV_LIFE_RESUMED, print_guarding },
 	{ MBX_EV_OVERFLOW, print_overflow },
 };
 
@@ -553,7 +653,7 @@ int ctl_monitor_run(ctl *c, const ctl_monitor_spec *spec)
 	 * events): a person knows it is listening, a script can wait for it. */
 	char what[256] = "";
 	size_t off = 0;
-	for (uint32_t bit = 1; bit && bit <= MBX_EVC_MANAGER; bit <<= 1)
+	for (uint32_t bit = 1; bit && bit <= MBX_EVC_ALL; bit <<= 1)
 		if ((spec->classes & bit) && off < sizeof what)
 			off += (size_t)snprintf(what + off, sizeof what - off, "%s%s",
 						off ? "," : "", mbx_event_class_to_string(bit));
@@ -639,9 +739,15 @@ static int add_class(ctl *c, const char *s, void *arg)
 			*(uint32_t *)arg |= class_names[i].bits;
 			return 0;
 		}
+	/* the other classes by the mailbox's own names (sync, time, pdo-fault) */
+	for (uint32_t bit = 1; bit & MBX_EVC_ALL; bit <<= 1)
+		if (strcmp(s, mbx_event_class_to_string(bit)) == 0) {
+			*(uint32_t *)arg |= bit;
+			return 0;
+		}
 	return ctl_usage_error(c,
 			       "unknown event class '%s' (nmt, hb, boot, emcy, pdo, sdo, can, raw, "
-			       "od, manager, gateway, all)",
+			       "od, manager, gateway, pdo-fault, sync, time, all)",
 			       s);
 }
 
@@ -703,7 +809,8 @@ static int run_monitor(ctl *c, int argc, char **argv)
 	if (filter && (rc = each_item(c, filter, add_filter, &spec)))
 		return rc;
 	if (!cls)
-		spec.classes = MBX_EVC_ALL & ~MBX_EVC_RAW; /* raw frames only on request */
+		/* raw frames and SYNCs (up to one per ms) only on request */
+		spec.classes = MBX_EVC_ALL & ~(MBX_EVC_RAW | MBX_EVC_SYNC);
 	if (spec.n_filters)
 		spec.classes |= MBX_EVC_RAW;
 	if ((rc = parse_limits(c, &spec, count, duration)))
@@ -728,11 +835,12 @@ const ctl_cmd ctl_cmd_monitor = {
 		"(--duration, fractions allowed); then prints how many events it saw (stderr).\n"
 		"\n"
 		"  --line L,..      lines to watch (default: every line of the daemon)\n"
-		"  --class C,..     event classes (default: all but raw; gateway = routed SDO\n"
-		"                   sessions ending and EMCYs forwarded):\n"
+		"  --class C,..     event classes (default: all but raw and sync; gateway =\n"
+		"                   routed SDO sessions ending and EMCYs forwarded):\n"
 		"                   nmt   NMT state changes (from heartbeats and the daemon's "
 		"own)\n"
-		"                   hb    heartbeat supervision started / lost\n"
+		"                   hb    heartbeat supervision started / lost, guarding\n"
+		"                         toggle errors, our node's life guarding\n"
 		"                   boot  boot-up messages\n"
 		"                   emcy  emergency messages received, with the error code's "
 		"meaning\n"
@@ -741,7 +849,11 @@ const ctl_cmd ctl_cmd_monitor = {
 		"                   can   CAN controller state (error-passive, bus-off, ...)\n"
 		"                   raw   every CAN frame (can-utils notation 181#0000A040)\n"
 		"                   od    the daemon's own object dictionary written over SDO\n"
-		"                   all   all of these (raw included)\n"
+		"                   pdo-fault  the daemon's RPDOs: deadline missed, too short,\n"
+		"                         too long (with the EMCY it sent), and when it ends\n"
+		"                   sync  every SYNC sent or received, with its counter\n"
+		"                   time  every TIME stamp sent or received\n"
+		"                   all   all of these (raw and sync included)\n"
 		"  --raw-filter F,..  raw frames matching ID[/MASK] only (hex; 1..3 digits = "
 		"11-bit,\n"
 		"                   8 digits = 29-bit; at most 4); implies --class raw\n"

@@ -772,3 +772,19 @@ int ctl_count_lines(ctl *c)
 	}
 	return n;
 }
+
+void ctl_rpdo_fault_text(uint8_t faults, const char *sep, bool with_emcy, char *buf, size_t len)
+{
+	static const struct {
+		const char *name;
+		const char *emcy;
+	} kinds[] = { { "deadline missed", " (8250h)" },
+		      { "short", " (8210h)" },
+		      { "long", " (8220h)" } };
+	size_t off = 0;
+	buf[0] = 0;
+	for (unsigned k = 0; k < sizeof kinds / sizeof kinds[0]; k++)
+		if ((faults & (1u << k)) && off < len)
+			off += (size_t)snprintf(buf + off, len - off, "%s%s%s", off ? sep : "",
+						kinds[k].name, with_emcy ? kinds[k].emcy : "");
+}

@@ -118,6 +118,7 @@ static int create_lines(daemon_state *d)
 			.index = (uint8_t)i,
 			.name = lc->name,
 			.network_id = lc->network_id,
+			.time_period_ms = lc->time_period_ms,
 			.can = { .ifname = lc->interface, .bitrate = lc->bitrate },
 			.node = {
 				.node_id = lc->node_id,

@@ -85,6 +85,7 @@ static const char *const line_keys[] = { "name",
 					 "sdo_block_threshold",
 					 "heartbeat_ms",
 					 "sync_period_us",
+					 "time_period_ms",
 					 "heartbeat_consumers",
 					 "device",
 					 "rpdos",
@@ -1298,6 +1299,7 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_confi
 			  &l->sdo_block_threshold)) ||
 	    (rc = opt_u16(c, o, "heartbeat_ms", path, 0, 65535, &l->heartbeat_ms)) ||
 	    (rc = opt_u32(c, o, "sync_period_us", path, 0, UINT32_MAX, &l->sync_period_us)) ||
+	    (rc = opt_u32(c, o, "time_period_ms", path, 0, 86400000, &l->time_period_ms)) ||
 	    (rc = opt_u16(c, o, "rpdos", path, 0, 512, &so.rpdos)) ||
 	    (rc = opt_u16(c, o, "tpdos", path, 0, 512, &so.tpdos)))
 		return rc;
@@ -1311,6 +1313,8 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_confi
 	so.sync_period_us = l->sync_period_us;
 	/* 1005h bit 30: we produce SYNC when a period is configured. */
 	so.sync_cob_id = l->sync_period_us ? 0x40000080u : 0x80u;
+	/* 1012h bit 30: we produce TIME when a period is configured. */
+	so.time_cob_id = l->time_period_ms ? 0x40000100u : 0x100u;
 	so.sdo_servers = l->sdo_servers;
 	so.sdo_clients = l->sdo_clients;
 	so.gateway = true;
@@ -1650,6 +1654,7 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next, c
 			LDIFF(x->sdo_block_threshold != y->sdo_block_threshold,
 			      "sdo_block_threshold");
 			LDIFF(x->sync_period_us != y->sync_period_us, "sync_period_us");
+			LDIFF(x->time_period_ms != y->time_period_ms, "time_period_ms");
 			/* The OD follows from the keys above: name it only when
 			 * they do not explain the difference. */
 			LDIFF(!changed && x->od && y->od && !od_same(x->od, y->od),

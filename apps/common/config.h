@@ -99,6 +99,7 @@ typedef struct cogw_line_config {
 	uint32_t sdo_block_threshold;                         /* bytes (default 128) */
 	uint16_t heartbeat_ms;                                /* 1017h (default 1000, 0 = off) */
 	uint32_t sync_period_us;                              /* 1006h, 0 = no SYNC producer */
+	uint32_t time_period_ms;                              /* TIME producer period, 0 = none */
 	cogw_hb_consumer hb_consumers[COGW_HB_CONSUMERS_MAX]; /* 1016h */
 	size_t n_hb_consumers;
 	/* The line's object dictionary: the standard communication objects

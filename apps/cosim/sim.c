@@ -656,7 +656,10 @@ static void on_event(void *ctx, const co_event *ev)
 			     sdo_abort_to_string(ev->u.pdo_obj.abort));
 		break;
 	case CO_EV_RPDO_LENGTH:
-		logn(n, "RPDO %u: wrong length %u, ignored", ev->u.pdo.nr, ev->u.pdo.len);
+		logn(n, "RPDO %u: %u bytes, %u mapped: %s", ev->u.pdo.nr, ev->u.pdo.len,
+		     ev->u.pdo.mapped_len,
+		     ev->u.pdo.fault == CO_PDO_FAULT_SHORT ? "not processed"
+							   : "leading bytes used");
 		break;
 	case CO_EV_RPDO_TIMEOUT:
 		logn(n, "RPDO %u: event timer ran out", ev->u.pdo.nr);

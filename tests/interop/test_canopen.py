@@ -20,6 +20,13 @@ vcan0. It catches bugs that cosim, which runs our own core, would mirror.
   - PDO remapping over SDO (python-canopen's PdoMap.save(): disable,
     clear, map, enable), then the remapped TPDO received with its values;
   - EMCY from cosim (control socket) and from cogwd (cogwctl emcy send);
+  - RPDO supervision of cogwd's own RPDO 1, fed by python-canopen: short,
+    long and late frames give the CiA 301 EMCYs (8210h, 8220h, 8250h) once
+    per episode and the error reset after it, byte-exact on the bus; the
+    TIME cogwd produces (lines[].time_period_ms), byte-exact against its
+    own mailbox event; SYNCs from python-canopen; a mailbox subscriber
+    (cogwctl monitor --json) gets the pdo-fault, time and sync events and
+    cogwctl diag lists the open episode;
   - LSS: Fastscan of an unconfigured cosim node, node-ID assignment, boot
     with the new id;
   - the CiA 302-2 manager of cogwd's second line (vcan1) with python-canopen
@@ -33,7 +40,9 @@ Output is in Unity's format (file:line:name:PASS/FAIL, then the summary
 line) so that tests/run-tests counts it like the C tests. Runs inside the
 vcan VM (tests/interop/run), from the repository root.
 """
+import contextlib
 import faulthandler
+import json
 import logging
 import os
 import shutil
@@ -56,6 +65,8 @@ TOP = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))
 BIN = os.environ.get("COGW_BIN", os.path.join(TOP, "build/san/bin"))
 IFACE = "vcan0"
 OUR_ID = 127       # cogwd's node on line 0
+OUR_RPDO1 = 0x200 + OUR_ID  # cogwd's RPDO 1 (predefined connection set)
+TIME_PERIOD_MS = 500
 DEV_ID = 1         # cosim device with a big DOMAIN, TPDOs, EMCY
 LSS_SERIAL = 777001
 INSTANCE = "interop"
@@ -183,11 +194,20 @@ CONFIG = {
         "name": "line0", "interface": IFACE, "bitrate": 1000000, "node_id": OUR_ID,
         "heartbeat_ms": 200,
         "sdo_timeout_ms": int(SDO_TIMEOUT_S * 1000),
+        "time_period_ms": TIME_PERIOD_MS,
+        "rpdos": 1,
         "objects": [
             {"index": "0x2000", "name": "big domain", "type": "DOMAIN", "access": "rw",
              "max_size": 4096},
             {"index": "0x2001", "name": "setting", "type": "UNSIGNED32", "access": "rw",
              "persist": True, "default": 7},
+            {"index": "0x2003", "name": "set-point", "type": "UNSIGNED16", "access": "rww"},
+        ],
+        # RPDO 1 maps 2003h (2 bytes); no deadline until the test sets one
+        "values": [
+            {"index": "0x1600", "sub": 1, "value": "0x20030010"},
+            {"index": "0x1600", "sub": 0, "value": 1},
+            {"index": "0x1400", "sub": 1, "value": OUR_RPDO1},
         ],
     }, {
         # a CiA 302-2 manager of python-canopen slaves (MANAGED), alone on
@@ -615,6 +635,177 @@ def test_emcy_from_cosim_and_from_cogwd():
     eq(0x11, e.register & 0x11, "cogwd EMCY error register")
 
 
+class Monitor:
+    """A mailbox subscriber: `cogwctl monitor --json` in the background,
+    its events collected as they come."""
+
+    def __init__(self, classes):
+        argv = [os.path.join(BIN, "cogwctl"), "--instance", INSTANCE, "--json", "monitor",
+                "--line", "0", "--class", classes]
+        self.proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                     text=True, cwd=TOP)
+        self.events = []
+        # it says on stderr when its subscriptions are in place
+        said = self.proc.stderr.readline()
+        check("watching" in said, f"cogwctl monitor: {said!r}")
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self):
+        for line in self.proc.stdout:
+            self.events.append(json.loads(line))
+
+    def of(self, *names):
+        return [e for e in list(self.events) if e["event"] in names]
+
+    def wait(self, what, pred, timeout=5.0):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if pred():
+                return
+            time.sleep(0.05)
+        raise AssertionError(f"subscriber: no {what}; got {self.events[-10:]}")
+
+    def stop(self):
+        self.proc.terminate()
+        self.proc.wait(10)
+
+
+def frames_since(mark, cob):
+    return [bytes(m.data) for m in RECORDER.frames[mark:] if m.arbitration_id == cob]
+
+
+def wait_frames(mark, cob, n, timeout=5.0):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and len(frames_since(mark, cob)) < n:
+        time.sleep(0.02)
+    return frames_since(mark, cob)
+
+
+# Golden EMCY frames of cogwd's node (CiA 301 §7.2.7.3.1): code LE,
+# 1001h = 11h (generic + communication error), RPDO number LE, 3 zeros.
+EMCY_SHORT = bytes.fromhex("1082110100000000")
+EMCY_LONG = bytes.fromhex("2082110100000000")
+EMCY_TIMEOUT = bytes.fromhex("5082110100000000")
+EMCY_RESET = bytes(8)
+OUR_EMCY = 0x80 + OUR_ID
+
+
+def set_point(ours):
+    return struct.unpack("<H", ours.sdo.upload(0x2003, 0))[0]
+
+
+def rpdo_episode(data, golden, what):
+    """Send data on cogwd's RPDO 1 twice: one EMCY (golden), not two."""
+    mark = len(RECORDER.frames)
+    NET.send_message(OUR_RPDO1, data)
+    got = wait_frames(mark, OUR_EMCY, 1)
+    eq([golden.hex()], [f.hex() for f in got], f"EMCY after a {what} RPDO")
+    NET.send_message(OUR_RPDO1, data)
+    time.sleep(0.5)
+    eq([golden.hex()], [f.hex() for f in frames_since(mark, OUR_EMCY)],
+       f"EMCYs after two {what} RPDOs (once per episode)")
+
+
+def rpdo_correct(data, what):
+    mark = len(RECORDER.frames)
+    NET.send_message(OUR_RPDO1, data)
+    got = wait_frames(mark, OUR_EMCY, 1)
+    eq([EMCY_RESET.hex()], [f.hex() for f in got], f"error reset after {what}")
+
+
+@contextlib.contextmanager
+def operational_and_watched(classes):
+    """cogwd OPERATIONAL (PDOs only there) and a mailbox subscriber to
+    classes; PRE-OPERATIONAL again afterwards."""
+    ours = remote(OUR_ID)
+    mon = Monitor(classes)
+    try:
+        ours.nmt.send_command(0x01)
+        wait_state(OUR_ID, "OPERATIONAL")
+        yield ours, mon
+    finally:
+        mon.stop()
+        ours.nmt.send_command(0x80)
+        wait_state(OUR_ID, "PRE-OPERATIONAL")
+
+
+def test_time_produced_and_sync_events():
+    with operational_and_watched("time,sync") as (ours, mon):
+        step("TIME produced by cogwd, byte-exact against its own event")
+        mark = len(RECORDER.frames)
+        times = wait_frames(mark, 0x100, 2, timeout=10)
+        check(len(times) >= 2, f"TIME frames from cogwd in 10 s: {len(times)}")
+        mon.wait("TIME event", lambda: len([e for e in mon.of("time") if e["produced"]]) >= 2)
+        on_bus = frames_since(0, 0x100)
+        for e in mon.of("time"):
+            want = struct.pack("<LH", e["ms"], e["days"])
+            eq(True, e["produced"], "TIME event of the producer")
+            check(want in on_bus, f"TIME event {e}: no frame {want.hex()} on the bus")
+        for t in times:
+            eq(6, len(t), "TIME frame length")
+            ms, days = struct.unpack("<LH", t)
+            eq(0, ms >> 28, "TIME_OF_DAY reserved bits")
+            unix_s = 441763200 + days * 86400 + ms / 1000.0
+            check(abs(unix_s - time.time()) < 120,
+                  f"TIME {t.hex()} is {unix_s - time.time():.1f} s off the VM's clock")
+        e = mon.of("time")[-1]
+        eq(e["unix_ms"], (441763200000 + e["days"] * 86400000 + e["ms"]), "unix_ms of the event")
+
+        step("SYNC from python-canopen reaches the subscriber")
+        before = len(mon.of("sync"))
+        for _ in range(3):
+            NET.sync.transmit()
+        mon.wait("3 SYNC events", lambda: len(mon.of("sync")) >= before + 3)
+        eq([False] * 3, [e["produced"] for e in mon.of("sync")[before:before + 3]],
+           "SYNC events: received, not produced")
+
+
+def test_rpdo_supervision_emcys_and_events():
+    with operational_and_watched("pdo-fault") as (ours, mon):
+        step("RPDO 1 too short: not processed, 8210h once")
+        eq(0, set_point(ours), "2003h before")
+        rpdo_episode(b"\x01", EMCY_SHORT, "short")
+        eq(0, set_point(ours), "2003h after short RPDOs")
+        rpdo_correct(b"\x34\x12", "a correct RPDO")
+        eq(0x1234, set_point(ours), "2003h after a correct RPDO")
+
+        step("RPDO 1 too long: leading bytes used, 8220h once")
+        rpdo_episode(b"\x78\x56\x99", EMCY_LONG, "long")
+        eq(0x5678, set_point(ours), "2003h after a long RPDO")
+        rpdo_correct(b"\x00\x00", "a correct RPDO")
+
+        step("RPDO 1 deadline 300 ms: missed once, 8250h once")
+        ours.sdo.download(0x1400, 5, struct.pack("<H", 300))
+        mark = len(RECORDER.frames)
+        NET.send_message(OUR_RPDO1, b"\x01\x00")  # arms the deadline
+        got = wait_frames(mark, OUR_EMCY, 1)
+        time.sleep(1.0)  # three deadlines long: still one EMCY
+        eq([EMCY_TIMEOUT.hex()], [f.hex() for f in frames_since(mark, OUR_EMCY)],
+           "EMCYs after a missed deadline")
+        check(got, "no EMCY 8250h")
+        d = json.loads(ctl("--json", "diag", "0").stdout)
+        eq(False, d["manager"], "diag: line 0 has no manager")
+        eq([(1, OUR_RPDO1, True, False, False)],
+           [(f["pdo"], f["cob_id"], f["timeout"], f["short"], f["long"])
+            for f in d["rpdo"]["faults"]], "diag: RPDOs with an episode open")
+        eq(1, d["rpdo"]["timeout_episodes"], "diag: deadline episodes")
+        ours.sdo.download(0x1400, 5, struct.pack("<H", 0))  # before the next frame
+        rpdo_correct(b"\x02\x00", "the RPDO came again")
+
+        step("the subscriber got each episode's start and end")
+        mon.wait("6 pdo-fault events", lambda: len(mon.of("rpdo-fault", "rpdo-recovered")) >= 6)
+        got = [(e["event"], e["pdo"], e["cob_id"], e["fault"], e["len"], e["mapped_len"],
+                e.get("emcy")) for e in mon.of("rpdo-fault", "rpdo-recovered")]
+        eq([("rpdo-fault", 1, OUR_RPDO1, "short", 1, 2, 0x8210),
+            ("rpdo-recovered", 1, OUR_RPDO1, "short", 2, 2, None),
+            ("rpdo-fault", 1, OUR_RPDO1, "long", 3, 2, 0x8220),
+            ("rpdo-recovered", 1, OUR_RPDO1, "long", 2, 2, None),
+            ("rpdo-fault", 1, OUR_RPDO1, "deadline missed", 0, 2, 0x8250),
+            ("rpdo-recovered", 1, OUR_RPDO1, "deadline missed", 2, 2, None)],
+           got, "pdo-fault events")
+        eq(300, mon.of("rpdo-fault")[2]["event_ms"], "deadline in the event")
+
+
 def test_lss_fastscan_and_node_id_assignment():
     lss = NET.lss
     lss.RESPONSE_TIMEOUT = 0.5
@@ -826,6 +1017,8 @@ def main():
                   test_nmt_states_and_no_sdo_while_stopped,
                   test_store_restore_across_resets,
                   test_pdo_remapping_over_sdo,
+                  test_time_produced_and_sync_events,
+                  test_rpdo_supervision_emcys_and_events,
                   test_emcy_from_cosim_and_from_cogwd,
                   test_lss_fastscan_and_node_id_assignment,
                   # before the manager test: its end leaves line 1 stopped

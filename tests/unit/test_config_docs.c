@@ -153,6 +153,7 @@ static int fill_key_defaults(struct key_default *k)
 	KD("`lines[]`", "sdo_block_threshold", "%u", l->sdo_block_threshold);
 	KD("`lines[]`", "heartbeat_ms", "%u", l->heartbeat_ms);
 	KD("`lines[]`", "sync_period_us", "%u", l->sync_period_us);
+	KD("`lines[]`", "time_period_ms", "%u", l->time_period_ms);
 	KD("`lines[]`", "rpdos", "%u", count_records(l->od, 0x1400));
 	KD("`lines[]`", "tpdos", "%u", count_records(l->od, 0x1800));
 	TEST_ASSERT_EQUAL_size_t(1, l->n_nodes);

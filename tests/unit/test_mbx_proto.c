@@ -459,7 +459,7 @@ static void test_subscribe_fields(void)
 
 	h.code = MBX_CMD_UNSUBSCRIBE;
 	ASSERT_OK(h, &u, sizeof u);
-	u.classes = 1u << 12;
+	u.classes = (MBX_EVC_ALL + 1) & ~MBX_EVC_ALL; /* the first unknown class bit */
 	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &u, sizeof u);
 }
 
@@ -703,6 +703,47 @@ static void test_event_validation(void)
 	TEST_ASSERT_EQUAL_INT(MBX_E_UNKNOWN_CMD, mbx_event_validate(0x9999, p, 0));
 }
 
+/* The supervision, SYNC, TIME and guarding events: each has a name, a
+ * class a client can subscribe to, and exactly one payload size. */
+static void test_supervision_sync_time_events(void)
+{
+	static const struct {
+		uint16_t code;
+		uint32_t cls;
+		const char *name;
+		size_t size;
+	} t[] = {
+		{ MBX_EV_RPDO_FAULT, MBX_EVC_PDO_FAULT, "rpdo-fault", sizeof(mbx_ev_rpdo_fault) },
+		{ MBX_EV_RPDO_RECOVERED, MBX_EVC_PDO_FAULT, "rpdo-recovered",
+		  sizeof(mbx_ev_rpdo_fault) },
+		{ MBX_EV_SYNC, MBX_EVC_SYNC, "sync", sizeof(mbx_ev_sync) },
+		{ MBX_EV_TIME, MBX_EVC_TIME, "time", sizeof(mbx_ev_time) },
+		{ MBX_EV_GUARD_TOGGLE, MBX_EVC_HB, "guard-toggle", sizeof(mbx_ev_node) },
+		{ MBX_EV_LIFE_LOST, MBX_EVC_HB, "life-lost", sizeof(mbx_ev_node) },
+		{ MBX_EV_LIFE_RESUMED, MBX_EVC_HB, "life-resumed", sizeof(mbx_ev_node) },
+	};
+	uint8_t p[64] = { 0 };
+
+	for (size_t i = 0; i < sizeof t / sizeof t[0]; i++) {
+		TEST_ASSERT_EQUAL_STRING(t[i].name, mbx_event_to_string(t[i].code));
+		TEST_ASSERT_EQUAL_HEX32(t[i].cls, mbx_event_class_of(t[i].code));
+		TEST_ASSERT_TRUE(t[i].cls & MBX_EVC_ALL);
+		TEST_ASSERT_EQUAL_INT(0, mbx_event_validate(t[i].code, p, t[i].size));
+		TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED,
+				      mbx_event_validate(t[i].code, p, t[i].size - 1));
+		TEST_ASSERT_EQUAL_INT(MBX_E_MALFORMED,
+				      mbx_event_validate(t[i].code, p, t[i].size + 1));
+	}
+	TEST_ASSERT_EQUAL_STRING("pdo-fault", mbx_event_class_to_string(MBX_EVC_PDO_FAULT));
+	TEST_ASSERT_EQUAL_STRING("sync", mbx_event_class_to_string(MBX_EVC_SYNC));
+	TEST_ASSERT_EQUAL_STRING("time", mbx_event_class_to_string(MBX_EVC_TIME));
+	/* RPDO_STATUS: a read without payload */
+	mbx_hdr h = cmd_hdr(MBX_CMD_RPDO_STATUS);
+	ASSERT_OK(h, p, 0);
+	ASSERT_BAD(MBX_E_MALFORMED, MBX_BAD_SIZE, h, p, 4);
+	TEST_ASSERT_EQUAL_STRING("rpdo-status", mbx_cmd_to_string(MBX_CMD_RPDO_STATUS));
+}
+
 static void test_system_limits_message(void)
 {
 	char err[256];
@@ -784,6 +825,7 @@ int main(void)
 	RUN_TEST(test_queue_names);
 	RUN_TEST(test_raw_filter_match);
 	RUN_TEST(test_event_validation);
+	RUN_TEST(test_supervision_sync_time_events);
 	RUN_TEST(test_system_limits_message);
 	return UNITY_END();
 }

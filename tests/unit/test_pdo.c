@@ -283,41 +283,134 @@ static void test_rpdo_value_outside_limits_is_refused_per_object(void)
 	TEST_ASSERT_EQUAL(1, co_pdo_get_stats(node)->od_refused);
 }
 
-/* ---- wrong length ----------------------------------------------------------- */
+/* ---- RPDO supervision (CiA 301 §7.5.2.35, §7.5.2.36) -------------------- */
 
-static void test_rpdo_wrong_length_emcy_and_od_unchanged(void)
+/* Golden EMCY frames of this node (CiA 301 §7.2.7.3.1: code LE, 1001h,
+ * manufacturer bytes = RPDO number LE then zeros). 1001h = 11h: generic
+ * error and communication error. */
+#define EMCY_8210_RPDO3 "10 82 11 03 00 00 00 00"
+#define EMCY_8220_RPDO3 "20 82 11 03 00 00 00 00"
+#define EMCY_8250_RPDO4 "50 82 11 04 00 00 00 00"
+#define EMCY_RESET "00 00 00 00 00 00 00 00"
+
+static void rpdo3_u16_u8(void)
 {
 	const uint32_t map[] = { CO_PDO_MAP(IDX_U16, 0, 16), CO_PDO_MAP(IDX_U8, 0, 8) };
 
 	pdo_setup(CO_PDO_RX, 3, 0x405, 254, 0, 0, 0, 2, map);
 	start_node();
-
-	tb_send_hex(&bus, 0x405, "CD AB"); /* short */
-	ASSERT_LAST_ID(EMCY_ID, "10 82 11 03 00 00 00 00");
-	TEST_ASSERT_EQUAL_HEX64(0x1234, odr(IDX_U16, 0));
-	TEST_ASSERT_EQUAL_HEX64(0x56, odr(IDX_U8, 0));
-	TEST_ASSERT_EQUAL(1, tb_event_count(port, CO_EV_RPDO_LENGTH));
-	TEST_ASSERT_EQUAL(0, tb_event_count(port, CO_EV_RPDO));
-	TEST_ASSERT_TRUE(co_emcy_is_active(node, CO_EMCY_PDO_LENGTH));
-
-	/* a second bad frame: counted, no second EMCY */
-	tb_send_hex(&bus, 0x405, "CD");
-	TEST_ASSERT_EQUAL(1, count_id(EMCY_ID, 0));
-	TEST_ASSERT_EQUAL(2, co_pdo_get_stats(node)->rx_length);
-
-	/* right length again: error reset EMCY, data applied */
-	tb_send_hex(&bus, 0x405, "CD AB 01");
-	ASSERT_LAST_ID(EMCY_ID, "00 00 00 00 00 00 00 00");
-	TEST_ASSERT_EQUAL_HEX64(0xABCD, odr(IDX_U16, 0));
-
-	/* too long: 8220h */
-	tb_send_hex(&bus, 0x405, "11 22 33 44");
-	ASSERT_LAST_ID(EMCY_ID, "20 82 11 03 00 00 00 00");
-	TEST_ASSERT_EQUAL_HEX64(0xABCD, odr(IDX_U16, 0));
-	TEST_ASSERT_EQUAL_HEX64(0x01, odr(IDX_U8, 0));
 }
 
-/* ---- RPDO deadline ----------------------------------------------------------- */
+static void assert_pdo_event(const co_event *ev, uint16_t nr, uint8_t fault, uint8_t len,
+			     uint8_t mapped_len)
+{
+	TEST_ASSERT_NOT_NULL(ev);
+	TEST_ASSERT_EQUAL(nr, ev->u.pdo.nr);
+	TEST_ASSERT_EQUAL_HEX8(fault, ev->u.pdo.fault);
+	TEST_ASSERT_EQUAL(len, ev->u.pdo.len);
+	TEST_ASSERT_EQUAL(mapped_len, ev->u.pdo.mapped_len);
+}
+
+static void test_rpdo_short_frame_not_processed_emcy_8210_once_per_episode(void)
+{
+	rpdo3_u16_u8();
+
+	tb_send_hex(&bus, 0x405, "CD AB");
+	ASSERT_LAST_ID(EMCY_ID, EMCY_8210_RPDO3);
+	TEST_ASSERT_EQUAL_HEX64(0x1234, odr(IDX_U16, 0));
+	TEST_ASSERT_EQUAL_HEX64(0x56, odr(IDX_U8, 0));
+	TEST_ASSERT_EQUAL(0, tb_event_count(port, CO_EV_RPDO));
+	TEST_ASSERT_EQUAL(1, tb_event_count(port, CO_EV_RPDO_LENGTH));
+	assert_pdo_event(tb_last_event(port, CO_EV_RPDO_LENGTH), 3, CO_PDO_FAULT_SHORT, 2, 3);
+	TEST_ASSERT_EQUAL_HEX32(0x405, tb_last_event(port, CO_EV_RPDO_LENGTH)->u.pdo.cob_id);
+	TEST_ASSERT_EQUAL_HEX64(0x11, odr(0x1001, 0));
+	TEST_ASSERT_EQUAL(1, odr(0x1003, 0));
+	TEST_ASSERT_EQUAL_HEX64(0x00038210, odr(0x1003, 1));
+
+	/* the same episode: counted, no second EMCY, no second event */
+	tb_send_hex(&bus, 0x405, "CD");
+	tb_send_hex(&bus, 0x405, "");
+	TEST_ASSERT_EQUAL(1, count_id(EMCY_ID, 0));
+	TEST_ASSERT_EQUAL(1, tb_event_count(port, CO_EV_RPDO_LENGTH));
+	TEST_ASSERT_EQUAL(3, co_pdo_get_stats(node)->rx_length);
+	TEST_ASSERT_EQUAL(1, odr(0x1003, 0));
+
+	/* a correct frame ends it: error reset, data applied, reported */
+	tb_send_hex(&bus, 0x405, "CD AB 01");
+	ASSERT_LAST_ID(EMCY_ID, EMCY_RESET);
+	TEST_ASSERT_EQUAL(2, count_id(EMCY_ID, 0));
+	TEST_ASSERT_EQUAL_HEX64(0xABCD, odr(IDX_U16, 0));
+	TEST_ASSERT_EQUAL_HEX64(0x01, odr(IDX_U8, 0));
+	TEST_ASSERT_EQUAL_HEX64(0x00, odr(0x1001, 0));
+	TEST_ASSERT_FALSE(co_emcy_is_active(node, CO_EMCY_PDO_LENGTH));
+	TEST_ASSERT_EQUAL(1, tb_event_count(port, CO_EV_RPDO_RECOVERED));
+	assert_pdo_event(tb_last_event(port, CO_EV_RPDO_RECOVERED), 3, CO_PDO_FAULT_SHORT, 3, 3);
+
+	/* a new episode, a new EMCY */
+	tb_send_hex(&bus, 0x405, "CD");
+	ASSERT_LAST_ID(EMCY_ID, EMCY_8210_RPDO3);
+	TEST_ASSERT_EQUAL(3, count_id(EMCY_ID, 0));
+	TEST_ASSERT_EQUAL(2, tb_event_count(port, CO_EV_RPDO_LENGTH));
+}
+
+static void test_rpdo_long_frame_uses_leading_bytes_emcy_8220(void)
+{
+	co_pdo_rpdo_state st;
+
+	rpdo3_u16_u8();
+
+	tb_send_hex(&bus, 0x405, "11 22 33 44");
+	ASSERT_LAST_ID(EMCY_ID, EMCY_8220_RPDO3);
+	TEST_ASSERT_EQUAL_HEX64(0x2211, odr(IDX_U16, 0));
+	TEST_ASSERT_EQUAL_HEX64(0x33, odr(IDX_U8, 0));
+	assert_pdo_event(tb_last_event(port, CO_EV_RPDO_LENGTH), 3, CO_PDO_FAULT_LONG, 4, 3);
+	TEST_ASSERT_EQUAL(3, tb_last_event(port, CO_EV_RPDO)->u.pdo.len);
+	TEST_ASSERT_EQUAL_HEX64(0x00038220, odr(0x1003, 1));
+	TEST_ASSERT_EQUAL(0, co_pdo_rpdo_state_get(node, 3, &st));
+	TEST_ASSERT_EQUAL_HEX8(CO_PDO_FAULT_LONG, st.faults);
+	TEST_ASSERT_EQUAL(3, st.mapped_len);
+
+	/* still processed, no second EMCY */
+	tb_send_hex(&bus, 0x405, "55 66 77 88 99");
+	TEST_ASSERT_EQUAL_HEX64(0x6655, odr(IDX_U16, 0));
+	TEST_ASSERT_EQUAL(1, count_id(EMCY_ID, 0));
+	TEST_ASSERT_EQUAL(2, tb_event_count(port, CO_EV_RPDO));
+
+	/* short after long: 8210h begins, 8220h ends, without an error reset
+	 * in between (an error remains) */
+	tb_send_hex(&bus, 0x405, "01");
+	ASSERT_LAST_ID(EMCY_ID, EMCY_8210_RPDO3);
+	TEST_ASSERT_EQUAL(2, count_id(EMCY_ID, 0));
+	TEST_ASSERT_TRUE(co_emcy_is_active(node, CO_EMCY_PDO_LENGTH));
+	TEST_ASSERT_FALSE(co_emcy_is_active(node, CO_EMCY_PDO_LENGTH_HIGH));
+	assert_pdo_event(tb_last_event(port, CO_EV_RPDO_RECOVERED), 3, CO_PDO_FAULT_LONG, 1, 3);
+	TEST_ASSERT_EQUAL_HEX64(0x6655, odr(IDX_U16, 0));
+
+	tb_send_hex(&bus, 0x405, "01 02 03");
+	ASSERT_LAST_ID(EMCY_ID, EMCY_RESET);
+	TEST_ASSERT_EQUAL(0, co_pdo_rpdo_state_get(node, 3, &st));
+	TEST_ASSERT_EQUAL_HEX8(0, st.faults);
+	TEST_ASSERT_EQUAL(0, co_emcy_error_register(node));
+}
+
+/* Two RPDOs with the same error: 8210h leaves the active list (and the
+ * error reset goes out) only when both received a correct frame. */
+static void test_rpdo_length_error_shared_by_two_rpdos(void)
+{
+	const uint32_t map[] = { CO_PDO_MAP(IDX_U32, 0, 32) };
+
+	pdo_setup(CO_PDO_RX, 2, 0x305, 254, 0, 0, 0, 1, map);
+	rpdo3_u16_u8();
+	tb_send_hex(&bus, 0x305, "01");
+	tb_send_hex(&bus, 0x405, "01");
+	TEST_ASSERT_EQUAL(2, count_id(EMCY_ID, 0)); /* one per episode */
+	tb_send_hex(&bus, 0x305, "01 02 03 04");
+	TEST_ASSERT_EQUAL(2, count_id(EMCY_ID, 0));
+	TEST_ASSERT_TRUE(co_emcy_is_active(node, CO_EMCY_PDO_LENGTH));
+	tb_send_hex(&bus, 0x405, "01 02 03");
+	TEST_ASSERT_EQUAL(3, count_id(EMCY_ID, 0));
+	ASSERT_LAST_ID(EMCY_ID, EMCY_RESET);
+}
 
 static void test_rpdo_event_timer_is_a_receive_deadline(void)
 {
@@ -335,18 +428,60 @@ static void test_rpdo_event_timer_is_a_receive_deadline(void)
 	tb_send_hex(&bus, 0x505, "02"); /* restarts the timer */
 	tb_advance(&bus, 99999);
 	TEST_ASSERT_EQUAL(0, tb_event_count(port, CO_EV_RPDO_TIMEOUT));
+	TEST_ASSERT_EQUAL(0, count_id(EMCY_ID, 0));
 	tb_advance(&bus, 1);
 	TEST_ASSERT_EQUAL(1, tb_event_count(port, CO_EV_RPDO_TIMEOUT));
 	ev = tb_last_event(port, CO_EV_RPDO_TIMEOUT);
-	TEST_ASSERT_EQUAL(4, ev->u.pdo.nr);
+	assert_pdo_event(ev, 4, CO_PDO_FAULT_TIMEOUT, 0, 1);
+	TEST_ASSERT_EQUAL(100, ev->u.pdo.event_ms);
 	TEST_ASSERT_EQUAL_UINT64(bus.now, ev->now_us);
-	/* fires once, re-armed only by the next frame */
+	ASSERT_LAST_ID(EMCY_ID, EMCY_8250_RPDO4);
+	TEST_ASSERT_EQUAL_HEX64(0x00048250, odr(0x1003, 1));
+	/* once per episode: re-armed only by the next frame */
 	tb_advance(&bus, 1000000);
 	TEST_ASSERT_EQUAL(1, tb_event_count(port, CO_EV_RPDO_TIMEOUT));
-	tb_send_hex(&bus, 0x505, "03");
+	TEST_ASSERT_EQUAL(1, count_id(EMCY_ID, 0));
+	/* a short frame is not data: the episode goes on */
+	tb_send_hex(&bus, 0x505, "");
+	TEST_ASSERT_TRUE(co_emcy_is_active(node, CO_EMCY_RPDO_TIMEOUT));
+	TEST_ASSERT_EQUAL(2, count_id(EMCY_ID, 0)); /* its own 8210h */
+	tb_send_hex(&bus, 0x505, "03");             /* ends both */
+	ASSERT_LAST_ID(EMCY_ID, EMCY_RESET);
+	TEST_ASSERT_EQUAL(3, count_id(EMCY_ID, 0));
+	assert_pdo_event(tb_last_event(port, CO_EV_RPDO_RECOVERED), 4,
+			 CO_PDO_FAULT_TIMEOUT | CO_PDO_FAULT_SHORT, 1, 1);
 	tb_advance(&bus, 100000);
 	TEST_ASSERT_EQUAL(2, tb_event_count(port, CO_EV_RPDO_TIMEOUT));
+	ASSERT_LAST_ID(EMCY_ID, EMCY_8250_RPDO4);
 	TEST_ASSERT_EQUAL(2, co_pdo_get_stats(node)->rx_timeout);
+	/* a longer frame is data: it ends the deadline episode, and the 8220h
+	 * it raises keeps the register up (no error reset between) */
+	tb_send_hex(&bus, 0x505, "04 05");
+	ASSERT_LAST_ID(EMCY_ID, "20 82 11 04 00 00 00 00");
+	TEST_ASSERT_FALSE(co_emcy_is_active(node, CO_EMCY_RPDO_TIMEOUT));
+	TEST_ASSERT_EQUAL_HEX64(0x04, odr(IDX_U8, 0));
+}
+
+/* A reset communication and a PDO made invalid end the episodes: their
+ * codes leave the active list. */
+static void test_rpdo_episodes_end_with_the_configuration(void)
+{
+	rpdo3_u16_u8();
+	tb_send_hex(&bus, 0x405, "01");
+	TEST_ASSERT_TRUE(co_emcy_is_active(node, CO_EMCY_PDO_LENGTH));
+	nmt(CO_NMT_CS_ENTER_PREOP);
+	TEST_ASSERT_TRUE(co_emcy_is_active(node, CO_EMCY_PDO_LENGTH)); /* NMT alone: no */
+	TEST_ASSERT_EQUAL_HEX32(0, odw(0x1402, 1, 0x405 | CO_PDO_COB_INVALID));
+	TEST_ASSERT_FALSE(co_emcy_is_active(node, CO_EMCY_PDO_LENGTH));
+	ASSERT_LAST_ID(EMCY_ID, EMCY_RESET);
+	assert_pdo_event(tb_last_event(port, CO_EV_RPDO_RECOVERED), 3, CO_PDO_FAULT_SHORT, 0, 3);
+
+	TEST_ASSERT_EQUAL_HEX32(0, odw(0x1402, 1, 0x405));
+	start_node();
+	tb_send_hex(&bus, 0x405, "01");
+	TEST_ASSERT_TRUE(co_emcy_is_active(node, CO_EMCY_PDO_LENGTH));
+	nmt(CO_NMT_CS_RESET_COMM);
+	TEST_ASSERT_FALSE(co_emcy_is_active(node, CO_EMCY_PDO_LENGTH));
 }
 
 static void test_rpdo_sync_data_committed_at_next_sync(void)
@@ -844,7 +979,10 @@ int main(void)
 	RUN_TEST(test_rpdo_event_driven_updates_od_and_reports);
 	RUN_TEST(test_rpdo_write_runs_hooks_with_origin_pdo);
 	RUN_TEST(test_rpdo_value_outside_limits_is_refused_per_object);
-	RUN_TEST(test_rpdo_wrong_length_emcy_and_od_unchanged);
+	RUN_TEST(test_rpdo_short_frame_not_processed_emcy_8210_once_per_episode);
+	RUN_TEST(test_rpdo_long_frame_uses_leading_bytes_emcy_8220);
+	RUN_TEST(test_rpdo_length_error_shared_by_two_rpdos);
+	RUN_TEST(test_rpdo_episodes_end_with_the_configuration);
 	RUN_TEST(test_rpdo_event_timer_is_a_receive_deadline);
 	RUN_TEST(test_rpdo_sync_data_committed_at_next_sync);
 	RUN_TEST(test_rpdo_sync_outside_window_dropped);

@@ -133,12 +133,20 @@ static void test_producer(void)
 	TEST_ASSERT_EQUAL(0, co_time_from_unix_ms(GOLDEN_UNIX_MS, &t));
 	TEST_ASSERT_EQUAL(-EPERM, co_time_send(node, &t, bus.now)); /* 1012h = 100h */
 	TEST_ASSERT_EQUAL_HEX32(0, odw32(0x1012, CO_TIME_PRODUCER | 0x100));
-	TEST_ASSERT_EQUAL(0, co_time_send(node, &t, bus.now));
+	TEST_ASSERT_EQUAL(0, tb_event_count(port, CO_EV_TIME));
+	TEST_ASSERT_EQUAL(0, co_time_send(node, &t, bus.now + 7));
 	tb_pump(&bus);
 	TB_ASSERT_LAST(&bus, 0, 0x100, GOLDEN_HEX);
 	TEST_ASSERT_EQUAL(1, co_time_get_stats(node)->tx);
+	/* the producer reports what it sent, as the SYNC producer does */
+	TEST_ASSERT_EQUAL(1, tb_event_count(port, CO_EV_TIME));
+	TEST_ASSERT_EQUAL(1, tb_last_event(port, CO_EV_TIME)->u.time.produced);
+	TEST_ASSERT_EQUAL(43200123, tb_last_event(port, CO_EV_TIME)->u.time.ms);
+	TEST_ASSERT_EQUAL(14610, tb_last_event(port, CO_EV_TIME)->u.time.days);
+	TEST_ASSERT_EQUAL_UINT64(bus.now + 7, tb_last_event(port, CO_EV_TIME)->now_us);
 	nmt(CO_NMT_CS_STOP);
 	TEST_ASSERT_EQUAL(-EAGAIN, co_time_send(node, &t, bus.now));
+	TEST_ASSERT_EQUAL(1, tb_event_count(port, CO_EV_TIME));
 	nmt(CO_NMT_CS_START); /* OPERATIONAL: allowed too */
 	TEST_ASSERT_EQUAL(0, co_time_send(node, &t, bus.now));
 }
@@ -158,6 +166,7 @@ static void test_consumer(void)
 	ev = tb_last_event(port, CO_EV_TIME);
 	TEST_ASSERT_EQUAL(43200123, ev->u.time.ms);
 	TEST_ASSERT_EQUAL(14610, ev->u.time.days);
+	TEST_ASSERT_EQUAL(0, ev->u.time.produced);
 	TEST_ASSERT_EQUAL(0, co_time_last(node, &t));
 	TEST_ASSERT_EQUAL_INT64(GOLDEN_UNIX_MS, co_time_to_unix_ms(&t));
 
