@@ -134,6 +134,14 @@ $(SAN_GATEWAY_LIB): $(call obj,$(SAN),$(GATEWAY_SRC))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 
+# The ASCII gateway's parser and value texts (no I/O): linked into the unit
+# tests and the fuzz targets as well as into apps/cogw-ascii.
+ASCII_PARSE_SRC := apps/cogw-ascii/ascii_parse.c apps/cogw-ascii/ascii_value.c
+SAN_ASCII_LIB := $(SAN)/lib/libcogw_ascii.a
+$(SAN_ASCII_LIB): $(call obj,$(SAN),$(ASCII_PARSE_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
 $(REL_APPCOMMON_LIB): $(call obj,$(REL),$(APPCOMMON_SRC) $(APPCOMMON_GEN))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
@@ -155,7 +163,7 @@ endef
 $(foreach p,$(PROGRAMS),$(eval $(call program_rules,$(p))))
 
 # ---- tests ---------------------------------------------------------------------
-$(SAN)/tests/unit/%: $(SAN)/obj/tests/unit/%.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_LIBS)
+$(SAN)/tests/unit/%: $(SAN)/obj/tests/unit/%.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_ASCII_LIB) $(SAN_LIBS)
 	@mkdir -p $(@D)
 	$(CC) $(SAN_LDFLAGS) -o $@ $^ $(SYS_LIBS)
 
@@ -271,7 +279,7 @@ FUZZ_CFLAGS := -std=gnu11 -Wall -Wextra -Wshadow -I. -D_GNU_SOURCE -g -O1 \
 .PHONY: fuzz
 ifneq ($(HAVE_FUZZ_CC),)
 fuzz: $(FUZZ_BINS)
-build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) mailbox/proto.c
+build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) mailbox/proto.c $(ASCII_PARSE_SRC)
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -o $@ $(filter %.c,$^) $(SYS_LIBS)
 else
@@ -334,6 +342,11 @@ install: all
 	sed 's|/usr/local/bin/cogwd|$(PREFIX)/bin/cogwd|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogwd.service \
 		> $(DESTDIR)$(UNITDIR)/cogwd.service
 	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw.json || install -m 644 etc/cogw.json $(DESTDIR)$(SYSCONFDIR)/cogw/cogw.json
+	sed 's|/usr/local/bin/cogw-ascii|$(PREFIX)/bin/cogw-ascii|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-ascii.service \
+		> $(DESTDIR)$(UNITDIR)/cogw-ascii.service
+	install -m 644 etc/cogw-ascii.socket $(DESTDIR)$(UNITDIR)/cogw-ascii.socket
+	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-ascii.json || sed 's|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-ascii.json \
+		> $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-ascii.json
 	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/transducer.dcf || install -m 644 etc/transducer.dcf $(DESTDIR)$(SYSCONFDIR)/cogw/transducer.dcf
 
 deps:

@@ -177,8 +177,9 @@ static int load_tree(ascii_config *c, const cJSON *root, char *err, size_t errle
 			return -EINVAL;
 		if (u & 0007)
 			return json_util_fail(err, errlen, "unix_mode",
-					      "%s gives other users access: the socket carries "
-					      "their rights' commands, use 0660 or 0600",
+					      "%s lets every local user connect, who could not "
+					      "write the mailbox's command queues themselves: "
+					      "use 0660 (a group) or 0600",
 					      v->valuestring);
 		c->unix_mode = (unsigned)u;
 	}

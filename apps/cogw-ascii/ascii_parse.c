@@ -443,6 +443,8 @@ int ascii_parse(const char *line, size_t len, ascii_cmd *cmd, uint8_t *data, siz
 		cmd->net = (int)v[0];
 		cmd->node = -1;
 	}
+	if (tok_starts_number(&t[nums]))
+		return ASCII_E_SYNTAX; /* a third number */
 	rc = parse_command(&sc, &t[nums], cmd, data, cap);
 	if (rc)
 		return rc;
