@@ -41,6 +41,7 @@ typedef struct request {
 	uint64_t sent_ms; /* CLOCK_MONOTONIC when sent */
 	bool in_flight;   /* sent, reply not yet here */
 	bool waiting;     /* in the wait queue */
+	bool large;       /* its data may take more than one mailbox message */
 	bool done;        /* answer is set */
 	char *answer;     /* answer text with line ends, NUL-terminated */
 	size_t answer_len;
@@ -77,7 +78,7 @@ typedef struct conn {
 typedef struct gw_stats {
 	uint64_t accepted, refused_full, refused_access, closed;
 	uint64_t commands, syntax_errors, denied, overlong, slow_readers;
-	uint64_t mbx_errors, orphaned;
+	uint64_t mbx_errors, orphaned, expired;
 } gw_stats;
 
 typedef struct gateway {
@@ -90,10 +91,11 @@ typedef struct gateway {
 	unsigned n_listen;
 	conn *conns;
 	unsigned n_conns, next_id;
-	request *wait_head, *wait_tail;    /* requests waiting for a mailbox slot */
-	unsigned inflight[COGW_LINES_MAX]; /* mailbox requests under way per line */
-	unsigned inflight_max;             /* the daemon's max_outstanding */
-	request **sent;                    /* requests under way (by corr) */
+	request *wait_head, *wait_tail;          /* requests waiting for a mailbox slot */
+	unsigned inflight[COGW_LINES_MAX];       /* mailbox requests under way per line */
+	unsigned inflight_max;                   /* the daemon's max_outstanding */
+	unsigned large_inflight[COGW_LINES_MAX]; /* of them large (0 or 1) */
+	request **sent;                          /* requests under way (by corr) */
 	size_t n_sent, cap_sent;
 	uint32_t subscribed[COGW_LINES_MAX];
 	gw_stats st;
@@ -115,6 +117,8 @@ void session_conn_gone(gateway *g, conn *c);
 void session_request_release(gateway *g, request *r);
 /* Answer ERROR: 103 for requests under way too long (called every second). */
 void session_expire(gateway *g);
+/* At exit, after every connection closed: free what is left. */
+void session_free_all(gateway *g);
 /* Line of network net (the daemon's), or -1 if not attached. */
 int session_line_of_net(const gateway *g, unsigned net);
 

@@ -228,7 +228,11 @@ int main(int argc, char **argv)
 				"no socket passed by systemd)\n");
 		return 1;
 	}
-	cogw_options o = { .instance = g.daemon.mailbox.instance, .timeout_ms = 2000 };
+	/* deep queues: the answers of many connections' transfers share them */
+	cogw_options o = { .instance = g.daemon.mailbox.instance,
+			   .timeout_ms = 2000,
+			   .resp_depth = 64,
+			   .event_depth = 64 };
 	int rc = cogw_open_opts(&g.h, &o);
 
 	if (rc < 0) {
@@ -244,12 +248,12 @@ int main(int argc, char **argv)
 	fprintf(stderr,
 		"cogw-ascii: stopping: %llu connections (%llu refused full, %llu refused access), "
 		"%llu commands, %llu syntax errors, %llu denied, %llu overlong lines, %llu slow "
-		"readers, %llu mailbox errors\n",
+		"readers, %llu mailbox errors, %llu requests given up\n",
 		(unsigned long long)g.st.accepted, (unsigned long long)g.st.refused_full,
 		(unsigned long long)g.st.refused_access, (unsigned long long)g.st.commands,
 		(unsigned long long)g.st.syntax_errors, (unsigned long long)g.st.denied,
 		(unsigned long long)g.st.overlong, (unsigned long long)g.st.slow_readers,
-		(unsigned long long)g.st.mbx_errors);
+		(unsigned long long)g.st.mbx_errors, (unsigned long long)g.st.expired);
 	cogw_close(g.h);
 	if (activated == 0 && g.cfg.unix_socket[0])
 		unlink(g.cfg.unix_socket);

@@ -395,5 +395,6 @@ int server_run(gateway *g)
 	close(tfd);
 	while (g->conns)
 		conn_close(g, g->conns);
+	session_free_all(g);
 	return 0;
 }

@@ -286,6 +286,10 @@ static int build_sdo(gateway *g, conn *c, request *r, const uint8_t *data)
 
 	if (r->node < 1)
 		return ASCII_E_NODE;
+	/* an upload of a variable-size type, or a download that does not fit
+	 * one mailbox message, travels in chunks */
+	r->large = upload ? (!r->cmd.type || r->cmd.type->size == 0)
+			  : r->cmd.data_len + sizeof(mbx_gw_sdo_req) + MBX_HDR_SIZE > MBX_MSG_MIN;
 	if (line >= 0) {
 		r->line = (unsigned)line;
 		r->mbx_cmd = upload ? MBX_CMD_SDO_UPLOAD : MBX_CMD_SDO_DOWNLOAD;
@@ -393,6 +397,16 @@ static void sent_add(gateway *g, request *r)
 	g->sent[g->n_sent++] = r;
 }
 
+/* r's mailbox request is over (replied or given up): its slot is free. */
+static void slot_free(gateway *g, request *r)
+{
+	r->in_flight = false;
+	if (g->inflight[r->line])
+		g->inflight[r->line]--;
+	if (r->large && g->large_inflight[r->line])
+		g->large_inflight[r->line]--;
+}
+
 static request *sent_take(gateway *g, uint64_t corr)
 {
 	for (size_t i = 0; i < g->n_sent; i++) {
@@ -400,7 +414,7 @@ static request *sent_take(gateway *g, uint64_t corr)
 			request *r = g->sent[i];
 
 			g->sent[i] = g->sent[--g->n_sent];
-			r->in_flight = false;
+			slot_free(g, r);
 			return r;
 		}
 	}
@@ -441,6 +455,7 @@ static void send_one(gateway *g, request *r)
 	r->sent_ms = mono_ms();
 	r->in_flight = true;
 	g->inflight[r->line]++;
+	g->large_inflight[r->line] += r->large;
 	sent_add(g, r);
 }
 
@@ -452,7 +467,12 @@ static void launch_waiting(gateway *g)
 	while (*pp) {
 		request *r = *pp;
 
-		if (g->inflight[r->line] >= g->inflight_max) {
+		/* One chunked transfer per line at a time: the daemon keeps up to
+		 * half of our response queue filled with the chunks of each
+		 * transfer (docs/mailbox.md), so two at once could fill it and
+		 * leave no room for the other connections' answers. */
+		if (g->inflight[r->line] >= g->inflight_max ||
+		    (r->large && g->large_inflight[r->line])) {
 			prev = r;
 			pp = &r->next_wait;
 			continue;
@@ -618,6 +638,10 @@ static void answer_reply(request *r, const cogw_msg *m)
 		answer_abort(r, m->abort);
 		return;
 	}
+	if (m->status == COGW_E_NOT_FOUND && r->cmd.verb == ASCII_V_LSS_IDENT_NONCONF) {
+		answer_fmt(r, "0"); /* nobody non-configured answered */
+		return;
+	}
 	if (m->status == COGW_E_LSS) {
 		answer_error(r, lss_error(r, q));
 		return;
@@ -749,8 +773,6 @@ void session_mailbox(gateway *g, const cogw_msg *m)
 	r = sent_take(g, m->corr);
 	if (!r)
 		return; /* a subscription's answer, or a request given up on */
-	if (g->inflight[r->line])
-		g->inflight[r->line]--;
 	if (r->conn && !r->done)
 		answer_reply(r, m);
 	finished(g, r);
@@ -758,20 +780,51 @@ void session_mailbox(gateway *g, const cogw_msg *m)
 }
 
 /* Requests under way longer than request_timeout_ms are answered
- * ERROR: 103; their reply, if it still comes, is dropped. */
+ * ERROR: 103 and given up: their mailbox slot counts as free again (the
+ * daemon answers every request it received, so a reply that never came
+ * was lost), a late reply is dropped as one to no request. */
 void session_expire(gateway *g)
 {
 	uint64_t now = mono_ms();
+	bool freed = false;
 
-	for (size_t i = 0; i < g->n_sent; i++) {
+	for (size_t i = 0; i < g->n_sent;) {
 		request *r = g->sent[i];
 
-		if (r->done || now - r->sent_ms < g->cfg.request_timeout_ms)
+		if (now - r->sent_ms < g->cfg.request_timeout_ms) {
+			i++;
 			continue;
+		}
+		g->sent[i] = g->sent[--g->n_sent];
+		slot_free(g, r);
+		g->st.expired++;
+		freed = true;
+		if (!r->conn) {
+			request_free(r);
+			continue;
+		}
 		answer_error(r, ASCII_E_TIMEOUT);
-		if (r->conn)
-			server_flush_answers(g, r->conn);
+		server_flush_answers(g, r->conn);
 	}
+	if (freed)
+		launch_waiting(g);
+}
+
+/* At exit: requests still under way or waiting. */
+void session_free_all(gateway *g)
+{
+	for (size_t i = 0; i < g->n_sent; i++)
+		if (!g->sent[i]->conn)
+			request_free(g->sent[i]);
+	g->n_sent = 0;
+	while (g->wait_head) {
+		request *r = g->wait_head;
+
+		g->wait_head = r->next_wait;
+		if (!r->conn)
+			request_free(r);
+	}
+	g->wait_tail = NULL;
 }
 
 void session_conn_gone(gateway *g, conn *c)
