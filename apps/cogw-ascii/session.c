@@ -773,6 +773,9 @@ void session_mailbox(gateway *g, const cogw_msg *m)
 	r = sent_take(g, m->corr);
 	if (!r)
 		return; /* a subscription's answer, or a request given up on */
+	if (m->status < 0 && m->status != COGW_E_ABORT && g->verbose)
+		fprintf(stderr, "cogw-ascii: %s on line %u: %s\n", ascii_verb_to_string(r->cmd.verb),
+			r->line, cogw_strerror(m->status));
 	if (r->conn && !r->done)
 		answer_reply(r, m);
 	finished(g, r);
