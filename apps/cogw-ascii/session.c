@@ -441,7 +441,13 @@ static void finished(gateway *g, request *r)
 
 static void send_one(gateway *g, request *r)
 {
+	uint64_t t0 = mono_ms();
 	int rc = cogw_send_async(g->h, r->line, r->mbx_cmd, r->payload, r->payload_len, &r->corr);
+
+	if (g->verbose && mono_ms() - t0 > 100)
+		fprintf(stderr, "cogw-ascii: sending %s to line %u took %llu ms\n",
+			ascii_verb_to_string(r->cmd.verb), r->line,
+			(unsigned long long)(mono_ms() - t0));
 
 	free(r->payload);
 	r->payload = NULL;
@@ -774,8 +780,8 @@ void session_mailbox(gateway *g, const cogw_msg *m)
 	if (!r)
 		return; /* a subscription's answer, or a request given up on */
 	if (m->status < 0 && m->status != COGW_E_ABORT && g->verbose)
-		fprintf(stderr, "cogw-ascii: %s on line %u: %s\n", ascii_verb_to_string(r->cmd.verb),
-			r->line, cogw_strerror(m->status));
+		fprintf(stderr, "cogw-ascii: %s on line %u: %s\n",
+			ascii_verb_to_string(r->cmd.verb), r->line, cogw_strerror(m->status));
 	if (r->conn && !r->done)
 		answer_reply(r, m);
 	finished(g, r);

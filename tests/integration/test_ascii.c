@@ -67,7 +67,7 @@ static int start_gateway(void)
 		 " \"tcp\": {\"address\": \"127.0.0.1\", \"port\": %d},"
 		 " \"limits\": {\"max_connections\": %d, \"max_line\": 2097152,"
 		 " \"max_outstanding\": 4, \"max_output\": 65536, \"request_timeout_ms\": 20000},"
-		 " \"session\": {\"network\": 0, \"sdo_timeout_ms\": 3000}}",
+		 " \"session\": {\"network\": 0, \"sdo_timeout_ms\": 5000}}",
 		 d.config_path, sock_path, TCP_PORT, MAX_CONNECTIONS);
 	if (write_text_file(gw_conf, json))
 		return -1;
@@ -685,7 +685,10 @@ int main(void)
 		snprintf(dev, sizeof dev, "%s:%u", DEVICE, 5 + l);
 		const char *devs[] = { dev, NULL };
 
-		if (cosim_start(&sims[l], d.dir, l, devs, NULL) != 0) {
+		/* the VM is slow and shared: the devices wait as long as we do */
+		const char *extra[] = { "--sdo-timeout", "5000", NULL };
+
+		if (cosim_start(&sims[l], d.dir, l, devs, extra) != 0) {
 			printf("test_ascii: cosim on vcan%u did not start\n", l);
 			return 1;
 		}
