@@ -66,7 +66,7 @@ static int start_gateway(void)
 		 "{\"version\": 1, \"daemon_config\": \"%s\", \"unix_socket\": \"%s\","
 		 " \"tcp\": {\"address\": \"127.0.0.1\", \"port\": %d},"
 		 " \"limits\": {\"max_connections\": %d, \"max_line\": 2097152,"
-		 " \"max_outstanding\": 4, \"max_output\": 65536, \"request_timeout_ms\": 20000},"
+		 " \"max_outstanding\": 4, \"max_output\": 65536, \"request_timeout_ms\": 120000},"
 		 " \"session\": {\"network\": 0, \"sdo_timeout_ms\": 5000}}",
 		 d.config_path, sock_path, TCP_PORT, MAX_CONNECTIONS);
 	if (write_text_file(gw_conf, json))
@@ -488,16 +488,25 @@ static const char *wait_text(int fd, const char *text, int timeout_ms)
 static void test_bad_input_holds_up_nobody(void)
 {
 	int half = connect_unix(), lazy = connect_unix(), good = connect_unix(), over;
-	size_t big = 2u * 1024u * 1024u + 100u;
+	size_t big = 2u * 1024u * 1024u + 100u, b64;
 	char *junk = malloc(big + 1);
+	char *text = big_domain(256u * 1024u, &b64);
 
 	TEST_ASSERT_TRUE(half >= 0 && lazy >= 0 && good >= 0);
+	/* the never-reading peer reads a 256 KiB domain of node 6 (network 2)
+	 * again and again: its answers pile up, nobody else's do */
+	int hl = snprintf(junk, 64, "[0] 2 6 w 0x2110 0 d ");
+
+	memcpy(junk + hl, text, b64);
+	junk[hl + b64] = '\n';
+	send_all(good, junk, (size_t)hl + b64 + 1);
+	TEST_ASSERT_EQUAL_STRING("[0] OK\n", recv_lines(good, 1, 120000));
 	send_text(half, "[1] 1 5 r 0x10"); /* and never the rest */
 	/* never reads: pipelined reads of the 512 KiB domain until its unread
 	 * answers pass max_output; then it is no longer read from */
 	fcntl(lazy, F_SETFL, O_NONBLOCK);
 	for (int i = 0; i < 100; i++)
-		if (send(lazy, "1 5 r 0x2110 0 d\n", 17, MSG_NOSIGNAL) < 0)
+		if (send(lazy, "2 6 r 0x2110 0 d\n", 17, MSG_NOSIGNAL) < 0)
 			break;
 	TEST_ASSERT_EQUAL_STRING("[1] 4242", ask(good, "[1] 1 5 r 0x1018 4 u32"));
 
@@ -543,6 +552,7 @@ static void test_bad_input_holds_up_nobody(void)
 	close(over);
 	close(good);
 	free(junk);
+	free(text);
 }
 
 /* TCP peers have the configuration's role: read-only by default. */
