@@ -176,21 +176,25 @@ static void answer_help(request *r)
 	r->answer_len += k;
 }
 
+/* The daemon's events of every line, once a connection asks for them.
+ * SUBSCRIBE is answered by the mailbox server itself and so has no
+ * asynchronous form: this is one short blocking exchange per line, bounded
+ * by a second, the first time only. */
 static void ensure_subscribed(gateway *g)
 {
 	static const uint32_t classes = MBX_EVC_NMT | MBX_EVC_HB | MBX_EVC_BOOT | MBX_EVC_EMCY |
 					MBX_EVC_MANAGER;
 
 	for (size_t l = 0; l < g->daemon.n_lines; l++) {
-		mbx_subscribe_req s = { .classes = classes };
-		uint64_t corr;
-
 		if (g->subscribed[l] == classes)
 			continue;
-		/* the answer carries nothing we need: session_mailbox drops
-		 * answers to no request */
-		if (cogw_send_async(g->h, (unsigned)l, MBX_CMD_SUBSCRIBE, &s, sizeof s, &corr) == 0)
+		int rc = cogw_subscribe(g->h, (unsigned)l, classes, NULL, 0, 1000);
+
+		if (rc == 0)
 			g->subscribed[l] = classes;
+		else if (g->verbose)
+			fprintf(stderr, "cogw-ascii: events of line %zu: %s\n", l,
+				cogw_strerror(rc));
 	}
 }
 

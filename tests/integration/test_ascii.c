@@ -495,12 +495,13 @@ static void test_bad_input_holds_up_nobody(void)
 	TEST_ASSERT_TRUE(half >= 0 && lazy >= 0 && good >= 0);
 	/* the never-reading peer reads a 256 KiB domain of node 6 (network 2)
 	 * again and again: its answers pile up, nobody else's do */
-	int hl = snprintf(junk, 64, "[0] 2 6 w 0x2110 0 d ");
+	int hl = snprintf(junk, 64, "set sdo_block 1\n[0] 2 6 w 0x2110 0 d ");
 
 	memcpy(junk + hl, text, b64);
 	junk[hl + b64] = '\n';
 	send_all(good, junk, (size_t)hl + b64 + 1);
-	TEST_ASSERT_EQUAL_STRING("[0] OK\n", recv_lines(good, 1, 120000));
+	TEST_ASSERT_EQUAL_STRING("OK\n[0] OK\n", recv_lines(good, 2, 120000));
+	TEST_ASSERT_EQUAL_STRING("[0] OK", ask(good, "[0] set sdo_block 0"));
 	send_text(half, "[1] 1 5 r 0x10"); /* and never the rest */
 	/* never reads: pipelined reads of the 512 KiB domain until its unread
 	 * answers pass max_output; then it is no longer read from */
