@@ -40,10 +40,11 @@ static int write_config(const char *path)
 	char text[1024];
 
 	snprintf(text, sizeof text,
-		 "{\"version\": 1, \"mailbox\": {\"instance\": \"%s\", \"max_outstanding\": 32},"
+		 "{\"version\": 1, \"state_dir\": \"%s/state\","
+		 " \"mailbox\": {\"instance\": \"%s\", \"max_outstanding\": 32},"
 		 " \"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,"
 		 " \"network_id\": 1, \"sdo_clients\": 16}]}",
-		 instance);
+		 tmpdir, instance);
 	return bench_write_file(path, text);
 }
 
