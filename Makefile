@@ -134,11 +134,11 @@ $(SAN_GATEWAY_LIB): $(call obj,$(SAN),$(GATEWAY_SRC))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 
-# The ASCII gateway's parser and value texts (no I/O): linked into the unit
+# The ASCII gateway's parser, value texts and configuration loader: linked into the unit
 # tests and the fuzz targets as well as into apps/cogw-ascii.
-ASCII_PARSE_SRC := apps/cogw-ascii/ascii_parse.c apps/cogw-ascii/ascii_value.c
+ASCII_LIB_SRC := apps/cogw-ascii/ascii_parse.c apps/cogw-ascii/ascii_value.c apps/cogw-ascii/ascii_config.c
 SAN_ASCII_LIB := $(SAN)/lib/libcogw_ascii.a
-$(SAN_ASCII_LIB): $(call obj,$(SAN),$(ASCII_PARSE_SRC))
+$(SAN_ASCII_LIB): $(call obj,$(SAN),$(ASCII_LIB_SRC))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 
@@ -279,7 +279,7 @@ FUZZ_CFLAGS := -std=gnu11 -Wall -Wextra -Wshadow -I. -D_GNU_SOURCE -g -O1 \
 .PHONY: fuzz
 ifneq ($(HAVE_FUZZ_CC),)
 fuzz: $(FUZZ_BINS)
-build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) mailbox/proto.c $(ASCII_PARSE_SRC)
+build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) mailbox/proto.c $(ASCII_LIB_SRC)
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -o $@ $(filter %.c,$^) $(SYS_LIBS)
 else
