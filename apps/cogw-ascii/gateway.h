@@ -101,6 +101,7 @@ typedef struct gateway {
 	gw_stats st;
 	bool stop;
 	int verbose;
+	char daemon_config_path[256]; /* "" = cogwd's embedded default */
 } gateway;
 
 /* session.c */

@@ -181,7 +181,9 @@ int main(int argc, char **argv)
 	}
 	if (socket_path)
 		snprintf(g.cfg.unix_socket, sizeof g.cfg.unix_socket, "%s", socket_path);
-	if (load_daemon_config(&g, daemon_config ? daemon_config : g.cfg.daemon_config))
+	snprintf(g.daemon_config_path, sizeof g.daemon_config_path, "%s",
+		 daemon_config ? daemon_config : g.cfg.daemon_config);
+	if (load_daemon_config(&g, g.daemon_config_path))
 		return 1;
 	if (g.cfg.route_line >= g.daemon.n_lines) {
 		fprintf(stderr, "cogw-ascii: route_line %u: the daemon has %zu line(s)\n",

@@ -317,6 +317,40 @@ static void accept_one(gateway *g, unsigned li)
 			access == COGW_ACCESS_WRITE ? "write" : "read");
 }
 
+/* SIGHUP: the daemon's access rules again (cogwd reloads them on its own
+ * SIGHUP, docs/mailbox.md), applied to the connections already open, as
+ * the daemon re-evaluates its registered clients: a revoked right takes
+ * effect at once, a peer left with no access is closed. */
+static void reload_rules(gateway *g)
+{
+	cogw_config next;
+	char err[512];
+	int rc = g->daemon_config_path[0]
+			 ? cogw_config_load_file(&next, g->daemon_config_path, err, sizeof err)
+			 : cogw_config_load_string(&next, cogw_default_config_json,
+						   COGW_DEFAULT_CONFIG_SOURCE, err, sizeof err);
+
+	if (rc) {
+		fprintf(stderr, "cogw-ascii: reload refused, the rules stay: %s\n", err);
+		return;
+	}
+	g->daemon.mailbox.default_access = next.mailbox.default_access;
+	memcpy(g->daemon.mailbox.rules, next.mailbox.rules, sizeof next.mailbox.rules);
+	g->daemon.mailbox.n_rules = next.mailbox.n_rules;
+	cogw_config_free(&next);
+	for (conn *c = g->conns; c; c = c->next) {
+		if (c->tcp)
+			continue;
+		c->access = access_of_uid(g, c->uid);
+		if (c->access == COGW_ACCESS_NONE) {
+			c->dead = true;
+			c->kick = true;
+		}
+	}
+	fprintf(stderr, "cogw-ascii: access rules reloaded from %s\n",
+		g->daemon_config_path[0] ? g->daemon_config_path : "the embedded default");
+}
+
 /* ---- the loop ------------------------------------------------------------------ */
 
 static void drain_mailbox(gateway *g)
@@ -368,9 +402,12 @@ int server_run(gateway *g)
 			} else if (tag == TAG_SIGNAL) {
 				struct signalfd_siginfo si;
 
-				while (read(g->sigfd, &si, sizeof si) == sizeof si)
+				while (read(g->sigfd, &si, sizeof si) == sizeof si) {
 					if (si.ssi_signo == SIGTERM || si.ssi_signo == SIGINT)
 						g->stop = true;
+					else if (si.ssi_signo == SIGHUP)
+						reload_rules(g);
+				}
 			} else if (tag == TAG_TIMER) {
 				uint64_t ticks;
 

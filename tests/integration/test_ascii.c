@@ -571,13 +571,12 @@ static void test_tcp_is_read_only(void)
 
 /* A UNIX peer gets its own user's rights from the daemon's rules: uid
  * 65534 is "read" there. */
-static void test_unix_peer_mapped_through_rules(void)
+/* As uid 65534: the answers to a read and a write, "|"-joined, into out. */
+static void ask_as_nobody(char *out, size_t cap)
 {
 	int pipefd[2];
-	char out[256] = "";
 
-	TEST_ASSERT_EQUAL_INT(0, chmod(sock_path, 0666)); /* only to let that user in */
-	TEST_ASSERT_EQUAL_INT(0, chmod(d.dir, 0755));
+	memset(out, 0, cap);
 	TEST_ASSERT_EQUAL_INT(0, pipe(pipefd));
 	pid_t pid = fork();
 
@@ -589,23 +588,57 @@ static void test_unix_peer_mapped_through_rules(void)
 
 		if (fd < 0)
 			_exit(4);
-		const char *a = ask(fd, "[1] 1 5 r 0x1018 4 u32");
+		/* no Unity assertion in the child: its failure would run the
+		 * rest of the group a second time */
+		static const char *const cmds[] = { "[1] 1 5 r 0x1018 4 u32\n",
+						    "[2] 1 5 w 0x2105 0 u8 1\n" };
 
-		dprintf(pipefd[1], "%s|", a);
-		a = ask(fd, "[2] 1 5 w 0x2105 0 u8 1");
-		dprintf(pipefd[1], "%s", a);
+		for (int i = 0; i < 2; i++) {
+			char *got;
+
+			if (send(fd, cmds[i], strlen(cmds[i]), MSG_NOSIGNAL) < 0 && i > 0)
+				break;
+			got = recv_lines(fd, 1, 15000);
+			got[strcspn(got, "\r\n")] = '\0';
+			dprintf(pipefd[1], i ? "%s" : "%s|", got);
+		}
 		_exit(0);
 	}
 	close(pipefd[1]);
 	int st;
 
 	waitpid(pid, &st, 0);
-	ssize_t k = read(pipefd[0], out, sizeof out - 1);
+	ssize_t k = read(pipefd[0], out, cap - 1);
 
 	close(pipefd[0]);
 	TEST_ASSERT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 0);
 	TEST_ASSERT_TRUE(k > 0);
+}
+
+/* A UNIX peer gets its own user's rights from the daemon's rules: uid
+ * 65534 is "read" there; after the rules change and SIGHUP, "none". */
+static void test_unix_peer_mapped_through_rules(void)
+{
+	char out[256];
+	char *none = strdup(daemon_json);
+	char *at = strstr(none, "\"access\": \"read\"");
+
+	TEST_ASSERT_EQUAL_INT(0, chmod(sock_path, 0666)); /* only to let that user in */
+	TEST_ASSERT_EQUAL_INT(0, chmod(d.dir, 0755));
+	ask_as_nobody(out, sizeof out);
 	TEST_ASSERT_EQUAL_STRING("[1] 4242|[2] ERROR: 100", out);
+
+	TEST_ASSERT_NOT_NULL(at);
+	memcpy(at, "\"access\": \"none\"", strlen("\"access\": \"none\""));
+	TEST_ASSERT_EQUAL_INT(0, write_text_file(d.config_path, none));
+	kill(gw_pid, SIGHUP);
+	TEST_ASSERT_TRUE(file_wait_contains(gw_log, "access rules reloaded", 5000));
+	ask_as_nobody(out, sizeof out);
+	TEST_ASSERT_EQUAL_STRING("ERROR: 100|", out); /* refused at connect, closed */
+
+	TEST_ASSERT_EQUAL_INT(0, write_text_file(d.config_path, daemon_json));
+	kill(gw_pid, SIGHUP);
+	free(none);
 	chmod(sock_path, 0660);
 }
 
