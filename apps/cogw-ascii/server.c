@@ -418,7 +418,15 @@ int server_run(gateway *g)
 			} else if (tag >= TAG_LISTEN && tag < TAG_MAX) {
 				accept_one(g, (unsigned)(tag - TAG_LISTEN));
 			} else {
-				((conn *)evs[i].data.ptr)->kick = true;
+				conn *c = evs[i].data.ptr;
+
+				c->kick = true;
+				/* all input read and the peer gone both ways: its answers
+				 * have nowhere to go (its requests under way finish in the
+				 * daemon as orphans); HUP is reported whatever the interest
+				 * set, so waiting here would spin */
+				if ((evs[i].events & (EPOLLHUP | EPOLLERR)) && c->eof)
+					c->dead = true;
 			}
 		}
 		/* the replies of this round may already be complete */

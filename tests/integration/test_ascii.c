@@ -426,7 +426,7 @@ static void test_one_mib_domain(void)
  * large reads at once succeed afterwards, with four slots configured). */
 static void test_connection_killed_mid_transfer(void)
 {
-	size_t n = 512u * 1024u, b64;
+	size_t n = 128u * 1024u, b64;
 	char *text = big_domain(n, &b64);
 	char *line = malloc(b64 + 64);
 	int fd = connect_unix(), hl = snprintf(line, 64, "set sdo_block 1\n1 5 w 0x2110 0 d ");
@@ -490,10 +490,10 @@ static void test_bad_input_holds_up_nobody(void)
 	int half = connect_unix(), lazy = connect_unix(), good = connect_unix(), over;
 	size_t big = 2u * 1024u * 1024u + 100u, b64;
 	char *junk = malloc(big + 1);
-	char *text = big_domain(256u * 1024u, &b64);
+	char *text = big_domain(96u * 1024u, &b64);
 
 	TEST_ASSERT_TRUE(half >= 0 && lazy >= 0 && good >= 0);
-	/* the never-reading peer reads a 256 KiB domain of node 6 (network 2)
+	/* the never-reading peer reads a 96 KiB domain of node 6 (network 2)
 	 * again and again: its answers pile up, nobody else's do */
 	int hl = snprintf(junk, 64, "set sdo_block 1\n[0] 2 6 w 0x2110 0 d ");
 
@@ -503,7 +503,7 @@ static void test_bad_input_holds_up_nobody(void)
 	TEST_ASSERT_EQUAL_STRING("OK\n[0] OK\n", recv_lines(good, 2, 120000));
 	TEST_ASSERT_EQUAL_STRING("[0] OK", ask(good, "[0] set sdo_block 0"));
 	send_text(half, "[1] 1 5 r 0x10"); /* and never the rest */
-	/* never reads: pipelined reads of the 512 KiB domain until its unread
+	/* never reads: pipelined reads of the 96 KiB domain until its unread
 	 * answers pass max_output; then it is no longer read from */
 	fcntl(lazy, F_SETFL, O_NONBLOCK);
 	for (int i = 0; i < 100; i++)
