@@ -342,10 +342,15 @@ static void test_lss_services(void)
 		   "[3] 1 lss_inquire_addr 0\n"
 		   "[4] 1 lss_inquire_addr 1\n"
 		   "[5] 1 lss_inquire_addr 3\n"
-		   "[6] 1 lss_switch_glob 0\n"
-		   "[7] 1 lss_ident_nonconf\n",
+		   "[6] 1 lss_set_node 5\n"
+		   "[7] 1 lss_conf_bitrate 0 0\n"
+		   "[8] 1 lss_store\n"
+		   "[9] 1 lss_switch_glob 0\n"
+		   "[10] 1 lss_ident_nonconf\n"
+		   "[11] 1 _lss_fastscan 300\n"
+		   "[12] 1 lss_set_node 0\n",
 		   "[1] OK\n[2] 5\n[3] 0x00000250\n[4] 0x00000309\n[5] 0x00001092\n[6] OK\n"
-		   "[7] 0\n");
+		   "[7] OK\n[8] OK\n[9] OK\n[10] 0\n[11] ERROR: 103\n[12] ERROR: 107\n");
 }
 
 /* 16 connections at once over the three networks, pipelined reads; every
