@@ -189,7 +189,16 @@ static const char *ask(int fd, const char *cmd)
 
 /* socat as the client: input is sent, the gateway answers, socat's
  * output must be exactly `expected`. */
+static void transcript_at(const char *sock, const char *name, const char *input,
+			  const char *expected);
+
 static void transcript(const char *name, const char *input, const char *expected)
+{
+	transcript_at(sock_path, name, input, expected);
+}
+
+static void transcript_at(const char *sock, const char *name, const char *input,
+			  const char *expected)
 {
 	char in_path[200], out_path[200], cmd[700];
 	FILE *f;
@@ -199,7 +208,7 @@ static void transcript(const char *name, const char *input, const char *expected
 	snprintf(in_path, sizeof in_path, "%s/%s.in", d.dir, name);
 	snprintf(out_path, sizeof out_path, "%s/%s.out", d.dir, name);
 	TEST_ASSERT_EQUAL_INT(0, write_text_file(in_path, input));
-	snprintf(cmd, sizeof cmd, "timeout 60 socat -t 30 - UNIX-CONNECT:%s < %s > %s", sock_path,
+	snprintf(cmd, sizeof cmd, "timeout 60 socat -t 30 - UNIX-CONNECT:%s < %s > %s", sock,
 		 in_path, out_path);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, system(cmd), "socat failed");
 	f = fopen(out_path, "r");
@@ -351,6 +360,46 @@ static void test_lss_services(void)
 		   "[12] 1 lss_set_node 0\n",
 		   "[1] OK\n[2] 5\n[3] 0x00000250\n[4] 0x00000309\n[5] 0x00001092\n[6] OK\n"
 		   "[7] OK\n[8] OK\n[9] OK\n[10] 0\n[11] ERROR: 103\n[12] ERROR: 107\n");
+}
+
+/* A network that is not one of the gateway's lines goes through the
+ * daemon's routed SDO (docs/gateway.md): a second gateway that knows of
+ * line 0 only (network 1) reaches node 6 of network 2 through line 0's
+ * gateway, which routes it to line 1. NMT has no routed form: 106. */
+static void test_routed_network(void)
+{
+	static const char one_line[] =
+		"{\"version\": 1, \"mailbox\": {\"instance\": \"asc\"},"
+		" \"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,"
+		" \"network_id\": 1}]}";
+	char cfg[200], sock[108], log[200];
+
+	snprintf(cfg, sizeof cfg, "%s/one-line.json", d.dir);
+	snprintf(sock, sizeof sock, "%s/routed.sock", d.dir);
+	snprintf(log, sizeof log, "%s/routed.log", d.dir);
+	TEST_ASSERT_EQUAL_INT(0, write_text_file(cfg, one_line));
+	const char *argv[] = {
+		"build/san/bin/cogw-ascii", "--daemon-config", cfg, "--socket", sock, NULL
+	};
+	pid_t pid = proc_spawn(argv, log, NULL);
+
+	TEST_ASSERT_TRUE(pid > 0);
+	TEST_ASSERT_TRUE(file_wait_contains(log, "serving instance", 10000));
+	transcript_at(sock, "routed",
+		      "[1] set sdo_timeout 5000\n"
+		      "[2] 2 6 r 0x1018 4 u32\n"
+		      "[3] 2 6 w 0x2105 0 u8 7\n"
+		      "[4] 2 6 r 0x2105 0 u8\n"
+		      "[5] 2 6 w 0x2105 0 u8 200\n"
+		      "[6] 2 6 r 0x210D 0 vs\n"
+		      "[7] 2 6 start\n"
+		      "[8] 9 1 r 0x1000 0 u32\n",
+		      "[1] OK\n[2] 4242\n[3] OK\n[4] 7\n[5] OK\n[6] \"hello world\"\n"
+		      "[7] ERROR: 106\n[8] ERROR: 0x0A000001\n");
+	int st = proc_stop(pid, SIGTERM, 10000);
+
+	TEST_ASSERT_TRUE_MESSAGE(WIFEXITED(st) && WEXITSTATUS(st) == 0,
+				 "the second gateway did not exit cleanly");
 }
 
 /* 16 connections at once over the three networks, pipelined reads; every
@@ -752,6 +801,7 @@ int main(void)
 	RUN_TEST(test_error_numbers);
 	RUN_TEST(test_lss_services);
 	RUN_TEST(test_sixteen_concurrent_connections);
+	RUN_TEST(test_routed_network);
 	RUN_TEST(test_one_mib_domain);
 	RUN_TEST(test_connection_killed_mid_transfer);
 	RUN_TEST(test_bad_input_holds_up_nobody);
