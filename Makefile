@@ -145,6 +145,14 @@ $(SAN_MANAGER_LIB): $(call obj,$(SAN),$(MANAGER_SRC))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 
+# The ASCII gateway's parser, value texts and configuration loader: linked into the unit
+# tests and the fuzz targets as well as into apps/cogw-ascii.
+ASCII_LIB_SRC := apps/cogw-ascii/ascii_parse.c apps/cogw-ascii/ascii_value.c apps/cogw-ascii/ascii_config.c
+SAN_ASCII_LIB := $(SAN)/lib/libcogw_ascii.a
+$(SAN_ASCII_LIB): $(call obj,$(SAN),$(ASCII_LIB_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
 $(REL_APPCOMMON_LIB): $(call obj,$(REL),$(APPCOMMON_SRC) $(APPCOMMON_GEN))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
@@ -166,11 +174,11 @@ endef
 $(foreach p,$(PROGRAMS),$(eval $(call program_rules,$(p))))
 
 # ---- tests ---------------------------------------------------------------------
-$(SAN)/tests/unit/%: $(SAN)/obj/tests/unit/%.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_LIBS)
+$(SAN)/tests/unit/%: $(SAN)/obj/tests/unit/%.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_ASCII_LIB) $(SAN_LIBS)
 	@mkdir -p $(@D)
 	$(CC) $(SAN_LDFLAGS) -o $@ $^ $(SYS_LIBS)
 
-$(SAN)/tests/integration/%: $(SAN)/obj/tests/integration/%.o $(call obj,$(SAN),$(INTEG_SUP)) $(SAN)/obj/unity.o $(SAN_LIBS)
+$(SAN)/tests/integration/%: $(SAN)/obj/tests/integration/%.o $(call obj,$(SAN),$(INTEG_SUP)) $(SAN)/obj/unity.o $(SAN_ASCII_LIB) $(SAN_LIBS)
 	@mkdir -p $(@D)
 	$(CC) $(SAN_LDFLAGS) -o $@ $^ $(SYS_LIBS)
 
@@ -285,7 +293,7 @@ fuzz: $(FUZZ_BINS)
 # apps/common checks 1F2Ch entries with the gateway's own rules (route.c,
 # convention.c: core/ only below them)
 FUZZ_GATEWAY_SRC := gateway/route.c gateway/convention.c
-build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) $(FUZZ_GATEWAY_SRC) mailbox/proto.c
+build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) $(FUZZ_GATEWAY_SRC) mailbox/proto.c $(ASCII_LIB_SRC)
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -o $@ $(filter %.c,$^) $(SYS_LIBS)
 else
@@ -348,6 +356,11 @@ install: all
 	sed 's|/usr/local/bin/cogwd|$(PREFIX)/bin/cogwd|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogwd.service \
 		> $(DESTDIR)$(UNITDIR)/cogwd.service
 	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw.json || install -m 644 etc/cogw.json $(DESTDIR)$(SYSCONFDIR)/cogw/cogw.json
+	sed 's|/usr/local/bin/cogw-ascii|$(PREFIX)/bin/cogw-ascii|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-ascii.service \
+		> $(DESTDIR)$(UNITDIR)/cogw-ascii.service
+	install -m 644 etc/cogw-ascii.socket $(DESTDIR)$(UNITDIR)/cogw-ascii.socket
+	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-ascii.json || sed 's|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-ascii.json \
+		> $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-ascii.json
 	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/transducer.dcf || install -m 644 etc/transducer.dcf $(DESTDIR)$(SYSCONFDIR)/cogw/transducer.dcf
 
 deps:

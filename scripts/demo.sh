@@ -2,7 +2,8 @@
 # The cogw demo, run by `make demo` on vcan0..vcan2 (inside tests/vcan/run,
 # natively or in a throwaway VM). A scripted session a newcomer can follow:
 # two simulated devices, the daemon cogwd on its embedded default
-# configuration, and the CLI cogwctl talking to it through the mailbox.
+# configuration, and the CLI cogwctl talking to it through the mailbox, then
+# socat through the CiA 309-3 ASCII gateway cogw-ascii.
 #
 # Every step must work: set -e, and a trap that stops every process this
 # script started and removes its files, whatever happens. Exit 0 only when
@@ -59,7 +60,7 @@ cleanup() {
 trap cleanup EXIT
 trap 'exit 130' INT TERM
 
-for p in cogwd cosim cogwctl; do
+for p in cogwd cosim cogwctl cogw-ascii; do
 	[ -x "$bin/$p" ] || fail "$bin/$p is missing: run 'make' first"
 done
 mkdir -p "$work/state"
@@ -216,7 +217,35 @@ ctl pdo read 1 b000 0 r32
 explain "" "The counters of the routes and of the forwarding:"
 ctl route 0 1
 
-say "9. A clean stop"
+say "9. CiA 309-3 ASCII commands over a socket (cogw-ascii)"
+explain "cogw-ascii is one more mailbox client: it serves the CiA 309-3 ASCII command"
+explain "syntax (canopend's, coctl's) on a UNIX socket (and TCP if configured) to any"
+explain "number of connections, each with its own default network and node. Here a"
+explain "plain socat is the client: reads on networks 1 and 2, defaults, a missing"
+explain "object (an SDO abort as its code), the version (docs/ascii.md):"
+printf '\n$ cogw-ascii --socket %s\n' "$work/ascii.sock"
+"$bin/cogw-ascii" --socket "$work/ascii.sock" >"$work/cogw-ascii.log" 2>&1 &
+pids+=($!)
+ascii_pid=$!
+wait_for "cogw-ascii's socket" 10 test -S "$work/ascii.sock"
+ascii_in='[1] 1 1 r 0x1018 1 u32
+[2] 1 1 r 0x1008 0 vs
+[3] 2 2 r 0x1000 0 x32
+[4] set network 1
+[5] set node 1
+[6] r 0x1017 0 u16
+[7] r 0x6666 0 u8
+[8] info version'
+printf '\n$ socat - UNIX-CONNECT:%s <<EOF\n%s\nEOF\n' "$work/ascii.sock" "$ascii_in"
+printf '%s\n' "$ascii_in" | timeout 20 socat -t 10 - UNIX-CONNECT:"$work/ascii.sock" | tee "$work/ascii.out"
+grep -qx '\[1\] 592' "$work/ascii.out" || fail "cogw-ascii: unexpected answer to [1]"
+grep -qx '\[2\] "STI-SIM"' "$work/ascii.out" || fail "cogw-ascii: unexpected answer to [2]"
+grep -qx '\[7\] ERROR: 0x06020000' "$work/ascii.out" || fail "cogw-ascii: unexpected answer to [7]"
+kill -TERM "$ascii_pid"
+wait "$ascii_pid" || fail "cogw-ascii did not exit cleanly"
+pids=("${pids[@]:0:3}")
+
+say "10. A clean stop"
 explain "SIGTERM: cogwd stops its line threads, removes its mailbox queues, exits 0."
 kill -TERM "$cogwd_pid"
 set +e
@@ -243,6 +272,9 @@ explain "  SDO abort with its meaning, and set its heartbeat time 1017h to 250 m
 explain "- Started by the manager, the transducer sent $n_pdo pressure PDOs as live events (step 7)."
 explain "- As a gateway (step 8) cogwd relayed an SDO request entering on vcan0 to node 2 on"
 explain "  vcan1, forwarded an EMCY from vcan0 to vcan1, and the pressure by PDO to vcan1."
+explain "- socat, a plain tool, read the devices through cogw-ascii in the CiA 309-3 ASCII"
+explain "  syntax (step 9)."
 explain "- Everything went through the mailbox (POSIX message queues); nothing was left over."
-explain "Next: 'cogwctl --help', docs/cogwctl.md, docs/config.md, docs/gateway.md, docs/mailbox.md."
+explain "Next: 'cogwctl --help', docs/cogwctl.md, docs/config.md, docs/gateway.md, docs/mailbox.md,"
+explain "      docs/ascii.md."
 printf '\ndemo: OK\n'

@@ -22,7 +22,8 @@ if [ "$(id -u)" -ne 0 ]; then
 fi
 
 packages=(gcc make curl pkg-config libsystemd-dev libcjson-dev can-utils iproute2 clang-format
-          qemu-system-x86 busybox-static cpio kmod valgrind systemd python3 python3-venv)
+          qemu-system-x86 busybox-static cpio kmod valgrind systemd python3 python3-venv
+          socat)
 
 missing=()
 for p in "${packages[@]}"; do

@@ -40,6 +40,7 @@ Output is in Unity's format (file:line:name:PASS/FAIL, then the summary
 line) so that tests/run-tests counts it like the C tests. Runs inside the
 vcan VM (tests/interop/run), from the repository root.
 """
+import base64
 import contextlib
 import faulthandler
 import json
@@ -514,6 +515,76 @@ def test_cogwd_sdo_client_against_python_server():
     finally:
         NET.nodes.pop(LOCAL_ID, None)
         local.remove_network()
+
+
+def test_ascii_gateway_against_python_server():
+    """cogw-ascii (CiA 309-3) through cogwd to python-canopen's LocalNode: the
+    values written in ASCII arrive as python-canopen decodes them, the values
+    python-canopen holds are printed byte-exact; socat is the client."""
+    od = ObjectDictionary()
+    objs = {}
+    for index, dtype, default in ((0x2010, datatypes.UNSIGNED8, 0x7F),
+                                  (0x2011, datatypes.INTEGER16, -1234),
+                                  (0x2012, datatypes.UNSIGNED32, 0xCAFEBABE),
+                                  (0x2013, datatypes.INTEGER64, -(2 ** 40)),
+                                  (0x2014, datatypes.REAL32, 0.5),
+                                  (0x2015, datatypes.VISIBLE_STRING, "py canopen"),
+                                  (0x2016, datatypes.DOMAIN, None)):
+        v = ODVariable("v%x" % index, index, 0)
+        v.data_type = dtype
+        v.access_type = "rw"
+        if default is not None:
+            v.default = default
+        od.add_object(v)
+        objs[index] = v
+    local = canopen.LocalNode(LOCAL_ID, od)
+    local.set_data(0x2016, 0, bytes(range(200)))
+    NET.add_node(local)
+    sock = os.path.join(WORK, "ascii.sock")
+    log = open(os.path.join(WORK, "cogw-ascii.log"), "w")
+    gw = subprocess.Popen([os.path.join(BIN, "cogw-ascii"), "--daemon-config",
+                           os.path.join(WORK, "cogw.json"), "--socket", sock],
+                          stdout=log, stderr=subprocess.STDOUT, cwd=TOP)
+    try:
+        deadline = time.monotonic() + 20
+        while not os.path.exists(sock) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        n = LOCAL_ID
+        t = int(SDO_TIMEOUT_S * 1000)
+        lines = [f"[1] set sdo_timeout {t}", f"[2] 1 {n} r 0x2010 0 u8",
+                 f"[3] 1 {n} r 0x2011 0 i16", f"[4] 1 {n} r 0x2012 0 x32",
+                 f"[5] 1 {n} r 0x2013 0 i64", f"[6] 1 {n} r 0x2014 0 r32",
+                 f"[7] 1 {n} r 0x2015 0 vs", f"[8] 1 {n} r 0x2016 0 d",
+                 f"[9] 1 {n} w 0x2010 0 u8 200", f"[10] 1 {n} w 0x2011 0 i16 -32768",
+                 f"[11] 1 {n} w 0x2012 0 u32 0x01020304",
+                 f"[12] 1 {n} w 0x2013 0 i64 9223372036854775807",
+                 f"[13] 1 {n} w 0x2014 0 r32 -1.25",
+                 f'[14] 1 {n} w 0x2015 0 vs "say ""hi"""',
+                 f"[15] 1 {n} w 0x2016 0 d AAEC", f"[16] 1 {n} r 0x2099 0 u8"]
+        want = ["[1] OK", "[2] 127", "[3] -1234", "[4] 0xCAFEBABE",
+                "[5] %d" % -(2 ** 40), "[6] 0.5", '[7] "py canopen"',
+                "[8] " + base64.b64encode(bytes(range(200))).decode(),
+                "[9] OK", "[10] OK", "[11] OK", "[12] OK", "[13] OK", "[14] OK",
+                "[15] OK", "[16] ERROR: 0x06020000"]
+        step("socat -> cogw-ascii -> cogwd -> python-canopen LocalNode")
+        r = subprocess.run(["socat", "-t", "30", "-", "UNIX-CONNECT:" + sock],
+                           input="\n".join(lines) + "\n", capture_output=True, text=True,
+                           timeout=120)
+        eq("\n".join(want) + "\n", r.stdout, "cogw-ascii transcript")
+        eq(200, local.get_data(0x2010, 0)[0], "2010h as python-canopen holds it")
+        eq(-32768, struct.unpack("<h", local.get_data(0x2011, 0))[0], "2011h")
+        eq(0x01020304, struct.unpack("<L", local.get_data(0x2012, 0))[0], "2012h")
+        eq(2 ** 63 - 1, struct.unpack("<q", local.get_data(0x2013, 0))[0], "2013h")
+        eq(-1.25, struct.unpack("<f", local.get_data(0x2014, 0))[0], "2014h")
+        eq(b'say "hi"', bytes(local.get_data(0x2015, 0)), "2015h")
+        eq(b"\x00\x01\x02", bytes(local.get_data(0x2016, 0)), "2016h")
+    finally:
+        gw.send_signal(signal.SIGTERM)
+        try:
+            eq(0, gw.wait(10), "cogw-ascii exit status")
+        finally:
+            NET.nodes.pop(LOCAL_ID, None)
+            local.remove_network()
 
 
 def test_nmt_states_and_no_sdo_while_stopped():
@@ -1014,6 +1085,7 @@ def main():
         start_system()
         for t in (test_sdo_client_all_modes_and_sizes_against_cogwd_and_cosim,
                   test_cogwd_sdo_client_against_python_server,
+                  test_ascii_gateway_against_python_server,
                   test_nmt_states_and_no_sdo_while_stopped,
                   test_store_restore_across_resets,
                   test_pdo_remapping_over_sdo,

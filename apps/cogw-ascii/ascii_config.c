@@ -1,0 +1,253 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * apps/cogw-ascii/ascii_config.c - load and validate the gateway's JSON
+ * file with the strict helpers cogwd's loader uses (apps/common/json_util.h).
+ */
+#include "apps/cogw-ascii/ascii_config.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "apps/common/config.h"
+#include "apps/common/json_util.h"
+
+#define ASCII_CONFIG_FILE_MAX (64u * 1024u)
+
+static const char *const top_keys[] = { "version",   "daemon_config", "unix_socket",
+					"unix_mode", "tcp",           "limits",
+					"session",   "route_line",    "comment",
+					NULL };
+static const char *const tcp_keys[] = { "address", "port", "access", "comment", NULL };
+static const char *const limit_keys[] = {
+	"max_connections", "max_line", "max_outstanding", "max_output", "request_timeout_ms",
+	"comment",         NULL
+};
+static const char *const session_keys[] = { "network", "sdo_timeout_ms", "sdo_block", "comment",
+					    NULL };
+
+void ascii_config_defaults(ascii_config *c)
+{
+	memset(c, 0, sizeof *c);
+	snprintf(c->unix_socket, sizeof c->unix_socket, "/run/cogw/ascii.sock");
+	c->unix_mode = 0660;
+	snprintf(c->tcp_address, sizeof c->tcp_address, "127.0.0.1");
+	c->tcp_port = 4242;
+	c->tcp_access = COGW_ACCESS_READ;
+	c->max_connections = 64;
+	c->max_line = 65536;
+	c->max_outstanding = 4;
+	c->max_output = 4u * 1024u * 1024u;
+	c->sdo_timeout_ms = 1000;
+	c->request_timeout_ms = 60000;
+	c->default_network = -1;
+}
+
+static int access_of(const cJSON *v, const char *path, uint8_t *out, char *err, size_t errlen)
+{
+	char s[16];
+
+	if (json_util_string(v, path, 1, s, sizeof s, err, errlen))
+		return -EINVAL;
+	if (strcmp(s, "none") == 0)
+		*out = COGW_ACCESS_NONE;
+	else if (strcmp(s, "read") == 0)
+		*out = COGW_ACCESS_READ;
+	else if (strcmp(s, "write") == 0)
+		*out = COGW_ACCESS_WRITE;
+	else
+		return json_util_fail(err, errlen, path, "\"%s\" is not one of none, read, write",
+				      s);
+	return 0;
+}
+
+static int load_tcp(ascii_config *c, const cJSON *o, char *err, size_t errlen)
+{
+	const char *path = "tcp";
+	char p[JSON_PATH_MAX];
+	uint64_t u;
+	const cJSON *v;
+	unsigned char addr[16];
+
+	if (!cJSON_IsObject(o))
+		return json_util_fail(err, errlen, path, "must be an object, not %s",
+				      json_util_kind(o));
+	if (json_util_check_object(o, path, tcp_keys, err, errlen))
+		return -EINVAL;
+	c->tcp = true;
+	if (json_util_opt_string(o, "address", path, 1, c->tcp_address, sizeof c->tcp_address, err,
+				 errlen))
+		return -EINVAL;
+	if (inet_pton(AF_INET, c->tcp_address, addr) != 1 &&
+	    inet_pton(AF_INET6, c->tcp_address, addr) != 1) {
+		json_util_path_key(p, sizeof p, path, "address");
+		return json_util_fail(err, errlen, p,
+				      "\"%s\" is not a numeric IPv4 or IPv6 address",
+				      c->tcp_address);
+	}
+	u = c->tcp_port;
+	if (json_util_opt_uint(o, "port", path, 1, 65535, &u, err, errlen))
+		return -EINVAL;
+	c->tcp_port = (uint16_t)u;
+	v = json_util_get(o, "access");
+	if (v) {
+		json_util_path_key(p, sizeof p, path, "access");
+		if (access_of(v, p, &c->tcp_access, err, errlen))
+			return -EINVAL;
+	}
+	return 0;
+}
+
+static int opt_unsigned(const cJSON *o, const char *key, const char *path, uint64_t min,
+			uint64_t max, unsigned *out, char *err, size_t errlen)
+{
+	uint64_t u = *out;
+
+	if (json_util_opt_uint(o, key, path, min, max, &u, err, errlen))
+		return -EINVAL;
+	*out = (unsigned)u;
+	return 0;
+}
+
+static int load_limits(ascii_config *c, const cJSON *o, char *err, size_t errlen)
+{
+	const char *path = "limits";
+
+	if (!cJSON_IsObject(o))
+		return json_util_fail(err, errlen, path, "must be an object, not %s",
+				      json_util_kind(o));
+	if (json_util_check_object(o, path, limit_keys, err, errlen) ||
+	    opt_unsigned(o, "max_connections", path, 1, 4096, &c->max_connections, err, errlen) ||
+	    opt_unsigned(o, "max_line", path, 64, 16u * 1024u * 1024u, &c->max_line, err, errlen) ||
+	    opt_unsigned(o, "max_outstanding", path, 1, 64, &c->max_outstanding, err, errlen) ||
+	    opt_unsigned(o, "max_output", path, 4096, 256u * 1024u * 1024u, &c->max_output, err,
+			 errlen) ||
+	    opt_unsigned(o, "request_timeout_ms", path, 100, 3600000, &c->request_timeout_ms, err,
+			 errlen))
+		return -EINVAL;
+	return 0;
+}
+
+static int load_session(ascii_config *c, const cJSON *o, char *err, size_t errlen)
+{
+	const char *path = "session";
+	int64_t net = c->default_network;
+
+	if (!cJSON_IsObject(o))
+		return json_util_fail(err, errlen, path, "must be an object, not %s",
+				      json_util_kind(o));
+	if (json_util_check_object(o, path, session_keys, err, errlen) ||
+	    json_util_opt_sint(o, "network", path, 0, 127, &net, err, errlen) ||
+	    opt_unsigned(o, "sdo_timeout_ms", path, 1, 600000, &c->sdo_timeout_ms, err, errlen) ||
+	    json_util_opt_bool(o, "sdo_block", path, &c->sdo_block, err, errlen))
+		return -EINVAL;
+	c->default_network = (int)net;
+	return 0;
+}
+
+static int load_tree(ascii_config *c, const cJSON *root, char *err, size_t errlen)
+{
+	const cJSON *v;
+	uint64_t u = 1;
+
+	if (!cJSON_IsObject(root))
+		return json_util_fail(err, errlen, "(top)", "must be an object, not %s",
+				      json_util_kind(root));
+	if (json_util_check_object(root, "", top_keys, err, errlen) ||
+	    json_util_opt_uint(root, "version", "", 1, 1, &u, err, errlen) ||
+	    json_util_opt_string(root, "daemon_config", "", 1, c->daemon_config,
+				 sizeof c->daemon_config, err, errlen) ||
+	    json_util_opt_string(root, "unix_socket", "", 0, c->unix_socket, sizeof c->unix_socket,
+				 err, errlen) ||
+	    opt_unsigned(root, "route_line", "", 0, COGW_LINES_MAX - 1, &c->route_line, err,
+			 errlen))
+		return -EINVAL;
+	v = json_util_get(root, "unix_mode");
+	if (v) {
+		if (!cJSON_IsString(v))
+			return json_util_fail(err, errlen, "unix_mode",
+					      "must be an octal string like \"0660\", not %s",
+					      json_util_kind(v));
+		if (json_util_uint(v, "unix_mode", 0, 0777, false, &u, err, errlen))
+			return -EINVAL;
+		if (u & 0007)
+			return json_util_fail(err, errlen, "unix_mode",
+					      "%s lets every local user connect, who could not "
+					      "write the mailbox's command queues themselves: "
+					      "use 0660 (a group) or 0600",
+					      v->valuestring);
+		c->unix_mode = (unsigned)u;
+	}
+	v = json_util_get(root, "tcp");
+	if (v && load_tcp(c, v, err, errlen))
+		return -EINVAL;
+	v = json_util_get(root, "limits");
+	if (v && load_limits(c, v, err, errlen))
+		return -EINVAL;
+	v = json_util_get(root, "session");
+	if (v && load_session(c, v, err, errlen))
+		return -EINVAL;
+	return 0;
+}
+
+int ascii_config_load_string(ascii_config *c, const char *json, const char *source, char *err,
+			     size_t errlen)
+{
+	cJSON *root = NULL;
+	char why[256];
+	int rc;
+
+	ascii_config_defaults(c);
+	rc = json_util_parse(json, &root, why, sizeof why);
+	if (rc == 0)
+		rc = load_tree(c, root, why, sizeof why);
+	cJSON_Delete(root);
+	if (rc)
+		snprintf(err, errlen, "%s: %s", source, why);
+	return rc;
+}
+
+int ascii_config_load_file(ascii_config *c, const char *path, char *err, size_t errlen)
+{
+	struct stat st;
+	char *buf;
+	ssize_t n;
+	int fd, rc;
+
+	ascii_config_defaults(c);
+	if (!path)
+		return 0;
+	fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+	if (fd < 0) {
+		rc = errno == ENOENT ? -ENOENT : -EIO;
+		snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
+		return rc;
+	}
+	if (fstat(fd, &st) < 0 || !S_ISREG(st.st_mode) || st.st_size > ASCII_CONFIG_FILE_MAX) {
+		snprintf(err, errlen, "%s: not a regular file of at most %u bytes", path,
+			 ASCII_CONFIG_FILE_MAX);
+		close(fd);
+		return -EIO;
+	}
+	buf = calloc(1, (size_t)st.st_size + 1);
+	if (!buf) {
+		close(fd);
+		snprintf(err, errlen, "%s: out of memory", path);
+		return -ENOMEM;
+	}
+	n = read(fd, buf, (size_t)st.st_size);
+	close(fd);
+	if (n != st.st_size) {
+		free(buf);
+		snprintf(err, errlen, "%s: cannot read", path);
+		return -EIO;
+	}
+	rc = ascii_config_load_string(c, buf, path, err, errlen);
+	free(buf);
+	return rc;
+}
