@@ -5,7 +5,7 @@
  * Design notes (why it looks like this):
  * - One server per line, driven by that line's thread only: the client
  *   table is per line, so a line never waits for a lock another line holds
- *   (DESIGN.md "Threads and data flow").
+ *   (docs/architecture.md "Threads and data flow").
  * - Every send to a client is mq_send on an O_NONBLOCK descriptor. A full
  *   client queue means the message is dropped and counted, and the next
  *   message that reaches that queue carries MBX_F_OVERFLOW + the count; an
@@ -375,8 +375,8 @@ static bool queue_still_there(const char *name, ino_t ino)
  * was confirmed (whoever used it read the token, i.e. could read the
  * response queue, i.e. is its owner) and its pid was, at REGISTER, a live
  * process of that owner (pid_check). Anybody else naming those queues, a
- * dead pid or somebody else's pid (issue 11: that made the daemon unlink
- * other clients' queues and its own command queues) unlinks nothing. */
+ * dead pid or somebody else's pid (in older daemons that unlinked other
+ * clients' queues and its own command queues) unlinks nothing. */
 static void unlink_orphan_queues(const mbx_client *c)
 {
 	if (!c->confirmed || !c->pid_proven || c->pid_disputed)
@@ -1626,7 +1626,7 @@ static void config_fill_defaults(mbx_server_config *c)
 static bool config_is_valid(const mbx_server_config *c)
 {
 	/* The command queue carries every client's token: only the daemon
-	 * may read it (issue 11: with 0660 any member of the group read the
+	 * may read it (in older daemons, with 0660, any member of the group read the
 	 * tokens of other clients and acted with their rights). */
 	if (c->queue_mode & ~0777u || c->queue_mode & 0044 ||
 	    (c->queue_chown && c->queue_uid != geteuid()))

@@ -1,5 +1,5 @@
 /* Attacks on the mailbox, performed as a hostile local process would
- * (issue 11): an in-process mbx_server on REAL POSIX message queues, a
+ * (docs/mailbox.md "Security model"): an in-process mbx_server on REAL POSIX message queues, a
  * victim client using libcogw in a forked child, and an attacker that is
  * another uid (a forked child that drops to 65534 = nobody, as
  * `setpriv --reuid=65534 --regid=65534 --clear-groups` would) sending raw
@@ -428,7 +428,7 @@ static uint32_t dead_pid(void)
 
 /* ---- 1. registration cannot hijack ----------------------------------------------- */
 
-/* Before issue 11: a REGISTER naming the victim's queues and pid replaced
+/* In older daemons: a REGISTER naming the victim's queues and pid replaced
  * the victim's entry; the victim's token died with it and every later
  * call of the victim timed out. */
 static void test_register_cannot_replace_a_live_client(void)
@@ -462,7 +462,7 @@ static void test_register_cannot_replace_a_live_client(void)
 
 /* ---- 1. registration cannot destroy ---------------------------------------------- */
 
-/* Before issue 11: the entry naming a pid that does not exist was reaped
+/* In older daemons: the entry naming a pid that does not exist was reaped
  * at the next liveness check, and the daemon unlinked the queues it named
  * (the victim's): the victim lost its response queue for good. */
 static void test_register_with_dead_pid_unlinks_nothing(void)
@@ -500,7 +500,7 @@ static void test_register_with_dead_pid_unlinks_nothing(void)
 	sync_close(&s);
 }
 
-/* Before issue 11: with a command queue any user may write (0622), naming
+/* In older daemons: with a command queue any user may write (0622), naming
  * the daemon's own command queue as "client queues" with a dead pid made
  * the daemon unlink its command queue: no new client could ever connect. */
 static void test_register_cannot_unlink_the_command_queue(void)
@@ -569,7 +569,7 @@ static void test_dead_client_queues_are_still_removed(void)
 
 /* ---- 2. tokens stay secret -------------------------------------------------------- */
 
-/* Before issue 11: the default command queue mode was 0660, so every
+/* In older daemons: the default command queue mode was 0660, so every
  * member of the queue's group could read the queue, and with it every
  * client's token. */
 static int child_read_command_queue(void *arg)
@@ -619,8 +619,8 @@ static void test_readable_command_queue_modes_are_refused(void)
 /* ---- 3. clients survive a daemon restart ----------------------------------------- */
 
 /* A blocking call in flight when the daemon restarts gets one clear error,
- * an asynchronous one too; then service goes on (registered again). Before
- * issue 11 every call timed out for ever after a restart. */
+ * an asynchronous one too; then service goes on (registered again). In older
+ * daemons every call timed out for ever after a restart. */
 static int child_caller(void *arg)
 {
 	sync2 *s = arg;
