@@ -249,7 +249,8 @@ static void test_usage_errors(void)
 	TEST_ASSERT_EQUAL_INT(2, res.exit);
 	ctl_run("dcf check %s/none.eds", dir);
 	TEST_ASSERT_EQUAL_INT(2, res.exit);
-	TEST_ASSERT_NOT_NULL(strstr(res.err, "none.eds: No such file or directory"));
+	TEST_ASSERT_NOT_NULL_MESSAGE(
+		strstr(res.err, "none.eds: cannot open: No such file or directory"), res.err);
 	ctl_run("dcf --help");
 	TEST_ASSERT_EQUAL_INT(0, res.exit);
 	TEST_ASSERT_NOT_NULL(strstr(res.out, "usage: cogwctl dcf check FILE"));
