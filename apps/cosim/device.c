@@ -629,11 +629,13 @@ static int parse_program(const cJSON *root, cosim_device *dev, char *err, size_t
 	    co_od_has_index(dev->od, 0x1F56))
 		return json_util_fail(err, errlen, "program",
 				      "1F50h/1F51h/1F56h are defined already (in \"objects\")");
-	if (dev->program.factory &&
-	    (factory_image(dev->od, image, sizeof image, &image_len) || image_len > flash))
+	if (dev->program.factory && factory_image(dev->od, image, sizeof image, &image_len))
 		return json_util_fail(err, errlen, "program",
-				      "the factory image does not fit: flash_max %u is below %u "
-				      "bytes, or 1008h/100Ah are too long",
+				      "1008h/100Ah are too long for the factory image (63 bytes "
+				      "each at most)");
+	if (image_len > flash)
+		return json_util_fail(err, errlen, "program",
+				      "flash_max %u is below the factory image's %u bytes",
 				      (unsigned)flash, (unsigned)image_len);
 	dev->program.enabled = true;
 	dev->program.flash_max = (uint32_t)flash;

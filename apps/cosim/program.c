@@ -13,7 +13,7 @@
  * The flash and the program state are the device's, not parameters: NMT
  * resets (which put 1000h-1FFFh back to their defaults) and 1011h must
  * not touch them, so every change here makes the new value the default
- * too (pin_flash). At power-on the device runs a good image in its flash,
+ * too (cosim_program_pin). At power-on the device runs a good image in its flash,
  * as a boot loader does (docs/cosim.md "Program download").
  */
 #include <errno.h>

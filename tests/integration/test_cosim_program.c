@@ -8,7 +8,8 @@
  * (its CRC-32 checked by the device and shown in 1F56h:1) and kept across
  * an NMT reset; downloads refused while running or before a clear; a
  * corrupted image refused on start; a device without a factory image
- * (cleared flash) and the boot's program state check on both; 1020h written and read back; etc/transducer.dcf's
+ * (cleared flash) and the boot's program state check on both; a saved
+ * program across power cycles (--nv), 1011h leaving it alone; 1020h written and read back; etc/transducer.dcf's
  * concise DCF accepted by the device entry by entry; cogwctl program, the
  * software manager of the daemon's line 0 (MGR_PROGRAM), with progress,
  * verification and refusals.
@@ -384,6 +385,41 @@ static void test_cut_download_seen_at_the_next_boot(void)
 	TEST_ASSERT_EQUAL_DOUBLE(3, read_value("1F51", "1", "u8"));
 }
 
+/* The flash across power cycles (cosim restarted with --nv): a downloaded
+ * program that 1010h saved comes back running; 1011h "load" neither
+ * touches it now (an NMT reset keeps it) nor lets it come back after the
+ * next power cycle, which brings the factory image again. */
+static void test_saved_program_survives_a_power_cycle(void)
+{
+	char good[200];
+	const char *devices[] = { "etc/devices/sti-pressure.json", NULL };
+	const char *nv[] = { "--nv", dmn.dir, NULL };
+	uint32_t crc = write_image("good.bin", false, good, sizeof good);
+
+	cosim_stop(&sim, 3000);
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, nv));
+	ctl_run("program 0 1 %s --expect 0x%08X", good, (unsigned)crc);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1010 1 u32 0x65766173")->exit); /* save */
+
+	cosim_stop(&sim, 3000);
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, nv));
+	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
+
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1011 1 u32 0x64616F6C")->exit); /* load */
+	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sim, "nmt reset-node", NULL, 0, 3000));
+	/* program reset (stop, start): the image in the flash is checked again */
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1F51 1 u8 2")->exit);
+	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
+
+	cosim_stop(&sim, 3000);
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, nv));
+	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE((double)transducer_factory_id(), read_value("1F56", "1", "u32"));
+}
+
 static void test_verify_configuration_object(void)
 {
 	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1020", "1", "u32"));
@@ -435,6 +471,7 @@ int main(void)
 	RUN_TEST(test_cogwctl_program);
 	RUN_TEST(test_factory_program_boots_without_warning);
 	RUN_TEST(test_cut_download_seen_at_the_next_boot);
+	RUN_TEST(test_saved_program_survives_a_power_cycle);
 	RUN_TEST(test_verify_configuration_object);
 	RUN_TEST(test_transducer_dcf_fits_the_device);
 	return UNITY_END();
