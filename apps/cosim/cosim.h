@@ -90,6 +90,8 @@ typedef struct cosim_program_desc {
 	uint32_t flash_max; /* capacity of 1F50h:1 (the simulated flash) */
 	bool refuse;        /* refuse every image on start (a device that
 	                       * rejects the firmware it is given) */
+	bool factory;       /* the flash starts with the factory image (true)
+	                       * or erased (false) */
 } cosim_program_desc;
 
 /* Program state machine (1F51h:1 read value). */
@@ -109,7 +111,10 @@ typedef struct cosim_program {
 	uint8_t node_id; /* for log lines */
 } cosim_program;
 
-/* Hook 1F50h:1/1F51h:1 (built by the device) into the state machine:
+/* Hook 1F50h:1/1F51h:1 (built by the device) into the state machine.
+ * Power-on state from the flash (factory image, stored image or none):
+ * a good image RUNNING with 1F56h:1 = its CRC, a bad one STOPPED, none
+ * CLEARED. Then:
  * - 1F50h:1 (program data) may be written only while CLEARED (else
  *   0x08000022); a complete write leaves the program STOPPED;
  * - 1F51h:1 write 0 = stop (RUNNING -> STOPPED), 1 = start, 2 = reset
@@ -121,6 +126,10 @@ typedef struct cosim_program {
  *   runs and 1F56h:1 (application software identification) = its CRC. */
 int cosim_program_attach(cosim_program *p, co_od *od, const cosim_program_desc *desc,
 			 uint8_t node_id, bool quiet);
+/* Make the flash, 1F51h:1 and 1F56h:1 as they are now their defaults, so
+ * that NMT resets keep them (flash is not a parameter); called after every
+ * change, and by the owner after something rewrote the defaults (1011h). */
+void cosim_program_pin(cosim_program *p);
 /* CRC-32 (IEEE 802.3, reflected, init and final xor FFFFFFFFh). */
 uint32_t cosim_crc32(const uint8_t *data, size_t len);
 

@@ -577,40 +577,80 @@ void cosim_device_rebase(cosim_device *dev, co_od *od, uint8_t node_id)
 
 /* ---- loading ------------------------------------------------------------------- */
 
-/* "program": {"flash_max": N, "refuse": bool} -> 1F50h:1 (DOMAIN wo,
- * N bytes), 1F51h:1 (UNSIGNED8 rw), 1F56h:1 (UNSIGNED32 ro). */
+/* The factory image (docs/cosim.md "Program download"): the text
+ * "cosim factory image <1008h> <100Ah>" and its CRC-32, little-endian, so
+ * that it passes the same check as a downloaded image and 1F56h:1 is its
+ * CRC like any running image's. */
+static int factory_image(const co_od *od, uint8_t *img, size_t cap, uint32_t *len)
+{
+	char name[64] = "", version[64] = "";
+	uint32_t name_len = 0, version_len = 0, crc;
+	int text;
+
+	if (co_od_get_bytes(od, 0x1008, 0, name, sizeof name - 1, &name_len) ||
+	    co_od_get_bytes(od, 0x100A, 0, version, sizeof version - 1, &version_len))
+		return -EMSGSIZE;
+	name[name_len] = 0;
+	version[version_len] = 0;
+	text = snprintf((char *)img, cap, "cosim factory image %s %s", name, version);
+	if (text < 0 || (size_t)text + 4 > cap)
+		return -EMSGSIZE;
+	crc = cosim_crc32(img, (size_t)text);
+	for (int b = 0; b < 4; b++)
+		img[text + b] = (uint8_t)(crc >> (8 * b));
+	*len = (uint32_t)text + 4;
+	return 0;
+}
+
+/* "program": {"flash_max": N, "refuse": bool, "factory": bool} -> 1F50h:1
+ * (DOMAIN wo, N bytes, the factory image or empty), 1F51h:1 (UNSIGNED8
+ * rw), 1F56h:1 (UNSIGNED32 ro); the program module sets the power-on
+ * state of the last two from the flash. */
 static int parse_program(const cJSON *root, cosim_device *dev, char *err, size_t errlen)
 {
-	static const char *const keys[] = { "flash_max", "refuse", "comment", NULL };
+	static const char *const keys[] = { "flash_max", "refuse", "factory", "comment", NULL };
 	const cJSON *v = json_util_get(root, "program");
 	uint64_t flash = 256u * 1024u;
+	uint8_t image[160];
+	uint32_t image_len = 0;
 	co_od_entry *e;
 	int rc;
 
 	if (!v)
 		return 0;
+	dev->program.factory = true;
 	if ((rc = json_util_check_object(v, "program", keys, err, errlen)) ||
 	    (rc = json_util_opt_uint(v, "flash_max", "program", 16, 16u * 1024u * 1024u, &flash,
 				     err, errlen)) ||
-	    (rc = json_util_opt_bool(v, "refuse", "program", &dev->program.refuse, err, errlen)))
+	    (rc = json_util_opt_bool(v, "refuse", "program", &dev->program.refuse, err, errlen)) ||
+	    (rc = json_util_opt_bool(v, "factory", "program", &dev->program.factory, err, errlen)))
 		return rc;
 	if (co_od_has_index(dev->od, 0x1F50) || co_od_has_index(dev->od, 0x1F51) ||
 	    co_od_has_index(dev->od, 0x1F56))
 		return json_util_fail(err, errlen, "program",
 				      "1F50h/1F51h/1F56h are defined already (in \"objects\")");
+	if (dev->program.factory && factory_image(dev->od, image, sizeof image, &image_len))
+		return json_util_fail(err, errlen, "program",
+				      "1008h/100Ah are too long for the factory image (63 bytes "
+				      "each at most)");
+	if (image_len > flash)
+		return json_util_fail(err, errlen, "program",
+				      "flash_max %u is below the factory image's %u bytes",
+				      (unsigned)flash, (unsigned)image_len);
 	dev->program.enabled = true;
 	dev->program.flash_max = (uint32_t)flash;
 	if ((rc = co_od_ensure_num(dev->od, 0x1F50, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
 				   CO_OBJ_ARRAY)) ||
-	    (rc = co_od_add_bytes(dev->od, 0x1F50, 1, CO_T_DOMAIN, CO_ACC_WO, (uint32_t)flash, NULL,
-				  0, &e)))
+	    (rc = co_od_add_bytes(dev->od, 0x1F50, 1, CO_T_DOMAIN, CO_ACC_WO, (uint32_t)flash,
+				  image_len ? image : NULL, image_len, &e)))
 		return rc == -ENOMEM ? rc
 				     : json_util_fail(err, errlen, "program", "cannot add 1F50h");
 	e->obj_code = CO_OBJ_ARRAY;
 	if ((rc = co_od_ensure_num(dev->od, 0x1F51, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
 				   CO_OBJ_ARRAY)) ||
 	    (rc = co_od_ensure_num(dev->od, 0x1F51, 1, CO_T_UNSIGNED8, CO_ACC_RW,
-				   COSIM_PROG_CLEARED, CO_OBJ_ARRAY)) ||
+				   image_len ? COSIM_PROG_RUNNING : COSIM_PROG_CLEARED,
+				   CO_OBJ_ARRAY)) ||
 	    (rc = co_od_ensure_num(dev->od, 0x1F56, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
 				   CO_OBJ_ARRAY)) ||
 	    (rc = co_od_ensure_num(dev->od, 0x1F56, 1, CO_T_UNSIGNED32, CO_ACC_RO, 0,

@@ -9,6 +9,12 @@
  * Image check on start: the last 4 bytes are the CRC-32 of the rest, so a
  * test (or the software manager's integration test) can hand a good and a
  * corrupted image and see the device run one and refuse the other.
+ *
+ * The flash and the program state are the device's, not parameters: NMT
+ * resets (which put 1000h-1FFFh back to their defaults) and 1011h must
+ * not touch them, so every change here makes the new value the default
+ * too (cosim_program_pin). At power-on the device runs a good image in its flash,
+ * as a boot loader does (docs/cosim.md "Program download").
  */
 #include <errno.h>
 #include <string.h>
@@ -51,6 +57,23 @@ static const char *state_name(uint8_t s)
 	return "?";
 }
 
+void cosim_program_pin(cosim_program *p)
+{
+	co_od_entry *flash = co_od_find(p->od, 0x1F50, 1);
+	co_od_entry *control = co_od_find(p->od, 0x1F51, 1);
+	co_od_entry *id = co_od_find(p->od, 0x1F56, 1);
+	int rc;
+
+	if (!flash || !control || !id)
+		return;
+	rc = co_od_entry_set_default_bytes(flash, flash->data, flash->size);
+	if (rc)
+		cosim_log(p->quiet, "node %u: flash kept until the next reset only: %s", p->node_id,
+			  strerror(-rc));
+	co_od_entry_set_default_bytes(control, control->data, control->size);
+	co_od_entry_set_default_bytes(id, id->data, id->size);
+}
+
 static void set_state(cosim_program *p, uint8_t s)
 {
 	if (p->state != s)
@@ -58,6 +81,7 @@ static void set_state(cosim_program *p, uint8_t s)
 			  state_name(s));
 	p->state = s;
 	co_od_set_u8(p->od, 0x1F51, 1, s);
+	cosim_program_pin(p);
 }
 
 /* The image in the flash, and whether its CRC holds. */
@@ -66,7 +90,7 @@ static bool image_ok(const cosim_program *p, uint32_t *crc)
 	const co_od_entry *e = co_od_find(p->od, 0x1F50, 1);
 	uint32_t want;
 
-	if (!e || e->size < 5 || p->desc->refuse)
+	if (!e || e->size < 5)
 		return false;
 	want = (uint32_t)e->data[e->size - 4] | (uint32_t)e->data[e->size - 3] << 8 |
 	       (uint32_t)e->data[e->size - 2] << 16 | (uint32_t)e->data[e->size - 1] << 24;
@@ -126,7 +150,7 @@ static uint32_t control_check(void *ctx, co_od_entry *e, const co_od_access *a)
 			return 0;
 		if (p->state == COSIM_PROG_CLEARED)
 			return AB_STATE;
-		if (!image_ok(p, &crc)) {
+		if (p->desc->refuse || !image_ok(p, &crc)) {
 			p->refused++;
 			set_state(p, COSIM_PROG_STOPPED);
 			cosim_log(p->quiet, "node %u: program image refused (%s)", p->node_id,
@@ -158,6 +182,7 @@ int cosim_program_attach(cosim_program *p, co_od *od, const cosim_program_desc *
 			 uint8_t node_id, bool quiet)
 {
 	const co_od_entry *e = co_od_find(od, 0x1F50, 1);
+	uint32_t crc = 0;
 	int rc;
 
 	memset(p, 0, sizeof(*p));
@@ -167,10 +192,21 @@ int cosim_program_attach(cosim_program *p, co_od *od, const cosim_program_desc *
 	p->node_id = node_id;
 	if (!e || !co_od_find(od, 0x1F51, 1) || !co_od_find(od, 0x1F56, 1))
 		return -ENOENT;
-	/* a stored image (1010h "save" keeps the flash) is there, stopped */
+	/* Power-on: the flash holds the device file's factory image, an image
+	 * 1010h saved, or nothing. A good image runs; "refuse" is about the
+	 * images a software manager starts, not the one the device boots. */
 	p->image_len = e->size;
-	p->state = e->size ? COSIM_PROG_STOPPED : COSIM_PROG_CLEARED;
+	if (!e->size)
+		p->state = COSIM_PROG_CLEARED;
+	else if (image_ok(p, &crc))
+		p->state = COSIM_PROG_RUNNING;
+	else
+		p->state = COSIM_PROG_STOPPED;
 	co_od_set_u8(od, 0x1F51, 1, p->state);
+	co_od_set_u32(od, 0x1F56, 1, crc);
+	cosim_log(quiet, "node %u: program %s at power-on (%u bytes in flash, 1F56h:1 = %08X)",
+		  node_id, state_name(p->state), (unsigned)p->image_len, (unsigned)crc);
+	cosim_program_pin(p);
 	if ((rc = co_od_set_hooks(od, 0x1F50, 1, &data_hooks, p)) ||
 	    (rc = co_od_set_hooks(od, 0x1F51, 1, &control_hooks, p)))
 		return rc;

@@ -532,6 +532,10 @@ static uint32_t store_restore(void *ctx, uint8_t sub, const co_od_access *a)
 	if (n->snapshot)
 		co_od_image_apply(n->dev.od, n->snapshot, n->snapshot_len, CO_OD_IMAGE_SET_DEFAULT,
 				  &l, &s);
+	/* the snapshot holds the device file's flash: the program is no
+	 * parameter, keep the one in the device */
+	if (n->dev.program.enabled)
+		cosim_program_pin(&n->prog);
 	logn(n, "1011h:%02X load: device file defaults after the next reset", sub);
 	return 0;
 }

@@ -207,7 +207,7 @@ static uint32_t start_software(bool corrupt, char *mon_path, size_t cap)
 	return crc;
 }
 
-/* Software manager during the boot: the fresh device's 1F56h:1 (0)
+/* Software manager during the boot: the fresh device's 1F56h:1 (the factory image's)
  * differs from software_id -> stop, clear, 64 KiB block download with
  * progress events, start, verify; then the node is started. */
 static void test_program_updated_during_boot(void)

@@ -3,10 +3,13 @@
  * tests/integration/test_cosim_program.c - the simulated transducer's
  * program download objects (1F50h:1 flash, 1F51h:1 control, 1F56h:1
  * software identification) and its 1020h, driven through the real daemon
- * and cogwctl on vcan: a 64 KiB image downloaded by block transfer, then
- * started (its CRC-32 checked by the device and shown in 1F56h:1);
- * downloads refused while running or before a clear; a corrupted image
- * refused on start; 1020h written and read back; etc/transducer.dcf's
+ * and cogwctl on vcan: the factory image running at power-on, a 64 KiB
+ * image downloaded by block transfer after stop and clear, then started
+ * (its CRC-32 checked by the device and shown in 1F56h:1) and kept across
+ * an NMT reset; downloads refused while running or before a clear; a
+ * corrupted image refused on start; a device without a factory image
+ * (cleared flash) and the boot's program state check on both; a saved
+ * program across power cycles (--nv), 1011h leaving it alone; 1020h written and read back; etc/transducer.dcf's
  * concise DCF accepted by the device entry by entry; cogwctl program, the
  * software manager of the daemon's line 0 (MGR_PROGRAM), with progress,
  * verification and refusals.
@@ -102,6 +105,14 @@ static uint32_t write_image(const char *name, bool corrupt, char *path, size_t c
 	return crc;
 }
 
+/* docs/cosim.md "Program download": the factory image is the text
+ * "cosim factory image <1008h> <100Ah>" followed by its CRC-32. */
+static uint32_t transducer_factory_id(void)
+{
+	static const char text[] = "cosim factory image STI-SIM 0001";
+	return crc32_ieee((const uint8_t *)text, sizeof text - 1);
+}
+
 static double read_value(const char *obj, const char *sub, const char *type)
 {
 	ctl_run("--json sdo read 0 1 %s %s %s", obj, sub, type);
@@ -154,20 +165,9 @@ static void test_program_download_start_and_refusals(void)
 	uint32_t crc = write_image("good.bin", false, good, sizeof good);
 	write_image("bad.bin", true, bad, sizeof bad);
 
-	/* a fresh device: flash cleared, no software */
-	TEST_ASSERT_EQUAL_DOUBLE(3, read_value("1F51", "1", "u8"));
-	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F56", "1", "u32"));
-
-	/* 64 KiB by block transfer */
-	ctl_run("sdo write 0 1 1F50 1 domain @%s --mode block", good);
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
-	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F51", "1", "u8")); /* stopped */
-
-	/* start: the device checks the CRC and runs it */
-	ctl_run("sdo write 0 1 1F51 1 u8 1");
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	/* a fresh device runs its factory image */
 	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
-	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
+	TEST_ASSERT_EQUAL_DOUBLE((double)transducer_factory_id(), read_value("1F56", "1", "u32"));
 
 	/* no download while running, no clear while running */
 	ctl_run("sdo write 0 1 1F50 1 domain @%s --mode block", good);
@@ -182,8 +182,31 @@ static void test_program_download_start_and_refusals(void)
 	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F51", "1", "u8"));
 	ctl_run("sdo write 0 1 1F50 1 domain @%s --mode block", good);
 	TEST_ASSERT_EQUAL_INT(1, res.exit);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(res.err, "08000022"), res.err);
 
-	/* clear, download a corrupted image: refused on start */
+	/* clear: no software any more */
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1F51 1 u8 3")->exit);
+	TEST_ASSERT_EQUAL_DOUBLE(3, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F56", "1", "u32"));
+
+	/* 64 KiB by block transfer */
+	ctl_run("sdo write 0 1 1F50 1 domain @%s --mode block", good);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F51", "1", "u8")); /* stopped */
+
+	/* start: the device checks the CRC and runs it */
+	ctl_run("sdo write 0 1 1F51 1 u8 1");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
+
+	/* the flash is no parameter: an NMT reset keeps the new program */
+	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sim, "nmt reset-node", NULL, 0, 3000));
+	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
+
+	/* stop, clear, download a corrupted image: refused on start */
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1F51 1 u8 0")->exit);
 	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1F51 1 u8 3")->exit);
 	TEST_ASSERT_EQUAL_DOUBLE(3, read_value("1F51", "1", "u8"));
 	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F56", "1", "u32"));
@@ -209,7 +232,8 @@ static void test_cogwctl_program(void)
 	uint32_t crc = write_image("good.bin", false, good, sizeof good);
 	write_image("bad.bin", true, bad, sizeof bad);
 
-	/* the first update of a fresh device, verified against --expect */
+	/* the first update of a fresh device (over its factory image),
+	 * verified against --expect */
 	ctl_run("program 0 1 %s --expect 0x%08X", good, (unsigned)crc);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
 	/* a progress line about every 4 KiB (as the block transfer pulls data) */
@@ -300,38 +324,100 @@ static void test_cogwctl_program(void)
 	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
 }
 
-/* A program download cut short by a restart: the device's program was
- * stopped and its flash cleared (1F51h:1 = 3), then cogwd went away. The
- * restarted daemon boots node 1, for which no software_id is configured:
- * it reads the program state during the boot and reports it (a warning in
- * the log, the software step's boot event naming 1F51h:01 = 3). */
-static void test_cut_download_seen_at_the_next_boot(void)
-{
-	char good[200];
-	static const char managed[] =
-		"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 127,"
-		" \"sdo_clients\": 4, \"manager\": {\"sdo_timeout_ms\": 2000}, \"nodes\": "
-		"[{\"id\": 1}]}]}";
+static const char managed_node_1[] =
+	"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 127,"
+	" \"sdo_clients\": 4, \"manager\": {\"sdo_timeout_ms\": 2000}, \"nodes\": "
+	"[{\"id\": 1}]}]}";
 
-	write_image("good.bin", false, good, sizeof good);
-	ctl_run("program 0 1 %s", good);
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
-	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
-	/* the update of the next cogwd got as far as the clear */
-	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1F51 1 u8 0")->exit);
-	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1F51 1 u8 3")->exit);
-	TEST_ASSERT_EQUAL_DOUBLE(3, read_value("1F51", "1", "u8"));
+/* The daemon, restarted to boot node 1 with no software_id configured:
+ * the boot reads the program state (CiA 302-3) whatever it is. */
+static void restart_daemon_managing_node_1(void)
+{
 	TEST_ASSERT_NOT_EQUAL(-1, daemon_stop(&dmn, 5000));
 	daemon_cleanup(&dmn);
 	daemon_unlink_queues("main");
+	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = managed_node_1,
+								    .n_lines = 1 }));
+}
 
-	TEST_ASSERT_EQUAL_INT(
-		0, daemon_start(&dmn, &(daemon_opts){ .config_json = managed, .n_lines = 1 }));
+/* The transducer as shipped runs its factory program: its boot reports
+ * no program that does not run. */
+static void test_factory_program_boots_without_warning(void)
+{
+	restart_daemon_managing_node_1();
+	if (!file_wait_contains(dmn.log_path, "node 1 booted", 20000)) {
+		proc_dump_log(dmn.log_path, 40);
+		TEST_FAIL_MESSAGE("node 1 was not booted");
+	}
+	TEST_ASSERT_FALSE_MESSAGE(file_contains(dmn.log_path, "does not run"),
+				  "the factory program was reported as not running");
+	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
+}
+
+/* A program download cut short by a restart: the device's program was
+ * stopped and its flash cleared (1F51h:1 = 3), then cogwd went away; a
+ * device file with "factory": false is that device. The restarted daemon
+ * boots node 1 (which resets it: the flash stays cleared) and reports the
+ * program state (a warning in the log, the software step's boot event
+ * naming 1F51h:01 = 3). */
+static void test_cut_download_seen_at_the_next_boot(void)
+{
+	char blank[200];
+	snprintf(blank, sizeof blank, "%s/blank.json", dmn.dir);
+	FILE *f = fopen(blank, "w");
+	TEST_ASSERT_NOT_NULL(f);
+	fputs("{\"name\": \"blank\", \"node_id\": 1, \"heartbeat_ms\": 1000,"
+	      " \"program\": {\"factory\": false}}\n",
+	      f);
+	fclose(f);
+	cosim_stop(&sim, 3000);
+	const char *devices[] = { blank, NULL };
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, NULL));
+	TEST_ASSERT_EQUAL_DOUBLE(3, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE(0, read_value("1F56", "1", "u32"));
+
+	restart_daemon_managing_node_1();
 	TEST_ASSERT_TRUE_MESSAGE(
 		file_wait_contains(dmn.log_path,
 				   "node 1: its program does not run (1F51h:1 = 3, no program)",
 				   20000),
 		"the program state was not reported");
+	TEST_ASSERT_EQUAL_DOUBLE(3, read_value("1F51", "1", "u8"));
+}
+
+/* The flash across power cycles (cosim restarted with --nv): a downloaded
+ * program that 1010h saved comes back running; 1011h "load" neither
+ * touches it now (an NMT reset keeps it) nor lets it come back after the
+ * next power cycle, which brings the factory image again. */
+static void test_saved_program_survives_a_power_cycle(void)
+{
+	char good[200];
+	const char *devices[] = { "etc/devices/sti-pressure.json", NULL };
+	const char *nv[] = { "--nv", dmn.dir, NULL };
+	uint32_t crc = write_image("good.bin", false, good, sizeof good);
+
+	cosim_stop(&sim, 3000);
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, nv));
+	ctl_run("program 0 1 %s --expect 0x%08X", good, (unsigned)crc);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, res.exit, res.err);
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1010 1 u32 0x65766173")->exit); /* save */
+
+	cosim_stop(&sim, 3000);
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, nv));
+	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
+
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1011 1 u32 0x64616F6C")->exit); /* load */
+	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sim, "nmt reset-node", NULL, 0, 3000));
+	/* program reset (stop, start): the image in the flash is checked again */
+	TEST_ASSERT_EQUAL_INT(0, ctl_run("sdo write 0 1 1F51 1 u8 2")->exit);
+	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE((double)crc, read_value("1F56", "1", "u32"));
+
+	cosim_stop(&sim, 3000);
+	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim, dmn.dir, 0, devices, nv));
+	TEST_ASSERT_EQUAL_DOUBLE(1, read_value("1F51", "1", "u8"));
+	TEST_ASSERT_EQUAL_DOUBLE((double)transducer_factory_id(), read_value("1F56", "1", "u32"));
 }
 
 static void test_verify_configuration_object(void)
@@ -383,7 +469,9 @@ int main(void)
 	UNITY_BEGIN();
 	RUN_TEST(test_program_download_start_and_refusals);
 	RUN_TEST(test_cogwctl_program);
+	RUN_TEST(test_factory_program_boots_without_warning);
 	RUN_TEST(test_cut_download_seen_at_the_next_boot);
+	RUN_TEST(test_saved_program_survives_a_power_cycle);
 	RUN_TEST(test_verify_configuration_object);
 	RUN_TEST(test_transducer_dcf_fits_the_device);
 	return UNITY_END();
