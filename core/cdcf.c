@@ -9,6 +9,7 @@
  * not wrap a size_t on 32-bit targets).
  */
 #include "core/cdcf.h"
+#include "core/sdo.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -204,19 +205,19 @@ int co_cdcf_check_od(const uint8_t *buf, size_t len, const co_od *od, bool allow
 			if (diag)
 				diag->abort = abort;
 			return fail(diag,
-				    abort == 0x06020000u ? CO_CDCF_ERR_NO_OBJECT
-							 : CO_CDCF_ERR_NO_SUB,
+				    abort == SDO_AB_NO_OBJ ? CO_CDCF_ERR_NO_OBJECT
+							   : CO_CDCF_ERR_NO_SUB,
 				    e.number, e.offset);
 		}
 		if (!allow_read_only && !(oe->access & CO_ACC_WRITE)) {
 			if (diag)
-				diag->abort = 0x06010002u;
+				diag->abort = SDO_AB_READ_ONLY;
 			return fail(diag, CO_CDCF_ERR_READ_ONLY, e.number, e.offset);
 		}
 		abort = co_od_check_value(oe, e.data, e.size);
 		if (abort) {
-			bool size = abort == 0x06070010u || abort == 0x06070012u ||
-				    abort == 0x06070013u;
+			bool size = abort == SDO_AB_TYPE_LEN || abort == SDO_AB_LEN_HIGH ||
+				    abort == SDO_AB_LEN_LOW;
 			if (diag)
 				diag->abort = abort;
 			return fail(diag, size ? CO_CDCF_ERR_SIZE_MISMATCH : CO_CDCF_ERR_VALUE,

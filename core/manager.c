@@ -42,10 +42,6 @@
 #define MGR_TAG 0x4D47520000000000ull /* "MGR" in the top bytes */
 #define MGR_TAG_MASK 0xFFFFFF0000000000ull
 #define STATE_UNKNOWN 0xFFu
-#define SDO_ABORT_GENERAL 0x08000000u
-#define SDO_ABORT_STATE 0x08000022u
-#define SDO_ABORT_VALUE 0x06090030u
-#define SDO_ABORT_SIGNATURE 0x08000020u
 
 /* ---- boot slave process: states ------------------------------------------ */
 
@@ -608,7 +604,7 @@ static int device_type_enter(void *obj, uint64_t now_us)
 	struct mgr_slave *s = obj;
 	int rc = sdo_read(s, 0x1000, 0, now_us);
 	if (rc < 0)
-		return bs_fail(s, CO_MGR_STEP_DEVICE_TYPE, 'B', SDO_ABORT_GENERAL, 0x1000, 0, 0, 0);
+		return bs_fail(s, CO_MGR_STEP_DEVICE_TYPE, 'B', SDO_AB_GENERAL, 0x1000, 0, 0, 0);
 	return CO_FSM_STAY;
 }
 
@@ -639,8 +635,8 @@ static int identity_enter(void *obj, uint64_t now_us)
 	if (s->id_sub > 4)
 		return BS_SOFTWARE;
 	if (sdo_read(s, 0x1018, s->id_sub, now_us) < 0)
-		return bs_fail(s, step_of_sub(s->id_sub), letter_of_sub(s->id_sub),
-			       SDO_ABORT_GENERAL, 0x1018, s->id_sub, 0, 0);
+		return bs_fail(s, step_of_sub(s->id_sub), letter_of_sub(s->id_sub), SDO_AB_GENERAL,
+			       0x1018, s->id_sub, 0, 0);
 	return CO_FSM_STAY;
 }
 
@@ -706,8 +702,7 @@ static int configure_enter(void *obj, uint64_t now_us)
 		return CO_FSM_STAY;
 	if (rc < 0) /* 1F22h:n is no concise DCF (or the node's job is busy):
 		     * J on that object, no entry of it was written (value 0) */
-		return bs_fail(s, CO_MGR_STEP_CONFIGURE, 'J', SDO_ABORT_GENERAL, 0x1F22, s->id, 0,
-			       0);
+		return bs_fail(s, CO_MGR_STEP_CONFIGURE, 'J', SDO_AB_GENERAL, 0x1F22, s->id, 0, 0);
 	emit_boot(s, CO_MGR_STEP_CONFIGURE, 0, 0, 0, 0, 0, 0, false);
 	return BS_ERRCTRL;
 }
@@ -1871,11 +1866,11 @@ static uint32_t f82_check(void *ctx, co_od_entry *e, const co_od_access *a)
 	if (a->origin == CO_OD_ORIGIN_RESET)
 		return 0;
 	if (!a->data || a->size != 1)
-		return 0x06070010;
+		return SDO_AB_TYPE_LEN;
 	if (cmd_to_cs(a->data[0]) < 0)
-		return SDO_ABORT_VALUE;
+		return SDO_AB_VALUE;
 	rc = co_manager_request_nmt(m, e->sub, a->data[0], m->node->now_us);
-	return rc < 0 ? SDO_ABORT_STATE : 0;
+	return sdo_abort_of_errno(rc);
 }
 
 static uint32_t f82_read(void *ctx, co_od_entry *e, const co_od_access *a)
@@ -1896,13 +1891,13 @@ static uint32_t f25_check(void *ctx, co_od_entry *e, const co_od_access *a)
 	if (a->origin == CO_OD_ORIGIN_RESET)
 		return 0;
 	if (!a->data || a->size != 4)
-		return 0x06070010;
+		return SDO_AB_TYPE_LEN;
 	sig = (uint32_t)a->data[0] | (uint32_t)a->data[1] << 8 | (uint32_t)a->data[2] << 16 |
 	      (uint32_t)a->data[3] << 24;
 	if (sig != CO_MGR_CONF_SIGNATURE)
-		return SDO_ABORT_SIGNATURE;
+		return SDO_AB_STORE;
 	if (!mgr_active(m))
-		return SDO_ABORT_STATE;
+		return SDO_AB_DEV_STATE;
 	if (e->sub == CO_MGR_ALL_NODES) {
 		mgr_enter(m, now);
 		for (unsigned id = 1; id <= 127; id++)
@@ -1915,8 +1910,8 @@ static uint32_t f25_check(void *ctx, co_od_entry *e, const co_od_access *a)
 		return 0;
 	}
 	if (bs_running(&m->s[e->sub]))
-		return SDO_ABORT_STATE;
-	return co_manager_boot_node(m, e->sub, now) < 0 ? SDO_ABORT_STATE : 0;
+		return SDO_AB_DEV_STATE;
+	return co_manager_boot_node(m, e->sub, now) < 0 ? SDO_AB_DEV_STATE : 0;
 }
 
 static const co_od_hooks f25_hooks = { .check_write = f25_check };
@@ -1936,11 +1931,11 @@ static uint32_t lock_check(void *ctx, co_od_entry *e, const co_od_access *a)
 		return 0;
 	if (e->index == 0x1F80 && a->data && a->size >= 1 &&
 	    (a->data[0] & CO_MGR_1F80_FLYING_MASTER))
-		return SDO_ABORT_VALUE;
+		return SDO_AB_VALUE;
 	if (st == CO_MGR_RESETTING || st == CO_MGR_BOOTING)
-		return SDO_ABORT_STATE;
+		return SDO_AB_DEV_STATE;
 	if (st == CO_MGR_WAIT_MANDATORY && e->index != 0x1F89)
-		return SDO_ABORT_STATE;
+		return SDO_AB_DEV_STATE;
 	return 0;
 }
 
@@ -2075,7 +2070,7 @@ void co_manager_destroy(co_manager *m)
 	m->destroying = true;
 	for (unsigned id = 1; id <= 127; id++)
 		if (m->s[id].sdo_pending)
-			(void)sdo_client_cancel_tag(m->node, m->s[id].tag, SDO_ABORT_GENERAL,
+			(void)sdo_client_cancel_tag(m->node, m->s[id].tag, SDO_AB_GENERAL,
 						    m->node->now_us);
 	co_nmt_set_rx_filter(m->node, NULL, NULL);
 	for (unsigned sub = 1; sub <= 128; sub++) {

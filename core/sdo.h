@@ -52,6 +52,12 @@ typedef enum sdo_abort {
 
 /* "object does not exist", ...; "unknown abort code" for others. */
 const char *sdo_abort_to_string(uint32_t code);
+/* The one table from a local call's failure (a negative errno, in an SDO
+ * transfer: a data source or sink, a hook, the SDO client pool or a relay
+ * lease) to the abort code that goes on the wire; 0 stays 0, an errno
+ * nobody expects is SDO_AB_STORE (08000020, "cannot be transferred or
+ * stored"). */
+uint32_t sdo_abort_of_errno(int rc);
 
 /* Transfer modes (client request hint, also reported in events). */
 typedef enum sdo_mode {

@@ -6,17 +6,26 @@
  *
  *   1. sdo_transfer()     the command arrives (already validated by the
  *                         mailbox); a pending slot keeps the reply address
- *                         and the buffer; the request goes to the SDO
- *                         client pool with sdo_done() as its confirmation.
+ *                         and the buffer; for a node of a network
+ *                         (MBX_CMD_GW_SDO_*) the routing step asks the
+ *                         extension that routes (the gateway, line_ext.h
+ *                         sdo_route) how the frames reach it: this line's
+ *                         bus, or a relay to another line; the request
+ *                         goes to the SDO client pool with sdo_done() as
+ *                         its confirmation.
  *   2. core/sdo_client.c  borrows a free channel (or queues the request),
  *                         runs the CiA 301 protocol, ends the transfer.
- *   3. sdo_done()         the confirmation: answer the requester (data or
- *                         abort code), tell SDO observers (MBX_EV_SDO_DONE),
- *                         release the slot.
+ *   3. sdo_done()         the confirmation: give the route back, answer
+ *                         the requester (data or abort code), tell SDO
+ *                         observers (MBX_EV_SDO_DONE), release the slot.
  *
  * A client that goes away has its transfers cancelled where they are
  * (line_sdo_client_gone): the answer could not be delivered, and the
  * channel would stay busy for nothing.
+ *
+ * So local and routed requests share the budget, the chunking, the
+ * cancel, the "busy" answer of a full pool and the slot's lifetime; a
+ * routed transfer differs only in where its frames go.
  */
 #include "lines/line_internal.h"
 
@@ -33,19 +42,28 @@ static void sdo_done(void *arg, const co_ev_sdo_cli *c)
 	line_pending *pp = line_pending_find(&l->pending, c->tag);
 	if (!pp)
 		return; /* its client went away and the slot was released */
+	uint32_t abort = c->abort;
+	if (pp->route_ext != LINE_NO_ROUTE) {
+		const line_ext *x = &l->p.ext[pp->route_ext];
+		x->ops->sdo_route_end(x->ctx, l, pp->tag);
+		/* CiA 302-7: a node that never answered is "unknown" to a
+		 * request addressed by network, whichever way it went */
+		if (abort == SDO_AB_TIMEOUT && !c->answered)
+			abort = SDO_AB_NODE_UNKNOWN;
+	}
 	/* the answer pays its own copy of the data from the budget */
 	line_pending_pay_back(pp);
 	if (pp->over_budget)
 		line_answer(l, &pp->reply, MBX_E_NO_MEMORY, 0, NULL, 0);
-	else if (c->abort)
-		line_answer(l, &pp->reply, MBX_E_ABORT, c->abort, NULL, 0);
+	else if (abort)
+		line_answer(l, &pp->reply, MBX_E_ABORT, abort, NULL, 0);
 	else if (c->upload)
 		line_answer(l, &pp->reply, 0, 0, pp->buf, c->size);
 	else
 		line_answer(l, &pp->reply, 0, 0, NULL, 0);
 	/* SDO-class subscribers (a logger, say) see every transfer end */
 	mbx_ev_sdo_done done = {
-		.abort = c->abort,
+		.abort = abort,
 		.size = c->size,
 		.index = c->index,
 		.sub = c->sub,
@@ -72,15 +90,44 @@ static int upload_sink(void *ctx, uint32_t offset, const uint8_t *data, uint32_t
 	return 0;
 }
 
-/* Step 1: park the request, hand it to the SDO client pool. */
-static void sdo_transfer(line *l, const mbx_request *req, bool upload)
+/* The extension that routes SDO requests addressed by network, or -1. */
+static int route_ext(const line *l)
 {
-	mbx_sdo_req s;
-	memcpy(&s, req->payload, sizeof s);
-	if (!sdo_client_channel_count(l->node))
+	for (unsigned i = 0; i < l->ext_attached; i++) {
+		const line_ext *x = &l->p.ext[i];
+		if (x->ops && x->ops->sdo_route && x->ops->sdo_route_end)
+			return (int)i;
+	}
+	return -1;
+}
+
+/* Step 1, the routing step: how the frames of pp's transfer reach node
+ * `r->node_id` of network `net` (r filled in), or the abort refusing it. */
+static uint32_t route(line *l, line_pending *pp, uint16_t net, sdo_client_req *r)
+{
+	int xi = route_ext(l);
+	line_sdo_route rt = { 0 };
+	const line_ext *x = &l->p.ext[xi];
+	uint32_t abort = x->ops->sdo_route(x->ctx, l, pp->tag, net, r->node_id, &rt);
+
+	if (abort)
+		return abort;
+	pp->route_ext = (uint8_t)xi;
+	r->node_id = rt.node;
+	r->relay = rt.relay;
+	r->relay_ctx = rt.relay_ctx;
+	r->relay_target = rt.relay_target;
+	return 0;
+}
+
+/* Step 1: park the request, route it (net: a network, 0 = this line's
+ * bus), hand it to the SDO client pool. */
+static void sdo_transfer(line *l, const mbx_request *req, const mbx_sdo_req *sp, uint16_t net,
+			 bool upload)
+{
+	const mbx_sdo_req s = *sp;
+	if (!sdo_client_channel_count(l->node) || (net && route_ext(l) < 0))
 		return line_answer(l, &req->reply, MBX_E_UNSUPPORTED, 0, NULL, 0);
-	if (s.node == co_node_id(l->node))
-		return line_answer(l, &req->reply, MBX_E_PARAM, 0, NULL, 0);
 
 	/* Big transfers need a slot with a max_transfer buffer (uploads) or
 	 * keep the chunked command's data (downloads); a small upload also
@@ -125,21 +172,56 @@ static void sdo_transfer(line *l, const mbx_request *req, bool upload)
 			r.data = req->data; /* chunked: valid until answered */
 		}
 	}
-	int rc = sdo_client_pool_submit(l->node, &r, l->now_us);
-	if (rc < 0) {
+	uint32_t abort = net ? route(l, pp, net, &r) : 0;
+	if (abort) {
 		line_pending_release(&l->pending, pp);
-		line_answer(l, &req->reply, rc == -ENOSPC ? MBX_E_BUSY : MBX_E_PARAM, 0, NULL, 0);
+		return line_answer(l, &req->reply, MBX_E_ABORT, abort, NULL, 0);
 	}
+	int rc = -EINVAL;
+	if (r.relay || r.node_id != co_node_id(l->node)) /* not a transfer with ourselves */
+		rc = sdo_client_pool_submit(l->node, &r, l->now_us);
+	if (rc < 0) {
+		if (pp->route_ext != LINE_NO_ROUTE)
+			l->p.ext[pp->route_ext].ops->sdo_route_end(l->p.ext[pp->route_ext].ctx, l,
+								   pp->tag);
+		line_pending_release(&l->pending, pp);
+		line_answer(l, &req->reply, mbx_status_of_errno(rc), 0, NULL, 0);
+	}
+}
+
+static void sdo_transfer_local(line *l, const mbx_request *req, bool upload)
+{
+	mbx_sdo_req s;
+	memcpy(&s, req->payload, sizeof s);
+	sdo_transfer(l, req, &s, 0, upload);
 }
 
 void line_sdo_upload(line *l, const mbx_request *req)
 {
-	sdo_transfer(l, req, true);
+	sdo_transfer_local(l, req, true);
 }
 
 void line_sdo_download(line *l, const mbx_request *req)
 {
-	sdo_transfer(l, req, false);
+	sdo_transfer_local(l, req, false);
+}
+
+/* MBX_CMD_GW_SDO_*: the same transfer with a node of network `net`. */
+static void sdo_transfer_net(line *l, const mbx_request *req, bool upload)
+{
+	mbx_gw_sdo_req g;
+	memcpy(&g, req->payload, sizeof g);
+	sdo_transfer(l, req, &g.sdo, g.net, upload);
+}
+
+void line_sdo_upload_net(line *l, const mbx_request *req)
+{
+	sdo_transfer_net(l, req, true);
+}
+
+void line_sdo_download_net(line *l, const mbx_request *req)
+{
+	sdo_transfer_net(l, req, false);
 }
 
 void line_sdo_client_gone(line *l, uint32_t client)

@@ -162,7 +162,7 @@ void line_store_command(line *l, const mbx_request *req)
 		return line_answer(l, &req->reply, MBX_E_UNSUPPORTED, 0, NULL, 0);
 	int rc = store_request_mbx(l, req->code == MBX_CMD_STORE ? 1 : 2, s.sub, &req->reply);
 	if (rc < 0)
-		line_answer(l, &req->reply, rc == -EBUSY ? MBX_E_BUSY : MBX_E_PARAM, 0, NULL, 0);
+		line_answer(l, &req->reply, mbx_status_of_errno(rc), 0, NULL, 0);
 }
 
 /* ---- main thread ---------------------------------------------------------- */
