@@ -45,19 +45,6 @@ const char *co_cfgmgr_outcome_to_string(int outcome)
 	return "?";
 }
 
-static void put_u32(uint8_t *p, uint32_t v)
-{
-	p[0] = (uint8_t)v;
-	p[1] = (uint8_t)(v >> 8);
-	p[2] = (uint8_t)(v >> 16);
-	p[3] = (uint8_t)(v >> 24);
-}
-
-static uint32_t get_u32(const uint8_t *p)
-{
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
 /* ---- requests ------------------------------------------------------------ */
 
 static void on_sdo_con(void *arg, const co_ev_sdo_cli *con)
@@ -121,7 +108,7 @@ static int write_u32(co_cfgmgr *job, uint16_t index, uint8_t sub, uint32_t v, ui
 	int rc;
 
 	mark(job, 0, index, sub);
-	put_u32(job->wr, v);
+	co_put_le32(job->wr, v);
 	rc = submit(job, false, index, sub, job->wr, 4, now_us);
 	return rc ? rc : CO_FSM_STAY;
 }
@@ -217,7 +204,7 @@ static int verify_date_enter(void *obj, uint64_t now_us)
  * another value; another size) -> the download. */
 static int verify_con(co_cfgmgr *job, const co_ev_sdo_cli *con, uint32_t want, int equal)
 {
-	if (!con->abort && con->size == 4 && get_u32(job->rd) == want)
+	if (!con->abort && con->size == 4 && co_get_le32(job->rd) == want)
 		return equal;
 	return CO_CFGMGR_DOWNLOAD;
 }

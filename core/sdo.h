@@ -8,6 +8,7 @@
 
 #include <stdint.h>
 
+#include "core/frame.h"
 #include "core/od.h"
 
 /* SDO abort codes (CiA 301 §7.2.4.3.17, plus the CiA 302-7 routing codes
@@ -124,7 +125,7 @@ enum sdo_blk_sub {
 /* COB-ID bits in 1200h..12FFh sub 1/2. */
 #define SDO_COB_INVALID 0x80000000u /* bit 31: channel not valid */
 #define SDO_COB_DYN 0x40000000u     /* bit 30: dynamically allocated */
-#define SDO_COB_EXT 0x20000000u     /* bit 29: 29-bit CAN-ID */
+#define SDO_COB_EXT CO_COB_EXT      /* bit 29: 29-bit CAN-ID */
 
 /* Object indexes. */
 #define SDO_SERVER_PARAM 0x1200u /* .. 127Fh */

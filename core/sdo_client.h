@@ -86,7 +86,7 @@ typedef int (*sdo_src_fn)(void *ctx, uint32_t offset, uint8_t *buf, uint32_t len
 /* Upload sink: the next len bytes at offset (sequential, each byte once).
  * total is the size indicated by the server, or UINT32_MAX if none. Return
  * 0, or a negative errno to abort (on the wire: sdo_abort_of_errno(), e.g.
- * -ENOMEM 0x05040005, -EIO 0x06060000, an unexpected one 0x08000020). */
+ * -ENOMEM 0x05040005, any other failure 0x08000020). */
 typedef int (*sdo_sink_fn)(void *ctx, uint32_t offset, const uint8_t *data, uint32_t len,
 			   uint32_t total);
 /* Relayed transfer: where a frame of the request goes instead of the bus

@@ -24,7 +24,6 @@ static const struct {
 	{ ENODATA, SDO_AB_NO_DATA },        /* no data available */
 	{ EINVAL, SDO_AB_VALUE },           /* a value the callee refuses */
 	{ EMSGSIZE, SDO_AB_LEN_HIGH },      /* larger than the object */
-	{ EIO, SDO_AB_HW },                 /* the access failed */
 	{ ETIMEDOUT, SDO_AB_NODE_UNKNOWN }, /* nobody answered */
 };
 

@@ -43,11 +43,6 @@ const char *co_swmgr_outcome_to_string(int outcome)
 	return "?";
 }
 
-static uint32_t get_u32(const uint8_t *p)
-{
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
 /* ---- requests ------------------------------------------------------------ */
 
 static void on_sdo_con(void *arg, const co_ev_sdo_cli *con)
@@ -161,7 +156,7 @@ static int got_id(co_swmgr *job, const co_ev_sdo_cli *con)
 		job->res.status = 'I';
 		return -1;
 	}
-	job->res.found = get_u32(job->rd);
+	job->res.found = co_get_le32(job->rd);
 	return 0;
 }
 

@@ -56,9 +56,11 @@ void gw_emcy_send(struct gw_line *gl, const gw_msg *m)
 		return;
 	}
 	co_od_get_u8(od, 0x1001, 0, &fwd.err_reg);
-	co_frame_init(&f, cob & CO_FRAME_EFF_MASK, 8);
-	if (cob & 0x20000000u)
-		f.flags |= CO_FRAME_EXT;
+	uint32_t id;
+	uint8_t flags;
+	co_cob_split(cob, &id, &flags);
+	co_frame_init(&f, id, 8);
+	f.flags |= flags;
 	gw_emcy_fwd_encode(f.data, &fwd);
 	if (co_node_send(gl->node, &f) == 0)
 		GW_COUNT(gl->c.emcy.sent);

@@ -124,10 +124,10 @@ struct gw_mbx_hop {
 	bool held_valid;
 	uint8_t held[8]; /* the transfer's first frame, while indicating */
 	uint16_t gen;
-	uint16_t net;       /* the network asked for */
-	uint8_t node;       /* the node asked for */
-	uint64_t tag;       /* the transfer (line_sdo's pending tag) */
-	gw_hop hop;         /* line and node (target or router) of the lease */
+	uint16_t net; /* the network asked for */
+	uint8_t node; /* the node asked for */
+	uint64_t tag; /* the transfer (line_sdo's pending tag) */
+	gw_hop hop;   /* line and node (target or router) of the lease */
 	struct gw_line *gl;
 };
 

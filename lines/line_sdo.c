@@ -34,6 +34,17 @@
 
 #include "core/sdo_client.h"
 
+/* A routed transfer ended: its route is given back. Whether it was one. */
+static bool route_end(line *l, line_pending *pp)
+{
+	if (pp->route_ext == LINE_NO_ROUTE)
+		return false;
+	const line_ext *x = &l->p.ext[pp->route_ext];
+	x->ops->sdo_route_end(x->ctx, l, pp->tag);
+	pp->route_ext = LINE_NO_ROUTE;
+	return true;
+}
+
 /* Step 3: the SDO client confirms the transfer (exactly once, on the line
  * thread, never inside sdo_client_pool_submit). */
 static void sdo_done(void *arg, const co_ev_sdo_cli *c)
@@ -43,14 +54,10 @@ static void sdo_done(void *arg, const co_ev_sdo_cli *c)
 	if (!pp)
 		return; /* its client went away and the slot was released */
 	uint32_t abort = c->abort;
-	if (pp->route_ext != LINE_NO_ROUTE) {
-		const line_ext *x = &l->p.ext[pp->route_ext];
-		x->ops->sdo_route_end(x->ctx, l, pp->tag);
-		/* CiA 302-7: a node that never answered is "unknown" to a
-		 * request addressed by network, whichever way it went */
-		if (abort == SDO_AB_TIMEOUT && !c->answered)
-			abort = SDO_AB_NODE_UNKNOWN;
-	}
+	/* CiA 302-7: a node that never answered is "unknown" to a request
+	 * addressed by network, whichever way it went */
+	if (route_end(l, pp) && abort == SDO_AB_TIMEOUT && !c->answered)
+		abort = SDO_AB_NODE_UNKNOWN;
 	/* the answer pays its own copy of the data from the budget */
 	line_pending_pay_back(pp);
 	if (pp->over_budget)
@@ -120,23 +127,50 @@ static uint32_t route(line *l, line_pending *pp, uint16_t net, sdo_client_req *r
 	return 0;
 }
 
-/* Step 1: park the request, route it (net: a network, 0 = this line's
- * bus), hand it to the SDO client pool. */
-static void sdo_transfer(line *l, const mbx_request *req, const mbx_sdo_req *sp, uint16_t net,
-			 bool upload)
+/* A slot for the request. Big transfers need one with a max_transfer
+ * buffer (uploads) or keep the chunked command's data (downloads); a small
+ * upload also fits a small slot's inline buffer. */
+static line_pending *take_slot(line *l, const mbx_request *req, const mbx_sdo_req *s, bool upload)
 {
-	const mbx_sdo_req s = *sp;
-	if (!sdo_client_channel_count(l->node) || (net && route_ext(l) < 0))
-		return line_answer(l, &req->reply, MBX_E_UNSUPPORTED, 0, NULL, 0);
-
-	/* Big transfers need a slot with a max_transfer buffer (uploads) or
-	 * keep the chunked command's data (downloads); a small upload also
-	 * fits a small slot's inline buffer. */
-	bool big = upload ? (s.size == 0 || s.size > LINE_INLINE_MAX)
+	bool big = upload ? (s->size == 0 || s->size > LINE_INLINE_MAX)
 			  : req->data_len > LINE_INLINE_MAX;
 	line_pending *pp = line_pending_take(&l->pending, req, LINE_PENDING_SDO, big);
 	if (!pp && big && upload)
 		pp = line_pending_take(&l->pending, req, LINE_PENDING_SDO, false);
+	return pp;
+}
+
+/* Where the transfer's data comes from or goes to. */
+static void set_data(sdo_client_req *r, line_pending *pp, const mbx_request *req,
+		     const mbx_sdo_req *s)
+{
+	if (r->upload && pp->budget) {
+		r->size = s->size;
+		r->sink = upload_sink;
+		r->ctx = pp;
+	} else if (r->upload) {
+		r->size = s->size;
+		r->buf = pp->buf;
+		r->cap = pp->cap;
+	} else if (req->data_len <= LINE_INLINE_MAX) {
+		/* a single-message command's data lives only during dispatch */
+		r->size = (uint32_t)req->data_len;
+		memcpy(pp->inline_data, req->data, req->data_len);
+		r->data = pp->inline_data;
+	} else {
+		r->size = (uint32_t)req->data_len;
+		r->data = req->data; /* chunked: valid until answered */
+	}
+}
+
+/* Step 1: park the request, route it (net: a network, 0 = this line's
+ * bus), hand it to the SDO client pool. */
+static void sdo_transfer(line *l, const mbx_request *req, const mbx_sdo_req *s, uint16_t net,
+			 bool upload)
+{
+	if (!sdo_client_channel_count(l->node) || (net && route_ext(l) < 0))
+		return line_answer(l, &req->reply, MBX_E_UNSUPPORTED, 0, NULL, 0);
+	line_pending *pp = take_slot(l, req, s, upload);
 	if (!pp)
 		return line_answer(l, &req->reply, MBX_E_BUSY, 0, NULL, 0);
 
@@ -145,45 +179,26 @@ static void sdo_transfer(line *l, const mbx_request *req, const mbx_sdo_req *sp,
 	 * cogwd sets from lines[].sdo_timeout_ms), not the SDO server's. */
 	sdo_client_req r = {
 		.upload = upload,
-		.node_id = s.node,
-		.index = s.index,
-		.sub = s.sub,
-		.mode = s.mode,
-		.timeout_ms = s.timeout_ms,
+		.node_id = s->node,
+		.index = s->index,
+		.sub = s->sub,
+		.mode = s->mode,
+		.timeout_ms = s->timeout_ms,
 		.tag = pp->tag,
 		.con = sdo_done,
 		.con_arg = l,
 	};
-	if (upload && pp->budget) {
-		r.size = s.size;
-		r.sink = upload_sink;
-		r.ctx = pp;
-	} else if (upload) {
-		r.size = s.size;
-		r.buf = pp->buf;
-		r.cap = pp->cap;
-	} else {
-		r.size = (uint32_t)req->data_len;
-		if (req->data_len <= LINE_INLINE_MAX) {
-			/* a single-message command's data lives only during dispatch */
-			memcpy(pp->inline_data, req->data, req->data_len);
-			r.data = pp->inline_data;
-		} else {
-			r.data = req->data; /* chunked: valid until answered */
-		}
-	}
+	set_data(&r, pp, req, s);
 	uint32_t abort = net ? route(l, pp, net, &r) : 0;
 	if (abort) {
 		line_pending_release(&l->pending, pp);
 		return line_answer(l, &req->reply, MBX_E_ABORT, abort, NULL, 0);
 	}
-	int rc = -EINVAL;
-	if (r.relay || r.node_id != co_node_id(l->node)) /* not a transfer with ourselves */
+	int rc = -EINVAL; /* a transfer with ourselves */
+	if (r.relay || r.node_id != co_node_id(l->node))
 		rc = sdo_client_pool_submit(l->node, &r, l->now_us);
 	if (rc < 0) {
-		if (pp->route_ext != LINE_NO_ROUTE)
-			l->p.ext[pp->route_ext].ops->sdo_route_end(l->p.ext[pp->route_ext].ctx, l,
-								   pp->tag);
+		route_end(l, pp);
 		line_pending_release(&l->pending, pp);
 		line_answer(l, &req->reply, mbx_status_of_errno(rc), 0, NULL, 0);
 	}

@@ -61,13 +61,9 @@ static struct {
 	atomic_uint answered, refused, timed_out, vanished;
 } tally;
 
-void setUp(void)
-{
-}
+void setUp(void) {}
 
-void tearDown(void)
-{
-}
+void tearDown(void) {}
 
 static line *start_line(co_od *od, uint8_t index, const char *name, const char *ifn,
 			const char *instance, uint8_t node_id, uint16_t net, const line_ext *x)
@@ -88,7 +84,9 @@ static line *start_line(co_od *od, uint8_t index, const char *name, const char *
 			  .sdo_client_count = 4,
 			  .sdo_client_timeout_ms = SDO_TIMEOUT_MS,
 			  .sdo_server_timeout_ms = SDO_TIMEOUT_MS },
-		.mbx = { .queue_name = q, .unlink_existing = true, .default_access = MBX_ACCESS_WRITE },
+		.mbx = { .queue_name = q,
+			 .unlink_existing = true,
+			 .default_access = MBX_ACCESS_WRITE },
 		.rt_cpu = -1,
 		.main_wakefd = -1,
 	};
@@ -131,8 +129,9 @@ static void start_all(void)
 	for (unsigned d = 0; d < DEVICES; d++) {
 		char name[8];
 		TEST_ASSERT_EQUAL(0, co_od_create(&dev_od[d], 16));
-		TEST_ASSERT_EQUAL(0, co_od_add_bytes(dev_od[d], DOMAIN_IDX, 0, CO_T_DOMAIN, CO_ACC_RW,
-						     DOMAIN_LEN, domain, DOMAIN_LEN, NULL));
+		TEST_ASSERT_EQUAL(0,
+				  co_od_add_bytes(dev_od[d], DOMAIN_IDX, 0, CO_T_DOMAIN, CO_ACC_RW,
+						  DOMAIN_LEN, domain, DOMAIN_LEN, NULL));
 		snprintf(name, sizeof name, "dev%u", d);
 		dev_line[d] = start_line(dev_od[d], (uint8_t)d, name, ifname[d + 1], dev_instance,
 					 DEV_NODE, (uint16_t)(d + 2), NULL);
@@ -252,7 +251,8 @@ static void test_routed_transfers_whose_clients_vanish(void)
 
 	start_all();
 	for (unsigned i = 0; i < CLIENTS; i++)
-		TEST_ASSERT_EQUAL(0, pthread_create(&t[i], NULL, client, (void *)(uintptr_t)(i + 1)));
+		TEST_ASSERT_EQUAL(0,
+				  pthread_create(&t[i], NULL, client, (void *)(uintptr_t)(i + 1)));
 	for (unsigned i = 0; i < CLIENTS; i++)
 		pthread_join(t[i], NULL);
 	printf("answered %u, refused (routing busy) %u, timed out %u, vanished %u\n",

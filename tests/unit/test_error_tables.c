@@ -14,13 +14,9 @@
 #include "core/sdo.h"
 #include "mailbox/proto.h"
 
-void setUp(void)
-{
-}
+void setUp(void) {}
 
-void tearDown(void)
-{
-}
+void tearDown(void) {}
 
 static const struct {
 	int rc;
@@ -72,7 +68,7 @@ static const struct {
 	{ -ENODATA, SDO_AB_NO_DATA },
 	{ -EINVAL, SDO_AB_VALUE },
 	{ -EMSGSIZE, SDO_AB_LEN_HIGH },
-	{ -EIO, SDO_AB_HW },
+	{ -EIO, SDO_AB_STORE }, /* a data source or sink failed */
 	{ -ETIMEDOUT, SDO_AB_NODE_UNKNOWN },
 	{ -ENODEV, SDO_AB_STORE }, /* nobody expects it: cannot transfer */
 	{ -EXDEV, SDO_AB_STORE },
@@ -83,8 +79,8 @@ static void test_errno_to_sdo_abort(void)
 	for (size_t i = 0; i < sizeof sdo_rows / sizeof sdo_rows[0]; i++) {
 		char msg[32];
 		snprintf(msg, sizeof msg, "row %zu (errno %d)", i, -sdo_rows[i].rc);
-		TEST_ASSERT_EQUAL_HEX32_MESSAGE(sdo_rows[i].abort, sdo_abort_of_errno(sdo_rows[i].rc),
-						msg);
+		TEST_ASSERT_EQUAL_HEX32_MESSAGE(sdo_rows[i].abort,
+						sdo_abort_of_errno(sdo_rows[i].rc), msg);
 	}
 }
 
