@@ -249,7 +249,9 @@ void line_sdo_client_gone(line *l, uint32_t client)
 		 * frame goes out) or still waiting for a channel. Its
 		 * confirmation (sdo_done) comes at once and releases the slot;
 		 * observers still see the transfer end. */
-		if (sdo_client_cancel_tag(l->node, pp->tag, SDO_AB_GENERAL, l->now_us) < 0)
+		if (sdo_client_cancel_tag(l->node, pp->tag, SDO_AB_GENERAL, l->now_us) < 0) {
+			route_end(l, pp);
 			line_pending_release(&l->pending, pp);
+		}
 	}
 }

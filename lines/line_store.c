@@ -363,6 +363,9 @@ void line_store_poll(line *l)
 			set_defaults_from(l, l->store.factory, l->store.factory_len, mask,
 					  CO_OD_IMAGE_COMM | CO_OD_IMAGE_APP);
 	}
+	/* Whatever the file's errno (a full disk is no "busy"): CiA 301
+	 * §7.5.2.13/14 answer a failed save/load with 08000020, the mailbox
+	 * with INTERNAL (docs/mailbox.md). */
 	uint32_t abort = l->store.result ? SDO_AB_STORE : 0;
 	if (l->store.from_sdo)
 		sdo_server_continue(l->node, l->store.channel, abort, NULL, 0, l->now_us);

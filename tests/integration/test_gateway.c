@@ -1346,6 +1346,11 @@ static void test_multi_hop_through_two_daemons(void)
 	TEST_ASSERT_EQUAL_INT(0, cogw_sdo_read_net(h, 0, 3, TGT_NODE, 0x1000, 0, NULL, buf,
 						   sizeof buf, &len, 30000, &abort));
 	TEST_ASSERT_EQUAL_HEX32(0x00040194, co_get_le32(buf));
+	/* asked on line 1, whose own bus holds the router */
+	memset(buf, 0, sizeof buf);
+	TEST_ASSERT_EQUAL_INT(0, cogw_sdo_read_net(h, 1, 3, TGT_NODE, 0x1000, 0, NULL, buf,
+						   sizeof buf, &len, 30000, &abort));
+	TEST_ASSERT_EQUAL_HEX32(0x00040194, co_get_le32(buf));
 	TEST_ASSERT_EQUAL_INT(COGW_E_ABORT,
 			      cogw_sdo_read_net(h, 0, 9, TGT_NODE, 0x1000, 0, NULL, buf, sizeof buf,
 						&len, 30000, &abort));
