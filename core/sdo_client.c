@@ -954,6 +954,14 @@ static int start_state(struct cli_chan *ch, const sdo_client_req *r)
 	ch->toggle = 0;
 	ch->total = r->upload ? UNKNOWN_SIZE : r->size;
 	ch->answered = false;
+	/* 1280h+n shows the current target on this bus, as a manager would
+	 * set it (a relayed request's target is elsewhere). */
+	if (ch->od_cob[0] && !r->relay)
+		co_od_entry_set_raw(ch->od_cob[0], ch->cob_req);
+	if (ch->od_cob[1] && !r->relay)
+		co_od_entry_set_raw(ch->od_cob[1], ch->cob_resp);
+	if (ch->od_node && !r->relay)
+		co_od_entry_set_raw(ch->od_node, r->node_id);
 	/* CiA 301 §7.3.2.2: no SDO in STOPPED; reported from the next tick
 	 * like any request that cannot start. */
 	if (co_nmt_get_state(node) == CO_NMT_STOPPED)
@@ -962,13 +970,6 @@ static int start_state(struct cli_chan *ch, const sdo_client_req *r)
 		co_rx_disable(node, ch->rx_handle);
 		return r->upload ? start_upload(ch) : start_download(ch);
 	}
-	/* 1280h+n shows the current target, as a manager would set it. */
-	if (ch->od_cob[0])
-		co_od_entry_set_raw(ch->od_cob[0], ch->cob_req);
-	if (ch->od_cob[1])
-		co_od_entry_set_raw(ch->od_cob[1], ch->cob_resp);
-	if (ch->od_node)
-		co_od_entry_set_raw(ch->od_node, r->node_id);
 	if (co_rx_move(node, ch->rx_handle, ch->cob_resp & CO_FRAME_EFF_MASK,
 		       (ch->cob_resp & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0)
 		return fail_start(ch, SDO_AB_NO_RESOURCE);

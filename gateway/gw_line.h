@@ -45,6 +45,7 @@
 #define GW_RELAY_IDLE_FACTOR 8u  /* idle lease given back after 8 timeouts */
 #define GW_REBUILD_US 1000000u   /* forwarding list re-checked every 1 s */
 #define GW_LINK_CHECK_US 100000u /* link of a line holding leases: every 100 ms */
+#define GW_DRAIN_US 100000u      /* an aborted lease: quiet time before it is free */
 #define GW_HOPS_MAX 64u          /* routed mailbox SDO transfers per line */
 #define GW_SELF_SLOTS 64u        /* messages a line hands to itself */
 
@@ -102,7 +103,13 @@ struct gw_relay {
 	 * limit. */
 	bool orphaned;
 	uint8_t from;
-	bool engaged;   /* the device got a frame of the transfer */
+	bool engaged; /* the device got a frame of the transfer */
+	bool aborted; /* the requester's last frame was an abort */
+	/* The requester aborted and is gone: the device may still send frames
+	 * of that transfer. Kept (no requester, its channel not lent) until
+	 * the device has been quiet for GW_DRAIN_US, so that those frames
+	 * never reach the next requester. */
+	bool draining;
 	uint8_t mux[3]; /* its index, sub-index (from that first frame) */
 	int cli_ch;
 	uint32_t sid;

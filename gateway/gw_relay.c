@@ -6,7 +6,8 @@
  * relayed both ways as messages. A lease whose requester vanished (its
  * CLOSE lost to a full ring) is given back after an idle limit, so every
  * channel is released whatever happens; a line that stops carrying frames
- * ends its requesters at once (docs/gateway.md).
+ * ends its requesters at once; a lease whose requester aborted stays until
+ * the device is quiet (docs/gateway.md).
  */
 #include <errno.h>
 #include <string.h>
@@ -23,6 +24,7 @@ static void relay_free(struct gw_relay *r, uint64_t now_us)
 	sdo_client_lease_end(r->gl->node, (uint8_t)r->cli_ch, now_us);
 	r->used = false;
 	r->orphaned = false;
+	r->draining = false;
 }
 
 static void relay_rx(void *arg, const uint8_t d[8], uint64_t now_us)
@@ -31,6 +33,8 @@ static void relay_rx(void *arg, const uint8_t d[8], uint64_t now_us)
 	gw_msg m = { .kind = M_TO_REQ, .sid = r->sid };
 
 	r->last_us = now_us;
+	if (r->draining)
+		return; /* a late frame of the aborted transfer */
 	memcpy(m.d, d, 8);
 	GW_COUNT(r->gl->c.relayed_frames);
 	if (gw_send_to(r->gl, r->from, &m))
@@ -46,7 +50,7 @@ static void relays_link_lost(struct gw_line *gl, uint32_t abort)
 		struct gw_relay *r = &gl->relay[i];
 		gw_msg m = { .kind = M_LOST, .sid = r->sid, .abort = abort };
 
-		if (!r->used || r->orphaned)
+		if (!r->used || r->orphaned || r->draining)
 			continue;
 		if (gw_send_to(gl, r->from, &m))
 			GW_COUNT(gl->c.ring_drops); /* the requester's timeout ends it */
@@ -107,8 +111,8 @@ static void relays_check_link(struct gw_line *gl, uint64_t now_us, uint64_t *nex
 static struct gw_relay *relay_by_sid(struct gw_line *gl, uint8_t from, uint32_t sid)
 {
 	for (unsigned i = 0; i < GW_RELAYS_MAX; i++)
-		if (gl->relay[i].used && !gl->relay[i].orphaned && gl->relay[i].from == from &&
-		    gl->relay[i].sid == sid)
+		if (gl->relay[i].used && !gl->relay[i].orphaned && !gl->relay[i].draining &&
+		    gl->relay[i].from == from && gl->relay[i].sid == sid)
 			return &gl->relay[i];
 	return NULL;
 }
@@ -144,6 +148,8 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 			r->sid = m->sid;
 			r->cli_ch = ch;
 			r->engaged = false;
+			r->aborted = false;
+			r->draining = false;
 			r->last_us = now_us;
 		} else {
 			ans.abort = sdo_abort_of_errno(ch);
@@ -165,6 +171,7 @@ void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 	if (!r->engaged)
 		memcpy(r->mux, &m->d[1], sizeof r->mux);
 	r->engaged = true;
+	r->aborted = (m->d[0] >> 5) == SDO_CCS_ABORT;
 	r->last_us = now_us;
 	GW_COUNT(gl->c.relayed_frames);
 	sdo_client_lease_send(gl->node, (uint8_t)r->cli_ch, m->d);
@@ -174,8 +181,14 @@ void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
 	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid);
 
-	if (r)
-		relay_free(r, now_us);
+	if (!r)
+		return;
+	if (r->engaged && r->aborted) {
+		r->draining = true;
+		r->last_us = now_us;
+		return;
+	}
+	relay_free(r, now_us);
 }
 
 uint64_t gw_relays_tick(struct gw_line *gl, uint64_t now_us, uint64_t next)
@@ -187,13 +200,14 @@ uint64_t gw_relays_tick(struct gw_line *gl, uint64_t now_us, uint64_t next)
 		struct gw_relay *r = &gl->relay[i];
 		if (!r->used)
 			continue;
-		if (now_us - r->last_us >= idle) {
+		uint64_t limit = r->draining ? GW_DRAIN_US : idle;
+		if (now_us - r->last_us >= limit) {
 			relay_free(r, now_us);
 			continue;
 		}
 		held = true;
-		if (r->last_us + idle < next)
-			next = r->last_us + idle;
+		if (r->last_us + limit < next)
+			next = r->last_us + limit;
 	}
 	if (held)
 		relays_check_link(gl, now_us, &next);
