@@ -111,7 +111,7 @@ struct cli_chan {
 		uint16_t index;
 		uint8_t sub;
 		uint32_t cob_resp;
-		uint64_t at_us; /* answered: when */
+		uint64_t at_us; /* when it ended (answered, or our abort) */
 	} ended, filter;
 };
 
@@ -239,7 +239,8 @@ static int abort_local(struct cli_chan *ch, uint32_t code)
 					 .mode = ch->mode,
 					 .index = ch->cur.index,
 					 .sub = ch->cur.sub,
-					 .cob_resp = ch->cob_resp };
+					 .cob_resp = ch->cob_resp,
+					 .at_us = node_of(ch)->now_us };
 	return complete(ch, code);
 }
 
@@ -1231,6 +1232,23 @@ int sdo_client_relay_recv(co_node *node, uint64_t tag, const uint8_t d[8], uint6
 
 /* ---- relay lease (CiA 302-7) ------------------------------------------------ */
 
+/* Did a channel end a transfer with this server by its own abort frame
+ * less than LEASE_SETTLE_US ago? The server may still send frames of it,
+ * which a relay would hand on as answers (a transfer of ours filters them,
+ * is_stale(); a relay cannot tell them from the next requester's). */
+#define LEASE_SETTLE_US 100000u
+
+static bool settling(const struct sdo_client *cli, uint32_t resp, uint64_t now_us)
+{
+	for (uint8_t i = 0; i < cli->n; i++) {
+		const struct stale_xfer *e = &cli->ch[i].ended;
+		if (e->valid && !e->answered && e->cob_resp == resp &&
+		    now_us - e->at_us < LEASE_SETTLE_US)
+			return true;
+	}
+	return false;
+}
+
 int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t cob_resp,
 		     sdo_client_raw_fn fn, void *arg, uint64_t now_us)
 {
@@ -1241,7 +1259,7 @@ int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t 
 	if (!cli || !fn || node_id < 1 || node_id > 127)
 		return -EINVAL;
 	node->now_us = now_us;
-	if (target_busy(cli, NULL, req_cob_resp(&r)))
+	if (target_busy(cli, NULL, req_cob_resp(&r)) || settling(cli, req_cob_resp(&r), now_us))
 		return -EALREADY;
 	ch = free_channel(cli);
 	if (!ch)

@@ -175,8 +175,10 @@ int sdo_client_cancel_tag(co_node *node, uint64_t tag, uint32_t abort, uint64_t 
  * sdo_client_lease_end(). The lease counts as a transfer with that server
  * (pool requests to it wait) and has no timeout: the relay keeps its own.
  * Returns the channel (>= 0), -EBUSY (no free channel), -EALREADY (that
- * server is in a transfer on another channel), -ENOSPC (no receiver for
- * the COB-ID), -EINVAL; sdo_abort_of_errno() gives the abort to answer.
+ * server is in a transfer on another channel, or a channel ended one with
+ * it by its own abort frame less than 100 ms ago: the server's late frames
+ * of that transfer would reach the relay as answers), -ENOSPC (no receiver
+ * for the COB-ID), -EINVAL; sdo_abort_of_errno() gives the abort to answer.
  */
 typedef void (*sdo_client_raw_fn)(void *arg, const uint8_t d[8], uint64_t now_us);
 int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t cob_resp,

@@ -382,6 +382,28 @@ static void test_lease_relays_raw_frames_and_holds_the_target(void)
 	TEST_ASSERT_EQUAL(-ENOENT, sdo_client_cancel_tag(cli->node, 0, SDO_AB_GENERAL, bus.now));
 }
 
+/* A transfer of ours that ended with our own abort frame may still get
+ * frames from its server; a lease would relay them to the next requester
+ * as answers: no lease toward that server for 100 ms. */
+static void test_no_lease_while_an_aborted_transfer_settles(void)
+{
+	TEST_ASSERT_EQUAL(0, pool_read(5, 1, false));
+	TEST_ASSERT_EQUAL(0, sdo_client_cancel_tag(cli->node, 1, SDO_AB_GENERAL, bus.now));
+	TEST_ASSERT_EQUAL(-EALREADY, sdo_client_lease(cli->node, 5, 0, 0, on_raw, &raw, bus.now));
+	/* another server is not concerned */
+	int other = sdo_client_lease(cli->node, 6, 0, 0, on_raw, &raw, bus.now);
+	TEST_ASSERT_TRUE(other >= 0);
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_end(cli->node, (uint8_t)other, bus.now));
+	tb_advance(&bus, 99000);
+	TEST_ASSERT_EQUAL(-EALREADY, sdo_client_lease(cli->node, 5, 0, 0, on_raw, &raw, bus.now));
+	tb_advance(&bus, 1000);
+	TEST_ASSERT_TRUE(sdo_client_lease(cli->node, 5, 0, 0, on_raw, &raw, bus.now) >= 0);
+	/* a transfer the server answered leaves nothing to settle */
+	TEST_ASSERT_EQUAL(0, pool_read(7, 2, false));
+	answer(7);
+	TEST_ASSERT_TRUE(sdo_client_lease(cli->node, 7, 0, 0, on_raw, &raw, bus.now) >= 0);
+}
+
 /* ---- relayed requests (CiA 302-7 routing: the server is elsewhere) ---- */
 
 static struct {
@@ -493,6 +515,7 @@ int main(void)
 	RUN_TEST(test_default_timeout_is_the_clients_own);
 	RUN_TEST(test_without_client_channels);
 	RUN_TEST(test_lease_relays_raw_frames_and_holds_the_target);
+	RUN_TEST(test_no_lease_while_an_aborted_transfer_settles);
 	RUN_TEST(test_relayed_frames_go_to_the_relay_not_the_bus);
 	RUN_TEST(test_relayed_target_serialised_apart_from_the_bus);
 	RUN_TEST(test_relayed_timeout_and_cancel_end_through_the_relay);
