@@ -927,6 +927,48 @@ static bool target_busy(const struct sdo_client *cli, const struct cli_chan *sel
 	return false;
 }
 
+/* Late frames of a transfer to this server that some channel ended with
+ * an abort frame are to be ignored (is_stale()). */
+static void take_filter(struct cli_chan *ch)
+{
+	ch->filter.valid = false;
+	for (uint8_t i = 0; i < ch->cli->n; i++) {
+		struct stale_xfer *st = &ch->cli->ch[i].ended;
+		if (st->valid && st->cob_resp == ch->cob_resp) {
+			ch->filter = *st;
+			st->valid = false;
+		}
+	}
+}
+
+/* 1280h+n shows the current target on this bus, as a manager would set
+ * it (a relayed request's target is elsewhere). */
+static void show_target(struct cli_chan *ch, const sdo_client_req *r)
+{
+	if (r->relay)
+		return;
+	if (ch->od_cob[0])
+		co_od_entry_set_raw(ch->od_cob[0], ch->cob_req);
+	if (ch->od_cob[1])
+		co_od_entry_set_raw(ch->od_cob[1], ch->cob_resp);
+	if (ch->od_node)
+		co_od_entry_set_raw(ch->od_node, r->node_id);
+}
+
+/* Where the answers come from: the server's COB-ID on the bus, or the
+ * relay (no receiver on the bus then). 0 or -errno. */
+static int listen_for_answers(struct cli_chan *ch)
+{
+	co_node *node = node_of(ch);
+
+	if (ch->cur.relay) {
+		co_rx_disable(node, ch->rx_handle);
+		return 0;
+	}
+	return co_rx_move(node, ch->rx_handle, ch->cob_resp & CO_FRAME_EFF_MASK,
+			  (ch->cob_resp & SDO_COB_EXT) ? CO_FRAME_EXT : 0);
+}
+
 /* Set the channel up for r and send its first frame; the state that
  * waits for the answer (or "start failed"). */
 static int start_state(struct cli_chan *ch, const sdo_client_req *r)
@@ -936,16 +978,7 @@ static int start_state(struct cli_chan *ch, const sdo_client_req *r)
 	ch->cur = *r;
 	ch->cob_req = req_cob_req(r);
 	ch->cob_resp = req_cob_resp(r);
-	/* Late frames of a transfer to this server that some channel ended
-	 * with an abort frame are to be ignored (is_stale()). */
-	ch->filter.valid = false;
-	for (uint8_t i = 0; i < ch->cli->n; i++) {
-		struct stale_xfer *st = &ch->cli->ch[i].ended;
-		if (st->valid && st->cob_resp == ch->cob_resp) {
-			ch->filter = *st;
-			st->valid = false;
-		}
-	}
+	take_filter(ch);
 	ch->timeout_us =
 		(uint64_t)(r->timeout_ms ? r->timeout_ms : node->cfg.sdo_client_timeout_ms) * 1000u;
 	ch->mode = pick_mode(ch, r);
@@ -955,24 +988,12 @@ static int start_state(struct cli_chan *ch, const sdo_client_req *r)
 	ch->toggle = 0;
 	ch->total = r->upload ? UNKNOWN_SIZE : r->size;
 	ch->answered = false;
-	/* 1280h+n shows the current target on this bus, as a manager would
-	 * set it (a relayed request's target is elsewhere). */
-	if (ch->od_cob[0] && !r->relay)
-		co_od_entry_set_raw(ch->od_cob[0], ch->cob_req);
-	if (ch->od_cob[1] && !r->relay)
-		co_od_entry_set_raw(ch->od_cob[1], ch->cob_resp);
-	if (ch->od_node && !r->relay)
-		co_od_entry_set_raw(ch->od_node, r->node_id);
+	show_target(ch, r);
 	/* CiA 301 §7.3.2.2: no SDO in STOPPED; reported from the next tick
 	 * like any request that cannot start. */
 	if (co_nmt_get_state(node) == CO_NMT_STOPPED)
 		return fail_start(ch, SDO_AB_DEV_STATE);
-	if (r->relay) { /* no receiver on the bus: the answers come from the relay */
-		co_rx_disable(node, ch->rx_handle);
-		return r->upload ? start_upload(ch) : start_download(ch);
-	}
-	if (co_rx_move(node, ch->rx_handle, ch->cob_resp & CO_FRAME_EFF_MASK,
-		       (ch->cob_resp & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0)
+	if (listen_for_answers(ch) != 0)
 		return fail_start(ch, SDO_AB_NO_RESOURCE);
 	return r->upload ? start_upload(ch) : start_download(ch);
 }
