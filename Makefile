@@ -78,11 +78,15 @@ INTEG_BINS := $(patsubst tests/integration/%.c,$(SAN)/tests/integration/%,$(INTE
 # all compiled with -fsanitize=thread.
 TSAN := build/tsan
 TSAN_CFLAGS := $(BASE) -O1 -g -fno-omit-frame-pointer -fsanitize=thread
+# Those that run real line threads on vcan (tests/tsan/vcan_*.c) run in the VM,
+# with the integration tests.
 TSAN_SRC := $(sort $(wildcard tests/tsan/test_*.c))
-TSAN_LIB_SRC := lines/xring.c mailbox/proto.c mailbox/client.c mailbox/server.c mailbox/budget.c \
-		gateway/image.c gateway/pdo_sync.c
+TSAN_VCAN_SRC := $(sort $(wildcard tests/tsan/vcan_*.c))
+TSAN_LIB_SRC := $(LINES_SRC) $(GATEWAY_SRC) mailbox/proto.c mailbox/client.c mailbox/server.c \
+		mailbox/budget.c
 TSAN_CORE_LIB := $(TSAN)/lib/libcogw-core.a
 TSAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_SRC))
+TSAN_VCAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_VCAN_SRC))
 BENCH_BINS := $(patsubst tests/bench/%.c,$(REL)/tests/bench/%,$(BENCH_SRC))
 
 .PHONY: all deps test unit tsan integration interop bench bench-costs demo install clean tests-build check check-core-io check-layering format check-callgraph
@@ -182,7 +186,7 @@ $(SAN)/tests/integration/%: $(SAN)/obj/tests/integration/%.o $(call obj,$(SAN),$
 	@mkdir -p $(@D)
 	$(CC) $(SAN_LDFLAGS) -o $@ $^ $(SYS_LIBS)
 
-tests-build: $(UNIT_BINS) $(INTEG_BINS) $(SAN_PROGRAM_BINS) $(TSAN_BINS)
+tests-build: $(UNIT_BINS) $(INTEG_BINS) $(SAN_PROGRAM_BINS) $(TSAN_BINS) $(TSAN_VCAN_BINS)
 
 # ---- ThreadSanitizer build ---------------------------------------------------------
 $(TSAN)/obj/%.o: %.c
@@ -211,13 +215,13 @@ tsan: $(TSAN_BINS)
 unit: $(UNIT_BINS)
 	tests/run-tests unit $(UNIT_BINS)
 
-integration: $(INTEG_BINS)
-	tests/vcan/run -n 3 -- tests/run-tests integration $(INTEG_BINS)
+integration: $(INTEG_BINS) $(TSAN_VCAN_BINS)
+	tests/vcan/run -n 3 -- tests/run-tests integration $(INTEG_BINS) $(TSAN_VCAN_BINS)
 
-# No call cycle between the files of core/ or of lines/ (scripts/callgraph-cycles: who
+# No call cycle between the files of core/, lines/, mailbox/ or gateway/ (scripts/callgraph-cycles: who
 # calls whose functions, from the object files' symbols).
 check-callgraph:
-	scripts/callgraph-cycles core lines
+	scripts/callgraph-cycles core lines mailbox gateway
 
 # Interoperability with python-canopen (tests/interop/): one VM boot for the group.
 # scripts/pyenv.sh installs the pinned packages into build/pyenv on first use.
@@ -233,7 +237,7 @@ test:
 	@scripts/deps.sh
 	@scripts/pyenv.sh
 	@$(MAKE) --no-print-directory all tests-build
-	@tests/run-all "$(UNIT_BINS)" "$(INTEG_BINS)" "$(TSAN_BINS)" "$(INTEROP_TESTS)"
+	@tests/run-all "$(UNIT_BINS)" "$(INTEG_BINS) $(TSAN_VCAN_BINS)" "$(TSAN_BINS)" "$(INTEROP_TESTS)"
 
 # ---- house rules -----------------------------------------------------------------
 # `make check` runs every tests/checks/check_* script (layering, core I/O, format, ...);

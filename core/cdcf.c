@@ -9,6 +9,8 @@
  * not wrap a size_t on 32-bit targets).
  */
 #include "core/cdcf.h"
+#include "core/frame.h"
+#include "core/sdo.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -46,25 +48,6 @@ const char *co_cdcf_error_to_string(co_cdcf_error e)
 	return "unknown error";
 }
 
-static uint16_t get_u16(const uint8_t *p)
-{
-	return (uint16_t)(p[0] | (p[1] << 8));
-}
-
-static uint32_t get_u32(const uint8_t *p)
-{
-	return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) |
-	       ((uint32_t)p[3] << 24);
-}
-
-static void put_u32(uint8_t *p, uint32_t v)
-{
-	p[0] = (uint8_t)v;
-	p[1] = (uint8_t)(v >> 8);
-	p[2] = (uint8_t)(v >> 16);
-	p[3] = (uint8_t)(v >> 24);
-}
-
 static int fail(co_cdcf_diag *d, co_cdcf_error err, uint32_t entry, size_t offset)
 {
 	if (d) {
@@ -88,7 +71,7 @@ static int parse_entry(const uint8_t *buf, size_t len, size_t *pos, uint32_t n, 
 		if (d) {
 			d->have = left;
 			if (left >= 2)
-				d->index = get_u16(buf + at);
+				d->index = co_get_le16(buf + at);
 			if (left >= 3)
 				d->sub = buf[at + 2];
 		}
@@ -96,9 +79,9 @@ static int parse_entry(const uint8_t *buf, size_t len, size_t *pos, uint32_t n, 
 	}
 	e->number = n;
 	e->offset = at;
-	e->index = get_u16(buf + at);
+	e->index = co_get_le16(buf + at);
 	e->sub = buf[at + 2];
-	e->size = get_u32(buf + at + 3);
+	e->size = co_get_le32(buf + at + 3);
 	if (d) {
 		d->index = e->index;
 		d->sub = e->sub;
@@ -132,7 +115,7 @@ int co_cdcf_check(const uint8_t *buf, size_t len, uint32_t *count, co_cdcf_diag 
 			diag->have = buf ? len : 0;
 		return fail(diag, CO_CDCF_ERR_NO_COUNT, 0, 0);
 	}
-	n = get_u32(buf);
+	n = co_get_le32(buf);
 	if (diag)
 		diag->count = n;
 	pos = CO_CDCF_COUNT_SIZE;
@@ -204,19 +187,19 @@ int co_cdcf_check_od(const uint8_t *buf, size_t len, const co_od *od, bool allow
 			if (diag)
 				diag->abort = abort;
 			return fail(diag,
-				    abort == 0x06020000u ? CO_CDCF_ERR_NO_OBJECT
-							 : CO_CDCF_ERR_NO_SUB,
+				    abort == SDO_AB_NO_OBJ ? CO_CDCF_ERR_NO_OBJECT
+							   : CO_CDCF_ERR_NO_SUB,
 				    e.number, e.offset);
 		}
 		if (!allow_read_only && !(oe->access & CO_ACC_WRITE)) {
 			if (diag)
-				diag->abort = 0x06010002u;
+				diag->abort = SDO_AB_READ_ONLY;
 			return fail(diag, CO_CDCF_ERR_READ_ONLY, e.number, e.offset);
 		}
 		abort = co_od_check_value(oe, e.data, e.size);
 		if (abort) {
-			bool size = abort == 0x06070010u || abort == 0x06070012u ||
-				    abort == 0x06070013u;
+			bool size = abort == SDO_AB_TYPE_LEN || abort == SDO_AB_LEN_HIGH ||
+				    abort == SDO_AB_LEN_LOW;
 			if (diag)
 				diag->abort = abort;
 			return fail(diag, size ? CO_CDCF_ERR_SIZE_MISMATCH : CO_CDCF_ERR_VALUE,
@@ -253,7 +236,7 @@ int co_cdcf_writer_add(co_cdcf_writer *w, uint16_t index, uint8_t sub, const voi
 		p[0] = (uint8_t)index;
 		p[1] = (uint8_t)(index >> 8);
 		p[2] = sub;
-		put_u32(p + 3, size);
+		co_put_le32(p + 3, size);
 		memcpy(p + CO_CDCF_HEADER_SIZE, data, size);
 	} else if (SIZE_MAX - w->len - CO_CDCF_HEADER_SIZE < size) {
 		return w->error = -EMSGSIZE;
@@ -270,7 +253,7 @@ long co_cdcf_writer_finish(co_cdcf_writer *w)
 	if (w->len > (size_t)LONG_MAX)
 		return -EMSGSIZE;
 	if (w->buf)
-		put_u32(w->buf, w->count);
+		co_put_le32(w->buf, w->count);
 	return (long)w->len;
 }
 

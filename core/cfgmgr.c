@@ -20,9 +20,6 @@
 #include "core/sdo_client.h"
 #include "core/store.h"
 
-#define AB_TIMEOUT 0x05040000u     /* SDO protocol timed out */
-#define AB_NO_RESOURCE 0x060A0023u /* resource not available: SDO connection */
-#define AB_GENERAL 0x08000000u
 /* Tags of this module's requests: 'CF' in the top byte, node, sequence. */
 #define TAG_BASE 0xCF00000000000000ull
 
@@ -46,19 +43,6 @@ const char *co_cfgmgr_outcome_to_string(int outcome)
 		return "cancelled";
 	}
 	return "?";
-}
-
-static void put_u32(uint8_t *p, uint32_t v)
-{
-	p[0] = (uint8_t)v;
-	p[1] = (uint8_t)(v >> 8);
-	p[2] = (uint8_t)(v >> 16);
-	p[3] = (uint8_t)(v >> 24);
-}
-
-static uint32_t get_u32(const uint8_t *p)
-{
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
 /* ---- requests ------------------------------------------------------------ */
@@ -113,7 +97,7 @@ static int submit(co_cfgmgr *job, bool upload, uint16_t index, uint8_t sub, cons
 		rc = sdo_client_pool_submit(job->node, &r, now_us);
 	if (rc) {
 		job->tag = 0;
-		job->res.abort = AB_NO_RESOURCE;
+		job->res.abort = SDO_AB_NO_RESOURCE;
 		return CO_CFGMGR_FAILED;
 	}
 	return 0;
@@ -124,7 +108,7 @@ static int write_u32(co_cfgmgr *job, uint16_t index, uint8_t sub, uint32_t v, ui
 	int rc;
 
 	mark(job, 0, index, sub);
-	put_u32(job->wr, v);
+	co_put_le32(job->wr, v);
 	rc = submit(job, false, index, sub, job->wr, 4, now_us);
 	return rc ? rc : CO_FSM_STAY;
 }
@@ -182,7 +166,7 @@ static int restore_reset_enter(void *obj, uint64_t now_us)
 	uint8_t cs = job->p.restore_sub == 2 ? CO_NMT_CS_RESET_COMM : CO_NMT_CS_RESET_NODE;
 
 	if (co_nmt_master_send(job->node, job->p.node_id, cs, now_us)) {
-		job->res.abort = AB_NO_RESOURCE;
+		job->res.abort = SDO_AB_NO_RESOURCE;
 		return CO_CFGMGR_FAILED;
 	}
 	job->deadline_us = now_us + (uint64_t)job->p.bootup_wait_ms * 1000u;
@@ -195,7 +179,7 @@ static int restore_reset_timeout(void *obj, uint64_t now_us)
 	co_cfgmgr *job = obj;
 
 	(void)now_us;
-	job->res.abort = AB_TIMEOUT; /* no boot-up after the reset */
+	job->res.abort = SDO_AB_TIMEOUT; /* no boot-up after the reset */
 	return CO_CFGMGR_FAILED;
 }
 
@@ -220,7 +204,7 @@ static int verify_date_enter(void *obj, uint64_t now_us)
  * another value; another size) -> the download. */
 static int verify_con(co_cfgmgr *job, const co_ev_sdo_cli *con, uint32_t want, int equal)
 {
-	if (!con->abort && con->size == 4 && get_u32(job->rd) == want)
+	if (!con->abort && con->size == 4 && co_get_le32(job->rd) == want)
 		return equal;
 	return CO_CFGMGR_DOWNLOAD;
 }
@@ -347,7 +331,7 @@ static int failed_enter(void *obj, uint64_t now_us)
 	job->res.outcome = CO_CFGMGR_FAILED_J;
 	job->res.status = 'J';
 	if (!job->res.abort)
-		job->res.abort = AB_GENERAL;
+		job->res.abort = SDO_AB_GENERAL;
 	if (job->p.done)
 		job->p.done(job->p.done_ctx, &job->res, now_us);
 	return CO_FSM_STAY;
@@ -449,7 +433,7 @@ int co_cfgmgr_cancel(co_cfgmgr *job, uint64_t now_us)
 		return -ENOENT;
 	job->tag = 0; /* its confirmation is ignored from here on */
 	if (tag)
-		sdo_client_cancel_tag(job->node, tag, AB_GENERAL, now_us);
+		sdo_client_cancel_tag(job->node, tag, SDO_AB_GENERAL, now_us);
 	job->res.outcome = CO_CFGMGR_CANCELLED;
 	co_fsm_goto(&job->fsm, CO_CFGMGR_DONE, now_us);
 	return 0;
@@ -501,10 +485,10 @@ static uint32_t cdcf_check_write(void *ctx, co_od_entry *e, const co_od_access *
 	if (e->sub < 1 || e->sub > 127)
 		return 0;
 	if (co_cfgmgr_running(&l->job[e->sub - 1]))
-		return 0x08000022u; /* device state: being configured */
+		return SDO_AB_DEV_STATE; /* being configured */
 	/* a streamed value is only seen in pieces: checked when used */
 	if (a->data && a->size && co_cdcf_check(a->data, a->size, NULL, NULL))
-		return 0x06090030u; /* invalid value for parameter */
+		return SDO_AB_VALUE;
 	return 0;
 }
 

@@ -30,7 +30,7 @@
 
 #define COB_INVALID 0x80000000u
 #define COB_RESERVED 0x40000000u
-#define COB_EXT 0x20000000u
+#define COB_EXT CO_COB_EXT
 
 struct emcy_active {
 	uint16_t code;
@@ -86,15 +86,6 @@ const char *co_emcy_code_to_string(uint16_t code)
 	return "?";
 }
 
-/* CiA 301 §7.3.5 table 72: CAN-IDs no configurable object may use. */
-static bool cob_restricted(uint32_t id)
-{
-	return id == 0x000 || (id >= 0x001 && id <= 0x07F) || (id >= 0x101 && id <= 0x180) ||
-	       (id >= 0x581 && id <= 0x5FF) || (id >= 0x601 && id <= 0x67F) ||
-	       (id >= 0x6E0 && id <= 0x6FF) || (id >= 0x701 && id <= 0x77F) ||
-	       (id >= 0x780 && id <= 0x7FF);
-}
-
 static co_od_entry *find(const co_node *node, uint16_t idx, uint8_t sub)
 {
 	return co_od_find(node->od, idx, sub);
@@ -134,8 +125,7 @@ static bool producer_cob(const struct co_emcy *em, uint32_t *id, uint8_t *flags)
 	v = (uint32_t)co_od_entry_raw(e);
 	if (v & COB_INVALID)
 		return false;
-	*flags = (v & COB_EXT) ? CO_FRAME_EXT : 0;
-	*id = v & ((v & COB_EXT) ? CO_FRAME_EFF_MASK : CO_FRAME_SFF_MASK);
+	co_cob_split(v, id, flags);
 	return true;
 }
 
@@ -225,7 +215,7 @@ static uint32_t cob_check(void *ctx, co_od_entry *e, const co_od_access *a)
 	id = v & ((v & COB_EXT) ? CO_FRAME_EFF_MASK : CO_FRAME_SFF_MASK);
 	if (v & ~(COB_INVALID | COB_EXT | ((v & COB_EXT) ? CO_FRAME_EFF_MASK : CO_FRAME_SFF_MASK)))
 		return SDO_AB_VALUE;
-	if (!(v & COB_EXT) && cob_restricted(id))
+	if (!(v & COB_EXT) && co_cob_is_restricted(id))
 		return SDO_AB_VALUE;
 	/* CiA 301 §7.5.2.7: a valid COB-ID is changed only through invalid. */
 	if (!(cur & COB_INVALID) && (cur & ~COB_INVALID) != (v & ~COB_INVALID))
@@ -434,8 +424,7 @@ static int cons_apply(struct co_emcy *em, uint8_t sub)
 			co_rx_disable(em->node, *h);
 		return 0;
 	}
-	flags = (v & COB_EXT) ? CO_FRAME_EXT : 0;
-	id = v & (flags ? CO_FRAME_EFF_MASK : CO_FRAME_SFF_MASK);
+	co_cob_split(v, &id, &flags);
 	if (*h >= 0)
 		return co_rx_move(em->node, *h, id, flags);
 	*h = co_rx_register(em->node, id, flags, cons_rx, (void *)(uintptr_t)sub);

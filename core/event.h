@@ -98,6 +98,7 @@ typedef struct co_ev_sdo_cli {
 	uint32_t size;       /* bytes transferred */
 	uint64_t tag;        /* caller's correlation id, echoed */
 	const uint8_t *data; /* upload into a buffer: that buffer, else NULL */
+	bool answered;       /* the server answered the transfer at least once */
 } co_ev_sdo_cli;
 
 typedef struct co_ev_store {

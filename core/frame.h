@@ -87,4 +87,31 @@ static inline void co_put_le32(uint8_t *p, uint32_t v)
 	p[3] = (uint8_t)(v >> 24);
 }
 
+/* ---- COB-ID values of the communication objects (1005h, 1012h, 1014h,
+ * 1028h, 14xxh/18xxh, 1280h, ...) ----------------------------------------- */
+#define CO_COB_EXT 0x20000000u /* bit 29: a 29-bit CAN-ID (CiA 301 §7.5.2) */
+
+/* The CAN-ID and frame flags a COB-ID value names (bit 29: 29-bit, else
+ * the 11-bit identifier); the valid and other flag bits are the caller's. */
+static inline void co_cob_split(uint32_t cob, uint32_t *id, uint8_t *flags)
+{
+	if (cob & CO_COB_EXT) {
+		*id = cob & CO_FRAME_EFF_MASK;
+		*flags = CO_FRAME_EXT;
+	} else {
+		*id = cob & CO_FRAME_SFF_MASK;
+		*flags = 0;
+	}
+}
+
+/* CiA 301 §7.3.5 (restricted CAN-IDs): 11-bit identifiers no configurable
+ * object may use (NMT, the default SYNC/EMCY/TIME range, SDO, LSS, NMT
+ * error control). */
+static inline bool co_cob_is_restricted(uint32_t id)
+{
+	return id <= 0x07F || (id >= 0x101 && id <= 0x180) || (id >= 0x581 && id <= 0x5FF) ||
+	       (id >= 0x601 && id <= 0x67F) || (id >= 0x6E0 && id <= 0x6FF) ||
+	       (id >= 0x701 && id <= 0x7FF);
+}
+
 #endif /* COGW_CORE_FRAME_H */

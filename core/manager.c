@@ -109,7 +109,7 @@ void co_manager_destroy(co_manager *m)
 	m->destroying = true;
 	for (unsigned id = 1; id <= 127; id++)
 		if (m->s[id].sdo_pending)
-			(void)sdo_client_cancel_tag(m->node, m->s[id].tag, SDO_ABORT_GENERAL,
+			(void)sdo_client_cancel_tag(m->node, m->s[id].tag, SDO_AB_GENERAL,
 						    m->node->now_us);
 	co_nmt_set_rx_filter(m->node, NULL, NULL);
 	mgr_od_hooks(m, false);

@@ -231,7 +231,7 @@ static int device_type_enter(void *obj, uint64_t now_us)
 	struct mgr_slave *s = obj;
 	int rc = sdo_read(s, 0x1000, 0, now_us);
 	if (rc < 0)
-		return bs_fail(s, CO_MGR_STEP_DEVICE_TYPE, 'B', SDO_ABORT_GENERAL, 0x1000, 0, 0, 0);
+		return bs_fail(s, CO_MGR_STEP_DEVICE_TYPE, 'B', SDO_AB_GENERAL, 0x1000, 0, 0, 0);
 	return CO_FSM_STAY;
 }
 
@@ -262,8 +262,8 @@ static int identity_enter(void *obj, uint64_t now_us)
 	if (s->id_sub > 4)
 		return BS_SOFTWARE;
 	if (sdo_read(s, 0x1018, s->id_sub, now_us) < 0)
-		return bs_fail(s, step_of_sub(s->id_sub), letter_of_sub(s->id_sub),
-			       SDO_ABORT_GENERAL, 0x1018, s->id_sub, 0, 0);
+		return bs_fail(s, step_of_sub(s->id_sub), letter_of_sub(s->id_sub), SDO_AB_GENERAL,
+			       0x1018, s->id_sub, 0, 0);
 	return CO_FSM_STAY;
 }
 
@@ -331,8 +331,7 @@ static int configure_enter(void *obj, uint64_t now_us)
 		return CO_FSM_STAY;
 	if (rc < 0) /* 1F22h:n is no concise DCF (or the node's job is busy):
 		     * J on that object, no entry of it was written (value 0) */
-		return bs_fail(s, CO_MGR_STEP_CONFIGURE, 'J', SDO_ABORT_GENERAL, 0x1F22, s->id, 0,
-			       0);
+		return bs_fail(s, CO_MGR_STEP_CONFIGURE, 'J', SDO_AB_GENERAL, 0x1F22, s->id, 0, 0);
 	mgr_emit_boot(s, CO_MGR_STEP_CONFIGURE, 0, 0, 0, 0, 0, 0, false);
 	return BS_ERRCTRL;
 }

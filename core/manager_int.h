@@ -52,14 +52,11 @@
 #include "core/fsm.h"
 #include "core/manager.h"
 #include "core/od.h"
+#include "core/sdo.h"
 
 #define MGR_TAG 0x4D47520000000000ull /* "MGR" in the top bytes */
 #define MGR_TAG_MASK 0xFFFFFF0000000000ull
 #define STATE_UNKNOWN 0xFFu
-#define SDO_ABORT_GENERAL 0x08000000u
-#define SDO_ABORT_STATE 0x08000022u
-#define SDO_ABORT_VALUE 0x06090030u
-#define SDO_ABORT_SIGNATURE 0x08000020u
 
 /* ---- the machines' states and inputs, the manager and its slaves ---------- */
 

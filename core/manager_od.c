@@ -15,11 +15,11 @@ static uint32_t f82_check(void *ctx, co_od_entry *e, const co_od_access *a)
 	if (a->origin == CO_OD_ORIGIN_RESET)
 		return 0;
 	if (!a->data || a->size != 1)
-		return 0x06070010;
+		return SDO_AB_TYPE_LEN;
 	if (mgr_cmd_to_cs(a->data[0]) < 0)
-		return SDO_ABORT_VALUE;
+		return SDO_AB_VALUE;
 	rc = co_manager_request_nmt(m, e->sub, a->data[0], m->node->now_us);
-	return rc < 0 ? SDO_ABORT_STATE : 0;
+	return sdo_abort_of_errno(rc);
 }
 
 static uint32_t f82_read(void *ctx, co_od_entry *e, const co_od_access *a)
@@ -40,13 +40,13 @@ static uint32_t f25_check(void *ctx, co_od_entry *e, const co_od_access *a)
 	if (a->origin == CO_OD_ORIGIN_RESET)
 		return 0;
 	if (!a->data || a->size != 4)
-		return 0x06070010;
+		return SDO_AB_TYPE_LEN;
 	sig = (uint32_t)a->data[0] | (uint32_t)a->data[1] << 8 | (uint32_t)a->data[2] << 16 |
 	      (uint32_t)a->data[3] << 24;
 	if (sig != CO_MGR_CONF_SIGNATURE)
-		return SDO_ABORT_SIGNATURE;
+		return SDO_AB_STORE;
 	if (!mgr_active(m))
-		return SDO_ABORT_STATE;
+		return SDO_AB_DEV_STATE;
 	if (e->sub == CO_MGR_ALL_NODES) {
 		mgr_enter(m, now);
 		for (unsigned id = 1; id <= 127; id++)
@@ -59,8 +59,8 @@ static uint32_t f25_check(void *ctx, co_od_entry *e, const co_od_access *a)
 		return 0;
 	}
 	if (bs_running(&m->s[e->sub]))
-		return SDO_ABORT_STATE;
-	return co_manager_boot_node(m, e->sub, now) < 0 ? SDO_ABORT_STATE : 0;
+		return SDO_AB_DEV_STATE;
+	return co_manager_boot_node(m, e->sub, now) < 0 ? SDO_AB_DEV_STATE : 0;
 }
 
 static const co_od_hooks f25_hooks = { .check_write = f25_check };
@@ -79,11 +79,11 @@ static uint32_t lock_check(void *ctx, co_od_entry *e, const co_od_access *a)
 		return 0;
 	if (e->index == 0x1F80 && a->data && a->size >= 1 &&
 	    (a->data[0] & CO_MGR_1F80_FLYING_MASTER))
-		return SDO_ABORT_VALUE;
+		return SDO_AB_VALUE;
 	if (st == CO_MGR_RESETTING || st == CO_MGR_BOOTING)
-		return SDO_ABORT_STATE;
+		return SDO_AB_DEV_STATE;
 	if (st == CO_MGR_WAIT_MANDATORY && e->index != 0x1F89)
-		return SDO_ABORT_STATE;
+		return SDO_AB_DEV_STATE;
 	return 0;
 }
 

@@ -77,17 +77,6 @@ static uint16_t pdo_pos(const struct co_pdo *P, const struct pdo *p)
 	return (uint16_t)(p - P->v);
 }
 
-static void cob_split(uint32_t cob, uint32_t *id, uint8_t *flags)
-{
-	if (cob & CO_PDO_COB_EXT) {
-		*id = cob & CO_FRAME_EFF_MASK;
-		*flags = CO_FRAME_EXT;
-	} else {
-		*id = cob & CO_FRAME_SFF_MASK;
-		*flags = 0;
-	}
-}
-
 /* ---- timer heap ------------------------------------------------------------- */
 
 static uint64_t pdo_due(const struct pdo *p)
@@ -252,7 +241,7 @@ static void pdo_reconfigure(struct co_pdo *P, struct pdo *p, uint64_t now_us)
 
 	p->valid = !(p->cob & CO_PDO_COB_INVALID) && p->map_ok;
 	listen = p->valid && (p->dir == CO_PDO_RX || !(p->cob & CO_PDO_COB_NO_RTR));
-	cob_split(p->cob, &id, &flags);
+	co_cob_split(p->cob, &id, &flags);
 	if (p->rx_h >= 0) {
 		if (listen)
 			co_rx_move(P->node, p->rx_h, id, flags);
@@ -272,7 +261,7 @@ static void tpdo_frame(const struct pdo *p, co_frame *f)
 	uint32_t id;
 	uint8_t flags;
 
-	cob_split(p->cob, &id, &flags);
+	co_cob_split(p->cob, &id, &flags);
 	co_frame_init(f, id, p->len);
 	f->flags = flags;
 }
@@ -336,7 +325,7 @@ static void rpdo_emit(struct co_pdo *P, const struct pdo *p, co_event_kind k, co
 	co_event ev = { .kind = k };
 	uint32_t id;
 
-	cob_split(p->cob, &id, &ev.u.pdo.flags);
+	co_cob_split(p->cob, &id, &ev.u.pdo.flags);
 	ev.u.pdo.nr = p->nr;
 	ev.u.pdo.cob_id = id;
 	ev.u.pdo.len = len;
@@ -545,14 +534,6 @@ static uint64_t pdo_tick(co_node *node, uint64_t now_us)
 
 /* ---- OD hooks ------------------------------------------------------------------ */
 
-/* CiA 301 §7.3.5: CAN-IDs a PDO must not use (NMT, SYNC/EMCY of nodes,
- * TIME..., SDO, LSS, NMT error control). */
-static bool cob_restricted(uint32_t id)
-{
-	return id <= 0x07F || (id >= 0x101 && id <= 0x180) || (id >= 0x581 && id <= 0x5FF) ||
-	       (id >= 0x601 && id <= 0x67F) || (id >= 0x6E0 && id <= 0x6FF) || id >= 0x701;
-}
-
 static uint32_t check_cob(const struct pdo *p, uint32_t v)
 {
 	const uint32_t id_bits = CO_PDO_COB_EXT | CO_FRAME_EFF_MASK;
@@ -563,8 +544,8 @@ static uint32_t check_cob(const struct pdo *p, uint32_t v)
 		return SDO_AB_VALUE;
 	if (v & CO_PDO_COB_INVALID)
 		return 0;
-	if (!(v & CO_PDO_COB_EXT) &&
-	    ((v & CO_FRAME_EFF_MASK & ~CO_FRAME_SFF_MASK) || cob_restricted(v & CO_FRAME_SFF_MASK)))
+	if (!(v & CO_PDO_COB_EXT) && ((v & CO_FRAME_EFF_MASK & ~CO_FRAME_SFF_MASK) ||
+				      co_cob_is_restricted(v & CO_FRAME_SFF_MASK)))
 		return SDO_AB_VALUE;
 	if (!p->map_ok)
 		return CO_PDO_AB_SEQUENCE; /* mapping broken: fix it first */
@@ -838,7 +819,7 @@ int co_pdo_rpdo_request(co_node *node, uint16_t nr, uint64_t now_us)
 		return -ENOENT;
 	if (!P->operational || !p->valid)
 		return -EAGAIN;
-	cob_split(p->cob, &id, &flags);
+	co_cob_split(p->cob, &id, &flags);
 	co_frame_init(&f, id, p->len);
 	f.flags = flags | CO_FRAME_RTR;
 	return co_node_send(node, &f);

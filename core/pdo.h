@@ -118,7 +118,7 @@
 
 #define CO_PDO_COB_INVALID 0x80000000u /* bit 31 */
 #define CO_PDO_COB_NO_RTR 0x40000000u  /* bit 30 */
-#define CO_PDO_COB_EXT 0x20000000u     /* bit 29 */
+#define CO_PDO_COB_EXT CO_COB_EXT      /* bit 29 */
 
 /* Default COB-IDs of the predefined connection set (CiA 301 §7.3.5). */
 #define CO_PDO_TPDO_DEFAULT_COB(n, id) (0x80u + 0x100u * (n) + (id))

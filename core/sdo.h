@@ -8,6 +8,7 @@
 
 #include <stdint.h>
 
+#include "core/frame.h"
 #include "core/od.h"
 
 /* SDO abort codes (CiA 301 §7.2.4.3.17, plus the CiA 302-7 routing codes
@@ -52,6 +53,12 @@ typedef enum sdo_abort {
 
 /* "object does not exist", ...; "unknown abort code" for others. */
 const char *sdo_abort_to_string(uint32_t code);
+/* The one table from a local call's failure (a negative errno, in an SDO
+ * transfer: a data source or sink, a hook, the SDO client pool or a relay
+ * lease) to the abort code that goes on the wire; 0 stays 0, an errno
+ * nobody expects is SDO_AB_STORE (08000020, "cannot be transferred or
+ * stored"). */
+uint32_t sdo_abort_of_errno(int rc);
 
 /* Transfer modes (client request hint, also reported in events). */
 typedef enum sdo_mode {
@@ -118,7 +125,7 @@ enum sdo_blk_sub {
 /* COB-ID bits in 1200h..12FFh sub 1/2. */
 #define SDO_COB_INVALID 0x80000000u /* bit 31: channel not valid */
 #define SDO_COB_DYN 0x40000000u     /* bit 30: dynamically allocated */
-#define SDO_COB_EXT 0x20000000u     /* bit 29: 29-bit CAN-ID */
+#define SDO_COB_EXT CO_COB_EXT      /* bit 29: 29-bit CAN-ID */
 
 /* Object indexes. */
 #define SDO_SERVER_PARAM 0x1200u /* .. 127Fh */

@@ -76,6 +76,7 @@ struct cli_chan {
 	uint32_t total;       /* download: size; upload: indicated or UNKNOWN */
 	uint32_t read_off;    /* download: bytes taken from the source */
 	uint32_t start_abort; /* CS_START_FAILED: the abort to report */
+	bool answered;        /* a frame of the server for this request came */
 
 	/* block */
 	struct sdo_blk_rx brx; /* upload: sequence, duplicates, CRC */
@@ -110,7 +111,7 @@ struct cli_chan {
 		uint16_t index;
 		uint8_t sub;
 		uint32_t cob_resp;
-		uint64_t at_us; /* answered: when */
+		uint64_t at_us; /* when it ended (answered, or our abort) */
 	} ended, filter;
 };
 
@@ -151,6 +152,10 @@ static void tx(struct cli_chan *ch, const uint8_t d[8])
 {
 	co_frame f;
 
+	if (ch->cur.relay && state_of(ch) != CS_LEASED) {
+		ch->cur.relay(ch->cur.relay_ctx, d);
+		return;
+	}
 	co_frame_init(&f, ch->cob_req & CO_FRAME_EFF_MASK, 8);
 	if (ch->cob_req & SDO_COB_EXT)
 		f.flags |= CO_FRAME_EXT;
@@ -178,7 +183,7 @@ static bool mux_matches(const struct cli_chan *ch, const uint8_t *d)
  * observers. The request is a copy: the channel may already run the next
  * one when con returns. */
 static void confirm(co_node *node, const sdo_client_req *r, uint8_t channel, uint8_t mode,
-		    uint32_t abort, uint32_t size)
+		    uint32_t abort, uint32_t size, bool answered)
 {
 	co_event ev = { .kind = CO_EV_SDO_CLIENT_DONE };
 
@@ -192,6 +197,7 @@ static void confirm(co_node *node, const sdo_client_req *r, uint8_t channel, uin
 	ev.u.sdo_cli.size = size;
 	ev.u.sdo_cli.tag = r->tag;
 	ev.u.sdo_cli.data = r->upload ? r->buf : NULL;
+	ev.u.sdo_cli.answered = answered;
 	ev.now_us = node->now_us;
 	if (r->con)
 		r->con(r->con_arg, &ev.u.sdo_cli);
@@ -233,7 +239,8 @@ static int abort_local(struct cli_chan *ch, uint32_t code)
 					 .mode = ch->mode,
 					 .index = ch->cur.index,
 					 .sub = ch->cur.sub,
-					 .cob_resp = ch->cob_resp };
+					 .cob_resp = ch->cob_resp,
+					 .at_us = node_of(ch)->now_us };
 	return complete(ch, code);
 }
 
@@ -346,7 +353,7 @@ static uint32_t sink_put(struct cli_chan *ch, const uint8_t *data, uint32_t len)
 		int rc = ch->cur.sink(ch->cur.ctx, ch->offset, data, len, ch->total);
 
 		if (rc < 0)
-			return rc == -ENOMEM ? SDO_AB_NO_MEM : SDO_AB_STORE;
+			return sdo_abort_of_errno(rc);
 	}
 	ch->offset += len;
 	return 0;
@@ -721,7 +728,7 @@ static int idle_on_enter(void *obj, uint64_t now_us)
 	 * a second device on that node-ID (second_answer()) */
 	if (ch->done_abort)
 		co_rx_disable(node_of(ch), ch->rx_handle);
-	confirm(node_of(ch), &r, ch->num, ch->mode, ch->done_abort, ch->offset);
+	confirm(node_of(ch), &r, ch->num, ch->mode, ch->done_abort, ch->offset, ch->answered);
 	kick_all(ch->cli);
 	return CO_FSM_STAY;
 }
@@ -859,6 +866,7 @@ static void cli_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 		return;
 	}
 	ch->filter.valid = false; /* the server answers the current request */
+	ch->answered = true;
 	if (st == CS_BLK_UP_SUB ? sdo_blk_seg_is_abort(d)
 				: is_abort(d) && !sdo_blk_rx_is_dup(&ch->brx, d)) {
 		co_fsm_goto(&ch->fsm, server_abort(ch, st, d), now_us);
@@ -890,13 +898,21 @@ static uint8_t pick_mode(const struct cli_chan *ch, const sdo_client_req *r)
 	}
 }
 
+/* A relayed request's server, as an identity no COB-ID of this bus has
+ * (bits 31 and 30 set: a 1280h value with "not valid" and "dynamic"). */
+#define RELAY_ID 0xC0000000u
+
 static uint32_t req_cob_req(const sdo_client_req *r)
 {
+	if (r->relay)
+		return RELAY_ID | r->relay_target;
 	return r->cob_req ? r->cob_req : SDO_COB_RX_BASE + r->node_id;
 }
 
 static uint32_t req_cob_resp(const sdo_client_req *r)
 {
+	if (r->relay)
+		return RELAY_ID | r->relay_target;
 	return r->cob_resp ? r->cob_resp : SDO_COB_TX_BASE + r->node_id;
 }
 
@@ -911,6 +927,48 @@ static bool target_busy(const struct sdo_client *cli, const struct cli_chan *sel
 	return false;
 }
 
+/* Late frames of a transfer to this server that some channel ended with
+ * an abort frame are to be ignored (is_stale()). */
+static void take_filter(struct cli_chan *ch)
+{
+	ch->filter.valid = false;
+	for (uint8_t i = 0; i < ch->cli->n; i++) {
+		struct stale_xfer *st = &ch->cli->ch[i].ended;
+		if (st->valid && st->cob_resp == ch->cob_resp) {
+			ch->filter = *st;
+			st->valid = false;
+		}
+	}
+}
+
+/* 1280h+n shows the current target on this bus, as a manager would set
+ * it (a relayed request's target is elsewhere). */
+static void show_target(struct cli_chan *ch, const sdo_client_req *r)
+{
+	if (r->relay)
+		return;
+	if (ch->od_cob[0])
+		co_od_entry_set_raw(ch->od_cob[0], ch->cob_req);
+	if (ch->od_cob[1])
+		co_od_entry_set_raw(ch->od_cob[1], ch->cob_resp);
+	if (ch->od_node)
+		co_od_entry_set_raw(ch->od_node, r->node_id);
+}
+
+/* Where the answers come from: the server's COB-ID on the bus, or the
+ * relay (no receiver on the bus then). 0 or -errno. */
+static int listen_for_answers(struct cli_chan *ch)
+{
+	co_node *node = node_of(ch);
+
+	if (ch->cur.relay) {
+		co_rx_disable(node, ch->rx_handle);
+		return 0;
+	}
+	return co_rx_move(node, ch->rx_handle, ch->cob_resp & CO_FRAME_EFF_MASK,
+			  (ch->cob_resp & SDO_COB_EXT) ? CO_FRAME_EXT : 0);
+}
+
 /* Set the channel up for r and send its first frame; the state that
  * waits for the answer (or "start failed"). */
 static int start_state(struct cli_chan *ch, const sdo_client_req *r)
@@ -920,16 +978,7 @@ static int start_state(struct cli_chan *ch, const sdo_client_req *r)
 	ch->cur = *r;
 	ch->cob_req = req_cob_req(r);
 	ch->cob_resp = req_cob_resp(r);
-	/* Late frames of a transfer to this server that some channel ended
-	 * with an abort frame are to be ignored (is_stale()). */
-	ch->filter.valid = false;
-	for (uint8_t i = 0; i < ch->cli->n; i++) {
-		struct stale_xfer *st = &ch->cli->ch[i].ended;
-		if (st->valid && st->cob_resp == ch->cob_resp) {
-			ch->filter = *st;
-			st->valid = false;
-		}
-	}
+	take_filter(ch);
 	ch->timeout_us =
 		(uint64_t)(r->timeout_ms ? r->timeout_ms : node->cfg.sdo_client_timeout_ms) * 1000u;
 	ch->mode = pick_mode(ch, r);
@@ -938,19 +987,13 @@ static int start_state(struct cli_chan *ch, const sdo_client_req *r)
 	ch->offset = ch->read_off = 0;
 	ch->toggle = 0;
 	ch->total = r->upload ? UNKNOWN_SIZE : r->size;
-	/* 1280h+n shows the current target, as a manager would set it. */
-	if (ch->od_cob[0])
-		co_od_entry_set_raw(ch->od_cob[0], ch->cob_req);
-	if (ch->od_cob[1])
-		co_od_entry_set_raw(ch->od_cob[1], ch->cob_resp);
-	if (ch->od_node)
-		co_od_entry_set_raw(ch->od_node, r->node_id);
+	ch->answered = false;
+	show_target(ch, r);
 	/* CiA 301 §7.3.2.2: no SDO in STOPPED; reported from the next tick
 	 * like any request that cannot start. */
 	if (co_nmt_get_state(node) == CO_NMT_STOPPED)
 		return fail_start(ch, SDO_AB_DEV_STATE);
-	if (co_rx_move(node, ch->rx_handle, ch->cob_resp & CO_FRAME_EFF_MASK,
-		       (ch->cob_resp & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0)
+	if (listen_for_answers(ch) != 0)
 		return fail_start(ch, SDO_AB_NO_RESOURCE);
 	return r->upload ? start_upload(ch) : start_download(ch);
 }
@@ -1123,7 +1166,7 @@ static bool cancel_queued(struct cli_chan *ch, uint64_t tag, uint32_t abort)
 		for (uint16_t j = i; j + 1 < ch->q_len; j++)
 			ch->q[(ch->q_head + j) % cap] = ch->q[(ch->q_head + j + 1) % cap];
 		ch->q_len--;
-		confirm(node_of(ch), &r, ch->num, r.mode, abort, 0);
+		confirm(node_of(ch), &r, ch->num, r.mode, abort, 0, false);
 		return true;
 	}
 	return false;
@@ -1160,7 +1203,7 @@ int sdo_client_cancel_tag(co_node *node, uint64_t tag, uint32_t abort, uint64_t 
 			continue;
 		sdo_client_req r = *pool_at(cli, i);
 		pool_remove(cli, i);
-		confirm(node, &r, SDO_CLIENT_NO_CHANNEL, r.mode, abort, 0);
+		confirm(node, &r, SDO_CLIENT_NO_CHANNEL, r.mode, abort, 0, false);
 		return 0;
 	}
 	return -ENOENT;
@@ -1188,7 +1231,44 @@ int sdo_client_pool_submit(co_node *node, const sdo_client_req *req, uint64_t no
 	return 0;
 }
 
+int sdo_client_relay_recv(co_node *node, uint64_t tag, const uint8_t d[8], uint64_t now_us)
+{
+	struct sdo_client *cli = node->sdo_cli;
+	co_frame f;
+
+	for (uint8_t i = 0; cli && i < cli->n; i++) {
+		struct cli_chan *ch = &cli->ch[i];
+		int st = state_of(ch);
+		if (st == CS_IDLE || st == CS_LEASED || st == CS_START_FAILED || !ch->cur.relay ||
+		    ch->cur.tag != tag)
+			continue;
+		node->now_us = now_us;
+		co_frame_init(&f, ch->cob_resp & CO_FRAME_EFF_MASK, 8);
+		memcpy(f.data, d, 8);
+		cli_rx(node, ch, &f, now_us);
+		return 0;
+	}
+	return -ENOENT;
+}
+
 /* ---- relay lease (CiA 302-7) ------------------------------------------------ */
+
+/* Did a channel end a transfer with this server by its own abort frame
+ * less than LEASE_SETTLE_US ago? The server may still send frames of it,
+ * which a relay would hand on as answers (a transfer of ours filters them,
+ * is_stale(); a relay cannot tell them from the next requester's). */
+#define LEASE_SETTLE_US 100000u
+
+static bool settling(const struct sdo_client *cli, uint32_t resp, uint64_t now_us)
+{
+	for (uint8_t i = 0; i < cli->n; i++) {
+		const struct stale_xfer *e = &cli->ch[i].ended;
+		if (e->valid && !e->answered && e->cob_resp == resp &&
+		    now_us - e->at_us < LEASE_SETTLE_US)
+			return true;
+	}
+	return false;
+}
 
 int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t cob_resp,
 		     sdo_client_raw_fn fn, void *arg, uint64_t now_us)
@@ -1200,7 +1280,7 @@ int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t 
 	if (!cli || !fn || node_id < 1 || node_id > 127)
 		return -EINVAL;
 	node->now_us = now_us;
-	if (target_busy(cli, NULL, req_cob_resp(&r)))
+	if (target_busy(cli, NULL, req_cob_resp(&r)) || settling(cli, req_cob_resp(&r), now_us))
 		return -EALREADY;
 	ch = free_channel(cli);
 	if (!ch)

@@ -85,10 +85,14 @@ typedef void (*sdo_client_con_fn)(void *arg, const co_ev_sdo_cli *con);
 typedef int (*sdo_src_fn)(void *ctx, uint32_t offset, uint8_t *buf, uint32_t len);
 /* Upload sink: the next len bytes at offset (sequential, each byte once).
  * total is the size indicated by the server, or UINT32_MAX if none. Return
- * 0, or a negative errno to abort (-ENOMEM: 0x05040005 on the wire, any
- * other: 0x08000020). */
+ * 0, or a negative errno to abort (on the wire: sdo_abort_of_errno(), e.g.
+ * -ENOMEM 0x05040005, any other failure 0x08000020). */
 typedef int (*sdo_sink_fn)(void *ctx, uint32_t offset, const uint8_t *data, uint32_t len,
 			   uint32_t total);
+/* Relayed transfer: where a frame of the request goes instead of the bus
+ * (see relay in sdo_client_req). Called on the owning thread, from inside
+ * the client: it must not call back into it (submit, cancel, receive). */
+typedef void (*sdo_client_relay_fn)(void *ctx, const uint8_t d[8]);
 
 typedef struct sdo_client_req {
 	bool upload;     /* true = read from the server, false = write */
@@ -120,6 +124,15 @@ typedef struct sdo_client_req {
 	void *con_arg;
 	/* Pool only: refuse with -EBUSY instead of waiting for a channel. */
 	bool no_wait;
+	/* Relayed (CiA 302-7 routing, gateway/): the server is on another
+	 * network. The transfer runs here as any other, but its frames go to
+	 * relay(relay_ctx, d) instead of this node's bus and its answers come
+	 * in through sdo_client_relay_recv(). relay_target names that server
+	 * (e.g. network << 8 | node) for the rule "one transfer per server at
+	 * a time"; it never equals a COB-ID of this bus. 1280h is left alone. */
+	sdo_client_relay_fn relay;
+	void *relay_ctx;
+	uint32_t relay_target;
 } sdo_client_req;
 
 /* Queue a request on a channel (0-based); it starts at once if the
@@ -161,9 +174,11 @@ int sdo_client_cancel_tag(co_node *node, uint64_t tag, uint32_t abort, uint64_t 
  * response COB-ID (cob_resp, 0 = 580h + node_id) goes to fn, until
  * sdo_client_lease_end(). The lease counts as a transfer with that server
  * (pool requests to it wait) and has no timeout: the relay keeps its own.
- * Returns the channel (>= 0), -EBUSY (no free channel: the caller answers
- * 0x060A0023), -EALREADY (that server is in a transfer on another
- * channel), -ENOSPC (no receiver for the COB-ID), -EINVAL.
+ * Returns the channel (>= 0), -EBUSY (no free channel), -EALREADY (that
+ * server is in a transfer on another channel, or a channel ended one with
+ * it by its own abort frame less than 100 ms ago: the server's late frames
+ * of that transfer would reach the relay as answers), -ENOSPC (no receiver
+ * for the COB-ID), -EINVAL; sdo_abort_of_errno() gives the abort to answer.
  */
 typedef void (*sdo_client_raw_fn)(void *arg, const uint8_t d[8], uint64_t now_us);
 int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t cob_resp,
@@ -172,6 +187,11 @@ int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t 
 int sdo_client_lease_send(co_node *node, uint8_t channel, const uint8_t d[8]);
 /* Give the channel back to the pool (waiting requests may start). */
 int sdo_client_lease_end(co_node *node, uint8_t channel, uint64_t now_us);
+
+/* A frame of the server of the running relayed request with this tag
+ * (its relay brought it): handled like a frame from the bus. 0, or
+ * -ENOENT (no such request runs: a late frame). */
+int sdo_client_relay_recv(co_node *node, uint64_t tag, const uint8_t d[8], uint64_t now_us);
 
 /* Requests waiting in the pool for a channel. */
 unsigned sdo_client_pool_waiting(const co_node *node);

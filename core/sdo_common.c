@@ -7,6 +7,36 @@
  */
 #include "core/sdo.h"
 
+#include <errno.h>
+#include <stddef.h>
+
+static const struct {
+	int err;
+	uint32_t abort;
+} abort_of_errno[] = {
+	{ ENOMEM, SDO_AB_NO_MEM },       /* a buffer or the transfer budget */
+	{ EBUSY, SDO_AB_NO_RESOURCE },   /* no SDO client channel free */
+	{ ENOSPC, SDO_AB_NO_RESOURCE },  /* a bounded queue, a receiver */
+	{ EALREADY, SDO_AB_ROUTE_BUSY }, /* the server is in another transfer */
+	{ EPERM, SDO_AB_DEV_STATE },     /* the device state forbids it */
+	{ EAGAIN, SDO_AB_DEV_STATE },
+	{ EACCES, SDO_AB_LOCAL_CTRL },      /* local control forbids it */
+	{ ENODATA, SDO_AB_NO_DATA },        /* no data available */
+	{ EINVAL, SDO_AB_VALUE },           /* a value the callee refuses */
+	{ EMSGSIZE, SDO_AB_LEN_HIGH },      /* larger than the object */
+	{ ETIMEDOUT, SDO_AB_NODE_UNKNOWN }, /* nobody answered */
+};
+
+uint32_t sdo_abort_of_errno(int rc)
+{
+	if (rc >= 0)
+		return 0;
+	for (size_t i = 0; i < sizeof abort_of_errno / sizeof abort_of_errno[0]; i++)
+		if (abort_of_errno[i].err == -rc)
+			return abort_of_errno[i].abort;
+	return SDO_AB_STORE;
+}
+
 const char *sdo_abort_to_string(uint32_t code)
 {
 	switch (code) {

@@ -18,8 +18,6 @@
 #include "core/sdo.h"
 #include "core/sdo_client.h"
 
-#define AB_NO_RESOURCE 0x060A0023u /* resource not available: SDO connection */
-#define AB_GENERAL 0x08000000u
 /* Tags of this module's requests: 'SW' in the top byte, node, sequence. */
 #define TAG_BASE 0x5700000000000000ull
 
@@ -77,11 +75,6 @@ void co_swmgr_result_finding(const co_swmgr_result *r, uint16_t *index, uint8_t 
 	*index = r->index;
 	*sub = r->sub;
 	*value = r->found;
-}
-
-static uint32_t get_u32(const uint8_t *p)
-{
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
 /* ---- requests ------------------------------------------------------------ */
@@ -146,7 +139,7 @@ static int submit(co_swmgr *job, sdo_client_req *r, uint64_t now_us)
 		rc = sdo_client_pool_submit(job->node, r, now_us);
 	if (rc) {
 		job->tag = 0;
-		job->res.abort = AB_NO_RESOURCE;
+		job->res.abort = SDO_AB_NO_RESOURCE;
 		job->res.status = 'I';
 		return CO_SWMGR_FAILED;
 	}
@@ -195,11 +188,11 @@ static int after(co_swmgr *job, const co_ev_sdo_cli *con, int next)
 static int got_id(co_swmgr *job, const co_ev_sdo_cli *con)
 {
 	if (con->abort || con->size != 4) {
-		job->res.abort = con->abort ? con->abort : 0x06070010u; /* length mismatch */
+		job->res.abort = con->abort ? con->abort : SDO_AB_TYPE_LEN;
 		job->res.status = 'I';
 		return -1;
 	}
-	job->res.found = get_u32(job->rd);
+	job->res.found = co_get_le32(job->rd);
 	return 0;
 }
 
@@ -448,7 +441,7 @@ int co_swmgr_cancel(co_swmgr *job, uint64_t now_us)
 		return -ENOENT;
 	job->tag = 0; /* its confirmation is ignored from here on */
 	if (tag)
-		sdo_client_cancel_tag(job->node, tag, AB_GENERAL, now_us);
+		sdo_client_cancel_tag(job->node, tag, SDO_AB_GENERAL, now_us);
 	job->res.outcome = CO_SWMGR_CANCELLED;
 	co_fsm_goto(&job->fsm, CO_SWMGR_DONE, now_us);
 	return 0;

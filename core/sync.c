@@ -54,17 +54,6 @@ static bool producing(const struct co_sync *S)
 	return (S->cob & CO_SYNC_PRODUCER) && S->period_us > 0;
 }
 
-static void cob_split(uint32_t cob, uint32_t *id, uint8_t *flags)
-{
-	if (cob & CO_SYNC_EXT) {
-		*id = cob & CO_FRAME_EFF_MASK;
-		*flags = CO_FRAME_EXT;
-	} else {
-		*id = cob & CO_FRAME_SFF_MASK;
-		*flags = 0;
-	}
-}
-
 /* Everything that happens at a SYNC, produced or consumed. */
 static void sync_occurred(struct co_sync *S, uint8_t counter, bool produced, uint64_t now_us)
 {
@@ -98,7 +87,7 @@ static void producer_send(struct co_sync *S, uint64_t now_us)
 	uint32_t id;
 	uint8_t flags;
 
-	cob_split(S->cob, &id, &flags);
+	co_cob_split(S->cob, &id, &flags);
 	co_frame_init(&f, id, 0);
 	f.flags = flags;
 	if (S->overflow) {
@@ -159,7 +148,7 @@ static void sync_apply(struct co_sync *S, uint64_t now_us)
 	S->period_us = entry_u32(S->e_period, 0);
 	S->window_us = entry_u32(S->e_window, 0);
 	S->overflow = (uint8_t)entry_u32(S->e_overflow, 0);
-	cob_split(S->cob, &id, &flags);
+	co_cob_split(S->cob, &id, &flags);
 	if (S->rx_h >= 0)
 		co_rx_move(S->node, S->rx_h, id, flags);
 	if (old_cob != S->cob || old_period != S->period_us || S->next_us == CO_NO_DEADLINE)

@@ -47,7 +47,7 @@
 
 #define CO_SYNC_COB_DEFAULT 0x80u
 #define CO_SYNC_PRODUCER 0x40000000u /* 1005h bit 30 */
-#define CO_SYNC_EXT 0x20000000u      /* 1005h bit 29 */
+#define CO_SYNC_EXT CO_COB_EXT       /* 1005h bit 29 */
 #define CO_SYNC_COUNTER_MAX 240u
 
 typedef struct co_sync_stats {

@@ -79,17 +79,6 @@ static bool time_state_ok(const co_node *node)
 	return s == CO_NMT_OPERATIONAL || s == CO_NMT_PRE_OPERATIONAL;
 }
 
-static void cob_split(uint32_t cob, uint32_t *id, uint8_t *flags)
-{
-	if (cob & CO_TIME_EXT) {
-		*id = cob & CO_FRAME_EFF_MASK;
-		*flags = CO_FRAME_EXT;
-	} else {
-		*id = cob & CO_FRAME_SFF_MASK;
-		*flags = 0;
-	}
-}
-
 static void time_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	struct co_time *T = arg;
@@ -121,7 +110,7 @@ static void time_apply(struct co_time *T)
 	uint8_t flags;
 
 	T->cob = T->e_cob ? (uint32_t)co_od_entry_raw(T->e_cob) : 0;
-	cob_split(T->cob, &id, &flags);
+	co_cob_split(T->cob, &id, &flags);
 	if (T->rx_h >= 0 && (T->cob & CO_TIME_CONSUMER))
 		co_rx_move(T->node, T->rx_h, id, flags);
 	else if (T->rx_h >= 0)
@@ -222,7 +211,7 @@ int co_time_send(co_node *node, const co_time_of_day *t, uint64_t now_us)
 		return -EPERM;
 	if (!time_state_ok(node))
 		return -EAGAIN;
-	cob_split(T->cob, &id, &flags);
+	co_cob_split(T->cob, &id, &flags);
 	co_frame_init(&f, id, CO_TIME_FRAME_LEN);
 	f.flags = flags;
 	if (co_time_encode(t, f.data) != 0)

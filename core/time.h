@@ -36,7 +36,7 @@
 #define CO_TIME_COB_DEFAULT 0x100u
 #define CO_TIME_CONSUMER 0x80000000u /* 1012h bit 31 */
 #define CO_TIME_PRODUCER 0x40000000u /* 1012h bit 30 */
-#define CO_TIME_EXT 0x20000000u      /* 1012h bit 29 */
+#define CO_TIME_EXT CO_COB_EXT       /* 1012h bit 29 */
 
 #define CO_TIME_MS_PER_DAY 86400000u
 #define CO_TIME_MS_MASK 0x0FFFFFFFu /* 28 bits */

@@ -16,10 +16,12 @@
  *   update, value included, to the lines whose TPDOs map it; applies the
  *   updates of other lines to its own OD, triggering its TPDOs (after a
  *   drop, the image's latest value);
- * - serves the mailbox's gateway commands (MBX_CMD_GW_*): the routing
- *   table with its counters, and SDO transfers with a node of any network,
- *   run by an SDO client of the line the route names (after a network
- *   indication to the next router when the network lies further away).
+ * - serves the mailbox's GW_ROUTES (the routing table with its counters)
+ *   and is the routing step of the line's mailbox SDO transfers with a
+ *   node of any network (MBX_CMD_GW_SDO_*, lines/line_sdo.c): the transfer
+ *   runs on this line's SDO client, its frames go through a relay lease
+ *   of the line the route names (after a network indication to the next
+ *   router when the network lies further away).
  * Lines talk only through the rings (one per ordered pair, lines/xring.h):
  * a full or closed ring is a counted drop, and a routed request that
  * cannot be handed off is refused with GW_AB_ROUTE_BUSY.
@@ -51,7 +53,6 @@ typedef struct gw_params {
 	const co_od *image_od; /* the B000h..BFFFh objects to share
 	                                * (any line's OD: they are the same) */
 	uint32_t ring_slots;   /* per ordered pair of lines (default 1024) */
-	uint32_t max_transfer; /* largest routed mailbox SDO (default 1 MiB) */
 } gw_params;
 
 /* Counters of one line (published as relaxed atomics). */

@@ -39,11 +39,7 @@ void line_emcy_send(line *l, const mbx_request *req)
 	memcpy(&e, req->payload, sizeof e);
 	int rc = e.code ? co_emcy_send(l->node, e.code, e.reg, e.msef, l->now_us)
 			: co_emcy_clear_all(l->node, l->now_us);
-	line_answer(l, &req->reply,
-		    rc == 0         ? 0
-		    : rc == -ENODEV ? MBX_E_UNSUPPORTED
-				    : MBX_E_STATE,
-		    0, NULL, 0);
+	line_answer(l, &req->reply, mbx_status_of_errno(rc), 0, NULL, 0);
 }
 
 void line_raw_send(line *l, const mbx_request *req)

@@ -23,6 +23,8 @@ static const struct {
 	{ MBX_CMD_RPDO_STATUS, line_rpdo_status }, /* line_pdo.c */
 	{ MBX_CMD_SDO_UPLOAD, line_sdo_upload },   /* line_sdo.c */
 	{ MBX_CMD_SDO_DOWNLOAD, line_sdo_download },
+	{ MBX_CMD_GW_SDO_UPLOAD, line_sdo_upload_net },
+	{ MBX_CMD_GW_SDO_DOWNLOAD, line_sdo_download_net },
 	{ MBX_CMD_NMT, line_nmt_command }, /* line_nmt.c */
 	{ MBX_CMD_NODE_TABLE, line_node_table },
 	{ MBX_CMD_LINE_STATUS, line_status }, /* line_bus.c */

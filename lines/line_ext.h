@@ -25,6 +25,17 @@
  *                 client's access; the handler answers now or later with
  *                 mbx_server_respond(line_mbx(l), &req->reply, ...).
  *   on_client_gone a mailbox client left: drop what it waits for.
+ *   sdo_route     the routing step of a mailbox SDO transfer with a node
+ *                 of a network (MBX_CMD_GW_SDO_*, lines/line_sdo.c): the
+ *                 transfer itself is the line's, on its SDO client; the
+ *                 extension says how its frames reach that node (this
+ *                 line's bus, or a relay) or refuses with an SDO abort
+ *                 code. It may later end the transfer with
+ *                 sdo_client_cancel_tag(line_node(l), tag, abort, ...)
+ *                 (the route failed) or feed it the server's frames
+ *                 (sdo_client_relay_recv).
+ *   sdo_route_end that transfer ended (its confirmation, exactly once for
+ *                 every sdo_route that returned 0): give the route back.
  *   on_wake       wake_fd became readable (the line has read the eventfd
  *                 counter): drain the hand-offs, e.g. xring_pop() until 0.
  *   poll          once per loop iteration: run what is due at now_us and
@@ -41,9 +52,19 @@
 #include <stdint.h>
 
 #include "core/co.h"
+#include "core/sdo_client.h"
 #include "mailbox/server.h"
 
 typedef struct line line;
+
+/* How a mailbox SDO transfer with a node of a network reaches it. */
+typedef struct line_sdo_route {
+	uint8_t node;              /* the node the transfer talks to (this line's bus: the
+	               * target itself; relayed: the target behind the relay) */
+	sdo_client_relay_fn relay; /* NULL: this line's bus */
+	void *relay_ctx;
+	uint32_t relay_target; /* see sdo_client_req.relay_target */
+} line_sdo_route;
 
 typedef struct line_ext_ops {
 	const char *name;                  /* for logs */
@@ -55,6 +76,10 @@ typedef struct line_ext_ops {
 	void (*on_client_gone)(void *ctx, line *l, uint32_t client);
 	void (*on_wake)(void *ctx, line *l);
 	uint64_t (*poll)(void *ctx, line *l, uint64_t now_us);
+	/* 0 (*out filled) or the SDO abort code that refuses the request. */
+	uint32_t (*sdo_route)(void *ctx, line *l, uint64_t tag, uint16_t net, uint8_t node,
+			      line_sdo_route *out);
+	void (*sdo_route_end)(void *ctx, line *l, uint64_t tag);
 } line_ext_ops;
 
 typedef struct line_ext {

@@ -156,6 +156,10 @@ void line_client_gone(void *ctx, mbx_server *srv, uint32_t client);
 /* line_sdo.c */
 void line_sdo_upload(line *l, const mbx_request *req);
 void line_sdo_download(line *l, const mbx_request *req);
+/* MBX_CMD_GW_SDO_*: with a node of a network, routed by the extension
+ * that routes (line_ext.h sdo_route); UNSUPPORTED without one. */
+void line_sdo_upload_net(line *l, const mbx_request *req);
+void line_sdo_download_net(line *l, const mbx_request *req);
 /* A client left: cancel its transfers (each exactly where it is). */
 void line_sdo_client_gone(line *l, uint32_t client);
 

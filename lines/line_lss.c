@@ -119,11 +119,7 @@ void line_lss_command(line *l, const mbx_request *req)
 	int rc = lss_master_submit(l->node, &r, l->now_us);
 	if (rc < 0) {
 		line_pending_release(&l->pending, pp);
-		line_answer(l, &req->reply,
-			    rc == -ENODEV   ? MBX_E_UNSUPPORTED
-			    : rc == -ENOSPC ? MBX_E_BUSY
-					    : MBX_E_PARAM,
-			    0, NULL, 0);
+		line_answer(l, &req->reply, mbx_status_of_errno(rc), 0, NULL, 0);
 	}
 }
 

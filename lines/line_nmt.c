@@ -23,14 +23,10 @@ void line_nmt_command(line *l, const mbx_request *req)
 	 * state refusal. */
 	if (n.node == co_node_id(l->node)) {
 		int lrc = co_nmt_local_cmd(l->node, n.cs, l->now_us);
-		return line_answer(l, &req->reply,
-				   lrc == 0        ? 0
-				   : lrc == -EPERM ? MBX_E_STATE
-						   : MBX_E_PARAM,
-				   0, NULL, 0);
+		return line_answer(l, &req->reply, mbx_status_of_errno(lrc), 0, NULL, 0);
 	}
 	int rc = co_nmt_master_send(l->node, n.node, n.cs, l->now_us);
-	line_answer(l, &req->reply, rc < 0 ? MBX_E_PARAM : 0, 0, NULL, 0);
+	line_answer(l, &req->reply, mbx_status_of_errno(rc), 0, NULL, 0);
 }
 
 static uint8_t hb_code(co_hb_mon mon)

@@ -65,9 +65,5 @@ void line_pdo_request(line *l, const mbx_request *req)
 	mbx_pdo_num_req p;
 	memcpy(&p, req->payload, sizeof p);
 	int rc = co_pdo_tpdo_event(l->node, p.pdo, l->now_us);
-	line_answer(l, &req->reply,
-		    rc == 0         ? 0
-		    : rc == -ENOENT ? MBX_E_PARAM
-				    : MBX_E_STATE,
-		    0, NULL, 0);
+	line_answer(l, &req->reply, mbx_status_of_errno(rc), 0, NULL, 0);
 }

@@ -24,6 +24,7 @@
 #define LINE_PENDING_MAX 64 /* mailbox requests waiting for the core */
 #define LINE_BIG_SLOTS 4    /* of which with a max_transfer buffer */
 #define LINE_INLINE_MAX 1024
+#define LINE_NO_ROUTE 0xFFu
 
 /* What a pending request waits for: how to cancel it. */
 typedef enum line_pending_kind {
@@ -37,6 +38,8 @@ typedef struct line_pending {
 	uint16_t code; /* mailbox command */
 	uint8_t kind;  /* line_pending_kind */
 	bool used;
+	uint8_t route_ext; /* SDO with a node of a network: the extension that
+	                    * routes it (line_ext.h sdo_route); LINE_NO_ROUTE */
 	mbx_reply_to reply;
 	uint8_t *buf; /* big slots: max_transfer bytes of address space
 		       * (mailbox/budget.h); small: inline_data */

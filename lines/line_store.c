@@ -163,7 +163,7 @@ void line_store_command(line *l, const mbx_request *req)
 		return line_answer(l, &req->reply, MBX_E_UNSUPPORTED, 0, NULL, 0);
 	int rc = store_request_mbx(l, req->code == MBX_CMD_STORE ? 1 : 2, s.sub, &req->reply);
 	if (rc < 0)
-		line_answer(l, &req->reply, rc == -EBUSY ? MBX_E_BUSY : MBX_E_PARAM, 0, NULL, 0);
+		line_answer(l, &req->reply, mbx_status_of_errno(rc), 0, NULL, 0);
 }
 
 /* ---- main thread ---------------------------------------------------------- */
@@ -364,6 +364,9 @@ void line_store_poll(line *l)
 			set_defaults_from(l, l->store.factory, l->store.factory_len, mask,
 					  CO_OD_IMAGE_COMM | CO_OD_IMAGE_APP);
 	}
+	/* Whatever the file's errno (a full disk is no "busy"): CiA 301
+	 * §7.5.2.13/14 answer a failed save/load with 08000020, the mailbox
+	 * with INTERNAL (docs/mailbox.md). */
 	uint32_t abort = l->store.result ? SDO_AB_STORE : 0;
 	if (l->store.from_sdo)
 		sdo_server_continue(l->node, l->store.channel, abort, NULL, 0, l->now_us);

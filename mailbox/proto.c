@@ -111,6 +111,37 @@ const char *mbx_kind_to_string(unsigned k)
 	return "?";
 }
 
+static const struct {
+	int err;
+	int status;
+} status_of_errno[] = {
+	{ EINVAL, MBX_E_PARAM },           /* a value the callee refuses */
+	{ ENOENT, MBX_E_PARAM },           /* what it names does not exist */
+	{ ERANGE, MBX_E_PARAM },           /* out of its range */
+	{ ENOSPC, MBX_E_BUSY },            /* a bounded queue is full now */
+	{ ENOBUFS, MBX_E_BUSY },           /* the transmit queue is full now */
+	{ EBUSY, MBX_E_BUSY },             /* the resource is in use now */
+	{ EAGAIN, MBX_E_STATE },           /* not in the current state */
+	{ EPERM, MBX_E_STATE },            /* the state forbids it (NMT, ...) */
+	{ ENODEV, MBX_E_UNSUPPORTED },     /* the service is not configured */
+	{ EOPNOTSUPP, MBX_E_UNSUPPORTED }, /* nor implemented */
+	{ ENOMEM, MBX_E_NO_MEMORY },       /* the transfer memory budget */
+	{ EMSGSIZE, MBX_E_TOO_BIG },       /* larger than a limit */
+	{ E2BIG, MBX_E_TOO_BIG },
+	{ ETIMEDOUT, MBX_E_NO_ANSWER }, /* the device did not answer */
+	{ ESHUTDOWN, MBX_E_SHUTDOWN },  /* the line is stopping */
+};
+
+int mbx_status_of_errno(int rc)
+{
+	if (rc >= 0)
+		return 0;
+	for (size_t i = 0; i < sizeof status_of_errno / sizeof status_of_errno[0]; i++)
+		if (status_of_errno[i].err == -rc)
+			return status_of_errno[i].status;
+	return MBX_E_INTERNAL;
+}
+
 const char *mbx_status_to_string(int status)
 {
 	switch (status) {

@@ -130,6 +130,10 @@ typedef enum mbx_status {
 } mbx_status;
 
 const char *mbx_status_to_string(int status);
+/* The one table from a daemon call's result (0 or a negative errno) to the
+ * status a mailbox answer carries: 0 stays 0, an errno nobody expects is
+ * MBX_E_INTERNAL. */
+int mbx_status_of_errno(int rc);
 
 /* Why a message was refused (counted per reason in mbx_server_stats). */
 typedef enum mbx_bad {

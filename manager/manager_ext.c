@@ -65,7 +65,7 @@ static void cfgm_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
 {
 	struct mgr_line *ml = ctx;
 	uint32_t abort = r->outcome == CO_CFGMGR_FAILED_J || r->outcome == CO_CFGMGR_CANCELLED
-				 ? (r->abort ? r->abort : 0x08000000u)
+				 ? (r->abort ? r->abort : SDO_AB_GENERAL)
 				 : 0;
 	if (r->outcome == CO_CFGMGR_FAILED_J)
 		cogw_log(COGW_LOG_ERR,
@@ -162,7 +162,7 @@ static void program_answer(struct mgr_line *ml, struct mgr_program *p, const co_
 		.index = r->index,
 		.sub = r->sub,
 		.mode = r->mode,
-		.abort = r->outcome == CO_SWMGR_CANCELLED && !r->abort ? 0x08000000u : r->abort,
+		.abort = r->outcome == CO_SWMGR_CANCELLED && !r->abort ? SDO_AB_GENERAL : r->abort,
 		.found = r->found,
 		.expected = r->expected,
 		.bytes = r->bytes,
@@ -414,22 +414,6 @@ static void node_diag(struct mgr_line *ml, uint8_t node, mbx_mgr_node_diag *o)
 	}
 }
 
-static int status_of(int rc)
-{
-	switch (rc) {
-	case 0:
-		return 0;
-	case -EAGAIN:
-	case -EPERM:
-		return MBX_E_STATE;
-	case -EINVAL:
-	case -ENOENT:
-		return MBX_E_PARAM;
-	default:
-		return MBX_E_INTERNAL;
-	}
-}
-
 /*
  * MBX_CMD_MGR_PROGRAM: the software manager's sequence for one node with
  * the image of the request (validated by the mailbox: node 1..127, an
@@ -491,8 +475,7 @@ static void program_request(struct mgr_line *ml, line *l, const mbx_request *req
 	if (rc < 0) {
 		p->used = false;
 		p->image = NULL;
-		(void)mbx_server_respond(srv, &req->reply,
-					 rc == -EBUSY ? MBX_E_BUSY : status_of(rc), 0, NULL, 0);
+		(void)mbx_server_respond(srv, &req->reply, mbx_status_of_errno(rc), 0, NULL, 0);
 	}
 }
 
@@ -545,7 +528,7 @@ static void mgr_on_command(void *ctx, line *l, const mbx_request *req)
 		(void)mbx_server_respond(srv, &req->reply, MBX_E_UNKNOWN_CMD, 0, NULL, 0);
 		return;
 	}
-	(void)mbx_server_respond(srv, &req->reply, status_of(rc), 0, NULL, 0);
+	(void)mbx_server_respond(srv, &req->reply, mbx_status_of_errno(rc), 0, NULL, 0);
 }
 
 static const line_ext_ops mgr_ops = {

@@ -11,9 +11,7 @@
 
 static int gw_setup(const cogw_config *cfg, void **state)
 {
-	gw_params p = { .n_lines = (unsigned)cfg->n_lines,
-			.image_od = cfg->lines[0].od,
-			.max_transfer = cfg->mailbox.max_transfer };
+	gw_params p = { .n_lines = (unsigned)cfg->n_lines, .image_od = cfg->lines[0].od };
 	gw *g = NULL;
 	int rc;
 

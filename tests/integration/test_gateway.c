@@ -1137,6 +1137,47 @@ static void test_reset_on_line_0_leaves_line_1_untouched(void)
 
 /* ---- mailbox clients (libcogw) ------------------------------------------------------------ */
 
+/* A request by network is the line's own mailbox SDO transfer with a
+ * routing step (lines/line_sdo.c): a node that never answers is "unknown"
+ * (0A000002, docs/cogwctl.md), on another line or on the line's own bus;
+ * a client that goes away mid-way has its transfer cancelled and the lease
+ * of the target line given back. */
+static void mailbox_by_network_is_a_line_transfer(cogw *h)
+{
+	const cogw_sdo_opts quick = { .sdo_timeout_ms = 300 };
+	cogw_options o = { .instance = INSTANCE, .timeout_ms = 30000 };
+	mbx_gw_sdo_req r = { .net = 3, .sdo = { .node = TGT_NODE, .index = DOMAIN_IDX } };
+	mbx_gw_status st = { 0 };
+	static mbx_gw_route routes[128];
+	uint8_t buf[64];
+	size_t len = 0, n = 0;
+	uint32_t abort = 0;
+	uint64_t corr = 0;
+	cogw *gone = NULL;
+
+	TEST_ASSERT_EQUAL_INT(COGW_E_ABORT, cogw_sdo_read_net(h, 0, 3, 0x33, 0x1000, 0, &quick, buf,
+							      sizeof buf, &len, 30000, &abort));
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_NODE_UNKNOWN, abort);
+	TEST_ASSERT_EQUAL_INT(COGW_E_ABORT, cogw_sdo_read_net(h, 0, 1, 0x33, 0x1000, 0, &quick, buf,
+							      sizeof buf, &len, 30000, &abort));
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_NODE_UNKNOWN, abort);
+
+	TEST_ASSERT_EQUAL_INT(0, cogw_open_opts(&gone, &o));
+	TEST_ASSERT_EQUAL_INT(0,
+			      cogw_send_async(gone, 0, MBX_CMD_GW_SDO_UPLOAD, &r, sizeof r, &corr));
+	cogw_close(gone);
+	for (int i = 0; i < 50; i++) {
+		TEST_ASSERT_EQUAL_INT(0, cogw_gw_routes(h, 2, &st, routes, 128, &n, 30000));
+		if (!st.leases)
+			break;
+		usleep(100000);
+	}
+	TEST_ASSERT_EQUAL_UINT(0, st.leases);
+	TEST_ASSERT_EQUAL_INT(0, cogw_sdo_read_net(h, 0, 3, TGT_NODE, 0x1000, 0, NULL, buf,
+						   sizeof buf, &len, 30000, &abort));
+	TEST_ASSERT_EQUAL_HEX32(0x00040194, co_get_le32(buf));
+}
+
 static void test_mailbox_client_reaches_any_network(void)
 {
 	cogw *h = NULL;
@@ -1180,6 +1221,7 @@ static void test_mailbox_client_reaches_any_network(void)
 			      cogw_sdo_read_net(h, 0, 9, TGT_NODE, 0x1000, 0, NULL, buf, sizeof buf,
 						&len, 30000, &abort));
 	TEST_ASSERT_EQUAL_HEX32(GW_AB_NET_UNKNOWN, abort);
+	mailbox_by_network_is_a_line_transfer(h);
 	/* the gateway event class: a refused indication on line 0 */
 	TEST_ASSERT_EQUAL_INT(0, cogw_subscribe(h, 0, MBX_EVC_GW, NULL, 0, 30000));
 	uint8_t a[8];
@@ -1302,6 +1344,11 @@ static void test_multi_hop_through_two_daemons(void)
 	/* a mailbox client of A reaches the same node */
 	TEST_ASSERT_EQUAL_INT(0, cogw_open_opts(&h, &o));
 	TEST_ASSERT_EQUAL_INT(0, cogw_sdo_read_net(h, 0, 3, TGT_NODE, 0x1000, 0, NULL, buf,
+						   sizeof buf, &len, 30000, &abort));
+	TEST_ASSERT_EQUAL_HEX32(0x00040194, co_get_le32(buf));
+	/* asked on line 1, whose own bus holds the router */
+	memset(buf, 0, sizeof buf);
+	TEST_ASSERT_EQUAL_INT(0, cogw_sdo_read_net(h, 1, 3, TGT_NODE, 0x1000, 0, NULL, buf,
 						   sizeof buf, &len, 30000, &abort));
 	TEST_ASSERT_EQUAL_HEX32(0x00040194, co_get_le32(buf));
 	TEST_ASSERT_EQUAL_INT(COGW_E_ABORT,

@@ -5,7 +5,8 @@
  * could serve, requests to one node stay serialised, no_wait refuses at
  * once, the pool FIFO is bounded; the per-request confirmation comes
  * exactly once and never inside the submitting call; cancel by tag; the
- * default per-frame timeout is the client's own setting.
+ * default per-frame timeout is the client's own setting; a relayed
+ * request (CiA 302-7 routing) talks only through its relay.
  */
 #include <errno.h>
 #include <string.h>
@@ -381,6 +382,125 @@ static void test_lease_relays_raw_frames_and_holds_the_target(void)
 	TEST_ASSERT_EQUAL(-ENOENT, sdo_client_cancel_tag(cli->node, 0, SDO_AB_GENERAL, bus.now));
 }
 
+/* A transfer of ours that ended with our own abort frame may still get
+ * frames from its server; a lease would relay them to the next requester
+ * as answers: no lease toward that server for 100 ms. */
+static void test_no_lease_while_an_aborted_transfer_settles(void)
+{
+	TEST_ASSERT_EQUAL(0, pool_read(5, 1, false));
+	TEST_ASSERT_EQUAL(0, sdo_client_cancel_tag(cli->node, 1, SDO_AB_GENERAL, bus.now));
+	TEST_ASSERT_EQUAL(-EALREADY, sdo_client_lease(cli->node, 5, 0, 0, on_raw, &raw, bus.now));
+	/* another server is not concerned */
+	int other = sdo_client_lease(cli->node, 6, 0, 0, on_raw, &raw, bus.now);
+	TEST_ASSERT_TRUE(other >= 0);
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_end(cli->node, (uint8_t)other, bus.now));
+	tb_advance(&bus, 99000);
+	TEST_ASSERT_EQUAL(-EALREADY, sdo_client_lease(cli->node, 5, 0, 0, on_raw, &raw, bus.now));
+	tb_advance(&bus, 1000);
+	TEST_ASSERT_TRUE(sdo_client_lease(cli->node, 5, 0, 0, on_raw, &raw, bus.now) >= 0);
+	/* a transfer the server answered leaves nothing to settle */
+	TEST_ASSERT_EQUAL(0, pool_read(7, 2, false));
+	answer(7);
+	TEST_ASSERT_TRUE(sdo_client_lease(cli->node, 7, 0, 0, on_raw, &raw, bus.now) >= 0);
+}
+
+/* ---- relayed requests (CiA 302-7 routing: the server is elsewhere) ---- */
+
+static struct {
+	unsigned n;
+	uint8_t d[16][8];
+} relayed;
+
+static void relay_to(void *ctx, const uint8_t d[8])
+{
+	TEST_ASSERT_EQUAL_PTR(&relayed, ctx);
+	if (relayed.n < 16)
+		memcpy(relayed.d[relayed.n], d, 8);
+	relayed.n++;
+}
+
+static int relayed_read(uint8_t node, uint32_t target, uint64_t tag)
+{
+	sdo_client_req r = read_req(node, tag);
+	int rc;
+
+	memset(&relayed, 0, sizeof relayed);
+	r.relay = relay_to;
+	r.relay_ctx = &relayed;
+	r.relay_target = target;
+	seen.in_submit = true;
+	rc = sdo_client_pool_submit(cli->node, &r, bus.now);
+	seen.in_submit = false;
+	return rc;
+}
+
+static void relay_answer(uint64_t tag, int expect)
+{
+	static const uint8_t d[8] = { 0x43, 0x00, 0x10, 0x00, 0x92, 0x01, 0x02, 0x00 };
+
+	TEST_ASSERT_EQUAL(expect, sdo_client_relay_recv(cli->node, tag, d, bus.now));
+}
+
+static void test_relayed_frames_go_to_the_relay_not_the_bus(void)
+{
+	TEST_ASSERT_EQUAL(0, relayed_read(5, 3u << 8 | 5, 1));
+	TEST_ASSERT_EQUAL(0, requests_to(5)); /* nothing on this bus */
+	TEST_ASSERT_EQUAL(1, relayed.n);
+	TEST_ASSERT_EQUAL_HEX8(0x40, relayed.d[0][0]); /* upload initiate 1000h:00 */
+	TEST_ASSERT_EQUAL_HEX16(0x1000, co_get_le16(&relayed.d[0][1]));
+	/* node 5 of this bus is another device: its answer is not ours */
+	answer(5);
+	TEST_ASSERT_EQUAL(0, seen.n);
+	relay_answer(1, 0);
+	TEST_ASSERT_EQUAL(1, seen.n);
+	TEST_ASSERT_EQUAL_HEX32(0, seen.con[0].abort);
+	TEST_ASSERT_EQUAL_UINT32(4, seen.con[0].size);
+	TEST_ASSERT_TRUE(seen.con[0].answered);
+	TEST_ASSERT_EQUAL_HEX8(0x92, buf[0]);
+	/* a late frame finds no transfer */
+	relay_answer(1, -ENOENT);
+	TEST_ASSERT_EQUAL(0, seen.during_submit);
+}
+
+static void test_relayed_target_serialised_apart_from_the_bus(void)
+{
+	TEST_ASSERT_EQUAL(0, relayed_read(5, 3u << 8 | 5, 1));
+	sdo_client_req r = read_req(5, 2);
+	r.relay = relay_to;
+	r.relay_ctx = &relayed;
+	r.relay_target = 3u << 8 | 5;
+	TEST_ASSERT_EQUAL(0, sdo_client_pool_submit(cli->node, &r, bus.now));
+	/* the same remote server: waits; node 5 of this bus: not held back */
+	TEST_ASSERT_EQUAL(1, sdo_client_pool_waiting(cli->node));
+	TEST_ASSERT_EQUAL(0, pool_read(5, 3, false));
+	TEST_ASSERT_EQUAL(1, requests_to(5));
+	TEST_ASSERT_EQUAL(1, relayed.n);
+	relay_answer(1, 0);
+	TEST_ASSERT_EQUAL(2, relayed.n); /* the second one starts now */
+	relay_answer(2, 0);
+	answer(5);
+	TEST_ASSERT_EQUAL(3, seen.n);
+}
+
+static void test_relayed_timeout_and_cancel_end_through_the_relay(void)
+{
+	TEST_ASSERT_EQUAL(0, relayed_read(5, 3u << 8 | 5, 1));
+	tb_advance(&bus, 600000);
+	TEST_ASSERT_EQUAL(1, seen.n);
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_TIMEOUT, seen.con[0].abort);
+	TEST_ASSERT_FALSE(seen.con[0].answered); /* the server never answered */
+	TEST_ASSERT_EQUAL(2, relayed.n);
+	TEST_ASSERT_EQUAL_HEX8(0x80, relayed.d[1][0]);
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_TIMEOUT, co_get_le32(&relayed.d[1][4]));
+
+	TEST_ASSERT_EQUAL(0, relayed_read(6, 3u << 8 | 6, 2));
+	TEST_ASSERT_EQUAL(0, sdo_client_cancel_tag(cli->node, 2, SDO_AB_NODE_UNKNOWN, bus.now));
+	TEST_ASSERT_EQUAL(2, seen.n);
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_NODE_UNKNOWN, seen.con[1].abort);
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_NODE_UNKNOWN, co_get_le32(&relayed.d[1][4]));
+	TEST_ASSERT_EQUAL(0, tb_count_from_id(&bus, 0, 0x606, 0));
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -395,5 +515,9 @@ int main(void)
 	RUN_TEST(test_default_timeout_is_the_clients_own);
 	RUN_TEST(test_without_client_channels);
 	RUN_TEST(test_lease_relays_raw_frames_and_holds_the_target);
+	RUN_TEST(test_no_lease_while_an_aborted_transfer_settles);
+	RUN_TEST(test_relayed_frames_go_to_the_relay_not_the_bus);
+	RUN_TEST(test_relayed_target_serialised_apart_from_the_bus);
+	RUN_TEST(test_relayed_timeout_and_cancel_end_through_the_relay);
 	return UNITY_END();
 }

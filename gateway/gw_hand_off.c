@@ -1,0 +1,42 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * gateway/gw_hand_off.c - the one way a gateway message leaves a line: the
+ * ring to the other line (lines/xring.h: by value, single producer), or,
+ * for the line itself, a small queue taken after the rings on its next
+ * look, so that no message is ever handled inside the call that sent it
+ * (a relayed SDO transfer sends from inside the SDO client).
+ */
+#include <errno.h>
+
+#include "gateway/gw_line.h"
+
+int gw_send_to(struct gw_line *gl, unsigned to, gw_msg *m)
+{
+	m->from = (uint8_t)gl->idx;
+	if (to == gl->idx) {
+		if (gl->self_len == GW_SELF_SLOTS)
+			return -ENOBUFS;
+		gl->self[(gl->self_head + gl->self_len++) % GW_SELF_SLOTS] = *m;
+		return 0;
+	}
+	xring *r = xring_mesh_get(gl->g->mesh, gl->idx, to);
+	return r ? xring_push(r, m, sizeof(*m)) : -EINVAL;
+}
+
+bool gw_self_take(struct gw_line *gl, gw_msg *out)
+{
+	if (!gl->self_len)
+		return false;
+	*out = gl->self[gl->self_head];
+	gl->self_head = (uint16_t)((gl->self_head + 1) % GW_SELF_SLOTS);
+	gl->self_len--;
+	return true;
+}
+
+void gw_give_back(struct gw_line *gl, const gw_msg *opened)
+{
+	gw_msg c = { .kind = M_CLOSE, .sid = opened->sid };
+
+	if (gw_send_to(gl, opened->from, &c))
+		GW_COUNT(gl->c.ring_drops); /* the relay's idle limit frees it */
+}

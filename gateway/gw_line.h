@@ -1,0 +1,219 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * gateway/gw_line.h - the gateway's run-time state, shared by the files of
+ * gateway/ that run it on the line threads (not a public header: see
+ * gateway.h).
+ *
+ * Who does what (calls go down this list, never back up):
+ *   gateway.c      the extension ops and the life cycle: every message
+ *                  and every tick enters here and goes to one of
+ *   gw_session.c   routed sessions of the entry line (network indications
+ *                  on its SDO server, gateway/sdo_route.h)
+ *   gw_mbx_hop.c   the routing step of the line's mailbox SDO transfers
+ *                  (lines/line_sdo.c; line_ext.h sdo_route)
+ *   gw_relay.c     relay leases of the target line (its SDO clients lent
+ *                  to sessions and mailbox transfers of any line)
+ *   gw_emcy.c      EMCY routing (1F2Fh) at run time
+ *   gw_pdo.c       PDO forwarding of the B-objects at run time
+ *   gw_status.c    the mailbox's GW_ROUTES answer
+ *   gw_hand_off.c  the one way a message leaves a line (the rings)
+ *
+ * Each gw_line belongs to its line thread. The only thing another thread
+ * reads is the counters (relaxed atomics, gw_line_counters_get) and, for
+ * PDO forwarding, the other lines' forwarding lists and lost-update marks
+ * (gateway/pdo_sync.h, atomics). Everything else crosses lines as a gw_msg,
+ * by value.
+ */
+#ifndef COGW_GATEWAY_GW_LINE_H
+#define COGW_GATEWAY_GW_LINE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "core/co.h"
+#include "core/sdo_server.h"
+#include "gateway/gateway.h"
+#include "gateway/image.h"
+#include "gateway/pdo_sync.h"
+#include "gateway/route.h"
+#include "gateway/sdo_route.h"
+#include "lines/line.h"
+#include "lines/xring.h"
+
+#define GW_RELAYS_MAX 128u
+#define GW_RING_SLOTS 1024u
+#define GW_RELAY_IDLE_FACTOR 8u  /* idle lease given back after 8 timeouts */
+#define GW_REBUILD_US 1000000u   /* forwarding list re-checked every 1 s */
+#define GW_LINK_CHECK_US 100000u /* link of a line holding leases: every 100 ms */
+#define GW_DRAIN_US 100000u      /* an aborted lease: quiet time before it is free */
+#define GW_HOPS_MAX 64u          /* routed mailbox SDO transfers per line */
+#define GW_SELF_SLOTS 64u        /* messages a line hands to itself */
+
+enum gw_msg_kind {
+	M_FWD = 1,   /* a B-object changed: slot, its new value in bits */
+	M_EMCY,      /* send a forwarded EMCY: net, src_node, code */
+	M_OPEN,      /* lease a client toward node for sid */
+	M_OPENED,    /* the answer: abort */
+	M_TO_TARGET, /* a requester frame: d */
+	M_TO_REQ,    /* a target frame: d */
+	M_CLOSE,     /* give the lease of sid back */
+	M_LOST,      /* the target line carries no frames (link down, bus-off): sid ends */
+};
+
+/* Everything that crosses lines, by value. */
+typedef struct gw_msg {
+	uint8_t kind;
+	uint8_t from; /* sending line */
+	uint8_t node; /* M_OPEN: target or router; M_EMCY: source node */
+	uint8_t pad;
+	uint32_t sid;   /* what a lease serves: see gw_sid_* */
+	uint32_t abort; /* M_OPENED, M_LOST */
+	uint16_t slot;  /* M_FWD */
+	uint16_t net;   /* M_EMCY: source network */
+	uint16_t code;  /* M_EMCY: original error code */
+	uint64_t bits;  /* M_FWD: the value written (gw_image_bits_from) */
+	uint8_t d[8];   /* frames */
+} gw_msg;
+
+/* A lease serves a session (bit 23 clear: line << 24 | channel << 16 |
+ * generation) or a mailbox transfer's hop (bit 23 set: line << 24 | hop
+ * << 16 | generation) of the line `sid >> 24`. */
+#define GW_SID_HOP 0x800000u
+
+struct gw_line;
+
+/* A routed session: one per SDO server channel of the entry line. */
+struct gw_sess {
+	struct gw_line *gl;
+	uint8_t ch;
+	uint16_t gen;
+	uint16_t net; /* the requested network (for the counters) */
+	uint8_t target_line;
+	uint64_t started_us; /* the network indication (for the listing) */
+	gw_sdo_route r;
+};
+
+/* A relay lease: one SDO client channel of the target line lent out. */
+struct gw_relay {
+	bool used;
+	/* The line stopped carrying frames under it (link down, bus-off):
+	 * the session was told and is gone, the device may still be in the
+	 * transfer. Kept (the channel not lent again) until the line carries
+	 * frames again, then the device gets an abort; or freed by the idle
+	 * limit. */
+	bool orphaned;
+	uint8_t from;
+	bool engaged; /* the device got a frame of the transfer */
+	bool aborted; /* the requester's last frame was an abort */
+	/* The requester aborted and is gone: the device may still send frames
+	 * of that transfer. Kept (no requester, its channel not lent) until
+	 * the device has been quiet for GW_DRAIN_US, so that those frames
+	 * never reach the next requester. */
+	bool draining;
+	uint8_t mux[3]; /* its index, sub-index (from that first frame) */
+	int cli_ch;
+	uint32_t sid;
+	uint64_t last_us;
+	struct gw_line *gl;
+};
+
+/* The hop of a routed mailbox SDO transfer (gw_mbx_hop.c). */
+enum gw_hop_phase {
+	HOP_FREE,
+	HOP_ROUTED,     /* resolved; nothing sent yet (the request may wait) */
+	HOP_INDICATING, /* lease asked, network indication to the router sent */
+	HOP_RELAYING,   /* the transfer's frames go through the lease */
+	HOP_REFUSED,    /* ended by the route: the transfer is cancelled */
+};
+
+struct gw_mbx_hop {
+	uint8_t phase;
+	bool held_valid;
+	uint8_t held[8]; /* the transfer's first frame, while indicating */
+	uint16_t gen;
+	uint16_t net; /* the network asked for */
+	uint8_t node; /* the node asked for */
+	uint64_t tag; /* the transfer (line_sdo's pending tag) */
+	gw_hop hop;   /* line and node (target or router) of the lease */
+	struct gw_line *gl;
+};
+
+struct gw_line {
+	gw *g;
+	unsigned idx;
+	line *l;
+	co_node *node;
+	gw_line_params p;
+	gw_route_table routes;
+	gw_fwd_list fwd;
+	gw_pdo_sync lost; /* updates that could not be handed to this line */
+	bool fwd_dirty;
+	uint64_t next_rebuild_us;
+	uint64_t next_link_check_us;
+	bool carried; /* what the last link check saw (gw_relays_check_link) */
+	struct gw_sess *sess;
+	uint8_t n_sess;
+	struct gw_relay relay[GW_RELAYS_MAX];
+	struct gw_mbx_hop hops[GW_HOPS_MAX];
+	/* Messages to this line itself (a hop through a router on its own
+	 * bus), taken after the rings: never handled inside the call that
+	 * sent them. */
+	gw_msg self[GW_SELF_SLOTS];
+	uint16_t self_head, self_len;
+	gw_line_counters c; /* written by this line, read relaxed elsewhere */
+};
+
+struct gw {
+	unsigned n;
+	gw_image *img;
+	xring_mesh *mesh;
+	struct gw_line line[GW_LINES_MAX];
+};
+
+#define GW_COUNT(x) __atomic_fetch_add(&(x), 1, __ATOMIC_RELAXED)
+
+/* gw_hand_off.c: hand m to line `to` (m->from set here); to == gl->idx
+ * queues it for this line's next look. 0, or -errno (ring full/closed,
+ * own queue full): the caller counts the drop. */
+int gw_send_to(struct gw_line *gl, unsigned to, gw_msg *m);
+/* The oldest message this line sent itself; false when none. */
+bool gw_self_take(struct gw_line *gl, gw_msg *out);
+/* A lease was opened for a session or hop that has ended meanwhile: give
+ * it straight back (M_CLOSE to the line that opened it). */
+void gw_give_back(struct gw_line *gl, const gw_msg *opened);
+
+/* gw_session.c */
+extern const sdo_server_route_ops gw_session_server_hook;
+void gw_sessions_init(struct gw_line *gl);
+void gw_session_opened(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
+void gw_session_target_frame(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
+void gw_session_lost(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
+uint64_t gw_sessions_tick(struct gw_line *gl, uint64_t now_us, uint64_t next);
+
+/* gw_relay.c */
+void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
+void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
+void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
+uint64_t gw_relays_tick(struct gw_line *gl, uint64_t now_us, uint64_t next);
+
+/* gw_mbx_hop.c */
+uint32_t gw_hop_route(void *ctx, line *l, uint64_t tag, uint16_t net, uint8_t node,
+		      line_sdo_route *out);
+void gw_hop_end(void *ctx, line *l, uint64_t tag);
+void gw_hop_opened(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
+void gw_hop_target_frame(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
+void gw_hop_lost(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
+
+/* gw_emcy.c */
+void gw_emcy_consumed(struct gw_line *gl, const co_ev_emcy *e);
+void gw_emcy_send(struct gw_line *gl, const gw_msg *m);
+
+/* gw_pdo.c */
+extern const co_od_hooks gw_image_hooks;
+void gw_pdo_received(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
+bool gw_pdo_resync_apply(void *ctx, int slot, uint64_t bits);
+
+/* gw_status.c */
+void gw_mbx_routes(struct gw_line *gl, const mbx_request *req);
+
+#endif /* COGW_GATEWAY_GW_LINE_H */
