@@ -218,10 +218,10 @@ unit: $(UNIT_BINS)
 integration: $(INTEG_BINS) $(TSAN_VCAN_BINS)
 	tests/vcan/run -n 3 -- tests/run-tests integration $(INTEG_BINS) $(TSAN_VCAN_BINS)
 
-# No call cycle between the files of core/, lines/, mailbox/ or gateway/ (scripts/callgraph-cycles: who
+# No call cycle between the files of core/, lines/, mailbox/, gateway/ or manager/ (scripts/callgraph-cycles: who
 # calls whose functions, from the object files' symbols).
 check-callgraph:
-	scripts/callgraph-cycles core lines mailbox gateway
+	scripts/callgraph-cycles core lines mailbox gateway manager
 
 # Interoperability with python-canopen (tests/interop/): one VM boot for the group.
 # scripts/pyenv.sh installs the pinned packages into build/pyenv on first use.

@@ -1,10 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * gateway/convention.h - the encodings this project defines for CiA 302-7
- * multi-level networking, in one place (DESIGN.md "Conventions this project
- * defines"; docs/gateway.md). The seed documents name the objects but not
- * their layout; when the CiA 302-7 text is at hand, this file (and its unit
- * test) is what changes.
+ * multi-level networking, in one place (docs/gateway.md). CiA 302-7 names
+ * the objects; where this project had to choose their layout, the choice
+ * is here, and when it must change, this file (and its unit test) is what
+ * changes.
  *
  *   network indication   client -> gateway SDO server, before a routed
  *                        transfer: E0 nn nn id 00 00 00 00 (nn = target

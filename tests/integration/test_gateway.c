@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * The CiA 302-7 gateway with the real daemon, cosim devices and raw CAN on
- * three vcan lines (spec 002 scenarios 59-63; 59: a reset of line 0 leaves
- * line 1 running):
+ * three vcan lines (docs/gateway.md; a reset of line 0 leaves line 1
+ * running):
  * - a requester on vcan0 that speaks the network indication (the core's
  *   own SDO client driven over a raw socket, after a hand-made indication
  *   frame) reads and writes a device on vcan2 in every SDO mode, byte-exact;
@@ -373,7 +373,7 @@ void tearDown(void)
 	daemon_cleanup(&dmn_b);
 }
 
-/* ---- SDO routing (scenario 60) -------------------------------------------------------------- */
+/* ---- SDO routing -------------------------------------------------------------- */
 
 static void fill(uint8_t *buf, size_t len, unsigned seed)
 {
@@ -878,7 +878,7 @@ static void test_faults_refused_at_once_other_routes_work_sessions_released(void
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(out, "SDO   sessions"), out);
 }
 
-/* ---- EMCY routing (scenario 61) ------------------------------------------------------------- */
+/* ---- EMCY routing ------------------------------------------------------------- */
 
 static void test_emcy_routing_follows_1f2f(void)
 {
@@ -924,7 +924,7 @@ static void test_emcy_routing_follows_1f2f(void)
 	TEST_ASSERT_EQUAL_INT(-ETIMEDOUT, can_wait_id(fd2, 0x80 + GW_NODE, d, 500));
 }
 
-/* ---- PDO forwarding (scenario 62) ------------------------------------------------------------ */
+/* ---- PDO forwarding ------------------------------------------------------------ */
 
 /* A receive buffer for a whole burst (1500 frames): SO_RCVBUF is capped
  * by rmem_max (a few hundred frames), SO_RCVBUFFORCE is not (root, as in
@@ -1103,7 +1103,7 @@ static void test_pdo_forwarding(void)
 	TEST_ASSERT_EQUAL_UINT64(1, e0.pdo_forwarded - s0.pdo_forwarded);
 }
 
-/* ---- lines are independent (scenario 59) ------------------------------------------------------ */
+/* ---- lines are independent ------------------------------------------------------ */
 
 static void test_reset_on_line_0_leaves_line_1_untouched(void)
 {
@@ -1358,7 +1358,7 @@ static void test_multi_hop_through_two_daemons(void)
 	cogw_close(h);
 }
 
-/* ---- 1F2Ch/1F2Fh writable over SDO and the mailbox, kept by 1010h (scenario 63) ------------ */
+/* ---- 1F2Ch/1F2Fh writable over SDO and the mailbox, kept by 1010h ------------ */
 
 static void test_routes_written_and_saved_survive_a_restart(void)
 {
