@@ -59,7 +59,7 @@ SAN_APPCOMMON_LIB := $(SAN)/lib/libcogw_appcommon.a
 # Libraries every program and test links, most dependent first.
 # (mailbox libraries are added to these lists where they are defined below)
 # mailbox: libcogw_mbxsrv.a (daemon side, proto.c + server.c) and libcogw.a/.so
-# (client library, proto.c + client.c); rules at the end of this file.
+# (client library, proto.c + client.c + client_api_*.c); rules at the end of this file.
 REL_MBXSRV_LIB := $(REL)/lib/libcogw_mbxsrv.a
 SAN_MBXSRV_LIB := $(SAN)/lib/libcogw_mbxsrv.a
 REL_COGW_LIB := $(REL)/lib/libcogw.a
@@ -82,8 +82,8 @@ TSAN_CFLAGS := $(BASE) -O1 -g -fno-omit-frame-pointer -fsanitize=thread
 # with the integration tests.
 TSAN_SRC := $(sort $(wildcard tests/tsan/test_*.c))
 TSAN_VCAN_SRC := $(sort $(wildcard tests/tsan/vcan_*.c))
-TSAN_LIB_SRC := $(LINES_SRC) $(GATEWAY_SRC) mailbox/proto.c mailbox/client.c mailbox/server.c \
-		mailbox/budget.c
+TSAN_LIB_SRC := $(LINES_SRC) $(GATEWAY_SRC) mailbox/proto.c mailbox/client.c \
+		$(sort $(wildcard mailbox/client_api_*.c)) mailbox/server.c mailbox/budget.c
 TSAN_CORE_LIB := $(TSAN)/lib/libcogw-core.a
 TSAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_SRC))
 TSAN_VCAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_VCAN_SRC))
@@ -380,7 +380,7 @@ clean:
 # libcogw.so: the client library for applications (public header mailbox/cogw.h).
 MBX_PROTO_SRC  := mailbox/proto.c
 MBX_SERVER_SRC := $(MBX_PROTO_SRC) mailbox/server.c mailbox/budget.c
-MBX_CLIENT_SRC := $(MBX_PROTO_SRC) mailbox/client.c
+MBX_CLIENT_SRC := $(MBX_PROTO_SRC) mailbox/client.c $(sort $(wildcard mailbox/client_api_*.c))
 
 $(REL)/pic/%.o: %.c
 	@mkdir -p $(@D)

@@ -1,6 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * mailbox/client.c - libcogw.
+ * mailbox/client.c - libcogw's transport: registration, sending, waiting
+ * for answers, the helper thread, chunk reassembly, leases, the handle's
+ * life and the asynchronous interface. The services (cogw_od_read, cogw_lss,
+ * ...) are in mailbox/client_api_*.c and reach this file only through
+ * client_call() and the subscription bookkeeping (mailbox/client_internal.h).
  *
  * Structure: one handle = one response queue + one event queue of this
  * process, a helper thread, and per line the registration (client id +
@@ -40,7 +44,7 @@
  * This is not on a real-time path: mutexes, malloc and sends that wait
  * (up to a deadline) for room in a full command queue are fine here.
  */
-#include "mailbox/cogw.h"
+#include "mailbox/client_internal.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -690,8 +694,8 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 	return rc;
 }
 
-/* The common shape of every blocking call. */
-static int call(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t flen,
+/* The common shape of every blocking call (mailbox/client_internal.h). */
+int client_call(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t flen,
 		const void *data, size_t dlen, void *rbuf, size_t rcap, size_t *rlen,
 		uint32_t *abort, unsigned timeout_ms)
 {
@@ -722,6 +726,31 @@ static int call(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t
 				      abort, mono_us(), deadline);
 	}
 	return rc;
+}
+
+void client_subscribed(cogw *h, unsigned line, uint32_t classes, uint8_t n_filters,
+		       const mbx_raw_filter filters[MBX_RAW_FILTERS_MAX])
+{
+	line_state *ls = &h->lines[line];
+
+	pthread_mutex_lock(&h->setup_mu);
+	ls->sub_classes |= classes & MBX_EVC_ALL;
+	if (classes & MBX_EVC_RAW) {
+		ls->n_filters = n_filters;
+		memcpy(ls->filters, filters, sizeof ls->filters);
+	}
+	pthread_mutex_unlock(&h->setup_mu);
+}
+
+void client_unsubscribed(cogw *h, unsigned line, uint32_t classes)
+{
+	line_state *ls = &h->lines[line];
+
+	pthread_mutex_lock(&h->setup_mu);
+	ls->sub_classes &= ~classes;
+	if (classes & MBX_EVC_RAW)
+		ls->n_filters = 0;
+	pthread_mutex_unlock(&h->setup_mu);
 }
 
 /* ---- the reader thread ----------------------------------------------------------- */
@@ -1648,581 +1677,4 @@ void cogw_get_stats(cogw *h, cogw_stats *st)
 	pthread_mutex_lock(&h->mu);
 	*st = h->stats;
 	pthread_mutex_unlock(&h->mu);
-}
-
-/* ---- services ------------------------------------------------------------------------ */
-
-int cogw_od_read(cogw *h, unsigned line, uint16_t index, uint8_t sub, void *buf, size_t cap,
-		 size_t *len, unsigned timeout_ms, uint32_t *abort)
-{
-	mbx_obj_req r = { .index = index, .sub = sub };
-
-	return call(h, line, MBX_CMD_OD_READ, &r, sizeof r, NULL, 0, buf, cap, len, abort,
-		    timeout_ms);
-}
-
-int cogw_od_write(cogw *h, unsigned line, uint16_t index, uint8_t sub, const void *data, size_t len,
-		  unsigned timeout_ms, uint32_t *abort)
-{
-	mbx_obj_req r = { .index = index, .sub = sub };
-
-	return call(h, line, MBX_CMD_OD_WRITE, &r, sizeof r, data, len, NULL, 0, NULL, abort,
-		    timeout_ms);
-}
-
-int cogw_sdo_read_ex(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
-		     const cogw_sdo_opts *o, void *buf, size_t cap, size_t *len,
-		     unsigned timeout_ms, uint32_t *abort)
-{
-	mbx_sdo_req r = { .node = node, .index = index, .sub = sub };
-
-	if (o) {
-		r.mode = o->mode;
-		r.timeout_ms = o->sdo_timeout_ms;
-	}
-	return call(h, line, MBX_CMD_SDO_UPLOAD, &r, sizeof r, NULL, 0, buf, cap, len, abort,
-		    timeout_ms);
-}
-
-int cogw_sdo_write_ex(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
-		      const cogw_sdo_opts *o, const void *data, size_t len, unsigned timeout_ms,
-		      uint32_t *abort)
-{
-	mbx_sdo_req r = { .node = node, .index = index, .sub = sub };
-
-	if (o) {
-		r.mode = o->mode;
-		r.timeout_ms = o->sdo_timeout_ms;
-	}
-	return call(h, line, MBX_CMD_SDO_DOWNLOAD, &r, sizeof r, data, len, NULL, 0, NULL, abort,
-		    timeout_ms);
-}
-
-static mbx_gw_sdo_req gw_sdo_req(uint16_t net, uint8_t node, uint16_t index, uint8_t sub,
-				 const cogw_sdo_opts *o)
-{
-	mbx_gw_sdo_req r = { .net = net, .sdo = { .node = node, .index = index, .sub = sub } };
-
-	if (o) {
-		r.sdo.mode = o->mode;
-		r.sdo.timeout_ms = o->sdo_timeout_ms;
-	}
-	return r;
-}
-
-int cogw_sdo_read_net(cogw *h, unsigned line, uint16_t net, uint8_t node, uint16_t index,
-		      uint8_t sub, const cogw_sdo_opts *o, void *buf, size_t cap, size_t *len,
-		      unsigned timeout_ms, uint32_t *abort)
-{
-	mbx_gw_sdo_req r = gw_sdo_req(net, node, index, sub, o);
-
-	return call(h, line, MBX_CMD_GW_SDO_UPLOAD, &r, sizeof r, NULL, 0, buf, cap, len, abort,
-		    timeout_ms);
-}
-
-int cogw_sdo_write_net(cogw *h, unsigned line, uint16_t net, uint8_t node, uint16_t index,
-		       uint8_t sub, const cogw_sdo_opts *o, const void *data, size_t len,
-		       unsigned timeout_ms, uint32_t *abort)
-{
-	mbx_gw_sdo_req r = gw_sdo_req(net, node, index, sub, o);
-
-	return call(h, line, MBX_CMD_GW_SDO_DOWNLOAD, &r, sizeof r, data, len, NULL, 0, NULL, abort,
-		    timeout_ms);
-}
-
-int cogw_mgr_status(cogw *h, unsigned line, mbx_mgr_status *st, unsigned timeout_ms)
-{
-	size_t len = 0;
-	int rc = call(h, line, MBX_CMD_MGR_STATUS, NULL, 0, NULL, 0, st, sizeof *st, &len, NULL,
-		      timeout_ms);
-
-	if (!rc && len != sizeof *st)
-		return COGW_E_PROTOCOL;
-	return rc;
-}
-
-int cogw_mgr_node_diag(cogw *h, unsigned line, uint8_t node, mbx_mgr_node_diag *d,
-		       unsigned timeout_ms)
-{
-	mbx_mgr_node_req r = { .node = node };
-	size_t len = 0;
-	int rc = call(h, line, MBX_CMD_MGR_NODE_DIAG, &r, sizeof r, NULL, 0, d, sizeof *d, &len,
-		      NULL, timeout_ms);
-
-	if (!rc && len != sizeof *d)
-		return COGW_E_PROTOCOL;
-	return rc;
-}
-
-int cogw_mgr_boot(cogw *h, unsigned line, uint8_t node, unsigned timeout_ms)
-{
-	mbx_mgr_node_req r = { .node = node };
-	return call(h, line, MBX_CMD_MGR_BOOT, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL,
-		    timeout_ms);
-}
-
-int cogw_mgr_start(cogw *h, unsigned line, unsigned timeout_ms)
-{
-	return call(h, line, MBX_CMD_MGR_START, NULL, 0, NULL, 0, NULL, 0, NULL, NULL, timeout_ms);
-}
-
-int cogw_mgr_request_nmt(cogw *h, unsigned line, uint8_t node, uint8_t cmd, unsigned timeout_ms)
-{
-	mbx_mgr_nmt_req r = { .node = node, .cmd = cmd };
-	return call(h, line, MBX_CMD_MGR_REQUEST_NMT, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL,
-		    timeout_ms);
-}
-
-int cogw_mgr_reset_counters(cogw *h, unsigned line, unsigned timeout_ms)
-{
-	return call(h, line, MBX_CMD_MGR_RESET_COUNTERS, NULL, 0, NULL, 0, NULL, 0, NULL, NULL,
-		    timeout_ms);
-}
-
-int cogw_gw_status(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes, size_t cap,
-		   size_t *n, mbx_gw_session *sessions, size_t s_cap, size_t *n_s,
-		   unsigned timeout_ms)
-{
-	static __thread uint8_t buf[sizeof(mbx_gw_status) + 255 * sizeof(mbx_gw_route) +
-				    255 * sizeof(mbx_gw_session)];
-	size_t len = 0, off = sizeof *st;
-	int rc = call(h, line, MBX_CMD_GW_ROUTES, NULL, 0, NULL, 0, buf, sizeof buf, &len, NULL,
-		      timeout_ms);
-
-	if (rc)
-		return rc;
-	if (len < sizeof *st)
-		return COGW_E_PROTOCOL;
-	memcpy(st, buf, sizeof *st);
-	if (len !=
-	    sizeof *st + st->routes * sizeof(mbx_gw_route) + st->active * sizeof(mbx_gw_session))
-		return COGW_E_PROTOCOL;
-	if (n)
-		*n = st->routes;
-	for (size_t i = 0; routes && i < st->routes && i < cap; i++)
-		memcpy(&routes[i], buf + off + i * sizeof(mbx_gw_route), sizeof routes[i]);
-	off += st->routes * sizeof(mbx_gw_route);
-	if (n_s)
-		*n_s = st->active;
-	for (size_t i = 0; sessions && i < st->active && i < s_cap; i++) {
-		memcpy(&sessions[i], buf + off + i * sizeof(mbx_gw_session), sizeof sessions[i]);
-		sessions[i].state[sizeof sessions[i].state - 1] = '\0';
-	}
-	return 0;
-}
-
-int cogw_gw_routes(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes, size_t cap,
-		   size_t *n, unsigned timeout_ms)
-{
-	return cogw_gw_status(h, line, st, routes, cap, n, NULL, 0, NULL, timeout_ms);
-}
-
-int cogw_sdo_read(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, void *buf,
-		  size_t cap, size_t *len, unsigned timeout_ms, uint32_t *abort)
-{
-	return cogw_sdo_read_ex(h, line, node, index, sub, NULL, buf, cap, len, timeout_ms, abort);
-}
-
-int cogw_sdo_write(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
-		   const void *data, size_t len, unsigned timeout_ms, uint32_t *abort)
-{
-	return cogw_sdo_write_ex(h, line, node, index, sub, NULL, data, len, timeout_ms, abort);
-}
-
-/* Read exactly n bytes (a numeric value) into a little-endian integer. */
-static int read_num(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, size_t n,
-		    uint64_t *v, unsigned timeout_ms, uint32_t *abort)
-{
-	uint8_t b[8];
-	size_t len = 0;
-	uint32_t ab = 0;
-	int rc = cogw_sdo_read(h, line, node, index, sub, b, sizeof b, &len, timeout_ms, &ab);
-
-	if (rc == 0 && len != n) {
-		rc = COGW_E_ABORT;
-		ab = 0x06070010u; /* data type does not match, length */
-	} else if (rc == COGW_E_TRUNCATED) {
-		rc = COGW_E_ABORT;
-		ab = 0x06070012u; /* length too high */
-	}
-	if (abort)
-		*abort = ab;
-	if (rc)
-		return rc;
-	*v = 0;
-	for (size_t i = 0; i < n; i++)
-		*v |= (uint64_t)b[i] << (8 * i);
-	return 0;
-}
-
-static int write_num(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, size_t n,
-		     uint64_t v, unsigned timeout_ms, uint32_t *abort)
-{
-	uint8_t b[8];
-
-	for (size_t i = 0; i < n; i++)
-		b[i] = (uint8_t)(v >> (8 * i));
-	return cogw_sdo_write(h, line, node, index, sub, b, n, timeout_ms, abort);
-}
-
-#define TYPED(suffix, type, n)                                                                  \
-	int cogw_sdo_read_##suffix(cogw *h, unsigned line, uint8_t node, uint16_t index,        \
-				   uint8_t sub, type *v, unsigned timeout_ms, uint32_t *abort)  \
-	{                                                                                       \
-		uint64_t x;                                                                     \
-		int rc = read_num(h, line, node, index, sub, n, &x, timeout_ms, abort);         \
-		if (rc == 0)                                                                    \
-			*v = (type)x;                                                           \
-		return rc;                                                                      \
-	}                                                                                       \
-	int cogw_sdo_write_##suffix(cogw *h, unsigned line, uint8_t node, uint16_t index,       \
-				    uint8_t sub, type v, unsigned timeout_ms, uint32_t *abort)  \
-	{                                                                                       \
-		return write_num(h, line, node, index, sub, n, (uint64_t)v, timeout_ms, abort); \
-	}
-
-TYPED(u8, uint8_t, 1)
-TYPED(u16, uint16_t, 2)
-TYPED(u32, uint32_t, 4)
-TYPED(u64, uint64_t, 8)
-#undef TYPED
-
-int cogw_sdo_read_float(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, float *v,
-			unsigned timeout_ms, uint32_t *abort)
-{
-	uint64_t x;
-	uint32_t bits;
-	int rc = read_num(h, line, node, index, sub, 4, &x, timeout_ms, abort);
-
-	if (rc == 0) {
-		bits = (uint32_t)x;
-		memcpy(v, &bits, sizeof *v); /* IEEE 754 single, as CiA 301 */
-	}
-	return rc;
-}
-
-int cogw_sdo_write_float(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, float v,
-			 unsigned timeout_ms, uint32_t *abort)
-{
-	uint32_t bits;
-
-	memcpy(&bits, &v, sizeof bits);
-	return write_num(h, line, node, index, sub, 4, bits, timeout_ms, abort);
-}
-
-int cogw_sdo_read_string(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub, char *s,
-			 size_t cap, unsigned timeout_ms, uint32_t *abort)
-{
-	size_t len = 0;
-	int rc;
-
-	if (!s || cap == 0)
-		return COGW_E_INVAL;
-	rc = cogw_sdo_read(h, line, node, index, sub, s, cap - 1, &len, timeout_ms, abort);
-	if (rc == 0 || rc == COGW_E_TRUNCATED)
-		s[len < cap - 1 ? len : cap - 1] = 0;
-	else
-		s[0] = 0;
-	return rc;
-}
-
-int cogw_sdo_write_string(cogw *h, unsigned line, uint8_t node, uint16_t index, uint8_t sub,
-			  const char *s, unsigned timeout_ms, uint32_t *abort)
-{
-	if (!s)
-		return COGW_E_INVAL;
-	return cogw_sdo_write(h, line, node, index, sub, s, strlen(s), timeout_ms, abort);
-}
-
-int cogw_nmt(cogw *h, unsigned line, uint8_t cs, uint8_t node, unsigned timeout_ms)
-{
-	mbx_nmt_req r = { .cs = cs, .node = node };
-
-	return call(h, line, MBX_CMD_NMT, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL, timeout_ms);
-}
-
-int cogw_node_table(cogw *h, unsigned line, mbx_node_entry *tab, size_t cap, unsigned timeout_ms)
-{
-	mbx_node_entry all[128];
-	size_t len = 0;
-	int rc = call(h, line, MBX_CMD_NODE_TABLE, NULL, 0, NULL, 0, all, sizeof all, &len, NULL,
-		      timeout_ms);
-
-	if (rc)
-		return rc;
-	if (len % sizeof(mbx_node_entry))
-		return COGW_E_PROTOCOL;
-	size_t n = len / sizeof(mbx_node_entry);
-
-	memcpy(tab, all, (n < cap ? n : cap) * sizeof *tab);
-	return (int)n;
-}
-
-int cogw_rpdo_status(cogw *h, unsigned line, mbx_rpdo_status *st, mbx_rpdo_fault_entry *tab,
-		     size_t cap, unsigned timeout_ms)
-{
-	struct {
-		mbx_rpdo_status head;
-		mbx_rpdo_fault_entry rows[512];
-	} *a = malloc(sizeof *a);
-	size_t len = 0;
-	int rc;
-
-	if (!a)
-		return COGW_E_NOMEM;
-	rc = call(h, line, MBX_CMD_RPDO_STATUS, NULL, 0, NULL, 0, a, sizeof *a, &len, NULL,
-		  timeout_ms);
-	if (rc == 0 && (len < sizeof a->head || a->head.n > 512 ||
-			len != sizeof a->head + a->head.n * sizeof a->rows[0]))
-		rc = COGW_E_PROTOCOL;
-	if (rc == 0) {
-		*st = a->head;
-		memcpy(tab, a->rows, (a->head.n < cap ? a->head.n : cap) * sizeof *tab);
-		rc = a->head.n;
-	}
-	free(a);
-	return rc;
-}
-
-int cogw_pdo_request(cogw *h, unsigned line, uint16_t tpdo, unsigned timeout_ms)
-{
-	mbx_pdo_num_req r = { .pdo = tpdo };
-
-	return call(h, line, MBX_CMD_PDO_REQUEST, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL,
-		    timeout_ms);
-}
-
-int cogw_pdo_read(cogw *h, unsigned line, uint16_t index, uint8_t sub, void *buf, size_t cap,
-		  size_t *len, unsigned timeout_ms)
-{
-	mbx_obj_req r = { .index = index, .sub = sub };
-
-	return call(h, line, MBX_CMD_PDO_READ, &r, sizeof r, NULL, 0, buf, cap, len, NULL,
-		    timeout_ms);
-}
-
-int cogw_pdo_write(cogw *h, unsigned line, uint16_t index, uint8_t sub, const void *data,
-		   size_t len, int trigger, unsigned timeout_ms)
-{
-	mbx_obj_req r = { .index = index, .sub = sub, .flags = trigger ? MBX_PDO_TRIGGER : 0 };
-
-	if (len == 0 || len > 8)
-		return COGW_E_INVAL;
-	return call(h, line, MBX_CMD_PDO_WRITE, &r, sizeof r, data, len, NULL, 0, NULL, NULL,
-		    timeout_ms);
-}
-
-int cogw_emcy_send(cogw *h, unsigned line, uint16_t code, uint8_t reg, const uint8_t msef[5],
-		   unsigned timeout_ms)
-{
-	mbx_emcy_req r = { .code = code, .reg = reg };
-
-	if (msef)
-		memcpy(r.msef, msef, sizeof r.msef);
-	return call(h, line, MBX_CMD_EMCY_SEND, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL,
-		    timeout_ms);
-}
-
-int cogw_raw_send(cogw *h, unsigned line, const mbx_raw_frame *frames, size_t n,
-		  unsigned timeout_ms)
-{
-	if (!frames || n == 0 || n > MBX_RAW_SEND_MAX)
-		return COGW_E_INVAL;
-	return call(h, line, MBX_CMD_RAW_SEND, frames, n * sizeof *frames, NULL, 0, NULL, 0, NULL,
-		    NULL, timeout_ms);
-}
-
-int cogw_lss(cogw *h, unsigned line, uint16_t cmd, const mbx_lss_req *req, mbx_lss_resp *resp,
-	     unsigned timeout_ms)
-{
-	mbx_lss_resp tmp;
-	size_t len = 0;
-	int rc;
-
-	if (!req || (cmd & 0xFF00u) != 0x0700u)
-		return COGW_E_INVAL;
-	memset(&tmp, 0, sizeof tmp);
-	rc = call(h, line, cmd, req, sizeof *req, NULL, 0, &tmp, sizeof tmp, &len, NULL,
-		  timeout_ms);
-	if (resp)
-		*resp = tmp;
-	return rc;
-}
-
-int cogw_lss_switch_global(cogw *h, unsigned line, uint8_t mode, unsigned timeout_ms)
-{
-	mbx_lss_req r = { .mode = mode };
-
-	return cogw_lss(h, line, MBX_CMD_LSS_SWITCH_GLOBAL, &r, NULL, timeout_ms);
-}
-
-int cogw_lss_switch_selective(cogw *h, unsigned line, uint32_t vendor, uint32_t product,
-			      uint32_t revision, uint32_t serial, unsigned timeout_ms)
-{
-	mbx_lss_req r = { .vendor = vendor,
-			  .product = product,
-			  .rev_lo = revision,
-			  .rev_hi = revision,
-			  .ser_lo = serial,
-			  .ser_hi = serial };
-
-	return cogw_lss(h, line, MBX_CMD_LSS_SWITCH_SELECTIVE, &r, NULL, timeout_ms);
-}
-
-int cogw_lss_set_node_id(cogw *h, unsigned line, uint8_t node, unsigned timeout_ms)
-{
-	mbx_lss_req r = { .node = node };
-
-	return cogw_lss(h, line, MBX_CMD_LSS_SET_NODE_ID, &r, NULL, timeout_ms);
-}
-
-int cogw_lss_set_bit_timing(cogw *h, unsigned line, uint8_t table, uint8_t index,
-			    unsigned timeout_ms)
-{
-	mbx_lss_req r = { .table = table, .bit_index = index };
-
-	return cogw_lss(h, line, MBX_CMD_LSS_SET_BIT_TIMING, &r, NULL, timeout_ms);
-}
-
-int cogw_lss_activate_bit_timing(cogw *h, unsigned line, uint16_t delay_ms, unsigned timeout_ms)
-{
-	mbx_lss_req r = { .delay_ms = delay_ms };
-
-	return cogw_lss(h, line, MBX_CMD_LSS_ACTIVATE_BIT_TIMING, &r, NULL, timeout_ms);
-}
-
-int cogw_lss_store(cogw *h, unsigned line, unsigned timeout_ms)
-{
-	mbx_lss_req r = { 0 };
-
-	return cogw_lss(h, line, MBX_CMD_LSS_STORE, &r, NULL, timeout_ms);
-}
-
-int cogw_lss_inquire(cogw *h, unsigned line, uint8_t what, uint32_t *value, unsigned timeout_ms)
-{
-	mbx_lss_req r = { .what = what };
-	mbx_lss_resp s;
-	int rc = cogw_lss(h, line, MBX_CMD_LSS_INQUIRE, &r, &s, timeout_ms);
-
-	if (rc == 0 && value)
-		*value = s.value;
-	return rc;
-}
-
-int cogw_lss_identify_nonconf(cogw *h, unsigned line, unsigned timeout_ms)
-{
-	mbx_lss_req r = { 0 };
-	mbx_lss_resp s;
-	int rc = cogw_lss(h, line, MBX_CMD_LSS_IDENTIFY_NONCONF, &r, &s, timeout_ms);
-
-	if (rc == COGW_E_NOT_FOUND)
-		return 0;
-	return rc ? rc : s.found != 0;
-}
-
-int cogw_lss_fastscan(cogw *h, unsigned line, uint32_t id[4], unsigned timeout_ms)
-{
-	mbx_lss_req r = { 0 };
-	mbx_lss_resp s;
-	int rc = cogw_lss(h, line, MBX_CMD_LSS_FASTSCAN, &r, &s, timeout_ms);
-
-	if (rc == 0 && id)
-		memcpy(id, s.id, sizeof s.id);
-	return rc;
-}
-
-int cogw_line_status(cogw *h, unsigned line, mbx_line_status *st, unsigned timeout_ms)
-{
-	size_t len = 0;
-	int rc = call(h, line, MBX_CMD_LINE_STATUS, NULL, 0, NULL, 0, st, sizeof *st, &len, NULL,
-		      timeout_ms);
-
-	return rc == 0 && len != sizeof *st ? COGW_E_PROTOCOL : rc;
-}
-
-int cogw_store(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms)
-{
-	mbx_store_req r = { .sub = sub };
-
-	return call(h, line, MBX_CMD_STORE, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL, timeout_ms);
-}
-
-int cogw_restore(cogw *h, unsigned line, uint8_t sub, unsigned timeout_ms)
-{
-	mbx_store_req r = { .sub = sub };
-
-	return call(h, line, MBX_CMD_RESTORE, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL,
-		    timeout_ms);
-}
-
-int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st, unsigned timeout_ms)
-{
-	size_t len = 0;
-	int rc;
-
-	memset(st, 0, sizeof *st);
-	rc = call(h, line, MBX_CMD_MBX_STATS, NULL, 0, NULL, 0, st, sizeof *st, &len, NULL,
-		  timeout_ms);
-	/* An older daemon's answer ends before the counters added later
-	 * (left 0). */
-	return rc == 0 && len != sizeof *st && len != offsetof(mbx_stats_wire, reg_refused) &&
-			       len != offsetof(mbx_stats_wire, late_wakes) &&
-			       len != offsetof(mbx_stats_wire, xfer_failed)
-		       ? COGW_E_PROTOCOL
-		       : rc;
-}
-
-int cogw_ping(cogw *h, unsigned line, unsigned timeout_ms)
-{
-	mbx_ping_resp r;
-
-	return call(h, line, MBX_CMD_PING, NULL, 0, NULL, 0, &r, sizeof r, NULL, NULL, timeout_ms);
-}
-
-int cogw_subscribe(cogw *h, unsigned line, uint32_t classes, const mbx_raw_filter *filters,
-		   size_t n_filters, unsigned timeout_ms)
-{
-	mbx_subscribe_req r = { .classes = classes };
-	mbx_subscribe_resp s;
-
-	if (n_filters > MBX_RAW_FILTERS_MAX || (n_filters && !filters))
-		return COGW_E_INVAL;
-	r.n_filters = (uint8_t)n_filters;
-	if (n_filters)
-		memcpy(r.filters, filters, n_filters * sizeof *filters);
-	int rc = call(h, line, MBX_CMD_SUBSCRIBE, &r, sizeof r, NULL, 0, &s, sizeof s, NULL, NULL,
-		      timeout_ms);
-
-	if (rc == 0) { /* remembered for a re-registration */
-		line_state *ls = &h->lines[line];
-
-		pthread_mutex_lock(&h->setup_mu);
-		ls->sub_classes |= classes & MBX_EVC_ALL;
-		if (classes & MBX_EVC_RAW) {
-			ls->n_filters = r.n_filters;
-			memcpy(ls->filters, r.filters, sizeof ls->filters);
-		}
-		pthread_mutex_unlock(&h->setup_mu);
-	}
-	return rc;
-}
-
-int cogw_unsubscribe(cogw *h, unsigned line, uint32_t classes, unsigned timeout_ms)
-{
-	mbx_unsubscribe_req r = { .classes = classes };
-	mbx_subscribe_resp s;
-
-	int rc = call(h, line, MBX_CMD_UNSUBSCRIBE, &r, sizeof r, NULL, 0, &s, sizeof s, NULL, NULL,
-		      timeout_ms);
-
-	if (rc == 0) {
-		line_state *ls = &h->lines[line];
-
-		pthread_mutex_lock(&h->setup_mu);
-		ls->sub_classes &= ~classes;
-		if (classes & MBX_EVC_RAW)
-			ls->n_filters = 0;
-		pthread_mutex_unlock(&h->setup_mu);
-	}
-	return rc;
 }

@@ -143,29 +143,29 @@ static int load_daemon_config(gateway *g, const char *path)
 	return rc;
 }
 
-int main(int argc, char **argv)
-{
-	static gateway g;
-	const char *config = NULL, *daemon_config = NULL, *socket_path = NULL;
-	bool check = false;
-	char err[512];
-	sigset_t sigs;
-	int activated;
+/* The command line. */
+typedef struct cli {
+	const char *config, *daemon_config, *socket_path;
+	bool check;
+} cli;
 
+/* Returns -1 to go on, else the exit status (--help, a bad argument). */
+static int parse_args(gateway *g, cli *c, int argc, char **argv)
+{
 	for (int i = 1; i < argc; i++) {
 		const char *a = argv[i];
 
 		if ((strcmp(a, "--config") == 0 || strcmp(a, "--daemon-config") == 0 ||
 		     strcmp(a, "--socket") == 0) &&
 		    i + 1 < argc) {
-			const char **dst = a[2] == 'c'   ? &config
-					   : a[2] == 'd' ? &daemon_config
-							 : &socket_path;
+			const char **dst = a[2] == 'c'   ? &c->config
+					   : a[2] == 'd' ? &c->daemon_config
+							 : &c->socket_path;
 			*dst = argv[++i];
 		} else if (strcmp(a, "--check") == 0) {
-			check = true;
+			c->check = true;
 		} else if (strcmp(a, "-v") == 0) {
-			g.verbose++;
+			g->verbose++;
 		} else if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
 			usage(stdout);
 			return 0;
@@ -175,24 +175,101 @@ int main(int argc, char **argv)
 			return 2;
 		}
 	}
-	if (ascii_config_load_file(&g.cfg, config, err, sizeof err)) {
+	return -1;
+}
+
+/* The gateway's configuration, then the daemon's it names (or the one
+ * given), checked against each other. */
+static int load_configs(gateway *g, const cli *c)
+{
+	char err[512];
+
+	if (ascii_config_load_file(&g->cfg, c->config, err, sizeof err)) {
 		fprintf(stderr, "cogw-ascii: %s\n", err);
-		return 1;
+		return -1;
 	}
-	if (socket_path)
-		snprintf(g.cfg.unix_socket, sizeof g.cfg.unix_socket, "%s", socket_path);
-	snprintf(g.daemon_config_path, sizeof g.daemon_config_path, "%s",
-		 daemon_config ? daemon_config : g.cfg.daemon_config);
-	if (load_daemon_config(&g, g.daemon_config_path))
-		return 1;
-	if (g.cfg.route_line >= g.daemon.n_lines) {
+	if (c->socket_path)
+		snprintf(g->cfg.unix_socket, sizeof g->cfg.unix_socket, "%s", c->socket_path);
+	snprintf(g->daemon_config_path, sizeof g->daemon_config_path, "%s",
+		 c->daemon_config ? c->daemon_config : g->cfg.daemon_config);
+	if (load_daemon_config(g, g->daemon_config_path))
+		return -1;
+	if (g->cfg.route_line >= g->daemon.n_lines) {
 		fprintf(stderr, "cogw-ascii: route_line %u: the daemon has %zu line(s)\n",
-			g.cfg.route_line, g.daemon.n_lines);
-		return 1;
+			g->cfg.route_line, g->daemon.n_lines);
+		return -1;
 	}
-	if (g.cfg.default_network < 0)
-		g.cfg.default_network = g.daemon.lines[0].network_id;
-	if (check) {
+	if (g->cfg.default_network < 0)
+		g->cfg.default_network = g->daemon.lines[0].network_id;
+	return 0;
+}
+
+/* SIGTERM, SIGINT and SIGHUP arrive through a signalfd in the loop. */
+static int open_signals(gateway *g)
+{
+	sigset_t sigs;
+
+	sigemptyset(&sigs);
+	sigaddset(&sigs, SIGTERM);
+	sigaddset(&sigs, SIGINT);
+	sigaddset(&sigs, SIGHUP);
+	sigprocmask(SIG_BLOCK, &sigs, NULL);
+	signal(SIGPIPE, SIG_IGN);
+	g->sigfd = signalfd(-1, &sigs, SFD_NONBLOCK | SFD_CLOEXEC);
+	g->epfd = epoll_create1(EPOLL_CLOEXEC);
+	if (g->sigfd < 0 || g->epfd < 0) {
+		perror("cogw-ascii");
+		return -1;
+	}
+	return 0;
+}
+
+/* Returns how many listeners systemd passed (0: bound here), or -1. */
+static int open_listeners(gateway *g)
+{
+	int activated = take_activated(g);
+
+	if (activated < 0)
+		return -1;
+	if (activated == 0) {
+		if (g->cfg.unix_socket[0] && bind_unix(g, g->cfg.unix_socket) < 0)
+			return -1;
+		if (g->cfg.tcp && bind_tcp(g) < 0)
+			return -1;
+	}
+	if (g->n_listen == 0) {
+		fprintf(stderr, "cogw-ascii: nothing to listen on (no unix_socket, no tcp, "
+				"no socket passed by systemd)\n");
+		return -1;
+	}
+	return activated;
+}
+
+static void print_totals(const gateway *g)
+{
+	fprintf(stderr,
+		"cogw-ascii: stopping: %llu connections (%llu refused full, %llu refused access), "
+		"%llu commands, %llu syntax errors, %llu denied, %llu overlong lines, %llu slow "
+		"readers, %llu mailbox errors, %llu requests given up\n",
+		(unsigned long long)g->st.accepted, (unsigned long long)g->st.refused_full,
+		(unsigned long long)g->st.refused_access, (unsigned long long)g->st.commands,
+		(unsigned long long)g->st.syntax_errors, (unsigned long long)g->st.denied,
+		(unsigned long long)g->st.overlong, (unsigned long long)g->st.slow_readers,
+		(unsigned long long)g->st.mbx_errors, (unsigned long long)g->st.expired);
+}
+
+int main(int argc, char **argv)
+{
+	static gateway g;
+	cli c = { 0 };
+	int activated;
+	int rc = parse_args(&g, &c, argc, argv);
+
+	if (rc >= 0)
+		return rc;
+	if (load_configs(&g, &c))
+		return 1;
+	if (c.check) {
 		printf("cogw-ascii: configuration OK (instance %s, %zu line(s))\n",
 		       g.daemon.mailbox.instance, g.daemon.n_lines);
 		cogw_config_free(&g.daemon);
@@ -203,40 +280,17 @@ int main(int argc, char **argv)
 	g.inflight_max = g.daemon.mailbox.max_outstanding ? g.daemon.mailbox.max_outstanding : 16;
 	if (g.inflight_max > 1)
 		g.inflight_max--;
-
-	sigemptyset(&sigs);
-	sigaddset(&sigs, SIGTERM);
-	sigaddset(&sigs, SIGINT);
-	sigaddset(&sigs, SIGHUP);
-	sigprocmask(SIG_BLOCK, &sigs, NULL);
-	signal(SIGPIPE, SIG_IGN);
-	g.sigfd = signalfd(-1, &sigs, SFD_NONBLOCK | SFD_CLOEXEC);
-	g.epfd = epoll_create1(EPOLL_CLOEXEC);
-	if (g.sigfd < 0 || g.epfd < 0) {
-		perror("cogw-ascii");
+	if (open_signals(&g))
 		return 1;
-	}
-	activated = take_activated(&g);
+	activated = open_listeners(&g);
 	if (activated < 0)
 		return 1;
-	if (activated == 0) {
-		if (g.cfg.unix_socket[0] && bind_unix(&g, g.cfg.unix_socket) < 0)
-			return 1;
-		if (g.cfg.tcp && bind_tcp(&g) < 0)
-			return 1;
-	}
-	if (g.n_listen == 0) {
-		fprintf(stderr, "cogw-ascii: nothing to listen on (no unix_socket, no tcp, "
-				"no socket passed by systemd)\n");
-		return 1;
-	}
 	/* deep queues: the answers of many connections' transfers share them */
 	cogw_options o = { .instance = g.daemon.mailbox.instance,
 			   .timeout_ms = 2000,
 			   .resp_depth = 64,
 			   .event_depth = 64 };
-	int rc = cogw_open_opts(&g.h, &o);
-
+	rc = cogw_open_opts(&g.h, &o);
 	if (rc < 0) {
 		fprintf(stderr, "cogw-ascii: mailbox of instance %s: %s\n", o.instance,
 			cogw_strerror(rc));
@@ -247,15 +301,7 @@ int main(int argc, char **argv)
 		o.instance, g.daemon.n_lines, g.n_listen);
 	rc = server_run(&g);
 	sd_notify(0, "STOPPING=1");
-	fprintf(stderr,
-		"cogw-ascii: stopping: %llu connections (%llu refused full, %llu refused access), "
-		"%llu commands, %llu syntax errors, %llu denied, %llu overlong lines, %llu slow "
-		"readers, %llu mailbox errors, %llu requests given up\n",
-		(unsigned long long)g.st.accepted, (unsigned long long)g.st.refused_full,
-		(unsigned long long)g.st.refused_access, (unsigned long long)g.st.commands,
-		(unsigned long long)g.st.syntax_errors, (unsigned long long)g.st.denied,
-		(unsigned long long)g.st.overlong, (unsigned long long)g.st.slow_readers,
-		(unsigned long long)g.st.mbx_errors, (unsigned long long)g.st.expired);
+	print_totals(&g);
 	cogw_close(g.h);
 	if (activated == 0 && g.cfg.unix_socket[0])
 		unlink(g.cfg.unix_socket);
