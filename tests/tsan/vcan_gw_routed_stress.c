@@ -63,6 +63,11 @@ static struct {
 	atomic_uint answered, refused, no_client, timed_out, vanished;
 	atomic_uint wrong_data, unexpected;
 	atomic_uint last_unexpected; /* the abort or status it had */
+	/* what "unexpected" holds besides aborts: a client that could not
+	 * register, a request that could not be sent, an answer that never
+	 * came (each with the last COGW_E_* it had) */
+	atomic_uint open_failed, send_failed, no_answer;
+	atomic_int last_open_rc, last_send_rc;
 } tally;
 
 void setUp(void) {}
@@ -177,8 +182,13 @@ static cogw *open_client(void)
 {
 	cogw *h = NULL;
 	cogw_options o = { .instance = gw_instance, .timeout_ms = 20000 };
+	int rc = cogw_open_opts(&h, &o);
 
-	return cogw_open_opts(&h, &o) == 0 ? h : NULL;
+	if (rc) {
+		atomic_fetch_add(&tally.open_failed, 1);
+		atomic_store(&tally.last_open_rc, rc);
+	}
+	return rc == 0 ? h : NULL;
 }
 
 /* Ask line_no for the domain of node 5 of network net; 0 or COGW_E_*. */
@@ -217,6 +227,7 @@ static uint32_t take_answer(cogw *h, uint64_t corr)
 		cogw_msg_release(&m);
 		return abort;
 	}
+	atomic_fetch_add(&tally.no_answer, 1);
 	return UINT32_MAX;
 }
 
@@ -264,6 +275,10 @@ static void *client(void *arg)
 		int rc = h ? start_read(h, line_no, net, rand_r(&seed) & 1, &corr) : -1;
 
 		if (rc) {
+			if (h) {
+				atomic_fetch_add(&tally.send_failed, 1);
+				atomic_store(&tally.last_send_rc, rc);
+			}
 			count(UINT32_MAX);
 			cogw_close(h);
 			continue;
@@ -311,6 +326,12 @@ static void test_routed_transfers_whose_clients_vanish(void)
 	       atomic_load(&tally.answered), atomic_load(&tally.refused),
 	       atomic_load(&tally.no_client), atomic_load(&tally.timed_out),
 	       atomic_load(&tally.vanished));
+	printf("unexpected %u: registrations failed %u (last %d), sends failed %u (last %d), "
+	       "no answer %u, last abort or status %08X\n",
+	       atomic_load(&tally.unexpected), atomic_load(&tally.open_failed),
+	       atomic_load(&tally.last_open_rc), atomic_load(&tally.send_failed),
+	       atomic_load(&tally.last_send_rc), atomic_load(&tally.no_answer),
+	       atomic_load(&tally.last_unexpected));
 	char why[64];
 	snprintf(why, sizeof why, "unexpected answers (the last: %08X)",
 		 atomic_load(&tally.last_unexpected));
