@@ -61,6 +61,22 @@ static int round_trip(const ascii_type *t, const uint8_t *v, size_t len)
 		return n == -74 /* EBADMSG: wrong size for the type */ ? 0 : 10;
 	if (is_nan_value(t, v))
 		return 0;
+	if (len == 0) /* an empty value prints as nothing: no "w" line can carry it */
+		return 0;
+	uint8_t time_value[6];
+	if (t->kind == ASCII_K_TIME) {
+		/* the 4 reserved bits are not shown; a millisecond count of a
+		 * whole day or more (read from a device) is shown but no "w"
+		 * accepts it */
+		uint32_t ms = ((uint32_t)v[0] | (uint32_t)v[1] << 8 | (uint32_t)v[2] << 16 |
+			       (uint32_t)v[3] << 24) &
+			      0x0FFFFFFFu;
+		if (ms >= 86400000u)
+			return 0;
+		memcpy(time_value, v, 6);
+		time_value[3] &= 0x0F;
+		v = time_value;
+	}
 	int ln = snprintf(line, sizeof line, "[7] 1 5 w 0x2000 1 %s %s", t->keyword, text);
 	int rc = ascii_parse(line, (size_t)ln, &cmd, back, sizeof back);
 
@@ -74,6 +90,8 @@ static int round_trip(const ascii_type *t, const uint8_t *v, size_t len)
 	}
 	if (rc != ASCII_OK || cmd.verb != ASCII_V_WRITE || !cmd.has_seq || cmd.seq != 7)
 		return 12;
+	if (t->kind == ASCII_K_BOOL) /* any value but 0 reads as TRUE, written back as 1 */
+		return cmd.data_len == 1 && back[0] == (v[0] != 0) ? 0 : 13;
 	if (cmd.data_len != len || memcmp(back, v, len) != 0) {
 		/* x-types and r-types print canonical forms; -0.0 stays -0.0 */
 		return 13;
