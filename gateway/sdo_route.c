@@ -125,47 +125,71 @@ static int hop_con(void *obj, const void *con, uint64_t now_us);
 static int wait_init_enter(void *obj, uint64_t now_us);
 static int done_enter(void *obj, uint64_t now_us);
 static int on_timeout(void *obj, uint64_t now_us);
-static int on_requester(void *obj, const co_frame *f, uint64_t now_us);
-static int on_target(void *obj, const void *con, uint64_t now_us);
 
-#define RELAY(nm)                                                          \
-	{                                                                  \
-		.name = nm, .on_frame = on_requester, .on_con = on_target, \
-		.on_timeout = on_timeout                                   \
+/* Every transfer state has one handler for the side whose turn it is and
+ * one for the other side, which may only abort (or breaks the protocol).
+ * The handlers are made by REQUESTER_TURN/TARGET_TURN below from a step
+ * that sees the frame once the abort and the lost target are dealt with. */
+static int requester_out_of_turn(void *obj, const co_frame *f, uint64_t now_us);
+static int target_out_of_turn(void *obj, const void *con, uint64_t now_us);
+#define STEP_DECL(step)                                                             \
+	static int step##_requester(void *obj, const co_frame *f, uint64_t now_us); \
+	static int step##_target(void *obj, const void *con, uint64_t now_us)
+STEP_DECL(wait_init);
+STEP_DECL(dn_init_resp);
+STEP_DECL(dn_seg_req);
+STEP_DECL(dn_seg_resp);
+STEP_DECL(up_init_resp);
+STEP_DECL(up_seg_req);
+STEP_DECL(up_seg_resp);
+STEP_DECL(blk_dn_init_resp);
+STEP_DECL(blk_dn_sub);
+STEP_DECL(blk_dn_end_req);
+STEP_DECL(blk_dn_end_resp);
+STEP_DECL(blk_up_init_resp);
+STEP_DECL(blk_up_start);
+STEP_DECL(blk_up_sub);
+STEP_DECL(blk_up_end);
+STEP_DECL(blk_up_end_resp);
+
+#define TURN(nm, step)                                                             \
+	{                                                                          \
+		.name = nm, .on_frame = step##_requester, .on_con = step##_target, \
+		.on_timeout = on_timeout                                           \
 	}
 
 static const co_fsm_state states[GW_SR_COUNT] = {
 	[GW_SR_IDLE] = { .name = "idle" },
 	[GW_SR_OPENING] = { .name = "opening",
 			    .on_enter = opening_enter,
-			    .on_frame = on_requester,
+			    .on_frame = requester_out_of_turn,
 			    .on_con = opening_con,
 			    .on_timeout = on_timeout },
 	[GW_SR_HOP] = { .name = "next router",
 			.on_enter = hop_enter,
-			.on_frame = on_requester,
+			.on_frame = requester_out_of_turn,
 			.on_con = hop_con,
 			.on_timeout = on_timeout },
 	[GW_SR_WAIT_INIT] = { .name = "wait initiate",
 			      .on_enter = wait_init_enter,
-			      .on_frame = on_requester,
-			      .on_con = on_target,
+			      .on_frame = wait_init_requester,
+			      .on_con = wait_init_target,
 			      .on_timeout = on_timeout },
-	[GW_SR_DN_INIT_RESP] = RELAY("download initiate"),
-	[GW_SR_DN_SEG_REQ] = RELAY("download segment request"),
-	[GW_SR_DN_SEG_RESP] = RELAY("download segment response"),
-	[GW_SR_UP_INIT_RESP] = RELAY("upload initiate"),
-	[GW_SR_UP_SEG_REQ] = RELAY("upload segment request"),
-	[GW_SR_UP_SEG_RESP] = RELAY("upload segment response"),
-	[GW_SR_BLK_DN_INIT_RESP] = RELAY("block download initiate"),
-	[GW_SR_BLK_DN_SUB] = RELAY("block download sub-block"),
-	[GW_SR_BLK_DN_END_REQ] = RELAY("block download end request"),
-	[GW_SR_BLK_DN_END_RESP] = RELAY("block download end response"),
-	[GW_SR_BLK_UP_INIT_RESP] = RELAY("block upload initiate"),
-	[GW_SR_BLK_UP_START] = RELAY("block upload start"),
-	[GW_SR_BLK_UP_SUB] = RELAY("block upload sub-block"),
-	[GW_SR_BLK_UP_END] = RELAY("block upload end"),
-	[GW_SR_BLK_UP_END_RESP] = RELAY("block upload end response"),
+	[GW_SR_DN_INIT_RESP] = TURN("download initiate", dn_init_resp),
+	[GW_SR_DN_SEG_REQ] = TURN("download segment request", dn_seg_req),
+	[GW_SR_DN_SEG_RESP] = TURN("download segment response", dn_seg_resp),
+	[GW_SR_UP_INIT_RESP] = TURN("upload initiate", up_init_resp),
+	[GW_SR_UP_SEG_REQ] = TURN("upload segment request", up_seg_req),
+	[GW_SR_UP_SEG_RESP] = TURN("upload segment response", up_seg_resp),
+	[GW_SR_BLK_DN_INIT_RESP] = TURN("block download initiate", blk_dn_init_resp),
+	[GW_SR_BLK_DN_SUB] = TURN("block download sub-block", blk_dn_sub),
+	[GW_SR_BLK_DN_END_REQ] = TURN("block download end request", blk_dn_end_req),
+	[GW_SR_BLK_DN_END_RESP] = TURN("block download end response", blk_dn_end_resp),
+	[GW_SR_BLK_UP_INIT_RESP] = TURN("block upload initiate", blk_up_init_resp),
+	[GW_SR_BLK_UP_START] = TURN("block upload start", blk_up_start),
+	[GW_SR_BLK_UP_SUB] = TURN("block upload sub-block", blk_up_sub),
+	[GW_SR_BLK_UP_END] = TURN("block upload end", blk_up_end),
+	[GW_SR_BLK_UP_END_RESP] = TURN("block upload end response", blk_up_end_resp),
 	[GW_SR_DONE] = { .name = "done", .on_enter = done_enter },
 };
 
@@ -353,44 +377,59 @@ static int req_expect(gw_sdo_route *s, const uint8_t *d, uint8_t mask, uint8_t v
 	return next;
 }
 
-static int on_requester(void *obj, const co_frame *f, uint64_t now_us)
+/* What every requester frame goes through: an abort passes to the target
+ * and ends the session (inside a block download sub-block only the exact
+ * abort byte is one; other bytes there are segment numbers). */
+static int requester_turn(void *obj, const co_frame *f, bool sub_block,
+			  int (*step)(gw_sdo_route *s, const uint8_t *d))
 {
 	gw_sdo_route *s = obj;
-	const uint8_t *d = f->data;
-	int st = co_fsm_state_of(&s->fsm);
-	bool sub_block = st == GW_SR_BLK_DN_SUB;
 
+	if (is_abort(f->data, sub_block))
+		return relay_abort(s, f->data, true);
+	return step(s, f->data);
+}
+
+static int not_your_turn(gw_sdo_route *s, const uint8_t *d)
+{
+	(void)d;
+	return protocol_error(s);
+}
+
+static int requester_out_of_turn(void *obj, const co_frame *f, uint64_t now_us)
+{
 	(void)now_us;
-	if (is_abort(d, sub_block))
-		return relay_abort(s, d, true);
-	switch (st) {
-	case GW_SR_WAIT_INIT:
-		return req_wait_init(s, d);
-	case GW_SR_DN_SEG_REQ:
-		if (CS(d) == SDO_CCS_DN_SEG)
-			s->last = d[0] & SDO_SEG_LAST;
-		return req_expect(s, d, 0xE0, SDO_CCS_DN_SEG << 5, GW_SR_DN_SEG_RESP);
-	case GW_SR_UP_SEG_REQ:
-		return req_expect(s, d, 0xE0, SDO_CCS_UP_SEG << 5, GW_SR_UP_SEG_RESP);
-	case GW_SR_BLK_DN_SUB:
-		return req_blk_dn_segment(s, d);
-	case GW_SR_BLK_DN_END_REQ:
-		return req_expect(s, d, 0xE3, (SDO_CCS_BLK_DN << 5) | SDO_BLK_END,
-				  GW_SR_BLK_DN_END_RESP);
-	case GW_SR_BLK_UP_START:
-		return req_expect(s, d, 0xFF, (SDO_CCS_BLK_UP << 5) | SDO_BLK_START,
-				  GW_SR_BLK_UP_SUB);
-	case GW_SR_BLK_UP_SUB:
-		return req_blk_up_ack(s, d);
-	case GW_SR_BLK_UP_END_RESP:
-		if (d[0] != ((SDO_CCS_BLK_UP << 5) | SDO_BLK_END))
-			return protocol_error(s);
-		to_target(s, d);
-		return finish_ok(s);
-	default:
-		/* Not the requester's turn (the target is awaited). */
+	return requester_turn(obj, f, false, not_your_turn);
+}
+
+static int dn_seg_req(gw_sdo_route *s, const uint8_t *d)
+{
+	if (CS(d) == SDO_CCS_DN_SEG)
+		s->last = d[0] & SDO_SEG_LAST;
+	return req_expect(s, d, 0xE0, SDO_CCS_DN_SEG << 5, GW_SR_DN_SEG_RESP);
+}
+
+static int up_seg_req(gw_sdo_route *s, const uint8_t *d)
+{
+	return req_expect(s, d, 0xE0, SDO_CCS_UP_SEG << 5, GW_SR_UP_SEG_RESP);
+}
+
+static int blk_dn_end_req(gw_sdo_route *s, const uint8_t *d)
+{
+	return req_expect(s, d, 0xE3, (SDO_CCS_BLK_DN << 5) | SDO_BLK_END, GW_SR_BLK_DN_END_RESP);
+}
+
+static int blk_up_start(gw_sdo_route *s, const uint8_t *d)
+{
+	return req_expect(s, d, 0xFF, (SDO_CCS_BLK_UP << 5) | SDO_BLK_START, GW_SR_BLK_UP_SUB);
+}
+
+static int blk_up_end_resp(gw_sdo_route *s, const uint8_t *d)
+{
+	if (d[0] != ((SDO_CCS_BLK_UP << 5) | SDO_BLK_END))
 		return protocol_error(s);
-	}
+	to_target(s, d);
+	return finish_ok(s);
 }
 
 /* ---- target frames ------------------------------------------------------------ */
@@ -438,62 +477,145 @@ static int tgt_blk_up_segment(gw_sdo_route *s, const uint8_t *d)
 	return CO_FSM_STAY;
 }
 
-static int on_target(void *obj, const void *con, uint64_t now_us)
+/* What every answer of the target line goes through: the target lost
+ * (lease ended, link down) ends the session; an abort passes to the
+ * requester (inside a block upload sub-block only the exact abort byte is
+ * one); any other frame shows the target answered, then the step sees it. */
+static int target_turn(void *obj, const void *con, bool sub_block,
+		       int (*step)(gw_sdo_route *s, const uint8_t *d))
 {
 	gw_sdo_route *s = obj;
 	const gw_sdo_route_con *c = con;
-	const uint8_t *d = c->data;
-	int st = co_fsm_state_of(&s->fsm);
 
-	(void)now_us;
 	if (c->kind == GW_CON_LOST)
 		return fail(s, c->abort ? c->abort : GW_AB_NO_ANSWER, 0, GW_OUT_ABORTED);
 	if (c->kind != GW_CON_TARGET_FRAME)
 		return CO_FSM_STAY;
-	if (is_abort(d, st == GW_SR_BLK_UP_SUB))
-		return relay_abort(s, d, false);
+	if (is_abort(c->data, sub_block))
+		return relay_abort(s, c->data, false);
 	s->target_answered = true;
-	switch (st) {
-	case GW_SR_DN_INIT_RESP:
-		if (d[0] != (SDO_SCS_DN_INIT << 5))
-			return protocol_error(s);
-		to_requester(s, d);
-		return s->expedited ? finish_ok(s) : GW_SR_DN_SEG_REQ;
-	case GW_SR_DN_SEG_RESP:
-		if ((d[0] & 0xEF) != (SDO_SCS_DN_SEG << 5))
-			return protocol_error(s);
-		to_requester(s, d);
-		return s->last ? finish_ok(s) : GW_SR_DN_SEG_REQ;
-	case GW_SR_UP_INIT_RESP:
-		if (CS(d) != SDO_SCS_UP_INIT)
-			return protocol_error(s);
-		to_requester(s, d);
-		return (d[0] & SDO_EXPEDITED) ? finish_ok(s) : GW_SR_UP_SEG_REQ;
-	case GW_SR_UP_SEG_RESP:
-		if (CS(d) != SDO_SCS_UP_SEG)
-			return protocol_error(s);
-		to_requester(s, d);
-		return (d[0] & SDO_SEG_LAST) ? finish_ok(s) : GW_SR_UP_SEG_REQ;
-	case GW_SR_BLK_DN_INIT_RESP:
-		return tgt_expect(s, d, 0xE3, SDO_SCS_BLK_DN << 5, GW_SR_BLK_DN_SUB);
-	case GW_SR_BLK_DN_SUB:
-		return tgt_blk_dn_ack(s, d);
-	case GW_SR_BLK_DN_END_RESP:
-		if (d[0] != ((SDO_SCS_BLK_DN << 5) | SDO_BLK_END))
-			return protocol_error(s);
-		to_requester(s, d);
-		return finish_ok(s);
-	case GW_SR_BLK_UP_INIT_RESP:
-		return tgt_blk_up_init(s, d);
-	case GW_SR_BLK_UP_SUB:
-		return tgt_blk_up_segment(s, d);
-	case GW_SR_BLK_UP_END:
-		return tgt_expect(s, d, 0xE3, (SDO_SCS_BLK_UP << 5) | SDO_BLK_END,
-				  GW_SR_BLK_UP_END_RESP);
-	default:
-		/* Not the target's turn: the requester is awaited. */
+	return step(s, c->data);
+}
+
+static int target_out_of_turn(void *obj, const void *con, uint64_t now_us)
+{
+	(void)now_us;
+	return target_turn(obj, con, false, not_your_turn);
+}
+
+static int dn_init_resp(gw_sdo_route *s, const uint8_t *d)
+{
+	if (d[0] != (SDO_SCS_DN_INIT << 5))
 		return protocol_error(s);
+	to_requester(s, d);
+	return s->expedited ? finish_ok(s) : GW_SR_DN_SEG_REQ;
+}
+
+static int dn_seg_resp(gw_sdo_route *s, const uint8_t *d)
+{
+	if ((d[0] & 0xEF) != (SDO_SCS_DN_SEG << 5))
+		return protocol_error(s);
+	to_requester(s, d);
+	return s->last ? finish_ok(s) : GW_SR_DN_SEG_REQ;
+}
+
+static int up_init_resp(gw_sdo_route *s, const uint8_t *d)
+{
+	if (CS(d) != SDO_SCS_UP_INIT)
+		return protocol_error(s);
+	to_requester(s, d);
+	return (d[0] & SDO_EXPEDITED) ? finish_ok(s) : GW_SR_UP_SEG_REQ;
+}
+
+static int up_seg_resp(gw_sdo_route *s, const uint8_t *d)
+{
+	if (CS(d) != SDO_SCS_UP_SEG)
+		return protocol_error(s);
+	to_requester(s, d);
+	return (d[0] & SDO_SEG_LAST) ? finish_ok(s) : GW_SR_UP_SEG_REQ;
+}
+
+static int blk_dn_init_resp(gw_sdo_route *s, const uint8_t *d)
+{
+	return tgt_expect(s, d, 0xE3, SDO_SCS_BLK_DN << 5, GW_SR_BLK_DN_SUB);
+}
+
+static int blk_dn_end_resp(gw_sdo_route *s, const uint8_t *d)
+{
+	if (d[0] != ((SDO_SCS_BLK_DN << 5) | SDO_BLK_END))
+		return protocol_error(s);
+	to_requester(s, d);
+	return finish_ok(s);
+}
+
+static int blk_up_end(gw_sdo_route *s, const uint8_t *d)
+{
+	return tgt_expect(s, d, 0xE3, (SDO_SCS_BLK_UP << 5) | SDO_BLK_END, GW_SR_BLK_UP_END_RESP);
+}
+
+/* ---- the handlers of each state: whose turn, which step ----------------------- */
+
+#define REQUESTER_TURN(state, step, sub_block)                                      \
+	static int state##_requester(void *obj, const co_frame *f, uint64_t now_us) \
+	{                                                                           \
+		(void)now_us;                                                       \
+		return requester_turn(obj, f, sub_block, step);                     \
+	}                                                                           \
+	static int state##_target(void *obj, const void *con, uint64_t now_us)      \
+	{                                                                           \
+		return target_out_of_turn(obj, con, now_us);                        \
 	}
+#define TARGET_TURN(state, step, sub_block)                                         \
+	static int state##_requester(void *obj, const co_frame *f, uint64_t now_us) \
+	{                                                                           \
+		return requester_out_of_turn(obj, f, now_us);                       \
+	}                                                                           \
+	static int state##_target(void *obj, const void *con, uint64_t now_us)      \
+	{                                                                           \
+		(void)now_us;                                                       \
+		return target_turn(obj, con, sub_block, step);                      \
+	}
+
+REQUESTER_TURN(wait_init, req_wait_init, false)
+TARGET_TURN(dn_init_resp, dn_init_resp, false)
+REQUESTER_TURN(dn_seg_req, dn_seg_req, false)
+TARGET_TURN(dn_seg_resp, dn_seg_resp, false)
+TARGET_TURN(up_init_resp, up_init_resp, false)
+REQUESTER_TURN(up_seg_req, up_seg_req, false)
+TARGET_TURN(up_seg_resp, up_seg_resp, false)
+TARGET_TURN(blk_dn_init_resp, blk_dn_init_resp, false)
+REQUESTER_TURN(blk_dn_end_req, blk_dn_end_req, false)
+TARGET_TURN(blk_dn_end_resp, blk_dn_end_resp, false)
+TARGET_TURN(blk_up_init_resp, tgt_blk_up_init, false)
+REQUESTER_TURN(blk_up_start, blk_up_start, false)
+TARGET_TURN(blk_up_end, blk_up_end, false)
+REQUESTER_TURN(blk_up_end_resp, blk_up_end_resp, false)
+
+/* The two sub-block states: both sides speak (segments one way, the ack
+ * the other), and the side sending segments aborts only with the exact
+ * abort byte. */
+static int blk_dn_sub_requester(void *obj, const co_frame *f, uint64_t now_us)
+{
+	(void)now_us;
+	return requester_turn(obj, f, true, req_blk_dn_segment);
+}
+
+static int blk_dn_sub_target(void *obj, const void *con, uint64_t now_us)
+{
+	(void)now_us;
+	return target_turn(obj, con, false, tgt_blk_dn_ack);
+}
+
+static int blk_up_sub_requester(void *obj, const co_frame *f, uint64_t now_us)
+{
+	(void)now_us;
+	return requester_turn(obj, f, false, req_blk_up_ack);
+}
+
+static int blk_up_sub_target(void *obj, const void *con, uint64_t now_us)
+{
+	(void)now_us;
+	return target_turn(obj, con, true, tgt_blk_up_segment);
 }
 
 /* ---- API ------------------------------------------------------------------------ */
