@@ -87,6 +87,23 @@ static inline void co_put_le32(uint8_t *p, uint32_t v)
 	p[3] = (uint8_t)(v >> 24);
 }
 
+/* n bytes (at most 8, the rest ignored) of a little-endian value: the
+ * numeric types of CiA 301 of any width, PDO-mapped values. */
+static inline uint64_t co_get_le(const uint8_t *p, uint32_t n)
+{
+	uint64_t v = 0;
+
+	for (uint32_t i = 0; i < n && i < 8; i++)
+		v |= (uint64_t)p[i] << (8 * i);
+	return v;
+}
+
+static inline void co_put_le(uint8_t *p, uint32_t n, uint64_t v)
+{
+	for (uint32_t i = 0; i < n && i < 8; i++)
+		p[i] = (uint8_t)(v >> (8 * i));
+}
+
 /* ---- COB-ID values of the communication objects (1005h, 1012h, 1014h,
  * 1028h, 14xxh/18xxh, 1280h, ...) ----------------------------------------- */
 #define CO_COB_EXT 0x20000000u /* bit 29: a 29-bit CAN-ID (CiA 301 §7.5.2) */

@@ -19,21 +19,6 @@
 
 #define SLOT_NONE 0xFFFFu
 
-static uint64_t le_load(const uint8_t *p, uint32_t n)
-{
-	uint64_t v = 0;
-
-	for (uint32_t i = 0; i < n && i < 8; i++)
-		v |= (uint64_t)p[i] << (8 * i);
-	return v;
-}
-
-static void le_store(uint8_t *p, uint32_t n, uint64_t v)
-{
-	for (uint32_t i = 0; i < n && i < 8; i++)
-		p[i] = (uint8_t)(v >> (8 * i));
-}
-
 static uint64_t mask_bits(uint8_t bits)
 {
 	return bits >= 64 ? ~0ull : (1ull << bits) - 1;
@@ -188,7 +173,7 @@ uint32_t pdo_map_check_entry(struct co_pdo *P, const struct pdo *p, uint32_t v)
 static uint64_t entry_bits(co_od_entry *e)
 {
 	if (co_type_is_variable((co_type)e->type))
-		return le_load(e->data, e->size);
+		return co_get_le(e->data, e->size);
 	return co_od_entry_raw(e);
 }
 
@@ -208,7 +193,7 @@ void pdo_map_pack(const struct pdo *p, uint8_t out[8])
 		acc |= (entry_bits(e) & mask_bits(it->bits)) << it->off;
 	}
 	memset(out, 0, 8);
-	le_store(out, 8, acc);
+	co_put_le(out, 8, acc);
 }
 
 uint32_t pdo_map_unpack_one(const struct pdo *p, uint8_t i, const uint8_t *data, uint8_t len)
@@ -223,7 +208,7 @@ uint32_t pdo_map_unpack_one(const struct pdo *p, uint8_t i, const uint8_t *data,
 
 	if (!e)
 		return 0;
-	v = (le_load(data, len) >> it->off) & mask_bits(it->bits);
+	v = (co_get_le(data, len) >> it->off) & mask_bits(it->bits);
 	t = (co_type)e->type;
 	if (co_type_is_variable(t)) {
 		size = it->bits / 8u;
@@ -232,7 +217,7 @@ uint32_t pdo_map_unpack_one(const struct pdo *p, uint8_t i, const uint8_t *data,
 		if (co_type_is_signed(t) && it->bits < size * 8 && (v >> (it->bits - 1)) & 1)
 			v |= ~mask_bits(it->bits); /* sign-extend */
 	}
-	le_store(bytes, size, v);
+	co_put_le(bytes, size, v);
 	a.size = size;
 	ab = co_od_write(e, bytes, size, &a);
 	return ab;
@@ -370,7 +355,7 @@ static int add_rec(co_od *od, uint16_t index, uint8_t sub, co_type t, uint16_t a
 		.def_size = co_type_size(t),
 	};
 
-	le_store(b, 8, def);
+	co_put_le(b, 8, def);
 	return co_od_add(od, &d, NULL);
 }
 

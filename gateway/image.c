@@ -141,17 +141,12 @@ uint64_t gw_image_read(const gw_image *img, int slot)
 
 uint64_t gw_image_bits_from(const uint8_t *p, uint8_t size)
 {
-	uint64_t v = 0;
-
-	for (unsigned i = 0; i < size && i < 8; i++)
-		v |= (uint64_t)p[i] << (8 * i);
-	return v;
+	return co_get_le(p, size);
 }
 
 void gw_image_bits_to(uint64_t bits, uint8_t *p, uint8_t size)
 {
-	for (unsigned i = 0; i < size && i < 8; i++)
-		p[i] = (uint8_t)(bits >> (8 * i));
+	co_put_le(p, size, bits);
 }
 
 /* ---- forwarding lists --------------------------------------------------- */

@@ -13,6 +13,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/frame.h"
+
 const ascii_type ascii_types[] = {
 	{ "b", ASCII_K_BOOL, 1, true },
 	{ "i8", ASCII_K_INT, 1, true },
@@ -86,21 +88,6 @@ int ascii_number(const char *s, size_t n, uint64_t *out)
 	return 0;
 }
 
-static void put_le(uint8_t *buf, uint64_t v, unsigned size)
-{
-	for (unsigned i = 0; i < size; i++)
-		buf[i] = (uint8_t)(v >> (8 * i));
-}
-
-static uint64_t get_le(const uint8_t *p, unsigned size)
-{
-	uint64_t v = 0;
-
-	for (unsigned i = 0; i < size; i++)
-		v |= (uint64_t)p[i] << (8 * i);
-	return v;
-}
-
 static uint64_t umax_of(unsigned size)
 {
 	return size >= 8 ? UINT64_MAX : ((uint64_t)1 << (8 * size)) - 1;
@@ -124,12 +111,12 @@ static int encode_int(const ascii_type *t, const char *s, size_t n, uint8_t *buf
 
 		if (neg ? mag > lim : mag > lim - 1)
 			return -ERANGE;
-		put_le(buf, neg ? (uint64_t)0 - mag : mag, t->size);
+		co_put_le(buf, t->size, neg ? (uint64_t)0 - mag : mag);
 		return 0;
 	}
 	if ((neg && mag != 0) || mag > umax_of(t->size))
 		return -ERANGE;
-	put_le(buf, mag, t->size);
+	co_put_le(buf, t->size, mag);
 	return 0;
 }
 
@@ -154,14 +141,14 @@ static int encode_real(const ascii_type *t, const char *s, size_t n, uint8_t *bu
 		if (isfinite(d) && !isfinite(f))
 			return -ERANGE;
 		memcpy(&bits, &f, 4);
-		put_le(buf, bits, 4);
+		co_put_le(buf, 4, bits);
 	} else {
 		uint64_t bits;
 
 		if (errno == ERANGE && isinf(d))
 			return -ERANGE;
 		memcpy(&bits, &d, 8);
-		put_le(buf, bits, 8);
+		co_put_le(buf, 8, bits);
 	}
 	return 0;
 }
@@ -190,8 +177,8 @@ static int encode_time(const char *s, size_t n, uint8_t *buf)
 		return rc;
 	if (days > 0xFFFF || ms >= MS_PER_DAY)
 		return -ERANGE;
-	put_le(buf, ms, 4);
-	put_le(buf + 4, days, 2);
+	co_put_le(buf, 4, ms);
+	co_put_le(buf + 4, 2, days);
 	return 0;
 }
 
@@ -289,7 +276,7 @@ static long format_real(const ascii_type *t, const uint8_t *data, char *out, siz
 		int n;
 
 		if (t->kind == ASCII_K_REAL32) {
-			uint32_t bits = (uint32_t)get_le(data, 4);
+			uint32_t bits = (uint32_t)co_get_le(data, 4);
 			float f, back;
 
 			memcpy(&f, &bits, 4);
@@ -298,7 +285,7 @@ static long format_real(const ascii_type *t, const uint8_t *data, char *out, siz
 			if (memcmp(&back, &f, 4) == 0 || isnan(f))
 				return n;
 		} else {
-			uint64_t bits = get_le(data, 8);
+			uint64_t bits = co_get_le(data, 8);
 			double d, back;
 
 			memcpy(&d, &bits, 8);
@@ -323,22 +310,22 @@ long ascii_value_format(const ascii_type *t, const uint8_t *data, size_t len, ch
 	case ASCII_K_BOOL:
 		return snprintf(out, cap, "%u", data[0] ? 1u : 0u);
 	case ASCII_K_INT: {
-		uint64_t v = get_le(data, t->size);
+		uint64_t v = co_get_le(data, t->size);
 		unsigned shift = 64 - 8u * t->size;
 		int64_t s = (int64_t)(v << shift) >> shift; /* sign-extend */
 
 		return snprintf(out, cap, "%" PRId64, s);
 	}
 	case ASCII_K_UINT:
-		return snprintf(out, cap, "%" PRIu64, get_le(data, t->size));
+		return snprintf(out, cap, "%" PRIu64, co_get_le(data, t->size));
 	case ASCII_K_HEXINT:
-		return snprintf(out, cap, "0x%0*" PRIX64, 2 * t->size, get_le(data, t->size));
+		return snprintf(out, cap, "0x%0*" PRIX64, 2 * t->size, co_get_le(data, t->size));
 	case ASCII_K_REAL32:
 	case ASCII_K_REAL64:
 		return format_real(t, data, out, cap);
 	case ASCII_K_TIME:
-		return snprintf(out, cap, "%u %u", (unsigned)get_le(data + 4, 2),
-				(unsigned)(get_le(data, 4) & 0x0FFFFFFFu));
+		return snprintf(out, cap, "%u %u", (unsigned)co_get_le(data + 4, 2),
+				(unsigned)(co_get_le(data, 4) & 0x0FFFFFFFu));
 	case ASCII_K_VSTRING:
 		out[n++] = '"';
 		for (size_t i = 0; i < len; i++) {

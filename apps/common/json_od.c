@@ -73,21 +73,6 @@ static bool type_is_int(co_type t)
 
 /* ---- value encoding ---------------------------------------------------------- */
 
-static void le_put(uint8_t *p, uint32_t n, uint64_t v)
-{
-	for (uint32_t i = 0; i < n; i++)
-		p[i] = (uint8_t)(v >> (8 * i));
-}
-
-static uint64_t le_get(const uint8_t *p, uint32_t n)
-{
-	uint64_t v = 0;
-
-	for (uint32_t i = 0; i < n; i++)
-		v |= (uint64_t)p[i] << (8 * i);
-	return v;
-}
-
 /* UTF-8 (what cJSON gives, \u escapes included) to UTF-16LE. */
 long json_od_utf8_to_utf16le(const char *s, uint8_t *out, uint32_t cap)
 {
@@ -128,15 +113,15 @@ long json_od_utf8_to_utf16le(const char *s, uint8_t *out, uint32_t cap)
 			if (out && n + 4 > cap)
 				return -2;
 			if (out) {
-				le_put(out + n, 2, 0xD800 | (v >> 10));
-				le_put(out + n + 2, 2, 0xDC00 | (v & 0x3FF));
+				co_put_le(out + n, 2, 0xD800 | (v >> 10));
+				co_put_le(out + n + 2, 2, 0xDC00 | (v & 0x3FF));
 			}
 			n += 4;
 		} else {
 			if (out && n + 2 > cap)
 				return -2;
 			if (out)
-				le_put(out + n, 2, cp);
+				co_put_le(out + n, 2, cp);
 			n += 2;
 		}
 	}
@@ -161,8 +146,8 @@ static int parse_time(const cJSON *v, co_type t, const char *path, uint8_t *buf,
 	    (rc = json_util_opt_uint(v, "ms", path, 0, 0x0FFFFFFF, &ms, err, errlen)) ||
 	    (rc = json_util_opt_uint(v, "days", path, 0, 0xFFFF, &days, err, errlen)))
 		return rc;
-	le_put(buf, 4, ms);
-	le_put(buf + 4, 2, days);
+	co_put_le(buf, 4, ms);
+	co_put_le(buf + 4, 2, days);
 	return 0;
 }
 
@@ -228,12 +213,12 @@ static int parse_real(const cJSON *v, co_type t, const char *path, uint8_t *buf,
 					      d);
 		f = (float)d;
 		memcpy(&bits, &f, 4);
-		le_put(buf, 4, bits);
+		co_put_le(buf, 4, bits);
 	} else {
 		uint64_t bits;
 
 		memcpy(&bits, &d, 8);
-		le_put(buf, 8, bits);
+		co_put_le(buf, 8, bits);
 	}
 	*len = co_type_size(t);
 	return 0;
@@ -256,14 +241,14 @@ static int parse_integer(const cJSON *v, co_type t, const char *path, uint8_t *b
 
 		if ((rc = json_util_sint(v, path, lo, hi, &s, err, errlen)))
 			return rc;
-		le_put(buf, size, (uint64_t)s);
+		co_put_le(buf, size, (uint64_t)s);
 	} else {
 		uint64_t hi = size == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * size)) - 1;
 		uint64_t u;
 
 		if ((rc = json_util_uint(v, path, 0, hi, false, &u, err, errlen)))
 			return rc;
-		le_put(buf, size, u);
+		co_put_le(buf, size, u);
 	}
 	*len = size;
 	return 0;
@@ -374,7 +359,7 @@ static long var_value_len(const cJSON *v, co_type t)
 static int num_cmp(co_type t, const uint8_t *a, const uint8_t *b)
 {
 	uint32_t n = co_type_size(t);
-	uint64_t ua = le_get(a, n), ub = le_get(b, n);
+	uint64_t ua = co_get_le(a, n), ub = co_get_le(b, n);
 
 	if (t == CO_T_REAL32) {
 		float fa, fb;
