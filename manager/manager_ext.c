@@ -97,6 +97,10 @@ static void scan_done(void *ctx, const co_pdo_scan_result *r, uint64_t now_us)
 			 : r->abort                       ? r->abort
 							  : SDO_AB_GENERAL;
 
+	/* cancelled by the node's boot-up (its boot starts again) or by the
+	 * line stopping: nothing to report, nobody waits for it */
+	if (r->outcome == CO_PDO_SCAN_CANCELLED)
+		return;
 	if (r->outcome == CO_PDO_SCAN_LEARNT) {
 		cogw_log_pdo_layout(ml->lc.name, ml->scan.table, r->node_id);
 		cogw_log(r->dropped[CO_PDO_TX] || r->dropped[CO_PDO_RX] ? COGW_LOG_WARNING

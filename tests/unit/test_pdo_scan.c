@@ -70,6 +70,8 @@ static void scan_done(void *ctx, const co_pdo_scan_result *r, uint64_t now_us)
 	(void)ctx;
 	last = *r;
 	results++;
+	if (r->outcome == CO_PDO_SCAN_CANCELLED)
+		return; /* the node's boot starts again */
 	co_manager_pdo_layout_done(
 		f.mgr, r->node_id,
 		r->outcome == CO_PDO_SCAN_LEARNT ? 0
@@ -350,6 +352,50 @@ static void test_remapped_device_is_learnt_again_after_its_boot_up(void)
 	TEST_ASSERT_EQUAL_UINT(2, mf_boot_count(&f, NODE, CO_MGR_STEP_PDO_LAYOUT, 0));
 }
 
+static unsigned dropped_answers;
+
+/* The device's answer to the read of 1A00h:1 is lost, once. */
+static tb_action lose_1a00_1(void *ctx, const co_frame *fr, int from, uint64_t n)
+{
+	(void)ctx;
+	(void)from;
+	(void)n;
+	if (fr->id == 0x580 + NODE && fr->data[1] == 0x00 && fr->data[2] == 0x1A &&
+	    fr->data[3] == 1 && !dropped_answers++)
+		return TB_DROP;
+	return TB_DELIVER;
+}
+
+/* A boot-up while the scan waits for an answer: the scan is cancelled
+ * without a report (the node's boot starts again), its late answer is
+ * ignored, and the new boot learns the layout. */
+static void test_a_boot_up_during_the_scan_cancels_it(void)
+{
+	device_pdos();
+	setup_line(8, true);
+	dropped_answers = 0;
+	f.bus.filter = lose_1a00_1;
+	mf_start(&f, &(co_manager_config){ .sdo_timeout_ms = 100,
+					   .reset_wait_ms = 500,
+					   .pdo_layout = co_pdo_scan_line_step,
+					   .pdo_layout_ctx = &line });
+	for (int i = 0; i < 2000 && !dropped_answers; i++)
+		tb_advance(&f.bus, 1 * MS);
+	TEST_ASSERT_EQUAL_UINT(1, dropped_answers);
+	TEST_ASSERT_TRUE(co_pdo_scan_running(&line.job[NODE - 1]));
+
+	tb_send_hex(&f.bus, 0x700 + NODE, "00");
+	tb_advance(&f.bus, 3 * S);
+	TEST_ASSERT_EQUAL_UINT(2, results);
+	TEST_ASSERT_EQUAL_INT(CO_PDO_SCAN_LEARNT, last.outcome);
+	TEST_ASSERT_TRUE(rec()->valid);
+	TEST_ASSERT_EQUAL_UINT16(2, rec()->n[CO_PDO_TX]);
+	/* one report: the learnt layout, none for the cancelled scan */
+	TEST_ASSERT_EQUAL_UINT(1, mf_boot_count(&f, NODE, CO_MGR_STEP_PDO_LAYOUT, -1));
+	TEST_ASSERT_EQUAL_HEX32(0, mf_boot(&f, NODE, CO_MGR_STEP_PDO_LAYOUT, -1)->abort);
+	assert_booted();
+}
+
 /* pdo off, or a file layout whose concise DCF (1F22h:n) is unchanged:
  * no read, no event, the file layout stays valid. */
 static void test_nodes_that_are_not_scanned(void)
@@ -403,6 +449,7 @@ int main(void)
 	RUN_TEST(test_a_missing_mapping_record_is_an_abort);
 	RUN_TEST(test_no_pdos_at_all);
 	RUN_TEST(test_remapped_device_is_learnt_again_after_its_boot_up);
+	RUN_TEST(test_a_boot_up_during_the_scan_cancels_it);
 	RUN_TEST(test_nodes_that_are_not_scanned);
 	RUN_TEST(test_file_layout_holds_until_its_configuration_changes);
 	return UNITY_END();
