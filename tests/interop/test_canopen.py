@@ -33,7 +33,8 @@ vcan0. It catches bugs that cosim, which runs our own core, would mirror.
     python-canopen slave (event-driven, synchronous and invalid TPDOs, an
     RPDO with a dummy entry) equals the slave's own records, and the slave
     remapped and rebooted is learnt again (checked on the daemon's log line
-    per learnt PDO and its boot events);
+    per learnt PDO and its boot events); the layout read at start-up from
+    an EDS that python-canopen wrote (export_od) equals the device's;
   - the CiA 302-2 manager of cogwd's second line (vcan1) with python-canopen
     slaves: no SDO frame on the bus while the network is stopped (after
     the "stop all" error reaction and after a Request NMT stop), both ways
@@ -65,7 +66,7 @@ import traceback
 
 import can
 import canopen
-from canopen.objectdictionary import ODRecord, ODVariable, ObjectDictionary, datatypes
+from canopen.objectdictionary import ODRecord, ODVariable, ObjectDictionary, datatypes, export_od
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 TOP = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -84,6 +85,7 @@ MANDATORY_ID = 10  # python-canopen slaves the manager boots
 OPTIONAL_ID = 11
 PROGRAM_ID = 12    # python-canopen device with program download objects
 SCAN_ID = 13       # python-canopen device whose PDO layout the manager learns
+FILE_ID = 14       # a device known by its EDS (written by python-canopen)
 SLAVE_DEVICE_TYPE = 0x00020192
 SLAVE_HB_MS = 200
 # the manager's heartbeat consumer time: generous, since the emulated VM
@@ -166,6 +168,7 @@ def eq(want, got, what):
 # the system under test: cogwd + cosim on vcan0
 
 WORK = tempfile.mkdtemp(prefix="cogw-interop-")
+FILE_EDS = os.path.join(WORK, "file-device.eds")
 PROCS = {}
 
 DEVICE = {
@@ -234,6 +237,8 @@ CONFIG = {
             # data type: "types" gives one
             {"id": SCAN_ID, "device_type": hex(SLAVE_DEVICE_TYPE), "pdo": "learn",
              "types": {"6401:1": "INTEGER16"}},
+            # its layout comes from its EDS at start-up; not booted (no SDO)
+            {"id": FILE_ID, "boot": False, "eds": FILE_EDS},
         ],
     }],
 }
@@ -243,6 +248,7 @@ def start_system():
     import json
     os.makedirs(CONFIG["state_dir"], exist_ok=True)
     os.makedirs(os.path.join(WORK, "nv"), exist_ok=True)
+    export_od(scan_device_od(FILE_ID), FILE_EDS, doc_type="eds")
     cfg = os.path.join(WORK, "cogw.json")
     with open(cfg, "w") as f:
         json.dump(CONFIG, f)
@@ -1059,13 +1065,12 @@ def record(od, index, name, subs):
     od.add_object(rec)
 
 
-def scan_device_od():
+def scan_device_od(n=SCAN_ID):
     """A device with TPDO 1 event-driven (inhibit time, event timer), TPDO 2
     invalid, TPDO 3 synchronous with a SYNC start value, RPDO 1 with a dummy
     byte and a deadline, RPDO 2 invalid; nothing after them."""
     U8, U16, U32 = datatypes.UNSIGNED8, datatypes.UNSIGNED16, datatypes.UNSIGNED32
     od = ObjectDictionary()
-    n = SCAN_ID
     tpdos = ((0x180 + n, 254, 10, 100, 0, [0x60000108, 0x64010110]),
              (0x80000280 + n, 255, 0, 0, 0, [0x20000020]),
              (0x380 + n, 1, 0, 0, 2, [0x20000020]))
@@ -1116,7 +1121,7 @@ def device_layout(local):
 
 
 LAYOUT_LINE = re.compile(
-    r"line line1: node (\d+): PDO layout \(scan\): (TPDO|RPDO) (\d+) COB-ID ([0-9A-F]+)h "
+    r"line line1: node (\d+): PDO layout \((?:scan|file)\): (TPDO|RPDO) (\d+) COB-ID ([0-9A-F]+)h "
     r"tt (\d+) inhibit (\d+) event (\d+) ms:(.*)$")
 ENTRY = re.compile(r"([0-9A-F]{4}):([0-9A-F]{2})/(\d+) (.*)")
 
@@ -1190,6 +1195,18 @@ def test_pdo_layout_learnt_by_sdo_scan_equals_the_device():
         # manager test's silence checks would see
 
 
+def test_pdo_layout_from_an_eds_equals_the_device():
+    """python-canopen wrote the EDS of a device (export_od); the layout the
+    daemon read from it at start-up is the device's, typed by the file."""
+    device = canopen.LocalNode(FILE_ID, scan_device_od(FILE_ID))
+    want = device_layout(device)
+    got, types = learnt_layout(full_log("cogwd"), FILE_ID)
+    eq(want, got, "the layout read from the EDS against the device's records")
+    eq("INTEGER16", types[(0x6401, 1)], "type of 6401:01 (the EDS's DataType)")
+    eq("UNSIGNED8", types[(0x6000, 1)], "type of 6000:01 (the EDS's DataType)")
+    eq("(dummy)", types[(0x0005, 0)], "RPDO dummy entry")
+
+
 def test_program_by_segmented_transfer_when_block_is_refused():
     """python-canopen's SDO server refuses a block download (05040001h):
     the software manager's image goes by segmented transfer and cogwctl
@@ -1246,6 +1263,7 @@ def main():
                   test_emcy_from_cosim_and_from_cogwd,
                   test_lss_fastscan_and_node_id_assignment,
                   test_pdo_layout_learnt_by_sdo_scan_equals_the_device,
+                  test_pdo_layout_from_an_eds_equals_the_device,
                   # before the manager test: its end leaves line 1 stopped
                   test_program_by_segmented_transfer_when_block_is_refused,
                   test_manager_no_sdo_while_network_stopped_and_both_ways_out):
