@@ -382,6 +382,8 @@ static bool file_layout_holds(const co_pdo_scan_line *l, uint8_t node_id)
 	return cdcf_crc(l->node, node_id) == l->cdcf_crc[node_id];
 }
 
+static void cancel(co_pdo_scan *job, uint64_t now_us);
+
 int co_pdo_scan_line_step(void *ctx, uint8_t node_id, uint64_t now_us)
 {
 	co_pdo_scan_line *l = ctx;
@@ -401,8 +403,9 @@ int co_pdo_scan_line_step(void *ctx, uint8_t node_id, uint64_t now_us)
 	} else if (!cfg->scan) {
 		return 0;
 	}
-	if (co_pdo_scan_running(job))
-		return -EBUSY;
+	/* the boot started again (a request) while its scan ran: that scan
+	 * belongs to the old boot */
+	cancel(job, now_us);
 	(void)co_pdo_layout_begin(l->table, node_id, CO_PDO_LAYOUT_SCAN);
 	memset(&job->res, 0, sizeof(job->res));
 	job->res.node_id = node_id;

@@ -134,9 +134,9 @@ void co_pdo_scan_line_init(co_pdo_scan_line *l, co_node *node, co_pdo_layout *ta
  * The PDO layout step of node n (the manager's hook; ctx = the line).
  * Returns 0 when there is nothing to learn (a node that is not scanned,
  * or whose file layout still holds), 1 when a scan started (done()
- * reports it, never from inside this call), -EBUSY when the node's scan
- * runs, -ENOBUFS when its first request cannot be queued (the SDO client
- * pool is full).
+ * reports it, never from inside this call; a scan of the node that still
+ * runs is cancelled first), -ENOBUFS when the first request cannot be
+ * queued (the SDO client pool is full).
  */
 int co_pdo_scan_line_step(void *ctx, uint8_t node_id, uint64_t now_us);
 /* Every core event of the node: a boot-up invalidates that node's layout

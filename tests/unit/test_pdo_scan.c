@@ -396,6 +396,35 @@ static void test_a_boot_up_during_the_scan_cancels_it(void)
 	assert_booted();
 }
 
+/* The node's boot asked for again while its scan waits for an answer:
+ * the pool runs the node's requests in order, so the old scan ends (its
+ * read times out) before the new boot's reads; its end does not reach the
+ * new boot, which scans afresh and reports once. */
+static void test_a_boot_request_during_the_scan_scans_afresh(void)
+{
+	device_pdos();
+	setup_line(8, true);
+	dropped_answers = 0;
+	f.bus.filter = lose_1a00_1;
+	mf_start(&f, &(co_manager_config){ .sdo_timeout_ms = 100,
+					   .reset_wait_ms = 500,
+					   .pdo_layout = co_pdo_scan_line_step,
+					   .pdo_layout_ctx = &line });
+	for (int i = 0; i < 2000 && !dropped_answers; i++)
+		tb_advance(&f.bus, 1 * MS);
+	TEST_ASSERT_EQUAL_UINT(1, dropped_answers);
+
+	TEST_ASSERT_EQUAL_INT(0, co_manager_boot_node(f.mgr, NODE, f.bus.now));
+	tb_advance(&f.bus, 3 * S);
+	TEST_ASSERT_EQUAL_INT(CO_PDO_SCAN_LEARNT, last.outcome);
+	TEST_ASSERT_TRUE(rec()->valid);
+	TEST_ASSERT_EQUAL_UINT16(2, rec()->n[CO_PDO_TX]);
+	TEST_ASSERT_EQUAL_UINT8(2, rec()->pdo[CO_PDO_TX][0].n);
+	TEST_ASSERT_EQUAL_UINT(1, mf_boot_count(&f, NODE, CO_MGR_STEP_PDO_LAYOUT, -1));
+	TEST_ASSERT_EQUAL_HEX32(0, mf_boot(&f, NODE, CO_MGR_STEP_PDO_LAYOUT, -1)->abort);
+	assert_booted();
+}
+
 /* pdo off, or a file layout whose concise DCF (1F22h:n) is unchanged:
  * no read, no event, the file layout stays valid. */
 static void test_nodes_that_are_not_scanned(void)
@@ -450,6 +479,7 @@ int main(void)
 	RUN_TEST(test_no_pdos_at_all);
 	RUN_TEST(test_remapped_device_is_learnt_again_after_its_boot_up);
 	RUN_TEST(test_a_boot_up_during_the_scan_cancels_it);
+	RUN_TEST(test_a_boot_request_during_the_scan_scans_afresh);
 	RUN_TEST(test_nodes_that_are_not_scanned);
 	RUN_TEST(test_file_layout_holds_until_its_configuration_changes);
 	return UNITY_END();
