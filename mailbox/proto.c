@@ -22,6 +22,10 @@ _Static_assert(sizeof(mbx_dev_watch_resp) == 8, "wire layout");
 _Static_assert(sizeof(mbx_dev_read_req) == 12, "wire layout");
 _Static_assert(sizeof(mbx_dev_value) == 32, "wire layout");
 _Static_assert(sizeof(mbx_dev_write_resp) == 8, "wire layout");
+_Static_assert(sizeof(mbx_dev_layout_node) == 32, "wire layout");
+_Static_assert(sizeof(mbx_dev_layout_pdo) == 20, "wire layout");
+_Static_assert(sizeof(mbx_dev_layout_entry) == 8, "wire layout");
+_Static_assert(sizeof(mbx_ev_dev_mirror) == 12, "wire layout");
 _Static_assert(sizeof(mbx_register_req) == 140, "wire layout");
 _Static_assert(sizeof(mbx_register_resp) == 32, "wire layout");
 _Static_assert(sizeof(mbx_raw_filter) == 8, "wire layout");
@@ -358,6 +362,8 @@ const char *mbx_event_to_string(unsigned code)
 		return "time";
 	case MBX_EV_DEV_VALUE:
 		return "dev-value";
+	case MBX_EV_DEV_MIRROR:
+		return "dev-mirror";
 	case MBX_EV_EMCY:
 		return "emcy";
 	case MBX_EV_RAW:
@@ -409,6 +415,8 @@ uint32_t mbx_event_class_of(unsigned code)
 		return MBX_EVC_TIME;
 	case MBX_EV_DEV_VALUE:
 		return MBX_EVC_VALUE;
+	case MBX_EV_DEV_MIRROR:
+		return MBX_EVC_MANAGER;
 	case MBX_EV_EMCY:
 		return MBX_EVC_EMCY;
 	case MBX_EV_RAW:
@@ -1076,6 +1084,8 @@ int mbx_event_validate(unsigned code, const uint8_t *p, size_t len)
 		return len == sizeof(mbx_ev_sync) ? 0 : MBX_E_MALFORMED;
 	case MBX_EV_TIME:
 		return len == sizeof(mbx_ev_time) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_DEV_MIRROR:
+		return len == sizeof(mbx_ev_dev_mirror) ? 0 : MBX_E_MALFORMED;
 	case MBX_EV_DEV_VALUE: {
 		mbx_dev_value v;
 

@@ -313,6 +313,8 @@ typedef enum mbx_event {
 	MBX_EV_TIME = 0x0D01,           /* TIME mbx_ev_time */
 	MBX_EV_DEV_VALUE = 0x0E01,      /* VALUE mbx_dev_value + data: a watched object's
 	                                 * new value, to its watchers only */
+	MBX_EV_DEV_MIRROR = 0x0E02,     /* MANAGER mbx_ev_dev_mirror: a node's mirror
+	                                 * PDOs were programmed or released */
 } mbx_event;
 
 const char *mbx_event_to_string(unsigned code); /* "?" if unknown */
@@ -917,6 +919,78 @@ typedef struct mbx_dev_value {
 } mbx_dev_value;
 
 #define MBX_DEV_VALUE_EVENT_MAX 8u /* an event carries a PDO's value: <= 8 bytes */
+
+/* DEV_LAYOUT answer: per node (the requested one, or every node the line
+ * knows) one mbx_dev_layout_node, then its n_tpdo + n_rpdo PDO records
+ * (the device's TPDOs first), each followed by its n entries. */
+typedef struct mbx_dev_layout_node {
+	uint8_t node;
+	uint8_t source; /* 0 none, 1 file (DCF/EDS), 2 scan (SDO) */
+	uint8_t valid;  /* 1: learnt and not invalidated since */
+	uint8_t mirror; /* mbx_dev_mirror_status */
+	uint8_t reason; /* mbx_dev_mirror_reason of the first PDO not mirrored */
+	uint8_t pad;
+	uint16_t missing;    /* valid PDOs not mirrored (with mirror on) */
+	uint32_t generation; /* of the layout: +1 at every change */
+	uint16_t n_tpdo;     /* records that follow */
+	uint16_t n_rpdo;
+	uint16_t dropped_tpdo; /* valid PDOs the table had no room for */
+	uint16_t dropped_rpdo;
+	uint64_t learned_us; /* CLOCK_MONOTONIC when learnt */
+} mbx_dev_layout_node;
+
+typedef struct mbx_dev_layout_pdo {
+	uint16_t nr;  /* the device's PDO number, 1..512 */
+	uint8_t dir;  /* 1 = a TPDO of the device, 0 = an RPDO */
+	uint8_t n;    /* entries that follow */
+	uint32_t cob; /* communication sub 1 */
+	uint8_t tt;
+	uint8_t sync_start;
+	uint16_t inhibit; /* 100 us */
+	uint16_t event_ms;
+	uint8_t bytes;         /* frame length */
+	uint8_t mirror_reason; /* mbx_dev_mirror_reason, 0 = mirrored or off */
+	uint16_t mirror_pdo;   /* the daemon's PDO mirroring it (RPDO for a
+	                        * TPDO of the device), 0 = none */
+	uint16_t pad;
+} mbx_dev_layout_pdo;
+
+typedef struct mbx_dev_layout_entry {
+	uint16_t index; /* 0001h..0007h: a dummy entry */
+	uint8_t sub;
+	uint8_t bits;
+	uint8_t offset; /* first bit in the frame */
+	uint8_t access; /* CO_ACC_* bits the file gives (1 read, 2 write,
+	                 * 4 const, 8 RPDO, 16 TPDO), 0 = unknown */
+	uint16_t type;  /* co_type, 0 = unknown */
+} mbx_dev_layout_entry;
+
+enum mbx_dev_mirror_status {
+	MBX_DEV_MIRROR_OFF = 0,     /* pdo is not "auto" for the node */
+	MBX_DEV_MIRROR_WAITING = 1, /* no valid layout */
+	MBX_DEV_MIRROR_FULL = 2,    /* every valid PDO mirrored */
+	MBX_DEV_MIRROR_PARTIAL = 3, /* some not (reason, missing) */
+	MBX_DEV_MIRROR_NONE = 4,    /* none could be */
+};
+
+enum mbx_dev_mirror_reason {
+	MBX_DEV_MR_NONE = 0,
+	MBX_DEV_MR_NO_FREE_PDO = 1, /* the daemon has no free PDO record left */
+	MBX_DEV_MR_COB_IN_USE = 2,  /* a PDO of the daemon already uses the COB-ID */
+	MBX_DEV_MR_OD_REFUSED = 3,  /* the daemon's OD refused the re-mapping */
+	MBX_DEV_MR_NOT_KEPT = 4,    /* beyond the layout table's room */
+};
+
+/* MBX_EV_DEV_MIRROR */
+typedef struct mbx_ev_dev_mirror {
+	uint8_t node;
+	uint8_t status; /* mbx_dev_mirror_status */
+	uint8_t reason; /* mbx_dev_mirror_reason */
+	uint8_t pad;
+	uint16_t mirrored; /* device PDOs mirrored */
+	uint16_t missing;  /* not */
+	uint32_t generation;
+} mbx_ev_dev_mirror;
 
 typedef struct mbx_dev_write_resp {
 	uint8_t via;  /* mbx_dev_via */

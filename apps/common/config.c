@@ -73,29 +73,18 @@ static const char *const mailbox_keys[] = { "instance",
 					    NULL };
 static const char *const rule_keys[] = { "user", "uid", "access", "comment", NULL };
 static const char *const debug_keys[] = { "stall_signal", "stall_ms", "comment", NULL };
-static const char *const line_keys[] = { "name",
-					 "interface",
-					 "bitrate",
-					 "node_id",
-					 "network_id",
-					 "rt",
-					 "sdo_servers",
-					 "sdo_clients",
-					 "sdo_timeout_ms",
-					 "sdo_block_threshold",
-					 "heartbeat_ms",
-					 "sync_period_us",
-					 "time_period_ms",
-					 "heartbeat_consumers",
-					 "device",
-					 "rpdos",
-					 "tpdos",
-					 "objects",
-					 "values",
-					 "nodes",
-					 "manager",
-					 "comment",
-					 NULL };
+static const char *const line_keys[] = { "name",           "interface",
+					 "bitrate",        "node_id",
+					 "network_id",     "rt",
+					 "sdo_servers",    "sdo_clients",
+					 "sdo_timeout_ms", "sdo_block_threshold",
+					 "heartbeat_ms",   "sync_period_us",
+					 "time_period_ms", "heartbeat_consumers",
+					 "device",         "rpdos",
+					 "tpdos",          "objects",
+					 "values",         "nodes",
+					 "manager",        "device_objects",
+					 "comment",        NULL };
 static const char *const node_keys[] = {
 	"id",           "config",          "mandatory",    "boot",        "keep_alive",
 	"retry_factor", "guard_time_ms",   "heartbeat_ms", "device_type", "vendor_id",
@@ -117,6 +106,8 @@ static const char *const manager_keys[] = { "master",
 					    "comment",
 					    NULL };
 static const char *const rt_keys[] = { "priority", "cpu", "comment", NULL };
+static const char *const devobj_keys[] = { "read_max_age_ms", "write_update_ms", "watches",
+					   "comment", NULL };
 static const char *const hb_keys[] = { "node_id", "time_ms", "comment", NULL };
 static const char *const device_keys[] = { "device_type", "name",      "hw_version",
 					   "sw_version",  "vendor_id", "product_code",
@@ -1149,6 +1140,9 @@ static void line_defaults(cogw_line_config *l, size_t idx)
 	l->sdo_timeout_ms = 1000;
 	l->sdo_block_threshold = 128;
 	l->heartbeat_ms = 1000;
+	l->device_objects = (cogw_devobj_config){ .read_max_age_ms = 1000,
+						  .write_update_ms = 10,
+						  .watches = 64 };
 }
 
 static int parse_interface(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l)
@@ -1240,7 +1234,22 @@ static int parse_line_identity(struct ctx *c, const cJSON *o, const char *path, 
 	return v ? parse_rt(c, v, path, l) : 0;
 }
 
-/* heartbeat_consumers, device, nodes and manager: each parsed where present. */
+/* "device_objects": reading, writing and watching the slaves' objects
+ * (docs/devices.md). */
+static int parse_devobj(struct ctx *c, const cJSON *v, const char *path, cogw_devobj_config *d)
+{
+	int rc;
+
+	if ((rc = check_object(c, v, path, devobj_keys)) ||
+	    (rc = opt_u32(c, v, "read_max_age_ms", path, 0, 86400000, &d->read_max_age_ms)) ||
+	    (rc = opt_u32(c, v, "write_update_ms", path, 0, 60000, &d->write_update_ms)) ||
+	    (rc = opt_u16(c, v, "watches", path, 1, 4096, &d->watches)))
+		return rc;
+	return 0;
+}
+
+/* heartbeat_consumers, device, nodes, manager and device_objects: each
+ * parsed where present. */
 static int parse_line_sections(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l,
 			       co_od_std_opts *so, char *dev_name, char *hw, char *sw)
 {
@@ -1270,6 +1279,12 @@ static int parse_line_sections(struct ctx *c, const cJSON *o, const char *path, 
 	if (v) {
 		json_util_path_key(p, sizeof(p), path, "manager");
 		if ((rc = parse_manager(c, v, p, &l->manager)))
+			return rc;
+	}
+	v = json_util_get(o, "device_objects");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "device_objects");
+		if ((rc = parse_devobj(c, v, p, &l->device_objects)))
 			return rc;
 	}
 	return 0;
@@ -1661,6 +1676,9 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next, c
 			      "objects/values");
 			LDIFF(!nodes_same(x, y), "nodes");
 			LDIFF(memcmp(&x->manager, &y->manager, sizeof(x->manager)), "manager");
+			LDIFF(memcmp(&x->device_objects, &y->device_objects,
+				     sizeof(x->device_objects)),
+			      "device_objects");
 			changed = changed || before;
 #undef LDIFF
 		}

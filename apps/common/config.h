@@ -85,6 +85,13 @@ typedef struct cogw_manager_config {
 	bool accept_remote_nmt;  /* NMT to our node from the bus applies */
 } cogw_manager_config;
 
+/* "device_objects" of a line (docs/config.md, docs/devices.md). */
+typedef struct cogw_devobj_config {
+	uint32_t read_max_age_ms; /* DEV_READ answered from the mirror up to this age */
+	uint32_t write_update_ms; /* writes to one device RPDO coalesced over this */
+	uint16_t watches;         /* watch table of the line */
+} cogw_devobj_config;
+
 typedef struct cogw_line_config {
 	char name[COGW_NAME_MAX];      /* "line0" (default "line<N>") */
 	char interface[COGW_NAME_MAX]; /* "vcan0" (IFNAMSIZ-1 chars max) */
@@ -108,7 +115,8 @@ typedef struct cogw_line_config {
 	co_od *od;
 	cogw_node *nodes; /* "nodes" (owned, n_nodes entries) */
 	size_t n_nodes;
-	cogw_manager_config manager; /* "manager" */
+	cogw_manager_config manager;       /* "manager" */
+	cogw_devobj_config device_objects; /* "device_objects" */
 } cogw_line_config;
 
 typedef struct cogw_mailbox_config {
