@@ -415,7 +415,7 @@ $(SAN_COGW_LIB): $(call obj,$(SAN),$(MBX_CLIENT_SRC))
 
 $(REL_COGW_SO): $(patsubst %.c,$(REL)/pic/%.o,$(MBX_CLIENT_SRC))
 	@mkdir -p $(@D)
-	$(CC) -shared -Wl,-soname,libcogw.so.1 -o $@.1 $^ -lrt -lpthread
+	$(CC) -shared -Wl,-soname,libcogw.so.1 -o $@.1 $^ -lrt -lpthread -lm
 	ln -sf libcogw.so.1 $@
 
 all: $(REL_COGW_SO)

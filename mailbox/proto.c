@@ -776,7 +776,12 @@ static int check_gw_sdo_req(uint16_t code, const uint8_t *p, size_t len, mbx_bad
 	return check_sdo_fields(code, &r.sdo, bad);
 }
 
-/* MGR_BOOT takes node 0 (all nodes), MGR_NODE_DIAG one node. */
+bool mbx_data_type_is_valid(unsigned type)
+{
+	/* 0Eh and 17h are no basic type (CiA 301 table 44) */
+	return type >= MBX_T_BOOLEAN && type <= MBX_T_UNSIGNED64 && type != 0x0E && type != 0x17;
+}
+
 /* The fixed part of every DEV_* command that names one object; the watch
  * and read requests begin with it. A co_type is one of CiA 301's basic
  * types (0001h..001Bh) or 0. */
@@ -789,7 +794,7 @@ static int check_dev_obj(uint16_t code, const uint8_t *p, size_t len, mbx_bad *b
 	memcpy(&r, p, sizeof r);
 	if (r.flags & ~(unsigned)MBX_DEV_SDO_ONLY)
 		return refuse(bad, MBX_BAD_RESERVED);
-	if (r.node < 1 || r.node > 127 || r.type > 0x1B)
+	if (r.node < 1 || r.node > 127 || (r.type && !mbx_data_type_is_valid(r.type)))
 		return refuse(bad, MBX_BAD_PARAM);
 	return 0;
 }
@@ -808,6 +813,7 @@ static int check_dev_node(uint16_t code, const uint8_t *p, size_t len, mbx_bad *
 	return 0;
 }
 
+/* MGR_BOOT takes node 0 (all nodes), MGR_NODE_DIAG one node. */
 static int check_mgr_node_req(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
 {
 	mbx_mgr_node_req r;

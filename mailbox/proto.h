@@ -857,6 +857,39 @@ typedef struct mbx_rpdo_fault_entry {
 
 /* ---- device objects (docs/devices.md) ------------------------------------ */
 
+/* CiA 301 basic data types as the wire carries them (the data type index,
+ * CiA 301 §7.4.7.1 table 44; the same numbers as core/od.h co_type). */
+enum mbx_data_type {
+	MBX_T_BOOLEAN = 0x01,
+	MBX_T_INTEGER8 = 0x02,
+	MBX_T_INTEGER16 = 0x03,
+	MBX_T_INTEGER32 = 0x04,
+	MBX_T_UNSIGNED8 = 0x05,
+	MBX_T_UNSIGNED16 = 0x06,
+	MBX_T_UNSIGNED32 = 0x07,
+	MBX_T_REAL32 = 0x08,
+	MBX_T_VISIBLE_STRING = 0x09,
+	MBX_T_OCTET_STRING = 0x0A,
+	MBX_T_UNICODE_STRING = 0x0B,
+	MBX_T_TIME_OF_DAY = 0x0C,
+	MBX_T_TIME_DIFFERENCE = 0x0D,
+	MBX_T_DOMAIN = 0x0F,
+	MBX_T_INTEGER24 = 0x10,
+	MBX_T_REAL64 = 0x11,
+	MBX_T_INTEGER40 = 0x12,
+	MBX_T_INTEGER48 = 0x13,
+	MBX_T_INTEGER56 = 0x14,
+	MBX_T_INTEGER64 = 0x15,
+	MBX_T_UNSIGNED24 = 0x16,
+	MBX_T_UNSIGNED40 = 0x18,
+	MBX_T_UNSIGNED48 = 0x19,
+	MBX_T_UNSIGNED56 = 0x1A,
+	MBX_T_UNSIGNED64 = 0x1B,
+};
+
+/* One of the basic types above. */
+bool mbx_data_type_is_valid(unsigned type);
+
 /* A device object: node of the line's bus, index:sub. `type` is the co_type
  * (core/od.h) the client reads or writes it as; 0 = the one the line knows
  * (its DCF/EDS), else an unsigned integer of the mapped size. */
