@@ -33,6 +33,7 @@
 
 #include "apps/common/json_od.h"
 #include "apps/common/json_util.h"
+#include "apps/common/pdo_config.h"
 #include "core/cfgmgr.h"
 #include "core/manager.h"
 #include "core/nmt.h"
@@ -83,14 +84,32 @@ static const char *const line_keys[] = { "name",           "interface",
 					 "device",         "rpdos",
 					 "tpdos",          "objects",
 					 "values",         "nodes",
-					 "manager",        "device_objects",
+					 "manager",        "pdo",
+					 "pdo_scan_max",   "device_objects",
 					 "comment",        NULL };
-static const char *const node_keys[] = {
-	"id",           "config",          "mandatory",    "boot",        "keep_alive",
-	"retry_factor", "guard_time_ms",   "heartbeat_ms", "device_type", "vendor_id",
-	"product_code", "revision",        "serial",       "keep_op",     "state",
-	"software_id",  "software_update", "program",      "comment",     NULL
-};
+static const char *const node_keys[] = { "id",
+					 "config",
+					 "mandatory",
+					 "boot",
+					 "keep_alive",
+					 "retry_factor",
+					 "guard_time_ms",
+					 "heartbeat_ms",
+					 "device_type",
+					 "vendor_id",
+					 "product_code",
+					 "revision",
+					 "serial",
+					 "keep_op",
+					 "state",
+					 "software_id",
+					 "software_update",
+					 "program",
+					 "pdo",
+					 "eds",
+					 "types",
+					 "comment",
+					 NULL };
 static const char *const manager_keys[] = { "master",
 					    "start_all",
 					    "self_start",
@@ -1116,14 +1135,9 @@ static int parse_nodes(struct ctx *c, const cJSON *v, const char *path, cogw_lin
 					    (unsigned long long)id, path, j);
 		n->id = (uint8_t)id;
 		l->n_nodes++;
-		if ((rc = parse_node_manager(c, it, np, n)))
-			return rc;
-		x = json_util_get(it, "config");
-		if (!x)
-			continue;
-		json_util_path_key(p, sizeof(p), np, "config");
-		if ((rc = cogw_node_config_parse(x, p, n->id, c->base_dir, c->files, c->read,
-						 &n->config, c->msg, sizeof(c->msg))))
+		if ((rc = parse_node_manager(c, it, np, n)) ||
+		    (rc = cogw_node_pdo_parse(it, np, l, c->base_dir, c->files, c->read, n, c->msg,
+					      sizeof(c->msg))))
 			return rc;
 	}
 	return 0;
@@ -1140,6 +1154,8 @@ static void line_defaults(cogw_line_config *l, size_t idx)
 	l->sdo_timeout_ms = 1000;
 	l->sdo_block_threshold = 128;
 	l->heartbeat_ms = 1000;
+	l->pdo = COGW_PDO_OFF;
+	l->pdo_scan_max = COGW_PDO_SCAN_MAX_DEFAULT;
 	l->device_objects = (cogw_devobj_config){ .read_max_age_ms = 1000,
 						  .write_update_ms = 10,
 						  .watches = 64 };
@@ -1316,9 +1332,12 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_confi
 	    (rc = opt_u32(c, o, "sync_period_us", path, 0, UINT32_MAX, &l->sync_period_us)) ||
 	    (rc = opt_u32(c, o, "time_period_ms", path, 0, 86400000, &l->time_period_ms)) ||
 	    (rc = opt_u16(c, o, "rpdos", path, 0, 512, &so.rpdos)) ||
-	    (rc = opt_u16(c, o, "tpdos", path, 0, 512, &so.tpdos)))
+	    (rc = opt_u16(c, o, "tpdos", path, 0, 512, &so.tpdos)) ||
+	    (rc = opt_u16(c, o, "pdo_scan_max", path, 1, CO_PDO_MAX, &l->pdo_scan_max)) ||
+	    (rc = cogw_pdo_mode_parse(o, path, &l->pdo, c->msg, sizeof(c->msg))))
 		return rc;
-	if ((rc = parse_line_sections(c, o, path, l, &so, dev_name, hw, sw)))
+	if ((rc = parse_line_sections(c, o, path, l, &so, dev_name, hw, sw)) ||
+	    (rc = cogw_line_pdo_check(l, path, c->msg, sizeof(c->msg))))
 		return rc;
 
 	so.device_name = dev_name;
@@ -1521,6 +1540,7 @@ void cogw_config_free(cogw_config *cfg)
 		l->od = NULL;
 		for (size_t j = 0; l->nodes && j < l->n_nodes + 1; j++) {
 			cogw_node_config_free(&l->nodes[j].config);
+			cogw_node_pdo_free(&l->nodes[j]);
 		}
 		free(l->nodes);
 		l->nodes = NULL;
@@ -1598,7 +1618,8 @@ static bool nodes_same(const cogw_line_config *a, const cogw_line_config *b)
 			   sizeof(a->nodes[i].identity)) ||
 		    a->nodes[i].heartbeat_ms != b->nodes[i].heartbeat_ms ||
 		    a->nodes[i].keep_op != b->nodes[i].keep_op ||
-		    a->nodes[i].target_state != b->nodes[i].target_state)
+		    a->nodes[i].target_state != b->nodes[i].target_state ||
+		    !cogw_node_pdo_equal(&a->nodes[i], &b->nodes[i]))
 			return false;
 	return true;
 }
@@ -1675,6 +1696,8 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next, c
 			LDIFF(!changed && x->od && y->od && !od_same(x->od, y->od),
 			      "objects/values");
 			LDIFF(!nodes_same(x, y), "nodes");
+			LDIFF(x->pdo != y->pdo, "pdo");
+			LDIFF(x->pdo_scan_max != y->pdo_scan_max, "pdo_scan_max");
 			LDIFF(memcmp(&x->manager, &y->manager, sizeof(x->manager)), "manager");
 			LDIFF(memcmp(&x->device_objects, &y->device_objects,
 				     sizeof(x->device_objects)),

@@ -16,6 +16,7 @@
 #include <stdint.h>
 #include <sys/types.h>
 
+#include "apps/common/eds_pdo.h"
 #include "apps/common/node_config.h"
 #include "core/od.h"
 
@@ -46,6 +47,19 @@ typedef struct cogw_hb_consumer {
 	uint16_t time_ms;
 } cogw_hb_consumer;
 
+/* What the line learns of its slaves' PDOs ("pdo"; docs/config.md "PDO
+ * layouts"). */
+typedef enum cogw_pdo_mode {
+	COGW_PDO_OFF = 0, /* nothing learnt by SDO (a file's layout is still kept) */
+	COGW_PDO_LEARN,   /* learn the layout: from the file, else by SDO scan */
+	COGW_PDO_AUTO,    /* learn it and mirror the PDOs (the device object layer) */
+} cogw_pdo_mode;
+
+/* "off", "learn", "auto". */
+const char *cogw_pdo_mode_to_string(uint8_t mode);
+
+#define COGW_PDO_SCAN_MAX_DEFAULT 8u
+
 /* A slave node on a line ("nodes"): its id, where its configuration
  * comes from (apps/common/node_config.h) and, for the line's CiA 302-2
  * manager, its assignment and expected identity. */
@@ -68,6 +82,15 @@ typedef struct cogw_node {
 	                             * the 1F58h:n image; "software_update"
 	                             * sets 1F81h:n bit 6 */
 	size_t program_len;
+	/* PDO layout (docs/config.md "PDO layouts") */
+	uint8_t pdo;               /* cogw_pdo_mode: "pdo", else the line's */
+	char eds[256];             /* "eds": the device's file (resolved), "" = none */
+	bool pdo_from_file;        /* the layout is pdo_file (config.dcf without
+	                                   * "eds", or "eds" without "config") */
+	eds_pdo_file pdo_file;     /* the valid PDOs the file gives (owned) */
+	co_pdo_layout_type *types; /* sorted: the file's objects with "types" over
+	                                   * them (owned) */
+	size_t n_types;
 } cogw_node;
 
 #define COGW_PROGRAM_MAX (16u * 1024u * 1024u)
@@ -116,6 +139,8 @@ typedef struct cogw_line_config {
 	cogw_node *nodes; /* "nodes" (owned, n_nodes entries) */
 	size_t n_nodes;
 	cogw_manager_config manager;       /* "manager" */
+	uint8_t pdo;                       /* cogw_pdo_mode, the nodes' default */
+	uint16_t pdo_scan_max;             /* PDOs per direction scanned and kept, 1..512 */
 	cogw_devobj_config device_objects; /* "device_objects" */
 } cogw_line_config;
 
