@@ -41,7 +41,9 @@ bool devobj_find(const devobj_line *dl, uint8_t node, co_pdo_dir dev_dir, uint16
 				continue;
 			int rec = devobj_mirror_record_for(&dl->mirror, node, dev_dir, k);
 			if (!found || rec >= 0)
-				*out = (devobj_place){ .pdo = p, .entry = &p->map[i], .pos = i, .rec = rec };
+				*out = (devobj_place){
+					.pdo = p, .entry = &p->map[i], .pos = i, .rec = rec
+				};
 			found = true;
 			if (rec >= 0)
 				return true;
@@ -62,7 +64,8 @@ static void publish_mirror(devobj_line *dl, uint8_t id)
 {
 	const devobj_node_mirror *nm = &dl->mirror.node[id];
 	const co_pdo_layout_node *ln = co_pdo_layout_node_get(dl->mirror.layout, id);
-	unsigned total = ln && ln->valid ? ln->n[0] + ln->n[1] + ln->dropped[0] + ln->dropped[1] : 0;
+	unsigned total = ln && ln->valid ? ln->n[0] + ln->n[1] + ln->dropped[0] + ln->dropped[1]
+					 : 0;
 	mbx_ev_dev_mirror ev = {
 		.node = id,
 		.status = nm->status,
@@ -88,7 +91,8 @@ static void reset_records(devobj_line *dl)
 	for (unsigned i = 0; i < dl->mirror.n_rec[CO_PDO_RX]; i++) {
 		const devobj_record *r = &dl->mirror.rec[CO_PDO_RX][i];
 		devobj_rx *rx = &dl->rx[i];
-		if (r->busy && rx->node == r->node && rx->generation == dl->mirror.node[r->node].generation)
+		if (r->busy && rx->node == r->node &&
+		    rx->generation == dl->mirror.node[r->node].generation)
 			continue;
 		memset(rx, 0, sizeof *rx);
 		rx->node = r->busy ? r->node : 0;
@@ -97,7 +101,8 @@ static void reset_records(devobj_line *dl)
 	for (unsigned i = 0; i < dl->mirror.n_rec[CO_PDO_TX]; i++) {
 		const devobj_record *r = &dl->mirror.rec[CO_PDO_TX][i];
 		devobj_tx *tx = &dl->tx[i];
-		if (r->busy && tx->node == r->node && tx->generation == dl->mirror.node[r->node].generation)
+		if (r->busy && tx->node == r->node &&
+		    tx->generation == dl->mirror.node[r->node].generation)
 			continue;
 		memset(tx, 0, sizeof *tx);
 		tx->node = r->busy ? r->node : 0;

@@ -21,10 +21,11 @@
 #include "devobj/mirror.h"
 
 #define DEVOBJ_NO_WATCH (-1)
-#define DEVOBJ_READ_MAX 1024u /* bytes of a value DEV_READ answers (longer:
-                               * TOO_BIG, read it with SDO_UPLOAD) */
-#define DEVOBJ_SDO_CALLS 64u /* DEV_READ/WRITE by SDO under way (the line's
-                              * pending table bounds them anyway) */
+/* Bytes of a value DEV_READ answers (longer: TOO_BIG; SDO_UPLOAD reads it). */
+#define DEVOBJ_READ_MAX 1024u
+/* DEV_READ/WRITE by SDO under way (the line's pending table bounds them
+ * anyway). */
+#define DEVOBJ_SDO_CALLS 64u
 
 /* The last frame of a device TPDO the mirror consumes (one per daemon
  * RPDO record): the values of every object it maps. */
@@ -43,26 +44,26 @@ typedef struct devobj_rx {
 typedef struct devobj_tx {
 	uint8_t frame[8];
 	uint8_t node;
-	bool dirty;          /* a value changed since the frame was sent */
+	bool dirty; /* a value changed since the frame was sent */
 	uint32_t generation;
-	uint64_t given;      /* bit n: entry n has been given a value */
-	uint64_t due_us;     /* dirty: when to send (update time) */
-	uint64_t sent_us;    /* last sent */
-	uint32_t sent;       /* frames sent */
+	uint64_t given;   /* bit n: entry n has been given a value */
+	uint64_t due_us;  /* dirty: when to send (update time) */
+	uint64_t sent_us; /* last sent */
+	uint32_t sent;    /* frames sent */
 } devobj_tx;
 
 typedef struct devobj_watch {
 	bool used;
-	bool pending;    /* a value arrived inside the interval */
+	bool pending; /* a value arrived inside the interval */
 	uint8_t node;
 	uint8_t sub;
 	uint16_t index;
-	uint16_t type;   /* co_type asked for (0 = the known one) */
-	int16_t rec;     /* daemon RPDO record carrying it, -1 = not mirrored now */
-	int16_t next;    /* next watch of the same record */
-	uint8_t pos;     /* entry in the device TPDO */
+	uint16_t type; /* co_type asked for (0 = the known one) */
+	int16_t rec;   /* daemon RPDO record carrying it, -1 = not mirrored now */
+	int16_t next;  /* next watch of the same record */
+	uint8_t pos;   /* entry in the device TPDO */
 	uint32_t interval_ms;
-	uint32_t seq;    /* events sent */
+	uint32_t seq; /* events sent */
 	uint64_t sent_us;
 	mbx_reply_to reply; /* the client and the correlation of its WATCH */
 } devobj_watch;
@@ -88,7 +89,7 @@ typedef struct devobj_line {
 	uint16_t n_watch_used;
 	devobj_sdo_call *calls;
 	uint8_t read_buf[sizeof(mbx_dev_value) + DEVOBJ_READ_MAX]; /* DEV_READ by SDO */
-	uint8_t *layout_buf; /* DEV_LAYOUT answer */
+	uint8_t *layout_buf;                                       /* DEV_LAYOUT answer */
 	size_t layout_buf_cap;
 	/* counters */
 	uint32_t watch_refused; /* table full */

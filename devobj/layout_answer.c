@@ -65,8 +65,7 @@ static size_t put_pdos(const devobj_line *dl, uint8_t id, const co_pdo_layout_no
 	return off;
 }
 
-static size_t put_node(const devobj_line *dl, uint8_t id, const co_pdo_layout_node *n,
-		       uint8_t *out)
+static size_t put_node(const devobj_line *dl, uint8_t id, const co_pdo_layout_node *n, uint8_t *out)
 {
 	const devobj_node_mirror *nm = &dl->mirror.node[id];
 	mbx_dev_layout_node w = {
@@ -113,7 +112,8 @@ void devobj_cmd_layout(devobj_line *dl, const mbx_request *req)
 }
 
 /* The wire's numbers are the mirror's own (devobj/mirror.h). */
-_Static_assert((int)DEVOBJ_M_OFF == (int)MBX_DEV_MIRROR_OFF && (int)DEVOBJ_M_WAITING == (int)MBX_DEV_MIRROR_WAITING &&
+_Static_assert((int)DEVOBJ_M_OFF == (int)MBX_DEV_MIRROR_OFF &&
+		       (int)DEVOBJ_M_WAITING == (int)MBX_DEV_MIRROR_WAITING &&
 		       (int)DEVOBJ_M_FULL == (int)MBX_DEV_MIRROR_FULL &&
 		       (int)DEVOBJ_M_PARTIAL == (int)MBX_DEV_MIRROR_PARTIAL &&
 		       (int)DEVOBJ_M_NONE == (int)MBX_DEV_MIRROR_NONE,

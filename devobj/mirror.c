@@ -118,8 +118,7 @@ static int create_records(devobj_mirror *m, co_pdo_dir d)
 	/* mappable the way the daemon's PDO of that direction maps it; read
 	 * over SDO for diagnosis, never written but by the mirror */
 	uint16_t access = CO_ACC_READ | (d == CO_PDO_RX ? CO_ACC_RPDO : CO_ACC_TPDO);
-	return co_od_add_array(od, slot_index(d), CO_T_UNSIGNED64, (uint8_t)m->n_rec[d], access,
-			       0);
+	return co_od_add_array(od, slot_index(d), CO_T_UNSIGNED64, (uint8_t)m->n_rec[d], access, 0);
 }
 
 int devobj_mirror_create(devobj_mirror *m, co_node *co, co_pdo_layout *layout,
@@ -303,7 +302,7 @@ bool devobj_mirror_sync(devobj_mirror *m, uint8_t id)
 		}
 	}
 	m->refused += nm->missing;
-	nm->status = nm->missing == 0	  ? DEVOBJ_M_FULL
+	nm->status = nm->missing == 0      ? DEVOBJ_M_FULL
 		     : nm->missing < total ? DEVOBJ_M_PARTIAL
 					   : DEVOBJ_M_NONE;
 	return true;
@@ -316,7 +315,9 @@ void devobj_mirror_forget(devobj_mirror *m)
 			m->rec[d][i].busy = false;
 	for (unsigned id = 1; id <= CO_PDO_LAYOUT_NODES; id++) {
 		devobj_node_mirror *nm = &m->node[id];
-		const co_pdo_layout_node *ln = m->layout ? co_pdo_layout_node_get(m->layout, (uint8_t)id) : NULL;
+		const co_pdo_layout_node *ln = m->layout ? co_pdo_layout_node_get(m->layout,
+										  (uint8_t)id)
+							 : NULL;
 		if (!nm->wanted || !ln)
 			continue;
 		for (int dev_dir = 0; dev_dir < 2; dev_dir++)

@@ -45,10 +45,10 @@
 /* Why a device PDO is not mirrored. */
 typedef enum devobj_reason {
 	DEVOBJ_R_NONE = 0,
-	DEVOBJ_R_NO_RECORD,   /* no free PDO record of the daemon left */
-	DEVOBJ_R_COB_IN_USE,  /* a hand-written PDO of the daemon uses the COB-ID */
-	DEVOBJ_R_OD_REFUSED,  /* the daemon's OD refused a re-mapping step */
-	DEVOBJ_R_NOT_KEPT,    /* beyond the layout table's room (dropped) */
+	DEVOBJ_R_NO_RECORD,  /* no free PDO record of the daemon left */
+	DEVOBJ_R_COB_IN_USE, /* a hand-written PDO of the daemon uses the COB-ID */
+	DEVOBJ_R_OD_REFUSED, /* the daemon's OD refused a re-mapping step */
+	DEVOBJ_R_NOT_KEPT,   /* beyond the layout table's room (dropped) */
 	DEVOBJ_R_COUNT,
 } devobj_reason;
 
@@ -99,7 +99,7 @@ typedef struct devobj_mirror {
 	int16_t *rec_of_nr[2]; /* [daemon dir][nr]: record index, -1 */
 	uint16_t n_nr[2];      /* co_pdo_count + 1 */
 	devobj_node_mirror node[CO_PDO_LAYOUT_NODES + 1];
-	uint32_t refused;      /* PDOs left unmirrored, counted per programming */
+	uint32_t refused; /* PDOs left unmirrored, counted per programming */
 } devobj_mirror;
 
 /*

@@ -117,8 +117,8 @@ static void write_answer(void *ctx, line *l, const mbx_reply_to *to, uint32_t ab
 	devobj_answer(c->dl, to, 0, 0, &resp, sizeof resp);
 }
 
-static void by_sdo(devobj_line *dl, const mbx_request *req, const mbx_dev_obj_req *o,
-		   uint16_t type, bool upload)
+static void by_sdo(devobj_line *dl, const mbx_request *req, const mbx_dev_obj_req *o, uint16_t type,
+		   bool upload)
 {
 	devobj_sdo_call *c = take_call(dl, o, type);
 	if (!c)
@@ -154,14 +154,16 @@ void devobj_cmd_read(devobj_line *dl, const mbx_request *req)
 		return devobj_answer(dl, &req->reply, MBX_E_ABORT, abort, NULL, 0);
 
 	uint64_t now = line_loop_now_us(dl->l);
-	uint64_t max_age_us = (uint64_t)(r.max_age_ms ? r.max_age_ms : dl->p.read_max_age_ms) * 1000u;
+	uint64_t max_age_us = (uint64_t)(r.max_age_ms ? r.max_age_ms : dl->p.read_max_age_ms) *
+			      1000u;
 	if (!(r.obj.flags & MBX_DEV_SDO_ONLY) &&
 	    devobj_find(dl, r.obj.node, CO_PDO_TX, r.obj.index, r.obj.sub, &at) && at.rec >= 0) {
 		const devobj_rx *rx = &dl->rx[at.rec];
 		uint64_t age = now - rx->time_us;
 		uint16_t vt = devobj_value_type(at.entry, r.obj.type);
 		if (!vt)
-			return devobj_answer(dl, &req->reply, MBX_E_ABORT, SDO_AB_TYPE_LEN, NULL, 0);
+			return devobj_answer(dl, &req->reply, MBX_E_ABORT, SDO_AB_TYPE_LEN, NULL,
+					     0);
 		if (rx->count && (r.max_age_ms == UINT32_MAX || age <= max_age_us)) {
 			uint8_t buf[sizeof(mbx_dev_value) + 8];
 			mbx_dev_value v = {
@@ -172,7 +174,8 @@ void devobj_cmd_read(devobj_line *dl, const mbx_request *req)
 				.via = MBX_DEV_VIA_PDO,
 				.bits = at.entry->bits,
 				.seq = rx->count,
-				.age_ms = (uint32_t)(age / 1000u > UINT32_MAX ? UINT32_MAX : age / 1000u),
+				.age_ms = (uint32_t)(age / 1000u > UINT32_MAX ? UINT32_MAX
+									      : age / 1000u),
 				.time_us = rx->time_us,
 			};
 			v.len = devobj_value_extract(rx->frame, at.entry, vt, buf + sizeof v);
@@ -212,7 +215,8 @@ static void by_pdo(devobj_line *dl, const mbx_request *req, const mbx_dev_obj_re
 		/* coalesced: at most one frame per update time, carrying the
 		 * latest value of each object (docs/devices.md) */
 		uint64_t now = line_loop_now_us(dl->l);
-		uint64_t earliest = tx->sent ? tx->sent_us + (uint64_t)dl->p.write_update_ms * 1000u : now;
+		uint64_t earliest = tx->sent ? tx->sent_us + (uint64_t)dl->p.write_update_ms * 1000u
+					     : now;
 		tx->due_us = earliest > now ? earliest : now;
 	}
 	tx->dirty = !held;

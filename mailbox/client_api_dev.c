@@ -118,8 +118,8 @@ int cogw_dev_read(cogw *h, unsigned line, const mbx_dev_obj_req *obj, uint32_t m
 	return rc;
 }
 
-int cogw_dev_write(cogw *h, unsigned line, const mbx_dev_obj_req *obj, const void *data,
-		   size_t len, mbx_dev_write_resp *resp, unsigned timeout_ms, uint32_t *abort)
+int cogw_dev_write(cogw *h, unsigned line, const mbx_dev_obj_req *obj, const void *data, size_t len,
+		   mbx_dev_write_resp *resp, unsigned timeout_ms, uint32_t *abort)
 {
 	mbx_dev_write_resp a;
 	size_t alen = 0;

@@ -34,8 +34,9 @@
 
 static co_pdo_layout_entry entry(uint8_t offset, uint8_t bits, uint16_t type)
 {
-	return (co_pdo_layout_entry){ .index = 0x2000, .sub = 1, .bits = bits, .offset = offset,
-				      .type = type };
+	return (co_pdo_layout_entry){
+		.index = 0x2000, .sub = 1, .bits = bits, .offset = offset, .type = type
+	};
 }
 
 static void expect_extract(const char *frame_hex, co_pdo_layout_entry e, uint16_t asked,
@@ -65,30 +66,29 @@ void test_value_integers_by_width(void)
 		       "01 02 03 04 05 86");
 	expect_extract("01 02 03 04 05 06 87", entry(0, 56, CO_T_INTEGER56), 0, CO_T_INTEGER56,
 		       "01 02 03 04 05 06 87");
-	expect_extract("01 02 03 04 05 06 07 88", entry(0, 64, CO_T_INTEGER64), 0,
-		       CO_T_INTEGER64, "01 02 03 04 05 06 07 88");
+	expect_extract("01 02 03 04 05 06 07 88", entry(0, 64, CO_T_INTEGER64), 0, CO_T_INTEGER64,
+		       "01 02 03 04 05 06 07 88");
 	/* an INTEGER32 mapped with 12 bits: bit 11 is the sign */
 	expect_extract("00 08", entry(0, 12, CO_T_INTEGER32), 0, CO_T_INTEGER32, "00 F8 FF FF");
 	/* UNSIGNEDn zero-extended */
 	expect_extract("FF 0F", entry(4, 8, CO_T_UNSIGNED32), 0, CO_T_UNSIGNED32, "FF 00 00 00");
 	expect_extract("01 02 83", entry(0, 24, CO_T_UNSIGNED24), 0, CO_T_UNSIGNED24, "01 02 83");
-	expect_extract("01 02 03 04 05 06 87", entry(0, 56, CO_T_UNSIGNED56), 0,
-		       CO_T_UNSIGNED56, "01 02 03 04 05 06 87");
+	expect_extract("01 02 03 04 05 06 87", entry(0, 56, CO_T_UNSIGNED56), 0, CO_T_UNSIGNED56,
+		       "01 02 03 04 05 06 87");
 }
 
 void test_value_reals_booleans_strings(void)
 {
 	/* REAL32 1.5 = 3FC00000h, REAL64 -2.25 = C002000000000000h */
-	expect_extract("AA 00 00 C0 3F", entry(8, 32, CO_T_REAL32), 0, CO_T_REAL32,
-		       "00 00 C0 3F");
+	expect_extract("AA 00 00 C0 3F", entry(8, 32, CO_T_REAL32), 0, CO_T_REAL32, "00 00 C0 3F");
 	expect_extract("00 00 00 00 00 00 02 C0", entry(0, 64, CO_T_REAL64), 0, CO_T_REAL64,
 		       "00 00 00 00 00 00 02 C0");
 	/* a BOOLEAN mapped with 1 bit (bit 3 of the first byte), with 8 */
 	expect_extract("08", entry(3, 1, CO_T_BOOLEAN), 0, CO_T_BOOLEAN, "01");
 	expect_extract("F7", entry(3, 1, CO_T_BOOLEAN), 0, CO_T_BOOLEAN, "00");
 	/* VISIBLE_STRING and OCTET_STRING: the mapped bytes */
-	expect_extract("00 41 42 43", entry(8, 24, CO_T_VISIBLE_STRING), 0,
-		       CO_T_VISIBLE_STRING, "41 42 43");
+	expect_extract("00 41 42 43", entry(8, 24, CO_T_VISIBLE_STRING), 0, CO_T_VISIBLE_STRING,
+		       "41 42 43");
 	expect_extract("DE AD BE EF", entry(0, 32, CO_T_OCTET_STRING), 0, CO_T_OCTET_STRING,
 		       "DE AD BE EF");
 	expect_extract("DE AD", entry(0, 16, CO_T_DOMAIN), 0, CO_T_DOMAIN, "DE AD");
@@ -120,27 +120,29 @@ void test_value_insert_checks(void)
 	TEST_ASSERT_EQUAL_HEX8(0xE0, frame[0]);
 	TEST_ASSERT_EQUAL_HEX8(0x0F, frame[1]);
 	/* 256 does not */
-	TEST_ASSERT_EQUAL_HEX32(SDO_AB_VALUE, devobj_value_insert(frame, &e, CO_T_INTEGER16, big, 2));
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_VALUE,
+				devobj_value_insert(frame, &e, CO_T_INTEGER16, big, 2));
 	/* wrong lengths, as an SDO server answers them */
-	TEST_ASSERT_EQUAL_HEX32(SDO_AB_LEN_LOW, devobj_value_insert(frame, &e, CO_T_INTEGER16, big, 1));
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_LEN_LOW,
+				devobj_value_insert(frame, &e, CO_T_INTEGER16, big, 1));
 	const uint8_t three[3] = { 1, 2, 3 };
 	TEST_ASSERT_EQUAL_HEX32(SDO_AB_LEN_HIGH,
 				devobj_value_insert(frame, &e, CO_T_INTEGER16, three, 3));
 	/* BOOLEAN: 0 or 1 only */
 	co_pdo_layout_entry b = entry(0, 1, CO_T_BOOLEAN);
 	const uint8_t two = 2, one = 1;
-	TEST_ASSERT_EQUAL_HEX32(SDO_AB_VALUE, devobj_value_insert(frame, &b, CO_T_BOOLEAN, &two, 1));
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_VALUE,
+				devobj_value_insert(frame, &b, CO_T_BOOLEAN, &two, 1));
 	TEST_ASSERT_EQUAL_HEX32(0, devobj_value_insert(frame, &b, CO_T_BOOLEAN, &one, 1));
 	TEST_ASSERT_EQUAL_HEX8(0xE1, frame[0]);
 	/* a string shorter than mapped is padded with zeros; longer refused */
 	uint8_t sf[8] = { 0xFF, 0xFF, 0xFF, 0xFF };
 	co_pdo_layout_entry s = entry(0, 32, CO_T_VISIBLE_STRING);
-	TEST_ASSERT_EQUAL_HEX32(0, devobj_value_insert(sf, &s, CO_T_VISIBLE_STRING,
-						       (const uint8_t *)"ab", 2));
+	TEST_ASSERT_EQUAL_HEX32(
+		0, devobj_value_insert(sf, &s, CO_T_VISIBLE_STRING, (const uint8_t *)"ab", 2));
 	TEST_ASSERT_EQUAL_HEX8_ARRAY("ab\0\0", sf, 4);
-	TEST_ASSERT_EQUAL_HEX32(SDO_AB_LEN_HIGH,
-				devobj_value_insert(sf, &s, CO_T_VISIBLE_STRING,
-						    (const uint8_t *)"abcde", 5));
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_LEN_HIGH, devobj_value_insert(sf, &s, CO_T_VISIBLE_STRING,
+								     (const uint8_t *)"abcde", 5));
 }
 
 /* ---- the mirror on two cores ----------------------------------------------------- */
@@ -169,7 +171,8 @@ static co_od *slave_od(void)
 	TEST_ASSERT_EQUAL(0, co_od_add_num(o, 0x2000, 0, CO_T_INTEGER16, CO_ACC_RWR, 0xFF85, NULL));
 	TEST_ASSERT_EQUAL(0, co_od_add_num(o, 0x2001, 0, CO_T_UNSIGNED8, CO_ACC_RWR, 0x42, NULL));
 	TEST_ASSERT_EQUAL(0, co_od_add_num(o, 0x2002, 0, CO_T_BOOLEAN, CO_ACC_RWR, 1, NULL));
-	TEST_ASSERT_EQUAL(0, co_od_add_num(o, 0x2003, 0, CO_T_REAL32, CO_ACC_RWR, 0x3FC00000, NULL));
+	TEST_ASSERT_EQUAL(0,
+			  co_od_add_num(o, 0x2003, 0, CO_T_REAL32, CO_ACC_RWR, 0x3FC00000, NULL));
 	TEST_ASSERT_EQUAL(0,
 			  co_od_add_num(o, 0x2004, 0, CO_T_INTEGER24, CO_ACC_RWR, 0xFFFFFE, NULL));
 	TEST_ASSERT_EQUAL(0, co_od_add_num(o, 0x2100, 0, CO_T_UNSIGNED16, CO_ACC_RWW, 0, NULL));
@@ -189,15 +192,20 @@ static co_od *daemon_od(uint16_t n_rx, uint16_t n_tx)
 	TEST_ASSERT_EQUAL(0, co_od_create(&o, 64));
 	TEST_ASSERT_EQUAL(0, co_od_add_num(o, 0x3000, 0, CO_T_UNSIGNED8, CO_ACC_RWW, 0, NULL));
 	TEST_ASSERT_EQUAL(0, co_od_add_comm_defaults_sync(o, 0, 0, 0));
-	co_pdo_desc hand = { .dir = CO_PDO_RX, .nr = 1, .cob_id = 0x181, .tt = 254, .n_map = 1,
-			     .map = m };
+	co_pdo_desc hand = {
+		.dir = CO_PDO_RX, .nr = 1, .cob_id = 0x181, .tt = 254, .n_map = 1, .map = m
+	};
 	TEST_ASSERT_EQUAL(0, co_od_add_pdo(o, &hand));
 	for (uint16_t n = 2; n <= n_rx; n++) {
-		co_pdo_desc d = { .dir = CO_PDO_RX, .nr = n, .cob_id = CO_PDO_COB_INVALID, .tt = 255 };
+		co_pdo_desc d = {
+			.dir = CO_PDO_RX, .nr = n, .cob_id = CO_PDO_COB_INVALID, .tt = 255
+		};
 		TEST_ASSERT_EQUAL(0, co_od_add_pdo(o, &d));
 	}
 	for (uint16_t n = 1; n <= n_tx; n++) {
-		co_pdo_desc d = { .dir = CO_PDO_TX, .nr = n, .cob_id = CO_PDO_COB_INVALID, .tt = 255 };
+		co_pdo_desc d = {
+			.dir = CO_PDO_TX, .nr = n, .cob_id = CO_PDO_COB_INVALID, .tt = 255
+		};
 		TEST_ASSERT_EQUAL(0, co_od_add_pdo(o, &d));
 	}
 	return o;
@@ -407,8 +415,8 @@ void test_mirror_refuses_a_configured_slot_index(void)
 	co_node_config dc = { .node_id = DAEMON };
 	const uint32_t nodes[4] = { 1u << SLAVE, 0, 0, 0 };
 	co_od *od = daemon_od(2, 0);
-	TEST_ASSERT_EQUAL(0, co_od_add_num(od, DEVOBJ_SLOT_RX_INDEX, 0, CO_T_UNSIGNED8, CO_ACC_RW,
-					   0, NULL));
+	TEST_ASSERT_EQUAL(
+		0, co_od_add_num(od, DEVOBJ_SLOT_RX_INDEX, 0, CO_T_UNSIGNED8, CO_ACC_RW, 0, NULL));
 	tb_init(&bus);
 	dp = tb_add_node(&bus, &dc, od);
 	TEST_ASSERT_EQUAL(0, co_pdo_layout_create(&layout, nodes, 8));
