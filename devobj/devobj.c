@@ -187,6 +187,8 @@ static void on_rpdo(devobj_line *dl, const co_ev_pdo *pdo, uint64_t now_us)
 	rx->time_us = now_us;
 	rx->count++;
 	devobj_watch_received(dl, (unsigned)(r - dl->mirror.rec[CO_PDO_RX]), now_us);
+	if (dl->p.n_fwd)
+		devobj_forward_received(dl, (unsigned)(r - dl->mirror.rec[CO_PDO_RX]), now_us);
 }
 
 static void devobj_on_core_event(void *ctx, line *l, const co_event *ev)
@@ -196,6 +198,9 @@ static void devobj_on_core_event(void *ctx, line *l, const co_event *ev)
 	switch (ev->kind) {
 	case CO_EV_RPDO:
 		on_rpdo(dl, &ev->u.pdo, ev->now_us);
+		return;
+	case CO_EV_OBJECT_UPDATED:
+		devobj_forward_updated(dl, ev->u.pdo_obj.index, ev->u.pdo_obj.sub);
 		return;
 	case CO_EV_RPDO_OBJECT:
 	case CO_EV_SYNC:
@@ -237,6 +242,9 @@ static void devobj_on_command(void *ctx, line *l, const mbx_request *req)
 	case MBX_CMD_DEV_WRITE:
 		devobj_cmd_write(dl, req);
 		return;
+	case MBX_CMD_DEV_FORWARDS:
+		devobj_cmd_forwards(dl, req);
+		return;
 	}
 	mbx_server_respond(line_mbx(l), &req->reply, MBX_E_UNKNOWN_CMD, 0, NULL, 0);
 }
@@ -264,7 +272,7 @@ static const line_ext_ops devobj_ops = {
 	.detach = devobj_detach,
 	.on_core_event = devobj_on_core_event,
 	.cmd_first = MBX_CMD_DEV_LAYOUT,
-	.cmd_last = MBX_CMD_DEV_WRITE,
+	.cmd_last = MBX_CMD_DEV_FORWARDS,
 	.on_command = devobj_on_command,
 	.on_client_gone = devobj_on_client_gone,
 	.poll = devobj_poll,

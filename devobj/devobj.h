@@ -30,6 +30,22 @@
 #define DEVOBJ_LINES_MAX 16u
 #define DEVOBJ_NAME_MAX 32u
 
+#define DEVOBJ_FORWARDS_MAX 64u
+
+/* One end of a forwarded device object (gateway.forward, docs/gateway.md):
+ * on the source line a TPDO value of the device goes into the process image
+ * object `image`; on the target line the image's value goes into the
+ * device's RPDO. */
+typedef struct devobj_forward {
+	bool source;  /* this line holds the `from` end */
+	uint8_t node; /* the device object on this line */
+	uint8_t sub;
+	uint16_t index;
+	uint16_t image; /* B-object (sub 0, UNSIGNED64) */
+	uint8_t peer_line, peer_node, peer_sub;
+	uint16_t peer_index;
+} devobj_forward;
+
 typedef struct devobj_line_params {
 	char name[DEVOBJ_NAME_MAX]; /* for logs */
 	uint32_t mirror_nodes[4];   /* bit n of word n / 32: node n has pdo "auto" */
@@ -38,6 +54,8 @@ typedef struct devobj_line_params {
 	uint32_t write_update_ms;   /* writes to one RPDO of a device within this
 	                             * time go out in one frame */
 	uint16_t watches;           /* watch table size of the line */
+	devobj_forward fwd[DEVOBJ_FORWARDS_MAX];
+	uint8_t n_fwd;
 } devobj_line_params;
 
 typedef struct devobj_params {

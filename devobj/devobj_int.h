@@ -78,6 +78,13 @@ typedef struct devobj_sdo_call {
 	uint16_t type; /* the value's co_type, 0 = from the answer's length */
 } devobj_sdo_call;
 
+/* Counters of one end of a forwarded device object (devobj/forward.c). */
+typedef struct devobj_fwd_counters {
+	uint32_t values;     /* source: into the image; target: taken from it */
+	uint32_t superseded; /* target: replaced before a frame carried it */
+	uint32_t refused;    /* not mirrored, or a value the bits cannot hold */
+} devobj_fwd_counters;
+
 typedef struct devobj_line {
 	devobj_line_params p;
 	line *l;
@@ -91,10 +98,20 @@ typedef struct devobj_line {
 	uint8_t read_buf[sizeof(mbx_dev_value) + DEVOBJ_READ_MAX]; /* DEV_READ by SDO */
 	uint8_t *layout_buf;                                       /* DEV_LAYOUT answer */
 	size_t layout_buf_cap;
+	devobj_fwd_counters fwd[DEVOBJ_FORWARDS_MAX];
 	/* counters */
 	uint32_t watch_refused; /* table full */
 	uint32_t tx_failed;     /* a produced PDO the core refused */
 } devobj_line;
+
+/* Where a device object is mapped: the device PDO of direction dev_dir
+ * mapping it and the entry, the record mirroring that PDO (-1 = none). */
+typedef struct devobj_place {
+	const co_pdo_layout_pdo *pdo;
+	const co_pdo_layout_entry *entry;
+	uint8_t pos;
+	int rec;
+} devobj_place;
 
 /* watch.c */
 int devobj_watch_init(devobj_line *dl);
@@ -110,19 +127,19 @@ void devobj_cmd_unwatch(devobj_line *dl, const mbx_request *req);
 void devobj_cmd_read(devobj_line *dl, const mbx_request *req);
 void devobj_cmd_write(devobj_line *dl, const mbx_request *req);
 uint64_t devobj_write_poll(devobj_line *dl, uint64_t now_us);
+/* Entry at->pos of the frame of record at->rec has its value now: the
+ * frame goes when every object of the device's RPDO has one - within the
+ * update time, or in this loop when at_once. Returns whether it is held. */
+bool devobj_tx_given(devobj_line *dl, const devobj_place *at, bool at_once);
+
+/* forward.c */
+void devobj_forward_received(devobj_line *dl, unsigned rec, uint64_t now_us);
+void devobj_forward_updated(devobj_line *dl, uint16_t index, uint8_t sub);
+void devobj_cmd_forwards(devobj_line *dl, const mbx_request *req);
 
 /* layout_answer.c */
 size_t devobj_layout_answer_max(const devobj_line *dl);
 void devobj_cmd_layout(devobj_line *dl, const mbx_request *req);
-
-/* Where a device object is mapped: the device PDO of direction dev_dir
- * mapping it and the entry, the record mirroring that PDO (-1 = none). */
-typedef struct devobj_place {
-	const co_pdo_layout_pdo *pdo;
-	const co_pdo_layout_entry *entry;
-	uint8_t pos;
-	int rec;
-} devobj_place;
 
 /* false: node has no valid layout or does not map index:sub that way. */
 bool devobj_find(const devobj_line *dl, uint8_t node, co_pdo_dir dev_dir, uint16_t index,

@@ -198,6 +198,25 @@ static bool complete(const co_pdo_layout_pdo *p, uint64_t given)
 	return true;
 }
 
+bool devobj_tx_given(devobj_line *dl, const devobj_place *at, bool at_once)
+{
+	devobj_tx *tx = &dl->tx[at->rec];
+	tx->given |= (uint64_t)1 << at->pos;
+	bool held = !complete(at->pdo, tx->given);
+	uint64_t now = line_loop_now_us(dl->l);
+	if (!held && at_once) {
+		tx->due_us = now;
+	} else if (!held && !tx->dirty) {
+		/* coalesced: at most one frame per update time, carrying the
+		 * latest value of each object (docs/devices.md) */
+		uint64_t earliest = tx->sent ? tx->sent_us + (uint64_t)dl->p.write_update_ms * 1000u
+					     : now;
+		tx->due_us = earliest > now ? earliest : now;
+	}
+	tx->dirty = !held;
+	return held;
+}
+
 static void by_pdo(devobj_line *dl, const mbx_request *req, const mbx_dev_obj_req *o,
 		   const devobj_place *at)
 {
@@ -209,17 +228,7 @@ static void by_pdo(devobj_line *dl, const mbx_request *req, const mbx_dev_obj_re
 					     (uint32_t)req->data_len);
 	if (abort)
 		return devobj_answer(dl, &req->reply, MBX_E_ABORT, abort, NULL, 0);
-	tx->given |= (uint64_t)1 << at->pos;
-	bool held = !complete(at->pdo, tx->given);
-	if (!held && !tx->dirty) {
-		/* coalesced: at most one frame per update time, carrying the
-		 * latest value of each object (docs/devices.md) */
-		uint64_t now = line_loop_now_us(dl->l);
-		uint64_t earliest = tx->sent ? tx->sent_us + (uint64_t)dl->p.write_update_ms * 1000u
-					     : now;
-		tx->due_us = earliest > now ? earliest : now;
-	}
-	tx->dirty = !held;
+	bool held = devobj_tx_given(dl, at, false);
 	mbx_dev_write_resp resp = {
 		.via = MBX_DEV_VIA_PDO, .held = held, .pdo = at->pdo->nr, .cob_id = at->pdo->cob
 	};

@@ -28,6 +28,20 @@ int cogw_dev_layout(cogw *h, unsigned line, uint8_t node, void *buf, size_t cap,
 			   timeout_ms);
 }
 
+int cogw_dev_forwards(cogw *h, unsigned line, mbx_dev_forward *out, size_t cap, size_t *n,
+		      unsigned timeout_ms)
+{
+	size_t len = 0;
+	int rc = client_call(h, line, MBX_CMD_DEV_FORWARDS, NULL, 0, NULL, 0, out,
+			     cap * sizeof *out, &len, NULL, timeout_ms);
+	if (rc < 0 && rc != COGW_E_TRUNCATED)
+		return rc;
+	if (len % sizeof *out)
+		return COGW_E_PROTOCOL;
+	*n = len / sizeof *out;
+	return rc;
+}
+
 int cogw_dev_layout_check(const void *buf, size_t len)
 {
 	const uint8_t *p = buf;

@@ -214,6 +214,11 @@ int cogw_dev_layout(cogw *h, unsigned line, uint8_t node, void *buf, size_t cap,
  * counts do not add up to its length. */
 int cogw_dev_layout_check(const void *buf, size_t len);
 
+/* This line's ends of the forwarded device objects (gateway.forward) with
+ * their counters: *n entries into out (COGW_E_TRUNCATED beyond cap). */
+int cogw_dev_forwards(cogw *h, unsigned line, mbx_dev_forward *out, size_t cap, size_t *n,
+		      unsigned timeout_ms);
+
 /* Watch a device object: MBX_EV_DEV_VALUE events (cogw_recv, whatever the
  * subscriptions) with each value the mirror receives, at most one per
  * min_interval_ms (the latest when it ends). *resp (optional): the type

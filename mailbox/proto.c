@@ -16,6 +16,7 @@
 
 /* Pin every payload layout: a change here is a protocol change. */
 _Static_assert(sizeof(mbx_dev_obj_req) == 8, "wire layout");
+_Static_assert(sizeof(mbx_dev_forward) == 32, "wire layout");
 _Static_assert(sizeof(mbx_dev_node_req) == 4, "wire layout");
 _Static_assert(sizeof(mbx_dev_watch_req) == 12, "wire layout");
 _Static_assert(sizeof(mbx_dev_watch_resp) == 8, "wire layout");
@@ -1003,6 +1004,7 @@ static const mbx_cmd_info cmd_table[] = {
 	{ MBX_CMD_DEV_UNWATCH, R, sizeof(mbx_dev_obj_req), 0, "dev-unwatch", check_dev_obj },
 	{ MBX_CMD_DEV_READ, R, sizeof(mbx_dev_read_req), 0, "dev-read", check_dev_obj },
 	{ MBX_CMD_DEV_WRITE, W | D, sizeof(mbx_dev_obj_req), 0, "dev-write", check_dev_obj },
+	{ MBX_CMD_DEV_FORWARDS, R, 0, 0, "dev-forwards", NULL },
 };
 
 #undef R

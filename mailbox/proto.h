@@ -224,12 +224,14 @@ typedef enum mbx_cmd {
 	MBX_CMD_GW_SDO_UPLOAD = 0x0B02,   /* R mbx_gw_sdo_req -> data, hdr.abort */
 	MBX_CMD_GW_SDO_DOWNLOAD = 0x0B03, /* W mbx_gw_sdo_req + data -> -, hdr.abort */
 	/* 0x0Cxx device objects of the line's slaves (docs/devices.md) */
-	MBX_CMD_DEV_LAYOUT = 0x0C01,  /* R mbx_dev_node_req -> the learned PDO layouts
+	MBX_CMD_DEV_LAYOUT = 0x0C01,   /* R mbx_dev_node_req -> the learned PDO layouts
 	                               * (docs/mailbox.md "Device objects") */
-	MBX_CMD_DEV_WATCH = 0x0C02,   /* R mbx_dev_watch_req -> mbx_dev_watch_resp */
-	MBX_CMD_DEV_UNWATCH = 0x0C03, /* R mbx_dev_obj_req -> - */
-	MBX_CMD_DEV_READ = 0x0C04,    /* R mbx_dev_read_req -> mbx_dev_value + data */
-	MBX_CMD_DEV_WRITE = 0x0C05,   /* W mbx_dev_obj_req + data -> mbx_dev_write_resp */
+	MBX_CMD_DEV_WATCH = 0x0C02,    /* R mbx_dev_watch_req -> mbx_dev_watch_resp */
+	MBX_CMD_DEV_UNWATCH = 0x0C03,  /* R mbx_dev_obj_req -> - */
+	MBX_CMD_DEV_READ = 0x0C04,     /* R mbx_dev_read_req -> mbx_dev_value + data */
+	MBX_CMD_DEV_WRITE = 0x0C05,    /* W mbx_dev_obj_req + data -> mbx_dev_write_resp */
+	MBX_CMD_DEV_FORWARDS = 0x0C06, /* R - -> mbx_dev_forward[n]: this line's ends of
+	                                * gateway.forward with their counters */
 } mbx_cmd;
 
 const char *mbx_cmd_to_string(unsigned code); /* "?" if unknown */
@@ -1031,6 +1033,26 @@ typedef struct mbx_dev_write_resp {
 	uint16_t pdo; /* the device's RPDO (via PDO) */
 	uint32_t cob_id;
 } mbx_dev_write_resp;
+
+/* DEV_FORWARDS: one per end of a forwarded device object on the line. */
+typedef struct mbx_dev_forward {
+	uint8_t source; /* 1: `from` end (a TPDO of node into the image), 0: `to` end */
+	uint8_t node;
+	uint8_t sub;
+	uint8_t peer_line;
+	uint16_t index;
+	uint16_t image; /* the process image object B000h..BFFFh (sub 0) */
+	uint8_t peer_node;
+	uint8_t peer_sub;
+	uint16_t peer_index;
+	uint32_t values;     /* source: values put into the image; target: values
+	                      * taken from it */
+	uint32_t sent;       /* target: frames of the device's RPDO carrying one */
+	uint32_t superseded; /* target: values replaced before a frame carried them */
+	uint32_t refused;    /* values not forwarded: the device's PDO not mirrored, or
+	                      * (target) a value its mapped bits cannot hold */
+	uint32_t pad;
+} mbx_dev_forward;
 
 /* ---- functions ----------------------------------------------------------- */
 

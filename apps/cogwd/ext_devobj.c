@@ -26,6 +26,27 @@ static void line_params(const cogw_line_config *lc, devobj_line_params *o)
 	}
 }
 
+/* gateway.forward[i]: its `from` end on one line, its `to` end on another. */
+_Static_assert(COGW_FORWARDS_MAX <= DEVOBJ_FORWARDS_MAX, "a line may hold every end");
+
+static void forward_ends(const cogw_forward *f, devobj_params *p)
+{
+	const cogw_dev_ref *end[2] = { &f->from, &f->to };
+	for (int k = 0; k < 2; k++) {
+		const cogw_dev_ref *me = end[k], *peer = end[1 - k];
+		devobj_line_params *lp = &p->line[me->line];
+		lp->fwd[lp->n_fwd++] = (devobj_forward){ .source = k == 0,
+							 .node = me->node,
+							 .sub = me->sub,
+							 .index = me->index,
+							 .image = f->image,
+							 .peer_line = peer->line,
+							 .peer_node = peer->node,
+							 .peer_sub = peer->sub,
+							 .peer_index = peer->index };
+	}
+}
+
 static int devobj_setup(const cogw_config *cfg, void **state)
 {
 	devobj_params *p = calloc(1, sizeof *p);
@@ -38,6 +59,8 @@ static int devobj_setup(const cogw_config *cfg, void **state)
 	p->n_lines = (unsigned)cfg->n_lines;
 	for (size_t i = 0; i < cfg->n_lines; i++)
 		line_params(&cfg->lines[i], &p->line[i]);
+	for (size_t i = 0; i < cfg->n_forwards; i++)
+		forward_ends(&cfg->forwards[i], p);
 	rc = devobj_create(&x, p);
 	free(p);
 	*state = rc ? NULL : x;

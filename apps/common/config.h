@@ -172,6 +172,26 @@ typedef struct cogw_mailbox_config {
 	size_t n_rules;
 } cogw_mailbox_config;
 
+/* A device object of a line's slave (gateway.forward). */
+typedef struct cogw_dev_ref {
+	uint8_t line; /* index in lines[] */
+	uint8_t node;
+	uint16_t index;
+	uint8_t sub;
+} cogw_dev_ref;
+
+/* PDO forwarding by device object (docs/gateway.md "Forwarding device
+ * objects"): the value of `from` (in a TPDO of its device) goes to `to` (in
+ * an RPDO of its device) through the process image object `image` (sub 0,
+ * UNSIGNED64, in every line's OD). */
+typedef struct cogw_forward {
+	cogw_dev_ref from, to;
+	uint16_t image;
+} cogw_forward;
+
+#define COGW_FORWARDS_MAX 64u
+#define COGW_FORWARD_IMAGE_FIRST 0xBF00u /* "image" when not given: BF00h + n */
+
 typedef struct cogw_config {
 	char source[256];    /* file name or "<embedded default>" */
 	char state_dir[256]; /* 1010h/1011h storage (/var/lib/cogw) */
@@ -183,7 +203,9 @@ typedef struct cogw_config {
 	/* "file_memory": bytes the files the configuration names may hold
 	 * together (64 MiB): every file once, plus each node's concise DCF */
 	unsigned file_memory;
-	cogw_file_set files; /* those files (owned) */
+	cogw_file_set files;                      /* those files (owned) */
+	cogw_forward forwards[COGW_FORWARDS_MAX]; /* gateway.forward */
+	size_t n_forwards;
 	/* Test hooks (off by default): SIGUSR2 stalls line 0 for stall_ms,
 	 * to prove that a stuck line stops the systemd watchdog pings. */
 	bool debug_stall_signal;
