@@ -567,10 +567,63 @@ static void print_guarding(const cogw_msg *m, const ctl_monitor_spec *spec, even
 	cJSON_AddStringToObject(out->o, "state", st);
 }
 
+/* A watched device object's typed value (docs/devices.md). */
+static void print_dev_value(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_dev_value v;
+	const uint8_t *data;
+	const ctl_type *t;
+	char *text;
+
+	(void)spec;
+	if (cogw_dev_value_parse(m->data, m->len, &v, &data) < 0)
+		return (void)snprintf(out->text, out->len, "malformed device value");
+	t = cogw_type_of(v.type);
+	text = t ? ctl_value_text(t, data, v.len) : ctl_hex_text(data, v.len, 8);
+	snprintf(out->text, out->len, "node %u %04X:%02X %s = %s (seq %" PRIu32 ")", v.node,
+		 v.index, v.sub, t ? t->cia_name : "?", text ? text : "?", v.seq);
+	free(text);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "node", v.node);
+	cJSON_AddNumberToObject(out->o, "index", v.index);
+	cJSON_AddNumberToObject(out->o, "sub", v.sub);
+	cJSON_AddNumberToObject(out->o, "seq", v.seq);
+	cJSON_AddNumberToObject(out->o, "rx_time_us", (double)v.time_us);
+	cJSON_AddNumberToObject(out->o, "bits", v.bits);
+	ctl_value_json(out->o, t, data, v.len);
+}
+
+static void print_dev_mirror(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	static const char *const status[] = { "off", "waiting", "full", "partial", "none" };
+	static const char *const reason[] = { "", "no free PDO", "COB-ID in use", "OD refused",
+					      "not kept" };
+	mbx_ev_dev_mirror e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	const char *st = e.status < 5 ? status[e.status] : "?";
+	const char *why = e.reason < 5 ? reason[e.reason] : "?";
+	snprintf(out->text, out->len, "node %u mirror %s: %u PDOs mirrored, %u not%s%s", e.node, st,
+		 e.mirrored, e.missing, e.missing ? " - " : "", e.missing ? why : "");
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "node", e.node);
+	cJSON_AddStringToObject(out->o, "mirror", st);
+	cJSON_AddNumberToObject(out->o, "mirrored", e.mirrored);
+	cJSON_AddNumberToObject(out->o, "missing", e.missing);
+	if (e.missing)
+		cJSON_AddStringToObject(out->o, "reason", why);
+	cJSON_AddNumberToObject(out->o, "generation", e.generation);
+}
+
 static const struct {
 	uint16_t code;
 	event_printer print;
 } event_printers[] = {
+	{ MBX_EV_DEV_VALUE, print_dev_value },
+	{ MBX_EV_DEV_MIRROR, print_dev_mirror },
 	{ MBX_EV_NMT_STATE, print_nmt_state },
 	{ MBX_EV_BOOTUP, print_bootup },
 	{ MBX_EV_HB_STARTED, print_hb_started },
@@ -621,7 +674,7 @@ static cJSON *event_json_head(const cogw_msg *m, const char *cls, double epoch)
 	return o;
 }
 
-static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
+void ctl_monitor_print(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 {
 	char ts[32], text[1024] = "";
 	double epoch;
@@ -706,7 +759,7 @@ int ctl_monitor_run(ctl *c, const ctl_monitor_spec *spec)
 			return ctl_fail(c, rc, 0, "receiving events");
 		if (m.kind == MBX_KIND_EVENT && m.line < MBX_LINES_MAX &&
 		    (lines & ((uint64_t)1 << m.line))) {
-			print_event(c, &m, spec);
+			ctl_monitor_print(c, &m, spec);
 			if (m.code != MBX_EV_OVERFLOW)
 				seen++;
 		}

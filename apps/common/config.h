@@ -108,6 +108,13 @@ typedef struct cogw_manager_config {
 	bool accept_remote_nmt;  /* NMT to our node from the bus applies */
 } cogw_manager_config;
 
+/* "device_objects" of a line (docs/config.md, docs/devices.md). */
+typedef struct cogw_devobj_config {
+	uint32_t read_max_age_ms; /* DEV_READ answered from the mirror up to this age */
+	uint32_t write_update_ms; /* writes to one device RPDO coalesced over this */
+	uint16_t watches;         /* watch table of the line */
+} cogw_devobj_config;
+
 typedef struct cogw_line_config {
 	char name[COGW_NAME_MAX];      /* "line0" (default "line<N>") */
 	char interface[COGW_NAME_MAX]; /* "vcan0" (IFNAMSIZ-1 chars max) */
@@ -131,9 +138,10 @@ typedef struct cogw_line_config {
 	co_od *od;
 	cogw_node *nodes; /* "nodes" (owned, n_nodes entries) */
 	size_t n_nodes;
-	cogw_manager_config manager; /* "manager" */
-	uint8_t pdo;                 /* cogw_pdo_mode, the nodes' default */
-	uint16_t pdo_scan_max;       /* PDOs per direction scanned and kept, 1..512 */
+	cogw_manager_config manager;       /* "manager" */
+	uint8_t pdo;                       /* cogw_pdo_mode, the nodes' default */
+	uint16_t pdo_scan_max;             /* PDOs per direction scanned and kept, 1..512 */
+	cogw_devobj_config device_objects; /* "device_objects" */
 } cogw_line_config;
 
 typedef struct cogw_mailbox_config {
@@ -164,6 +172,26 @@ typedef struct cogw_mailbox_config {
 	size_t n_rules;
 } cogw_mailbox_config;
 
+/* A device object of a line's slave (gateway.forward). */
+typedef struct cogw_dev_ref {
+	uint8_t line; /* index in lines[] */
+	uint8_t node;
+	uint16_t index;
+	uint8_t sub;
+} cogw_dev_ref;
+
+/* PDO forwarding by device object (docs/gateway.md "Forwarding device
+ * objects"): the value of `from` (in a TPDO of its device) goes to `to` (in
+ * an RPDO of its device) through the process image object `image` (sub 0,
+ * UNSIGNED64, in every line's OD). */
+typedef struct cogw_forward {
+	cogw_dev_ref from, to;
+	uint16_t image;
+} cogw_forward;
+
+#define COGW_FORWARDS_MAX 64u
+#define COGW_FORWARD_IMAGE_FIRST 0xBF00u /* "image" when not given: BF00h + n */
+
 typedef struct cogw_config {
 	char source[256];    /* file name or "<embedded default>" */
 	char state_dir[256]; /* 1010h/1011h storage (/var/lib/cogw) */
@@ -175,7 +203,9 @@ typedef struct cogw_config {
 	/* "file_memory": bytes the files the configuration names may hold
 	 * together (64 MiB): every file once, plus each node's concise DCF */
 	unsigned file_memory;
-	cogw_file_set files; /* those files (owned) */
+	cogw_file_set files;                      /* those files (owned) */
+	cogw_forward forwards[COGW_FORWARDS_MAX]; /* gateway.forward */
+	size_t n_forwards;
 	/* Test hooks (off by default): SIGUSR2 stalls line 0 for stall_ms,
 	 * to prove that a stuck line stops the systemd watchdog pings. */
 	bool debug_stall_signal;
