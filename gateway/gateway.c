@@ -84,6 +84,8 @@ static int ext_attach(void *ctx, line *l)
 	if ((rc = gw_pdo_sync_init(&gl->lost, gw_image_count(gl->g->img))))
 		return rc;
 	gw_fwd_list_rebuild(&gl->fwd, gl->g->img, od);
+	if ((rc = gw_fast_attach(gl)))
+		return rc;
 	gl->n_sess = sdo_server_channel_count(gl->node);
 	gl->sess = calloc(gl->n_sess ? gl->n_sess : 1, sizeof(*gl->sess));
 	if (!gl->sess)
@@ -118,6 +120,7 @@ static void ext_detach(void *ctx, line *l)
 	free(gl->sess);
 	gl->sess = NULL;
 	gl->n_sess = 0;
+	gw_fast_detach(gl);
 	gw_fwd_list_fini(&gl->fwd);
 	gw_pdo_sync_fini(&gl->lost);
 }
@@ -132,11 +135,16 @@ static void ext_event(void *ctx, line *l, const co_event *ev)
 		gw_emcy_consumed(gl, &ev->u.emcy);
 		break;
 	case CO_EV_OD_WRITTEN:
-		if (ev->u.od.index >= CO_PDO_TPDO_COMM && ev->u.od.index < 0x1C00)
+		if (ev->u.od.index >= CO_PDO_TPDO_COMM && ev->u.od.index < 0x1C00) {
+			/* other lines stop sending our TPDOs at once; they may
+			 * again once this loop has republished them */
+			gw_fast_suspend(gl);
 			gl->fwd_dirty = true;
+		}
 		break;
 	case CO_EV_NMT_STATE:
 	case CO_EV_RESTORE:
+		gw_fast_suspend(gl);
 		/* a reset brought 1F2Ch back to its defaults without hooks */
 		gw_route_table_compile_od(&gl->routes, co_node_od(gl->node));
 		gl->fwd_dirty = true;
@@ -233,11 +241,13 @@ static uint64_t ext_poll(void *ctx, line *l, uint64_t now_us)
 	/* Mailbox writes to the mapping leave no event: look once a second. */
 	if (gl->fwd_dirty || now_us >= gl->next_rebuild_us) {
 		gw_fwd_list_rebuild(&gl->fwd, gl->g->img, co_node_od(gl->node));
+		gw_fast_refresh(gl);
 		gl->fwd_dirty = false;
 		gl->next_rebuild_us = now_us + GW_REBUILD_US;
 	}
 	if (gl->next_rebuild_us < next)
 		next = gl->next_rebuild_us;
+	gw_fast_poll(gl);
 	/* sent to itself during this look: the line looks again at once */
 	return gl->self_len ? now_us : next;
 }

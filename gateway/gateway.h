@@ -66,6 +66,8 @@ typedef struct gw_line_counters {
 	uint64_t pdo_dropped;    /* updates lost (ring full / closed) */
 	uint64_t pdo_applied;    /* updates applied to this line's OD */
 	uint64_t pdo_triggered;  /* of those, with a TPDO to send */
+	uint64_t pdo_fast;       /* TPDO frames of other lines this line sent
+	                          * in the wake-up that wrote the value */
 	gw_emcy_counters emcy;
 	uint64_t ring_drops; /* other hand-offs lost */
 } gw_line_counters;

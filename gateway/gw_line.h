@@ -32,6 +32,7 @@
 
 #include "core/co.h"
 #include "core/sdo_server.h"
+#include "gateway/fast_tpdo.h"
 #include "gateway/gateway.h"
 #include "gateway/image.h"
 #include "gateway/pdo_sync.h"
@@ -73,6 +74,10 @@ typedef struct gw_msg {
 	uint16_t code;  /* M_EMCY: original error code */
 	uint64_t bits;  /* M_FWD: the value written (gw_image_bits_from) */
 	uint8_t d[8];   /* frames */
+	/* M_FWD: fast TPDOs of the target (gateway/fast_tpdo.h, bit k) the
+	 * source sent at sent_us, and those it counted as held */
+	uint32_t fast_sent, fast_held;
+	uint64_t sent_us;
 } gw_msg;
 
 /* A lease serves a session (bit 23 clear: line << 24 | channel << 16 |
@@ -147,6 +152,11 @@ struct gw_line {
 	gw_route_table routes;
 	gw_fwd_list fwd;
 	gw_pdo_sync lost; /* updates that could not be handed to this line */
+	/* This line's TPDOs that other lines may send (published here, read
+	 * by them), and per other line i the socket on this line's interface
+	 * that line i's thread sends them on (-1: none). */
+	gw_fast fast;
+	int fast_fd[GW_LINES_MAX];
 	bool fwd_dirty;
 	uint64_t next_rebuild_us;
 	uint64_t next_link_check_us;
@@ -211,6 +221,15 @@ void gw_emcy_send(struct gw_line *gl, const gw_msg *m);
 /* gw_pdo.c */
 extern const co_od_hooks gw_image_hooks;
 void gw_pdo_received(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
+/* The fast path of this line's TPDOs (gateway/fast_tpdo.h): open the
+ * other lines' sockets on this interface and install the core's gate at
+ * attach; republish after a PDO or NMT change; close at once when one
+ * starts; say each loop whether the line takes frames at once. */
+int gw_fast_attach(struct gw_line *gl);
+void gw_fast_detach(struct gw_line *gl);
+void gw_fast_refresh(struct gw_line *gl);
+void gw_fast_suspend(struct gw_line *gl);
+void gw_fast_poll(struct gw_line *gl);
 bool gw_pdo_resync_apply(void *ctx, int slot, uint64_t bits);
 
 /* gw_status.c */

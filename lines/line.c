@@ -607,6 +607,16 @@ bool line_can_carry(const line *l)
 	       can_port_link_up(l->port);
 }
 
+const char *line_ifname(const line *l)
+{
+	return l->ifname;
+}
+
+bool line_tx_idle(const line *l)
+{
+	return can_port_tx_queued(l->port) == 0 && can_port_bus_state(l->port) != CAN_BUS_OFF;
+}
+
 bool line_stats_snapshot(line *l, line_stats *out)
 {
 	pthread_mutex_lock(&l->stats_lock);

@@ -88,6 +88,11 @@ bool line_is_up(const line *l);
  * (can_port_link_up). Line thread only (its extensions): a caller about to
  * send and wait. */
 bool line_can_carry(const line *l);
+/* The CAN interface's name (line_params.can.ifname). */
+const char *line_ifname(const line *l);
+/* On the line thread: nothing waits in the transmit queue and the
+ * controller is not bus-off (a frame sent now leaves at once). */
+bool line_tx_idle(const line *l);
 /* Copy the latest published counters. Returns false if none yet. */
 bool line_stats_snapshot(line *l, line_stats *out);
 
