@@ -220,6 +220,8 @@ static void pdo_runtime_reset(struct co_pdo *P, struct pdo *p, uint64_t now_us)
 	if (P->operational && p->valid && p->dir == CO_PDO_TX && tt_is_event(p->tt) && p->event_ms)
 		p->timer_us = now_us + (uint64_t)p->event_ms * 1000u;
 	heap_update(P, p);
+	if (P->gate && p->dir == CO_PDO_TX)
+		(void)P->gate(P->gate_ctx, p->nr, CO_PDO_GATE_RESET, now_us);
 }
 
 /* Re-read the communication record into p. */

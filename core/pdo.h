@@ -221,6 +221,10 @@ const co_pdo_stats *co_pdo_get_stats(const co_node *node);
  *                      SYNC transmission) happens now: recorded, the
  *                      answer is ignored.
  *   CO_PDO_GATE_WAIT   an event waits for the node's own inhibit time.
+ *   CO_PDO_GATE_RESET  TPDO nr starts afresh (its configuration changed, the
+ *                      node entered or left OPERATIONAL, a reset
+ *                      communication): what the other sender knew of it
+ *                      no longer holds.
  * The gate runs on the owning thread, inside the core's call: it must not
  * call back into the node.
  */
@@ -231,6 +235,7 @@ typedef enum co_pdo_gate_op {
 	CO_PDO_GATE_CLAIM = 0,
 	CO_PDO_GATE_FORCED,
 	CO_PDO_GATE_WAIT,
+	CO_PDO_GATE_RESET,
 } co_pdo_gate_op;
 
 typedef uint64_t (*co_pdo_tx_gate_fn)(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_t now_us);

@@ -186,6 +186,7 @@ unsigned gw_fast_publish(gw_fast *F, const gw_fast_desc *descs, const uint64_t *
 		publish_one(&F->t[k], &descs[i], inhibit_until[i], pending[i]);
 	}
 	rebuild_by_slot(F);
+	F->stale = false;
 	return published;
 }
 
@@ -237,6 +238,8 @@ uint64_t gw_fast_gate(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_t now_us
 	gw_fast *F = ctx;
 	int k = find_k(F, nr);
 
+	if (op == CO_PDO_GATE_RESET)
+		F->stale = true; /* it may have become a fast TPDO */
 	if (k < 0)
 		return CO_PDO_GATE_GO;
 	switch (op) {
@@ -249,6 +252,10 @@ uint64_t gw_fast_gate(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_t now_us
 		return CO_PDO_GATE_GO;
 	case CO_PDO_GATE_WAIT:
 		set_pending(&F->t[k], true);
+		return CO_PDO_GATE_GO;
+	case CO_PDO_GATE_RESET:
+		gate_close(&F->t[k]);
+		F->stale = true;
 		return CO_PDO_GATE_GO;
 	}
 	return CO_PDO_GATE_GO;

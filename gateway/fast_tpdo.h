@@ -90,6 +90,7 @@ typedef struct gw_fast {
 	uint16_t nr[GW_FAST_MAX]; /* 0 = free */
 	uint8_t of_nr[CO_PDO_MAX];
 	uint32_t serving; /* fast TPDOs a source sent for the update being applied */
+	bool stale;       /* a TPDO was reset: publish again before sleeping */
 	uint32_t *scratch;
 	gw_fast_desc cur[GW_FAST_MAX];  /* what is published */
 	gw_fast_desc next[GW_FAST_MAX]; /* the caller's build area for publish */
@@ -113,7 +114,9 @@ unsigned gw_fast_publish(gw_fast *F, const gw_fast_desc *descs, const uint64_t *
  * configuration is changing): until the next publish, sources hand off. */
 void gw_fast_close_all(gw_fast *F);
 void gw_fast_set_carrying(gw_fast *F, bool carrying);
-/* The core's gate (co_pdo_tx_gate_fn with ctx = F). */
+/* The core's gate (co_pdo_tx_gate_fn with ctx = F). A reset of a TPDO
+ * closes its gate at once and marks F stale: the owner publishes again
+ * (gw_fast_publish clears it) before its loop sleeps. */
 uint64_t gw_fast_gate(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_t now_us);
 /* The owner applied an update handed off with these held TPDOs. */
 void gw_fast_taken(gw_fast *F, uint32_t held);

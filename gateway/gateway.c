@@ -135,16 +135,11 @@ static void ext_event(void *ctx, line *l, const co_event *ev)
 		gw_emcy_consumed(gl, &ev->u.emcy);
 		break;
 	case CO_EV_OD_WRITTEN:
-		if (ev->u.od.index >= CO_PDO_TPDO_COMM && ev->u.od.index < 0x1C00) {
-			/* other lines stop sending our TPDOs at once; they may
-			 * again once this loop has republished them */
-			gw_fast_suspend(gl);
+		if (ev->u.od.index >= CO_PDO_TPDO_COMM && ev->u.od.index < 0x1C00)
 			gl->fwd_dirty = true;
-		}
 		break;
 	case CO_EV_NMT_STATE:
 	case CO_EV_RESTORE:
-		gw_fast_suspend(gl);
 		/* a reset brought 1F2Ch back to its defaults without hooks */
 		gw_route_table_compile_od(&gl->routes, co_node_od(gl->node));
 		gl->fwd_dirty = true;

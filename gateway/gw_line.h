@@ -223,12 +223,12 @@ extern const co_od_hooks gw_image_hooks;
 void gw_pdo_received(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 /* The fast path of this line's TPDOs (gateway/fast_tpdo.h): open the
  * other lines' sockets on this interface and install the core's gate at
- * attach; republish after a PDO or NMT change; close at once when one
- * starts; say each loop whether the line takes frames at once. */
+ * attach; republish (with the forwarding list, and in the loop a TPDO
+ * was reset in: the core's gate closed it at once); say each loop
+ * whether the line takes frames at once. */
 int gw_fast_attach(struct gw_line *gl);
 void gw_fast_detach(struct gw_line *gl);
 void gw_fast_refresh(struct gw_line *gl);
-void gw_fast_suspend(struct gw_line *gl);
 void gw_fast_poll(struct gw_line *gl);
 bool gw_pdo_resync_apply(void *ctx, int slot, uint64_t bits);
 

@@ -32,7 +32,10 @@ static int forward_to(struct gw_line *gl, unsigned j, gw_msg *m, uint64_t now_us
 	m->fast_sent = 0;
 	m->fast_held = 0;
 	m->sent_us = now_us;
-	if (tl->fast_fd[gl->idx] >= 0) {
+	/* A message of ours still queued: the target is behind (stalled, or
+	 * busy with a burst) and keeps the hand-off until it caught up. */
+	if (tl->fast_fd[gl->idx] >= 0 &&
+	    xring_count(xring_mesh_get(gl->g->mesh, gl->idx, j)) == 0) {
 		m->fast_sent = gw_fast_try(&tl->fast, gl->g->img, m->slot, now_us, fast_send,
 					   &tl->fast_fd[gl->idx], &m->fast_held);
 		gw_fast_hold(&tl->fast, m->fast_held);
@@ -220,14 +223,11 @@ void gw_fast_refresh(struct gw_line *gl)
 	gw_fast_publish(F, F->next, until, pending, n);
 }
 
-void gw_fast_suspend(struct gw_line *gl)
-{
-	if (gl->fast.by_slot)
-		gw_fast_close_all(&gl->fast);
-}
-
 void gw_fast_poll(struct gw_line *gl)
 {
-	if (gl->fast.by_slot)
-		gw_fast_set_carrying(&gl->fast, line_tx_idle(gl->l));
+	if (!gl->fast.by_slot)
+		return;
+	if (gl->fast.stale)
+		gw_fast_refresh(gl);
+	gw_fast_set_carrying(&gl->fast, line_tx_idle(gl->l));
 }

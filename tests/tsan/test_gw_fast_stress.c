@@ -251,13 +251,9 @@ static void test_two_senders_share_one_inhibit_time(void)
 	gw_image_destroy(img);
 }
 
-void setUp(void)
-{
-}
+void setUp(void) {}
 
-void tearDown(void)
-{
-}
+void tearDown(void) {}
 
 int main(void)
 {

@@ -230,6 +230,15 @@ static void test_served_while_applying_what_a_source_sent(void)
 	F.serving = 1;
 	TEST_ASSERT_EQUAL_UINT64(CO_PDO_GATE_SERVED, gw_fast_gate(&F, 4, CO_PDO_GATE_CLAIM, 100));
 	F.serving = 0;
+	/* reset by the core (reconfigured, NMT): closed at once, stale */
+	TEST_ASSERT_FALSE(F.stale);
+	gw_fast_gate(&F, 4, CO_PDO_GATE_RESET, 200);
+	TEST_ASSERT_TRUE(F.stale);
+	TEST_ASSERT_EQUAL(0, try_at(gw_image_find(img, 0xB000, 0), 300, &held));
+	TEST_ASSERT_EQUAL_HEX32(1, held);
+	publish(&d, 1);
+	TEST_ASSERT_FALSE(F.stale);
+	TEST_ASSERT_EQUAL(1, try_at(gw_image_find(img, 0xB000, 0), 300, &held));
 	/* a TPDO that is not fast is never held back by the gate */
 	TEST_ASSERT_EQUAL_UINT64(CO_PDO_GATE_GO, gw_fast_gate(&F, 5, CO_PDO_GATE_CLAIM, 100));
 }

@@ -977,7 +977,7 @@ static void test_512_tpdos_with_event_timers(void)
 
 struct gate_script {
 	uint64_t answer; /* what CLAIM answers */
-	unsigned claims, forced, waits;
+	unsigned claims, forced, waits, resets;
 	uint16_t last_nr;
 };
 
@@ -996,6 +996,9 @@ static uint64_t scripted_gate(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_
 		break;
 	case CO_PDO_GATE_WAIT:
 		g->waits++;
+		break;
+	case CO_PDO_GATE_RESET:
+		g->resets++;
 		break;
 	}
 	return CO_PDO_GATE_GO;
@@ -1049,6 +1052,14 @@ static void test_tx_gate_claim_wait_and_served(void)
 	rtr(0x282, 2);
 	TEST_ASSERT_EQUAL(4, count_id(0x282, 0));
 	TEST_ASSERT_EQUAL(1, g.forced);
+	/* leaving OPERATIONAL resets every TPDO: the other sender hears it */
+	TEST_ASSERT_EQUAL(0, g.resets);
+	nmt(CO_NMT_CS_ENTER_PREOP);
+	TEST_ASSERT_EQUAL(8, g.resets);
+	/* a reconfiguration resets that TPDO */
+	TEST_ASSERT_EQUAL_HEX32(0, odw(0x1801, 1, 0x282 | CO_PDO_COB_INVALID));
+	TEST_ASSERT_EQUAL(9, g.resets);
+	TEST_ASSERT_EQUAL(2, g.last_nr);
 	co_pdo_set_tx_gate(node, NULL, NULL);
 }
 
