@@ -157,6 +157,8 @@ struct gw_line {
 	 * that line i's thread sends them on (-1: none). */
 	gw_fast fast;
 	int fast_fd[GW_LINES_MAX];
+	co_frame ignored[GW_FAST_MAX]; /* the fast TPDOs' ids its port leaves out */
+	unsigned n_ignored;
 	bool fwd_dirty;
 	uint64_t next_rebuild_us;
 	uint64_t next_link_check_us;

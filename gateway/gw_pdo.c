@@ -203,6 +203,34 @@ static bool fast_desc(struct gw_line *gl, uint16_t nr, gw_fast_desc *d, co_pdo_t
 	return true;
 }
 
+/* Frames other lines send for our fast TPDOs reach this line's socket
+ * too: it would wake for each one only to drop it (a data frame on one of
+ * its own TPDO COB-IDs). Its port leaves them out, as it leaves out what it
+ * sends itself; only when the set changes. */
+_Static_assert(GW_FAST_MAX <= CAN_PORT_IGNORE_MAX, "every fast TPDO can be left out");
+
+static void ignore_fast_frames(struct gw_line *gl, const gw_fast_desc *d, unsigned n)
+{
+	co_frame ids[GW_FAST_MAX];
+	bool any_sender = false;
+
+	for (unsigned i = 0; i < GW_LINES_MAX; i++)
+		any_sender |= gl->fast_fd[i] >= 0;
+	if (!any_sender)
+		n = 0;
+	for (unsigned i = 0; i < n; i++) {
+		memset(&ids[i], 0, sizeof(ids[i]));
+		ids[i].id = d[i].can_id;
+		ids[i].flags = d[i].flags;
+	}
+	if (n == gl->n_ignored && memcmp(ids, gl->ignored, n * sizeof(ids[0])) == 0)
+		return;
+	if (line_ignore_own_tpdos(gl->l, ids, n) == 0) {
+		memcpy(gl->ignored, ids, n * sizeof(ids[0]));
+		gl->n_ignored = n;
+	}
+}
+
 void gw_fast_refresh(struct gw_line *gl)
 {
 	gw_fast *F = &gl->fast;
@@ -220,7 +248,8 @@ void gw_fast_refresh(struct gw_line *gl)
 		pending[n] = st.event_pending;
 		n++;
 	}
-	gw_fast_publish(F, F->next, until, pending, n);
+	n = gw_fast_publish(F, F->next, until, pending, n);
+	ignore_fast_frames(gl, F->next, n);
 }
 
 void gw_fast_poll(struct gw_line *gl)

@@ -442,6 +442,31 @@ const can_port_stats *can_port_get_stats(const can_port *p)
 	return &p->stats;
 }
 
+int can_port_ignore_data(can_port *p, const co_frame *ids, size_t n)
+{
+	struct can_filter f[CAN_PORT_IGNORE_MAX];
+	int join = n > 0;
+
+	if (n > CAN_PORT_IGNORE_MAX)
+		return -EINVAL;
+	for (size_t i = 0; i < n; i++) {
+		bool ext = ids[i].flags & CO_FRAME_EXT;
+		/* inverted: the frame passes unless it is a data frame with
+		 * this identifier; joined: it must pass every one */
+		f[i].can_id = ids[i].id | (ext ? CAN_EFF_FLAG : 0) | CAN_INV_FILTER;
+		f[i].can_mask = (ext ? CAN_EFF_MASK : CAN_SFF_MASK) | CAN_EFF_FLAG | CAN_RTR_FLAG;
+	}
+	if (n == 0) { /* the default: everything */
+		f[0].can_id = 0;
+		f[0].can_mask = 0;
+	}
+	if (setsockopt(p->fd, SOL_CAN_RAW, CAN_RAW_JOIN_FILTERS, &join, sizeof join) != 0 ||
+	    setsockopt(p->fd, SOL_CAN_RAW, CAN_RAW_FILTER, f,
+		       (socklen_t)((n ? n : 1) * sizeof f[0])) != 0)
+		return -errno;
+	return 0;
+}
+
 /* A socket that only sends: no receive filter matches, so nothing ever
  * queues on it; the default send buffer, so that a frame is refused
  * (EAGAIN/ENOBUFS) rather than queued when the interface is congested. */

@@ -127,6 +127,14 @@ can_bus_state can_port_bus_state(const can_port *p);
 bool can_port_link_up(const can_port *p);
 const can_port_stats *can_port_get_stats(const can_port *p);
 
+/* Stop receiving data frames with these identifiers (id and the EXT flag
+ * of each co_frame; RTR frames still come): frames another socket of this
+ * machine sends for this line's own TPDOs, which the line would otherwise
+ * receive as it never receives its own. n = 0: receive everything again.
+ * At most CAN_PORT_IGNORE_MAX. 0 or -errno. */
+#define CAN_PORT_IGNORE_MAX 32u
+int can_port_ignore_data(can_port *p, const co_frame *ids, size_t n);
+
 /* ---- transmit-only sockets ---------------------------------------------------
  *
  * A raw socket bound to an interface that never receives (an empty filter):
