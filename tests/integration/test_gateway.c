@@ -1018,14 +1018,28 @@ static int64_t next_value_at(int fd, uint32_t id, int timeout_ms, uint64_t *at_u
 	}
 }
 
+/* TPDO 1 of line 1 with this inhibit time (100 us units); CiA 301 lets it
+ * change only while the TPDO is invalid. */
+static void tpdo1_inhibit(uint16_t inhibit_100us)
+{
+	uint8_t cob[4], inh[2];
+	uint32_t abort = 0;
+
+	co_put_le32(cob, 0x800001FFu);
+	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(mbx, 1, 0x1800, 1, cob, 4, 30000, &abort));
+	co_put_le16(inh, inhibit_100us);
+	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(mbx, 1, 0x1800, 3, inh, 2, 30000, &abort));
+	co_put_le32(cob, 0x1FFu);
+	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(mbx, 1, 0x1800, 1, cob, 4, 30000, &abort));
+}
+
 /* One wake-up per hop (docs/gateway.md): line 0's thread sends TPDO 1 of
  * line 1 itself when CiA 301 lets it go at once; never TPDO 2 (synchronous),
  * never within TPDO 1's inhibit time, never while line 1 is not
  * OPERATIONAL; and line 1 never sends the value a second time. */
 static void pdo_forwarding_in_one_wake_up(void)
 {
-	uint8_t v[4], cob[4], inh[2];
-	uint32_t abort = 0;
+	uint8_t v[4];
 	uint64_t at = 0, prev_at = 0;
 	int64_t got, prev = -1;
 	mbx_gw_status s0, e0;
@@ -1054,12 +1068,7 @@ static void pdo_forwarding_in_one_wake_up(void)
 	 * thread, and ends on the last one. The kernel's reception times
 	 * on vcan1; 2 ms less for the time between a sender's loop clock
 	 * and its write (the core's own inhibit time has the same base). */
-	co_put_le32(cob, 0x800001FFu);
-	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(mbx, 1, 0x1800, 1, cob, 4, 30000, &abort));
-	co_put_le16(inh, 200);
-	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(mbx, 1, 0x1800, 3, inh, 2, 30000, &abort));
-	co_put_le32(cob, 0x1FFu);
-	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(mbx, 1, 0x1800, 1, cob, 4, 30000, &abort));
+	tpdo1_inhibit(200);
 	TEST_ASSERT_EQUAL_INT(0, setsockopt(fd1, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on));
 	sleep_ms(100);
 	drain(fd1);
@@ -1080,12 +1089,7 @@ static void pdo_forwarding_in_one_wake_up(void)
 	}
 	TEST_ASSERT_EQUAL_HEX32_MESSAGE(0x1A000006, (uint32_t)prev, "the last value never came");
 	TEST_ASSERT_TRUE(frames >= 2 && frames <= 6);
-	co_put_le32(cob, 0x800001FFu);
-	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(mbx, 1, 0x1800, 1, cob, 4, 30000, &abort));
-	co_put_le16(inh, 0);
-	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(mbx, 1, 0x1800, 3, inh, 2, 30000, &abort));
-	co_put_le32(cob, 0x1FFu);
-	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(mbx, 1, 0x1800, 1, cob, 4, 30000, &abort));
+	tpdo1_inhibit(0);
 
 	/* line 1's node STOPPED (NMT from the bus): no TPDO, by nobody */
 	uint8_t stop[2] = { CO_NMT_CS_STOP, GW_NODE }, start[2] = { CO_NMT_CS_START, GW_NODE };
