@@ -306,8 +306,9 @@ static void tpdo_trigger(struct co_pdo *P, struct pdo *p, uint64_t now_us)
 	uint64_t until;
 
 	if (now_us < p->inhibit_until) {
-		if (P->gate)
-			(void)P->gate(P->gate_ctx, p->nr, CO_PDO_GATE_WAIT, now_us);
+		if (P->gate &&
+		    P->gate(P->gate_ctx, p->nr, CO_PDO_GATE_WAIT, now_us) == CO_PDO_GATE_SERVED)
+			return;
 		tpdo_wait(P, p);
 		return;
 	}

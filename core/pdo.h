@@ -220,7 +220,10 @@ const co_pdo_stats *co_pdo_get_stats(const co_node *node);
  *   CO_PDO_GATE_FORCED a transmission that cannot wait (an RTR answer, a
  *                      SYNC transmission) happens now: recorded, the
  *                      answer is ignored.
- *   CO_PDO_GATE_WAIT   an event waits for the node's own inhibit time.
+ *   CO_PDO_GATE_WAIT   an event waits for the node's own inhibit time
+ *                      (or, answered CO_PDO_GATE_SERVED, is dropped: the
+ *                      other sender's transmission that started that
+ *                      inhibit time carried it).
  *   CO_PDO_GATE_RESET  TPDO nr starts afresh (its configuration changed, the
  *                      node entered or left OPERATIONAL, a reset
  *                      communication): what the other sender knew of it

@@ -192,6 +192,15 @@ unsigned gw_fast_publish(gw_fast *F, const gw_fast_desc *descs, const uint64_t *
 
 void gw_fast_set_carrying(gw_fast *F, bool carrying)
 {
+	if (carrying) {
+		for (unsigned k = 0; k < GW_FAST_MAX; k++) {
+			if (!F->deferred[k])
+				continue;
+			atomic_fetch_sub_explicit(&F->t[k].busy, F->deferred[k],
+						  memory_order_release);
+			F->deferred[k] = 0;
+		}
+	}
 	if (atomic_load_explicit(&F->carrying, memory_order_relaxed) != carrying)
 		atomic_store_explicit(&F->carrying, carrying, memory_order_release);
 }
@@ -251,6 +260,8 @@ uint64_t gw_fast_gate(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_t now_us
 		owner_forced(&F->t[k], now_us);
 		return CO_PDO_GATE_GO;
 	case CO_PDO_GATE_WAIT:
+		if (F->serving & (UINT32_C(1) << k))
+			return CO_PDO_GATE_SERVED; /* its inhibit time runs from that frame */
 		set_pending(&F->t[k], true);
 		return CO_PDO_GATE_GO;
 	case CO_PDO_GATE_RESET:
@@ -261,26 +272,40 @@ uint64_t gw_fast_gate(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_t now_us
 	return CO_PDO_GATE_GO;
 }
 
-void gw_fast_taken(gw_fast *F, uint32_t held)
+/* Count updates held toward the TPDOs in held (up) or take them off. */
+static void busy_change(gw_fast *F, uint32_t held, bool up)
 {
 	while (held) {
 		unsigned k = (unsigned)__builtin_ctz(held);
 
 		held &= held - 1;
-		atomic_fetch_sub_explicit(&F->t[k].busy, 1, memory_order_release);
+		if (up)
+			atomic_fetch_add_explicit(&F->t[k].busy, 1, memory_order_acq_rel);
+		else
+			atomic_fetch_sub_explicit(&F->t[k].busy, 1, memory_order_release);
 	}
+}
+
+void gw_fast_taken(gw_fast *F, uint32_t held, bool tx_idle)
+{
+	if (tx_idle) {
+		busy_change(F, held, false);
+		return;
+	}
+	for (; held; held &= held - 1)
+		F->deferred[__builtin_ctz(held)]++;
 }
 
 /* ---- source ------------------------------------------------------------------ */
 
 void gw_fast_hold(gw_fast *F, uint32_t held)
 {
-	while (held) {
-		unsigned k = (unsigned)__builtin_ctz(held);
+	busy_change(F, held, true);
+}
 
-		held &= held - 1;
-		atomic_fetch_add_explicit(&F->t[k].busy, 1, memory_order_acq_rel);
-	}
+void gw_fast_undo_hold(gw_fast *F, uint32_t held)
+{
+	busy_change(F, held, false);
 }
 
 /* The frame of t from the image's values, packed as core/pdo_map.c packs
@@ -337,6 +362,13 @@ static bool try_one(gw_fast_tpdo *t, const gw_image *img, uint64_t now_us, gw_fa
 	atomic_compare_exchange_strong_explicit(&t->gate, &taken, g, memory_order_acq_rel,
 						memory_order_relaxed);
 	return false;
+}
+
+uint32_t gw_fast_tpdos_of(gw_fast *F, int slot)
+{
+	if (slot < 0 || (size_t)slot >= F->n_slots)
+		return 0;
+	return atomic_load_explicit(&F->by_slot[slot], memory_order_acquire);
 }
 
 uint32_t gw_fast_try(gw_fast *F, const gw_image *img, int slot, uint64_t now_us,

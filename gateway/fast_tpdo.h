@@ -91,6 +91,10 @@ typedef struct gw_fast {
 	uint8_t of_nr[CO_PDO_MAX];
 	uint32_t serving; /* fast TPDOs a source sent for the update being applied */
 	bool stale;       /* a TPDO was reset: publish again before sleeping */
+	/* held updates applied while the owner's transmit queue was not
+	 * empty: their frames may still be queued, so they count as busy
+	 * until it is (gw_fast_set_carrying) */
+	uint32_t deferred[GW_FAST_MAX];
 	uint32_t *scratch;
 	gw_fast_desc cur[GW_FAST_MAX];  /* what is published */
 	gw_fast_desc next[GW_FAST_MAX]; /* the caller's build area for publish */
@@ -118,8 +122,11 @@ void gw_fast_set_carrying(gw_fast *F, bool carrying);
  * closes its gate at once and marks F stale: the owner publishes again
  * (gw_fast_publish clears it) before its loop sleeps. */
 uint64_t gw_fast_gate(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_t now_us);
-/* The owner applied an update handed off with these held TPDOs. */
-void gw_fast_taken(gw_fast *F, uint32_t held);
+/* The owner applied an update handed off with these held TPDOs; tx_idle:
+ * nothing waits in its transmit queue (else they stay busy until
+ * gw_fast_set_carrying(F, true): a source's frame must not overtake the
+ * frame this update queued). */
+void gw_fast_taken(gw_fast *F, uint32_t held, bool tx_idle);
 /* TPDO number of fast TPDO k, 0 if none. */
 uint16_t gw_fast_nr(const gw_fast *F, unsigned k);
 
@@ -134,5 +141,10 @@ uint16_t gw_fast_nr(const gw_fast *F, unsigned k);
 uint32_t gw_fast_try(gw_fast *F, const gw_image *img, int slot, uint64_t now_us,
 		     gw_fast_send_fn send, void *send_ctx, uint32_t *held);
 void gw_fast_hold(gw_fast *F, uint32_t held);
+/* The hand-off failed (ring full or closed): what gw_fast_hold counted. */
+void gw_fast_undo_hold(gw_fast *F, uint32_t held);
+/* The fast TPDOs that map slot: what an update handed off without trying
+ * holds. */
+uint32_t gw_fast_tpdos_of(gw_fast *F, int slot);
 
 #endif /* COGW_GATEWAY_FAST_TPDO_H */

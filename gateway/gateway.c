@@ -215,9 +215,12 @@ static void ext_wake(void *ctx, line *l)
 		xring *r = xring_mesh_get(gl->g->mesh, from, gl->idx);
 		if (!r)
 			continue;
-		while (xring_pop(r, &m, sizeof(m)) > 0)
+		while (xring_pop(r, &m, sizeof(m)) > 0) {
 			handle(gl, &m, now_us);
+			gl->handled_from[from]++;
+		}
 	}
+	gw_publish_done(gl);
 	take_own(gl, now_us);
 	/* After the rings: a resync bit is set only on a full ring, whose
 	 * messages have woken us, so it is seen here at the latest. */

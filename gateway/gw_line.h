@@ -159,6 +159,13 @@ struct gw_line {
 	int fast_fd[GW_LINES_MAX];
 	co_frame ignored[GW_FAST_MAX]; /* the fast TPDOs' ids its port leaves out */
 	unsigned n_ignored;
+	/* Messages this line pushed to each line, handled from each line, and
+	 * (published for the senders, once their frames left the transmit
+	 * queue) done from each line: a source sends a TPDO of ours itself
+	 * only when we have done everything it sent us (gw_caught_up). */
+	uint64_t pushed_to[GW_LINES_MAX];
+	uint64_t handled_from[GW_LINES_MAX];
+	_Atomic uint64_t done_from[GW_LINES_MAX];
 	bool fwd_dirty;
 	uint64_t next_rebuild_us;
 	uint64_t next_link_check_us;
@@ -188,6 +195,11 @@ struct gw {
  * queues it for this line's next look. 0, or -errno (ring full/closed,
  * own queue full): the caller counts the drop. */
 int gw_send_to(struct gw_line *gl, unsigned to, gw_msg *m);
+/* Has line `to` handled every message this line pushed to it, and sent
+ * the frames they caused? (any line, about another one) */
+bool gw_caught_up(const struct gw_line *gl, unsigned to);
+/* This line: publish what it handled, if its transmit queue is empty. */
+void gw_publish_done(struct gw_line *gl);
 /* The oldest message this line sent itself; false when none. */
 bool gw_self_take(struct gw_line *gl, gw_msg *out);
 /* A lease was opened for a session or hop that has ended meanwhile: give

@@ -32,19 +32,24 @@ static int forward_to(struct gw_line *gl, unsigned j, gw_msg *m, uint64_t now_us
 	m->fast_sent = 0;
 	m->fast_held = 0;
 	m->sent_us = now_us;
-	/* A message of ours still queued: the target is behind (stalled, or
-	 * busy with a burst) and keeps the hand-off until it caught up. */
-	if (tl->fast_fd[gl->idx] >= 0 &&
-	    xring_count(xring_mesh_get(gl->g->mesh, gl->idx, j)) == 0) {
-		m->fast_sent = gw_fast_try(&tl->fast, gl->g->img, m->slot, now_us, fast_send,
-					   &tl->fast_fd[gl->idx], &m->fast_held);
+	/* A message of ours not yet done by the target (queued, being
+	 * handled, or its frame still in the target's transmit queue): the
+	 * target is behind and keeps the hand-off until it caught up, so no
+	 * frame of ours overtakes one it sends for an earlier value. Held
+	 * either way. */
+	if (tl->fast_fd[gl->idx] >= 0) {
+		if (gw_caught_up(gl, j))
+			m->fast_sent = gw_fast_try(&tl->fast, gl->g->img, m->slot, now_us,
+						   fast_send, &tl->fast_fd[gl->idx], &m->fast_held);
+		else
+			m->fast_held = gw_fast_tpdos_of(&tl->fast, m->slot);
 		gw_fast_hold(&tl->fast, m->fast_held);
 	}
 	for (uint32_t k = m->fast_sent; k; k &= k - 1)
 		GW_COUNT(gl->c.pdo_fast);
 	rc = gw_send_to(gl, j, m);
 	if (rc)
-		gw_fast_taken(&tl->fast, m->fast_held);
+		gw_fast_undo_hold(&tl->fast, m->fast_held);
 	return rc;
 }
 
@@ -120,7 +125,7 @@ void gw_pdo_received(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 	gl->fast.serving = m->fast_sent;
 	pdo_apply(gl, m->slot, m->bits, false, now_us);
 	gl->fast.serving = 0;
-	gw_fast_taken(&gl->fast, m->fast_held);
+	gw_fast_taken(&gl->fast, m->fast_held, line_tx_idle(gl->l));
 	gw_pdo_sync_received(&gl->lost, gl->g->img, m->slot, m->bits);
 }
 
@@ -259,4 +264,5 @@ void gw_fast_poll(struct gw_line *gl)
 	if (gl->fast.stale)
 		gw_fast_refresh(gl);
 	gw_fast_set_carrying(&gl->fast, line_tx_idle(gl->l));
+	gw_publish_done(gl);
 }

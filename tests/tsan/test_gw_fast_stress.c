@@ -102,7 +102,7 @@ static void *source_main(void *arg)
 		(void)gw_fast_try(&F, img, slot, s->now, record, s, &held);
 		gw_fast_hold(&F, held);
 		if (xring_push(ring[s->idx], &held, sizeof(held)) != 0)
-			gw_fast_taken(&F, held); /* dropped: never applied */
+			gw_fast_undo_hold(&F, held); /* dropped: never applied */
 		/* every other write, let the owner catch up (as a line does
 		 * between two frames), so that the gate is free often */
 		for (unsigned spin = 0; (c & 1) && spin < 1000 && xring_count(ring[s->idx]); spin++)
@@ -145,7 +145,7 @@ static void *owner_main(void *arg)
 
 		for (unsigned i = 0; i < SOURCES; i++) {
 			while (xring_pop(ring[i], &held, sizeof(held)) > 0)
-				gw_fast_taken(&F, held);
+				gw_fast_taken(&F, held, true);
 			all_done &= atomic_load(&sources_done[i]);
 		}
 		if (all_done && xring_count(ring[0]) == 0 && xring_count(ring[1]) == 0)

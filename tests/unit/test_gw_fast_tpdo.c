@@ -157,13 +157,25 @@ static void test_held_update_is_not_overtaken(void)
 	TEST_ASSERT_EQUAL(0, try_at(slot, 200, &held));
 	gw_fast_hold(&F, held);
 	/* the owner applied the first, then the second */
-	gw_fast_taken(&F, 1);
+	gw_fast_taken(&F, 1, true);
 	TEST_ASSERT_EQUAL(0, try_at(slot, 300, &held));
 	gw_fast_hold(&F, held);
-	gw_fast_taken(&F, 1);
-	gw_fast_taken(&F, 1);
+	gw_fast_taken(&F, 1, true);
+	gw_fast_taken(&F, 1, true);
 	TEST_ASSERT_EQUAL(1, try_at(slot, 400, &held));
 	TEST_ASSERT_EQUAL(1, sent.n);
+	/* applied while the owner's transmit queue held frames: its frame
+	 * may still be queued, so the update stays busy until the queue is
+	 * empty again */
+	gw_fast_hold(&F, 1);
+	gw_fast_taken(&F, 1, false);
+	TEST_ASSERT_EQUAL(0, try_at(slot, 600, &held));
+	gw_fast_set_carrying(&F, true);
+	TEST_ASSERT_EQUAL(1, try_at(slot, 700, &held));
+	/* a hand-off that failed takes its hold back */
+	gw_fast_hold(&F, 1);
+	gw_fast_undo_hold(&F, 1);
+	TEST_ASSERT_EQUAL(1, try_at(slot, 800, &held));
 }
 
 static void test_closed_and_retired_tpdos_are_handed_off(void)
@@ -229,6 +241,9 @@ static void test_served_while_applying_what_a_source_sent(void)
 	TEST_ASSERT_EQUAL(1, try_at(gw_image_find(img, 0xB000, 0), 100, &held));
 	F.serving = 1;
 	TEST_ASSERT_EQUAL_UINT64(CO_PDO_GATE_SERVED, gw_fast_gate(&F, 4, CO_PDO_GATE_CLAIM, 100));
+	/* inside the inhibit time that frame started: dropped, not waiting */
+	TEST_ASSERT_EQUAL_UINT64(CO_PDO_GATE_SERVED, gw_fast_gate(&F, 4, CO_PDO_GATE_WAIT, 100));
+	TEST_ASSERT_EQUAL_HEX32(0, atomic_load(&F.t[0].busy));
 	F.serving = 0;
 	/* reset by the core (reconfigured, NMT): closed at once, stale */
 	TEST_ASSERT_FALSE(F.stale);

@@ -976,7 +976,8 @@ static void test_512_tpdos_with_event_timers(void)
 /* ---- a second sender (co_pdo_set_tx_gate) --------------------------------------- */
 
 struct gate_script {
-	uint64_t answer; /* what CLAIM answers */
+	uint64_t answer;      /* what CLAIM answers */
+	uint64_t wait_answer; /* what WAIT answers */
 	unsigned claims, forced, waits, resets;
 	uint16_t last_nr;
 };
@@ -996,7 +997,7 @@ static uint64_t scripted_gate(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_
 		break;
 	case CO_PDO_GATE_WAIT:
 		g->waits++;
-		break;
+		return g->wait_answer;
 	case CO_PDO_GATE_RESET:
 		g->resets++;
 		break;
@@ -1048,9 +1049,20 @@ static void test_tx_gate_claim_wait_and_served(void)
 	tb_advance(&bus, 5000);
 	TEST_ASSERT_EQUAL(3, count_id(0x282, 0));
 
+	/* inside the inhibit time, an event the other sender's frame carried
+	 * (WAIT answered SERVED) does not wait: nothing more is sent */
+	g.answer = CO_PDO_GATE_GO;
+	co_pdo_object_changed(node, IDX_U16, 0, bus.now); /* sent, inhibit runs */
+	TEST_ASSERT_EQUAL(4, count_id(0x282, 0));
+	g.wait_answer = CO_PDO_GATE_SERVED;
+	co_pdo_object_changed(node, IDX_U16, 0, bus.now);
+	tb_advance(&bus, 5000);
+	TEST_ASSERT_EQUAL(4, count_id(0x282, 0));
+	g.wait_answer = CO_PDO_GATE_GO;
+
 	/* an RTR answer does not wait: recorded as forced */
 	rtr(0x282, 2);
-	TEST_ASSERT_EQUAL(4, count_id(0x282, 0));
+	TEST_ASSERT_EQUAL(5, count_id(0x282, 0));
 	TEST_ASSERT_EQUAL(1, g.forced);
 	/* leaving OPERATIONAL resets every TPDO: the other sender hears it */
 	TEST_ASSERT_EQUAL(0, g.resets);
