@@ -1087,6 +1087,14 @@ static void pdo_forwarding_in_one_wake_up(void)
 		prev_at = at;
 		frames++;
 	}
+	if (prev != 0x1A000006) {
+		mbx_gw_status a = gw_status(0), b = gw_status(1);
+		printf("inhibit burst: %u frames, last %08X; line 0 forwarded %" PRIu64
+		       ", sent itself %" PRIu64 "; line 1 applied %" PRIu64 ", triggered %" PRIu64
+		       "\n",
+		       frames, (unsigned)prev, a.pdo_forwarded, a.pdo_fast, b.pdo_applied,
+		       b.pdo_triggered);
+	}
 	TEST_ASSERT_EQUAL_HEX32_MESSAGE(0x1A000006, (uint32_t)prev, "the last value never came");
 	TEST_ASSERT_TRUE(frames >= 2 && frames <= 6);
 	tpdo1_inhibit(0);
