@@ -27,12 +27,14 @@
  * (source).
  *
  * The busy word, one 32-bit atomic per fast TPDO: the number of updates
- * handed off toward it that the target has not applied yet (a source
- * counts one before pushing, the target takes it off after applying), plus
- * FAST_PENDING while the target's core holds an event waiting for the
+ * handed off toward it that the target has not applied yet, or whose frame
+ * still waits in its transmit queue (a source counts one before pushing,
+ * the target takes it off after applying, or once its queue is empty),
+ * plus FAST_PENDING while the target's core holds an event waiting for the
  * inhibit time. A source sends only while it is 0: a frame of it must not
  * overtake a value of its own still queued, nor come between a waiting
- * event and its transmission.
+ * event and its transmission. (gateway/gw_pdo.c adds the same rule for all
+ * of a source's messages: the target must have done them all.)
  *
  * Republication (owner): gate to CLOSED with the next generation, release
  * fence, descriptor words (relaxed atomics), gate open with the time of

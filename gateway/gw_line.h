@@ -21,8 +21,10 @@
  * Each gw_line belongs to its line thread. The only thing another thread
  * reads is the counters (relaxed atomics, gw_line_counters_get) and, for
  * PDO forwarding, the other lines' forwarding lists and lost-update marks
- * (gateway/pdo_sync.h, atomics). Everything else crosses lines as a gw_msg,
- * by value.
+ * (gateway/pdo_sync.h, atomics), their fast TPDOs (gateway/fast_tpdo.h,
+ * atomics), their done_from counts, and the fast_fd socket that belongs to
+ * the reading line (written before the lines start). Everything else
+ * crosses lines as a gw_msg, by value.
  */
 #ifndef COGW_GATEWAY_GW_LINE_H
 #define COGW_GATEWAY_GW_LINE_H
