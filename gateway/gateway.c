@@ -236,8 +236,10 @@ static uint64_t ext_poll(void *ctx, line *l, uint64_t now_us)
 	take_own(gl, now_us);
 	next = gw_sessions_tick(gl, now_us, next);
 	next = gw_relays_tick(gl, now_us, next);
-	/* Mailbox writes to the mapping leave no event: look once a second. */
-	if (gl->fwd_dirty || now_us >= gl->next_rebuild_us) {
+	/* Mailbox writes to the mapping leave no event, but the core resets
+	 * the TPDO they change (the fast TPDOs' gate hears it: stale); other
+	 * changes are looked for once a second. */
+	if (gl->fwd_dirty || gl->fast.stale || now_us >= gl->next_rebuild_us) {
 		gw_fwd_list_rebuild(&gl->fwd, gl->g->img, co_node_od(gl->node));
 		gw_fast_refresh(gl);
 		gl->fwd_dirty = false;
