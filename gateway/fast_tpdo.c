@@ -70,13 +70,6 @@ static void gate_close(gw_fast_tpdo *t)
 	atomic_fetch_or_explicit(&t->gate, GW_FAST_GATE_CLOSED, memory_order_acq_rel);
 }
 
-void gw_fast_close_all(gw_fast *F)
-{
-	for (unsigned k = 0; k < GW_FAST_MAX; k++)
-		if (F->nr[k])
-			gate_close(&F->t[k]);
-}
-
 static void set_pending(gw_fast_tpdo *t, bool on)
 {
 	if (on)

@@ -116,9 +116,6 @@ void gw_fast_fini(gw_fast *F);
  * published (n, or fewer when more than GW_FAST_MAX). */
 unsigned gw_fast_publish(gw_fast *F, const gw_fast_desc *descs, const uint64_t *inhibit_until,
 			 const bool *pending, unsigned n);
-/* Close every gate at once (the node left OPERATIONAL, its PDO
- * configuration is changing): until the next publish, sources hand off. */
-void gw_fast_close_all(gw_fast *F);
 void gw_fast_set_carrying(gw_fast *F, bool carrying);
 /* The core's gate (co_pdo_tx_gate_fn with ctx = F). A reset of a TPDO
  * closes its gate at once and marks F stale: the owner publishes again

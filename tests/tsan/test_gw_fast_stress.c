@@ -169,7 +169,7 @@ static void *owner_main(void *arg)
 		if (rounds % 997 == 0)
 			republish((rounds / 997) & 1);
 		if (rounds % 4099 == 0)
-			gw_fast_close_all(&F);
+			gw_fast_gate(&F, 1, CO_PDO_GATE_RESET, now_us()); /* closes it */
 		if (rounds % 4099 == 1)
 			republish(false);
 		if (owner_log.n + 10 >= LOG_MAX)

@@ -185,7 +185,7 @@ static void test_closed_and_retired_tpdos_are_handed_off(void)
 	uint32_t held;
 
 	publish(&d, 1);
-	gw_fast_close_all(&F); /* e.g. the node left OPERATIONAL */
+	gw_fast_gate(&F, 1, CO_PDO_GATE_RESET, 50); /* e.g. the node left OPERATIONAL */
 	TEST_ASSERT_EQUAL(0, try_at(slot, 100, &held));
 	TEST_ASSERT_EQUAL_HEX32(1, held);
 	publish(&d, 1); /* back */
