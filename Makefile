@@ -335,7 +335,7 @@ $(REL)/tests/bench/%: $(REL)/obj/tests/bench/%.o $(BENCH_SUP_OBJS) $(REL_LIBS)
 # switches per mailbox round trip and per event, counted with strace in the
 # vcan harness (counts, not timings).
 bench-costs: all $(REL)/tests/bench/probe_mbx_loop
-	tests/vcan/run -n 1 -- tests/bench/costs
+	tests/vcan/run -n 2 -- tests/bench/costs
 
 # Figures only, never pass/fail: all output goes to $(BENCH_OUT) as well, and
 # tests/bench/report turns it into docs/benchmarks.md.

@@ -220,6 +220,8 @@ static void pdo_runtime_reset(struct co_pdo *P, struct pdo *p, uint64_t now_us)
 	if (P->operational && p->valid && p->dir == CO_PDO_TX && tt_is_event(p->tt) && p->event_ms)
 		p->timer_us = now_us + (uint64_t)p->event_ms * 1000u;
 	heap_update(P, p);
+	if (P->gate && p->dir == CO_PDO_TX)
+		(void)P->gate(P->gate_ctx, p->nr, CO_PDO_GATE_RESET, now_us);
 }
 
 /* Re-read the communication record into p. */
@@ -288,18 +290,45 @@ static void tpdo_send(struct co_pdo *P, struct pdo *p, bool from_buf, uint64_t n
 	heap_update(P, p);
 }
 
+static void tpdo_wait(struct co_pdo *P, struct pdo *p)
+{
+	if (!p->event_pending)
+		P->stats.tx_inhibited++;
+	p->event_pending = true;
+	heap_update(P, p);
+}
+
 /* An event for an event-driven TPDO: send now, or once the inhibit time
- * has elapsed (CiA 301 §7.2.2.5: the inhibit time is a minimum interval). */
+ * has elapsed (CiA 301 §7.2.2.5: the inhibit time is a minimum interval).
+ * With a second sender (co_pdo_set_tx_gate) its transmissions count too. */
 static void tpdo_trigger(struct co_pdo *P, struct pdo *p, uint64_t now_us)
 {
+	uint64_t until;
+
 	if (now_us < p->inhibit_until) {
-		if (!p->event_pending)
-			P->stats.tx_inhibited++;
-		p->event_pending = true;
-		heap_update(P, p);
+		if (P->gate &&
+		    P->gate(P->gate_ctx, p->nr, CO_PDO_GATE_WAIT, now_us) == CO_PDO_GATE_SERVED)
+			return;
+		tpdo_wait(P, p);
+		return;
+	}
+	until = P->gate ? P->gate(P->gate_ctx, p->nr, CO_PDO_GATE_CLAIM, now_us) : CO_PDO_GATE_GO;
+	if (until == CO_PDO_GATE_SERVED)
+		return;
+	if (until != CO_PDO_GATE_GO) {
+		p->inhibit_until = until;
+		tpdo_wait(P, p);
 		return;
 	}
 	tpdo_send(P, p, false, now_us);
+}
+
+/* A transmission that does not wait for the inhibit time (RTR, SYNC). */
+static void tpdo_send_forced(struct co_pdo *P, struct pdo *p, bool from_buf, uint64_t now_us)
+{
+	if (P->gate)
+		(void)P->gate(P->gate_ctx, p->nr, CO_PDO_GATE_FORCED, now_us);
+	tpdo_send(P, p, from_buf, now_us);
 }
 
 static void tpdo_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
@@ -314,7 +343,7 @@ static void tpdo_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us
 		return;
 	}
 	P->stats.rtr++;
-	tpdo_send(P, p, p->tt == CO_PDO_TT_RTR_SYNC && p->sampled, now_us);
+	tpdo_send_forced(P, p, p->tt == CO_PDO_TT_RTR_SYNC && p->sampled, now_us);
 }
 
 /* ---- RPDO ------------------------------------------------------------------- */
@@ -445,7 +474,7 @@ static void tpdo_sync(struct co_pdo *P, struct pdo *p, uint8_t counter, uint64_t
 	if (p->tt == CO_PDO_TT_SYNC_ACYCLIC) {
 		if (p->pending) {
 			p->pending = false;
-			tpdo_send(P, p, false, now_us);
+			tpdo_send_forced(P, p, false, now_us);
 		}
 		return;
 	}
@@ -457,14 +486,14 @@ static void tpdo_sync(struct co_pdo *P, struct pdo *p, uint8_t counter, uint64_t
 				return;
 			p->wait_start = false;
 			p->sync_cnt = 0;
-			tpdo_send(P, p, false, now_us);
+			tpdo_send_forced(P, p, false, now_us);
 			return;
 		}
 		p->wait_start = false;
 	}
 	if (++p->sync_cnt >= p->tt) {
 		p->sync_cnt = 0;
-		tpdo_send(P, p, false, now_us);
+		tpdo_send_forced(P, p, false, now_us);
 	}
 }
 
@@ -804,6 +833,54 @@ int co_pdo_object_changed(co_node *node, uint16_t index, uint8_t sub, uint64_t n
 		}
 	}
 	return count;
+}
+
+void co_pdo_set_tx_gate(co_node *node, co_pdo_tx_gate_fn fn, void *ctx)
+{
+	struct co_pdo *P = node->pdo;
+
+	if (!P)
+		return;
+	P->gate = fn;
+	P->gate_ctx = fn ? ctx : NULL;
+}
+
+int co_pdo_tpdo_sent_by_peer(co_node *node, uint16_t nr, uint64_t at_us)
+{
+	struct co_pdo *P = node->pdo;
+	struct pdo *p = pdo_get(node, CO_PDO_TX, nr);
+	uint64_t until;
+
+	if (!p)
+		return -ENOENT;
+	if (!P->operational || !p->valid)
+		return -EAGAIN;
+	P->stats.tx_by_peer++;
+	until = at_us + (uint64_t)p->inhibit_100us * 100u;
+	if (until > p->inhibit_until)
+		p->inhibit_until = until;
+	if (tt_is_event(p->tt) && p->event_ms)
+		p->timer_us = at_us + (uint64_t)p->event_ms * 1000u;
+	heap_update(P, p);
+	return 0;
+}
+
+int co_pdo_tpdo_state_get(const co_node *node, uint16_t nr, co_pdo_tpdo_state *out)
+{
+	const struct pdo *p = pdo_get(node, CO_PDO_TX, nr);
+
+	if (!p)
+		return -ENOENT;
+	*out = (co_pdo_tpdo_state){ .valid = p->valid,
+				    .operational = node->pdo->operational,
+				    .event_pending = p->event_pending,
+				    .tt = p->tt,
+				    .len = p->len,
+				    .inhibit_100us = p->inhibit_100us,
+				    .event_ms = p->event_ms,
+				    .cob_id = p->cob,
+				    .inhibit_until = p->inhibit_until };
+	return 0;
 }
 
 int co_pdo_rpdo_request(co_node *node, uint16_t nr, uint64_t now_us)

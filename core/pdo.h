@@ -163,6 +163,8 @@ typedef struct co_pdo_stats {
 	uint64_t tx;           /* TPDO frames sent */
 	uint64_t tx_failed;    /* send callback failed */
 	uint64_t tx_inhibited; /* events deferred by the inhibit time */
+	uint64_t tx_by_peer;   /* transmissions another sender made for us
+	                        * (co_pdo_tpdo_sent_by_peer) */
 	uint64_t rtr;          /* RTRs answered */
 	uint64_t map_errors;   /* invalid mapping found in the OD at init or
 	                        * reset (PDO left without mapping) */
@@ -199,6 +201,73 @@ bool co_pdo_is_valid(const co_node *node, co_pdo_dir dir, uint16_t nr);
 /* Mapped length in bytes; -ENOENT if the PDO does not exist. */
 int co_pdo_length(const co_node *node, co_pdo_dir dir, uint16_t nr);
 const co_pdo_stats *co_pdo_get_stats(const co_node *node);
+
+/* ---- a second sender of the same TPDOs ------------------------------------
+ *
+ * The gateway's forwarding fast path (docs/gateway.md, "One wake-up per
+ * hop") lets the thread of another line transmit some event-driven TPDOs
+ * of this node on its behalf. Both senders must respect one inhibit time
+ * (CiA 301 §7.2.2.5), so with a gate installed the core asks it before
+ * every transmission, with one of these operations:
+ *   CO_PDO_GATE_CLAIM  an event wants to send TPDO nr at now_us. The gate
+ *                      answers CO_PDO_GATE_GO (send; the gate is taken for
+ *                      this transmission), CO_PDO_GATE_SERVED (the other
+ *                      sender already transmitted what this event asks
+ *                      for: nothing is sent), or the time before which the
+ *                      TPDO may not go (the other sender transmitted it
+ *                      within the inhibit time: the event waits, exactly
+ *                      like an event inside the node's own inhibit time).
+ *   CO_PDO_GATE_FORCED a transmission that cannot wait (an RTR answer, a
+ *                      SYNC transmission) happens now: recorded, the
+ *                      answer is ignored.
+ *   CO_PDO_GATE_WAIT   an event waits for the node's own inhibit time
+ *                      (or, answered CO_PDO_GATE_SERVED, is dropped: the
+ *                      other sender's transmission that started that
+ *                      inhibit time carried it).
+ *   CO_PDO_GATE_RESET  TPDO nr starts afresh (its configuration changed, the
+ *                      node entered or left OPERATIONAL, a reset
+ *                      communication): what the other sender knew of it
+ *                      no longer holds.
+ * The gate runs on the owning thread, inside the core's call: it must not
+ * call back into the node.
+ */
+#define CO_PDO_GATE_GO 0u
+#define CO_PDO_GATE_SERVED UINT64_MAX
+
+typedef enum co_pdo_gate_op {
+	CO_PDO_GATE_CLAIM = 0,
+	CO_PDO_GATE_FORCED,
+	CO_PDO_GATE_WAIT,
+	CO_PDO_GATE_RESET,
+} co_pdo_gate_op;
+
+typedef uint64_t (*co_pdo_tx_gate_fn)(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_t now_us);
+
+/* Install (fn NULL: remove) the gate of every TPDO of node. */
+void co_pdo_set_tx_gate(co_node *node, co_pdo_tx_gate_fn fn, void *ctx);
+
+/* The other sender transmitted TPDO nr at at_us (a time of the node's
+ * clock, <= now): the inhibit time and the event timer run from then, as
+ * after a transmission of the node's own. An event waiting for the inhibit
+ * time keeps waiting. -ENOENT, -EAGAIN (not OPERATIONAL / not valid). */
+int co_pdo_tpdo_sent_by_peer(co_node *node, uint16_t nr, uint64_t at_us);
+
+/* What another sender needs to know of one TPDO to build its frame and
+ * respect its timing (read by the owning thread, which publishes it). */
+typedef struct co_pdo_tpdo_state {
+	bool valid;
+	bool operational;   /* the node is OPERATIONAL: PDOs may be sent */
+	bool event_pending; /* an event waits for the inhibit time */
+	uint8_t tt;
+	uint8_t len;            /* bytes */
+	uint16_t inhibit_100us; /* in force */
+	uint16_t event_ms;
+	uint32_t cob_id;        /* 1800h+nr-1:1 in force */
+	uint64_t inhibit_until; /* no transmission before this time */
+} co_pdo_tpdo_state;
+
+/* 0, or -ENOENT if TPDO nr does not exist. */
+int co_pdo_tpdo_state_get(const co_node *node, uint16_t nr, co_pdo_tpdo_state *out);
 
 /* Supervision state of one RPDO (see "RPDO supervision" above). */
 typedef struct co_pdo_rpdo_state {

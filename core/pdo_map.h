@@ -79,6 +79,8 @@ struct co_pdo {
 	bool rev_dirty;
 	bool operational;
 	uint16_t fault_count[CO_PDO_FAULT_KINDS]; /* RPDOs with each fault's EMCY */
+	co_pdo_tx_gate_fn gate;                   /* co_pdo_set_tx_gate(), NULL = none */
+	void *gate_ctx;
 	co_pdo_stats stats;
 };
 

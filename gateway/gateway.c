@@ -86,6 +86,8 @@ static int ext_attach(void *ctx, line *l)
 	if ((rc = gw_pdo_sync_init(&gl->lost, gw_image_count(gl->g->img))))
 		return rc;
 	gw_fwd_list_rebuild(&gl->fwd, gl->g->img, od);
+	if ((rc = gw_fast_attach(gl)))
+		return rc;
 	gl->n_sess = sdo_server_channel_count(gl->node);
 	gl->sess = calloc(gl->n_sess ? gl->n_sess : 1, sizeof(*gl->sess));
 	if (!gl->sess)
@@ -120,6 +122,7 @@ static void ext_detach(void *ctx, line *l)
 	free(gl->sess);
 	gl->sess = NULL;
 	gl->n_sess = 0;
+	gw_fast_detach(gl);
 	gw_fwd_list_fini(&gl->fwd);
 	gw_pdo_sync_fini(&gl->lost);
 }
@@ -214,9 +217,12 @@ static void ext_wake(void *ctx, line *l)
 		xring *r = xring_mesh_get(gl->g->mesh, from, gl->idx);
 		if (!r)
 			continue;
-		while (xring_pop(r, &m, sizeof(m)) > 0)
+		while (xring_pop(r, &m, sizeof(m)) > 0) {
 			handle(gl, &m, now_us);
+			gl->handled_from[from]++;
+		}
 	}
+	gw_publish_done(gl);
 	take_own(gl, now_us);
 	/* After the rings: a resync bit is set only on a full ring, whose
 	 * messages have woken us, so it is seen here at the latest. */
@@ -232,14 +238,18 @@ static uint64_t ext_poll(void *ctx, line *l, uint64_t now_us)
 	take_own(gl, now_us);
 	next = gw_sessions_tick(gl, now_us, next);
 	next = gw_relays_tick(gl, now_us, next);
-	/* Mailbox writes to the mapping leave no event: look once a second. */
-	if (gl->fwd_dirty || now_us >= gl->next_rebuild_us) {
+	/* Mailbox writes to the mapping leave no event, but the core resets
+	 * the TPDO they change (the fast TPDOs' gate hears it: stale); other
+	 * changes are looked for once a second. */
+	if (gl->fwd_dirty || gl->fast.stale || now_us >= gl->next_rebuild_us) {
 		gw_fwd_list_rebuild(&gl->fwd, gl->g->img, co_node_od(gl->node));
+		gw_fast_refresh(gl);
 		gl->fwd_dirty = false;
 		gl->next_rebuild_us = now_us + GW_REBUILD_US;
 	}
 	if (gl->next_rebuild_us < next)
 		next = gl->next_rebuild_us;
+	gw_fast_poll(gl);
 	/* sent to itself during this look: the line looks again at once */
 	return gl->self_len ? now_us : next;
 }

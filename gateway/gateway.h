@@ -15,7 +15,9 @@
  *   clients: an after_write hook) into the shared image and hands each
  *   update, value included, to the lines whose TPDOs map it; applies the
  *   updates of other lines to its own OD, triggering its TPDOs (after a
- *   drop, the image's latest value);
+ *   drop, the image's latest value); an event-driven TPDO of another line
+ *   that may go at once it sends itself, in the same wake-up
+ *   (gateway/fast_tpdo.h, docs/gateway.md "One wake-up per hop");
  * - serves the mailbox's GW_ROUTES (the routing table with its counters)
  *   and is the routing step of the line's mailbox SDO transfers with a
  *   node of any network (MBX_CMD_GW_SDO_*, lines/line_sdo.c): the transfer
@@ -73,6 +75,8 @@ typedef struct gw_line_counters {
 	uint64_t pdo_dropped;    /* updates lost (ring full / closed) */
 	uint64_t pdo_applied;    /* updates applied to this line's OD */
 	uint64_t pdo_triggered;  /* of those, with a TPDO to send */
+	uint64_t pdo_fast;       /* TPDO frames of other lines this line sent
+	                          * in the wake-up that wrote the value */
 	gw_emcy_counters emcy;
 	uint64_t ring_drops; /* other hand-offs lost */
 } gw_line_counters;

@@ -20,7 +20,28 @@ int gw_send_to(struct gw_line *gl, unsigned to, gw_msg *m)
 		return 0;
 	}
 	xring *r = xring_mesh_get(gl->g->mesh, gl->idx, to);
-	return r ? xring_push(r, m, sizeof(*m)) : -EINVAL;
+	int rc = r ? xring_push(r, m, sizeof(*m)) : -EINVAL;
+
+	if (rc == 0)
+		gl->pushed_to[to]++;
+	return rc;
+}
+
+bool gw_caught_up(const struct gw_line *gl, unsigned to)
+{
+	return atomic_load_explicit(&gl->g->line[to].done_from[gl->idx], memory_order_acquire) ==
+	       gl->pushed_to[to];
+}
+
+void gw_publish_done(struct gw_line *gl)
+{
+	if (!line_tx_idle(gl->l))
+		return; /* a frame of a handled message may still be queued */
+	for (unsigned i = 0; i < gl->g->n; i++)
+		if (atomic_load_explicit(&gl->done_from[i], memory_order_relaxed) !=
+		    gl->handled_from[i])
+			atomic_store_explicit(&gl->done_from[i], gl->handled_from[i],
+					      memory_order_release);
 }
 
 bool gw_self_take(struct gw_line *gl, gw_msg *out)

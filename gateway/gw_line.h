@@ -21,8 +21,10 @@
  * Each gw_line belongs to its line thread. The only thing another thread
  * reads is the counters (relaxed atomics, gw_line_counters_get) and, for
  * PDO forwarding, the other lines' forwarding lists and lost-update marks
- * (gateway/pdo_sync.h, atomics). Everything else crosses lines as a gw_msg,
- * by value.
+ * (gateway/pdo_sync.h, atomics), their fast TPDOs (gateway/fast_tpdo.h,
+ * atomics), their done_from counts, and the fast_fd socket that belongs to
+ * the reading line (written before the lines start). Everything else
+ * crosses lines as a gw_msg, by value.
  */
 #ifndef COGW_GATEWAY_GW_LINE_H
 #define COGW_GATEWAY_GW_LINE_H
@@ -32,6 +34,7 @@
 
 #include "core/co.h"
 #include "core/sdo_server.h"
+#include "gateway/fast_tpdo.h"
 #include "gateway/gateway.h"
 #include "gateway/image.h"
 #include "gateway/pdo_sync.h"
@@ -73,6 +76,10 @@ typedef struct gw_msg {
 	uint16_t code;  /* M_EMCY: original error code */
 	uint64_t bits;  /* M_FWD: the value written (gw_image_bits_from) */
 	uint8_t d[8];   /* frames */
+	/* M_FWD: fast TPDOs of the target (gateway/fast_tpdo.h, bit k) the
+	 * source sent at sent_us, and those it counted as held */
+	uint32_t fast_sent, fast_held;
+	uint64_t sent_us;
 } gw_msg;
 
 /* A lease serves a session (bit 23 clear: line << 24 | channel << 16 |
@@ -147,6 +154,20 @@ struct gw_line {
 	gw_route_table routes;
 	gw_fwd_list fwd;
 	gw_pdo_sync lost; /* updates that could not be handed to this line */
+	/* This line's TPDOs that other lines may send (published here, read
+	 * by them), and per other line i the socket on this line's interface
+	 * that line i's thread sends them on (-1: none). */
+	gw_fast fast;
+	int fast_fd[GW_LINES_MAX];
+	co_frame ignored[GW_FAST_MAX]; /* the fast TPDOs' ids its port leaves out */
+	unsigned n_ignored;
+	/* Messages this line pushed to each line, handled from each line, and
+	 * (published for the senders, once their frames left the transmit
+	 * queue) done from each line: a source sends a TPDO of ours itself
+	 * only when we have done everything it sent us (gw_caught_up). */
+	uint64_t pushed_to[GW_LINES_MAX];
+	uint64_t handled_from[GW_LINES_MAX];
+	_Atomic uint64_t done_from[GW_LINES_MAX];
 	bool fwd_dirty;
 	uint64_t next_rebuild_us;
 	uint64_t next_link_check_us;
@@ -176,6 +197,11 @@ struct gw {
  * queues it for this line's next look. 0, or -errno (ring full/closed,
  * own queue full): the caller counts the drop. */
 int gw_send_to(struct gw_line *gl, unsigned to, gw_msg *m);
+/* Has line `to` handled every message this line pushed to it, and sent
+ * the frames they caused? (any line, about another one) */
+bool gw_caught_up(const struct gw_line *gl, unsigned to);
+/* This line: publish what it handled, if its transmit queue is empty. */
+void gw_publish_done(struct gw_line *gl);
 /* The oldest message this line sent itself; false when none. */
 bool gw_self_take(struct gw_line *gl, gw_msg *out);
 /* A lease was opened for a session or hop that has ended meanwhile: give
@@ -211,6 +237,15 @@ void gw_emcy_send(struct gw_line *gl, const gw_msg *m);
 /* gw_pdo.c */
 extern const co_od_hooks gw_image_hooks;
 void gw_pdo_received(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
+/* The fast path of this line's TPDOs (gateway/fast_tpdo.h): open the
+ * other lines' sockets on this interface and install the core's gate at
+ * attach; republish (with the forwarding list, and in the loop a TPDO
+ * was reset in: the core's gate closed it at once); say each loop
+ * whether the line takes frames at once. */
+int gw_fast_attach(struct gw_line *gl);
+void gw_fast_detach(struct gw_line *gl);
+void gw_fast_refresh(struct gw_line *gl);
+void gw_fast_poll(struct gw_line *gl);
 bool gw_pdo_resync_apply(void *ctx, int slot, uint64_t bits);
 
 /* gw_status.c */

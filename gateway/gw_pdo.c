@@ -4,13 +4,54 @@
  * line goes into the shared image (gateway/image.h) and, as a message, to
  * every line whose TPDOs map it; an update from another line is applied to
  * this line's OD and triggers its TPDOs; after a drop, the image's latest
- * value (gateway/pdo_sync.h).
+ * value (gateway/pdo_sync.h). An event-driven TPDO of another line that
+ * may go now is sent by this line's thread itself, on its socket on that
+ * line's interface (gateway/fast_tpdo.h); the message still carries the
+ * value, and says so.
  */
 #include <string.h>
+#include <unistd.h>
 
 #include "core/od.h"
 #include "core/pdo.h"
 #include "gateway/gw_line.h"
+#include "lines/socketcan.h"
+
+static int fast_send(void *ctx, const co_frame *f)
+{
+	return can_tx_socket_send(*(const int *)ctx, f);
+}
+
+/* Hand slot's update to line j: its TPDOs that may go now leave from here,
+ * the message tells j which ones did. 0 or the hand-off's -errno. */
+static int forward_to(struct gw_line *gl, unsigned j, gw_msg *m, uint64_t now_us)
+{
+	struct gw_line *tl = &gl->g->line[j];
+	int rc;
+
+	m->fast_sent = 0;
+	m->fast_held = 0;
+	m->sent_us = now_us;
+	/* A message of ours not yet done by the target (queued, being
+	 * handled, or its frame still in the target's transmit queue): the
+	 * target is behind and keeps the hand-off until it caught up, so no
+	 * frame of ours overtakes one it sends for an earlier value. Held
+	 * either way. */
+	if (tl->fast_fd[gl->idx] >= 0) {
+		if (gw_caught_up(gl, j))
+			m->fast_sent = gw_fast_try(&tl->fast, gl->g->img, m->slot, now_us,
+						   fast_send, &tl->fast_fd[gl->idx], &m->fast_held);
+		else
+			m->fast_held = gw_fast_tpdos_of(&tl->fast, m->slot);
+		gw_fast_hold(&tl->fast, m->fast_held);
+	}
+	for (uint32_t k = m->fast_sent; k; k &= k - 1)
+		GW_COUNT(gl->c.pdo_fast);
+	rc = gw_send_to(gl, j, m);
+	if (rc)
+		gw_fast_undo_hold(&tl->fast, m->fast_held);
+	return rc;
+}
 
 /* A B-object of this line's OD was written - by an RPDO, over SDO or by a
  * mailbox client (its after_write hook): into the shared image, and to
@@ -34,7 +75,7 @@ static void image_written(void *ctx, co_od_entry *e, const co_od_access *a)
 	for (unsigned j = 0; j < g->n; j++) {
 		if (j == gl->idx || !gw_fwd_list_has(&g->line[j].fwd, slot))
 			continue;
-		if (gw_send_to(gl, j, &m)) {
+		if (forward_to(gl, j, &m, line_loop_now_us(gl->l))) {
 			GW_COUNT(gl->c.pdo_dropped);
 			gw_pdo_sync_mark(&g->line[j].lost, slot);
 		} else {
@@ -78,10 +119,21 @@ static bool pdo_apply(struct gw_line *gl, int slot, uint64_t bits, bool only_if_
 	return true;
 }
 
-/* An update from another line, in the order its source wrote them. */
+/* An update from another line, in the order its source wrote them. The
+ * TPDOs the source already sent for it have their inhibit and event
+ * timers restarted from that transmission and are not sent again (the
+ * gate answers SERVED while the value is applied). */
 void gw_pdo_received(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
+	for (uint32_t k = m->fast_sent; k; k &= k - 1) {
+		uint16_t nr = gw_fast_nr(&gl->fast, (unsigned)__builtin_ctz(k));
+		if (nr)
+			(void)co_pdo_tpdo_sent_by_peer(gl->node, nr, m->sent_us);
+	}
+	gl->fast.serving = m->fast_sent;
 	pdo_apply(gl, m->slot, m->bits, false, now_us);
+	gl->fast.serving = 0;
+	gw_fast_taken(&gl->fast, m->fast_held, line_tx_idle(gl->l));
 	gw_pdo_sync_received(&gl->lost, gl->g->img, m->slot, m->bits);
 }
 
@@ -92,4 +144,133 @@ bool gw_pdo_resync_apply(void *ctx, int slot, uint64_t bits)
 	struct gw_line *gl = ctx;
 
 	return pdo_apply(gl, slot, bits, true, line_loop_now_us(gl->l));
+}
+
+/* ---- the fast path of this line's TPDOs (gateway/fast_tpdo.h) ---------------- */
+
+int gw_fast_attach(struct gw_line *gl)
+{
+	int rc = gw_fast_init(&gl->fast, gw_image_count(gl->g->img));
+
+	if (rc)
+		return rc;
+	/* All lines are created (attached) before any starts: the other
+	 * lines' threads read these only once they run. A socket that cannot
+	 * be opened leaves that pair on the hand-off. */
+	for (unsigned i = 0; i < GW_LINES_MAX; i++)
+		gl->fast_fd[i] = -1;
+	for (unsigned i = 0; i < gl->g->n && gw_image_count(gl->g->img); i++)
+		if (i != gl->idx)
+			gl->fast_fd[i] = can_tx_socket_open(line_ifname(gl->l));
+	co_pdo_set_tx_gate(gl->node, gw_fast_gate, &gl->fast);
+	gw_fast_refresh(gl);
+	return 0;
+}
+
+void gw_fast_detach(struct gw_line *gl)
+{
+	co_pdo_set_tx_gate(gl->node, NULL, NULL);
+	for (unsigned i = 0; i < GW_LINES_MAX; i++) {
+		if (gl->fast_fd[i] >= 0)
+			close(gl->fast_fd[i]);
+		gl->fast_fd[i] = -1;
+	}
+	gw_fast_fini(&gl->fast);
+}
+
+/* A TPDO another thread may send: valid, event-driven, the node
+ * OPERATIONAL, and every mapped object a B-object of the image with no
+ * hook but the gateway's (a read hook could refresh the value on this
+ * thread only). */
+static bool fast_desc(struct gw_line *gl, uint16_t nr, gw_fast_desc *d, co_pdo_tpdo_state *st)
+{
+	co_od *od = co_node_od(gl->node);
+	uint16_t map = (uint16_t)(CO_PDO_TPDO_MAP + nr - 1);
+	uint32_t id, entry;
+	uint8_t flags, count;
+
+	if (co_pdo_tpdo_state_get(gl->node, nr, st) || !st->valid || !st->operational ||
+	    st->tt < CO_PDO_TT_EVENT_MANUF || st->len == 0 || st->len > 8)
+		return false;
+	if (co_od_get_u8(od, map, 0, &count) || count == 0 || count > CO_PDO_MAX_MAP)
+		return false;
+	for (uint8_t i = 1; i <= count; i++) {
+		co_od_entry *e;
+		int slot;
+
+		if (co_od_get_u32(od, map, i, &entry))
+			return false;
+		slot = gw_image_find(gl->g->img, (uint16_t)(entry >> 16), (uint8_t)(entry >> 8));
+		e = co_od_find(od, (uint16_t)(entry >> 16), (uint8_t)(entry >> 8));
+		if (slot < 0 || !e || e->hooks != &gw_image_hooks || e->hook_ctx != gl)
+			return false;
+		d->map[i - 1] = (uint32_t)slot << 8 | (entry & 0xFFu);
+	}
+	co_cob_split(st->cob_id, &id, &flags);
+	d->nr = nr;
+	d->can_id = id;
+	d->flags = flags;
+	d->len = st->len;
+	d->n = count;
+	d->inhibit_us = (uint32_t)st->inhibit_100us * 100u;
+	return true;
+}
+
+/* Frames other lines send for our fast TPDOs reach this line's socket
+ * too: it would wake for each one only to drop it (a data frame on one of
+ * its own TPDO COB-IDs). Its port leaves them out, as it leaves out what it
+ * sends itself; only when the set changes. */
+_Static_assert(GW_FAST_MAX <= CAN_PORT_IGNORE_MAX, "every fast TPDO can be left out");
+
+static void ignore_fast_frames(struct gw_line *gl, const gw_fast_desc *d, unsigned n)
+{
+	co_frame ids[GW_FAST_MAX];
+	bool any_sender = false;
+
+	for (unsigned i = 0; i < GW_LINES_MAX; i++)
+		any_sender |= gl->fast_fd[i] >= 0;
+	if (!any_sender)
+		n = 0;
+	for (unsigned i = 0; i < n; i++) {
+		memset(&ids[i], 0, sizeof(ids[i]));
+		ids[i].id = d[i].can_id;
+		ids[i].flags = d[i].flags;
+	}
+	if (n == gl->n_ignored && memcmp(ids, gl->ignored, n * sizeof(ids[0])) == 0)
+		return;
+	if (line_ignore_own_tpdos(gl->l, ids, n) == 0) {
+		memcpy(gl->ignored, ids, n * sizeof(ids[0]));
+		gl->n_ignored = n;
+	}
+}
+
+void gw_fast_refresh(struct gw_line *gl)
+{
+	gw_fast *F = &gl->fast;
+	uint64_t until[GW_FAST_MAX];
+	bool pending[GW_FAST_MAX];
+	unsigned n = 0;
+	co_pdo_tpdo_state st;
+
+	if (!F->by_slot)
+		return;
+	for (uint16_t nr = 1; nr <= CO_PDO_MAX && n < GW_FAST_MAX; nr++) {
+		if (!fast_desc(gl, nr, &F->next[n], &st))
+			continue;
+		until[n] = st.inhibit_until;
+		pending[n] = st.event_pending;
+		n++;
+	}
+	n = gw_fast_publish(F, F->next, until, pending, n);
+	ignore_fast_frames(gl, F->next, n);
+}
+
+void gw_fast_poll(struct gw_line *gl)
+{
+	if (!gl->fast.by_slot)
+		return;
+	if (gl->fast.stale)
+		gw_fast_refresh(gl);
+	gw_fast_set_carrying(&gl->fast, line_tx_idle(gl->l));
+	gw_publish_done(gl);
 }

@@ -612,6 +612,21 @@ bool line_can_carry(const line *l)
 	       can_port_link_up(l->port);
 }
 
+const char *line_ifname(const line *l)
+{
+	return l->ifname;
+}
+
+bool line_tx_idle(const line *l)
+{
+	return can_port_tx_queued(l->port) == 0 && can_port_bus_state(l->port) != CAN_BUS_OFF;
+}
+
+int line_ignore_own_tpdos(line *l, const co_frame *ids, size_t n)
+{
+	return can_port_ignore_data(l->port, ids, n);
+}
+
 bool line_stats_snapshot(line *l, line_stats *out)
 {
 	pthread_mutex_lock(&l->stats_lock);

@@ -92,6 +92,16 @@ bool line_is_up(const line *l);
  * (can_port_link_up). Line thread only (its extensions): a caller about to
  * send and wait. */
 bool line_can_carry(const line *l);
+/* The CAN interface's name (line_params.can.ifname). */
+const char *line_ifname(const line *l);
+/* On the line thread: nothing waits in the transmit queue and the
+ * controller is not bus-off (a frame sent now leaves at once). */
+bool line_tx_idle(const line *l);
+/* On the line thread: data frames with these identifiers are this line's
+ * own TPDOs sent by another thread (the gateway's forwarding fast path):
+ * the line does not receive them, as it does not receive what it sends
+ * itself (can_port_ignore_data). 0 or -errno. */
+int line_ignore_own_tpdos(line *l, const co_frame *ids, size_t n);
 /* Copy the latest published counters. Returns false if none yet. */
 bool line_stats_snapshot(line *l, line_stats *out);
 

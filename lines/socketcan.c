@@ -319,7 +319,7 @@ static void update_watermarks(can_port *p)
 	}
 }
 
-static int write_one(can_port *p, const co_frame *f)
+static int write_frame(int fd, const co_frame *f)
 {
 	struct can_frame k = { 0 };
 	k.can_id = f->id;
@@ -329,10 +329,15 @@ static int write_one(can_port *p, const co_frame *f)
 		k.can_id |= CAN_RTR_FLAG;
 	k.len = f->len;
 	memcpy(k.data, f->data, f->len);
-	ssize_t n = write(p->fd, &k, sizeof k);
+	ssize_t n = write(fd, &k, sizeof k);
 	if (n == (ssize_t)sizeof k)
 		return 0;
 	return n < 0 ? -errno : -EIO;
+}
+
+static int write_one(can_port *p, const co_frame *f)
+{
+	return write_frame(p->fd, f);
 }
 
 int can_port_flush(can_port *p, uint64_t now_us)
@@ -435,4 +440,59 @@ can_bus_state can_port_bus_state(const can_port *p)
 const can_port_stats *can_port_get_stats(const can_port *p)
 {
 	return &p->stats;
+}
+
+int can_port_ignore_data(can_port *p, const co_frame *ids, size_t n)
+{
+	struct can_filter f[CAN_PORT_IGNORE_MAX];
+	int join = n > 0;
+
+	if (n > CAN_PORT_IGNORE_MAX)
+		return -EINVAL;
+	for (size_t i = 0; i < n; i++) {
+		bool ext = ids[i].flags & CO_FRAME_EXT;
+		/* inverted: the frame passes unless it is a data frame with
+		 * this identifier; joined: it must pass every one */
+		f[i].can_id = ids[i].id | (ext ? CAN_EFF_FLAG : 0) | CAN_INV_FILTER;
+		f[i].can_mask = (ext ? CAN_EFF_MASK : CAN_SFF_MASK) | CAN_EFF_FLAG | CAN_RTR_FLAG;
+	}
+	if (n == 0) { /* the default: everything */
+		f[0].can_id = 0;
+		f[0].can_mask = 0;
+	}
+	if (setsockopt(p->fd, SOL_CAN_RAW, CAN_RAW_JOIN_FILTERS, &join, sizeof join) != 0 ||
+	    setsockopt(p->fd, SOL_CAN_RAW, CAN_RAW_FILTER, f,
+		       (socklen_t)((n ? n : 1) * sizeof f[0])) != 0)
+		return -errno;
+	return 0;
+}
+
+/* A socket that only sends: no receive filter matches, so nothing ever
+ * queues on it; the default send buffer, so that a frame is refused
+ * (EAGAIN/ENOBUFS) rather than queued when the interface is congested. */
+int can_tx_socket_open(const char *ifname)
+{
+	if (!ifname || !*ifname || strlen(ifname) >= IFNAMSIZ)
+		return -EINVAL;
+	unsigned ifindex = if_nametoindex(ifname);
+	if (!ifindex)
+		return -ENODEV;
+	int fd = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
+	if (fd < 0)
+		return -errno;
+	struct sockaddr_can addr = { .can_family = AF_CAN, .can_ifindex = (int)ifindex };
+	if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, NULL, 0) != 0 ||
+	    bind(fd, (struct sockaddr *)&addr, sizeof addr) != 0) {
+		int rc = -errno;
+		close(fd);
+		return rc;
+	}
+	return fd;
+}
+
+int can_tx_socket_send(int fd, const co_frame *f)
+{
+	if (f->len > 8)
+		return -EINVAL;
+	return write_frame(fd, f);
 }

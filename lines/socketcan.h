@@ -127,4 +127,25 @@ can_bus_state can_port_bus_state(const can_port *p);
 bool can_port_link_up(const can_port *p);
 const can_port_stats *can_port_get_stats(const can_port *p);
 
+/* Stop receiving data frames with these identifiers (id and the EXT flag
+ * of each co_frame; RTR frames still come): frames another socket of this
+ * machine sends for this line's own TPDOs, which the line would otherwise
+ * receive as it never receives its own. n = 0: receive everything again.
+ * At most CAN_PORT_IGNORE_MAX. 0 or -errno. */
+#define CAN_PORT_IGNORE_MAX 32u
+int can_port_ignore_data(can_port *p, const co_frame *ids, size_t n);
+
+/* ---- transmit-only sockets ---------------------------------------------------
+ *
+ * A raw socket bound to an interface that never receives (an empty filter):
+ * for a thread that sends on a line it does not run (the gateway's PDO
+ * forwarding fast path, docs/gateway.md). Non-blocking, nothing is queued:
+ * a frame the kernel does not take at once is refused and the caller falls
+ * back to another way. The frame reaches the other sockets of the interface
+ * (the line's own port among them) as any frame on the bus does.
+ * open: the fd or -errno (close() it); send: 0 or -errno (EAGAIN, ENOBUFS,
+ * ENETDOWN: the link is down). */
+int can_tx_socket_open(const char *ifname);
+int can_tx_socket_send(int fd, const co_frame *f);
+
 #endif /* COGW_LINES_SOCKETCAN_H */

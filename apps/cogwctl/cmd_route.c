@@ -40,6 +40,7 @@ void ctl_gw_counters_json(cJSON *o, const mbx_gw_status *st)
 	add_u64(s, "dropped", st->pdo_dropped);
 	add_u64(s, "applied", st->pdo_applied);
 	add_u64(s, "triggered", st->pdo_triggered);
+	add_u64(s, "sent_for_other_lines", st->pdo_fast);
 	s = cJSON_AddObjectToObject(o, "emcy");
 	add_u64(s, "consumed", st->emcy_consumed);
 	add_u64(s, "forwarded", st->emcy_forwarded);
@@ -55,10 +56,11 @@ void ctl_gw_counters_text(const mbx_gw_status *st, const char *indent)
 	       ", timed out %" PRIu64 ", refused %" PRIu64 ", relayed frames %" PRIu64 "\n",
 	       indent, st->sessions, st->routed, st->aborted, st->timed_out, st->refused,
 	       st->relayed_frames);
-	printf("%sPDO   published %" PRIu64 ", forwarded %" PRIu64 ", dropped %" PRIu64
-	       ", applied %" PRIu64 " (TPDOs triggered %" PRIu64 ")\n",
-	       indent, st->pdo_published, st->pdo_forwarded, st->pdo_dropped, st->pdo_applied,
-	       st->pdo_triggered);
+	printf("%sPDO   published %" PRIu64 ", forwarded %" PRIu64
+	       " (TPDOs sent for other lines %" PRIu64 "), dropped %" PRIu64 ", applied %" PRIu64
+	       " (TPDOs triggered %" PRIu64 ")\n",
+	       indent, st->pdo_published, st->pdo_forwarded, st->pdo_fast, st->pdo_dropped,
+	       st->pdo_applied, st->pdo_triggered);
 	printf("%sEMCY  consumed %" PRIu64 ", forwarded %" PRIu64 ", unroutable %" PRIu64
 	       ", dropped %" PRIu64 ", sent %" PRIu64 "\n",
 	       indent, st->emcy_consumed, st->emcy_forwarded, st->emcy_unroutable, st->emcy_dropped,
@@ -276,8 +278,9 @@ const ctl_cmd ctl_cmd_route = {
 		"The CiA 302-7 gateway of every line (or the lines given): the line's network,\n"
 		"routed SDO sessions (taken, routed, aborted, timed out, refused, running now,\n"
 		"frames relayed for other lines), PDO forwarding of the B000h process image\n"
-		"(published by RPDOs here, forwarded to other lines, dropped, applied here and\n"
-		"TPDOs triggered), EMCY routing (consumed with a 1F2Fh entry, forwarded,\n"
+		"(published by RPDOs here, forwarded to other lines, of which TPDOs of other\n"
+		"lines sent by this line itself, dropped, applied here and TPDOs triggered),\n"
+		"EMCY routing (consumed with a 1F2Fh entry, forwarded,\n"
 		"unroutable, dropped, sent here), then the routing table 1F2Ch: every network\n"
 		"with a route (attached to a line, or through a router node on a line) and its\n"
 		"counters, then the routed SDO sessions running now (server channel, target\n"

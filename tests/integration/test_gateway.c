@@ -41,6 +41,7 @@
 #include "unity.h"
 
 #include "core/co.h"
+#include "core/nmt.h"
 #include "core/sdo_client.h"
 #include "gateway/convention.h"
 #include "mailbox/cogw.h"
@@ -984,6 +985,140 @@ static unsigned burst_received(int fd, uint32_t id, uint32_t base, uint32_t n)
 	return got;
 }
 
+/* The next frame with this id on fd (SO_TIMESTAMPNS on): its 4-byte value,
+ * and the kernel's time of reception in µs. -1 on timeout. */
+static int64_t next_value_at(int fd, uint32_t id, int timeout_ms, uint64_t *at_us)
+{
+	uint64_t end = mono_ms() + (uint64_t)timeout_ms;
+
+	for (;;) {
+		struct can_frame cf;
+		char ctl[CMSG_SPACE(sizeof(struct timespec))];
+		struct iovec iov = { .iov_base = &cf, .iov_len = sizeof cf };
+		struct msghdr mh = { .msg_iov = &iov,
+				     .msg_iovlen = 1,
+				     .msg_control = ctl,
+				     .msg_controllen = sizeof ctl };
+		struct pollfd p = { .fd = fd, .events = POLLIN };
+		uint64_t now = mono_ms();
+
+		if (now >= end || poll(&p, 1, (int)(end - now)) <= 0)
+			return -1;
+		if (recvmsg(fd, &mh, 0) != (ssize_t)sizeof cf || cf.can_id != id || cf.len != 4)
+			continue;
+		for (struct cmsghdr *c = CMSG_FIRSTHDR(&mh); c; c = CMSG_NXTHDR(&mh, c)) {
+			if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMPNS) {
+				struct timespec ts;
+				memcpy(&ts, CMSG_DATA(c), sizeof ts);
+				*at_us = (uint64_t)ts.tv_sec * 1000000u +
+					 (uint64_t)ts.tv_nsec / 1000u;
+			}
+		}
+		return co_get_le32(cf.data);
+	}
+}
+
+/* TPDO 1 of line 1 with this inhibit time (100 us units); CiA 301 lets it
+ * change only while the TPDO is invalid. */
+static void tpdo1_inhibit(uint16_t inhibit_100us)
+{
+	uint8_t cob[4], inh[2];
+	uint32_t abort = 0;
+
+	co_put_le32(cob, 0x800001FFu);
+	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(mbx, 1, 0x1800, 1, cob, 4, 30000, &abort));
+	co_put_le16(inh, inhibit_100us);
+	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(mbx, 1, 0x1800, 3, inh, 2, 30000, &abort));
+	co_put_le32(cob, 0x1FFu);
+	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(mbx, 1, 0x1800, 1, cob, 4, 30000, &abort));
+}
+
+/* One wake-up per hop (docs/gateway.md): line 0's thread sends TPDO 1 of
+ * line 1 itself when CiA 301 lets it go at once; never TPDO 2 (synchronous),
+ * never within TPDO 1's inhibit time, never while line 1 is not
+ * OPERATIONAL; and line 1 never sends the value a second time. */
+static void pdo_forwarding_in_one_wake_up(void)
+{
+	uint8_t v[4];
+	uint64_t at = 0, prev_at = 0;
+	int64_t got, prev = -1;
+	mbx_gw_status s0, e0;
+	unsigned frames = 0;
+	int on = 1;
+
+	/* the fast path is taken (tried a few times: the target may be busy
+	 * for an instant, e.g. sending its SYNC), and each value once */
+	drain(fd1);
+	s0 = gw_status(0);
+	for (uint32_t i = 1; i <= 5 && gw_status(0).pdo_fast == s0.pdo_fast; i++) {
+		co_put_le32(v, 0xFA570000u + i);
+		TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x181, v, 4));
+		TEST_ASSERT_EQUAL_INT64(0xFA570000u + i, next_value(fd1, 0x1FF, 3000));
+		TEST_ASSERT_EQUAL_INT64_MESSAGE(-1, next_value(fd1, 0x1FF, 300),
+						"the forwarded value was sent twice");
+	}
+	e0 = gw_status(0);
+	TEST_ASSERT_TRUE_MESSAGE(e0.pdo_fast > s0.pdo_fast,
+				 "line 0 never sent line 1's TPDO in its own wake-up");
+	/* only TPDO 1: TPDO 2 (TT 1) waits for line 1's SYNC */
+	TEST_ASSERT_TRUE(e0.pdo_fast - s0.pdo_fast <= e0.pdo_forwarded - s0.pdo_forwarded);
+
+	/* inhibit time 20 ms on TPDO 1 (CiA 301: only while it is invalid):
+	 * a burst of 6 values leaves at least 20 ms apart, by whichever
+	 * thread, and ends on the last one. The kernel's reception times
+	 * on vcan1; 2 ms less for the time between a sender's loop clock
+	 * and its write (the core's own inhibit time has the same base). */
+	tpdo1_inhibit(200);
+	TEST_ASSERT_EQUAL_INT(0, setsockopt(fd1, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on));
+	sleep_ms(100);
+	drain(fd1);
+	for (uint32_t i = 1; i <= 6; i++) {
+		co_put_le32(v, 0x1A000000u + i);
+		TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x181, v, 4));
+	}
+	while ((got = next_value_at(fd1, 0x1FF, 1000, &at)) >= 0) {
+		char msg[96];
+		snprintf(msg, sizeof msg, "frame %u (%08X) %" PRIu64 " us after the one before",
+			 frames + 1, (unsigned)got, at - prev_at);
+		TEST_ASSERT_TRUE_MESSAGE(got > prev, msg);
+		if (frames)
+			TEST_ASSERT_TRUE_MESSAGE(at - prev_at >= 18000, msg);
+		prev = got;
+		prev_at = at;
+		frames++;
+	}
+	if (prev != 0x1A000006) {
+		mbx_gw_status a = gw_status(0), b = gw_status(1);
+		printf("inhibit burst: %u frames, last %08X; line 0 forwarded %" PRIu64
+		       ", sent itself %" PRIu64 "; line 1 applied %" PRIu64 ", triggered %" PRIu64
+		       "\n",
+		       frames, (unsigned)prev, a.pdo_forwarded, a.pdo_fast, b.pdo_applied,
+		       b.pdo_triggered);
+	}
+	TEST_ASSERT_EQUAL_HEX32_MESSAGE(0x1A000006, (uint32_t)prev, "the last value never came");
+	TEST_ASSERT_TRUE(frames >= 2 && frames <= 6);
+	tpdo1_inhibit(0);
+
+	/* line 1's node STOPPED (NMT from the bus): no TPDO, by nobody */
+	uint8_t stop[2] = { CO_NMT_CS_STOP, GW_NODE }, start[2] = { CO_NMT_CS_START, GW_NODE };
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd1, 0x000, stop, 2));
+	sleep_ms(100);
+	drain(fd1);
+	s0 = gw_status(0);
+	co_put_le32(v, 0x5709u);
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x181, v, 4));
+	TEST_ASSERT_EQUAL_INT64_MESSAGE(-1, next_value(fd1, 0x1FF, 500),
+					"a TPDO of a STOPPED node was sent");
+	e0 = gw_status(0);
+	TEST_ASSERT_EQUAL_UINT64(s0.pdo_fast, e0.pdo_fast);
+	TEST_ASSERT_EQUAL_UINT64(1, e0.pdo_forwarded - s0.pdo_forwarded);
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd1, 0x000, start, 2));
+	sleep_ms(100);
+	co_put_le32(v, 0x60u);
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x181, v, 4));
+	TEST_ASSERT_EQUAL_INT64(0x60, next_value(fd1, 0x1FF, 3000));
+}
+
 static void test_pdo_forwarding(void)
 {
 	uint8_t v[4] = { 0x11, 0x22, 0x33, 0x44 }, d[8];
@@ -1101,6 +1236,8 @@ static void test_pdo_forwarding(void)
 	TEST_ASSERT_EQUAL_INT64(0x600DF00D, next_value(fd1, 0x1FF, 3000));
 	e0 = gw_status(0);
 	TEST_ASSERT_EQUAL_UINT64(1, e0.pdo_forwarded - s0.pdo_forwarded);
+
+	pdo_forwarding_in_one_wake_up();
 }
 
 /* ---- lines are independent ------------------------------------------------------ */

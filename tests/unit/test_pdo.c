@@ -973,6 +973,145 @@ static void test_512_tpdos_with_event_timers(void)
 	tb_fini(&b2);
 }
 
+/* ---- a second sender (co_pdo_set_tx_gate) --------------------------------------- */
+
+struct gate_script {
+	uint64_t answer;      /* what CLAIM answers */
+	uint64_t wait_answer; /* what WAIT answers */
+	unsigned claims, forced, waits, resets;
+	uint16_t last_nr;
+};
+
+static uint64_t scripted_gate(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_t now_us)
+{
+	struct gate_script *g = ctx;
+
+	(void)now_us;
+	g->last_nr = nr;
+	switch (op) {
+	case CO_PDO_GATE_CLAIM:
+		g->claims++;
+		return g->answer;
+	case CO_PDO_GATE_FORCED:
+		g->forced++;
+		break;
+	case CO_PDO_GATE_WAIT:
+		g->waits++;
+		return g->wait_answer;
+	case CO_PDO_GATE_RESET:
+		g->resets++;
+		break;
+	}
+	return CO_PDO_GATE_GO;
+}
+
+static void test_tx_gate_claim_wait_and_served(void)
+{
+	const uint32_t map[] = { CO_PDO_MAP(IDX_U16, 0, 16) };
+	struct gate_script g = { .answer = CO_PDO_GATE_GO };
+	uint64_t t0;
+
+	pdo_setup(CO_PDO_TX, 2, 0x282, 254, 10, 0, 0, 1, map); /* inhibit 1 ms */
+	start_node();
+	co_pdo_set_tx_gate(node, scripted_gate, &g);
+	/* GO: sent at once, the gate was asked for TPDO 2 */
+	TEST_ASSERT_EQUAL(1, co_pdo_object_changed(node, IDX_U16, 0, bus.now));
+	TEST_ASSERT_EQUAL(1, count_id(0x282, 0));
+	TEST_ASSERT_EQUAL(1, g.claims);
+	TEST_ASSERT_EQUAL(2, g.last_nr);
+	/* inside the node's own inhibit time: the gate hears that it waits */
+	co_od_set_u16(od, IDX_U16, 0, 0x0102);
+	co_pdo_object_changed(node, IDX_U16, 0, bus.now);
+	TEST_ASSERT_EQUAL(1, g.waits);
+	tb_advance(&bus, 1000);
+	TEST_ASSERT_EQUAL(2, count_id(0x282, 0));
+	ASSERT_LAST_ID(0x282, "02 01");
+
+	/* the other sender transmitted within the inhibit time: wait until it
+	 * says, then send the latest value */
+	tb_advance(&bus, 5000);
+	t0 = bus.now;
+	g.answer = t0 + 700;
+	co_od_set_u16(od, IDX_U16, 0, 0x0304);
+	co_pdo_object_changed(node, IDX_U16, 0, bus.now);
+	TEST_ASSERT_EQUAL(2, count_id(0x282, 0));
+	g.answer = CO_PDO_GATE_GO;
+	tb_advance(&bus, 699);
+	TEST_ASSERT_EQUAL(2, count_id(0x282, 0));
+	tb_advance(&bus, 1);
+	TEST_ASSERT_EQUAL(3, count_id(0x282, 0));
+	ASSERT_LAST_ID(0x282, "04 03");
+
+	/* SERVED: the other sender already sent this event's frame */
+	tb_advance(&bus, 5000);
+	g.answer = CO_PDO_GATE_SERVED;
+	co_pdo_object_changed(node, IDX_U16, 0, bus.now);
+	tb_advance(&bus, 5000);
+	TEST_ASSERT_EQUAL(3, count_id(0x282, 0));
+
+	/* inside the inhibit time, an event the other sender's frame carried
+	 * (WAIT answered SERVED) does not wait: nothing more is sent */
+	g.answer = CO_PDO_GATE_GO;
+	co_pdo_object_changed(node, IDX_U16, 0, bus.now); /* sent, inhibit runs */
+	TEST_ASSERT_EQUAL(4, count_id(0x282, 0));
+	g.wait_answer = CO_PDO_GATE_SERVED;
+	co_pdo_object_changed(node, IDX_U16, 0, bus.now);
+	tb_advance(&bus, 5000);
+	TEST_ASSERT_EQUAL(4, count_id(0x282, 0));
+	g.wait_answer = CO_PDO_GATE_GO;
+
+	/* an RTR answer does not wait: recorded as forced */
+	rtr(0x282, 2);
+	TEST_ASSERT_EQUAL(5, count_id(0x282, 0));
+	TEST_ASSERT_EQUAL(1, g.forced);
+	/* leaving OPERATIONAL resets every TPDO: the other sender hears it */
+	TEST_ASSERT_EQUAL(0, g.resets);
+	nmt(CO_NMT_CS_ENTER_PREOP);
+	TEST_ASSERT_EQUAL(8, g.resets);
+	/* a reconfiguration resets that TPDO */
+	TEST_ASSERT_EQUAL_HEX32(0, odw(0x1801, 1, 0x282 | CO_PDO_COB_INVALID));
+	TEST_ASSERT_EQUAL(9, g.resets);
+	TEST_ASSERT_EQUAL(2, g.last_nr);
+	co_pdo_set_tx_gate(node, NULL, NULL);
+}
+
+static void test_tpdo_sent_by_peer_starts_inhibit_and_event_timer(void)
+{
+	const uint32_t map[] = { CO_PDO_MAP(IDX_U16, 0, 16) };
+	co_pdo_tpdo_state st;
+	size_t mark;
+
+	pdo_setup(CO_PDO_TX, 3, 0x383, 254, 20, 10, 0, 1, map); /* 2 ms, timer 10 ms */
+	TEST_ASSERT_EQUAL(-EAGAIN, co_pdo_tpdo_sent_by_peer(node, 3, bus.now));
+	TEST_ASSERT_EQUAL(-ENOENT, co_pdo_tpdo_sent_by_peer(node, 99, bus.now));
+	start_node();
+	tb_advance(&bus, 3000);
+	mark = tb_log_count(&bus);
+	TEST_ASSERT_EQUAL(0, co_pdo_tpdo_sent_by_peer(node, 3, bus.now - 500));
+	TEST_ASSERT_EQUAL(0, co_pdo_tpdo_state_get(node, 3, &st));
+	TEST_ASSERT_TRUE(st.valid && st.operational);
+	TEST_ASSERT_EQUAL_UINT64(bus.now + 1500, st.inhibit_until);
+	TEST_ASSERT_EQUAL(254, st.tt);
+	TEST_ASSERT_EQUAL(2, st.len);
+	TEST_ASSERT_EQUAL_HEX32(0x383, st.cob_id);
+	TEST_ASSERT_EQUAL(1, co_pdo_get_stats(node)->tx_by_peer);
+	/* an event 1 ms later waits for the end of the peer's inhibit time */
+	tb_advance(&bus, 1000);
+	co_pdo_object_changed(node, IDX_U16, 0, bus.now);
+	TEST_ASSERT_EQUAL(0, count_id(0x383, mark));
+	TEST_ASSERT_EQUAL(0, co_pdo_tpdo_state_get(node, 3, &st));
+	TEST_ASSERT_TRUE(st.event_pending);
+	tb_advance(&bus, 499);
+	TEST_ASSERT_EQUAL(0, count_id(0x383, mark));
+	tb_advance(&bus, 1);
+	TEST_ASSERT_EQUAL(1, count_id(0x383, mark));
+	/* the event timer runs from the node's own transmission now: 10 ms */
+	tb_advance(&bus, 9999);
+	TEST_ASSERT_EQUAL(1, count_id(0x383, mark));
+	tb_advance(&bus, 1);
+	TEST_ASSERT_EQUAL(2, count_id(0x383, mark));
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -998,5 +1137,7 @@ int main(void)
 	RUN_TEST(test_reset_comm_restores_configuration);
 	RUN_TEST(test_names);
 	RUN_TEST(test_512_tpdos_with_event_timers);
+	RUN_TEST(test_tx_gate_claim_wait_and_served);
+	RUN_TEST(test_tpdo_sent_by_peer_starts_inhibit_and_event_timer);
 	return UNITY_END();
 }
