@@ -1178,10 +1178,10 @@ DEV20_TPDOS = [
     (11, 0x1E6, 254, 0, [0x2015]),
 ]
 # RPDOs: RPDO 1 two objects (a write is held until both have a value),
-# RPDO 2 one; 2200h is mapped nowhere (written by SDO), 2300h read-only.
+# RPDO 2 a number and a 2-byte string; 2200h is mapped nowhere (written by SDO), 2300h read-only.
 DEV20_RPDOS = [
     (1, 0x200 + DEV20, 254, [(0x2100, datatypes.UNSIGNED16), (0x2101, datatypes.INTEGER8)]),
-    (2, 0x300 + DEV20, 254, [(0x2102, datatypes.UNSIGNED32)]),
+    (2, 0x300 + DEV20, 254, [(0x2102, datatypes.UNSIGNED32), (0x2103, datatypes.VISIBLE_STRING)]),
 ]
 DEV21_TPDOS = [(1, 0x180 + DEV21, 254, 0, [0x2001]), (2, 0x280 + DEV21, 254, 0, [0x2002])]
 DEV21_RPDOS = [(1, 0x200 + DEV21, 254, [(0x2100, datatypes.UNSIGNED8)])]
@@ -1231,7 +1231,8 @@ def device_eds(node_id, objects, tpdos, rpdos, extra=""):
                          [(i, _bits(t)) for i, t in entries], False)
         for i, t in entries:
             types[i] = t
-            text += _eds_var(i, f"output {i:04X}", t, "rww", 0)
+            text += _eds_var(i, f"output {i:04X}", t, "rww",
+                             "--" if t == datatypes.VISIBLE_STRING else 0)
     for index, dtype in objects:
         if dtype == datatypes.VISIBLE_STRING:
             text += _eds_var(index, f"input {index:04X}", dtype, "ro", "--")
@@ -1429,8 +1430,9 @@ def test_device_objects_mirror_values_and_writes():
         eq("sdo", v["via"], "forced SDO write")
         eq(struct.pack("<L", 9), bytes(d20.get_data(0x2102, 0)), "2102h on the device")
 
-        step("refusals of writes: oversized value, read-only object")
-        refused(["dev", "write", line, str(DEV20), "2100", "0", "u32", "1"], "0x06070012")
+        step("refusals of writes: wrong type, oversized value, read-only object")
+        refused(["dev", "write", line, str(DEV20), "2100", "0", "u32", "1"], "0x06070010")
+        refused(["dev", "write", line, str(DEV20), "2103", "0", "string", "abc"], "0x06070012")
         mark = len(RECORDER2.frames)
         refused(["dev", "write", line, str(DEV20), "2300", "0", "u8", "1"], "0x06010002")
         eq([], [m for m in RECORDER2.frames[mark:] if m.arbitration_id == 0x600 + DEV20],
