@@ -23,8 +23,8 @@
 #include "devobj/devobj_int.h"
 #include "devobj/value.h"
 
-/* What the line knows of the object (either direction of the layout): its
- * type and access, 0 where unknown. */
+/* What the line knows of the object: its type and access from the layout
+ * (either direction), else from the node's file; 0 where unknown. */
 static void known(const devobj_line *dl, const mbx_dev_obj_req *o, uint16_t *type, uint8_t *access)
 {
 	devobj_place at;
@@ -35,6 +35,13 @@ static void known(const devobj_line *dl, const mbx_dev_obj_req *o, uint16_t *typ
 		*type = at.entry->type;
 		*access = at.entry->access;
 	}
+	const devobj_node_objects *objs = &dl->p.objects[o->node];
+	const co_pdo_layout_type *t = co_pdo_layout_type_find(objs->list, objs->n, o->index,
+							      o->sub);
+	if (t && !*type)
+		*type = t->type;
+	if (t && !*access)
+		*access = t->access;
 }
 
 /* The type a client asked for against the one the line knows: 0 or the
