@@ -104,20 +104,26 @@ static void reset_records(devobj_line *dl)
 		if (r->busy && tx->node == r->node &&
 		    tx->generation == dl->mirror.node[r->node].generation)
 			continue;
+		if (tx->dirty)
+			dl->n_dirty--; /* its frame belongs to a PDO mirrored no more */
 		memset(tx, 0, sizeof *tx);
 		tx->node = r->busy ? r->node : 0;
 		tx->generation = r->busy ? dl->mirror.node[r->node].generation : 0;
 	}
 }
 
+/* Whoever changes a layout (the configuration at start-up, the manager's
+ * boot step, a boot-up that invalidates it), the mirror follows on the next
+ * loop iteration, outside the core's callbacks: one generation compare per
+ * mirrored node. */
 static void sync_mirrors(devobj_line *dl)
 {
 	bool changed = false;
-	dl->check_layouts = false;
-	for (unsigned id = 1; id <= CO_PDO_LAYOUT_NODES; id++) {
-		if (devobj_mirror_sync(&dl->mirror, (uint8_t)id)) {
+	for (unsigned i = 0; i < dl->n_mirrored; i++) {
+		uint8_t id = dl->mirrored[i];
+		if (devobj_mirror_sync(&dl->mirror, id)) {
 			changed = true;
-			publish_mirror(dl, (uint8_t)id);
+			publish_mirror(dl, id);
 		}
 	}
 	if (changed) {
@@ -156,7 +162,9 @@ static int devobj_attach(void *ctx, line *l)
 	if (dl->mirror.layout && (n_rx || n_tx))
 		cogw_log(COGW_LOG_INFO, "line %s: PDO mirror: %u RPDO and %u TPDO records free",
 			 dl->p.name, n_rx, n_tx);
-	dl->check_layouts = true;
+	for (unsigned id = 1; id <= CO_PDO_LAYOUT_NODES; id++)
+		if (dl->mirror.node[id].wanted)
+			dl->mirrored[dl->n_mirrored++] = (uint8_t)id;
 	return 0;
 }
 
@@ -197,24 +205,15 @@ static void devobj_on_core_event(void *ctx, line *l, const co_event *ev)
 	case CO_EV_RPDO:
 		on_rpdo(dl, &ev->u.pdo, ev->now_us);
 		return;
-	case CO_EV_RPDO_OBJECT:
-	case CO_EV_SYNC:
-	case CO_EV_TIME:
-	case CO_EV_RX_UNHANDLED:
-		return; /* the frequent ones: nothing a layout depends on */
 	case CO_EV_NMT_STATE:
 		/* our own reset communication set the PDO records back to
 		 * their defaults (CiA 301 §7.3.2.2.2): program them again */
 		if (ev->u.nmt.prev == CO_NMT_INITIALISING)
 			devobj_mirror_forget(&dl->mirror);
-		break;
+		return;
 	default:
-		break;
+		return;
 	}
-	/* the manager learns or invalidates layouts in its boot steps and at
-	 * boot-ups; the mirror follows in poll, outside the core's callback */
-	if (dl->mirror.layout)
-		dl->check_layouts = true;
 }
 
 static void devobj_on_command(void *ctx, line *l, const mbx_request *req)
@@ -251,8 +250,7 @@ static uint64_t devobj_poll(void *ctx, line *l, uint64_t now_us)
 {
 	devobj_line *dl = ctx;
 	(void)l;
-	if (dl->check_layouts)
-		sync_mirrors(dl);
+	sync_mirrors(dl);
 	uint64_t next = devobj_watch_poll(dl, now_us);
 	uint64_t t = devobj_write_poll(dl, now_us);
 	return t < next ? t : next;

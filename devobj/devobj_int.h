@@ -82,11 +82,14 @@ typedef struct devobj_line {
 	devobj_line_params p;
 	line *l;
 	devobj_mirror mirror;
-	bool check_layouts; /* a layout may have changed: sync in poll */
-	devobj_rx *rx;      /* [daemon RPDO record] */
-	devobj_tx *tx;      /* [daemon TPDO record] */
+	uint8_t mirrored[CO_PDO_LAYOUT_NODES]; /* the nodes with pdo "auto" */
+	unsigned n_mirrored;
+	devobj_rx *rx; /* [daemon RPDO record] */
+	devobj_tx *tx; /* [daemon TPDO record] */
 	devobj_watch *watch;
 	uint16_t n_watch_used;
+	unsigned n_pending; /* watches whose latest value waits for the interval */
+	unsigned n_dirty;   /* TX records with a frame due */
 	devobj_sdo_call *calls;
 	uint8_t read_buf[sizeof(mbx_dev_value) + DEVOBJ_READ_MAX]; /* DEV_READ by SDO */
 	uint8_t *layout_buf;                                       /* DEV_LAYOUT answer */

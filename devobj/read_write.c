@@ -226,6 +226,8 @@ static void by_pdo(devobj_line *dl, const mbx_request *req, const mbx_dev_obj_re
 					     : now;
 		tx->due_us = earliest > now ? earliest : now;
 	}
+	if (!held && !tx->dirty)
+		dl->n_dirty++;
 	tx->dirty = !held;
 	mbx_dev_write_resp resp = {
 		.via = MBX_DEV_VIA_PDO, .held = held, .pdo = at->pdo->nr, .cob_id = at->pdo->cob
@@ -263,11 +265,16 @@ uint64_t devobj_write_poll(devobj_line *dl, uint64_t now_us)
 {
 	uint64_t next = CO_NO_DEADLINE;
 	co_node *co = line_node(dl->l);
-	for (unsigned i = 0; i < dl->mirror.n_rec[CO_PDO_TX]; i++) {
+	for (unsigned i = 0; i < dl->mirror.n_rec[CO_PDO_TX] && dl->n_dirty; i++) {
 		devobj_tx *tx = &dl->tx[i];
 		const devobj_record *r = &dl->mirror.rec[CO_PDO_TX][i];
-		if (!tx->dirty || !r->busy)
+		if (!tx->dirty)
 			continue;
+		if (!r->busy) { /* released since: nothing to send */
+			tx->dirty = false;
+			dl->n_dirty--;
+			continue;
+		}
 		if (now_us < tx->due_us) {
 			if (tx->due_us < next)
 				next = tx->due_us;
@@ -278,6 +285,7 @@ uint64_t devobj_write_poll(devobj_line *dl, uint64_t now_us)
 		if (co_pdo_tpdo_event(co, r->nr, now_us) < 0)
 			dl->tx_failed++; /* not OPERATIONAL: the value waits in the slot */
 		tx->dirty = false;
+		dl->n_dirty--;
 		tx->sent_us = now_us;
 		tx->sent++;
 	}
