@@ -3,6 +3,7 @@
  * devobj/devobj_int.h - what the files of the device object extension
  * share (one line's state). Files:
  *   devobj.c        the extension ops and the mirror's life cycle
+ *   object.c        where a device object is; the commands' answers
  *   mirror.c        programming the daemon's PDOs (core only)
  *   value.c         a value in a PDO frame by its type (core only)
  *   watch.c         DEV_WATCH/UNWATCH, the watch table, MBX_EV_DEV_VALUE
@@ -118,7 +119,7 @@ uint64_t devobj_write_poll(devobj_line *dl, uint64_t now_us);
 size_t devobj_layout_answer_max(const devobj_line *dl);
 void devobj_cmd_layout(devobj_line *dl, const mbx_request *req);
 
-/* Where a device object is mapped: the device PDO of direction dev_dir
+/* object.c. Where a device object is mapped: the device PDO of direction dev_dir
  * mapping it and the entry, the record mirroring that PDO (-1 = none). */
 typedef struct devobj_place {
 	const co_pdo_layout_pdo *pdo;
