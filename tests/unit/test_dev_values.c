@@ -13,13 +13,9 @@
 #include "mailbox/cogw.h"
 #include "mailbox/proto.h"
 
-void setUp(void)
-{
-}
+void setUp(void) {}
 
-void tearDown(void)
-{
-}
+void tearDown(void) {}
 
 static void expect_text(uint16_t type, const char *hex, const char *want)
 {
@@ -74,12 +70,15 @@ void test_parse_refuses_out_of_range_and_bad_syntax(void)
 {
 	uint8_t out[8];
 	size_t n;
-	TEST_ASSERT_EQUAL_INT(COGW_E_PARAM, cogw_value_parse(MBX_T_UNSIGNED16, "70000", out, 8, &n));
+	TEST_ASSERT_EQUAL_INT(COGW_E_PARAM,
+			      cogw_value_parse(MBX_T_UNSIGNED16, "70000", out, 8, &n));
 	TEST_ASSERT_EQUAL_INT(COGW_E_PARAM, cogw_value_parse(MBX_T_INTEGER8, "-129", out, 8, &n));
 	TEST_ASSERT_EQUAL_INT(COGW_E_PARAM, cogw_value_parse(MBX_T_UNSIGNED8, "-1", out, 8, &n));
-	TEST_ASSERT_EQUAL_INT(COGW_E_PARAM, cogw_value_parse(MBX_T_INTEGER24, "8388608", out, 8, &n));
+	TEST_ASSERT_EQUAL_INT(COGW_E_PARAM,
+			      cogw_value_parse(MBX_T_INTEGER24, "8388608", out, 8, &n));
 	TEST_ASSERT_EQUAL_INT(COGW_E_PARAM, cogw_value_parse(MBX_T_REAL32, "1e39", out, 8, &n));
-	TEST_ASSERT_EQUAL_INT(COGW_E_INVAL, cogw_value_parse(MBX_T_UNSIGNED16, "12abc", out, 8, &n));
+	TEST_ASSERT_EQUAL_INT(COGW_E_INVAL,
+			      cogw_value_parse(MBX_T_UNSIGNED16, "12abc", out, 8, &n));
 	TEST_ASSERT_EQUAL_INT(COGW_E_INVAL, cogw_value_parse(MBX_T_UNSIGNED16, " 1", out, 8, &n));
 	TEST_ASSERT_EQUAL_INT(COGW_E_INVAL, cogw_value_parse(MBX_T_BOOLEAN, "yes", out, 8, &n));
 	TEST_ASSERT_EQUAL_INT(COGW_E_INVAL, cogw_value_parse(MBX_T_OCTET_STRING, "0g", out, 8, &n));
@@ -139,7 +138,8 @@ void test_value_event_parse(void)
 	buf[sizeof v + 1] = 0xCF;
 	TEST_ASSERT_EQUAL_INT(0, cogw_dev_value_parse(buf, sizeof v + 2, &got, &data));
 	TEST_ASSERT_EQUAL_HEX8(0xC7, data[0]);
-	TEST_ASSERT_EQUAL_INT(COGW_E_PROTOCOL, cogw_dev_value_parse(buf, sizeof v + 3, &got, &data));
+	TEST_ASSERT_EQUAL_INT(COGW_E_PROTOCOL,
+			      cogw_dev_value_parse(buf, sizeof v + 3, &got, &data));
 	TEST_ASSERT_EQUAL_INT(COGW_E_PROTOCOL, cogw_dev_value_parse(buf, 10, &got, &data));
 }
 
