@@ -332,6 +332,20 @@ static void mgr_boot_text(const mbx_ev_mgr *e, char *text, size_t len)
 			 "node %u boot software: its program does not run (1F51:01 = %" PRIu32
 			 ", %s)",
 			 e->node, e->value, co_swmgr_program_to_string((uint8_t)e->value));
+	else if (e->step == CO_MGR_STEP_PDO_LAYOUT && e->abort)
+		/* not a CiA 302-2 check: the boot goes on */
+		snprintf(text, len,
+			 "node %u boot pdo-layout: not learnt, %04X:%02X abort 0x%08" PRIX32
+			 " (%s); the boot goes on",
+			 e->node, e->index, e->sub, e->abort, sdo_abort_to_string(e->abort));
+	else if (e->step == CO_MGR_STEP_PDO_LAYOUT)
+		/* value: PDOs kept, TPDOs | RPDOs << 16; expected: those dropped */
+		snprintf(text, len,
+			 "node %u boot pdo-layout ok: %" PRIu32 " TPDOs, %" PRIu32
+			 " RPDOs learnt by SDO (%" PRIu32 " and %" PRIu32
+			 " beyond pdo_scan_max, not kept)",
+			 e->node, e->value & 0xFFFFu, e->value >> 16, e->expected & 0xFFFFu,
+			 e->expected >> 16);
 	else if (e->step == CO_MGR_STEP_CONFIGURE && e->value)
 		/* value: the concise DCF entries written */
 		snprintf(text, len,
@@ -369,6 +383,12 @@ static void print_mgr_boot(const cogw_msg *m, const ctl_monitor_spec *spec, even
 	cJSON_AddNumberToObject(out->o, "value", e.value);
 	if (e.status == 'J')
 		cJSON_AddNumberToObject(out->o, "entry", e.value);
+	if (e.step == CO_MGR_STEP_PDO_LAYOUT && !e.abort) {
+		cJSON_AddNumberToObject(out->o, "tpdos", e.value & 0xFFFFu);
+		cJSON_AddNumberToObject(out->o, "rpdos", e.value >> 16);
+		cJSON_AddNumberToObject(out->o, "tpdos_dropped", e.expected & 0xFFFFu);
+		cJSON_AddNumberToObject(out->o, "rpdos_dropped", e.expected >> 16);
+	}
 	cJSON_AddNumberToObject(out->o, "expected", e.expected);
 	cJSON_AddBoolToObject(out->o, "done", e.done);
 	cJSON_AddBoolToObject(out->o, "mandatory", e.mandatory);

@@ -13,22 +13,13 @@
 static void fill_from_file(co_pdo_layout *t, const char *line_name, const cogw_node *n,
 			   uint64_t now_us)
 {
-	char text[1024];
-
 	if (co_pdo_layout_begin(t, n->id, CO_PDO_LAYOUT_FILE) < 0)
 		return;
-	for (unsigned d = 0; d < 2; d++) {
-		co_pdo_dir dir = d == 0 ? CO_PDO_TX : CO_PDO_RX;
-		for (unsigned k = 0; k < n->pdo_file.n[dir]; k++) {
-			const co_pdo_layout_pdo *p = &n->pdo_file.pdo[dir][k];
-			if (!co_pdo_layout_add(t, n->id, dir, p))
-				continue;
-			co_pdo_layout_pdo_format(text, sizeof text, dir, p);
-			cogw_log(COGW_LOG_INFO, "line %s: node %u: PDO layout (file): %s",
-				 line_name, n->id, text);
-		}
-	}
+	for (unsigned d = 0; d < 2; d++)
+		for (unsigned k = 0; k < n->pdo_file.n[d]; k++)
+			(void)co_pdo_layout_add(t, n->id, (co_pdo_dir)d, &n->pdo_file.pdo[d][k]);
 	co_pdo_layout_commit(t, n->id, now_us);
+	cogw_log_pdo_layout(line_name, t, n->id);
 	const co_pdo_layout_node *rec = co_pdo_layout_node_get(t, n->id);
 	if (rec->dropped[CO_PDO_TX] || rec->dropped[CO_PDO_RX])
 		cogw_log(COGW_LOG_WARNING,
