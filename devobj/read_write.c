@@ -44,11 +44,21 @@ static void known(const devobj_line *dl, const mbx_dev_obj_req *o, uint16_t *typ
 		*access = t->access;
 }
 
-/* The type a client asked for against the one the line knows: 0 or the
- * abort code. */
-static uint32_t check_type(uint16_t asked, uint16_t type)
+/* A read or write of object o as an SDO server would take it: the type
+ * the client asked for against the one the line knows (*type), the access
+ * the node's file gives. 0 or the abort code. */
+static uint32_t check_access(const devobj_line *dl, const mbx_dev_obj_req *o, bool write,
+			     uint16_t *type)
 {
-	return asked && type && asked != type ? SDO_AB_TYPE_LEN : 0;
+	uint8_t access;
+	known(dl, o, type, &access);
+	if (o->type && *type && o->type != *type)
+		return SDO_AB_TYPE_LEN;
+	if (!access)
+		return 0;
+	if (write)
+		return !(access & CO_ACC_WRITE) || (access & CO_ACC_CONST) ? SDO_AB_READ_ONLY : 0;
+	return !(access & CO_ACC_READ) ? SDO_AB_WRITE_ONLY : 0;
 }
 
 /* ---- SDO fall-back ------------------------------------------------------------ */
@@ -149,14 +159,10 @@ void devobj_cmd_read(devobj_line *dl, const mbx_request *req)
 {
 	mbx_dev_read_req r;
 	uint16_t type;
-	uint8_t access;
 	devobj_place at;
 	memcpy(&r, req->payload, sizeof r);
 
-	known(dl, &r.obj, &type, &access);
-	uint32_t abort = check_type(r.obj.type, type);
-	if (!abort && access && !(access & CO_ACC_READ))
-		abort = SDO_AB_WRITE_ONLY;
+	uint32_t abort = check_access(dl, &r.obj, false, &type);
 	if (abort)
 		return devobj_answer(dl, &req->reply, MBX_E_ABORT, abort, NULL, 0);
 
@@ -239,14 +245,10 @@ void devobj_cmd_write(devobj_line *dl, const mbx_request *req)
 {
 	mbx_dev_obj_req o;
 	uint16_t type;
-	uint8_t access;
 	devobj_place at;
 	memcpy(&o, req->payload, sizeof o);
 
-	known(dl, &o, &type, &access);
-	uint32_t abort = check_type(o.type, type);
-	if (!abort && access && (!(access & CO_ACC_WRITE) || (access & CO_ACC_CONST)))
-		abort = SDO_AB_READ_ONLY;
+	uint32_t abort = check_access(dl, &o, true, &type);
 	uint16_t t = o.type ? o.type : type;
 	uint32_t size = co_type_size((co_type)t);
 	if (!abort && size && req->data_len != size)

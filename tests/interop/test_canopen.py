@@ -1432,10 +1432,11 @@ def local_device(node_id):
     return node
 
 
-class Watch:
-    """`cogwctl --json watch ...` in the background, its events collected."""
+class Watch(Monitor):
+    """`cogwctl --json watch ...` in the background, its events collected
+    (Monitor's reading and waiting)."""
 
-    def __init__(self, *args):
+    def __init__(self, *args):  # noqa: super().__init__ would start a monitor
         argv = [os.path.join(BIN, "cogwctl"), "--instance", INSTANCE, "--json", "watch"] + list(args)
         self.proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                      text=True, cwd=TOP)
@@ -1449,25 +1450,9 @@ class Watch:
         check(said, f"cogwctl watch {args}: {''.join(self.said)}")
         threading.Thread(target=self._read, daemon=True).start()
 
-    def _read(self):
-        for line in self.proc.stdout:
-            self.events.append(json.loads(line))
-
     def last(self, index):
         got = [e for e in list(self.events) if e.get("index") == index]
         return got[-1] if got else None
-
-    def wait(self, what, pred, timeout=5.0):
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if pred():
-                return
-            time.sleep(0.05)
-        raise AssertionError(f"watch: no {what}; got {self.events[-8:]}")
-
-    def stop(self):
-        self.proc.terminate()
-        self.proc.wait(10)
 
 
 def dev_json(*args, check_rc=True):
