@@ -1493,8 +1493,9 @@ def test_device_objects_mirror_values_and_writes():
         eq(["no free PDO of the daemon"] * 2,
            [p.get("not_mirrored") for p in n21["pdos"] if p["pdo"] == "tpdo"],
            "node 21 TPDOs not mirrored")
-        check("node 21: 2 of 3 PDOs not mirrored" in read_log("cogwd"),
-              "cogwd log does not report node 21's layout")
+        with open(os.path.join(WORK, "cogwd.log")) as f:
+            check("node 21: 2 of 3 PDOs not mirrored" in f.read(),
+                  "cogwd log does not report node 21's layout")
 
         ctl("nmt", "start", line, "self")
         step("the hand-written RPDO 1 works next to the mirror")
