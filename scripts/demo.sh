@@ -236,8 +236,9 @@ ctl dev write 1 2 6200 2 u8 5
 wait "$watch_pid" || fail "cogwctl watch ended with an error"
 cat "$work/watch.txt"
 grep -q "6000:01 UNSIGNED8 = 3" "$work/watch.txt" || fail "the written output did not come back as a watched input"
-explain "" "Reading: from the daemon's mirror when the value is fresh, else by SDO:"
-ctl dev read 1 2 6000 1
+explain "" "Reading: from the daemon's mirror when the value is fresh enough (here: up to a"
+explain "minute old; the line's default is 1 s), else by SDO (6200h is in no TPDO):"
+ctl dev read 1 2 6000 1 --max-age 60000
 ctl dev read 1 2 6200 2
 
 say "9. CiA 309-3 ASCII commands over a socket (cogw-ascii)"
