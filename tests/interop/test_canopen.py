@@ -45,7 +45,10 @@ vcan0. It catches bugs that cosim, which runs our own core, would mirror.
     LocalNode devices whose EDS (written by the test) gives their PDOs: the
     layouts from the files and the daemon's PDOs mirroring them (cogwctl pdo
     map), a second node whose TPDOs exceed the daemon's free RPDOs reported
-    per PDO, a hand-written RPDO working next to the mirror; typed values of
+    per PDO, a hand-written RPDO working next to the mirror, a cosim device
+    (a write by its RPDO looped back into a watched input, its synchronous
+    TPDO read from the mirror), our reset communication re-programming the
+    mirror (dev-mirror events); typed values of
     every basic type byte-exact in watch events (event-driven, event-timer
     and synchronous TPDOs); reads from the mirror and by SDO; writes by the
     device's RPDO (held until complete) and by SDO, checked on the device;
@@ -104,6 +107,7 @@ SLAVE_HB_TIMEOUT_MS = 3000
 DEV_LINE = 2       # cogwd's line with device objects (pdo "auto")
 DEV_IFACE = "vcan2"
 DEV_OWN_ID = 1
+DEV19 = 19         # cosim device (our core: the other side of the check)
 DEV20 = 20         # python-canopen device: every basic type in 11 TPDOs
 DEV21 = 21         # python-canopen device: its TPDOs find no free RPDO
 DEV_WATCHES = 21   # the line's watch table: exactly node 20's objects
@@ -261,13 +265,13 @@ CONFIG = {
         ],
     }, {
         # device objects (docs/devices.md): python-canopen devices on vcan2
-        # whose layouts come from the EDS files the test writes; RPDO 1 is
-        # written by hand (consumes 1F0h into 2100h), RPDO 2..12 and TPDO
-        # 1..3 are free for the mirror
+        # and a cosim device whose layouts come from the EDS files the test
+        # writes; RPDO 1 is written by hand (consumes 1F0h into 2100h), RPDO
+        # 2..14 and TPDO 1..5 are free for the mirror
         "name": "line2", "interface": DEV_IFACE, "bitrate": 1000000, "node_id": DEV_OWN_ID,
         "heartbeat_ms": 0,
         "sdo_timeout_ms": int(SDO_TIMEOUT_S * 1000),
-        "rpdos": 12, "tpdos": 3,
+        "rpdos": 14, "tpdos": 5,
         "pdo": "auto", "pdo_scan_max": 16,
         "device_objects": {"read_max_age_ms": 600000, "write_update_ms": 20,
                            "watches": DEV_WATCHES},
@@ -279,6 +283,7 @@ CONFIG = {
             {"index": "0x1400", "sub": 1, "value": "0x1F0"},
         ],
         "nodes": [
+            {"id": DEV19, "eds": os.path.join(WORK, "dev19.eds")},
             {"id": DEV20, "eds": os.path.join(WORK, "dev20.eds")},
             {"id": DEV21, "eds": os.path.join(WORK, "dev21.eds")},
         ],
@@ -1412,7 +1417,31 @@ def device_eds(node_id, objects, tpdos, rpdos, extra=""):
     return text + extra
 
 
+# The cosim device on vcan2: an input (2001h, looped back from the output
+# 2100h) and an INTEGER16 in an event-driven and a synchronous TPDO, the
+# output in an RPDO.
+COSIM19 = {
+    "name": "devobj-cosim", "node_id": DEV19, "heartbeat_ms": 0,
+    "objects": [
+        {"index": "0x2001", "type": "UNSIGNED8", "access": "rw", "pdo": True, "default": 0},
+        {"index": "0x2002", "type": "INTEGER16", "access": "rw", "pdo": True, "default": -7},
+        {"index": "0x2100", "type": "UNSIGNED8", "access": "rw", "pdo": True, "default": 0},
+    ],
+    "tpdos": [{"nr": 1, "transmission": 254, "map": ["0x2001:0:8", "0x2002:0:16"]},
+              {"nr": 2, "transmission": 1, "map": ["0x2002:0:16"]}],
+    "rpdos": [{"nr": 1, "transmission": 254, "map": ["0x2100:0:8"]}],
+    "loopback": {"enabled": True, "pairs": [{"from": "0x2100:00", "to": "0x2001:00"}]},
+}
+DEV19_TPDOS = [(1, 0x180 + DEV19, 254, 0, [0x2001, 0x2002]), (2, 0x280 + DEV19, 1, 0, [0x2002])]
+DEV19_RPDOS = [(1, 0x200 + DEV19, 254, [(0x2100, datatypes.UNSIGNED8)])]
+
+
 def write_device_files():
+    with open(os.path.join(WORK, "dev19.json"), "w") as f:
+        json.dump(COSIM19, f)
+    with open(os.path.join(WORK, "dev19.eds"), "w") as f:
+        f.write(device_eds(DEV19, [(0x2001, datatypes.UNSIGNED8), (0x2002, datatypes.INTEGER16)],
+                           DEV19_TPDOS, DEV19_RPDOS))
     objs20 = [(i, t) for i, t, _, _, _ in DEV20_OBJECTS]
     extra = (_eds_var(0x2200, "setting", datatypes.UNSIGNED32, "rw", 0x11)
              + _eds_var(0x2300, "fixed", datatypes.UNSIGNED8, "ro", 7))
@@ -1455,6 +1484,16 @@ class Watch(Monitor):
         return got[-1] if got else None
 
 
+def remote_on(net, node_id):
+    if node_id in net:
+        return net[node_id]
+    node = canopen.RemoteNode(node_id, ObjectDictionary())
+    node.sdo.RESPONSE_TIMEOUT = SDO_TIMEOUT_S
+    node.sdo.MAX_RETRIES = 1
+    net.add_node(node)
+    return node
+
+
 def dev_json(*args, check_rc=True):
     r = ctl("--json", *args, check_rc=check_rc)
     return json.loads(r.stdout) if r.stdout.strip() else {}, r
@@ -1470,6 +1509,11 @@ def test_device_objects_mirror_values_and_writes():
     line = str(DEV_LINE)
     d20, d21 = local_device(DEV20), local_device(DEV21)
     watch = None
+    log = open(os.path.join(WORK, "cosim-vcan2.log"), "w")
+    cosim19 = subprocess.Popen([os.path.join(BIN, "cosim"), "--interface", DEV_IFACE, "--device",
+                                os.path.join(WORK, "dev19.json"), "--autostart", "--loopback",
+                                "--sdo-timeout", str(int(SDO_TIMEOUT_S * 1000))],
+                               stdout=log, stderr=subprocess.STDOUT, cwd=TOP)
     try:
         step("the layouts from the EDS files and the daemon's PDOs mirroring them")
         maps = [json.loads(x) for x in ctl("--json", "pdo", "map", line).stdout.splitlines()]
@@ -1483,8 +1527,11 @@ def test_device_objects_mirror_values_and_writes():
             for _, _, _, _, idx in DEV20_TPDOS],
            [[(e["index"], e["sub"], e["bits"]) for e in p["map"]]
             for p in n20["pdos"] if p["pdo"] == "tpdo"], "node 20 TPDO mappings")
-        # the daemon's RPDO 1 is the configuration's: the mirror has 2..12
-        eq(list(range(2, 13)), sorted(p["mirror_pdo"] for p in n20["pdos"] if p["pdo"] == "tpdo"),
+        # the daemon's RPDO 1 is the configuration's, 2..3 went to node 19
+        # (node-ID order): node 20 has 4..14, node 21 none
+        eq(("file", True, "full"), (by_node[DEV19]["source"], by_node[DEV19]["valid"],
+                                    by_node[DEV19]["mirror"]), "node 19 (cosim)")
+        eq(list(range(4, 15)), sorted(p["mirror_pdo"] for p in n20["pdos"] if p["pdo"] == "tpdo"),
            "daemon RPDOs mirroring node 20's TPDOs")
         eq(2, len([p for p in n20["pdos"] if p["pdo"] == "rpdo" and p["mirror_pdo"]]),
            "node 20 RPDOs produced by the daemon")
@@ -1592,9 +1639,51 @@ def test_device_objects_mirror_values_and_writes():
         refused(["dev", "write", line, str(DEV20), "2300", "0", "u8", "1"], "0x06010002")
         eq([], [m for m in RECORDER2.frames[mark:] if m.arbitration_id == 0x600 + DEV20],
            "SDO requests for a read-only object")
+
+        step("cosim: a write by its RPDO comes back (loopback) as a watched input")
+        w19 = Watch(line, str(DEV19), "2001", "0", "--count", "5", "--duration", "20")
+        try:
+            v, _ = dev_json("dev", "write", line, str(DEV19), "2100", "0", "u8", "77")
+            eq(("pdo", False, 1), (v["via"], v["held"], v["rpdo"]), "write to the cosim device")
+            w19.wait("the looped-back input", lambda: any(e.get("value") == 77 for e in w19.events))
+        finally:
+            w19.stop()
+        eq(b"\x4d", remote_on(NET2, DEV19).sdo.upload(0x2100, 0), "2100h on the cosim device")
+        step("cosim: the synchronous TPDO after a SYNC, read from the mirror")
+        NET2.sync.transmit()
+        deadline = time.monotonic() + 5
+        while time.monotonic() < deadline:
+            v, _ = dev_json("dev", "read", line, str(DEV19), "2002", "0", "--max-age", "600000")
+            if v["via"] == "pdo":
+                break
+            time.sleep(0.2)
+        eq(("pdo", -7, "INTEGER16"), (v["via"], v["value"], v["data_type"]), "2002h from the mirror")
+
+        step("our own reset communication: the mirror programmed again, and reported")
+        mon = Monitor("manager", DEV_LINE)
+        try:
+            ctl("nmt", "reset-comm", line, "self")
+            mon.wait("dev-mirror events of nodes 19, 20 and 21",
+                     lambda: {e["node"] for e in mon.of("dev-mirror")} >= {DEV19, DEV20, DEV21})
+            got = {e["node"]: (e["mirror"], e["mirrored"], e["missing"])
+                   for e in mon.of("dev-mirror")}
+            eq({DEV19: ("full", 3, 0), DEV20: ("full", 13, 0), DEV21: ("partial", 1, 2)}, got,
+               "dev-mirror events")
+        finally:
+            mon.stop()
+        n20 = json.loads(ctl("--json", "pdo", "map", line, str(DEV20)).stdout)
+        eq(list(range(4, 15)), sorted(p["mirror_pdo"] for p in n20["pdos"] if p["pdo"] == "tpdo"),
+           "daemon RPDOs mirroring node 20 after the reset")
     finally:
         if watch:
             watch.stop()
+        cosim19.send_signal(signal.SIGTERM)
+        try:
+            cosim19.wait(10)
+        except subprocess.TimeoutExpired:
+            cosim19.kill()
+            cosim19.wait()
+        log.close()
         ctl("nmt", "preop", line, "self", check_rc=False)
         for node in (d20, d21):
             node.tpdo.stop()
