@@ -51,6 +51,17 @@ static void publish_mirror(devobj_line *dl, uint8_t id)
 	mbx_server_publish(line_mbx(dl->l), MBX_EV_DEV_MIRROR, 0, &ev, sizeof ev);
 }
 
+/* A complete frame the device has had goes again (and its deadline is
+ * kept again: devobj_write_poll). */
+static void resend(devobj_line *dl, devobj_tx *tx)
+{
+	if (!tx->dirty)
+		dl->n_dirty++;
+	tx->dirty = true;
+	tx->due_us = 0;
+	tx->sent = 0;
+}
+
 /* Records no longer mirroring what their values and watchers belonged to. */
 static void reset_records(devobj_line *dl)
 {
@@ -68,11 +79,16 @@ static void reset_records(devobj_line *dl)
 		const devobj_record *r = &dl->mirror.rec[CO_PDO_TX][i];
 		devobj_tx *tx = &dl->tx[i];
 		if (r->busy && tx->node == r->node &&
-		    tx->generation == dl->mirror.node[r->node].generation)
+		    tx->generation == dl->mirror.node[r->node].generation) {
+			if (tx->resets != dl->mirror.resets && tx->sent)
+				resend(dl, tx); /* our reset stopped it: the device waits */
+			tx->resets = dl->mirror.resets;
 			continue;
+		}
 		if (tx->dirty)
 			dl->n_dirty--; /* its frame belongs to a PDO mirrored no more */
 		memset(tx, 0, sizeof *tx);
+		tx->resets = dl->mirror.resets;
 		tx->node = r->busy ? r->node : 0;
 		tx->generation = r->busy ? dl->mirror.node[r->node].generation : 0;
 	}

@@ -51,6 +51,7 @@ typedef struct devobj_tx {
 	uint64_t due_us;  /* dirty: when to send (update time) */
 	uint64_t sent_us; /* last sent */
 	uint32_t sent;    /* frames sent */
+	uint32_t resets;  /* the mirror's resets it has seen (mirror.h) */
 } devobj_tx;
 
 typedef struct devobj_watch {

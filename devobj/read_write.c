@@ -262,6 +262,17 @@ void devobj_cmd_write(devobj_line *dl, const mbx_request *req)
 	by_sdo(dl, req, &o, t, false);
 }
 
+/* The first complete frame for a device RPDO with a deadline: from now on
+ * the daemon's TPDO repeats it at half the deadline, so that the device
+ * does not miss it (its EMCY 8250h) between two writes. */
+static void keep_sending(devobj_line *dl, const devobj_record *r)
+{
+	const co_pdo_layout_node *n = co_pdo_layout_node_get(line_pdo_layout(dl->l), r->node);
+	uint16_t deadline = n ? n->pdo[CO_PDO_RX][r->dev_pos].event_ms : 0;
+	if (deadline)
+		devobj_mirror_keep_sending(&dl->mirror, r, deadline / 2u ? deadline / 2u : 1u);
+}
+
 /* Send the frames that are due: the slot takes the frame, the TPDO goes. */
 uint64_t devobj_write_poll(devobj_line *dl, uint64_t now_us)
 {
@@ -284,6 +295,8 @@ uint64_t devobj_write_poll(devobj_line *dl, uint64_t now_us)
 		}
 		co_od_entry *slot = co_od_find(co_node_od(co), DEVOBJ_SLOT_TX_INDEX, r->slot_sub);
 		co_od_entry_set_raw(slot, co_get_le(tx->frame, 8));
+		if (!tx->sent)
+			keep_sending(dl, r); /* before: the transmission starts the timer */
 		if (co_pdo_tpdo_event(co, r->nr, now_us) < 0)
 			dl->tx_failed++; /* not OPERATIONAL: the value waits in the slot */
 		tx->dirty = false;

@@ -1400,8 +1400,8 @@ def device_eds(node_id, objects, tpdos, rpdos, extra=""):
     for nr, cob, tt, event_ms, indexes in tpdos:
         text += _eds_pdo(0x1800 + nr - 1, 0x1A00 + nr - 1, cob, tt, event_ms,
                          [(i, _bits(types[i])) for i in indexes], True)
-    for nr, cob, tt, entries in rpdos:
-        text += _eds_pdo(0x1400 + nr - 1, 0x1600 + nr - 1, cob, tt, 0,
+    for nr, cob, tt, entries, *deadline in rpdos:
+        text += _eds_pdo(0x1400 + nr - 1, 0x1600 + nr - 1, cob, tt, deadline[0] if deadline else 0,
                          [(i, _bits(t)) for i, t in entries], False)
         for i, t in entries:
             types[i] = t
@@ -1429,11 +1429,11 @@ COSIM19 = {
     ],
     "tpdos": [{"nr": 1, "transmission": 254, "map": ["0x2001:0:8", "0x2002:0:16"]},
               {"nr": 2, "transmission": 1, "map": ["0x2002:0:16"]}],
-    "rpdos": [{"nr": 1, "transmission": 254, "map": ["0x2100:0:8"]}],
+    "rpdos": [{"nr": 1, "transmission": 254, "event_ms": 400, "map": ["0x2100:0:8"]}],
     "loopback": {"enabled": True, "pairs": [{"from": "0x2100:00", "to": "0x2001:00"}]},
 }
 DEV19_TPDOS = [(1, 0x180 + DEV19, 254, 0, [0x2001, 0x2002]), (2, 0x280 + DEV19, 1, 0, [0x2002])]
-DEV19_RPDOS = [(1, 0x200 + DEV19, 254, [(0x2100, datatypes.UNSIGNED8)])]
+DEV19_RPDOS = [(1, 0x200 + DEV19, 254, [(0x2100, datatypes.UNSIGNED8)], 400)]  # a deadline
 
 
 def write_device_files():
@@ -1649,6 +1649,14 @@ def test_device_objects_mirror_values_and_writes():
         finally:
             w19.stop()
         eq(b"\x4d", remote_on(NET2, DEV19).sdo.upload(0x2100, 0), "2100h on the cosim device")
+        step("cosim: its RPDO's deadline (400 ms) kept by the daemon without new writes")
+        mark = len(RECORDER2.frames)
+        time.sleep(1.5)
+        frames = [m for m in RECORDER2.frames[mark:] if m.arbitration_id == 0x200 + DEV19]
+        check(len(frames) >= 3, f"RPDO 1 of node 19 repeated {len(frames)} times in 1.5 s")
+        eq({"4d"}, {bytes(m.data).hex() for m in frames}, "the repeated frame")
+        eq([], [bytes(m.data).hex() for m in RECORDER2.frames[mark:]
+                if m.arbitration_id == 0x80 + DEV19], "EMCYs of node 19 (8250h: deadline missed)")
         step("cosim: the synchronous TPDO after a SYNC, read from the mirror")
         NET2.sync.transmit()
         deadline = time.monotonic() + 5
