@@ -336,15 +336,19 @@ def read_log(name):
         return ""
 
 
+def stop_process(p):
+    if p.poll() is None:
+        p.send_signal(signal.SIGTERM)
+        try:
+            p.wait(10)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()
+
+
 def stop_system():
-    for name, p in PROCS.items():
-        if p.poll() is None:
-            p.send_signal(signal.SIGTERM)
-            try:
-                p.wait(10)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
+    for p in PROCS.values():
+        stop_process(p)
     shutil.rmtree(WORK, ignore_errors=True)
 
 
@@ -1685,12 +1689,7 @@ def test_device_objects_mirror_values_and_writes():
     finally:
         if watch:
             watch.stop()
-        cosim19.send_signal(signal.SIGTERM)
-        try:
-            cosim19.wait(10)
-        except subprocess.TimeoutExpired:
-            cosim19.kill()
-            cosim19.wait()
+        stop_process(cosim19)
         log.close()
         ctl("nmt", "preop", line, "self", check_rc=False)
         for node in (d20, d21):
