@@ -308,7 +308,7 @@ fuzz: $(FUZZ_BINS)
 # apps/common checks 1F2Ch entries with the gateway's own rules (route.c,
 # convention.c: core/ only below them)
 FUZZ_GATEWAY_SRC := gateway/route.c gateway/convention.c
-build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) $(FUZZ_GATEWAY_SRC) mailbox/proto.c $(ASCII_LIB_SRC)
+build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) $(FUZZ_GATEWAY_SRC) mailbox/proto.c mailbox/client_api_values.c $(ASCII_LIB_SRC)
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -o $@ $(filter %.c,$^) $(SYS_LIBS)
 else

@@ -24,40 +24,6 @@ struct devobj {
 	devobj_line lines[DEVOBJ_LINES_MAX];
 };
 
-/* ---- shared by the commands -------------------------------------------------- */
-
-bool devobj_find(const devobj_line *dl, uint8_t node, co_pdo_dir dev_dir, uint16_t index,
-		 uint8_t sub, devobj_place *out)
-{
-	const co_pdo_layout_node *n = co_pdo_layout_node_get(line_pdo_layout(dl->l), node);
-	bool found = false;
-	if (!n || !n->valid)
-		return false;
-	/* an object mapped in several PDOs: the first that is mirrored */
-	for (uint16_t k = 0; k < n->n[dev_dir]; k++) {
-		const co_pdo_layout_pdo *p = &n->pdo[dev_dir][k];
-		for (uint8_t i = 0; i < p->n; i++) {
-			if (p->map[i].index != index || p->map[i].sub != sub)
-				continue;
-			int rec = devobj_mirror_record_for(&dl->mirror, node, dev_dir, k);
-			if (!found || rec >= 0)
-				*out = (devobj_place){
-					.pdo = p, .entry = &p->map[i], .pos = i, .rec = rec
-				};
-			found = true;
-			if (rec >= 0)
-				return true;
-		}
-	}
-	return found;
-}
-
-void devobj_answer(devobj_line *dl, const mbx_reply_to *to, int status, uint32_t abort,
-		   const void *payload, size_t len)
-{
-	mbx_server_respond(line_mbx(dl->l), to, status, abort, payload, len);
-}
-
 /* ---- the mirror's life cycle ------------------------------------------------ */
 
 static void publish_mirror(devobj_line *dl, uint8_t id)
@@ -85,6 +51,17 @@ static void publish_mirror(devobj_line *dl, uint8_t id)
 	mbx_server_publish(line_mbx(dl->l), MBX_EV_DEV_MIRROR, 0, &ev, sizeof ev);
 }
 
+/* A complete frame the device has had goes again (and its deadline is
+ * kept again: devobj_write_poll). */
+static void resend(devobj_line *dl, devobj_tx *tx)
+{
+	if (!tx->dirty)
+		dl->n_dirty++;
+	tx->dirty = true;
+	tx->due_us = 0;
+	tx->sent = 0;
+}
+
 /* Records no longer mirroring what their values and watchers belonged to. */
 static void reset_records(devobj_line *dl)
 {
@@ -102,22 +79,33 @@ static void reset_records(devobj_line *dl)
 		const devobj_record *r = &dl->mirror.rec[CO_PDO_TX][i];
 		devobj_tx *tx = &dl->tx[i];
 		if (r->busy && tx->node == r->node &&
-		    tx->generation == dl->mirror.node[r->node].generation)
+		    tx->generation == dl->mirror.node[r->node].generation) {
+			if (tx->resets != dl->mirror.resets && tx->sent)
+				resend(dl, tx); /* our reset stopped it: the device waits */
+			tx->resets = dl->mirror.resets;
 			continue;
+		}
+		if (tx->dirty)
+			dl->n_dirty--; /* its frame belongs to a PDO mirrored no more */
 		memset(tx, 0, sizeof *tx);
+		tx->resets = dl->mirror.resets;
 		tx->node = r->busy ? r->node : 0;
 		tx->generation = r->busy ? dl->mirror.node[r->node].generation : 0;
 	}
 }
 
+/* Whoever changes a layout (the configuration at start-up, the manager's
+ * boot step, a boot-up that invalidates it), the mirror follows on the next
+ * loop iteration, outside the core's callbacks: one generation compare per
+ * mirrored node. */
 static void sync_mirrors(devobj_line *dl)
 {
 	bool changed = false;
-	dl->check_layouts = false;
-	for (unsigned id = 1; id <= CO_PDO_LAYOUT_NODES; id++) {
-		if (devobj_mirror_sync(&dl->mirror, (uint8_t)id)) {
+	for (unsigned i = 0; i < dl->n_mirrored; i++) {
+		uint8_t id = dl->mirrored[i];
+		if (devobj_mirror_sync(&dl->mirror, id)) {
 			changed = true;
-			publish_mirror(dl, (uint8_t)id);
+			publish_mirror(dl, id);
 		}
 	}
 	if (changed) {
@@ -156,7 +144,9 @@ static int devobj_attach(void *ctx, line *l)
 	if (dl->mirror.layout && (n_rx || n_tx))
 		cogw_log(COGW_LOG_INFO, "line %s: PDO mirror: %u RPDO and %u TPDO records free",
 			 dl->p.name, n_rx, n_tx);
-	dl->check_layouts = true;
+	for (unsigned id = 1; id <= CO_PDO_LAYOUT_NODES; id++)
+		if (dl->mirror.node[id].wanted)
+			dl->mirrored[dl->n_mirrored++] = (uint8_t)id;
 	return 0;
 }
 
@@ -202,24 +192,15 @@ static void devobj_on_core_event(void *ctx, line *l, const co_event *ev)
 	case CO_EV_OBJECT_UPDATED:
 		devobj_forward_updated(dl, ev->u.pdo_obj.index, ev->u.pdo_obj.sub);
 		return;
-	case CO_EV_RPDO_OBJECT:
-	case CO_EV_SYNC:
-	case CO_EV_TIME:
-	case CO_EV_RX_UNHANDLED:
-		return; /* the frequent ones: nothing a layout depends on */
 	case CO_EV_NMT_STATE:
 		/* our own reset communication set the PDO records back to
 		 * their defaults (CiA 301 §7.3.2.2.2): program them again */
 		if (ev->u.nmt.prev == CO_NMT_INITIALISING)
 			devobj_mirror_forget(&dl->mirror);
-		break;
+		return;
 	default:
-		break;
+		return;
 	}
-	/* the manager learns or invalidates layouts in its boot steps and at
-	 * boot-ups; the mirror follows in poll, outside the core's callback */
-	if (dl->mirror.layout)
-		dl->check_layouts = true;
 }
 
 static void devobj_on_command(void *ctx, line *l, const mbx_request *req)
@@ -259,8 +240,7 @@ static uint64_t devobj_poll(void *ctx, line *l, uint64_t now_us)
 {
 	devobj_line *dl = ctx;
 	(void)l;
-	if (dl->check_layouts)
-		sync_mirrors(dl);
+	sync_mirrors(dl);
 	uint64_t next = devobj_watch_poll(dl, now_us);
 	uint64_t t = devobj_write_poll(dl, now_us);
 	return t < next ? t : next;

@@ -23,8 +23,10 @@
 #define COGW_DEVOBJ_DEVOBJ_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
+#include "core/pdo_layout.h"
 #include "lines/line_ext.h"
 
 #define DEVOBJ_LINES_MAX 16u
@@ -46,14 +48,22 @@ typedef struct devobj_forward {
 	uint16_t peer_index;
 } devobj_forward;
 
+/* What a node's file (or the configuration's "types") says of its objects,
+ * mapped or not: the type and access of each (sorted, core/pdo_layout.h). */
+typedef struct devobj_node_objects {
+	const co_pdo_layout_type *list; /* must outlive the extension */
+	size_t n;
+} devobj_node_objects;
+
 typedef struct devobj_line_params {
-	char name[DEVOBJ_NAME_MAX]; /* for logs */
-	uint32_t mirror_nodes[4];   /* bit n of word n / 32: node n has pdo "auto" */
-	uint32_t read_max_age_ms;   /* DEV_READ from the mirror when the value is
+	char name[DEVOBJ_NAME_MAX];       /* for logs */
+	uint32_t mirror_nodes[4];         /* bit n of word n / 32: node n has pdo "auto" */
+	uint32_t read_max_age_ms;         /* DEV_READ from the mirror when the value is
 	                             * at most this old (request's max_age 0) */
-	uint32_t write_update_ms;   /* writes to one RPDO of a device within this
+	uint32_t write_update_ms;         /* writes to one RPDO of a device within this
 	                             * time go out in one frame */
-	uint16_t watches;           /* watch table size of the line */
+	uint16_t watches;                 /* watch table size of the line */
+	devobj_node_objects objects[128]; /* [node id] */
 	devobj_forward fwd[DEVOBJ_FORWARDS_MAX];
 	uint8_t n_fwd;
 } devobj_line_params;

@@ -3,6 +3,7 @@
  * devobj/devobj_int.h - what the files of the device object extension
  * share (one line's state). Files:
  *   devobj.c        the extension ops and the mirror's life cycle
+ *   object.c        where a device object is; the commands' answers
  *   mirror.c        programming the daemon's PDOs (core only)
  *   value.c         a value in a PDO frame by its type (core only)
  *   watch.c         DEV_WATCH/UNWATCH, the watch table, MBX_EV_DEV_VALUE
@@ -50,6 +51,7 @@ typedef struct devobj_tx {
 	uint64_t due_us;  /* dirty: when to send (update time) */
 	uint64_t sent_us; /* last sent */
 	uint32_t sent;    /* frames sent */
+	uint32_t resets;  /* the mirror's resets it has seen (mirror.h) */
 } devobj_tx;
 
 typedef struct devobj_watch {
@@ -89,11 +91,14 @@ typedef struct devobj_line {
 	devobj_line_params p;
 	line *l;
 	devobj_mirror mirror;
-	bool check_layouts; /* a layout may have changed: sync in poll */
-	devobj_rx *rx;      /* [daemon RPDO record] */
-	devobj_tx *tx;      /* [daemon TPDO record] */
+	uint8_t mirrored[CO_PDO_LAYOUT_NODES]; /* the nodes with pdo "auto" */
+	unsigned n_mirrored;
+	devobj_rx *rx; /* [daemon RPDO record] */
+	devobj_tx *tx; /* [daemon TPDO record] */
 	devobj_watch *watch;
 	uint16_t n_watch_used;
+	unsigned n_pending; /* watches whose latest value waits for the interval */
+	unsigned n_dirty;   /* TX records with a frame due */
 	devobj_sdo_call *calls;
 	uint8_t read_buf[sizeof(mbx_dev_value) + DEVOBJ_READ_MAX]; /* DEV_READ by SDO */
 	uint8_t *layout_buf;                                       /* DEV_LAYOUT answer */

@@ -310,6 +310,7 @@ bool devobj_mirror_sync(devobj_mirror *m, uint8_t id)
 
 void devobj_mirror_forget(devobj_mirror *m)
 {
+	m->resets++;
 	for (int d = 0; d < 2; d++)
 		for (unsigned i = 0; i < m->n_rec[d]; i++)
 			m->rec[d][i].busy = false;
@@ -325,6 +326,11 @@ void devobj_mirror_forget(devobj_mirror *m)
 				nm->rec[dev_dir][pos] = -1;
 		nm->stale = true;
 	}
+}
+
+uint32_t devobj_mirror_keep_sending(devobj_mirror *m, const devobj_record *r, uint16_t period_ms)
+{
+	return od_write(co_node_od(m->co), comm_index(CO_PDO_TX, r->nr), 5, period_ms);
 }
 
 const devobj_record *devobj_mirror_record_of(const devobj_mirror *m, co_pdo_dir dir, uint16_t nr)

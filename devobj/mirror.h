@@ -100,6 +100,7 @@ typedef struct devobj_mirror {
 	uint16_t n_nr[2];      /* co_pdo_count + 1 */
 	devobj_node_mirror node[CO_PDO_LAYOUT_NODES + 1];
 	uint32_t refused; /* PDOs left unmirrored, counted per programming */
+	uint32_t resets;  /* devobj_mirror_forget calls: our own resets */
 } devobj_mirror;
 
 /*
@@ -122,6 +123,12 @@ bool devobj_mirror_sync(devobj_mirror *m, uint8_t id);
  * default: forget what was programmed so that devobj_mirror_sync programs
  * it again. */
 void devobj_mirror_forget(devobj_mirror *m);
+
+/* A device RPDO with a deadline (its event timer, CiA 301 §7.5.2.35) must
+ * keep receiving: the TPDO record r producing it gets the event timer
+ * period_ms, so that the PDO service sends the frame again on its own
+ * (CiA 301 §7.2.2.3.2, TT 255 with an event timer). 0 or the abort code. */
+uint32_t devobj_mirror_keep_sending(devobj_mirror *m, const devobj_record *r, uint16_t period_ms);
 
 /* The record of the daemon's PDO `nr` in direction `dir` that mirrors,
  * or NULL. */

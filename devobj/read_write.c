@@ -23,8 +23,8 @@
 #include "devobj/devobj_int.h"
 #include "devobj/value.h"
 
-/* What the line knows of the object (either direction of the layout): its
- * type and access, 0 where unknown. */
+/* What the line knows of the object: its type and access from the layout
+ * (either direction), else from the node's file; 0 where unknown. */
 static void known(const devobj_line *dl, const mbx_dev_obj_req *o, uint16_t *type, uint8_t *access)
 {
 	devobj_place at;
@@ -35,13 +35,30 @@ static void known(const devobj_line *dl, const mbx_dev_obj_req *o, uint16_t *typ
 		*type = at.entry->type;
 		*access = at.entry->access;
 	}
+	const devobj_node_objects *objs = &dl->p.objects[o->node];
+	const co_pdo_layout_type *t = co_pdo_layout_type_find(objs->list, objs->n, o->index,
+							      o->sub);
+	if (t && !*type)
+		*type = t->type;
+	if (t && !*access)
+		*access = t->access;
 }
 
-/* The type a client asked for against the one the line knows: 0 or the
- * abort code. */
-static uint32_t check_type(uint16_t asked, uint16_t type)
+/* A read or write of object o as an SDO server would take it: the type
+ * the client asked for against the one the line knows (*type), the access
+ * the node's file gives. 0 or the abort code. */
+static uint32_t check_access(const devobj_line *dl, const mbx_dev_obj_req *o, bool write,
+			     uint16_t *type)
 {
-	return asked && type && asked != type ? SDO_AB_TYPE_LEN : 0;
+	uint8_t access;
+	known(dl, o, type, &access);
+	if (o->type && *type && o->type != *type)
+		return SDO_AB_TYPE_LEN;
+	if (!access)
+		return 0;
+	if (write)
+		return !(access & CO_ACC_WRITE) || (access & CO_ACC_CONST) ? SDO_AB_READ_ONLY : 0;
+	return !(access & CO_ACC_READ) ? SDO_AB_WRITE_ONLY : 0;
 }
 
 /* ---- SDO fall-back ------------------------------------------------------------ */
@@ -142,14 +159,10 @@ void devobj_cmd_read(devobj_line *dl, const mbx_request *req)
 {
 	mbx_dev_read_req r;
 	uint16_t type;
-	uint8_t access;
 	devobj_place at;
 	memcpy(&r, req->payload, sizeof r);
 
-	known(dl, &r.obj, &type, &access);
-	uint32_t abort = check_type(r.obj.type, type);
-	if (!abort && access && !(access & CO_ACC_READ))
-		abort = SDO_AB_WRITE_ONLY;
+	uint32_t abort = check_access(dl, &r.obj, false, &type);
 	if (abort)
 		return devobj_answer(dl, &req->reply, MBX_E_ABORT, abort, NULL, 0);
 
@@ -204,6 +217,8 @@ bool devobj_tx_given(devobj_line *dl, const devobj_place *at, bool at_once)
 	tx->given |= (uint64_t)1 << at->pos;
 	bool held = !complete(at->pdo, tx->given);
 	uint64_t now = line_loop_now_us(dl->l);
+	if (!held && !tx->dirty)
+		dl->n_dirty++;
 	if (!held && at_once) {
 		tx->due_us = now;
 	} else if (!held && !tx->dirty) {
@@ -239,14 +254,10 @@ void devobj_cmd_write(devobj_line *dl, const mbx_request *req)
 {
 	mbx_dev_obj_req o;
 	uint16_t type;
-	uint8_t access;
 	devobj_place at;
 	memcpy(&o, req->payload, sizeof o);
 
-	known(dl, &o, &type, &access);
-	uint32_t abort = check_type(o.type, type);
-	if (!abort && access && (!(access & CO_ACC_WRITE) || (access & CO_ACC_CONST)))
-		abort = SDO_AB_READ_ONLY;
+	uint32_t abort = check_access(dl, &o, true, &type);
 	uint16_t t = o.type ? o.type : type;
 	uint32_t size = co_type_size((co_type)t);
 	if (!abort && size && req->data_len != size)
@@ -260,16 +271,32 @@ void devobj_cmd_write(devobj_line *dl, const mbx_request *req)
 	by_sdo(dl, req, &o, t, false);
 }
 
+/* The first complete frame for a device RPDO with a deadline: from now on
+ * the daemon's TPDO repeats it at half the deadline, so that the device
+ * does not miss it (its EMCY 8250h) between two writes. */
+static void keep_sending(devobj_line *dl, const devobj_record *r)
+{
+	const co_pdo_layout_node *n = co_pdo_layout_node_get(line_pdo_layout(dl->l), r->node);
+	uint16_t deadline = n ? n->pdo[CO_PDO_RX][r->dev_pos].event_ms : 0;
+	if (deadline)
+		devobj_mirror_keep_sending(&dl->mirror, r, deadline / 2u ? deadline / 2u : 1u);
+}
+
 /* Send the frames that are due: the slot takes the frame, the TPDO goes. */
 uint64_t devobj_write_poll(devobj_line *dl, uint64_t now_us)
 {
 	uint64_t next = CO_NO_DEADLINE;
 	co_node *co = line_node(dl->l);
-	for (unsigned i = 0; i < dl->mirror.n_rec[CO_PDO_TX]; i++) {
+	for (unsigned i = 0; i < dl->mirror.n_rec[CO_PDO_TX] && dl->n_dirty; i++) {
 		devobj_tx *tx = &dl->tx[i];
 		const devobj_record *r = &dl->mirror.rec[CO_PDO_TX][i];
-		if (!tx->dirty || !r->busy)
+		if (!tx->dirty)
 			continue;
+		if (!r->busy) { /* released since: nothing to send */
+			tx->dirty = false;
+			dl->n_dirty--;
+			continue;
+		}
 		if (now_us < tx->due_us) {
 			if (tx->due_us < next)
 				next = tx->due_us;
@@ -277,9 +304,12 @@ uint64_t devobj_write_poll(devobj_line *dl, uint64_t now_us)
 		}
 		co_od_entry *slot = co_od_find(co_node_od(co), DEVOBJ_SLOT_TX_INDEX, r->slot_sub);
 		co_od_entry_set_raw(slot, co_get_le(tx->frame, 8));
+		if (!tx->sent)
+			keep_sending(dl, r); /* before: the transmission starts the timer */
 		if (co_pdo_tpdo_event(co, r->nr, now_us) < 0)
 			dl->tx_failed++; /* not OPERATIONAL: the value waits in the slot */
 		tx->dirty = false;
+		dl->n_dirty--;
 		tx->sent_us = now_us;
 		tx->sent++;
 	}

@@ -81,6 +81,15 @@ void devobj_watch_relink(devobj_line *dl)
 			link_watch(dl, (int16_t)k);
 }
 
+/* Watches waiting for their interval to end are counted, so that the
+ * loop's poll looks at the table only when one waits. */
+static void set_pending(devobj_line *dl, devobj_watch *w, bool pending)
+{
+	if (w->pending != pending)
+		dl->n_pending += pending ? 1 : -1;
+	w->pending = pending;
+}
+
 /* MBX_EV_DEV_VALUE with the record's last value. */
 static void send_value(devobj_line *dl, devobj_watch *w, uint64_t now_us)
 {
@@ -100,7 +109,7 @@ static void send_value(devobj_line *dl, devobj_watch *w, uint64_t now_us)
 	v.len = devobj_value_extract(rx->frame, e, v.type, buf + sizeof v);
 	memcpy(buf, &v, sizeof v);
 	w->sent_us = now_us;
-	w->pending = false;
+	set_pending(dl, w, false);
 	/* a full client queue drops it, counted by the mailbox; the gap in
 	 * seq tells the client */
 	mbx_server_notify(line_mbx(dl->l), &w->reply, MBX_EV_DEV_VALUE, buf, sizeof v + v.len);
@@ -118,17 +127,21 @@ void devobj_watch_received(devobj_line *dl, unsigned rec, uint64_t now_us)
 		if (interval_over(w, now_us))
 			send_value(dl, w, now_us);
 		else
-			w->pending = true;
+			set_pending(dl, w, true);
 	}
 }
 
 uint64_t devobj_watch_poll(devobj_line *dl, uint64_t now_us)
 {
 	uint64_t next = CO_NO_DEADLINE;
-	for (unsigned k = 0; k < dl->p.watches && dl->n_watch_used; k++) {
+	for (unsigned k = 0; k < dl->p.watches && dl->n_pending; k++) {
 		devobj_watch *w = &dl->watch[k];
-		if (!w->used || !w->pending || w->rec < 0)
+		if (!w->used || !w->pending)
 			continue;
+		if (w->rec < 0) {
+			set_pending(dl, w, false); /* its object is no longer mirrored */
+			continue;
+		}
 		if (interval_over(w, now_us)) {
 			send_value(dl, w, now_us);
 			continue;
@@ -153,6 +166,7 @@ static int16_t find_watch(const devobj_line *dl, uint32_t client, const mbx_dev_
 
 static void drop_watch(devobj_line *dl, int16_t k)
 {
+	set_pending(dl, &dl->watch[k], false);
 	unlink_watch(dl, k);
 	dl->watch[k].used = false;
 	dl->n_watch_used--;

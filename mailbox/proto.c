@@ -178,7 +178,7 @@ const char *mbx_status_to_string(int status)
 	case MBX_E_BUSY:
 		return "busy, retry";
 	case MBX_E_FULL:
-		return "client table full";
+		return "table full (the line's clients, or its watches)";
 	case MBX_E_QUEUE:
 		return "client queue unusable";
 	case MBX_E_TIMEOUT:
@@ -200,7 +200,7 @@ const char *mbx_status_to_string(int status)
 	case MBX_E_LSS:
 		return "LSS slave reported an error";
 	case MBX_E_NOT_FOUND:
-		return "no LSS slave answered";
+		return "not found: no such device object, or no LSS slave answered";
 	case MBX_E_NO_ANSWER:
 		return "the device did not answer in time";
 	case MBX_E_NO_MEMORY:

@@ -894,9 +894,10 @@ enum mbx_data_type {
 /* One of the basic types above. */
 bool mbx_data_type_is_valid(unsigned type);
 
-/* A device object: node of the line's bus, index:sub. `type` is the co_type
- * (core/od.h) the client reads or writes it as; 0 = the one the line knows
- * (its DCF/EDS), else an unsigned integer of the mapped size. */
+/* A device object: node of the line's bus, index:sub. `type` is the data
+ * type (MBX_T_*) the client reads or writes it as; 0 = the one the line
+ * knows (the node's DCF/EDS or "types"), else an unsigned integer of the
+ * mapped size. */
 typedef struct mbx_dev_obj_req {
 	uint8_t node; /* 1..127 */
 	uint8_t sub;
@@ -921,7 +922,7 @@ typedef struct mbx_dev_watch_req {
 } mbx_dev_watch_req;
 
 typedef struct mbx_dev_watch_resp {
-	uint16_t type; /* co_type the values will carry */
+	uint16_t type; /* MBX_T_* the values will carry */
 	uint16_t pdo;  /* the device's TPDO that carries the object */
 	uint32_t cob_id;
 } mbx_dev_watch_resp;
@@ -943,7 +944,7 @@ typedef struct mbx_dev_value {
 	uint8_t node;
 	uint8_t sub;
 	uint16_t index;
-	uint16_t type;    /* co_type of the value */
+	uint16_t type;    /* MBX_T_* of the value */
 	uint8_t via;      /* mbx_dev_via */
 	uint8_t bits;     /* mapped length when via = PDO, else 0 */
 	uint32_t seq;     /* event: per watch, +1 per event (a gap = events lost);
@@ -999,7 +1000,7 @@ typedef struct mbx_dev_layout_entry {
 	uint8_t offset; /* first bit in the frame */
 	uint8_t access; /* CO_ACC_* bits the file gives (1 read, 2 write,
 	                 * 4 const, 8 RPDO, 16 TPDO), 0 = unknown */
-	uint16_t type;  /* co_type, 0 = unknown */
+	uint16_t type;  /* MBX_T_*, 0 = unknown */
 } mbx_dev_layout_entry;
 
 enum mbx_dev_mirror_status {

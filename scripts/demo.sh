@@ -103,7 +103,7 @@ mon_pid=$!
 sleep 0.5
 "$bin/cosim" --interface vcan0 --device etc/devices/sti-pressure.json >"$work/cosim-vcan0.log" 2>&1 &
 pids+=($!)
-"$bin/cosim" --interface vcan1 --device etc/devices/io-generic.json >"$work/cosim-vcan1.log" 2>&1 &
+"$bin/cosim" --interface vcan1 --device etc/devices/io-generic.json --loopback >"$work/cosim-vcan1.log" 2>&1 &
 pids+=($!)
 wait "$mon_pid" || true
 cat "$work/boot.txt"
@@ -217,6 +217,30 @@ ctl pdo read 1 b000 0 r32
 explain "" "The counters of the routes and of the forwarding:"
 ctl route 0 1
 
+say "8b. Device objects: the I/O module by its own objects"
+explain "Node 2 on line 1 has \"pdo\": \"auto\": while it booted, the manager read its PDO"
+explain "layout over SDO, and the daemon set up its own free RPDOs to receive the node's"
+explain "TPDOs and its free TPDOs to send the node's RPDOs (docs/devices.md):"
+wait_for "node 2's mirror" 20 sh -c "'$bin/cogwctl' --json pdo map 1 2 | grep -q '\"mirror\":\"full\"'"
+ctl pdo map 1 2
+explain "" "Watching its digital input 6000h:1 (in its TPDO 1), typed, while a client writes"
+explain "its digital outputs 6200h:1 and :2 (both in its RPDO 1). cosim runs with --loopback:"
+explain "the outputs come back as inputs. The first write is held (the RPDO goes out only"
+explain "when every object in it has a value), the second sends the frame:"
+"$bin/cogwctl" watch 1 2 6000 1 --count 2 --duration 15 >"$work/watch.txt" 2>"$work/watch.err" &
+watch_pid=$!
+wait_for "the watch" 10 grep -q "watching 1 object" "$work/watch.err"
+printf '\n$ cogwctl watch 1 2 6000 1 --count 2 &\n'
+ctl dev write 1 2 6200 1 u8 3
+ctl dev write 1 2 6200 2 u8 5
+wait "$watch_pid" || fail "cogwctl watch ended with an error"
+cat "$work/watch.txt"
+grep -q "6000:01 UNSIGNED8 = 3" "$work/watch.txt" || fail "the written output did not come back as a watched input"
+explain "" "Reading: from the daemon's mirror when the value is fresh enough (here: up to a"
+explain "minute old; the line's default is 1 s), else by SDO (6200h is in no TPDO):"
+ctl dev read 1 2 6000 1 --max-age 60000
+ctl dev read 1 2 6200 2
+
 say "9. CiA 309-3 ASCII commands over a socket (cogw-ascii)"
 explain "cogw-ascii is one more mailbox client: it serves the CiA 309-3 ASCII command"
 explain "syntax (canopend's, coctl's) on a UNIX socket (and TCP if configured) to any"
@@ -272,6 +296,9 @@ explain "  SDO abort with its meaning, and set its heartbeat time 1017h to 250 m
 explain "- Started by the manager, the transducer sent $n_pdo pressure PDOs as live events (step 7)."
 explain "- As a gateway (step 8) cogwd relayed an SDO request entering on vcan0 to node 2 on"
 explain "  vcan1, forwarded an EMCY from vcan0 to vcan1, and the pressure by PDO to vcan1."
+explain "- Node 2's objects by their own names (step 8b): its PDO layout learnt over SDO,"
+explain "  mirrored on the daemon's PDOs; a watched input typed as it changed, outputs"
+explain "  written by the device's RPDO."
 explain "- socat, a plain tool, read the devices through cogw-ascii in the CiA 309-3 ASCII"
 explain "  syntax (step 9)."
 explain "- Everything went through the mailbox (POSIX message queues); nothing was left over."

@@ -100,7 +100,8 @@ static void print_layout_node(ctl *c, unsigned line, const uint8_t *buf, size_t 
 			else if (p.mirror_reason)
 				snprintf(mirror, sizeof mirror, "not mirrored: %s",
 					 mirror_reason_text(p.mirror_reason));
-			printf("  %s %-3u COB-ID %03" PRIX32 "h type %3u event %5u ms %u bytes  %s\n",
+			printf("  %s %-3u COB-ID %03" PRIX32
+			       "h type %3u event %5u ms %u bytes  %s\n",
 			       p.dir ? "TPDO" : "RPDO", p.nr, p.cob, p.tt, p.event_ms, p.bytes,
 			       mirror);
 		}
@@ -236,6 +237,52 @@ static double now_s(void)
 	return (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;
 }
 
+#define WATCH_MAX 256
+
+/* Every object the mirrored TPDOs of node a->obj.node carry (dummies
+ * aside): into objs, their count (or -exit code). */
+static int node_objects(ctl *c, cogw *h, const dev_args *a, mbx_dev_obj_req *objs)
+{
+	size_t cap = 1u << 20, len = 0;
+	uint8_t *buf = malloc(cap);
+	int n = 0;
+	char ctx[64];
+	snprintf(ctx, sizeof ctx, "PDO layout of node %u on line %u", a->obj.node, a->line);
+	if (!buf)
+		return -ctl_fail(c, COGW_E_NOMEM, 0, ctx);
+	int rc = cogw_dev_layout(h, a->line, a->obj.node, buf, cap, &len, c->timeout_ms);
+	if (rc == 0 && cogw_dev_layout_check(buf, len) != 1)
+		rc = COGW_E_PROTOCOL;
+	if (rc < 0) {
+		free(buf);
+		return -ctl_fail(c, rc, 0, ctx);
+	}
+	mbx_dev_layout_node nd;
+	memcpy(&nd, buf, sizeof nd);
+	size_t off = sizeof nd;
+	for (unsigned k = 0; k < (unsigned)nd.n_tpdo + nd.n_rpdo; k++) {
+		mbx_dev_layout_pdo p;
+		memcpy(&p, buf + off, sizeof p);
+		off += sizeof p;
+		for (unsigned i = 0; i < p.n; i++, off += sizeof(mbx_dev_layout_entry)) {
+			mbx_dev_layout_entry e;
+			memcpy(&e, buf + off, sizeof e);
+			if (!p.dir || !p.mirror_pdo || e.index <= 0x0007u || n >= WATCH_MAX)
+				continue;
+			objs[n++] = (mbx_dev_obj_req){ .node = a->obj.node,
+						       .index = e.index,
+						       .sub = e.sub };
+		}
+	}
+	free(buf);
+	if (n == 0)
+		return -ctl_usage_error(c,
+					"node %u on line %u has no mirrored TPDO ('cogwctl pdo "
+					"map %u %u' says why)",
+					a->obj.node, a->line, a->line, a->obj.node);
+	return n;
+}
+
 static int run_watch(ctl *c, int argc, char **argv)
 {
 	const char *pos[6], *interval = NULL, *count = NULL, *duration = NULL;
@@ -250,11 +297,17 @@ static int run_watch(ctl *c, int argc, char **argv)
 	if (c->help)
 		return ctl_print_help(&ctl_cmd_watch);
 	c->what = "watch";
-	if (n_pos < 4 || n_pos > 5)
-		return ctl_usage_error(c, "expected LINE NODE INDEX SUB [TYPE]");
+	if (n_pos != 2 && (n_pos < 4 || n_pos > 5))
+		return ctl_usage_error(c, "expected LINE NODE [INDEX SUB [TYPE]]");
 	dev_args a;
-	if ((rc = parse_object(c, pos, n_pos, &a)))
+	if (n_pos == 2) {
+		memset(&a, 0, sizeof a);
+		if (ctl_arg_line(c, pos[0], &a.line) < 0 ||
+		    ctl_arg_node(c, pos[1], &a.obj.node) < 0)
+			return CTL_EXIT_USAGE;
+	} else if ((rc = parse_object(c, pos, n_pos, &a))) {
 		return rc;
+	}
 	uint64_t interval_ms = 0, max = 0, seconds = 0;
 	if ((interval && ctl_arg_uint(c, interval, "--interval", UINT32_MAX, &interval_ms) < 0) ||
 	    (count && ctl_arg_uint(c, count, "--count", UINT32_MAX, &max) < 0) ||
@@ -265,17 +318,28 @@ static int run_watch(ctl *c, int argc, char **argv)
 	cogw *h = ctl_handle(c, &ex);
 	if (!h)
 		return ex;
-	char ctx[96];
-	context(&a, "watch", ctx, sizeof ctx);
-	mbx_dev_watch_resp resp;
-	uint32_t abort = 0;
-	rc = cogw_dev_watch(h, a.line, &a.obj, (uint32_t)interval_ms, &resp, c->timeout_ms, &abort);
-	if (rc < 0)
-		return ctl_fail(c, rc, abort, ctx);
-	fprintf(stderr,
-		"cogwctl watch: node %u %04X:%02X as %s, carried by its TPDO %u (COB-ID %03" PRIX32
-		"h)\n",
-		a.obj.node, a.obj.index, a.obj.sub, type_text(resp.type), resp.pdo, resp.cob_id);
+	static mbx_dev_obj_req objs[WATCH_MAX];
+	int n = 1;
+	objs[0] = a.obj;
+	if (n_pos == 2 && (n = node_objects(c, h, &a, objs)) < 0)
+		return -n;
+	for (int i = 0; i < n; i++) {
+		char ctx[96];
+		dev_args one = { .line = a.line, .obj = objs[i] };
+		context(&one, "watch", ctx, sizeof ctx);
+		mbx_dev_watch_resp resp;
+		uint32_t abort = 0;
+		rc = cogw_dev_watch(h, a.line, &objs[i], (uint32_t)interval_ms, &resp,
+				    c->timeout_ms, &abort);
+		if (rc < 0)
+			return ctl_fail(c, rc, abort, ctx);
+		fprintf(stderr,
+			"cogwctl watch: node %u %04X:%02X as %s, carried by its TPDO %u (COB-ID "
+			"%03" PRIX32 "h)\n",
+			objs[i].node, objs[i].index, objs[i].sub, type_text(resp.type), resp.pdo,
+			resp.cob_id);
+	}
+	fprintf(stderr, "cogwctl watch: watching %d object%s\n", n, n == 1 ? "" : "s");
 
 	struct sigaction sa = { .sa_handler = on_watch_signal }; /* no SA_RESTART */
 	sigemptyset(&sa.sa_mask);
@@ -301,18 +365,21 @@ static int run_watch(ctl *c, int argc, char **argv)
 		}
 		cogw_msg_release(&m);
 	}
-	cogw_dev_unwatch(h, a.line, &a.obj, c->timeout_ms);
+	for (int i = 0; i < n; i++)
+		cogw_dev_unwatch(h, a.line, &objs[i], c->timeout_ms);
 	return 0;
 }
 
 const ctl_cmd ctl_cmd_watch = {
 	.name = "watch",
-	.synopsis = "  watch LINE NODE INDEX SUB [TYPE]         a device object's values as they come\n",
-	.help = "usage: cogwctl watch LINE NODE INDEX SUB [TYPE] [--interval MS] [--count N]\n"
+	.synopsis =
+		"  watch LINE NODE [INDEX SUB [TYPE]]       device objects' values as they come\n",
+	.help = "usage: cogwctl watch LINE NODE [INDEX SUB [TYPE]] [--interval MS] [--count N]\n"
 		"                     [--duration S]\n"
 		"\n"
-		"Prints every value of object INDEX:SUB of node NODE that the daemon receives in\n"
-		"the node's TPDOs, decoded by its CiA 301 type (the one its file gives, else\n"
+		"Prints every value of object INDEX:SUB of node NODE (without INDEX SUB: of every\n"
+		"object its mirrored TPDOs carry) that the daemon receives in the node's TPDOs, "
+		"decoded by its CiA 301 type (the one its file gives, else\n"
 		"TYPE, else an unsigned number of the mapped size), with a sequence number (a\n"
 		"gap means values were lost). The node must have \"pdo\": \"auto\" and its TPDO\n"
 		"must have fitted the daemon's free PDOs ('cogwctl pdo map LINE NODE').\n"
@@ -322,6 +389,7 @@ const ctl_cmd ctl_cmd_watch = {
 		"\n"
 		"Examples:\n"
 		"  cogwctl watch 0 5 6000 1\n"
+		"  cogwctl watch 0 5 --json\n"
 		"  cogwctl watch 0 5 6401 1 i16 --interval 100 --json\n",
 	.run = run_watch,
 };
@@ -353,6 +421,8 @@ static int dev_read(ctl *c, cogw *h, const dev_args *a, uint32_t max_age)
 			cJSON_AddNumberToObject(o, "age_ms", v.age_ms);
 			cJSON_AddNumberToObject(o, "seq", v.seq);
 		}
+		if (t)
+			cJSON_AddStringToObject(o, "data_type", t->cia_name);
 		ctl_value_json(o, t, buf, len);
 		ctl_json_print(o);
 		return 0;

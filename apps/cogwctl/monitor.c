@@ -591,6 +591,8 @@ static void print_dev_value(const cogw_msg *m, const ctl_monitor_spec *spec, eve
 	cJSON_AddNumberToObject(out->o, "seq", v.seq);
 	cJSON_AddNumberToObject(out->o, "rx_time_us", (double)v.time_us);
 	cJSON_AddNumberToObject(out->o, "bits", v.bits);
+	if (t)
+		cJSON_AddStringToObject(out->o, "data_type", t->cia_name);
 	ctl_value_json(out->o, t, data, v.len);
 }
 

@@ -23,6 +23,9 @@ static void line_params(const cogw_line_config *lc, devobj_line_params *o)
 		const cogw_node *n = &lc->nodes[i];
 		if (n->pdo == COGW_PDO_AUTO)
 			o->mirror_nodes[n->id / 32u] |= 1u << (n->id % 32u);
+		/* the configuration lives as long as the daemon (a reload
+		 * checks a copy and keeps it) */
+		o->objects[n->id] = (devobj_node_objects){ .list = n->types, .n = n->n_types };
 	}
 }
 

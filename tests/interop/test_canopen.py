@@ -40,7 +40,20 @@ vcan0. It catches bugs that cosim, which runs our own core, would mirror.
     the "stop all" error reaction and after a Request NMT stop), both ways
     out of STOPPED (cogwctl manager start, cogwctl boot); a program update
     (cogwctl program) to a slave that refuses block transfer, delivered
-    and reported by segmented transfer.
+    and reported by segmented transfer;
+  - device objects on cogwd's third line (vcan2) with python-canopen
+    LocalNode devices whose EDS (written by the test) gives their PDOs: the
+    layouts from the files and the daemon's PDOs mirroring them (cogwctl pdo
+    map), a second node whose TPDOs exceed the daemon's free RPDOs reported
+    per PDO, a hand-written RPDO working next to the mirror, a cosim device
+    (a write by its RPDO looped back into a watched input, its synchronous
+    TPDO read from the mirror), our reset communication re-programming the
+    mirror (dev-mirror events); typed values of
+    every basic type byte-exact in watch events (event-driven, event-timer
+    and synchronous TPDOs); reads from the mirror and by SDO; writes by the
+    device's RPDO (held until complete) and by SDO, checked on the device;
+    the refusals (unknown object or node, wrong type, oversized value,
+    read-only object, full watch table) and a vanished watcher's cleanup.
 
 Output is in Unity's format (file:line:name:PASS/FAIL, then the summary
 line) so that tests/run-tests counts it like the C tests. Runs inside the
@@ -91,6 +104,13 @@ SLAVE_HB_MS = 200
 # the manager's heartbeat consumer time: generous, since the emulated VM
 # can stand still for a while under load (a loss stops the network)
 SLAVE_HB_TIMEOUT_MS = 3000
+DEV_LINE = 2       # cogwd's line with device objects (pdo "auto")
+DEV_IFACE = "vcan2"
+DEV_OWN_ID = 1
+DEV19 = 19         # cosim device (our core: the other side of the check)
+DEV20 = 20         # python-canopen device: every basic type in 11 TPDOs
+DEV21 = 21         # python-canopen device: its TPDOs find no free RPDO
+DEV_WATCHES = 21   # the line's watch table: exactly node 20's objects
 SDO_TIMEOUT_S = 5.0  # python-canopen, cogwd and cosim alike (slow VM)
 
 # ---------------------------------------------------------------------------
@@ -135,6 +155,9 @@ def run_test(fn):
         if RECORDER1.frames:
             print(f"  last frames on {MGR_IFACE}:")
             RECORDER1.dump()
+        if RECORDER2.frames:
+            print(f"  last frames on {DEV_IFACE}:")
+            RECORDER2.dump()
         print("  cogwd log:\n" + read_log("cogwd")[-800:])
         print("  cosim log:\n" + read_log("cosim")[-800:], flush=True)
         RESULTS.append(False)
@@ -240,12 +263,37 @@ CONFIG = {
             # its layout comes from its EDS at start-up; not booted (no SDO)
             {"id": FILE_ID, "boot": False, "eds": FILE_EDS},
         ],
+    }, {
+        # device objects (docs/devices.md): python-canopen devices on vcan2
+        # and a cosim device whose layouts come from the EDS files the test
+        # writes; RPDO 1 is written by hand (consumes 1F0h into 2100h), RPDO
+        # 2..14 and TPDO 1..5 are free for the mirror
+        "name": "line2", "interface": DEV_IFACE, "bitrate": 1000000, "node_id": DEV_OWN_ID,
+        "heartbeat_ms": 0,
+        "sdo_timeout_ms": int(SDO_TIMEOUT_S * 1000),
+        "rpdos": 14, "tpdos": 5,
+        "pdo": "auto", "pdo_scan_max": 16,
+        "device_objects": {"read_max_age_ms": 600000, "write_update_ms": 20,
+                           "watches": DEV_WATCHES},
+        "objects": [{"index": "0x2100", "name": "hand-mapped", "type": "UNSIGNED16",
+                     "access": "rww"}],
+        "values": [
+            {"index": "0x1600", "sub": 1, "value": "0x21000010"},
+            {"index": "0x1600", "sub": 0, "value": 1},
+            {"index": "0x1400", "sub": 1, "value": "0x1F0"},
+        ],
+        "nodes": [
+            {"id": DEV19, "eds": os.path.join(WORK, "dev19.eds")},
+            {"id": DEV20, "eds": os.path.join(WORK, "dev20.eds")},
+            {"id": DEV21, "eds": os.path.join(WORK, "dev21.eds")},
+        ],
     }],
 }
 
 
 def start_system():
     import json
+    write_device_files()
     os.makedirs(CONFIG["state_dir"], exist_ok=True)
     os.makedirs(os.path.join(WORK, "nv"), exist_ok=True)
     export_od(scan_device_od(FILE_ID), FILE_EDS, doc_type="eds")
@@ -288,15 +336,19 @@ def read_log(name):
         return ""
 
 
+def stop_process(p):
+    if p.poll() is None:
+        p.send_signal(signal.SIGTERM)
+        try:
+            p.wait(10)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()
+
+
 def stop_system():
-    for name, p in PROCS.items():
-        if p.poll() is None:
-            p.send_signal(signal.SIGTERM)
-            try:
-                p.wait(10)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
+    for p in PROCS.values():
+        stop_process(p)
     shutil.rmtree(WORK, ignore_errors=True)
 
 
@@ -1242,6 +1294,410 @@ def test_program_by_segmented_transfer_when_block_is_refused():
         local.remove_network()
 
 
+
+# ---------------------------------------------------------------------------
+# device objects: cogwd's line 2 (vcan2) with python-canopen devices
+
+NET2 = canopen.Network()
+RECORDER2 = Recorder()
+
+# The objects of node 20: (index, python-canopen type, CiA name, value,
+# the value's CiA 301 bytes at its type's size - what a watch event must
+# carry, computed here without cogw's code).
+def _le(v, n):
+    return (v & ((1 << (8 * n)) - 1)).to_bytes(n, "little")
+
+
+DEV20_OBJECTS = [
+    (0x2001, datatypes.BOOLEAN, "BOOLEAN", True, b"\x01"),
+    (0x2002, datatypes.INTEGER8, "INTEGER8", -100, _le(-100, 1)),
+    (0x2003, datatypes.INTEGER16, "INTEGER16", -12345, _le(-12345, 2)),
+    (0x2004, datatypes.INTEGER32, "INTEGER32", -123456789, _le(-123456789, 4)),
+    (0x2005, datatypes.REAL32, "REAL32", 1.5, struct.pack("<f", 1.5)),
+    (0x2006, datatypes.UNSIGNED32, "UNSIGNED32", 0xDEADBEEF, _le(0xDEADBEEF, 4)),
+    (0x2007, datatypes.INTEGER24, "INTEGER24", -1000000, _le(-1000000, 3)),
+    (0x2008, datatypes.UNSIGNED40, "UNSIGNED40", 0x0102030405, _le(0x0102030405, 5)),
+    (0x2009, datatypes.REAL64, "REAL64", -2.25, struct.pack("<d", -2.25)),
+    (0x200A, datatypes.INTEGER40, "INTEGER40", -2, _le(-2, 5)),
+    (0x200B, datatypes.UNSIGNED24, "UNSIGNED24", 0xABCDEF, _le(0xABCDEF, 3)),
+    (0x200C, datatypes.INTEGER48, "INTEGER48", -(1 << 47), _le(-(1 << 47), 6)),
+    (0x200D, datatypes.UNSIGNED16, "UNSIGNED16", 65535, _le(65535, 2)),
+    (0x200E, datatypes.INTEGER56, "INTEGER56", (1 << 55) - 1, _le((1 << 55) - 1, 7)),
+    (0x200F, datatypes.UNSIGNED8, "UNSIGNED8", 200, _le(200, 1)),
+    (0x2010, datatypes.INTEGER64, "INTEGER64", -(1 << 63) + 1, _le(-(1 << 63) + 1, 8)),
+    (0x2011, datatypes.UNSIGNED48, "UNSIGNED48", 0x123456789ABC, _le(0x123456789ABC, 6)),
+    (0x2012, datatypes.VISIBLE_STRING, "VISIBLE_STRING", "ok", b"ok"),
+    (0x2013, datatypes.UNSIGNED56, "UNSIGNED56", 0xFFEEDDCCBBAA99, _le(0xFFEEDDCCBBAA99, 7)),
+    (0x2014, datatypes.OCTET_STRING, "OCTET_STRING", b"\x5a", b"\x5a"),
+    (0x2015, datatypes.UNSIGNED64, "UNSIGNED64", 0xFEDCBA9876543210, _le(0xFEDCBA9876543210, 8)),
+]
+_BITS = {datatypes.BOOLEAN: 8, datatypes.VISIBLE_STRING: 16, datatypes.OCTET_STRING: 8}
+
+
+def _bits(dtype):
+    if dtype in _BITS:
+        return _BITS[dtype]
+    return ODVariable("x", 0, 0).STRUCT_TYPES[dtype].size * 8
+
+
+# Node 20's TPDOs: (nr, COB-ID, transmission type, event timer ms, indexes):
+# event-driven (254), event timer (255 + 100 ms) and synchronous (1).
+DEV20_TPDOS = [
+    (1, 0x180 + DEV20, 254, 0, [0x2001, 0x2002, 0x2003, 0x2004]),
+    (2, 0x280 + DEV20, 255, 100, [0x2005, 0x2006]),
+    (3, 0x380 + DEV20, 1, 0, [0x2007, 0x2008]),
+    (4, 0x480 + DEV20, 254, 0, [0x2009]),
+    (5, 0x1E0, 254, 0, [0x200A, 0x200B]),
+    (6, 0x1E1, 254, 0, [0x200C, 0x200D]),
+    (7, 0x1E2, 254, 0, [0x200E, 0x200F]),
+    (8, 0x1E3, 254, 0, [0x2010]),
+    (9, 0x1E4, 254, 0, [0x2011, 0x2012]),
+    (10, 0x1E5, 254, 0, [0x2013, 0x2014]),
+    (11, 0x1E6, 254, 0, [0x2015]),
+]
+# RPDOs: RPDO 1 two objects (a write is held until both have a value),
+# RPDO 2 a number and a 2-byte string; 2200h is mapped nowhere (written by SDO), 2300h read-only.
+DEV20_RPDOS = [
+    (1, 0x200 + DEV20, 254, [(0x2100, datatypes.UNSIGNED16), (0x2101, datatypes.INTEGER8)]),
+    (2, 0x300 + DEV20, 254, [(0x2102, datatypes.UNSIGNED32), (0x2103, datatypes.VISIBLE_STRING)]),
+]
+DEV21_TPDOS = [(1, 0x180 + DEV21, 254, 0, [0x2001]), (2, 0x280 + DEV21, 254, 0, [0x2002])]
+DEV21_RPDOS = [(1, 0x200 + DEV21, 254, [(0x2100, datatypes.UNSIGNED8)])]
+
+
+def _eds_var(index, name, dtype, access, default=None, sub=None):
+    sect = f"{index:04X}" if sub is None else f"{index:04X}sub{sub}"
+    lines = [f"[{sect}]", f"ParameterName={name}", "ObjectType=0x7",
+             f"DataType=0x{dtype:04X}", f"AccessType={access}", "PDOMapping=1"]
+    if default is not None:
+        lines.append(f"DefaultValue={default}")
+    return "\n".join(lines) + "\n"
+
+
+def _eds_pdo(comm, mapping, cob, tt, event_ms, entries, tpdo):
+    subs = [(0, 0x0005, "ro", 6 if tpdo else 5), (1, 0x0007, "rw", hex(cob)),
+            (2, 0x0005, "rw", tt), (3, 0x0006, "rw", 0), (5, 0x0006, "rw", event_ms)]
+    if tpdo:
+        subs.append((6, 0x0005, "rw", 0))
+    text = f"[{comm:04X}]\nParameterName=PDO communication\nObjectType=0x9\nSubNumber={len(subs)}\n"
+    for sub, dt, acc, val in subs:
+        text += (f"[{comm:04X}sub{sub}]\nParameterName=sub {sub}\nObjectType=0x7\n"
+                 f"DataType=0x{dt:04X}\nAccessType={acc}\nDefaultValue={val}\nPDOMapping=0\n")
+    text += (f"[{mapping:04X}]\nParameterName=PDO mapping\nObjectType=0x9\n"
+             f"SubNumber={len(entries) + 1}\n"
+             f"[{mapping:04X}sub0]\nParameterName=entries\nObjectType=0x7\nDataType=0x0005\n"
+             f"AccessType=rw\nDefaultValue={len(entries)}\nPDOMapping=0\n")
+    for i, (index, bits) in enumerate(entries, 1):
+        text += (f"[{mapping:04X}sub{i}]\nParameterName=entry {i}\nObjectType=0x7\n"
+                 f"DataType=0x0007\nAccessType=rw\nDefaultValue=0x{index:04X}00{bits:02X}\n"
+                 f"PDOMapping=0\n")
+    return text
+
+
+def device_eds(node_id, objects, tpdos, rpdos, extra=""):
+    """A CiA 306 EDS of a device with these objects and PDOs."""
+    text = (f"[FileInfo]\nFileName=dev{node_id}.eds\nFileVersion=1\nEDSVersion=4.0\n"
+            f"[DeviceInfo]\nVendorName=cogw tests\nVendorNumber=0x42\nProductNumber={node_id}\n"
+            "[1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\n"
+            "AccessType=ro\nDefaultValue=0x191\nPDOMapping=0\n")
+    types = {index: dtype for index, dtype in objects}
+    for nr, cob, tt, event_ms, indexes in tpdos:
+        text += _eds_pdo(0x1800 + nr - 1, 0x1A00 + nr - 1, cob, tt, event_ms,
+                         [(i, _bits(types[i])) for i in indexes], True)
+    for nr, cob, tt, entries, *deadline in rpdos:
+        text += _eds_pdo(0x1400 + nr - 1, 0x1600 + nr - 1, cob, tt, deadline[0] if deadline else 0,
+                         [(i, _bits(t)) for i, t in entries], False)
+        for i, t in entries:
+            types[i] = t
+            text += _eds_var(i, f"output {i:04X}", t, "rww",
+                             "--" if t == datatypes.VISIBLE_STRING else 0)
+    for index, dtype in objects:
+        if dtype == datatypes.VISIBLE_STRING:
+            text += _eds_var(index, f"input {index:04X}", dtype, "ro", "--")
+        elif dtype == datatypes.OCTET_STRING:
+            text += _eds_var(index, f"input {index:04X}", dtype, "ro", "00")
+        else:
+            text += _eds_var(index, f"input {index:04X}", dtype, "ro", 0)
+    return text + extra
+
+
+# The cosim device on vcan2: an input (2001h, looped back from the output
+# 2100h) and an INTEGER16 in an event-driven and a synchronous TPDO, the
+# output in an RPDO.
+COSIM19 = {
+    "name": "devobj-cosim", "node_id": DEV19, "heartbeat_ms": 0,
+    "objects": [
+        {"index": "0x2001", "type": "UNSIGNED8", "access": "rw", "pdo": True, "default": 0},
+        {"index": "0x2002", "type": "INTEGER16", "access": "rw", "pdo": True, "default": -7},
+        {"index": "0x2100", "type": "UNSIGNED8", "access": "rw", "pdo": True, "default": 0},
+    ],
+    "tpdos": [{"nr": 1, "transmission": 254, "map": ["0x2001:0:8", "0x2002:0:16"]},
+              {"nr": 2, "transmission": 1, "map": ["0x2002:0:16"]}],
+    "rpdos": [{"nr": 1, "transmission": 254, "event_ms": 400, "map": ["0x2100:0:8"]}],
+    "loopback": {"enabled": True, "pairs": [{"from": "0x2100:00", "to": "0x2001:00"}]},
+}
+DEV19_TPDOS = [(1, 0x180 + DEV19, 254, 0, [0x2001, 0x2002]), (2, 0x280 + DEV19, 1, 0, [0x2002])]
+DEV19_RPDOS = [(1, 0x200 + DEV19, 254, [(0x2100, datatypes.UNSIGNED8)], 400)]  # a deadline
+
+
+def write_device_files():
+    with open(os.path.join(WORK, "dev19.json"), "w") as f:
+        json.dump(COSIM19, f)
+    with open(os.path.join(WORK, "dev19.eds"), "w") as f:
+        f.write(device_eds(DEV19, [(0x2001, datatypes.UNSIGNED8), (0x2002, datatypes.INTEGER16)],
+                           DEV19_TPDOS, DEV19_RPDOS))
+    objs20 = [(i, t) for i, t, _, _, _ in DEV20_OBJECTS]
+    extra = (_eds_var(0x2200, "setting", datatypes.UNSIGNED32, "rw", 0x11)
+             + _eds_var(0x2300, "fixed", datatypes.UNSIGNED8, "ro", 7))
+    with open(os.path.join(WORK, "dev20.eds"), "w") as f:
+        f.write(device_eds(DEV20, objs20, DEV20_TPDOS, DEV20_RPDOS, extra))
+    with open(os.path.join(WORK, "dev21.eds"), "w") as f:
+        f.write(device_eds(DEV21, [(0x2001, datatypes.UNSIGNED8), (0x2002, datatypes.UNSIGNED8)],
+                           DEV21_TPDOS, DEV21_RPDOS))
+
+
+def local_device(node_id):
+    node = canopen.LocalNode(node_id, canopen.import_od(os.path.join(WORK, f"dev{node_id}.eds"),
+                                                        node_id))
+    NET2.add_node(node)
+    node.tpdo.read(from_od=True)
+    node.rpdo.read(from_od=True)
+    return node
+
+
+class Watch(Monitor):
+    """`cogwctl --json watch ...` in the background, its events collected
+    (Monitor's reading and waiting)."""
+
+    def __init__(self, *args):  # noqa: super().__init__ would start a monitor
+        argv = [os.path.join(BIN, "cogwctl"), "--instance", INSTANCE, "--json", "watch"] + list(args)
+        self.proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                     text=True, cwd=TOP)
+        self.events = []
+        self.said = []
+        while True:
+            said = self.proc.stderr.readline()
+            self.said.append(said)
+            if not said or "cogwctl watch: watching" in said:
+                break
+        check(said, f"cogwctl watch {args}: {''.join(self.said)}")
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def last(self, index):
+        got = [e for e in list(self.events) if e.get("index") == index]
+        return got[-1] if got else None
+
+
+def remote_on(net, node_id):
+    if node_id in net:
+        return net[node_id]
+    node = canopen.RemoteNode(node_id, ObjectDictionary())
+    node.sdo.RESPONSE_TIMEOUT = SDO_TIMEOUT_S
+    node.sdo.MAX_RETRIES = 1
+    net.add_node(node)
+    return node
+
+
+def dev_json(*args, check_rc=True):
+    r = ctl("--json", *args, check_rc=check_rc)
+    return json.loads(r.stdout) if r.stdout.strip() else {}, r
+
+
+def refused(args, code_text):
+    r = ctl(*args, check_rc=False)
+    check(r.returncode != 0, f"cogwctl {' '.join(args)} succeeded: {r.stdout}")
+    check(code_text in r.stderr, f"cogwctl {' '.join(args)}: {r.stderr.strip()!r} lacks {code_text!r}")
+
+
+def test_device_objects_mirror_values_and_writes():
+    line = str(DEV_LINE)
+    d20, d21 = local_device(DEV20), local_device(DEV21)
+    watch = None
+    log = open(os.path.join(WORK, "cosim-vcan2.log"), "w")
+    cosim19 = subprocess.Popen([os.path.join(BIN, "cosim"), "--interface", DEV_IFACE, "--device",
+                                os.path.join(WORK, "dev19.json"), "--autostart", "--loopback",
+                                "--sdo-timeout", str(int(SDO_TIMEOUT_S * 1000))],
+                               stdout=log, stderr=subprocess.STDOUT, cwd=TOP)
+    try:
+        step("the layouts from the EDS files and the daemon's PDOs mirroring them")
+        maps = [json.loads(x) for x in ctl("--json", "pdo", "map", line).stdout.splitlines()]
+        by_node = {m["node"]: m for m in maps}
+        n20, n21 = by_node[DEV20], by_node[DEV21]
+        eq(("file", True, "full"), (n20["source"], n20["valid"], n20["mirror"]), "node 20")
+        eq([(nr, cob, tt, ev) for nr, cob, tt, ev, _ in DEV20_TPDOS],
+           [(p["nr"], p["cob_id"], p["transmission_type"], p["event_ms"])
+            for p in n20["pdos"] if p["pdo"] == "tpdo"], "node 20 TPDOs learnt")
+        eq([[(i, 0, _bits(dict((o[0], o[1]) for o in DEV20_OBJECTS)[i])) for i in idx]
+            for _, _, _, _, idx in DEV20_TPDOS],
+           [[(e["index"], e["sub"], e["bits"]) for e in p["map"]]
+            for p in n20["pdos"] if p["pdo"] == "tpdo"], "node 20 TPDO mappings")
+        # the daemon's RPDO 1 is the configuration's, 2..3 went to node 19
+        # (node-ID order): node 20 has 4..14, node 21 none
+        eq(("file", True, "full"), (by_node[DEV19]["source"], by_node[DEV19]["valid"],
+                                    by_node[DEV19]["mirror"]), "node 19 (cosim)")
+        eq(list(range(4, 15)), sorted(p["mirror_pdo"] for p in n20["pdos"] if p["pdo"] == "tpdo"),
+           "daemon RPDOs mirroring node 20's TPDOs")
+        eq(2, len([p for p in n20["pdos"] if p["pdo"] == "rpdo" and p["mirror_pdo"]]),
+           "node 20 RPDOs produced by the daemon")
+        eq(("partial", 2, "no free PDO of the daemon"),
+           (n21["mirror"], n21.get("missing"), n21.get("reason")), "node 21 (exceeds)")
+        eq(["no free PDO of the daemon"] * 2,
+           [p.get("not_mirrored") for p in n21["pdos"] if p["pdo"] == "tpdo"],
+           "node 21 TPDOs not mirrored")
+        with open(os.path.join(WORK, "cogwd.log")) as f:
+            check("node 21: 2 of 3 PDOs not mirrored" in f.read(),
+                  "cogwd log does not report node 21's layout")
+
+        ctl("nmt", "start", line, "self")
+        step("the hand-written RPDO 1 works next to the mirror")
+        NET2.send_message(0x1F0, struct.pack("<H", 0x4321))
+        deadline = time.monotonic() + 5
+        while time.monotonic() < deadline:
+            if "17185" in ctl("pdo", "read", line, "2100", "0", "u16").stdout:
+                break
+            time.sleep(0.1)
+        else:
+            raise AssertionError("daemon's hand-mapped 2100h did not get 4321h")
+
+        step("typed values of every basic type, byte-exact in watch events")
+        watch = Watch(line, str(DEV20))
+        check(f"watching {len(DEV20_OBJECTS)} objects" in watch.said[-1], watch.said[-1])
+        values = {i: (cia, v, want) for i, _, cia, v, want in DEV20_OBJECTS}
+        for nr, _, tt, event_ms, indexes in DEV20_TPDOS:
+            t = d20.tpdo[nr]
+            for i in indexes:
+                t[i].raw = values[i][1]
+            if tt == 255:
+                t.start(event_ms / 1000.0)  # the event timer
+            elif tt <= 240:
+                NET2.sync.transmit()       # synchronous: after the SYNC
+                t.transmit()
+            else:
+                t.transmit()
+        for i, (cia, _, want) in values.items():
+            watch.wait(f"value of {i:04X}h", lambda i=i: watch.last(i) is not None)
+            e = watch.last(i)
+            eq((cia, want.hex(" ")), (e.get("data_type"), e.get("hex")), f"event of {i:04X}h")
+            eq(DEV20, e["node"], "event node")
+        watch.wait("3 event-timer values", lambda: len([e for e in list(watch.events)
+                                                         if e.get("index") == 0x2005]) >= 3)
+        seqs = [e["seq"] for e in list(watch.events) if e.get("index") == 0x2005]
+        eq(list(range(1, len(seqs) + 1)), seqs, "sequence numbers of 2005h")
+        d20.tpdo[2].stop()
+
+        step("refusals: unknown object and node, wrong type, full table")
+        refused(["watch", line, str(DEV20), "2999", "0", "--count", "1"], "not found")
+        refused(["watch", line, "99", "2001", "0", "--count", "1"], "not found")
+        refused(["watch", line, str(DEV21), "2001", "0", "--count", "1"], "state")
+        # the table is full with the first watcher's objects
+        refused(["watch", line, str(DEV20), "2003", "0", "--count", "1"], "full")
+        watch.stop()
+        watch = None
+        step("a vanished watcher's watches are gone: the table has room again")
+        r = ctl("--json", "watch", line, str(DEV20), "2003", "0", "i16", "--count", "1",
+                "--duration", "10")
+        e = json.loads(r.stdout.splitlines()[0])
+        eq((-12345, values[0x2003][2].hex(" ")), (e["value"], e["hex"]), "first value at once")
+        refused(["watch", line, str(DEV20), "2003", "0", "u8", "--count", "1"], "0x06070010")
+
+        step("read from the mirror, and by SDO")
+        d20.set_data(0x2003, 0, struct.pack("<h", 777))
+        v, _ = dev_json("dev", "read", line, str(DEV20), "2003", "0")
+        eq(("pdo", -12345, "INTEGER16"), (v["via"], v["value"], v["data_type"]), "mirror read")
+        check(v["age_ms"] >= 0, v)
+        v, _ = dev_json("dev", "read", line, str(DEV20), "2003", "0", "--sdo")
+        eq(("sdo", 777), (v["via"], v["value"]), "read by SDO (--sdo)")
+        v, _ = dev_json("dev", "read", line, str(DEV20), "2200", "0")
+        eq(("sdo", 0x11, "UNSIGNED32"), (v["via"], v["value"], v["data_type"]), "unmapped read")
+
+        step("write by the device's RPDO: held until both objects have a value")
+        mark = len(RECORDER2.frames)
+        v, _ = dev_json("dev", "write", line, str(DEV20), "2100", "0", "u16", "0x1234")
+        eq(("pdo", True, 1, 0x200 + DEV20), (v["via"], v["held"], v["rpdo"], v["cob_id"]),
+           "first write")
+        time.sleep(0.3)
+        eq([], [m for m in RECORDER2.frames[mark:] if m.arbitration_id == 0x200 + DEV20],
+           "no RPDO frame before every object has a value")
+        v, _ = dev_json("dev", "write", line, str(DEV20), "2101", "0", "i8", "-5")
+        eq(("pdo", False), (v["via"], v["held"]), "second write")
+        r1 = d20.rpdo[1]
+        deadline = time.monotonic() + 5
+        while time.monotonic() < deadline and not r1.is_received:
+            time.sleep(0.02)
+        eq((0x1234, -5), (r1[0x2100].raw, r1[0x2101].raw), "device's RPDO 1 values")
+        eq(["3412fb"], [bytes(m.data).hex() for m in RECORDER2.frames[mark:]
+                        if m.arbitration_id == 0x200 + DEV20], "RPDO 1 frames")
+
+        step("write by SDO: unmapped, and forced with --sdo")
+        v, _ = dev_json("dev", "write", line, str(DEV20), "2200", "0", "u32", "123456")
+        eq("sdo", v["via"], "unmapped write")
+        eq(struct.pack("<L", 123456), bytes(d20.get_data(0x2200, 0)), "2200h on the device")
+        v, _ = dev_json("dev", "write", line, str(DEV20), "2102", "0", "u32", "9", "--sdo")
+        eq("sdo", v["via"], "forced SDO write")
+        eq(struct.pack("<L", 9), bytes(d20.get_data(0x2102, 0)), "2102h on the device")
+
+        step("refusals of writes: wrong type, oversized value, read-only object")
+        refused(["dev", "write", line, str(DEV20), "2100", "0", "u32", "1"], "0x06070010")
+        refused(["dev", "write", line, str(DEV20), "2103", "0", "string", "abc"], "0x06070012")
+        mark = len(RECORDER2.frames)
+        refused(["dev", "write", line, str(DEV20), "2300", "0", "u8", "1"], "0x06010002")
+        eq([], [m for m in RECORDER2.frames[mark:] if m.arbitration_id == 0x600 + DEV20],
+           "SDO requests for a read-only object")
+
+        step("cosim: a write by its RPDO comes back (loopback) as a watched input")
+        w19 = Watch(line, str(DEV19), "2001", "0", "--count", "5", "--duration", "20")
+        try:
+            v, _ = dev_json("dev", "write", line, str(DEV19), "2100", "0", "u8", "77")
+            eq(("pdo", False, 1), (v["via"], v["held"], v["rpdo"]), "write to the cosim device")
+            w19.wait("the looped-back input", lambda: any(e.get("value") == 77 for e in w19.events))
+        finally:
+            w19.stop()
+        eq(b"\x4d", remote_on(NET2, DEV19).sdo.upload(0x2100, 0), "2100h on the cosim device")
+        step("cosim: its RPDO's deadline (400 ms) kept by the daemon without new writes")
+        mark = len(RECORDER2.frames)
+        time.sleep(1.5)
+        frames = [m for m in RECORDER2.frames[mark:] if m.arbitration_id == 0x200 + DEV19]
+        check(len(frames) >= 3, f"RPDO 1 of node 19 repeated {len(frames)} times in 1.5 s")
+        eq({"4d"}, {bytes(m.data).hex() for m in frames}, "the repeated frame")
+        eq([], [bytes(m.data).hex() for m in RECORDER2.frames[mark:]
+                if m.arbitration_id == 0x80 + DEV19], "EMCYs of node 19 (8250h: deadline missed)")
+        step("cosim: the synchronous TPDO after a SYNC, read from the mirror")
+        NET2.sync.transmit()
+        deadline = time.monotonic() + 5
+        while time.monotonic() < deadline:
+            v, _ = dev_json("dev", "read", line, str(DEV19), "2002", "0", "--max-age", "600000")
+            if v["via"] == "pdo":
+                break
+            time.sleep(0.2)
+        eq(("pdo", -7, "INTEGER16"), (v["via"], v["value"], v["data_type"]), "2002h from the mirror")
+
+        step("our own reset communication: the mirror programmed again, and reported")
+        mon = Monitor("manager", DEV_LINE)
+        try:
+            ctl("nmt", "reset-comm", line, "self")
+            mon.wait("dev-mirror events of nodes 19, 20 and 21",
+                     lambda: {e["node"] for e in mon.of("dev-mirror")} >= {DEV19, DEV20, DEV21})
+            got = {e["node"]: (e["mirror"], e["mirrored"], e["missing"])
+                   for e in mon.of("dev-mirror")}
+            eq({DEV19: ("full", 3, 0), DEV20: ("full", 13, 0), DEV21: ("partial", 1, 2)}, got,
+               "dev-mirror events")
+        finally:
+            mon.stop()
+        n20 = json.loads(ctl("--json", "pdo", "map", line, str(DEV20)).stdout)
+        eq(list(range(4, 15)), sorted(p["mirror_pdo"] for p in n20["pdos"] if p["pdo"] == "tpdo"),
+           "daemon RPDOs mirroring node 20 after the reset")
+    finally:
+        if watch:
+            watch.stop()
+        stop_process(cosim19)
+        log.close()
+        ctl("nmt", "preop", line, "self", check_rc=False)
+        for node in (d20, d21):
+            node.tpdo.stop()
+            NET2.nodes.pop(node.id, None)
+            node.remove_network()
+
+
 def main():
     logging.basicConfig(level=logging.CRITICAL)  # the tests report, not the library
     # a hang shows where it is: every thread's stack, every 5 minutes
@@ -1250,6 +1706,8 @@ def main():
     NET.connect(interface="socketcan", channel=IFACE)
     NET1.listeners.append(RECORDER1)
     NET1.connect(interface="socketcan", channel=MGR_IFACE)
+    NET2.listeners.append(RECORDER2)
+    NET2.connect(interface="socketcan", channel=DEV_IFACE)
     try:
         start_system()
         for t in (test_sdo_client_all_modes_and_sizes_against_cogwd_and_cosim,
@@ -1266,7 +1724,8 @@ def main():
                   test_pdo_layout_from_an_eds_equals_the_device,
                   # before the manager test: its end leaves line 1 stopped
                   test_program_by_segmented_transfer_when_block_is_refused,
-                  test_manager_no_sdo_while_network_stopped_and_both_ways_out):
+                  test_manager_no_sdo_while_network_stopped_and_both_ways_out,
+                  test_device_objects_mirror_values_and_writes):
             only = os.environ.get("COGW_TEST_ONLY")  # comma-separated substrings
             if only and not any(o in t.__name__ for o in only.split(",")):
                 continue
@@ -1278,6 +1737,7 @@ def main():
     finally:
         NET.disconnect()
         NET1.disconnect()
+        NET2.disconnect()
         stop_system()
     failed = RESULTS.count(False)
     print("\n-----------------------")

@@ -337,6 +337,16 @@ void test_mirror_consumes_every_tpdo_and_produces_the_rpdo(void)
 	TEST_ASSERT_EQUAL(0, co_od_get_i8(sp->od, 0x2101, 0, &i8));
 	TEST_ASSERT_EQUAL_HEX16(0xBEEF, u16);
 	TEST_ASSERT_EQUAL(-7, i8);
+
+	/* a deadline of the slave's RPDO is kept: the TPDO repeats by itself */
+	TEST_ASSERT_EQUAL_HEX32(0, devobj_mirror_keep_sending(&mirror, t, 50));
+	uint16_t ev_ms = 0;
+	TEST_ASSERT_EQUAL(0, co_od_get_u16(dp->od, (uint16_t)(0x1800 + t->nr - 1), 5, &ev_ms));
+	TEST_ASSERT_EQUAL(50, ev_ms);
+	TEST_ASSERT_EQUAL(0, co_pdo_tpdo_event(dp->node, t->nr, bus.now));
+	size_t before = tb_count_from_id(&bus, dp->idx, 0x205, 0);
+	tb_advance(&bus, 210000);
+	TEST_ASSERT_TRUE(tb_count_from_id(&bus, dp->idx, 0x205, 0) >= before + 4);
 }
 
 void test_mirror_reports_what_does_not_fit(void)
