@@ -157,6 +157,14 @@ $(SAN_ASCII_LIB): $(call obj,$(SAN),$(ASCII_LIB_SRC))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 
+# The MQTT bridge's request decoder and configuration loader: linked into the unit
+# tests and the fuzz targets as well as into apps/cogw-mqtt (no libmosquitto in them).
+MQTT_LIB_SRC := apps/cogw-mqtt/mqtt_request.c apps/cogw-mqtt/mqtt_config.c
+SAN_MQTT_LIB := $(SAN)/lib/libcogw_mqtt.a
+$(SAN_MQTT_LIB): $(call obj,$(SAN),$(MQTT_LIB_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
 $(REL_APPCOMMON_LIB): $(call obj,$(REL),$(APPCOMMON_SRC) $(APPCOMMON_GEN))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
@@ -167,18 +175,22 @@ $(SAN_APPCOMMON_LIB): $(call obj,$(SAN),$(APPCOMMON_SRC) $(APPCOMMON_GEN))
 
 # ---- programs: apps/<name>/*.c -> build/<cfg>/bin/<name> -----------------------
 # The sanitizer build of the programs is what the integration tests run.
+# PROGRAM_SRC_<name>: sources of other directories a program links too;
+# PROGRAM_LIBS_<name>: system libraries only it needs.
+PROGRAM_SRC_cogw-mqtt := apps/cogw-ascii/ascii_value.c
+PROGRAM_LIBS_cogw-mqtt := $(shell pkg-config --libs libmosquitto 2>/dev/null || echo -lmosquitto)
 define program_rules
-$(REL)/bin/$(1): $(call obj,$(REL),$(wildcard apps/$(1)/*.c)) $$(REL_LIBS)
+$(REL)/bin/$(1): $(call obj,$(REL),$(wildcard apps/$(1)/*.c) $(PROGRAM_SRC_$(1))) $$(REL_LIBS)
 	@mkdir -p $$(@D)
-	$$(CC) -o $$@ $$^ $$(SYS_LIBS)
-$(SAN)/bin/$(1): $(call obj,$(SAN),$(wildcard apps/$(1)/*.c)) $$(SAN_LIBS)
+	$$(CC) -o $$@ $$^ $$(PROGRAM_LIBS_$(1)) $$(SYS_LIBS)
+$(SAN)/bin/$(1): $(call obj,$(SAN),$(wildcard apps/$(1)/*.c) $(PROGRAM_SRC_$(1))) $$(SAN_LIBS)
 	@mkdir -p $$(@D)
-	$$(CC) $$(SAN_LDFLAGS) -o $$@ $$^ $$(SYS_LIBS)
+	$$(CC) $$(SAN_LDFLAGS) -o $$@ $$^ $$(PROGRAM_LIBS_$(1)) $$(SYS_LIBS)
 endef
 $(foreach p,$(PROGRAMS),$(eval $(call program_rules,$(p))))
 
 # ---- tests ---------------------------------------------------------------------
-$(SAN)/tests/unit/%: $(SAN)/obj/tests/unit/%.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_ASCII_LIB) $(SAN_LIBS)
+$(SAN)/tests/unit/%: $(SAN)/obj/tests/unit/%.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_MQTT_LIB) $(SAN_ASCII_LIB) $(SAN_LIBS)
 	@mkdir -p $(@D)
 	$(CC) $(SAN_LDFLAGS) -o $@ $^ $(SYS_LIBS)
 
@@ -297,7 +309,7 @@ fuzz: $(FUZZ_BINS)
 # apps/common checks 1F2Ch entries with the gateway's own rules (route.c,
 # convention.c: core/ only below them)
 FUZZ_GATEWAY_SRC := gateway/route.c gateway/convention.c
-build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) $(FUZZ_GATEWAY_SRC) mailbox/proto.c $(ASCII_LIB_SRC)
+build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) $(FUZZ_GATEWAY_SRC) mailbox/proto.c $(ASCII_LIB_SRC) $(MQTT_LIB_SRC)
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -o $@ $(filter %.c,$^) $(SYS_LIBS)
 else
