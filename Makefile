@@ -237,10 +237,17 @@ check-callgraph:
 
 # Interoperability with python-canopen (tests/interop/): one VM boot for the group.
 # scripts/pyenv.sh installs the pinned packages into build/pyenv on first use.
-INTEROP_TESTS := tests/interop/run
+# tests/interop/run-mqtt: the MQTT bridge against mosquitto and paho-mqtt, in the same boot.
+INTEROP_TESTS := tests/interop/run tests/interop/run-mqtt
 interop: $(SAN_PROGRAM_BINS)
 	@scripts/pyenv.sh
 	tests/vcan/run -n 3 -- env COGW_TEST_TIMEOUT=$${COGW_INTEROP_TIMEOUT:-1800} tests/run-tests interop $(INTEROP_TESTS)
+
+# The MQTT group alone (one VM boot).
+.PHONY: interop-mqtt
+interop-mqtt: $(SAN_PROGRAM_BINS)
+	@scripts/pyenv.sh
+	tests/vcan/run -n 3 -- tests/run-tests mqtt tests/interop/run-mqtt
 
 # The whole suite: set-up if needed, build, unit tests, then integration tests on
 # 3 vcan lines and the interoperability group in the same VM boot; one closing
@@ -328,9 +335,10 @@ BENCH_CORE_BINS := $(filter-out $(BENCH_VCAN_BINS),$(BENCH_BINS))
 BENCH_SUP_OBJS  := $(call obj,$(REL),$(sort $(wildcard tests/bench/support/*.c)) tests/integration/support/proc.c tests/integration/support/sdo_req.c)
 BENCH_OUT := build/bench/output.txt
 
+# bench_vcan_mqtt is a libmosquitto client (linked only where used: --as-needed).
 $(REL)/tests/bench/%: $(REL)/obj/tests/bench/%.o $(BENCH_SUP_OBJS) $(REL_LIBS)
 	@mkdir -p $(@D)
-	$(CC) -o $@ $^ $(SYS_LIBS)
+	$(CC) -Wl,--as-needed -o $@ $^ $(PROGRAM_LIBS_cogw-mqtt) $(SYS_LIBS)
 
 # The cost breakdown behind docs/fastpath.md: system calls and context
 # switches per mailbox round trip and per event, counted with strace in the
@@ -377,6 +385,10 @@ install: all
 	install -m 644 etc/cogw-ascii.socket $(DESTDIR)$(UNITDIR)/cogw-ascii.socket
 	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-ascii.json || sed 's|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-ascii.json \
 		> $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-ascii.json
+	sed 's|/usr/local/bin/cogw-mqtt|$(PREFIX)/bin/cogw-mqtt|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-mqtt.service \
+		> $(DESTDIR)$(UNITDIR)/cogw-mqtt.service
+	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-mqtt.json || sed 's|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-mqtt.json \
+		> $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-mqtt.json
 	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/transducer.dcf || install -m 644 etc/transducer.dcf $(DESTDIR)$(SYSCONFDIR)/cogw/transducer.dcf
 
 deps:

@@ -23,8 +23,8 @@
 #define EPOLL_TAG_SIGNAL 0u
 #define EPOLL_TAG_MAILBOX 1u
 /* the bridge's own mailbox requests under way at once: node table,
- * mailbox and gateway counters of every line */
-#define INTERNAL_SLOTS(n_lines) (3u * (n_lines) + 2u)
+ * mailbox and gateway counters of every line, boot diagnostics of nodes */
+#define INTERNAL_SLOTS(n_lines) (8u * (n_lines) + 8u)
 
 uint64_t bridge_now_ms(void)
 {

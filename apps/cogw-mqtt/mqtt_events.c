@@ -185,6 +185,44 @@ static void on_mgr_boot(bridge *b, unsigned line, const mbx_ev_mgr *e)
 	link_publish_json(b, t, o, true, NULL);
 }
 
+/* The boot status of a node the manager booted before the bridge was
+ * there (MGR_NODE_DIAG): the same topic, from the node's last boot. */
+static void on_node_diag(bridge *b, unsigned line, const cogw_msg *m)
+{
+	mbx_mgr_node_diag d;
+	cJSON *o;
+	char t[TOPIC_MAX], st[2];
+
+	if (m->len < offsetof(mbx_mgr_node_diag, emcy))
+		return;
+	memset(&d, 0, sizeof d);
+	memcpy(&d, m->data, m->len < sizeof d ? m->len : sizeof d);
+	node_state *ns = node_of(b, line, d.node);
+
+	/* a boot event came meanwhile, or the manager never tried this node */
+	if (ns->boot_json || d.node < 1 || d.node > 127 || (!d.booted && !d.status && !d.booting))
+		return;
+	o = head(b, line, d.node);
+	st[0] = d.status;
+	st[1] = 0;
+	cJSON_AddStringToObject(o, "step", co_mgr_step_to_string(d.step));
+	cJSON_AddBoolToObject(o, "ok", !d.status || d.status == 'L');
+	cJSON_AddBoolToObject(o, "done", d.booted);
+	cJSON_AddStringToObject(o, "status", st);
+	if (d.status)
+		cJSON_AddStringToObject(o, "status_text", co_mgr_status_to_string(d.status));
+	add_hex(o, "index", d.index, 4);
+	cJSON_AddNumberToObject(o, "sub", d.sub);
+	add_hex(o, "abort", d.abort, 8);
+	cJSON_AddNumberToObject(o, "value", d.value);
+	cJSON_AddNumberToObject(o, "boot_count", d.boot_count);
+	cJSON_AddNumberToObject(o, "fail_count", d.fail_count);
+	cJSON_AddNumberToObject(o, "boot_time_ms", (double)(d.boot_time_us / 1000u));
+	ns->boot_json = cJSON_PrintUnformatted(o);
+	node_topic(b, line, d.node, "boot", t, sizeof t);
+	link_publish_json(b, t, o, true, NULL);
+}
+
 static void on_mgr_state(bridge *b, unsigned line, const mbx_ev_mgr *e)
 {
 	cJSON *o = head(b, line, -1);
@@ -311,6 +349,11 @@ static void on_node_table(bridge *b, unsigned line, const cogw_msg *m)
 		bool changed = !ns->known || ns->nmt != e.nmt_state;
 		uint8_t hb = e.hb == 3 ? 0 : e.hb;
 
+		if (!ns->boot_json && b->cfg.pub_boot && b->daemon.lines[line].manager.enabled) {
+			mbx_mgr_node_req q = { .node = e.node };
+
+			bridge_send_internal(b, line, MBX_CMD_MGR_NODE_DIAG, &q, sizeof q);
+		}
 		ns->known = true;
 		ns->nmt = e.nmt_state;
 		if (changed && b->cfg.pub_nmt)
@@ -325,13 +368,22 @@ static void on_node_table(bridge *b, unsigned line, const cogw_msg *m)
 
 #define ADD_U64(o, s, f) cJSON_AddNumberToObject(o, #f, (double)(s).f)
 
-static void on_mbx_stats(bridge *b, unsigned line, const cogw_msg *m)
+/* The mailbox server answers MBX_STATS itself, at once, and libcogw has
+ * no asynchronous form for such commands: a short blocking call (the
+ * daemon gone answers NO_DAEMON at once). */
+static void publish_mbx_stats(bridge *b, unsigned line)
 {
-	mbx_stats_wire s = { 0 };
-	cJSON *o = head(b, line, -1), *c = cJSON_AddObjectToObject(o, "mailbox");
+	mbx_stats_wire s;
+	cJSON *o, *c;
 	char t[TOPIC_MAX];
+	int rc = cogw_mbx_stats(b->h, line, &s, 500);
 
-	memcpy(&s, m->data, m->len < sizeof s ? m->len : sizeof s);
+	if (rc) {
+		b->st.mbx_errors++;
+		return;
+	}
+	o = head(b, line, -1);
+	c = cJSON_AddObjectToObject(o, "mailbox");
 	ADD_U64(c, s, commands_ok);
 	ADD_U64(c, s, malformed);
 	ADD_U64(c, s, access_denied);
@@ -387,10 +439,10 @@ void events_on_internal(bridge *b, pending *p, const cogw_msg *m)
 	}
 	if (p->cmd == MBX_CMD_NODE_TABLE)
 		on_node_table(b, p->line, m);
-	else if (p->cmd == MBX_CMD_MBX_STATS)
-		on_mbx_stats(b, p->line, m);
 	else if (p->cmd == MBX_CMD_GW_ROUTES)
 		on_gw_status(b, p->line, m);
+	else if (p->cmd == MBX_CMD_MGR_NODE_DIAG)
+		on_node_diag(b, p->line, m);
 }
 
 static void publish_bridge_counters(bridge *b)
@@ -421,6 +473,18 @@ static void publish_bridge_counters(bridge *b)
 	ADD_U64(c, b->st, failed);
 	ADD_U64(c, b->st, timed_out);
 	ADD_U64(c, b->st, mbx_errors);
+	/* what libcogw lost or could not match (docs/mailbox.md) */
+	cogw_stats ls;
+	size_t under_way = 0;
+
+	cogw_get_stats(b->h, &ls);
+	for (size_t i = 0; i < b->n_pend; i++)
+		under_way += b->pend[i].used;
+	cJSON_AddNumberToObject(c, "under_way", (double)under_way);
+	cJSON_AddNumberToObject(c, "unacked", b->unacked);
+	cJSON_AddNumberToObject(c, "mailbox_dropped", (double)ls.dropped_reported);
+	cJSON_AddNumberToObject(c, "mailbox_async_dropped", (double)ls.async_dropped);
+	cJSON_AddNumberToObject(c, "mailbox_stray", (double)ls.stray_responses);
 	snprintf(t, sizeof t, "%s/%s/counters", b->cfg.topic_prefix, b->cfg.gateway);
 	link_publish_json(b, t, o, false, NULL);
 }
@@ -484,7 +548,7 @@ void events_service(bridge *b)
 		b->next_counters_ms = now + 1000ull * b->cfg.counters_period_s;
 		publish_bridge_counters(b);
 		for (unsigned l = 0; l < b->daemon.n_lines; l++) {
-			bridge_send_internal(b, l, MBX_CMD_MBX_STATS, NULL, 0);
+			publish_mbx_stats(b, l);
 			bridge_send_internal(b, l, MBX_CMD_GW_ROUTES, NULL, 0);
 		}
 		/* a state change lost with an overflowed event queue is repaired here */

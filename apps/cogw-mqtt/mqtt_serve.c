@@ -51,6 +51,9 @@ int bridge_send_internal(bridge *b, unsigned line, uint16_t cmd, const void *pay
 
 		if (rc < 0) {
 			b->st.mbx_errors++;
+			if (b->verbose > 1)
+				fprintf(stderr, "cogw-mqtt: line %u: command 0x%04X: %s\n", line,
+					cmd, cogw_strerror(rc));
 			return rc;
 		}
 		p->used = p->internal = true;

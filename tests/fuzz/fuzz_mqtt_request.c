@@ -58,7 +58,8 @@ int fuzz_mqtt_request_one(const uint8_t *data, size_t size)
 	if (rc != MQTT_REQ_OK && rc != MQTT_REQ_MALFORMED && rc != MQTT_REQ_BAD_OP &&
 	    rc != MQTT_REQ_BAD_FIELD)
 		return 2;
-	if (memchr(r.id, 0, sizeof r.id) == NULL || memchr(r.reply_to, 0, sizeof r.reply_to) == NULL)
+	if (memchr(r.id, 0, sizeof r.id) == NULL ||
+	    memchr(r.reply_to, 0, sizeof r.reply_to) == NULL)
 		return 3;
 	if (strpbrk(r.reply_to, "+#") || r.reply_to[0] == '$')
 		return 4;

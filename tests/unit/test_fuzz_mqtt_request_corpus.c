@@ -43,18 +43,22 @@ static void test_refusals_name_the_field(void)
 		int rc;
 		const char *reason;
 	} cases[] = {
-		{ "{\"op\":\"sdo_read\",\"net\":1,\"node\":128,\"index\":1,\"sub\":0,\"type\":\"u8\"}",
+		{ "{\"op\":\"sdo_read\",\"net\":1,\"node\":128,\"index\":1,\"sub\":0,\"type\":"
+		  "\"u8\"}",
 		  MQTT_REQ_BAD_FIELD, "node: 128 is out of range" },
-		{ "{\"op\":\"sdo_read\",\"net\":0,\"node\":1,\"index\":1,\"sub\":0,\"type\":\"u8\"}",
+		{ "{\"op\":\"sdo_read\",\"net\":0,\"node\":1,\"index\":1,\"sub\":0,\"type\":"
+		  "\"u8\"}",
 		  MQTT_REQ_BAD_FIELD, "net: 0 is out of range" },
-		{ "{\"op\":\"sdo_write\",\"net\":1,\"node\":1,\"index\":1,\"sub\":0,\"type\":\"i8\","
+		{ "{\"op\":\"sdo_write\",\"net\":1,\"node\":1,\"index\":1,\"sub\":0,\"type\":"
+		  "\"i8\","
 		  "\"value\":-129}",
 		  MQTT_REQ_BAD_FIELD, "value: out of the range of i8" },
-		{ "{\"op\":\"sdo_write\",\"net\":1,\"node\":1,\"index\":1,\"sub\":0,\"type\":\"u64\","
+		{ "{\"op\":\"sdo_write\",\"net\":1,\"node\":1,\"index\":1,\"sub\":0,\"type\":"
+		  "\"u64\","
 		  "\"value\":1e300}",
 		  MQTT_REQ_BAD_FIELD, "value: an integer type needs an integer" },
-		{ "{\"op\":\"nmt\",\"net\":1,\"node\":0,\"command\":\"reboot\"}", MQTT_REQ_BAD_FIELD,
-		  "command: \"reboot\" is not one of" },
+		{ "{\"op\":\"nmt\",\"net\":1,\"node\":0,\"command\":\"reboot\"}",
+		  MQTT_REQ_BAD_FIELD, "command: \"reboot\" is not one of" },
 		{ "{\"op\":\"sdo_read\",\"reply_to\":\"a/+/b\"}", MQTT_REQ_BAD_FIELD, "reply_to:" },
 		{ "{\"id\":\"x\"}", MQTT_REQ_BAD_OP, "op: required key is missing" },
 		{ "\"op\"", MQTT_REQ_MALFORMED, "must be an object" },
@@ -74,7 +78,8 @@ static void test_refusal_keeps_the_return_path(void)
 {
 	static mqtt_request r;
 	char err[512];
-	const char *p = "{\"id\":42,\"reply_to\":\"plant/replies/7\",\"op\":\"sdo_read\",\"net\":1}";
+	const char *p =
+		"{\"id\":42,\"reply_to\":\"plant/replies/7\",\"op\":\"sdo_read\",\"net\":1}";
 
 	TEST_ASSERT_EQUAL_INT(MQTT_REQ_BAD_FIELD,
 			      mqtt_request_decode(p, strlen(p), 4096, &r, err, sizeof err));
@@ -89,23 +94,23 @@ static void test_values_encode_as_the_type_says(void)
 	const char *p = "{\"op\":\"sdo_write\",\"net\":2,\"node\":5,\"index\":\"0x2001\",\"sub\":3,"
 			"\"type\":\"u32\",\"value\":\"0x12345678\"}";
 
-	TEST_ASSERT_EQUAL_INT(MQTT_REQ_OK, mqtt_request_decode(p, strlen(p), 4096, &r, err,
-							       sizeof err));
+	TEST_ASSERT_EQUAL_INT(MQTT_REQ_OK,
+			      mqtt_request_decode(p, strlen(p), 4096, &r, err, sizeof err));
 	TEST_ASSERT_EQUAL_UINT16(0x2001, r.index);
 	TEST_ASSERT_EQUAL_UINT(4, r.value_len);
 	TEST_ASSERT_EQUAL_HEX8(0x78, r.value[0]);
 	TEST_ASSERT_EQUAL_HEX8(0x12, r.value[3]);
 	p = "{\"op\":\"sdo_write\",\"net\":2,\"node\":5,\"index\":8193,\"sub\":0,\"type\":\"r32\","
 	    "\"value\":1.5}";
-	TEST_ASSERT_EQUAL_INT(MQTT_REQ_OK, mqtt_request_decode(p, strlen(p), 4096, &r, err,
-							       sizeof err));
+	TEST_ASSERT_EQUAL_INT(MQTT_REQ_OK,
+			      mqtt_request_decode(p, strlen(p), 4096, &r, err, sizeof err));
 	float f;
 	memcpy(&f, r.value, 4);
 	TEST_ASSERT_EQUAL_FLOAT(1.5f, f);
 	p = "{\"op\":\"sdo_write\",\"net\":2,\"node\":5,\"index\":8193,\"sub\":0,\"type\":\"vs\","
 	    "\"value\":\"abc\"}";
-	TEST_ASSERT_EQUAL_INT(MQTT_REQ_OK, mqtt_request_decode(p, strlen(p), 4096, &r, err,
-							       sizeof err));
+	TEST_ASSERT_EQUAL_INT(MQTT_REQ_OK,
+			      mqtt_request_decode(p, strlen(p), 4096, &r, err, sizeof err));
 	TEST_ASSERT_EQUAL_UINT(3, r.value_len);
 	TEST_ASSERT_EQUAL_MEMORY("abc", r.value, 3);
 }
