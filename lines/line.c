@@ -580,6 +580,11 @@ uint64_t line_loop_now_us(const line *l)
 	return l->now_us;
 }
 
+co_pdo_layout *line_pdo_layout(line *l)
+{
+	return l->p.pdo_layout;
+}
+
 const char *line_name(const line *l)
 {
 	return l->name;

@@ -47,6 +47,10 @@ typedef struct line_params {
 	                           * thread has storage work (-1 = none) */
 	line_ext ext[LINE_EXT_MAX]; /* extensions (lines/line_ext.h), in
 	                             * order; entries with ops NULL unused */
+	co_pdo_layout *pdo_layout;  /* the slaves' learned PDO layouts
+	                             * (core/pdo_layout.h), used by the line's
+	                             * extensions on its thread; owned by the
+	                             * caller, outlives the line; NULL = none */
 } line_params;
 
 /* Counters published by the line thread about once per second. */

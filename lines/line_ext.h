@@ -52,6 +52,7 @@
 #include <stdint.h>
 
 #include "core/co.h"
+#include "core/pdo_layout.h"
 #include "core/sdo_client.h"
 #include "mailbox/server.h"
 
@@ -99,5 +100,9 @@ uint8_t line_index(const line *l);
 uint16_t line_network_id(const line *l);
 /* The time of the current loop iteration (the one the core got). */
 uint64_t line_loop_now_us(const line *l);
+/* The slaves' PDO layouts the line was given (line_params.pdo_layout), or
+ * NULL. The manager's PDO layout step fills it, the device object layer
+ * reads it; both on the line thread. */
+co_pdo_layout *line_pdo_layout(line *l);
 
 #endif /* COGW_LINES_LINE_EXT_H */

@@ -15,6 +15,13 @@
 #include <sys/resource.h>
 
 /* Pin every payload layout: a change here is a protocol change. */
+_Static_assert(sizeof(mbx_dev_obj_req) == 8, "wire layout");
+_Static_assert(sizeof(mbx_dev_node_req) == 4, "wire layout");
+_Static_assert(sizeof(mbx_dev_watch_req) == 12, "wire layout");
+_Static_assert(sizeof(mbx_dev_watch_resp) == 8, "wire layout");
+_Static_assert(sizeof(mbx_dev_read_req) == 12, "wire layout");
+_Static_assert(sizeof(mbx_dev_value) == 32, "wire layout");
+_Static_assert(sizeof(mbx_dev_write_resp) == 8, "wire layout");
 _Static_assert(sizeof(mbx_register_req) == 140, "wire layout");
 _Static_assert(sizeof(mbx_register_resp) == 32, "wire layout");
 _Static_assert(sizeof(mbx_raw_filter) == 8, "wire layout");
@@ -306,6 +313,8 @@ const char *mbx_event_class_to_string(uint32_t cls)
 		return "time";
 	case MBX_EVC_PDO_FAULT:
 		return "pdo-fault";
+	case MBX_EVC_VALUE:
+		return "value";
 	case MBX_EVC_OVERFLOW:
 		return "overflow";
 	}
@@ -347,6 +356,8 @@ const char *mbx_event_to_string(unsigned code)
 		return "sync";
 	case MBX_EV_TIME:
 		return "time";
+	case MBX_EV_DEV_VALUE:
+		return "dev-value";
 	case MBX_EV_EMCY:
 		return "emcy";
 	case MBX_EV_RAW:
@@ -396,6 +407,8 @@ uint32_t mbx_event_class_of(unsigned code)
 		return MBX_EVC_SYNC;
 	case MBX_EV_TIME:
 		return MBX_EVC_TIME;
+	case MBX_EV_DEV_VALUE:
+		return MBX_EVC_VALUE;
 	case MBX_EV_EMCY:
 		return MBX_EVC_EMCY;
 	case MBX_EV_RAW:
@@ -756,6 +769,37 @@ static int check_gw_sdo_req(uint16_t code, const uint8_t *p, size_t len, mbx_bad
 }
 
 /* MGR_BOOT takes node 0 (all nodes), MGR_NODE_DIAG one node. */
+/* The fixed part of every DEV_* command that names one object; the watch
+ * and read requests begin with it. A co_type is one of CiA 301's basic
+ * types (0001h..001Bh) or 0. */
+static int check_dev_obj(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_dev_obj_req r;
+
+	(void)code;
+	(void)len;
+	memcpy(&r, p, sizeof r);
+	if (r.flags & ~(unsigned)MBX_DEV_SDO_ONLY)
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (r.node < 1 || r.node > 127 || r.type > 0x1B)
+		return refuse(bad, MBX_BAD_PARAM);
+	return 0;
+}
+
+static int check_dev_node(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_dev_node_req r;
+
+	(void)code;
+	(void)len;
+	memcpy(&r, p, sizeof r);
+	if (!all_zero(r.pad, sizeof r.pad))
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (r.node > 127)
+		return refuse(bad, MBX_BAD_PARAM);
+	return 0;
+}
+
 static int check_mgr_node_req(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
 {
 	mbx_mgr_node_req r;
@@ -940,6 +984,11 @@ static const mbx_cmd_info cmd_table[] = {
 	{ MBX_CMD_GW_SDO_UPLOAD, R, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-upload", check_gw_sdo_req },
 	{ MBX_CMD_GW_SDO_DOWNLOAD, W | D, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-download",
 	  check_gw_sdo_req },
+	{ MBX_CMD_DEV_LAYOUT, R, sizeof(mbx_dev_node_req), 0, "dev-layout", check_dev_node },
+	{ MBX_CMD_DEV_WATCH, R, sizeof(mbx_dev_watch_req), 0, "dev-watch", check_dev_obj },
+	{ MBX_CMD_DEV_UNWATCH, R, sizeof(mbx_dev_obj_req), 0, "dev-unwatch", check_dev_obj },
+	{ MBX_CMD_DEV_READ, R, sizeof(mbx_dev_read_req), 0, "dev-read", check_dev_obj },
+	{ MBX_CMD_DEV_WRITE, W | D, sizeof(mbx_dev_obj_req), 0, "dev-write", check_dev_obj },
 };
 
 #undef R
@@ -1027,6 +1076,16 @@ int mbx_event_validate(unsigned code, const uint8_t *p, size_t len)
 		return len == sizeof(mbx_ev_sync) ? 0 : MBX_E_MALFORMED;
 	case MBX_EV_TIME:
 		return len == sizeof(mbx_ev_time) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_DEV_VALUE: {
+		mbx_dev_value v;
+
+		if (len < sizeof v)
+			return MBX_E_MALFORMED;
+		memcpy(&v, p, sizeof v);
+		if (v.len > MBX_DEV_VALUE_EVENT_MAX || len != sizeof v + v.len)
+			return MBX_E_MALFORMED;
+		return 0;
+	}
 	case MBX_EV_PDO: {
 		mbx_ev_pdo e;
 

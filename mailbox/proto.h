@@ -223,6 +223,13 @@ typedef enum mbx_cmd {
 	MBX_CMD_GW_ROUTES = 0x0B01,       /* R - -> mbx_gw_status + mbx_gw_route[n] */
 	MBX_CMD_GW_SDO_UPLOAD = 0x0B02,   /* R mbx_gw_sdo_req -> data, hdr.abort */
 	MBX_CMD_GW_SDO_DOWNLOAD = 0x0B03, /* W mbx_gw_sdo_req + data -> -, hdr.abort */
+	/* 0x0Cxx device objects of the line's slaves (docs/devices.md) */
+	MBX_CMD_DEV_LAYOUT = 0x0C01,  /* R mbx_dev_node_req -> the learned PDO layouts
+	                               * (docs/mailbox.md "Device objects") */
+	MBX_CMD_DEV_WATCH = 0x0C02,   /* R mbx_dev_watch_req -> mbx_dev_watch_resp */
+	MBX_CMD_DEV_UNWATCH = 0x0C03, /* R mbx_dev_obj_req -> - */
+	MBX_CMD_DEV_READ = 0x0C04,    /* R mbx_dev_read_req -> mbx_dev_value + data */
+	MBX_CMD_DEV_WRITE = 0x0C05,   /* W mbx_dev_obj_req + data -> mbx_dev_write_resp */
 } mbx_cmd;
 
 const char *mbx_cmd_to_string(unsigned code); /* "?" if unknown */
@@ -270,8 +277,10 @@ enum mbx_event_class {
 	MBX_EVC_SYNC = 1u << 11,      /* SYNC produced or received (up to 1 per ms) */
 	MBX_EVC_TIME = 1u << 12,      /* TIME stamp produced or received */
 	MBX_EVC_PDO_FAULT = 1u << 13, /* RPDO supervision: deadline, length */
+	MBX_EVC_VALUE = 1u << 14,     /* typed values of watched device objects; only
+	                               * the objects the client watches (DEV_WATCH) */
 };
-#define MBX_EVC_ALL 0x00003FFFu
+#define MBX_EVC_ALL 0x00007FFFu
 
 /* Name of a single class bit ("nmt", "hb", ...); "?" otherwise. */
 const char *mbx_event_class_to_string(uint32_t cls);
@@ -302,6 +311,8 @@ typedef enum mbx_event {
 	MBX_EV_RPDO_RECOVERED = 0x0403, /* PDO_FAULT mbx_ev_rpdo_fault: episodes ended */
 	MBX_EV_SYNC = 0x0C01,           /* SYNC mbx_ev_sync */
 	MBX_EV_TIME = 0x0D01,           /* TIME mbx_ev_time */
+	MBX_EV_DEV_VALUE = 0x0E01,      /* VALUE mbx_dev_value + data: a watched object's
+	                                 * new value, to its watchers only */
 } mbx_event;
 
 const char *mbx_event_to_string(unsigned code); /* "?" if unknown */
@@ -841,6 +852,78 @@ typedef struct mbx_rpdo_fault_entry {
 	uint16_t event_ms;
 	uint16_t pad;
 } mbx_rpdo_fault_entry;
+
+/* ---- device objects (docs/devices.md) ------------------------------------ */
+
+/* A device object: node of the line's bus, index:sub. `type` is the co_type
+ * (core/od.h) the client reads or writes it as; 0 = the one the line knows
+ * (its DCF/EDS), else an unsigned integer of the mapped size. */
+typedef struct mbx_dev_obj_req {
+	uint8_t node; /* 1..127 */
+	uint8_t sub;
+	uint16_t index;
+	uint16_t type;
+	uint16_t flags; /* MBX_DEV_* */
+} mbx_dev_obj_req;
+
+enum mbx_dev_flag {
+	MBX_DEV_SDO_ONLY = 1u << 0, /* READ: never from the mirror; WRITE: never by PDO */
+};
+
+typedef struct mbx_dev_node_req {
+	uint8_t node; /* 0 = every node the line knows */
+	uint8_t pad[3];
+} mbx_dev_node_req;
+
+typedef struct mbx_dev_watch_req {
+	mbx_dev_obj_req obj;
+	uint32_t min_interval_ms; /* at most one event per interval (0 = every
+	                           * value); the latest value is sent when it ends */
+} mbx_dev_watch_req;
+
+typedef struct mbx_dev_watch_resp {
+	uint16_t type; /* co_type the values will carry */
+	uint16_t pdo;  /* the device's TPDO that carries the object */
+	uint32_t cob_id;
+} mbx_dev_watch_resp;
+
+typedef struct mbx_dev_read_req {
+	mbx_dev_obj_req obj;
+	uint32_t max_age_ms; /* a mirrored value at most this old is answered from the
+	                      * mirror; 0 = the line's default, UINT32_MAX = any age */
+} mbx_dev_read_req;
+
+enum mbx_dev_via {
+	MBX_DEV_VIA_PDO = 1, /* read: the mirror of a TPDO; write: an RPDO of the device */
+	MBX_DEV_VIA_SDO = 2,
+};
+
+/* READ answer and MBX_EV_DEV_VALUE: fixed part, then `len` bytes of the
+ * value in CiA 301 encoding (little-endian; strings as their bytes). */
+typedef struct mbx_dev_value {
+	uint8_t node;
+	uint8_t sub;
+	uint16_t index;
+	uint16_t type;    /* co_type of the value */
+	uint8_t via;      /* mbx_dev_via */
+	uint8_t bits;     /* mapped length when via = PDO, else 0 */
+	uint32_t seq;     /* event: per watch, +1 per event (a gap = events lost);
+	                 * read: the mirror's count of values received */
+	uint32_t age_ms;  /* read from the mirror: age of the value; else 0 */
+	uint64_t time_us; /* CLOCK_MONOTONIC reception of the frame (PDO) or of
+	                   * the SDO confirmation */
+	uint32_t len;
+	uint32_t pad;
+} mbx_dev_value;
+
+#define MBX_DEV_VALUE_EVENT_MAX 8u /* an event carries a PDO's value: <= 8 bytes */
+
+typedef struct mbx_dev_write_resp {
+	uint8_t via;  /* mbx_dev_via */
+	uint8_t held; /* PDO: not sent yet, another object of it has no value yet */
+	uint16_t pdo; /* the device's RPDO (via PDO) */
+	uint32_t cob_id;
+} mbx_dev_write_resp;
 
 /* ---- functions ----------------------------------------------------------- */
 
