@@ -45,10 +45,17 @@ typedef struct pending {
 	uint16_t cmd;
 	uint8_t line;
 	uint64_t deadline_ms;
-	mqtt_request req;  /* the request as decoded (not internal) */
-	char *reply_topic; /* where the reply goes */
+	mqtt_request req;     /* the request as decoded (not internal) */
+	mqtt_watch_cfg watch; /* a DEV_WATCH/UNWATCH: its object */
+	char *reply_topic;    /* where the reply goes */
 	mosquitto_property *reply_props;
 } pending;
+
+/* A watch the daemon confirmed, on `line`. */
+typedef struct bridge_watch {
+	uint8_t line;
+	mqtt_watch_cfg w;
+} bridge_watch;
 
 /* What the bridge knows of one node (republished on every connect). */
 typedef struct node_state {
@@ -68,6 +75,7 @@ typedef struct node_state {
 typedef struct bridge_stats {
 	uint64_t published, queued, dropped, dropped_bytes, connects, connect_failures, disconnects;
 	uint64_t events, events_lost; /* mailbox events, and lost before us */
+	uint64_t values;              /* process values published */
 	uint64_t requests, replies_ok, refused_role, malformed, too_big, bad_field, unknown_op,
 		rate_limited, busy, unsupported, failed, timed_out, mbx_errors;
 } bridge_stats;
@@ -104,6 +112,8 @@ typedef struct bridge {
 	double tokens;
 	uint64_t tokens_ms;
 	node_state *nodes; /* [line * 128 + node] */
+	bridge_watch watch[MQTT_WATCH_MAX];
+	size_t n_watch;
 	bridge_stats st;
 } bridge;
 
@@ -137,13 +147,19 @@ void events_service(bridge *b);    /* subscriptions, periodic counters */
 void events_on_event(bridge *b, const cogw_msg *m);
 void events_on_internal(bridge *b, pending *p, const cogw_msg *m);
 void events_free(bridge *b);
-int bridge_send_internal(bridge *b, unsigned line, uint16_t cmd, const void *payload, size_t len);
+/* The bridge's own mailbox request: the slot it took, or NULL (counted). */
+pending *bridge_send_internal(bridge *b, unsigned line, uint16_t cmd, const void *payload,
+			      size_t len);
 
 /* mqtt_serve.c */
 void serve_on_message(bridge *b, const struct mosquitto_message *msg,
 		      const mosquitto_property *props);
 void serve_on_response(bridge *b, pending *p, const cogw_msg *m);
 void serve_expire(bridge *b); /* requests past their deadline */
+/* A value's bytes as JSON of its type: a number where JSON carries it
+ * exactly, else a string; NULL with err when the bytes do not fit it. */
+struct cJSON *bridge_value_json(const ascii_type *t, const uint8_t *data, size_t len, char *err,
+				size_t errlen);
 pending *bridge_pending_of(bridge *b, uint64_t corr);
 void bridge_pending_release(pending *p);
 

@@ -13,6 +13,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "apps/cogw-ascii/ascii_value.h"
 #include "apps/common/config.h"
 #include "apps/common/file_read.h"
 #include "apps/common/json_util.h"
@@ -21,7 +22,8 @@
 
 static const char *const top_keys[] = { "version", "daemon_config", "gateway", "topic_prefix",
 					"role",    "route_line",    "broker",  "publish",
-					"queue",   "requests",      "comment", NULL };
+					"queue",   "requests",      "watch",   "comment",
+					NULL };
 static const char *const broker_keys[] = { "uri",
 					   "client_id",
 					   "protocol",
@@ -39,6 +41,9 @@ static const char *const publish_keys[] = { "nmt",          "boot",    "emcy",
 					    "heartbeat",    "manager", "counters_period_s",
 					    "emcy_history", "comment", NULL };
 static const char *const queue_keys[] = { "max_messages", "max_bytes", "comment", NULL };
+static const char *const watch_keys[] = { "net",     "node", "index",
+					  "sub",     "type", "min_interval_ms",
+					  "comment", NULL };
 static const char *const request_keys[] = { "max_payload", "max_inflight", "per_second",
 					    "timeout_ms",  "comment",      NULL };
 
@@ -69,17 +74,6 @@ void mqtt_config_defaults(mqtt_config *c)
 	c->max_inflight = 8;
 	c->requests_per_s = 50;
 	c->request_timeout_ms = 10000;
-}
-
-static int opt_unsigned(const cJSON *o, const char *key, const char *path, uint64_t min,
-			uint64_t max, unsigned *out, char *err, size_t errlen)
-{
-	uint64_t u = *out;
-
-	if (json_util_opt_uint(o, key, path, min, max, &u, err, errlen))
-		return -EINVAL;
-	*out = (unsigned)u;
-	return 0;
 }
 
 /* A topic level: no MQTT wildcard, no separator, no control character. */
@@ -184,7 +178,7 @@ static int load_broker(mqtt_config *c, const cJSON *o, char *err, size_t errlen)
 	    json_util_opt_string(o, "client_id", path, 1, c->client_id, sizeof c->client_id, err,
 				 errlen) ||
 	    json_util_opt_string(o, "protocol", path, 1, proto, sizeof proto, err, errlen) ||
-	    opt_unsigned(o, "keepalive_s", path, 5, 3600, &c->keepalive_s, err, errlen) ||
+	    json_util_opt_unsigned(o, "keepalive_s", path, 5, 3600, &c->keepalive_s, err, errlen) ||
 	    json_util_opt_uint(o, "qos", path, 0, 2, &qos, err, errlen) ||
 	    json_util_opt_string(o, "ca_file", path, 1, c->ca_file, sizeof c->ca_file, err,
 				 errlen) ||
@@ -194,10 +188,10 @@ static int load_broker(mqtt_config *c, const cJSON *o, char *err, size_t errlen)
 				 errlen) ||
 	    json_util_opt_string(o, "credentials_file", path, 1, c->credentials_file,
 				 sizeof c->credentials_file, err, errlen) ||
-	    opt_unsigned(o, "reconnect_min_ms", path, 100, 600000, &c->reconnect_min_ms, err,
-			 errlen) ||
-	    opt_unsigned(o, "reconnect_max_ms", path, 100, 3600000, &c->reconnect_max_ms, err,
-			 errlen))
+	    json_util_opt_unsigned(o, "reconnect_min_ms", path, 100, 600000, &c->reconnect_min_ms,
+				   err, errlen) ||
+	    json_util_opt_unsigned(o, "reconnect_max_ms", path, 100, 3600000, &c->reconnect_max_ms,
+				   err, errlen))
 		return -EINVAL;
 	c->qos = (int)qos;
 	if (uri[0] && parse_uri(c, uri, err, errlen))
@@ -249,9 +243,9 @@ static int load_publish(mqtt_config *c, const cJSON *o, char *err, size_t errlen
 	    json_util_opt_bool(o, "emcy", path, &c->pub_emcy, err, errlen) ||
 	    json_util_opt_bool(o, "heartbeat", path, &c->pub_heartbeat, err, errlen) ||
 	    json_util_opt_bool(o, "manager", path, &c->pub_manager, err, errlen) ||
-	    opt_unsigned(o, "counters_period_s", path, 0, 86400, &c->counters_period_s, err,
-			 errlen) ||
-	    opt_unsigned(o, "emcy_history", path, 0, 16, &c->emcy_history, err, errlen))
+	    json_util_opt_unsigned(o, "counters_period_s", path, 0, 86400, &c->counters_period_s,
+				   err, errlen) ||
+	    json_util_opt_unsigned(o, "emcy_history", path, 0, 16, &c->emcy_history, err, errlen))
 		return -EINVAL;
 	if (c->counters_period_s && c->counters_period_s < 1)
 		return json_util_fail(err, errlen, "publish.counters_period_s", "must be >= 1");
@@ -275,9 +269,10 @@ static int load_queue(mqtt_config *c, const cJSON *o, char *err, size_t errlen)
 		return json_util_fail(err, errlen, path, "must be an object, not %s",
 				      json_util_kind(o));
 	if (json_util_check_object(o, path, queue_keys, err, errlen) ||
-	    opt_unsigned(o, "max_messages", path, 1, 1000000, &c->queue_messages, err, errlen) ||
-	    opt_unsigned(o, "max_bytes", path, 1024, 1024u * 1024u * 1024u, &c->queue_bytes, err,
-			 errlen))
+	    json_util_opt_unsigned(o, "max_messages", path, 1, 1000000, &c->queue_messages, err,
+				   errlen) ||
+	    json_util_opt_unsigned(o, "max_bytes", path, 1024, 1024u * 1024u * 1024u,
+				   &c->queue_bytes, err, errlen))
 		return -EINVAL;
 	return 0;
 }
@@ -290,12 +285,71 @@ static int load_requests(mqtt_config *c, const cJSON *o, char *err, size_t errle
 		return json_util_fail(err, errlen, path, "must be an object, not %s",
 				      json_util_kind(o));
 	if (json_util_check_object(o, path, request_keys, err, errlen) ||
-	    opt_unsigned(o, "max_payload", path, 256, 1024u * 1024u, &c->max_payload, err,
-			 errlen) ||
-	    opt_unsigned(o, "max_inflight", path, 1, 64, &c->max_inflight, err, errlen) ||
-	    opt_unsigned(o, "per_second", path, 1, 10000, &c->requests_per_s, err, errlen) ||
-	    opt_unsigned(o, "timeout_ms", path, 100, 600000, &c->request_timeout_ms, err, errlen))
+	    json_util_opt_unsigned(o, "max_payload", path, 256, 1024u * 1024u, &c->max_payload, err,
+				   errlen) ||
+	    json_util_opt_unsigned(o, "max_inflight", path, 1, 64, &c->max_inflight, err, errlen) ||
+	    json_util_opt_unsigned(o, "per_second", path, 1, 10000, &c->requests_per_s, err,
+				   errlen) ||
+	    json_util_opt_unsigned(o, "timeout_ms", path, 100, 600000, &c->request_timeout_ms, err,
+				   errlen))
 		return -EINVAL;
+	return 0;
+}
+
+static int load_watch_entry(mqtt_watch_cfg *w, const cJSON *o, const char *path, char *err,
+			    size_t errlen)
+{
+	static const char *const keys[] = { "net", "node", "index", "sub" };
+	static const uint64_t mins[] = { 1, 1, 0, 0 }, maxs[] = { 127, 127, 0xFFFF, 255 };
+	uint64_t got[4], interval = 1000;
+	const cJSON *v;
+	char kw[8], p[JSON_PATH_MAX];
+
+	if (!cJSON_IsObject(o))
+		return json_util_fail(err, errlen, path, "must be an object, not %s",
+				      json_util_kind(o));
+	if (json_util_check_object(o, path, watch_keys, err, errlen))
+		return -EINVAL;
+	for (size_t i = 0; i < 4; i++) {
+		json_util_path_key(p, sizeof p, path, keys[i]);
+		if (json_util_require(o, keys[i], path, &v, err, errlen) ||
+		    json_util_uint(v, p, mins[i], maxs[i], i == 2, &got[i], err, errlen))
+			return -EINVAL;
+	}
+	json_util_path_key(p, sizeof p, path, "type");
+	if (json_util_require(o, "type", path, &v, err, errlen) ||
+	    json_util_string(v, p, 1, kw, sizeof kw, err, errlen))
+		return -EINVAL;
+	w->type = ascii_type_find(kw, strlen(kw));
+	if (!w->type)
+		return json_util_fail(err, errlen, p, "\"%s\" is not a CiA 309-3 type keyword", kw);
+	if (json_util_opt_uint(o, "min_interval_ms", path, 0, 3600000, &interval, err, errlen))
+		return -EINVAL;
+	w->net = (uint16_t)got[0];
+	w->node = (uint8_t)got[1];
+	w->index = (uint16_t)got[2];
+	w->sub = (uint8_t)got[3];
+	w->min_interval_ms = (uint32_t)interval;
+	return 0;
+}
+
+static int load_watch(mqtt_config *c, const cJSON *a, char *err, size_t errlen)
+{
+	char p[JSON_PATH_MAX];
+	size_t i = 0;
+
+	if (!cJSON_IsArray(a))
+		return json_util_fail(err, errlen, "watch", "must be an array, not %s",
+				      json_util_kind(a));
+	for (const cJSON *o = a->child; o; o = o->next, i++) {
+		json_util_path_index(p, sizeof p, "watch", i);
+		if (i >= MQTT_WATCH_MAX)
+			return json_util_fail(err, errlen, p, "more than %d watches",
+					      MQTT_WATCH_MAX);
+		if (load_watch_entry(&c->watch[i], o, p, err, errlen))
+			return -EINVAL;
+	}
+	c->n_watch = (unsigned)i;
 	return 0;
 }
 
@@ -316,8 +370,8 @@ static int load_tree(mqtt_config *c, const cJSON *root, char *err, size_t errlen
 	    json_util_opt_string(root, "topic_prefix", "", 1, c->topic_prefix,
 				 sizeof c->topic_prefix, err, errlen) ||
 	    json_util_opt_string(root, "role", "", 1, role, sizeof role, err, errlen) ||
-	    opt_unsigned(root, "route_line", "", 0, COGW_LINES_MAX - 1, &c->route_line, err,
-			 errlen))
+	    json_util_opt_unsigned(root, "route_line", "", 0, COGW_LINES_MAX - 1, &c->route_line,
+				   err, errlen))
 		return -EINVAL;
 	if (!topic_level_ok(c->gateway, false))
 		return json_util_fail(err, errlen, "gateway",
@@ -343,28 +397,24 @@ static int load_tree(mqtt_config *c, const cJSON *root, char *err, size_t errlen
 	if (load_section(root, "broker", load_broker, c, err, errlen) ||
 	    load_section(root, "publish", load_publish, c, err, errlen) ||
 	    load_section(root, "queue", load_queue, c, err, errlen) ||
-	    load_section(root, "requests", load_requests, c, err, errlen))
+	    load_section(root, "requests", load_requests, c, err, errlen) ||
+	    load_section(root, "watch", load_watch, c, err, errlen))
 		return -EINVAL;
 	if (!c->client_id[0])
 		snprintf(c->client_id, sizeof c->client_id, "cogw-%.58s", c->gateway);
 	return 0;
 }
 
+static int load_root(void *ctx, const cJSON *root, char *err, size_t errlen)
+{
+	return load_tree(ctx, root, err, errlen);
+}
+
 int mqtt_config_load_string(mqtt_config *c, const char *json, const char *source, char *err,
 			    size_t errlen)
 {
-	cJSON *root = NULL;
-	char why[512];
-	int rc;
-
 	mqtt_config_defaults(c);
-	rc = json_util_parse(json, &root, why, sizeof why);
-	if (rc == 0)
-		rc = load_tree(c, root, why, sizeof why);
-	cJSON_Delete(root);
-	if (rc)
-		snprintf(err, errlen, "%s: %s", source, why);
-	return rc;
+	return json_util_load_text(json, source, load_root, c, err, errlen);
 }
 
 int mqtt_config_load_file(mqtt_config *c, const char *path, char *err, size_t errlen)

@@ -16,6 +16,19 @@
 #define MQTT_NAME_MAX 65    /* gateway name, client id: 64 bytes */
 #define MQTT_PREFIX_MAX 129 /* topic prefix: 128 bytes */
 #define MQTT_PATH_MAX 256
+#define MQTT_WATCH_MAX 64 /* watches of one bridge, configured and requested */
+
+struct ascii_type;
+
+/* A watched device object (docs/mqtt.md "Process values"). */
+typedef struct mqtt_watch_cfg {
+	uint16_t net;
+	uint8_t node;
+	uint8_t sub;
+	uint16_t index;
+	uint32_t min_interval_ms;
+	const struct ascii_type *type; /* how the value is shown */
+} mqtt_watch_cfg;
 
 /* What a request may do (docs/mqtt.md "Roles"). */
 typedef enum mqtt_role {
@@ -49,6 +62,9 @@ typedef struct mqtt_config {
 	unsigned queue_messages, queue_bytes;
 	/* requests */
 	unsigned max_payload, max_inflight, requests_per_s, request_timeout_ms;
+	/* process values watched from the start */
+	mqtt_watch_cfg watch[MQTT_WATCH_MAX];
+	unsigned n_watch;
 } mqtt_config;
 
 void mqtt_config_defaults(mqtt_config *c);

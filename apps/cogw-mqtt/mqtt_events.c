@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "apps/cogw-mqtt/bridge.h"
+#include "apps/cogw-mqtt/mqtt_watch.h"
 #include "core/emcy.h"
 #include "core/manager.h"
 #include "core/nmt.h"
@@ -314,6 +315,9 @@ void events_on_event(bridge *b, const cogw_msg *m)
 			on_emcy(b, line, &e);
 		break;
 	}
+	case MBX_EV_DEV_VALUE:
+		mqtt_watch_on_value(b, m);
+		break;
 	case MBX_EV_MGR_BOOT:
 	case MBX_EV_MGR_STATE:
 	case MBX_EV_MGR_NODE: {
@@ -430,6 +434,10 @@ static void on_gw_status(bridge *b, unsigned line, const cogw_msg *m)
 
 void events_on_internal(bridge *b, pending *p, const cogw_msg *m)
 {
+	if (p->cmd == MBX_CMD_DEV_WATCH) {
+		mqtt_watch_answered(b, p->line, &p->watch, true, m->status);
+		return;
+	}
 	if (m->status != 0) {
 		b->st.mbx_errors++;
 		if (b->verbose)
@@ -460,6 +468,8 @@ static void publish_bridge_counters(bridge *b)
 	ADD_U64(c, b->st, disconnects);
 	ADD_U64(c, b->st, events);
 	ADD_U64(c, b->st, events_lost);
+	ADD_U64(c, b->st, values);
+	cJSON_AddNumberToObject(c, "watches", (double)b->n_watch);
 	ADD_U64(c, b->st, requests);
 	ADD_U64(c, b->st, replies_ok);
 	ADD_U64(c, b->st, refused_role);
@@ -519,7 +529,7 @@ void events_on_connect(bridge *b)
 void events_service(bridge *b)
 {
 	uint64_t now = bridge_now_ms();
-	uint32_t classes = MBX_EVC_NMT | MBX_EVC_HB | MBX_EVC_BOOT | MBX_EVC_EMCY;
+	uint32_t classes = MBX_EVC_NMT | MBX_EVC_HB | MBX_EVC_BOOT | MBX_EVC_EMCY | MBX_EVC_VALUE;
 
 	if (b->cfg.pub_manager || b->cfg.pub_boot)
 		classes |= MBX_EVC_MANAGER;
@@ -535,6 +545,7 @@ void events_service(bridge *b)
 			if (rc == 0) {
 				b->subscribed[l] = classes;
 				bridge_send_internal(b, l, MBX_CMD_NODE_TABLE, NULL, 0);
+				mqtt_watch_arm(b, l);
 			} else {
 				all = false;
 				if (b->verbose > 1)

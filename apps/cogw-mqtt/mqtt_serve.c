@@ -40,7 +40,8 @@ void bridge_pending_release(pending *p)
 }
 
 /* The bridge's own requests have slots after the requests' ones. */
-int bridge_send_internal(bridge *b, unsigned line, uint16_t cmd, const void *payload, size_t len)
+pending *bridge_send_internal(bridge *b, unsigned line, uint16_t cmd, const void *payload,
+			      size_t len)
 {
 	for (size_t i = b->cfg.max_inflight; i < b->n_pend; i++) {
 		pending *p = &b->pend[i];
@@ -54,15 +55,16 @@ int bridge_send_internal(bridge *b, unsigned line, uint16_t cmd, const void *pay
 			if (b->verbose > 1)
 				fprintf(stderr, "cogw-mqtt: line %u: command 0x%04X: %s\n", line,
 					cmd, cogw_strerror(rc));
-			return rc;
+			return NULL;
 		}
 		p->used = p->internal = true;
 		p->cmd = cmd;
 		p->line = (uint8_t)line;
 		p->deadline_ms = bridge_now_ms() + b->cfg.request_timeout_ms;
-		return 0;
+		return p;
 	}
-	return COGW_E_BUSY;
+	b->st.busy++;
+	return NULL;
 }
 
 static cJSON *reply_head(const bridge *b, const mqtt_request *r, bool ok)
@@ -161,18 +163,21 @@ static int start_request(bridge *b, reply_path *rp, const mqtt_request *r)
 		refuse(b, rp, r, true, "busy", why);
 		return -1;
 	}
-	if (r->op == MQTT_OP_NMT) {
+	if (line < 0 && r->op != MQTT_OP_SDO_READ && r->op != MQTT_OP_SDO_WRITE) {
+		b->st.bad_field++;
+		snprintf(why, sizeof why,
+			 "network %u is not attached to gateway %s: %s goes through the gateway "
+			 "of that network",
+			 r->net, b->cfg.gateway, mqtt_op_to_string(r->op));
+		refuse(b, rp, r, true, "unknown_network", why);
+		return -1;
+	}
+	if (r->op == MQTT_OP_WATCH_ADD || r->op == MQTT_OP_WATCH_REMOVE) {
+		p->watch = mqtt_watch_of(r);
+		len = mqtt_watch_command(&p->watch, r->op == MQTT_OP_WATCH_ADD, &cmd, payload);
+	} else if (r->op == MQTT_OP_NMT) {
 		mbx_nmt_req q = { .cs = r->nmt_cs, .node = r->node };
 
-		if (line < 0) {
-			b->st.bad_field++;
-			snprintf(why, sizeof why,
-				 "network %u is not attached to gateway %s: NMT commands go "
-				 "through the gateway of that network",
-				 r->net, b->cfg.gateway);
-			refuse(b, rp, r, true, "unknown_network", why);
-			return -1;
-		}
 		cmd = MBX_CMD_NMT;
 		memcpy(payload, &q, sizeof q);
 		len = sizeof q;
@@ -268,16 +273,6 @@ void serve_on_message(bridge *b, const struct mosquitto_message *msg,
 		refuse(b, &rp, &r, true, "refused_role", err);
 		return;
 	}
-	if (r.op == MQTT_OP_WATCH_ADD || r.op == MQTT_OP_WATCH_REMOVE) {
-		if (mqtt_watch_request(b, &r, err, sizeof err)) {
-			b->st.unsupported++;
-			refuse(b, &rp, &r, true, "unsupported", err);
-			return;
-		}
-		b->st.replies_ok++;
-		send_reply(b, &rp, reply_head(b, &r, true));
-		return;
-	}
 	if (start_request(b, &rp, &r)) {
 		free(rp.topic);
 		mosquitto_property_free_all(&rp.props);
@@ -285,7 +280,7 @@ void serve_on_message(bridge *b, const struct mosquitto_message *msg,
 }
 
 /* The value read, as JSON: numbers where JSON carries them exactly. */
-static cJSON *value_json(const ascii_type *t, const uint8_t *data, size_t len, char *err,
+cJSON *bridge_value_json(const ascii_type *t, const uint8_t *data, size_t len, char *err,
 			 size_t errlen)
 {
 	size_t cap = ascii_value_text_max(t, len) + 1;
@@ -330,7 +325,13 @@ void serve_on_response(bridge *b, pending *p, const cogw_msg *m)
 
 	p->reply_topic = NULL;
 	p->reply_props = NULL;
-	if (m->status == COGW_E_ABORT) {
+	if (r->op == MQTT_OP_WATCH_ADD || r->op == MQTT_OP_WATCH_REMOVE)
+		mqtt_watch_answered(b, p->line, &p->watch, r->op == MQTT_OP_WATCH_ADD, m->status);
+	if ((r->op == MQTT_OP_WATCH_ADD || r->op == MQTT_OP_WATCH_REMOVE) &&
+	    (m->status == COGW_E_UNKNOWN_CMD || m->status == COGW_E_UNSUPPORTED)) {
+		b->st.unsupported++;
+		refuse(b, &rp, r, true, "unsupported", mqtt_watch_refusal(m->status));
+	} else if (m->status == COGW_E_ABORT) {
 		cJSON *o = reply_head(b, r, false);
 		char s[16];
 
@@ -351,7 +352,7 @@ void serve_on_response(bridge *b, pending *p, const cogw_msg *m)
 		add_object(o, r);
 		if (r->op == MQTT_OP_SDO_READ) {
 			why[0] = 0;
-			v = value_json(r->type, m->data, m->len, why, sizeof why);
+			v = bridge_value_json(r->type, m->data, m->len, why, sizeof why);
 			if (!v) {
 				cJSON_Delete(o);
 				b->st.failed++;

@@ -1,18 +1,138 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * apps/cogw-mqtt/mqtt_watch.c - process values (mqtt_watch.h): refused
- * while the daemon's mailbox has no device-object watch.
+ * apps/cogw-mqtt/mqtt_watch.c - process values (mqtt_watch.h).
  */
 #include "apps/cogw-mqtt/mqtt_watch.h"
 
+#include <cjson/cJSON.h>
 #include <stdio.h>
+#include <string.h>
 
-int mqtt_watch_request(bridge *b, const mqtt_request *r, char *err, size_t errlen)
+mqtt_watch_cfg mqtt_watch_of(const mqtt_request *r)
 {
-	(void)b;
-	snprintf(err, errlen,
-		 "%s: the daemon's mailbox has no watch of device objects yet; read the "
-		 "object with sdo_read (docs/mqtt.md \"Process values\")",
-		 mqtt_op_to_string(r->op));
-	return -1;
+	return (mqtt_watch_cfg){ .net = r->net,
+				 .node = r->node,
+				 .sub = r->sub,
+				 .index = r->index,
+				 .min_interval_ms = r->min_interval_ms,
+				 .type = r->type };
+}
+
+size_t mqtt_watch_command(const mqtt_watch_cfg *w, bool add, uint16_t *cmd, void *payload)
+{
+	/* type 0: the daemon's own knowledge of the object (the device's
+	 * DCF/EDS); the bridge shows the bytes as the watch's type says */
+	mbx_dev_watch_req q = { .obj = { .node = w->node, .sub = w->sub, .index = w->index },
+				.min_interval_ms = w->min_interval_ms };
+
+	if (add) {
+		*cmd = MBX_CMD_DEV_WATCH;
+		memcpy(payload, &q, sizeof q);
+		return sizeof q;
+	}
+	*cmd = MBX_CMD_DEV_UNWATCH;
+	memcpy(payload, &q.obj, sizeof q.obj);
+	return sizeof q.obj;
+}
+
+static bridge_watch *find(bridge *b, unsigned line, uint8_t node, uint16_t index, uint8_t sub)
+{
+	for (size_t i = 0; i < b->n_watch; i++) {
+		bridge_watch *w = &b->watch[i];
+
+		if (w->line == line && w->w.node == node && w->w.index == index && w->w.sub == sub)
+			return w;
+	}
+	return NULL;
+}
+
+void mqtt_watch_answered(bridge *b, unsigned line, const mqtt_watch_cfg *w, bool add, int status)
+{
+	bridge_watch *known = find(b, line, w->node, w->index, w->sub);
+
+	if (status) {
+		/* a configured watch has nobody else to tell */
+		fprintf(stderr, "cogw-mqtt: watch of net %u node %u %04X:%02X: %s\n", w->net,
+			w->node, w->index, w->sub, mqtt_watch_refusal(status));
+		return;
+	}
+	if (!add) {
+		if (known)
+			*known = b->watch[--b->n_watch];
+		return;
+	}
+	if (!known && b->n_watch < MQTT_WATCH_MAX) {
+		known = &b->watch[b->n_watch++];
+		known->line = (uint8_t)line;
+	}
+	if (known)
+		known->w = *w;
+}
+
+void mqtt_watch_arm(bridge *b, unsigned line)
+{
+	for (unsigned i = 0; i < b->cfg.n_watch; i++) {
+		const mqtt_watch_cfg *w = &b->cfg.watch[i];
+		uint8_t payload[sizeof(mbx_dev_watch_req)];
+		uint16_t cmd;
+		size_t len;
+		pending *p;
+
+		if (bridge_line_of_net(b, w->net) != (int)line)
+			continue;
+		len = mqtt_watch_command(w, true, &cmd, payload);
+		p = bridge_send_internal(b, line, cmd, payload, len);
+		if (p)
+			p->watch = *w;
+	}
+}
+
+const char *mqtt_watch_refusal(int status)
+{
+	return status == COGW_E_UNKNOWN_CMD || status == COGW_E_UNSUPPORTED
+		       ? "the daemon does not serve watches of device objects (docs/mqtt.md "
+			 "\"Process values\")"
+		       : cogw_strerror(status);
+}
+
+void mqtt_watch_on_value(bridge *b, const cogw_msg *m)
+{
+	mbx_dev_value v;
+	bridge_watch *w;
+	cJSON *o, *val;
+	char t[512], s[16], why[128];
+
+	if (m->len < sizeof v || m->line >= b->daemon.n_lines)
+		return;
+	memcpy(&v, m->data, sizeof v);
+	if (m->len != sizeof v + v.len)
+		return;
+	w = find(b, m->line, v.node, v.index, v.sub);
+	if (!w)
+		return; /* a watch removed while its value was under way */
+	val = bridge_value_json(w->w.type, m->data + sizeof v, v.len, why, sizeof why);
+	if (!val) {
+		b->st.failed++;
+		if (b->verbose)
+			fprintf(stderr, "cogw-mqtt: value of node %u %04X:%02X: %s\n", v.node,
+				v.index, v.sub, why);
+		return;
+	}
+	o = cJSON_CreateObject();
+	bridge_time_text(t, sizeof t);
+	cJSON_AddStringToObject(o, "time", t);
+	cJSON_AddStringToObject(o, "gateway", b->cfg.gateway);
+	cJSON_AddNumberToObject(o, "net", w->w.net);
+	cJSON_AddNumberToObject(o, "node", v.node);
+	snprintf(s, sizeof s, "0x%04X", v.index);
+	cJSON_AddStringToObject(o, "index", s);
+	cJSON_AddNumberToObject(o, "sub", v.sub);
+	cJSON_AddStringToObject(o, "type", w->w.type->keyword);
+	cJSON_AddItemToObject(o, "value", val);
+	cJSON_AddStringToObject(o, "via", v.via == MBX_DEV_VIA_PDO ? "pdo" : "sdo");
+	cJSON_AddNumberToObject(o, "seq", v.seq);
+	snprintf(t, sizeof t, "%s/%s/net/%u/node/%u/value/%04X/%u", b->cfg.topic_prefix,
+		 b->cfg.gateway, w->w.net, v.node, v.index, v.sub);
+	b->st.values++;
+	link_publish_json(b, t, o, true, NULL);
 }

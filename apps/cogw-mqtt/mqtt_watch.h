@@ -1,28 +1,35 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * apps/cogw-mqtt/mqtt_watch.h - process values: the one place where the
- * bridge meets the daemon's typed watch of device objects (docs/mqtt.md
- * "Process values"). A watch names net, node, index, sub, a type and a
- * minimum interval; its values are published on
- *   <prefix>/<gateway>/net/<net>/node/<node>/value/<index>/<sub>
- * at most once per interval (the newest value wins), so that a 1 kHz PDO
- * does not flood the broker.
- *
- * The daemon this bridge is built against has no watch command in its
- * mailbox protocol yet: mqtt_watch_request() refuses watch_add and
- * watch_remove with a reason that says so, and nothing is published as a
- * value. When the mailbox gains the watch (commands and a value event),
- * this module is what changes: the request starts the watch through
- * libcogw and the value events are throttled here per watch.
+ * apps/cogw-mqtt/mqtt_watch.h - process values (docs/mqtt.md "Process
+ * values"): the one place where the bridge meets the daemon's typed watch
+ * of device objects (MBX_CMD_DEV_WATCH / DEV_UNWATCH, MBX_EV_DEV_VALUE).
+ * A watch names net, node, index, sub, a type and a minimum interval; the
+ * daemon sends at most one value per interval (the latest when it ends),
+ * and the bridge publishes each on
+ *   <prefix>/<gateway>/net/<net>/node/<node>/value/<index>/<sub>  (retained)
+ * Watches come from the configuration ("watch", armed once the bridge is
+ * subscribed to the line) and from watch_add / watch_remove requests.
  */
 #ifndef COGW_MQTT_WATCH_H
 #define COGW_MQTT_WATCH_H
 
+#include <stdbool.h>
 #include <stddef.h>
 
 #include "apps/cogw-mqtt/bridge.h"
 
-/* watch_add / watch_remove: 0 when done, else -1 with the reason. */
-int mqtt_watch_request(bridge *b, const mqtt_request *r, char *err, size_t errlen);
+/* The object of a watch_add / watch_remove request. */
+mqtt_watch_cfg mqtt_watch_of(const mqtt_request *r);
+/* The mailbox command and payload (at least sizeof(mbx_dev_watch_req)
+ * bytes) that adds or removes watch w; returns the payload's length. */
+size_t mqtt_watch_command(const mqtt_watch_cfg *w, bool add, uint16_t *cmd, void *payload);
+/* The daemon's answer (status 0 = done) to such a command on `line`. */
+void mqtt_watch_answered(bridge *b, unsigned line, const mqtt_watch_cfg *w, bool add, int status);
+/* Arm the configured watches of a line (after its subscription). */
+void mqtt_watch_arm(bridge *b, unsigned line);
+/* MBX_EV_DEV_VALUE: publish the value of a watched object. */
+void mqtt_watch_on_value(bridge *b, const cogw_msg *m);
+/* Why a watch command failed, for the reply and the log. */
+const char *mqtt_watch_refusal(int status);
 
 #endif /* COGW_MQTT_WATCH_H */

@@ -88,6 +88,11 @@ DAEMON_B = {
 }
 
 
+# node 1's pressure, REAL32 in TPDO 1 (etc/devices/sti-pressure.json)
+WATCH_PRESSURE = {"net": 1, "node": 1, "index": "0x2003", "sub": 0, "type": "r32",
+                  "min_interval_ms": 500}
+
+
 def bridge_config(gateway, daemon_cfg, **extra):
     cfg = {
         "version": 1,
@@ -270,7 +275,8 @@ def start_system():
         spawn("cosim-" + iface, [os.path.join(BIN, "cosim"), "--interface", iface,
                                  "--device", f"etc/devices/{dev}.json"])
     CLIENT.start()
-    start_bridge("a", bridge_config("gw-a", os.path.join(WORK, "cogwd-a.json"), role="write"))
+    start_bridge("a", bridge_config("gw-a", os.path.join(WORK, "cogwd-a.json"), role="write",
+                                    watch=[WATCH_PRESSURE]))
     start_bridge("b", bridge_config("gw-b", os.path.join(WORK, "cogwd-b.json"),
                                     broker={"protocol": "3.1.1"},
                                     queue={"max_messages": 4}))
@@ -510,8 +516,10 @@ def test_bad_requests_get_clear_errors_and_are_counted():
          ' "colour": 1}', "bad_field", "unknown key"),
         ('{"op": "nmt", "net": 99, "node": 1, "command": "start"}', "unknown_network",
          "not attached"),
-        ('{"op": "watch_add", "net": 1, "node": 1, "index": 24576, "sub": 0, "type": "u8"}',
-         "unsupported", "watch"),
+        ('{"op": "watch_add", "net": 1, "node": 1, "index": 8195, "sub": 0, "type": "r32"}',
+         "unsupported", "does not serve watches"),
+        ('{"op": "watch_add", "net": 3, "node": 1, "index": 8195, "sub": 0, "type": "r32"}',
+         "unknown_network", "not attached"),
         ('{"op": "sdo_read", "net": 1, "node": 1, "index": 4120, "sub": 1, "type": "u32", '
          '"pad": "' + "x" * 1100 + '"}', "too_big", "limit is 1024"),
     ]
@@ -544,9 +552,12 @@ def test_bad_requests_get_clear_errors_and_are_counted():
     after = latest_counters("gw-a")
     eq(2, after["malformed"] - before["malformed"], "malformed counted")
     eq(1, after["unknown_op"] - before["unknown_op"], "unknown op counted")
-    eq(5, after["bad_field"] - before["bad_field"], "bad fields counted (with the network)")
+    eq(6, after["bad_field"] - before["bad_field"], "bad fields counted (with the networks)")
     eq(1, after["too_big"] - before["too_big"], "oversized counted")
     eq(1, after["unsupported"] - before["unsupported"], "watch counted")
+    # the configured watch was asked for and refused the same way, in the log
+    check("watch of net 1 node 1 2003:00: the daemon does not serve" in read_log("bridge-a", 10**6),
+          "the configured watch's refusal is not logged")
     eq(4, after["failed"] - before["failed"], "failed transfers counted")
 
 
@@ -748,6 +759,9 @@ def test_configuration_is_validated():
         ({"publish": {"nmt": "yes"}}, "publish.nmt"),
         ({"queue": {"max_messages": 0}}, "queue.max_messages"),
         ({"brokr": {}}, "brokr"),
+        ({"watch": [{"net": 1, "node": 1, "index": 1, "sub": 0, "type": "q7"}]},
+         "watch[0].type"),
+        ({"watch": [{"net": 1, "index": 1, "sub": 0, "type": "u8"}]}, "watch[0].node"),
     ]
     for cfg, where in bad:
         path = write_json("bad.json", cfg)
