@@ -255,7 +255,7 @@ printf 'listener %s 127.0.0.1\nallow_anonymous true\npersistence false\n' "$mqtt
 [ "$(id -u)" -ne 0 ] || echo "user root" >>"$work/mosquitto.conf"
 mosquitto -c "$work/mosquitto.conf" >"$work/mosquitto.log" 2>&1 &
 pids+=($!)
-wait_for "the MQTT broker" 10 mosquitto_sub -p "$mqtt_port" -t x -W 1 -C 1 -E
+wait_for "the MQTT broker" 10 timeout 5 mosquitto_sub -h 127.0.0.1 -p "$mqtt_port" -t x -W 1 -C 1 -E
 cat >"$work/cogw-mqtt.json" <<JSON
 {"version": 1, "gateway": "demo", "broker": {"uri": "mqtt://127.0.0.1:$mqtt_port"}}
 JSON
@@ -264,15 +264,15 @@ printf '\n$ cogw-mqtt --config %s   # %s\n' "$work/cogw-mqtt.json" "$(cat "$work
 pids+=($!)
 mqtt_pid=$!
 explain "" "One value: node 1's NMT state, retained on its topic (any subscriber gets it at once):"
-wait_for "node 1's state on the broker" 20 sh -c "mosquitto_sub -p $mqtt_port -t cogw/demo/net/1/node/1/nmt -C 1 -W 2 | grep -q operational"
-show mosquitto_sub -p "$mqtt_port" -t 'cogw/demo/status' -t 'cogw/demo/net/1/node/1/nmt' -v -C 2 -W 5
+wait_for "node 1's state on the broker" 30 sh -c "timeout 5 mosquitto_sub -h 127.0.0.1 -p $mqtt_port -t cogw/demo/net/1/node/1/nmt -C 1 -W 3 | grep -q '\"operational\"'"
+show mosquitto_sub -h 127.0.0.1 -p "$mqtt_port" -t 'cogw/demo/status' -t 'cogw/demo/net/1/node/1/nmt' -v -C 2 -W 5
 explain "" "One request: an MQTT 5 request/response (mosquitto_rr sets the response topic and"
 explain "correlation data), reading the transducer's pressure 2003h over SDO:"
-show mosquitto_rr -p "$mqtt_port" -t cogw/demo/request -e demo/replies -W 10 \
+show mosquitto_rr -h 127.0.0.1 -p "$mqtt_port" -t cogw/demo/request -e demo/replies -W 10 \
 	-m '{"op":"sdo_read","net":1,"node":1,"index":"0x2003","sub":0,"type":"r32"}' | tee "$work/mqtt-reply.txt"
 grep -q '"ok":true' "$work/mqtt-reply.txt" || fail "cogw-mqtt: the request was not answered"
 explain "" "The bridge's role is read (the default): a write is refused with a reason:"
-show mosquitto_rr -p "$mqtt_port" -t cogw/demo/request -e demo/replies -W 10 \
+show mosquitto_rr -h 127.0.0.1 -p "$mqtt_port" -t cogw/demo/request -e demo/replies -W 10 \
 	-m '{"op":"nmt","net":1,"node":1,"command":"stop"}' | tee "$work/mqtt-refusal.txt"
 grep -q '"error":"refused_role"' "$work/mqtt-refusal.txt" || fail "cogw-mqtt: the write was not refused"
 kill -TERM "$mqtt_pid"
