@@ -28,6 +28,7 @@ CORE_SRC    := $(sort $(wildcard core/*.c))
 LINES_SRC   := $(sort $(wildcard lines/*.c))
 GATEWAY_SRC := $(sort $(wildcard gateway/*.c))
 MANAGER_SRC := $(sort $(wildcard manager/*.c))
+DEVOBJ_SRC  := $(sort $(wildcard devobj/*.c))
 APPCOMMON_SRC := $(sort $(wildcard apps/common/*.c))
 # Generated at build time, never committed: etc/cogw.json as a C string.
 GEN := build/gen
@@ -54,6 +55,8 @@ REL_GATEWAY_LIB := $(REL)/lib/libcogw_gateway.a
 SAN_GATEWAY_LIB := $(SAN)/lib/libcogw_gateway.a
 REL_MANAGER_LIB := $(REL)/lib/libcogw_manager.a
 SAN_MANAGER_LIB := $(SAN)/lib/libcogw_manager.a
+REL_DEVOBJ_LIB := $(REL)/lib/libcogw_devobj.a
+SAN_DEVOBJ_LIB := $(SAN)/lib/libcogw_devobj.a
 REL_APPCOMMON_LIB := $(REL)/lib/libcogw_appcommon.a
 SAN_APPCOMMON_LIB := $(SAN)/lib/libcogw_appcommon.a
 # Libraries every program and test links, most dependent first.
@@ -65,8 +68,8 @@ SAN_MBXSRV_LIB := $(SAN)/lib/libcogw_mbxsrv.a
 REL_COGW_LIB := $(REL)/lib/libcogw.a
 SAN_COGW_LIB := $(SAN)/lib/libcogw.a
 REL_COGW_SO := $(REL)/lib/libcogw.so
-REL_LIBS = $(REL_APPCOMMON_LIB) $(REL_MANAGER_LIB) $(REL_GATEWAY_LIB) $(REL_LINES_LIB) $(REL_MBXSRV_LIB) $(REL_COGW_LIB) $(REL_CORE_LIB)
-SAN_LIBS = $(SAN_APPCOMMON_LIB) $(SAN_MANAGER_LIB) $(SAN_GATEWAY_LIB) $(SAN_LINES_LIB) $(SAN_MBXSRV_LIB) $(SAN_COGW_LIB) $(SAN_CORE_LIB)
+REL_LIBS = $(REL_APPCOMMON_LIB) $(REL_DEVOBJ_LIB) $(REL_MANAGER_LIB) $(REL_GATEWAY_LIB) $(REL_LINES_LIB) $(REL_MBXSRV_LIB) $(REL_COGW_LIB) $(REL_CORE_LIB)
+SAN_LIBS = $(SAN_APPCOMMON_LIB) $(SAN_DEVOBJ_LIB) $(SAN_MANAGER_LIB) $(SAN_GATEWAY_LIB) $(SAN_LINES_LIB) $(SAN_MBXSRV_LIB) $(SAN_COGW_LIB) $(SAN_CORE_LIB)
 SYS_LIBS := $(shell pkg-config --libs libcjson libsystemd 2>/dev/null || echo -lcjson -lsystemd) -lrt -lpthread -lm
 PROGRAM_BINS := $(addprefix $(REL)/bin/,$(PROGRAMS))
 SAN_PROGRAM_BINS := $(addprefix $(SAN)/bin/,$(PROGRAMS))
@@ -146,6 +149,14 @@ $(REL_MANAGER_LIB): $(call obj,$(REL),$(MANAGER_SRC))
 	rm -f $@ && ar rcs $@ $^
 
 $(SAN_MANAGER_LIB): $(call obj,$(SAN),$(MANAGER_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+$(REL_DEVOBJ_LIB): $(call obj,$(REL),$(DEVOBJ_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+$(SAN_DEVOBJ_LIB): $(call obj,$(SAN),$(DEVOBJ_SRC))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 
@@ -230,10 +241,10 @@ unit: $(UNIT_BINS)
 integration: $(INTEG_BINS) $(TSAN_VCAN_BINS)
 	tests/vcan/run -n 3 -- tests/run-tests integration $(INTEG_BINS) $(TSAN_VCAN_BINS)
 
-# No call cycle between the files of core/, lines/, mailbox/, gateway/ or manager/ (scripts/callgraph-cycles: who
+# No call cycle between the files of core/, lines/, mailbox/, gateway/, manager/ or devobj/ (scripts/callgraph-cycles: who
 # calls whose functions, from the object files' symbols).
 check-callgraph:
-	scripts/callgraph-cycles core lines mailbox gateway manager
+	scripts/callgraph-cycles core lines mailbox gateway manager devobj
 
 # Interoperability with python-canopen (tests/interop/): one VM boot for the group.
 # scripts/pyenv.sh installs the pinned packages into build/pyenv on first use.
@@ -428,7 +439,7 @@ $(SAN_COGW_LIB): $(call obj,$(SAN),$(MBX_CLIENT_SRC))
 
 $(REL_COGW_SO): $(patsubst %.c,$(REL)/pic/%.o,$(MBX_CLIENT_SRC))
 	@mkdir -p $(@D)
-	$(CC) -shared -Wl,-soname,libcogw.so.1 -o $@.1 $^ -lrt -lpthread
+	$(CC) -shared -Wl,-soname,libcogw.so.1 -o $@.1 $^ -lrt -lpthread -lm
 	ln -sf libcogw.so.1 $@
 
 all: $(REL_COGW_SO)

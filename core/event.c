@@ -16,6 +16,8 @@ const char *co_event_kind_to_string(co_event_kind k)
 		return "sdo-client-second-answer";
 	case CO_EV_RPDO_RECOVERED:
 		return "rpdo-recovered";
+	case CO_EV_OBJECT_UPDATED:
+		return "object-updated";
 	case CO_EV_STORE:
 		return "store";
 	case CO_EV_RESTORE:

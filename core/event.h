@@ -64,6 +64,11 @@ typedef enum co_event_kind {
 	/* PDO (core/pdo.c): a correct RPDO (or a reconfiguration) ended the
 	 * supervision episodes u.pdo.fault of that RPDO */
 	CO_EV_RPDO_RECOVERED,
+	/* An object of the node was given a value from outside its own
+	 * services - the gateway's process image, updated by another line
+	 * (docs/gateway.md): u.pdo_obj (nr 0, bits = the object's size x 8).
+	 * Emitted by the extension that stored it, for the others. */
+	CO_EV_OBJECT_UPDATED,
 	/* other services append here: NMT, HB, EMCY, SYNC, TIME, PDO, LSS */
 	CO_EV_KIND_COUNT
 } co_event_kind;

@@ -112,12 +112,15 @@ typedef enum co_mgr_step {
 	CO_MGR_STEP_BOOT_TIME,      /* 1F89h ran out before this node booted */
 	CO_MGR_STEP_SOFTWARE,       /* CiA 302-3 software manager hook (runs
 	                             * between serial and configure) */
+	CO_MGR_STEP_PDO_LAYOUT,     /* the slave's PDO layout learnt (runs
+	                             * between configure and error control;
+	                             * core/pdo_scan.h) */
 	CO_MGR_STEP_COUNT
 } co_mgr_step;
 
 /* "assignment", "keep-alive", "device-type", "vendor-id", "product-code",
  * "revision", "serial", "configure", "error-control", "start",
- * "boot-time", "software" */
+ * "boot-time", "software", "pdo-layout" */
 const char *co_mgr_step_to_string(uint8_t step);
 
 /* CiA 302-2 boot status letters this module reports (0 = booted / none);
@@ -199,6 +202,18 @@ typedef int (*co_mgr_configure_fn)(void *ctx, uint8_t node_id, uint64_t now_us);
  */
 typedef int (*co_mgr_software_fn)(void *ctx, uint8_t node_id, uint64_t now_us);
 
+/*
+ * The PDO layout step (after the configure step, so the layout read is the
+ * configured one; before error control): called when a node reaches it,
+ * holding its boot slot. Return 0 when there is nothing to learn, 1 when
+ * the outcome follows later through co_manager_pdo_layout_done(), or a
+ * negative errno when it could not start. The step never fails the boot:
+ * a layout that could not be learnt is reported in the step's boot event
+ * (abort code, object) and the boot goes on. core/pdo_scan.h
+ * co_pdo_scan_line_step has this signature.
+ */
+typedef int (*co_mgr_pdo_layout_fn)(void *ctx, uint8_t node_id, uint64_t now_us);
+
 typedef struct co_manager_config {
 	uint8_t max_parallel;          /* nodes in their SDO steps at once
 	                             * (0 = the node's SDO client channels);
@@ -221,6 +236,8 @@ typedef struct co_manager_config {
 	void *configure_ctx;
 	co_mgr_software_fn software; /* NULL: software not checked */
 	void *software_ctx;
+	co_mgr_pdo_layout_fn pdo_layout; /* NULL: no layout learnt */
+	void *pdo_layout_ctx;
 } co_manager_config;
 
 typedef struct co_manager co_manager;
@@ -339,6 +356,14 @@ int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort, ui
  * not in that step). */
 int co_manager_software_done(co_manager *m, uint8_t node_id, char status, uint32_t abort,
 			     uint16_t index, uint8_t sub, uint32_t value, uint64_t now_us);
+/* The PDO layout step ended. abort 0: learnt, with tpdos/rpdos kept and
+ * dropped (beyond the table's room); else the abort code and the object
+ * whose read failed. The boot event carries value = tpdos | rpdos << 16,
+ * expected = dropped_tpdos | dropped_rpdos << 16, abort and index:sub; the
+ * boot goes on to error control either way. -EINVAL (bad node), -ENOENT
+ * (node not in that step). */
+int co_manager_pdo_layout_done(co_manager *m, uint8_t node_id, uint32_t abort, uint16_t index,
+			       uint8_t sub, uint32_t kept, uint32_t dropped, uint64_t now_us);
 /* KEEP_OP (`keep_op` in docs/config.md): a node that leaves OPERATIONAL
  * without being told is started again. */
 int co_manager_set_keep_op(co_manager *m, uint8_t node_id, bool on);

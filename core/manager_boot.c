@@ -333,7 +333,7 @@ static int configure_enter(void *obj, uint64_t now_us)
 		     * J on that object, no entry of it was written (value 0) */
 		return bs_fail(s, CO_MGR_STEP_CONFIGURE, 'J', SDO_AB_GENERAL, 0x1F22, s->id, 0, 0);
 	mgr_emit_boot(s, CO_MGR_STEP_CONFIGURE, 0, 0, 0, 0, 0, 0, false);
-	return BS_ERRCTRL;
+	return BS_PDO_LAYOUT;
 }
 
 static int configure_con(void *obj, const void *con, uint64_t now_us)
@@ -348,6 +348,37 @@ static int configure_con(void *obj, const void *con, uint64_t now_us)
 		return bs_fail(s, CO_MGR_STEP_CONFIGURE, 'J', in->abort, in->index, in->sub,
 			       in->value, 0);
 	mgr_emit_boot(s, CO_MGR_STEP_CONFIGURE, 0, 0, 0, 0, in->value, 0, false);
+	return BS_PDO_LAYOUT;
+}
+
+/* The slave's PDO layout (core/pdo_scan.h), read after the configure step
+ * so that it is the configured one. Not a CiA 302-2 check: a layout that
+ * cannot be learnt is reported (abort, object) and the boot goes on. */
+static int pdo_layout_enter(void *obj, uint64_t now_us)
+{
+	struct mgr_slave *s = obj;
+	co_manager *m = s->m;
+	int rc = 0;
+	if (m->cfg.pdo_layout)
+		rc = m->cfg.pdo_layout(m->cfg.pdo_layout_ctx, s->id, now_us);
+	if (rc == 1)
+		return CO_FSM_STAY;
+	if (rc < 0) /* not even started: the client pool is full or busy */
+		mgr_emit_boot(s, CO_MGR_STEP_PDO_LAYOUT, 0, SDO_AB_NO_RESOURCE, 0x1800, 1, 0, 0,
+			      false);
+	return BS_ERRCTRL;
+}
+
+static int pdo_layout_con(void *obj, const void *con, uint64_t now_us)
+{
+	struct mgr_slave *s = obj;
+	const struct mgr_in *in = con;
+	(void)now_us;
+	if (in->kind != IN_PDO_LAYOUT)
+		return CO_FSM_STAY;
+	/* value: PDOs kept, TPDOs | RPDOs << 16; expected: those dropped */
+	mgr_emit_boot(s, CO_MGR_STEP_PDO_LAYOUT, 0, in->abort, in->index, in->sub, in->value,
+		      in->found, false);
 	return BS_ERRCTRL;
 }
 
@@ -503,6 +534,10 @@ static const co_fsm_state bs_states[BS_COUNT] = {
 			   .on_enter = configure_enter,
 			   .on_con = configure_con,
 			   .on_leave = bs_leave },
+	[BS_PDO_LAYOUT] = { .name = "pdo-layout",
+			    .on_enter = pdo_layout_enter,
+			    .on_con = pdo_layout_con,
+			    .on_leave = bs_leave },
 	[BS_ERRCTRL] = { .name = "error-control",
 			 .on_enter = errctrl_enter,
 			 .on_timeout = errctrl_timeout,

@@ -16,9 +16,9 @@ const char *co_mgr_state_to_string(uint8_t state)
 const char *co_mgr_step_to_string(uint8_t step)
 {
 	static const char *const n[CO_MGR_STEP_COUNT] = {
-		"assignment",    "keep-alive", "device-type", "vendor-id",
-		"product-code",  "revision",   "serial",      "configure",
-		"error-control", "start",      "boot-time",   "software",
+		"assignment", "keep-alive", "device-type", "vendor-id",     "product-code",
+		"revision",   "serial",     "configure",   "error-control", "start",
+		"boot-time",  "software",   "pdo-layout",
 	};
 	return step < CO_MGR_STEP_COUNT ? n[step] : "?";
 }

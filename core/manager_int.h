@@ -27,7 +27,7 @@
  * client pool bounds how many talk at once (a node holds one "boot slot"
  * from its 1000h read to the end of the configure step; there are as many
  * slots as client channels, so the pool's FIFO never overflows because of
- * the boot).
+ * the boot); the PDO layout step after it holds the slot too.
  *
  * A boot that restarts while its SDO request runs does not cancel it: it
  * disowns it (the confirmation is ignored). The pool runs requests to one
@@ -76,6 +76,8 @@ enum bs_state {
 	BS_FAILED,       /* 302-2: error status A..O; retry per retry_ms */
 	BS_SOFTWARE,     /* 302-2: "check software" (302-3 software manager),
 	                  * between BS_IDENTITY and BS_CONFIGURE */
+	BS_PDO_LAYOUT,   /* the slave's PDO layout (core/pdo_scan.h), between
+	                  * BS_CONFIGURE and BS_ERRCTRL */
 	BS_COUNT
 };
 
@@ -85,7 +87,8 @@ enum in_kind {
 	IN_HB,
 	IN_CHANNEL,
 	IN_CONFIGURED,
-	IN_SOFTWARE
+	IN_SOFTWARE,
+	IN_PDO_LAYOUT
 };
 
 struct mgr_in {

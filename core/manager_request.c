@@ -173,6 +173,25 @@ int co_manager_software_done(co_manager *m, uint8_t node_id, char status, uint32
 	return 0;
 }
 
+int co_manager_pdo_layout_done(co_manager *m, uint8_t node_id, uint32_t abort, uint16_t index,
+			       uint8_t sub, uint32_t kept, uint32_t dropped, uint64_t now_us)
+{
+	struct mgr_in in = { .kind = IN_PDO_LAYOUT,
+			     .abort = abort,
+			     .index = index,
+			     .sub = sub,
+			     .value = kept,
+			     .found = dropped };
+	if (node_id < 1 || node_id > 127)
+		return -EINVAL;
+	if (bs_state(&m->s[node_id]) != BS_PDO_LAYOUT)
+		return -ENOENT;
+	mgr_enter(m, now_us);
+	bs_input(&m->s[node_id], &in, now_us);
+	mgr_after(m, now_us);
+	return 0;
+}
+
 int co_manager_set_keep_op(co_manager *m, uint8_t node_id, bool on)
 {
 	if (node_id < 1 || node_id > 127)

@@ -6,8 +6,11 @@
 #include "core/pdo_layout.h"
 
 #include <errno.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include "core/od.h"
 
 struct co_pdo_layout {
 	co_pdo_layout_node *node[CO_PDO_LAYOUT_NODES]; /* [id - 1], NULL = no room */
@@ -148,6 +151,48 @@ bool co_pdo_layout_find(const co_pdo_layout *t, uint8_t node, co_pdo_dir dir, ui
 		}
 	}
 	return false;
+}
+
+const co_pdo_layout_type *co_pdo_layout_type_find(const co_pdo_layout_type *list, size_t n,
+						  uint16_t index, uint8_t sub)
+{
+	uint32_t key = (uint32_t)index << 8 | sub;
+	size_t lo = 0, hi = n;
+
+	while (lo < hi) {
+		size_t mid = lo + (hi - lo) / 2;
+		uint32_t at = (uint32_t)list[mid].index << 8 | list[mid].sub;
+		if (at == key)
+			return &list[mid];
+		if (at < key)
+			lo = mid + 1;
+		else
+			hi = mid;
+	}
+	return NULL;
+}
+
+int co_pdo_layout_pdo_format(char *buf, size_t len, co_pdo_dir dir, const co_pdo_layout_pdo *p)
+{
+	size_t off = 0;
+	int n = snprintf(buf, len, "%s %u COB-ID %Xh tt %u inhibit %u event %u ms:",
+			 dir == CO_PDO_TX ? "TPDO" : "RPDO", p->nr, (unsigned)p->cob, p->tt,
+			 p->inhibit, p->event_ms);
+	if (n < 0)
+		return n;
+	off = (size_t)n;
+	if (p->n == 0 && off < len)
+		off += (size_t)snprintf(buf + off, len - off, " (no mapping)");
+	for (unsigned i = 0; i < p->n && off < len; i++) {
+		const co_pdo_layout_entry *e = &p->map[i];
+		bool dummy = e->index >= 1 && e->index <= 7;
+		off += (size_t)snprintf(buf + off, len - off, "%s %04X:%02X/%u %s", i ? "," : "",
+					e->index, e->sub, e->bits,
+					dummy     ? "(dummy)"
+					: e->type ? co_type_to_string((co_type)e->type)
+						  : "(type unknown)");
+	}
+	return (int)off;
 }
 
 const char *co_pdo_layout_source_to_string(uint8_t src)

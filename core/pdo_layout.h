@@ -23,6 +23,7 @@
 #define COGW_CORE_PDO_LAYOUT_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #include "core/pdo.h"
@@ -71,6 +72,17 @@ typedef struct co_pdo_layout_node {
 
 typedef struct co_pdo_layout co_pdo_layout;
 
+/* What is known of one object of a node besides the PDO records: its data
+ * type and access, from the node's EDS/DCF or the configuration's "types"
+ * (docs/config.md "PDO layouts"). A list is sorted by index, then sub, and
+ * read-only once built (start-up). */
+typedef struct co_pdo_layout_type {
+	uint16_t index;
+	uint8_t sub;
+	uint8_t access; /* CO_ACC_* (core/od.h), 0 = unknown */
+	uint16_t type;  /* co_type */
+} co_pdo_layout_type;
+
 /* Room for `cap` PDOs per direction for every node set in `nodes` (bit n of
  * word n / 32 = node n, as co_mgr_bits). -EINVAL, -ENOMEM. */
 int co_pdo_layout_create(co_pdo_layout **out, const uint32_t nodes[4], uint16_t cap);
@@ -98,6 +110,15 @@ void co_pdo_layout_invalidate(co_pdo_layout *t, uint8_t node);
  * valid PDO that maps it (*pdo, *pos = entry number). false: not mapped. */
 bool co_pdo_layout_find(const co_pdo_layout *t, uint8_t node, co_pdo_dir dir, uint16_t index,
 			uint8_t sub, const co_pdo_layout_pdo **pdo, uint8_t *pos);
+
+/* The entry of index:sub in a sorted list of n, NULL when it has none. */
+const co_pdo_layout_type *co_pdo_layout_type_find(const co_pdo_layout_type *list, size_t n,
+						  uint16_t index, uint8_t sub);
+
+/* One PDO as a line of text, for logs and the CLI:
+ * "TPDO 1 COB-ID 185h tt 254 inhibit 0 event 100 ms: 6000:01/8 UNSIGNED8,
+ * 0002:00/8 (dummy)". Returns what snprintf returns. */
+int co_pdo_layout_pdo_format(char *buf, size_t len, co_pdo_dir dir, const co_pdo_layout_pdo *p);
 
 /* "none", "file", "scan". */
 const char *co_pdo_layout_source_to_string(uint8_t src);

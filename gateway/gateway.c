@@ -81,6 +81,8 @@ static int ext_attach(void *ctx, line *l)
 	}
 	if ((rc = gw_fwd_list_init(&gl->fwd, gl->g->img)))
 		return rc;
+	for (unsigned i = 0; i < gl->p.n_pinned; i++)
+		gw_fwd_list_pin(&gl->fwd, gw_image_find(gl->g->img, gl->p.pinned[i], 0));
 	if ((rc = gw_pdo_sync_init(&gl->lost, gw_image_count(gl->g->img))))
 		return rc;
 	gw_fwd_list_rebuild(&gl->fwd, gl->g->img, od);

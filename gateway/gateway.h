@@ -42,9 +42,16 @@
 
 typedef struct gw gw;
 
+#define GW_PINNED_MAX 64u
+
 typedef struct gw_line_params {
 	uint16_t network_id;     /* this line's network */
 	uint32_t sdo_timeout_ms; /* per frame, toward requesters and targets */
+	/* B-objects (sub 0) this line takes from the image whether or not a
+	 * TPDO of its own maps them: the device object layer forwards them
+	 * to a device (gateway.forward, docs/gateway.md) */
+	uint16_t pinned[GW_PINNED_MAX];
+	uint8_t n_pinned;
 } gw_line_params;
 
 typedef struct gw_params {

@@ -67,6 +67,14 @@ static bool pdo_apply(struct gw_line *gl, int slot, uint64_t bits, bool only_if_
 	GW_COUNT(gl->c.pdo_applied);
 	if (co_pdo_object_changed(gl->node, s->index, s->sub, now_us) > 0)
 		GW_COUNT(gl->c.pdo_triggered);
+	/* for the line's other extensions: the device object layer forwards
+	 * it to a device (gateway.forward) */
+	co_event ev = {
+		.kind = CO_EV_OBJECT_UPDATED,
+		.now_us = now_us,
+		.u.pdo_obj = { .index = s->index, .sub = s->sub, .bits = (uint8_t)(s->size * 8u) }
+	};
+	co_node_emit(gl->node, &ev);
 	return true;
 }
 

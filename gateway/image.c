@@ -161,7 +161,8 @@ int gw_fwd_list_init(gw_fwd_list *l, const gw_image *img)
 		l->words = 1;
 	l->bits = calloc(l->words, sizeof(l->bits[0]));
 	l->scratch = calloc(l->words, sizeof(l->scratch[0]));
-	if (!l->bits || !l->scratch) {
+	l->pinned = calloc(l->words, sizeof(l->pinned[0]));
+	if (!l->bits || !l->scratch || !l->pinned) {
 		gw_fwd_list_fini(l);
 		return -ENOMEM;
 	}
@@ -174,8 +175,10 @@ void gw_fwd_list_fini(gw_fwd_list *l)
 {
 	free(l->bits);
 	free(l->scratch);
+	free(l->pinned);
 	l->bits = NULL;
 	l->scratch = NULL;
+	l->pinned = NULL;
 	l->words = 0;
 }
 
@@ -213,7 +216,9 @@ int gw_fwd_list_rebuild(gw_fwd_list *l, const gw_image *img, const co_od *od)
 
 	if (!words)
 		return -EINVAL;
-	memset(words, 0, l->words * sizeof(*words));
+	memcpy(words, l->pinned, l->words * sizeof(*words));
+	for (size_t i = 0; i < l->words; i++)
+		total += (unsigned)__builtin_popcountll(words[i]);
 	for (unsigned n = 0; n < CO_PDO_MAX; n++) {
 		if (!co_od_has_index(od, (uint16_t)(CO_PDO_TPDO_COMM + n)))
 			continue;
@@ -227,6 +232,12 @@ int gw_fwd_list_rebuild(gw_fwd_list *l, const gw_image *img, const co_od *od)
 	l->rebuilds++;
 	l->slots = total;
 	return (int)total;
+}
+
+void gw_fwd_list_pin(gw_fwd_list *l, int slot)
+{
+	if (l->pinned && slot >= 0 && (size_t)slot / 64 < l->words)
+		l->pinned[slot / 64] |= UINT64_C(1) << (slot % 64);
 }
 
 bool gw_fwd_list_has(const gw_fwd_list *l, int slot)

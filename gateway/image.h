@@ -73,6 +73,7 @@ typedef struct gw_fwd_list {
 	size_t words;
 	_Atomic uint64_t *bits; /* bit s: slot s is mapped into a valid TPDO */
 	uint64_t *scratch;      /* rebuild area, allocated at init */
+	uint64_t *pinned;       /* slots always in the list (gw_fwd_list_pin) */
 	uint32_t rebuilds;
 	uint32_t slots; /* slots in the list after the last rebuild */
 } gw_fwd_list;
@@ -84,5 +85,7 @@ void gw_fwd_list_fini(gw_fwd_list *l);
  * entries. Returns the number of slots in the list. */
 int gw_fwd_list_rebuild(gw_fwd_list *l, const gw_image *img, const co_od *od);
 bool gw_fwd_list_has(const gw_fwd_list *l, int slot);
+/* Keep slot in the list whatever the TPDOs map (from the next rebuild). */
+void gw_fwd_list_pin(gw_fwd_list *l, int slot);
 
 #endif /* COGW_GATEWAY_IMAGE_H */

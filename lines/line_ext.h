@@ -49,6 +49,7 @@
 #ifndef COGW_LINES_LINE_EXT_H
 #define COGW_LINES_LINE_EXT_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "core/co.h"
@@ -104,5 +105,29 @@ uint64_t line_loop_now_us(const line *l);
  * NULL. The manager's PDO layout step fills it, the device object layer
  * reads it; both on the line thread. */
 co_pdo_layout *line_pdo_layout(line *l);
+
+/* The answer of an extension's SDO transfer (line_sdo_submit), at its
+ * confirmation: abort 0 = done, data/len the uploaded bytes (download:
+ * NULL, 0). It must answer `to` exactly once (mbx_server_respond). */
+typedef void (*line_sdo_answer_fn)(void *ctx, line *l, const mbx_reply_to *to, uint32_t abort,
+				   const uint8_t *data, uint32_t len);
+
+typedef struct line_sdo_xfer {
+	bool upload;
+	uint8_t node; /* of this line's bus */
+	uint16_t index;
+	uint8_t sub;
+	uint32_t size_hint; /* upload: expected size, 0 = unknown */
+	line_sdo_answer_fn answer;
+	void *ctx;
+} line_sdo_xfer;
+
+/* An SDO transfer on behalf of an extension's mailbox command, run as the
+ * line's one mailbox SDO transfer (lines/line_sdo.c: pending slot, budget,
+ * chunking, the cancel when the client goes away, MBX_EV_SDO_DONE): a
+ * download sends req->data. Refusals (no SDO client, no free slot, ...)
+ * are answered here (false); otherwise (true) x->answer answers at the
+ * confirmation, exactly once. */
+bool line_sdo_submit(line *l, const mbx_request *req, const line_sdo_xfer *x);
 
 #endif /* COGW_LINES_LINE_EXT_H */

@@ -96,6 +96,8 @@ line_pending *line_pending_take(line_pending_table *t, const mbx_request *req,
 	p->used = true;
 	p->kind = (uint8_t)kind;
 	p->route_ext = LINE_NO_ROUTE;
+	p->answer = NULL;
+	p->answer_ctx = NULL;
 	p->code = req->code;
 	p->reply = req->reply;
 	p->keep_free = req->access < MBX_ACCESS_WRITE ? p->cap : 0;

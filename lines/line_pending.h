@@ -19,6 +19,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "lines/line_ext.h"
 #include "mailbox/server.h"
 
 #define LINE_PENDING_MAX 64 /* mailbox requests waiting for the core */
@@ -51,7 +52,11 @@ typedef struct line_pending {
 	uint32_t keep_free; /* read-only requester: leave cap to writers */
 	uint32_t reserved;
 	uint32_t touched;
-	bool over_budget;                     /* the budget refused this upload more room */
+	bool over_budget; /* the budget refused this upload more room */
+	/* An extension's transfer (line_ext.h line_sdo_submit): shapes the
+	 * answer; NULL = the plain SDO answer. */
+	line_sdo_answer_fn answer;
+	void *answer_ctx;
 	uint8_t inline_data[LINE_INLINE_MAX]; /* small uploads/downloads */
 } line_pending;
 

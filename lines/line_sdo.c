@@ -60,7 +60,10 @@ static void sdo_done(void *arg, const co_ev_sdo_cli *c)
 		abort = SDO_AB_NODE_UNKNOWN;
 	/* the answer pays its own copy of the data from the budget */
 	line_pending_pay_back(pp);
-	if (pp->over_budget)
+	if (pp->answer && !pp->over_budget)
+		pp->answer(pp->answer_ctx, l, &pp->reply, abort, c->upload ? pp->buf : NULL,
+			   c->upload ? c->size : 0);
+	else if (pp->over_budget)
 		line_answer(l, &pp->reply, MBX_E_NO_MEMORY, 0, NULL, 0);
 	else if (abort)
 		line_answer(l, &pp->reply, MBX_E_ABORT, abort, NULL, 0);
@@ -164,15 +167,22 @@ static void set_data(sdo_client_req *r, line_pending *pp, const mbx_request *req
 }
 
 /* Step 1: park the request, route it (net: a network, 0 = this line's
- * bus), hand it to the SDO client pool. */
-static void sdo_transfer(line *l, const mbx_request *req, const mbx_sdo_req *s, uint16_t net,
-			 bool upload)
+ * bus), hand it to the SDO client pool. An extension's request (answer
+ * set) gets its answer shaped by `answer` at the confirmation. */
+static bool sdo_transfer(line *l, const mbx_request *req, const mbx_sdo_req *s, uint16_t net,
+			 bool upload, line_sdo_answer_fn answer, void *answer_ctx)
 {
-	if (!sdo_client_channel_count(l->node) || (net && route_ext(l) < 0))
-		return line_answer(l, &req->reply, MBX_E_UNSUPPORTED, 0, NULL, 0);
+	if (!sdo_client_channel_count(l->node) || (net && route_ext(l) < 0)) {
+		line_answer(l, &req->reply, MBX_E_UNSUPPORTED, 0, NULL, 0);
+		return false;
+	}
 	line_pending *pp = take_slot(l, req, s, upload);
-	if (!pp)
-		return line_answer(l, &req->reply, MBX_E_BUSY, 0, NULL, 0);
+	if (!pp) {
+		line_answer(l, &req->reply, MBX_E_BUSY, 0, NULL, 0);
+		return false;
+	}
+	pp->answer = answer;
+	pp->answer_ctx = answer_ctx;
 
 	/* timeout_ms 0 means "the line's default" (docs/mailbox.md): the SDO
 	 * client's own per-frame timeout (cfg.sdo_client_timeout_ms, which
@@ -192,7 +202,8 @@ static void sdo_transfer(line *l, const mbx_request *req, const mbx_sdo_req *s, 
 	uint32_t abort = net ? route(l, pp, net, &r) : 0;
 	if (abort) {
 		line_pending_release(&l->pending, pp);
-		return line_answer(l, &req->reply, MBX_E_ABORT, abort, NULL, 0);
+		line_answer(l, &req->reply, MBX_E_ABORT, abort, NULL, 0);
+		return false;
 	}
 	int rc = -EINVAL; /* a transfer with ourselves */
 	if (r.relay || r.node_id != co_node_id(l->node))
@@ -201,14 +212,16 @@ static void sdo_transfer(line *l, const mbx_request *req, const mbx_sdo_req *s, 
 		route_end(l, pp);
 		line_pending_release(&l->pending, pp);
 		line_answer(l, &req->reply, mbx_status_of_errno(rc), 0, NULL, 0);
+		return false;
 	}
+	return true;
 }
 
 static void sdo_transfer_local(line *l, const mbx_request *req, bool upload)
 {
 	mbx_sdo_req s;
 	memcpy(&s, req->payload, sizeof s);
-	sdo_transfer(l, req, &s, 0, upload);
+	sdo_transfer(l, req, &s, 0, upload, NULL, NULL);
 }
 
 void line_sdo_upload(line *l, const mbx_request *req)
@@ -226,7 +239,7 @@ static void sdo_transfer_net(line *l, const mbx_request *req, bool upload)
 {
 	mbx_gw_sdo_req g;
 	memcpy(&g, req->payload, sizeof g);
-	sdo_transfer(l, req, &g.sdo, g.net, upload);
+	sdo_transfer(l, req, &g.sdo, g.net, upload, NULL, NULL);
 }
 
 void line_sdo_upload_net(line *l, const mbx_request *req)
@@ -237,6 +250,12 @@ void line_sdo_upload_net(line *l, const mbx_request *req)
 void line_sdo_download_net(line *l, const mbx_request *req)
 {
 	sdo_transfer_net(l, req, false);
+}
+
+bool line_sdo_submit(line *l, const mbx_request *req, const line_sdo_xfer *x)
+{
+	mbx_sdo_req s = { .node = x->node, .index = x->index, .sub = x->sub, .size = x->size_hint };
+	return sdo_transfer(l, req, &s, 0, x->upload, x->answer, x->ctx);
 }
 
 void line_sdo_client_gone(line *l, uint32_t client)

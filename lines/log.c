@@ -6,6 +6,8 @@
 #include <stdio.h>
 #include <unistd.h>
 
+#include "core/pdo_layout.h"
+
 /* Process-wide settings written once at start-up by the main thread. */
 static atomic_int use_prefix;
 static atomic_int max_level = COGW_LOG_INFO;
@@ -57,4 +59,21 @@ void cogw_log(int level, const char *fmt, ...)
 	/* one write per line keeps lines from different threads whole */
 	ssize_t w = write(STDERR_FILENO, buf, len);
 	(void)w;
+}
+
+void cogw_log_pdo_layout(const char *line_name, const co_pdo_layout *t, uint8_t node_id)
+{
+	const co_pdo_layout_node *n = co_pdo_layout_node_get(t, node_id);
+	char text[1024];
+
+	if (!n)
+		return;
+	for (unsigned d = 0; d < 2; d++) {
+		co_pdo_dir dir = d == 0 ? CO_PDO_TX : CO_PDO_RX;
+		for (unsigned k = 0; k < n->n[dir]; k++) {
+			co_pdo_layout_pdo_format(text, sizeof text, dir, &n->pdo[dir][k]);
+			cogw_log(COGW_LOG_INFO, "line %s: node %u: PDO layout (%s): %s", line_name,
+				 node_id, co_pdo_layout_source_to_string(n->source), text);
+		}
+	}
 }

@@ -10,6 +10,8 @@
 #ifndef COGW_LINES_LOG_H
 #define COGW_LINES_LOG_H
 
+#include <stdint.h>
+
 enum cogw_log_level {
 	COGW_LOG_ERR = 3,
 	COGW_LOG_WARNING = 4,
@@ -22,5 +24,10 @@ enum cogw_log_level {
 void cogw_log_use_prefix(int on);
 void cogw_log_set_max_level(int level);
 void cogw_log(int level, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+/* A node's learnt PDO layout (core/pdo_layout.h), one INFO line per PDO:
+ * "line line0: node 5: PDO layout (scan): TPDO 1 COB-ID 185h tt 254 ...". */
+struct co_pdo_layout;
+void cogw_log_pdo_layout(const char *line_name, const struct co_pdo_layout *t, uint8_t node_id);
 
 #endif /* COGW_LINES_LOG_H */

@@ -202,6 +202,78 @@ int cogw_emcy_send(cogw *h, unsigned line, uint16_t code, uint8_t reg, const uin
 int cogw_raw_send(cogw *h, unsigned line, const mbx_raw_frame *frames, size_t n,
 		  unsigned timeout_ms);
 
+/* ---- device objects of the line's slaves (docs/devices.md) ---------------- */
+
+/* The learned PDO layouts with their mirror (MBX_CMD_DEV_LAYOUT): node
+ * 1..127, or 0 for every node the line knows. The answer (its format in
+ * docs/mailbox.md "Device objects") into buf; *len its length
+ * (COGW_E_TRUNCATED when larger than cap). cogw_dev_layout_check walks it. */
+int cogw_dev_layout(cogw *h, unsigned line, uint8_t node, void *buf, size_t cap, size_t *len,
+		    unsigned timeout_ms);
+/* The nodes in a DEV_LAYOUT answer (>= 0), or COGW_E_PROTOCOL when its
+ * counts do not add up to its length. */
+int cogw_dev_layout_check(const void *buf, size_t len);
+
+/* This line's ends of the forwarded device objects (gateway.forward) with
+ * their counters: *n entries into out (COGW_E_TRUNCATED beyond cap). */
+int cogw_dev_forwards(cogw *h, unsigned line, mbx_dev_forward *out, size_t cap, size_t *n,
+		      unsigned timeout_ms);
+
+/* Watch a device object: MBX_EV_DEV_VALUE events (cogw_recv, whatever the
+ * subscriptions) with each value the mirror receives, at most one per
+ * min_interval_ms (the latest when it ends). *resp (optional): the type
+ * the values carry and the device's TPDO. COGW_E_NOT_FOUND: no TPDO of the
+ * node maps it; COGW_E_STATE: not mirrored (pdo not "auto", or it did not
+ * fit); COGW_E_FULL: the line's watch table is full; COGW_E_ABORT 06070010:
+ * a type that cannot carry it. Watching it again changes the interval. */
+int cogw_dev_watch(cogw *h, unsigned line, const mbx_dev_obj_req *obj, uint32_t min_interval_ms,
+		   mbx_dev_watch_resp *resp, unsigned timeout_ms, uint32_t *abort);
+int cogw_dev_unwatch(cogw *h, unsigned line, const mbx_dev_obj_req *obj, unsigned timeout_ms);
+/* Read a device object: from the mirror when its value is at most
+ * max_age_ms old (0 = the line's default, UINT32_MAX = any age; obj->flags
+ * MBX_DEV_SDO_ONLY: never), else by SDO. *v says which (via, age_ms); the
+ * value's bytes go to buf (*len; COGW_E_TRUNCATED beyond cap). */
+int cogw_dev_read(cogw *h, unsigned line, const mbx_dev_obj_req *obj, uint32_t max_age_ms,
+		  mbx_dev_value *v, void *buf, size_t cap, size_t *len, unsigned timeout_ms,
+		  uint32_t *abort);
+/* Write a device object (CiA 301 encoding of obj->type or the known type):
+ * by the device's RPDO when the mirror produces it (resp->held: sent once
+ * every object of that RPDO has a value), else (or with MBX_DEV_SDO_ONLY)
+ * by SDO. *resp (optional) says which. */
+int cogw_dev_write(cogw *h, unsigned line, const mbx_dev_obj_req *obj, const void *data, size_t len,
+		   mbx_dev_write_resp *resp, unsigned timeout_ms, uint32_t *abort);
+/* The fixed part and the value of an MBX_EV_DEV_VALUE event (or a
+ * DEV_READ answer): 0, or COGW_E_PROTOCOL. *data points into payload. */
+int cogw_dev_value_parse(const void *payload, size_t len, mbx_dev_value *v, const uint8_t **data);
+
+/* ---- typed values (CiA 301 data types), for every client ------------------ */
+
+typedef struct cogw_type {
+	const char *name;     /* short name: "u16", "i24", "r32", "bool", "string" */
+	const char *cia_name; /* "UNSIGNED16", ... */
+	uint16_t type;        /* MBX_T_* */
+	uint8_t size;         /* bytes; 0 = variable (strings, DOMAIN) */
+} cogw_type;
+
+/* By short or CiA name, case-insensitive; NULL if unknown. */
+const cogw_type *cogw_type_find(const char *name);
+/* By MBX_T_* number; NULL if not a basic type. */
+const cogw_type *cogw_type_of(uint16_t type);
+/* "bool, u8, ..., domain" for help and errors. */
+const char *cogw_type_names(void);
+/* A value's text into out (NUL-terminated): integers in decimal, reals
+ * the shortest text that reads back the same, BOOLEAN "true"/"false",
+ * VISIBLE_STRING its characters, TIME_OF_DAY/TIME_DIFFERENCE "DAYS MS",
+ * the others hex bytes "01 02 03". Returns the text's length,
+ * COGW_E_INVAL (len is not the type's size) or COGW_E_TRUNCATED. */
+int cogw_value_format(uint16_t type, const uint8_t *data, size_t len, char *out, size_t cap);
+/* A text as a value of the type: integers decimal or 0x hex within the
+ * type's range, reals, bool 0/1/true/false, a VISIBLE_STRING's
+ * characters, hex bytes for the other strings and DOMAIN, "DAYS MS" for
+ * the times. 0, COGW_E_INVAL (not a value of the type), COGW_E_PARAM (out
+ * of the type's range), COGW_E_TRUNCATED (more than cap bytes). */
+int cogw_value_parse(uint16_t type, const char *text, uint8_t *out, size_t cap, size_t *len);
+
 /* ---- LSS master (CiA 305) ------------------------------------------------ */
 
 /* Generic: cmd = MBX_CMD_LSS_*, fields of req as proto.h documents. */

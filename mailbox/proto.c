@@ -16,12 +16,17 @@
 
 /* Pin every payload layout: a change here is a protocol change. */
 _Static_assert(sizeof(mbx_dev_obj_req) == 8, "wire layout");
+_Static_assert(sizeof(mbx_dev_forward) == 32, "wire layout");
 _Static_assert(sizeof(mbx_dev_node_req) == 4, "wire layout");
 _Static_assert(sizeof(mbx_dev_watch_req) == 12, "wire layout");
 _Static_assert(sizeof(mbx_dev_watch_resp) == 8, "wire layout");
 _Static_assert(sizeof(mbx_dev_read_req) == 12, "wire layout");
 _Static_assert(sizeof(mbx_dev_value) == 32, "wire layout");
 _Static_assert(sizeof(mbx_dev_write_resp) == 8, "wire layout");
+_Static_assert(sizeof(mbx_dev_layout_node) == 32, "wire layout");
+_Static_assert(sizeof(mbx_dev_layout_pdo) == 20, "wire layout");
+_Static_assert(sizeof(mbx_dev_layout_entry) == 8, "wire layout");
+_Static_assert(sizeof(mbx_ev_dev_mirror) == 12, "wire layout");
 _Static_assert(sizeof(mbx_register_req) == 140, "wire layout");
 _Static_assert(sizeof(mbx_register_resp) == 32, "wire layout");
 _Static_assert(sizeof(mbx_raw_filter) == 8, "wire layout");
@@ -358,6 +363,8 @@ const char *mbx_event_to_string(unsigned code)
 		return "time";
 	case MBX_EV_DEV_VALUE:
 		return "dev-value";
+	case MBX_EV_DEV_MIRROR:
+		return "dev-mirror";
 	case MBX_EV_EMCY:
 		return "emcy";
 	case MBX_EV_RAW:
@@ -409,6 +416,8 @@ uint32_t mbx_event_class_of(unsigned code)
 		return MBX_EVC_TIME;
 	case MBX_EV_DEV_VALUE:
 		return MBX_EVC_VALUE;
+	case MBX_EV_DEV_MIRROR:
+		return MBX_EVC_MANAGER;
 	case MBX_EV_EMCY:
 		return MBX_EVC_EMCY;
 	case MBX_EV_RAW:
@@ -768,7 +777,12 @@ static int check_gw_sdo_req(uint16_t code, const uint8_t *p, size_t len, mbx_bad
 	return check_sdo_fields(code, &r.sdo, bad);
 }
 
-/* MGR_BOOT takes node 0 (all nodes), MGR_NODE_DIAG one node. */
+bool mbx_data_type_is_valid(unsigned type)
+{
+	/* 0Eh and 17h are no basic type (CiA 301 table 44) */
+	return type >= MBX_T_BOOLEAN && type <= MBX_T_UNSIGNED64 && type != 0x0E && type != 0x17;
+}
+
 /* The fixed part of every DEV_* command that names one object; the watch
  * and read requests begin with it. A co_type is one of CiA 301's basic
  * types (0001h..001Bh) or 0. */
@@ -781,7 +795,7 @@ static int check_dev_obj(uint16_t code, const uint8_t *p, size_t len, mbx_bad *b
 	memcpy(&r, p, sizeof r);
 	if (r.flags & ~(unsigned)MBX_DEV_SDO_ONLY)
 		return refuse(bad, MBX_BAD_RESERVED);
-	if (r.node < 1 || r.node > 127 || r.type > 0x1B)
+	if (r.node < 1 || r.node > 127 || (r.type && !mbx_data_type_is_valid(r.type)))
 		return refuse(bad, MBX_BAD_PARAM);
 	return 0;
 }
@@ -800,6 +814,7 @@ static int check_dev_node(uint16_t code, const uint8_t *p, size_t len, mbx_bad *
 	return 0;
 }
 
+/* MGR_BOOT takes node 0 (all nodes), MGR_NODE_DIAG one node. */
 static int check_mgr_node_req(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
 {
 	mbx_mgr_node_req r;
@@ -989,6 +1004,7 @@ static const mbx_cmd_info cmd_table[] = {
 	{ MBX_CMD_DEV_UNWATCH, R, sizeof(mbx_dev_obj_req), 0, "dev-unwatch", check_dev_obj },
 	{ MBX_CMD_DEV_READ, R, sizeof(mbx_dev_read_req), 0, "dev-read", check_dev_obj },
 	{ MBX_CMD_DEV_WRITE, W | D, sizeof(mbx_dev_obj_req), 0, "dev-write", check_dev_obj },
+	{ MBX_CMD_DEV_FORWARDS, R, 0, 0, "dev-forwards", NULL },
 };
 
 #undef R
@@ -1076,6 +1092,8 @@ int mbx_event_validate(unsigned code, const uint8_t *p, size_t len)
 		return len == sizeof(mbx_ev_sync) ? 0 : MBX_E_MALFORMED;
 	case MBX_EV_TIME:
 		return len == sizeof(mbx_ev_time) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_DEV_MIRROR:
+		return len == sizeof(mbx_ev_dev_mirror) ? 0 : MBX_E_MALFORMED;
 	case MBX_EV_DEV_VALUE: {
 		mbx_dev_value v;
 

@@ -224,12 +224,14 @@ typedef enum mbx_cmd {
 	MBX_CMD_GW_SDO_UPLOAD = 0x0B02,   /* R mbx_gw_sdo_req -> data, hdr.abort */
 	MBX_CMD_GW_SDO_DOWNLOAD = 0x0B03, /* W mbx_gw_sdo_req + data -> -, hdr.abort */
 	/* 0x0Cxx device objects of the line's slaves (docs/devices.md) */
-	MBX_CMD_DEV_LAYOUT = 0x0C01,  /* R mbx_dev_node_req -> the learned PDO layouts
+	MBX_CMD_DEV_LAYOUT = 0x0C01,   /* R mbx_dev_node_req -> the learned PDO layouts
 	                               * (docs/mailbox.md "Device objects") */
-	MBX_CMD_DEV_WATCH = 0x0C02,   /* R mbx_dev_watch_req -> mbx_dev_watch_resp */
-	MBX_CMD_DEV_UNWATCH = 0x0C03, /* R mbx_dev_obj_req -> - */
-	MBX_CMD_DEV_READ = 0x0C04,    /* R mbx_dev_read_req -> mbx_dev_value + data */
-	MBX_CMD_DEV_WRITE = 0x0C05,   /* W mbx_dev_obj_req + data -> mbx_dev_write_resp */
+	MBX_CMD_DEV_WATCH = 0x0C02,    /* R mbx_dev_watch_req -> mbx_dev_watch_resp */
+	MBX_CMD_DEV_UNWATCH = 0x0C03,  /* R mbx_dev_obj_req -> - */
+	MBX_CMD_DEV_READ = 0x0C04,     /* R mbx_dev_read_req -> mbx_dev_value + data */
+	MBX_CMD_DEV_WRITE = 0x0C05,    /* W mbx_dev_obj_req + data -> mbx_dev_write_resp */
+	MBX_CMD_DEV_FORWARDS = 0x0C06, /* R - -> mbx_dev_forward[n]: this line's ends of
+	                                * gateway.forward with their counters */
 } mbx_cmd;
 
 const char *mbx_cmd_to_string(unsigned code); /* "?" if unknown */
@@ -313,6 +315,8 @@ typedef enum mbx_event {
 	MBX_EV_TIME = 0x0D01,           /* TIME mbx_ev_time */
 	MBX_EV_DEV_VALUE = 0x0E01,      /* VALUE mbx_dev_value + data: a watched object's
 	                                 * new value, to its watchers only */
+	MBX_EV_DEV_MIRROR = 0x0E02,     /* MANAGER mbx_ev_dev_mirror: a node's mirror
+	                                 * PDOs were programmed or released */
 } mbx_event;
 
 const char *mbx_event_to_string(unsigned code); /* "?" if unknown */
@@ -855,6 +859,39 @@ typedef struct mbx_rpdo_fault_entry {
 
 /* ---- device objects (docs/devices.md) ------------------------------------ */
 
+/* CiA 301 basic data types as the wire carries them (the data type index,
+ * CiA 301 §7.4.7.1 table 44; the same numbers as core/od.h co_type). */
+enum mbx_data_type {
+	MBX_T_BOOLEAN = 0x01,
+	MBX_T_INTEGER8 = 0x02,
+	MBX_T_INTEGER16 = 0x03,
+	MBX_T_INTEGER32 = 0x04,
+	MBX_T_UNSIGNED8 = 0x05,
+	MBX_T_UNSIGNED16 = 0x06,
+	MBX_T_UNSIGNED32 = 0x07,
+	MBX_T_REAL32 = 0x08,
+	MBX_T_VISIBLE_STRING = 0x09,
+	MBX_T_OCTET_STRING = 0x0A,
+	MBX_T_UNICODE_STRING = 0x0B,
+	MBX_T_TIME_OF_DAY = 0x0C,
+	MBX_T_TIME_DIFFERENCE = 0x0D,
+	MBX_T_DOMAIN = 0x0F,
+	MBX_T_INTEGER24 = 0x10,
+	MBX_T_REAL64 = 0x11,
+	MBX_T_INTEGER40 = 0x12,
+	MBX_T_INTEGER48 = 0x13,
+	MBX_T_INTEGER56 = 0x14,
+	MBX_T_INTEGER64 = 0x15,
+	MBX_T_UNSIGNED24 = 0x16,
+	MBX_T_UNSIGNED40 = 0x18,
+	MBX_T_UNSIGNED48 = 0x19,
+	MBX_T_UNSIGNED56 = 0x1A,
+	MBX_T_UNSIGNED64 = 0x1B,
+};
+
+/* One of the basic types above. */
+bool mbx_data_type_is_valid(unsigned type);
+
 /* A device object: node of the line's bus, index:sub. `type` is the co_type
  * (core/od.h) the client reads or writes it as; 0 = the one the line knows
  * (its DCF/EDS), else an unsigned integer of the mapped size. */
@@ -918,12 +955,104 @@ typedef struct mbx_dev_value {
 
 #define MBX_DEV_VALUE_EVENT_MAX 8u /* an event carries a PDO's value: <= 8 bytes */
 
+/* DEV_LAYOUT answer: per node (the requested one, or every node the line
+ * knows) one mbx_dev_layout_node, then its n_tpdo + n_rpdo PDO records
+ * (the device's TPDOs first), each followed by its n entries. */
+typedef struct mbx_dev_layout_node {
+	uint8_t node;
+	uint8_t source; /* 0 none, 1 file (DCF/EDS), 2 scan (SDO) */
+	uint8_t valid;  /* 1: learnt and not invalidated since */
+	uint8_t mirror; /* mbx_dev_mirror_status */
+	uint8_t reason; /* mbx_dev_mirror_reason of the first PDO not mirrored */
+	uint8_t pad;
+	uint16_t missing;    /* valid PDOs not mirrored (with mirror on) */
+	uint32_t generation; /* of the layout: +1 at every change */
+	uint16_t n_tpdo;     /* records that follow */
+	uint16_t n_rpdo;
+	uint16_t dropped_tpdo; /* valid PDOs the table had no room for */
+	uint16_t dropped_rpdo;
+	uint64_t learned_us; /* CLOCK_MONOTONIC when learnt */
+} mbx_dev_layout_node;
+
+typedef struct mbx_dev_layout_pdo {
+	uint16_t nr;  /* the device's PDO number, 1..512 */
+	uint8_t dir;  /* 1 = a TPDO of the device, 0 = an RPDO */
+	uint8_t n;    /* entries that follow */
+	uint32_t cob; /* communication sub 1 */
+	uint8_t tt;
+	uint8_t sync_start;
+	uint16_t inhibit; /* 100 us */
+	uint16_t event_ms;
+	uint8_t bytes;         /* frame length */
+	uint8_t mirror_reason; /* mbx_dev_mirror_reason, 0 = mirrored or off */
+	uint16_t mirror_pdo;   /* the daemon's PDO mirroring it (RPDO for a
+	                        * TPDO of the device), 0 = none */
+	uint16_t pad;
+} mbx_dev_layout_pdo;
+
+typedef struct mbx_dev_layout_entry {
+	uint16_t index; /* 0001h..0007h: a dummy entry */
+	uint8_t sub;
+	uint8_t bits;
+	uint8_t offset; /* first bit in the frame */
+	uint8_t access; /* CO_ACC_* bits the file gives (1 read, 2 write,
+	                 * 4 const, 8 RPDO, 16 TPDO), 0 = unknown */
+	uint16_t type;  /* co_type, 0 = unknown */
+} mbx_dev_layout_entry;
+
+enum mbx_dev_mirror_status {
+	MBX_DEV_MIRROR_OFF = 0,     /* pdo is not "auto" for the node */
+	MBX_DEV_MIRROR_WAITING = 1, /* no valid layout */
+	MBX_DEV_MIRROR_FULL = 2,    /* every valid PDO mirrored */
+	MBX_DEV_MIRROR_PARTIAL = 3, /* some not (reason, missing) */
+	MBX_DEV_MIRROR_NONE = 4,    /* none could be */
+};
+
+enum mbx_dev_mirror_reason {
+	MBX_DEV_MR_NONE = 0,
+	MBX_DEV_MR_NO_FREE_PDO = 1, /* the daemon has no free PDO record left */
+	MBX_DEV_MR_COB_IN_USE = 2,  /* a PDO of the daemon already uses the COB-ID */
+	MBX_DEV_MR_OD_REFUSED = 3,  /* the daemon's OD refused the re-mapping */
+	MBX_DEV_MR_NOT_KEPT = 4,    /* beyond the layout table's room */
+};
+
+/* MBX_EV_DEV_MIRROR */
+typedef struct mbx_ev_dev_mirror {
+	uint8_t node;
+	uint8_t status; /* mbx_dev_mirror_status */
+	uint8_t reason; /* mbx_dev_mirror_reason */
+	uint8_t pad;
+	uint16_t mirrored; /* device PDOs mirrored */
+	uint16_t missing;  /* not */
+	uint32_t generation;
+} mbx_ev_dev_mirror;
+
 typedef struct mbx_dev_write_resp {
 	uint8_t via;  /* mbx_dev_via */
 	uint8_t held; /* PDO: not sent yet, another object of it has no value yet */
 	uint16_t pdo; /* the device's RPDO (via PDO) */
 	uint32_t cob_id;
 } mbx_dev_write_resp;
+
+/* DEV_FORWARDS: one per end of a forwarded device object on the line. */
+typedef struct mbx_dev_forward {
+	uint8_t source; /* 1: `from` end (a TPDO of node into the image), 0: `to` end */
+	uint8_t node;
+	uint8_t sub;
+	uint8_t peer_line;
+	uint16_t index;
+	uint16_t image; /* the process image object B000h..BFFFh (sub 0) */
+	uint8_t peer_node;
+	uint8_t peer_sub;
+	uint16_t peer_index;
+	uint32_t values;     /* source: values put into the image; target: values
+	                      * taken from it */
+	uint32_t sent;       /* target: frames of the device's RPDO carrying one */
+	uint32_t superseded; /* target: values replaced before a frame carried them */
+	uint32_t refused;    /* values not forwarded: the device's PDO not mirrored, or
+	                      * (target) a value its mapped bits cannot hold */
+	uint32_t pad;
+} mbx_dev_forward;
 
 /* ---- functions ----------------------------------------------------------- */
 

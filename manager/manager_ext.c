@@ -12,6 +12,7 @@
 
 #include "core/cfgmgr.h"
 #include "core/manager.h"
+#include "core/pdo_scan.h"
 #include "core/sdo.h"
 #include "core/swmgr.h"
 #include "lines/log.h"
@@ -42,6 +43,7 @@ struct mgr_line {
 	co_manager *mgr;
 	co_cfgmgr_line cfgm;
 	co_swmgr_line swm;
+	co_pdo_scan_line scan;
 	line *l; /* while attached: progress events go to its mailbox */
 	struct mgr_program prog[MGR_PROGRAM_MAX];
 	size_t copy_cap; /* bytes of each prog[].copy */
@@ -84,6 +86,43 @@ static void cfgm_done(void *ctx, const co_cfgmgr_result *r, uint64_t now_us)
 	if (ml->mgr)
 		(void)co_manager_configure_done(ml->mgr, r->node_id, abort, r->index, r->sub,
 						abort ? r->entry : r->written, now_us);
+}
+
+/* The PDO layout step ended: the learnt layout in the log (one line per
+ * PDO), the boot slave process goes on (the boot event reports it). */
+static void scan_done(void *ctx, const co_pdo_scan_result *r, uint64_t now_us)
+{
+	struct mgr_line *ml = ctx;
+	uint32_t abort = r->outcome == CO_PDO_SCAN_LEARNT ? 0
+			 : r->abort                       ? r->abort
+							  : SDO_AB_GENERAL;
+
+	/* cancelled by the node's boot-up (its boot starts again) or by the
+	 * line stopping: nothing to report, nobody waits for it */
+	if (r->outcome == CO_PDO_SCAN_CANCELLED)
+		return;
+	if (r->outcome == CO_PDO_SCAN_LEARNT) {
+		cogw_log_pdo_layout(ml->lc.name, ml->scan.table, r->node_id);
+		cogw_log(r->dropped[CO_PDO_TX] || r->dropped[CO_PDO_RX] ? COGW_LOG_WARNING
+									: COGW_LOG_INFO,
+			 "line %s: node %u: PDO layout learnt by SDO: %u TPDOs, %u RPDOs (%u and "
+			 "%u invalid; %u and %u beyond pdo_scan_max, not kept)",
+			 ml->lc.name, r->node_id, r->n[CO_PDO_TX], r->n[CO_PDO_RX],
+			 r->invalid[CO_PDO_TX], r->invalid[CO_PDO_RX], r->dropped[CO_PDO_TX],
+			 r->dropped[CO_PDO_RX]);
+	} else if (r->outcome == CO_PDO_SCAN_ABORTED) {
+		cogw_log(COGW_LOG_WARNING,
+			 "line %s: node %u: PDO layout not learnt: %04X:%02X abort %08X (%s); the "
+			 "boot goes on",
+			 ml->lc.name, r->node_id, r->index, r->sub, (unsigned)r->abort,
+			 sdo_abort_to_string(r->abort));
+	}
+	if (ml->mgr)
+		(void)co_manager_pdo_layout_done(
+			ml->mgr, r->node_id, abort, r->index, r->sub,
+			(uint32_t)r->n[CO_PDO_TX] | (uint32_t)r->n[CO_PDO_RX] << 16,
+			(uint32_t)r->dropped[CO_PDO_TX] | (uint32_t)r->dropped[CO_PDO_RX] << 16,
+			now_us);
 }
 
 /* 1F58h:n: the images read from the files of nodes[].program at load. */
@@ -231,6 +270,21 @@ static int mgr_attach(void *ctx, line *l)
 	c.configure_ctx = &ml->cfgm;
 	c.software = co_swmgr_line_check;
 	c.software_ctx = &ml->swm;
+	c.pdo_layout = co_pdo_scan_line_step;
+	c.pdo_layout_ctx = &ml->scan;
+	memset(ml->scan.cfg, 0, sizeof ml->scan.cfg);
+	for (size_t i = 0; i < ml->lc.n_nodes; i++) {
+		const mgr_ext_node *n = &ml->lc.nodes[i];
+		ml->scan.cfg[n->id] = (co_pdo_scan_node){
+			.scan = n->pdo_scan,
+			.from_file = n->pdo_from_file,
+			.scan_if_reconfigured = n->pdo_scan_if_reconfigured,
+			.types = n->pdo_types,
+			.n_types = n->n_pdo_types,
+		};
+	}
+	co_pdo_scan_line_init(&ml->scan, node, line_pdo_layout(l), scan_done, ml);
+	ml->scan.sdo_timeout_ms = c.sdo_timeout_ms;
 	co_cfgmgr_line_init(&ml->cfgm, node, cfgm_done, ml);
 	co_swmgr_line_init(&ml->swm, node, &src, swm_done, ml);
 	ml->swm.sdo_timeout_ms = c.sdo_timeout_ms;
@@ -261,6 +315,7 @@ static void mgr_detach(void *ctx, line *l)
 	ml->l = NULL; /* the line is stopping: nobody is answered any more */
 	co_cfgmgr_line_cancel_all(&ml->cfgm, line_loop_now_us(l));
 	co_swmgr_line_cancel_all(&ml->swm, line_loop_now_us(l));
+	co_pdo_scan_line_cancel_all(&ml->scan, line_loop_now_us(l));
 	co_manager_destroy(ml->mgr);
 	ml->l = NULL;
 	ml->mgr = NULL;
@@ -314,6 +369,9 @@ static void mgr_on_core_event(void *ctx, line *l, const co_event *ev)
 		break;
 	default:
 		co_cfgmgr_line_on_event(&ml->cfgm, ev, ev->now_us);
+		/* before the manager restarts a rebooted node's boot: its
+		 * layout is invalid from its boot-up on */
+		co_pdo_scan_line_on_event(&ml->scan, ev, ev->now_us);
 		co_manager_on_event(ml->mgr, ev);
 		return;
 	}

@@ -1,8 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * manager/manager_ext.h - the CiA 302-2 manager (core/manager.h), with the
- * CiA 302-3 configuration manager (core/cfgmgr.h) as its configure step
- * and the software manager (core/swmgr.h) as its check software step, on
+ * CiA 302-3 configuration manager (core/cfgmgr.h) as its configure step,
+ * the PDO layout scan (core/pdo_scan.h, into the line's table of layouts,
+ * line_pdo_layout) after it and the software manager (core/swmgr.h) as its
+ * check software step, on
  * every line that enables it: a line extension (lines/line_ext.h) that
  * feeds the line's core events and time to them, publishes their events
  * on the mailbox (classes BOOT and MANAGER) and answers the MBX_CMD_MGR_*
@@ -23,6 +25,7 @@
 #include <stdint.h>
 
 #include "core/manager.h"
+#include "core/pdo_layout.h"
 #include "lines/line_ext.h"
 
 #define MGR_EXT_LINES_MAX 16u
@@ -38,6 +41,12 @@ typedef struct mgr_ext_node {
 	const uint8_t *program; /* the 1F58h:n image (NULL = none); must
 	                          * outlive the extension */
 	size_t program_len;
+	/* its PDO layout (core/pdo_scan.h; docs/config.md "PDO layouts") */
+	bool pdo_scan;                       /* learnt by SDO during its boot */
+	bool pdo_from_file;                  /* the line's table has it from a file */
+	bool pdo_scan_if_reconfigured;       /* ... scanned if 1F22h:n changed */
+	const co_pdo_layout_type *pdo_types; /* sorted; must outlive the extension */
+	size_t n_pdo_types;
 } mgr_ext_node;
 
 typedef struct mgr_ext_line_params {

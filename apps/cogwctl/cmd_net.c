@@ -157,7 +157,9 @@ static int run_pdo(ctl *c, int argc, char **argv)
 	if (c->help)
 		return ctl_print_help(&ctl_cmd_pdo);
 	if (n_pos < 1)
-		return ctl_usage_error(c, "request, read or write?");
+		return ctl_usage_error(c, "map, request, read or write?");
+	if (strcmp(pos[0], "map") == 0)
+		return ctl_pdo_map(c, n_pos, pos);
 	unsigned line;
 	int ex = 0;
 	cogw *h;
@@ -189,7 +191,8 @@ static int run_pdo(ctl *c, int argc, char **argv)
 	}
 	bool write = strcmp(pos[0], "write") == 0;
 	if (!write && strcmp(pos[0], "read") != 0)
-		return ctl_usage_error(c, "unknown action '%s' (request, read, write)", pos[0]);
+		return ctl_usage_error(c, "unknown action '%s' (map, request, read, write)",
+				       pos[0]);
 	c->what = write ? "pdo write" : "pdo read";
 	uint16_t index;
 	uint8_t sub;
@@ -263,13 +266,21 @@ static int run_pdo(ctl *c, int argc, char **argv)
 
 const ctl_cmd ctl_cmd_pdo = {
 	.name = "pdo",
-	.synopsis = "  pdo request LINE TPDO                    send a TPDO of the daemon now\n"
-		    "  pdo read|write LINE INDEX SUB [TYPE] [VALUE] [--trigger]\n"
-		    "                                           the daemon's process data image\n",
-	.help = "usage: cogwctl pdo request LINE TPDO\n"
+	.synopsis =
+		"  pdo map [LINE [NODE]]                    the slaves' PDO layouts and mirror\n"
+		"  pdo request LINE TPDO                    send a TPDO of the daemon now\n"
+		"  pdo read|write LINE INDEX SUB [TYPE] [VALUE] [--trigger]\n"
+		"                                           the daemon's process data image\n",
+	.help = "usage: cogwctl pdo map [LINE [NODE]]\n"
+		"       cogwctl pdo request LINE TPDO\n"
 		"       cogwctl pdo read LINE INDEX SUB [TYPE]\n"
 		"       cogwctl pdo write LINE INDEX SUB TYPE VALUE [--trigger]\n"
 		"\n"
+		"  map        the PDO layouts the daemon learnt of its slaves (from their "
+		"DCF/EDS or\n"
+		"             by SDO), with the daemon's PDO mirroring each one, or why none "
+		"does\n"
+		"             (docs/devices.md)\n"
 		"Process data of the daemon's node on line LINE:\n"
 		"  request    send TPDO number TPDO (1..512) now (it must be valid, and the "
 		"daemon\n"

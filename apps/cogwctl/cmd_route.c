@@ -150,6 +150,55 @@ static void line_text(unsigned line, const mbx_gw_status *st, const mbx_gw_route
 	}
 }
 
+static void forward_json(cJSON *o, const mbx_dev_forward *f, size_t n)
+{
+	cJSON *arr = cJSON_AddArrayToObject(o, "forwarded_objects");
+	for (size_t i = 0; i < n; i++) {
+		cJSON *e = cJSON_CreateObject();
+		char obj[16], peer[16], image[8];
+		snprintf(obj, sizeof obj, "%04X:%02X", f[i].index, f[i].sub);
+		snprintf(peer, sizeof peer, "%04X:%02X", f[i].peer_index, f[i].peer_sub);
+		snprintf(image, sizeof image, "%04X", f[i].image);
+		cJSON_AddStringToObject(e, "end", f[i].source ? "from" : "to");
+		cJSON_AddNumberToObject(e, "node", f[i].node);
+		cJSON_AddStringToObject(e, "object", obj);
+		cJSON_AddStringToObject(e, "image", image);
+		cJSON_AddNumberToObject(e, "peer_line", f[i].peer_line);
+		cJSON_AddNumberToObject(e, "peer_node", f[i].peer_node);
+		cJSON_AddStringToObject(e, "peer_object", peer);
+		cJSON_AddNumberToObject(e, "values", f[i].values);
+		if (!f[i].source) {
+			cJSON_AddNumberToObject(e, "sent", f[i].sent);
+			cJSON_AddNumberToObject(e, "superseded", f[i].superseded);
+		}
+		cJSON_AddNumberToObject(e, "refused", f[i].refused);
+		cJSON_AddItemToArray(arr, e);
+	}
+}
+
+/* "values" of a source end, "values, sent, superseded" of a target end:
+ * what became of each value is in docs/gateway.md. */
+static void forward_text(const mbx_dev_forward *f, size_t n)
+{
+	if (!n)
+		return;
+	printf("  forwarded device objects (gateway.forward):\n");
+	for (size_t i = 0; i < n; i++) {
+		if (f[i].source)
+			printf("    node %u %04X:%02X -> line %u node %u %04X:%02X via %04X: %u "
+			       "values into the image, %u refused\n",
+			       f[i].node, f[i].index, f[i].sub, f[i].peer_line, f[i].peer_node,
+			       f[i].peer_index, f[i].peer_sub, f[i].image, f[i].values,
+			       f[i].refused);
+		else
+			printf("    line %u node %u %04X:%02X -> node %u %04X:%02X via %04X: %u "
+			       "values taken, %u frames sent, %u superseded, %u refused\n",
+			       f[i].peer_line, f[i].peer_node, f[i].peer_index, f[i].peer_sub,
+			       f[i].node, f[i].index, f[i].sub, f[i].image, f[i].values, f[i].sent,
+			       f[i].superseded, f[i].refused);
+	}
+}
+
 static int run(ctl *c, int argc, char **argv)
 {
 	const char *pos[MBX_LINES_MAX];
@@ -179,9 +228,10 @@ static int run(ctl *c, int argc, char **argv)
 	cJSON *arr = c->json ? cJSON_CreateArray() : NULL;
 	static mbx_gw_route routes[128];
 	static mbx_gw_session sessions[255];
+	static mbx_dev_forward fwd[64];
 	for (int i = 0; i < n_lines; i++) {
 		mbx_gw_status st;
-		size_t n = 0, n_s = 0;
+		size_t n = 0, n_s = 0, n_f = 0;
 		char ctx[48];
 		snprintf(ctx, sizeof ctx, "gateway of line %u", lines[i]);
 		rc = cogw_gw_status(h, lines[i], &st, routes, 128, &n, sessions, 255, &n_s,
@@ -194,13 +244,18 @@ static int run(ctl *c, int argc, char **argv)
 			n = 128;
 		if (n_s > 255)
 			n_s = 255;
+		/* a daemon without the device object layer has none to show */
+		if (cogw_dev_forwards(h, lines[i], fwd, 64, &n_f, c->timeout_ms) < 0)
+			n_f = 0;
 		if (c->json) {
-			cJSON_AddItemToArray(arr,
-					     line_json(lines[i], &st, routes, n, sessions, n_s));
+			cJSON *o = line_json(lines[i], &st, routes, n, sessions, n_s);
+			forward_json(o, fwd, n_f);
+			cJSON_AddItemToArray(arr, o);
 		} else {
 			if (i)
 				printf("\n");
 			line_text(lines[i], &st, routes, n, sessions, n_s);
+			forward_text(fwd, n_f);
 		}
 	}
 	if (c->json) {
@@ -228,7 +283,8 @@ const ctl_cmd ctl_cmd_route = {
 		"counters, then the routed SDO sessions running now (server channel, target\n"
 		"network and node, the line and router it went to, where the transfer stands,\n"
 		"age, frames relayed) and how many of the line's SDO clients are lent to\n"
-		"sessions of other lines. See docs/gateway.md.\n"
+		"sessions of other lines; and the forwarded device objects (gateway.forward)\n"
+		"with what became of their values. See docs/gateway.md.\n"
 		"\n"
 		"Examples:\n"
 		"  cogwctl route\n"

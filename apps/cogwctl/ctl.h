@@ -102,12 +102,9 @@ int ctl_read_file(ctl *c, const char *path, uint8_t **data, size_t *len);
 
 /* ---- values by type ------------------------------------------------------ */
 
-typedef struct ctl_type {
-	const char *name;  /* short name: u8, i16, r32, string, hex, domain */
-	const char *alias; /* CiA name: UNSIGNED8, ... */
-	co_type type;
-	uint8_t size; /* bytes; 0 = variable (string, hex, domain) */
-} ctl_type;
+/* The CiA 301 types values are given and shown as: libcogw's table
+ * (mailbox/cogw.h cogw_type), shared with every client. */
+typedef cogw_type ctl_type;
 
 /* By short name or CiA name, case-insensitive; NULL if unknown. */
 const ctl_type *ctl_type_find(const char *name);
@@ -140,7 +137,11 @@ typedef struct ctl_cmd {
 
 extern const ctl_cmd ctl_cmd_status, ctl_cmd_sdo, ctl_cmd_od, ctl_cmd_nmt, ctl_cmd_pdo,
 	ctl_cmd_emcy, ctl_cmd_lss, ctl_cmd_monitor, ctl_cmd_raw, ctl_cmd_dcf, ctl_cmd_route,
-	ctl_cmd_manager, ctl_cmd_boot, ctl_cmd_diag, ctl_cmd_program, ctl_cmd_configure;
+	ctl_cmd_manager, ctl_cmd_boot, ctl_cmd_diag, ctl_cmd_program, ctl_cmd_configure,
+	ctl_cmd_watch, ctl_cmd_dev;
+
+/* cmd_dev.c: "pdo map [LINE [NODE]]" (pos[0] = "map"). */
+int ctl_pdo_map(ctl *c, int n_pos, const char **pos);
 
 /* Print a subcommand's help (stdout) and return 0. */
 int ctl_print_help(const ctl_cmd *cmd);
@@ -156,6 +157,8 @@ typedef struct ctl_monitor_spec {
 	bool as_float;     /* PDO values of 4 bytes as REAL32 */
 } ctl_monitor_spec;
 int ctl_monitor_run(ctl *c, const ctl_monitor_spec *spec);
+/* One event as monitor prints it (text line or --json object). */
+void ctl_monitor_print(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec);
 /* "ID[/MASK]" (3 hex digits or fewer = 11-bit, 8 = 29-bit). */
 int ctl_parse_raw_filter(ctl *c, const char *s, mbx_raw_filter *f);
 /* Number of lines of the daemon (probes line queues 0, 1, ...). Returns

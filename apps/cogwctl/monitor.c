@@ -332,6 +332,20 @@ static void mgr_boot_text(const mbx_ev_mgr *e, char *text, size_t len)
 			 "node %u boot software: its program does not run (1F51:01 = %" PRIu32
 			 ", %s)",
 			 e->node, e->value, co_swmgr_program_to_string((uint8_t)e->value));
+	else if (e->step == CO_MGR_STEP_PDO_LAYOUT && e->abort)
+		/* not a CiA 302-2 check: the boot goes on */
+		snprintf(text, len,
+			 "node %u boot pdo-layout: not learnt, %04X:%02X abort 0x%08" PRIX32
+			 " (%s); the boot goes on",
+			 e->node, e->index, e->sub, e->abort, sdo_abort_to_string(e->abort));
+	else if (e->step == CO_MGR_STEP_PDO_LAYOUT)
+		/* value: PDOs kept, TPDOs | RPDOs << 16; expected: those dropped */
+		snprintf(text, len,
+			 "node %u boot pdo-layout ok: %" PRIu32 " TPDOs, %" PRIu32
+			 " RPDOs learnt by SDO (%" PRIu32 " and %" PRIu32
+			 " beyond pdo_scan_max, not kept)",
+			 e->node, e->value & 0xFFFFu, e->value >> 16, e->expected & 0xFFFFu,
+			 e->expected >> 16);
 	else if (e->step == CO_MGR_STEP_CONFIGURE && e->value)
 		/* value: the concise DCF entries written */
 		snprintf(text, len,
@@ -369,6 +383,12 @@ static void print_mgr_boot(const cogw_msg *m, const ctl_monitor_spec *spec, even
 	cJSON_AddNumberToObject(out->o, "value", e.value);
 	if (e.status == 'J')
 		cJSON_AddNumberToObject(out->o, "entry", e.value);
+	if (e.step == CO_MGR_STEP_PDO_LAYOUT && !e.abort) {
+		cJSON_AddNumberToObject(out->o, "tpdos", e.value & 0xFFFFu);
+		cJSON_AddNumberToObject(out->o, "rpdos", e.value >> 16);
+		cJSON_AddNumberToObject(out->o, "tpdos_dropped", e.expected & 0xFFFFu);
+		cJSON_AddNumberToObject(out->o, "rpdos_dropped", e.expected >> 16);
+	}
 	cJSON_AddNumberToObject(out->o, "expected", e.expected);
 	cJSON_AddBoolToObject(out->o, "done", e.done);
 	cJSON_AddBoolToObject(out->o, "mandatory", e.mandatory);
@@ -547,10 +567,63 @@ static void print_guarding(const cogw_msg *m, const ctl_monitor_spec *spec, even
 	cJSON_AddStringToObject(out->o, "state", st);
 }
 
+/* A watched device object's typed value (docs/devices.md). */
+static void print_dev_value(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_dev_value v;
+	const uint8_t *data;
+	const ctl_type *t;
+	char *text;
+
+	(void)spec;
+	if (cogw_dev_value_parse(m->data, m->len, &v, &data) < 0)
+		return (void)snprintf(out->text, out->len, "malformed device value");
+	t = cogw_type_of(v.type);
+	text = t ? ctl_value_text(t, data, v.len) : ctl_hex_text(data, v.len, 8);
+	snprintf(out->text, out->len, "node %u %04X:%02X %s = %s (seq %" PRIu32 ")", v.node,
+		 v.index, v.sub, t ? t->cia_name : "?", text ? text : "?", v.seq);
+	free(text);
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "node", v.node);
+	cJSON_AddNumberToObject(out->o, "index", v.index);
+	cJSON_AddNumberToObject(out->o, "sub", v.sub);
+	cJSON_AddNumberToObject(out->o, "seq", v.seq);
+	cJSON_AddNumberToObject(out->o, "rx_time_us", (double)v.time_us);
+	cJSON_AddNumberToObject(out->o, "bits", v.bits);
+	ctl_value_json(out->o, t, data, v.len);
+}
+
+static void print_dev_mirror(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	static const char *const status[] = { "off", "waiting", "full", "partial", "none" };
+	static const char *const reason[] = { "", "no free PDO", "COB-ID in use", "OD refused",
+					      "not kept" };
+	mbx_ev_dev_mirror e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	const char *st = e.status < 5 ? status[e.status] : "?";
+	const char *why = e.reason < 5 ? reason[e.reason] : "?";
+	snprintf(out->text, out->len, "node %u mirror %s: %u PDOs mirrored, %u not%s%s", e.node, st,
+		 e.mirrored, e.missing, e.missing ? " - " : "", e.missing ? why : "");
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "node", e.node);
+	cJSON_AddStringToObject(out->o, "mirror", st);
+	cJSON_AddNumberToObject(out->o, "mirrored", e.mirrored);
+	cJSON_AddNumberToObject(out->o, "missing", e.missing);
+	if (e.missing)
+		cJSON_AddStringToObject(out->o, "reason", why);
+	cJSON_AddNumberToObject(out->o, "generation", e.generation);
+}
+
 static const struct {
 	uint16_t code;
 	event_printer print;
 } event_printers[] = {
+	{ MBX_EV_DEV_VALUE, print_dev_value },
+	{ MBX_EV_DEV_MIRROR, print_dev_mirror },
 	{ MBX_EV_NMT_STATE, print_nmt_state },
 	{ MBX_EV_BOOTUP, print_bootup },
 	{ MBX_EV_HB_STARTED, print_hb_started },
@@ -601,7 +674,7 @@ static cJSON *event_json_head(const cogw_msg *m, const char *cls, double epoch)
 	return o;
 }
 
-static void print_event(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
+void ctl_monitor_print(ctl *c, const cogw_msg *m, const ctl_monitor_spec *spec)
 {
 	char ts[32], text[1024] = "";
 	double epoch;
@@ -686,7 +759,7 @@ int ctl_monitor_run(ctl *c, const ctl_monitor_spec *spec)
 			return ctl_fail(c, rc, 0, "receiving events");
 		if (m.kind == MBX_KIND_EVENT && m.line < MBX_LINES_MAX &&
 		    (lines & ((uint64_t)1 << m.line))) {
-			print_event(c, &m, spec);
+			ctl_monitor_print(c, &m, spec);
 			if (m.code != MBX_EV_OVERFLOW)
 				seen++;
 		}

@@ -446,50 +446,36 @@ int ctl_read_file(ctl *c, const char *path, uint8_t **data, size_t *len)
 
 /* ---- types and values ---------------------------------------------------- */
 
-static const ctl_type types[] = {
-	{ "bool", "BOOLEAN", CO_T_BOOLEAN, 1 },
-	{ "u8", "UNSIGNED8", CO_T_UNSIGNED8, 1 },
-	{ "u16", "UNSIGNED16", CO_T_UNSIGNED16, 2 },
-	{ "u24", "UNSIGNED24", CO_T_UNSIGNED24, 3 },
-	{ "u32", "UNSIGNED32", CO_T_UNSIGNED32, 4 },
-	{ "u40", "UNSIGNED40", CO_T_UNSIGNED40, 5 },
-	{ "u48", "UNSIGNED48", CO_T_UNSIGNED48, 6 },
-	{ "u56", "UNSIGNED56", CO_T_UNSIGNED56, 7 },
-	{ "u64", "UNSIGNED64", CO_T_UNSIGNED64, 8 },
-	{ "i8", "INTEGER8", CO_T_INTEGER8, 1 },
-	{ "i16", "INTEGER16", CO_T_INTEGER16, 2 },
-	{ "i24", "INTEGER24", CO_T_INTEGER24, 3 },
-	{ "i32", "INTEGER32", CO_T_INTEGER32, 4 },
-	{ "i40", "INTEGER40", CO_T_INTEGER40, 5 },
-	{ "i48", "INTEGER48", CO_T_INTEGER48, 6 },
-	{ "i56", "INTEGER56", CO_T_INTEGER56, 7 },
-	{ "i64", "INTEGER64", CO_T_INTEGER64, 8 },
-	{ "r32", "REAL32", CO_T_REAL32, 4 },
-	{ "r64", "REAL64", CO_T_REAL64, 8 },
-	{ "string", "VISIBLE_STRING", CO_T_VISIBLE_STRING, 0 },
-	{ "hex", "OCTET_STRING", CO_T_OCTET_STRING, 0 },
-	{ "domain", "DOMAIN", CO_T_DOMAIN, 0 },
-};
-
 const ctl_type *ctl_type_find(const char *name)
 {
-	for (size_t i = 0; i < sizeof types / sizeof types[0]; i++)
-		if (strcasecmp(name, types[i].name) == 0 || strcasecmp(name, types[i].alias) == 0)
-			return &types[i];
-	return NULL;
+	return cogw_type_find(name);
 }
 
 const char *ctl_type_names(void)
 {
-	return "bool, u8, u16, u24, u32, u40, u48, u56, u64, i8, i16, i24, i32, i40, i48, i56, "
-	       "i64, "
-	       "r32, r64, string, hex, domain (or the CiA names UNSIGNED8, REAL32, VISIBLE_STRING, "
-	       "OCTET_STRING, DOMAIN, ...)";
+	return cogw_type_names();
 }
 
-static bool type_is_signed(const ctl_type *t)
+/* Why a VALUE is not one of type t (rc from cogw_value_parse). */
+static int value_error(ctl *c, const ctl_type *t, const char *value, int rc)
 {
-	return co_type_is_signed(t->type);
+	unsigned bits = t->size * 8u;
+	if (t->type == CO_T_BOOLEAN)
+		return ctl_usage_error(c, "VALUE '%s' for bool: use 0, 1, true or false", value);
+	if (t->type == CO_T_REAL32 || t->type == CO_T_REAL64)
+		return ctl_usage_error(c, "VALUE '%s' for %s: not a finite number%s", value,
+				       t->name, t->type == CO_T_REAL32 ? " within +-3.4e38" : "");
+	if (t->type == CO_T_TIME_OF_DAY || t->type == CO_T_TIME_DIFFERENCE)
+		return ctl_usage_error(c, "VALUE '%s' for %s: give \"DAYS MS\"", value, t->name);
+	if (rc != COGW_E_PARAM)
+		return ctl_usage_error(c, "VALUE '%s' for %s: not an integer", value, t->name);
+	if (co_type_is_signed(t->type))
+		return ctl_usage_error(
+			c, "VALUE '%s' for %s: out of range (%" PRId64 "..%" PRId64 ")", value,
+			t->name, bits == 64 ? INT64_MIN : -((int64_t)1 << (bits - 1)),
+			bits == 64 ? INT64_MAX : ((int64_t)1 << (bits - 1)) - 1);
+	return ctl_usage_error(c, "VALUE '%s' for %s: out of range (0..%" PRIu64 ")", value,
+			       t->name, bits == 64 ? UINT64_MAX : ((uint64_t)1 << bits) - 1);
 }
 
 int ctl_value_encode(ctl *c, const ctl_type *t, const char *value, uint8_t **data, size_t *len)
@@ -518,48 +504,10 @@ int ctl_value_encode(ctl *c, const ctl_type *t, const char *value, uint8_t **dat
 		return 0;
 	}
 	uint8_t buf[8] = { 0 };
-	if (t->type == CO_T_BOOLEAN) {
-		if (!strcmp(value, "1") || !strcasecmp(value, "true"))
-			buf[0] = 1;
-		else if (strcmp(value, "0") && strcasecmp(value, "false"))
-			return ctl_usage_error(c, "VALUE '%s' for bool: use 0, 1, true or false",
-					       value);
-	} else if (t->type == CO_T_REAL32 || t->type == CO_T_REAL64) {
-		char *end;
-		errno = 0;
-		double d = strtod(value, &end);
-		if (end == value || *end || isspace((unsigned char)value[0]) || !isfinite(d) ||
-		    (t->type == CO_T_REAL32 && fabs(d) > 3.4028234663852886e38))
-			return ctl_usage_error(c, "VALUE '%s' for %s: not a finite number%s", value,
-					       t->name,
-					       t->type == CO_T_REAL32 ? " within +-3.4e38" : "");
-		if (t->type == CO_T_REAL32) {
-			float f = (float)d;
-			memcpy(buf, &f, 4); /* little-endian host (proto.h refuses others) */
-		} else {
-			memcpy(buf, &d, 8);
-		}
-	} else if (type_is_signed(t)) {
-		unsigned bits = t->size * 8u;
-		int64_t min = bits == 64 ? INT64_MIN : -((int64_t)1 << (bits - 1));
-		int64_t max = bits == 64 ? INT64_MAX : ((int64_t)1 << (bits - 1)) - 1;
-		int64_t v;
-		if (ctl_parse_i64(value, min, max, &v, &err) < 0)
-			return ctl_usage_error(c,
-					       "VALUE '%s' for %s: %s (%" PRId64 "..%" PRId64 ")",
-					       value, t->name, err, min, max);
-		for (unsigned i = 0; i < t->size; i++)
-			buf[i] = (uint8_t)((uint64_t)v >> (8 * i));
-	} else {
-		unsigned bits = t->size * 8u;
-		uint64_t max = bits == 64 ? UINT64_MAX : ((uint64_t)1 << bits) - 1;
-		uint64_t v;
-		if (ctl_parse_u64(value, max, &v, &err) < 0)
-			return ctl_usage_error(c, "VALUE '%s' for %s: %s (0..%" PRIu64 ")", value,
-					       t->name, err, max);
-		for (unsigned i = 0; i < t->size; i++)
-			buf[i] = (uint8_t)(v >> (8 * i));
-	}
+	size_t n = 0;
+	int rc = cogw_value_parse(t->type, value, buf, sizeof buf, &n);
+	if (rc < 0)
+		return value_error(c, t, value, rc);
 	*data = malloc(t->size);
 	memcpy(*data, buf, t->size);
 	*len = t->size;
@@ -633,22 +581,17 @@ char *ctl_value_text(const ctl_type *t, const uint8_t *data, size_t len)
 		}
 		return ctl_hex_text(data, len, 64);
 	}
-	int r = -1;
-	if (t->type == CO_T_BOOLEAN)
-		r = asprintf(&s, "%s", data[0] ? "true" : "false");
-	else if (t->type == CO_T_REAL32) {
-		float f;
-		memcpy(&f, data, 4);
-		r = asprintf(&s, "%.9g", (double)f);
-	} else if (t->type == CO_T_REAL64) {
-		double d;
-		memcpy(&d, data, 8);
-		r = asprintf(&s, "%.17g", d);
-	} else if (type_is_signed(t))
-		r = asprintf(&s, "%" PRId64, le_int(data, t->size));
+	char text[64];
+	int r = cogw_value_format(t->type, data, len, text, sizeof text);
+	if (r < 0)
+		return NULL;
+	if (co_type_is_signed(t->type) || t->type == CO_T_BOOLEAN || t->type == CO_T_REAL32 ||
+	    t->type == CO_T_REAL64 || t->type == CO_T_TIME_OF_DAY ||
+	    t->type == CO_T_TIME_DIFFERENCE)
+		r = asprintf(&s, "%s",
+			     t->type == CO_T_BOOLEAN ? (data[0] ? "true" : "false") : text);
 	else
-		r = asprintf(&s, "%" PRIu64 " (0x%0*" PRIX64 ")", le_uint(data, t->size),
-			     t->size * 2, le_uint(data, t->size));
+		r = asprintf(&s, "%s (0x%0*" PRIX64 ")", text, t->size * 2, le_uint(data, t->size));
 	return r < 0 ? NULL : s;
 }
 
@@ -686,12 +629,12 @@ void ctl_value_json(cJSON *o, const ctl_type *t, const uint8_t *data, size_t len
 	} else if (t->size > 6) {
 		/* beyond 2^53 a JSON number loses digits: a string is exact */
 		char num[32];
-		if (type_is_signed(t))
+		if (co_type_is_signed(t->type))
 			snprintf(num, sizeof num, "%" PRId64, le_int(data, t->size));
 		else
 			snprintf(num, sizeof num, "%" PRIu64, le_uint(data, t->size));
 		cJSON_AddStringToObject(o, "value", num);
-	} else if (type_is_signed(t)) {
+	} else if (co_type_is_signed(t->type)) {
 		cJSON_AddNumberToObject(o, "value", (double)le_int(data, t->size));
 	} else {
 		cJSON_AddNumberToObject(o, "value", (double)le_uint(data, t->size));

@@ -9,6 +9,8 @@
 
 #include "gateway/gateway.h"
 
+_Static_assert(COGW_FORWARDS_MAX <= GW_PINNED_MAX, "a line may be the target of every forward");
+
 static int gw_setup(const cogw_config *cfg, void **state)
 {
 	gw_params p = { .n_lines = (unsigned)cfg->n_lines, .image_od = cfg->lines[0].od };
@@ -18,6 +20,12 @@ static int gw_setup(const cogw_config *cfg, void **state)
 	for (size_t i = 0; i < cfg->n_lines; i++) {
 		p.line[i].network_id = cfg->lines[i].network_id;
 		p.line[i].sdo_timeout_ms = cfg->lines[i].sdo_timeout_ms;
+	}
+	/* a forwarded device object's image object goes to its target line
+	 * whether or not a TPDO there maps it (docs/gateway.md) */
+	for (size_t i = 0; i < cfg->n_forwards; i++) {
+		gw_line_params *lp = &p.line[cfg->forwards[i].to.line];
+		lp->pinned[lp->n_pinned++] = cfg->forwards[i].image;
 	}
 	rc = gw_create(&g, &p);
 	*state = rc ? NULL : g;

@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "apps/common/pdo_config.h"
 #include "manager/manager_ext.h"
 
 static void line_params(const cogw_line_config *lc, mgr_ext_line_params *o)
@@ -31,7 +32,12 @@ static void line_params(const cogw_line_config *lc, mgr_ext_line_params *o)
 					      .target_state = n->target_state,
 					      .store = n->config.store,
 					      .program = n->program,
-					      .program_len = n->program_len };
+					      .program_len = n->program_len,
+					      .pdo_scan = cogw_node_pdo_scanned(n),
+					      .pdo_from_file = n->pdo_from_file,
+					      .pdo_scan_if_reconfigured = n->pdo != COGW_PDO_OFF,
+					      .pdo_types = n->types,
+					      .n_pdo_types = n->n_types };
 	}
 }
 

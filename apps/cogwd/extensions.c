@@ -12,11 +12,13 @@
 
 extern const cogwd_ext_provider cogwd_ext_manager;
 extern const cogwd_ext_provider cogwd_ext_gateway;
+extern const cogwd_ext_provider cogwd_ext_devobj;
 
 const cogwd_ext_provider *const cogwd_ext_providers[] = {
 	/* the manager and the gateway add their providers here */
 	&cogwd_ext_manager,
 	&cogwd_ext_gateway,
+	&cogwd_ext_devobj,
 	NULL,
 };
 

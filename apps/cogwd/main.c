@@ -23,6 +23,7 @@
 #include <unistd.h>
 
 #include "apps/cogwd/extensions.h"
+#include "apps/cogwd/pdo_layouts.h"
 #include "apps/common/config.h"
 #include "lines/line.h"
 #include "lines/log.h"
@@ -35,6 +36,7 @@ typedef struct daemon_state {
 	const char *state_dir_override;
 	cogw_config cfg;
 	line *lines[COGW_LINES_MAX];
+	co_pdo_layout *pdo_layouts[COGW_LINES_MAX]; /* each outlives its line */
 	char queue_names[COGW_LINES_MAX][MBX_QNAME_MAX];
 	mbx_access_rule rules[COGW_ACCESS_RULES_MAX];
 	size_t n_lines;
@@ -114,6 +116,11 @@ static int create_lines(daemon_state *d)
 				 c->mailbox.instance);
 			return rc;
 		}
+		if ((rc = cogwd_pdo_layouts_create(&d->pdo_layouts[i], lc, line_now_us())) < 0) {
+			cogw_log(COGW_LOG_ERR, "line %s: PDO layout table: %s", lc->name,
+				 strerror(-rc));
+			return rc;
+		}
 		line_params p = {
 			.index = (uint8_t)i,
 			.name = lc->name,
@@ -165,6 +172,7 @@ static int create_lines(daemon_state *d)
 			.checkin_ms = c->watchdog_check_ms,
 			.state_dir = c->state_dir,
 			.main_wakefd = d->wakefd,
+			.pdo_layout = d->pdo_layouts[i],
 		};
 		cogwd_exts_for_line(&d->exts, (unsigned)i, p.ext);
 		rc = line_create(&d->lines[i], &p);
@@ -607,6 +615,8 @@ int main(int argc, char **argv)
 	}
 	for (size_t i = 0; i < d.n_lines; i++)
 		line_destroy(d.lines[i]);
+	for (size_t i = 0; i < COGW_LINES_MAX; i++)
+		co_pdo_layout_destroy(d.pdo_layouts[i]);
 	cogwd_exts_teardown(&d.exts);
 	cogw_config_free(&d.cfg);
 	if (d.sigfd >= 0)

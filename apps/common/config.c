@@ -33,6 +33,7 @@
 
 #include "apps/common/json_od.h"
 #include "apps/common/json_util.h"
+#include "apps/common/pdo_config.h"
 #include "core/cfgmgr.h"
 #include "core/manager.h"
 #include "core/nmt.h"
@@ -48,7 +49,9 @@
 static const char *const top_keys[] = { "version", "state_dir",   "mlockall", "watchdog_check_ms",
 					"mailbox", "file_memory", "lines",    "gateway",
 					"debug",   "comment",     NULL };
-static const char *const gateway_keys[] = { "routes", "process_image", "comment", NULL };
+static const char *const gateway_keys[] = { "routes", "process_image", "forward", "comment", NULL };
+static const char *const forward_keys[] = { "from", "to", "image", "comment", NULL };
+static const char *const dev_ref_keys[] = { "line", "node", "index", "sub", "comment", NULL };
 static const char *const route_keys[] = { "network", "line", "router", "comment", NULL };
 static const char *const mailbox_keys[] = { "instance",
 					    "depth",
@@ -73,35 +76,42 @@ static const char *const mailbox_keys[] = { "instance",
 					    NULL };
 static const char *const rule_keys[] = { "user", "uid", "access", "comment", NULL };
 static const char *const debug_keys[] = { "stall_signal", "stall_ms", "comment", NULL };
-static const char *const line_keys[] = { "name",
-					 "interface",
-					 "bitrate",
-					 "node_id",
-					 "network_id",
-					 "rt",
-					 "sdo_servers",
-					 "sdo_clients",
-					 "sdo_timeout_ms",
-					 "sdo_block_threshold",
+static const char *const line_keys[] = { "name",           "interface",
+					 "bitrate",        "node_id",
+					 "network_id",     "rt",
+					 "sdo_servers",    "sdo_clients",
+					 "sdo_timeout_ms", "sdo_block_threshold",
+					 "heartbeat_ms",   "sync_period_us",
+					 "time_period_ms", "heartbeat_consumers",
+					 "device",         "rpdos",
+					 "tpdos",          "objects",
+					 "values",         "nodes",
+					 "manager",        "pdo",
+					 "pdo_scan_max",   "device_objects",
+					 "comment",        NULL };
+static const char *const node_keys[] = { "id",
+					 "config",
+					 "mandatory",
+					 "boot",
+					 "keep_alive",
+					 "retry_factor",
+					 "guard_time_ms",
 					 "heartbeat_ms",
-					 "sync_period_us",
-					 "time_period_ms",
-					 "heartbeat_consumers",
-					 "device",
-					 "rpdos",
-					 "tpdos",
-					 "objects",
-					 "values",
-					 "nodes",
-					 "manager",
+					 "device_type",
+					 "vendor_id",
+					 "product_code",
+					 "revision",
+					 "serial",
+					 "keep_op",
+					 "state",
+					 "software_id",
+					 "software_update",
+					 "program",
+					 "pdo",
+					 "eds",
+					 "types",
 					 "comment",
 					 NULL };
-static const char *const node_keys[] = {
-	"id",           "config",          "mandatory",    "boot",        "keep_alive",
-	"retry_factor", "guard_time_ms",   "heartbeat_ms", "device_type", "vendor_id",
-	"product_code", "revision",        "serial",       "keep_op",     "state",
-	"software_id",  "software_update", "program",      "comment",     NULL
-};
 static const char *const manager_keys[] = { "master",
 					    "start_all",
 					    "self_start",
@@ -117,6 +127,8 @@ static const char *const manager_keys[] = { "master",
 					    "comment",
 					    NULL };
 static const char *const rt_keys[] = { "priority", "cpu", "comment", NULL };
+static const char *const devobj_keys[] = { "read_max_age_ms", "write_update_ms", "watches",
+					   "comment", NULL };
 static const char *const hb_keys[] = { "node_id", "time_ms", "comment", NULL };
 static const char *const device_keys[] = { "device_type", "name",      "hw_version",
 					   "sw_version",  "vendor_id", "product_code",
@@ -1125,14 +1137,9 @@ static int parse_nodes(struct ctx *c, const cJSON *v, const char *path, cogw_lin
 					    (unsigned long long)id, path, j);
 		n->id = (uint8_t)id;
 		l->n_nodes++;
-		if ((rc = parse_node_manager(c, it, np, n)))
-			return rc;
-		x = json_util_get(it, "config");
-		if (!x)
-			continue;
-		json_util_path_key(p, sizeof(p), np, "config");
-		if ((rc = cogw_node_config_parse(x, p, n->id, c->base_dir, c->files, c->read,
-						 &n->config, c->msg, sizeof(c->msg))))
+		if ((rc = parse_node_manager(c, it, np, n)) ||
+		    (rc = cogw_node_pdo_parse(it, np, l, c->base_dir, c->files, c->read, n, c->msg,
+					      sizeof(c->msg))))
 			return rc;
 	}
 	return 0;
@@ -1149,6 +1156,11 @@ static void line_defaults(cogw_line_config *l, size_t idx)
 	l->sdo_timeout_ms = 1000;
 	l->sdo_block_threshold = 128;
 	l->heartbeat_ms = 1000;
+	l->pdo = COGW_PDO_OFF;
+	l->pdo_scan_max = COGW_PDO_SCAN_MAX_DEFAULT;
+	l->device_objects = (cogw_devobj_config){ .read_max_age_ms = 1000,
+						  .write_update_ms = 10,
+						  .watches = 64 };
 }
 
 static int parse_interface(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l)
@@ -1240,7 +1252,22 @@ static int parse_line_identity(struct ctx *c, const cJSON *o, const char *path, 
 	return v ? parse_rt(c, v, path, l) : 0;
 }
 
-/* heartbeat_consumers, device, nodes and manager: each parsed where present. */
+/* "device_objects": reading, writing and watching the slaves' objects
+ * (docs/devices.md). */
+static int parse_devobj(struct ctx *c, const cJSON *v, const char *path, cogw_devobj_config *d)
+{
+	int rc;
+
+	if ((rc = check_object(c, v, path, devobj_keys)) ||
+	    (rc = opt_u32(c, v, "read_max_age_ms", path, 0, 86400000, &d->read_max_age_ms)) ||
+	    (rc = opt_u32(c, v, "write_update_ms", path, 0, 60000, &d->write_update_ms)) ||
+	    (rc = opt_u16(c, v, "watches", path, 1, 4096, &d->watches)))
+		return rc;
+	return 0;
+}
+
+/* heartbeat_consumers, device, nodes, manager and device_objects: each
+ * parsed where present. */
 static int parse_line_sections(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l,
 			       co_od_std_opts *so, char *dev_name, char *hw, char *sw)
 {
@@ -1272,6 +1299,12 @@ static int parse_line_sections(struct ctx *c, const cJSON *o, const char *path, 
 		if ((rc = parse_manager(c, v, p, &l->manager)))
 			return rc;
 	}
+	v = json_util_get(o, "device_objects");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "device_objects");
+		if ((rc = parse_devobj(c, v, p, &l->device_objects)))
+			return rc;
+	}
 	return 0;
 }
 
@@ -1301,9 +1334,12 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_confi
 	    (rc = opt_u32(c, o, "sync_period_us", path, 0, UINT32_MAX, &l->sync_period_us)) ||
 	    (rc = opt_u32(c, o, "time_period_ms", path, 0, 86400000, &l->time_period_ms)) ||
 	    (rc = opt_u16(c, o, "rpdos", path, 0, 512, &so.rpdos)) ||
-	    (rc = opt_u16(c, o, "tpdos", path, 0, 512, &so.tpdos)))
+	    (rc = opt_u16(c, o, "tpdos", path, 0, 512, &so.tpdos)) ||
+	    (rc = opt_u16(c, o, "pdo_scan_max", path, 1, CO_PDO_MAX, &l->pdo_scan_max)) ||
+	    (rc = cogw_pdo_mode_parse(o, path, &l->pdo, c->msg, sizeof(c->msg))))
 		return rc;
-	if ((rc = parse_line_sections(c, o, path, l, &so, dev_name, hw, sw)))
+	if ((rc = parse_line_sections(c, o, path, l, &so, dev_name, hw, sw)) ||
+	    (rc = cogw_line_pdo_check(l, path, c->msg, sizeof(c->msg))))
 		return rc;
 
 	so.device_name = dev_name;
@@ -1371,6 +1407,8 @@ static void set_defaults(cogw_config *cfg, const char *source)
 	cfg->mailbox.default_access = COGW_ACCESS_WRITE;
 }
 
+static int parse_forwards(struct ctx *c, const cJSON *list, cogw_config *cfg);
+
 static int parse_root(struct ctx *c, const cJSON *root, cogw_config *cfg)
 {
 	const cJSON *v, *it;
@@ -1427,6 +1465,117 @@ static int parse_root(struct ctx *c, const cJSON *root, cogw_config *cfg)
 		cfg->n_lines++;
 		if ((rc = parse_line(c, it, i, &cfg->lines[i])) || (rc = check_unique(c, cfg, i)))
 			return rc;
+	}
+	it = json_util_get(root, "gateway");
+	if (it && (v = json_util_get(it, "forward")) && (rc = parse_forwards(c, v, cfg)))
+		return rc;
+	return 0;
+}
+
+/* ---- PDO forwarding by device object ---------------------------------------------- */
+
+/* One end of gateway.forward[i]: a node of that line mirrored by the device
+ * object layer ("pdo": "auto"), whose PDO carries the object. */
+static int parse_dev_ref(struct ctx *c, const cJSON *o, const char *path, const cogw_config *cfg,
+			 cogw_dev_ref *r)
+{
+	char p[JSON_PATH_MAX];
+	const cJSON *v;
+	uint64_t x;
+	int rc;
+
+	if ((rc = check_object(c, o, path, dev_ref_keys)))
+		return rc;
+	json_util_path_key(p, sizeof(p), path, "line");
+	if ((rc = json_util_require(o, "line", path, &v, c->msg, sizeof(c->msg))) ||
+	    (rc = json_util_uint(v, p, 0, cfg->n_lines - 1, false, &x, c->msg, sizeof(c->msg))))
+		return rc;
+	r->line = (uint8_t)x;
+	json_util_path_key(p, sizeof(p), path, "node");
+	if ((rc = json_util_require(o, "node", path, &v, c->msg, sizeof(c->msg))) ||
+	    (rc = json_util_uint(v, p, 1, 127, false, &x, c->msg, sizeof(c->msg))))
+		return rc;
+	r->node = (uint8_t)x;
+	json_util_path_key(p, sizeof(p), path, "index");
+	if ((rc = json_util_require(o, "index", path, &v, c->msg, sizeof(c->msg))) ||
+	    (rc = json_od_parse_index(v, p, &r->index, c->msg, sizeof(c->msg))))
+		return rc;
+	json_util_path_key(p, sizeof(p), path, "sub");
+	x = 0;
+	if ((v = json_util_get(o, "sub")) &&
+	    (rc = json_util_uint(v, p, 0, 255, false, &x, c->msg, sizeof(c->msg))))
+		return rc;
+	r->sub = (uint8_t)x;
+	const cogw_line_config *l = &cfg->lines[r->line];
+	for (size_t i = 0; i < l->n_nodes; i++)
+		if (l->nodes[i].id == r->node) {
+			if (l->nodes[i].pdo == COGW_PDO_AUTO)
+				return 0;
+			break;
+		}
+	return fail(c, path,
+		    "node %u of line %u is not mirrored: forwarding needs it in that line's "
+		    "\"nodes\" with \"pdo\": \"auto\" (docs/gateway.md)",
+		    r->node, r->line);
+}
+
+/* gateway.forward, once the lines are built: each entry's image object
+ * (UNSIGNED64, PDO-mappable) goes into every line's OD, like
+ * gateway.process_image. */
+static int parse_forwards(struct ctx *c, const cJSON *list, cogw_config *cfg)
+{
+	const cJSON *it;
+	size_t i = 0;
+	int rc;
+
+	if (!cJSON_IsArray(list))
+		return fail(c, "gateway.forward", "expected an array, got %s",
+			    json_util_kind(list));
+	if (cJSON_GetArraySize(list) > (int)COGW_FORWARDS_MAX)
+		return fail(c, "gateway.forward", "%d entries, at most %u",
+			    cJSON_GetArraySize(list), COGW_FORWARDS_MAX);
+	cJSON_ArrayForEach(it, list)
+	{
+		char p[JSON_PATH_MAX], q[JSON_PATH_MAX];
+		cogw_forward *f = &cfg->forwards[i];
+		const cJSON *v;
+
+		json_util_path_index(p, sizeof(p), "gateway.forward", i);
+		if ((rc = check_object(c, it, p, forward_keys)))
+			return rc;
+		json_util_path_key(q, sizeof(q), p, "from");
+		if ((rc = json_util_require(it, "from", p, &v, c->msg, sizeof(c->msg))) ||
+		    (rc = parse_dev_ref(c, v, q, cfg, &f->from)))
+			return rc;
+		json_util_path_key(q, sizeof(q), p, "to");
+		if ((rc = json_util_require(it, "to", p, &v, c->msg, sizeof(c->msg))) ||
+		    (rc = parse_dev_ref(c, v, q, cfg, &f->to)))
+			return rc;
+		if (f->from.line == f->to.line)
+			return fail(c, p, "from and to are on line %u: forwarding is between lines",
+				    f->from.line);
+		f->image = (uint16_t)(COGW_FORWARD_IMAGE_FIRST + i);
+		json_util_path_key(q, sizeof(q), p, "image");
+		if ((v = json_util_get(it, "image")) &&
+		    (rc = json_od_parse_index(v, q, &f->image, c->msg, sizeof(c->msg))))
+			return rc;
+		if (!gw_image_in_range(f->image))
+			return fail(c, q, "%04Xh is outside the process image B000h..BFFFh",
+				    f->image);
+		if (co_od_has_index(cfg->lines[0].od, f->image))
+			return fail(c, q,
+				    "%04Xh is already an object of the process image: give "
+				    "another \"image\"",
+				    f->image);
+		for (size_t l = 0; l < cfg->n_lines; l++) {
+			co_od_entry *e;
+			rc = co_od_add_num(cfg->lines[l].od, f->image, 0, CO_T_UNSIGNED64,
+					   CO_ACC_RW | CO_ACC_RPDO | CO_ACC_TPDO, 0, &e);
+			if (rc)
+				return fail(c, q, "cannot add %04Xh (%s)", f->image, strerror(-rc));
+		}
+		i++;
+		cfg->n_forwards = i;
 	}
 	return 0;
 }
@@ -1506,6 +1655,7 @@ void cogw_config_free(cogw_config *cfg)
 		l->od = NULL;
 		for (size_t j = 0; l->nodes && j < l->n_nodes + 1; j++) {
 			cogw_node_config_free(&l->nodes[j].config);
+			cogw_node_pdo_free(&l->nodes[j]);
 		}
 		free(l->nodes);
 		l->nodes = NULL;
@@ -1583,7 +1733,8 @@ static bool nodes_same(const cogw_line_config *a, const cogw_line_config *b)
 			   sizeof(a->nodes[i].identity)) ||
 		    a->nodes[i].heartbeat_ms != b->nodes[i].heartbeat_ms ||
 		    a->nodes[i].keep_op != b->nodes[i].keep_op ||
-		    a->nodes[i].target_state != b->nodes[i].target_state)
+		    a->nodes[i].target_state != b->nodes[i].target_state ||
+		    !cogw_node_pdo_equal(&a->nodes[i], &b->nodes[i]))
 			return false;
 	return true;
 }
@@ -1660,7 +1811,12 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next, c
 			LDIFF(!changed && x->od && y->od && !od_same(x->od, y->od),
 			      "objects/values");
 			LDIFF(!nodes_same(x, y), "nodes");
+			LDIFF(x->pdo != y->pdo, "pdo");
+			LDIFF(x->pdo_scan_max != y->pdo_scan_max, "pdo_scan_max");
 			LDIFF(memcmp(&x->manager, &y->manager, sizeof(x->manager)), "manager");
+			LDIFF(memcmp(&x->device_objects, &y->device_objects,
+				     sizeof(x->device_objects)),
+			      "device_objects");
 			changed = changed || before;
 #undef LDIFF
 		}

@@ -16,6 +16,7 @@
 #include <stdint.h>
 #include <sys/types.h>
 
+#include "apps/common/eds_pdo.h"
 #include "apps/common/node_config.h"
 #include "core/od.h"
 
@@ -46,6 +47,19 @@ typedef struct cogw_hb_consumer {
 	uint16_t time_ms;
 } cogw_hb_consumer;
 
+/* What the line learns of its slaves' PDOs ("pdo"; docs/config.md "PDO
+ * layouts"). */
+typedef enum cogw_pdo_mode {
+	COGW_PDO_OFF = 0, /* nothing learnt by SDO (a file's layout is still kept) */
+	COGW_PDO_LEARN,   /* learn the layout: from the file, else by SDO scan */
+	COGW_PDO_AUTO,    /* learn it and mirror the PDOs (the device object layer) */
+} cogw_pdo_mode;
+
+/* "off", "learn", "auto". */
+const char *cogw_pdo_mode_to_string(uint8_t mode);
+
+#define COGW_PDO_SCAN_MAX_DEFAULT 8u
+
 /* A slave node on a line ("nodes"): its id, where its configuration
  * comes from (apps/common/node_config.h) and, for the line's CiA 302-2
  * manager, its assignment and expected identity. */
@@ -68,6 +82,15 @@ typedef struct cogw_node {
 	                             * the 1F58h:n image; "software_update"
 	                             * sets 1F81h:n bit 6 */
 	size_t program_len;
+	/* PDO layout (docs/config.md "PDO layouts") */
+	uint8_t pdo;               /* cogw_pdo_mode: "pdo", else the line's */
+	char eds[256];             /* "eds": the device's file (resolved), "" = none */
+	bool pdo_from_file;        /* the layout is pdo_file (config.dcf without
+	                                   * "eds", or "eds" without "config") */
+	eds_pdo_file pdo_file;     /* the valid PDOs the file gives (owned) */
+	co_pdo_layout_type *types; /* sorted: the file's objects with "types" over
+	                                   * them (owned) */
+	size_t n_types;
 } cogw_node;
 
 #define COGW_PROGRAM_MAX (16u * 1024u * 1024u)
@@ -84,6 +107,13 @@ typedef struct cogw_manager_config {
 	uint8_t max_parallel;    /* nodes booting at once, 0 = channels */
 	bool accept_remote_nmt;  /* NMT to our node from the bus applies */
 } cogw_manager_config;
+
+/* "device_objects" of a line (docs/config.md, docs/devices.md). */
+typedef struct cogw_devobj_config {
+	uint32_t read_max_age_ms; /* DEV_READ answered from the mirror up to this age */
+	uint32_t write_update_ms; /* writes to one device RPDO coalesced over this */
+	uint16_t watches;         /* watch table of the line */
+} cogw_devobj_config;
 
 typedef struct cogw_line_config {
 	char name[COGW_NAME_MAX];      /* "line0" (default "line<N>") */
@@ -108,7 +138,10 @@ typedef struct cogw_line_config {
 	co_od *od;
 	cogw_node *nodes; /* "nodes" (owned, n_nodes entries) */
 	size_t n_nodes;
-	cogw_manager_config manager; /* "manager" */
+	cogw_manager_config manager;       /* "manager" */
+	uint8_t pdo;                       /* cogw_pdo_mode, the nodes' default */
+	uint16_t pdo_scan_max;             /* PDOs per direction scanned and kept, 1..512 */
+	cogw_devobj_config device_objects; /* "device_objects" */
 } cogw_line_config;
 
 typedef struct cogw_mailbox_config {
@@ -139,6 +172,26 @@ typedef struct cogw_mailbox_config {
 	size_t n_rules;
 } cogw_mailbox_config;
 
+/* A device object of a line's slave (gateway.forward). */
+typedef struct cogw_dev_ref {
+	uint8_t line; /* index in lines[] */
+	uint8_t node;
+	uint16_t index;
+	uint8_t sub;
+} cogw_dev_ref;
+
+/* PDO forwarding by device object (docs/gateway.md "Forwarding device
+ * objects"): the value of `from` (in a TPDO of its device) goes to `to` (in
+ * an RPDO of its device) through the process image object `image` (sub 0,
+ * UNSIGNED64, in every line's OD). */
+typedef struct cogw_forward {
+	cogw_dev_ref from, to;
+	uint16_t image;
+} cogw_forward;
+
+#define COGW_FORWARDS_MAX 64u
+#define COGW_FORWARD_IMAGE_FIRST 0xBF00u /* "image" when not given: BF00h + n */
+
 typedef struct cogw_config {
 	char source[256];    /* file name or "<embedded default>" */
 	char state_dir[256]; /* 1010h/1011h storage (/var/lib/cogw) */
@@ -150,7 +203,9 @@ typedef struct cogw_config {
 	/* "file_memory": bytes the files the configuration names may hold
 	 * together (64 MiB): every file once, plus each node's concise DCF */
 	unsigned file_memory;
-	cogw_file_set files; /* those files (owned) */
+	cogw_file_set files;                      /* those files (owned) */
+	cogw_forward forwards[COGW_FORWARDS_MAX]; /* gateway.forward */
+	size_t n_forwards;
 	/* Test hooks (off by default): SIGUSR2 stalls line 0 for stall_ms,
 	 * to prove that a stuck line stops the systemd watchdog pings. */
 	bool debug_stall_signal;

@@ -83,6 +83,8 @@ typedef struct eds_ctx {
 	bool node_id_missing; /* a refusal for want of an input, not a file fault */
 	eds_warning_fn on_warning;
 	void *warning_arg;
+	eds_entry_fn on_entry;
+	void *entry_arg;
 	char msg[512]; /* the refusal, "file:line: reason", copied to err */
 } eds_ctx;
 
@@ -670,16 +672,18 @@ typedef struct var_spec {
 	const char *where;    /* section name for messages */
 } var_spec;
 
-static int parse_access(eds_ctx *c, const ini_key *k, bool *writable)
+/* CiA 306 AccessType to the CO_ACC_* flags (core/od.h); "rw" may also be
+ * mapped, as the file does not say otherwise. */
+static int parse_access(eds_ctx *c, const ini_key *k, uint8_t *access)
 {
-	static const char *const wr[] = { "wo", "rw", "rwr", "rww" };
-	if (!strcasecmp(k->val, "ro") || !strcasecmp(k->val, "const")) {
-		*writable = false;
-		return 0;
-	}
-	for (size_t i = 0; i < sizeof(wr) / sizeof(wr[0]); i++)
-		if (!strcasecmp(k->val, wr[i])) {
-			*writable = true;
+	static const struct {
+		const char *name;
+		uint8_t access;
+	} names[] = { { "ro", CO_ACC_RO }, { "const", CO_ACC_CO }, { "wo", CO_ACC_WO },
+		      { "rw", CO_ACC_RW }, { "rwr", CO_ACC_RWR },  { "rww", CO_ACC_RWW } };
+	for (size_t i = 0; i < sizeof(names) / sizeof(names[0]); i++)
+		if (!strcasecmp(k->val, names[i].name)) {
+			*access = names[i].access;
 			return 0;
 		}
 	return fail(c, k->line, "AccessType '%s': not one of ro, wo, rw, rwr, rww, const", k->val);
@@ -892,8 +896,23 @@ static bool value_is_configured(const var_spec *v, bool writable)
  * A value that cannot be used is refused when it is configured, else
  * (read leniently) left out with a warning, as python-canopen leaves out
  * a DefaultValue it cannot convert. */
-static int do_var(eds_ctx *c, const var_spec *v, co_type t, bool writable)
+static void report_entry(const eds_ctx *c, const var_spec *v, co_type t, uint8_t access,
+			 const uint8_t *data, uint32_t size)
 {
+	const eds_entry e = { .index = v->index,
+			      .sub = v->sub,
+			      .type = (uint16_t)t,
+			      .access = access,
+			      .value = data,
+			      .size = size,
+			      .line = v->value ? v->value->line : v->sec->line };
+	if (c->on_entry)
+		c->on_entry(c->entry_arg, &e);
+}
+
+static int do_var(eds_ctx *c, const var_spec *v, co_type t, uint8_t access)
+{
+	bool writable = access & CO_ACC_WRITE;
 	uint8_t *data = NULL;
 	uint32_t size = 0;
 	int rc;
@@ -901,6 +920,7 @@ static int do_var(eds_ctx *c, const var_spec *v, co_type t, bool writable)
 	if (!v->value) {
 		if (writable)
 			c->st.skipped++;
+		report_entry(c, v, t, access, NULL, 0);
 		return 0;
 	}
 	c->st.values++;
@@ -909,10 +929,12 @@ static int do_var(eds_ctx *c, const var_spec *v, co_type t, bool writable)
 	    !(rc = tolerate_failure(c, rc, "the value is not used"))) {
 		if (writable)
 			c->st.skipped++;
+		report_entry(c, v, t, access, NULL, 0);
 		return 0;
 	}
 	if (rc)
 		return rc;
+	report_entry(c, v, t, access, data, size);
 	if (!writable || index_is_excluded(v->index) || size == 0) {
 		free(data);
 		return 0;
@@ -951,7 +973,7 @@ static int do_plain(eds_ctx *c, const ini_sec *s, uint16_t index, uint8_t sub, b
 		.index = index, .sub = sub, .sec = s, .value = value_key(s), .where = s->name
 	};
 	co_type t = CO_T_DOMAIN;
-	bool writable = false;
+	uint8_t access = 0;
 	int rc = 0;
 
 	if (!(is_domain && !get_key(s, "DataType")))
@@ -959,10 +981,10 @@ static int do_plain(eds_ctx *c, const ini_sec *s, uint16_t index, uint8_t sub, b
 	if (!rc && !ak)
 		rc = fail(c, s->line, "[%s]: AccessType missing", s->name);
 	else if (!rc)
-		rc = parse_access(c, ak, &writable);
+		rc = parse_access(c, ak, &access);
 	if (rc)
 		return tolerate_untyped(c, has_parameter_value(s), rc);
-	return do_var(c, &v, t, writable);
+	return do_var(c, &v, t, access);
 }
 
 /* [XXXXObjectLinks] and the object lists: a count key, then 1..count.
@@ -1099,7 +1121,7 @@ static int do_compact(eds_ctx *c, const ini_sec *o, const ini_key *ck)
 	const ini_key *ak = get_key(o, "AccessType");
 	uint64_t n;
 	co_type t;
-	bool writable = false;
+	uint8_t access = 0;
 	int rc;
 
 	if ((rc = parse_uint_key(c, ck, 255, &n)))
@@ -1123,7 +1145,7 @@ static int do_compact(eds_ctx *c, const ini_sec *o, const ini_key *ck)
 	if (!rc && !ak)
 		rc = fail(c, o->line, "[%s]: AccessType missing", o->name);
 	else if (!rc)
-		rc = parse_access(c, ak, &writable);
+		rc = parse_access(c, ak, &access);
 	if (rc)
 		return tolerate_untyped(c, has_parameter_value(o) || (vals && vals->nkeys > 1), rc);
 	if (find_sec(c, SEC_SUB, o->index, 0, NULL) ||
@@ -1140,7 +1162,7 @@ static int do_compact(eds_ctx *c, const ini_sec *o, const ini_key *ck)
 		v.value = compact_value(vals, s);
 		if (!v.value)
 			v.value = value_key(o);
-		if ((rc = do_var(c, &v, t, writable)))
+		if ((rc = do_var(c, &v, t, access)))
 			return rc;
 	}
 	return 0;
@@ -1609,7 +1631,9 @@ int eds_convert_opts(const char *text, size_t len, const char *file, const eds_o
 		      .node_id = opts->node_id,
 		      .strict = opts->strict,
 		      .on_warning = opts->on_warning,
-		      .warning_arg = opts->warning_arg };
+		      .warning_arg = opts->warning_arg,
+		      .on_entry = opts->on_entry,
+		      .entry_arg = opts->entry_arg };
 	int rc;
 
 	*out = NULL;

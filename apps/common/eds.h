@@ -62,11 +62,31 @@ typedef struct eds_stats {
 /* Called with every warning, "file:line: reason" (no newline). */
 typedef void (*eds_warning_fn)(void *arg, const char *warning);
 
+/* One sub-object as the file describes it (eds_options.on_entry): its
+ * DataType, AccessType as CO_ACC_* flags (core/od.h) and its value
+ * (ParameterValue, else DefaultValue, $NODEID resolved) as the bytes it is
+ * sent as, NULL when it has none or none that can be used. Every entry of
+ * a usable type is reported, writable or not; the pointers are valid
+ * during the call only. */
+typedef struct eds_entry {
+	uint16_t index;
+	uint8_t sub;
+	uint16_t type; /* co_type */
+	uint8_t access;
+	const uint8_t *value;
+	uint32_t size;
+	unsigned line; /* of the value, else of the section */
+} eds_entry;
+
+typedef void (*eds_entry_fn)(void *arg, const eds_entry *e);
+
 typedef struct eds_options {
 	uint8_t node_id;           /* what $NODEID stands for, 1..127; 0 = the file's NodeID */
 	bool strict;               /* refuse what is otherwise a warning (see above) */
 	eds_warning_fn on_warning; /* NULL: only counted in eds_stats */
 	void *warning_arg;
+	eds_entry_fn on_entry; /* NULL: sub-objects not reported */
+	void *entry_arg;
 } eds_options;
 
 /*

@@ -204,9 +204,55 @@ static const cogw_embedded_file *embedded_find(const cogw_embedded_file *files, 
 	return NULL;
 }
 
+/* A CiA 306 file converted to a concise DCF; the sub-objects go to pdo
+ * (NULL: not wanted). The file comes from `files` first, else from disk
+ * through `read`. */
+static int convert_device_file(const char *name, const char *file, uint8_t node_id,
+			       const cogw_embedded_file *files, cogw_file_set *read,
+			       eds_pdo_reader *pdo, uint8_t **cdcf, size_t *cdcf_len, eds_stats *st,
+			       char *why, size_t whylen)
+{
+	const cogw_embedded_file *f = embedded_find(files, name);
+	const uint8_t *text = f ? (const uint8_t *)f->data : NULL;
+	size_t text_len = f ? f->len : 0;
+	eds_options o = { .node_id = node_id,
+			  .on_entry = pdo ? eds_pdo_reader_on_entry : NULL,
+			  .entry_arg = pdo };
+	int rc = f ? 0 : cogw_file_set_get(read, file, EDS_FILE_MAX, &text, &text_len, why, whylen);
+
+	if (!rc)
+		rc = eds_convert_opts((const char *)text, text_len, file, &o, cdcf, cdcf_len, st,
+				      why, whylen);
+	return rc;
+}
+
+int cogw_device_file_read(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
+			  const cogw_embedded_file *files, cogw_file_set *read, eds_pdo_reader *pdo,
+			  char *file, size_t file_len, char *err, size_t errlen)
+{
+	char name[256], why[512];
+	uint8_t *cdcf = NULL;
+	size_t cdcf_len = 0;
+	int rc;
+
+	if ((rc = json_util_string(v, path, 1, name, sizeof(name), err, errlen)))
+		return rc;
+	if (!resolve(file, file_len, base_dir, name))
+		return json_util_fail(err, errlen, path, "file name longer than %zu bytes",
+				      file_len - 1);
+	rc = convert_device_file(name, file, node_id, files, read, pdo, &cdcf, &cdcf_len, NULL, why,
+				 sizeof(why));
+	free(cdcf); /* read for its description only: nothing is downloaded */
+	if (rc == -ENOMEM)
+		return rc;
+	if (rc)
+		return json_util_fail(err, errlen, path, "%s", why);
+	return 0;
+}
+
 int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
 			   const cogw_embedded_file *files, cogw_file_set *read,
-			   cogw_node_config *nc, char *err, size_t errlen)
+			   eds_pdo_reader *pdo, cogw_node_config *nc, char *err, size_t errlen)
 {
 	const char *srcs[] = { "entries", "dcf", "concise" };
 	const cJSON *src = NULL, *x;
@@ -261,17 +307,10 @@ int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, co
 		return json_util_fail(err, errlen, p, "file name longer than %zu bytes",
 				      sizeof(nc->file) - 1);
 	if (which == 1) {
-		const cogw_embedded_file *f = embedded_find(files, name);
-		const uint8_t *text = f ? (const uint8_t *)f->data : NULL;
-		size_t text_len = f ? f->len : 0;
 		eds_stats st = { 0 };
 
 		nc->source = COGW_NODE_CONFIG_DCF;
-		rc = f ? 0
-		       : cogw_file_set_get(read, nc->file, EDS_FILE_MAX, &text, &text_len, why,
-					   sizeof(why));
-		if (!rc)
-			rc = eds_convert((const char *)text, text_len, nc->file, node_id, &nc->cdcf,
+		rc = convert_device_file(name, nc->file, node_id, files, read, pdo, &nc->cdcf,
 					 &nc->cdcf_len, &st, why, sizeof(why));
 		nc->entries = st.entries;
 	} else {

@@ -34,6 +34,7 @@
 
 #include <cjson/cJSON.h>
 
+#include "apps/common/eds_pdo.h"
 #include "apps/common/file_read.h"
 
 /* Largest concise DCF of one node (also the largest .cdc file read). */
@@ -74,9 +75,17 @@ typedef struct cogw_embedded_file {
  * configuration has loaded so far; a file named again is not read again, and
  * the file and the node's concise DCF are counted against read->limit
  * (-EINVAL with "path: file: ... do not fit" when they do not fit). */
+/* pdo (may be NULL) collects the sub-objects of a "dcf" file (eds_pdo.h):
+ * the configured device's PDO layout. */
 int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
 			   const cogw_embedded_file *files, cogw_file_set *read,
-			   cogw_node_config *out, char *err, size_t errlen);
+			   eds_pdo_reader *pdo, cogw_node_config *out, char *err, size_t errlen);
+/* A node's "eds" (v, at path): the CiA 306 file describing the device,
+ * read and checked like a "dcf" (nothing of it is downloaded), its
+ * sub-objects into pdo; the resolved name into file. Errors as above. */
+int cogw_device_file_read(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
+			  const cogw_embedded_file *files, cogw_file_set *read, eds_pdo_reader *pdo,
+			  char *file, size_t file_len, char *err, size_t errlen);
 void cogw_node_config_free(cogw_node_config *nc); /* accepts zeroed */
 /* Same source and bytes (what a reload compares). */
 bool cogw_node_config_equal(const cogw_node_config *a, const cogw_node_config *b);

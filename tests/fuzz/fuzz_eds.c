@@ -11,7 +11,10 @@
  *   as many entries as the statistics say, and converting it again gives
  *   the same bytes (no hidden state);
  * - strict reading accepts nothing that lenient reading refuses, and
- *   refuses with the same "fuzz:LINE: reason" form.
+ *   refuses with the same "fuzz:LINE: reason" form;
+ * - the PDO layout of an accepted file (apps/common/eds_pdo.h, read from
+ *   the same conversion) is refused only with "fuzz: ..." and otherwise
+ *   holds valid PDOs whose mappings fit a classic CAN frame.
  *
  * Built by `make fuzz` (clang only). tests/unit/test_eds_corpus.c
  * includes this file and replays tests/fuzz/corpus/eds/ with gcc.
@@ -23,6 +26,7 @@
 #include <string.h>
 
 #include "apps/common/eds.h"
+#include "apps/common/eds_pdo.h"
 #include "core/cdcf.h"
 
 int fuzz_eds_one(const uint8_t *data, size_t size);
@@ -61,8 +65,42 @@ static int check_strict(const uint8_t *data, size_t size, bool lenient_accepted,
 	return check_refusal(rc, out, len, err, lines) ? 7 : 0;
 }
 
+/* 0 when the layout the reader collected is refused in the documented
+ * form or fits CiA 301's limits. */
+static int check_layout(eds_pdo_reader *r)
+{
+	eds_pdo_file f;
+	co_pdo_layout_type *types = NULL;
+	size_t n_types = 0;
+	char err[512] = "";
+	int bad = 0,
+	    rc = eds_pdo_reader_finish(r, "fuzz", NULL, 0, &f, &types, &n_types, err, sizeof(err));
+
+	if (rc == -ENOMEM)
+		return 0;
+	if (rc)
+		return rc == -EINVAL && !strncmp(err, "fuzz: ", 6) ? 0 : 8;
+	for (unsigned d = 0; d < 2 && !bad; d++)
+		for (unsigned k = 0; k < f.n[d] && !bad; k++) {
+			const co_pdo_layout_pdo *p = &f.pdo[d][k];
+			if (p->cob >> 31 || p->n > CO_PDO_MAX_MAP || p->bytes > 8 || !p->nr)
+				bad = 9;
+		}
+	for (size_t i = 1; i < n_types && !bad; i++)
+		if (((uint32_t)types[i - 1].index << 8 | types[i - 1].sub) >
+		    ((uint32_t)types[i].index << 8 | types[i].sub))
+			bad = 10;
+	eds_pdo_file_free(&f);
+	free(types);
+	return bad;
+}
+
 int fuzz_eds_one(const uint8_t *data, size_t size)
 {
+	eds_pdo_reader reader = { 0 };
+	eds_options with_layout = { .node_id = 5,
+				    .on_entry = eds_pdo_reader_on_entry,
+				    .entry_arg = &reader };
 	char err[512] = "";
 	uint8_t *out = NULL, *again = NULL;
 	size_t len = 0, len2 = 0, lines = 1;
@@ -81,10 +119,13 @@ int fuzz_eds_one(const uint8_t *data, size_t size)
 	}
 	if (co_cdcf_check(out, len, &count, NULL) || count != st.entries)
 		bad = 4;
-	else if (eds_convert((const char *)data, size, "fuzz", 5, &again, &len2, NULL, err,
-			     sizeof(err)) ||
+	else if (eds_convert_opts((const char *)data, size, "fuzz", &with_layout, &again, &len2,
+				  NULL, err, sizeof(err)) ||
 		 len2 != len || memcmp(again, out, len))
 		bad = 5;
+	else
+		bad = check_layout(&reader);
+	eds_pdo_reader_free(&reader);
 	free(out);
 	free(again);
 	return bad ? bad : check_strict(data, size, true, lines);

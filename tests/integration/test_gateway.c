@@ -1425,6 +1425,127 @@ static void test_routes_written_and_saved_survive_a_restart(void)
 	cogw_close(h);
 }
 
+/* ---- PDO forwarding by device object (gateway.forward) ------------------------------ */
+
+/* A device's EDS with one PDO (comm, dir: 0x1800 TPDO / 0x1400 RPDO) that
+ * maps obj:1 and obj:2, both UNSIGNED8. */
+static void write_two_byte_eds(const char *path, uint16_t comm, uint16_t obj, unsigned cob_base)
+{
+	char t[4096];
+	const char *acc = comm == 0x1800 ? "ro" : "rw";
+	snprintf(t, sizeof t,
+		 "[FileInfo]\nFileName=fwd.eds\nEDSVersion=4.0\n"
+		 "[DeviceInfo]\nVendorName=cogw test\nProductName=two bytes\n"
+		 "[MandatoryObjects]\nSupportedObjects=2\n1=0x1000\n2=0x1001\n"
+		 "[1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\n"
+		 "AccessType=ro\nDefaultValue=0x00020191\nPDOMapping=0\n"
+		 "[1001]\nParameterName=Error register\nObjectType=0x7\nDataType=0x0005\n"
+		 "AccessType=ro\nDefaultValue=0\nPDOMapping=1\n"
+		 "[OptionalObjects]\nSupportedObjects=3\n1=0x%04X\n2=0x%04X\n3=0x%04X\n"
+		 "[%04X]\nParameterName=PDO 1 communication\nObjectType=0x9\nSubNumber=3\n"
+		 "[%04Xsub0]\nParameterName=n\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\n"
+		 "DefaultValue=2\nPDOMapping=0\n"
+		 "[%04Xsub1]\nParameterName=COB-ID\nObjectType=0x7\nDataType=0x0007\n"
+		 "AccessType=rw\nDefaultValue=$NODEID+0x%03X\nPDOMapping=0\n"
+		 "[%04Xsub2]\nParameterName=transmission type\nObjectType=0x7\n"
+		 "DataType=0x0005\nAccessType=rw\nDefaultValue=254\nPDOMapping=0\n"
+		 "[%04X]\nParameterName=PDO 1 mapping\nObjectType=0x9\nSubNumber=3\n"
+		 "[%04Xsub0]\nParameterName=n\nObjectType=0x7\nDataType=0x0005\nAccessType=rw\n"
+		 "DefaultValue=2\nPDOMapping=0\n"
+		 "[%04Xsub1]\nParameterName=entry 1\nObjectType=0x7\nDataType=0x0007\n"
+		 "AccessType=rw\nDefaultValue=0x%04X0108\nPDOMapping=0\n"
+		 "[%04Xsub2]\nParameterName=entry 2\nObjectType=0x7\nDataType=0x0007\n"
+		 "AccessType=rw\nDefaultValue=0x%04X0208\nPDOMapping=0\n"
+		 "[%04X]\nParameterName=bytes\nObjectType=0x8\nSubNumber=3\n"
+		 "[%04Xsub0]\nParameterName=n\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\n"
+		 "DefaultValue=2\nPDOMapping=0\n"
+		 "[%04Xsub1]\nParameterName=byte 1\nObjectType=0x7\nDataType=0x0005\n"
+		 "AccessType=%s\nDefaultValue=0\nPDOMapping=1\n"
+		 "[%04Xsub2]\nParameterName=byte 2\nObjectType=0x7\nDataType=0x0005\n"
+		 "AccessType=%s\nDefaultValue=0\nPDOMapping=1\n",
+		 comm, comm + 0x200, obj, comm, comm, comm, cob_base, comm, comm + 0x200,
+		 comm + 0x200, comm + 0x200, obj, comm + 0x200, obj, obj, obj, obj, acc, obj, acc);
+	TEST_ASSERT_EQUAL_INT(0, write_text_file(path, t));
+}
+
+static void test_forwarding_by_device_object(void)
+{
+	char dir[] = "/tmp/cogw-fwd-XXXXXX", src[64], dst[64], cfg[4096], out[8192];
+	uint8_t d[8];
+
+	TEST_ASSERT_NOT_NULL(mkdtemp(dir));
+	snprintf(src, sizeof src, "%s/source.eds", dir);
+	snprintf(dst, sizeof dst, "%s/target.eds", dir);
+	/* node 5 on vcan0: TPDO 1 (185h) = 6000h:1, 6000h:2; node 9 on vcan1:
+	 * RPDO 1 (209h) = 6200h:1, 6200h:2 */
+	write_two_byte_eds(src, 0x1800, 0x6000, 0x180);
+	write_two_byte_eds(dst, 0x1400, 0x6200, 0x200);
+	snprintf(cfg, sizeof cfg,
+		 "{\"mailbox\": {\"instance\": \"" INSTANCE "\"},\n"
+		 " \"gateway\": {\"forward\": [\n"
+		 "   {\"from\": {\"line\": 0, \"node\": 5, \"index\": \"0x6000\", \"sub\": 1},\n"
+		 "    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 1}},\n"
+		 "   {\"from\": {\"line\": 0, \"node\": 5, \"index\": \"0x6000\", \"sub\": 2},\n"
+		 "    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 2},\n"
+		 "    \"image\": \"0xB123\"}]},\n"
+		 " \"lines\": [\n"
+		 "  {\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,\n"
+		 "   \"network_id\": 1, \"heartbeat_ms\": 0, \"rpdos\": 2,\n"
+		 "   \"nodes\": [{\"id\": 5, \"eds\": \"%s\", \"pdo\": \"auto\"}]},\n"
+		 "  {\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127,\n"
+		 "   \"network_id\": 2, \"heartbeat_ms\": 0, \"tpdos\": 2,\n"
+		 "   \"nodes\": [{\"id\": 9, \"eds\": \"%s\", \"pdo\": \"auto\"}]}]}\n",
+		 src, dst);
+	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = cfg,
+								    .instance = INSTANCE,
+								    .n_lines = 2,
+								    .notify = true,
+								    .drop_notify = true }));
+	nmt_start_all_daemon_nodes();
+	drain(fd1);
+
+	/* node 5's TPDO on vcan0 -> node 9's RPDO on vcan1, both objects at once */
+	uint8_t v1[2] = { 0x12, 0x34 }, v2[2] = { 0x56, 0x34 };
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x185, v1, 2));
+	TEST_ASSERT_EQUAL_INT_MESSAGE(2, can_wait_id(fd1, 0x209, d, 3000),
+				      "node 9's RPDO did not come on vcan1");
+	TEST_ASSERT_EQUAL_HEX8_ARRAY(v1, d, 2);
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x185, v2, 2));
+	TEST_ASSERT_EQUAL_INT(2, can_wait_id(fd1, 0x209, d, 3000));
+	TEST_ASSERT_EQUAL_HEX8_ARRAY(v2, d, 2);
+	/* a frame of a node that is not forwarded leaves vcan1 alone */
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x186, v1, 2));
+	TEST_ASSERT_TRUE(can_wait_id(fd1, 0x209, d, 300) < 0);
+
+	/* cogwctl route shows both ends with what became of the values */
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, ctl_capture("route --json", out, sizeof out), out);
+	cJSON *root = cJSON_Parse(out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(root, out);
+	const cJSON *lines = cJSON_GetObjectItemCaseSensitive(root, "lines");
+	const cJSON *l0 = cJSON_GetArrayItem(lines, 0), *l1 = cJSON_GetArrayItem(lines, 1);
+	const cJSON *f0 = cJSON_GetObjectItemCaseSensitive(l0, "forwarded_objects");
+	const cJSON *f1 = cJSON_GetObjectItemCaseSensitive(l1, "forwarded_objects");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(2, cJSON_GetArraySize(f0), out);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(2, cJSON_GetArraySize(f1), out);
+	for (int i = 0; i < 2; i++) {
+		const cJSON *a = cJSON_GetArrayItem(f0, i), *b = cJSON_GetArrayItem(f1, i);
+		TEST_ASSERT_EQUAL_STRING(
+			"from", cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(a, "end")));
+		TEST_ASSERT_EQUAL_STRING(
+			"to", cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(b, "end")));
+		TEST_ASSERT_EQUAL_INT(2, cJSON_GetObjectItemCaseSensitive(a, "values")->valueint);
+		TEST_ASSERT_EQUAL_INT(2, cJSON_GetObjectItemCaseSensitive(b, "values")->valueint);
+		TEST_ASSERT_EQUAL_INT(2, cJSON_GetObjectItemCaseSensitive(b, "sent")->valueint);
+		TEST_ASSERT_EQUAL_INT(0, cJSON_GetObjectItemCaseSensitive(b, "refused")->valueint);
+	}
+	TEST_ASSERT_EQUAL_STRING("B123", cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(
+						 cJSON_GetArrayItem(f0, 1), "image")));
+	cJSON_Delete(root);
+	unlink(src);
+	unlink(dst);
+	rmdir(dir);
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -1435,6 +1556,7 @@ int main(void)
 	RUN_TEST(test_concurrent_sessions_and_no_free_client);
 	RUN_TEST(test_emcy_routing_follows_1f2f);
 	RUN_TEST(test_pdo_forwarding);
+	RUN_TEST(test_forwarding_by_device_object);
 	RUN_TEST(test_reset_on_line_0_leaves_line_1_untouched);
 	RUN_TEST(test_mailbox_client_reaches_any_network);
 	RUN_TEST(test_multi_hop_through_two_daemons);

@@ -29,6 +29,12 @@ vcan0. It catches bugs that cosim, which runs our own core, would mirror.
     cogwctl diag lists the open episode;
   - LSS: Fastscan of an unconfigured cosim node, node-ID assignment, boot
     with the new id;
+  - the PDO layout cogwd's manager learns by SDO during the boot of a
+    python-canopen slave (event-driven, synchronous and invalid TPDOs, an
+    RPDO with a dummy entry) equals the slave's own records, and the slave
+    remapped and rebooted is learnt again (checked on the daemon's log line
+    per learnt PDO and its boot events); the layout read at start-up from
+    an EDS that python-canopen wrote (export_od) equals the device's;
   - the CiA 302-2 manager of cogwd's second line (vcan1) with python-canopen
     slaves: no SDO frame on the bus while the network is stopped (after
     the "stop all" error reaction and after a Request NMT stop), both ways
@@ -46,6 +52,7 @@ import faulthandler
 import json
 import logging
 import os
+import re
 import shutil
 import signal
 import socket
@@ -59,7 +66,7 @@ import traceback
 
 import can
 import canopen
-from canopen.objectdictionary import ODRecord, ODVariable, ObjectDictionary, datatypes
+from canopen.objectdictionary import ODRecord, ODVariable, ObjectDictionary, datatypes, export_od
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 TOP = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -77,6 +84,8 @@ MGR_OWN_ID = 1
 MANDATORY_ID = 10  # python-canopen slaves the manager boots
 OPTIONAL_ID = 11
 PROGRAM_ID = 12    # python-canopen device with program download objects
+SCAN_ID = 13       # python-canopen device whose PDO layout the manager learns
+FILE_ID = 14       # a device known by its EDS (written by python-canopen)
 SLAVE_DEVICE_TYPE = 0x00020192
 SLAVE_HB_MS = 200
 # the manager's heartbeat consumer time: generous, since the emulated VM
@@ -159,6 +168,7 @@ def eq(want, got, what):
 # the system under test: cogwd + cosim on vcan0
 
 WORK = tempfile.mkdtemp(prefix="cogw-interop-")
+FILE_EDS = os.path.join(WORK, "file-device.eds")
 PROCS = {}
 
 DEVICE = {
@@ -223,6 +233,12 @@ CONFIG = {
              "device_type": hex(SLAVE_DEVICE_TYPE)},
             {"id": OPTIONAL_ID, "heartbeat_ms": SLAVE_HB_TIMEOUT_MS,
              "device_type": hex(SLAVE_DEVICE_TYPE)},
+            # its PDO layout is learnt by SDO during its boot; SDO tells no
+            # data type: "types" gives one
+            {"id": SCAN_ID, "device_type": hex(SLAVE_DEVICE_TYPE), "pdo": "learn",
+             "types": {"6401:1": "INTEGER16"}},
+            # its layout comes from its EDS at start-up; not booted (no SDO)
+            {"id": FILE_ID, "boot": False, "eds": FILE_EDS},
         ],
     }],
 }
@@ -232,6 +248,7 @@ def start_system():
     import json
     os.makedirs(CONFIG["state_dir"], exist_ok=True)
     os.makedirs(os.path.join(WORK, "nv"), exist_ok=True)
+    export_od(scan_device_od(FILE_ID), FILE_EDS, doc_type="eds")
     cfg = os.path.join(WORK, "cogw.json")
     with open(cfg, "w") as f:
         json.dump(CONFIG, f)
@@ -710,9 +727,9 @@ class Monitor:
     """A mailbox subscriber: `cogwctl monitor --json` in the background,
     its events collected as they come."""
 
-    def __init__(self, classes):
+    def __init__(self, classes, line=0):
         argv = [os.path.join(BIN, "cogwctl"), "--instance", INSTANCE, "--json", "monitor",
-                "--line", "0", "--class", classes]
+                "--line", str(line), "--class", classes]
         self.proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                      text=True, cwd=TOP)
         self.events = []
@@ -910,8 +927,8 @@ class StrictSlave:
     §7.3.2.2: no SDO in STOPPED). An NMT command that comes in while it
     boots acts after the boot (the lock), as on a device."""
 
-    def __init__(self, node_id):
-        od = ObjectDictionary()
+    def __init__(self, node_id, od=None):
+        od = od if od is not None else ObjectDictionary()
         dt = var("device type", 0x1000, 0, datatypes.UNSIGNED32, "ro")
         dt.default = SLAVE_DEVICE_TYPE
         od.add_object(dt)
@@ -1038,6 +1055,158 @@ def test_manager_no_sdo_while_network_stopped_and_both_ways_out():
         optional.remove()
 
 
+def record(od, index, name, subs):
+    """An ODRecord of (sub, type, default) members, sub 0 first."""
+    rec = ODRecord(name, index)
+    for sub, dtype, default in subs:
+        v = var(f"{name} {sub}", index, sub, dtype, "ro" if sub == 0 else "rw")
+        v.default = default
+        rec.add_member(v)
+    od.add_object(rec)
+
+
+def scan_device_od(n=SCAN_ID):
+    """A device with TPDO 1 event-driven (inhibit time, event timer), TPDO 2
+    invalid, TPDO 3 synchronous with a SYNC start value, RPDO 1 with a dummy
+    byte and a deadline, RPDO 2 invalid; nothing after them."""
+    U8, U16, U32 = datatypes.UNSIGNED8, datatypes.UNSIGNED16, datatypes.UNSIGNED32
+    od = ObjectDictionary()
+    tpdos = ((0x180 + n, 254, 10, 100, 0, [0x60000108, 0x64010110]),
+             (0x80000280 + n, 255, 0, 0, 0, [0x20000020]),
+             (0x380 + n, 1, 0, 0, 2, [0x20000020]))
+    for k, (cob, tt, inhibit, event, sync_start, mapping) in enumerate(tpdos):
+        record(od, 0x1800 + k, f"TPDO {k + 1} communication",
+               [(0, U8, 6), (1, U32, cob), (2, U8, tt), (3, U16, inhibit), (5, U16, event),
+                (6, U8, sync_start)])
+        record(od, 0x1A00 + k, f"TPDO {k + 1} mapping",
+               [(0, U8, len(mapping))] + [(i + 1, U32, m) for i, m in enumerate(mapping)]
+               + [(i + 1, U32, 0) for i in range(len(mapping), 8)])
+    rpdos = ((0x200 + n, 255, 500, [0x62000108, 0x00050008]),
+             (0x80000300 + n, 255, 0, [0x62000108]))
+    for k, (cob, tt, event, mapping) in enumerate(rpdos):
+        record(od, 0x1400 + k, f"RPDO {k + 1} communication",
+               [(0, U8, 5), (1, U32, cob), (2, U8, tt), (5, U16, event)])
+        record(od, 0x1600 + k, f"RPDO {k + 1} mapping",
+               [(0, U8, len(mapping))] + [(i + 1, U32, m) for i, m in enumerate(mapping)])
+    record(od, 0x6000, "digital inputs", [(0, U8, 1), (1, U8, 0)])
+    record(od, 0x6200, "digital outputs", [(0, U8, 1), (1, U8, 0)])
+    record(od, 0x6401, "analogue inputs", [(0, U8, 1), (1, datatypes.INTEGER16, 0)])
+    od.add_object(var("temperature", 0x2000, 0, U32))
+    return od
+
+
+def u32(local, index, sub):
+    return struct.unpack("<L", bytes(local.get_data(index, sub)).ljust(4, b"\0"))[0]
+
+
+def device_layout(local):
+    """The valid PDOs as the slave itself holds them, read from its own
+    object dictionary: (dir, nr, cob, tt, inhibit, event, [(index, sub,
+    bits)])."""
+    out = []
+    for kind, comm0, subs in (("TPDO", 0x1800, (2, 3, 5)), ("RPDO", 0x1400, (2, 5))):
+        for k in range(512):
+            if comm0 + k not in local.object_dictionary:
+                break
+            cob = u32(local, comm0 + k, 1)
+            if cob & 0x80000000:
+                continue
+            tt, inhibit, event = (u32(local, comm0 + k, s) if s in subs else 0
+                                  for s in (2, 3, 5))
+            count = u32(local, comm0 + 0x200 + k, 0)
+            entries = [u32(local, comm0 + 0x200 + k, i) for i in range(1, count + 1)]
+            out.append((kind, k + 1, cob, tt, inhibit, event,
+                        [(e >> 16, (e >> 8) & 0xFF, e & 0xFF) for e in entries]))
+    return out
+
+
+LAYOUT_LINE = re.compile(
+    r"line line1: node (\d+): PDO layout \((?:scan|file)\): (TPDO|RPDO) (\d+) COB-ID ([0-9A-F]+)h "
+    r"tt (\d+) inhibit (\d+) event (\d+) ms:(.*)$")
+ENTRY = re.compile(r"([0-9A-F]{4}):([0-9A-F]{2})/(\d+) (.*)")
+
+
+def learnt_layout(log_text, node_id):
+    """What the daemon logged it learnt (one line per PDO), and the type
+    text of each entry."""
+    out, types = [], {}
+    for line in log_text.splitlines():
+        m = LAYOUT_LINE.search(line)
+        if not m or int(m.group(1)) != node_id:
+            continue
+        entries = []
+        for text in m.group(8).split(","):
+            e = ENTRY.search(text.strip())
+            if e:
+                entries.append((int(e.group(1), 16), int(e.group(2), 16), int(e.group(3))))
+                types[(int(e.group(1), 16), int(e.group(2), 16))] = e.group(4)
+        out.append((m.group(2), int(m.group(3)), int(m.group(4), 16), int(m.group(5)),
+                    int(m.group(6)), int(m.group(7)), entries))
+    return out, types
+
+
+def full_log(name):
+    with open(os.path.join(WORK, name + ".log")) as f:
+        return f.read()
+
+
+def wait_layout_event(mon, n_events, timeout=30.0):
+    mon.wait(f"{n_events} pdo-layout boot events of node {SCAN_ID}",
+             lambda: len([e for e in mon.of("manager-boot") if e.get("node") == SCAN_ID
+                          and e.get("step") == "pdo-layout"]) >= n_events, timeout)
+    return [e for e in mon.of("manager-boot") if e.get("node") == SCAN_ID
+            and e.get("step") == "pdo-layout"][n_events - 1]
+
+
+def test_pdo_layout_learnt_by_sdo_scan_equals_the_device():
+    mon = Monitor("boot", line=MGR_LINE)
+    try:
+        mark = len(full_log("cogwd"))
+        slave = StrictSlave(SCAN_ID, scan_device_od())  # its boot-up starts its boot
+        ev = wait_layout_event(mon, 1)
+        eq(0, ev["abort"], "abort code of the pdo-layout step")
+        eq((2, 1, 0, 0), (ev["tpdos"], ev["rpdos"], ev["tpdos_dropped"], ev["rpdos_dropped"]),
+           "PDOs learnt (boot event)")
+        want = device_layout(slave.node)
+        eq(3, len(want), "valid PDOs of the device")
+        got, types = learnt_layout(full_log("cogwd")[mark:], SCAN_ID)
+        eq(want, got, "the learnt layout (daemon log) against the device's records")
+        eq("INTEGER16", types[(0x6401, 1)], "type of 6401:01 (configuration's types)")
+        eq("(type unknown)", types[(0x6000, 1)], "type of 6000:01 (SDO tells none)")
+        eq("(dummy)", types[(0x0005, 0)], "RPDO dummy entry")
+
+        step("remap TPDO 1 and validate TPDO 2 on the device; it reboots")
+        slave.node.set_data(0x1A00, 0, bytes([0]))
+        slave.node.set_data(0x1A00, 1, struct.pack("<L", 0x64010110))
+        slave.node.set_data(0x1A00, 0, bytes([1]))
+        slave.node.set_data(0x1801, 1, struct.pack("<L", 0x280 + SCAN_ID))
+        mark = len(full_log("cogwd"))
+        slave.power_on()
+        ev = wait_layout_event(mon, 2)
+        eq((3, 1), (ev["tpdos"], ev["rpdos"]), "PDOs learnt after the reboot")
+        want = device_layout(slave.node)
+        got, _ = learnt_layout(full_log("cogwd")[mark:], SCAN_ID)
+        eq(want, got, "the layout learnt again against the remapped device")
+        eq([(0x6401, 1, 16)], got[0][6], "TPDO 1 after the remap")
+    finally:
+        mon.stop()
+        # the slave stays on the line: an absent optional node would be
+        # retried with reads whose timeouts end in abort frames, which the
+        # manager test's silence checks would see
+
+
+def test_pdo_layout_from_an_eds_equals_the_device():
+    """python-canopen wrote the EDS of a device (export_od); the layout the
+    daemon read from it at start-up is the device's, typed by the file."""
+    device = canopen.LocalNode(FILE_ID, scan_device_od(FILE_ID))
+    want = device_layout(device)
+    got, types = learnt_layout(full_log("cogwd"), FILE_ID)
+    eq(want, got, "the layout read from the EDS against the device's records")
+    eq("INTEGER16", types[(0x6401, 1)], "type of 6401:01 (the EDS's DataType)")
+    eq("UNSIGNED8", types[(0x6000, 1)], "type of 6000:01 (the EDS's DataType)")
+    eq("(dummy)", types[(0x0005, 0)], "RPDO dummy entry")
+
+
 def test_program_by_segmented_transfer_when_block_is_refused():
     """python-canopen's SDO server refuses a block download (05040001h):
     the software manager's image goes by segmented transfer and cogwctl
@@ -1093,6 +1262,8 @@ def main():
                   test_rpdo_supervision_emcys_and_events,
                   test_emcy_from_cosim_and_from_cogwd,
                   test_lss_fastscan_and_node_id_assignment,
+                  test_pdo_layout_learnt_by_sdo_scan_equals_the_device,
+                  test_pdo_layout_from_an_eds_equals_the_device,
                   # before the manager test: its end leaves line 1 stopped
                   test_program_by_segmented_transfer_when_block_is_refused,
                   test_manager_no_sdo_while_network_stopped_and_both_ways_out):

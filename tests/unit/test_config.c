@@ -992,6 +992,78 @@ static void test_gateway_errors(void)
 		     "of all lines: define it in gateway.process_image");
 }
 
+/* gateway.forward: two lines whose nodes 5 and 9 are mirrored */
+#define FWD_LINE(i, node)                                                                   \
+	"{\"interface\": \"vcan" #i "\", \"bitrate\": 500000, \"node_id\": 127, "           \
+	"\"network_id\": " #i "1, \"rpdos\": 2, \"tpdos\": 2, \"manager\": {}, \"nodes\": " \
+	"[{\"id\": " #node ", \"pdo\": \"auto\"}, {\"id\": 3}]}"
+#define FWD_CFG(fwd)                        \
+	"{\"gateway\": {\"forward\": [" fwd \
+	"]}, \"lines\": [" FWD_LINE(0, 5) ", " FWD_LINE(1, 9) "]}"
+#define FWD_END(line, node, index, sub) \
+	"{\"line\": " #line ", \"node\": " #node ", \"index\": \"" index "\", \"sub\": " #sub "}"
+
+static void test_gateway_forward(void)
+{
+	load_ok(FWD_CFG("{\"from\": " FWD_END(0, 5, "0x6000", 1) ", \"to\": " FWD_END(
+		1, 9, "0x6200",
+		1) "}, {\"from\": " FWD_END(1, 9, "0x6000",
+					    2) ", \"to\": " FWD_END(0, 5, "0x6200",
+								    2) ", \"image\": \"0xB123\"}"));
+	TEST_ASSERT_EQUAL_size_t(2, cfg.n_forwards);
+	const cogw_forward *f = &cfg.forwards[0];
+	TEST_ASSERT_EQUAL_UINT8(0, f->from.line);
+	TEST_ASSERT_EQUAL_UINT8(5, f->from.node);
+	TEST_ASSERT_EQUAL_HEX16(0x6000, f->from.index);
+	TEST_ASSERT_EQUAL_UINT8(1, f->from.sub);
+	TEST_ASSERT_EQUAL_UINT8(1, f->to.line);
+	TEST_ASSERT_EQUAL_UINT8(9, f->to.node);
+	TEST_ASSERT_EQUAL_HEX16(0x6200, f->to.index);
+	TEST_ASSERT_EQUAL_HEX16(COGW_FORWARD_IMAGE_FIRST, f->image);
+	TEST_ASSERT_EQUAL_HEX16(0xB123, cfg.forwards[1].image);
+	/* the image objects are on every line, UNSIGNED64, PDO-mappable both ways */
+	for (size_t l = 0; l < cfg.n_lines; l++) {
+		const co_od_entry *e = co_od_find(cfg.lines[l].od, COGW_FORWARD_IMAGE_FIRST, 0);
+		TEST_ASSERT_NOT_NULL(e);
+		TEST_ASSERT_EQUAL_UINT16(CO_T_UNSIGNED64, e->type);
+		TEST_ASSERT_TRUE((e->access & CO_ACC_RPDO) && (e->access & CO_ACC_TPDO));
+		TEST_ASSERT_NOT_NULL(co_od_find(cfg.lines[l].od, 0xB123, 0));
+	}
+}
+
+static void test_gateway_forward_errors(void)
+{
+	expect_error(FWD_CFG("{\"from\": " FWD_END(0, 3, "0x6000",
+						   1) ", \"to\": " FWD_END(1, 9, "0x6200", 1) "}"),
+		     "t.json: gateway.forward[0].from: node 3 of line 0 is not mirrored: "
+		     "forwarding needs it in that line's \"nodes\" with \"pdo\": \"auto\" "
+		     "(docs/gateway.md)");
+	expect_error(FWD_CFG("{\"from\": " FWD_END(0, 5, "0x6000",
+						   1) ", \"to\": " FWD_END(0, 5, "0x6200", 1) "}"),
+		     "t.json: gateway.forward[0]: from and to are on line 0: forwarding is "
+		     "between lines");
+	expect_error(FWD_CFG("{\"from\": " FWD_END(0, 5, "0x6000",
+						   1) ", \"to\": " FWD_END(2, 9, "0x6200", 1) "}"),
+		     "t.json: gateway.forward[0].to.line: 2 is out of range 0..1");
+	expect_error(FWD_CFG("{\"from\": " FWD_END(0, 5, "0x6000", 1) ", \"to\": " FWD_END(
+			     1, 9, "0x6200", 1) ", \"image\": \"0xA000\"}"),
+		     "t.json: gateway.forward[0].image: A000h is outside the process image "
+		     "B000h..BFFFh");
+	expect_error(FWD_CFG("{\"from\": " FWD_END(0, 5, "0x6000", 1) ", \"to\": " FWD_END(
+			     1, 9, "0x6200",
+			     1) "}, {\"from\": " FWD_END(0, 5, "0x6000",
+							 2) ", \"to\": " FWD_END(1, 9, "0x6200",
+										 2) ", \"image\": "
+										    "\"0xBF00\"}"),
+		     "t.json: gateway.forward[1].image: BF00h is already an object of the process "
+		     "image: give another \"image\"");
+	expect_error(FWD_CFG("{\"from\": " FWD_END(0, 5, "0x6000", 1) ", \"to\": " FWD_END(
+			     1, 9, "0x6200", 1) ", \"via\": 1}"),
+		     "t.json: gateway.forward[0].via: unknown key");
+	expect_error(FWD_CFG("{\"from\": " FWD_END(0, 5, "0x6000", 1) "}"),
+		     "t.json: gateway.forward[0].to: required key is missing");
+}
+
 /* A FIFO at the config path made the loader (start-up, --check,
  * reload) wait for a writer for ever. alarm() turns a hang into a failure. */
 static void test_fifo_config_refused_at_once(void)
@@ -1044,6 +1116,8 @@ int main(void)
 	RUN_TEST(test_gateway_errors);
 	RUN_TEST(test_gateway_route_values_checked_as_at_run_time);
 	RUN_TEST(test_load_file);
+	RUN_TEST(test_gateway_forward);
+	RUN_TEST(test_gateway_forward_errors);
 	RUN_TEST(test_json_od_standalone);
 	return UNITY_END();
 }

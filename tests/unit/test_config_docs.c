@@ -156,6 +156,8 @@ static int fill_key_defaults(struct key_default *k)
 	KD("`lines[]`", "time_period_ms", "%u", l->time_period_ms);
 	KD("`lines[]`", "rpdos", "%u", count_records(l->od, 0x1400));
 	KD("`lines[]`", "tpdos", "%u", count_records(l->od, 0x1800));
+	KD("`lines[]`", "pdo", "%s", l->pdo == 0 ? "off" : "not off");
+	KD("`lines[]`", "pdo_scan_max", "%u", l->pdo_scan_max);
 	TEST_ASSERT_EQUAL_size_t(1, l->n_nodes);
 	KD("Node configuration", "store", "%s", l->nodes[0].config.store ? "true" : "false");
 	{
