@@ -562,8 +562,11 @@ void events_service(bridge *b)
 			publish_mbx_stats(b, l);
 			bridge_send_internal(b, l, MBX_CMD_GW_ROUTES, NULL, 0);
 		}
-		/* a state change lost with an overflowed event queue is repaired here */
+		/* a state change lost with an overflowed event queue is repaired
+		 * here, and the watches a restarted daemon forgot are renewed */
 		request_tables(b);
+		for (unsigned l = 0; l < b->daemon.n_lines; l++)
+			mqtt_watch_arm(b, l);
 	}
 }
 

@@ -331,6 +331,10 @@ void serve_on_response(bridge *b, pending *p, const cogw_msg *m)
 	    (m->status == COGW_E_UNKNOWN_CMD || m->status == COGW_E_UNSUPPORTED)) {
 		b->st.unsupported++;
 		refuse(b, &rp, r, true, "unsupported", mqtt_watch_refusal(m->status));
+	} else if ((r->op == MQTT_OP_WATCH_ADD || r->op == MQTT_OP_WATCH_REMOVE) && m->status &&
+		   m->status != COGW_E_ABORT) {
+		b->st.failed++;
+		refuse(b, &rp, r, true, "watch_refused", mqtt_watch_refusal(m->status));
 	} else if (m->status == COGW_E_ABORT) {
 		cJSON *o = reply_head(b, r, false);
 		char s[16];

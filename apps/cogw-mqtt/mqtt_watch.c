@@ -46,15 +46,36 @@ static bridge_watch *find(bridge *b, unsigned line, uint8_t node, uint16_t index
 	return NULL;
 }
 
+static bool same_object(const mqtt_watch_cfg *a, const mqtt_watch_cfg *b)
+{
+	return a->net == b->net && a->node == b->node && a->index == b->index && a->sub == b->sub;
+}
+
 void mqtt_watch_answered(bridge *b, unsigned line, const mqtt_watch_cfg *w, bool add, int status)
 {
 	bridge_watch *known = find(b, line, w->node, w->index, w->sub);
 
-	if (status) {
-		/* a configured watch has nobody else to tell */
-		fprintf(stderr, "cogw-mqtt: watch of net %u node %u %04X:%02X: %s\n", w->net,
-			w->node, w->index, w->sub, mqtt_watch_refusal(status));
+	for (unsigned i = 0; i < b->cfg.n_watch; i++) {
+		const mqtt_watch_cfg *c = &b->cfg.watch[i];
+
+		/* a configured watch has nobody else to tell: the log, once per
+		 * change (it is renewed every counters period) */
+		if (add && same_object(c, w) && b->cfg_watch_status[i] != status) {
+			b->cfg_watch_status[i] = status;
+			fprintf(stderr, "cogw-mqtt: watch of net %u node %u %04X:%02X: %s\n",
+				w->net, w->node, w->index, w->sub,
+				status ? mqtt_watch_refusal(status) : "watching");
+		}
+	}
+	if (status)
 		return;
+	/* a configured watch removed by request stays removed until it is
+	 * added again (or the bridge restarts) */
+	for (unsigned i = 0; i < b->cfg.n_watch; i++) {
+		const mqtt_watch_cfg *c = &b->cfg.watch[i];
+
+		if (same_object(c, w))
+			b->cfg_watch_removed[i] = !add;
 	}
 	if (!add) {
 		if (known)
@@ -69,30 +90,49 @@ void mqtt_watch_answered(bridge *b, unsigned line, const mqtt_watch_cfg *w, bool
 		known->w = *w;
 }
 
+static void send_watch(bridge *b, unsigned line, const mqtt_watch_cfg *w)
+{
+	uint8_t payload[sizeof(mbx_dev_watch_req)];
+	uint16_t cmd;
+	size_t len = mqtt_watch_command(w, true, &cmd, payload);
+	pending *p = bridge_send_internal(b, line, cmd, payload, len);
+
+	if (p)
+		p->watch = *w;
+}
+
 void mqtt_watch_arm(bridge *b, unsigned line)
 {
+	/* the watches in force again (watching again only renews them: a
+	 * restarted daemon knows none), then the configured ones not yet */
+	for (size_t i = 0; i < b->n_watch; i++)
+		if (b->watch[i].line == line)
+			send_watch(b, line, &b->watch[i].w);
 	for (unsigned i = 0; i < b->cfg.n_watch; i++) {
 		const mqtt_watch_cfg *w = &b->cfg.watch[i];
-		uint8_t payload[sizeof(mbx_dev_watch_req)];
-		uint16_t cmd;
-		size_t len;
-		pending *p;
 
-		if (bridge_line_of_net(b, w->net) != (int)line)
-			continue;
-		len = mqtt_watch_command(w, true, &cmd, payload);
-		p = bridge_send_internal(b, line, cmd, payload, len);
-		if (p)
-			p->watch = *w;
+		if (bridge_line_of_net(b, w->net) == (int)line && !b->cfg_watch_removed[i] &&
+		    !find(b, line, w->node, w->index, w->sub))
+			send_watch(b, line, w);
 	}
 }
 
 const char *mqtt_watch_refusal(int status)
 {
-	return status == COGW_E_UNKNOWN_CMD || status == COGW_E_UNSUPPORTED
-		       ? "the daemon does not serve watches of device objects (docs/mqtt.md "
-			 "\"Process values\")"
-		       : cogw_strerror(status);
+	switch (status) {
+	case COGW_E_UNKNOWN_CMD:
+	case COGW_E_UNSUPPORTED:
+		return "the daemon does not serve watches of device objects (docs/mqtt.md "
+		       "\"Process values\")";
+	case COGW_E_NOT_FOUND:
+		return "no TPDO of the node maps the object (docs/config.md \"PDO layouts\")";
+	case COGW_E_STATE:
+		return "the node's PDOs are not mirrored (its \"pdo\" is not \"auto\")";
+	case COGW_E_FULL:
+		return "the line's watch table is full";
+	default:
+		return cogw_strerror(status);
+	}
 }
 
 void mqtt_watch_on_value(bridge *b, const cogw_msg *m)

@@ -16,8 +16,8 @@ broker), cosim devices on vcan0..vcan2:
 
 Covered: every published topic's payload (status birth/will, nmt, boot,
 heartbeat lost/resumed, emcy and its history, manager, counters), every
-request kind (sdo_read, sdo_write, nmt; watch refused while the daemon has
-no watch), MQTT 5 request/response and the 3.1.1 fallback, role refusals,
+request kind (sdo_read, sdo_write, nmt, watch_add/watch_remove with the
+process values of a configured watch), MQTT 5 request/response and the 3.1.1 fallback, role refusals,
 each class of bad input (malformed JSON, unknown op, bad fields, unknown
 objects/networks/nodes, oversized, a flood), the broker restarted mid-run
 (birth again, queued messages delivered, drops counted), the daemon
@@ -67,8 +67,11 @@ DAEMON_A = {
         "name": "line0", "interface": "vcan0", "bitrate": 1000000, "node_id": 127,
         "network_id": 1, "heartbeat_ms": 1000, "sdo_timeout_ms": 3000,
         "manager": {"boot_time_ms": 20000},
+        # free RPDO records: the mirror of node 1's TPDO (process values)
+        "rpdos": 4,
+        # its PDO layout learnt in its boot and mirrored: process values
         "nodes": [{"id": 1, "mandatory": True, "heartbeat_ms": 3000,
-                   "vendor_id": hex(STI_VENDOR)}],
+                   "vendor_id": hex(STI_VENDOR), "pdo": "auto"}],
     }, {
         "name": "line1", "interface": "vcan1", "bitrate": 1000000, "node_id": 127,
         "network_id": 2, "heartbeat_ms": 1000, "sdo_timeout_ms": 3000,
@@ -516,8 +519,8 @@ def test_bad_requests_get_clear_errors_and_are_counted():
          ' "colour": 1}', "bad_field", "unknown key"),
         ('{"op": "nmt", "net": 99, "node": 1, "command": "start"}', "unknown_network",
          "not attached"),
-        ('{"op": "watch_add", "net": 1, "node": 1, "index": 8195, "sub": 0, "type": "r32"}',
-         "unsupported", "does not serve watches"),
+        ('{"op": "watch_add", "net": 1, "node": 1, "index": 4119, "sub": 0, "type": "u16"}',
+         "watch_refused", "no TPDO of the node maps the object"),
         ('{"op": "watch_add", "net": 3, "node": 1, "index": 8195, "sub": 0, "type": "r32"}',
          "unknown_network", "not attached"),
         ('{"op": "sdo_read", "net": 1, "node": 1, "index": 4120, "sub": 1, "type": "u32", '
@@ -554,11 +557,8 @@ def test_bad_requests_get_clear_errors_and_are_counted():
     eq(1, after["unknown_op"] - before["unknown_op"], "unknown op counted")
     eq(6, after["bad_field"] - before["bad_field"], "bad fields counted (with the networks)")
     eq(1, after["too_big"] - before["too_big"], "oversized counted")
-    eq(1, after["unsupported"] - before["unsupported"], "watch counted")
-    # the configured watch was asked for and refused the same way, in the log
-    check("watch of net 1 node 1 2003:00: the daemon does not serve" in read_log("bridge-a", 10**6),
-          "the configured watch's refusal is not logged")
-    eq(4, after["failed"] - before["failed"], "failed transfers counted")
+    eq(0, after["unsupported"] - before["unsupported"], "the daemon serves watches")
+    eq(5, after["failed"] - before["failed"], "failed transfers and the watch counted")
 
 
 def test_request_flood_is_limited_and_every_request_answered():
@@ -610,6 +610,37 @@ def test_emcy_with_history_and_heartbeat_lost_resumed():
         PROCS["cosim-vcan1"].send_signal(signal.SIGCONT)
     CLIENT.wait(node_topic("gw-a", 2, 2, "heartbeat"),
                 lambda p: p.get("event") == "resumed" and p["state"] == "active", since)
+
+
+def test_process_values_watched_removed_and_added_again():
+    topic = node_topic("gw-a", 1, 1, "value/2003/0")
+    # the configured watch: node 1's pressure (REAL32 in its TPDO 1, event timer
+    # 1000 ms), at most one value per 500 ms
+    v = CLIENT.wait(topic, lambda p: p["seq"] >= 1, timeout=60)
+    eq(("r32", "pdo", 1, "0x2003"), (v["type"], v["via"], v["net"], v["index"]), "value")
+    check(isinstance(v["value"], float) and 0.0 <= v["value"] <= 50.0, f"pressure: {v}")
+    since = CLIENT.mark()
+    CLIENT.wait(topic, lambda p: p["seq"] > v["seq"], since)
+    # a late subscriber gets the latest value at once (retained)
+    late = Client(name="late-values")
+    late.start()
+    try:
+        late.wait(topic, timeout=5)
+    finally:
+        late.stop()
+    req = {"op": "watch_remove", "net": 1, "node": 1, "index": "0x2003", "sub": 0,
+           "type": "r32"}
+    r = CLIENT.request("gw-a", req)
+    eq(True, r["ok"], f"watch_remove: {r}")
+    time.sleep(2)  # values under way arrive
+    since = CLIENT.mark()
+    time.sleep(3)
+    check(not CLIENT.find(topic, since=since), "values after watch_remove")
+    r = CLIENT.request("gw-a", dict(req, op="watch_add", min_interval_ms=200))
+    eq(True, r["ok"], f"watch_add: {r}")
+    CLIENT.wait(topic, since=since)
+    c = latest_counters("gw-a")
+    check(c["values"] > 0 and c["watches"] == 1, f"value counters: {c}")
 
 
 def test_counters_of_daemon_and_bridge():
@@ -795,6 +826,7 @@ def main():
                   test_bad_requests_get_clear_errors_and_are_counted,
                   test_request_flood_is_limited_and_every_request_answered,
                   test_emcy_with_history_and_heartbeat_lost_resumed,
+                  test_process_values_watched_removed_and_added_again,
                   test_counters_of_daemon_and_bridge,
                   test_broker_restart_birth_again_queue_delivered_drops_counted,
                   test_daemon_restarted_under_the_bridge,
