@@ -168,6 +168,14 @@ $(SAN_ASCII_LIB): $(call obj,$(SAN),$(ASCII_LIB_SRC))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 
+# The MQTT bridge's request decoder and configuration loader: linked into the unit
+# tests and the fuzz targets as well as into apps/cogw-mqtt (no libmosquitto in them).
+MQTT_LIB_SRC := apps/cogw-mqtt/mqtt_request.c apps/cogw-mqtt/mqtt_config.c
+SAN_MQTT_LIB := $(SAN)/lib/libcogw_mqtt.a
+$(SAN_MQTT_LIB): $(call obj,$(SAN),$(MQTT_LIB_SRC))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
 $(REL_APPCOMMON_LIB): $(call obj,$(REL),$(APPCOMMON_SRC) $(APPCOMMON_GEN))
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
@@ -178,18 +186,22 @@ $(SAN_APPCOMMON_LIB): $(call obj,$(SAN),$(APPCOMMON_SRC) $(APPCOMMON_GEN))
 
 # ---- programs: apps/<name>/*.c -> build/<cfg>/bin/<name> -----------------------
 # The sanitizer build of the programs is what the integration tests run.
+# PROGRAM_SRC_<name>: sources of other directories a program links too;
+# PROGRAM_LIBS_<name>: system libraries only it needs.
+PROGRAM_SRC_cogw-mqtt := apps/cogw-ascii/ascii_value.c
+PROGRAM_LIBS_cogw-mqtt := $(shell pkg-config --libs libmosquitto 2>/dev/null || echo -lmosquitto)
 define program_rules
-$(REL)/bin/$(1): $(call obj,$(REL),$(wildcard apps/$(1)/*.c)) $$(REL_LIBS)
+$(REL)/bin/$(1): $(call obj,$(REL),$(wildcard apps/$(1)/*.c) $(PROGRAM_SRC_$(1))) $$(REL_LIBS)
 	@mkdir -p $$(@D)
-	$$(CC) -o $$@ $$^ $$(SYS_LIBS)
-$(SAN)/bin/$(1): $(call obj,$(SAN),$(wildcard apps/$(1)/*.c)) $$(SAN_LIBS)
+	$$(CC) -o $$@ $$^ $$(PROGRAM_LIBS_$(1)) $$(SYS_LIBS)
+$(SAN)/bin/$(1): $(call obj,$(SAN),$(wildcard apps/$(1)/*.c) $(PROGRAM_SRC_$(1))) $$(SAN_LIBS)
 	@mkdir -p $$(@D)
-	$$(CC) $$(SAN_LDFLAGS) -o $$@ $$^ $$(SYS_LIBS)
+	$$(CC) $$(SAN_LDFLAGS) -o $$@ $$^ $$(PROGRAM_LIBS_$(1)) $$(SYS_LIBS)
 endef
 $(foreach p,$(PROGRAMS),$(eval $(call program_rules,$(p))))
 
 # ---- tests ---------------------------------------------------------------------
-$(SAN)/tests/unit/%: $(SAN)/obj/tests/unit/%.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_ASCII_LIB) $(SAN_LIBS)
+$(SAN)/tests/unit/%: $(SAN)/obj/tests/unit/%.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_MQTT_LIB) $(SAN_ASCII_LIB) $(SAN_LIBS)
 	@mkdir -p $(@D)
 	$(CC) $(SAN_LDFLAGS) -o $@ $^ $(SYS_LIBS)
 
@@ -236,10 +248,17 @@ check-callgraph:
 
 # Interoperability with python-canopen (tests/interop/): one VM boot for the group.
 # scripts/pyenv.sh installs the pinned packages into build/pyenv on first use.
-INTEROP_TESTS := tests/interop/run
+# tests/interop/run-mqtt: the MQTT bridge against mosquitto and paho-mqtt, in the same boot.
+INTEROP_TESTS := tests/interop/run tests/interop/run-mqtt
 interop: $(SAN_PROGRAM_BINS)
 	@scripts/pyenv.sh
 	tests/vcan/run -n 3 -- env COGW_TEST_TIMEOUT=$${COGW_INTEROP_TIMEOUT:-1800} tests/run-tests interop $(INTEROP_TESTS)
+
+# The MQTT group alone (one VM boot).
+.PHONY: interop-mqtt
+interop-mqtt: $(SAN_PROGRAM_BINS)
+	@scripts/pyenv.sh
+	tests/vcan/run -n 3 -- tests/run-tests mqtt tests/interop/run-mqtt
 
 # The whole suite: set-up if needed, build, unit tests, then integration tests on
 # 3 vcan lines and the interoperability group in the same VM boot; one closing
@@ -308,7 +327,7 @@ fuzz: $(FUZZ_BINS)
 # apps/common checks 1F2Ch entries with the gateway's own rules (route.c,
 # convention.c: core/ only below them)
 FUZZ_GATEWAY_SRC := gateway/route.c gateway/convention.c
-build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) $(FUZZ_GATEWAY_SRC) mailbox/proto.c mailbox/client_api_values.c $(ASCII_LIB_SRC)
+build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) $(FUZZ_GATEWAY_SRC) mailbox/proto.c mailbox/client_api_values.c $(ASCII_LIB_SRC) $(MQTT_LIB_SRC)
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -o $@ $(filter %.c,$^) $(SYS_LIBS)
 else
@@ -327,9 +346,10 @@ BENCH_CORE_BINS := $(filter-out $(BENCH_VCAN_BINS),$(BENCH_BINS))
 BENCH_SUP_OBJS  := $(call obj,$(REL),$(sort $(wildcard tests/bench/support/*.c)) tests/integration/support/proc.c tests/integration/support/sdo_req.c)
 BENCH_OUT := build/bench/output.txt
 
+# bench_vcan_mqtt is a libmosquitto client (linked only where used: --as-needed).
 $(REL)/tests/bench/%: $(REL)/obj/tests/bench/%.o $(BENCH_SUP_OBJS) $(REL_LIBS)
 	@mkdir -p $(@D)
-	$(CC) -o $@ $^ $(SYS_LIBS)
+	$(CC) -Wl,--as-needed -o $@ $^ $(PROGRAM_LIBS_cogw-mqtt) $(SYS_LIBS)
 
 # The cost breakdown behind docs/fastpath.md: system calls and context
 # switches per mailbox round trip and per event, counted with strace in the
@@ -376,6 +396,10 @@ install: all
 	install -m 644 etc/cogw-ascii.socket $(DESTDIR)$(UNITDIR)/cogw-ascii.socket
 	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-ascii.json || sed 's|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-ascii.json \
 		> $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-ascii.json
+	sed 's|/usr/local/bin/cogw-mqtt|$(PREFIX)/bin/cogw-mqtt|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-mqtt.service \
+		> $(DESTDIR)$(UNITDIR)/cogw-mqtt.service
+	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-mqtt.json || sed 's|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-mqtt.json \
+		> $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-mqtt.json
 	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/transducer.dcf || install -m 644 etc/transducer.dcf $(DESTDIR)$(SYSCONFDIR)/cogw/transducer.dcf
 
 deps:

@@ -3,7 +3,8 @@
 # natively or in a throwaway VM). A scripted session a newcomer can follow:
 # two simulated devices, the daemon cogwd on its embedded default
 # configuration, and the CLI cogwctl talking to it through the mailbox, then
-# socat through the CiA 309-3 ASCII gateway cogw-ascii.
+# socat through the CiA 309-3 ASCII gateway cogw-ascii, then an MQTT broker
+# (mosquitto) through the MQTT bridge cogw-mqtt.
 #
 # Every step must work: set -e, and a trap that stops every process this
 # script started and removes its files, whatever happens. Exit 0 only when
@@ -60,7 +61,7 @@ cleanup() {
 trap cleanup EXIT
 trap 'exit 130' INT TERM
 
-for p in cogwd cosim cogwctl cogw-ascii; do
+for p in cogwd cosim cogwctl cogw-ascii cogw-mqtt; do
 	[ -x "$bin/$p" ] || fail "$bin/$p is missing: run 'make' first"
 done
 mkdir -p "$work/state"
@@ -269,6 +270,41 @@ kill -TERM "$ascii_pid"
 wait "$ascii_pid" || fail "cogw-ascii did not exit cleanly"
 pids=("${pids[@]:0:3}")
 
+say "9b. The gateway on an MQTT broker (cogw-mqtt)"
+explain "cogw-mqtt is one more mailbox client: it publishes every network's state,"
+explain "emergencies and counters to an MQTT broker, and takes requests from it"
+explain "(docs/mqtt.md). A mosquitto broker on loopback, then the bridge as gateway \"demo\":"
+mqtt_port=18883
+printf 'listener %s 127.0.0.1\nallow_anonymous true\npersistence false\n' "$mqtt_port" >"$work/mosquitto.conf"
+[ "$(id -u)" -ne 0 ] || echo "user root" >>"$work/mosquitto.conf"
+mosquitto -c "$work/mosquitto.conf" >"$work/mosquitto.log" 2>&1 &
+pids+=($!)
+wait_for "the MQTT broker" 10 timeout 5 mosquitto_sub -h 127.0.0.1 -p "$mqtt_port" -t x -W 1 -C 1 -E
+cat >"$work/cogw-mqtt.json" <<JSON
+{"version": 1, "gateway": "demo", "broker": {"uri": "mqtt://127.0.0.1:$mqtt_port"}}
+JSON
+printf '\n$ cogw-mqtt --config %s   # %s\n' "$work/cogw-mqtt.json" "$(cat "$work/cogw-mqtt.json")"
+"$bin/cogw-mqtt" --config "$work/cogw-mqtt.json" >"$work/cogw-mqtt.log" 2>&1 &
+pids+=($!)
+mqtt_pid=$!
+explain "" "One value: node 1's NMT state, retained on its topic (any subscriber gets it at once):"
+wait_for "node 1's state on the broker" 30 sh -c "timeout 5 mosquitto_sub -h 127.0.0.1 -p $mqtt_port -t cogw/demo/net/1/node/1/nmt -C 1 -W 3 | grep -q '\"operational\"'"
+show mosquitto_sub -h 127.0.0.1 -p "$mqtt_port" -t 'cogw/demo/status' -t 'cogw/demo/net/1/node/1/nmt' -v -C 2 -W 5
+explain "" "One request: an MQTT 5 request/response (mosquitto_rr sets the response topic and"
+explain "correlation data), reading the transducer's pressure 2003h over SDO:"
+show mosquitto_rr -h 127.0.0.1 -p "$mqtt_port" -t cogw/demo/request -e demo/replies -W 10 \
+	-m '{"op":"sdo_read","net":1,"node":1,"index":"0x2003","sub":0,"type":"r32"}' | tee "$work/mqtt-reply.txt"
+grep -q '"ok":true' "$work/mqtt-reply.txt" || fail "cogw-mqtt: the request was not answered"
+explain "" "The bridge's role is read (the default): a write is refused with a reason:"
+show mosquitto_rr -h 127.0.0.1 -p "$mqtt_port" -t cogw/demo/request -e demo/replies -W 10 \
+	-m '{"op":"nmt","net":1,"node":1,"command":"stop"}' | tee "$work/mqtt-refusal.txt"
+grep -q '"error":"refused_role"' "$work/mqtt-refusal.txt" || fail "cogw-mqtt: the write was not refused"
+kill -TERM "$mqtt_pid"
+wait "$mqtt_pid" || fail "cogw-mqtt did not exit cleanly"
+kill -TERM "${pids[3]}"
+wait "${pids[3]}" 2>/dev/null || true
+pids=("${pids[@]:0:3}")
+
 say "10. A clean stop"
 explain "SIGTERM: cogwd stops its line threads, removes its mailbox queues, exits 0."
 kill -TERM "$cogwd_pid"
@@ -301,7 +337,9 @@ explain "  mirrored on the daemon's PDOs; a watched input typed as it changed, o
 explain "  written by the device's RPDO."
 explain "- socat, a plain tool, read the devices through cogw-ascii in the CiA 309-3 ASCII"
 explain "  syntax (step 9)."
+explain "- mosquitto_sub saw the retained state of node 1 on an MQTT broker, and an MQTT 5"
+explain "  request read its pressure through cogw-mqtt (step 9b)."
 explain "- Everything went through the mailbox (POSIX message queues); nothing was left over."
 explain "Next: 'cogwctl --help', docs/cogwctl.md, docs/config.md, docs/gateway.md, docs/mailbox.md,"
-explain "      docs/ascii.md."
+explain "      docs/ascii.md, docs/mqtt.md."
 printf '\ndemo: OK\n'

@@ -23,7 +23,7 @@ fi
 
 packages=(gcc make curl pkg-config libsystemd-dev libcjson-dev can-utils iproute2 clang-format
           qemu-system-x86 busybox-static cpio kmod valgrind systemd python3 python3-venv
-          socat)
+          socat mosquitto mosquitto-clients libmosquitto-dev openssl)
 
 missing=()
 for p in "${packages[@]}"; do

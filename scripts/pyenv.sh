@@ -25,6 +25,6 @@ log "creating $venv"
 log "installing $(grep -v '^#' "$req" | tr '\n' ' ')"
 "$venv/bin/python" -m pip install -q --disable-pip-version-check --no-input -r "$req" \
     || die "pip install from PyPI failed"
-"$venv/bin/python" -c 'import canopen, can, socket; socket.AF_CAN' \
+"$venv/bin/python" -c 'import canopen, can, paho.mqtt.client, socket; socket.AF_CAN' \
     || die "the environment cannot import canopen/can or has no AF_CAN sockets"
 cp "$req" "$venv/.complete"

@@ -103,17 +103,6 @@ static int load_tcp(ascii_config *c, const cJSON *o, char *err, size_t errlen)
 	return 0;
 }
 
-static int opt_unsigned(const cJSON *o, const char *key, const char *path, uint64_t min,
-			uint64_t max, unsigned *out, char *err, size_t errlen)
-{
-	uint64_t u = *out;
-
-	if (json_util_opt_uint(o, key, path, min, max, &u, err, errlen))
-		return -EINVAL;
-	*out = (unsigned)u;
-	return 0;
-}
-
 static int load_limits(ascii_config *c, const cJSON *o, char *err, size_t errlen)
 {
 	const char *path = "limits";
@@ -122,13 +111,16 @@ static int load_limits(ascii_config *c, const cJSON *o, char *err, size_t errlen
 		return json_util_fail(err, errlen, path, "must be an object, not %s",
 				      json_util_kind(o));
 	if (json_util_check_object(o, path, limit_keys, err, errlen) ||
-	    opt_unsigned(o, "max_connections", path, 1, 4096, &c->max_connections, err, errlen) ||
-	    opt_unsigned(o, "max_line", path, 64, 16u * 1024u * 1024u, &c->max_line, err, errlen) ||
-	    opt_unsigned(o, "max_outstanding", path, 1, 64, &c->max_outstanding, err, errlen) ||
-	    opt_unsigned(o, "max_output", path, 4096, 256u * 1024u * 1024u, &c->max_output, err,
-			 errlen) ||
-	    opt_unsigned(o, "request_timeout_ms", path, 100, 3600000, &c->request_timeout_ms, err,
-			 errlen))
+	    json_util_opt_unsigned(o, "max_connections", path, 1, 4096, &c->max_connections, err,
+				   errlen) ||
+	    json_util_opt_unsigned(o, "max_line", path, 64, 16u * 1024u * 1024u, &c->max_line, err,
+				   errlen) ||
+	    json_util_opt_unsigned(o, "max_outstanding", path, 1, 64, &c->max_outstanding, err,
+				   errlen) ||
+	    json_util_opt_unsigned(o, "max_output", path, 4096, 256u * 1024u * 1024u,
+				   &c->max_output, err, errlen) ||
+	    json_util_opt_unsigned(o, "request_timeout_ms", path, 100, 3600000,
+				   &c->request_timeout_ms, err, errlen))
 		return -EINVAL;
 	return 0;
 }
@@ -143,7 +135,8 @@ static int load_session(ascii_config *c, const cJSON *o, char *err, size_t errle
 				      json_util_kind(o));
 	if (json_util_check_object(o, path, session_keys, err, errlen) ||
 	    json_util_opt_sint(o, "network", path, 0, 127, &net, err, errlen) ||
-	    opt_unsigned(o, "sdo_timeout_ms", path, 1, 600000, &c->sdo_timeout_ms, err, errlen) ||
+	    json_util_opt_unsigned(o, "sdo_timeout_ms", path, 1, 600000, &c->sdo_timeout_ms, err,
+				   errlen) ||
 	    json_util_opt_bool(o, "sdo_block", path, &c->sdo_block, err, errlen))
 		return -EINVAL;
 	c->default_network = (int)net;
@@ -164,8 +157,8 @@ static int load_tree(ascii_config *c, const cJSON *root, char *err, size_t errle
 				 sizeof c->daemon_config, err, errlen) ||
 	    json_util_opt_string(root, "unix_socket", "", 0, c->unix_socket, sizeof c->unix_socket,
 				 err, errlen) ||
-	    opt_unsigned(root, "route_line", "", 0, COGW_LINES_MAX - 1, &c->route_line, err,
-			 errlen))
+	    json_util_opt_unsigned(root, "route_line", "", 0, COGW_LINES_MAX - 1, &c->route_line,
+				   err, errlen))
 		return -EINVAL;
 	v = json_util_get(root, "unix_mode");
 	if (v) {
@@ -195,21 +188,16 @@ static int load_tree(ascii_config *c, const cJSON *root, char *err, size_t errle
 	return 0;
 }
 
+static int load_root(void *ctx, const cJSON *root, char *err, size_t errlen)
+{
+	return load_tree(ctx, root, err, errlen);
+}
+
 int ascii_config_load_string(ascii_config *c, const char *json, const char *source, char *err,
 			     size_t errlen)
 {
-	cJSON *root = NULL;
-	char why[256];
-	int rc;
-
 	ascii_config_defaults(c);
-	rc = json_util_parse(json, &root, why, sizeof why);
-	if (rc == 0)
-		rc = load_tree(c, root, why, sizeof why);
-	cJSON_Delete(root);
-	if (rc)
-		snprintf(err, errlen, "%s: %s", source, why);
-	return rc;
+	return json_util_load_text(json, source, load_root, c, err, errlen);
 }
 
 int ascii_config_load_file(ascii_config *c, const char *path, char *err, size_t errlen)

@@ -474,3 +474,30 @@ int json_util_hex(const cJSON *v, const char *path, uint8_t *buf, size_t cap, si
 	*len = (size_t)n;
 	return 0;
 }
+
+int json_util_opt_unsigned(const cJSON *obj, const char *key, const char *path, uint64_t min,
+			   uint64_t max, unsigned *out, char *err, size_t errlen)
+{
+	uint64_t u = *out;
+
+	if (json_util_opt_uint(obj, key, path, min, max, &u, err, errlen))
+		return -EINVAL;
+	*out = (unsigned)u;
+	return 0;
+}
+
+int json_util_load_text(const char *json, const char *source,
+			int (*load)(void *ctx, const cJSON *root, char *err, size_t errlen),
+			void *ctx, char *err, size_t errlen)
+{
+	cJSON *root = NULL;
+	char why[512];
+	int rc = json_util_parse(json, &root, why, sizeof why);
+
+	if (rc == 0)
+		rc = load(ctx, root, why, sizeof why);
+	cJSON_Delete(root);
+	if (rc)
+		snprintf(err, errlen, "%s: %s", source, why);
+	return rc;
+}

@@ -87,6 +87,17 @@ int json_util_opt_bool(const cJSON *obj, const char *key, const char *path, bool
 int json_util_opt_string(const cJSON *obj, const char *key, const char *path, size_t min_len,
 			 char *buf, size_t cap, char *err, size_t errlen);
 
+/* json_util_opt_uint into an unsigned int (max must fit one). */
+int json_util_opt_unsigned(const cJSON *obj, const char *key, const char *path, uint64_t min,
+			   uint64_t max, unsigned *out, char *err, size_t errlen);
+
+/* A configuration text: parse json, hand the tree to load(ctx, root, ...),
+ * and on failure write "source: path: reason" into err. Returns load's
+ * result (or -EINVAL for invalid JSON). */
+int json_util_load_text(const char *json, const char *source,
+			int (*load)(void *ctx, const cJSON *root, char *err, size_t errlen),
+			void *ctx, char *err, size_t errlen);
+
 /* Hex bytes "01 02 0a" / "01020A" (spaces allowed between byte pairs).
  * *len = bytes decoded; "path: ..." if odd, not hex, or longer than cap. */
 int json_util_hex(const cJSON *v, const char *path, uint8_t *buf, size_t cap, size_t *len,
