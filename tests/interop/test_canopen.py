@@ -1197,6 +1197,19 @@ def learnt_layout(log_text, node_id):
     return out, types
 
 
+def mapped_layout(node_id):
+    """The layout as `cogwctl pdo map` shows it (what a client sees):
+    per PDO kind, number, COB-ID, transmission type, event timer, entries."""
+    r = ctl("--json", "pdo", "map", str(MGR_LINE), str(node_id))
+    node = json.loads(r.stdout.strip().splitlines()[0])
+    return [(p["pdo"].upper(), p["nr"], p["cob_id"], p["transmission_type"], p["event_ms"],
+             [(e["index"], e["sub"], e["bits"]) for e in p["map"]]) for p in node["pdos"]]
+
+
+def without_inhibit(layout):
+    return [(k, nr, cob, tt, ev, entries) for (k, nr, cob, tt, _inh, ev, entries) in layout]
+
+
 def full_log(name):
     with open(os.path.join(WORK, name + ".log")) as f:
         return f.read()
@@ -1223,6 +1236,8 @@ def test_pdo_layout_learnt_by_sdo_scan_equals_the_device():
         eq(3, len(want), "valid PDOs of the device")
         got, types = learnt_layout(full_log("cogwd")[mark:], SCAN_ID)
         eq(want, got, "the learnt layout (daemon log) against the device's records")
+        eq(without_inhibit(want), mapped_layout(SCAN_ID),
+           "the learnt layout (cogwctl pdo map) against the device's records")
         eq("INTEGER16", types[(0x6401, 1)], "type of 6401:01 (configuration's types)")
         eq("(type unknown)", types[(0x6000, 1)], "type of 6000:01 (SDO tells none)")
         eq("(dummy)", types[(0x0005, 0)], "RPDO dummy entry")
@@ -1239,6 +1254,8 @@ def test_pdo_layout_learnt_by_sdo_scan_equals_the_device():
         want = device_layout(slave.node)
         got, _ = learnt_layout(full_log("cogwd")[mark:], SCAN_ID)
         eq(want, got, "the layout learnt again against the remapped device")
+        eq(without_inhibit(want), mapped_layout(SCAN_ID),
+           "cogwctl pdo map after the remap against the device's records")
         eq([(0x6401, 1, 16)], got[0][6], "TPDO 1 after the remap")
     finally:
         mon.stop()
