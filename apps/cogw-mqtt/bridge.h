@@ -114,8 +114,9 @@ typedef struct bridge {
 	node_state *nodes; /* [line * 128 + node] */
 	bridge_watch watch[MQTT_WATCH_MAX];
 	size_t n_watch;
-	bool cfg_watch_removed[MQTT_WATCH_MAX]; /* by a watch_remove request */
-	int cfg_watch_status[MQTT_WATCH_MAX];   /* the last answer, logged when it changes */
+	bool cfg_watch_removed[MQTT_WATCH_MAX];  /* by a watch_remove request */
+	int cfg_watch_status[MQTT_WATCH_MAX];    /* the last answer, logged when it changes */
+	bool cfg_watch_answered[MQTT_WATCH_MAX]; /* its arming was answered once */
 	bridge_stats st;
 } bridge;
 

@@ -8,6 +8,7 @@
  *   cogw-mqtt [--config FILE] [--daemon-config FILE] [--check] [-v]
  */
 #include "apps/cogw-mqtt/bridge.h"
+#include "apps/cogw-mqtt/mqtt_watch.h"
 
 #include <errno.h>
 #include <signal.h>
@@ -177,8 +178,14 @@ static void drain_mailbox(bridge *b)
 			pending *p = bridge_pending_of(b, m.corr);
 
 			if (p && p->internal) {
+				uint16_t cmd = p->cmd;
+				unsigned line = p->line;
+
 				events_on_internal(b, p, &m);
 				bridge_pending_release(p);
+				/* the freed slot takes the next configured watch */
+				if (cmd == MBX_CMD_DEV_WATCH)
+					mqtt_watch_arm_rest(b, line);
 			} else if (p) {
 				serve_on_response(b, p, &m);
 			}

@@ -60,6 +60,8 @@ void mqtt_watch_answered(bridge *b, unsigned line, const mqtt_watch_cfg *w, bool
 
 		/* a configured watch has nobody else to tell: the log, once per
 		 * change (it is renewed every counters period) */
+		if (add && same_object(c, w))
+			b->cfg_watch_answered[i] = true;
 		if (add && same_object(c, w) && b->cfg_watch_status[i] != status) {
 			b->cfg_watch_status[i] = status;
 			fprintf(stderr, "cogw-mqtt: watch of net %u node %u %04X:%02X: %s\n",
@@ -90,7 +92,7 @@ void mqtt_watch_answered(bridge *b, unsigned line, const mqtt_watch_cfg *w, bool
 		known->w = *w;
 }
 
-static void send_watch(bridge *b, unsigned line, const mqtt_watch_cfg *w)
+static bool send_watch(bridge *b, unsigned line, const mqtt_watch_cfg *w)
 {
 	uint8_t payload[sizeof(mbx_dev_watch_req)];
 	uint16_t cmd;
@@ -99,6 +101,36 @@ static void send_watch(bridge *b, unsigned line, const mqtt_watch_cfg *w)
 
 	if (p)
 		p->watch = *w;
+	return p != NULL;
+}
+
+static bool watch_under_way(const bridge *b, unsigned line, const mqtt_watch_cfg *w)
+{
+	for (size_t i = 0; i < b->n_pend; i++) {
+		const pending *p = &b->pend[i];
+
+		if (p->used && p->internal && p->cmd == MBX_CMD_DEV_WATCH && p->line == line &&
+		    same_object(&p->watch, w))
+			return true;
+	}
+	return false;
+}
+
+/* The configured watches of a line that are not in force nor under way
+ * (only_new: nor answered before - a refused one waits for the next
+ * period), until the bridge's request slots are taken. */
+static void arm_configured(bridge *b, unsigned line, bool only_new)
+{
+	for (unsigned i = 0; i < b->cfg.n_watch; i++) {
+		const mqtt_watch_cfg *w = &b->cfg.watch[i];
+
+		if (bridge_line_of_net(b, w->net) != (int)line || b->cfg_watch_removed[i] ||
+		    (only_new && b->cfg_watch_answered[i]) ||
+		    find(b, line, w->node, w->index, w->sub) || watch_under_way(b, line, w))
+			continue;
+		if (!send_watch(b, line, w))
+			return; /* the rest when answers free the slots */
+	}
 }
 
 void mqtt_watch_arm(bridge *b, unsigned line)
@@ -108,13 +140,12 @@ void mqtt_watch_arm(bridge *b, unsigned line)
 	for (size_t i = 0; i < b->n_watch; i++)
 		if (b->watch[i].line == line)
 			send_watch(b, line, &b->watch[i].w);
-	for (unsigned i = 0; i < b->cfg.n_watch; i++) {
-		const mqtt_watch_cfg *w = &b->cfg.watch[i];
+	arm_configured(b, line, false);
+}
 
-		if (bridge_line_of_net(b, w->net) == (int)line && !b->cfg_watch_removed[i] &&
-		    !find(b, line, w->node, w->index, w->sub))
-			send_watch(b, line, w);
-	}
+void mqtt_watch_arm_rest(bridge *b, unsigned line)
+{
+	arm_configured(b, line, true);
 }
 
 const char *mqtt_watch_refusal(int status)

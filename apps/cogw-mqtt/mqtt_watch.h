@@ -25,8 +25,13 @@ mqtt_watch_cfg mqtt_watch_of(const mqtt_request *r);
 size_t mqtt_watch_command(const mqtt_watch_cfg *w, bool add, uint16_t *cmd, void *payload);
 /* The daemon's answer (status 0 = done) to such a command on `line`. */
 void mqtt_watch_answered(bridge *b, unsigned line, const mqtt_watch_cfg *w, bool add, int status);
-/* Arm the configured watches of a line (after its subscription). */
+/* Arm the configured watches of a line (after its subscription) and renew
+ * those in force (every counters period). */
 void mqtt_watch_arm(bridge *b, unsigned line);
+/* Go on arming the configured watches never answered yet: the bridge has
+ * only so many requests under way (INTERNAL_SLOTS), a long list is armed
+ * as the answers come back. */
+void mqtt_watch_arm_rest(bridge *b, unsigned line);
 /* MBX_EV_DEV_VALUE: publish the value of a watched object. */
 void mqtt_watch_on_value(bridge *b, const cogw_msg *m);
 /* Why a watch command failed, for the reply and the log. */

@@ -47,73 +47,6 @@
 static char instance[32];
 static char tmpdir[128];
 
-/* One EDS for every slave: its TPDO n maps 6401h:(4n-3..4n), INTEGER16. */
-static int write_eds(const char *path)
-{
-	char t[16384];
-	size_t n = 0;
-	n += (size_t)snprintf(
-		t + n, sizeof t - n,
-		"[FileInfo]\nFileName=bench.eds\nFileVersion=1\nEDSVersion=4.0\n"
-		"[DeviceInfo]\nVendorName=cogw bench\nProductName=four TPDOs\n"
-		"NrOfRXPDO=0\nNrOfTXPDO=4\n"
-		"[MandatoryObjects]\nSupportedObjects=3\n1=0x1000\n2=0x1001\n3=0x1018\n"
-		"[1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\n"
-		"AccessType=ro\nDefaultValue=0x00040191\nPDOMapping=0\n"
-		"[1001]\nParameterName=Error register\nObjectType=0x7\n"
-		"DataType=0x0005\nAccessType=ro\nDefaultValue=0\nPDOMapping=1\n"
-		"[1018]\nParameterName=Identity\nObjectType=0x9\nSubNumber=2\n"
-		"[1018sub0]\nParameterName=n\nObjectType=0x7\nDataType=0x0005\n"
-		"AccessType=ro\nDefaultValue=1\nPDOMapping=0\n"
-		"[1018sub1]\nParameterName=Vendor\nObjectType=0x7\nDataType=0x0007\n"
-		"AccessType=ro\nDefaultValue=0x0B16C0DE\nPDOMapping=0\n"
-		"[OptionalObjects]\nSupportedObjects=%d\n",
-		2 * TPDOS + 1);
-	for (int p = 0; p < TPDOS; p++)
-		n += (size_t)snprintf(t + n, sizeof t - n, "%d=0x%04X\n%d=0x%04X\n", 2 * p + 1,
-				      0x1800 + p, 2 * p + 2, 0x1A00 + p);
-	n += (size_t)snprintf(t + n, sizeof t - n, "%d=0x6401\n", 2 * TPDOS + 1);
-	for (int p = 0; p < TPDOS; p++) {
-		n += (size_t)snprintf(
-			t + n, sizeof t - n,
-			"[%04X]\nParameterName=TPDO %d communication\nObjectType=0x9\nSubNumber=3\n"
-			"[%04Xsub0]\nParameterName=n\nObjectType=0x7\nDataType=0x0005\n"
-			"AccessType=ro\nDefaultValue=2\nPDOMapping=0\n"
-			"[%04Xsub1]\nParameterName=COB-ID\nObjectType=0x7\nDataType=0x0007\n"
-			"AccessType=rw\nDefaultValue=$NODEID+0x%03X\nPDOMapping=0\n"
-			"[%04Xsub2]\nParameterName=transmission type\nObjectType=0x7\n"
-			"DataType=0x0005\nAccessType=rw\nDefaultValue=254\nPDOMapping=0\n",
-			0x1800 + p, p + 1, 0x1800 + p, 0x1800 + p, 0x180 + 0x100 * p, 0x1800 + p);
-		n += (size_t)snprintf(
-			t + n, sizeof t - n,
-			"[%04X]\nParameterName=TPDO %d mapping\nObjectType=0x9\n"
-			"SubNumber=5\n[%04Xsub0]\nParameterName=n\nObjectType=0x7\n"
-			"DataType=0x0005\nAccessType=rw\nDefaultValue=4\nPDOMapping=0\n",
-			0x1A00 + p, p + 1, 0x1A00 + p);
-		for (int e = 1; e <= 4; e++)
-			n += (size_t)snprintf(
-				t + n, sizeof t - n,
-				"[%04Xsub%d]\nParameterName=entry %d\nObjectType=0x7\n"
-				"DataType=0x0007\nAccessType=rw\n"
-				"DefaultValue=0x6401%02X10\nPDOMapping=0\n",
-				0x1A00 + p, e, e, 4 * p + e);
-	}
-	n += (size_t)snprintf(t + n, sizeof t - n,
-			      "[6401]\nParameterName=analogue inputs\nObjectType=0x8\n"
-			      "SubNumber=%d\n[6401sub0]\nParameterName=n\nObjectType=0x7\n"
-			      "DataType=0x0005\nAccessType=ro\nDefaultValue=%d\nPDOMapping=0\n",
-			      4 * TPDOS + 1, 4 * TPDOS);
-	for (int s = 1; s <= 4 * TPDOS; s++)
-		n += (size_t)snprintf(
-			t + n, sizeof t - n,
-			"[6401sub%X]\nParameterName=input %d\nObjectType=0x7\n"
-			"DataType=0x0003\nAccessType=ro\nDefaultValue=0\nPDOMapping=1\n",
-			s, s);
-	if (n >= sizeof t)
-		return -ENOSPC;
-	return bench_write_file(path, t);
-}
-
 static int write_config(const char *path, const char *eds, unsigned depth)
 {
 	char t[16384];
@@ -512,7 +445,8 @@ int main(void)
 	cogw_options o = { .instance = instance,
 			   .timeout_ms = 10000,
 			   .event_depth = msg_max > 256 ? 256 : msg_max };
-	if (write_eds(eds) < 0 || write_config(cfg, eds, msg_max < 64 ? msg_max : 64) < 0 ||
+	if (bench_write_tpdo_eds(eds, TPDOS) < 0 ||
+	    write_config(cfg, eds, msg_max < 64 ? msg_max : 64) < 0 ||
 	    bench_daemon_start(&d, cfg, instance, log) < 0)
 		goto out;
 	if (cogw_open_opts(&h, &o) < 0 || go_operational(h) < 0)

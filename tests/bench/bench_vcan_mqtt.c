@@ -9,8 +9,13 @@
  *     publish by a plain libmosquitto client (what mosquitto_pub is) until
  *     the same subscriber has it (target: p50 <= 2x);
  *   - EMCYs at a sustained rate through one bridge: delivered / sent and the
- *     bridge's CPU time per second of one core (context: the process values
- *     of a watch are not in the daemon yet, docs/mqtt.md "Process values").
+ *     bridge's CPU time per second of one core;
+ *   - process values: 16 mirrored slaves (nodes 1..16, pdo "auto", one EDS
+ *     written here) with 4 event-driven TPDOs each fill the bus with 9,000
+ *     frames/s; the bridge watches one object of each TPDO (64 watches, the
+ *     most its configuration takes) with a minimum interval of 100 ms: the
+ *     values published per watch and second (10 at most, ideally 10) and the
+ *     bridge's CPU (target: <= 20 % of one core, natively).
  *
  * Both clients use QoS 1, as the bridge does by default. Needs vcan0, the
  * release cogwd and cogw-mqtt and the mosquitto package: run through
@@ -37,6 +42,11 @@
 #define SAMPLES 200
 #define TOPIC_EVENT "cogw/bench/net/1/node/5/emcy"
 #define TOPIC_BASE "bench/baseline"
+#define TOPIC_VALUES "cogw/bench/net/1/node/+/value/#"
+#define PV_NODES 16
+#define PV_TPDOS 4
+#define PV_RATE 9000.0 /* frames/s: a full 1 Mbit/s bus of 8-byte PDOs */
+#define PV_INTERVAL_MS 100
 
 static char instance[32], tmpdir[64];
 
@@ -44,7 +54,7 @@ static char instance[32], tmpdir[64];
 static pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
 static pthread_cond_t seen_cond = PTHREAD_COND_INITIALIZER;
 static unsigned last_code;
-static uint64_t last_ns, received;
+static uint64_t last_ns, received, values_received;
 
 static void on_message(struct mosquitto *m, void *obj, const struct mosquitto_message *msg)
 {
@@ -56,6 +66,12 @@ static void on_message(struct mosquitto *m, void *obj, const struct mosquitto_me
 
 	(void)m;
 	(void)obj;
+	if (strstr(msg->topic, "/value/")) {
+		pthread_mutex_lock(&lock);
+		values_received++;
+		pthread_mutex_unlock(&lock);
+		return;
+	}
 	memcpy(text, msg->payload, n);
 	text[n] = 0;
 	p = strstr(text, "\"code\":\"0x");
@@ -145,31 +161,95 @@ static const char *broker_path(char *buf, size_t n)
 
 static int write_configs(char *cfg, char *bridge_cfg, char *broker_cfg, size_t n)
 {
-	char text[1024];
+	char text[16384], eds[256];
+	size_t k = 0;
 
 	snprintf(cfg, n, "%s/cogw.json", tmpdir);
 	snprintf(bridge_cfg, n, "%s/cogw-mqtt.json", tmpdir);
 	snprintf(broker_cfg, n, "%s/mosquitto.conf", tmpdir);
-	snprintf(text, sizeof text,
-		 "{\"version\": 1, \"state_dir\": \"%s\", \"mailbox\": {\"instance\": \"%s\"},"
-		 " \"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,"
-		 " \"network_id\": 1}]}",
-		 tmpdir, instance);
-	if (bench_write_file(cfg, text) < 0)
+	snprintf(eds, sizeof eds, "%s/slave.eds", tmpdir);
+	if (bench_write_tpdo_eds(eds, PV_TPDOS) < 0)
 		return -1;
-	snprintf(text, sizeof text,
-		 "{\"version\": 1, \"daemon_config\": \"%s\", \"gateway\": \"bench\","
-		 " \"broker\": {\"uri\": \"mqtt://127.0.0.1:%d\"},"
-		 " \"publish\": {\"counters_period_s\": 0, \"emcy_history\": 0},"
-		 " \"queue\": {\"max_messages\": 100000, \"max_bytes\": 67108864}}",
-		 cfg, PORT);
-	if (bench_write_file(bridge_cfg, text) < 0)
+	k += (size_t)snprintf(
+		text + k, sizeof text - k,
+		"{\"version\": 1, \"state_dir\": \"%s\", \"mailbox\": {\"instance\": "
+		"\"%s\"},"
+		" \"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 1000000, "
+		"\"node_id\": 127, \"network_id\": 1, \"pdo\": \"auto\", \"rpdos\": %d,"
+		" \"nodes\": [",
+		tmpdir, instance, PV_NODES * PV_TPDOS);
+	for (int id = 1; id <= PV_NODES; id++)
+		k += (size_t)snprintf(text + k, sizeof text - k, "%s{\"id\": %d, \"eds\": \"%s\"}",
+				      id > 1 ? ", " : "", id, eds);
+	k += (size_t)snprintf(text + k, sizeof text - k, "]}]}");
+	if (k >= sizeof text || bench_write_file(cfg, text) < 0)
+		return -1;
+	k = 0;
+	k += (size_t)snprintf(text + k, sizeof text - k,
+			      "{\"version\": 1, \"daemon_config\": \"%s\", \"gateway\": \"bench\","
+			      " \"broker\": {\"uri\": \"mqtt://127.0.0.1:%d\"},"
+			      " \"publish\": {\"counters_period_s\": 0, \"emcy_history\": 0},"
+			      " \"queue\": {\"max_messages\": 100000, \"max_bytes\": 67108864},"
+			      " \"watch\": [",
+			      cfg, PORT);
+	for (int id = 1; id <= PV_NODES; id++)
+		for (int p = 0; p < PV_TPDOS; p++)
+			k += (size_t)snprintf(
+				text + k, sizeof text - k,
+				"%s{\"net\": 1, \"node\": %d, \"index\": \"0x6401\", "
+				"\"sub\": %d, \"type\": \"i16\", \"min_interval_ms\": %d}",
+				id + p > 1 ? ", " : "", id, 4 * p + 1, PV_INTERVAL_MS);
+	k += (size_t)snprintf(text + k, sizeof text - k, "]}");
+	if (k >= sizeof text || bench_write_file(bridge_cfg, text) < 0)
 		return -1;
 	snprintf(text, sizeof text,
 		 "%slistener %d 127.0.0.1\nallow_anonymous true\n"
 		 "persistence false\nmax_queued_messages 100000\n",
 		 getuid() == 0 ? "user root\n" : "", PORT);
 	return bench_write_file(broker_cfg, text);
+}
+
+/* The mirrored slaves' TPDOs at PV_RATE frames/s for `secs` (1 ms steps,
+ * round robin, values counting up): the values published per watch and
+ * second, and the bridge's CPU share of one core. */
+static void process_values(int fd, pid_t bridge, double secs, double *per_watch, double *cpu,
+			   double *frames_s)
+{
+	uint8_t start[2] = { 0x01, 127 }; /* the daemon's node OPERATIONAL: RPDOs are used */
+	struct can_frame f = { .can_dlc = 2 };
+	memcpy(f.data, start, 2);
+	f.can_id = 0;
+	(void)!write(fd, &f, sizeof f);
+	usleep(300000);
+	uint64_t before, sent = 0;
+	pthread_mutex_lock(&lock);
+	before = values_received;
+	pthread_mutex_unlock(&lock);
+	double c0 = bench_process_cpu_s(bridge), t0 = bench_now_s(), t;
+	while ((t = bench_now_s() - t0) < secs) {
+		while ((double)sent < t * PV_RATE) {
+			unsigned k = (unsigned)(sent % (PV_NODES * PV_TPDOS));
+			struct can_frame pdo = { .can_id = 0x180u + 0x100u * (k % PV_TPDOS) + 1u +
+							   k / PV_TPDOS,
+						 .can_dlc = 8 };
+			for (int e = 0; e < 4; e++) {
+				pdo.data[2 * e] = (uint8_t)(sent >> 6);
+				pdo.data[2 * e + 1] = (uint8_t)(sent >> 14);
+			}
+			if (write(fd, &pdo, sizeof pdo) == (ssize_t)sizeof pdo)
+				sent++;
+			else
+				usleep(100); /* the vcan queue is full: the bus's own limit */
+		}
+		usleep(1000);
+	}
+	double wall = bench_now_s() - t0;
+	*cpu = (bench_process_cpu_s(bridge) - c0) / wall;
+	*frames_s = (double)sent / wall;
+	usleep(500000); /* the last interval's values */
+	pthread_mutex_lock(&lock);
+	*per_watch = (double)(values_received - before) / (PV_NODES * PV_TPDOS) / wall;
+	pthread_mutex_unlock(&lock);
 }
 
 /* EMCYs at `rate` per second for `secs`: delivered fraction and the
@@ -238,6 +318,7 @@ int main(void)
 	}
 	mosquitto_subscribe(sub, NULL, TOPIC_EVENT, 1);
 	mosquitto_subscribe(sub, NULL, TOPIC_BASE, 1);
+	mosquitto_subscribe(sub, NULL, TOPIC_VALUES, 1);
 	const char *bridge_argv[] = { bench_program("cogw-mqtt", prog, sizeof prog), "--config",
 				      bridge_cfg, NULL };
 
@@ -312,6 +393,31 @@ int main(void)
 					    .ratio = -1,
 					    .target = "<= 20 %",
 					    .verdict = bench_verdict(cpu <= 0.20) });
+	double per_watch, pv_cpu, frames_s;
+
+	process_values(fd, bridge, 3.0, &per_watch, &pv_cpu, &frames_s);
+	char pv_name[160];
+	snprintf(pv_name, sizeof pv_name,
+		 "process values published per watch and second, 64 watches at %d ms, "
+		 "%.0f PDO frames/s on the bus",
+		 PV_INTERVAL_MS, frames_s);
+	bench_print_figure(&(bench_figure){
+		.name = pv_name,
+		.value = per_watch,
+		.unit = "/s",
+		.base_name = "what the minimum interval lets through",
+		.base_value = 1000.0 / PV_INTERVAL_MS,
+		.base_unit = "/s",
+		.ratio = per_watch / (1000.0 / PV_INTERVAL_MS),
+		.target = "ratio >= 0.95",
+		.verdict = bench_verdict(per_watch >= 0.95 * 1000.0 / PV_INTERVAL_MS) });
+	bench_print_figure(&(bench_figure){ .name = "cogw-mqtt CPU with those process values",
+					    .value = 100.0 * pv_cpu,
+					    .unit = "% of a core",
+					    .base_name = NULL,
+					    .ratio = -1,
+					    .target = "<= 20 %",
+					    .verdict = bench_verdict(pv_cpu <= 0.20) });
 	bench_note("cogw-mqtt: event latency is the bus frame written until the subscriber has the "
 		   "message (daemon, mailbox, bridge, broker); the baseline is the broker alone");
 	status = 0;
@@ -332,6 +438,9 @@ out:
 	if (broker > 0)
 		proc_stop(broker, SIGTERM, 5000);
 	mosquitto_lib_cleanup();
-	bench_tmpdir_remove(tmpdir);
+	if (getenv("COGW_BENCH_KEEP"))
+		printf("bench_vcan_mqtt: logs kept in %s\n", tmpdir);
+	else
+		bench_tmpdir_remove(tmpdir);
 	return status;
 }

@@ -66,6 +66,10 @@ int bench_setup(char *instance, size_t ilen, const char *prefix, char *dir, size
 		const char *tag);
 void bench_tmpdir_remove(const char *dir);
 int bench_write_file(const char *path, const char *text);
+/* The EDS of a slave with `tpdos` (1..4) event-driven TPDOs on the
+ * predefined COB-IDs ($NODEID + 180h, 280h, ...): TPDO n maps
+ * 6401h:(4n-3..4n), four INTEGER16. */
+int bench_write_tpdo_eds(const char *path, int tpdos);
 
 /* cogwd from a configuration file, READY=1 awaited on a real NOTIFY_SOCKET. */
 typedef struct bench_daemon {
