@@ -7,12 +7,9 @@
 
 #include <arpa/inet.h>
 #include <errno.h>
-#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include "apps/common/config.h"
 #include "apps/common/json_util.h"
@@ -202,40 +199,8 @@ int ascii_config_load_string(ascii_config *c, const char *json, const char *sour
 
 int ascii_config_load_file(ascii_config *c, const char *path, char *err, size_t errlen)
 {
-	struct stat st;
-	char *buf;
-	ssize_t n;
-	int fd, rc;
-
 	ascii_config_defaults(c);
 	if (!path)
 		return 0;
-	fd = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
-	if (fd < 0) {
-		rc = errno == ENOENT ? -ENOENT : -EIO;
-		snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
-		return rc;
-	}
-	if (fstat(fd, &st) < 0 || !S_ISREG(st.st_mode) || st.st_size > ASCII_CONFIG_FILE_MAX) {
-		snprintf(err, errlen, "%s: not a regular file of at most %u bytes", path,
-			 ASCII_CONFIG_FILE_MAX);
-		close(fd);
-		return -EIO;
-	}
-	buf = calloc(1, (size_t)st.st_size + 1);
-	if (!buf) {
-		close(fd);
-		snprintf(err, errlen, "%s: out of memory", path);
-		return -ENOMEM;
-	}
-	n = read(fd, buf, (size_t)st.st_size);
-	close(fd);
-	if (n != st.st_size) {
-		free(buf);
-		snprintf(err, errlen, "%s: cannot read", path);
-		return -EIO;
-	}
-	rc = ascii_config_load_string(c, buf, path, err, errlen);
-	free(buf);
-	return rc;
+	return json_util_load_file(path, ASCII_CONFIG_FILE_MAX, load_root, c, err, errlen);
 }

@@ -12,6 +12,7 @@
  * bound here from the configuration.
  */
 #include "apps/cogw-ascii/gateway.h"
+#include "apps/common/signal_loop.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -204,24 +205,9 @@ static int load_configs(gateway *g, const cli *c)
 	return 0;
 }
 
-/* SIGTERM, SIGINT and SIGHUP arrive through a signalfd in the loop. */
 static int open_signals(gateway *g)
 {
-	sigset_t sigs;
-
-	sigemptyset(&sigs);
-	sigaddset(&sigs, SIGTERM);
-	sigaddset(&sigs, SIGINT);
-	sigaddset(&sigs, SIGHUP);
-	sigprocmask(SIG_BLOCK, &sigs, NULL);
-	signal(SIGPIPE, SIG_IGN);
-	g->sigfd = signalfd(-1, &sigs, SFD_NONBLOCK | SFD_CLOEXEC);
-	g->epfd = epoll_create1(EPOLL_CLOEXEC);
-	if (g->sigfd < 0 || g->epfd < 0) {
-		perror("cogw-ascii");
-		return -1;
-	}
-	return 0;
+	return signal_loop_open("cogw-ascii", &g->sigfd, &g->epfd);
 }
 
 /* Returns how many listeners systemd passed (0: bound here), or -1. */

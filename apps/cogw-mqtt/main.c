@@ -8,6 +8,7 @@
  *   cogw-mqtt [--config FILE] [--daemon-config FILE] [--check] [-v]
  */
 #include "apps/cogw-mqtt/bridge.h"
+#include "apps/common/signal_loop.h"
 #include "apps/cogw-mqtt/mqtt_watch.h"
 
 #include <errno.h>
@@ -135,25 +136,9 @@ static int load_configs(bridge *b, const cli *c)
 	return 0;
 }
 
-/* Before cogw_open(): libcogw's helper thread must inherit the blocked
- * signals, or a SIGTERM would end the process there. */
 static int open_signals(bridge *b)
 {
-	sigset_t sigs;
-
-	sigemptyset(&sigs);
-	sigaddset(&sigs, SIGTERM);
-	sigaddset(&sigs, SIGINT);
-	sigaddset(&sigs, SIGHUP);
-	sigprocmask(SIG_BLOCK, &sigs, NULL);
-	signal(SIGPIPE, SIG_IGN);
-	b->sigfd = signalfd(-1, &sigs, SFD_NONBLOCK | SFD_CLOEXEC);
-	b->epfd = epoll_create1(EPOLL_CLOEXEC);
-	if (b->sigfd < 0 || b->epfd < 0) {
-		perror("cogw-mqtt");
-		return -1;
-	}
-	return 0;
+	return signal_loop_open("cogw-mqtt", &b->sigfd, &b->epfd);
 }
 
 static int open_loop(bridge *b)

@@ -419,19 +419,10 @@ int mqtt_config_load_string(mqtt_config *c, const char *json, const char *source
 
 int mqtt_config_load_file(mqtt_config *c, const char *path, char *err, size_t errlen)
 {
-	uint8_t *buf;
-	size_t len;
-	int rc;
-
 	mqtt_config_defaults(c);
 	if (!path)
 		return 0;
-	rc = cogw_file_read(path, MQTT_CONFIG_FILE_MAX, &buf, &len, err, errlen);
-	if (rc)
-		return rc == -ENOENT ? -ENOENT : -EIO;
-	rc = mqtt_config_load_string(c, (const char *)buf, path, err, errlen);
-	free(buf);
-	return rc;
+	return json_util_load_file(path, MQTT_CONFIG_FILE_MAX, load_root, c, err, errlen);
 }
 
 int mqtt_config_credentials(const mqtt_config *c, char *user, size_t ucap, char *pass, size_t pcap,

@@ -11,10 +11,13 @@
  */
 #include "apps/common/json_util.h"
 
+#include "apps/common/file_read.h"
+
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 int json_util_fail(char *err, size_t errlen, const char *path, const char *fmt, ...)
@@ -499,5 +502,20 @@ int json_util_load_text(const char *json, const char *source,
 	cJSON_Delete(root);
 	if (rc)
 		snprintf(err, errlen, "%s: %s", source, why);
+	return rc;
+}
+
+int json_util_load_file(const char *path, size_t max,
+			int (*load)(void *ctx, const cJSON *root, char *err, size_t errlen),
+			void *ctx, char *err, size_t errlen)
+{
+	uint8_t *buf;
+	size_t len;
+	int rc = cogw_file_read(path, max, &buf, &len, err, errlen);
+
+	if (rc)
+		return rc == -ENOENT ? -ENOENT : -EIO;
+	rc = json_util_load_text((const char *)buf, path, load, ctx, err, errlen);
+	free(buf);
 	return rc;
 }

@@ -97,6 +97,12 @@ int json_util_opt_unsigned(const cJSON *obj, const char *key, const char *path, 
 int json_util_load_text(const char *json, const char *source,
 			int (*load)(void *ctx, const cJSON *root, char *err, size_t errlen),
 			void *ctx, char *err, size_t errlen);
+/* The same for a file of at most max bytes, read by cogw_file_read
+ * (apps/common/file_read.h): -ENOENT when it does not exist, -EIO when it
+ * cannot be read, else as json_util_load_text. */
+int json_util_load_file(const char *path, size_t max,
+			int (*load)(void *ctx, const cJSON *root, char *err, size_t errlen),
+			void *ctx, char *err, size_t errlen);
 
 /* Hex bytes "01 02 0a" / "01020A" (spaces allowed between byte pairs).
  * *len = bytes decoded; "path: ..." if odd, not hex, or longer than cap. */
