@@ -163,14 +163,12 @@ static void drain_mailbox(bridge *b)
 			pending *p = bridge_pending_of(b, m.corr);
 
 			if (p && p->internal) {
-				uint16_t cmd = p->cmd;
 				unsigned line = p->line;
 
 				events_on_internal(b, p, &m);
 				bridge_pending_release(p);
 				/* the freed slot takes the next configured watch */
-				if (cmd == MBX_CMD_DEV_WATCH)
-					mqtt_watch_arm_rest(b, line);
+				mqtt_watch_arm_rest(b, line);
 			} else if (p) {
 				serve_on_response(b, p, &m);
 			}

@@ -29,8 +29,8 @@ void mqtt_watch_answered(bridge *b, unsigned line, const mqtt_watch_cfg *w, bool
  * those in force (every counters period). */
 void mqtt_watch_arm(bridge *b, unsigned line);
 /* Go on arming the configured watches never answered yet: the bridge has
- * only so many requests under way (INTERNAL_SLOTS), a long list is armed
- * as the answers come back. */
+ * only so many requests of its own under way (INTERNAL_SLOTS), a long list
+ * is armed as their answers free them. */
 void mqtt_watch_arm_rest(bridge *b, unsigned line);
 /* MBX_EV_DEV_VALUE: publish the value of a watched object. */
 void mqtt_watch_on_value(bridge *b, const cogw_msg *m);

@@ -643,6 +643,29 @@ def test_process_values_watched_removed_and_added_again():
     check(c["values"] > 0 and c["watches"] == 1, f"value counters: {c}")
 
 
+def test_a_long_watch_list_is_armed_at_once():
+    """More configured watches than the bridge has requests of its own under
+    way: the rest are armed as the answers come back, not at the next
+    counters period (10 minutes here)."""
+    unmapped = [{"net": 1, "node": 1, "index": f"0x{0x2100 + i:04X}", "sub": 0, "type": "u8",
+                 "min_interval_ms": 0} for i in range(63)]
+    # node 1 booted and its TPDO mirrored (gw-a's own watch of it has a value)
+    CLIENT.wait(node_topic("gw-a", 1, 1, "value/2003/0"), timeout=60)
+    since = CLIENT.mark()
+    start_bridge("c", bridge_config("gw-c", os.path.join(WORK, "cogwd-a.json"),
+                                    publish={"counters_period_s": 600},
+                                    watch=unmapped + [WATCH_PRESSURE]))
+    try:
+        v = CLIENT.wait(node_topic("gw-c", 1, 1, "value/2003/0"), lambda p: p["seq"] >= 1,
+                        since, timeout=20)
+        eq(("r32", "pdo"), (v["type"], v["via"]), "the last configured watch's value")
+        log = read_log("bridge-c", tail=100000)
+        eq(63, log.count("no TPDO of the node maps the object"),
+           "refusals of the unmapped watches, each logged once")
+    finally:
+        stop("bridge-c")
+
+
 def test_counters_of_daemon_and_bridge():
     m = CLIENT.wait("cogw/gw-a/net/1/counters/mailbox")
     check(m["mailbox"]["commands_ok"] > 0, f"mailbox counters: {m}")
@@ -830,6 +853,7 @@ def main():
                   test_counters_of_daemon_and_bridge,
                   test_broker_restart_birth_again_queue_delivered_drops_counted,
                   test_daemon_restarted_under_the_bridge,
+                  test_a_long_watch_list_is_armed_at_once,
                   test_last_will_when_a_bridge_dies,
                   test_broker_refusing_the_client_and_tls_with_wrong_and_right_ca):
             only = os.environ.get("COGW_TEST_ONLY")
