@@ -138,20 +138,29 @@ int co_manager_request_nmt(co_manager *m, uint8_t node_id, uint8_t cmd, uint64_t
 	return rc;
 }
 
+/* The outcome of a boot step another module carries out (configure,
+ * software, PDO layout) for a node waiting in state `step`: fed to its boot
+ * machine as an input. -EINVAL (no such node), -ENOENT (not in that step). */
+static int step_done(co_manager *m, uint8_t node_id, int step, const struct mgr_in *in,
+		     uint64_t now_us)
+{
+	if (node_id < 1 || node_id > 127)
+		return -EINVAL;
+	if (bs_state(&m->s[node_id]) != step)
+		return -ENOENT;
+	mgr_enter(m, now_us);
+	bs_input(&m->s[node_id], in, now_us);
+	mgr_after(m, now_us);
+	return 0;
+}
+
 int co_manager_configure_done(co_manager *m, uint8_t node_id, uint32_t abort, uint16_t index,
 			      uint8_t sub, uint32_t entry, uint64_t now_us)
 {
 	struct mgr_in in = {
 		.kind = IN_CONFIGURED, .abort = abort, .value = entry, .index = index, .sub = sub
 	};
-	if (node_id < 1 || node_id > 127)
-		return -EINVAL;
-	if (bs_state(&m->s[node_id]) != BS_CONFIGURE)
-		return -ENOENT;
-	mgr_enter(m, now_us);
-	bs_input(&m->s[node_id], &in, now_us);
-	mgr_after(m, now_us);
-	return 0;
+	return step_done(m, node_id, BS_CONFIGURE, &in, now_us);
 }
 
 int co_manager_software_done(co_manager *m, uint8_t node_id, char status, uint32_t abort,
@@ -163,14 +172,9 @@ int co_manager_software_done(co_manager *m, uint8_t node_id, char status, uint32
 			     .sub = sub,
 			     .found = value,
 			     .value = (uint8_t)status };
-	if (node_id < 1 || node_id > 127 || (status && !strchr("GHI", status)))
+	if (status && !strchr("GHI", status))
 		return -EINVAL;
-	if (bs_state(&m->s[node_id]) != BS_SOFTWARE)
-		return -ENOENT;
-	mgr_enter(m, now_us);
-	bs_input(&m->s[node_id], &in, now_us);
-	mgr_after(m, now_us);
-	return 0;
+	return step_done(m, node_id, BS_SOFTWARE, &in, now_us);
 }
 
 int co_manager_pdo_layout_done(co_manager *m, uint8_t node_id, uint32_t abort, uint16_t index,
@@ -182,14 +186,7 @@ int co_manager_pdo_layout_done(co_manager *m, uint8_t node_id, uint32_t abort, u
 			     .sub = sub,
 			     .value = kept,
 			     .found = dropped };
-	if (node_id < 1 || node_id > 127)
-		return -EINVAL;
-	if (bs_state(&m->s[node_id]) != BS_PDO_LAYOUT)
-		return -ENOENT;
-	mgr_enter(m, now_us);
-	bs_input(&m->s[node_id], &in, now_us);
-	mgr_after(m, now_us);
-	return 0;
+	return step_done(m, node_id, BS_PDO_LAYOUT, &in, now_us);
 }
 
 int co_manager_set_keep_op(co_manager *m, uint8_t node_id, bool on)

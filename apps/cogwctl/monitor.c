@@ -84,55 +84,45 @@ typedef struct event_out {
 
 typedef void (*event_printer)(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out);
 
-static void print_node_json(const cogw_msg *m, const mbx_ev_node *e, event_out *out)
+/* The events that carry one node and its NMT state (mbx_ev_node): their
+ * text, with "%u" the node and "%s" the state where the text names it. */
+static const struct {
+	uint16_t code;
+	const char *text;
+	bool with_state;
+} node_events[] = {
+	{ MBX_EV_BOOTUP, "node %u boot-up", false },
+	{ MBX_EV_HB_STARTED, "node %u heartbeat started (%s)", true },
+	{ MBX_EV_HB_LOST, "node %u heartbeat LOST", false },
+	{ MBX_EV_GUARD_TOGGLE, "node %u guarding: toggle bit repeated (%s)", true },
+	{ MBX_EV_LIFE_LOST, "our node %u: life guarding LOST", false },
+	{ MBX_EV_LIFE_RESUMED, "our node %u: guarded again", false },
+};
+
+static void print_node_event(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
 {
+	mbx_ev_node e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	if (m->code == MBX_EV_NMT_STATE)
+		snprintf(out->text, out->len, "node %u %s -> %s", e.node, nmt_text(e.prev),
+			 nmt_text(e.state));
+	for (size_t i = 0; i < sizeof node_events / sizeof node_events[0]; i++) {
+		if (node_events[i].code != m->code)
+			continue;
+		if (node_events[i].with_state)
+			snprintf(out->text, out->len, node_events[i].text, e.node,
+				 nmt_text(e.state));
+		else
+			snprintf(out->text, out->len, node_events[i].text, e.node);
+	}
 	if (!out->o)
 		return;
-	cJSON_AddNumberToObject(out->o, "node", e->node);
-	cJSON_AddStringToObject(out->o, "state", nmt_text(e->state));
+	cJSON_AddNumberToObject(out->o, "node", e.node);
+	cJSON_AddStringToObject(out->o, "state", nmt_text(e.state));
 	if (m->code == MBX_EV_NMT_STATE)
-		cJSON_AddStringToObject(out->o, "prev", nmt_text(e->prev));
-}
-
-static void print_nmt_state(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
-{
-	mbx_ev_node e;
-
-	(void)spec;
-	memcpy(&e, m->data, sizeof e);
-	snprintf(out->text, out->len, "node %u %s -> %s", e.node, nmt_text(e.prev),
-		 nmt_text(e.state));
-	print_node_json(m, &e, out);
-}
-
-static void print_bootup(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
-{
-	mbx_ev_node e;
-
-	(void)spec;
-	memcpy(&e, m->data, sizeof e);
-	snprintf(out->text, out->len, "node %u boot-up", e.node);
-	print_node_json(m, &e, out);
-}
-
-static void print_hb_started(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
-{
-	mbx_ev_node e;
-
-	(void)spec;
-	memcpy(&e, m->data, sizeof e);
-	snprintf(out->text, out->len, "node %u heartbeat started (%s)", e.node, nmt_text(e.state));
-	print_node_json(m, &e, out);
-}
-
-static void print_hb_lost(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
-{
-	mbx_ev_node e;
-
-	(void)spec;
-	memcpy(&e, m->data, sizeof e);
-	snprintf(out->text, out->len, "node %u heartbeat LOST", e.node);
-	print_node_json(m, &e, out);
+		cJSON_AddStringToObject(out->o, "prev", nmt_text(e.prev));
 }
 
 static void print_gw_sdo(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
@@ -545,28 +535,6 @@ static void print_time(const cogw_msg *m, const ctl_monitor_spec *spec, event_ou
 	cJSON_AddBoolToObject(out->o, "produced", e.produced);
 }
 
-/* GUARD_TOGGLE, LIFE_LOST, LIFE_RESUMED */
-static void print_guarding(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
-{
-	mbx_ev_node e;
-	const char *st;
-
-	(void)spec;
-	memcpy(&e, m->data, sizeof e);
-	st = nmt_text(e.state);
-	if (m->code == MBX_EV_GUARD_TOGGLE)
-		snprintf(out->text, out->len, "node %u guarding: toggle bit repeated (%s)", e.node,
-			 st);
-	else if (m->code == MBX_EV_LIFE_LOST)
-		snprintf(out->text, out->len, "our node %u: life guarding LOST", e.node);
-	else
-		snprintf(out->text, out->len, "our node %u: guarded again", e.node);
-	if (!out->o)
-		return;
-	cJSON_AddNumberToObject(out->o, "node", e.node);
-	cJSON_AddStringToObject(out->o, "state", st);
-}
-
 /* A watched device object's typed value (docs/devices.md). */
 static void print_dev_value(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
 {
@@ -626,10 +594,10 @@ static const struct {
 } event_printers[] = {
 	{ MBX_EV_DEV_VALUE, print_dev_value },
 	{ MBX_EV_DEV_MIRROR, print_dev_mirror },
-	{ MBX_EV_NMT_STATE, print_nmt_state },
-	{ MBX_EV_BOOTUP, print_bootup },
-	{ MBX_EV_HB_STARTED, print_hb_started },
-	{ MBX_EV_HB_LOST, print_hb_lost },
+	{ MBX_EV_NMT_STATE, print_node_event },
+	{ MBX_EV_BOOTUP, print_node_event },
+	{ MBX_EV_HB_STARTED, print_node_event },
+	{ MBX_EV_HB_LOST, print_node_event },
 	{ MBX_EV_DUP_NODE, print_dup_node },
 	{ MBX_EV_GW_SDO, print_gw_sdo },
 	{ MBX_EV_GW_EMCY, print_gw_emcy },
@@ -646,9 +614,9 @@ static const struct {
 	{ MBX_EV_RPDO_RECOVERED, print_rpdo_fault },
 	{ MBX_EV_SYNC, print_sync },
 	{ MBX_EV_TIME, print_time },
-	{ MBX_EV_GUARD_TOGGLE, print_guarding },
-	{ MBX_EV_LIFE_LOST, print_guarding },
-	{ MBX_EV_LIFE_RESUMED, print_guarding },
+	{ MBX_EV_GUARD_TOGGLE, print_node_event },
+	{ MBX_EV_LIFE_LOST, print_node_event },
+	{ MBX_EV_LIFE_RESUMED, print_node_event },
 	{ MBX_EV_OVERFLOW, print_overflow },
 };
 
