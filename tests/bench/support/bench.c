@@ -108,6 +108,43 @@ uint64_t bench_raise_mq_limit(void)
 	return rl.rlim_cur == RLIM_INFINITY ? UINT64_MAX : (uint64_t)rl.rlim_cur;
 }
 
+/* One "Name:\tvalue" field of a status file already read into text. */
+static uint64_t status_field(const char *text, const char *name)
+{
+	const char *at = strstr(text, name);
+	return at ? strtoull(at + strlen(name), NULL, 10) : 0;
+}
+
+int bench_ctx_switches(pid_t pid, const char *thread, uint64_t *vol, uint64_t *invol)
+{
+	char path[64];
+	snprintf(path, sizeof path, "/proc/%d/task", (int)pid);
+	DIR *d = opendir(path);
+	struct dirent *e;
+	*vol = *invol = 0;
+	if (!d)
+		return -1;
+	while ((e = readdir(d)) != NULL) {
+		char file[400], text[4096];
+		if (e->d_name[0] == '.')
+			continue;
+		snprintf(file, sizeof file, "%s/%s/status", path, e->d_name);
+		FILE *f = fopen(file, "r");
+		if (!f)
+			continue; /* the thread ended meanwhile */
+		size_t n = fread(text, 1, sizeof text - 1, f);
+		fclose(f);
+		text[n] = '\0';
+		char comm[32] = "";
+		if (sscanf(text, "Name:\t%31s", comm) != 1 || (thread && strcmp(comm, thread) != 0))
+			continue;
+		*vol += status_field(text, "\nvoluntary_ctxt_switches:");
+		*invol += status_field(text, "\nnonvoluntary_ctxt_switches:");
+	}
+	closedir(d);
+	return 0;
+}
+
 const char *bench_program(const char *name, char *buf, size_t len)
 {
 	const char *dir = getenv("COGW_BENCH_BIN");

@@ -53,6 +53,11 @@ unsigned bench_mq_msg_max(void);
  * queues. Returns the new soft limit in bytes (RLIM_INFINITY as UINT64_MAX). */
 uint64_t bench_raise_mq_limit(void);
 
+/* Context switches (wake-ups) of process pid so far: voluntary and
+ * involuntary, summed over its threads named thread (NULL: all of them),
+ * from /proc/PID/task/TID/status. 0, or -1 when pid is gone. */
+int bench_ctx_switches(pid_t pid, const char *thread, uint64_t *vol, uint64_t *invol);
+
 /* Path of a release program: $COGW_BENCH_BIN/<name>, else build/rel/bin/<name>. */
 const char *bench_program(const char *name, char *buf, size_t len);
 
