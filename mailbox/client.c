@@ -1603,10 +1603,6 @@ static int event_pop(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t now, uint64_t 
 	}
 }
 
-/* Wait for an event or an asynchronous answer until deadline. When no
- * asynchronous answer is due, only the event queue can deliver: wait in
- * mq_timedreceive on it (one system call per event, in monotonic slices
- * like the leader's); otherwise poll() both through the epoll descriptor. */
 /* A receive from the event queue: waiting until slice when only events
  * can come (*direct), else a look without waiting. */
 static int event_take(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t now, uint64_t slice,
@@ -1630,10 +1626,16 @@ static int event_take(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t now, uint64_t
 	return got;
 }
 
-static int recv_wait(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t deadline)
+/* Wait for an event or an asynchronous answer until deadline. When no
+ * asynchronous answer is due, only the event queue can deliver: wait in
+ * mq_timedreceive on it (one system call per event, in monotonic slices
+ * like the leader's); otherwise poll() both through the epoll descriptor.
+ * now: the monotonic clock as the caller read it, the one monotonic read
+ * of a call whose event is waiting or comes within the first slice. */
+static int recv_wait(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t now, uint64_t deadline)
 {
 	for (;;) {
-		uint64_t now = mono_us(), slice = now + RESTART_CHECK_MS * 1000u;
+		uint64_t slice = now + RESTART_CHECK_MS * 1000u;
 		bool direct;
 
 		if (ring_pop(h, m))
@@ -1652,12 +1654,14 @@ static int recv_wait(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t deadline)
 
 		if (poll(&pf, 1, wait_ms > INT_MAX ? INT_MAX : (int)wait_ms) < 0 && errno != EINTR)
 			return COGW_E_SYSTEM;
+		now = mono_us();
 	}
 }
 
 int cogw_recv(cogw *h, cogw_msg *m, int timeout_ms)
 {
 	uint8_t *buf;
+	uint64_t now;
 	int rc;
 
 	if (!h || !m)
@@ -1666,8 +1670,9 @@ int cogw_recv(cogw *h, cogw_msg *m, int timeout_ms)
 	buf = malloc(h->evt_msg);
 	if (!buf)
 		return COGW_E_NOMEM;
-	rc = recv_wait(h, m, buf,
-		       timeout_ms < 0 ? UINT64_MAX : mono_us() + (uint64_t)timeout_ms * 1000u);
+	now = mono_us();
+	rc = recv_wait(h, m, buf, now,
+		       timeout_ms < 0 ? UINT64_MAX : now + (uint64_t)timeout_ms * 1000u);
 	free(buf);
 	return rc;
 }
