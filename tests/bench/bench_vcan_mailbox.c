@@ -1084,18 +1084,22 @@ static int fanout_figures(unsigned msg_max)
 	/* Latency with one message in flight (under a full window latency
 	 * is only the window divided by the rate). */
 	uint64_t lat_total = bench_in_vm() ? 200 : 2000;
-	struct fanout_result raw, dmn;
+	struct fanout_result raw, relay, dmn;
 	subscribers = 8;
 	if (daemon_go_operational() < 0 || fanout_raw(total, window, evdepth, NULL, &raw) < 0 ||
+	    fanout_raw(total, window, evdepth, relay_interface(), &relay) < 0 ||
 	    fanout_daemon(total, window, &dmn) < 0)
 		return -1;
 	print_rate("event fan-out to 8 subscribers (RPDO events delivered)", dmn.events_per_s,
 		   "raw mq fan-out 1 writer to 8 readers", raw.events_per_s);
 	bench_note("fan-out: %llu RPDO frames, window %u; daemon delivered %llu of %llu events "
-		   "(overflow reported %llu), raw %llu of %llu",
+		   "(overflow reported %llu), raw %llu of %llu; the raw relay (frames on %s) "
+		   "delivered %.0f events/s (the daemon %.2fx that)",
 		   (unsigned long long)total, window, (unsigned long long)dmn.delivered,
 		   (unsigned long long)dmn.expected, (unsigned long long)dmn.dropped,
-		   (unsigned long long)raw.delivered, (unsigned long long)raw.expected);
+		   (unsigned long long)raw.delivered, (unsigned long long)raw.expected,
+		   relay_interface(), relay.events_per_s,
+		   relay.events_per_s > 0 ? dmn.events_per_s / relay.events_per_s : 0);
 	if (dmn.delivered != dmn.expected)
 		printf("WARNING: the daemon lost %llu events\n",
 		       (unsigned long long)(dmn.expected - dmn.delivered));
