@@ -979,7 +979,7 @@ static void command_rate_figures(double raw_rate)
  * pure mq fan-out, the fair relay and the daemon one after the other, so
  * that host load falls on all three alike. */
 enum {
-	FANOUT_ROUNDS = 5
+	FANOUT_ROUNDS = 10
 };
 
 struct fanout_rounds {
@@ -1083,7 +1083,7 @@ static int fanout_figures(unsigned msg_max)
 	uint64_t total = bench_in_vm() ? 2000 : 20000;
 	/* Latency with one message in flight (under a full window latency
 	 * is only the window divided by the rate). */
-	uint64_t lat_total = bench_in_vm() ? 200 : 2000;
+	uint64_t lat_total = bench_in_vm() ? 100 : 1000;
 	struct fanout_result raw, relay, dmn;
 	subscribers = 8;
 	if (daemon_go_operational() < 0 || fanout_raw(total, window, evdepth, NULL, &raw) < 0 ||
