@@ -125,7 +125,7 @@ int bench_ctx_switches(pid_t pid, const char *thread, uint64_t *vol, uint64_t *i
 	if (!d)
 		return -1;
 	while ((e = readdir(d)) != NULL) {
-		char file[400], text[4096];
+		char file[400], text[8192];
 		if (e->d_name[0] == '.')
 			continue;
 		snprintf(file, sizeof file, "%s/%s/status", path, e->d_name);
