@@ -39,15 +39,23 @@ int gw_fast_init(gw_fast *F, size_t n_slots)
 	F->n_slots = n_slots;
 	F->by_slot = calloc(n_slots ? n_slots : 1, sizeof(*F->by_slot));
 	F->scratch = calloc(n_slots ? n_slots : 1, sizeof(*F->scratch));
-	if (!F->by_slot || !F->scratch) {
+	F->quiet_words = n_slots / 64 + 1;
+	F->quiet = calloc(F->quiet_words, sizeof(*F->quiet));
+	F->quiet_next = calloc(F->quiet_words, sizeof(*F->quiet_next));
+	F->quiet_other = calloc(F->quiet_words, sizeof(*F->quiet_other));
+	if (!F->by_slot || !F->scratch || !F->quiet || !F->quiet_next || !F->quiet_other) {
 		gw_fast_fini(F);
 		return -ENOMEM;
 	}
 	for (size_t i = 0; i < n_slots; i++)
 		atomic_init(&F->by_slot[i], 0);
+	for (size_t i = 0; i < F->quiet_words; i++)
+		atomic_init(&F->quiet[i], 0);
+	atomic_init(&F->epoch, 0);
 	for (unsigned k = 0; k < GW_FAST_MAX; k++) {
 		atomic_init(&F->t[k].gate, GW_FAST_GATE_CLOSED);
 		atomic_init(&F->t[k].busy, 0);
+		atomic_init(&F->t[k].nr, 0);
 	}
 	memset(F->of_nr, GW_FAST_NONE, sizeof(F->of_nr));
 	atomic_init(&F->carrying, false);
@@ -58,9 +66,15 @@ void gw_fast_fini(gw_fast *F)
 {
 	free((void *)F->by_slot);
 	free(F->scratch);
+	free((void *)F->quiet);
+	free(F->quiet_next);
+	free(F->quiet_other);
+	F->quiet_next = F->quiet_other = NULL;
 	F->by_slot = NULL;
 	F->scratch = NULL;
+	F->quiet = NULL;
 	F->n_slots = 0;
+	F->quiet_words = 0;
 }
 
 /* ---- owner ------------------------------------------------------------------ */
@@ -92,6 +106,7 @@ static void publish_one(gw_fast_tpdo *t, const gw_fast_desc *d, uint64_t inhibit
 		&t->gate, &g, gate_next_gen(g) | GW_FAST_GATE_CLOSED | gate_time(g),
 		memory_order_acq_rel, memory_order_relaxed))
 		;
+	atomic_store_explicit(&t->nr, d->nr, memory_order_release);
 	atomic_store_explicit(&t->can_id, d->can_id, memory_order_release);
 	atomic_store_explicit(&t->flags, d->flags, memory_order_release);
 	atomic_store_explicit(&t->len, d->len, memory_order_release);
@@ -136,8 +151,17 @@ static int take_free(gw_fast *F, uint16_t nr)
 	return -1;
 }
 
-static void rebuild_by_slot(gw_fast *F)
+static void next_epoch(gw_fast *F)
 {
+	atomic_store_explicit(&F->epoch, atomic_load_explicit(&F->epoch, memory_order_relaxed) + 1,
+			      memory_order_release);
+}
+
+/* Whether anything a source reads changed. */
+static bool rebuild_by_slot(gw_fast *F)
+{
+	bool changed = false;
+
 	memset(F->scratch, 0, F->n_slots * sizeof(*F->scratch));
 	for (unsigned k = 0; k < GW_FAST_MAX; k++) {
 		if (!F->nr[k])
@@ -149,21 +173,27 @@ static void rebuild_by_slot(gw_fast *F)
 		}
 	}
 	for (size_t s = 0; s < F->n_slots; s++)
-		if (atomic_load_explicit(&F->by_slot[s], memory_order_relaxed) != F->scratch[s])
+		if (atomic_load_explicit(&F->by_slot[s], memory_order_relaxed) != F->scratch[s]) {
 			atomic_store_explicit(&F->by_slot[s], F->scratch[s], memory_order_release);
+			changed = true;
+		}
+	return changed;
 }
 
 unsigned gw_fast_publish(gw_fast *F, const gw_fast_desc *descs, const uint64_t *inhibit_until,
 			 const bool *pending, unsigned n)
 {
 	unsigned published = 0;
+	bool changed = false;
 
 	for (unsigned k = 0; k < GW_FAST_MAX; k++) {
 		bool keep = false;
 		for (unsigned i = 0; F->nr[k] && i < n; i++)
 			keep |= descs[i].nr == F->nr[k];
-		if (F->nr[k] && !keep)
+		if (F->nr[k] && !keep) {
 			retire(F, k);
+			changed = true;
+		}
 	}
 	for (unsigned i = 0; i < n; i++) {
 		int k = find_k(F, descs[i].nr);
@@ -177,10 +207,26 @@ unsigned gw_fast_publish(gw_fast *F, const gw_fast_desc *descs, const uint64_t *
 			continue;
 		F->cur[k] = descs[i];
 		publish_one(&F->t[k], &descs[i], inhibit_until[i], pending[i]);
+		changed = true;
 	}
-	rebuild_by_slot(F);
+	if (rebuild_by_slot(F) || changed)
+		next_epoch(F);
 	F->stale = false;
 	return published;
+}
+
+void gw_fast_set_quiet(gw_fast *F, const uint64_t *words)
+{
+	bool changed = false;
+
+	for (size_t i = 0; i < F->quiet_words; i++) {
+		if (atomic_load_explicit(&F->quiet[i], memory_order_relaxed) == words[i])
+			continue;
+		atomic_store_explicit(&F->quiet[i], words[i], memory_order_release);
+		changed = true;
+	}
+	if (changed)
+		next_epoch(F);
 }
 
 void gw_fast_set_carrying(gw_fast *F, bool carrying)
@@ -235,6 +281,16 @@ static void owner_forced(gw_fast_tpdo *t, uint64_t now_us)
 	set_pending(t, false);
 }
 
+/* A source sent nr for the update being applied. By number, not by k:
+ * the update may have been sent under an earlier publication. */
+static bool serving(const gw_fast *F, uint16_t nr)
+{
+	for (unsigned i = 0; i < F->n_serving; i++)
+		if (F->serving_nr[i] == nr)
+			return true;
+	return false;
+}
+
 uint64_t gw_fast_gate(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_t now_us)
 {
 	gw_fast *F = ctx;
@@ -242,19 +298,19 @@ uint64_t gw_fast_gate(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_t now_us
 
 	if (op == CO_PDO_GATE_RESET)
 		F->stale = true; /* it may have become a fast TPDO */
+	/* its frame left from the source (even if it is no fast TPDO any
+	 * more); its inhibit time runs from that frame */
+	if ((op == CO_PDO_GATE_CLAIM || op == CO_PDO_GATE_WAIT) && serving(F, nr))
+		return CO_PDO_GATE_SERVED;
 	if (k < 0)
 		return CO_PDO_GATE_GO;
 	switch (op) {
 	case CO_PDO_GATE_CLAIM:
-		if (F->serving & (UINT32_C(1) << k))
-			return CO_PDO_GATE_SERVED;
 		return owner_claim(&F->t[k], now_us);
 	case CO_PDO_GATE_FORCED:
 		owner_forced(&F->t[k], now_us);
 		return CO_PDO_GATE_GO;
 	case CO_PDO_GATE_WAIT:
-		if (F->serving & (UINT32_C(1) << k))
-			return CO_PDO_GATE_SERVED; /* its inhibit time runs from that frame */
 		set_pending(&F->t[k], true);
 		return CO_PDO_GATE_GO;
 	case CO_PDO_GATE_RESET:
@@ -304,7 +360,8 @@ void gw_fast_undo_hold(gw_fast *F, uint32_t held)
 /* The frame of t from the image's values, packed as core/pdo_map.c packs
  * a TPDO: entries LSB first in mapping order, each the low bits of its
  * object. */
-static void build_frame(gw_fast_tpdo *t, const gw_image *img, co_frame *f, uint32_t *inhibit_us)
+static void build_frame(gw_fast_tpdo *t, const gw_image *img, co_frame *f, uint32_t *inhibit_us,
+			uint16_t *nr)
 {
 	uint8_t n = atomic_load_explicit(&t->n, memory_order_acquire);
 	uint64_t acc = 0;
@@ -314,6 +371,7 @@ static void build_frame(gw_fast_tpdo *t, const gw_image *img, co_frame *f, uint3
 		      atomic_load_explicit(&t->len, memory_order_acquire));
 	f->flags = atomic_load_explicit(&t->flags, memory_order_acquire);
 	*inhibit_us = atomic_load_explicit(&t->inhibit_us, memory_order_acquire);
+	*nr = atomic_load_explicit(&t->nr, memory_order_acquire);
 	for (uint8_t i = 0; i < n && i < CO_PDO_MAX_MAP; i++) {
 		uint32_t e = atomic_load_explicit(&t->map[i], memory_order_acquire);
 		unsigned bits = e & 0xFFu;
@@ -330,31 +388,33 @@ static void build_frame(gw_fast_tpdo *t, const gw_image *img, co_frame *f, uint3
 	co_put_le(f->data, f->len, acc);
 }
 
-/* One fast TPDO: take its gate and send, or leave it to the hand-off. */
-static bool try_one(gw_fast_tpdo *t, const gw_image *img, uint64_t now_us, gw_fast_send_fn send,
-		    void *send_ctx)
+/* One fast TPDO: take its gate and send (its number), or leave it to the
+ * hand-off (0). */
+static uint16_t try_one(gw_fast_tpdo *t, const gw_image *img, uint64_t now_us, gw_fast_send_fn send,
+			void *send_ctx)
 {
 	uint64_t g, taken;
 	uint32_t inhibit_us;
+	uint16_t nr;
 	co_frame f;
 
 	if (atomic_load_explicit(&t->busy, memory_order_acquire))
-		return false;
+		return 0;
 	g = atomic_load_explicit(&t->gate, memory_order_acquire);
 	if ((g & GW_FAST_GATE_CLOSED) || now_us < gate_time(g))
-		return false;
-	build_frame(t, img, &f, &inhibit_us);
+		return 0;
+	build_frame(t, img, &f, &inhibit_us, &nr);
 	taken = gate_with_time(g, now_us + inhibit_us);
 	if (!atomic_compare_exchange_strong_explicit(&t->gate, &g, taken, memory_order_acq_rel,
 						     memory_order_relaxed))
-		return false;
+		return 0;
 	if (send(send_ctx, &f) == 0)
-		return true;
+		return nr;
 	/* Not sent (the interface is down or congested): give the time back
 	 * unless someone moved the gate meanwhile. */
 	atomic_compare_exchange_strong_explicit(&t->gate, &taken, g, memory_order_acq_rel,
 						memory_order_relaxed);
-	return false;
+	return 0;
 }
 
 uint32_t gw_fast_tpdos_of(gw_fast *F, int slot)
@@ -364,10 +424,25 @@ uint32_t gw_fast_tpdos_of(gw_fast *F, int slot)
 	return atomic_load_explicit(&F->by_slot[slot], memory_order_acquire);
 }
 
+uint32_t gw_fast_epoch(const gw_fast *F)
+{
+	return atomic_load_explicit(&F->epoch, memory_order_acquire);
+}
+
+bool gw_fast_quiet_ok(const gw_fast *F, int slot)
+{
+	if (slot < 0 || (size_t)slot >= F->n_slots)
+		return false;
+	return (atomic_load_explicit(&F->quiet[slot / 64], memory_order_acquire) >> (slot % 64)) &
+	       1u;
+}
+
 uint32_t gw_fast_try(gw_fast *F, const gw_image *img, int slot, uint64_t now_us,
-		     gw_fast_send_fn send, void *send_ctx, uint32_t *held)
+		     gw_fast_send_fn send, void *send_ctx, uint32_t *held,
+		     uint16_t sent_nr[GW_FAST_SENT_MAX])
 {
 	uint32_t mask, sent = 0;
+	unsigned n_sent = 0;
 
 	*held = 0;
 	if (slot < 0 || (size_t)slot >= F->n_slots)
@@ -379,11 +454,14 @@ uint32_t gw_fast_try(gw_fast *F, const gw_image *img, int slot, uint64_t now_us,
 		*held = mask;
 		return 0;
 	}
-	for (uint32_t m = mask; m; m &= m - 1) {
+	for (uint32_t m = mask; m && n_sent < GW_FAST_SENT_MAX; m &= m - 1) {
 		unsigned k = (unsigned)__builtin_ctz(m);
+		uint16_t nr = try_one(&F->t[k], img, now_us, send, send_ctx);
 
-		if (try_one(&F->t[k], img, now_us, send, send_ctx))
+		if (nr) {
 			sent |= UINT32_C(1) << k;
+			sent_nr[n_sent++] = nr;
+		}
 	}
 	*held = mask & ~sent;
 	return sent;

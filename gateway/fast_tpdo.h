@@ -34,7 +34,19 @@
  * inhibit time. A source sends only while it is 0: a frame of it must not
  * overtake a value of its own still queued, nor come between a waiting
  * event and its transmission. (gateway/gw_pdo.c adds the same rule for all
- * of a source's messages: the target must have done them all.)
+ * of a source's messages: the target must have done them all, but for
+ * quiet ones sent under the same publication, see below.)
+ *
+ * Quiet updates: when every TPDO of the owner that maps a slot is a fast
+ * one (the quiet set) and the source sent them all, the owner has nothing
+ * to do for the update but note it: the source hands it off without waking
+ * the owner (lines/xring.h xring_push_quiet), which applies it at its next
+ * wake-up before anything else (line_ext before_events). The owner's OD
+ * then lags the bus while it sleeps; it sends nothing from the lagging OD
+ * because every way it could (the update itself, an inhibit time's end, a
+ * reconfiguration) either applies the quiet updates first or goes through
+ * a publication, whose epoch a source compares with the one its unapplied
+ * quiet updates were sent under before it sends again.
  *
  * Republication (owner): gate to CLOSED with the next generation, release
  * fence, descriptor words (relaxed atomics), gate open with the time of
@@ -62,6 +74,7 @@
 #define GW_FAST_NONE 0xFFu /* gw_fast.of_nr: not a fast TPDO */
 #define GW_FAST_GATE_CLOSED (UINT64_C(1) << 63)
 #define GW_FAST_PENDING 0x80000000u
+#define GW_FAST_SENT_MAX 4u /* fast TPDOs a source sends for one update */
 
 /* What a source needs to build the frame of one TPDO. */
 typedef struct gw_fast_desc {
@@ -77,6 +90,7 @@ typedef struct gw_fast_desc {
 typedef struct gw_fast_tpdo {
 	_Atomic uint64_t gate;
 	_Atomic uint32_t busy;
+	_Atomic uint16_t nr;
 	_Atomic uint32_t can_id;
 	_Atomic uint8_t flags, len, n;
 	_Atomic uint32_t inhibit_us;
@@ -87,12 +101,25 @@ typedef struct gw_fast {
 	size_t n_slots;
 	_Atomic uint32_t *by_slot; /* per image slot: the fast TPDOs mapping it (bit k) */
 	_Atomic bool carrying;     /* the owner line takes frames at once now */
+	/* per image slot (bit slot % 64 of word slot / 64): every TPDO of the
+	 * owner that maps it is a fast one, and nothing else on the owner
+	 * acts on its updates, so an update whose TPDOs all left from the
+	 * source may wait for the owner's next wake-up (gw_fast_quiet_ok) */
+	_Atomic uint64_t *quiet;
+	/* +1 whenever what is published changes (after it changed): a source
+	 * holding updates the owner has not applied yet compares it with the
+	 * one they were sent under (gw_fast_epoch) */
+	_Atomic uint32_t epoch;
 	gw_fast_tpdo t[GW_FAST_MAX];
 	/* owner only */
 	uint16_t nr[GW_FAST_MAX]; /* 0 = free */
 	uint8_t of_nr[CO_PDO_MAX];
-	uint32_t serving; /* fast TPDOs a source sent for the update being applied */
-	bool stale;       /* a TPDO was reset: publish again before sleeping */
+	/* the TPDOs a source sent for the update being applied */
+	const uint16_t *serving_nr;
+	unsigned n_serving;
+	size_t quiet_words;
+	uint64_t *quiet_next, *quiet_other; /* the owner's build area for the quiet set */
+	bool stale;                         /* a TPDO was reset: publish again before sleeping */
 	/* held updates applied while the owner's transmit queue was not
 	 * empty: their frames may still be queued, so they count as busy
 	 * until it is (gw_fast_set_carrying) */
@@ -128,17 +155,28 @@ uint64_t gw_fast_gate(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_t now_us
 void gw_fast_taken(gw_fast *F, uint32_t held, bool tx_idle);
 /* TPDO number of fast TPDO k, 0 if none. */
 uint16_t gw_fast_nr(const gw_fast *F, unsigned k);
+/* Make the quiet set exactly `words` (gw_fast.quiet): slots leaving it
+ * must leave before a publication that needs it (call with the
+ * intersection of old and new first), slots joining it join after. */
+void gw_fast_set_quiet(gw_fast *F, const uint64_t *words);
 
 /* ---- source --------------------------------------------------------------- */
 
 /* Slot's value changed in img (already written there): send every fast
- * TPDO of F that maps it and may go now through send. Returns the mask of
- * those sent; *held gets the mask of those that must learn of the update
- * by hand-off before a later one may be sent (count them with
+ * TPDO of F that maps it and may go now through send, at most
+ * GW_FAST_SENT_MAX. Returns the mask of those sent, their TPDO numbers in
+ * sent_nr[0..popcount); *held gets the mask of those that must learn of
+ * the update by hand-off before a later one may be sent (count them with
  * gw_fast_hold before pushing the message, undo with gw_fast_taken if the
  * push fails). */
 uint32_t gw_fast_try(gw_fast *F, const gw_image *img, int slot, uint64_t now_us,
-		     gw_fast_send_fn send, void *send_ctx, uint32_t *held);
+		     gw_fast_send_fn send, void *send_ctx, uint32_t *held,
+		     uint16_t sent_nr[GW_FAST_SENT_MAX]);
+/* What is published now; read before gw_fast_try and gw_fast_quiet_ok
+ * (acquire: what they read is at least that new). */
+uint32_t gw_fast_epoch(const gw_fast *F);
+/* slot is in the quiet set (gw_fast.quiet). */
+bool gw_fast_quiet_ok(const gw_fast *F, int slot);
 void gw_fast_hold(gw_fast *F, uint32_t held);
 /* The hand-off failed (ring full or closed): what gw_fast_hold counted. */
 void gw_fast_undo_hold(gw_fast *F, uint32_t held);

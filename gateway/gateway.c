@@ -229,6 +229,21 @@ static void ext_wake(void *ctx, line *l)
 	gw_pdo_sync_take(&gl->lost, gl->g->img, gw_pdo_resync_apply, gl);
 }
 
+/* Updates pushed without waking us (gw_send_quiet_to) are applied before
+ * whatever woke us now is handled. */
+static void ext_before_events(void *ctx, line *l)
+{
+	struct gw_line *gl = ctx;
+
+	for (unsigned from = 0; from < gl->g->n; from++) {
+		xring *r = xring_mesh_get(gl->g->mesh, from, gl->idx);
+		if (r && xring_count(r)) {
+			ext_wake(ctx, l);
+			return;
+		}
+	}
+}
+
 static uint64_t ext_poll(void *ctx, line *l, uint64_t now_us)
 {
 	struct gw_line *gl = ctx;
@@ -263,6 +278,7 @@ static const line_ext_ops gw_ext_ops = {
 	.cmd_last = MBX_CMD_GW_ROUTES,
 	.on_command = ext_command,
 	.on_wake = ext_wake,
+	.before_events = ext_before_events,
 	.poll = ext_poll,
 	.sdo_route = gw_hop_route,
 	.sdo_route_end = gw_hop_end,

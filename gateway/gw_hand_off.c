@@ -10,7 +10,7 @@
 
 #include "gateway/gw_line.h"
 
-int gw_send_to(struct gw_line *gl, unsigned to, gw_msg *m)
+static int hand_off(struct gw_line *gl, unsigned to, gw_msg *m, bool quiet)
 {
 	m->from = (uint8_t)gl->idx;
 	if (to == gl->idx) {
@@ -20,17 +20,40 @@ int gw_send_to(struct gw_line *gl, unsigned to, gw_msg *m)
 		return 0;
 	}
 	xring *r = xring_mesh_get(gl->g->mesh, gl->idx, to);
-	int rc = r ? xring_push(r, m, sizeof(*m)) : -EINVAL;
+	int rc = !r      ? -EINVAL
+		 : quiet ? xring_push_quiet(r, m, sizeof(*m), GW_QUIET_WAKE_AT)
+			 : xring_push(r, m, sizeof(*m));
 
-	if (rc == 0)
-		gl->pushed_to[to]++;
-	return rc;
+	if (rc)
+		return rc;
+	gl->pushed_to[to]++;
+	if (!quiet)
+		gl->woken_mark[to] = gl->pushed_to[to];
+	return 0;
 }
 
-bool gw_caught_up(const struct gw_line *gl, unsigned to)
+int gw_send_to(struct gw_line *gl, unsigned to, gw_msg *m)
 {
-	return atomic_load_explicit(&gl->g->line[to].done_from[gl->idx], memory_order_acquire) ==
-	       gl->pushed_to[to];
+	return hand_off(gl, to, m, false);
+}
+
+int gw_send_quiet_to(struct gw_line *gl, unsigned to, gw_msg *m)
+{
+	return hand_off(gl, to, m, true);
+}
+
+bool gw_may_send_fast(const struct gw_line *gl, unsigned to, uint32_t epoch)
+{
+	uint64_t done = atomic_load_explicit(&gl->g->line[to].done_from[gl->idx],
+					     memory_order_acquire);
+
+	if (done == gl->pushed_to[to])
+		return true;
+	/* A target that does not take its messages (stalled, or behind by
+	 * as many as wake it) gets its frames back: it must not fall behind
+	 * what the bus shows without bound. */
+	return gl->pushed_to[to] - done < GW_QUIET_WAKE_AT && done >= gl->woken_mark[to] &&
+	       epoch == gl->quiet_epoch[to];
 }
 
 void gw_publish_done(struct gw_line *gl)

@@ -51,6 +51,7 @@
 #define GW_DRAIN_US 100000u      /* an aborted lease: quiet time before it is free */
 #define GW_HOPS_MAX 64u          /* routed mailbox SDO transfers per line */
 #define GW_SELF_SLOTS 64u        /* messages a line hands to itself */
+#define GW_QUIET_WAKE_AT 64u     /* quiet messages queued before they wake the target */
 
 enum gw_msg_kind {
 	M_FWD = 1,   /* a B-object changed: slot, its new value in bits */
@@ -77,9 +78,12 @@ typedef struct gw_msg {
 	uint64_t bits;  /* M_FWD: the value written (gw_image_bits_from) */
 	uint8_t d[8];   /* frames */
 	/* M_FWD: fast TPDOs of the target (gateway/fast_tpdo.h, bit k) the
-	 * source sent at sent_us, and those it counted as held */
+	 * source sent at sent_us (their numbers in fast_nr), and those it
+	 * counted as held */
 	uint32_t fast_sent, fast_held;
 	uint64_t sent_us;
+	uint16_t fast_nr[GW_FAST_SENT_MAX];
+	uint8_t n_fast;
 } gw_msg;
 
 /* A lease serves a session (bit 23 clear: line << 24 | channel << 16 |
@@ -164,10 +168,17 @@ struct gw_line {
 	/* Messages this line pushed to each line, handled from each line, and
 	 * (published for the senders, once their frames left the transmit
 	 * queue) done from each line: a source sends a TPDO of ours itself
-	 * only when we have done everything it sent us (gw_caught_up). */
+	 * only when we have done everything it sent us that woke us
+	 * (gw_may_send_fast). */
 	uint64_t pushed_to[GW_LINES_MAX];
 	uint64_t handled_from[GW_LINES_MAX];
 	_Atomic uint64_t done_from[GW_LINES_MAX];
+	/* Per target line: pushed_to when the last message that wakes it was
+	 * pushed (everything up to there must be done before we send a TPDO
+	 * of its), and the target's publication (gw_fast_epoch) the quiet
+	 * messages it has not done yet were sent under (gw_may_send_fast). */
+	uint64_t woken_mark[GW_LINES_MAX];
+	uint32_t quiet_epoch[GW_LINES_MAX];
 	bool fwd_dirty;
 	uint64_t next_rebuild_us;
 	uint64_t next_link_check_us;
@@ -197,9 +208,17 @@ struct gw {
  * queues it for this line's next look. 0, or -errno (ring full/closed,
  * own queue full): the caller counts the drop. */
 int gw_send_to(struct gw_line *gl, unsigned to, gw_msg *m);
-/* Has line `to` handled every message this line pushed to it, and sent
- * the frames they caused? (any line, about another one) */
-bool gw_caught_up(const struct gw_line *gl, unsigned to);
+/* gw_send_to for a message line `to` may take at its next wake-up,
+ * whatever causes it (xring_push_quiet): one whose frames have all left
+ * and that nothing on `to` waits for (gw_fast_quiet_ok). */
+int gw_send_quiet_to(struct gw_line *gl, unsigned to, gw_msg *m);
+/* May this line send a TPDO of line `to` itself now (`epoch`: to's
+ * gw_fast_epoch, read before anything else of its publication)? Only
+ * when `to` has done every message of ours that it was woken for, and
+ * the quiet ones it has not done yet (fewer than GW_QUIET_WAKE_AT) were
+ * sent under the same publication: else a TPDO of an earlier value could
+ * still leave from `to` after ours. (any line, about another one) */
+bool gw_may_send_fast(const struct gw_line *gl, unsigned to, uint32_t epoch);
 /* This line: publish what it handled, if its transmit queue is empty. */
 void gw_publish_done(struct gw_line *gl);
 /* The oldest message this line sent itself; false when none. */

@@ -23,33 +23,48 @@ static int fast_send(void *ctx, const co_frame *f)
 }
 
 /* Hand slot's update to line j: its TPDOs that may go now leave from here,
- * the message tells j which ones did. 0 or the hand-off's -errno. */
+ * the message tells j which ones did. When they all did and nothing else
+ * on j acts on the value, j is not woken for it: it applies the value at
+ * its next wake-up, before anything else it does then (its timers, a
+ * request, a frame), so nobody sees the difference but j's thread, which
+ * sleeps through it. 0 or the hand-off's -errno. */
 static int forward_to(struct gw_line *gl, unsigned j, gw_msg *m, uint64_t now_us)
 {
 	struct gw_line *tl = &gl->g->line[j];
+	bool quiet = false, caught_up = false;
+	uint32_t epoch = 0;
 	int rc;
 
 	m->fast_sent = 0;
 	m->fast_held = 0;
+	m->n_fast = 0;
 	m->sent_us = now_us;
 	/* A message of ours not yet done by the target (queued, being
 	 * handled, or its frame still in the target's transmit queue): the
 	 * target is behind and keeps the hand-off until it caught up, so no
-	 * frame of ours overtakes one it sends for an earlier value. Held
-	 * either way. */
+	 * frame of ours overtakes one it sends for an earlier value (quiet
+	 * ones aside: gw_may_send_fast). Held either way. */
 	if (tl->fast_fd[gl->idx] >= 0) {
-		if (gw_caught_up(gl, j))
+		epoch = gw_fast_epoch(&tl->fast);
+		caught_up = atomic_load_explicit(&tl->done_from[gl->idx], memory_order_acquire) ==
+			    gl->pushed_to[j];
+		if (gw_may_send_fast(gl, j, epoch))
 			m->fast_sent = gw_fast_try(&tl->fast, gl->g->img, m->slot, now_us,
-						   fast_send, &tl->fast_fd[gl->idx], &m->fast_held);
+						   fast_send, &tl->fast_fd[gl->idx], &m->fast_held,
+						   m->fast_nr);
 		else
 			m->fast_held = gw_fast_tpdos_of(&tl->fast, m->slot);
 		gw_fast_hold(&tl->fast, m->fast_held);
+		m->n_fast = (uint8_t)__builtin_popcount(m->fast_sent);
+		quiet = m->fast_sent && !m->fast_held && gw_fast_quiet_ok(&tl->fast, m->slot);
 	}
 	for (uint32_t k = m->fast_sent; k; k &= k - 1)
 		GW_COUNT(gl->c.pdo_fast);
-	rc = gw_send_to(gl, j, m);
+	rc = quiet ? gw_send_quiet_to(gl, j, m) : gw_send_to(gl, j, m);
 	if (rc)
 		gw_fast_undo_hold(&tl->fast, m->fast_held);
+	else if (quiet && caught_up)
+		gl->quiet_epoch[j] = epoch; /* the first one j has not done */
 	return rc;
 }
 
@@ -125,14 +140,12 @@ static bool pdo_apply(struct gw_line *gl, int slot, uint64_t bits, bool only_if_
  * gate answers SERVED while the value is applied). */
 void gw_pdo_received(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
-	for (uint32_t k = m->fast_sent; k; k &= k - 1) {
-		uint16_t nr = gw_fast_nr(&gl->fast, (unsigned)__builtin_ctz(k));
-		if (nr)
-			(void)co_pdo_tpdo_sent_by_peer(gl->node, nr, m->sent_us);
-	}
-	gl->fast.serving = m->fast_sent;
+	for (uint8_t i = 0; i < m->n_fast && i < GW_FAST_SENT_MAX; i++)
+		(void)co_pdo_tpdo_sent_by_peer(gl->node, m->fast_nr[i], m->sent_us);
+	gl->fast.serving_nr = m->fast_nr;
+	gl->fast.n_serving = m->n_fast < GW_FAST_SENT_MAX ? m->n_fast : GW_FAST_SENT_MAX;
 	pdo_apply(gl, m->slot, m->bits, false, now_us);
-	gl->fast.serving = 0;
+	gl->fast.n_serving = 0;
 	gw_fast_taken(&gl->fast, m->fast_held, line_tx_idle(gl->l));
 	gw_pdo_sync_received(&gl->lost, gl->g->img, m->slot, m->bits);
 }
@@ -244,6 +257,57 @@ static void ignore_fast_frames(struct gw_line *gl, const gw_fast_desc *d, unsign
 	}
 }
 
+/* The image slots TPDO nr maps into words (bit per slot). */
+static void mark_mapped_slots(struct gw_line *gl, uint16_t nr, uint64_t *words, size_t n_words)
+{
+	co_od *od = co_node_od(gl->node);
+	uint16_t map = (uint16_t)(CO_PDO_TPDO_MAP + nr - 1);
+	uint32_t entry;
+	uint8_t count;
+
+	if (co_od_get_u8(od, map, 0, &count))
+		return;
+	for (uint8_t i = 1; i <= count && i <= CO_PDO_MAX_MAP; i++) {
+		int slot;
+
+		if (co_od_get_u32(od, map, i, &entry))
+			continue;
+		slot = gw_image_find(gl->g->img, (uint16_t)(entry >> 16), (uint8_t)(entry >> 8));
+		if (slot >= 0 && (size_t)slot / 64 < n_words)
+			words[slot / 64] |= UINT64_C(1) << (slot % 64);
+	}
+}
+
+/* The quiet set (gateway/fast_tpdo.h) for the fast TPDOs descs[0..n):
+ * the slots every valid TPDO mapping them is one of, and that no other
+ * part of this line acts on (a device object forwarded from it is pinned,
+ * gateway.forward: its device's RPDO waits for the value). */
+static void build_quiet(struct gw_line *gl, const gw_fast_desc *descs, unsigned n)
+{
+	gw_fast *F = &gl->fast;
+	size_t words = F->quiet_words;
+	co_pdo_tpdo_state st;
+
+	memset(F->quiet_next, 0, words * sizeof(*F->quiet_next));
+	memset(F->quiet_other, 0, words * sizeof(*F->quiet_other));
+	for (unsigned i = 0; i < n; i++)
+		mark_mapped_slots(gl, descs[i].nr, F->quiet_next, words);
+	for (uint16_t nr = 1; nr <= CO_PDO_MAX; nr++) {
+		bool fast = false;
+
+		if (co_pdo_tpdo_state_get(gl->node, nr, &st) || !st.valid)
+			continue;
+		for (unsigned i = 0; i < n && !fast; i++)
+			fast = descs[i].nr == nr;
+		if (!fast)
+			mark_mapped_slots(gl, nr, F->quiet_other, words);
+	}
+	for (size_t w = 0; w < words; w++) {
+		uint64_t pinned = gl->fwd.pinned && w < gl->fwd.words ? gl->fwd.pinned[w] : 0;
+		F->quiet_next[w] &= ~(F->quiet_other[w] | pinned);
+	}
+}
+
 void gw_fast_refresh(struct gw_line *gl)
 {
 	gw_fast *F = &gl->fast;
@@ -261,7 +325,16 @@ void gw_fast_refresh(struct gw_line *gl)
 		pending[n] = st.event_pending;
 		n++;
 	}
+	/* Slots leave the quiet set before the publication, join it after:
+	 * a source never sees a slot quiet that the set it reads does not
+	 * make quiet. */
+	build_quiet(gl, F->next, n);
+	for (size_t w = 0; w < F->quiet_words; w++)
+		F->quiet_other[w] = F->quiet_next[w] &
+				    atomic_load_explicit(&F->quiet[w], memory_order_relaxed);
+	gw_fast_set_quiet(F, F->quiet_other);
 	n = gw_fast_publish(F, F->next, until, pending, n);
+	gw_fast_set_quiet(F, F->quiet_next);
 	ignore_fast_frames(gl, F->next, n);
 }
 

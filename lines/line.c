@@ -105,6 +105,15 @@ static uint64_t poll_extensions(line *l)
 	return next;
 }
 
+static void extensions_before_events(line *l)
+{
+	for (unsigned i = 0; i < l->ext_attached; i++) {
+		const line_ext *x = &l->p.ext[i];
+		if (x->ops && x->ops->before_events)
+			x->ops->before_events(x->ctx, l);
+	}
+}
+
 /* An eventfd (not EFD_SEMAPHORE) or a timerfd: one read returns the whole
  * count and resets it, so a second read could only fail with EAGAIN. On the
  * forwarding path that second system call sat between the wake-up and the
@@ -454,6 +463,7 @@ static void *line_main(void *arg)
 			cogw_log(COGW_LOG_ERR, "line %s: epoll_wait: %s", l->name, strerror(errno));
 			break;
 		}
+		extensions_before_events(l);
 		for (int i = 0; i < n; i++)
 			handle_event(l, &evs[i]);
 		run_due(l);

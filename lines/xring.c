@@ -25,6 +25,9 @@ struct xring {
 	_Alignas(CACHE_LINE) _Atomic uint32_t tail;
 	atomic_uint_fast64_t pushed, dropped, wakes;
 	_Atomic uint32_t high_water;
+	/* a quiet push left messages the consumer was not woken for: the
+	 * next push wakes it whatever it finds (producer only) */
+	bool wake_owed;
 	/* consumer side */
 	_Alignas(CACHE_LINE) _Atomic uint32_t head;
 	atomic_uint_fast64_t popped;
@@ -83,7 +86,9 @@ static uint8_t *slot_at(const xring *r, uint32_t pos)
 	return r->slots + (size_t)(pos & r->mask) * r->stride;
 }
 
-int xring_push(xring *r, const void *msg, uint32_t len)
+/* wake_below: a push that leaves fewer messages queued does not wake the
+ * consumer (xring_push_quiet); 0 = always as the Dekker rule says. */
+static int push(xring *r, const void *msg, uint32_t len, uint32_t wake_below)
 {
 	if (len == 0 || len > r->msg_max)
 		return -EMSGSIZE;
@@ -105,14 +110,31 @@ int xring_push(xring *r, const void *msg, uint32_t len)
 	add_relaxed(&r->pushed);
 	if (queued + 1 > atomic_load_explicit(&r->high_water, memory_order_relaxed))
 		atomic_store_explicit(&r->high_water, queued + 1, memory_order_relaxed);
+	if (queued + 1 < wake_below) {
+		r->wake_owed = true;
+		return 0;
+	}
 	/* Dekker with xring_pop(): our tail store before our head load. */
 	atomic_thread_fence(memory_order_seq_cst);
-	if (atomic_load_explicit(&r->head, memory_order_relaxed) == t && r->wakefd >= 0) {
-		/* the consumer had taken everything before ours: it may sleep */
+	if ((atomic_load_explicit(&r->head, memory_order_relaxed) == t || r->wake_owed) &&
+	    r->wakefd >= 0) {
+		/* the consumer had taken everything before ours (it may
+		 * sleep), or was not woken for the quiet ones before it */
+		r->wake_owed = false;
 		add_relaxed(&r->wakes);
 		eventfd_write(r->wakefd, 1);
 	}
 	return 0;
+}
+
+int xring_push(xring *r, const void *msg, uint32_t len)
+{
+	return push(r, msg, len, 0);
+}
+
+int xring_push_quiet(xring *r, const void *msg, uint32_t len, uint32_t wake_at)
+{
+	return push(r, msg, len, wake_at ? wake_at : 1);
 }
 
 int xring_pop(xring *r, void *buf, uint32_t cap)

@@ -26,7 +26,9 @@
  * wake-up covers a burst). The empty test and the consumer's last look use
  * sequentially consistent fences on both sides (Dekker): either the
  * producer sees the ring empty and wakes, or the consumer sees the new
- * message; a wake-up is never lost. Spurious wake-ups are harmless.
+ * message; a wake-up is never lost. Spurious wake-ups are harmless. A
+ * quiet push (xring_push_quiet) skips the wake-up on purpose; the next
+ * ordinary push then wakes the consumer even though the ring was not empty.
  *
  * Threads: xring_push from the producer thread only, xring_pop/close from
  * the consumer thread only, xring_stats from any thread, create/destroy
@@ -59,6 +61,14 @@ void xring_destroy(xring *r); /* accepts NULL */
  * than msg_max: not counted as a drop, a programming error), -ENOBUFS
  * (full: dropped, counted) or -EPIPE (closed: dropped, counted). */
 int xring_push(xring *r, const void *msg, uint32_t len);
+
+/* Producer: as xring_push, but the consumer is not woken for it unless
+ * wake_at messages (or more) are now queued: it takes the message at its
+ * next wake-up, whatever causes that (the consumer must look at its rings
+ * then, not only when the eventfd fires: line_ext before_events). The next
+ * xring_push wakes it even if the ring was not empty. For a message that
+ * may wait until the consumer wakes for something else. */
+int xring_push_quiet(xring *r, const void *msg, uint32_t len, uint32_t wake_at);
 
 /* Consumer: take the oldest message into buf (cap >= msg_max). Returns its
  * length, 0 when empty, or -EMSGSIZE if cap is too small (nothing taken). */

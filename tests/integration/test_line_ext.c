@@ -4,8 +4,9 @@
  * over vcan0: a test extension attached at start-up observes the core's
  * events, takes over a
  * range of mailbox commands, is woken through a cross-line ring
- * (lines/xring.h) fed by another thread, gets the line to sleep no longer
- * than its own deadline, and is detached at the end.
+ * (lines/xring.h) fed by another thread, takes what was pushed without
+ * waking it before the events of its next wake-up, gets the line to sleep
+ * no longer than its own deadline, and is detached at the end.
  */
 #include <errno.h>
 #include <stdatomic.h>
@@ -34,7 +35,7 @@ static struct {
 	atomic_int attached, detached;
 	atomic_uint events, nmt_events;
 	atomic_uint commands;
-	atomic_uint wakes, handoffs;
+	atomic_uint wakes, handoffs, taken_before;
 	atomic_uint polls_due;
 	uint64_t next_due; /* line thread only */
 	xring *inbox;      /* ring from the test thread to the line */
@@ -65,28 +66,43 @@ static void ext_on_core_event(void *ctx, line *l, const co_event *ev)
 }
 
 /* LINE_STATUS answered by the extension instead of the line: node_id 0x42
- * tells the test who answered. */
+ * tells the test who answered, rx_frames how many hand-offs it had taken
+ * by then. */
 static void ext_on_command(void *ctx, line *l, const mbx_request *req)
 {
 	(void)ctx;
-	mbx_line_status st = { .node_id = 0x42 };
+	mbx_line_status st = { .node_id = 0x42, .rx_frames = atomic_load(&ext.handoffs) };
 	atomic_fetch_add(&ext.commands, 1);
 	mbx_server_respond(line_mbx(l), &req->reply, 0, 0, &st, sizeof st);
 }
 
 /* Each message from the ring goes out as one frame HANDOFF_ID. */
-static void ext_on_wake(void *ctx, line *l)
+static void take_handoffs(line *l)
 {
-	(void)ctx;
 	uint8_t msg[8];
 	int n;
-	atomic_fetch_add(&ext.wakes, 1);
 	while ((n = xring_pop(ext.inbox, msg, sizeof msg)) > 0) {
 		co_frame f;
 		co_frame_init(&f, HANDOFF_ID, (uint8_t)n);
 		memcpy(f.data, msg, (size_t)n);
 		co_node_send(line_node(l), &f);
 		atomic_fetch_add(&ext.handoffs, 1);
+	}
+}
+
+static void ext_on_wake(void *ctx, line *l)
+{
+	(void)ctx;
+	atomic_fetch_add(&ext.wakes, 1);
+	take_handoffs(l);
+}
+
+static void ext_before_events(void *ctx, line *l)
+{
+	(void)ctx;
+	if (xring_count(ext.inbox)) {
+		atomic_fetch_add(&ext.taken_before, 1);
+		take_handoffs(l);
 	}
 }
 
@@ -111,6 +127,7 @@ static const line_ext_ops test_ops = {
 	.cmd_last = MBX_CMD_LINE_STATUS,
 	.on_command = ext_on_command,
 	.on_wake = ext_on_wake,
+	.before_events = ext_before_events,
 	.poll = ext_poll,
 };
 
@@ -236,6 +253,37 @@ static void test_handoff_through_a_ring_wakes_the_line(void)
 	TEST_ASSERT_EQUAL_UINT64(0, rs.dropped);
 }
 
+/* Pushed quietly: no wake-up of its own, but taken before the request that
+ * wakes the line next is handled (the extension answers it with what it had
+ * taken by then). */
+static void test_quiet_handoff_is_taken_before_the_next_wake_up(void)
+{
+	cogw *h = NULL;
+	cogw_options o = { .instance = instance, .timeout_ms = 10000 };
+	TEST_ASSERT_EQUAL_INT(0, cogw_open_opts(&h, &o));
+	usleep(50000);
+	unsigned wakes = atomic_load(&ext.wakes);
+	for (uint8_t i = 0; i < 3; i++) {
+		uint8_t m[2] = { 0xB0, i };
+		TEST_ASSERT_EQUAL_INT(0, xring_push_quiet(ext.inbox, m, sizeof m, 8));
+	}
+	mbx_line_status st;
+	memset(&st, 0, sizeof st);
+	TEST_ASSERT_EQUAL_INT(0, cogw_line_status(h, 0, &st, 0));
+	TEST_ASSERT_EQUAL_UINT8(0x42, st.node_id);
+	TEST_ASSERT_EQUAL_UINT64(3, st.rx_frames);
+	TEST_ASSERT_EQUAL_UINT(wakes, atomic_load(&ext.wakes)); /* its eventfd never fired */
+	TEST_ASSERT_TRUE(atomic_load(&ext.taken_before) >= 1);
+	/* the next ordinary push wakes the line, although nothing woke it
+	 * for the quiet ones */
+	uint8_t m[2] = { 0xB0, 3 };
+	TEST_ASSERT_EQUAL_INT(0, xring_push(ext.inbox, m, sizeof m));
+	for (int i = 0; i < 100 && atomic_load(&ext.handoffs) < 4; i++)
+		usleep(10000);
+	TEST_ASSERT_EQUAL_UINT(4, atomic_load(&ext.handoffs));
+	cogw_close(h);
+}
+
 static int failing_attach(void *ctx, line *l)
 {
 	(void)ctx;
@@ -270,6 +318,7 @@ int main(void)
 	RUN_TEST(test_extension_deadline_drives_the_loop);
 	RUN_TEST(test_command_range_goes_to_the_extension);
 	RUN_TEST(test_handoff_through_a_ring_wakes_the_line);
+	RUN_TEST(test_quiet_handoff_is_taken_before_the_next_wake_up);
 	RUN_TEST(test_failing_attach_fails_the_line);
 	return UNITY_END();
 }

@@ -96,10 +96,11 @@ static void *source_main(void *arg)
 	for (uint32_t c = 0; c < WRITES; c++) {
 		int slot = (c & 1) ? slot_b : slot_a;
 		uint32_t held;
+		uint16_t sent_nr[GW_FAST_SENT_MAX];
 
 		gw_image_write(img, slot, value_of(c * SOURCES + s->idx, slot == slot_b));
 		s->now = now_us();
-		(void)gw_fast_try(&F, img, slot, s->now, record, s, &held);
+		(void)gw_fast_try(&F, img, slot, s->now, record, s, &held, sent_nr);
 		gw_fast_hold(&F, held);
 		if (xring_push(ring[s->idx], &held, sizeof(held)) != 0)
 			gw_fast_undo_hold(&F, held); /* dropped: never applied */

@@ -70,7 +70,9 @@ static void publish(const gw_fast_desc *d, unsigned n)
 
 static uint32_t try_at(int slot, uint64_t now, uint32_t *held)
 {
-	return gw_fast_try(&F, img, slot, now, capture, &sent, held);
+	uint16_t nr[GW_FAST_SENT_MAX];
+
+	return gw_fast_try(&F, img, slot, now, capture, &sent, held, nr);
 }
 
 static void test_frame_carries_cob_id_and_image_value(void)
@@ -239,12 +241,14 @@ static void test_served_while_applying_what_a_source_sent(void)
 
 	publish(&d, 1);
 	TEST_ASSERT_EQUAL(1, try_at(gw_image_find(img, 0xB000, 0), 100, &held));
-	F.serving = 1;
+	static const uint16_t sent_nr[] = { 4 };
+	F.serving_nr = sent_nr;
+	F.n_serving = 1;
 	TEST_ASSERT_EQUAL_UINT64(CO_PDO_GATE_SERVED, gw_fast_gate(&F, 4, CO_PDO_GATE_CLAIM, 100));
 	/* inside the inhibit time that frame started: dropped, not waiting */
 	TEST_ASSERT_EQUAL_UINT64(CO_PDO_GATE_SERVED, gw_fast_gate(&F, 4, CO_PDO_GATE_WAIT, 100));
 	TEST_ASSERT_EQUAL_HEX32(0, atomic_load(&F.t[0].busy));
-	F.serving = 0;
+	F.n_serving = 0;
 	/* reset by the core (reconfigured, NMT): closed at once, stale */
 	TEST_ASSERT_FALSE(F.stale);
 	gw_fast_gate(&F, 4, CO_PDO_GATE_RESET, 200);

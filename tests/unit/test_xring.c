@@ -102,6 +102,36 @@ static void test_wake_only_when_it_was_empty(void)
 	TEST_ASSERT_EQUAL_UINT64(2, st.wakes);
 }
 
+/* A quiet push wakes nobody until wake_at messages are queued; the next
+ * ordinary push wakes the consumer although the ring was not empty
+ * (without that, the quiet messages and that one would wait for a
+ * wake-up that nothing sends). */
+static void test_quiet_push_and_the_wake_it_owes(void)
+{
+	char buf[8];
+
+	TEST_ASSERT_EQUAL(0, xring_push_quiet(r, "q1", 2, 3));
+	TEST_ASSERT_EQUAL(0, xring_push_quiet(r, "q2", 2, 3));
+	TEST_ASSERT_EQUAL_UINT64(0, wakes());
+	TEST_ASSERT_EQUAL(0, xring_push(r, "n", 1)); /* not empty, but owed */
+	TEST_ASSERT_EQUAL_UINT64(1, wakes());
+	TEST_ASSERT_EQUAL(0, xring_push(r, "m", 1)); /* nothing owed now */
+	TEST_ASSERT_EQUAL_UINT64(0, wakes());
+	while (xring_pop(r, buf, sizeof buf) > 0)
+		;
+	TEST_ASSERT_EQUAL(0, xring_push_quiet(r, "a", 1, 3));
+	TEST_ASSERT_EQUAL(0, xring_push_quiet(r, "b", 1, 3));
+	TEST_ASSERT_EQUAL_UINT64(0, wakes());
+	TEST_ASSERT_EQUAL(0, xring_push_quiet(r, "c", 1, 3)); /* the third: wakes */
+	TEST_ASSERT_EQUAL_UINT64(1, wakes());
+	TEST_ASSERT_EQUAL(1, xring_pop(r, buf, sizeof buf)); /* in order */
+	TEST_ASSERT_EQUAL_MEMORY("a", buf, 1);
+	xring_stats st;
+	xring_stats_get(r, &st);
+	TEST_ASSERT_EQUAL_UINT64(7, st.pushed);
+	TEST_ASSERT_EQUAL_UINT64(2, st.wakes);
+}
+
 static void test_closed_ring_refuses_but_drains(void)
 {
 	uint8_t buf[16];
@@ -198,6 +228,7 @@ int main(void)
 	RUN_TEST(test_fifo_order_and_content);
 	RUN_TEST(test_full_ring_refuses_and_counts);
 	RUN_TEST(test_wake_only_when_it_was_empty);
+	RUN_TEST(test_quiet_push_and_the_wake_it_owes);
 	RUN_TEST(test_closed_ring_refuses_but_drains);
 	RUN_TEST(test_counters_wrap_around);
 	RUN_TEST(test_bad_arguments);
