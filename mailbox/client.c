@@ -622,14 +622,10 @@ static int exchange(cogw *h, unsigned line, uint16_t code, const void *fixed, si
 	return w.len > rcap ? COGW_E_TRUNCATED : 0;
 }
 
-static uint64_t deadline_of(cogw *h, unsigned timeout_ms)
-{
-	return mono_us() + (uint64_t)(timeout_ms ? timeout_ms : h->timeout_ms) * 1000u;
-}
-
 /* Register with a line on first use. One thread registers, others that
- * need the same line meanwhile wait for it. */
-static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
+ * need the same line meanwhile wait for it. now: the caller's clock
+ * reading (the registration's wait and lease bookkeeping start there). */
+static int line_ready(cogw *h, unsigned line, uint64_t now, uint64_t deadline_us)
 {
 	line_state *ls;
 	mbx_register_req rq;
@@ -673,7 +669,7 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 	memcpy(rq.resp_queue, h->resp_name, sizeof rq.resp_queue);
 	memcpy(rq.event_queue, h->evt_name, sizeof rq.event_queue);
 	rc = exchange(h, line, MBX_CMD_REGISTER, &rq, sizeof rq, NULL, 0, &rs, sizeof rs, &len,
-		      NULL, mono_us(), deadline_us);
+		      NULL, now, deadline_us);
 	if (rc == 0 && len != sizeof rs)
 		rc = COGW_E_PROTOCOL;
 
@@ -688,7 +684,7 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 		ls->max_transfer = rs.max_transfer;
 		ls->registered = true;
 		ls->sent_since_ping = true;
-		ls->ping_checked_us = mono_us();
+		ls->ping_checked_us = now;
 	}
 	bool lease = rc == 0 && ls->lease_ms != 0;
 	mbx_subscribe_req sub = { .classes = ls->sub_classes, .n_filters = ls->n_filters };
@@ -725,7 +721,7 @@ int client_call(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t
 		*rlen = 0;
 	now = mono_us(); /* the one clock read of a call that is answered at once */
 	deadline = now + (uint64_t)(timeout_ms ? timeout_ms : h->timeout_ms) * 1000u;
-	rc = line_ready(h, line, deadline);
+	rc = line_ready(h, line, now, deadline);
 	if (rc)
 		return rc;
 	rc = exchange(h, line, code, fixed, flen, data, dlen, rbuf, rcap, rlen, abort, now,
@@ -735,7 +731,7 @@ int client_call(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t
 		pthread_mutex_lock(&h->setup_mu);
 		h->lines[line].registered = false;
 		pthread_mutex_unlock(&h->setup_mu);
-		rc = line_ready(h, line, deadline);
+		rc = line_ready(h, line, mono_us(), deadline);
 		if (rc == 0)
 			rc = exchange(h, line, code, fixed, flen, data, dlen, rbuf, rcap, rlen,
 				      abort, mono_us(), deadline);
@@ -1569,8 +1565,10 @@ int cogw_send_async(cogw *h, unsigned line, uint16_t cmd, const void *payload, s
 	flen = (ci->flags & MBX_CI_DATA) ? ci->fixed : len;
 	if (len < flen)
 		return COGW_E_INVAL;
-	deadline = deadline_of(h, 0);
-	rc = line_ready(h, line, deadline);
+	uint64_t now = mono_us();
+
+	deadline = now + (uint64_t)h->timeout_ms * 1000u;
+	rc = line_ready(h, line, now, deadline);
 	if (rc == 0) /* the helper reads answers nobody waits for */
 		rc = helper_ensure(h);
 	if (rc)
