@@ -516,21 +516,21 @@ static uint64_t corr_new(cogw *h)
 	return c;
 }
 
-static int lead_read(cogw *h, uint64_t now, uint64_t until_us, bool helper);
+static int lead_read(cogw *h, uint64_t now, uint64_t until_us);
 static void lead_release(cogw *h);
+static int helper_start(cogw *h);
 static int helper_ensure(cogw *h);
 
 /* One turn as the leader (h->mu held, released around the receive).
  * Returns < 0 when the response queue is unusable. */
 static int lead_turn(cogw *h, const waiter *w, uint64_t now, uint64_t until)
 {
-	bool helper = h->reader_started;
 	int r;
 
 	h->leader = true;
 	h->lead_until_us = until;
 	pthread_mutex_unlock(&h->mu);
-	r = lead_read(h, now, until, helper);
+	r = lead_read(h, now, until);
 	pthread_mutex_lock(&h->mu);
 	if (r < 0 || w->done || h->closing)
 		lead_release(h);
@@ -572,8 +572,16 @@ static int wait_answer(cogw *h, waiter *w, unsigned line, unsigned restarts, uin
 				return COGW_E_RESTARTED;
 			check_at = now + RESTART_CHECK_MS * 1000u;
 		} else if (!h->leader) {
-			if (lead_turn(h, w, now, until) < 0 && !w->done)
+			int r = lead_turn(h, w, now, until);
+
+			if (r < 0 && !w->done)
 				return COGW_E_SYSTEM;
+			/* A wait that outlasts a slice gets the helper thread, which
+			 * cuts the next slices short if a step of the wall clock
+			 * stretches them (their deadline is CLOCK_REALTIME). A call
+			 * answered within its first slice never needs it. */
+			if (r == 0 && !w->done && !h->reader_started)
+				helper_start(h);
 		} else {
 			struct timespec ts = mono_deadline(until);
 
@@ -1142,25 +1150,13 @@ static void after_response(cogw *h, const ack_todo *ack)
 /* The leader (h->leader set by the caller, h->mu not held): receive one
  * message from the response queue, waiting until until_us (monotonic) at
  * most, and handle it. Returns 1 a message, 0 none (timeout, signal, a
- * wake-up), -1 the queue is unusable. Without a helper thread nobody could
- * cut a slice that a step of the wall clock stretched, so the wait is a
- * poll() by the monotonic clock, then a receive that does not wait (the
- * same two system calls as a clock read and mq_timedreceive in the VM). */
-static int lead_read(cogw *h, uint64_t now, uint64_t until_us, bool helper)
+ * wake-up), -1 the queue is unusable. */
+static int lead_read(cogw *h, uint64_t now, uint64_t until_us)
 {
-	struct timespec at = { 0, 0 };
+	struct timespec at = realtime_deadline(now, until_us);
 	ack_todo ack = { 0 };
 	ssize_t n;
 
-	if (helper) {
-		at = realtime_deadline(now, until_us);
-	} else {
-		int ready = mq_wait(h->resp, POLLIN,
-				    until_us > now ? (unsigned)((until_us - now + 999) / 1000) : 0);
-
-		if (ready <= 0)
-			return ready;
-	}
 	n = mq_timedreceive(h->resp, (char *)h->lead_buf, h->resp_msg, NULL, &at);
 	if (n < 0)
 		return errno == ETIMEDOUT || errno == EINTR ? 0 : -1;
@@ -1255,7 +1251,7 @@ static void *reader_main(void *arg)
 			break;
 		if (lead) {
 			uint64_t now = mono_us();
-			int r = lead_read(h, now, now + (uint64_t)period * 1000u, true);
+			int r = lead_read(h, now, now + (uint64_t)period * 1000u);
 
 			pthread_mutex_lock(&h->mu);
 			lead_release(h);
@@ -1294,9 +1290,9 @@ static int event_fds_open(cogw *h)
 
 /* Start the helper thread (h->mu held) when the first thing that needs it
  * comes: an asynchronous request, a subscription, a lease to renew,
- * cogw_recv(). A handle that only makes blocking calls never starts it:
- * its waits look for daemon restarts themselves and cannot be stretched
- * by the wall clock (lead_read). */
+ * cogw_recv(), a wait longer than one slice (wait_answer). A handle whose
+ * blocking calls are answered at once never starts it: its waits look for
+ * daemon restarts themselves. */
 static int helper_start(cogw *h)
 {
 	if (h->reader_started)

@@ -17,9 +17,10 @@
  *   EMCY every few turns), which waits on the event queue itself while no
  *   asynchronous answer is due and is woken when one becomes due; both
  *   receiving threads take whatever comes, events or answers;
- * - the helper thread starts only with the subscription or the first
- *   asynchronous request, made while the callers already lead without it
- *   (poll() waits), so it joins a handle in use.
+ * - the helper thread starts only with the subscription, the first
+ *   asynchronous request or receive, or a caller's wait longer than one
+ *   slice, while the callers already lead without it, so it joins a handle
+ *   in use.
  * Checked: no data race (TSan fails the run on one), every answer reaches
  * exactly the thread that asked with its own value, every asynchronous
  * answer arrives once, events arrive, and no answer is left over as stray.
