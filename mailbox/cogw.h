@@ -24,8 +24,9 @@
  *   Whichever thread reads the response queue hands each answer to the
  *   caller waiting for its correlation id. A helper thread (asynchronous
  *   answers, lease renewal, restart watch) starts with the first
- *   cogw_send_async(), cogw_subscribe(), cogw_recv() or a registration
- *   with a lease; a handle that only makes blocking calls has none.
+ *   cogw_send_async(), cogw_subscribe(), cogw_recv(), a registration
+ *   with a lease or a wait longer than 200 ms; a handle whose blocking
+ *   calls are answered at once has none.
  * - Events: cogw_subscribe() per line and class, then cogw_recv(); for an
  *   epoll loop, watch cogw_event_fd() and call cogw_recv(h, &m, 0) until it
  *   returns COGW_E_AGAIN. cogw_recv() also returns the answers to requests
