@@ -974,6 +974,15 @@ static unsigned threads_of_self(void)
 	return n;
 }
 
+/* The thread count reaches n within 2 s: a joined thread is counted until the
+ * kernel has released it, a moment after pthread_join returned. */
+static bool threads_become(unsigned n)
+{
+	for (int i = 0; i < 200 && threads_of_self() != n; i++)
+		usleep(10000);
+	return threads_of_self() == n;
+}
+
 /* A handle whose blocking calls are answered at once starts no thread; the
  * first subscription, asynchronous request or receive starts the helper
  * (restart watch, answers nobody waits for), and close ends it. */
@@ -1002,7 +1011,7 @@ static int child_helper_on_need(void *arg)
 	CHECK(threads_of_self() == base + 1);
 	CHECK(cogw_ping(h, LINE, CALL_MS) == 0); /* the helper and a caller share the queue */
 	cogw_close(h);
-	CHECK(threads_of_self() == base);
+	CHECK(threads_become(base));
 
 	CHECK(cogw_open(&h, instance) == 0);
 	CHECK(cogw_send_async(h, LINE, MBX_CMD_OD_READ, &o, sizeof o, &corr) == 0);
@@ -1011,6 +1020,7 @@ static int child_helper_on_need(void *arg)
 	CHECK(m.kind == MBX_KIND_RESPONSE && m.corr == corr && m.status == 0);
 	cogw_msg_release(&m);
 	cogw_close(h);
+	CHECK(threads_become(base));
 
 	CHECK(cogw_open(&h, instance) == 0);
 	CHECK(cogw_event_fd(h) >= 0); /* an epoll loop's descriptor needs no thread */
