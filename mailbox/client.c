@@ -131,14 +131,22 @@ typedef struct line_state {
 struct cogw {
 	char instance[MBX_INSTANCE_MAX + 1];
 	char resp_name[MBX_QNAME_MAX], evt_name[MBX_QNAME_MAX];
-	mqd_t resp, evt, self; /* self: O_WRONLY on resp, to wake the leader */
-	mqd_t evt_self;        /* O_WRONLY on evt, to wake a cogw_recv() waiting on it */
+	pid_t pid;
+	mqd_t resp, evt;
 	size_t resp_msg, evt_msg;
 	unsigned resp_depth;
-	int efd, epfd;
 	unsigned timeout_ms;
 	pthread_t reader;
+
+	/* Opened with the helper thread (helper_start), which is started only
+	 * when something needs it: a one-shot handle (open, one call, close)
+	 * runs without it (docs/fastpath.md "One-shot cogwctl"). Set under
+	 * mu; -1 / false until then. self: O_WRONLY on resp, to wake the
+	 * leader; evt_self: O_WRONLY on evt, to wake a cogw_recv() waiting on
+	 * it. efd/epfd (cogw_event_fd) may be opened without the helper. */
 	bool reader_started;
+	mqd_t self, evt_self;
+	int efd, epfd;
 
 	pthread_mutex_t mu;         /* everything below */
 	pthread_cond_t cond;        /* waiters: an answer came, or the lead is free */
@@ -510,6 +518,8 @@ static uint64_t corr_new(cogw *h)
 
 static int lead_read(cogw *h, uint64_t now, uint64_t until_us);
 static void lead_release(cogw *h);
+static int helper_start(cogw *h);
+static int helper_ensure(cogw *h);
 
 /* One turn as the leader (h->mu held, released around the receive).
  * Returns < 0 when the response queue is unusable. */
@@ -562,8 +572,16 @@ static int wait_answer(cogw *h, waiter *w, unsigned line, unsigned restarts, uin
 				return COGW_E_RESTARTED;
 			check_at = now + RESTART_CHECK_MS * 1000u;
 		} else if (!h->leader) {
-			if (lead_turn(h, w, now, until) < 0 && !w->done)
+			int r = lead_turn(h, w, now, until);
+
+			if (r < 0 && !w->done)
 				return COGW_E_SYSTEM;
+			/* A wait that outlasts a slice gets the helper thread, which
+			 * cuts the next slices short if a step of the wall clock
+			 * stretches them (their deadline is CLOCK_REALTIME). A call
+			 * answered within its first slice never needs it. */
+			if (r == 0 && !w->done && !h->reader_started)
+				helper_start(h);
 		} else {
 			struct timespec ts = mono_deadline(until);
 
@@ -612,14 +630,10 @@ static int exchange(cogw *h, unsigned line, uint16_t code, const void *fixed, si
 	return w.len > rcap ? COGW_E_TRUNCATED : 0;
 }
 
-static uint64_t deadline_of(cogw *h, unsigned timeout_ms)
-{
-	return mono_us() + (uint64_t)(timeout_ms ? timeout_ms : h->timeout_ms) * 1000u;
-}
-
 /* Register with a line on first use. One thread registers, others that
- * need the same line meanwhile wait for it. */
-static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
+ * need the same line meanwhile wait for it. now: the caller's clock
+ * reading (the registration's wait and lease bookkeeping start there). */
+static int line_ready(cogw *h, unsigned line, uint64_t now, uint64_t deadline_us)
 {
 	line_state *ls;
 	mbx_register_req rq;
@@ -640,8 +654,10 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 		}
 	}
 	if (ls->registered) {
+		bool lease = ls->lease_ms != 0;
+
 		pthread_mutex_unlock(&h->setup_mu);
-		return 0;
+		return lease ? helper_ensure(h) : 0; /* the helper renews it */
 	}
 	if (ls->cmd == (mqd_t)-1 || ls->stale) {
 		rc = line_open_cmd(h, line);
@@ -656,12 +672,12 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 	pthread_mutex_unlock(&h->setup_mu);
 
 	memset(&rq, 0, sizeof rq);
-	rq.pid = (uint32_t)getpid();
+	rq.pid = (uint32_t)h->pid;
 	rq.uid = (uint32_t)geteuid();
 	memcpy(rq.resp_queue, h->resp_name, sizeof rq.resp_queue);
 	memcpy(rq.event_queue, h->evt_name, sizeof rq.event_queue);
 	rc = exchange(h, line, MBX_CMD_REGISTER, &rq, sizeof rq, NULL, 0, &rs, sizeof rs, &len,
-		      NULL, mono_us(), deadline_us);
+		      NULL, now, deadline_us);
 	if (rc == 0 && len != sizeof rs)
 		rc = COGW_E_PROTOCOL;
 
@@ -676,14 +692,17 @@ static int line_ready(cogw *h, unsigned line, uint64_t deadline_us)
 		ls->max_transfer = rs.max_transfer;
 		ls->registered = true;
 		ls->sent_since_ping = true;
-		ls->ping_checked_us = mono_us();
+		ls->ping_checked_us = now;
 	}
+	bool lease = rc == 0 && ls->lease_ms != 0;
 	mbx_subscribe_req sub = { .classes = ls->sub_classes, .n_filters = ls->n_filters };
 
 	memcpy(sub.filters, ls->filters, sizeof sub.filters);
 	ls->registering = false;
 	pthread_cond_broadcast(&h->setup_cond);
 	pthread_mutex_unlock(&h->setup_mu);
+	if (lease) /* the helper thread renews it */
+		rc = helper_ensure(h);
 	/* registered again after a restart: subscribe to what we had */
 	if (rc == 0 && sub.classes) {
 		mbx_subscribe_resp sr;
@@ -710,7 +729,7 @@ int client_call(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t
 		*rlen = 0;
 	now = mono_us(); /* the one clock read of a call that is answered at once */
 	deadline = now + (uint64_t)(timeout_ms ? timeout_ms : h->timeout_ms) * 1000u;
-	rc = line_ready(h, line, deadline);
+	rc = line_ready(h, line, now, deadline);
 	if (rc)
 		return rc;
 	rc = exchange(h, line, code, fixed, flen, data, dlen, rbuf, rcap, rlen, abort, now,
@@ -720,7 +739,7 @@ int client_call(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t
 		pthread_mutex_lock(&h->setup_mu);
 		h->lines[line].registered = false;
 		pthread_mutex_unlock(&h->setup_mu);
-		rc = line_ready(h, line, deadline);
+		rc = line_ready(h, line, mono_us(), deadline);
 		if (rc == 0)
 			rc = exchange(h, line, code, fixed, flen, data, dlen, rbuf, rcap, rlen,
 				      abort, mono_us(), deadline);
@@ -728,8 +747,8 @@ int client_call(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t
 	return rc;
 }
 
-void client_subscribed(cogw *h, unsigned line, uint32_t classes, uint8_t n_filters,
-		       const mbx_raw_filter filters[MBX_RAW_FILTERS_MAX])
+int client_subscribed(cogw *h, unsigned line, uint32_t classes, uint8_t n_filters,
+		      const mbx_raw_filter filters[MBX_RAW_FILTERS_MAX])
 {
 	line_state *ls = &h->lines[line];
 
@@ -740,6 +759,9 @@ void client_subscribed(cogw *h, unsigned line, uint32_t classes, uint8_t n_filte
 		memcpy(ls->filters, filters, sizeof ls->filters);
 	}
 	pthread_mutex_unlock(&h->setup_mu);
+	/* an event-only client makes no calls: the helper watches for daemon
+	 * restarts and registers and subscribes again by itself */
+	return helper_ensure(h);
 }
 
 void client_unsubscribed(cogw *h, unsigned line, uint32_t classes)
@@ -1022,7 +1044,7 @@ static void reregister_async(cogw *h, unsigned line, uint64_t now)
 	ls->token = 0;
 	pthread_mutex_unlock(&h->setup_mu);
 	memset(&rq, 0, sizeof rq);
-	rq.pid = (uint32_t)getpid();
+	rq.pid = (uint32_t)h->pid;
 	rq.uid = (uint32_t)geteuid();
 	memcpy(rq.resp_queue, h->resp_name, sizeof rq.resp_queue);
 	memcpy(rq.event_queue, h->evt_name, sizeof rq.event_queue);
@@ -1245,6 +1267,61 @@ static void *reader_main(void *arg)
 
 /* ---- open / close ------------------------------------------------------------------ */
 
+/* The eventfd (asynchronous answers ready) and the epoll descriptor that
+ * cogw_event_fd() hands out, opened on first need (h->mu held). */
+static int event_fds_open(cogw *h)
+{
+	struct epoll_event ev = { .events = EPOLLIN };
+
+	if (h->epfd >= 0)
+		return 0;
+	h->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+	h->epfd = epoll_create1(EPOLL_CLOEXEC);
+	if (h->efd >= 0 && h->epfd >= 0 && epoll_ctl(h->epfd, EPOLL_CTL_ADD, h->efd, &ev) == 0 &&
+	    epoll_ctl(h->epfd, EPOLL_CTL_ADD, (int)h->evt, &ev) == 0)
+		return 0;
+	if (h->epfd >= 0)
+		close(h->epfd);
+	if (h->efd >= 0)
+		close(h->efd);
+	h->efd = h->epfd = -1;
+	return COGW_E_SYSTEM;
+}
+
+/* Start the helper thread (h->mu held) when the first thing that needs it
+ * comes: an asynchronous request, a subscription, a lease to renew,
+ * cogw_recv(), a wait longer than one slice (wait_answer). A handle whose
+ * blocking calls are answered at once never starts it: its waits look for
+ * daemon restarts themselves. */
+static int helper_start(cogw *h)
+{
+	if (h->reader_started)
+		return 0;
+	if (h->closing)
+		return COGW_E_CLOSED;
+	if (event_fds_open(h) != 0)
+		return COGW_E_SYSTEM;
+	if (h->self == (mqd_t)-1)
+		h->self = mq_open(h->resp_name, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
+	if (h->evt_self == (mqd_t)-1)
+		h->evt_self = mq_open(h->evt_name, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
+	if (h->self == (mqd_t)-1 || h->evt_self == (mqd_t)-1 ||
+	    pthread_create(&h->reader, NULL, reader_main, h) != 0)
+		return COGW_E_SYSTEM;
+	h->reader_started = true;
+	return 0;
+}
+
+static int helper_ensure(cogw *h)
+{
+	int rc;
+
+	pthread_mutex_lock(&h->mu);
+	rc = helper_start(h);
+	pthread_mutex_unlock(&h->mu);
+	return rc;
+}
+
 static mqd_t make_queue(const char *name, unsigned mode, unsigned depth, unsigned msgsize,
 			int oflags)
 {
@@ -1286,11 +1363,30 @@ int cogw_open(cogw **out, const char *instance)
 	return cogw_open_opts(out, &o);
 }
 
+/* Without CAP_SYS_RESOURCE a queue cannot exceed the sysctl limits
+ * (containers often lack it even as root): when the kernel refuses a size
+ * (EINVAL), clamp to them, so that a default system (msg_max 10) still
+ * works; the daemon copes with any depth. Read only then: two files of
+ * /proc are eight system calls for every start of a one-shot client. */
+static void clamp_to_system(unsigned *depth, unsigned *depth2, unsigned *msgsize)
+{
+	unsigned long msg_max = read_proc("/proc/sys/fs/mqueue/msg_max", 10);
+	unsigned long msgsize_max = read_proc("/proc/sys/fs/mqueue/msgsize_max", 8192);
+
+	if (*depth > msg_max)
+		*depth = (unsigned)msg_max;
+	if (*depth2 > msg_max)
+		*depth2 = (unsigned)msg_max;
+	if (*msgsize > msgsize_max)
+		*msgsize = (unsigned)msgsize_max;
+}
+
 int cogw_open_opts(cogw **out, const cogw_options *o)
 {
 	cogw *h;
-	unsigned long msg_max, msgsize_max;
 	unsigned mode, rdepth, edepth, msgsize;
+	bool clamped = false;
+	uint32_t rnd[3] = { 0 };
 	int rc = COGW_E_SYSTEM;
 
 	if (!out || !o || !mbx_instance_is_valid(o->instance))
@@ -1304,6 +1400,7 @@ int cogw_open_opts(cogw **out, const cogw_options *o)
 	for (unsigned i = 0; i < MBX_LINES_MAX; i++)
 		h->lines[i].cmd = (mqd_t)-1;
 	strcpy(h->instance, o->instance);
+	h->pid = getpid();
 	h->timeout_ms = o->timeout_ms ? o->timeout_ms : DEFAULT_TIMEOUT_MS;
 	pthread_mutex_init(&h->mu, NULL);
 	pthread_mutex_init(&h->setup_mu, NULL);
@@ -1315,7 +1412,10 @@ int cogw_open_opts(cogw **out, const cogw_options *o)
 	pthread_cond_init(&h->reader_cond, &ca);
 	pthread_cond_init(&h->setup_cond, &ca);
 	pthread_condattr_destroy(&ca);
-	getrandom(&h->next_corr, sizeof h->next_corr, GRND_NONBLOCK);
+	/* one call: the first correlation id and the queue names' random part */
+	if (getrandom(rnd, sizeof rnd, GRND_NONBLOCK) != (ssize_t)sizeof rnd)
+		rnd[2] = (uint32_t)mono_us();
+	memcpy(&h->next_corr, rnd, sizeof h->next_corr);
 	h->next_corr &= 0x0000FFFFFFFFFFFFull; /* readable, never wraps */
 
 	mode = o->queue_mode ? o->queue_mode : 0600;
@@ -1326,28 +1426,22 @@ int cogw_open_opts(cogw **out, const cogw_options *o)
 		rc = COGW_E_INVAL;
 		goto fail;
 	}
-	/* Without CAP_SYS_RESOURCE a queue cannot exceed the sysctl limits
-	 * (containers often lack it even as root): clamp, so that a default
-	 * system (msg_max 10) still works; the daemon copes with any depth. */
-	msg_max = read_proc("/proc/sys/fs/mqueue/msg_max", 10);
-	msgsize_max = read_proc("/proc/sys/fs/mqueue/msgsize_max", 8192);
-	if (rdepth > msg_max)
-		rdepth = (unsigned)msg_max;
-	if (edepth > msg_max)
-		edepth = (unsigned)msg_max;
-	if (msgsize > msgsize_max)
-		msgsize = (unsigned)msgsize_max;
-
 	for (int tries = 0; tries < 8; tries++) {
-		uint32_t rnd = (uint32_t)mono_us();
-
-		getrandom(&rnd, sizeof rnd, GRND_NONBLOCK);
+		if (tries) {
+			rnd[2] = (uint32_t)mono_us();
+			getrandom(&rnd[2], sizeof rnd[2], GRND_NONBLOCK);
+		}
 		snprintf(h->resp_name, sizeof h->resp_name, "/cogw.%s.c%d.%08x.resp", h->instance,
-			 (int)getpid(), rnd);
+			 (int)h->pid, rnd[2]);
 		snprintf(h->evt_name, sizeof h->evt_name, "/cogw.%s.c%d.%08x.evt", h->instance,
-			 (int)getpid(), rnd);
+			 (int)h->pid, rnd[2]);
 		/* blocking: the leader waits in mq_timedreceive */
 		h->resp = make_queue(h->resp_name, mode, rdepth, msgsize, O_RDONLY);
+		if (h->resp == (mqd_t)-1 && errno == EINVAL && !clamped) {
+			clamp_to_system(&rdepth, &edepth, &msgsize);
+			clamped = true;
+			h->resp = make_queue(h->resp_name, mode, rdepth, msgsize, O_RDONLY);
+		}
 		if (h->resp != (mqd_t)-1 || errno != EEXIST)
 			break;
 	}
@@ -1355,45 +1449,25 @@ int cogw_open_opts(cogw **out, const cogw_options *o)
 		rc = queue_create_error();
 		goto fail;
 	}
+	/* created (O_EXCL) with exactly these attributes: no mq_getattr */
+	h->resp_msg = msgsize;
+	h->resp_depth = rdepth;
 	/* blocking: cogw_recv() waits in mq_timedreceive when only events can come */
 	h->evt = make_queue(h->evt_name, mode, edepth, msgsize, O_RDONLY);
+	if (h->evt == (mqd_t)-1 && errno == EINVAL && !clamped) {
+		clamp_to_system(&rdepth, &edepth, &msgsize);
+		h->evt = make_queue(h->evt_name, mode, edepth, msgsize, O_RDONLY);
+	}
 	if (h->evt == (mqd_t)-1) {
 		rc = queue_create_error();
 		goto fail;
 	}
-	h->evt_self = mq_open(h->evt_name, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
-	if (h->evt_self == (mqd_t)-1)
-		goto fail;
-	h->self = mq_open(h->resp_name, O_WRONLY | O_NONBLOCK | O_CLOEXEC);
-	if (h->self == (mqd_t)-1)
-		goto fail;
-	struct mq_attr attr;
-
-	if (mq_getattr(h->resp, &attr) < 0)
-		goto fail;
-	h->resp_msg = (size_t)attr.mq_msgsize;
-	h->resp_depth = (unsigned)attr.mq_maxmsg;
+	h->evt_msg = msgsize;
 	h->lead_buf = malloc(h->resp_msg);
 	if (!h->lead_buf) {
 		rc = COGW_E_NOMEM;
 		goto fail;
 	}
-	if (mq_getattr(h->evt, &attr) < 0)
-		goto fail;
-	h->evt_msg = (size_t)attr.mq_msgsize;
-
-	h->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-	h->epfd = epoll_create1(EPOLL_CLOEXEC);
-	if (h->efd < 0 || h->epfd < 0)
-		goto fail;
-	struct epoll_event ev = { .events = EPOLLIN };
-
-	if (epoll_ctl(h->epfd, EPOLL_CTL_ADD, h->efd, &ev) < 0 ||
-	    epoll_ctl(h->epfd, EPOLL_CTL_ADD, (int)h->evt, &ev) < 0)
-		goto fail;
-	if (pthread_create(&h->reader, NULL, reader_main, h) != 0)
-		goto fail;
-	h->reader_started = true;
 	*out = h;
 	return 0;
 fail : {
@@ -1418,14 +1492,16 @@ void cogw_close(cogw *h)
 
 	pthread_mutex_lock(&h->mu);
 	h->closing = true;
+	bool helper = h->reader_started;
+
 	pthread_cond_broadcast(&h->cond);
 	pthread_cond_signal(&h->reader_cond);
 	pthread_mutex_unlock(&h->mu);
-	/* wake a leader (if the queue is full it wakes anyway) */
-	if (h->self != (mqd_t)-1)
+	if (helper) {
+		/* wake it if it leads (if the queue is full it wakes anyway) */
 		mq_send(h->self, "", 0, 0);
-	if (h->reader_started)
 		pthread_join(h->reader, NULL);
+	}
 	for (unsigned i = 0; i < MBX_LINES_MAX; i++) {
 		if (h->lines[i].cmd != (mqd_t)-1)
 			mq_close(h->lines[i].cmd);
@@ -1485,8 +1561,12 @@ int cogw_send_async(cogw *h, unsigned line, uint16_t cmd, const void *payload, s
 	flen = (ci->flags & MBX_CI_DATA) ? ci->fixed : len;
 	if (len < flen)
 		return COGW_E_INVAL;
-	deadline = deadline_of(h, 0);
-	rc = line_ready(h, line, deadline);
+	uint64_t now = mono_us();
+
+	deadline = now + (uint64_t)h->timeout_ms * 1000u;
+	rc = line_ready(h, line, now, deadline);
+	if (rc == 0) /* the helper reads answers nobody waits for */
+		rc = helper_ensure(h);
 	if (rc)
 		return rc;
 	a = calloc(1, sizeof *a);
@@ -1526,7 +1606,16 @@ int cogw_send_async(cogw *h, unsigned line, uint16_t cmd, const void *payload, s
 
 int cogw_event_fd(cogw *h)
 {
-	return h ? h->epfd : COGW_E_INVAL;
+	int rc;
+
+	if (!h)
+		return COGW_E_INVAL;
+	pthread_mutex_lock(&h->mu);
+	rc = event_fds_open(h);
+	if (rc == 0)
+		rc = h->epfd;
+	pthread_mutex_unlock(&h->mu);
+	return rc;
 }
 
 void cogw_msg_release(cogw_msg *m)
@@ -1667,6 +1756,11 @@ int cogw_recv(cogw *h, cogw_msg *m, int timeout_ms)
 	if (!h || !m)
 		return COGW_E_INVAL;
 	memset(m, 0, sizeof *m);
+	/* a receiver is long-lived: the helper cuts its waits when the wall
+	 * clock steps and keeps it registered across daemon restarts */
+	rc = helper_ensure(h);
+	if (rc)
+		return rc;
 	buf = malloc(h->evt_msg);
 	if (!buf)
 		return COGW_E_NOMEM;

@@ -24,7 +24,7 @@ int cogw_subscribe(cogw *h, unsigned line, uint32_t classes, const mbx_raw_filte
 			     NULL, timeout_ms);
 
 	if (rc == 0) /* remembered for a re-registration */
-		client_subscribed(h, line, classes, r.n_filters, r.filters);
+		rc = client_subscribed(h, line, classes, r.n_filters, r.filters);
 	return rc;
 }
 

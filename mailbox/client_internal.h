@@ -26,9 +26,10 @@ int client_call(cogw *h, unsigned line, uint16_t code, const void *fixed, size_t
 		uint32_t *abort, unsigned timeout_ms);
 
 /* A subscription the daemon accepted (filters: the request's whole table,
- * n_filters used), remembered to subscribe again after a re-registration. */
-void client_subscribed(cogw *h, unsigned line, uint32_t classes, uint8_t n_filters,
-		       const mbx_raw_filter filters[MBX_RAW_FILTERS_MAX]);
+ * n_filters used), remembered to subscribe again after a re-registration;
+ * starts the helper thread that does that. 0 or a cogw_err. */
+int client_subscribed(cogw *h, unsigned line, uint32_t classes, uint8_t n_filters,
+		      const mbx_raw_filter filters[MBX_RAW_FILTERS_MAX]);
 /* An unsubscription the daemon accepted: no longer subscribed again. */
 void client_unsubscribed(cogw *h, unsigned line, uint32_t classes);
 

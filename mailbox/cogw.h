@@ -21,8 +21,12 @@
  * - Data of any size: the library chunks and reassembles transparently up
  *   to the daemon's limit (1 MiB by default).
  * - Thread-safe: several threads may make calls on one handle at once.
- *   A library thread reads the response queue and hands each answer to the
- *   caller waiting for its correlation id.
+ *   Whichever thread reads the response queue hands each answer to the
+ *   caller waiting for its correlation id. A helper thread (asynchronous
+ *   answers, lease renewal, restart watch) starts with the first
+ *   cogw_send_async(), cogw_subscribe(), cogw_recv(), a registration
+ *   with a lease or a wait longer than 200 ms; a handle whose blocking
+ *   calls are answered at once has none.
  * - Events: cogw_subscribe() per line and class, then cogw_recv(); for an
  *   epoll loop, watch cogw_event_fd() and call cogw_recv(h, &m, 0) until it
  *   returns COGW_E_AGAIN. cogw_recv() also returns the answers to requests
@@ -358,7 +362,8 @@ int cogw_send_async(cogw *h, unsigned line, uint16_t cmd, const void *payload, s
  * cogw_msg_release(). Validates event payload sizes. */
 int cogw_recv(cogw *h, cogw_msg *m, int timeout_ms);
 void cogw_msg_release(cogw_msg *m);
-/* A descriptor that is readable when cogw_recv() has something for you. */
+/* A descriptor that is readable when cogw_recv() has something for you
+ * (opened on the first call), or a negative cogw_err. */
 int cogw_event_fd(cogw *h);
 
 /* Library-side counters (overflows seen, async answers dropped). */

@@ -8,6 +8,7 @@
  * commands (error answer + counters + the server keeps working) and the
  * system-limit message. Queue names are pid-based; everything is unlinked
  * at the end. */
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <mqueue.h>
@@ -956,6 +957,162 @@ static void test_access_control_by_queue_owner(void)
 	TEST_ASSERT_EQUAL_UINT64(1, stats().malformed[MBX_BAD_QUEUE]);
 }
 
+/* ---- the helper thread and the queue sizes ----------------------------------------- */
+
+/* Threads of this process (/proc/self/status), 0 if unreadable. */
+static unsigned threads_of_self(void)
+{
+	FILE *f = fopen("/proc/self/status", "re");
+	char line[128];
+	unsigned n = 0;
+
+	while (f && fgets(line, sizeof line, f))
+		if (sscanf(line, "Threads: %u", &n) == 1)
+			break;
+	if (f)
+		fclose(f);
+	return n;
+}
+
+/* The thread count reaches n within 2 s: a joined thread is counted until the
+ * kernel has released it, a moment after pthread_join returned. */
+static bool threads_become(unsigned n)
+{
+	for (int i = 0; i < 200 && threads_of_self() != n; i++)
+		usleep(10000);
+	return threads_of_self() == n;
+}
+
+/* A handle whose blocking calls are answered at once starts no thread; the
+ * first subscription, asynchronous request or receive starts the helper
+ * (restart watch, answers nobody waits for), and close ends it. */
+static int child_helper_on_need(void *arg)
+{
+	unsigned base = threads_of_self();
+	mbx_obj_req o = { .index = 0x2000 };
+	uint64_t corr = 0;
+	cogw_msg m;
+	cogw *h;
+
+	(void)arg;
+	CHECK(base >= 1);
+	CHECK(cogw_open(&h, instance) == 0);
+	struct timespec t0, t1;
+
+	clock_gettime(CLOCK_MONOTONIC, &t0);
+	CHECK(cogw_ping(h, LINE, CALL_MS) == 0);
+	CHECK(cogw_ping(h, LINE, CALL_MS) == 0);
+	clock_gettime(CLOCK_MONOTONIC, &t1);
+	/* (a wait longer than one 200 ms slice starts it: only where this
+	 * machine was that slow is the count not checked) */
+	if ((t1.tv_sec - t0.tv_sec) * 1000 + (t1.tv_nsec - t0.tv_nsec) / 1000000 < 200)
+		CHECK(threads_of_self() == base);
+	CHECK(cogw_subscribe(h, LINE, MBX_EVC_HB, NULL, 0, CALL_MS) == 0);
+	CHECK(threads_of_self() == base + 1);
+	CHECK(cogw_ping(h, LINE, CALL_MS) == 0); /* the helper and a caller share the queue */
+	cogw_close(h);
+	CHECK(threads_become(base));
+
+	CHECK(cogw_open(&h, instance) == 0);
+	CHECK(cogw_send_async(h, LINE, MBX_CMD_OD_READ, &o, sizeof o, &corr) == 0);
+	CHECK(threads_of_self() == base + 1);
+	CHECK(cogw_recv(h, &m, CALL_MS) == 0);
+	CHECK(m.kind == MBX_KIND_RESPONSE && m.corr == corr && m.status == 0);
+	cogw_msg_release(&m);
+	cogw_close(h);
+	CHECK(threads_become(base));
+
+	CHECK(cogw_open(&h, instance) == 0);
+	CHECK(cogw_event_fd(h) >= 0); /* an epoll loop's descriptor needs no thread */
+	CHECK(threads_of_self() == base);
+	CHECK(cogw_recv(h, &m, 0) == COGW_E_AGAIN);
+	CHECK(threads_of_self() == base + 1);
+	cogw_close(h);
+	return 0;
+}
+
+static void test_helper_thread_starts_only_when_needed(void)
+{
+	mbx_server_config cfg = base_cfg();
+
+	start(&cfg);
+	TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_helper_on_need, NULL)));
+	WAIT_FOR(stats().clients == 0, 5000);
+	/* the third handle made no call: it never registered */
+	TEST_ASSERT_EQUAL_UINT64(2, stats().clients_registered);
+	TEST_ASSERT_EQUAL_UINT64(2, stats().clients_unregistered);
+}
+
+/* The depth the kernel gave the queue named like libcogw's response
+ * queue of this process (/cogw.<instance>.c<pid>.*.resp), 0 if none, -1
+ * when /dev/mqueue is not mounted here (the VM mounts it). */
+static long resp_queue_depth_of_self(void)
+{
+	char prefix[64], name[300];
+	DIR *d = opendir("/dev/mqueue");
+	struct dirent *e;
+	long depth = 0;
+
+	if (!d)
+		return -1;
+	snprintf(prefix, sizeof prefix, "cogw.%s.c%d.", instance, (int)getpid());
+	while ((e = readdir(d))) {
+		size_t n = strlen(e->d_name);
+
+		if (strncmp(e->d_name, prefix, strlen(prefix)) != 0 || n < 5 ||
+		    strcmp(e->d_name + n - 5, ".resp") != 0)
+			continue;
+		snprintf(name, sizeof name, "/%s", e->d_name);
+		mqd_t q = mq_open(name, O_RDONLY | O_NONBLOCK);
+		struct mq_attr a;
+
+		if (q != (mqd_t)-1 && mq_getattr(q, &a) == 0)
+			depth = a.mq_maxmsg;
+		if (q != (mqd_t)-1)
+			mq_close(q);
+	}
+	closedir(d);
+	return depth;
+}
+
+/* Without CAP_SYS_RESOURCE the kernel refuses a queue deeper than
+ * fs.mqueue.msg_max: libcogw then clamps to it (read only in that case)
+ * and the handle works. */
+static int child_queues_deeper_than_msg_max(void *arg)
+{
+	unsigned long msg_max = 0;
+	FILE *f = fopen("/proc/sys/fs/mqueue/msg_max", "re");
+	cogw_options o = { .instance = instance };
+	cogw *h;
+
+	(void)arg;
+	CHECK(f && fscanf(f, "%lu", &msg_max) == 1);
+	fclose(f);
+	CHECK(setgid(1000) == 0 && setuid(1000) == 0);
+	o.resp_depth = o.event_depth = (unsigned)msg_max + 1;
+	CHECK(cogw_open_opts(&h, &o) == 0);
+	long depth = resp_queue_depth_of_self();
+
+	CHECK(depth == (long)msg_max || depth < 0);
+	CHECK(cogw_ping(h, LINE, CALL_MS) == 0);
+	cogw_close(h);
+	return 0;
+}
+
+static void test_queues_clamped_to_msg_max_without_cap(void)
+{
+	mbx_access_rule rules[] = { { .uid = 1000, .access = MBX_ACCESS_READ } };
+	mbx_server_config cfg = base_cfg();
+
+	if (geteuid() != 0)
+		TEST_IGNORE_MESSAGE("needs root (setuid to a test user)");
+	cfg.rules = rules;
+	cfg.n_rules = 1;
+	start(&cfg);
+	TEST_ASSERT_EQUAL_INT(0, reap(spawn(child_queues_deeper_than_msg_max, NULL)));
+	TEST_ASSERT_EQUAL_UINT64(1, stats().clients_registered);
+}
+
 /* ---- malformed commands, by hand --------------------------------------------------- */
 
 typedef struct raw_client {
@@ -1307,6 +1464,8 @@ int main(void)
 	RUN_TEST(test_lease_expiry);
 	RUN_TEST(test_late_wake_renews_lapsed_leases_once);
 	RUN_TEST(test_access_control_by_queue_owner);
+	RUN_TEST(test_helper_thread_starts_only_when_needed);
+	RUN_TEST(test_queues_clamped_to_msg_max_without_cap);
 	RUN_TEST(test_malformed_commands_answered_and_counted);
 	RUN_TEST(test_system_limit_check_names_the_sysctl);
 	RUN_TEST(test_open_tells_queue_memory_from_descriptor_exhaustion);
