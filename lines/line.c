@@ -263,6 +263,9 @@ static void handle_can(line *l)
 	/* Bounded: a flooded bus must not starve the mailbox and timers;
 	 * epoll reports the socket again on the next iteration. */
 	for (int round = 0; round < 8; round++) {
+		for (unsigned i = 0; i < l->ext_attached; i++)
+			if (l->p.ext[i].ops && l->p.ext[i].ops->on_frames)
+				l->p.ext[i].ops->on_frames(l->p.ext[i].ctx, l);
 		int n = can_port_recv(l->port, items, RX_BATCH, l->now_us);
 		if (n <= 0) {
 			if (n < 0)

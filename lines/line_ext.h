@@ -38,6 +38,12 @@
  *                 every sdo_route that returned 0): give the route back.
  *   on_wake       wake_fd became readable (the line has read the eventfd
  *                 counter): drain the hand-offs, e.g. xring_pop() until 0.
+ *   on_frames     before each batch of received CAN frames goes to the
+ *                 core: drain the hand-offs too. Another thread that
+ *                 pushes a message and then sends a frame on this line's
+ *                 bus can count on the message being handled before any
+ *                 frame that answers that one (docs/gateway.md, frames
+ *                 across interfaces), whatever order epoll reports in.
  *   poll          once per loop iteration: run what is due at now_us and
  *                 return the next time it needs the line (CO_NO_DEADLINE
  *                 for none); the line sleeps no longer than that.
@@ -77,6 +83,7 @@ typedef struct line_ext_ops {
 	void (*on_command)(void *ctx, line *l, const mbx_request *req);
 	void (*on_client_gone)(void *ctx, line *l, uint32_t client);
 	void (*on_wake)(void *ctx, line *l);
+	void (*on_frames)(void *ctx, line *l);
 	uint64_t (*poll)(void *ctx, line *l, uint64_t now_us);
 	/* 0 (*out filled) or the SDO abort code that refuses the request. */
 	uint32_t (*sdo_route)(void *ctx, line *l, uint64_t tag, uint16_t net, uint8_t node,
