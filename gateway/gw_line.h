@@ -121,6 +121,10 @@ struct gw_sess {
 	 * requester by the target line: to_requester skips exactly it */
 	bool answered_across;
 	uint8_t across[8];
+	/* the server channel's frame (COB-ID, flags) when the lease was
+	 * asked: what an answer the lease could not send across is sent on,
+	 * even after the session ended on its message */
+	co_frame reply;
 	gw_sdo_route r;
 };
 

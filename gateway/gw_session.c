@@ -60,12 +60,13 @@ static uint32_t s_open(void *ctx, const gw_hop *hop)
 	struct gw_sess *s = ctx;
 	gw_msg m = { .kind = M_OPEN, .sid = sid_of(s), .node = hop->node };
 	static const uint8_t probe[8];
-	co_frame reply;
 
 	s->target_line = hop->line;
-	if (sdo_server_route_frame(s->gl->node, s->ch, probe, &reply) == 0 && reply.id) {
-		m.reply_id = reply.id;
-		m.reply_flags = reply.flags;
+	if (sdo_server_route_frame(s->gl->node, s->ch, probe, &s->reply) == 0) {
+		m.reply_id = s->reply.id;
+		m.reply_flags = s->reply.flags;
+	} else {
+		s->reply.id = 0;
 	}
 	if (gw_send_to(s->gl, hop->line, &m)) {
 		GW_COUNT(s->gl->c.ring_drops);
@@ -210,8 +211,13 @@ void gw_session_target_frame(struct gw_line *gl, const gw_msg *m, uint64_t now_u
 	if (!s)
 		return;
 	switch (m->sent) {
-	case GW_SEND_FAILED: /* the session saw it in the message before */
-		sdo_server_route_send(gl->node, s->ch, m->d);
+	case GW_SEND_FAILED:
+		/* the session saw it in the message before, and may have
+		 * ended on it: the channel need not be routed any more */
+		if (s->reply.id) {
+			memcpy(s->reply.data, m->d, 8);
+			co_node_send(gl->node, &s->reply);
+		}
 		break;
 	case GW_SENT_ACROSS:
 		s->answered_across = true;

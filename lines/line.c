@@ -263,9 +263,6 @@ static void handle_can(line *l)
 	/* Bounded: a flooded bus must not starve the mailbox and timers;
 	 * epoll reports the socket again on the next iteration. */
 	for (int round = 0; round < 8; round++) {
-		for (unsigned i = 0; i < l->ext_attached; i++)
-			if (l->p.ext[i].ops && l->p.ext[i].ops->on_frames)
-				l->p.ext[i].ops->on_frames(l->p.ext[i].ctx, l);
 		int n = can_port_recv(l->port, items, RX_BATCH, l->now_us);
 		if (n <= 0) {
 			if (n < 0)
@@ -273,6 +270,11 @@ static void handle_can(line *l)
 					 strerror(-n));
 			return;
 		}
+		/* after the receive, before the core: a message pushed before
+		 * a frame that caused one of these is in the ring now */
+		for (unsigned i = 0; i < l->ext_attached; i++)
+			if (l->p.ext[i].ops && l->p.ext[i].ops->on_frames)
+				l->p.ext[i].ops->on_frames(l->p.ext[i].ctx, l);
 		for (int i = 0; i < n; i++) {
 			if (items[i].is_error) {
 				line_on_can_error(l, &items[i]);

@@ -38,12 +38,14 @@
  *                 every sdo_route that returned 0): give the route back.
  *   on_wake       wake_fd became readable (the line has read the eventfd
  *                 counter): drain the hand-offs, e.g. xring_pop() until 0.
- *   on_frames     before each batch of received CAN frames goes to the
- *                 core: drain the hand-offs too. Another thread that
+ *   on_frames     a batch of CAN frames was received, before it goes to
+ *                 the core: drain the hand-offs too. Another thread that
  *                 pushes a message and then sends a frame on this line's
  *                 bus can count on the message being handled before any
  *                 frame that answers that one (docs/gateway.md, frames
- *                 across interfaces), whatever order epoll reports in.
+ *                 across interfaces), whatever order epoll reports in: the
+ *                 answer was received after the push, and this drain
+ *                 comes after the receive.
  *   poll          once per loop iteration: run what is due at now_us and
  *                 return the next time it needs the line (CO_NO_DEADLINE
  *                 for none); the line sleeps no longer than that.

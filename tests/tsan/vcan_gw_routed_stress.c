@@ -105,7 +105,9 @@ static line *start_line(co_od *od, uint8_t index, const char *name, const char *
 	static char qname[GW_LINES + DEVICES][MBX_QNAME_MAX];
 	static unsigned nq;
 	line *l = NULL;
-	char *q = qname[nq++];
+	/* each run starts every line again: the names of the last run's
+	 * (destroyed) lines are reused */
+	char *q = qname[nq++ % (GW_LINES + DEVICES)];
 
 	TEST_ASSERT_EQUAL(0, mbx_queue_name(q, MBX_QNAME_MAX, instance, index));
 	line_params p = {
