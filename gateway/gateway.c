@@ -10,6 +10,8 @@
  * line owns a relay lease (one SDO client channel of its pool, toward the
  * target node or the next router, gw_relay.c). They exchange fixed-size
  * messages over the rings: OPEN/OPENED, frames both ways, CLOSE, LOST.
+ * A frame usually goes on the other line's bus from the thread that has
+ * it, its message only telling the owner (gw_send_across).
  */
 #include "gateway/gateway.h"
 
