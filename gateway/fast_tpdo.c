@@ -42,8 +42,8 @@ int gw_fast_init(gw_fast *F, size_t n_slots)
 	F->quiet_words = n_slots / 64 + 1;
 	F->quiet = calloc(F->quiet_words, sizeof(*F->quiet));
 	F->quiet_next = calloc(F->quiet_words, sizeof(*F->quiet_next));
-	F->quiet_other = calloc(F->quiet_words, sizeof(*F->quiet_other));
-	if (!F->by_slot || !F->scratch || !F->quiet || !F->quiet_next || !F->quiet_other) {
+	F->mapped_slow = calloc(F->quiet_words, sizeof(*F->mapped_slow));
+	if (!F->by_slot || !F->scratch || !F->quiet || !F->quiet_next || !F->mapped_slow) {
 		gw_fast_fini(F);
 		return -ENOMEM;
 	}
@@ -68,8 +68,8 @@ void gw_fast_fini(gw_fast *F)
 	free(F->scratch);
 	free((void *)F->quiet);
 	free(F->quiet_next);
-	free(F->quiet_other);
-	F->quiet_next = F->quiet_other = NULL;
+	free(F->mapped_slow);
+	F->quiet_next = F->mapped_slow = NULL;
 	F->by_slot = NULL;
 	F->scratch = NULL;
 	F->quiet = NULL;
@@ -180,11 +180,31 @@ static bool rebuild_by_slot(gw_fast *F)
 	return changed;
 }
 
+/* Store quiet & keep (keep: all ones, or the slots staying quiet);
+ * whether a word changed. */
+static bool store_quiet(gw_fast *F, const uint64_t *quiet, bool leaving_only)
+{
+	bool changed = false;
+
+	for (size_t i = 0; i < F->quiet_words; i++) {
+		uint64_t old = atomic_load_explicit(&F->quiet[i], memory_order_relaxed);
+		uint64_t v = quiet ? quiet[i] : 0;
+
+		if (leaving_only)
+			v &= old;
+		if (v == old)
+			continue;
+		atomic_store_explicit(&F->quiet[i], v, memory_order_release);
+		changed = true;
+	}
+	return changed;
+}
+
 unsigned gw_fast_publish(gw_fast *F, const gw_fast_desc *descs, const uint64_t *inhibit_until,
-			 const bool *pending, unsigned n)
+			 const bool *pending, unsigned n, const uint64_t *quiet)
 {
 	unsigned published = 0;
-	bool changed = false;
+	bool changed = store_quiet(F, quiet, true);
 
 	for (unsigned k = 0; k < GW_FAST_MAX; k++) {
 		bool keep = false;
@@ -209,24 +229,14 @@ unsigned gw_fast_publish(gw_fast *F, const gw_fast_desc *descs, const uint64_t *
 		publish_one(&F->t[k], &descs[i], inhibit_until[i], pending[i]);
 		changed = true;
 	}
-	if (rebuild_by_slot(F) || changed)
+	changed |= rebuild_by_slot(F);
+	changed |= store_quiet(F, quiet, false);
+	/* once, after everything: a source that read any of it under the
+	 * old epoch finds the epoch moved */
+	if (changed)
 		next_epoch(F);
 	F->stale = false;
 	return published;
-}
-
-void gw_fast_set_quiet(gw_fast *F, const uint64_t *words)
-{
-	bool changed = false;
-
-	for (size_t i = 0; i < F->quiet_words; i++) {
-		if (atomic_load_explicit(&F->quiet[i], memory_order_relaxed) == words[i])
-			continue;
-		atomic_store_explicit(&F->quiet[i], words[i], memory_order_release);
-		changed = true;
-	}
-	if (changed)
-		next_epoch(F);
 }
 
 void gw_fast_set_carrying(gw_fast *F, bool carrying)

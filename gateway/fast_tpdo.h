@@ -118,8 +118,10 @@ typedef struct gw_fast {
 	const uint16_t *serving_nr;
 	unsigned n_serving;
 	size_t quiet_words;
-	uint64_t *quiet_next, *quiet_other; /* the owner's build area for the quiet set */
-	bool stale;                         /* a TPDO was reset: publish again before sleeping */
+	/* the caller's build area for publish: the quiet set, and the slots
+	 * a TPDO that is not fast maps (which keeps them out of it) */
+	uint64_t *quiet_next, *mapped_slow;
+	bool stale; /* a TPDO was reset: publish again before sleeping */
 	/* held updates applied while the owner's transmit queue was not
 	 * empty: their frames may still be queued, so they count as busy
 	 * until it is (gw_fast_set_carrying) */
@@ -139,10 +141,13 @@ void gw_fast_fini(gw_fast *F);
 
 /* Make the set of fast TPDOs exactly descs[0..n): each one published with
  * its last transmission's inhibit end (inhibit_until[i]) and whether an
- * event waits (pending[i]); the others closed. Returns how many were
- * published (n, or fewer when more than GW_FAST_MAX). */
+ * event waits (pending[i]); the others closed; and the quiet set exactly
+ * `quiet` (gw_fast.quiet, quiet_words words; NULL: empty). Slots leave the
+ * quiet set before the TPDOs change and join it after, so a source never
+ * finds a slot quiet that the TPDOs it reads do not make quiet. Returns
+ * how many were published (n, or fewer when more than GW_FAST_MAX). */
 unsigned gw_fast_publish(gw_fast *F, const gw_fast_desc *descs, const uint64_t *inhibit_until,
-			 const bool *pending, unsigned n);
+			 const bool *pending, unsigned n, const uint64_t *quiet);
 void gw_fast_set_carrying(gw_fast *F, bool carrying);
 /* The core's gate (co_pdo_tx_gate_fn with ctx = F). A reset of a TPDO
  * closes its gate at once and marks F stale: the owner publishes again
@@ -155,10 +160,6 @@ uint64_t gw_fast_gate(void *ctx, uint16_t nr, co_pdo_gate_op op, uint64_t now_us
 void gw_fast_taken(gw_fast *F, uint32_t held, bool tx_idle);
 /* TPDO number of fast TPDO k, 0 if none. */
 uint16_t gw_fast_nr(const gw_fast *F, unsigned k);
-/* Make the quiet set exactly `words` (gw_fast.quiet): slots leaving it
- * must leave before a publication that needs it (call with the
- * intersection of old and new first), slots joining it join after. */
-void gw_fast_set_quiet(gw_fast *F, const uint64_t *words);
 
 /* ---- source --------------------------------------------------------------- */
 

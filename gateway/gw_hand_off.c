@@ -10,7 +10,8 @@
 
 #include "gateway/gw_line.h"
 
-static int hand_off(struct gw_line *gl, unsigned to, gw_msg *m, bool quiet)
+/* quiet: a quiet message sent under `to`'s publication epoch. */
+static int hand_off(struct gw_line *gl, unsigned to, gw_msg *m, bool quiet, uint32_t epoch)
 {
 	m->from = (uint8_t)gl->idx;
 	if (to == gl->idx) {
@@ -20,6 +21,8 @@ static int hand_off(struct gw_line *gl, unsigned to, gw_msg *m, bool quiet)
 		return 0;
 	}
 	xring *r = xring_mesh_get(gl->g->mesh, gl->idx, to);
+	bool all_done = quiet && atomic_load_explicit(&gl->g->line[to].done_from[gl->idx],
+						      memory_order_acquire) == gl->pushed_to[to];
 	int rc = !r      ? -EINVAL
 		 : quiet ? xring_push_quiet(r, m, sizeof(*m), GW_QUIET_WAKE_AT)
 			 : xring_push(r, m, sizeof(*m));
@@ -29,17 +32,19 @@ static int hand_off(struct gw_line *gl, unsigned to, gw_msg *m, bool quiet)
 	gl->pushed_to[to]++;
 	if (!quiet)
 		gl->woken_mark[to] = gl->pushed_to[to];
+	else if (all_done)
+		gl->quiet_epoch[to] = epoch; /* the first one `to` has not done */
 	return 0;
 }
 
 int gw_send_to(struct gw_line *gl, unsigned to, gw_msg *m)
 {
-	return hand_off(gl, to, m, false);
+	return hand_off(gl, to, m, false, 0);
 }
 
-int gw_send_quiet_to(struct gw_line *gl, unsigned to, gw_msg *m)
+int gw_send_quiet_to(struct gw_line *gl, unsigned to, gw_msg *m, uint32_t epoch)
 {
-	return hand_off(gl, to, m, true);
+	return hand_off(gl, to, m, true, epoch);
 }
 
 bool gw_may_send_fast(const struct gw_line *gl, unsigned to, uint32_t epoch)

@@ -210,8 +210,9 @@ struct gw {
 int gw_send_to(struct gw_line *gl, unsigned to, gw_msg *m);
 /* gw_send_to for a message line `to` may take at its next wake-up,
  * whatever causes it (xring_push_quiet): one whose frames have all left
- * and that nothing on `to` waits for (gw_fast_quiet_ok). */
-int gw_send_quiet_to(struct gw_line *gl, unsigned to, gw_msg *m);
+ * and that nothing on `to` waits for (gw_fast_quiet_ok), sent under
+ * `to`'s publication `epoch` (gw_may_send_fast). */
+int gw_send_quiet_to(struct gw_line *gl, unsigned to, gw_msg *m, uint32_t epoch);
 /* May this line send a TPDO of line `to` itself now (`epoch`: to's
  * gw_fast_epoch, read before anything else of its publication)? Only
  * when `to` has done every message of ours that it was woken for, and

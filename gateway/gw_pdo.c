@@ -31,7 +31,7 @@ static int fast_send(void *ctx, const co_frame *f)
 static int forward_to(struct gw_line *gl, unsigned j, gw_msg *m, uint64_t now_us)
 {
 	struct gw_line *tl = &gl->g->line[j];
-	bool quiet = false, caught_up = false;
+	bool quiet = false;
 	uint32_t epoch = 0;
 	int rc;
 
@@ -46,8 +46,6 @@ static int forward_to(struct gw_line *gl, unsigned j, gw_msg *m, uint64_t now_us
 	 * ones aside: gw_may_send_fast). Held either way. */
 	if (tl->fast_fd[gl->idx] >= 0) {
 		epoch = gw_fast_epoch(&tl->fast);
-		caught_up = atomic_load_explicit(&tl->done_from[gl->idx], memory_order_acquire) ==
-			    gl->pushed_to[j];
 		if (gw_may_send_fast(gl, j, epoch))
 			m->fast_sent = gw_fast_try(&tl->fast, gl->g->img, m->slot, now_us,
 						   fast_send, &tl->fast_fd[gl->idx], &m->fast_held,
@@ -60,11 +58,9 @@ static int forward_to(struct gw_line *gl, unsigned j, gw_msg *m, uint64_t now_us
 	}
 	for (uint32_t k = m->fast_sent; k; k &= k - 1)
 		GW_COUNT(gl->c.pdo_fast);
-	rc = quiet ? gw_send_quiet_to(gl, j, m) : gw_send_to(gl, j, m);
+	rc = quiet ? gw_send_quiet_to(gl, j, m, epoch) : gw_send_to(gl, j, m);
 	if (rc)
 		gw_fast_undo_hold(&tl->fast, m->fast_held);
-	else if (quiet && caught_up)
-		gl->quiet_epoch[j] = epoch; /* the first one j has not done */
 	return rc;
 }
 
@@ -191,19 +187,18 @@ void gw_fast_detach(struct gw_line *gl)
 	gw_fast_fini(&gl->fast);
 }
 
-/* A TPDO another thread may send: valid, event-driven, the node
- * OPERATIONAL, and every mapped object a B-object of the image with no
- * hook but the gateway's (a read hook could refresh the value on this
- * thread only). */
-static bool fast_desc(struct gw_line *gl, uint16_t nr, gw_fast_desc *d, co_pdo_tpdo_state *st)
+/* Valid TPDO nr (state st) is one another thread may send: event-driven,
+ * the node OPERATIONAL, and every mapped object a B-object of the image
+ * with no hook but the gateway's (a read hook could refresh the value on
+ * this thread only). */
+static bool fast_desc(struct gw_line *gl, uint16_t nr, const co_pdo_tpdo_state *st, gw_fast_desc *d)
 {
 	co_od *od = co_node_od(gl->node);
 	uint16_t map = (uint16_t)(CO_PDO_TPDO_MAP + nr - 1);
 	uint32_t id, entry;
 	uint8_t flags, count;
 
-	if (co_pdo_tpdo_state_get(gl->node, nr, st) || !st->valid || !st->operational ||
-	    st->tt < CO_PDO_TT_EVENT_MANUF || st->len == 0 || st->len > 8)
+	if (!st->operational || st->tt < CO_PDO_TT_EVENT_MANUF || st->len == 0 || st->len > 8)
 		return false;
 	if (co_od_get_u8(od, map, 0, &count) || count == 0 || count > CO_PDO_MAX_MAP)
 		return false;
@@ -257,6 +252,12 @@ static void ignore_fast_frames(struct gw_line *gl, const gw_fast_desc *d, unsign
 	}
 }
 
+static void mark_slot(uint64_t *words, size_t n_words, int slot)
+{
+	if (slot >= 0 && (size_t)slot / 64 < n_words)
+		words[slot / 64] |= UINT64_C(1) << (slot % 64);
+}
+
 /* The image slots TPDO nr maps into words (bit per slot). */
 static void mark_mapped_slots(struct gw_line *gl, uint16_t nr, uint64_t *words, size_t n_words)
 {
@@ -273,44 +274,18 @@ static void mark_mapped_slots(struct gw_line *gl, uint16_t nr, uint64_t *words, 
 		if (co_od_get_u32(od, map, i, &entry))
 			continue;
 		slot = gw_image_find(gl->g->img, (uint16_t)(entry >> 16), (uint8_t)(entry >> 8));
-		if (slot >= 0 && (size_t)slot / 64 < n_words)
-			words[slot / 64] |= UINT64_C(1) << (slot % 64);
+		mark_slot(words, n_words, slot);
 	}
 }
 
-/* The quiet set (gateway/fast_tpdo.h) for the fast TPDOs descs[0..n):
- * the slots every valid TPDO mapping them is one of, and that no other
- * part of this line acts on (a device object forwarded from it is pinned,
- * gateway.forward: its device's RPDO waits for the value). */
-static void build_quiet(struct gw_line *gl, const gw_fast_desc *descs, unsigned n)
-{
-	gw_fast *F = &gl->fast;
-	size_t words = F->quiet_words;
-	co_pdo_tpdo_state st;
-
-	memset(F->quiet_next, 0, words * sizeof(*F->quiet_next));
-	memset(F->quiet_other, 0, words * sizeof(*F->quiet_other));
-	for (unsigned i = 0; i < n; i++)
-		mark_mapped_slots(gl, descs[i].nr, F->quiet_next, words);
-	for (uint16_t nr = 1; nr <= CO_PDO_MAX; nr++) {
-		bool fast = false;
-
-		if (co_pdo_tpdo_state_get(gl->node, nr, &st) || !st.valid)
-			continue;
-		for (unsigned i = 0; i < n && !fast; i++)
-			fast = descs[i].nr == nr;
-		if (!fast)
-			mark_mapped_slots(gl, nr, F->quiet_other, words);
-	}
-	for (size_t w = 0; w < words; w++) {
-		uint64_t pinned = gl->fwd.pinned && w < gl->fwd.words ? gl->fwd.pinned[w] : 0;
-		F->quiet_next[w] &= ~(F->quiet_other[w] | pinned);
-	}
-}
-
+/* One look at every TPDO: the fast ones (at most GW_FAST_MAX), and the
+ * quiet set (gateway/fast_tpdo.h): the slots that only fast TPDOs map and
+ * that no other part of this line acts on (a device object forwarded from
+ * it is pinned, gateway.forward: its device's RPDO waits for the value). */
 void gw_fast_refresh(struct gw_line *gl)
 {
 	gw_fast *F = &gl->fast;
+	size_t words = F->quiet_words;
 	uint64_t until[GW_FAST_MAX];
 	bool pending[GW_FAST_MAX];
 	unsigned n = 0;
@@ -318,23 +293,26 @@ void gw_fast_refresh(struct gw_line *gl)
 
 	if (!F->by_slot)
 		return;
-	for (uint16_t nr = 1; nr <= CO_PDO_MAX && n < GW_FAST_MAX; nr++) {
-		if (!fast_desc(gl, nr, &F->next[n], &st))
+	memset(F->quiet_next, 0, words * sizeof(*F->quiet_next));
+	memset(F->mapped_slow, 0, words * sizeof(*F->mapped_slow));
+	for (uint16_t nr = 1; nr <= CO_PDO_MAX; nr++) {
+		if (co_pdo_tpdo_state_get(gl->node, nr, &st) || !st.valid)
 			continue;
+		if (n == GW_FAST_MAX || !fast_desc(gl, nr, &st, &F->next[n])) {
+			mark_mapped_slots(gl, nr, F->mapped_slow, words);
+			continue;
+		}
+		for (uint8_t i = 0; i < F->next[n].n; i++)
+			mark_slot(F->quiet_next, words, (int)(F->next[n].map[i] >> 8));
 		until[n] = st.inhibit_until;
 		pending[n] = st.event_pending;
 		n++;
 	}
-	/* Slots leave the quiet set before the publication, join it after:
-	 * a source never sees a slot quiet that the set it reads does not
-	 * make quiet. */
-	build_quiet(gl, F->next, n);
-	for (size_t w = 0; w < F->quiet_words; w++)
-		F->quiet_other[w] = F->quiet_next[w] &
-				    atomic_load_explicit(&F->quiet[w], memory_order_relaxed);
-	gw_fast_set_quiet(F, F->quiet_other);
-	n = gw_fast_publish(F, F->next, until, pending, n);
-	gw_fast_set_quiet(F, F->quiet_next);
+	for (size_t w = 0; w < words; w++) {
+		uint64_t pinned = gl->fwd.pinned && w < gl->fwd.words ? gl->fwd.pinned[w] : 0;
+		F->quiet_next[w] &= ~(F->mapped_slow[w] | pinned);
+	}
+	n = gw_fast_publish(F, F->next, until, pending, n, F->quiet_next);
 	ignore_fast_frames(gl, F->next, n);
 }
 

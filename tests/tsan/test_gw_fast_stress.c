@@ -128,7 +128,7 @@ static void republish(bool b)
 	uint64_t until = 0;
 	bool pending = false;
 
-	gw_fast_publish(&F, &d, &until, &pending, 1);
+	gw_fast_publish(&F, &d, &until, &pending, 1, NULL);
 }
 
 static struct tx_log owner_log;

@@ -65,7 +65,7 @@ static void publish(const gw_fast_desc *d, unsigned n)
 	uint64_t until[4] = { 0 };
 	bool pending[4] = { false };
 
-	TEST_ASSERT_EQUAL(n, gw_fast_publish(&F, d, until, pending, n));
+	TEST_ASSERT_EQUAL(n, gw_fast_publish(&F, d, until, pending, n, NULL));
 }
 
 static uint32_t try_at(int slot, uint64_t now, uint32_t *held)
