@@ -67,7 +67,7 @@ int ctl_print_help(const ctl_cmd *cmd)
  * fstat and ioctl stdout to choose one (two system calls of every one-shot
  * command, docs/fastpath.md "One-shot `cogwctl`"). Line-buffered as on a
  * terminal, also into pipes and files: every line reaches a reader when
- * it is printed, the way monitor and watch need it anyway. */
+ * it is printed (monitor and watch flush each event line already). */
 static char stdout_buffer[BUFSIZ];
 
 int main(int argc, char **argv)
