@@ -13,8 +13,13 @@
 #include "apps/cogwctl/ctl.h"
 
 /* Largest answer we prepare for at first; a bigger one (the daemon's
- * max_transfer can be raised) is read again with the size it announced. */
+ * max_transfer can be raised) is read again with the size it announced.
+ * The first buffer is static (.bss): its pages exist only once touched, so
+ * a read of a few bytes pays neither the mmap/munmap that malloc makes for
+ * a block this large nor more than one page (docs/fastpath.md, "One-shot
+ * `cogwctl`"). */
 #define READ_CAP_FIRST (1024u * 1024u)
+static uint8_t first_answer[READ_CAP_FIRST];
 
 typedef struct obj_args {
 	bool remote; /* sdo (true) or od (false) */
@@ -61,8 +66,8 @@ static int do_read(ctl *c, cogw *h, const obj_args *a)
 {
 	char ctx[96];
 	context(a, false, ctx, sizeof ctx);
-	size_t cap = READ_CAP_FIRST, len = 0;
-	uint8_t *buf = malloc(cap);
+	size_t cap = sizeof first_answer, len = 0;
+	uint8_t *buf = first_answer, *bigger = NULL;
 	uint32_t abort = 0;
 	int rc;
 	for (int attempt = 0;; attempt++) {
@@ -81,12 +86,11 @@ static int do_read(ctl *c, cogw *h, const obj_args *a)
 						      c->timeout_ms, &abort);
 		if (rc != COGW_E_TRUNCATED || attempt > 0 || len <= cap)
 			break;
-		free(buf);
 		cap = len;
-		buf = malloc(cap);
+		buf = bigger = malloc(cap);
 	}
 	if (rc < 0) {
-		free(buf);
+		free(bigger);
 		return ctl_fail(c, rc, abort, ctx);
 	}
 	if (a->type && a->type->size && len != a->type->size) {
@@ -94,19 +98,19 @@ static int do_read(ctl *c, cogw *h, const obj_args *a)
 		fprintf(stderr, "cogwctl: %s: the answer has %zu byte%s (%s), %s needs %u\n", ctx,
 			len, len == 1 ? "" : "s", hex, a->type->name, a->type->size);
 		free(hex);
-		free(buf);
+		free(bigger);
 		return CTL_EXIT_REFUSED;
 	}
 	if (a->out_path) {
 		FILE *f = strcmp(a->out_path, "-") == 0 ? stdout : fopen(a->out_path, "wb");
 		if (!f || fwrite(buf, 1, len, f) != len || (f != stdout && fclose(f) != 0)) {
 			fprintf(stderr, "cogwctl: %s: %s\n", a->out_path, strerror(errno));
-			free(buf);
+			free(bigger);
 			return CTL_EXIT_REFUSED;
 		}
 		if (f == stdout) {
 			fflush(stdout);
-			free(buf);
+			free(bigger);
 			return 0;
 		}
 	}
@@ -131,7 +135,7 @@ static int do_read(ctl *c, cogw *h, const obj_args *a)
 			printf("(%zu bytes; --out FILE saves them all)\n", len);
 		free(text);
 	}
-	free(buf);
+	free(bigger);
 	return 0;
 }
 

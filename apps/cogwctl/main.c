@@ -63,9 +63,17 @@ int ctl_print_help(const ctl_cmd *cmd)
 	return CTL_EXIT_OK;
 }
 
+/* stdout's buffer, given before the first output: stdio would otherwise
+ * fstat and ioctl stdout to choose one (two system calls of every one-shot
+ * command, docs/fastpath.md "One-shot `cogwctl`"). Line-buffered as on a
+ * terminal, also into pipes and files: every line reaches a reader when
+ * it is printed (monitor and watch flush each event line already). */
+static char stdout_buffer[BUFSIZ];
+
 int main(int argc, char **argv)
 {
 	ctl c = { .instance = "main", .timeout_ms = 0 };
+	setvbuf(stdout, stdout_buffer, _IOLBF, sizeof stdout_buffer);
 	const char *env = getenv("COGW_INSTANCE");
 	if (env && *env) {
 		if (!mbx_instance_is_valid(env)) {
