@@ -903,16 +903,23 @@ static struct srv_chan *routed_chan(co_node *node, uint8_t channel)
 	return &srv->ch[channel];
 }
 
-int sdo_server_route_send(co_node *node, uint8_t channel, const uint8_t d[8])
+int sdo_server_route_frame(co_node *node, uint8_t channel, const uint8_t d[8], co_frame *out)
 {
 	struct srv_chan *ch = routed_chan(node, channel);
-	co_frame f;
 
 	if (!ch)
 		return -ENOENT;
-	frame_init(ch, &f, d[0]);
-	memcpy(&f.data[1], &d[1], 7);
-	return co_node_send(node, &f);
+	frame_init(ch, out, d[0]);
+	memcpy(&out->data[1], &d[1], 7);
+	return 0;
+}
+
+int sdo_server_route_send(co_node *node, uint8_t channel, const uint8_t d[8])
+{
+	co_frame f;
+	int rc = sdo_server_route_frame(node, channel, d, &f);
+
+	return rc ? rc : co_node_send(node, &f);
 }
 
 int sdo_server_route_end(co_node *node, uint8_t channel)

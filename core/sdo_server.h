@@ -93,6 +93,10 @@ int sdo_server_route_attach(co_node *node, const sdo_server_route_ops *ops, void
 /* Send 8 bytes on a routed channel's server->client COB-ID. -ENOENT if
  * the channel is not routed, else what the send callback returned. */
 int sdo_server_route_send(co_node *node, uint8_t channel, const uint8_t d[8]);
+/* The frame sdo_server_route_send would send (COB-ID, flags, 8 bytes),
+ * for a sender on another thread (docs/gateway.md, frames across
+ * interfaces). -ENOENT if the channel is not routed. */
+int sdo_server_route_frame(co_node *node, uint8_t channel, const uint8_t d[8], co_frame *out);
 /* Give a routed channel back to the server. -ENOENT if not routed. */
 int sdo_server_route_end(co_node *node, uint8_t channel);
 
