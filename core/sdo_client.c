@@ -106,6 +106,10 @@ struct cli_chan {
 	struct stale_xfer {
 		bool valid;
 		bool answered; /* it ended with the server's answer */
+		/* the server had answered its initiate: what may still come
+		 * are frames of its data phase, which is_stale() tells apart
+		 * from the next transfer's answers */
+		bool init_answered;
 		bool upload;
 		uint8_t mode;
 		uint16_t index;
@@ -240,6 +244,7 @@ static int abort_local(struct cli_chan *ch, uint32_t code)
 					 .index = ch->cur.index,
 					 .sub = ch->cur.sub,
 					 .cob_resp = ch->cob_resp,
+					 .init_answered = ch->answered,
 					 .at_us = node_of(ch)->now_us };
 	return complete(ch, code);
 }
@@ -725,8 +730,10 @@ static int idle_on_enter(void *obj, uint64_t now_us)
 		return CO_FSM_STAY;
 	ch->done_pending = false;
 	/* an answered transfer keeps listening: a second answer to it means
-	 * a second device on that node-ID (second_answer()) */
-	if (ch->done_abort)
+	 * a second device on that node-ID (second_answer()); so does one we
+	 * aborted before its initiate was answered: each late frame of it
+	 * restarts the server's settle time (cli_rx) */
+	if (ch->done_abort && ch->answered)
 		co_rx_disable(node_of(ch), ch->rx_handle);
 	confirm(node_of(ch), &r, ch->num, ch->mode, ch->done_abort, ch->offset, ch->answered);
 	kick_all(ch->cli);
@@ -852,6 +859,8 @@ static void cli_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	if (st == CS_IDLE) {
 		/* no transfer to this server started since (that would have
 		 * taken `ended` as its filter) */
+		if (ch->ended.valid && !ch->ended.answered)
+			ch->ended.at_us = now_us; /* not quiet yet: settle again */
 		second_answer(ch, &ch->ended, d, now_us);
 		return;
 	}
@@ -925,6 +934,48 @@ static bool target_busy(const struct sdo_client *cli, const struct cli_chan *sel
 			return true;
 	}
 	return false;
+}
+
+/* A transfer of ours with this server ended by our own abort before the
+ * server answered its last request, and the server has not been quiet for
+ * SETTLE_US since (each frame of it restarts the time, cli_rx): it may
+ * still send that answer and the rest of the transfer. A relay would hand
+ * them on as answers (it cannot tell them from the next requester's), and
+ * so would a transfer of ours naming the same object if what is still
+ * due is the initiate's answer (is_stale() tells only another object's
+ * apart, or the old data phase's frames): both wait. */
+#define SETTLE_US 100000u
+
+static bool unsettled(const struct stale_xfer *e, uint32_t resp, uint64_t now_us)
+{
+	return e->valid && !e->answered && e->cob_resp == resp && now_us - e->at_us < SETTLE_US;
+}
+
+static bool settling(const struct sdo_client *cli, uint32_t resp, uint64_t now_us)
+{
+	for (uint8_t i = 0; i < cli->n; i++)
+		if (unsettled(&cli->ch[i].ended, resp, now_us))
+			return true;
+	return false;
+}
+
+/* May r start now? Not while another channel talks to its server, nor
+ * while a late answer about the same object may still come. */
+static bool may_start(const struct sdo_client *cli, const struct cli_chan *self,
+		      const sdo_client_req *r)
+{
+	uint32_t resp = req_cob_resp(r);
+	uint64_t now_us = cli->node->now_us;
+
+	if (target_busy(cli, self, resp))
+		return false;
+	for (uint8_t i = 0; i < cli->n; i++) {
+		const struct stale_xfer *e = &cli->ch[i].ended;
+		if (unsettled(e, resp, now_us) && !e->init_answered && e->index == r->index &&
+		    e->sub == r->sub)
+			return false;
+	}
+	return true;
 }
 
 /* Late frames of a transfer to this server that some channel ended with
@@ -1011,7 +1062,7 @@ static void kick(struct cli_chan *ch)
 	if (state_of(ch) != CS_IDLE || ch->q_len == 0)
 		return;
 	r = &ch->q[ch->q_head];
-	if (target_busy(ch->cli, ch, req_cob_resp(r)))
+	if (!may_start(ch->cli, ch, r))
 		return;
 	sdo_client_req tmp = *r;
 	ch->q_head = (uint16_t)((ch->q_head + 1) % node_of(ch)->cfg.sdo_client_queue_len);
@@ -1057,7 +1108,7 @@ static void pool_kick(struct sdo_client *cli)
 		const sdo_client_req *r = pool_at(cli, i);
 		struct cli_chan *ch;
 
-		if (target_busy(cli, NULL, req_cob_resp(r))) {
+		if (!may_start(cli, NULL, r)) {
 			i++;
 			continue;
 		}
@@ -1218,7 +1269,7 @@ int sdo_client_pool_submit(co_node *node, const sdo_client_req *req, uint64_t no
 	node->now_us = now_us;
 	if (req->no_wait) {
 		struct cli_chan *ch = free_channel(cli);
-		if (!ch || target_busy(cli, NULL, req_cob_resp(req)))
+		if (!ch || !may_start(cli, NULL, req))
 			return -EBUSY;
 		start(ch, req);
 		return 0;
@@ -1252,23 +1303,6 @@ int sdo_client_relay_recv(co_node *node, uint64_t tag, const uint8_t d[8], uint6
 }
 
 /* ---- relay lease (CiA 302-7) ------------------------------------------------ */
-
-/* Did a channel end a transfer with this server by its own abort frame
- * less than LEASE_SETTLE_US ago? The server may still send frames of it,
- * which a relay would hand on as answers (a transfer of ours filters them,
- * is_stale(); a relay cannot tell them from the next requester's). */
-#define LEASE_SETTLE_US 100000u
-
-static bool settling(const struct sdo_client *cli, uint32_t resp, uint64_t now_us)
-{
-	for (uint8_t i = 0; i < cli->n; i++) {
-		const struct stale_xfer *e = &cli->ch[i].ended;
-		if (e->valid && !e->answered && e->cob_resp == resp &&
-		    now_us - e->at_us < LEASE_SETTLE_US)
-			return true;
-	}
-	return false;
-}
 
 int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t cob_resp,
 		     sdo_client_raw_fn fn, void *arg, uint64_t now_us)
@@ -1444,10 +1478,17 @@ static uint64_t cli_tick(co_node *node, uint64_t now_us)
 		if (state_of(ch) != CS_IDLE && now_us >= ch->deadline)
 			co_fsm_timeout(&ch->fsm, now_us);
 	}
+	/* Requests that waited for a server to settle may start now. */
+	kick_all(cli);
 	/* A second pass: completions above may have started queued requests. */
-	for (uint8_t i = 0; i < cli->n; i++)
+	for (uint8_t i = 0; i < cli->n; i++) {
+		const struct stale_xfer *e = &cli->ch[i].ended;
 		if (state_of(&cli->ch[i]) != CS_IDLE && cli->ch[i].deadline < next)
 			next = cli->ch[i].deadline;
+		if (e->valid && !e->answered && now_us - e->at_us < SETTLE_US &&
+		    e->at_us + SETTLE_US < next)
+			next = e->at_us + SETTLE_US;
+	}
 	return next;
 }
 
