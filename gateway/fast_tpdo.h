@@ -41,7 +41,7 @@
  * one (the quiet set) and the source sent them all, the owner has nothing
  * to do for the update but note it: the source hands it off without waking
  * the owner (lines/xring.h xring_push_quiet), which applies it at its next
- * wake-up before anything else (line_ext take_handoffs). The owner's OD
+ * wake-up before anything else (line_ext before_events). The owner's OD
  * then lags the bus while it sleeps; it sends nothing from the lagging OD
  * because every way it could (the update itself, an inhibit time's end, a
  * reconfiguration) either applies the quiet updates first or goes through

@@ -243,10 +243,9 @@ static bool take_rings(struct gw_line *gl, uint64_t now_us)
 	return any;
 }
 
-/* Before received frames: a line that sent a frame of a routed transfer
- * on this bus pushed its message first (gw_send_across); before the events
- * of a wake-up: updates pushed without waking us (gw_send_quiet_to). */
-static void ext_take_handoffs(void *ctx, line *l)
+/* Updates pushed without waking us (gw_send_quiet_to) are applied before
+ * whatever woke us now is handled. */
+static void ext_before_events(void *ctx, line *l)
 {
 	struct gw_line *gl = ctx;
 
@@ -301,7 +300,7 @@ static const line_ext_ops gw_ext_ops = {
 	.cmd_last = MBX_CMD_GW_ROUTES,
 	.on_command = ext_command,
 	.on_wake = ext_wake,
-	.take_handoffs = ext_take_handoffs,
+	.before_events = ext_before_events,
 	.poll = ext_poll,
 	.sdo_route = gw_hop_route,
 	.sdo_route_end = gw_hop_end,

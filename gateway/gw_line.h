@@ -94,6 +94,8 @@ typedef struct gw_msg {
 	 * reply_id 0: a mailbox hop, whose answers go back as messages */
 	uint32_t reply_id;
 	uint8_t reply_flags;
+	/* M_TO_REQ sent across: its record in the session's gw_across */
+	uint32_t across_seq;
 	/* M_FWD: fast TPDOs of the target (gateway/fast_tpdo.h, bit k) the
 	 * source sent at sent_us (their numbers in fast_nr), and those it
 	 * counted as held */
@@ -110,6 +112,17 @@ typedef struct gw_msg {
 
 struct gw_line;
 
+/* The last answer a target line sent across to a session's requester,
+ * published before the frame left (single writer: that line's thread; a
+ * sequence lock). The requester may answer it before the entry line has
+ * taken the M_TO_REQ that tells the session; the session looks here
+ * first (docs/gateway.md, "Frames across interfaces"). */
+struct gw_across {
+	_Atomic uint32_t seq; /* odd while written */
+	_Atomic uint32_t sid;
+	_Atomic uint64_t d; /* the 8 bytes, little-endian */
+};
+
 /* A routed session: one per SDO server channel of the entry line. */
 struct gw_sess {
 	struct gw_line *gl;
@@ -125,6 +138,10 @@ struct gw_sess {
 	 * requester by the target line: to_requester skips exactly it */
 	bool answered_across;
 	uint8_t across[8];
+	/* per target line, the answers it sent across (written there), and
+	 * the record of across[target_line] this session last applied */
+	struct gw_across answer[GW_LINES_MAX];
+	uint32_t across_taken;
 	/* the server channel's frame (COB-ID, flags) when the lease was
 	 * asked: what an answer the lease could not send across is sent on,
 	 * even after the session ended on its message */
@@ -153,13 +170,17 @@ struct gw_relay {
 	/* Answers sent across to the requester (gw_relay.c relay_rx): the
 	 * frame they leave on (reply_id 0: never), the requester's last
 	 * frame (asked_valid: one answer is due to it), a block transfer (its
-	 * sub-blocks break the one-answer-per-request rhythm: never), and
-	 * pushed_to[from] after the lease's last hand-off there. */
+	 * sub-blocks break the one-answer-per-request rhythm: never),
+	 * pushed_to[from] after the lease's last hand-off there, and the
+	 * device's answers that came before the message of the request they
+	 * answer (a request sent across): each such message finds its answer
+	 * already handed to the session, none due. */
 	uint32_t reply_id;
 	uint8_t reply_flags;
 	bool asked_valid;
 	bool block;
 	uint8_t asked;
+	uint8_t answers_early;
 	uint64_t handoff_seq;
 	int cli_ch;
 	uint32_t sid;
@@ -268,6 +289,13 @@ bool gw_may_send_fast(const struct gw_line *gl, unsigned to, uint32_t epoch);
  * moves. 0, or the hand-off's -errno (the caller counts the drop). */
 int gw_send_across(struct gw_line *gl, unsigned to, gw_msg *m, const co_frame *f,
 		   uint64_t *handoff_seq);
+/* Publish d as the answer sent across to session sid (before the frame
+ * leaves); its sequence number, which the M_TO_REQ carries. (the target
+ * line's thread, the record's only writer) */
+uint32_t gw_across_publish(struct gw_across *a, uint32_t sid, const uint8_t d[8]);
+/* The record's answer for sid if it is newer than *taken (then *taken
+ * moves to it); false when there is none. (the entry line) */
+bool gw_across_take(const struct gw_across *a, uint32_t sid, uint32_t *taken, uint8_t d[8]);
 /* This line: publish what it handled, if its transmit queue is empty. */
 void gw_publish_done(struct gw_line *gl);
 /* The oldest message this line sent itself; false when none. */

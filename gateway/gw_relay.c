@@ -36,15 +36,28 @@ void gw_relay_request_frame(co_frame *f, uint8_t node, const uint8_t d[8])
 	memcpy(f->data, d, 8);
 }
 
+/* Where the session this lease serves looks for an answer sent across
+ * (the session's record for this line), or NULL. */
+static struct gw_across *answer_record(const struct gw_relay *r)
+{
+	const struct gw_line *entry = &r->gl->g->line[r->from];
+	uint8_t ch = (uint8_t)((r->sid >> 16) & 0x7Fu);
+
+	if ((r->sid & GW_SID_HOP) || ch >= entry->n_sess)
+		return NULL;
+	return &entry->sess[ch].answer[r->gl->idx];
+}
+
 /* The device's frame goes across to the requester only when it is the one
  * answer due to the requester's last frame and one the session forwards
  * unchanged (gw_sdo_route_answer_passes): anything else - a second frame,
- * block transfers, a wrong answer - is handed to the session, which
- * decides as before. */
+ * block transfers, a wrong answer, an answer to a request whose message
+ * has not come yet - is handed to the session, which decides as before. */
 static void relay_rx(void *arg, const uint8_t d[8], uint64_t now_us)
 {
 	struct gw_relay *r = arg;
 	gw_msg m = { .kind = M_TO_REQ, .sid = r->sid };
+	struct gw_across *rec = NULL;
 	co_frame f;
 	bool across;
 
@@ -53,12 +66,16 @@ static void relay_rx(void *arg, const uint8_t d[8], uint64_t now_us)
 		return; /* a late frame of the aborted transfer */
 	memcpy(m.d, d, 8);
 	GW_COUNT(r->gl->c.relayed_frames);
-	across = r->reply_id && r->asked_valid && gw_sdo_route_answer_passes(r->asked, d);
+	if (r->reply_id && !r->block && !r->asked_valid && r->answers_early < UINT8_MAX)
+		r->answers_early++;
+	across = r->reply_id && r->asked_valid && gw_sdo_route_answer_passes(r->asked, d) &&
+		 (rec = answer_record(r));
 	r->asked_valid = false;
 	if (across) {
 		co_frame_init(&f, r->reply_id, 8);
 		f.flags = r->reply_flags;
 		memcpy(f.data, d, 8);
+		m.across_seq = gw_across_publish(rec, r->sid, d);
 	}
 	if (gw_send_across(r->gl, r->from, &m, across ? &f : NULL, &r->handoff_seq))
 		GW_COUNT(r->gl->c.ring_drops);
@@ -177,6 +194,7 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 			r->reply_id = m->reply_id;
 			r->reply_flags = m->reply_flags;
 			r->asked_valid = false;
+			r->answers_early = 0;
 			r->block = false;
 			/* its answers come after the session's M_OPENED (the
 			 * same ring, in order) */
@@ -210,7 +228,15 @@ void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 	r->last_us = now_us;
 	r->block |= cs == SDO_CCS_BLK_DN || cs == SDO_CCS_BLK_UP;
 	r->asked = m->d[0];
-	r->asked_valid = !r->block;
+	if (m->sent == GW_OWNER_SENDS) {
+		r->answers_early = 0; /* the device's answer comes after this */
+		r->asked_valid = !r->block;
+	} else if (r->answers_early) {
+		r->answers_early--; /* sent across and answered before we knew */
+		r->asked_valid = false;
+	} else {
+		r->asked_valid = !r->block;
+	}
 	GW_COUNT(gl->c.relayed_frames);
 	if (m->sent == GW_OWNER_SENDS)
 		sdo_client_lease_send(gl->node, (uint8_t)r->cli_ch, m->d);

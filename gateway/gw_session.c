@@ -62,6 +62,8 @@ static uint32_t s_open(void *ctx, const gw_hop *hop)
 	static const uint8_t probe[8];
 
 	s->target_line = hop->line;
+	/* whatever that line publishes for this session comes after */
+	s->across_taken = atomic_load_explicit(&s->answer[hop->line].seq, memory_order_acquire);
 	if (sdo_server_route_frame(s->gl->node, s->ch, probe, &s->reply) == 0) {
 		m.reply_id = s->reply.id;
 		m.reply_flags = s->reply.flags;
@@ -162,12 +164,36 @@ static uint32_t on_indication(void *ctx, uint8_t ch, const uint8_t d[8], uint64_
 	return 0;
 }
 
+/* The target's answer, already sent to the requester by the target line. */
+static void apply_answer_across(struct gw_sess *s, const uint8_t d[8], uint64_t now_us)
+{
+	s->answered_across = true;
+	memcpy(s->across, d, 8);
+	gw_sdo_route_target_frame(&s->r, d, now_us);
+	s->answered_across = false;
+}
+
+/* The requester may already have the answer the target line sent across
+ * and be answering it, while that line's message is still in the ring:
+ * the session takes the answer from its record first, so that this frame
+ * comes in turn (docs/gateway.md, "Frames across interfaces"). */
+static void take_answer_across(struct gw_sess *s, uint64_t now_us)
+{
+	uint8_t d[8];
+
+	if (s->r.opened && s->target_line < GW_LINES_MAX &&
+	    gw_across_take(&s->answer[s->target_line], sid_of(s), &s->across_taken, d))
+		apply_answer_across(s, d, now_us);
+}
+
 static void on_route_frame(void *ctx, uint8_t ch, const uint8_t d[8], uint64_t now_us)
 {
 	struct gw_line *gl = ctx;
 
-	if (ch < gl->n_sess)
-		gw_sdo_route_requester_frame(&gl->sess[ch].r, d, now_us);
+	if (ch >= gl->n_sess)
+		return;
+	take_answer_across(&gl->sess[ch], now_us);
+	gw_sdo_route_requester_frame(&gl->sess[ch].r, d, now_us);
 }
 
 static void on_route_ended(void *ctx, uint8_t ch)
@@ -220,10 +246,11 @@ void gw_session_target_frame(struct gw_line *gl, const gw_msg *m, uint64_t now_u
 		}
 		break;
 	case GW_SENT_ACROSS:
-		s->answered_across = true;
-		memcpy(s->across, m->d, 8);
-		gw_sdo_route_target_frame(&s->r, m->d, now_us);
-		s->answered_across = false;
+		/* unless taken from the record already (take_answer_across) */
+		if ((int32_t)(m->across_seq - s->across_taken) > 0) {
+			s->across_taken = m->across_seq;
+			apply_answer_across(s, m->d, now_us);
+		}
 		break;
 	default:
 		gw_sdo_route_target_frame(&s->r, m->d, now_us);

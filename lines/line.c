@@ -105,12 +105,12 @@ static uint64_t poll_extensions(line *l)
 	return next;
 }
 
-static void extensions_take_handoffs(line *l)
+static void extensions_before_events(line *l)
 {
 	for (unsigned i = 0; i < l->ext_attached; i++) {
 		const line_ext *x = &l->p.ext[i];
-		if (x->ops && x->ops->take_handoffs)
-			x->ops->take_handoffs(x->ctx, l);
+		if (x->ops && x->ops->before_events)
+			x->ops->before_events(x->ctx, l);
 	}
 }
 
@@ -279,9 +279,6 @@ static void handle_can(line *l)
 					 strerror(-n));
 			return;
 		}
-		/* after the receive, before the core: a message pushed before
-		 * a frame that caused one of these is in the ring now */
-		extensions_take_handoffs(l);
 		for (int i = 0; i < n; i++) {
 			if (items[i].is_error) {
 				line_on_can_error(l, &items[i]);
@@ -466,7 +463,7 @@ static void *line_main(void *arg)
 			cogw_log(COGW_LOG_ERR, "line %s: epoll_wait: %s", l->name, strerror(errno));
 			break;
 		}
-		extensions_take_handoffs(l);
+		extensions_before_events(l);
 		for (int i = 0; i < n; i++)
 			handle_event(l, &evs[i]);
 		run_due(l);

@@ -38,18 +38,11 @@
  *                 every sdo_route that returned 0): give the route back.
  *   on_wake       wake_fd became readable (the line has read the eventfd
  *                 counter): drain the hand-offs, e.g. xring_pop() until 0.
- *   take_handoffs take what other threads handed to the line: at the start
- *                 of every loop iteration, before its events (hand-offs
- *                 pushed without waking the line, xring_push_quiet: so
- *                 that whatever woke it - a frame, a timer, a mailbox
- *                 request - finds them applied), and after each batch of
- *                 received CAN frames, before the core sees them (another
- *                 thread that pushes a message and then sends a frame on
- *                 this line's bus can count on the message being handled
- *                 before any frame that answers that one, whatever order
- *                 epoll reports in: the answer was received after the
- *                 push, and this take comes after the receive;
- *                 docs/gateway.md, frames across interfaces).
+ *   before_events at the start of every loop iteration, before its
+ *                 events are handled: take the hand-offs pushed without
+ *                 waking the line (xring_push_quiet), so that whatever
+ *                 woke it - a frame, a timer, a mailbox request - finds
+ *                 them applied.
  *   poll          once per loop iteration: run what is due at now_us and
  *                 return the next time it needs the line (CO_NO_DEADLINE
  *                 for none); the line sleeps no longer than that.
@@ -89,7 +82,7 @@ typedef struct line_ext_ops {
 	void (*on_command)(void *ctx, line *l, const mbx_request *req);
 	void (*on_client_gone)(void *ctx, line *l, uint32_t client);
 	void (*on_wake)(void *ctx, line *l);
-	void (*take_handoffs)(void *ctx, line *l);
+	void (*before_events)(void *ctx, line *l);
 	uint64_t (*poll)(void *ctx, line *l, uint64_t now_us);
 	/* 0 (*out filled) or the SDO abort code that refuses the request. */
 	uint32_t (*sdo_route)(void *ctx, line *l, uint64_t tag, uint16_t net, uint8_t node,

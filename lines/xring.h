@@ -65,7 +65,7 @@ int xring_push(xring *r, const void *msg, uint32_t len);
 /* Producer: as xring_push, but the consumer is not woken for it unless
  * wake_at messages (or more) are now queued: it takes the message at its
  * next wake-up, whatever causes that (the consumer must look at its rings
- * then, not only when the eventfd fires: line_ext take_handoffs). The next
+ * then, not only when the eventfd fires: line_ext before_events). The next
  * xring_push wakes it even if the ring was not empty. For a message that
  * may wait until the consumer wakes for something else. */
 int xring_push_quiet(xring *r, const void *msg, uint32_t len, uint32_t wake_at);

@@ -97,7 +97,7 @@ static void ext_on_wake(void *ctx, line *l)
 	take_handoffs(l);
 }
 
-static void ext_take_handoffs(void *ctx, line *l)
+static void ext_before_events(void *ctx, line *l)
 {
 	(void)ctx;
 	if (xring_count(ext.inbox)) {
@@ -127,7 +127,7 @@ static const line_ext_ops test_ops = {
 	.cmd_last = MBX_CMD_LINE_STATUS,
 	.on_command = ext_on_command,
 	.on_wake = ext_on_wake,
-	.take_handoffs = ext_take_handoffs,
+	.before_events = ext_before_events,
 	.poll = ext_poll,
 };
 
