@@ -848,8 +848,10 @@ static void srv_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	if (co_nmt_get_state(node) == CO_NMT_STOPPED)
 		return;
 	if (st == SS_ROUTED) {
-		ch->srv->route->frame(ch->srv->route_ctx, ch->num, f->data, now_us);
-		return;
+		if (ch->srv->route->frame(ch->srv->route_ctx, ch->num, f->data, now_us) ||
+		    state_of(ch) != SS_IDLE)
+			return;
+		st = SS_IDLE; /* a new request after a route that just ended */
 	}
 	if (st != SS_IDLE && st != SS_BLK_DN_SUB && SDO_CS(f->data[0]) == SDO_CCS_ABORT &&
 	    !sdo_blk_rx_is_dup(&ch->brx, f->data)) {

@@ -186,14 +186,19 @@ static void take_answer_across(struct gw_sess *s, uint64_t now_us)
 		apply_answer_across(s, d, now_us);
 }
 
-static void on_route_frame(void *ctx, uint8_t ch, const uint8_t d[8], uint64_t now_us)
+/* false: the answer taken first ended the session, so this frame is the
+ * requester's next request to the server (e.g. a new network indication). */
+static bool on_route_frame(void *ctx, uint8_t ch, const uint8_t d[8], uint64_t now_us)
 {
 	struct gw_line *gl = ctx;
 
 	if (ch >= gl->n_sess)
-		return;
+		return true;
 	take_answer_across(&gl->sess[ch], now_us);
+	if (!gw_sdo_route_busy(&gl->sess[ch].r))
+		return false;
 	gw_sdo_route_requester_frame(&gl->sess[ch].r, d, now_us);
+	return true;
 }
 
 static void on_route_ended(void *ctx, uint8_t ch)
