@@ -848,8 +848,10 @@ static void srv_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 	if (co_nmt_get_state(node) == CO_NMT_STOPPED)
 		return;
 	if (st == SS_ROUTED) {
-		ch->srv->route->frame(ch->srv->route_ctx, ch->num, f->data, now_us);
-		return;
+		if (ch->srv->route->frame(ch->srv->route_ctx, ch->num, f->data, now_us) ||
+		    state_of(ch) != SS_IDLE)
+			return;
+		st = SS_IDLE; /* a new request after a route that just ended */
 	}
 	if (st != SS_IDLE && st != SS_BLK_DN_SUB && SDO_CS(f->data[0]) == SDO_CCS_ABORT &&
 	    !sdo_blk_rx_is_dup(&ch->brx, f->data)) {
@@ -903,16 +905,23 @@ static struct srv_chan *routed_chan(co_node *node, uint8_t channel)
 	return &srv->ch[channel];
 }
 
-int sdo_server_route_send(co_node *node, uint8_t channel, const uint8_t d[8])
+int sdo_server_route_frame(co_node *node, uint8_t channel, const uint8_t d[8], co_frame *out)
 {
 	struct srv_chan *ch = routed_chan(node, channel);
-	co_frame f;
 
 	if (!ch)
 		return -ENOENT;
-	frame_init(ch, &f, d[0]);
-	memcpy(&f.data[1], &d[1], 7);
-	return co_node_send(node, &f);
+	frame_init(ch, out, d[0]);
+	memcpy(&out->data[1], &d[1], 7);
+	return 0;
+}
+
+int sdo_server_route_send(co_node *node, uint8_t channel, const uint8_t d[8])
+{
+	co_frame f;
+	int rc = sdo_server_route_frame(node, channel, d, &f);
+
+	return rc ? rc : co_node_send(node, &f);
 }
 
 int sdo_server_route_end(co_node *node, uint8_t channel)

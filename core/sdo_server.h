@@ -71,7 +71,10 @@ int sdo_server_continue(co_node *node, uint8_t channel, uint32_t abort, const ui
  * idle channel goes to ops->indication. The channel is then "routed":
  * every later frame received on it goes to ops->frame untouched (aborts
  * included); the server neither answers nor times out on it until
- * sdo_server_route_end(). If indication returns an abort code instead of
+ * sdo_server_route_end(). ops->frame returns false when it did not take
+ * the frame because the route ended just before it (the hook learnt only
+ * then that the transfer had ended, and called sdo_server_route_end):
+ * the server then handles the frame as a new request. If indication returns an abort code instead of
  * 0, the server refuses with it (bytes 1..3 = those of the indication) and
  * the channel stays idle. ops->ended tells that the server itself ended a
  * route (its COB-IDs changed, reset communication): the hook must forget
@@ -83,7 +86,7 @@ int sdo_server_continue(co_node *node, uint8_t channel, uint32_t abort, const ui
  */
 typedef struct sdo_server_route_ops {
 	uint32_t (*indication)(void *ctx, uint8_t channel, const uint8_t d[8], uint64_t now_us);
-	void (*frame)(void *ctx, uint8_t channel, const uint8_t d[8], uint64_t now_us);
+	bool (*frame)(void *ctx, uint8_t channel, const uint8_t d[8], uint64_t now_us);
 	void (*ended)(void *ctx, uint8_t channel);
 } sdo_server_route_ops;
 
@@ -93,6 +96,10 @@ int sdo_server_route_attach(co_node *node, const sdo_server_route_ops *ops, void
 /* Send 8 bytes on a routed channel's server->client COB-ID. -ENOENT if
  * the channel is not routed, else what the send callback returned. */
 int sdo_server_route_send(co_node *node, uint8_t channel, const uint8_t d[8]);
+/* The frame sdo_server_route_send would send (COB-ID, flags, 8 bytes),
+ * for a sender on another thread (docs/gateway.md, frames across
+ * interfaces). -ENOENT if the channel is not routed. */
+int sdo_server_route_frame(co_node *node, uint8_t channel, const uint8_t d[8], co_frame *out);
 /* Give a routed channel back to the server. -ENOENT if not routed. */
 int sdo_server_route_end(co_node *node, uint8_t channel);
 

@@ -10,17 +10,21 @@
  * line owns a relay lease (one SDO client channel of its pool, toward the
  * target node or the next router, gw_relay.c). They exchange fixed-size
  * messages over the rings: OPEN/OPENED, frames both ways, CLOSE, LOST.
+ * A frame usually goes on the other line's bus from the thread that has
+ * it, its message only telling the owner (gw_send_across).
  */
 #include "gateway/gateway.h"
 
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "core/pdo.h"
 #include "core/sdo_server.h"
 #include "gateway/convention.h"
 #include "gateway/gw_line.h"
+#include "lines/socketcan.h"
 #include "mailbox/proto.h"
 #include "mailbox/server.h"
 
@@ -86,6 +90,14 @@ static int ext_attach(void *ctx, line *l)
 	if ((rc = gw_pdo_sync_init(&gl->lost, gw_image_count(gl->g->img))))
 		return rc;
 	gw_fwd_list_rebuild(&gl->fwd, gl->g->img, od);
+	/* All lines are created (attached) before any starts: the other
+	 * lines' threads read these only once they run. A socket that cannot
+	 * be opened leaves that pair on the hand-off. */
+	for (unsigned i = 0; i < GW_LINES_MAX; i++)
+		gl->peer_fd[i] = -1;
+	for (unsigned i = 0; i < gl->g->n; i++)
+		if (i != gl->idx)
+			gl->peer_fd[i] = can_tx_socket_open(line_ifname(gl->l));
 	if ((rc = gw_fast_attach(gl)))
 		return rc;
 	gl->n_sess = sdo_server_channel_count(gl->node);
@@ -123,6 +135,11 @@ static void ext_detach(void *ctx, line *l)
 	gl->sess = NULL;
 	gl->n_sess = 0;
 	gw_fast_detach(gl);
+	for (unsigned i = 0; i < GW_LINES_MAX; i++) {
+		if (gl->peer_fd[i] >= 0)
+			close(gl->peer_fd[i]);
+		gl->peer_fd[i] = -1;
+	}
 	gw_fwd_list_fini(&gl->fwd);
 	gw_pdo_sync_fini(&gl->lost);
 }
@@ -207,10 +224,10 @@ static void take_own(struct gw_line *gl, uint64_t now_us)
 		handle(gl, &m, now_us);
 }
 
-static void ext_wake(void *ctx, line *l)
+/* Everything the other lines pushed; true if anything came. */
+static bool take_rings(struct gw_line *gl, uint64_t now_us)
 {
-	struct gw_line *gl = ctx;
-	uint64_t now_us = line_loop_now_us(l);
+	bool any = false;
 	gw_msg m;
 
 	for (unsigned from = 0; from < gl->g->n; from++) {
@@ -220,13 +237,10 @@ static void ext_wake(void *ctx, line *l)
 		while (xring_pop(r, &m, sizeof(m)) > 0) {
 			handle(gl, &m, now_us);
 			gl->handled_from[from]++;
+			any = true;
 		}
 	}
-	gw_publish_done(gl);
-	take_own(gl, now_us);
-	/* After the rings: a resync bit is set only on a full ring, whose
-	 * messages have woken us, so it is seen here at the latest. */
-	gw_pdo_sync_take(&gl->lost, gl->g->img, gw_pdo_resync_apply, gl);
+	return any;
 }
 
 /* Updates pushed without waking us (gw_send_quiet_to) are applied before
@@ -235,13 +249,21 @@ static void ext_before_events(void *ctx, line *l)
 {
 	struct gw_line *gl = ctx;
 
-	for (unsigned from = 0; from < gl->g->n; from++) {
-		xring *r = xring_mesh_get(gl->g->mesh, from, gl->idx);
-		if (r && xring_count(r)) {
-			ext_wake(ctx, l);
-			return;
-		}
-	}
+	if (take_rings(gl, line_loop_now_us(l)))
+		gw_publish_done(gl);
+}
+
+static void ext_wake(void *ctx, line *l)
+{
+	struct gw_line *gl = ctx;
+	uint64_t now_us = line_loop_now_us(l);
+
+	take_rings(gl, now_us);
+	gw_publish_done(gl);
+	take_own(gl, now_us);
+	/* After the rings: a resync bit is set only on a full ring, whose
+	 * messages have woken us, so it is seen here at the latest. */
+	gw_pdo_sync_take(&gl->lost, gl->g->img, gw_pdo_resync_apply, gl);
 }
 
 static uint64_t ext_poll(void *ctx, line *l, uint64_t now_us)

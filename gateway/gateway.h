@@ -79,6 +79,8 @@ typedef struct gw_line_counters {
 	                          * in the wake-up that wrote the value */
 	gw_emcy_counters emcy;
 	uint64_t ring_drops; /* other hand-offs lost */
+	uint64_t sdo_across; /* frames of routed SDO transfers this line sent
+	                      * on another line's interface */
 } gw_line_counters;
 
 int gw_create(gw **out, const gw_params *p);

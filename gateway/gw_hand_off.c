@@ -4,11 +4,13 @@
  * ring to the other line (lines/xring.h: by value, single producer), or,
  * for the line itself, a small queue taken after the rings on its next
  * look, so that no message is ever handled inside the call that sent it
- * (a relayed SDO transfer sends from inside the SDO client).
+ * (a relayed SDO transfer sends from inside the SDO client); and the
+ * frames of routed SDO transfers sent across to another line's bus.
  */
 #include <errno.h>
 
 #include "gateway/gw_line.h"
+#include "lines/socketcan.h"
 
 /* quiet: a quiet message sent under `to`'s publication epoch. */
 static int hand_off(struct gw_line *gl, unsigned to, gw_msg *m, bool quiet, uint32_t epoch)
@@ -35,6 +37,68 @@ static int hand_off(struct gw_line *gl, unsigned to, gw_msg *m, bool quiet, uint
 	else if (all_done)
 		gl->quiet_epoch[to] = epoch; /* the first one `to` has not done */
 	return 0;
+}
+
+/* Why the message goes first: the owner takes its rings at the start of
+ * each wake-up (line_ext.h before_events), so the one the answer to this
+ * frame causes normally finds the message taken; where it does not (the
+ * message came while the owner was already awake), the owner copes: a
+ * lease hands such an answer to the session instead of sending it across
+ * (gw_relay.c), a session takes an answer sent across from its record
+ * (gw_across_take) before the requester's next frame.
+ * Why the wait for *handoff_seq: a frame handed off earlier may still be
+ * in the ring or the owner's transmit queue, and this one must not
+ * overtake it. */
+int gw_send_across(struct gw_line *gl, unsigned to, gw_msg *m, const co_frame *f,
+		   uint64_t *handoff_seq)
+{
+	int fd = to != gl->idx ? gl->g->line[to].peer_fd[gl->idx] : -1;
+	int rc;
+
+	m->sent = GW_OWNER_SENDS;
+	if (f && fd >= 0 &&
+	    atomic_load_explicit(&gl->g->line[to].done_from[gl->idx], memory_order_acquire) >=
+		    *handoff_seq) {
+		m->sent = GW_SENT_ACROSS;
+		if ((rc = gw_send_to(gl, to, m)))
+			return rc;
+		if (can_tx_socket_send(fd, f) == 0) {
+			GW_COUNT(gl->c.sdo_across);
+			return 0;
+		}
+		m->sent = GW_SEND_FAILED; /* congested or down: the owner tries */
+	}
+	if ((rc = gw_send_to(gl, to, m)))
+		return rc;
+	*handoff_seq = gl->pushed_to[to];
+	return 0;
+}
+
+uint32_t gw_across_publish(struct gw_across *a, uint32_t sid, const uint8_t d[8])
+{
+	uint32_t seq = atomic_load_explicit(&a->seq, memory_order_relaxed);
+
+	atomic_store_explicit(&a->seq, seq + 1, memory_order_relaxed);
+	atomic_thread_fence(memory_order_release);
+	atomic_store_explicit(&a->sid, sid, memory_order_relaxed);
+	atomic_store_explicit(&a->d, co_get_le(d, 8), memory_order_relaxed);
+	atomic_store_explicit(&a->seq, seq + 2, memory_order_release);
+	return seq + 2;
+}
+
+bool gw_across_take(const struct gw_across *a, uint32_t sid, uint32_t *taken, uint8_t d[8])
+{
+	uint32_t seq = atomic_load_explicit(&a->seq, memory_order_acquire);
+	uint32_t got_sid = atomic_load_explicit(&a->sid, memory_order_relaxed);
+	uint64_t bytes = atomic_load_explicit(&a->d, memory_order_relaxed);
+
+	atomic_thread_fence(memory_order_acquire);
+	if ((seq & 1u) || atomic_load_explicit(&a->seq, memory_order_relaxed) != seq ||
+	    got_sid != sid || (int32_t)(seq - *taken) <= 0)
+		return false;
+	*taken = seq;
+	co_put_le(d, 8, bytes);
+	return true;
 }
 
 int gw_send_to(struct gw_line *gl, unsigned to, gw_msg *m)

@@ -22,9 +22,10 @@
  * reads is the counters (relaxed atomics, gw_line_counters_get) and, for
  * PDO forwarding, the other lines' forwarding lists and lost-update marks
  * (gateway/pdo_sync.h, atomics), their fast TPDOs (gateway/fast_tpdo.h,
- * atomics), their done_from counts, and the fast_fd socket that belongs to
- * the reading line (written before the lines start). Everything else
- * crosses lines as a gw_msg, by value.
+ * atomics), their done_from counts, and the peer_fd socket that belongs to
+ * the reading line (written before the lines start; it carries fast TPDOs
+ * and the frames of routed SDO transfers sent across, gw_send_across).
+ * Everything else crosses lines as a gw_msg, by value.
  */
 #ifndef COGW_GATEWAY_GW_LINE_H
 #define COGW_GATEWAY_GW_LINE_H
@@ -64,12 +65,23 @@ enum gw_msg_kind {
 	M_LOST,      /* the target line carries no frames (link down, bus-off): sid ends */
 };
 
+/* Who puts the frame of an M_TO_TARGET / M_TO_REQ on the bus
+ * (gw_send_across): the line it is for (a hand-off), or the sender, which
+ * already did on its socket bound to that line's interface (the message
+ * only tells the owner of the transfer's state), or the sender tried and
+ * could not (the owner sends it, its state already saw the frame). */
+enum gw_frame_sent {
+	GW_OWNER_SENDS = 0,
+	GW_SENT_ACROSS,
+	GW_SEND_FAILED,
+};
+
 /* Everything that crosses lines, by value. */
 typedef struct gw_msg {
 	uint8_t kind;
-	uint8_t from; /* sending line */
-	uint8_t node; /* M_OPEN: target or router; M_EMCY: source node */
-	uint8_t pad;
+	uint8_t from;   /* sending line */
+	uint8_t node;   /* M_OPEN: target or router; M_EMCY: source node */
+	uint8_t sent;   /* M_TO_TARGET, M_TO_REQ: enum gw_frame_sent */
 	uint32_t sid;   /* what a lease serves: see gw_sid_* */
 	uint32_t abort; /* M_OPENED, M_LOST */
 	uint16_t slot;  /* M_FWD */
@@ -77,6 +89,13 @@ typedef struct gw_msg {
 	uint16_t code;  /* M_EMCY: original error code */
 	uint64_t bits;  /* M_FWD: the value written (gw_image_bits_from) */
 	uint8_t d[8];   /* frames */
+	/* M_OPEN of a session: the frame its answers leave on (the server
+	 * channel's COB-ID and flags), for the lease to send them across;
+	 * reply_id 0: a mailbox hop, whose answers go back as messages */
+	uint32_t reply_id;
+	uint8_t reply_flags;
+	/* M_TO_REQ sent across: its record in the session's gw_across */
+	uint32_t across_seq;
 	/* M_FWD: fast TPDOs of the target (gateway/fast_tpdo.h, bit k) the
 	 * source sent at sent_us (their numbers in fast_nr), and those it
 	 * counted as held */
@@ -93,6 +112,17 @@ typedef struct gw_msg {
 
 struct gw_line;
 
+/* The last answer a target line sent across to a session's requester,
+ * published before the frame left (single writer: that line's thread; a
+ * sequence lock). The requester may answer it before the entry line has
+ * taken the M_TO_REQ that tells the session; the session looks here
+ * first (docs/gateway.md, "Frames across interfaces"). */
+struct gw_across {
+	_Atomic uint32_t seq; /* odd while written */
+	_Atomic uint32_t sid;
+	_Atomic uint64_t d; /* the 8 bytes, little-endian */
+};
+
 /* A routed session: one per SDO server channel of the entry line. */
 struct gw_sess {
 	struct gw_line *gl;
@@ -101,6 +131,21 @@ struct gw_sess {
 	uint16_t net; /* the requested network (for the counters) */
 	uint8_t target_line;
 	uint64_t started_us; /* the network indication (for the listing) */
+	/* pushed_to[target_line] after the session's last hand-off there: a
+	 * frame goes across only once that line has done it (gw_send_across) */
+	uint64_t handoff_seq;
+	/* the target's frame being delivered was already sent to the
+	 * requester by the target line: to_requester skips exactly it */
+	bool answered_across;
+	uint8_t across[8];
+	/* per target line, the answers it sent across (written there), and
+	 * the record of across[target_line] this session last applied */
+	struct gw_across answer[GW_LINES_MAX];
+	uint32_t across_taken;
+	/* the server channel's frame (COB-ID, flags) when the lease was
+	 * asked: what an answer the lease could not send across is sent on,
+	 * even after the session ended on its message */
+	co_frame reply;
 	gw_sdo_route r;
 };
 
@@ -122,6 +167,21 @@ struct gw_relay {
 	 * never reach the next requester. */
 	bool draining;
 	uint8_t mux[3]; /* its index, sub-index (from that first frame) */
+	/* Answers sent across to the requester (gw_relay.c relay_rx): the
+	 * frame they leave on (reply_id 0: never), the requester's last
+	 * frame (asked_valid: one answer is due to it), a block transfer (its
+	 * sub-blocks break the one-answer-per-request rhythm: never),
+	 * pushed_to[from] after the lease's last hand-off there, and the
+	 * device's answers that came before the message of the request they
+	 * answer (a request sent across): each such message finds its answer
+	 * already handed to the session, none due. */
+	uint32_t reply_id;
+	uint8_t reply_flags;
+	bool asked_valid;
+	bool block;
+	uint8_t asked;
+	uint8_t answers_early;
+	uint64_t handoff_seq;
 	int cli_ch;
 	uint32_t sid;
 	uint64_t last_us;
@@ -162,7 +222,7 @@ struct gw_line {
 	 * by them), and per other line i the socket on this line's interface
 	 * that line i's thread sends them on (-1: none). */
 	gw_fast fast;
-	int fast_fd[GW_LINES_MAX];
+	int peer_fd[GW_LINES_MAX];
 	co_frame ignored[GW_FAST_MAX]; /* the fast TPDOs' ids its port leaves out */
 	unsigned n_ignored;
 	/* Messages this line pushed to each line, handled from each line, and
@@ -220,6 +280,22 @@ int gw_send_quiet_to(struct gw_line *gl, unsigned to, gw_msg *m, uint32_t epoch)
  * sent under the same publication: else a TPDO of an earlier value could
  * still leave from `to` after ours. (any line, about another one) */
 bool gw_may_send_fast(const struct gw_line *gl, unsigned to, uint32_t epoch);
+/* A frame f of a routed transfer for line `to`'s bus, m (M_TO_TARGET or
+ * M_TO_REQ, carrying the same 8 bytes) for the owner of the transfer's
+ * state there: f leaves from this thread on the socket bound to that
+ * interface when nothing this transfer handed to `to` before is still
+ * waiting there (*handoff_seq), m telling the owner (GW_SENT_ACROSS,
+ * pushed first); else (or f NULL) m is a hand-off and *handoff_seq
+ * moves. 0, or the hand-off's -errno (the caller counts the drop). */
+int gw_send_across(struct gw_line *gl, unsigned to, gw_msg *m, const co_frame *f,
+		   uint64_t *handoff_seq);
+/* Publish d as the answer sent across to session sid (before the frame
+ * leaves); its sequence number, which the M_TO_REQ carries. (the target
+ * line's thread, the record's only writer) */
+uint32_t gw_across_publish(struct gw_across *a, uint32_t sid, const uint8_t d[8]);
+/* The record's answer for sid if it is newer than *taken (then *taken
+ * moves to it); false when there is none. (the entry line) */
+bool gw_across_take(const struct gw_across *a, uint32_t sid, uint32_t *taken, uint8_t d[8]);
 /* This line: publish what it handled, if its transmit queue is empty. */
 void gw_publish_done(struct gw_line *gl);
 /* The oldest message this line sent itself; false when none. */
@@ -240,6 +316,9 @@ uint64_t gw_sessions_tick(struct gw_line *gl, uint64_t now_us, uint64_t next);
 void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
+/* The frame a lease sends toward its node (cob_req 0 of sdo_client_lease:
+ * 600h + node), for the entry line to send it across. */
+void gw_relay_request_frame(co_frame *f, uint8_t node, const uint8_t d[8]);
 uint64_t gw_relays_tick(struct gw_line *gl, uint64_t now_us, uint64_t next);
 
 /* gw_mbx_hop.c */

@@ -10,7 +10,6 @@
  * value, and says so.
  */
 #include <string.h>
-#include <unistd.h>
 
 #include "core/od.h"
 #include "core/pdo.h"
@@ -44,11 +43,11 @@ static int forward_to(struct gw_line *gl, unsigned j, gw_msg *m, uint64_t now_us
 	 * target is behind and keeps the hand-off until it caught up, so no
 	 * frame of ours overtakes one it sends for an earlier value (quiet
 	 * ones aside: gw_may_send_fast). Held either way. */
-	if (tl->fast_fd[gl->idx] >= 0) {
+	if (tl->peer_fd[gl->idx] >= 0) {
 		epoch = gw_fast_epoch(&tl->fast);
 		if (gw_may_send_fast(gl, j, epoch))
 			m->fast_sent = gw_fast_try(&tl->fast, gl->g->img, m->slot, now_us,
-						   fast_send, &tl->fast_fd[gl->idx], &m->fast_held,
+						   fast_send, &tl->peer_fd[gl->idx], &m->fast_held,
 						   m->fast_nr);
 		else
 			m->fast_held = gw_fast_tpdos_of(&tl->fast, m->slot);
@@ -163,14 +162,6 @@ int gw_fast_attach(struct gw_line *gl)
 
 	if (rc)
 		return rc;
-	/* All lines are created (attached) before any starts: the other
-	 * lines' threads read these only once they run. A socket that cannot
-	 * be opened leaves that pair on the hand-off. */
-	for (unsigned i = 0; i < GW_LINES_MAX; i++)
-		gl->fast_fd[i] = -1;
-	for (unsigned i = 0; i < gl->g->n && gw_image_count(gl->g->img); i++)
-		if (i != gl->idx)
-			gl->fast_fd[i] = can_tx_socket_open(line_ifname(gl->l));
 	co_pdo_set_tx_gate(gl->node, gw_fast_gate, &gl->fast);
 	gw_fast_refresh(gl);
 	return 0;
@@ -179,11 +170,6 @@ int gw_fast_attach(struct gw_line *gl)
 void gw_fast_detach(struct gw_line *gl)
 {
 	co_pdo_set_tx_gate(gl->node, NULL, NULL);
-	for (unsigned i = 0; i < GW_LINES_MAX; i++) {
-		if (gl->fast_fd[i] >= 0)
-			close(gl->fast_fd[i]);
-		gl->fast_fd[i] = -1;
-	}
 	gw_fast_fini(&gl->fast);
 }
 
@@ -236,7 +222,7 @@ static void ignore_fast_frames(struct gw_line *gl, const gw_fast_desc *d, unsign
 	bool any_sender = false;
 
 	for (unsigned i = 0; i < GW_LINES_MAX; i++)
-		any_sender |= gl->fast_fd[i] >= 0;
+		any_sender |= gl->peer_fd[i] >= 0;
 	if (!any_sender)
 		n = 0;
 	for (unsigned i = 0; i < n; i++) {

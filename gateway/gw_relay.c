@@ -7,7 +7,10 @@
  * CLOSE lost to a full ring) is given back after an idle limit, so every
  * channel is released whatever happens; a line that stops carrying frames
  * ends its requesters at once; a lease whose requester aborted stays until
- * the device is quiet (docs/gateway.md).
+ * the device is quiet (docs/gateway.md). The session's frames for the
+ * device usually come already sent (gw_send_across): the message only
+ * keeps the lease's state; the device's one answer to a request of a
+ * normal transfer goes across to the requester the same way.
  */
 #include <errno.h>
 #include <string.h>
@@ -27,17 +30,54 @@ static void relay_free(struct gw_relay *r, uint64_t now_us)
 	r->draining = false;
 }
 
+void gw_relay_request_frame(co_frame *f, uint8_t node, const uint8_t d[8])
+{
+	co_frame_init(f, SDO_COB_RX_BASE + node, 8);
+	memcpy(f->data, d, 8);
+}
+
+/* Where the session this lease serves looks for an answer sent across
+ * (the session's record for this line), or NULL. */
+static struct gw_across *answer_record(const struct gw_relay *r)
+{
+	const struct gw_line *entry = &r->gl->g->line[r->from];
+	uint8_t ch = (uint8_t)((r->sid >> 16) & 0x7Fu);
+
+	if ((r->sid & GW_SID_HOP) || ch >= entry->n_sess)
+		return NULL;
+	return &entry->sess[ch].answer[r->gl->idx];
+}
+
+/* The device's frame goes across to the requester only when it is the one
+ * answer due to the requester's last frame and one the session forwards
+ * unchanged (gw_sdo_route_answer_passes): anything else - a second frame,
+ * block transfers, a wrong answer, an answer to a request whose message
+ * has not come yet - is handed to the session, which decides as before. */
 static void relay_rx(void *arg, const uint8_t d[8], uint64_t now_us)
 {
 	struct gw_relay *r = arg;
 	gw_msg m = { .kind = M_TO_REQ, .sid = r->sid };
+	struct gw_across *rec = NULL;
+	co_frame f;
+	bool across;
 
 	r->last_us = now_us;
 	if (r->draining)
 		return; /* a late frame of the aborted transfer */
 	memcpy(m.d, d, 8);
 	GW_COUNT(r->gl->c.relayed_frames);
-	if (gw_send_to(r->gl, r->from, &m))
+	if (r->reply_id && !r->block && !r->asked_valid && r->answers_early < UINT8_MAX)
+		r->answers_early++;
+	across = r->reply_id && r->asked_valid && gw_sdo_route_answer_passes(r->asked, d) &&
+		 (rec = answer_record(r));
+	r->asked_valid = false;
+	if (across) {
+		co_frame_init(&f, r->reply_id, 8);
+		f.flags = r->reply_flags;
+		memcpy(f.data, d, 8);
+		m.across_seq = gw_across_publish(rec, r->sid, d);
+	}
+	if (gw_send_across(r->gl, r->from, &m, across ? &f : NULL, &r->handoff_seq))
 		GW_COUNT(r->gl->c.ring_drops);
 }
 
@@ -151,6 +191,14 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 			r->aborted = false;
 			r->draining = false;
 			r->last_us = now_us;
+			r->reply_id = m->reply_id;
+			r->reply_flags = m->reply_flags;
+			r->asked_valid = false;
+			r->answers_early = 0;
+			r->block = false;
+			/* its answers come after the session's M_OPENED (the
+			 * same ring, in order) */
+			r->handoff_seq = 0;
 		} else {
 			ans.abort = sdo_abort_of_errno(ch);
 		}
@@ -165,16 +213,33 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
 	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid);
+	uint8_t cs = m->d[0] >> 5;
 
 	if (!r)
 		return;
+	if (m->sent == GW_SEND_FAILED) { /* its message came before */
+		sdo_client_lease_send(gl->node, (uint8_t)r->cli_ch, m->d);
+		return;
+	}
 	if (!r->engaged)
 		memcpy(r->mux, &m->d[1], sizeof r->mux);
 	r->engaged = true;
-	r->aborted = (m->d[0] >> 5) == SDO_CCS_ABORT;
+	r->aborted = cs == SDO_CCS_ABORT;
 	r->last_us = now_us;
+	r->block |= cs == SDO_CCS_BLK_DN || cs == SDO_CCS_BLK_UP;
+	r->asked = m->d[0];
+	if (m->sent == GW_OWNER_SENDS) {
+		r->answers_early = 0; /* the device's answer comes after this */
+		r->asked_valid = !r->block;
+	} else if (r->answers_early) {
+		r->answers_early--; /* sent across and answered before we knew */
+		r->asked_valid = false;
+	} else {
+		r->asked_valid = !r->block;
+	}
 	GW_COUNT(gl->c.relayed_frames);
-	sdo_client_lease_send(gl->node, (uint8_t)r->cli_ch, m->d);
+	if (m->sent == GW_OWNER_SENDS)
+		sdo_client_lease_send(gl->node, (uint8_t)r->cli_ch, m->d);
 }
 
 void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us)

@@ -5,6 +5,11 @@
  * starts one, gateway/sdo_route.h runs it, and its frames go to the
  * target line's relay lease (gw_relay.c) as messages. The session owns the
  * server channel and the timers; the lease owns the client channel.
+ * A frame for the target normally leaves from here, on this thread's
+ * socket bound to the target line's interface, the message only telling
+ * the lease (gw_send_across); the lease sends the target's answers to
+ * the requester the same way, and its message feeds the session's state
+ * with a frame that is already out (answered_across).
  */
 #include <string.h>
 
@@ -31,6 +36,10 @@ static void s_to_requester(void *ctx, const uint8_t d[8])
 {
 	struct gw_sess *s = ctx;
 
+	if (s->answered_across && memcmp(d, s->across, 8) == 0) {
+		s->answered_across = false; /* the lease sent it to the requester */
+		return;
+	}
 	sdo_server_route_send(s->gl->node, s->ch, d);
 }
 
@@ -38,9 +47,11 @@ static void s_to_target(void *ctx, const uint8_t d[8])
 {
 	struct gw_sess *s = ctx;
 	gw_msg m = { .kind = M_TO_TARGET, .sid = sid_of(s) };
+	co_frame f;
 
 	memcpy(m.d, d, 8);
-	if (gw_send_to(s->gl, s->target_line, &m))
+	gw_relay_request_frame(&f, s->r.hop.node, d);
+	if (gw_send_across(s->gl, s->target_line, &m, &f, &s->handoff_seq))
 		GW_COUNT(s->gl->c.ring_drops); /* the session's timeout ends it */
 }
 
@@ -48,12 +59,25 @@ static uint32_t s_open(void *ctx, const gw_hop *hop)
 {
 	struct gw_sess *s = ctx;
 	gw_msg m = { .kind = M_OPEN, .sid = sid_of(s), .node = hop->node };
+	static const uint8_t probe[8];
 
 	s->target_line = hop->line;
+	/* whatever that line publishes for this session comes after */
+	s->across_taken = atomic_load_explicit(&s->answer[hop->line].seq, memory_order_acquire);
+	if (sdo_server_route_frame(s->gl->node, s->ch, probe, &s->reply) == 0) {
+		m.reply_id = s->reply.id;
+		m.reply_flags = s->reply.flags;
+	} else {
+		s->reply.id = 0;
+	}
 	if (gw_send_to(s->gl, hop->line, &m)) {
 		GW_COUNT(s->gl->c.ring_drops);
 		return GW_AB_ROUTE_BUSY;
 	}
+	/* Nothing of this session waits there yet: its frames come after
+	 * the lease's M_OPENED, which the target line sent once it had the
+	 * lease. */
+	s->handoff_seq = 0;
 	return 0;
 }
 
@@ -140,12 +164,41 @@ static uint32_t on_indication(void *ctx, uint8_t ch, const uint8_t d[8], uint64_
 	return 0;
 }
 
-static void on_route_frame(void *ctx, uint8_t ch, const uint8_t d[8], uint64_t now_us)
+/* The target's answer, already sent to the requester by the target line. */
+static void apply_answer_across(struct gw_sess *s, const uint8_t d[8], uint64_t now_us)
+{
+	s->answered_across = true;
+	memcpy(s->across, d, 8);
+	gw_sdo_route_target_frame(&s->r, d, now_us);
+	s->answered_across = false;
+}
+
+/* The requester may already have the answer the target line sent across
+ * and be answering it, while that line's message is still in the ring:
+ * the session takes the answer from its record first, so that this frame
+ * comes in turn (docs/gateway.md, "Frames across interfaces"). */
+static void take_answer_across(struct gw_sess *s, uint64_t now_us)
+{
+	uint8_t d[8];
+
+	if (s->r.opened && s->target_line < GW_LINES_MAX &&
+	    gw_across_take(&s->answer[s->target_line], sid_of(s), &s->across_taken, d))
+		apply_answer_across(s, d, now_us);
+}
+
+/* false: the answer taken first ended the session, so this frame is the
+ * requester's next request to the server (e.g. a new network indication). */
+static bool on_route_frame(void *ctx, uint8_t ch, const uint8_t d[8], uint64_t now_us)
 {
 	struct gw_line *gl = ctx;
 
-	if (ch < gl->n_sess)
-		gw_sdo_route_requester_frame(&gl->sess[ch].r, d, now_us);
+	if (ch >= gl->n_sess)
+		return true;
+	take_answer_across(&gl->sess[ch], now_us);
+	if (!gw_sdo_route_busy(&gl->sess[ch].r))
+		return false;
+	gw_sdo_route_requester_frame(&gl->sess[ch].r, d, now_us);
+	return true;
 }
 
 static void on_route_ended(void *ctx, uint8_t ch)
@@ -186,8 +239,28 @@ void gw_session_target_frame(struct gw_line *gl, const gw_msg *m, uint64_t now_u
 {
 	struct gw_sess *s = sess_by_sid(gl, m->sid);
 
-	if (s)
+	if (!s)
+		return;
+	switch (m->sent) {
+	case GW_SEND_FAILED:
+		/* the session saw it in the message before, and may have
+		 * ended on it: the channel need not be routed any more */
+		if (s->reply.id) {
+			memcpy(s->reply.data, m->d, 8);
+			co_node_send(gl->node, &s->reply);
+		}
+		break;
+	case GW_SENT_ACROSS:
+		/* unless taken from the record already (take_answer_across) */
+		if ((int32_t)(m->across_seq - s->across_taken) > 0) {
+			s->across_taken = m->across_seq;
+			apply_answer_across(s, m->d, now_us);
+		}
+		break;
+	default:
 		gw_sdo_route_target_frame(&s->r, m->d, now_us);
+		break;
+	}
 }
 
 void gw_session_lost(struct gw_line *gl, const gw_msg *m, uint64_t now_us)

@@ -67,6 +67,7 @@ void gw_mbx_routes(struct gw_line *gl, const mbx_request *req)
 	st.emcy_sent = c.emcy.sent;
 	st.ring_drops = c.ring_drops;
 	st.pdo_fast = c.pdo_fast;
+	st.sdo_across = c.sdo_across;
 	for (unsigned i = 0; i < GW_RELAYS_MAX; i++)
 		st.leases += gl->relay[i].used;
 	for (unsigned n = GW_NET_MIN; n <= GW_NET_MAX; n++) {

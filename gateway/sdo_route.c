@@ -620,6 +620,26 @@ static int blk_up_sub_target(void *obj, const void *con, uint64_t now_us)
 
 /* ---- API ------------------------------------------------------------------------ */
 
+/* The same checks as dn_init_resp, dn_seg_resp, up_init_resp and
+ * up_seg_resp; an abort passes in each of those states (target_turn). */
+bool gw_sdo_route_answer_passes(uint8_t asked, const uint8_t answer[8])
+{
+	if (CS(answer) == SDO_SCS_ABORT)
+		return CS(&asked) <= SDO_CCS_UP_SEG;
+	switch (CS(&asked)) {
+	case SDO_CCS_DN_INIT:
+		return answer[0] == (SDO_SCS_DN_INIT << 5);
+	case SDO_CCS_DN_SEG:
+		return (answer[0] & 0xEF) == (SDO_SCS_DN_SEG << 5);
+	case SDO_CCS_UP_INIT:
+		return CS(answer) == SDO_SCS_UP_INIT;
+	case SDO_CCS_UP_SEG:
+		return CS(answer) == SDO_SCS_UP_SEG;
+	default:
+		return false;
+	}
+}
+
 static void rearm(gw_sdo_route *s, uint64_t now_us)
 {
 	int st = co_fsm_state_of(&s->fsm);

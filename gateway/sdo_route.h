@@ -138,6 +138,12 @@ void gw_sdo_route_tick(gw_sdo_route *s, uint64_t now_us);
  * sides with `abort`, outcome ABORTED. No-op when idle. */
 void gw_sdo_route_cancel(gw_sdo_route *s, uint32_t abort, uint64_t now_us);
 
+/* Would the session forward the target's frame `answer` unchanged as the
+ * one answer to the requester's frame that began with `asked`, in a
+ * normal (not block) transfer? What a lease may send to the requester
+ * itself (docs/gateway.md, frames across interfaces). */
+bool gw_sdo_route_answer_passes(uint8_t asked, const uint8_t answer[8]);
+
 static inline bool gw_sdo_route_busy(const gw_sdo_route *s)
 {
 	return co_fsm_state_of(&s->fsm) != GW_SR_IDLE;

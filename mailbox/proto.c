@@ -65,7 +65,7 @@ _Static_assert(sizeof(mbx_rpdo_fault_entry) == 12, "wire layout");
 _Static_assert(sizeof(mbx_gw_sdo_req) == 20, "wire layout");
 _Static_assert(sizeof(mbx_mgr_program_req) == 12, "wire layout");
 _Static_assert(sizeof(mbx_mgr_program_resp) == 24, "wire layout");
-_Static_assert(sizeof(mbx_gw_status) == 152, "wire layout");
+_Static_assert(sizeof(mbx_gw_status) == 160, "wire layout");
 _Static_assert(sizeof(mbx_gw_route) == 40, "wire layout");
 _Static_assert(sizeof(mbx_ev_gw_sdo) == 16, "wire layout");
 _Static_assert(sizeof(mbx_ev_gw_emcy) == 8, "wire layout");

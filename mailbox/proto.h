@@ -593,8 +593,10 @@ typedef struct mbx_gw_status {
 	uint64_t pdo_published, pdo_forwarded, pdo_dropped, pdo_applied, pdo_triggered;
 	uint64_t emcy_consumed, emcy_forwarded, emcy_unroutable, emcy_dropped, emcy_sent;
 	uint64_t ring_drops;
-	uint64_t pdo_fast; /* TPDO frames of other lines this line sent itself
+	uint64_t pdo_fast;   /* TPDO frames of other lines this line sent itself
 	                    * (docs/gateway.md, one wake-up per hop) */
+	uint64_t sdo_across; /* frames of routed SDO transfers this line sent
+	                      * on another line's interface (docs/gateway.md) */
 } mbx_gw_status;
 
 typedef struct mbx_gw_route {

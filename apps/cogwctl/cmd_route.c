@@ -34,6 +34,7 @@ void ctl_gw_counters_json(cJSON *o, const mbx_gw_status *st)
 	add_u64(s, "timed_out", st->timed_out);
 	add_u64(s, "refused", st->refused);
 	add_u64(s, "relayed_frames", st->relayed_frames);
+	add_u64(s, "sent_for_other_lines", st->sdo_across);
 	s = cJSON_AddObjectToObject(o, "pdo");
 	add_u64(s, "published", st->pdo_published);
 	add_u64(s, "forwarded", st->pdo_forwarded);
@@ -53,9 +54,10 @@ void ctl_gw_counters_json(cJSON *o, const mbx_gw_status *st)
 void ctl_gw_counters_text(const mbx_gw_status *st, const char *indent)
 {
 	printf("%sSDO   sessions %" PRIu64 ", routed %" PRIu64 ", aborted %" PRIu64
-	       ", timed out %" PRIu64 ", refused %" PRIu64 ", relayed frames %" PRIu64 "\n",
+	       ", timed out %" PRIu64 ", refused %" PRIu64 ", relayed frames %" PRIu64
+	       " (sent for other lines %" PRIu64 ")\n",
 	       indent, st->sessions, st->routed, st->aborted, st->timed_out, st->refused,
-	       st->relayed_frames);
+	       st->relayed_frames, st->sdo_across);
 	printf("%sPDO   published %" PRIu64 ", forwarded %" PRIu64
 	       " (TPDOs sent for other lines %" PRIu64 "), dropped %" PRIu64 ", applied %" PRIu64
 	       " (TPDOs triggered %" PRIu64 ")\n",

@@ -460,7 +460,66 @@ static void test_routed_sdo_every_mode_byte_exact(void)
 	direct_close(&dq);
 }
 
-static void test_refusals(void)
+/* The frames with this identifier waiting on fd (at most max), their
+ * bytes into d. */
+static unsigned collect(int fd, uint32_t id, uint8_t (*d)[8], unsigned max)
+{
+	struct can_frame cf;
+	struct pollfd p = { .fd = fd, .events = POLLIN };
+	unsigned n = 0;
+
+	while (poll(&p, 1, 0) > 0 && read(fd, &cf, sizeof cf) > 0) {
+		if ((cf.can_id & CAN_SFF_MASK) != id)
+			continue;
+		if (n < max)
+			memcpy(d[n], cf.data, 8);
+		n++;
+	}
+	return n;
+}
+
+/* A routed expedited read puts on each bus exactly the frames the
+ * transfer needs, once each, though another line's thread sent them
+ * (docs/gateway.md, frames across interfaces): the upload initiate on
+ * vcan2 from line 0, the device's answer on vcan0 from line 2. */
+static void expect_read_sent_across(void)
+{
+	static const uint8_t init[8] = { 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0 };
+	static const uint8_t value[8] = { 0x43, 0x00, 0x10, 0x00, 0x94, 0x01, 0x04, 0x00 };
+	uint8_t on0[4][8], on2[4][8], id[4];
+	mbx_gw_status s0, s2, e0, e2;
+	int cap0 = can_open_raw("vcan0"), cap2 = can_open_raw("vcan2");
+	const co_ev_sdo_cli *r;
+
+	TEST_ASSERT_TRUE(cap0 >= 0 && cap2 >= 0);
+	mbx_open(INSTANCE);
+	s0 = gw_status(0);
+	s2 = gw_status(2);
+	drain(cap0);
+	drain(cap2);
+	r = routed(&(sdo_client_req){
+		.upload = true, .node_id = GW_NODE, .index = 0x1000, .buf = id, .cap = 4 });
+	TEST_ASSERT_EQUAL_HEX32(0, r->abort);
+	sleep_ms(200);
+	e0 = gw_status(0);
+	e2 = gw_status(2);
+	printf("routed read: sent across by line 0 %llu, by line 2 %llu\n",
+	       (unsigned long long)(e0.sdo_across - s0.sdo_across),
+	       (unsigned long long)(e2.sdo_across - s2.sdo_across));
+	TEST_ASSERT_EQUAL_UINT64(s0.sdo_across + 1, e0.sdo_across);
+	TEST_ASSERT_EQUAL_UINT64(s2.sdo_across + 1, e2.sdo_across);
+	/* each collect reads every frame waiting: both identifiers at once */
+	TEST_ASSERT_EQUAL_UINT(1, collect(cap2, 0x600 + TGT_NODE, on2, 4));
+	TEST_ASSERT_EQUAL_HEX8_ARRAY(init, on2[0], 8);
+	/* the confirmation (line 0's own), then the answer */
+	TEST_ASSERT_EQUAL_UINT(2, collect(cap0, 0x580 + GW_NODE, on0, 4));
+	TEST_ASSERT_EQUAL_HEX8(0xE0, on0[0][0]);
+	TEST_ASSERT_EQUAL_HEX8_ARRAY(value, on0[1], 8);
+	close(cap0);
+	close(cap2);
+}
+
+static void test_refusals_and_the_frames_sent_across(void)
 {
 	uint8_t a[8];
 	uint64_t t0;
@@ -483,12 +542,8 @@ static void test_refusals(void)
 	TEST_ASSERT_EQUAL_INT(8, can_wait_id(fd0, 0x580 + GW_NODE, a, 10000));
 	TEST_ASSERT_EQUAL_HEX8(0x80, a[0]);
 	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, co_get_le32(&a[4]));
-	/* the gateway still routes afterwards */
-	const co_ev_sdo_cli *r;
-	uint8_t id[4];
-	r = routed(&(sdo_client_req){
-		.upload = true, .node_id = GW_NODE, .index = 0x1000, .buf = id, .cap = 4 });
-	TEST_ASSERT_EQUAL_HEX32(0, r->abort);
+	/* the gateway still routes afterwards, sending across */
+	expect_read_sent_across();
 }
 
 static const char *ctl_path(void)
@@ -1687,7 +1742,7 @@ int main(void)
 {
 	UNITY_BEGIN();
 	RUN_TEST(test_routed_sdo_every_mode_byte_exact);
-	RUN_TEST(test_refusals);
+	RUN_TEST(test_refusals_and_the_frames_sent_across);
 	RUN_TEST(test_requester_vanishing_mid_block_releases_the_session);
 	RUN_TEST(test_faults_refused_at_once_other_routes_work_sessions_released);
 	RUN_TEST(test_concurrent_sessions_and_no_free_client);

@@ -315,6 +315,68 @@ static void test_expedited_frames_are_relayed_unchanged(void)
 	TEST_ASSERT_EQUAL(GW_OUT_ROUTED, done_outcome);
 }
 
+/* What a lease sends across to the requester itself (the one answer to a
+ * request of a normal transfer) must be exactly what the session would
+ * forward unchanged in that state: for every first byte of the answer,
+ * after each kind of request, gw_sdo_route_answer_passes agrees with the
+ * session; never for a block transfer. */
+static void test_answers_sent_across_are_those_the_session_forwards(void)
+{
+	static const struct {
+		uint8_t before[2][8]; /* requester, target frames that lead there */
+		unsigned n_before;
+		uint8_t asked[8];
+		bool normal;
+	} cases[] = {
+		{ .asked = { 0x23, 0x17, 0x10, 0, 1, 2, 3, 4 }, .normal = true },
+		{ .asked = { 0x21, 0x17, 0x10, 0, 20, 0, 0, 0 }, .normal = true },
+		{ .asked = { 0x40, 0x17, 0x10, 0 }, .normal = true },
+		{ .before = { { 0x21, 0x17, 0x10, 0, 20, 0, 0, 0 }, { 0x60, 0x17, 0x10, 0 } },
+		  .n_before = 2,
+		  .asked = { 0x00, 1, 2, 3, 4, 5, 6, 7 },
+		  .normal = true },
+		{ .before = { { 0x40, 0x17, 0x10, 0 }, { 0x41, 0x17, 0x10, 0, 20, 0, 0, 0 } },
+		  .n_before = 2,
+		  .asked = { 0x60 },
+		  .normal = true },
+		{ .asked = { 0xA4, 0x17, 0x10, 0, 127, 0, 0, 0 } }, /* block upload */
+		{ .asked = { 0xC2, 0x17, 0x10, 0, 20, 0, 0, 0 } },  /* block download */
+	};
+	gw_hop hop = { .line = 1, .node = TGT_ID };
+
+	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++) {
+		for (unsigned b0 = 0; b0 < 256; b0++) {
+			uint8_t answer[8] = { (uint8_t)b0, 0x17, 0x10, 0, 9, 8, 7, 6 };
+			unsigned sent_before;
+			bool forwarded, passes;
+			char why[48];
+
+			memset(&to_req, 0, sizeof(to_req));
+			memset(&to_tgt, 0, sizeof(to_tgt));
+			TEST_ASSERT_EQUAL(0, gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0,
+								&hop, 1000, 1000, 0));
+			gw_sdo_route_opened(&s, 0, 0);
+			if (cases[c].n_before) {
+				gw_sdo_route_requester_frame(&s, cases[c].before[0], 0);
+				gw_sdo_route_target_frame(&s, cases[c].before[1], 0);
+			}
+			gw_sdo_route_requester_frame(&s, cases[c].asked, 0);
+			TEST_ASSERT_TRUE(gw_sdo_route_busy(&s));
+			sent_before = n_to_req;
+			gw_sdo_route_target_frame(&s, answer, 0);
+			forwarded = n_to_req == sent_before + 1 &&
+				    memcmp(last_to_req, answer, 8) == 0;
+			passes = gw_sdo_route_answer_passes(cases[c].asked[0], answer);
+			snprintf(why, sizeof why, "case %zu, answer %02X", c, b0);
+			if (cases[c].normal)
+				TEST_ASSERT_EQUAL_MESSAGE(forwarded, passes, why);
+			else
+				TEST_ASSERT_FALSE_MESSAGE(passes, why);
+			gw_sdo_route_cancel(&s, SDO_AB_GENERAL, 0);
+		}
+	}
+}
+
 static void test_refusals_come_at_once(void)
 {
 	gw_hop hop = { .line = 1, .node = TGT_ID };
@@ -510,6 +572,7 @@ int main(void)
 	UNITY_BEGIN();
 	RUN_TEST(test_every_mode_and_size_arrives_byte_exact);
 	RUN_TEST(test_expedited_frames_are_relayed_unchanged);
+	RUN_TEST(test_answers_sent_across_are_those_the_session_forwards);
 	RUN_TEST(test_refusals_come_at_once);
 	RUN_TEST(test_multi_hop_confirms_after_the_next_router);
 	RUN_TEST(test_next_router_refusal_is_passed_back);

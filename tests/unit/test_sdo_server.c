@@ -778,6 +778,7 @@ static struct {
 	uint8_t ch, last[8];
 	uint32_t answer; /* what indication returns */
 	bool end_inside; /* end the route from inside indication */
+	bool end_on_frame; /* frame: end the route first and leave the frame */
 } rt;
 
 static uint32_t rt_indication(void *ctx, uint8_t ch, const uint8_t d[8], uint64_t now_us)
@@ -795,13 +796,18 @@ static uint32_t rt_indication(void *ctx, uint8_t ch, const uint8_t d[8], uint64_
 	return rt.answer;
 }
 
-static void rt_frame(void *ctx, uint8_t ch, const uint8_t d[8], uint64_t now_us)
+static bool rt_frame(void *ctx, uint8_t ch, const uint8_t d[8], uint64_t now_us)
 {
 	(void)ctx;
 	(void)now_us;
 	rt.frames++;
 	rt.ch = ch;
 	memcpy(rt.last, d, 8);
+	if (rt.end_on_frame) {
+		TEST_ASSERT_EQUAL(0, sdo_server_route_end(srv->node, ch));
+		return false;
+	}
+	return true;
 }
 
 static void rt_ended(void *ctx, uint8_t ch)
@@ -848,6 +854,33 @@ static void test_routing_hook_owns_the_channel_until_released(void)
 	EXPECT("43 00 10 00 94 01 04 00");
 	TEST_ASSERT_EQUAL(2, rt.frames);
 	TEST_ASSERT_EQUAL(done_before + 1, tb_event_count(srv, CO_EV_SDO_SERVER_DONE));
+}
+
+/* The hook learns on a frame that its transfer had ended (the answer to
+ * the requester left from elsewhere, and the requester goes on already):
+ * it ends the route and leaves the frame, which the server then handles
+ * as the new request it is - here a new network indication. */
+static void test_frame_left_by_an_ended_route_is_a_new_request(void)
+{
+	memset(&rt, 0, sizeof(rt));
+	TEST_ASSERT_EQUAL(0, sdo_server_route_attach(srv->node, &rt_ops, NULL));
+	req("E0 02 00 05 00 00 00 00");
+	TEST_ASSERT_EQUAL(1, rt.ind);
+	rt.end_on_frame = true;
+	req("E0 02 00 06 00 00 00 00");
+	TEST_ASSERT_EQUAL(1, rt.frames);
+	TEST_ASSERT_EQUAL(2, rt.ind); /* a new indication, not a lost frame */
+	TEST_ASSERT_EQUAL_HEX8(0x06, rt.last[3]);
+	TEST_ASSERT_TRUE(sdo_server_busy(srv->node, 0));
+	rt.end_on_frame = false;
+	TEST_ASSERT_EQUAL(0, sdo_server_route_end(srv->node, 0));
+	/* and a plain request after one is answered by the server */
+	req("E0 02 00 05 00 00 00 00");
+	rt.end_on_frame = true;
+	req("40 00 10 00 00 00 00 00");
+	EXPECT("43 00 10 00 94 01 04 00");
+	TEST_ASSERT_FALSE(sdo_server_busy(srv->node, 0));
+	TEST_ASSERT_EQUAL(0, sdo_server_route_attach(srv->node, NULL, NULL));
 }
 
 static void test_routing_hook_refusals(void)
@@ -995,6 +1028,7 @@ int main(void)
 	RUN_TEST(test_network_indication_without_hook_is_refused);
 	RUN_TEST(test_routing_hook_owns_the_channel_until_released);
 	RUN_TEST(test_routing_hook_refusals);
+	RUN_TEST(test_frame_left_by_an_ended_route_is_a_new_request);
 	RUN_TEST(test_reset_ends_a_route);
 	RUN_TEST(test_stopped_node_answers_no_sdo);
 	RUN_TEST(test_stopping_ends_transfer_in_progress);
