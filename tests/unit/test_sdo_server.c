@@ -776,8 +776,8 @@ static void test_two_channels_in_parallel(void)
 static struct {
 	unsigned ind, frames, ended;
 	uint8_t ch, last[8];
-	uint32_t answer; /* what indication returns */
-	bool end_inside; /* end the route from inside indication */
+	uint32_t answer;   /* what indication returns */
+	bool end_inside;   /* end the route from inside indication */
 	bool end_on_frame; /* frame: end the route first and leave the frame */
 } rt;
 
