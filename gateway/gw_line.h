@@ -22,9 +22,11 @@
  * reads is the counters (relaxed atomics, gw_line_counters_get) and, for
  * PDO forwarding, the other lines' forwarding lists and lost-update marks
  * (gateway/pdo_sync.h, atomics), their fast TPDOs (gateway/fast_tpdo.h,
- * atomics), their done_from counts, and the fast_fd socket that belongs to
- * the reading line (written before the lines start). Everything else
- * crosses lines as a gw_msg, by value.
+ * atomics), their done_from counts, the fast_fd socket that belongs to
+ * the reading line (written before the lines start), and, for routed SDO,
+ * their lending boards (gateway/lend.h, atomics: a requester's line
+ * reserves a client channel and the node there). Everything else crosses
+ * lines as a gw_msg, by value.
  */
 #ifndef COGW_GATEWAY_GW_LINE_H
 #define COGW_GATEWAY_GW_LINE_H
@@ -37,6 +39,7 @@
 #include "gateway/fast_tpdo.h"
 #include "gateway/gateway.h"
 #include "gateway/image.h"
+#include "gateway/lend.h"
 #include "gateway/pdo_sync.h"
 #include "gateway/route.h"
 #include "gateway/sdo_route.h"
@@ -56,22 +59,23 @@
 enum gw_msg_kind {
 	M_FWD = 1,   /* a B-object changed: slot, its new value in bits */
 	M_EMCY,      /* send a forwarded EMCY: net, src_node, code */
-	M_OPEN,      /* lease a client toward node for sid */
-	M_OPENED,    /* the answer: abort */
+	M_OPEN,      /* bind the lease reserved for sid: channel toward node */
 	M_TO_TARGET, /* a requester frame: d */
 	M_TO_REQ,    /* a target frame: d */
 	M_CLOSE,     /* give the lease of sid back */
-	M_LOST,      /* the target line carries no frames (link down, bus-off): sid ends */
+	M_LOST,      /* sid ends with abort: the target line carries no frames
+	              * (link down, bus-off), or the reserved lease could not be
+	              * bound (the state changed since the reservation) */
 };
 
 /* Everything that crosses lines, by value. */
 typedef struct gw_msg {
 	uint8_t kind;
 	uint8_t from; /* sending line */
-	uint8_t node; /* M_OPEN: target or router; M_EMCY: source node */
-	uint8_t pad;
-	uint32_t sid;   /* what a lease serves: see gw_sid_* */
-	uint32_t abort; /* M_OPENED, M_LOST */
+	uint8_t node;    /* M_OPEN: target or router; M_EMCY: source node */
+	uint8_t channel; /* M_OPEN: the client channel reserved (gw_lend_reserve) */
+	uint32_t sid;    /* what a lease serves: see gw_sid_* */
+	uint32_t abort;  /* M_LOST */
 	uint16_t slot;  /* M_FWD */
 	uint16_t net;   /* M_EMCY: source network */
 	uint16_t code;  /* M_EMCY: original error code */
@@ -122,6 +126,7 @@ struct gw_relay {
 	 * never reach the next requester. */
 	bool draining;
 	uint8_t mux[3]; /* its index, sub-index (from that first frame) */
+	uint8_t node;   /* its server, reserved on the lending board */
 	int cli_ch;
 	uint32_t sid;
 	uint64_t last_us;
@@ -139,6 +144,7 @@ enum gw_hop_phase {
 
 struct gw_mbx_hop {
 	uint8_t phase;
+	bool unleased;   /* the reservation was refused: no lease to give back */
 	bool held_valid;
 	uint8_t held[8]; /* the transfer's first frame, while indicating */
 	uint16_t gen;
@@ -183,6 +189,10 @@ struct gw_line {
 	uint64_t next_rebuild_us;
 	uint64_t next_link_check_us;
 	bool carried; /* what the last link check saw (gw_relays_check_link) */
+	uint32_t link_events_seen; /* line_link_events at that look */
+	/* What this line lends to routed transfers of other lines (and its
+	 * own hops through a router on its bus): read and reserved by them. */
+	gw_lend lend;
 	struct gw_sess *sess;
 	uint8_t n_sess;
 	struct gw_relay relay[GW_RELAYS_MAX];
@@ -224,19 +234,24 @@ bool gw_may_send_fast(const struct gw_line *gl, unsigned to, uint32_t epoch);
 void gw_publish_done(struct gw_line *gl);
 /* The oldest message this line sent itself; false when none. */
 bool gw_self_take(struct gw_line *gl, gw_msg *out);
-/* A lease was opened for a session or hop that has ended meanwhile: give
- * it straight back (M_CLOSE to the line that opened it). */
-void gw_give_back(struct gw_line *gl, const gw_msg *opened);
 
 /* gw_session.c */
 extern const sdo_server_route_ops gw_session_server_hook;
 void gw_sessions_init(struct gw_line *gl);
-void gw_session_opened(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 void gw_session_target_frame(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 void gw_session_lost(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 uint64_t gw_sessions_tick(struct gw_line *gl, uint64_t now_us, uint64_t next);
 
 /* gw_relay.c */
+/* The requester's side (a session or a hop of line gl): reserve a lease
+ * on hop->line's lending board and hand it M_OPEN, without waking it.
+ * 0, or the refusal to answer at once (GW_AB_ROUTE_BUSY: the hand-off is
+ * full or closed; the reservation went back). */
+uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid);
+/* The target line: publish what it lends (gw_relays_tick does it each
+ * look); the gate of its SDO client pool at attach/detach. */
+void gw_lend_attach(struct gw_line *gl);
+void gw_lend_detach(struct gw_line *gl);
 void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
@@ -246,7 +261,6 @@ uint64_t gw_relays_tick(struct gw_line *gl, uint64_t now_us, uint64_t next);
 uint32_t gw_hop_route(void *ctx, line *l, uint64_t tag, uint16_t net, uint8_t node,
 		      line_sdo_route *out);
 void gw_hop_end(void *ctx, line *l, uint64_t tag);
-void gw_hop_opened(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 void gw_hop_target_frame(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 void gw_hop_lost(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 

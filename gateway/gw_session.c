@@ -47,14 +47,9 @@ static void s_to_target(void *ctx, const uint8_t d[8])
 static uint32_t s_open(void *ctx, const gw_hop *hop)
 {
 	struct gw_sess *s = ctx;
-	gw_msg m = { .kind = M_OPEN, .sid = sid_of(s), .node = hop->node };
 
 	s->target_line = hop->line;
-	if (gw_send_to(s->gl, hop->line, &m)) {
-		GW_COUNT(s->gl->c.ring_drops);
-		return GW_AB_ROUTE_BUSY;
-	}
-	return 0;
+	return gw_lease_open(s->gl, hop, sid_of(s));
 }
 
 static void s_close(void *ctx)
@@ -168,17 +163,6 @@ void gw_sessions_init(struct gw_line *gl)
 		gl->sess[i].gl = gl;
 		gl->sess[i].ch = i;
 		gw_sdo_route_init(&gl->sess[i].r, &sess_ops, &gl->sess[i]);
-	}
-}
-
-void gw_session_opened(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
-{
-	struct gw_sess *s = sess_by_sid(gl, m->sid);
-
-	if (s) {
-		gw_sdo_route_opened(&s->r, m->abort, now_us);
-	} else if (!m->abort) {
-		gw_give_back(gl, m); /* the session is gone */
 	}
 }
 

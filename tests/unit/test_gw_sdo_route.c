@@ -218,15 +218,14 @@ static void hex_eq(const char *want, const uint8_t d[8])
 	TEST_ASSERT_EQUAL_STRING(want, got);
 }
 
-/* Network indication for (NET, TGT_ID), lease granted: confirmed. */
+/* Network indication for (NET, TGT_ID), lease granted: confirmed in the
+ * same call, no answer of the target line waited for. */
 static void indicate(void)
 {
 	gw_hop hop = { .line = 1, .node = TGT_ID };
 
 	TEST_ASSERT_EQUAL(0, gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 1000, 1000,
 						bus_a.now));
-	TEST_ASSERT_EQUAL(GW_SR_OPENING, gw_sdo_route_state_of(&s));
-	gw_sdo_route_opened(&s, 0, bus_a.now);
 	TEST_ASSERT_EQUAL(GW_SR_WAIT_INIT, gw_sdo_route_state_of(&s));
 	hex_eq("E0 02 00 05 00 00 00 00", last_to_req);
 	pump();
@@ -335,17 +334,17 @@ static void test_refusals_come_at_once(void)
 	TEST_ASSERT_EQUAL(0, closes);
 	TEST_ASSERT_EQUAL(2, dones);
 
-	/* the target line has no free client, or is down */
-	open_answer = 0;
+	/* the target line has no free client, or is down: in the same call */
+	open_answer = GW_AB_NO_CLIENT;
 	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 0, 0, 0);
-	gw_sdo_route_opened(&s, GW_AB_NO_CLIENT, 0);
 	hex_eq("80 02 00 05 23 00 0A 06", last_to_req);
+	open_answer = GW_AB_NO_ANSWER;
 	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 0, 0, 0);
-	gw_sdo_route_opened(&s, GW_AB_NO_ANSWER, 0);
 	hex_eq("80 02 00 05 02 00 00 0A", last_to_req);
 	TEST_ASSERT_EQUAL(0, closes); /* nothing was granted */
 	TEST_ASSERT_EQUAL(4, dones);
 	TEST_ASSERT_EQUAL(0, n_to_tgt);
+	open_answer = 0;
 	TEST_ASSERT_EQUAL(0, gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 0, 0, 0));
 	TEST_ASSERT_EQUAL(-EBUSY,
 			  gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 0, 0, 0));
@@ -360,7 +359,6 @@ static void test_multi_hop_confirms_after_the_next_router(void)
 
 	gw_sdo_route_start(&s, (gw_netind){ 9, 5 }, 0, &hop, 1000, 3000, 0);
 	TEST_ASSERT_EQUAL(0x20, opened_hop.node);
-	gw_sdo_route_opened(&s, 0, 0);
 	TEST_ASSERT_EQUAL(GW_SR_HOP, gw_sdo_route_state_of(&s));
 	hex_eq("E0 09 00 05 00 00 00 00", last_to_tgt);
 	TEST_ASSERT_EQUAL(0, n_to_req); /* not confirmed before the router */
@@ -382,7 +380,6 @@ static void test_next_router_refusal_is_passed_back(void)
 	uint8_t refusal[8] = { 0x80, 9, 0, 5, 0x01, 0, 0, 0x0A };
 
 	gw_sdo_route_start(&s, (gw_netind){ 9, 5 }, 0, &hop, 1000, 1000, 0);
-	gw_sdo_route_opened(&s, 0, 0);
 	gw_sdo_route_target_frame(&s, refusal, 10);
 	TEST_ASSERT_EQUAL_MEMORY(refusal, last_to_req, 8);
 	TEST_ASSERT_EQUAL(GW_OUT_REFUSED, done_outcome);
@@ -396,18 +393,19 @@ static void test_timeouts(void)
 	uint8_t init[8] = { 0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0 };
 	uint8_t seg_init[8] = { 0x41, 0x08, 0x10, 0x00, 30, 0, 0, 0 };
 
-	/* the target line never answers the lease */
+	/* confirmed, and the requester never sends its initiate */
 	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 500, 800, 0);
-	gw_sdo_route_tick(&s, 799999);
+	hex_eq("E0 02 00 05 00 00 00 00", last_to_req);
+	gw_sdo_route_tick(&s, 499999);
 	TEST_ASSERT_EQUAL(0, dones);
-	gw_sdo_route_tick(&s, 800000);
-	hex_eq("80 02 00 05 02 00 00 0A", last_to_req);
+	gw_sdo_route_tick(&s, 500000);
+	hex_eq("80 02 00 05 00 00 04 05", last_to_req);
 	TEST_ASSERT_EQUAL(GW_OUT_TIMED_OUT, done_outcome);
 	TEST_ASSERT_EQUAL(1, closes);
+	TEST_ASSERT_EQUAL(0, n_to_tgt);
 
 	/* the target never answers the initiate: node silent */
 	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 500, 800, 1000000);
-	gw_sdo_route_opened(&s, 0, 1000000);
 	gw_sdo_route_requester_frame(&s, init, 1100000);
 	gw_sdo_route_tick(&s, 1900000);
 	hex_eq("80 18 10 01 02 00 00 0A", last_to_req);
@@ -416,7 +414,6 @@ static void test_timeouts(void)
 
 	/* the target answered, then went silent: SDO timeout */
 	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 500, 800, 2000000);
-	gw_sdo_route_opened(&s, 0, 2000000);
 	init[1] = 0x08;
 	init[3] = 0;
 	gw_sdo_route_requester_frame(&s, init, 2000000);
@@ -493,6 +490,26 @@ static void test_protocol_errors_and_aborts(void)
 				 gw_sdo_route_state_to_string(GW_SR_BLK_UP_SUB));
 }
 
+/* The target line could not bind the lease it was told of (its state
+ * changed since the reservation): the confirmed session ends with that
+ * code at once, its close still owed once. */
+static void test_lease_lost_after_the_confirmation(void)
+{
+	uint8_t init[8] = { 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0 };
+
+	indicate();
+	gw_sdo_route_lost(&s, GW_AB_NO_ANSWER, bus_a.now);
+	hex_eq("80 02 00 05 02 00 00 0A", last_to_req);
+	TEST_ASSERT_EQUAL(1, dones);
+	TEST_ASSERT_EQUAL(GW_OUT_ABORTED, done_outcome);
+	TEST_ASSERT_EQUAL(1, closes);
+	TEST_ASSERT_EQUAL(0, n_to_tgt);
+	/* the requester's initiate that crossed it goes nowhere */
+	gw_sdo_route_requester_frame(&s, init, bus_a.now);
+	TEST_ASSERT_EQUAL(0, n_to_tgt);
+	TEST_ASSERT_EQUAL(1, dones);
+}
+
 static void test_target_line_lost_mid_transfer(void)
 {
 	uint8_t init[8] = { 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0 };
@@ -516,6 +533,7 @@ int main(void)
 	RUN_TEST(test_timeouts);
 	RUN_TEST(test_requester_vanishing_in_a_block_download_releases_both);
 	RUN_TEST(test_protocol_errors_and_aborts);
+	RUN_TEST(test_lease_lost_after_the_confirmation);
 	RUN_TEST(test_target_line_lost_mid_transfer);
 	return UNITY_END();
 }
