@@ -72,7 +72,9 @@ enum gw_msg_kind {
 typedef struct gw_msg {
 	uint8_t kind;
 	uint8_t from; /* sending line */
-	uint8_t node;    /* M_OPEN: target or router; M_EMCY: source node */
+	uint8_t node;    /* M_OPEN: target or router; M_EMCY: source node;
+	                  * M_CLOSE: the node its sender gave back on the board
+	                  * already (gw_lease_close), 0 = none */
 	uint8_t channel; /* M_OPEN: the client channel reserved (gw_lend_reserve) */
 	uint32_t sid;    /* what a lease serves: see gw_sid_* */
 	uint32_t abort;  /* M_LOST */
@@ -104,6 +106,8 @@ struct gw_sess {
 	uint16_t gen;
 	uint16_t net; /* the requested network (for the counters) */
 	uint8_t target_line;
+	bool lease_lost;      /* the target line ended the lease (M_LOST) */
+	bool target_aborted;  /* the last frame relayed to the target was an abort */
 	uint64_t started_us; /* the network indication (for the listing) */
 	gw_sdo_route r;
 };
@@ -127,6 +131,7 @@ struct gw_relay {
 	bool draining;
 	uint8_t mux[3]; /* its index, sub-index (from that first frame) */
 	uint8_t node;   /* its server, reserved on the lending board */
+	bool owns_node; /* ... and still held for it there (relay_free clears it) */
 	int cli_ch;
 	uint32_t sid;
 	uint64_t last_us;
@@ -144,7 +149,9 @@ enum gw_hop_phase {
 
 struct gw_mbx_hop {
 	uint8_t phase;
-	bool unleased;   /* the reservation was refused: no lease to give back */
+	bool unleased;       /* the reservation was refused: no lease to give back */
+	bool lease_lost;     /* the target line ended the lease (M_LOST) */
+	bool target_aborted; /* the last frame relayed to the target was an abort */
 	bool held_valid;
 	uint8_t held[8]; /* the transfer's first frame, while indicating */
 	uint16_t gen;
@@ -248,6 +255,11 @@ uint64_t gw_sessions_tick(struct gw_line *gl, uint64_t now_us, uint64_t next);
  * 0, or the refusal to answer at once (GW_AB_ROUTE_BUSY: the hand-off is
  * full or closed; the reservation went back). */
 uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid);
+/* ... and give it back (M_CLOSE). `settled`: the transfer ended without
+ * an abort to the device and the lease was not lost, so the node goes
+ * back on the board at once (the requester's next transfer to it must not
+ * meet this lease still held); else the target line frees it. */
+void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, bool settled);
 /* The target line: publish what it lends (gw_relays_tick does it each
  * look); the gate of its SDO client pool at attach/detach. */
 void gw_lend_attach(struct gw_line *gl);

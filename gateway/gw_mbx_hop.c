@@ -69,6 +69,7 @@ static void hop_frame(struct gw_mbx_hop *h, const uint8_t d[8])
 {
 	gw_msg m = { .kind = M_TO_TARGET };
 
+	h->target_aborted = (d[0] >> 5) == SDO_CCS_ABORT;
 	memcpy(m.d, d, 8);
 	hop_send(h, &m);
 }
@@ -139,7 +140,7 @@ uint32_t gw_hop_route(void *ctx, line *l, uint64_t tag, uint16_t net, uint8_t no
 	h->gl = gl;
 	h->gen++;
 	h->phase = HOP_ROUTED;
-	h->unleased = false;
+	h->unleased = h->lease_lost = h->target_aborted = false;
 	h->held_valid = false;
 	h->net = net;
 	h->node = node;
@@ -189,7 +190,10 @@ void gw_hop_lost(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
 	struct gw_mbx_hop *h = hop_by_sid(gl, m->sid);
 
-	if (h && h->phase != HOP_REFUSED)
+	if (!h)
+		return;
+	h->lease_lost = true;
+	if (h->phase != HOP_REFUSED)
 		hop_refuse(h, m->abort, now_us);
 }
 
@@ -198,12 +202,12 @@ void gw_hop_end(void *ctx, line *l, uint64_t tag)
 {
 	struct gw_line *gl = ctx;
 	struct gw_mbx_hop *h = hop_by_tag(gl, tag);
-	gw_msg close = { .kind = M_CLOSE };
 
 	(void)l;
 	if (!h)
 		return; /* on this line's bus: nothing to give back */
 	if (h->phase != HOP_ROUTED && !h->unleased)
-		hop_send(h, &close);
+		gw_lease_close(gl, &h->hop, sid_of(h),
+			       h->phase == HOP_RELAYING && !h->lease_lost && !h->target_aborted);
 	h->phase = HOP_FREE;
 }

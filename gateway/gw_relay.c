@@ -28,7 +28,8 @@ static void relay_free(struct gw_relay *r, uint64_t now_us)
 		return;
 	/* the node first: the pool's requests waiting for it start at the
 	 * lease's end */
-	gw_lend_node_free(&r->gl->lend, r->node);
+	if (r->owns_node)
+		gw_lend_node_free(&r->gl->lend, r->node);
 	sdo_client_lease_end(r->gl->node, (uint8_t)r->cli_ch, now_us);
 	r->used = false;
 	r->orphaned = false;
@@ -94,7 +95,9 @@ static void link_look(struct gw_line *gl, uint64_t now_us)
 
 	gl->link_events_seen = line_link_events(gl->l);
 	gl->next_link_check_us = now_us + GW_LINK_CHECK_US;
-	gw_lend_set_carries(&gl->lend, carries);
+	/* nothing is reserved while the leases it cut off are handled */
+	if (!carries)
+		gw_lend_set_carries(&gl->lend, false);
 	if (carries != gl->carried) {
 		gl->carried = carries;
 		if (carries)
@@ -102,6 +105,8 @@ static void link_look(struct gw_line *gl, uint64_t now_us)
 		else
 			relays_link_lost(gl, GW_AB_NO_ANSWER);
 	}
+	if (carries)
+		gw_lend_set_carries(&gl->lend, true);
 }
 
 /* The look costs two ioctls, so it is not made on every wake-up: at once
@@ -119,10 +124,11 @@ static void relays_check_link(struct gw_line *gl, uint64_t now_us, bool forced, 
 		*next = gl->next_link_check_us;
 }
 
-static struct gw_relay *relay_by_sid(struct gw_line *gl, uint8_t from, uint32_t sid)
+/* The lease of (from, sid); `any`: also one orphaned or draining. */
+static struct gw_relay *relay_by_sid(struct gw_line *gl, uint8_t from, uint32_t sid, bool any)
 {
 	for (unsigned i = 0; i < GW_RELAYS_MAX; i++)
-		if (gl->relay[i].used && !gl->relay[i].orphaned && !gl->relay[i].draining &&
+		if (gl->relay[i].used && (any || (!gl->relay[i].orphaned && !gl->relay[i].draining)) &&
 		    gl->relay[i].from == from && gl->relay[i].sid == sid)
 			return &gl->relay[i];
 	return NULL;
@@ -163,6 +169,19 @@ uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid)
 	return 0;
 }
 
+void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, bool settled)
+{
+	gw_msg m = { .kind = M_CLOSE, .sid = sid, .node = settled ? hop->node : 0 };
+
+	if (gw_send_to(gl, hop->line, &m)) {
+		GW_COUNT(gl->c.ring_drops); /* the relay's idle limit frees it */
+		return;
+	}
+	/* after the push: the lease never frees a node it was told of */
+	if (settled)
+		gw_lend_node_free(&gl->g->line[hop->line].lend, hop->node);
+}
+
 /* Bind the lease reserved for m->sid. The reservation was decided on what
  * this line published; what can refuse now is a change since then (the
  * link lost, the node's heartbeat lost), and the requester's line hears
@@ -186,12 +205,7 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 						now_us)) < 0)
 		lost.abort = sdo_abort_of_errno(ch);
 	if (lost.abort) {
-		/* the unit goes back, but not a part the pool says is not ours
-		 * (the channel in use: -EBUSY; the node: -EALREADY) */
-		if (ch != -EALREADY)
-			gw_lend_node_free(&gl->lend, m->node);
-		if (ch != -EBUSY)
-			gw_lend_gate(&gl->lend, SDO_CLIENT_GATE_FREE_CHANNEL, m->channel);
+		gw_lend_give_back(&gl->lend, m->channel, m->node);
 		if (gw_send_to(gl, m->from, &lost))
 			GW_COUNT(gl->c.ring_drops); /* the requester's timeout ends it */
 		return;
@@ -201,6 +215,7 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 	r->from = m->from;
 	r->sid = m->sid;
 	r->node = m->node;
+	r->owns_node = true;
 	r->cli_ch = ch;
 	r->engaged = false;
 	r->aborted = false;
@@ -210,7 +225,7 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 
 void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
-	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid);
+	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid, false);
 
 	if (!r)
 		return;
@@ -225,10 +240,14 @@ void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 
 void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
-	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid);
+	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid, true);
 
 	if (!r)
 		return;
+	if (m->node && m->node == r->node)
+		r->owns_node = false; /* the requester gave it back (gw_lease_close) */
+	if (r->orphaned || r->draining)
+		return; /* freed when the link is back, or the device quiet */
 	if (r->engaged && r->aborted) {
 		r->draining = true;
 		r->last_us = now_us;

@@ -39,6 +39,7 @@ static void s_to_target(void *ctx, const uint8_t d[8])
 	struct gw_sess *s = ctx;
 	gw_msg m = { .kind = M_TO_TARGET, .sid = sid_of(s) };
 
+	s->target_aborted = (d[0] >> 5) == SDO_CCS_ABORT;
 	memcpy(m.d, d, 8);
 	if (gw_send_to(s->gl, s->target_line, &m))
 		GW_COUNT(s->gl->c.ring_drops); /* the session's timeout ends it */
@@ -55,10 +56,8 @@ static uint32_t s_open(void *ctx, const gw_hop *hop)
 static void s_close(void *ctx)
 {
 	struct gw_sess *s = ctx;
-	gw_msg m = { .kind = M_CLOSE, .sid = sid_of(s) };
 
-	if (gw_send_to(s->gl, s->target_line, &m))
-		GW_COUNT(s->gl->c.ring_drops); /* the relay's idle limit frees it */
+	gw_lease_close(s->gl, &s->r.hop, sid_of(s), !s->lease_lost && !s->target_aborted);
 }
 
 static void s_done(void *ctx, uint32_t abort, gw_route_outcome o)
@@ -130,6 +129,7 @@ static uint32_t on_indication(void *ctx, uint8_t ch, const uint8_t d[8], uint64_
 		target_ms *= 2;
 	s->gen++;
 	s->net = ni.net;
+	s->lease_lost = s->target_aborted = false;
 	s->started_us = now_us;
 	gw_sdo_route_start(&s->r, ni, refuse, &hop, gl->p.sdo_timeout_ms, target_ms, now_us);
 	return 0;
@@ -178,8 +178,10 @@ void gw_session_lost(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
 	struct gw_sess *s = sess_by_sid(gl, m->sid);
 
-	if (s)
+	if (s) {
+		s->lease_lost = true;
 		gw_sdo_route_lost(&s->r, m->abort, now_us);
+	}
 }
 
 uint64_t gw_sessions_tick(struct gw_line *gl, uint64_t now_us, uint64_t next)

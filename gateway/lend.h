@@ -45,12 +45,14 @@ void gw_lend_set_silent(gw_lend *b, const uint64_t lost[2]);
 bool gw_lend_is_silent(const gw_lend *b, uint8_t node);
 /* The gate of the owner's SDO client pool (sdo_client_set_gate, ctx = b). */
 bool gw_lend_gate(void *ctx, sdo_client_gate_op op, uint8_t arg);
-/* The lease bound on a reservation for node ended: the node is free again
- * (its channel comes back through the gate). Before sdo_client_lease_end,
- * so that the pool's requests waiting for that node start in it. */
-void gw_lend_node_free(gw_lend *b, uint8_t node);
 
 /* ---- any line ---- */
+/* The lease bound on a reservation for node ended: the node is free again
+ * (its channel comes back through the gate). By the owner (before
+ * sdo_client_lease_end, so that the pool's requests waiting for that node
+ * start in it), or by the lease's requester when the transfer ended well
+ * (gw_lease_close): once per lease, by one of them. */
+void gw_lend_node_free(gw_lend *b, uint8_t node);
 /* Reserve a channel and node `node` of the owner for one lease. 0 and
  * *channel, or the refusal, in this order: GW_AB_NO_ANSWER (not carrying,
  * the node heartbeat-lost), sdo_abort_of_errno(-EALREADY) (the node busy

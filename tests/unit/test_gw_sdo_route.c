@@ -16,6 +16,7 @@
 
 #include "core/co.h"
 #include "core/sdo_client.h"
+#include "gateway/lend.h"
 #include "gateway/sdo_route.h"
 #include "tests/unit/support/test_bus.h"
 #include "tests/unit/support/test_od_fixture.h"
@@ -522,6 +523,117 @@ static void test_target_line_lost_mid_transfer(void)
 	TEST_ASSERT_EQUAL(1, closes);
 }
 
+/* ---- the lending board: a reservation decided at once, never lent twice ---- */
+
+static gw_lend board;
+
+static void tgt_raw(void *arg, const uint8_t d[8], uint64_t now_us)
+{
+	(void)arg;
+	(void)d;
+	(void)now_us;
+}
+static tb_port *lender; /* the target line's own node with its client pool */
+
+static void lender_on(void)
+{
+	co_node_config cfg = { .node_id = 0x7E,
+			       .sdo_client_count = 2,
+			       .sdo_client_queue_len = 2,
+			       .sdo_client_pool_len = 4,
+			       .sdo_client_timeout_ms = 500 };
+	co_od *od;
+
+	TEST_ASSERT_EQUAL(0, co_od_create(&od, 8));
+	bus_b.log_on = true; /* own_requests_to */
+	lender = tb_add_node(&bus_b, &cfg, od);
+	TEST_ASSERT_NOT_NULL(lender);
+	gw_lend_init(&board);
+	sdo_client_set_gate(lender->node, gw_lend_gate, &board);
+	gw_lend_set_carries(&board, true);
+}
+
+/* A read by the target line's own pool (its mailbox clients, its manager). */
+static void own_read(uint8_t node, uint64_t tag)
+{
+	static uint8_t rd[8];
+	sdo_client_req r = { .upload = true,
+			     .node_id = node,
+			     .index = 0x1000,
+			     .buf = rd,
+			     .cap = sizeof rd,
+			     .tag = tag };
+
+	TEST_ASSERT_EQUAL(0, sdo_client_pool_submit(lender->node, &r, bus_b.now));
+}
+
+static size_t own_requests_to(uint8_t node)
+{
+	return tb_count_from_id(&bus_b, lender->idx, 0x600u + node, 0);
+}
+
+static void test_reservation_refusals_keep_their_codes(void)
+{
+	uint8_t a = 0xFF, b = 0xFF, c;
+	uint64_t lost[2] = { 1ull << 8, 0 };
+
+	lender_on();
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 5, &a));
+	/* the node is in a routed transfer already */
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, gw_lend_reserve(&board, 5, &c));
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 6, &b));
+	TEST_ASSERT_TRUE(a < 2 && b < 2 && a != b);
+	/* no channel left: "no free client", and node 7 is not left reserved */
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, gw_lend_reserve(&board, 7, &c));
+	gw_lend_give_back(&board, b, 6);
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 7, &c));
+	TEST_ASSERT_EQUAL(b, c);
+	/* heartbeat lost, line down: no answer, before anything else */
+	gw_lend_set_silent(&board, lost);
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, gw_lend_reserve(&board, 8, &c));
+	gw_lend_set_carries(&board, false);
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, gw_lend_reserve(&board, 9, &c));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, gw_lend_reserve(&board, 5, &c));
+}
+
+/* What the target line's own clients hold is not lent, and what is lent
+ * is not given to them; a unit given back lets them go on. */
+static void test_reservation_and_own_clients_exclude_each_other(void)
+{
+	uint8_t a, b, c;
+
+	lender_on();
+	/* the own pool busy with node 11 on one channel */
+	own_read(11, 1);
+	TEST_ASSERT_EQUAL(1, own_requests_to(11));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, gw_lend_reserve(&board, 11, &c));
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 5, &a));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, gw_lend_reserve(&board, 6, &c));
+	/* an own request meets no channel (the idle one is reserved) nor the
+	 * reserved node */
+	own_read(12, 2);
+	own_read(5, 3);
+	TEST_ASSERT_EQUAL(0, own_requests_to(12));
+	TEST_ASSERT_EQUAL(0, own_requests_to(5));
+	/* the lease is bound on exactly the reserved channel */
+	TEST_ASSERT_EQUAL(-EINVAL,
+			  sdo_client_lease_channel(lender->node, a, 5, NULL, NULL, bus_b.now));
+	TEST_ASSERT_EQUAL(a, sdo_client_lease_channel(lender->node, a, 5, tgt_raw, NULL, bus_b.now));
+	/* node 11 times out: its channel is back, node 12 takes it */
+	tb_advance(&bus_b, 500000);
+	TEST_ASSERT_EQUAL(1, own_requests_to(12));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, gw_lend_reserve(&board, 6, &c));
+	/* the lease ends (the node first, as gw_relay does): node 5 goes */
+	gw_lend_node_free(&board, 5);
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_end(lender->node, a, bus_b.now));
+	TEST_ASSERT_EQUAL(1, own_requests_to(5));
+	tb_advance(&bus_b, 500000); /* both time out: nothing held any more */
+	tb_advance(&bus_b, 100000); /* their servers settle */
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 11, &b));
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 5, &c));
+	TEST_ASSERT_TRUE(b != c);
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -535,5 +647,7 @@ int main(void)
 	RUN_TEST(test_protocol_errors_and_aborts);
 	RUN_TEST(test_lease_lost_after_the_confirmation);
 	RUN_TEST(test_target_line_lost_mid_transfer);
+	RUN_TEST(test_reservation_refusals_keep_their_codes);
+	RUN_TEST(test_reservation_and_own_clients_exclude_each_other);
 	return UNITY_END();
 }
