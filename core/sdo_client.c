@@ -1509,7 +1509,7 @@ void sdo_client_set_gate(co_node *node, sdo_client_gate_fn fn, void *ctx)
 	for (uint8_t i = 0; i < cli->n; i++) {
 		struct cli_chan *ch = &cli->ch[i];
 		uint8_t n = gate_server_of(ch->cob_resp);
-		ch->gated_out = true; /* what is free is announced by gate_sync */
+		ch->gated_out = fn != NULL; /* what is free is announced by gate_sync */
 		if (fn && n && state_of(ch) != CS_IDLE && fn(ctx, SDO_CLIENT_GATE_TAKE_SERVER, n))
 			cli->srv_held[n / 64u] |= 1ull << (n % 64u);
 	}
