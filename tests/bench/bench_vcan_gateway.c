@@ -20,7 +20,9 @@
  * COGW_BENCH_GW_ONLY=pdo stops after the forwarding figures, =sdo measures
  * only the expedited reads (more of them) (tuning).
  */
+#include <dirent.h>
 #include <errno.h>
+#include <inttypes.h>
 #include <linux/can.h>
 #include <linux/can/raw.h>
 #include <poll.h>
@@ -369,6 +371,72 @@ static double expedited_us(requester *q, bool routed, int n, double *ind_us)
 	return med;
 }
 
+/* Context switches (voluntary + not) of each thread of pid, by thread
+ * name: the wake-ups a routed read costs the daemon (docs/fastpath.md). */
+#define SWITCH_THREADS 16
+typedef struct switches {
+	int n;
+	int tid[SWITCH_THREADS];
+	char name[SWITCH_THREADS][16];
+	uint64_t count[SWITCH_THREADS];
+} switches;
+
+static void switches_of(pid_t pid, switches *s)
+{
+	char dir[64];
+	struct dirent *e;
+
+	s->n = 0;
+	snprintf(dir, sizeof dir, "/proc/%d/task", (int)pid);
+	DIR *dp = opendir(dir);
+	while (dp && (e = readdir(dp)) && s->n < SWITCH_THREADS) {
+		char path[sizeof dir + sizeof e->d_name + 8], line[128];
+		if (e->d_name[0] == '.')
+			continue;
+		snprintf(path, sizeof path, "%s/%s/status", dir, e->d_name);
+		FILE *f = fopen(path, "r");
+		if (!f)
+			continue;
+		s->tid[s->n] = atoi(e->d_name);
+		uint64_t v = 0, sum = 0;
+		s->name[s->n][0] = 0;
+		while (fgets(line, sizeof line, f)) {
+			if (sscanf(line, "Name: %15s", s->name[s->n]) == 1)
+				continue;
+			if (sscanf(line, "voluntary_ctxt_switches: %" SCNu64, &v) == 1 ||
+			    sscanf(line, "nonvoluntary_ctxt_switches: %" SCNu64, &v) == 1)
+				sum += v;
+		}
+		fclose(f);
+		s->count[s->n++] = sum;
+	}
+	if (dp)
+		closedir(dp);
+}
+
+/* "name a.b, ..." per read: (after - before) / reads, threads that moved. */
+static void switches_note(const char *what, const switches *a, const switches *b, int reads)
+{
+	char text[512];
+	size_t len = 0;
+	double total = 0;
+
+	text[0] = 0;
+	for (int i = 0; i < a->n; i++) {
+		int j = 0;
+		while (j < b->n && b->tid[j] != a->tid[i])
+			j++;
+		if (j == b->n)
+			continue;
+		double per = (double)(b->count[j] - a->count[i]) / reads;
+		total += per;
+		if (per >= 0.05 && len < sizeof text - 40)
+			len += (size_t)snprintf(text + len, sizeof text - len, "%s%s %.1f",
+						len ? ", " : "", a->name[i], per);
+	}
+	bench_note("%s: cogwd's context switches per read %.1f (%s)", what, total, text);
+}
+
 /* The three forwarders of the latency figures, measured in interleaved
  * rounds so that the load of the machine (a shared host under the VM
  * moves the figures by several times within a minute) falls on all three
@@ -659,8 +727,14 @@ int main(void)
 expedited:;
 	int reps = bench_in_vm() ? (sdo_only ? 200 : 50) : 300;
 	double ind_us, unused;
-	double ed = expedited_us(&q1, false, reps, &unused),
-	       er = expedited_us(&q0, true, reps, &ind_us);
+	switches sw0, sw1, sw2;
+	switches_of(d.pid, &sw0);
+	double ed = expedited_us(&q1, false, reps, &unused);
+	switches_of(d.pid, &sw1);
+	double er = expedited_us(&q0, true, reps, &ind_us);
+	switches_of(d.pid, &sw2);
+	switches_note("direct expedited read on vcan1 (cogwd's line 1 hears it)", &sw0, &sw1, reps);
+	switches_note("routed expedited read", &sw1, &sw2, reps);
 	if (ed < 0 || er < 0) {
 		bench_note(
 			"routed vs direct expedited SDO: not measured (a read failed, see above)");

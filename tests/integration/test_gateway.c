@@ -903,9 +903,12 @@ static void *own_read_run(void *arg)
 {
 	struct own_read *o = arg;
 	size_t len = 0;
+	/* a silent node holds its client this long: both are busy at once
+	 * however slowly the emulated machine starts the second one */
+	cogw_sdo_opts opt = { .sdo_timeout_ms = 8000 };
 
-	o->rc = cogw_sdo_read(o->h, 2, o->node, 0x1000, 0, o->buf, sizeof o->buf, &len, 30000,
-			      &o->abort);
+	o->rc = cogw_sdo_read_ex(o->h, 2, o->node, 0x1000, 0, &opt, o->buf, sizeof o->buf, &len,
+				 30000, &o->abort);
 	return NULL;
 }
 
