@@ -130,7 +130,7 @@ struct sdo_client {
 	/* the second user of the pool (sdo_client_set_gate) */
 	sdo_client_gate_fn gate;
 	void *gate_ctx;
-	uint64_t srv_held[2];  /* servers (node-IDs) taken from the gate */
+	uint64_t srv_held[2];   /* servers (node-IDs) taken from the gate */
 	uint64_t gate_retry_us; /* a refused request is tried again then */
 	struct cli_chan ch[];
 };
@@ -1391,8 +1391,8 @@ static uint64_t gate_next(const struct sdo_client *cli)
 }
 
 /* Lend ch raw toward r's server (the checks done). */
-static int lease_bind(struct cli_chan *ch, const sdo_client_req *r, sdo_client_raw_fn fn,
-		      void *arg, uint64_t now_us)
+static int lease_bind(struct cli_chan *ch, const sdo_client_req *r, sdo_client_raw_fn fn, void *arg,
+		      uint64_t now_us)
 {
 	co_node *node = node_of(ch);
 	struct sdo_client *cli = ch->cli;
@@ -1441,8 +1441,8 @@ int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t 
 	return rc;
 }
 
-int sdo_client_lease_channel(co_node *node, uint8_t channel, uint8_t node_id,
-			     sdo_client_raw_fn fn, void *arg, uint64_t now_us)
+int sdo_client_lease_channel(co_node *node, uint8_t channel, uint8_t node_id, sdo_client_raw_fn fn,
+			     void *arg, uint64_t now_us)
 {
 	struct sdo_client *cli = node->sdo_cli;
 	sdo_client_req r = { .node_id = node_id };

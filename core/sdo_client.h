@@ -226,8 +226,8 @@ void sdo_client_set_gate(co_node *node, sdo_client_gate_fn fn, void *ctx);
  * checks that remain (the server busy or settling, -EALREADY; no receiver,
  * -ENOSPC; the channel not idle or held by the node's own requests,
  * -EBUSY) fail only when the gate's bookkeeping and the pool disagree. */
-int sdo_client_lease_channel(co_node *node, uint8_t channel, uint8_t node_id,
-			     sdo_client_raw_fn fn, void *arg, uint64_t now_us);
+int sdo_client_lease_channel(co_node *node, uint8_t channel, uint8_t node_id, sdo_client_raw_fn fn,
+			     void *arg, uint64_t now_us);
 /* -ENOENT if the channel is not leased. */
 int sdo_client_lease_send(co_node *node, uint8_t channel, const uint8_t d[8]);
 /* Give the channel back to the pool (waiting requests may start). */

@@ -71,18 +71,18 @@ enum gw_msg_kind {
 /* Everything that crosses lines, by value. */
 typedef struct gw_msg {
 	uint8_t kind;
-	uint8_t from; /* sending line */
+	uint8_t from;    /* sending line */
 	uint8_t node;    /* M_OPEN: target or router; M_EMCY: source node;
 	                  * M_CLOSE: the node its sender gave back on the board
 	                  * already (gw_lease_close), 0 = none */
 	uint8_t channel; /* M_OPEN: the client channel reserved (gw_lend_reserve) */
 	uint32_t sid;    /* what a lease serves: see gw_sid_* */
 	uint32_t abort;  /* M_LOST */
-	uint16_t slot;  /* M_FWD */
-	uint16_t net;   /* M_EMCY: source network */
-	uint16_t code;  /* M_EMCY: original error code */
-	uint64_t bits;  /* M_FWD: the value written (gw_image_bits_from) */
-	uint8_t d[8];   /* frames */
+	uint16_t slot;   /* M_FWD */
+	uint16_t net;    /* M_EMCY: source network */
+	uint16_t code;   /* M_EMCY: original error code */
+	uint64_t bits;   /* M_FWD: the value written (gw_image_bits_from) */
+	uint8_t d[8];    /* frames */
 	/* M_FWD: fast TPDOs of the target (gateway/fast_tpdo.h, bit k) the
 	 * source sent at sent_us (their numbers in fast_nr), and those it
 	 * counted as held */
@@ -106,8 +106,8 @@ struct gw_sess {
 	uint16_t gen;
 	uint16_t net; /* the requested network (for the counters) */
 	uint8_t target_line;
-	bool lease_lost;      /* the target line ended the lease (M_LOST) */
-	bool target_aborted;  /* the last frame relayed to the target was an abort */
+	bool lease_lost;     /* the target line ended the lease (M_LOST) */
+	bool target_aborted; /* the last frame relayed to the target was an abort */
 	uint64_t started_us; /* the network indication (for the listing) */
 	gw_sdo_route r;
 };
@@ -195,7 +195,7 @@ struct gw_line {
 	bool fwd_dirty;
 	uint64_t next_rebuild_us;
 	uint64_t next_link_check_us;
-	bool carried; /* what the last link check saw (gw_relays_check_link) */
+	bool carried;              /* what the last link check saw (gw_relays_check_link) */
 	uint32_t link_events_seen; /* line_link_events at that look */
 	/* What this line lends to routed transfers of other lines (and its
 	 * own hops through a router on its bus): read and reserved by them. */

@@ -128,7 +128,8 @@ static void relays_check_link(struct gw_line *gl, uint64_t now_us, bool forced, 
 static struct gw_relay *relay_by_sid(struct gw_line *gl, uint8_t from, uint32_t sid, bool any)
 {
 	for (unsigned i = 0; i < GW_RELAYS_MAX; i++)
-		if (gl->relay[i].used && (any || (!gl->relay[i].orphaned && !gl->relay[i].draining)) &&
+		if (gl->relay[i].used &&
+		    (any || (!gl->relay[i].orphaned && !gl->relay[i].draining)) &&
 		    gl->relay[i].from == from && gl->relay[i].sid == sid)
 			return &gl->relay[i];
 	return NULL;

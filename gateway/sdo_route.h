@@ -108,7 +108,7 @@ typedef struct gw_sdo_route {
 /* Input delivered through co_fsm_con (target side). */
 typedef enum gw_sdo_route_con_kind {
 	GW_CON_TARGET_FRAME = 1, /* a frame from the target (or next router) */
-	GW_CON_LOST,         /* the target line lost the lease (line down) */
+	GW_CON_LOST,             /* the target line lost the lease (line down) */
 } gw_sdo_route_con_kind;
 
 typedef struct gw_sdo_route_con {

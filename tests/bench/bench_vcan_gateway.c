@@ -696,7 +696,8 @@ int main(void)
 		/* the device answers before the reads are timed */
 		uint8_t id[4];
 		sdo_client_req r = { .upload = true, .index = 0x1000, .buf = id, .cap = 4 };
-		for (uint64_t until = mono_ms() + 15000; transfer(&q1, false, &r) < 0; sleep_ms(200))
+		for (uint64_t until = mono_ms() + 15000; transfer(&q1, false, &r) < 0;
+		     sleep_ms(200))
 			if (mono_ms() > until)
 				goto out;
 		goto expedited;

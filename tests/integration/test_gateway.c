@@ -975,8 +975,9 @@ static void test_own_clients_and_routed_leases_share_the_pool(void)
 	TEST_ASSERT_EQUAL_HEX8(GW_NETIND_CS, a[0]);
 	drain(fd2);
 	own_read_start(&own[0], TGT_NODE);
-	TEST_ASSERT_NOT_EQUAL_MESSAGE(8, can_wait_id(fd2, 0x600 + TGT_NODE, d, 500),
-				      "line 2's own client talked to a node reserved for a session");
+	TEST_ASSERT_NOT_EQUAL_MESSAGE(
+		8, can_wait_id(fd2, 0x600 + TGT_NODE, d, 500),
+		"line 2's own client talked to a node reserved for a session");
 	TEST_ASSERT_EQUAL_UINT(2, gw_status(2).leases);
 	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x67F, ab, 8));
 	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x67E, ab, 8));

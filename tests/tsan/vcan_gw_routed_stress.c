@@ -373,8 +373,8 @@ static void *requester(void *arg)
 			continue;
 		}
 		if (d[0] == 0x80) {
-			uint32_t code = (uint32_t)d[4] | (uint32_t)d[5] << 8 | (uint32_t)d[6] << 16 |
-					(uint32_t)d[7] << 24;
+			uint32_t code = (uint32_t)d[4] | (uint32_t)d[5] << 8 |
+					(uint32_t)d[6] << 16 | (uint32_t)d[7] << 24;
 			if (code == SDO_AB_ROUTE_BUSY || code == SDO_AB_NO_RESOURCE) {
 				atomic_fetch_add(&tally.sess_refused, 1);
 			} else {
@@ -403,10 +403,11 @@ static void expect_all_clients_lendable(cogw *h, unsigned from, uint16_t net)
 	uint64_t corr[4];
 
 	for (unsigned i = 0; i < 4; i++) {
-		mbx_gw_sdo_req r = { .net = net,
-				     .sdo = { .node = (uint8_t)(40 + i), .index = 0x1000, .size = 4 } };
-		TEST_ASSERT_EQUAL_INT(0, cogw_send_async(h, from, MBX_CMD_GW_SDO_UPLOAD, &r,
-							 sizeof r, &corr[i]));
+		mbx_gw_sdo_req r = {
+			.net = net, .sdo = { .node = (uint8_t)(40 + i), .index = 0x1000, .size = 4 }
+		};
+		TEST_ASSERT_EQUAL_INT(
+			0, cogw_send_async(h, from, MBX_CMD_GW_SDO_UPLOAD, &r, sizeof r, &corr[i]));
 	}
 	for (unsigned i = 0; i < 4; i++) {
 		cogw_msg m;
@@ -416,8 +417,9 @@ static void expect_all_clients_lendable(cogw *h, unsigned from, uint16_t net)
 			got = m.kind == MBX_KIND_RESPONSE && m.corr == corr[i];
 			if (got) {
 				char why[64];
-				snprintf(why, sizeof why, "network %u, node %u: status %d abort %08X",
-					 net, 40 + i, m.status, (unsigned)m.abort);
+				snprintf(why, sizeof why,
+					 "network %u, node %u: status %d abort %08X", net, 40 + i,
+					 m.status, (unsigned)m.abort);
 				TEST_ASSERT_EQUAL_HEX32_MESSAGE(SDO_AB_NODE_UNKNOWN, m.abort, why);
 			}
 			cogw_msg_release(&m);

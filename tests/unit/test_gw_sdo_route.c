@@ -618,7 +618,8 @@ static void test_reservation_and_own_clients_exclude_each_other(void)
 	/* the lease is bound on exactly the reserved channel */
 	TEST_ASSERT_EQUAL(-EINVAL,
 			  sdo_client_lease_channel(lender->node, a, 5, NULL, NULL, bus_b.now));
-	TEST_ASSERT_EQUAL(a, sdo_client_lease_channel(lender->node, a, 5, tgt_raw, NULL, bus_b.now));
+	TEST_ASSERT_EQUAL(a,
+			  sdo_client_lease_channel(lender->node, a, 5, tgt_raw, NULL, bus_b.now));
 	/* node 11 times out: its channel is back, node 12 takes it */
 	tb_advance(&bus_b, 500000);
 	TEST_ASSERT_EQUAL(1, own_requests_to(12));
