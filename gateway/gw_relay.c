@@ -211,17 +211,14 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 			GW_COUNT(gl->c.ring_drops); /* the requester's timeout ends it */
 		return;
 	}
-	r->used = true;
-	r->orphaned = false;
-	r->from = m->from;
-	r->sid = m->sid;
-	r->node = m->node;
-	r->owns_node = true;
-	r->cli_ch = ch;
-	r->engaged = false;
-	r->aborted = false;
-	r->draining = false;
-	r->last_us = now_us;
+	*r = (struct gw_relay){ .used = true,
+				.from = m->from,
+				.sid = m->sid,
+				.node = m->node,
+				.owns_node = true,
+				.cli_ch = ch,
+				.last_us = now_us,
+				.gl = gl };
 }
 
 void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
