@@ -999,6 +999,7 @@ static bool server_blocked(struct sdo_client *cli, const struct cli_chan *self, 
 }
 
 static bool settling(const struct sdo_client *cli, uint32_t resp, uint64_t now_us);
+static uint64_t gate_next(const struct sdo_client *cli);
 
 /* Give the gate back what the node's own requests no longer use. */
 static void gate_sync(struct sdo_client *cli)
@@ -1020,6 +1021,10 @@ static void gate_sync(struct sdo_client *cli)
 		cli->srv_held[n / 64u] &= ~(1ull << (n % 64u));
 		cli->gate(cli->gate_ctx, SDO_CLIENT_GATE_FREE_SERVER, n);
 	}
+	/* a server still settling goes back from the tick at its end, also
+	 * when nothing else would tick the node (a transfer cancelled from
+	 * outside) */
+	co_node_deadline_lower(cli->node, gate_next(cli));
 }
 
 /* Late frames of a transfer to this server that some channel ended with
