@@ -55,6 +55,7 @@
 #define GW_HOPS_MAX 64u          /* routed mailbox SDO transfers per line */
 #define GW_SELF_SLOTS 64u        /* messages a line hands to itself */
 #define GW_QUIET_WAKE_AT 64u     /* quiet messages queued before they wake the target */
+#define GW_CLOSING_MAX 4u        /* leases closed well remembered per target line */
 
 enum gw_msg_kind {
 	M_FWD = 1,   /* a B-object changed: slot, its new value in bits */
@@ -72,9 +73,7 @@ enum gw_msg_kind {
 typedef struct gw_msg {
 	uint8_t kind;
 	uint8_t from;    /* sending line */
-	uint8_t node;    /* M_OPEN: target or router; M_EMCY: source node;
-	                  * M_CLOSE: the node its sender gave back on the board
-	                  * already (gw_lease_close), 0 = none */
+	uint8_t node;    /* M_OPEN: target or router; M_EMCY: source node */
 	uint8_t channel; /* M_OPEN: the client channel reserved (gw_lend_reserve) */
 	uint32_t sid;    /* what a lease serves: see gw_sid_* */
 	uint32_t abort;  /* M_LOST */
@@ -90,6 +89,10 @@ typedef struct gw_msg {
 	uint64_t sent_us;
 	uint16_t fast_nr[GW_FAST_SENT_MAX];
 	uint8_t n_fast;
+	/* M_OPEN: the node is held by the sender's own lease closed just
+	 * before (its M_CLOSE is ahead in the ring): the target claims it at
+	 * bind instead (gw_lease_open) */
+	bool inherits;
 } gw_msg;
 
 /* A lease serves a session (bit 23 clear: line << 24 | channel << 16 |
@@ -131,7 +134,6 @@ struct gw_relay {
 	bool draining;
 	uint8_t mux[3]; /* its index, sub-index (from that first frame) */
 	uint8_t node;   /* its server, reserved on the lending board */
-	bool owns_node; /* ... and still held for it there (relay_free clears it) */
 	int cli_ch;
 	uint32_t sid;
 	uint64_t last_us;
@@ -195,7 +197,16 @@ struct gw_line {
 	bool fwd_dirty;
 	uint64_t next_rebuild_us;
 	uint64_t next_link_check_us;
-	bool carried;              /* what the last link check saw (gw_relays_check_link) */
+	bool carried; /* what the last link check saw (gw_relays_check_link) */
+	/* Leases of ours that ended well, per target line, whose M_CLOSE the
+	 * target may not have taken yet (pushed_to when it was pushed): the
+	 * requester's next transfer to that node inherits the node instead of
+	 * meeting its own lease still held (gw_lease_open). */
+	struct {
+		uint8_t node;
+		uint64_t mark;
+	} closing[GW_LINES_MAX][GW_CLOSING_MAX];
+	uint8_t closing_next[GW_LINES_MAX];
 	uint32_t link_events_seen; /* line_link_events at that look */
 	/* What this line lends to routed transfers of other lines (and its
 	 * own hops through a router on its bus): read and reserved by them. */
@@ -256,9 +267,9 @@ uint64_t gw_sessions_tick(struct gw_line *gl, uint64_t now_us, uint64_t next);
  * full or closed; the reservation went back). */
 uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid);
 /* ... and give it back (M_CLOSE). `settled`: the transfer ended without
- * an abort to the device and the lease was not lost, so the node goes
- * back on the board at once (the requester's next transfer to it must not
- * meet this lease still held); else the target line frees it. */
+ * an abort to the device and the lease was not lost, so the device is
+ * idle: a transfer of ours to that node that follows before the target
+ * took the M_CLOSE inherits the node (remembered in gl->closing). */
 void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, bool settled);
 /* The target line: publish what it lends (gw_relays_tick does it each
  * look); the gate of its SDO client pool at attach/detach. */

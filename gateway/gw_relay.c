@@ -28,8 +28,7 @@ static void relay_free(struct gw_relay *r, uint64_t now_us)
 		return;
 	/* the node first: the pool's requests waiting for it start at the
 	 * lease's end */
-	if (r->owns_node)
-		gw_lend_node_free(&r->gl->lend, r->node);
+	gw_lend_node_free(&r->gl->lend, r->node);
 	sdo_client_lease_end(r->gl->node, (uint8_t)r->cli_ch, now_us);
 	r->used = false;
 	r->orphaned = false;
@@ -124,12 +123,10 @@ static void relays_check_link(struct gw_line *gl, uint64_t now_us, bool forced, 
 		*next = gl->next_link_check_us;
 }
 
-/* The lease of (from, sid); `any`: also one orphaned or draining. */
-static struct gw_relay *relay_by_sid(struct gw_line *gl, uint8_t from, uint32_t sid, bool any)
+static struct gw_relay *relay_by_sid(struct gw_line *gl, uint8_t from, uint32_t sid)
 {
 	for (unsigned i = 0; i < GW_RELAYS_MAX; i++)
-		if (gl->relay[i].used &&
-		    (any || (!gl->relay[i].orphaned && !gl->relay[i].draining)) &&
+		if (gl->relay[i].used && !gl->relay[i].orphaned && !gl->relay[i].draining &&
 		    gl->relay[i].from == from && gl->relay[i].sid == sid)
 			return &gl->relay[i];
 	return NULL;
@@ -150,12 +147,35 @@ void gw_lend_detach(struct gw_line *gl)
 	sdo_client_set_gate(gl->node, NULL, NULL);
 }
 
+/* Is node of line `to` held by a lease of ours that ended well and whose
+ * M_CLOSE `to` has not taken yet? (Its done count lags what it took: a
+ * stale "yes" only makes the bind claim the node, which may then fail.) */
+static bool own_lease_closing(struct gw_line *gl, unsigned to, uint8_t node)
+{
+	uint64_t done;
+
+	if (to == gl->idx)
+		return false; /* own queue: the close is taken before anything else */
+	done = atomic_load_explicit(&gl->g->line[to].done_from[gl->idx], memory_order_acquire);
+	for (unsigned i = 0; i < GW_CLOSING_MAX; i++)
+		if (gl->closing[to][i].node == node && done < gl->closing[to][i].mark)
+			return true;
+	return false;
+}
+
 uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid)
 {
 	struct gw_line *tl = &gl->g->line[hop->line];
 	gw_msg m = { .kind = M_OPEN, .sid = sid, .node = hop->node };
 	uint32_t refuse = gw_lend_reserve(&tl->lend, hop->node, &m.channel);
 
+	/* The requester's next transfer to a node right after the last one
+	 * ended: the node is still ours until the target takes that M_CLOSE,
+	 * which the ring keeps ahead of this M_OPEN. */
+	if (refuse == GW_AB_ROUTE_BUSY && own_lease_closing(gl, hop->line, hop->node)) {
+		refuse = gw_lend_reserve_channel(&tl->lend, &m.channel);
+		m.inherits = true;
+	}
 	if (refuse)
 		return refuse;
 	/* Quiet: the target needs M_OPEN only with the transfer's first
@@ -163,7 +183,7 @@ uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid)
 	 * (or at any earlier wake-up: before_events). Nothing of a TPDO waits
 	 * for it: under the target's current publication. */
 	if (gw_send_quiet_to(gl, hop->line, &m, gw_fast_epoch(&tl->fast))) {
-		gw_lend_give_back(&tl->lend, m.channel, hop->node);
+		gw_lend_give_back(&tl->lend, m.channel, m.inherits ? 0 : hop->node);
 		GW_COUNT(gl->c.ring_drops);
 		return GW_AB_ROUTE_BUSY;
 	}
@@ -172,15 +192,18 @@ uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid)
 
 void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, bool settled)
 {
-	gw_msg m = { .kind = M_CLOSE, .sid = sid, .node = settled ? hop->node : 0 };
+	gw_msg m = { .kind = M_CLOSE, .sid = sid };
+	unsigned to = hop->line;
 
-	if (gw_send_to(gl, hop->line, &m)) {
+	if (gw_send_to(gl, to, &m)) {
 		GW_COUNT(gl->c.ring_drops); /* the relay's idle limit frees it */
 		return;
 	}
-	/* after the push: the lease never frees a node it was told of */
-	if (settled)
-		gw_lend_node_free(&gl->g->line[hop->line].lend, hop->node);
+	if (settled && to != gl->idx) {
+		uint8_t i = gl->closing_next[to]++ % GW_CLOSING_MAX;
+		gl->closing[to][i].node = hop->node;
+		gl->closing[to][i].mark = gl->pushed_to[to];
+	}
 }
 
 /* Bind the lease reserved for m->sid. The reservation was decided on what
@@ -192,6 +215,7 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 	gw_msg lost = { .kind = M_LOST, .sid = m->sid };
 	struct gw_relay *r = NULL;
 	int ch = 0;
+	bool node_ours = !m->inherits || gw_lend_claim_node(&gl->lend, m->node);
 
 	/* a free slot is always there: a slot holds a leased channel, and a
 	 * line has at most GW_RELAYS_MAX channels (docs/config.md) */
@@ -200,13 +224,15 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 			r = &gl->relay[i];
 	if (!gl->carried || gw_lend_is_silent(&gl->lend, m->node))
 		lost.abort = GW_AB_NO_ANSWER;
+	else if (!node_ours)
+		lost.abort = sdo_abort_of_errno(-EALREADY); /* taken since our M_CLOSE */
 	else if (!r)
 		lost.abort = GW_AB_NO_CLIENT;
 	else if ((ch = sdo_client_lease_channel(gl->node, m->channel, m->node, relay_rx, r,
 						now_us)) < 0)
 		lost.abort = sdo_abort_of_errno(ch);
 	if (lost.abort) {
-		gw_lend_give_back(&gl->lend, m->channel, m->node);
+		gw_lend_give_back(&gl->lend, m->channel, node_ours ? m->node : 0);
 		if (gw_send_to(gl, m->from, &lost))
 			GW_COUNT(gl->c.ring_drops); /* the requester's timeout ends it */
 		return;
@@ -215,7 +241,6 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 				.from = m->from,
 				.sid = m->sid,
 				.node = m->node,
-				.owns_node = true,
 				.cli_ch = ch,
 				.last_us = now_us,
 				.gl = gl };
@@ -223,7 +248,7 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 
 void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
-	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid, false);
+	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid);
 
 	if (!r)
 		return;
@@ -238,14 +263,10 @@ void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 
 void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
-	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid, true);
+	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid);
 
 	if (!r)
 		return;
-	if (m->node && m->node == r->node)
-		r->owns_node = false; /* the requester gave it back (gw_lease_close) */
-	if (r->orphaned || r->draining)
-		return; /* freed when the link is back, or the device quiet */
 	if (r->engaged && r->aborted) {
 		r->draining = true;
 		r->last_us = now_us;

@@ -96,12 +96,13 @@ void gw_lend_node_free(gw_lend *b, uint8_t node)
 	put_clear(b->held_node, node);
 }
 
-uint32_t gw_lend_reserve(gw_lend *b, uint8_t node, uint8_t *channel)
+bool gw_lend_claim_node(gw_lend *b, uint8_t node)
 {
-	if (!atomic_load_explicit(&b->carries, memory_order_acquire) || gw_lend_is_silent(b, node))
-		return GW_AB_NO_ANSWER; /* known silent: refuse now, not by a timeout */
-	if (!claim_set(b->held_node, node))
-		return sdo_abort_of_errno(-EALREADY);
+	return claim_set(b->held_node, node);
+}
+
+uint32_t gw_lend_reserve_channel(gw_lend *b, uint8_t *channel)
+{
 	for (unsigned w = 0; w < 2; w++) {
 		uint64_t v = atomic_load_explicit(&b->free_ch[w], memory_order_acquire);
 		while (v) {
@@ -114,12 +115,25 @@ uint32_t gw_lend_reserve(gw_lend *b, uint8_t node, uint8_t *channel)
 			}
 		}
 	}
-	put_clear(b->held_node, node);
 	return GW_AB_NO_CLIENT;
+}
+
+uint32_t gw_lend_reserve(gw_lend *b, uint8_t node, uint8_t *channel)
+{
+	uint32_t refuse;
+
+	if (!atomic_load_explicit(&b->carries, memory_order_acquire) || gw_lend_is_silent(b, node))
+		return GW_AB_NO_ANSWER; /* known silent: refuse now, not by a timeout */
+	if (!claim_set(b->held_node, node))
+		return sdo_abort_of_errno(-EALREADY);
+	if ((refuse = gw_lend_reserve_channel(b, channel)))
+		put_clear(b->held_node, node);
+	return refuse;
 }
 
 void gw_lend_give_back(gw_lend *b, uint8_t channel, uint8_t node)
 {
 	put_set(b->free_ch, channel);
-	put_clear(b->held_node, node);
+	if (node)
+		put_clear(b->held_node, node);
 }

@@ -16,7 +16,7 @@
  * reserved unit when the request reaches it; a reservation whose request
  * never reaches it goes back with gw_lend_give_back, once.
  *
- * Threads: gw_lend_reserve / gw_lend_give_back from any line; the rest by
+ * Threads: gw_lend_reserve* / gw_lend_give_back from any line; the rest by
  * the owner only. Release stores, acquire loads: a requester that sees
  * "carries" sees the sets published before it.
  */
@@ -46,20 +46,26 @@ bool gw_lend_is_silent(const gw_lend *b, uint8_t node);
 /* The gate of the owner's SDO client pool (sdo_client_set_gate, ctx = b). */
 bool gw_lend_gate(void *ctx, sdo_client_gate_op op, uint8_t arg);
 
-/* ---- any line ---- */
 /* The lease bound on a reservation for node ended: the node is free again
- * (its channel comes back through the gate). By the owner (before
- * sdo_client_lease_end, so that the pool's requests waiting for that node
- * start in it), or by the lease's requester when the transfer ended well
- * (gw_lease_close): once per lease, by one of them. */
+ * (its channel comes back through the gate). Before sdo_client_lease_end,
+ * so that the pool's requests waiting for that node start in it. */
 void gw_lend_node_free(gw_lend *b, uint8_t node);
+/* Take node for a lease whose requester reserved only its channel (it
+ * inherits the node from its own lease closed just before): false when
+ * someone took the node meanwhile. */
+bool gw_lend_claim_node(gw_lend *b, uint8_t node);
+
+/* ---- any line ---- */
 /* Reserve a channel and node `node` of the owner for one lease. 0 and
  * *channel, or the refusal, in this order: GW_AB_NO_ANSWER (not carrying,
  * the node heartbeat-lost), sdo_abort_of_errno(-EALREADY) (the node busy
  * or settling, or reserved by another), GW_AB_NO_CLIENT (no free
  * channel). */
 uint32_t gw_lend_reserve(gw_lend *b, uint8_t node, uint8_t *channel);
-/* A reservation whose request did not reach the owner. */
+/* A channel alone (the owner claims the node at bind): 0 or
+ * GW_AB_NO_CLIENT. */
+uint32_t gw_lend_reserve_channel(gw_lend *b, uint8_t *channel);
+/* A reservation that will not be bound (node 0: its channel alone). */
 void gw_lend_give_back(gw_lend *b, uint8_t channel, uint8_t node);
 
 #endif /* COGW_GATEWAY_LEND_H */

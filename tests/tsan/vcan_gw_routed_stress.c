@@ -367,6 +367,7 @@ static void *requester(void *arg)
 		return NULL;
 	}
 	for (unsigned round = 0; round < 2 * ROUNDS; round++) {
+		usleep(rand_r(&seed) % 40000); /* spread over the clients' rounds */
 		raw_send(fd, 0x600 + 127, ind);
 		if (!raw_recv(fd, d, 10000)) {
 			atomic_fetch_add(&tally.sess_unexpected, 1);
@@ -392,7 +393,6 @@ static void *requester(void *arg)
 			(void)raw_recv(fd, d, 5000);
 		}
 		raw_send(fd, 0x600 + 127, ab);
-		usleep(rand_r(&seed) % 5000);
 	}
 	close(fd);
 	return NULL;
