@@ -596,6 +596,30 @@ static void test_reservation_refusals_keep_their_codes(void)
 	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, gw_lend_reserve(&board, 5, &c));
 }
 
+/* A requester's next transfer to a node right after its last one ended
+ * reserves the channel alone; the target claims the node at bind, after
+ * the close of the last lease freed it - or finds it taken meanwhile. */
+static void test_inherited_node_is_claimed_at_bind(void)
+{
+	uint8_t a, b;
+
+	lender_on();
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 5, &a));
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve_channel(&board, &b));
+	TEST_ASSERT_TRUE(a != b);
+	TEST_ASSERT_FALSE(gw_lend_claim_node(&board, 5)); /* the first lease holds it */
+	gw_lend_give_back(&board, a, 5);                  /* its close */
+	TEST_ASSERT_TRUE(gw_lend_claim_node(&board, 5));  /* the second one's bind */
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, gw_lend_reserve(&board, 5, &a));
+	/* no channel: the channel alone is refused too, and nothing is held */
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve_channel(&board, &a));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, gw_lend_reserve_channel(&board, &a));
+	gw_lend_give_back(&board, b, 0); /* channel alone */
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, gw_lend_reserve(&board, 5, &a));
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 6, &a));
+	TEST_ASSERT_EQUAL(b, a);
+}
+
 /* What the target line's own clients hold is not lent, and what is lent
  * is not given to them; a unit given back lets them go on. */
 static void test_reservation_and_own_clients_exclude_each_other(void)
@@ -650,5 +674,6 @@ int main(void)
 	RUN_TEST(test_target_line_lost_mid_transfer);
 	RUN_TEST(test_reservation_refusals_keep_their_codes);
 	RUN_TEST(test_reservation_and_own_clients_exclude_each_other);
+	RUN_TEST(test_inherited_node_is_claimed_at_bind);
 	return UNITY_END();
 }
