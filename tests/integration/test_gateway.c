@@ -946,9 +946,9 @@ static void test_own_clients_and_routed_leases_share_the_pool(void)
 	 * "no free client", from vcan0 and from a mailbox client of line 0;
 	 * toward a node one of them talks to, with "routing busy" */
 	drain(fd2);
-	own_read_start(&own[0], 97);
-	own_read_start(&own[1], 98);
+	own_read_start(&own[0], 97); /* one after the other: each frame seen */
 	TEST_ASSERT_EQUAL_INT(8, can_wait_id(fd2, 0x600 + 97, d, 10000));
+	own_read_start(&own[1], 98);
 	TEST_ASSERT_EQUAL_INT(8, can_wait_id(fd2, 0x600 + 98, d, 10000));
 	expect_refused(3, TGT_NODE, GW_AB_NO_CLIENT, "line 2's own clients hold its pool");
 	expect_mbx_refused(0, 3, TGT_NODE, GW_AB_NO_CLIENT, "line 2's own clients hold its pool");
