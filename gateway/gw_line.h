@@ -199,11 +199,13 @@ struct gw_line {
 	uint64_t next_link_check_us;
 	bool carried; /* what the last link check saw (gw_relays_check_link) */
 	/* Leases of ours that ended well, per target line, whose M_CLOSE the
-	 * target may not have taken yet (pushed_to when it was pushed): the
+	 * target may not have taken yet (pushed_to when it was pushed; for
+	 * this line itself, the M_CLOSE still in its own queue): the
 	 * requester's next transfer to that node inherits the node instead of
 	 * meeting its own lease still held (gw_lease_open). */
 	struct {
 		uint8_t node;
+		uint32_t sid;
 		uint64_t mark;
 	} closing[GW_LINES_MAX][GW_CLOSING_MAX];
 	uint8_t closing_next[GW_LINES_MAX];

@@ -147,19 +147,33 @@ void gw_lend_detach(struct gw_line *gl)
 	sdo_client_set_gate(gl->node, NULL, NULL);
 }
 
+/* Is the M_CLOSE of sid still in this line's own queue? */
+static bool close_queued_to_self(const struct gw_line *gl, uint32_t sid)
+{
+	for (unsigned i = 0; i < gl->self_len; i++) {
+		const gw_msg *q = &gl->self[(gl->self_head + i) % GW_SELF_SLOTS];
+		if (q->kind == M_CLOSE && q->sid == sid)
+			return true;
+	}
+	return false;
+}
+
 /* Is node of line `to` held by a lease of ours that ended well and whose
  * M_CLOSE `to` has not taken yet? (Its done count lags what it took: a
  * stale "yes" only makes the bind claim the node, which may then fail.) */
 static bool own_lease_closing(struct gw_line *gl, unsigned to, uint8_t node)
 {
-	uint64_t done;
+	uint64_t done = to == gl->idx ? 0
+				      : atomic_load_explicit(&gl->g->line[to].done_from[gl->idx],
+							     memory_order_acquire);
 
-	if (to == gl->idx)
-		return false; /* own queue: the close is taken before anything else */
-	done = atomic_load_explicit(&gl->g->line[to].done_from[gl->idx], memory_order_acquire);
-	for (unsigned i = 0; i < GW_CLOSING_MAX; i++)
-		if (gl->closing[to][i].node == node && done < gl->closing[to][i].mark)
+	for (unsigned i = 0; i < GW_CLOSING_MAX; i++) {
+		if (gl->closing[to][i].node != node)
+			continue;
+		if (to == gl->idx ? close_queued_to_self(gl, gl->closing[to][i].sid)
+				  : done < gl->closing[to][i].mark)
 			return true;
+	}
 	return false;
 }
 
@@ -199,9 +213,10 @@ void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, bool se
 		GW_COUNT(gl->c.ring_drops); /* the relay's idle limit frees it */
 		return;
 	}
-	if (settled && to != gl->idx) {
+	if (settled) {
 		uint8_t i = gl->closing_next[to]++ % GW_CLOSING_MAX;
 		gl->closing[to][i].node = hop->node;
+		gl->closing[to][i].sid = sid;
 		gl->closing[to][i].mark = gl->pushed_to[to];
 	}
 }
