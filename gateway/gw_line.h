@@ -89,10 +89,10 @@ typedef struct gw_msg {
 	uint64_t sent_us;
 	uint16_t fast_nr[GW_FAST_SENT_MAX];
 	uint8_t n_fast;
-	/* M_OPEN: the node is held by the sender's own lease closed just
-	 * before (its M_CLOSE is ahead in the ring): the target claims it at
-	 * bind instead (gw_lease_open) */
-	bool inherits;
+	/* M_OPEN: the node and the channel are held by the sender's own
+	 * lease closed just before (its M_CLOSE is ahead in the ring): the
+	 * target claims them at bind instead (gw_lease_open) */
+	bool inherits_node, inherits_channel;
 } gw_msg;
 
 /* A lease serves a session (bit 23 clear: line << 24 | channel << 16 |
@@ -111,6 +111,7 @@ struct gw_sess {
 	uint8_t target_line;
 	bool lease_lost;     /* the target line ended the lease (M_LOST) */
 	bool target_aborted; /* the last frame relayed to the target was an abort */
+	uint8_t lease_ch;    /* the target line's client channel it holds */
 	uint64_t started_us; /* the network indication (for the listing) */
 	gw_sdo_route r;
 };
@@ -154,6 +155,7 @@ struct gw_mbx_hop {
 	bool unleased;       /* the reservation was refused: no lease to give back */
 	bool lease_lost;     /* the target line ended the lease (M_LOST) */
 	bool target_aborted; /* the last frame relayed to the target was an abort */
+	uint8_t lease_ch;    /* the target line's client channel it holds */
 	bool held_valid;
 	uint8_t held[8]; /* the transfer's first frame, while indicating */
 	uint16_t gen;
@@ -203,8 +205,9 @@ struct gw_line {
 	 * this line itself, the M_CLOSE still in its own queue): the
 	 * requester's next transfer to that node inherits the node instead of
 	 * meeting its own lease still held (gw_lease_open). */
-	struct {
-		uint8_t node;
+	struct gw_closing {
+		uint8_t node; /* 0: none, or inherited already */
+		uint8_t channel;
 		uint32_t sid;
 		uint64_t mark;
 	} closing[GW_LINES_MAX][GW_CLOSING_MAX];
@@ -267,12 +270,14 @@ uint64_t gw_sessions_tick(struct gw_line *gl, uint64_t now_us, uint64_t next);
  * on hop->line's lending board and hand it M_OPEN, without waking it.
  * 0, or the refusal to answer at once (GW_AB_ROUTE_BUSY: the hand-off is
  * full or closed; the reservation went back). */
-uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid);
+uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t *channel);
 /* ... and give it back (M_CLOSE). `settled`: the transfer ended without
  * an abort to the device and the lease was not lost, so the device is
- * idle: a transfer of ours to that node that follows before the target
- * took the M_CLOSE inherits the node (remembered in gl->closing). */
-void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, bool settled);
+ * idle: a transfer of ours that follows before the target took the
+ * M_CLOSE inherits the channel, and the node if it is the same
+ * (remembered in gl->closing). */
+void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t channel,
+		    bool settled);
 /* The target line: publish what it lends (gw_relays_tick does it each
  * look); the gate of its SDO client pool at attach/detach. */
 void gw_lend_attach(struct gw_line *gl);

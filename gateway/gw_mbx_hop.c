@@ -84,7 +84,7 @@ static void hop_relay(void *ctx, const uint8_t d[8])
 
 	switch (h->phase) {
 	case HOP_ROUTED:
-		lost.abort = gw_lease_open(h->gl, &h->hop, sid_of(h));
+		lost.abort = gw_lease_open(h->gl, &h->hop, sid_of(h), &h->lease_ch);
 		if (lost.abort) {
 			/* refused: the cancel may not come from inside the client,
 			 * so through this line's own queue (gw_hop_lost) */
@@ -207,7 +207,7 @@ void gw_hop_end(void *ctx, line *l, uint64_t tag)
 	if (!h)
 		return; /* on this line's bus: nothing to give back */
 	if (h->phase != HOP_ROUTED && !h->unleased)
-		gw_lease_close(gl, &h->hop, sid_of(h),
+		gw_lease_close(gl, &h->hop, sid_of(h), h->lease_ch,
 			       h->phase == HOP_RELAYING && !h->lease_lost && !h->target_aborted);
 	h->phase = HOP_FREE;
 }

@@ -158,37 +158,47 @@ static bool close_queued_to_self(const struct gw_line *gl, uint32_t sid)
 	return false;
 }
 
-/* Is node of line `to` held by a lease of ours that ended well and whose
- * M_CLOSE `to` has not taken yet? (Its done count lags what it took: a
- * stale "yes" only makes the bind claim the node, which may then fail.) */
-static bool own_lease_closing(struct gw_line *gl, unsigned to, uint8_t node)
+/* A lease of ours on line `to` that ended well, whose M_CLOSE `to` has
+ * not taken yet, toward node (0: any); NULL if none. (Its done count lags
+ * what it took: a stale one only makes the bind claim, which may fail.) */
+static struct gw_closing *closing_lease(struct gw_line *gl, unsigned to, uint8_t node)
 {
 	uint64_t done = to == gl->idx ? 0
 				      : atomic_load_explicit(&gl->g->line[to].done_from[gl->idx],
 							     memory_order_acquire);
 
 	for (unsigned i = 0; i < GW_CLOSING_MAX; i++) {
-		if (gl->closing[to][i].node != node)
+		struct gw_closing *c = &gl->closing[to][i];
+		if (!c->node || (node && c->node != node))
 			continue;
-		if (to == gl->idx ? close_queued_to_self(gl, gl->closing[to][i].sid)
-				  : done < gl->closing[to][i].mark)
-			return true;
+		if (to == gl->idx ? close_queued_to_self(gl, c->sid) : done < c->mark)
+			return c;
 	}
-	return false;
+	return NULL;
 }
 
-uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid)
+uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t *channel)
 {
 	struct gw_line *tl = &gl->g->line[hop->line];
 	gw_msg m = { .kind = M_OPEN, .sid = sid, .node = hop->node };
 	uint32_t refuse = gw_lend_reserve(&tl->lend, hop->node, &m.channel);
+	struct gw_closing *c;
 
-	/* The requester's next transfer to a node right after the last one
-	 * ended: the node is still ours until the target takes that M_CLOSE,
-	 * which the ring keeps ahead of this M_OPEN. */
-	if (refuse == GW_AB_ROUTE_BUSY && own_lease_closing(gl, hop->line, hop->node)) {
-		refuse = gw_lend_reserve_channel(&tl->lend, &m.channel);
-		m.inherits = true;
+	/* The requester's next transfer right after its last one ended: that
+	 * lease's channel (and node, if the same) are still held until the
+	 * target takes its M_CLOSE, which the ring keeps ahead of this M_OPEN;
+	 * the target claims them at bind. Deciding now, they would look busy. */
+	if (refuse == GW_AB_ROUTE_BUSY && (c = closing_lease(gl, hop->line, hop->node))) {
+		m.inherits_node = m.inherits_channel = true;
+		m.channel = c->channel;
+		c->node = 0;
+		refuse = 0;
+	} else if (refuse == GW_AB_NO_CLIENT && (c = closing_lease(gl, hop->line, 0)) &&
+		   gw_lend_claim_node(&tl->lend, hop->node)) {
+		m.inherits_channel = true;
+		m.channel = c->channel;
+		c->node = 0;
+		refuse = 0;
 	}
 	if (refuse)
 		return refuse;
@@ -197,14 +207,17 @@ uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid)
 	 * (or at any earlier wake-up: before_events). Nothing of a TPDO waits
 	 * for it: under the target's current publication. */
 	if (gw_send_quiet_to(gl, hop->line, &m, gw_fast_epoch(&tl->fast))) {
-		gw_lend_give_back(&tl->lend, m.channel, m.inherits ? 0 : hop->node);
+		gw_lend_give_back(&tl->lend, m.inherits_channel ? GW_LEND_NONE : m.channel,
+				  m.inherits_node ? 0 : hop->node);
 		GW_COUNT(gl->c.ring_drops);
 		return GW_AB_ROUTE_BUSY;
 	}
+	*channel = m.channel;
 	return 0;
 }
 
-void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, bool settled)
+void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t channel,
+		    bool settled)
 {
 	gw_msg m = { .kind = M_CLOSE, .sid = sid };
 	unsigned to = hop->line;
@@ -216,6 +229,7 @@ void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, bool se
 	if (settled) {
 		uint8_t i = gl->closing_next[to]++ % GW_CLOSING_MAX;
 		gl->closing[to][i].node = hop->node;
+		gl->closing[to][i].channel = channel;
 		gl->closing[to][i].sid = sid;
 		gl->closing[to][i].mark = gl->pushed_to[to];
 	}
@@ -230,7 +244,9 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 	gw_msg lost = { .kind = M_LOST, .sid = m->sid };
 	struct gw_relay *r = NULL;
 	int ch = 0;
-	bool node_ours = !m->inherits || gw_lend_claim_node(&gl->lend, m->node);
+	bool node_ours = !m->inherits_node || gw_lend_claim_node(&gl->lend, m->node);
+	bool ch_ours = !m->inherits_channel ||
+		       gw_lend_gate(&gl->lend, SDO_CLIENT_GATE_TAKE_CHANNEL, m->channel);
 
 	/* a free slot is always there: a slot holds a leased channel, and a
 	 * line has at most GW_RELAYS_MAX channels (docs/config.md) */
@@ -241,13 +257,16 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 		lost.abort = GW_AB_NO_ANSWER;
 	else if (!node_ours)
 		lost.abort = sdo_abort_of_errno(-EALREADY); /* taken since our M_CLOSE */
+	else if (!ch_ours)
+		lost.abort = GW_AB_NO_CLIENT; /* taken since our M_CLOSE */
 	else if (!r)
 		lost.abort = GW_AB_NO_CLIENT;
 	else if ((ch = sdo_client_lease_channel(gl->node, m->channel, m->node, relay_rx, r,
 						now_us)) < 0)
 		lost.abort = sdo_abort_of_errno(ch);
 	if (lost.abort) {
-		gw_lend_give_back(&gl->lend, m->channel, node_ours ? m->node : 0);
+		gw_lend_give_back(&gl->lend, ch_ours ? m->channel : GW_LEND_NONE,
+				  node_ours ? m->node : 0);
 		if (gw_send_to(gl, m->from, &lost))
 			GW_COUNT(gl->c.ring_drops); /* the requester's timeout ends it */
 		return;

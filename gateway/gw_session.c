@@ -50,14 +50,15 @@ static uint32_t s_open(void *ctx, const gw_hop *hop)
 	struct gw_sess *s = ctx;
 
 	s->target_line = hop->line;
-	return gw_lease_open(s->gl, hop, sid_of(s));
+	return gw_lease_open(s->gl, hop, sid_of(s), &s->lease_ch);
 }
 
 static void s_close(void *ctx)
 {
 	struct gw_sess *s = ctx;
 
-	gw_lease_close(s->gl, &s->r.hop, sid_of(s), !s->lease_lost && !s->target_aborted);
+	gw_lease_close(s->gl, &s->r.hop, sid_of(s), s->lease_ch,
+		       !s->lease_lost && !s->target_aborted);
 }
 
 static void s_done(void *ctx, uint32_t abort, gw_route_outcome o)

@@ -133,7 +133,8 @@ uint32_t gw_lend_reserve(gw_lend *b, uint8_t node, uint8_t *channel)
 
 void gw_lend_give_back(gw_lend *b, uint8_t channel, uint8_t node)
 {
-	put_set(b->free_ch, channel);
+	if (channel != GW_LEND_NONE)
+		put_set(b->free_ch, channel);
 	if (node)
 		put_clear(b->held_node, node);
 }

@@ -65,7 +65,9 @@ uint32_t gw_lend_reserve(gw_lend *b, uint8_t node, uint8_t *channel);
 /* A channel alone (the owner claims the node at bind): 0 or
  * GW_AB_NO_CLIENT. */
 uint32_t gw_lend_reserve_channel(gw_lend *b, uint8_t *channel);
-/* A reservation that will not be bound (node 0: its channel alone). */
+/* A reservation that will not be bound (node 0: its channel alone;
+ * channel GW_LEND_NONE: its node alone). */
+#define GW_LEND_NONE 0xFFu
 void gw_lend_give_back(gw_lend *b, uint8_t channel, uint8_t node);
 
 #endif /* COGW_GATEWAY_LEND_H */

@@ -970,8 +970,12 @@ static void test_own_clients_and_routed_leases_share_the_pool(void)
 	 * nor talks to the reserved node; when the requesters give up, it
 	 * runs */
 	indicate_on(0, 3, TGT_NODE, a);
+	TEST_ASSERT_EQUAL_HEX32_MESSAGE(0, a[0] == 0x80 ? co_get_le32(&a[4]) : 0,
+					"indication on channel 0 refused");
 	TEST_ASSERT_EQUAL_HEX8(GW_NETIND_CS, a[0]);
 	indicate_on(1, 3, TGT2_NODE, a);
+	TEST_ASSERT_EQUAL_HEX32_MESSAGE(0, a[0] == 0x80 ? co_get_le32(&a[4]) : 0,
+					"indication on channel 1 refused");
 	TEST_ASSERT_EQUAL_HEX8(GW_NETIND_CS, a[0]);
 	drain(fd2);
 	own_read_start(&own[0], TGT_NODE);
