@@ -49,20 +49,24 @@ static int hand_off(struct gw_line *gl, unsigned to, gw_msg *m, bool quiet, uint
  * Why the wait for *handoff_seq: a frame handed off earlier may still be
  * in the ring or the owner's transmit queue, and this one must not
  * overtake it. */
+bool gw_may_send_across(const struct gw_line *gl, unsigned to, uint64_t handoff_seq)
+{
+	return to != gl->idx && gl->g->line[to].peer_fd[gl->idx] >= 0 &&
+	       atomic_load_explicit(&gl->g->line[to].done_from[gl->idx], memory_order_acquire) >=
+		       handoff_seq;
+}
+
 int gw_send_across(struct gw_line *gl, unsigned to, gw_msg *m, const co_frame *f,
 		   uint64_t *handoff_seq)
 {
-	int fd = to != gl->idx ? gl->g->line[to].peer_fd[gl->idx] : -1;
 	int rc;
 
 	m->sent = GW_OWNER_SENDS;
-	if (f && fd >= 0 &&
-	    atomic_load_explicit(&gl->g->line[to].done_from[gl->idx], memory_order_acquire) >=
-		    *handoff_seq) {
+	if (f && gw_may_send_across(gl, to, *handoff_seq)) {
 		m->sent = GW_SENT_ACROSS;
 		if ((rc = gw_send_to(gl, to, m)))
 			return rc;
-		if (can_tx_socket_send(fd, f) == 0) {
+		if (can_tx_socket_send(gl->g->line[to].peer_fd[gl->idx], f) == 0) {
 			GW_COUNT(gl->c.sdo_across);
 			return 0;
 		}

@@ -280,6 +280,10 @@ int gw_send_quiet_to(struct gw_line *gl, unsigned to, gw_msg *m, uint32_t epoch)
  * sent under the same publication: else a TPDO of an earlier value could
  * still leave from `to` after ours. (any line, about another one) */
 bool gw_may_send_fast(const struct gw_line *gl, unsigned to, uint32_t epoch);
+/* Would gw_send_across put a frame on `to`'s bus now? (what was decided
+ * before it, e.g. an answer record, must agree with it; the answer can
+ * only turn from no to yes: done counts only grow) */
+bool gw_may_send_across(const struct gw_line *gl, unsigned to, uint64_t handoff_seq);
 /* A frame f of a routed transfer for line `to`'s bus, m (M_TO_TARGET or
  * M_TO_REQ, carrying the same 8 bytes) for the owner of the transfer's
  * state there: f leaves from this thread on the socket bound to that

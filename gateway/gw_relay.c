@@ -68,8 +68,9 @@ static void relay_rx(void *arg, const uint8_t d[8], uint64_t now_us)
 	GW_COUNT(r->gl->c.relayed_frames);
 	if (r->reply_id && !r->block && !r->asked_valid && r->answers_early < UINT8_MAX)
 		r->answers_early++;
+	/* the record only for an answer that does go across */
 	across = r->reply_id && r->asked_valid && gw_sdo_route_answer_passes(r->asked, d) &&
-		 (rec = answer_record(r));
+		 gw_may_send_across(r->gl, r->from, r->handoff_seq) && (rec = answer_record(r));
 	r->asked_valid = false;
 	if (across) {
 		co_frame_init(&f, r->reply_id, 8);
