@@ -98,10 +98,17 @@ bool gw_across_take(const struct gw_across *a, uint32_t sid, uint32_t *taken, ui
 
 	atomic_thread_fence(memory_order_acquire);
 	if ((seq & 1u) || atomic_load_explicit(&a->seq, memory_order_relaxed) != seq ||
-	    got_sid != sid || (int32_t)(seq - *taken) <= 0)
+	    got_sid != sid || !gw_across_newer(taken, seq))
+		return false;
+	co_put_le(d, 8, bytes);
+	return true;
+}
+
+bool gw_across_newer(uint32_t *taken, uint32_t seq)
+{
+	if ((int32_t)(seq - *taken) <= 0)
 		return false;
 	*taken = seq;
-	co_put_le(d, 8, bytes);
 	return true;
 }
 

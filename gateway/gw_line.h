@@ -300,6 +300,9 @@ uint32_t gw_across_publish(struct gw_across *a, uint32_t sid, const uint8_t d[8]
 /* The record's answer for sid if it is newer than *taken (then *taken
  * moves to it); false when there is none. (the entry line) */
 bool gw_across_take(const struct gw_across *a, uint32_t sid, uint32_t *taken, uint8_t d[8]);
+/* Is record number seq newer than *taken (then *taken moves to it)? The
+ * one comparison of the record and the M_TO_REQ that carries its number. */
+bool gw_across_newer(uint32_t *taken, uint32_t seq);
 /* This line: publish what it handled, if its transmit queue is empty. */
 void gw_publish_done(struct gw_line *gl);
 /* The oldest message this line sent itself; false when none. */

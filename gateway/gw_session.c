@@ -252,10 +252,8 @@ void gw_session_target_frame(struct gw_line *gl, const gw_msg *m, uint64_t now_u
 		break;
 	case GW_SENT_ACROSS:
 		/* unless taken from the record already (take_answer_across) */
-		if ((int32_t)(m->across_seq - s->across_taken) > 0) {
-			s->across_taken = m->across_seq;
+		if (gw_across_newer(&s->across_taken, m->across_seq))
 			apply_answer_across(s, m->d, now_us);
-		}
 		break;
 	default:
 		gw_sdo_route_target_frame(&s->r, m->d, now_us);
