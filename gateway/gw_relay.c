@@ -1,9 +1,14 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * gateway/gw_relay.c - relay leases on the target line: one SDO client
- * channel of the line's pool lent (core/sdo_client.h sdo_client_lease) to
- * a routed session or a routed mailbox transfer of any line, frames
- * relayed both ways as messages. A lease whose requester vanished (its
+ * channel of the line's pool lent to a routed session or a routed mailbox
+ * transfer of any line, frames relayed both ways as messages. The
+ * requester's line reserves the channel and the node on this line's
+ * lending board (gateway/lend.h) and decides at once; this line binds the
+ * lease when the reservation's M_OPEN reaches it (sdo_client_lease_channel)
+ * and publishes what the reservation looks at: its link, its
+ * heartbeat-lost nodes, and (through the gate of its SDO client pool) the
+ * free channels and busy nodes. A lease whose requester vanished (its
  * CLOSE lost to a full ring) is given back after an idle limit, so every
  * channel is released whatever happens; a line that stops carrying frames
  * ends its requesters at once; a lease whose requester aborted stays until
@@ -24,6 +29,9 @@ static void relay_free(struct gw_relay *r, uint64_t now_us)
 {
 	if (!r->used)
 		return;
+	/* the node first: the pool's requests waiting for it start at the
+	 * lease's end */
+	gw_lend_node_free(&r->gl->lend, r->node);
 	sdo_client_lease_end(r->gl->node, (uint8_t)r->cli_ch, now_us);
 	r->used = false;
 	r->orphaned = false;
@@ -118,13 +126,18 @@ static void relays_link_back(struct gw_line *gl, uint64_t now_us)
 	}
 }
 
-/* Can this line carry frames now? Each look that sees a change from the
- * last one ends the leases it cut off, or frees them once it carries
- * again - whichever look saw it (the periodic check or a lease request). */
-static bool link_look(struct gw_line *gl, uint64_t now_us)
+/* Can this line carry frames now? Each look is published for the
+ * reservations of other lines; one that sees a change from the last one
+ * ends the leases it cut off, or frees them once it carries again. */
+static void link_look(struct gw_line *gl, uint64_t now_us)
 {
 	bool carries = line_can_carry(gl->l);
 
+	gl->link_events_seen = line_link_events(gl->l);
+	gl->next_link_check_us = now_us + GW_LINK_CHECK_US;
+	/* nothing is reserved while the leases it cut off are handled */
+	if (!carries)
+		gw_lend_set_carries(&gl->lend, false);
 	if (carries != gl->carried) {
 		gl->carried = carries;
 		if (carries)
@@ -132,20 +145,22 @@ static bool link_look(struct gw_line *gl, uint64_t now_us)
 		else
 			relays_link_lost(gl, GW_AB_NO_ANSWER);
 	}
-	return carries;
+	if (carries)
+		gw_lend_set_carries(&gl->lend, true);
 }
 
-/* A lease toward a line whose interface went down (ip link set down,
- * carrier lost) or bus-off would otherwise end only by the requester's
- * per-frame timeout: while leases are held (the caller knows), look at
- * the line every GW_LINK_CHECK_US. */
-static void relays_check_link(struct gw_line *gl, uint64_t now_us, uint64_t *next)
+/* The look costs two ioctls, so it is not made on every wake-up: at once
+ * when the line saw a sign of change (a bus state change, a receive error
+ * such as ENETDOWN), else at most every GW_LINK_CHECK_US. A lease toward a
+ * line whose interface went down without such a sign (carrier lost) would
+ * end only by the requester's per-frame timeout, and a line that is down
+ * must be seen back: while leases are held or the line is down, the look
+ * wakes the line every GW_LINK_CHECK_US (`forced`). */
+static void relays_check_link(struct gw_line *gl, uint64_t now_us, bool forced, uint64_t *next)
 {
-	if (now_us >= gl->next_link_check_us) {
-		gl->next_link_check_us = now_us + GW_LINK_CHECK_US;
+	if (now_us >= gl->next_link_check_us || line_link_events(gl->l) != gl->link_events_seen)
 		link_look(gl, now_us);
-	}
-	if (gl->next_link_check_us < *next)
+	if (forced && gl->next_link_check_us < *next)
 		*next = gl->next_link_check_us;
 }
 
@@ -158,57 +173,167 @@ static struct gw_relay *relay_by_sid(struct gw_line *gl, uint8_t from, uint32_t 
 	return NULL;
 }
 
-/* Can this line serve a lease toward node now? 0 or the refusal. */
-static uint32_t relay_check(struct gw_line *gl, uint8_t node, uint64_t now_us)
+/* ---- the lending board ------------------------------------------------------ */
+
+void gw_lend_attach(struct gw_line *gl)
 {
-	if (!link_look(gl, now_us))
-		return GW_AB_NO_ANSWER;
-	if (co_hb_consumer_status(gl->node, node) == CO_HB_MON_LOST)
-		return GW_AB_NO_ANSWER; /* known silent: refuse now, not by a timeout */
+	gw_lend_init(&gl->lend);
+	gw_lend_set_carries(&gl->lend, gl->carried);
+	sdo_client_set_gate(gl->node, gw_lend_gate, &gl->lend); /* publishes the free channels */
+}
+
+void gw_lend_detach(struct gw_line *gl)
+{
+	gw_lend_set_carries(&gl->lend, false); /* nothing more is lent */
+	sdo_client_set_gate(gl->node, NULL, NULL);
+}
+
+/* Is the M_CLOSE of sid still in this line's own queue? */
+static bool close_queued_to_self(const struct gw_line *gl, uint32_t sid)
+{
+	for (unsigned i = 0; i < gl->self_len; i++) {
+		const gw_msg *q = &gl->self[(gl->self_head + i) % GW_SELF_SLOTS];
+		if (q->kind == M_CLOSE && q->sid == sid)
+			return true;
+	}
+	return false;
+}
+
+/* A lease of ours on line `to` that ended well, whose M_CLOSE `to` has
+ * not taken yet, toward node (0: any); NULL if none. (Its done count lags
+ * what it took: a stale one only makes the bind claim, which may fail.) */
+static struct gw_closing *closing_lease(struct gw_line *gl, unsigned to, uint8_t node)
+{
+	uint64_t done = to == gl->idx ? 0
+				      : atomic_load_explicit(&gl->g->line[to].done_from[gl->idx],
+							     memory_order_acquire);
+
+	for (unsigned i = 0; i < GW_CLOSING_MAX; i++) {
+		struct gw_closing *c = &gl->closing[to][i];
+		if (!c->node || (node && c->node != node))
+			continue;
+		if (to == gl->idx ? close_queued_to_self(gl, c->sid) : done < c->mark)
+			return c;
+	}
+	return NULL;
+}
+
+uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t *channel,
+		       uint32_t reply_id, uint8_t reply_flags)
+{
+	struct gw_line *tl = &gl->g->line[hop->line];
+	gw_msg m = { .kind = M_OPEN,
+		     .sid = sid,
+		     .node = hop->node,
+		     .reply_id = reply_id,
+		     .reply_flags = reply_flags };
+	int rc;
+	uint32_t refuse = gw_lend_reserve(&tl->lend, hop->node, &m.channel);
+	struct gw_closing *c;
+
+	/* The requester's next transfer right after its last one ended: that
+	 * lease's channel (and node, if the same) are still held until the
+	 * target takes its M_CLOSE, which the ring keeps ahead of this M_OPEN;
+	 * the target claims them at bind. Deciding now, they would look busy. */
+	if (refuse == GW_AB_ROUTE_BUSY && (c = closing_lease(gl, hop->line, hop->node))) {
+		m.inherits_node = m.inherits_channel = true;
+		m.channel = c->channel;
+		c->node = 0;
+		refuse = 0;
+	} else if (refuse == GW_AB_NO_CLIENT && (c = closing_lease(gl, hop->line, 0)) &&
+		   gw_lend_claim_node(&tl->lend, hop->node)) {
+		m.inherits_channel = true;
+		m.channel = c->channel;
+		c->node = 0;
+		refuse = 0;
+	}
+	if (refuse)
+		return refuse;
+	/* A mailbox hop's M_OPEN goes quietly: the target needs it only with
+	 * the transfer's first frame, whose ordinary push wakes it and comes
+	 * after it in the ring (or at any earlier wake-up: before_events);
+	 * nothing of a TPDO waits for it: under the target's current
+	 * publication. A session's wakes the target: it binds the lease while
+	 * the requester takes the confirmation, so that the requester's first
+	 * frame finds it bound and goes across (gw_send_across). */
+	rc = reply_id ? gw_send_to(gl, hop->line, &m)
+		      : gw_send_quiet_to(gl, hop->line, &m, gw_fast_epoch(&tl->fast));
+	if (rc) {
+		gw_lend_give_back(&tl->lend, m.inherits_channel ? GW_LEND_NONE : m.channel,
+				  m.inherits_node ? 0 : hop->node);
+		GW_COUNT(gl->c.ring_drops);
+		return GW_AB_ROUTE_BUSY;
+	}
+	*channel = m.channel;
 	return 0;
 }
 
+void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t channel,
+		    bool settled)
+{
+	gw_msg m = { .kind = M_CLOSE, .sid = sid };
+	unsigned to = hop->line;
+
+	if (gw_send_to(gl, to, &m)) {
+		GW_COUNT(gl->c.ring_drops); /* the relay's idle limit frees it */
+		return;
+	}
+	if (settled) {
+		uint8_t i = gl->closing_next[to]++ % GW_CLOSING_MAX;
+		gl->closing[to][i].node = hop->node;
+		gl->closing[to][i].channel = channel;
+		gl->closing[to][i].sid = sid;
+		gl->closing[to][i].mark = gl->pushed_to[to];
+	}
+}
+
+/* Bind the lease reserved for m->sid. The reservation was decided on what
+ * this line published; what can refuse now is a change since then (the
+ * link lost, the node's heartbeat lost), and the requester's line hears
+ * it as M_LOST: its transfer ends with that abort instead of hanging. */
 void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
-	gw_msg ans = { .kind = M_OPENED, .sid = m->sid };
+	gw_msg lost = { .kind = M_LOST, .sid = m->sid };
 	struct gw_relay *r = NULL;
-	int ch;
+	int ch = 0;
+	bool node_ours = !m->inherits_node || gw_lend_claim_node(&gl->lend, m->node);
+	bool ch_ours = !m->inherits_channel ||
+		       gw_lend_gate(&gl->lend, SDO_CLIENT_GATE_TAKE_CHANNEL, m->channel);
 
-	ans.abort = relay_check(gl, m->node, now_us);
-	for (unsigned i = 0; !ans.abort && i < GW_RELAYS_MAX && !r; i++)
+	/* a free slot is always there: a slot holds a leased channel, and a
+	 * line has at most GW_RELAYS_MAX channels (docs/config.md) */
+	for (unsigned i = 0; i < GW_RELAYS_MAX && !r; i++)
 		if (!gl->relay[i].used)
 			r = &gl->relay[i];
-	if (!ans.abort && !r)
-		ans.abort = GW_AB_NO_CLIENT;
-	if (!ans.abort) {
-		ch = sdo_client_lease(gl->node, m->node, 0, 0, relay_rx, r, now_us);
-		if (ch >= 0) {
-			r->used = true;
-			r->orphaned = false;
-			r->from = m->from;
-			r->sid = m->sid;
-			r->cli_ch = ch;
-			r->engaged = false;
-			r->aborted = false;
-			r->draining = false;
-			r->last_us = now_us;
-			r->reply_id = m->reply_id;
-			r->reply_flags = m->reply_flags;
-			r->asked_valid = false;
-			r->answers_early = 0;
-			r->block = false;
-			/* its answers come after the session's M_OPENED (the
-			 * same ring, in order) */
-			r->handoff_seq = 0;
-		} else {
-			ans.abort = sdo_abort_of_errno(ch);
-		}
+	if (!gl->carried || gw_lend_is_silent(&gl->lend, m->node))
+		lost.abort = GW_AB_NO_ANSWER;
+	else if (!node_ours)
+		lost.abort = sdo_abort_of_errno(-EALREADY); /* taken since our M_CLOSE */
+	else if (!ch_ours)
+		lost.abort = GW_AB_NO_CLIENT; /* taken since our M_CLOSE */
+	else if (!r)
+		lost.abort = GW_AB_NO_CLIENT;
+	else if ((ch = sdo_client_lease_channel(gl->node, m->channel, m->node, relay_rx, r,
+						now_us)) < 0)
+		lost.abort = sdo_abort_of_errno(ch);
+	if (lost.abort) {
+		gw_lend_give_back(&gl->lend, ch_ours ? m->channel : GW_LEND_NONE,
+				  node_ours ? m->node : 0);
+		if (gw_send_to(gl, m->from, &lost))
+			GW_COUNT(gl->c.ring_drops); /* the requester's timeout ends it */
+		return;
 	}
-	if (gw_send_to(gl, m->from, &ans)) {
-		GW_COUNT(gl->c.ring_drops);
-		if (r && r->used)
-			relay_free(r, now_us);
-	}
+	*r = (struct gw_relay){ .used = true,
+				.from = m->from,
+				.sid = m->sid,
+				.node = m->node,
+				.cli_ch = ch,
+				.last_us = now_us,
+				/* nothing of this lease waits in the entry
+				 * line's ring: its answers may go across */
+				.reply_id = m->reply_id,
+				.reply_flags = m->reply_flags,
+				.gl = gl };
 }
 
 void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
@@ -261,7 +386,12 @@ uint64_t gw_relays_tick(struct gw_line *gl, uint64_t now_us, uint64_t next)
 {
 	uint64_t idle = (uint64_t)gl->p.sdo_timeout_ms * 1000u * GW_RELAY_IDLE_FACTOR;
 	bool held = false;
+	uint64_t lost[2];
 
+	/* a heartbeat is lost at a timer of this line: published in the same
+	 * wake-up */
+	co_hb_lost_nodes(gl->node, lost);
+	gw_lend_set_silent(&gl->lend, lost);
 	for (unsigned i = 0; i < GW_RELAYS_MAX; i++) {
 		struct gw_relay *r = &gl->relay[i];
 		if (!r->used)
@@ -275,7 +405,6 @@ uint64_t gw_relays_tick(struct gw_line *gl, uint64_t now_us, uint64_t next)
 		if (r->last_us + limit < next)
 			next = r->last_us + limit;
 	}
-	if (held)
-		relays_check_link(gl, now_us, &next);
+	relays_check_link(gl, now_us, held || !gl->carried, &next);
 	return next;
 }

@@ -1,0 +1,73 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * gateway/lend.h - what a line lends to the routed SDO transfers of other
+ * lines, published so that the entry line decides a network indication at
+ * once instead of asking the target line and waiting for its answer
+ * (docs/gateway.md, "Leases without a round trip").
+ *
+ * The owner (the target line's thread) publishes whether it carries frames
+ * and which nodes its heartbeat consumer has lost; its SDO client pool
+ * (core/sdo_client.h gate, gw_lend_gate) keeps two sets up to date: the
+ * channels nobody holds, and the servers (node-IDs) in a transfer of its
+ * own, settling after one, or reserved for a lease. A requester's line
+ * reserves one channel and the node by compare-and-swap on those sets
+ * (gw_lend_reserve): of two claimants of one unit, the owner's pool or
+ * another line, exactly one wins. The owner binds the lease on the
+ * reserved unit when the request reaches it; a reservation whose request
+ * never reaches it goes back with gw_lend_give_back, once.
+ *
+ * Threads: gw_lend_reserve* / gw_lend_give_back from any line; the rest by
+ * the owner only. Release stores, acquire loads: a requester that sees
+ * "carries" sees the sets published before it.
+ */
+#ifndef COGW_GATEWAY_LEND_H
+#define COGW_GATEWAY_LEND_H
+
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "core/sdo_client.h"
+
+typedef struct gw_lend {
+	_Atomic bool carries;          /* the owner's last look at its link */
+	_Atomic uint64_t silent[2];    /* heartbeat-lost nodes, bit n */
+	_Atomic uint64_t free_ch[2];   /* client channels nobody holds, bit ch */
+	_Atomic uint64_t held_node[2]; /* servers busy, settling, reserved or leased */
+} gw_lend;
+
+/* Nothing to lend, not carrying, until the owner publishes. */
+void gw_lend_init(gw_lend *b);
+
+/* ---- the owner ---- */
+void gw_lend_set_carries(gw_lend *b, bool carries);
+void gw_lend_set_silent(gw_lend *b, const uint64_t lost[2]);
+bool gw_lend_is_silent(const gw_lend *b, uint8_t node);
+/* The gate of the owner's SDO client pool (sdo_client_set_gate, ctx = b). */
+bool gw_lend_gate(void *ctx, sdo_client_gate_op op, uint8_t arg);
+
+/* The lease bound on a reservation for node ended: the node is free again
+ * (its channel comes back through the gate). Before sdo_client_lease_end,
+ * so that the pool's requests waiting for that node start in it. */
+void gw_lend_node_free(gw_lend *b, uint8_t node);
+/* Take node for a lease whose requester reserved only its channel (it
+ * inherits the node from its own lease closed just before): false when
+ * someone took the node meanwhile. */
+bool gw_lend_claim_node(gw_lend *b, uint8_t node);
+
+/* ---- any line ---- */
+/* Reserve a channel and node `node` of the owner for one lease. 0 and
+ * *channel, or the refusal, in this order: GW_AB_NO_ANSWER (not carrying,
+ * the node heartbeat-lost), sdo_abort_of_errno(-EALREADY) (the node busy
+ * or settling, or reserved by another), GW_AB_NO_CLIENT (no free
+ * channel). */
+uint32_t gw_lend_reserve(gw_lend *b, uint8_t node, uint8_t *channel);
+/* A channel alone (the owner claims the node at bind): 0 or
+ * GW_AB_NO_CLIENT. */
+uint32_t gw_lend_reserve_channel(gw_lend *b, uint8_t *channel);
+/* A reservation that will not be bound (node 0: its channel alone;
+ * channel GW_LEND_NONE: its node alone). */
+#define GW_LEND_NONE 0xFFu
+void gw_lend_give_back(gw_lend *b, uint8_t channel, uint8_t node);
+
+#endif /* COGW_GATEWAY_LEND_H */
