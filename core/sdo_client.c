@@ -1516,6 +1516,27 @@ static struct cli_chan *leased(co_node *node, uint8_t channel)
 	return &cli->ch[channel];
 }
 
+int sdo_client_lease_move(co_node *node, uint8_t channel, uint8_t node_id, uint64_t now_us)
+{
+	struct cli_chan *ch = leased(node, channel);
+	sdo_client_req r = { .node_id = node_id };
+	int rc;
+
+	if (!ch)
+		return -ENOENT;
+	if (node_id < 1 || node_id > 127)
+		return -EINVAL;
+	node->now_us = now_us;
+	if (target_busy(ch->cli, ch, req_cob_resp(&r)) ||
+	    settling(ch->cli, req_cob_resp(&r), now_us))
+		return -EALREADY;
+	rc = lease_bind(ch, &r, ch->lease_fn, ch->lease_arg, now_us);
+	if (rc < 0)
+		return rc;
+	kick_all(ch->cli);
+	return 0;
+}
+
 int sdo_client_lease_send(co_node *node, uint8_t channel, const uint8_t d[8])
 {
 	struct cli_chan *ch = leased(node, channel);

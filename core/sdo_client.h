@@ -228,6 +228,12 @@ void sdo_client_set_gate(co_node *node, sdo_client_gate_fn fn, void *ctx);
  * -EBUSY) fail only when the gate's bookkeeping and the pool disagree. */
 int sdo_client_lease_channel(co_node *node, uint8_t channel, uint8_t node_id, sdo_client_raw_fn fn,
 			     void *arg, uint64_t now_us);
+/* Point the leased channel at node_id's server instead, without giving it
+ * back in between (the gateway hands a lease that ended well to the same
+ * requester's next transfer, docs/gateway.md): 0, -ENOENT (not leased),
+ * -EINVAL, -EALREADY (that server busy or settling), -ENOSPC. Requests of
+ * the node's own waiting for the old server may start. */
+int sdo_client_lease_move(co_node *node, uint8_t channel, uint8_t node_id, uint64_t now_us);
 /* -ENOENT if the channel is not leased. */
 int sdo_client_lease_send(co_node *node, uint8_t channel, const uint8_t d[8]);
 /* Give the channel back to the pool (waiting requests may start). */

@@ -110,10 +110,12 @@ typedef struct gw_msg {
 	uint64_t sent_us;
 	uint16_t fast_nr[GW_FAST_SENT_MAX];
 	uint8_t n_fast;
-	/* M_OPEN: the node and the channel are held by the sender's own
-	 * lease closed just before (its M_CLOSE is ahead in the ring): the
-	 * target claims them at bind instead (gw_lease_open) */
-	bool inherits_node, inherits_channel;
+	/* M_OPEN: the lease is the sender's own that ended well on this
+	 * channel just before (its M_CLOSE is ahead in the ring), taken from
+	 * the lending board's handover (gw_lend_take_offer) and kept parked
+	 * by the target; claimed_node: the sender claimed `node` on the
+	 * board itself (the parked lease was toward another node) */
+	bool inherits, claimed_node;
 } gw_msg;
 
 /* A lease serves a session (bit 23 clear: line << 24 | channel << 16 |
@@ -180,6 +182,11 @@ struct gw_relay {
 	 * the device has been quiet for GW_DRAIN_US, so that those frames
 	 * never reach the next requester. */
 	bool draining;
+	/* Its requester's transfer ended well and the requester's line took
+	 * the lease for its next one (gw_lend_take_offer): kept bound, moved
+	 * to that transfer's node, without a session until the M_OPEN that
+	 * follows the M_CLOSE in the ring binds it (gw_relay_open). */
+	bool parked;
 	uint8_t mux[3]; /* its index, sub-index (from that first frame) */
 	uint8_t node;   /* its server, reserved on the lending board */
 	/* Answers sent across to the requester (gw_relay.c relay_rx): the
@@ -262,16 +269,13 @@ struct gw_line {
 	uint64_t next_rebuild_us;
 	uint64_t next_link_check_us;
 	bool carried; /* what the last link check saw (gw_relays_check_link) */
-	/* Leases of ours that ended well, per target line, whose M_CLOSE the
-	 * target may not have taken yet (pushed_to when it was pushed; for
-	 * this line itself, the M_CLOSE still in its own queue): the
-	 * requester's next transfer to that node inherits the node instead of
-	 * meeting its own lease still held (gw_lease_open). */
+	/* Leases of ours that ended well, per target line, offered on its
+	 * lending board's handover (gw_lend_offer) until the target takes
+	 * their M_CLOSE: the next transfer of ours that finds its node or
+	 * every channel held tries to take one (gw_lease_open). */
 	struct gw_closing {
-		uint8_t node; /* 0: none, or inherited already */
+		uint8_t node; /* 0: none, or taken or found gone already */
 		uint8_t channel;
-		uint32_t sid;
-		uint64_t mark;
 	} closing[GW_LINES_MAX][GW_CLOSING_MAX];
 	uint8_t closing_next[GW_LINES_MAX];
 	uint32_t link_events_seen; /* line_link_events at that look */
@@ -361,9 +365,8 @@ uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint
 		       uint32_t reply_id, uint8_t reply_flags);
 /* ... and give it back (M_CLOSE). `settled`: the transfer ended without
  * an abort to the device and the lease was not lost, so the device is
- * idle: a transfer of ours that follows before the target took the
- * M_CLOSE inherits the channel, and the node if it is the same
- * (remembered in gl->closing). */
+ * idle: the lease is offered to a transfer of ours that follows before
+ * the target took the M_CLOSE (remembered in gl->closing). */
 void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t channel,
 		    bool settled);
 /* The target line: publish what it lends (gw_relays_tick does it each

@@ -25,6 +25,16 @@
 #include "gateway/convention.h"
 #include "gateway/gw_line.h"
 
+/* The channel back to the pool; the node's reservation is the caller's. */
+static void relay_unbind(struct gw_relay *r, uint64_t now_us)
+{
+	sdo_client_lease_end(r->gl->node, (uint8_t)r->cli_ch, now_us);
+	r->used = false;
+	r->orphaned = false;
+	r->draining = false;
+	r->parked = false;
+}
+
 static void relay_free(struct gw_relay *r, uint64_t now_us)
 {
 	if (!r->used)
@@ -32,10 +42,7 @@ static void relay_free(struct gw_relay *r, uint64_t now_us)
 	/* the node first: the pool's requests waiting for it start at the
 	 * lease's end */
 	gw_lend_node_free(&r->gl->lend, r->node);
-	sdo_client_lease_end(r->gl->node, (uint8_t)r->cli_ch, now_us);
-	r->used = false;
-	r->orphaned = false;
-	r->draining = false;
+	relay_unbind(r, now_us);
 }
 
 void gw_relay_request_frame(co_frame *f, uint8_t node, const uint8_t d[8])
@@ -70,8 +77,8 @@ static void relay_rx(void *arg, const uint8_t d[8], uint64_t now_us)
 	bool across;
 
 	r->last_us = now_us;
-	if (r->draining)
-		return; /* a late frame of the aborted transfer */
+	if (r->draining || r->parked)
+		return; /* a late frame of the aborted transfer; none is due */
 	memcpy(m.d, d, 8);
 	GW_COUNT(r->gl->c.relayed_frames);
 	if (r->reply_id && !r->block && !r->asked_valid && r->answers_early < UINT8_MAX)
@@ -101,7 +108,7 @@ static void relays_link_lost(struct gw_line *gl, uint32_t abort)
 
 		if (!r->used || r->orphaned || r->draining)
 			continue;
-		if (gw_send_to(gl, r->from, &m))
+		if (!r->parked && gw_send_to(gl, r->from, &m))
 			GW_COUNT(gl->c.ring_drops); /* the requester's timeout ends it */
 		r->orphaned = true;
 	}
@@ -168,7 +175,7 @@ static struct gw_relay *relay_by_sid(struct gw_line *gl, uint8_t from, uint32_t 
 {
 	for (unsigned i = 0; i < GW_RELAYS_MAX; i++)
 		if (gl->relay[i].used && !gl->relay[i].orphaned && !gl->relay[i].draining &&
-		    gl->relay[i].from == from && gl->relay[i].sid == sid)
+		    !gl->relay[i].parked && gl->relay[i].from == from && gl->relay[i].sid == sid)
 			return &gl->relay[i];
 	return NULL;
 }
@@ -188,34 +195,38 @@ void gw_lend_detach(struct gw_line *gl)
 	sdo_client_set_gate(gl->node, NULL, NULL);
 }
 
-/* Is the M_CLOSE of sid still in this line's own queue? */
-static bool close_queued_to_self(const struct gw_line *gl, uint32_t sid)
+/* The next transfer of ours to line `to` (node) found the node or every
+ * channel held (refuse): take a lease of ours that ended well there and
+ * is still offered (gw_lend_take_offer) - for the node held, one toward
+ * that node; for the channels, any, its node claimed for this transfer.
+ * 0 (m->channel, m->inherits set; *was_for: the node the lease was
+ * toward) or refuse. */
+static uint32_t take_offered(struct gw_line *gl, unsigned to, uint8_t node, uint32_t refuse,
+			     gw_msg *m, uint8_t *was_for)
 {
-	for (unsigned i = 0; i < gl->self_len; i++) {
-		const gw_msg *q = &gl->self[(gl->self_head + i) % GW_SELF_SLOTS];
-		if (q->kind == M_CLOSE && q->sid == sid)
-			return true;
-	}
-	return false;
-}
-
-/* A lease of ours on line `to` that ended well, whose M_CLOSE `to` has
- * not taken yet, toward node (0: any); NULL if none. (Its done count lags
- * what it took: a stale one only makes the bind claim, which may fail.) */
-static struct gw_closing *closing_lease(struct gw_line *gl, unsigned to, uint8_t node)
-{
-	uint64_t done = to == gl->idx ? 0
-				      : atomic_load_explicit(&gl->g->line[to].done_from[gl->idx],
-							     memory_order_acquire);
+	gw_lend *board = &gl->g->line[to].lend;
 
 	for (unsigned i = 0; i < GW_CLOSING_MAX; i++) {
 		struct gw_closing *c = &gl->closing[to][i];
-		if (!c->node || (node && c->node != node))
+		bool claim = c->node != node;
+
+		if (!c->node || (refuse != GW_AB_NO_CLIENT && claim))
 			continue;
-		if (to == gl->idx ? close_queued_to_self(gl, c->sid) : done < c->mark)
-			return c;
+		if (claim && !gw_lend_claim_node(board, node))
+			return refuse; /* the node is busy too */
+		if (gw_lend_take_offer(board, c->channel, (uint8_t)gl->idx, c->node, node)) {
+			m->inherits = true;
+			m->claimed_node = claim;
+			m->channel = c->channel;
+			*was_for = c->node;
+			c->node = 0;
+			return 0;
+		}
+		if (claim)
+			gw_lend_give_back(board, GW_LEND_NONE, node);
+		c->node = 0; /* the target took its M_CLOSE: gone */
 	}
-	return NULL;
+	return refuse;
 }
 
 uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t *channel,
@@ -228,25 +239,15 @@ uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint
 		     .reply_id = reply_id,
 		     .reply_flags = reply_flags };
 	int rc;
+	uint8_t was_for = 0;
 	uint32_t refuse = gw_lend_reserve(&tl->lend, hop->node, &m.channel);
-	struct gw_closing *c;
 
 	/* The requester's next transfer right after its last one ended: that
 	 * lease's channel (and node, if the same) are still held until the
-	 * target takes its M_CLOSE, which the ring keeps ahead of this M_OPEN;
-	 * the target claims them at bind. Deciding now, they would look busy. */
-	if (refuse == GW_AB_ROUTE_BUSY && (c = closing_lease(gl, hop->line, hop->node))) {
-		m.inherits_node = m.inherits_channel = true;
-		m.channel = c->channel;
-		c->node = 0;
-		refuse = 0;
-	} else if (refuse == GW_AB_NO_CLIENT && (c = closing_lease(gl, hop->line, 0)) &&
-		   gw_lend_claim_node(&tl->lend, hop->node)) {
-		m.inherits_channel = true;
-		m.channel = c->channel;
-		c->node = 0;
-		refuse = 0;
-	}
+	 * target takes its M_CLOSE, which the ring keeps ahead of this
+	 * M_OPEN. Deciding on them now, they would look busy. */
+	if (refuse == GW_AB_ROUTE_BUSY || refuse == GW_AB_NO_CLIENT)
+		refuse = take_offered(gl, hop->line, hop->node, refuse, &m, &was_for);
 	if (refuse)
 		return refuse;
 	/* A mailbox hop's M_OPEN goes quietly: the target needs it only with
@@ -259,22 +260,30 @@ uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint
 	rc = reply_id ? gw_send_to(gl, hop->line, &m)
 		      : gw_send_quiet_to(gl, hop->line, &m, gw_fast_epoch(&tl->fast));
 	if (rc) {
-		gw_lend_give_back(&tl->lend, m.inherits_channel ? GW_LEND_NONE : m.channel,
-				  m.inherits_node ? 0 : hop->node);
+		if (!m.inherits)
+			gw_lend_give_back(&tl->lend, m.channel, hop->node);
+		else if (gw_lend_untake(&tl->lend, m.channel, (uint8_t)gl->idx, was_for,
+					hop->node) &&
+			 m.claimed_node)
+			gw_lend_give_back(&tl->lend, GW_LEND_NONE, hop->node);
 		GW_COUNT(gl->c.ring_drops);
 		return GW_AB_ROUTE_BUSY;
 	}
 	*channel = m.channel;
 	return 0;
 }
-
 void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t channel,
 		    bool settled)
 {
 	gw_msg m = { .kind = M_CLOSE, .sid = sid };
 	unsigned to = hop->line;
+	gw_lend *board = &gl->g->line[to].lend;
 
+	if (settled)
+		gw_lend_offer(board, channel, (uint8_t)gl->idx, hop->node);
 	if (gw_send_to(gl, to, &m)) {
+		if (settled)
+			gw_lend_withdraw(board, channel, (uint8_t)gl->idx, hop->node);
 		GW_COUNT(gl->c.ring_drops); /* the relay's idle limit frees it */
 		return;
 	}
@@ -282,47 +291,91 @@ void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t
 		uint8_t i = gl->closing_next[to]++ % GW_CLOSING_MAX;
 		gl->closing[to][i].node = hop->node;
 		gl->closing[to][i].channel = channel;
-		gl->closing[to][i].sid = sid;
-		gl->closing[to][i].mark = gl->pushed_to[to];
 	}
+}
+
+/* The parked lease of m's sender on m->channel toward m->node, or NULL
+ * (none: the idle limit or a lost link freed it first). */
+static struct gw_relay *parked_for(struct gw_line *gl, const gw_msg *m)
+{
+	for (unsigned i = 0; i < GW_RELAYS_MAX; i++) {
+		struct gw_relay *r = &gl->relay[i];
+		if (r->used && r->parked && !r->orphaned && r->from == m->from &&
+		    r->cli_ch == m->channel && r->node == m->node)
+			return r;
+	}
+	return NULL;
+}
+
+/* A lease that ended well, taken by its requester's line for the next
+ * transfer (gw_lend_close said so): kept bound, moved to that transfer's
+ * node, for the M_OPEN behind this M_CLOSE. If it cannot be moved, the
+ * channel goes back and that M_OPEN finds nothing: it refuses and gives
+ * back the node its sender claimed. */
+static void relay_park(struct gw_relay *r, uint8_t next_node, uint64_t now_us)
+{
+	struct gw_line *gl = r->gl;
+
+	if (next_node != r->node) {
+		/* the old node first: the pool's requests waiting for it
+		 * start at the move */
+		gw_lend_node_free(&gl->lend, r->node);
+		if (sdo_client_lease_move(gl->node, (uint8_t)r->cli_ch, next_node, now_us) < 0) {
+			relay_unbind(r, now_us);
+			return;
+		}
+		r->node = next_node; /* claimed by the requester's line */
+	}
+	*r = (struct gw_relay){ .used = true,
+				.parked = true,
+				.from = r->from,
+				.node = r->node,
+				.cli_ch = r->cli_ch,
+				.last_us = now_us,
+				.gl = gl };
 }
 
 /* Bind the lease reserved for m->sid. The reservation was decided on what
  * this line published; what can refuse now is a change since then (the
- * link lost, the node's heartbeat lost), and the requester's line hears
- * it as M_LOST: its transfer ends with that abort instead of hanging. */
+ * link lost, the node's heartbeat lost, a parked lease freed), and the
+ * requester's line hears it as M_LOST: its transfer ends with that abort
+ * instead of hanging. */
 void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
 	gw_msg lost = { .kind = M_LOST, .sid = m->sid };
 	struct gw_relay *r = NULL;
-	int ch = 0;
-	bool node_ours = !m->inherits_node || gw_lend_claim_node(&gl->lend, m->node);
-	bool ch_ours = !m->inherits_channel ||
-		       gw_lend_gate(&gl->lend, SDO_CLIENT_GATE_TAKE_CHANNEL, m->channel);
+	int ch = m->channel;
 
-	/* a free slot is always there: a slot holds a leased channel, and a
-	 * line has at most GW_RELAYS_MAX channels (docs/config.md) */
-	for (unsigned i = 0; i < GW_RELAYS_MAX && !r; i++)
-		if (!gl->relay[i].used)
-			r = &gl->relay[i];
+	if (m->inherits) {
+		r = parked_for(gl, m);
+	} else {
+		/* a free slot is always there: a slot holds a leased channel,
+		 * and a line has at most GW_RELAYS_MAX channels
+		 * (docs/config.md) */
+		for (unsigned i = 0; i < GW_RELAYS_MAX && !r; i++)
+			if (!gl->relay[i].used)
+				r = &gl->relay[i];
+	}
 	if (!gl->carried || gw_lend_is_silent(&gl->lend, m->node))
 		lost.abort = GW_AB_NO_ANSWER;
-	else if (!node_ours)
-		lost.abort = sdo_abort_of_errno(-EALREADY); /* taken since our M_CLOSE */
-	else if (!ch_ours)
-		lost.abort = GW_AB_NO_CLIENT; /* taken since our M_CLOSE */
 	else if (!r)
 		lost.abort = GW_AB_NO_CLIENT;
-	else if ((ch = sdo_client_lease_channel(gl->node, m->channel, m->node, relay_rx, r,
-						now_us)) < 0)
+	else if (!m->inherits && (ch = sdo_client_lease_channel(gl->node, m->channel, m->node,
+								relay_rx, r, now_us)) < 0)
 		lost.abort = sdo_abort_of_errno(ch);
 	if (lost.abort) {
-		gw_lend_give_back(&gl->lend, ch_ours ? m->channel : GW_LEND_NONE,
-				  node_ours ? m->node : 0);
+		if (r && r->parked)
+			relay_free(r, now_us); /* holds the channel and the node */
+		else if (!m->inherits)
+			gw_lend_give_back(&gl->lend, m->channel, m->node);
+		else if (m->claimed_node)
+			gw_lend_node_free(&gl->lend, m->node);
 		if (gw_send_to(gl, m->from, &lost))
 			GW_COUNT(gl->c.ring_drops); /* the requester's timeout ends it */
 		return;
 	}
+	if (!m->inherits) /* whatever an earlier lease of the channel left */
+		(void)gw_lend_close(&gl->lend, m->channel, m->from, m->node);
 	*r = (struct gw_relay){ .used = true,
 				.from = m->from,
 				.sid = m->sid,
@@ -372,14 +425,20 @@ void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
 	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid);
 
+	uint8_t next_node;
+
 	if (!r)
 		return;
+	next_node = gw_lend_close(&gl->lend, (uint8_t)r->cli_ch, r->from, r->node);
 	if (r->engaged && r->aborted) {
 		r->draining = true;
 		r->last_us = now_us;
 		return;
 	}
-	relay_free(r, now_us);
+	if (next_node)
+		relay_park(r, next_node, now_us);
+	else
+		relay_free(r, now_us);
 }
 
 uint64_t gw_relays_tick(struct gw_line *gl, uint64_t now_us, uint64_t next)

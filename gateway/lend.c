@@ -52,6 +52,8 @@ void gw_lend_init(gw_lend *b)
 		atomic_init(&b->free_ch[w], 0);
 		atomic_init(&b->held_node[w], 0);
 	}
+	for (unsigned ch = 0; ch < GW_LEND_CHANNELS; ch++)
+		atomic_init(&b->handover[ch], 0);
 }
 
 void gw_lend_set_carries(gw_lend *b, bool carries)
@@ -101,7 +103,7 @@ bool gw_lend_claim_node(gw_lend *b, uint8_t node)
 	return claim_set(b->held_node, node);
 }
 
-uint32_t gw_lend_reserve_channel(gw_lend *b, uint8_t *channel)
+static uint32_t reserve_channel(gw_lend *b, uint8_t *channel)
 {
 	for (unsigned w = 0; w < 2; w++) {
 		uint64_t v = atomic_load_explicit(&b->free_ch[w], memory_order_acquire);
@@ -126,7 +128,7 @@ uint32_t gw_lend_reserve(gw_lend *b, uint8_t node, uint8_t *channel)
 		return GW_AB_NO_ANSWER; /* known silent: refuse now, not by a timeout */
 	if (!claim_set(b->held_node, node))
 		return sdo_abort_of_errno(-EALREADY);
-	if ((refuse = gw_lend_reserve_channel(b, channel)))
+	if ((refuse = reserve_channel(b, channel)))
 		put_clear(b->held_node, node);
 	return refuse;
 }
@@ -137,4 +139,59 @@ void gw_lend_give_back(gw_lend *b, uint8_t channel, uint8_t node)
 		put_set(b->free_ch, channel);
 	if (node)
 		put_clear(b->held_node, node);
+}
+
+/* A handover word: who offered which lease, and the node it was taken for. */
+#define HO_OFFERED 0x80000000u
+#define HO_TAKEN 0x40000000u
+
+static uint32_t offer_word(uint8_t from, uint8_t node)
+{
+	return HO_OFFERED | (uint32_t)from << 8 | node;
+}
+
+static uint32_t taken_word(uint8_t from, uint8_t node, uint8_t new_node)
+{
+	return HO_TAKEN | (uint32_t)new_node << 16 | (uint32_t)from << 8 | node;
+}
+
+static bool handover_swap(gw_lend *b, uint8_t ch, uint32_t expect, uint32_t to)
+{
+	return ch < GW_LEND_CHANNELS &&
+	       atomic_compare_exchange_strong_explicit(&b->handover[ch], &expect, to,
+						       memory_order_acq_rel, memory_order_acquire);
+}
+
+void gw_lend_offer(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node)
+{
+	if (ch < GW_LEND_CHANNELS)
+		atomic_store_explicit(&b->handover[ch], offer_word(from, node),
+				      memory_order_release);
+}
+
+void gw_lend_withdraw(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node)
+{
+	handover_swap(b, ch, offer_word(from, node), 0);
+}
+
+bool gw_lend_take_offer(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node, uint8_t new_node)
+{
+	return handover_swap(b, ch, offer_word(from, node), taken_word(from, node, new_node));
+}
+
+bool gw_lend_untake(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node, uint8_t new_node)
+{
+	return handover_swap(b, ch, taken_word(from, node, new_node), offer_word(from, node));
+}
+
+uint8_t gw_lend_close(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node)
+{
+	uint32_t w;
+
+	if (ch >= GW_LEND_CHANNELS)
+		return 0;
+	w = atomic_exchange_explicit(&b->handover[ch], 0, memory_order_acq_rel);
+	if (!(w & HO_TAKEN) || (w & 0xFFFFu) != ((uint32_t)from << 8 | node))
+		return 0; /* offered, or a word of another lease of ch */
+	return (uint8_t)((w >> 16) & 0x7Fu);
 }

@@ -29,11 +29,17 @@
 
 #include "core/sdo_client.h"
 
+#define GW_LEND_CHANNELS 128u /* the sets' width: client channels 0..127 */
+
 typedef struct gw_lend {
 	_Atomic bool carries;          /* the owner's last look at its link */
 	_Atomic uint64_t silent[2];    /* heartbeat-lost nodes, bit n */
 	_Atomic uint64_t free_ch[2];   /* client channels nobody holds, bit ch */
 	_Atomic uint64_t held_node[2]; /* servers busy, settling, reserved or leased */
+	/* Per channel: a lease that ended well, offered to its requester's
+	 * line until the owner takes its M_CLOSE, or taken by that line for
+	 * its next transfer (gw_lend_offer .. gw_lend_close). */
+	_Atomic uint32_t handover[GW_LEND_CHANNELS];
 } gw_lend;
 
 /* Nothing to lend, not carrying, until the owner publishes. */
@@ -50,9 +56,8 @@ bool gw_lend_gate(void *ctx, sdo_client_gate_op op, uint8_t arg);
  * (its channel comes back through the gate). Before sdo_client_lease_end,
  * so that the pool's requests waiting for that node start in it. */
 void gw_lend_node_free(gw_lend *b, uint8_t node);
-/* Take node for a lease whose requester reserved only its channel (it
- * inherits the node from its own lease closed just before): false when
- * someone took the node meanwhile. */
+/* Take node alone, for a transfer that takes its line's lease of another
+ * node that ended well (gw_lend_take_offer): false when it is held. */
 bool gw_lend_claim_node(gw_lend *b, uint8_t node);
 
 /* ---- any line ---- */
@@ -62,12 +67,39 @@ bool gw_lend_claim_node(gw_lend *b, uint8_t node);
  * or settling, or reserved by another), GW_AB_NO_CLIENT (no free
  * channel). */
 uint32_t gw_lend_reserve(gw_lend *b, uint8_t node, uint8_t *channel);
-/* A channel alone (the owner claims the node at bind): 0 or
- * GW_AB_NO_CLIENT. */
-uint32_t gw_lend_reserve_channel(gw_lend *b, uint8_t *channel);
 /* A reservation that will not be bound (node 0: its channel alone;
  * channel GW_LEND_NONE: its node alone). */
 #define GW_LEND_NONE 0xFFu
 void gw_lend_give_back(gw_lend *b, uint8_t channel, uint8_t node);
+
+/* ---- a lease handed from one transfer of a line to its next ----
+ * A requester's line whose lease ended well (the device idle) sends
+ * M_CLOSE; its next transfer to that line may follow before the owner
+ * took it, and would find the channel and node still held. So the line
+ * offers the lease before the M_CLOSE leaves; its next transfer takes the
+ * offer by compare-and-swap, or the owner's M_CLOSE withdraws it
+ * (gw_lend_close): exactly one of them wins. A taken lease stays bound
+ * on the owner (moved to the next transfer's node) for the M_OPEN that
+ * follows its M_CLOSE in the ring; nothing of the owner's own pool gets
+ * between the two. */
+
+/* Line `from` closes its lease on channel ch toward node well: before its
+ * M_CLOSE is pushed. */
+void gw_lend_offer(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node);
+/* That M_CLOSE was not pushed: the offer goes (the lease's idle limit
+ * frees it). */
+void gw_lend_withdraw(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node);
+/* Take the offer of line `from`'s lease (ch, node) for its next transfer,
+ * to new_node (claimed by the caller if it differs): true when the owner
+ * had not taken the M_CLOSE. */
+bool gw_lend_take_offer(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node, uint8_t new_node);
+/* That transfer's M_OPEN was not pushed: make it an offer again. false:
+ * the owner kept the lease for it already (its idle limit frees it). */
+bool gw_lend_untake(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node, uint8_t new_node);
+/* The owner, at the end of line `from`'s lease (ch, node) (M_CLOSE, or
+ * any other end): the node its next transfer took it for (keep the lease
+ * for that M_OPEN, moved there), or 0: free it. Either way nothing is
+ * offered on ch any more. */
+uint8_t gw_lend_close(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node);
 
 #endif /* COGW_GATEWAY_LEND_H */

@@ -93,6 +93,7 @@ static struct {
 	atomic_uint answered, refused, no_client, timed_out, vanished;
 	atomic_uint wrong_data, unexpected;
 	atomic_uint last_unexpected; /* the abort or status it had */
+	atomic_uint last_where;      /* its read: line * 100 + network * 10 + block */
 	/* what "unexpected" holds besides aborts: a client that could not
 	 * register, a request that could not be sent, an answer that never
 	 * came (each with the last COGW_E_* it had) */
@@ -285,7 +286,7 @@ static void expect_success(cogw *h, unsigned line_no, uint16_t net, bool block)
 /* What the concurrency explains: the device's server in a transfer
  * another line runs (0A000003), every SDO client of the target line lent
  * (060A0023), a stall of the emulated machine (a timeout). */
-static void count(uint32_t abort)
+static void count(uint32_t abort, unsigned where)
 {
 	if (!abort)
 		atomic_fetch_add(&tally.answered, 1);
@@ -297,6 +298,7 @@ static void count(uint32_t abort)
 		atomic_fetch_add(&tally.timed_out, 1);
 	else {
 		atomic_fetch_add(&tally.unexpected, 1);
+		atomic_store(&tally.last_where, where);
 		if (abort != UINT32_MAX)
 			atomic_store(&tally.last_unexpected, abort);
 	}
@@ -311,14 +313,16 @@ static void *client(void *arg)
 		unsigned line_no = rand_r(&seed) % GW_LINES;
 		uint16_t net = (uint16_t)(2 + rand_r(&seed) % 2);
 		uint64_t corr = 0;
-		int rc = h ? start_read(h, line_no, net, rand_r(&seed) & 1, &corr) : -1;
+		bool block = rand_r(&seed) & 1;
+		unsigned where = line_no * 100u + net * 10u + block;
+		int rc = h ? start_read(h, line_no, net, block, &corr) : -1;
 
 		if (rc) {
 			if (h) {
 				atomic_fetch_add(&tally.send_failed, 1);
 				atomic_store(&tally.last_send_rc, rc);
 			}
-			count(UINT32_MAX);
+			count(UINT32_MAX, where);
 			cogw_close(h);
 			continue;
 		}
@@ -329,7 +333,7 @@ static void *client(void *arg)
 			usleep(rand_r(&seed) % 40000);
 			atomic_fetch_add(&tally.vanished, 1);
 		} else {
-			count(take_answer(h, corr));
+			count(take_answer(h, corr), where);
 		}
 		cogw_close(h);
 	}
@@ -483,11 +487,12 @@ static void print_tally(void)
 	       atomic_load(&tally.no_client), atomic_load(&tally.timed_out),
 	       atomic_load(&tally.vanished));
 	printf("unexpected %u: registrations failed %u (last %d), sends failed %u (last %d), "
-	       "no answer %u, last abort or status %08X\n",
+	       "no answer %u, last abort or status %08X (line * 100 + network * 10 + block: "
+	       "%03u)\n",
 	       atomic_load(&tally.unexpected), atomic_load(&tally.open_failed),
 	       atomic_load(&tally.last_open_rc), atomic_load(&tally.send_failed),
 	       atomic_load(&tally.last_send_rc), atomic_load(&tally.no_answer),
-	       atomic_load(&tally.last_unexpected));
+	       atomic_load(&tally.last_unexpected), atomic_load(&tally.last_where));
 }
 
 static void test_routed_transfers_whose_clients_vanish(void)

@@ -657,28 +657,79 @@ static void test_reservation_refusals_keep_their_codes(void)
 	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, gw_lend_reserve(&board, 5, &c));
 }
 
-/* A requester's next transfer to a node right after its last one ended
- * reserves the channel alone; the target claims the node at bind, after
- * the close of the last lease freed it - or finds it taken meanwhile. */
-static void test_inherited_node_is_claimed_at_bind(void)
+/* A lease that ended well is offered to its requester's line until the
+ * owner takes the M_CLOSE: of the line's next transfer and the owner,
+ * exactly one gets it, whatever the order; a word another line left, or
+ * one of another node, is nobody's offer. */
+static void test_lease_ended_well_is_handed_over_once(void)
 {
-	uint8_t a, b;
+	uint8_t a;
 
 	lender_on();
 	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 5, &a));
-	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve_channel(&board, &b));
-	TEST_ASSERT_TRUE(a != b);
-	TEST_ASSERT_FALSE(gw_lend_claim_node(&board, 5)); /* the first lease holds it */
-	gw_lend_give_back(&board, a, 5);                  /* its close */
-	TEST_ASSERT_TRUE(gw_lend_claim_node(&board, 5));  /* the second one's bind */
-	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, gw_lend_reserve(&board, 5, &a));
-	/* no channel: the channel alone is refused too, and nothing is held */
-	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve_channel(&board, &a));
-	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, gw_lend_reserve_channel(&board, &a));
-	gw_lend_give_back(&board, b, 0); /* channel alone */
-	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, gw_lend_reserve(&board, 5, &a));
-	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 6, &a));
-	TEST_ASSERT_EQUAL(b, a);
+	/* the next transfer first: taken once, the owner keeps it for it */
+	gw_lend_offer(&board, a, 0, 5);
+	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, a, 1, 5, 5)); /* another line's */
+	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, a, 0, 6, 6)); /* another node */
+	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, a, 0, 5, 9));
+	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, a, 0, 5, 9));
+	TEST_ASSERT_EQUAL(0, gw_lend_close(&board, a, 1, 5)); /* not that lease's */
+	gw_lend_offer(&board, a, 0, 5);
+	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, a, 0, 5, 9));
+	TEST_ASSERT_EQUAL(9, gw_lend_close(&board, a, 0, 5));
+	/* the owner first: the offer is gone */
+	gw_lend_offer(&board, a, 0, 5);
+	TEST_ASSERT_EQUAL(0, gw_lend_close(&board, a, 0, 5));
+	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, a, 0, 5, 5));
+	/* the M_OPEN not sent: an offer again, unless the owner kept it */
+	gw_lend_offer(&board, a, 0, 5);
+	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, a, 0, 5, 5));
+	TEST_ASSERT_TRUE(gw_lend_untake(&board, a, 0, 5, 5));
+	TEST_ASSERT_EQUAL(0, gw_lend_close(&board, a, 0, 5));
+	gw_lend_offer(&board, a, 0, 5);
+	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, a, 0, 5, 5));
+	TEST_ASSERT_EQUAL(5, gw_lend_close(&board, a, 0, 5));
+	TEST_ASSERT_FALSE(gw_lend_untake(&board, a, 0, 5, 5));
+	/* the M_CLOSE not sent: withdrawn */
+	gw_lend_offer(&board, a, 0, 5);
+	gw_lend_withdraw(&board, a, 0, 5);
+	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, a, 0, 5, 5));
+	/* a channel outside the board: nothing */
+	gw_lend_offer(&board, GW_LEND_CHANNELS, 0, 5);
+	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, GW_LEND_CHANNELS, 0, 5, 5));
+}
+
+/* A lease kept for the next transfer moves to that transfer's node
+ * without going back in between: the own pool's request waiting for the
+ * old node gets no channel from it (it starts on the next one freed); the
+ * lease's frames go to the new node. */
+static void test_kept_lease_moves_to_the_next_node(void)
+{
+	uint8_t a;
+
+	lender_on();
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 5, &a));
+	TEST_ASSERT_EQUAL(a,
+			  sdo_client_lease_channel(lender->node, a, 5, tgt_raw, NULL, bus_b.now));
+	own_read(7, 2); /* on the other channel */
+	own_read(5, 1); /* waits for the node */
+	TEST_ASSERT_EQUAL(1, own_requests_to(7));
+	TEST_ASSERT_TRUE(gw_lend_claim_node(&board, 8));
+	gw_lend_node_free(&board, 5); /* the old node first, as gw_relay does */
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_move(lender->node, a, 8, bus_b.now));
+	TEST_ASSERT_EQUAL(0, own_requests_to(5));
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_send(lender->node, a, (const uint8_t[8]){ 0x40 }));
+	TEST_ASSERT_EQUAL(1, tb_count_from_id(&bus_b, lender->idx, 0x608u, 0));
+	/* the node in a transfer elsewhere, a channel not leased, a bad node */
+	TEST_ASSERT_EQUAL(-EALREADY, sdo_client_lease_move(lender->node, a, 7, bus_b.now));
+	TEST_ASSERT_EQUAL(-ENOENT,
+			  sdo_client_lease_move(lender->node, (uint8_t)(1 - a), 9, bus_b.now));
+	TEST_ASSERT_EQUAL(-EINVAL, sdo_client_lease_move(lender->node, a, 0, bus_b.now));
+	/* node 7's read times out: node 5's starts on that channel */
+	tb_advance(&bus_b, 500000);
+	TEST_ASSERT_EQUAL(1, own_requests_to(5));
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_send(lender->node, a, (const uint8_t[8]){ 0x40 }));
+	TEST_ASSERT_EQUAL(2, tb_count_from_id(&bus_b, lender->idx, 0x608u, 0));
 }
 
 /* What the target line's own clients hold is not lent, and what is lent
@@ -736,6 +787,7 @@ int main(void)
 	RUN_TEST(test_target_line_lost_mid_transfer);
 	RUN_TEST(test_reservation_refusals_keep_their_codes);
 	RUN_TEST(test_reservation_and_own_clients_exclude_each_other);
-	RUN_TEST(test_inherited_node_is_claimed_at_bind);
+	RUN_TEST(test_lease_ended_well_is_handed_over_once);
+	RUN_TEST(test_kept_lease_moves_to_the_next_node);
 	return UNITY_END();
 }
