@@ -25,7 +25,8 @@
 #include "gateway/convention.h"
 #include "gateway/gw_line.h"
 
-/* The channel back to the pool; the node's reservation is the caller's. */
+/* The channel back to the pool; the node's reservation is the caller's
+ * (freed before, so that the pool's requests waiting for it start). */
 static void relay_unbind(struct gw_relay *r, uint64_t now_us)
 {
 	sdo_client_lease_end(r->gl->node, (uint8_t)r->cli_ch, now_us);
@@ -195,38 +196,36 @@ void gw_lend_detach(struct gw_line *gl)
 	sdo_client_set_gate(gl->node, NULL, NULL);
 }
 
-/* The next transfer of ours to line `to` (node) found the node or every
- * channel held (refuse): take a lease of ours that ended well there and
- * is still offered (gw_lend_take_offer) - for the node held, one toward
- * that node; for the channels, any, its node claimed for this transfer.
+/* The next transfer of ours to line `to` (node) found every channel
+ * held: take a lease of ours toward another node that ended well there
+ * and is still offered (gw_lend_take_offer), node claimed for this
+ * transfer. (One toward the same node gw_lend_reserve takes itself.)
  * 0 (m->channel, m->inherits set; *was_for: the node the lease was
- * toward) or refuse. */
-static uint32_t take_offered(struct gw_line *gl, unsigned to, uint8_t node, uint32_t refuse,
-			     gw_msg *m, uint8_t *was_for)
+ * toward) or GW_AB_NO_CLIENT. */
+static uint32_t take_offered_channel(struct gw_line *gl, unsigned to, uint8_t node, gw_msg *m,
+				     uint8_t *was_for)
 {
 	gw_lend *board = &gl->g->line[to].lend;
 
 	for (unsigned i = 0; i < GW_CLOSING_MAX; i++) {
 		struct gw_closing *c = &gl->closing[to][i];
-		bool claim = c->node != node;
 
-		if (!c->node || (refuse != GW_AB_NO_CLIENT && claim))
+		if (!c->node || c->node == node)
 			continue;
-		if (claim && !gw_lend_claim_node(board, node))
-			return refuse; /* the node is busy too */
-		if (gw_lend_take_offer(board, c->channel, (uint8_t)gl->idx, c->node, node)) {
+		if (!gw_lend_claim_node(board, node))
+			break; /* the node is busy too */
+		if (gw_lend_take_offer(board, (uint8_t)gl->idx, c->node, c->channel, node)) {
 			m->inherits = true;
-			m->claimed_node = claim;
+			m->claimed_node = true;
 			m->channel = c->channel;
 			*was_for = c->node;
 			c->node = 0;
 			return 0;
 		}
-		if (claim)
-			gw_lend_give_back(board, GW_LEND_NONE, node);
-		c->node = 0; /* the target took its M_CLOSE: gone */
+		gw_lend_give_back(board, GW_LEND_NONE, node);
+		c->node = 0; /* the target ended it: gone */
 	}
-	return refuse;
+	return GW_AB_NO_CLIENT;
 }
 
 uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t *channel,
@@ -239,15 +238,17 @@ uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint
 		     .reply_id = reply_id,
 		     .reply_flags = reply_flags };
 	int rc;
-	uint8_t was_for = 0;
-	uint32_t refuse = gw_lend_reserve(&tl->lend, hop->node, &m.channel);
+	uint8_t was_for = hop->node;
+	uint32_t refuse = gw_lend_reserve(&tl->lend, (uint8_t)gl->idx, hop->node, &m.channel,
+					  &m.inherits);
 
 	/* The requester's next transfer right after its last one ended: that
 	 * lease's channel (and node, if the same) are still held until the
 	 * target takes its M_CLOSE, which the ring keeps ahead of this
-	 * M_OPEN. Deciding on them now, they would look busy. */
-	if (refuse == GW_AB_ROUTE_BUSY || refuse == GW_AB_NO_CLIENT)
-		refuse = take_offered(gl, hop->line, hop->node, refuse, &m, &was_for);
+	 * M_OPEN. Deciding on them now, they would look busy: the lease is
+	 * taken over instead (the same node: gw_lend_reserve did). */
+	if (refuse == GW_AB_NO_CLIENT)
+		refuse = take_offered_channel(gl, hop->line, hop->node, &m, &was_for);
 	if (refuse)
 		return refuse;
 	/* A mailbox hop's M_OPEN goes quietly: the target needs it only with
@@ -262,7 +263,7 @@ uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint
 	if (rc) {
 		if (!m.inherits)
 			gw_lend_give_back(&tl->lend, m.channel, hop->node);
-		else if (gw_lend_untake(&tl->lend, m.channel, (uint8_t)gl->idx, was_for,
+		else if (gw_lend_untake(&tl->lend, (uint8_t)gl->idx, was_for, m.channel,
 					hop->node) &&
 			 m.claimed_node)
 			gw_lend_give_back(&tl->lend, GW_LEND_NONE, hop->node);
@@ -280,10 +281,10 @@ void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t
 	gw_lend *board = &gl->g->line[to].lend;
 
 	if (settled)
-		gw_lend_offer(board, channel, (uint8_t)gl->idx, hop->node);
+		gw_lend_offer(board, (uint8_t)gl->idx, hop->node, channel);
 	if (gw_send_to(gl, to, &m)) {
 		if (settled)
-			gw_lend_withdraw(board, channel, (uint8_t)gl->idx, hop->node);
+			gw_lend_withdraw(board, (uint8_t)gl->idx, hop->node, channel);
 		GW_COUNT(gl->c.ring_drops); /* the relay's idle limit frees it */
 		return;
 	}
@@ -308,18 +309,17 @@ static struct gw_relay *parked_for(struct gw_line *gl, const gw_msg *m)
 }
 
 /* A lease that ended well, taken by its requester's line for the next
- * transfer (gw_lend_close said so): kept bound, moved to that transfer's
- * node, for the M_OPEN behind this M_CLOSE. If it cannot be moved, the
- * channel goes back and that M_OPEN finds nothing: it refuses and gives
- * back the node its sender claimed. */
+ * transfer (gw_lend_end_offered said so, and freed the old node if the
+ * next one differs: the pool's requests waiting for it start at the
+ * move): kept bound, moved to that transfer's node, for the M_OPEN behind
+ * this M_CLOSE. If it cannot be moved, the channel goes back and that
+ * M_OPEN finds nothing: it refuses and gives back the node its sender
+ * claimed. */
 static void relay_park(struct gw_relay *r, uint8_t next_node, uint64_t now_us)
 {
 	struct gw_line *gl = r->gl;
 
 	if (next_node != r->node) {
-		/* the old node first: the pool's requests waiting for it
-		 * start at the move */
-		gw_lend_node_free(&gl->lend, r->node);
 		if (sdo_client_lease_move(gl->node, (uint8_t)r->cli_ch, next_node, now_us) < 0) {
 			relay_unbind(r, now_us);
 			return;
@@ -374,8 +374,6 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 			GW_COUNT(gl->c.ring_drops); /* the requester's timeout ends it */
 		return;
 	}
-	if (!m->inherits) /* whatever an earlier lease of the channel left */
-		(void)gw_lend_close(&gl->lend, m->channel, m->from, m->node);
 	*r = (struct gw_relay){ .used = true,
 				.from = m->from,
 				.sid = m->sid,
@@ -429,16 +427,18 @@ void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 
 	if (!r)
 		return;
-	next_node = gw_lend_close(&gl->lend, (uint8_t)r->cli_ch, r->from, r->node);
 	if (r->engaged && r->aborted) {
 		r->draining = true;
 		r->last_us = now_us;
 		return;
 	}
+	/* the node freed and its offer withdrawn in one step, or the lease
+	 * kept for the transfer that took it */
+	next_node = gw_lend_end_offered(&gl->lend, r->from, r->node, (uint8_t)r->cli_ch);
 	if (next_node)
 		relay_park(r, next_node, now_us);
 	else
-		relay_free(r, now_us);
+		relay_unbind(r, now_us);
 }
 
 uint64_t gw_relays_tick(struct gw_line *gl, uint64_t now_us, uint64_t next)

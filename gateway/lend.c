@@ -20,13 +20,6 @@ static uint64_t bit_of(uint8_t n)
 	return 1ull << (n % 64u);
 }
 
-/* Set n's bit if it was clear: true when this call set it. */
-static bool claim_set(_Atomic uint64_t set[2], uint8_t n)
-{
-	return !(atomic_fetch_or_explicit(word_of(set, n), bit_of(n), memory_order_acq_rel) &
-		 bit_of(n));
-}
-
 /* Clear n's bit if it was set: true when this call cleared it. */
 static bool claim_clear(_Atomic uint64_t set[2], uint8_t n)
 {
@@ -39,9 +32,37 @@ static void put_set(_Atomic uint64_t set[2], uint8_t n)
 	atomic_fetch_or_explicit(word_of(set, n), bit_of(n), memory_order_release);
 }
 
-static void put_clear(_Atomic uint64_t set[2], uint8_t n)
+/* A node's word: 0 free; NODE_HELD; or a lease that ended well, offered
+ * by line `from` (its channel ch), or taken by that line's next transfer
+ * to new_node. */
+#define NODE_HELD 0x80000000u
+#define NODE_OFFERED 0x40000000u
+#define NODE_TAKEN 0xC0000000u
+
+static uint32_t offered(uint8_t from, uint8_t ch)
 {
-	atomic_fetch_and_explicit(word_of(set, n), ~bit_of(n), memory_order_release);
+	return NODE_OFFERED | (uint32_t)from << 16 | (uint32_t)ch << 8;
+}
+
+static uint32_t taken(uint8_t from, uint8_t ch, uint8_t new_node)
+{
+	return NODE_TAKEN | (uint32_t)from << 16 | (uint32_t)ch << 8 | new_node;
+}
+
+static _Atomic uint32_t *node_word(gw_lend *b, uint8_t node)
+{
+	return &b->node[node & 0x7Fu];
+}
+
+static bool node_swap(gw_lend *b, uint8_t node, uint32_t expect, uint32_t to)
+{
+	return atomic_compare_exchange_strong_explicit(node_word(b, node), &expect, to,
+						       memory_order_acq_rel, memory_order_acquire);
+}
+
+static void node_put(gw_lend *b, uint8_t node, uint32_t v)
+{
+	atomic_store_explicit(node_word(b, node), v, memory_order_release);
 }
 
 void gw_lend_init(gw_lend *b)
@@ -50,10 +71,9 @@ void gw_lend_init(gw_lend *b)
 	for (unsigned w = 0; w < 2; w++) {
 		atomic_init(&b->silent[w], 0);
 		atomic_init(&b->free_ch[w], 0);
-		atomic_init(&b->held_node[w], 0);
 	}
-	for (unsigned ch = 0; ch < GW_LEND_CHANNELS; ch++)
-		atomic_init(&b->handover[ch], 0);
+	for (unsigned n = 0; n < 128; n++)
+		atomic_init(&b->node[n], 0);
 }
 
 void gw_lend_set_carries(gw_lend *b, bool carries)
@@ -85,9 +105,9 @@ bool gw_lend_gate(void *ctx, sdo_client_gate_op op, uint8_t arg)
 		put_set(b->free_ch, arg);
 		return true;
 	case SDO_CLIENT_GATE_TAKE_SERVER:
-		return claim_set(b->held_node, arg);
+		return gw_lend_claim_node(b, arg);
 	case SDO_CLIENT_GATE_FREE_SERVER:
-		put_clear(b->held_node, arg);
+		node_put(b, arg, 0);
 		return true;
 	}
 	return false;
@@ -95,12 +115,33 @@ bool gw_lend_gate(void *ctx, sdo_client_gate_op op, uint8_t arg)
 
 void gw_lend_node_free(gw_lend *b, uint8_t node)
 {
-	put_clear(b->held_node, node);
+	node_put(b, node, 0);
 }
 
 bool gw_lend_claim_node(gw_lend *b, uint8_t node)
 {
-	return claim_set(b->held_node, node);
+	return node_swap(b, node, 0, NODE_HELD);
+}
+
+uint8_t gw_lend_end_offered(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch)
+{
+	for (;;) {
+		uint32_t w = atomic_load_explicit(node_word(b, node), memory_order_acquire);
+		uint8_t next = (uint8_t)(w & 0x7Fu);
+
+		if (w == offered(from, ch)) {
+			if (node_swap(b, node, w, 0))
+				return 0; /* nobody took it: freed with the offer */
+		} else if (w == taken(from, ch, next)) {
+			/* kept for that transfer (its line may still make it an
+			 * offer again: hence the swap) */
+			if (node_swap(b, node, w, next == node ? NODE_HELD : 0))
+				return next;
+		} else {
+			node_put(b, node, 0); /* not offered by this lease */
+			return 0;
+		}
+	}
 }
 
 static uint32_t reserve_channel(gw_lend *b, uint8_t *channel)
@@ -120,16 +161,28 @@ static uint32_t reserve_channel(gw_lend *b, uint8_t *channel)
 	return GW_AB_NO_CLIENT;
 }
 
-uint32_t gw_lend_reserve(gw_lend *b, uint8_t node, uint8_t *channel)
+uint32_t gw_lend_reserve(gw_lend *b, uint8_t from, uint8_t node, uint8_t *channel, bool *taken_over)
 {
-	uint32_t refuse;
+	uint32_t refuse, w;
 
+	*taken_over = false;
 	if (!atomic_load_explicit(&b->carries, memory_order_acquire) || gw_lend_is_silent(b, node))
 		return GW_AB_NO_ANSWER; /* known silent: refuse now, not by a timeout */
-	if (!claim_set(b->held_node, node))
+	w = atomic_load_explicit(node_word(b, node), memory_order_acquire);
+	if ((w & NODE_TAKEN) == NODE_OFFERED && ((w >> 16) & 0xFFu) == from) {
+		/* our own lease toward it that ended well: the node and its
+		 * channel at once, if the owner has not ended it meanwhile */
+		uint8_t ch = (uint8_t)((w >> 8) & 0x7Fu);
+		if (node_swap(b, node, w, taken(from, ch, node))) {
+			*channel = ch;
+			*taken_over = true;
+			return 0;
+		}
+	}
+	if (!gw_lend_claim_node(b, node))
 		return sdo_abort_of_errno(-EALREADY);
 	if ((refuse = reserve_channel(b, channel)))
-		put_clear(b->held_node, node);
+		node_put(b, node, 0);
 	return refuse;
 }
 
@@ -138,60 +191,25 @@ void gw_lend_give_back(gw_lend *b, uint8_t channel, uint8_t node)
 	if (channel != GW_LEND_NONE)
 		put_set(b->free_ch, channel);
 	if (node)
-		put_clear(b->held_node, node);
+		node_put(b, node, 0);
 }
 
-/* A handover word: who offered which lease, and the node it was taken for. */
-#define HO_OFFERED 0x80000000u
-#define HO_TAKEN 0x40000000u
-
-static uint32_t offer_word(uint8_t from, uint8_t node)
+void gw_lend_offer(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch)
 {
-	return HO_OFFERED | (uint32_t)from << 8 | node;
+	node_swap(b, node, NODE_HELD, offered(from, ch));
 }
 
-static uint32_t taken_word(uint8_t from, uint8_t node, uint8_t new_node)
+void gw_lend_withdraw(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch)
 {
-	return HO_TAKEN | (uint32_t)new_node << 16 | (uint32_t)from << 8 | node;
+	node_swap(b, node, offered(from, ch), NODE_HELD);
 }
 
-static bool handover_swap(gw_lend *b, uint8_t ch, uint32_t expect, uint32_t to)
+bool gw_lend_take_offer(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, uint8_t new_node)
 {
-	return ch < GW_LEND_CHANNELS &&
-	       atomic_compare_exchange_strong_explicit(&b->handover[ch], &expect, to,
-						       memory_order_acq_rel, memory_order_acquire);
+	return node_swap(b, node, offered(from, ch), taken(from, ch, new_node));
 }
 
-void gw_lend_offer(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node)
+bool gw_lend_untake(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, uint8_t new_node)
 {
-	if (ch < GW_LEND_CHANNELS)
-		atomic_store_explicit(&b->handover[ch], offer_word(from, node),
-				      memory_order_release);
-}
-
-void gw_lend_withdraw(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node)
-{
-	handover_swap(b, ch, offer_word(from, node), 0);
-}
-
-bool gw_lend_take_offer(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node, uint8_t new_node)
-{
-	return handover_swap(b, ch, offer_word(from, node), taken_word(from, node, new_node));
-}
-
-bool gw_lend_untake(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node, uint8_t new_node)
-{
-	return handover_swap(b, ch, taken_word(from, node, new_node), offer_word(from, node));
-}
-
-uint8_t gw_lend_close(gw_lend *b, uint8_t ch, uint8_t from, uint8_t node)
-{
-	uint32_t w;
-
-	if (ch >= GW_LEND_CHANNELS)
-		return 0;
-	w = atomic_exchange_explicit(&b->handover[ch], 0, memory_order_acq_rel);
-	if (!(w & HO_TAKEN) || (w & 0xFFFFu) != ((uint32_t)from << 8 | node))
-		return 0; /* offered, or a word of another lease of ch */
-	return (uint8_t)((w >> 16) & 0x7Fu);
+	return node_swap(b, node, taken(from, ch, new_node), offered(from, ch));
 }

@@ -633,70 +633,97 @@ static size_t own_requests_to(uint8_t node)
 	return tb_count_from_id(&bus_b, lender->idx, 0x600u + node, 0);
 }
 
+/* A reservation of line 0 that takes nothing over. */
+static uint32_t reserve(uint8_t node, uint8_t *channel)
+{
+	bool taken = true;
+	uint32_t refuse = gw_lend_reserve(&board, 0, node, channel, &taken);
+
+	TEST_ASSERT_FALSE(taken);
+	return refuse;
+}
+
 static void test_reservation_refusals_keep_their_codes(void)
 {
 	uint8_t a = 0xFF, b = 0xFF, c;
 	uint64_t lost[2] = { 1ull << 8, 0 };
 
 	lender_on();
-	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 5, &a));
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(5, &a));
 	/* the node is in a routed transfer already */
-	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, gw_lend_reserve(&board, 5, &c));
-	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 6, &b));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, reserve(5, &c));
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(6, &b));
 	TEST_ASSERT_TRUE(a < 2 && b < 2 && a != b);
 	/* no channel left: "no free client", and node 7 is not left reserved */
-	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, gw_lend_reserve(&board, 7, &c));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, reserve(7, &c));
 	gw_lend_give_back(&board, b, 6);
-	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 7, &c));
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(7, &c));
 	TEST_ASSERT_EQUAL(b, c);
 	/* heartbeat lost, line down: no answer, before anything else */
 	gw_lend_set_silent(&board, lost);
-	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, gw_lend_reserve(&board, 8, &c));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, reserve(8, &c));
 	gw_lend_set_carries(&board, false);
-	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, gw_lend_reserve(&board, 9, &c));
-	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, gw_lend_reserve(&board, 5, &c));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, reserve(9, &c));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, reserve(5, &c));
 }
 
 /* A lease that ended well is offered to its requester's line until the
- * owner takes the M_CLOSE: of the line's next transfer and the owner,
- * exactly one gets it, whatever the order; a word another line left, or
- * one of another node, is nobody's offer. */
+ * owner ends it at the M_CLOSE: of that line's next transfer and the
+ * owner, exactly one gets it, and the owner's end frees the node in the
+ * same step; another line's transfer never takes it. */
 static void test_lease_ended_well_is_handed_over_once(void)
 {
-	uint8_t a;
+	uint8_t a, c;
+	bool taken;
 
 	lender_on();
-	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 5, &a));
-	/* the next transfer first: taken once, the owner keeps it for it */
-	gw_lend_offer(&board, a, 0, 5);
-	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, a, 1, 5, 5)); /* another line's */
-	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, a, 0, 6, 6)); /* another node */
-	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, a, 0, 5, 9));
-	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, a, 0, 5, 9));
-	TEST_ASSERT_EQUAL(0, gw_lend_close(&board, a, 1, 5)); /* not that lease's */
-	gw_lend_offer(&board, a, 0, 5);
-	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, a, 0, 5, 9));
-	TEST_ASSERT_EQUAL(9, gw_lend_close(&board, a, 0, 5));
-	/* the owner first: the offer is gone */
-	gw_lend_offer(&board, a, 0, 5);
-	TEST_ASSERT_EQUAL(0, gw_lend_close(&board, a, 0, 5));
-	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, a, 0, 5, 5));
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(5, &a));
+	/* the next transfer of line 0 first: it takes the lease, once */
+	gw_lend_offer(&board, 0, 5, a);
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, gw_lend_reserve(&board, 1, 5, &c, &taken));
+	TEST_ASSERT_FALSE(taken);
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 0, 5, &c, &taken));
+	TEST_ASSERT_TRUE(taken);
+	TEST_ASSERT_EQUAL(a, c);
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, gw_lend_reserve(&board, 0, 5, &c, &taken));
+	TEST_ASSERT_EQUAL(5, gw_lend_end_offered(&board, 0, 5, a)); /* kept: the node held */
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, reserve(5, &c));
+	/* the owner first: the node is free in the same step */
+	gw_lend_offer(&board, 0, 5, a);
+	TEST_ASSERT_EQUAL(0, gw_lend_end_offered(&board, 0, 5, a));
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 0, 5, &c, &taken));
+	TEST_ASSERT_FALSE(taken);
+	TEST_ASSERT_TRUE(c != a);
+	gw_lend_give_back(&board, c, 5);
+	/* taken for another node (every channel held): the old node goes
+	 * free, the new one stays held */
+	TEST_ASSERT_TRUE(gw_lend_claim_node(&board, 5));
+	TEST_ASSERT_TRUE(gw_lend_claim_node(&board, 8));
+	gw_lend_offer(&board, 0, 5, a);
+	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, 1, 5, a, 8)); /* not line 1's */
+	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, 0, 5, a, 8));
+	TEST_ASSERT_EQUAL(8, gw_lend_end_offered(&board, 0, 5, a));
+	TEST_ASSERT_TRUE(gw_lend_claim_node(&board, 5));
+	TEST_ASSERT_FALSE(gw_lend_claim_node(&board, 8));
 	/* the M_OPEN not sent: an offer again, unless the owner kept it */
-	gw_lend_offer(&board, a, 0, 5);
-	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, a, 0, 5, 5));
-	TEST_ASSERT_TRUE(gw_lend_untake(&board, a, 0, 5, 5));
-	TEST_ASSERT_EQUAL(0, gw_lend_close(&board, a, 0, 5));
-	gw_lend_offer(&board, a, 0, 5);
-	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, a, 0, 5, 5));
-	TEST_ASSERT_EQUAL(5, gw_lend_close(&board, a, 0, 5));
-	TEST_ASSERT_FALSE(gw_lend_untake(&board, a, 0, 5, 5));
-	/* the M_CLOSE not sent: withdrawn */
-	gw_lend_offer(&board, a, 0, 5);
-	gw_lend_withdraw(&board, a, 0, 5);
-	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, a, 0, 5, 5));
-	/* a channel outside the board: nothing */
-	gw_lend_offer(&board, GW_LEND_CHANNELS, 0, 5);
-	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, GW_LEND_CHANNELS, 0, 5, 5));
+	gw_lend_offer(&board, 0, 5, a);
+	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, 0, 5, a, 5));
+	TEST_ASSERT_TRUE(gw_lend_untake(&board, 0, 5, a, 5));
+	TEST_ASSERT_EQUAL(0, gw_lend_end_offered(&board, 0, 5, a));
+	TEST_ASSERT_TRUE(gw_lend_claim_node(&board, 5));
+	gw_lend_offer(&board, 0, 5, a);
+	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, 0, 5, a, 5));
+	TEST_ASSERT_EQUAL(5, gw_lend_end_offered(&board, 0, 5, a));
+	TEST_ASSERT_FALSE(gw_lend_untake(&board, 0, 5, a, 5));
+	/* the M_CLOSE not sent: withdrawn, the node still held */
+	gw_lend_offer(&board, 0, 5, a);
+	gw_lend_withdraw(&board, 0, 5, a);
+	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, 0, 5, a, 5));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, reserve(5, &c));
+	/* a free node has nothing to offer */
+	gw_lend_node_free(&board, 5);
+	gw_lend_offer(&board, 0, 5, a);
+	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, 0, 5, a, 5));
 }
 
 /* A lease kept for the next transfer moves to that transfer's node
@@ -708,7 +735,7 @@ static void test_kept_lease_moves_to_the_next_node(void)
 	uint8_t a;
 
 	lender_on();
-	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 5, &a));
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(5, &a));
 	TEST_ASSERT_EQUAL(a,
 			  sdo_client_lease_channel(lender->node, a, 5, tgt_raw, NULL, bus_b.now));
 	own_read(7, 2); /* on the other channel */
@@ -742,9 +769,9 @@ static void test_reservation_and_own_clients_exclude_each_other(void)
 	/* the own pool busy with node 11 on one channel */
 	own_read(11, 1);
 	TEST_ASSERT_EQUAL(1, own_requests_to(11));
-	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, gw_lend_reserve(&board, 11, &c));
-	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 5, &a));
-	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, gw_lend_reserve(&board, 6, &c));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, reserve(11, &c));
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(5, &a));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, reserve(6, &c));
 	/* an own request meets no channel (the idle one is reserved) nor the
 	 * reserved node */
 	own_read(12, 2);
@@ -759,15 +786,15 @@ static void test_reservation_and_own_clients_exclude_each_other(void)
 	/* node 11 times out: its channel is back, node 12 takes it */
 	tb_advance(&bus_b, 500000);
 	TEST_ASSERT_EQUAL(1, own_requests_to(12));
-	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, gw_lend_reserve(&board, 6, &c));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, reserve(6, &c));
 	/* the lease ends (the node first, as gw_relay does): node 5 goes */
 	gw_lend_node_free(&board, 5);
 	TEST_ASSERT_EQUAL(0, sdo_client_lease_end(lender->node, a, bus_b.now));
 	TEST_ASSERT_EQUAL(1, own_requests_to(5));
 	tb_advance(&bus_b, 500000); /* both time out: nothing held any more */
 	tb_advance(&bus_b, 100000); /* their servers settle */
-	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 11, &b));
-	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 5, &c));
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(11, &b));
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(5, &c));
 	TEST_ASSERT_TRUE(b != c);
 }
 
