@@ -92,7 +92,7 @@ TSAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_SRC))
 TSAN_VCAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_VCAN_SRC))
 BENCH_BINS := $(patsubst tests/bench/%.c,$(REL)/tests/bench/%,$(BENCH_SRC))
 
-.PHONY: all deps test unit tsan integration interop bench bench-costs demo install clean tests-build check check-core-io check-layering format check-callgraph
+.PHONY: all deps test unit tsan integration interop bench bench-costs bench-timeline demo install clean tests-build check check-core-io check-layering format check-callgraph
 .DEFAULT_GOAL := all
 .SECONDARY:
 
@@ -356,6 +356,11 @@ $(REL)/tests/bench/%: $(REL)/obj/tests/bench/%.o $(BENCH_SUP_OBJS) $(REL_LIBS)
 # vcan harness (counts, not timings).
 bench-costs: all $(REL)/tests/bench/probe_mbx_loop
 	tests/vcan/run -n 2 -- tests/bench/costs
+
+# The one-shot cogwctl and its baseline on an ftrace time line, phase by
+# phase (docs/fastpath.md "One-shot `cogwctl`"); figures only.
+bench-timeline: all $(REL)/tests/bench/bench_vcan_mailbox
+	tests/vcan/run -n 1 -- tests/bench/oneshot-timeline
 
 # Figures only, never pass/fail: all output goes to $(BENCH_OUT) as well, and
 # tests/bench/report turns it into docs/benchmarks.md.

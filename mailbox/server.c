@@ -639,33 +639,48 @@ static mqd_t open_client_queue(mbx_server *srv, const char *name, struct stat *s
  * or file-system uids)? 1 yes, 0 it runs as somebody else, -ESRCH no such
  * process, -EACCES cannot tell (procfs hidden). The process that created
  * a queue had the owner's fs uid then; a pid of another user, or of
- * nobody, is a REGISTER lying about who sent it. */
+ * nobody, is a REGISTER lying about who sent it. Read into a stack buffer
+ * with read(2), not through stdio: fopen would allocate its FILE and
+ * buffer on the line thread (no malloc after start-up there) and fstat
+ * the file to size that buffer (docs/fastpath.md "One-shot `cogwctl`"). */
 static int pid_check(uint32_t pid, uint32_t uid)
 {
-	char path[32], line[256];
+	char path[32], text[1024];
 	unsigned long u[4];
-	FILE *f;
+	size_t len = 0;
+	ssize_t got;
 	int rc = -EACCES;
 
 	snprintf(path, sizeof path, "/proc/%u/status", (unsigned)pid);
-	f = fopen(path, "re");
-	if (!f) {
+	int fd = open(path, O_RDONLY | O_CLOEXEC);
+
+	if (fd < 0) {
 		if (kill((pid_t)pid, 0) < 0 && errno == ESRCH)
 			return -ESRCH;
 		return -EACCES;
 	}
-	while (fgets(line, sizeof line, f)) {
-		if (strncmp(line, "Uid:", 4) != 0)
-			continue;
-		if (sscanf(line + 4, "%lu %lu %lu %lu", &u[0], &u[1], &u[2], &u[3]) != 4)
+	/* The Uid: line is the ninth, a few hundred bytes in; read until it
+	 * is complete (procfs hands the file out in one read as a rule). */
+	const char *uid_line = NULL;
+
+	while (len < sizeof text - 1 && (got = read(fd, text + len, sizeof text - 1 - len)) > 0) {
+		len += (size_t)got;
+		text[len] = '\0';
+		uid_line = strncmp(text, "Uid:", 4) == 0 ? text : strstr(text, "\nUid:");
+		if (uid_line && strchr(uid_line + 1, '\n'))
 			break;
-		rc = 0;
-		for (int i = 0; i < 4; i++)
-			if (u[i] == uid)
-				rc = 1;
-		break;
+		uid_line = NULL;
 	}
-	fclose(f);
+	close(fd);
+	if (!uid_line)
+		return rc;
+	uid_line += *uid_line == '\n' ? 5 : 4;
+	if (sscanf(uid_line, "%lu %lu %lu %lu", &u[0], &u[1], &u[2], &u[3]) != 4)
+		return rc;
+	rc = 0;
+	for (int i = 0; i < 4; i++)
+		if (u[i] == uid)
+			rc = 1;
 	return rc;
 }
 

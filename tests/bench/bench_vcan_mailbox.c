@@ -1222,6 +1222,22 @@ int main(int argc, char **argv)
 {
 	if (argc == 4 && strcmp(argv[1], "--raw-once") == 0)
 		return raw_once(argv[2], argv[3]);
+	/* the responder of --raw-once, for tests/bench/oneshot-timeline: creates
+	 * the two queues and answers until a message starting 'q' */
+	if (argc == 4 && strcmp(argv[1], "--raw-echo") == 0) {
+		mqd_t ping = queue_create(argv[2], 8, O_RDWR),
+		      pong = queue_create(argv[3], 8, O_RDWR);
+		if (ping == (mqd_t)-1 || pong == (mqd_t)-1) {
+			printf("--raw-echo: mq_open: %s\n", strerror(errno));
+			return 1;
+		}
+		pid_t child = raw_echo_start(ping, pong);
+		int st = 1;
+		waitpid(child, &st, 0);
+		mq_unlink(argv[2]);
+		mq_unlink(argv[3]);
+		return child > 0 && WIFEXITED(st) ? WEXITSTATUS(st) : 1;
+	}
 	/* COGW_BENCH_MAILBOX_ONLY=oneshot: the daemon and the one-shot figure
 	 * alone; =fanout: the fan-out figures alone */
 	const char *only = getenv("COGW_BENCH_MAILBOX_ONLY");

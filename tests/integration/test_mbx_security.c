@@ -12,6 +12,9 @@
  *  - REGISTER naming a pid that does not exist must not make the daemon
  *    unlink the queues it named (the victim's, or the daemon's own
  *    command queue);
+ *  - REGISTER with the sender's own queues naming a live process of
+ *    another user as its sender must be refused (the Uid: line of
+ *    /proc/PID/status), the same naming its own pid registered;
  *  - the command queue carries every client's token: nobody but the
  *    daemon may read it (default mode, and modes with read bits for
  *    group/others refused at create);
@@ -848,6 +851,42 @@ static void rawc_close(rawc *r)
 	mq_unlink(r->en);
 }
 
+/* uid 65534 with queues of its own: a REGISTER naming as its sender a
+ * live process of another user (the test, root) is refused unanswered;
+ * the same REGISTER naming its own pid is registered. The daemon tells the
+ * two apart only by the Uid: line of /proc/PID/status (docs/mailbox.md,
+ * "Security model"). */
+static int child_register_naming_pids(void *arg)
+{
+	rawc r;
+	mbx_register_req rq = { .pid = (uint32_t)getppid(), .uid = NOBODY };
+
+	(void)arg;
+	CHECK(become_nobody() == 0);
+	CHECK(rawc_create(&r, 40) == 0); /* a pair no other test uses */
+	strcpy(rq.resp_queue, r.rn);
+	strcpy(rq.event_queue, r.en);
+	CHECK(rawc_send(&r, MBX_CMD_REGISTER, 0, 1, &rq, sizeof rq) == 0);
+	/* FIFO: the answer read here is the second REGISTER's */
+	CHECK(rawc_register_created(&r) == 0);
+	rawc_close(&r);
+	return 0;
+}
+
+static void test_register_naming_another_users_process_is_refused(void)
+{
+	mbx_server_config cfg = base_cfg();
+
+	start(&cfg);
+	mbx_server_stats before = stats();
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, reap(spawn(child_register_naming_pids, NULL)),
+				      "the REGISTER naming its own pid was not registered");
+	mbx_server_stats after = stats();
+	TEST_ASSERT_EQUAL_UINT64(before.reg_refused + 1, after.reg_refused);
+	TEST_ASSERT_EQUAL_UINT64(before.access_denied + 1, after.access_denied);
+	TEST_ASSERT_EQUAL_UINT64(before.clients_registered + 1, after.clients_registered);
+}
+
 /* The read-only user (65534) takes all it can: registrations, parked
  * requests, transfer slots it never acknowledges, an endless timeout. */
 static int child_greedy_reader(void *arg)
@@ -1494,6 +1533,7 @@ int main(void)
 	UNITY_BEGIN();
 	RUN_TEST(test_register_cannot_replace_a_live_client);
 	RUN_TEST(test_register_with_dead_pid_unlinks_nothing);
+	RUN_TEST(test_register_naming_another_users_process_is_refused);
 	RUN_TEST(test_register_cannot_unlink_the_command_queue);
 	RUN_TEST(test_dead_client_queues_are_still_removed);
 	RUN_TEST(test_command_queue_is_write_only_for_clients);
