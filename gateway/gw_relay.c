@@ -301,8 +301,8 @@ static struct gw_relay *parked_for(struct gw_line *gl, const gw_msg *m)
 {
 	for (unsigned i = 0; i < GW_RELAYS_MAX; i++) {
 		struct gw_relay *r = &gl->relay[i];
-		if (r->used && r->parked && !r->orphaned && r->from == m->from &&
-		    r->cli_ch == m->channel && r->node == m->node)
+		if (r->used && r->parked && r->from == m->from && r->cli_ch == m->channel &&
+		    r->node == m->node)
 			return r;
 	}
 	return NULL;
@@ -356,7 +356,7 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 			if (!gl->relay[i].used)
 				r = &gl->relay[i];
 	}
-	if (!gl->carried || gw_lend_is_silent(&gl->lend, m->node))
+	if (!gl->carried || (r && r->orphaned) || gw_lend_is_silent(&gl->lend, m->node))
 		lost.abort = GW_AB_NO_ANSWER;
 	else if (!r)
 		lost.abort = GW_AB_NO_CLIENT;
@@ -364,8 +364,10 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 								relay_rx, r, now_us)) < 0)
 		lost.abort = sdo_abort_of_errno(ch);
 	if (lost.abort) {
-		if (r && r->parked)
+		if (r && r->parked && !r->orphaned)
 			relay_free(r, now_us); /* holds the channel and the node */
+		else if (r && r->orphaned)
+			; /* freed when the link is back (relays_link_back) */
 		else if (!m->inherits)
 			gw_lend_give_back(&gl->lend, m->channel, m->node);
 		else if (m->claimed_node)
@@ -422,7 +424,6 @@ void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
 	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid);
-
 	uint8_t next_node;
 
 	if (!r)
