@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * gateway/lend.c - the lending board of a line (lend.h): 128-bit sets as
- * two atomic words, a unit taken by a compare-and-swap that clears (a
- * channel) or sets (a node) its bit.
+ * gateway/lend.c - the lending board of a line (lend.h): the free channels
+ * a 128-bit set in two atomic words (a channel taken by clearing its bit),
+ * the nodes a word each (taken by a compare-and-swap from free to held).
  */
 #include "gateway/lend.h"
 
