@@ -187,6 +187,11 @@ struct gw_relay {
 	 * to that transfer's node, without a session until the M_OPEN that
 	 * follows the M_CLOSE in the ring binds it (gw_relay_open). */
 	bool parked;
+	/* The M_OPEN of another line's transfer that took this lease while
+	 * its M_CLOSE (on its own line's ring) had not come yet: carried out
+	 * when the lease parks or ends (gw_relay.c). */
+	bool has_pending;
+	gw_msg pending;
 	uint8_t mux[3]; /* its index, sub-index (from that first frame) */
 	uint8_t node;   /* its server, reserved on the lending board */
 	/* Answers sent across to the requester (gw_relay.c relay_rx): the

@@ -25,6 +25,19 @@
 #include "gateway/convention.h"
 #include "gateway/gw_line.h"
 
+/* The lease was taken by another line's transfer (its M_OPEN came before
+ * the M_CLOSE: pending) and now parks for it, or ended: that M_OPEN is
+ * carried out now - bound to the parked lease, or refused. */
+static void relay_open_pending(struct gw_relay *r, uint64_t now_us)
+{
+	gw_msg m = r->pending;
+
+	if (!r->has_pending)
+		return;
+	r->has_pending = false;
+	gw_relay_open(r->gl, &m, now_us);
+}
+
 /* The channel back to the pool; the node's reservation is the caller's
  * (freed before, so that the pool's requests waiting for it start). */
 static void relay_unbind(struct gw_relay *r, uint64_t now_us)
@@ -34,6 +47,7 @@ static void relay_unbind(struct gw_relay *r, uint64_t now_us)
 	r->orphaned = false;
 	r->draining = false;
 	r->parked = false;
+	relay_open_pending(r, now_us);
 }
 
 static void relay_free(struct gw_relay *r, uint64_t now_us)
@@ -308,6 +322,19 @@ static struct gw_relay *parked_for(struct gw_line *gl, const gw_msg *m)
 	return NULL;
 }
 
+/* The lease still bound on m->channel that m's sender took over (its
+ * offer was made before its M_CLOSE left), or NULL. */
+static struct gw_relay *closing_for(struct gw_line *gl, const gw_msg *m)
+{
+	for (unsigned i = 0; i < GW_RELAYS_MAX; i++) {
+		struct gw_relay *r = &gl->relay[i];
+		if (r->used && !r->parked && !r->orphaned && !r->draining && !r->has_pending &&
+		    r->from != m->from && r->cli_ch == m->channel)
+			return r;
+	}
+	return NULL;
+}
+
 /* A lease that ended well, taken by its requester's line for the next
  * transfer (gw_lend_end_offered said so, and freed the old node if the
  * next one differs: the pool's requests waiting for it start at the
@@ -315,9 +342,11 @@ static struct gw_relay *parked_for(struct gw_line *gl, const gw_msg *m)
  * this M_CLOSE. If it cannot be moved, the channel goes back and that
  * M_OPEN finds nothing: it refuses and gives back the node its sender
  * claimed. */
-static void relay_park(struct gw_relay *r, uint8_t next_node, uint64_t now_us)
+static void relay_park(struct gw_relay *r, uint8_t next_node, uint8_t taker, uint64_t now_us)
 {
 	struct gw_line *gl = r->gl;
+	gw_msg pending = r->pending;
+	bool has_pending = r->has_pending;
 
 	if (next_node != r->node) {
 		if (sdo_client_lease_move(gl->node, (uint8_t)r->cli_ch, next_node, now_us) < 0) {
@@ -328,11 +357,14 @@ static void relay_park(struct gw_relay *r, uint8_t next_node, uint64_t now_us)
 	}
 	*r = (struct gw_relay){ .used = true,
 				.parked = true,
-				.from = r->from,
+				.from = taker,
 				.node = r->node,
 				.cli_ch = r->cli_ch,
 				.last_us = now_us,
+				.has_pending = has_pending,
+				.pending = pending,
 				.gl = gl };
+	relay_open_pending(r, now_us);
 }
 
 /* Bind the lease reserved for m->sid. The reservation was decided on what
@@ -348,6 +380,13 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 
 	if (m->inherits) {
 		r = parked_for(gl, m);
+		if (!r && (r = closing_for(gl, m))) {
+			/* taken from another line's lease whose M_CLOSE (on that
+			 * line's ring) has not come yet: when it comes */
+			r->pending = *m;
+			r->has_pending = true;
+			return;
+		}
 	} else {
 		/* a free slot is always there: a slot holds a leased channel,
 		 * and a line has at most GW_RELAYS_MAX channels
@@ -424,20 +463,21 @@ void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
 	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid);
-	uint8_t next_node;
+	uint8_t next_node, taker = 0;
 
 	if (!r)
 		return;
 	if (r->engaged && r->aborted) {
 		r->draining = true;
 		r->last_us = now_us;
+		relay_open_pending(r, now_us); /* nothing to take over */
 		return;
 	}
 	/* the node freed and its offer withdrawn in one step, or the lease
 	 * kept for the transfer that took it */
-	next_node = gw_lend_end_offered(&gl->lend, r->from, r->node, (uint8_t)r->cli_ch);
+	next_node = gw_lend_end_offered(&gl->lend, r->from, r->node, (uint8_t)r->cli_ch, &taker);
 	if (next_node)
-		relay_park(r, next_node, now_us);
+		relay_park(r, next_node, taker, now_us);
 	else
 		relay_unbind(r, now_us);
 }

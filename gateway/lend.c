@@ -33,20 +33,42 @@ static void put_set(_Atomic uint64_t set[2], uint8_t n)
 }
 
 /* A node's word: 0 free; NODE_HELD; or a lease that ended well, offered
- * by line `from` (its channel ch), or taken by that line's next transfer
- * to new_node. */
+ * by line `offerer` (its channel ch), or taken by line `taker`'s next
+ * transfer to new_node. */
 #define NODE_HELD 0x80000000u
 #define NODE_OFFERED 0x40000000u
 #define NODE_TAKEN 0xC0000000u
+#define NODE_STATE 0xC0000000u
 
-static uint32_t offered(uint8_t from, uint8_t ch)
+static uint32_t offered(uint8_t offerer, uint8_t ch)
 {
-	return NODE_OFFERED | (uint32_t)from << 16 | (uint32_t)ch << 8;
+	return NODE_OFFERED | (uint32_t)(offerer & 0xFu) << 26 | (uint32_t)(ch & 0x7Fu) << 15;
 }
 
-static uint32_t taken(uint8_t from, uint8_t ch, uint8_t new_node)
+static uint32_t taken(uint8_t offerer, uint8_t ch, uint8_t new_node, uint8_t taker)
 {
-	return NODE_TAKEN | (uint32_t)from << 16 | (uint32_t)ch << 8 | new_node;
+	return NODE_TAKEN | (uint32_t)(offerer & 0xFu) << 26 | (uint32_t)(taker & 0xFu) << 22 |
+	       (uint32_t)(ch & 0x7Fu) << 15 | (new_node & 0x7Fu);
+}
+
+static uint8_t offerer_of(uint32_t w)
+{
+	return (uint8_t)((w >> 26) & 0xFu);
+}
+
+static uint8_t taker_of(uint32_t w)
+{
+	return (uint8_t)((w >> 22) & 0xFu);
+}
+
+static uint8_t channel_of(uint32_t w)
+{
+	return (uint8_t)((w >> 15) & 0x7Fu);
+}
+
+static uint8_t next_of(uint32_t w)
+{
+	return (uint8_t)(w & 0x7Fu);
 }
 
 static _Atomic uint32_t *node_word(gw_lend *b, uint8_t node)
@@ -123,20 +145,22 @@ bool gw_lend_claim_node(gw_lend *b, uint8_t node)
 	return node_swap(b, node, 0, NODE_HELD);
 }
 
-uint8_t gw_lend_end_offered(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch)
+uint8_t gw_lend_end_offered(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, uint8_t *taker)
 {
 	for (;;) {
 		uint32_t w = atomic_load_explicit(node_word(b, node), memory_order_acquire);
-		uint8_t next = (uint8_t)(w & 0x7Fu);
 
 		if (w == offered(from, ch)) {
 			if (node_swap(b, node, w, 0))
 				return 0; /* nobody took it: freed with the offer */
-		} else if (w == taken(from, ch, next)) {
+		} else if ((w & NODE_STATE) == NODE_TAKEN && offerer_of(w) == from &&
+			   channel_of(w) == ch) {
 			/* kept for that transfer (its line may still make it an
 			 * offer again: hence the swap) */
-			if (node_swap(b, node, w, next == node ? NODE_HELD : 0))
-				return next;
+			if (node_swap(b, node, w, next_of(w) == node ? NODE_HELD : 0)) {
+				*taker = taker_of(w);
+				return next_of(w);
+			}
 		} else {
 			node_put(b, node, 0); /* not offered by this lease */
 			return 0;
@@ -169,15 +193,14 @@ uint32_t gw_lend_reserve(gw_lend *b, uint8_t from, uint8_t node, uint8_t *channe
 	if (!atomic_load_explicit(&b->carries, memory_order_acquire) || gw_lend_is_silent(b, node))
 		return GW_AB_NO_ANSWER; /* known silent: refuse now, not by a timeout */
 	w = atomic_load_explicit(node_word(b, node), memory_order_acquire);
-	if ((w & NODE_TAKEN) == NODE_OFFERED && ((w >> 16) & 0xFFu) == from) {
-		/* our own lease toward it that ended well: the node and its
-		 * channel at once, if the owner has not ended it meanwhile */
-		uint8_t ch = (uint8_t)((w >> 8) & 0x7Fu);
-		if (node_swap(b, node, w, taken(from, ch, node))) {
-			*channel = ch;
-			*taken_over = true;
-			return 0;
-		}
+	if ((w & NODE_STATE) == NODE_OFFERED &&
+	    node_swap(b, node, w, taken(offerer_of(w), channel_of(w), node, from))) {
+		/* a lease toward it that ended well (ours, or another line's
+		 * whose M_CLOSE may still be on its way): the node and its
+		 * channel at once, the owner not having ended it */
+		*channel = channel_of(w);
+		*taken_over = true;
+		return 0;
 	}
 	if (!gw_lend_claim_node(b, node))
 		return sdo_abort_of_errno(-EALREADY);
@@ -206,10 +229,13 @@ void gw_lend_withdraw(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch)
 
 bool gw_lend_take_offer(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, uint8_t new_node)
 {
-	return node_swap(b, node, offered(from, ch), taken(from, ch, new_node));
+	return node_swap(b, node, offered(from, ch), taken(from, ch, new_node, from));
 }
 
 bool gw_lend_untake(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, uint8_t new_node)
 {
-	return node_swap(b, node, taken(from, ch, new_node), offered(from, ch));
+	uint32_t w = atomic_load_explicit(node_word(b, node), memory_order_acquire);
+
+	return (w & NODE_STATE) == NODE_TAKEN && taker_of(w) == from && channel_of(w) == ch &&
+	       next_of(w) == new_node && node_swap(b, node, w, offered(offerer_of(w), ch));
 }

@@ -58,19 +58,21 @@ bool gw_lend_gate(void *ctx, sdo_client_gate_op op, uint8_t arg);
  * (its channel comes back through the gate). Before sdo_client_lease_end,
  * so that the pool's requests waiting for that node start in it. */
 void gw_lend_node_free(gw_lend *b, uint8_t node);
-/* The end of line `from`'s lease (channel ch, node) that ended well
- * (its M_CLOSE): in one step, the node freed if the offer still stands
- * (0), or the node the transfer that took it goes to (the lease is kept
- * for its M_OPEN: node stays held, or is freed if that node differs). */
-uint8_t gw_lend_end_offered(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch);
+/* The end of line `from`'s lease (channel ch, node) (its M_CLOSE): in
+ * one step, the node freed if an offer still stands or none was made (0),
+ * or the node the transfer that took it goes to, *taker its line (the
+ * lease is kept for its M_OPEN: node stays held, or is freed if that
+ * node differs). */
+uint8_t gw_lend_end_offered(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, uint8_t *taker);
 
 /* ---- any line ---- */
 /* Reserve a channel and node `node` of the owner for one lease of line
  * `from`. 0 and *channel, or the refusal, in this order: GW_AB_NO_ANSWER
  * (not carrying, the node heartbeat-lost), sdo_abort_of_errno(-EALREADY)
  * (the node busy or settling, or reserved by another), GW_AB_NO_CLIENT
- * (no free channel). A lease of `from` toward node that ended well and is
- * still offered is taken instead (*taken true, *channel its channel). */
+ * (no free channel). A lease toward node that ended well and is still
+ * offered - of `from` or of another line - is taken instead (*taken true,
+ * *channel its channel): the owner keeps it for `from`'s M_OPEN. */
 uint32_t gw_lend_reserve(gw_lend *b, uint8_t from, uint8_t node, uint8_t *channel, bool *taken);
 /* Take node alone, for a transfer that takes its line's lease of another
  * node (gw_lend_take_offer): false when it is held. */
@@ -103,8 +105,9 @@ void gw_lend_withdraw(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch);
  * new_node (claimed by the caller: gw_lend_claim_node): true when the
  * owner had not ended it. */
 bool gw_lend_take_offer(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, uint8_t new_node);
-/* That transfer's M_OPEN was not pushed: an offer again. false: the owner
- * kept the lease for it already (its idle limit frees it). */
+/* That transfer's M_OPEN was not pushed (`from`: the line that took it):
+ * an offer again. false: the owner kept the lease for it already (its
+ * idle limit frees it). */
 bool gw_lend_untake(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, uint8_t new_node);
 
 #endif /* COGW_GATEWAY_LEND_H */

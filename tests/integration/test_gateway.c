@@ -1492,8 +1492,11 @@ static void mailbox_by_network_is_a_line_transfer(cogw *h)
 		usleep(100000);
 	}
 	TEST_ASSERT_EQUAL_UINT(0, st.leases);
-	TEST_ASSERT_EQUAL_INT(0, cogw_sdo_read_net(h, 0, 3, TGT_NODE, 0x1000, 0, NULL, buf,
-						   sizeof buf, &len, 30000, &abort));
+	int rc = cogw_sdo_read_net(h, 0, 3, TGT_NODE, 0x1000, 0, NULL, buf, sizeof buf, &len, 30000,
+				   &abort);
+	char why[48];
+	snprintf(why, sizeof why, "abort %08X", (unsigned)abort);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, why);
 	TEST_ASSERT_EQUAL_HEX32(0x00040194, co_get_le32(buf));
 }
 

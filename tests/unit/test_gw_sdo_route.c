@@ -667,30 +667,40 @@ static void test_reservation_refusals_keep_their_codes(void)
 	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, reserve(5, &c));
 }
 
-/* A lease that ended well is offered to its requester's line until the
- * owner ends it at the M_CLOSE: of that line's next transfer and the
- * owner, exactly one gets it, and the owner's end frees the node in the
- * same step; another line's transfer never takes it. */
+/* A lease that ended well is offered until the owner ends it at the
+ * M_CLOSE: of the next transfer toward that node (of its line or of
+ * another) and the owner, exactly one gets it, and the owner's end frees
+ * the node in the same step. */
 static void test_lease_ended_well_is_handed_over_once(void)
 {
-	uint8_t a, c;
+	uint8_t a, c, taker = 0xFF;
 	bool taken;
 
 	lender_on();
 	TEST_ASSERT_EQUAL_HEX32(0, reserve(5, &a));
-	/* the next transfer of line 0 first: it takes the lease, once */
+	/* the next transfer first: it takes the lease, once */
 	gw_lend_offer(&board, 0, 5, a);
-	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, gw_lend_reserve(&board, 1, 5, &c, &taken));
-	TEST_ASSERT_FALSE(taken);
 	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 0, 5, &c, &taken));
 	TEST_ASSERT_TRUE(taken);
 	TEST_ASSERT_EQUAL(a, c);
 	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, gw_lend_reserve(&board, 0, 5, &c, &taken));
-	TEST_ASSERT_EQUAL(5, gw_lend_end_offered(&board, 0, 5, a)); /* kept: the node held */
+	TEST_ASSERT_FALSE(taken);
+	TEST_ASSERT_EQUAL(5,
+			  gw_lend_end_offered(&board, 0, 5, a, &taker)); /* kept: the node held */
+	TEST_ASSERT_EQUAL(0, taker);
 	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, reserve(5, &c));
+	/* another line's transfer takes it the same way, the owner keeps it
+	 * for that line */
+	gw_lend_offer(&board, 0, 5, a);
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 2, 5, &c, &taken));
+	TEST_ASSERT_TRUE(taken);
+	TEST_ASSERT_EQUAL(a, c);
+	TEST_ASSERT_FALSE(gw_lend_untake(&board, 0, 5, a, 5)); /* line 0 did not take it */
+	TEST_ASSERT_EQUAL(5, gw_lend_end_offered(&board, 0, 5, a, &taker));
+	TEST_ASSERT_EQUAL(2, taker);
 	/* the owner first: the node is free in the same step */
 	gw_lend_offer(&board, 0, 5, a);
-	TEST_ASSERT_EQUAL(0, gw_lend_end_offered(&board, 0, 5, a));
+	TEST_ASSERT_EQUAL(0, gw_lend_end_offered(&board, 0, 5, a, &taker));
 	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 0, 5, &c, &taken));
 	TEST_ASSERT_FALSE(taken);
 	TEST_ASSERT_TRUE(c != a);
@@ -702,18 +712,18 @@ static void test_lease_ended_well_is_handed_over_once(void)
 	gw_lend_offer(&board, 0, 5, a);
 	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, 1, 5, a, 8)); /* not line 1's */
 	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, 0, 5, a, 8));
-	TEST_ASSERT_EQUAL(8, gw_lend_end_offered(&board, 0, 5, a));
+	TEST_ASSERT_EQUAL(8, gw_lend_end_offered(&board, 0, 5, a, &taker));
 	TEST_ASSERT_TRUE(gw_lend_claim_node(&board, 5));
 	TEST_ASSERT_FALSE(gw_lend_claim_node(&board, 8));
 	/* the M_OPEN not sent: an offer again, unless the owner kept it */
 	gw_lend_offer(&board, 0, 5, a);
 	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, 0, 5, a, 5));
 	TEST_ASSERT_TRUE(gw_lend_untake(&board, 0, 5, a, 5));
-	TEST_ASSERT_EQUAL(0, gw_lend_end_offered(&board, 0, 5, a));
+	TEST_ASSERT_EQUAL(0, gw_lend_end_offered(&board, 0, 5, a, &taker));
 	TEST_ASSERT_TRUE(gw_lend_claim_node(&board, 5));
 	gw_lend_offer(&board, 0, 5, a);
 	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, 0, 5, a, 5));
-	TEST_ASSERT_EQUAL(5, gw_lend_end_offered(&board, 0, 5, a));
+	TEST_ASSERT_EQUAL(5, gw_lend_end_offered(&board, 0, 5, a, &taker));
 	TEST_ASSERT_FALSE(gw_lend_untake(&board, 0, 5, a, 5));
 	/* the M_CLOSE not sent: withdrawn, the node still held */
 	gw_lend_offer(&board, 0, 5, a);
