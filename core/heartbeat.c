@@ -415,6 +415,18 @@ co_hb_mon co_hb_consumer_status(const co_node *node, uint8_t remote_id)
 	return CO_HB_MON_OFF;
 }
 
+void co_hb_lost_nodes(const co_node *node, uint64_t lost[2])
+{
+	const struct co_hb *ec = node->hb;
+
+	lost[0] = lost[1] = 0;
+	for (unsigned s = 1; ec && s <= ec->n_ent; s++) {
+		uint8_t n = ec->ent[s].node;
+		if (n >= 1 && n <= 127 && mon_of(&ec->ent[s]) == CO_HB_MON_LOST)
+			lost[n / 64u] |= 1ull << (n % 64u);
+	}
+}
+
 uint8_t co_hb_remote_state(const co_node *node, uint8_t remote_id)
 {
 	if (!node->hb || remote_id >= HB_NODES)

@@ -68,6 +68,9 @@ int co_hb_producer_set(co_node *node, uint16_t period_ms, uint64_t now_us);
 int co_hb_consumer_set(co_node *node, uint8_t remote_id, uint16_t time_ms, uint64_t now_us);
 
 co_hb_mon co_hb_consumer_status(const co_node *node, uint8_t remote_id);
+/* Every node whose consumer status is CO_HB_MON_LOST, as a set: bit n%64
+ * of lost[n/64] (one pass over 1016h, for a caller that looks often). */
+void co_hb_lost_nodes(const co_node *node, uint64_t lost[2]);
 /* Last state byte seen from remote_id (any node), CO_HB_STATE_UNKNOWN if
  * none. */
 uint8_t co_hb_remote_state(const co_node *node, uint8_t remote_id);

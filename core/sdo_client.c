@@ -89,6 +89,10 @@ struct cli_chan {
 
 	sdo_client_raw_fn lease_fn; /* CS_LEASED */
 	void *lease_arg;
+	/* The gate does not offer it (sdo_client_set_gate): the node's own
+	 * requests hold it, or a lease bound on it by sdo_client_lease_channel
+	 * does; given back (FREE_CHANNEL) once it is idle with nothing queued. */
+	bool gated_out;
 
 	co_od_entry *od_cob[2]; /* 1280h+n sub 1/2 */
 	co_od_entry *od_node;   /* sub 3 */
@@ -127,6 +131,11 @@ struct sdo_client {
 	sdo_client_req *pool;
 	uint16_t pool_head;
 	uint16_t pool_len;
+	/* the second user of the pool (sdo_client_set_gate) */
+	sdo_client_gate_fn gate;
+	void *gate_ctx;
+	uint64_t srv_held[2]; /* servers (node-IDs) taken from the gate */
+	uint64_t retry_us;    /* a refused request is tried again then */
 	struct cli_chan ch[];
 };
 
@@ -959,23 +968,120 @@ static bool settling(const struct sdo_client *cli, uint32_t resp, uint64_t now_u
 	return false;
 }
 
-/* May r start now? Not while another channel talks to its server, nor
- * while a late answer about the same object may still come. */
-static bool may_start(const struct sdo_client *cli, const struct cli_chan *self,
-		      const sdo_client_req *r)
+/* ---- the gate (sdo_client_set_gate) --------------------------------------- */
+
+/* A refusal of the gate: whatever waits is tried again from the tick. */
+#define GATE_RETRY_US 100000u
+
+/* Whatever waits is tried again from the tick at `at` (or earlier). */
+static void retry_at(struct sdo_client *cli, uint64_t at)
+{
+	if (at < cli->retry_us) {
+		cli->retry_us = at;
+		co_node_deadline_lower(cli->node, at);
+	}
+}
+
+static void gate_refused(struct sdo_client *cli)
+{
+	if (cli->retry_us == CO_NO_DEADLINE)
+		retry_at(cli, cli->node->now_us + GATE_RETRY_US);
+}
+
+/* The node-ID of a server on this bus the gate knows (580h + n), else 0. */
+static uint8_t gate_server_of(uint32_t resp)
+{
+	return resp > SDO_COB_TX_BASE && resp <= SDO_COB_TX_BASE + 127u
+		       ? (uint8_t)(resp - SDO_COB_TX_BASE)
+		       : 0;
+}
+
+static bool srv_is_held(const struct sdo_client *cli, uint8_t n)
+{
+	return cli->srv_held[n / 64u] >> (n % 64u) & 1u;
+}
+
+/* May a request of the node's own start a transfer with this server? */
+static bool gate_take_server(struct sdo_client *cli, uint32_t resp)
+{
+	uint8_t n = gate_server_of(resp);
+
+	if (!cli->gate || !n || srv_is_held(cli, n))
+		return true;
+	if (!cli->gate(cli->gate_ctx, SDO_CLIENT_GATE_TAKE_SERVER, n)) {
+		gate_refused(cli);
+		return false;
+	}
+	cli->srv_held[n / 64u] |= 1ull << (n % 64u);
+	return true;
+}
+
+/* May a request of the node's own use this (idle) channel? */
+static bool gate_take_channel(struct cli_chan *ch)
+{
+	struct sdo_client *cli = ch->cli;
+
+	if (!cli->gate || ch->gated_out)
+		return true;
+	if (!cli->gate(cli->gate_ctx, SDO_CLIENT_GATE_TAKE_CHANNEL, ch->num)) {
+		gate_refused(cli);
+		return false;
+	}
+	ch->gated_out = true;
+	return true;
+}
+
+/* Something else talks to the server, or the gate lent it elsewhere? */
+static bool server_blocked(struct sdo_client *cli, const struct cli_chan *self, uint32_t resp)
+{
+	return target_busy(cli, self, resp) || !gate_take_server(cli, resp);
+}
+
+static uint64_t gate_next(const struct sdo_client *cli);
+
+/* Give the gate back what the node's own requests no longer use. */
+static void gate_sync(struct sdo_client *cli)
+{
+	if (!cli->gate)
+		return;
+	for (uint8_t i = 0; i < cli->n; i++) {
+		struct cli_chan *ch = &cli->ch[i];
+		if (ch->gated_out && state_of(ch) == CS_IDLE && ch->q_len == 0) {
+			ch->gated_out = false;
+			cli->gate(cli->gate_ctx, SDO_CLIENT_GATE_FREE_CHANNEL, ch->num);
+		}
+	}
+	for (uint8_t n = 1; n <= 127; n++) {
+		uint32_t resp = SDO_COB_TX_BASE + n;
+		if (!srv_is_held(cli, n) || target_busy(cli, NULL, resp) ||
+		    settling(cli, resp, cli->node->now_us))
+			continue;
+		cli->srv_held[n / 64u] &= ~(1ull << (n % 64u));
+		cli->gate(cli->gate_ctx, SDO_CLIENT_GATE_FREE_SERVER, n);
+	}
+	/* a server still settling goes back from the tick at its end, also
+	 * when nothing else would tick the node (a transfer cancelled from
+	 * outside) */
+	co_node_deadline_lower(cli->node, gate_next(cli));
+}
+
+/* May r start now? Not while a late answer about the same object may
+ * still come, nor while another channel talks to its server or the gate
+ * lent the server elsewhere. */
+static bool may_start(struct sdo_client *cli, const struct cli_chan *self, const sdo_client_req *r)
 {
 	uint32_t resp = req_cob_resp(r);
 	uint64_t now_us = cli->node->now_us;
 
-	if (target_busy(cli, self, resp))
-		return false;
 	for (uint8_t i = 0; i < cli->n; i++) {
 		const struct stale_xfer *e = &cli->ch[i].ended;
 		if (unsettled(e, resp, now_us) && !e->init_answered && e->index == r->index &&
-		    e->sub == r->sub)
+		    e->sub == r->sub) {
+			retry_at(cli, e->at_us + SETTLE_US);
 			return false;
+		}
 	}
-	return true;
+	return !server_blocked(cli, self, resp);
 }
 
 /* Late frames of a transfer to this server that some channel ended with
@@ -1062,7 +1168,7 @@ static void kick(struct cli_chan *ch)
 	if (state_of(ch) != CS_IDLE || ch->q_len == 0)
 		return;
 	r = &ch->q[ch->q_head];
-	if (!may_start(ch->cli, ch, r))
+	if (!may_start(ch->cli, ch, r) || !gate_take_channel(ch))
 		return;
 	sdo_client_req tmp = *r;
 	ch->q_head = (uint16_t)((ch->q_head + 1) % node_of(ch)->cfg.sdo_client_queue_len);
@@ -1070,11 +1176,13 @@ static void kick(struct cli_chan *ch)
 	start(ch, &tmp);
 }
 
-/* Free for the pool: idle, and nothing waiting in its own FIFO. */
+/* Free for the pool: idle, nothing waiting in its own FIFO, and not lent
+ * out by the gate. */
 static struct cli_chan *free_channel(struct sdo_client *cli)
 {
 	for (uint8_t i = 0; i < cli->n; i++)
-		if (state_of(&cli->ch[i]) == CS_IDLE && cli->ch[i].q_len == 0)
+		if (state_of(&cli->ch[i]) == CS_IDLE && cli->ch[i].q_len == 0 &&
+		    gate_take_channel(&cli->ch[i]))
 			return &cli->ch[i];
 	return NULL;
 }
@@ -1126,6 +1234,7 @@ static void kick_all(struct sdo_client *cli)
 	for (uint8_t i = 0; i < cli->n; i++)
 		kick(&cli->ch[i]);
 	pool_kick(cli);
+	gate_sync(cli);
 }
 
 static bool req_valid(const sdo_client_req *r)
@@ -1159,6 +1268,7 @@ int sdo_client_submit(co_node *node, uint8_t channel, const sdo_client_req *req,
 	ch->q[(ch->q_head + ch->q_len) % cap] = *req;
 	ch->q_len++;
 	kick(ch);
+	gate_sync(cli);
 	return 0;
 }
 
@@ -1218,6 +1328,7 @@ static bool cancel_queued(struct cli_chan *ch, uint64_t tag, uint32_t abort)
 			ch->q[(ch->q_head + j) % cap] = ch->q[(ch->q_head + j + 1) % cap];
 		ch->q_len--;
 		confirm(node_of(ch), &r, ch->num, r.mode, abort, 0, false);
+		gate_sync(ch->cli); /* its channel may be free now */
 		return true;
 	}
 	return false;
@@ -1268,17 +1379,20 @@ int sdo_client_pool_submit(co_node *node, const sdo_client_req *req, uint64_t no
 		return -EINVAL;
 	node->now_us = now_us;
 	if (req->no_wait) {
-		struct cli_chan *ch = free_channel(cli);
-		if (!ch || !may_start(cli, NULL, req))
-			return -EBUSY;
-		start(ch, req);
-		return 0;
+		struct cli_chan *ch = NULL;
+		if (may_start(cli, NULL, req))
+			ch = free_channel(cli);
+		if (ch)
+			start(ch, req);
+		gate_sync(cli);
+		return ch ? 0 : -EBUSY;
 	}
 	if (cli->pool_len >= node->cfg.sdo_client_pool_len)
 		return -ENOSPC;
 	*pool_at(cli, cli->pool_len) = *req;
 	cli->pool_len++;
 	pool_kick(cli);
+	gate_sync(cli);
 	return 0;
 }
 
@@ -1304,31 +1418,40 @@ int sdo_client_relay_recv(co_node *node, uint64_t tag, const uint8_t d[8], uint6
 
 /* ---- relay lease (CiA 302-7) ------------------------------------------------ */
 
-int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t cob_resp,
-		     sdo_client_raw_fn fn, void *arg, uint64_t now_us)
+/* When the gate wants the tick again: a refused request's retry, or the
+ * end of a held server's settling time. */
+static uint64_t gate_next(const struct sdo_client *cli)
 {
-	struct sdo_client *cli = node->sdo_cli;
-	sdo_client_req r = { .node_id = node_id, .cob_req = cob_req, .cob_resp = cob_resp };
-	struct cli_chan *ch;
+	uint64_t next = cli->retry_us;
 
-	if (!cli || !fn || node_id < 1 || node_id > 127)
-		return -EINVAL;
-	node->now_us = now_us;
-	if (target_busy(cli, NULL, req_cob_resp(&r)) || settling(cli, req_cob_resp(&r), now_us))
-		return -EALREADY;
-	ch = free_channel(cli);
-	if (!ch)
-		return -EBUSY;
-	if (co_rx_move(node, ch->rx_handle, req_cob_resp(&r) & CO_FRAME_EFF_MASK,
-		       (req_cob_resp(&r) & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0)
+	for (uint8_t i = 0; i < cli->n; i++) {
+		const struct stale_xfer *e = &cli->ch[i].ended;
+		uint8_t n = gate_server_of(e->cob_resp);
+		if (e->valid && !e->answered && n && srv_is_held(cli, n) &&
+		    e->at_us + SETTLE_US > cli->node->now_us && e->at_us + SETTLE_US < next)
+			next = e->at_us + SETTLE_US;
+	}
+	return next;
+}
+
+/* Lend ch raw toward r's server (the checks done). */
+static int lease_bind(struct cli_chan *ch, const sdo_client_req *r, sdo_client_raw_fn fn, void *arg,
+		      uint64_t now_us)
+{
+	co_node *node = node_of(ch);
+	struct sdo_client *cli = ch->cli;
+	uint32_t resp = req_cob_resp(r);
+
+	if (co_rx_move(node, ch->rx_handle, resp & CO_FRAME_EFF_MASK,
+		       (resp & SDO_COB_EXT) ? CO_FRAME_EXT : 0) != 0)
 		return -ENOSPC;
 	/* the relay's frames to and from that server are not answers of ours */
 	for (uint8_t i = 0; i < cli->n; i++)
-		if (cli->ch[i].ended.cob_resp == req_cob_resp(&r))
+		if (cli->ch[i].ended.cob_resp == resp)
 			cli->ch[i].ended.valid = false;
-	ch->cur = r;
-	ch->cob_req = req_cob_req(&r);
-	ch->cob_resp = req_cob_resp(&r);
+	ch->cur = *r;
+	ch->cob_req = req_cob_req(r);
+	ch->cob_resp = resp;
 	ch->lease_fn = fn;
 	ch->lease_arg = arg;
 	co_fsm_goto(&ch->fsm, CS_LEASED, now_us);
@@ -1337,8 +1460,51 @@ int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t 
 	if (ch->od_cob[1])
 		co_od_entry_set_raw(ch->od_cob[1], ch->cob_resp);
 	if (ch->od_node)
-		co_od_entry_set_raw(ch->od_node, node_id);
+		co_od_entry_set_raw(ch->od_node, r->node_id);
 	return ch->num;
+}
+
+int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t cob_resp,
+		     sdo_client_raw_fn fn, void *arg, uint64_t now_us)
+{
+	struct sdo_client *cli = node->sdo_cli;
+	sdo_client_req r = { .node_id = node_id, .cob_req = cob_req, .cob_resp = cob_resp };
+	struct cli_chan *ch;
+	int rc;
+
+	if (!cli || !fn || node_id < 1 || node_id > 127)
+		return -EINVAL;
+	node->now_us = now_us;
+	if (settling(cli, req_cob_resp(&r), now_us) || server_blocked(cli, NULL, req_cob_resp(&r)))
+		rc = -EALREADY;
+	else if (!(ch = free_channel(cli)))
+		rc = -EBUSY;
+	else
+		rc = lease_bind(ch, &r, fn, arg, now_us);
+	gate_sync(cli);
+	return rc;
+}
+
+int sdo_client_lease_channel(co_node *node, uint8_t channel, uint8_t node_id, sdo_client_raw_fn fn,
+			     void *arg, uint64_t now_us)
+{
+	struct sdo_client *cli = node->sdo_cli;
+	sdo_client_req r = { .node_id = node_id };
+	struct cli_chan *ch;
+	int rc;
+
+	if (!cli || !fn || node_id < 1 || node_id > 127 || channel >= cli->n)
+		return -EINVAL;
+	node->now_us = now_us;
+	ch = &cli->ch[channel];
+	if (state_of(ch) != CS_IDLE || ch->gated_out)
+		return -EBUSY;
+	if (target_busy(cli, NULL, req_cob_resp(&r)) || settling(cli, req_cob_resp(&r), now_us))
+		return -EALREADY;
+	rc = lease_bind(ch, &r, fn, arg, now_us);
+	if (rc >= 0)
+		ch->gated_out = true; /* given back at its end (gate_sync) */
+	return rc;
 }
 
 static struct cli_chan *leased(co_node *node, uint8_t channel)
@@ -1348,6 +1514,27 @@ static struct cli_chan *leased(co_node *node, uint8_t channel)
 	if (!cli || channel >= cli->n || state_of(&cli->ch[channel]) != CS_LEASED)
 		return NULL;
 	return &cli->ch[channel];
+}
+
+int sdo_client_lease_move(co_node *node, uint8_t channel, uint8_t node_id, uint64_t now_us)
+{
+	struct cli_chan *ch = leased(node, channel);
+	sdo_client_req r = { .node_id = node_id };
+	int rc;
+
+	if (!ch)
+		return -ENOENT;
+	if (node_id < 1 || node_id > 127)
+		return -EINVAL;
+	node->now_us = now_us;
+	if (target_busy(ch->cli, ch, req_cob_resp(&r)) ||
+	    settling(ch->cli, req_cob_resp(&r), now_us))
+		return -EALREADY;
+	rc = lease_bind(ch, &r, ch->lease_fn, ch->lease_arg, now_us);
+	if (rc < 0)
+		return rc;
+	kick_all(ch->cli);
+	return 0;
 }
 
 int sdo_client_lease_send(co_node *node, uint8_t channel, const uint8_t d[8])
@@ -1372,6 +1559,26 @@ int sdo_client_lease_end(co_node *node, uint8_t channel, uint64_t now_us)
 	co_rx_disable(node, ch->rx_handle);
 	kick_all(ch->cli);
 	return 0;
+}
+
+void sdo_client_set_gate(co_node *node, sdo_client_gate_fn fn, void *ctx)
+{
+	struct sdo_client *cli = node->sdo_cli;
+
+	if (!cli)
+		return;
+	cli->gate = fn;
+	cli->gate_ctx = ctx;
+	cli->srv_held[0] = cli->srv_held[1] = 0;
+	cli->retry_us = CO_NO_DEADLINE;
+	for (uint8_t i = 0; i < cli->n; i++) {
+		struct cli_chan *ch = &cli->ch[i];
+		uint8_t n = gate_server_of(ch->cob_resp);
+		ch->gated_out = fn != NULL; /* what is free is announced by gate_sync */
+		if (fn && n && state_of(ch) != CS_IDLE && fn(ctx, SDO_CLIENT_GATE_TAKE_SERVER, n))
+			cli->srv_held[n / 64u] |= 1ull << (n % 64u);
+	}
+	gate_sync(cli);
 }
 
 unsigned sdo_client_pool_waiting(const co_node *node)
@@ -1436,6 +1643,7 @@ static int cli_init(co_node *node)
 		return -ENOMEM;
 	cli->node = node;
 	cli->n = n;
+	cli->retry_us = CO_NO_DEADLINE;
 	node->sdo_cli = cli;
 	for (uint8_t i = 0; i < n; i++)
 		cli->ch[i].rx_handle = -1;
@@ -1478,17 +1686,16 @@ static uint64_t cli_tick(co_node *node, uint64_t now_us)
 		if (state_of(ch) != CS_IDLE && now_us >= ch->deadline)
 			co_fsm_timeout(&ch->fsm, now_us);
 	}
-	/* Requests that waited for a server to settle may start now. */
-	kick_all(cli);
+	if (now_us >= cli->retry_us) {
+		cli->retry_us = CO_NO_DEADLINE;
+		kick_all(cli); /* what the gate or a settling server held back; a refusal re-arms */
+	}
+	gate_sync(cli); /* servers whose settling time ended */
+	next = gate_next(cli);
 	/* A second pass: completions above may have started queued requests. */
-	for (uint8_t i = 0; i < cli->n; i++) {
-		const struct stale_xfer *e = &cli->ch[i].ended;
+	for (uint8_t i = 0; i < cli->n; i++)
 		if (state_of(&cli->ch[i]) != CS_IDLE && cli->ch[i].deadline < next)
 			next = cli->ch[i].deadline;
-		if (e->valid && !e->answered && now_us - e->at_us < SETTLE_US &&
-		    e->at_us + SETTLE_US < next)
-			next = e->at_us + SETTLE_US;
-	}
 	return next;
 }
 

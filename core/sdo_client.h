@@ -183,6 +183,57 @@ int sdo_client_cancel_tag(co_node *node, uint64_t tag, uint32_t abort, uint64_t 
 typedef void (*sdo_client_raw_fn)(void *arg, const uint8_t d[8], uint64_t now_us);
 int sdo_client_lease(co_node *node, uint8_t node_id, uint32_t cob_req, uint32_t cob_resp,
 		     sdo_client_raw_fn fn, void *arg, uint64_t now_us);
+/*
+ * A second user of the pool (CiA 302-7 routing, gateway/; docs/gateway.md
+ * "Leases without a round trip"): other threads lend this node's free
+ * channels and reserve servers (by node-ID) for relay leases without
+ * asking this thread first. With a gate installed the core asks it before
+ * its own requests take a free channel or start a transfer with a server
+ * 580h+n, and tells it when they give them back:
+ *   SDO_CLIENT_GATE_TAKE_CHANNEL  a request of the node's own wants free
+ *                                 channel arg: true = take it; false = it
+ *                                 is lent elsewhere, try another one
+ *   SDO_CLIENT_GATE_FREE_CHANNEL  channel arg is free again (idle, nothing
+ *                                 queued on it) after the node's own use or
+ *                                 a lease
+ *   SDO_CLIENT_GATE_TAKE_SERVER   a transfer of the node's own wants server
+ *                                 node-ID arg: false = reserved elsewhere,
+ *                                 the request waits as for a busy server
+ *   SDO_CLIENT_GATE_FREE_SERVER   no transfer of the node's own runs with
+ *                                 node-ID arg, none ended by its own abort
+ *                                 less than 100 ms ago (see
+ *                                 sdo_client_lease)
+ * A request that met a refusal is retried from the tick (every 100 ms)
+ * until it starts, and at once whenever a lease ends. The gate runs on
+ * the owning thread inside the core's calls: it must not call back into
+ * the node. Installing it announces every free channel (and, for
+ * transfers already running, takes their servers).
+ */
+typedef enum sdo_client_gate_op {
+	SDO_CLIENT_GATE_TAKE_CHANNEL,
+	SDO_CLIENT_GATE_FREE_CHANNEL,
+	SDO_CLIENT_GATE_TAKE_SERVER,
+	SDO_CLIENT_GATE_FREE_SERVER,
+} sdo_client_gate_op;
+
+typedef bool (*sdo_client_gate_fn)(void *ctx, sdo_client_gate_op op, uint8_t arg);
+/* Install (fn NULL: remove) the gate. */
+void sdo_client_set_gate(co_node *node, sdo_client_gate_fn fn, void *ctx);
+
+/* Lease the given channel, which the gate lent out (it is idle and the
+ * node's own requests do not hold it), toward node_id's server, which the
+ * gate reserved: sdo_client_lease without the search. Same returns; the
+ * checks that remain (the server busy or settling, -EALREADY; no receiver,
+ * -ENOSPC; the channel not idle or held by the node's own requests,
+ * -EBUSY) fail only when the gate's bookkeeping and the pool disagree. */
+int sdo_client_lease_channel(co_node *node, uint8_t channel, uint8_t node_id, sdo_client_raw_fn fn,
+			     void *arg, uint64_t now_us);
+/* Point the leased channel at node_id's server instead, without giving it
+ * back in between (the gateway hands a lease that ended well to the same
+ * requester's next transfer, docs/gateway.md): 0, -ENOENT (not leased),
+ * -EINVAL, -EALREADY (that server busy or settling), -ENOSPC. Requests of
+ * the node's own waiting for the old server may start. */
+int sdo_client_lease_move(co_node *node, uint8_t channel, uint8_t node_id, uint64_t now_us);
 /* -ENOENT if the channel is not leased. */
 int sdo_client_lease_send(co_node *node, uint8_t channel, const uint8_t d[8]);
 /* Give the channel back to the pool (waiting requests may start). */

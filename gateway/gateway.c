@@ -9,7 +9,8 @@
  * transfer of lines/line_sdo.c with its hop, gw_mbx_hop.c) and the target
  * line owns a relay lease (one SDO client channel of its pool, toward the
  * target node or the next router, gw_relay.c). They exchange fixed-size
- * messages over the rings: OPEN/OPENED, frames both ways, CLOSE, LOST.
+ * messages over the rings: OPEN (the lease the entry line reserved on the
+ * target's lending board, gateway/lend.h), frames both ways, CLOSE, LOST.
  * A frame usually goes on the other line's bus from the thread that has
  * it, its message only telling the owner (gw_send_across).
  */
@@ -107,6 +108,7 @@ static int ext_attach(void *ctx, line *l)
 	gw_sessions_init(gl);
 	for (unsigned i = 0; i < GW_RELAYS_MAX; i++)
 		gl->relay[i].gl = gl;
+	gw_lend_attach(gl);
 	return sdo_server_route_attach(gl->node, &gw_session_server_hook, gl);
 }
 
@@ -125,6 +127,7 @@ static void ext_detach(void *ctx, line *l)
 	co_od *od = co_node_od(line_node(l));
 
 	sdo_server_route_attach(line_node(l), NULL, NULL);
+	gw_lend_detach(gl);
 	for (unsigned n = GW_NET_MIN; n <= GW_NET_MAX; n++)
 		unhook(od, GW_OBJ_ROUTES, (uint8_t)n, gl);
 	for (size_t i = 0; i < gw_image_count(gl->g->img); i++) {
@@ -174,9 +177,6 @@ static void handle_answer(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 	bool hop = m->sid & GW_SID_HOP;
 
 	switch (m->kind) {
-	case M_OPENED:
-		hop ? gw_hop_opened(gl, m, now_us) : gw_session_opened(gl, m, now_us);
-		break;
 	case M_TO_REQ:
 		hop ? gw_hop_target_frame(gl, m, now_us) : gw_session_target_frame(gl, m, now_us);
 		break;

@@ -156,11 +156,3 @@ bool gw_self_take(struct gw_line *gl, gw_msg *out)
 	gl->self_len--;
 	return true;
 }
-
-void gw_give_back(struct gw_line *gl, const gw_msg *opened)
-{
-	gw_msg c = { .kind = M_CLOSE, .sid = opened->sid };
-
-	if (gw_send_to(gl, opened->from, &c))
-		GW_COUNT(gl->c.ring_drops); /* the relay's idle limit frees it */
-}

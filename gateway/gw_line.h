@@ -22,10 +22,13 @@
  * reads is the counters (relaxed atomics, gw_line_counters_get) and, for
  * PDO forwarding, the other lines' forwarding lists and lost-update marks
  * (gateway/pdo_sync.h, atomics), their fast TPDOs (gateway/fast_tpdo.h,
- * atomics), their done_from counts, and the peer_fd socket that belongs to
+ * atomics), their done_from counts, the peer_fd socket that belongs to
  * the reading line (written before the lines start; it carries fast TPDOs
- * and the frames of routed SDO transfers sent across, gw_send_across).
- * Everything else crosses lines as a gw_msg, by value.
+ * and the frames of routed SDO transfers sent across, gw_send_across),
+ * and, for routed SDO, their lending boards (gateway/lend.h, atomics: a
+ * requester's line reserves a client channel and the node there) and the
+ * answer records of their sessions (struct gw_across). Everything else
+ * crosses lines as a gw_msg, by value.
  */
 #ifndef COGW_GATEWAY_GW_LINE_H
 #define COGW_GATEWAY_GW_LINE_H
@@ -38,6 +41,7 @@
 #include "gateway/fast_tpdo.h"
 #include "gateway/gateway.h"
 #include "gateway/image.h"
+#include "gateway/lend.h"
 #include "gateway/pdo_sync.h"
 #include "gateway/route.h"
 #include "gateway/sdo_route.h"
@@ -53,16 +57,18 @@
 #define GW_HOPS_MAX 64u          /* routed mailbox SDO transfers per line */
 #define GW_SELF_SLOTS 64u        /* messages a line hands to itself */
 #define GW_QUIET_WAKE_AT 64u     /* quiet messages queued before they wake the target */
+#define GW_CLOSING_MAX 4u        /* leases closed well remembered per target line */
 
 enum gw_msg_kind {
 	M_FWD = 1,   /* a B-object changed: slot, its new value in bits */
 	M_EMCY,      /* send a forwarded EMCY: net, src_node, code */
-	M_OPEN,      /* lease a client toward node for sid */
-	M_OPENED,    /* the answer: abort */
+	M_OPEN,      /* bind the lease reserved for sid: channel toward node */
 	M_TO_TARGET, /* a requester frame: d */
 	M_TO_REQ,    /* a target frame: d */
 	M_CLOSE,     /* give the lease of sid back */
-	M_LOST,      /* the target line carries no frames (link down, bus-off): sid ends */
+	M_LOST,      /* sid ends with abort: the target line carries no frames
+	              * (link down, bus-off), or the reserved lease could not be
+	              * bound (the state changed since the reservation) */
 };
 
 /* Who puts the frame of an M_TO_TARGET / M_TO_REQ on the bus
@@ -83,7 +89,7 @@ typedef struct gw_msg {
 	uint8_t node;   /* M_OPEN: target or router; M_EMCY: source node */
 	uint8_t sent;   /* M_TO_TARGET, M_TO_REQ: enum gw_frame_sent */
 	uint32_t sid;   /* what a lease serves: see gw_sid_* */
-	uint32_t abort; /* M_OPENED, M_LOST */
+	uint32_t abort; /* M_LOST */
 	uint16_t slot;  /* M_FWD */
 	uint16_t net;   /* M_EMCY: source network */
 	uint16_t code;  /* M_EMCY: original error code */
@@ -94,6 +100,7 @@ typedef struct gw_msg {
 	 * reply_id 0: a mailbox hop, whose answers go back as messages */
 	uint32_t reply_id;
 	uint8_t reply_flags;
+	uint8_t channel; /* M_OPEN: the client channel reserved (gw_lend_reserve) */
 	/* M_TO_REQ sent across: its record in the session's gw_across */
 	uint32_t across_seq;
 	/* M_FWD: fast TPDOs of the target (gateway/fast_tpdo.h, bit k) the
@@ -103,6 +110,12 @@ typedef struct gw_msg {
 	uint64_t sent_us;
 	uint16_t fast_nr[GW_FAST_SENT_MAX];
 	uint8_t n_fast;
+	/* M_OPEN: the lease is the sender's own that ended well on this
+	 * channel just before (its M_CLOSE is ahead in the ring), taken from
+	 * the lending board's handover (gw_lend_take_offer) and kept parked
+	 * by the target; claimed_node: the sender claimed `node` on the
+	 * board itself (the parked lease was toward another node) */
+	bool inherits, claimed_node;
 } gw_msg;
 
 /* A lease serves a session (bit 23 clear: line << 24 | channel << 16 |
@@ -130,6 +143,9 @@ struct gw_sess {
 	uint16_t gen;
 	uint16_t net; /* the requested network (for the counters) */
 	uint8_t target_line;
+	bool lease_lost;     /* the target line ended the lease (M_LOST) */
+	bool target_aborted; /* the last frame relayed to the target was an abort */
+	uint8_t lease_ch;    /* the target line's client channel it holds */
 	uint64_t started_us; /* the network indication (for the listing) */
 	/* pushed_to[target_line] after the session's last hand-off there: a
 	 * frame goes across only once that line has done it (gw_send_across) */
@@ -166,7 +182,18 @@ struct gw_relay {
 	 * the device has been quiet for GW_DRAIN_US, so that those frames
 	 * never reach the next requester. */
 	bool draining;
+	/* Its requester's transfer ended well and the requester's line took
+	 * the lease for its next one (gw_lend_take_offer): kept bound, moved
+	 * to that transfer's node, without a session until the M_OPEN that
+	 * follows the M_CLOSE in the ring binds it (gw_relay_open). */
+	bool parked;
+	/* The M_OPEN of another line's transfer that took this lease while
+	 * its M_CLOSE (on its own line's ring) had not come yet: carried out
+	 * when the lease parks or ends (gw_relay.c). */
+	bool has_pending;
+	gw_msg pending;
 	uint8_t mux[3]; /* its index, sub-index (from that first frame) */
+	uint8_t node;   /* its server, reserved on the lending board */
 	/* Answers sent across to the requester (gw_relay.c relay_rx): the
 	 * frame they leave on (reply_id 0: never), the requester's last
 	 * frame (asked_valid: one answer is due to it), a block transfer (its
@@ -199,6 +226,10 @@ enum gw_hop_phase {
 
 struct gw_mbx_hop {
 	uint8_t phase;
+	bool unleased;       /* the reservation was refused: no lease to give back */
+	bool lease_lost;     /* the target line ended the lease (M_LOST) */
+	bool target_aborted; /* the last frame relayed to the target was an abort */
+	uint8_t lease_ch;    /* the target line's client channel it holds */
 	bool held_valid;
 	uint8_t held[8]; /* the transfer's first frame, while indicating */
 	uint16_t gen;
@@ -243,6 +274,19 @@ struct gw_line {
 	uint64_t next_rebuild_us;
 	uint64_t next_link_check_us;
 	bool carried; /* what the last link check saw (gw_relays_check_link) */
+	/* Leases of ours that ended well, per target line, offered on its
+	 * lending board's handover (gw_lend_offer) until the target takes
+	 * their M_CLOSE: the next transfer of ours that finds its node or
+	 * every channel held tries to take one (gw_lease_open). */
+	struct gw_closing {
+		uint8_t node; /* 0: none, or taken or found gone already */
+		uint8_t channel;
+	} closing[GW_LINES_MAX][GW_CLOSING_MAX];
+	uint8_t closing_next[GW_LINES_MAX];
+	uint32_t link_events_seen; /* line_link_events at that look */
+	/* What this line lends to routed transfers of other lines (and its
+	 * own hops through a router on its bus): read and reserved by them. */
+	gw_lend lend;
 	struct gw_sess *sess;
 	uint8_t n_sess;
 	struct gw_relay relay[GW_RELAYS_MAX];
@@ -307,19 +351,33 @@ bool gw_across_newer(uint32_t *taken, uint32_t seq);
 void gw_publish_done(struct gw_line *gl);
 /* The oldest message this line sent itself; false when none. */
 bool gw_self_take(struct gw_line *gl, gw_msg *out);
-/* A lease was opened for a session or hop that has ended meanwhile: give
- * it straight back (M_CLOSE to the line that opened it). */
-void gw_give_back(struct gw_line *gl, const gw_msg *opened);
 
 /* gw_session.c */
 extern const sdo_server_route_ops gw_session_server_hook;
 void gw_sessions_init(struct gw_line *gl);
-void gw_session_opened(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 void gw_session_target_frame(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 void gw_session_lost(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 uint64_t gw_sessions_tick(struct gw_line *gl, uint64_t now_us, uint64_t next);
 
 /* gw_relay.c */
+/* The requester's side (a session or a hop of line gl): reserve a lease
+ * on hop->line's lending board and hand it M_OPEN (reply_id: the frame a
+ * session's answers go across on, 0 for a hop, which does not wake the
+ * target).
+ * 0, or the refusal to answer at once (GW_AB_ROUTE_BUSY: the hand-off is
+ * full or closed; the reservation went back). */
+uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t *channel,
+		       uint32_t reply_id, uint8_t reply_flags);
+/* ... and give it back (M_CLOSE). `settled`: the transfer ended without
+ * an abort to the device and the lease was not lost, so the device is
+ * idle: the lease is offered to a transfer of ours that follows before
+ * the target took the M_CLOSE (remembered in gl->closing). */
+void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t channel,
+		    bool settled);
+/* The target line: publish what it lends (gw_relays_tick does it each
+ * look); the gate of its SDO client pool at attach/detach. */
+void gw_lend_attach(struct gw_line *gl);
+void gw_lend_detach(struct gw_line *gl);
 void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
@@ -332,7 +390,6 @@ uint64_t gw_relays_tick(struct gw_line *gl, uint64_t now_us, uint64_t next);
 uint32_t gw_hop_route(void *ctx, line *l, uint64_t tag, uint16_t net, uint8_t node,
 		      line_sdo_route *out);
 void gw_hop_end(void *ctx, line *l, uint64_t tag);
-void gw_hop_opened(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 void gw_hop_target_frame(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 void gw_hop_lost(struct gw_line *gl, const gw_msg *m, uint64_t now_us);
 

@@ -9,16 +9,18 @@
  *                       transfer talks to the node on this line's bus.
  *                       Otherwise a hop: the transfer runs on this line's
  *                       SDO client, its frames go to hop_relay().
- *   2. hop_relay()      the transfer's first frame opens a relay lease on
- *                       the line the route names (M_OPEN, gw_relay.c) and
- *                       follows it (M_TO_TARGET); behind a router, the
- *                       network indication goes first and the first frame
- *                       waits for the router's confirmation.
- *   3. gw_hop_*()       what comes back: the lease refused (M_OPENED with
- *                       an abort), the line lost its link (M_LOST), a
- *                       router refused: the transfer is cancelled with
- *                       that abort; the server's frames go to the SDO
- *                       client (sdo_client_relay_recv).
+ *   2. hop_relay()      the transfer's first frame reserves a relay lease
+ *                       on the line the route names (gw_lease_open, the
+ *                       same check as a routed session's) and follows it
+ *                       (M_TO_TARGET); behind a router, the network
+ *                       indication goes first and the first frame waits
+ *                       for the router's confirmation.
+ *   3. gw_hop_*()       what comes back: the lease refused (at once, by
+ *                       the reservation, through this line's own queue),
+ *                       the line lost its link or could not bind the lease
+ *                       (M_LOST), a router refused: the transfer is
+ *                       cancelled with that abort; the server's frames go
+ *                       to the SDO client (sdo_client_relay_recv).
  *   4. gw_hop_end()     the transfer ended (line_sdo's confirmation, also
  *                       after a client went away): the lease is given
  *                       back (M_CLOSE).
@@ -67,6 +69,7 @@ static void hop_frame(struct gw_mbx_hop *h, const uint8_t d[8])
 {
 	gw_msg m = { .kind = M_TO_TARGET };
 
+	h->target_aborted = (d[0] >> 5) == SDO_CCS_ABORT;
 	memcpy(m.d, d, 8);
 	hop_send(h, &m);
 }
@@ -76,13 +79,21 @@ static void hop_frame(struct gw_mbx_hop *h, const uint8_t d[8])
 static void hop_relay(void *ctx, const uint8_t d[8])
 {
 	struct gw_mbx_hop *h = ctx;
-	gw_msg open = { .kind = M_OPEN, .node = h->hop.node };
+	gw_msg lost = { .kind = M_LOST, .sid = sid_of(h) };
 	uint8_t ind[8];
 
 	switch (h->phase) {
 	case HOP_ROUTED:
-		hop_send(h, &open);
-		if (h->hop.via_router) {
+		lost.abort = gw_lease_open(h->gl, &h->hop, sid_of(h), &h->lease_ch, 0, 0);
+		if (lost.abort) {
+			/* refused: the cancel may not come from inside the client,
+			 * so through this line's own queue (gw_hop_lost) */
+			h->unleased = true;
+			h->held_valid = false;
+			h->phase = HOP_INDICATING;
+			if (gw_send_to(h->gl, h->gl->idx, &lost))
+				GW_COUNT(h->gl->c.ring_drops); /* the transfer's timeout ends it */
+		} else if (h->hop.via_router) {
 			gw_netind_encode(ind, (gw_netind){ h->net, h->node });
 			hop_frame(h, ind);
 			memcpy(h->held, d, 8);
@@ -129,6 +140,7 @@ uint32_t gw_hop_route(void *ctx, line *l, uint64_t tag, uint16_t net, uint8_t no
 	h->gl = gl;
 	h->gen++;
 	h->phase = HOP_ROUTED;
+	h->unleased = h->lease_lost = h->target_aborted = false;
 	h->held_valid = false;
 	h->net = net;
 	h->node = node;
@@ -146,19 +158,6 @@ static void hop_refuse(struct gw_mbx_hop *h, uint32_t abort, uint64_t now_us)
 	h->phase = HOP_REFUSED;
 	h->held_valid = false;
 	sdo_client_cancel_tag(h->gl->node, h->tag, abort, now_us);
-}
-
-void gw_hop_opened(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
-{
-	struct gw_mbx_hop *h = hop_by_sid(gl, m->sid);
-
-	if (!h) {
-		if (!m->abort)
-			gw_give_back(gl, m); /* the transfer ended meanwhile */
-		return;
-	}
-	if (m->abort)
-		hop_refuse(h, m->abort, now_us);
 }
 
 void gw_hop_target_frame(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
@@ -191,7 +190,10 @@ void gw_hop_lost(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
 	struct gw_mbx_hop *h = hop_by_sid(gl, m->sid);
 
-	if (h && h->phase != HOP_REFUSED)
+	if (!h)
+		return;
+	h->lease_lost = true;
+	if (h->phase != HOP_REFUSED)
 		hop_refuse(h, m->abort, now_us);
 }
 
@@ -200,12 +202,12 @@ void gw_hop_end(void *ctx, line *l, uint64_t tag)
 {
 	struct gw_line *gl = ctx;
 	struct gw_mbx_hop *h = hop_by_tag(gl, tag);
-	gw_msg close = { .kind = M_CLOSE };
 
 	(void)l;
 	if (!h)
 		return; /* on this line's bus: nothing to give back */
-	if (h->phase != HOP_ROUTED)
-		hop_send(h, &close);
+	if (h->phase != HOP_ROUTED && !h->unleased)
+		gw_lease_close(gl, &h->hop, sid_of(h), h->lease_ch,
+			       h->phase == HOP_RELAYING && !h->lease_lost && !h->target_aborted);
 	h->phase = HOP_FREE;
 }

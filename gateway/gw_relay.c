@@ -1,9 +1,14 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * gateway/gw_relay.c - relay leases on the target line: one SDO client
- * channel of the line's pool lent (core/sdo_client.h sdo_client_lease) to
- * a routed session or a routed mailbox transfer of any line, frames
- * relayed both ways as messages. A lease whose requester vanished (its
+ * channel of the line's pool lent to a routed session or a routed mailbox
+ * transfer of any line, frames relayed both ways as messages. The
+ * requester's line reserves the channel and the node on this line's
+ * lending board (gateway/lend.h) and decides at once; this line binds the
+ * lease when the reservation's M_OPEN reaches it (sdo_client_lease_channel)
+ * and publishes what the reservation looks at: its link, its
+ * heartbeat-lost nodes, and (through the gate of its SDO client pool) the
+ * free channels and busy nodes. A lease whose requester vanished (its
  * CLOSE lost to a full ring) is given back after an idle limit, so every
  * channel is released whatever happens; a line that stops carrying frames
  * ends its requesters at once; a lease whose requester aborted stays until
@@ -20,14 +25,39 @@
 #include "gateway/convention.h"
 #include "gateway/gw_line.h"
 
-static void relay_free(struct gw_relay *r, uint64_t now_us)
+/* The lease was taken by another line's transfer (its M_OPEN came before
+ * the M_CLOSE: pending) and now parks for it, or ended: that M_OPEN is
+ * carried out now - bound to the parked lease, or refused. */
+static void relay_open_pending(struct gw_relay *r, uint64_t now_us)
 {
-	if (!r->used)
+	gw_msg m = r->pending;
+
+	if (!r->has_pending)
 		return;
+	r->has_pending = false;
+	gw_relay_open(r->gl, &m, now_us);
+}
+
+/* The channel back to the pool; the node's reservation is the caller's
+ * (freed before, so that the pool's requests waiting for it start). */
+static void relay_unbind(struct gw_relay *r, uint64_t now_us)
+{
 	sdo_client_lease_end(r->gl->node, (uint8_t)r->cli_ch, now_us);
 	r->used = false;
 	r->orphaned = false;
 	r->draining = false;
+	r->parked = false;
+	relay_open_pending(r, now_us);
+}
+
+static void relay_free(struct gw_relay *r, uint64_t now_us)
+{
+	if (!r->used)
+		return;
+	/* the node first: the pool's requests waiting for it start at the
+	 * lease's end */
+	gw_lend_node_free(&r->gl->lend, r->node);
+	relay_unbind(r, now_us);
 }
 
 void gw_relay_request_frame(co_frame *f, uint8_t node, const uint8_t d[8])
@@ -62,8 +92,8 @@ static void relay_rx(void *arg, const uint8_t d[8], uint64_t now_us)
 	bool across;
 
 	r->last_us = now_us;
-	if (r->draining)
-		return; /* a late frame of the aborted transfer */
+	if (r->draining || r->parked)
+		return; /* a late frame of the aborted transfer; none is due */
 	memcpy(m.d, d, 8);
 	GW_COUNT(r->gl->c.relayed_frames);
 	if (r->reply_id && !r->block && !r->asked_valid && r->answers_early < UINT8_MAX)
@@ -93,7 +123,7 @@ static void relays_link_lost(struct gw_line *gl, uint32_t abort)
 
 		if (!r->used || r->orphaned || r->draining)
 			continue;
-		if (gw_send_to(gl, r->from, &m))
+		if (!r->parked && gw_send_to(gl, r->from, &m))
 			GW_COUNT(gl->c.ring_drops); /* the requester's timeout ends it */
 		r->orphaned = true;
 	}
@@ -118,13 +148,18 @@ static void relays_link_back(struct gw_line *gl, uint64_t now_us)
 	}
 }
 
-/* Can this line carry frames now? Each look that sees a change from the
- * last one ends the leases it cut off, or frees them once it carries
- * again - whichever look saw it (the periodic check or a lease request). */
-static bool link_look(struct gw_line *gl, uint64_t now_us)
+/* Can this line carry frames now? Each look is published for the
+ * reservations of other lines; one that sees a change from the last one
+ * ends the leases it cut off, or frees them once it carries again. */
+static void link_look(struct gw_line *gl, uint64_t now_us)
 {
 	bool carries = line_can_carry(gl->l);
 
+	gl->link_events_seen = line_link_events(gl->l);
+	gl->next_link_check_us = now_us + GW_LINK_CHECK_US;
+	/* nothing is reserved while the leases it cut off are handled */
+	if (!carries)
+		gw_lend_set_carries(&gl->lend, false);
 	if (carries != gl->carried) {
 		gl->carried = carries;
 		if (carries)
@@ -132,20 +167,22 @@ static bool link_look(struct gw_line *gl, uint64_t now_us)
 		else
 			relays_link_lost(gl, GW_AB_NO_ANSWER);
 	}
-	return carries;
+	if (carries)
+		gw_lend_set_carries(&gl->lend, true);
 }
 
-/* A lease toward a line whose interface went down (ip link set down,
- * carrier lost) or bus-off would otherwise end only by the requester's
- * per-frame timeout: while leases are held (the caller knows), look at
- * the line every GW_LINK_CHECK_US. */
-static void relays_check_link(struct gw_line *gl, uint64_t now_us, uint64_t *next)
+/* The look costs two ioctls, so it is not made on every wake-up: at once
+ * when the line saw a sign of change (a bus state change, a receive error
+ * such as ENETDOWN), else at most every GW_LINK_CHECK_US. A lease toward a
+ * line whose interface went down without such a sign (carrier lost) would
+ * end only by the requester's per-frame timeout, and a line that is down
+ * must be seen back: while leases are held or the line is down, the look
+ * wakes the line every GW_LINK_CHECK_US (`forced`). */
+static void relays_check_link(struct gw_line *gl, uint64_t now_us, bool forced, uint64_t *next)
 {
-	if (now_us >= gl->next_link_check_us) {
-		gl->next_link_check_us = now_us + GW_LINK_CHECK_US;
+	if (now_us >= gl->next_link_check_us || line_link_events(gl->l) != gl->link_events_seen)
 		link_look(gl, now_us);
-	}
-	if (gl->next_link_check_us < *next)
+	if (forced && gl->next_link_check_us < *next)
 		*next = gl->next_link_check_us;
 }
 
@@ -153,62 +190,242 @@ static struct gw_relay *relay_by_sid(struct gw_line *gl, uint8_t from, uint32_t 
 {
 	for (unsigned i = 0; i < GW_RELAYS_MAX; i++)
 		if (gl->relay[i].used && !gl->relay[i].orphaned && !gl->relay[i].draining &&
-		    gl->relay[i].from == from && gl->relay[i].sid == sid)
+		    !gl->relay[i].parked && gl->relay[i].from == from && gl->relay[i].sid == sid)
 			return &gl->relay[i];
 	return NULL;
 }
 
-/* Can this line serve a lease toward node now? 0 or the refusal. */
-static uint32_t relay_check(struct gw_line *gl, uint8_t node, uint64_t now_us)
+/* ---- the lending board ------------------------------------------------------ */
+
+void gw_lend_attach(struct gw_line *gl)
 {
-	if (!link_look(gl, now_us))
-		return GW_AB_NO_ANSWER;
-	if (co_hb_consumer_status(gl->node, node) == CO_HB_MON_LOST)
-		return GW_AB_NO_ANSWER; /* known silent: refuse now, not by a timeout */
-	return 0;
+	gw_lend_init(&gl->lend);
+	gw_lend_set_carries(&gl->lend, gl->carried);
+	sdo_client_set_gate(gl->node, gw_lend_gate, &gl->lend); /* publishes the free channels */
 }
 
+void gw_lend_detach(struct gw_line *gl)
+{
+	gw_lend_set_carries(&gl->lend, false); /* nothing more is lent */
+	sdo_client_set_gate(gl->node, NULL, NULL);
+}
+
+/* The next transfer of ours to line `to` (node) found every channel
+ * held: take a lease of ours toward another node that ended well there
+ * and is still offered (gw_lend_take_offer), node claimed for this
+ * transfer. (One toward the same node gw_lend_reserve takes itself.)
+ * 0 (m->channel, m->inherits set; *was_for: the node the lease was
+ * toward) or GW_AB_NO_CLIENT. */
+static uint32_t take_offered_channel(struct gw_line *gl, unsigned to, uint8_t node, gw_msg *m,
+				     uint8_t *was_for)
+{
+	gw_lend *board = &gl->g->line[to].lend;
+
+	for (unsigned i = 0; i < GW_CLOSING_MAX; i++) {
+		struct gw_closing *c = &gl->closing[to][i];
+
+		if (!c->node || c->node == node)
+			continue;
+		if (!gw_lend_claim_node(board, node))
+			break; /* the node is busy too */
+		if (gw_lend_take_offer(board, (uint8_t)gl->idx, c->node, c->channel, node)) {
+			m->inherits = true;
+			m->claimed_node = true;
+			m->channel = c->channel;
+			*was_for = c->node;
+			c->node = 0;
+			return 0;
+		}
+		gw_lend_give_back(board, GW_LEND_NONE, node);
+		c->node = 0; /* the target ended it: gone */
+	}
+	return GW_AB_NO_CLIENT;
+}
+
+uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t *channel,
+		       uint32_t reply_id, uint8_t reply_flags)
+{
+	struct gw_line *tl = &gl->g->line[hop->line];
+	gw_msg m = { .kind = M_OPEN,
+		     .sid = sid,
+		     .node = hop->node,
+		     .reply_id = reply_id,
+		     .reply_flags = reply_flags };
+	int rc;
+	uint8_t was_for = hop->node;
+	uint32_t refuse = gw_lend_reserve(&tl->lend, (uint8_t)gl->idx, hop->node, &m.channel,
+					  &m.inherits);
+
+	/* The requester's next transfer right after its last one ended: that
+	 * lease's channel (and node, if the same) are still held until the
+	 * target takes its M_CLOSE, which the ring keeps ahead of this
+	 * M_OPEN. Deciding on them now, they would look busy: the lease is
+	 * taken over instead (the same node: gw_lend_reserve did). */
+	if (refuse == GW_AB_NO_CLIENT)
+		refuse = take_offered_channel(gl, hop->line, hop->node, &m, &was_for);
+	if (refuse)
+		return refuse;
+	/* A mailbox hop's M_OPEN goes quietly: the target needs it only with
+	 * the transfer's first frame, whose ordinary push wakes it and comes
+	 * after it in the ring (or at any earlier wake-up: before_events);
+	 * nothing of a TPDO waits for it: under the target's current
+	 * publication. A session's wakes the target: it binds the lease while
+	 * the requester takes the confirmation, so that the requester's first
+	 * frame finds it bound and goes across (gw_send_across). */
+	rc = reply_id ? gw_send_to(gl, hop->line, &m)
+		      : gw_send_quiet_to(gl, hop->line, &m, gw_fast_epoch(&tl->fast));
+	if (rc) {
+		if (!m.inherits)
+			gw_lend_give_back(&tl->lend, m.channel, hop->node);
+		else if (gw_lend_untake(&tl->lend, (uint8_t)gl->idx, was_for, m.channel,
+					hop->node) &&
+			 m.claimed_node)
+			gw_lend_give_back(&tl->lend, GW_LEND_NONE, hop->node);
+		GW_COUNT(gl->c.ring_drops);
+		return GW_AB_ROUTE_BUSY;
+	}
+	*channel = m.channel;
+	return 0;
+}
+void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t channel,
+		    bool settled)
+{
+	gw_msg m = { .kind = M_CLOSE, .sid = sid };
+	unsigned to = hop->line;
+	gw_lend *board = &gl->g->line[to].lend;
+
+	if (settled)
+		gw_lend_offer(board, (uint8_t)gl->idx, hop->node, channel);
+	if (gw_send_to(gl, to, &m)) {
+		if (settled)
+			gw_lend_withdraw(board, (uint8_t)gl->idx, hop->node, channel);
+		GW_COUNT(gl->c.ring_drops); /* the relay's idle limit frees it */
+		return;
+	}
+	if (settled) {
+		uint8_t i = gl->closing_next[to]++ % GW_CLOSING_MAX;
+		gl->closing[to][i].node = hop->node;
+		gl->closing[to][i].channel = channel;
+	}
+}
+
+/* The parked lease of m's sender on m->channel toward m->node, or NULL
+ * (none: the idle limit or a lost link freed it first). */
+static struct gw_relay *parked_for(struct gw_line *gl, const gw_msg *m)
+{
+	for (unsigned i = 0; i < GW_RELAYS_MAX; i++) {
+		struct gw_relay *r = &gl->relay[i];
+		if (r->used && r->parked && r->from == m->from && r->cli_ch == m->channel &&
+		    r->node == m->node)
+			return r;
+	}
+	return NULL;
+}
+
+/* The lease still bound on m->channel that m's sender took over (its
+ * offer was made before its M_CLOSE left), or NULL. */
+static struct gw_relay *closing_for(struct gw_line *gl, const gw_msg *m)
+{
+	for (unsigned i = 0; i < GW_RELAYS_MAX; i++) {
+		struct gw_relay *r = &gl->relay[i];
+		if (r->used && !r->parked && !r->orphaned && !r->draining && !r->has_pending &&
+		    r->from != m->from && r->cli_ch == m->channel)
+			return r;
+	}
+	return NULL;
+}
+
+/* A lease that ended well, taken by its requester's line for the next
+ * transfer (gw_lend_end_offered said so, and freed the old node if the
+ * next one differs: the pool's requests waiting for it start at the
+ * move): kept bound, moved to that transfer's node, for the M_OPEN behind
+ * this M_CLOSE. If it cannot be moved, the channel goes back and that
+ * M_OPEN finds nothing: it refuses and gives back the node its sender
+ * claimed. */
+static void relay_park(struct gw_relay *r, uint8_t next_node, uint8_t taker, uint64_t now_us)
+{
+	struct gw_line *gl = r->gl;
+	gw_msg pending = r->pending;
+	bool has_pending = r->has_pending;
+
+	if (next_node != r->node) {
+		if (sdo_client_lease_move(gl->node, (uint8_t)r->cli_ch, next_node, now_us) < 0) {
+			relay_unbind(r, now_us);
+			return;
+		}
+		r->node = next_node; /* claimed by the requester's line */
+	}
+	*r = (struct gw_relay){ .used = true,
+				.parked = true,
+				.from = taker,
+				.node = r->node,
+				.cli_ch = r->cli_ch,
+				.last_us = now_us,
+				.has_pending = has_pending,
+				.pending = pending,
+				.gl = gl };
+	relay_open_pending(r, now_us);
+}
+
+/* Bind the lease reserved for m->sid. The reservation was decided on what
+ * this line published; what can refuse now is a change since then (the
+ * link lost, the node's heartbeat lost, a parked lease freed), and the
+ * requester's line hears it as M_LOST: its transfer ends with that abort
+ * instead of hanging. */
 void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
-	gw_msg ans = { .kind = M_OPENED, .sid = m->sid };
+	gw_msg lost = { .kind = M_LOST, .sid = m->sid };
 	struct gw_relay *r = NULL;
-	int ch;
+	int ch = m->channel;
 
-	ans.abort = relay_check(gl, m->node, now_us);
-	for (unsigned i = 0; !ans.abort && i < GW_RELAYS_MAX && !r; i++)
-		if (!gl->relay[i].used)
-			r = &gl->relay[i];
-	if (!ans.abort && !r)
-		ans.abort = GW_AB_NO_CLIENT;
-	if (!ans.abort) {
-		ch = sdo_client_lease(gl->node, m->node, 0, 0, relay_rx, r, now_us);
-		if (ch >= 0) {
-			r->used = true;
-			r->orphaned = false;
-			r->from = m->from;
-			r->sid = m->sid;
-			r->cli_ch = ch;
-			r->engaged = false;
-			r->aborted = false;
-			r->draining = false;
-			r->last_us = now_us;
-			r->reply_id = m->reply_id;
-			r->reply_flags = m->reply_flags;
-			r->asked_valid = false;
-			r->answers_early = 0;
-			r->block = false;
-			/* its answers come after the session's M_OPENED (the
-			 * same ring, in order) */
-			r->handoff_seq = 0;
-		} else {
-			ans.abort = sdo_abort_of_errno(ch);
+	if (m->inherits) {
+		r = parked_for(gl, m);
+		if (!r && (r = closing_for(gl, m))) {
+			/* taken from another line's lease whose M_CLOSE (on that
+			 * line's ring) has not come yet: when it comes */
+			r->pending = *m;
+			r->has_pending = true;
+			return;
 		}
+	} else {
+		/* a free slot is always there: a slot holds a leased channel,
+		 * and a line has at most GW_RELAYS_MAX channels
+		 * (docs/config.md) */
+		for (unsigned i = 0; i < GW_RELAYS_MAX && !r; i++)
+			if (!gl->relay[i].used)
+				r = &gl->relay[i];
 	}
-	if (gw_send_to(gl, m->from, &ans)) {
-		GW_COUNT(gl->c.ring_drops);
-		if (r && r->used)
-			relay_free(r, now_us);
+	if (!gl->carried || (r && r->orphaned) || gw_lend_is_silent(&gl->lend, m->node))
+		lost.abort = GW_AB_NO_ANSWER;
+	else if (!r)
+		lost.abort = GW_AB_NO_CLIENT;
+	else if (!m->inherits && (ch = sdo_client_lease_channel(gl->node, m->channel, m->node,
+								relay_rx, r, now_us)) < 0)
+		lost.abort = sdo_abort_of_errno(ch);
+	if (lost.abort) {
+		if (r && r->parked && !r->orphaned)
+			relay_free(r, now_us); /* holds the channel and the node */
+		else if (r && r->orphaned)
+			; /* freed when the link is back (relays_link_back) */
+		else if (!m->inherits)
+			gw_lend_give_back(&gl->lend, m->channel, m->node);
+		else if (m->claimed_node)
+			gw_lend_node_free(&gl->lend, m->node);
+		if (gw_send_to(gl, m->from, &lost))
+			GW_COUNT(gl->c.ring_drops); /* the requester's timeout ends it */
+		return;
 	}
+	*r = (struct gw_relay){ .used = true,
+				.from = m->from,
+				.sid = m->sid,
+				.node = m->node,
+				.cli_ch = ch,
+				.last_us = now_us,
+				/* nothing of this lease waits in the entry
+				 * line's ring: its answers may go across */
+				.reply_id = m->reply_id,
+				.reply_flags = m->reply_flags,
+				.gl = gl };
 }
 
 void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
@@ -246,22 +463,35 @@ void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
 	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid);
+	uint8_t next_node, taker = 0;
 
 	if (!r)
 		return;
 	if (r->engaged && r->aborted) {
 		r->draining = true;
 		r->last_us = now_us;
+		relay_open_pending(r, now_us); /* nothing to take over */
 		return;
 	}
-	relay_free(r, now_us);
+	/* the node freed and its offer withdrawn in one step, or the lease
+	 * kept for the transfer that took it */
+	next_node = gw_lend_end_offered(&gl->lend, r->from, r->node, (uint8_t)r->cli_ch, &taker);
+	if (next_node)
+		relay_park(r, next_node, taker, now_us);
+	else
+		relay_unbind(r, now_us);
 }
 
 uint64_t gw_relays_tick(struct gw_line *gl, uint64_t now_us, uint64_t next)
 {
 	uint64_t idle = (uint64_t)gl->p.sdo_timeout_ms * 1000u * GW_RELAY_IDLE_FACTOR;
 	bool held = false;
+	uint64_t lost[2];
 
+	/* a heartbeat is lost at a timer of this line: published in the same
+	 * wake-up */
+	co_hb_lost_nodes(gl->node, lost);
+	gw_lend_set_silent(&gl->lend, lost);
 	for (unsigned i = 0; i < GW_RELAYS_MAX; i++) {
 		struct gw_relay *r = &gl->relay[i];
 		if (!r->used)
@@ -275,7 +505,6 @@ uint64_t gw_relays_tick(struct gw_line *gl, uint64_t now_us, uint64_t next)
 		if (r->last_us + limit < next)
 			next = r->last_us + limit;
 	}
-	if (held)
-		relays_check_link(gl, now_us, &next);
+	relays_check_link(gl, now_us, held || !gl->carried, &next);
 	return next;
 }

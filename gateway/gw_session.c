@@ -49,6 +49,7 @@ static void s_to_target(void *ctx, const uint8_t d[8])
 	gw_msg m = { .kind = M_TO_TARGET, .sid = sid_of(s) };
 	co_frame f;
 
+	s->target_aborted = (d[0] >> 5) == SDO_CCS_ABORT;
 	memcpy(m.d, d, 8);
 	gw_relay_request_frame(&f, s->r.hop.node, d);
 	if (gw_send_across(s->gl, s->target_line, &m, &f, &s->handoff_seq))
@@ -58,36 +59,28 @@ static void s_to_target(void *ctx, const uint8_t d[8])
 static uint32_t s_open(void *ctx, const gw_hop *hop)
 {
 	struct gw_sess *s = ctx;
-	gw_msg m = { .kind = M_OPEN, .sid = sid_of(s), .node = hop->node };
 	static const uint8_t probe[8];
+	uint32_t refuse;
 
 	s->target_line = hop->line;
 	/* whatever that line publishes for this session comes after */
 	s->across_taken = atomic_load_explicit(&s->answer[hop->line].seq, memory_order_acquire);
-	if (sdo_server_route_frame(s->gl->node, s->ch, probe, &s->reply) == 0) {
-		m.reply_id = s->reply.id;
-		m.reply_flags = s->reply.flags;
-	} else {
+	if (sdo_server_route_frame(s->gl->node, s->ch, probe, &s->reply) != 0)
 		s->reply.id = 0;
-	}
-	if (gw_send_to(s->gl, hop->line, &m)) {
-		GW_COUNT(s->gl->c.ring_drops);
-		return GW_AB_ROUTE_BUSY;
-	}
-	/* Nothing of this session waits there yet: its frames come after
-	 * the lease's M_OPENED, which the target line sent once it had the
-	 * lease. */
-	s->handoff_seq = 0;
-	return 0;
+	refuse = gw_lease_open(s->gl, hop, sid_of(s), &s->lease_ch, s->reply.id, s->reply.flags);
+	/* Its frames go across only once the target line has bound the lease
+	 * (the device's answer needs the lease's receive filter): once it has
+	 * done this M_OPEN. */
+	s->handoff_seq = s->gl->pushed_to[hop->line];
+	return refuse;
 }
 
 static void s_close(void *ctx)
 {
 	struct gw_sess *s = ctx;
-	gw_msg m = { .kind = M_CLOSE, .sid = sid_of(s) };
 
-	if (gw_send_to(s->gl, s->target_line, &m))
-		GW_COUNT(s->gl->c.ring_drops); /* the relay's idle limit frees it */
+	gw_lease_close(s->gl, &s->r.hop, sid_of(s), s->lease_ch,
+		       !s->lease_lost && !s->target_aborted);
 }
 
 static void s_done(void *ctx, uint32_t abort, gw_route_outcome o)
@@ -159,6 +152,7 @@ static uint32_t on_indication(void *ctx, uint8_t ch, const uint8_t d[8], uint64_
 		target_ms *= 2;
 	s->gen++;
 	s->net = ni.net;
+	s->lease_lost = s->target_aborted = false;
 	s->started_us = now_us;
 	gw_sdo_route_start(&s->r, ni, refuse, &hop, gl->p.sdo_timeout_ms, target_ms, now_us);
 	return 0;
@@ -224,17 +218,6 @@ void gw_sessions_init(struct gw_line *gl)
 	}
 }
 
-void gw_session_opened(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
-{
-	struct gw_sess *s = sess_by_sid(gl, m->sid);
-
-	if (s) {
-		gw_sdo_route_opened(&s->r, m->abort, now_us);
-	} else if (!m->abort) {
-		gw_give_back(gl, m); /* the session is gone */
-	}
-}
-
 void gw_session_target_frame(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
 	struct gw_sess *s = sess_by_sid(gl, m->sid);
@@ -265,8 +248,10 @@ void gw_session_lost(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
 	struct gw_sess *s = sess_by_sid(gl, m->sid);
 
-	if (s)
+	if (s) {
+		s->lease_lost = true;
 		gw_sdo_route_lost(&s->r, m->abort, now_us);
+	}
 }
 
 uint64_t gw_sessions_tick(struct gw_line *gl, uint64_t now_us, uint64_t next)

@@ -35,15 +35,23 @@ enum side {
 
 /* Whose frame the state waits for: picks the timeout and its code. */
 static const uint8_t waits_for[GW_SR_COUNT] = {
-	[GW_SR_OPENING] = SIDE_TARGET,         [GW_SR_HOP] = SIDE_TARGET,
-	[GW_SR_WAIT_INIT] = SIDE_REQUESTER,    [GW_SR_DN_INIT_RESP] = SIDE_TARGET,
-	[GW_SR_DN_SEG_REQ] = SIDE_REQUESTER,   [GW_SR_DN_SEG_RESP] = SIDE_TARGET,
-	[GW_SR_UP_INIT_RESP] = SIDE_TARGET,    [GW_SR_UP_SEG_REQ] = SIDE_REQUESTER,
-	[GW_SR_UP_SEG_RESP] = SIDE_TARGET,     [GW_SR_BLK_DN_INIT_RESP] = SIDE_TARGET,
-	[GW_SR_BLK_DN_SUB] = SIDE_BOTH,        [GW_SR_BLK_DN_END_REQ] = SIDE_REQUESTER,
-	[GW_SR_BLK_DN_END_RESP] = SIDE_TARGET, [GW_SR_BLK_UP_INIT_RESP] = SIDE_TARGET,
-	[GW_SR_BLK_UP_START] = SIDE_REQUESTER, [GW_SR_BLK_UP_SUB] = SIDE_BOTH,
-	[GW_SR_BLK_UP_END] = SIDE_TARGET,      [GW_SR_BLK_UP_END_RESP] = SIDE_REQUESTER,
+	[GW_SR_HOP] = SIDE_TARGET,
+	[GW_SR_WAIT_INIT] = SIDE_REQUESTER,
+	[GW_SR_DN_INIT_RESP] = SIDE_TARGET,
+	[GW_SR_DN_SEG_REQ] = SIDE_REQUESTER,
+	[GW_SR_DN_SEG_RESP] = SIDE_TARGET,
+	[GW_SR_UP_INIT_RESP] = SIDE_TARGET,
+	[GW_SR_UP_SEG_REQ] = SIDE_REQUESTER,
+	[GW_SR_UP_SEG_RESP] = SIDE_TARGET,
+	[GW_SR_BLK_DN_INIT_RESP] = SIDE_TARGET,
+	[GW_SR_BLK_DN_SUB] = SIDE_BOTH,
+	[GW_SR_BLK_DN_END_REQ] = SIDE_REQUESTER,
+	[GW_SR_BLK_DN_END_RESP] = SIDE_TARGET,
+	[GW_SR_BLK_UP_INIT_RESP] = SIDE_TARGET,
+	[GW_SR_BLK_UP_START] = SIDE_REQUESTER,
+	[GW_SR_BLK_UP_SUB] = SIDE_BOTH,
+	[GW_SR_BLK_UP_END] = SIDE_TARGET,
+	[GW_SR_BLK_UP_END_RESP] = SIDE_REQUESTER,
 };
 
 #define CS(d) ((uint8_t)((d)[0] >> 5))
@@ -119,7 +127,6 @@ static bool is_abort(const uint8_t d[8], bool in_sub_block)
 /* ---- states ------------------------------------------------------------------- */
 
 static int opening_enter(void *obj, uint64_t now_us);
-static int opening_con(void *obj, const void *con, uint64_t now_us);
 static int hop_enter(void *obj, uint64_t now_us);
 static int hop_con(void *obj, const void *con, uint64_t now_us);
 static int wait_init_enter(void *obj, uint64_t now_us);
@@ -160,11 +167,7 @@ STEP_DECL(blk_up_end_resp);
 
 static const co_fsm_state states[GW_SR_COUNT] = {
 	[GW_SR_IDLE] = { .name = "idle" },
-	[GW_SR_OPENING] = { .name = "opening",
-			    .on_enter = opening_enter,
-			    .on_frame = requester_out_of_turn,
-			    .on_con = opening_con,
-			    .on_timeout = on_timeout },
+	[GW_SR_OPENING] = { .name = "opening", .on_enter = opening_enter },
 	[GW_SR_HOP] = { .name = "next router",
 			.on_enter = hop_enter,
 			.on_frame = requester_out_of_turn,
@@ -200,7 +203,8 @@ const char *gw_sdo_route_state_to_string(gw_sdo_route_state st)
 	return co_fsm_state_name(&route_fsm, (int)st);
 }
 
-/* OPENING: refuse at once, or ask the target line for a lease. */
+/* OPENING: refuse at once, or take the lease (decided by ops->open without
+ * a round trip to the target line, docs/gateway.md) and go on. */
 static int opening_enter(void *obj, uint64_t now_us)
 {
 	gw_sdo_route *s = obj;
@@ -212,22 +216,6 @@ static int opening_enter(void *obj, uint64_t now_us)
 	if (ab)
 		return fail(s, ab, 0, GW_OUT_REFUSED);
 	s->opened = true;
-	return CO_FSM_STAY;
-}
-
-/* The target line answers the lease request. */
-static int opening_con(void *obj, const void *con, uint64_t now_us)
-{
-	gw_sdo_route *s = obj;
-	const gw_sdo_route_con *c = con;
-
-	(void)now_us;
-	if (c->kind == GW_CON_LOST || (c->kind == GW_CON_OPENED && c->abort)) {
-		s->opened = false; /* nothing was granted: no close owed */
-		return fail(s, c->abort ? c->abort : GW_AB_NO_ANSWER, 0, GW_OUT_REFUSED);
-	}
-	if (c->kind != GW_CON_OPENED)
-		return CO_FSM_STAY; /* a stray frame before the lease: ignore */
 	return s->hop.via_router ? GW_SR_HOP : GW_SR_WAIT_INIT;
 }
 
@@ -299,8 +287,6 @@ static int on_timeout(void *obj, uint64_t now_us)
 	int st = co_fsm_state_of(&s->fsm);
 
 	(void)now_us;
-	if (st == GW_SR_OPENING)
-		return fail(s, GW_AB_NO_ANSWER, 0, GW_OUT_TIMED_OUT);
 	if (waits_for[st] == SIDE_REQUESTER)
 		return fail(s, SDO_AB_TIMEOUT, SDO_AB_TIMEOUT, GW_OUT_TIMED_OUT);
 	return fail(s, s->target_answered ? SDO_AB_TIMEOUT : GW_AB_NO_ANSWER, SDO_AB_TIMEOUT,
@@ -724,13 +710,6 @@ void gw_sdo_route_target_frame(gw_sdo_route *s, const uint8_t d[8], uint64_t now
 	gw_sdo_route_con c = { .kind = GW_CON_TARGET_FRAME };
 
 	memcpy(c.data, d, 8);
-	deliver(s, &c, now_us);
-}
-
-void gw_sdo_route_opened(gw_sdo_route *s, uint32_t abort, uint64_t now_us)
-{
-	gw_sdo_route_con c = { .kind = GW_CON_OPENED, .abort = abort };
-
 	deliver(s, &c, now_us);
 }
 

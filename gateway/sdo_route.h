@@ -6,7 +6,8 @@
  * A session lives on the line where the request entered, bound to one SDO
  * server channel of that line ("requester" side). After a network
  * indication it opens a lease on the target line (an SDO client channel
- * of the pool there, toward the target node or the next router), confirms
+ * of the pool there, toward the target node or the next router: ops.open
+ * decides at once, from what the target line publishes), confirms
  * the indication (after the next router confirmed it, for a network
  * further away), then relays the one SDO transfer that follows frame by
  * frame in both directions - expedited, segmented or block, upload or
@@ -15,8 +16,10 @@
  *
  * Refusals come at once, as aborts in the network indication layout
  * (convention.h): unknown network / loop (the caller resolved the route),
- * target line down, no free client (from the lease's answer), a full
- * hand-off ring (from ops.open). Timeouts are per frame, as for any SDO
+ * target line down, node known silent, node busy, no free client, a full
+ * hand-off ring (all from ops.open). A lease lost later (the target line
+ * could not bind it, or lost its link) ends the transfer with that abort
+ * (gw_sdo_route_lost). Timeouts are per frame, as for any SDO
  * transfer: a target that never answered gives GW_AB_NO_ANSWER, one that
  * went silent mid-transfer 05040000; a silent requester gets 05040000 and
  * the target an abort, so both ends are released.
@@ -36,7 +39,7 @@
 
 typedef enum gw_sdo_route_state {
 	GW_SR_IDLE,
-	GW_SR_OPENING,          /* lease asked from the target line */
+	GW_SR_OPENING,          /* lease taken or refused (passes at once) */
 	GW_SR_HOP,              /* network indication sent to the next router */
 	GW_SR_WAIT_INIT,        /* confirmed; waiting for the requester's initiate */
 	GW_SR_DN_INIT_RESP,     /* download initiate relayed */
@@ -65,9 +68,9 @@ typedef struct gw_sdo_route_ops {
 	void (*to_requester)(void *ctx, const uint8_t d[8]);
 	/* Relay 8 bytes to the target (or next router) on the target line. */
 	void (*to_target)(void *ctx, const uint8_t d[8]);
-	/* Ask the target line for a lease toward hop->node; its answer comes
-	 * back through gw_sdo_route_opened(). Return 0, or an abort code to
-	 * refuse at once (GW_AB_ROUTE_BUSY when the hand-off is full). */
+	/* Take a lease on the target line toward hop->node. Return 0 (the
+	 * lease is the session's: close() owed), or an abort code to refuse
+	 * at once. A lease that is lost later comes as gw_sdo_route_lost(). */
 	uint32_t (*open)(void *ctx, const gw_hop *hop);
 	/* Give the lease back (only called after open returned 0). */
 	void (*close)(void *ctx);
@@ -104,9 +107,8 @@ typedef struct gw_sdo_route {
 
 /* Input delivered through co_fsm_con (target side). */
 typedef enum gw_sdo_route_con_kind {
-	GW_CON_OPENED,       /* the lease answer: abort 0 = granted */
-	GW_CON_TARGET_FRAME, /* a frame from the target (or next router) */
-	GW_CON_LOST,         /* the target line lost the lease (line down) */
+	GW_CON_TARGET_FRAME = 1, /* a frame from the target (or next router) */
+	GW_CON_LOST,             /* the target line lost the lease (line down) */
 } gw_sdo_route_con_kind;
 
 typedef struct gw_sdo_route_con {
@@ -119,7 +121,8 @@ void gw_sdo_route_init(gw_sdo_route *s, const gw_sdo_route_ops *ops, void *ctx);
 
 /* A network indication arrived (decoded into ni). refuse != 0: answer it
  * with that abort at once (caller's route lookup or decode said so; hop
- * is ignored). Otherwise the session opens the lease toward hop.
+ * is ignored). Otherwise the session opens the lease toward hop and
+ * confirms (or sends the indication to the next router) in this call.
  * -EBUSY if the session is not idle. */
 int gw_sdo_route_start(gw_sdo_route *s, gw_netind ni, uint32_t refuse, const gw_hop *hop,
 		       uint32_t requester_timeout_ms, uint32_t target_timeout_ms, uint64_t now_us);
@@ -128,9 +131,8 @@ int gw_sdo_route_start(gw_sdo_route *s, gw_netind ni, uint32_t refuse, const gw_
 void gw_sdo_route_requester_frame(gw_sdo_route *s, const uint8_t d[8], uint64_t now_us);
 /* A frame from the target side. */
 void gw_sdo_route_target_frame(gw_sdo_route *s, const uint8_t d[8], uint64_t now_us);
-/* The target line's answer to open(). */
-void gw_sdo_route_opened(gw_sdo_route *s, uint32_t abort, uint64_t now_us);
-/* The target line lost the lease (line down, bus-off). */
+/* The target line lost the lease (line down, bus-off, or it could not
+ * bind it). */
 void gw_sdo_route_lost(gw_sdo_route *s, uint32_t abort, uint64_t now_us);
 /* Run the timer (a no-op before the deadline). */
 void gw_sdo_route_tick(gw_sdo_route *s, uint64_t now_us);

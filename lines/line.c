@@ -274,9 +274,11 @@ static void handle_can(line *l)
 	for (int round = 0; round < 8; round++) {
 		int n = can_port_recv(l->port, items, RX_BATCH, l->now_us);
 		if (n <= 0) {
-			if (n < 0)
+			if (n < 0) {
 				cogw_log(COGW_LOG_WARNING, "line %s: CAN receive: %s", l->name,
 					 strerror(-n));
+				l->link_events++;
+			}
 			return;
 		}
 		for (int i = 0; i < n; i++) {
@@ -620,6 +622,11 @@ bool line_can_carry(const line *l)
 {
 	return line_is_up(l) && can_port_bus_state(l->port) != CAN_BUS_OFF &&
 	       can_port_link_up(l->port);
+}
+
+uint32_t line_link_events(const line *l)
+{
+	return l->link_events;
 }
 
 const char *line_ifname(const line *l)

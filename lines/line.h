@@ -92,6 +92,11 @@ bool line_is_up(const line *l);
  * (can_port_link_up). Line thread only (its extensions): a caller about to
  * send and wait. */
 bool line_can_carry(const line *l);
+/* Line thread only: a count that moves whenever what line_can_carry
+ * answers may have changed (a CAN bus state change, a receive error such
+ * as ENETDOWN when the interface goes down), so that a caller can look
+ * again at once instead of polling the interface. */
+uint32_t line_link_events(const line *l);
 /* The CAN interface's name (line_params.can.ifname). */
 const char *line_ifname(const line *l);
 /* On the line thread: nothing waits in the transmit queue and the

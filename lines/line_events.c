@@ -245,6 +245,7 @@ void line_on_can_error(line *l, const can_rx_item *it)
 		else if (prev == CAN_BUS_OFF)
 			co_errctrl_bus_off_recovered(l->node, l->now_us);
 		l->bus_state_prev = e->state;
+		l->link_events++;
 	}
 	if (e->controller_problem)
 		cogw_log(COGW_LOG_WARNING, "line %s (%s): CAN controller reports an overflow",

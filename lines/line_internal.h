@@ -110,6 +110,9 @@ struct line {
 	uint64_t time_unusable; /* not produced: clock outside 1984..2163 */
 	bool time_clock_logged;
 	can_bus_state bus_state_prev;
+	/* the link may have changed: bus state changes, receive errors
+	 * (ENETDOWN when the interface goes down); line_link_events */
+	uint32_t link_events;
 	line_store_req store;
 	line_access_req access;
 	unsigned ext_attached; /* p.ext[0..ext_attached) attached */

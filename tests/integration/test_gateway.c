@@ -27,6 +27,7 @@
 #include <inttypes.h>
 #include <signal.h>
 #include <poll.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -137,9 +138,13 @@ static void expect_confirm(uint16_t net, uint8_t node)
 {
 	uint8_t a[8], want[8];
 
+	char msg[64];
+
 	indicate(net, node, a);
 	gw_netind_encode(want, (gw_netind){ net, node });
-	TEST_ASSERT_EQUAL_HEX8_ARRAY(want, a, 8);
+	snprintf(msg, sizeof msg, "indication for %u/%u refused with %08X", net, node,
+		 a[0] == 0x80 ? co_get_le32(&a[4]) : 0);
+	TEST_ASSERT_EQUAL_HEX8_ARRAY_MESSAGE(want, a, 8, msg);
 }
 
 static const co_ev_sdo_cli *routed(const sdo_client_req *r)
@@ -481,8 +486,13 @@ static unsigned collect(int fd, uint32_t id, uint8_t (*d)[8], unsigned max)
 /* A routed expedited read puts on each bus exactly the frames the
  * transfer needs, once each, though another line's thread sent them
  * (docs/gateway.md, frames across interfaces): the upload initiate on
- * vcan2 from line 0, the device's answer on vcan0 from line 2. */
-static void expect_read_sent_across(void)
+ * vcan2 from line 0, the device's answer on vcan0 from line 2. True when
+ * both went across. Either is handed to the other line instead when that
+ * line is late (the initiate, when line 2 has not yet bound the lease;
+ * the answer, when the device answered before line 2 took the request's
+ * message): a line busy in a wake-up of its own at that moment. The
+ * frames on the buses are the same either way. */
+static bool read_sent_across(void)
 {
 	static const uint8_t init[8] = { 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0 };
 	static const uint8_t value[8] = { 0x43, 0x00, 0x10, 0x00, 0x94, 0x01, 0x04, 0x00 };
@@ -506,8 +516,8 @@ static void expect_read_sent_across(void)
 	printf("routed read: sent across by line 0 %llu, by line 2 %llu\n",
 	       (unsigned long long)(e0.sdo_across - s0.sdo_across),
 	       (unsigned long long)(e2.sdo_across - s2.sdo_across));
-	TEST_ASSERT_EQUAL_UINT64(s0.sdo_across + 1, e0.sdo_across);
-	TEST_ASSERT_EQUAL_UINT64(s2.sdo_across + 1, e2.sdo_across);
+	TEST_ASSERT_TRUE(e0.sdo_across - s0.sdo_across <= 1);
+	TEST_ASSERT_TRUE(e2.sdo_across - s2.sdo_across <= 1);
 	/* each collect reads every frame waiting: both identifiers at once */
 	TEST_ASSERT_EQUAL_UINT(1, collect(cap2, 0x600 + TGT_NODE, on2, 4));
 	TEST_ASSERT_EQUAL_HEX8_ARRAY(init, on2[0], 8);
@@ -517,6 +527,16 @@ static void expect_read_sent_across(void)
 	TEST_ASSERT_EQUAL_HEX8_ARRAY(value, on0[1], 8);
 	close(cap0);
 	close(cap2);
+	return e0.sdo_across == s0.sdo_across + 1 && e2.sdo_across == s2.sdo_across + 1;
+}
+
+static void expect_read_sent_across(void)
+{
+	bool across = false;
+
+	for (unsigned i = 0; i < 3 && !across; i++)
+		across = read_sent_across();
+	TEST_ASSERT_TRUE_MESSAGE(across, "no read of 3 sent both frames across");
 }
 
 static void test_refusals_and_the_frames_sent_across(void)
@@ -847,6 +867,9 @@ static void test_faults_refused_at_once_other_routes_work_sessions_released(void
 	expect_mbx_refused(1, 3, TGT_NODE, GW_AB_NO_ANSWER, "target line down");
 	expect_other_route_works("while vcan2 is down");
 	link_set("vcan2", true);
+	/* a line that is down looks at its link every 100 ms (docs/gateway.md):
+	 * routing to it resumes within that */
+	sleep_ms(300);
 	expect_all_released("after the line was down");
 
 	/* 3b. the target line goes down in the middle of a transfer: the
@@ -932,6 +955,110 @@ static void test_faults_refused_at_once_other_routes_work_sessions_released(void
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(out, "gateway: network 1, 0 routed sessions running"),
 				     out);
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(out, "SDO   sessions"), out);
+}
+
+/* ---- the target line's own clients and the routed leases share one pool --------------- */
+
+/* A mailbox client of line 2 (its own SDO client pool, no routing). */
+struct own_read {
+	pthread_t t;
+	cogw *h;
+	uint8_t node;
+	int rc;
+	uint32_t abort;
+	uint8_t buf[8];
+};
+
+static void *own_read_run(void *arg)
+{
+	struct own_read *o = arg;
+	size_t len = 0;
+	/* a silent node holds its client this long: both are busy at once
+	 * however slowly the emulated machine starts the second one */
+	cogw_sdo_opts opt = { .sdo_timeout_ms = 8000 };
+
+	o->rc = cogw_sdo_read_ex(o->h, 2, o->node, 0x1000, 0, &opt, o->buf, sizeof o->buf, &len,
+				 30000, &o->abort);
+	return NULL;
+}
+
+static void own_read_start(struct own_read *o, uint8_t node)
+{
+	cogw_options opt = { .instance = INSTANCE, .timeout_ms = 30000 };
+
+	o->node = node;
+	TEST_ASSERT_EQUAL_INT(0, cogw_open_opts(&o->h, &opt));
+	TEST_ASSERT_EQUAL_INT(0, pthread_create(&o->t, NULL, own_read_run, o));
+}
+
+static void own_read_join(struct own_read *o)
+{
+	pthread_join(o->t, NULL);
+	cogw_close(o->h);
+}
+
+/* The routed reservation and line 2's own clients (mailbox SDO, manager)
+ * take from one pool without asking each other: what one holds the other
+ * does not get, and each gets it back when the other is done. */
+static void test_own_clients_and_routed_leases_share_the_pool(void)
+{
+	struct own_read own[2];
+	uint8_t a[8], d[8], ab[8] = { 0x80, 0, 0, 0, 0, 0, 0, 0x08 };
+	const co_ev_sdo_cli *r;
+	uint8_t id[4];
+
+	start_single();
+	mbx_open(INSTANCE);
+	expect_other_route_works("at the start");
+
+	/* 1. line 2's own mailbox clients hold both its SDO clients (reads of
+	 * nodes nobody answers): a routed indication is refused at once with
+	 * "no free client", from vcan0 and from a mailbox client of line 0;
+	 * toward a node one of them talks to, with "routing busy" */
+	drain(fd2);
+	own_read_start(&own[0], 97); /* one after the other: each frame seen */
+	TEST_ASSERT_EQUAL_INT(8, can_wait_id(fd2, 0x600 + 97, d, 10000));
+	own_read_start(&own[1], 98);
+	TEST_ASSERT_EQUAL_INT(8, can_wait_id(fd2, 0x600 + 98, d, 10000));
+	expect_refused(3, TGT_NODE, GW_AB_NO_CLIENT, "line 2's own clients hold its pool");
+	expect_mbx_refused(0, 3, TGT_NODE, GW_AB_NO_CLIENT, "line 2's own clients hold its pool");
+	expect_refused(3, 97, GW_AB_ROUTE_BUSY, "node 97 in a transfer of line 2's own client");
+	expect_all_released("while line 2's own clients hold its pool");
+	own_read_join(&own[0]);
+	own_read_join(&own[1]);
+	TEST_ASSERT_EQUAL_INT(COGW_E_ABORT, own[0].rc);
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_TIMEOUT, own[0].abort);
+	TEST_ASSERT_EQUAL_HEX32(SDO_AB_TIMEOUT, own[1].abort);
+	/* their servers settle 100 ms after our own abort frames */
+	sleep_ms(200);
+	r = routed(&(sdo_client_req){
+		.upload = true, .node_id = GW_NODE, .index = 0x1000, .buf = id, .cap = 4 });
+	TEST_ASSERT_EQUAL_HEX32_MESSAGE(0, r->abort, "the pool is free again: routing resumes");
+
+	/* 2. two routed sessions reserve both clients (confirmed, nothing sent
+	 * yet): line 2's own read of node 5 neither takes a reserved channel
+	 * nor talks to the reserved node; when the requesters give up, it
+	 * runs */
+	indicate_on(0, 3, TGT_NODE, a);
+	TEST_ASSERT_EQUAL_HEX32_MESSAGE(0, a[0] == 0x80 ? co_get_le32(&a[4]) : 0,
+					"indication on channel 0 refused");
+	TEST_ASSERT_EQUAL_HEX8(GW_NETIND_CS, a[0]);
+	indicate_on(1, 3, TGT2_NODE, a);
+	TEST_ASSERT_EQUAL_HEX32_MESSAGE(0, a[0] == 0x80 ? co_get_le32(&a[4]) : 0,
+					"indication on channel 1 refused");
+	TEST_ASSERT_EQUAL_HEX8(GW_NETIND_CS, a[0]);
+	drain(fd2);
+	own_read_start(&own[0], TGT_NODE);
+	TEST_ASSERT_NOT_EQUAL_MESSAGE(
+		8, can_wait_id(fd2, 0x600 + TGT_NODE, d, 500),
+		"line 2's own client talked to a node reserved for a session");
+	TEST_ASSERT_EQUAL_UINT(2, gw_status(2).leases);
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x67F, ab, 8));
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x67E, ab, 8));
+	own_read_join(&own[0]);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, own[0].rc, "line 2's own read after the sessions ended");
+	TEST_ASSERT_EQUAL_HEX32(0x00040194, co_get_le32(own[0].buf));
+	expect_all_released("after both sides were done");
 }
 
 /* ---- EMCY routing ------------------------------------------------------------- */
@@ -1365,8 +1492,11 @@ static void mailbox_by_network_is_a_line_transfer(cogw *h)
 		usleep(100000);
 	}
 	TEST_ASSERT_EQUAL_UINT(0, st.leases);
-	TEST_ASSERT_EQUAL_INT(0, cogw_sdo_read_net(h, 0, 3, TGT_NODE, 0x1000, 0, NULL, buf,
-						   sizeof buf, &len, 30000, &abort));
+	int rc = cogw_sdo_read_net(h, 0, 3, TGT_NODE, 0x1000, 0, NULL, buf, sizeof buf, &len, 30000,
+				   &abort);
+	char why[48];
+	snprintf(why, sizeof why, "abort %08X", (unsigned)abort);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, why);
 	TEST_ASSERT_EQUAL_HEX32(0x00040194, co_get_le32(buf));
 }
 
@@ -1746,6 +1876,7 @@ int main(void)
 	RUN_TEST(test_requester_vanishing_mid_block_releases_the_session);
 	RUN_TEST(test_faults_refused_at_once_other_routes_work_sessions_released);
 	RUN_TEST(test_concurrent_sessions_and_no_free_client);
+	RUN_TEST(test_own_clients_and_routed_leases_share_the_pool);
 	RUN_TEST(test_emcy_routing_follows_1f2f);
 	RUN_TEST(test_pdo_forwarding);
 	RUN_TEST(test_forwarding_by_device_object);

@@ -16,6 +16,7 @@
 
 #include "core/co.h"
 #include "core/sdo_client.h"
+#include "gateway/lend.h"
 #include "gateway/sdo_route.h"
 #include "tests/unit/support/test_bus.h"
 #include "tests/unit/support/test_od_fixture.h"
@@ -218,15 +219,14 @@ static void hex_eq(const char *want, const uint8_t d[8])
 	TEST_ASSERT_EQUAL_STRING(want, got);
 }
 
-/* Network indication for (NET, TGT_ID), lease granted: confirmed. */
+/* Network indication for (NET, TGT_ID), lease granted: confirmed in the
+ * same call, no answer of the target line waited for. */
 static void indicate(void)
 {
 	gw_hop hop = { .line = 1, .node = TGT_ID };
 
 	TEST_ASSERT_EQUAL(0, gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 1000, 1000,
 						bus_a.now));
-	TEST_ASSERT_EQUAL(GW_SR_OPENING, gw_sdo_route_state_of(&s));
-	gw_sdo_route_opened(&s, 0, bus_a.now);
 	TEST_ASSERT_EQUAL(GW_SR_WAIT_INIT, gw_sdo_route_state_of(&s));
 	hex_eq("E0 02 00 05 00 00 00 00", last_to_req);
 	pump();
@@ -355,7 +355,6 @@ static void test_answers_sent_across_are_those_the_session_forwards(void)
 			memset(&to_tgt, 0, sizeof(to_tgt));
 			TEST_ASSERT_EQUAL(0, gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0,
 								&hop, 1000, 1000, 0));
-			gw_sdo_route_opened(&s, 0, 0);
 			if (cases[c].n_before) {
 				gw_sdo_route_requester_frame(&s, cases[c].before[0], 0);
 				gw_sdo_route_target_frame(&s, cases[c].before[1], 0);
@@ -397,17 +396,17 @@ static void test_refusals_come_at_once(void)
 	TEST_ASSERT_EQUAL(0, closes);
 	TEST_ASSERT_EQUAL(2, dones);
 
-	/* the target line has no free client, or is down */
-	open_answer = 0;
+	/* the target line has no free client, or is down: in the same call */
+	open_answer = GW_AB_NO_CLIENT;
 	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 0, 0, 0);
-	gw_sdo_route_opened(&s, GW_AB_NO_CLIENT, 0);
 	hex_eq("80 02 00 05 23 00 0A 06", last_to_req);
+	open_answer = GW_AB_NO_ANSWER;
 	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 0, 0, 0);
-	gw_sdo_route_opened(&s, GW_AB_NO_ANSWER, 0);
 	hex_eq("80 02 00 05 02 00 00 0A", last_to_req);
 	TEST_ASSERT_EQUAL(0, closes); /* nothing was granted */
 	TEST_ASSERT_EQUAL(4, dones);
 	TEST_ASSERT_EQUAL(0, n_to_tgt);
+	open_answer = 0;
 	TEST_ASSERT_EQUAL(0, gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 0, 0, 0));
 	TEST_ASSERT_EQUAL(-EBUSY,
 			  gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 0, 0, 0));
@@ -422,7 +421,6 @@ static void test_multi_hop_confirms_after_the_next_router(void)
 
 	gw_sdo_route_start(&s, (gw_netind){ 9, 5 }, 0, &hop, 1000, 3000, 0);
 	TEST_ASSERT_EQUAL(0x20, opened_hop.node);
-	gw_sdo_route_opened(&s, 0, 0);
 	TEST_ASSERT_EQUAL(GW_SR_HOP, gw_sdo_route_state_of(&s));
 	hex_eq("E0 09 00 05 00 00 00 00", last_to_tgt);
 	TEST_ASSERT_EQUAL(0, n_to_req); /* not confirmed before the router */
@@ -444,7 +442,6 @@ static void test_next_router_refusal_is_passed_back(void)
 	uint8_t refusal[8] = { 0x80, 9, 0, 5, 0x01, 0, 0, 0x0A };
 
 	gw_sdo_route_start(&s, (gw_netind){ 9, 5 }, 0, &hop, 1000, 1000, 0);
-	gw_sdo_route_opened(&s, 0, 0);
 	gw_sdo_route_target_frame(&s, refusal, 10);
 	TEST_ASSERT_EQUAL_MEMORY(refusal, last_to_req, 8);
 	TEST_ASSERT_EQUAL(GW_OUT_REFUSED, done_outcome);
@@ -458,18 +455,19 @@ static void test_timeouts(void)
 	uint8_t init[8] = { 0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0 };
 	uint8_t seg_init[8] = { 0x41, 0x08, 0x10, 0x00, 30, 0, 0, 0 };
 
-	/* the target line never answers the lease */
+	/* confirmed, and the requester never sends its initiate */
 	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 500, 800, 0);
-	gw_sdo_route_tick(&s, 799999);
+	hex_eq("E0 02 00 05 00 00 00 00", last_to_req);
+	gw_sdo_route_tick(&s, 499999);
 	TEST_ASSERT_EQUAL(0, dones);
-	gw_sdo_route_tick(&s, 800000);
-	hex_eq("80 02 00 05 02 00 00 0A", last_to_req);
+	gw_sdo_route_tick(&s, 500000);
+	hex_eq("80 02 00 05 00 00 04 05", last_to_req);
 	TEST_ASSERT_EQUAL(GW_OUT_TIMED_OUT, done_outcome);
 	TEST_ASSERT_EQUAL(1, closes);
+	TEST_ASSERT_EQUAL(0, n_to_tgt);
 
 	/* the target never answers the initiate: node silent */
 	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 500, 800, 1000000);
-	gw_sdo_route_opened(&s, 0, 1000000);
 	gw_sdo_route_requester_frame(&s, init, 1100000);
 	gw_sdo_route_tick(&s, 1900000);
 	hex_eq("80 18 10 01 02 00 00 0A", last_to_req);
@@ -478,7 +476,6 @@ static void test_timeouts(void)
 
 	/* the target answered, then went silent: SDO timeout */
 	gw_sdo_route_start(&s, (gw_netind){ NET, TGT_ID }, 0, &hop, 500, 800, 2000000);
-	gw_sdo_route_opened(&s, 0, 2000000);
 	init[1] = 0x08;
 	init[3] = 0;
 	gw_sdo_route_requester_frame(&s, init, 2000000);
@@ -555,6 +552,26 @@ static void test_protocol_errors_and_aborts(void)
 				 gw_sdo_route_state_to_string(GW_SR_BLK_UP_SUB));
 }
 
+/* The target line could not bind the lease it was told of (its state
+ * changed since the reservation): the confirmed session ends with that
+ * code at once, its close still owed once. */
+static void test_lease_lost_after_the_confirmation(void)
+{
+	uint8_t init[8] = { 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0 };
+
+	indicate();
+	gw_sdo_route_lost(&s, GW_AB_NO_ANSWER, bus_a.now);
+	hex_eq("80 02 00 05 02 00 00 0A", last_to_req);
+	TEST_ASSERT_EQUAL(1, dones);
+	TEST_ASSERT_EQUAL(GW_OUT_ABORTED, done_outcome);
+	TEST_ASSERT_EQUAL(1, closes);
+	TEST_ASSERT_EQUAL(0, n_to_tgt);
+	/* the requester's initiate that crossed it goes nowhere */
+	gw_sdo_route_requester_frame(&s, init, bus_a.now);
+	TEST_ASSERT_EQUAL(0, n_to_tgt);
+	TEST_ASSERT_EQUAL(1, dones);
+}
+
 static void test_target_line_lost_mid_transfer(void)
 {
 	uint8_t init[8] = { 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0 };
@@ -565,6 +582,230 @@ static void test_target_line_lost_mid_transfer(void)
 	hex_eq("80 00 10 00 02 00 00 0A", last_to_req);
 	TEST_ASSERT_EQUAL(1, dones);
 	TEST_ASSERT_EQUAL(1, closes);
+}
+
+/* ---- the lending board: a reservation decided at once, never lent twice ---- */
+
+static gw_lend board;
+
+static void tgt_raw(void *arg, const uint8_t d[8], uint64_t now_us)
+{
+	(void)arg;
+	(void)d;
+	(void)now_us;
+}
+static tb_port *lender; /* the target line's own node with its client pool */
+
+static void lender_on(void)
+{
+	co_node_config cfg = { .node_id = 0x7E,
+			       .sdo_client_count = 2,
+			       .sdo_client_queue_len = 2,
+			       .sdo_client_pool_len = 4,
+			       .sdo_client_timeout_ms = 500 };
+	co_od *od;
+
+	TEST_ASSERT_EQUAL(0, co_od_create(&od, 8));
+	bus_b.log_on = true; /* own_requests_to */
+	lender = tb_add_node(&bus_b, &cfg, od);
+	TEST_ASSERT_NOT_NULL(lender);
+	gw_lend_init(&board);
+	sdo_client_set_gate(lender->node, gw_lend_gate, &board);
+	gw_lend_set_carries(&board, true);
+}
+
+/* A read by the target line's own pool (its mailbox clients, its manager). */
+static void own_read(uint8_t node, uint64_t tag)
+{
+	static uint8_t rd[8];
+	sdo_client_req r = { .upload = true,
+			     .node_id = node,
+			     .index = 0x1000,
+			     .buf = rd,
+			     .cap = sizeof rd,
+			     .tag = tag };
+
+	TEST_ASSERT_EQUAL(0, sdo_client_pool_submit(lender->node, &r, bus_b.now));
+}
+
+static size_t own_requests_to(uint8_t node)
+{
+	return tb_count_from_id(&bus_b, lender->idx, 0x600u + node, 0);
+}
+
+/* A reservation of line 0 that takes nothing over. */
+static uint32_t reserve(uint8_t node, uint8_t *channel)
+{
+	bool taken = true;
+	uint32_t refuse = gw_lend_reserve(&board, 0, node, channel, &taken);
+
+	TEST_ASSERT_FALSE(taken);
+	return refuse;
+}
+
+static void test_reservation_refusals_keep_their_codes(void)
+{
+	uint8_t a = 0xFF, b = 0xFF, c;
+	uint64_t lost[2] = { 1ull << 8, 0 };
+
+	lender_on();
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(5, &a));
+	/* the node is in a routed transfer already */
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, reserve(5, &c));
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(6, &b));
+	TEST_ASSERT_TRUE(a < 2 && b < 2 && a != b);
+	/* no channel left: "no free client", and node 7 is not left reserved */
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, reserve(7, &c));
+	gw_lend_give_back(&board, b, 6);
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(7, &c));
+	TEST_ASSERT_EQUAL(b, c);
+	/* heartbeat lost, line down: no answer, before anything else */
+	gw_lend_set_silent(&board, lost);
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, reserve(8, &c));
+	gw_lend_set_carries(&board, false);
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, reserve(9, &c));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, reserve(5, &c));
+}
+
+/* A lease that ended well is offered until the owner ends it at the
+ * M_CLOSE: of the next transfer toward that node (of its line or of
+ * another) and the owner, exactly one gets it, and the owner's end frees
+ * the node in the same step. */
+static void test_lease_ended_well_is_handed_over_once(void)
+{
+	uint8_t a, c, taker = 0xFF;
+	bool taken;
+
+	lender_on();
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(5, &a));
+	/* the next transfer first: it takes the lease, once */
+	gw_lend_offer(&board, 0, 5, a);
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 0, 5, &c, &taken));
+	TEST_ASSERT_TRUE(taken);
+	TEST_ASSERT_EQUAL(a, c);
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, gw_lend_reserve(&board, 0, 5, &c, &taken));
+	TEST_ASSERT_FALSE(taken);
+	TEST_ASSERT_EQUAL(5,
+			  gw_lend_end_offered(&board, 0, 5, a, &taker)); /* kept: the node held */
+	TEST_ASSERT_EQUAL(0, taker);
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, reserve(5, &c));
+	/* another line's transfer takes it the same way, the owner keeps it
+	 * for that line */
+	gw_lend_offer(&board, 0, 5, a);
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 2, 5, &c, &taken));
+	TEST_ASSERT_TRUE(taken);
+	TEST_ASSERT_EQUAL(a, c);
+	TEST_ASSERT_FALSE(gw_lend_untake(&board, 0, 5, a, 5)); /* line 0 did not take it */
+	TEST_ASSERT_EQUAL(5, gw_lend_end_offered(&board, 0, 5, a, &taker));
+	TEST_ASSERT_EQUAL(2, taker);
+	/* the owner first: the node is free in the same step */
+	gw_lend_offer(&board, 0, 5, a);
+	TEST_ASSERT_EQUAL(0, gw_lend_end_offered(&board, 0, 5, a, &taker));
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&board, 0, 5, &c, &taken));
+	TEST_ASSERT_FALSE(taken);
+	TEST_ASSERT_TRUE(c != a);
+	gw_lend_give_back(&board, c, 5);
+	/* taken for another node (every channel held): the old node goes
+	 * free, the new one stays held */
+	TEST_ASSERT_TRUE(gw_lend_claim_node(&board, 5));
+	TEST_ASSERT_TRUE(gw_lend_claim_node(&board, 8));
+	gw_lend_offer(&board, 0, 5, a);
+	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, 1, 5, a, 8)); /* not line 1's */
+	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, 0, 5, a, 8));
+	TEST_ASSERT_EQUAL(8, gw_lend_end_offered(&board, 0, 5, a, &taker));
+	TEST_ASSERT_TRUE(gw_lend_claim_node(&board, 5));
+	TEST_ASSERT_FALSE(gw_lend_claim_node(&board, 8));
+	/* the M_OPEN not sent: an offer again, unless the owner kept it */
+	gw_lend_offer(&board, 0, 5, a);
+	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, 0, 5, a, 5));
+	TEST_ASSERT_TRUE(gw_lend_untake(&board, 0, 5, a, 5));
+	TEST_ASSERT_EQUAL(0, gw_lend_end_offered(&board, 0, 5, a, &taker));
+	TEST_ASSERT_TRUE(gw_lend_claim_node(&board, 5));
+	gw_lend_offer(&board, 0, 5, a);
+	TEST_ASSERT_TRUE(gw_lend_take_offer(&board, 0, 5, a, 5));
+	TEST_ASSERT_EQUAL(5, gw_lend_end_offered(&board, 0, 5, a, &taker));
+	TEST_ASSERT_FALSE(gw_lend_untake(&board, 0, 5, a, 5));
+	/* the M_CLOSE not sent: withdrawn, the node still held */
+	gw_lend_offer(&board, 0, 5, a);
+	gw_lend_withdraw(&board, 0, 5, a);
+	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, 0, 5, a, 5));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, reserve(5, &c));
+	/* a free node has nothing to offer */
+	gw_lend_node_free(&board, 5);
+	gw_lend_offer(&board, 0, 5, a);
+	TEST_ASSERT_FALSE(gw_lend_take_offer(&board, 0, 5, a, 5));
+}
+
+/* A lease kept for the next transfer moves to that transfer's node
+ * without going back in between: the own pool's request waiting for the
+ * old node gets no channel from it (it starts on the next one freed); the
+ * lease's frames go to the new node. */
+static void test_kept_lease_moves_to_the_next_node(void)
+{
+	uint8_t a;
+
+	lender_on();
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(5, &a));
+	TEST_ASSERT_EQUAL(a,
+			  sdo_client_lease_channel(lender->node, a, 5, tgt_raw, NULL, bus_b.now));
+	own_read(7, 2); /* on the other channel */
+	own_read(5, 1); /* waits for the node */
+	TEST_ASSERT_EQUAL(1, own_requests_to(7));
+	TEST_ASSERT_TRUE(gw_lend_claim_node(&board, 8));
+	gw_lend_node_free(&board, 5); /* the old node first, as gw_relay does */
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_move(lender->node, a, 8, bus_b.now));
+	TEST_ASSERT_EQUAL(0, own_requests_to(5));
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_send(lender->node, a, (const uint8_t[8]){ 0x40 }));
+	TEST_ASSERT_EQUAL(1, tb_count_from_id(&bus_b, lender->idx, 0x608u, 0));
+	/* the node in a transfer elsewhere, a channel not leased, a bad node */
+	TEST_ASSERT_EQUAL(-EALREADY, sdo_client_lease_move(lender->node, a, 7, bus_b.now));
+	TEST_ASSERT_EQUAL(-ENOENT,
+			  sdo_client_lease_move(lender->node, (uint8_t)(1 - a), 9, bus_b.now));
+	TEST_ASSERT_EQUAL(-EINVAL, sdo_client_lease_move(lender->node, a, 0, bus_b.now));
+	/* node 7's read times out: node 5's starts on that channel */
+	tb_advance(&bus_b, 500000);
+	TEST_ASSERT_EQUAL(1, own_requests_to(5));
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_send(lender->node, a, (const uint8_t[8]){ 0x40 }));
+	TEST_ASSERT_EQUAL(2, tb_count_from_id(&bus_b, lender->idx, 0x608u, 0));
+}
+
+/* What the target line's own clients hold is not lent, and what is lent
+ * is not given to them; a unit given back lets them go on. */
+static void test_reservation_and_own_clients_exclude_each_other(void)
+{
+	uint8_t a, b, c;
+
+	lender_on();
+	/* the own pool busy with node 11 on one channel */
+	own_read(11, 1);
+	TEST_ASSERT_EQUAL(1, own_requests_to(11));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_ROUTE_BUSY, reserve(11, &c));
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(5, &a));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, reserve(6, &c));
+	/* an own request meets no channel (the idle one is reserved) nor the
+	 * reserved node */
+	own_read(12, 2);
+	own_read(5, 3);
+	TEST_ASSERT_EQUAL(0, own_requests_to(12));
+	TEST_ASSERT_EQUAL(0, own_requests_to(5));
+	/* the lease is bound on exactly the reserved channel */
+	TEST_ASSERT_EQUAL(-EINVAL,
+			  sdo_client_lease_channel(lender->node, a, 5, NULL, NULL, bus_b.now));
+	TEST_ASSERT_EQUAL(a,
+			  sdo_client_lease_channel(lender->node, a, 5, tgt_raw, NULL, bus_b.now));
+	/* node 11 times out: its channel is back, node 12 takes it */
+	tb_advance(&bus_b, 500000);
+	TEST_ASSERT_EQUAL(1, own_requests_to(12));
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, reserve(6, &c));
+	/* the lease ends (the node first, as gw_relay does): node 5 goes */
+	gw_lend_node_free(&board, 5);
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_end(lender->node, a, bus_b.now));
+	TEST_ASSERT_EQUAL(1, own_requests_to(5));
+	tb_advance(&bus_b, 500000); /* both time out: nothing held any more */
+	tb_advance(&bus_b, 100000); /* their servers settle */
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(11, &b));
+	TEST_ASSERT_EQUAL_HEX32(0, reserve(5, &c));
+	TEST_ASSERT_TRUE(b != c);
 }
 
 int main(void)
@@ -579,6 +820,11 @@ int main(void)
 	RUN_TEST(test_timeouts);
 	RUN_TEST(test_requester_vanishing_in_a_block_download_releases_both);
 	RUN_TEST(test_protocol_errors_and_aborts);
+	RUN_TEST(test_lease_lost_after_the_confirmation);
 	RUN_TEST(test_target_line_lost_mid_transfer);
+	RUN_TEST(test_reservation_refusals_keep_their_codes);
+	RUN_TEST(test_reservation_and_own_clients_exclude_each_other);
+	RUN_TEST(test_lease_ended_well_is_handed_over_once);
+	RUN_TEST(test_kept_lease_moves_to_the_next_node);
 	return UNITY_END();
 }

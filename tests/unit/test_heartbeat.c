@@ -128,6 +128,10 @@ static void test_consumer_start_loss_1029_emcy(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(x.node));
 	TEST_ASSERT_EQUAL_INT(CO_HB_MON_LOST, co_hb_consumer_status(x.node, 7));
 	TEST_ASSERT_EQUAL_UINT(1, co_hb_lost_count(x.node));
+	uint64_t lost[2];
+	co_hb_lost_nodes(x.node, lost);
+	TEST_ASSERT_EQUAL_HEX64(1ull << 7, lost[0]);
+	TEST_ASSERT_EQUAL_HEX64(0, lost[1]);
 	/* Reported once. */
 	ecf_advance(&x, 9000 * MS);
 	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&x, CO_EV_HB_LOST));
@@ -137,6 +141,8 @@ static void test_consumer_start_loss_1029_emcy(void)
 	ecf_rx1(&x, 0x707, 0x05);
 	TEST_ASSERT_EQUAL_UINT(1, ecf_ev_count(&x, CO_EV_HB_STARTED));
 	TEST_ASSERT_EQUAL_UINT(0, co_hb_lost_count(x.node));
+	co_hb_lost_nodes(x.node, lost);
+	TEST_ASSERT_EQUAL_HEX64(0, lost[0] | lost[1]);
 	const uint8_t reset[8] = { 0, 0, 0, 0, 0, 0, 0, 0 };
 	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
 	TEST_ASSERT_EQUAL_HEX8_ARRAY(reset, x.tx[0].data, 8);

@@ -501,6 +501,146 @@ static void test_relayed_timeout_and_cancel_end_through_the_relay(void)
 	TEST_ASSERT_EQUAL(0, tb_count_from_id(&bus, 0, 0x606, 0));
 }
 
+/* ---- the gate: a second user lends channels and reserves servers ---- */
+
+/* What the gate would hold for another thread, and what the core asked. */
+static struct {
+	bool lent[4];       /* channel lent elsewhere (reserved or leased) */
+	bool own_ch[4];     /* channel the node's own requests took */
+	bool reserved[128]; /* server reserved elsewhere */
+	bool own_srv[128];  /* server the node's own transfers took */
+} g;
+
+static bool test_gate(void *ctx, sdo_client_gate_op op, uint8_t arg)
+{
+	TEST_ASSERT_EQUAL_PTR(&g, ctx);
+	switch (op) {
+	case SDO_CLIENT_GATE_TAKE_CHANNEL:
+		TEST_ASSERT_FALSE_MESSAGE(g.own_ch[arg], "a channel taken twice");
+		if (g.lent[arg])
+			return false;
+		g.own_ch[arg] = true;
+		return true;
+	case SDO_CLIENT_GATE_FREE_CHANNEL:
+		g.own_ch[arg] = g.lent[arg] = false; /* back on the board */
+		return true;
+	case SDO_CLIENT_GATE_TAKE_SERVER:
+		TEST_ASSERT_FALSE_MESSAGE(g.own_srv[arg], "a server taken twice");
+		if (g.reserved[arg])
+			return false;
+		g.own_srv[arg] = true;
+		return true;
+	case SDO_CLIENT_GATE_FREE_SERVER:
+		TEST_ASSERT_TRUE_MESSAGE(g.own_srv[arg], "a server freed that was not taken");
+		g.own_srv[arg] = false;
+		return true;
+	}
+	return false;
+}
+
+static void gate_on(void)
+{
+	memset(&g, 0, sizeof g);
+	sdo_client_set_gate(cli->node, test_gate, &g);
+}
+
+/* A channel lent elsewhere is not given to the node's own requests; the
+ * lease bound on it uses exactly it, and its end lets the pool go on. */
+static void test_gate_lent_channel_is_not_taken_by_own_requests(void)
+{
+	gate_on();
+	g.lent[0] = true;
+	TEST_ASSERT_EQUAL(0, pool_read(5, 1, false));
+	TEST_ASSERT_EQUAL(1, requests_to(5));
+	TEST_ASSERT_TRUE(g.own_ch[1]); /* node 5 went to the other channel */
+	TEST_ASSERT_TRUE(g.own_srv[5]);
+	/* no channel left for node 6, although channel 0 is idle */
+	TEST_ASSERT_EQUAL(0, pool_read(6, 2, false));
+	TEST_ASSERT_EQUAL(0, requests_to(6));
+	TEST_ASSERT_EQUAL(-EBUSY, pool_read(7, 3, true));
+	TEST_ASSERT_EQUAL(1, sdo_client_pool_waiting(cli->node));
+	/* the lease on the lent channel toward a reserved server */
+	g.reserved[9] = true;
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_channel(cli->node, 0, 9, on_raw, &raw, bus.now));
+	TEST_ASSERT_EQUAL(-EBUSY, sdo_client_lease_channel(cli->node, 0, 9, on_raw, &raw, bus.now));
+	TEST_ASSERT_EQUAL(-EBUSY, sdo_client_lease_channel(cli->node, 1, 8, on_raw, &raw, bus.now));
+	/* node 5 answers: its channel goes back to the board, then node 6
+	 * takes it again in the same call */
+	answer(5);
+	TEST_ASSERT_EQUAL(1, seen.n);
+	TEST_ASSERT_EQUAL(1, requests_to(6));
+	TEST_ASSERT_EQUAL_UINT8(1, seen.con[0].channel);
+	TEST_ASSERT_FALSE(g.own_srv[5]);
+	/* the lease ends: channel 0 is back on the board */
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_end(cli->node, 0, bus.now));
+	TEST_ASSERT_FALSE(g.lent[0]);
+	TEST_ASSERT_FALSE(g.own_ch[0]);
+	answer(6);
+	TEST_ASSERT_EQUAL(2, seen.n);
+	TEST_ASSERT_FALSE(g.own_ch[1]);
+	TEST_ASSERT_FALSE(g.own_srv[6]);
+	TEST_ASSERT_EQUAL(0, seen.during_submit);
+}
+
+/* A server reserved elsewhere is busy for the node's own requests (they
+ * wait, no_wait is refused); given back without a word to the node, the
+ * pool takes it up from the tick. */
+static void test_gate_reserved_server_waits_until_given_back(void)
+{
+	gate_on();
+	g.reserved[5] = true;
+	TEST_ASSERT_EQUAL(0, pool_read(5, 1, false));
+	TEST_ASSERT_EQUAL(-EBUSY, pool_read(5, 2, true));
+	TEST_ASSERT_EQUAL(0, pool_read(6, 3, false)); /* not held back */
+	TEST_ASSERT_EQUAL(0, requests_to(5));
+	TEST_ASSERT_EQUAL(1, requests_to(6));
+	TEST_ASSERT_FALSE(g.own_srv[5]);
+	TEST_ASSERT_FALSE(g.own_ch[0] && g.own_ch[1]); /* one channel stays lendable */
+	/* a named channel waits for it too */
+	sdo_client_req named = read_req(5, 4);
+	TEST_ASSERT_EQUAL(0, sdo_client_submit(cli->node, 0, &named, bus.now));
+	TEST_ASSERT_EQUAL(0, requests_to(5));
+	g.reserved[5] = false;
+	tb_advance(&bus, 50000);
+	TEST_ASSERT_EQUAL(0, requests_to(5));
+	tb_advance(&bus, 60000); /* the retry after 100 ms */
+	TEST_ASSERT_EQUAL(1, requests_to(5));
+	TEST_ASSERT_TRUE(g.own_srv[5]);
+	answer(5);
+	answer(6);
+	TEST_ASSERT_EQUAL(2, requests_to(5)); /* the other one for node 5 */
+	answer(5);
+	TEST_ASSERT_EQUAL(3, seen.n);
+	TEST_ASSERT_FALSE(g.own_srv[5]);
+	TEST_ASSERT_FALSE(g.own_ch[0] || g.own_ch[1]);
+}
+
+/* A server whose transfer we ended with our own abort frame stays taken
+ * for 100 ms (its late frames would reach a lease as answers), then the
+ * gate gets it back without any other call. */
+static void test_gate_server_held_while_it_settles(void)
+{
+	gate_on();
+	TEST_ASSERT_EQUAL(0, pool_read(5, 1, false));
+	tb_advance(&bus, 1000); /* ticked: the node waits for the transfer's timeout */
+	TEST_ASSERT_EQUAL_UINT64(bus.now + 499000, co_node_next_deadline_us(cli->node));
+	TEST_ASSERT_EQUAL(0, sdo_client_cancel_tag(cli->node, 1, SDO_AB_GENERAL, bus.now));
+	TEST_ASSERT_EQUAL(1, seen.n);
+	TEST_ASSERT_TRUE(g.own_srv[5]);
+	TEST_ASSERT_FALSE(g.own_ch[0] || g.own_ch[1]); /* the channel is not */
+	/* the node is ticked for it even with nothing else to do */
+	TEST_ASSERT_EQUAL_UINT64(bus.now + 100000, co_node_next_deadline_us(cli->node));
+	tb_advance(&bus, 99000);
+	TEST_ASSERT_TRUE(g.own_srv[5]);
+	tb_advance(&bus, 1000);
+	TEST_ASSERT_FALSE(g.own_srv[5]);
+	/* removing the gate forgets it: the pool is the node's alone again */
+	sdo_client_set_gate(cli->node, NULL, NULL);
+	g.reserved[6] = true;
+	TEST_ASSERT_EQUAL(0, pool_read(6, 2, false));
+	TEST_ASSERT_EQUAL(1, requests_to(6));
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -519,5 +659,8 @@ int main(void)
 	RUN_TEST(test_relayed_frames_go_to_the_relay_not_the_bus);
 	RUN_TEST(test_relayed_target_serialised_apart_from_the_bus);
 	RUN_TEST(test_relayed_timeout_and_cancel_end_through_the_relay);
+	RUN_TEST(test_gate_lent_channel_is_not_taken_by_own_requests);
+	RUN_TEST(test_gate_reserved_server_waits_until_given_back);
+	RUN_TEST(test_gate_server_held_while_it_settles);
 	return UNITY_END();
 }
