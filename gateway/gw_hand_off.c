@@ -12,9 +12,19 @@
 #include "gateway/gw_line.h"
 #include "lines/socketcan.h"
 
-/* quiet: a quiet message sent under `to`'s publication epoch. */
-static int hand_off(struct gw_line *gl, unsigned to, gw_msg *m, bool quiet, uint32_t epoch)
+/* How the message wakes its line: at once; quietly (under `to`'s
+ * publication epoch: gw_send_quiet_to); or right after the caller's next
+ * step (gw_send_across: the frame first, then the wake-up). */
+enum wake {
+	WAKE_NOW,
+	WAKE_QUIET,
+	WAKE_LATER
+};
+
+static int hand_off(struct gw_line *gl, unsigned to, gw_msg *m, enum wake wake, uint32_t epoch)
 {
+	bool quiet = wake == WAKE_QUIET;
+
 	m->from = (uint8_t)gl->idx;
 	if (to == gl->idx) {
 		if (gl->self_len == GW_SELF_SLOTS)
@@ -25,9 +35,10 @@ static int hand_off(struct gw_line *gl, unsigned to, gw_msg *m, bool quiet, uint
 	xring *r = xring_mesh_get(gl->g->mesh, gl->idx, to);
 	bool all_done = quiet && atomic_load_explicit(&gl->g->line[to].done_from[gl->idx],
 						      memory_order_acquire) == gl->pushed_to[to];
-	int rc = !r      ? -EINVAL
-		 : quiet ? xring_push_quiet(r, m, sizeof(*m), GW_QUIET_WAKE_AT)
-			 : xring_push(r, m, sizeof(*m));
+	int rc = !r                   ? -EINVAL
+		 : quiet              ? xring_push_quiet(r, m, sizeof(*m), GW_QUIET_WAKE_AT)
+		 : wake == WAKE_LATER ? xring_push_wake_later(r, m, sizeof(*m))
+				      : xring_push(r, m, sizeof(*m));
 
 	if (rc)
 		return rc;
@@ -64,9 +75,13 @@ int gw_send_across(struct gw_line *gl, unsigned to, gw_msg *m, const co_frame *f
 	m->sent = GW_OWNER_SENDS;
 	if (f && gw_may_send_across(gl, to, *handoff_seq)) {
 		m->sent = GW_SENT_ACROSS;
-		if ((rc = gw_send_to(gl, to, m)))
+		/* the message before the frame, the owner's wake-up after it:
+		 * the frame does not wait for that system call */
+		if ((rc = hand_off(gl, to, m, WAKE_LATER, 0)))
 			return rc;
-		if (can_tx_socket_send(gl->g->line[to].peer_fd[gl->idx], f) == 0) {
+		rc = can_tx_socket_send(gl->g->line[to].peer_fd[gl->idx], f);
+		xring_wake(xring_mesh_get(gl->g->mesh, gl->idx, to));
+		if (rc == 0) {
 			GW_COUNT(gl->c.sdo_across);
 			return 0;
 		}
@@ -114,12 +129,12 @@ bool gw_across_newer(uint32_t *taken, uint32_t seq)
 
 int gw_send_to(struct gw_line *gl, unsigned to, gw_msg *m)
 {
-	return hand_off(gl, to, m, false, 0);
+	return hand_off(gl, to, m, WAKE_NOW, 0);
 }
 
 int gw_send_quiet_to(struct gw_line *gl, unsigned to, gw_msg *m, uint32_t epoch)
 {
-	return hand_off(gl, to, m, true, epoch);
+	return hand_off(gl, to, m, WAKE_QUIET, epoch);
 }
 
 bool gw_may_send_fast(const struct gw_line *gl, unsigned to, uint32_t epoch)

@@ -137,6 +137,20 @@ int xring_push_quiet(xring *r, const void *msg, uint32_t len, uint32_t wake_at)
 	return push(r, msg, len, wake_at ? wake_at : 1);
 }
 
+int xring_push_wake_later(xring *r, const void *msg, uint32_t len)
+{
+	return push(r, msg, len, UINT32_MAX);
+}
+
+void xring_wake(xring *r)
+{
+	if (!r->wake_owed || r->wakefd < 0)
+		return;
+	r->wake_owed = false;
+	add_relaxed(&r->wakes);
+	eventfd_write(r->wakefd, 1);
+}
+
 int xring_pop(xring *r, void *buf, uint32_t cap)
 {
 	/* Dekker with xring_push(): our previous head store before this tail

@@ -70,6 +70,15 @@ int xring_push(xring *r, const void *msg, uint32_t len);
  * may wait until the consumer wakes for something else. */
 int xring_push_quiet(xring *r, const void *msg, uint32_t len, uint32_t wake_at);
 
+/* Producer: as xring_push, but the consumer's wake-up is owed, not done:
+ * xring_wake does it. For a message that announces something the producer
+ * does right after (a frame it sends for the consumer): the wake-up's
+ * system call then does not delay that. */
+int xring_push_wake_later(xring *r, const void *msg, uint32_t len);
+/* Producer: the wake-up owed by xring_push_wake_later (or quiet pushes),
+ * if any. */
+void xring_wake(xring *r);
+
 /* Consumer: take the oldest message into buf (cap >= msg_max). Returns its
  * length, 0 when empty, or -EMSGSIZE if cap is too small (nothing taken). */
 int xring_pop(xring *r, void *buf, uint32_t cap);

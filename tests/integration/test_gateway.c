@@ -1837,7 +1837,10 @@ static void test_forwarding_by_device_object(void)
 	TEST_ASSERT_EQUAL_HEX8_ARRAY(v2, d, 2);
 	/* a frame of a node that is not forwarded leaves vcan1 alone */
 	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x186, v1, 2));
-	TEST_ASSERT_TRUE(can_wait_id(fd1, 0x209, d, 300) < 0);
+	int stray = can_wait_id(fd1, 0x209, d, 300);
+	char why[64];
+	snprintf(why, sizeof why, "a 209h frame came: %d bytes %02X %02X", stray, d[0], d[1]);
+	TEST_ASSERT_TRUE_MESSAGE(stray < 0, why);
 
 	/* cogwctl route shows both ends with what became of the values */
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, ctl_capture("route --json", out, sizeof out), out);

@@ -132,6 +132,28 @@ static void test_quiet_push_and_the_wake_it_owes(void)
 	TEST_ASSERT_EQUAL_UINT64(2, st.wakes);
 }
 
+/* A push whose wake-up comes later: the message is there at once, the
+ * consumer's eventfd is written only by xring_wake, once; a wake with
+ * nothing owed writes nothing. */
+static void test_wake_later_push_wakes_at_xring_wake(void)
+{
+	char buf[8];
+
+	TEST_ASSERT_EQUAL(0, xring_push_wake_later(r, "w", 1));
+	TEST_ASSERT_EQUAL_UINT64(0, wakes());
+	TEST_ASSERT_EQUAL_UINT(1, xring_count(r));
+	xring_wake(r);
+	TEST_ASSERT_EQUAL_UINT64(1, wakes());
+	xring_wake(r);
+	TEST_ASSERT_EQUAL_UINT64(0, wakes());
+	TEST_ASSERT_EQUAL(1, xring_pop(r, buf, sizeof buf));
+	TEST_ASSERT_EQUAL_MEMORY("w", buf, 1);
+	/* owed and not woken: the next ordinary push pays it */
+	TEST_ASSERT_EQUAL(0, xring_push_wake_later(r, "x", 1));
+	TEST_ASSERT_EQUAL(0, xring_push(r, "y", 1));
+	TEST_ASSERT_EQUAL_UINT64(1, wakes());
+}
+
 static void test_closed_ring_refuses_but_drains(void)
 {
 	uint8_t buf[16];
@@ -229,6 +251,7 @@ int main(void)
 	RUN_TEST(test_full_ring_refuses_and_counts);
 	RUN_TEST(test_wake_only_when_it_was_empty);
 	RUN_TEST(test_quiet_push_and_the_wake_it_owes);
+	RUN_TEST(test_wake_later_push_wakes_at_xring_wake);
 	RUN_TEST(test_closed_ring_refuses_but_drains);
 	RUN_TEST(test_counters_wrap_around);
 	RUN_TEST(test_bad_arguments);
