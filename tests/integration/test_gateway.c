@@ -486,13 +486,14 @@ static unsigned collect(int fd, uint32_t id, uint8_t (*d)[8], unsigned max)
 /* A routed expedited read puts on each bus exactly the frames the
  * transfer needs, once each, though another line's thread sent them
  * (docs/gateway.md, frames across interfaces): the upload initiate on
- * vcan2 from line 0, the device's answer on vcan0 from line 2. True when
- * both went across. Either is handed to the other line instead when that
+ * vcan2 from line 0, the device's answer on vcan0 from line 2; *by0 and
+ * *by2 count what each line sent across. Either is handed to the other
+ * line instead when that
  * line is late (the initiate, when line 2 has not yet bound the lease;
  * the answer, when the device answered before line 2 took the request's
  * message): a line busy in a wake-up of its own at that moment. The
  * frames on the buses are the same either way. */
-static bool read_sent_across(void)
+static void read_sent_across(unsigned *by0, unsigned *by2)
 {
 	static const uint8_t init[8] = { 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0 };
 	static const uint8_t value[8] = { 0x43, 0x00, 0x10, 0x00, 0x94, 0x01, 0x04, 0x00 };
@@ -527,16 +528,20 @@ static bool read_sent_across(void)
 	TEST_ASSERT_EQUAL_HEX8_ARRAY(value, on0[1], 8);
 	close(cap0);
 	close(cap2);
-	return e0.sdo_across == s0.sdo_across + 1 && e2.sdo_across == s2.sdo_across + 1;
+	*by0 += (unsigned)(e0.sdo_across - s0.sdo_across);
+	*by2 += (unsigned)(e2.sdo_across - s2.sdo_across);
 }
 
 static void expect_read_sent_across(void)
 {
-	bool across = false;
+	unsigned by0 = 0, by2 = 0;
 
-	for (unsigned i = 0; i < 3 && !across; i++)
-		across = read_sent_across();
-	TEST_ASSERT_TRUE_MESSAGE(across, "no read of 3 sent both frames across");
+	/* each way went across at least once in a few reads (a late line
+	 * hands one frame off now and then, not every time) */
+	for (unsigned i = 0; i < 5 && (!by0 || !by2); i++)
+		read_sent_across(&by0, &by2);
+	TEST_ASSERT_TRUE_MESSAGE(by0 > 0, "line 0 sent no request across in 5 reads");
+	TEST_ASSERT_TRUE_MESSAGE(by2 > 0, "line 2 sent no answer across in 5 reads");
 }
 
 static void test_refusals_and_the_frames_sent_across(void)
