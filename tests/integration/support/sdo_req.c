@@ -10,6 +10,7 @@
 #include <poll.h>
 #include <string.h>
 #include <unistd.h>
+#include <sys/socket.h>
 
 #include "lines/line.h"
 #include "tests/integration/support/proc.h"
@@ -83,11 +84,17 @@ void sdo_req_step(sdo_req *q, int wait_ms)
 
 	if (dl != CO_NO_DEADLINE && dl > t && (dl - t) / 1000u < (uint64_t)wait_ms)
 		wait_ms = (int)((dl - t) / 1000u) + 1;
+	/* Every frame waiting, not one: a socket shared with other traffic
+	 * (another requester's frames and answers on the same bus) would
+	 * otherwise fall behind by a frame at each of that requester's turns,
+	 * until the kernel drops this requester's own answer at the full
+	 * receive queue. */
 	if (poll(&p, 1, wait_ms) > 0) {
 		struct can_frame cf;
-		if (read(q->fd, &cf, sizeof cf) == (ssize_t)sizeof cf &&
-		    !(cf.can_id & (CAN_EFF_FLAG | CAN_RTR_FLAG | CAN_ERR_FLAG))) {
+		while (recv(q->fd, &cf, sizeof cf, MSG_DONTWAIT) == (ssize_t)sizeof cf) {
 			co_frame f;
+			if (cf.can_id & (CAN_EFF_FLAG | CAN_RTR_FLAG | CAN_ERR_FLAG))
+				continue;
 			co_frame_init(&f, cf.can_id, cf.len);
 			memcpy(f.data, cf.data, 8);
 			co_node_recv(q->node, &f, sdo_req_now_us());

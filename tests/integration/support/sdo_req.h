@@ -34,8 +34,8 @@ void sdo_req_fini(sdo_req *q); /* accepts a zeroed or finished one */
  * (another client of the same server) before it starts a transfer. */
 int sdo_req_transfer(sdo_req *q, const sdo_client_req *r, int timeout_ms);
 /* The same in steps, to run several requesters from one thread: submit,
- * then step each (feed at most one waiting frame, waiting up to wait_ms,
- * and run its timers) until q->done. */
+ * then step each (wait up to wait_ms for a frame, feed every frame
+ * waiting, and run its timers) until q->done. */
 int sdo_req_submit(sdo_req *q, const sdo_client_req *r);
 void sdo_req_step(sdo_req *q, int wait_ms);
 /* The CLOCK_MONOTONIC µs the requester runs on. */
