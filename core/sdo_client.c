@@ -1581,6 +1581,17 @@ void sdo_client_set_gate(co_node *node, sdo_client_gate_fn fn, void *ctx)
 	gate_sync(cli);
 }
 
+void sdo_client_gate_kick(co_node *node, uint64_t now_us)
+{
+	struct sdo_client *cli = node->sdo_cli;
+
+	if (!cli || !cli->gate)
+		return;
+	node->now_us = now_us;
+	cli->retry_us = CO_NO_DEADLINE;
+	kick_all(cli);
+}
+
 unsigned sdo_client_pool_waiting(const co_node *node)
 {
 	return node->sdo_cli ? node->sdo_cli->pool_len : 0;

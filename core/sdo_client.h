@@ -219,6 +219,10 @@ typedef enum sdo_client_gate_op {
 typedef bool (*sdo_client_gate_fn)(void *ctx, sdo_client_gate_op op, uint8_t arg);
 /* Install (fn NULL: remove) the gate. */
 void sdo_client_set_gate(co_node *node, sdo_client_gate_fn fn, void *ctx);
+/* The gate's owner freed a server or a channel outside the core's calls
+ * (after sdo_client_lease_end, say): the requests it refused are tried
+ * now, not at the next retry. */
+void sdo_client_gate_kick(co_node *node, uint64_t now_us);
 
 /* Lease the given channel, which the gate lent out (it is idle and the
  * node's own requests do not hold it), toward node_id's server, which the

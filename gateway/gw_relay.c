@@ -39,7 +39,7 @@ static void relay_open_pending(struct gw_relay *r, uint64_t now_us)
 }
 
 /* The channel back to the pool; the node's reservation is the caller's
- * (freed before, so that the pool's requests waiting for it start). */
+ * (freed after it, then sdo_client_gate_kick: gw_lend_node_free). */
 static void relay_unbind(struct gw_relay *r, uint64_t now_us)
 {
 	sdo_client_lease_end(r->gl->node, (uint8_t)r->cli_ch, now_us);
@@ -50,14 +50,17 @@ static void relay_unbind(struct gw_relay *r, uint64_t now_us)
 	relay_open_pending(r, now_us);
 }
 
+/* The channel first, then the node (gw_lend_node_free). */
 static void relay_free(struct gw_relay *r, uint64_t now_us)
 {
+	struct gw_line *gl = r->gl;
+	uint8_t node = r->node;
+
 	if (!r->used)
 		return;
-	/* the node first: the pool's requests waiting for it start at the
-	 * lease's end */
-	gw_lend_node_free(&r->gl->lend, r->node);
 	relay_unbind(r, now_us);
+	gw_lend_node_free(&gl->lend, node);
+	sdo_client_gate_kick(gl->node, now_us);
 }
 
 void gw_relay_request_frame(co_frame *f, uint8_t node, const uint8_t d[8])
@@ -335,8 +338,28 @@ static struct gw_relay *closing_for(struct gw_line *gl, const gw_msg *m)
 	return NULL;
 }
 
+/* The lease bound on r's slot (channel r->cli_ch, now toward node) is
+ * kept for line taker's M_OPEN (parked_for), and that M_OPEN carried out
+ * if it came first. */
+static void relay_keep(struct gw_relay *r, uint8_t node, uint8_t taker, uint64_t now_us)
+{
+	gw_msg pending = r->pending;
+	bool has_pending = r->has_pending;
+
+	*r = (struct gw_relay){ .used = true,
+				.parked = true,
+				.from = taker,
+				.node = node,
+				.cli_ch = r->cli_ch,
+				.last_us = now_us,
+				.has_pending = has_pending,
+				.pending = pending,
+				.gl = r->gl };
+	relay_open_pending(r, now_us);
+}
+
 /* A lease that ended well, taken by its requester's line for the next
- * transfer (gw_lend_end_offered said so, and freed the old node if the
+ * transfer (gw_lend_hand_over said so, and freed the old node if the
  * next one differs: the pool's requests waiting for it start at the
  * move): kept bound, moved to that transfer's node, for the M_OPEN behind
  * this M_CLOSE. If it cannot be moved, the channel goes back and that
@@ -345,26 +368,38 @@ static struct gw_relay *closing_for(struct gw_line *gl, const gw_msg *m)
 static void relay_park(struct gw_relay *r, uint8_t next_node, uint8_t taker, uint64_t now_us)
 {
 	struct gw_line *gl = r->gl;
-	gw_msg pending = r->pending;
-	bool has_pending = r->has_pending;
 
-	if (next_node != r->node) {
-		if (sdo_client_lease_move(gl->node, (uint8_t)r->cli_ch, next_node, now_us) < 0) {
-			relay_unbind(r, now_us);
+	if (next_node != r->node &&
+	    sdo_client_lease_move(gl->node, (uint8_t)r->cli_ch, next_node, now_us) < 0) {
+		relay_unbind(r, now_us);
+		return;
+	}
+	relay_keep(r, next_node, taker, now_us);
+}
+
+/* A lease nobody took (yet) ends: the channel back first, then the node
+ * freed and the offer withdrawn in one step (gw_lend_end_offered), so
+ * that a transfer toward the node that finds it free finds the channel
+ * free as well. One that took the offer in between gets the channel bound
+ * again, kept for its M_OPEN as if it had come first; if something else
+ * took the channel meanwhile, that M_OPEN finds nothing and refuses. */
+static void relay_end_offered(struct gw_relay *r, uint64_t now_us)
+{
+	struct gw_line *gl = r->gl;
+	uint8_t from = r->from, node = r->node, ch = (uint8_t)r->cli_ch, taker = 0, next;
+
+	relay_unbind(r, now_us);
+	next = gw_lend_end_offered(&gl->lend, from, node, ch, &taker);
+	if (next && gw_lend_claim_channel(&gl->lend, ch)) {
+		if (sdo_client_lease_channel(gl->node, ch, next, relay_rx, r, now_us) >= 0) {
+			relay_keep(r, next, taker, now_us);
 			return;
 		}
-		r->node = next_node; /* claimed by the requester's line */
+		gw_lend_give_back(&gl->lend, ch, 0);
 	}
-	*r = (struct gw_relay){ .used = true,
-				.parked = true,
-				.from = taker,
-				.node = r->node,
-				.cli_ch = r->cli_ch,
-				.last_us = now_us,
-				.has_pending = has_pending,
-				.pending = pending,
-				.gl = gl };
-	relay_open_pending(r, now_us);
+	if (next == node)
+		gw_lend_node_free(&gl->lend, node); /* a node it claimed it gives back */
+	sdo_client_gate_kick(gl->node, now_us);
 }
 
 /* Bind the lease reserved for m->sid. The reservation was decided on what
@@ -473,13 +508,11 @@ void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 		relay_open_pending(r, now_us); /* nothing to take over */
 		return;
 	}
-	/* the node freed and its offer withdrawn in one step, or the lease
-	 * kept for the transfer that took it */
-	next_node = gw_lend_end_offered(&gl->lend, r->from, r->node, (uint8_t)r->cli_ch, &taker);
+	next_node = gw_lend_hand_over(&gl->lend, r->from, r->node, (uint8_t)r->cli_ch, &taker);
 	if (next_node)
 		relay_park(r, next_node, taker, now_us);
 	else
-		relay_unbind(r, now_us);
+		relay_end_offered(r, now_us);
 }
 
 uint64_t gw_relays_tick(struct gw_line *gl, uint64_t now_us, uint64_t next)

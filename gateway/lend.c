@@ -145,27 +145,44 @@ bool gw_lend_claim_node(gw_lend *b, uint8_t node)
 	return node_swap(b, node, 0, NODE_HELD);
 }
 
-uint8_t gw_lend_end_offered(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, uint8_t *taker)
+uint8_t gw_lend_hand_over(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, uint8_t *taker)
 {
 	for (;;) {
 		uint32_t w = atomic_load_explicit(node_word(b, node), memory_order_acquire);
 
+		if ((w & NODE_STATE) != NODE_TAKEN || offerer_of(w) != from || channel_of(w) != ch)
+			return 0;
+		/* its line may still make it an offer again (gw_lend_untake):
+		 * hence the swap */
+		if (node_swap(b, node, w, next_of(w) == node ? NODE_HELD : 0)) {
+			*taker = taker_of(w);
+			return next_of(w);
+		}
+	}
+}
+
+uint8_t gw_lend_end_offered(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, uint8_t *taker)
+{
+	for (;;) {
+		uint32_t w = atomic_load_explicit(node_word(b, node), memory_order_acquire);
+		uint8_t next;
+
 		if (w == offered(from, ch)) {
 			if (node_swap(b, node, w, 0))
 				return 0; /* nobody took it: freed with the offer */
-		} else if ((w & NODE_STATE) == NODE_TAKEN && offerer_of(w) == from &&
-			   channel_of(w) == ch) {
-			/* kept for that transfer (its line may still make it an
-			 * offer again: hence the swap) */
-			if (node_swap(b, node, w, next_of(w) == node ? NODE_HELD : 0)) {
-				*taker = taker_of(w);
-				return next_of(w);
-			}
+		} else if (w == taken(from, ch, next_of(w), taker_of(w))) {
+			if ((next = gw_lend_hand_over(b, from, node, ch, taker)))
+				return next; /* else made an offer again meanwhile */
 		} else {
 			node_put(b, node, 0); /* not offered by this lease */
 			return 0;
 		}
 	}
+}
+
+bool gw_lend_claim_channel(gw_lend *b, uint8_t ch)
+{
+	return claim_clear(b->free_ch, ch);
 }
 
 static uint32_t reserve_channel(gw_lend *b, uint8_t *channel)

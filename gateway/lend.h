@@ -54,17 +54,28 @@ bool gw_lend_is_silent(const gw_lend *b, uint8_t node);
 /* The gate of the owner's SDO client pool (sdo_client_set_gate, ctx = b). */
 bool gw_lend_gate(void *ctx, sdo_client_gate_op op, uint8_t arg);
 
-/* The lease bound on a reservation for node ended: the node is free again
- * (its channel comes back through the gate). Before sdo_client_lease_end,
- * so that the pool's requests waiting for that node start in it. */
+/* The lease bound on a reservation for node ended: the node is free again.
+ * After sdo_client_lease_end has given the channel back through the gate
+ * (a transfer toward the node that finds it free finds the channel free
+ * as well), then sdo_client_gate_kick: the pool's requests waiting for
+ * that node start. */
 void gw_lend_node_free(gw_lend *b, uint8_t node);
-/* The end of line `from`'s lease (channel ch, node) (its M_CLOSE): in
- * one step, the node freed if an offer still stands or none was made (0),
- * or the node the transfer that took it goes to, *taker its line (the
- * lease is kept for its M_OPEN: node stays held, or is freed if that
- * node differs). */
+/* Line `from`'s lease (channel ch, node) reaches its M_CLOSE: if the
+ * next transfer took it (gw_lend_reserve, gw_lend_take_offer), it is kept
+ * for that transfer: the node that transfer goes to, *taker its line (the
+ * node stays held, or is freed if that node differs). 0: not taken,
+ * nothing changed. */
+uint8_t gw_lend_hand_over(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, uint8_t *taker);
+/* The end of that lease once its channel is back (through the gate), in
+ * one step: the node freed if an offer still stands or none was made
+ * (0), or, taken meanwhile, as gw_lend_hand_over. The channel first: a
+ * transfer toward the node that finds it free finds the channel free as
+ * well; one that takes the offer in between gets the channel back
+ * (gw_lend_claim_channel) bound to its lease. */
 uint8_t gw_lend_end_offered(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, uint8_t *taker);
-
+/* Take channel ch back from the free ones for such a lease: false when
+ * something else took it (the owner's pool, another reservation). */
+bool gw_lend_claim_channel(gw_lend *b, uint8_t ch);
 /* ---- any line ---- */
 /* Reserve a channel and node `node` of the owner for one lease of line
  * `from`. 0 and *channel, or the refusal, in this order: GW_AB_NO_ANSWER

@@ -16,6 +16,7 @@
 
 #include "core/co.h"
 #include "core/sdo_client.h"
+#include "gateway/gw_line.h"
 #include "gateway/lend.h"
 #include "gateway/sdo_route.h"
 #include "tests/unit/support/test_bus.h"
@@ -797,15 +798,140 @@ static void test_reservation_and_own_clients_exclude_each_other(void)
 	tb_advance(&bus_b, 500000);
 	TEST_ASSERT_EQUAL(1, own_requests_to(12));
 	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, reserve(6, &c));
-	/* the lease ends (the node first, as gw_relay does): node 5 goes */
-	gw_lend_node_free(&board, 5);
+	/* the lease ends (the channel first, then the node, as gw_relay
+	 * does): node 5 goes at once */
 	TEST_ASSERT_EQUAL(0, sdo_client_lease_end(lender->node, a, bus_b.now));
+	TEST_ASSERT_EQUAL(0, own_requests_to(5));
+	gw_lend_node_free(&board, 5);
+	sdo_client_gate_kick(lender->node, bus_b.now);
 	TEST_ASSERT_EQUAL(1, own_requests_to(5));
 	tb_advance(&bus_b, 500000); /* both time out: nothing held any more */
 	tb_advance(&bus_b, 100000); /* their servers settle */
 	TEST_ASSERT_EQUAL_HEX32(0, reserve(11, &b));
 	TEST_ASSERT_EQUAL_HEX32(0, reserve(5, &c));
 	TEST_ASSERT_TRUE(b != c);
+}
+
+/* ---- the target line's end of a lease (gateway/gw_relay.c) ---- */
+
+static gw tgw; /* of which line 2, the target, is used: its leases send nothing here */
+static struct gw_line *tl;
+/* Another line's reservation toward race_node, made inside the owner's
+ * end of a lease just before the channel comes back to the board: the
+ * moment two threads meet at. */
+static uint8_t race_node, race_ch;
+static uint32_t race_refuse;
+static bool race_taken;
+
+static bool racing_gate(void *ctx, sdo_client_gate_op op, uint8_t arg)
+{
+	if (op == SDO_CLIENT_GATE_FREE_CHANNEL && race_node) {
+		race_refuse = gw_lend_reserve(ctx, 1, race_node, &race_ch, &race_taken);
+		race_node = 0;
+	}
+	return gw_lend_gate(ctx, op, arg);
+}
+
+static void target_line_on(void)
+{
+	lender_on();
+	memset(&tgw, 0, sizeof tgw);
+	tl = &tgw.line[2];
+	tl->g = &tgw;
+	tl->idx = 2;
+	tl->node = lender->node;
+	tl->carried = true;
+	tl->p.sdo_timeout_ms = 500;
+	gw_lend_init(&tl->lend);
+	gw_lend_set_carries(&tl->lend, true);
+	sdo_client_set_gate(lender->node, racing_gate, &tl->lend);
+}
+
+static gw_msg open_msg(uint8_t from, uint32_t sid, uint8_t node, uint8_t ch, bool inherits)
+{
+	return (gw_msg){ .kind = M_OPEN,
+			 .from = from,
+			 .sid = sid,
+			 .node = node,
+			 .channel = ch,
+			 .inherits = inherits };
+}
+
+/* Line 0's lease toward node, bound by its M_OPEN: its channel. */
+static uint8_t bound_lease(uint32_t sid, uint8_t node)
+{
+	uint8_t ch;
+	bool taken;
+	gw_msg m;
+
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&tl->lend, 0, node, &ch, &taken));
+	m = open_msg(0, sid, node, ch, false);
+	gw_relay_open(tl, &m, bus_b.now);
+	return ch;
+}
+
+static const struct gw_relay *relay_of(uint8_t from, uint32_t sid)
+{
+	for (unsigned i = 0; i < GW_RELAYS_MAX; i++)
+		if (tl->relay[i].used && !tl->relay[i].parked && tl->relay[i].from == from &&
+		    tl->relay[i].sid == sid)
+			return &tl->relay[i];
+	return NULL;
+}
+
+static void close_well(uint32_t sid, uint8_t node, uint8_t ch)
+{
+	gw_msg m = { .kind = M_CLOSE, .from = 0, .sid = sid };
+
+	gw_lend_offer(&tl->lend, 0, node, ch);
+	gw_relay_close(tl, &m, bus_b.now);
+}
+
+/* Every channel lent, a lease ending well: a transfer toward its node that
+ * comes while the owner ends it finds the lease (taken over, bound again
+ * for it) or the node and the channel both free, never the node free and
+ * no channel ("no free client" for a channel a moment from free). */
+static void test_lease_nobody_took_ends_channel_first(void)
+{
+	uint8_t a, b, c;
+	bool taken;
+	gw_msg m;
+	size_t sent;
+
+	target_line_on();
+	a = bound_lease(0x00000001, 5);
+	b = bound_lease(0x00010001, 6);
+	TEST_ASSERT_TRUE(a != b && relay_of(0, 0x00010001));
+	/* line 1's transfer toward node 6 while the owner ends line 0's
+	 * lease: it takes it, and its M_OPEN finds it bound */
+	race_node = 6;
+	close_well(0x00010001, 6, b);
+	TEST_ASSERT_EQUAL_HEX32(0, race_refuse);
+	TEST_ASSERT_TRUE(race_taken);
+	TEST_ASSERT_EQUAL(b, race_ch);
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_CLIENT, gw_lend_reserve(&tl->lend, 0, 7, &c, &taken));
+	m = open_msg(1, 0x01000001, 6, b, true);
+	gw_relay_open(tl, &m, bus_b.now);
+	TEST_ASSERT_NOT_NULL(relay_of(1, 0x01000001));
+	TEST_ASSERT_EQUAL(0, sdo_client_lease_send(lender->node, b, (const uint8_t[8]){ 0x40 }));
+	TEST_ASSERT_EQUAL(1, tb_count_from_id(&bus_b, lender->idx, 0x606u, 0));
+	/* nobody takes it: the node and its channel free together, and the
+	 * pool's read waiting for the node starts at once */
+	m = (gw_msg){ .kind = M_CLOSE, .from = 1, .sid = 0x01000001 };
+	gw_relay_close(tl, &m, bus_b.now);
+	b = bound_lease(0x00010002, 6);
+	sent = own_requests_to(6); /* the lease's frame */
+	own_read(6, 1);
+	TEST_ASSERT_EQUAL(sent, own_requests_to(6));
+	close_well(0x00010002, 6, b);
+	TEST_ASSERT_NULL(relay_of(0, 0x00010002));
+	TEST_ASSERT_EQUAL(sent + 1, own_requests_to(6));
+	/* the other lease, ended well, and a reservation right after: both
+	 * free */
+	close_well(0x00000001, 5, a);
+	TEST_ASSERT_EQUAL_HEX32(0, gw_lend_reserve(&tl->lend, 0, 5, &c, &taken));
+	TEST_ASSERT_FALSE(taken);
+	TEST_ASSERT_EQUAL(a, c);
 }
 
 int main(void)
@@ -826,5 +952,6 @@ int main(void)
 	RUN_TEST(test_reservation_and_own_clients_exclude_each_other);
 	RUN_TEST(test_lease_ended_well_is_handed_over_once);
 	RUN_TEST(test_kept_lease_moves_to_the_next_node);
+	RUN_TEST(test_lease_nobody_took_ends_channel_first);
 	return UNITY_END();
 }
