@@ -100,7 +100,9 @@ typedef struct gw_msg {
 	 * reply_id 0: a mailbox hop, whose answers go back as messages */
 	uint32_t reply_id;
 	uint8_t reply_flags;
-	uint8_t channel; /* M_OPEN: the client channel reserved (gw_lend_reserve) */
+	/* M_OPEN: the client channel reserved (gw_lend_reserve); M_TO_TARGET,
+	 * M_CLOSE: the lease's channel, its slot on the target (relay[]) */
+	uint8_t channel;
 	/* M_TO_REQ sent across: its record in the session's gw_across */
 	uint32_t across_seq;
 	/* M_FWD: fast TPDOs of the target (gateway/fast_tpdo.h, bit k) the
@@ -289,7 +291,7 @@ struct gw_line {
 	gw_lend lend;
 	struct gw_sess *sess;
 	uint8_t n_sess;
-	struct gw_relay relay[GW_RELAYS_MAX];
+	struct gw_relay relay[GW_RELAYS_MAX]; /* by client channel */
 	struct gw_mbx_hop hops[GW_HOPS_MAX];
 	/* Messages to this line itself (a hop through a router on its own
 	 * bus), taken after the rings: never handled inside the call that

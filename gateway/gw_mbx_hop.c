@@ -61,6 +61,7 @@ static struct gw_mbx_hop *hop_by_tag(struct gw_line *gl, uint64_t tag)
 static void hop_send(struct gw_mbx_hop *h, gw_msg *m)
 {
 	m->sid = sid_of(h);
+	m->channel = h->lease_ch;
 	if (gw_send_to(h->gl, h->hop.line, m))
 		GW_COUNT(h->gl->c.ring_drops); /* the transfer's timeout ends it */
 }

@@ -189,12 +189,21 @@ static void relays_check_link(struct gw_line *gl, uint64_t now_us, bool forced, 
 		*next = gl->next_link_check_us;
 }
 
-static struct gw_relay *relay_by_sid(struct gw_line *gl, uint8_t from, uint32_t sid)
+/* A lease's slot is its client channel's: each message about it names
+ * the channel (gw_msg.channel), so finding it is one look. */
+static struct gw_relay *relay_slot(struct gw_line *gl, const gw_msg *m)
 {
-	for (unsigned i = 0; i < GW_RELAYS_MAX; i++)
-		if (gl->relay[i].used && !gl->relay[i].orphaned && !gl->relay[i].draining &&
-		    !gl->relay[i].parked && gl->relay[i].from == from && gl->relay[i].sid == sid)
-			return &gl->relay[i];
+	return m->channel < GW_RELAYS_MAX ? &gl->relay[m->channel] : NULL;
+}
+
+/* The lease m (M_TO_TARGET, M_CLOSE) is about, serving its sender's sid. */
+static struct gw_relay *relay_of(struct gw_line *gl, const gw_msg *m)
+{
+	struct gw_relay *r = relay_slot(gl, m);
+
+	if (r && r->used && !r->orphaned && !r->draining && !r->parked && r->from == m->from &&
+	    r->sid == m->sid)
+		return r;
 	return NULL;
 }
 
@@ -293,7 +302,7 @@ uint32_t gw_lease_open(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint
 void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t channel,
 		    bool settled)
 {
-	gw_msg m = { .kind = M_CLOSE, .sid = sid };
+	gw_msg m = { .kind = M_CLOSE, .sid = sid, .channel = channel };
 	unsigned to = hop->line;
 	gw_lend *board = &gl->g->line[to].lend;
 
@@ -316,12 +325,10 @@ void gw_lease_close(struct gw_line *gl, const gw_hop *hop, uint32_t sid, uint8_t
  * (none: the idle limit or a lost link freed it first). */
 static struct gw_relay *parked_for(struct gw_line *gl, const gw_msg *m)
 {
-	for (unsigned i = 0; i < GW_RELAYS_MAX; i++) {
-		struct gw_relay *r = &gl->relay[i];
-		if (r->used && r->parked && r->from == m->from && r->cli_ch == m->channel &&
-		    r->node == m->node)
-			return r;
-	}
+	struct gw_relay *r = relay_slot(gl, m);
+
+	if (r && r->used && r->parked && r->from == m->from && r->node == m->node)
+		return r;
 	return NULL;
 }
 
@@ -329,12 +336,11 @@ static struct gw_relay *parked_for(struct gw_line *gl, const gw_msg *m)
  * offer was made before its M_CLOSE left), or NULL. */
 static struct gw_relay *closing_for(struct gw_line *gl, const gw_msg *m)
 {
-	for (unsigned i = 0; i < GW_RELAYS_MAX; i++) {
-		struct gw_relay *r = &gl->relay[i];
-		if (r->used && !r->parked && !r->orphaned && !r->draining && !r->has_pending &&
-		    r->from != m->from && r->cli_ch == m->channel)
-			return r;
-	}
+	struct gw_relay *r = relay_slot(gl, m);
+
+	if (r && r->used && !r->parked && !r->orphaned && !r->draining && !r->has_pending &&
+	    r->from != m->from)
+		return r;
 	return NULL;
 }
 
@@ -422,13 +428,8 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 			r->has_pending = true;
 			return;
 		}
-	} else {
-		/* a free slot is always there: a slot holds a leased channel,
-		 * and a line has at most GW_RELAYS_MAX channels
-		 * (docs/config.md) */
-		for (unsigned i = 0; i < GW_RELAYS_MAX && !r; i++)
-			if (!gl->relay[i].used)
-				r = &gl->relay[i];
+	} else if ((r = relay_slot(gl, m)) && r->used) {
+		r = NULL; /* the board and the leases disagree: refused */
 	}
 	if (!gl->carried || (r && r->orphaned) || gw_lend_is_silent(&gl->lend, m->node))
 		lost.abort = GW_AB_NO_ANSWER;
@@ -465,7 +466,7 @@ void gw_relay_open(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 
 void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
-	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid);
+	struct gw_relay *r = relay_of(gl, m);
 	uint8_t cs = m->d[0] >> 5;
 
 	if (!r)
@@ -497,7 +498,7 @@ void gw_relay_to_target(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 
 void gw_relay_close(struct gw_line *gl, const gw_msg *m, uint64_t now_us)
 {
-	struct gw_relay *r = relay_by_sid(gl, m->from, m->sid);
+	struct gw_relay *r = relay_of(gl, m);
 	uint8_t next_node, taker = 0;
 
 	if (!r)

@@ -46,7 +46,7 @@ static void s_to_requester(void *ctx, const uint8_t d[8])
 static void s_to_target(void *ctx, const uint8_t d[8])
 {
 	struct gw_sess *s = ctx;
-	gw_msg m = { .kind = M_TO_TARGET, .sid = sid_of(s) };
+	gw_msg m = { .kind = M_TO_TARGET, .sid = sid_of(s), .channel = s->lease_ch };
 	co_frame f;
 
 	s->target_aborted = (d[0] >> 5) == SDO_CCS_ABORT;

@@ -881,7 +881,7 @@ static const struct gw_relay *relay_of(uint8_t from, uint32_t sid)
 
 static void close_well(uint32_t sid, uint8_t node, uint8_t ch)
 {
-	gw_msg m = { .kind = M_CLOSE, .from = 0, .sid = sid };
+	gw_msg m = { .kind = M_CLOSE, .from = 0, .sid = sid, .channel = ch };
 
 	gw_lend_offer(&tl->lend, 0, node, ch);
 	gw_relay_close(tl, &m, bus_b.now);
@@ -917,7 +917,7 @@ static void test_lease_nobody_took_ends_channel_first(void)
 	TEST_ASSERT_EQUAL(1, tb_count_from_id(&bus_b, lender->idx, 0x606u, 0));
 	/* nobody takes it: the node and its channel free together, and the
 	 * pool's read waiting for the node starts at once */
-	m = (gw_msg){ .kind = M_CLOSE, .from = 1, .sid = 0x01000001 };
+	m = (gw_msg){ .kind = M_CLOSE, .from = 1, .sid = 0x01000001, .channel = b };
 	gw_relay_close(tl, &m, bus_b.now);
 	b = bound_lease(0x00010002, 6);
 	sent = own_requests_to(6); /* the lease's frame */
