@@ -10,7 +10,8 @@
  * the update (CO_EV_OBJECT_UPDATED) and gives the value to the device's
  * RPDO the mirror produces - the frame leaves at once when every object of
  * that RPDO has a value, like a client's write by PDO but without the
- * update time: forwarding is not coalesced beyond what the image does.
+ * update time: forwarding is not coalesced beyond what the image does (the
+ * updates of one source frame come in one wake-up, docs/gateway.md).
  */
 #include <string.h>
 

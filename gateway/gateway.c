@@ -287,6 +287,7 @@ static uint64_t ext_poll(void *ctx, line *l, uint64_t now_us)
 	if (gl->next_rebuild_us < next)
 		next = gl->next_rebuild_us;
 	gw_fast_poll(gl);
+	gw_wake_owed(gl);
 	/* sent to itself during this look: the line looks again at once */
 	return gl->self_len ? now_us : next;
 }

@@ -137,6 +137,22 @@ int gw_send_quiet_to(struct gw_line *gl, unsigned to, gw_msg *m, uint32_t epoch)
 	return hand_off(gl, to, m, WAKE_QUIET, epoch);
 }
 
+int gw_send_by_loop_end(struct gw_line *gl, unsigned to, gw_msg *m)
+{
+	int rc = hand_off(gl, to, m, to == gl->idx ? WAKE_NOW : WAKE_LATER, 0);
+
+	if (!rc && to != gl->idx)
+		gl->owed_wake |= UINT32_C(1) << to;
+	return rc;
+}
+
+void gw_wake_owed(struct gw_line *gl)
+{
+	for (uint32_t owed = gl->owed_wake; owed; owed &= owed - 1)
+		xring_wake(xring_mesh_get(gl->g->mesh, gl->idx, (unsigned)__builtin_ctz(owed)));
+	gl->owed_wake = 0;
+}
+
 bool gw_may_send_fast(const struct gw_line *gl, unsigned to, uint32_t epoch)
 {
 	uint64_t done = atomic_load_explicit(&gl->g->line[to].done_from[gl->idx],

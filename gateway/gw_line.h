@@ -272,6 +272,7 @@ struct gw_line {
 	 * messages it has not done yet were sent under (gw_may_send_fast). */
 	uint64_t woken_mark[GW_LINES_MAX];
 	uint32_t quiet_epoch[GW_LINES_MAX];
+	uint32_t owed_wake; /* lines to wake at this iteration's end (bit i) */
 	bool fwd_dirty;
 	uint64_t next_rebuild_us;
 	uint64_t next_link_check_us;
@@ -319,6 +320,14 @@ int gw_send_to(struct gw_line *gl, unsigned to, gw_msg *m);
  * and that nothing on `to` waits for (gw_fast_quiet_ok), sent under
  * `to`'s publication `epoch` (gw_may_send_fast). */
 int gw_send_quiet_to(struct gw_line *gl, unsigned to, gw_msg *m, uint32_t epoch);
+/* gw_send_to whose wake-up of `to` waits for the end of this loop
+ * iteration (gw_wake_owed, from the line's poll): the updates of one
+ * received frame - every object of an RPDO, every forward of a device's
+ * TPDO - reach `to` in one wake-up, so it acts on them together (one
+ * device RPDO for a frame, not one per object), and `to` is woken once
+ * for them, not once per object. */
+int gw_send_by_loop_end(struct gw_line *gl, unsigned to, gw_msg *m);
+void gw_wake_owed(struct gw_line *gl);
 /* May this line send a TPDO of line `to` itself now (`epoch`: to's
  * gw_fast_epoch, read before anything else of its publication)? Only
  * when `to` has done every message of ours that it was woken for, and

@@ -26,7 +26,9 @@ static int fast_send(void *ctx, const co_frame *f)
  * on j acts on the value, j is not woken for it: it applies the value at
  * its next wake-up, before anything else it does then (its timers, a
  * request, a frame), so nobody sees the difference but j's thread, which
- * sleeps through it. 0 or the hand-off's -errno. */
+ * sleeps through it. Else j is woken at the end of this loop iteration,
+ * with the other updates of the same frame (gw_send_by_loop_end). 0 or
+ * the hand-off's -errno. */
 static int forward_to(struct gw_line *gl, unsigned j, gw_msg *m, uint64_t now_us)
 {
 	struct gw_line *tl = &gl->g->line[j];
@@ -57,7 +59,7 @@ static int forward_to(struct gw_line *gl, unsigned j, gw_msg *m, uint64_t now_us
 	}
 	for (uint32_t k = m->fast_sent; k; k &= k - 1)
 		GW_COUNT(gl->c.pdo_fast);
-	rc = quiet ? gw_send_quiet_to(gl, j, m, epoch) : gw_send_to(gl, j, m);
+	rc = quiet ? gw_send_quiet_to(gl, j, m, epoch) : gw_send_by_loop_end(gl, j, m);
 	if (rc)
 		gw_fast_undo_hold(&tl->fast, m->fast_held);
 	return rc;
