@@ -403,8 +403,10 @@ static void relay_end_offered(struct gw_relay *r, uint64_t now_us)
 		}
 		gw_lend_give_back(&gl->lend, ch, 0);
 	}
+	/* the same node stays held for the taker, whose M_OPEN finds nothing
+	 * and does not free it; another node it claimed it gives back itself */
 	if (next == node)
-		gw_lend_node_free(&gl->lend, node); /* a node it claimed it gives back */
+		gw_lend_node_free(&gl->lend, node);
 	sdo_client_gate_kick(gl->node, now_us);
 }
 
