@@ -1585,7 +1585,8 @@ void sdo_client_gate_kick(co_node *node, uint64_t now_us)
 {
 	struct sdo_client *cli = node->sdo_cli;
 
-	if (!cli || !cli->gate)
+	/* nothing refused waits for a retry: the lease's end kicked the rest */
+	if (!cli || !cli->gate || cli->retry_us == CO_NO_DEADLINE)
 		return;
 	node->now_us = now_us;
 	cli->retry_us = CO_NO_DEADLINE;

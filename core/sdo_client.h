@@ -221,7 +221,7 @@ typedef bool (*sdo_client_gate_fn)(void *ctx, sdo_client_gate_op op, uint8_t arg
 void sdo_client_set_gate(co_node *node, sdo_client_gate_fn fn, void *ctx);
 /* The gate's owner freed a server or a channel outside the core's calls
  * (after sdo_client_lease_end, say): the requests it refused are tried
- * now, not at the next retry. */
+ * now, not at the next retry. Nothing is done when none waits. */
 void sdo_client_gate_kick(co_node *node, uint64_t now_us);
 
 /* Lease the given channel, which the gate lent out (it is idle and the

@@ -139,7 +139,7 @@ int gw_send_quiet_to(struct gw_line *gl, unsigned to, gw_msg *m, uint32_t epoch)
 
 int gw_send_by_loop_end(struct gw_line *gl, unsigned to, gw_msg *m)
 {
-	int rc = hand_off(gl, to, m, to == gl->idx ? WAKE_NOW : WAKE_LATER, 0);
+	int rc = hand_off(gl, to, m, WAKE_LATER, 0); /* to itself: its own queue */
 
 	if (!rc && to != gl->idx)
 		gl->owed_wake |= UINT32_C(1) << to;

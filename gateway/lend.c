@@ -71,6 +71,12 @@ static uint8_t next_of(uint32_t w)
 	return (uint8_t)(w & 0x7Fu);
 }
 
+/* w is line `from`'s lease on channel ch, taken by a next transfer. */
+static bool taken_from(uint32_t w, uint8_t from, uint8_t ch)
+{
+	return (w & NODE_STATE) == NODE_TAKEN && offerer_of(w) == from && channel_of(w) == ch;
+}
+
 static _Atomic uint32_t *node_word(gw_lend *b, uint8_t node)
 {
 	return &b->node[node & 0x7Fu];
@@ -150,7 +156,7 @@ uint8_t gw_lend_hand_over(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, ui
 	for (;;) {
 		uint32_t w = atomic_load_explicit(node_word(b, node), memory_order_acquire);
 
-		if ((w & NODE_STATE) != NODE_TAKEN || offerer_of(w) != from || channel_of(w) != ch)
+		if (!taken_from(w, from, ch))
 			return 0;
 		/* its line may still make it an offer again (gw_lend_untake):
 		 * hence the swap */
@@ -170,7 +176,7 @@ uint8_t gw_lend_end_offered(gw_lend *b, uint8_t from, uint8_t node, uint8_t ch, 
 		if (w == offered(from, ch)) {
 			if (node_swap(b, node, w, 0))
 				return 0; /* nobody took it: freed with the offer */
-		} else if (w == taken(from, ch, next_of(w), taker_of(w))) {
+		} else if (taken_from(w, from, ch)) {
 			if ((next = gw_lend_hand_over(b, from, node, ch, taker)))
 				return next; /* else made an offer again meanwhile */
 		} else {

@@ -147,6 +147,12 @@ void xring_wake(xring *r)
 	if (!r->wake_owed || r->wakefd < 0)
 		return;
 	r->wake_owed = false;
+	/* Dekker with xring_pop(), as in push(): a consumer that took every
+	 * message (it was awake) has nothing to wake for */
+	atomic_thread_fence(memory_order_seq_cst);
+	if (atomic_load_explicit(&r->head, memory_order_relaxed) ==
+	    atomic_load_explicit(&r->tail, memory_order_relaxed))
+		return;
 	add_relaxed(&r->wakes);
 	eventfd_write(r->wakefd, 1);
 }

@@ -76,7 +76,7 @@ int xring_push_quiet(xring *r, const void *msg, uint32_t len, uint32_t wake_at);
  * system call then does not delay that. */
 int xring_push_wake_later(xring *r, const void *msg, uint32_t len);
 /* Producer: the wake-up owed by xring_push_wake_later (or quiet pushes),
- * if any. */
+ * if any, and only if the consumer has not taken every message already. */
 void xring_wake(xring *r);
 
 /* Consumer: take the oldest message into buf (cap >= msg_max). Returns its

@@ -509,11 +509,13 @@ static struct {
 	bool own_ch[4];     /* channel the node's own requests took */
 	bool reserved[128]; /* server reserved elsewhere */
 	bool own_srv[128];  /* server the node's own transfers took */
+	unsigned calls;     /* of the gate */
 } g;
 
 static bool test_gate(void *ctx, sdo_client_gate_op op, uint8_t arg)
 {
 	TEST_ASSERT_EQUAL_PTR(&g, ctx);
+	g.calls++;
 	switch (op) {
 	case SDO_CLIENT_GATE_TAKE_CHANNEL:
 		TEST_ASSERT_FALSE_MESSAGE(g.own_ch[arg], "a channel taken twice");
@@ -615,6 +617,29 @@ static void test_gate_reserved_server_waits_until_given_back(void)
 	TEST_ASSERT_FALSE(g.own_ch[0] || g.own_ch[1]);
 }
 
+/* The gate's owner frees a server outside the core's calls and says so:
+ * what the gate refused starts at once, not at the retry; with nothing
+ * refused the kick does nothing. */
+static void test_gate_kick_starts_what_was_refused_now(void)
+{
+	unsigned calls;
+
+	gate_on();
+	calls = g.calls;
+	sdo_client_gate_kick(cli->node, bus.now);
+	TEST_ASSERT_EQUAL_UINT(calls, g.calls);
+	g.reserved[5] = true;
+	TEST_ASSERT_EQUAL(0, pool_read(5, 1, false));
+	TEST_ASSERT_EQUAL(0, requests_to(5));
+	g.reserved[5] = false;
+	sdo_client_gate_kick(cli->node, bus.now);
+	TEST_ASSERT_EQUAL(1, requests_to(5));
+	TEST_ASSERT_TRUE(g.own_srv[5]);
+	answer(5);
+	TEST_ASSERT_EQUAL(1, seen.n);
+	TEST_ASSERT_FALSE(g.own_srv[5]);
+}
+
 /* A server whose transfer we ended with our own abort frame stays taken
  * for 100 ms (its late frames would reach a lease as answers), then the
  * gate gets it back without any other call. */
@@ -662,5 +687,6 @@ int main(void)
 	RUN_TEST(test_gate_lent_channel_is_not_taken_by_own_requests);
 	RUN_TEST(test_gate_reserved_server_waits_until_given_back);
 	RUN_TEST(test_gate_server_held_while_it_settles);
+	RUN_TEST(test_gate_kick_starts_what_was_refused_now);
 	return UNITY_END();
 }

@@ -152,6 +152,13 @@ static void test_wake_later_push_wakes_at_xring_wake(void)
 	TEST_ASSERT_EQUAL(0, xring_push_wake_later(r, "x", 1));
 	TEST_ASSERT_EQUAL(0, xring_push(r, "y", 1));
 	TEST_ASSERT_EQUAL_UINT64(1, wakes());
+	TEST_ASSERT_EQUAL(1, xring_pop(r, buf, sizeof buf));
+	TEST_ASSERT_EQUAL(1, xring_pop(r, buf, sizeof buf));
+	/* a consumer that was awake and took it already: nothing to wake */
+	TEST_ASSERT_EQUAL(0, xring_push_wake_later(r, "z", 1));
+	TEST_ASSERT_EQUAL(1, xring_pop(r, buf, sizeof buf));
+	xring_wake(r);
+	TEST_ASSERT_EQUAL_UINT64(0, wakes());
 }
 
 static void test_closed_ring_refuses_but_drains(void)
