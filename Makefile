@@ -8,18 +8,50 @@
 # and a third for what threads share:
 #   build/tsan ThreadSanitizer, the multi-threaded stress tests in tests/tsan/.
 
+# ---- what a packager sets (GNU make conventions; docs/install.md) -------------
+# CC, AR, PKG_CONFIG, CFLAGS, CPPFLAGS, LDFLAGS come from the command line or the
+# environment; the flags the sources need (-std, -I., -D_GNU_SOURCE) are added
+# before them, so a packager's CFLAGS replace only the optimisation and debug flags.
+# WERROR: -Werror in a git checkout (developers, CI), nothing in a release tarball,
+# so that the next compiler's new warnings do not break a distribution's build;
+# `make WERROR=` or `make WERROR=-Werror` decide either way.
+VERSION := $(shell cat VERSION)
 PREFIX  ?= /usr/local
 DESTDIR ?=
 CC      ?= gcc
 ifeq ($(origin CC),default)
 CC      := gcc
 endif
+ifeq ($(origin AR),default)
+AR      := ar
+endif
+PKG_CONFIG ?= pkg-config
+CFLAGS   ?= -O2 -g
+CPPFLAGS ?=
+LDFLAGS  ?=
+WERROR   ?= $(if $(wildcard .git),-Werror)
+
+# GNU directory variables, under PREFIX unless set; the configuration stays in
+# /etc (where the units look for it) unless SYSCONFDIR/sysconfdir say otherwise.
+prefix        ?= $(PREFIX)
+exec_prefix   ?= $(prefix)
+bindir        ?= $(exec_prefix)/bin
+libdir        ?= $(exec_prefix)/lib
+includedir    ?= $(prefix)/include
+datarootdir   ?= $(prefix)/share
+docdir        ?= $(datarootdir)/doc/cogw
+SYSCONFDIR    ?= /etc
+sysconfdir    ?= $(SYSCONFDIR)
+localstatedir ?= /var
+runstatedir   ?= /run
+UNITDIR       ?= $(prefix)/lib/systemd/system
+pkgconfigdir  ?= $(libdir)/pkgconfig
 
 UNITY_SRC ?= .deps/unity/src
 
-WARN    := -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes
+WARN    := -Wall -Wextra $(WERROR) -Wshadow -Wstrict-prototypes
 BASE    := -std=gnu11 $(WARN) -I. -D_GNU_SOURCE -MMD -MP
-REL_CFLAGS := $(BASE) -O2 -g
+REL_CFLAGS := $(BASE) $(CPPFLAGS) $(CFLAGS)
 SAN_CFLAGS := $(BASE) -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all
 SAN_LDFLAGS := -fsanitize=address,undefined
 UNITY_CFLAGS := -I$(UNITY_SRC) -DUNITY_INCLUDE_DOUBLE -DUNITY_SUPPORT_64 -DUNITY_USE_FLUSH_STDOUT
@@ -32,7 +64,7 @@ DEVOBJ_SRC  := $(sort $(wildcard devobj/*.c))
 APPCOMMON_SRC := $(sort $(wildcard apps/common/*.c))
 # Generated at build time, never committed: etc/cogw.json as a C string.
 GEN := build/gen
-APPCOMMON_GEN := $(GEN)/default_config.c $(GEN)/default_files.c
+APPCOMMON_GEN := $(GEN)/default_config.c $(GEN)/default_files.c $(GEN)/version.c
 # files the embedded default configuration names (node configurations)
 DEFAULT_FILES := $(sort $(wildcard etc/*.dcf))
 PROGRAMS    := $(notdir $(patsubst %/main.c,%,$(wildcard apps/*/main.c)))
@@ -70,7 +102,7 @@ SAN_COGW_LIB := $(SAN)/lib/libcogw.a
 REL_COGW_SO := $(REL)/lib/libcogw.so
 REL_LIBS = $(REL_APPCOMMON_LIB) $(REL_DEVOBJ_LIB) $(REL_MANAGER_LIB) $(REL_GATEWAY_LIB) $(REL_LINES_LIB) $(REL_MBXSRV_LIB) $(REL_COGW_LIB) $(REL_CORE_LIB)
 SAN_LIBS = $(SAN_APPCOMMON_LIB) $(SAN_DEVOBJ_LIB) $(SAN_MANAGER_LIB) $(SAN_GATEWAY_LIB) $(SAN_LINES_LIB) $(SAN_MBXSRV_LIB) $(SAN_COGW_LIB) $(SAN_CORE_LIB)
-SYS_LIBS := $(shell pkg-config --libs libcjson libsystemd 2>/dev/null || echo -lcjson -lsystemd) -lrt -lpthread -lm
+SYS_LIBS := $(shell $(PKG_CONFIG) --libs libcjson libsystemd 2>/dev/null || echo -lcjson -lsystemd) -lrt -lpthread -lm
 PROGRAM_BINS := $(addprefix $(REL)/bin/,$(PROGRAMS))
 SAN_PROGRAM_BINS := $(addprefix $(SAN)/bin/,$(PROGRAMS))
 
@@ -92,7 +124,7 @@ TSAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_SRC))
 TSAN_VCAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_VCAN_SRC))
 BENCH_BINS := $(patsubst tests/bench/%.c,$(REL)/tests/bench/%,$(BENCH_SRC))
 
-.PHONY: all deps test unit tsan integration interop bench bench-costs bench-timeline demo install clean tests-build check check-core-io check-layering format check-callgraph
+.PHONY: all deps test cross cross-test cross-check-arch deb unit tsan integration interop bench bench-costs bench-timeline demo install clean tests-build check check-core-io check-layering format check-callgraph
 .DEFAULT_GOAL := all
 .SECONDARY:
 
@@ -122,43 +154,43 @@ $(UNITY_SRC)/unity.c:
 # ---- libraries -----------------------------------------------------------------
 $(REL_CORE_LIB): $(call obj,$(REL),$(CORE_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_CORE_LIB): $(call obj,$(SAN),$(CORE_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(REL_LINES_LIB): $(call obj,$(REL),$(LINES_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_LINES_LIB): $(call obj,$(SAN),$(LINES_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(REL_GATEWAY_LIB): $(call obj,$(REL),$(GATEWAY_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_GATEWAY_LIB): $(call obj,$(SAN),$(GATEWAY_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(REL_MANAGER_LIB): $(call obj,$(REL),$(MANAGER_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_MANAGER_LIB): $(call obj,$(SAN),$(MANAGER_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(REL_DEVOBJ_LIB): $(call obj,$(REL),$(DEVOBJ_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_DEVOBJ_LIB): $(call obj,$(SAN),$(DEVOBJ_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 # The ASCII gateway's parser, value texts and configuration loader: linked into the unit
 # tests and the fuzz targets as well as into apps/cogw-ascii.
@@ -166,7 +198,7 @@ ASCII_LIB_SRC := apps/cogw-ascii/ascii_parse.c apps/cogw-ascii/ascii_value.c app
 SAN_ASCII_LIB := $(SAN)/lib/libcogw_ascii.a
 $(SAN_ASCII_LIB): $(call obj,$(SAN),$(ASCII_LIB_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 # The MQTT bridge's request decoder and configuration loader: linked into the unit
 # tests and the fuzz targets as well as into apps/cogw-mqtt (no libmosquitto in them).
@@ -174,26 +206,26 @@ MQTT_LIB_SRC := apps/cogw-mqtt/mqtt_request.c apps/cogw-mqtt/mqtt_config.c
 SAN_MQTT_LIB := $(SAN)/lib/libcogw_mqtt.a
 $(SAN_MQTT_LIB): $(call obj,$(SAN),$(MQTT_LIB_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(REL_APPCOMMON_LIB): $(call obj,$(REL),$(APPCOMMON_SRC) $(APPCOMMON_GEN))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_APPCOMMON_LIB): $(call obj,$(SAN),$(APPCOMMON_SRC) $(APPCOMMON_GEN))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 # ---- programs: apps/<name>/*.c -> build/<cfg>/bin/<name> -----------------------
 # The sanitizer build of the programs is what the integration tests run.
 # PROGRAM_SRC_<name>: sources of other directories a program links too;
 # PROGRAM_LIBS_<name>: system libraries only it needs.
 PROGRAM_SRC_cogw-mqtt := apps/cogw-ascii/ascii_value.c
-PROGRAM_LIBS_cogw-mqtt := $(shell pkg-config --libs libmosquitto 2>/dev/null || echo -lmosquitto)
+PROGRAM_LIBS_cogw-mqtt := $(shell $(PKG_CONFIG) --libs libmosquitto 2>/dev/null || echo -lmosquitto)
 define program_rules
 $(REL)/bin/$(1): $(call obj,$(REL),$(wildcard apps/$(1)/*.c) $(PROGRAM_SRC_$(1))) $$(REL_LIBS)
 	@mkdir -p $$(@D)
-	$$(CC) -o $$@ $$^ $$(PROGRAM_LIBS_$(1)) $$(SYS_LIBS)
+	$$(CC) $$(CFLAGS) $$(LDFLAGS) -o $$@ $$^ $$(PROGRAM_LIBS_$(1)) $$(SYS_LIBS)
 $(SAN)/bin/$(1): $(call obj,$(SAN),$(wildcard apps/$(1)/*.c) $(PROGRAM_SRC_$(1))) $$(SAN_LIBS)
 	@mkdir -p $$(@D)
 	$$(CC) $$(SAN_LDFLAGS) -o $$@ $$^ $$(PROGRAM_LIBS_$(1)) $$(SYS_LIBS)
@@ -226,7 +258,7 @@ $(TSAN)/obj/unity.o: $(UNITY_SRC)/unity.c
 
 $(TSAN_CORE_LIB): $(call obj,$(TSAN),$(CORE_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(TSAN)/tests/tsan/%: $(TSAN)/obj/tests/tsan/%.o $(call obj,$(TSAN),$(TSAN_LIB_SRC)) $(TSAN)/obj/unity.o $(TSAN_CORE_LIB)
 	@mkdir -p $(@D)
@@ -294,6 +326,14 @@ $(GEN)/default_config.c: etc/cogw.json
 	  echo 'const char cogw_default_config_json[] = {'; \
 	  od -An -v -tx1 $< | sed -e 's/\([0-9a-f][0-9a-f]\)/0x\1,/g'; \
 	  echo '0x00 };'; } > $@.tmp && mv $@.tmp $@
+
+# cogw_version[]: the one version number (file VERSION), for every program's
+# --version, cogw.pc and the packages.
+$(GEN)/version.c: VERSION
+	@mkdir -p $(@D)
+	{ echo '/* generated from VERSION by make: do not edit */'; \
+	  echo '#include "apps/common/version.h"'; \
+	  echo 'const char cogw_version[] = "$(VERSION)";'; } > $@.tmp && mv $@.tmp $@
 
 # cogw_default_files[]: the files etc/cogw.json names, compiled in with it so
 # that the embedded default needs nothing from the working directory.
@@ -380,32 +420,46 @@ demo:
 	tests/vcan/run -n 3 -- scripts/demo.sh
 
 # ---- install -------------------------------------------------------------------
-# Applications include "mailbox/cogw.h" with -I$(PREFIX)/include/cogw and link
-# -lcogw. The unit's ExecStart is rewritten to the installed binary.
-SYSCONFDIR ?= /etc
-UNITDIR ?= $(PREFIX)/lib/systemd/system
+# Applications include "mailbox/cogw.h" with `pkg-config --cflags cogw` (that is
+# -I$(includedir)/cogw) and link `pkg-config --libs cogw` (-lcogw). The units'
+# ExecStart and configuration paths are rewritten to bindir and sysconfdir; the
+# daemon runs as the system user cogw (sysusers.d/cogw.conf: `systemd-sysusers`
+# creates it, and so does `make install` when DESTDIR is empty), with the
+# message-queue limits of sysctl.d/60-cogw.conf. Configuration files already there
+# are kept.
+COGW_PC := $(REL)/cogw.pc
+$(COGW_PC): etc/cogw.pc.in VERSION
+	@mkdir -p $(@D)
+	sed -e 's|@VERSION@|$(VERSION)|; s|@prefix@|$(prefix)|; s|@includedir@|$(includedir)|; s|@libdir@|$(libdir)|' $< > $@.tmp && mv $@.tmp $@
+.PHONY: $(COGW_PC)
+all: $(COGW_PC)
+
+unit_paths = sed -e 's|/usr/local/bin/|$(bindir)/|; s|/etc/cogw/|$(sysconfdir)/cogw/|g'
+install_config = test -e $(DESTDIR)$(sysconfdir)/cogw/$(notdir $(1)) || \
+	{ sed 's|/etc/cogw/|$(sysconfdir)/cogw/|g' $(1) > $(DESTDIR)$(sysconfdir)/cogw/$(notdir $(1)) && \
+	  chmod 644 $(DESTDIR)$(sysconfdir)/cogw/$(notdir $(1)); }
 install: all
-	install -d $(DESTDIR)$(PREFIX)/lib $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(UNITDIR) \
-		$(DESTDIR)$(PREFIX)/include/cogw/core $(DESTDIR)$(PREFIX)/include/cogw/mailbox \
-		$(DESTDIR)$(SYSCONFDIR)/cogw
-	install -m 644 $(REL_CORE_LIB) $(REL_COGW_LIB) $(DESTDIR)$(PREFIX)/lib/
-	cp -P $(REL)/lib/libcogw.so* $(DESTDIR)$(PREFIX)/lib/
-	install -m 644 core/*.h $(DESTDIR)$(PREFIX)/include/cogw/core/
-	install -m 644 mailbox/cogw.h mailbox/proto.h $(DESTDIR)$(PREFIX)/include/cogw/mailbox/
-	$(if $(PROGRAM_BINS),install -m 755 $(PROGRAM_BINS) $(DESTDIR)$(PREFIX)/bin/)
-	sed 's|/usr/local/bin/cogwd|$(PREFIX)/bin/cogwd|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogwd.service \
-		> $(DESTDIR)$(UNITDIR)/cogwd.service
-	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw.json || install -m 644 etc/cogw.json $(DESTDIR)$(SYSCONFDIR)/cogw/cogw.json
-	sed 's|/usr/local/bin/cogw-ascii|$(PREFIX)/bin/cogw-ascii|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-ascii.service \
-		> $(DESTDIR)$(UNITDIR)/cogw-ascii.service
-	install -m 644 etc/cogw-ascii.socket $(DESTDIR)$(UNITDIR)/cogw-ascii.socket
-	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-ascii.json || sed 's|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-ascii.json \
-		> $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-ascii.json
-	sed 's|/usr/local/bin/cogw-mqtt|$(PREFIX)/bin/cogw-mqtt|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-mqtt.service \
-		> $(DESTDIR)$(UNITDIR)/cogw-mqtt.service
-	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-mqtt.json || sed 's|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-mqtt.json \
-		> $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-mqtt.json
-	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/transducer.dcf || install -m 644 etc/transducer.dcf $(DESTDIR)$(SYSCONFDIR)/cogw/transducer.dcf
+	install -d $(DESTDIR)$(libdir) $(DESTDIR)$(bindir) $(DESTDIR)$(UNITDIR) \
+		$(DESTDIR)$(includedir)/cogw/core $(DESTDIR)$(includedir)/cogw/mailbox \
+		$(DESTDIR)$(pkgconfigdir) $(DESTDIR)$(sysconfdir)/cogw \
+		$(DESTDIR)$(prefix)/lib/sysusers.d $(DESTDIR)$(prefix)/lib/sysctl.d
+	install -m 644 $(REL_CORE_LIB) $(REL_COGW_LIB) $(DESTDIR)$(libdir)/
+	install -m 755 $(REL)/lib/libcogw.so.1 $(DESTDIR)$(libdir)/
+	ln -sf libcogw.so.1 $(DESTDIR)$(libdir)/libcogw.so
+	install -m 644 $(COGW_PC) $(DESTDIR)$(pkgconfigdir)/cogw.pc
+	install -m 644 core/*.h $(DESTDIR)$(includedir)/cogw/core/
+	install -m 644 mailbox/cogw.h mailbox/proto.h $(DESTDIR)$(includedir)/cogw/mailbox/
+	$(if $(PROGRAM_BINS),install -m 755 $(PROGRAM_BINS) $(DESTDIR)$(bindir)/)
+	for u in cogwd.service cogw-ascii.service cogw-mqtt.service cogw-ascii.socket; do \
+		$(unit_paths) etc/$$u > $(DESTDIR)$(UNITDIR)/$$u && chmod 644 $(DESTDIR)$(UNITDIR)/$$u || exit 1; done
+	install -m 644 etc/cogw.sysusers $(DESTDIR)$(prefix)/lib/sysusers.d/cogw.conf
+	install -m 644 etc/cogw.sysctl $(DESTDIR)$(prefix)/lib/sysctl.d/60-cogw.conf
+	$(call install_config,etc/cogw.json)
+	$(call install_config,etc/cogw-ascii.json)
+	$(call install_config,etc/cogw-mqtt.json)
+	$(call install_config,etc/transducer.dcf)
+	if [ -z "$(DESTDIR)" ] && command -v systemd-sysusers >/dev/null; then \
+		systemd-sysusers $(prefix)/lib/sysusers.d/cogw.conf; fi
 
 deps:
 	scripts/deps.sh
@@ -428,23 +482,47 @@ $(REL)/pic/%.o: %.c
 
 $(REL_MBXSRV_LIB): $(call obj,$(REL),$(MBX_SERVER_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_MBXSRV_LIB): $(call obj,$(SAN),$(MBX_SERVER_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(REL_COGW_LIB): $(call obj,$(REL),$(MBX_CLIENT_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_COGW_LIB): $(call obj,$(SAN),$(MBX_CLIENT_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(REL_COGW_SO): $(patsubst %.c,$(REL)/pic/%.o,$(MBX_CLIENT_SRC))
 	@mkdir -p $(@D)
-	$(CC) -shared -Wl,-soname,libcogw.so.1 -o $@.1 $^ -lrt -lpthread -lm
+	$(CC) $(CFLAGS) $(LDFLAGS) -shared -Wl,-soname,libcogw.so.1 -o $@.1 $^ -lrt -lpthread -lm
 	ln -sf libcogw.so.1 $@
 
 all: $(REL_COGW_SO)
+
+# ---- cross builds (docs/install.md "Cross builds") ---------------------------------
+# ARCH: a Debian architecture (arm64, armhf). Debian's cross toolchain
+# (crossbuild-essential-ARCH), its pkg-config and the multiarch -dev packages
+# come with `make deps ARCH=...`. Everything goes to build/ARCH/{rel,san}.
+# cross-test runs the cross-built unit tests under qemu-user (binfmt not
+# needed: the emulator is called by name, the target's libraries are the
+# multiarch ones in /usr/lib/TRIPLET).
+ARCH ?=
+CROSS_TRIPLET = $(shell dpkg-architecture -a$(ARCH) -qDEB_HOST_GNU_TYPE 2>/dev/null)
+CROSS_VARS = CC=$(CROSS_TRIPLET)-gcc AR=$(CROSS_TRIPLET)-ar PKG_CONFIG=$(CROSS_TRIPLET)-pkg-config \
+	REL=build/$(ARCH)/rel SAN=build/$(ARCH)/san
+CROSS_QEMU = qemu-$(patsubst aarch64%,aarch64,$(patsubst arm-%,arm,$(CROSS_TRIPLET)))
+cross-check-arch:
+	@test -n "$(ARCH)" || { echo "say which: make $(MAKECMDGOALS) ARCH=arm64 (or armhf)"; exit 2; }
+	@command -v $(CROSS_TRIPLET)-gcc >/dev/null || { echo "no $(CROSS_TRIPLET)-gcc: run make deps ARCH=$(ARCH)"; exit 2; }
+
+cross: cross-check-arch
+	$(MAKE) --no-print-directory all $(CROSS_VARS)
+
+cross-test: cross-check-arch
+	$(MAKE) --no-print-directory $(patsubst $(SAN)/%,build/$(ARCH)/san/%,$(UNIT_BINS)) $(CROSS_VARS)
+	COGW_TEST_EMULATOR="$(CROSS_QEMU) -L /usr/$(CROSS_TRIPLET)" \
+		tests/run-tests unit-$(ARCH) $(patsubst $(SAN)/%,build/$(ARCH)/san/%,$(UNIT_BINS))

@@ -19,8 +19,6 @@
 #include "core/od.h"
 #include "mailbox/cogw.h"
 
-#define COGWCTL_VERSION "0.1"
-
 /* Exit codes (docs/cogwctl.md). */
 enum ctl_exit {
 	CTL_EXIT_OK = 0,
