@@ -434,7 +434,7 @@ $(COGW_PC): etc/cogw.pc.in VERSION
 .PHONY: $(COGW_PC)
 all: $(COGW_PC)
 
-unit_paths = sed -e 's|/usr/local/bin/|$(bindir)/|; s|/etc/cogw/|$(sysconfdir)/cogw/|g'
+unit_paths = sed -e 's|/usr/local/bin/|$(bindir)/|; s|/etc/cogw/|$(sysconfdir)/cogw/|g; s|file:///usr/share/doc/cogw/|file://$(docdir)/|'
 install_config = test -e $(DESTDIR)$(sysconfdir)/cogw/$(notdir $(1)) || \
 	{ sed 's|/etc/cogw/|$(sysconfdir)/cogw/|g' $(1) > $(DESTDIR)$(sysconfdir)/cogw/$(notdir $(1)) && \
 	  chmod 644 $(DESTDIR)$(sysconfdir)/cogw/$(notdir $(1)); }
@@ -442,7 +442,7 @@ install: all
 	install -d $(DESTDIR)$(libdir) $(DESTDIR)$(bindir) $(DESTDIR)$(UNITDIR) \
 		$(DESTDIR)$(includedir)/cogw/core $(DESTDIR)$(includedir)/cogw/mailbox \
 		$(DESTDIR)$(pkgconfigdir) $(DESTDIR)$(sysconfdir)/cogw \
-		$(DESTDIR)$(prefix)/lib/sysusers.d $(DESTDIR)$(prefix)/lib/sysctl.d
+		$(DESTDIR)$(prefix)/lib/sysusers.d $(DESTDIR)$(prefix)/lib/sysctl.d $(DESTDIR)$(docdir)/docs
 	install -m 644 $(REL_CORE_LIB) $(REL_COGW_LIB) $(DESTDIR)$(libdir)/
 	install -m 755 $(REL)/lib/libcogw.so.1 $(DESTDIR)$(libdir)/
 	ln -sf libcogw.so.1 $(DESTDIR)$(libdir)/libcogw.so
@@ -454,6 +454,8 @@ install: all
 		$(unit_paths) etc/$$u > $(DESTDIR)$(UNITDIR)/$$u && chmod 644 $(DESTDIR)$(UNITDIR)/$$u || exit 1; done
 	install -m 644 etc/cogw.sysusers $(DESTDIR)$(prefix)/lib/sysusers.d/cogw.conf
 	install -m 644 etc/cogw.sysctl $(DESTDIR)$(prefix)/lib/sysctl.d/60-cogw.conf
+	install -m 644 README.md $(DESTDIR)$(docdir)/
+	install -m 644 docs/*.md $(DESTDIR)$(docdir)/docs/
 	$(call install_config,etc/cogw.json)
 	$(call install_config,etc/cogw-ascii.json)
 	$(call install_config,etc/cogw-mqtt.json)
@@ -467,7 +469,7 @@ deps:
 clean:
 	rm -rf build
 
--include $(shell find build -name '*.d' 2>/dev/null)
+-include $(shell find build -path build/deb -prune -o -name '*.d' -type f -print 2>/dev/null)
 
 # ---- mailbox libraries (mailbox/*.c) ---------------------------------------------
 # libcogw_mbxsrv.a: the daemon side, linked into lines/apps; libcogw.a and
@@ -507,9 +509,10 @@ all: $(REL_COGW_SO)
 # ARCH: a Debian architecture (arm64, armhf). Debian's cross toolchain
 # (crossbuild-essential-ARCH), its pkg-config and the multiarch -dev packages
 # come with `make deps ARCH=...`. Everything goes to build/ARCH/{rel,san}.
-# cross-test runs the cross-built unit tests under qemu-user (binfmt not
-# needed: the emulator is called by name, the target's libraries are the
-# multiarch ones in /usr/lib/TRIPLET).
+# cross-test runs the cross-built unit tests (ASan+UBSan) under qemu-user
+# (binfmt not needed: the emulator is called by name, the target's libraries
+# are the multiarch ones in /usr/lib/TRIPLET). LeakSanitizer cannot run under
+# qemu-user (it needs ptrace): leaks are checked by the native suite.
 ARCH ?=
 CROSS_TRIPLET = $(shell dpkg-architecture -a$(ARCH) -qDEB_HOST_GNU_TYPE 2>/dev/null)
 CROSS_VARS = CC=$(CROSS_TRIPLET)-gcc AR=$(CROSS_TRIPLET)-ar PKG_CONFIG=$(CROSS_TRIPLET)-pkg-config \
@@ -524,5 +527,28 @@ cross: cross-check-arch
 
 cross-test: cross-check-arch
 	$(MAKE) --no-print-directory $(patsubst $(SAN)/%,build/$(ARCH)/san/%,$(UNIT_BINS)) $(CROSS_VARS)
-	COGW_TEST_EMULATOR="$(CROSS_QEMU) -L /usr/$(CROSS_TRIPLET)" \
+	COGW_TEST_EMULATOR="$(CROSS_QEMU) -L /usr/$(CROSS_TRIPLET)" ASAN_OPTIONS=detect_leaks=0 \
 		tests/run-tests unit-$(ARCH) $(patsubst $(SAN)/%,build/$(ARCH)/san/%,$(UNIT_BINS))
+
+# ---- Debian packages (debian/, docs/install.md "Debian packages") -------------------
+# dpkg-buildpackage on a copy of the tree (the files git knows, as they are
+# now) in build/deb/ARCH, so that its clean step leaves build/ alone; the
+# packages and lintian's report end up in build/deb/ARCH. ARCH empty: this
+# machine's architecture; ARCH=arm64 cross-builds (make deps ARCH=arm64 DEB=1).
+DEB_OUT = build/deb/$(or $(ARCH),$(shell dpkg --print-architecture))
+deb:
+	rm -rf $(DEB_OUT) && mkdir -p $(DEB_OUT)/cogw-$(VERSION)
+	git ls-files -co --exclude-standard -z | tar --null -T - -cf - | tar -xf - -C $(DEB_OUT)/cogw-$(VERSION)
+	cd $(DEB_OUT)/cogw-$(VERSION) && dpkg-buildpackage -us -uc -b $(if $(ARCH),-a$(ARCH))
+	lintian --info --display-info $(DEB_OUT)/*.changes 2>&1 | tee $(DEB_OUT)/lintian.txt
+	@! grep -q '^E:' $(DEB_OUT)/lintian.txt || { echo "deb: lintian reports errors ($(DEB_OUT)/lintian.txt)"; exit 1; }
+
+# The amd64 packages installed and run as a user would, in a clean Debian root
+# inside the VM (tests/pkg/vm-install says what is checked); the root comes from
+# tests/pkg/make-debroot (debootstrap) once.
+DEBROOT ?= build/debroot/$(shell . /etc/os-release && echo $$VERSION_CODENAME)-amd64.tar
+.PHONY: deb-vm-test
+deb-vm-test:
+	test -f $(DEBROOT) || tests/pkg/make-debroot $(DEBROOT)
+	test -f build/deb/amd64/cogwd_$(VERSION)_amd64.deb || $(MAKE) --no-print-directory deb
+	tests/vcan/run -n 3 -- tests/pkg/vm-install $(DEBROOT) build/deb/amd64
