@@ -42,8 +42,6 @@ datarootdir   ?= $(prefix)/share
 docdir        ?= $(datarootdir)/doc/cogw
 SYSCONFDIR    ?= /etc
 sysconfdir    ?= $(SYSCONFDIR)
-localstatedir ?= /var
-runstatedir   ?= /run
 UNITDIR       ?= $(prefix)/lib/systemd/system
 pkgconfigdir  ?= $(libdir)/pkgconfig
 
@@ -463,8 +461,11 @@ install: all
 	if [ -z "$(DESTDIR)" ] && command -v systemd-sysusers >/dev/null; then \
 		systemd-sysusers $(prefix)/lib/sysusers.d/cogw.conf; fi
 
+# `make deps ARCH=arm64` adds the cross toolchain, multiarch -dev packages and
+# qemu-user for `make cross`/`cross-test`; `make deps DEB=1` the packaging tools
+# (debhelper, lintian, debootstrap) for `make deb`/`deb-vm-test`.
 deps:
-	scripts/deps.sh
+	COGW_DEPS_ARCH="$(ARCH)" COGW_DEPS_DEB="$(DEB)" scripts/deps.sh
 
 clean:
 	rm -rf build
@@ -552,3 +553,11 @@ deb-vm-test:
 	test -f $(DEBROOT) || tests/pkg/make-debroot $(DEBROOT)
 	test -f build/deb/amd64/cogwd_$(VERSION)_amd64.deb || $(MAKE) --no-print-directory deb
 	tests/vcan/run -n 3 -- tests/pkg/vm-install $(DEBROOT) build/deb/amd64
+
+# Stripped sizes (this machine's build and the cross builds of FOOTPRINT_ARCHS,
+# `make cross ARCH=...` first) and cogwd's resident memory, written into
+# docs/benchmarks.md's "Footprint" section (tests/bench/footprint).
+FOOTPRINT_ARCHS ?= arm64
+.PHONY: footprint
+footprint: all
+	tests/vcan/run -n 4 -- tests/bench/footprint $(FOOTPRINT_ARCHS)
