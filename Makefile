@@ -561,3 +561,20 @@ FOOTPRINT_ARCHS ?= arm64
 .PHONY: footprint
 footprint: all
 	tests/vcan/run -n 4 -- tests/bench/footprint $(FOOTPRINT_ARCHS)
+
+# Integration tests of a cross build on vcan, in the VM, under qemu-user: the
+# tests of CROSS_INTEG_TESTS cross-built (ASan+UBSan), and the daemon the other
+# tests start (COGW_TEST_COGWD) is the cross-built one behind qemu-user as well;
+# the simulated devices (cosim) stay native. What qemu-user cannot emulate
+# shows as a failure here, not in `make test`.
+CROSS_INTEG_TESTS ?= test_socketcan test_line_socketcan test_mqueue test_line_sdo test_manager_boot test_config_boot
+.PHONY: cross-integration
+cross-integration: cross-check-arch $(SAN_PROGRAM_BINS)
+	$(MAKE) --no-print-directory $(addprefix build/$(ARCH)/san/tests/integration/,$(CROSS_INTEG_TESTS)) \
+		build/$(ARCH)/san/bin/cogwd $(CROSS_VARS)
+	printf '#!/bin/sh\nexec %s -L /usr/%s %s "$$@"\n' "$(CROSS_QEMU)" "$(CROSS_TRIPLET)" \
+		"$(CURDIR)/build/$(ARCH)/san/bin/cogwd" > build/$(ARCH)/cogwd-emulated
+	chmod +x build/$(ARCH)/cogwd-emulated
+	tests/vcan/run -n 3 -- env COGW_TEST_EMULATOR="$(CROSS_QEMU) -L /usr/$(CROSS_TRIPLET)" \
+		ASAN_OPTIONS=detect_leaks=0 COGW_TEST_COGWD=$(CURDIR)/build/$(ARCH)/cogwd-emulated \
+		tests/run-tests integration-$(ARCH) $(addprefix build/$(ARCH)/san/tests/integration/,$(CROSS_INTEG_TESTS))
