@@ -40,6 +40,7 @@ libdir        ?= $(exec_prefix)/lib
 includedir    ?= $(prefix)/include
 datarootdir   ?= $(prefix)/share
 docdir        ?= $(datarootdir)/doc/cogw
+mandir        ?= $(datarootdir)/man
 SYSCONFDIR    ?= /etc
 sysconfdir    ?= $(SYSCONFDIR)
 UNITDIR       ?= $(prefix)/lib/systemd/system
@@ -440,7 +441,8 @@ install: all
 	install -d $(DESTDIR)$(libdir) $(DESTDIR)$(bindir) $(DESTDIR)$(UNITDIR) \
 		$(DESTDIR)$(includedir)/cogw/core $(DESTDIR)$(includedir)/cogw/mailbox \
 		$(DESTDIR)$(pkgconfigdir) $(DESTDIR)$(sysconfdir)/cogw \
-		$(DESTDIR)$(prefix)/lib/sysusers.d $(DESTDIR)$(prefix)/lib/sysctl.d $(DESTDIR)$(docdir)/docs
+		$(DESTDIR)$(prefix)/lib/sysusers.d $(DESTDIR)$(prefix)/lib/sysctl.d $(DESTDIR)$(docdir)/docs \
+		$(DESTDIR)$(mandir)/man1 $(DESTDIR)$(mandir)/man8
 	install -m 644 $(REL_CORE_LIB) $(REL_COGW_LIB) $(DESTDIR)$(libdir)/
 	install -m 755 $(REL)/lib/libcogw.so.1 $(DESTDIR)$(libdir)/
 	ln -sf libcogw.so.1 $(DESTDIR)$(libdir)/libcogw.so
@@ -454,6 +456,8 @@ install: all
 	install -m 644 etc/cogw.sysctl $(DESTDIR)$(prefix)/lib/sysctl.d/60-cogw.conf
 	install -m 644 README.md $(DESTDIR)$(docdir)/
 	install -m 644 docs/*.md $(DESTDIR)$(docdir)/docs/
+	install -m 644 man/*.1 $(DESTDIR)$(mandir)/man1/
+	install -m 644 man/*.8 $(DESTDIR)$(mandir)/man8/
 	$(call install_config,etc/cogw.json)
 	$(call install_config,etc/cogw-ascii.json)
 	$(call install_config,etc/cogw-mqtt.json)
