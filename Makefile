@@ -515,9 +515,12 @@ all: $(REL_COGW_SO)
 # (crossbuild-essential-ARCH), its pkg-config and the multiarch -dev packages
 # come with `make deps ARCH=...`. Everything goes to build/ARCH/{rel,san}.
 # cross-test runs the cross-built unit tests (ASan+UBSan) under qemu-user
-# (binfmt not needed: the emulator is called by name, the target's libraries
-# are the multiarch ones in /usr/lib/TRIPLET). LeakSanitizer cannot run under
-# qemu-user (it needs ptrace): leaks are checked by the native suite.
+# (binfmt not needed: the emulator is called by name). The target's C library
+# and sanitizer run-times are the multiarch packages (libc6:ARCH, libasan8:ARCH)
+# in /lib/TRIPLET, found by the target's own ld.so: no `qemu -L /usr/TRIPLET`,
+# whose cross ld.so paired with the multiarch libc hangs in pthread_create.
+# LeakSanitizer cannot run under qemu-user (it needs ptrace): leaks are checked
+# by the native suite.
 ARCH ?=
 CROSS_TRIPLET = $(shell dpkg-architecture -a$(ARCH) -qDEB_HOST_GNU_TYPE 2>/dev/null)
 CROSS_VARS = CC=$(CROSS_TRIPLET)-gcc AR=$(CROSS_TRIPLET)-ar PKG_CONFIG=$(CROSS_TRIPLET)-pkg-config \
@@ -532,7 +535,7 @@ cross: cross-check-arch
 
 cross-test: cross-check-arch
 	$(MAKE) --no-print-directory $(patsubst $(SAN)/%,build/$(ARCH)/san/%,$(UNIT_BINS)) $(CROSS_VARS)
-	COGW_TEST_EMULATOR="$(CROSS_QEMU) -L /usr/$(CROSS_TRIPLET)" ASAN_OPTIONS=detect_leaks=0 \
+	COGW_TEST_EMULATOR="$(CROSS_QEMU)" ASAN_OPTIONS=detect_leaks=0 \
 		tests/run-tests unit-$(ARCH) $(patsubst $(SAN)/%,build/$(ARCH)/san/%,$(UNIT_BINS))
 
 # ---- Debian packages (debian/, docs/install.md "Debian packages") -------------------
@@ -576,9 +579,9 @@ CROSS_INTEG_TESTS ?= test_socketcan test_line_socketcan test_mqueue test_line_sd
 cross-integration: cross-check-arch $(SAN_PROGRAM_BINS)
 	$(MAKE) --no-print-directory $(addprefix build/$(ARCH)/san/tests/integration/,$(CROSS_INTEG_TESTS)) \
 		build/$(ARCH)/san/bin/cogwd $(CROSS_VARS)
-	printf '#!/bin/sh\nexec %s -L /usr/%s %s "$$@"\n' "$(CROSS_QEMU)" "$(CROSS_TRIPLET)" \
+	printf '#!/bin/sh\nexec %s %s "$$@"\n' "$(CROSS_QEMU)" \
 		"$(CURDIR)/build/$(ARCH)/san/bin/cogwd" > build/$(ARCH)/cogwd-emulated
 	chmod +x build/$(ARCH)/cogwd-emulated
-	tests/vcan/run -n 3 -- env COGW_TEST_EMULATOR="$(CROSS_QEMU) -L /usr/$(CROSS_TRIPLET)" \
+	tests/vcan/run -n 3 -- env COGW_TEST_EMULATOR="$(CROSS_QEMU)" \
 		ASAN_OPTIONS=detect_leaks=0 COGW_TEST_COGWD=$(CURDIR)/build/$(ARCH)/cogwd-emulated \
 		tests/run-tests integration-$(ARCH) $(addprefix build/$(ARCH)/san/tests/integration/,$(CROSS_INTEG_TESTS))

@@ -36,8 +36,11 @@ if [ -n "$cross_arch" ]; then
         $SUDO dpkg --add-architecture "$cross_arch"
         $SUDO apt-get update -qq >/dev/null
     fi
+    # libasan8/libubsan1 of the target: the run-times of the cross-built tests
+    # (gcc 12's), found by the target's ld.so under qemu-user
     packages+=("crossbuild-essential-$cross_arch" qemu-user "pkgconf:$cross_arch"
-               "libsystemd-dev:$cross_arch" "libcjson-dev:$cross_arch" "libmosquitto-dev:$cross_arch")
+               "libsystemd-dev:$cross_arch" "libcjson-dev:$cross_arch" "libmosquitto-dev:$cross_arch"
+               "libasan8:$cross_arch" "libubsan1:$cross_arch")
 fi
 if [ -n "${COGW_DEPS_DEB:-}" ]; then
     packages+=(dpkg-dev debhelper fakeroot lintian debootstrap)
