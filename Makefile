@@ -564,10 +564,12 @@ deb-vm-test:
 # Stripped sizes (this machine's build and the cross builds of FOOTPRINT_ARCHS,
 # `make cross ARCH=...` first) and cogwd's resident memory, written into
 # docs/benchmarks.md's "Footprint" section (tests/bench/footprint).
-FOOTPRINT_ARCHS ?= arm64
+FOOTPRINT_ARCHS ?= arm64 armhf
 .PHONY: footprint
 footprint: all
-	tests/vcan/run -n 4 -- tests/bench/footprint $(FOOTPRINT_ARCHS)
+	@mkdir -p build/bench
+	tests/vcan/run -n 4 -- tests/bench/footprint measure $(FOOTPRINT_ARCHS) 2>&1 | tee build/bench/footprint.out
+	tests/bench/footprint into docs/benchmarks.md build/bench/footprint.out
 
 # Integration tests of a cross build on vcan, in the VM, under qemu-user: the
 # tests of CROSS_INTEG_TESTS cross-built (ASan+UBSan), and the daemon the other
