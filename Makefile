@@ -429,7 +429,7 @@ demo:
 COGW_PC := $(REL)/cogw.pc
 $(COGW_PC): etc/cogw.pc.in VERSION
 	@mkdir -p $(@D)
-	sed -e 's|@VERSION@|$(VERSION)|; s|@prefix@|$(prefix)|; s|@includedir@|$(includedir)|; s|@libdir@|$(libdir)|' $< > $@.tmp && mv $@.tmp $@
+	@sed -e 's|@VERSION@|$(VERSION)|; s|@prefix@|$(prefix)|; s|@includedir@|$(includedir)|; s|@libdir@|$(libdir)|' $< > $@.tmp && mv $@.tmp $@
 .PHONY: $(COGW_PC)
 all: $(COGW_PC)
 
