@@ -49,7 +49,10 @@ pkgconfigdir  ?= $(libdir)/pkgconfig
 UNITY_SRC ?= .deps/unity/src
 
 WARN    := -Wall -Wextra $(WERROR) -Wshadow -Wstrict-prototypes
-BASE    := -std=gnu11 $(WARN) -I. -D_GNU_SOURCE -MMD -MP
+# 64-bit file offsets, inode numbers and time_t on 32-bit targets too (armhf):
+# readdir() of a large file system, and the TIME producer's clock after 2038
+# (no effect where they are 64-bit already; no such type in the public headers).
+BASE    := -std=gnu11 $(WARN) -I. -D_GNU_SOURCE -D_FILE_OFFSET_BITS=64 -D_TIME_BITS=64 -MMD -MP
 REL_CFLAGS := $(BASE) $(CPPFLAGS) $(CFLAGS)
 SAN_CFLAGS := $(BASE) -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all
 SAN_LDFLAGS := -fsanitize=address,undefined
