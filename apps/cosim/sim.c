@@ -101,19 +101,6 @@ struct cosim_node {
 
 static void logn(const cosim_node *n, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
-void cosim_log(bool quiet, const char *fmt, ...)
-{
-	va_list ap;
-
-	if (quiet)
-		return;
-	va_start(ap, fmt);
-	fputs("cosim: ", stderr);
-	vfprintf(stderr, fmt, ap);
-	fputc('\n', stderr);
-	va_end(ap);
-}
-
 static void logn(const cosim_node *n, const char *fmt, ...)
 {
 	va_list ap;
