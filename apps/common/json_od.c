@@ -398,16 +398,15 @@ struct ent_spec {
 	uint8_t min_b[8], max_b[8];
 };
 
-static int parse_common(const cJSON *o, const char *path, struct ent_spec *s, char *err,
-			size_t errlen)
+/* "type", "access", "pdo", "persist" and "name" of one definition. */
+static int parse_kind(const cJSON *o, const char *path, struct ent_spec *s, char *err,
+		      size_t errlen)
 {
 	char p[JSON_PATH_MAX];
 	const cJSON *v;
 	bool pdo = false, persist = false;
-	uint32_t l;
 	int rc;
 
-	memset(s, 0, sizeof(*s));
 	if ((rc = json_util_require(o, "type", path, &v, err, errlen)))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "type");
@@ -454,29 +453,41 @@ static int parse_common(const cJSON *o, const char *path, struct ent_spec *s, ch
 			return json_util_fail(err, errlen, p, "longer than %u bytes", NAME_MAX_LEN);
 		s->name = v->valuestring;
 	}
+	return 0;
+}
 
-	s->min = json_util_get(o, "min");
-	s->max = json_util_get(o, "max");
-	v = json_util_get(o, "max_size");
-	if (co_type_is_variable(s->type)) {
-		if (s->min || s->max) {
-			json_util_path_key(p, sizeof(p), path, s->min ? "min" : "max");
-			return json_util_fail(err, errlen, p,
-					      "limits apply to numeric types only, not %s",
-					      co_type_to_string(s->type));
-		}
-		if (v) {
-			uint64_t u;
+/* "max_size" of a string or domain; limits are refused there. */
+static int parse_size(const cJSON *o, const char *path, struct ent_spec *s, char *err,
+		      size_t errlen)
+{
+	char p[JSON_PATH_MAX];
+	const cJSON *v = json_util_get(o, "max_size");
+	uint64_t u;
+	int rc;
 
-			json_util_path_key(p, sizeof(p), path, "max_size");
-			if ((rc = json_util_uint(v, p, 1, JSON_OD_MAX_SIZE, false, &u, err,
-						 errlen)))
-				return rc;
-			s->max_size = (uint32_t)u;
-		}
-		return 0;
+	if (s->min || s->max) {
+		json_util_path_key(p, sizeof(p), path, s->min ? "min" : "max");
+		return json_util_fail(err, errlen, p, "limits apply to numeric types only, not %s",
+				      co_type_to_string(s->type));
 	}
-	if (v) {
+	if (!v)
+		return 0;
+	json_util_path_key(p, sizeof(p), path, "max_size");
+	if ((rc = json_util_uint(v, p, 1, JSON_OD_MAX_SIZE, false, &u, err, errlen)))
+		return rc;
+	s->max_size = (uint32_t)u;
+	return 0;
+}
+
+/* "min" and "max" of an integer or real; "max_size" is refused there. */
+static int parse_limits(const cJSON *o, const char *path, struct ent_spec *s, char *err,
+			size_t errlen)
+{
+	char p[JSON_PATH_MAX];
+	uint32_t l;
+	int rc;
+
+	if (json_util_get(o, "max_size")) {
 		json_util_path_key(p, sizeof(p), path, "max_size");
 		return json_util_fail(err, errlen, p, "applies to strings and domains only, not %s",
 				      co_type_to_string(s->type));
@@ -508,105 +519,142 @@ static int parse_common(const cJSON *o, const char *path, struct ent_spec *s, ch
 	return 0;
 }
 
-/* Add (index, sub) as described by s with default JSON value def (NULL =
- * zero / empty). def_path names def in messages. */
-static int add_entry(co_od *od, uint16_t index, uint8_t sub, uint8_t obj_code, struct ent_spec *s,
-		     const cJSON *def, const char *path, const char *def_path, char *err,
+static int parse_common(const cJSON *o, const char *path, struct ent_spec *s, char *err,
+			size_t errlen)
+{
+	int rc;
+
+	memset(s, 0, sizeof(*s));
+	if ((rc = parse_kind(o, path, s, err, errlen)))
+		return rc;
+	s->min = json_util_get(o, "min");
+	s->max = json_util_get(o, "max");
+	if (co_type_is_variable(s->type))
+		return parse_size(o, path, s, err, errlen);
+	return parse_limits(o, path, s, err, errlen);
+}
+
+/* Where one entry goes and how messages name it: path names the
+ * definition, def_path its default. */
+struct ent_place {
+	co_od *od;
+	uint16_t index;
+	uint8_t sub;
+	uint8_t obj_code;
+	const char *path;
+	const char *def_path;
+};
+
+/* The default of a string or domain into *buf (malloc'ed, or NULL when
+ * there is none); capacity from max_size, else the default's length. */
+static int var_default(const struct ent_place *at, const struct ent_spec *s, const cJSON *def,
+		       co_od_desc *d, char *err, size_t errlen)
+{
+	uint32_t cap = s->max_size, len = 0;
+	long need = def ? var_value_len(def, s->type) : 0;
+	uint8_t *buf;
+	int rc;
+
+	if (!cap && def && need < 0) {
+		/* Malformed default: let the parser say why. */
+		uint8_t none;
+
+		return json_od_parse_value(def, s->type, at->def_path, &none, 0, &len, err, errlen);
+	}
+	if (!cap) {
+		/* No max_size: the default's length is the capacity. */
+		if (need <= 0) {
+			char p[JSON_PATH_MAX];
+
+			json_util_path_key(p, sizeof(p), at->path, "max_size");
+			return json_util_fail(err, errlen, p,
+					      "required for %s without a non-empty default",
+					      co_type_to_string(s->type));
+		}
+		if ((uint64_t)need > JSON_OD_MAX_SIZE)
+			need = JSON_OD_MAX_SIZE;
+		cap = (uint32_t)need;
+	}
+	d->max_size = cap;
+	if (!def)
+		return 0;
+	buf = malloc(cap ? cap : 1);
+	if (!buf)
+		return -ENOMEM;
+	rc = json_od_parse_value(def, s->type, at->def_path, buf, cap, &len, err, errlen);
+	if (rc || !len) {
+		free(buf);
+		return rc;
+	}
+	d->def = buf;
+	d->def_size = len;
+	return 0;
+}
+
+/* The default (zero when def is NULL) against the limits, bound names
+ * "below"/"above" for the message. */
+static int check_bound(const struct ent_place *at, const struct ent_spec *s, const cJSON *def,
+		       const uint8_t *num, bool upper, char *err, size_t errlen)
+{
+	const cJSON *bound = upper ? s->max : s->min;
+	int cmp;
+	char a[64], b[64];
+
+	if (!bound)
+		return 0;
+	cmp = num_cmp(s->type, num, upper ? s->max_b : s->min_b);
+	if (upper ? cmp <= 0 : cmp >= 0)
+		return 0;
+	json_util_repr(def, a, sizeof(a));
+	json_util_repr(bound, b, sizeof(b));
+	if (!def)
+		snprintf(a, sizeof(a), "0 (implicit)");
+	return json_util_fail(err, errlen, def ? at->def_path : at->path, "default %s is %s %s %s",
+			      a, upper ? "above" : "below", upper ? "max" : "min", b);
+}
+
+/* Add the entry at "at" as described by s with default JSON value def
+ * (NULL = zero / empty). */
+static int add_entry(const struct ent_place *at, struct ent_spec *s, const cJSON *def, char *err,
 		     size_t errlen)
 {
 	uint8_t num[8] = { 0 };
-	uint8_t *buf = num;
 	uint32_t len = 0;
-	co_od_desc d = { .index = index,
-			 .sub = sub,
-			 .obj_code = obj_code,
+	co_od_desc d = { .index = at->index,
+			 .sub = at->sub,
+			 .obj_code = at->obj_code,
 			 .type = (uint8_t)s->type,
 			 .access = s->access,
 			 .name = s->name };
 	int rc;
 
 	if (co_type_is_variable(s->type)) {
-		uint32_t cap = s->max_size;
-		long need = def ? var_value_len(def, s->type) : 0;
-
-		if (!cap && def && need < 0) {
-			/* Malformed default: let the parser say why. */
-			uint8_t none;
-
-			return json_od_parse_value(def, s->type, def_path, &none, 0, &len, err,
-						   errlen);
-		}
-		if (!cap) {
-			/* No max_size: the default's length is the capacity. */
-			if (need <= 0) {
-				char p[JSON_PATH_MAX];
-
-				json_util_path_key(p, sizeof(p), path, "max_size");
-				return json_util_fail(err, errlen, p,
-						      "required for %s without a non-empty default",
-						      co_type_to_string(s->type));
-			}
-			if ((uint64_t)need > JSON_OD_MAX_SIZE)
-				need = JSON_OD_MAX_SIZE;
-			cap = (uint32_t)need;
-		}
-		if (def) {
-			buf = malloc(cap ? cap : 1);
-			if (!buf)
-				return -ENOMEM;
-			rc = json_od_parse_value(def, s->type, def_path, buf, cap, &len, err,
-						 errlen);
-			if (rc) {
-				free(buf);
-				return rc;
-			}
-		}
-		d.max_size = cap;
-		d.def = len ? buf : NULL;
-		d.def_size = len;
+		if ((rc = var_default(at, s, def, &d, err, errlen)))
+			return rc;
 	} else {
-		if (def) {
-			if ((rc = json_od_parse_value(def, s->type, def_path, num, 8, &len, err,
-						      errlen)))
-				return rc;
-		}
-		if (s->min && num_cmp(s->type, num, s->min_b) < 0) {
-			char a[64], b[64];
-
-			json_util_repr(def, a, sizeof(a));
-			json_util_repr(s->min, b, sizeof(b));
-			if (!def)
-				snprintf(a, sizeof(a), "0 (implicit)");
-			return json_util_fail(err, errlen, def ? def_path : path,
-					      "default %s is below min %s", a, b);
-		}
-		if (s->max && num_cmp(s->type, num, s->max_b) > 0) {
-			char a[64], b[64];
-
-			json_util_repr(def, a, sizeof(a));
-			json_util_repr(s->max, b, sizeof(b));
-			if (!def)
-				snprintf(a, sizeof(a), "0 (implicit)");
-			return json_util_fail(err, errlen, def ? def_path : path,
-					      "default %s is above max %s", a, b);
-		}
+		if (def && (rc = json_od_parse_value(def, s->type, at->def_path, num, 8, &len, err,
+						     errlen)))
+			return rc;
+		if ((rc = check_bound(at, s, def, num, false, err, errlen)) ||
+		    (rc = check_bound(at, s, def, num, true, err, errlen)))
+			return rc;
 		d.def = num;
 		d.def_size = co_type_size(s->type);
 		d.min = s->min ? s->min_b : NULL;
 		d.max = s->max ? s->max_b : NULL;
 	}
-	rc = co_od_add(od, &d, NULL);
-	if (buf != num)
-		free(buf);
+	rc = co_od_add(at->od, &d, NULL);
+	if (d.def && d.def != num)
+		free((void *)d.def);
 	if (rc == -EEXIST)
-		return json_util_fail(err, errlen, path, "0x%04X:%02X is defined twice", index,
-				      sub);
+		return json_util_fail(err, errlen, at->path, "0x%04X:%02X is defined twice",
+				      at->index, at->sub);
 	if (rc == -ENOMEM)
 		return rc;
 	if (rc)
-		return json_util_fail(err, errlen, path,
-				      "the object dictionary refused 0x%04X:%02X (%s)", index, sub,
-				      strerror(-rc));
+		return json_util_fail(err, errlen, at->path,
+				      "the object dictionary refused 0x%04X:%02X (%s)", at->index,
+				      at->sub, strerror(-rc));
 	return 0;
 }
 
@@ -631,8 +679,8 @@ static int add_var(co_od *od, uint16_t index, const cJSON *o, const char *path, 
 	    (rc = parse_common(o, path, &s, err, errlen)))
 		return rc;
 	json_util_path_key(dp, sizeof(dp), path, "default");
-	return add_entry(od, index, 0, CO_OBJ_VAR, &s, json_util_get(o, "default"), path, dp, err,
-			 errlen);
+	return add_entry(&(struct ent_place){ od, index, 0, CO_OBJ_VAR, path, dp }, &s,
+			 json_util_get(o, "default"), err, errlen);
 }
 
 static int add_sub0(co_od *od, uint16_t index, uint8_t obj_code, uint8_t n, const char *path,
@@ -694,8 +742,9 @@ static int add_array(co_od *od, uint16_t index, const cJSON *o, const char *path
 		} else {
 			json_util_path_key(dp, sizeof(dp), path, "default");
 		}
-		if ((rc = add_entry(od, index, (uint8_t)i, CO_OBJ_ARRAY, &s, dv, path, dp, err,
-				    errlen)))
+		if ((rc = add_entry(
+			     &(struct ent_place){ od, index, (uint8_t)i, CO_OBJ_ARRAY, path, dp },
+			     &s, dv, err, errlen)))
 			return rc;
 	}
 	return 0;
@@ -752,8 +801,9 @@ static int add_record(co_od *od, uint16_t index, const cJSON *o, const char *pat
 		if ((rc = parse_common(it, p, &s, err, errlen)))
 			return rc;
 		json_util_path_key(dp, sizeof(dp), p, "default");
-		if ((rc = add_entry(od, index, (uint8_t)sub, CO_OBJ_RECORD, &s,
-				    json_util_get(it, "default"), p, dp, err, errlen)))
+		if ((rc = add_entry(
+			     &(struct ent_place){ od, index, (uint8_t)sub, CO_OBJ_RECORD, p, dp },
+			     &s, json_util_get(it, "default"), err, errlen)))
 			return rc;
 	}
 	return 0;
