@@ -1138,8 +1138,9 @@ static int parse_nodes(struct ctx *c, const cJSON *v, const char *path, cogw_lin
 		n->id = (uint8_t)id;
 		l->n_nodes++;
 		if ((rc = parse_node_manager(c, it, np, n)) ||
-		    (rc = cogw_node_pdo_parse(it, np, l, c->base_dir, c->files, c->read, n, c->msg,
-					      sizeof(c->msg))))
+		    (rc = cogw_node_pdo_parse(it, np, l, n,
+					      &(cogw_load){ c->base_dir, c->files, c->read, c->msg,
+							    sizeof(c->msg) })))
 			return rc;
 	}
 	return 0;
