@@ -732,88 +732,100 @@ static int add_var(eds_ctx *c, uint16_t index, uint8_t sub, unsigned line, uint8
 	return 0;
 }
 
+/* A VISIBLE_STRING's characters checked. CiA 301 VISIBLE_STRING is
+ * ISO 646 (20h..7Eh); device files carry tabs and UTF-8 (the CANopenNode
+ * editor writes them), and python-canopen sends such text as it is: so do
+ * we. */
+static int check_visible(eds_ctx *c, const ini_key *k)
+{
+	for (const char *p = k->val; *p; p++) {
+		unsigned char ch = (unsigned char)*p;
+		bool control = ch < 0x20 || ch == 0x7F;
+		if (ch >= 0x20 && ch < 0x7F)
+			continue;
+		if (c->strict && control)
+			return fail(c, k->line, "%s: control character in a VISIBLE_STRING",
+				    k->key);
+		if (c->strict)
+			continue; /* non-ASCII: taken as it is in strict reading too */
+		warn(c, k->line,
+		     "%s: %s in a VISIBLE_STRING (CiA 301: 20h..7Eh); the bytes are sent "
+		     "as they are",
+		     k->key, control ? "control character" : "non-ASCII text");
+		break;
+	}
+	return 0;
+}
+
+/* An OCTET_STRING or DOMAIN value: hex digits, blanks between them. */
+static int encode_hex(eds_ctx *c, const ini_key *k, co_type t, uint8_t **data, uint32_t *size)
+{
+	const char *s = k->val;
+	size_t digits = 0, o = 0;
+	int hi = -1;
+	uint8_t *b;
+
+	for (const char *p = s; *p; p++) {
+		if (*p == ' ' || *p == '\t')
+			continue;
+		if (hexval((unsigned char)*p) < 0)
+			return fail(c, k->line, "%s '%.40s': %s value must be hex digits", k->key,
+				    s, co_type_to_string(t));
+		digits++;
+	}
+	if (digits % 2)
+		return fail(c, k->line, "%s '%.40s': odd number of hex digits", k->key, s);
+	b = malloc(digits / 2 ? digits / 2 : 1);
+	if (!b)
+		return -ENOMEM;
+	for (const char *p = s; *p; p++) {
+		int h = hexval((unsigned char)*p);
+		if (h < 0)
+			continue;
+		if (hi < 0) {
+			hi = h;
+		} else {
+			b[o++] = (uint8_t)(hi << 4 | h);
+			hi = -1;
+		}
+	}
+	*data = b;
+	*size = (uint32_t)o;
+	return 0;
+}
+
 static int encode_bytes(eds_ctx *c, const ini_key *k, co_type t, uint8_t **data, uint32_t *size)
 {
 	const char *s = k->val;
 	size_t n = strlen(s);
-	uint8_t *b;
+	long m;
+	int rc;
 
 	switch (t) {
 	case CO_T_VISIBLE_STRING:
-		/* CiA 301 VISIBLE_STRING is ISO 646 (20h..7Eh); device files
-		 * carry tabs and UTF-8 (the CANopenNode editor writes them), and
-		 * python-canopen sends such text as it is: so do we. */
-		for (size_t i = 0; i < n; i++) {
-			unsigned char ch = (unsigned char)s[i];
-			bool control = ch < 0x20 || ch == 0x7F;
-			if (ch >= 0x20 && ch < 0x7F)
-				continue;
-			if (c->strict && control)
-				return fail(c, k->line, "%s: control character in a VISIBLE_STRING",
-					    k->key);
-			if (c->strict)
-				continue; /* non-ASCII: taken as it is in strict reading too */
-			warn(c, k->line,
-			     "%s: %s in a VISIBLE_STRING (CiA 301: 20h..7Eh); the bytes are sent "
-			     "as they are",
-			     k->key, control ? "control character" : "non-ASCII text");
-			break;
-		}
-		b = malloc(n);
-		if (!b)
+		if ((rc = check_visible(c, k)))
+			return rc;
+		if (!(*data = malloc(n)))
 			return -ENOMEM;
-		memcpy(b, s, n);
+		memcpy(*data, s, n);
 		*size = (uint32_t)n;
-		break;
-	case CO_T_UNICODE_STRING: {
-		long m = json_od_utf8_to_utf16le(s, NULL, 0);
+		return 0;
+	case CO_T_UNICODE_STRING:
+		m = json_od_utf8_to_utf16le(s, NULL, 0);
 		if (m < 0)
 			return fail(c, k->line, "%s: UNICODE_STRING is not valid UTF-8", k->key);
-		b = malloc((size_t)m);
-		if (!b)
+		if (!(*data = malloc((size_t)m)))
 			return -ENOMEM;
-		json_od_utf8_to_utf16le(s, b, (uint32_t)m);
+		json_od_utf8_to_utf16le(s, *data, (uint32_t)m);
 		*size = (uint32_t)m;
-		break;
-	}
+		return 0;
 	case CO_T_OCTET_STRING:
-	case CO_T_DOMAIN: {
-		size_t digits = 0;
-		for (size_t i = 0; i < n; i++) {
-			if (s[i] == ' ' || s[i] == '\t')
-				continue;
-			if (hexval((unsigned char)s[i]) < 0)
-				return fail(c, k->line, "%s '%.40s': %s value must be hex digits",
-					    k->key, s, co_type_to_string(t));
-			digits++;
-		}
-		if (digits % 2)
-			return fail(c, k->line, "%s '%.40s': odd number of hex digits", k->key, s);
-		b = malloc(digits / 2 ? digits / 2 : 1);
-		if (!b)
-			return -ENOMEM;
-		size_t o = 0;
-		int hi = -1;
-		for (size_t i = 0; i < n; i++) {
-			int h = hexval((unsigned char)s[i]);
-			if (h < 0)
-				continue;
-			if (hi < 0) {
-				hi = h;
-			} else {
-				b[o++] = (uint8_t)(hi << 4 | h);
-				hi = -1;
-			}
-		}
-		*size = (uint32_t)o;
-		break;
-	}
+	case CO_T_DOMAIN:
+		return encode_hex(c, k, t, data, size);
 	default:
 		return fail(c, k->line, "%s: values of %s are not supported in EDS/DCF files",
 			    k->key, co_type_to_string(t));
 	}
-	*data = b;
-	return 0;
 }
 
 /* A LowLimit/HighLimit key, or NULL when it is absent, empty or (read
