@@ -591,26 +591,29 @@ static int var_default(const struct ent_place *at, const struct ent_spec *s, con
 	return 0;
 }
 
-/* The default (zero when def is NULL) against the limits, bound names
- * "below"/"above" for the message. */
-static int check_bound(const struct ent_place *at, const struct ent_spec *s, const cJSON *def,
-		       const uint8_t *num, bool upper, char *err, size_t errlen)
+/* The default (zero when def is NULL) against min, then max. */
+static int check_bounds(const struct ent_place *at, const struct ent_spec *s, const cJSON *def,
+			const uint8_t *num, char *err, size_t errlen)
 {
-	const cJSON *bound = upper ? s->max : s->min;
-	int cmp;
-	char a[64], b[64];
+	for (int upper = 0; upper < 2; upper++) {
+		const cJSON *bound = upper ? s->max : s->min;
+		int cmp;
+		char a[64], b[64];
 
-	if (!bound)
-		return 0;
-	cmp = num_cmp(s->type, num, upper ? s->max_b : s->min_b);
-	if (upper ? cmp <= 0 : cmp >= 0)
-		return 0;
-	json_util_repr(def, a, sizeof(a));
-	json_util_repr(bound, b, sizeof(b));
-	if (!def)
-		snprintf(a, sizeof(a), "0 (implicit)");
-	return json_util_fail(err, errlen, def ? at->def_path : at->path, "default %s is %s %s %s",
-			      a, upper ? "above" : "below", upper ? "max" : "min", b);
+		if (!bound)
+			continue;
+		cmp = num_cmp(s->type, num, upper ? s->max_b : s->min_b);
+		if (upper ? cmp <= 0 : cmp >= 0)
+			continue;
+		json_util_repr(def, a, sizeof(a));
+		json_util_repr(bound, b, sizeof(b));
+		if (!def)
+			snprintf(a, sizeof(a), "0 (implicit)");
+		return json_util_fail(err, errlen, def ? at->def_path : at->path,
+				      "default %s is %s %s %s", a, upper ? "above" : "below",
+				      upper ? "max" : "min", b);
+	}
+	return 0;
 }
 
 /* Add the entry at "at" as described by s with default JSON value def
@@ -635,8 +638,7 @@ static int add_entry(const struct ent_place *at, struct ent_spec *s, const cJSON
 		if (def && (rc = json_od_parse_value(def, s->type, at->def_path, num, 8, &len, err,
 						     errlen)))
 			return rc;
-		if ((rc = check_bound(at, s, def, num, false, err, errlen)) ||
-		    (rc = check_bound(at, s, def, num, true, err, errlen)))
+		if ((rc = check_bounds(at, s, def, num, err, errlen)))
 			return rc;
 		d.def = num;
 		d.def_size = co_type_size(s->type);

@@ -132,9 +132,9 @@ static int add_listed_entry(const cJSON *e, const char *ep, co_cdcf_writer *w, u
 }
 
 /* One pass over the "entries" list into w (measuring when nc->cdcf is
- * still NULL); the concise DCF's length into *n. */
+ * still NULL). */
 static int write_entries(const cJSON *list, const char *path, co_cdcf_writer *w, uint8_t *val,
-			 long *n, char *err, size_t errlen)
+			 char *err, size_t errlen)
 {
 	const cJSON *e;
 	size_t i = 0;
@@ -148,9 +148,6 @@ static int write_entries(const cJSON *list, const char *path, co_cdcf_writer *w,
 		if ((rc = add_listed_entry(e, ep, w, val, err, errlen)))
 			return rc;
 	}
-	*n = co_cdcf_writer_finish(w);
-	if (*n < 0)
-		return json_util_fail(err, errlen, path, "cannot build the concise DCF");
 	return 0;
 }
 
@@ -172,8 +169,13 @@ static int parse_entries(const cJSON *list, const char *path, cogw_node_config *
 		return -ENOMEM;
 	for (int pass = 0; pass < 2 && !rc; pass++) {
 		co_cdcf_writer_init(&w, nc->cdcf, nc->cdcf_len);
-		if ((rc = write_entries(list, path, &w, val, &n, err, errlen)))
+		if ((rc = write_entries(list, path, &w, val, err, errlen)))
 			break;
+		n = co_cdcf_writer_finish(&w);
+		if (n < 0) {
+			rc = json_util_fail(err, errlen, path, "cannot build the concise DCF");
+			break;
+		}
 		if (pass == 0) {
 			nc->cdcf = malloc((size_t)n);
 			if (!nc->cdcf) {
