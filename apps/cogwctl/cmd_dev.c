@@ -39,89 +39,114 @@ static const char *type_text(uint16_t type)
 
 /* ---- pdo map ------------------------------------------------------------------ */
 
+/* A node's heading: a JSON object with an empty "pdos" (returned), or a
+ * line of text (NULL). */
+static cJSON *layout_heading(ctl *c, unsigned line, const mbx_dev_layout_node *n)
+{
+	cJSON *o;
+
+	if (!c->json) {
+		printf("line %u node %u: layout %s%s (generation %" PRIu32 "), mirror %s", line,
+		       n->node, source_text(n->source), n->valid ? "" : " (not valid)",
+		       n->generation, mirror_status_text(n->mirror));
+		if (n->missing)
+			printf(", %u PDO%s not mirrored: %s", n->missing,
+			       n->missing == 1 ? "" : "s", mirror_reason_text(n->reason));
+		if (n->dropped_tpdo || n->dropped_rpdo)
+			printf(", %u TPDOs and %u RPDOs beyond the table's room", n->dropped_tpdo,
+			       n->dropped_rpdo);
+		printf("\n");
+		return NULL;
+	}
+	o = cJSON_CreateObject();
+	cJSON_AddNumberToObject(o, "line", line);
+	cJSON_AddNumberToObject(o, "node", n->node);
+	cJSON_AddStringToObject(o, "source", source_text(n->source));
+	cJSON_AddBoolToObject(o, "valid", n->valid);
+	cJSON_AddNumberToObject(o, "generation", n->generation);
+	cJSON_AddStringToObject(o, "mirror", mirror_status_text(n->mirror));
+	if (n->missing) {
+		cJSON_AddNumberToObject(o, "missing", n->missing);
+		cJSON_AddStringToObject(o, "reason", mirror_reason_text(n->reason));
+	}
+	cJSON_AddNumberToObject(o, "dropped_tpdo", n->dropped_tpdo);
+	cJSON_AddNumberToObject(o, "dropped_rpdo", n->dropped_rpdo);
+	cJSON_AddArrayToObject(o, "pdos");
+	return o;
+}
+
+/* One PDO's heading: into pdos (its "map" array returned), or a line of
+ * text (pdos NULL, NULL returned). */
+static cJSON *layout_pdo(cJSON *pdos, const mbx_dev_layout_pdo *p)
+{
+	cJSON *jp;
+
+	if (!pdos) {
+		char mirror[64] = "not mirrored";
+		if (p->mirror_pdo)
+			snprintf(mirror, sizeof mirror, "%s %u of the daemon",
+				 p->dir ? "RPDO" : "TPDO", p->mirror_pdo);
+		else if (p->mirror_reason)
+			snprintf(mirror, sizeof mirror, "not mirrored: %s",
+				 mirror_reason_text(p->mirror_reason));
+		printf("  %s %-3u COB-ID %03" PRIX32 "h type %3u event %5u ms %u bytes  %s\n",
+		       p->dir ? "TPDO" : "RPDO", p->nr, p->cob, p->tt, p->event_ms, p->bytes,
+		       mirror);
+		return NULL;
+	}
+	jp = cJSON_CreateObject();
+	cJSON_AddStringToObject(jp, "pdo", p->dir ? "tpdo" : "rpdo");
+	cJSON_AddNumberToObject(jp, "nr", p->nr);
+	cJSON_AddNumberToObject(jp, "cob_id", p->cob);
+	cJSON_AddNumberToObject(jp, "transmission_type", p->tt);
+	cJSON_AddNumberToObject(jp, "event_ms", p->event_ms);
+	cJSON_AddNumberToObject(jp, "bytes", p->bytes);
+	cJSON_AddNumberToObject(jp, "mirror_pdo", p->mirror_pdo);
+	if (p->mirror_reason)
+		cJSON_AddStringToObject(jp, "not_mirrored", mirror_reason_text(p->mirror_reason));
+	cJSON_AddItemToArray(pdos, jp);
+	return cJSON_AddArrayToObject(jp, "map");
+}
+
+/* One mapped object: into jentries, or a line of text (jentries NULL). */
+static void layout_entry(cJSON *jentries, const mbx_dev_layout_entry *e)
+{
+	cJSON *je;
+
+	if (!jentries) {
+		printf("    %04X:%02X %2u bits at bit %2u  %s\n", e->index, e->sub, e->bits,
+		       e->offset, type_text(e->type));
+		return;
+	}
+	je = cJSON_CreateObject();
+	cJSON_AddNumberToObject(je, "index", e->index);
+	cJSON_AddNumberToObject(je, "sub", e->sub);
+	cJSON_AddNumberToObject(je, "bits", e->bits);
+	cJSON_AddNumberToObject(je, "offset", e->offset);
+	if (e->type)
+		cJSON_AddStringToObject(je, "type", type_text(e->type));
+	cJSON_AddItemToArray(jentries, je);
+}
+
 /* One node of a DEV_LAYOUT answer from *off: printed, *off moved on. */
 static void print_layout_node(ctl *c, unsigned line, const uint8_t *buf, size_t *off)
 {
 	mbx_dev_layout_node n;
 	memcpy(&n, buf + *off, sizeof n);
 	*off += sizeof n;
-	cJSON *o = NULL, *pdos = NULL;
-	if (c->json) {
-		o = cJSON_CreateObject();
-		cJSON_AddNumberToObject(o, "line", line);
-		cJSON_AddNumberToObject(o, "node", n.node);
-		cJSON_AddStringToObject(o, "source", source_text(n.source));
-		cJSON_AddBoolToObject(o, "valid", n.valid);
-		cJSON_AddNumberToObject(o, "generation", n.generation);
-		cJSON_AddStringToObject(o, "mirror", mirror_status_text(n.mirror));
-		if (n.missing) {
-			cJSON_AddNumberToObject(o, "missing", n.missing);
-			cJSON_AddStringToObject(o, "reason", mirror_reason_text(n.reason));
-		}
-		cJSON_AddNumberToObject(o, "dropped_tpdo", n.dropped_tpdo);
-		cJSON_AddNumberToObject(o, "dropped_rpdo", n.dropped_rpdo);
-		pdos = cJSON_AddArrayToObject(o, "pdos");
-	} else {
-		printf("line %u node %u: layout %s%s (generation %" PRIu32 "), mirror %s", line,
-		       n.node, source_text(n.source), n.valid ? "" : " (not valid)", n.generation,
-		       mirror_status_text(n.mirror));
-		if (n.missing)
-			printf(", %u PDO%s not mirrored: %s", n.missing, n.missing == 1 ? "" : "s",
-			       mirror_reason_text(n.reason));
-		if (n.dropped_tpdo || n.dropped_rpdo)
-			printf(", %u TPDOs and %u RPDOs beyond the table's room", n.dropped_tpdo,
-			       n.dropped_rpdo);
-		printf("\n");
-	}
+	cJSON *o = layout_heading(c, line, &n);
+	cJSON *pdos = o ? cJSON_GetObjectItem(o, "pdos") : NULL;
+
 	for (unsigned k = 0; k < (unsigned)n.n_tpdo + n.n_rpdo; k++) {
 		mbx_dev_layout_pdo p;
 		memcpy(&p, buf + *off, sizeof p);
 		*off += sizeof p;
-		cJSON *jp = NULL, *jentries = NULL;
-		if (pdos) {
-			jp = cJSON_CreateObject();
-			cJSON_AddStringToObject(jp, "pdo", p.dir ? "tpdo" : "rpdo");
-			cJSON_AddNumberToObject(jp, "nr", p.nr);
-			cJSON_AddNumberToObject(jp, "cob_id", p.cob);
-			cJSON_AddNumberToObject(jp, "transmission_type", p.tt);
-			cJSON_AddNumberToObject(jp, "event_ms", p.event_ms);
-			cJSON_AddNumberToObject(jp, "bytes", p.bytes);
-			cJSON_AddNumberToObject(jp, "mirror_pdo", p.mirror_pdo);
-			if (p.mirror_reason)
-				cJSON_AddStringToObject(jp, "not_mirrored",
-							mirror_reason_text(p.mirror_reason));
-			jentries = cJSON_AddArrayToObject(jp, "map");
-			cJSON_AddItemToArray(pdos, jp);
-		} else {
-			char mirror[64] = "not mirrored";
-			if (p.mirror_pdo)
-				snprintf(mirror, sizeof mirror, "%s %u of the daemon",
-					 p.dir ? "RPDO" : "TPDO", p.mirror_pdo);
-			else if (p.mirror_reason)
-				snprintf(mirror, sizeof mirror, "not mirrored: %s",
-					 mirror_reason_text(p.mirror_reason));
-			printf("  %s %-3u COB-ID %03" PRIX32
-			       "h type %3u event %5u ms %u bytes  %s\n",
-			       p.dir ? "TPDO" : "RPDO", p.nr, p.cob, p.tt, p.event_ms, p.bytes,
-			       mirror);
-		}
+		cJSON *jentries = layout_pdo(pdos, &p);
 		for (unsigned i = 0; i < p.n; i++) {
 			mbx_dev_layout_entry e;
 			memcpy(&e, buf + *off, sizeof e);
 			*off += sizeof e;
-			if (jentries) {
-				cJSON *je = cJSON_CreateObject();
-				cJSON_AddNumberToObject(je, "index", e.index);
-				cJSON_AddNumberToObject(je, "sub", e.sub);
-				cJSON_AddNumberToObject(je, "bits", e.bits);
-				cJSON_AddNumberToObject(je, "offset", e.offset);
-				if (e.type)
-					cJSON_AddStringToObject(je, "type", type_text(e.type));
-				cJSON_AddItemToArray(jentries, je);
-			} else {
-				printf("    %04X:%02X %2u bits at bit %2u  %s\n", e.index, e.sub,
-				       e.bits, e.offset, type_text(e.type));
-			}
+			layout_entry(jentries, &e);
 		}
 	}
 	if (o)
