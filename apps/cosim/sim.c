@@ -691,12 +691,95 @@ static void on_event(void *ctx, const co_event *ev)
 
 /* ---- lifetime ---------------------------------------------------------------------- */
 
+/* The device file's values, before anything stored replaces them. */
+static void take_snapshot(cosim_node *n)
+{
+	long len;
+
+	n->snapshot = malloc(SNAPSHOT_MAX);
+	if (!n->snapshot)
+		return;
+	len = co_od_image_write(n->dev.od, COSIM_NV_COMM | COSIM_NV_APP, n->snapshot, SNAPSHOT_MAX);
+	if (len < 0) {
+		free(n->snapshot);
+		n->snapshot = NULL;
+	} else {
+		n->snapshot_len = (size_t)len;
+	}
+}
+
+/* The stored LSS node-ID and values, when the node has a store. */
+static int load_stored(cosim_node *n, char *err, size_t errlen)
+{
+	unsigned loaded = 0, skipped = 0;
+	uint8_t stored;
+	int rc;
+
+	if (!n->has_nv)
+		return 0;
+	if (n->dev.lss_enabled && !n->dev.lss_constant_id &&
+	    cosim_nv_load_node_id(n->nv_dir, n->nv_key, &stored) == 0 && stored != n->active_id) {
+		logn(n, "LSS node-ID %u from %s/%s.lss", stored, n->nv_dir, n->nv_key);
+		n->active_id = stored;
+		cosim_device_rebase(&n->dev, n->dev.od, stored);
+	}
+	rc = cosim_nv_load(n->dev.od, n->nv_dir, n->nv_key, &loaded, &skipped);
+	if (rc) {
+		snprintf(err, errlen, "%s: cannot read stored values in %s: %s", n->dev.file,
+			 n->nv_dir, strerror(-rc));
+		return rc;
+	}
+	if (loaded || skipped)
+		logn(n, "%u stored values loaded from %s/%s.*%s", loaded, n->nv_dir, n->nv_key,
+		     skipped ? " (some records skipped)" : "");
+	return 0;
+}
+
+/* The core instance of the node, its store and program objects hooked. */
+static int start_core(cosim_node *n, uint32_t sdo_timeout_ms, char *err, size_t errlen)
+{
+	co_node_config nc;
+	int rc;
+
+	memset(&nc, 0, sizeof nc);
+	nc.node_id = n->active_id;
+	nc.od = n->dev.od;
+	nc.send = tx_filter;
+	nc.send_ctx = n;
+	nc.event = on_event;
+	nc.event_ctx = n;
+	nc.lss_slave = n->dev.lss_enabled;
+	nc.lss_slave_constant_id = n->dev.lss_constant_id;
+	nc.sdo_server_timeout_ms = sdo_timeout_ms;
+	n->lss_hooks.store = lss_store;
+	if (n->dev.lss_bit_timing_mask)
+		n->lss_hooks.check_bit_timing = lss_check_bt;
+	nc.lss_slave_hooks = &n->lss_hooks;
+	nc.lss_slave_ctx = n;
+	rc = co_node_create(&n->node, &nc);
+	if (rc) {
+		snprintf(err, errlen, "%s: cannot create the node: %s", n->dev.file, strerror(-rc));
+		return rc;
+	}
+	rc = store_setup(n);
+	if (rc) {
+		snprintf(err, errlen, "%s: cannot attach 1010h/1011h: %s", n->dev.file,
+			 strerror(-rc));
+		return rc;
+	}
+	if (n->dev.program.enabled &&
+	    (rc = cosim_program_attach(&n->prog, n->dev.od, &n->dev.program, n->cfg_id,
+				       n->quiet))) {
+		snprintf(err, errlen, "%s: cannot attach 1F50h/1F51h: %s", n->dev.file,
+			 strerror(-rc));
+		return rc;
+	}
+	return 0;
+}
+
 int cosim_node_create(cosim_node **out, const cosim_node_config *cfg, char *err, size_t errlen)
 {
 	cosim_node *n = calloc(1, sizeof *n);
-	co_node_config nc;
-	unsigned loaded = 0, skipped = 0;
-	uint8_t id;
 	int rc;
 
 	if (!n) {
@@ -711,84 +794,22 @@ int cosim_node_create(cosim_node **out, const cosim_node_config *cfg, char *err,
 	n->out = cfg->out;
 	n->out_ctx = cfg->out_ctx;
 	n->start_us = n->now_us = cfg->now_us;
-	n->cfg_id = n->active_id = id = n->dev.node_id;
+	n->cfg_id = n->active_id = n->dev.node_id;
 	if (cfg->nv_dir) {
 		n->has_nv = true;
 		snprintf(n->nv_dir, sizeof n->nv_dir, "%s", cfg->nv_dir);
 		snprintf(n->nv_key, sizeof n->nv_key, "%s", cfg->nv_key);
 	}
-
-	/* The device file's values, before anything stored replaces them. */
-	n->snapshot = malloc(SNAPSHOT_MAX);
-	if (n->snapshot) {
-		long len = co_od_image_write(n->dev.od, COSIM_NV_COMM | COSIM_NV_APP, n->snapshot,
-					     SNAPSHOT_MAX);
-		if (len < 0) {
-			free(n->snapshot);
-			n->snapshot = NULL;
-		} else {
-			n->snapshot_len = (size_t)len;
-		}
-	}
-	if (n->has_nv) {
-		uint8_t stored;
-		if (n->dev.lss_enabled && !n->dev.lss_constant_id &&
-		    cosim_nv_load_node_id(n->nv_dir, n->nv_key, &stored) == 0 && stored != id) {
-			logn(n, "LSS node-ID %u from %s/%s.lss", stored, n->nv_dir, n->nv_key);
-			id = n->active_id = stored;
-			cosim_device_rebase(&n->dev, n->dev.od, id);
-		}
-		rc = cosim_nv_load(n->dev.od, n->nv_dir, n->nv_key, &loaded, &skipped);
-		if (rc) {
-			snprintf(err, errlen, "%s: cannot read stored values in %s: %s",
-				 n->dev.file, n->nv_dir, strerror(-rc));
-			goto fail;
-		}
-		if (loaded || skipped)
-			logn(n, "%u stored values loaded from %s/%s.*%s", loaded, n->nv_dir,
-			     n->nv_key, skipped ? " (some records skipped)" : "");
-	}
-
-	memset(&nc, 0, sizeof nc);
-	nc.node_id = id;
-	nc.od = n->dev.od;
-	nc.send = tx_filter;
-	nc.send_ctx = n;
-	nc.event = on_event;
-	nc.event_ctx = n;
-	nc.lss_slave = n->dev.lss_enabled;
-	nc.lss_slave_constant_id = n->dev.lss_constant_id;
-	nc.sdo_server_timeout_ms = cfg->sdo_timeout_ms;
-	n->lss_hooks.store = lss_store;
-	if (n->dev.lss_bit_timing_mask)
-		n->lss_hooks.check_bit_timing = lss_check_bt;
-	nc.lss_slave_hooks = &n->lss_hooks;
-	nc.lss_slave_ctx = n;
-	rc = co_node_create(&n->node, &nc);
-	if (rc) {
-		snprintf(err, errlen, "%s: cannot create the node: %s", n->dev.file, strerror(-rc));
-		goto fail;
-	}
-	rc = store_setup(n);
-	if (rc) {
-		snprintf(err, errlen, "%s: cannot attach 1010h/1011h: %s", n->dev.file,
-			 strerror(-rc));
-		goto fail;
-	}
-	if (n->dev.program.enabled &&
-	    (rc = cosim_program_attach(&n->prog, n->dev.od, &n->dev.program, n->cfg_id,
-				       n->quiet))) {
-		snprintf(err, errlen, "%s: cannot attach 1F50h/1F51h: %s", n->dev.file,
-			 strerror(-rc));
-		goto fail;
+	take_snapshot(n);
+	if ((rc = load_stored(n, err, errlen)) ||
+	    (rc = start_core(n, cfg->sdo_timeout_ms, err, errlen))) {
+		cosim_node_destroy(n);
+		return rc;
 	}
 	for (unsigned i = 0; i < n->dev.n_signals; i++)
 		n->sig[i].next_us = cfg->now_us;
 	*out = n;
 	return 0;
-fail:
-	cosim_node_destroy(n);
-	return rc;
 }
 
 void cosim_node_destroy(cosim_node *n)
