@@ -1059,12 +1059,137 @@ static int cmd_status(cosim_node *n, char *reply, size_t rl)
 	return 0;
 }
 
+/* A control command's words w[0..nw-1] (nw >= 1) carried out, its answer
+ * in reply; NOT_MINE when the words do not fit it (then the command is
+ * unknown). The time is n->now_us. */
+#define NOT_MINE 1
+typedef int (*node_cmd_fn)(cosim_node *n, char **w, int nw, char *reply, size_t rl);
+
+static int cmd_hb(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	bool b;
+
+	if (nw < 2 || on_off(w[1], &b))
+		return NOT_MINE;
+	n->f.hb_stop = b;
+	logn(n, "fault: heartbeat %s", b ? "stopped" : "running");
+	return snprintf(reply, rl, "ok hb %s", b ? "stop" : "start"), 0;
+}
+
+static int cmd_silent(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	bool b;
+
+	if (nw < 2 || on_off(w[1], &b))
+		return NOT_MINE;
+	n->f.silent = b;
+	logn(n, "fault: %s", b ? "silent (cable pulled)" : "back on the bus");
+	return snprintf(reply, rl, "ok silent %s", b ? "on" : "off"), 0;
+}
+
+static int cmd_sdo_fault(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	int rc = cmd_sdo(n, w, nw, reply, rl);
+
+	if (!rc)
+		logn(n, "fault: %s", reply + 3);
+	return rc;
+}
+
+static int cmd_pdo(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	bool b;
+
+	if (nw < 3 || strcmp(w[1], "badlen") || on_off(w[2], &b))
+		return NOT_MINE;
+	n->f.pdo_badlen = b;
+	logn(n, "fault: TPDO wrong length %s", b ? "on" : "off");
+	return snprintf(reply, rl, "ok pdo badlen %s", b ? "on" : "off"), 0;
+}
+
+static int cmd_emcy(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	uint32_t v, reg = 0;
+	int rc;
+
+	if (nw < 2)
+		return NOT_MINE;
+	if (!strcmp(w[1], "clear")) {
+		rc = co_emcy_clear_all(n->node, n->now_us);
+	} else {
+		if (!parse_u32(w[1], &v) || v == 0 || v > 0xFFFF ||
+		    (nw >= 3 && (!parse_u32(w[2], &reg) || reg > 0xFF)))
+			return reply_err(reply, rl, "emcy CODE [REGISTER] | emcy clear");
+		rc = co_emcy_send(n->node, (uint16_t)v, (uint8_t)reg, NULL, n->now_us);
+	}
+	if (rc && rc != -ENOSPC)
+		return reply_err(reply, rl, "emcy: %s", strerror(-rc));
+	logn(n, "EMCY %s", w[1]);
+	return snprintf(reply, rl, "ok emcy %s", w[1]), 0;
+}
+
+/* "pressure [VALUE]" (the signal of that name) or "signal NAME [VALUE]". */
+static int cmd_signal_word(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	bool named = !strcmp(w[0], "signal");
+	const char *name = named ? (nw >= 2 ? w[1] : "") : "pressure";
+	int i = find_signal(n, name);
+
+	if (i < 0)
+		return reply_err(reply, rl, "this device has no signal \"%s\"", name);
+	return cmd_signal(n, i, nw > (named ? 2 : 1) ? w[named ? 2 : 1] : NULL, n->now_us, reply,
+			  rl);
+}
+
+static int cmd_loopback(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	bool b;
+
+	if (nw < 2 || on_off(w[1], &b))
+		return NOT_MINE;
+	n->dev.loopback_enabled = b;
+	return snprintf(reply, rl, "ok loopback %s", b ? "on" : "off"), 0;
+}
+
+static int cmd_set_get_word(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	return cmd_set_get(n, w, nw, n->now_us, reply, rl);
+}
+
+static int cmd_nmt_word(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	return cmd_nmt(n, nw >= 2 ? w[1] : NULL, n->now_us, reply, rl);
+}
+
+static int cmd_status_word(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	(void)w;
+	(void)nw;
+	return cmd_status(n, reply, rl);
+}
+
+static const struct {
+	const char *word;
+	node_cmd_fn run;
+} node_cmds[] = {
+	{ "hb", cmd_hb },
+	{ "silent", cmd_silent },
+	{ "sdo", cmd_sdo_fault },
+	{ "pdo", cmd_pdo },
+	{ "emcy", cmd_emcy },
+	{ "pressure", cmd_signal_word },
+	{ "signal", cmd_signal_word },
+	{ "loopback", cmd_loopback },
+	{ "set", cmd_set_get_word },
+	{ "get", cmd_set_get_word },
+	{ "nmt", cmd_nmt_word },
+	{ "status", cmd_status_word },
+};
+
 int cosim_node_command(cosim_node *n, const char *line, uint64_t now_us, char *reply, size_t rl)
 {
 	char buf[256], *w[8], *save = NULL;
 	int nw = 0;
-	uint32_t v;
-	bool b;
 
 	n->now_us = now_us;
 	snprintf(buf, sizeof buf, "%s", line);
@@ -1073,62 +1198,15 @@ int cosim_node_command(cosim_node *n, const char *line, uint64_t now_us, char *r
 		w[nw++] = t;
 	if (nw == 0)
 		return reply_err(reply, rl, "empty command");
-
-	if (!strcmp(w[0], "hb") && nw >= 2 && !on_off(w[1], &b)) {
-		n->f.hb_stop = b;
-		logn(n, "fault: heartbeat %s", b ? "stopped" : "running");
-		return snprintf(reply, rl, "ok hb %s", b ? "stop" : "start"), 0;
-	}
-	if (!strcmp(w[0], "silent") && nw >= 2 && !on_off(w[1], &b)) {
-		n->f.silent = b;
-		logn(n, "fault: %s", b ? "silent (cable pulled)" : "back on the bus");
-		return snprintf(reply, rl, "ok silent %s", b ? "on" : "off"), 0;
-	}
-	if (!strcmp(w[0], "sdo")) {
-		int rc = cmd_sdo(n, w, nw, reply, rl);
-		if (!rc)
-			logn(n, "fault: %s", reply + 3);
-		return rc;
-	}
-	if (!strcmp(w[0], "pdo") && nw >= 3 && !strcmp(w[1], "badlen") && !on_off(w[2], &b)) {
-		n->f.pdo_badlen = b;
-		logn(n, "fault: TPDO wrong length %s", b ? "on" : "off");
-		return snprintf(reply, rl, "ok pdo badlen %s", b ? "on" : "off"), 0;
-	}
-	if (!strcmp(w[0], "emcy") && nw >= 2) {
+	for (size_t i = 0; i < sizeof node_cmds / sizeof node_cmds[0]; i++) {
 		int rc;
-		if (!strcmp(w[1], "clear")) {
-			rc = co_emcy_clear_all(n->node, now_us);
-		} else {
-			uint32_t reg = 0;
-			if (!parse_u32(w[1], &v) || v == 0 || v > 0xFFFF ||
-			    (nw >= 3 && (!parse_u32(w[2], &reg) || reg > 0xFF)))
-				return reply_err(reply, rl, "emcy CODE [REGISTER] | emcy clear");
-			rc = co_emcy_send(n->node, (uint16_t)v, (uint8_t)reg, NULL, now_us);
-		}
-		if (rc && rc != -ENOSPC)
-			return reply_err(reply, rl, "emcy: %s", strerror(-rc));
-		logn(n, "EMCY %s", w[1]);
-		return snprintf(reply, rl, "ok emcy %s", w[1]), 0;
+
+		if (strcmp(w[0], node_cmds[i].word))
+			continue;
+		rc = node_cmds[i].run(n, w, nw, reply, rl);
+		if (rc != NOT_MINE)
+			return rc;
+		break;
 	}
-	if (!strcmp(w[0], "pressure") || !strcmp(w[0], "signal")) {
-		bool named = !strcmp(w[0], "signal");
-		const char *name = named ? (nw >= 2 ? w[1] : "") : "pressure";
-		int i = find_signal(n, name);
-		if (i < 0)
-			return reply_err(reply, rl, "this device has no signal \"%s\"", name);
-		return cmd_signal(n, i, nw > (named ? 2 : 1) ? w[named ? 2 : 1] : NULL, now_us,
-				  reply, rl);
-	}
-	if (!strcmp(w[0], "loopback") && nw >= 2 && !on_off(w[1], &b)) {
-		n->dev.loopback_enabled = b;
-		return snprintf(reply, rl, "ok loopback %s", b ? "on" : "off"), 0;
-	}
-	if (!strcmp(w[0], "set") || !strcmp(w[0], "get"))
-		return cmd_set_get(n, w, nw, now_us, reply, rl);
-	if (!strcmp(w[0], "nmt"))
-		return cmd_nmt(n, nw >= 2 ? w[1] : NULL, now_us, reply, rl);
-	if (!strcmp(w[0], "status"))
-		return cmd_status(n, reply, rl);
 	return reply_err(reply, rl, "unknown command \"%s\" (see cosim --help)", w[0]);
 }
