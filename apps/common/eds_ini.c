@@ -75,11 +75,67 @@ static void cut_inline_comment(char *s)
 		}
 }
 
+/* "[name]" at s (trimmed, not empty) on line `line`: a new section. */
+static int section_line(eds_ctx *c, char *s, unsigned line, ini_sec **cur)
+{
+	size_t n = strlen(s);
+	char *name;
+
+	if (s[n - 1] != ']' && !c->strict) {
+		cut_inline_comment(s);
+		n = strlen(s);
+	}
+	if (s[n - 1] != ']')
+		return eds_fail(c, line, "section header without closing ']'");
+	name = eds_trim(s + 1, s + n - 1);
+	if (!*name)
+		return eds_fail(c, line, "empty section name");
+	if (eds_grow((void **)&c->secs, &c->cap, c->nsecs + 1, sizeof(*c->secs)))
+		return -ENOMEM;
+	*cur = &c->secs[c->nsecs++];
+	memset(*cur, 0, sizeof(**cur));
+	(*cur)->name = name;
+	(*cur)->line = line;
+	classify(*cur);
+	if ((*cur)->kind == SEC_OTHER && strlen(name) > 4 &&
+	    eds_hexval((unsigned char)name[0]) >= 0 && eds_hexval((unsigned char)name[1]) >= 0 &&
+	    eds_hexval((unsigned char)name[2]) >= 0 && eds_hexval((unsigned char)name[3]) >= 0 &&
+	    !strncasecmp(name + 4, "sub", 3))
+		return eds_fail(c, line, "[%s]: sub-index must be 1 or 2 hex digits (00..FF)",
+				name);
+	return 0;
+}
+
+/* "key=value" at s (trimmed, not empty) on line `line`, into cur. */
+static int key_line(eds_ctx *c, char *s, unsigned line, ini_sec *cur)
+{
+	char *eq = strchr(s, '=');
+	if (!eq)
+		return eds_fail(c, line, "expected [section] or key=value, got '%.40s'", s);
+	if (!cur)
+		return eds_fail(c, line, "key=value before the first [section]");
+	char *key = eds_trim(s, eq);
+	char *val = eds_trim(eq + 1, eq + 1 + strlen(eq + 1));
+	if (!c->strict)
+		cut_inline_comment(val);
+	if (!*key)
+		return eds_fail(c, line, "no key before '='");
+	for (size_t i = 0; i < cur->nkeys; i++)
+		if (!strcasecmp(cur->keys[i].key, key))
+			return eds_fail(c, line, "duplicate key '%s' in [%s] (first at line %u)",
+					key, cur->name, cur->keys[i].line);
+	if (eds_grow((void **)&cur->keys, &cur->cap, cur->nkeys + 1, sizeof(*cur->keys)))
+		return -ENOMEM;
+	cur->keys[cur->nkeys++] = (ini_key){ .key = key, .val = val, .line = line };
+	return 0;
+}
+
 int eds_parse_ini(eds_ctx *c, size_t len)
 {
 	char *p = c->text, *end = c->text + len;
 	ini_sec *cur = NULL;
 	unsigned line = 0;
+	int rc;
 
 	/* a UTF-8 byte order mark, as Windows editors write it */
 	if (!c->strict && len >= 3 && !memcmp(p, "\xEF\xBB\xBF", 3))
@@ -96,56 +152,9 @@ int eds_parse_ini(eds_ctx *c, size_t len)
 		p = nl ? nl + 1 : end;
 		if (!*s || *s == ';' || *s == '#')
 			continue;
-		if (*s == '[') {
-			size_t n = strlen(s);
-			char *name;
-
-			if (s[n - 1] != ']' && !c->strict) {
-				cut_inline_comment(s);
-				n = strlen(s);
-			}
-			if (s[n - 1] != ']')
-				return eds_fail(c, line, "section header without closing ']'");
-			name = eds_trim(s + 1, s + n - 1);
-			if (!*name)
-				return eds_fail(c, line, "empty section name");
-			if (eds_grow((void **)&c->secs, &c->cap, c->nsecs + 1, sizeof(*c->secs)))
-				return -ENOMEM;
-			cur = &c->secs[c->nsecs++];
-			memset(cur, 0, sizeof(*cur));
-			cur->name = name;
-			cur->line = line;
-			classify(cur);
-			if (cur->kind == SEC_OTHER && strlen(name) > 4 &&
-			    eds_hexval((unsigned char)name[0]) >= 0 &&
-			    eds_hexval((unsigned char)name[1]) >= 0 &&
-			    eds_hexval((unsigned char)name[2]) >= 0 &&
-			    eds_hexval((unsigned char)name[3]) >= 0 &&
-			    !strncasecmp(name + 4, "sub", 3))
-				return eds_fail(
-					c, line,
-					"[%s]: sub-index must be 1 or 2 hex digits (00..FF)", name);
-			continue;
-		}
-		char *eq = strchr(s, '=');
-		if (!eq)
-			return eds_fail(c, line, "expected [section] or key=value, got '%.40s'", s);
-		if (!cur)
-			return eds_fail(c, line, "key=value before the first [section]");
-		char *key = eds_trim(s, eq);
-		char *val = eds_trim(eq + 1, eq + 1 + strlen(eq + 1));
-		if (!c->strict)
-			cut_inline_comment(val);
-		if (!*key)
-			return eds_fail(c, line, "no key before '='");
-		for (size_t i = 0; i < cur->nkeys; i++)
-			if (!strcasecmp(cur->keys[i].key, key))
-				return eds_fail(c, line,
-						"duplicate key '%s' in [%s] (first at line %u)",
-						key, cur->name, cur->keys[i].line);
-		if (eds_grow((void **)&cur->keys, &cur->cap, cur->nkeys + 1, sizeof(*cur->keys)))
-			return -ENOMEM;
-		cur->keys[cur->nkeys++] = (ini_key){ .key = key, .val = val, .line = line };
+		rc = *s == '[' ? section_line(c, s, line, &cur) : key_line(c, s, line, cur);
+		if (rc)
+			return rc;
 	}
 	return 0;
 }
