@@ -318,43 +318,15 @@ static int do_sub_sections(eds_ctx *c, const ini_sec *o, uint64_t ot, const ini_
 	return 0;
 }
 
-int eds_do_object(eds_ctx *c, const ini_sec *o)
+/* An ARRAY or RECORD: compact (CompactSubObj, ARRAY only) or with its
+ * sub-sections. */
+static int do_compound(eds_ctx *c, const ini_sec *o, uint64_t ot, const ini_key *sn,
+		       const ini_key *ck)
 {
-	const ini_key *otk = eds_get_key(o, "ObjectType");
-	const ini_key *sn = eds_get_key(o, "SubNumber"), *ck = eds_get_key(o, "CompactSubObj");
-	uint64_t ot = CO_OBJ_VAR;
 	size_t first = eds_lower_bound(c, SEC_SUB, o->index),
 	       last = eds_lower_bound(c, SEC_NAME, o->index);
 	int rc;
 
-	c->st.objects++;
-	if (o->index == 0)
-		return eds_fail(c, o->line, "[%s]: index 0000h is not an object", o->name);
-	if (otk && !*otk->val && !c->strict)
-		otk = NULL; /* CiA 306: no ObjectType is VAR */
-	if (otk && (rc = eds_parse_uint_key(c, otk, 0xFF, &ot)))
-		return rc;
-	if (ck && !*ck->val)
-		ck = NULL;
-	if (sn && !*sn->val && !c->strict)
-		sn = NULL;
-	switch (ot) {
-	case CO_OBJ_DEFTYPE:
-	case CO_OBJ_DEFSTRUCT:
-		return 0; /* type definitions: nothing to configure */
-	case CO_OBJ_VAR:
-	case CO_OBJ_DOMAIN:
-		return do_var_object(c, o, ot, sn, ck, first, last);
-	case CO_OBJ_ARRAY:
-	case CO_OBJ_RECORD:
-		break;
-	default: /* python-canopen skips such an object, and so do we */
-		return eds_tolerate(
-			c, otk->line,
-			"ObjectType '%s' is not one of 0x2 (DOMAIN), 0x5 (DEFTYPE), 0x6 "
-			"(DEFSTRUCT), 0x7 (VAR), 0x8 (ARRAY), 0x9 (RECORD)%s",
-			otk->val, c->strict ? "" : ": the object is not used");
-	}
 	if (ck && ot != CO_OBJ_ARRAY && eds_find_sec(c, SEC_VALUE, o->index, 0, NULL))
 		return eds_fail(c, ck->line, "[%s]: CompactSubObj on a RECORD (only ARRAY)",
 				o->name);
@@ -375,6 +347,45 @@ int eds_do_object(eds_ctx *c, const ini_sec *o)
 		return do_compact(c, o, ck);
 	}
 	return do_sub_sections(c, o, ot, sn, first, last);
+}
+
+int eds_do_object(eds_ctx *c, const ini_sec *o)
+{
+	const ini_key *otk = eds_get_key(o, "ObjectType");
+	const ini_key *sn = eds_get_key(o, "SubNumber"), *ck = eds_get_key(o, "CompactSubObj");
+	uint64_t ot = CO_OBJ_VAR;
+	int rc;
+
+	c->st.objects++;
+	if (o->index == 0)
+		return eds_fail(c, o->line, "[%s]: index 0000h is not an object", o->name);
+	if (otk && !*otk->val && !c->strict)
+		otk = NULL; /* CiA 306: no ObjectType is VAR */
+	if (otk && (rc = eds_parse_uint_key(c, otk, 0xFF, &ot)))
+		return rc;
+	if (ck && !*ck->val)
+		ck = NULL;
+	if (sn && !*sn->val && !c->strict)
+		sn = NULL;
+	switch (ot) {
+	case CO_OBJ_DEFTYPE:
+	case CO_OBJ_DEFSTRUCT:
+		return 0; /* type definitions: nothing to configure */
+	case CO_OBJ_VAR:
+	case CO_OBJ_DOMAIN:
+		return do_var_object(c, o, ot, sn, ck, eds_lower_bound(c, SEC_SUB, o->index),
+				     eds_lower_bound(c, SEC_NAME, o->index));
+	case CO_OBJ_ARRAY:
+	case CO_OBJ_RECORD:
+		break;
+	default: /* python-canopen skips such an object, and so do we */
+		return eds_tolerate(
+			c, otk->line,
+			"ObjectType '%s' is not one of 0x2 (DOMAIN), 0x5 (DEFTYPE), 0x6 "
+			"(DEFSTRUCT), 0x7 (VAR), 0x8 (ARRAY), 0x9 (RECORD)%s",
+			otk->val, c->strict ? "" : ": the object is not used");
+	}
+	return do_compound(c, o, ot, sn, ck);
 }
 
 /* [XXXXObjectLinks]: ObjectLinks=n, 1..n = indexes of described objects. */
