@@ -150,15 +150,63 @@ static int parse_mailbox_limits(struct ctx *c, const cJSON *o, cogw_mailbox_conf
 	return 0;
 }
 
-int cfg_parse_mailbox(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
+/* "queue_mode" (v, at p): an octal string. */
+static int parse_queue_mode(struct ctx *c, const cJSON *v, const char *p, cogw_mailbox_config *m)
+{
+	uint64_t mode;
+	int rc;
+
+	/* A string, because JSON has no octal: 660 would be 01224. */
+	if (!cJSON_IsString(v) || v->valuestring[0] != '0')
+		return cfg_fail(c, p, "expected an octal string like \"0620\"");
+	if ((rc = json_util_uint(v, p, 0, 0777, false, &mode, c->msg, sizeof(c->msg))))
+		return rc;
+	/* Every command carries its client's token: a command queue
+	 * others can read gives them every client's rights. */
+	if (mode & 0044)
+		return cfg_fail(c, p,
+				"clients could read other clients' tokens: "
+				"no read bit for group or others (e.g. "
+				"\"0620\" or \"0622\")");
+	m->queue_mode = (unsigned)mode;
+	return 0;
+}
+
+/* "rules" (v, at p): one per uid. */
+static int parse_rules(struct ctx *c, const cJSON *v, const char *p, cogw_mailbox_config *m)
+{
+	const cJSON *it;
+	char rp[JSON_PATH_MAX];
+	int rc;
+
+	if (!cJSON_IsArray(v))
+		return cfg_fail(c, p, "expected an array, got %s", json_util_kind(v));
+	if (cJSON_GetArraySize(v) > COGW_ACCESS_RULES_MAX)
+		return cfg_fail(c, p, "%d rules, at most %d", cJSON_GetArraySize(v),
+				COGW_ACCESS_RULES_MAX);
+	cJSON_ArrayForEach(it, v)
+	{
+		cogw_access_rule *r = &m->rules[m->n_rules];
+
+		json_util_path_index(rp, sizeof(rp), p, m->n_rules);
+		if ((rc = parse_rule(c, it, rp, r)))
+			return rc;
+		for (size_t j = 0; j < m->n_rules; j++)
+			if (m->rules[j].uid == r->uid)
+				return cfg_fail(c, rp, "uid %u already has a rule (%s[%zu])",
+						(unsigned)r->uid, p, j);
+		m->n_rules++;
+	}
+	return 0;
+}
+
+/* The queue's name and size, and the number of clients and requests. */
+static int parse_mailbox_queue(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
 {
 	const char *path = "mailbox";
 	char p[JSON_PATH_MAX];
-	const cJSON *v;
 	int rc;
 
-	if ((rc = cfg_check_object(c, o, path, mailbox_keys)))
-		return rc;
 	if ((rc = json_util_opt_string(o, "instance", path, 1, m->instance, sizeof(m->instance),
 				       c->msg, sizeof(c->msg))))
 		return rc;
@@ -174,59 +222,35 @@ int cfg_parse_mailbox(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
 				   &m->max_clients_per_uid)) ||
 	    (rc = cfg_opt_unsigned(c, o, "max_outstanding", path, 1, 1024, &m->max_outstanding)) ||
 	    (rc = cfg_opt_unsigned(c, o, "max_request_timeout_ms", path, 1, 3600000u,
-				   &m->max_request_timeout_ms)) ||
-	    (rc = parse_mailbox_limits(c, o, m)))
+				   &m->max_request_timeout_ms)))
 		return rc;
-	v = json_util_get(o, "queue_mode");
-	if (v) {
-		uint64_t mode;
+	return 0;
+}
 
-		/* A string, because JSON has no octal: 660 would be 01224. */
+int cfg_parse_mailbox(struct ctx *c, const cJSON *o, cogw_mailbox_config *m)
+{
+	const char *path = "mailbox";
+	char p[JSON_PATH_MAX];
+	const cJSON *v;
+	int rc;
+
+	if ((rc = cfg_check_object(c, o, path, mailbox_keys)) ||
+	    (rc = parse_mailbox_queue(c, o, m)) || (rc = parse_mailbox_limits(c, o, m)))
+		return rc;
+	if ((v = json_util_get(o, "queue_mode"))) {
 		json_util_path_key(p, sizeof(p), path, "queue_mode");
-		if (!cJSON_IsString(v) || v->valuestring[0] != '0')
-			return cfg_fail(c, p, "expected an octal string like \"0620\"");
-		if ((rc = json_util_uint(v, p, 0, 0777, false, &mode, c->msg, sizeof(c->msg))))
+		if ((rc = parse_queue_mode(c, v, p, m)))
 			return rc;
-		/* Every command carries its client's token: a command queue
-		 * others can read gives them every client's rights. */
-		if (mode & 0044)
-			return cfg_fail(c, p,
-					"clients could read other clients' tokens: "
-					"no read bit for group or others (e.g. "
-					"\"0620\" or \"0622\")");
-		m->queue_mode = (unsigned)mode;
 	}
-	v = json_util_get(o, "default_access");
-	if (v) {
+	if ((v = json_util_get(o, "default_access"))) {
 		json_util_path_key(p, sizeof(p), path, "default_access");
 		if ((rc = parse_access_word(c, v, p, &m->default_access)))
 			return rc;
 	}
-	v = json_util_get(o, "rules");
-	if (v) {
-		const cJSON *it;
-		char rp[JSON_PATH_MAX];
-
+	if ((v = json_util_get(o, "rules"))) {
 		json_util_path_key(p, sizeof(p), path, "rules");
-		if (!cJSON_IsArray(v))
-			return cfg_fail(c, p, "expected an array, got %s", json_util_kind(v));
-		if (cJSON_GetArraySize(v) > COGW_ACCESS_RULES_MAX)
-			return cfg_fail(c, p, "%d rules, at most %d", cJSON_GetArraySize(v),
-					COGW_ACCESS_RULES_MAX);
-		cJSON_ArrayForEach(it, v)
-		{
-			cogw_access_rule *r = &m->rules[m->n_rules];
-
-			json_util_path_index(rp, sizeof(rp), p, m->n_rules);
-			if ((rc = parse_rule(c, it, rp, r)))
-				return rc;
-			for (size_t j = 0; j < m->n_rules; j++)
-				if (m->rules[j].uid == r->uid)
-					return cfg_fail(c, rp,
-							"uid %u already has a rule (%s[%zu])",
-							(unsigned)r->uid, p, j);
-			m->n_rules++;
-		}
+		if ((rc = parse_rules(c, v, p, m)))
+			return rc;
 	}
 	return 0;
 }
