@@ -615,23 +615,10 @@ static uint8_t lss_store(void *ctx, uint8_t node_id, bool bt_valid, uint8_t tabl
 
 /* ---- core events --------------------------------------------------------------------- */
 
-static void on_event(void *ctx, const co_event *ev)
+/* The RPDO events: the loopback, and what went wrong. */
+static void on_rpdo_event(cosim_node *n, const co_event *ev)
 {
-	cosim_node *n = ctx;
-
 	switch (ev->kind) {
-	case CO_EV_NMT_STATE:
-		logn(n, "NMT %s -> %s", co_nmt_state_to_string(ev->u.nmt.prev),
-		     co_nmt_state_to_string(ev->u.nmt.state));
-		if (n->autostart && ev->u.nmt.state == CO_NMT_PRE_OPERATIONAL &&
-		    ev->u.nmt.prev == CO_NMT_INITIALISING)
-			n->start_pending = true;
-		break;
-	case CO_EV_OD_WRITTEN:
-		logn(n, "SDO write %04X:%02X (%u bytes)", ev->u.od.index, ev->u.od.sub,
-		     ev->u.od.size);
-		loopback_written(n, ev->u.od.index, ev->u.od.sub, ev->now_us);
-		break;
 	case CO_EV_RPDO:
 		/* After every object of the PDO is written, so that an echoed
 		 * TPDO carries all of them, not the first one alone. */
@@ -655,13 +642,15 @@ static void on_event(void *ctx, const co_event *ev)
 	case CO_EV_RPDO_TIMEOUT:
 		logn(n, "RPDO %u: event timer ran out", ev->u.pdo.nr);
 		break;
-	case CO_EV_SDO_SERVER_DONE:
-		if (ev->u.sdo_srv.abort)
-			logn(n, "SDO %s %04X:%02X aborted: %08X (%s)",
-			     ev->u.sdo_srv.upload ? "upload" : "download", ev->u.sdo_srv.index,
-			     ev->u.sdo_srv.sub, ev->u.sdo_srv.abort,
-			     sdo_abort_to_string(ev->u.sdo_srv.abort));
+	default:
 		break;
+	}
+}
+
+/* The LSS slave's events: its state, a new node-ID, a bit timing. */
+static void on_lss_event(cosim_node *n, const co_event *ev)
+{
+	switch (ev->kind) {
 	case CO_EV_LSS_SLAVE_STATE:
 		logn(n, "LSS %s", lss_state_to_string((lss_state)ev->u.lss_slave.state));
 		break;
@@ -680,6 +669,46 @@ static void on_event(void *ctx, const co_event *ev)
 	case CO_EV_LSS_SLAVE_BIT_TIMING:
 		logn(n, "LSS: activate bit timing table %u index %u after %u ms (vcan: no-op)",
 		     ev->u.lss_slave.bt_table, ev->u.lss_slave.bt_index, ev->u.lss_slave.delay_ms);
+		break;
+	default:
+		break;
+	}
+}
+
+static void on_event(void *ctx, const co_event *ev)
+{
+	cosim_node *n = ctx;
+
+	switch (ev->kind) {
+	case CO_EV_NMT_STATE:
+		logn(n, "NMT %s -> %s", co_nmt_state_to_string(ev->u.nmt.prev),
+		     co_nmt_state_to_string(ev->u.nmt.state));
+		if (n->autostart && ev->u.nmt.state == CO_NMT_PRE_OPERATIONAL &&
+		    ev->u.nmt.prev == CO_NMT_INITIALISING)
+			n->start_pending = true;
+		break;
+	case CO_EV_OD_WRITTEN:
+		logn(n, "SDO write %04X:%02X (%u bytes)", ev->u.od.index, ev->u.od.sub,
+		     ev->u.od.size);
+		loopback_written(n, ev->u.od.index, ev->u.od.sub, ev->now_us);
+		break;
+	case CO_EV_RPDO:
+	case CO_EV_RPDO_OBJECT:
+	case CO_EV_RPDO_LENGTH:
+	case CO_EV_RPDO_TIMEOUT:
+		on_rpdo_event(n, ev);
+		break;
+	case CO_EV_SDO_SERVER_DONE:
+		if (ev->u.sdo_srv.abort)
+			logn(n, "SDO %s %04X:%02X aborted: %08X (%s)",
+			     ev->u.sdo_srv.upload ? "upload" : "download", ev->u.sdo_srv.index,
+			     ev->u.sdo_srv.sub, ev->u.sdo_srv.abort,
+			     sdo_abort_to_string(ev->u.sdo_srv.abort));
+		break;
+	case CO_EV_LSS_SLAVE_STATE:
+	case CO_EV_LSS_SLAVE_NODE_ID:
+	case CO_EV_LSS_SLAVE_BIT_TIMING:
+		on_lss_event(n, ev);
 		break;
 	case CO_EV_TX_FAILED:
 		logn(n, "frame %03X not sent (tx queue full)", ev->u.frame.id);
