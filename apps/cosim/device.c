@@ -644,6 +644,36 @@ static int factory_image(const co_od *od, uint8_t *img, size_t cap, uint32_t *le
  * (DOMAIN wo, N bytes, the factory image or empty), 1F51h:1 (UNSIGNED8
  * rw), 1F56h:1 (UNSIGNED32 ro); the program module sets the power-on
  * state of the last two from the flash. */
+/* 1F50h:1 (the flash, holding image), 1F51h:1 and 1F56h:1. */
+static int add_program_objects(cosim_device *dev, const uint8_t *image, uint32_t image_len,
+			       char *err, size_t errlen)
+{
+	uint32_t flash = dev->program.flash_max;
+	co_od_entry *e;
+	int rc;
+
+	if ((rc = co_od_ensure_num(dev->od, 0x1F50, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
+				   CO_OBJ_ARRAY)) ||
+	    (rc = co_od_add_bytes(dev->od, 0x1F50, 1, CO_T_DOMAIN, CO_ACC_WO, flash, image,
+				  image_len, &e)))
+		return rc == -ENOMEM ? rc
+				     : json_util_fail(err, errlen, "program", "cannot add 1F50h");
+	e->obj_code = CO_OBJ_ARRAY;
+	if ((rc = co_od_ensure_num(dev->od, 0x1F51, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
+				   CO_OBJ_ARRAY)) ||
+	    (rc = co_od_ensure_num(dev->od, 0x1F51, 1, CO_T_UNSIGNED8, CO_ACC_RW,
+				   image_len ? COSIM_PROG_RUNNING : COSIM_PROG_CLEARED,
+				   CO_OBJ_ARRAY)) ||
+	    (rc = co_od_ensure_num(dev->od, 0x1F56, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
+				   CO_OBJ_ARRAY)) ||
+	    (rc = co_od_ensure_num(dev->od, 0x1F56, 1, CO_T_UNSIGNED32, CO_ACC_RO, 0,
+				   CO_OBJ_ARRAY)))
+		return rc == -ENOMEM
+			       ? rc
+			       : json_util_fail(err, errlen, "program", "cannot add 1F51h/1F56h");
+	return 0;
+}
+
 static int parse_program(const cJSON *root, cosim_device *dev, char *err, size_t errlen)
 {
 	static const char *const keys[] = { "flash_max", "refuse", "factory", "comment", NULL };
@@ -651,7 +681,6 @@ static int parse_program(const cJSON *root, cosim_device *dev, char *err, size_t
 	uint64_t flash = 256u * 1024u;
 	uint8_t image[160];
 	uint32_t image_len = 0;
-	co_od_entry *e;
 	int rc;
 
 	if (!v)
@@ -677,26 +706,7 @@ static int parse_program(const cJSON *root, cosim_device *dev, char *err, size_t
 				      (unsigned)flash, (unsigned)image_len);
 	dev->program.enabled = true;
 	dev->program.flash_max = (uint32_t)flash;
-	if ((rc = co_od_ensure_num(dev->od, 0x1F50, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
-				   CO_OBJ_ARRAY)) ||
-	    (rc = co_od_add_bytes(dev->od, 0x1F50, 1, CO_T_DOMAIN, CO_ACC_WO, (uint32_t)flash,
-				  image_len ? image : NULL, image_len, &e)))
-		return rc == -ENOMEM ? rc
-				     : json_util_fail(err, errlen, "program", "cannot add 1F50h");
-	e->obj_code = CO_OBJ_ARRAY;
-	if ((rc = co_od_ensure_num(dev->od, 0x1F51, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
-				   CO_OBJ_ARRAY)) ||
-	    (rc = co_od_ensure_num(dev->od, 0x1F51, 1, CO_T_UNSIGNED8, CO_ACC_RW,
-				   image_len ? COSIM_PROG_RUNNING : COSIM_PROG_CLEARED,
-				   CO_OBJ_ARRAY)) ||
-	    (rc = co_od_ensure_num(dev->od, 0x1F56, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
-				   CO_OBJ_ARRAY)) ||
-	    (rc = co_od_ensure_num(dev->od, 0x1F56, 1, CO_T_UNSIGNED32, CO_ACC_RO, 0,
-				   CO_OBJ_ARRAY)))
-		return rc == -ENOMEM
-			       ? rc
-			       : json_util_fail(err, errlen, "program", "cannot add 1F51h/1F56h");
-	return 0;
+	return add_program_objects(dev, image_len ? image : NULL, image_len, err, errlen);
 }
 
 static int build(cosim_device *dev, const cJSON *root, const cosim_device_opts *opts, char *err,
