@@ -66,14 +66,12 @@ static void set_defaults(cogw_config *cfg, const char *source)
 
 int cfg_parse_forwards(struct ctx *c, const cJSON *list, cogw_config *cfg);
 
-static int parse_root(struct ctx *c, const cJSON *root, cogw_config *cfg)
+/* "version", "state_dir", "mlockall", "watchdog_check_ms", "file_memory". */
+static int parse_top_keys(struct ctx *c, const cJSON *root, cogw_config *cfg)
 {
-	const cJSON *v, *it;
+	const cJSON *v = json_util_get(root, "version");
 	int rc;
 
-	if ((rc = cfg_check_object(c, root, "", top_keys)))
-		return rc;
-	v = json_util_get(root, "version");
 	if (v) {
 		uint64_t ver;
 
@@ -90,30 +88,40 @@ static int parse_root(struct ctx *c, const cJSON *root, cogw_config *cfg)
 				   &cfg->file_memory)))
 		return rc;
 	cfg->files.limit = cfg->file_memory;
-	v = json_util_get(root, "mailbox");
-	if (v && (rc = cfg_parse_mailbox(c, v, &cfg->mailbox)))
+	return 0;
+}
+
+/* "debug" (v). */
+static int parse_debug(struct ctx *c, const cJSON *v, cogw_config *cfg)
+{
+	int rc;
+
+	if ((rc = cfg_check_object(c, v, "debug", debug_keys)) ||
+	    (rc = json_util_opt_bool(v, "stall_signal", "debug", &cfg->debug_stall_signal, c->msg,
+				     sizeof(c->msg))) ||
+	    (rc = cfg_opt_unsigned(c, v, "stall_ms", "debug", 0, 3600000, &cfg->debug_stall_ms)))
 		return rc;
-	v = json_util_get(root, "debug");
-	if (v) {
-		if ((rc = cfg_check_object(c, v, "debug", debug_keys)) ||
-		    (rc = json_util_opt_bool(v, "stall_signal", "debug", &cfg->debug_stall_signal,
-					     c->msg, sizeof(c->msg))) ||
-		    (rc = cfg_opt_unsigned(c, v, "stall_ms", "debug", 0, 3600000,
-					   &cfg->debug_stall_ms)))
-			return rc;
-	}
-	if ((rc = json_util_require(root, "lines", "", &v, c->msg, sizeof(c->msg))))
-		return rc;
+	return 0;
+}
+
+/* "lines" (v) is a list of 1..COGW_LINES_MAX. */
+static int check_lines(struct ctx *c, const cJSON *v)
+{
 	if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) == 0)
 		return cfg_fail(c, "lines", "expected a non-empty array, got %s",
 				cJSON_IsArray(v) ? "an empty array" : json_util_kind(v));
 	if (cJSON_GetArraySize(v) > COGW_LINES_MAX)
 		return cfg_fail(c, "lines", "%d lines, at most %d", cJSON_GetArraySize(v),
 				COGW_LINES_MAX);
-	cfg_scan_networks(c, v);
-	it = json_util_get(root, "gateway");
-	if (it && (rc = cfg_parse_gateway(c, it)))
-		return rc;
+	return 0;
+}
+
+/* Each of "lines" (v), after the gateway's routes are known. */
+static int parse_lines(struct ctx *c, const cJSON *v, cogw_config *cfg)
+{
+	const cJSON *it;
+	int rc;
+
 	cJSON_ArrayForEach(it, v)
 	{
 		size_t i = cfg->n_lines;
@@ -125,8 +133,29 @@ static int parse_root(struct ctx *c, const cJSON *root, cogw_config *cfg)
 		    (rc = cfg_check_unique(c, cfg, i)))
 			return rc;
 	}
-	it = json_util_get(root, "gateway");
-	if (it && (v = json_util_get(it, "forward")) && (rc = cfg_parse_forwards(c, v, cfg)))
+	return 0;
+}
+
+static int parse_root(struct ctx *c, const cJSON *root, cogw_config *cfg)
+{
+	const cJSON *v, *gw = json_util_get(root, "gateway"), *lines;
+	int rc;
+
+	if ((rc = cfg_check_object(c, root, "", top_keys)) || (rc = parse_top_keys(c, root, cfg)))
+		return rc;
+	v = json_util_get(root, "mailbox");
+	if (v && (rc = cfg_parse_mailbox(c, v, &cfg->mailbox)))
+		return rc;
+	v = json_util_get(root, "debug");
+	if (v && (rc = parse_debug(c, v, cfg)))
+		return rc;
+	if ((rc = json_util_require(root, "lines", "", &lines, c->msg, sizeof(c->msg))) ||
+	    (rc = check_lines(c, lines)))
+		return rc;
+	cfg_scan_networks(c, lines);
+	if ((gw && (rc = cfg_parse_gateway(c, gw))) || (rc = parse_lines(c, lines, cfg)))
+		return rc;
+	if (gw && (v = json_util_get(gw, "forward")) && (rc = cfg_parse_forwards(c, v, cfg)))
 		return rc;
 	return 0;
 }
