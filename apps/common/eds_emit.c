@@ -71,6 +71,42 @@ static int emit_const(eds_ctx *c, uint16_t index, uint8_t sub, uint32_t val, uin
 	return emit(c, &v);
 }
 
+/* A PDO's mapping in the CiA 301 re-mapping order: sub 0 = 0, the
+ * entries, then sub 0 = n (without sub 0 the mapping's values as they
+ * come). */
+static int emit_mapping(eds_ctx *c, uint16_t map, size_t nvars)
+{
+	const out_var *m0 = find_var(c, map, 0);
+	int rc;
+
+	if (!m0) {
+		for (size_t i = 0; i < nvars; i++)
+			if (c->vars[i].index == map && (rc = emit(c, &c->vars[i])))
+				return rc;
+		return 0;
+	}
+	uint8_t n = m0->data[0];
+	unsigned line = m0->line;
+	if (n > 0x40)
+		return eds_fail(c, line, "PDO mapping %04Xh: sub0=%u, at most 64 entries", map, n);
+	if ((rc = emit_const(c, map, 0, 0, 1, line)))
+		return rc;
+	for (unsigned s = 1; s <= n; s++) {
+		const out_var *e = find_var(c, map, (uint8_t)s);
+		if (!e)
+			return eds_fail(c, line,
+					"PDO mapping %04Xh: sub0=%u but sub %u has no writable "
+					"value",
+					map, n, s);
+		if ((rc = emit(c, e)))
+			return rc;
+	}
+	m0 = find_var(c, map, 0);
+	if (n && (rc = emit(c, m0)))
+		return rc;
+	return 0;
+}
+
 static int emit_pdo(eds_ctx *c, uint16_t comm, uint16_t map, size_t nvars)
 {
 	const out_var *cob = find_var(c, comm, 1), *m0 = find_var(c, map, 0);
@@ -92,37 +128,11 @@ static int emit_pdo(eds_ctx *c, uint16_t comm, uint16_t map, size_t nvars)
 	if (cob && (rc = emit_const(c, comm, 1, cob_val | 0x80000000u, cob->size, cob->line)))
 		return rc;
 	cob = find_var(c, comm, 1); /* add_var may have moved the array */
-	m0 = find_var(c, map, 0);
 	for (size_t i = 0; i < nvars; i++)
 		if (c->vars[i].index == comm && c->vars[i].sub != 1 && (rc = emit(c, &c->vars[i])))
 			return rc;
-	if (m0) {
-		uint8_t n = m0->data[0];
-		unsigned line = m0->line;
-		if (n > 0x40)
-			return eds_fail(c, line, "PDO mapping %04Xh: sub0=%u, at most 64 entries",
-					map, n);
-		if ((rc = emit_const(c, map, 0, 0, 1, line)))
-			return rc;
-		for (unsigned s = 1; s <= n; s++) {
-			const out_var *e = find_var(c, map, (uint8_t)s);
-			if (!e)
-				return eds_fail(
-					c, line,
-					"PDO mapping %04Xh: sub0=%u but sub %u has no writable "
-					"value",
-					map, n, s);
-			if ((rc = emit(c, e)))
-				return rc;
-		}
-		m0 = find_var(c, map, 0);
-		if (n && (rc = emit(c, m0)))
-			return rc;
-	} else {
-		for (size_t i = 0; i < nvars; i++)
-			if (c->vars[i].index == map && (rc = emit(c, &c->vars[i])))
-				return rc;
-	}
+	if ((rc = emit_mapping(c, map, nvars)))
+		return rc;
 	cob = find_var(c, comm, 1);
 	if (cob && !(cob_val & 0x80000000u) && (rc = emit(c, cob)))
 		return rc;
