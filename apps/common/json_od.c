@@ -873,22 +873,18 @@ int json_od_add_objects(co_od *od, const cJSON *objects, const char *path_prefix
 
 static const char *const value_keys[] = { "index", "sub", "value", "comment", NULL };
 
-static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key, char *err,
-		     size_t errlen)
+/* The "index" and "sub" of a value (o, at p): its entry in od. */
+static int value_entry(co_od *od, const cJSON *o, const char *p, co_od_entry **e, char *err,
+		       size_t errlen)
 {
 	char kp[JSON_PATH_MAX];
-	const cJSON *iv, *vv, *sv;
+	const cJSON *iv, *sv;
 	uint16_t index;
 	uint64_t sub = 0;
-	co_od_entry *e;
-	uint32_t abort = 0, len = 0, cap;
-	uint8_t num[8];
-	uint8_t *buf = num;
+	uint32_t abort = 0;
 	int rc;
 
-	if ((rc = json_util_check_object(o, p, value_keys, err, errlen)) ||
-	    (rc = json_util_require(o, "index", p, &iv, err, errlen)) ||
-	    (rc = json_util_require(o, "value", p, &vv, err, errlen)))
+	if ((rc = json_util_require(o, "index", p, &iv, err, errlen)))
 		return rc;
 	json_util_path_key(kp, sizeof(kp), p, "index");
 	if ((rc = json_od_parse_index(iv, kp, &index, err, errlen)))
@@ -901,24 +897,22 @@ static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key, ch
 		if ((rc = json_util_uint(sv, kp, 0, 255, false, &sub, err, errlen)))
 			return rc;
 	}
-	e = co_od_find_ex(od, index, (uint8_t)sub, &abort);
-	if (!e)
+	*e = co_od_find_ex(od, index, (uint8_t)sub, &abort);
+	if (!*e)
 		return json_util_fail(err, errlen, sv ? kp : p,
 				      "object 0x%04X has no sub-index %llu", index,
 				      (unsigned long long)sub);
-	*key = (uint32_t)index << 8 | (uint32_t)sub;
+	return 0;
+}
 
-	json_util_path_key(kp, sizeof(kp), p, "value");
-	cap = co_type_is_variable((co_type)e->type) ? e->max_size : 8;
-	if (cap > sizeof(num)) {
-		buf = malloc(cap);
-		if (!buf)
-			return -ENOMEM;
-	}
-	rc = json_od_parse_value(vv, (co_type)e->type, kp, buf, cap, &len, err, errlen);
-	if (rc)
-		goto out;
-	abort = co_od_check_value(e, buf, len);
+/* The value vv (at kp, buf of len bytes) as e's new default, checked as a
+ * run-time write would be. */
+static int set_value(co_od_entry *e, const cJSON *vv, const char *kp, const uint8_t *buf,
+		     uint32_t len, char *err, size_t errlen)
+{
+	uint32_t abort = co_od_check_value(e, buf, len);
+	int rc;
+
 	/* an object with a write check (installed by the caller) refuses here
 	 * what a run-time write would refuse */
 	if (!abort && e->hooks && e->hooks->check_write) {
@@ -929,19 +923,48 @@ static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key, ch
 		char r[64];
 
 		json_util_repr(vv, r, sizeof(r));
-		rc = json_util_fail(err, errlen, kp, "%s refused for 0x%04X:%02X (%s)", r, index,
-				    (unsigned)sub, sdo_abort_to_string(abort));
-		goto out;
+		return json_util_fail(err, errlen, kp, "%s refused for 0x%04X:%02X (%s)", r,
+				      e->index, (unsigned)e->sub, sdo_abort_to_string(abort));
 	}
 	rc = co_od_entry_set_default_bytes(e, buf, len);
 	if (rc == -ENOMEM)
-		goto out;
-	if (rc) {
-		rc = json_util_fail(err, errlen, kp, "cannot store the value (%s)", strerror(-rc));
-		goto out;
-	}
+		return rc;
+	if (rc)
+		return json_util_fail(err, errlen, kp, "cannot store the value (%s)",
+				      strerror(-rc));
 	co_od_entry_reset(e);
-out:
+	return 0;
+}
+
+static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key, char *err,
+		     size_t errlen)
+{
+	char kp[JSON_PATH_MAX];
+	const cJSON *vv;
+	co_od_entry *e;
+	uint32_t len = 0, cap;
+	uint8_t num[8];
+	uint8_t *buf = num;
+	int rc;
+
+	/* "index" is missing, then "value": the first of them is named */
+	if ((rc = json_util_check_object(o, p, value_keys, err, errlen)) ||
+	    (rc = json_util_require(o, "index", p, &vv, err, errlen)) ||
+	    (rc = json_util_require(o, "value", p, &vv, err, errlen)) ||
+	    (rc = value_entry(od, o, p, &e, err, errlen)))
+		return rc;
+	*key = (uint32_t)e->index << 8 | (uint32_t)e->sub;
+
+	json_util_path_key(kp, sizeof(kp), p, "value");
+	cap = co_type_is_variable((co_type)e->type) ? e->max_size : 8;
+	if (cap > sizeof(num)) {
+		buf = malloc(cap);
+		if (!buf)
+			return -ENOMEM;
+	}
+	rc = json_od_parse_value(vv, (co_type)e->type, kp, buf, cap, &len, err, errlen);
+	if (!rc)
+		rc = set_value(e, vv, kp, buf, len, err, errlen);
 	if (buf != num)
 		free(buf);
 	return rc;
