@@ -244,6 +244,51 @@ static int set_default(co_od *od, uint16_t index, uint8_t sub, uint32_t v)
 	return 0;
 }
 
+/* Node i's heartbeat (heartbeat_ms) consumed in a free sub of 1016h. */
+static int consume_heartbeat(struct ctx *c, const char *path, cogw_line_config *l, size_t i)
+{
+	const cogw_node *n = &l->nodes[i];
+	uint8_t free_sub = 0, subs = 0;
+	int rc;
+
+	(void)co_od_get_u8(l->od, 0x1016, 0, &subs);
+	for (unsigned s = 1; s <= subs; s++) {
+		uint32_t v = 0;
+		(void)co_od_get_u32(l->od, 0x1016, (uint8_t)s, &v);
+		if (((v >> 16) & 0xFF) == n->id && (v & 0xFFFF)) {
+			char np[JSON_PATH_MAX], pp[JSON_PATH_MAX];
+			json_util_path_key(np, sizeof(np), path, "nodes");
+			json_util_path_index(pp, sizeof(pp), np, i);
+			json_util_path_key(np, sizeof(np), pp, "heartbeat_ms");
+			return cfg_fail(c, np, "node %u is in heartbeat_consumers too", n->id);
+		}
+		if (!free_sub && !v)
+			free_sub = (uint8_t)s;
+	}
+	if (!free_sub)
+		return cfg_fail(c, path, "1016h is full");
+	if ((rc = set_default(l->od, 0x1016, free_sub, (uint32_t)n->id << 16 | n->heartbeat_ms)))
+		return cfg_fail(c, path, "1016h:%u: %s", free_sub, strerror(-rc));
+	return 0;
+}
+
+/* Node n's 1F81h, 1F84h..1F88h and 1F55h. */
+static int node_manager_objects(struct ctx *c, const char *path, co_od *od, const cogw_node *n)
+{
+	int rc;
+
+	if ((rc = set_default(od, 0x1F81, n->id, n->assignment)))
+		return cfg_fail(c, path, "1F81h:%u: %s", n->id, strerror(-rc));
+	for (int k = 0; k < 5; k++)
+		if ((rc = set_default(od, (uint16_t)(0x1F84 + k), n->id, n->identity[k])))
+			return cfg_fail(c, path, "%04Xh:%u: %s", 0x1F84 + k, n->id, strerror(-rc));
+	if (n->software_id &&
+	    ((rc = co_od_add_swmgr_defaults(od)) ||
+	     (rc = set_default(od, CO_SWMGR_IDX_EXPECTED, n->id, n->software_id))))
+		return cfg_fail(c, path, "1F55h:%u: %s", n->id, strerror(-rc));
+	return 0;
+}
+
 int cfg_manager_objects(struct ctx *c, const char *path, cogw_line_config *l)
 {
 	const cogw_manager_config *m = &l->manager;
@@ -259,41 +304,9 @@ int cfg_manager_objects(struct ctx *c, const char *path, cogw_line_config *l)
 	    (rc = set_default(l->od, 0x1F89, 0, m->boot_time_ms)))
 		return cfg_fail(c, path, "1F80h/1F89h: %s", strerror(-rc));
 	for (size_t i = 0; i < l->n_nodes; i++) {
-		const cogw_node *n = &l->nodes[i];
-		if ((rc = set_default(l->od, 0x1F81, n->id, n->assignment)))
-			return cfg_fail(c, path, "1F81h:%u: %s", n->id, strerror(-rc));
-		for (int k = 0; k < 5; k++)
-			if ((rc = set_default(l->od, (uint16_t)(0x1F84 + k), n->id,
-					      n->identity[k])))
-				return cfg_fail(c, path, "%04Xh:%u: %s", 0x1F84 + k, n->id,
-						strerror(-rc));
-		if (n->software_id &&
-		    ((rc = co_od_add_swmgr_defaults(l->od)) ||
-		     (rc = set_default(l->od, CO_SWMGR_IDX_EXPECTED, n->id, n->software_id))))
-			return cfg_fail(c, path, "1F55h:%u: %s", n->id, strerror(-rc));
-		if (!n->heartbeat_ms)
-			continue;
-		uint8_t free_sub = 0, subs = 0;
-		(void)co_od_get_u8(l->od, 0x1016, 0, &subs);
-		for (unsigned s = 1; s <= subs; s++) {
-			uint32_t v = 0;
-			(void)co_od_get_u32(l->od, 0x1016, (uint8_t)s, &v);
-			if (((v >> 16) & 0xFF) == n->id && (v & 0xFFFF)) {
-				char np[JSON_PATH_MAX], pp[JSON_PATH_MAX];
-				json_util_path_key(np, sizeof(np), path, "nodes");
-				json_util_path_index(pp, sizeof(pp), np, i);
-				json_util_path_key(np, sizeof(np), pp, "heartbeat_ms");
-				return cfg_fail(c, np, "node %u is in heartbeat_consumers too",
-						n->id);
-			}
-			if (!free_sub && !v)
-				free_sub = (uint8_t)s;
-		}
-		if (!free_sub)
-			return cfg_fail(c, path, "1016h is full");
-		if ((rc = set_default(l->od, 0x1016, free_sub,
-				      (uint32_t)n->id << 16 | n->heartbeat_ms)))
-			return cfg_fail(c, path, "1016h:%u: %s", free_sub, strerror(-rc));
+		if ((rc = node_manager_objects(c, path, l->od, &l->nodes[i])) ||
+		    (l->nodes[i].heartbeat_ms && (rc = consume_heartbeat(c, path, l, i))))
+			return rc;
 	}
 	return 0;
 }
