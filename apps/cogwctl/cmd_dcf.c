@@ -280,7 +280,7 @@ static int run_dcf(ctl *c, int argc, char **argv)
 	uint8_t node = 0, *buf = NULL;
 	size_t len = 0;
 	eds_stats st;
-	bool assumed, check;
+	bool assumed, check = false;
 	warnings w = { 0 };
 	eds_options eo = { .on_warning = on_warning, .warning_arg = &w };
 
