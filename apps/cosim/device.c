@@ -306,6 +306,27 @@ struct pdo_keys {
 	bool add_id, valid;
 };
 
+/* The transmission type and the COB-ID of PDO keys k (at p) fit. */
+static int pdo_keys_check(const struct pdo_read *r, const char *p, const struct pdo_keys *k)
+{
+	char *err = r->err;
+	size_t errlen = r->errlen;
+
+	if ((k->tt >= 241 && k->tt <= 251) ||
+	    (r->dir == CO_PDO_RX && (k->tt == 252 || k->tt == 253))) {
+		char tp[JSON_PATH_MAX];
+		json_util_path_key(tp, sizeof tp, p, "transmission");
+		return json_util_fail(
+			err, errlen, tp, "%llu is a reserved transmission type for a%s",
+			(unsigned long long)k->tt, r->dir == CO_PDO_TX ? " TPDO" : "n RPDO");
+	}
+	if (k->add_id && k->cob + 127 > 0x7FF)
+		return json_util_fail(err, errlen, p,
+				      "cob_id 0x%llX + node-ID does not fit 11 bits",
+				      (unsigned long long)k->cob);
+	return 0;
+}
+
 /* The keys of PDO it (at p; nr i + 1 unless it says) into k, checked. */
 static int pdo_keys_read(const struct pdo_read *r, const cJSON *it, const char *p, size_t i,
 			 struct pdo_keys *k)
@@ -337,19 +358,7 @@ static int pdo_keys_read(const struct pdo_read *r, const cJSON *it, const char *
 	    (rc = json_util_opt_uint(it, "event_ms", p, 0, 0xFFFF, &k->event, err, errlen)) ||
 	    (rc = json_util_opt_uint(it, "sync_start", p, 0, 255, &k->start, err, errlen)))
 		return rc;
-	if ((k->tt >= 241 && k->tt <= 251) ||
-	    (r->dir == CO_PDO_RX && (k->tt == 252 || k->tt == 253))) {
-		char tp[JSON_PATH_MAX];
-		json_util_path_key(tp, sizeof tp, p, "transmission");
-		return json_util_fail(
-			err, errlen, tp, "%llu is a reserved transmission type for a%s",
-			(unsigned long long)k->tt, r->dir == CO_PDO_TX ? " TPDO" : "n RPDO");
-	}
-	if (k->add_id && k->cob + 127 > 0x7FF)
-		return json_util_fail(err, errlen, p,
-				      "cob_id 0x%llX + node-ID does not fit 11 bits",
-				      (unsigned long long)k->cob);
-	return 0;
+	return pdo_keys_check(r, p, k);
 }
 
 /* PDO it (at p) with keys k into the device's OD. */
