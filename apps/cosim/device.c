@@ -487,6 +487,21 @@ static int opt_real(const cJSON *o, const char *key, const char *path, double *o
 	return json_util_real(v, p, out, err, errlen);
 }
 
+/* The scaling objects of signal s (at p), when it names them, are numbers. */
+static int check_scaling(const cosim_device *dev, const cosim_signal_desc *s, const char *p,
+			 char *err, size_t errlen)
+{
+	int rc;
+
+	if (s->offset_index && (rc = check_numeric(dev->od, s->offset_index, s->offset_sub, p,
+						   "offset_object", err, errlen)))
+		return rc;
+	if (s->span_index && (rc = check_numeric(dev->od, s->span_index, s->span_sub, p,
+						 "span_object", err, errlen)))
+		return rc;
+	return 0;
+}
+
 static int parse_signal(const cJSON *it, const char *p, cosim_device *dev, cosim_signal_desc *s,
 			char *err, size_t errlen)
 {
@@ -512,11 +527,7 @@ static int parse_signal(const cJSON *it, const char *p, cosim_device *dev, cosim
 	if (!signal_kind_from_string(kind, &s->kind))
 		return json_util_fail(err, errlen, kp,
 				      "unknown kind \"%s\" (const, ramp, sine or square)", kind);
-	if (s->offset_index && (rc = check_numeric(dev->od, s->offset_index, s->offset_sub, p,
-						   "offset_object", err, errlen)))
-		return rc;
-	if (s->span_index && (rc = check_numeric(dev->od, s->span_index, s->span_sub, p,
-						 "span_object", err, errlen)))
+	if ((rc = check_scaling(dev, s, p, err, errlen)))
 		return rc;
 	if (s->kind == COSIM_SIG_CONST) {
 		if ((rc = opt_real(it, "value", p, &s->value, true, err, errlen)))
@@ -528,11 +539,10 @@ static int parse_signal(const cJSON *it, const char *p, cosim_device *dev, cosim
 		json_util_path_key(kp, sizeof kp, p, "period_ms");
 		if (!period)
 			return json_util_fail(err, errlen, kp, "required for a %s signal", kind);
-		if (s->max < s->min) {
-			json_util_path_key(kp, sizeof kp, p, "max");
+		json_util_path_key(kp, sizeof kp, p, "max");
+		if (s->max < s->min)
 			return json_util_fail(err, errlen, kp, "%g is below min %g", s->max,
 					      s->min);
-		}
 	}
 	s->period_ms = (uint32_t)period;
 	s->update_ms = (uint32_t)update;
