@@ -634,6 +634,32 @@ static void lss_print_result(ctl *c, unsigned line, const char *act, const char 
 		ctl_json_print(o);
 }
 
+/* ACTION LINE [ARGS] and the options of "lss": the action, the line and
+ * the request. */
+static int lss_request(ctl *c, lss_args *a, const struct lss_action **la, unsigned *line,
+		       mbx_lss_req *q)
+{
+	int rc;
+
+	if (a->n_pos < 2)
+		return ctl_usage_error(c, "expected ACTION LINE ...");
+	const char *act = a->pos[0];
+	if (ctl_arg_line(c, a->pos[1], line) < 0)
+		return CTL_EXIT_USAGE;
+	*la = lss_action_of(act);
+	if (!*la)
+		return ctl_usage_error(c, "unknown ACTION '%s'", act);
+	memset(q, 0, sizeof *q);
+	if ((*la)->parse && (rc = (*la)->parse(c, a, q)) != 0)
+		return rc;
+	int want = (*la)->want == LSS_WANT_BY_KBIT ? (a->kbit ? 0 : 1) : (*la)->want;
+	if (a->n_pos != 2 + want)
+		return ctl_usage_error(c, "wrong number of arguments for '%s'", act);
+	if ((a->table || a->kbit) && (*la)->cmd != MBX_CMD_LSS_SET_BIT_TIMING)
+		return ctl_usage_error(c, "--table/--kbit are for set-bit-timing");
+	return 0;
+}
+
 static int run_lss(ctl *c, int argc, char **argv)
 {
 	const char *pos[8];
@@ -648,24 +674,12 @@ static int run_lss(ctl *c, int argc, char **argv)
 		return rc;
 	if (c->help)
 		return ctl_print_help(&ctl_cmd_lss);
-	if (a.n_pos < 2)
-		return ctl_usage_error(c, "expected ACTION LINE ...");
-	const char *act = pos[0];
+	const struct lss_action *la;
 	unsigned line;
-	if (ctl_arg_line(c, pos[1], &line) < 0)
-		return CTL_EXIT_USAGE;
-	const struct lss_action *la = lss_action_of(act);
-	if (!la)
-		return ctl_usage_error(c, "unknown ACTION '%s'", act);
 	mbx_lss_req q;
-	memset(&q, 0, sizeof q);
-	if (la->parse && (rc = la->parse(c, &a, &q)) != 0)
+	if ((rc = lss_request(c, &a, &la, &line, &q)))
 		return rc;
-	int want = la->want == LSS_WANT_BY_KBIT ? (a.kbit ? 0 : 1) : la->want;
-	if (a.n_pos != 2 + want)
-		return ctl_usage_error(c, "wrong number of arguments for '%s'", act);
-	if ((a.table || a.kbit) && la->cmd != MBX_CMD_LSS_SET_BIT_TIMING)
-		return ctl_usage_error(c, "--table/--kbit are for set-bit-timing");
+	const char *act = pos[0];
 
 	int ex = 0;
 	cogw *h = ctl_handle(c, &ex);
