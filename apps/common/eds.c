@@ -56,6 +56,26 @@ static void ctx_free(eds_ctx *c)
 	free(c->text);
 }
 
+/* Pass 3: the object lists, then every object and its links, in index
+ * order. */
+static int read_objects(eds_ctx *c)
+{
+	int rc;
+
+	if ((rc = eds_do_list(c, "MandatoryObjects")) || (rc = eds_do_list(c, "OptionalObjects")) ||
+	    (rc = eds_do_list(c, "ManufacturerObjects")) || (rc = eds_check_orphans(c)))
+		return rc;
+	for (size_t i = 0; i < c->nsecs && !rc; i++) {
+		if (c->sorted[i]->kind == SEC_OBJ)
+			rc = eds_do_object(c, c->sorted[i]);
+		else if (c->sorted[i]->kind == SEC_LINKS)
+			rc = eds_do_links(c, c->sorted[i]);
+	}
+	if (!rc && !c->st.objects)
+		rc = eds_fail(c, 0, "no object sections: not an EDS or DCF");
+	return rc;
+}
+
 static int convert(eds_ctx *c, const char *text, size_t len, uint8_t **out, size_t *out_len)
 {
 	int rc;
@@ -74,18 +94,8 @@ static int convert(eds_ctx *c, const char *text, size_t len, uint8_t **out, size
 		return rc;
 	if (!c->node_id && (rc = eds_node_from_file(c)))
 		return rc;
-	if ((rc = eds_do_list(c, "MandatoryObjects")) || (rc = eds_do_list(c, "OptionalObjects")) ||
-	    (rc = eds_do_list(c, "ManufacturerObjects")) || (rc = eds_check_orphans(c)))
-		return rc;
-	for (size_t i = 0; i < c->nsecs && !rc; i++) {
-		if (c->sorted[i]->kind == SEC_OBJ)
-			rc = eds_do_object(c, c->sorted[i]);
-		else if (c->sorted[i]->kind == SEC_LINKS)
-			rc = eds_do_links(c, c->sorted[i]);
-	}
-	if (!rc && !c->st.objects)
-		rc = eds_fail(c, 0, "no object sections: not an EDS or DCF");
-	if (rc || (rc = eds_order_vars(c)) || (rc = eds_write_cdcf(c, out, out_len)))
+	if ((rc = read_objects(c)) || (rc = eds_order_vars(c)) ||
+	    (rc = eds_write_cdcf(c, out, out_len)))
 		return rc;
 	c->st.node_id = c->node_id;
 	return 0;

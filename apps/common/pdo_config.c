@@ -41,6 +41,22 @@ int cogw_pdo_mode_parse(const cJSON *o, const char *path, uint8_t *mode, char *e
 			      what);
 }
 
+/* The hex digits p..end (1 to 4 of them) as an index. */
+static bool hex_index(const char *p, const char *end, uint16_t *index)
+{
+	unsigned long v = 0;
+
+	for (const char *q = p; q < end; q++) {
+		if (!isxdigit((unsigned char)*q))
+			return false;
+		v = v * 16 + (unsigned long)(isdigit((unsigned char)*q)
+						     ? *q - '0'
+						     : (tolower((unsigned char)*q) - 'a' + 10));
+	}
+	*index = (uint16_t)v;
+	return true;
+}
+
 /* "6401:1", "0x6401:0x01", "6401h:1": the index is hex as CANopen writes
  * it, the sub-index decimal or 0x hex (as cogwctl takes them). */
 static bool parse_object_key(const char *s, uint16_t *index, uint8_t *sub)
@@ -59,17 +75,8 @@ static bool parse_object_key(const char *s, uint16_t *index, uint8_t *sub)
 	if (end > p && (end[-1] == 'h' || end[-1] == 'H'))
 		end--;
 	n = (size_t)(end - p);
-	if (n < 1 || n > 4)
+	if (n < 1 || n > 4 || !hex_index(p, end, index))
 		return false;
-	v = 0;
-	for (const char *q = p; q < end; q++) {
-		if (!isxdigit((unsigned char)*q))
-			return false;
-		v = v * 16 + (unsigned long)(isdigit((unsigned char)*q)
-						     ? *q - '0'
-						     : (tolower((unsigned char)*q) - 'a' + 10));
-	}
-	*index = (uint16_t)v;
 	p = colon + 1;
 	if (!*p || !isxdigit((unsigned char)*p))
 		return false;
