@@ -189,6 +189,31 @@ static const ini_key *compact_value(const ini_sec *vals, unsigned sub)
 	return k && *k->val ? k : NULL;
 }
 
+/* CompactSubObj=n of o: the number of sub-objects (0: none, a warning). */
+static int compact_count(eds_ctx *c, const ini_sec *o, const ini_key *ck, uint64_t *n)
+{
+	int rc;
+
+	if ((rc = eds_parse_uint_key(c, ck, 255, n)))
+		return rc;
+	if (*n == 0 && c->strict)
+		return eds_fail(c, ck->line, "CompactSubObj must be 1..254");
+	if (*n == 0) {
+		eds_warn(c, ck->line, "[%s]: CompactSubObj=0: no sub-objects", o->name);
+		return 0;
+	}
+	/* python-canopen makes sub-objects 1..255 of it; sub-index FFh is
+	 * the object's structure (CiA 301), not an element */
+	if (*n == 255 &&
+	    (rc = eds_tolerate(c, ck->line,
+			       "[%s]: CompactSubObj=255, but sub-index FFh is reserved (CiA 301)%s",
+			       o->name, c->strict ? "" : ": sub-objects 1..254 are used")))
+		return rc;
+	if (*n == 255)
+		*n = 254;
+	return 0;
+}
+
 static int do_compact(eds_ctx *c, const ini_sec *o, const ini_key *ck)
 {
 	const ini_sec *names = eds_find_sec(c, SEC_NAME, o->index, 0, NULL);
@@ -199,23 +224,8 @@ static int do_compact(eds_ctx *c, const ini_sec *o, const ini_key *ck)
 	uint8_t access = 0;
 	int rc;
 
-	if ((rc = eds_parse_uint_key(c, ck, 255, &n)))
+	if ((rc = compact_count(c, o, ck, &n)) || !n)
 		return rc;
-	if (n == 0 && c->strict)
-		return eds_fail(c, ck->line, "CompactSubObj must be 1..254");
-	if (n == 0) {
-		eds_warn(c, ck->line, "[%s]: CompactSubObj=0: no sub-objects", o->name);
-		return 0;
-	}
-	/* python-canopen makes sub-objects 1..255 of it; sub-index FFh is
-	 * the object's structure (CiA 301), not an element */
-	if (n == 255 &&
-	    (rc = eds_tolerate(c, ck->line,
-			       "[%s]: CompactSubObj=255, but sub-index FFh is reserved (CiA 301)%s",
-			       o->name, c->strict ? "" : ": sub-objects 1..254 are used")))
-		return rc;
-	if (n == 255)
-		n = 254;
 	rc = eds_parse_type(c, o, &t);
 	if (!rc && !ak)
 		rc = eds_fail(c, o->line, "[%s]: AccessType missing", o->name);
