@@ -335,6 +335,25 @@ void link_sync_epoll(bridge *b)
 	}
 }
 
+/* The socket failed (rc) while connecting or connected: said, counted,
+ * and a reconnect scheduled. */
+static void link_lost(bridge *b, int rc)
+{
+	const char *why = rc == MOSQ_ERR_ERRNO ? strerror(errno) : mosquitto_strerror(rc);
+
+	if (b->connecting) {
+		b->st.connect_failures++;
+		fprintf(stderr, "cogw-mqtt: connecting to %s:%u failed: %s\n", b->cfg.host,
+			b->cfg.port, why);
+	} else {
+		b->st.disconnects++;
+		fprintf(stderr, "cogw-mqtt: lost the broker (%s); %zu message(s) queued\n", why,
+			b->q_len);
+	}
+	mosquitto_disconnect(b->mosq);
+	schedule_reconnect(b);
+}
+
 void link_service(bridge *b, uint32_t ev)
 {
 	uint64_t now = bridge_now_ms();
@@ -348,22 +367,7 @@ void link_service(bridge *b, uint32_t ev)
 		if (rc == MOSQ_ERR_SUCCESS)
 			rc = mosquitto_loop_misc(b->mosq);
 		if (rc != MOSQ_ERR_SUCCESS && (b->connected || b->connecting)) {
-			if (b->connecting) {
-				b->st.connect_failures++;
-				fprintf(stderr, "cogw-mqtt: connecting to %s:%u failed: %s\n",
-					b->cfg.host, b->cfg.port,
-					rc == MOSQ_ERR_ERRNO ? strerror(errno)
-							     : mosquitto_strerror(rc));
-			} else {
-				b->st.disconnects++;
-				fprintf(stderr,
-					"cogw-mqtt: lost the broker (%s); %zu message(s) queued\n",
-					rc == MOSQ_ERR_ERRNO ? strerror(errno)
-							     : mosquitto_strerror(rc),
-					b->q_len);
-			}
-			mosquitto_disconnect(b->mosq);
-			schedule_reconnect(b);
+			link_lost(b, rc);
 		} else if (b->connecting && now >= b->next_connect_ms) {
 			b->st.connect_failures++;
 			fprintf(stderr, "cogw-mqtt: no CONNACK from %s:%u within %u s\n",
