@@ -384,6 +384,24 @@ static int load_watch(mqtt_config *c, const cJSON *a, char *err, size_t errlen)
 	return 0;
 }
 
+/* "role": none, read or write (-1: none of them). */
+static int role_of(const char *name, uint8_t *role)
+{
+	static const struct {
+		const char *name;
+		mqtt_role role;
+	} roles[] = { { "none", MQTT_ROLE_NONE },
+		      { "read", MQTT_ROLE_READ },
+		      { "write", MQTT_ROLE_WRITE } };
+
+	for (size_t i = 0; i < sizeof roles / sizeof roles[0]; i++)
+		if (strcmp(name, roles[i].name) == 0) {
+			*role = (uint8_t)roles[i].role;
+			return 0;
+		}
+	return -1;
+}
+
 static int load_tree(mqtt_config *c, const cJSON *root, char *err, size_t errlen)
 {
 	char role[8] = "";
@@ -414,17 +432,9 @@ static int load_tree(mqtt_config *c, const cJSON *root, char *err, size_t errlen
 				      "\"%s\" must be topic levels without '+', '#', '//', a "
 				      "leading '$' or '/' or a trailing '/'",
 				      c->topic_prefix);
-	if (role[0]) {
-		if (strcmp(role, "none") == 0)
-			c->role = MQTT_ROLE_NONE;
-		else if (strcmp(role, "read") == 0)
-			c->role = MQTT_ROLE_READ;
-		else if (strcmp(role, "write") == 0)
-			c->role = MQTT_ROLE_WRITE;
-		else
-			return json_util_fail(err, errlen, "role",
-					      "\"%s\" is not one of none, read, write", role);
-	}
+	if (role[0] && role_of(role, &c->role))
+		return json_util_fail(err, errlen, "role", "\"%s\" is not one of none, read, write",
+				      role);
 	if (load_section(root, "broker", load_broker, c, err, errlen) ||
 	    load_section(root, "publish", load_publish, c, err, errlen) ||
 	    load_section(root, "queue", load_queue, c, err, errlen) ||
