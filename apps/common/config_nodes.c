@@ -181,25 +181,19 @@ static int parse_node_manager(struct ctx *c, const cJSON *it, const char *np, co
 }
 
 /* "manager": the line's CiA 302-2 manager; 1F80h from names. */
-int cfg_parse_manager(struct ctx *c, const cJSON *o, const char *path, cogw_manager_config *m)
+/* The manager's NMT start-up (1F80h) from its flags and
+ * "on_mandatory_error". */
+static int parse_nmt_startup(struct ctx *c, const cJSON *o, const char *path, uint32_t *bits)
 {
 	char p[JSON_PATH_MAX], what[16] = "node";
-	uint32_t b = 0;
+	uint32_t b = 0, self = 0, slaves = 0;
 	int rc;
 
-	if ((rc = cfg_check_object(c, o, path, manager_keys)))
-		return rc;
-	m->enabled = true;
-	m->retry_ms = 1000;
-	m->reset_wait_ms = 1000;
-	m->sdo_timeout_ms = 500;
-	m->boot_time_ms = 0;
 	if ((rc = cfg_opt_flag(c, o, "master", path, CO_MGR_1F80_MASTER, true, &b)) ||
 	    (rc = cfg_opt_flag(c, o, "start_all", path, CO_MGR_1F80_START_ALL, false, &b)))
 		return rc;
 	/* bits 2 and 3 say what the manager may NOT do: the names say what it
 	 * does */
-	uint32_t self = 0, slaves = 0;
 	if ((rc = cfg_opt_flag(c, o, "self_start", path, 1, true, &self)) ||
 	    (rc = cfg_opt_flag(c, o, "start_slaves", path, 1, true, &slaves)))
 		return rc;
@@ -218,8 +212,23 @@ int cfg_parse_manager(struct ctx *c, const cJSON *o, const char *path, cogw_mana
 	else if (strcmp(what, "node"))
 		return cfg_fail(c, p, "\"%s\": expected \"node\", \"reset_all\" or \"stop_all\"",
 				what);
-	m->nmt_startup = b;
-	if ((rc = cfg_opt_u32(c, o, "boot_time_ms", path, 0, 3600000, &m->boot_time_ms)) ||
+	*bits = b;
+	return 0;
+}
+
+int cfg_parse_manager(struct ctx *c, const cJSON *o, const char *path, cogw_manager_config *m)
+{
+	int rc;
+
+	if ((rc = cfg_check_object(c, o, path, manager_keys)))
+		return rc;
+	m->enabled = true;
+	m->retry_ms = 1000;
+	m->reset_wait_ms = 1000;
+	m->sdo_timeout_ms = 500;
+	m->boot_time_ms = 0;
+	if ((rc = parse_nmt_startup(c, o, path, &m->nmt_startup)) ||
+	    (rc = cfg_opt_u32(c, o, "boot_time_ms", path, 0, 3600000, &m->boot_time_ms)) ||
 	    (rc = cfg_opt_u32(c, o, "retry_ms", path, 10, 3600000, &m->retry_ms)) ||
 	    (rc = cfg_opt_u32(c, o, "scan_ms", path, 0, 3600000, &m->scan_ms)) ||
 	    (rc = cfg_opt_u32(c, o, "reset_wait_ms", path, 1, 60000, &m->reset_wait_ms)) ||
