@@ -58,9 +58,19 @@ static const uint32_t cia_bitrates[] = { 10000,  20000,  50000,  125000,
 
 /* ---- lines --------------------------------------------------------------------- */
 
-static int parse_device(struct ctx *c, const cJSON *o, const char *path, co_od_std_opts *so,
-			char *name, char *hw, char *sw)
+/* The line's own device: its standard objects (1000h, 1008h..100Ah,
+ * 1018h and the rest of core/od_std.h) and the strings they point to. */
+struct line_device {
+	co_od_std_opts so;
+	char name[CO_OD_STD_STRING_MAX + 1];
+	char hw[CO_OD_STD_STRING_MAX + 1];
+	char sw[CO_OD_STD_STRING_MAX + 1];
+};
+
+static int parse_device(struct ctx *c, const cJSON *o, const char *path, struct line_device *d)
 {
+	co_od_std_opts *so = &d->so;
+	char *name = d->name, *hw = d->hw, *sw = d->sw;
 	int rc;
 
 	if ((rc = cfg_check_object(c, o, path, device_keys)) ||
@@ -372,7 +382,7 @@ static int parse_devobj(struct ctx *c, const cJSON *v, const char *path, cogw_de
 /* heartbeat_consumers, device, nodes, manager and device_objects: each
  * parsed where present. */
 static int parse_line_sections(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l,
-			       co_od_std_opts *so, char *dev_name, char *hw, char *sw)
+			       struct line_device *d)
 {
 	char p[JSON_PATH_MAX];
 	const cJSON *v;
@@ -387,7 +397,7 @@ static int parse_line_sections(struct ctx *c, const cJSON *o, const char *path, 
 	v = json_util_get(o, "device");
 	if (v) {
 		json_util_path_key(p, sizeof(p), path, "device");
-		if ((rc = parse_device(c, v, p, so, dev_name, hw, sw)))
+		if ((rc = parse_device(c, v, p, d)))
 			return rc;
 	}
 	v = json_util_get(o, "nodes");
@@ -411,22 +421,13 @@ static int parse_line_sections(struct ctx *c, const cJSON *o, const char *path, 
 	return 0;
 }
 
-int cfg_parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_config *l)
+/* The line's numbers: network, SDO channels and times, heartbeat, SYNC,
+ * TIME, PDO records, PDO scan. */
+static int parse_line_numbers(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l,
+			      co_od_std_opts *so)
 {
-	char path[JSON_PATH_MAX];
-	char dev_name[CO_OD_STD_STRING_MAX + 1] = "cogw";
-	char hw[CO_OD_STD_STRING_MAX + 1] = "", sw[CO_OD_STD_STRING_MAX + 1] = "";
-	co_od_std_opts so;
 	int rc;
 
-	json_util_path_index(path, sizeof(path), "lines", idx);
-	if ((rc = cfg_check_object(c, o, path, line_keys)))
-		return rc;
-	line_defaults(l, idx);
-	if ((rc = parse_line_identity(c, o, path, l)))
-		return rc;
-
-	co_od_std_opts_init(&so);
 	if ((rc = cfg_opt_u16(c, o, "network_id", path, 1, 127, &l->network_id)) ||
 	    (rc = cfg_opt_u8(c, o, "sdo_servers", path, 1, 128, &l->sdo_servers)) ||
 	    (rc = cfg_opt_u8(c, o, "sdo_clients", path, 0, 128, &l->sdo_clients)) ||
@@ -436,28 +437,47 @@ int cfg_parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_config *
 	    (rc = cfg_opt_u16(c, o, "heartbeat_ms", path, 0, 65535, &l->heartbeat_ms)) ||
 	    (rc = cfg_opt_u32(c, o, "sync_period_us", path, 0, UINT32_MAX, &l->sync_period_us)) ||
 	    (rc = cfg_opt_u32(c, o, "time_period_ms", path, 0, 86400000, &l->time_period_ms)) ||
-	    (rc = cfg_opt_u16(c, o, "rpdos", path, 0, 512, &so.rpdos)) ||
-	    (rc = cfg_opt_u16(c, o, "tpdos", path, 0, 512, &so.tpdos)) ||
+	    (rc = cfg_opt_u16(c, o, "rpdos", path, 0, 512, &so->rpdos)) ||
+	    (rc = cfg_opt_u16(c, o, "tpdos", path, 0, 512, &so->tpdos)) ||
 	    (rc = cfg_opt_u16(c, o, "pdo_scan_max", path, 1, CO_PDO_MAX, &l->pdo_scan_max)) ||
 	    (rc = cogw_pdo_mode_parse(o, path, &l->pdo, c->msg, sizeof(c->msg))))
 		return rc;
-	if ((rc = parse_line_sections(c, o, path, l, &so, dev_name, hw, sw)) ||
+	return 0;
+}
+
+int cfg_parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_config *l)
+{
+	char path[JSON_PATH_MAX];
+	struct line_device d = { .name = "cogw" };
+	co_od_std_opts *so = &d.so;
+	int rc;
+
+	json_util_path_index(path, sizeof(path), "lines", idx);
+	if ((rc = cfg_check_object(c, o, path, line_keys)))
+		return rc;
+	line_defaults(l, idx);
+	if ((rc = parse_line_identity(c, o, path, l)))
+		return rc;
+
+	co_od_std_opts_init(so);
+	if ((rc = parse_line_numbers(c, o, path, l, so)) ||
+	    (rc = parse_line_sections(c, o, path, l, &d)) ||
 	    (rc = cogw_line_pdo_check(l, path, c->msg, sizeof(c->msg))))
 		return rc;
 
-	so.device_name = dev_name;
-	so.hw_version = hw;
-	so.sw_version = sw;
-	so.heartbeat_ms = l->heartbeat_ms;
-	so.sync_period_us = l->sync_period_us;
+	so->device_name = d.name;
+	so->hw_version = d.hw;
+	so->sw_version = d.sw;
+	so->heartbeat_ms = l->heartbeat_ms;
+	so->sync_period_us = l->sync_period_us;
 	/* 1005h bit 30: we produce SYNC when a period is configured. */
-	so.sync_cob_id = l->sync_period_us ? 0x40000080u : 0x80u;
+	so->sync_cob_id = l->sync_period_us ? 0x40000080u : 0x80u;
 	/* 1012h bit 30: we produce TIME when a period is configured. */
-	so.time_cob_id = l->time_period_ms ? 0x40000100u : 0x100u;
-	so.sdo_servers = l->sdo_servers;
-	so.sdo_clients = l->sdo_clients;
-	so.gateway = true;
-	return build_od(c, o, path, l, &so);
+	so->time_cob_id = l->time_period_ms ? 0x40000100u : 0x100u;
+	so->sdo_servers = l->sdo_servers;
+	so->sdo_clients = l->sdo_clients;
+	so->gateway = true;
+	return build_od(c, o, path, l, so);
 }
 
 int cfg_check_unique(struct ctx *c, const cogw_config *cfg, size_t i)
