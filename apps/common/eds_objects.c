@@ -264,8 +264,10 @@ static const char *object_type_name(uint64_t ot)
 /* A VAR or DOMAIN object: sub-object sections, SubNumber and
  * CompactSubObj do not belong to it; python-canopen ignores them. */
 static int do_var_object(eds_ctx *c, const ini_sec *o, uint64_t ot, const ini_key *sn,
-			 const ini_key *ck, size_t first, size_t last)
+			 const ini_key *ck)
 {
+	size_t first = eds_lower_bound(c, SEC_SUB, o->index),
+	       last = eds_lower_bound(c, SEC_NAME, o->index);
 	int rc;
 
 	if (first < last &&
@@ -383,8 +385,7 @@ int eds_do_object(eds_ctx *c, const ini_sec *o)
 		return 0; /* type definitions: nothing to configure */
 	case CO_OBJ_VAR:
 	case CO_OBJ_DOMAIN:
-		return do_var_object(c, o, ot, sn, ck, eds_lower_bound(c, SEC_SUB, o->index),
-				     eds_lower_bound(c, SEC_NAME, o->index));
+		return do_var_object(c, o, ot, sn, ck);
 	case CO_OBJ_ARRAY:
 	case CO_OBJ_RECORD:
 		break;

@@ -685,17 +685,18 @@ static int add_var(co_od *od, uint16_t index, const cJSON *o, const char *path, 
 			 json_util_get(o, "default"), err, errlen);
 }
 
-static int add_sub0(co_od *od, uint16_t index, uint8_t obj_code, uint8_t n, const char *path,
-		    char *err, size_t errlen)
+/* Sub 0 of an ARRAY or RECORD at "at": n, the highest sub-index. */
+static int add_sub0(const struct ent_place *at, uint8_t n, char *err, size_t errlen)
 {
 	co_od_entry *e;
-	int rc = co_od_add_num(od, index, 0, CO_T_UNSIGNED8, CO_ACC_RO, n, &e);
+	int rc = co_od_add_num(at->od, at->index, 0, CO_T_UNSIGNED8, CO_ACC_RO, n, &e);
 
 	if (rc == -ENOMEM)
 		return rc;
 	if (rc)
-		return json_util_fail(err, errlen, path, "0x%04X:00 is defined twice", index);
-	e->obj_code = obj_code;
+		return json_util_fail(err, errlen, at->path, "0x%04X:00 is defined twice",
+				      at->index);
+	e->obj_code = at->obj_code;
 	return 0;
 }
 
@@ -732,7 +733,8 @@ static int add_array(co_od *od, uint16_t index, const cJSON *o, const char *path
 			return json_util_fail(err, errlen, p, "has %d values, length is %llu",
 					      cJSON_GetArraySize(defs), (unsigned long long)n);
 	}
-	if ((rc = add_sub0(od, index, CO_OBJ_ARRAY, (uint8_t)n, path, err, errlen)))
+	if ((rc = add_sub0(&(struct ent_place){ od, index, 0, CO_OBJ_ARRAY, path, NULL },
+			   (uint8_t)n, err, errlen)))
 		return rc;
 	for (unsigned i = 1; i <= n; i++) {
 		const cJSON *dv = def;
@@ -790,7 +792,8 @@ static int add_record(co_od *od, uint16_t index, const cJSON *o, const char *pat
 		if (sub > highest)
 			highest = (unsigned)sub;
 	}
-	if ((rc = add_sub0(od, index, CO_OBJ_RECORD, (uint8_t)highest, path, err, errlen)))
+	if ((rc = add_sub0(&(struct ent_place){ od, index, 0, CO_OBJ_RECORD, path, NULL },
+			   (uint8_t)highest, err, errlen)))
 		return rc;
 	i = 0;
 	cJSON_ArrayForEach(it, subs)
