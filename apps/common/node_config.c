@@ -51,9 +51,10 @@ bool cogw_node_config_equal(const cogw_node_config *a, const cogw_node_config *b
 	       (!a->cdcf_len || !memcmp(a->cdcf, b->cdcf, a->cdcf_len));
 }
 
-/* A copy of bytes read from `file` when they are a concise DCF. */
-static int cdcf_copy_checked(const char *file, const uint8_t *data, size_t len, uint8_t **out,
-			     size_t *out_len, char *err, size_t errlen)
+/* A copy of bytes read from `file` into nc->cdcf when they are a concise
+ * DCF. */
+static int cdcf_copy_checked(const char *file, const uint8_t *data, size_t len,
+			     cogw_node_config *nc, char *err, size_t errlen)
 {
 	co_cdcf_diag d;
 	char why[200];
@@ -63,11 +64,11 @@ static int cdcf_copy_checked(const char *file, const uint8_t *data, size_t len, 
 		snprintf(err, errlen, "%s: not a concise DCF: %s", file, why);
 		return -EINVAL;
 	}
-	*out = malloc(len ? len : 1);
-	if (!*out)
+	nc->cdcf = malloc(len ? len : 1);
+	if (!nc->cdcf)
 		return -ENOMEM;
-	memcpy(*out, data, len);
-	*out_len = len;
+	memcpy(nc->cdcf, data, len);
+	nc->cdcf_len = len;
 	return 0;
 }
 
@@ -81,8 +82,11 @@ int cogw_cdcf_load_file(const char *file, uint8_t **out, size_t *len, char *err,
 	*len = 0;
 	if ((rc = cogw_file_read(file, COGW_NODE_CONFIG_MAX, &buf, &got, err, errlen)))
 		return rc;
-	rc = cdcf_copy_checked(file, buf, got, out, len, err, errlen);
+	cogw_node_config nc = { 0 };
+	rc = cdcf_copy_checked(file, buf, got, &nc, err, errlen);
 	free(buf);
+	*out = nc.cdcf;
+	*len = nc.cdcf_len;
 	return rc;
 }
 
@@ -326,8 +330,7 @@ static int read_concise(const cogw_load *ld, cogw_node_config *nc, char *why, si
 				   whylen);
 
 	if (!rc)
-		rc = cdcf_copy_checked(nc->file, bytes, n_bytes, &nc->cdcf, &nc->cdcf_len, why,
-				       whylen);
+		rc = cdcf_copy_checked(nc->file, bytes, n_bytes, nc, why, whylen);
 	if (rc)
 		return rc;
 	co_cdcf_check(nc->cdcf, nc->cdcf_len, &count, NULL);
