@@ -151,20 +151,18 @@ static int parse_time(const cJSON *v, co_type t, const char *path, uint8_t *buf,
 	return 0;
 }
 
-/* One parser per kind of type: the value v of type t at path into buf
- * (cap bytes), its size in *len. */
-typedef int (*value_parser)(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-			    uint32_t *len, char *err, size_t errlen);
+/* One parser per kind of type: the value v of type t at path into out. */
+typedef int (*value_parser)(const cJSON *v, co_type t, const char *path, json_od_buf *out,
+			    char *err, size_t errlen);
 
-static int parse_boolean(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-			 uint32_t *len, char *err, size_t errlen)
+static int parse_boolean(const cJSON *v, co_type t, const char *path, json_od_buf *out, char *err,
+			 size_t errlen)
 {
 	bool b;
 	uint64_t u;
 	int rc;
 
 	(void)t;
-	(void)cap;
 	if (cJSON_IsBool(v))
 		b = cJSON_IsTrue(v);
 	else if (cJSON_IsNumber(v)) {
@@ -175,30 +173,28 @@ static int parse_boolean(const cJSON *v, co_type t, const char *path, uint8_t *b
 		return json_util_fail(err, errlen, path,
 				      "expected true or false for BOOLEAN, got %s",
 				      json_util_kind(v));
-	buf[0] = b;
-	*len = 1;
+	out->buf[0] = b;
+	out->len = 1;
 	return 0;
 }
 
-static int parse_time_value(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-			    uint32_t *len, char *err, size_t errlen)
+static int parse_time_value(const cJSON *v, co_type t, const char *path, json_od_buf *out,
+			    char *err, size_t errlen)
 {
 	int rc;
 
-	(void)cap;
-	if ((rc = parse_time(v, t, path, buf, err, errlen)))
+	if ((rc = parse_time(v, t, path, out->buf, err, errlen)))
 		return rc;
-	*len = co_type_size(t);
+	out->len = co_type_size(t);
 	return 0;
 }
 
-static int parse_real(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-		      uint32_t *len, char *err, size_t errlen)
+static int parse_real(const cJSON *v, co_type t, const char *path, json_od_buf *out, char *err,
+		      size_t errlen)
 {
 	double d;
 	int rc;
 
-	(void)cap;
 	if (!cJSON_IsNumber(v))
 		return json_util_fail(err, errlen, path, "expected a number for %s, got %s",
 				      co_type_to_string(t), json_util_kind(v));
@@ -213,24 +209,23 @@ static int parse_real(const cJSON *v, co_type t, const char *path, uint8_t *buf,
 					      d);
 		f = (float)d;
 		memcpy(&bits, &f, 4);
-		co_put_le(buf, 4, bits);
+		co_put_le(out->buf, 4, bits);
 	} else {
 		uint64_t bits;
 
 		memcpy(&bits, &d, 8);
-		co_put_le(buf, 8, bits);
+		co_put_le(out->buf, 8, bits);
 	}
-	*len = co_type_size(t);
+	out->len = co_type_size(t);
 	return 0;
 }
 
-static int parse_integer(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-			 uint32_t *len, char *err, size_t errlen)
+static int parse_integer(const cJSON *v, co_type t, const char *path, json_od_buf *out, char *err,
+			 size_t errlen)
 {
 	uint32_t size = co_type_size(t);
 	int rc;
 
-	(void)cap;
 	if (!cJSON_IsNumber(v) && !cJSON_IsString(v))
 		return json_util_fail(err, errlen, path, "expected an integer for %s, got %s",
 				      co_type_to_string(t), json_util_kind(v));
@@ -241,21 +236,21 @@ static int parse_integer(const cJSON *v, co_type t, const char *path, uint8_t *b
 
 		if ((rc = json_util_sint(v, path, lo, hi, &s, err, errlen)))
 			return rc;
-		co_put_le(buf, size, (uint64_t)s);
+		co_put_le(out->buf, size, (uint64_t)s);
 	} else {
 		uint64_t hi = size == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * size)) - 1;
 		uint64_t u;
 
 		if ((rc = json_util_uint(v, path, 0, hi, false, &u, err, errlen)))
 			return rc;
-		co_put_le(buf, size, u);
+		co_put_le(out->buf, size, u);
 	}
-	*len = size;
+	out->len = size;
 	return 0;
 }
 
-static int parse_visible_string(const cJSON *v, co_type t, const char *path, uint8_t *buf,
-				uint32_t cap, uint32_t *len, char *err, size_t errlen)
+static int parse_visible_string(const cJSON *v, co_type t, const char *path, json_od_buf *out,
+				char *err, size_t errlen)
 {
 	size_t n;
 
@@ -265,16 +260,17 @@ static int parse_visible_string(const cJSON *v, co_type t, const char *path, uin
 				      "expected a string for VISIBLE_STRING, got %s",
 				      json_util_kind(v));
 	n = strlen(v->valuestring);
-	if (n > cap)
+	if (n > out->cap)
 		return json_util_fail(err, errlen, path,
-				      "string of %zu bytes is longer than max_size %u", n, cap);
-	memcpy(buf, v->valuestring, n);
-	*len = (uint32_t)n;
+				      "string of %zu bytes is longer than max_size %u", n,
+				      out->cap);
+	memcpy(out->buf, v->valuestring, n);
+	out->len = (uint32_t)n;
 	return 0;
 }
 
-static int parse_unicode_string(const cJSON *v, co_type t, const char *path, uint8_t *buf,
-				uint32_t cap, uint32_t *len, char *err, size_t errlen)
+static int parse_unicode_string(const cJSON *v, co_type t, const char *path, json_od_buf *out,
+				char *err, size_t errlen)
 {
 	long n;
 
@@ -283,27 +279,27 @@ static int parse_unicode_string(const cJSON *v, co_type t, const char *path, uin
 		return json_util_fail(err, errlen, path,
 				      "expected a string for UNICODE_STRING, got %s",
 				      json_util_kind(v));
-	n = json_od_utf8_to_utf16le(v->valuestring, buf, cap);
+	n = json_od_utf8_to_utf16le(v->valuestring, out->buf, out->cap);
 	if (n == -1)
 		return json_util_fail(err, errlen, path, "string is not valid UTF-8");
 	if (n == -2)
 		return json_util_fail(err, errlen, path,
-				      "string is longer than max_size %u bytes (UTF-16)", cap);
-	*len = (uint32_t)n;
+				      "string is longer than max_size %u bytes (UTF-16)", out->cap);
+	out->len = (uint32_t)n;
 	return 0;
 }
 
 /* OCTET_STRING and DOMAIN: hex. */
-static int parse_hex_bytes(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-			   uint32_t *len, char *err, size_t errlen)
+static int parse_hex_bytes(const cJSON *v, co_type t, const char *path, json_od_buf *out, char *err,
+			   size_t errlen)
 {
 	size_t n;
 	int rc;
 
 	(void)t;
-	if ((rc = json_util_hex(v, path, buf, cap, &n, err, errlen)))
+	if ((rc = json_util_hex(v, path, out->buf, out->cap, &n, err, errlen)))
 		return rc;
-	*len = (uint32_t)n;
+	out->len = (uint32_t)n;
 	return 0;
 }
 
@@ -324,14 +320,14 @@ static value_parser value_parser_of(co_type t)
 	return parse_hex_bytes;
 }
 
-int json_od_parse_value(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-			uint32_t *len, char *err, size_t errlen)
+int json_od_parse_value(const cJSON *v, co_type t, const char *path, json_od_buf *out, char *err,
+			size_t errlen)
 {
 	if (!co_type_is_valid(t))
 		return json_util_fail(err, errlen, path, "invalid type");
-	if (!co_type_is_variable(t) && cap < co_type_size(t))
+	if (!co_type_is_variable(t) && out->cap < co_type_size(t))
 		return json_util_fail(err, errlen, path, "no room for the value");
-	return value_parser_of(t)(v, t, path, buf, cap, len, err, errlen);
+	return value_parser_of(t)(v, t, path, out, err, errlen);
 }
 
 int json_od_parse_index(const cJSON *v, const char *path, uint16_t *out, char *err, size_t errlen)
@@ -484,7 +480,6 @@ static int parse_limits(const cJSON *o, const char *path, struct ent_spec *s, ch
 			size_t errlen)
 {
 	char p[JSON_PATH_MAX];
-	uint32_t l;
 	int rc;
 
 	if (json_util_get(o, "max_size")) {
@@ -500,12 +495,14 @@ static int parse_limits(const cJSON *o, const char *path, struct ent_spec *s, ch
 	}
 	if (s->min) {
 		json_util_path_key(p, sizeof(p), path, "min");
-		if ((rc = json_od_parse_value(s->min, s->type, p, s->min_b, 8, &l, err, errlen)))
+		if ((rc = json_od_parse_value(s->min, s->type, p, &(json_od_buf){ s->min_b, 8, 0 },
+					      err, errlen)))
 			return rc;
 	}
 	if (s->max) {
 		json_util_path_key(p, sizeof(p), path, "max");
-		if ((rc = json_od_parse_value(s->max, s->type, p, s->max_b, 8, &l, err, errlen)))
+		if ((rc = json_od_parse_value(s->max, s->type, p, &(json_od_buf){ s->max_b, 8, 0 },
+					      err, errlen)))
 			return rc;
 	}
 	if (s->min && s->max && num_cmp(s->type, s->min_b, s->max_b) > 0) {
@@ -559,7 +556,8 @@ static int var_default(const struct ent_place *at, const struct ent_spec *s, con
 		/* Malformed default: let the parser say why. */
 		uint8_t none;
 
-		return json_od_parse_value(def, s->type, at->def_path, &none, 0, &len, err, errlen);
+		return json_od_parse_value(def, s->type, at->def_path,
+					   &(json_od_buf){ &none, 0, 0 }, err, errlen);
 	}
 	if (!cap) {
 		/* No max_size: the default's length is the capacity. */
@@ -581,7 +579,9 @@ static int var_default(const struct ent_place *at, const struct ent_spec *s, con
 	buf = malloc(cap ? cap : 1);
 	if (!buf)
 		return -ENOMEM;
-	rc = json_od_parse_value(def, s->type, at->def_path, buf, cap, &len, err, errlen);
+	json_od_buf out = { buf, cap, 0 };
+	rc = json_od_parse_value(def, s->type, at->def_path, &out, err, errlen);
+	len = out.len;
 	if (rc || !len) {
 		free(buf);
 		return rc;
@@ -622,7 +622,6 @@ static int add_entry(const struct ent_place *at, struct ent_spec *s, const cJSON
 		     size_t errlen)
 {
 	uint8_t num[8] = { 0 };
-	uint32_t len = 0;
 	co_od_desc d = { .index = at->index,
 			 .sub = at->sub,
 			 .obj_code = at->obj_code,
@@ -635,8 +634,8 @@ static int add_entry(const struct ent_place *at, struct ent_spec *s, const cJSON
 		if ((rc = var_default(at, s, def, &d, err, errlen)))
 			return rc;
 	} else {
-		if (def && (rc = json_od_parse_value(def, s->type, at->def_path, num, 8, &len, err,
-						     errlen)))
+		if (def && (rc = json_od_parse_value(def, s->type, at->def_path,
+						     &(json_od_buf){ num, 8, 0 }, err, errlen)))
 			return rc;
 		if ((rc = check_bounds(at, s, def, num, err, errlen)))
 			return rc;
@@ -910,9 +909,11 @@ static int value_entry(co_od *od, const cJSON *o, const char *p, co_od_entry **e
 
 /* The value vv (at kp, buf of len bytes) as e's new default, checked as a
  * run-time write would be. */
-static int set_value(co_od_entry *e, const cJSON *vv, const char *kp, const uint8_t *buf,
-		     uint32_t len, char *err, size_t errlen)
+static int set_value(co_od_entry *e, const cJSON *vv, const char *kp, const json_od_buf *val,
+		     char *err, size_t errlen)
 {
+	const uint8_t *buf = val->buf;
+	uint32_t len = val->len;
 	uint32_t abort = co_od_check_value(e, buf, len);
 	int rc;
 
@@ -945,7 +946,7 @@ static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key, ch
 	char kp[JSON_PATH_MAX];
 	const cJSON *vv;
 	co_od_entry *e;
-	uint32_t len = 0, cap;
+	uint32_t cap;
 	uint8_t num[8];
 	uint8_t *buf = num;
 	int rc;
@@ -965,9 +966,10 @@ static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key, ch
 		if (!buf)
 			return -ENOMEM;
 	}
-	rc = json_od_parse_value(vv, (co_type)e->type, kp, buf, cap, &len, err, errlen);
+	json_od_buf val = { buf, cap, 0 };
+	rc = json_od_parse_value(vv, (co_type)e->type, kp, &val, err, errlen);
 	if (!rc)
-		rc = set_value(e, vv, kp, buf, len, err, errlen);
+		rc = set_value(e, vv, kp, &val, err, errlen);
 	if (buf != num)
 		free(buf);
 	return rc;

@@ -122,8 +122,10 @@ static int add_listed_entry(const cJSON *e, const char *ep, co_cdcf_writer *w, u
 	if ((rc = json_util_require(e, "value", ep, &v, err, errlen)))
 		return rc;
 	json_util_path_key(p, sizeof(p), ep, "value");
-	if ((rc = json_od_parse_value(v, t, p, val, COGW_NODE_ENTRY_MAX, &len, err, errlen)))
+	json_od_buf out = { val, COGW_NODE_ENTRY_MAX, 0 };
+	if ((rc = json_od_parse_value(v, t, p, &out, err, errlen)))
 		return rc;
+	len = out.len;
 	if (len == 0)
 		return json_util_fail(err, errlen, p,
 				      "empty value (a concise DCF entry needs at "
