@@ -82,9 +82,9 @@ static int parse_top_keys(struct ctx *c, const cJSON *root, cogw_config *cfg)
 				       sizeof(cfg->state_dir), c->msg, sizeof(c->msg))) ||
 	    (rc = json_util_opt_bool(root, "mlockall", "", &cfg->mlockall, c->msg,
 				     sizeof(c->msg))) ||
-	    (rc = cfg_opt_unsigned(c, root, "watchdog_check_ms", "", 10, 60000,
+	    (rc = cfg_opt_unsigned(c, root, "watchdog_check_ms", "", (cfg_range){ 10, 60000 },
 				   &cfg->watchdog_check_ms)) ||
-	    (rc = cfg_opt_unsigned(c, root, "file_memory", "", 4096, UINT32_MAX,
+	    (rc = cfg_opt_unsigned(c, root, "file_memory", "", (cfg_range){ 4096, UINT32_MAX },
 				   &cfg->file_memory)))
 		return rc;
 	cfg->files.limit = cfg->file_memory;
@@ -99,7 +99,8 @@ static int parse_debug(struct ctx *c, const cJSON *v, cogw_config *cfg)
 	if ((rc = cfg_check_object(c, v, "debug", debug_keys)) ||
 	    (rc = json_util_opt_bool(v, "stall_signal", "debug", &cfg->debug_stall_signal, c->msg,
 				     sizeof(c->msg))) ||
-	    (rc = cfg_opt_unsigned(c, v, "stall_ms", "debug", 0, 3600000, &cfg->debug_stall_ms)))
+	    (rc = cfg_opt_unsigned(c, v, "stall_ms", "debug", (cfg_range){ 0, 3600000 },
+				   &cfg->debug_stall_ms)))
 		return rc;
 	return 0;
 }

@@ -74,11 +74,15 @@ static int parse_device(struct ctx *c, const cJSON *o, const char *path, struct 
 	int rc;
 
 	if ((rc = cfg_check_object(c, o, path, device_keys)) ||
-	    (rc = cfg_opt_u32(c, o, "device_type", path, 0, UINT32_MAX, &so->device_type)) ||
-	    (rc = cfg_opt_u32(c, o, "vendor_id", path, 0, UINT32_MAX, &so->vendor_id)) ||
-	    (rc = cfg_opt_u32(c, o, "product_code", path, 0, UINT32_MAX, &so->product_code)) ||
-	    (rc = cfg_opt_u32(c, o, "revision", path, 0, UINT32_MAX, &so->revision)) ||
-	    (rc = cfg_opt_u32(c, o, "serial", path, 0, UINT32_MAX, &so->serial)) ||
+	    (rc = cfg_opt_u32(c, o, "device_type", path, (cfg_range){ 0, UINT32_MAX },
+			      &so->device_type)) ||
+	    (rc = cfg_opt_u32(c, o, "vendor_id", path, (cfg_range){ 0, UINT32_MAX },
+			      &so->vendor_id)) ||
+	    (rc = cfg_opt_u32(c, o, "product_code", path, (cfg_range){ 0, UINT32_MAX },
+			      &so->product_code)) ||
+	    (rc = cfg_opt_u32(c, o, "revision", path, (cfg_range){ 0, UINT32_MAX },
+			      &so->revision)) ||
+	    (rc = cfg_opt_u32(c, o, "serial", path, (cfg_range){ 0, UINT32_MAX }, &so->serial)) ||
 	    (rc = json_util_opt_string(o, "name", path, 0, name, CO_OD_STD_STRING_MAX + 1, c->msg,
 				       sizeof(c->msg))) ||
 	    (rc = json_util_opt_string(o, "hw_version", path, 0, hw, CO_OD_STD_STRING_MAX + 1,
@@ -372,9 +376,11 @@ static int parse_devobj(struct ctx *c, const cJSON *v, const char *path, cogw_de
 	int rc;
 
 	if ((rc = cfg_check_object(c, v, path, devobj_keys)) ||
-	    (rc = cfg_opt_u32(c, v, "read_max_age_ms", path, 0, 86400000, &d->read_max_age_ms)) ||
-	    (rc = cfg_opt_u32(c, v, "write_update_ms", path, 0, 60000, &d->write_update_ms)) ||
-	    (rc = cfg_opt_u16(c, v, "watches", path, 1, 4096, &d->watches)))
+	    (rc = cfg_opt_u32(c, v, "read_max_age_ms", path, (cfg_range){ 0, 86400000 },
+			      &d->read_max_age_ms)) ||
+	    (rc = cfg_opt_u32(c, v, "write_update_ms", path, (cfg_range){ 0, 60000 },
+			      &d->write_update_ms)) ||
+	    (rc = cfg_opt_u16(c, v, "watches", path, (cfg_range){ 1, 4096 }, &d->watches)))
 		return rc;
 	return 0;
 }
@@ -428,18 +434,23 @@ static int parse_line_numbers(struct ctx *c, const cJSON *o, const char *path, c
 {
 	int rc;
 
-	if ((rc = cfg_opt_u16(c, o, "network_id", path, 1, 127, &l->network_id)) ||
-	    (rc = cfg_opt_u8(c, o, "sdo_servers", path, 1, 128, &l->sdo_servers)) ||
-	    (rc = cfg_opt_u8(c, o, "sdo_clients", path, 0, 128, &l->sdo_clients)) ||
-	    (rc = cfg_opt_u32(c, o, "sdo_timeout_ms", path, 1, 600000, &l->sdo_timeout_ms)) ||
-	    (rc = cfg_opt_u32(c, o, "sdo_block_threshold", path, 1, UINT32_MAX,
+	if ((rc = cfg_opt_u16(c, o, "network_id", path, (cfg_range){ 1, 127 }, &l->network_id)) ||
+	    (rc = cfg_opt_u8(c, o, "sdo_servers", path, (cfg_range){ 1, 128 }, &l->sdo_servers)) ||
+	    (rc = cfg_opt_u8(c, o, "sdo_clients", path, (cfg_range){ 0, 128 }, &l->sdo_clients)) ||
+	    (rc = cfg_opt_u32(c, o, "sdo_timeout_ms", path, (cfg_range){ 1, 600000 },
+			      &l->sdo_timeout_ms)) ||
+	    (rc = cfg_opt_u32(c, o, "sdo_block_threshold", path, (cfg_range){ 1, UINT32_MAX },
 			      &l->sdo_block_threshold)) ||
-	    (rc = cfg_opt_u16(c, o, "heartbeat_ms", path, 0, 65535, &l->heartbeat_ms)) ||
-	    (rc = cfg_opt_u32(c, o, "sync_period_us", path, 0, UINT32_MAX, &l->sync_period_us)) ||
-	    (rc = cfg_opt_u32(c, o, "time_period_ms", path, 0, 86400000, &l->time_period_ms)) ||
-	    (rc = cfg_opt_u16(c, o, "rpdos", path, 0, 512, &so->rpdos)) ||
-	    (rc = cfg_opt_u16(c, o, "tpdos", path, 0, 512, &so->tpdos)) ||
-	    (rc = cfg_opt_u16(c, o, "pdo_scan_max", path, 1, CO_PDO_MAX, &l->pdo_scan_max)) ||
+	    (rc = cfg_opt_u16(c, o, "heartbeat_ms", path, (cfg_range){ 0, 65535 },
+			      &l->heartbeat_ms)) ||
+	    (rc = cfg_opt_u32(c, o, "sync_period_us", path, (cfg_range){ 0, UINT32_MAX },
+			      &l->sync_period_us)) ||
+	    (rc = cfg_opt_u32(c, o, "time_period_ms", path, (cfg_range){ 0, 86400000 },
+			      &l->time_period_ms)) ||
+	    (rc = cfg_opt_u16(c, o, "rpdos", path, (cfg_range){ 0, 512 }, &so->rpdos)) ||
+	    (rc = cfg_opt_u16(c, o, "tpdos", path, (cfg_range){ 0, 512 }, &so->tpdos)) ||
+	    (rc = cfg_opt_u16(c, o, "pdo_scan_max", path, (cfg_range){ 1, CO_PDO_MAX },
+			      &l->pdo_scan_max)) ||
 	    (rc = cogw_pdo_mode_parse(o, path, &l->pdo, c->msg, sizeof(c->msg))))
 		return rc;
 	return 0;

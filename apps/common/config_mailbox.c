@@ -108,17 +108,19 @@ static int parse_mailbox_limits(struct ctx *c, const cJSON *o, cogw_mailbox_conf
 	char p[JSON_PATH_MAX];
 	int rc;
 
-	if ((rc = cfg_opt_unsigned(c, o, "max_read_outstanding", path, 1, 65535,
+	if ((rc = cfg_opt_unsigned(c, o, "max_read_outstanding", path, (cfg_range){ 1, 65535 },
 				   &m->max_read_outstanding)) ||
-	    (rc = cfg_opt_unsigned(c, o, "write_reserve", path, 1, 1023, &m->write_reserve)) ||
-	    (rc = cfg_opt_unsigned(c, o, "transfer_slots", path, 1, 255, &m->transfer_slots)) ||
-	    (rc = cfg_opt_unsigned(c, o, "max_transfers_per_client", path, 1, 255,
+	    (rc = cfg_opt_unsigned(c, o, "write_reserve", path, (cfg_range){ 1, 1023 },
+				   &m->write_reserve)) ||
+	    (rc = cfg_opt_unsigned(c, o, "transfer_slots", path, (cfg_range){ 1, 255 },
+				   &m->transfer_slots)) ||
+	    (rc = cfg_opt_unsigned(c, o, "max_transfers_per_client", path, (cfg_range){ 1, 255 },
 				   &m->max_transfers_per_client)) ||
-	    (rc = cfg_opt_unsigned(c, o, "transfer_stall_ms", path, 10, 600000u,
+	    (rc = cfg_opt_unsigned(c, o, "transfer_stall_ms", path, (cfg_range){ 10, 600000u },
 				   &m->transfer_stall_ms)) ||
-	    (rc = cfg_opt_unsigned(c, o, "transfer_lifetime_ms", path, 100, 86400000u,
-				   &m->transfer_lifetime_ms)) ||
-	    (rc = cfg_opt_unsigned(c, o, "transfer_memory", path, 4096, UINT32_MAX,
+	    (rc = cfg_opt_unsigned(c, o, "transfer_lifetime_ms", path,
+				   (cfg_range){ 100, 86400000u }, &m->transfer_lifetime_ms)) ||
+	    (rc = cfg_opt_unsigned(c, o, "transfer_memory", path, (cfg_range){ 4096, UINT32_MAX },
 				   &m->transfer_memory)))
 		return rc;
 	/* A budget below max_transfer would refuse the largest transfer the
@@ -212,16 +214,20 @@ static int parse_mailbox_queue(struct ctx *c, const cJSON *o, cogw_mailbox_confi
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "instance");
 	if ((rc = cfg_check_name_chars(c, p, m->instance)) ||
-	    (rc = cfg_opt_unsigned(c, o, "depth", path, 1, 65536, &m->depth)) ||
-	    (rc = cfg_opt_unsigned(c, o, "msg_size", path, MSG_SIZE_MIN, MSG_SIZE_MAX,
-				   &m->msg_size)) ||
-	    (rc = cfg_opt_unsigned(c, o, "max_clients", path, 1, 1024, &m->max_clients)) ||
-	    (rc = cfg_opt_unsigned(c, o, "lease_ms", path, 0, 86400000u, &m->lease_ms)) ||
-	    (rc = cfg_opt_unsigned(c, o, "max_transfer", path, 1, 256u << 20, &m->max_transfer)) ||
-	    (rc = cfg_opt_unsigned(c, o, "max_clients_per_uid", path, 1, 1024,
+	    (rc = cfg_opt_unsigned(c, o, "depth", path, (cfg_range){ 1, 65536 }, &m->depth)) ||
+	    (rc = cfg_opt_unsigned(c, o, "msg_size", path,
+				   (cfg_range){ MSG_SIZE_MIN, MSG_SIZE_MAX }, &m->msg_size)) ||
+	    (rc = cfg_opt_unsigned(c, o, "max_clients", path, (cfg_range){ 1, 1024 },
+				   &m->max_clients)) ||
+	    (rc = cfg_opt_unsigned(c, o, "lease_ms", path, (cfg_range){ 0, 86400000u },
+				   &m->lease_ms)) ||
+	    (rc = cfg_opt_unsigned(c, o, "max_transfer", path, (cfg_range){ 1, 256u << 20 },
+				   &m->max_transfer)) ||
+	    (rc = cfg_opt_unsigned(c, o, "max_clients_per_uid", path, (cfg_range){ 1, 1024 },
 				   &m->max_clients_per_uid)) ||
-	    (rc = cfg_opt_unsigned(c, o, "max_outstanding", path, 1, 1024, &m->max_outstanding)) ||
-	    (rc = cfg_opt_unsigned(c, o, "max_request_timeout_ms", path, 1, 3600000u,
+	    (rc = cfg_opt_unsigned(c, o, "max_outstanding", path, (cfg_range){ 1, 1024 },
+				   &m->max_outstanding)) ||
+	    (rc = cfg_opt_unsigned(c, o, "max_request_timeout_ms", path, (cfg_range){ 1, 3600000u },
 				   &m->max_request_timeout_ms)))
 		return rc;
 	return 0;

@@ -155,12 +155,14 @@ static int parse_node_manager(struct ctx *c, const cJSON *it, const char *np, co
 	bool keep_op = false;
 	int rc;
 
-	if ((rc = cfg_opt_flag(c, it, "boot", np, CO_MGR_1F81_BOOT, true, &a)) ||
-	    (rc = cfg_opt_flag(c, it, "mandatory", np, CO_MGR_1F81_MANDATORY, false, &a)) ||
-	    (rc = cfg_opt_flag(c, it, "keep_alive", np, CO_MGR_1F81_KEEP_ALIVE, false, &a)) ||
-	    (rc = cfg_opt_u32(c, it, "retry_factor", np, 0, 255, &factor)) ||
-	    (rc = cfg_opt_u32(c, it, "guard_time_ms", np, 0, 65535, &guard)) ||
-	    (rc = cfg_opt_u16(c, it, "heartbeat_ms", np, 0, 65535, &hb)) ||
+	if ((rc = cfg_opt_flag(c, it, "boot", np, (cfg_flag){ CO_MGR_1F81_BOOT, true }, &a)) ||
+	    (rc = cfg_opt_flag(c, it, "mandatory", np, (cfg_flag){ CO_MGR_1F81_MANDATORY, false },
+			       &a)) ||
+	    (rc = cfg_opt_flag(c, it, "keep_alive", np, (cfg_flag){ CO_MGR_1F81_KEEP_ALIVE, false },
+			       &a)) ||
+	    (rc = cfg_opt_u32(c, it, "retry_factor", np, (cfg_range){ 0, 255 }, &factor)) ||
+	    (rc = cfg_opt_u32(c, it, "guard_time_ms", np, (cfg_range){ 0, 65535 }, &guard)) ||
+	    (rc = cfg_opt_u16(c, it, "heartbeat_ms", np, (cfg_range){ 0, 65535 }, &hb)) ||
 	    (rc = json_util_opt_bool(it, "keep_op", np, &keep_op, c->msg, sizeof(c->msg))))
 		return rc;
 	for (int i = 0; i < 5; i++)
@@ -189,13 +191,14 @@ static int parse_nmt_startup(struct ctx *c, const cJSON *o, const char *path, ui
 	uint32_t b = 0, self = 0, slaves = 0;
 	int rc;
 
-	if ((rc = cfg_opt_flag(c, o, "master", path, CO_MGR_1F80_MASTER, true, &b)) ||
-	    (rc = cfg_opt_flag(c, o, "start_all", path, CO_MGR_1F80_START_ALL, false, &b)))
+	if ((rc = cfg_opt_flag(c, o, "master", path, (cfg_flag){ CO_MGR_1F80_MASTER, true }, &b)) ||
+	    (rc = cfg_opt_flag(c, o, "start_all", path, (cfg_flag){ CO_MGR_1F80_START_ALL, false },
+			       &b)))
 		return rc;
 	/* bits 2 and 3 say what the manager may NOT do: the names say what it
 	 * does */
-	if ((rc = cfg_opt_flag(c, o, "self_start", path, 1, true, &self)) ||
-	    (rc = cfg_opt_flag(c, o, "start_slaves", path, 1, true, &slaves)))
+	if ((rc = cfg_opt_flag(c, o, "self_start", path, (cfg_flag){ 1, true }, &self)) ||
+	    (rc = cfg_opt_flag(c, o, "start_slaves", path, (cfg_flag){ 1, true }, &slaves)))
 		return rc;
 	if (!self)
 		b |= CO_MGR_1F80_NO_SELF_START;
@@ -228,12 +231,16 @@ int cfg_parse_manager(struct ctx *c, const cJSON *o, const char *path, cogw_mana
 	m->sdo_timeout_ms = 500;
 	m->boot_time_ms = 0;
 	if ((rc = parse_nmt_startup(c, o, path, &m->nmt_startup)) ||
-	    (rc = cfg_opt_u32(c, o, "boot_time_ms", path, 0, 3600000, &m->boot_time_ms)) ||
-	    (rc = cfg_opt_u32(c, o, "retry_ms", path, 10, 3600000, &m->retry_ms)) ||
-	    (rc = cfg_opt_u32(c, o, "scan_ms", path, 0, 3600000, &m->scan_ms)) ||
-	    (rc = cfg_opt_u32(c, o, "reset_wait_ms", path, 1, 60000, &m->reset_wait_ms)) ||
-	    (rc = cfg_opt_u32(c, o, "sdo_timeout_ms", path, 1, 60000, &m->sdo_timeout_ms)) ||
-	    (rc = cfg_opt_u8(c, o, "max_parallel", path, 0, 128, &m->max_parallel)) ||
+	    (rc = cfg_opt_u32(c, o, "boot_time_ms", path, (cfg_range){ 0, 3600000 },
+			      &m->boot_time_ms)) ||
+	    (rc = cfg_opt_u32(c, o, "retry_ms", path, (cfg_range){ 10, 3600000 }, &m->retry_ms)) ||
+	    (rc = cfg_opt_u32(c, o, "scan_ms", path, (cfg_range){ 0, 3600000 }, &m->scan_ms)) ||
+	    (rc = cfg_opt_u32(c, o, "reset_wait_ms", path, (cfg_range){ 1, 60000 },
+			      &m->reset_wait_ms)) ||
+	    (rc = cfg_opt_u32(c, o, "sdo_timeout_ms", path, (cfg_range){ 1, 60000 },
+			      &m->sdo_timeout_ms)) ||
+	    (rc = cfg_opt_u8(c, o, "max_parallel", path, (cfg_range){ 0, 128 },
+			     &m->max_parallel)) ||
 	    (rc = json_util_opt_bool(o, "accept_remote_nmt", path, &m->accept_remote_nmt, c->msg,
 				     sizeof(c->msg))))
 		return rc;

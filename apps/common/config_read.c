@@ -29,44 +29,44 @@ int cfg_fail(struct ctx *c, const char *path, const char *fmt, ...)
 
 /* ---- small typed readers into struct fields ----------------------------------- */
 
-int cfg_opt_u32(struct ctx *c, const cJSON *o, const char *key, const char *path, uint64_t min,
-		uint64_t max, uint32_t *out)
+int cfg_opt_u32(struct ctx *c, const cJSON *o, const char *key, const char *path, cfg_range r,
+		uint32_t *out)
 {
 	uint64_t v = *out;
-	int rc = json_util_opt_uint(o, key, path, min, max, &v, c->msg, sizeof(c->msg));
+	int rc = json_util_opt_uint(o, key, path, r.min, r.max, &v, c->msg, sizeof(c->msg));
 
 	if (!rc)
 		*out = (uint32_t)v;
 	return rc;
 }
 
-int cfg_opt_u16(struct ctx *c, const cJSON *o, const char *key, const char *path, uint64_t min,
-		uint64_t max, uint16_t *out)
+int cfg_opt_u16(struct ctx *c, const cJSON *o, const char *key, const char *path, cfg_range r,
+		uint16_t *out)
 {
 	uint32_t v = *out;
-	int rc = cfg_opt_u32(c, o, key, path, min, max, &v);
+	int rc = cfg_opt_u32(c, o, key, path, r, &v);
 
 	if (!rc)
 		*out = (uint16_t)v;
 	return rc;
 }
 
-int cfg_opt_u8(struct ctx *c, const cJSON *o, const char *key, const char *path, uint64_t min,
-	       uint64_t max, uint8_t *out)
+int cfg_opt_u8(struct ctx *c, const cJSON *o, const char *key, const char *path, cfg_range r,
+	       uint8_t *out)
 {
 	uint32_t v = *out;
-	int rc = cfg_opt_u32(c, o, key, path, min, max, &v);
+	int rc = cfg_opt_u32(c, o, key, path, r, &v);
 
 	if (!rc)
 		*out = (uint8_t)v;
 	return rc;
 }
 
-int cfg_opt_unsigned(struct ctx *c, const cJSON *o, const char *key, const char *path, uint64_t min,
-		     uint64_t max, unsigned *out)
+int cfg_opt_unsigned(struct ctx *c, const cJSON *o, const char *key, const char *path, cfg_range r,
+		     unsigned *out)
 {
 	uint32_t v = *out;
-	int rc = cfg_opt_u32(c, o, key, path, min, max, &v);
+	int rc = cfg_opt_u32(c, o, key, path, r, &v);
 
 	if (!rc)
 		*out = v;
@@ -90,14 +90,14 @@ int cfg_check_name_chars(struct ctx *c, const char *path, const char *s)
 	return 0;
 }
 
-int cfg_opt_flag(struct ctx *c, const cJSON *o, const char *key, const char *path, uint32_t bit,
-		 bool def, uint32_t *bits)
+int cfg_opt_flag(struct ctx *c, const cJSON *o, const char *key, const char *path, cfg_flag f,
+		 uint32_t *bits)
 {
-	bool b = def;
+	bool b = f.def;
 	int rc = json_util_opt_bool(o, key, path, &b, c->msg, sizeof(c->msg));
 
 	if (!rc && b)
-		*bits |= bit;
+		*bits |= f.bit;
 	return rc;
 }
 

@@ -44,19 +44,31 @@ struct ctx {
 
 int cfg_fail(struct ctx *c, const char *path, const char *fmt, ...)
 	__attribute__((format(printf, 3, 4)));
-/* An optional number key of o (at path) in [min, max] into *out, which
- * holds the default. */
-int cfg_opt_u32(struct ctx *c, const cJSON *o, const char *key, const char *path, uint64_t min,
-		uint64_t max, uint32_t *out);
-int cfg_opt_u16(struct ctx *c, const cJSON *o, const char *key, const char *path, uint64_t min,
-		uint64_t max, uint16_t *out);
-int cfg_opt_u8(struct ctx *c, const cJSON *o, const char *key, const char *path, uint64_t min,
-	       uint64_t max, uint8_t *out);
-int cfg_opt_unsigned(struct ctx *c, const cJSON *o, const char *key, const char *path, uint64_t min,
-		     uint64_t max, unsigned *out);
-/* An optional boolean key: bit set in *bits when it is (or defaults to) true. */
-int cfg_opt_flag(struct ctx *c, const cJSON *o, const char *key, const char *path, uint32_t bit,
-		 bool def, uint32_t *bits);
+/* The bounds of a number key, both included. */
+typedef struct cfg_range {
+	uint64_t min, max;
+} cfg_range;
+
+/* An optional number key of o (at path) in range r into *out, which holds
+ * the default. */
+int cfg_opt_u32(struct ctx *c, const cJSON *o, const char *key, const char *path, cfg_range r,
+		uint32_t *out);
+int cfg_opt_u16(struct ctx *c, const cJSON *o, const char *key, const char *path, cfg_range r,
+		uint16_t *out);
+int cfg_opt_u8(struct ctx *c, const cJSON *o, const char *key, const char *path, cfg_range r,
+	       uint8_t *out);
+int cfg_opt_unsigned(struct ctx *c, const cJSON *o, const char *key, const char *path, cfg_range r,
+		     unsigned *out);
+/* A flag: its bit, and whether it is set when the key is not given. */
+typedef struct cfg_flag {
+	uint32_t bit;
+	bool def;
+} cfg_flag;
+
+/* An optional boolean key: f.bit set in *bits when it is (or defaults to)
+ * true. */
+int cfg_opt_flag(struct ctx *c, const cJSON *o, const char *key, const char *path, cfg_flag f,
+		 uint32_t *bits);
 /* An UNSIGNED32 given as a number or a "0x..." string. */
 int cfg_opt_u32_hex(struct ctx *c, const cJSON *o, const char *key, const char *path,
 		    uint32_t *out);
