@@ -74,12 +74,15 @@ static int load_program(struct ctx *c, const char *p, const char *name, cogw_nod
 	else if ((size_t)snprintf(n->program_file, sizeof(n->program_file), "%s/%s", c->base_dir,
 				  name) >= sizeof(n->program_file))
 		return cfg_fail(c, p, "file name too long");
-	rc = cogw_file_set_get(c->read, n->program_file, COGW_PROGRAM_MAX, &n->program,
-			       &n->program_len, why, sizeof(why));
+	cogw_file_bytes image;
+	rc = cogw_file_set_get(c->read, n->program_file, COGW_PROGRAM_MAX, &image, why,
+			       sizeof(why));
 	if (rc == -ENOMEM)
 		return rc;
 	if (rc)
 		return cfg_fail(c, p, "%s", why);
+	n->program = image.data;
+	n->program_len = image.len;
 	if (!n->program_len) {
 		n->program = NULL;
 		return cfg_fail(c, p, "%s: a program image of 1..%u bytes, not 0", n->program_file,

@@ -230,18 +230,15 @@ static int convert_device_file(const char *name, cogw_device_ref dev, const cogw
 			       cogw_node_config *nc, char *why, size_t whylen)
 {
 	const cogw_embedded_file *f = embedded_find(ld->files, name);
-	const uint8_t *text = f ? (const uint8_t *)f->data : NULL;
-	size_t text_len = f ? f->len : 0;
+	cogw_file_bytes text = { f ? (const uint8_t *)f->data : NULL, f ? f->len : 0 };
 	eds_options o = { .node_id = dev.node_id,
 			  .on_entry = dev.pdo ? eds_pdo_reader_on_entry : NULL,
 			  .entry_arg = dev.pdo };
 	eds_stats st = { 0 };
-	int rc = f ? 0
-		   : cogw_file_set_get(ld->read, nc->file, EDS_FILE_MAX, &text, &text_len, why,
-				       whylen);
+	int rc = f ? 0 : cogw_file_set_get(ld->read, nc->file, EDS_FILE_MAX, &text, why, whylen);
 
 	if (!rc)
-		rc = eds_convert_opts((const char *)text, text_len, nc->file, &o, &nc->cdcf,
+		rc = eds_convert_opts((const char *)text.data, text.len, nc->file, &o, &nc->cdcf,
 				      &nc->cdcf_len, &st, why, whylen);
 	nc->entries = st.entries;
 	return rc;
@@ -325,14 +322,12 @@ static int parse_download_options(const cJSON *v, const char *path, cogw_node_co
 /* A binary concise DCF file (resolved: nc->file) into nc. */
 static int read_concise(const cogw_load *ld, cogw_node_config *nc, char *why, size_t whylen)
 {
-	const uint8_t *bytes;
-	size_t n_bytes;
+	cogw_file_bytes bytes;
 	uint32_t count = 0;
-	int rc = cogw_file_set_get(ld->read, nc->file, COGW_NODE_CONFIG_MAX, &bytes, &n_bytes, why,
-				   whylen);
+	int rc = cogw_file_set_get(ld->read, nc->file, COGW_NODE_CONFIG_MAX, &bytes, why, whylen);
 
 	if (!rc)
-		rc = cdcf_copy_checked(nc->file, bytes, n_bytes, nc, why, whylen);
+		rc = cdcf_copy_checked(nc->file, bytes.data, bytes.len, nc, why, whylen);
 	if (rc)
 		return rc;
 	co_cdcf_check(nc->cdcf, nc->cdcf_len, &count, NULL);
