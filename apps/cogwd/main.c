@@ -400,6 +400,32 @@ static int wait_lines_up(daemon_state *d)
 	}
 }
 
+/* A signal from the signalfd: true when it stops the daemon. */
+static bool on_signal(daemon_state *d)
+{
+	struct signalfd_siginfo si;
+
+	if (read(d->sigfd, &si, sizeof si) != (ssize_t)sizeof si)
+		return false;
+	switch (si.ssi_signo) {
+	case SIGTERM:
+	case SIGINT:
+		cogw_log(COGW_LOG_NOTICE, "%s: stopping", strsignal((int)si.ssi_signo));
+		return true;
+	case SIGHUP:
+		reload(d);
+		break;
+	case SIGUSR2:
+		if (d->cfg.debug_stall_signal && d->n_lines)
+			line_request_stall(d->lines[0],
+					   d->cfg.debug_stall_ms ? d->cfg.debug_stall_ms : 5000);
+		else
+			cogw_log(COGW_LOG_NOTICE, "SIGUSR2 ignored (debug.stall_signal is off)");
+		break;
+	}
+	return false;
+}
+
 static int run(daemon_state *d)
 {
 	char status[1024];
@@ -427,29 +453,8 @@ static int run(daemon_state *d)
 			for (size_t i = 0; i < d->n_lines; i++)
 				line_store_service(d->lines[i]);
 		}
-		if (!(pfd[0].revents & POLLIN))
-			continue;
-		struct signalfd_siginfo si;
-		if (read(d->sigfd, &si, sizeof si) != (ssize_t)sizeof si)
-			continue;
-		switch (si.ssi_signo) {
-		case SIGTERM:
-		case SIGINT:
-			cogw_log(COGW_LOG_NOTICE, "%s: stopping", strsignal((int)si.ssi_signo));
+		if ((pfd[0].revents & POLLIN) && on_signal(d))
 			return 0;
-		case SIGHUP:
-			reload(d);
-			break;
-		case SIGUSR2:
-			if (d->cfg.debug_stall_signal && d->n_lines)
-				line_request_stall(d->lines[0], d->cfg.debug_stall_ms
-									? d->cfg.debug_stall_ms
-									: 5000);
-			else
-				cogw_log(COGW_LOG_NOTICE,
-					 "SIGUSR2 ignored (debug.stall_signal is off)");
-			break;
-		}
 	}
 }
 
