@@ -216,15 +216,17 @@ struct obj_opts {
 /* LINE [NODE] INDEX SUB [TYPE] into a; *k moved past them. */
 static int obj_positionals(ctl *c, const char **pos, int n_pos, bool write, obj_args *a, int *k)
 {
+	/* [remote][write]: od read, od write; sdo read, sdo write */
+	static const char *const expected[2][2] = {
+		{ "expected LINE INDEX SUB [TYPE]", "expected LINE INDEX SUB TYPE VALUE|@FILE" },
+		{ "expected LINE NODE INDEX SUB [TYPE]",
+		  "expected LINE NODE INDEX SUB TYPE VALUE|@FILE" },
+	};
 	bool remote = a->remote;
 	int need = (remote ? 4 : 3) + (write ? 2 : 0);
-	if (n_pos - 1 < need || (!write && n_pos - 1 > need + 1) || (write && n_pos - 1 > need))
-		return ctl_usage_error(
-			c, "%s",
-			remote ? (write ? "expected LINE NODE INDEX SUB TYPE VALUE|@FILE"
-					: "expected LINE NODE INDEX SUB [TYPE]")
-			       : (write ? "expected LINE INDEX SUB TYPE VALUE|@FILE"
-					: "expected LINE INDEX SUB [TYPE]"));
+	int most = write ? need : need + 1; /* a read may name a TYPE */
+	if (n_pos - 1 < need || n_pos - 1 > most)
+		return ctl_usage_error(c, "%s", expected[remote][write]);
 	if (ctl_arg_line(c, pos[(*k)++], &a->line) < 0 ||
 	    (remote && ctl_arg_node(c, pos[(*k)++], &a->node) < 0) ||
 	    ctl_arg_index(c, pos[(*k)++], &a->index) < 0 ||
