@@ -137,6 +137,27 @@ static int check_listed_objects(eds_ctx *c, const ini_sec *s, const ini_key *cou
  * keys "sub=..." with sub-indexes 1..n (decimal). Read leniently, a wrong
  * count and names that fit no sub-object are warnings; a configured value
  * for a sub-object the object does not have is refused. */
+/* One key e of a [XXXXName] or [XXXXValue] section: a sub-index 1..n. */
+static int check_compact_key(eds_ctx *c, const ini_sec *s, const ini_key *e, uint64_t n,
+			     bool values)
+{
+	char *end;
+	unsigned long sub;
+
+	errno = 0;
+	sub = strtoul(e->key, &end, 10);
+	if (*end || end == e->key || errno || e->key[0] == '-' || e->key[0] == '+')
+		return eds_tolerate(c, e->line, "[%s]: unexpected key '%s'%s", s->name, e->key,
+				    c->strict ? "" : " (ignored)");
+	if (sub >= 1 && sub <= n)
+		return 0;
+	if (values)
+		return eds_fail(c, e->line, "[%s]: sub-index %s beyond CompactSubObj=%llu", s->name,
+				e->key, (unsigned long long)n);
+	return eds_tolerate(c, e->line, "[%s]: sub-index %s beyond CompactSubObj=%llu%s", s->name,
+			    e->key, (unsigned long long)n, c->strict ? "" : " (ignored)");
+}
+
 static int check_compact_list(eds_ctx *c, const ini_sec *s, uint64_t n, bool values)
 {
 	const ini_key *k = eds_get_key(s, "NrOfEntries");
@@ -148,30 +169,9 @@ static int check_compact_list(eds_ctx *c, const ini_sec *s, uint64_t n, bool val
 	if (k && (rc = eds_parse_uint_key(c, k, 255, &cnt)) &&
 	    (rc = eds_tolerate_failure(c, rc, "the count is not checked")))
 		return rc;
-	for (size_t i = 0; i < s->nkeys; i++) {
-		const ini_key *e = &s->keys[i];
-		char *end;
-		unsigned long sub;
-		if (e == k)
-			continue;
-		errno = 0;
-		sub = strtoul(e->key, &end, 10);
-		if (*end || end == e->key || errno || e->key[0] == '-' || e->key[0] == '+') {
-			if ((rc = eds_tolerate(c, e->line, "[%s]: unexpected key '%s'%s", s->name,
-					       e->key, c->strict ? "" : " (ignored)")))
-				return rc;
-			continue;
-		}
-		if (sub >= 1 && sub <= n)
-			continue;
-		if (values)
-			return eds_fail(c, e->line, "[%s]: sub-index %s beyond CompactSubObj=%llu",
-					s->name, e->key, (unsigned long long)n);
-		if ((rc = eds_tolerate(c, e->line, "[%s]: sub-index %s beyond CompactSubObj=%llu%s",
-				       s->name, e->key, (unsigned long long)n,
-				       c->strict ? "" : " (ignored)")))
+	for (size_t i = 0; i < s->nkeys; i++)
+		if (&s->keys[i] != k && (rc = check_compact_key(c, s, &s->keys[i], n, values)))
 			return rc;
-	}
 	if (k && cnt != s->nkeys - 1)
 		return eds_tolerate(c, k->line, "[%s]: NrOfEntries=%llu but %zu entries", s->name,
 				    (unsigned long long)cnt, s->nkeys - 1);
