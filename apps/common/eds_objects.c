@@ -133,10 +133,6 @@ static int check_listed_objects(eds_ctx *c, const ini_sec *s, const ini_key *cou
 	return 0;
 }
 
-/* [XXXXName] and [XXXXValue] of a compact object: NrOfEntries=k, then k
- * keys "sub=..." with sub-indexes 1..n (decimal). Read leniently, a wrong
- * count and names that fit no sub-object are warnings; a configured value
- * for a sub-object the object does not have is refused. */
 /* One key e of a [XXXXName] or [XXXXValue] section: a sub-index 1..n. */
 static int check_compact_key(eds_ctx *c, const ini_sec *s, const ini_key *e, uint64_t n,
 			     bool values)
@@ -158,6 +154,10 @@ static int check_compact_key(eds_ctx *c, const ini_sec *s, const ini_key *e, uin
 			    e->key, (unsigned long long)n, c->strict ? "" : " (ignored)");
 }
 
+/* [XXXXName] and [XXXXValue] of a compact object: NrOfEntries=k, then k
+ * keys "sub=..." with sub-indexes 1..n (decimal). Read leniently, a wrong
+ * count and names that fit no sub-object are warnings; a configured value
+ * for a sub-object the object does not have is refused. */
 static int check_compact_list(eds_ctx *c, const ini_sec *s, uint64_t n, bool values)
 {
 	const ini_key *k = eds_get_key(s, "NrOfEntries");
