@@ -91,8 +91,6 @@ static bool topic_level_ok(const char *s, bool allow_slash)
 	return !allow_slash || (s[0] != '/' && s[strlen(s) - 1] != '/' && !strstr(s, "//"));
 }
 
-/* mqtt://host[:port] or mqtts://host[:port]; host a name, an IPv4 address
- * or [an IPv6 address]. */
 /* The host of uri at *p ("[v6]" or a name of letters, digits, '.' and
  * '-') into c->host; *p moved past it. */
 static int uri_host(mqtt_config *c, const char *uri, const char **p, char *err, size_t errlen)
@@ -129,6 +127,8 @@ static int uri_host(mqtt_config *c, const char *uri, const char **p, char *err, 
 	return 0;
 }
 
+/* mqtt://host[:port] or mqtts://host[:port]; host a name, an IPv4 address
+ * or [an IPv6 address]. */
 static int parse_uri(mqtt_config *c, const char *uri, char *err, size_t errlen)
 {
 	const char *p = uri;

@@ -185,7 +185,6 @@ static int parse_node_manager(struct ctx *c, const cJSON *it, const char *np, co
 	return 0;
 }
 
-/* "manager": the line's CiA 302-2 manager; 1F80h from names. */
 /* The manager's NMT start-up (1F80h) from its flags and
  * "on_mandatory_error". */
 static int parse_nmt_startup(struct ctx *c, const cJSON *o, const char *path, uint32_t *bits)
@@ -222,6 +221,7 @@ static int parse_nmt_startup(struct ctx *c, const cJSON *o, const char *path, ui
 	return 0;
 }
 
+/* "manager": the line's CiA 302-2 manager; 1F80h from names. */
 int cfg_parse_manager(struct ctx *c, const cJSON *o, const char *path, cogw_manager_config *m)
 {
 	int rc;

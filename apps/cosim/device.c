@@ -659,10 +659,6 @@ static int factory_image(const co_od *od, uint8_t *img, size_t cap, uint32_t *le
 	return 0;
 }
 
-/* "program": {"flash_max": N, "refuse": bool, "factory": bool} -> 1F50h:1
- * (DOMAIN wo, N bytes, the factory image or empty), 1F51h:1 (UNSIGNED8
- * rw), 1F56h:1 (UNSIGNED32 ro); the program module sets the power-on
- * state of the last two from the flash. */
 /* 1F50h:1 (the flash, holding image), 1F51h:1 and 1F56h:1. */
 static int add_program_objects(cosim_device *dev, const uint8_t *image, uint32_t image_len,
 			       char *err, size_t errlen)
@@ -693,6 +689,10 @@ static int add_program_objects(cosim_device *dev, const uint8_t *image, uint32_t
 	return 0;
 }
 
+/* "program": {"flash_max": N, "refuse": bool, "factory": bool} -> 1F50h:1
+ * (DOMAIN wo, N bytes, the factory image or empty), 1F51h:1 (UNSIGNED8
+ * rw), 1F56h:1 (UNSIGNED32 ro); the program module sets the power-on
+ * state of the last two from the flash. */
 static int parse_program(const cJSON *root, cosim_device *dev, char *err, size_t errlen)
 {
 	static const char *const keys[] = { "flash_max", "refuse", "factory", "comment", NULL };
