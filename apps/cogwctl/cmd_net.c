@@ -674,7 +674,7 @@ static int run_lss(ctl *c, int argc, char **argv)
 		return rc;
 	if (c->help)
 		return ctl_print_help(&ctl_cmd_lss);
-	const struct lss_action *la;
+	const struct lss_action *la = NULL;
 	unsigned line;
 	mbx_lss_req q;
 	if ((rc = lss_request(c, &a, &la, &line, &q)))
