@@ -42,8 +42,10 @@ struct ctx {
 
 /* ---- the typed readers (config_read.c) ---- */
 
+/* "path: reason" into c->msg; returns -EINVAL. */
 int cfg_fail(struct ctx *c, const char *path, const char *fmt, ...)
 	__attribute__((format(printf, 3, 4)));
+
 /* The bounds of a number key, both included. */
 typedef struct cfg_range {
 	uint64_t min, max;
