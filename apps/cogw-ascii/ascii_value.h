@@ -43,7 +43,8 @@ typedef struct ascii_type {
 	bool standard; /* a CiA 309-3 keyword (x*, hex are not) */
 } ascii_type;
 
-/* The keyword's type, or NULL. Case-sensitive, as 309-3 spells them. */
+/* The keyword's type, or NULL. Any case ("U32" is u32), as the 309-3
+ * tools take them. */
 const ascii_type *ascii_type_find(const char *keyword, size_t len);
 /* All types, ending with keyword NULL (help text, conformance tests). */
 extern const ascii_type ascii_types[];

@@ -389,6 +389,26 @@ static void test_cocomm_gets_crlf_answers(void)
 				 out);
 }
 
+/* Command words, sub-commands and type keywords in any case, as scripts
+ * written for the reference gateway spell them. */
+static void test_commands_in_any_case(void)
+{
+	transcript("case",
+		   "[1] SET NETWORK 1\n"
+		   "[2] 5 R 0X1018 4 U32\n"
+		   "[3] 5 READ 0x1018 4 u32\n"
+		   "[4] 5 Write 0x2105 0 U8 0XC8\n"
+		   "[5] 1 5 Start\n"
+		   "[6] 5 PREOP\n"
+		   "[7] 3 7 Read 0x1000 0 X32\n"
+		   "[8] Set Node 5\n"
+		   "[9] R 0x2105 0 u8\n"
+		   "[10] INFO VERSION\n",
+		   "[1] OK\n[2] 4242\n[3] 4242\n[4] OK\n[5] OK\n[6] OK\n[7] 0x00000309\n"
+		   "[8] OK\n[9] 200\n"
+		   "[10] cogw-ascii 1.0 (CiA 309-3 DS 2.1 command set, docs/ascii.md)\n");
+}
+
 /* Each error number that can be provoked, and SDO aborts as their code. */
 static void test_error_numbers(void)
 {
@@ -875,6 +895,7 @@ int main(void)
 	RUN_TEST(test_every_type_keyword_byte_exact);
 	RUN_TEST(test_commands_and_line_endings);
 	RUN_TEST(test_cocomm_gets_crlf_answers);
+	RUN_TEST(test_commands_in_any_case);
 	RUN_TEST(test_error_numbers);
 	RUN_TEST(test_lss_services);
 	RUN_TEST(test_sixteen_concurrent_connections);
