@@ -89,17 +89,19 @@ static void answer_abort(request *r, uint32_t abort)
 	answer_fmt(r, "ERROR: 0x%08" PRIX32, abort);
 }
 
-/* A mailbox status as a 309-3 error number (docs/ascii.md "Errors"). */
+/* A mailbox status as a 309-3 error number (docs/ascii.md "Errors"). The
+ * line was parsed and found well-formed before it became a request: a
+ * refusal of its parameters by the daemon is a request it does not
+ * support, never a syntax error. */
 static int err_of_status(int status)
 {
 	switch (status) {
 	case COGW_E_ACCESS:
 	case COGW_E_UNSUPPORTED:
 	case COGW_E_UNKNOWN_CMD:
-		return ASCII_E_UNSUPPORTED;
 	case COGW_E_PARAM:
 	case COGW_E_INVAL:
-		return ASCII_E_SYNTAX;
+		return ASCII_E_UNSUPPORTED;
 	case COGW_E_TIMEOUT:
 	case COGW_E_NO_ANSWER:
 	case COGW_E_NOT_FOUND:

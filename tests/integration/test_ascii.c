@@ -389,6 +389,27 @@ static void test_cocomm_gets_crlf_answers(void)
 				 out);
 }
 
+/* The daemon's own node-ID (127 on every line) is an ordinary target: its
+ * object dictionary is read and written through every network it is
+ * attached to, as the reference gateway reads its own node. */
+static void test_own_node_is_a_target(void)
+{
+	int fd = connect_unix();
+	char cmd[128], was[64];
+
+	TEST_ASSERT_TRUE(fd >= 0);
+	TEST_ASSERT_EQUAL_STRING("[1] \"cogw\"", ask(fd, "[1] 1 127 r 0x1008 0 vs"));
+	TEST_ASSERT_EQUAL_STRING("[2] \"cogw\"", ask(fd, "[2] 3 127 r 0x1008 0 vs"));
+	snprintf(was, sizeof was, "%s", ask(fd, "2 127 r 0x1017 0 u16"));
+	TEST_ASSERT_EQUAL_STRING("[3] OK", ask(fd, "[3] 2 127 w 0x1017 0 u16 700"));
+	TEST_ASSERT_EQUAL_STRING("[4] 700", ask(fd, "[4] 2 127 r 0x1017 0 u16"));
+	TEST_ASSERT_EQUAL_STRING("[5] ERROR: 0x06020000", ask(fd, "[5] 2 127 r 0x6666 0 u8"));
+	TEST_ASSERT_EQUAL_STRING("[6] ERROR: 0x06010002", ask(fd, "[6] 1 127 w 0x1000 0 u32 1"));
+	snprintf(cmd, sizeof cmd, "[7] 2 127 w 0x1017 0 u16 %s", was);
+	TEST_ASSERT_EQUAL_STRING("[7] OK", ask(fd, cmd));
+	close(fd);
+}
+
 /* Command words, sub-commands and type keywords in any case, as scripts
  * written for the reference gateway spell them. */
 static void test_commands_in_any_case(void)
@@ -895,6 +916,7 @@ int main(void)
 	RUN_TEST(test_every_type_keyword_byte_exact);
 	RUN_TEST(test_commands_and_line_endings);
 	RUN_TEST(test_cocomm_gets_crlf_answers);
+	RUN_TEST(test_own_node_is_a_target);
 	RUN_TEST(test_commands_in_any_case);
 	RUN_TEST(test_error_numbers);
 	RUN_TEST(test_lss_services);
