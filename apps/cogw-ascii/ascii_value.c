@@ -328,8 +328,13 @@ long ascii_value_format(const ascii_type *t, const uint8_t *data, size_t len, ch
 		return snprintf(out, cap, "%u %u", (unsigned)co_get_le(data + 4, 2),
 				(unsigned)(co_get_le(data, 4) & 0x0FFFFFFFu));
 	case ASCII_K_VSTRING:
+		/* NUL (a C string's terminator, often sent along), CR and LF
+		 * are dropped: an answer is one line and never carries a byte
+		 * the gateway refuses as input (os or hex give every byte) */
 		out[n++] = '"';
 		for (size_t i = 0; i < len; i++) {
+			if (data[i] == '\0' || data[i] == '\r' || data[i] == '\n')
+				continue;
 			if (data[i] == '"')
 				out[n++] = '"';
 			out[n++] = (char)data[i];

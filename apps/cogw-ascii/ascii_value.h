@@ -12,7 +12,8 @@
  *   r32 r64           shortest decimal that reads back to the same value
  *   t td              TIME_OF_DAY / TIME_DIFFERENCE: "<days> <ms>" (days
  *                     since 1984-01-01, ms after midnight)
- *   vs                between double quotes, a quote doubled ("a ""b""")
+ *   vs                between double quotes, a quote doubled ("a ""b"""),
+ *                     NUL, CR and LF left out when printed
  *   os us d           MIME base64 (RFC 2045), one token, no line breaks
  *   hex               hex bytes (non-standard, as CANopenNode)
  */

@@ -430,6 +430,20 @@ static void test_commands_in_any_case(void)
 		   "[10] cogw-ascii 1.0 (CiA 309-3 DS 2.1 command set, docs/ascii.md)\n");
 }
 
+/* A device's visible string with a trailing NUL (a C string sent with its
+ * terminator) and a CR LF inside: the answer is one line without them;
+ * hex shows every byte. */
+static void test_vs_answer_has_no_control_bytes(void)
+{
+	transcript("vs-nul",
+		   "[1] 1 5 w 0x210D 0 hex 6E 55 4C 0D 0A 21 00\n"
+		   "[2] 1 5 r 0x210D 0 vs\n"
+		   "[3] 1 5 r 0x210D 0 hex\n",
+		   "[1] OK\n[2] \"nUL!\"\n[3] 6E 55 4C 0D 0A 21 00\n");
+	/* apart: a small write would pass the large reads queued before it */
+	transcript("vs-restore", "[4] 1 5 w 0x210D 0 vs \"hello world\"\n", "[4] OK\n");
+}
+
 /* Each error number that can be provoked, and SDO aborts as their code. */
 static void test_error_numbers(void)
 {
@@ -918,6 +932,7 @@ int main(void)
 	RUN_TEST(test_cocomm_gets_crlf_answers);
 	RUN_TEST(test_own_node_is_a_target);
 	RUN_TEST(test_commands_in_any_case);
+	RUN_TEST(test_vs_answer_has_no_control_bytes);
 	RUN_TEST(test_error_numbers);
 	RUN_TEST(test_lss_services);
 	RUN_TEST(test_sixteen_concurrent_connections);

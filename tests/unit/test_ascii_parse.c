@@ -299,6 +299,18 @@ static void test_any_case(void)
 	TEST_ASSERT_NOT_NULL(ascii_type_find("R64", 3));
 }
 
+/* A vs value is printed on one line without NUL, CR or LF, whatever the
+ * device sent (a C string with its terminator, say). */
+static void test_vs_printed_without_control_bytes(void)
+{
+	static const uint8_t value[] = { 'a', '"', '\r', 'b', '\n', 'c', 0, 0 };
+	const ascii_type *vs = ascii_type_find("vs", 2);
+	char out[64];
+
+	TEST_ASSERT_EQUAL_INT(7, ascii_value_format(vs, value, sizeof value, out, sizeof out));
+	TEST_ASSERT_EQUAL_STRING("\"a\"\"bc\"", out);
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -309,5 +321,6 @@ int main(void)
 	RUN_TEST(test_base64_rfc4648_vectors);
 	RUN_TEST(test_value_of_wrong_size_is_refused);
 	RUN_TEST(test_any_case);
+	RUN_TEST(test_vs_printed_without_control_bytes);
 	return UNITY_END();
 }
