@@ -409,11 +409,11 @@ int ascii_parse(const char *line, size_t len, ascii_cmd *cmd, uint8_t *data, siz
 	memset(cmd, 0, sizeof *cmd);
 	cmd->net = -1;
 	cmd->node = -1;
-	if (memchr(line, '\0', len))
-		return ASCII_E_SYNTAX;
 	rc = parse_seq(&sc, cmd);
 	if (rc)
 		return rc;
+	if (memchr(line, '\0', len))
+		return ASCII_E_SYNTAX; /* after the sequence number: the error line echoes it */
 	if (!next_token(&sc, &t[0]))
 		return cmd->has_seq ? ASCII_E_SYNTAX : ASCII_OK; /* "[5]" alone says nothing */
 	/* [[net] node]: numbers (or "all" for the node) before the word */

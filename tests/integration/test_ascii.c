@@ -444,6 +444,16 @@ static void test_vs_answer_has_no_control_bytes(void)
 	transcript("vs-restore", "[4] 1 5 w 0x210D 0 vs \"hello world\"\n", "[4] OK\n");
 }
 
+/* A line with a NUL byte is a syntax error, answered with its sequence
+ * number like every other. */
+static void test_sequence_echoed_on_a_nul_byte(void)
+{
+	static const char input[] = "[186] 5 r 0x1018\0 0 u8\n[187] 1 5 r 0x1018 4 u32\n";
+
+	transcript_bytes(sock_path, "nul-seq", input, sizeof input - 1,
+			 "[186] ERROR: 101\n[187] 4242\n");
+}
+
 /* Each error number that can be provoked, and SDO aborts as their code. */
 static void test_error_numbers(void)
 {
@@ -933,6 +943,7 @@ int main(void)
 	RUN_TEST(test_own_node_is_a_target);
 	RUN_TEST(test_commands_in_any_case);
 	RUN_TEST(test_vs_answer_has_no_control_bytes);
+	RUN_TEST(test_sequence_echoed_on_a_nul_byte);
 	RUN_TEST(test_error_numbers);
 	RUN_TEST(test_lss_services);
 	RUN_TEST(test_sixteen_concurrent_connections);

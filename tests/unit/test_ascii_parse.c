@@ -299,6 +299,18 @@ static void test_any_case(void)
 	TEST_ASSERT_NOT_NULL(ascii_type_find("R64", 3));
 }
 
+/* A line with a NUL byte is a syntax error whose answer still carries the
+ * line's sequence number. */
+static void test_sequence_kept_on_a_nul_byte(void)
+{
+	static const char line[] = "[186] 5 r 0x1018\0 0 u8";
+	ascii_cmd cmd;
+
+	TEST_ASSERT_EQUAL_INT(ASCII_E_SYNTAX, ascii_parse(line, sizeof line - 1, &cmd, buf, 64));
+	TEST_ASSERT_TRUE(cmd.has_seq);
+	TEST_ASSERT_EQUAL_UINT32(186, cmd.seq);
+}
+
 /* A vs value is printed on one line without NUL, CR or LF, whatever the
  * device sent (a C string with its terminator, say). */
 static void test_vs_printed_without_control_bytes(void)
@@ -321,6 +333,7 @@ int main(void)
 	RUN_TEST(test_base64_rfc4648_vectors);
 	RUN_TEST(test_value_of_wrong_size_is_refused);
 	RUN_TEST(test_any_case);
+	RUN_TEST(test_sequence_kept_on_a_nul_byte);
 	RUN_TEST(test_vs_printed_without_control_bytes);
 	return UNITY_END();
 }
