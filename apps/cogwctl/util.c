@@ -618,14 +618,17 @@ void ctl_value_json(cJSON *o, const ctl_type *t, const uint8_t *data, size_t len
 	}
 	if (t->type == CO_T_BOOLEAN) {
 		cJSON_AddBoolToObject(o, "value", data[0] != 0);
-	} else if (t->type == CO_T_REAL32) {
-		float f;
-		memcpy(&f, data, 4);
-		cJSON_AddNumberToObject(o, "value", (double)f);
-	} else if (t->type == CO_T_REAL64) {
-		double d;
-		memcpy(&d, data, 8);
-		cJSON_AddNumberToObject(o, "value", d);
+	} else if (t->type == CO_T_REAL32 || t->type == CO_T_REAL64) {
+		/* cJSON prints a number with 15 digits when that reads back
+		 * "close enough": some doubles need 17. The text that reads
+		 * back to the same bits goes in as it is; NaN and infinities
+		 * have no JSON number (null, as cJSON gives them). */
+		char num[40];
+		if (cogw_value_format(t->type, data, len, num, sizeof num) > 0 &&
+		    isfinite(strtod(num, NULL)))
+			cJSON_AddRawToObject(o, "value", num);
+		else
+			cJSON_AddNullToObject(o, "value");
 	} else if (t->size > 6) {
 		/* beyond 2^53 a JSON number loses digits: a string is exact */
 		char num[32];
