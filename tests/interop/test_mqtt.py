@@ -543,9 +543,8 @@ def test_bad_requests_get_clear_errors_and_are_counted():
     eq(("abort", "0x06020000"), (r["error"], r["abort"]), "unknown object")
     r = CLIENT.request("gw-a", {"op": "sdo_read", "net": 1, "node": 50, "index": "0x1000",
                                 "sub": 0, "type": "u32", "timeout_ms": 300})
-    # the gateway's transfer reports the silence as "no answer" (CiA 302-7)
-    check(r["error"] == "abort" and r["abort"] in ("0x05040000", "0x0A000002"),
-          f"absent node: {r}")
+    # an attached network: the line's own SDO timeout (docs/sdo-answers.md)
+    eq(("abort", "0x05040000"), (r["error"], r.get("abort")), f"absent node: {r}")
     r = CLIENT.request("gw-a", {"op": "sdo_read", "net": 99, "node": 1, "index": "0x1000",
                                 "sub": 0, "type": "u32"})
     eq("abort", r["error"], f"unknown network: {r}")
@@ -559,6 +558,40 @@ def test_bad_requests_get_clear_errors_and_are_counted():
     eq(1, after["too_big"] - before["too_big"], "oversized counted")
     eq(0, after["unsupported"] - before["unsupported"], "the daemon serves watches")
     eq(5, after["failed"] - before["failed"], "failed transfers and the watch counted")
+
+
+def test_one_answer_per_situation_in_every_front_end():
+    """An SDO read of an absent node on an attached network, and of an
+    absent object: the same answer from cogw-mqtt (asked with Mosquitto's
+    own mosquitto_rr), cogwctl and cogw-ascii (asked with socat), the one
+    docs/sdo-answers.md gives."""
+    sock = os.path.join(WORK, "ascii.sock")
+    spawn("ascii-a", [os.path.join(BIN, "cogw-ascii"), "--daemon-config",
+                      os.path.join(WORK, "cogwd-a.json"), "--socket", sock])
+    wait_until("cogw-ascii's socket", lambda: os.path.exists(sock))
+    try:
+        for node, index, want in ((50, 0x1000, "0x05040000"), (1, 0x6666, "0x06020000")):
+            req = json.dumps({"op": "sdo_read", "net": 1, "node": node, "index": index,
+                              "sub": 0, "type": "u32", "timeout_ms": 300})
+            r = subprocess.run(["mosquitto_rr", "-h", "127.0.0.1", "-p", str(PORT),
+                                "-V", "mqttv5", "-t", "cogw/gw-a/request",
+                                "-e", f"test/rr/{uuid.uuid4().hex}", "-m", req, "-W", "20"],
+                               capture_output=True, text=True, timeout=30)
+            mqtt_answer = json.loads(r.stdout).get("abort")
+            r = subprocess.run([os.path.join(BIN, "cogwctl"), "--instance", "mqa", "--json",
+                                "sdo", "read", "0", str(node), f"{index:X}", "0", "u32",
+                                "--sdo-timeout", "300"],
+                               capture_output=True, text=True, timeout=30)
+            ctl_answer = json.loads(r.stdout.strip().splitlines()[-1]).get("abort")
+            r = subprocess.run(["socat", "-t", "10", "-", f"UNIX-CONNECT:{sock}"],
+                               input=f"[1] set sdo_timeout 300\n[2] 1 {node} r {index:#x} 0 u32\n",
+                               capture_output=True, text=True, timeout=30)
+            last = r.stdout.strip().splitlines()[-1]
+            ascii_answer = last.split("ERROR: ")[-1] if "ERROR: " in last else last
+            eq((want, want, want), (mqtt_answer, ctl_answer, ascii_answer),
+               f"node {node} {index:04X}h through cogw-mqtt, cogwctl, cogw-ascii")
+    finally:
+        stop("ascii-a")
 
 
 def test_request_flood_is_limited_and_every_request_answered():
@@ -847,6 +880,7 @@ def main():
                   test_v311_fallback_and_fleet_read_behind_gw_b,
                   test_role_read_refuses_writes_and_nmt,
                   test_bad_requests_get_clear_errors_and_are_counted,
+                  test_one_answer_per_situation_in_every_front_end,
                   test_request_flood_is_limited_and_every_request_answered,
                   test_emcy_with_history_and_heartbeat_lost_resumed,
                   test_process_values_watched_removed_and_added_again,
