@@ -70,7 +70,8 @@ static bool tok_abbrev(const token *t, const char *word, size_t min)
 
 static bool tok_is_lss(const token *t)
 {
-	return t->n > 4 && (strncasecmp(t->p, "lss_", 4) == 0 || strncasecmp(t->p, "_lss_", 5) == 0);
+	return t->n > 4 &&
+	       (strncasecmp(t->p, "lss_", 4) == 0 || strncasecmp(t->p, "_lss_", 5) == 0);
 }
 
 static bool tok_number(const token *t, uint64_t *v)
@@ -441,8 +442,7 @@ int ascii_parse(const char *line, size_t len, ascii_cmd *cmd, uint8_t *data, siz
 		cmd->node = (int)node;
 	}
 	/* "[net] set/lss_..." carry one number, which is the net */
-	if (nums == 1 &&
-	    (tok_is(&t[1], "set") || tok_is_lss(&t[1]) || tok_is(&t[1], "events"))) {
+	if (nums == 1 && (tok_is(&t[1], "set") || tok_is_lss(&t[1]) || tok_is(&t[1], "events"))) {
 		if (tok_is(&t[0], "all"))
 			return ASCII_E_SYNTAX;
 		if (v[0] < 1 || v[0] > 127)

@@ -218,7 +218,8 @@ int ascii_value_encode(const ascii_type *t, const char *text, size_t n, uint8_t 
 	case ASCII_K_BOOL:
 		if ((n == 1 && text[0] == '0') || (n == 5 && strncasecmp(text, "false", 5) == 0))
 			buf[0] = 0;
-		else if ((n == 1 && text[0] == '1') || (n == 4 && strncasecmp(text, "true", 4) == 0))
+		else if ((n == 1 && text[0] == '1') ||
+			 (n == 4 && strncasecmp(text, "true", 4) == 0))
 			buf[0] = 1;
 		else
 			return -EINVAL;

@@ -376,7 +376,8 @@ static void cocomm_like(const char *const *lines, size_t n, char *out, size_t ca
 static void test_cocomm_gets_crlf_answers(void)
 {
 	static const char *const script[] = {
-		"# the identity of node 5", "", "[1] set network 1", "[2] 5 r 0x1018 4 u32",
+		"# the identity of node 5", "",
+		"[1] set network 1",        "[2] 5 r 0x1018 4 u32",
 		"3 7 r 0x1000 0 x32",       "[3] 5 w 0x2105 0 u8 200",
 		"[4] 5 r 0x6666 0 u8",      "  # an indented comment",
 		"[5] 2 6 r 0x1018 4 u32",
