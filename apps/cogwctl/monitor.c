@@ -224,11 +224,8 @@ static cJSON *pdo_value_json(const mbx_pdo_value *v)
 	cJSON_AddNumberToObject(jv, "sub", v->sub);
 	cJSON_AddStringToObject(jv, "hex", hex);
 	free(hex);
-	if (n == 4) {
-		float f;
-		memcpy(&f, v->data, 4);
-		cJSON_AddNumberToObject(jv, "r32", (double)f);
-	}
+	if (n == 4)
+		ctl_json_add_real(jv, "r32", CO_T_REAL32, v->data);
 	return jv;
 }
 

@@ -2,9 +2,10 @@
 /*
  * tests/unit/test_real_text.c - every printer of REAL32 / REAL64 values
  * gives a text that reads back to the same bits: libcogw's value texts
- * (cogw_value_format: cogwctl's text output and its monitor, cogw-mqtt's
- * watches), the 309-3 value texts (ascii_value_format: cogw-ascii, and
- * cogw-mqtt's answers), cogwctl's --json values (ctl_value_json). Over
+ * (cogw_value_format: cogwctl's text output and its monitor), the 309-3
+ * value texts (ascii_value_format: cogw-ascii, and cogw-mqtt's answers and
+ * watches, which put that text into their JSON as it is), cogwctl's --json
+ * values (ctl_value_json, ctl_json_add_real: watch, sdo, monitor). Over
  * many random bit patterns, subnormals and the edges of both types.
  */
 #include "unity.h"
@@ -124,6 +125,16 @@ static void check_printers(uint64_t bits, bool single)
 	cJSON_Delete(back);
 	free(json);
 	cJSON_Delete(o);
+
+	/* cogwctl monitor --json: "r32" of a 4-byte PDO value */
+	if (single) {
+		o = cJSON_CreateObject();
+		ctl_json_add_real(o, "r32", CO_T_REAL32, data);
+		json = cJSON_PrintUnformatted(o);
+		expect_exact("ctl_json_add_real", strstr(json, ":") + 1, bits, true);
+		free(json);
+		cJSON_Delete(o);
+	}
 }
 
 static void test_real64_texts_read_back_exactly(void)
