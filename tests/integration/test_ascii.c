@@ -330,6 +330,8 @@ static void test_commands_and_line_endings(void)
 		   "[17] OK\n");
 }
 
+static const char *wait_text(int fd, const char *text, int timeout_ms);
+
 /* A client that behaves like CANopenNode's cocomm: it sends one line with
  * LF and reads until it sees CR LF, then sends the next. Comment and blank
  * lines too: that tool sends every line of its file or its stdin. The
@@ -342,24 +344,11 @@ static void cocomm_like(const char *const *lines, size_t n, char *out, size_t ca
 	TEST_ASSERT_TRUE(fd >= 0);
 	out[0] = '\0';
 	for (size_t i = 0; i < n; i++) {
-		char got[512] = "", msg[600];
-		size_t len = 0;
-		uint64_t end = mono_ms() + 15000;
+		char got[512], msg[600];
 
 		send_text(fd, lines[i]);
 		send_text(fd, "\n");
-		while (!strstr(got, "\r\n") && mono_ms() < end && len < sizeof got - 1) {
-			struct pollfd p = { .fd = fd, .events = POLLIN };
-
-			if (poll(&p, 1, (int)(end - mono_ms())) <= 0)
-				break;
-			ssize_t k = recv(fd, got + len, sizeof got - 1 - len, 0);
-
-			if (k <= 0)
-				break;
-			len += (size_t)k;
-			got[len] = '\0';
-		}
+		snprintf(got, sizeof got, "%s", wait_text(fd, "\r\n", 15000));
 		char *crlf = strstr(got, "\r\n");
 
 		snprintf(msg, sizeof msg, "no answer ending in CR LF to \"%s\" (got \"%s\")",
