@@ -21,6 +21,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "apps/common/json_util.h"
 #include "core/sdo.h"
 
 /* ---- options ------------------------------------------------------------- */
@@ -604,7 +605,7 @@ void ctl_json_add_real(cJSON *o, const char *name, uint16_t type, const uint8_t 
 	char num[40];
 	if (cogw_value_format(type, data, type == CO_T_REAL32 ? 4 : 8, num, sizeof num) > 0 &&
 	    isfinite(strtod(num, NULL)))
-		cJSON_AddRawToObject(o, name, num);
+		cJSON_AddItemToObject(o, name, json_util_real_number(num));
 	else
 		cJSON_AddNullToObject(o, name);
 }

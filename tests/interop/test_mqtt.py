@@ -29,9 +29,11 @@ Output in Unity's format for tests/run-tests. Runs inside the vcan VM
 """
 import json
 import os
+import random
 import resource
 import shutil
 import signal
+import struct
 import subprocess
 import sys
 import tempfile
@@ -594,6 +596,35 @@ def test_one_answer_per_situation_in_every_front_end():
         stop("ascii-a")
 
 
+def test_real32_values_read_back_exactly():
+    """REAL32 values, subnormals and edges among them, written to and read
+    from the device through cogw-mqtt: the JSON number of the reply reads
+    back to the same bits (docs/cogwctl.md, tests/unit/test_real_text.c for
+    the printers themselves)."""
+    rng = random.Random(33)
+    patterns = [0x00000001, 0x007FFFFF, 0x00800000, 0x7F7FFFFF, 0x80000000, 0x3DCCCCCD]
+    while len(patterns) < 24:
+        b = rng.getrandbits(32)
+        if len(patterns) % 3 == 0:
+            b &= 0x807FFFFF  # subnormal
+        if (b & 0x7F800000) != 0x7F800000:
+            patterns.append(b)
+    try:
+        for bits in patterns:
+            f = struct.unpack("<f", struct.pack("<I", bits))[0]
+            r = CLIENT.request("gw-a", {"op": "sdo_write", "net": 1, "node": 1,
+                                        "index": "0x2000", "sub": 1, "type": "r32",
+                                        "value": f})
+            eq(True, r["ok"], f"write of {bits:08X}h: {r}")
+            r = CLIENT.request("gw-a", {"op": "sdo_read", "net": 1, "node": 1,
+                                        "index": "0x2000", "sub": 1, "type": "r32"})
+            back = struct.unpack("<I", struct.pack("<f", r["value"]))[0]
+            eq(f"{bits:08X}", f"{back:08X}", f"REAL32 read back ({r['value']!r})")
+    finally:
+        CLIENT.request("gw-a", {"op": "sdo_write", "net": 1, "node": 1, "index": "0x2000",
+                                "sub": 1, "type": "r32", "value": 0})
+
+
 def test_request_flood_is_limited_and_every_request_answered():
     since = CLIENT.mark()
     hb_topic = node_topic("gw-a", 1, 1, "heartbeat")
@@ -881,6 +912,7 @@ def main():
                   test_role_read_refuses_writes_and_nmt,
                   test_bad_requests_get_clear_errors_and_are_counted,
                   test_one_answer_per_situation_in_every_front_end,
+                  test_real32_values_read_back_exactly,
                   test_request_flood_is_limited_and_every_request_answered,
                   test_emcy_with_history_and_heartbeat_lost_resumed,
                   test_process_values_watched_removed_and_added_again,

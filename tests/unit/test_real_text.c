@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "apps/cogw-ascii/ascii_value.h"
+#include "apps/common/json_util.h"
 #include "apps/cogwctl/ctl.h"
 
 void setUp(void) {}
@@ -149,6 +150,36 @@ static void test_real32_texts_read_back_exactly(void)
 		check_printers(float_bits(i), true);
 }
 
+/* A REAL in JSON always reads as a floating-point number: "-0.0", never
+ * the integer-looking "-0" that most readers take as 0. */
+static void test_json_real_is_never_an_integer(void)
+{
+	static const struct {
+		uint64_t bits;
+		const char *json;
+	} cases[] = { { 0x8000000000000000u, "{\"value\":-0.0}" },
+		      { 0x0000000000000000u, "{\"value\":0.0}" },
+		      { 0x4059000000000000u, "{\"value\":100.0}" },
+		      { 0x3FF8000000000000u, "{\"value\":1.5}" } };
+
+	for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+		uint8_t data[8];
+		cJSON *o = cJSON_CreateObject();
+
+		put_le(data, 8, cases[i].bits);
+		ctl_json_add_real(o, "value", CO_T_REAL64, data);
+		char *json = cJSON_PrintUnformatted(o);
+		TEST_ASSERT_EQUAL_STRING(cases[i].json, json);
+		free(json);
+		cJSON_Delete(o);
+	}
+	cJSON *v = json_util_real_number("-0");
+	char *json = cJSON_PrintUnformatted(v);
+	TEST_ASSERT_EQUAL_STRING("-0.0", json);
+	free(json);
+	cJSON_Delete(v);
+}
+
 /* JSON has no number for NaN or an infinity: cogwctl gives null. */
 static void test_json_of_a_non_finite_real_is_null(void)
 {
@@ -167,5 +198,6 @@ int main(void)
 	RUN_TEST(test_real64_texts_read_back_exactly);
 	RUN_TEST(test_real32_texts_read_back_exactly);
 	RUN_TEST(test_json_of_a_non_finite_real_is_null);
+	RUN_TEST(test_json_real_is_never_an_integer);
 	return UNITY_END();
 }
