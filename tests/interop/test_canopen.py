@@ -1771,7 +1771,9 @@ def test_mirror_supervises_a_device_tpdo_with_an_event_timer():
            (e["pdo"], e["cob_id"], e["fault"], e["event_ms"], e.get("emcy")), "pdo-fault event")
         step("the device's TPDO again: the error reset")
         mark = len(RECORDER2.frames)
-        t.start(0.1)
+        for _ in range(3):  # by hand: python-can's periodic task once stopped may not come back
+            t.transmit()
+            time.sleep(0.05)
         got = wait_frames2(mark, our_emcy, lambda f: len(f) >= 1, "EMCY error reset")
         eq([bytes(8).hex()], [f.hex() for f in got], "EMCY error reset")
         mon.wait("rpdo-recovered", lambda: mon.of("rpdo-recovered"))
