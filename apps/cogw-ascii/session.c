@@ -15,7 +15,8 @@
  *     (more would be refused BUSY by the daemon), the rest wait in FIFO
  *     order;
  *  5. session_mailbox: the reply becomes the answer; answers leave in the
- *     order the commands came (server_flush_answers).
+ *     order the commands came (flush_answers, into the connection's
+ *     output: output.c).
  */
 #include "apps/cogw-ascii/gateway.h"
 
@@ -436,13 +437,46 @@ static void request_free(request *r)
 	free(r);
 }
 
+/* A request its connection no longer holds: freed now, or, while the
+ * daemon still works on it, when its reply (or its turn) comes. */
+static void request_release(gateway *g, request *r)
+{
+	if (r->in_flight || r->waiting) {
+		r->conn = NULL;
+		g->st.orphaned++;
+		return;
+	}
+	request_free(r);
+}
+
+/* Answers done at the head of c's ring go out in order. */
+static void flush_answers(gateway *g, conn *c)
+{
+	while (c->count) {
+		request *r = c->slots[c->head];
+
+		if (!r->done)
+			break;
+		if (r->answer)
+			conn_write(c, r->answer, r->answer_len);
+		else
+			conn_write(c, "ERROR: 600\r\n", 12);
+		c->head = (c->head + 1) % g->cfg.max_outstanding;
+		c->count--;
+		free(r->answer);
+		r->answer = NULL;
+		request_release(g, r);
+	}
+	c->kick = true;
+}
+
 static void finished(gateway *g, request *r)
 {
 	if (!r->conn) {
 		request_free(r); /* its connection went meanwhile */
 		return;
 	}
-	server_flush_answers(g, r->conn);
+	flush_answers(g, r->conn);
 }
 
 static void send_one(gateway *g, request *r)
@@ -559,7 +593,7 @@ void session_line(gateway *g, conn *c, const char *line, size_t len)
 	if (!r || !data) {
 		free(r);
 		free(data);
-		server_write(g, c, "ERROR: 600\r\n", 12);
+		conn_write(c, "ERROR: 600\r\n", 12);
 		return;
 	}
 	r->conn = c;
@@ -571,7 +605,7 @@ void session_line(gateway *g, conn *c, const char *line, size_t len)
 		c->slots[(c->head + c->count) % g->cfg.max_outstanding] = r;
 		c->count++;
 		answer_text(r, "", 0);
-		server_flush_answers(g, c);
+		flush_answers(g, c);
 		return;
 	}
 	if (r->cmd.verb == ASCII_V_WRITE && r->cmd.data_len > g->daemon.mailbox.max_transfer)
@@ -588,7 +622,7 @@ void session_line(gateway *g, conn *c, const char *line, size_t len)
 			answer_error(r, rc);
 	}
 	free(data);
-	server_flush_answers(g, c);
+	flush_answers(g, c);
 }
 
 void session_refuse(gateway *g, conn *c, int err)
@@ -602,7 +636,7 @@ void session_refuse(gateway *g, conn *c, int err)
 	c->slots[(c->head + c->count) % g->cfg.max_outstanding] = r;
 	c->count++;
 	answer_error(r, err);
-	server_flush_answers(g, c);
+	flush_answers(g, c);
 }
 
 /* ---- replies ---------------------------------------------------------------------- */
@@ -775,7 +809,7 @@ static void deliver_event(gateway *g, const cogw_msg *m)
 
 		memcpy(line, text, n);
 		memcpy(line + n, "\r\n", 2);
-		server_write(g, c, line, n + 2);
+		conn_write(c, line, n + 2);
 	}
 }
 
@@ -824,7 +858,7 @@ void session_expire(gateway *g)
 			continue;
 		}
 		answer_error(r, ASCII_E_TIMEOUT);
-		server_flush_answers(g, r->conn);
+		flush_answers(g, r->conn);
 	}
 	if (freed)
 		launch_waiting(g);
@@ -850,18 +884,6 @@ void session_free_all(gateway *g)
 void session_conn_gone(gateway *g, conn *c)
 {
 	for (unsigned i = 0; i < c->count; i++)
-		session_request_release(g, c->slots[(c->head + i) % g->cfg.max_outstanding]);
+		request_release(g, c->slots[(c->head + i) % g->cfg.max_outstanding]);
 	c->count = 0;
-}
-
-/* A request its connection no longer holds: freed now, or, while the
- * daemon still works on it, when its reply (or its turn) comes. */
-void session_request_release(gateway *g, request *r)
-{
-	if (r->in_flight || r->waiting) {
-		r->conn = NULL;
-		g->st.orphaned++;
-		return;
-	}
-	request_free(r);
 }
