@@ -1,10 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * mailbox/proto.c - the wire format: the 48-byte header (encoding,
- * decoding, validation), the table of commands and the validation of
- * their payloads. Its siblings: proto_events.c (the table of events),
- * proto_names.c (names and statuses), proto_queues.c (queue names and the
- * system limits); none of them calls another's functions but this file's.
+ * decoding, validation), the table of commands, their names and the
+ * validation of their payloads. Its siblings, which call nothing here:
+ * proto_names.c (names of the other values, statuses; the status of a
+ * refusal comes from there), proto_events.c (the table of events),
+ * proto_queues.c (queue names and the system limits).
  *
  * Everything a client sends is untrusted: every header field and every
  * payload field is checked here, with the reason reported so the server can
@@ -644,6 +645,13 @@ const mbx_cmd_info *mbx_cmd_lookup(unsigned code)
 			hi = mid;
 	}
 	return NULL;
+}
+
+const char *mbx_cmd_to_string(unsigned code)
+{
+	const mbx_cmd_info *ci = mbx_cmd_lookup(code);
+
+	return ci ? ci->name : "?";
 }
 
 /* The first chunk of a chunked command, or a later one. */

@@ -157,10 +157,3 @@ const char *mbx_can_state_to_string(unsigned s)
 	}
 	return "?";
 }
-
-const char *mbx_cmd_to_string(unsigned code)
-{
-	const mbx_cmd_info *ci = mbx_cmd_lookup(code);
-
-	return ci ? ci->name : "?";
-}
