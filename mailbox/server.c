@@ -41,7 +41,7 @@
 #include <unistd.h>
 
 /* A tick later than this past the time it asked for means this thread (or
- * the whole machine) stood still: see forgive_late_wake. */
+ * the whole machine) stood still: see srv_forgive_late_wake (server_clients.c). */
 #define LATE_WAKE_US 100000u
 
 int mbx_server_poll(mbx_server *srv, uint64_t now_us)

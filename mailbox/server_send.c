@@ -74,7 +74,7 @@ int srv_encode(mbx_server *srv, bool event, mbx_hdr *h, const void *payload, siz
 }
 
 /* Send one message to a client's response or event queue, without
- * blocking: encode + deliver. */
+ * blocking: srv_encode + srv_deliver. */
 int srv_send_to(mbx_server *srv, mbx_client *c, bool event, mbx_hdr *h, const void *payload,
 		size_t len, enum send_mode mode)
 {
