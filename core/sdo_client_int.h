@@ -177,6 +177,8 @@ int sdo_cli_abort_local(struct cli_chan *ch, uint32_t code);
 int sdo_cli_server_abort(struct cli_chan *ch, int st, const uint8_t *d);
 bool sdo_cli_is_abort(const uint8_t *d);
 void sdo_cli_tx(struct cli_chan *ch, const uint8_t d[8]);
+/* 1280h+n shows r's target on this bus (not a relayed request's). */
+void sdo_cli_show_target(struct cli_chan *ch, const sdo_client_req *r);
 /* A request's server COB-IDs (a relayed one's: an identity no COB-ID of
  * this bus has). */
 uint32_t sdo_cli_cob_req(const sdo_client_req *r);

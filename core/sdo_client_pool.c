@@ -321,12 +321,7 @@ static int lease_bind(struct cli_chan *ch, const sdo_client_req *r, sdo_client_r
 	ch->lease_fn = fn;
 	ch->lease_arg = arg;
 	co_fsm_goto(&ch->fsm, CS_LEASED, now_us);
-	if (ch->od_cob[0])
-		co_od_entry_set_raw(ch->od_cob[0], ch->cob_req);
-	if (ch->od_cob[1])
-		co_od_entry_set_raw(ch->od_cob[1], ch->cob_resp);
-	if (ch->od_node)
-		co_od_entry_set_raw(ch->od_node, r->node_id);
+	sdo_cli_show_target(ch, r);
 	return ch->num;
 }
 

@@ -578,7 +578,7 @@ static void take_filter(struct cli_chan *ch)
 
 /* 1280h+n shows the current target on this bus, as a manager would set
  * it (a relayed request's target is elsewhere). */
-static void show_target(struct cli_chan *ch, const sdo_client_req *r)
+void sdo_cli_show_target(struct cli_chan *ch, const sdo_client_req *r)
 {
 	if (r->relay)
 		return;
@@ -623,7 +623,7 @@ int sdo_cli_start_state(struct cli_chan *ch, const sdo_client_req *r)
 	ch->toggle = 0;
 	ch->total = r->upload ? UNKNOWN_SIZE : r->size;
 	ch->answered = false;
-	show_target(ch, r);
+	sdo_cli_show_target(ch, r);
 	/* CiA 301 §7.3.2.2: no SDO in STOPPED; reported from the next tick
 	 * like any request that cannot start. */
 	if (co_nmt_get_state(node) == CO_NMT_STOPPED)
