@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * mailbox/client.c - libcogw's handle: its life (cogw_open, cogw_close),
+ * mailbox/client.c - libcogw's handle: its life (cogw_open,
+ * cogw_loop_open, cogw_close),
  * the top of the transport's files (mailbox/client_transport.h names
  * them). The services (cogw_od_read, cogw_lss, ...) are in
  * mailbox/client_api_*.c and reach the transport only through
@@ -97,6 +98,9 @@ const char *cogw_strerror(int err)
 		return "unexpected message from the daemon";
 	case COGW_E_RESTARTED:
 		return "the daemon restarted: request not completed (retry)";
+	case COGW_E_WOULDBLOCK:
+		return "not sent: the line's command queue is full or the line registers again"
+		       " (retry)";
 	case COGW_E_QUEUE_LIMIT:
 		return "this user's message-queue memory is used up (RLIMIT_MSGQUEUE:"
 		       " raise it with ulimit -q or LimitMSGQUEUE=)";
@@ -292,6 +296,23 @@ int cogw_open_opts(cogw **out, const cogw_options *o)
 	return rc;
 }
 
+int cogw_loop_open(cogw **out, const cogw_options *o)
+{
+	int rc = cogw_open_opts(out, o);
+
+	if (rc == 0) {
+		rc = client_loop_setup(*out);
+		if (rc) {
+			int e = errno;
+
+			cogw_close(*out);
+			*out = NULL;
+			errno = e;
+		}
+	}
+	return rc;
+}
+
 void cogw_close(cogw *h)
 {
 	if (!h)
@@ -350,6 +371,7 @@ void cogw_close(cogw *h)
 		mq_unlink(h->evt_name);
 	}
 	free(h->lead_buf);
+	free(h->loop_buf);
 	pthread_cond_destroy(&h->cond);
 	pthread_cond_destroy(&h->reader_cond);
 	pthread_mutex_destroy(&h->mu);

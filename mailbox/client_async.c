@@ -16,42 +16,6 @@
 #include <string.h>
 #include <unistd.h>
 
-/* A request whose answer the helper thread will read, announced before it
- * is sent (the answer may come at once). NULL when out of memory. */
-static async_op *async_add(cogw *h, unsigned line, uint16_t cmd, uint64_t id)
-{
-	async_op *a = calloc(1, sizeof *a);
-
-	if (!a)
-		return NULL;
-	a->corr = id;
-	a->line = (uint8_t)line;
-	a->code = cmd;
-	pthread_mutex_lock(&h->mu);
-	a->next = h->asyncs;
-	h->asyncs = a;
-	pthread_cond_signal(&h->reader_cond); /* its answer needs a reader */
-	if (h->evt_waiters)                   /* its answer will not come on the event queue */
-		mq_send(h->evt_self, "", 0, 0);
-	pthread_mutex_unlock(&h->mu);
-	return a;
-}
-
-/* A request that could not be sent: no answer will come. */
-static void async_drop(cogw *h, async_op *a)
-{
-	pthread_mutex_lock(&h->mu);
-	for (async_op **pp = &h->asyncs; *pp; pp = &(*pp)->next) {
-		if (*pp == a) {
-			*pp = a->next;
-			free(a->data);
-			free(a);
-			break;
-		}
-	}
-	pthread_mutex_unlock(&h->mu);
-}
-
 int cogw_send_async(cogw *h, unsigned line, uint16_t cmd, const void *payload, size_t len,
 		    uint64_t *corr)
 {
@@ -74,7 +38,7 @@ int cogw_send_async(cogw *h, unsigned line, uint16_t cmd, const void *payload, s
 	if (rc)
 		return rc;
 	id = client_corr_new(h);
-	a = async_add(h, line, cmd, id);
+	a = client_async_add(h, line, cmd, id, 0);
 	if (!a)
 		return COGW_E_NOMEM;
 	/* a is the reader's from here on: its answer may free it */
@@ -83,7 +47,7 @@ int cogw_send_async(cogw *h, unsigned line, uint16_t cmd, const void *payload, s
 	rc = client_send_cmd(h, line, cmd, 0, id, payload, flen, (const uint8_t *)payload + flen,
 			     len - flen, deadline);
 	if (rc)
-		async_drop(h, a);
+		client_async_drop(h, a);
 	return rc;
 }
 
@@ -110,71 +74,6 @@ void cogw_msg_release(cogw_msg *m)
 	m->len = 0;
 }
 
-static bool ring_pop(cogw *h, cogw_msg *m)
-{
-	bool got = false;
-	uint64_t v;
-
-	pthread_mutex_lock(&h->mu);
-	if (h->ring_count) {
-		*m = h->ring[h->ring_head];
-		h->ring_head = (h->ring_head + 1) % ASYNC_RING;
-		h->ring_count--;
-		got = true;
-	}
-	if (!h->ring_count && h->efd_set) {
-		h->efd_set = false;
-		if (read(h->efd, &v, sizeof v) < 0) {
-			/* already zero */
-		}
-	}
-	pthread_mutex_unlock(&h->mu);
-	return got;
-}
-
-/* One event from the event queue, waiting until until_us (monotonic; 0:
- * not at all); 1 = got one, 0 = none, < 0 error. */
-static int event_pop(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t now, uint64_t until_us)
-{
-	for (;;) {
-		struct timespec at = realtime_deadline(now, until_us);
-		ssize_t n = mq_timedreceive(h->evt, (char *)buf, h->evt_msg, NULL, &at);
-		mbx_hdr hd;
-
-		if (n < 0)
-			return errno == ETIMEDOUT || errno == EAGAIN || errno == EINTR
-				       ? 0
-				       : COGW_E_SYSTEM;
-		if (n == 0)
-			return 0; /* a wake-up: an async answer is due, or a stretched slice */
-		if (mbx_hdr_decode(buf, (size_t)n, &hd, NULL) < 0 || hd.kind != MBX_KIND_EVENT ||
-		    mbx_event_validate(hd.code, buf + MBX_HDR_SIZE, hd.len) < 0) {
-			pthread_mutex_lock(&h->mu);
-			h->stats.stray_responses++;
-			pthread_mutex_unlock(&h->mu);
-			continue;
-		}
-		if (hd.flags & MBX_F_OVERFLOW) {
-			pthread_mutex_lock(&h->mu);
-			h->stats.overflow_flags++;
-			h->stats.dropped_reported += hd.dropped;
-			pthread_mutex_unlock(&h->mu);
-		}
-		*m = (cogw_msg){ .kind = MBX_KIND_EVENT,
-				 .line = hd.line,
-				 .code = hd.code,
-				 .abort = hd.abort,
-				 .corr = hd.corr,
-				 .dropped = hd.dropped,
-				 .len = hd.len };
-		m->data = malloc(hd.len ? hd.len : 1);
-		if (!m->data)
-			return COGW_E_NOMEM;
-		memcpy(m->data, buf + MBX_HDR_SIZE, hd.len);
-		return 1;
-	}
-}
-
 /* A receive from the event queue: waiting until slice when only events
  * can come (*direct), else a look without waiting. */
 static int event_take(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t now, uint64_t slice,
@@ -189,7 +88,7 @@ static int event_take(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t now, uint64_t
 		h->evt_wait_until_us = slice;
 	}
 	pthread_mutex_unlock(&h->mu);
-	got = event_pop(h, m, buf, now, *direct ? slice : 0);
+	got = client_event_pop(h, m, buf, now, *direct ? slice : 0);
 	if (*direct) {
 		pthread_mutex_lock(&h->mu);
 		h->evt_waiters--;
@@ -210,7 +109,7 @@ static int recv_wait(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t now, uint64_t 
 		uint64_t slice = now + RESTART_CHECK_MS * 1000u;
 		bool direct;
 
-		if (ring_pop(h, m))
+		if (client_ring_pop(h, m))
 			return 0;
 		int got = event_take(h, m, buf, now, slice < deadline ? slice : deadline, &direct);
 
@@ -239,6 +138,8 @@ int cogw_recv(cogw *h, cogw_msg *m, int timeout_ms)
 	if (!h || !m)
 		return COGW_E_INVAL;
 	memset(m, 0, sizeof *m);
+	if (h->loop) /* no helper thread: the caller is the loop */
+		return client_loop_wait(h, m, timeout_ms);
 	/* a receiver is long-lived: the helper cuts its waits when the wall
 	 * clock steps and keeps it registered across daemon restarts */
 	rc = client_helper_ensure(h);

@@ -89,7 +89,7 @@ static void reregister_async(cogw *h, unsigned line, uint64_t now)
 		pthread_mutex_unlock(&h->setup_mu);
 		return; /* answer still due */
 	}
-	if ((ls->registering && !ls->rereg_corr) || !ls->sub_classes ||
+	if ((ls->registering && !ls->rereg_corr) || (!ls->sub_classes && !h->loop) ||
 	    client_line_open_cmd(h, line) != 0) {
 		pthread_mutex_unlock(&h->setup_mu);
 		return; /* a caller registers / nothing to do / no daemon */
@@ -134,7 +134,7 @@ static void check_restarts(cogw *h)
 	}
 }
 
-static unsigned reader_period_ms(cogw *h)
+unsigned client_upkeep_period_ms(cogw *h)
 {
 	unsigned p = 1000;
 
@@ -158,6 +158,12 @@ static bool rereg_pending(cogw *h)
 		any = h->lines[i].rereg_corr != 0;
 	pthread_mutex_unlock(&h->setup_mu);
 	return any;
+}
+
+void client_upkeep(cogw *h)
+{
+	send_pings(h);
+	check_restarts(h);
 }
 
 /* A leader that overran its slice by this much was stretched by a step of
@@ -204,7 +210,7 @@ static void *reader_main(void *arg)
 
 	for (;;) {
 		bool rereg = rereg_pending(h);
-		unsigned period = reader_period_ms(h);
+		unsigned period = client_upkeep_period_ms(h);
 		bool lead;
 
 		pthread_mutex_lock(&h->mu);
@@ -223,8 +229,7 @@ static void *reader_main(void *arg)
 			if (r < 0)
 				break; /* queue gone: nothing more to read */
 		}
-		send_pings(h);
-		check_restarts(h);
+		client_upkeep(h);
 	}
 	return NULL;
 }
@@ -254,10 +259,11 @@ int client_event_fds_open(cogw *h)
  * comes: an asynchronous request, a subscription, a lease to renew,
  * cogw_recv(), a wait longer than one slice (wait_answer). A handle whose
  * blocking calls are answered at once never starts it: its waits look for
- * daemon restarts themselves. */
+ * daemon restarts themselves. Neither does a loop handle. */
 int client_helper_start(cogw *h)
 {
-	if (h->reader_started)
+	/* a loop handle's loop does the helper's work (client_loop.c) */
+	if (h->reader_started || h->loop)
 		return 0;
 	if (h->closing)
 		return COGW_E_CLOSED;

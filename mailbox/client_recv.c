@@ -47,6 +47,106 @@ void client_ring_push(cogw *h, cogw_msg *m)
 	}
 }
 
+async_op *client_async_add(cogw *h, unsigned line, uint16_t cmd, uint64_t id,
+			   uint64_t deadline_us)
+{
+	async_op *a = calloc(1, sizeof *a);
+
+	if (!a)
+		return NULL;
+	a->corr = id;
+	a->line = (uint8_t)line;
+	a->code = cmd;
+	a->deadline_us = deadline_us;
+	pthread_mutex_lock(&h->mu);
+	a->next = h->asyncs;
+	h->asyncs = a;
+	pthread_cond_signal(&h->reader_cond); /* its answer needs a reader */
+	if (h->evt_waiters)                   /* its answer will not come on the event queue */
+		mq_send(h->evt_self, "", 0, 0);
+	pthread_mutex_unlock(&h->mu);
+	return a;
+}
+
+void client_async_drop(cogw *h, async_op *a)
+{
+	pthread_mutex_lock(&h->mu);
+	for (async_op **pp = &h->asyncs; *pp; pp = &(*pp)->next) {
+		if (*pp == a) {
+			*pp = a->next;
+			free(a->data);
+			free(a);
+			break;
+		}
+	}
+	pthread_mutex_unlock(&h->mu);
+}
+
+bool client_ring_pop(cogw *h, cogw_msg *m)
+{
+	bool got = false;
+	uint64_t v;
+
+	pthread_mutex_lock(&h->mu);
+	if (h->ring_count) {
+		*m = h->ring[h->ring_head];
+		h->ring_head = (h->ring_head + 1) % ASYNC_RING;
+		h->ring_count--;
+		got = true;
+	}
+	if (!h->ring_count && h->efd_set) {
+		h->efd_set = false;
+		if (read(h->efd, &v, sizeof v) < 0) {
+			/* already zero */
+		}
+	}
+	pthread_mutex_unlock(&h->mu);
+	return got;
+}
+
+/* One event from the event queue, waiting until until_us (monotonic; 0:
+ * not at all); 1 = got one, 0 = none, < 0 error. */
+int client_event_pop(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t now, uint64_t until_us)
+{
+	for (;;) {
+		struct timespec at = realtime_deadline(now, until_us);
+		ssize_t n = mq_timedreceive(h->evt, (char *)buf, h->evt_msg, NULL, &at);
+		mbx_hdr hd;
+
+		if (n < 0)
+			return errno == ETIMEDOUT || errno == EAGAIN || errno == EINTR
+				       ? 0
+				       : COGW_E_SYSTEM;
+		if (n == 0)
+			return 0; /* a wake-up: an async answer is due, or a stretched slice */
+		if (mbx_hdr_decode(buf, (size_t)n, &hd, NULL) < 0 || hd.kind != MBX_KIND_EVENT ||
+		    mbx_event_validate(hd.code, buf + MBX_HDR_SIZE, hd.len) < 0) {
+			pthread_mutex_lock(&h->mu);
+			h->stats.stray_responses++;
+			pthread_mutex_unlock(&h->mu);
+			continue;
+		}
+		if (hd.flags & MBX_F_OVERFLOW) {
+			pthread_mutex_lock(&h->mu);
+			h->stats.overflow_flags++;
+			h->stats.dropped_reported += hd.dropped;
+			pthread_mutex_unlock(&h->mu);
+		}
+		*m = (cogw_msg){ .kind = MBX_KIND_EVENT,
+				 .line = hd.line,
+				 .code = hd.code,
+				 .abort = hd.abort,
+				 .corr = hd.corr,
+				 .dropped = hd.dropped,
+				 .len = hd.len };
+		m->data = malloc(hd.len ? hd.len : 1);
+		if (!m->data)
+			return COGW_E_NOMEM;
+		memcpy(m->data, buf + MBX_HDR_SIZE, hd.len);
+		return 1;
+	}
+}
+
 static unsigned ack_every(const cogw *h)
 {
 	unsigned w = h->resp_depth / 2;

@@ -279,6 +279,7 @@ void client_line_registered(line_state *ls, const mbx_register_resp *rs, uint64_
 		ls->max_msg = MBX_MSG_MAX;
 	ls->max_transfer = rs->max_transfer;
 	ls->registered = true;
+	ls->attached = true;
 	ls->sent_since_ping = true;
 	ls->ping_checked_us = now;
 }

@@ -9,6 +9,9 @@
  * services, client_api_*.c, call client_call.c through client_internal.h):
  *   client.c         the handle's life: cogw_open, cogw_close
  *   client_async.c   cogw_send_async, cogw_recv, cogw_event_fd
+ *   client_loop.c    the handle for event loops (cogw_loop_*): one
+ *                    descriptor, sends that never wait, the upkeep the
+ *                    loop runs when cogw_loop_timeout_ms() says
  *   client_call.c    the blocking call: registration on first use, send,
  *                    wait as leader or follower, restarts
  *   client_helper.c  the helper thread: leads for asynchronous answers,
@@ -18,8 +21,8 @@
  *                    re-registration); the XFER_ACKs
  *   client_send.c    a line's command queue and registration; sending a
  *                    command, chunked when it does not fit one message
- * client_recv.c and client_send.c need no thread of their own: a poll-driven
- * interface can call them from its own loop.
+ * client_recv.c and client_send.c need no thread of their own: the loop
+ * handle (client_loop.c) calls them from the application's loop.
  */
 #ifndef COGW_MAILBOX_CLIENT_TRANSPORT_H
 #define COGW_MAILBOX_CLIENT_TRANSPORT_H
@@ -65,6 +68,11 @@ typedef struct async_op {
 	uint8_t *data;
 	size_t len, total;
 	uint16_t next_chunk;
+	/* monotonic; 0 = none (cogw_send_async: the helper thread's handle).
+	 * A loop handle fails a request still unanswered then with
+	 * COGW_E_TIMEOUT (client_loop.c): a daemon killed without a
+	 * successor leaves no other trace. */
+	uint64_t deadline_us;
 } async_op;
 
 typedef struct line_state {
@@ -97,6 +105,9 @@ typedef struct line_state {
 	 * (at ping_checked_us); if not, it sends a PING. No clock read per send. */
 	bool sent_since_ping;
 	uint64_t ping_checked_us;
+	/* registered once: a loop handle registers it again by itself after
+	 * a daemon restart (a helper-thread handle only with subscriptions) */
+	bool attached;
 } line_state;
 
 struct cogw {
@@ -118,6 +129,14 @@ struct cogw {
 	bool reader_started;
 	mqd_t self, evt_self;
 	int efd, epfd;
+
+	/* A loop handle (cogw_loop_open): never a helper thread; epfd also
+	 * watches the response queue, the application's loop reads it
+	 * (client_loop.c) and calls client_upkeep() by upkeep_at_us;
+	 * loop_buf: its receive buffer for the event queue. */
+	bool loop;
+	uint64_t upkeep_at_us;
+	uint8_t *loop_buf;
 
 	pthread_mutex_t mu;         /* everything below */
 	pthread_cond_t cond;        /* waiters: an answer came, or the lead is free */
@@ -194,6 +213,15 @@ static inline unsigned ms_left(uint64_t deadline_us)
 	return now >= deadline_us ? 0 : (unsigned)((deadline_us - now + 999) / 1000);
 }
 
+/* ---- client_loop.c ------------------------------------------------------------ */
+
+/* Make a fresh handle a loop handle: its receive buffer, the loop
+ * descriptor watching the response queue too. 0 or a cogw_err. */
+int client_loop_setup(cogw *h);
+/* cogw_recv() on a loop handle: cogw_loop_recv(), and between tries a
+ * poll() of the loop descriptor and the upkeep, up to timeout_ms. */
+int client_loop_wait(cogw *h, cogw_msg *m, int timeout_ms);
+
 /* ---- client_call.c ------------------------------------------------------------ */
 
 /* Register with a line on first use. One thread registers, others that
@@ -210,6 +238,14 @@ int client_helper_ensure(cogw *h);
 /* The eventfd and epoll descriptor of cogw_event_fd(), opened on first
  * need (h->mu held). */
 int client_event_fds_open(cogw *h);
+/* What the helper thread does on each wake-up, for a handle without one:
+ * PINGs the lines whose lease needs it, looks for daemon restarts (fails
+ * the asynchronous requests of a restarted line, registers it again).
+ * Call without h->mu. */
+void client_upkeep(cogw *h);
+/* How long (ms) until the upkeep is due again: a sixth of the shortest
+ * lease, at most a second. */
+unsigned client_upkeep_period_ms(cogw *h);
 
 /* ---- client_recv.c ------------------------------------------------------------ */
 
@@ -223,6 +259,20 @@ void client_lead_release(cogw *h);
 /* An asynchronous answer for cogw_recv() (h->mu held): dropped and
  * counted when the ring is full. */
 void client_ring_push(cogw *h, cogw_msg *m);
+/* A request whose answer whoever reads the response queue will queue in
+ * the ring, announced before it is sent (the answer may come at once);
+ * deadline_us: see async_op. NULL when out of memory. */
+async_op *client_async_add(cogw *h, unsigned line, uint16_t cmd, uint64_t id,
+			   uint64_t deadline_us);
+/* A request that could not be sent: no answer will come. */
+void client_async_drop(cogw *h, async_op *a);
+/* The oldest asynchronous answer of the ring into *m (h->mu not held):
+ * true when there was one; the eventfd is read when the ring empties. */
+bool client_ring_pop(cogw *h, cogw_msg *m);
+/* One event from the event queue into *m, buf its receive buffer
+ * (h->evt_msg bytes), waiting until until_us (monotonic; 0: not at all):
+ * 1 got one, 0 none, < 0 a cogw_err. */
+int client_event_pop(cogw *h, cogw_msg *m, uint8_t *buf, uint64_t now, uint64_t until_us);
 
 /* ---- client_send.c ------------------------------------------------------------ */
 
