@@ -41,9 +41,10 @@ static void send_pings(cogw *h)
 		pthread_mutex_unlock(&h->setup_mu);
 		if (!due)
 			continue;
-		/* NO_REPLY: a lease renewal needs no answer */
+		/* NO_REPLY: a lease renewal needs no answer. A loop handle's
+		 * loop never waits for room: the next look sends it again. */
 		client_send_cmd(h, i, MBX_CMD_PING, MBX_F_NO_REPLY, 0, NULL, 0, NULL, 0,
-				now + 100000u);
+				h->loop ? now : now + 100000u);
 	}
 }
 

@@ -47,7 +47,7 @@ int client_loop_setup(cogw *h)
 		return rc;
 	if (epoll_ctl(h->epfd, EPOLL_CTL_ADD, (int)h->resp, &ev) < 0)
 		return COGW_E_SYSTEM;
-	h->upkeep_at_us = mono_us() + (uint64_t)client_upkeep_period_ms(h) * 1000u;
+	h->upkeep_last_us = mono_us();
 	return 0;
 }
 
@@ -104,8 +104,10 @@ static int line_sendable(cogw *h, unsigned line)
 	return registered ? 0 : rereg ? COGW_E_WOULDBLOCK : COGW_E_NO_DAEMON;
 }
 
-/* A command of more than one message (*chunked) goes out whole or not at
- * all: is there room in the line's queue for all its chunks? */
+/* A command of more than one message (*chunked) is started only when the
+ * line's queue has room for all its chunks (for a queue's depth of them
+ * when it has more: the daemon takes them in as they come, the rest wait
+ * for room up to the request's time-out). */
 static bool room_for(cogw *h, unsigned line, size_t flen, size_t dlen, bool *chunked)
 {
 	struct mq_attr at;
@@ -121,9 +123,23 @@ static bool room_for(cogw *h, unsigned line, size_t flen, size_t dlen, bool *chu
 		return true;
 	if (mq_getattr(q, &at) < 0)
 		return true; /* the send reports it */
-	size_t chunks = (flen + dlen + room - 1) / room;
+	long chunks = (long)((flen + dlen + room - 1) / room);
 
-	return at.mq_maxmsg - at.mq_curmsgs >= (long)chunks;
+	return at.mq_maxmsg - at.mq_curmsgs >= (chunks < at.mq_maxmsg ? chunks : at.mq_maxmsg);
+}
+
+/* As many requests under way as the response queue holds: one more could
+ * find it full when its answer comes, and the daemon drops what does not
+ * fit (docs/mailbox.md "Event loops"). */
+static bool answers_have_room(cogw *h)
+{
+	unsigned n = 0;
+
+	pthread_mutex_lock(&h->mu);
+	for (const async_op *a = h->asyncs; a && n < h->resp_depth; a = a->next)
+		n++;
+	pthread_mutex_unlock(&h->mu);
+	return n < h->resp_depth;
 }
 
 int cogw_loop_send(cogw *h, unsigned line, uint16_t cmd, const void *payload, size_t len,
@@ -145,7 +161,7 @@ int cogw_loop_send(cogw *h, unsigned line, uint16_t cmd, const void *payload, si
 	rc = line_sendable(h, line);
 	if (rc)
 		return rc;
-	if (!room_for(h, line, flen, len - flen, &chunked))
+	if (!answers_have_room(h) || !room_for(h, line, flen, len - flen, &chunked))
 		return COGW_E_WOULDBLOCK;
 	now = mono_us();
 	wait_us = (uint64_t)(timeout_ms ? timeout_ms : h->timeout_ms) * 1000u;
@@ -214,7 +230,8 @@ int cogw_loop_timeout_ms(cogw *h)
 
 	if (!h || !h->loop)
 		return COGW_E_INVAL;
-	due = h->upkeep_at_us;
+	/* the period follows the leases of the lines registered since */
+	due = h->upkeep_last_us + (uint64_t)client_upkeep_period_ms(h) * 1000u;
 	pthread_mutex_lock(&h->mu);
 	for (const async_op *a = h->asyncs; a; a = a->next)
 		if (a->deadline_us && a->deadline_us < due)
@@ -258,9 +275,9 @@ void cogw_loop_tick(cogw *h)
 	if (!h || !h->loop)
 		return;
 	now = mono_us();
-	if (now >= h->upkeep_at_us) {
+	if (now - h->upkeep_last_us >= (uint64_t)client_upkeep_period_ms(h) * 1000u) {
 		client_upkeep(h);
-		h->upkeep_at_us = now + (uint64_t)client_upkeep_period_ms(h) * 1000u;
+		h->upkeep_last_us = now;
 	}
 	expire_requests(h, now);
 }

@@ -132,10 +132,11 @@ struct cogw {
 
 	/* A loop handle (cogw_loop_open): never a helper thread; epfd also
 	 * watches the response queue, the application's loop reads it
-	 * (client_loop.c) and calls client_upkeep() by upkeep_at_us;
+	 * (client_loop.c) and calls client_upkeep() a period after
+	 * upkeep_last_us;
 	 * loop_buf: its receive buffer for the event queue. */
 	bool loop;
-	uint64_t upkeep_at_us;
+	uint64_t upkeep_last_us;
 	uint8_t *loop_buf;
 
 	pthread_mutex_t mu;         /* everything below */

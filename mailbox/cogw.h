@@ -97,9 +97,10 @@ enum cogw_err {
 	 * runs as the same user) is used up; the kernel says EMFILE */
 	COGW_E_QUEUE_LIMIT = -109,
 	/* cogw_loop_send: not sent, nothing waited for: the line's command
-	 * queue is full (wait for cogw_loop_cmd_fd() to be writable), or the
-	 * line registers again after a daemon restart (retry after
-	 * cogw_loop_tick()) */
+	 * queue is full (wait for cogw_loop_cmd_fd() to be writable), the
+	 * handle's response queue could not hold one more answer (take the
+	 * answers in), or the line registers again after a daemon restart
+	 * (retry after cogw_loop_tick()) */
 	COGW_E_WOULDBLOCK = -110,
 };
 
@@ -417,11 +418,14 @@ int cogw_loop_fd(cogw *h);
  * status COGW_E_TIMEOUT, and a daemon restart under way is
  * COGW_E_RESTARTED: every request started gets exactly one answer.
  * Returns 0; COGW_E_WOULDBLOCK (not sent: the line's command queue is
- * full, or the line registers again after a restart); COGW_E_NO_DAEMON
+ * full; or as many requests are under way as the handle's response queue
+ * holds (resp_depth), their answers on cogw_loop_fd() make room; or the
+ * line registers again after a restart); COGW_E_NO_DAEMON
  * (the daemon is gone); COGW_E_NOT_REGISTERED (cogw_loop_attach the line
  * first); or another cogw_err. A command too large for one message goes
- * in chunks, sent only when the queue has room for all of them (another
- * client filling it meanwhile can make this wait, up to timeout_ms). */
+ * in chunks, started only when the queue has room for all of them (or
+ * for a queue's depth of them); another client filling it meanwhile, or
+ * chunks beyond the depth, make this wait for room, up to timeout_ms. */
 int cogw_loop_send(cogw *h, unsigned line, uint16_t cmd, const void *payload, size_t len,
 		   unsigned timeout_ms, uint64_t *corr);
 /* The line's command queue, to wait for POLLOUT after COGW_E_WOULDBLOCK
