@@ -314,6 +314,9 @@ static void test_full_command_queue_is_a_status_and_a_writable_condition(void)
 	TEST_ASSERT_EQUAL_INT(COGW_E_NOT_REGISTERED, cogw_loop_cmd_fd(h, 1));
 	reset_counts();
 	TEST_ASSERT_EQUAL_INT(0, kill(dmn.pid, SIGSTOP));
+	int st; /* every thread of it stopped: nothing reads its queue any more */
+	TEST_ASSERT_EQUAL_INT(dmn.pid, waitpid(dmn.pid, &st, WUNTRACED));
+	TEST_ASSERT_TRUE(WIFSTOPPED(st));
 	while (sent < 200 && (rc = send_od_read(0x1017, 30000)) == 0)
 		sent++;
 	printf("stopped daemon: %u commands queued, then %s\n", sent, cogw_strerror(rc));
