@@ -403,6 +403,30 @@ static void test_daemon_killed_under_the_loop_and_replaced(void)
 	TEST_ASSERT_EQUAL_INT(1, thread_count());
 }
 
+static void test_daemon_stopped_cleanly_under_the_loop(void)
+{
+	reset_counts();
+	for (int i = 0; i < 8; i++)
+		TEST_ASSERT_EQUAL_INT(0, send_od_read(0x1017, 20000));
+	uint64_t t0 = mono_ms();
+	TEST_ASSERT_TRUE(daemon_stop(&dmn, 10000) != -1);
+	/* its queue is gone: what it did not answer is COGW_E_RESTARTED
+	 * within a tick's restart watch, long before the time-out */
+	loop_until_answered(5000);
+	for (unsigned i = 0; i < n_reqs; i++)
+		TEST_ASSERT_TRUE_MESSAGE(reqs[i].status == 0 || reqs[i].status == COGW_E_RESTARTED ||
+						 reqs[i].status == COGW_E_SHUTDOWN,
+					 cogw_strerror(reqs[i].status));
+	printf("stopped daemon: its %u requests answered within %llu ms\n", n_reqs,
+	       (unsigned long long)(mono_ms() - t0));
+	uint64_t t1 = mono_ms();
+	int rc = 0;
+	while (mono_ms() - t1 < 3000 && (rc = send_od_read(0x1017, 1000)) != COGW_E_NO_DAEMON)
+		loop_turn(100);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(COGW_E_NO_DAEMON, rc, cogw_strerror(rc));
+	TEST_ASSERT_EQUAL_INT(1, thread_count());
+}
+
 static void test_loop_calls_refuse_a_helper_thread_handle(void)
 {
 	cogw *plain = NULL;
@@ -439,6 +463,7 @@ int main(void)
 	RUN(test_lease_kept_by_the_tick_alone);
 	RUN(test_full_command_queue_is_a_status_and_a_writable_condition);
 	RUN(test_daemon_killed_under_the_loop_and_replaced);
+	RUN(test_daemon_stopped_cleanly_under_the_loop);
 	RUN(test_loop_calls_refuse_a_helper_thread_handle);
 	return UNITY_END();
 }
