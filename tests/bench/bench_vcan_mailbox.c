@@ -34,6 +34,7 @@
 #include <linux/can/raw.h>
 #include <math.h>
 #include <net/if.h>
+#include <poll.h>
 #include <mqueue.h>
 #include <sched.h>
 #include <semaphore.h>
@@ -242,6 +243,70 @@ static int mailbox_rtt(double *rtt, size_t max, double seconds, int *errors)
 		if (rc < 0) {
 			if ((*errors)++ < 3)
 				printf("mailbox round trip: OD read 1018:01: %s\n",
+				       cogw_strerror(rc));
+			continue;
+		}
+		rtt[n++] = us;
+	}
+	cogw_close(h);
+	return (int)n;
+}
+
+/* One OD read of 1018h:01 through a loop handle, as an event loop does it:
+ * send, poll() the handle's descriptor, tick, take the answer. 0, or the
+ * error. */
+static int od_read_vendor_loop(cogw *h)
+{
+	mbx_obj_req rq = { .index = 0x1018, .sub = 1 };
+	uint64_t corr = 0;
+	int rc = cogw_loop_send(h, 0, MBX_CMD_OD_READ, &rq, sizeof rq, 10000, &corr);
+	if (rc < 0)
+		return rc;
+	for (;;) {
+		struct pollfd pf = { .fd = cogw_loop_fd(h), .events = POLLIN };
+		cogw_msg m;
+		poll(&pf, 1, cogw_loop_timeout_ms(h));
+		cogw_loop_tick(h);
+		while ((rc = cogw_loop_recv(h, &m)) == 0) {
+			bool mine = m.kind == MBX_KIND_RESPONSE && m.corr == corr;
+			int st = m.status;
+			uint32_t got = 0;
+			if (mine && st == 0 && m.len == 4)
+				memcpy(&got, m.data, 4);
+			cogw_msg_release(&m);
+			if (mine)
+				return st < 0 ? st : got == VENDOR_ID ? 0 : COGW_E_PROTOCOL;
+		}
+		if (rc != COGW_E_AGAIN)
+			return rc;
+	}
+}
+
+/* Round trips through the event-loop interface (cogw_loop_*), measured
+ * like mailbox_rtt's blocking calls. */
+static int loop_rtt(double *rtt, size_t max, double seconds, int *errors)
+{
+	cogw *h = NULL;
+	int rc = cogw_loop_open(&h, &(cogw_options){ .instance = instance });
+	if (rc == 0)
+		rc = cogw_loop_attach(h, 0, 10000);
+	if (rc < 0) {
+		printf("event-loop round trip: %s\n", cogw_strerror(rc));
+		cogw_close(h);
+		return -1;
+	}
+	for (int warm = 0; warm < 200; warm++)
+		if (od_read_vendor_loop(h) < 0)
+			(*errors)++;
+	size_t n = 0;
+	double end = bench_now_s() + seconds;
+	while (n < max && bench_now_s() < end) {
+		uint64_t t0 = bench_now_ns();
+		rc = od_read_vendor_loop(h);
+		double us = (double)(bench_now_ns() - t0) * 1e-3;
+		if (rc < 0) {
+			if ((*errors)++ < 3)
+				printf("event-loop round trip: OD read 1018:01: %s\n",
 				       cogw_strerror(rc));
 			continue;
 		}
@@ -980,8 +1045,8 @@ static int round_trip_figures(double *samples, double raw_mean)
 	enum {
 		ROUNDS = 3
 	};
-	double m50[ROUNDS], m99[ROUNDS], r50[ROUNDS], r99[ROUNDS];
-	int errors = 0, n = 0;
+	double m50[ROUNDS], m99[ROUNDS], r50[ROUNDS], r99[ROUNDS], l50[ROUNDS];
+	int errors = 0, n = 0, loop_errors = 0;
 	char spread[256] = "";
 	for (int r = 0; r < ROUNDS; r++) {
 		int nr = raw_pingpong(samples, SAMPLES_MAX, run_seconds / ROUNDS);
@@ -995,6 +1060,10 @@ static int round_trip_figures(double *samples, double raw_mean)
 		n += nm;
 		m50[r] = bench_percentile(samples, (size_t)nm, 50);
 		m99[r] = bench_percentile(samples, (size_t)nm, 99);
+		int nl = loop_rtt(samples, SAMPLES_MAX, run_seconds / ROUNDS, &loop_errors);
+		if (nl <= 0)
+			return -1;
+		l50[r] = bench_percentile(samples, (size_t)nl, 50);
 		size_t used = strlen(spread);
 		snprintf(spread + used, sizeof spread - used, "%s%.0f/%.0f vs %.0f/%.0f",
 			 r ? "; " : "", m50[r], m99[r], r50[r], r99[r]);
@@ -1020,6 +1089,18 @@ static int round_trip_figures(double *samples, double raw_mean)
 					    .ratio = p99 / raw_p99,
 					    .target = "ratio <= 2.50",
 					    .verdict = bench_verdict(p99 <= 2.5 * raw_p99) });
+	double loop_p50 = bench_percentile(l50, ROUNDS, 50);
+	bench_print_figure(&(bench_figure){ .name = "event-loop round trip p50 (cogw_loop_*, OD read 1018h:01)",
+					    .value = loop_p50,
+					    .unit = "us",
+					    .base_name = "blocking call p50, same run",
+					    .base_value = p50,
+					    .base_unit = "us",
+					    .ratio = loop_p50 / p50,
+					    .target = "ratio <= 1.30",
+					    .verdict = bench_verdict(loop_p50 <= 1.3 * p50) });
+	if (loop_errors)
+		bench_note("event-loop round trips: %d failed or read a wrong value", loop_errors);
 	bench_note("round trips: %d mailbox (%d failed or wrong value) in %d rounds, each round's "
 		   "mailbox p50/p99 vs raw p50/p99 in us: %s; raw messages %zu/%zu bytes in "
 		   "queues of %d; raw mean before the daemon started %.0f us",
