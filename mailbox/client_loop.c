@@ -47,7 +47,7 @@ int client_loop_setup(cogw *h)
 		return rc;
 	if (epoll_ctl(h->epfd, EPOLL_CTL_ADD, (int)h->resp, &ev) < 0)
 		return COGW_E_SYSTEM;
-	h->upkeep_last_us = mono_us();
+	h->upkeep_last_us = h->loop_now_us = mono_us();
 	return 0;
 }
 
@@ -163,7 +163,7 @@ int cogw_loop_send(cogw *h, unsigned line, uint16_t cmd, const void *payload, si
 		return rc;
 	if (!answers_have_room(h) || !room_for(h, line, flen, len - flen, &chunked))
 		return COGW_E_WOULDBLOCK;
-	now = mono_us();
+	now = h->loop_now_us = mono_us();
 	wait_us = (uint64_t)(timeout_ms ? timeout_ms : h->timeout_ms) * 1000u;
 	id = client_corr_new(h);
 	a = client_async_add(h, line, cmd, id, now + wait_us);
@@ -196,9 +196,11 @@ static int response_take(cogw *h)
 	}
 	h->leader = true;
 	h->lead_until_us = 0;
+	h->loop_taking = true;
 	pthread_mutex_unlock(&h->mu);
 	r = client_lead_read(h, 0, 0); /* a deadline passed: no wait */
 	pthread_mutex_lock(&h->mu);
+	h->loop_taking = false;
 	client_lead_release(h);
 	pthread_mutex_unlock(&h->mu);
 	return r;
@@ -237,7 +239,7 @@ int cogw_loop_timeout_ms(cogw *h)
 		if (a->deadline_us && a->deadline_us < due)
 			due = a->deadline_us;
 	pthread_mutex_unlock(&h->mu);
-	now = mono_us();
+	now = h->loop_now_us;
 	if (due <= now)
 		return 0;
 	due = (due - now + 999) / 1000;
@@ -274,7 +276,7 @@ void cogw_loop_tick(cogw *h)
 
 	if (!h || !h->loop)
 		return;
-	now = mono_us();
+	now = h->loop_now_us = mono_us();
 	if (now - h->upkeep_last_us >= (uint64_t)client_upkeep_period_ms(h) * 1000u) {
 		client_upkeep(h);
 		h->upkeep_last_us = now;
@@ -284,7 +286,7 @@ void cogw_loop_tick(cogw *h)
 
 int client_loop_wait(cogw *h, cogw_msg *m, int timeout_ms)
 {
-	uint64_t now = mono_us();
+	uint64_t now = h->loop_now_us = mono_us();
 	uint64_t deadline = timeout_ms < 0 ? UINT64_MAX : now + (uint64_t)timeout_ms * 1000u;
 
 	for (;;) {
@@ -292,7 +294,7 @@ int client_loop_wait(cogw *h, cogw_msg *m, int timeout_ms)
 
 		if (rc != COGW_E_AGAIN)
 			return rc;
-		now = mono_us();
+		now = h->loop_now_us = mono_us();
 		if (now >= deadline)
 			return COGW_E_AGAIN;
 		uint64_t left_ms = (deadline - now + 999) / 1000;

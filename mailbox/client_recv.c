@@ -39,16 +39,16 @@ void client_ring_push(cogw *h, cogw_msg *m)
 	}
 	h->ring[(h->ring_head + h->ring_count) % ASYNC_RING] = *m;
 	h->ring_count++;
-	if (h->efd_set)
-		return; /* readable already: one write per non-empty spell */
+	if (h->efd_set || h->loop_taking)
+		return; /* readable already (one write per non-empty spell), or
+	                 * popped by the loop's receive at once */
 	h->efd_set = true;
 	if (write(h->efd, &one, sizeof one) < 0) {
 		/* counter saturated: it is readable anyway */
 	}
 }
 
-async_op *client_async_add(cogw *h, unsigned line, uint16_t cmd, uint64_t id,
-			   uint64_t deadline_us)
+async_op *client_async_add(cogw *h, unsigned line, uint16_t cmd, uint64_t id, uint64_t deadline_us)
 {
 	async_op *a = calloc(1, sizeof *a);
 

@@ -136,6 +136,12 @@ struct cogw {
 	 * upkeep_last_us;
 	 * loop_buf: its receive buffer for the event queue. */
 	bool loop;
+	/* cogw_loop_recv() is taking in the response queue (h->mu): an answer
+	 * it finishes is popped by it at once, so it sets no eventfd */
+	bool loop_taking;
+	/* the latest clock reading of cogw_loop_tick or cogw_loop_send:
+	 * cogw_loop_timeout_ms counts from it (one clock read less a turn) */
+	uint64_t loop_now_us;
 	uint64_t upkeep_last_us;
 	uint8_t *loop_buf;
 
@@ -263,8 +269,7 @@ void client_ring_push(cogw *h, cogw_msg *m);
 /* A request whose answer whoever reads the response queue will queue in
  * the ring, announced before it is sent (the answer may come at once);
  * deadline_us: see async_op. NULL when out of memory. */
-async_op *client_async_add(cogw *h, unsigned line, uint16_t cmd, uint64_t id,
-			   uint64_t deadline_us);
+async_op *client_async_add(cogw *h, unsigned line, uint16_t cmd, uint64_t id, uint64_t deadline_us);
 /* A request that could not be sent: no answer will come. */
 void client_async_drop(cogw *h, async_op *a);
 /* The oldest asynchronous answer of the ring into *m (h->mu not held):

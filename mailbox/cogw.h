@@ -434,12 +434,14 @@ int cogw_loop_send(cogw *h, unsigned line, uint16_t cmd, const void *payload, si
  * COGW_E_NOT_REGISTERED. */
 int cogw_loop_cmd_fd(cogw *h, unsigned line);
 /* The next answer or event, never waiting: 0, or COGW_E_AGAIN when none
- * is there (call it until then: an answer's chunks are taken in on the
- * way). Answers before events. Release m with cogw_msg_release(). */
+ * is there (an answer's chunks are taken in on the way). Answers before
+ * events. Release m with cogw_msg_release(). The descriptor stays
+ * readable while more waits: a loop may take one message per wake-up. */
 int cogw_loop_recv(cogw *h, cogw_msg *m);
 /* How long the loop may wait (ms, >= 0) before cogw_loop_tick() has
  * something to do: a lease to renew, a daemon restart to look for (every
- * second at most), a request's time-out. */
+ * second at most), a request's time-out. Counted from the latest
+ * cogw_loop_tick() or cogw_loop_send() (no clock read of its own). */
 int cogw_loop_timeout_ms(cogw *h);
 /* Do what is due: renew leases (PING), notice a daemon restart (the
  * line's requests answered COGW_E_RESTARTED, the line registered again),

@@ -55,7 +55,8 @@ static const char config_json[] =
 	" \"mailbox\": {\"instance\": \"" INSTANCE "\", \"depth\": 16, \"msg_size\": 1024,\n"
 	"             \"lease_ms\": 600},\n"
 	" \"lines\": [\n"
-	"  {\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,\n"
+	"  {\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": "
+	"127,\n"
 	"   \"objects\": [{\"index\": \"0x2200\", \"name\": \"blob\", \"type\": \"DOMAIN\",\n"
 	"                \"access\": \"rw\", \"max_size\": 65536}]}\n"
 	" ]\n"
@@ -102,8 +103,8 @@ void setUp(void)
 {
 	start_daemon();
 	can_fd = can_open("vcan0");
-	TEST_ASSERT_EQUAL_INT(0, cogw_loop_open(&h, &(cogw_options){ .instance = INSTANCE,
-								     .event_depth = 64 }));
+	TEST_ASSERT_EQUAL_INT(
+		0, cogw_loop_open(&h, &(cogw_options){ .instance = INSTANCE, .event_depth = 64 }));
 	TEST_ASSERT_EQUAL_INT(0, cogw_loop_attach(h, 0, 10000));
 	TEST_ASSERT_TRUE(cogw_loop_fd(h) >= 0);
 }
@@ -234,7 +235,11 @@ static void fill_blob(uint8_t *b)
 
 static void test_many_requests_and_events_in_flight_without_a_thread(void)
 {
-	enum { TOTAL = 600, IN_FLIGHT = 48, FRAMES = 300 };
+	enum {
+		TOTAL = 600,
+		IN_FLIGHT = 48,
+		FRAMES = 300
+	};
 	static uint8_t blob[sizeof(mbx_obj_req) + BLOB_SIZE];
 	mbx_obj_req o = { .index = BLOB, .sub = 0 };
 	unsigned frames = 0, would_block = 0;
@@ -384,7 +389,8 @@ static void test_daemon_killed_under_the_loop_and_replaced(void)
 		}
 		loop_turn(100);
 		for (unsigned i = 0; i < n_reqs; i++) {
-			TEST_ASSERT_TRUE_MESSAGE(reqs[i].status <= 1 || reqs[i].status == COGW_E_RESTARTED ||
+			TEST_ASSERT_TRUE_MESSAGE(reqs[i].status <= 1 ||
+							 reqs[i].status == COGW_E_RESTARTED ||
 							 reqs[i].status == COGW_E_TIMEOUT,
 						 cogw_strerror(reqs[i].status));
 			served += reqs[i].status == 0;
@@ -414,7 +420,8 @@ static void test_daemon_stopped_cleanly_under_the_loop(void)
 	 * within a tick's restart watch, long before the time-out */
 	loop_until_answered(5000);
 	for (unsigned i = 0; i < n_reqs; i++)
-		TEST_ASSERT_TRUE_MESSAGE(reqs[i].status == 0 || reqs[i].status == COGW_E_RESTARTED ||
+		TEST_ASSERT_TRUE_MESSAGE(reqs[i].status == 0 ||
+						 reqs[i].status == COGW_E_RESTARTED ||
 						 reqs[i].status == COGW_E_SHUTDOWN,
 					 cogw_strerror(reqs[i].status));
 	printf("stopped daemon: its %u requests answered within %llu ms\n", n_reqs,
@@ -435,7 +442,8 @@ static void test_loop_calls_refuse_a_helper_thread_handle(void)
 	TEST_ASSERT_EQUAL_INT(0, cogw_open(&plain, INSTANCE));
 	TEST_ASSERT_EQUAL_INT(COGW_E_INVAL, cogw_loop_fd(plain));
 	TEST_ASSERT_EQUAL_INT(COGW_E_INVAL, cogw_loop_recv(plain, &m));
-	TEST_ASSERT_EQUAL_INT(COGW_E_INVAL, cogw_loop_send(plain, 0, MBX_CMD_OD_READ, NULL, 0, 0, NULL));
+	TEST_ASSERT_EQUAL_INT(COGW_E_INVAL,
+			      cogw_loop_send(plain, 0, MBX_CMD_OD_READ, NULL, 0, 0, NULL));
 	cogw_close(plain);
 	/* a line never attached, a command the mailbox answers itself */
 	mbx_obj_req o = { .index = 0x1017 };

@@ -305,7 +305,8 @@ static void *loop_user(void *arg)
 			mbx_obj_req r = { .index = sent % 2 ? 0x3000 : 0x2000,
 					  .sub = (uint8_t)(0x40 + id) };
 
-			if (cogw_loop_send(h, LINE, MBX_CMD_OD_READ, &r, sizeof r, 20000, NULL) != 0)
+			if (cogw_loop_send(h, LINE, MBX_CMD_OD_READ, &r, sizeof r, 20000, NULL) !=
+			    0)
 				break;
 			sent++;
 		}
@@ -321,7 +322,8 @@ static void *loop_user(void *arg)
 				answered++;
 				since = now_us();
 			} else {
-				fprintf(stderr, "loop %u: status %d len %zu\n", id, m.status, m.len);
+				fprintf(stderr, "loop %u: status %d len %zu\n", id, m.status,
+					m.len);
 				atomic_fetch_add(&wrong, 1);
 				answered++;
 			}
@@ -343,7 +345,8 @@ static void test_loop_handles_one_per_thread(void)
 	atomic_store(&wrong, 0);
 	atomic_store(&events, 0);
 	for (unsigned i = 0; i < LOOPS; i++)
-		TEST_ASSERT_EQUAL_INT(0, pthread_create(&t[i], NULL, loop_user, (void *)(uintptr_t)i));
+		TEST_ASSERT_EQUAL_INT(0,
+				      pthread_create(&t[i], NULL, loop_user, (void *)(uintptr_t)i));
 	for (unsigned i = 0; i < LOOPS; i++)
 		pthread_join(t[i], NULL);
 	TEST_ASSERT_EQUAL_UINT_MESSAGE(0, atomic_load(&failed), "a loop did not get every answer");
