@@ -225,31 +225,39 @@ static int od_read_vendor(cogw *h)
 
 /* ---- mailbox round trip ----------------------------------------------------------- */
 
+/* Round trips of read on h (200 warm-up ones first) for seconds, at most
+ * max, into rtt (us); failures counted in *errors, the first named. */
+static int rtt_measure(cogw *h, int (*read)(cogw *), const char *what, double *rtt, size_t max,
+		       double seconds, int *errors)
+{
+	for (int warm = 0; warm < 200; warm++)
+		if (read(h) < 0)
+			(*errors)++;
+	size_t n = 0;
+	double end = bench_now_s() + seconds;
+	while (n < max && bench_now_s() < end) {
+		uint64_t t0 = bench_now_ns();
+		int rc = read(h);
+		double us = (double)(bench_now_ns() - t0) * 1e-3;
+		if (rc < 0) {
+			if ((*errors)++ < 3)
+				printf("%s: OD read 1018:01: %s\n", what, cogw_strerror(rc));
+			continue;
+		}
+		rtt[n++] = us;
+	}
+	return (int)n;
+}
+
 static int mailbox_rtt(double *rtt, size_t max, double seconds, int *errors)
 {
 	cogw *h = client_open(false);
 	if (!h)
 		return -1;
 	*errors = 0;
-	for (int warm = 0; warm < 200; warm++)
-		if (od_read_vendor(h) < 0)
-			(*errors)++;
-	size_t n = 0;
-	double end = bench_now_s() + seconds;
-	while (n < max && bench_now_s() < end) {
-		uint64_t t0 = bench_now_ns();
-		int rc = od_read_vendor(h);
-		double us = (double)(bench_now_ns() - t0) * 1e-3;
-		if (rc < 0) {
-			if ((*errors)++ < 3)
-				printf("mailbox round trip: OD read 1018:01: %s\n",
-				       cogw_strerror(rc));
-			continue;
-		}
-		rtt[n++] = us;
-	}
+	int n = rtt_measure(h, od_read_vendor, "mailbox round trip", rtt, max, seconds, errors);
 	cogw_close(h);
-	return (int)n;
+	return n;
 }
 
 /* One OD read of 1018h:01 through a loop handle, as an event loop does it:
@@ -299,25 +307,10 @@ static int loop_rtt(double *rtt, size_t max, double seconds, int *errors)
 		cogw_close(h);
 		return -1;
 	}
-	for (int warm = 0; warm < 200; warm++)
-		if (od_read_vendor_loop(h) < 0)
-			(*errors)++;
-	size_t n = 0;
-	double end = bench_now_s() + seconds;
-	while (n < max && bench_now_s() < end) {
-		uint64_t t0 = bench_now_ns();
-		rc = od_read_vendor_loop(h);
-		double us = (double)(bench_now_ns() - t0) * 1e-3;
-		if (rc < 0) {
-			if ((*errors)++ < 3)
-				printf("event-loop round trip: OD read 1018:01: %s\n",
-				       cogw_strerror(rc));
-			continue;
-		}
-		rtt[n++] = us;
-	}
+	int n = rtt_measure(h, od_read_vendor_loop, "event-loop round trip", rtt, max, seconds,
+			    errors);
 	cogw_close(h);
-	return (int)n;
+	return n;
 }
 
 /* ---- commands/s with N client processes ------------------------------------------ */
