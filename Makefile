@@ -207,6 +207,11 @@ $(SAN)/tests/unit/%: $(SAN)/obj/tests/unit/%.o $(call obj,$(SAN),$(UNIT_SUP)) $(
 	@mkdir -p $(@D)
 	$(CC) $(SAN_LDFLAGS) -o $@ $^ $(SYS_LIBS)
 
+# cogwctl's value texts (its --json values) are checked without the program.
+$(SAN)/tests/unit/test_real_text: $(SAN)/obj/tests/unit/test_real_text.o $(SAN)/obj/apps/cogwctl/util.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_MQTT_LIB) $(SAN_ASCII_LIB) $(SAN_LIBS)
+	@mkdir -p $(@D)
+	$(CC) $(SAN_LDFLAGS) -o $@ $^ $(SYS_LIBS)
+
 $(SAN)/tests/integration/%: $(SAN)/obj/tests/integration/%.o $(call obj,$(SAN),$(INTEG_SUP)) $(SAN)/obj/unity.o $(SAN_ASCII_LIB) $(SAN_LIBS)
 	@mkdir -p $(@D)
 	$(CC) $(SAN_LDFLAGS) -o $@ $^ $(SYS_LIBS)
