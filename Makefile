@@ -95,8 +95,11 @@ REL_APPCOMMON_LIB := $(REL)/lib/libcogw_appcommon.a
 SAN_APPCOMMON_LIB := $(SAN)/lib/libcogw_appcommon.a
 # Libraries every program and test links, most dependent first.
 # (mailbox libraries are added to these lists where they are defined below)
-# mailbox: libcogw_mbxsrv.a (daemon side, proto.c + server.c) and libcogw.a/.so
-# (client library, proto.c + client.c + client_api_*.c); rules at the end of this file.
+# mailbox: libcogw_mbxsrv.a (daemon side, proto*.c + server*.c + budget.c) and
+# libcogw.a/.so (client library, proto*.c + client*.c); rules at the end of this file.
+MBX_PROTO_SRC  := $(sort $(wildcard mailbox/proto*.c))
+MBX_SERVER_SRC := $(MBX_PROTO_SRC) $(sort $(wildcard mailbox/server*.c)) mailbox/budget.c
+MBX_CLIENT_SRC := $(MBX_PROTO_SRC) $(sort $(wildcard mailbox/client*.c))
 REL_MBXSRV_LIB := $(REL)/lib/libcogw_mbxsrv.a
 SAN_MBXSRV_LIB := $(SAN)/lib/libcogw_mbxsrv.a
 REL_COGW_LIB := $(REL)/lib/libcogw.a
@@ -119,8 +122,7 @@ TSAN_CFLAGS := $(BASE) -O1 -g -fno-omit-frame-pointer -fsanitize=thread
 # with the integration tests.
 TSAN_SRC := $(sort $(wildcard tests/tsan/test_*.c))
 TSAN_VCAN_SRC := $(sort $(wildcard tests/tsan/vcan_*.c))
-TSAN_LIB_SRC := $(LINES_SRC) $(GATEWAY_SRC) mailbox/proto.c mailbox/client.c \
-		$(sort $(wildcard mailbox/client_api_*.c)) mailbox/server.c mailbox/budget.c
+TSAN_LIB_SRC := $(LINES_SRC) $(GATEWAY_SRC) $(sort $(MBX_CLIENT_SRC) $(MBX_SERVER_SRC))
 TSAN_CORE_LIB := $(TSAN)/lib/libcogw-core.a
 TSAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_SRC))
 TSAN_VCAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_VCAN_SRC))
@@ -375,7 +377,7 @@ fuzz: $(FUZZ_BINS)
 # apps/common checks 1F2Ch entries with the gateway's own rules (route.c,
 # convention.c: core/ only below them)
 FUZZ_GATEWAY_SRC := gateway/route.c gateway/convention.c
-build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) $(FUZZ_GATEWAY_SRC) mailbox/proto.c mailbox/client_api_values.c $(ASCII_LIB_SRC) $(MQTT_LIB_SRC)
+build/fuzz/%: tests/fuzz/%.c $(CORE_SRC) $(APPCOMMON_SRC) $(APPCOMMON_GEN) $(FUZZ_GATEWAY_SRC) $(MBX_PROTO_SRC) mailbox/client_api_values.c $(ASCII_LIB_SRC) $(MQTT_LIB_SRC)
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -o $@ $(filter %.c,$^) $(SYS_LIBS)
 else
@@ -488,9 +490,7 @@ clean:
 # ---- mailbox libraries (mailbox/*.c) ---------------------------------------------
 # libcogw_mbxsrv.a: the daemon side, linked into lines/apps; libcogw.a and
 # libcogw.so: the client library for applications (public header mailbox/cogw.h).
-MBX_PROTO_SRC  := mailbox/proto.c
-MBX_SERVER_SRC := $(MBX_PROTO_SRC) mailbox/server.c mailbox/budget.c
-MBX_CLIENT_SRC := $(MBX_PROTO_SRC) mailbox/client.c $(sort $(wildcard mailbox/client_api_*.c))
+# (MBX_PROTO_SRC, MBX_SERVER_SRC, MBX_CLIENT_SRC: defined with the library names above)
 
 $(REL)/pic/%.o: %.c
 	@mkdir -p $(@D)

@@ -13,7 +13,7 @@
  *                         bus, or a relay to another line; the request
  *                         goes to the SDO client pool with sdo_done() as
  *                         its confirmation.
- *   2. core/sdo_client.c  borrows a free channel (or queues the request),
+ *   2. core/sdo_client*.c borrows a free channel (or queues the request),
  *                         runs the CiA 301 protocol, ends the transfer.
  *   3. sdo_done()         the confirmation: give the route back, answer
  *                         the requester (data or abort code), tell SDO

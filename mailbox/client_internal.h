@@ -1,10 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * mailbox/client_internal.h - what libcogw's service files
- * (mailbox/client_api_*.c) use of its transport (mailbox/client.c).
- * The service files only build a request and read its answer; the handle,
- * the lines' registrations and the threads stay inside client.c, so calls
- * go one way only: service file -> transport. Not installed; hidden from
+ * (mailbox/client_api_*.c) use of its transport (mailbox/client*.c,
+ * named in mailbox/client_transport.h). The service files only build a
+ * request and read its answer; the handle, the lines' registrations and
+ * the threads stay inside the transport, so calls go one way only:
+ * service file -> transport. Not installed; hidden from
  * libcogw.so's exported symbols.
  */
 #ifndef COGW_MAILBOX_CLIENT_INTERNAL_H

@@ -31,6 +31,9 @@
  *   epoll loop, watch cogw_event_fd() and call cogw_recv(h, &m, 0) until it
  *   returns COGW_E_AGAIN. cogw_recv() also returns the answers to requests
  *   started with cogw_send_async().
+ * - Event loops (epoll, poll, select, asyncio's add_reader): a handle
+ *   from cogw_loop_open() has no thread at all; see "For event loops"
+ *   below.
  * - Message layouts, command and event codes: mailbox/proto.h;
  *   the protocol: docs/mailbox.md.
  */
@@ -93,6 +96,12 @@ enum cogw_err {
 	 * shared by all its processes, the daemon's queues included when it
 	 * runs as the same user) is used up; the kernel says EMFILE */
 	COGW_E_QUEUE_LIMIT = -109,
+	/* cogw_loop_send: not sent, nothing waited for: the line's command
+	 * queue is full (wait for cogw_loop_cmd_fd() to be writable), the
+	 * handle's response queue could not hold one more answer (take the
+	 * answers in), or the line registers again after a daemon restart
+	 * (retry after cogw_loop_tick()) */
+	COGW_E_WOULDBLOCK = -110,
 };
 
 const char *cogw_strerror(int err);
@@ -365,6 +374,80 @@ void cogw_msg_release(cogw_msg *m);
 /* A descriptor that is readable when cogw_recv() has something for you
  * (opened on the first call), or a negative cogw_err. */
 int cogw_event_fd(cogw *h);
+
+/* ---- for event loops ------------------------------------------------------ */
+
+/*
+ * A loop handle: no thread inside the library, one descriptor for the
+ * application's loop, sends that never wait. It is driven by one thread,
+ * its loop (the blocking calls work on it too, from that thread: use them
+ * to set up, e.g. cogw_subscribe(); they wait like on any handle).
+ *
+ *     cogw *h;
+ *     cogw_loop_open(&h, &(cogw_options){ .instance = "main" });
+ *     cogw_loop_attach(h, 0, 0);             // register with line 0
+ *     int fd = cogw_loop_fd(h);
+ *     for (;;) {
+ *         struct pollfd pf = { .fd = fd, .events = POLLIN };
+ *         poll(&pf, 1, cogw_loop_timeout_ms(h));
+ *         cogw_loop_tick(h);
+ *         cogw_msg m;
+ *         while (cogw_loop_recv(h, &m) == 0) { ...; cogw_msg_release(&m); }
+ *         // cogw_loop_send(h, 0, MBX_CMD_SDO_UPLOAD, &rq, sizeof rq, 0, &corr);
+ *     }
+ *
+ * docs/mailbox.md "Event loops" has the whole story.
+ */
+
+/* Open a loop handle (options as cogw_open_opts). */
+int cogw_loop_open(cogw **h, const cogw_options *opts);
+/* Register with a line (timeout_ms 0: the handle's default). The one call
+ * of the loop interface that waits: the registration's answer. After a
+ * daemon restart the handle registers again by itself (cogw_loop_tick),
+ * and subscribes again to what it had. 0 or a cogw_err. */
+int cogw_loop_attach(cogw *h, unsigned line, unsigned timeout_ms);
+/* The descriptor to wait on (POLLIN / EPOLLIN / select's read set /
+ * asyncio add_reader): readable while an answer or an event is waiting,
+ * or a message of the daemon that cogw_loop_recv() takes in on the way
+ * (a chunk of a longer answer). Level-triggered; stays the same for the
+ * handle's life; closed by cogw_close(). */
+int cogw_loop_fd(cogw *h);
+/* Start a command (payload as cogw_send_async) without waiting. Its answer
+ * comes through cogw_loop_recv() with the correlation id put in *corr; if
+ * none came within timeout_ms (0: the handle's default), the answer is
+ * status COGW_E_TIMEOUT, and a daemon restart under way is
+ * COGW_E_RESTARTED: every request started gets exactly one answer.
+ * Returns 0; COGW_E_WOULDBLOCK (not sent: the line's command queue is
+ * full; or as many requests are under way as the handle's response queue
+ * holds (resp_depth), their answers on cogw_loop_fd() make room; or the
+ * line registers again after a restart); COGW_E_NO_DAEMON
+ * (the daemon is gone); COGW_E_NOT_REGISTERED (cogw_loop_attach the line
+ * first); or another cogw_err. A command too large for one message goes
+ * in chunks, started only when the queue has room for all of them (or
+ * for a queue's depth of them); another client filling it meanwhile, or
+ * chunks beyond the depth, make this wait for room, up to timeout_ms. */
+int cogw_loop_send(cogw *h, unsigned line, uint16_t cmd, const void *payload, size_t len,
+		   unsigned timeout_ms, uint64_t *corr);
+/* The line's command queue, to wait for POLLOUT after COGW_E_WOULDBLOCK
+ * (writable: room for one message, which other clients may take first;
+ * the same descriptor across daemon restarts). A descriptor, or
+ * COGW_E_NOT_REGISTERED. */
+int cogw_loop_cmd_fd(cogw *h, unsigned line);
+/* The next answer or event, never waiting: 0, or COGW_E_AGAIN when none
+ * is there (an answer's chunks are taken in on the way). Answers before
+ * events. Release m with cogw_msg_release(). The descriptor stays
+ * readable while more waits: a loop may take one message per wake-up. */
+int cogw_loop_recv(cogw *h, cogw_msg *m);
+/* How long the loop may wait (ms, >= 0) before cogw_loop_tick() has
+ * something to do: a lease to renew, a daemon restart to look for (every
+ * second at most), a request's time-out. Counted from the latest
+ * cogw_loop_tick() or cogw_loop_send() (no clock read of its own). */
+int cogw_loop_timeout_ms(cogw *h);
+/* Do what is due: renew leases (PING), notice a daemon restart (the
+ * line's requests answered COGW_E_RESTARTED, the line registered again),
+ * answer requests past their time-out with COGW_E_TIMEOUT. Cheap when
+ * nothing is due; call it after every wait. */
+void cogw_loop_tick(cogw *h);
 
 /* Library-side counters (overflows seen, async answers dropped). */
 typedef struct cogw_stats {

@@ -1,6 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * mailbox/proto.c - encoding, decoding and validation of mailbox messages.
+ * mailbox/proto.c - the wire format: the 48-byte header (encoding,
+ * decoding, validation), the table of commands, their names and the
+ * validation of their payloads. Its siblings, which call nothing here:
+ * proto_names.c (names of the other values, statuses; the status of a
+ * refusal comes from there), proto_events.c (the table of events),
+ * proto_queues.c (queue names and the system limits).
  *
  * Everything a client sends is untrusted: every header field and every
  * payload field is checked here, with the reason reported so the server can
@@ -108,334 +113,6 @@ static uint64_t get64(const uint8_t *p)
 	return (uint64_t)get32(p) | ((uint64_t)get32(p + 4) << 32);
 }
 
-/* ---- names --------------------------------------------------------------- */
-
-const char *mbx_kind_to_string(unsigned k)
-{
-	switch (k) {
-	case MBX_KIND_COMMAND:
-		return "command";
-	case MBX_KIND_RESPONSE:
-		return "response";
-	case MBX_KIND_EVENT:
-		return "event";
-	}
-	return "?";
-}
-
-static const struct {
-	int err;
-	int status;
-} status_of_errno[] = {
-	{ EINVAL, MBX_E_PARAM },           /* a value the callee refuses */
-	{ ENOENT, MBX_E_PARAM },           /* what it names does not exist */
-	{ ERANGE, MBX_E_PARAM },           /* out of its range */
-	{ ENOSPC, MBX_E_BUSY },            /* a bounded queue is full now */
-	{ ENOBUFS, MBX_E_BUSY },           /* the transmit queue is full now */
-	{ EBUSY, MBX_E_BUSY },             /* the resource is in use now */
-	{ EAGAIN, MBX_E_STATE },           /* not in the current state */
-	{ EPERM, MBX_E_STATE },            /* the state forbids it (NMT, ...) */
-	{ ENODEV, MBX_E_UNSUPPORTED },     /* the service is not configured */
-	{ EOPNOTSUPP, MBX_E_UNSUPPORTED }, /* nor implemented */
-	{ ENOMEM, MBX_E_NO_MEMORY },       /* the transfer memory budget */
-	{ EMSGSIZE, MBX_E_TOO_BIG },       /* larger than a limit */
-	{ E2BIG, MBX_E_TOO_BIG },
-	{ ETIMEDOUT, MBX_E_NO_ANSWER }, /* the device did not answer */
-	{ ESHUTDOWN, MBX_E_SHUTDOWN },  /* the line is stopping */
-};
-
-int mbx_status_of_errno(int rc)
-{
-	if (rc >= 0)
-		return 0;
-	for (size_t i = 0; i < sizeof status_of_errno / sizeof status_of_errno[0]; i++)
-		if (status_of_errno[i].err == -rc)
-			return status_of_errno[i].status;
-	return MBX_E_INTERNAL;
-}
-
-const char *mbx_status_to_string(int status)
-{
-	switch (status) {
-	case MBX_OK:
-		return "ok";
-	case MBX_E_VERSION:
-		return "unsupported protocol version";
-	case MBX_E_MALFORMED:
-		return "malformed message";
-	case MBX_E_UNKNOWN_CMD:
-		return "unknown command";
-	case MBX_E_BAD_LINE:
-		return "wrong line";
-	case MBX_E_NOT_REGISTERED:
-		return "client not registered";
-	case MBX_E_ACCESS:
-		return "access denied";
-	case MBX_E_PARAM:
-		return "invalid parameter";
-	case MBX_E_TOO_BIG:
-		return "data too large";
-	case MBX_E_BUSY:
-		return "busy, retry";
-	case MBX_E_FULL:
-		return "table full (the line's clients, or its watches)";
-	case MBX_E_QUEUE:
-		return "client queue unusable";
-	case MBX_E_TIMEOUT:
-		return "timed out";
-	case MBX_E_ABORT:
-		return "aborted (see abort code)";
-	case MBX_E_STATE:
-		return "not possible in the current state";
-	case MBX_E_UNSUPPORTED:
-		return "not supported on this line";
-	case MBX_E_SEQUENCE:
-		return "chunk out of sequence";
-	case MBX_E_OVERFLOW:
-		return "messages dropped (queue full)";
-	case MBX_E_INTERNAL:
-		return "internal error";
-	case MBX_E_SHUTDOWN:
-		return "line shutting down";
-	case MBX_E_LSS:
-		return "LSS slave reported an error";
-	case MBX_E_NOT_FOUND:
-		return "not found: no such device object, or no LSS slave answered";
-	case MBX_E_NO_ANSWER:
-		return "the device did not answer in time";
-	case MBX_E_NO_MEMORY:
-		return "the daemon's transfer memory budget is spent (retry later)";
-	}
-	return "unknown status";
-}
-
-const char *mbx_bad_to_string(unsigned b)
-{
-	static const char *const names[MBX_BAD_COUNT] = {
-		[MBX_BAD_NONE] = "none",         [MBX_BAD_SHORT] = "short",
-		[MBX_BAD_MAGIC] = "magic",       [MBX_BAD_VERSION] = "version",
-		[MBX_BAD_KIND] = "kind",         [MBX_BAD_LEN] = "length",
-		[MBX_BAD_FLAGS] = "flags",       [MBX_BAD_CHUNK] = "chunk",
-		[MBX_BAD_RESERVED] = "reserved", [MBX_BAD_LINE] = "line",
-		[MBX_BAD_CMD] = "command",       [MBX_BAD_SIZE] = "size",
-		[MBX_BAD_PARAM] = "parameter",   [MBX_BAD_CLIENT] = "client",
-		[MBX_BAD_SEQUENCE] = "sequence", [MBX_BAD_QUEUE] = "queue",
-	};
-	return b < MBX_BAD_COUNT ? names[b] : "?";
-}
-
-int mbx_bad_status(mbx_bad b)
-{
-	switch (b) {
-	case MBX_BAD_NONE:
-		return MBX_OK;
-	case MBX_BAD_VERSION:
-		return MBX_E_VERSION;
-	case MBX_BAD_LINE:
-		return MBX_E_BAD_LINE;
-	case MBX_BAD_CMD:
-		return MBX_E_UNKNOWN_CMD;
-	case MBX_BAD_PARAM:
-		return MBX_E_PARAM;
-	case MBX_BAD_CLIENT:
-		return MBX_E_NOT_REGISTERED;
-	case MBX_BAD_SEQUENCE:
-		return MBX_E_SEQUENCE;
-	case MBX_BAD_QUEUE:
-		return MBX_E_QUEUE;
-	default:
-		return MBX_E_MALFORMED;
-	}
-}
-
-const char *mbx_access_to_string(unsigned a)
-{
-	switch (a) {
-	case MBX_ACCESS_NONE:
-		return "none";
-	case MBX_ACCESS_READ:
-		return "read";
-	case MBX_ACCESS_WRITE:
-		return "write";
-	}
-	return "?";
-}
-
-const char *mbx_can_state_to_string(unsigned s)
-{
-	switch (s) {
-	case MBX_CAN_ACTIVE:
-		return "error-active";
-	case MBX_CAN_WARNING:
-		return "error-warning";
-	case MBX_CAN_PASSIVE:
-		return "error-passive";
-	case MBX_CAN_BUS_OFF:
-		return "bus-off";
-	case MBX_CAN_STOPPED:
-		return "stopped";
-	}
-	return "?";
-}
-
-const char *mbx_cmd_to_string(unsigned code)
-{
-	const mbx_cmd_info *ci = mbx_cmd_lookup(code);
-
-	return ci ? ci->name : "?";
-}
-
-/* ---- events -------------------------------------------------------------- */
-
-const char *mbx_event_class_to_string(uint32_t cls)
-{
-	switch (cls) {
-	case MBX_EVC_NMT:
-		return "nmt";
-	case MBX_EVC_HB:
-		return "hb";
-	case MBX_EVC_BOOT:
-		return "boot";
-	case MBX_EVC_EMCY:
-		return "emcy";
-	case MBX_EVC_PDO:
-		return "pdo";
-	case MBX_EVC_SDO:
-		return "sdo";
-	case MBX_EVC_CAN:
-		return "can";
-	case MBX_EVC_RAW:
-		return "raw";
-	case MBX_EVC_OD:
-		return "od";
-	case MBX_EVC_MANAGER:
-		return "manager";
-	case MBX_EVC_GW:
-		return "gateway";
-	case MBX_EVC_SYNC:
-		return "sync";
-	case MBX_EVC_TIME:
-		return "time";
-	case MBX_EVC_PDO_FAULT:
-		return "pdo-fault";
-	case MBX_EVC_VALUE:
-		return "value";
-	case MBX_EVC_OVERFLOW:
-		return "overflow";
-	}
-	return "?";
-}
-
-const char *mbx_event_to_string(unsigned code)
-{
-	switch (code) {
-	case MBX_EV_OVERFLOW:
-		return "overflow";
-	case MBX_EV_OD_WRITTEN:
-		return "od-written";
-	case MBX_EV_SDO_DONE:
-		return "sdo-done";
-	case MBX_EV_NMT_STATE:
-		return "nmt-state";
-	case MBX_EV_BOOTUP:
-		return "boot-up";
-	case MBX_EV_HB_STARTED:
-		return "hb-started";
-	case MBX_EV_HB_LOST:
-		return "hb-lost";
-	case MBX_EV_DUP_NODE:
-		return "dup-node";
-	case MBX_EV_GUARD_TOGGLE:
-		return "guard-toggle";
-	case MBX_EV_LIFE_LOST:
-		return "life-lost";
-	case MBX_EV_LIFE_RESUMED:
-		return "life-resumed";
-	case MBX_EV_PDO:
-		return "pdo";
-	case MBX_EV_RPDO_FAULT:
-		return "rpdo-fault";
-	case MBX_EV_RPDO_RECOVERED:
-		return "rpdo-recovered";
-	case MBX_EV_SYNC:
-		return "sync";
-	case MBX_EV_TIME:
-		return "time";
-	case MBX_EV_DEV_VALUE:
-		return "dev-value";
-	case MBX_EV_DEV_MIRROR:
-		return "dev-mirror";
-	case MBX_EV_EMCY:
-		return "emcy";
-	case MBX_EV_RAW:
-		return "raw";
-	case MBX_EV_CAN_STATE:
-		return "can-state";
-	case MBX_EV_MGR_STATE:
-		return "manager-state";
-	case MBX_EV_MGR_BOOT:
-		return "manager-boot";
-	case MBX_EV_MGR_NODE:
-		return "manager-node";
-	case MBX_EV_GW_SDO:
-		return "gw-sdo";
-	case MBX_EV_GW_EMCY:
-		return "gw-emcy";
-	}
-	return "?";
-}
-
-uint32_t mbx_event_class_of(unsigned code)
-{
-	switch (code) {
-	case MBX_EV_OVERFLOW:
-		return MBX_EVC_OVERFLOW;
-	case MBX_EV_OD_WRITTEN:
-		return MBX_EVC_OD;
-	case MBX_EV_SDO_DONE:
-		return MBX_EVC_SDO;
-	case MBX_EV_NMT_STATE:
-	case MBX_EV_DUP_NODE:
-		return MBX_EVC_NMT;
-	case MBX_EV_BOOTUP:
-		return MBX_EVC_BOOT;
-	case MBX_EV_HB_STARTED:
-	case MBX_EV_HB_LOST:
-	case MBX_EV_GUARD_TOGGLE:
-	case MBX_EV_LIFE_LOST:
-	case MBX_EV_LIFE_RESUMED:
-		return MBX_EVC_HB;
-	case MBX_EV_PDO:
-		return MBX_EVC_PDO;
-	case MBX_EV_RPDO_FAULT:
-	case MBX_EV_RPDO_RECOVERED:
-		return MBX_EVC_PDO_FAULT;
-	case MBX_EV_SYNC:
-		return MBX_EVC_SYNC;
-	case MBX_EV_TIME:
-		return MBX_EVC_TIME;
-	case MBX_EV_DEV_VALUE:
-		return MBX_EVC_VALUE;
-	case MBX_EV_DEV_MIRROR:
-		return MBX_EVC_MANAGER;
-	case MBX_EV_EMCY:
-		return MBX_EVC_EMCY;
-	case MBX_EV_RAW:
-		return MBX_EVC_RAW;
-	case MBX_EV_CAN_STATE:
-		return MBX_EVC_CAN;
-	case MBX_EV_MGR_STATE:
-	case MBX_EV_MGR_NODE:
-		return MBX_EVC_MANAGER;
-	case MBX_EV_MGR_BOOT:
-		return MBX_EVC_BOOT;
-	case MBX_EV_GW_SDO:
-	case MBX_EV_GW_EMCY:
-		return MBX_EVC_GW;
-	}
-	return 0;
-}
-
 /* ---- header --------------------------------------------------------------- */
 
 void mbx_hdr_encode(const mbx_hdr *h, uint8_t *b)
@@ -464,13 +141,8 @@ static int refuse(mbx_bad *out, mbx_bad why)
 	return mbx_bad_status(why);
 }
 
-int mbx_hdr_decode(const uint8_t *b, size_t n, mbx_hdr *h, mbx_bad *bad)
+static void hdr_read(const uint8_t *b, mbx_hdr *h)
 {
-	if (bad)
-		*bad = MBX_BAD_NONE;
-	memset(h, 0, sizeof *h);
-	if (n < MBX_HDR_SIZE)
-		return refuse(bad, MBX_BAD_SHORT);
 	h->magic = get16(b + 0);
 	h->version = b[2];
 	h->kind = b[3];
@@ -486,7 +158,48 @@ int mbx_hdr_decode(const uint8_t *b, size_t n, mbx_hdr *h, mbx_bad *bad)
 	h->chunk = get16(b + 40);
 	h->len = get16(b + 42);
 	h->total = get32(b + 44);
+}
 
+/* The flags and the fields one direction leaves zero. */
+static mbx_bad hdr_direction_bad(const mbx_hdr *h)
+{
+	if (h->kind == MBX_KIND_COMMAND) {
+		if (h->flags & ~MBX_F_CMD_MASK)
+			return MBX_BAD_FLAGS;
+		/* Fields only the daemon fills must be zero from a client:
+		 * they can gain a meaning in a later version. */
+		if (h->status != 0 || h->abort != 0 || h->dropped != 0)
+			return MBX_BAD_RESERVED;
+		return MBX_BAD_NONE;
+	}
+	if (h->flags & ~MBX_F_OUT_MASK)
+		return MBX_BAD_FLAGS;
+	if (h->token != 0)
+		return MBX_BAD_RESERVED;
+	if (!(h->flags & MBX_F_OVERFLOW) && h->dropped != 0)
+		return MBX_BAD_RESERVED;
+	return MBX_BAD_NONE;
+}
+
+static mbx_bad hdr_chunk_bad(const mbx_hdr *h)
+{
+	if ((h->flags & MBX_F_MORE) && !(h->flags & MBX_F_CHUNKED))
+		return MBX_BAD_FLAGS;
+	if (h->flags & MBX_F_CHUNKED)
+		return h->total == 0 ? MBX_BAD_CHUNK : MBX_BAD_NONE;
+	return h->chunk != 0 || h->total != 0 ? MBX_BAD_CHUNK : MBX_BAD_NONE;
+}
+
+int mbx_hdr_decode(const uint8_t *b, size_t n, mbx_hdr *h, mbx_bad *bad)
+{
+	mbx_bad why;
+
+	if (bad)
+		*bad = MBX_BAD_NONE;
+	memset(h, 0, sizeof *h);
+	if (n < MBX_HDR_SIZE)
+		return refuse(bad, MBX_BAD_SHORT);
+	hdr_read(b, h);
 	if (h->magic != MBX_MAGIC)
 		return refuse(bad, MBX_BAD_MAGIC);
 	if (h->version != MBX_VERSION)
@@ -495,31 +208,10 @@ int mbx_hdr_decode(const uint8_t *b, size_t n, mbx_hdr *h, mbx_bad *bad)
 		return refuse(bad, MBX_BAD_KIND);
 	if ((size_t)h->len != n - MBX_HDR_SIZE)
 		return refuse(bad, MBX_BAD_LEN);
-
-	if (h->kind == MBX_KIND_COMMAND) {
-		if (h->flags & ~MBX_F_CMD_MASK)
-			return refuse(bad, MBX_BAD_FLAGS);
-		/* Fields only the daemon fills must be zero from a client:
-		 * they can gain a meaning in a later version. */
-		if (h->status != 0 || h->abort != 0 || h->dropped != 0)
-			return refuse(bad, MBX_BAD_RESERVED);
-	} else {
-		if (h->flags & ~MBX_F_OUT_MASK)
-			return refuse(bad, MBX_BAD_FLAGS);
-		if (h->token != 0)
-			return refuse(bad, MBX_BAD_RESERVED);
-		if (!(h->flags & MBX_F_OVERFLOW) && h->dropped != 0)
-			return refuse(bad, MBX_BAD_RESERVED);
-	}
-	if ((h->flags & MBX_F_MORE) && !(h->flags & MBX_F_CHUNKED))
-		return refuse(bad, MBX_BAD_FLAGS);
-	if (h->flags & MBX_F_CHUNKED) {
-		if (h->total == 0)
-			return refuse(bad, MBX_BAD_CHUNK);
-	} else if (h->chunk != 0 || h->total != 0) {
-		return refuse(bad, MBX_BAD_CHUNK);
-	}
-	return 0;
+	why = hdr_direction_bad(h);
+	if (why == MBX_BAD_NONE)
+		why = hdr_chunk_bad(h);
+	return why == MBX_BAD_NONE ? 0 : refuse(bad, why);
 }
 
 void mbx_hdr_set_recipient(uint8_t *b, uint32_t client, uint32_t dropped)
@@ -544,82 +236,6 @@ int mbx_msg_build(uint8_t *buf, size_t cap, const mbx_hdr *h, const void *payloa
 	if (payload_len)
 		memcpy(buf + MBX_HDR_SIZE, payload, payload_len);
 	return (int)(MBX_HDR_SIZE + payload_len);
-}
-
-/* ---- names of queues ------------------------------------------------------ */
-
-static bool qchar_ok(char c)
-{
-	return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-	       c == '.' || c == '_' || c == '-';
-}
-
-bool mbx_queue_name_is_valid(const char *name, size_t field)
-{
-	size_t i;
-
-	if (field > MBX_QNAME_MAX)
-		field = MBX_QNAME_MAX;
-	if (field < 3 || name[0] != '/')
-		return false;
-	for (i = 1; i < field && name[i]; i++)
-		if (!qchar_ok(name[i]))
-			return false;
-	/* needs a NUL inside the field and at least one name char; "." and
-	 * ".." are not names */
-	if (i == field || i < 2)
-		return false;
-	if (strcmp(name, "/.") == 0 || strcmp(name, "/..") == 0)
-		return false;
-	return true;
-}
-
-/* The two queues of one client are named as one pair (docs/mailbox.md
- * "Security model"): a command queue of any line ("...cmd"), another
- * program's queue, or a client's event queue named as its response queue
- * (swapped or mixed) is no pair. */
-bool mbx_client_queues_pair(const char *resp, const char *evt)
-{
-	static const char rs[] = ".resp", es[] = ".evt";
-	size_t rn = strlen(resp), stem;
-
-	if (rn <= sizeof rs || strcmp(resp + rn - (sizeof rs - 1), rs) != 0)
-		return false;
-	stem = rn - (sizeof rs - 1);
-	return strlen(evt) == stem + sizeof es - 1 && strncmp(resp, evt, stem) == 0 &&
-	       strcmp(evt + stem, es) == 0;
-}
-
-bool mbx_instance_is_valid(const char *instance)
-{
-	size_t i;
-
-	if (!instance || !instance[0])
-		return false;
-	for (i = 0; instance[i]; i++) {
-		char c = instance[i];
-
-		if (i >= MBX_INSTANCE_MAX || c == '.' || !qchar_ok(c))
-			return false;
-	}
-	return true;
-}
-
-int mbx_queue_name(char *buf, size_t cap, const char *instance, unsigned line)
-{
-	int n;
-
-	if (!mbx_instance_is_valid(instance) || line >= MBX_LINES_MAX)
-		return -EINVAL;
-	n = snprintf(buf, cap, "/cogw.%s.line%u.cmd", instance, line);
-	if (n < 0 || (size_t)n >= cap || (size_t)n >= MBX_QNAME_MAX)
-		return -ENAMETOOLONG;
-	return 0;
-}
-
-bool mbx_raw_filter_match(const mbx_raw_filter *f, const mbx_raw_frame *fr)
-{
-	return (((fr->id) ^ f->id) & f->mask) == 0;
 }
 
 /* ---- payload validation ----------------------------------------------------- */
@@ -1031,182 +647,54 @@ const mbx_cmd_info *mbx_cmd_lookup(unsigned code)
 	return NULL;
 }
 
+const char *mbx_cmd_to_string(unsigned code)
+{
+	const mbx_cmd_info *ci = mbx_cmd_lookup(code);
+
+	return ci ? ci->name : "?";
+}
+
+/* The first chunk of a chunked command, or a later one. */
+static int check_chunked(const mbx_cmd_info *ci, const mbx_hdr *h, const uint8_t *payload,
+			 mbx_bad *bad)
+{
+	size_t len = h->len;
+
+	/* only data-carrying commands with no size cap are chunked */
+	if (!(ci->flags & MBX_CI_DATA) || ci->max_data)
+		return refuse(bad, MBX_BAD_CHUNK);
+	if (h->chunk > 0)
+		return len ? 0 : refuse(bad, MBX_BAD_SIZE);
+	/* first chunk: fixed part + some data, and more must follow
+	 * (a transfer that fits one message is not chunked) */
+	if (len < ci->fixed || !(h->flags & MBX_F_MORE) || h->total <= len - ci->fixed)
+		return refuse(bad, MBX_BAD_CHUNK);
+	return ci->check ? ci->check(h->code, payload, len, bad) : 0;
+}
+
+/* The size of a whole (unchunked) command's payload is wrong? */
+static bool size_wrong(const mbx_cmd_info *ci, size_t len)
+{
+	if (ci->flags & MBX_CI_ARRAY)
+		return len == 0 || len % ci->fixed || len / ci->fixed > ci->max_data;
+	if (!(ci->flags & MBX_CI_DATA))
+		return len != ci->fixed;
+	if (len < ci->fixed)
+		return true;
+	return ci->max_data && (len - ci->fixed > ci->max_data || len == ci->fixed);
+}
+
 int mbx_cmd_validate(const mbx_hdr *h, const uint8_t *payload, mbx_bad *bad)
 {
 	const mbx_cmd_info *ci = mbx_cmd_lookup(h->code);
-	size_t len = h->len;
 
 	if (bad)
 		*bad = MBX_BAD_NONE;
 	if (!ci)
 		return refuse(bad, MBX_BAD_CMD);
-	if (h->flags & MBX_F_CHUNKED) {
-		/* only data-carrying commands with no size cap are chunked */
-		if (!(ci->flags & MBX_CI_DATA) || ci->max_data)
-			return refuse(bad, MBX_BAD_CHUNK);
-		if (h->chunk > 0)
-			return len ? 0 : refuse(bad, MBX_BAD_SIZE);
-		/* first chunk: fixed part + some data, and more must follow
-		 * (a transfer that fits one message is not chunked) */
-		if (len < ci->fixed || !(h->flags & MBX_F_MORE) || h->total <= len - ci->fixed)
-			return refuse(bad, MBX_BAD_CHUNK);
-		return ci->check ? ci->check(h->code, payload, len, bad) : 0;
-	}
-	if (ci->flags & MBX_CI_ARRAY) {
-		if (len == 0 || len % ci->fixed || len / ci->fixed > ci->max_data)
-			return refuse(bad, MBX_BAD_SIZE);
-	} else if (ci->flags & MBX_CI_DATA) {
-		if (len < ci->fixed)
-			return refuse(bad, MBX_BAD_SIZE);
-		if (ci->max_data && (len - ci->fixed > ci->max_data || len == ci->fixed))
-			return refuse(bad, MBX_BAD_SIZE);
-	} else if (len != ci->fixed) {
+	if (h->flags & MBX_F_CHUNKED)
+		return check_chunked(ci, h, payload, bad);
+	if (size_wrong(ci, h->len))
 		return refuse(bad, MBX_BAD_SIZE);
-	}
-	return ci->check ? ci->check(h->code, payload, len, bad) : 0;
-}
-
-int mbx_event_validate(unsigned code, const uint8_t *p, size_t len)
-{
-	switch (code) {
-	case MBX_EV_OVERFLOW:
-		return len == sizeof(mbx_ev_overflow) ? 0 : MBX_E_MALFORMED;
-	case MBX_EV_OD_WRITTEN:
-		return len == sizeof(mbx_ev_od_written) ? 0 : MBX_E_MALFORMED;
-	case MBX_EV_SDO_DONE:
-		return len == sizeof(mbx_ev_sdo_done) ? 0 : MBX_E_MALFORMED;
-	case MBX_EV_NMT_STATE:
-	case MBX_EV_BOOTUP:
-	case MBX_EV_HB_STARTED:
-	case MBX_EV_HB_LOST:
-	case MBX_EV_GUARD_TOGGLE:
-	case MBX_EV_LIFE_LOST:
-	case MBX_EV_LIFE_RESUMED:
-		return len == sizeof(mbx_ev_node) ? 0 : MBX_E_MALFORMED;
-	case MBX_EV_DUP_NODE:
-		return len == sizeof(mbx_ev_dup_node) ? 0 : MBX_E_MALFORMED;
-	case MBX_EV_RPDO_FAULT:
-	case MBX_EV_RPDO_RECOVERED:
-		return len == sizeof(mbx_ev_rpdo_fault) ? 0 : MBX_E_MALFORMED;
-	case MBX_EV_SYNC:
-		return len == sizeof(mbx_ev_sync) ? 0 : MBX_E_MALFORMED;
-	case MBX_EV_TIME:
-		return len == sizeof(mbx_ev_time) ? 0 : MBX_E_MALFORMED;
-	case MBX_EV_DEV_MIRROR:
-		return len == sizeof(mbx_ev_dev_mirror) ? 0 : MBX_E_MALFORMED;
-	case MBX_EV_DEV_VALUE: {
-		mbx_dev_value v;
-
-		if (len < sizeof v)
-			return MBX_E_MALFORMED;
-		memcpy(&v, p, sizeof v);
-		if (v.len > MBX_DEV_VALUE_EVENT_MAX || len != sizeof v + v.len)
-			return MBX_E_MALFORMED;
-		return 0;
-	}
-	case MBX_EV_PDO: {
-		mbx_ev_pdo e;
-
-		if (len < sizeof e)
-			return MBX_E_MALFORMED;
-		memcpy(&e, p, sizeof e);
-		if (e.n > MBX_PDO_VALUES_MAX ||
-		    len != sizeof e + (size_t)e.n * sizeof(mbx_pdo_value))
-			return MBX_E_MALFORMED;
-		return 0;
-	}
-	case MBX_EV_EMCY:
-		return len == sizeof(mbx_ev_emcy) ? 0 : MBX_E_MALFORMED;
-	case MBX_EV_RAW:
-		return len == sizeof(mbx_ev_raw) ? 0 : MBX_E_MALFORMED;
-	case MBX_EV_CAN_STATE:
-		return len == sizeof(mbx_ev_can_state) ? 0 : MBX_E_MALFORMED;
-	case MBX_EV_MGR_STATE:
-	case MBX_EV_MGR_BOOT:
-	case MBX_EV_MGR_NODE:
-		return len == sizeof(mbx_ev_mgr) ? 0 : MBX_E_MALFORMED;
-	case MBX_EV_GW_SDO:
-		return len == sizeof(mbx_ev_gw_sdo) ? 0 : MBX_E_MALFORMED;
-	case MBX_EV_GW_EMCY:
-		return len == sizeof(mbx_ev_gw_emcy) ? 0 : MBX_E_MALFORMED;
-	}
-	return MBX_E_UNKNOWN_CMD;
-}
-
-/* ---- system limits ---------------------------------------------------------- */
-
-static int read_limit(const char *path, unsigned long *v)
-{
-	FILE *f = fopen(path, "re");
-	int ok;
-
-	if (!f)
-		return -errno;
-	ok = fscanf(f, "%lu", v);
-	fclose(f);
-	return ok == 1 ? 0 : -EIO;
-}
-
-int mbx_check_system_limits(unsigned depth, unsigned msgsize, char *err, size_t errlen)
-{
-	unsigned long msg_max, msgsize_max;
-	struct rlimit rl;
-	int rc;
-
-	if (err && errlen)
-		err[0] = 0;
-	if (depth == 0 || msgsize < MBX_MSG_MIN || msgsize > MBX_MSG_MAX) {
-		if (err)
-			snprintf(err, errlen,
-				 "mailbox: depth %u / message size %u out of range"
-				 " (depth >= 1, size %u..%u)",
-				 depth, msgsize, MBX_MSG_MIN, MBX_MSG_MAX);
-		return -EINVAL;
-	}
-	rc = read_limit("/proc/sys/fs/mqueue/msg_max", &msg_max);
-	if (rc == 0)
-		rc = read_limit("/proc/sys/fs/mqueue/msgsize_max", &msgsize_max);
-	if (rc) {
-		if (err)
-			snprintf(err, errlen,
-				 "mailbox: cannot read /proc/sys/fs/mqueue limits"
-				 " (%s): is the mqueue file system available?",
-				 strerror(-rc));
-		return rc;
-	}
-	if (depth > msg_max) {
-		if (err)
-			snprintf(err, errlen,
-				 "mailbox: fs.mqueue.msg_max is %lu but the mailbox"
-				 " queue depth is %u: run 'sysctl -w"
-				 " fs.mqueue.msg_max=%u' (or lower the depth)",
-				 msg_max, depth, depth);
-		return -ERANGE;
-	}
-	if (msgsize > msgsize_max) {
-		if (err)
-			snprintf(err, errlen,
-				 "mailbox: fs.mqueue.msgsize_max is %lu but the"
-				 " mailbox message size is %u: run 'sysctl -w"
-				 " fs.mqueue.msgsize_max=%u' (or lower the size)",
-				 msgsize_max, msgsize, msgsize);
-		return -ERANGE;
-	}
-	/* RLIMIT_MSGQUEUE counts the bytes of all queues of one user; the
-	 * kernel charges about msgsize + a pointer per message. */
-	if (getrlimit(RLIMIT_MSGQUEUE, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY) {
-		unsigned long long need = (unsigned long long)depth *
-					  (msgsize + sizeof(void *) * 2);
-
-		if (need > rl.rlim_cur) {
-			if (err)
-				snprintf(err, errlen,
-					 "mailbox: RLIMIT_MSGQUEUE is %llu bytes but one"
-					 " queue of %u x %u bytes needs %llu: raise it"
-					 " (LimitMSGQUEUE= in the systemd unit, ulimit -q)",
-					 (unsigned long long)rl.rlim_cur, depth, msgsize, need);
-			return -ERANGE;
-		}
-	}
-	return 0;
+	return ci->check ? ci->check(h->code, payload, h->len, bad) : 0;
 }

@@ -34,6 +34,7 @@
 #include <linux/can/raw.h>
 #include <math.h>
 #include <net/if.h>
+#include <poll.h>
 #include <mqueue.h>
 #include <sched.h>
 #include <semaphore.h>
@@ -224,31 +225,92 @@ static int od_read_vendor(cogw *h)
 
 /* ---- mailbox round trip ----------------------------------------------------------- */
 
+/* Round trips of read on h (200 warm-up ones first) for seconds, at most
+ * max, into rtt (us); failures counted in *errors, the first named. */
+static int rtt_measure(cogw *h, int (*read)(cogw *), const char *what, double *rtt, size_t max,
+		       double seconds, int *errors)
+{
+	for (int warm = 0; warm < 200; warm++)
+		if (read(h) < 0)
+			(*errors)++;
+	size_t n = 0;
+	double end = bench_now_s() + seconds;
+	while (n < max && bench_now_s() < end) {
+		uint64_t t0 = bench_now_ns();
+		int rc = read(h);
+		double us = (double)(bench_now_ns() - t0) * 1e-3;
+		if (rc < 0) {
+			if ((*errors)++ < 3)
+				printf("%s: OD read 1018:01: %s\n", what, cogw_strerror(rc));
+			continue;
+		}
+		rtt[n++] = us;
+	}
+	return (int)n;
+}
+
 static int mailbox_rtt(double *rtt, size_t max, double seconds, int *errors)
 {
 	cogw *h = client_open(false);
 	if (!h)
 		return -1;
 	*errors = 0;
-	for (int warm = 0; warm < 200; warm++)
-		if (od_read_vendor(h) < 0)
-			(*errors)++;
-	size_t n = 0;
-	double end = bench_now_s() + seconds;
-	while (n < max && bench_now_s() < end) {
-		uint64_t t0 = bench_now_ns();
-		int rc = od_read_vendor(h);
-		double us = (double)(bench_now_ns() - t0) * 1e-3;
-		if (rc < 0) {
-			if ((*errors)++ < 3)
-				printf("mailbox round trip: OD read 1018:01: %s\n",
-				       cogw_strerror(rc));
-			continue;
-		}
-		rtt[n++] = us;
-	}
+	int n = rtt_measure(h, od_read_vendor, "mailbox round trip", rtt, max, seconds, errors);
 	cogw_close(h);
-	return (int)n;
+	return n;
+}
+
+/* One OD read of 1018h:01 through a loop handle, as an event loop does it:
+ * send, poll() the handle's descriptor, tick, take the answer. 0, or the
+ * error. */
+static uint64_t loop_polls, loop_polls_ready, loop_reads;
+
+static int od_read_vendor_loop(cogw *h)
+{
+	mbx_obj_req rq = { .index = 0x1018, .sub = 1 };
+	uint64_t corr = 0;
+	int rc = cogw_loop_send(h, 0, MBX_CMD_OD_READ, &rq, sizeof rq, 10000, &corr);
+	if (rc < 0)
+		return rc;
+	loop_reads++;
+	for (;;) {
+		struct pollfd pf = { .fd = cogw_loop_fd(h), .events = POLLIN };
+		cogw_msg m;
+		loop_polls++;
+		loop_polls_ready += poll(&pf, 1, cogw_loop_timeout_ms(h)) > 0;
+		cogw_loop_tick(h);
+		while ((rc = cogw_loop_recv(h, &m)) == 0) {
+			bool mine = m.kind == MBX_KIND_RESPONSE && m.corr == corr;
+			int st = m.status;
+			uint32_t got = 0;
+			if (mine && st == 0 && m.len == 4)
+				memcpy(&got, m.data, 4);
+			cogw_msg_release(&m);
+			if (mine)
+				return st < 0 ? st : got == VENDOR_ID ? 0 : COGW_E_PROTOCOL;
+		}
+		if (rc != COGW_E_AGAIN)
+			return rc;
+	}
+}
+
+/* Round trips through the event-loop interface (cogw_loop_*), measured
+ * like mailbox_rtt's blocking calls. */
+static int loop_rtt(double *rtt, size_t max, double seconds, int *errors)
+{
+	cogw *h = NULL;
+	int rc = cogw_loop_open(&h, &(cogw_options){ .instance = instance });
+	if (rc == 0)
+		rc = cogw_loop_attach(h, 0, 10000);
+	if (rc < 0) {
+		printf("event-loop round trip: %s\n", cogw_strerror(rc));
+		cogw_close(h);
+		return -1;
+	}
+	int n = rtt_measure(h, od_read_vendor_loop, "event-loop round trip", rtt, max, seconds,
+			    errors);
+	cogw_close(h);
+	return n;
 }
 
 /* ---- commands/s with N client processes ------------------------------------------ */
@@ -980,8 +1042,8 @@ static int round_trip_figures(double *samples, double raw_mean)
 	enum {
 		ROUNDS = 3
 	};
-	double m50[ROUNDS], m99[ROUNDS], r50[ROUNDS], r99[ROUNDS];
-	int errors = 0, n = 0;
+	double m50[ROUNDS], m99[ROUNDS], r50[ROUNDS], r99[ROUNDS], l50[ROUNDS];
+	int errors = 0, n = 0, loop_errors = 0;
 	char spread[256] = "";
 	for (int r = 0; r < ROUNDS; r++) {
 		int nr = raw_pingpong(samples, SAMPLES_MAX, run_seconds / ROUNDS);
@@ -995,6 +1057,10 @@ static int round_trip_figures(double *samples, double raw_mean)
 		n += nm;
 		m50[r] = bench_percentile(samples, (size_t)nm, 50);
 		m99[r] = bench_percentile(samples, (size_t)nm, 99);
+		int nl = loop_rtt(samples, SAMPLES_MAX, run_seconds / ROUNDS, &loop_errors);
+		if (nl <= 0)
+			return -1;
+		l50[r] = bench_percentile(samples, (size_t)nl, 50);
 		size_t used = strlen(spread);
 		snprintf(spread + used, sizeof spread - used, "%s%.0f/%.0f vs %.0f/%.0f",
 			 r ? "; " : "", m50[r], m99[r], r50[r], r99[r]);
@@ -1020,6 +1086,23 @@ static int round_trip_figures(double *samples, double raw_mean)
 					    .ratio = p99 / raw_p99,
 					    .target = "ratio <= 2.50",
 					    .verdict = bench_verdict(p99 <= 2.5 * raw_p99) });
+	double loop_p50 = bench_percentile(l50, ROUNDS, 50);
+	bench_print_figure(&(bench_figure){
+		.name = "event-loop round trip p50 (cogw_loop_*, OD read 1018h:01)",
+		.value = loop_p50,
+		.unit = "us",
+		.base_name = "blocking call p50, same run",
+		.base_value = p50,
+		.base_unit = "us",
+		.ratio = loop_p50 / p50,
+		.target = "ratio <= 1.30",
+		.verdict = bench_verdict(loop_p50 <= 1.3 * p50) });
+	bench_note("event-loop round trips: %.2f poll() per read, %.2f of them found the "
+		   "descriptor readable",
+		   (double)loop_polls / (double)loop_reads,
+		   (double)loop_polls_ready / (double)loop_polls);
+	if (loop_errors)
+		bench_note("event-loop round trips: %d failed or read a wrong value", loop_errors);
 	bench_note("round trips: %d mailbox (%d failed or wrong value) in %d rounds, each round's "
 		   "mailbox p50/p99 vs raw p50/p99 in us: %s; raw messages %zu/%zu bytes in "
 		   "queues of %d; raw mean before the daemon started %.0f us",
@@ -1239,7 +1322,7 @@ int main(int argc, char **argv)
 		return child > 0 && WIFEXITED(st) ? WEXITSTATUS(st) : 1;
 	}
 	/* COGW_BENCH_MAILBOX_ONLY=oneshot: the daemon and the one-shot figure
-	 * alone; =fanout: the fan-out figures alone */
+	 * alone; =fanout: the fan-out figures alone; =rtt (below) */
 	const char *only = getenv("COGW_BENCH_MAILBOX_ONLY");
 	bool oneshot_only = only && strcmp(only, "oneshot") == 0;
 	const char *secs = getenv("COGW_BENCH_SECONDS");
@@ -1268,6 +1351,8 @@ int main(int argc, char **argv)
 	       run_seconds, msg_max, limit);
 
 	bool fanout_only = only && strcmp(only, "fanout") == 0;
+	/* =rtt: the round trips alone (blocking, event loop, raw) */
+	bool rtt_only = only && strcmp(only, "rtt") == 0;
 	double raw_mean = 0;
 	if (oneshot_only) {
 		if (write_config(cfg, depth) == 0 &&
@@ -1279,11 +1364,11 @@ int main(int argc, char **argv)
 		   write_config(cfg, depth) == 0 &&
 		   bench_daemon_start(&d, cfg, instance, log) == 0 && (daemon_pid = d.pid) > 0 &&
 		   (fanout_only || round_trip_figures(samples, raw_mean) == 0)) {
-		if (!fanout_only) {
+		if (!fanout_only && !rtt_only) {
 			command_rate_figures(1e6 / raw_mean);
 			oneshot_figure(tmpdir);
 		}
-		if (fanout_figures(msg_max) == 0)
+		if (rtt_only || fanout_figures(msg_max) == 0)
 			status = 0;
 	}
 	bench_daemon_stop(&d);

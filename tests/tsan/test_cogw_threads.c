@@ -24,6 +24,11 @@
  * Checked: no data race (TSan fails the run on one), every answer reaches
  * exactly the thread that asked with its own value, every asynchronous
  * answer arrives once, events arrive, and no answer is left over as stray.
+ *
+ * And loop handles (cogw_loop_*), one per thread as event loops use them,
+ * each thread polling its handle's descriptor, with answers held back and
+ * overtaking each other and events coming: no data race between them (the
+ * library keeps no state across handles), every answer once and right.
  */
 #include <errno.h>
 #include <poll.h>
@@ -220,6 +225,8 @@ static void *event_user(void *arg)
 
 void setUp(void)
 {
+	atomic_store(&stop, false);
+	n_held = 0;
 	snprintf(instance, sizeof instance, "ts%d", (int)getpid());
 	TEST_ASSERT_EQUAL_INT(0, mbx_queue_name(qname, sizeof qname, instance, LINE));
 	mbx_server_config cfg = {
@@ -273,9 +280,84 @@ static void test_threads_share_one_handle(void)
 	TEST_ASSERT_EQUAL_UINT64(0, st.async_dropped);
 }
 
+#define LOOPS 3
+#define LOOP_READS 300
+
+/* One event loop on its own loop handle: up to 4 reads under way (the
+ * server's per-client limit), half of them held back by the fake line;
+ * each answer checked by the sub-index that names this loop. */
+static void *loop_user(void *arg)
+{
+	unsigned id = (unsigned)(uintptr_t)arg;
+	unsigned sent = 0, answered = 0, evts = 0;
+	uint64_t since = now_us();
+	cogw *h = NULL;
+
+	if (cogw_loop_open(&h, &(cogw_options){ .instance = instance }) != 0 ||
+	    cogw_loop_attach(h, LINE, 20000) != 0 ||
+	    cogw_subscribe(h, LINE, MBX_EVC_EMCY, NULL, 0, 20000) != 0) {
+		atomic_fetch_add(&failed, 1);
+		cogw_close(h);
+		return NULL;
+	}
+	while (answered < LOOP_READS && now_us() - since < 20000000u) {
+		while (sent - answered < 4 && sent < LOOP_READS) {
+			mbx_obj_req r = { .index = sent % 2 ? 0x3000 : 0x2000,
+					  .sub = (uint8_t)(0x40 + id) };
+
+			if (cogw_loop_send(h, LINE, MBX_CMD_OD_READ, &r, sizeof r, 20000, NULL) !=
+			    0)
+				break;
+			sent++;
+		}
+		struct pollfd pf = { .fd = cogw_loop_fd(h), .events = POLLIN };
+		cogw_msg m;
+
+		poll(&pf, 1, cogw_loop_timeout_ms(h));
+		cogw_loop_tick(h);
+		while (cogw_loop_recv(h, &m) == 0) {
+			if (m.kind == MBX_KIND_EVENT) {
+				evts++;
+			} else if (m.status == 0 && m.len == 4 && m.data[2] == 0x40 + id) {
+				answered++;
+				since = now_us();
+			} else {
+				fprintf(stderr, "loop %u: status %d len %zu\n", id, m.status,
+					m.len);
+				atomic_fetch_add(&wrong, 1);
+				answered++;
+			}
+			cogw_msg_release(&m);
+		}
+	}
+	if (answered != LOOP_READS)
+		atomic_fetch_add(&failed, 1);
+	atomic_fetch_add(&events, evts);
+	cogw_close(h);
+	return NULL;
+}
+
+static void test_loop_handles_one_per_thread(void)
+{
+	pthread_t t[LOOPS];
+
+	atomic_store(&failed, 0);
+	atomic_store(&wrong, 0);
+	atomic_store(&events, 0);
+	for (unsigned i = 0; i < LOOPS; i++)
+		TEST_ASSERT_EQUAL_INT(0,
+				      pthread_create(&t[i], NULL, loop_user, (void *)(uintptr_t)i));
+	for (unsigned i = 0; i < LOOPS; i++)
+		pthread_join(t[i], NULL);
+	TEST_ASSERT_EQUAL_UINT_MESSAGE(0, atomic_load(&failed), "a loop did not get every answer");
+	TEST_ASSERT_EQUAL_UINT_MESSAGE(0, atomic_load(&wrong), "a wrong answer");
+	TEST_ASSERT_TRUE_MESSAGE(atomic_load(&events) > 0, "no event arrived");
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
 	RUN_TEST(test_threads_share_one_handle);
+	RUN_TEST(test_loop_handles_one_per_thread);
 	return UNITY_END();
 }
