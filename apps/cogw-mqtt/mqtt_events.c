@@ -560,7 +560,7 @@ void events_on_connect(bridge *b)
 	char t[TOPIC_MAX];
 
 	/* the broker may have lost its retained messages (restarted without
-	 * persistence): the boot status from memory, the rest asked again */
+	 * persistence): what the bridge knows from memory, then all asked again */
 	for (unsigned l = 0; l < b->daemon.n_lines; l++) {
 		const manager_state *ms = &b->managers[l];
 
