@@ -22,8 +22,8 @@ each class of bad input (malformed JSON, unknown op, bad fields, unknown
 objects/networks/nodes, oversized, a flood), the broker restarted mid-run
 (birth again, queued messages delivered, drops counted), the daemon
 restarted under its bridge, a bridge started after the manager became
-operational (the present state published at its birth), a broker refusing the client's credentials and
-TLS with a wrong CA (and with the right one).
+operational (the present state published at its birth), a broker refusing
+the client's credentials and TLS with a wrong CA (and with the right one).
 
 Output in Unity's format for tests/run-tests. Runs inside the vcan VM
 (tests/interop/run-mqtt), from the repository root.
