@@ -78,6 +78,14 @@ typedef struct node_state {
 	} emcy[16];
 } node_state;
 
+/* What the bridge knows of one line's CiA 302-2 manager (republished on
+ * every connect, asked for at every subscription and counters period). */
+typedef struct manager_state {
+	bool known;
+	uint8_t state; /* co_mgr_state */
+	uint8_t flags; /* CO_MGR_F_* */
+} manager_state;
+
 typedef struct bridge_stats {
 	uint64_t published, queued, dropped, dropped_bytes, connects, connect_failures, disconnects;
 	uint64_t events, events_lost; /* mailbox events, and lost before us */
@@ -130,6 +138,7 @@ struct bridge {
 	double tokens;
 	uint64_t tokens_ms;
 	node_state *nodes; /* [line * 128 + node] */
+	manager_state managers[COGW_LINES_MAX];
 	bridge_watch watch[MQTT_WATCH_MAX];
 	size_t n_watch;
 	bool cfg_watch_removed[MQTT_WATCH_MAX];  /* by a watch_remove request */

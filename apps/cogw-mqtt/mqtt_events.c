@@ -2,8 +2,9 @@
 /*
  * apps/cogw-mqtt/mqtt_events.c - what the bridge publishes on its own
  * (docs/mqtt.md "Topics"): the mailbox events of every line turned into
- * JSON on per-network, per-node topics, the node table and boot status as
- * retained state (republished on every connect to the broker), an EMCY
+ * JSON on per-network, per-node topics, the node table, boot status and
+ * manager state as retained state (asked of the daemon at every
+ * subscription, republished on every connect to the broker), an EMCY
  * history per node, and the daemon's and the bridge's counters on a slow
  * period.
  */
@@ -224,16 +225,48 @@ static void on_node_diag(bridge *b, unsigned line, const cogw_msg *m)
 	link_publish_json(b, t, o, true, NULL);
 }
 
-static void on_mgr_state(bridge *b, unsigned line, const mbx_ev_mgr *e)
+/* The line's manager state, retained; `prev` only on a change (-1: the
+ * state as asked for or republished). */
+static void publish_manager(bridge *b, unsigned line, uint8_t state, int prev, uint8_t flags)
 {
 	cJSON *o = head(b, line, -1);
 	char t[TOPIC_MAX];
 
-	cJSON_AddStringToObject(o, "state", co_mgr_state_to_string(e->state));
-	cJSON_AddStringToObject(o, "prev", co_mgr_state_to_string(e->prev));
-	cJSON_AddNumberToObject(o, "flags", e->flags);
+	cJSON_AddStringToObject(o, "state", co_mgr_state_to_string(state));
+	if (prev >= 0)
+		cJSON_AddStringToObject(o, "prev", co_mgr_state_to_string((uint8_t)prev));
+	cJSON_AddNumberToObject(o, "flags", flags);
 	net_topic(b, line, "manager", t, sizeof t);
 	link_publish_json(b, t, o, true, NULL);
+}
+
+static void on_mgr_state(bridge *b, unsigned line, const mbx_ev_mgr *e)
+{
+	manager_state *ms = &b->managers[line];
+
+	*ms = (manager_state){ .known = true, .state = e->state, .flags = e->flags };
+	publish_manager(b, line, e->state, e->prev, e->flags);
+}
+
+/* The manager's present state (MGR_STATUS): a manager that changed state
+ * before the bridge subscribed, or whose change was lost, sends no event
+ * the bridge could have seen; published when it differs from what the
+ * bridge knew. */
+static void on_mgr_status(bridge *b, unsigned line, const cogw_msg *m)
+{
+	manager_state *ms = &b->managers[line];
+	mbx_mgr_status s;
+
+	if (m->len < offsetof(mbx_mgr_status, first_error_node))
+		return;
+	memcpy(&s, m->data, offsetof(mbx_mgr_status, first_error_node));
+	if (ms->known && ms->state == s.state && ms->flags == s.flags)
+		return;
+	int prev = ms->known ? ms->state : -1;
+
+	*ms = (manager_state){ .known = true, .state = s.state, .flags = s.flags };
+	if (b->cfg.pub_manager)
+		publish_manager(b, line, s.state, prev, s.flags);
 }
 
 static void on_mgr_node(bridge *b, unsigned line, const mbx_ev_mgr *e)
@@ -452,6 +485,8 @@ void events_on_internal(bridge *b, pending *p, const cogw_msg *m)
 	}
 	if (p->cmd == MBX_CMD_NODE_TABLE)
 		on_node_table(b, p->line, m);
+	else if (p->cmd == MBX_CMD_MGR_STATUS)
+		on_mgr_status(b, p->line, m);
 	else if (p->cmd == MBX_CMD_GW_ROUTES)
 		on_gw_status(b, p->line, m);
 	else if (p->cmd == MBX_CMD_MGR_NODE_DIAG)
@@ -504,10 +539,20 @@ static void publish_bridge_counters(bridge *b)
 	link_publish_json(b, t, o, false, NULL);
 }
 
+/* The state the daemon has now, for what only events would tell: the
+ * manager's state first (one slot, before the node table's diagnostics
+ * and the watches take the rest), then the node table. */
+static void request_state(bridge *b, unsigned line)
+{
+	if (b->cfg.pub_manager && b->daemon.lines[line].manager.enabled)
+		bridge_send_internal(b, line, MBX_CMD_MGR_STATUS, NULL, 0);
+	bridge_send_internal(b, line, MBX_CMD_NODE_TABLE, NULL, 0);
+}
+
 static void request_tables(bridge *b)
 {
 	for (unsigned l = 0; l < b->daemon.n_lines; l++)
-		bridge_send_internal(b, l, MBX_CMD_NODE_TABLE, NULL, 0);
+		request_state(b, l);
 }
 
 void events_on_connect(bridge *b)
@@ -515,8 +560,12 @@ void events_on_connect(bridge *b)
 	char t[TOPIC_MAX];
 
 	/* the broker may have lost its retained messages (restarted without
-	 * persistence): the boot status from memory, the rest asked again */
-	for (unsigned l = 0; l < b->daemon.n_lines; l++)
+	 * persistence): what the bridge knows from memory, then all asked again */
+	for (unsigned l = 0; l < b->daemon.n_lines; l++) {
+		const manager_state *ms = &b->managers[l];
+
+		if (ms->known && b->cfg.pub_manager)
+			publish_manager(b, l, ms->state, -1, ms->flags);
 		for (unsigned n = 1; n < 128; n++) {
 			node_state *ns = node_of(b, l, (uint8_t)n);
 
@@ -528,6 +577,7 @@ void events_on_connect(bridge *b)
 					     true, NULL);
 			}
 		}
+	}
 	request_tables(b);
 }
 
@@ -549,7 +599,7 @@ void events_service(bridge *b)
 
 			if (rc == 0) {
 				b->subscribed[l] = classes;
-				bridge_send_internal(b, l, MBX_CMD_NODE_TABLE, NULL, 0);
+				request_state(b, l);
 				mqtt_watch_arm(b, l);
 			} else {
 				all = false;

@@ -21,8 +21,9 @@ process values of a configured watch), MQTT 5 request/response and the 3.1.1 fal
 each class of bad input (malformed JSON, unknown op, bad fields, unknown
 objects/networks/nodes, oversized, a flood), the broker restarted mid-run
 (birth again, queued messages delivered, drops counted), the daemon
-restarted under its bridge, a broker refusing the client's credentials and
-TLS with a wrong CA (and with the right one).
+restarted under its bridge, a bridge started after the manager became
+operational (the present state published at its birth), a broker refusing
+the client's credentials and TLS with a wrong CA (and with the right one).
 
 Output in Unity's format for tests/run-tests. Runs inside the vcan VM
 (tests/interop/run-mqtt), from the repository root.
@@ -730,6 +731,41 @@ def test_a_long_watch_list_is_armed_at_once():
         stop("bridge-c")
 
 
+def test_a_bridge_started_late_publishes_the_present_manager_state():
+    """The manager of network 1 became operational before this bridge was
+    there: no state event will come, the bridge asks for the state at its
+    birth and publishes it retained (the counters period of 10 minutes
+    rules out the periodic repair)."""
+    def manager_operational():
+        r = subprocess.run([os.path.join(BIN, "cogwctl"), "--instance", "mqa", "--timeout",
+                            "1000", "manager", "0", "--json"], capture_output=True, text=True)
+        return r.returncode == 0 and json.loads(r.stdout)["state"] == "operational"
+    wait_until("the manager of network 1 operational", manager_operational, timeout=60)
+    since = CLIENT.mark()
+    start_bridge("m", bridge_config("gw-m", os.path.join(WORK, "cogwd-a.json"),
+                                    publish={"counters_period_s": 600}))
+    try:
+        p = CLIENT.wait("cogw/gw-m/net/1/manager", since=since, timeout=20)
+        eq("operational", p["state"], f"gw-m's manager state of network 1: {p}")
+        check("prev" not in p and isinstance(p["flags"], int), f"the state's payload: {p}")
+        # retained: a client that subscribes now gets it from the broker
+        late = Client(name="late-m")
+        late.start()
+        try:
+            late.wait("cogw/gw-m/net/1/manager", lambda p: p["state"] == "operational",
+                      timeout=5)
+            with late.lock:
+                retained = [m[3] for m in late.msgs if m[1] == "cogw/gw-m/net/1/manager"]
+            check(retained and all(retained), f"not retained: {retained}")
+        finally:
+            late.stop()
+        # network 2 has no manager: nothing to publish
+        check(not CLIENT.find("cogw/gw-m/net/2/manager", since=since),
+              "a manager state for network 2, which has no manager")
+    finally:
+        stop("bridge-m")
+
+
 def test_counters_of_daemon_and_bridge():
     m = CLIENT.wait("cogw/gw-a/net/1/counters/mailbox")
     check(m["mailbox"]["commands_ok"] > 0, f"mailbox counters: {m}")
@@ -920,6 +956,7 @@ def main():
                   test_broker_restart_birth_again_queue_delivered_drops_counted,
                   test_daemon_restarted_under_the_bridge,
                   test_a_long_watch_list_is_armed_at_once,
+                  test_a_bridge_started_late_publishes_the_present_manager_state,
                   test_last_will_when_a_bridge_dies,
                   test_broker_refusing_the_client_and_tls_with_wrong_and_right_ca):
             only = os.environ.get("COGW_TEST_ONLY")
