@@ -391,7 +391,7 @@ install: all
 	install -m 644 $(REL_CORE_LIB) $(REL_COGW_LIB) $(DESTDIR)$(PREFIX)/lib/
 	cp -P $(REL)/lib/libcogw.so* $(DESTDIR)$(PREFIX)/lib/
 	install -m 644 core/*.h $(DESTDIR)$(PREFIX)/include/cogw/core/
-	install -m 644 mailbox/cogw.h mailbox/proto.h $(DESTDIR)$(PREFIX)/include/cogw/mailbox/
+	install -m 644 mailbox/cogw.h mailbox/proto.h mailbox/proto_health.h mailbox/cogw_health.h $(DESTDIR)$(PREFIX)/include/cogw/mailbox/
 	$(if $(PROGRAM_BINS),install -m 755 $(PROGRAM_BINS) $(DESTDIR)$(PREFIX)/bin/)
 	sed 's|/usr/local/bin/cogwd|$(PREFIX)/bin/cogwd|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogwd.service \
 		> $(DESTDIR)$(UNITDIR)/cogwd.service

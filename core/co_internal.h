@@ -32,6 +32,7 @@ struct co_errctrl;
 struct co_hb;
 struct co_guard;
 struct co_emcy;
+struct co_commfault;
 struct co_sync;
 struct co_time;
 struct co_pdo;
@@ -64,6 +65,9 @@ struct co_node {
 	struct co_guard *guard;     /* core/guarding.c: node guarding, master
 	                             * and slave (100Ch/100Dh) */
 	struct co_emcy *emcy;       /* core/emcy.c */
+	struct co_commfault *commfault; /* core/commfault.c: controller
+	                                 * states, lost frames, node-ID
+	                                 * collision */
 	struct co_sync *sync;       /* core/sync.c */
 	struct co_time *time;       /* core/time.c */
 	struct co_pdo *pdo;         /* core/pdo.c */

@@ -47,6 +47,10 @@ typedef struct line_params {
 	                           * thread has storage work (-1 = none) */
 	line_ext ext[LINE_EXT_MAX]; /* extensions (lines/line_ext.h), in
 	                             * order; entries with ops NULL unused */
+	uint32_t id_conflict_quiet_ms; /* a node-ID collision is over after
+	                                * this silence (0 = 5000) */
+	uint32_t fault_quiet_ms;       /* lost frames: an episode is over after
+	                                * this silence (0 = 1000) */
 	co_pdo_layout *pdo_layout;  /* the slaves' learned PDO layouts
 	                             * (core/pdo_layout.h), used by the line's
 	                             * extensions on its thread; owned by the

@@ -28,6 +28,8 @@ static const struct {
 	{ MBX_CMD_NMT, line_nmt_command }, /* line_nmt.c */
 	{ MBX_CMD_NODE_TABLE, line_node_table },
 	{ MBX_CMD_LINE_STATUS, line_status }, /* line_bus.c */
+	{ MBX_CMD_LINE_HEALTH, line_health }, /* line_health.c */
+	{ MBX_CMD_LINE_HEALTH_RESET, line_health_reset },
 	{ MBX_CMD_EMCY_SEND, line_emcy_send },
 	{ MBX_CMD_RAW_SEND, line_raw_send },
 	{ MBX_CMD_STORE, line_store_command }, /* line_store.c */

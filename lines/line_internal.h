@@ -110,6 +110,18 @@ struct line {
 	uint64_t time_unusable; /* not produced: clock outside 1984..2163 */
 	bool time_clock_logged;
 	can_bus_state bus_state_prev;
+	struct line_health {
+		uint8_t tec, rec;  /* last error counters an error frame carried */
+		uint32_t restarts; /* controller restarts after bus-off */
+		bool pressure_active;
+		bool pressure_seen;
+		uint32_t pressure_episodes;
+		uint64_t pressure_last_us;
+		/* port counters already turned into fault occurrences */
+		uint64_t seen_rx_drops, seen_tx_lost;
+		/* port counters at the last LINE_HEALTH_RESET */
+		uint64_t base_rx_drops, base_tx_drops, base_tx_errors;
+	} health; /* line_health.c */
 	/* the link may have changed: bus state changes, receive errors
 	 * (ENETDOWN when the interface goes down); line_link_events */
 	uint32_t link_events;
@@ -187,7 +199,16 @@ void line_raw_send(line *l, const mbx_request *req);
 
 /* line_events.c */
 void line_on_core_event(void *ctx, const co_event *ev);
+
+/* line_health.c */
+int line_health_attach(line *l); /* after the node exists */
 void line_on_can_error(line *l, const can_rx_item *it);
+void line_health_on_fault(line *l, const co_ev_commfault *f);
+/* After the events of a loop iteration: frames the port lost, the
+ * transmit queue's watermarks. */
+void line_health_poll(line *l);
+void line_health(line *l, const mbx_request *req);
+void line_health_reset(line *l, const mbx_request *req);
 void line_publish_raw(line *l, const co_frame *f, uint64_t ts_ns);
 
 /* line_pdo.c */

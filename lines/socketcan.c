@@ -74,8 +74,9 @@ void can_error_decode(uint32_t can_id, const uint8_t data[8], can_bus_state curr
 	}
 	if (cls & CAN_ERR_CRTL) {
 		uint8_t c = data[1];
-		if (c & (CAN_ERR_CRTL_RX_OVERFLOW | CAN_ERR_CRTL_TX_OVERFLOW))
-			out->controller_problem = true;
+		out->rx_overflow = c & CAN_ERR_CRTL_RX_OVERFLOW;
+		out->tx_overflow = c & CAN_ERR_CRTL_TX_OVERFLOW;
+		out->controller_problem = out->rx_overflow || out->tx_overflow;
 		if (c & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE))
 			next = CAN_BUS_PASSIVE;
 		else if (c & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING))

@@ -40,6 +40,8 @@ typedef struct can_error_info {
 	can_bus_state state;
 	bool restarted;          /* controller restarted after bus-off */
 	bool controller_problem; /* e.g. controller rx/tx overflow */
+	bool rx_overflow;        /* the controller lost received frames */
+	bool tx_overflow;        /* ... or frames to transmit */
 	bool protocol_violation; /* form/stuff/bit errors */
 	bool tx_timeout;
 	bool lost_arbitration;

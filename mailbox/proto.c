@@ -371,6 +371,8 @@ const char *mbx_event_to_string(unsigned code)
 		return "raw";
 	case MBX_EV_CAN_STATE:
 		return "can-state";
+	case MBX_EV_COMM_FAULT:
+		return "comm-fault";
 	case MBX_EV_MGR_STATE:
 		return "manager-state";
 	case MBX_EV_MGR_BOOT:
@@ -423,6 +425,7 @@ uint32_t mbx_event_class_of(unsigned code)
 	case MBX_EV_RAW:
 		return MBX_EVC_RAW;
 	case MBX_EV_CAN_STATE:
+	case MBX_EV_COMM_FAULT:
 		return MBX_EVC_CAN;
 	case MBX_EV_MGR_STATE:
 	case MBX_EV_MGR_NODE:
@@ -983,6 +986,8 @@ static const mbx_cmd_info cmd_table[] = {
 	  check_lss },
 	{ MBX_CMD_LSS_FASTSCAN, W, sizeof(mbx_lss_req), 0, "lss-fastscan", check_lss },
 	{ MBX_CMD_LINE_STATUS, R, 0, 0, "line-status", NULL },
+	{ MBX_CMD_LINE_HEALTH, R, 0, 0, "line-health", NULL },
+	{ MBX_CMD_LINE_HEALTH_RESET, W, 0, 0, "line-health-reset", NULL },
 	{ MBX_CMD_STORE, W, sizeof(mbx_store_req), 0, "store", check_store_req },
 	{ MBX_CMD_RESTORE, W, sizeof(mbx_store_req), 0, "restore", check_store_req },
 	{ MBX_CMD_MGR_STATUS, R, 0, 0, "manager-status", NULL },
@@ -1121,6 +1126,8 @@ int mbx_event_validate(unsigned code, const uint8_t *p, size_t len)
 		return len == sizeof(mbx_ev_raw) ? 0 : MBX_E_MALFORMED;
 	case MBX_EV_CAN_STATE:
 		return len == sizeof(mbx_ev_can_state) ? 0 : MBX_E_MALFORMED;
+	case MBX_EV_COMM_FAULT:
+		return len == sizeof(mbx_ev_comm_fault) ? 0 : MBX_E_MALFORMED;
 	case MBX_EV_MGR_STATE:
 	case MBX_EV_MGR_BOOT:
 	case MBX_EV_MGR_NODE:
