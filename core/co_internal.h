@@ -60,18 +60,18 @@ struct co_node {
 	struct co_store *store;     /* core/store.c (1010h/1011h) */
 	struct co_nmt *nmt;         /* core/nmt.c */
 	struct co_errctrl *errctrl; /* core/errctrl.c: what heartbeat and
-	                             * guarding share (losses, bus-off) */
+	                             * guarding share (losses) */
 	struct co_hb *hb;           /* core/heartbeat.c: producer/consumer */
 	struct co_guard *guard;     /* core/guarding.c: node guarding, master
 	                             * and slave (100Ch/100Dh) */
 	struct co_emcy *emcy;       /* core/emcy.c */
-	struct co_commfault *commfault; /* core/commfault.c: controller
-	                                 * states, lost frames, node-ID
-	                                 * collision */
 	struct co_sync *sync;       /* core/sync.c */
 	struct co_time *time;       /* core/time.c */
 	struct co_pdo *pdo;         /* core/pdo.c */
 	struct co_lss *lss;         /* core/lss_service.c: master and slave */
+
+	/* core/commfault.c: controller states, lost frames, node-ID collision */
+	struct co_commfault *commfault;
 };
 
 #endif /* COGW_CORE_CO_INTERNAL_H */

@@ -256,8 +256,9 @@ static int commfault_init(co_node *node)
 	cf->rx = -1;
 	for (unsigned i = 0; i < CO_COMM_FAULT_COUNT; i++) {
 		cf->f[i].end_us = CO_NO_DEADLINE;
-		cf->f[i].quiet_ms = i == CO_COMM_FAULT_ID_COLLISION ? CO_COMMFAULT_ID_COLLISION_QUIET_MS
-								     : CO_COMMFAULT_LOST_QUIET_MS;
+		cf->f[i].quiet_ms = i == CO_COMM_FAULT_ID_COLLISION
+					    ? CO_COMMFAULT_ID_COLLISION_QUIET_MS
+					    : CO_COMMFAULT_LOST_QUIET_MS;
 	}
 	return listen_own_id(node);
 }

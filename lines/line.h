@@ -47,14 +47,14 @@ typedef struct line_params {
 	                           * thread has storage work (-1 = none) */
 	line_ext ext[LINE_EXT_MAX]; /* extensions (lines/line_ext.h), in
 	                             * order; entries with ops NULL unused */
-	uint32_t id_conflict_quiet_ms; /* a node-ID collision is over after
-	                                * this silence (0 = 5000) */
-	uint32_t fault_quiet_ms;       /* lost frames: an episode is over after
-	                                * this silence (0 = 1000) */
 	co_pdo_layout *pdo_layout;  /* the slaves' learned PDO layouts
 	                             * (core/pdo_layout.h), used by the line's
 	                             * extensions on its thread; owned by the
 	                             * caller, outlives the line; NULL = none */
+	/* bus health (lines/line_health.c): an episode is over after this
+	 * silence; 0 = the default */
+	uint32_t id_conflict_quiet_ms; /* a node-ID collision (5000) */
+	uint32_t fault_quiet_ms;       /* lost frames (1000) */
 } line_params;
 
 /* Counters published by the line thread about once per second. */

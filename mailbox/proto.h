@@ -208,7 +208,7 @@ typedef enum mbx_cmd {
 	MBX_CMD_LSS_IDENTIFY_NONCONF = 0x0709, /* -> found */
 	MBX_CMD_LSS_FASTSCAN = 0x070A,         /* timeout_ms -> id[4] */
 	/* 0x08xx line status and statistics */
-	MBX_CMD_LINE_STATUS = 0x0801, /* R - -> mbx_line_status */
+	MBX_CMD_LINE_STATUS = 0x0801,       /* R - -> mbx_line_status */
 	MBX_CMD_LINE_HEALTH = 0x0802,       /* R - -> mbx_line_health */
 	MBX_CMD_LINE_HEALTH_RESET = 0x0803, /* W -: zero its counters */
 	/* 0x09xx store / restore (1010h / 1011h of the line's OD) */

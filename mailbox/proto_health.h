@@ -31,14 +31,15 @@ enum mbx_fault {
 static inline const char *mbx_fault_to_string(unsigned fault)
 {
 	static const char *const names[MBX_FAULT_COUNT] = {
-		"id-collision", "warning", "passive", "bus-off", "rx-overrun", "tx-lost", "tx-pressure",
+		"id-collision", "warning", "passive",     "bus-off",
+		"rx-overrun",   "tx-lost", "tx-pressure",
 	};
 	return fault < MBX_FAULT_COUNT ? names[fault] : "?";
 }
 
 typedef struct mbx_fault_counters {
-	uint8_t active;       /* an episode runs */
-	uint8_t info;         /* id-collision: the state byte last heard */
+	uint8_t active; /* an episode runs */
+	uint8_t info;   /* id-collision: the state byte last heard */
 	uint16_t pad;
 	uint32_t episodes;    /* begun since the last reset */
 	uint32_t occurrences; /* frames or reports since the last reset */

@@ -88,6 +88,7 @@ static const char *const line_keys[] = { "name",           "interface",
 					 "values",         "nodes",
 					 "manager",        "pdo",
 					 "pdo_scan_max",   "device_objects",
+					 "fault_quiet_ms", "id_conflict_quiet_ms",
 					 "comment",        NULL };
 static const char *const node_keys[] = { "id",
 					 "config",
@@ -1158,6 +1159,8 @@ static void line_defaults(cogw_line_config *l, size_t idx)
 	l->heartbeat_ms = 1000;
 	l->pdo = COGW_PDO_OFF;
 	l->pdo_scan_max = COGW_PDO_SCAN_MAX_DEFAULT;
+	l->id_conflict_quiet_ms = 5000;
+	l->fault_quiet_ms = 1000;
 	l->device_objects = (cogw_devobj_config){ .read_max_age_ms = 1000,
 						  .write_update_ms = 10,
 						  .watches = 64 };
@@ -1333,6 +1336,9 @@ static int parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_confi
 	    (rc = opt_u16(c, o, "heartbeat_ms", path, 0, 65535, &l->heartbeat_ms)) ||
 	    (rc = opt_u32(c, o, "sync_period_us", path, 0, UINT32_MAX, &l->sync_period_us)) ||
 	    (rc = opt_u32(c, o, "time_period_ms", path, 0, 86400000, &l->time_period_ms)) ||
+	    (rc = opt_u32(c, o, "id_conflict_quiet_ms", path, 100, 3600000,
+			  &l->id_conflict_quiet_ms)) ||
+	    (rc = opt_u32(c, o, "fault_quiet_ms", path, 100, 3600000, &l->fault_quiet_ms)) ||
 	    (rc = opt_u16(c, o, "rpdos", path, 0, 512, &so.rpdos)) ||
 	    (rc = opt_u16(c, o, "tpdos", path, 0, 512, &so.tpdos)) ||
 	    (rc = opt_u16(c, o, "pdo_scan_max", path, 1, CO_PDO_MAX, &l->pdo_scan_max)) ||
@@ -1806,6 +1812,9 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next, c
 			      "sdo_block_threshold");
 			LDIFF(x->sync_period_us != y->sync_period_us, "sync_period_us");
 			LDIFF(x->time_period_ms != y->time_period_ms, "time_period_ms");
+			LDIFF(x->id_conflict_quiet_ms != y->id_conflict_quiet_ms,
+			      "id_conflict_quiet_ms");
+			LDIFF(x->fault_quiet_ms != y->fault_quiet_ms, "fault_quiet_ms");
 			/* The OD follows from the keys above: name it only when
 			 * they do not explain the difference. */
 			LDIFF(!changed && x->od && y->od && !od_same(x->od, y->od),

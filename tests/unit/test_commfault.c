@@ -31,7 +31,9 @@ static void assert_emcy(unsigned nth, uint16_t code, uint8_t reg, uint8_t msef0)
 			continue;
 		if (seen++ != nth)
 			continue;
-		const uint8_t exp[8] = { (uint8_t)code, (uint8_t)(code >> 8), reg, msef0, 0, 0, 0, 0 };
+		const uint8_t exp[8] = {
+			(uint8_t)code, (uint8_t)(code >> 8), reg, msef0, 0, 0, 0, 0
+		};
 		TEST_ASSERT_EQUAL_UINT8(8, x.tx[i].len);
 		TEST_ASSERT_EQUAL_HEX8_ARRAY(exp, x.tx[i].data, 8);
 		return;
@@ -162,8 +164,7 @@ static void test_passive_bus_off_recovery(void)
 static void test_overrun_and_tx_lost_share_8110(void)
 {
 	ecf_boot(&x, ID);
-	TEST_ASSERT_EQUAL_INT(0,
-			      co_commfault_set_quiet_ms(x.node, CO_COMM_FAULT_RX_OVERRUN, 100));
+	TEST_ASSERT_EQUAL_INT(0, co_commfault_set_quiet_ms(x.node, CO_COMM_FAULT_RX_OVERRUN, 100));
 	TEST_ASSERT_EQUAL_INT(0, co_commfault_set_quiet_ms(x.node, CO_COMM_FAULT_TX_LOST, 300));
 	co_commfault_occurred(x.node, CO_COMM_FAULT_RX_OVERRUN, 12, x.now);
 	assert_emcy(0, CO_EMCY_CAN_OVERRUN, 0x11, 1);
@@ -178,7 +179,8 @@ static void test_overrun_and_tx_lost_share_8110(void)
 	TEST_ASSERT_EQUAL_UINT32(12,
 				 co_commfault_get(x.node, CO_COMM_FAULT_RX_OVERRUN)->occurrences);
 	co_commfault_reset_counters(x.node);
-	TEST_ASSERT_EQUAL_UINT32(0, co_commfault_get(x.node, CO_COMM_FAULT_RX_OVERRUN)->occurrences);
+	TEST_ASSERT_EQUAL_UINT32(0,
+				 co_commfault_get(x.node, CO_COMM_FAULT_RX_OVERRUN)->occurrences);
 	TEST_ASSERT_EQUAL_UINT32(0, co_commfault_get(x.node, CO_COMM_FAULT_TX_LOST)->episodes);
 }
 
@@ -190,9 +192,11 @@ static void test_bad_arguments(void)
 	TEST_ASSERT_EQUAL_INT(-EINVAL, co_commfault_occurred(x.node, CO_COMM_FAULT_TX_LOST, 0, 0));
 	TEST_ASSERT_EQUAL_INT(-EINVAL,
 			      co_commfault_set_quiet_ms(x.node, CO_COMM_FAULT_ID_COLLISION, 0));
-	TEST_ASSERT_EQUAL_INT(-EINVAL, co_commfault_set_quiet_ms(x.node, CO_COMM_FAULT_BUS_OFF, 10));
+	TEST_ASSERT_EQUAL_INT(-EINVAL,
+			      co_commfault_set_quiet_ms(x.node, CO_COMM_FAULT_BUS_OFF, 10));
 	TEST_ASSERT_NULL(co_commfault_get(x.node, CO_COMM_FAULT_COUNT));
-	TEST_ASSERT_EQUAL_STRING("id-collision", co_comm_fault_to_string(CO_COMM_FAULT_ID_COLLISION));
+	TEST_ASSERT_EQUAL_STRING("id-collision",
+				 co_comm_fault_to_string(CO_COMM_FAULT_ID_COLLISION));
 	TEST_ASSERT_EQUAL_STRING("tx-lost", co_comm_fault_to_string(CO_COMM_FAULT_TX_LOST));
 	TEST_ASSERT_EQUAL_STRING("?", co_comm_fault_to_string(CO_COMM_FAULT_COUNT));
 }
