@@ -281,7 +281,9 @@ static void handle_can(line *l)
 	for (int round = 0; round < 8; round++) {
 		int n = can_port_recv(l->port, items, RX_BATCH, l->now_us);
 		if (n <= 0) {
-			if (n < 0) {
+			if (n == -ENETDOWN || n == -ENODEV || n == -ENXIO) {
+				line_link_lost(l, -n);
+			} else if (n < 0) {
 				cogw_log(COGW_LOG_WARNING, "line %s: CAN receive: %s", l->name,
 					 strerror(-n));
 				l->link_events++;
@@ -396,6 +398,14 @@ static uint64_t next_deadline(line *l, uint64_t checkin_period)
 	t = line_time_poll(l); /* produces the TIME that is due */
 	if (t < next)
 		next = t;
+	bool reopened = false;
+	t = line_link_poll(l, &reopened); /* an interface that is down: is it back? */
+	if (t < next)
+		next = t;
+	int rc = reopened ? epoll_add(l->epfd, can_port_fd(l->port), EPOLLIN, TAG_CAN) : 0;
+	if (rc < 0)
+		cogw_log(COGW_LOG_ERR, "line %s (%s): cannot watch the new socket: %s", l->name,
+			 l->ifname, strerror(-rc));
 	if (l->now_us + checkin_period / 2 < next)
 		next = l->now_us + checkin_period / 2;
 	return next;

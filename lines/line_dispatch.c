@@ -50,6 +50,10 @@ void line_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 {
 	line *l = ctx;
 	(void)srv;
+	/* the interface is down: no request waits for a bus it cannot reach
+	 * (lines/line_link.c) */
+	if (line_link_refuses(l, req->code))
+		return line_answer(l, &req->reply, MBX_E_STATE, 0, NULL, 0);
 	for (unsigned i = 0; i < l->ext_attached; i++) {
 		const line_ext *x = &l->p.ext[i];
 		if (x->ops && x->ops->on_command && x->ops->cmd_last &&

@@ -68,6 +68,8 @@ static const char *fault_hint(uint8_t fault)
 	case MBX_FAULT_TX_LOST:
 		return "frames not delivered (EMCY 8110h): no ACK (no other node, cable), "
 		       "transmit time-out or the queue full";
+	case MBX_FAULT_LINK_DOWN:
+		return "the interface is down";
 	default:
 		return "transmit queue above its high-water mark";
 	}
@@ -203,6 +205,14 @@ void line_health(line *l, const mbx_request *req)
 	p->episodes = h->pressure_episodes;
 	p->occurrences = h->pressure_episodes;
 	p->age_ms = age_ms(l->now_us, h->pressure_last_us, h->pressure_seen);
+	const struct line_link *k = &l->link;
+	mbx_fault_counters *d = &out.fault[MBX_FAULT_LINK_DOWN];
+	d->active = k->down;
+	d->episodes = k->episodes;
+	d->occurrences = k->episodes;
+	d->age_ms = age_ms(l->now_us, k->since_us, k->since_us != 0);
+	out.reopens = k->reopens;
+	out.last_outage_ms = k->last_outage_ms;
 	line_answer(l, &req->reply, 0, 0, &out, sizeof out);
 }
 
@@ -213,6 +223,8 @@ void line_health_reset(line *l, const mbx_request *req)
 	co_commfault_reset_counters(l->node);
 	h->restarts = 0;
 	h->pressure_episodes = 0;
+	l->link.episodes = 0;
+	l->link.reopens = 0;
 	h->base_rx_drops = cs->rx_overflow_drops;
 	h->base_tx_drops = cs->tx_drops;
 	h->base_tx_errors = cs->tx_errors;

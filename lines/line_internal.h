@@ -122,6 +122,13 @@ struct line {
 		/* port counters at the last LINE_HEALTH_RESET */
 		uint64_t base_rx_drops, base_tx_drops, base_tx_errors;
 	} health; /* line_health.c */
+	struct line_link {
+		bool down;   /* the interface went down or was deleted */
+		bool reopen; /* it was deleted: a new socket when it is back */
+		uint32_t episodes, reopens;
+		uint32_t last_outage_ms;
+		uint64_t since_us, next_probe_us;
+	} link; /* line_link.c */
 	/* the link may have changed: bus state changes, receive errors
 	 * (ENETDOWN when the interface goes down); line_link_events */
 	uint32_t link_events;
@@ -199,6 +206,17 @@ void line_raw_send(line *l, const mbx_request *req);
 
 /* line_events.c */
 void line_on_core_event(void *ctx, const co_event *ev);
+void line_publish_raw(line *l, const co_frame *f, uint64_t ts_ns);
+
+/* line_link.c */
+/* The socket said the interface is down (ENETDOWN) or gone (ENODEV). */
+void line_link_lost(line *l, int err);
+/* While down: look at the interface when due; the next look's time
+ * (UINT64_MAX when up). *reopened: the port has a new socket, which the
+ * caller watches instead of the old one. */
+uint64_t line_link_poll(line *l, bool *reopened);
+/* While down: does this command need the bus (refused with MBX_E_STATE)? */
+bool line_link_refuses(const line *l, uint16_t code);
 
 /* line_health.c */
 int line_health_attach(line *l); /* after the node exists */
@@ -209,7 +227,6 @@ void line_health_on_fault(line *l, const co_ev_commfault *f);
 void line_health_poll(line *l);
 void line_health(line *l, const mbx_request *req);
 void line_health_reset(line *l, const mbx_request *req);
-void line_publish_raw(line *l, const co_frame *f, uint64_t ts_ns);
 
 /* line_pdo.c */
 void line_publish_rpdo_fault(line *l, const co_event *ev);

@@ -22,11 +22,13 @@ enum mbx_fault {
 	MBX_FAULT_TX_LOST = 5,      /* frames not delivered: 8110h */
 	MBX_FAULT_TX_PRESSURE = 6,  /* transmit queue above its high-water mark
 	                             * (until back below the low-water mark) */
-	MBX_FAULT_COUNT = 7
+	MBX_FAULT_LINK_DOWN = 7,    /* the interface is down or deleted (until it
+	                             * is up and running again) */
+	MBX_FAULT_COUNT = 8
 };
 
 /* "id-collision", "warning", "passive", "bus-off", "rx-overrun",
- * "tx-lost", "tx-pressure"; "?" otherwise. Inline: the header is the
+ * "tx-lost", "tx-pressure", "link-down"; "?" otherwise. Inline: the header is the
  * whole of this part of the protocol. */
 static inline const char *mbx_fault_to_string(unsigned fault)
 {
@@ -60,6 +62,8 @@ typedef struct mbx_line_health {
 	uint64_t tx_dropped;        /* refused: transmit queue full */
 	uint64_t tx_errors;         /* the kernel refused them (e.g. link down) */
 	uint64_t tx_queued_max;     /* high-water mark of the transmit queue */
+	uint32_t reopens;           /* new sockets on an interface created again */
+	uint32_t last_outage_ms;    /* how long the interface was down last time */
 	mbx_fault_counters fault[MBX_FAULT_COUNT];
 } mbx_line_health;
 

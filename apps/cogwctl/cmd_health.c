@@ -46,6 +46,8 @@ void ctl_health_json(cJSON *o, const mbx_line_health *hl)
 	cJSON_AddNumberToObject(o, "tx_dropped", (double)hl->tx_dropped);
 	cJSON_AddNumberToObject(o, "tx_errors", (double)hl->tx_errors);
 	cJSON_AddNumberToObject(o, "tx_queued_max", (double)hl->tx_queued_max);
+	cJSON_AddNumberToObject(o, "reopens", hl->reopens);
+	cJSON_AddNumberToObject(o, "last_outage_ms", hl->last_outage_ms);
 	cJSON *faults = cJSON_AddObjectToObject(o, "faults");
 	for (unsigned i = 0; i < MBX_FAULT_COUNT; i++) {
 		const mbx_fault_counters *fc = &hl->fault[i];
@@ -79,6 +81,9 @@ static void health_text(unsigned line, const mbx_line_health *hl)
 		printf("  %-13s  %-6s  %8" PRIu32 "  %11" PRIu32 "  %s\n", mbx_fault_to_string(i),
 		       fc->active ? "ACTIVE" : "-", fc->episodes, fc->occurrences, last);
 	}
+	printf("  interface: last outage %" PRIu32 " ms, %" PRIu32 " new socket%s after it was "
+	       "created again\n",
+	       hl->last_outage_ms, hl->reopens, hl->reopens == 1 ? "" : "s");
 	printf("  quiet times: node-ID conflict %" PRIu32 " ms, lost frames %" PRIu32 " ms\n",
 	       hl->id_collision_quiet_ms, hl->lost_quiet_ms);
 }
@@ -173,7 +178,8 @@ const ctl_cmd ctl_cmd_health = {
 		"The bus health of every line (or the lines given): the CAN controller state and\n"
 		"its error counters, restarts after bus-off, frames lost on receive and refused\n"
 		"on transmit, and per fault (id-collision, warning, passive, bus-off, rx-overrun,\n"
-		"tx-lost, tx-pressure) whether an episode runs now, the episodes and occurrences\n"
+		"tx-lost, tx-pressure, link-down) whether an episode runs now, the episodes and "
+		"occurrences\n"
 		"counted and when the last one was. docs/troubleshooting.md says what each one\n"
 		"means and what to check on the cable.\n"
 		"\n"
