@@ -241,10 +241,11 @@ unit: $(UNIT_BINS)
 integration: $(INTEG_BINS) $(TSAN_VCAN_BINS)
 	tests/vcan/run -n 3 -- tests/run-tests integration $(INTEG_BINS) $(TSAN_VCAN_BINS)
 
-# No call cycle between the files of core/, lines/, mailbox/, gateway/, manager/ or devobj/ (scripts/callgraph-cycles: who
-# calls whose functions, from the object files' symbols).
+# No call cycle between the files of core/, lines/, mailbox/, gateway/, manager/ or devobj/, nor between the files of
+# one folder of apps/ (scripts/callgraph-cycles: who calls whose functions, from the object files' symbols).
 check-callgraph:
 	scripts/callgraph-cycles core lines mailbox gateway manager devobj
+	for d in apps/*/; do scripts/callgraph-cycles $${d%/} || exit 1; done
 
 # Interoperability with python-canopen (tests/interop/): one VM boot for the group.
 # scripts/pyenv.sh installs the pinned packages into build/pyenv on first use.

@@ -2,9 +2,12 @@
 /*
  * apps/cogw-ascii/gateway.h - the CiA 309-3 ASCII gateway process: its
  * connections (server.c: sockets, the epoll loop, line framing, output
- * back-pressure) and their commands (session.c: a command's mailbox
- * request and its answer in one place). One thread; nothing here blocks
- * on a peer. Reference: docs/ascii.md.
+ * back-pressure), their commands (session.c: a command's mailbox request
+ * and its answer in one place) and their output buffers (output.c). One
+ * thread; nothing here blocks on a peer. Reference: docs/ascii.md.
+ *
+ * Calls go down only: main.c -> server.c -> session.c -> output.c
+ * (tests/checks/check_callgraph).
  */
 #ifndef COGW_ASCII_GATEWAY_H
 #define COGW_ASCII_GATEWAY_H
@@ -114,8 +117,6 @@ void session_refuse(gateway *g, conn *c, int err);
 void session_mailbox(gateway *g, const cogw_msg *m);
 /* The connection goes: its requests under way become orphans. */
 void session_conn_gone(gateway *g, conn *c);
-/* An answered request leaves its connection's ring. */
-void session_request_release(gateway *g, request *r);
 /* Answer ERROR: 103 for requests under way too long (called every second). */
 void session_expire(gateway *g);
 /* At exit, after every connection closed: free what is left. */
@@ -124,11 +125,13 @@ void session_free_all(gateway *g);
 int session_line_of_net(const gateway *g, unsigned net);
 
 /* server.c */
+int server_run(gateway *g);
+
+/* output.c */
+/* Bytes queued for c and not yet written. */
+size_t conn_pending_out(const conn *c);
 /* Queue text for c (flushed by the loop). False: the peer is not reading
  * and its output limit is reached: it is dropped. */
-bool server_write(gateway *g, conn *c, const char *text, size_t len);
-/* Answers done at the head of c's ring go out in order. */
-void server_flush_answers(gateway *g, conn *c);
-int server_run(gateway *g);
+bool conn_write(conn *c, const char *text, size_t len);
 
 #endif /* COGW_ASCII_GATEWAY_H */

@@ -32,63 +32,6 @@
 #define TAG_LISTEN 16u /* + listener index */
 #define TAG_MAX 64u    /* below: fixed descriptors; above: a conn pointer */
 
-static size_t pending_out(const conn *c)
-{
-	return c->out_len - c->out_off;
-}
-
-bool server_write(gateway *g, conn *c, const char *text, size_t len)
-{
-	if (c->dead)
-		return false;
-	if (c->out_len + len > c->out_cap) {
-		if (c->out_off) { /* compact first */
-			memmove(c->out, c->out + c->out_off, pending_out(c));
-			c->out_len -= c->out_off;
-			c->out_off = 0;
-		}
-		if (c->out_len + len > c->out_cap) {
-			size_t cap = c->out_cap ? c->out_cap : 4096;
-
-			while (cap < c->out_len + len)
-				cap *= 2;
-			char *o = realloc(c->out, cap);
-
-			if (!o) {
-				c->dead = true;
-				return false;
-			}
-			c->out = o;
-			c->out_cap = cap;
-		}
-	}
-	memcpy(c->out + c->out_len, text, len);
-	c->out_len += len;
-	c->kick = true;
-	(void)g;
-	return true;
-}
-
-void server_flush_answers(gateway *g, conn *c)
-{
-	while (c->count) {
-		request *r = c->slots[c->head];
-
-		if (!r->done)
-			break;
-		if (r->answer)
-			server_write(g, c, r->answer, r->answer_len);
-		else
-			server_write(g, c, "ERROR: 600\n", 11);
-		c->head = (c->head + 1) % g->cfg.max_outstanding;
-		c->count--;
-		free(r->answer);
-		r->answer = NULL;
-		session_request_release(g, r);
-	}
-	c->kick = true;
-}
-
 /* ---- connections -------------------------------------------------------------- */
 
 static void conn_close(gateway *g, conn *c)
@@ -114,8 +57,8 @@ static void conn_close(gateway *g, conn *c)
 
 static void conn_send(conn *c)
 {
-	while (pending_out(c)) {
-		ssize_t n = send(c->fd, c->out + c->out_off, pending_out(c), MSG_NOSIGNAL);
+	while (conn_pending_out(c)) {
+		ssize_t n = send(c->fd, c->out + c->out_off, conn_pending_out(c), MSG_NOSIGNAL);
 
 		if (n < 0) {
 			if (errno == EINTR)
@@ -131,7 +74,7 @@ static void conn_send(conn *c)
 
 static bool can_take_command(const gateway *g, const conn *c)
 {
-	return c->count < g->cfg.max_outstanding && pending_out(c) < g->cfg.max_output;
+	return c->count < g->cfg.max_outstanding && conn_pending_out(c) < g->cfg.max_output;
 }
 
 /* Complete lines in c->in become commands while c can take them. */
@@ -171,7 +114,7 @@ static void conn_lines(gateway *g, conn *c)
 static void conn_arm(gateway *g, conn *c)
 {
 	bool want_in = !c->eof && can_take_command(g, c);
-	bool want_out = pending_out(c) > 0;
+	bool want_out = conn_pending_out(c) > 0;
 
 	if (want_in == c->reading && want_out == c->writing)
 		return;
@@ -211,13 +154,13 @@ static void conn_pump(gateway *g, conn *c)
 			c->dead = true;
 		break;
 	}
-	if (pending_out(c) >= g->cfg.max_output && !c->slow) {
+	if (conn_pending_out(c) >= g->cfg.max_output && !c->slow) {
 		c->slow = true; /* counted once: it is no longer read from */
 		g->st.slow_readers++;
 	}
-	if (c->slow && pending_out(c) < g->cfg.max_output)
+	if (c->slow && conn_pending_out(c) < g->cfg.max_output)
 		c->slow = false;
-	if (c->eof && c->count == 0 && !pending_out(c))
+	if (c->eof && c->count == 0 && !conn_pending_out(c))
 		c->dead = true;
 	if (c->dead) {
 		conn_close(g, c);

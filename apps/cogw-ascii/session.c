@@ -15,7 +15,8 @@
  *     (more would be refused BUSY by the daemon), the rest wait in FIFO
  *     order;
  *  5. session_mailbox: the reply becomes the answer; answers leave in the
- *     order the commands came (server_flush_answers).
+ *     order the commands came (flush_answers, into the connection's
+ *     output: output.c).
  */
 #include "apps/cogw-ascii/gateway.h"
 
@@ -434,13 +435,46 @@ static void request_free(request *r)
 	free(r);
 }
 
+/* A request its connection no longer holds: freed now, or, while the
+ * daemon still works on it, when its reply (or its turn) comes. */
+static void request_release(gateway *g, request *r)
+{
+	if (r->in_flight || r->waiting) {
+		r->conn = NULL;
+		g->st.orphaned++;
+		return;
+	}
+	request_free(r);
+}
+
+/* Answers done at the head of c's ring go out in order. */
+static void flush_answers(gateway *g, conn *c)
+{
+	while (c->count) {
+		request *r = c->slots[c->head];
+
+		if (!r->done)
+			break;
+		if (r->answer)
+			conn_write(c, r->answer, r->answer_len);
+		else
+			conn_write(c, "ERROR: 600\n", 11);
+		c->head = (c->head + 1) % g->cfg.max_outstanding;
+		c->count--;
+		free(r->answer);
+		r->answer = NULL;
+		request_release(g, r);
+	}
+	c->kick = true;
+}
+
 static void finished(gateway *g, request *r)
 {
 	if (!r->conn) {
 		request_free(r); /* its connection went meanwhile */
 		return;
 	}
-	server_flush_answers(g, r->conn);
+	flush_answers(g, r->conn);
 }
 
 static void send_one(gateway *g, request *r)
@@ -557,7 +591,7 @@ void session_line(gateway *g, conn *c, const char *line, size_t len)
 	if (!r || !data) {
 		free(r);
 		free(data);
-		server_write(g, c, "ERROR: 600\n", 11);
+		conn_write(c, "ERROR: 600\n", 11);
 		return;
 	}
 	r->conn = c;
@@ -581,7 +615,7 @@ void session_line(gateway *g, conn *c, const char *line, size_t len)
 			answer_error(r, rc);
 	}
 	free(data);
-	server_flush_answers(g, c);
+	flush_answers(g, c);
 }
 
 void session_refuse(gateway *g, conn *c, int err)
@@ -595,7 +629,7 @@ void session_refuse(gateway *g, conn *c, int err)
 	c->slots[(c->head + c->count) % g->cfg.max_outstanding] = r;
 	c->count++;
 	answer_error(r, err);
-	server_flush_answers(g, c);
+	flush_answers(g, c);
 }
 
 /* ---- replies ---------------------------------------------------------------------- */
@@ -768,7 +802,7 @@ static void deliver_event(gateway *g, const cogw_msg *m)
 
 		memcpy(line, text, n);
 		memcpy(line + n, c->crlf ? "\r\n" : "\n", c->crlf ? 2 : 1);
-		server_write(g, c, line, n + (c->crlf ? 2 : 1));
+		conn_write(c, line, n + (c->crlf ? 2 : 1));
 	}
 }
 
@@ -817,7 +851,7 @@ void session_expire(gateway *g)
 			continue;
 		}
 		answer_error(r, ASCII_E_TIMEOUT);
-		server_flush_answers(g, r->conn);
+		flush_answers(g, r->conn);
 	}
 	if (freed)
 		launch_waiting(g);
@@ -843,18 +877,6 @@ void session_free_all(gateway *g)
 void session_conn_gone(gateway *g, conn *c)
 {
 	for (unsigned i = 0; i < c->count; i++)
-		session_request_release(g, c->slots[(c->head + i) % g->cfg.max_outstanding]);
+		request_release(g, c->slots[(c->head + i) % g->cfg.max_outstanding]);
 	c->count = 0;
-}
-
-/* A request its connection no longer holds: freed now, or, while the
- * daemon still works on it, when its reply (or its turn) comes. */
-void session_request_release(gateway *g, request *r)
-{
-	if (r->in_flight || r->waiting) {
-		r->conn = NULL;
-		g->st.orphaned++;
-		return;
-	}
-	request_free(r);
 }

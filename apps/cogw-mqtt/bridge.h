@@ -8,10 +8,16 @@
  * only fills the bridge's own bounded queue.
  *
  *   main.c         command line, configuration, the loop
- *   mqtt_link.c    the broker: connect, backoff, birth/will, the offline queue
  *   mqtt_events.c  mailbox events -> topics (state, EMCY, boot, counters)
  *   mqtt_serve.c   requests from the broker -> mailbox commands -> replies
- *   mqtt_watch.h   the seam for process values (docs/mqtt.md "Process values")
+ *   mqtt_watch.c   process values (docs/mqtt.md "Process values")
+ *   mqtt_link.c    the broker: connect, backoff, birth/will, the offline queue
+ *   bridge.c       clocks, requests under way, values as JSON
+ *
+ * Calls go down only (tests/checks/check_callgraph): main.c ->
+ * mqtt_events.c, mqtt_serve.c -> mqtt_watch.c -> mqtt_link.c -> bridge.c;
+ * the link reaches the files above it through the link_hooks main.c gives
+ * it.
  */
 #ifndef COGW_MQTT_BRIDGE_H
 #define COGW_MQTT_BRIDGE_H
@@ -80,7 +86,18 @@ typedef struct bridge_stats {
 		rate_limited, busy, unsupported, failed, timed_out, mbx_errors;
 } bridge_stats;
 
-typedef struct bridge {
+typedef struct bridge bridge;
+
+/* What the broker link calls up (mqtt_link.c takes them at link_init):
+ * the broker accepted the connection (republish the retained state), a
+ * request arrived on the request topic. */
+typedef struct link_hooks {
+	void (*on_connect)(bridge *b);
+	void (*on_message)(bridge *b, const struct mosquitto_message *msg,
+			   const mosquitto_property *props);
+} link_hooks;
+
+struct bridge {
 	mqtt_config cfg;
 	cogw_config daemon;
 	char daemon_config_path[MQTT_PATH_MAX];
@@ -90,6 +107,7 @@ typedef struct bridge {
 	int epfd, sigfd;
 	bool stopping;
 	/* broker link */
+	link_hooks link_up;
 	bool connected;     /* CONNACK accepted */
 	bool connecting;    /* a connect is under way */
 	bool tried_connect; /* libmosquitto knows the broker's address */
@@ -118,8 +136,9 @@ typedef struct bridge {
 	int cfg_watch_status[MQTT_WATCH_MAX];    /* the last answer, logged when it changes */
 	bool cfg_watch_answered[MQTT_WATCH_MAX]; /* its arming was answered once */
 	bridge_stats st;
-} bridge;
+};
 
+/* bridge.c */
 uint64_t bridge_now_ms(void);  /* CLOCK_MONOTONIC */
 uint64_t bridge_wall_ms(void); /* CLOCK_REALTIME */
 /* ISO 8601 UTC with milliseconds: "2026-11-26T20:15:01.123Z", of a wall
@@ -128,8 +147,18 @@ void bridge_time_of(uint64_t wall_ms, char *buf, size_t n);
 void bridge_time_text(char *buf, size_t n);
 int bridge_line_of_net(const bridge *b, uint16_t net); /* -1 if not attached */
 
+/* The bridge's own mailbox request: the slot it took, or NULL (counted). */
+pending *bridge_send_internal(bridge *b, unsigned line, uint16_t cmd, const void *payload,
+			      size_t len);
+pending *bridge_pending_of(bridge *b, uint64_t corr);
+void bridge_pending_release(pending *p);
+/* A value's bytes as JSON of its type: a number where JSON carries it
+ * exactly, else a string; NULL with err when the bytes do not fit it. */
+struct cJSON *bridge_value_json(const ascii_type *t, const uint8_t *data, size_t len, char *err,
+				size_t errlen);
+
 /* mqtt_link.c */
-int link_init(bridge *b);
+int link_init(bridge *b, const link_hooks *up);
 void link_free(bridge *b);
 /* Publish now if the broker is there, else queue (oldest dropped and
  * counted when the queue is full). Takes ownership of payload and props. */
@@ -150,20 +179,11 @@ void events_service(bridge *b);    /* subscriptions, periodic counters */
 void events_on_event(bridge *b, const cogw_msg *m);
 void events_on_internal(bridge *b, pending *p, const cogw_msg *m);
 void events_free(bridge *b);
-/* The bridge's own mailbox request: the slot it took, or NULL (counted). */
-pending *bridge_send_internal(bridge *b, unsigned line, uint16_t cmd, const void *payload,
-			      size_t len);
 
 /* mqtt_serve.c */
 void serve_on_message(bridge *b, const struct mosquitto_message *msg,
 		      const mosquitto_property *props);
 void serve_on_response(bridge *b, pending *p, const cogw_msg *m);
 void serve_expire(bridge *b); /* requests past their deadline */
-/* A value's bytes as JSON of its type: a number where JSON carries it
- * exactly, else a string; NULL with err when the bytes do not fit it. */
-struct cJSON *bridge_value_json(const ascii_type *t, const uint8_t *data, size_t len, char *err,
-				size_t errlen);
-pending *bridge_pending_of(bridge *b, uint64_t corr);
-void bridge_pending_release(pending *p);
 
 #endif /* COGW_MQTT_BRIDGE_H */

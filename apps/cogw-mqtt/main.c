@@ -28,46 +28,6 @@
  * mailbox and gateway counters of every line, boot diagnostics of nodes */
 #define INTERNAL_SLOTS(n_lines) (8u * (n_lines) + 8u)
 
-uint64_t bridge_now_ms(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u;
-}
-
-uint64_t bridge_wall_ms(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_REALTIME, &ts);
-	return (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u;
-}
-
-void bridge_time_of(uint64_t wall_ms, char *buf, size_t n)
-{
-	time_t sec = (time_t)(wall_ms / 1000u);
-	struct tm tm;
-	size_t k;
-
-	gmtime_r(&sec, &tm);
-	k = strftime(buf, n, "%Y-%m-%dT%H:%M:%S", &tm);
-	snprintf(buf + k, n - k, ".%03uZ", (unsigned)(wall_ms % 1000u));
-}
-
-void bridge_time_text(char *buf, size_t n)
-{
-	bridge_time_of(bridge_wall_ms(), buf, n);
-}
-
-int bridge_line_of_net(const bridge *b, uint16_t net)
-{
-	for (size_t l = 0; l < b->daemon.n_lines; l++)
-		if (b->daemon.lines[l].network_id == net)
-			return (int)l;
-	return -1;
-}
-
 static void usage(FILE *f)
 {
 	fprintf(f, "usage: cogw-mqtt [--config FILE] [--daemon-config FILE] [--check] [-v]\n"
@@ -278,7 +238,9 @@ int main(int argc, char **argv)
 			cogw_strerror(rc));
 		return 1;
 	}
-	if (open_loop(&b) || link_init(&b)) {
+	/* the broker link calls up through these */
+	const link_hooks up = { .on_connect = events_on_connect, .on_message = serve_on_message };
+	if (open_loop(&b) || link_init(&b, &up)) {
 		cogw_close(b.h);
 		return 1;
 	}

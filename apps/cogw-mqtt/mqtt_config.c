@@ -91,38 +91,25 @@ static bool topic_level_ok(const char *s, bool allow_slash)
 	return !allow_slash || (s[0] != '/' && s[strlen(s) - 1] != '/' && !strstr(s, "//"));
 }
 
-/* mqtt://host[:port] or mqtts://host[:port]; host a name, an IPv4 address
- * or [an IPv6 address]. */
-static int parse_uri(mqtt_config *c, const char *uri, char *err, size_t errlen)
+/* The host of uri at *p ("[v6]" or a name of letters, digits, '.' and
+ * '-') into c->host; *p moved past it. */
+static int uri_host(mqtt_config *c, const char *uri, const char **p, char *err, size_t errlen)
 {
-	const char *p = uri, *host, *end;
+	const char *host = *p, *end;
 	size_t n;
 
-	if (strncmp(p, "mqtt://", 7) == 0) {
-		c->tls = false;
-		c->port = 1883;
-		p += 7;
-	} else if (strncmp(p, "mqtts://", 8) == 0) {
-		c->tls = true;
-		c->port = 8883;
-		p += 8;
-	} else {
-		return json_util_fail(err, errlen, "broker.uri",
-				      "\"%s\" must start with mqtt:// or mqtts://", uri);
-	}
-	host = p;
-	if (*p == '[') {
-		end = strchr(p, ']');
+	if (**p == '[') {
+		end = strchr(*p, ']');
 		if (!end)
 			return json_util_fail(err, errlen, "broker.uri", "\"%s\": no closing ']'",
 					      uri);
-		host = p + 1;
+		host = *p + 1;
 		n = (size_t)(end - host);
-		p = end + 1;
+		*p = end + 1;
 	} else {
-		while (*p && *p != ':' && *p != '/')
-			p++;
-		n = (size_t)(p - host);
+		while (**p && **p != ':' && **p != '/')
+			(*p)++;
+		n = (size_t)(*p - host);
 		for (size_t i = 0; i < n; i++) {
 			char ch = host[i];
 
@@ -137,6 +124,29 @@ static int parse_uri(mqtt_config *c, const char *uri, char *err, size_t errlen)
 				      uri);
 	memcpy(c->host, host, n);
 	c->host[n] = 0;
+	return 0;
+}
+
+/* mqtt://host[:port] or mqtts://host[:port]; host a name, an IPv4 address
+ * or [an IPv6 address]. */
+static int parse_uri(mqtt_config *c, const char *uri, char *err, size_t errlen)
+{
+	const char *p = uri;
+
+	if (strncmp(p, "mqtt://", 7) == 0) {
+		c->tls = false;
+		c->port = 1883;
+		p += 7;
+	} else if (strncmp(p, "mqtts://", 8) == 0) {
+		c->tls = true;
+		c->port = 8883;
+		p += 8;
+	} else {
+		return json_util_fail(err, errlen, "broker.uri",
+				      "\"%s\" must start with mqtt:// or mqtts://", uri);
+	}
+	if (uri_host(c, uri, &p, err, errlen))
+		return -EINVAL;
 	if (*p == ':') {
 		char *e;
 		unsigned long port = strtoul(p + 1, &e, 10);
@@ -164,20 +174,23 @@ static int readable_file(const char *path, const char *file, char *err, size_t e
 	return 0;
 }
 
-static int load_broker(mqtt_config *c, const cJSON *o, char *err, size_t errlen)
+/* "broker.uri" and "broker.protocol" as given, before they are read. */
+#define BROKER_URI_MAX 300
+#define BROKER_PROTO_MAX 8
+
+/* "broker"'s keys into c (uri and proto as given), before they are
+ * checked together. */
+static int read_broker_keys(mqtt_config *c, const cJSON *o, char *uri, char *proto, char *err,
+			    size_t errlen)
 {
 	const char *path = "broker";
-	char uri[300] = "", proto[8] = "";
 	uint64_t qos = (uint64_t)c->qos;
 
-	if (!cJSON_IsObject(o))
-		return json_util_fail(err, errlen, path, "must be an object, not %s",
-				      json_util_kind(o));
 	if (json_util_check_object(o, path, broker_keys, err, errlen) ||
-	    json_util_opt_string(o, "uri", path, 1, uri, sizeof uri, err, errlen) ||
+	    json_util_opt_string(o, "uri", path, 1, uri, BROKER_URI_MAX, err, errlen) ||
 	    json_util_opt_string(o, "client_id", path, 1, c->client_id, sizeof c->client_id, err,
 				 errlen) ||
-	    json_util_opt_string(o, "protocol", path, 1, proto, sizeof proto, err, errlen) ||
+	    json_util_opt_string(o, "protocol", path, 1, proto, BROKER_PROTO_MAX, err, errlen) ||
 	    json_util_opt_unsigned(o, "keepalive_s", path, 5, 3600, &c->keepalive_s, err, errlen) ||
 	    json_util_opt_uint(o, "qos", path, 0, 2, &qos, err, errlen) ||
 	    json_util_opt_string(o, "ca_file", path, 1, c->ca_file, sizeof c->ca_file, err,
@@ -194,6 +207,38 @@ static int load_broker(mqtt_config *c, const cJSON *o, char *err, size_t errlen)
 				   err, errlen))
 		return -EINVAL;
 	c->qos = (int)qos;
+	return 0;
+}
+
+/* TLS: the files go with an mqtts:// uri, and they can be read. */
+static int check_broker_files(const mqtt_config *c, char *err, size_t errlen)
+{
+	if ((c->ca_file[0] || c->cert_file[0] || c->key_file[0]) && !c->tls)
+		return json_util_fail(err, errlen, "broker",
+				      "TLS files are given but the uri is not mqtts://");
+	if (c->tls && !c->ca_file[0])
+		return json_util_fail(err, errlen, "broker.ca_file",
+				      "mqtts:// needs the CA that signed the broker's certificate");
+	if (!c->cert_file[0] != !c->key_file[0])
+		return json_util_fail(err, errlen, "broker",
+				      "a client certificate needs both cert_file and key_file");
+	if (readable_file("broker.ca_file", c->ca_file, err, errlen) ||
+	    readable_file("broker.cert_file", c->cert_file, err, errlen) ||
+	    readable_file("broker.key_file", c->key_file, err, errlen) ||
+	    readable_file("broker.credentials_file", c->credentials_file, err, errlen))
+		return -EINVAL;
+	return 0;
+}
+
+static int load_broker(mqtt_config *c, const cJSON *o, char *err, size_t errlen)
+{
+	char uri[BROKER_URI_MAX] = "", proto[BROKER_PROTO_MAX] = "";
+
+	if (!cJSON_IsObject(o))
+		return json_util_fail(err, errlen, "broker", "must be an object, not %s",
+				      json_util_kind(o));
+	if (read_broker_keys(c, o, uri, proto, err, errlen))
+		return -EINVAL;
 	if (uri[0] && parse_uri(c, uri, err, errlen))
 		return -EINVAL;
 	if (proto[0]) {
@@ -213,21 +258,7 @@ static int load_broker(mqtt_config *c, const cJSON *o, char *err, size_t errlen)
 		return json_util_fail(err, errlen, "broker.reconnect_max_ms",
 				      "%u is below reconnect_min_ms %u", c->reconnect_max_ms,
 				      c->reconnect_min_ms);
-	if ((c->ca_file[0] || c->cert_file[0] || c->key_file[0]) && !c->tls)
-		return json_util_fail(err, errlen, "broker",
-				      "TLS files are given but the uri is not mqtts://");
-	if (c->tls && !c->ca_file[0])
-		return json_util_fail(err, errlen, "broker.ca_file",
-				      "mqtts:// needs the CA that signed the broker's certificate");
-	if (!c->cert_file[0] != !c->key_file[0])
-		return json_util_fail(err, errlen, "broker",
-				      "a client certificate needs both cert_file and key_file");
-	if (readable_file("broker.ca_file", c->ca_file, err, errlen) ||
-	    readable_file("broker.cert_file", c->cert_file, err, errlen) ||
-	    readable_file("broker.key_file", c->key_file, err, errlen) ||
-	    readable_file("broker.credentials_file", c->credentials_file, err, errlen))
-		return -EINVAL;
-	return 0;
+	return check_broker_files(c, err, errlen);
 }
 
 static int load_publish(mqtt_config *c, const cJSON *o, char *err, size_t errlen)
@@ -353,6 +384,24 @@ static int load_watch(mqtt_config *c, const cJSON *a, char *err, size_t errlen)
 	return 0;
 }
 
+/* "role": none, read or write (-1: none of them). */
+static int role_of(const char *name, uint8_t *role)
+{
+	static const struct {
+		const char *name;
+		mqtt_role role;
+	} roles[] = { { "none", MQTT_ROLE_NONE },
+		      { "read", MQTT_ROLE_READ },
+		      { "write", MQTT_ROLE_WRITE } };
+
+	for (size_t i = 0; i < sizeof roles / sizeof roles[0]; i++)
+		if (strcmp(name, roles[i].name) == 0) {
+			*role = (uint8_t)roles[i].role;
+			return 0;
+		}
+	return -1;
+}
+
 static int load_tree(mqtt_config *c, const cJSON *root, char *err, size_t errlen)
 {
 	char role[8] = "";
@@ -383,17 +432,9 @@ static int load_tree(mqtt_config *c, const cJSON *root, char *err, size_t errlen
 				      "\"%s\" must be topic levels without '+', '#', '//', a "
 				      "leading '$' or '/' or a trailing '/'",
 				      c->topic_prefix);
-	if (role[0]) {
-		if (strcmp(role, "none") == 0)
-			c->role = MQTT_ROLE_NONE;
-		else if (strcmp(role, "read") == 0)
-			c->role = MQTT_ROLE_READ;
-		else if (strcmp(role, "write") == 0)
-			c->role = MQTT_ROLE_WRITE;
-		else
-			return json_util_fail(err, errlen, "role",
-					      "\"%s\" is not one of none, read, write", role);
-	}
+	if (role[0] && role_of(role, &c->role))
+		return json_util_fail(err, errlen, "role", "\"%s\" is not one of none, read, write",
+				      role);
 	if (load_section(root, "broker", load_broker, c, err, errlen) ||
 	    load_section(root, "publish", load_publish, c, err, errlen) ||
 	    load_section(root, "queue", load_queue, c, err, errlen) ||

@@ -303,6 +303,20 @@ static void on_node_event(bridge *b, unsigned line, uint16_t code, const mbx_ev_
 	}
 }
 
+/* The manager's events: a node's boot step, the manager's state, a node's. */
+static void on_mgr_event(bridge *b, unsigned line, const cogw_msg *m)
+{
+	mbx_ev_mgr e;
+
+	memcpy(&e, m->data, sizeof e);
+	if (m->code == MBX_EV_MGR_BOOT && b->cfg.pub_boot && e.node >= 1 && e.node <= 127)
+		on_mgr_boot(b, line, &e);
+	else if (m->code == MBX_EV_MGR_STATE && b->cfg.pub_manager)
+		on_mgr_state(b, line, &e);
+	else if (m->code == MBX_EV_MGR_NODE && b->cfg.pub_manager && e.node <= 127)
+		on_mgr_node(b, line, &e);
+}
+
 void events_on_event(bridge *b, const cogw_msg *m)
 {
 	unsigned line = m->line;
@@ -345,18 +359,9 @@ void events_on_event(bridge *b, const cogw_msg *m)
 	}
 	case MBX_EV_MGR_BOOT:
 	case MBX_EV_MGR_STATE:
-	case MBX_EV_MGR_NODE: {
-		mbx_ev_mgr e;
-
-		memcpy(&e, m->data, sizeof e);
-		if (m->code == MBX_EV_MGR_BOOT && b->cfg.pub_boot && e.node >= 1 && e.node <= 127)
-			on_mgr_boot(b, line, &e);
-		else if (m->code == MBX_EV_MGR_STATE && b->cfg.pub_manager)
-			on_mgr_state(b, line, &e);
-		else if (m->code == MBX_EV_MGR_NODE && b->cfg.pub_manager && e.node <= 127)
-			on_mgr_node(b, line, &e);
+	case MBX_EV_MGR_NODE:
+		on_mgr_event(b, line, m);
 		break;
-	}
 	default:
 		break;
 	}

@@ -180,7 +180,7 @@ static void on_connect(struct mosquitto *mosq, void *obj, int rc, int flags,
 	/* what waited first, then the present state over it (retained topics
 	 * end with the newest) */
 	flush_queue(b);
-	events_on_connect(b);
+	b->link_up.on_connect(b);
 }
 
 static void on_disconnect(struct mosquitto *mosq, void *obj, int rc,
@@ -216,8 +216,10 @@ static void on_publish(struct mosquitto *mosq, void *obj, int mid, int rc,
 static void on_message(struct mosquitto *mosq, void *obj, const struct mosquitto_message *msg,
 		       const mosquitto_property *props)
 {
+	bridge *b = obj;
+
 	(void)mosq;
-	serve_on_message(obj, msg, props);
+	b->link_up.on_message(b, msg, props);
 }
 
 static void on_log(struct mosquitto *mosq, void *obj, int level, const char *str)
@@ -229,11 +231,12 @@ static void on_log(struct mosquitto *mosq, void *obj, int level, const char *str
 		fprintf(stderr, "cogw-mqtt: libmosquitto: %s\n", str);
 }
 
-int link_init(bridge *b)
+int link_init(bridge *b, const link_hooks *up)
 {
 	char user[256], pass[256], err[512], *will;
 	int rc;
 
+	b->link_up = *up;
 	snprintf(b->topic_status, sizeof b->topic_status, "%s/%s/status", b->cfg.topic_prefix,
 		 b->cfg.gateway);
 	snprintf(b->topic_request, sizeof b->topic_request, "%s/%s/request", b->cfg.topic_prefix,
@@ -332,6 +335,25 @@ void link_sync_epoll(bridge *b)
 	}
 }
 
+/* The socket failed (rc) while connecting or connected: said, counted,
+ * and a reconnect scheduled. */
+static void link_lost(bridge *b, int rc)
+{
+	const char *why = rc == MOSQ_ERR_ERRNO ? strerror(errno) : mosquitto_strerror(rc);
+
+	if (b->connecting) {
+		b->st.connect_failures++;
+		fprintf(stderr, "cogw-mqtt: connecting to %s:%u failed: %s\n", b->cfg.host,
+			b->cfg.port, why);
+	} else {
+		b->st.disconnects++;
+		fprintf(stderr, "cogw-mqtt: lost the broker (%s); %zu message(s) queued\n", why,
+			b->q_len);
+	}
+	mosquitto_disconnect(b->mosq);
+	schedule_reconnect(b);
+}
+
 void link_service(bridge *b, uint32_t ev)
 {
 	uint64_t now = bridge_now_ms();
@@ -345,22 +367,7 @@ void link_service(bridge *b, uint32_t ev)
 		if (rc == MOSQ_ERR_SUCCESS)
 			rc = mosquitto_loop_misc(b->mosq);
 		if (rc != MOSQ_ERR_SUCCESS && (b->connected || b->connecting)) {
-			if (b->connecting) {
-				b->st.connect_failures++;
-				fprintf(stderr, "cogw-mqtt: connecting to %s:%u failed: %s\n",
-					b->cfg.host, b->cfg.port,
-					rc == MOSQ_ERR_ERRNO ? strerror(errno)
-							     : mosquitto_strerror(rc));
-			} else {
-				b->st.disconnects++;
-				fprintf(stderr,
-					"cogw-mqtt: lost the broker (%s); %zu message(s) queued\n",
-					rc == MOSQ_ERR_ERRNO ? strerror(errno)
-							     : mosquitto_strerror(rc),
-					b->q_len);
-			}
-			mosquitto_disconnect(b->mosq);
-			schedule_reconnect(b);
+			link_lost(b, rc);
 		} else if (b->connecting && now >= b->next_connect_ms) {
 			b->st.connect_failures++;
 			fprintf(stderr, "cogw-mqtt: no CONNACK from %s:%u within %u s\n",

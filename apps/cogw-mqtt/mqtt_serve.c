@@ -23,50 +23,6 @@ typedef struct reply_path {
 	mosquitto_property *props;
 } reply_path;
 
-pending *bridge_pending_of(bridge *b, uint64_t corr)
-{
-	for (size_t i = 0; i < b->n_pend; i++)
-		if (b->pend[i].used && b->pend[i].corr == corr)
-			return &b->pend[i];
-	return NULL;
-}
-
-void bridge_pending_release(pending *p)
-{
-	free(p->reply_topic);
-	mosquitto_property_free_all(&p->reply_props);
-	p->reply_topic = NULL;
-	p->used = false;
-}
-
-/* The bridge's own requests have slots after the requests' ones. */
-pending *bridge_send_internal(bridge *b, unsigned line, uint16_t cmd, const void *payload,
-			      size_t len)
-{
-	for (size_t i = b->cfg.max_inflight; i < b->n_pend; i++) {
-		pending *p = &b->pend[i];
-
-		if (p->used)
-			continue;
-		int rc = cogw_send_async(b->h, line, cmd, payload, len, &p->corr);
-
-		if (rc < 0) {
-			b->st.mbx_errors++;
-			if (b->verbose > 1)
-				fprintf(stderr, "cogw-mqtt: line %u: command 0x%04X: %s\n", line,
-					cmd, cogw_strerror(rc));
-			return NULL;
-		}
-		p->used = p->internal = true;
-		p->cmd = cmd;
-		p->line = (uint8_t)line;
-		p->deadline_ms = bridge_now_ms() + b->cfg.request_timeout_ms;
-		return p;
-	}
-	b->st.busy++;
-	return NULL;
-}
-
 static cJSON *reply_head(const bridge *b, const mqtt_request *r, bool ok)
 {
 	cJSON *o = cJSON_CreateObject();
@@ -277,44 +233,6 @@ void serve_on_message(bridge *b, const struct mosquitto_message *msg,
 		free(rp.topic);
 		mosquitto_property_free_all(&rp.props);
 	}
-}
-
-/* The value read, as JSON: numbers where JSON carries them exactly. */
-cJSON *bridge_value_json(const ascii_type *t, const uint8_t *data, size_t len, char *err,
-			 size_t errlen)
-{
-	size_t cap = ascii_value_text_max(t, len) + 1;
-	char *text;
-	long n;
-	cJSON *v = NULL;
-
-	if (t->kind == ASCII_K_VSTRING) {
-		/* VISIBLE_STRING: the characters themselves, up to a NUL */
-		text = strndup((const char *)data, len);
-		v = text ? cJSON_CreateString(text) : NULL;
-		free(text);
-		return v;
-	}
-	text = malloc(cap);
-	if (!text)
-		return NULL;
-	n = ascii_value_format(t, data, len, text, cap);
-	if (n < 0) {
-		snprintf(err, errlen, "the device answered %zu bytes, not a value of type %s", len,
-			 t->keyword);
-	} else if (t->kind == ASCII_K_BOOL) {
-		v = cJSON_CreateBool(text[0] == '1');
-	} else if ((t->kind == ASCII_K_INT || t->kind == ASCII_K_UINT) &&
-		   fabs(strtod(text, NULL)) <= 9007199254740992.0) {
-		v = cJSON_CreateNumber(strtod(text, NULL));
-	} else if ((t->kind == ASCII_K_REAL32 || t->kind == ASCII_K_REAL64) &&
-		   isfinite(strtod(text, NULL))) {
-		v = cJSON_CreateRaw(text);
-	} else {
-		v = cJSON_CreateString(text);
-	}
-	free(text);
-	return v;
 }
 
 void serve_on_response(bridge *b, pending *p, const cogw_msg *m)

@@ -236,19 +236,51 @@ static void report(ctl *c, const char *file, const char *out_s, const uint8_t *b
 		list_entries(c, NULL, buf, len);
 }
 
+/* The options of "dcf" as given. */
+struct dcf_opts {
+	const char *node, *out, *out_long;
+	bool list, strict;
+};
+
+/* The action and the options checked against each other; *check for
+ * "check", the node-ID into *node, -o into o->out. */
+static int dcf_args(ctl *c, const char **pos, int n_pos, struct dcf_opts *o, bool *check,
+		    uint8_t *node)
+{
+	if (n_pos < 1)
+		return ctl_usage_error(c, "check or convert?");
+	*check = !strcmp(pos[0], "check");
+	if (!*check && strcmp(pos[0], "convert"))
+		return ctl_usage_error(c, "unknown action '%s' (check or convert)", pos[0]);
+	c->what = *check ? "dcf check" : "dcf convert";
+	if (n_pos != 2)
+		return ctl_usage_error(c, n_pos < 2 ? "FILE missing" : "one FILE only");
+	if (o->out_long)
+		o->out = o->out_long;
+	if (o->node && ctl_arg_node(c, o->node, node))
+		return CTL_EXIT_USAGE;
+	if (*check && o->out)
+		return ctl_usage_error(c, "-o belongs to 'dcf convert'");
+	if (!*check && !o->out)
+		return ctl_usage_error(c, "-o FILE.cdc missing");
+	return 0;
+}
+
 static int run_dcf(ctl *c, int argc, char **argv)
 {
-	const char *pos[4], *node_s = NULL, *out_s = NULL, *out_long = NULL;
-	bool list = false, strict = false;
+	const char *pos[4];
+	struct dcf_opts o = { 0 };
 	int n_pos;
-	ctl_opt opts[] = { { "--node", true, &node_s, NULL },     { "-o", true, &out_s, NULL },
-			   { "--output", true, &out_long, NULL }, { "--list", false, NULL, &list },
-			   { "--strict", false, NULL, &strict },  { NULL, false, NULL, NULL } };
+	ctl_opt opts[] = {
+		{ "--node", true, &o.node, NULL },       { "-o", true, &o.out, NULL },
+		{ "--output", true, &o.out_long, NULL }, { "--list", false, NULL, &o.list },
+		{ "--strict", false, NULL, &o.strict },  { NULL, false, NULL, NULL }
+	};
 	int rc = ctl_parse(c, argc, argv, opts, pos, 4, &n_pos);
 	uint8_t node = 0, *buf = NULL;
 	size_t len = 0;
 	eds_stats st;
-	bool assumed, check;
+	bool assumed, check = false;
 	warnings w = { 0 };
 	eds_options eo = { .on_warning = on_warning, .warning_arg = &w };
 
@@ -256,27 +288,13 @@ static int run_dcf(ctl *c, int argc, char **argv)
 		return rc;
 	if (c->help)
 		return ctl_print_help(&ctl_cmd_dcf);
-	if (n_pos < 1)
-		return ctl_usage_error(c, "check or convert?");
-	check = !strcmp(pos[0], "check");
-	if (!check && strcmp(pos[0], "convert"))
-		return ctl_usage_error(c, "unknown action '%s' (check or convert)", pos[0]);
-	c->what = check ? "dcf check" : "dcf convert";
-	if (n_pos != 2)
-		return ctl_usage_error(c, n_pos < 2 ? "FILE missing" : "one FILE only");
-	if (out_long)
-		out_s = out_long;
-	if (node_s && ctl_arg_node(c, node_s, &node))
-		return CTL_EXIT_USAGE;
-	if (check && out_s)
-		return ctl_usage_error(c, "-o belongs to 'dcf convert'");
-	if (!check && !out_s)
-		return ctl_usage_error(c, "-o FILE.cdc missing");
+	if ((rc = dcf_args(c, pos, n_pos, &o, &check, &node)))
+		return rc;
 	if (check && is_concise_name(pos[1]))
-		return check_concise(c, pos[1], list);
+		return check_concise(c, pos[1], o.list);
 
 	eo.node_id = node;
-	eo.strict = strict;
+	eo.strict = o.strict;
 	w.list = cJSON_CreateArray();
 	if (!w.list) {
 		fprintf(stderr, "cogwctl %s: out of memory\n", c->what);
@@ -284,9 +302,9 @@ static int run_dcf(ctl *c, int argc, char **argv)
 	}
 	rc = convert(c, pos[1], &eo, check, &buf, &len, &st, &assumed);
 	if (!rc && !check)
-		rc = write_file(c, out_s, buf, len);
+		rc = write_file(c, o.out, buf, len);
 	if (!rc)
-		report(c, pos[1], check ? NULL : out_s, buf, len, &st, assumed, &w, list);
+		report(c, pos[1], check ? NULL : o.out, buf, len, &st, assumed, &w, o.list);
 	cJSON_Delete(w.list);
 	free(buf);
 	return rc ? rc : CTL_EXIT_OK;

@@ -39,89 +39,114 @@ static const char *type_text(uint16_t type)
 
 /* ---- pdo map ------------------------------------------------------------------ */
 
+/* A node's heading: a JSON object with an empty "pdos" (returned), or a
+ * line of text (NULL). */
+static cJSON *layout_heading(ctl *c, unsigned line, const mbx_dev_layout_node *n)
+{
+	cJSON *o;
+
+	if (!c->json) {
+		printf("line %u node %u: layout %s%s (generation %" PRIu32 "), mirror %s", line,
+		       n->node, source_text(n->source), n->valid ? "" : " (not valid)",
+		       n->generation, mirror_status_text(n->mirror));
+		if (n->missing)
+			printf(", %u PDO%s not mirrored: %s", n->missing,
+			       n->missing == 1 ? "" : "s", mirror_reason_text(n->reason));
+		if (n->dropped_tpdo || n->dropped_rpdo)
+			printf(", %u TPDOs and %u RPDOs beyond the table's room", n->dropped_tpdo,
+			       n->dropped_rpdo);
+		printf("\n");
+		return NULL;
+	}
+	o = cJSON_CreateObject();
+	cJSON_AddNumberToObject(o, "line", line);
+	cJSON_AddNumberToObject(o, "node", n->node);
+	cJSON_AddStringToObject(o, "source", source_text(n->source));
+	cJSON_AddBoolToObject(o, "valid", n->valid);
+	cJSON_AddNumberToObject(o, "generation", n->generation);
+	cJSON_AddStringToObject(o, "mirror", mirror_status_text(n->mirror));
+	if (n->missing) {
+		cJSON_AddNumberToObject(o, "missing", n->missing);
+		cJSON_AddStringToObject(o, "reason", mirror_reason_text(n->reason));
+	}
+	cJSON_AddNumberToObject(o, "dropped_tpdo", n->dropped_tpdo);
+	cJSON_AddNumberToObject(o, "dropped_rpdo", n->dropped_rpdo);
+	cJSON_AddArrayToObject(o, "pdos");
+	return o;
+}
+
+/* One PDO's heading: into pdos (its "map" array returned), or a line of
+ * text (pdos NULL, NULL returned). */
+static cJSON *layout_pdo(cJSON *pdos, const mbx_dev_layout_pdo *p)
+{
+	cJSON *jp;
+
+	if (!pdos) {
+		char mirror[64] = "not mirrored";
+		if (p->mirror_pdo)
+			snprintf(mirror, sizeof mirror, "%s %u of the daemon",
+				 p->dir ? "RPDO" : "TPDO", p->mirror_pdo);
+		else if (p->mirror_reason)
+			snprintf(mirror, sizeof mirror, "not mirrored: %s",
+				 mirror_reason_text(p->mirror_reason));
+		printf("  %s %-3u COB-ID %03" PRIX32 "h type %3u event %5u ms %u bytes  %s\n",
+		       p->dir ? "TPDO" : "RPDO", p->nr, p->cob, p->tt, p->event_ms, p->bytes,
+		       mirror);
+		return NULL;
+	}
+	jp = cJSON_CreateObject();
+	cJSON_AddStringToObject(jp, "pdo", p->dir ? "tpdo" : "rpdo");
+	cJSON_AddNumberToObject(jp, "nr", p->nr);
+	cJSON_AddNumberToObject(jp, "cob_id", p->cob);
+	cJSON_AddNumberToObject(jp, "transmission_type", p->tt);
+	cJSON_AddNumberToObject(jp, "event_ms", p->event_ms);
+	cJSON_AddNumberToObject(jp, "bytes", p->bytes);
+	cJSON_AddNumberToObject(jp, "mirror_pdo", p->mirror_pdo);
+	if (p->mirror_reason)
+		cJSON_AddStringToObject(jp, "not_mirrored", mirror_reason_text(p->mirror_reason));
+	cJSON_AddItemToArray(pdos, jp);
+	return cJSON_AddArrayToObject(jp, "map");
+}
+
+/* One mapped object: into jentries, or a line of text (jentries NULL). */
+static void layout_entry(cJSON *jentries, const mbx_dev_layout_entry *e)
+{
+	cJSON *je;
+
+	if (!jentries) {
+		printf("    %04X:%02X %2u bits at bit %2u  %s\n", e->index, e->sub, e->bits,
+		       e->offset, type_text(e->type));
+		return;
+	}
+	je = cJSON_CreateObject();
+	cJSON_AddNumberToObject(je, "index", e->index);
+	cJSON_AddNumberToObject(je, "sub", e->sub);
+	cJSON_AddNumberToObject(je, "bits", e->bits);
+	cJSON_AddNumberToObject(je, "offset", e->offset);
+	if (e->type)
+		cJSON_AddStringToObject(je, "type", type_text(e->type));
+	cJSON_AddItemToArray(jentries, je);
+}
+
 /* One node of a DEV_LAYOUT answer from *off: printed, *off moved on. */
 static void print_layout_node(ctl *c, unsigned line, const uint8_t *buf, size_t *off)
 {
 	mbx_dev_layout_node n;
 	memcpy(&n, buf + *off, sizeof n);
 	*off += sizeof n;
-	cJSON *o = NULL, *pdos = NULL;
-	if (c->json) {
-		o = cJSON_CreateObject();
-		cJSON_AddNumberToObject(o, "line", line);
-		cJSON_AddNumberToObject(o, "node", n.node);
-		cJSON_AddStringToObject(o, "source", source_text(n.source));
-		cJSON_AddBoolToObject(o, "valid", n.valid);
-		cJSON_AddNumberToObject(o, "generation", n.generation);
-		cJSON_AddStringToObject(o, "mirror", mirror_status_text(n.mirror));
-		if (n.missing) {
-			cJSON_AddNumberToObject(o, "missing", n.missing);
-			cJSON_AddStringToObject(o, "reason", mirror_reason_text(n.reason));
-		}
-		cJSON_AddNumberToObject(o, "dropped_tpdo", n.dropped_tpdo);
-		cJSON_AddNumberToObject(o, "dropped_rpdo", n.dropped_rpdo);
-		pdos = cJSON_AddArrayToObject(o, "pdos");
-	} else {
-		printf("line %u node %u: layout %s%s (generation %" PRIu32 "), mirror %s", line,
-		       n.node, source_text(n.source), n.valid ? "" : " (not valid)", n.generation,
-		       mirror_status_text(n.mirror));
-		if (n.missing)
-			printf(", %u PDO%s not mirrored: %s", n.missing, n.missing == 1 ? "" : "s",
-			       mirror_reason_text(n.reason));
-		if (n.dropped_tpdo || n.dropped_rpdo)
-			printf(", %u TPDOs and %u RPDOs beyond the table's room", n.dropped_tpdo,
-			       n.dropped_rpdo);
-		printf("\n");
-	}
+	cJSON *o = layout_heading(c, line, &n);
+	cJSON *pdos = o ? cJSON_GetObjectItem(o, "pdos") : NULL;
+
 	for (unsigned k = 0; k < (unsigned)n.n_tpdo + n.n_rpdo; k++) {
 		mbx_dev_layout_pdo p;
 		memcpy(&p, buf + *off, sizeof p);
 		*off += sizeof p;
-		cJSON *jp = NULL, *jentries = NULL;
-		if (pdos) {
-			jp = cJSON_CreateObject();
-			cJSON_AddStringToObject(jp, "pdo", p.dir ? "tpdo" : "rpdo");
-			cJSON_AddNumberToObject(jp, "nr", p.nr);
-			cJSON_AddNumberToObject(jp, "cob_id", p.cob);
-			cJSON_AddNumberToObject(jp, "transmission_type", p.tt);
-			cJSON_AddNumberToObject(jp, "event_ms", p.event_ms);
-			cJSON_AddNumberToObject(jp, "bytes", p.bytes);
-			cJSON_AddNumberToObject(jp, "mirror_pdo", p.mirror_pdo);
-			if (p.mirror_reason)
-				cJSON_AddStringToObject(jp, "not_mirrored",
-							mirror_reason_text(p.mirror_reason));
-			jentries = cJSON_AddArrayToObject(jp, "map");
-			cJSON_AddItemToArray(pdos, jp);
-		} else {
-			char mirror[64] = "not mirrored";
-			if (p.mirror_pdo)
-				snprintf(mirror, sizeof mirror, "%s %u of the daemon",
-					 p.dir ? "RPDO" : "TPDO", p.mirror_pdo);
-			else if (p.mirror_reason)
-				snprintf(mirror, sizeof mirror, "not mirrored: %s",
-					 mirror_reason_text(p.mirror_reason));
-			printf("  %s %-3u COB-ID %03" PRIX32
-			       "h type %3u event %5u ms %u bytes  %s\n",
-			       p.dir ? "TPDO" : "RPDO", p.nr, p.cob, p.tt, p.event_ms, p.bytes,
-			       mirror);
-		}
+		cJSON *jentries = layout_pdo(pdos, &p);
 		for (unsigned i = 0; i < p.n; i++) {
 			mbx_dev_layout_entry e;
 			memcpy(&e, buf + *off, sizeof e);
 			*off += sizeof e;
-			if (jentries) {
-				cJSON *je = cJSON_CreateObject();
-				cJSON_AddNumberToObject(je, "index", e.index);
-				cJSON_AddNumberToObject(je, "sub", e.sub);
-				cJSON_AddNumberToObject(je, "bits", e.bits);
-				cJSON_AddNumberToObject(je, "offset", e.offset);
-				if (e.type)
-					cJSON_AddStringToObject(je, "type", type_text(e.type));
-				cJSON_AddItemToArray(jentries, je);
-			} else {
-				printf("    %04X:%02X %2u bits at bit %2u  %s\n", e.index, e.sub,
-				       e.bits, e.offset, type_text(e.type));
-			}
+			layout_entry(jentries, &e);
 		}
 	}
 	if (o)
@@ -283,64 +308,41 @@ static int node_objects(ctl *c, cogw *h, const dev_args *a, mbx_dev_obj_req *obj
 	return n;
 }
 
-static int run_watch(ctl *c, int argc, char **argv)
-{
-	const char *pos[6], *interval = NULL, *count = NULL, *duration = NULL;
-	int n_pos;
-	ctl_opt opts[] = { { "--interval", true, &interval, NULL },
-			   { "--count", true, &count, NULL },
-			   { "--duration", true, &duration, NULL },
-			   { NULL, false, NULL, NULL } };
-	int rc = ctl_parse(c, argc, argv, opts, pos, 6, &n_pos);
-	if (rc)
-		return rc;
-	if (c->help)
-		return ctl_print_help(&ctl_cmd_watch);
-	c->what = "watch";
-	if (n_pos != 2 && (n_pos < 4 || n_pos > 5))
-		return ctl_usage_error(c, "expected LINE NODE [INDEX SUB [TYPE]]");
+/* What "watch" watches and for how long. */
+struct watch_run {
 	dev_args a;
-	if (n_pos == 2) {
-		memset(&a, 0, sizeof a);
-		if (ctl_arg_line(c, pos[0], &a.line) < 0 ||
-		    ctl_arg_node(c, pos[1], &a.obj.node) < 0)
-			return CTL_EXIT_USAGE;
-	} else if ((rc = parse_object(c, pos, n_pos, &a))) {
-		return rc;
-	}
-	uint64_t interval_ms = 0, max = 0, seconds = 0;
-	if ((interval && ctl_arg_uint(c, interval, "--interval", UINT32_MAX, &interval_ms) < 0) ||
-	    (count && ctl_arg_uint(c, count, "--count", UINT32_MAX, &max) < 0) ||
-	    (duration && ctl_arg_uint(c, duration, "--duration", 86400, &seconds) < 0))
-		return CTL_EXIT_USAGE;
+	uint64_t interval_ms, max, seconds; /* 0: no limit */
+	mbx_dev_obj_req *objs;
+	int n;
+};
 
-	int ex = 0;
-	cogw *h = ctl_handle(c, &ex);
-	if (!h)
-		return ex;
-	static mbx_dev_obj_req objs[WATCH_MAX];
-	int n = 1;
-	objs[0] = a.obj;
-	if (n_pos == 2 && (n = node_objects(c, h, &a, objs)) < 0)
-		return -n;
-	for (int i = 0; i < n; i++) {
+/* Each object of w registered with the daemon, and said on stderr. */
+static int watch_register(ctl *c, cogw *h, const struct watch_run *w)
+{
+	for (int i = 0; i < w->n; i++) {
 		char ctx[96];
-		dev_args one = { .line = a.line, .obj = objs[i] };
+		dev_args one = { .line = w->a.line, .obj = w->objs[i] };
 		context(&one, "watch", ctx, sizeof ctx);
 		mbx_dev_watch_resp resp;
 		uint32_t abort = 0;
-		rc = cogw_dev_watch(h, a.line, &objs[i], (uint32_t)interval_ms, &resp,
-				    c->timeout_ms, &abort);
+		int rc = cogw_dev_watch(h, w->a.line, &w->objs[i], (uint32_t)w->interval_ms, &resp,
+					c->timeout_ms, &abort);
 		if (rc < 0)
 			return ctl_fail(c, rc, abort, ctx);
 		fprintf(stderr,
 			"cogwctl watch: node %u %04X:%02X as %s, carried by its TPDO %u (COB-ID "
 			"%03" PRIX32 "h)\n",
-			objs[i].node, objs[i].index, objs[i].sub, type_text(resp.type), resp.pdo,
-			resp.cob_id);
+			w->objs[i].node, w->objs[i].index, w->objs[i].sub, type_text(resp.type),
+			resp.pdo, resp.cob_id);
 	}
-	fprintf(stderr, "cogwctl watch: watching %d object%s\n", n, n == 1 ? "" : "s");
+	fprintf(stderr, "cogwctl watch: watching %d object%s\n", w->n, w->n == 1 ? "" : "s");
+	return 0;
+}
 
+/* The values printed as they come, until a signal, the count or the
+ * duration ends the watch. */
+static int watch_loop(ctl *c, cogw *h, const struct watch_run *w)
+{
 	struct sigaction sa = { .sa_handler = on_watch_signal }; /* no SA_RESTART */
 	sigemptyset(&sa.sa_mask);
 	sigaction(SIGINT, &sa, NULL);
@@ -348,25 +350,79 @@ static int run_watch(ctl *c, int argc, char **argv)
 	ctl_monitor_spec spec = { 0 };
 	double start = now_s();
 	uint64_t seen = 0;
-	while (!watch_stop && (!max || seen < max)) {
-		double left = seconds ? (double)seconds - (now_s() - start) : 0.2;
+	while (!watch_stop && (!w->max || seen < w->max)) {
+		double left = w->seconds ? (double)w->seconds - (now_s() - start) : 0.2;
 		if (left <= 0)
 			break;
 		cogw_msg m;
-		rc = cogw_recv(h, &m, left > 0.2 ? 200 : (int)(left * 1000) + 1);
+		int rc = cogw_recv(h, &m, left > 0.2 ? 200 : (int)(left * 1000) + 1);
 		if (rc == COGW_E_AGAIN)
 			continue;
 		if (rc < 0)
 			return ctl_fail(c, rc, 0, "receiving values");
-		if (m.kind == MBX_KIND_EVENT && m.line == a.line &&
+		if (m.kind == MBX_KIND_EVENT && m.line == w->a.line &&
 		    (m.code == MBX_EV_DEV_VALUE || m.code == MBX_EV_OVERFLOW)) {
 			ctl_monitor_print(c, &m, &spec);
 			seen += m.code == MBX_EV_DEV_VALUE;
 		}
 		cogw_msg_release(&m);
 	}
-	for (int i = 0; i < n; i++)
-		cogw_dev_unwatch(h, a.line, &objs[i], c->timeout_ms);
+	return 0;
+}
+
+/* LINE NODE [INDEX SUB [TYPE]] and the options into w. */
+static int watch_args(ctl *c, const char **pos, int n_pos, const char *const opt[3],
+		      struct watch_run *w)
+{
+	int rc;
+
+	if (n_pos != 2 && (n_pos < 4 || n_pos > 5))
+		return ctl_usage_error(c, "expected LINE NODE [INDEX SUB [TYPE]]");
+	if (n_pos == 2) {
+		memset(&w->a, 0, sizeof w->a);
+		if (ctl_arg_line(c, pos[0], &w->a.line) < 0 ||
+		    ctl_arg_node(c, pos[1], &w->a.obj.node) < 0)
+			return CTL_EXIT_USAGE;
+	} else if ((rc = parse_object(c, pos, n_pos, &w->a))) {
+		return rc;
+	}
+	if ((opt[0] && ctl_arg_uint(c, opt[0], "--interval", UINT32_MAX, &w->interval_ms) < 0) ||
+	    (opt[1] && ctl_arg_uint(c, opt[1], "--count", UINT32_MAX, &w->max) < 0) ||
+	    (opt[2] && ctl_arg_uint(c, opt[2], "--duration", 86400, &w->seconds) < 0))
+		return CTL_EXIT_USAGE;
+	return 0;
+}
+
+static int run_watch(ctl *c, int argc, char **argv)
+{
+	const char *pos[6], *opt[3] = { NULL, NULL, NULL };
+	int n_pos;
+	ctl_opt opts[] = { { "--interval", true, &opt[0], NULL },
+			   { "--count", true, &opt[1], NULL },
+			   { "--duration", true, &opt[2], NULL },
+			   { NULL, false, NULL, NULL } };
+	static mbx_dev_obj_req objs[WATCH_MAX];
+	struct watch_run w = { .objs = objs, .n = 1 };
+	int rc = ctl_parse(c, argc, argv, opts, pos, 6, &n_pos);
+	if (rc)
+		return rc;
+	if (c->help)
+		return ctl_print_help(&ctl_cmd_watch);
+	c->what = "watch";
+	if ((rc = watch_args(c, pos, n_pos, opt, &w)))
+		return rc;
+
+	int ex = 0;
+	cogw *h = ctl_handle(c, &ex);
+	if (!h)
+		return ex;
+	objs[0] = w.a.obj;
+	if (n_pos == 2 && (w.n = node_objects(c, h, &w.a, objs)) < 0)
+		return -w.n;
+	if ((rc = watch_register(c, h, &w)) || (rc = watch_loop(c, h, &w)))
+		return rc;
+	for (int i = 0; i < w.n; i++)
+		cogw_dev_unwatch(h, w.a.line, &objs[i], c->timeout_ms);
 	return 0;
 }
 

@@ -193,31 +193,13 @@ static int done(ctl *c, unsigned line, const char *what)
 	return 0;
 }
 
-static int run_manager(ctl *c, int argc, char **argv)
+/* "manager LINE start|reset-counters|request NODE|all STATE". */
+static int manager_action(ctl *c, cogw *h, unsigned line, const char **pos, int n_pos)
 {
-	const char *pos[4];
-	int n_pos, ex = 0, rc = ctl_parse(c, argc, argv, NULL, pos, 4, &n_pos);
-	unsigned line;
 	char ctx[64];
-	if (rc)
-		return rc;
-	if (c->help)
-		return ctl_print_help(&ctl_cmd_manager);
-	if (n_pos < 1)
-		return ctl_usage_error(c, "LINE missing");
-	if (ctl_arg_line(c, pos[0], &line) < 0)
-		return CTL_EXIT_USAGE;
-	cogw *h = ctl_handle(c, &ex);
-	if (!h)
-		return ex;
+	int rc;
+
 	snprintf(ctx, sizeof ctx, "manager of line %u", line);
-	if (n_pos == 1) {
-		mbx_mgr_status s;
-		if ((rc = cogw_mgr_status(h, line, &s, c->timeout_ms)) < 0)
-			return ctl_fail(c, rc, 0, ctx);
-		status_out(c, line, &s, NULL);
-		return 0;
-	}
 	if (!strcmp(pos[1], "start") && n_pos == 2) {
 		if ((rc = cogw_mgr_start(h, line, c->timeout_ms)) < 0)
 			return ctl_fail(c, rc, 0, ctx);
@@ -244,6 +226,34 @@ static int run_manager(ctl *c, int argc, char **argv)
 	}
 	return ctl_usage_error(c, "unknown manager action '%s' (start, request, reset-counters)",
 			       pos[1]);
+}
+
+static int run_manager(ctl *c, int argc, char **argv)
+{
+	const char *pos[4];
+	int n_pos, ex = 0, rc = ctl_parse(c, argc, argv, NULL, pos, 4, &n_pos);
+	unsigned line;
+	char ctx[64];
+	if (rc)
+		return rc;
+	if (c->help)
+		return ctl_print_help(&ctl_cmd_manager);
+	if (n_pos < 1)
+		return ctl_usage_error(c, "LINE missing");
+	if (ctl_arg_line(c, pos[0], &line) < 0)
+		return CTL_EXIT_USAGE;
+	cogw *h = ctl_handle(c, &ex);
+	if (!h)
+		return ex;
+	snprintf(ctx, sizeof ctx, "manager of line %u", line);
+	if (n_pos == 1) {
+		mbx_mgr_status s;
+		if ((rc = cogw_mgr_status(h, line, &s, c->timeout_ms)) < 0)
+			return ctl_fail(c, rc, 0, ctx);
+		status_out(c, line, &s, NULL);
+		return 0;
+	}
+	return manager_action(c, h, line, pos, n_pos);
 }
 
 static int run_boot(ctl *c, int argc, char **argv)

@@ -145,6 +145,137 @@ const ctl_cmd ctl_cmd_nmt = {
 
 /* ---- pdo ------------------------------------------------------------------- */
 
+/* "pdo request LINE TPDO". */
+static int pdo_request(ctl *c, int n_pos, const char **pos)
+{
+	unsigned line;
+	uint64_t nr;
+	int ex = 0, rc;
+	cogw *h;
+	char ctx[80];
+
+	c->what = "pdo request";
+	if (n_pos != 3)
+		return ctl_usage_error(c, "expected LINE TPDO");
+	if (ctl_arg_line(c, pos[1], &line) < 0 || ctl_arg_uint(c, pos[2], "TPDO", 512, &nr) < 0)
+		return CTL_EXIT_USAGE;
+	if (nr == 0)
+		return ctl_usage_error(c, "TPDO numbers are 1..512");
+	if (!(h = ctl_handle(c, &ex)))
+		return ex;
+	snprintf(ctx, sizeof ctx, "TPDO %u request on line %u", (unsigned)nr, line);
+	rc = cogw_pdo_request(h, line, (uint16_t)nr, c->timeout_ms);
+	if (rc < 0)
+		return ctl_fail(c, rc, 0, ctx);
+	if (c->json) {
+		cJSON *o = json_ok(line);
+		cJSON_AddNumberToObject(o, "tpdo", (double)nr);
+		ctl_json_print(o);
+	} else {
+		printf("line %u: TPDO %u sent\n", line, (unsigned)nr);
+	}
+	return 0;
+}
+
+/* The object a "pdo read" or "pdo write" names. */
+struct pdo_target {
+	unsigned line;
+	uint16_t index;
+	uint8_t sub;
+	const ctl_type *t; /* NULL: none given (read) */
+	char ctx[80];      /* for messages */
+};
+
+static int pdo_write(ctl *c, const struct pdo_target *x, const char *value, bool trigger)
+{
+	uint8_t *data;
+	size_t len;
+	int ex = 0;
+	cogw *h;
+	int rc = ctl_value_encode(c, x->t, value, &data, &len);
+
+	if (rc)
+		return rc;
+	if (!(h = ctl_handle(c, &ex))) {
+		free(data);
+		return ex;
+	}
+	rc = cogw_pdo_write(h, x->line, x->index, x->sub, data, len, trigger, c->timeout_ms);
+	free(data);
+	if (rc < 0)
+		return ctl_fail(c, rc, 0, x->ctx);
+	if (c->json) {
+		cJSON *o = json_ok(x->line);
+		cJSON_AddNumberToObject(o, "index", x->index);
+		cJSON_AddNumberToObject(o, "sub", x->sub);
+		cJSON_AddBoolToObject(o, "trigger", trigger);
+		ctl_json_print(o);
+	} else {
+		printf("%04X:%02X <- %s%s: ok\n", x->index, x->sub, value,
+		       trigger ? " (TPDOs mapping it sent)" : "");
+	}
+	return 0;
+}
+
+static int pdo_read(ctl *c, const struct pdo_target *x)
+{
+	uint8_t buf[8];
+	size_t len = 0;
+	int ex = 0, rc;
+	cogw *h;
+
+	if (!(h = ctl_handle(c, &ex)))
+		return ex;
+	rc = cogw_pdo_read(h, x->line, x->index, x->sub, buf, sizeof buf, &len, c->timeout_ms);
+	if (rc < 0)
+		return ctl_fail(c, rc, 0, x->ctx);
+	if (x->t && len != x->t->size) {
+		fprintf(stderr, "cogwctl: %s: %zu bytes, %s needs %u\n", x->ctx, len, x->t->name,
+			x->t->size);
+		return CTL_EXIT_REFUSED;
+	}
+	if (c->json) {
+		cJSON *o = json_ok(x->line);
+		cJSON_AddNumberToObject(o, "index", x->index);
+		cJSON_AddNumberToObject(o, "sub", x->sub);
+		cJSON_AddNumberToObject(o, "size", (double)len);
+		ctl_value_json(o, x->t, buf, len);
+		ctl_json_print(o);
+	} else {
+		char *text = ctl_value_text(x->t, buf, len);
+		printf("%04X:%02X = %s\n", x->index, x->sub, text ? text : "?");
+		free(text);
+	}
+	return 0;
+}
+
+/* "pdo read LINE INDEX SUB [TYPE]" and "pdo write LINE INDEX SUB TYPE VALUE". */
+static int pdo_access(ctl *c, int n_pos, const char **pos, bool trigger)
+{
+	bool write = strcmp(pos[0], "write") == 0;
+	struct pdo_target x = { 0 };
+
+	if (!write && strcmp(pos[0], "read") != 0)
+		return ctl_usage_error(c, "unknown action '%s' (map, request, read, write)",
+				       pos[0]);
+	c->what = write ? "pdo write" : "pdo read";
+	if (write ? n_pos != 6 : (n_pos < 4 || n_pos > 5))
+		return ctl_usage_error(c, write ? "expected LINE INDEX SUB TYPE VALUE"
+						: "expected LINE INDEX SUB [TYPE]");
+	if (ctl_arg_line(c, pos[1], &x.line) < 0 || ctl_arg_index(c, pos[2], &x.index) < 0 ||
+	    ctl_arg_sub(c, pos[3], &x.sub) < 0)
+		return CTL_EXIT_USAGE;
+	if (n_pos >= 5 && !(x.t = ctl_type_find(pos[4])))
+		return ctl_usage_error(c, "unknown TYPE '%s'; types: %s", pos[4], ctl_type_names());
+	if (x.t && (x.t->size == 0 || x.t->size > 8) && write)
+		return ctl_usage_error(c, "process data values are 1..8 bytes: use a numeric type");
+	if (!write && trigger)
+		return ctl_usage_error(c, "--trigger is for write");
+	snprintf(x.ctx, sizeof x.ctx, "process data %s %04X:%02X on line %u",
+		 write ? "write" : "read", x.index, x.sub, x.line);
+	return write ? pdo_write(c, &x, pos[5], trigger) : pdo_read(c, &x);
+}
+
 static int run_pdo(ctl *c, int argc, char **argv)
 {
 	const char *pos[8];
@@ -160,108 +291,9 @@ static int run_pdo(ctl *c, int argc, char **argv)
 		return ctl_usage_error(c, "map, request, read or write?");
 	if (strcmp(pos[0], "map") == 0)
 		return ctl_pdo_map(c, n_pos, pos);
-	unsigned line;
-	int ex = 0;
-	cogw *h;
-	char ctx[80];
-	if (strcmp(pos[0], "request") == 0) {
-		c->what = "pdo request";
-		uint64_t nr;
-		if (n_pos != 3)
-			return ctl_usage_error(c, "expected LINE TPDO");
-		if (ctl_arg_line(c, pos[1], &line) < 0 ||
-		    ctl_arg_uint(c, pos[2], "TPDO", 512, &nr) < 0)
-			return CTL_EXIT_USAGE;
-		if (nr == 0)
-			return ctl_usage_error(c, "TPDO numbers are 1..512");
-		if (!(h = ctl_handle(c, &ex)))
-			return ex;
-		snprintf(ctx, sizeof ctx, "TPDO %u request on line %u", (unsigned)nr, line);
-		rc = cogw_pdo_request(h, line, (uint16_t)nr, c->timeout_ms);
-		if (rc < 0)
-			return ctl_fail(c, rc, 0, ctx);
-		if (c->json) {
-			cJSON *o = json_ok(line);
-			cJSON_AddNumberToObject(o, "tpdo", (double)nr);
-			ctl_json_print(o);
-		} else {
-			printf("line %u: TPDO %u sent\n", line, (unsigned)nr);
-		}
-		return 0;
-	}
-	bool write = strcmp(pos[0], "write") == 0;
-	if (!write && strcmp(pos[0], "read") != 0)
-		return ctl_usage_error(c, "unknown action '%s' (map, request, read, write)",
-				       pos[0]);
-	c->what = write ? "pdo write" : "pdo read";
-	uint16_t index;
-	uint8_t sub;
-	const ctl_type *t = NULL;
-	if (write ? n_pos != 6 : (n_pos < 4 || n_pos > 5))
-		return ctl_usage_error(c, write ? "expected LINE INDEX SUB TYPE VALUE"
-						: "expected LINE INDEX SUB [TYPE]");
-	if (ctl_arg_line(c, pos[1], &line) < 0 || ctl_arg_index(c, pos[2], &index) < 0 ||
-	    ctl_arg_sub(c, pos[3], &sub) < 0)
-		return CTL_EXIT_USAGE;
-	if (n_pos >= 5 && !(t = ctl_type_find(pos[4])))
-		return ctl_usage_error(c, "unknown TYPE '%s'; types: %s", pos[4], ctl_type_names());
-	if (t && (t->size == 0 || t->size > 8) && write)
-		return ctl_usage_error(c, "process data values are 1..8 bytes: use a numeric type");
-	if (!write && trigger)
-		return ctl_usage_error(c, "--trigger is for write");
-	snprintf(ctx, sizeof ctx, "process data %s %04X:%02X on line %u", write ? "write" : "read",
-		 index, sub, line);
-	if (write) {
-		uint8_t *data;
-		size_t len;
-		rc = ctl_value_encode(c, t, pos[5], &data, &len);
-		if (rc)
-			return rc;
-		if (!(h = ctl_handle(c, &ex))) {
-			free(data);
-			return ex;
-		}
-		rc = cogw_pdo_write(h, line, index, sub, data, len, trigger, c->timeout_ms);
-		free(data);
-		if (rc < 0)
-			return ctl_fail(c, rc, 0, ctx);
-		if (c->json) {
-			cJSON *o = json_ok(line);
-			cJSON_AddNumberToObject(o, "index", index);
-			cJSON_AddNumberToObject(o, "sub", sub);
-			cJSON_AddBoolToObject(o, "trigger", trigger);
-			ctl_json_print(o);
-		} else {
-			printf("%04X:%02X <- %s%s: ok\n", index, sub, pos[5],
-			       trigger ? " (TPDOs mapping it sent)" : "");
-		}
-		return 0;
-	}
-	if (!(h = ctl_handle(c, &ex)))
-		return ex;
-	uint8_t buf[8];
-	size_t len = 0;
-	rc = cogw_pdo_read(h, line, index, sub, buf, sizeof buf, &len, c->timeout_ms);
-	if (rc < 0)
-		return ctl_fail(c, rc, 0, ctx);
-	if (t && len != t->size) {
-		fprintf(stderr, "cogwctl: %s: %zu bytes, %s needs %u\n", ctx, len, t->name,
-			t->size);
-		return CTL_EXIT_REFUSED;
-	}
-	if (c->json) {
-		cJSON *o = json_ok(line);
-		cJSON_AddNumberToObject(o, "index", index);
-		cJSON_AddNumberToObject(o, "sub", sub);
-		cJSON_AddNumberToObject(o, "size", (double)len);
-		ctl_value_json(o, t, buf, len);
-		ctl_json_print(o);
-	} else {
-		char *text = ctl_value_text(t, buf, len);
-		printf("%04X:%02X = %s\n", index, sub, text ? text : "?");
-		free(text);
-	}
-	return 0;
+	if (strcmp(pos[0], "request") == 0)
+		return pdo_request(c, n_pos, pos);
+	return pdo_access(c, n_pos, pos, trigger);
 }
 
 const ctl_cmd ctl_cmd_pdo = {
@@ -602,6 +634,32 @@ static void lss_print_result(ctl *c, unsigned line, const char *act, const char 
 		ctl_json_print(o);
 }
 
+/* ACTION LINE [ARGS] and the options of "lss": the action, the line and
+ * the request. */
+static int lss_request(ctl *c, lss_args *a, const struct lss_action **la, unsigned *line,
+		       mbx_lss_req *q)
+{
+	int rc;
+
+	if (a->n_pos < 2)
+		return ctl_usage_error(c, "expected ACTION LINE ...");
+	const char *act = a->pos[0];
+	if (ctl_arg_line(c, a->pos[1], line) < 0)
+		return CTL_EXIT_USAGE;
+	*la = lss_action_of(act);
+	if (!*la)
+		return ctl_usage_error(c, "unknown ACTION '%s'", act);
+	memset(q, 0, sizeof *q);
+	if ((*la)->parse && (rc = (*la)->parse(c, a, q)) != 0)
+		return rc;
+	int want = (*la)->want == LSS_WANT_BY_KBIT ? (a->kbit ? 0 : 1) : (*la)->want;
+	if (a->n_pos != 2 + want)
+		return ctl_usage_error(c, "wrong number of arguments for '%s'", act);
+	if ((a->table || a->kbit) && (*la)->cmd != MBX_CMD_LSS_SET_BIT_TIMING)
+		return ctl_usage_error(c, "--table/--kbit are for set-bit-timing");
+	return 0;
+}
+
 static int run_lss(ctl *c, int argc, char **argv)
 {
 	const char *pos[8];
@@ -616,24 +674,12 @@ static int run_lss(ctl *c, int argc, char **argv)
 		return rc;
 	if (c->help)
 		return ctl_print_help(&ctl_cmd_lss);
-	if (a.n_pos < 2)
-		return ctl_usage_error(c, "expected ACTION LINE ...");
-	const char *act = pos[0];
+	const struct lss_action *la = NULL;
 	unsigned line;
-	if (ctl_arg_line(c, pos[1], &line) < 0)
-		return CTL_EXIT_USAGE;
-	const struct lss_action *la = lss_action_of(act);
-	if (!la)
-		return ctl_usage_error(c, "unknown ACTION '%s'", act);
 	mbx_lss_req q;
-	memset(&q, 0, sizeof q);
-	if (la->parse && (rc = la->parse(c, &a, &q)) != 0)
+	if ((rc = lss_request(c, &a, &la, &line, &q)))
 		return rc;
-	int want = la->want == LSS_WANT_BY_KBIT ? (a.kbit ? 0 : 1) : la->want;
-	if (a.n_pos != 2 + want)
-		return ctl_usage_error(c, "wrong number of arguments for '%s'", act);
-	if ((a.table || a.kbit) && la->cmd != MBX_CMD_LSS_SET_BIT_TIMING)
-		return ctl_usage_error(c, "--table/--kbit are for set-bit-timing");
+	const char *act = pos[0];
 
 	int ex = 0;
 	cogw *h = ctl_handle(c, &ex);

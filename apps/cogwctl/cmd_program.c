@@ -155,34 +155,19 @@ static int program_failed(prog_run *r, const mbx_mgr_program_resp *a)
 	return ctl_fail(r->c, a->abort ? COGW_E_ABORT : COGW_E_STATE, a->abort, ctx);
 }
 
-static int run_program(ctl *c, int argc, char **argv)
+/* LINE NODE FILE and the options into r and q; the request (q, then the
+ * image) into *msg, malloc'ed, of *msg_len bytes. */
+static int program_request(prog_run *r, const char **pos, const char *expect,
+			   const char *sdo_timeout, uint8_t **msg, size_t *msg_len)
 {
-	const char *pos[4];
-	int n_pos, ex = 0;
-	const char *expect = NULL, *sdo_timeout = NULL;
-	ctl_opt opts[] = {
-		{ "--expect", true, &expect, NULL },
-		{ "--sdo-timeout", true, &sdo_timeout, NULL },
-		{ NULL, false, NULL, NULL },
-	};
-	prog_run r = { .c = c };
+	ctl *c = r->c;
 	mbx_mgr_program_req q = { 0 };
-	mbx_mgr_program_resp a = { 0 };
 	uint64_t want = 0;
-	uint8_t *msg = NULL, *image = NULL;
+	uint8_t *image = NULL;
 	size_t len = 0;
-	char ctx[128];
-	double t0;
-	int rc = ctl_parse(c, argc, argv, opts, pos, 4, &n_pos);
+	int rc;
 
-	if (rc)
-		return rc;
-	if (c->help)
-		return ctl_print_help(&ctl_cmd_program);
-	c->what = "program";
-	if (n_pos != 3)
-		return ctl_usage_error(c, "expected LINE NODE FILE");
-	if (ctl_arg_line(c, pos[0], &r.line) < 0 || ctl_arg_node(c, pos[1], &r.node) < 0)
+	if (ctl_arg_line(c, pos[0], &r->line) < 0 || ctl_arg_node(c, pos[1], &r->node) < 0)
 		return CTL_EXIT_USAGE;
 	if (expect && ctl_arg_uint(c, expect, "--expect", UINT32_MAX, &want) < 0)
 		return CTL_EXIT_USAGE;
@@ -197,18 +182,90 @@ static int run_program(ctl *c, int argc, char **argv)
 	}
 	if ((rc = read_image(c, pos[2], &image, &len)))
 		return rc;
-	q.node = r.node;
+	q.node = r->node;
 	q.expected = (uint32_t)want;
-	msg = malloc(sizeof q + len);
-	if (!msg) {
+	*msg = malloc(sizeof q + len);
+	if (!*msg) {
 		free(image);
 		fprintf(stderr, "cogwctl program: out of memory for %zu bytes\n", len);
 		return CTL_EXIT_REFUSED;
 	}
-	memcpy(msg, &q, sizeof q);
-	memcpy(msg + sizeof q, image, len);
+	memcpy(*msg, &q, sizeof q);
+	memcpy(*msg + sizeof q, image, len);
 	free(image);
-	snprintf(ctx, sizeof ctx, "program update of node %u on line %u", r.node, r.line);
+	*msg_len = sizeof q + len;
+	return 0;
+}
+
+/* The request refused or lost (rc < 0), said in the daemon's terms when
+ * it was sent. */
+static int program_not_done(prog_run *r, int rc, bool sent)
+{
+	char ctx[128];
+	const char *why = !sent                ? ""
+			  : rc == COGW_E_BUSY  ? ": the node is booting or being updated already"
+			  : rc == COGW_E_STATE ? ": not now (the network is stopped, or no SDO "
+						 "request can be queued)"
+			  : rc == COGW_E_UNSUPPORTED ? ": the line has no manager"
+						     : "";
+
+	snprintf(ctx, sizeof ctx, "program update of node %u on line %u%s", r->node, r->line, why);
+	return ctl_fail(r->c, rc, 0, ctx);
+}
+
+static void program_done(prog_run *r, const mbx_mgr_program_resp *a, double dt)
+{
+	if (r->c->json) {
+		cJSON *o = cJSON_CreateObject();
+		char idtxt[16];
+		cJSON_AddBoolToObject(o, "ok", true);
+		cJSON_AddNumberToObject(o, "line", r->line);
+		cJSON_AddNumberToObject(o, "node", r->node);
+		cJSON_AddNumberToObject(o, "size", (double)a->bytes);
+		cJSON_AddStringToObject(o, "transfer", sdo_mode_to_string(a->mode));
+		snprintf(idtxt, sizeof idtxt, "0x%08" PRIX32, a->found);
+		cJSON_AddStringToObject(o, "software_id", idtxt);
+		cJSON_AddBoolToObject(o, "verified", a->expected != 0);
+		cJSON_AddNumberToObject(o, "seconds", dt);
+		cJSON_AddItemToObject(o, "progress", r->progress);
+		r->progress = NULL;
+		ctl_json_print(o);
+	} else {
+		printf("node %u on line %u: program updated and running: stop, clear, %" PRIu32
+		       " bytes to 1F50:01 by %s transfer (%.1f KiB/s), start, verify%s; "
+		       "software id 0x%08" PRIX32 "\n",
+		       r->node, r->line, a->bytes, sdo_mode_to_string(a->mode),
+		       (double)a->bytes / 1024.0 / (dt > 1e-6 ? dt : 1e-6),
+		       a->expected ? "" : " (nothing to compare with)", a->found);
+	}
+}
+
+static int run_program(ctl *c, int argc, char **argv)
+{
+	const char *pos[4];
+	int n_pos, ex = 0;
+	const char *expect = NULL, *sdo_timeout = NULL;
+	ctl_opt opts[] = {
+		{ "--expect", true, &expect, NULL },
+		{ "--sdo-timeout", true, &sdo_timeout, NULL },
+		{ NULL, false, NULL, NULL },
+	};
+	prog_run r = { .c = c };
+	mbx_mgr_program_resp a = { 0 };
+	uint8_t *msg = NULL;
+	size_t len = 0;
+	double t0;
+	int rc = ctl_parse(c, argc, argv, opts, pos, 4, &n_pos);
+
+	if (rc)
+		return rc;
+	if (c->help)
+		return ctl_print_help(&ctl_cmd_program);
+	c->what = "program";
+	if (n_pos != 3)
+		return ctl_usage_error(c, "expected LINE NODE FILE");
+	if ((rc = program_request(&r, pos, expect, sdo_timeout, &msg, &len)))
+		return rc;
 	r.h = ctl_handle(c, &ex);
 	if (!r.h) {
 		free(msg);
@@ -217,60 +274,20 @@ static int run_program(ctl *c, int argc, char **argv)
 	/* progress events are manager-class events of this line */
 	if ((rc = cogw_subscribe(r.h, r.line, MBX_EVC_MANAGER, NULL, 0, c->timeout_ms)) < 0) {
 		free(msg);
-		return ctl_fail(c, rc, 0, ctx);
+		return program_not_done(&r, rc, false);
 	}
 	if (c->json)
 		r.progress = cJSON_CreateArray();
 	t0 = now_s();
-	rc = cogw_send_async(r.h, r.line, MBX_CMD_MGR_PROGRAM, msg, sizeof q + len, &r.corr);
+	rc = cogw_send_async(r.h, r.line, MBX_CMD_MGR_PROGRAM, msg, len, &r.corr);
 	free(msg);
 	if (rc >= 0)
 		rc = wait_answer(&r, &a, t0);
-	if (rc < 0) {
+	if (rc < 0 || a.status) {
 		cJSON_Delete(r.progress);
-		if (rc == COGW_E_BUSY)
-			snprintf(ctx, sizeof ctx,
-				 "program update of node %u on line %u: the node is booting or "
-				 "being updated already",
-				 r.node, r.line);
-		else if (rc == COGW_E_STATE)
-			snprintf(ctx, sizeof ctx,
-				 "program update of node %u on line %u: not now (the network is "
-				 "stopped, or no SDO request can be queued)",
-				 r.node, r.line);
-		else if (rc == COGW_E_UNSUPPORTED)
-			snprintf(ctx, sizeof ctx,
-				 "program update of node %u on line %u: the line has no manager",
-				 r.node, r.line);
-		return ctl_fail(c, rc, 0, ctx);
+		return rc < 0 ? program_not_done(&r, rc, true) : program_failed(&r, &a);
 	}
-	if (a.status) {
-		cJSON_Delete(r.progress);
-		return program_failed(&r, &a);
-	}
-	double dt = now_s() - t0;
-	if (c->json) {
-		cJSON *o = cJSON_CreateObject();
-		char idtxt[16];
-		cJSON_AddBoolToObject(o, "ok", true);
-		cJSON_AddNumberToObject(o, "line", r.line);
-		cJSON_AddNumberToObject(o, "node", r.node);
-		cJSON_AddNumberToObject(o, "size", (double)a.bytes);
-		cJSON_AddStringToObject(o, "transfer", sdo_mode_to_string(a.mode));
-		snprintf(idtxt, sizeof idtxt, "0x%08" PRIX32, a.found);
-		cJSON_AddStringToObject(o, "software_id", idtxt);
-		cJSON_AddBoolToObject(o, "verified", a.expected != 0);
-		cJSON_AddNumberToObject(o, "seconds", dt);
-		cJSON_AddItemToObject(o, "progress", r.progress);
-		ctl_json_print(o);
-	} else {
-		printf("node %u on line %u: program updated and running: stop, clear, %" PRIu32
-		       " bytes to 1F50:01 by %s transfer (%.1f KiB/s), start, verify%s; "
-		       "software id 0x%08" PRIX32 "\n",
-		       r.node, r.line, a.bytes, sdo_mode_to_string(a.mode),
-		       (double)a.bytes / 1024.0 / (dt > 1e-6 ? dt : 1e-6),
-		       a.expected ? "" : " (nothing to compare with)", a.found);
-	}
+	program_done(&r, &a, now_s() - t0);
 	return 0;
 }
 

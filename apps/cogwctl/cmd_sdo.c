@@ -62,58 +62,38 @@ static cJSON *json_head(const obj_args *a)
 	return o;
 }
 
-static int do_read(ctl *c, cogw *h, const obj_args *a)
+/* One read of the object into buf (cap bytes): by the daemon's SDO
+ * client, routed to another network, or from the daemon's own OD. */
+static int read_once(ctl *c, cogw *h, const obj_args *a, uint8_t *buf, size_t cap, size_t *len,
+		     uint32_t *abort)
 {
-	char ctx[96];
-	context(a, false, ctx, sizeof ctx);
-	size_t cap = sizeof first_answer, len = 0;
-	uint8_t *buf = first_answer, *bigger = NULL;
-	uint32_t abort = 0;
-	int rc;
-	for (int attempt = 0;; attempt++) {
-		if (!buf) {
-			fprintf(stderr, "cogwctl: out of memory\n");
-			return CTL_EXIT_REFUSED;
-		}
-		if (a->net)
-			rc = cogw_sdo_read_net(h, a->line, a->net, a->node, a->index, a->sub,
-					       &a->opts, buf, cap, &len, c->timeout_ms, &abort);
-		else
-			rc = a->remote ? cogw_sdo_read_ex(h, a->line, a->node, a->index, a->sub,
-							  &a->opts, buf, cap, &len, c->timeout_ms,
-							  &abort)
-				       : cogw_od_read(h, a->line, a->index, a->sub, buf, cap, &len,
-						      c->timeout_ms, &abort);
-		if (rc != COGW_E_TRUNCATED || attempt > 0 || len <= cap)
-			break;
-		cap = len;
-		buf = bigger = malloc(cap);
-	}
-	if (rc < 0) {
-		free(bigger);
-		return ctl_fail(c, rc, abort, ctx);
-	}
-	if (a->type && a->type->size && len != a->type->size) {
-		char *hex = ctl_hex_text(buf, len, 16);
-		fprintf(stderr, "cogwctl: %s: the answer has %zu byte%s (%s), %s needs %u\n", ctx,
-			len, len == 1 ? "" : "s", hex, a->type->name, a->type->size);
-		free(hex);
-		free(bigger);
+	if (a->net)
+		return cogw_sdo_read_net(h, a->line, a->net, a->node, a->index, a->sub, &a->opts,
+					 buf, cap, len, c->timeout_ms, abort);
+	if (a->remote)
+		return cogw_sdo_read_ex(h, a->line, a->node, a->index, a->sub, &a->opts, buf, cap,
+					len, c->timeout_ms, abort);
+	return cogw_od_read(h, a->line, a->index, a->sub, buf, cap, len, c->timeout_ms, abort);
+}
+
+/* The answer into --out FILE ("-": stdout, then *done). */
+static int save_answer(const obj_args *a, const uint8_t *buf, size_t len, bool *done)
+{
+	FILE *f = strcmp(a->out_path, "-") == 0 ? stdout : fopen(a->out_path, "wb");
+
+	if (!f || fwrite(buf, 1, len, f) != len || (f != stdout && fclose(f) != 0)) {
+		fprintf(stderr, "cogwctl: %s: %s\n", a->out_path, strerror(errno));
 		return CTL_EXIT_REFUSED;
 	}
-	if (a->out_path) {
-		FILE *f = strcmp(a->out_path, "-") == 0 ? stdout : fopen(a->out_path, "wb");
-		if (!f || fwrite(buf, 1, len, f) != len || (f != stdout && fclose(f) != 0)) {
-			fprintf(stderr, "cogwctl: %s: %s\n", a->out_path, strerror(errno));
-			free(bigger);
-			return CTL_EXIT_REFUSED;
-		}
-		if (f == stdout) {
-			fflush(stdout);
-			free(bigger);
-			return 0;
-		}
+	if (f == stdout) {
+		fflush(stdout);
+		*done = true;
 	}
+	return 0;
+}
+
+static void print_answer(ctl *c, const obj_args *a, const uint8_t *buf, size_t len)
+{
 	if (c->json) {
 		cJSON *o = json_head(a);
 		cJSON_AddNumberToObject(o, "size", (double)len);
@@ -135,8 +115,49 @@ static int do_read(ctl *c, cogw *h, const obj_args *a)
 			printf("(%zu bytes; --out FILE saves them all)\n", len);
 		free(text);
 	}
+}
+
+/* The answer's size fits the TYPE given (none: any). */
+static int check_size(const obj_args *a, const char *ctx, const uint8_t *buf, size_t len)
+{
+	char *hex;
+
+	if (!a->type || !a->type->size || len == a->type->size)
+		return 0;
+	hex = ctl_hex_text(buf, len, 16);
+	fprintf(stderr, "cogwctl: %s: the answer has %zu byte%s (%s), %s needs %u\n", ctx, len,
+		len == 1 ? "" : "s", hex, a->type->name, a->type->size);
+	free(hex);
+	return CTL_EXIT_REFUSED;
+}
+
+static int do_read(ctl *c, cogw *h, const obj_args *a)
+{
+	char ctx[96];
+	context(a, false, ctx, sizeof ctx);
+	size_t cap = sizeof first_answer, len = 0;
+	uint8_t *buf = first_answer, *bigger = NULL;
+	uint32_t abort = 0;
+	bool done = false;
+	int rc;
+	for (int attempt = 0;; attempt++) {
+		if (!buf) {
+			fprintf(stderr, "cogwctl: out of memory\n");
+			return CTL_EXIT_REFUSED;
+		}
+		rc = read_once(c, h, a, buf, cap, &len, &abort);
+		if (rc != COGW_E_TRUNCATED || attempt > 0 || len <= cap)
+			break;
+		cap = len;
+		buf = bigger = malloc(cap);
+	}
+	if (rc < 0)
+		rc = ctl_fail(c, rc, abort, ctx);
+	else if (!(rc = check_size(a, ctx, buf, len)) &&
+		 !(a->out_path && (rc = save_answer(a, buf, len, &done))) && !done)
+		print_answer(c, a, buf, len);
 	free(bigger);
-	return 0;
+	return rc;
 }
 
 static int do_write(ctl *c, cogw *h, const obj_args *a, const char *value)
@@ -187,19 +208,77 @@ static int parse_mode(ctl *c, const char *s, uint8_t *mode)
 	return ctl_usage_error(c, "--mode '%s': one of auto, expedited, segmented, block", s);
 }
 
+/* The options of "sdo"/"od" as given (NULL: not given). */
+struct obj_opts {
+	const char *out, *mode, *sdo_timeout, *net;
+};
+
+/* LINE [NODE] INDEX SUB [TYPE] into a; *k moved past them. */
+static int obj_positionals(ctl *c, const char **pos, int n_pos, bool write, obj_args *a, int *k)
+{
+	/* [remote][write]: od read, od write; sdo read, sdo write */
+	static const char *const expected[2][2] = {
+		{ "expected LINE INDEX SUB [TYPE]", "expected LINE INDEX SUB TYPE VALUE|@FILE" },
+		{ "expected LINE NODE INDEX SUB [TYPE]",
+		  "expected LINE NODE INDEX SUB TYPE VALUE|@FILE" },
+	};
+	bool remote = a->remote;
+	int need = (remote ? 4 : 3) + (write ? 2 : 0);
+	int most = write ? need : need + 1; /* a read may name a TYPE */
+	if (n_pos - 1 < need || n_pos - 1 > most)
+		return ctl_usage_error(c, "%s", expected[remote][write]);
+	if (ctl_arg_line(c, pos[(*k)++], &a->line) < 0 ||
+	    (remote && ctl_arg_node(c, pos[(*k)++], &a->node) < 0) ||
+	    ctl_arg_index(c, pos[(*k)++], &a->index) < 0 ||
+	    ctl_arg_sub(c, pos[(*k)++], &a->sub) < 0)
+		return CTL_EXIT_USAGE;
+	if (*k < n_pos) {
+		a->type = ctl_type_find(pos[*k]);
+		if (!a->type)
+			return ctl_usage_error(c, "unknown TYPE '%s'; types: %s", pos[*k],
+					       ctl_type_names());
+		(*k)++;
+	}
+	return 0;
+}
+
+/* --out, --mode, --net and --sdo-timeout into a. */
+static int obj_options(ctl *c, const struct obj_opts *o, bool write, obj_args *a)
+{
+	if (write && o->out)
+		return ctl_usage_error(c, "--out is for read");
+	if (o->mode && parse_mode(c, o->mode, &a->opts.mode))
+		return CTL_EXIT_USAGE;
+	if (o->net) {
+		uint64_t v;
+		if (ctl_arg_uint(c, o->net, "--net", 127, &v) < 0)
+			return CTL_EXIT_USAGE;
+		if (v < 1)
+			return ctl_usage_error(c, "--net %s: a network id is 1..127", o->net);
+		a->net = (uint16_t)v;
+	}
+	if (o->sdo_timeout) {
+		uint64_t ms;
+		if (ctl_arg_uint(c, o->sdo_timeout, "--sdo-timeout", 600000, &ms) < 0)
+			return CTL_EXIT_USAGE;
+		a->opts.sdo_timeout_ms = (uint32_t)ms;
+	}
+	return 0;
+}
+
 /* argv: "sdo" or "od", then read|write and the positionals. */
 static int run_obj(ctl *c, int argc, char **argv, bool remote, const ctl_cmd *self)
 {
 	const char *pos[8];
 	int n_pos;
-	const char *out = NULL, *mode = NULL, *sdo_timeout = NULL, *net = NULL;
+	struct obj_opts o = { 0 };
 	ctl_opt sdo_opts[] = {
-		{ "--out", true, &out, NULL },   { "--net", true, &net, NULL },
-		{ "--mode", true, &mode, NULL }, { "--sdo-timeout", true, &sdo_timeout, NULL },
+		{ "--out", true, &o.out, NULL },   { "--net", true, &o.net, NULL },
+		{ "--mode", true, &o.mode, NULL }, { "--sdo-timeout", true, &o.sdo_timeout, NULL },
 		{ NULL, false, NULL, NULL },
 	};
 	ctl_opt od_opts[] = {
-		{ "--out", true, &out, NULL },
+		{ "--out", true, &o.out, NULL },
 		{ NULL, false, NULL, NULL },
 	};
 	int rc = ctl_parse(c, argc, argv, remote ? sdo_opts : od_opts, pos, 8, &n_pos);
@@ -214,45 +293,11 @@ static int run_obj(ctl *c, int argc, char **argv, bool remote, const ctl_cmd *se
 		return ctl_usage_error(c, "unknown action '%s' (read or write)", pos[0]);
 	c->what = remote ? (write ? "sdo write" : "sdo read") : (write ? "od write" : "od read");
 
-	obj_args a = { .remote = remote, .out_path = out };
+	obj_args a = { .remote = remote, .out_path = o.out };
 	int k = 1;
-	int need = (remote ? 4 : 3) + (write ? 2 : 0);
-	if (n_pos - 1 < need || (!write && n_pos - 1 > need + 1) || (write && n_pos - 1 > need))
-		return ctl_usage_error(
-			c, "%s",
-			remote ? (write ? "expected LINE NODE INDEX SUB TYPE VALUE|@FILE"
-					: "expected LINE NODE INDEX SUB [TYPE]")
-			       : (write ? "expected LINE INDEX SUB TYPE VALUE|@FILE"
-					: "expected LINE INDEX SUB [TYPE]"));
-	if (ctl_arg_line(c, pos[k++], &a.line) < 0 ||
-	    (remote && ctl_arg_node(c, pos[k++], &a.node) < 0) ||
-	    ctl_arg_index(c, pos[k++], &a.index) < 0 || ctl_arg_sub(c, pos[k++], &a.sub) < 0)
-		return CTL_EXIT_USAGE;
-	if (k < n_pos) {
-		a.type = ctl_type_find(pos[k]);
-		if (!a.type)
-			return ctl_usage_error(c, "unknown TYPE '%s'; types: %s", pos[k],
-					       ctl_type_names());
-		k++;
-	}
-	if (write && out)
-		return ctl_usage_error(c, "--out is for read");
-	if (mode && parse_mode(c, mode, &a.opts.mode))
-		return CTL_EXIT_USAGE;
-	if (net) {
-		uint64_t v;
-		if (ctl_arg_uint(c, net, "--net", 127, &v) < 0)
-			return CTL_EXIT_USAGE;
-		if (v < 1)
-			return ctl_usage_error(c, "--net %s: a network id is 1..127", net);
-		a.net = (uint16_t)v;
-	}
-	if (sdo_timeout) {
-		uint64_t ms;
-		if (ctl_arg_uint(c, sdo_timeout, "--sdo-timeout", 600000, &ms) < 0)
-			return CTL_EXIT_USAGE;
-		a.opts.sdo_timeout_ms = (uint32_t)ms;
-	}
+	if ((rc = obj_positionals(c, pos, n_pos, write, &a, &k)) ||
+	    (rc = obj_options(c, &o, write, &a)))
+		return rc;
 	int ex = 0;
 	cogw *h = ctl_handle(c, &ex);
 	if (!h)

@@ -54,15 +54,6 @@ static void overview(FILE *to)
 		"Manual: docs/cogwctl.md\n");
 }
 
-int ctl_print_help(const ctl_cmd *cmd)
-{
-	fputs(cmd->help, stdout);
-	fputs("\nGlobal options: --instance NAME, --timeout MS, --json, --help.\n"
-	      "Exit status: 0 ok, 1 refused/abort, 2 usage, 3 daemon not reachable, 4 timeout.\n",
-	      stdout);
-	return CTL_EXIT_OK;
-}
-
 /* stdout's buffer, given before the first output: stdio would otherwise
  * fstat and ioctl stdout to choose one (two system calls of every one-shot
  * command, docs/fastpath.md "One-shot `cogwctl`"). Line-buffered as on a

@@ -731,3 +731,13 @@ void ctl_rpdo_fault_text(uint8_t faults, const char *sep, bool with_emcy, char *
 			off += (size_t)snprintf(buf + off, len - off, "%s%s%s", off ? sep : "",
 						kinds[k].name, with_emcy ? kinds[k].emcy : "");
 }
+
+/* A command's --help, with what every command shares. */
+int ctl_print_help(const ctl_cmd *cmd)
+{
+	fputs(cmd->help, stdout);
+	fputs("\nGlobal options: --instance NAME, --timeout MS, --json, --help.\n"
+	      "Exit status: 0 ok, 1 refused/abort, 2 usage, 3 daemon not reachable, 4 timeout.\n",
+	      stdout);
+	return CTL_EXIT_OK;
+}

@@ -101,6 +101,38 @@ static void fill_rules(daemon_state *d)
 	}
 }
 
+/* Line i's mailbox: its queue, the configured limits and access rules,
+ * and the transfer memory all lines share. */
+static mbx_server_config mailbox_params(daemon_state *d, size_t i)
+{
+	const cogw_mailbox_config *m = &d->cfg.mailbox;
+
+	return (mbx_server_config){
+		.queue_name = d->queue_names[i],
+		.queue_mode = m->queue_mode,
+		.depth = m->depth,
+		.msg_size = m->msg_size,
+		.max_clients = m->max_clients,
+		.lease_ms = m->lease_ms,
+		.max_transfer = m->max_transfer,
+		.max_clients_per_uid = m->max_clients_per_uid,
+		.max_outstanding = m->max_outstanding,
+		.max_request_timeout_ms = m->max_request_timeout_ms,
+		.read_outstanding = m->max_read_outstanding,
+		.write_reserve = m->write_reserve,
+		.xfer_slots = m->transfer_slots,
+		.xfer_per_client = m->max_transfers_per_client,
+		.xfer_timeout_ms = m->transfer_stall_ms,
+		.xfer_max_ms = m->transfer_lifetime_ms,
+		.budget = &d->transfer_memory,
+		.rules = d->rules,
+		.n_rules = m->n_rules,
+		.default_access = m->default_access,
+		/* a stale queue of a crashed daemon must not block a restart */
+		.unlink_existing = true,
+	};
+}
+
 static int create_lines(daemon_state *d)
 {
 	const cogw_config *c = &d->cfg;
@@ -145,36 +177,13 @@ static int create_lines(daemon_state *d)
 				 * UNSUPPORTED (core timeouts stay at their defaults). */
 				.lss_master = true,
 			},
-			.mbx = {
-				.queue_name = d->queue_names[i],
-				.queue_mode = c->mailbox.queue_mode,
-				.depth = c->mailbox.depth,
-				.msg_size = c->mailbox.msg_size,
-				.max_clients = c->mailbox.max_clients,
-				.lease_ms = c->mailbox.lease_ms,
-				.max_transfer = c->mailbox.max_transfer,
-				.max_clients_per_uid = c->mailbox.max_clients_per_uid,
-				.max_outstanding = c->mailbox.max_outstanding,
-				.max_request_timeout_ms = c->mailbox.max_request_timeout_ms,
-				.read_outstanding = c->mailbox.max_read_outstanding,
-				.write_reserve = c->mailbox.write_reserve,
-				.xfer_slots = c->mailbox.transfer_slots,
-				.xfer_per_client = c->mailbox.max_transfers_per_client,
-				.xfer_timeout_ms = c->mailbox.transfer_stall_ms,
-				.xfer_max_ms = c->mailbox.transfer_lifetime_ms,
-				.budget = &d->transfer_memory,
-				.rules = d->rules,
-				.n_rules = c->mailbox.n_rules,
-				.default_access = c->mailbox.default_access,
-				/* a stale queue of a crashed daemon must not block a restart */
-				.unlink_existing = true,
-			},
 			.rt_priority = lc->rt.priority,
 			.rt_cpu = lc->rt.cpu,
 			.checkin_ms = c->watchdog_check_ms,
 			.state_dir = c->state_dir,
 			.main_wakefd = d->wakefd,
 			.pdo_layout = d->pdo_layouts[i],
+			.mbx = mailbox_params(d, i),
 		};
 		cogwd_exts_for_line(&d->exts, (unsigned)i, p.ext);
 		rc = line_create(&d->lines[i], &p);
@@ -393,6 +402,32 @@ static int wait_lines_up(daemon_state *d)
 	}
 }
 
+/* A signal from the signalfd: true when it stops the daemon. */
+static bool on_signal(daemon_state *d)
+{
+	struct signalfd_siginfo si;
+
+	if (read(d->sigfd, &si, sizeof si) != (ssize_t)sizeof si)
+		return false;
+	switch (si.ssi_signo) {
+	case SIGTERM:
+	case SIGINT:
+		cogw_log(COGW_LOG_NOTICE, "%s: stopping", strsignal((int)si.ssi_signo));
+		return true;
+	case SIGHUP:
+		reload(d);
+		break;
+	case SIGUSR2:
+		if (d->cfg.debug_stall_signal && d->n_lines)
+			line_request_stall(d->lines[0],
+					   d->cfg.debug_stall_ms ? d->cfg.debug_stall_ms : 5000);
+		else
+			cogw_log(COGW_LOG_NOTICE, "SIGUSR2 ignored (debug.stall_signal is off)");
+		break;
+	}
+	return false;
+}
+
 static int run(daemon_state *d)
 {
 	char status[1024];
@@ -420,29 +455,8 @@ static int run(daemon_state *d)
 			for (size_t i = 0; i < d->n_lines; i++)
 				line_store_service(d->lines[i]);
 		}
-		if (!(pfd[0].revents & POLLIN))
-			continue;
-		struct signalfd_siginfo si;
-		if (read(d->sigfd, &si, sizeof si) != (ssize_t)sizeof si)
-			continue;
-		switch (si.ssi_signo) {
-		case SIGTERM:
-		case SIGINT:
-			cogw_log(COGW_LOG_NOTICE, "%s: stopping", strsignal((int)si.ssi_signo));
+		if ((pfd[0].revents & POLLIN) && on_signal(d))
 			return 0;
-		case SIGHUP:
-			reload(d);
-			break;
-		case SIGUSR2:
-			if (d->cfg.debug_stall_signal && d->n_lines)
-				line_request_stall(d->lines[0], d->cfg.debug_stall_ms
-									? d->cfg.debug_stall_ms
-									: 5000);
-			else
-				cogw_log(COGW_LOG_NOTICE,
-					 "SIGUSR2 ignored (debug.stall_signal is off)");
-			break;
-		}
 	}
 }
 

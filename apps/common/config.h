@@ -83,12 +83,12 @@ typedef struct cogw_node {
 	                             * sets 1F81h:n bit 6 */
 	size_t program_len;
 	/* PDO layout (docs/config.md "PDO layouts") */
-	uint8_t pdo;               /* cogw_pdo_mode: "pdo", else the line's */
-	char eds[256];             /* "eds": the device's file (resolved), "" = none */
-	bool pdo_from_file;        /* the layout is pdo_file (config.dcf without
+	uint8_t pdo;                  /* cogw_pdo_mode: "pdo", else the line's */
+	char eds[COGW_FILE_NAME_MAX]; /* "eds": the device's file (resolved), "" = none */
+	bool pdo_from_file;           /* the layout is pdo_file (config.dcf without
 	                                   * "eds", or "eds" without "config") */
-	eds_pdo_file pdo_file;     /* the valid PDOs the file gives (owned) */
-	co_pdo_layout_type *types; /* sorted: the file's objects with "types" over
+	eds_pdo_file pdo_file;        /* the valid PDOs the file gives (owned) */
+	co_pdo_layout_type *types;    /* sorted: the file's objects with "types" over
 	                                   * them (owned) */
 	size_t n_types;
 } cogw_node;

@@ -120,19 +120,33 @@ static bool value_of(const eds_pdo_reader *r, uint16_t index, uint8_t sub, uint3
 	return true;
 }
 
-static int fail(char *err, size_t errlen, const char *file, const char *dir, unsigned nr,
-		uint16_t map, const char *fmt, ...) __attribute__((format(printf, 7, 8)));
+/* A file's layout being read: the reader's objects, their types, and
+ * where a refusal goes. */
+struct layout_read {
+	const eds_pdo_reader *r;
+	const char *file;
+	const co_pdo_layout_type *types;
+	size_t n_types;
+	char *err;
+	size_t errlen;
+};
 
-static int fail(char *err, size_t errlen, const char *file, const char *dir, unsigned nr,
-		uint16_t map, const char *fmt, ...)
+/* "file: TPDO nr (mapping map): why" into x->err, -EINVAL. */
+static int fail(const struct layout_read *x, const co_pdo_layout_pdo *p, co_pdo_dir dir,
+		const char *fmt, ...) __attribute__((format(printf, 4, 5)));
+
+static int fail(const struct layout_read *x, const co_pdo_layout_pdo *p, co_pdo_dir dir,
+		const char *fmt, ...)
 {
 	char why[200];
 	va_list ap;
+	uint16_t map = (uint16_t)((dir == CO_PDO_TX ? 0x1A00u : 0x1600u) + p->nr - 1u);
 
 	va_start(ap, fmt);
 	vsnprintf(why, sizeof why, fmt, ap);
 	va_end(ap);
-	snprintf(err, errlen, "%s: %s %u (mapping %04Xh): %s", file, dir, nr, map, why);
+	snprintf(x->err, x->errlen, "%s: %s %u (mapping %04Xh): %s", x->file,
+		 dir == CO_PDO_TX ? "TPDO" : "RPDO", p->nr, map, why);
 	return -EINVAL;
 }
 
@@ -163,11 +177,10 @@ static int type_entry(co_pdo_layout_entry *e, co_pdo_dir dir, const co_pdo_layou
 }
 
 /* One valid PDO of the file, n = 0..511 of direction dir. */
-static int read_pdo(const eds_pdo_reader *r, const char *file, co_pdo_dir dir, unsigned n,
-		    uint32_t cob, const co_pdo_layout_type *types, size_t n_types,
-		    co_pdo_layout_pdo *p, char *err, size_t errlen)
+static int read_pdo(const struct layout_read *x, co_pdo_dir dir, unsigned n, uint32_t cob,
+		    co_pdo_layout_pdo *p)
 {
-	const char *name = dir == CO_PDO_TX ? "TPDO" : "RPDO";
+	const eds_pdo_reader *r = x->r;
 	uint16_t comm = (uint16_t)((dir == CO_PDO_TX ? 0x1800u : 0x1400u) + n);
 	uint16_t map = (uint16_t)(comm + 0x200u);
 	uint32_t v = 0, count = 0, bits = 0;
@@ -186,34 +199,33 @@ static int read_pdo(const eds_pdo_reader *r, const char *file, co_pdo_dir dir, u
 		p->sync_start = (uint8_t)v;
 	(void)value_of(r, map, 0, &count);
 	if (count > CO_PDO_MAX_MAP)
-		return fail(err, errlen, file, name, p->nr, map, "%u entries, at most %u",
-			    (unsigned)count, CO_PDO_MAX_MAP);
+		return fail(x, p, dir, "%u entries, at most %u", (unsigned)count, CO_PDO_MAX_MAP);
 	for (unsigned i = 1; i <= count; i++) {
 		co_pdo_layout_entry *e = &p->map[i - 1];
 		if (!value_of(r, map, (uint8_t)i, &v))
-			return fail(err, errlen, file, name, p->nr, map,
-				    "sub0 = %u but sub %u has no value", (unsigned)count, i);
+			return fail(x, p, dir, "sub0 = %u but sub %u has no value", (unsigned)count,
+				    i);
 		e->index = (uint16_t)(v >> 16);
 		e->sub = (uint8_t)(v >> 8);
 		e->bits = (uint8_t)v;
 		if (e->bits == 0)
-			return fail(err, errlen, file, name, p->nr, map,
-				    "sub %u (%08Xh) maps 0 bits", i, (unsigned)v);
+			return fail(x, p, dir, "sub %u (%08Xh) maps 0 bits", i, (unsigned)v);
 		bits += e->bits;
 		if (bits > CO_PDO_MAX_BITS)
-			return fail(err, errlen, file, name, p->nr, map,
-				    "the entries map more than %u bits", CO_PDO_MAX_BITS);
-		if (type_entry(e, dir, types, n_types, why, sizeof why))
-			return fail(err, errlen, file, name, p->nr, map, "sub %u: %s", i, why);
+			return fail(x, p, dir, "the entries map more than %u bits",
+				    CO_PDO_MAX_BITS);
+		if (type_entry(e, dir, x->types, x->n_types, why, sizeof why))
+			return fail(x, p, dir, "sub %u: %s", i, why);
 	}
 	p->n = (uint8_t)count;
 	p->bytes = (uint8_t)((bits + 7u) / 8u);
 	return 0;
 }
 
-static int read_layout(const eds_pdo_reader *r, const char *file, const co_pdo_layout_type *types,
-		       size_t n_types, eds_pdo_file *out, char *err, size_t errlen)
+static int read_layout(const struct layout_read *x, eds_pdo_file *out)
 {
+	const eds_pdo_reader *r = x->r;
+
 	for (unsigned d = 0; d < 2; d++) {
 		co_pdo_dir dir = d == 0 ? CO_PDO_RX : CO_PDO_TX;
 		uint16_t comm0 = dir == CO_PDO_TX ? 0x1800u : 0x1400u;
@@ -230,8 +242,7 @@ static int read_layout(const eds_pdo_reader *r, const char *file, const co_pdo_l
 		for (unsigned n = 0; n < CO_PDO_MAX; n++) {
 			if (!value_of(r, (uint16_t)(comm0 + n), 1, &cob) || cob >> 31)
 				continue;
-			int rc = read_pdo(r, file, dir, n, cob, types, n_types,
-					  &out->pdo[dir][out->n[dir]], err, errlen);
+			int rc = read_pdo(x, dir, n, cob, &out->pdo[dir][out->n[dir]]);
 			if (rc)
 				return rc;
 			out->n[dir]++;
@@ -282,7 +293,8 @@ int eds_pdo_reader_finish(eds_pdo_reader *r, const char *file, const co_pdo_layo
 		return -ENOMEM;
 	if ((rc = merge_types(r, overrides, n_overrides, &list, &n)))
 		return rc;
-	if (layout && (rc = read_layout(r, file, list, n, layout, err, errlen))) {
+	if (layout &&
+	    (rc = read_layout(&(struct layout_read){ r, file, list, n, err, errlen }, layout))) {
 		eds_pdo_file_free(layout);
 		free(list);
 		return rc;

@@ -123,8 +123,8 @@ int cogw_file_set_charge(cogw_file_set *s, const char *path, uint64_t bytes, cha
 	return 0;
 }
 
-int cogw_file_set_get(cogw_file_set *s, const char *path, size_t max, const uint8_t **data,
-		      size_t *len, char *err, size_t errlen)
+int cogw_file_set_get(cogw_file_set *s, const char *path, size_t max, cogw_file_bytes *out,
+		      char *err, size_t errlen)
 {
 	struct stat st;
 	cogw_file_entry *e;
@@ -137,8 +137,7 @@ int cogw_file_set_get(cogw_file_set *s, const char *path, size_t max, const uint
 		if (s->v[i].dev == st.st_dev && s->v[i].ino == st.st_ino &&
 		    s->v[i].len == (size_t)st.st_size) {
 			close(fd);
-			*data = s->v[i].data;
-			*len = s->v[i].len;
+			*out = (cogw_file_bytes){ s->v[i].data, s->v[i].len };
 			return 0;
 		}
 	}
@@ -167,8 +166,7 @@ int cogw_file_set_get(cogw_file_set *s, const char *path, size_t max, const uint
 	e->ino = st.st_ino;
 	e->len = (size_t)st.st_size;
 	s->n++;
-	*data = e->data;
-	*len = e->len;
+	*out = (cogw_file_bytes){ e->data, e->len };
 	return 0;
 }
 

@@ -47,11 +47,17 @@ typedef struct cogw_file_set {
 	uint64_t limit; /* 0 = nothing may be held */
 } cogw_file_set;
 
-/* The bytes of `path` (at most max), read now or shared with an earlier
- * call for the same file; owned by the set. Errors as cogw_file_read, and
- * -ENOSPC when a new file does not fit in what is left of limit. */
-int cogw_file_set_get(cogw_file_set *s, const char *path, size_t max, const uint8_t **data,
-		      size_t *len, char *err, size_t errlen);
+/* A file's bytes as the set holds them. */
+typedef struct cogw_file_bytes {
+	const uint8_t *data; /* owned by the set, NUL-terminated */
+	size_t len;
+} cogw_file_bytes;
+
+/* The bytes of `path` (at most max) into *out, read now or shared with an
+ * earlier call for the same file. Errors as cogw_file_read, and -ENOSPC
+ * when a new file does not fit in what is left of limit. */
+int cogw_file_set_get(cogw_file_set *s, const char *path, size_t max, cogw_file_bytes *out,
+		      char *err, size_t errlen);
 /* Count bytes the caller holds because of a file (a copy, a conversion)
  * against the same limit: -ENOSPC (err says so) when they do not fit. */
 int cogw_file_set_charge(cogw_file_set *s, const char *path, uint64_t bytes, char *err,

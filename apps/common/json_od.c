@@ -151,20 +151,18 @@ static int parse_time(const cJSON *v, co_type t, const char *path, uint8_t *buf,
 	return 0;
 }
 
-/* One parser per kind of type: the value v of type t at path into buf
- * (cap bytes), its size in *len. */
-typedef int (*value_parser)(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-			    uint32_t *len, char *err, size_t errlen);
+/* One parser per kind of type: the value v of type t at path into out. */
+typedef int (*value_parser)(const cJSON *v, co_type t, const char *path, json_od_buf *out,
+			    char *err, size_t errlen);
 
-static int parse_boolean(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-			 uint32_t *len, char *err, size_t errlen)
+static int parse_boolean(const cJSON *v, co_type t, const char *path, json_od_buf *out, char *err,
+			 size_t errlen)
 {
 	bool b;
 	uint64_t u;
 	int rc;
 
 	(void)t;
-	(void)cap;
 	if (cJSON_IsBool(v))
 		b = cJSON_IsTrue(v);
 	else if (cJSON_IsNumber(v)) {
@@ -175,30 +173,28 @@ static int parse_boolean(const cJSON *v, co_type t, const char *path, uint8_t *b
 		return json_util_fail(err, errlen, path,
 				      "expected true or false for BOOLEAN, got %s",
 				      json_util_kind(v));
-	buf[0] = b;
-	*len = 1;
+	out->buf[0] = b;
+	out->len = 1;
 	return 0;
 }
 
-static int parse_time_value(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-			    uint32_t *len, char *err, size_t errlen)
+static int parse_time_value(const cJSON *v, co_type t, const char *path, json_od_buf *out,
+			    char *err, size_t errlen)
 {
 	int rc;
 
-	(void)cap;
-	if ((rc = parse_time(v, t, path, buf, err, errlen)))
+	if ((rc = parse_time(v, t, path, out->buf, err, errlen)))
 		return rc;
-	*len = co_type_size(t);
+	out->len = co_type_size(t);
 	return 0;
 }
 
-static int parse_real(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-		      uint32_t *len, char *err, size_t errlen)
+static int parse_real(const cJSON *v, co_type t, const char *path, json_od_buf *out, char *err,
+		      size_t errlen)
 {
 	double d;
 	int rc;
 
-	(void)cap;
 	if (!cJSON_IsNumber(v))
 		return json_util_fail(err, errlen, path, "expected a number for %s, got %s",
 				      co_type_to_string(t), json_util_kind(v));
@@ -213,24 +209,23 @@ static int parse_real(const cJSON *v, co_type t, const char *path, uint8_t *buf,
 					      d);
 		f = (float)d;
 		memcpy(&bits, &f, 4);
-		co_put_le(buf, 4, bits);
+		co_put_le(out->buf, 4, bits);
 	} else {
 		uint64_t bits;
 
 		memcpy(&bits, &d, 8);
-		co_put_le(buf, 8, bits);
+		co_put_le(out->buf, 8, bits);
 	}
-	*len = co_type_size(t);
+	out->len = co_type_size(t);
 	return 0;
 }
 
-static int parse_integer(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-			 uint32_t *len, char *err, size_t errlen)
+static int parse_integer(const cJSON *v, co_type t, const char *path, json_od_buf *out, char *err,
+			 size_t errlen)
 {
 	uint32_t size = co_type_size(t);
 	int rc;
 
-	(void)cap;
 	if (!cJSON_IsNumber(v) && !cJSON_IsString(v))
 		return json_util_fail(err, errlen, path, "expected an integer for %s, got %s",
 				      co_type_to_string(t), json_util_kind(v));
@@ -241,21 +236,21 @@ static int parse_integer(const cJSON *v, co_type t, const char *path, uint8_t *b
 
 		if ((rc = json_util_sint(v, path, lo, hi, &s, err, errlen)))
 			return rc;
-		co_put_le(buf, size, (uint64_t)s);
+		co_put_le(out->buf, size, (uint64_t)s);
 	} else {
 		uint64_t hi = size == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * size)) - 1;
 		uint64_t u;
 
 		if ((rc = json_util_uint(v, path, 0, hi, false, &u, err, errlen)))
 			return rc;
-		co_put_le(buf, size, u);
+		co_put_le(out->buf, size, u);
 	}
-	*len = size;
+	out->len = size;
 	return 0;
 }
 
-static int parse_visible_string(const cJSON *v, co_type t, const char *path, uint8_t *buf,
-				uint32_t cap, uint32_t *len, char *err, size_t errlen)
+static int parse_visible_string(const cJSON *v, co_type t, const char *path, json_od_buf *out,
+				char *err, size_t errlen)
 {
 	size_t n;
 
@@ -265,16 +260,17 @@ static int parse_visible_string(const cJSON *v, co_type t, const char *path, uin
 				      "expected a string for VISIBLE_STRING, got %s",
 				      json_util_kind(v));
 	n = strlen(v->valuestring);
-	if (n > cap)
+	if (n > out->cap)
 		return json_util_fail(err, errlen, path,
-				      "string of %zu bytes is longer than max_size %u", n, cap);
-	memcpy(buf, v->valuestring, n);
-	*len = (uint32_t)n;
+				      "string of %zu bytes is longer than max_size %u", n,
+				      out->cap);
+	memcpy(out->buf, v->valuestring, n);
+	out->len = (uint32_t)n;
 	return 0;
 }
 
-static int parse_unicode_string(const cJSON *v, co_type t, const char *path, uint8_t *buf,
-				uint32_t cap, uint32_t *len, char *err, size_t errlen)
+static int parse_unicode_string(const cJSON *v, co_type t, const char *path, json_od_buf *out,
+				char *err, size_t errlen)
 {
 	long n;
 
@@ -283,27 +279,27 @@ static int parse_unicode_string(const cJSON *v, co_type t, const char *path, uin
 		return json_util_fail(err, errlen, path,
 				      "expected a string for UNICODE_STRING, got %s",
 				      json_util_kind(v));
-	n = json_od_utf8_to_utf16le(v->valuestring, buf, cap);
+	n = json_od_utf8_to_utf16le(v->valuestring, out->buf, out->cap);
 	if (n == -1)
 		return json_util_fail(err, errlen, path, "string is not valid UTF-8");
 	if (n == -2)
 		return json_util_fail(err, errlen, path,
-				      "string is longer than max_size %u bytes (UTF-16)", cap);
-	*len = (uint32_t)n;
+				      "string is longer than max_size %u bytes (UTF-16)", out->cap);
+	out->len = (uint32_t)n;
 	return 0;
 }
 
 /* OCTET_STRING and DOMAIN: hex. */
-static int parse_hex_bytes(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-			   uint32_t *len, char *err, size_t errlen)
+static int parse_hex_bytes(const cJSON *v, co_type t, const char *path, json_od_buf *out, char *err,
+			   size_t errlen)
 {
 	size_t n;
 	int rc;
 
 	(void)t;
-	if ((rc = json_util_hex(v, path, buf, cap, &n, err, errlen)))
+	if ((rc = json_util_hex(v, path, out->buf, out->cap, &n, err, errlen)))
 		return rc;
-	*len = (uint32_t)n;
+	out->len = (uint32_t)n;
 	return 0;
 }
 
@@ -324,14 +320,14 @@ static value_parser value_parser_of(co_type t)
 	return parse_hex_bytes;
 }
 
-int json_od_parse_value(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-			uint32_t *len, char *err, size_t errlen)
+int json_od_parse_value(const cJSON *v, co_type t, const char *path, json_od_buf *out, char *err,
+			size_t errlen)
 {
 	if (!co_type_is_valid(t))
 		return json_util_fail(err, errlen, path, "invalid type");
-	if (!co_type_is_variable(t) && cap < co_type_size(t))
+	if (!co_type_is_variable(t) && out->cap < co_type_size(t))
 		return json_util_fail(err, errlen, path, "no room for the value");
-	return value_parser_of(t)(v, t, path, buf, cap, len, err, errlen);
+	return value_parser_of(t)(v, t, path, out, err, errlen);
 }
 
 int json_od_parse_index(const cJSON *v, const char *path, uint16_t *out, char *err, size_t errlen)
@@ -398,16 +394,15 @@ struct ent_spec {
 	uint8_t min_b[8], max_b[8];
 };
 
-static int parse_common(const cJSON *o, const char *path, struct ent_spec *s, char *err,
-			size_t errlen)
+/* "type", "access", "pdo", "persist" and "name" of one definition. */
+static int parse_kind(const cJSON *o, const char *path, struct ent_spec *s, char *err,
+		      size_t errlen)
 {
 	char p[JSON_PATH_MAX];
 	const cJSON *v;
 	bool pdo = false, persist = false;
-	uint32_t l;
 	int rc;
 
-	memset(s, 0, sizeof(*s));
 	if ((rc = json_util_require(o, "type", path, &v, err, errlen)))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "type");
@@ -454,29 +449,40 @@ static int parse_common(const cJSON *o, const char *path, struct ent_spec *s, ch
 			return json_util_fail(err, errlen, p, "longer than %u bytes", NAME_MAX_LEN);
 		s->name = v->valuestring;
 	}
+	return 0;
+}
 
-	s->min = json_util_get(o, "min");
-	s->max = json_util_get(o, "max");
-	v = json_util_get(o, "max_size");
-	if (co_type_is_variable(s->type)) {
-		if (s->min || s->max) {
-			json_util_path_key(p, sizeof(p), path, s->min ? "min" : "max");
-			return json_util_fail(err, errlen, p,
-					      "limits apply to numeric types only, not %s",
-					      co_type_to_string(s->type));
-		}
-		if (v) {
-			uint64_t u;
+/* "max_size" of a string or domain; limits are refused there. */
+static int parse_size(const cJSON *o, const char *path, struct ent_spec *s, char *err,
+		      size_t errlen)
+{
+	char p[JSON_PATH_MAX];
+	const cJSON *v = json_util_get(o, "max_size");
+	uint64_t u;
+	int rc;
 
-			json_util_path_key(p, sizeof(p), path, "max_size");
-			if ((rc = json_util_uint(v, p, 1, JSON_OD_MAX_SIZE, false, &u, err,
-						 errlen)))
-				return rc;
-			s->max_size = (uint32_t)u;
-		}
-		return 0;
+	if (s->min || s->max) {
+		json_util_path_key(p, sizeof(p), path, s->min ? "min" : "max");
+		return json_util_fail(err, errlen, p, "limits apply to numeric types only, not %s",
+				      co_type_to_string(s->type));
 	}
-	if (v) {
+	if (!v)
+		return 0;
+	json_util_path_key(p, sizeof(p), path, "max_size");
+	if ((rc = json_util_uint(v, p, 1, JSON_OD_MAX_SIZE, false, &u, err, errlen)))
+		return rc;
+	s->max_size = (uint32_t)u;
+	return 0;
+}
+
+/* "min" and "max" of an integer or real; "max_size" is refused there. */
+static int parse_limits(const cJSON *o, const char *path, struct ent_spec *s, char *err,
+			size_t errlen)
+{
+	char p[JSON_PATH_MAX];
+	int rc;
+
+	if (json_util_get(o, "max_size")) {
 		json_util_path_key(p, sizeof(p), path, "max_size");
 		return json_util_fail(err, errlen, p, "applies to strings and domains only, not %s",
 				      co_type_to_string(s->type));
@@ -489,12 +495,14 @@ static int parse_common(const cJSON *o, const char *path, struct ent_spec *s, ch
 	}
 	if (s->min) {
 		json_util_path_key(p, sizeof(p), path, "min");
-		if ((rc = json_od_parse_value(s->min, s->type, p, s->min_b, 8, &l, err, errlen)))
+		if ((rc = json_od_parse_value(s->min, s->type, p, &(json_od_buf){ s->min_b, 8, 0 },
+					      err, errlen)))
 			return rc;
 	}
 	if (s->max) {
 		json_util_path_key(p, sizeof(p), path, "max");
-		if ((rc = json_od_parse_value(s->max, s->type, p, s->max_b, 8, &l, err, errlen)))
+		if ((rc = json_od_parse_value(s->max, s->type, p, &(json_od_buf){ s->max_b, 8, 0 },
+					      err, errlen)))
 			return rc;
 	}
 	if (s->min && s->max && num_cmp(s->type, s->min_b, s->max_b) > 0) {
@@ -508,105 +516,146 @@ static int parse_common(const cJSON *o, const char *path, struct ent_spec *s, ch
 	return 0;
 }
 
-/* Add (index, sub) as described by s with default JSON value def (NULL =
- * zero / empty). def_path names def in messages. */
-static int add_entry(co_od *od, uint16_t index, uint8_t sub, uint8_t obj_code, struct ent_spec *s,
-		     const cJSON *def, const char *path, const char *def_path, char *err,
+static int parse_common(const cJSON *o, const char *path, struct ent_spec *s, char *err,
+			size_t errlen)
+{
+	int rc;
+
+	memset(s, 0, sizeof(*s));
+	if ((rc = parse_kind(o, path, s, err, errlen)))
+		return rc;
+	s->min = json_util_get(o, "min");
+	s->max = json_util_get(o, "max");
+	if (co_type_is_variable(s->type))
+		return parse_size(o, path, s, err, errlen);
+	return parse_limits(o, path, s, err, errlen);
+}
+
+/* Where one entry goes and how messages name it: path names the
+ * definition, def_path its default. */
+struct ent_place {
+	co_od *od;
+	uint16_t index;
+	uint8_t sub;
+	uint8_t obj_code;
+	const char *path;
+	const char *def_path;
+};
+
+/* The default of a string or domain into *buf (malloc'ed, or NULL when
+ * there is none); capacity from max_size, else the default's length. */
+static int var_default(const struct ent_place *at, const struct ent_spec *s, const cJSON *def,
+		       co_od_desc *d, char *err, size_t errlen)
+{
+	uint32_t cap = s->max_size, len = 0;
+	long need = def ? var_value_len(def, s->type) : 0;
+	uint8_t *buf;
+	int rc;
+
+	if (!cap && def && need < 0) {
+		/* Malformed default: let the parser say why. */
+		uint8_t none;
+
+		return json_od_parse_value(def, s->type, at->def_path,
+					   &(json_od_buf){ &none, 0, 0 }, err, errlen);
+	}
+	if (!cap) {
+		/* No max_size: the default's length is the capacity. */
+		if (need <= 0) {
+			char p[JSON_PATH_MAX];
+
+			json_util_path_key(p, sizeof(p), at->path, "max_size");
+			return json_util_fail(err, errlen, p,
+					      "required for %s without a non-empty default",
+					      co_type_to_string(s->type));
+		}
+		if ((uint64_t)need > JSON_OD_MAX_SIZE)
+			need = JSON_OD_MAX_SIZE;
+		cap = (uint32_t)need;
+	}
+	d->max_size = cap;
+	if (!def)
+		return 0;
+	buf = malloc(cap ? cap : 1);
+	if (!buf)
+		return -ENOMEM;
+	json_od_buf out = { buf, cap, 0 };
+	rc = json_od_parse_value(def, s->type, at->def_path, &out, err, errlen);
+	len = out.len;
+	if (rc || !len) {
+		free(buf);
+		return rc;
+	}
+	d->def = buf;
+	d->def_size = len;
+	return 0;
+}
+
+/* The default (zero when def is NULL) against min, then max. */
+static int check_bounds(const struct ent_place *at, const struct ent_spec *s, const cJSON *def,
+			const uint8_t *num, char *err, size_t errlen)
+{
+	for (int upper = 0; upper < 2; upper++) {
+		const cJSON *bound = upper ? s->max : s->min;
+		int cmp;
+		char a[64], b[64];
+
+		if (!bound)
+			continue;
+		cmp = num_cmp(s->type, num, upper ? s->max_b : s->min_b);
+		if (upper ? cmp <= 0 : cmp >= 0)
+			continue;
+		json_util_repr(def, a, sizeof(a));
+		json_util_repr(bound, b, sizeof(b));
+		if (!def)
+			snprintf(a, sizeof(a), "0 (implicit)");
+		return json_util_fail(err, errlen, def ? at->def_path : at->path,
+				      "default %s is %s %s %s", a, upper ? "above" : "below",
+				      upper ? "max" : "min", b);
+	}
+	return 0;
+}
+
+/* Add the entry at "at" as described by s with default JSON value def
+ * (NULL = zero / empty). */
+static int add_entry(const struct ent_place *at, struct ent_spec *s, const cJSON *def, char *err,
 		     size_t errlen)
 {
 	uint8_t num[8] = { 0 };
-	uint8_t *buf = num;
-	uint32_t len = 0;
-	co_od_desc d = { .index = index,
-			 .sub = sub,
-			 .obj_code = obj_code,
+	co_od_desc d = { .index = at->index,
+			 .sub = at->sub,
+			 .obj_code = at->obj_code,
 			 .type = (uint8_t)s->type,
 			 .access = s->access,
 			 .name = s->name };
 	int rc;
 
 	if (co_type_is_variable(s->type)) {
-		uint32_t cap = s->max_size;
-		long need = def ? var_value_len(def, s->type) : 0;
-
-		if (!cap && def && need < 0) {
-			/* Malformed default: let the parser say why. */
-			uint8_t none;
-
-			return json_od_parse_value(def, s->type, def_path, &none, 0, &len, err,
-						   errlen);
-		}
-		if (!cap) {
-			/* No max_size: the default's length is the capacity. */
-			if (need <= 0) {
-				char p[JSON_PATH_MAX];
-
-				json_util_path_key(p, sizeof(p), path, "max_size");
-				return json_util_fail(err, errlen, p,
-						      "required for %s without a non-empty default",
-						      co_type_to_string(s->type));
-			}
-			if ((uint64_t)need > JSON_OD_MAX_SIZE)
-				need = JSON_OD_MAX_SIZE;
-			cap = (uint32_t)need;
-		}
-		if (def) {
-			buf = malloc(cap ? cap : 1);
-			if (!buf)
-				return -ENOMEM;
-			rc = json_od_parse_value(def, s->type, def_path, buf, cap, &len, err,
-						 errlen);
-			if (rc) {
-				free(buf);
-				return rc;
-			}
-		}
-		d.max_size = cap;
-		d.def = len ? buf : NULL;
-		d.def_size = len;
+		if ((rc = var_default(at, s, def, &d, err, errlen)))
+			return rc;
 	} else {
-		if (def) {
-			if ((rc = json_od_parse_value(def, s->type, def_path, num, 8, &len, err,
-						      errlen)))
-				return rc;
-		}
-		if (s->min && num_cmp(s->type, num, s->min_b) < 0) {
-			char a[64], b[64];
-
-			json_util_repr(def, a, sizeof(a));
-			json_util_repr(s->min, b, sizeof(b));
-			if (!def)
-				snprintf(a, sizeof(a), "0 (implicit)");
-			return json_util_fail(err, errlen, def ? def_path : path,
-					      "default %s is below min %s", a, b);
-		}
-		if (s->max && num_cmp(s->type, num, s->max_b) > 0) {
-			char a[64], b[64];
-
-			json_util_repr(def, a, sizeof(a));
-			json_util_repr(s->max, b, sizeof(b));
-			if (!def)
-				snprintf(a, sizeof(a), "0 (implicit)");
-			return json_util_fail(err, errlen, def ? def_path : path,
-					      "default %s is above max %s", a, b);
-		}
+		if (def && (rc = json_od_parse_value(def, s->type, at->def_path,
+						     &(json_od_buf){ num, 8, 0 }, err, errlen)))
+			return rc;
+		if ((rc = check_bounds(at, s, def, num, err, errlen)))
+			return rc;
 		d.def = num;
 		d.def_size = co_type_size(s->type);
 		d.min = s->min ? s->min_b : NULL;
 		d.max = s->max ? s->max_b : NULL;
 	}
-	rc = co_od_add(od, &d, NULL);
-	if (buf != num)
-		free(buf);
+	rc = co_od_add(at->od, &d, NULL);
+	if (d.def && d.def != num)
+		free((void *)d.def);
 	if (rc == -EEXIST)
-		return json_util_fail(err, errlen, path, "0x%04X:%02X is defined twice", index,
-				      sub);
+		return json_util_fail(err, errlen, at->path, "0x%04X:%02X is defined twice",
+				      at->index, at->sub);
 	if (rc == -ENOMEM)
 		return rc;
 	if (rc)
-		return json_util_fail(err, errlen, path,
-				      "the object dictionary refused 0x%04X:%02X (%s)", index, sub,
-				      strerror(-rc));
+		return json_util_fail(err, errlen, at->path,
+				      "the object dictionary refused 0x%04X:%02X (%s)", at->index,
+				      at->sub, strerror(-rc));
 	return 0;
 }
 
@@ -631,21 +680,22 @@ static int add_var(co_od *od, uint16_t index, const cJSON *o, const char *path, 
 	    (rc = parse_common(o, path, &s, err, errlen)))
 		return rc;
 	json_util_path_key(dp, sizeof(dp), path, "default");
-	return add_entry(od, index, 0, CO_OBJ_VAR, &s, json_util_get(o, "default"), path, dp, err,
-			 errlen);
+	return add_entry(&(struct ent_place){ od, index, 0, CO_OBJ_VAR, path, dp }, &s,
+			 json_util_get(o, "default"), err, errlen);
 }
 
-static int add_sub0(co_od *od, uint16_t index, uint8_t obj_code, uint8_t n, const char *path,
-		    char *err, size_t errlen)
+/* Sub 0 of an ARRAY or RECORD at "at": n, the highest sub-index. */
+static int add_sub0(const struct ent_place *at, uint8_t n, char *err, size_t errlen)
 {
 	co_od_entry *e;
-	int rc = co_od_add_num(od, index, 0, CO_T_UNSIGNED8, CO_ACC_RO, n, &e);
+	int rc = co_od_add_num(at->od, at->index, 0, CO_T_UNSIGNED8, CO_ACC_RO, n, &e);
 
 	if (rc == -ENOMEM)
 		return rc;
 	if (rc)
-		return json_util_fail(err, errlen, path, "0x%04X:00 is defined twice", index);
-	e->obj_code = obj_code;
+		return json_util_fail(err, errlen, at->path, "0x%04X:00 is defined twice",
+				      at->index);
+	e->obj_code = at->obj_code;
 	return 0;
 }
 
@@ -682,7 +732,8 @@ static int add_array(co_od *od, uint16_t index, const cJSON *o, const char *path
 			return json_util_fail(err, errlen, p, "has %d values, length is %llu",
 					      cJSON_GetArraySize(defs), (unsigned long long)n);
 	}
-	if ((rc = add_sub0(od, index, CO_OBJ_ARRAY, (uint8_t)n, path, err, errlen)))
+	if ((rc = add_sub0(&(struct ent_place){ od, index, 0, CO_OBJ_ARRAY, path, NULL },
+			   (uint8_t)n, err, errlen)))
 		return rc;
 	for (unsigned i = 1; i <= n; i++) {
 		const cJSON *dv = def;
@@ -694,8 +745,9 @@ static int add_array(co_od *od, uint16_t index, const cJSON *o, const char *path
 		} else {
 			json_util_path_key(dp, sizeof(dp), path, "default");
 		}
-		if ((rc = add_entry(od, index, (uint8_t)i, CO_OBJ_ARRAY, &s, dv, path, dp, err,
-				    errlen)))
+		if ((rc = add_entry(
+			     &(struct ent_place){ od, index, (uint8_t)i, CO_OBJ_ARRAY, path, dp },
+			     &s, dv, err, errlen)))
 			return rc;
 	}
 	return 0;
@@ -739,7 +791,8 @@ static int add_record(co_od *od, uint16_t index, const cJSON *o, const char *pat
 		if (sub > highest)
 			highest = (unsigned)sub;
 	}
-	if ((rc = add_sub0(od, index, CO_OBJ_RECORD, (uint8_t)highest, path, err, errlen)))
+	if ((rc = add_sub0(&(struct ent_place){ od, index, 0, CO_OBJ_RECORD, path, NULL },
+			   (uint8_t)highest, err, errlen)))
 		return rc;
 	i = 0;
 	cJSON_ArrayForEach(it, subs)
@@ -752,8 +805,9 @@ static int add_record(co_od *od, uint16_t index, const cJSON *o, const char *pat
 		if ((rc = parse_common(it, p, &s, err, errlen)))
 			return rc;
 		json_util_path_key(dp, sizeof(dp), p, "default");
-		if ((rc = add_entry(od, index, (uint8_t)sub, CO_OBJ_RECORD, &s,
-				    json_util_get(it, "default"), p, dp, err, errlen)))
+		if ((rc = add_entry(
+			     &(struct ent_place){ od, index, (uint8_t)sub, CO_OBJ_RECORD, p, dp },
+			     &s, json_util_get(it, "default"), err, errlen)))
 			return rc;
 	}
 	return 0;
@@ -821,22 +875,18 @@ int json_od_add_objects(co_od *od, const cJSON *objects, const char *path_prefix
 
 static const char *const value_keys[] = { "index", "sub", "value", "comment", NULL };
 
-static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key, char *err,
-		     size_t errlen)
+/* The "index" and "sub" of a value (o, at p): its entry in od. */
+static int value_entry(co_od *od, const cJSON *o, const char *p, co_od_entry **e, char *err,
+		       size_t errlen)
 {
 	char kp[JSON_PATH_MAX];
-	const cJSON *iv, *vv, *sv;
+	const cJSON *iv, *sv;
 	uint16_t index;
 	uint64_t sub = 0;
-	co_od_entry *e;
-	uint32_t abort = 0, len = 0, cap;
-	uint8_t num[8];
-	uint8_t *buf = num;
+	uint32_t abort = 0;
 	int rc;
 
-	if ((rc = json_util_check_object(o, p, value_keys, err, errlen)) ||
-	    (rc = json_util_require(o, "index", p, &iv, err, errlen)) ||
-	    (rc = json_util_require(o, "value", p, &vv, err, errlen)))
+	if ((rc = json_util_require(o, "index", p, &iv, err, errlen)))
 		return rc;
 	json_util_path_key(kp, sizeof(kp), p, "index");
 	if ((rc = json_od_parse_index(iv, kp, &index, err, errlen)))
@@ -849,24 +899,24 @@ static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key, ch
 		if ((rc = json_util_uint(sv, kp, 0, 255, false, &sub, err, errlen)))
 			return rc;
 	}
-	e = co_od_find_ex(od, index, (uint8_t)sub, &abort);
-	if (!e)
+	*e = co_od_find_ex(od, index, (uint8_t)sub, &abort);
+	if (!*e)
 		return json_util_fail(err, errlen, sv ? kp : p,
 				      "object 0x%04X has no sub-index %llu", index,
 				      (unsigned long long)sub);
-	*key = (uint32_t)index << 8 | (uint32_t)sub;
+	return 0;
+}
 
-	json_util_path_key(kp, sizeof(kp), p, "value");
-	cap = co_type_is_variable((co_type)e->type) ? e->max_size : 8;
-	if (cap > sizeof(num)) {
-		buf = malloc(cap);
-		if (!buf)
-			return -ENOMEM;
-	}
-	rc = json_od_parse_value(vv, (co_type)e->type, kp, buf, cap, &len, err, errlen);
-	if (rc)
-		goto out;
-	abort = co_od_check_value(e, buf, len);
+/* The value vv (at kp, buf of len bytes) as e's new default, checked as a
+ * run-time write would be. */
+static int set_value(co_od_entry *e, const cJSON *vv, const char *kp, const json_od_buf *val,
+		     char *err, size_t errlen)
+{
+	const uint8_t *buf = val->buf;
+	uint32_t len = val->len;
+	uint32_t abort = co_od_check_value(e, buf, len);
+	int rc;
+
 	/* an object with a write check (installed by the caller) refuses here
 	 * what a run-time write would refuse */
 	if (!abort && e->hooks && e->hooks->check_write) {
@@ -877,19 +927,49 @@ static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key, ch
 		char r[64];
 
 		json_util_repr(vv, r, sizeof(r));
-		rc = json_util_fail(err, errlen, kp, "%s refused for 0x%04X:%02X (%s)", r, index,
-				    (unsigned)sub, sdo_abort_to_string(abort));
-		goto out;
+		return json_util_fail(err, errlen, kp, "%s refused for 0x%04X:%02X (%s)", r,
+				      e->index, (unsigned)e->sub, sdo_abort_to_string(abort));
 	}
 	rc = co_od_entry_set_default_bytes(e, buf, len);
 	if (rc == -ENOMEM)
-		goto out;
-	if (rc) {
-		rc = json_util_fail(err, errlen, kp, "cannot store the value (%s)", strerror(-rc));
-		goto out;
-	}
+		return rc;
+	if (rc)
+		return json_util_fail(err, errlen, kp, "cannot store the value (%s)",
+				      strerror(-rc));
 	co_od_entry_reset(e);
-out:
+	return 0;
+}
+
+static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key, char *err,
+		     size_t errlen)
+{
+	char kp[JSON_PATH_MAX];
+	const cJSON *vv;
+	co_od_entry *e;
+	uint32_t cap;
+	uint8_t num[8];
+	uint8_t *buf = num;
+	int rc;
+
+	/* "index" is missing, then "value": the first of them is named */
+	if ((rc = json_util_check_object(o, p, value_keys, err, errlen)) ||
+	    (rc = json_util_require(o, "index", p, &vv, err, errlen)) ||
+	    (rc = json_util_require(o, "value", p, &vv, err, errlen)) ||
+	    (rc = value_entry(od, o, p, &e, err, errlen)))
+		return rc;
+	*key = (uint32_t)e->index << 8 | (uint32_t)e->sub;
+
+	json_util_path_key(kp, sizeof(kp), p, "value");
+	cap = co_type_is_variable((co_type)e->type) ? e->max_size : 8;
+	if (cap > sizeof(num)) {
+		buf = malloc(cap);
+		if (!buf)
+			return -ENOMEM;
+	}
+	json_od_buf val = { buf, cap, 0 };
+	rc = json_od_parse_value(vv, (co_type)e->type, kp, &val, err, errlen);
+	if (!rc)
+		rc = set_value(e, vv, kp, &val, err, errlen);
 	if (buf != num)
 		free(buf);
 	return rc;

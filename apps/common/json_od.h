@@ -47,13 +47,20 @@ int json_od_add_objects(co_od *od, const cJSON *objects, const char *path_prefix
 int json_od_apply_values(co_od *od, const cJSON *values, const char *path_prefix, char *err,
 			 size_t errlen);
 
+/* Where an encoded value goes: at most cap bytes at buf; its size into len. */
+typedef struct json_od_buf {
+	uint8_t *buf;
+	uint32_t cap;
+	uint32_t len;
+} json_od_buf;
+
 /*
  * Encode one JSON value as the wire bytes of type t (see docs/config.md,
- * "Values by type"); at most cap bytes. Numbers are range-checked against
- * the type; strings against cap.
+ * "Values by type") into out. Numbers are range-checked against the type;
+ * strings against out->cap.
  */
-int json_od_parse_value(const cJSON *v, co_type t, const char *path, uint8_t *buf, uint32_t cap,
-			uint32_t *len, char *err, size_t errlen);
+int json_od_parse_value(const cJSON *v, co_type t, const char *path, json_od_buf *out, char *err,
+			size_t errlen);
 
 /* An index 0x1000..0xFFFF: a number or a string "0x1A00". */
 int json_od_parse_index(const cJSON *v, const char *path, uint16_t *out, char *err, size_t errlen);

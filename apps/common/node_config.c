@@ -51,9 +51,10 @@ bool cogw_node_config_equal(const cogw_node_config *a, const cogw_node_config *b
 	       (!a->cdcf_len || !memcmp(a->cdcf, b->cdcf, a->cdcf_len));
 }
 
-/* A copy of bytes read from `file` when they are a concise DCF. */
-static int cdcf_copy_checked(const char *file, const uint8_t *data, size_t len, uint8_t **out,
-			     size_t *out_len, char *err, size_t errlen)
+/* A copy of bytes read from `file` into nc->cdcf when they are a concise
+ * DCF. */
+static int cdcf_copy_checked(const char *file, const uint8_t *data, size_t len,
+			     cogw_node_config *nc, char *err, size_t errlen)
 {
 	co_cdcf_diag d;
 	char why[200];
@@ -63,11 +64,11 @@ static int cdcf_copy_checked(const char *file, const uint8_t *data, size_t len, 
 		snprintf(err, errlen, "%s: not a concise DCF: %s", file, why);
 		return -EINVAL;
 	}
-	*out = malloc(len ? len : 1);
-	if (!*out)
+	nc->cdcf = malloc(len ? len : 1);
+	if (!nc->cdcf)
 		return -ENOMEM;
-	memcpy(*out, data, len);
-	*out_len = len;
+	memcpy(nc->cdcf, data, len);
+	nc->cdcf_len = len;
 	return 0;
 }
 
@@ -81,9 +82,79 @@ int cogw_cdcf_load_file(const char *file, uint8_t **out, size_t *len, char *err,
 	*len = 0;
 	if ((rc = cogw_file_read(file, COGW_NODE_CONFIG_MAX, &buf, &got, err, errlen)))
 		return rc;
-	rc = cdcf_copy_checked(file, buf, got, out, len, err, errlen);
+	cogw_node_config nc = { 0 };
+	rc = cdcf_copy_checked(file, buf, got, &nc, err, errlen);
 	free(buf);
+	*out = nc.cdcf;
+	*len = nc.cdcf_len;
 	return rc;
+}
+
+/* One entry of an "entries" list (e, at ep) added to w; val is the
+ * scratch buffer of COGW_NODE_ENTRY_MAX bytes. */
+static int add_listed_entry(const cJSON *e, const char *ep, co_cdcf_writer *w, uint8_t *val,
+			    char *err, size_t errlen)
+{
+	char p[JSON_PATH_MAX], tname[32];
+	const cJSON *v;
+	uint16_t index;
+	uint64_t sub = 0;
+	co_type t;
+	uint32_t len = 0;
+	int rc;
+
+	if ((rc = json_util_check_object(e, ep, entry_keys, err, errlen)) ||
+	    (rc = json_util_require(e, "index", ep, &v, err, errlen)))
+		return rc;
+	json_util_path_key(p, sizeof(p), ep, "index");
+	if ((rc = json_od_parse_index(v, p, &index, err, errlen)) ||
+	    (rc = json_util_opt_uint(e, "sub", ep, 0, 255, &sub, err, errlen)) ||
+	    (rc = json_util_require(e, "type", ep, &v, err, errlen)))
+		return rc;
+	json_util_path_key(p, sizeof(p), ep, "type");
+	if ((rc = json_util_string(v, p, 1, tname, sizeof(tname), err, errlen)))
+		return rc;
+	if (!json_od_type_from_string(tname, &t))
+		return json_util_fail(err, errlen, p,
+				      "\"%s\" is not a CiA 301 data type name (e.g. "
+				      "UNSIGNED16, VISIBLE_STRING)",
+				      tname);
+	if ((rc = json_util_require(e, "value", ep, &v, err, errlen)))
+		return rc;
+	json_util_path_key(p, sizeof(p), ep, "value");
+	json_od_buf out = { val, COGW_NODE_ENTRY_MAX, 0 };
+	if ((rc = json_od_parse_value(v, t, p, &out, err, errlen)))
+		return rc;
+	len = out.len;
+	if (len == 0)
+		return json_util_fail(err, errlen, p,
+				      "empty value (a concise DCF entry needs at "
+				      "least one byte)");
+	rc = co_cdcf_writer_add(w, index, (uint8_t)sub, val, len);
+	if (rc || w->len > COGW_NODE_CONFIG_MAX)
+		return json_util_fail(err, errlen, ep, "configuration larger than %u bytes",
+				      COGW_NODE_CONFIG_MAX);
+	return 0;
+}
+
+/* One pass over the "entries" list into w (measuring when nc->cdcf is
+ * still NULL). */
+static int write_entries(const cJSON *list, const char *path, co_cdcf_writer *w, uint8_t *val,
+			 char *err, size_t errlen)
+{
+	const cJSON *e;
+	size_t i = 0;
+	int rc;
+
+	cJSON_ArrayForEach(e, list)
+	{
+		char ep[JSON_PATH_MAX];
+
+		json_util_path_index(ep, sizeof(ep), path, i++);
+		if ((rc = add_listed_entry(e, ep, w, val, err, errlen)))
+			return rc;
+	}
+	return 0;
 }
 
 /* "entries": a JSON list, written with the cdcf writer in two passes
@@ -103,60 +174,8 @@ static int parse_entries(const cJSON *list, const char *path, cogw_node_config *
 	if (!val)
 		return -ENOMEM;
 	for (int pass = 0; pass < 2 && !rc; pass++) {
-		const cJSON *e;
-		size_t i = 0;
-
 		co_cdcf_writer_init(&w, nc->cdcf, nc->cdcf_len);
-		cJSON_ArrayForEach(e, list)
-		{
-			char ep[JSON_PATH_MAX], p[JSON_PATH_MAX];
-			const cJSON *v;
-			uint16_t index;
-			uint64_t sub = 0;
-			char tname[32];
-			co_type t;
-			uint32_t len = 0;
-
-			json_util_path_index(ep, sizeof(ep), path, i++);
-			if ((rc = json_util_check_object(e, ep, entry_keys, err, errlen)) ||
-			    (rc = json_util_require(e, "index", ep, &v, err, errlen)))
-				break;
-			json_util_path_key(p, sizeof(p), ep, "index");
-			if ((rc = json_od_parse_index(v, p, &index, err, errlen)) ||
-			    (rc = json_util_opt_uint(e, "sub", ep, 0, 255, &sub, err, errlen)) ||
-			    (rc = json_util_require(e, "type", ep, &v, err, errlen)))
-				break;
-			json_util_path_key(p, sizeof(p), ep, "type");
-			if ((rc = json_util_string(v, p, 1, tname, sizeof(tname), err, errlen)))
-				break;
-			if (!json_od_type_from_string(tname, &t)) {
-				rc = json_util_fail(err, errlen, p,
-						    "\"%s\" is not a CiA 301 data type name (e.g. "
-						    "UNSIGNED16, VISIBLE_STRING)",
-						    tname);
-				break;
-			}
-			if ((rc = json_util_require(e, "value", ep, &v, err, errlen)))
-				break;
-			json_util_path_key(p, sizeof(p), ep, "value");
-			if ((rc = json_od_parse_value(v, t, p, val, COGW_NODE_ENTRY_MAX, &len, err,
-						      errlen)))
-				break;
-			if (len == 0) {
-				rc = json_util_fail(err, errlen, p,
-						    "empty value (a concise DCF entry needs at "
-						    "least one byte)");
-				break;
-			}
-			rc = co_cdcf_writer_add(&w, index, (uint8_t)sub, val, len);
-			if (rc || w.len > COGW_NODE_CONFIG_MAX) {
-				rc = json_util_fail(err, errlen, ep,
-						    "configuration larger than %u bytes",
-						    COGW_NODE_CONFIG_MAX);
-				break;
-			}
-		}
-		if (rc)
+		if ((rc = write_entries(list, path, &w, val, err, errlen)))
 			break;
 		n = co_cdcf_writer_finish(&w);
 		if (n < 0) {
@@ -204,82 +223,87 @@ static const cogw_embedded_file *embedded_find(const cogw_embedded_file *files, 
 	return NULL;
 }
 
-/* A CiA 306 file converted to a concise DCF; the sub-objects go to pdo
- * (NULL: not wanted). The file comes from `files` first, else from disk
- * through `read`. */
-static int convert_device_file(const char *name, const char *file, uint8_t node_id,
-			       const cogw_embedded_file *files, cogw_file_set *read,
-			       eds_pdo_reader *pdo, uint8_t **cdcf, size_t *cdcf_len, eds_stats *st,
-			       char *why, size_t whylen)
+/* The CiA 306 file `name` (resolved: nc->file) converted to a concise DCF
+ * into nc; the sub-objects go to dev.pdo. The file comes from ld->files
+ * first, else from disk through ld->read. */
+static int convert_device_file(const char *name, cogw_device_ref dev, const cogw_load *ld,
+			       cogw_node_config *nc, char *why, size_t whylen)
 {
-	const cogw_embedded_file *f = embedded_find(files, name);
-	const uint8_t *text = f ? (const uint8_t *)f->data : NULL;
-	size_t text_len = f ? f->len : 0;
-	eds_options o = { .node_id = node_id,
-			  .on_entry = pdo ? eds_pdo_reader_on_entry : NULL,
-			  .entry_arg = pdo };
-	int rc = f ? 0 : cogw_file_set_get(read, file, EDS_FILE_MAX, &text, &text_len, why, whylen);
+	const cogw_embedded_file *f = embedded_find(ld->files, name);
+	cogw_file_bytes text = { f ? (const uint8_t *)f->data : NULL, f ? f->len : 0 };
+	eds_options o = { .node_id = dev.node_id,
+			  .on_entry = dev.pdo ? eds_pdo_reader_on_entry : NULL,
+			  .entry_arg = dev.pdo };
+	eds_stats st = { 0 };
+	int rc = f ? 0 : cogw_file_set_get(ld->read, nc->file, EDS_FILE_MAX, &text, why, whylen);
 
 	if (!rc)
-		rc = eds_convert_opts((const char *)text, text_len, file, &o, cdcf, cdcf_len, st,
-				      why, whylen);
+		rc = eds_convert_opts((const char *)text.data, text.len, nc->file, &o, &nc->cdcf,
+				      &nc->cdcf_len, &st, why, whylen);
+	nc->entries = st.entries;
 	return rc;
 }
 
-int cogw_device_file_read(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
-			  const cogw_embedded_file *files, cogw_file_set *read, eds_pdo_reader *pdo,
-			  char *file, size_t file_len, char *err, size_t errlen)
+int cogw_device_file_read(const cJSON *v, const char *path, cogw_device_ref dev,
+			  const cogw_load *ld, char *file)
 {
 	char name[256], why[512];
-	uint8_t *cdcf = NULL;
-	size_t cdcf_len = 0;
+	cogw_node_config nc = { 0 };
 	int rc;
 
-	if ((rc = json_util_string(v, path, 1, name, sizeof(name), err, errlen)))
+	if ((rc = json_util_string(v, path, 1, name, sizeof(name), ld->err, ld->errlen)))
 		return rc;
-	if (!resolve(file, file_len, base_dir, name))
-		return json_util_fail(err, errlen, path, "file name longer than %zu bytes",
-				      file_len - 1);
-	rc = convert_device_file(name, file, node_id, files, read, pdo, &cdcf, &cdcf_len, NULL, why,
-				 sizeof(why));
-	free(cdcf); /* read for its description only: nothing is downloaded */
+	if (!resolve(nc.file, sizeof(nc.file), ld->base_dir, name))
+		return json_util_fail(ld->err, ld->errlen, path, "file name longer than %zu bytes",
+				      sizeof(nc.file) - 1);
+	memcpy(file, nc.file, sizeof(nc.file));
+	rc = convert_device_file(name, dev, ld, &nc, why, sizeof(why));
+	free(nc.cdcf); /* read for its description only: nothing is downloaded */
 	if (rc == -ENOMEM)
 		return rc;
 	if (rc)
-		return json_util_fail(err, errlen, path, "%s", why);
+		return json_util_fail(ld->err, ld->errlen, path, "%s", why);
 	return 0;
 }
 
-int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
-			   const cogw_embedded_file *files, cogw_file_set *read,
-			   eds_pdo_reader *pdo, cogw_node_config *nc, char *err, size_t errlen)
+/* Which of "entries", "dcf" and "concise" v gives (*which, index into
+ * srcs) and its value. */
+static int pick_source(const cJSON *v, const char *path, const cJSON **src, int *which, char *err,
+		       size_t errlen)
 {
-	const char *srcs[] = { "entries", "dcf", "concise" };
-	const cJSON *src = NULL, *x;
-	char p[JSON_PATH_MAX], name[256], why[512];
-	uint64_t date = 0, time = 0;
-	int which = -1, rc;
+	static const char *const srcs[] = { "entries", "dcf", "concise" };
+	char p[JSON_PATH_MAX];
 
-	memset(nc, 0, sizeof(*nc));
-	if ((rc = json_util_check_object(v, path, config_keys, err, errlen)))
-		return rc;
+	*src = NULL;
 	for (int i = 0; i < 3; i++) {
-		x = json_util_get(v, srcs[i]);
+		const cJSON *x = json_util_get(v, srcs[i]);
+
 		if (!x)
 			continue;
-		if (src) {
+		if (*src) {
 			json_util_path_key(p, sizeof(p), path, srcs[i]);
 			return json_util_fail(err, errlen, p,
 					      "only one of \"entries\", \"dcf\" and \"concise\" "
 					      "(\"%s\" is given too)",
-					      srcs[which]);
+					      srcs[*which]);
 		}
-		src = x;
-		which = i;
+		*src = x;
+		*which = i;
 	}
-	if (!src)
+	if (!*src)
 		return json_util_fail(err, errlen, path,
 				      "one of \"entries\", \"dcf\" or \"concise\" is required");
+	return 0;
+}
+
+/* "store", "date" and "time" of a node's "config". */
+static int parse_download_options(const cJSON *v, const char *path, cogw_node_config *nc, char *err,
+				  size_t errlen)
+{
+	char p[JSON_PATH_MAX];
+	uint64_t date = 0, time = 0;
+	int rc;
+
 	if ((rc = json_util_opt_bool(v, "store", path, &nc->store, err, errlen)) ||
 	    (rc = json_util_opt_uint(v, "date", path, 0, UINT32_MAX, &date, err, errlen)) ||
 	    (rc = json_util_opt_uint(v, "time", path, 0, 86399999, &time, err, errlen)))
@@ -292,43 +316,43 @@ int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, co
 	nc->verify = json_util_get(v, "date") != NULL;
 	nc->date = (uint32_t)date;
 	nc->time = (uint32_t)time;
+	return 0;
+}
 
-	json_util_path_key(p, sizeof(p), path, srcs[which]);
-	if (which == 0) {
-		nc->source = COGW_NODE_CONFIG_ENTRIES;
-		rc = parse_entries(src, p, nc, err, errlen);
-		if (rc)
-			cogw_node_config_free(nc);
+/* A binary concise DCF file (resolved: nc->file) into nc. */
+static int read_concise(const cogw_load *ld, cogw_node_config *nc, char *why, size_t whylen)
+{
+	cogw_file_bytes bytes;
+	uint32_t count = 0;
+	int rc = cogw_file_set_get(ld->read, nc->file, COGW_NODE_CONFIG_MAX, &bytes, why, whylen);
+
+	if (!rc)
+		rc = cdcf_copy_checked(nc->file, bytes.data, bytes.len, nc, why, whylen);
+	if (rc)
 		return rc;
-	}
-	if ((rc = json_util_string(src, p, 1, name, sizeof(name), err, errlen)))
+	co_cdcf_check(nc->cdcf, nc->cdcf_len, &count, NULL);
+	nc->entries = count;
+	return 0;
+}
+
+/* A "dcf" or "concise" file (src, at p) read into nc, checked and charged
+ * to ld->read; its message in why. */
+static int read_config_file(const cJSON *src, const char *p, bool dcf, cogw_device_ref dev,
+			    const cogw_load *ld, cogw_node_config *nc)
+{
+	char name[256], why[512];
+	int rc;
+
+	if ((rc = json_util_string(src, p, 1, name, sizeof(name), ld->err, ld->errlen)))
 		return rc;
-	if (!resolve(nc->file, sizeof(nc->file), base_dir, name))
-		return json_util_fail(err, errlen, p, "file name longer than %zu bytes",
+	if (!resolve(nc->file, sizeof(nc->file), ld->base_dir, name))
+		return json_util_fail(ld->err, ld->errlen, p, "file name longer than %zu bytes",
 				      sizeof(nc->file) - 1);
-	if (which == 1) {
-		eds_stats st = { 0 };
-
-		nc->source = COGW_NODE_CONFIG_DCF;
-		rc = convert_device_file(name, nc->file, node_id, files, read, pdo, &nc->cdcf,
-					 &nc->cdcf_len, &st, why, sizeof(why));
-		nc->entries = st.entries;
-	} else {
-		const uint8_t *bytes;
-		size_t n_bytes;
-
-		nc->source = COGW_NODE_CONFIG_CONCISE;
-		rc = cogw_file_set_get(read, nc->file, COGW_NODE_CONFIG_MAX, &bytes, &n_bytes, why,
-				       sizeof(why));
-		if (!rc)
-			rc = cdcf_copy_checked(nc->file, bytes, n_bytes, &nc->cdcf, &nc->cdcf_len,
-					       why, sizeof(why));
-		if (!rc) {
-			uint32_t count = 0;
-			co_cdcf_check(nc->cdcf, nc->cdcf_len, &count, NULL);
-			nc->entries = count;
-		}
-	}
+	nc->source = dcf ? COGW_NODE_CONFIG_DCF : COGW_NODE_CONFIG_CONCISE;
+	if (dcf)
+		rc = convert_device_file(name, dev, ld, nc, why, sizeof(why));
+	else
+		rc = read_concise(ld, nc, why, sizeof(why));
 	if (!rc && nc->cdcf_len > COGW_NODE_CONFIG_MAX) {
 		snprintf(why, sizeof(why), "%s: concise DCF larger than %u bytes", nc->file,
 			 COGW_NODE_CONFIG_MAX);
@@ -336,13 +360,37 @@ int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, co
 	}
 	/* the node's own concise DCF is held as long as the configuration */
 	if (!rc)
-		rc = cogw_file_set_charge(read, nc->file, nc->cdcf_len, why, sizeof(why));
+		rc = cogw_file_set_charge(ld->read, nc->file, nc->cdcf_len, why, sizeof(why));
 	if (rc) {
 		cogw_node_config_free(nc);
 		if (rc == -ENOMEM)
 			return rc;
-		json_util_fail(err, errlen, p, "%s", why);
+		json_util_fail(ld->err, ld->errlen, p, "%s", why);
 		return -EINVAL;
 	}
 	return 0;
+}
+
+int cogw_node_config_parse(const cJSON *v, const char *path, cogw_device_ref dev,
+			   const cogw_load *ld, cogw_node_config *nc)
+{
+	static const char *const srcs[] = { "entries", "dcf", "concise" };
+	const cJSON *src = NULL;
+	char p[JSON_PATH_MAX];
+	int which = -1, rc;
+
+	memset(nc, 0, sizeof(*nc));
+	if ((rc = json_util_check_object(v, path, config_keys, ld->err, ld->errlen)) ||
+	    (rc = pick_source(v, path, &src, &which, ld->err, ld->errlen)) ||
+	    (rc = parse_download_options(v, path, nc, ld->err, ld->errlen)))
+		return rc;
+	json_util_path_key(p, sizeof(p), path, srcs[which]);
+	if (which == 0) {
+		nc->source = COGW_NODE_CONFIG_ENTRIES;
+		rc = parse_entries(src, p, nc, ld->err, ld->errlen);
+		if (rc)
+			cogw_node_config_free(nc);
+		return rc;
+	}
+	return read_config_file(src, p, which == 1, dev, ld, nc);
 }

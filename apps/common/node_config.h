@@ -37,6 +37,9 @@
 #include "apps/common/eds_pdo.h"
 #include "apps/common/file_read.h"
 
+/* Size of a resolved file name (cogw_node_config.file, cogw_node.eds). */
+#define COGW_FILE_NAME_MAX 256u
+
 /* Largest concise DCF of one node (also the largest .cdc file read). */
 #define COGW_NODE_CONFIG_MAX (1u << 20)
 /* Largest value of one JSON entry (strings, domains). */
@@ -52,9 +55,9 @@ typedef enum cogw_node_config_source {
 const char *cogw_node_config_source_to_string(cogw_node_config_source s);
 
 typedef struct cogw_node_config {
-	uint8_t source; /* cogw_node_config_source */
-	char file[256]; /* dcf/concise: the file read (resolved path) */
-	uint8_t *cdcf;  /* the concise DCF (owned, malloc'd) */
+	uint8_t source;                /* cogw_node_config_source */
+	char file[COGW_FILE_NAME_MAX]; /* dcf/concise: the file read (resolved path) */
+	uint8_t *cdcf;                 /* the concise DCF (owned, malloc'd) */
 	size_t cdcf_len;
 	uint32_t entries; /* entries in cdcf */
 	bool store;       /* 1010h:1 "save" after a download */
@@ -70,22 +73,38 @@ typedef struct cogw_embedded_file {
 	size_t len;
 } cogw_embedded_file;
 
-/* files: where a "dcf" file name is looked up first (the embedded default's
- * own files), NULL for a configuration read from disk. read: the files the
- * configuration has loaded so far; a file named again is not read again, and
- * the file and the node's concise DCF are counted against read->limit
- * (-EINVAL with "path: file: ... do not fit" when they do not fit). */
-/* pdo (may be NULL) collects the sub-objects of a "dcf" file (eds_pdo.h):
- * the configured device's PDO layout. */
-int cogw_node_config_parse(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
-			   const cogw_embedded_file *files, cogw_file_set *read,
-			   eds_pdo_reader *pdo, cogw_node_config *out, char *err, size_t errlen);
+/* What a load reads its files from and where it reports: files is where
+ * a "dcf" file name is looked up first (the embedded default's own files),
+ * NULL for a configuration read from disk; names are relative to base_dir
+ * (NULL or "" = the working directory). read: the files the configuration
+ * has loaded so far; a file named again is not read again, and the file
+ * and the node's concise DCF are counted against read->limit (-EINVAL with
+ * "path: file: ... do not fit" when they do not fit). Errors go to err. */
+typedef struct cogw_load {
+	const char *base_dir;
+	const cogw_embedded_file *files;
+	cogw_file_set *read;
+	char *err;
+	size_t errlen;
+} cogw_load;
+
+/* The device a node's file describes: its node-ID (for $NODEID) and the
+ * reader of its sub-objects (eds_pdo.h; NULL: not wanted). */
+typedef struct cogw_device_ref {
+	uint8_t node_id;
+	eds_pdo_reader *pdo;
+} cogw_device_ref;
+
+/* A node's "config" (v, at path) into out; a "dcf" file's sub-objects go
+ * to dev->pdo: the configured device's PDO layout. */
+int cogw_node_config_parse(const cJSON *v, const char *path, cogw_device_ref dev,
+			   const cogw_load *ld, cogw_node_config *out);
 /* A node's "eds" (v, at path): the CiA 306 file describing the device,
  * read and checked like a "dcf" (nothing of it is downloaded), its
- * sub-objects into pdo; the resolved name into file. Errors as above. */
-int cogw_device_file_read(const cJSON *v, const char *path, uint8_t node_id, const char *base_dir,
-			  const cogw_embedded_file *files, cogw_file_set *read, eds_pdo_reader *pdo,
-			  char *file, size_t file_len, char *err, size_t errlen);
+ * sub-objects into dev->pdo; the resolved name into file
+ * (COGW_FILE_NAME_MAX bytes). Errors as above. */
+int cogw_device_file_read(const cJSON *v, const char *path, cogw_device_ref dev,
+			  const cogw_load *ld, char *file);
 void cogw_node_config_free(cogw_node_config *nc); /* accepts zeroed */
 /* Same source and bytes (what a reload compares). */
 bool cogw_node_config_equal(const cogw_node_config *a, const cogw_node_config *b);

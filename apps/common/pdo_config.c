@@ -41,6 +41,22 @@ int cogw_pdo_mode_parse(const cJSON *o, const char *path, uint8_t *mode, char *e
 			      what);
 }
 
+/* The hex digits p..end (1 to 4 of them) as an index. */
+static bool hex_index(const char *p, const char *end, uint16_t *index)
+{
+	unsigned long v = 0;
+
+	for (const char *q = p; q < end; q++) {
+		if (!isxdigit((unsigned char)*q))
+			return false;
+		v = v * 16 + (unsigned long)(isdigit((unsigned char)*q)
+						     ? *q - '0'
+						     : (tolower((unsigned char)*q) - 'a' + 10));
+	}
+	*index = (uint16_t)v;
+	return true;
+}
+
 /* "6401:1", "0x6401:0x01", "6401h:1": the index is hex as CANopen writes
  * it, the sub-index decimal or 0x hex (as cogwctl takes them). */
 static bool parse_object_key(const char *s, uint16_t *index, uint8_t *sub)
@@ -59,17 +75,8 @@ static bool parse_object_key(const char *s, uint16_t *index, uint8_t *sub)
 	if (end > p && (end[-1] == 'h' || end[-1] == 'H'))
 		end--;
 	n = (size_t)(end - p);
-	if (n < 1 || n > 4)
+	if (n < 1 || n > 4 || !hex_index(p, end, index))
 		return false;
-	v = 0;
-	for (const char *q = p; q < end; q++) {
-		if (!isxdigit((unsigned char)*q))
-			return false;
-		v = v * 16 + (unsigned long)(isdigit((unsigned char)*q)
-						     ? *q - '0'
-						     : (tolower((unsigned char)*q) - 'a' + 10));
-	}
-	*index = (uint16_t)v;
 	p = colon + 1;
 	if (!*p || !isxdigit((unsigned char)*p))
 		return false;
@@ -142,27 +149,33 @@ static int parse_types(const cJSON *v, const char *path, co_pdo_layout_type **ou
 	return 0;
 }
 
+/* A node's "types": the data types over its file's. */
+struct type_overrides {
+	co_pdo_layout_type *list;
+	size_t n;
+};
+
 /* The file's layout (when it is the node's) and types into n. */
-static int finish_file(eds_pdo_reader *r, const char *p, const co_pdo_layout_type *overrides,
-		       size_t n_overrides, const char *file, cogw_node *n, char *err, size_t errlen)
+static int finish_file(eds_pdo_reader *r, const char *p, const struct type_overrides *o,
+		       const char *file, cogw_node *n, const cogw_load *ld)
 {
 	char why[400];
-	int rc = eds_pdo_reader_finish(r, file, overrides, n_overrides,
+	int rc = eds_pdo_reader_finish(r, file, o->list, o->n,
 				       n->pdo_from_file ? &n->pdo_file : NULL, &n->types,
 				       &n->n_types, why, sizeof why);
 	if (rc == -EINVAL)
-		return json_util_fail(err, errlen, p, "%s", why);
+		return json_util_fail(ld->err, ld->errlen, p, "%s", why);
 	return rc;
 }
 
-int cogw_node_pdo_parse(const cJSON *node, const char *np, const cogw_line_config *l,
-			const char *base_dir, const cogw_embedded_file *files, cogw_file_set *read,
-			cogw_node *n, char *err, size_t errlen)
+int cogw_node_pdo_parse(const cJSON *node, const char *np, const cogw_line_config *l, cogw_node *n,
+			const cogw_load *ld)
 {
+	char *err = ld->err;
+	size_t errlen = ld->errlen;
 	const cJSON *cfg = json_util_get(node, "config"), *eds = json_util_get(node, "eds");
 	const cJSON *types = json_util_get(node, "types");
-	co_pdo_layout_type *overrides = NULL;
-	size_t n_overrides = 0;
+	struct type_overrides o = { 0 };
 	eds_pdo_reader r = { 0 };
 	char p[JSON_PATH_MAX], fp[JSON_PATH_MAX];
 	int rc = 0;
@@ -171,12 +184,12 @@ int cogw_node_pdo_parse(const cJSON *node, const char *np, const cogw_line_confi
 	if ((rc = cogw_pdo_mode_parse(node, np, &n->pdo, err, errlen)))
 		return rc;
 	json_util_path_key(p, sizeof p, np, "types");
-	if (types && (rc = parse_types(types, p, &overrides, &n_overrides, err, errlen)))
+	if (types && (rc = parse_types(types, p, &o.list, &o.n, err, errlen)))
 		return rc;
 	if (cfg) {
 		json_util_path_key(p, sizeof p, np, "config");
-		rc = cogw_node_config_parse(cfg, p, n->id, base_dir, files, read, eds ? NULL : &r,
-					    &n->config, err, errlen);
+		rc = cogw_node_config_parse(cfg, p, (cogw_device_ref){ n->id, eds ? NULL : &r }, ld,
+					    &n->config);
 		json_util_path_key(fp, sizeof fp, p, "dcf");
 	}
 	if (!rc && eds && n->config.source == COGW_NODE_CONFIG_DCF) {
@@ -187,21 +200,19 @@ int cogw_node_pdo_parse(const cJSON *node, const char *np, const cogw_line_confi
 				    n->id);
 	} else if (!rc && eds) {
 		json_util_path_key(fp, sizeof fp, np, "eds");
-		rc = cogw_device_file_read(eds, fp, n->id, base_dir, files, read, &r, n->eds,
-					   sizeof n->eds, err, errlen);
+		rc = cogw_device_file_read(eds, fp, (cogw_device_ref){ n->id, &r }, ld, n->eds);
 	}
 	if (!rc && (eds || n->config.source == COGW_NODE_CONFIG_DCF)) {
 		/* with "eds" and a download of another kind the download may
 		 * remap: the file then only types what the scan finds */
 		n->pdo_from_file = !(eds && cfg);
-		rc = finish_file(&r, fp, overrides, n_overrides, eds ? n->eds : n->config.file, n,
-				 err, errlen);
+		rc = finish_file(&r, fp, &o, eds ? n->eds : n->config.file, n, ld);
 	} else if (!rc) {
-		n->types = overrides;
-		n->n_types = n_overrides;
-		overrides = NULL;
+		n->types = o.list;
+		n->n_types = o.n;
+		o.list = NULL;
 	}
-	free(overrides);
+	free(o.list);
 	eds_pdo_reader_free(&r);
 	return rc;
 }

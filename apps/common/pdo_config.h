@@ -38,9 +38,8 @@ int cogw_pdo_mode_parse(const cJSON *o, const char *path, uint8_t *mode, char *e
 
 /* A node's "config" (cogw_node_config_parse), "eds", "types" and "pdo"
  * (default: the line's l->pdo) into n; np is the node's JSON path. */
-int cogw_node_pdo_parse(const cJSON *node, const char *np, const cogw_line_config *l,
-			const char *base_dir, const cogw_embedded_file *files, cogw_file_set *read,
-			cogw_node *n, char *err, size_t errlen);
+int cogw_node_pdo_parse(const cJSON *node, const char *np, const cogw_line_config *l, cogw_node *n,
+			const cogw_load *ld);
 void cogw_node_pdo_free(cogw_node *n); /* what cogw_node_pdo_parse added */
 /* The PDO settings and the file layouts agree (what a reload compares). */
 bool cogw_node_pdo_equal(const cogw_node *a, const cogw_node *b);

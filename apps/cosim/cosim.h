@@ -12,7 +12,12 @@
  *   sim.c     one running node: core instance, signals, loopback, faults,
  *             the send/receive interception, control commands
  *   nv.c      1010h "save" / 1011h "load" and the LSS node-ID, on disk
+ *   program.c 1F50h/1F51h/1F56h program download state machine
+ *   log.c     the log line and the image CRC-32 (the leaves)
  *   main.c    command line, event loop, local delivery between nodes
+ *
+ * Calls go down only: main.c -> sim.c -> device.c, program.c, nv.c ->
+ * log.c (tests/checks/check_callgraph).
  *
  * Faults are injected here, at the edge of the core (frames dropped,
  * delayed, changed or answered in place of the core), never inside core/:

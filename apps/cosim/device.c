@@ -292,12 +292,125 @@ static int parse_map(const cJSON *m, const co_od *od, co_pdo_dir dir, const char
 	return 0;
 }
 
+/* The PDOs of one direction being read, and where errors go. */
+struct pdo_read {
+	cosim_device *dev;
+	co_pdo_dir dir;
+	char *err;
+	size_t errlen;
+};
+
+/* The keys of one PDO object, defaults applied. */
+struct pdo_keys {
+	uint64_t nr, cob, tt, inhibit, event, start;
+	bool add_id, valid;
+};
+
+/* The transmission type and the COB-ID of PDO keys k (at p) fit. */
+static int pdo_keys_check(const struct pdo_read *r, const char *p, const struct pdo_keys *k)
+{
+	char *err = r->err;
+	size_t errlen = r->errlen;
+
+	if ((k->tt >= 241 && k->tt <= 251) ||
+	    (r->dir == CO_PDO_RX && (k->tt == 252 || k->tt == 253))) {
+		char tp[JSON_PATH_MAX];
+		json_util_path_key(tp, sizeof tp, p, "transmission");
+		return json_util_fail(
+			err, errlen, tp, "%llu is a reserved transmission type for a%s",
+			(unsigned long long)k->tt, r->dir == CO_PDO_TX ? " TPDO" : "n RPDO");
+	}
+	if (k->add_id && k->cob + 127 > 0x7FF)
+		return json_util_fail(err, errlen, p,
+				      "cob_id 0x%llX + node-ID does not fit 11 bits",
+				      (unsigned long long)k->cob);
+	return 0;
+}
+
+/* The keys of PDO it (at p; nr i + 1 unless it says) into k, checked. */
+static int pdo_keys_read(const struct pdo_read *r, const cJSON *it, const char *p, size_t i,
+			 struct pdo_keys *k)
+{
+	char *err = r->err;
+	size_t errlen = r->errlen;
+	int rc;
+
+	*k = (struct pdo_keys){ .nr = i + 1, .tt = 254, .add_id = true, .valid = true };
+	if ((rc = json_util_check_object(it, p, pdo_keys, err, errlen)) ||
+	    (rc = json_util_opt_uint(it, "nr", p, 1, COSIM_PDO_MAX, &k->nr, err, errlen)))
+		return rc;
+	/* Default COB-ID: the predefined connection set for PDO 1..4
+	 * (CiA 301 §7.3.5), the caller must give one for the others. */
+	if (k->nr <= 4)
+		k->cob = r->dir == CO_PDO_TX ? CO_PDO_TPDO_DEFAULT_COB(k->nr, 0)
+					     : CO_PDO_RPDO_DEFAULT_COB(k->nr, 0);
+	else if (!json_util_get(it, "cob_id"))
+		return json_util_fail(err, errlen, p,
+				      "\"cob_id\" is required for PDO %llu (only 1..4 have "
+				      "predefined ones)",
+				      (unsigned long long)k->nr);
+	if ((rc = json_util_opt_uint(it, "cob_id", p, 1, 0x7FF, &k->cob, err, errlen)) ||
+	    (rc = json_util_opt_bool(it, "add_node_id", p, &k->add_id, err, errlen)) ||
+	    (rc = json_util_opt_bool(it, "valid", p, &k->valid, err, errlen)) ||
+	    (rc = json_util_opt_uint(it, "transmission", p, 0, 255, &k->tt, err, errlen)) ||
+	    (rc = json_util_opt_uint(it, "inhibit_100us", p, 0, 0xFFFF, &k->inhibit, err,
+				     errlen)) ||
+	    (rc = json_util_opt_uint(it, "event_ms", p, 0, 0xFFFF, &k->event, err, errlen)) ||
+	    (rc = json_util_opt_uint(it, "sync_start", p, 0, 255, &k->start, err, errlen)))
+		return rc;
+	return pdo_keys_check(r, p, k);
+}
+
+/* PDO it (at p) with keys k into the device's OD. */
+static int pdo_add(const struct pdo_read *r, const cJSON *it, const char *p,
+		   const struct pdo_keys *k)
+{
+	cosim_device *dev = r->dev;
+	uint8_t id = dev->node_id == 255 ? 0 : dev->node_id;
+	uint32_t map[8];
+	co_pdo_desc d;
+	int rc;
+
+	memset(&d, 0, sizeof d);
+	if ((rc = parse_map(json_util_get(it, "map"), dev->od, r->dir, p, map, &d.n_map, r->err,
+			    r->errlen)))
+		return rc;
+	uint32_t base = (uint32_t)k->cob | (k->valid ? 0 : CO_PDO_COB_INVALID);
+	d.dir = r->dir;
+	d.nr = (uint16_t)k->nr;
+	d.cob_id = base + (k->add_id ? id : 0);
+	if (k->add_id && dev->node_id == 255)
+		d.cob_id |= CO_PDO_COB_INVALID;
+	d.tt = (uint8_t)k->tt;
+	d.inhibit_100us = (uint16_t)k->inhibit;
+	d.event_ms = (uint16_t)k->event;
+	d.sync_start = (uint8_t)k->start;
+	d.map_subs = 8;
+	d.map = map;
+	rc = co_od_add_pdo(dev->od, &d);
+	if (rc == -EEXIST)
+		return json_util_fail(r->err, r->errlen, p, "%s %llu is defined twice",
+				      r->dir == CO_PDO_TX ? "TPDO" : "RPDO",
+				      (unsigned long long)k->nr);
+	if (rc == -ENOMEM)
+		return rc;
+	if (rc)
+		return json_util_fail(r->err, r->errlen, p, "cannot build the PDO records (%s)",
+				      strerror(-rc));
+	if (k->add_id)
+		add_rel(dev,
+			(uint16_t)((r->dir == CO_PDO_TX ? CO_PDO_TPDO_COMM : CO_PDO_RPDO_COMM) +
+				   k->nr - 1),
+			1, base);
+	return 0;
+}
+
 static int parse_pdos(const cJSON *root, cosim_device *dev, co_pdo_dir dir, char *err,
 		      size_t errlen)
 {
 	const char *key = dir == CO_PDO_TX ? "tpdos" : "rpdos";
 	const cJSON *arr = json_util_get(root, key), *it;
-	uint8_t id = dev->node_id == 255 ? 0 : dev->node_id;
+	const struct pdo_read r = { dev, dir, err, errlen };
 	char p[JSON_PATH_MAX];
 	size_t i = 0;
 	int rc;
@@ -308,77 +421,11 @@ static int parse_pdos(const cJSON *root, cosim_device *dev, co_pdo_dir dir, char
 		return json_util_fail(err, errlen, key, "expected an array of PDO objects");
 	cJSON_ArrayForEach(it, arr)
 	{
-		uint64_t nr = i + 1, cob = 0, tt = 254, inhibit = 0, event = 0, start = 0;
-		bool add_id = true, valid = true;
-		uint32_t map[8];
-		co_pdo_desc d;
+		struct pdo_keys k;
 
-		json_util_path_index(p, sizeof p, key, i++);
-		if ((rc = json_util_check_object(it, p, pdo_keys, err, errlen)) ||
-		    (rc = json_util_opt_uint(it, "nr", p, 1, COSIM_PDO_MAX, &nr, err, errlen)))
+		json_util_path_index(p, sizeof p, key, i);
+		if ((rc = pdo_keys_read(&r, it, p, i++, &k)) || (rc = pdo_add(&r, it, p, &k)))
 			return rc;
-		/* Default COB-ID: the predefined connection set for PDO 1..4
-		 * (CiA 301 §7.3.5), the caller must give one for the others. */
-		if (nr <= 4)
-			cob = dir == CO_PDO_TX ? CO_PDO_TPDO_DEFAULT_COB(nr, 0)
-					       : CO_PDO_RPDO_DEFAULT_COB(nr, 0);
-		else if (!json_util_get(it, "cob_id"))
-			return json_util_fail(err, errlen, p,
-					      "\"cob_id\" is required for PDO %llu (only 1..4 have "
-					      "predefined ones)",
-					      (unsigned long long)nr);
-		if ((rc = json_util_opt_uint(it, "cob_id", p, 1, 0x7FF, &cob, err, errlen)) ||
-		    (rc = json_util_opt_bool(it, "add_node_id", p, &add_id, err, errlen)) ||
-		    (rc = json_util_opt_bool(it, "valid", p, &valid, err, errlen)) ||
-		    (rc = json_util_opt_uint(it, "transmission", p, 0, 255, &tt, err, errlen)) ||
-		    (rc = json_util_opt_uint(it, "inhibit_100us", p, 0, 0xFFFF, &inhibit, err,
-					     errlen)) ||
-		    (rc = json_util_opt_uint(it, "event_ms", p, 0, 0xFFFF, &event, err, errlen)) ||
-		    (rc = json_util_opt_uint(it, "sync_start", p, 0, 255, &start, err, errlen)))
-			return rc;
-		if ((tt >= 241 && tt <= 251) || (dir == CO_PDO_RX && (tt == 252 || tt == 253))) {
-			char tp[JSON_PATH_MAX];
-			json_util_path_key(tp, sizeof tp, p, "transmission");
-			return json_util_fail(
-				err, errlen, tp, "%llu is a reserved transmission type for a%s",
-				(unsigned long long)tt, dir == CO_PDO_TX ? " TPDO" : "n RPDO");
-		}
-		if (add_id && cob + 127 > 0x7FF)
-			return json_util_fail(err, errlen, p,
-					      "cob_id 0x%llX + node-ID does not fit 11 bits",
-					      (unsigned long long)cob);
-		memset(&d, 0, sizeof d);
-		if ((rc = parse_map(json_util_get(it, "map"), dev->od, dir, p, map, &d.n_map, err,
-				    errlen)))
-			return rc;
-		uint32_t base = (uint32_t)cob | (valid ? 0 : CO_PDO_COB_INVALID);
-		d.dir = dir;
-		d.nr = (uint16_t)nr;
-		d.cob_id = base + (add_id ? id : 0);
-		if (add_id && dev->node_id == 255)
-			d.cob_id |= CO_PDO_COB_INVALID;
-		d.tt = (uint8_t)tt;
-		d.inhibit_100us = (uint16_t)inhibit;
-		d.event_ms = (uint16_t)event;
-		d.sync_start = (uint8_t)start;
-		d.map_subs = 8;
-		d.map = map;
-		rc = co_od_add_pdo(dev->od, &d);
-		if (rc == -EEXIST)
-			return json_util_fail(err, errlen, p, "%s %llu is defined twice",
-					      dir == CO_PDO_TX ? "TPDO" : "RPDO",
-					      (unsigned long long)nr);
-		if (rc == -ENOMEM)
-			return rc;
-		if (rc)
-			return json_util_fail(err, errlen, p, "cannot build the PDO records (%s)",
-					      strerror(-rc));
-		if (add_id)
-			add_rel(dev,
-				(uint16_t)((dir == CO_PDO_TX ? CO_PDO_TPDO_COMM
-							     : CO_PDO_RPDO_COMM) +
-					   nr - 1),
-				1, base);
 	}
 	return 0;
 }
@@ -440,6 +487,21 @@ static int opt_real(const cJSON *o, const char *key, const char *path, double *o
 	return json_util_real(v, p, out, err, errlen);
 }
 
+/* The scaling objects of signal s (at p), when it names them, are numbers. */
+static int check_scaling(const cosim_device *dev, const cosim_signal_desc *s, const char *p,
+			 char *err, size_t errlen)
+{
+	int rc;
+
+	if (s->offset_index && (rc = check_numeric(dev->od, s->offset_index, s->offset_sub, p,
+						   "offset_object", err, errlen)))
+		return rc;
+	if (s->span_index && (rc = check_numeric(dev->od, s->span_index, s->span_sub, p,
+						 "span_object", err, errlen)))
+		return rc;
+	return 0;
+}
+
 static int parse_signal(const cJSON *it, const char *p, cosim_device *dev, cosim_signal_desc *s,
 			char *err, size_t errlen)
 {
@@ -465,11 +527,7 @@ static int parse_signal(const cJSON *it, const char *p, cosim_device *dev, cosim
 	if (!signal_kind_from_string(kind, &s->kind))
 		return json_util_fail(err, errlen, kp,
 				      "unknown kind \"%s\" (const, ramp, sine or square)", kind);
-	if (s->offset_index && (rc = check_numeric(dev->od, s->offset_index, s->offset_sub, p,
-						   "offset_object", err, errlen)))
-		return rc;
-	if (s->span_index && (rc = check_numeric(dev->od, s->span_index, s->span_sub, p,
-						 "span_object", err, errlen)))
+	if ((rc = check_scaling(dev, s, p, err, errlen)))
 		return rc;
 	if (s->kind == COSIM_SIG_CONST) {
 		if ((rc = opt_real(it, "value", p, &s->value, true, err, errlen)))
@@ -481,11 +539,10 @@ static int parse_signal(const cJSON *it, const char *p, cosim_device *dev, cosim
 		json_util_path_key(kp, sizeof kp, p, "period_ms");
 		if (!period)
 			return json_util_fail(err, errlen, kp, "required for a %s signal", kind);
-		if (s->max < s->min) {
-			json_util_path_key(kp, sizeof kp, p, "max");
+		json_util_path_key(kp, sizeof kp, p, "max");
+		if (s->max < s->min)
 			return json_util_fail(err, errlen, kp, "%g is below min %g", s->max,
 					      s->min);
-		}
 	}
 	s->period_ms = (uint32_t)period;
 	s->update_ms = (uint32_t)update;
@@ -602,6 +659,36 @@ static int factory_image(const co_od *od, uint8_t *img, size_t cap, uint32_t *le
 	return 0;
 }
 
+/* 1F50h:1 (the flash, holding image), 1F51h:1 and 1F56h:1. */
+static int add_program_objects(cosim_device *dev, const uint8_t *image, uint32_t image_len,
+			       char *err, size_t errlen)
+{
+	uint32_t flash = dev->program.flash_max;
+	co_od_entry *e;
+	int rc;
+
+	if ((rc = co_od_ensure_num(dev->od, 0x1F50, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
+				   CO_OBJ_ARRAY)) ||
+	    (rc = co_od_add_bytes(dev->od, 0x1F50, 1, CO_T_DOMAIN, CO_ACC_WO, flash, image,
+				  image_len, &e)))
+		return rc == -ENOMEM ? rc
+				     : json_util_fail(err, errlen, "program", "cannot add 1F50h");
+	e->obj_code = CO_OBJ_ARRAY;
+	if ((rc = co_od_ensure_num(dev->od, 0x1F51, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
+				   CO_OBJ_ARRAY)) ||
+	    (rc = co_od_ensure_num(dev->od, 0x1F51, 1, CO_T_UNSIGNED8, CO_ACC_RW,
+				   image_len ? COSIM_PROG_RUNNING : COSIM_PROG_CLEARED,
+				   CO_OBJ_ARRAY)) ||
+	    (rc = co_od_ensure_num(dev->od, 0x1F56, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
+				   CO_OBJ_ARRAY)) ||
+	    (rc = co_od_ensure_num(dev->od, 0x1F56, 1, CO_T_UNSIGNED32, CO_ACC_RO, 0,
+				   CO_OBJ_ARRAY)))
+		return rc == -ENOMEM
+			       ? rc
+			       : json_util_fail(err, errlen, "program", "cannot add 1F51h/1F56h");
+	return 0;
+}
+
 /* "program": {"flash_max": N, "refuse": bool, "factory": bool} -> 1F50h:1
  * (DOMAIN wo, N bytes, the factory image or empty), 1F51h:1 (UNSIGNED8
  * rw), 1F56h:1 (UNSIGNED32 ro); the program module sets the power-on
@@ -613,7 +700,6 @@ static int parse_program(const cJSON *root, cosim_device *dev, char *err, size_t
 	uint64_t flash = 256u * 1024u;
 	uint8_t image[160];
 	uint32_t image_len = 0;
-	co_od_entry *e;
 	int rc;
 
 	if (!v)
@@ -639,26 +725,7 @@ static int parse_program(const cJSON *root, cosim_device *dev, char *err, size_t
 				      (unsigned)flash, (unsigned)image_len);
 	dev->program.enabled = true;
 	dev->program.flash_max = (uint32_t)flash;
-	if ((rc = co_od_ensure_num(dev->od, 0x1F50, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
-				   CO_OBJ_ARRAY)) ||
-	    (rc = co_od_add_bytes(dev->od, 0x1F50, 1, CO_T_DOMAIN, CO_ACC_WO, (uint32_t)flash,
-				  image_len ? image : NULL, image_len, &e)))
-		return rc == -ENOMEM ? rc
-				     : json_util_fail(err, errlen, "program", "cannot add 1F50h");
-	e->obj_code = CO_OBJ_ARRAY;
-	if ((rc = co_od_ensure_num(dev->od, 0x1F51, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
-				   CO_OBJ_ARRAY)) ||
-	    (rc = co_od_ensure_num(dev->od, 0x1F51, 1, CO_T_UNSIGNED8, CO_ACC_RW,
-				   image_len ? COSIM_PROG_RUNNING : COSIM_PROG_CLEARED,
-				   CO_OBJ_ARRAY)) ||
-	    (rc = co_od_ensure_num(dev->od, 0x1F56, 0, CO_T_UNSIGNED8, CO_ACC_RO, 1,
-				   CO_OBJ_ARRAY)) ||
-	    (rc = co_od_ensure_num(dev->od, 0x1F56, 1, CO_T_UNSIGNED32, CO_ACC_RO, 0,
-				   CO_OBJ_ARRAY)))
-		return rc == -ENOMEM
-			       ? rc
-			       : json_util_fail(err, errlen, "program", "cannot add 1F51h/1F56h");
-	return 0;
+	return add_program_objects(dev, image_len ? image : NULL, image_len, err, errlen);
 }
 
 static int build(cosim_device *dev, const cJSON *root, const cosim_device_opts *opts, char *err,

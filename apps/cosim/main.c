@@ -186,17 +186,44 @@ static int handle_can(struct app *a, uint64_t now_us)
 	return 0;
 }
 
+/* cmd for every node (only < 0) or node `only`: their answers, "; "
+ * between them, into reply. */
+static void command_nodes(struct app *a, const char *cmd, int only, uint64_t now_us, char *reply,
+			  size_t rl)
+{
+	char one[256];
+	size_t used = 0;
+
+	if (!strcmp(cmd, "quit")) {
+		a->quit = true;
+		snprintf(reply, rl, "ok quit");
+		return;
+	}
+	for (int i = 0; i < a->n_nodes; i++) {
+		cosim_node *n = a->nodes[i];
+		if (only >= 0 && cosim_node_config_id(n) != only &&
+		    co_node_id(cosim_node_core(n)) != only)
+			continue;
+		cosim_node_command(n, cmd, now_us, one, sizeof one);
+		int k = snprintf(reply + used, rl - used, "%s%s", used ? "; " : "", one);
+		if (k > 0 && (size_t)k < rl - used)
+			used += (size_t)k;
+	}
+	if (!used)
+		snprintf(reply, rl, "error: no node %d here", only);
+	drain_local(a, now_us);
+}
+
 /* One datagram = one command, optionally "node N <command>". */
 static void handle_control(struct app *a, int cfd, uint64_t now_us)
 {
-	char buf[512], reply[1024], one[256];
+	char buf[512], reply[1024];
 	struct sockaddr_un from;
 	socklen_t flen = sizeof from;
 	ssize_t len = recvfrom(cfd, buf, sizeof buf - 1, MSG_DONTWAIT, (struct sockaddr *)&from,
 			       &flen);
 	const char *cmd = buf;
 	int only = -1;
-	size_t used = 0;
 
 	if (len < 0)
 		return;
@@ -207,32 +234,13 @@ static void handle_control(struct app *a, int cfd, uint64_t now_us)
 	if (!strncmp(cmd, "node ", 5)) {
 		char *end;
 		long id = strtol(cmd + 5, &end, 10);
-		if (end == cmd + 5 || *end != ' ' || id < 1 || id > 255) {
+		if (end == cmd + 5 || *end != ' ' || id < 1 || id > 255)
 			snprintf(reply, sizeof reply, "error: node N COMMAND");
-			goto answer;
-		}
 		only = (int)id;
 		cmd = end + 1;
 	}
-	if (!strcmp(cmd, "quit")) {
-		a->quit = true;
-		snprintf(reply, sizeof reply, "ok quit");
-		goto answer;
-	}
-	for (int i = 0; i < a->n_nodes; i++) {
-		cosim_node *n = a->nodes[i];
-		if (only >= 0 && cosim_node_config_id(n) != only &&
-		    co_node_id(cosim_node_core(n)) != only)
-			continue;
-		cosim_node_command(n, cmd, now_us, one, sizeof one);
-		int k = snprintf(reply + used, sizeof reply - used, "%s%s", used ? "; " : "", one);
-		if (k > 0 && (size_t)k < sizeof reply - used)
-			used += (size_t)k;
-	}
-	if (!used)
-		snprintf(reply, sizeof reply, "error: no node %d here", only);
-	drain_local(a, now_us);
-answer:
+	if (!reply[0])
+		command_nodes(a, cmd, only, now_us, reply, sizeof reply);
 	cosim_log(a->quiet, "control: %s -> %s", buf, reply);
 	if (flen > sizeof(sa_family_t))
 		sendto(cfd, reply, strlen(reply), MSG_DONTWAIT, (struct sockaddr *)&from, flen);

@@ -32,18 +32,6 @@ enum prog_cmd {
 	CMD_CLEAR = 3
 };
 
-uint32_t cosim_crc32(const uint8_t *data, size_t len)
-{
-	uint32_t crc = 0xFFFFFFFFu;
-
-	for (size_t i = 0; i < len; i++) {
-		crc ^= data[i];
-		for (int b = 0; b < 8; b++)
-			crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-	}
-	return ~crc;
-}
-
 static const char *state_name(uint8_t s)
 {
 	switch (s) {

@@ -101,19 +101,6 @@ struct cosim_node {
 
 static void logn(const cosim_node *n, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
-void cosim_log(bool quiet, const char *fmt, ...)
-{
-	va_list ap;
-
-	if (quiet)
-		return;
-	va_start(ap, fmt);
-	fputs("cosim: ", stderr);
-	vfprintf(stderr, fmt, ap);
-	fputc('\n', stderr);
-	va_end(ap);
-}
-
 static void logn(const cosim_node *n, const char *fmt, ...)
 {
 	va_list ap;
@@ -628,23 +615,10 @@ static uint8_t lss_store(void *ctx, uint8_t node_id, bool bt_valid, uint8_t tabl
 
 /* ---- core events --------------------------------------------------------------------- */
 
-static void on_event(void *ctx, const co_event *ev)
+/* The RPDO events: the loopback, and what went wrong. */
+static void on_rpdo_event(cosim_node *n, const co_event *ev)
 {
-	cosim_node *n = ctx;
-
 	switch (ev->kind) {
-	case CO_EV_NMT_STATE:
-		logn(n, "NMT %s -> %s", co_nmt_state_to_string(ev->u.nmt.prev),
-		     co_nmt_state_to_string(ev->u.nmt.state));
-		if (n->autostart && ev->u.nmt.state == CO_NMT_PRE_OPERATIONAL &&
-		    ev->u.nmt.prev == CO_NMT_INITIALISING)
-			n->start_pending = true;
-		break;
-	case CO_EV_OD_WRITTEN:
-		logn(n, "SDO write %04X:%02X (%u bytes)", ev->u.od.index, ev->u.od.sub,
-		     ev->u.od.size);
-		loopback_written(n, ev->u.od.index, ev->u.od.sub, ev->now_us);
-		break;
 	case CO_EV_RPDO:
 		/* After every object of the PDO is written, so that an echoed
 		 * TPDO carries all of them, not the first one alone. */
@@ -668,13 +642,15 @@ static void on_event(void *ctx, const co_event *ev)
 	case CO_EV_RPDO_TIMEOUT:
 		logn(n, "RPDO %u: event timer ran out", ev->u.pdo.nr);
 		break;
-	case CO_EV_SDO_SERVER_DONE:
-		if (ev->u.sdo_srv.abort)
-			logn(n, "SDO %s %04X:%02X aborted: %08X (%s)",
-			     ev->u.sdo_srv.upload ? "upload" : "download", ev->u.sdo_srv.index,
-			     ev->u.sdo_srv.sub, ev->u.sdo_srv.abort,
-			     sdo_abort_to_string(ev->u.sdo_srv.abort));
+	default:
 		break;
+	}
+}
+
+/* The LSS slave's events: its state, a new node-ID, a bit timing. */
+static void on_lss_event(cosim_node *n, const co_event *ev)
+{
+	switch (ev->kind) {
 	case CO_EV_LSS_SLAVE_STATE:
 		logn(n, "LSS %s", lss_state_to_string((lss_state)ev->u.lss_slave.state));
 		break;
@@ -694,6 +670,46 @@ static void on_event(void *ctx, const co_event *ev)
 		logn(n, "LSS: activate bit timing table %u index %u after %u ms (vcan: no-op)",
 		     ev->u.lss_slave.bt_table, ev->u.lss_slave.bt_index, ev->u.lss_slave.delay_ms);
 		break;
+	default:
+		break;
+	}
+}
+
+static void on_event(void *ctx, const co_event *ev)
+{
+	cosim_node *n = ctx;
+
+	switch (ev->kind) {
+	case CO_EV_NMT_STATE:
+		logn(n, "NMT %s -> %s", co_nmt_state_to_string(ev->u.nmt.prev),
+		     co_nmt_state_to_string(ev->u.nmt.state));
+		if (n->autostart && ev->u.nmt.state == CO_NMT_PRE_OPERATIONAL &&
+		    ev->u.nmt.prev == CO_NMT_INITIALISING)
+			n->start_pending = true;
+		break;
+	case CO_EV_OD_WRITTEN:
+		logn(n, "SDO write %04X:%02X (%u bytes)", ev->u.od.index, ev->u.od.sub,
+		     ev->u.od.size);
+		loopback_written(n, ev->u.od.index, ev->u.od.sub, ev->now_us);
+		break;
+	case CO_EV_RPDO:
+	case CO_EV_RPDO_OBJECT:
+	case CO_EV_RPDO_LENGTH:
+	case CO_EV_RPDO_TIMEOUT:
+		on_rpdo_event(n, ev);
+		break;
+	case CO_EV_SDO_SERVER_DONE:
+		if (ev->u.sdo_srv.abort)
+			logn(n, "SDO %s %04X:%02X aborted: %08X (%s)",
+			     ev->u.sdo_srv.upload ? "upload" : "download", ev->u.sdo_srv.index,
+			     ev->u.sdo_srv.sub, ev->u.sdo_srv.abort,
+			     sdo_abort_to_string(ev->u.sdo_srv.abort));
+		break;
+	case CO_EV_LSS_SLAVE_STATE:
+	case CO_EV_LSS_SLAVE_NODE_ID:
+	case CO_EV_LSS_SLAVE_BIT_TIMING:
+		on_lss_event(n, ev);
+		break;
 	case CO_EV_TX_FAILED:
 		logn(n, "frame %03X not sent (tx queue full)", ev->u.frame.id);
 		break;
@@ -704,12 +720,95 @@ static void on_event(void *ctx, const co_event *ev)
 
 /* ---- lifetime ---------------------------------------------------------------------- */
 
+/* The device file's values, before anything stored replaces them. */
+static void take_snapshot(cosim_node *n)
+{
+	long len;
+
+	n->snapshot = malloc(SNAPSHOT_MAX);
+	if (!n->snapshot)
+		return;
+	len = co_od_image_write(n->dev.od, COSIM_NV_COMM | COSIM_NV_APP, n->snapshot, SNAPSHOT_MAX);
+	if (len < 0) {
+		free(n->snapshot);
+		n->snapshot = NULL;
+	} else {
+		n->snapshot_len = (size_t)len;
+	}
+}
+
+/* The stored LSS node-ID and values, when the node has a store. */
+static int load_stored(cosim_node *n, char *err, size_t errlen)
+{
+	unsigned loaded = 0, skipped = 0;
+	uint8_t stored;
+	int rc;
+
+	if (!n->has_nv)
+		return 0;
+	if (n->dev.lss_enabled && !n->dev.lss_constant_id &&
+	    cosim_nv_load_node_id(n->nv_dir, n->nv_key, &stored) == 0 && stored != n->active_id) {
+		logn(n, "LSS node-ID %u from %s/%s.lss", stored, n->nv_dir, n->nv_key);
+		n->active_id = stored;
+		cosim_device_rebase(&n->dev, n->dev.od, stored);
+	}
+	rc = cosim_nv_load(n->dev.od, n->nv_dir, n->nv_key, &loaded, &skipped);
+	if (rc) {
+		snprintf(err, errlen, "%s: cannot read stored values in %s: %s", n->dev.file,
+			 n->nv_dir, strerror(-rc));
+		return rc;
+	}
+	if (loaded || skipped)
+		logn(n, "%u stored values loaded from %s/%s.*%s", loaded, n->nv_dir, n->nv_key,
+		     skipped ? " (some records skipped)" : "");
+	return 0;
+}
+
+/* The core instance of the node, its store and program objects hooked. */
+static int start_core(cosim_node *n, uint32_t sdo_timeout_ms, char *err, size_t errlen)
+{
+	co_node_config nc;
+	int rc;
+
+	memset(&nc, 0, sizeof nc);
+	nc.node_id = n->active_id;
+	nc.od = n->dev.od;
+	nc.send = tx_filter;
+	nc.send_ctx = n;
+	nc.event = on_event;
+	nc.event_ctx = n;
+	nc.lss_slave = n->dev.lss_enabled;
+	nc.lss_slave_constant_id = n->dev.lss_constant_id;
+	nc.sdo_server_timeout_ms = sdo_timeout_ms;
+	n->lss_hooks.store = lss_store;
+	if (n->dev.lss_bit_timing_mask)
+		n->lss_hooks.check_bit_timing = lss_check_bt;
+	nc.lss_slave_hooks = &n->lss_hooks;
+	nc.lss_slave_ctx = n;
+	rc = co_node_create(&n->node, &nc);
+	if (rc) {
+		snprintf(err, errlen, "%s: cannot create the node: %s", n->dev.file, strerror(-rc));
+		return rc;
+	}
+	rc = store_setup(n);
+	if (rc) {
+		snprintf(err, errlen, "%s: cannot attach 1010h/1011h: %s", n->dev.file,
+			 strerror(-rc));
+		return rc;
+	}
+	if (n->dev.program.enabled &&
+	    (rc = cosim_program_attach(&n->prog, n->dev.od, &n->dev.program, n->cfg_id,
+				       n->quiet))) {
+		snprintf(err, errlen, "%s: cannot attach 1F50h/1F51h: %s", n->dev.file,
+			 strerror(-rc));
+		return rc;
+	}
+	return 0;
+}
+
 int cosim_node_create(cosim_node **out, const cosim_node_config *cfg, char *err, size_t errlen)
 {
 	cosim_node *n = calloc(1, sizeof *n);
-	co_node_config nc;
-	unsigned loaded = 0, skipped = 0;
-	uint8_t id;
 	int rc;
 
 	if (!n) {
@@ -724,84 +823,22 @@ int cosim_node_create(cosim_node **out, const cosim_node_config *cfg, char *err,
 	n->out = cfg->out;
 	n->out_ctx = cfg->out_ctx;
 	n->start_us = n->now_us = cfg->now_us;
-	n->cfg_id = n->active_id = id = n->dev.node_id;
+	n->cfg_id = n->active_id = n->dev.node_id;
 	if (cfg->nv_dir) {
 		n->has_nv = true;
 		snprintf(n->nv_dir, sizeof n->nv_dir, "%s", cfg->nv_dir);
 		snprintf(n->nv_key, sizeof n->nv_key, "%s", cfg->nv_key);
 	}
-
-	/* The device file's values, before anything stored replaces them. */
-	n->snapshot = malloc(SNAPSHOT_MAX);
-	if (n->snapshot) {
-		long len = co_od_image_write(n->dev.od, COSIM_NV_COMM | COSIM_NV_APP, n->snapshot,
-					     SNAPSHOT_MAX);
-		if (len < 0) {
-			free(n->snapshot);
-			n->snapshot = NULL;
-		} else {
-			n->snapshot_len = (size_t)len;
-		}
-	}
-	if (n->has_nv) {
-		uint8_t stored;
-		if (n->dev.lss_enabled && !n->dev.lss_constant_id &&
-		    cosim_nv_load_node_id(n->nv_dir, n->nv_key, &stored) == 0 && stored != id) {
-			logn(n, "LSS node-ID %u from %s/%s.lss", stored, n->nv_dir, n->nv_key);
-			id = n->active_id = stored;
-			cosim_device_rebase(&n->dev, n->dev.od, id);
-		}
-		rc = cosim_nv_load(n->dev.od, n->nv_dir, n->nv_key, &loaded, &skipped);
-		if (rc) {
-			snprintf(err, errlen, "%s: cannot read stored values in %s: %s",
-				 n->dev.file, n->nv_dir, strerror(-rc));
-			goto fail;
-		}
-		if (loaded || skipped)
-			logn(n, "%u stored values loaded from %s/%s.*%s", loaded, n->nv_dir,
-			     n->nv_key, skipped ? " (some records skipped)" : "");
-	}
-
-	memset(&nc, 0, sizeof nc);
-	nc.node_id = id;
-	nc.od = n->dev.od;
-	nc.send = tx_filter;
-	nc.send_ctx = n;
-	nc.event = on_event;
-	nc.event_ctx = n;
-	nc.lss_slave = n->dev.lss_enabled;
-	nc.lss_slave_constant_id = n->dev.lss_constant_id;
-	nc.sdo_server_timeout_ms = cfg->sdo_timeout_ms;
-	n->lss_hooks.store = lss_store;
-	if (n->dev.lss_bit_timing_mask)
-		n->lss_hooks.check_bit_timing = lss_check_bt;
-	nc.lss_slave_hooks = &n->lss_hooks;
-	nc.lss_slave_ctx = n;
-	rc = co_node_create(&n->node, &nc);
-	if (rc) {
-		snprintf(err, errlen, "%s: cannot create the node: %s", n->dev.file, strerror(-rc));
-		goto fail;
-	}
-	rc = store_setup(n);
-	if (rc) {
-		snprintf(err, errlen, "%s: cannot attach 1010h/1011h: %s", n->dev.file,
-			 strerror(-rc));
-		goto fail;
-	}
-	if (n->dev.program.enabled &&
-	    (rc = cosim_program_attach(&n->prog, n->dev.od, &n->dev.program, n->cfg_id,
-				       n->quiet))) {
-		snprintf(err, errlen, "%s: cannot attach 1F50h/1F51h: %s", n->dev.file,
-			 strerror(-rc));
-		goto fail;
+	take_snapshot(n);
+	if ((rc = load_stored(n, err, errlen)) ||
+	    (rc = start_core(n, cfg->sdo_timeout_ms, err, errlen))) {
+		cosim_node_destroy(n);
+		return rc;
 	}
 	for (unsigned i = 0; i < n->dev.n_signals; i++)
 		n->sig[i].next_us = cfg->now_us;
 	*out = n;
 	return 0;
-fail:
-	cosim_node_destroy(n);
-	return rc;
 }
 
 void cosim_node_destroy(cosim_node *n)
@@ -1051,12 +1088,137 @@ static int cmd_status(cosim_node *n, char *reply, size_t rl)
 	return 0;
 }
 
+/* A control command's words w[0..nw-1] (nw >= 1) carried out, its answer
+ * in reply; NOT_MINE when the words do not fit it (then the command is
+ * unknown). The time is n->now_us. */
+#define NOT_MINE 1
+typedef int (*node_cmd_fn)(cosim_node *n, char **w, int nw, char *reply, size_t rl);
+
+static int cmd_hb(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	bool b;
+
+	if (nw < 2 || on_off(w[1], &b))
+		return NOT_MINE;
+	n->f.hb_stop = b;
+	logn(n, "fault: heartbeat %s", b ? "stopped" : "running");
+	return snprintf(reply, rl, "ok hb %s", b ? "stop" : "start"), 0;
+}
+
+static int cmd_silent(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	bool b;
+
+	if (nw < 2 || on_off(w[1], &b))
+		return NOT_MINE;
+	n->f.silent = b;
+	logn(n, "fault: %s", b ? "silent (cable pulled)" : "back on the bus");
+	return snprintf(reply, rl, "ok silent %s", b ? "on" : "off"), 0;
+}
+
+static int cmd_sdo_fault(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	int rc = cmd_sdo(n, w, nw, reply, rl);
+
+	if (!rc)
+		logn(n, "fault: %s", reply + 3);
+	return rc;
+}
+
+static int cmd_pdo(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	bool b;
+
+	if (nw < 3 || strcmp(w[1], "badlen") || on_off(w[2], &b))
+		return NOT_MINE;
+	n->f.pdo_badlen = b;
+	logn(n, "fault: TPDO wrong length %s", b ? "on" : "off");
+	return snprintf(reply, rl, "ok pdo badlen %s", b ? "on" : "off"), 0;
+}
+
+static int cmd_emcy(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	uint32_t v, reg = 0;
+	int rc;
+
+	if (nw < 2)
+		return NOT_MINE;
+	if (!strcmp(w[1], "clear")) {
+		rc = co_emcy_clear_all(n->node, n->now_us);
+	} else {
+		if (!parse_u32(w[1], &v) || v == 0 || v > 0xFFFF ||
+		    (nw >= 3 && (!parse_u32(w[2], &reg) || reg > 0xFF)))
+			return reply_err(reply, rl, "emcy CODE [REGISTER] | emcy clear");
+		rc = co_emcy_send(n->node, (uint16_t)v, (uint8_t)reg, NULL, n->now_us);
+	}
+	if (rc && rc != -ENOSPC)
+		return reply_err(reply, rl, "emcy: %s", strerror(-rc));
+	logn(n, "EMCY %s", w[1]);
+	return snprintf(reply, rl, "ok emcy %s", w[1]), 0;
+}
+
+/* "pressure [VALUE]" (the signal of that name) or "signal NAME [VALUE]". */
+static int cmd_signal_word(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	bool named = !strcmp(w[0], "signal");
+	const char *name = named ? (nw >= 2 ? w[1] : "") : "pressure";
+	int i = find_signal(n, name);
+
+	if (i < 0)
+		return reply_err(reply, rl, "this device has no signal \"%s\"", name);
+	return cmd_signal(n, i, nw > (named ? 2 : 1) ? w[named ? 2 : 1] : NULL, n->now_us, reply,
+			  rl);
+}
+
+static int cmd_loopback(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	bool b;
+
+	if (nw < 2 || on_off(w[1], &b))
+		return NOT_MINE;
+	n->dev.loopback_enabled = b;
+	return snprintf(reply, rl, "ok loopback %s", b ? "on" : "off"), 0;
+}
+
+static int cmd_set_get_word(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	return cmd_set_get(n, w, nw, n->now_us, reply, rl);
+}
+
+static int cmd_nmt_word(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	return cmd_nmt(n, nw >= 2 ? w[1] : NULL, n->now_us, reply, rl);
+}
+
+static int cmd_status_word(cosim_node *n, char **w, int nw, char *reply, size_t rl)
+{
+	(void)w;
+	(void)nw;
+	return cmd_status(n, reply, rl);
+}
+
+static const struct {
+	const char *word;
+	node_cmd_fn run;
+} node_cmds[] = {
+	{ "hb", cmd_hb },
+	{ "silent", cmd_silent },
+	{ "sdo", cmd_sdo_fault },
+	{ "pdo", cmd_pdo },
+	{ "emcy", cmd_emcy },
+	{ "pressure", cmd_signal_word },
+	{ "signal", cmd_signal_word },
+	{ "loopback", cmd_loopback },
+	{ "set", cmd_set_get_word },
+	{ "get", cmd_set_get_word },
+	{ "nmt", cmd_nmt_word },
+	{ "status", cmd_status_word },
+};
+
 int cosim_node_command(cosim_node *n, const char *line, uint64_t now_us, char *reply, size_t rl)
 {
 	char buf[256], *w[8], *save = NULL;
 	int nw = 0;
-	uint32_t v;
-	bool b;
 
 	n->now_us = now_us;
 	snprintf(buf, sizeof buf, "%s", line);
@@ -1065,62 +1227,15 @@ int cosim_node_command(cosim_node *n, const char *line, uint64_t now_us, char *r
 		w[nw++] = t;
 	if (nw == 0)
 		return reply_err(reply, rl, "empty command");
-
-	if (!strcmp(w[0], "hb") && nw >= 2 && !on_off(w[1], &b)) {
-		n->f.hb_stop = b;
-		logn(n, "fault: heartbeat %s", b ? "stopped" : "running");
-		return snprintf(reply, rl, "ok hb %s", b ? "stop" : "start"), 0;
-	}
-	if (!strcmp(w[0], "silent") && nw >= 2 && !on_off(w[1], &b)) {
-		n->f.silent = b;
-		logn(n, "fault: %s", b ? "silent (cable pulled)" : "back on the bus");
-		return snprintf(reply, rl, "ok silent %s", b ? "on" : "off"), 0;
-	}
-	if (!strcmp(w[0], "sdo")) {
-		int rc = cmd_sdo(n, w, nw, reply, rl);
-		if (!rc)
-			logn(n, "fault: %s", reply + 3);
-		return rc;
-	}
-	if (!strcmp(w[0], "pdo") && nw >= 3 && !strcmp(w[1], "badlen") && !on_off(w[2], &b)) {
-		n->f.pdo_badlen = b;
-		logn(n, "fault: TPDO wrong length %s", b ? "on" : "off");
-		return snprintf(reply, rl, "ok pdo badlen %s", b ? "on" : "off"), 0;
-	}
-	if (!strcmp(w[0], "emcy") && nw >= 2) {
+	for (size_t i = 0; i < sizeof node_cmds / sizeof node_cmds[0]; i++) {
 		int rc;
-		if (!strcmp(w[1], "clear")) {
-			rc = co_emcy_clear_all(n->node, now_us);
-		} else {
-			uint32_t reg = 0;
-			if (!parse_u32(w[1], &v) || v == 0 || v > 0xFFFF ||
-			    (nw >= 3 && (!parse_u32(w[2], &reg) || reg > 0xFF)))
-				return reply_err(reply, rl, "emcy CODE [REGISTER] | emcy clear");
-			rc = co_emcy_send(n->node, (uint16_t)v, (uint8_t)reg, NULL, now_us);
-		}
-		if (rc && rc != -ENOSPC)
-			return reply_err(reply, rl, "emcy: %s", strerror(-rc));
-		logn(n, "EMCY %s", w[1]);
-		return snprintf(reply, rl, "ok emcy %s", w[1]), 0;
+
+		if (strcmp(w[0], node_cmds[i].word))
+			continue;
+		rc = node_cmds[i].run(n, w, nw, reply, rl);
+		if (rc != NOT_MINE)
+			return rc;
+		break;
 	}
-	if (!strcmp(w[0], "pressure") || !strcmp(w[0], "signal")) {
-		bool named = !strcmp(w[0], "signal");
-		const char *name = named ? (nw >= 2 ? w[1] : "") : "pressure";
-		int i = find_signal(n, name);
-		if (i < 0)
-			return reply_err(reply, rl, "this device has no signal \"%s\"", name);
-		return cmd_signal(n, i, nw > (named ? 2 : 1) ? w[named ? 2 : 1] : NULL, now_us,
-				  reply, rl);
-	}
-	if (!strcmp(w[0], "loopback") && nw >= 2 && !on_off(w[1], &b)) {
-		n->dev.loopback_enabled = b;
-		return snprintf(reply, rl, "ok loopback %s", b ? "on" : "off"), 0;
-	}
-	if (!strcmp(w[0], "set") || !strcmp(w[0], "get"))
-		return cmd_set_get(n, w, nw, now_us, reply, rl);
-	if (!strcmp(w[0], "nmt"))
-		return cmd_nmt(n, nw >= 2 ? w[1] : NULL, now_us, reply, rl);
-	if (!strcmp(w[0], "status"))
-		return cmd_status(n, reply, rl);
 	return reply_err(reply, rl, "unknown command \"%s\" (see cosim --help)", w[0]);
 }
