@@ -128,45 +128,19 @@ static int reset(ctl *c, cogw *h, unsigned line)
 static int run(ctl *c, int argc, char **argv)
 {
 	const char *pos[MBX_LINES_MAX];
-	unsigned lines[MBX_LINES_MAX];
-	int n_pos, n_lines = 0, ex = 0;
+	int n_pos, ex = 0;
 	int rc = ctl_parse(c, argc, argv, NULL, pos, MBX_LINES_MAX, &n_pos);
 	if (rc)
 		return rc;
 	if (c->help)
 		return ctl_print_help(&ctl_cmd_health);
-	bool do_reset = n_pos == 2 && !strcmp(pos[1], "reset");
-	for (int i = 0; i < (do_reset ? 1 : n_pos); i++)
-		if (ctl_arg_line(c, pos[i], &lines[n_lines++]) < 0)
-			return CTL_EXIT_USAGE;
+	if (n_pos != 2 || strcmp(pos[1], "reset"))
+		return ctl_each_line(c, pos, n_pos, show);
+	unsigned line;
+	if (ctl_arg_line(c, pos[0], &line) < 0)
+		return CTL_EXIT_USAGE;
 	cogw *h = ctl_handle(c, &ex);
-	if (!h)
-		return ex;
-	if (do_reset)
-		return reset(c, h, lines[0]);
-	if (n_lines == 0) {
-		int n = ctl_count_lines(c);
-		if (n < 0)
-			return -n;
-		for (int i = 0; i < n; i++)
-			lines[n_lines++] = (unsigned)i;
-	}
-	cJSON *arr = c->json ? cJSON_CreateArray() : NULL;
-	for (int i = 0; i < n_lines; i++) {
-		if (i && !arr)
-			printf("\n");
-		if ((rc = show(c, h, lines[i], arr))) {
-			cJSON_Delete(arr);
-			return rc;
-		}
-	}
-	if (arr) {
-		cJSON *o = cJSON_CreateObject();
-		cJSON_AddBoolToObject(o, "ok", true);
-		cJSON_AddItemToObject(o, "lines", arr);
-		ctl_json_print(o);
-	}
-	return 0;
+	return h ? reset(c, h, line) : ex;
 }
 
 const ctl_cmd ctl_cmd_health = {

@@ -216,41 +216,7 @@ static int run(ctl *c, int argc, char **argv)
 		return rc;
 	if (c->help)
 		return ctl_print_help(&ctl_cmd_status);
-	unsigned lines[MBX_LINES_MAX];
-	int n_lines = n_pos;
-	for (int i = 0; i < n_pos; i++)
-		if (ctl_arg_line(c, pos[i], &lines[i]) < 0)
-			return CTL_EXIT_USAGE;
-	if (n_lines == 0) {
-		int n = ctl_count_lines(c);
-		if (n < 0)
-			return -n;
-		for (int i = 0; i < n; i++)
-			lines[i] = (unsigned)i;
-		n_lines = n;
-	}
-	int ex = 0;
-	cogw *h = ctl_handle(c, &ex);
-	if (!h)
-		return ex;
-	cJSON *arr = c->json ? cJSON_CreateArray() : NULL;
-	for (int i = 0; i < n_lines; i++) {
-		if (i && !c->json)
-			printf("\n");
-		rc = status_line(c, h, lines[i], arr);
-		if (rc) {
-			cJSON_Delete(arr);
-			return rc;
-		}
-	}
-	if (c->json) {
-		cJSON *o = cJSON_CreateObject();
-		cJSON_AddBoolToObject(o, "ok", true);
-		cJSON_AddStringToObject(o, "instance", c->instance);
-		cJSON_AddItemToObject(o, "lines", arr);
-		ctl_json_print(o);
-	}
-	return 0;
+	return ctl_each_line(c, pos, n_pos, status_line);
 }
 
 const ctl_cmd ctl_cmd_status = {
