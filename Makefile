@@ -8,18 +8,52 @@
 # and a third for what threads share:
 #   build/tsan ThreadSanitizer, the multi-threaded stress tests in tests/tsan/.
 
+# ---- what a packager sets (GNU make conventions; docs/install.md) -------------
+# CC, AR, PKG_CONFIG, CFLAGS, CPPFLAGS, LDFLAGS come from the command line or the
+# environment; the flags the sources need (-std, -I., -D_GNU_SOURCE) are added
+# before them, so a packager's CFLAGS replace only the optimisation and debug flags.
+# WERROR: -Werror in a git checkout (developers, CI), nothing in a release tarball,
+# so that the next compiler's new warnings do not break a distribution's build;
+# `make WERROR=` or `make WERROR=-Werror` decide either way.
+VERSION := $(shell cat VERSION)
 PREFIX  ?= /usr/local
 DESTDIR ?=
 CC      ?= gcc
 ifeq ($(origin CC),default)
 CC      := gcc
 endif
+ifeq ($(origin AR),default)
+AR      := ar
+endif
+PKG_CONFIG ?= pkg-config
+CFLAGS   ?= -O2 -g
+CPPFLAGS ?=
+LDFLAGS  ?=
+WERROR   ?= $(if $(wildcard .git),-Werror)
+
+# GNU directory variables, under PREFIX unless set; the configuration stays in
+# /etc (where the units look for it) unless SYSCONFDIR/sysconfdir say otherwise.
+prefix        ?= $(PREFIX)
+exec_prefix   ?= $(prefix)
+bindir        ?= $(exec_prefix)/bin
+libdir        ?= $(exec_prefix)/lib
+includedir    ?= $(prefix)/include
+datarootdir   ?= $(prefix)/share
+docdir        ?= $(datarootdir)/doc/cogw
+mandir        ?= $(datarootdir)/man
+SYSCONFDIR    ?= /etc
+sysconfdir    ?= $(SYSCONFDIR)
+UNITDIR       ?= $(prefix)/lib/systemd/system
+pkgconfigdir  ?= $(libdir)/pkgconfig
 
 UNITY_SRC ?= .deps/unity/src
 
-WARN    := -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes
-BASE    := -std=gnu11 $(WARN) -I. -D_GNU_SOURCE -MMD -MP
-REL_CFLAGS := $(BASE) -O2 -g
+WARN    := -Wall -Wextra $(WERROR) -Wshadow -Wstrict-prototypes
+# 64-bit file offsets, inode numbers and time_t on 32-bit targets too (armhf):
+# readdir() of a large file system, and the TIME producer's clock after 2038
+# (no effect where they are 64-bit already; no such type in the public headers).
+BASE    := -std=gnu11 $(WARN) -I. -D_GNU_SOURCE -D_FILE_OFFSET_BITS=64 -D_TIME_BITS=64 -MMD -MP
+REL_CFLAGS := $(BASE) $(CPPFLAGS) $(CFLAGS)
 SAN_CFLAGS := $(BASE) -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all
 SAN_LDFLAGS := -fsanitize=address,undefined
 UNITY_CFLAGS := -I$(UNITY_SRC) -DUNITY_INCLUDE_DOUBLE -DUNITY_SUPPORT_64 -DUNITY_USE_FLUSH_STDOUT
@@ -32,7 +66,7 @@ DEVOBJ_SRC  := $(sort $(wildcard devobj/*.c))
 APPCOMMON_SRC := $(sort $(wildcard apps/common/*.c))
 # Generated at build time, never committed: etc/cogw.json as a C string.
 GEN := build/gen
-APPCOMMON_GEN := $(GEN)/default_config.c $(GEN)/default_files.c
+APPCOMMON_GEN := $(GEN)/default_config.c $(GEN)/default_files.c $(GEN)/version.c
 # files the embedded default configuration names (node configurations)
 DEFAULT_FILES := $(sort $(wildcard etc/*.dcf))
 PROGRAMS    := $(notdir $(patsubst %/main.c,%,$(wildcard apps/*/main.c)))
@@ -70,7 +104,7 @@ SAN_COGW_LIB := $(SAN)/lib/libcogw.a
 REL_COGW_SO := $(REL)/lib/libcogw.so
 REL_LIBS = $(REL_APPCOMMON_LIB) $(REL_DEVOBJ_LIB) $(REL_MANAGER_LIB) $(REL_GATEWAY_LIB) $(REL_LINES_LIB) $(REL_MBXSRV_LIB) $(REL_COGW_LIB) $(REL_CORE_LIB)
 SAN_LIBS = $(SAN_APPCOMMON_LIB) $(SAN_DEVOBJ_LIB) $(SAN_MANAGER_LIB) $(SAN_GATEWAY_LIB) $(SAN_LINES_LIB) $(SAN_MBXSRV_LIB) $(SAN_COGW_LIB) $(SAN_CORE_LIB)
-SYS_LIBS := $(shell pkg-config --libs libcjson libsystemd 2>/dev/null || echo -lcjson -lsystemd) -lrt -lpthread -lm
+SYS_LIBS := $(shell $(PKG_CONFIG) --libs libcjson libsystemd 2>/dev/null || echo -lcjson -lsystemd) -lrt -lpthread -lm
 PROGRAM_BINS := $(addprefix $(REL)/bin/,$(PROGRAMS))
 SAN_PROGRAM_BINS := $(addprefix $(SAN)/bin/,$(PROGRAMS))
 
@@ -92,7 +126,7 @@ TSAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_SRC))
 TSAN_VCAN_BINS := $(patsubst tests/tsan/%.c,$(TSAN)/tests/tsan/%,$(TSAN_VCAN_SRC))
 BENCH_BINS := $(patsubst tests/bench/%.c,$(REL)/tests/bench/%,$(BENCH_SRC))
 
-.PHONY: all deps test unit tsan integration interop bench bench-costs bench-timeline demo install clean tests-build check check-core-io check-layering format check-callgraph
+.PHONY: all deps test cross cross-test cross-check-arch deb unit tsan integration interop bench bench-costs bench-timeline demo install clean tests-build check check-core-io check-layering format check-callgraph
 .DEFAULT_GOAL := all
 .SECONDARY:
 
@@ -122,43 +156,43 @@ $(UNITY_SRC)/unity.c:
 # ---- libraries -----------------------------------------------------------------
 $(REL_CORE_LIB): $(call obj,$(REL),$(CORE_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_CORE_LIB): $(call obj,$(SAN),$(CORE_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(REL_LINES_LIB): $(call obj,$(REL),$(LINES_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_LINES_LIB): $(call obj,$(SAN),$(LINES_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(REL_GATEWAY_LIB): $(call obj,$(REL),$(GATEWAY_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_GATEWAY_LIB): $(call obj,$(SAN),$(GATEWAY_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(REL_MANAGER_LIB): $(call obj,$(REL),$(MANAGER_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_MANAGER_LIB): $(call obj,$(SAN),$(MANAGER_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(REL_DEVOBJ_LIB): $(call obj,$(REL),$(DEVOBJ_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_DEVOBJ_LIB): $(call obj,$(SAN),$(DEVOBJ_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 # The ASCII gateway's parser, value texts and configuration loader: linked into the unit
 # tests and the fuzz targets as well as into apps/cogw-ascii.
@@ -166,7 +200,7 @@ ASCII_LIB_SRC := apps/cogw-ascii/ascii_parse.c apps/cogw-ascii/ascii_value.c app
 SAN_ASCII_LIB := $(SAN)/lib/libcogw_ascii.a
 $(SAN_ASCII_LIB): $(call obj,$(SAN),$(ASCII_LIB_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 # The MQTT bridge's request decoder and configuration loader: linked into the unit
 # tests and the fuzz targets as well as into apps/cogw-mqtt (no libmosquitto in them).
@@ -174,26 +208,26 @@ MQTT_LIB_SRC := apps/cogw-mqtt/mqtt_request.c apps/cogw-mqtt/mqtt_config.c
 SAN_MQTT_LIB := $(SAN)/lib/libcogw_mqtt.a
 $(SAN_MQTT_LIB): $(call obj,$(SAN),$(MQTT_LIB_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(REL_APPCOMMON_LIB): $(call obj,$(REL),$(APPCOMMON_SRC) $(APPCOMMON_GEN))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_APPCOMMON_LIB): $(call obj,$(SAN),$(APPCOMMON_SRC) $(APPCOMMON_GEN))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 # ---- programs: apps/<name>/*.c -> build/<cfg>/bin/<name> -----------------------
 # The sanitizer build of the programs is what the integration tests run.
 # PROGRAM_SRC_<name>: sources of other directories a program links too;
 # PROGRAM_LIBS_<name>: system libraries only it needs.
 PROGRAM_SRC_cogw-mqtt := apps/cogw-ascii/ascii_value.c
-PROGRAM_LIBS_cogw-mqtt := $(shell pkg-config --libs libmosquitto 2>/dev/null || echo -lmosquitto)
+PROGRAM_LIBS_cogw-mqtt := $(shell $(PKG_CONFIG) --libs libmosquitto 2>/dev/null || echo -lmosquitto)
 define program_rules
 $(REL)/bin/$(1): $(call obj,$(REL),$(wildcard apps/$(1)/*.c) $(PROGRAM_SRC_$(1))) $$(REL_LIBS)
 	@mkdir -p $$(@D)
-	$$(CC) -o $$@ $$^ $$(PROGRAM_LIBS_$(1)) $$(SYS_LIBS)
+	$$(CC) $$(CFLAGS) $$(LDFLAGS) -o $$@ $$^ $$(PROGRAM_LIBS_$(1)) $$(SYS_LIBS)
 $(SAN)/bin/$(1): $(call obj,$(SAN),$(wildcard apps/$(1)/*.c) $(PROGRAM_SRC_$(1))) $$(SAN_LIBS)
 	@mkdir -p $$(@D)
 	$$(CC) $$(SAN_LDFLAGS) -o $$@ $$^ $$(PROGRAM_LIBS_$(1)) $$(SYS_LIBS)
@@ -202,6 +236,11 @@ $(foreach p,$(PROGRAMS),$(eval $(call program_rules,$(p))))
 
 # ---- tests ---------------------------------------------------------------------
 $(SAN)/tests/unit/%: $(SAN)/obj/tests/unit/%.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_MQTT_LIB) $(SAN_ASCII_LIB) $(SAN_LIBS)
+	@mkdir -p $(@D)
+	$(CC) $(SAN_LDFLAGS) -o $@ $^ $(SYS_LIBS)
+
+# cogwctl's value texts (its --json values) are checked without the program.
+$(SAN)/tests/unit/test_real_text: $(SAN)/obj/tests/unit/test_real_text.o $(SAN)/obj/apps/cogwctl/util.o $(call obj,$(SAN),$(UNIT_SUP)) $(SAN)/obj/unity.o $(SAN_MQTT_LIB) $(SAN_ASCII_LIB) $(SAN_LIBS)
 	@mkdir -p $(@D)
 	$(CC) $(SAN_LDFLAGS) -o $@ $^ $(SYS_LIBS)
 
@@ -226,7 +265,7 @@ $(TSAN)/obj/unity.o: $(UNITY_SRC)/unity.c
 
 $(TSAN_CORE_LIB): $(call obj,$(TSAN),$(CORE_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(TSAN)/tests/tsan/%: $(TSAN)/obj/tests/tsan/%.o $(call obj,$(TSAN),$(TSAN_LIB_SRC)) $(TSAN)/obj/unity.o $(TSAN_CORE_LIB)
 	@mkdir -p $(@D)
@@ -295,6 +334,14 @@ $(GEN)/default_config.c: etc/cogw.json
 	  echo 'const char cogw_default_config_json[] = {'; \
 	  od -An -v -tx1 $< | sed -e 's/\([0-9a-f][0-9a-f]\)/0x\1,/g'; \
 	  echo '0x00 };'; } > $@.tmp && mv $@.tmp $@
+
+# cogw_version[]: the one version number (file VERSION), for every program's
+# --version, cogw.pc and the packages.
+$(GEN)/version.c: VERSION
+	@mkdir -p $(@D)
+	{ echo '/* generated from VERSION by make: do not edit */'; \
+	  echo '#include "apps/common/version.h"'; \
+	  echo 'const char cogw_version[] = "$(VERSION)";'; } > $@.tmp && mv $@.tmp $@
 
 # cogw_default_files[]: the files etc/cogw.json names, compiled in with it so
 # that the embedded default needs nothing from the working directory.
@@ -381,40 +428,63 @@ demo:
 	tests/vcan/run -n 3 -- scripts/demo.sh
 
 # ---- install -------------------------------------------------------------------
-# Applications include "mailbox/cogw.h" with -I$(PREFIX)/include/cogw and link
-# -lcogw. The unit's ExecStart is rewritten to the installed binary.
-SYSCONFDIR ?= /etc
-UNITDIR ?= $(PREFIX)/lib/systemd/system
-install: all
-	install -d $(DESTDIR)$(PREFIX)/lib $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(UNITDIR) \
-		$(DESTDIR)$(PREFIX)/include/cogw/core $(DESTDIR)$(PREFIX)/include/cogw/mailbox \
-		$(DESTDIR)$(SYSCONFDIR)/cogw
-	install -m 644 $(REL_CORE_LIB) $(REL_COGW_LIB) $(DESTDIR)$(PREFIX)/lib/
-	cp -P $(REL)/lib/libcogw.so* $(DESTDIR)$(PREFIX)/lib/
-	install -m 644 core/*.h $(DESTDIR)$(PREFIX)/include/cogw/core/
-	install -m 644 mailbox/cogw.h mailbox/proto.h mailbox/proto_health.h mailbox/cogw_health.h $(DESTDIR)$(PREFIX)/include/cogw/mailbox/
-	$(if $(PROGRAM_BINS),install -m 755 $(PROGRAM_BINS) $(DESTDIR)$(PREFIX)/bin/)
-	sed 's|/usr/local/bin/cogwd|$(PREFIX)/bin/cogwd|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogwd.service \
-		> $(DESTDIR)$(UNITDIR)/cogwd.service
-	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw.json || install -m 644 etc/cogw.json $(DESTDIR)$(SYSCONFDIR)/cogw/cogw.json
-	sed 's|/usr/local/bin/cogw-ascii|$(PREFIX)/bin/cogw-ascii|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-ascii.service \
-		> $(DESTDIR)$(UNITDIR)/cogw-ascii.service
-	install -m 644 etc/cogw-ascii.socket $(DESTDIR)$(UNITDIR)/cogw-ascii.socket
-	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-ascii.json || sed 's|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-ascii.json \
-		> $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-ascii.json
-	sed 's|/usr/local/bin/cogw-mqtt|$(PREFIX)/bin/cogw-mqtt|; s|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-mqtt.service \
-		> $(DESTDIR)$(UNITDIR)/cogw-mqtt.service
-	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-mqtt.json || sed 's|/etc/cogw/|$(SYSCONFDIR)/cogw/|' etc/cogw-mqtt.json \
-		> $(DESTDIR)$(SYSCONFDIR)/cogw/cogw-mqtt.json
-	test -e $(DESTDIR)$(SYSCONFDIR)/cogw/transducer.dcf || install -m 644 etc/transducer.dcf $(DESTDIR)$(SYSCONFDIR)/cogw/transducer.dcf
+# Applications include "mailbox/cogw.h" with `pkg-config --cflags cogw` (that is
+# -I$(includedir)/cogw) and link `pkg-config --libs cogw` (-lcogw). The units'
+# ExecStart and configuration paths are rewritten to bindir and sysconfdir; the
+# daemon runs as the system user cogw (sysusers.d/cogw.conf: `systemd-sysusers`
+# creates it, and so does `make install` when DESTDIR is empty), with the
+# message-queue limits of sysctl.d/60-cogw.conf. Configuration files already there
+# are kept.
+COGW_PC := $(REL)/cogw.pc
+$(COGW_PC): etc/cogw.pc.in VERSION
+	@mkdir -p $(@D)
+	@sed -e 's|@VERSION@|$(VERSION)|; s|@prefix@|$(prefix)|; s|@includedir@|$(includedir)|; s|@libdir@|$(libdir)|' $< > $@.tmp && mv $@.tmp $@
+.PHONY: $(COGW_PC)
+all: $(COGW_PC)
 
+unit_paths = sed -e 's|/usr/local/bin/|$(bindir)/|; s|/etc/cogw/|$(sysconfdir)/cogw/|g; s|file:///usr/share/doc/cogw/|file://$(docdir)/|'
+install_config = test -e $(DESTDIR)$(sysconfdir)/cogw/$(notdir $(1)) || \
+	{ sed 's|/etc/cogw/|$(sysconfdir)/cogw/|g' $(1) > $(DESTDIR)$(sysconfdir)/cogw/$(notdir $(1)) && \
+	  chmod 644 $(DESTDIR)$(sysconfdir)/cogw/$(notdir $(1)); }
+install: all
+	install -d $(DESTDIR)$(libdir) $(DESTDIR)$(bindir) $(DESTDIR)$(UNITDIR) \
+		$(DESTDIR)$(includedir)/cogw/core $(DESTDIR)$(includedir)/cogw/mailbox \
+		$(DESTDIR)$(pkgconfigdir) $(DESTDIR)$(sysconfdir)/cogw \
+		$(DESTDIR)$(prefix)/lib/sysusers.d $(DESTDIR)$(prefix)/lib/sysctl.d $(DESTDIR)$(docdir)/docs \
+		$(DESTDIR)$(mandir)/man1 $(DESTDIR)$(mandir)/man8
+	install -m 644 $(REL_CORE_LIB) $(REL_COGW_LIB) $(DESTDIR)$(libdir)/
+	install -m 755 $(REL)/lib/libcogw.so.1 $(DESTDIR)$(libdir)/
+	ln -sf libcogw.so.1 $(DESTDIR)$(libdir)/libcogw.so
+	install -m 644 $(COGW_PC) $(DESTDIR)$(pkgconfigdir)/cogw.pc
+	install -m 644 core/*.h $(DESTDIR)$(includedir)/cogw/core/
+	install -m 644 mailbox/cogw.h mailbox/proto.h mailbox/proto_health.h mailbox/cogw_health.h \
+		$(DESTDIR)$(includedir)/cogw/mailbox/
+	$(if $(PROGRAM_BINS),install -m 755 $(PROGRAM_BINS) $(DESTDIR)$(bindir)/)
+	for u in cogwd.service cogw-ascii.service cogw-mqtt.service cogw-ascii.socket; do \
+		$(unit_paths) etc/$$u > $(DESTDIR)$(UNITDIR)/$$u && chmod 644 $(DESTDIR)$(UNITDIR)/$$u || exit 1; done
+	install -m 644 etc/cogw.sysusers $(DESTDIR)$(prefix)/lib/sysusers.d/cogw.conf
+	install -m 644 etc/cogw.sysctl $(DESTDIR)$(prefix)/lib/sysctl.d/60-cogw.conf
+	install -m 644 README.md $(DESTDIR)$(docdir)/
+	install -m 644 docs/*.md $(DESTDIR)$(docdir)/docs/
+	install -m 644 man/*.1 $(DESTDIR)$(mandir)/man1/
+	install -m 644 man/*.8 $(DESTDIR)$(mandir)/man8/
+	$(call install_config,etc/cogw.json)
+	$(call install_config,etc/cogw-ascii.json)
+	$(call install_config,etc/cogw-mqtt.json)
+	$(call install_config,etc/transducer.dcf)
+	if [ -z "$(DESTDIR)" ] && command -v systemd-sysusers >/dev/null; then \
+		systemd-sysusers $(prefix)/lib/sysusers.d/cogw.conf; fi
+
+# `make deps ARCH=arm64` adds the cross toolchain, multiarch -dev packages and
+# qemu-user for `make cross`/`cross-test`; `make deps DEB=1` the packaging tools
+# (debhelper, lintian, debootstrap) for `make deb`/`deb-vm-test`.
 deps:
-	scripts/deps.sh
+	COGW_DEPS_ARCH="$(ARCH)" COGW_DEPS_DEB="$(DEB)" scripts/deps.sh
 
 clean:
 	rm -rf build
 
--include $(shell find build -name '*.d' 2>/dev/null)
+-include $(shell find build -path build/deb -prune -o -name '*.d' -type f -print 2>/dev/null)
 
 # ---- mailbox libraries (mailbox/*.c) ---------------------------------------------
 # libcogw_mbxsrv.a: the daemon side, linked into lines/apps; libcogw.a and
@@ -429,23 +499,103 @@ $(REL)/pic/%.o: %.c
 
 $(REL_MBXSRV_LIB): $(call obj,$(REL),$(MBX_SERVER_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_MBXSRV_LIB): $(call obj,$(SAN),$(MBX_SERVER_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(REL_COGW_LIB): $(call obj,$(REL),$(MBX_CLIENT_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(SAN_COGW_LIB): $(call obj,$(SAN),$(MBX_CLIENT_SRC))
 	@mkdir -p $(@D)
-	rm -f $@ && ar rcs $@ $^
+	rm -f $@ && $(AR) rcs $@ $^
 
 $(REL_COGW_SO): $(patsubst %.c,$(REL)/pic/%.o,$(MBX_CLIENT_SRC))
 	@mkdir -p $(@D)
-	$(CC) -shared -Wl,-soname,libcogw.so.1 -o $@.1 $^ -lrt -lpthread -lm
+	$(CC) $(CFLAGS) $(LDFLAGS) -shared -Wl,-soname,libcogw.so.1 -o $@.1 $^ -lrt -lpthread -lm
 	ln -sf libcogw.so.1 $@
 
 all: $(REL_COGW_SO)
+
+# ---- cross builds (docs/install.md "Cross builds") ---------------------------------
+# ARCH: a Debian architecture (arm64, armhf). Debian's cross toolchain
+# (crossbuild-essential-ARCH), its pkg-config and the multiarch -dev packages
+# come with `make deps ARCH=...`. Everything goes to build/ARCH/{rel,san}.
+# cross-test runs the cross-built unit tests (ASan+UBSan) under qemu-user
+# (binfmt not needed: the emulator is called by name). The target's C library
+# and sanitizer run-times are the multiarch packages (libc6:ARCH, libasan8:ARCH)
+# in /lib/TRIPLET, found by the target's own ld.so: no `qemu -L /usr/TRIPLET`,
+# whose cross ld.so paired with the multiarch libc hangs in pthread_create.
+# LeakSanitizer cannot run under qemu-user (it needs ptrace): leaks are checked
+# by the native suite.
+ARCH ?=
+CROSS_TRIPLET = $(shell dpkg-architecture -a$(ARCH) -qDEB_HOST_GNU_TYPE 2>/dev/null)
+CROSS_VARS = CC=$(CROSS_TRIPLET)-gcc AR=$(CROSS_TRIPLET)-ar PKG_CONFIG=$(CROSS_TRIPLET)-pkg-config \
+	REL=build/$(ARCH)/rel SAN=build/$(ARCH)/san
+CROSS_QEMU = qemu-$(patsubst aarch64%,aarch64,$(patsubst arm-%,arm,$(CROSS_TRIPLET)))
+cross-check-arch:
+	@test -n "$(ARCH)" || { echo "say which: make $(MAKECMDGOALS) ARCH=arm64 (or armhf)"; exit 2; }
+	@command -v $(CROSS_TRIPLET)-gcc >/dev/null || { echo "no $(CROSS_TRIPLET)-gcc: run make deps ARCH=$(ARCH)"; exit 2; }
+
+cross: cross-check-arch
+	$(MAKE) --no-print-directory all $(CROSS_VARS)
+
+cross-test: cross-check-arch
+	$(MAKE) --no-print-directory $(patsubst $(SAN)/%,build/$(ARCH)/san/%,$(UNIT_BINS)) $(CROSS_VARS)
+	COGW_TEST_EMULATOR="$(CROSS_QEMU)" ASAN_OPTIONS=detect_leaks=0 \
+		tests/run-tests unit-$(ARCH) $(patsubst $(SAN)/%,build/$(ARCH)/san/%,$(UNIT_BINS))
+
+# ---- Debian packages (debian/, docs/install.md "Debian packages") -------------------
+# dpkg-buildpackage on a copy of the tree (the files git knows, as they are
+# now) in build/deb/ARCH, so that its clean step leaves build/ alone; the
+# packages and lintian's report end up in build/deb/ARCH. ARCH empty: this
+# machine's architecture; ARCH=arm64 cross-builds (make deps ARCH=arm64 DEB=1).
+DEB_OUT = build/deb/$(or $(ARCH),$(shell dpkg --print-architecture))
+deb:
+	rm -rf $(DEB_OUT) && mkdir -p $(DEB_OUT)/cogw-$(VERSION)
+	git ls-files -co --exclude-standard -z | tar --null -T - -cf - | tar -xf - -C $(DEB_OUT)/cogw-$(VERSION)
+	cd $(DEB_OUT)/cogw-$(VERSION) && dpkg-buildpackage -us -uc -b $(if $(ARCH),-a$(ARCH))
+	lintian --info --display-info $(DEB_OUT)/*.changes 2>&1 | tee $(DEB_OUT)/lintian.txt
+	@! grep -q '^E:' $(DEB_OUT)/lintian.txt || { echo "deb: lintian reports errors ($(DEB_OUT)/lintian.txt)"; exit 1; }
+
+# The amd64 packages installed and run as a user would, in a clean Debian root
+# inside the VM (tests/pkg/vm-install says what is checked); the root comes from
+# tests/pkg/make-debroot (debootstrap) once.
+DEBROOT ?= build/debroot/$(shell . /etc/os-release && echo $$VERSION_CODENAME)-amd64.tar
+.PHONY: deb-vm-test
+deb-vm-test:
+	test -f $(DEBROOT) || tests/pkg/make-debroot $(DEBROOT)
+	test -f build/deb/amd64/cogwd_$(VERSION)_amd64.deb || $(MAKE) --no-print-directory deb
+	tests/vcan/run -n 3 -- tests/pkg/vm-install $(DEBROOT) build/deb/amd64
+
+# Stripped sizes (this machine's build and the cross builds of FOOTPRINT_ARCHS,
+# `make cross ARCH=...` first) and cogwd's resident memory, written into
+# docs/benchmarks.md's "Footprint" section (tests/bench/footprint).
+FOOTPRINT_ARCHS ?= arm64 armhf
+.PHONY: footprint
+footprint: all
+	@mkdir -p build/bench
+	tests/vcan/run -n 4 -- tests/bench/footprint measure $(FOOTPRINT_ARCHS) 2>&1 | tee build/bench/footprint.out
+	tests/bench/footprint into docs/benchmarks.md build/bench/footprint.out
+
+# Integration tests of a cross build on vcan, in the VM, under qemu-user: the
+# tests of CROSS_INTEG_TESTS cross-built (ASan+UBSan), and the daemon the other
+# tests start (COGW_TEST_COGWD) is the cross-built one behind qemu-user as well;
+# the simulated devices (cosim) stay native. What qemu-user cannot emulate
+# shows as a failure here, not in `make test`: qemu 7.2 (bookworm) refuses
+# SO_TIMESTAMPNS and CAN_RAW_ERR_FILTER, so the CAN tests fail at their first
+# socket there (docs/install.md "Cross builds").
+CROSS_INTEG_TESTS ?= test_socketcan test_line_socketcan test_mqueue test_line_sdo test_manager_boot test_config_boot
+.PHONY: cross-integration
+cross-integration: cross-check-arch $(SAN_PROGRAM_BINS)
+	$(MAKE) --no-print-directory $(addprefix build/$(ARCH)/san/tests/integration/,$(CROSS_INTEG_TESTS)) \
+		build/$(ARCH)/san/bin/cogwd $(CROSS_VARS)
+	printf '#!/bin/sh\nexec %s %s "$$@"\n' "$(CROSS_QEMU)" \
+		"$(CURDIR)/build/$(ARCH)/san/bin/cogwd" > build/$(ARCH)/cogwd-emulated
+	chmod +x build/$(ARCH)/cogwd-emulated
+	tests/vcan/run -n 3 -- env COGW_TEST_EMULATOR="$(CROSS_QEMU)" \
+		ASAN_OPTIONS=detect_leaks=0 COGW_TEST_COGWD=$(CURDIR)/build/$(ARCH)/cogwd-emulated \
+		tests/run-tests integration-$(ARCH) $(addprefix build/$(ARCH)/san/tests/integration/,$(CROSS_INTEG_TESTS))

@@ -201,6 +201,20 @@ static devobj_record *free_record(devobj_mirror *m, co_pdo_dir d)
 	return NULL;
 }
 
+/* The deadline (CiA 301 §7.5.2.35, the RPDO's event timer) of the daemon's
+ * RPDO mirroring device TPDO p: a TPDO of an event-driven type (254, 255)
+ * with an event timer is sent at least every event timer; twice that is
+ * missed only when a whole frame is missing, never by the jitter of the
+ * device's timer or of the bus (docs/devices.md "Supervision"). 0 = none:
+ * a synchronous or RTR-only TPDO, or one without an event timer. */
+static uint16_t mirror_deadline_ms(const co_pdo_layout_pdo *p)
+{
+	if (p->tt < CO_PDO_TT_EVENT_MANUF || p->event_ms == 0)
+		return 0;
+	uint32_t ms = 2u * p->event_ms;
+	return ms > UINT16_MAX ? UINT16_MAX : (uint16_t)ms;
+}
+
 /* Program record r (daemon direction d) for the device PDO p: CiA 301
  * §7.5.2.36 re-mapping through the OD. 0 or the abort code of the step the
  * OD refused. */
@@ -210,8 +224,10 @@ static uint32_t program(devobj_mirror *m, co_pdo_dir d, const devobj_record *r,
 	co_od *od = co_node_od(m->co);
 	uint16_t comm = comm_index(d, r->nr), map = map_index(d, r->nr);
 	/* the daemon consumes as soon as a frame arrives and produces when a
-	 * client's values are complete: event-driven both ways (docs/devices.md) */
+	 * client's values are complete: event-driven both ways (docs/devices.md);
+	 * a consumed TPDO is supervised when the device promises a period */
 	uint32_t cob = (p->cob & COB_FRAME_BITS) | (d == CO_PDO_TX ? CO_PDO_COB_NO_RTR : 0u);
+	uint16_t timer_ms = d == CO_PDO_RX ? mirror_deadline_ms(p) : 0;
 	uint32_t abort;
 
 	if ((abort = od_write(od, comm, 1, r->idle_cob | CO_PDO_COB_INVALID)) ||
@@ -220,7 +236,7 @@ static uint32_t program(devobj_mirror *m, co_pdo_dir d, const devobj_record *r,
 			      CO_PDO_MAP(slot_index(d), r->slot_sub, (uint32_t)p->bytes * 8u))) ||
 	    (abort = od_write(od, map, 0, 1)) ||
 	    (abort = od_write(od, comm, 2, CO_PDO_TT_EVENT_PROFILE)) ||
-	    (abort = od_write(od, comm, 5, 0)))
+	    (abort = od_write(od, comm, 5, timer_ms)))
 		return abort;
 	if (d == CO_PDO_TX && (abort = od_write(od, comm, 3, 0)))
 		return abort;

@@ -194,6 +194,9 @@ void line_od_read(line *l, const mbx_request *req);
 void line_od_write(line *l, const mbx_request *req);
 void line_pdo_write(line *l, const mbx_request *req);
 void line_pdo_request(line *l, const mbx_request *req);
+/* An SDO_UPLOAD / SDO_DOWNLOAD (also routed) to the line's own node-ID,
+ * answered from its own object dictionary. */
+void line_od_sdo_own(line *l, const mbx_request *req, uint16_t index, uint8_t sub, bool upload);
 
 /* line_nmt.c */
 void line_nmt_command(line *l, const mbx_request *req);

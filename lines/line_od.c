@@ -14,12 +14,10 @@
 #include "core/pdo.h"
 #include "core/sdo.h"
 
-void line_od_read(line *l, const mbx_request *req)
+static void od_read_at(line *l, const mbx_request *req, uint16_t index, uint8_t sub)
 {
-	mbx_obj_req o;
-	memcpy(&o, req->payload, sizeof o);
 	uint32_t abort = 0;
-	co_od_entry *e = co_od_find_ex(co_node_od(l->node), o.index, o.sub, &abort);
+	co_od_entry *e = co_od_find_ex(co_node_od(l->node), index, sub, &abort);
 	if (!e)
 		return line_answer(l, &req->reply, MBX_E_ABORT, abort, NULL, 0);
 	if (!(e->access & CO_ACC_READ))
@@ -27,12 +25,18 @@ void line_od_read(line *l, const mbx_request *req)
 	line_answer(l, &req->reply, 0, 0, e->data, e->size);
 }
 
-static void od_write(line *l, const mbx_request *req, bool trigger_pdo)
+void line_od_read(line *l, const mbx_request *req)
 {
 	mbx_obj_req o;
 	memcpy(&o, req->payload, sizeof o);
+	od_read_at(l, req, o.index, o.sub);
+}
+
+static void od_write_at(line *l, const mbx_request *req, uint16_t index, uint8_t sub,
+			bool trigger_pdo)
+{
 	uint32_t abort = 0;
-	co_od_entry *e = co_od_find_ex(co_node_od(l->node), o.index, o.sub, &abort);
+	co_od_entry *e = co_od_find_ex(co_node_od(l->node), index, sub, &abort);
 	if (!e)
 		return line_answer(l, &req->reply, MBX_E_ABORT, abort, NULL, 0);
 	if (!(e->access & CO_ACC_WRITE) || (e->access & CO_ACC_CONST))
@@ -45,9 +49,16 @@ static void od_write(line *l, const mbx_request *req, bool trigger_pdo)
 		abort = SDO_AB_LOCAL_CTRL; /* a local write cannot wait */
 	if (abort)
 		return line_answer(l, &req->reply, MBX_E_ABORT, abort, NULL, 0);
-	if (trigger_pdo && (o.flags & MBX_PDO_TRIGGER))
-		co_pdo_object_changed(l->node, o.index, o.sub, l->now_us);
+	if (trigger_pdo)
+		co_pdo_object_changed(l->node, index, sub, l->now_us);
 	line_answer(l, &req->reply, 0, 0, NULL, 0);
+}
+
+static void od_write(line *l, const mbx_request *req, bool trigger_pdo)
+{
+	mbx_obj_req o;
+	memcpy(&o, req->payload, sizeof o);
+	od_write_at(l, req, o.index, o.sub, trigger_pdo && (o.flags & MBX_PDO_TRIGGER));
 }
 
 void line_od_write(line *l, const mbx_request *req)
@@ -58,6 +69,19 @@ void line_od_write(line *l, const mbx_request *req)
 void line_pdo_write(line *l, const mbx_request *req)
 {
 	od_write(l, req, true);
+}
+
+/* An SDO transfer addressed to the line's own node-ID: the line's own
+ * object dictionary answers, as OD_READ / OD_WRITE would. The frames of
+ * such a transfer would never come back (the kernel does not loop a
+ * node's frames to itself), yet the node is an ordinary target to a
+ * 309-3 gateway or a routed request: its objects are there to read. */
+void line_od_sdo_own(line *l, const mbx_request *req, uint16_t index, uint8_t sub, bool upload)
+{
+	if (upload)
+		od_read_at(l, req, index, sub);
+	else
+		od_write_at(l, req, index, sub, false);
 }
 
 void line_pdo_request(line *l, const mbx_request *req)

@@ -205,7 +205,14 @@ static bool sdo_transfer(line *l, const mbx_request *req, const mbx_sdo_req *s, 
 		line_answer(l, &req->reply, MBX_E_ABORT, abort, NULL, 0);
 		return false;
 	}
-	int rc = -EINVAL; /* a transfer with ourselves */
+	if (!r.relay && r.node_id == co_node_id(l->node) && !answer) {
+		/* with ourselves: our own dictionary answers (line_od.c) */
+		route_end(l, pp);
+		line_pending_release(&l->pending, pp);
+		line_od_sdo_own(l, req, s->index, s->sub, upload);
+		return true;
+	}
+	int rc = -EINVAL; /* an extension's transfer with ourselves */
 	if (r.relay || r.node_id != co_node_id(l->node))
 		rc = sdo_client_pool_submit(l->node, &r, l->now_us);
 	if (rc < 0) {

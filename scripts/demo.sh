@@ -262,7 +262,7 @@ ascii_in='[1] 1 1 r 0x1018 1 u32
 [7] r 0x6666 0 u8
 [8] info version'
 printf '\n$ socat - UNIX-CONNECT:%s <<EOF\n%s\nEOF\n' "$work/ascii.sock" "$ascii_in"
-printf '%s\n' "$ascii_in" | timeout 20 socat -t 10 - UNIX-CONNECT:"$work/ascii.sock" | tee "$work/ascii.out"
+printf '%s\n' "$ascii_in" | timeout 20 socat -t 10 - UNIX-CONNECT:"$work/ascii.sock" | tr -d '\r' | tee "$work/ascii.out"
 grep -qx '\[1\] 592' "$work/ascii.out" || fail "cogw-ascii: unexpected answer to [1]"
 grep -qx '\[2\] "STI-SIM"' "$work/ascii.out" || fail "cogw-ascii: unexpected answer to [2]"
 grep -qx '\[7\] ERROR: 0x06020000' "$work/ascii.out" || fail "cogw-ascii: unexpected answer to [7]"

@@ -25,6 +25,27 @@ packages=(gcc make curl pkg-config libsystemd-dev libcjson-dev can-utils iproute
           qemu-system-x86 busybox-static cpio kmod valgrind systemd python3 python3-venv
           socat mosquitto mosquitto-clients libmosquitto-dev openssl)
 
+# Asked for (make deps ARCH=... / DEB=1): a cross build for a Debian architecture
+# (its toolchain, its pkg-config, the multiarch -dev packages, qemu-user for
+# the unit tests), and the tools that build, check and try the packages.
+cross_arch=${COGW_DEPS_ARCH:-}
+if [ -n "$cross_arch" ]; then
+    [[ "$cross_arch" =~ ^[a-z0-9]+$ ]] || die "ARCH=$cross_arch is not a Debian architecture name"
+    if ! dpkg --print-foreign-architectures | grep -qx "$cross_arch"; then
+        log "dpkg --add-architecture $cross_arch"
+        $SUDO dpkg --add-architecture "$cross_arch"
+        $SUDO apt-get update -qq >/dev/null
+    fi
+    # libasan8/libubsan1 of the target: the run-times of the cross-built tests
+    # (gcc 12's), found by the target's ld.so under qemu-user
+    packages+=("crossbuild-essential-$cross_arch" qemu-user "pkgconf:$cross_arch"
+               "libsystemd-dev:$cross_arch" "libcjson-dev:$cross_arch" "libmosquitto-dev:$cross_arch"
+               "libasan8:$cross_arch" "libubsan1:$cross_arch")
+fi
+if [ -n "${COGW_DEPS_DEB:-}" ]; then
+    packages+=(dpkg-dev debhelper fakeroot lintian debootstrap)
+fi
+
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")

@@ -11,6 +11,7 @@
 
 #include <errno.h>
 #include <string.h>
+#include <strings.h>
 
 typedef struct scanner {
 	const char *s;
@@ -52,16 +53,25 @@ static bool at_end(scanner *sc)
 	return !more;
 }
 
+/* Command words are compared without regard to case, as the 309-3 tools
+ * take them ("R", "READ", "Set Network"): scripts written for them must
+ * work unchanged. */
 static bool tok_is(const token *t, const char *word)
 {
-	return strlen(word) == t->n && memcmp(t->p, word, t->n) == 0;
+	return strlen(word) == t->n && strncasecmp(t->p, word, t->n) == 0;
 }
 
 /* The word, or a prefix of it of at least min characters ("preop" of
  * "preoperational", "r" of "read"). */
 static bool tok_abbrev(const token *t, const char *word, size_t min)
 {
-	return t->n >= min && t->n <= strlen(word) && memcmp(t->p, word, t->n) == 0;
+	return t->n >= min && t->n <= strlen(word) && strncasecmp(t->p, word, t->n) == 0;
+}
+
+static bool tok_is_lss(const token *t)
+{
+	return t->n > 4 &&
+	       (strncasecmp(t->p, "lss_", 4) == 0 || strncasecmp(t->p, "_lss_", 5) == 0);
 }
 
 static bool tok_number(const token *t, uint64_t *v)
@@ -357,7 +367,7 @@ static int parse_command(scanner *sc, const token *w, ascii_cmd *cmd, uint8_t *d
 	}
 	if (tok_is(w, "set"))
 		return parse_set(sc, cmd);
-	if (w->n > 4 && (memcmp(w->p, "lss_", 4) == 0 || memcmp(w->p, "_lss_", 5) == 0))
+	if (tok_is_lss(w))
 		return parse_lss(sc, w, cmd);
 	if (tok_is(w, "info")) {
 		if (cmd->net >= 0 || cmd->node >= 0)
@@ -400,11 +410,11 @@ int ascii_parse(const char *line, size_t len, ascii_cmd *cmd, uint8_t *data, siz
 	memset(cmd, 0, sizeof *cmd);
 	cmd->net = -1;
 	cmd->node = -1;
-	if (memchr(line, '\0', len))
-		return ASCII_E_SYNTAX;
 	rc = parse_seq(&sc, cmd);
 	if (rc)
 		return rc;
+	if (memchr(line, '\0', len))
+		return ASCII_E_SYNTAX; /* after the sequence number: the error line echoes it */
 	if (!next_token(&sc, &t[0]))
 		return cmd->has_seq ? ASCII_E_SYNTAX : ASCII_OK; /* "[5]" alone says nothing */
 	/* [[net] node]: numbers (or "all" for the node) before the word */
@@ -432,10 +442,7 @@ int ascii_parse(const char *line, size_t len, ascii_cmd *cmd, uint8_t *data, siz
 		cmd->node = (int)node;
 	}
 	/* "[net] set/lss_..." carry one number, which is the net */
-	if (nums == 1 &&
-	    (tok_is(&t[1], "set") ||
-	     (t[1].n > 4 && (memcmp(t[1].p, "lss_", 4) == 0 || memcmp(t[1].p, "_lss_", 5) == 0)) ||
-	     tok_is(&t[1], "events"))) {
+	if (nums == 1 && (tok_is(&t[1], "set") || tok_is_lss(&t[1]) || tok_is(&t[1], "events"))) {
 		if (tok_is(&t[0], "all"))
 			return ASCII_E_SYNTAX;
 		if (v[0] < 1 || v[0] > 127)

@@ -12,6 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "core/frame.h"
 
@@ -44,7 +45,7 @@ const ascii_type ascii_types[] = {
 const ascii_type *ascii_type_find(const char *keyword, size_t len)
 {
 	for (const ascii_type *t = ascii_types; t->keyword; t++)
-		if (strlen(t->keyword) == len && memcmp(t->keyword, keyword, len) == 0)
+		if (strlen(t->keyword) == len && strncasecmp(t->keyword, keyword, len) == 0)
 			return t;
 	return NULL;
 }
@@ -215,9 +216,10 @@ int ascii_value_encode(const ascii_type *t, const char *text, size_t n, uint8_t 
 		return -E2BIG;
 	switch (t->kind) {
 	case ASCII_K_BOOL:
-		if ((n == 1 && text[0] == '0') || (n == 5 && memcmp(text, "false", 5) == 0))
+		if ((n == 1 && text[0] == '0') || (n == 5 && strncasecmp(text, "false", 5) == 0))
 			buf[0] = 0;
-		else if ((n == 1 && text[0] == '1') || (n == 4 && memcmp(text, "true", 4) == 0))
+		else if ((n == 1 && text[0] == '1') ||
+			 (n == 4 && strncasecmp(text, "true", 4) == 0))
 			buf[0] = 1;
 		else
 			return -EINVAL;
@@ -327,8 +329,13 @@ long ascii_value_format(const ascii_type *t, const uint8_t *data, size_t len, ch
 		return snprintf(out, cap, "%u %u", (unsigned)co_get_le(data + 4, 2),
 				(unsigned)(co_get_le(data, 4) & 0x0FFFFFFFu));
 	case ASCII_K_VSTRING:
+		/* NUL (a C string's terminator, often sent along), CR and LF
+		 * are dropped: an answer is one line and never carries a byte
+		 * the gateway refuses as input (os or hex give every byte) */
 		out[n++] = '"';
 		for (size_t i = 0; i < len; i++) {
+			if (data[i] == '\0' || data[i] == '\r' || data[i] == '\n')
+				continue;
 			if (data[i] == '"')
 				out[n++] = '"';
 			out[n++] = (char)data[i];

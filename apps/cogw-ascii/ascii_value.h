@@ -12,7 +12,8 @@
  *   r32 r64           shortest decimal that reads back to the same value
  *   t td              TIME_OF_DAY / TIME_DIFFERENCE: "<days> <ms>" (days
  *                     since 1984-01-01, ms after midnight)
- *   vs                between double quotes, a quote doubled ("a ""b""")
+ *   vs                between double quotes, a quote doubled ("a ""b"""),
+ *                     NUL, CR and LF left out when printed
  *   os us d           MIME base64 (RFC 2045), one token, no line breaks
  *   hex               hex bytes (non-standard, as CANopenNode)
  */
@@ -43,7 +44,8 @@ typedef struct ascii_type {
 	bool standard; /* a CiA 309-3 keyword (x*, hex are not) */
 } ascii_type;
 
-/* The keyword's type, or NULL. Case-sensitive, as 309-3 spells them. */
+/* The keyword's type, or NULL. Any case ("U32" is u32), as the 309-3
+ * tools take them. */
 const ascii_type *ascii_type_find(const char *keyword, size_t len);
 /* All types, ending with keyword NULL (help text, conformance tests). */
 extern const ascii_type ascii_types[];

@@ -58,7 +58,6 @@ typedef struct conn {
 	uid_t uid;
 	pid_t pid;
 	uint8_t access; /* cogw_access_level */
-	bool crlf;      /* answer with CR LF (the peer's last line had one) */
 	char *in;       /* bytes of the line being received */
 	size_t in_len;
 	bool discarding; /* an overlong line: skip to its end */

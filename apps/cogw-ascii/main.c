@@ -13,6 +13,7 @@
  */
 #include "apps/cogw-ascii/gateway.h"
 #include "apps/common/signal_loop.h"
+#include "apps/common/version.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -249,6 +250,8 @@ int main(int argc, char **argv)
 	static gateway g;
 	cli c = { 0 };
 	int activated;
+	if (cogw_version_asked("cogw-ascii", argc, argv))
+		return 0;
 	int rc = parse_args(&g, &c, argc, argv);
 
 	if (rc >= 0)

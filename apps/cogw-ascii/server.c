@@ -92,8 +92,9 @@ static void conn_lines(gateway *g, conn *c)
 		if (c->discarding) {
 			c->discarding = false; /* the end of an overlong line */
 		} else {
-			c->crlf = len > 0 && c->in[start + len - 1] == '\r';
-			session_line(g, c, c->in + start, c->crlf ? len - 1 : len);
+			bool cr = len > 0 && c->in[start + len - 1] == '\r';
+
+			session_line(g, c, c->in + start, cr ? len - 1 : len);
 		}
 		start = end + 1;
 	}
@@ -201,7 +202,7 @@ static void accept_one(gateway *g, unsigned li)
 		return;
 	if (g->n_conns >= g->cfg.max_connections) {
 		g->st.refused_full++;
-		refuse(fd, "ERROR: 102\n");
+		refuse(fd, "ERROR: 102\r\n");
 		return;
 	}
 	if (g->listen_tcp[li]) {
@@ -213,7 +214,7 @@ static void accept_one(gateway *g, unsigned li)
 	}
 	if (access == COGW_ACCESS_NONE) {
 		g->st.refused_access++;
-		refuse(fd, "ERROR: 100\n");
+		refuse(fd, "ERROR: 100\r\n");
 		return;
 	}
 	c = calloc(1, sizeof *c);
@@ -227,7 +228,7 @@ static void accept_one(gateway *g, unsigned li)
 			free(c->slots);
 		}
 		free(c);
-		refuse(fd, "ERROR: 600\n");
+		refuse(fd, "ERROR: 600\r\n");
 		return;
 	}
 	c->fd = fd;

@@ -42,14 +42,15 @@ static uint64_t mono_ms(void)
 
 /* ---- answers ---------------------------------------------------------------- */
 
-/* "[seq] " + body + line end, into r->answer (heap: a domain's text can be
- * megabytes). */
+/* "[seq] " + body + CR LF, into r->answer (heap: a domain's text can be
+ * megabytes). Every answer ends with CR LF whatever the command's line
+ * end: the 309-3 tools (CANopenNode's cocomm) read up to CR LF and would
+ * wait forever for an answer ending in LF alone. */
 static void answer_text(request *r, const char *body, size_t body_len)
 {
 	char prefix[16] = "";
 	int pn = r->cmd.has_seq ? snprintf(prefix, sizeof prefix, "[%" PRIu32 "] ", r->cmd.seq) : 0;
-	bool crlf = r->conn && r->conn->crlf;
-	size_t n = (size_t)pn + body_len + (crlf ? 2 : 1);
+	size_t n = (size_t)pn + body_len + 2;
 
 	free(r->answer);
 	r->answer = malloc(n + 1);
@@ -60,7 +61,7 @@ static void answer_text(request *r, const char *body, size_t body_len)
 	}
 	memcpy(r->answer, prefix, (size_t)pn);
 	memcpy(r->answer + pn, body, body_len);
-	memcpy(r->answer + pn + body_len, crlf ? "\r\n" : "\n", crlf ? 2 : 1);
+	memcpy(r->answer + pn + body_len, "\r\n", 2);
 	r->answer[n] = '\0';
 	r->answer_len = n;
 }
@@ -89,17 +90,19 @@ static void answer_abort(request *r, uint32_t abort)
 	answer_fmt(r, "ERROR: 0x%08" PRIX32, abort);
 }
 
-/* A mailbox status as a 309-3 error number (docs/ascii.md "Errors"). */
+/* A mailbox status as a 309-3 error number (docs/ascii.md "Errors"). The
+ * line was parsed and found well-formed before it became a request: a
+ * refusal of its parameters by the daemon is a request it does not
+ * support, never a syntax error. */
 static int err_of_status(int status)
 {
 	switch (status) {
 	case COGW_E_ACCESS:
 	case COGW_E_UNSUPPORTED:
 	case COGW_E_UNKNOWN_CMD:
-		return ASCII_E_UNSUPPORTED;
 	case COGW_E_PARAM:
 	case COGW_E_INVAL:
-		return ASCII_E_SYNTAX;
+		return ASCII_E_UNSUPPORTED;
 	case COGW_E_TIMEOUT:
 	case COGW_E_NO_ANSWER:
 	case COGW_E_NOT_FOUND:
@@ -144,12 +147,11 @@ static void answer_help(request *r)
 	const char *text = r->cmd.help_topic == 1   ? help_datatype
 			   : r->cmd.help_topic == 2 ? help_lss
 						    : help_general;
-	bool crlf = r->conn && r->conn->crlf;
 	size_t lines = 0, n = strlen(text);
 
 	for (size_t i = 0; i < n; i++)
 		lines += text[i] == '\n';
-	char *buf = malloc(n + (crlf ? lines : 0) + 32);
+	char *buf = malloc(n + lines + 32);
 
 	if (!buf) {
 		answer_error(r, ASCII_E_MEMORY);
@@ -158,7 +160,7 @@ static void answer_help(request *r)
 	size_t k = 0;
 
 	for (size_t i = 0; i < n; i++) {
-		if (text[i] == '\n' && crlf)
+		if (text[i] == '\n')
 			buf[k++] = '\r';
 		buf[k++] = text[i];
 	}
@@ -458,7 +460,7 @@ static void flush_answers(gateway *g, conn *c)
 		if (r->answer)
 			conn_write(c, r->answer, r->answer_len);
 		else
-			conn_write(c, "ERROR: 600\n", 11);
+			conn_write(c, "ERROR: 600\r\n", 12);
 		c->head = (c->head + 1) % g->cfg.max_outstanding;
 		c->count--;
 		free(r->answer);
@@ -591,14 +593,19 @@ void session_line(gateway *g, conn *c, const char *line, size_t len)
 	if (!r || !data) {
 		free(r);
 		free(data);
-		conn_write(c, "ERROR: 600\n", 11);
+		conn_write(c, "ERROR: 600\r\n", 12);
 		return;
 	}
 	r->conn = c;
 	rc = ascii_parse(line, len, &r->cmd, data, cap);
 	if (rc == ASCII_OK && r->cmd.verb == ASCII_V_NONE) {
-		free(data); /* an empty line or a comment: no answer */
-		free(r);
+		/* an empty line or a comment: an empty line in its turn, as the
+		 * 309-3 tools wait for an answer to every line they send */
+		free(data);
+		c->slots[(c->head + c->count) % g->cfg.max_outstanding] = r;
+		c->count++;
+		answer_text(r, "", 0);
+		flush_answers(g, c);
 		return;
 	}
 	if (r->cmd.verb == ASCII_V_WRITE && r->cmd.data_len > g->daemon.mailbox.max_transfer)
@@ -801,8 +808,8 @@ static void deliver_event(gateway *g, const cogw_msg *m)
 		char line[168];
 
 		memcpy(line, text, n);
-		memcpy(line + n, c->crlf ? "\r\n" : "\n", c->crlf ? 2 : 1);
-		conn_write(c, line, n + (c->crlf ? 2 : 1));
+		memcpy(line + n, "\r\n", 2);
+		conn_write(c, line, n + 2);
 	}
 }
 

@@ -13,6 +13,7 @@
 #include <time.h>
 
 #include "apps/cogw-mqtt/bridge.h"
+#include "apps/common/json_util.h"
 
 /* ---- clocks ---- */
 
@@ -134,7 +135,7 @@ cJSON *bridge_value_json(const ascii_type *t, const uint8_t *data, size_t len, c
 		v = cJSON_CreateNumber(strtod(text, NULL));
 	} else if ((t->kind == ASCII_K_REAL32 || t->kind == ASCII_K_REAL64) &&
 		   isfinite(strtod(text, NULL))) {
-		v = cJSON_CreateRaw(text);
+		v = json_util_real_number(text);
 	} else {
 		v = cJSON_CreateString(text);
 	}

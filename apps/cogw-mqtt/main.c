@@ -9,6 +9,7 @@
  */
 #include "apps/cogw-mqtt/bridge.h"
 #include "apps/common/signal_loop.h"
+#include "apps/common/version.h"
 #include "apps/cogw-mqtt/mqtt_watch.h"
 
 #include <errno.h>
@@ -201,6 +202,8 @@ int main(int argc, char **argv)
 {
 	static bridge b;
 	cli c = { 0 };
+	if (cogw_version_asked("cogw-mqtt", argc, argv))
+		return 0;
 	int rc = parse_args(&b, &c, argc, argv);
 
 	if (rc >= 0)

@@ -138,19 +138,28 @@ static int start_request(bridge *b, reply_path *rp, const mqtt_request *r)
 		memcpy(payload, &q, sizeof q);
 		len = sizeof q;
 	} else {
-		/* any network: the line's routing table (1F2Ch) takes it where it is
-		 * not attached (docs/gateway.md) */
+		/* an attached network: the plain SDO transfer on its line, as
+		 * cogw-ascii and cogwctl do, so that each situation has one
+		 * answer in every front end (docs/sdo-answers.md); any other
+		 * network: the line's routing table (1F2Ch) takes it there
+		 * (docs/gateway.md) */
 		mbx_gw_sdo_req q = { .net = r->net,
 				     .sdo = { .node = r->node,
 					      .index = r->index,
 					      .sub = r->sub,
 					      .timeout_ms = r->sdo_timeout_ms } };
+		bool read = r->op == MQTT_OP_SDO_READ;
 
-		if (line < 0)
+		if (line >= 0) {
+			cmd = read ? MBX_CMD_SDO_UPLOAD : MBX_CMD_SDO_DOWNLOAD;
+			memcpy(payload, &q.sdo, sizeof q.sdo);
+			len = sizeof q.sdo;
+		} else {
 			line = (int)b->cfg.route_line;
-		cmd = r->op == MQTT_OP_SDO_READ ? MBX_CMD_GW_SDO_UPLOAD : MBX_CMD_GW_SDO_DOWNLOAD;
-		memcpy(payload, &q, sizeof q);
-		len = sizeof q;
+			cmd = read ? MBX_CMD_GW_SDO_UPLOAD : MBX_CMD_GW_SDO_DOWNLOAD;
+			memcpy(payload, &q, sizeof q);
+			len = sizeof q;
+		}
 		if (r->op == MQTT_OP_SDO_WRITE) {
 			memcpy(payload + len, r->value, r->value_len);
 			len += r->value_len;

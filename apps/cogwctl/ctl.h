@@ -19,8 +19,6 @@
 #include "core/od.h"
 #include "mailbox/cogw.h"
 
-#define COGWCTL_VERSION "0.1"
-
 /* Exit codes (docs/cogwctl.md). */
 enum ctl_exit {
 	CTL_EXIT_OK = 0,
@@ -119,6 +117,10 @@ int ctl_value_encode(ctl *c, const ctl_type *t, const char *value, uint8_t **dat
 char *ctl_value_text(const ctl_type *t, const uint8_t *data, size_t len);
 /* Add "value" (typed) and "hex" members for --json. */
 void ctl_value_json(cJSON *o, const ctl_type *t, const uint8_t *data, size_t len);
+/* Add member `name`: the REAL32/REAL64 (CO_T_*) of data's little-endian
+ * bytes as a JSON number that reads back to the same bits (null for NaN
+ * and infinities). */
+void ctl_json_add_real(cJSON *o, const char *name, uint16_t type, const uint8_t *data);
 /* "01 02 03" (no more than max bytes, then "..."); malloc'd. */
 char *ctl_hex_text(const uint8_t *data, size_t len, size_t max);
 /* The RPDO supervision faults in bits (MBX_RPDO_FAULT_*): "deadline missed",

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "apps/cogwctl/ctl.h"
+#include "apps/common/version.h"
 
 static const ctl_cmd *const commands[] = {
 	&ctl_cmd_status,    &ctl_cmd_sdo,     &ctl_cmd_od,      &ctl_cmd_nmt,    &ctl_cmd_pdo,
@@ -78,7 +79,7 @@ int main(int argc, char **argv)
 	int i = 1;
 	for (; i < argc; i++) {
 		if (strcmp(argv[i], "--version") == 0) {
-			printf("cogwctl %s (mailbox protocol %u)\n", COGWCTL_VERSION, MBX_VERSION);
+			printf("cogwctl %s (mailbox protocol %u)\n", cogw_version, MBX_VERSION);
 			return CTL_EXIT_OK;
 		}
 		if (argv[i][0] != '-')

@@ -62,9 +62,9 @@ static void pdo_value_text(const mbx_pdo_value *v, bool as_float, char *buf, siz
 	for (unsigned i = 0; i < n; i++)
 		u |= (uint64_t)v->data[i] << (8 * i);
 	if (as_float && n == 4) {
-		float f;
-		memcpy(&f, v->data, 4);
-		snprintf(buf, len, "%04X:%02X = %g", v->index, v->sub, (double)f);
+		char num[32]; /* the text that reads back to the same REAL32 */
+		cogw_value_format(MBX_T_REAL32, v->data, 4, num, sizeof num);
+		snprintf(buf, len, "%04X:%02X = %s", v->index, v->sub, num);
 		return;
 	}
 	char *hex = ctl_hex_text(v->data, n, 8);
@@ -224,11 +224,8 @@ static cJSON *pdo_value_json(const mbx_pdo_value *v)
 	cJSON_AddNumberToObject(jv, "sub", v->sub);
 	cJSON_AddStringToObject(jv, "hex", hex);
 	free(hex);
-	if (n == 4) {
-		float f;
-		memcpy(&f, v->data, 4);
-		cJSON_AddNumberToObject(jv, "r32", (double)f);
-	}
+	if (n == 4)
+		ctl_json_add_real(jv, "r32", CO_T_REAL32, v->data);
 	return jv;
 }
 

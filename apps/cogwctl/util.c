@@ -21,6 +21,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "apps/common/json_util.h"
 #include "core/sdo.h"
 
 /* ---- options ------------------------------------------------------------- */
@@ -595,6 +596,20 @@ char *ctl_value_text(const ctl_type *t, const uint8_t *data, size_t len)
 	return r < 0 ? NULL : s;
 }
 
+void ctl_json_add_real(cJSON *o, const char *name, uint16_t type, const uint8_t *data)
+{
+	/* cJSON prints a number with 15 digits when that reads back "close
+	 * enough": some doubles need 17. The text that reads back to the
+	 * same bits goes in as it is; NaN and infinities have no JSON number
+	 * (null, as cJSON gives them). */
+	char num[40];
+	if (cogw_value_format(type, data, type == CO_T_REAL32 ? 4 : 8, num, sizeof num) > 0 &&
+	    isfinite(strtod(num, NULL)))
+		cJSON_AddItemToObject(o, name, json_util_real_number(num));
+	else
+		cJSON_AddNullToObject(o, name);
+}
+
 void ctl_value_json(cJSON *o, const ctl_type *t, const uint8_t *data, size_t len)
 {
 	char *hex = ctl_hex_text(data, len, len);
@@ -618,14 +633,8 @@ void ctl_value_json(cJSON *o, const ctl_type *t, const uint8_t *data, size_t len
 	}
 	if (t->type == CO_T_BOOLEAN) {
 		cJSON_AddBoolToObject(o, "value", data[0] != 0);
-	} else if (t->type == CO_T_REAL32) {
-		float f;
-		memcpy(&f, data, 4);
-		cJSON_AddNumberToObject(o, "value", (double)f);
-	} else if (t->type == CO_T_REAL64) {
-		double d;
-		memcpy(&d, data, 8);
-		cJSON_AddNumberToObject(o, "value", d);
+	} else if (t->type == CO_T_REAL32 || t->type == CO_T_REAL64) {
+		ctl_json_add_real(o, "value", t->type, data);
 	} else if (t->size > 6) {
 		/* beyond 2^53 a JSON number loses digits: a string is exact */
 		char num[32];

@@ -25,6 +25,7 @@
 #include "apps/cogwd/extensions.h"
 #include "apps/cogwd/pdo_layouts.h"
 #include "apps/common/config.h"
+#include "apps/common/version.h"
 #include "lines/line.h"
 #include "lines/log.h"
 #include "mailbox/proto.h"
@@ -609,6 +610,8 @@ int main(int argc, char **argv)
 	memset(&d, 0, sizeof d);
 	d.sigfd = d.wakefd = -1;
 	bool check_only = false;
+	if (cogw_version_asked("cogwd", argc, argv))
+		return 0;
 	int rc = parse_args(&d, argc, argv, &check_only);
 	if (rc != ARGS_GO_ON)
 		return rc;

@@ -94,6 +94,16 @@ const char *json_util_kind(const cJSON *v)
 	return "an invalid value";
 }
 
+cJSON *json_util_real_number(const char *text)
+{
+	char buf[64];
+
+	if (strpbrk(text, ".eE") || strlen(text) + 3 > sizeof buf)
+		return cJSON_CreateRaw(text);
+	snprintf(buf, sizeof buf, "%s.0", text);
+	return cJSON_CreateRaw(buf);
+}
+
 void json_util_repr(const cJSON *v, char *buf, size_t n)
 {
 	if (!v) {

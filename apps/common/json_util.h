@@ -43,6 +43,13 @@ void json_util_repr(const cJSON *v, char *buf, size_t n);
 /* "an integer", "a string", ... the kind of a value, for messages. */
 const char *json_util_kind(const cJSON *v);
 
+/* A JSON number of the finite REAL32/REAL64 whose exact decimal text (one
+ * that reads back to the same bits) is `text`, written as it is, with
+ * ".0" added when it looks like an integer: every JSON reader then takes
+ * it as a floating-point number ("-0" would be the integer 0 to most,
+ * losing the sign). NULL when out of memory. */
+cJSON *json_util_real_number(const char *text);
+
 /*
  * obj must be an object whose keys are all in `allowed` (NULL-terminated)
  * and appear once; "path.key: unknown key" (with a "did you mean" hint

@@ -30,6 +30,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "apps/common/version.h"
 #include "apps/cosim/cosim.h"
 #include "core/nmt.h"
 #include "lines/socketcan.h"
@@ -747,6 +748,8 @@ int main(int argc, char **argv)
 	static struct cmdline cl;
 	struct loop_fds fds = { -1, -1, -1, -1 };
 	sigset_t mask;
+	if (cogw_version_asked("cosim", argc, argv))
+		return 0;
 	int rc = parse_cmdline(&cl, argc, argv);
 
 	if (rc != OPT_GO_ON)

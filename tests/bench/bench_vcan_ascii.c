@@ -96,7 +96,7 @@ static void *reader_run(void *arg)
 	int n = snprintf(cmd, sizeof cmd, "1 %u r 0x1018 4 u32\n", r->node);
 
 	while (bench_now_s() < r->until) {
-		if (ask(r->fd, cmd, (size_t)n, "4242\n") < 0) {
+		if (ask(r->fd, cmd, (size_t)n, "4242\r\n") < 0) {
 			r->failed = true;
 			break;
 		}

@@ -59,6 +59,10 @@ static int round_trip(const ascii_type *t, const uint8_t *v, size_t len)
 
 	if (n == -22 /* EINVAL */ || n < 0)
 		return n == -74 /* EBADMSG: wrong size for the type */ ? 0 : 10;
+	/* an answer line never carries a byte the gateway refuses as input */
+	if (memchr(text, '\0', (size_t)n) || memchr(text, '\r', (size_t)n) ||
+	    memchr(text, '\n', (size_t)n))
+		return 14;
 	if (is_nan_value(t, v))
 		return 0;
 	if (len == 0) /* an empty value prints as nothing: no "w" line can carry it */

@@ -188,26 +188,43 @@ static const char *ask(int fd, const char *cmd)
 }
 
 /* socat as the client: input is sent, the gateway answers, socat's
- * output must be exactly `expected`. */
-static void transcript_at(const char *sock, const char *name, const char *input,
-			  const char *expected);
+ * output must be exactly `expected`, written with LF line ends: every
+ * answer line ends with CR LF (docs/ascii.md "Commands"), so each LF of
+ * `expected` stands for CR LF. */
+static void transcript_bytes(const char *sock, const char *name, const char *input,
+			     size_t input_len, const char *expected);
 
 static void transcript(const char *name, const char *input, const char *expected)
 {
-	transcript_at(sock_path, name, input, expected);
+	transcript_bytes(sock_path, name, input, strlen(input), expected);
 }
 
 static void transcript_at(const char *sock, const char *name, const char *input,
 			  const char *expected)
 {
+	transcript_bytes(sock, name, input, strlen(input), expected);
+}
+
+static void transcript_bytes(const char *sock, const char *name, const char *input,
+			     size_t input_len, const char *expected)
+{
 	char in_path[200], out_path[200], cmd[700];
 	FILE *f;
-	static char out[16384];
-	size_t n;
+	static char out[16384], want[16384 + 1024];
+	size_t n, k = 0;
 
+	for (const char *p = expected; *p && k < sizeof want - 2; p++) {
+		if (*p == '\n' && (p == expected || p[-1] != '\r'))
+			want[k++] = '\r';
+		want[k++] = *p;
+	}
+	want[k] = '\0';
 	snprintf(in_path, sizeof in_path, "%s/%s.in", d.dir, name);
 	snprintf(out_path, sizeof out_path, "%s/%s.out", d.dir, name);
-	TEST_ASSERT_EQUAL_INT(0, write_text_file(in_path, input));
+	f = fopen(in_path, "w");
+	TEST_ASSERT_NOT_NULL(f);
+	TEST_ASSERT_EQUAL_size_t(input_len, fwrite(input, 1, input_len, f));
+	TEST_ASSERT_EQUAL_INT(0, fclose(f));
 	snprintf(cmd, sizeof cmd, "timeout 60 socat -t 30 - UNIX-CONNECT:%s < %s > %s", sock,
 		 in_path, out_path);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, system(cmd), "socat failed");
@@ -216,7 +233,7 @@ static void transcript_at(const char *sock, const char *name, const char *input,
 	n = fread(out, 1, sizeof out - 1, f);
 	fclose(f);
 	out[n] = '\0';
-	TEST_ASSERT_EQUAL_STRING_MESSAGE(expected, out, name);
+	TEST_ASSERT_EQUAL_STRING_MESSAGE(want, out, name);
 }
 
 /* ---- the tests -------------------------------------------------------------------- */
@@ -279,11 +296,11 @@ static void test_every_type_keyword_byte_exact(void)
 }
 
 /* set, NMT for one node and all, info, help, comments, sequence numbers
- * optional, CR LF answered with CR LF, networks by number. */
+ * optional, LF and CR LF both answered with CR LF, networks by number. */
 static void test_commands_and_line_endings(void)
 {
 	transcript("commands",
-		   "# a comment line says nothing\n"
+		   "# a comment line is answered with an empty line\n"
 		   "\n"
 		   "[1] 1 set network 1\r\n"
 		   "[2] set node 5 # trailing comment\r\n"
@@ -303,7 +320,7 @@ static void test_commands_and_line_endings(void)
 		   "[15] 3 7 r 0x1000 0 x32\n"
 		   "[16] info version\n"
 		   "[17] help datatype\n",
-		   "[1] OK\r\n[2] OK\r\n[3] OK\n[4] OK\n[5] \"hello world\"\n[6] OK\n[7] OK\n"
+		   "\n\n[1] OK\r\n[2] OK\r\n[3] OK\n[4] OK\n[5] \"hello world\"\n[6] OK\n[7] OK\n"
 		   "[8] OK\n[9] OK\n[10] OK\n[11] OK\n[12] OK\n[13] OK\n4242\n[14] 4242\n"
 		   "[15] 0x00000309\n"
 		   "[16] cogw-ascii 1.0 (CiA 309-3 DS 2.1 command set, docs/ascii.md)\n"
@@ -311,6 +328,120 @@ static void test_commands_and_line_endings(void)
 		   "t td: <days> <ms>; vs: \"text\" (\"\" for a quote)\n"
 		   "os us d: base64 (RFC 2045); x8 x16 x32 x64 hex: non-standard hex forms\n"
 		   "[17] OK\n");
+}
+
+static const char *wait_text(int fd, const char *text, int timeout_ms);
+
+/* A client that behaves like CANopenNode's cocomm: it sends one line with
+ * LF and reads until it sees CR LF, then sends the next. Comment and blank
+ * lines too: that tool sends every line of its file or its stdin. The
+ * answers, without their CR LF, "|"-joined into out. */
+static void cocomm_like(const char *const *lines, size_t n, char *out, size_t cap)
+{
+	int fd = connect_unix();
+	size_t o = 0;
+
+	TEST_ASSERT_TRUE(fd >= 0);
+	out[0] = '\0';
+	for (size_t i = 0; i < n; i++) {
+		char got[512], msg[600];
+
+		send_text(fd, lines[i]);
+		send_text(fd, "\n");
+		snprintf(got, sizeof got, "%s", wait_text(fd, "\r\n", 15000));
+		char *crlf = strstr(got, "\r\n");
+
+		snprintf(msg, sizeof msg, "no answer ending in CR LF to \"%s\" (got \"%s\")",
+			 lines[i], got);
+		TEST_ASSERT_NOT_NULL_MESSAGE(crlf, msg);
+		*crlf = '\0';
+		o += (size_t)snprintf(out + o, cap - o, "%s|", got);
+	}
+	close(fd);
+}
+
+/* CANopenNode's cocomm sends LF and waits for CR LF, also after a comment
+ * or a blank line of its script: each line gets its CR LF answer. */
+static void test_cocomm_gets_crlf_answers(void)
+{
+	static const char *const script[] = {
+		"# the identity of node 5", "",
+		"[1] set network 1",        "[2] 5 r 0x1018 4 u32",
+		"3 7 r 0x1000 0 x32",       "[3] 5 w 0x2105 0 u8 200",
+		"[4] 5 r 0x6666 0 u8",      "  # an indented comment",
+		"[5] 2 6 r 0x1018 4 u32",
+	};
+	char out[512];
+
+	cocomm_like(script, sizeof script / sizeof script[0], out, sizeof out);
+	TEST_ASSERT_EQUAL_STRING("||[1] OK|[2] 4242|0x00000309|[3] OK|[4] ERROR: 0x06020000||"
+				 "[5] 4242|",
+				 out);
+}
+
+/* The daemon's own node-ID (127 on every line) is an ordinary target: its
+ * object dictionary is read and written through every network it is
+ * attached to, as the reference gateway reads its own node. */
+static void test_own_node_is_a_target(void)
+{
+	int fd = connect_unix();
+	char cmd[128], was[64];
+
+	TEST_ASSERT_TRUE(fd >= 0);
+	TEST_ASSERT_EQUAL_STRING("[1] \"cogw\"", ask(fd, "[1] 1 127 r 0x1008 0 vs"));
+	TEST_ASSERT_EQUAL_STRING("[2] \"cogw\"", ask(fd, "[2] 3 127 r 0x1008 0 vs"));
+	snprintf(was, sizeof was, "%s", ask(fd, "2 127 r 0x1017 0 u16"));
+	TEST_ASSERT_EQUAL_STRING("[3] OK", ask(fd, "[3] 2 127 w 0x1017 0 u16 700"));
+	TEST_ASSERT_EQUAL_STRING("[4] 700", ask(fd, "[4] 2 127 r 0x1017 0 u16"));
+	TEST_ASSERT_EQUAL_STRING("[5] ERROR: 0x06020000", ask(fd, "[5] 2 127 r 0x6666 0 u8"));
+	TEST_ASSERT_EQUAL_STRING("[6] ERROR: 0x06010002", ask(fd, "[6] 1 127 w 0x1000 0 u32 1"));
+	snprintf(cmd, sizeof cmd, "[7] 2 127 w 0x1017 0 u16 %s", was);
+	TEST_ASSERT_EQUAL_STRING("[7] OK", ask(fd, cmd));
+	close(fd);
+}
+
+/* Command words, sub-commands and type keywords in any case, as scripts
+ * written for the reference gateway spell them. */
+static void test_commands_in_any_case(void)
+{
+	transcript("case",
+		   "[1] SET NETWORK 1\n"
+		   "[2] 5 R 0X1018 4 U32\n"
+		   "[3] 5 READ 0x1018 4 u32\n"
+		   "[4] 5 Write 0x2105 0 U8 0XC8\n"
+		   "[5] 1 5 Start\n"
+		   "[6] 5 PREOP\n"
+		   "[7] 3 7 Read 0x1000 0 X32\n"
+		   "[8] Set Node 5\n"
+		   "[9] R 0x2105 0 u8\n"
+		   "[10] INFO VERSION\n",
+		   "[1] OK\n[2] 4242\n[3] 4242\n[4] OK\n[5] OK\n[6] OK\n[7] 0x00000309\n"
+		   "[8] OK\n[9] 200\n"
+		   "[10] cogw-ascii 1.0 (CiA 309-3 DS 2.1 command set, docs/ascii.md)\n");
+}
+
+/* A device's visible string with a trailing NUL (a C string sent with its
+ * terminator) and a CR LF inside: the answer is one line without them;
+ * hex shows every byte. */
+static void test_vs_answer_has_no_control_bytes(void)
+{
+	transcript("vs-nul",
+		   "[1] 1 5 w 0x210D 0 hex 6E 55 4C 0D 0A 21 00\n"
+		   "[2] 1 5 r 0x210D 0 vs\n"
+		   "[3] 1 5 r 0x210D 0 hex\n",
+		   "[1] OK\n[2] \"nUL!\"\n[3] 6E 55 4C 0D 0A 21 00\n");
+	/* apart: a small write would pass the large reads queued before it */
+	transcript("vs-restore", "[4] 1 5 w 0x210D 0 vs \"hello world\"\n", "[4] OK\n");
+}
+
+/* A line with a NUL byte is a syntax error, answered with its sequence
+ * number like every other. */
+static void test_sequence_echoed_on_a_nul_byte(void)
+{
+	static const char input[] = "[186] 5 r 0x1018\0 0 u8\n[187] 1 5 r 0x1018 4 u32\n";
+
+	transcript_bytes(sock_path, "nul-seq", input, sizeof input - 1,
+			 "[186] ERROR: 101\n[187] 4242\n");
 }
 
 /* Each error number that can be provoked, and SDO aborts as their code. */
@@ -427,7 +558,7 @@ static void test_sixteen_concurrent_connections(void)
 		char *p = got;
 
 		for (int round = 0; round < 10; round++) {
-			snprintf(want, sizeof want, "[%d] 4242\n", 1000 * i + round);
+			snprintf(want, sizeof want, "[%d] 4242\r\n", 1000 * i + round);
 			TEST_ASSERT_EQUAL_STRING_LEN_MESSAGE(want, p, strlen(want), got);
 			p += strlen(want);
 		}
@@ -462,12 +593,12 @@ static void test_one_mib_domain(void)
 	memcpy(line + hl, text, b64);
 	memcpy(line + hl + b64, "\n", 2);
 	send_all(fd, line, (size_t)hl + b64 + 1);
-	TEST_ASSERT_EQUAL_STRING("[1] OK\n", recv_lines(fd, 1, 120000));
+	TEST_ASSERT_EQUAL_STRING("[1] OK\r\n", recv_lines(fd, 1, 120000));
 	send_text(fd, "[2] 1 5 r 0x2110 0 d\n");
 	char *got = recv_lines(fd, 1, 120000);
 
 	TEST_ASSERT_EQUAL_INT(0, strncmp(got, "[2] ", 4));
-	TEST_ASSERT_EQUAL_size_t(b64 + 5, strlen(got));
+	TEST_ASSERT_EQUAL_size_t(b64 + 6, strlen(got));
 	TEST_ASSERT_EQUAL_MEMORY(text, got + 4, b64);
 	TEST_ASSERT_EQUAL_STRING("[3] OK", ask(fd, "[3] 1 5 w 0x2110 0 hex DE AD"));
 	close(fd);
@@ -490,7 +621,7 @@ static void test_connection_killed_mid_transfer(void)
 	memcpy(line + hl, text, b64);
 	line[hl + b64] = '\n';
 	send_all(fd, line, (size_t)hl + b64 + 1);
-	TEST_ASSERT_EQUAL_STRING("OK\nOK\n", recv_lines(fd, 2, 60000));
+	TEST_ASSERT_EQUAL_STRING("OK\r\nOK\r\n", recv_lines(fd, 2, 60000));
 	close(fd);
 	for (int k = 0; k < 3; k++) {
 		fd = connect_unix();
@@ -505,9 +636,9 @@ static void test_connection_killed_mid_transfer(void)
 	for (int i = 0; i < 4; i++) {
 		char *got = recv_lines(fds[i], 2, 120000);
 
-		TEST_ASSERT_EQUAL_size_t_MESSAGE(3 + b64 + 1, strlen(got), got);
-		TEST_ASSERT_EQUAL_STRING_LEN("OK\n", got, 3);
-		TEST_ASSERT_EQUAL_MEMORY(text, got + 3, b64);
+		TEST_ASSERT_EQUAL_size_t_MESSAGE(4 + b64 + 2, strlen(got), got);
+		TEST_ASSERT_EQUAL_STRING_LEN("OK\r\n", got, 4);
+		TEST_ASSERT_EQUAL_MEMORY(text, got + 4, b64);
 		close(fds[i]);
 	}
 	free(line);
@@ -554,7 +685,7 @@ static void test_bad_input_holds_up_nobody(void)
 	memcpy(junk + hl, text, b64);
 	junk[hl + b64] = '\n';
 	send_all(good, junk, (size_t)hl + b64 + 1);
-	TEST_ASSERT_EQUAL_STRING("OK\n[0] OK\n", recv_lines(good, 2, 120000));
+	TEST_ASSERT_EQUAL_STRING("OK\r\n[0] OK\r\n", recv_lines(good, 2, 120000));
 	TEST_ASSERT_EQUAL_STRING("[0] OK", ask(good, "[0] set sdo_block 0"));
 	send_text(half, "[1] 1 5 r 0x10"); /* and never the rest */
 	/* never reads: pipelined reads of the 96 KiB domain until its unread
@@ -569,10 +700,10 @@ static void test_bad_input_holds_up_nobody(void)
 	memset(junk, 'x', big);
 	junk[big] = '\n';
 	send_all(over, junk, big + 1);
-	TEST_ASSERT_EQUAL_STRING("ERROR: 600", ask(over, ""));
+	TEST_ASSERT_EQUAL_STRING("ERROR: 600\r\n", recv_lines(over, 1, 15000));
 	TEST_ASSERT_EQUAL_STRING("[2] 4242", ask(over, "[2] 1 5 r 0x1018 4 u32"));
 	send_all(over, "\x00\x13\x37\xfe\xff garbage\n", 15);
-	TEST_ASSERT_EQUAL_STRING("ERROR: 101\n", recv_lines(over, 1, 10000));
+	TEST_ASSERT_EQUAL_STRING("ERROR: 101\r\n", recv_lines(over, 1, 10000));
 	TEST_ASSERT_EQUAL_STRING("[3] 4242", ask(good, "[3] 1 5 r 0x1018 4 u32"));
 
 	/* beyond max_connections: a clear line, then the close */
@@ -593,7 +724,7 @@ static void test_bad_input_holds_up_nobody(void)
 			char b[32] = "";
 
 			if (recv(extra[i], b, sizeof b - 1, 0) > 0 &&
-			    strcmp(b, "ERROR: 102\n") == 0)
+			    strcmp(b, "ERROR: 102\r\n") == 0)
 				refused++;
 		}
 	}
@@ -705,25 +836,25 @@ static void test_events_on_request(void)
 	TEST_ASSERT_EQUAL_STRING("[1] OK", ask(fd, "[1] events on emcy boot hb"));
 	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sims[0], "emcy 0x8130 0x10", NULL, 0, 5000));
 	got = wait_text(fd, "\n", 10000);
-	TEST_ASSERT_EQUAL_STRING("1 5 EMCY 0x8130 0x11 0x0000000000\n", got);
+	TEST_ASSERT_EQUAL_STRING("1 5 EMCY 0x8130 0x11 0x0000000000\r\n", got);
 	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sims[0], "emcy clear", NULL, 0, 5000));
 	got = wait_text(fd, "\n", 10000);
 	TEST_ASSERT_EQUAL_STRING_LEN("1 5 EMCY 0x0000 ", got, 16);
 	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sims[0], "hb stop", NULL, 0, 5000));
-	got = wait_text(fd, "1 5 ERROR: 203\n", 10000);
-	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(got, "1 5 ERROR: 203\n"), got);
+	got = wait_text(fd, "1 5 ERROR: 203\r\n", 10000);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(got, "1 5 ERROR: 203\r\n"), got);
 	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sims[0], "hb start", NULL, 0, 5000));
-	got = wait_text(fd, "1 5 ERROR: 202\n", 10000);
-	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(got, "1 5 ERROR: 202\n"), got);
+	got = wait_text(fd, "1 5 ERROR: 202\r\n", 10000);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(got, "1 5 ERROR: 202\r\n"), got);
 	send_text(fd, "[2] 1 5 reset node\n");
-	got = wait_text(fd, "1 5 ERROR: 205\n", 10000);
-	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(got, "1 5 ERROR: 205\n"), got);
+	got = wait_text(fd, "1 5 ERROR: 205\r\n", 10000);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(got, "1 5 ERROR: 205\r\n"), got);
 	TEST_ASSERT_EQUAL_STRING("[3] OK", ask(fd, "[3] events off emcy boot hb"));
 	send_text(fd, "[4] events on nmt\n[5] 1 5 start\n");
-	got = wait_text(fd, "1 5 NMT OPERATIONAL\n", 10000);
-	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(got, "1 5 NMT OPERATIONAL\n"), got);
+	got = wait_text(fd, "1 5 NMT OPERATIONAL\r\n", 10000);
+	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(got, "1 5 NMT OPERATIONAL\r\n"), got);
 	send_text(fd, "[6] events off\n[7] 1 5 preop\n");
-	wait_text(fd, "[7] OK\n", 10000);
+	wait_text(fd, "[7] OK\r\n", 10000);
 	close(fd);
 	/* the connection that asked for nothing got nothing */
 	TEST_ASSERT_EQUAL_STRING("[9] 4242", ask(quiet, "[9] 1 5 r 0x1018 4 u32"));
@@ -798,6 +929,11 @@ int main(void)
 	}
 	RUN_TEST(test_every_type_keyword_byte_exact);
 	RUN_TEST(test_commands_and_line_endings);
+	RUN_TEST(test_cocomm_gets_crlf_answers);
+	RUN_TEST(test_own_node_is_a_target);
+	RUN_TEST(test_commands_in_any_case);
+	RUN_TEST(test_vs_answer_has_no_control_bytes);
+	RUN_TEST(test_sequence_echoed_on_a_nul_byte);
 	RUN_TEST(test_error_numbers);
 	RUN_TEST(test_lss_services);
 	RUN_TEST(test_sixteen_concurrent_connections);

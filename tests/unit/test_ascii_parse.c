@@ -264,6 +264,65 @@ static void test_value_of_wrong_size_is_refused(void)
 	TEST_ASSERT_EQUAL_INT(-E2BIG, ascii_value_format(u32, (const uint8_t *)"abcd", 4, out, 8));
 }
 
+/* Command words, sub-commands and type keywords in any case, as the
+ * 309-3 tools take them. */
+static void test_any_case(void)
+{
+	ascii_cmd cmd;
+
+	TEST_ASSERT_EQUAL_INT(ASCII_OK, parse("[1] 5 R 0X1018 0 U8", &cmd));
+	TEST_ASSERT_EQUAL_INT(ASCII_V_READ, cmd.verb);
+	TEST_ASSERT_EQUAL_HEX16(0x1018, cmd.index);
+	TEST_ASSERT_EQUAL_STRING("u8", cmd.type->keyword);
+	TEST_ASSERT_EQUAL_INT(ASCII_OK, parse("5 READ 0x1018 1 X32", &cmd));
+	TEST_ASSERT_EQUAL_STRING("x32", cmd.type->keyword);
+	TEST_ASSERT_EQUAL_INT(ASCII_OK, parse("5 Write 0x2000 0 VS \"Ab\"", &cmd));
+	TEST_ASSERT_EQUAL_INT(ASCII_V_WRITE, cmd.verb);
+	TEST_ASSERT_EQUAL_MEMORY("Ab", buf, 2);
+	TEST_ASSERT_EQUAL_INT(ASCII_OK, parse("5 W 0x2000 0 B TRUE", &cmd));
+	TEST_ASSERT_EQUAL_UINT8(1, buf[0]);
+	TEST_ASSERT_EQUAL_INT(ASCII_OK, parse("2 ALL START", &cmd));
+	TEST_ASSERT_EQUAL_INT(ASCII_V_NMT_START, cmd.verb);
+	TEST_ASSERT_EQUAL_INT(0, cmd.node);
+	TEST_ASSERT_EQUAL_INT(ASCII_OK, parse("5 Reset Comm", &cmd));
+	TEST_ASSERT_EQUAL_INT(ASCII_V_NMT_RESET_COMM, cmd.verb);
+	TEST_ASSERT_EQUAL_INT(ASCII_OK, parse("SET NETWORK 2", &cmd));
+	TEST_ASSERT_EQUAL_INT(ASCII_V_SET_NETWORK, cmd.verb);
+	TEST_ASSERT_EQUAL_INT(ASCII_OK, parse("1 LSS_GET_NODE", &cmd));
+	TEST_ASSERT_EQUAL_INT(ASCII_V_LSS_GET_NODE, cmd.verb);
+	TEST_ASSERT_EQUAL_INT(1, cmd.net);
+	TEST_ASSERT_EQUAL_INT(ASCII_OK, parse("Events ON EMCY", &cmd));
+	TEST_ASSERT_EQUAL_HEX32(ASCII_EV_EMCY, cmd.events);
+	TEST_ASSERT_EQUAL_INT(ASCII_OK, parse("INFO VERSION", &cmd));
+	TEST_ASSERT_EQUAL_INT(ASCII_OK, parse("Help DataType", &cmd));
+	TEST_ASSERT_EQUAL_UINT8(1, cmd.help_topic);
+	TEST_ASSERT_NOT_NULL(ascii_type_find("R64", 3));
+}
+
+/* A line with a NUL byte is a syntax error whose answer still carries the
+ * line's sequence number. */
+static void test_sequence_kept_on_a_nul_byte(void)
+{
+	static const char line[] = "[186] 5 r 0x1018\0 0 u8";
+	ascii_cmd cmd;
+
+	TEST_ASSERT_EQUAL_INT(ASCII_E_SYNTAX, ascii_parse(line, sizeof line - 1, &cmd, buf, 64));
+	TEST_ASSERT_TRUE(cmd.has_seq);
+	TEST_ASSERT_EQUAL_UINT32(186, cmd.seq);
+}
+
+/* A vs value is printed on one line without NUL, CR or LF, whatever the
+ * device sent (a C string with its terminator, say). */
+static void test_vs_printed_without_control_bytes(void)
+{
+	static const uint8_t value[] = { 'a', '"', '\r', 'b', '\n', 'c', 0, 0 };
+	const ascii_type *vs = ascii_type_find("vs", 2);
+	char out[64];
+
+	TEST_ASSERT_EQUAL_INT(7, ascii_value_format(vs, value, sizeof value, out, sizeof out));
+	TEST_ASSERT_EQUAL_STRING("\"a\"\"bc\"", out);
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -273,5 +332,8 @@ int main(void)
 	RUN_TEST(test_error_numbers);
 	RUN_TEST(test_base64_rfc4648_vectors);
 	RUN_TEST(test_value_of_wrong_size_is_refused);
+	RUN_TEST(test_any_case);
+	RUN_TEST(test_sequence_kept_on_a_nul_byte);
+	RUN_TEST(test_vs_printed_without_control_bytes);
 	return UNITY_END();
 }
