@@ -14,6 +14,7 @@
 
 #include "core/co.h"
 #include "core/co_internal.h"
+#include "core/commfault.h"
 #include "core/emcy.h"
 #include "core/errctrl.h"
 #include "core/guarding.h"
@@ -34,6 +35,7 @@ static const co_service *const co_services[] = {
 	&co_svc_sdo_server, &co_svc_sdo_client,
 	&co_svc_store,      &co_svc_nmt,     /* before the error control services: boot-up first */
 	&co_svc_emcy,       &co_svc_errctrl, /* before heartbeat and guarding, which report to it */
+	&co_svc_commfault,                   /* after EMCY, which it raises */
 	&co_svc_hb,         &co_svc_guard,
 	&co_svc_sync, /* before PDO: a produced SYNC drives the PDOs */
 	&co_svc_time,       &co_svc_pdo,

@@ -32,6 +32,7 @@ struct co_errctrl;
 struct co_hb;
 struct co_guard;
 struct co_emcy;
+struct co_commfault;
 struct co_sync;
 struct co_time;
 struct co_pdo;
@@ -59,7 +60,7 @@ struct co_node {
 	struct co_store *store;     /* core/store.c (1010h/1011h) */
 	struct co_nmt *nmt;         /* core/nmt.c */
 	struct co_errctrl *errctrl; /* core/errctrl.c: what heartbeat and
-	                             * guarding share (losses, bus-off) */
+	                             * guarding share (losses) */
 	struct co_hb *hb;           /* core/heartbeat.c: producer/consumer */
 	struct co_guard *guard;     /* core/guarding.c: node guarding, master
 	                             * and slave (100Ch/100Dh) */
@@ -68,6 +69,9 @@ struct co_node {
 	struct co_time *time;       /* core/time.c */
 	struct co_pdo *pdo;         /* core/pdo.c */
 	struct co_lss *lss;         /* core/lss_service.c: master and slave */
+
+	/* core/commfault.c: controller states, lost frames, node-ID collision */
+	struct co_commfault *commfault;
 };
 
 #endif /* COGW_CORE_CO_INTERNAL_H */

@@ -21,7 +21,6 @@
 struct co_errctrl {
 	bool lost[CO_ERRCTRL_SRC_COUNT];
 	bool guarded[ERRCTRL_NODES];
-	bool bus_off;
 };
 
 void co_errctrl_emit(co_node *node, co_event_kind kind, uint8_t remote, uint8_t state, uint8_t prev,
@@ -73,27 +72,6 @@ bool co_errctrl_guarded(const co_node *node, uint8_t remote)
 	return node->errctrl && remote < ERRCTRL_NODES && node->errctrl->guarded[remote];
 }
 
-/* ---- bus-off ------------------------------------------------------------- */
-
-int co_errctrl_bus_off(co_node *node, uint64_t now_us)
-{
-	if (!node->errctrl)
-		return -ENODEV;
-	node->errctrl->bus_off = true;
-	/* No EMCY now: nothing can be sent while bus-off. */
-	return co_nmt_comm_error(node, now_us) < 0 ? -ENODEV : 0;
-}
-
-int co_errctrl_bus_off_recovered(co_node *node, uint64_t now_us)
-{
-	if (!node->errctrl)
-		return -ENODEV;
-	if (!node->errctrl->bus_off)
-		return 0;
-	node->errctrl->bus_off = false;
-	return co_emcy_send(node, CO_EMCY_BUS_OFF_RECOVERED, CO_EMCY_REG_COMM, NULL, now_us);
-}
-
 /* ---- service ------------------------------------------------------------- */
 
 static int errctrl_init(co_node *node)
@@ -108,18 +86,8 @@ static void errctrl_fini(co_node *node)
 	node->errctrl = NULL;
 }
 
-static void errctrl_reset_comm(co_node *node, uint64_t now_us)
-{
-	(void)now_us;
-	/* The losses are re-reported by heartbeat and guarding, whose own
-	 * reset_comm runs after this one; the guarded set belongs to the
-	 * guarding master's API and survives like its targets do. */
-	node->errctrl->bus_off = false;
-}
-
 const co_service co_svc_errctrl = {
 	.name = "errctrl",
 	.init = errctrl_init,
 	.fini = errctrl_fini,
-	.reset_comm = errctrl_reset_comm,
 };

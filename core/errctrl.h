@@ -10,7 +10,6 @@
  *   source (heartbeat consumer, life guarding) reports a loss any more.
  * - Which remote nodes the guarding master polls: their 700h answers
  *   carry a toggle bit, so the heartbeat consumer leaves them to guarding.
- * - Bus-off of the CAN controller (entry points for the line runtime).
  *
  * The service (co_svc_errctrl) runs before heartbeat and guarding in the
  * service table. All functions: owning thread only.
@@ -47,13 +46,5 @@ void co_errctrl_loss_update(co_node *node, co_errctrl_source src, bool lost, uin
 /* The guarding master polls (on) or stopped polling (off) `remote`. */
 void co_errctrl_guarded_set(co_node *node, uint8_t remote, bool on);
 bool co_errctrl_guarded(const co_node *node, uint8_t remote);
-
-/*
- * For the line runtime: the CAN controller went bus-off. Applies 1029h:1
- * (communication error). co_errctrl_bus_off_recovered(): back on the bus;
- * sends EMCY 8140h (recovered from bus off). 0 or -ENODEV.
- */
-int co_errctrl_bus_off(co_node *node, uint64_t now_us);
-int co_errctrl_bus_off_recovered(co_node *node, uint64_t now_us);
 
 #endif /* COGW_CORE_ERRCTRL_H */

@@ -18,6 +18,8 @@ const char *co_event_kind_to_string(co_event_kind k)
 		return "rpdo-recovered";
 	case CO_EV_OBJECT_UPDATED:
 		return "object-updated";
+	case CO_EV_COMM_FAULT:
+		return "comm-fault";
 	case CO_EV_STORE:
 		return "store";
 	case CO_EV_RESTORE:

@@ -69,6 +69,9 @@ typedef enum co_event_kind {
 	 * (docs/gateway.md): u.pdo_obj (nr 0, bits = the object's size x 8).
 	 * Emitted by the extension that stored it, for the others. */
 	CO_EV_OBJECT_UPDATED,
+	/* A communication fault of the node began or ended (core/commfault.c):
+	 * u.commfault */
+	CO_EV_COMM_FAULT,
 	/* other services append here: NMT, HB, EMCY, SYNC, TIME, PDO, LSS */
 	CO_EV_KIND_COUNT
 } co_event_kind;
@@ -127,6 +130,16 @@ typedef struct co_ev_errctrl {
 	uint8_t guarded;  /* 1: seen through node guarding, 0: heartbeat */
 	uint16_t time_ms; /* consumer time / guard time in force */
 } co_ev_errctrl;
+
+/* CO_EV_COMM_FAULT */
+typedef struct co_ev_commfault {
+	uint8_t fault;        /* enum co_comm_fault (core/commfault.h) */
+	uint8_t active;       /* 1 = the episode began, 0 = it ended */
+	uint8_t info;         /* ID collision: the state byte heard */
+	uint32_t episodes;    /* of this fault since the counters' reset */
+	uint32_t occurrences; /* likewise */
+	uint64_t since_us;    /* begin of the episode */
+} co_ev_commfault;
 
 /* CO_EV_EMCY_RX */
 typedef struct co_ev_emcy {
@@ -255,6 +268,7 @@ typedef struct co_event {
 		co_ev_lss_master lss_master;
 		co_ev_lss_slave lss_slave;
 		co_ev_mgr mgr;
+		co_ev_commfault commfault;
 	} u;
 } co_event;
 

@@ -2,7 +2,7 @@
 /*
  * core/heartbeat.h - heartbeat producer (1017h) and consumer (1016h) and
  * boot-up reception (CiA 301 §7.2.8.3.2, §7.5.2.18/19). What it shares
- * with node guarding (loss handling, bus-off) is in core/errctrl.h.
+ * with node guarding (loss handling) is in core/errctrl.h.
  *
  * Producer
  * - 1017h (UNSIGNED16, ms). Heartbeat = 700h + id, one byte: the NMT state
@@ -39,7 +39,7 @@
 #include <stdint.h>
 
 #include "core/co.h"
-#include "core/errctrl.h" /* co_errctrl_bus_off*(), shared with guarding */
+#include "core/errctrl.h"
 
 extern const co_service co_svc_hb;
 

@@ -242,7 +242,6 @@ void co_manager_reset_counters(co_manager *m)
 		m->s[id].unexpected_reported = false;
 		m->s[id].dup_reported = false;
 	}
-	m->own_id_reported = false;
 	m->own_id_frame_reported = 0;
 }
 

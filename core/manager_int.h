@@ -168,7 +168,9 @@ struct co_manager {
 	bool net_started;
 	bool net_started_explicit;
 	bool start_requested; /* a start from STOPPED waits for mandatory slaves */
-	bool own_id_reported;
+	/* FATAL because of a node-ID conflict: left by itself when its
+	 * episode ends (manager_supervise.c) */
+	bool fatal_by_conflict;
 	uint8_t own_id_frame_reported; /* bit per kind: heartbeat, EMCY, SDO */
 	bool wake_pending;
 	bool check_pending;

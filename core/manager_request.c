@@ -15,7 +15,7 @@ int co_manager_boot_network(co_manager *m, uint64_t now_us)
 		return -EPERM;
 	mgr_enter(m, now_us);
 	m->autostart_pending = false;
-	m->own_id_reported = false;
+	m->fatal_by_conflict = false;
 	m->own_id_frame_reported = 0;
 	co_fsm_goto(&m->fsm, CO_MGR_RESETTING, now_us);
 	mgr_after(m, now_us);

@@ -6,46 +6,58 @@
  */
 #include <string.h>
 
+#include "core/commfault.h"
 #include "core/guarding.h"
 #include "core/heartbeat.h"
 #include "core/manager_int.h"
 #include "core/nmt.h"
 #include "core/sdo_client.h"
 
-/* A boot-up or heartbeat of another device on the manager's own node-ID:
- * a node-ID conflict (CiA 301 wants node-IDs unique). The manager halts
- * the line's NMT start-up and supervision: fatal until the network is
- * booted again (docs/config.md "A device on the manager's node-ID"). */
+/* An episode of another device on the manager's own node-ID began
+ * (core/commfault.h: a boot-up or heartbeat on 700h+id): a node-ID
+ * conflict (CiA 301 wants node-IDs unique). The manager halts the line's
+ * NMT start-up and supervision until the episode ends (docs/config.md "A
+ * device on the manager's node-ID"). */
 static void own_id_conflict(co_manager *m, uint64_t now_us)
 {
 	if (!is_master(m) || co_fsm_state_of(&m->fsm) == CO_MGR_FATAL)
 		return;
-	if (!m->own_id_reported) {
-		m->own_id_reported = true;
-		m->cnt.duplicates++;
-		mgr_note_first_error(m, m->own_id, 0, 0);
-		mgr_emit_node(m, m->own_id, CO_MGR_NODE_OWN_ID, CO_NMT_ERRCTRL_BASE + m->own_id);
-	}
+	m->cnt.duplicates++;
+	mgr_note_first_error(m, m->own_id, 0, 0);
+	mgr_emit_node(m, m->own_id, CO_MGR_NODE_OWN_ID, CO_NMT_ERRCTRL_BASE + m->own_id);
 	mgr_net_input(m, NET_IN_OWN_ID_CONFLICT, now_us);
+	m->fatal_by_conflict = co_fsm_state_of(&m->fsm) == CO_MGR_FATAL;
 }
 
-/* Only a well-formed error-control message (CiA 301 7.2.8.3.2: one byte,
- * an NMT state; bit 7 is the guarding toggle) shows a device; a remote
- * request on 700h+id is someone guarding us. */
-static bool is_error_control_message(const co_frame *f)
+/* The other device has been silent for the quiet time: the network is
+ * booted again, as `cogwctl boot LINE` would (the nodes' states are not
+ * known after the halt; keep-alive nodes stay operational). */
+static void own_id_conflict_over(co_manager *m, uint64_t now_us)
 {
-	uint8_t state;
-	if (f->flags & CO_FRAME_RTR || f->len != 1)
-		return false;
-	state = f->data[0] & 0x7Fu;
-	return state == CO_NMT_INITIALISING || state == CO_NMT_STOPPED ||
-	       state == CO_NMT_OPERATIONAL || state == CO_NMT_PRE_OPERATIONAL;
+	if (!m->fatal_by_conflict || co_fsm_state_of(&m->fsm) != CO_MGR_FATAL)
+		return;
+	m->fatal_by_conflict = false;
+	m->own_id_frame_reported = 0;
+	co_fsm_goto(&m->fsm, CO_MGR_RESETTING, now_us);
+}
+
+static void on_comm_fault(co_manager *m, const co_ev_commfault *cf, uint64_t now_us)
+{
+	if (cf->fault != CO_COMM_FAULT_ID_COLLISION)
+		return;
+	mgr_enter(m, now_us);
+	if (cf->active)
+		own_id_conflict(m, now_us);
+	else
+		own_id_conflict_over(m, now_us);
+	mgr_after(m, now_us);
 }
 
 /* Any other frame on our own identities (an EMCY on 080h+id, an SDO answer
- * on 580h+id, a malformed 700h+id): one frame proves no second device and
- * anyone on the bus can send it, so it is counted and reported once per
- * network boot and kind, and boot and supervision go on. */
+ * on 580h+id, a 700h+id frame that is no error-control message): one
+ * frame proves no second device and anyone on the bus can send it, so it
+ * is counted and reported once per network boot and kind, and boot and
+ * supervision go on. */
 static void own_id_frame(co_manager *m, uint32_t cob_id)
 {
 	unsigned kind = cob_id >= CO_NMT_ERRCTRL_BASE ? 0 : cob_id >= SDO_COB_TX_BASE ? 2 : 1;
@@ -60,13 +72,13 @@ void mgr_own_id_rx(co_node *node, void *arg, const co_frame *f, uint64_t now_us)
 {
 	co_manager *m = arg;
 	(void)node;
-	if (!is_master(m) || (f->id >= CO_NMT_ERRCTRL_BASE && f->flags & CO_FRAME_RTR))
+	/* a remote request on 700h+id is someone guarding us; a boot-up or
+	 * heartbeat is core/commfault.c's (an episode, on_comm_fault) */
+	if (!is_master(m) || (f->id >= CO_NMT_ERRCTRL_BASE &&
+			      (f->flags & CO_FRAME_RTR || co_commfault_is_errctrl_message(f))))
 		return;
 	mgr_enter(m, now_us);
-	if (f->id >= CO_NMT_ERRCTRL_BASE && is_error_control_message(f))
-		own_id_conflict(m, now_us);
-	else
-		own_id_frame(m, f->id);
+	own_id_frame(m, f->id);
 	mgr_after(m, now_us);
 }
 
@@ -272,22 +284,19 @@ static void on_errctrl_kind(co_manager *m, struct mgr_slave *s, co_event_kind ki
 	}
 }
 
-/* Boot-up, heartbeat and guarding events: the node's, or another device
- * on the manager's own node-ID. */
+/* Boot-up, heartbeat and guarding events of the nodes (another device on
+ * the manager's own node-ID comes as a communication fault). */
 static void on_errctrl_event(co_manager *m, const co_event *ev)
 {
 	const co_ev_errctrl *ec = &ev->u.errctrl;
 	uint64_t now = ev->now_us;
 
-	if (ec->node < 1 || ec->node > 127)
+	if (ec->node < 1 || ec->node > 127 || ec->node == m->own_id)
 		return;
 	if (!is_master(m) && co_fsm_state_of(&m->fsm) == CO_MGR_SLAVE)
 		return;
 	mgr_enter(m, now);
-	if (ec->node == m->own_id)
-		own_id_conflict(m, now);
-	else
-		on_errctrl_kind(m, &m->s[ec->node], ev->kind, ec, now);
+	on_errctrl_kind(m, &m->s[ec->node], ev->kind, ec, now);
 	mgr_after(m, now);
 }
 
@@ -320,6 +329,9 @@ void co_manager_on_event(co_manager *m, const co_event *ev)
 		return;
 	case CO_EV_SDO_CLIENT_SECOND_ANSWER:
 		on_second_answer(m, &ev->u.sdo_cli, now);
+		return;
+	case CO_EV_COMM_FAULT:
+		on_comm_fault(m, &ev->u.commfault, now);
 		return;
 	case CO_EV_NMT_STATE:
 		/* our own state is a flag of the line state (manager operational) */

@@ -20,6 +20,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "core/commfault.h"
 #include "core/heartbeat.h"
 #include "core/nmt.h"
 #include "lines/log.h"
@@ -151,6 +152,8 @@ static int create_node_and_mailbox(line *l)
 			 p->node.node_id, strerror(-rc));
 		return rc;
 	}
+	if ((rc = line_health_attach(l)) < 0)
+		return rc;
 	if ((rc = line_pending_init(&l->pending,
 				    p->mbx.max_transfer ? p->mbx.max_transfer : 1024u * 1024u,
 				    p->mbx.budget)) < 0)
@@ -205,6 +208,10 @@ int line_create(line **out, const line_params *p)
 	l->p.can.ifname = l->ifname;
 	if (!l->p.checkin_ms)
 		l->p.checkin_ms = 500;
+	if (!l->p.id_conflict_quiet_ms)
+		l->p.id_conflict_quiet_ms = CO_COMMFAULT_ID_COLLISION_QUIET_MS;
+	if (!l->p.fault_quiet_ms)
+		l->p.fault_quiet_ms = CO_COMMFAULT_LOST_QUIET_MS;
 	l->armed_us = UINT64_MAX;
 	atomic_init(&l->hb_producer_ms, -1);
 	pthread_mutex_init(&l->stats_lock, NULL);
@@ -274,7 +281,9 @@ static void handle_can(line *l)
 	for (int round = 0; round < 8; round++) {
 		int n = can_port_recv(l->port, items, RX_BATCH, l->now_us);
 		if (n <= 0) {
-			if (n < 0) {
+			if (n == -ENETDOWN || n == -ENODEV || n == -ENXIO) {
+				line_link_lost(l, -n);
+			} else if (n < 0) {
 				cogw_log(COGW_LOG_WARNING, "line %s: CAN receive: %s", l->name,
 					 strerror(-n));
 				l->link_events++;
@@ -389,6 +398,14 @@ static uint64_t next_deadline(line *l, uint64_t checkin_period)
 	t = line_time_poll(l); /* produces the TIME that is due */
 	if (t < next)
 		next = t;
+	bool reopened = false;
+	t = line_link_poll(l, &reopened); /* an interface that is down: is it back? */
+	if (t < next)
+		next = t;
+	int rc = reopened ? epoll_add(l->epfd, can_port_fd(l->port), EPOLLIN, TAG_CAN) : 0;
+	if (rc < 0)
+		cogw_log(COGW_LOG_ERR, "line %s (%s): cannot watch the new socket: %s", l->name,
+			 l->ifname, strerror(-rc));
 	if (l->now_us + checkin_period / 2 < next)
 		next = l->now_us + checkin_period / 2;
 	return next;
@@ -422,19 +439,14 @@ static void handle_event(line *l, const struct epoll_event *ev)
 }
 
 /* After the events of one iteration: the core's timers, a transmit retry,
- * the transmit queue's watermark log. */
+ * the bus health (lost frames, the transmit queue's watermarks). */
 static void run_due(line *l)
 {
 	if (l->now_us >= co_node_next_deadline_us(l->node))
 		co_node_tick(l->node, l->now_us);
 	if (can_port_retry_at_us(l->port) <= l->now_us)
 		can_port_flush(l->port, l->now_us);
-	int wm = can_port_take_watermark_event(l->port);
-	if (wm)
-		cogw_log(wm > 0 ? COGW_LOG_WARNING : COGW_LOG_INFO,
-			 "line %s: transmit queue %s (%zu frames queued)", l->name,
-			 wm > 0 ? "above its high-water mark" : "back below its low-water mark",
-			 can_port_tx_queued(l->port));
+	line_health_poll(l);
 }
 
 static void *line_main(void *arg)

@@ -51,6 +51,10 @@ typedef struct line_params {
 	                             * (core/pdo_layout.h), used by the line's
 	                             * extensions on its thread; owned by the
 	                             * caller, outlives the line; NULL = none */
+	/* bus health (lines/line_health.c): an episode is over after this
+	 * silence; 0 = the default */
+	uint32_t id_conflict_quiet_ms; /* a node-ID collision (5000) */
+	uint32_t fault_quiet_ms;       /* lost frames (1000) */
 } line_params;
 
 /* Counters published by the line thread about once per second. */

@@ -28,6 +28,8 @@ static const struct {
 	{ MBX_CMD_NMT, line_nmt_command }, /* line_nmt.c */
 	{ MBX_CMD_NODE_TABLE, line_node_table },
 	{ MBX_CMD_LINE_STATUS, line_status }, /* line_bus.c */
+	{ MBX_CMD_LINE_HEALTH, line_health }, /* line_health.c */
+	{ MBX_CMD_LINE_HEALTH_RESET, line_health_reset },
 	{ MBX_CMD_EMCY_SEND, line_emcy_send },
 	{ MBX_CMD_RAW_SEND, line_raw_send },
 	{ MBX_CMD_STORE, line_store_command }, /* line_store.c */
@@ -48,6 +50,10 @@ void line_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 {
 	line *l = ctx;
 	(void)srv;
+	/* the interface is down: no request waits for a bus it cannot reach
+	 * (lines/line_link.c) */
+	if (line_link_refuses(l, req->code))
+		return line_answer(l, &req->reply, MBX_E_STATE, 0, NULL, 0);
 	for (unsigned i = 0; i < l->ext_attached; i++) {
 		const line_ext *x = &l->p.ext[i];
 		if (x->ops && x->ops->on_command && x->ops->cmd_last &&

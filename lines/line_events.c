@@ -216,6 +216,9 @@ void line_on_core_event(void *ctx, const co_event *ev)
 	case CO_EV_SDO_CLIENT_SECOND_ANSWER:
 		publish_duplicate(l, &ev->u.sdo_cli);
 		break;
+	case CO_EV_COMM_FAULT:
+		line_health_on_fault(l, &ev->u.commfault);
+		break;
 	default:
 		/* boot-up, heartbeat, guarding; the core events no mailbox
 		 * event carries are listed, with why, in docs/mailbox.md */
@@ -223,33 +226,6 @@ void line_on_core_event(void *ctx, const co_event *ev)
 		break;
 	}
 	tell_extensions(l, ev);
-}
-
-void line_on_can_error(line *l, const can_rx_item *it)
-{
-	const can_error_info *e = &it->error;
-	if (e->state_changed) {
-		can_bus_state prev = e->restarted ? CAN_BUS_OFF : l->bus_state_prev;
-		cogw_log(e->state == CAN_BUS_ACTIVE ? COGW_LOG_NOTICE : COGW_LOG_WARNING,
-			 "line %s (%s): CAN controller %s -> %s", l->name, l->ifname,
-			 can_bus_state_to_string(prev), can_bus_state_to_string(e->state));
-		mbx_ev_can_state ev = { .state = line_mbx_can_state(e->state),
-					.prev = line_mbx_can_state(prev),
-					.tec = e->tx_errors,
-					.rec = e->rx_errors };
-		mbx_server_publish(l->mbx, MBX_EV_CAN_STATE, 0, &ev, sizeof ev);
-		/* CiA 301: bus-off is a communication error (1029h, EMCY 8140h on
-		 * recovery) */
-		if (e->state == CAN_BUS_OFF)
-			co_errctrl_bus_off(l->node, l->now_us);
-		else if (prev == CAN_BUS_OFF)
-			co_errctrl_bus_off_recovered(l->node, l->now_us);
-		l->bus_state_prev = e->state;
-		l->link_events++;
-	}
-	if (e->controller_problem)
-		cogw_log(COGW_LOG_WARNING, "line %s (%s): CAN controller reports an overflow",
-			 l->name, l->ifname);
 }
 
 void line_publish_raw(line *l, const co_frame *f, uint64_t ts_ns)

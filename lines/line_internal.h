@@ -110,6 +110,25 @@ struct line {
 	uint64_t time_unusable; /* not produced: clock outside 1984..2163 */
 	bool time_clock_logged;
 	can_bus_state bus_state_prev;
+	struct line_health {
+		uint8_t tec, rec;  /* last error counters an error frame carried */
+		uint32_t restarts; /* controller restarts after bus-off */
+		bool pressure_active;
+		bool pressure_seen;
+		uint32_t pressure_episodes;
+		uint64_t pressure_last_us;
+		/* port counters already turned into fault occurrences */
+		uint64_t seen_rx_drops, seen_tx_lost;
+		/* port counters at the last LINE_HEALTH_RESET */
+		uint64_t base_rx_drops, base_tx_drops, base_tx_errors;
+	} health; /* line_health.c */
+	struct line_link {
+		bool down;   /* the interface went down or was deleted */
+		bool reopen; /* it was deleted: a new socket when it is back */
+		uint32_t episodes, reopens;
+		uint32_t last_outage_ms;
+		uint64_t since_us, next_probe_us;
+	} link; /* line_link.c */
 	/* the link may have changed: bus state changes, receive errors
 	 * (ENETDOWN when the interface goes down); line_link_events */
 	uint32_t link_events;
@@ -190,8 +209,27 @@ void line_raw_send(line *l, const mbx_request *req);
 
 /* line_events.c */
 void line_on_core_event(void *ctx, const co_event *ev);
-void line_on_can_error(line *l, const can_rx_item *it);
 void line_publish_raw(line *l, const co_frame *f, uint64_t ts_ns);
+
+/* line_link.c */
+/* The socket said the interface is down (ENETDOWN) or gone (ENODEV). */
+void line_link_lost(line *l, int err);
+/* While down: look at the interface when due; the next look's time
+ * (UINT64_MAX when up). *reopened: the port has a new socket, which the
+ * caller watches instead of the old one. */
+uint64_t line_link_poll(line *l, bool *reopened);
+/* While down: does this command need the bus (refused with MBX_E_STATE)? */
+bool line_link_refuses(const line *l, uint16_t code);
+
+/* line_health.c */
+int line_health_attach(line *l); /* after the node exists */
+void line_on_can_error(line *l, const can_rx_item *it);
+void line_health_on_fault(line *l, const co_ev_commfault *f);
+/* After the events of a loop iteration: frames the port lost, the
+ * transmit queue's watermarks. */
+void line_health_poll(line *l);
+void line_health(line *l, const mbx_request *req);
+void line_health_reset(line *l, const mbx_request *req);
 
 /* line_pdo.c */
 void line_publish_rpdo_fault(line *l, const co_event *ev);

@@ -11,6 +11,7 @@
 #include <linux/can/raw.h>
 #include <net/if.h>
 #include <stdlib.h>
+#include <stdio.h>
 #include <string.h>
 #include <sys/ioctl.h>
 #include <sys/socket.h>
@@ -23,6 +24,7 @@
 struct can_port {
 	int fd;
 	unsigned ifindex;
+	char ifname[IFNAMSIZ]; /* cfg.ifname points here */
 	can_port_config cfg;
 	can_port_stats stats;
 	can_bus_state state;
@@ -36,6 +38,11 @@ struct can_port {
 	int watermark_event;
 
 	uint32_t last_ovfl; /* cumulative kernel drop count last seen */
+	int link_error;     /* ENETDOWN/ENODEV/ENXIO a send met (0 = none) */
+	/* the receive filter given (can_port_ignore_data), applied again
+	 * to the socket of a re-opened port */
+	struct can_filter ignore[CAN_PORT_IGNORE_MAX];
+	uint8_t n_ignore;
 	uint64_t load_window_start_us;
 	uint64_t load_bits;
 };
@@ -74,8 +81,9 @@ void can_error_decode(uint32_t can_id, const uint8_t data[8], can_bus_state curr
 	}
 	if (cls & CAN_ERR_CRTL) {
 		uint8_t c = data[1];
-		if (c & (CAN_ERR_CRTL_RX_OVERFLOW | CAN_ERR_CRTL_TX_OVERFLOW))
-			out->controller_problem = true;
+		out->rx_overflow = c & CAN_ERR_CRTL_RX_OVERFLOW;
+		out->tx_overflow = c & CAN_ERR_CRTL_TX_OVERFLOW;
+		out->controller_problem = out->rx_overflow || out->tx_overflow;
 		if (c & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE))
 			next = CAN_BUS_PASSIVE;
 		else if (c & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING))
@@ -131,6 +139,72 @@ static int set_opt(int fd, int level, int name, const void *v, socklen_t len, co
 	return -errno;
 }
 
+/* A raw socket on the port's interface, by name (a re-created interface
+ * has another index), with error frames, timestamps, overflow counting,
+ * the buffers and the receive filter the port wants; it becomes the
+ * port's socket only once complete. */
+static int port_socket(can_port *p, const char **errmsg)
+{
+	int rc;
+	int fd = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
+	if (fd < 0) {
+		rc = -errno;
+		if (errmsg)
+			*errmsg = "socket(PF_CAN): kernel without CAN support or not permitted";
+		goto fail;
+	}
+	unsigned ifindex = if_nametoindex(p->cfg.ifname);
+	if (!ifindex) {
+		rc = -ENODEV;
+		if (errmsg)
+			*errmsg = "no such network interface";
+		goto fail;
+	}
+	can_err_mask_t err_mask = CAN_ERR_MASK;
+	int on = 1, zero = 0;
+	if ((rc = set_opt(fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask,
+			  "enable error frames", errmsg)) ||
+	    (rc = set_opt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on,
+			  "enable kernel timestamps", errmsg)) ||
+	    (rc = set_opt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on,
+			  "enable receive overflow counting", errmsg)))
+		goto fail;
+	/* A big receive buffer rides out a slow consumer; FORCE needs
+	 * CAP_NET_ADMIN, the plain option is capped by rmem_max. */
+	if (setsockopt(fd, SOL_SOCKET, SO_RCVBUFFORCE, &p->cfg.rcvbuf_bytes, sizeof(int)) != 0)
+		(void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &p->cfg.rcvbuf_bytes, sizeof(int));
+	/* The smallest send buffer makes a full kernel queue show up as EAGAIN
+	 * (which EPOLLOUT clears) rather than ENOBUFS from the qdisc (which
+	 * nothing signals). Our own queue holds the backlog instead. */
+	(void)setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &zero, sizeof zero);
+
+	struct sockaddr_can addr = { .can_family = AF_CAN, .can_ifindex = (int)ifindex };
+	if (bind(fd, (struct sockaddr *)&addr, sizeof addr) != 0) {
+		rc = -errno;
+		if (errmsg)
+			*errmsg = "bind to the CAN interface";
+		goto fail;
+	}
+	if (p->n_ignore &&
+	    (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_JOIN_FILTERS, &on, sizeof on) != 0 ||
+	     setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, p->ignore,
+			(socklen_t)(p->n_ignore * sizeof p->ignore[0])) != 0)) {
+		rc = -errno;
+		if (errmsg)
+			*errmsg = "receive filter";
+		goto fail;
+	}
+	if (p->fd >= 0)
+		close(p->fd);
+	p->fd = fd;
+	p->ifindex = ifindex;
+	return 0;
+fail:
+	if (fd >= 0)
+		close(fd);
+	return rc;
+}
+
 int can_port_open(can_port **out, const can_port_config *cfg, const char **errmsg)
 {
 	*out = NULL;
@@ -144,6 +218,8 @@ int can_port_open(can_port **out, const can_port_config *cfg, const char **errms
 		return -ENOMEM;
 	p->fd = -1;
 	p->cfg = *cfg;
+	snprintf(p->ifname, sizeof p->ifname, "%s", cfg->ifname);
+	p->cfg.ifname = p->ifname;
 	if (!p->cfg.tx_queue_len)
 		p->cfg.tx_queue_len = 256;
 	if (!p->cfg.tx_high_water || p->cfg.tx_high_water > 100)
@@ -160,46 +236,8 @@ int can_port_open(can_port **out, const can_port_config *cfg, const char **errms
 	if (!p->txq)
 		goto fail;
 
-	p->fd = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
-	if (p->fd < 0) {
-		rc = -errno;
-		if (errmsg)
-			*errmsg = "socket(PF_CAN): kernel without CAN support or not permitted";
+	if ((rc = port_socket(p, errmsg)) < 0)
 		goto fail;
-	}
-	unsigned ifindex = if_nametoindex(cfg->ifname);
-	if (!ifindex) {
-		rc = -ENODEV;
-		if (errmsg)
-			*errmsg = "no such network interface";
-		goto fail;
-	}
-	can_err_mask_t err_mask = CAN_ERR_MASK;
-	int on = 1, zero = 0;
-	if ((rc = set_opt(p->fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask,
-			  "enable error frames", errmsg)) ||
-	    (rc = set_opt(p->fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on,
-			  "enable kernel timestamps", errmsg)) ||
-	    (rc = set_opt(p->fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on,
-			  "enable receive overflow counting", errmsg)))
-		goto fail;
-	/* A big receive buffer rides out a slow consumer; FORCE needs
-	 * CAP_NET_ADMIN, the plain option is capped by rmem_max. */
-	if (setsockopt(p->fd, SOL_SOCKET, SO_RCVBUFFORCE, &p->cfg.rcvbuf_bytes, sizeof(int)) != 0)
-		(void)setsockopt(p->fd, SOL_SOCKET, SO_RCVBUF, &p->cfg.rcvbuf_bytes, sizeof(int));
-	/* The smallest send buffer makes a full kernel queue show up as EAGAIN
-	 * (which EPOLLOUT clears) rather than ENOBUFS from the qdisc (which
-	 * nothing signals). Our own queue holds the backlog instead. */
-	(void)setsockopt(p->fd, SOL_SOCKET, SO_SNDBUF, &zero, sizeof zero);
-
-	p->ifindex = ifindex;
-	struct sockaddr_can addr = { .can_family = AF_CAN, .can_ifindex = (int)ifindex };
-	if (bind(p->fd, (struct sockaddr *)&addr, sizeof addr) != 0) {
-		rc = -errno;
-		if (errmsg)
-			*errmsg = "bind to the CAN interface";
-		goto fail;
-	}
 	*out = p;
 	return 0;
 fail:
@@ -367,8 +405,13 @@ int can_port_flush(can_port *p, uint64_t now_us)
 			p->retry_at_us = UINT64_MAX;
 		} else {
 			/* e.g. ENETDOWN: the frame cannot go out; drop it rather
-			 * than wedge the queue behind it. */
+			 * than wedge the queue behind it. A send takes the
+			 * socket's pending error (sock_error), so the receive
+			 * side may never see it: the interface's loss is kept
+			 * for can_port_take_link_error(). */
 			p->stats.tx_errors++;
+			if (rc == -ENETDOWN || rc == -ENODEV || rc == -ENXIO)
+				p->link_error = -rc;
 		}
 		p->tx_head = (uint16_t)((p->tx_head + 1u) % p->cfg.tx_queue_len);
 		p->tx_count--;
@@ -464,7 +507,51 @@ int can_port_ignore_data(can_port *p, const co_frame *ids, size_t n)
 	    setsockopt(p->fd, SOL_CAN_RAW, CAN_RAW_FILTER, f,
 		       (socklen_t)((n ? n : 1) * sizeof f[0])) != 0)
 		return -errno;
+	memcpy(p->ignore, f, n * sizeof f[0]);
+	p->n_ignore = (uint8_t)n;
 	return 0;
+}
+
+int can_port_reopen(can_port *p, uint64_t now_us, const char **errmsg)
+{
+	int rc = port_socket(p, errmsg);
+	if (rc < 0)
+		return rc;
+	/* what waited for the old interface is lost with it */
+	p->stats.tx_errors += p->tx_count;
+	p->tx_head = p->tx_count = 0;
+	p->wants_writable = false;
+	p->retry_at_us = UINT64_MAX;
+	p->retry_backoff_us = RETRY_MIN_US;
+	p->state = CAN_BUS_ACTIVE;
+	p->link_error = 0;
+	p->last_ovfl = 0;
+	p->load_window_start_us = now_us;
+	p->load_bits = 0;
+	update_watermarks(p);
+	return 0;
+}
+
+int can_port_take_link_error(can_port *p)
+{
+	int e = p->link_error;
+	p->link_error = 0;
+	return e;
+}
+
+can_link_state can_port_link_state(const can_port *p)
+{
+	struct ifreq ifr;
+	memset(&ifr, 0, sizeof ifr);
+	snprintf(ifr.ifr_name, sizeof ifr.ifr_name, "%s", p->ifname);
+	if (ioctl(p->fd, SIOCGIFINDEX, &ifr) != 0)
+		return CAN_LINK_GONE;
+	if ((unsigned)ifr.ifr_ifindex != p->ifindex)
+		return CAN_LINK_REPLACED;
+	if (ioctl(p->fd, SIOCGIFFLAGS, &ifr) != 0)
+		return CAN_LINK_UP; /* cannot tell: do not refuse on a guess */
+	return (ifr.ifr_flags & IFF_UP) && (ifr.ifr_flags & IFF_RUNNING) ? CAN_LINK_UP
+									 : CAN_LINK_DOWN;
 }
 
 /* A socket that only sends: no receive filter matches, so nothing ever

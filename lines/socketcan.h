@@ -40,6 +40,8 @@ typedef struct can_error_info {
 	can_bus_state state;
 	bool restarted;          /* controller restarted after bus-off */
 	bool controller_problem; /* e.g. controller rx/tx overflow */
+	bool rx_overflow;        /* the controller lost received frames */
+	bool tx_overflow;        /* ... or frames to transmit */
 	bool protocol_violation; /* form/stuff/bit errors */
 	bool tx_timeout;
 	bool lost_arbitration;
@@ -126,6 +128,28 @@ can_bus_state can_port_bus_state(const can_port *p);
  * on the port's socket; no blocking. */
 bool can_port_link_up(const can_port *p);
 const can_port_stats *can_port_get_stats(const can_port *p);
+
+/* The interface of a port, looked up by its name. */
+typedef enum can_link_state {
+	CAN_LINK_UP = 0,   /* up and running */
+	CAN_LINK_DOWN,     /* there, but down or without carrier */
+	CAN_LINK_GONE,     /* no interface of that name */
+	CAN_LINK_REPLACED, /* one of that name, but not the one the socket is
+	                    * bound to (deleted and created again): reopen */
+} can_link_state;
+/* Two ioctls on the port's socket; no blocking. */
+can_link_state can_port_link_state(const can_port *p);
+/* The errno (ENETDOWN, ENODEV, ENXIO) a send met since the last call, or
+ * 0: a send takes the socket's pending error, which a receive would
+ * otherwise have reported. */
+int can_port_take_link_error(can_port *p);
+/* A new socket on the interface of the port's name (after it was deleted
+ * and created again), with the same options and receive filter; the old
+ * one is closed, so the caller registers can_port_fd() again wherever it
+ * watched the old one. Frames still queued for the old interface are
+ * dropped (counted in tx_errors); the bus state starts error-active.
+ * 0, or -errno with *errmsg naming the step (the old socket is kept). */
+int can_port_reopen(can_port *p, uint64_t now_us, const char **errmsg);
 
 /* Stop receiving data frames with these identifiers (id and the EXT flag
  * of each co_frame; RTR frames still come): frames another socket of this

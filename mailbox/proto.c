@@ -599,6 +599,8 @@ static const mbx_cmd_info cmd_table[] = {
 	  check_lss },
 	{ MBX_CMD_LSS_FASTSCAN, W, sizeof(mbx_lss_req), 0, "lss-fastscan", check_lss },
 	{ MBX_CMD_LINE_STATUS, R, 0, 0, "line-status", NULL },
+	{ MBX_CMD_LINE_HEALTH, R, 0, 0, "line-health", NULL },
+	{ MBX_CMD_LINE_HEALTH_RESET, W, 0, 0, "line-health-reset", NULL },
 	{ MBX_CMD_STORE, W, sizeof(mbx_store_req), 0, "store", check_store_req },
 	{ MBX_CMD_RESTORE, W, sizeof(mbx_store_req), 0, "restore", check_store_req },
 	{ MBX_CMD_MGR_STATUS, R, 0, 0, "manager-status", NULL },

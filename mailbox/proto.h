@@ -34,6 +34,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "mailbox/proto_health.h"
+
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
 #error "mailbox payload structs assume a little-endian host (see proto.h)"
 #endif
@@ -206,7 +208,9 @@ typedef enum mbx_cmd {
 	MBX_CMD_LSS_IDENTIFY_NONCONF = 0x0709, /* -> found */
 	MBX_CMD_LSS_FASTSCAN = 0x070A,         /* timeout_ms -> id[4] */
 	/* 0x08xx line status and statistics */
-	MBX_CMD_LINE_STATUS = 0x0801, /* R - -> mbx_line_status */
+	MBX_CMD_LINE_STATUS = 0x0801,       /* R - -> mbx_line_status */
+	MBX_CMD_LINE_HEALTH = 0x0802,       /* R - -> mbx_line_health */
+	MBX_CMD_LINE_HEALTH_RESET = 0x0803, /* W -: zero its counters */
 	/* 0x09xx store / restore (1010h / 1011h of the line's OD) */
 	MBX_CMD_STORE = 0x0901,   /* W mbx_store_req */
 	MBX_CMD_RESTORE = 0x0902, /* W mbx_store_req */
@@ -300,6 +304,7 @@ typedef enum mbx_event {
 	MBX_EV_EMCY = 0x0501,       /* EMCY mbx_ev_emcy */
 	MBX_EV_RAW = 0x0601,        /* RAW mbx_ev_raw */
 	MBX_EV_CAN_STATE = 0x0801,  /* CAN mbx_ev_can_state */
+	MBX_EV_COMM_FAULT = 0x0802, /* CAN mbx_ev_comm_fault (proto_health.h) */
 	MBX_EV_MGR_STATE = 0x0A01,  /* MANAGER mbx_ev_mgr: line state/flags */
 	MBX_EV_MGR_BOOT = 0x0A02,   /* BOOT mbx_ev_mgr: one boot step of a node */
 	MBX_EV_MGR_NODE = 0x0A03,   /* MANAGER mbx_ev_mgr: a node event */

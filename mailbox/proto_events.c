@@ -63,6 +63,7 @@ static const struct event_kind event_kinds[] = {
 	{ MBX_EV_EMCY, MBX_EVC_EMCY, "emcy", sizeof(mbx_ev_emcy), NULL },
 	{ MBX_EV_RAW, MBX_EVC_RAW, "raw", sizeof(mbx_ev_raw), NULL },
 	{ MBX_EV_CAN_STATE, MBX_EVC_CAN, "can-state", sizeof(mbx_ev_can_state), NULL },
+	{ MBX_EV_COMM_FAULT, MBX_EVC_CAN, "comm-fault", sizeof(mbx_ev_comm_fault), NULL },
 	{ MBX_EV_MGR_STATE, MBX_EVC_MANAGER, "manager-state", sizeof(mbx_ev_mgr), NULL },
 	{ MBX_EV_MGR_BOOT, MBX_EVC_BOOT, "manager-boot", sizeof(mbx_ev_mgr), NULL },
 	{ MBX_EV_MGR_NODE, MBX_EVC_MANAGER, "manager-node", sizeof(mbx_ev_mgr), NULL },

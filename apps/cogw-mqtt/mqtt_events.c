@@ -280,6 +280,23 @@ static void on_mgr_node(bridge *b, unsigned line, const mbx_ev_mgr *e)
 	link_publish_json(b, t, o, false, NULL);
 }
 
+/* A bus health episode began or ended: retained per fault, so a dashboard
+ * that connects later sees which faults run now. */
+static void on_comm_fault(bridge *b, unsigned line, const mbx_ev_comm_fault *e)
+{
+	cJSON *o = head(b, line, -1);
+	char t[TOPIC_MAX], leaf[40];
+
+	cJSON_AddStringToObject(o, "fault", mbx_fault_to_string(e->fault));
+	cJSON_AddBoolToObject(o, "active", e->active);
+	cJSON_AddStringToObject(o, "can_state", mbx_can_state_to_string(e->can_state));
+	cJSON_AddNumberToObject(o, "episodes", e->episodes);
+	cJSON_AddNumberToObject(o, "occurrences", e->occurrences);
+	snprintf(leaf, sizeof leaf, "health/%s", mbx_fault_to_string(e->fault));
+	net_topic(b, line, leaf, t, sizeof t);
+	link_publish_json(b, t, o, true, NULL);
+}
+
 static void on_node_event(bridge *b, unsigned line, uint16_t code, const mbx_ev_node *e)
 {
 	node_state *ns = node_of(b, line, e->node);
@@ -365,6 +382,14 @@ void events_on_event(bridge *b, const cogw_msg *m)
 	case MBX_EV_DEV_VALUE:
 		mqtt_watch_on_value(b, m);
 		break;
+	case MBX_EV_COMM_FAULT: {
+		mbx_ev_comm_fault e;
+
+		memcpy(&e, m->data, sizeof e);
+		if (b->cfg.pub_manager && e.fault < MBX_FAULT_COUNT)
+			on_comm_fault(b, line, &e);
+		break;
+	}
 	case MBX_EV_MGR_BOOT:
 	case MBX_EV_MGR_STATE:
 	case MBX_EV_MGR_NODE:
@@ -588,6 +613,8 @@ void events_service(bridge *b)
 
 	if (b->cfg.pub_manager || b->cfg.pub_boot)
 		classes |= MBX_EVC_MANAGER;
+	if (b->cfg.pub_manager)
+		classes |= MBX_EVC_CAN; /* bus health episodes */
 	if (now >= b->next_subscribe_ms) {
 		bool all = true;
 

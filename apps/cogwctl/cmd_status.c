@@ -9,6 +9,7 @@
 
 #include "apps/cogwctl/ctl.h"
 #include "core/nmt.h"
+#include "mailbox/cogw_health.h"
 
 static const char *nmt_text(uint8_t s)
 {
@@ -30,6 +31,8 @@ typedef struct line_report {
 	mbx_stats_wire ms;
 	mbx_gw_status gw;
 	bool has_gw;
+	mbx_line_health health;
+	bool has_health;
 } line_report;
 
 static int fetch_line(ctl *c, cogw *h, unsigned line, line_report *r)
@@ -50,6 +53,8 @@ static int fetch_line(ctl *c, cogw *h, unsigned line, line_report *r)
 	/* The gateway's traffic through this line (a daemon without the
 	 * gateway answers "unknown command": then there is none to show). */
 	r->has_gw = cogw_gw_routes(h, line, &r->gw, NULL, 0, NULL, c->timeout_ms) == 0;
+	/* an older daemon has no bus health to show */
+	r->has_health = cogw_line_health(h, line, &r->health, c->timeout_ms) == 0;
 	return 0;
 }
 
@@ -113,6 +118,8 @@ static void status_json(const line_report *r, cJSON *arr)
 	mailbox_counters_json(cJSON_AddObjectToObject(o, "mailbox"), &r->ms);
 	if (r->has_gw)
 		ctl_gw_counters_json(cJSON_AddObjectToObject(o, "gateway"), &r->gw);
+	if (r->has_health)
+		ctl_health_json(cJSON_AddObjectToObject(o, "health"), &r->health);
 	cJSON *na = cJSON_AddArrayToObject(o, "nodes");
 	for (int i = 0; i < r->n_nodes; i++)
 		cJSON_AddItemToArray(na, node_json(&r->nodes[i]));
@@ -168,6 +175,8 @@ static void node_text(const mbx_node_entry *nd)
 static void status_text(const line_report *r)
 {
 	line_text(r->line, &r->st);
+	if (r->has_health)
+		ctl_health_summary_text(&r->health);
 	mailbox_text(&r->ms);
 	if (r->has_gw) {
 		printf("  gateway: network %u, %u routed session%s running, %u client%s lent\n",
@@ -207,41 +216,7 @@ static int run(ctl *c, int argc, char **argv)
 		return rc;
 	if (c->help)
 		return ctl_print_help(&ctl_cmd_status);
-	unsigned lines[MBX_LINES_MAX];
-	int n_lines = n_pos;
-	for (int i = 0; i < n_pos; i++)
-		if (ctl_arg_line(c, pos[i], &lines[i]) < 0)
-			return CTL_EXIT_USAGE;
-	if (n_lines == 0) {
-		int n = ctl_count_lines(c);
-		if (n < 0)
-			return -n;
-		for (int i = 0; i < n; i++)
-			lines[i] = (unsigned)i;
-		n_lines = n;
-	}
-	int ex = 0;
-	cogw *h = ctl_handle(c, &ex);
-	if (!h)
-		return ex;
-	cJSON *arr = c->json ? cJSON_CreateArray() : NULL;
-	for (int i = 0; i < n_lines; i++) {
-		if (i && !c->json)
-			printf("\n");
-		rc = status_line(c, h, lines[i], arr);
-		if (rc) {
-			cJSON_Delete(arr);
-			return rc;
-		}
-	}
-	if (c->json) {
-		cJSON *o = cJSON_CreateObject();
-		cJSON_AddBoolToObject(o, "ok", true);
-		cJSON_AddStringToObject(o, "instance", c->instance);
-		cJSON_AddItemToObject(o, "lines", arr);
-		ctl_json_print(o);
-	}
-	return 0;
+	return ctl_each_line(c, pos, n_pos, status_line);
 }
 
 const ctl_cmd ctl_cmd_status = {
@@ -255,7 +230,9 @@ const ctl_cmd ctl_cmd_status = {
 		"dropped on receive, failed to send, error frames, bus-off events) and mailbox\n"
 		"counters (clients, commands, malformed, denied, events sent, dropped), the "
 		"gateway's\n"
-		"traffic through the line (routed SDO, PDO forwarding, EMCY routing). Then the\n"
+		"traffic through the line (routed SDO, PDO forwarding, EMCY routing), the bus\n"
+		"health (fault episodes running and counted; cogwctl health for the details). "
+		"Then the\n"
 		"node table: every node the line has heard or supervises, with its NMT state\n"
 		"(from its last heartbeat or boot-up), heartbeat supervision (active, LOST, not\n"
 		"monitored), whether its boot-up was seen and whether it reported an EMCY error.\n"

@@ -410,6 +410,26 @@ static void print_can_state(const cogw_msg *m, const ctl_monitor_spec *spec, eve
 	cJSON_AddStringToObject(out->o, "prev", mbx_can_state_to_string(e.prev));
 }
 
+static void print_comm_fault(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_comm_fault e;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len, "%s %s (CAN %s, episode %u, %u occurrences)",
+		 mbx_fault_to_string(e.fault), e.active ? "begins" : "is over",
+		 mbx_can_state_to_string(e.can_state), e.episodes, e.occurrences);
+	if (!out->o)
+		return;
+	cJSON_AddStringToObject(out->o, "fault", mbx_fault_to_string(e.fault));
+	cJSON_AddBoolToObject(out->o, "active", e.active);
+	cJSON_AddStringToObject(out->o, "can_state", mbx_can_state_to_string(e.can_state));
+	cJSON_AddNumberToObject(out->o, "episodes", e.episodes);
+	cJSON_AddNumberToObject(out->o, "occurrences", e.occurrences);
+	if (e.fault == MBX_FAULT_ID_COLLISION)
+		cJSON_AddNumberToObject(out->o, "state_heard", e.info);
+}
+
 static void print_raw(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
 {
 	mbx_ev_raw e;
@@ -605,6 +625,7 @@ static const struct {
 	{ MBX_EV_MGR_BOOT, print_mgr_boot },
 	{ MBX_EV_MGR_NODE, print_mgr_node },
 	{ MBX_EV_CAN_STATE, print_can_state },
+	{ MBX_EV_COMM_FAULT, print_comm_fault },
 	{ MBX_EV_RAW, print_raw },
 	{ MBX_EV_OD_WRITTEN, print_od_written },
 	{ MBX_EV_RPDO_FAULT, print_rpdo_fault },

@@ -750,3 +750,42 @@ int ctl_print_help(const ctl_cmd *cmd)
 	      stdout);
 	return CTL_EXIT_OK;
 }
+
+int ctl_each_line(ctl *c, const char *const *pos, int n_pos,
+		  int (*one)(ctl *c, cogw *h, unsigned line, cJSON *arr))
+{
+	unsigned lines[MBX_LINES_MAX];
+	int n_lines = n_pos, ex = 0, rc;
+	for (int i = 0; i < n_pos; i++)
+		if (ctl_arg_line(c, pos[i], &lines[i]) < 0)
+			return CTL_EXIT_USAGE;
+	if (n_lines == 0) {
+		int n = ctl_count_lines(c);
+		if (n < 0)
+			return -n;
+		for (int i = 0; i < n; i++)
+			lines[i] = (unsigned)i;
+		n_lines = n;
+	}
+	cogw *h = ctl_handle(c, &ex);
+	if (!h)
+		return ex;
+	cJSON *arr = c->json ? cJSON_CreateArray() : NULL;
+	for (int i = 0; i < n_lines; i++) {
+		if (i && !c->json)
+			printf("\n");
+		rc = one(c, h, lines[i], arr);
+		if (rc) {
+			cJSON_Delete(arr);
+			return rc;
+		}
+	}
+	if (c->json) {
+		cJSON *o = cJSON_CreateObject();
+		cJSON_AddBoolToObject(o, "ok", true);
+		cJSON_AddStringToObject(o, "instance", c->instance);
+		cJSON_AddItemToObject(o, "lines", arr);
+		ctl_json_print(o);
+	}
+	return 0;
+}

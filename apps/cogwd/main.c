@@ -159,6 +159,8 @@ static int create_lines(daemon_state *d)
 			.name = lc->name,
 			.network_id = lc->network_id,
 			.time_period_ms = lc->time_period_ms,
+			.id_conflict_quiet_ms = lc->id_conflict_quiet_ms,
+			.fault_quiet_ms = lc->fault_quiet_ms,
 			.can = { .ifname = lc->interface, .bitrate = lc->bitrate },
 			.node = {
 				.node_id = lc->node_id,

@@ -132,6 +132,10 @@ typedef struct cogw_line_config {
 	uint32_t time_period_ms;                              /* TIME producer period, 0 = none */
 	cogw_hb_consumer hb_consumers[COGW_HB_CONSUMERS_MAX]; /* 1016h */
 	size_t n_hb_consumers;
+	/* bus health (docs/troubleshooting.md): an episode is over after this
+	 * silence, a node-ID conflict / lost frames */
+	uint32_t id_conflict_quiet_ms;
+	uint32_t fault_quiet_ms;
 	/* The line's object dictionary: the standard communication objects
 	 * for node_id, then "objects" (manufacturer/profile additions), then
 	 * "values" (initial values of any object). Owned by the config. */

@@ -38,6 +38,7 @@ static const char *const line_keys[] = { "name",           "interface",
 					 "values",         "nodes",
 					 "manager",        "pdo",
 					 "pdo_scan_max",   "device_objects",
+					 "fault_quiet_ms", "id_conflict_quiet_ms",
 					 "comment",        NULL };
 
 static const char *const rt_keys[] = { "priority", "cpu", "comment", NULL };
@@ -274,6 +275,8 @@ static void line_defaults(cogw_line_config *l, size_t idx)
 	l->heartbeat_ms = 1000;
 	l->pdo = COGW_PDO_OFF;
 	l->pdo_scan_max = COGW_PDO_SCAN_MAX_DEFAULT;
+	l->id_conflict_quiet_ms = 5000;
+	l->fault_quiet_ms = 1000;
 	l->device_objects = (cogw_devobj_config){ .read_max_age_ms = 1000,
 						  .write_update_ms = 10,
 						  .watches = 64 };
@@ -447,6 +450,10 @@ static int parse_line_numbers(struct ctx *c, const cJSON *o, const char *path, c
 			      &l->sync_period_us)) ||
 	    (rc = cfg_opt_u32(c, o, "time_period_ms", path, (cfg_range){ 0, 86400000 },
 			      &l->time_period_ms)) ||
+	    (rc = cfg_opt_u32(c, o, "id_conflict_quiet_ms", path, (cfg_range){ 100, 3600000 },
+			      &l->id_conflict_quiet_ms)) ||
+	    (rc = cfg_opt_u32(c, o, "fault_quiet_ms", path, (cfg_range){ 100, 3600000 },
+			      &l->fault_quiet_ms)) ||
 	    (rc = cfg_opt_u16(c, o, "rpdos", path, (cfg_range){ 0, 512 }, &so->rpdos)) ||
 	    (rc = cfg_opt_u16(c, o, "tpdos", path, (cfg_range){ 0, 512 }, &so->tpdos)) ||
 	    (rc = cfg_opt_u16(c, o, "pdo_scan_max", path, (cfg_range){ 1, CO_PDO_MAX },

@@ -157,6 +157,8 @@ static void line_diff(const cogw_line_config *x, const cogw_line_config *y, size
 	LDIFF(x->sdo_block_threshold != y->sdo_block_threshold, "sdo_block_threshold");
 	LDIFF(x->sync_period_us != y->sync_period_us, "sync_period_us");
 	LDIFF(x->time_period_ms != y->time_period_ms, "time_period_ms");
+	LDIFF(x->id_conflict_quiet_ms != y->id_conflict_quiet_ms, "id_conflict_quiet_ms");
+	LDIFF(x->fault_quiet_ms != y->fault_quiet_ms, "fault_quiet_ms");
 	/* The OD follows from the keys above: name it only when they do not
 	 * explain the difference. */
 	LDIFF(!d->changed && x->od && y->od && !od_same(x->od, y->od), "objects/values");

@@ -27,6 +27,9 @@ vcan0. It catches bugs that cosim, which runs our own core, would mirror.
     own mailbox event; SYNCs from python-canopen; a mailbox subscriber
     (cogwctl monitor --json) gets the pdo-fault, time and sync events and
     cogwctl diag lists the open episode;
+  - a stray heartbeat on cogwd's own node-ID (77F#05) from python-canopen:
+    EMCY 8150h once, decoded by python-canopen, the error reset after the
+    quiet time, the comm-fault events and the health counters;
   - LSS: Fastscan of an unconfigured cosim node, node-ID assignment, boot
     with the new id;
   - the PDO layout cogwd's manager learns by SDO during the boot of a
@@ -91,6 +94,7 @@ IFACE = "vcan0"
 OUR_ID = 127       # cogwd's node on line 0
 OUR_RPDO1 = 0x200 + OUR_ID  # cogwd's RPDO 1 (predefined connection set)
 TIME_PERIOD_MS = 500
+ID_CONFLICT_QUIET_MS = 1000
 DEV_ID = 1         # cosim device with a big DOMAIN, TPDOs, EMCY
 LSS_SERIAL = 777001
 INSTANCE = "interop"
@@ -232,6 +236,7 @@ CONFIG = {
         "heartbeat_ms": 200,
         "sdo_timeout_ms": int(SDO_TIMEOUT_S * 1000),
         "time_period_ms": TIME_PERIOD_MS,
+        "id_conflict_quiet_ms": ID_CONFLICT_QUIET_MS,
         "rpdos": 1,
         "objects": [
             {"index": "0x2000", "name": "big domain", "type": "DOMAIN", "access": "rw",
@@ -947,6 +952,41 @@ def test_rpdo_supervision_emcys_and_events():
             ("rpdo-recovered", 1, OUR_RPDO1, "deadline missed", 2, 2, None)],
            got, "pdo-fault events")
         eq(300, mon.of("rpdo-fault")[2]["event_ms"], "deadline in the event")
+
+
+def test_stray_heartbeat_on_our_node_id():
+    """python-canopen sends one heartbeat on cogwd's own node-ID (77F#05,
+    a device configured like the gateway): cogwd's EMCY 8150h once
+    (CiA 301 CAN-ID collision, 1001h = 11h, msef[0] = the state heard),
+    decoded by python-canopen's EMCY consumer; the error reset after the
+    quiet time; a comm-fault event at the begin and at the end; the
+    counters in cogwctl health."""
+    ours = remote(OUR_ID)
+    ours.emcy.reset()
+    mon = Monitor("can")
+    try:
+        mark = len(RECORDER.frames)
+        NET.send_message(0x700 + OUR_ID, b"\x05")
+        got = wait_frames(mark, OUR_EMCY, 1)
+        eq(["5081110500000000"], [f.hex() for f in got], "EMCY after 77F#05")
+        e = wait_emcy(ours.emcy, 0x8150)
+        check(e is not None, "python-canopen decoded no EMCY 8150h")
+        eq(0x11, e.register, "error register of EMCY 8150h")
+        got = wait_frames(mark, OUR_EMCY, 2, timeout=ID_CONFLICT_QUIET_MS / 1000 + 3)
+        eq(["5081110500000000", EMCY_RESET.hex()], [f.hex() for f in got],
+           "EMCYs: the collision once, the error reset after the quiet time")
+        check(wait_emcy(ours.emcy, 0x0000) is not None, "python-canopen decoded no reset")
+        mon.wait("2 comm-fault events", lambda: len(mon.of("comm-fault")) >= 2)
+        eq([("id-collision", True, 1, 5), ("id-collision", False, 1, 5)],
+           [(e["fault"], e["active"], e["episodes"], e.get("state_heard"))
+            for e in mon.of("comm-fault")], "comm-fault events")
+        h = json.loads(ctl("--json", "health", "0").stdout)["lines"][0]
+        f = h["faults"]["id-collision"]
+        eq((False, 1, 1, 5), (f["active"], f["episodes"], f["occurrences"], f["state_heard"]),
+           "cogwctl health: id-collision")
+        eq(ID_CONFLICT_QUIET_MS, h["id_conflict_quiet_ms"], "cogwctl health: quiet time")
+    finally:
+        mon.stop()
 
 
 def test_lss_fastscan_and_node_id_assignment():
@@ -1805,6 +1845,8 @@ def main():
                   test_pdo_remapping_over_sdo,
                   test_time_produced_and_sync_events,
                   test_rpdo_supervision_emcys_and_events,
+                  # before the EMCY test: its 8110h stays active
+                  test_stray_heartbeat_on_our_node_id,
                   test_emcy_from_cosim_and_from_cogwd,
                   test_lss_fastscan_and_node_id_assignment,
                   test_pdo_layout_learnt_by_sdo_scan_equals_the_device,

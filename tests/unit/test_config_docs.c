@@ -154,6 +154,8 @@ static int fill_key_defaults(struct key_default *k)
 	KD("`lines[]`", "heartbeat_ms", "%u", l->heartbeat_ms);
 	KD("`lines[]`", "sync_period_us", "%u", l->sync_period_us);
 	KD("`lines[]`", "time_period_ms", "%u", l->time_period_ms);
+	KD("`lines[]`", "id_conflict_quiet_ms", "%u", l->id_conflict_quiet_ms);
+	KD("`lines[]`", "fault_quiet_ms", "%u", l->fault_quiet_ms);
 	KD("`lines[]`", "rpdos", "%u", count_records(l->od, 0x1400));
 	KD("`lines[]`", "tpdos", "%u", count_records(l->od, 0x1800));
 	KD("`lines[]`", "pdo", "%s", l->pdo == 0 ? "off" : "not off");

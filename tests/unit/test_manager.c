@@ -8,6 +8,7 @@
 #include <errno.h>
 #include <string.h>
 
+#include "core/commfault.h"
 #include "core/emcy.h"
 #include "core/heartbeat.h"
 #include "core/nmt.h"
@@ -556,6 +557,39 @@ static void test_own_node_id_is_fatal(void)
 	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
 }
 
+/* The conflict ends by itself: while the other device keeps sending, the
+ * line stays fatal; after the quiet time without its frames the network
+ * is booted again; a later frame is a new episode, reported again. */
+static void test_own_node_id_conflict_recovers_after_silence(void)
+{
+	line_2_3(MASTER);
+	mf_start(&f, NULL);
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	tb_send_hex(&f.bus, 0x701, "05");
+	TEST_ASSERT_EQUAL(CO_MGR_FATAL, mstate());
+	for (unsigned i = 0; i < 8; i++) {
+		tb_advance(&f.bus, 1 * S);
+		tb_send_hex(&f.bus, 0x701, "05");
+	}
+	TEST_ASSERT_EQUAL(CO_MGR_FATAL, mstate());
+	/* the quiet time (5 s) after the last frame, less a little: fatal */
+	tb_advance(&f.bus, CO_COMMFAULT_ID_COLLISION_QUIET_MS * 1000u - 1000u);
+	TEST_ASSERT_EQUAL(CO_MGR_FATAL, mstate());
+	tb_advance(&f.bus, 1000u);
+	TEST_ASSERT_NOT_EQUAL(CO_MGR_FATAL, mstate());
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	TEST_ASSERT_EQUAL_UINT(1, mf_node_count(&f, MF_MANAGER_ID, CO_MGR_NODE_OWN_ID));
+	/* a new episode: fatal and reported again */
+	tb_send_hex(&f.bus, 0x701, "7F");
+	TEST_ASSERT_EQUAL(CO_MGR_FATAL, mstate());
+	TEST_ASSERT_EQUAL_UINT(2, mf_node_count(&f, MF_MANAGER_ID, CO_MGR_NODE_OWN_ID));
+	co_mgr_diag d;
+	co_manager_get_diag(f.mgr, &d);
+	TEST_ASSERT_EQUAL_UINT32(2, d.duplicates);
+}
+
 /* EMCY and SDO answers on the manager's own identities (081h, 581h) are
  * frames anyone can send: reported once per kind, counted each time, and
  * the boot goes on to the end. */
@@ -1082,6 +1116,7 @@ int main(void)
 	RUN_TEST(test_parallel_boot_bounded_by_pool);
 	RUN_TEST(test_unexpected_node_reported_once);
 	RUN_TEST(test_own_node_id_is_fatal);
+	RUN_TEST(test_own_node_id_conflict_recovers_after_silence);
 	RUN_TEST(test_own_id_emcy_and_sdo_answer_reported_boot_goes_on);
 	RUN_TEST(test_own_id_guarding_request_and_malformed_heartbeat_not_fatal);
 	RUN_TEST(test_nmt_to_manager_ignored_and_counted);

@@ -4,6 +4,7 @@
 #include <errno.h>
 #include <string.h>
 
+#include "core/commfault.h"
 #include "core/emcy.h"
 #include "core/heartbeat.h"
 #include "core/nmt.h"
@@ -294,27 +295,30 @@ static void test_error_behaviour_without_1029(void)
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(x.node));
 }
 
-/* Bus-off (faked: the driver shim would call this) -> 1029h; after
- * the recovery EMCY 8140h. */
+/* Bus-off (the line runtime reports it from the driver's error frames,
+ * core/commfault.h) -> 1029h; after the recovery EMCY 8140h, then the
+ * error reset since no error is left. */
 static void test_bus_off(void)
 {
 	ecf_boot(&x, ID);
 	co_nmt_local_cmd(x.node, CO_NMT_CS_START, 0);
 	ecf_clear(&x);
 	x.now = 5000;
-	TEST_ASSERT_EQUAL_INT(0, co_errctrl_bus_off(x.node, x.now));
+	TEST_ASSERT_EQUAL_INT(0, co_commfault_bus_state(x.node, CO_BUS_LEVEL_BUS_OFF, x.now));
 	TEST_ASSERT_EQUAL_UINT8(CO_NMT_PRE_OPERATIONAL, co_nmt_get_state(x.node));
 	TEST_ASSERT_EQUAL_UINT(0, x.n_tx); /* nothing sent while bus-off */
 	x.now = 9000;
-	TEST_ASSERT_EQUAL_INT(0, co_errctrl_bus_off_recovered(x.node, x.now));
-	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
+	TEST_ASSERT_EQUAL_INT(0, co_commfault_bus_state(x.node, CO_BUS_LEVEL_ACTIVE, x.now));
+	TEST_ASSERT_EQUAL_UINT(2, x.n_tx);
 	const uint8_t exp[8] = { 0x40, 0x81, 0x11, 0, 0, 0, 0, 0 };
+	const uint8_t reset[8] = { 0 };
 	TEST_ASSERT_EQUAL_HEX32(0x80 + ID, x.tx[0].id);
 	TEST_ASSERT_EQUAL_UINT8(8, x.tx[0].len);
 	TEST_ASSERT_EQUAL_HEX8_ARRAY(exp, x.tx[0].data, 8);
-	/* A second "recovered" without a bus-off sends nothing. */
-	TEST_ASSERT_EQUAL_INT(0, co_errctrl_bus_off_recovered(x.node, x.now));
-	TEST_ASSERT_EQUAL_UINT(1, x.n_tx);
+	TEST_ASSERT_EQUAL_HEX8_ARRAY(reset, x.tx[1].data, 8);
+	/* A second "active" without a bus-off sends nothing. */
+	TEST_ASSERT_EQUAL_INT(0, co_commfault_bus_state(x.node, CO_BUS_LEVEL_ACTIVE, x.now));
+	TEST_ASSERT_EQUAL_UINT(2, x.n_tx);
 }
 
 static void test_unconfigured_node_stays_initialising(void)
