@@ -34,7 +34,7 @@ static inline const char *mbx_fault_to_string(unsigned fault)
 {
 	static const char *const names[MBX_FAULT_COUNT] = {
 		"id-collision", "warning", "passive",     "bus-off",
-		"rx-overrun",   "tx-lost", "tx-pressure",
+		"rx-overrun",   "tx-lost", "tx-pressure", "link-down",
 	};
 	return fault < MBX_FAULT_COUNT ? names[fault] : "?";
 }

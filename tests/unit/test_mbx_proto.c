@@ -744,6 +744,20 @@ static void test_supervision_sync_time_events(void)
 	TEST_ASSERT_EQUAL_STRING("rpdo-status", mbx_cmd_to_string(MBX_CMD_RPDO_STATUS));
 }
 
+/* Every fault of a line's bus health has its name (cogwctl health, the
+ * MQTT topic health/<fault>): a missing one printed "(null)". */
+static void test_every_fault_has_a_name(void)
+{
+	static const char *const expected[MBX_FAULT_COUNT] = {
+		"id-collision", "warning", "passive",     "bus-off",
+		"rx-overrun",   "tx-lost", "tx-pressure", "link-down",
+	};
+
+	for (unsigned f = 0; f < MBX_FAULT_COUNT; f++)
+		TEST_ASSERT_EQUAL_STRING(expected[f], mbx_fault_to_string(f));
+	TEST_ASSERT_EQUAL_STRING("?", mbx_fault_to_string(MBX_FAULT_COUNT));
+}
+
 static void test_system_limits_message(void)
 {
 	char err[256];
@@ -826,6 +840,7 @@ int main(void)
 	RUN_TEST(test_raw_filter_match);
 	RUN_TEST(test_event_validation);
 	RUN_TEST(test_supervision_sync_time_events);
+	RUN_TEST(test_every_fault_has_a_name);
 	RUN_TEST(test_system_limits_message);
 	return UNITY_END();
 }
