@@ -203,6 +203,37 @@ static void forward_text(const mbx_dev_forward *f, size_t n)
 	}
 }
 
+/* One line's gateway: its status, sessions and device object forwards. */
+static int route_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
+{
+	static mbx_gw_route routes[128];
+	static mbx_gw_session sessions[255];
+	static mbx_dev_forward fwd[64];
+	mbx_gw_status st;
+	size_t n = 0, n_s = 0, n_f = 0;
+	char ctx[48];
+	snprintf(ctx, sizeof ctx, "gateway of line %u", line);
+	int rc = cogw_gw_status(h, line, &st, routes, 128, &n, sessions, 255, &n_s, c->timeout_ms);
+	if (rc < 0)
+		return ctl_fail(c, rc, 0, ctx);
+	if (n > 128)
+		n = 128;
+	if (n_s > 255)
+		n_s = 255;
+	/* a daemon without the device object layer has none to show */
+	if (cogw_dev_forwards(h, line, fwd, 64, &n_f, c->timeout_ms) < 0)
+		n_f = 0;
+	if (c->json) {
+		cJSON *o = line_json(line, &st, routes, n, sessions, n_s);
+		forward_json(o, fwd, n_f);
+		cJSON_AddItemToArray(arr, o);
+	} else {
+		line_text(line, &st, routes, n, sessions, n_s);
+		forward_text(fwd, n_f);
+	}
+	return 0;
+}
+
 static int run(ctl *c, int argc, char **argv)
 {
 	const char *pos[MBX_LINES_MAX];
@@ -212,63 +243,7 @@ static int run(ctl *c, int argc, char **argv)
 		return rc;
 	if (c->help)
 		return ctl_print_help(&ctl_cmd_route);
-	unsigned lines[MBX_LINES_MAX];
-	int n_lines = n_pos;
-	for (int i = 0; i < n_pos; i++)
-		if (ctl_arg_line(c, pos[i], &lines[i]) < 0)
-			return CTL_EXIT_USAGE;
-	if (n_lines == 0) {
-		int n = ctl_count_lines(c);
-		if (n < 0)
-			return -n;
-		for (int i = 0; i < n; i++)
-			lines[i] = (unsigned)i;
-		n_lines = n;
-	}
-	int ex = 0;
-	cogw *h = ctl_handle(c, &ex);
-	if (!h)
-		return ex;
-	cJSON *arr = c->json ? cJSON_CreateArray() : NULL;
-	static mbx_gw_route routes[128];
-	static mbx_gw_session sessions[255];
-	static mbx_dev_forward fwd[64];
-	for (int i = 0; i < n_lines; i++) {
-		mbx_gw_status st;
-		size_t n = 0, n_s = 0, n_f = 0;
-		char ctx[48];
-		snprintf(ctx, sizeof ctx, "gateway of line %u", lines[i]);
-		rc = cogw_gw_status(h, lines[i], &st, routes, 128, &n, sessions, 255, &n_s,
-				    c->timeout_ms);
-		if (rc < 0) {
-			cJSON_Delete(arr);
-			return ctl_fail(c, rc, 0, ctx);
-		}
-		if (n > 128)
-			n = 128;
-		if (n_s > 255)
-			n_s = 255;
-		/* a daemon without the device object layer has none to show */
-		if (cogw_dev_forwards(h, lines[i], fwd, 64, &n_f, c->timeout_ms) < 0)
-			n_f = 0;
-		if (c->json) {
-			cJSON *o = line_json(lines[i], &st, routes, n, sessions, n_s);
-			forward_json(o, fwd, n_f);
-			cJSON_AddItemToArray(arr, o);
-		} else {
-			if (i)
-				printf("\n");
-			line_text(lines[i], &st, routes, n, sessions, n_s);
-			forward_text(fwd, n_f);
-		}
-	}
-	if (c->json) {
-		cJSON *o = cJSON_CreateObject();
-		cJSON_AddBoolToObject(o, "ok", true);
-		cJSON_AddItemToObject(o, "lines", arr);
-		ctl_json_print(o);
-	}
-	return 0;
+	return ctl_each_line(c, pos, n_pos, route_line);
 }
 
 const ctl_cmd ctl_cmd_route = {
