@@ -48,9 +48,8 @@ enum co_appwd_reaction {
 	CO_APPWD_HB_STOP = 1u << 5,
 	CO_APPWD_SAFE_OUTPUTS = 1u << 6,
 };
-#define CO_APPWD_NMT_MASK                                                                      \
-	(CO_APPWD_NMT_PREOP | CO_APPWD_NMT_STOP | CO_APPWD_NMT_RESET_COMM |                    \
-	 CO_APPWD_NMT_RESET_NODE)
+#define CO_APPWD_NMT_MASK \
+	(CO_APPWD_NMT_PREOP | CO_APPWD_NMT_STOP | CO_APPWD_NMT_RESET_COMM | CO_APPWD_NMT_RESET_NODE)
 #define CO_APPWD_ALL 0x7Fu
 
 /* The EMCY of the EMCY reaction (CiA 301 table 21: 6200h user software;
@@ -77,8 +76,8 @@ typedef enum co_appwd_state {
 const char *co_appwd_state_to_string(co_appwd_state s); /* "declared", ... */
 
 typedef struct co_appwd_entry {
-	uint8_t state; /* co_appwd_state */
-	bool gone;     /* the owner left the mailbox (died, lease, unregistered) */
+	uint8_t state;  /* co_appwd_state */
+	bool gone;      /* the owner left the mailbox (died, lease, unregistered) */
 	uint32_t owner; /* the mailbox client id */
 	uint32_t pid;
 	uint32_t interval_ms;
@@ -88,10 +87,10 @@ typedef struct co_appwd_entry {
 } co_appwd_entry;
 
 typedef struct co_appwd_stats {
-	uint64_t declared;   /* declarations accepted (again included) */
-	uint64_t keepalives; /* keep-alives that renewed a deadline */
-	uint64_t refused;    /* declarations refused: full table, bad set */
-	uint64_t trips;      /* deadlines missed */
+	uint64_t declared;        /* declarations accepted (again included) */
+	uint64_t keepalives;      /* keep-alives that renewed a deadline */
+	uint64_t refused;         /* declarations refused: full table, bad set */
+	uint64_t trips;           /* deadlines missed */
 	uint64_t late_keepalives; /* keep-alives of a tripped entry */
 } co_appwd_stats;
 
@@ -159,8 +158,8 @@ size_t co_appwd_safe_outputs_apply(co_node *node, const co_safe_output *outs, si
 
 /* What co_appwd_react left behind, for co_appwd_acknowledge. */
 typedef struct co_appwd_effects {
-	bool emcy;          /* EMCY 6200h raised */
-	bool hb_stopped;    /* 1017h set to 0 */
+	bool emcy;            /* EMCY 6200h raised */
+	bool hb_stopped;      /* 1017h set to 0 */
 	uint16_t hb_saved_ms; /* 1017h before */
 } co_appwd_effects;
 

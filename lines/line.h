@@ -21,12 +21,15 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "core/appwd.h"
 #include "core/co.h"
 #include "lines/line_ext.h"
 #include "lines/socketcan.h"
 #include "mailbox/server.h"
 
 typedef struct line line;
+
+#define LINE_SAFE_OUTPUTS_MAX 32
 
 typedef struct line_params {
 	uint8_t index;              /* line number, as in mailbox messages */
@@ -55,6 +58,13 @@ typedef struct line_params {
 	 * silence; 0 = the default */
 	uint32_t id_conflict_quiet_ms; /* a node-ID collision (5000) */
 	uint32_t fault_quiet_ms;       /* lost frames (1000) */
+	/* the application watchdog and host ready (lines/line_app.c,
+	 * docs/application.md) */
+	co_safe_output safe_outputs[LINE_SAFE_OUTPUTS_MAX];
+	uint8_t n_safe_outputs;
+	uint32_t app_reactions; /* the configured set (core/appwd.h), 0 = none */
+	uint8_t not_ready_cs;   /* the NMT command host not ready sends to all
+	                         * nodes: stop or enter pre-operational (0 = stop) */
 } line_params;
 
 /* Counters published by the line thread about once per second. */

@@ -36,6 +36,13 @@
  *                 (sdo_client_relay_recv).
  *   sdo_route_end that transfer ended (its confirmation, exactly once for
  *                 every sdo_route that returned 0): give the route back.
+ *   nmt_all       a safety reaction of the line (lines/line_app.c: the
+ *                 application watchdog, host not ready) wants every node
+ *                 in the state of NMT command cs: the extension that is
+ *                 the line's NMT master sends it its own way, so that it
+ *                 holds the network there (0), or says it is not the
+ *                 master (-EPERM). nmt_master asks the same without
+ *                 sending anything.
  *   on_wake       wake_fd became readable (the line has read the eventfd
  *                 counter): drain the hand-offs, e.g. xring_pop() until 0.
  *   before_events at the start of every loop iteration, before its
@@ -88,6 +95,8 @@ typedef struct line_ext_ops {
 	uint32_t (*sdo_route)(void *ctx, line *l, uint64_t tag, uint16_t net, uint8_t node,
 			      line_sdo_route *out);
 	void (*sdo_route_end)(void *ctx, line *l, uint64_t tag);
+	int (*nmt_all)(void *ctx, line *l, uint8_t cs, uint64_t now_us);
+	bool (*nmt_master)(void *ctx, line *l);
 } line_ext_ops;
 
 typedef struct line_ext {

@@ -28,6 +28,7 @@
 #include "lines/line_pending.h"
 
 #define LINE_NODES 128
+#define LINE_APP_HOLDERS 8
 
 /* What only the line counts about a remote node; states, supervision and
  * times come from the heartbeat consumer (core/heartbeat.h). */
@@ -132,6 +133,20 @@ struct line {
 	/* the link may have changed: bus state changes, receive errors
 	 * (ENETDOWN when the interface goes down); line_link_events */
 	uint32_t link_events;
+	struct line_app {
+		co_appwd wd;
+		co_appwd_effects fx;                /* what trips left behind */
+		uint32_t holders[LINE_APP_HOLDERS]; /* clients holding OPERATIONAL */
+		uint8_t n_holders;
+		bool start_deferred; /* a start was refused: applied at the release */
+		bool host_not_ready;
+		bool not_ready_nmt; /* host not ready stopped the network */
+		uint64_t not_ready_episodes, starts_refused;
+		struct {
+			uint32_t client, pid, done, late_us;
+			uint64_t at_us;
+		} last; /* the last trip */
+	} app;          /* line_app.c */
 	line_store_req store;
 	line_access_req access;
 	unsigned ext_attached; /* p.ext[0..ext_attached) attached */
@@ -238,6 +253,18 @@ void line_rpdo_status(line *l, const mbx_request *req);
 /* line_time.c: produce the TIME that is due; the next one's time
  * (UINT64_MAX: the line produces none). */
 uint64_t line_time_poll(line *l);
+
+/* line_app.c: the application watchdog, the hold on OPERATIONAL, host
+ * ready (MBX_CMD_APP_*, MBX_CMD_HOST_READY) */
+void line_app_attach(line *l); /* after the node exists */
+void line_app_command(line *l, const mbx_request *req);
+void line_app_client_gone(line *l, uint32_t client);
+void line_app_on_nmt(line *l, const co_ev_nmt *ev);
+/* Trip what is due; the next deadline (CO_NO_DEADLINE: none). */
+uint64_t line_app_poll(line *l);
+/* While the host is not ready: does this request reach the line's nodes
+ * (or its safe outputs), refused with MBX_E_STATE? */
+bool line_app_refuses(const line *l, const mbx_request *req);
 
 /* line_store.c */
 int line_store_attach(line *l);

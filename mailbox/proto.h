@@ -34,6 +34,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "mailbox/proto_app.h"
 #include "mailbox/proto_health.h"
 
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
@@ -236,6 +237,13 @@ typedef enum mbx_cmd {
 	MBX_CMD_DEV_WRITE = 0x0C05,    /* W mbx_dev_obj_req + data -> mbx_dev_write_resp */
 	MBX_CMD_DEV_FORWARDS = 0x0C06, /* R - -> mbx_dev_forward[n]: this line's ends of
 	                                * gateway.forward with their counters */
+	/* 0x10xx the application watchdog, the hold on OPERATIONAL, host ready
+	 * (mailbox/proto_app.h, docs/application.md) */
+	MBX_CMD_APP_WATCHDOG = 0x1001,  /* W mbx_app_wd_req -> mbx_app_wd_resp */
+	MBX_CMD_APP_KEEPALIVE = 0x1002, /* W - -> -: NOT_FOUND undeclared, STATE tripped */
+	MBX_CMD_APP_HOLD = 0x1003,      /* W mbx_app_hold_req -> mbx_app_nmt */
+	MBX_CMD_HOST_READY = 0x1004,    /* W mbx_host_ready_req -> - */
+	MBX_CMD_APP_STATUS = 0x1005,    /* R - -> mbx_app_status + mbx_app_wd_entry[n] */
 } mbx_cmd;
 
 const char *mbx_cmd_to_string(unsigned code); /* "?" if unknown */
@@ -285,8 +293,10 @@ enum mbx_event_class {
 	MBX_EVC_PDO_FAULT = 1u << 13, /* RPDO supervision: deadline, length */
 	MBX_EVC_VALUE = 1u << 14,     /* typed values of watched device objects; only
 	                               * the objects the client watches (DEV_WATCH) */
+	MBX_EVC_APP = 1u << 16,       /* application watchdog trips, the own node's NMT
+	                         * states and refused starts, host ready */
 };
-#define MBX_EVC_ALL 0x00007FFFu
+#define MBX_EVC_ALL 0x00017FFFu
 
 /* Name of a single class bit ("nmt", "hb", ...); "?" otherwise. */
 const char *mbx_event_class_to_string(uint32_t cls);
@@ -322,6 +332,10 @@ typedef enum mbx_event {
 	                                 * new value, to its watchers only */
 	MBX_EV_DEV_MIRROR = 0x0E02,     /* MANAGER mbx_ev_dev_mirror: a node's mirror
 	                                 * PDOs were programmed or released */
+	MBX_EV_APP_WD_TIMEOUT = 0x1001, /* APP mbx_ev_app_wd: an essential client missed
+	                                 * its keep-alive deadline */
+	MBX_EV_APP_NMT = 0x1002,        /* APP mbx_app_nmt: own NMT state, refused start */
+	MBX_EV_HOST_STATE = 0x1003,     /* APP mbx_ev_host: host ready / not ready */
 } mbx_event;
 
 const char *mbx_event_to_string(unsigned code); /* "?" if unknown */

@@ -73,6 +73,9 @@ static const struct event_kind event_kinds[] = {
 	{ MBX_EV_TIME, MBX_EVC_TIME, "time", sizeof(mbx_ev_time), NULL },
 	{ MBX_EV_DEV_VALUE, MBX_EVC_VALUE, "dev-value", 0, dev_value_ok },
 	{ MBX_EV_DEV_MIRROR, MBX_EVC_MANAGER, "dev-mirror", sizeof(mbx_ev_dev_mirror), NULL },
+	{ MBX_EV_APP_WD_TIMEOUT, MBX_EVC_APP, "app-watchdog-timeout", sizeof(mbx_ev_app_wd), NULL },
+	{ MBX_EV_APP_NMT, MBX_EVC_APP, "app-nmt", sizeof(mbx_app_nmt), NULL },
+	{ MBX_EV_HOST_STATE, MBX_EVC_APP, "host-state", sizeof(mbx_ev_host), NULL },
 };
 
 static const struct event_kind *event_kind_of(unsigned code)
@@ -121,10 +124,11 @@ const char *mbx_event_class_to_string(uint32_t cls)
 {
 	/* by bit number */
 	static const char *const names[32] = {
-		[0] = "nmt",   [1] = "hb",         [2] = "boot",     [3] = "emcy",
-		[4] = "pdo",   [5] = "sdo",        [6] = "can",      [7] = "raw",
-		[8] = "od",    [9] = "manager",    [10] = "gateway", [11] = "sync",
-		[12] = "time", [13] = "pdo-fault", [14] = "value",   [31] = "overflow",
+		[0] = "nmt",       [1] = "hb",         [2] = "boot",     [3] = "emcy",
+		[4] = "pdo",       [5] = "sdo",        [6] = "can",      [7] = "raw",
+		[8] = "od",        [9] = "manager",    [10] = "gateway", [11] = "sync",
+		[12] = "time",     [13] = "pdo-fault", [14] = "value",   [16] = "app",
+		[31] = "overflow",
 	};
 	unsigned bit = 0;
 

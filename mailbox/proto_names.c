@@ -7,6 +7,8 @@
 #include "mailbox/proto.h"
 
 #include <errno.h>
+#include <stdio.h>
+#include <string.h>
 
 /* ---- names --------------------------------------------------------------- */
 
@@ -156,4 +158,70 @@ const char *mbx_can_state_to_string(unsigned s)
 		return "stopped";
 	}
 	return "?";
+}
+
+/* ---- application watchdog reactions (mailbox/proto_app.h) ---------------- */
+
+static const char *const app_reaction_names[] = {
+	"emcy",           "nmt-preop", "nmt-stop",     "nmt-reset-comm",
+	"nmt-reset-node", "hb-stop",   "safe-outputs",
+};
+#define APP_REACTIONS (sizeof app_reaction_names / sizeof app_reaction_names[0])
+
+const char *mbx_app_reaction_to_string(uint32_t bit)
+{
+	for (unsigned i = 0; i < APP_REACTIONS; i++)
+		if (bit == 1u << i)
+			return app_reaction_names[i];
+	return "?";
+}
+
+int mbx_app_reactions_format(uint32_t set, char *buf, size_t cap)
+{
+	int n = 0;
+
+	if (cap)
+		buf[0] = '\0';
+	if (!(set & MBX_APP_R_ALL))
+		return snprintf(buf, cap, "none");
+	for (unsigned i = 0; i < APP_REACTIONS; i++) {
+		if (!(set & (1u << i)))
+			continue;
+		int w = snprintf(buf + ((size_t)n < cap ? (size_t)n : cap),
+				 (size_t)n < cap ? cap - (size_t)n : 0, "%s%s", n ? "," : "",
+				 app_reaction_names[i]);
+		n += w > 0 ? w : 0;
+	}
+	return n;
+}
+
+static int app_reaction_bit(const char *name, size_t len, uint32_t *bit)
+{
+	for (unsigned i = 0; i < APP_REACTIONS; i++)
+		if (strlen(app_reaction_names[i]) == len &&
+		    !memcmp(app_reaction_names[i], name, len)) {
+			*bit = 1u << i;
+			return 0;
+		}
+	return -1;
+}
+
+int mbx_app_reactions_parse(const char *text, uint32_t *set)
+{
+	uint32_t acc = 0, bit;
+	const char *p = text;
+
+	if (!text || !*text)
+		return -1;
+	for (;;) {
+		size_t len = strcspn(p, ",");
+		if (!len || app_reaction_bit(p, len, &bit) < 0)
+			return -1;
+		acc |= bit;
+		if (!p[len])
+			break;
+		p += len + 1;
+	}
+	*set = acc;
+	return 0;
 }

@@ -12,6 +12,7 @@
 
 #include "core/cfgmgr.h"
 #include "core/manager.h"
+#include "core/nmt.h"
 #include "core/pdo_scan.h"
 #include "core/sdo.h"
 #include "core/swmgr.h"
@@ -589,6 +590,47 @@ static void mgr_on_command(void *ctx, line *l, const mbx_request *req)
 	(void)mbx_server_respond(srv, &req->reply, mbx_status_of_errno(rc), 0, NULL, 0);
 }
 
+static bool mgr_nmt_master(void *ctx, line *l)
+{
+	struct mgr_line *ml = ctx;
+
+	(void)l;
+	return co_manager_state(ml->mgr) != CO_MGR_SLAVE;
+}
+
+/* A safety reaction of the line (lines/line_app.c) as the 1F82h request
+ * of all nodes: the manager then holds the network in that state (a stop
+ * or pre-operational is not undone by the boot of a late node; a reset
+ * boots the network again) until it is asked to start it. */
+static int mgr_nmt_all(void *ctx, line *l, uint8_t cs, uint64_t now_us)
+{
+	struct mgr_line *ml = ctx;
+	uint8_t cmd;
+
+	switch (cs) {
+	case CO_NMT_CS_START:
+		cmd = CO_MGR_REQ_START;
+		break;
+	case CO_NMT_CS_STOP:
+		cmd = CO_MGR_REQ_STOP;
+		break;
+	case CO_NMT_CS_ENTER_PREOP:
+		cmd = CO_MGR_REQ_PREOP;
+		break;
+	case CO_NMT_CS_RESET_COMM:
+		cmd = CO_MGR_REQ_RESET_COMM;
+		break;
+	case CO_NMT_CS_RESET_NODE:
+		cmd = CO_MGR_REQ_RESET_NODE;
+		break;
+	default:
+		return -EINVAL;
+	}
+	if (!mgr_nmt_master(ctx, l))
+		return -EPERM;
+	return co_manager_request_nmt(ml->mgr, CO_MGR_ALL_NODES, cmd, now_us);
+}
+
 static const line_ext_ops mgr_ops = {
 	.name = "manager",
 	.attach = mgr_attach,
@@ -598,6 +640,8 @@ static const line_ext_ops mgr_ops = {
 	.cmd_last = MBX_CMD_MGR_PROGRAM,
 	.on_command = mgr_on_command,
 	.poll = mgr_poll,
+	.nmt_all = mgr_nmt_all,
+	.nmt_master = mgr_nmt_master,
 };
 
 void mgr_ext_destroy(mgr_ext *x)

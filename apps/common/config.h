@@ -18,6 +18,7 @@
 
 #include "apps/common/eds_pdo.h"
 #include "apps/common/node_config.h"
+#include "core/appwd.h"
 #include "core/od.h"
 
 #define COGW_LINES_MAX 16
@@ -115,6 +116,17 @@ typedef struct cogw_devobj_config {
 	uint16_t watches;         /* watch table of the line */
 } cogw_devobj_config;
 
+/* "application" of a line: the application watchdog's configured reactions,
+ * host not ready's NMT action, the safe outputs (docs/config.md,
+ * docs/application.md). */
+#define COGW_SAFE_OUTPUTS_MAX 32u
+typedef struct cogw_app_config {
+	uint32_t reactions;   /* "watchdog_reactions" (core/appwd.h bits), 0 = none */
+	uint8_t not_ready_cs; /* "not_ready_nmt": CO_NMT_CS_STOP / _ENTER_PREOP */
+	uint8_t n_safe_outputs;
+	co_safe_output safe_outputs[COGW_SAFE_OUTPUTS_MAX];
+} cogw_app_config;
+
 typedef struct cogw_line_config {
 	char name[COGW_NAME_MAX];      /* "line0" (default "line<N>") */
 	char interface[COGW_NAME_MAX]; /* "vcan0" (IFNAMSIZ-1 chars max) */
@@ -146,6 +158,7 @@ typedef struct cogw_line_config {
 	uint8_t pdo;                       /* cogw_pdo_mode, the nodes' default */
 	uint16_t pdo_scan_max;             /* PDOs per direction scanned and kept, 1..512 */
 	cogw_devobj_config device_objects; /* "device_objects" */
+	cogw_app_config app;               /* "application" */
 } cogw_line_config;
 
 typedef struct cogw_mailbox_config {

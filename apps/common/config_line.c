@@ -22,24 +22,40 @@
 #include "apps/common/json_util.h"
 #include "apps/common/pdo_config.h"
 #include "core/cfgmgr.h"
+#include "core/nmt.h"
 #include "core/od_std.h"
 
 #define IFNAME_MAX 15u /* IFNAMSIZ - 1 */
 
-static const char *const line_keys[] = { "name",           "interface",
-					 "bitrate",        "node_id",
-					 "network_id",     "rt",
-					 "sdo_servers",    "sdo_clients",
-					 "sdo_timeout_ms", "sdo_block_threshold",
-					 "heartbeat_ms",   "sync_period_us",
-					 "time_period_ms", "heartbeat_consumers",
-					 "device",         "rpdos",
-					 "tpdos",          "objects",
-					 "values",         "nodes",
-					 "manager",        "pdo",
-					 "pdo_scan_max",   "device_objects",
-					 "fault_quiet_ms", "id_conflict_quiet_ms",
-					 "comment",        NULL };
+static const char *const line_keys[] = { "name",
+					 "interface",
+					 "bitrate",
+					 "node_id",
+					 "network_id",
+					 "rt",
+					 "sdo_servers",
+					 "sdo_clients",
+					 "sdo_timeout_ms",
+					 "sdo_block_threshold",
+					 "heartbeat_ms",
+					 "sync_period_us",
+					 "time_period_ms",
+					 "heartbeat_consumers",
+					 "device",
+					 "rpdos",
+					 "tpdos",
+					 "objects",
+					 "values",
+					 "nodes",
+					 "manager",
+					 "pdo",
+					 "pdo_scan_max",
+					 "device_objects",
+					 "fault_quiet_ms",
+					 "id_conflict_quiet_ms",
+					 "application",
+					 "comment",
+					 NULL };
 
 static const char *const rt_keys[] = { "priority", "cpu", "comment", NULL };
 
@@ -495,7 +511,15 @@ int cfg_parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_config *
 	so->sdo_servers = l->sdo_servers;
 	so->sdo_clients = l->sdo_clients;
 	so->gateway = true;
-	return build_od(c, o, path, l, so);
+	if ((rc = build_od(c, o, path, l, so)))
+		return rc;
+	l->app.not_ready_cs = CO_NMT_CS_STOP;
+	const cJSON *app = json_util_get(o, "application");
+	if (!app)
+		return 0;
+	char p[JSON_PATH_MAX];
+	json_util_path_key(p, sizeof(p), path, "application");
+	return cfg_parse_application(c, app, p, l);
 }
 
 int cfg_check_unique(struct ctx *c, const cogw_config *cfg, size_t i)

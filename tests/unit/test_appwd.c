@@ -154,8 +154,10 @@ static void boot_node(void)
 			  .map_subs = 2,
 			  .n_map = 2,
 			  .map = map };
-	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x2000, 1, CO_T_UNSIGNED16, CO_ACC_RW | CO_ACC_TPDO, 0x1234, NULL));
-	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x2000, 2, CO_T_UNSIGNED8, CO_ACC_RW | CO_ACC_TPDO, 0x56, NULL));
+	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x2000, 1, CO_T_UNSIGNED16,
+					       CO_ACC_RW | CO_ACC_TPDO, 0x1234, NULL));
+	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x2000, 2, CO_T_UNSIGNED8,
+					       CO_ACC_RW | CO_ACC_TPDO, 0x56, NULL));
 	TEST_ASSERT_EQUAL_INT(0, co_od_add_num(od, 0x2001, 0, CO_T_UNSIGNED8, CO_ACC_RW, 1, NULL));
 	TEST_ASSERT_EQUAL_INT(0, co_od_add_pdo(od, &t));
 	ecf_create(&x, ID, od);
@@ -185,8 +187,8 @@ static void test_react_emcy_and_safe_outputs(void)
 	uint16_t v16 = 0;
 
 	boot_node();
-	uint32_t done = co_appwd_react(x.node, CO_APPWD_EMCY | CO_APPWD_SAFE_OUTPUTS, outs, 4,
-				       &fx, 10 * MS);
+	uint32_t done = co_appwd_react(x.node, CO_APPWD_EMCY | CO_APPWD_SAFE_OUTPUTS, outs, 4, &fx,
+				       10 * MS);
 	TEST_ASSERT_EQUAL_HEX32(CO_APPWD_EMCY | CO_APPWD_SAFE_OUTPUTS, done);
 	TEST_ASSERT_EQUAL_INT(0, co_od_get_u16(x.od, 0x2000, 1, &v16));
 	TEST_ASSERT_EQUAL_HEX16(0, v16);
