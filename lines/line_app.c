@@ -314,8 +314,8 @@ static void host_ready(line *l, const mbx_request *req)
 	char what[128];
 	mbx_app_reactions_format(ev.done, what, sizeof what);
 	cogw_log(r.ready ? COGW_LOG_INFO : COGW_LOG_WARNING, "line %s: host %s (client %u)%s%s",
-		 l->name, r.ready ? "ready" : "not ready", req->reply.client,
-		 r.ready ? "" : ": ", r.ready ? "" : what);
+		 l->name, r.ready ? "ready" : "not ready", req->reply.client, r.ready ? "" : ": ",
+		 r.ready ? "" : what);
 	mbx_server_publish(l->mbx, MBX_EV_HOST_STATE, 0, &ev, sizeof ev);
 	line_answer(l, &req->reply, 0, 0, NULL, 0);
 }

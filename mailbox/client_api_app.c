@@ -54,8 +54,8 @@ int cogw_host_ready(cogw *h, unsigned line, int ready, unsigned timeout_ms)
 			   timeout_ms);
 }
 
-int cogw_app_status(cogw *h, unsigned line, mbx_app_status *st, mbx_app_wd_entry *wd,
-		    size_t cap, unsigned timeout_ms)
+int cogw_app_status(cogw *h, unsigned line, mbx_app_status *st, mbx_app_wd_entry *wd, size_t cap,
+		    unsigned timeout_ms)
 {
 	uint8_t buf[sizeof(mbx_app_status) + MBX_APP_WD_MAX * sizeof(mbx_app_wd_entry)];
 	mbx_app_status s;

@@ -15,18 +15,18 @@
 
 /* Reactions of the application watchdog (bits). At most one NMT reaction. */
 enum mbx_app_reaction {
-	MBX_APP_R_EMCY = 1u << 0,            /* own EMCY 6200h: [00 62 81 00 00 00 00 00] */
-	MBX_APP_R_NMT_PREOP = 1u << 1,       /* NMT enter pre-operational, all nodes */
-	MBX_APP_R_NMT_STOP = 1u << 2,        /* NMT stop, all nodes */
-	MBX_APP_R_NMT_RESET_COMM = 1u << 3,  /* NMT reset communication, all nodes */
-	MBX_APP_R_NMT_RESET_NODE = 1u << 4,  /* NMT reset node, all nodes */
-	MBX_APP_R_HB_STOP = 1u << 5,         /* own heartbeat producer stops */
-	MBX_APP_R_SAFE_OUTPUTS = 1u << 6,    /* the line's safe outputs */
-	MBX_APP_R_CONFIGURED = 1u << 31,     /* request only: the line's configured set */
+	MBX_APP_R_EMCY = 1u << 0,           /* own EMCY 6200h: [00 62 81 00 00 00 00 00] */
+	MBX_APP_R_NMT_PREOP = 1u << 1,      /* NMT enter pre-operational, all nodes */
+	MBX_APP_R_NMT_STOP = 1u << 2,       /* NMT stop, all nodes */
+	MBX_APP_R_NMT_RESET_COMM = 1u << 3, /* NMT reset communication, all nodes */
+	MBX_APP_R_NMT_RESET_NODE = 1u << 4, /* NMT reset node, all nodes */
+	MBX_APP_R_HB_STOP = 1u << 5,        /* own heartbeat producer stops */
+	MBX_APP_R_SAFE_OUTPUTS = 1u << 6,   /* the line's safe outputs */
+	MBX_APP_R_CONFIGURED = 1u << 31,    /* request only: the line's configured set */
 };
 #define MBX_APP_R_ALL 0x7Fu
-#define MBX_APP_R_NMT                                                                          \
-	(MBX_APP_R_NMT_PREOP | MBX_APP_R_NMT_STOP | MBX_APP_R_NMT_RESET_COMM |                 \
+#define MBX_APP_R_NMT                                                          \
+	(MBX_APP_R_NMT_PREOP | MBX_APP_R_NMT_STOP | MBX_APP_R_NMT_RESET_COMM | \
 	 MBX_APP_R_NMT_RESET_NODE)
 #define MBX_APP_INTERVAL_MIN_MS 10u
 #define MBX_APP_INTERVAL_MAX_MS 60000u
@@ -89,11 +89,11 @@ typedef struct mbx_app_status {
 	uint8_t host_ready;
 	uint8_t own_state; /* own NMT state */
 	uint8_t holders;
-	uint8_t flags; /* enum mbx_app_nmt_flag (DEFERRED, HOST_NOT_READY) */
-	uint32_t configured; /* the line's configured reaction set */
-	uint16_t safe_outputs; /* safe outputs configured */
-	uint8_t nmt_master;    /* the line can carry out NMT reactions */
-	uint8_t n;             /* entries that follow */
+	uint8_t flags;             /* enum mbx_app_nmt_flag (DEFERRED, HOST_NOT_READY) */
+	uint32_t configured;       /* the line's configured reaction set */
+	uint16_t safe_outputs;     /* safe outputs configured */
+	uint8_t nmt_master;        /* the line can carry out NMT reactions */
+	uint8_t n;                 /* entries that follow */
 	uint32_t not_ready_action; /* the NMT command (cs) host not ready sends */
 	uint64_t declared, keepalives, refused, trips, late_keepalives;
 	uint64_t not_ready_episodes;
@@ -122,9 +122,9 @@ typedef struct mbx_ev_app_wd {
 	uint32_t client;
 	uint32_t pid;
 	uint32_t interval_ms;
-	uint32_t reactions; /* declared */
-	uint32_t done;      /* carried out */
-	uint32_t late_us;   /* the reactions ran this long after the deadline */
+	uint32_t reactions;   /* declared */
+	uint32_t done;        /* carried out */
+	uint32_t late_us;     /* the reactions ran this long after the deadline */
 	uint64_t deadline_us; /* CLOCK_MONOTONIC */
 	uint32_t trips;       /* of the line, this one included */
 	uint8_t gone;         /* the client had left the mailbox (died, lease) */

@@ -33,6 +33,9 @@ typedef struct line_report {
 	bool has_gw;
 	mbx_line_health health;
 	bool has_health;
+	mbx_app_status app;
+	mbx_app_wd_entry wd[MBX_APP_WD_MAX];
+	bool has_app;
 } line_report;
 
 static int fetch_line(ctl *c, cogw *h, unsigned line, line_report *r)
@@ -55,6 +58,8 @@ static int fetch_line(ctl *c, cogw *h, unsigned line, line_report *r)
 	r->has_gw = cogw_gw_routes(h, line, &r->gw, NULL, 0, NULL, c->timeout_ms) == 0;
 	/* an older daemon has no bus health to show */
 	r->has_health = cogw_line_health(h, line, &r->health, c->timeout_ms) == 0;
+	/* nor an application watchdog */
+	r->has_app = cogw_app_status(h, line, &r->app, r->wd, MBX_APP_WD_MAX, c->timeout_ms) >= 0;
 	return 0;
 }
 
@@ -120,6 +125,8 @@ static void status_json(const line_report *r, cJSON *arr)
 		ctl_gw_counters_json(cJSON_AddObjectToObject(o, "gateway"), &r->gw);
 	if (r->has_health)
 		ctl_health_json(cJSON_AddObjectToObject(o, "health"), &r->health);
+	if (r->has_app)
+		ctl_app_json(cJSON_AddObjectToObject(o, "application"), &r->app, r->wd);
 	cJSON *na = cJSON_AddArrayToObject(o, "nodes");
 	for (int i = 0; i < r->n_nodes; i++)
 		cJSON_AddItemToArray(na, node_json(&r->nodes[i]));
@@ -177,6 +184,8 @@ static void status_text(const line_report *r)
 	line_text(r->line, &r->st);
 	if (r->has_health)
 		ctl_health_summary_text(&r->health);
+	if (r->has_app)
+		ctl_app_summary_text(&r->app);
 	mailbox_text(&r->ms);
 	if (r->has_gw) {
 		printf("  gateway: network %u, %u routed session%s running, %u client%s lent\n",

@@ -25,24 +25,24 @@ void tearDown(void)
 	cogw_config_free(&cfg);
 }
 
-#define OBJECTS                                                                                \
+#define OBJECTS                                                                                   \
 	", \"objects\": [{\"index\": \"0x2000\", \"type\": \"UNSIGNED16\", \"access\": \"rwr\", " \
 	"\"default\": 500, \"max\": 1000}, {\"index\": \"0x2001\", \"type\": \"INTEGER8\"}]"
-#define CFG_APP(app)                                                                           \
-	"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 5" OBJECTS   \
+#define CFG_APP(app)                                                                          \
+	"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, \"node_id\": 5" OBJECTS \
 	", \"application\": " app "}]}"
 
 static void expect_error(const char *json, const char *msg)
 {
-	TEST_ASSERT_EQUAL_INT(-EINVAL, cogw_config_load_string(&cfg, json, "t.json", err,
-							       sizeof(err)));
+	TEST_ASSERT_EQUAL_INT(-EINVAL,
+			      cogw_config_load_string(&cfg, json, "t.json", err, sizeof(err)));
 	TEST_ASSERT_EQUAL_STRING(msg, err);
 }
 
 static void test_absent_defaults(void)
 {
-	TEST_ASSERT_EQUAL_INT(0, cogw_config_load_string(&cfg, CFG_APP("{}"), "t.json", err,
-							 sizeof(err)));
+	TEST_ASSERT_EQUAL_INT(
+		0, cogw_config_load_string(&cfg, CFG_APP("{}"), "t.json", err, sizeof(err)));
 	TEST_ASSERT_EQUAL_UINT32(0, cfg.lines[0].app.reactions);
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_CS_STOP, cfg.lines[0].app.not_ready_cs);
 	TEST_ASSERT_EQUAL_UINT8(0, cfg.lines[0].app.n_safe_outputs);
@@ -109,8 +109,7 @@ static void test_bad_input(void)
 	expect_error(CFG_APP("{\"safe_outputs\": [{\"index\": \"0x2000\", \"value\": 0, "
 			     "\"when\": 1}]}"),
 		     "t.json: lines[0].application.safe_outputs[0].when: unknown key");
-	expect_error(CFG_APP("{\"hold\": true}"),
-		     "t.json: lines[0].application.hold: unknown key");
+	expect_error(CFG_APP("{\"hold\": true}"), "t.json: lines[0].application.hold: unknown key");
 }
 
 int main(void)
