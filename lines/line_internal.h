@@ -7,7 +7,8 @@
  *   line.c           the thread, its epoll loop and the extensions' ops
  *   line_dispatch.c  mailbox command -> its handler, by a table
  *   line_sdo.c, line_lss.c, line_od.c, line_nmt.c, line_bus.c,
- *   line_store.c     one family of mailbox commands each: the request
+ *   line_store.c,
+ *   line_app.c       one family of mailbox commands each: the request
  *                    and its completion in the same file
  *   line_events.c    core and CAN events -> mailbox events
  *   line_pdo.c       RPDO supervision: its events and RPDO_STATUS

@@ -297,6 +297,40 @@ static void on_comm_fault(bridge *b, unsigned line, const mbx_ev_comm_fault *e)
 	link_publish_json(b, t, o, true, NULL);
 }
 
+/* An essential client missed its keep-alive and the line ran its
+ * reactions (docs/application.md): retained, the line's last trip. */
+static void on_app_watchdog(bridge *b, unsigned line, const mbx_ev_app_wd *e)
+{
+	cJSON *o = head(b, line, -1);
+	char t[TOPIC_MAX], set[160];
+
+	cJSON_AddNumberToObject(o, "client", e->client);
+	cJSON_AddNumberToObject(o, "pid", e->pid);
+	cJSON_AddBoolToObject(o, "client_gone", e->gone);
+	cJSON_AddNumberToObject(o, "interval_ms", e->interval_ms);
+	mbx_app_reactions_format(e->reactions, set, sizeof set);
+	cJSON_AddStringToObject(o, "reactions", set);
+	mbx_app_reactions_format(e->done, set, sizeof set);
+	cJSON_AddStringToObject(o, "done", set);
+	cJSON_AddNumberToObject(o, "late_us", e->late_us);
+	cJSON_AddNumberToObject(o, "trips", e->trips);
+	net_topic(b, line, "app/watchdog", t, sizeof t);
+	link_publish_json(b, t, o, true, NULL);
+}
+
+static void on_host_state(bridge *b, unsigned line, const mbx_ev_host *e)
+{
+	cJSON *o = head(b, line, -1);
+	char t[TOPIC_MAX], set[160];
+
+	cJSON_AddBoolToObject(o, "ready", e->ready);
+	cJSON_AddNumberToObject(o, "client", e->client);
+	mbx_app_reactions_format(e->done, set, sizeof set);
+	cJSON_AddStringToObject(o, "done", set);
+	net_topic(b, line, "app/host", t, sizeof t);
+	link_publish_json(b, t, o, true, NULL);
+}
+
 static void on_node_event(bridge *b, unsigned line, uint16_t code, const mbx_ev_node *e)
 {
 	node_state *ns = node_of(b, line, e->node);
@@ -395,6 +429,20 @@ void events_on_event(bridge *b, const cogw_msg *m)
 	case MBX_EV_MGR_NODE:
 		on_mgr_event(b, line, m);
 		break;
+	case MBX_EV_APP_WD_TIMEOUT: {
+		mbx_ev_app_wd e;
+
+		memcpy(&e, m->data, sizeof e);
+		on_app_watchdog(b, line, &e);
+		break;
+	}
+	case MBX_EV_HOST_STATE: {
+		mbx_ev_host e;
+
+		memcpy(&e, m->data, sizeof e);
+		on_host_state(b, line, &e);
+		break;
+	}
 	default:
 		break;
 	}
@@ -614,7 +662,7 @@ void events_service(bridge *b)
 	if (b->cfg.pub_manager || b->cfg.pub_boot)
 		classes |= MBX_EVC_MANAGER;
 	if (b->cfg.pub_manager)
-		classes |= MBX_EVC_CAN; /* bus health episodes */
+		classes |= MBX_EVC_CAN | MBX_EVC_APP; /* bus health, application watchdog */
 	if (now >= b->next_subscribe_ms) {
 		bool all = true;
 

@@ -88,8 +88,8 @@ static void app_text(unsigned line, const mbx_app_status *st, const mbx_app_wd_e
 	mbx_app_reactions_format(st->configured, set, sizeof set);
 	printf("  configured reactions: %s; %u safe output%s; NMT master: %s; not ready sends "
 	       "NMT %s\n",
-	       set, st->safe_outputs, st->safe_outputs == 1 ? "" : "s", st->nmt_master ? "yes" : "no",
-	       cs_text(st->not_ready_action));
+	       set, st->safe_outputs, st->safe_outputs == 1 ? "" : "s",
+	       st->nmt_master ? "yes" : "no", cs_text(st->not_ready_action));
 	printf("  counters: %" PRIu64 " declared, %" PRIu64 " keep-alives, %" PRIu64
 	       " refused, %" PRIu64 " trips, %" PRIu64 " keep-alives after a trip, %" PRIu64
 	       " not-ready episodes, %" PRIu64 " starts refused\n",
@@ -184,8 +184,8 @@ static int declare(ctl *c, cogw *h, unsigned line, const essential_opts *o)
 		return ctl_fail(c, rc, 0, "app essential");
 	mbx_app_reactions_format(r.reactions, set, sizeof set);
 	mbx_app_reactions_format(r.unavailable, skipped, sizeof skipped);
-	snprintf(detail, sizeof detail, "%" PRIu32 " ms, %s (cannot now: %s)", o->interval_ms,
-		 set, r.unavailable ? skipped : "none");
+	snprintf(detail, sizeof detail, "%" PRIu32 " ms, %s (cannot now: %s)", o->interval_ms, set,
+		 r.unavailable ? skipped : "none");
 	say(c, "essential", line, detail);
 	return 0;
 }
@@ -299,7 +299,8 @@ const ctl_cmd ctl_cmd_app = {
 		"essential declares this cogwctl essential for LINE (write rights) and sends a\n"
 		"keep-alive every MS/4 until SIGINT/SIGTERM, then withdraws. Stopped (SIGSTOP)\n"
 		"or killed, it misses its deadline and the line runs the reactions: LIST is a\n"
-		"comma-separated set of emcy, nmt-preop, nmt-stop, nmt-reset-comm, nmt-reset-node,\n"
+		"comma-separated set of emcy, nmt-preop, nmt-stop, nmt-reset-comm, "
+		"nmt-reset-node,\n"
 		"hb-stop, safe-outputs (at most one nmt-*), default the line's configured set.\n"
 		"After a trip it exits 1, or with --rearm declares again (which acknowledges the\n"
 		"trip) and goes on.\n"

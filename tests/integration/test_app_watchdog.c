@@ -54,20 +54,20 @@
 
 /* Line 0: the manager (NMT master), 2000h mapped by TPDO 1 (1FFh,
  * event-driven), its safe value 0; heartbeat 100 ms. Line 1: no manager. */
-#define CONFIG                                                                                 \
-	"{\"version\": 1, \"mailbox\": {\"instance\": \"" INSTANCE "\", \"queue_mode\": "      \
-	"\"0622\", \"rules\": [{\"uid\": 65534, \"access\": \"read\"}]}, \"lines\": ["         \
-	"{\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127, "                  \
-	" \"heartbeat_ms\": 100, \"tpdos\": 1, \"manager\": {}, \"nodes\": [],"                \
+#define CONFIG                                                                                  \
+	"{\"version\": 1, \"mailbox\": {\"instance\": \"" INSTANCE "\", \"queue_mode\": "       \
+	"\"0622\", \"rules\": [{\"uid\": 65534, \"access\": \"read\"}]}, \"lines\": ["          \
+	"{\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127, "                   \
+	" \"heartbeat_ms\": 100, \"tpdos\": 1, \"manager\": {}, \"nodes\": [],"                 \
 	" \"objects\": [{\"index\": \"0x2000\", \"type\": \"UNSIGNED16\", \"access\": \"rwr\"," \
-	"   \"default\": 500}],"                                                                  \
-	" \"values\": [{\"index\": \"0x1800\", \"sub\": 1, \"value\": 511},"                     \
-	"   {\"index\": \"0x1800\", \"sub\": 2, \"value\": 254},"                                 \
-	"   {\"index\": \"0x1A00\", \"sub\": 0, \"value\": 1},"                                   \
-	"   {\"index\": \"0x1A00\", \"sub\": 1, \"value\": 536870928}],"                          \
+	"   \"default\": 500}],"                                                                \
+	" \"values\": [{\"index\": \"0x1800\", \"sub\": 1, \"value\": 511},"                    \
+	"   {\"index\": \"0x1800\", \"sub\": 2, \"value\": 254},"                               \
+	"   {\"index\": \"0x1A00\", \"sub\": 0, \"value\": 1},"                                 \
+	"   {\"index\": \"0x1A00\", \"sub\": 1, \"value\": 536870928}],"                        \
 	" \"application\": {\"watchdog_reactions\": [\"emcy\", \"safe-outputs\"],"              \
-	"   \"safe_outputs\": [{\"index\": \"0x2000\", \"value\": 0}]}},"                        \
-	"{\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127, "                  \
+	"   \"safe_outputs\": [{\"index\": \"0x2000\", \"value\": 0}]}},"                       \
+	"{\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127, "                   \
 	" \"heartbeat_ms\": 0}]}"
 
 static daemon_run dmn;
@@ -122,7 +122,8 @@ static void collect(int fd, int ms)
 		s->len = f.len;
 		memcpy(s->data, f.data, 8);
 		s->mono_us = ioctl(fd, SIOCGSTAMP, &tv) == 0
-				     ? (uint64_t)((int64_t)tv.tv_sec * 1000000 + tv.tv_usec - offset)
+				     ? (uint64_t)((int64_t)tv.tv_sec * 1000000 + tv.tv_usec -
+						  offset)
 				     : clock_us(CLOCK_MONOTONIC);
 	}
 }
@@ -224,9 +225,18 @@ static mbx_app_wd_entry wait_entry(pid_t pid, uint8_t state, int timeout_ms)
 
 static pid_t spawn_essential(const char *interval, const char *react, bool rearm)
 {
-	const char *argv[] = { "build/san/bin/cogwctl", "--instance", INSTANCE, "app", "0",
-			       "essential", "--interval", interval, "--react", react,
-			       rearm ? "--rearm" : NULL, NULL };
+	const char *argv[] = { "build/san/bin/cogwctl",
+			       "--instance",
+			       INSTANCE,
+			       "app",
+			       "0",
+			       "essential",
+			       "--interval",
+			       interval,
+			       "--react",
+			       react,
+			       rearm ? "--rearm" : NULL,
+			       NULL };
 	pid_t pid = proc_spawn(argv, child_log, NULL);
 	TEST_ASSERT_TRUE(pid > 0);
 	return pid;
@@ -293,8 +303,7 @@ static void test_sigkill_fires_safe_outputs_emcy_and_nmt_stop(void)
 	       "%lld ms after the kill\n",
 	       ev.late_us, (long long)(ev.deadline_us + ev.late_us - killed_us) / 1000);
 	TEST_ASSERT_TRUE(ev.deadline_us + ev.late_us - killed_us < (200 + MARGIN_MS) * 1000u);
-	expect_frame_after("safe-output TPDO 1FFh [00 00]", TPDO_COB, tpdo_safe, 2,
-			   ev.deadline_us);
+	expect_frame_after("safe-output TPDO 1FFh [00 00]", TPDO_COB, tpdo_safe, 2, ev.deadline_us);
 	expect_frame_after("EMCY 6200h", EMCY_COB, emcy_6200, 8, ev.deadline_us);
 	expect_frame_after("NMT stop all", 0x000, nmt_stop, 2, ev.deadline_us);
 	/* the outputs first, then the EMCY, then the network */
@@ -348,8 +357,7 @@ static void test_sigstop_fires_then_the_client_comes_back(void)
 /* ---- every reaction, from a client of the test ------------------------------------ */
 
 /* Declare on line, one keep-alive, then silence: the trip's event. */
-static void trip_once(unsigned line, uint32_t reactions, mbx_app_wd_resp *resp,
-		      mbx_ev_app_wd *ev)
+static void trip_once(unsigned line, uint32_t reactions, mbx_app_wd_resp *resp, mbx_ev_app_wd *ev)
 {
 	TEST_ASSERT_EQUAL_INT(0, cogw_app_watchdog(h, line, 50, reactions, resp, 3000));
 	drain(line ? fd1 : fd0);
@@ -403,10 +411,9 @@ static void test_every_nmt_reaction_and_the_safe_outputs(void)
 	TEST_ASSERT_EQUAL_UINT(0, count_frames(0x000));
 	TEST_ASSERT_EQUAL_INT(COGW_E_UNSUPPORTED,
 			      cogw_app_watchdog(h, 1, 50, MBX_APP_R_CONFIGURED, NULL, 3000));
-	TEST_ASSERT_EQUAL_INT(COGW_E_PARAM, cogw_app_watchdog(h, 1, 50,
-							      MBX_APP_R_NMT_STOP |
-								      MBX_APP_R_NMT_PREOP,
-							      NULL, 3000));
+	TEST_ASSERT_EQUAL_INT(
+		COGW_E_PARAM,
+		cogw_app_watchdog(h, 1, 50, MBX_APP_R_NMT_STOP | MBX_APP_R_NMT_PREOP, NULL, 3000));
 }
 
 /* ---- read-only ---------------------------------------------------------------------- */
@@ -438,8 +445,8 @@ static int cogwctl_as_nobody(const char *const args[])
 
 static void test_read_only_client_cannot_arm(void)
 {
-	static const char *const essential[] = { "app", "0", "essential", "--interval", "20",
-						 "--react", "emcy,nmt-stop", NULL };
+	static const char *const essential[] = { "app", "0",       "essential",     "--interval",
+						 "20",  "--react", "emcy,nmt-stop", NULL };
 	static const char *const show[] = { "app", "0", NULL };
 	mbx_app_status st;
 
@@ -506,8 +513,9 @@ static void test_host_not_ready_then_ready(void)
 
 static void test_hold_defers_the_own_start(void)
 {
-	const char *argv[] = { "build/san/bin/cogwctl", "--instance", INSTANCE, "app", "0", "hold",
-			       NULL };
+	const char *argv[] = {
+		"build/san/bin/cogwctl", "--instance", INSTANCE, "app", "0", "hold", NULL
+	};
 	mbx_app_nmt ev;
 
 	wait_own_state(0, 0x05, 10000);

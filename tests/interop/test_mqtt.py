@@ -15,7 +15,8 @@ broker), cosim devices on vcan0..vcan2:
                 offline queue
 
 Covered: every published topic's payload (status birth/will, nmt, boot,
-heartbeat lost/resumed, emcy and its history, manager, counters), every
+heartbeat lost/resumed, emcy and its history, manager, counters, the
+application watchdog's trip), every
 request kind (sdo_read, sdo_write, nmt, watch_add/watch_remove with the
 process values of a configured watch), MQTT 5 request/response and the 3.1.1 fallback, role refusals,
 each class of bad input (malformed JSON, unknown op, bad fields, unknown
@@ -775,6 +776,22 @@ def test_counters_of_daemon_and_bridge():
     check(b["published"] > 0 and b["connects"] >= 1, f"bridge counters: {b}")
 
 
+def test_application_watchdog_trip_is_published():
+    """An essential client of gw-a's network 2 killed: the trip's retained
+    topic names it and what the line did (docs/application.md)."""
+    since = CLIENT.mark()
+    ctl = spawn("essential", [os.path.join(BIN, "cogwctl"), "--instance", "mqa", "app", "1",
+                              "essential", "--interval", "100", "--react", "emcy"])
+    wait_until("the client declared itself essential", lambda: log_has("essential", "essential"))
+    ctl.kill()
+    ctl.wait()
+    w = CLIENT.wait("cogw/gw-a/net/2/app/watchdog", lambda p: p["pid"] == ctl.pid, since)
+    eq("emcy", w["reactions"], "declared reactions")
+    eq("emcy", w["done"], "reactions carried out")
+    eq(100, w["interval_ms"], "interval")
+    check(w["trips"] >= 1 and w["late_us"] >= 0, f"trip counters: {w}")
+
+
 def test_broker_restart_birth_again_queue_delivered_drops_counted():
     before_b = latest_counters("gw-b")
     stop("mosquitto")
@@ -953,6 +970,7 @@ def main():
                   test_emcy_with_history_and_heartbeat_lost_resumed,
                   test_process_values_watched_removed_and_added_again,
                   test_counters_of_daemon_and_bridge,
+                  test_application_watchdog_trip_is_published,
                   test_broker_restart_birth_again_queue_delivered_drops_counted,
                   test_daemon_restarted_under_the_bridge,
                   test_a_long_watch_list_is_armed_at_once,
