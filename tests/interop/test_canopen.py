@@ -43,7 +43,9 @@ vcan0. It catches bugs that cosim, which runs our own core, would mirror.
     the "stop all" error reaction and after a Request NMT stop), both ways
     out of STOPPED (cogwctl manager start, cogwctl boot); a program update
     (cogwctl program) to a slave that refuses block transfer, delivered
-    and reported by segmented transfer;
+    and reported by segmented transfer; the application watchdog's NMT stop
+    (an essential cogwctl killed) and host not ready / ready as the slaves
+    see them;
   - device objects on cogwd's third line (vcan2) with python-canopen
     LocalNode devices whose EDS (written by the test) gives their PDOs: the
     layouts from the files and the daemon's PDOs mirroring them (cogwctl pdo
@@ -1150,6 +1152,61 @@ def test_manager_no_sdo_while_network_stopped_and_both_ways_out():
         optional.remove()
 
 
+def test_watchdog_and_host_not_ready_seen_by_python_slaves():
+    """The application watchdog's NMT reaction and host not ready as
+    python-canopen slaves see them (docs/application.md): an essential
+    client of line 1 killed -> NMT stop of all nodes, the slaves STOPPED and
+    held there by the manager; started again; host not ready -> STOPPED,
+    ready -> OPERATIONAL."""
+    mandatory, optional = StrictSlave(MANDATORY_ID), StrictSlave(OPTIONAL_ID)
+    essential = None
+    try:
+        ctl("boot", str(MGR_LINE))
+        wait_manager("operational", (mandatory, optional), "OPERATIONAL")
+
+        step("an essential client (nmt-stop, 200 ms) is killed")
+        essential = subprocess.Popen(
+            [os.path.join(BIN, "cogwctl"), "--instance", INSTANCE, "app", str(MGR_LINE),
+             "essential", "--interval", "200", "--react", "nmt-stop"],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=TOP)
+        first = essential.stdout.readline()
+        check("essential" in first, f"the client did not declare itself: {first!r}")
+
+        def armed():
+            app = json.loads(ctl("app", str(MGR_LINE), "--json").stdout)["lines"][0]
+            return any(w["pid"] == essential.pid and w["state"] == "armed"
+                       for w in app["watchdogs"])
+        deadline = time.monotonic() + 10
+        while not armed():  # armed by its first keep-alive
+            check(time.monotonic() < deadline, "the essential client was never armed")
+            time.sleep(0.05)
+        essential.kill()
+        essential.wait()
+        wait_manager("stopped", (mandatory, optional), "STOPPED")
+        app = json.loads(ctl("app", str(MGR_LINE), "--json").stdout)["lines"][0]
+        eq("nmt-stop", app["last_trip"]["done"], "what the trip did")
+        eq(essential.pid, app["last_trip"]["pid"], "whose trip")
+
+        step("the application starts the network again")
+        ctl("manager", str(MGR_LINE), "start")
+        wait_manager("operational", (mandatory, optional), "OPERATIONAL")
+
+        step("host not ready: the slaves stopped; ready: operational again")
+        ctl("host", str(MGR_LINE), "not-ready")
+        wait_manager("stopped", (mandatory, optional), "STOPPED")
+        r = ctl("sdo", "read", str(MGR_LINE), str(MANDATORY_ID), "1000", "0", "u32",
+                check_rc=False)
+        eq(1, r.returncode, "an SDO read of a node while the host is not ready")
+        ctl("host", str(MGR_LINE), "ready")
+        wait_manager("operational", (mandatory, optional), "OPERATIONAL")
+    finally:
+        if essential and essential.poll() is None:
+            essential.kill()
+            essential.wait()
+        mandatory.remove()
+        optional.remove()
+
+
 def record(od, index, name, subs):
     """An ODRecord of (sub, type, default) members, sub 0 first."""
     rec = ODRecord(name, index)
@@ -1854,6 +1911,7 @@ def main():
                   # before the manager test: its end leaves line 1 stopped
                   test_program_by_segmented_transfer_when_block_is_refused,
                   test_manager_no_sdo_while_network_stopped_and_both_ways_out,
+                  test_watchdog_and_host_not_ready_seen_by_python_slaves,
                   test_device_objects_mirror_values_and_writes,
                   test_mirror_supervises_a_device_tpdo_with_an_event_timer):
             only = os.environ.get("COGW_TEST_ONLY")  # comma-separated substrings
