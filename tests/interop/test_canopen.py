@@ -1164,10 +1164,10 @@ def test_watchdog_and_host_not_ready_seen_by_python_slaves():
         ctl("boot", str(MGR_LINE))
         wait_manager("operational", (mandatory, optional), "OPERATIONAL")
 
-        step("an essential client (nmt-stop, 200 ms) is killed")
+        step("an essential client (nmt-stop, 500 ms) is killed")
         essential = subprocess.Popen(
             [os.path.join(BIN, "cogwctl"), "--instance", INSTANCE, "app", str(MGR_LINE),
-             "essential", "--interval", "200", "--react", "nmt-stop"],
+             "essential", "--interval", "500", "--react", "nmt-stop"],
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=TOP)
         first = essential.stdout.readline()
         check("essential" in first, f"the client did not declare itself: {first!r}")

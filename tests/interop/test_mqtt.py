@@ -781,14 +781,20 @@ def test_application_watchdog_trip_is_published():
     topic names it and what the line did (docs/application.md)."""
     since = CLIENT.mark()
     ctl = spawn("essential", [os.path.join(BIN, "cogwctl"), "--instance", "mqa", "app", "1",
-                              "essential", "--interval", "100", "--react", "emcy"])
-    wait_until("the client declared itself essential", lambda: log_has("essential", "essential"))
+                              "essential", "--interval", "1000", "--react", "emcy"])
+    def armed():  # by its first keep-alive
+        r = subprocess.run([os.path.join(BIN, "cogwctl"), "--instance", "mqa", "app", "1",
+                            "--json"], capture_output=True, text=True, cwd=TOP)
+        return r.returncode == 0 and any(
+            w["pid"] == ctl.pid and w["state"] == "armed"
+            for w in json.loads(r.stdout)["lines"][0]["watchdogs"])
+    wait_until("the essential client armed", armed)
     ctl.kill()
     ctl.wait()
     w = CLIENT.wait("cogw/gw-a/net/2/app/watchdog", lambda p: p["pid"] == ctl.pid, since)
     eq("emcy", w["reactions"], "declared reactions")
     eq("emcy", w["done"], "reactions carried out")
-    eq(100, w["interval_ms"], "interval")
+    eq(1000, w["interval_ms"], "interval")
     check(w["trips"] >= 1 and w["late_us"] >= 0, f"trip counters: {w}")
 
 
