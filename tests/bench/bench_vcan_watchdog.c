@@ -50,16 +50,21 @@ static int write_config(const char *path)
 {
 	char t[2048];
 	snprintf(t, sizeof t,
-		 "{\"version\": 1, \"state_dir\": \"%s/state\", \"mailbox\": {\"instance\": \"%s\"},\n"
-		 " \"lines\": [{\"name\": \"bench0\", \"interface\": \"vcan0\", \"bitrate\": 1000000,"
-		 " \"node_id\": %d, \"heartbeat_ms\": 0, \"tpdos\": 1, \"manager\": {}, \"nodes\": [],\n"
-		 "  \"objects\": [{\"index\": \"0x2000\", \"type\": \"UNSIGNED16\", \"access\": \"rwr\","
+		 "{\"version\": 1, \"state_dir\": \"%s/state\", \"mailbox\": {\"instance\": "
+		 "\"%s\"},\n"
+		 " \"lines\": [{\"name\": \"bench0\", \"interface\": \"vcan0\", \"bitrate\": "
+		 "1000000,"
+		 " \"node_id\": %d, \"heartbeat_ms\": 0, \"tpdos\": 1, \"manager\": {}, \"nodes\": "
+		 "[],\n"
+		 "  \"objects\": [{\"index\": \"0x2000\", \"type\": \"UNSIGNED16\", \"access\": "
+		 "\"rwr\","
 		 " \"default\": 500}],\n"
 		 "  \"values\": [{\"index\": \"0x1800\", \"sub\": 1, \"value\": 511},"
 		 " {\"index\": \"0x1800\", \"sub\": 2, \"value\": 254},"
 		 " {\"index\": \"0x1A00\", \"sub\": 0, \"value\": 1},"
 		 " {\"index\": \"0x1A00\", \"sub\": 1, \"value\": 536870928}],\n"
-		 "  \"application\": {\"safe_outputs\": [{\"index\": \"0x2000\", \"value\": 0}]}}]}\n",
+		 "  \"application\": {\"safe_outputs\": [{\"index\": \"0x2000\", \"value\": "
+		 "0}]}}]}\n",
 		 tmpdir, instance, OWN);
 	return bench_write_file(path, t);
 }
@@ -208,16 +213,17 @@ static void print_pair(const char *pct, double value, double base)
 	snprintf(name, sizeof name,
 		 "application watchdog reaction: missed deadline -> EMCY 6200h on vcan0, %s", pct);
 	snprintf(bname, sizeof bname, "a bare process's timerfd expiry -> CAN frame, %s", pct);
-	bench_print_figure(&(bench_figure){ .name = name,
-					    .value = value,
-					    .unit = "us",
-					    .base_name = bname,
-					    .base_value = base,
-					    .base_unit = "us",
-					    .ratio = base > 0 ? value / base : -1,
-					    .target = "none (the reaction comes within the interval "
-						      "and one line wake-up)",
-					    .verdict = "-" });
+	bench_print_figure(
+		&(bench_figure){ .name = name,
+				 .value = value,
+				 .unit = "us",
+				 .base_name = bname,
+				 .base_value = base,
+				 .base_unit = "us",
+				 .ratio = base > 0 ? value / base : -1,
+				 .target = "none (the reaction comes within the interval "
+					   "and one line wake-up)",
+				 .verdict = "-" });
 }
 
 static int run(int rounds)
@@ -255,7 +261,8 @@ static int run(int rounds)
 	bench_note("%d rounds of a %d ms watchdog (EMCY + safe outputs; %d failed), %d baseline "
 		   "rounds; the line ran the reactions %.0f us (p50) / %.0f us (p99) after the "
 		   "deadline by its own clock (late_us of the event); worst on the bus %.0f us",
-		   n, INTERVAL_MS, failed, nb, line_p50, line_p99, bench_percentile(bus, (size_t)n, 100));
+		   n, INTERVAL_MS, failed, nb, line_p50, line_p99,
+		   bench_percentile(bus, (size_t)n, 100));
 	return 0;
 }
 
