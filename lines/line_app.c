@@ -367,16 +367,10 @@ bool line_app_refuses(const line *l, const mbx_request *req)
 		memcpy(&o, req->payload, sizeof o);
 		return is_safe_output(l, o.index, o.sub);
 	}
-	case MBX_CMD_PDO_REQUEST:
-	case MBX_CMD_RAW_SEND:
-	case MBX_CMD_MGR_BOOT:
-	case MBX_CMD_MGR_START:
-	case MBX_CMD_MGR_REQUEST_NMT:
-	case MBX_CMD_MGR_PROGRAM:
-	case MBX_CMD_DEV_WRITE:
-		return true;
+	case MBX_CMD_EMCY_SEND: /* the own node's, not a request to a node */
+		return false;
 	default:
-		return req->code >= MBX_CMD_LSS_SWITCH_GLOBAL && req->code <= MBX_CMD_LSS_FASTSCAN;
+		return line_cmd_needs_bus(req->code);
 	}
 }
 

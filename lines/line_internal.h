@@ -183,6 +183,31 @@ static inline uint8_t line_mbx_can_state(can_bus_state s)
 	return MBX_CAN_ACTIVE;
 }
 
+/* Does a mailbox command need the bus (a frame out, an answer back)? What
+ * a line whose interface is down refuses (line_link.c), and the start of
+ * what host not ready refuses (line_app.c). */
+static inline bool line_cmd_needs_bus(uint16_t code)
+{
+	switch (code) {
+	case MBX_CMD_SDO_UPLOAD:
+	case MBX_CMD_SDO_DOWNLOAD:
+	case MBX_CMD_GW_SDO_UPLOAD:
+	case MBX_CMD_GW_SDO_DOWNLOAD:
+	case MBX_CMD_NMT:
+	case MBX_CMD_RAW_SEND:
+	case MBX_CMD_PDO_REQUEST:
+	case MBX_CMD_EMCY_SEND:
+	case MBX_CMD_MGR_BOOT:
+	case MBX_CMD_MGR_START:
+	case MBX_CMD_MGR_REQUEST_NMT:
+	case MBX_CMD_MGR_PROGRAM:
+	case MBX_CMD_DEV_WRITE:
+		return true;
+	default:
+		return code >= MBX_CMD_LSS_SWITCH_GLOBAL && code <= MBX_CMD_LSS_FASTSCAN;
+	}
+}
+
 /* A mailbox command handler: payload fields already validated by the
  * mailbox (sizes, ranges, access). */
 typedef void (*line_cmd_fn)(line *l, const mbx_request *req);

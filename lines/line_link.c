@@ -120,24 +120,5 @@ uint64_t line_link_poll(line *l, bool *reopened)
 
 bool line_link_refuses(const line *l, uint16_t code)
 {
-	if (!l->link.down)
-		return false;
-	switch (code) {
-	case MBX_CMD_SDO_UPLOAD:
-	case MBX_CMD_SDO_DOWNLOAD:
-	case MBX_CMD_GW_SDO_UPLOAD:
-	case MBX_CMD_GW_SDO_DOWNLOAD:
-	case MBX_CMD_NMT:
-	case MBX_CMD_RAW_SEND:
-	case MBX_CMD_PDO_REQUEST:
-	case MBX_CMD_EMCY_SEND:
-	case MBX_CMD_MGR_BOOT:
-	case MBX_CMD_MGR_START:
-	case MBX_CMD_MGR_REQUEST_NMT:
-	case MBX_CMD_MGR_PROGRAM:
-	case MBX_CMD_DEV_WRITE:
-		return true;
-	default:
-		return code >= MBX_CMD_LSS_SWITCH_GLOBAL && code <= MBX_CMD_LSS_FASTSCAN;
-	}
+	return l->link.down && line_cmd_needs_bus(code);
 }

@@ -331,6 +331,21 @@ static void on_host_state(bridge *b, unsigned line, const mbx_ev_host *e)
 	link_publish_json(b, t, o, true, NULL);
 }
 
+static void on_app_event(bridge *b, unsigned line, const cogw_msg *m)
+{
+	if (m->code == MBX_EV_APP_WD_TIMEOUT) {
+		mbx_ev_app_wd e;
+
+		memcpy(&e, m->data, sizeof e);
+		on_app_watchdog(b, line, &e);
+	} else {
+		mbx_ev_host e;
+
+		memcpy(&e, m->data, sizeof e);
+		on_host_state(b, line, &e);
+	}
+}
+
 static void on_node_event(bridge *b, unsigned line, uint16_t code, const mbx_ev_node *e)
 {
 	node_state *ns = node_of(b, line, e->node);
@@ -429,20 +444,10 @@ void events_on_event(bridge *b, const cogw_msg *m)
 	case MBX_EV_MGR_NODE:
 		on_mgr_event(b, line, m);
 		break;
-	case MBX_EV_APP_WD_TIMEOUT: {
-		mbx_ev_app_wd e;
-
-		memcpy(&e, m->data, sizeof e);
-		on_app_watchdog(b, line, &e);
+	case MBX_EV_APP_WD_TIMEOUT:
+	case MBX_EV_HOST_STATE:
+		on_app_event(b, line, m);
 		break;
-	}
-	case MBX_EV_HOST_STATE: {
-		mbx_ev_host e;
-
-		memcpy(&e, m->data, sizeof e);
-		on_host_state(b, line, &e);
-		break;
-	}
 	default:
 		break;
 	}
