@@ -62,7 +62,21 @@ typedef struct rpdo_diag {
 	mbx_rpdo_status st;
 	mbx_rpdo_fault_entry rows[RPDO_ROWS_SHOWN];
 	unsigned n; /* RPDOs with an episode open (may exceed the rows) */
+	/* the application watchdog's counters (an older daemon has none) */
+	bool has_app;
+	mbx_app_status app;
+	mbx_app_wd_entry wd[MBX_APP_WD_MAX];
 } rpdo_diag;
+
+static void app_out(cJSON *o, const rpdo_diag *r)
+{
+	if (!r->has_app)
+		return;
+	if (o)
+		ctl_app_json(cJSON_AddObjectToObject(o, "application"), &r->app, r->wd);
+	else
+		ctl_app_summary_text(&r->app);
+}
 
 static void rpdo_out(ctl *c, cJSON *o, const rpdo_diag *r)
 {
@@ -93,9 +107,11 @@ static void rpdo_out(ctl *c, cJSON *o, const rpdo_diag *r)
 			cJSON_AddNumberToObject(e, "event_ms", r->rows[i].event_ms);
 			cJSON_AddItemToArray(a, e);
 		}
+		app_out(o, r);
 		return;
 	}
 	(void)c;
+	app_out(NULL, r);
 	printf("  RPDOs            %u, frames used %" PRIu64 ", wrong length %" PRIu64
 	       ", deadlines missed %" PRIu64 ", after the SYNC window %" PRIu64
 	       ", values refused %" PRIu64 "\n",
@@ -368,6 +384,8 @@ static int run_diag(ctl *c, int argc, char **argv)
 					   c->timeout_ms)) < 0)
 			return ctl_fail(c, rc, 0, ctx);
 		r.n = (unsigned)rc;
+		r.has_app = cogw_app_status(h, line, &r.app, r.wd, MBX_APP_WD_MAX, c->timeout_ms) >=
+			    0;
 		if ((rc = cogw_mgr_status(h, line, &s, c->timeout_ms)) == COGW_E_UNSUPPORTED) {
 			/* a line without a manager still supervises its RPDOs */
 			cJSON *o = c->json ? cJSON_CreateObject() : NULL;
