@@ -267,6 +267,8 @@ static void test_help_documents_every_subcommand(void)
 		  { "--line", "--class", "--raw-filter", "--count", "--duration", "--float",
 		    NULL } },
 		{ "raw", { "send", "dump", "--count", "--duration", "ID#DATA", NULL } },
+		{ "app", { "essential", "hold", "--interval", "--react", "--rearm", NULL } },
+		{ "host", { "ready", "not-ready", NULL } },
 	};
 	ctl_result *r = ctl_run("--help");
 	expect_exit(0, r);
@@ -327,6 +329,12 @@ static void test_usage_errors_exit_2_and_no_daemon_exits_3(void)
 		{ "lss set-bit-timing 0 --kbit 333",
 		  "--kbit 333 is not in the CiA bit timing table" },
 		{ "emcy send 0 12345", "CODE '12345'" },
+		{ "app 0 essential", "app essential needs --interval MS" },
+		{ "app 0 essential --interval 5", "--interval: at least 10 ms" },
+		{ "app 0 essential --interval 70000", "--interval" },
+		{ "app 0 essential --interval 100 --react emcy,boom", "--react: a list of" },
+		{ "host 0 maybe", "host LINE ready|not-ready" },
+		{ "host 0", "host LINE ready|not-ready" },
 	};
 	for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
 		ctl_result *r = ctl_run("%s", cases[i].args);
