@@ -605,6 +605,40 @@ static void print_dev_mirror(const cogw_msg *m, const ctl_monitor_spec *spec, ev
 	cJSON_AddNumberToObject(out->o, "generation", e.generation);
 }
 
+/* The application watchdog's trip, the own node's NMT, host ready
+ * (docs/application.md). */
+static void print_app(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	char set[160];
+
+	(void)spec;
+	if (m->code == MBX_EV_APP_WD_TIMEOUT) {
+		mbx_ev_app_wd e;
+		memcpy(&e, m->data, sizeof e);
+		mbx_app_reactions_format(e.done, set, sizeof set);
+		snprintf(out->text, out->len,
+			 "application watchdog: client %u (pid %u%s) missed its %u ms keep-alive, "
+			 "%u us late: %s",
+			 e.client, e.pid, e.gone ? ", gone" : "", e.interval_ms, e.late_us, set);
+	} else if (m->code == MBX_EV_APP_NMT) {
+		mbx_app_nmt e;
+		memcpy(&e, m->data, sizeof e);
+		snprintf(out->text, out->len, "own node %u: %s%s (%u holder%s)", e.node,
+			 co_nmt_state_to_string(e.state),
+			 e.flags & MBX_APP_NMT_REFUSED ? ", start refused and deferred" : "",
+			 e.holders, e.holders == 1 ? "" : "s");
+	} else {
+		mbx_ev_host e;
+		memcpy(&e, m->data, sizeof e);
+		mbx_app_reactions_format(e.done, set, sizeof set);
+		snprintf(out->text, out->len, "host %s (client %u)%s%s",
+			 e.ready ? "ready" : "NOT READY", e.client, e.ready ? "" : ": ",
+			 e.ready ? "" : set);
+	}
+	if (out->o)
+		cJSON_AddStringToObject(out->o, "text", out->text);
+}
+
 static const struct {
 	uint16_t code;
 	event_printer print;
@@ -636,6 +670,9 @@ static const struct {
 	{ MBX_EV_LIFE_LOST, print_node_event },
 	{ MBX_EV_LIFE_RESUMED, print_node_event },
 	{ MBX_EV_OVERFLOW, print_overflow },
+	{ MBX_EV_APP_WD_TIMEOUT, print_app },
+	{ MBX_EV_APP_NMT, print_app },
+	{ MBX_EV_HOST_STATE, print_app },
 };
 
 static event_printer printer_of(uint16_t code)
@@ -801,14 +838,14 @@ static int add_class(ctl *c, const char *s, void *arg)
 			return 0;
 		}
 	/* the other classes by the mailbox's own names (sync, time, pdo-fault) */
-	for (uint32_t bit = 1; bit & MBX_EVC_ALL; bit <<= 1)
-		if (strcmp(s, mbx_event_class_to_string(bit)) == 0) {
+	for (uint32_t bit = 1; bit; bit <<= 1)
+		if ((bit & MBX_EVC_ALL) && strcmp(s, mbx_event_class_to_string(bit)) == 0) {
 			*(uint32_t *)arg |= bit;
 			return 0;
 		}
 	return ctl_usage_error(c,
 			       "unknown event class '%s' (nmt, hb, boot, emcy, pdo, sdo, can, raw, "
-			       "od, manager, gateway, pdo-fault, sync, time, all)",
+			       "od, manager, gateway, pdo-fault, sync, time, app, all)",
 			       s);
 }
 
