@@ -382,6 +382,11 @@ static void test_every_nmt_reaction_and_the_safe_outputs(void)
 
 	wait_own_state(0, 0x05, 10000);
 	TEST_ASSERT_EQUAL_INT(COGW_E_NOT_FOUND, cogw_app_keepalive(h, 0, 3000));
+	/* cogwctl monitor shows the trips of the app class */
+	const char *mon[] = { "build/san/bin/cogwctl", "--instance", INSTANCE, "monitor", "--line",
+			      "0", "--class", "app", NULL };
+	child = proc_spawn(mon, child_log, NULL);
+	TEST_ASSERT_TRUE(file_wait_contains(child_log, "watching app events", 5000));
 	for (unsigned i = 0; i < sizeof nmt / sizeof nmt[0]; i++) {
 		uint8_t frame[2] = { nmt[i].cs, 0 };
 		trip_once(0, nmt[i].reaction, &resp, &ev);
@@ -390,6 +395,10 @@ static void test_every_nmt_reaction_and_the_safe_outputs(void)
 		expect_frame_after(nmt[i].name, 0x000, frame, 2, ev.deadline_us);
 		wait_own_state(0, 0x05, 10000); /* the manager boots and starts again */
 	}
+	TEST_ASSERT_TRUE(file_wait_contains(child_log, "missed its 50 ms keep-alive", 3000));
+	TEST_ASSERT_TRUE(file_contains(child_log, "nmt-reset-node"));
+	proc_stop(child, SIGTERM, 3000);
+	child = 0;
 	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(h, 0, 0x2000, 0, &(uint16_t){ 700 }, 2, 3000, NULL));
 	trip_once(0, MBX_APP_R_SAFE_OUTPUTS, &resp, &ev);
 	expect_frame_after("safe-output TPDO 1FFh", TPDO_COB, tpdo_safe, 2, ev.deadline_us);
