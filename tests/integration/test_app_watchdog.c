@@ -383,8 +383,15 @@ static void test_every_nmt_reaction_and_the_safe_outputs(void)
 	wait_own_state(0, 0x05, 10000);
 	TEST_ASSERT_EQUAL_INT(COGW_E_NOT_FOUND, cogw_app_keepalive(h, 0, 3000));
 	/* cogwctl monitor shows the trips of the app class */
-	const char *mon[] = { "build/san/bin/cogwctl", "--instance", INSTANCE, "monitor", "--line",
-			      "0", "--class", "app", NULL };
+	const char *mon[] = { "build/san/bin/cogwctl",
+			      "--instance",
+			      INSTANCE,
+			      "monitor",
+			      "--line",
+			      "0",
+			      "--class",
+			      "app",
+			      NULL };
 	child = proc_spawn(mon, child_log, NULL);
 	TEST_ASSERT_TRUE(file_wait_contains(child_log, "watching app events", 5000));
 	for (unsigned i = 0; i < sizeof nmt / sizeof nmt[0]; i++) {
