@@ -89,6 +89,18 @@ static uint32_t lock_check(void *ctx, co_od_entry *e, const co_od_access *a)
 
 static const co_od_hooks lock_hooks = { .check_write = lock_check };
 
+/* 1F81h:n written after the network boot: the node follows at once. */
+static void assignment_written(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	co_manager *m = ctx;
+	if (a->origin == CO_OD_ORIGIN_RESET)
+		return;
+	(void)co_manager_node_reassigned(m, e->sub, m->node->now_us);
+}
+
+static const co_od_hooks assignment_hooks = { .check_write = lock_check,
+					      .after_write = assignment_written };
+
 /* 1F89h written while the line waits for mandatory slaves: the new boot
  * time counts from the start of the boot (0 = wait for ever); one that
  * has passed ends the wait at the next tick. */
@@ -115,14 +127,19 @@ static const struct locked_object {
 	{ 0x1F86, 1, 127 }, { 0x1F87, 1, 127 }, { 0x1F88, 1, 127 }, { 0x1F89, 0, 0 },
 };
 
+static const co_od_hooks *hooks_of(uint16_t index)
+{
+	return index == 0x1F89   ? &boot_time_hooks
+	       : index == 0x1F81 ? &assignment_hooks
+				 : &lock_hooks;
+}
+
 static void set_lock_hooks(co_manager *m, bool on)
 {
 	for (size_t i = 0; i < sizeof(locked_objects) / sizeof(locked_objects[0]); i++)
 		for (unsigned sub = locked_objects[i].first; sub <= locked_objects[i].last; sub++)
 			(void)co_od_set_hooks(m->od, locked_objects[i].index, (uint8_t)sub,
-					      !on                                 ? NULL
-					      : locked_objects[i].index == 0x1F89 ? &boot_time_hooks
-										  : &lock_hooks,
+					      !on ? NULL : hooks_of(locked_objects[i].index),
 					      on ? m : NULL);
 }
 

@@ -339,6 +339,7 @@ static void handle_requests(line *l)
 		mbx_server_set_lease(l->mbx, a->lease_ms);
 		atomic_store_explicit(&a->state, 0, memory_order_release);
 	}
+	line_nodes_poll(l);
 	line_store_poll(l);
 }
 

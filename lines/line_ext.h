@@ -46,6 +46,14 @@
  *   poll          once per loop iteration: run what is due at now_us and
  *                 return the next time it needs the line (CO_NO_DEADLINE
  *                 for none); the line sleeps no longer than that.
+ *   node_set      a slave added to, changed in or removed from the line's
+ *                 network list at run time by the main thread (a reload,
+ *                 line_request_node): the extension that owns the list
+ *                 (the manager) applies it and returns 0 or a negative
+ *                 errno; the first extension with this op takes it.
+ *   node_changed  a node's entry changed (line_node_changed, called by
+ *                 the extension that applied it): follow it (the device
+ *                 object layer mirrors or releases the node's PDOs).
  *   detach        at line_destroy(), after the thread stopped and before
  *                 the node is destroyed.
  * Rules for every op: never block, never allocate after attach, never
@@ -73,6 +81,27 @@ typedef struct line_sdo_route {
 	uint32_t relay_target; /* see sdo_client_req.relay_target */
 } line_sdo_route;
 
+/* A slave added, changed or removed at run time (docs/config.md "Nodes at
+ * run time"): the mailbox's fixed part (MBX_CMD_MGR_NODE_SET, validated
+ * the same way) and what only the daemon's configuration can give. */
+typedef struct line_node_set {
+	mbx_mgr_node_set_req req;
+	const uint8_t *cdcf; /* 1F22h:n, cdcf_len bytes (NULL, 0 = none);
+	                      * valid during the call */
+	uint32_t cdcf_len;
+	const co_pdo_layout_type *types; /* sorted; must outlive the line */
+	size_t n_types;
+} line_node_set;
+
+/* What the other extensions hear of a change that was applied. */
+typedef struct line_node_news {
+	uint8_t node;
+	bool removed;
+	uint8_t pdo;                     /* 0 off, 1 learn, 2 auto: its PDOs are mirrored */
+	const co_pdo_layout_type *types; /* sorted; must outlive the line */
+	size_t n_types;
+} line_node_news;
+
 typedef struct line_ext_ops {
 	const char *name;                  /* for logs */
 	int (*attach)(void *ctx, line *l); /* 0 or -errno: line_create fails */
@@ -88,6 +117,8 @@ typedef struct line_ext_ops {
 	uint32_t (*sdo_route)(void *ctx, line *l, uint64_t tag, uint16_t net, uint8_t node,
 			      line_sdo_route *out);
 	void (*sdo_route_end)(void *ctx, line *l, uint64_t tag);
+	int (*node_set)(void *ctx, line *l, const line_node_set *set);
+	void (*node_changed)(void *ctx, line *l, const line_node_news *info);
 } line_ext_ops;
 
 typedef struct line_ext {
@@ -135,5 +166,8 @@ typedef struct line_sdo_xfer {
  * are answered here (false); otherwise (true) x->answer answers at the
  * confirmation, exactly once. */
 bool line_sdo_submit(line *l, const mbx_request *req, const line_sdo_xfer *x);
+
+/* Tell every extension with node_changed (line thread). */
+void line_node_changed(line *l, const line_node_news *info);
 
 #endif /* COGW_LINES_LINE_EXT_H */
