@@ -167,6 +167,11 @@ typedef struct line_sdo_xfer {
  * confirmation, exactly once. */
 bool line_sdo_submit(line *l, const mbx_request *req, const line_sdo_xfer *x);
 
+/* Node `node`'s heartbeat consumed with time_ms in 1016h (0 = no longer):
+ * its entry, else a free one, written through the OD (the consumer loads
+ * it again). 0, -ENOSPC (1016h full), -EIO (the entry refused it). Line
+ * thread. */
+int line_consumer_set(line *l, uint8_t node, uint16_t time_ms);
 /* Tell every extension with node_changed (line thread). */
 void line_node_changed(line *l, const line_node_news *info);
 

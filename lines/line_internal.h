@@ -81,6 +81,7 @@ enum {
 typedef struct line_node_req {
 	atomic_int state;
 	line_node_set set;
+	bool consumer_only; /* only set.req.node's 1016h entry (heartbeat_ms) */
 	int rc;
 } line_node_req;
 

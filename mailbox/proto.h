@@ -608,6 +608,8 @@ typedef struct mbx_mgr_node_set_req {
 	uint16_t heartbeat_ms; /* its 1016h consumer time, 0 = none */
 	uint32_t assignment;   /* 1F81h:n: bit 0 set (add, change) */
 	uint32_t identity[5];  /* 1F84h..1F88h:n, 0 = not checked */
+	uint32_t date, time;   /* 1F26h:n/1F27h:n, the configuration's date and
+	                        * time (CiA 302-3: both 0 = always download) */
 } mbx_mgr_node_set_req;
 
 /* MBX_EV_MGR_*: the fields of co_ev_mgr (core/event.h). */

@@ -543,24 +543,6 @@ static void program_request(struct mgr_line *ml, line *l, const mbx_request *req
 
 /* ---- nodes at run time (docs/config.md "Nodes at run time") ------------------- */
 
-/* The 1016h sub-index that consumes node id's heartbeat (0 = none), or with
- * want_free, else the first sub-index that consumes nothing. */
-static uint8_t hb_sub_of(const co_od *od, uint8_t id, bool want_free)
-{
-	uint8_t subs = 0, free_sub = 0;
-
-	(void)co_od_get_u8(od, 0x1016, 0, &subs);
-	for (unsigned sub = 1; sub <= subs; sub++) {
-		uint32_t v = 0;
-		(void)co_od_get_u32(od, 0x1016, (uint8_t)sub, &v);
-		if (((v >> 16) & 0xFFu) == id && (v & 0xFFFFu))
-			return (uint8_t)sub;
-		if (!free_sub && !(v & 0xFFFFu))
-			free_sub = (uint8_t)sub;
-	}
-	return want_free ? free_sub : 0;
-}
-
 /* A write through the OD's hooks, as an SDO write would be: the heartbeat
  * consumer loads 1016h:sub again, the manager follows 1F81h:n, the
  * configuration manager checks 1F22h:n. The defaults stay the file's (a
@@ -609,8 +591,6 @@ static int node_refusal(struct mgr_line *ml, line *l, const line_node_set *set)
 		return -EINVAL;
 	if (set->cdcf_len && (!cdcf || set->cdcf_len > cdcf->max_size))
 		return -E2BIG;
-	if (r->heartbeat_ms && !hb_sub_of(od, r->node, true))
-		return -ENOSPC;
 	return 0;
 }
 
@@ -624,21 +604,26 @@ static void node_objects(struct mgr_line *ml, line *l, const line_node_set *set,
 	const mbx_mgr_node_set_req *r = &set->req;
 	co_od *od = co_node_od(line_node(l));
 	bool remove = r->op == MBX_NODE_REMOVE;
-	uint8_t id = r->node, sub = hb_sub_of(od, id, false);
+	uint8_t id = r->node;
 	uint32_t ab = od_put_u32(od, 0x1F81, id, 0);
+	int rc;
 
 	(void)co_cfgmgr_cancel(&ml->cfgm.job[id - 1], now);
 	co_pdo_scan_line_forget(&ml->scan, id, now);
-	if (!ab && sub)
-		ab = od_put_u32(od, 0x1016, sub, 0);
+	if (!ab && (rc = line_consumer_set(l, id, 0)) < 0)
+		ab = SDO_AB_GENERAL;
 	for (unsigned k = 0; k < 5 && !ab; k++)
 		ab = od_put_u32(od, (uint16_t)(0x1F84 + k), id, remove ? 0 : r->identity[k]);
-	if (!ab && co_od_find(od, CO_CFGMGR_IDX_CDCF, id))
+	if (!ab && co_od_find(od, CO_CFGMGR_IDX_CDCF, id)) {
 		ab = od_put(od, CO_CFGMGR_IDX_CDCF, id, remove ? NULL : set->cdcf,
 			    remove ? 0 : set->cdcf_len);
-	if (!ab && !remove && r->heartbeat_ms)
-		ab = od_put_u32(od, 0x1016, hb_sub_of(od, id, true),
-				(uint32_t)id << 16 | r->heartbeat_ms);
+		if (!ab)
+			ab = od_put_u32(od, CO_CFGMGR_IDX_DATE, id, remove ? 0 : r->date);
+		if (!ab)
+			ab = od_put_u32(od, CO_CFGMGR_IDX_TIME, id, remove ? 0 : r->time);
+	}
+	if (!ab && !remove && r->heartbeat_ms && (rc = line_consumer_set(l, id, r->heartbeat_ms)))
+		ab = SDO_AB_GENERAL;
 	if (!ab && !remove)
 		ab = od_put_u32(od, 0x1F81, id, r->assignment);
 	if (ab)

@@ -69,7 +69,8 @@ static int fill_request(ctl *c, const struct node_args *a, mbx_mgr_node_set_req 
 		if ((rc = arg_u32(c, a->ident[k], ident_names[k], UINT32_MAX, &r->identity[k])))
 			return rc;
 	if (hb && guard)
-		return ctl_usage_error(c, "--heartbeat-ms and --guard-time-ms: supervise it one way");
+		return ctl_usage_error(c,
+				       "--heartbeat-ms and --guard-time-ms: supervise it one way");
 	r->heartbeat_ms = (uint16_t)hb;
 	r->assignment = CO_MGR_1F81_SLAVE | (a->no_boot ? 0 : CO_MGR_1F81_BOOT) |
 			(a->mandatory ? CO_MGR_1F81_MANDATORY : 0) |
@@ -113,8 +114,7 @@ static int answer(ctl *c, unsigned line, uint8_t node, const char *op)
 }
 
 /* "node add|change|remove LINE NODE": the operation and its two numbers. */
-static int node_target(ctl *c, const char **pos, int n_pos, mbx_mgr_node_set_req *r,
-		       unsigned *line)
+static int node_target(ctl *c, const char **pos, int n_pos, mbx_mgr_node_set_req *r, unsigned *line)
 {
 	static const char *const ops[] = { "add", "change", "remove", NULL };
 	static const uint8_t op_values[] = { MBX_NODE_ADD, MBX_NODE_CHANGE, MBX_NODE_REMOVE };
@@ -180,7 +180,7 @@ static int run_node(ctl *c, int argc, char **argv)
 	if (rc < 0)
 		return ctl_fail(c, rc, 0, ctx);
 	return answer(c, line, r.node,
-		      r.op == MBX_NODE_ADD	  ? "added"
+		      r.op == MBX_NODE_ADD      ? "added"
 		      : r.op == MBX_NODE_CHANGE ? "changed"
 						: "removed");
 }

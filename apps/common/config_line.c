@@ -179,6 +179,18 @@ static bool node_listed(const cogw_line_config *l, unsigned id)
 	return false;
 }
 
+uint32_t cogw_node_cdcf_room(const cogw_line_config *l, uint8_t id)
+{
+	for (size_t i = 0; i < l->n_nodes; i++)
+		if (l->nodes[i].id == id)
+			return l->nodes[i].config.cdcf_len > COGW_NODE_CDCF_ROOM
+				       ? (uint32_t)l->nodes[i].config.cdcf_len
+				       : COGW_NODE_CDCF_ROOM;
+	return l->manager.enabled && id >= 1 && id <= 127 && id != l->node_id
+		       ? COGW_RUNTIME_CDCF_ROOM
+		       : 0;
+}
+
 static int runtime_node_objects(struct ctx *c, const char *path, cogw_line_config *l)
 {
 	for (unsigned id = 1; l->manager.enabled && id <= 127; id++) {
