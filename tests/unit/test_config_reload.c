@@ -32,9 +32,9 @@ void tearDown(void)
 	cogw_config_free(&next);
 }
 
-#define LINE(bitrate, extra)                                                             \
-	"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": " bitrate ", \"node_id\": 127" \
-	extra "}]}"
+#define LINE(bitrate, extra)                                                                       \
+	"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": " bitrate ", \"node_id\": 127" extra \
+	"}]}"
 #define MGR ", \"manager\": {}"
 
 static void load(cogw_config *c, const char *json)
@@ -110,8 +110,8 @@ static void test_every_live_node_key_is_a_change(void)
 		tearDown();
 		setUp();
 		load(&cur, LINE("500000", MGR ", \"nodes\": [{\"id\": 4}]"));
-		snprintf(json, sizeof json,
-			 LINE("500000", MGR ", \"nodes\": [{\"id\": 4, %s}]"), variants[i]);
+		snprintf(json, sizeof json, LINE("500000", MGR ", \"nodes\": [{\"id\": 4, %s}]"),
+			 variants[i]);
 		load(&next, json);
 		TEST_ASSERT_TRUE_MESSAGE(cogw_config_reload_check(&cur, &next, what, sizeof what),
 					 what);
