@@ -67,10 +67,15 @@ static const co_od_hooks f25_hooks = { .check_write = f25_check };
 
 /* 1F80h, 1F81h, 1F84h..1F89h while the network boots: the boot reads
  * them step by step, a change in the middle would boot a node against
- * half old, half new values. 1F89h stays writable while the line waits for mandatory slaves (a new limit,
- * 0 = wait for ever). The flying master (1F80h bit 5) is not supported.
- * Writes are refused with 08000022h (device state) or 06090030h (value
- * range); docs/config.md "The manager" describes the lock. */
+ * half old, half new values. Once its first pass is over and the line
+ * waits for mandatory slaves, each node's boot slave process reads its
+ * objects when it (re)starts, as in a running network: 1F81h and
+ * 1F84h..1F88h may be written then (a node added or removed while a
+ * mandatory one is missing; a 1F81h:n write restarts node n's process),
+ * and 1F89h (a new limit, 0 = wait for ever); 1F80h stays locked. The
+ * flying master (1F80h bit 5) is not supported. Writes are refused with
+ * 08000022h (device state) or 06090030h (value range); docs/config.md
+ * "The manager" describes the lock. */
 static uint32_t lock_check(void *ctx, co_od_entry *e, const co_od_access *a)
 {
 	co_manager *m = ctx;
@@ -82,7 +87,7 @@ static uint32_t lock_check(void *ctx, co_od_entry *e, const co_od_access *a)
 		return SDO_AB_VALUE;
 	if (st == CO_MGR_RESETTING || st == CO_MGR_BOOTING)
 		return SDO_AB_DEV_STATE;
-	if (st == CO_MGR_WAIT_MANDATORY && e->index != 0x1F89)
+	if (st == CO_MGR_WAIT_MANDATORY && e->index == 0x1F80)
 		return SDO_AB_DEV_STATE;
 	return 0;
 }

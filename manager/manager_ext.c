@@ -577,7 +577,7 @@ static int node_refusal(struct mgr_line *ml, line *l, const line_node_set *set)
 	/* the network boot reads the objects step by step (their lock,
 	 * core/manager_od.c); FATAL and slave mode boot nobody */
 	if (st == CO_MGR_SLAVE || st == CO_MGR_RESETTING || st == CO_MGR_BOOTING ||
-	    st == CO_MGR_WAIT_MANDATORY || st == CO_MGR_FATAL)
+	    st == CO_MGR_FATAL)
 		return -EAGAIN;
 	if (r->op == MBX_NODE_ADD && (a & CO_MGR_1F81_SLAVE))
 		return -EEXIST;

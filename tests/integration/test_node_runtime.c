@@ -37,9 +37,9 @@
 #define ADDED 2  /* the I/O module, added at run time */
 
 /* One line with a manager, node 1 listed, every PDO mirrored ("auto"). */
-#define LINE0(bitrate, nodes)                                                            \
+#define LINE0(bitrate, nodes)                                                           \
 	"{\"version\": 1, \"mailbox\": {\"instance\": \"" INSTANCE "\"}, \"lines\": ["  \
-	"{\"interface\": \"vcan0\", \"bitrate\": " bitrate ", \"node_id\": 127, "        \
+	"{\"interface\": \"vcan0\", \"bitrate\": " bitrate ", \"node_id\": 127, "       \
 	"\"pdo\": \"auto\", \"manager\": {\"retry_ms\": 500}, \"nodes\": [{\"id\": 1, " \
 	"\"heartbeat_ms\": 2500}" nodes "]}]}"
 
@@ -85,14 +85,13 @@ static void start(const char *config)
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim1, dmn.dir, 0, dev1, NULL));
 	TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim2, dmn.dir, 0, dev2, NULL));
 	TEST_ASSERT_EQUAL_INT(0, cogw_open(&h, INSTANCE));
-	TEST_ASSERT_EQUAL_INT(0, cogw_subscribe(h, 0, MBX_EVC_BOOT | MBX_EVC_MANAGER, NULL, 0,
-						3000));
+	TEST_ASSERT_EQUAL_INT(0,
+			      cogw_subscribe(h, 0, MBX_EVC_BOOT | MBX_EVC_MANAGER, NULL, 0, 3000));
 	uint64_t until = mono_ms() + 30000;
 	do {
 		sleep_ms(100);
 		TEST_ASSERT_EQUAL_INT(0, cogw_mgr_status(h, 0, &st, 3000));
-	} while ((st.state != CO_MGR_OPERATIONAL || !bit(&st.booted, LISTED)) &&
-		 mono_ms() < until);
+	} while ((st.state != CO_MGR_OPERATIONAL || !bit(&st.booted, LISTED)) && mono_ms() < until);
 	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, st.state);
 	TEST_ASSERT_TRUE(bit(&st.booted, LISTED));
 	TEST_ASSERT_FALSE(bit(&st.assigned, ADDED));
@@ -106,8 +105,8 @@ static void wait_booted(uint8_t node, bool booted, mbx_mgr_status *st)
 		TEST_ASSERT_EQUAL_INT(0, cogw_mgr_status(h, 0, st, 3000));
 		if (bit(&st->booted, node) == booted && bit(&st->assigned, node) == booted)
 			return;
-		TEST_ASSERT_TRUE_MESSAGE(mono_ms() < until, booted ? "node not booted"
-								   : "node still assigned");
+		TEST_ASSERT_TRUE_MESSAGE(mono_ms() < until,
+					 booted ? "node not booted" : "node still assigned");
 		sleep_ms(100);
 	}
 }
@@ -127,8 +126,7 @@ static uint16_t consumer_ms(uint8_t node)
 }
 
 /* The next event `code` about node (MGR_NODE: with `what`), else false. */
-static bool wait_event(uint16_t code, uint8_t node, int what, int timeout_ms, void *out,
-		       size_t len)
+static bool wait_event(uint16_t code, uint8_t node, int what, int timeout_ms, void *out, size_t len)
 {
 	uint64_t until = mono_ms() + (uint64_t)timeout_ms;
 	cogw_msg m;
@@ -237,18 +235,18 @@ static void test_add_change_remove_over_the_mailbox(void)
 	TEST_ASSERT_EQUAL_INT(0, cogw_mgr_node_set(h, 0, &r, c.b, c.len, 3000));
 	wait_booted(ADDED, true, &st);
 	TEST_ASSERT_EQUAL_UINT16(1000, consumer_ms(ADDED));
-	TEST_ASSERT_TRUE_MESSAGE(wait_event(MBX_EV_DEV_MIRROR, ADDED, 0, 10000, &mirror,
-					    sizeof mirror),
-				 "no mirror event for the added node");
+	TEST_ASSERT_TRUE_MESSAGE(
+		wait_event(MBX_EV_DEV_MIRROR, ADDED, 0, 10000, &mirror, sizeof mirror),
+		"no mirror event for the added node");
 	TEST_ASSERT_TRUE(pdo_map_shows(ADDED, "2100:00 32 bits"));
 	TEST_ASSERT_EQUAL_INT(0, cogw_mgr_status(h, 0, &st, 3000));
 	TEST_ASSERT_EQUAL_UINT32(1, st.node_changes);
 
 	/* supervised: its heartbeat stops -> lost, reported */
 	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sim2, "hb stop", NULL, 0, 3000));
-	TEST_ASSERT_TRUE_MESSAGE(wait_event(MBX_EV_MGR_NODE, ADDED, CO_MGR_NODE_LOST, 10000, NULL,
-					    0),
-				 "the added node's heartbeat loss was not reported");
+	TEST_ASSERT_TRUE_MESSAGE(
+		wait_event(MBX_EV_MGR_NODE, ADDED, CO_MGR_NODE_LOST, 10000, NULL, 0),
+		"the added node's heartbeat loss was not reported");
 	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sim2, "hb start", NULL, 0, 3000));
 	TEST_ASSERT_TRUE(wait_event(MBX_EV_MGR_NODE, ADDED, CO_MGR_NODE_BACK, 10000, NULL, 0));
 
@@ -266,9 +264,9 @@ static void test_add_change_remove_over_the_mailbox(void)
 	wait_booted(ADDED, false, &st);
 	TEST_ASSERT_EQUAL_UINT16(0, consumer_ms(ADDED));
 	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sim2, "hb stop", NULL, 0, 3000));
-	TEST_ASSERT_FALSE_MESSAGE(wait_event(MBX_EV_MGR_NODE, ADDED, CO_MGR_NODE_LOST, 3000,
-					     NULL, 0),
-				  "a removed node's heartbeat loss was reported");
+	TEST_ASSERT_FALSE_MESSAGE(
+		wait_event(MBX_EV_MGR_NODE, ADDED, CO_MGR_NODE_LOST, 3000, NULL, 0),
+		"a removed node's heartbeat loss was reported");
 	TEST_ASSERT_EQUAL_INT(0, cogw_mgr_status(h, 0, &st, 3000));
 	TEST_ASSERT_FALSE(bit(&st.errctrl_lost, ADDED));
 	TEST_ASSERT_EQUAL_UINT32(3, st.node_changes);
@@ -375,8 +373,8 @@ static void test_sighup_adds_changes_removes(void)
 	uint32_t listed_boots = d1.boot_count;
 
 	reload_with(LINE0("1000000", NODE2("1200")));
-	TEST_ASSERT_TRUE(file_wait_contains(dmn.log_path, "reload: lines[0].nodes[1]: node 2 added",
-					    3000));
+	TEST_ASSERT_TRUE(
+		file_wait_contains(dmn.log_path, "reload: lines[0].nodes[1]: node 2 added", 3000));
 	wait_booted(ADDED, true, &st);
 	TEST_ASSERT_EQUAL_UINT16(1200, consumer_ms(ADDED));
 
@@ -389,14 +387,13 @@ static void test_sighup_adds_changes_removes(void)
 	/* a key that needs a restart: refused by its path, nothing applied
 	 * (node 2's heartbeat stays 2200) */
 	reload_with(LINE0("500000", NODE2("3300")));
-	TEST_ASSERT_TRUE(file_wait_contains(dmn.log_path,
-					    "reload refused: lines[0].bitrate: needs a restart",
-					    3000));
+	TEST_ASSERT_TRUE(file_wait_contains(
+		dmn.log_path, "reload refused: lines[0].bitrate: needs a restart", 3000));
 	TEST_ASSERT_EQUAL_UINT16(2200, consumer_ms(ADDED));
 
 	reload_with(LINE0("1000000", ""));
-	TEST_ASSERT_TRUE(file_wait_contains(dmn.log_path, "reload: lines[0].nodes: node 2 removed",
-					    3000));
+	TEST_ASSERT_TRUE(
+		file_wait_contains(dmn.log_path, "reload: lines[0].nodes: node 2 removed", 3000));
 	wait_booted(ADDED, false, &st);
 	TEST_ASSERT_EQUAL_UINT16(0, consumer_ms(ADDED));
 	TEST_ASSERT_EQUAL_INT(0, cosim_ctl(&sim2, "hb stop", NULL, 0, 3000));
