@@ -85,6 +85,10 @@ static uint32_t lock_check(void *ctx, co_od_entry *e, const co_od_access *a)
 	if (e->index == 0x1F80 && a->data && a->size >= 1 &&
 	    (a->data[0] & CO_MGR_1F80_FLYING_MASTER))
 		return SDO_AB_VALUE;
+	/* the manager is no slave of its own network */
+	if (e->index == 0x1F81 && e->sub == m->own_id && a->data && a->size >= 1 &&
+	    (a->data[0] & CO_MGR_1F81_SLAVE))
+		return SDO_AB_VALUE;
 	if (st == CO_MGR_RESETTING || st == CO_MGR_BOOTING)
 		return SDO_AB_DEV_STATE;
 	if (st == CO_MGR_WAIT_MANDATORY && e->index == 0x1F80)

@@ -91,6 +91,9 @@ typedef struct line_node_set {
 	uint32_t cdcf_len;
 	const co_pdo_layout_type *types; /* sorted; must outlive the line */
 	size_t n_types;
+	bool as_file; /* a reload: the node becomes what the file says,
+	               * whether or not the mailbox added or removed it
+	               * meanwhile (no duplicate or not-found refusal) */
 } line_node_set;
 
 /* What the other extensions hear of a change that was applied. */

@@ -579,9 +579,9 @@ static int node_refusal(struct mgr_line *ml, line *l, const line_node_set *set)
 	if (st == CO_MGR_SLAVE || st == CO_MGR_RESETTING || st == CO_MGR_BOOTING ||
 	    st == CO_MGR_FATAL)
 		return -EAGAIN;
-	if (r->op == MBX_NODE_ADD && (a & CO_MGR_1F81_SLAVE))
+	if (!set->as_file && r->op == MBX_NODE_ADD && (a & CO_MGR_1F81_SLAVE))
 		return -EEXIST;
-	if (r->op != MBX_NODE_ADD && !(a & CO_MGR_1F81_SLAVE))
+	if (!set->as_file && r->op != MBX_NODE_ADD && !(a & CO_MGR_1F81_SLAVE))
 		return -ENOENT;
 	if (co_swmgr_running(&ml->swm.job[r->node - 1]) || program_of(ml, r->node))
 		return -EBUSY; /* a program download must not be cut short */
@@ -735,6 +735,7 @@ static void mgr_on_command(void *ctx, line *l, const mbx_request *req)
 	}
 	case MBX_CMD_MGR_RESET_COUNTERS:
 		co_manager_reset_counters(ml->mgr);
+		ml->node_changes = ml->node_changes_refused = 0;
 		break;
 	case MBX_CMD_MGR_PROGRAM:
 		program_request(ml, l, req, now);

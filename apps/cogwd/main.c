@@ -400,7 +400,7 @@ static line_node_set node_set_of(const cogw_node_change *ch)
 				       [COGW_NODE_CHANGED] = MBX_NODE_CHANGE,
 				       [COGW_NODE_REMOVED] = MBX_NODE_REMOVE };
 	const cogw_node *n = ch->node;
-	line_node_set set = { .req = { .node = ch->id, .op = ops[ch->kind] } };
+	line_node_set set = { .req = { .node = ch->id, .op = ops[ch->kind] }, .as_file = true };
 
 	if (ch->kind == COGW_NODE_REMOVED)
 		return set;
@@ -427,11 +427,6 @@ static const char *node_refusal_text(int rc)
 	case -EAGAIN:
 		return "the network boot runs (or the manager is not the NMT master now): "
 		       "send SIGHUP again when it has ended";
-	case -EEXIST:
-		return "it is in the network list already (added over the mailbox?): change "
-		       "or remove it there, then reload";
-	case -ENOENT:
-		return "it is no longer in the network list (removed over the mailbox?)";
 	case -EBUSY:
 		return "a program download to it runs: reload when it has ended";
 	default:

@@ -352,6 +352,46 @@ static void drain_notify(notify_sock *ns)
 		;
 }
 
+/* CiA 302-2's own objects: a concise DCF of the manager's entries for
+ * node 2 imported into the daemon's OD (1F81h:2 last) adds it; a write of
+ * 1F81h:2 = 0 removes it. */
+static void test_manager_objects_add_and_remove(void)
+{
+	mbx_mgr_status st;
+	cdcf c = { 0 };
+	char path[128], out[1024];
+
+	start(LINE0("1000000", ""));
+	cdcf_put(&c, 0x1F85, ADDED, 4, 0x1234);
+	cdcf_put(&c, 0x1016, 100, 4, (uint32_t)ADDED << 16 | 1700);
+	cdcf_put(&c, 0x1F81, ADDED, 4, CO_MGR_1F81_SLAVE | CO_MGR_1F81_BOOT);
+	snprintf(path, sizeof path, "%s/node2.cdc", dmn.dir);
+	FILE *f = fopen(path, "wb");
+	TEST_ASSERT_NOT_NULL(f);
+	TEST_ASSERT_EQUAL_size_t(c.len, fwrite(c.b, 1, c.len, f));
+	fclose(f);
+	char args[200];
+	snprintf(args, sizeof args, "od import 0 %s", path);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, cogwctl(args, out, sizeof out), out);
+	TEST_ASSERT_NOT_NULL(strstr(out, "3 entries written"));
+	wait_booted(ADDED, true, &st);
+	TEST_ASSERT_EQUAL_UINT16(1700, consumer_ms(ADDED));
+
+	/* a wrong vendor expected: its next boot fails with status D */
+	TEST_ASSERT_EQUAL_INT(0, cogwctl("od write 0 1F85 2 u32 0x9999", out, sizeof out));
+	TEST_ASSERT_EQUAL_INT(0, cogwctl("od write 0 1F81 2 u32 5", out, sizeof out));
+	mbx_ev_mgr e = { 0 };
+	uint64_t until = mono_ms() + 10000;
+	while (e.status != 'D' && mono_ms() < until)
+		(void)wait_event(MBX_EV_MGR_BOOT, ADDED, 0, 500, &e, sizeof e);
+	TEST_ASSERT_EQUAL('D', e.status);
+
+	TEST_ASSERT_EQUAL_INT(0, cogwctl("od write 0 1F81 2 u32 0", out, sizeof out));
+	wait_booted(ADDED, false, &st);
+	/* the daemon's own node-ID is no slave of its own */
+	TEST_ASSERT_EQUAL_INT(1, cogwctl("od write 0 1F81 127 u32 5 2>/dev/null", out, sizeof out));
+}
+
 static void reload_with(const char *json)
 {
 	TEST_ASSERT_EQUAL_INT(0, write_text_file(dmn.config_path, json));
@@ -411,6 +451,7 @@ int main(void)
 	RUN_TEST(test_add_change_remove_over_the_mailbox);
 	RUN_TEST(test_bad_inputs_refused_and_counted);
 	RUN_TEST(test_cogwctl_node);
+	RUN_TEST(test_manager_objects_add_and_remove);
 	RUN_TEST(test_sighup_adds_changes_removes);
 	return UNITY_END();
 }

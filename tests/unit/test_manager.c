@@ -1011,6 +1011,8 @@ static void test_assignment_written_at_run_time(void)
 	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
 	TEST_ASSERT_EQUAL_UINT(1, mf_boot_count(&f, 2, CO_MGR_STEP_START, 0));
 	/* the manager's own node-ID and bad ones are refused */
+	TEST_ASSERT_EQUAL_HEX32(0x06090030, tb_od_write(&f.bus, f.mp->node, 0x1F81,
+							co_node_id(f.mp->node), SLAVE_BOOT));
 	TEST_ASSERT_EQUAL_INT(-EINVAL, co_manager_node_reassigned(f.mgr, 0, f.bus.now));
 	TEST_ASSERT_EQUAL_INT(-EINVAL, co_manager_node_reassigned(f.mgr, 128, f.bus.now));
 	TEST_ASSERT_EQUAL_INT(-EINVAL,
