@@ -85,16 +85,21 @@ static int fill_request(ctl *c, const struct node_args *a, mbx_mgr_node_set_req 
 static int load_dcf(ctl *c, const char *file, uint8_t node, uint8_t **buf, size_t *len)
 {
 	const char *dot = strrchr(file, '.');
-	char err[600];
+	eds_result res = { 0 };
 	int rc;
 
-	if (dot && (!strcmp(dot, ".cdc") || !strcmp(dot, ".bin")))
-		rc = cogw_cdcf_load_file(file, buf, len, err, sizeof err);
-	else
-		rc = eds_convert_file(file, node, buf, len, NULL, err, sizeof err);
+	if (dot && (!strcmp(dot, ".cdc") || !strcmp(dot, ".bin"))) {
+		rc = cogw_cdcf_load_file(file, buf, len, res.err, sizeof res.err);
+	} else {
+		rc = eds_convert_file(file, node, &res);
+		*buf = res.cdcf;
+		*len = res.len;
+	}
 	if (!rc)
 		return 0;
-	fprintf(stderr, "cogwctl %s: %s\n", c->what, rc == -ENOMEM ? "out of memory" : err);
+	free(*buf);
+	*buf = NULL;
+	fprintf(stderr, "cogwctl %s: %s\n", c->what, rc == -ENOMEM ? "out of memory" : res.err);
 	return rc == -EINVAL ? CTL_EXIT_REFUSED : CTL_EXIT_USAGE;
 }
 

@@ -181,7 +181,8 @@ static void test_node_changes_handed_to_a_busy_line(void)
 	start(true);
 	atomic_store(&stop_readers, false);
 	for (unsigned i = 0; i < READERS; i++)
-		TEST_ASSERT_EQUAL(0, pthread_create(&t[i], NULL, reader, (void *)(uintptr_t)(i * 50)));
+		TEST_ASSERT_EQUAL(0,
+				  pthread_create(&t[i], NULL, reader, (void *)(uintptr_t)(i * 50)));
 	for (unsigned i = 1; i <= CHANGES; i++) {
 		uint8_t node = (uint8_t)(1 + i % NODES);
 		line_node_set set = { .req = { .node = node,
