@@ -17,12 +17,9 @@
  *     key's JSON path and nothing of the file applies.
  * Run: tests/vcan/run -n 1 -- build/san/tests/integration/test_node_runtime
  */
-#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/socket.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include "core/manager.h"
@@ -188,12 +185,7 @@ static int cogwctl(const char *args, char *out, size_t cap)
 {
 	char cmd[512];
 	snprintf(cmd, sizeof cmd, "build/san/bin/cogwctl --instance " INSTANCE " %s", args);
-	FILE *p = popen(cmd, "r");
-	TEST_ASSERT_NOT_NULL(p);
-	size_t n = fread(out, 1, cap - 1, p);
-	out[n] = '\0';
-	int st = pclose(p);
-	return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+	return run_capture(cmd, out, cap);
 }
 
 /* `cogwctl pdo map 0 NODE` contains text, within a few seconds. */
@@ -345,13 +337,6 @@ static void test_cogwctl_node(void)
 	wait_booted(ADDED, false, &st);
 }
 
-static void drain_notify(notify_sock *ns)
-{
-	char buf[4096];
-	while (recv(ns->fd, buf, sizeof buf, MSG_DONTWAIT) > 0)
-		;
-}
-
 /* CiA 302-2's own objects: a concise DCF of the manager's entries for
  * node 2 imported into the daemon's OD (1F81h:2 last) adds it; a write of
  * 1F81h:2 = 0 removes it. */
@@ -394,11 +379,8 @@ static void test_manager_objects_add_and_remove(void)
 
 static void reload_with(const char *json)
 {
-	TEST_ASSERT_EQUAL_INT(0, write_text_file(dmn.config_path, json));
-	drain_notify(&dmn.ns);
-	TEST_ASSERT_EQUAL_INT(0, kill(dmn.pid, SIGHUP));
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, notify_wait(&dmn.ns, "READY=1", 10000, NULL, 0),
-				      "no READY=1 after SIGHUP");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, daemon_reload(&dmn, json, 10000),
+				      "no RELOADING=1 and READY=1 after SIGHUP");
 }
 
 #define NODE2(hb) ", {\"id\": 2, \"heartbeat_ms\": " hb ", \"vendor_id\": \"0x1234\"}"
