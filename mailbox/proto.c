@@ -444,25 +444,27 @@ static int check_mgr_node_req(uint16_t code, const uint8_t *p, size_t len, mbx_b
 	return 0;
 }
 
+/* The NMT state a node is put in after its boot: 0 (= 5), 4, 5, 127. */
+static bool node_target_state_valid(uint8_t state)
+{
+	return state == 0 || state == 4 || state == 5 || state == 127;
+}
+
 static int check_mgr_node_set(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
 {
 	mbx_mgr_node_set_req r;
-	bool remove;
 
 	(void)code;
 	memcpy(&r, p, sizeof r);
-	remove = r.op == MBX_NODE_REMOVE;
 	if (r.pad)
 		return refuse(bad, MBX_BAD_RESERVED);
-	if (r.node < 1 || r.node > 127 || r.op < MBX_NODE_ADD || r.op > MBX_NODE_REMOVE ||
-	    (r.flags & ~MBX_NODE_F_ALL) || r.pdo > 2 || (remove && len > sizeof r))
+	if (r.node < 1 || r.node > 127 || r.op < MBX_NODE_ADD || r.op > MBX_NODE_REMOVE)
 		return refuse(bad, MBX_BAD_PARAM);
-	if (remove)
-		return 0;
-	if (!(r.assignment & 1u) ||
-	    (r.target_state != 0 && r.target_state != 4 && r.target_state != 5 &&
-	     r.target_state != 127) ||
-	    (r.heartbeat_ms && (r.assignment >> 16)))
+	if (r.op == MBX_NODE_REMOVE) /* the other fields are not read; no data */
+		return len > sizeof r ? refuse(bad, MBX_BAD_PARAM) : 0;
+	/* a slave (1F81h bit 0), supervised one way: heartbeat or guarding */
+	if ((r.flags & ~MBX_NODE_F_ALL) || r.pdo > 2 || !(r.assignment & 1u) ||
+	    !node_target_state_valid(r.target_state) || (r.heartbeat_ms && (r.assignment >> 16)))
 		return refuse(bad, MBX_BAD_PARAM);
 	return 0;
 }

@@ -562,70 +562,78 @@ static uint32_t od_put_u32(co_od *od, uint16_t index, uint8_t sub, uint32_t v)
 	return od_put(od, index, sub, b, sizeof b);
 }
 
-/* Why a change cannot be applied now (0: it can): nothing is written then. */
-static int node_refusal(struct mgr_line *ml, line *l, const line_node_set *set)
+/* The manager's part of a refusal: its state, the node's place in the
+ * list, a program download to it. */
+static int node_list_refusal(struct mgr_line *ml, const co_od *od, const line_node_set *set)
 {
 	const mbx_mgr_node_set_req *r = &set->req;
-	const co_od *od = co_node_od(line_node(l));
-	const co_od_entry *cdcf = co_od_find(od, CO_CFGMGR_IDX_CDCF, r->node);
 	uint8_t st = co_manager_state(ml->mgr);
 	uint32_t a = 0;
+	bool listed;
 
-	(void)co_od_get_u32(od, 0x1F81, r->node, &a);
-	if (r->node < 1 || r->node > 127 || r->node == co_node_id(line_node(l)))
-		return -EINVAL;
 	/* the network boot reads the objects step by step (their lock,
 	 * core/manager_od.c); FATAL and slave mode boot nobody */
 	if (st == CO_MGR_SLAVE || st == CO_MGR_RESETTING || st == CO_MGR_BOOTING ||
 	    st == CO_MGR_FATAL)
 		return -EAGAIN;
-	if (!set->as_file && r->op == MBX_NODE_ADD && (a & CO_MGR_1F81_SLAVE))
-		return -EEXIST;
-	if (!set->as_file && r->op != MBX_NODE_ADD && !(a & CO_MGR_1F81_SLAVE))
-		return -ENOENT;
+	(void)co_od_get_u32(od, 0x1F81, r->node, &a);
+	listed = a & CO_MGR_1F81_SLAVE;
+	/* an addition needs a node not listed, a change or removal a listed
+	 * one; a reload makes the node what the file says either way */
+	if (!set->as_file && listed != (r->op != MBX_NODE_ADD))
+		return listed ? -EEXIST : -ENOENT;
 	if (co_swmgr_running(&ml->swm.job[r->node - 1]) || program_of(ml, r->node))
 		return -EBUSY; /* a program download must not be cut short */
-	if (r->op == MBX_NODE_REMOVE)
-		return 0;
-	if (set->cdcf_len && co_cdcf_check(set->cdcf, set->cdcf_len, NULL, NULL))
-		return -EINVAL;
-	if (set->cdcf_len && (!cdcf || set->cdcf_len > cdcf->max_size))
-		return -E2BIG;
 	return 0;
 }
 
-/* The objects of node id in the order the boot reads them: 1F81h:n is
- * withdrawn first (a boot that runs stops, its jobs are cancelled without
- * a report) and written last (the node boots with everything in place).
- * Refusals were ruled out by node_refusal; a write the OD still refuses is
- * logged (it would be a programming error). */
-static void node_objects(struct mgr_line *ml, line *l, const line_node_set *set, uint64_t now)
+/* Why a change cannot be applied now (0: it can): nothing is written then. */
+static int node_refusal(struct mgr_line *ml, line *l, const line_node_set *set)
 {
 	const mbx_mgr_node_set_req *r = &set->req;
-	co_od *od = co_node_od(line_node(l));
-	bool remove = r->op == MBX_NODE_REMOVE;
-	uint8_t id = r->node;
-	uint32_t ab = od_put_u32(od, 0x1F81, id, 0);
+	const co_od *od = co_node_od(line_node(l));
+	const co_od_entry *cdcf;
 	int rc;
+
+	if (r->node < 1 || r->node > 127 || r->node == co_node_id(line_node(l)))
+		return -EINVAL;
+	if ((rc = node_list_refusal(ml, od, set)) || r->op == MBX_NODE_REMOVE || !set->cdcf_len)
+		return rc;
+	if (co_cdcf_check(set->cdcf, set->cdcf_len, NULL, NULL))
+		return -EINVAL;
+	cdcf = co_od_find(od, CO_CFGMGR_IDX_CDCF, r->node);
+	return !cdcf || set->cdcf_len > cdcf->max_size ? -E2BIG : 0;
+}
+
+/* The objects of node s->req.node in the order the boot reads them:
+ * 1F81h:n is withdrawn first (a boot that runs stops, its jobs are
+ * cancelled without a report) and written last (the node boots with
+ * everything in place). s is what the node gets: all zero for a removal.
+ * Refusals were ruled out by node_refusal; a write the OD still refuses is
+ * logged (it would be a programming error). */
+static void node_objects(struct mgr_line *ml, line *l, uint8_t id, const line_node_set *s,
+			 uint64_t now)
+{
+	co_od *od = co_node_od(line_node(l));
+	uint32_t ab = od_put_u32(od, 0x1F81, id, 0);
 
 	(void)co_cfgmgr_cancel(&ml->cfgm.job[id - 1], now);
 	co_pdo_scan_line_forget(&ml->scan, id, now);
-	if (!ab && (rc = line_consumer_set(l, id, 0)) < 0)
+	if (!ab && line_consumer_set(l, id, 0) < 0)
 		ab = SDO_AB_GENERAL;
 	for (unsigned k = 0; k < 5 && !ab; k++)
-		ab = od_put_u32(od, (uint16_t)(0x1F84 + k), id, remove ? 0 : r->identity[k]);
+		ab = od_put_u32(od, (uint16_t)(0x1F84 + k), id, s->req.identity[k]);
 	if (!ab && co_od_find(od, CO_CFGMGR_IDX_CDCF, id)) {
-		ab = od_put(od, CO_CFGMGR_IDX_CDCF, id, remove ? NULL : set->cdcf,
-			    remove ? 0 : set->cdcf_len);
+		ab = od_put(od, CO_CFGMGR_IDX_CDCF, id, s->cdcf, s->cdcf_len);
 		if (!ab)
-			ab = od_put_u32(od, CO_CFGMGR_IDX_DATE, id, remove ? 0 : r->date);
+			ab = od_put_u32(od, CO_CFGMGR_IDX_DATE, id, s->req.date);
 		if (!ab)
-			ab = od_put_u32(od, CO_CFGMGR_IDX_TIME, id, remove ? 0 : r->time);
+			ab = od_put_u32(od, CO_CFGMGR_IDX_TIME, id, s->req.time);
 	}
-	if (!ab && !remove && r->heartbeat_ms && (rc = line_consumer_set(l, id, r->heartbeat_ms)))
+	if (!ab && s->req.heartbeat_ms && line_consumer_set(l, id, s->req.heartbeat_ms) < 0)
 		ab = SDO_AB_GENERAL;
-	if (!ab && !remove)
-		ab = od_put_u32(od, 0x1F81, id, r->assignment);
+	if (!ab && s->req.assignment)
+		ab = od_put_u32(od, 0x1F81, id, s->req.assignment);
 	if (ab)
 		cogw_log(COGW_LOG_ERR, "line %s: node %u: its objects refused a change: %08X (%s)",
 			 ml->lc.name, id, (unsigned)ab, sdo_abort_to_string(ab));
@@ -636,36 +644,35 @@ static void node_objects(struct mgr_line *ml, line *l, const line_node_set *set,
 static int node_set(struct mgr_line *ml, line *l, const line_node_set *set)
 {
 	static const char *const ops[] = { "?", "added", "changed", "removed" };
+	static const line_node_set removed; /* what a removed node keeps */
 	const mbx_mgr_node_set_req *r = &set->req;
-	uint64_t now = line_loop_now_us(l);
-	bool remove = r->op == MBX_NODE_REMOVE;
+	const line_node_set *s = r->op == MBX_NODE_REMOVE ? &removed : set;
+	uint8_t id = r->node;
 	int rc = node_refusal(ml, l, set);
 
 	if (rc) {
 		ml->node_changes_refused++;
 		return rc;
 	}
-	ml->scan.cfg[r->node] = (co_pdo_scan_node){ .scan = !remove && r->pdo != 0,
-						    .types = remove ? NULL : set->types,
-						    .n_types = remove ? 0 : set->n_types };
-	ml->cfgm.store[r->node] = !remove && (r->flags & MBX_NODE_F_STORE);
-	(void)co_manager_set_keep_op(ml->mgr, r->node, !remove && (r->flags & MBX_NODE_F_KEEP_OP));
-	(void)co_manager_set_target_state(ml->mgr, r->node,
-					  remove || !r->target_state ? CO_NMT_OPERATIONAL
-								     : r->target_state);
-	node_objects(ml, l, set, now);
+	ml->scan.cfg[id] = (co_pdo_scan_node){ .scan = s->req.pdo != 0,
+					       .types = s->types,
+					       .n_types = s->n_types };
+	ml->cfgm.store[id] = s->req.flags & MBX_NODE_F_STORE;
+	(void)co_manager_set_keep_op(ml->mgr, id, s->req.flags & MBX_NODE_F_KEEP_OP);
+	(void)co_manager_set_target_state(
+		ml->mgr, id, s->req.target_state ? s->req.target_state : CO_NMT_OPERATIONAL);
+	node_objects(ml, l, id, s, line_loop_now_us(l));
 	ml->node_changes++;
 	cogw_log(COGW_LOG_NOTICE,
 		 "line %s: node %u %s at run time (1F81h:%u = %08X, heartbeat %u ms, concise DCF "
 		 "%u bytes)",
-		 ml->lc.name, r->node, ops[r->op <= 3 ? r->op : 0], r->node,
-		 remove ? 0u : (unsigned)r->assignment, remove ? 0u : r->heartbeat_ms,
-		 remove ? 0u : (unsigned)set->cdcf_len);
-	line_node_changed(l, &(line_node_news){ .node = r->node,
-						.removed = remove,
-						.pdo = remove ? 0 : r->pdo,
-						.types = remove ? NULL : set->types,
-						.n_types = remove ? 0 : set->n_types });
+		 ml->lc.name, id, ops[r->op <= 3 ? r->op : 0], id, (unsigned)s->req.assignment,
+		 s->req.heartbeat_ms, (unsigned)s->cdcf_len);
+	line_node_changed(l, &(line_node_news){ .node = id,
+						.removed = s == &removed,
+						.pdo = s->req.pdo,
+						.types = s->types,
+						.n_types = s->n_types });
 	return 0;
 }
 

@@ -46,6 +46,14 @@ static int arg_word(ctl *c, const char *s, const char *name, const char *const *
 	return ctl_usage_error(c, "%s: '%s' is not one of the documented words", name, s);
 }
 
+/* 1F81h:n's flags (CiA 302-2) from the options. */
+static uint32_t assignment_of(const struct node_args *a)
+{
+	return CO_MGR_1F81_SLAVE | (a->no_boot ? 0 : CO_MGR_1F81_BOOT) |
+	       (a->mandatory ? CO_MGR_1F81_MANDATORY : 0) |
+	       (a->keep_alive ? CO_MGR_1F81_KEEP_ALIVE : 0);
+}
+
 /* 1F81h:n and the rest of the fixed part from the options. */
 static int fill_request(ctl *c, const struct node_args *a, mbx_mgr_node_set_req *r)
 {
@@ -65,16 +73,15 @@ static int fill_request(ctl *c, const struct node_args *a, mbx_mgr_node_set_req 
 	    (rc = arg_word(c, a->state, "--state", states, state_values, &r->target_state)) ||
 	    (rc = arg_word(c, a->pdo, "--pdo", pdos, pdo_values, &r->pdo)))
 		return rc;
-	for (int k = 0; k < 5; k++)
-		if ((rc = arg_u32(c, a->ident[k], ident_names[k], UINT32_MAX, &r->identity[k])))
-			return rc;
+	for (int k = 0; k < 5 && !rc; k++)
+		rc = arg_u32(c, a->ident[k], ident_names[k], UINT32_MAX, &r->identity[k]);
+	if (rc)
+		return rc;
 	if (hb && guard)
 		return ctl_usage_error(c,
 				       "--heartbeat-ms and --guard-time-ms: supervise it one way");
 	r->heartbeat_ms = (uint16_t)hb;
-	r->assignment = CO_MGR_1F81_SLAVE | (a->no_boot ? 0 : CO_MGR_1F81_BOOT) |
-			(a->mandatory ? CO_MGR_1F81_MANDATORY : 0) |
-			(a->keep_alive ? CO_MGR_1F81_KEEP_ALIVE : 0) | retry << 8 | guard << 16;
+	r->assignment = assignment_of(a) | retry << 8 | guard << 16;
 	r->flags = (uint8_t)((a->keep_op ? MBX_NODE_F_KEEP_OP : 0) |
 			     (a->store ? MBX_NODE_F_STORE : 0));
 	return 0;

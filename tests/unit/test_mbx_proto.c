@@ -339,12 +339,13 @@ static void test_node_set_fields(void)
 	r.assignment |= 100u << 16;
 	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &r, sizeof r);
 #undef BAD_FIELD
-	/* remove: the other fields are not looked at, but no data */
+	/* remove: the other fields are not read, but no data */
 	r = (mbx_mgr_node_set_req){ .node = 5, .op = MBX_NODE_REMOVE };
 	ASSERT_OK(h, &r, sizeof r);
 	memcpy(buf, &r, sizeof r);
 	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, buf, sizeof buf);
 	r.target_state = 127;
+	r.flags = 0x80;
 	ASSERT_OK(h, &r, sizeof r);
 }
 
