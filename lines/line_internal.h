@@ -135,6 +135,14 @@ struct line {
 	line_store_req store;
 	line_access_req access;
 	unsigned ext_attached; /* p.ext[0..ext_attached) attached */
+	/* TPDO frames an extension builds from named objects (line_ext.h,
+	 * line_tpdo_source.c) */
+	struct line_tpdo_sources {
+		uint16_t nr; /* 0 = free */
+		uint8_t n;
+		line_tpdo_source src[LINE_TPDO_SOURCE_ENTRIES];
+	} tpdo_sources[LINE_TPDO_SOURCES_MAX];
+	uint32_t tpdo_sources_gen;
 };
 
 /* Wake the line thread (any thread may call it): an eventfd counter never

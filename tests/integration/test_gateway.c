@@ -1777,8 +1777,10 @@ static void test_routes_written_and_saved_survive_a_restart(void)
 /* ---- PDO forwarding by device object (gateway.forward) ------------------------------ */
 
 /* A device's EDS with one PDO (comm, dir: 0x1800 TPDO / 0x1400 RPDO) that
- * maps obj:1 and obj:2, both UNSIGNED8. */
-static void write_two_byte_eds(const char *path, uint16_t comm, uint16_t obj, unsigned cob_base)
+ * maps obj:1 and obj:2 (mapped: 2), or obj:1 alone (mapped: 1), both
+ * UNSIGNED8. */
+static void write_byte_pdo_eds(const char *path, uint16_t comm, uint16_t obj, unsigned cob_base,
+			       unsigned mapped)
 {
 	char t[4096];
 	const char *acc = comm == 0x1800 ? "ro" : "rw";
@@ -1800,7 +1802,7 @@ static void write_two_byte_eds(const char *path, uint16_t comm, uint16_t obj, un
 		 "DataType=0x0005\nAccessType=rw\nDefaultValue=254\nPDOMapping=0\n"
 		 "[%04X]\nParameterName=PDO 1 mapping\nObjectType=0x9\nSubNumber=3\n"
 		 "[%04Xsub0]\nParameterName=n\nObjectType=0x7\nDataType=0x0005\nAccessType=rw\n"
-		 "DefaultValue=2\nPDOMapping=0\n"
+		 "DefaultValue=%u\nPDOMapping=0\n"
 		 "[%04Xsub1]\nParameterName=entry 1\nObjectType=0x7\nDataType=0x0007\n"
 		 "AccessType=rw\nDefaultValue=0x%04X0108\nPDOMapping=0\n"
 		 "[%04Xsub2]\nParameterName=entry 2\nObjectType=0x7\nDataType=0x0007\n"
@@ -1813,7 +1815,8 @@ static void write_two_byte_eds(const char *path, uint16_t comm, uint16_t obj, un
 		 "[%04Xsub2]\nParameterName=byte 2\nObjectType=0x7\nDataType=0x0005\n"
 		 "AccessType=%s\nDefaultValue=0\nPDOMapping=1\n",
 		 comm, comm + 0x200, obj, comm, comm, comm, cob_base, comm, comm + 0x200,
-		 comm + 0x200, comm + 0x200, obj, comm + 0x200, obj, obj, obj, obj, acc, obj, acc);
+		 comm + 0x200, mapped, comm + 0x200, obj, comm + 0x200, obj, obj, obj, obj, acc,
+		 obj, acc);
 	TEST_ASSERT_EQUAL_INT(0, write_text_file(path, t));
 }
 
@@ -1827,8 +1830,8 @@ static void test_forwarding_by_device_object(void)
 	snprintf(dst, sizeof dst, "%s/target.eds", dir);
 	/* node 5 on vcan0: TPDO 1 (185h) = 6000h:1, 6000h:2; node 9 on vcan1:
 	 * RPDO 1 (209h) = 6200h:1, 6200h:2 */
-	write_two_byte_eds(src, 0x1800, 0x6000, 0x180);
-	write_two_byte_eds(dst, 0x1400, 0x6200, 0x200);
+	write_byte_pdo_eds(src, 0x1800, 0x6000, 0x180, 2);
+	write_byte_pdo_eds(dst, 0x1400, 0x6200, 0x200, 2);
 	snprintf(cfg, sizeof cfg,
 		 "{\"mailbox\": {\"instance\": \"" INSTANCE "\"},\n"
 		 " \"gateway\": {\"forward\": [\n"
@@ -1898,6 +1901,80 @@ static void test_forwarding_by_device_object(void)
 	rmdir(dir);
 }
 
+/* A device RPDO that carries the forwarded object alone leaves by the
+ * fast path (docs/gateway.md "One wake-up per hop"): line 0's thread sends
+ * node 9's RPDO in the wake-up in which node 5's TPDO came, and line 1 does
+ * not send it again; a device RPDO of two objects keeps the hand-off (the
+ * test above). */
+static void test_device_object_forwarded_in_one_wake_up(void)
+{
+	char dir[] = "/tmp/cogw-fwd1-XXXXXX", src[64], dst[64], cfg[4096], out[8192];
+	uint8_t d[8];
+
+	TEST_ASSERT_NOT_NULL(mkdtemp(dir));
+	snprintf(src, sizeof src, "%s/source.eds", dir);
+	snprintf(dst, sizeof dst, "%s/target.eds", dir);
+	/* node 5 on vcan0: TPDO 1 (185h) = 6000h:1, 6000h:2; node 9 on vcan1:
+	 * RPDO 1 (209h) = 6200h:1 alone */
+	write_byte_pdo_eds(src, 0x1800, 0x6000, 0x180, 2);
+	write_byte_pdo_eds(dst, 0x1400, 0x6200, 0x200, 1);
+	snprintf(cfg, sizeof cfg,
+		 "{\"mailbox\": {\"instance\": \"" INSTANCE "\"},\n"
+		 " \"gateway\": {\"forward\": [\n"
+		 "   {\"from\": {\"line\": 0, \"node\": 5, \"index\": \"0x6000\", \"sub\": 2},\n"
+		 "    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 1}}]},\n"
+		 " \"lines\": [\n"
+		 "  {\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,\n"
+		 "   \"network_id\": 1, \"heartbeat_ms\": 0, \"rpdos\": 2,\n"
+		 "   \"nodes\": [{\"id\": 5, \"eds\": \"%s\", \"pdo\": \"auto\"}]},\n"
+		 "  {\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127,\n"
+		 "   \"network_id\": 2, \"heartbeat_ms\": 0, \"tpdos\": 2,\n"
+		 "   \"nodes\": [{\"id\": 9, \"eds\": \"%s\", \"pdo\": \"auto\"}]}]}\n",
+		 src, dst);
+	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = cfg,
+								    .instance = INSTANCE,
+								    .n_lines = 2,
+								    .notify = true,
+								    .drop_notify = true }));
+	nmt_start_all_daemon_nodes();
+	mbx_open(INSTANCE);
+	drain(fd1);
+
+	/* each value once, in the frame's one byte; tried a few times: the
+	 * target may be busy for an instant (its mirror being programmed) */
+	mbx_gw_status s0 = gw_status(0), e0;
+	unsigned values = 0;
+	for (uint8_t i = 1; i <= 8 && gw_status(0).pdo_fast == s0.pdo_fast; i++) {
+		uint8_t v[2] = { 0xA0, (uint8_t)(0x40 + i) };
+		TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x185, v, 2));
+		TEST_ASSERT_EQUAL_INT_MESSAGE(1, can_wait_id(fd1, 0x209, d, 3000),
+					      "node 9's RPDO did not come on vcan1");
+		TEST_ASSERT_EQUAL_HEX8(0x40 + i, d[0]);
+		TEST_ASSERT_TRUE_MESSAGE(can_wait_id(fd1, 0x209, d, 300) < 0,
+					 "the forwarded value was sent twice");
+		values++;
+	}
+	e0 = gw_status(0);
+	TEST_ASSERT_TRUE_MESSAGE(e0.pdo_fast > s0.pdo_fast,
+				 "line 0 never sent node 9's RPDO in its own wake-up");
+
+	/* line 1 counts the frames as its device RPDO's, sent once per value */
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, ctl_capture("route --json", out, sizeof out), out);
+	cJSON *root = cJSON_Parse(out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(root, out);
+	const cJSON *l1 = cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(root, "lines"), 1);
+	const cJSON *b = cJSON_GetArrayItem(
+		cJSON_GetObjectItemCaseSensitive(l1, "forwarded_objects"), 0);
+	TEST_ASSERT_NOT_NULL_MESSAGE(b, out);
+	TEST_ASSERT_EQUAL_INT((int)values, cJSON_GetObjectItemCaseSensitive(b, "values")->valueint);
+	TEST_ASSERT_EQUAL_INT((int)values, cJSON_GetObjectItemCaseSensitive(b, "sent")->valueint);
+	TEST_ASSERT_EQUAL_INT(0, cJSON_GetObjectItemCaseSensitive(b, "refused")->valueint);
+	cJSON_Delete(root);
+	unlink(src);
+	unlink(dst);
+	rmdir(dir);
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
@@ -1910,6 +1987,7 @@ int main(void)
 	RUN_TEST(test_emcy_routing_follows_1f2f);
 	RUN_TEST(test_pdo_forwarding);
 	RUN_TEST(test_forwarding_by_device_object);
+	RUN_TEST(test_device_object_forwarded_in_one_wake_up);
 	RUN_TEST(test_reset_on_line_0_leaves_line_1_untouched);
 	RUN_TEST(test_mailbox_client_reaches_any_network);
 	RUN_TEST(test_multi_hop_through_two_daemons);
