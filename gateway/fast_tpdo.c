@@ -43,7 +43,9 @@ int gw_fast_init(gw_fast *F, size_t n_slots)
 	F->quiet = calloc(F->quiet_words, sizeof(*F->quiet));
 	F->quiet_next = calloc(F->quiet_words, sizeof(*F->quiet_next));
 	F->mapped_slow = calloc(F->quiet_words, sizeof(*F->mapped_slow));
-	if (!F->by_slot || !F->scratch || !F->quiet || !F->quiet_next || !F->mapped_slow) {
+	F->sourced = calloc(F->quiet_words, sizeof(*F->sourced));
+	if (!F->by_slot || !F->scratch || !F->quiet || !F->quiet_next || !F->mapped_slow ||
+	    !F->sourced) {
 		gw_fast_fini(F);
 		return -ENOMEM;
 	}
@@ -69,7 +71,8 @@ void gw_fast_fini(gw_fast *F)
 	free((void *)F->quiet);
 	free(F->quiet_next);
 	free(F->mapped_slow);
-	F->quiet_next = F->mapped_slow = NULL;
+	free(F->sourced);
+	F->quiet_next = F->mapped_slow = F->sourced = NULL;
 	F->by_slot = NULL;
 	F->scratch = NULL;
 	F->quiet = NULL;

@@ -128,7 +128,8 @@ typedef struct gw_fast {
 	/* the caller's build area for publish: the quiet set, and the slots
 	 * a TPDO that is not fast maps (which keeps them out of it) */
 	uint64_t *quiet_next, *mapped_slow;
-	bool stale; /* a TPDO was reset: publish again before sleeping */
+	uint64_t *sourced; /* slots of fast TPDOs built from named sources */
+	bool stale;        /* a TPDO was reset: publish again before sleeping */
 	/* held updates applied while the owner's transmit queue was not
 	 * empty: their frames may still be queued, so they count as busy
 	 * until it is (gw_fast_set_carrying) */

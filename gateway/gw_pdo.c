@@ -328,6 +328,7 @@ void gw_fast_refresh(struct gw_line *gl)
 		return;
 	memset(F->quiet_next, 0, words * sizeof(*F->quiet_next));
 	memset(F->mapped_slow, 0, words * sizeof(*F->mapped_slow));
+	memset(F->sourced, 0, words * sizeof(*F->sourced));
 	for (uint16_t nr = 1; nr <= CO_PDO_MAX; nr++) {
 		if (co_pdo_tpdo_state_get(gl->node, nr, &st) || !st.valid)
 			continue;
@@ -335,15 +336,20 @@ void gw_fast_refresh(struct gw_line *gl)
 			mark_mapped_slots(gl, nr, F->mapped_slow, words);
 			continue;
 		}
-		for (uint8_t i = 0; i < F->next[n].n; i++)
+		for (uint8_t i = 0; i < F->next[n].n; i++) {
 			mark_slot(F->quiet_next, words, (int)(F->next[n].map[i] >> 8));
+			if (F->next[n].fit)
+				mark_slot(F->sourced, words, (int)(F->next[n].map[i] >> 8));
+		}
 		until[n] = st.inhibit_until;
 		pending[n] = st.event_pending;
 		n++;
 	}
 	for (size_t w = 0; w < words; w++) {
 		uint64_t pinned = gl->fwd.pinned && w < gl->fwd.words ? gl->fwd.pinned[w] : 0;
-		F->quiet_next[w] &= ~(F->mapped_slow[w] | pinned);
+		/* a forward whose device RPDO is a fast TPDO's frame alone has
+		 * nothing left for this line once that frame left */
+		F->quiet_next[w] &= ~(F->mapped_slow[w] | (pinned & ~F->sourced[w]));
 	}
 	n = gw_fast_publish(F, F->next, until, pending, n, F->quiet_next);
 	ignore_fast_frames(gl, F->next, n);

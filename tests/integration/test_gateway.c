@@ -1820,26 +1820,21 @@ static void write_byte_pdo_eds(const char *path, uint16_t comm, uint16_t obj, un
 	TEST_ASSERT_EQUAL_INT(0, write_text_file(path, t));
 }
 
-static void test_forwarding_by_device_object(void)
+/* A daemon on vcan0 + vcan1 whose device object layer mirrors node 5 on
+ * vcan0 (TPDO 1, 185h: 6000h:1, 6000h:2) and node 9 on vcan1 (RPDO 1,
+ * 209h: 6200h:1, and 6200h:2 when target_mapped is 2), with `forwards`
+ * (gateway.forward's list); the device files in dir. */
+static void forward_daemon_start(const char *dir, unsigned target_mapped, const char *forwards)
 {
-	char dir[] = "/tmp/cogw-fwd-XXXXXX", src[64], dst[64], cfg[4096], out[8192];
-	uint8_t d[8];
+	char src[64], dst[64], cfg[4096];
 
-	TEST_ASSERT_NOT_NULL(mkdtemp(dir));
 	snprintf(src, sizeof src, "%s/source.eds", dir);
 	snprintf(dst, sizeof dst, "%s/target.eds", dir);
-	/* node 5 on vcan0: TPDO 1 (185h) = 6000h:1, 6000h:2; node 9 on vcan1:
-	 * RPDO 1 (209h) = 6200h:1, 6200h:2 */
 	write_byte_pdo_eds(src, 0x1800, 0x6000, 0x180, 2);
-	write_byte_pdo_eds(dst, 0x1400, 0x6200, 0x200, 2);
+	write_byte_pdo_eds(dst, 0x1400, 0x6200, 0x200, target_mapped);
 	snprintf(cfg, sizeof cfg,
 		 "{\"mailbox\": {\"instance\": \"" INSTANCE "\"},\n"
-		 " \"gateway\": {\"forward\": [\n"
-		 "   {\"from\": {\"line\": 0, \"node\": 5, \"index\": \"0x6000\", \"sub\": 1},\n"
-		 "    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 1}},\n"
-		 "   {\"from\": {\"line\": 0, \"node\": 5, \"index\": \"0x6000\", \"sub\": 2},\n"
-		 "    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 2},\n"
-		 "    \"image\": \"0xB123\"}]},\n"
+		 " \"gateway\": {\"forward\": [%s]},\n"
 		 " \"lines\": [\n"
 		 "  {\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,\n"
 		 "   \"network_id\": 1, \"heartbeat_ms\": 0, \"rpdos\": 2,\n"
@@ -1847,7 +1842,7 @@ static void test_forwarding_by_device_object(void)
 		 "  {\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127,\n"
 		 "   \"network_id\": 2, \"heartbeat_ms\": 0, \"tpdos\": 2,\n"
 		 "   \"nodes\": [{\"id\": 9, \"eds\": \"%s\", \"pdo\": \"auto\"}]}]}\n",
-		 src, dst);
+		 forwards, src, dst);
 	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = cfg,
 								    .instance = INSTANCE,
 								    .n_lines = 2,
@@ -1855,6 +1850,33 @@ static void test_forwarding_by_device_object(void)
 								    .drop_notify = true }));
 	nmt_start_all_daemon_nodes();
 	drain(fd1);
+}
+
+static void forward_files_remove(const char *dir)
+{
+	char p[64];
+
+	snprintf(p, sizeof p, "%s/source.eds", dir);
+	unlink(p);
+	snprintf(p, sizeof p, "%s/target.eds", dir);
+	unlink(p);
+	rmdir(dir);
+}
+
+static void test_forwarding_by_device_object(void)
+{
+	char dir[] = "/tmp/cogw-fwd-XXXXXX", out[8192];
+	uint8_t d[8];
+
+	TEST_ASSERT_NOT_NULL(mkdtemp(dir));
+	/* node 5's 6000h:1 and 6000h:2 -> node 9's 6200h:1 and 6200h:2 */
+	forward_daemon_start(
+		dir, 2,
+		"\n   {\"from\": {\"line\": 0, \"node\": 5, \"index\": \"0x6000\", \"sub\": 1},\n"
+		"    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 1}},\n"
+		"   {\"from\": {\"line\": 0, \"node\": 5, \"index\": \"0x6000\", \"sub\": 2},\n"
+		"    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 2},\n"
+		"    \"image\": \"0xB123\"}");
 
 	/* node 5's TPDO on vcan0 -> node 9's RPDO on vcan1, both objects at once */
 	uint8_t v1[2] = { 0x12, 0x34 }, v2[2] = { 0x56, 0x34 };
@@ -1896,9 +1918,7 @@ static void test_forwarding_by_device_object(void)
 	TEST_ASSERT_EQUAL_STRING("B123", cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(
 						 cJSON_GetArrayItem(f0, 1), "image")));
 	cJSON_Delete(root);
-	unlink(src);
-	unlink(dst);
-	rmdir(dir);
+	forward_files_remove(dir);
 }
 
 /* A device RPDO that carries the forwarded object alone leaves by the
@@ -1908,35 +1928,15 @@ static void test_forwarding_by_device_object(void)
  * test above). */
 static void test_device_object_forwarded_in_one_wake_up(void)
 {
-	char dir[] = "/tmp/cogw-fwd1-XXXXXX", src[64], dst[64], cfg[4096], out[8192];
+	char dir[] = "/tmp/cogw-fwd1-XXXXXX", out[8192];
 	uint8_t d[8];
 
 	TEST_ASSERT_NOT_NULL(mkdtemp(dir));
-	snprintf(src, sizeof src, "%s/source.eds", dir);
-	snprintf(dst, sizeof dst, "%s/target.eds", dir);
-	/* node 5 on vcan0: TPDO 1 (185h) = 6000h:1, 6000h:2; node 9 on vcan1:
-	 * RPDO 1 (209h) = 6200h:1 alone */
-	write_byte_pdo_eds(src, 0x1800, 0x6000, 0x180, 2);
-	write_byte_pdo_eds(dst, 0x1400, 0x6200, 0x200, 1);
-	snprintf(cfg, sizeof cfg,
-		 "{\"mailbox\": {\"instance\": \"" INSTANCE "\"},\n"
-		 " \"gateway\": {\"forward\": [\n"
-		 "   {\"from\": {\"line\": 0, \"node\": 5, \"index\": \"0x6000\", \"sub\": 2},\n"
-		 "    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 1}}]},\n"
-		 " \"lines\": [\n"
-		 "  {\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,\n"
-		 "   \"network_id\": 1, \"heartbeat_ms\": 0, \"rpdos\": 2,\n"
-		 "   \"nodes\": [{\"id\": 5, \"eds\": \"%s\", \"pdo\": \"auto\"}]},\n"
-		 "  {\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127,\n"
-		 "   \"network_id\": 2, \"heartbeat_ms\": 0, \"tpdos\": 2,\n"
-		 "   \"nodes\": [{\"id\": 9, \"eds\": \"%s\", \"pdo\": \"auto\"}]}]}\n",
-		 src, dst);
-	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = cfg,
-								    .instance = INSTANCE,
-								    .n_lines = 2,
-								    .notify = true,
-								    .drop_notify = true }));
-	nmt_start_all_daemon_nodes();
+	/* node 5's 6000h:2 -> node 9's 6200h:1, alone in its RPDO */
+	forward_daemon_start(
+		dir, 1,
+		"\n   {\"from\": {\"line\": 0, \"node\": 5, \"index\": \"0x6000\", \"sub\": 2},\n"
+		"    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 1}}");
 	mbx_open(INSTANCE);
 	drain(fd1);
 
@@ -1970,9 +1970,7 @@ static void test_device_object_forwarded_in_one_wake_up(void)
 	TEST_ASSERT_EQUAL_INT((int)values, cJSON_GetObjectItemCaseSensitive(b, "sent")->valueint);
 	TEST_ASSERT_EQUAL_INT(0, cJSON_GetObjectItemCaseSensitive(b, "refused")->valueint);
 	cJSON_Delete(root);
-	unlink(src);
-	unlink(dst);
-	rmdir(dir);
+	forward_files_remove(dir);
 }
 
 int main(void)
