@@ -111,6 +111,8 @@ static void sync_mirrors(devobj_line *dl)
 	if (changed) {
 		reset_records(dl);
 		devobj_watch_relink(dl);
+		if (dl->p.n_fwd)
+			devobj_forward_sources(dl);
 	}
 }
 

@@ -146,6 +146,37 @@ uint64_t line_loop_now_us(const line *l);
  * reads it; both on the line thread. */
 co_pdo_layout *line_pdo_layout(line *l);
 
+/*
+ * The objects a TPDO's frame carries when an extension builds that frame
+ * itself. The device object layer's TPDO that produces a device's RPDO maps
+ * one slot object holding the whole frame (docs/devices.md); when the
+ * frame's objects are process image objects, it names them here, so that
+ * the gateway's fast path (docs/gateway.md "One wake-up per hop") can
+ * build the same frame from the image on another line's thread and send
+ * it: entries LSB first in frame order, each the low `bits` of its object;
+ * `is_signed`: the object holds a signed integer, else an unsigned one - a
+ * value its bits cannot hold is not sent that way (the extension refuses
+ * it). Set, replaced or cleared (n = 0) by the extension and read by the
+ * others, all on the line thread; at most LINE_TPDO_SOURCES_MAX TPDOs of
+ * LINE_TPDO_SOURCE_ENTRIES objects (-ENOSPC, -EINVAL: the TPDO keeps its
+ * ordinary way).
+ */
+#define LINE_TPDO_SOURCES_MAX 32u
+#define LINE_TPDO_SOURCE_ENTRIES 8u
+
+typedef struct line_tpdo_source {
+	uint16_t index;
+	uint8_t sub;
+	uint8_t bits; /* 1..64 */
+	bool is_signed;
+} line_tpdo_source;
+
+int line_tpdo_sources_set(line *l, uint16_t nr, const line_tpdo_source *src, uint8_t n);
+/* The objects TPDO nr's frame carries, 0 when none were named. */
+uint8_t line_tpdo_sources_get(const line *l, uint16_t nr, const line_tpdo_source **src);
+/* Raised by every change, for a reader that keeps what it derived. */
+uint32_t line_tpdo_sources_generation(const line *l);
+
 /* The answer of an extension's SDO transfer (line_sdo_submit), at its
  * confirmation: abort 0 = done, data/len the uploaded bytes (download:
  * NULL, 0). It must answer `to` exactly once (mbx_server_respond). */

@@ -152,6 +152,14 @@ struct line {
 	line_access_req access;
 	line_node_req node_req;
 	unsigned ext_attached; /* p.ext[0..ext_attached) attached */
+	/* TPDO frames an extension builds from named objects (line_ext.h,
+	 * line_tpdo_source.c) */
+	struct line_tpdo_sources {
+		uint16_t nr; /* 0 = free */
+		uint8_t n;
+		line_tpdo_source src[LINE_TPDO_SOURCE_ENTRIES];
+	} tpdo_sources[LINE_TPDO_SOURCES_MAX];
+	uint32_t tpdo_sources_gen;
 };
 
 /* lines/line_nodes.c: apply a node change the main thread posted. */
