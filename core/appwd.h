@@ -10,7 +10,7 @@
  * caller (the line thread) runs its reactions at once, from state the line
  * already holds, without the client that failed.
  *
- * The reactions (bits, equal to the wire's MBX_APP_R_*):
+ * The reactions (bits, equal to the wire's MBX_APPWD_R_*):
  *   EMCY            the own node's EMCY 6200h "user software", error
  *                   register 81h (generic + manufacturer): the frame
  *                   80h+id [00 62 81 00 00 00 00 00] (co_appwd_react)

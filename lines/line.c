@@ -154,7 +154,7 @@ static int create_node_and_mailbox(line *l)
 	}
 	if ((rc = line_health_attach(l)) < 0)
 		return rc;
-	line_app_attach(l);
+	line_appwd_attach(l);
 	if ((rc = line_pending_init(&l->pending,
 				    p->mbx.max_transfer ? p->mbx.max_transfer : 1024u * 1024u,
 				    p->mbx.budget)) < 0)
@@ -400,7 +400,7 @@ static uint64_t next_deadline(line *l, uint64_t checkin_period)
 	t = line_time_poll(l); /* produces the TIME that is due */
 	if (t < next)
 		next = t;
-	t = line_app_poll(l); /* trips the application watchdogs that are due */
+	t = line_appwd_poll(l); /* trips the application watchdogs that are due */
 	if (t < next)
 		next = t;
 	bool reopened = false;

@@ -58,7 +58,7 @@ typedef struct line_params {
 	 * silence; 0 = the default */
 	uint32_t id_conflict_quiet_ms; /* a node-ID collision (5000) */
 	uint32_t fault_quiet_ms;       /* lost frames (1000) */
-	/* the application watchdog and host ready (lines/line_app.c,
+	/* the application watchdog and host ready (lines/line_appwd.c,
 	 * docs/application.md) */
 	co_safe_output safe_outputs[LINE_SAFE_OUTPUTS_MAX];
 	uint8_t n_safe_outputs;

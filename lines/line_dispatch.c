@@ -44,11 +44,11 @@ static const struct {
 	{ MBX_CMD_LSS_IDENTIFY_REMOTE, line_lss_command },
 	{ MBX_CMD_LSS_IDENTIFY_NONCONF, line_lss_command },
 	{ MBX_CMD_LSS_FASTSCAN, line_lss_command },
-	{ MBX_CMD_APP_WATCHDOG, line_app_command }, /* line_app.c */
-	{ MBX_CMD_APP_KEEPALIVE, line_app_command },
-	{ MBX_CMD_APP_HOLD, line_app_command },
-	{ MBX_CMD_HOST_READY, line_app_command },
-	{ MBX_CMD_APP_STATUS, line_app_command },
+	{ MBX_CMD_APP_WATCHDOG, line_appwd_command }, /* line_appwd.c */
+	{ MBX_CMD_APP_KEEPALIVE, line_appwd_command },
+	{ MBX_CMD_APP_HOLD, line_appwd_command },
+	{ MBX_CMD_HOST_READY, line_appwd_command },
+	{ MBX_CMD_APP_STATUS, line_appwd_command },
 };
 
 void line_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
@@ -60,8 +60,8 @@ void line_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
 	if (line_link_refuses(l, req->code))
 		return line_answer(l, &req->reply, MBX_E_STATE, 0, NULL, 0);
 	/* the host is not ready: the line's nodes and safe outputs are left
-	 * alone (lines/line_app.c) */
-	if (line_app_refuses(l, req))
+	 * alone (lines/line_appwd.c) */
+	if (line_appwd_refuses(l, req))
 		return line_answer(l, &req->reply, MBX_E_STATE, 0, NULL, 0);
 	for (unsigned i = 0; i < l->ext_attached; i++) {
 		const line_ext *x = &l->p.ext[i];
@@ -81,7 +81,7 @@ void line_client_gone(void *ctx, mbx_server *srv, uint32_t client)
 	(void)srv;
 	line_sdo_client_gone(l, client);
 	line_lss_client_gone(l, client);
-	line_app_client_gone(l, client);
+	line_appwd_client_gone(l, client);
 	for (unsigned i = 0; i < l->ext_attached; i++) {
 		const line_ext *x = &l->p.ext[i];
 		if (x->ops && x->ops->on_client_gone)

@@ -184,7 +184,7 @@ void line_on_core_event(void *ctx, const co_event *ev)
 			 co_nmt_state_to_string(ev->u.nmt.state));
 		publish_node(l, MBX_EV_NMT_STATE, co_node_id(l->node), ev->u.nmt.state,
 			     ev->u.nmt.prev);
-		line_app_on_nmt(l, &ev->u.nmt);
+		line_appwd_on_nmt(l, &ev->u.nmt);
 		break;
 	case CO_EV_EMCY_RX: {
 		const co_ev_emcy *e = &ev->u.emcy;

@@ -36,7 +36,7 @@
  *                 (sdo_client_relay_recv).
  *   sdo_route_end that transfer ended (its confirmation, exactly once for
  *                 every sdo_route that returned 0): give the route back.
- *   nmt_all       a safety reaction of the line (lines/line_app.c: the
+ *   nmt_all       a safety reaction of the line (lines/line_appwd.c: the
  *                 application watchdog, host not ready) wants every node
  *                 in the state of NMT command cs: the extension that is
  *                 the line's NMT master sends it its own way, so that it

@@ -8,7 +8,7 @@
  *   line_dispatch.c  mailbox command -> its handler, by a table
  *   line_sdo.c, line_lss.c, line_od.c, line_nmt.c, line_bus.c,
  *   line_store.c,
- *   line_app.c       one family of mailbox commands each: the request
+ *   line_appwd.c       one family of mailbox commands each: the request
  *                    and its completion in the same file
  *   line_events.c    core and CAN events -> mailbox events
  *   line_pdo.c       RPDO supervision: its events and RPDO_STATUS
@@ -29,7 +29,7 @@
 #include "lines/line_pending.h"
 
 #define LINE_NODES 128
-#define LINE_APP_HOLDERS 8
+#define LINE_APPWD_HOLDERS 8
 
 /* What only the line counts about a remote node; states, supervision and
  * times come from the heartbeat consumer (core/heartbeat.h). */
@@ -153,7 +153,7 @@ struct line {
 	struct line_app {
 		co_appwd wd;
 		co_appwd_effects fx;                /* what trips left behind */
-		uint32_t holders[LINE_APP_HOLDERS]; /* clients holding OPERATIONAL */
+		uint32_t holders[LINE_APPWD_HOLDERS]; /* clients holding OPERATIONAL */
 		uint8_t n_holders;
 		bool start_deferred; /* a start was refused: applied at the release */
 		bool host_not_ready;
@@ -163,7 +163,7 @@ struct line {
 			uint32_t client, pid, done, late_us;
 			uint64_t at_us;
 		} last; /* the last trip */
-	} app;          /* line_app.c */
+	} appwd;        /* line_appwd.c */
 	line_store_req store;
 	line_access_req access;
 	line_node_req node_req;
@@ -213,7 +213,7 @@ static inline uint8_t line_mbx_can_state(can_bus_state s)
 
 /* Does a mailbox command need the bus (a frame out, an answer back)? What
  * a line whose interface is down refuses (line_link.c), and the start of
- * what host not ready refuses (line_app.c). */
+ * what host not ready refuses (line_appwd.c). */
 static inline bool line_cmd_needs_bus(uint16_t code)
 {
 	switch (code) {
@@ -308,17 +308,17 @@ void line_rpdo_status(line *l, const mbx_request *req);
  * (UINT64_MAX: the line produces none). */
 uint64_t line_time_poll(line *l);
 
-/* line_app.c: the application watchdog, the hold on OPERATIONAL, host
+/* line_appwd.c: the application watchdog, the hold on OPERATIONAL, host
  * ready (MBX_CMD_APP_*, MBX_CMD_HOST_READY) */
-void line_app_attach(line *l); /* after the node exists */
-void line_app_command(line *l, const mbx_request *req);
-void line_app_client_gone(line *l, uint32_t client);
-void line_app_on_nmt(line *l, const co_ev_nmt *ev);
+void line_appwd_attach(line *l); /* after the node exists */
+void line_appwd_command(line *l, const mbx_request *req);
+void line_appwd_client_gone(line *l, uint32_t client);
+void line_appwd_on_nmt(line *l, const co_ev_nmt *ev);
 /* Trip what is due; the next deadline (CO_NO_DEADLINE: none). */
-uint64_t line_app_poll(line *l);
+uint64_t line_appwd_poll(line *l);
 /* While the host is not ready: does this request reach the line's nodes
  * (or its safe outputs), refused with MBX_E_STATE? */
-bool line_app_refuses(const line *l, const mbx_request *req);
+bool line_appwd_refuses(const line *l, const mbx_request *req);
 
 /* line_store.c */
 int line_store_attach(line *l);

@@ -357,12 +357,12 @@ int cogw_ping(cogw *h, unsigned line, unsigned timeout_ms);
  * cogw_app_status are write-type: COGW_E_ACCESS for read-only clients. */
 
 /* Declare this handle essential for the line: interval_ms 10..60000 and a
- * set of MBX_APP_R_* (or MBX_APP_R_CONFIGURED: the line's configured set).
+ * set of MBX_APPWD_R_* (or MBX_APPWD_R_CONFIGURED: the line's configured set).
  * Armed by the first cogw_app_keepalive(); declaring again after a trip
  * acknowledges it. interval_ms 0 (reactions 0) withdraws. out (may be NULL):
  * the set in force and what of it the line cannot do now. */
 int cogw_app_watchdog(cogw *h, unsigned line, uint32_t interval_ms, uint32_t reactions,
-		      mbx_app_wd_resp *out, unsigned timeout_ms);
+		      mbx_appwd_resp *out, unsigned timeout_ms);
 /* One keep-alive: call it from the code whose liveness counts (not from a
  * thread of its own). COGW_E_NOT_FOUND: not declared; COGW_E_STATE: the
  * watchdog tripped and waits for cogw_app_watchdog() again. */
@@ -370,12 +370,12 @@ int cogw_app_keepalive(cogw *h, unsigned line, unsigned timeout_ms);
 /* hold 1: the daemon's own node does not enter OPERATIONAL (a start stays
  * deferred) until this client says ready (hold 0) or leaves. out (may be
  * NULL): the own node's state, the holders, DEFERRED. */
-int cogw_app_hold(cogw *h, unsigned line, int hold, mbx_app_nmt *out, unsigned timeout_ms);
+int cogw_app_hold(cogw *h, unsigned line, int hold, mbx_appwd_nmt *out, unsigned timeout_ms);
 /* Host ready (1) / not ready (0) for the line's process data. */
 int cogw_host_ready(cogw *h, unsigned line, int ready, unsigned timeout_ms);
 /* The line's watchdog entries (up to cap into wd, may be NULL), host ready,
  * holds and counters. Returns the number of entries (>= 0) or a cogw_err. */
-int cogw_app_status(cogw *h, unsigned line, mbx_app_status *st, mbx_app_wd_entry *wd, size_t cap,
+int cogw_app_status(cogw *h, unsigned line, mbx_appwd_status *st, mbx_appwd_entry *wd, size_t cap,
 		    unsigned timeout_ms);
 
 /* ---- events and asynchronous requests ------------------------------------ */

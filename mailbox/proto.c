@@ -74,14 +74,14 @@ _Static_assert(sizeof(mbx_gw_status) == 160, "wire layout");
 _Static_assert(sizeof(mbx_gw_route) == 40, "wire layout");
 _Static_assert(sizeof(mbx_ev_gw_sdo) == 16, "wire layout");
 _Static_assert(sizeof(mbx_ev_gw_emcy) == 8, "wire layout");
-_Static_assert(sizeof(mbx_app_wd_req) == 8, "wire layout");
-_Static_assert(sizeof(mbx_app_wd_resp) == 8, "wire layout");
-_Static_assert(sizeof(mbx_app_hold_req) == 4, "wire layout");
-_Static_assert(sizeof(mbx_app_nmt) == 8, "wire layout");
+_Static_assert(sizeof(mbx_appwd_req) == 8, "wire layout");
+_Static_assert(sizeof(mbx_appwd_resp) == 8, "wire layout");
+_Static_assert(sizeof(mbx_appwd_hold_req) == 4, "wire layout");
+_Static_assert(sizeof(mbx_appwd_nmt) == 8, "wire layout");
 _Static_assert(sizeof(mbx_host_ready_req) == 4, "wire layout");
-_Static_assert(sizeof(mbx_app_status) == 96, "wire layout");
-_Static_assert(sizeof(mbx_app_wd_entry) == 32, "wire layout");
-_Static_assert(sizeof(mbx_ev_app_wd) == 40, "wire layout");
+_Static_assert(sizeof(mbx_appwd_status) == 96, "wire layout");
+_Static_assert(sizeof(mbx_appwd_entry) == 32, "wire layout");
+_Static_assert(sizeof(mbx_ev_appwd) == 40, "wire layout");
 _Static_assert(sizeof(mbx_ev_host) == 16, "wire layout");
 _Static_assert(offsetof(mbx_sdo_req, timeout_ms) == 8, "wire layout");
 _Static_assert(offsetof(mbx_lss_req, vendor) == 12, "wire layout");
@@ -576,20 +576,20 @@ static int check_raw_send(uint16_t code, const uint8_t *p, size_t len, mbx_bad *
  * alone). */
 static int check_app_wd(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
 {
-	mbx_app_wd_req r;
+	mbx_appwd_req r;
 	uint32_t nmt;
 
 	(void)code;
 	(void)len;
 	memcpy(&r, p, sizeof r);
-	nmt = r.reactions & MBX_APP_R_NMT;
+	nmt = r.reactions & MBX_APPWD_R_NMT;
 	if (!r.interval_ms)
 		return r.reactions ? refuse(bad, MBX_BAD_PARAM) : 0;
-	if (r.interval_ms < MBX_APP_INTERVAL_MIN_MS || r.interval_ms > MBX_APP_INTERVAL_MAX_MS)
+	if (r.interval_ms < MBX_APPWD_INTERVAL_MIN_MS || r.interval_ms > MBX_APPWD_INTERVAL_MAX_MS)
 		return refuse(bad, MBX_BAD_PARAM);
-	if (r.reactions == MBX_APP_R_CONFIGURED)
+	if (r.reactions == MBX_APPWD_R_CONFIGURED)
 		return 0;
-	if (!r.reactions || (r.reactions & ~MBX_APP_R_ALL) || (nmt & (nmt - 1u)))
+	if (!r.reactions || (r.reactions & ~MBX_APPWD_R_ALL) || (nmt & (nmt - 1u)))
 		return refuse(bad, MBX_BAD_PARAM);
 	return 0;
 }
@@ -691,9 +691,9 @@ static const mbx_cmd_info cmd_table[] = {
 	{ MBX_CMD_DEV_READ, R, sizeof(mbx_dev_read_req), 0, "dev-read", check_dev_obj },
 	{ MBX_CMD_DEV_WRITE, W | D, sizeof(mbx_dev_obj_req), 0, "dev-write", check_dev_obj },
 	{ MBX_CMD_DEV_FORWARDS, R, 0, 0, "dev-forwards", NULL },
-	{ MBX_CMD_APP_WATCHDOG, W, sizeof(mbx_app_wd_req), 0, "app-watchdog", check_app_wd },
+	{ MBX_CMD_APP_WATCHDOG, W, sizeof(mbx_appwd_req), 0, "app-watchdog", check_app_wd },
 	{ MBX_CMD_APP_KEEPALIVE, W, 0, 0, "app-keepalive", NULL },
-	{ MBX_CMD_APP_HOLD, W, sizeof(mbx_app_hold_req), 0, "app-hold", check_app_flag },
+	{ MBX_CMD_APP_HOLD, W, sizeof(mbx_appwd_hold_req), 0, "app-hold", check_app_flag },
 	{ MBX_CMD_HOST_READY, W, sizeof(mbx_host_ready_req), 0, "host-ready", check_app_flag },
 	{ MBX_CMD_APP_STATUS, R, 0, 0, "app-status", NULL },
 };

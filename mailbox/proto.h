@@ -34,7 +34,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "mailbox/proto_app.h"
+#include "mailbox/proto_appwd.h"
 #include "mailbox/proto_health.h"
 
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
@@ -241,12 +241,12 @@ typedef enum mbx_cmd {
 	MBX_CMD_DEV_FORWARDS = 0x0C06, /* R - -> mbx_dev_forward[n]: this line's ends of
 	                                * gateway.forward with their counters */
 	/* 0x10xx the application watchdog, the hold on OPERATIONAL, host ready
-	 * (mailbox/proto_app.h, docs/application.md) */
-	MBX_CMD_APP_WATCHDOG = 0x1001,  /* W mbx_app_wd_req -> mbx_app_wd_resp */
+	 * (mailbox/proto_appwd.h, docs/application.md) */
+	MBX_CMD_APP_WATCHDOG = 0x1001,  /* W mbx_appwd_req -> mbx_appwd_resp */
 	MBX_CMD_APP_KEEPALIVE = 0x1002, /* W - -> -: NOT_FOUND undeclared, STATE tripped */
-	MBX_CMD_APP_HOLD = 0x1003,      /* W mbx_app_hold_req -> mbx_app_nmt */
+	MBX_CMD_APP_HOLD = 0x1003,      /* W mbx_appwd_hold_req -> mbx_appwd_nmt */
 	MBX_CMD_HOST_READY = 0x1004,    /* W mbx_host_ready_req -> - */
-	MBX_CMD_APP_STATUS = 0x1005,    /* R - -> mbx_app_status + mbx_app_wd_entry[n] */
+	MBX_CMD_APP_STATUS = 0x1005,    /* R - -> mbx_appwd_status + mbx_appwd_entry[n] */
 } mbx_cmd;
 
 const char *mbx_cmd_to_string(unsigned code); /* "?" if unknown */
@@ -335,9 +335,9 @@ typedef enum mbx_event {
 	                                 * new value, to its watchers only */
 	MBX_EV_DEV_MIRROR = 0x0E02,     /* MANAGER mbx_ev_dev_mirror: a node's mirror
 	                                 * PDOs were programmed or released */
-	MBX_EV_APP_WD_TIMEOUT = 0x1001, /* APP mbx_ev_app_wd: an essential client missed
+	MBX_EV_APP_WD_TIMEOUT = 0x1001, /* APP mbx_ev_appwd: an essential client missed
 	                                 * its keep-alive deadline */
-	MBX_EV_APP_NMT = 0x1002,        /* APP mbx_app_nmt: own NMT state, refused start */
+	MBX_EV_APP_NMT = 0x1002,        /* APP mbx_appwd_nmt: own NMT state, refused start */
 	MBX_EV_HOST_STATE = 0x1003,     /* APP mbx_ev_host: host ready / not ready */
 } mbx_event;
 

@@ -73,8 +73,8 @@ static const struct event_kind event_kinds[] = {
 	{ MBX_EV_TIME, MBX_EVC_TIME, "time", sizeof(mbx_ev_time), NULL },
 	{ MBX_EV_DEV_VALUE, MBX_EVC_VALUE, "dev-value", 0, dev_value_ok },
 	{ MBX_EV_DEV_MIRROR, MBX_EVC_MANAGER, "dev-mirror", sizeof(mbx_ev_dev_mirror), NULL },
-	{ MBX_EV_APP_WD_TIMEOUT, MBX_EVC_APP, "app-watchdog-timeout", sizeof(mbx_ev_app_wd), NULL },
-	{ MBX_EV_APP_NMT, MBX_EVC_APP, "app-nmt", sizeof(mbx_app_nmt), NULL },
+	{ MBX_EV_APP_WD_TIMEOUT, MBX_EVC_APP, "app-watchdog-timeout", sizeof(mbx_ev_appwd), NULL },
+	{ MBX_EV_APP_NMT, MBX_EVC_APP, "app-nmt", sizeof(mbx_appwd_nmt), NULL },
 	{ MBX_EV_HOST_STATE, MBX_EVC_APP, "host-state", sizeof(mbx_ev_host), NULL },
 };
 

@@ -162,7 +162,7 @@ const char *mbx_can_state_to_string(unsigned s)
 	return "?";
 }
 
-/* ---- application watchdog reactions (mailbox/proto_app.h) ---------------- */
+/* ---- application watchdog reactions (mailbox/proto_appwd.h) ---------------- */
 
 static const char *const app_reaction_names[] = {
 	"emcy",           "nmt-preop", "nmt-stop",     "nmt-reset-comm",
@@ -170,7 +170,7 @@ static const char *const app_reaction_names[] = {
 };
 #define APP_REACTIONS (sizeof app_reaction_names / sizeof app_reaction_names[0])
 
-const char *mbx_app_reaction_to_string(uint32_t bit)
+const char *mbx_appwd_reaction_to_string(uint32_t bit)
 {
 	for (unsigned i = 0; i < APP_REACTIONS; i++)
 		if (bit == 1u << i)
@@ -178,13 +178,13 @@ const char *mbx_app_reaction_to_string(uint32_t bit)
 	return "?";
 }
 
-int mbx_app_reactions_format(uint32_t set, char *buf, size_t cap)
+int mbx_appwd_reactions_format(uint32_t set, char *buf, size_t cap)
 {
 	int n = 0;
 
 	if (cap)
 		buf[0] = '\0';
-	if (!(set & MBX_APP_R_ALL))
+	if (!(set & MBX_APPWD_R_ALL))
 		return snprintf(buf, cap, "none");
 	for (unsigned i = 0; i < APP_REACTIONS; i++) {
 		if (!(set & (1u << i)))
@@ -208,7 +208,7 @@ static int app_reaction_bit(const char *name, size_t len, uint32_t *bit)
 	return -1;
 }
 
-int mbx_app_reactions_parse(const char *text, uint32_t *set)
+int mbx_appwd_reactions_parse(const char *text, uint32_t *set)
 {
 	uint32_t acc = 0, bit;
 	const char *p = text;

@@ -766,7 +766,7 @@ static bool mgr_nmt_master(void *ctx, line *l)
 	return co_manager_state(ml->mgr) != CO_MGR_SLAVE;
 }
 
-/* A safety reaction of the line (lines/line_app.c) as the 1F82h request
+/* A safety reaction of the line (lines/line_appwd.c) as the 1F82h request
  * of all nodes: the manager then holds the network in that state (a stop
  * or pre-operational is not undone by the boot of a late node; a reset
  * boots the network again) until it is asked to start it. */

@@ -299,7 +299,7 @@ static void on_comm_fault(bridge *b, unsigned line, const mbx_ev_comm_fault *e)
 
 /* An essential client missed its keep-alive and the line ran its
  * reactions (docs/application.md): retained, the line's last trip. */
-static void on_app_watchdog(bridge *b, unsigned line, const mbx_ev_app_wd *e)
+static void on_app_watchdog(bridge *b, unsigned line, const mbx_ev_appwd *e)
 {
 	cJSON *o = head(b, line, -1);
 	char t[TOPIC_MAX], set[160];
@@ -308,9 +308,9 @@ static void on_app_watchdog(bridge *b, unsigned line, const mbx_ev_app_wd *e)
 	cJSON_AddNumberToObject(o, "pid", e->pid);
 	cJSON_AddBoolToObject(o, "client_gone", e->gone);
 	cJSON_AddNumberToObject(o, "interval_ms", e->interval_ms);
-	mbx_app_reactions_format(e->reactions, set, sizeof set);
+	mbx_appwd_reactions_format(e->reactions, set, sizeof set);
 	cJSON_AddStringToObject(o, "reactions", set);
-	mbx_app_reactions_format(e->done, set, sizeof set);
+	mbx_appwd_reactions_format(e->done, set, sizeof set);
 	cJSON_AddStringToObject(o, "done", set);
 	cJSON_AddNumberToObject(o, "late_us", e->late_us);
 	cJSON_AddNumberToObject(o, "trips", e->trips);
@@ -325,7 +325,7 @@ static void on_host_state(bridge *b, unsigned line, const mbx_ev_host *e)
 
 	cJSON_AddBoolToObject(o, "ready", e->ready);
 	cJSON_AddNumberToObject(o, "client", e->client);
-	mbx_app_reactions_format(e->done, set, sizeof set);
+	mbx_appwd_reactions_format(e->done, set, sizeof set);
 	cJSON_AddStringToObject(o, "done", set);
 	net_topic(b, line, "app/host", t, sizeof t);
 	link_publish_json(b, t, o, true, NULL);
@@ -334,7 +334,7 @@ static void on_host_state(bridge *b, unsigned line, const mbx_ev_host *e)
 static void on_app_event(bridge *b, unsigned line, const cogw_msg *m)
 {
 	if (m->code == MBX_EV_APP_WD_TIMEOUT) {
-		mbx_ev_app_wd e;
+		mbx_ev_appwd e;
 
 		memcpy(&e, m->data, sizeof e);
 		on_app_watchdog(b, line, &e);

@@ -64,8 +64,8 @@ typedef struct rpdo_diag {
 	unsigned n; /* RPDOs with an episode open (may exceed the rows) */
 	/* the application watchdog's counters (an older daemon has none) */
 	bool has_app;
-	mbx_app_status app;
-	mbx_app_wd_entry wd[MBX_APP_WD_MAX];
+	mbx_appwd_status app;
+	mbx_appwd_entry wd[MBX_APPWD_MAX];
 } rpdo_diag;
 
 static void app_out(cJSON *o, const rpdo_diag *r)
@@ -73,9 +73,9 @@ static void app_out(cJSON *o, const rpdo_diag *r)
 	if (!r->has_app)
 		return;
 	if (o)
-		ctl_app_json(cJSON_AddObjectToObject(o, "application"), &r->app, r->wd);
+		ctl_appwd_json(cJSON_AddObjectToObject(o, "application"), &r->app, r->wd);
 	else
-		ctl_app_summary_text(&r->app);
+		ctl_appwd_summary_text(&r->app);
 }
 
 static void rpdo_out(ctl *c, cJSON *o, const rpdo_diag *r)
@@ -386,7 +386,7 @@ static int run_diag(ctl *c, int argc, char **argv)
 					   c->timeout_ms)) < 0)
 			return ctl_fail(c, rc, 0, ctx);
 		r.n = (unsigned)rc;
-		r.has_app = cogw_app_status(h, line, &r.app, r.wd, MBX_APP_WD_MAX, c->timeout_ms) >=
+		r.has_app = cogw_app_status(h, line, &r.app, r.wd, MBX_APPWD_MAX, c->timeout_ms) >=
 			    0;
 		if ((rc = cogw_mgr_status(h, line, &s, c->timeout_ms)) == COGW_E_UNSUPPORTED) {
 			/* a line without a manager still supervises its RPDOs */

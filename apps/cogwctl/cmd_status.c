@@ -33,8 +33,8 @@ typedef struct line_report {
 	bool has_gw;
 	mbx_line_health health;
 	bool has_health;
-	mbx_app_status app;
-	mbx_app_wd_entry wd[MBX_APP_WD_MAX];
+	mbx_appwd_status app;
+	mbx_appwd_entry wd[MBX_APPWD_MAX];
 	bool has_app;
 } line_report;
 
@@ -59,7 +59,7 @@ static int fetch_line(ctl *c, cogw *h, unsigned line, line_report *r)
 	/* an older daemon has no bus health to show */
 	r->has_health = cogw_line_health(h, line, &r->health, c->timeout_ms) == 0;
 	/* nor an application watchdog */
-	r->has_app = cogw_app_status(h, line, &r->app, r->wd, MBX_APP_WD_MAX, c->timeout_ms) >= 0;
+	r->has_app = cogw_app_status(h, line, &r->app, r->wd, MBX_APPWD_MAX, c->timeout_ms) >= 0;
 	return 0;
 }
 
@@ -126,7 +126,7 @@ static void status_json(const line_report *r, cJSON *arr)
 	if (r->has_health)
 		ctl_health_json(cJSON_AddObjectToObject(o, "health"), &r->health);
 	if (r->has_app)
-		ctl_app_json(cJSON_AddObjectToObject(o, "application"), &r->app, r->wd);
+		ctl_appwd_json(cJSON_AddObjectToObject(o, "application"), &r->app, r->wd);
 	cJSON *na = cJSON_AddArrayToObject(o, "nodes");
 	for (int i = 0; i < r->n_nodes; i++)
 		cJSON_AddItemToArray(na, node_json(&r->nodes[i]));
@@ -185,7 +185,7 @@ static void status_text(const line_report *r)
 	if (r->has_health)
 		ctl_health_summary_text(&r->health);
 	if (r->has_app)
-		ctl_app_summary_text(&r->app);
+		ctl_appwd_summary_text(&r->app);
 	mailbox_text(&r->ms);
 	if (r->has_gw) {
 		printf("  gateway: network %u, %u routed session%s running, %u client%s lent\n",

@@ -140,7 +140,7 @@ typedef struct ctl_cmd {
 extern const ctl_cmd ctl_cmd_status, ctl_cmd_sdo, ctl_cmd_od, ctl_cmd_nmt, ctl_cmd_pdo,
 	ctl_cmd_emcy, ctl_cmd_lss, ctl_cmd_monitor, ctl_cmd_raw, ctl_cmd_dcf, ctl_cmd_route,
 	ctl_cmd_manager, ctl_cmd_boot, ctl_cmd_diag, ctl_cmd_program, ctl_cmd_configure,
-	ctl_cmd_watch, ctl_cmd_dev, ctl_cmd_health, ctl_cmd_node, ctl_cmd_app, ctl_cmd_host;
+	ctl_cmd_watch, ctl_cmd_dev, ctl_cmd_health, ctl_cmd_node, ctl_cmd_appwd, ctl_cmd_host;
 
 /* Run one(c, h, line, arr) for the lines given as
  * positionals (or every line of the daemon); with --json one object
@@ -152,10 +152,10 @@ int ctl_each_line(ctl *c, const char *const *pos, int n_pos,
 void ctl_health_summary_text(const mbx_line_health *hl);
 void ctl_health_json(cJSON *o, const mbx_line_health *hl);
 
-/* cmd_app.c: the application summary line of `status`, and its JSON
+/* cmd_appwd.c: the application summary line of `status`, and its JSON
  * (wd: st->n entries). */
-void ctl_app_summary_text(const mbx_app_status *st);
-void ctl_app_json(cJSON *o, const mbx_app_status *st, const mbx_app_wd_entry *wd);
+void ctl_appwd_summary_text(const mbx_appwd_status *st);
+void ctl_appwd_json(cJSON *o, const mbx_appwd_status *st, const mbx_appwd_entry *wd);
 
 /* cmd_dev.c: "pdo map [LINE [NODE]]" (pos[0] = "map"). */
 int ctl_pdo_map(ctl *c, int n_pos, const char **pos);

@@ -613,24 +613,24 @@ static void print_app(const cogw_msg *m, const ctl_monitor_spec *spec, event_out
 
 	(void)spec;
 	if (m->code == MBX_EV_APP_WD_TIMEOUT) {
-		mbx_ev_app_wd e;
+		mbx_ev_appwd e;
 		memcpy(&e, m->data, sizeof e);
-		mbx_app_reactions_format(e.done, set, sizeof set);
+		mbx_appwd_reactions_format(e.done, set, sizeof set);
 		snprintf(out->text, out->len,
 			 "application watchdog: client %u (pid %u%s) missed its %u ms keep-alive, "
 			 "%u us late: %s",
 			 e.client, e.pid, e.gone ? ", gone" : "", e.interval_ms, e.late_us, set);
 	} else if (m->code == MBX_EV_APP_NMT) {
-		mbx_app_nmt e;
+		mbx_appwd_nmt e;
 		memcpy(&e, m->data, sizeof e);
 		snprintf(out->text, out->len, "own node %u: %s%s (%u holder%s)", e.node,
 			 co_nmt_state_to_string(e.state),
-			 e.flags & MBX_APP_NMT_REFUSED ? ", start refused and deferred" : "",
+			 e.flags & MBX_APPWD_NMT_REFUSED ? ", start refused and deferred" : "",
 			 e.holders, e.holders == 1 ? "" : "s");
 	} else {
 		mbx_ev_host e;
 		memcpy(&e, m->data, sizeof e);
-		mbx_app_reactions_format(e.done, set, sizeof set);
+		mbx_appwd_reactions_format(e.done, set, sizeof set);
 		snprintf(out->text, out->len, "host %s (client %u)%s%s",
 			 e.ready ? "ready" : "NOT READY", e.client, e.ready ? "" : ": ",
 			 e.ready ? "" : set);

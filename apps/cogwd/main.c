@@ -170,9 +170,9 @@ static int create_lines(daemon_state *d)
 			.time_period_ms = lc->time_period_ms,
 			.id_conflict_quiet_ms = lc->id_conflict_quiet_ms,
 			.fault_quiet_ms = lc->fault_quiet_ms,
-			.n_safe_outputs = lc->app.n_safe_outputs,
-			.app_reactions = lc->app.reactions,
-			.not_ready_cs = lc->app.not_ready_cs,
+			.n_safe_outputs = lc->appwd.n_safe_outputs,
+			.app_reactions = lc->appwd.reactions,
+			.not_ready_cs = lc->appwd.not_ready_cs,
 			.can = { .ifname = lc->interface, .bitrate = lc->bitrate },
 			.node = {
 				.node_id = lc->node_id,
@@ -199,8 +199,8 @@ static int create_lines(daemon_state *d)
 			.mbx = mailbox_params(d, i),
 		};
 		_Static_assert(COGW_SAFE_OUTPUTS_MAX <= LINE_SAFE_OUTPUTS_MAX, "safe outputs");
-		memcpy(p.safe_outputs, lc->app.safe_outputs,
-		       lc->app.n_safe_outputs * sizeof p.safe_outputs[0]);
+		memcpy(p.safe_outputs, lc->appwd.safe_outputs,
+		       lc->appwd.n_safe_outputs * sizeof p.safe_outputs[0]);
 		cogwd_exts_for_line(&d->exts, (unsigned)i, p.ext);
 		rc = line_create(&d->lines[i], &p);
 		if (rc < 0)

@@ -120,12 +120,12 @@ typedef struct cogw_devobj_config {
  * host not ready's NMT action, the safe outputs (docs/config.md,
  * docs/application.md). */
 #define COGW_SAFE_OUTPUTS_MAX 32u
-typedef struct cogw_app_config {
+typedef struct cogw_appwd_config {
 	uint32_t reactions;   /* "watchdog_reactions" (core/appwd.h bits), 0 = none */
 	uint8_t not_ready_cs; /* "not_ready_nmt": CO_NMT_CS_STOP / _ENTER_PREOP */
 	uint8_t n_safe_outputs;
 	co_safe_output safe_outputs[COGW_SAFE_OUTPUTS_MAX];
-} cogw_app_config;
+} cogw_appwd_config;
 
 typedef struct cogw_line_config {
 	char name[COGW_NAME_MAX];      /* "line0" (default "line<N>") */
@@ -158,7 +158,7 @@ typedef struct cogw_line_config {
 	uint8_t pdo;                       /* cogw_pdo_mode, the nodes' default */
 	uint16_t pdo_scan_max;             /* PDOs per direction scanned and kept, 1..512 */
 	cogw_devobj_config device_objects; /* "device_objects" */
-	cogw_app_config app;               /* "application" */
+	cogw_appwd_config appwd;           /* "application" */
 } cogw_line_config;
 
 typedef struct cogw_mailbox_config {

@@ -560,7 +560,7 @@ int cfg_parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_config *
 	so->gateway = true;
 	if ((rc = build_od(c, o, path, l, so)))
 		return rc;
-	l->app.not_ready_cs = CO_NMT_CS_STOP;
+	l->appwd.not_ready_cs = CO_NMT_CS_STOP;
 	const cJSON *app = json_util_get(o, "application");
 	if (!app)
 		return 0;

@@ -120,7 +120,7 @@ int cfg_parse_manager(struct ctx *c, const cJSON *o, const char *path, cogw_mana
 /* The manager's objects (1F80h, 1F81h, ...) in the line's OD. */
 int cfg_manager_objects(struct ctx *c, const char *path, cogw_line_config *l);
 
-/* ---- config_app.c: a line's "application" (after its OD is built) ---- */
+/* ---- config_appwd.c: a line's "application" (after its OD is built) ---- */
 int cfg_parse_application(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l);
 
 #endif /* COGW_APPS_CONFIG_READ_H */

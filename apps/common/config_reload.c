@@ -198,7 +198,7 @@ static void line_diff(const cogw_line_config *x, const cogw_line_config *y, size
 	LDIFF(memcmp(&x->manager, &y->manager, sizeof(x->manager)), "manager");
 	LDIFF(memcmp(&x->device_objects, &y->device_objects, sizeof(x->device_objects)),
 	      "device_objects");
-	LDIFF(memcmp(&x->app, &y->app, sizeof(x->app)), "application");
+	LDIFF(memcmp(&x->appwd, &y->appwd, sizeof(x->appwd)), "application");
 #undef LDIFF
 	d->changed = d->changed || before;
 }

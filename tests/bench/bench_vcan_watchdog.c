@@ -119,7 +119,7 @@ static void drain(int fd)
 /* ---- the watchdog ------------------------------------------------------------- */
 
 /* The next APP_WD_TIMEOUT event. */
-static int wait_trip(cogw *h, mbx_ev_app_wd *ev, int timeout_ms)
+static int wait_trip(cogw *h, mbx_ev_appwd *ev, int timeout_ms)
 {
 	uint64_t until = bench_now_ns() / 1000000u + (uint64_t)timeout_ms;
 	cogw_msg m;
@@ -141,8 +141,8 @@ static int wait_trip(cogw *h, mbx_ev_app_wd *ev, int timeout_ms)
  * line's own lateness in *line_us. */
 static int watchdog_round(cogw *h, int fd, double *bus_us, double *line_us)
 {
-	mbx_ev_app_wd ev;
-	if (cogw_app_watchdog(h, 0, INTERVAL_MS, MBX_APP_R_EMCY | MBX_APP_R_SAFE_OUTPUTS, NULL,
+	mbx_ev_appwd ev;
+	if (cogw_app_watchdog(h, 0, INTERVAL_MS, MBX_APPWD_R_EMCY | MBX_APPWD_R_SAFE_OUTPUTS, NULL,
 			      3000) < 0)
 		return -1;
 	drain(fd);

@@ -204,13 +204,13 @@ static void wait_own_state(unsigned line, uint8_t state, int timeout_ms)
 }
 
 /* The entry of pid in line 0's status, waiting for it to be in `state`. */
-static mbx_app_wd_entry wait_entry(pid_t pid, uint8_t state, int timeout_ms)
+static mbx_appwd_entry wait_entry(pid_t pid, uint8_t state, int timeout_ms)
 {
-	mbx_app_status st;
-	mbx_app_wd_entry wd[MBX_APP_WD_MAX];
+	mbx_appwd_status st;
+	mbx_appwd_entry wd[MBX_APPWD_MAX];
 	uint64_t until = mono_ms() + (uint64_t)timeout_ms;
 	for (;;) {
-		int n = cogw_app_status(h, 0, &st, wd, MBX_APP_WD_MAX, 3000);
+		int n = cogw_app_status(h, 0, &st, wd, MBX_APPWD_MAX, 3000);
 		TEST_ASSERT_TRUE(n >= 0);
 		for (int i = 0; i < n; i++)
 			if (wd[i].pid == (uint32_t)pid && wd[i].state == state)
@@ -283,7 +283,7 @@ static const uint8_t tpdo_safe[2] = { 0x00, 0x00 };
 static void test_sigkill_fires_safe_outputs_emcy_and_nmt_stop(void)
 {
 	static const uint8_t nmt_stop[2] = { 0x02, 0x00 };
-	mbx_ev_app_wd ev;
+	mbx_ev_appwd ev;
 
 	wait_own_state(0, 0x05, 10000);
 	child = spawn_essential("500", "emcy,nmt-stop,safe-outputs", false);
@@ -295,7 +295,7 @@ static void test_sigkill_fires_safe_outputs_emcy_and_nmt_stop(void)
 	collect(fd0, 300);
 	TEST_ASSERT_EQUAL_UINT32((uint32_t)child, ev.pid);
 	TEST_ASSERT_EQUAL_UINT32(500, ev.interval_ms);
-	TEST_ASSERT_EQUAL_HEX32(MBX_APP_R_EMCY | MBX_APP_R_NMT_STOP | MBX_APP_R_SAFE_OUTPUTS,
+	TEST_ASSERT_EQUAL_HEX32(MBX_APPWD_R_EMCY | MBX_APPWD_R_NMT_STOP | MBX_APPWD_R_SAFE_OUTPUTS,
 				ev.reactions);
 	TEST_ASSERT_EQUAL_HEX32(ev.reactions, ev.done);
 	TEST_ASSERT_EQUAL_UINT32(1, ev.trips);
@@ -320,7 +320,7 @@ static void test_sigkill_fires_safe_outputs_emcy_and_nmt_stop(void)
 
 static void test_sigstop_fires_then_the_client_comes_back(void)
 {
-	mbx_ev_app_wd ev;
+	mbx_ev_appwd ev;
 
 	wait_own_state(0, 0x05, 10000);
 	child = spawn_essential("400", "emcy,hb-stop", true);
@@ -330,7 +330,7 @@ static void test_sigstop_fires_then_the_client_comes_back(void)
 	wait_event(0, MBX_EV_APP_WD_TIMEOUT, &ev, sizeof ev, 400 + MARGIN_MS);
 	TEST_ASSERT_EQUAL_UINT32((uint32_t)child, ev.pid);
 	TEST_ASSERT_EQUAL_UINT8(0, ev.gone); /* stopped, not gone: its lease is alive */
-	TEST_ASSERT_EQUAL_HEX32(MBX_APP_R_EMCY | MBX_APP_R_HB_STOP, ev.done);
+	TEST_ASSERT_EQUAL_HEX32(MBX_APPWD_R_EMCY | MBX_APPWD_R_HB_STOP, ev.done);
 	collect(fd0, 500);
 	expect_frame_after("EMCY 6200h (SIGSTOP)", EMCY_COB, emcy_6200, 8, ev.deadline_us);
 	/* no heartbeat later than the reaction plus one frame's time */
@@ -348,7 +348,7 @@ static void test_sigstop_fires_then_the_client_comes_back(void)
 	collect(fd0, 600);
 	TEST_ASSERT_NOT_NULL_MESSAGE(find_frame(EMCY_COB, emcy_reset, 8), "no EMCY error reset");
 	TEST_ASSERT_TRUE(count_frames(HB_COB) >= 3);
-	mbx_app_wd_entry w = wait_entry(child, 2, 2000);
+	mbx_appwd_entry w = wait_entry(child, 2, 2000);
 	TEST_ASSERT_EQUAL_UINT32(400, w.interval_ms);
 	proc_stop(child, SIGTERM, 3000);
 	child = 0;
@@ -357,7 +357,7 @@ static void test_sigstop_fires_then_the_client_comes_back(void)
 /* ---- every reaction, from a client of the test ------------------------------------ */
 
 /* Declare on line, one keep-alive, then silence: the trip's event. */
-static void trip_once(unsigned line, uint32_t reactions, mbx_app_wd_resp *resp, mbx_ev_app_wd *ev)
+static void trip_once(unsigned line, uint32_t reactions, mbx_appwd_resp *resp, mbx_ev_appwd *ev)
 {
 	TEST_ASSERT_EQUAL_INT(0, cogw_app_watchdog(h, line, 50, reactions, resp, 3000));
 	drain(line ? fd1 : fd0);
@@ -374,11 +374,11 @@ static void test_every_nmt_reaction_and_the_safe_outputs(void)
 		uint32_t reaction;
 		uint8_t cs;
 		const char *name;
-	} nmt[] = { { MBX_APP_R_NMT_PREOP, 0x80, "NMT pre-operational all" },
-		    { MBX_APP_R_NMT_RESET_COMM, 0x82, "NMT reset communication all" },
-		    { MBX_APP_R_NMT_RESET_NODE, 0x81, "NMT reset node all" } };
-	mbx_app_wd_resp resp;
-	mbx_ev_app_wd ev;
+	} nmt[] = { { MBX_APPWD_R_NMT_PREOP, 0x80, "NMT pre-operational all" },
+		    { MBX_APPWD_R_NMT_RESET_COMM, 0x82, "NMT reset communication all" },
+		    { MBX_APPWD_R_NMT_RESET_NODE, 0x81, "NMT reset node all" } };
+	mbx_appwd_resp resp;
+	mbx_ev_appwd ev;
 
 	wait_own_state(0, 0x05, 10000);
 	TEST_ASSERT_EQUAL_INT(COGW_E_NOT_FOUND, cogw_app_keepalive(h, 0, 3000));
@@ -407,11 +407,11 @@ static void test_every_nmt_reaction_and_the_safe_outputs(void)
 	proc_stop(child, SIGTERM, 3000);
 	child = 0;
 	TEST_ASSERT_EQUAL_INT(0, cogw_od_write(h, 0, 0x2000, 0, &(uint16_t){ 700 }, 2, 3000, NULL));
-	trip_once(0, MBX_APP_R_SAFE_OUTPUTS, &resp, &ev);
+	trip_once(0, MBX_APPWD_R_SAFE_OUTPUTS, &resp, &ev);
 	expect_frame_after("safe-output TPDO 1FFh", TPDO_COB, tpdo_safe, 2, ev.deadline_us);
 	/* the line's configured set */
-	trip_once(0, MBX_APP_R_CONFIGURED, &resp, &ev);
-	TEST_ASSERT_EQUAL_HEX32(MBX_APP_R_EMCY | MBX_APP_R_SAFE_OUTPUTS, resp.reactions);
+	trip_once(0, MBX_APPWD_R_CONFIGURED, &resp, &ev);
+	TEST_ASSERT_EQUAL_HEX32(MBX_APPWD_R_EMCY | MBX_APPWD_R_SAFE_OUTPUTS, resp.reactions);
 	expect_frame_after("EMCY 6200h (configured)", EMCY_COB, emcy_6200, 8, ev.deadline_us);
 	/* withdrawing acknowledges too */
 	drain(fd0);
@@ -421,15 +421,15 @@ static void test_every_nmt_reaction_and_the_safe_outputs(void)
 	TEST_ASSERT_EQUAL_INT(COGW_E_NOT_FOUND, cogw_app_watchdog(h, 0, 0, 0, NULL, 3000));
 
 	/* line 1 has no NMT master and no safe outputs: said at once, skipped */
-	trip_once(1, MBX_APP_R_NMT_STOP | MBX_APP_R_EMCY, &resp, &ev);
-	TEST_ASSERT_EQUAL_HEX32(MBX_APP_R_NMT_STOP, resp.unavailable);
-	TEST_ASSERT_EQUAL_HEX32(MBX_APP_R_EMCY, ev.done);
+	trip_once(1, MBX_APPWD_R_NMT_STOP | MBX_APPWD_R_EMCY, &resp, &ev);
+	TEST_ASSERT_EQUAL_HEX32(MBX_APPWD_R_NMT_STOP, resp.unavailable);
+	TEST_ASSERT_EQUAL_HEX32(MBX_APPWD_R_EMCY, ev.done);
 	TEST_ASSERT_EQUAL_UINT(0, count_frames(0x000));
 	TEST_ASSERT_EQUAL_INT(COGW_E_UNSUPPORTED,
-			      cogw_app_watchdog(h, 1, 50, MBX_APP_R_CONFIGURED, NULL, 3000));
+			      cogw_app_watchdog(h, 1, 50, MBX_APPWD_R_CONFIGURED, NULL, 3000));
 	TEST_ASSERT_EQUAL_INT(
 		COGW_E_PARAM,
-		cogw_app_watchdog(h, 1, 50, MBX_APP_R_NMT_STOP | MBX_APP_R_NMT_PREOP, NULL, 3000));
+		cogw_app_watchdog(h, 1, 50, MBX_APPWD_R_NMT_STOP | MBX_APPWD_R_NMT_PREOP, NULL, 3000));
 }
 
 /* ---- read-only ---------------------------------------------------------------------- */
@@ -464,7 +464,7 @@ static void test_read_only_client_cannot_arm(void)
 	static const char *const essential[] = { "app", "0",       "essential",     "--interval",
 						 "20",  "--react", "emcy,nmt-stop", NULL };
 	static const char *const show[] = { "app", "0", NULL };
-	mbx_app_status st;
+	mbx_appwd_status st;
 
 	TEST_ASSERT_EQUAL_INT(1, cogwctl_as_nobody(essential)); /* refused */
 	TEST_ASSERT_TRUE(file_contains(child_log, "access"));
@@ -491,7 +491,7 @@ static void test_host_not_ready_then_ready(void)
 	TEST_ASSERT_EQUAL_INT(0, cogw_host_ready(h, 0, 0, 3000));
 	wait_event(0, MBX_EV_HOST_STATE, &ev, sizeof ev, 2000);
 	TEST_ASSERT_EQUAL_UINT8(0, ev.ready);
-	TEST_ASSERT_EQUAL_HEX32(MBX_APP_R_SAFE_OUTPUTS | MBX_APP_R_NMT_STOP, ev.done);
+	TEST_ASSERT_EQUAL_HEX32(MBX_APPWD_R_SAFE_OUTPUTS | MBX_APPWD_R_NMT_STOP, ev.done);
 	collect(fd0, 400);
 	TEST_ASSERT_NOT_NULL(find_frame(TPDO_COB, tpdo_safe, 2));
 	TEST_ASSERT_NOT_NULL(find_frame(0x000, nmt_stop, 2));
@@ -521,7 +521,7 @@ static void test_host_not_ready_then_ready(void)
 	/* the manager started the network (it has no slaves: no frame) */
 	TEST_ASSERT_EQUAL_INT(0, cogw_mgr_status(h, 0, &ms, 3000));
 	TEST_ASSERT_EQUAL_UINT8(CO_MGR_OPERATIONAL, ms.state);
-	mbx_app_status st;
+	mbx_appwd_status st;
 	TEST_ASSERT_EQUAL_INT(0, cogw_app_status(h, 0, &st, NULL, 0, 3000));
 	TEST_ASSERT_EQUAL_UINT64(1, st.not_ready_episodes);
 	TEST_ASSERT_TRUE(st.host_ready);
@@ -532,7 +532,7 @@ static void test_hold_defers_the_own_start(void)
 	const char *argv[] = {
 		"build/san/bin/cogwctl", "--instance", INSTANCE, "app", "0", "hold", NULL
 	};
-	mbx_app_nmt ev;
+	mbx_appwd_nmt ev;
 
 	wait_own_state(0, 0x05, 10000);
 	TEST_ASSERT_EQUAL_INT(0, cogw_nmt(h, 0, 0x80, OWN, 3000));
@@ -542,12 +542,12 @@ static void test_hold_defers_the_own_start(void)
 	TEST_ASSERT_EQUAL_INT(COGW_E_STATE, cogw_nmt(h, 0, 0x01, OWN, 3000));
 	for (;;) { /* the refusal's event (state changes of the pre-op came first) */
 		wait_event(0, MBX_EV_APP_NMT, &ev, sizeof ev, 2000);
-		if (ev.flags & MBX_APP_NMT_REFUSED)
+		if (ev.flags & MBX_APPWD_NMT_REFUSED)
 			break;
 	}
 	TEST_ASSERT_EQUAL_HEX8(0x7F, ev.state);
 	TEST_ASSERT_EQUAL_UINT8(1, ev.holders);
-	TEST_ASSERT_TRUE(ev.flags & MBX_APP_NMT_DEFERRED);
+	TEST_ASSERT_TRUE(ev.flags & MBX_APPWD_NMT_DEFERRED);
 	sleep_ms(300);
 	TEST_ASSERT_EQUAL_HEX8(0x7F, own_state(0));
 	/* ready: the deferred start applies */
@@ -556,7 +556,7 @@ static void test_hold_defers_the_own_start(void)
 	wait_event(0, MBX_EV_APP_NMT, &ev, sizeof ev, 2000);
 	TEST_ASSERT_EQUAL_HEX8(0x05, ev.state);
 	TEST_ASSERT_EQUAL_HEX8(0x01, ev.cs);
-	mbx_app_status st;
+	mbx_appwd_status st;
 	TEST_ASSERT_EQUAL_INT(0, cogw_app_status(h, 0, &st, NULL, 0, 3000));
 	TEST_ASSERT_EQUAL_UINT64(1, st.starts_refused);
 	TEST_ASSERT_EQUAL_UINT8(0, st.holders);

@@ -162,7 +162,7 @@ static int fill_key_defaults(struct key_default *k)
 	KD("`lines[]`", "pdo_scan_max", "%u", l->pdo_scan_max);
 	/* "application" (a sub-heading of `lines[]`) */
 	KD("`lines[]`", "not_ready_nmt", "%s",
-	   l->app.not_ready_cs == CO_NMT_CS_STOP ? "stop" : "pre-operational");
+	   l->appwd.not_ready_cs == CO_NMT_CS_STOP ? "stop" : "pre-operational");
 	TEST_ASSERT_EQUAL_size_t(1, l->n_nodes);
 	KD("Node configuration", "store", "%s", l->nodes[0].config.store ? "true" : "false");
 	{

@@ -577,28 +577,28 @@ static void test_nmt_fields(void)
 static void test_app_fields(void)
 {
 	mbx_hdr h = cmd_hdr(MBX_CMD_APP_WATCHDOG);
-	mbx_app_wd_req w = { .interval_ms = 200, .reactions = MBX_APP_R_EMCY | MBX_APP_R_NMT_STOP };
-	mbx_app_hold_req f = { .hold = 1 };
+	mbx_appwd_req w = { .interval_ms = 200, .reactions = MBX_APPWD_R_EMCY | MBX_APPWD_R_NMT_STOP };
+	mbx_appwd_hold_req f = { .hold = 1 };
 	uint32_t set = 0;
 	char text[160];
 
 	ASSERT_OK(h, &w, sizeof w);
-	w.reactions = MBX_APP_R_CONFIGURED;
+	w.reactions = MBX_APPWD_R_CONFIGURED;
 	ASSERT_OK(h, &w, sizeof w);
-	w = (mbx_app_wd_req){ 0 }; /* withdrawal */
+	w = (mbx_appwd_req){ 0 }; /* withdrawal */
 	ASSERT_OK(h, &w, sizeof w);
-	w.reactions = MBX_APP_R_EMCY;
+	w.reactions = MBX_APPWD_R_EMCY;
 	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &w, sizeof w);
-	w.interval_ms = MBX_APP_INTERVAL_MIN_MS - 1;
+	w.interval_ms = MBX_APPWD_INTERVAL_MIN_MS - 1;
 	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &w, sizeof w);
-	w.interval_ms = MBX_APP_INTERVAL_MAX_MS + 1;
+	w.interval_ms = MBX_APPWD_INTERVAL_MAX_MS + 1;
 	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &w, sizeof w);
 	w.interval_ms = 100;
-	w.reactions = MBX_APP_R_NMT_STOP | MBX_APP_R_NMT_PREOP;
+	w.reactions = MBX_APPWD_R_NMT_STOP | MBX_APPWD_R_NMT_PREOP;
 	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &w, sizeof w);
 	w.reactions = 1u << 7;
 	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &w, sizeof w);
-	w.reactions = MBX_APP_R_CONFIGURED | MBX_APP_R_EMCY;
+	w.reactions = MBX_APPWD_R_CONFIGURED | MBX_APPWD_R_EMCY;
 	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &w, sizeof w);
 
 	h = cmd_hdr(MBX_CMD_APP_HOLD);
@@ -614,22 +614,22 @@ static void test_app_fields(void)
 	TEST_ASSERT_FALSE(mbx_cmd_lookup(MBX_CMD_APP_STATUS)->flags & MBX_CI_WRITE);
 
 	TEST_ASSERT_EQUAL_STRING("safe-outputs",
-				 mbx_app_reaction_to_string(MBX_APP_R_SAFE_OUTPUTS));
-	TEST_ASSERT_EQUAL_STRING("?", mbx_app_reaction_to_string(3));
-	mbx_app_reactions_format(MBX_APP_R_ALL, text, sizeof text);
+				 mbx_appwd_reaction_to_string(MBX_APPWD_R_SAFE_OUTPUTS));
+	TEST_ASSERT_EQUAL_STRING("?", mbx_appwd_reaction_to_string(3));
+	mbx_appwd_reactions_format(MBX_APPWD_R_ALL, text, sizeof text);
 	TEST_ASSERT_EQUAL_STRING("emcy,nmt-preop,nmt-stop,nmt-reset-comm,nmt-reset-node,hb-stop,"
 				 "safe-outputs",
 				 text);
-	TEST_ASSERT_EQUAL_INT(0, mbx_app_reactions_parse(text, &set));
-	TEST_ASSERT_EQUAL_HEX32(MBX_APP_R_ALL, set);
-	mbx_app_reactions_format(0, text, sizeof text);
+	TEST_ASSERT_EQUAL_INT(0, mbx_appwd_reactions_parse(text, &set));
+	TEST_ASSERT_EQUAL_HEX32(MBX_APPWD_R_ALL, set);
+	mbx_appwd_reactions_format(0, text, sizeof text);
 	TEST_ASSERT_EQUAL_STRING("none", text);
 	TEST_ASSERT_EQUAL_INT(
-		12, mbx_app_reactions_format(MBX_APP_R_EMCY | MBX_APP_R_HB_STOP, text, 4));
+		12, mbx_appwd_reactions_format(MBX_APPWD_R_EMCY | MBX_APPWD_R_HB_STOP, text, 4));
 	TEST_ASSERT_EQUAL_STRING("emc", text);
-	TEST_ASSERT_EQUAL_INT(-1, mbx_app_reactions_parse("emcy,,hb-stop", &set));
-	TEST_ASSERT_EQUAL_INT(-1, mbx_app_reactions_parse("emcy,bang", &set));
-	TEST_ASSERT_EQUAL_INT(-1, mbx_app_reactions_parse("", &set));
+	TEST_ASSERT_EQUAL_INT(-1, mbx_appwd_reactions_parse("emcy,,hb-stop", &set));
+	TEST_ASSERT_EQUAL_INT(-1, mbx_appwd_reactions_parse("emcy,bang", &set));
+	TEST_ASSERT_EQUAL_INT(-1, mbx_appwd_reactions_parse("", &set));
 	TEST_ASSERT_EQUAL_STRING("app", mbx_event_class_to_string(MBX_EVC_APP));
 	TEST_ASSERT_EQUAL_STRING("app-watchdog-timeout",
 				 mbx_event_to_string(MBX_EV_APP_WD_TIMEOUT));

@@ -43,14 +43,14 @@ static void test_absent_defaults(void)
 {
 	TEST_ASSERT_EQUAL_INT(
 		0, cogw_config_load_string(&cfg, CFG_APP("{}"), "t.json", err, sizeof(err)));
-	TEST_ASSERT_EQUAL_UINT32(0, cfg.lines[0].app.reactions);
-	TEST_ASSERT_EQUAL_HEX8(CO_NMT_CS_STOP, cfg.lines[0].app.not_ready_cs);
-	TEST_ASSERT_EQUAL_UINT8(0, cfg.lines[0].app.n_safe_outputs);
+	TEST_ASSERT_EQUAL_UINT32(0, cfg.lines[0].appwd.reactions);
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_CS_STOP, cfg.lines[0].appwd.not_ready_cs);
+	TEST_ASSERT_EQUAL_UINT8(0, cfg.lines[0].appwd.n_safe_outputs);
 }
 
 static void test_full_section(void)
 {
-	const cogw_app_config *a;
+	const cogw_appwd_config *a;
 
 	TEST_ASSERT_EQUAL_INT(
 		0, cogw_config_load_string(
@@ -61,7 +61,7 @@ static void test_full_section(void)
 				   "{\"index\": 8193, \"sub\": 0, \"value\": -5}]}"),
 			   "t.json", err, sizeof(err)));
 	TEST_ASSERT_EQUAL_STRING("", err);
-	a = &cfg.lines[0].app;
+	a = &cfg.lines[0].appwd;
 	TEST_ASSERT_EQUAL_HEX32(CO_APPWD_EMCY | CO_APPWD_NMT_STOP | CO_APPWD_SAFE_OUTPUTS,
 				a->reactions);
 	TEST_ASSERT_EQUAL_HEX8(CO_NMT_CS_ENTER_PREOP, a->not_ready_cs);

@@ -26,21 +26,21 @@ static const char *cs_text(uint32_t cs)
 	return cs == CO_NMT_CS_ENTER_PREOP ? "pre-operational" : "stop";
 }
 
-void ctl_app_summary_text(const mbx_app_status *st)
+void ctl_appwd_summary_text(const mbx_appwd_status *st)
 {
 	printf("  application: host %s, %u essential client%s, %" PRIu64 " watchdog trip%s%s\n",
 	       st->host_ready ? "ready" : "NOT READY", st->n, st->n == 1 ? "" : "s", st->trips,
 	       st->trips == 1 ? "" : "s", st->holders ? ", own node held out of OPERATIONAL" : "");
 }
 
-void ctl_app_json(cJSON *o, const mbx_app_status *st, const mbx_app_wd_entry *wd)
+void ctl_appwd_json(cJSON *o, const mbx_appwd_status *st, const mbx_appwd_entry *wd)
 {
 	char set[160];
 	cJSON_AddBoolToObject(o, "host_ready", st->host_ready);
 	cJSON_AddStringToObject(o, "own_nmt_state", co_nmt_state_to_string(st->own_state));
 	cJSON_AddNumberToObject(o, "holders", st->holders);
-	cJSON_AddBoolToObject(o, "start_deferred", st->flags & MBX_APP_NMT_DEFERRED);
-	mbx_app_reactions_format(st->configured, set, sizeof set);
+	cJSON_AddBoolToObject(o, "start_deferred", st->flags & MBX_APPWD_NMT_DEFERRED);
+	mbx_appwd_reactions_format(st->configured, set, sizeof set);
 	cJSON_AddStringToObject(o, "configured_reactions", set);
 	cJSON_AddNumberToObject(o, "safe_outputs", st->safe_outputs);
 	cJSON_AddBoolToObject(o, "nmt_master", st->nmt_master);
@@ -57,7 +57,7 @@ void ctl_app_json(cJSON *o, const mbx_app_status *st, const mbx_app_wd_entry *wd
 		cJSON *t = cJSON_AddObjectToObject(o, "last_trip");
 		cJSON_AddNumberToObject(t, "client", st->last_client);
 		cJSON_AddNumberToObject(t, "pid", st->last_pid);
-		mbx_app_reactions_format(st->last_done, set, sizeof set);
+		mbx_appwd_reactions_format(st->last_done, set, sizeof set);
 		cJSON_AddStringToObject(t, "done", set);
 		cJSON_AddNumberToObject(t, "late_us", st->last_late_us);
 		cJSON_AddNumberToObject(t, "ms_ago", (double)st->last_age_ms);
@@ -68,7 +68,7 @@ void ctl_app_json(cJSON *o, const mbx_app_status *st, const mbx_app_wd_entry *wd
 		cJSON_AddNumberToObject(w, "client", wd[i].client);
 		cJSON_AddNumberToObject(w, "pid", wd[i].pid);
 		cJSON_AddNumberToObject(w, "interval_ms", wd[i].interval_ms);
-		mbx_app_reactions_format(wd[i].reactions, set, sizeof set);
+		mbx_appwd_reactions_format(wd[i].reactions, set, sizeof set);
 		cJSON_AddStringToObject(w, "reactions", set);
 		cJSON_AddStringToObject(w, "state", wd_state_text(wd[i].state));
 		cJSON_AddBoolToObject(w, "client_gone", wd[i].gone);
@@ -78,14 +78,14 @@ void ctl_app_json(cJSON *o, const mbx_app_status *st, const mbx_app_wd_entry *wd
 	}
 }
 
-static void app_text(unsigned line, const mbx_app_status *st, const mbx_app_wd_entry *wd)
+static void app_text(unsigned line, const mbx_appwd_status *st, const mbx_appwd_entry *wd)
 {
 	char set[160];
 	printf("line %u: host %s, own node %s%s, %u holder%s\n", line,
 	       st->host_ready ? "ready" : "NOT READY", co_nmt_state_to_string(st->own_state),
-	       st->flags & MBX_APP_NMT_DEFERRED ? " (start deferred)" : "", st->holders,
+	       st->flags & MBX_APPWD_NMT_DEFERRED ? " (start deferred)" : "", st->holders,
 	       st->holders == 1 ? "" : "s");
-	mbx_app_reactions_format(st->configured, set, sizeof set);
+	mbx_appwd_reactions_format(st->configured, set, sizeof set);
 	printf("  configured reactions: %s; %u safe output%s; NMT master: %s; not ready sends "
 	       "NMT %s\n",
 	       set, st->safe_outputs, st->safe_outputs == 1 ? "" : "s",
@@ -96,13 +96,13 @@ static void app_text(unsigned line, const mbx_app_status *st, const mbx_app_wd_e
 	       st->declared, st->keepalives, st->refused, st->trips, st->late_keepalives,
 	       st->not_ready_episodes, st->starts_refused);
 	if (st->last_client) {
-		mbx_app_reactions_format(st->last_done, set, sizeof set);
+		mbx_appwd_reactions_format(st->last_done, set, sizeof set);
 		printf("  last trip: client %" PRIu32 " (pid %" PRIu32 "), %" PRIu64
 		       " ms ago, %" PRIu32 " us after its deadline: %s\n",
 		       st->last_client, st->last_pid, st->last_age_ms, st->last_late_us, set);
 	}
 	for (unsigned i = 0; i < st->n; i++) {
-		mbx_app_reactions_format(wd[i].reactions, set, sizeof set);
+		mbx_appwd_reactions_format(wd[i].reactions, set, sizeof set);
 		printf("  essential client %" PRIu32 " (pid %" PRIu32 "%s): %s, %" PRIu32
 		       " ms, %" PRIu32 " ms left, %" PRIu64 " keep-alives: %s\n",
 		       wd[i].client, wd[i].pid, wd[i].gone ? ", gone" : "",
@@ -114,16 +114,16 @@ static void app_text(unsigned line, const mbx_app_status *st, const mbx_app_wd_e
 static int show(ctl *c, cogw *h, unsigned line, cJSON *arr)
 {
 	char ctx[48];
-	mbx_app_status st;
-	mbx_app_wd_entry wd[MBX_APP_WD_MAX];
+	mbx_appwd_status st;
+	mbx_appwd_entry wd[MBX_APPWD_MAX];
 	snprintf(ctx, sizeof ctx, "application status of line %u", line);
-	int n = cogw_app_status(h, line, &st, wd, MBX_APP_WD_MAX, c->timeout_ms);
+	int n = cogw_app_status(h, line, &st, wd, MBX_APPWD_MAX, c->timeout_ms);
 	if (n < 0)
 		return ctl_fail(c, n, 0, ctx);
 	if (arr) {
 		cJSON *o = cJSON_CreateObject();
 		cJSON_AddNumberToObject(o, "line", line);
-		ctl_app_json(o, &st, wd);
+		ctl_appwd_json(o, &st, wd);
 		cJSON_AddItemToArray(arr, o);
 	} else {
 		app_text(line, &st, wd);
@@ -177,13 +177,13 @@ typedef struct essential_opts {
 
 static int declare(ctl *c, cogw *h, unsigned line, const essential_opts *o)
 {
-	mbx_app_wd_resp r;
+	mbx_appwd_resp r;
 	char set[160], skipped[160], detail[360];
 	int rc = cogw_app_watchdog(h, line, o->interval_ms, o->reactions, &r, c->timeout_ms);
 	if (rc < 0)
 		return ctl_fail(c, rc, 0, "app essential");
-	mbx_app_reactions_format(r.reactions, set, sizeof set);
-	mbx_app_reactions_format(r.unavailable, skipped, sizeof skipped);
+	mbx_appwd_reactions_format(r.reactions, set, sizeof set);
+	mbx_appwd_reactions_format(r.unavailable, skipped, sizeof skipped);
 	snprintf(detail, sizeof detail, "%" PRIu32 " ms, %s (cannot now: %s)", o->interval_ms, set,
 		 r.unavailable ? skipped : "none");
 	say(c, "essential", line, detail);
@@ -223,7 +223,7 @@ static int essential(ctl *c, cogw *h, unsigned line, const essential_opts *o)
 
 static int hold(ctl *c, cogw *h, unsigned line)
 {
-	mbx_app_nmt n;
+	mbx_appwd_nmt n;
 	int rc = cogw_app_hold(h, line, 1, &n, c->timeout_ms);
 	if (rc < 0)
 		return ctl_fail(c, rc, 0, "app hold");
@@ -243,14 +243,14 @@ static int essential_args(ctl *c, const char *interval, const char *react, essen
 	uint64_t v;
 	if (!interval)
 		return ctl_usage_error(c, "app essential needs --interval MS");
-	if (ctl_arg_uint(c, interval, "--interval", MBX_APP_INTERVAL_MAX_MS, &v) < 0)
+	if (ctl_arg_uint(c, interval, "--interval", MBX_APPWD_INTERVAL_MAX_MS, &v) < 0)
 		return CTL_EXIT_USAGE;
-	if (v < MBX_APP_INTERVAL_MIN_MS)
-		return ctl_usage_error(c, "--interval: at least %u ms", MBX_APP_INTERVAL_MIN_MS);
+	if (v < MBX_APPWD_INTERVAL_MIN_MS)
+		return ctl_usage_error(c, "--interval: at least %u ms", MBX_APPWD_INTERVAL_MIN_MS);
 	o->interval_ms = (uint32_t)v;
 	if (!react || !strcmp(react, "configured"))
-		o->reactions = MBX_APP_R_CONFIGURED;
-	else if (mbx_app_reactions_parse(react, &o->reactions) < 0)
+		o->reactions = MBX_APPWD_R_CONFIGURED;
+	else if (mbx_appwd_reactions_parse(react, &o->reactions) < 0)
 		return ctl_usage_error(c, "--react: a list of emcy, nmt-preop, nmt-stop, "
 					  "nmt-reset-comm, nmt-reset-node, hb-stop, safe-outputs");
 	return 0;
@@ -269,7 +269,7 @@ static int run(ctl *c, int argc, char **argv)
 	if (rc)
 		return rc;
 	if (c->help)
-		return ctl_print_help(&ctl_cmd_app);
+		return ctl_print_help(&ctl_cmd_appwd);
 	bool verb = n_pos == 2 && (!strcmp(pos[1], "essential") || !strcmp(pos[1], "hold"));
 	if (!verb)
 		return ctl_each_line(c, pos, n_pos, show);
@@ -284,7 +284,7 @@ static int run(ctl *c, int argc, char **argv)
 	return !strcmp(pos[1], "hold") ? hold(c, h, line) : essential(c, h, line, &o);
 }
 
-const ctl_cmd ctl_cmd_app = {
+const ctl_cmd ctl_cmd_appwd = {
 	.name = "app",
 	.synopsis = "  app [LINE...] | app LINE essential|hold  application watchdog, hold\n",
 	.help = "usage: cogwctl app [LINE...]\n"

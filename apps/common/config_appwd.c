@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * apps/common/config_app.c - a line's "application": the application
+ * apps/common/config_appwd.c - a line's "application": the application
  * watchdog's configured reactions, the NMT action of host not ready and
  * the safe outputs (docs/config.md "application", docs/application.md).
  * Read after the line's object dictionary is built: a safe output names
@@ -30,7 +30,7 @@ static int parse_reactions(struct ctx *c, const cJSON *v, const char *path, uint
 		return cfg_fail(c, path, "must be a non-empty array of reaction names");
 	cJSON_ArrayForEach(it, v)
 	{
-		if (!cJSON_IsString(it) || mbx_app_reactions_parse(it->valuestring, &bit) < 0 ||
+		if (!cJSON_IsString(it) || mbx_appwd_reactions_parse(it->valuestring, &bit) < 0 ||
 		    (bit & (bit - 1u)))
 			return cfg_fail(c, path,
 					"[%zu]: not a reaction (emcy, nmt-preop, nmt-stop, "
@@ -59,7 +59,7 @@ static int parse_not_ready(struct ctx *c, const cJSON *v, const char *path, uint
 /* One safe output: an application object of the line (not 1000h..1FFFh),
  * at most 8 bytes, its value valid for it, named once. */
 static int parse_safe_output(struct ctx *c, const cJSON *o, const char *path, co_od *od,
-			     cogw_app_config *a)
+			     cogw_appwd_config *a)
 {
 	co_safe_output *s = &a->safe_outputs[a->n_safe_outputs];
 	json_od_buf buf = { .buf = s->value, .cap = sizeof s->value };
@@ -94,7 +94,7 @@ static int parse_safe_output(struct ctx *c, const cJSON *o, const char *path, co
 }
 
 static int parse_safe_outputs(struct ctx *c, const cJSON *v, const char *path, co_od *od,
-			      cogw_app_config *a)
+			      cogw_appwd_config *a)
 {
 	char p[JSON_PATH_MAX];
 	const cJSON *it;
@@ -115,7 +115,7 @@ static int parse_safe_outputs(struct ctx *c, const cJSON *v, const char *path, c
 
 int cfg_parse_application(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l)
 {
-	cogw_app_config *a = &l->app;
+	cogw_appwd_config *a = &l->appwd;
 	char p[JSON_PATH_MAX];
 	const cJSON *v;
 	int rc;

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * mailbox/client_api_app.c - libcogw, the application on the mailbox: the
+ * mailbox/client_api_appwd.c - libcogw, the application on the mailbox: the
  * application watchdog, the hold on the daemon's own OPERATIONAL and host
  * ready / not ready (docs/application.md). Each call is one request and
  * its answer through client_call() (mailbox/client_internal.h).
@@ -10,10 +10,10 @@
 #include <string.h>
 
 int cogw_app_watchdog(cogw *h, unsigned line, uint32_t interval_ms, uint32_t reactions,
-		      mbx_app_wd_resp *out, unsigned timeout_ms)
+		      mbx_appwd_resp *out, unsigned timeout_ms)
 {
-	mbx_app_wd_req r = { .interval_ms = interval_ms, .reactions = reactions };
-	mbx_app_wd_resp resp = { 0 };
+	mbx_appwd_req r = { .interval_ms = interval_ms, .reactions = reactions };
+	mbx_appwd_resp resp = { 0 };
 	size_t len = 0;
 	int rc = client_call(h, line, MBX_CMD_APP_WATCHDOG, &r, sizeof r, NULL, 0, &resp,
 			     sizeof resp, &len, NULL, timeout_ms);
@@ -31,10 +31,10 @@ int cogw_app_keepalive(cogw *h, unsigned line, unsigned timeout_ms)
 			   timeout_ms);
 }
 
-int cogw_app_hold(cogw *h, unsigned line, int hold, mbx_app_nmt *out, unsigned timeout_ms)
+int cogw_app_hold(cogw *h, unsigned line, int hold, mbx_appwd_nmt *out, unsigned timeout_ms)
 {
-	mbx_app_hold_req r = { .hold = hold ? 1 : 0 };
-	mbx_app_nmt resp = { 0 };
+	mbx_appwd_hold_req r = { .hold = hold ? 1 : 0 };
+	mbx_appwd_nmt resp = { 0 };
 	size_t len = 0;
 	int rc = client_call(h, line, MBX_CMD_APP_HOLD, &r, sizeof r, NULL, 0, &resp, sizeof resp,
 			     &len, NULL, timeout_ms);
@@ -54,11 +54,11 @@ int cogw_host_ready(cogw *h, unsigned line, int ready, unsigned timeout_ms)
 			   timeout_ms);
 }
 
-int cogw_app_status(cogw *h, unsigned line, mbx_app_status *st, mbx_app_wd_entry *wd, size_t cap,
+int cogw_app_status(cogw *h, unsigned line, mbx_appwd_status *st, mbx_appwd_entry *wd, size_t cap,
 		    unsigned timeout_ms)
 {
-	uint8_t buf[sizeof(mbx_app_status) + MBX_APP_WD_MAX * sizeof(mbx_app_wd_entry)];
-	mbx_app_status s;
+	uint8_t buf[sizeof(mbx_appwd_status) + MBX_APPWD_MAX * sizeof(mbx_appwd_entry)];
+	mbx_appwd_status s;
 	size_t len = 0;
 	int rc = client_call(h, line, MBX_CMD_APP_STATUS, NULL, 0, NULL, 0, buf, sizeof buf, &len,
 			     NULL, timeout_ms);
@@ -68,7 +68,7 @@ int cogw_app_status(cogw *h, unsigned line, mbx_app_status *st, mbx_app_wd_entry
 	if (len < sizeof s)
 		return COGW_E_PROTOCOL;
 	memcpy(&s, buf, sizeof s);
-	if (s.n > MBX_APP_WD_MAX || len != sizeof s + s.n * sizeof(mbx_app_wd_entry))
+	if (s.n > MBX_APPWD_MAX || len != sizeof s + s.n * sizeof(mbx_appwd_entry))
 		return COGW_E_PROTOCOL;
 	if (st)
 		*st = s;
