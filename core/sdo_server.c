@@ -290,9 +290,12 @@ static int dn_complete(struct srv_chan *ch, const co_frame *resp)
 	if (ch->size_ind && len != ch->size)
 		return abort_transfer(ch, SDO_AB_TYPE_LEN);
 	ab = co_od_check_value(e, ch->dst, len);
-	if (!ab && !ch->in_place && e->hooks && e->hooks->check_write) {
+	if (!ab && e->hooks) {
 		co_od_access a = access_of(ch, ch->dst, len);
-		ab = e->hooks->check_write(e->hook_ctx, e, &a);
+		if (!ch->in_place && e->hooks->check_write)
+			ab = e->hooks->check_write(e->hook_ctx, e, &a);
+		else if (ch->in_place && e->hooks->check_streamed)
+			ab = e->hooks->check_streamed(e->hook_ctx, e, &a);
 	}
 	if (ab == CO_OD_DEFERRED) {
 		ch->pending = *resp;

@@ -680,6 +680,52 @@ static void test_deferred_check_at_initiate_for_in_place_domain(void)
 	TEST_ASSERT_EQUAL(-EINVAL, sdo_server_continue(srv->node, 9, 0, NULL, 0, bus.now));
 }
 
+static uint32_t streamed_size;
+static uint8_t streamed_first;
+static uint32_t defer_streamed(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	(void)ctx;
+	TEST_ASSERT_EQUAL_PTR(e->data, a->data); /* all of it, in place */
+	streamed_size = a->size;
+	streamed_first = a->data[0];
+	return CO_OD_DEFERRED;
+}
+
+static const co_od_hooks defer_streamed_hooks = { .check_streamed = defer_streamed };
+
+/* An in-place download checked at its end: the last confirmation waits
+ * for the continue, and a refusal is the hook's abort code with no
+ * CO_EV_OD_WRITTEN (segmented and block). */
+static void test_deferred_check_at_end_of_streamed_download(void)
+{
+	co_od_set_hooks(srv->od, FX_IDX_DOMAIN, 0, &defer_streamed_hooks, NULL);
+	streamed_size = 0;
+	req("21 00 22 00 0A 00 00 00");
+	EXPECT("60 00 22 00 00 00 00 00"); /* no check at initiate */
+	req("00 30 31 32 33 34 35 36");
+	EXPECT("20 00 00 00 00 00 00 00");
+	size_t n = tb_count_from_id(&bus, 0, 0x581, 0);
+	req("19 37 38 39 00 00 00 00");
+	TEST_ASSERT_EQUAL(n, tb_count_from_id(&bus, 0, 0x581, 0)); /* parked */
+	TEST_ASSERT_EQUAL_UINT32(10, streamed_size);
+	TEST_ASSERT_EQUAL_HEX8(0x30, streamed_first);
+	TEST_ASSERT_EQUAL(0, sdo_server_continue(srv->node, 0, 0, NULL, 0, bus.now));
+	tb_pump(&bus);
+	EXPECT("30 00 00 00 00 00 00 00");
+	TEST_ASSERT_EQUAL_UINT32(10, co_od_find(srv->od, FX_IDX_DOMAIN, 0)->size);
+	/* refused at the end of a block download */
+	req("C2 00 22 00 03 00 00 00");
+	EXPECT("A0 00 22 00 7F 00 00 00");
+	req("81 41 42 43 00 00 00 00");
+	EXPECT("A2 01 7F 00 00 00 00 00");
+	req("D1 00 00 00 00 00 00 00"); /* end: 4 bytes of the last segment unused */
+	TEST_ASSERT_EQUAL_UINT32(3, streamed_size);
+	TEST_ASSERT_EQUAL(0, sdo_server_continue(srv->node, 0, 0x08000020, NULL, 0, bus.now));
+	tb_pump(&bus);
+	expect_abort(0x2200, 0, 0x08000020);
+	TEST_ASSERT_EQUAL_UINT32(10, co_od_find(srv->od, FX_IDX_DOMAIN, 0)->size);
+}
+
 /* Garbage from the bus never crashes the server or leaves it stuck. */
 static void test_random_frames_fuzz(void)
 {
@@ -1022,6 +1068,7 @@ int main(void)
 	RUN_TEST(test_deferred_read_still_times_out);
 	RUN_TEST(test_deferred_write_commit_and_refuse);
 	RUN_TEST(test_deferred_check_at_initiate_for_in_place_domain);
+	RUN_TEST(test_deferred_check_at_end_of_streamed_download);
 	RUN_TEST(test_random_frames_fuzz);
 	RUN_TEST(test_second_channel_cob_id_rules);
 	RUN_TEST(test_two_channels_in_parallel);
