@@ -9,6 +9,9 @@
  *   line_sdo.c, line_lss.c, line_od.c, line_nmt.c, line_bus.c,
  *   line_store.c     one family of mailbox commands each: the request
  *                    and its completion in the same file
+ *   line_app.c,
+ *   line_app_ind.c   objects clients own and their indications
+ *                    (line_app.h; line_od.c hands owned objects over)
  *   line_events.c    core and CAN events -> mailbox events
  *   line_pdo.c       RPDO supervision: its events and RPDO_STATUS
  *   line_time.c      the TIME producer's clock
@@ -25,6 +28,7 @@
 
 #include "core/event.h"
 #include "lines/line.h"
+#include "lines/line_app.h"
 #include "lines/line_pending.h"
 
 #define LINE_NODES 128
@@ -135,6 +139,7 @@ struct line {
 	line_store_req store;
 	line_access_req access;
 	unsigned ext_attached; /* p.ext[0..ext_attached) attached */
+	line_app *app;         /* objects clients own (line_app.c) */
 };
 
 /* Wake the line thread (any thread may call it): an eventfd counter never

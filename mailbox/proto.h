@@ -34,6 +34,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "mailbox/proto_app.h"
 #include "mailbox/proto_health.h"
 
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
@@ -236,6 +237,13 @@ typedef enum mbx_cmd {
 	MBX_CMD_DEV_WRITE = 0x0C05,    /* W mbx_dev_obj_req + data -> mbx_dev_write_resp */
 	MBX_CMD_DEV_FORWARDS = 0x0C06, /* R - -> mbx_dev_forward[n]: this line's ends of
 	                                * gateway.forward with their counters */
+	/* 0x0Dxx objects a client owns on the line's own node
+	 * (mailbox/proto_app.h, docs/application.md) */
+	MBX_CMD_APP_CLAIM = 0x0D01,    /* W mbx_app_claim_req + default -> - */
+	MBX_CMD_APP_RELEASE = 0x0D02,  /* W mbx_obj_req -> - */
+	MBX_CMD_APP_ANSWER = 0x0D03,   /* W mbx_app_answer_req + value (chunkable) -> - */
+	MBX_CMD_APP_IND_DATA = 0x0D04, /* W mbx_app_ind_req -> the write's data */
+	MBX_CMD_APP_LIST = 0x0D05,     /* R - -> mbx_app_status + mbx_app_obj[n] */
 } mbx_cmd;
 
 const char *mbx_cmd_to_string(unsigned code); /* "?" if unknown */
@@ -285,8 +293,10 @@ enum mbx_event_class {
 	MBX_EVC_PDO_FAULT = 1u << 13, /* RPDO supervision: deadline, length */
 	MBX_EVC_VALUE = 1u << 14,     /* typed values of watched device objects; only
 	                               * the objects the client watches (DEV_WATCH) */
+	MBX_EVC_APP = 1u << 15,       /* indications to the owner of objects; sent to
+	                               * the owner only, subscribed or not */
 };
-#define MBX_EVC_ALL 0x00007FFFu
+#define MBX_EVC_ALL 0x0000FFFFu
 
 /* Name of a single class bit ("nmt", "hb", ...); "?" otherwise. */
 const char *mbx_event_class_to_string(uint32_t cls);
@@ -322,6 +332,9 @@ typedef enum mbx_event {
 	                                 * new value, to its watchers only */
 	MBX_EV_DEV_MIRROR = 0x0E02,     /* MANAGER mbx_ev_dev_mirror: a node's mirror
 	                                 * PDOs were programmed or released */
+	MBX_EV_APP_IND = 0x0F01,     /* APP mbx_ev_app_ind + data: answer with APP_ANSWER */
+	MBX_EV_APP_WRITTEN = 0x0F02, /* APP mbx_ev_app_written + data: a held object */
+	MBX_EV_APP_CANCEL = 0x0F03,  /* APP mbx_ev_app_cancel: an indication ended */
 } mbx_event;
 
 const char *mbx_event_to_string(unsigned code); /* "?" if unknown */

@@ -24,6 +24,27 @@ static bool dev_value_ok(const uint8_t *p, size_t len)
 	return v.len <= MBX_DEV_VALUE_EVENT_MAX && len == sizeof v + v.len;
 }
 
+/* An application event: its fixed part and inline_len bytes. */
+static bool app_ind_ok(const uint8_t *p, size_t len)
+{
+	mbx_ev_app_ind e;
+
+	if (len < sizeof e)
+		return false;
+	memcpy(&e, p, sizeof e);
+	return e.inline_len <= e.size && len == sizeof e + e.inline_len;
+}
+
+static bool app_written_ok(const uint8_t *p, size_t len)
+{
+	mbx_ev_app_written e;
+
+	if (len < sizeof e)
+		return false;
+	memcpy(&e, p, sizeof e);
+	return e.inline_len <= e.size && len == sizeof e + e.inline_len;
+}
+
 /* A PDO event: mbx_ev_pdo and its n mapped values. */
 static bool pdo_ok(const uint8_t *p, size_t len)
 {
@@ -73,6 +94,9 @@ static const struct event_kind event_kinds[] = {
 	{ MBX_EV_TIME, MBX_EVC_TIME, "time", sizeof(mbx_ev_time), NULL },
 	{ MBX_EV_DEV_VALUE, MBX_EVC_VALUE, "dev-value", 0, dev_value_ok },
 	{ MBX_EV_DEV_MIRROR, MBX_EVC_MANAGER, "dev-mirror", sizeof(mbx_ev_dev_mirror), NULL },
+	{ MBX_EV_APP_IND, MBX_EVC_APP, "app-ind", 0, app_ind_ok },
+	{ MBX_EV_APP_WRITTEN, MBX_EVC_APP, "app-written", 0, app_written_ok },
+	{ MBX_EV_APP_CANCEL, MBX_EVC_APP, "app-cancel", sizeof(mbx_ev_app_cancel), NULL },
 };
 
 static const struct event_kind *event_kind_of(unsigned code)
@@ -124,7 +148,8 @@ const char *mbx_event_class_to_string(uint32_t cls)
 		[0] = "nmt",   [1] = "hb",         [2] = "boot",     [3] = "emcy",
 		[4] = "pdo",   [5] = "sdo",        [6] = "can",      [7] = "raw",
 		[8] = "od",    [9] = "manager",    [10] = "gateway", [11] = "sync",
-		[12] = "time", [13] = "pdo-fault", [14] = "value",   [31] = "overflow",
+		[12] = "time", [13] = "pdo-fault", [14] = "value",   [15] = "app",
+		[31] = "overflow",
 	};
 	unsigned bit = 0;
 
