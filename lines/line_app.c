@@ -81,6 +81,7 @@ int line_app_attach(line *l)
 		}
 		obj_add(l, e, d->kind, d->uid, true);
 	}
+	l->p.app.decl = NULL; /* the caller's, valid only during line_create */
 	return 0;
 }
 

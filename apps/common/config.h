@@ -115,6 +115,23 @@ typedef struct cogw_devobj_config {
 	uint16_t watches;         /* watch table of the line */
 } cogw_devobj_config;
 
+/* "app" of a line: objects clients own (docs/application.md). */
+#define COGW_APP_DECL_MAX 256
+typedef struct cogw_app_decl {
+	uint16_t index;
+	uint8_t sub;
+	uint8_t kind; /* mbx_app_kind */
+	uint32_t uid;
+} cogw_app_decl;
+
+typedef struct cogw_app_config {
+	uint16_t max_created;    /* run-time objects of the line (100) */
+	uint16_t max_per_client; /* (64) */
+	uint16_t indications;    /* open to one owner (8) */
+	cogw_app_decl decl[COGW_APP_DECL_MAX];
+	uint16_t n_decl;
+} cogw_app_config;
+
 typedef struct cogw_line_config {
 	char name[COGW_NAME_MAX];      /* "line0" (default "line<N>") */
 	char interface[COGW_NAME_MAX]; /* "vcan0" (IFNAMSIZ-1 chars max) */
@@ -146,6 +163,7 @@ typedef struct cogw_line_config {
 	uint8_t pdo;                       /* cogw_pdo_mode, the nodes' default */
 	uint16_t pdo_scan_max;             /* PDOs per direction scanned and kept, 1..512 */
 	cogw_devobj_config device_objects; /* "device_objects" */
+	cogw_app_config app;               /* "app" */
 } cogw_line_config;
 
 typedef struct cogw_mailbox_config {

@@ -39,7 +39,8 @@ static const char *const line_keys[] = { "name",           "interface",
 					 "manager",        "pdo",
 					 "pdo_scan_max",   "device_objects",
 					 "fault_quiet_ms", "id_conflict_quiet_ms",
-					 "comment",        NULL };
+					 "app",            "comment",
+					 NULL };
 
 static const char *const rt_keys[] = { "priority", "cpu", "comment", NULL };
 
@@ -258,6 +259,12 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path, cogw_line_c
 		if (rc || (rc = cfg_check_attached_routes(c, path, l->od)))
 			return rc;
 	}
+	v = json_util_get(o, "app");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "app");
+		if ((rc = cfg_parse_app(c, v, p, l)))
+			return rc;
+	}
 	line_sync_from_od(l);
 	return 0;
 }
@@ -280,6 +287,9 @@ static void line_defaults(cogw_line_config *l, size_t idx)
 	l->device_objects = (cogw_devobj_config){ .read_max_age_ms = 1000,
 						  .write_update_ms = 10,
 						  .watches = 64 };
+	l->app.max_created = 100;
+	l->app.max_per_client = 64;
+	l->app.indications = 8;
 }
 
 static int parse_interface(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l)

@@ -73,6 +73,14 @@ static bool od_same(const co_od *a, const co_od *b)
 }
 
 /* Same node ids and configurations, in the same order. */
+/* "app": the bounds and the declared objects, in order. */
+static bool app_same(const cogw_app_config *x, const cogw_app_config *y)
+{
+	return x->max_created == y->max_created && x->max_per_client == y->max_per_client &&
+	       x->indications == y->indications && x->n_decl == y->n_decl &&
+	       !memcmp(x->decl, y->decl, x->n_decl * sizeof x->decl[0]);
+}
+
 static bool nodes_same(const cogw_line_config *a, const cogw_line_config *b)
 {
 	if (a->n_nodes != b->n_nodes)
@@ -168,6 +176,7 @@ static void line_diff(const cogw_line_config *x, const cogw_line_config *y, size
 	LDIFF(memcmp(&x->manager, &y->manager, sizeof(x->manager)), "manager");
 	LDIFF(memcmp(&x->device_objects, &y->device_objects, sizeof(x->device_objects)),
 	      "device_objects");
+	LDIFF(!app_same(&x->app, &y->app), "app");
 #undef LDIFF
 	d->changed = d->changed || before;
 }
