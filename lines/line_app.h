@@ -40,7 +40,8 @@ typedef struct line line;
 /* CiA 301 abort codes the line answers by itself (docs/sdo-answers.md). */
 #define LINE_APP_AB_LATE 0x08000020u     /* the owner did not answer in time */
 #define LINE_APP_AB_NO_OWNER 0x08000021u /* nobody owns it (gone, released) */
-#define LINE_APP_AB_BUSY 0x060A0023u     /* too many open / the owner's queue full /
+#define LINE_APP_AB_BUSY \
+	0x060A0023u                        /* too many open / the owner's queue full /
 					  * another transfer of its data under way */
 #define LINE_APP_AB_BAD_ANSWER 0x06040047u /* the owner's value does not fit the object */
 
@@ -59,8 +60,8 @@ typedef struct line_app_obj {
 } line_app_obj;
 
 typedef struct line_app_ind {
-	uint32_t id; /* 0 = free slot */
-	uint8_t op;  /* mbx_app_op */
+	uint32_t id;     /* 0 = free slot */
+	uint8_t op;      /* mbx_app_op */
 	uint8_t origin;  /* mbx_app_origin */
 	uint8_t channel; /* SDO origin */
 	uint8_t gen;

@@ -81,6 +81,13 @@ static mbx_reply_to owner_to(uint32_t owner, uint32_t corr)
 	return to;
 }
 
+/* Does the access use the object's scratch copy? All but a mailbox read,
+ * whose answer goes out from the owner's message at once. */
+static bool uses_data(uint8_t op, uint8_t origin)
+{
+	return op == MBX_APP_OP_WRITE || origin == MBX_APP_FROM_SDO;
+}
+
 /* ---- opening --------------------------------------------------------------- */
 
 typedef struct ind_req {
@@ -99,7 +106,8 @@ static uint32_t ind_refusal(line *l, const line_app_obj *o, const ind_req *r)
 		return LINE_APP_AB_NO_OWNER;
 	}
 	bool same_transfer = r->origin == MBX_APP_FROM_SDO && o->busy_channel == r->channel;
-	if ((o->busy && !same_transfer) || open_of_owner(a, o->owner) >= a->max_ind_per_client) {
+	bool data_in_use = o->busy && !same_transfer && uses_data(r->op, r->origin);
+	if (data_in_use || open_of_owner(a, o->owner) >= a->max_ind_per_client) {
 		a->st.ind_refused_full++;
 		return LINE_APP_AB_BUSY;
 	}
@@ -179,8 +187,10 @@ static uint32_t ind_open(line *l, line_app_obj *o, const ind_req *r)
 	}
 	a->st.ind_sent++;
 	o->open++;
-	o->busy = true;
-	o->busy_channel = r->origin == MBX_APP_FROM_SDO ? r->channel : LINE_APP_NO_CHANNEL;
+	if (uses_data(r->op, r->origin)) {
+		o->busy = true;
+		o->busy_channel = r->origin == MBX_APP_FROM_SDO ? r->channel : LINE_APP_NO_CHANNEL;
+	}
 	return 0;
 }
 
@@ -205,6 +215,7 @@ static void ind_end_abort(line *l, line_app_ind *in, uint32_t abort)
 {
 	line_app_obj *o = in->obj;
 	uint8_t origin = in->origin, channel = in->channel;
+	bool held_data = uses_data(in->op, in->origin);
 	mbx_reply_to reply = in->reply;
 	/* freed first: the server reports the transfer's end from inside
 	 * sdo_server_continue, and that report must find nothing open */
@@ -214,7 +225,8 @@ static void ind_end_abort(line *l, line_app_ind *in, uint32_t abort)
 		sdo_server_continue(l->node, channel, abort, NULL, 0, l->now_us);
 	} else {
 		line_answer(l, &reply, MBX_E_ABORT, abort, NULL, 0);
-		obj_unbusy(o);
+		if (held_data)
+			obj_unbusy(o);
 	}
 }
 
@@ -302,8 +314,7 @@ static uint32_t hook_check_streamed(void *ctx, co_od_entry *e, const co_od_acces
 }
 
 /* Someone else wrote a held object: its owner hears of it. */
-static void written_notice(line *l, line_app_obj *o, uint8_t origin, uint16_t pdo,
-			   uint32_t client)
+static void written_notice(line *l, line_app_obj *o, uint8_t origin, uint16_t pdo, uint32_t client)
 {
 	line_app *a = l->app;
 	if (!o->owner || o->kind != MBX_APP_HELD || client == o->owner)
@@ -421,7 +432,6 @@ static void answer_read(line *l, line_app_ind *in, const mbx_request *req)
 	co_od_entry *e = in->obj->e;
 	if (in->origin == MBX_APP_FROM_MAILBOX) {
 		line_answer(l, &in->reply, 0, 0, req->data, req->data_len);
-		obj_unbusy(in->obj);
 		return ind_free(in);
 	}
 	/* uploaded from the scratch copy, which stays busy until the

@@ -23,8 +23,8 @@ int cogw_app_release(cogw *h, unsigned line, uint16_t index, uint8_t sub, unsign
 {
 	mbx_obj_req r = { .index = index, .sub = sub };
 
-	return client_call(h, line, MBX_CMD_APP_RELEASE, &r, sizeof r, NULL, 0, NULL, 0, NULL,
-			   NULL, timeout_ms);
+	return client_call(h, line, MBX_CMD_APP_RELEASE, &r, sizeof r, NULL, 0, NULL, 0, NULL, NULL,
+			   timeout_ms);
 }
 
 int cogw_app_answer(cogw *h, unsigned line, uint32_t ind, uint32_t abort, const void *data,

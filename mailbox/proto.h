@@ -332,9 +332,9 @@ typedef enum mbx_event {
 	                                 * new value, to its watchers only */
 	MBX_EV_DEV_MIRROR = 0x0E02,     /* MANAGER mbx_ev_dev_mirror: a node's mirror
 	                                 * PDOs were programmed or released */
-	MBX_EV_APP_IND = 0x0F01,     /* APP mbx_ev_app_ind + data: answer with APP_ANSWER */
-	MBX_EV_APP_WRITTEN = 0x0F02, /* APP mbx_ev_app_written + data: a held object */
-	MBX_EV_APP_CANCEL = 0x0F03,  /* APP mbx_ev_app_cancel: an indication ended */
+	MBX_EV_APP_IND = 0x0F01,        /* APP mbx_ev_app_ind + data: answer with APP_ANSWER */
+	MBX_EV_APP_WRITTEN = 0x0F02,    /* APP mbx_ev_app_written + data: a held object */
+	MBX_EV_APP_CANCEL = 0x0F03,     /* APP mbx_ev_app_cancel: an indication ended */
 } mbx_event;
 
 const char *mbx_event_to_string(unsigned code); /* "?" if unknown */

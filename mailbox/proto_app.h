@@ -46,9 +46,9 @@ enum mbx_app_access {
 typedef struct mbx_app_claim_req {
 	uint16_t index;
 	uint8_t sub;
-	uint8_t kind;      /* mbx_app_kind */
-	uint16_t type;     /* CiA 301 data type (MBX_T_*), 0 = as declared */
-	uint8_t access;    /* mbx_app_access (creating), 0 = as declared */
+	uint8_t kind;   /* mbx_app_kind */
+	uint16_t type;  /* CiA 301 data type (MBX_T_*), 0 = as declared */
+	uint8_t access; /* mbx_app_access (creating), 0 = as declared */
 	uint8_t pad;
 	uint32_t max_size; /* strings and DOMAIN: capacity (1..MBX_APP_MAX_SIZE) */
 	uint32_t pad2;
@@ -91,8 +91,8 @@ typedef struct mbx_ev_app_ind {
 	uint32_t ind; /* the indication's id (answers name it) */
 	uint16_t index;
 	uint8_t sub;
-	uint8_t op;     /* mbx_app_op */
-	uint8_t origin; /* mbx_app_origin */
+	uint8_t op;      /* mbx_app_op */
+	uint8_t origin;  /* mbx_app_origin */
 	uint8_t channel; /* SDO: the server channel (0-based) */
 	uint16_t inline_len;
 	uint32_t size;        /* write: bytes of the new value */
@@ -128,25 +128,25 @@ typedef struct mbx_app_status {
 	uint16_t max_objects; /* the line's bound (declared + created) */
 	uint16_t max_per_client;
 	uint16_t max_ind_per_client; /* open indications of one owner */
-	uint32_t ind_sent;      /* indications handed to owners */
-	uint32_t ind_answered;  /* answered in time */
-	uint32_t ind_late;      /* answered by the line: deadline (08000020h) */
-	uint32_t ind_no_owner;  /* answered by the line: no owner (08000021h) */
-	uint32_t ind_refused_full; /* answered by the line: too many open,
+	uint32_t ind_sent;           /* indications handed to owners */
+	uint32_t ind_answered;       /* answered in time */
+	uint32_t ind_late;           /* answered by the line: deadline (08000020h) */
+	uint32_t ind_no_owner;       /* answered by the line: no owner (08000021h) */
+	uint32_t ind_refused_full;   /* answered by the line: too many open,
 	                            * or the owner's event queue full (060A0023h) */
-	uint32_t ind_cancelled; /* the requester went first (abort, timeout) */
-	uint32_t answers_refused; /* answers to unknown / foreign / closed ones */
-	uint32_t claims_refused;  /* APP_CLAIM refused (range, owner, bound) */
-	uint32_t written_events;  /* MBX_EV_APP_WRITTEN sent */
+	uint32_t ind_cancelled;      /* the requester went first (abort, timeout) */
+	uint32_t answers_refused;    /* answers to unknown / foreign / closed ones */
+	uint32_t claims_refused;     /* APP_CLAIM refused (range, owner, bound) */
+	uint32_t written_events;     /* MBX_EV_APP_WRITTEN sent */
 	uint32_t pad;
 } mbx_app_status;
 
 typedef struct mbx_app_obj {
 	uint16_t index;
 	uint8_t sub;
-	uint8_t kind;   /* mbx_app_kind */
-	uint16_t type;  /* CiA 301 data type */
-	uint8_t access; /* mbx_app_access */
+	uint8_t kind;     /* mbx_app_kind */
+	uint16_t type;    /* CiA 301 data type */
+	uint8_t access;   /* mbx_app_access */
 	uint8_t declared; /* 1: from the configuration, 0: created at run time */
 	uint32_t owner;   /* client id, 0 = none */
 	uint32_t uid;     /* the user who may claim it */

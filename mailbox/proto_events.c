@@ -145,10 +145,10 @@ const char *mbx_event_class_to_string(uint32_t cls)
 {
 	/* by bit number */
 	static const char *const names[32] = {
-		[0] = "nmt",   [1] = "hb",         [2] = "boot",     [3] = "emcy",
-		[4] = "pdo",   [5] = "sdo",        [6] = "can",      [7] = "raw",
-		[8] = "od",    [9] = "manager",    [10] = "gateway", [11] = "sync",
-		[12] = "time", [13] = "pdo-fault", [14] = "value",   [15] = "app",
+		[0] = "nmt",       [1] = "hb",         [2] = "boot",     [3] = "emcy",
+		[4] = "pdo",       [5] = "sdo",        [6] = "can",      [7] = "raw",
+		[8] = "od",        [9] = "manager",    [10] = "gateway", [11] = "sync",
+		[12] = "time",     [13] = "pdo-fault", [14] = "value",   [15] = "app",
 		[31] = "overflow",
 	};
 	unsigned bit = 0;

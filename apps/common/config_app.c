@@ -15,7 +15,7 @@
 #include "mailbox/proto.h"
 
 static const char *const app_keys[] = { "max_created", "max_per_client", "indications",
-					"objects", "comment", NULL };
+					"objects",     "comment",        NULL };
 static const char *const decl_keys[] = { "index", "sub", "kind", "user", "uid", "comment", NULL };
 
 static int parse_kind(struct ctx *c, const cJSON *o, const char *path, uint8_t *kind)

@@ -40,11 +40,11 @@
 #include "unity.h"
 
 #define INSTANCE "itapp"
-#define OWN_NODE 100   /* the daemon's node-ID on vcan0 */
-#define TOOL_NODE 5    /* the SDO client on the bus */
+#define OWN_NODE 100 /* the daemon's node-ID on vcan0 */
+#define TOOL_NODE 5  /* the SDO client on the bus */
 #define SERVED_U32 0x2100
 #define SERVED_DOMAIN 0x2101
-#define HELD_U16 0x2102 /* mapped into the daemon's TPDO 1 (18Ah... see config) */
+#define HELD_U16 0x2102  /* mapped into the daemon's TPDO 1 (18Ah... see config) */
 #define HELD_RPDO 0x2103 /* written by the daemon's RPDO 1 (COB-ID 205h) */
 #define DOMAIN_CAP 4096u
 #define TPDO_COB 0x1E4
@@ -88,8 +88,8 @@ static void owner_write(const mbx_ev_app_ind *ind, const uint8_t *data)
 	size_t len = ind->inline_len;
 	memcpy(buf, data, len);
 	if (ind->inline_len < ind->size)
-		TEST_ASSERT_EQUAL(0, cogw_app_ind_data(own.h, 0, ind->ind, buf, ind->size, &len,
-						       0));
+		TEST_ASSERT_EQUAL(0,
+				  cogw_app_ind_data(own.h, 0, ind->ind, buf, ind->size, &len, 0));
 	pthread_mutex_lock(&own.lock);
 	if (ind->index == SERVED_U32 && len == 4)
 		memcpy(&own.u32, buf, 4);
@@ -201,7 +201,8 @@ static uint32_t bus_read(uint16_t index, uint8_t mode, uint8_t *buf, uint32_t ca
 			     .mode = mode,
 			     .buf = buf,
 			     .cap = cap };
-	TEST_ASSERT_EQUAL(0, sdo_req_transfer(&tool, &r, 5000));
+	TEST_ASSERT_EQUAL(
+		0, sdo_req_transfer(&tool, &r, 30000)); /* 430 confirmed segments under emulation */
 	if (len)
 		*len = tool.res.size;
 	return tool.res.abort;
@@ -212,7 +213,8 @@ static uint32_t bus_write(uint16_t index, uint8_t mode, const uint8_t *data, uin
 	sdo_client_req r = {
 		.node_id = OWN_NODE, .index = index, .mode = mode, .data = data, .size = size
 	};
-	TEST_ASSERT_EQUAL(0, sdo_req_transfer(&tool, &r, 5000));
+	TEST_ASSERT_EQUAL(
+		0, sdo_req_transfer(&tool, &r, 30000)); /* 430 confirmed segments under emulation */
 	return tool.res.abort;
 }
 
@@ -231,7 +233,8 @@ static void write_config(void)
 	snprintf(config_json, sizeof config_json,
 		 "{\"version\": 1,\n"
 		 " \"mailbox\": {\"instance\": \"" INSTANCE "\", \"max_clients\": 16},\n"
-		 " \"lines\": [{\"name\": \"line0\", \"interface\": \"vcan0\", \"node_id\": %d,\n"
+		 " \"lines\": [{\"name\": \"line0\", \"interface\": \"vcan0\", \"bitrate\": "
+		 "1000000, \"node_id\": %d,\n"
 		 "   \"sdo_timeout_ms\": %d, \"heartbeat_ms\": 0, \"rpdos\": 1, \"tpdos\": 1,\n"
 		 "   \"objects\": [\n"
 		 "    {\"index\": \"0x2100\", \"type\": \"UNSIGNED32\", \"access\": \"rw\"},\n"
@@ -311,7 +314,8 @@ static void test_served_domain_segmented_and_block(void)
 		TEST_ASSERT_EQUAL_HEX32(0, bus_write(SERVED_DOMAIN, modes[i], data, sizeof data));
 		TEST_ASSERT_EQUAL(sizeof data, own.domain_len);
 		TEST_ASSERT_EQUAL_MEMORY(data, own.domain, sizeof data);
-		TEST_ASSERT_EQUAL_HEX32(0, bus_read(SERVED_DOMAIN, modes[i], back, sizeof back, &len));
+		TEST_ASSERT_EQUAL_HEX32(0,
+					bus_read(SERVED_DOMAIN, modes[i], back, sizeof back, &len));
 		TEST_ASSERT_EQUAL(sizeof data, len);
 		TEST_ASSERT_EQUAL_MEMORY(data, back, sizeof data);
 	}
@@ -337,8 +341,8 @@ static void test_served_from_the_mailbox(void)
 	fill_pattern(big, sizeof big, 9);
 	TEST_ASSERT_EQUAL(0, cogw_od_write(c, 0, SERVED_DOMAIN, 0, big, sizeof big, 0, &abort));
 	TEST_ASSERT_EQUAL_MEMORY(big, own.domain, sizeof big);
-	TEST_ASSERT_EQUAL(0, cogw_od_read(c, 0, SERVED_DOMAIN, 0, back, sizeof back, &len, 0,
-					  &abort));
+	TEST_ASSERT_EQUAL(0,
+			  cogw_od_read(c, 0, SERVED_DOMAIN, 0, back, sizeof back, &len, 0, &abort));
 	TEST_ASSERT_EQUAL(sizeof big, len);
 	TEST_ASSERT_EQUAL_MEMORY(big, back, sizeof big);
 	/* the owner keeps a served value: asking itself would wait for itself */
@@ -360,7 +364,8 @@ static void test_refused_write_is_the_owners_abort_and_applies_nothing(void)
 	TEST_ASSERT_EQUAL(COGW_E_ABORT, cogw_od_write(c, 0, SERVED_U32, 0, &w, 4, 0, &abort));
 	TEST_ASSERT_EQUAL_HEX32(SDO_AB_VALUE_HIGH, abort);
 	atomic_store(&own.mode, OWNER_ANSWER);
-	TEST_ASSERT_EQUAL_HEX32(0, bus_read(SERVED_U32, SDO_MODE_EXPEDITED, (uint8_t *)&v, 4, NULL));
+	TEST_ASSERT_EQUAL_HEX32(0,
+				bus_read(SERVED_U32, SDO_MODE_EXPEDITED, (uint8_t *)&v, 4, NULL));
 	TEST_ASSERT_EQUAL_HEX32(0x11223344, v);
 	cogw_close(c);
 }
@@ -504,7 +509,8 @@ static void test_too_many_open_indications_and_the_line_keeps_serving(void)
 	mbx_obj_req o = { .index = SERVED_U32 };
 	/* the owner may have 2 open: the third read is refused at once */
 	for (int i = 0; i < 3; i++)
-		TEST_ASSERT_EQUAL(0, cogw_send_async(c, 0, MBX_CMD_OD_READ, &o, sizeof o, &corr[i]));
+		TEST_ASSERT_EQUAL(0,
+				  cogw_send_async(c, 0, MBX_CMD_OD_READ, &o, sizeof o, &corr[i]));
 	cogw_msg m;
 	TEST_ASSERT_EQUAL(0, cogw_recv(c, &m, 2000));
 	TEST_ASSERT_EQUAL(corr[2], m.corr);
