@@ -57,17 +57,16 @@ struct app {
 
 static int usage(FILE *f, int rc)
 {
-	fprintf(f,
-		"usage: cogw-app-example [options]\n"
-		"  -I, --instance NAME   daemon instance (default main)\n"
-		"  -l, --line N          line (default 0)\n"
-		"  -b, --base INDEX      first of the three objects (default 0x2200;\n"
-		"                        2000h..5FFDh or 6000h..9FFDh)\n"
-		"  -L, --limit N         largest set-point accepted (default 1000)\n"
-		"  -p, --period-ms N     counter period (default 100, 0 = never)\n"
-		"  -t, --tpdo N          map the counter into the daemon's TPDO N (1..512)\n"
-		"  -c, --cob ID          its COB-ID (with --tpdo)\n"
-		"      --version\n");
+	fprintf(f, "usage: cogw-app-example [options]\n"
+		   "  -I, --instance NAME   daemon instance (default main)\n"
+		   "  -l, --line N          line (default 0)\n"
+		   "  -b, --base INDEX      first of the three objects (default 0x2200;\n"
+		   "                        2000h..5FFDh or 6000h..9FFDh)\n"
+		   "  -L, --limit N         largest set-point accepted (default 1000)\n"
+		   "  -p, --period-ms N     counter period (default 100, 0 = never)\n"
+		   "  -t, --tpdo N          map the counter into the daemon's TPDO N (1..512)\n"
+		   "  -c, --cob ID          its COB-ID (with --tpdo)\n"
+		   "      --version\n");
 	return rc;
 }
 
@@ -85,9 +84,9 @@ static bool parse_u32(const char *s, uint32_t max, uint32_t *out)
 static int parse_args(struct app *a, int argc, char **argv)
 {
 	static const struct option opts[] = {
-		{ "instance", 1, 0, 'I' }, { "line", 1, 0, 'l' },  { "base", 1, 0, 'b' },
+		{ "instance", 1, 0, 'I' }, { "line", 1, 0, 'l' },      { "base", 1, 0, 'b' },
 		{ "limit", 1, 0, 'L' },    { "period-ms", 1, 0, 'p' }, { "tpdo", 1, 0, 't' },
-		{ "cob", 1, 0, 'c' },      { "help", 0, 0, 'h' },  { 0, 0, 0, 0 }
+		{ "cob", 1, 0, 'c' },      { "help", 0, 0, 'h' },      { 0, 0, 0, 0 }
 	};
 	uint32_t v;
 	int c;
@@ -101,8 +100,8 @@ static int parse_args(struct app *a, int argc, char **argv)
 			ok = parse_u32(optarg, MBX_LINES_MAX - 1, &v) && (a->line = v, true);
 			break;
 		case 'b':
-			ok = parse_u32(optarg, 0x9FFD, &v) && v >= 0x2000 && (v < 0x5FFE || v >= 0x6000) &&
-			     (a->base = (uint16_t)v, true);
+			ok = parse_u32(optarg, 0x9FFD, &v) && v >= 0x2000 &&
+			     (v < 0x5FFE || v >= 0x6000) && (a->base = (uint16_t)v, true);
 			break;
 		case 'L':
 			ok = parse_u32(optarg, UINT32_MAX, &a->limit);
@@ -182,7 +181,8 @@ static int map_counter(struct app *a)
 	uint32_t entry = (uint32_t)(a->base + 2) << 16 | 0x10;
 	int rc;
 	if ((rc = od_write_u32(a, comm, 1, 0x80000000u | a->cob, 4)) < 0 ||
-	    (rc = od_write_u32(a, map, 0, 0, 1)) < 0 || (rc = od_write_u32(a, map, 1, entry, 4)) < 0 ||
+	    (rc = od_write_u32(a, map, 0, 0, 1)) < 0 ||
+	    (rc = od_write_u32(a, map, 1, entry, 4)) < 0 ||
 	    (rc = od_write_u32(a, map, 0, 1, 1)) < 0 || (rc = od_write_u32(a, comm, 2, 254, 1)) < 0)
 		return rc;
 	return od_write_u32(a, comm, 1, a->cob, 4);
@@ -257,7 +257,8 @@ static int arm_period(unsigned period_ms)
 	int fd = timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC | TFD_NONBLOCK);
 	if (fd < 0 || !period_ms)
 		return fd;
-	struct itimerspec its = { .it_interval = { period_ms / 1000, (long)(period_ms % 1000) * 1000000 } };
+	struct itimerspec its = { .it_interval = { period_ms / 1000,
+						   (long)(period_ms % 1000) * 1000000 } };
 	its.it_value = its.it_interval;
 	timerfd_settime(fd, 0, &its, NULL);
 	return fd;
@@ -281,7 +282,8 @@ static int run(struct app *a, int sigfd, int epfd)
 		for (int i = 0; i < n; i++) {
 			struct signalfd_siginfo si;
 			if (evs[i].data.fd == sigfd) {
-				if (read(sigfd, &si, sizeof si) == sizeof si && si.ssi_signo == SIGHUP)
+				if (read(sigfd, &si, sizeof si) == sizeof si &&
+				    si.ssi_signo == SIGHUP)
 					continue; /* nothing to reload */
 				close(tfd);
 				return 0;
