@@ -533,6 +533,23 @@ static int up_start_block(struct srv_chan *ch)
 	return SS_BLK_UP_START;
 }
 
+/* What an upload of the entry's own value sends: a copy taken now when it
+ * fits the stage, so that a value the application changes while the
+ * transfer runs (a process value written between two segments, or before
+ * a block's end with its CRC) goes out whole and as it was at the
+ * request; larger values are sent from the entry. */
+static void up_source(struct srv_chan *ch)
+{
+	co_od_entry *e = ch->e;
+
+	ch->size = e->size;
+	ch->src = e->data;
+	if (e->size <= cfg_of(ch)->sdo_stage_size) {
+		memcpy(ch->stage, e->data, e->size);
+		ch->src = ch->stage;
+	}
+}
+
 static int up_begin(struct srv_chan *ch, bool block)
 {
 	co_od_entry *e = ch->e;
@@ -548,8 +565,7 @@ static int up_begin(struct srv_chan *ch, bool block)
 	}
 	if (ab)
 		return abort_transfer(ch, ab);
-	ch->src = e->data;
-	ch->size = e->size;
+	up_source(ch);
 	return block ? up_start_block(ch) : up_start_normal(ch);
 }
 
@@ -790,8 +806,12 @@ static int deferred_on_con(void *obj, const void *con, uint64_t now_us)
 		return ch->resume_state;
 	case DEFER_READ:
 	default:
-		ch->src = c->data ? c->data : ch->e->data;
-		ch->size = c->data ? c->size : ch->e->size;
+		if (c->data) {
+			ch->src = c->data;
+			ch->size = c->size;
+		} else {
+			up_source(ch);
+		}
 		return ch->defer_block ? up_start_block(ch) : up_start_normal(ch);
 	}
 }

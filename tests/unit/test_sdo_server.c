@@ -726,6 +726,35 @@ static void test_deferred_check_at_end_of_streamed_download(void)
 	TEST_ASSERT_EQUAL_UINT32(10, co_od_find(srv->od, FX_IDX_DOMAIN, 0)->size);
 }
 
+/* A value the application changes while its upload runs goes out as it
+ * was at the request: segments and the block end's CRC agree with one
+ * value, never a mix of two. */
+static void test_upload_sends_the_value_as_it_was_at_the_request(void)
+{
+	co_od_set_u64(srv->od, FX_IDX_U64, 0, 0x1122334455667788ull);
+	req("40 01 24 00 00 00 00 00");
+	EXPECT("41 01 24 00 08 00 00 00");
+	co_od_set_u64(srv->od, FX_IDX_U64, 0, 0xAAAAAAAAAAAAAAAAull);
+	req("60 00 00 00 00 00 00 00");
+	EXPECT("00 88 77 66 55 44 33 22");
+	req("70 00 00 00 00 00 00 00");
+	EXPECT("1D 11 00 00 00 00 00 00");
+	/* block upload with CRC: the value changes after the sub-block went */
+	co_od_set_u64(srv->od, FX_IDX_U64, 0, 0x1122334455667788ull);
+	req("A4 01 24 00 7F 00 00 00");
+	EXPECT("C6 01 24 00 08 00 00 00");
+	req("A3 00 00 00 00 00 00 00");
+	EXPECT("82 11 00 00 00 00 00 00"); /* the sub-block's last segment */
+	co_od_set_u64(srv->od, FX_IDX_U64, 0, 0xAAAAAAAAAAAAAAAAull);
+	req("A2 02 7F 00 00 00 00 00");
+	static const uint8_t v[8] = { 0x88, 0x77, 0x66, 0x55, 0x44, 0x33, 0x22, 0x11 };
+	uint16_t crc = crc16_ccitt(0, v, sizeof v);
+	char end[40];
+	snprintf(end, sizeof end, "D9 %02X %02X 00 00 00 00 00", crc & 0xFF, crc >> 8);
+	EXPECT(end);
+	req("A1 00 00 00 00 00 00 00");
+}
+
 /* Garbage from the bus never crashes the server or leaves it stuck. */
 static void test_random_frames_fuzz(void)
 {
@@ -1069,6 +1098,7 @@ int main(void)
 	RUN_TEST(test_deferred_write_commit_and_refuse);
 	RUN_TEST(test_deferred_check_at_initiate_for_in_place_domain);
 	RUN_TEST(test_deferred_check_at_end_of_streamed_download);
+	RUN_TEST(test_upload_sends_the_value_as_it_was_at_the_request);
 	RUN_TEST(test_random_frames_fuzz);
 	RUN_TEST(test_second_channel_cob_id_rules);
 	RUN_TEST(test_two_channels_in_parallel);
