@@ -38,8 +38,8 @@ static void counters_json(cJSON *o, const mbx_app_status *st)
 	cJSON_AddNumberToObject(o, "written_events", st->written_events);
 }
 
-static void list_json(cJSON *arr, unsigned line, const mbx_app_status *st,
-		      const mbx_app_obj *objs, size_t n)
+static void list_json(cJSON *arr, unsigned line, const mbx_app_status *st, const mbx_app_obj *objs,
+		      size_t n)
 {
 	cJSON *o = cJSON_CreateObject();
 	cJSON_AddNumberToObject(o, "line", line);
@@ -65,16 +65,15 @@ static void list_json(cJSON *arr, unsigned line, const mbx_app_status *st,
 	cJSON_AddItemToArray(arr, o);
 }
 
-static void list_text(unsigned line, const mbx_app_status *st, const mbx_app_obj *objs,
-		      size_t n)
+static void list_text(unsigned line, const mbx_app_status *st, const mbx_app_obj *objs, size_t n)
 {
 	printf("line %u: %u object%s clients may own (bound %u), indications %" PRIu32
 	       " (answered %" PRIu32 ", late %" PRIu32 ", no owner %" PRIu32 ", busy %" PRIu32
 	       ", cancelled %" PRIu32 "), answers refused %" PRIu32 ", claims refused %" PRIu32
 	       "\n",
-	       line, st->n, st->n == 1 ? "" : "s", st->max_objects, st->ind_sent,
-	       st->ind_answered, st->ind_late, st->ind_no_owner, st->ind_refused_full,
-	       st->ind_cancelled, st->answers_refused, st->claims_refused);
+	       line, st->n, st->n == 1 ? "" : "s", st->max_objects, st->ind_sent, st->ind_answered,
+	       st->ind_late, st->ind_no_owner, st->ind_refused_full, st->ind_cancelled,
+	       st->answers_refused, st->claims_refused);
 	if (n)
 		printf("  %-9s  %-6s  %-14s  %-6s  %-8s  %-8s  %s\n", "object", "kind", "type",
 		       "access", "from", "owner", "open");

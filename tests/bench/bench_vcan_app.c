@@ -128,7 +128,8 @@ static int measure(sdo_req *q, double *held, double *served, size_t *n)
 		held[*n] = timed_read(q, HELD, HELD_VALUE);
 		served[*n] = timed_read(q, SERVED, SERVED_VALUE);
 		if (held[*n] < 0 || served[*n] < 0) {
-			printf("bench_vcan_app: a read came back wrong (abort %08X)\n", q->res.abort);
+			printf("bench_vcan_app: a read came back wrong (abort %08X)\n",
+			       q->res.abort);
 			return -1;
 		}
 		(*n)++;
