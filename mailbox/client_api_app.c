@@ -69,23 +69,11 @@ int cogw_app_list(cogw *h, unsigned line, mbx_app_status *st, mbx_app_obj *objs,
 
 int cogw_app_ind_parse(const void *payload, size_t len, mbx_ev_app_ind *ind, const uint8_t **data)
 {
-	if (len < sizeof *ind)
-		return COGW_E_PROTOCOL;
-	memcpy(ind, payload, sizeof *ind);
-	if (ind->inline_len != len - sizeof *ind || ind->inline_len > ind->size)
-		return COGW_E_PROTOCOL;
-	*data = (const uint8_t *)payload + sizeof *ind;
-	return 0;
+	return mbx_app_event_split(MBX_EV_APP_IND, payload, len, ind, data) ? COGW_E_PROTOCOL : 0;
 }
 
 int cogw_app_written_parse(const void *payload, size_t len, mbx_ev_app_written *w,
 			   const uint8_t **data)
 {
-	if (len < sizeof *w)
-		return COGW_E_PROTOCOL;
-	memcpy(w, payload, sizeof *w);
-	if (w->inline_len != len - sizeof *w || w->inline_len > w->size)
-		return COGW_E_PROTOCOL;
-	*data = (const uint8_t *)payload + sizeof *w;
-	return 0;
+	return mbx_app_event_split(MBX_EV_APP_WRITTEN, payload, len, w, data) ? COGW_E_PROTOCOL : 0;
 }

@@ -1123,6 +1123,13 @@ bool mbx_instance_is_valid(const char *instance);
 /* "/cogw.<instance>.line<N>.cmd". Returns 0, -EINVAL, -ENAMETOOLONG. */
 int mbx_queue_name(char *buf, size_t cap, const char *instance, unsigned line);
 
+/* An MBX_EV_APP_IND or MBX_EV_APP_WRITTEN payload (mailbox/proto_app.h):
+ * its fixed part into *fixed (mbx_ev_app_ind / mbx_ev_app_written; NULL:
+ * only check), *data (optional) at its inline_len bytes. 0 or
+ * MBX_E_MALFORMED. */
+int mbx_app_event_split(unsigned code, const void *p, size_t len, void *fixed,
+			const uint8_t **data);
+
 /* Does a raw frame match a filter? (see mbx_raw_filter) */
 bool mbx_raw_filter_match(const mbx_raw_filter *f, const mbx_raw_frame *fr);
 

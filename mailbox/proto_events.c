@@ -24,25 +24,16 @@ static bool dev_value_ok(const uint8_t *p, size_t len)
 	return v.len <= MBX_DEV_VALUE_EVENT_MAX && len == sizeof v + v.len;
 }
 
-/* An application event: its fixed part and inline_len bytes. */
+/* Application events: their fixed part, then inline_len bytes of a value
+ * of `size` bytes. */
 static bool app_ind_ok(const uint8_t *p, size_t len)
 {
-	mbx_ev_app_ind e;
-
-	if (len < sizeof e)
-		return false;
-	memcpy(&e, p, sizeof e);
-	return e.inline_len <= e.size && len == sizeof e + e.inline_len;
+	return mbx_app_event_split(MBX_EV_APP_IND, p, len, NULL, NULL) == 0;
 }
 
 static bool app_written_ok(const uint8_t *p, size_t len)
 {
-	mbx_ev_app_written e;
-
-	if (len < sizeof e)
-		return false;
-	memcpy(&e, p, sizeof e);
-	return e.inline_len <= e.size && len == sizeof e + e.inline_len;
+	return mbx_app_event_split(MBX_EV_APP_WRITTEN, p, len, NULL, NULL) == 0;
 }
 
 /* A PDO event: mbx_ev_pdo and its n mapped values. */
@@ -158,6 +149,34 @@ const char *mbx_event_class_to_string(uint32_t cls)
 	while (!(cls >> bit & 1u))
 		bit++;
 	return names[bit] ? names[bit] : "?";
+}
+
+int mbx_app_event_split(unsigned code, const void *p, size_t len, void *fixed, const uint8_t **data)
+{
+	mbx_ev_app_ind ind;
+	mbx_ev_app_written w;
+	size_t fixed_len = code == MBX_EV_APP_IND ? sizeof ind : sizeof w;
+	uint16_t inline_len;
+	uint32_t size;
+
+	if ((code != MBX_EV_APP_IND && code != MBX_EV_APP_WRITTEN) || len < fixed_len)
+		return MBX_E_MALFORMED;
+	if (code == MBX_EV_APP_IND) {
+		memcpy(&ind, p, sizeof ind);
+		inline_len = ind.inline_len;
+		size = ind.size;
+	} else {
+		memcpy(&w, p, sizeof w);
+		inline_len = w.inline_len;
+		size = w.size;
+	}
+	if (inline_len > size || len != fixed_len + inline_len)
+		return MBX_E_MALFORMED;
+	if (fixed)
+		memcpy(fixed, p, fixed_len);
+	if (data)
+		*data = (const uint8_t *)p + fixed_len;
+	return 0;
 }
 
 bool mbx_raw_filter_match(const mbx_raw_filter *f, const mbx_raw_frame *fr)

@@ -110,14 +110,7 @@ static int show(ctl *c, cogw *h, unsigned line, cJSON *arr)
 
 static int run(ctl *c, int argc, char **argv)
 {
-	const char *pos[MBX_LINES_MAX];
-	int n_pos;
-	int rc = ctl_parse(c, argc, argv, NULL, pos, MBX_LINES_MAX, &n_pos);
-	if (rc)
-		return rc;
-	if (c->help)
-		return ctl_print_help(&ctl_cmd_app);
-	return ctl_each_line(c, pos, n_pos, show);
+	return ctl_run_lines(c, argc, argv, &ctl_cmd_app, show);
 }
 
 const ctl_cmd ctl_cmd_app = {

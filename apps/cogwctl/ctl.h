@@ -147,6 +147,10 @@ extern const ctl_cmd ctl_cmd_status, ctl_cmd_sdo, ctl_cmd_od, ctl_cmd_nmt, ctl_c
  * {"ok":true,"instance":...,"lines":arr} of what each added to arr. */
 int ctl_each_line(ctl *c, const char *const *pos, int n_pos,
 		  int (*one)(ctl *c, cogw *h, unsigned line, cJSON *arr));
+/* A whole command of the form `cogwctl CMD [LINE...]` (options, --help,
+ * then ctl_each_line): its exit status. */
+int ctl_run_lines(ctl *c, int argc, char **argv, const ctl_cmd *cmd,
+		  int (*one)(ctl *c, cogw *h, unsigned line, cJSON *arr));
 
 /* cmd_health.c: the health summary line of `status`, and its JSON. */
 void ctl_health_summary_text(const mbx_line_health *hl);
