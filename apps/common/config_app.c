@@ -22,12 +22,13 @@ static int parse_kind(struct ctx *c, const cJSON *o, const char *path, uint8_t *
 {
 	char p[JSON_PATH_MAX], word[16];
 	const cJSON *v;
+	const json_at at_path = cfg_at(c, path), at = cfg_at(c, p);
 	int rc;
 
-	if ((rc = json_util_require(o, "kind", path, &v, c->msg, sizeof(c->msg))))
+	if ((rc = json_util_require(o, "kind", &at_path, &v)))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "kind");
-	if ((rc = json_util_string(v, p, 1, word, sizeof(word), c->msg, sizeof(c->msg))))
+	if ((rc = json_util_string(v, &at, 1, word, sizeof(word))))
 		return rc;
 	if (!strcmp(word, "held"))
 		*kind = MBX_APP_HELD;
@@ -45,11 +46,12 @@ static int parse_decl(struct ctx *c, const cJSON *o, const char *path, cogw_line
 {
 	char p[JSON_PATH_MAX];
 	const cJSON *v;
+	const json_at at_path = cfg_at(c, path), at = cfg_at(c, p);
 	uint64_t sub = 0;
 	int rc;
 
 	if ((rc = cfg_check_object(c, o, path, decl_keys)) ||
-	    (rc = json_util_require(o, "index", path, &v, c->msg, sizeof(c->msg))))
+	    (rc = json_util_require(o, "index", &at_path, &v)))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "index");
 	if ((rc = json_od_parse_index(v, p, &d->index, c->msg, sizeof(c->msg))))
@@ -58,7 +60,7 @@ static int parse_decl(struct ctx *c, const cJSON *o, const char *path, cogw_line
 		return cfg_fail(c, p, "%04Xh: objects clients own are in 2000h..9FFFh", d->index);
 	if ((v = json_util_get(o, "sub"))) {
 		json_util_path_key(p, sizeof(p), path, "sub");
-		if ((rc = json_util_uint(v, p, 0, 255, false, &sub, c->msg, sizeof(c->msg))))
+		if ((rc = json_util_uint(v, &at, 0, 255, false, &sub)))
 			return rc;
 	}
 	d->sub = (uint8_t)sub;
