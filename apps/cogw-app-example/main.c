@@ -20,7 +20,8 @@
  * timeout, or the requester gets 08000020h.
  *
  * Exit status: 0 on SIGTERM/SIGINT, 1 on a failure at run time, 2 for a
- * bad command line, 3 when the objects cannot be claimed.
+ * bad command line, 3 when the objects cannot be claimed (taken, a bound,
+ * or no daemon).
  */
 #include <errno.h>
 #include <getopt.h>
@@ -70,15 +71,30 @@ static int usage(FILE *f, int rc)
 	return rc;
 }
 
-static bool parse_u32(const char *s, uint32_t max, uint32_t *out)
+static bool parse_u32(const char *s, uint32_t min, uint32_t max, uint32_t *out)
 {
 	char *end;
 	errno = 0;
 	unsigned long v = strtoul(s, &end, 0);
-	if (errno || end == s || *end || v > max || s[0] == '-')
+	if (errno || end == s || *end || v < min || v > max || s[0] == '-')
 		return false;
 	*out = (uint32_t)v;
 	return true;
+}
+
+/* The numeric options: their letter, range and where they go. */
+struct num_opt {
+	int letter;
+	uint32_t min, max;
+	uint32_t *dst;
+};
+
+static const struct num_opt *num_opt_of(const struct num_opt *t, size_t n, int letter)
+{
+	for (size_t i = 0; i < n; i++)
+		if (t[i].letter == letter)
+			return &t[i];
+	return NULL;
 }
 
 static int parse_args(struct app *a, int argc, char **argv)
@@ -88,48 +104,43 @@ static int parse_args(struct app *a, int argc, char **argv)
 		{ "limit", 1, 0, 'L' },    { "period-ms", 1, 0, 'p' }, { "tpdo", 1, 0, 't' },
 		{ "cob", 1, 0, 'c' },      { "help", 0, 0, 'h' },      { 0, 0, 0, 0 }
 	};
-	uint32_t v;
+	uint32_t line = 0, base = 0x2200, period = 100, tpdo = 0;
+	const struct num_opt nums[] = {
+		{ 'l', 0, MBX_LINES_MAX - 1, &line },
+		{ 'b', 0x2000, 0x9FFD, &base },
+		{ 'L', 0, UINT32_MAX, &a->limit },
+		{ 'p', 0, 3600000, &period },
+		{ 't', 1, 512, &tpdo },
+		{ 'c', 1, 0x7FF, &a->cob },
+	};
 	int c;
 	while ((c = getopt_long(argc, argv, "I:l:b:L:p:t:c:h", opts, NULL)) != -1) {
-		bool ok = true;
-		switch (c) {
-		case 'I':
+		const struct num_opt *n = num_opt_of(nums, sizeof nums / sizeof nums[0], c);
+		if (c == 'I')
 			a->instance = optarg;
-			break;
-		case 'l':
-			ok = parse_u32(optarg, MBX_LINES_MAX - 1, &v) && (a->line = v, true);
-			break;
-		case 'b':
-			ok = parse_u32(optarg, 0x9FFD, &v) && v >= 0x2000 &&
-			     (v < 0x5FFE || v >= 0x6000) && (a->base = (uint16_t)v, true);
-			break;
-		case 'L':
-			ok = parse_u32(optarg, UINT32_MAX, &a->limit);
-			break;
-		case 'p':
-			ok = parse_u32(optarg, 3600000, &v) && (a->period_ms = v, true);
-			break;
-		case 't':
-			ok = parse_u32(optarg, 512, &v) && v >= 1 && (a->tpdo = v, true);
-			break;
-		case 'c':
-			ok = parse_u32(optarg, 0x7FF, &a->cob) && a->cob;
-			break;
-		case 'h':
+		else if (c == 'h')
 			exit(usage(stdout, 0));
-		default:
+		else if (!n)
 			return usage(stderr, 2);
-		}
-		if (!ok) {
+		else if (!parse_u32(optarg, n->min, n->max, n->dst)) {
 			fprintf(stderr, "cogw-app-example: bad value for -%c: %s\n", c, optarg);
 			return 2;
 		}
 	}
-	if (optind < argc || (a->tpdo && !a->cob)) {
-		fprintf(stderr, "cogw-app-example: %s\n",
-			optind < argc ? "unexpected argument" : "--tpdo needs --cob");
+	/* the three objects stay inside one of the two ranges */
+	const char *bad = optind < argc                     ? "unexpected argument"
+			  : base >= 0x5FFE && base < 0x6000 ? "--base: the objects must stay in "
+							      "2000h..5FFFh or 6000h..9FFFh"
+			  : tpdo && !a->cob                 ? "--tpdo needs --cob"
+							    : NULL;
+	if (bad) {
+		fprintf(stderr, "cogw-app-example: %s\n", bad);
 		return 2;
 	}
+	a->line = line;
+	a->base = (uint16_t)base;
+	a->period_ms = period;
+	a->tpdo = tpdo;
 	return 0;
 }
 
