@@ -10,6 +10,7 @@
  *    segmented, block; a DOMAIN streamed in place) and from the mailbox
  *    (OD_READ/OD_WRITE, SDO to the own node): the owner's values;
  *  - a refused write: the owner's abort code on the bus, nothing applied;
+ *    a read answer that does not fit: 06040047h, the owner told (PARAM);
  *  - a silent owner: 08000020h when the SDO timeout runs out, its late
  *    answer refused; an owner gone or released: 08000021h;
  *  - held objects: bus reads never ask the owner, the owner's value in the
@@ -61,6 +62,7 @@ enum owner_mode {
 	OWNER_ANSWER, /* reads: the stored value; writes: accept and store */
 	OWNER_REFUSE, /* refuse with owner_abort */
 	OWNER_SILENT, /* never answer (kept: late_ind) */
+	OWNER_SHORT,  /* reads: a value 2 bytes short */
 };
 
 static struct owner {
@@ -79,6 +81,7 @@ static struct owner {
 	atomic_uint last_written_origin;
 	atomic_uint last_written_index;
 	atomic_uint late_ind; /* the last indication left unanswered */
+	atomic_int last_answer_rc;
 } own;
 
 static void owner_write(const mbx_ev_app_ind *ind, const uint8_t *data)
@@ -124,7 +127,7 @@ static void owner_indication(const cogw_msg *m)
 	if (ind.op == MBX_APP_OP_WRITE)
 		return owner_write(&ind, data);
 	uint8_t buf[DOMAIN_CAP];
-	size_t len = 4;
+	size_t len = mode == OWNER_SHORT ? 2 : 4;
 	pthread_mutex_lock(&own.lock);
 	if (ind.index == SERVED_U32)
 		memcpy(buf, &own.u32, 4);
@@ -133,7 +136,7 @@ static void owner_indication(const cogw_msg *m)
 		memcpy(buf, own.domain, len);
 	}
 	pthread_mutex_unlock(&own.lock);
-	cogw_app_answer(own.h, 0, ind.ind, 0, buf, len, 0);
+	atomic_store(&own.last_answer_rc, cogw_app_answer(own.h, 0, ind.ind, 0, buf, len, 0));
 }
 
 static void *owner_main(void *arg)
@@ -370,6 +373,20 @@ static void test_refused_write_is_the_owners_abort_and_applies_nothing(void)
 	cogw_close(c);
 }
 
+static void test_owner_value_that_does_not_fit(void)
+{
+	uint8_t v[4];
+	atomic_store(&own.mode, OWNER_SHORT);
+	TEST_ASSERT_EQUAL_HEX32(0x06040047, bus_read(SERVED_U32, SDO_MODE_EXPEDITED, v, 4, NULL));
+	for (int i = 0; i < 100 && !atomic_load(&own.last_answer_rc); i++)
+		sleep_ms(10);
+	TEST_ASSERT_EQUAL(COGW_E_PARAM, atomic_load(&own.last_answer_rc));
+	/* the next read is served again */
+	atomic_store(&own.mode, OWNER_ANSWER);
+	TEST_ASSERT_EQUAL_HEX32(0, bus_read(SERVED_U32, SDO_MODE_SEGMENTED, v, 4, NULL));
+	TEST_ASSERT_EQUAL_HEX32(0x11223344, *(uint32_t *)v);
+}
+
 static void test_silent_owner_gets_late_abort_and_its_late_answer_is_refused(void)
 {
 	uint8_t v[4];
@@ -547,6 +564,7 @@ int main(void)
 	RUN_TEST(test_served_domain_segmented_and_block);
 	RUN_TEST(test_served_from_the_mailbox);
 	RUN_TEST(test_refused_write_is_the_owners_abort_and_applies_nothing);
+	RUN_TEST(test_owner_value_that_does_not_fit);
 	RUN_TEST(test_silent_owner_gets_late_abort_and_its_late_answer_is_refused);
 	RUN_TEST(test_owner_gone_or_released_answers_no_owner);
 	RUN_TEST(test_held_value_in_sdo_and_tpdo_and_writes_told);
