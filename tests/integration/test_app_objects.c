@@ -8,7 +8,8 @@
  *
  *  - served objects read and written from the bus in every mode (expedited,
  *    segmented, block; a DOMAIN streamed in place) and from the mailbox
- *    (OD_READ/OD_WRITE, SDO to the own node): the owner's values;
+ *    (OD_READ/OD_WRITE, SDO to the own node) and through cogw-ascii (CiA
+ *    309-3): the owner's values;
  *  - a refused write: the owner's abort code on the bus, nothing applied;
  *    a read answer that does not fit: 06040047h, the owner told (PARAM);
  *  - a silent owner: 08000020h when the SDO timeout runs out, its late
@@ -27,6 +28,9 @@
  */
 #include <errno.h>
 #include <pthread.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -354,6 +358,60 @@ static void test_served_from_the_mailbox(void)
 	cogw_close(c);
 }
 
+/* The CiA 309-3 gateway reaches a served object as any other object of
+ * the daemon's node: the owner's value, the owner's refusal. */
+static void ascii_ask(int fd, const char *cmd, char *answer, size_t cap)
+{
+	size_t len = 0;
+	TEST_ASSERT_EQUAL((ssize_t)strlen(cmd), send(fd, cmd, strlen(cmd), MSG_NOSIGNAL));
+	while (!memchr(answer, '\n', len) && len < cap - 1) {
+		ssize_t k = recv(fd, answer + len, cap - 1 - len, 0);
+		TEST_ASSERT_TRUE(k > 0);
+		len += (size_t)k;
+	}
+	answer[len] = '\0';
+}
+
+static void test_served_through_cogw_ascii(void)
+{
+	char path[DAEMON_PATH_MAX + 16], log[DAEMON_PATH_MAX + 16], answer[128];
+	snprintf(path, sizeof path, "%s/ascii.sock", dmn.dir);
+	snprintf(log, sizeof log, "%s/ascii.log", dmn.dir);
+	const char *argv[] = { "build/san/bin/cogw-ascii",
+			       "--daemon-config",
+			       dmn.config_path,
+			       "--socket",
+			       path,
+			       NULL };
+	pid_t gw = proc_spawn(argv, log, NULL);
+	TEST_ASSERT_TRUE(gw > 0);
+	bool up = file_wait_contains(log, "serving instance", 10000);
+	struct sockaddr_un a = { .sun_family = AF_UNIX };
+	TEST_ASSERT_TRUE(strlen(path) < sizeof a.sun_path);
+	memcpy(a.sun_path, path, strlen(path) + 1);
+	int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+	bool ok = up && fd >= 0 && connect(fd, (struct sockaddr *)&a, sizeof a) == 0;
+	if (ok) {
+		ascii_ask(fd, "1 100 r 0x2100 0 u32\n", answer, sizeof answer);
+		ok = !strcmp(answer, "287454020\r\n"); /* 11223344h */
+	}
+	if (ok) {
+		atomic_store(&own.mode, OWNER_REFUSE);
+		own.abort = SDO_AB_VALUE_HIGH;
+		ascii_ask(fd, "1 100 w 0x2100 0 u32 5\n", answer, sizeof answer);
+		ok = !strcmp(answer, "ERROR: 0x06090031\r\n");
+	}
+	if (fd >= 0)
+		close(fd);
+	proc_stop(gw, SIGTERM, 5000);
+	if (!ok)
+		proc_dump_log(log, 20);
+	TEST_ASSERT_TRUE_MESSAGE(up, "cogw-ascii did not start");
+	TEST_ASSERT_EQUAL_STRING("ERROR: 0x06090031\r\n", answer);
+	TEST_ASSERT_EQUAL(1, atomic_load(&own.reads));
+	TEST_ASSERT_EQUAL(1, atomic_load(&own.writes));
+}
+
 static void test_refused_write_is_the_owners_abort_and_applies_nothing(void)
 {
 	uint32_t w = 0xDEAD, v = 0;
@@ -563,6 +621,7 @@ int main(void)
 	RUN_TEST(test_served_u32_from_the_bus_in_every_mode);
 	RUN_TEST(test_served_domain_segmented_and_block);
 	RUN_TEST(test_served_from_the_mailbox);
+	RUN_TEST(test_served_through_cogw_ascii);
 	RUN_TEST(test_refused_write_is_the_owners_abort_and_applies_nothing);
 	RUN_TEST(test_owner_value_that_does_not_fit);
 	RUN_TEST(test_silent_owner_gets_late_abort_and_its_late_answer_is_refused);
