@@ -533,21 +533,15 @@ static int up_start_block(struct srv_chan *ch)
 	return SS_BLK_UP_START;
 }
 
-/* What an upload of the entry's own value sends: a copy taken now when it
- * fits the stage, so that a value the application changes while the
- * transfer runs (a process value written between two segments, or before
- * a block's end with its CRC) goes out whole and as it was at the
- * request; larger values are sent from the entry. */
+/* An upload of the entry's own value sends a copy taken now when it fits
+ * the stage: a value changed while the transfer runs (between segments,
+ * before a block's CRC) goes out whole, as it was at the request. */
 static void up_source(struct srv_chan *ch)
 {
-	co_od_entry *e = ch->e;
+	bool copy = ch->e->size <= cfg_of(ch)->sdo_stage_size;
 
-	ch->size = e->size;
-	ch->src = e->data;
-	if (e->size <= cfg_of(ch)->sdo_stage_size) {
-		memcpy(ch->stage, e->data, e->size);
-		ch->src = ch->stage;
-	}
+	ch->size = ch->e->size;
+	ch->src = copy ? memcpy(ch->stage, ch->e->data, ch->e->size) : ch->e->data;
 }
 
 static int up_begin(struct srv_chan *ch, bool block)
@@ -806,11 +800,10 @@ static int deferred_on_con(void *obj, const void *con, uint64_t now_us)
 		return ch->resume_state;
 	case DEFER_READ:
 	default:
+		up_source(ch);
 		if (c->data) {
 			ch->src = c->data;
 			ch->size = c->size;
-		} else {
-			up_source(ch);
 		}
 		return ch->defer_block ? up_start_block(ch) : up_start_normal(ch);
 	}
