@@ -513,7 +513,11 @@ $(SAN_COGW_LIB): $(call obj,$(SAN),$(MBX_CLIENT_SRC))
 	@mkdir -p $(@D)
 	rm -f $@ && $(AR) rcs $@ $^
 
-$(REL_COGW_SO): $(patsubst %.c,$(REL)/pic/%.o,$(MBX_CLIENT_SRC))
+# core/sdo_abort.c: the SDO abort codes' names (sdo_abort_to_string, core/sdo.h)
+# travel with the shared library, for clients that have no core/ of their own
+# (the Python package, docs/python.md); the static libcogw.a goes with libcogw_core.a.
+COGW_SO_SRC := $(MBX_CLIENT_SRC) core/sdo_abort.c
+$(REL_COGW_SO): $(patsubst %.c,$(REL)/pic/%.o,$(COGW_SO_SRC))
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) $(LDFLAGS) -shared -Wl,-soname,libcogw.so.1 -o $@.1 $^ -lrt -lpthread -lm
 	ln -sf libcogw.so.1 $@
