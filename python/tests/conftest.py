@@ -208,6 +208,9 @@ class System:
         self.procs["cogwd"] = subprocess.Popen([os.path.join(BIN, "cogwd"), "--config", cfg],
                                                stdout=log, stderr=subprocess.STDOUT, cwd=TOP)
         self._wait_up()
+        # the daemon's node of line 2 takes the mirrored TPDOs only when
+        # OPERATIONAL (CiA 301 §7.3.2.2): start every node there
+        self.nets["vcan2"].send_message(0x000, bytes([0x01, 0x00]))
 
     def _local(self, iface, node_id, od):
         node = canopen.LocalNode(node_id, od)

@@ -101,7 +101,6 @@ def test_routed_sdo_by_network(gw, system):
 
 def test_daemon_own_objects(gw):
     od = gw.line(0).od
-    assert od[0x2001].read("u32") == 7
     od[0x2001].write(99, "u32")
     assert od[0x2001].read("UNSIGNED32") == 99
     od[0x2002].data = b"hello gateway"
