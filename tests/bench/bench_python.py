@@ -7,7 +7,8 @@ C benchmark starts it, with PYTHONPATH=python/src and COGW_LIBRARY set):
                              connection (the blocking API); prints
                              "python read us: t1 t2 ..." (each read's time);
   watch INSTANCE NODE SECS   watches 6401h:01 of NODE (asyncio API, one loop
-                             handle), prints "ready", counts for SECS seconds
+                             handle), takes the value the mirror already
+                             holds, prints "ready", counts for SECS seconds
                              and prints "python watch: received R lost L"
                              (lost: gaps of the watch's sequence numbers and
                              the daemon's overflow counts).
@@ -37,21 +38,20 @@ async def watch(instance, node, seconds):
     async with await cogw.aio.connect(instance) as gw:
         stream = await gw.node(node).obj(0x6401, 1, "i16").watch()
         received = lost = 0
-        last_seq = None
+        # a watch begins with the value the mirror holds, if any: not one of this run's
+        first = await stream.get(0.5)
+        last_seq = first.seq if first is not None else None
         print("ready", flush=True)
-        deadline = time.monotonic() + seconds
-        while True:
-            left = deadline - time.monotonic()
-            if left <= 0:
-                break
-            ev = await stream.get(left)
-            if ev is None:
-                break
-            received += 1
-            lost += ev.dropped
-            if last_seq is not None and ev.seq != last_seq + 1:
-                lost += max(ev.seq - last_seq - 1, 0)
-            last_seq = ev.seq
+        try:
+            async with asyncio.timeout(seconds):
+                async for ev in stream:
+                    received += 1
+                    lost += ev.dropped
+                    if last_seq is not None and ev.seq != last_seq + 1:
+                        lost += max(ev.seq - last_seq - 1, 0)
+                    last_seq = ev.seq
+        except TimeoutError:
+            pass
         await stream.aclose()
     print(f"python watch: received {received} lost {lost}", flush=True)
 

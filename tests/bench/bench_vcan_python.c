@@ -39,7 +39,7 @@ static char instance[32], tmpdir[64];
 static double run_seconds = 2.0;
 static const char *python;
 
-static const double rates[] = { 250, 500, 1000, 2000, 4000, 8000, 16000 };
+static const double rates[] = { 50, 100, 200, 400, 800, 1600, 3200, 6400, 12800 };
 #define N_RATES (sizeof rates / sizeof rates[0])
 
 static int write_config(const char *path, const char *eds)
@@ -130,6 +130,7 @@ static double python_read_p50(int n)
 
 	snprintf(log, sizeof log, "%s/python-read.log", tmpdir);
 	snprintf(count, sizeof count, "%d", n);
+	unlink(log); /* each round's own figures */
 	pid_t pid = python_start("read", "5", count, log);
 
 	if (!t || pid < 0 || python_wait(pid, 60 + n * 0.05) < 0 || !(f = fopen(log, "r"))) {
@@ -221,7 +222,7 @@ static pid_t injector_start(double rate)
 }
 
 /* The C client: every value of one run at `rate`; 0 when none was lost. */
-static int c_watch_run(cogw *h, double rate, long *received)
+static int c_watch_run(cogw *h, double rate, long *received, long *lost_out)
 {
 	long lost = 0, got = 0;
 	uint32_t last_seq = 0;
@@ -254,10 +255,11 @@ static int c_watch_run(cogw *h, double rate, long *received)
 		cogw_msg_release(&m);
 	}
 	*received = got;
+	*lost_out = lost;
 	return lost == 0 && got == (long)(rate * run_seconds) ? 0 : -1;
 }
 
-static int python_watch_run(double rate, long *received)
+static int python_watch_run(double rate, long *received, long *lost_out)
 {
 	char log[256], secs[16], *text = NULL;
 	size_t cap = 0;
@@ -285,6 +287,7 @@ static int python_watch_run(double rate, long *received)
 	fclose(f);
 	free(text);
 	*received = got;
+	*lost_out = lost;
 	return lost == 0 && got == (long)(rate * run_seconds) ? 0 : -1;
 }
 
@@ -296,13 +299,14 @@ static double kept_up(cogw *h, char *trace, size_t cap)
 
 	trace[0] = '\0';
 	for (size_t i = 0; i < N_RATES; i++) {
-		long got = 0;
-		int rc = h ? c_watch_run(h, rates[i], &got) : python_watch_run(rates[i], &got);
+		long got = 0, lost = 0;
+		int rc = h ? c_watch_run(h, rates[i], &got, &lost)
+			   : python_watch_run(rates[i], &got, &lost);
 
 		if (rc == -2)
 			return -1;
-		len += (size_t)snprintf(trace + len, cap - len, "%s%.0f/s: %ld of %.0f",
-					i ? ", " : "", rates[i], got, rates[i] * run_seconds);
+		len += (size_t)snprintf(trace + len, cap - len, "%s%.0f/s: %ld of %.0f (%ld lost)",
+					i ? ", " : "", rates[i], got, rates[i] * run_seconds, lost);
 		if (rc < 0)
 			break;
 		best = rates[i];
@@ -315,7 +319,7 @@ static int watch_figures(cogw *h)
 	mbx_dev_obj_req o = { .node = SLAVE_NODE, .index = 0x6401, .sub = 1 };
 	mbx_dev_watch_resp r;
 	uint32_t abort = 0;
-	char ctrace[512], ptrace[512];
+	char ctrace[1024], ptrace[1024];
 
 	if (cogw_dev_watch(h, 0, &o, 0, &r, 5000, &abort) < 0) {
 		printf("bench_vcan_python: watch refused (abort %08X)\n", abort);

@@ -109,12 +109,15 @@ class AsyncConnection:
 
     # -- the loop's side
     def _arm(self) -> None:
-        """Wake up when cogw_loop_tick has something to do."""
-        if self._timer is not None:
-            self._timer.cancel()
+        """Wake up when cogw_loop_tick has something to do (a timer armed for
+        an earlier time stays: it arms the next one when it runs)."""
         assert self._loop is not None
-        ms = lib.cogw_loop_timeout_ms(self._h)
-        self._timer = self._loop.call_later(max(ms, 0) / 1000, self._due)
+        due = self._loop.time() + max(lib.cogw_loop_timeout_ms(self._h), 0) / 1000
+        if self._timer is not None:
+            if self._timer.when() <= due:
+                return
+            self._timer.cancel()
+        self._timer = self._loop.call_at(due, self._due)
 
     def _due(self) -> None:
         self._timer = None
@@ -263,8 +266,11 @@ class AsyncEvents:
         conn._sinks.append(self._sink)
 
     async def get(self, timeout: Optional[float] = None) -> Optional[events.AnyEvent]:
+        q = self._sink.queue
+        if not q.empty():
+            return q.get_nowait()
         try:
-            return await asyncio.wait_for(self._sink.queue.get(), timeout)
+            return await asyncio.wait_for(q.get(), timeout)
         except asyncio.TimeoutError:
             return None
 

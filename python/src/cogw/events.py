@@ -5,6 +5,7 @@ of mailbox/proto.h (_lib); DEV_VALUE through libcogw's cogw_dev_value_parse."""
 from __future__ import annotations
 
 import ctypes
+import functools
 from dataclasses import dataclass, field
 from typing import Optional, Union
 
@@ -24,6 +25,7 @@ MANAGER_STATES = {0: "slave", 1: "resetting", 2: "booting", 3: "wait-mandatory",
 VIA = {1: "pdo", 2: "sdo"}
 
 
+@functools.lru_cache(maxsize=None)
 def event_name(code: int) -> str:
     return lib.mbx_event_to_string(code).decode()
 
@@ -130,13 +132,17 @@ def _fixed(cls: type, data: bytes):  # the payload's fixed part as a struct
     return cls.from_buffer_copy(data[:ctypes.sizeof(cls)])
 
 
-def device_value(payload: bytes, line: int, code: int = 0, corr: int = 0,
+def device_value(payload: Union[bytes, Msg], line: int, code: int = 0, corr: int = 0,
                  dropped: int = 0) -> DeviceValue:
-    """A DEV_VALUE event's or a DEV_READ answer's payload, parsed by libcogw."""
+    """A DEV_VALUE event's or a DEV_READ answer's payload (bytes, or the message
+    itself: parsed where it lies), parsed by libcogw (cogw_dev_value_parse)."""
     v = DevValue()
     p = ctypes.POINTER(ctypes.c_uint8)()
-    buf = ctypes.create_string_buffer(payload, len(payload))
-    if lib.cogw_dev_value_parse(buf, len(payload), ctypes.byref(v), ctypes.byref(p)) < 0:
+    if isinstance(payload, Msg):
+        where, size, payload = payload.data, payload.len, b""
+    else:
+        where, size = payload, len(payload)
+    if lib.cogw_dev_value_parse(where, size, ctypes.byref(v), ctypes.byref(p)) < 0:
         raise ValueError("malformed device value")
     data = ctypes.string_at(p, v.len) if v.len else b""
     try:
@@ -150,9 +156,11 @@ def device_value(payload: bytes, line: int, code: int = 0, corr: int = 0,
 
 def decode(m: Msg) -> AnyEvent:
     """The event in a received message (its payload's size checked by libcogw)."""
-    data = ctypes.string_at(m.data, m.len) if m.len else b""
-    base = (m.line, m.code, event_name(m.code), m.corr, m.dropped, data)
     code = m.code
+    if code == EV["DEV_VALUE"]:  # the hot path of watches: no copy of the payload
+        return device_value(m, m.line, code, m.corr, m.dropped)
+    data = ctypes.string_at(m.data, m.len) if m.len else b""
+    base = (m.line, code, event_name(code), m.corr, m.dropped, data)
     if code in (EV["NMT_STATE"], EV["BOOTUP"], EV["HB_STARTED"], EV["HB_LOST"]):
         n = _fixed(EvNode, data)
         if n is not None:
@@ -170,8 +178,6 @@ def decode(m: Msg) -> AnyEvent:
                                 g.value, g.expected)
     elif code == EV["PDO"]:
         return _pdo_event(base, data)
-    elif code == EV["DEV_VALUE"]:
-        return device_value(data, m.line, code, m.corr, m.dropped)
     elif code == EV["OVERFLOW"]:
         o = _fixed(EvOverflow, data)
         ev = Event(*base)
