@@ -107,7 +107,8 @@ static double c_read_p50(cogw *h, int n)
 		uint32_t v = 0, abort = 0;
 		uint64_t t0 = bench_now_ns();
 
-		if (cogw_sdo_read_u32(h, 0, SIM_NODE, 0x1018, 4, &v, 5000, &abort) < 0 || v != 4242) {
+		if (cogw_sdo_read_u32(h, 0, SIM_NODE, 0x1018, 4, &v, 5000, &abort) < 0 ||
+		    v != 4242) {
 			printf("bench_vcan_python: libcogw read failed (abort %08X)\n", abort);
 			free(t);
 			return -1;
@@ -401,13 +402,10 @@ int main(void)
 	snprintf(eds, sizeof eds, "%s/slave.eds", tmpdir);
 	printf("bench_vcan_python: cogwd + cosim on vcan0, %s, %.1f s per measurement\n", python,
 	       run_seconds);
-	const char *sim_argv[] = { bench_program("cosim", prog, sizeof prog),
-				   "--interface",
-				   "vcan0",
-				   "--device",
-				   "tests/integration/config/ascii-types.json:5",
-				   "--quiet",
-				   NULL };
+	const char *sim_argv[] = {
+		bench_program("cosim", prog, sizeof prog),     "--interface", "vcan0", "--device",
+		"tests/integration/config/ascii-types.json:5", "--quiet",     NULL
+	};
 
 	if (bench_write_tpdo_eds(eds, 1) < 0 || write_config(cfg, eds) < 0)
 		goto out;
