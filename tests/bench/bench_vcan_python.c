@@ -352,24 +352,6 @@ static int watch_figures(cogw *h)
 
 /* ---- set-up ------------------------------------------------------------------------ */
 
-static int go_operational(cogw *h)
-{
-	int fd = can_open_raw("vcan0");
-	uint8_t start[2] = { 0x01, OUR_NODE };
-
-	if (fd < 0 || can_send_std(fd, 0x000, start, 2) < 0)
-		return -1;
-	close(fd);
-	for (uint64_t until = mono_ms() + 5000; mono_ms() < until; sleep_ms(20)) {
-		mbx_line_status st;
-
-		if (cogw_line_status(h, 0, &st, 5000) == 0 && st.nmt_state == 0x05)
-			return 0;
-	}
-	printf("bench_vcan_python: the daemon's node did not become operational\n");
-	return -1;
-}
-
 static int device_answers(cogw *h)
 {
 	for (uint64_t until = mono_ms() + 15000; mono_ms() < until; sleep_ms(100)) {
@@ -411,7 +393,7 @@ int main(void)
 		goto out;
 	sim = proc_spawn(sim_argv, simlog, NULL);
 	if (bench_daemon_start(&d, cfg, instance, log) < 0 || cogw_open(&h, instance) < 0 ||
-	    device_answers(h) < 0 || go_operational(h) < 0)
+	    device_answers(h) < 0 || bench_go_operational(h, OUR_NODE) < 0)
 		goto out;
 	fflush(stdout);
 	if (read_figures(h) < 0 || watch_figures(h) < 0)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import os
-from ctypes import (POINTER, Structure, c_char, c_char_p, c_int, c_int32, c_int64, c_size_t,
+from ctypes import (POINTER, Structure, c_char, c_char_p, c_int, c_size_t,
                     c_uint, c_uint8, c_uint16, c_uint32, c_uint64, c_void_p)
 
 from ._version import SOURCE_TREE
@@ -320,4 +320,4 @@ for _name, (_res, _args) in _SIGNATURES.items():
     _fn.restype = _res
     _fn.argtypes = _args
 
-__all__ = ["lib", "find_library", "LibraryNotFound", "c_int32", "c_int64"]
+__all__ = ["lib", "find_library", "LibraryNotFound"]

@@ -28,7 +28,8 @@ from ._lib import (CMD, E_AGAIN, E_WOULDBLOCK, EV, EVC, KIND_RESPONSE, MGR_NODE_
                    DevReadReq, DevWatchReq, DevWatchResp, DevWriteResp, GwSdoReq, LineStatus,
                    MgrNodeDiag, MgrNodeReq, MgrStatus, Msg, NmtReq, NodeEntry, ObjReq, Options,
                    SdoReq, lib)
-from .client import ODLike, _event_match, _obj_req, _od
+from .client import (Emcy, Nmt, NodeEvents, ODLike, _event_match, _obj_req, _od, dev_encode,
+                     resolve_obj)
 from .datatypes import TypeLike
 from .errors import CogwError, check
 from .events import NMT_COMMANDS
@@ -410,9 +411,10 @@ class AsyncSdoClient(Dictionary):
         await self.download(index, subindex, datatypes.encode(type, value))
 
 
-class AsyncNmt:
-    def __init__(self, node: "AsyncNode"):
-        self._node = node
+class AsyncNmt(NodeEvents):
+    """node.nmt for asyncio: commands and the node table's state are coroutines;
+    events() / add_callback() as the blocking Nmt's."""
+    CLASSES = Nmt.CLASSES
 
     async def send_command(self, code: int) -> None:
         await self._node.conn.line(self._node.line).nmt(code, self._node.id)
@@ -426,46 +428,20 @@ class AsyncNmt:
                 return e.state_name
         return "UNKNOWN"
 
-    def events(self) -> AsyncEvents:
-        n = self._node
-        return AsyncEvents(n.conn, n.line, EVC["nmt"] | EVC["boot"] | EVC["hb"],
-                           _event_match(n.line, None, n.id))
-
-    def add_callback(self, callback: Callable[[events.NodeEvent], None]) -> AsyncEvents:
-        n = self._node
-        return AsyncEvents(n.conn, n.line, EVC["nmt"] | EVC["boot"] | EVC["hb"],
-                           _event_match(n.line, None, n.id), callback)
-
-
-class AsyncEmcy:
-    def __init__(self, node: "AsyncNode"):
-        self._node = node
-
-    def events(self) -> AsyncEvents:
-        n = self._node
-        return AsyncEvents(n.conn, n.line, EVC["emcy"], _event_match(n.line, {EV["EMCY"]}, n.id))
-
-    def add_callback(self, callback: Callable[[events.EmcyEvent], None]) -> AsyncEvents:
-        n = self._node
-        return AsyncEvents(n.conn, n.line, EVC["emcy"], _event_match(n.line, {EV["EMCY"]}, n.id),
-                           callback)
-
 
 class AsyncNode:
+    events_cls = AsyncEvents
+
     def __init__(self, conn: AsyncConnection, line: int, node_id: int,
                  od: Optional[eds.ObjectDictionary], network: Optional[int]):
         self.conn, self.line, self.id, self.od, self.network = conn, line, node_id, od, network
         self.sdo = AsyncSdoClient(self)
         self.nmt = AsyncNmt(self)
-        self.emcy = AsyncEmcy(self)
+        self.emcy = Emcy(self)
 
     def obj(self, index: Union[int, str], sub: Union[int, str] = 0,
             type: Optional[TypeLike] = None) -> "AsyncDeviceObject":  # noqa: A002
-        if isinstance(index, str) or isinstance(sub, str):
-            var = self.sdo[index][sub]
-            index, sub = var.index, var.subindex
-            type = type if type is not None else var.data_type  # noqa: A001
-        return AsyncDeviceObject(self, index, sub, type)
+        return AsyncDeviceObject(self, *resolve_obj(self, index, sub, type))
 
     async def program(self, image: bytes, expected: int = 0, sdo_timeout_ms: int = 0,
                       progress: Optional[Callable[[int, int], None]] = None,
@@ -519,12 +495,7 @@ class AsyncDeviceObject:
         return events.device_value(d, self.node.line)
 
     async def write(self, value: datatypes.Value, sdo_only: bool = False) -> WriteResult:
-        if self.type is not None:
-            data = datatypes.encode(self.type, value)
-        elif isinstance(value, (bytes, bytearray)):
-            data = bytes(value)
-        else:
-            raise TypeError(f"{self._what('write')}: give the object's type or bytes")
+        data = dev_encode(self.type, value, self._what("write"))
         d = await self.node.conn.call(self.node.line, CMD["DEV_WRITE"],
                                       bytes(self._req(sdo_only)) + data, self._what("write"))
         r = _fixed(DevWriteResp, d, self._what("write"))

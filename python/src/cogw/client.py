@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import ctypes
 import threading
-from dataclasses import dataclass
 from typing import Any, Callable, Iterator, Optional, Union
 
 from . import datatypes, eds, events
@@ -322,11 +321,39 @@ class SdoClient(Dictionary):
         self.download(index, subindex, datatypes.encode(type, value))
 
 
-class Nmt:
-    """node.nmt: python-canopen's state property, commands, heartbeat waits."""
+class NodeEvents:
+    """A node's events of some classes (codes: all of them when None), as a
+    stream or callbacks; the node's connection says which kind of stream
+    (Events, or aio.AsyncEvents)."""
+    CLASSES: tuple[str, ...] = ()
+    CODES: Optional[set[int]] = None
 
-    def __init__(self, node: "Node"):
+    def __init__(self, node: Any):
         self._node = node
+
+    def _stream(self, callback: Optional[Callable[[Any], None]]) -> Any:
+        n = self._node
+        return n.events_cls(n.conn, n.line, events.classes_mask(self.CLASSES),
+                            _event_match(n.line, self.CODES, n.id), callback)
+
+    def events(self) -> Any:
+        return self._stream(None)
+
+    def add_callback(self, callback: Callable[[Any], None]) -> Any:
+        """callback(event) for each of the node's events (close() the result to stop)."""
+        return self._stream(callback)
+
+
+class Emcy(NodeEvents):
+    """node.emcy: the node's EMCYs (EmcyEvent) as callbacks or a stream."""
+    CLASSES = ("emcy",)
+    CODES = {EV["EMCY"]}
+
+
+class Nmt(NodeEvents):
+    """node.nmt: python-canopen's state property, commands, heartbeat waits; its
+    events (NodeEvent: NMT state changes, boot-up, heartbeat started/lost)."""
+    CLASSES = ("nmt", "boot", "hb")
 
     def send_command(self, code: int) -> None:
         Line(self._node.conn, self._node.line).nmt(code, self._node.id)
@@ -359,31 +386,29 @@ class Nmt:
             raise CogwError(-12, f"no NMT state of node {self._node.id} in {timeout} s")
         return NMT_STATES.get(ev.state, str(ev.state))
 
-    def add_callback(self, callback: Callable[[events.NodeEvent], None]) -> Events:
-        """callback(event) at each NMT state change, boot-up and heartbeat start/loss."""
-        n = self._node
-        return Events(n.conn, n.line, EVC["nmt"] | EVC["boot"] | EVC["hb"],
-                      _event_match(n.line, None, n.id), callback)
 
 
-class Emcy:
-    """node.emcy: the node's EMCYs as callbacks or an iterator."""
+def resolve_obj(node: Any, index: Union[int, str], sub: Union[int, str],
+                type_: Optional[TypeLike]) -> tuple[int, int, Optional[TypeLike]]:
+    """index:sub of a device object given by number or by the EDS's names; its type
+    from the EDS unless given."""
+    if isinstance(index, str) or isinstance(sub, str):
+        var = node.sdo[index][sub]
+        return var.index, var.subindex, type_ if type_ is not None else var.data_type
+    return index, sub, type_  # type: ignore[return-value]
 
-    def __init__(self, node: "Node"):
-        self._node = node
 
-    def events(self) -> Events:
-        n = self._node
-        return Events(n.conn, n.line, EVC["emcy"], _event_match(n.line, {EV["EMCY"]}, n.id))
-
-    def add_callback(self, callback: Callable[[events.EmcyEvent], None]) -> Events:
-        n = self._node
-        return Events(n.conn, n.line, EVC["emcy"], _event_match(n.line, {EV["EMCY"]}, n.id),
-                      callback)
+def dev_encode(type_: Optional[TypeLike], value: datatypes.Value, what: str) -> bytes:
+    if type_ is not None:
+        return datatypes.encode(type_, value)
+    if isinstance(value, (bytes, bytearray)):
+        return bytes(value)
+    raise TypeError(f"{what}: give the object's type (node.obj(..., type='u16')) or bytes")
 
 
 class Node:
     """A node of a line (or of a network behind it)."""
+    events_cls = Events
 
     def __init__(self, conn: Connection, line: int, node_id: int,
                  od: Optional[eds.ObjectDictionary], network: Optional[int] = None):
@@ -406,11 +431,7 @@ class Node:
         daemon's mirror of the node's PDOs, or by SDO, as the daemon decides."""
         if self.network is not None:
             raise CogwError(-15, "device objects are the line's own nodes")
-        if isinstance(index, str) or isinstance(sub, str):
-            var = self.sdo[index][sub]
-            index, sub = var.index, var.subindex
-            type = type if type is not None else var.data_type  # noqa: A001
-        return DeviceObject(self, index, sub, type)
+        return DeviceObject(self, *resolve_obj(self, index, sub, type))
 
     def program(self, image: bytes, expected: int = 0, sdo_timeout_ms: int = 0,
                 progress: Optional[Callable[[int, int], None]] = None,
@@ -476,21 +497,13 @@ class DeviceObject:
     def write(self, value: datatypes.Value, sdo_only: bool = False) -> WriteResult:
         """By the device's RPDO when the mirror produces it, else by SDO."""
         c = self.node.conn
-        data = self._encode(value)
+        data = dev_encode(self.type, value, self._what("write"))
         resp, ab = DevWriteResp(), ctypes.c_uint32()
         check(lib.cogw_dev_write(c._h, self.node.line, ctypes.byref(self._req(sdo_only)), data,
                                  len(data), ctypes.byref(resp), c.timeout_ms, ctypes.byref(ab)),
               self._what("write"), ab.value)
         return WriteResult(events.VIA.get(resp.via, str(resp.via)), bool(resp.held), resp.pdo,
                            resp.cob_id)
-
-    def _encode(self, value: datatypes.Value) -> bytes:
-        if self.type is not None:
-            return datatypes.encode(self.type, value)
-        if isinstance(value, (bytes, bytearray)):
-            return bytes(value)
-        raise TypeError(f"{self._what('write')}: give the object's type (node.obj(..., "
-                        "type='u16')) or bytes")
 
     def watch(self, min_interval_ms: int = 0,
               callback: Optional[Callable[[events.DeviceValue], None]] = None) -> "Watch":

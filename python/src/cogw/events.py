@@ -7,7 +7,7 @@ from __future__ import annotations
 import ctypes
 import functools
 from dataclasses import dataclass, field
-from typing import Optional, Union
+from typing import Union
 
 from . import datatypes
 from ._lib import (EV, EVC, DevValue, EvEmcy, EvMgr, EvNode, EvOverflow, EvPdo, Msg, PdoValue,
