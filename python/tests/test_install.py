@@ -14,11 +14,14 @@ from conftest import INSTANCE, NODE, TOP
 def test_pip_install_into_a_fresh_venv_offline(system, tmp_path):
     venv = tmp_path / "venv"
     base = getattr(sys, "_base_executable", sys.executable)
-    subprocess.run([base, "-m", "venv", str(venv)], check=True)
+    # a venv without pip of its own (ensurepip takes minutes in the emulated VM):
+    # the test environment's pip installs into it (pip --python)
+    subprocess.run([base, "-m", "venv", "--without-pip", str(venv)], check=True)
     py = str(venv / "bin" / "python")
     env = {k: v for k, v in os.environ.items() if k not in ("COGW_LIBRARY", "PYTHONPATH")}
     env.update(PIP_NO_CACHE_DIR="1", PIP_DISABLE_PIP_VERSION_CHECK="1")
-    r = subprocess.run([py, "-m", "pip", "install", "--no-index", os.path.join(TOP, "python")],
+    r = subprocess.run([sys.executable, "-m", "pip", "--python", py, "install", "--no-index",
+                        os.path.join(TOP, "python")],
                        env=env, capture_output=True, text=True, cwd=str(tmp_path))
     assert r.returncode == 0, r.stdout + r.stderr
     script = ("import cogw, cogw._lib as l\n"

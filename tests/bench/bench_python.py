@@ -7,8 +7,9 @@ C benchmark starts it, with PYTHONPATH=python/src and COGW_LIBRARY set):
                              connection (the blocking API); prints
                              "python read us: t1 t2 ..." (each read's time);
   watch INSTANCE NODE SECS   watches 6401h:01 of NODE (asyncio API, one loop
-                             handle), takes the value the mirror already
-                             holds, prints "ready", counts for SECS seconds
+                             handle), prints "ready", counts for SECS seconds
+                             the values received (not the one the mirror held
+                             when the watch began)
                              and prints "python watch: received R lost L"
                              (lost: gaps of the watch's sequence numbers and
                              the daemon's overflow counts).
@@ -38,13 +39,14 @@ async def watch(instance, node, seconds):
     async with await cogw.aio.connect(instance) as gw:
         stream = await gw.node(node).obj(0x6401, 1, "i16").watch()
         received = lost = 0
-        # a watch begins with the value the mirror holds, if any: not one of this run's
-        first = await stream.get(0.5)
-        last_seq = first.seq if first is not None else None
+        last_seq = None
         print("ready", flush=True)
         try:
             async with asyncio.timeout(seconds):
                 async for ev in stream:
+                    if ev.corr:  # the value the mirror held at the watch: not this run's
+                        last_seq = ev.seq
+                        continue
                     received += 1
                     lost += ev.dropped
                     if last_seq is not None and ev.seq != last_seq + 1:

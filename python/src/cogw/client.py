@@ -46,12 +46,15 @@ def _obj_req(node: int, index: int, sub: int, type_: Optional[TypeLike], sdo_onl
 
 class Connection:
     """One libcogw handle on a daemon instance. Thread-safe: several threads may
-    call at once. Close it (or use `with`): its queues go with it."""
+    call at once. Close it (or use `with`): its queues go with it. A read takes
+    up to max_transfer bytes (the daemon's default mailbox.max_transfer; each
+    thread that reads has a buffer of that size)."""
 
     def __init__(self, instance: str = "main", timeout_ms: int = 0, resp_depth: int = 0,
-                 event_depth: int = 0):
+                 event_depth: int = 0, max_transfer: int = READ_CAP):
         self.instance = instance
         self.timeout_ms = timeout_ms
+        self.max_transfer = max_transfer  # the largest value a read takes (bytes)
         self._h = ctypes.c_void_p()
         opts = Options(instance.encode(), 0, resp_depth, event_depth, 0, timeout_ms)
         check(lib.cogw_open_opts(ctypes.byref(self._h), ctypes.byref(opts)),
@@ -94,7 +97,7 @@ class Connection:
     def _buf(self) -> ctypes.Array:
         b = getattr(self._tls, "buf", None)
         if b is None:
-            b = self._tls.buf = ctypes.create_string_buffer(READ_CAP)
+            b = self._tls.buf = ctypes.create_string_buffer(self.max_transfer)
         return b
 
     def _read(self, what: str, call: Callable[..., int], *args: Any) -> bytes:
