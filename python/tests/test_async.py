@@ -96,7 +96,7 @@ def test_device_object_watch_as_async_iterator(system):
                     dev.tpdo[1].transmit()
                 got = []
                 async for ev in watch:
-                    if ev.corr:  # the value the mirror held when the watch began
+                    if ev.held:  # the value the mirror held when the watch began
                         continue
                     got.append(ev.value)
                     if len(got) == 3:

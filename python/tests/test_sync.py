@@ -161,16 +161,16 @@ def test_device_objects_read_write_watch(gw, system):
     values = []
     with pos.watch() as w, node.obj(0x2102, 0).add_callback(values.append):
         assert w.pdo == 1 and w.cob_id == 0x180 + DEV
-        held = w.get(2)  # the value the mirror holds, if any: the watch's answer's
-        assert held is None or held.corr != 0
+        held = w.get(2)  # the value the mirror holds, if any, comes first
+        assert held is None or held.held
         for v in (100, 200, 300):
             dev.tpdo[1][0x2101].raw = v
             dev.tpdo[1][0x2102].raw = -v
             dev.tpdo[1].transmit()
             ev = w.get(10)
             assert isinstance(ev, cogw.DeviceValue) and ev.value == v and ev.via == "pdo"
-            assert ev.corr == 0 and (held is None or ev.seq > held.seq)
-        wait_until(lambda: [x.value for x in values if x.corr == 0] == [-100, -200, -300],
+            assert not ev.held and ev.seq == (held.seq if held else 0) + v // 100
+        wait_until(lambda: [x.value for x in values if not x.held] == [-100, -200, -300],
                    "3 callbacks of 2102h")
     r = pos.read()
     assert (r.value, r.via) == (300, "pdo")

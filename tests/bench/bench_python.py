@@ -44,7 +44,7 @@ async def watch(instance, node, seconds):
         try:
             async with asyncio.timeout(seconds):
                 async for ev in stream:
-                    if ev.corr:  # the value the mirror held at the watch: not this run's
+                    if ev.held:  # the value the mirror held at the watch: not this run's
                         last_seq = ev.seq
                         continue
                     received += 1

@@ -29,7 +29,7 @@ from ._lib import (CMD, E_AGAIN, E_WOULDBLOCK, EV, EVC, KIND_RESPONSE, MGR_NODE_
                    MgrNodeDiag, MgrNodeReq, MgrStatus, Msg, NmtReq, NodeEntry, ObjReq, Options,
                    SdoReq, lib)
 from .client import (Emcy, Nmt, NodeEvents, ODLike, _event_match, _obj_req, _od, dev_encode,
-                     resolve_obj)
+                     resolve_obj, watch_match)
 from .datatypes import TypeLike
 from .errors import CogwError, check
 from .events import NMT_COMMANDS
@@ -520,14 +520,9 @@ class AsyncDeviceObject:
 
 class AsyncWatch(AsyncEvents):
     def __init__(self, obj: AsyncDeviceObject, callback: Optional[Callable]):
-        node = obj.node
         self.obj = obj
         self.type = self.pdo = self.cob_id = 0
-
-        def match(ev: Any) -> bool:
-            return (isinstance(ev, events.DeviceValue) and ev.line == node.line and
-                    ev.node == node.id and ev.index == obj.index and ev.sub == obj.sub)
-        super().__init__(node.conn, node.line, 0, match, callback)
+        super().__init__(obj.node.conn, obj.node.line, 0, watch_match(obj), callback)
 
     async def aclose(self) -> None:
         c = self.obj.node.conn

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ctypes
 import threading
+import time
 from typing import Any, Callable, Iterator, Optional, Union
 
 from . import datatypes, eds, events
@@ -519,6 +520,21 @@ class DeviceObject:
         return Watch(self, min_interval_ms, callback)
 
 
+def watch_match(obj: Any) -> Callable[[Any], bool]:
+    """The values of one watched object; the one the mirror held when the watch
+    began (received before it: the same CLOCK_MONOTONIC) marked held."""
+    started_us = time.monotonic_ns() // 1000
+    line, node = obj.node.line, obj.node.id
+
+    def match(ev: Any) -> bool:
+        if not (isinstance(ev, events.DeviceValue) and ev.line == line and ev.node == node and
+                ev.index == obj.index and ev.sub == obj.sub):
+            return False
+        ev.held = ev.time_us < started_us
+        return True
+    return match
+
+
 class Watch(Events):
     """A watched device object's values."""
 
@@ -526,11 +542,7 @@ class Watch(Events):
                  callback: Optional[Callable[[events.DeviceValue], None]]):
         node, c = obj.node, obj.node.conn
         self.obj = obj
-
-        def match(ev: Any) -> bool:
-            return (isinstance(ev, events.DeviceValue) and ev.line == node.line and
-                    ev.node == node.id and ev.index == obj.index and ev.sub == obj.sub)
-        super().__init__(c, node.line, 0, match, callback)
+        super().__init__(c, node.line, 0, watch_match(obj), callback)
         resp, ab = DevWatchResp(), ctypes.c_uint32()
         try:
             check(lib.cogw_dev_watch(c._h, node.line, ctypes.byref(obj._req()), min_interval_ms,

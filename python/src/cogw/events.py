@@ -109,7 +109,9 @@ class PdoEvent(Event):
 class DeviceValue(Event):
     """A device object's value (docs/devices.md): from a watch's event or a
     read. via "pdo" (the mirror of the device's TPDO) or "sdo"; seq: per
-    watch +1 per event (a gap: values lost); age_ms: of a mirrored value read."""
+    watch +1 per event (a gap: values lost); age_ms: of a mirrored value read;
+    held: a watch's first value, the one the mirror held when the watch began (its
+    frame came before the watch request), not a new one."""
     node: int = 0
     index: int = 0
     sub: int = 0
@@ -121,6 +123,7 @@ class DeviceValue(Event):
     seq: int = 0
     age_ms: int = 0
     time_us: int = 0
+    held: bool = False
 
 
 AnyEvent = Union[Event, NodeEvent, EmcyEvent, ManagerEvent, PdoEvent, DeviceValue]
