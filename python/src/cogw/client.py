@@ -391,7 +391,6 @@ class Nmt(NodeEvents):
         return NMT_STATES.get(ev.state, str(ev.state))
 
 
-
 def resolve_obj(node: Any, index: Union[int, str], sub: Union[int, str],
                 type_: Optional[TypeLike]) -> tuple[int, int, Optional[TypeLike]]:
     """index:sub of a device object given by number or by the EDS's names; its type
