@@ -174,8 +174,8 @@ def test_device_objects_read_write_watch(gw, system):
                    "3 callbacks of 2102h")
     r = pos.read()
     assert (r.value, r.via) == (300, "pdo")
-    r = node.obj(0x2300, 0).read()
-    assert (r.value, r.via) == (17, "sdo")
+    r = node.obj(0x2300, 0).read()  # mapped in no PDO: by SDO
+    assert (r.value, r.via) == (dev.sdo["Setting"].raw, "sdo")
     out = node.obj("Output")
     res = out.write(0x5A)
     assert (res.via, res.pdo) == ("pdo", 1)
