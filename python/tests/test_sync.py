@@ -179,8 +179,8 @@ def test_device_objects_read_write_watch(gw, system):
     out = node.obj("Output")
     res = out.write(0x5A)
     assert (res.via, res.pdo) == ("pdo", 1)
-    wait_until(lambda: dev.rpdo[1].is_received, "the device's RPDO 1")
-    assert dev.rpdo[1][0x2200].raw == 0x5A
+    wait_until(lambda: dev.rpdo[1].is_received and dev.rpdo[1][0x2200].raw == 0x5A,
+               "the device's RPDO 1 with 5Ah")
     res = node.obj("Setting").write(4242)
     assert res.via == "sdo"
     assert dev.sdo["Setting"].raw == 4242
