@@ -96,3 +96,14 @@ def test_struct_layouts_match_the_header(tmp_path):
         for f, *_ in cls._fields_:
             got[f"{c_name}.{f}"] = str(getattr(cls, f).offset)
     assert got == want
+
+
+def test_subscriptions_are_counted_per_line_and_class():
+    from cogw._subs import SubscriptionCount
+    s = SubscriptionCount()
+    assert s.add(0, 0b11) == 0b11      # both new: subscribe them
+    assert s.add(0, 0b01) == 0         # a second user of class 1
+    assert s.add(1, 0b01) == 0b01      # another line
+    assert s.remove(0, 0b11) == 0b10   # class 1 still has a user
+    assert s.remove(0, 0b01) == 0b01
+    assert s.remove(0, 0b01) == 0      # nobody left to remove

@@ -24,6 +24,7 @@ from typing import Any, AsyncIterator, Callable, Optional, Union
 
 from . import datatypes, eds, events
 from ._events_sync import Response
+from ._subs import SubscriptionCount
 from ._lib import (CMD, E_AGAIN, E_WOULDBLOCK, EV, EVC, KIND_RESPONSE, MGR_NODE_PROGRAM,
                    DevReadReq, DevWatchReq, DevWatchResp, DevWriteResp, GwSdoReq, LineStatus,
                    MgrNodeDiag, MgrNodeReq, MgrStatus, Msg, NmtReq, NodeEntry, ObjReq, Options,
@@ -69,7 +70,7 @@ class AsyncConnection:
         self._pending: dict[int, asyncio.Future] = {}
         self._sinks: list[_Sink] = []
         self._attached: set[int] = set()
-        self._subs: dict[tuple[int, int], int] = {}
+        self._subs = SubscriptionCount()
         self._room: dict[int, asyncio.Future] = {}
         self._msg = Msg()
 
@@ -225,23 +226,14 @@ class AsyncConnection:
     # -- events
     def subscribe(self, line: int, mask: int) -> None:
         self._attach(line)
-        new = 0
-        for bit in (1 << i for i in range(32)):
-            if mask & bit:
-                n = self._subs.get((line, bit), 0)
-                self._subs[(line, bit)] = n + 1
-                new |= bit if n == 0 else 0
+        new = self._subs.add(line, mask)
         if new:
             check(lib.cogw_subscribe(self._h, line, new, None, 0, self.timeout_ms),
                   f"subscribe line {line}")
             self._drain()  # what came in while the set-up call waited
 
     def unsubscribe(self, line: int, mask: int) -> None:
-        gone = 0
-        for bit in (1 << i for i in range(32)):
-            if mask & bit and self._subs.get((line, bit), 0) > 0:
-                self._subs[(line, bit)] -= 1
-                gone |= bit if self._subs[(line, bit)] == 0 else 0
+        gone = self._subs.remove(line, mask)
         if gone and self._h:
             lib.cogw_unsubscribe(self._h, line, gone, self.timeout_ms)
             self._drain()

@@ -17,6 +17,7 @@ from typing import Any, Callable, Iterator, Optional, Union
 
 from . import datatypes, eds, events
 from ._events_sync import Pump, Response, Sink
+from ._subs import SubscriptionCount
 from ._lib import (CMD, DEV_SDO_ONLY, E_TRUNCATED, EV, EVC, MGR_NODE_PROGRAM, DevObjReq,
                    DevValue, DevWatchResp, DevWriteResp, LineStatus, MgrNodeDiag, MgrStatus,
                    NodeEntry, Options, SdoOpts, lib)
@@ -62,7 +63,7 @@ class Connection:
               f"connect to cogwd instance {instance!r}")
         self._pump = Pump(self._h)
         self._tls = threading.local()
-        self._subs: dict[tuple[int, int], int] = {}
+        self._subs = SubscriptionCount()
         self._subs_lock = threading.Lock()
 
     # -- life
@@ -119,23 +120,14 @@ class Connection:
     def subscribe(self, line: int, mask: int) -> None:
         """Count a user of each class of mask; subscribe what was not yet."""
         with self._subs_lock:
-            new = 0
-            for bit in (1 << i for i in range(32)):
-                if mask & bit:
-                    n = self._subs.get((line, bit), 0)
-                    self._subs[(line, bit)] = n + 1
-                    new |= bit if n == 0 else 0
+            new = self._subs.add(line, mask)
             if new:
                 check(lib.cogw_subscribe(self._h, line, new, None, 0, self.timeout_ms),
                       f"subscribe line {line}")
 
     def unsubscribe(self, line: int, mask: int) -> None:
         with self._subs_lock:
-            gone = 0
-            for bit in (1 << i for i in range(32)):
-                if mask & bit and self._subs.get((line, bit), 0) > 0:
-                    self._subs[(line, bit)] -= 1
-                    gone |= bit if self._subs[(line, bit)] == 0 else 0
+            gone = self._subs.remove(line, mask)
             if gone and self._h:
                 lib.cogw_unsubscribe(self._h, line, gone, self.timeout_ms)
 
