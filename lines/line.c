@@ -339,6 +339,7 @@ static void handle_requests(line *l)
 		mbx_server_set_lease(l->mbx, a->lease_ms);
 		atomic_store_explicit(&a->state, 0, memory_order_release);
 	}
+	line_nodes_poll(l);
 	line_store_poll(l);
 }
 
@@ -503,6 +504,29 @@ static void apply_rt(line *l, pthread_attr_t *attr)
 		pthread_attr_setschedpolicy(attr, SCHED_FIFO);
 		pthread_attr_setschedparam(attr, &sp);
 	}
+}
+
+int line_set_rt(line *l, int priority, int cpu)
+{
+	struct sched_param sp = { .sched_priority = priority > 0 ? priority : 0 };
+	cpu_set_t set;
+	int rc;
+
+	if (!l->started)
+		return -ESRCH;
+	rc = pthread_setschedparam(l->thread, priority > 0 ? SCHED_FIFO : SCHED_OTHER, &sp);
+	if (rc)
+		return -rc;
+	CPU_ZERO(&set);
+	if (cpu >= 0)
+		CPU_SET(cpu, &set);
+	else /* unpinned: every CPU the process may use */
+		(void)sched_getaffinity(0, sizeof set, &set);
+	if ((rc = pthread_setaffinity_np(l->thread, sizeof set, &set)))
+		return -rc;
+	l->p.rt_priority = priority;
+	l->p.rt_cpu = cpu;
+	return 0;
 }
 
 int line_start(line *l)

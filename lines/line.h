@@ -123,6 +123,24 @@ void line_request_hb_producer(line *l, uint16_t ms); /* reload */
  * Returns 0 (applied), -EINVAL (too many rules), -EBUSY (the previous
  * request is still pending: nothing posted) or -ETIMEDOUT (posted, the
  * line will apply it when it loops again). */
+/* A node added, changed or removed at run time (reload; lines/line_ext.h
+ * line_node_set, docs/config.md "Nodes at run time"): handed to the line
+ * thread, which applies it through its extensions. Waits until it is
+ * applied and returns its result: 0, a negative errno of the extension,
+ * -EOPNOTSUPP (no extension keeps a network list), -ETIMEDOUT (the line
+ * did not take it within a second: it may still apply it; set->cdcf and
+ * set->types must stay valid), -EBUSY (an earlier one is still pending).
+ * Main thread only. */
+int line_request_node(line *l, const line_node_set *set);
+/* A heartbeat consumer of "heartbeat_consumers" (1016h) at run time: the
+ * entry of `node` set to time_ms (0 = no longer consumed), written by the
+ * line thread (reload). Results as line_request_node; -ENOSPC when 1016h
+ * has no free entry. Main thread only. */
+int line_request_consumer(line *l, uint8_t node, uint16_t time_ms);
+/* The line thread's scheduling (lines[].rt) at run time: SCHED_FIFO at
+ * priority (0 = normal scheduling), pinned to cpu (-1 = none). 0 or
+ * -errno (-EPERM without CAP_SYS_NICE). Main thread only. */
+int line_set_rt(line *l, int priority, int cpu);
 int line_request_access(line *l, const mbx_access_rule *rules, size_t n_rules,
 			uint8_t default_access, unsigned lease_ms);
 

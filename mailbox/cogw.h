@@ -338,6 +338,18 @@ int cogw_mgr_start(cogw *h, unsigned line, unsigned timeout_ms);
 /* Request NMT (1F82h): node 1..127 or 128 = all; cmd 4, 5, 6, 7, 127. */
 int cogw_mgr_request_nmt(cogw *h, unsigned line, uint8_t node, uint8_t cmd, unsigned timeout_ms);
 int cogw_mgr_reset_counters(cogw *h, unsigned line, unsigned timeout_ms);
+/* A node added to the manager's network list, changed, or removed without
+ * restarting the line (docs/mailbox.md "Nodes at run time"): req->op
+ * MBX_NODE_ADD / CHANGE / REMOVE; cdcf (cdcf_len bytes, NULL/0 = none) is
+ * the concise DCF for 1F22h:n. Answered once the objects are written and
+ * the node's boot has started (its progress: MGR_BOOT events).
+ * COGW_E_PARAM (own node-ID, not a concise DCF), COGW_E_STATE (network
+ * boot running, slave mode, ADD of an assigned node), COGW_E_NOT_FOUND
+ * (CHANGE/REMOVE of a node not assigned), COGW_E_TOO_BIG (the DCF exceeds
+ * the room of 1F22h:n). */
+int cogw_mgr_node_set(cogw *h, unsigned line, const mbx_mgr_node_set_req *req, const uint8_t *cdcf,
+		      size_t cdcf_len, unsigned timeout_ms);
+int cogw_mgr_node_remove(cogw *h, unsigned line, uint8_t node, unsigned timeout_ms);
 int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st, unsigned timeout_ms);
 int cogw_ping(cogw *h, unsigned line, unsigned timeout_ms);
 

@@ -444,6 +444,31 @@ static int check_mgr_node_req(uint16_t code, const uint8_t *p, size_t len, mbx_b
 	return 0;
 }
 
+/* The NMT state a node is put in after its boot: 0 (= 5), 4, 5, 127. */
+static bool node_target_state_valid(uint8_t state)
+{
+	return state == 0 || state == 4 || state == 5 || state == 127;
+}
+
+static int check_mgr_node_set(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_mgr_node_set_req r;
+
+	(void)code;
+	memcpy(&r, p, sizeof r);
+	if (r.pad)
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (r.node < 1 || r.node > 127 || r.op < MBX_NODE_ADD || r.op > MBX_NODE_REMOVE)
+		return refuse(bad, MBX_BAD_PARAM);
+	if (r.op == MBX_NODE_REMOVE) /* the other fields are not read; no data */
+		return len > sizeof r ? refuse(bad, MBX_BAD_PARAM) : 0;
+	/* a slave (1F81h bit 0), supervised one way: heartbeat or guarding */
+	if ((r.flags & ~MBX_NODE_F_ALL) || r.pdo > 2 || !(r.assignment & 1u) ||
+	    !node_target_state_valid(r.target_state) || (r.heartbeat_ms && (r.assignment >> 16)))
+		return refuse(bad, MBX_BAD_PARAM);
+	return 0;
+}
+
 static int check_mgr_program(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
 {
 	mbx_mgr_program_req r;
@@ -613,6 +638,8 @@ static const mbx_cmd_info cmd_table[] = {
 	{ MBX_CMD_MGR_RESET_COUNTERS, W, 0, 0, "manager-reset-counters", NULL },
 	{ MBX_CMD_MGR_PROGRAM, W | D, sizeof(mbx_mgr_program_req), 0, "manager-program",
 	  check_mgr_program },
+	{ MBX_CMD_MGR_NODE_SET, W | D, sizeof(mbx_mgr_node_set_req), 0, "manager-node-set",
+	  check_mgr_node_set },
 	{ MBX_CMD_GW_ROUTES, R, 0, 0, "gw-routes", NULL },
 	{ MBX_CMD_GW_SDO_UPLOAD, R, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-upload", check_gw_sdo_req },
 	{ MBX_CMD_GW_SDO_DOWNLOAD, W | D, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-download",

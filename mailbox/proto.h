@@ -223,6 +223,9 @@ typedef enum mbx_cmd {
 	MBX_CMD_MGR_RESET_COUNTERS = 0x0A06, /* W - */
 	MBX_CMD_MGR_PROGRAM = 0x0A07,        /* W mbx_mgr_program_req + image
 	                                      * -> mbx_mgr_program_resp */
+	MBX_CMD_MGR_NODE_SET = 0x0A10,       /* W mbx_mgr_node_set_req + concise DCF:
+	                                      * a node added, changed or removed
+	                                      * at run time */
 	/* 0x0Bxx gateway (CiA 302-7, docs/gateway.md) */
 	MBX_CMD_GW_ROUTES = 0x0B01,       /* R - -> mbx_gw_status + mbx_gw_route[n] */
 	MBX_CMD_GW_SDO_UPLOAD = 0x0B02,   /* R mbx_gw_sdo_req -> data, hdr.abort */
@@ -510,6 +513,8 @@ typedef struct mbx_mgr_status {
 	uint32_t keep_op_restarts, network_boots;
 	mbx_mgr_bits assigned, present, booted, operational, stopped, preop, mismatch, errctrl_lost,
 		emcy_active;
+	uint32_t node_changes;         /* MGR_NODE_SET and reloads applied */
+	uint32_t node_changes_refused; /* ... refused by the line (status != 0) */
 } mbx_mgr_status;
 
 typedef struct mbx_mgr_emcy {
@@ -571,6 +576,41 @@ typedef struct mbx_mgr_program_resp {
 	uint32_t expected; /* what it was compared with (0 = nothing) */
 	uint32_t bytes;    /* image bytes sent */
 } mbx_mgr_program_resp;
+
+/* MBX_CMD_MGR_NODE_SET: a slave added to the manager's network list,
+ * changed, or removed, without restarting the line (docs/config.md "Nodes
+ * at run time"). Add and change write 1F84h..1F88h:n, 1F22h:n (the concise
+ * DCF that follows this fixed part; none = an empty 1F22h:n), the 1016h
+ * consumer entry of the node, then 1F81h:n, and run the node's boot slave
+ * process; remove withdraws 1F81h:n, the 1016h entry and 1F22h:n. Refused:
+ * PARAM (the line's own node-ID, a concise DCF that is not one, a
+ * heartbeat and a guard time together), TOO_BIG (the DCF does not fit
+ * 1F22h:n), STATE (the network boot runs, the manager is in slave mode,
+ * or ADD names a node that is assigned already: a duplicate), NOT_FOUND
+ * (CHANGE or REMOVE of a node that is not assigned). Refusals are counted
+ * (mbx_mgr_status.node_changes_refused). */
+enum mbx_node_op {
+	MBX_NODE_ADD = 1,    /* refused when 1F81h:n bit 0 is set */
+	MBX_NODE_CHANGE = 2, /* refused when it is not */
+	MBX_NODE_REMOVE = 3, /* refused when it is not; fields below ignored */
+};
+#define MBX_NODE_F_KEEP_OP 0x01u /* restart it when it leaves OPERATIONAL */
+#define MBX_NODE_F_STORE 0x02u   /* 1010h:1 "save" after a download */
+#define MBX_NODE_F_ALL (MBX_NODE_F_KEEP_OP | MBX_NODE_F_STORE)
+typedef struct mbx_mgr_node_set_req {
+	uint8_t node;         /* 1..127, not the line's own node-ID */
+	uint8_t op;           /* enum mbx_node_op */
+	uint8_t flags;        /* MBX_NODE_F_* */
+	uint8_t target_state; /* after its boot: 5 operational (0 = 5), 127
+	                        * pre-operational, 4 stopped (core/nmt.h) */
+	uint8_t pdo;          /* 0 off, 1 learn, 2 auto (docs/config.md "pdo") */
+	uint8_t pad;
+	uint16_t heartbeat_ms; /* its 1016h consumer time, 0 = none */
+	uint32_t assignment;   /* 1F81h:n: bit 0 set (add, change) */
+	uint32_t identity[5];  /* 1F84h..1F88h:n, 0 = not checked */
+	uint32_t date, time;   /* 1F26h:n/1F27h:n, the configuration's date and
+	                        * time (CiA 302-3: both 0 = always download) */
+} mbx_mgr_node_set_req;
 
 /* MBX_EV_MGR_*: the fields of co_ev_mgr (core/event.h). */
 typedef struct mbx_ev_mgr {

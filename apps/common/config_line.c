@@ -166,6 +166,47 @@ static void line_sync_from_od(cogw_line_config *l)
  * defaults too: a reset communication keeps them. The configuration
  * manager (core/cfgmgr.h) reads them when the node boots. */
 #define COGW_NODE_CDCF_ROOM (16u * 1024u)
+/* A line with a manager gives every other node-ID 1F22h:n too, with this
+ * room: a node added at run time (docs/config.md "Nodes at run time") gets
+ * its concise DCF without an allocation on the line thread. */
+#define COGW_RUNTIME_CDCF_ROOM (4u * 1024u)
+
+static bool node_listed(const cogw_line_config *l, unsigned id)
+{
+	for (size_t i = 0; i < l->n_nodes; i++)
+		if (l->nodes[i].id == id)
+			return true;
+	return false;
+}
+
+uint32_t cogw_node_cdcf_room(const cogw_line_config *l, uint8_t id)
+{
+	for (size_t i = 0; i < l->n_nodes; i++)
+		if (l->nodes[i].id == id)
+			return l->nodes[i].config.cdcf_len > COGW_NODE_CDCF_ROOM
+				       ? (uint32_t)l->nodes[i].config.cdcf_len
+				       : COGW_NODE_CDCF_ROOM;
+	return l->manager.enabled && id >= 1 && id <= 127 && id != l->node_id
+		       ? COGW_RUNTIME_CDCF_ROOM
+		       : 0;
+}
+
+static int runtime_node_objects(struct ctx *c, const char *path, cogw_line_config *l)
+{
+	for (unsigned id = 1; l->manager.enabled && id <= 127; id++) {
+		int rc;
+
+		if (id == l->node_id || node_listed(l, id))
+			continue;
+		rc = co_od_add_cfgmgr_node(l->od, (uint8_t)id, COGW_RUNTIME_CDCF_ROOM);
+		if (rc == -ENOMEM)
+			return rc;
+		if (rc)
+			return cfg_fail(c, path, "cannot add 1F22h:%u (%s)", id, strerror(-rc));
+	}
+	return 0;
+}
+
 static int node_objects(struct ctx *c, const char *path, cogw_line_config *l)
 {
 	for (size_t i = 0; i < l->n_nodes; i++) {
@@ -240,7 +281,7 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path, cogw_line_c
 		co_od_entry_reset(eb);
 	}
 	if ((rc = cfg_gateway_objects(c, l)) || (rc = node_objects(c, path, l)) ||
-	    (rc = cfg_manager_objects(c, path, l)))
+	    (rc = runtime_node_objects(c, path, l)) || (rc = cfg_manager_objects(c, path, l)))
 		return rc;
 	v = json_util_get(o, "objects");
 	if (v) {

@@ -38,6 +38,10 @@ vcan0. It catches bugs that cosim, which runs our own core, would mirror.
     remapped and rebooted is learnt again (checked on the daemon's log line
     per learnt PDO and its boot events); the layout read at start-up from
     an EDS that python-canopen wrote (export_od) equals the device's;
+  - a python-canopen device nobody listed, added to the manager of cogwd's
+    second line at run time (cogwctl node add): its concise DCF downloaded,
+    started, its PDO layout learnt equal to its records, its heartbeat loss
+    reported; removed (cogwctl node remove): no SDO request, no event;
   - the CiA 302-2 manager of cogwd's second line (vcan1) with python-canopen
     slaves: no SDO frame on the bus while the network is stopped (after
     the "stop all" error reaction and after a Request NMT stop), both ways
@@ -1319,6 +1323,75 @@ def test_pdo_layout_from_an_eds_equals_the_device():
     eq("(dummy)", types[(0x0005, 0)], "RPDO dummy entry")
 
 
+RUNTIME_ID = 15    # python-canopen device added to line 1 at run time
+
+
+def concise_dcf(entries):
+    """CiA 302-3 concise DCF: the count, then index, sub, size, data (LE)."""
+    out = struct.pack("<L", len(entries))
+    for index, sub, data in entries:
+        out += struct.pack("<HBL", index, sub, len(data)) + data
+    return out
+
+
+def test_node_added_at_run_time_booted_configured_supervised_removed():
+    """A python-canopen device nobody listed, added to line 1's manager with
+    cogwctl node add: its concise DCF downloaded by cogwd's SDO client into
+    python-canopen's server, started, its PDO layout learnt equal to its own
+    records, its heartbeat supervised; removed: no SDO, no events."""
+    cdc = os.path.join(WORK, "runtime.cdc")
+    with open(cdc, "wb") as f:
+        f.write(concise_dcf([(0x2000, 0, struct.pack("<L", 0x11223344))]))
+    mon = Monitor("boot,manager", line=MGR_LINE)
+    slave = StrictSlave(RUNTIME_ID, scan_device_od(RUNTIME_ID))
+    try:
+        step("the network boot's first pass is over (its objects are locked till then)")
+        deadline = time.monotonic() + 30
+        while manager_state() in ("resetting", "booting") and time.monotonic() < deadline:
+            time.sleep(0.3)
+        step("cogwctl node add: the device boots")
+        ctl("node", "add", str(MGR_LINE), str(RUNTIME_ID), "--heartbeat-ms",
+            str(SLAVE_HB_TIMEOUT_MS), "--device-type", hex(SLAVE_DEVICE_TYPE), "--pdo",
+            "learn", "--dcf", cdc)
+        mon.wait("a 'booted' event of the added node",
+                 lambda: any(e.get("node") == RUNTIME_ID and e.get("done") and
+                             not e.get("status") for e in mon.of("manager-boot")), 30.0)
+        eq(0x11223344, u32(slave.node, 0x2000, 0), "2000h written by the concise DCF")
+        # started with the network (CiA 302-2): while a mandatory slave is
+        # missing the line waits and its booted slaves stay pre-operational
+        wait_state_local(slave, "OPERATIONAL" if manager_state() == "operational"
+                         else "PRE-OPERATIONAL")
+        eq(without_inhibit(device_layout(slave.node)), mapped_layout(RUNTIME_ID),
+           "the layout learnt at run time against the device's records")
+
+        step("its heartbeat stops: the loss is reported")
+        slave.node.nmt.stop_heartbeat()
+        mon.wait("a 'lost' event of the added node",
+                 lambda: any(e.get("node") == RUNTIME_ID and e.get("what") == "lost"
+                             for e in mon.of("manager-node")), 15.0)
+        slave.node.nmt.start_heartbeat(SLAVE_HB_MS)
+
+        step("cogwctl node remove: no SDO, no events for it")
+        ctl("node", "remove", str(MGR_LINE), str(RUNTIME_ID))
+        seen = len(mon.events)
+        mark = len(RECORDER1.frames)
+        slave.node.nmt.stop_heartbeat()
+        time.sleep(SLAVE_HB_TIMEOUT_MS / 1000.0 + 1.0)
+        eq(0, sdo_requests_to(RUNTIME_ID, mark), "SDO requests to the removed node")
+        eq([], [e for e in mon.events[seen:] if e.get("node") == RUNTIME_ID],
+           "events about the removed node")
+    finally:
+        mon.stop()
+        slave.remove()
+
+
+def wait_state_local(slave, state, timeout=10.0):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and slave.state() != state:
+        time.sleep(0.1)
+    eq(state, slave.state(), "NMT state of the python-canopen device")
+
+
 def test_program_by_segmented_transfer_when_block_is_refused():
     """python-canopen's SDO server refuses a block download (05040001h):
     the software manager's image goes by segmented transfer and cogwctl
@@ -1851,6 +1924,7 @@ def main():
                   test_lss_fastscan_and_node_id_assignment,
                   test_pdo_layout_learnt_by_sdo_scan_equals_the_device,
                   test_pdo_layout_from_an_eds_equals_the_device,
+                  test_node_added_at_run_time_booted_configured_supervised_removed,
                   # before the manager test: its end leaves line 1 stopped
                   test_program_by_segmented_transfer_when_block_is_refused,
                   test_manager_no_sdo_while_network_stopped_and_both_ways_out,

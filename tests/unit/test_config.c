@@ -788,8 +788,9 @@ static void test_reload_check(void)
 			   " \"network_id\": 3}]}",
 			   "next", err, sizeof(err)));
 	TEST_ASSERT_FALSE(cogw_config_reload_check(&cfg, &next, what, sizeof(what)));
-	TEST_ASSERT_EQUAL_STRING("mailbox.depth, lines[0].bitrate, lines[1].objects/values, "
-				 "lines[2].objects/values",
+	TEST_ASSERT_EQUAL_STRING("mailbox.depth: needs a restart; lines[0].bitrate: needs a "
+				 "restart; lines[1].objects/values: needs a restart; "
+				 "lines[2].objects/values: needs a restart",
 				 what);
 	cogw_config_free(&next);
 
@@ -797,7 +798,7 @@ static void test_reload_check(void)
 			      cogw_config_load_string(&next, CFG1(""), "next", err, sizeof(err)));
 	TEST_ASSERT_FALSE(cogw_config_reload_check(&cfg, &next, NULL, 0));
 	TEST_ASSERT_FALSE(cogw_config_reload_check(&cfg, &next, what, sizeof(what)));
-	TEST_ASSERT_EQUAL_STRING("lines (count)", what);
+	TEST_ASSERT_EQUAL_STRING("lines (count): needs a restart", what);
 	cogw_config_free(&next);
 }
 
