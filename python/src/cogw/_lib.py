@@ -121,7 +121,8 @@ class MgrStatus(Structure):  # mbx_mgr_status
                 ("network_boots", c_uint32)] + [
                     (n, MgrBits) for n in ("assigned", "present", "booted", "operational",
                                            "stopped", "preop", "mismatch", "errctrl_lost",
-                                           "emcy_active")]
+                                           "emcy_active")] + [
+                    ("node_changes", c_uint32), ("node_changes_refused", c_uint32)]
 
 
 class MgrEmcy(Structure):  # mbx_mgr_emcy

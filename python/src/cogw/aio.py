@@ -342,7 +342,9 @@ class AsyncManager:
 
     async def status(self) -> ManagerStatus:
         d = await self._c.call(self._n, CMD["MGR_STATUS"], b"", "manager status")
-        return manager_status(_fixed(MgrStatus, d, "manager status"))
+        # an older daemon's answer ends before the counters added since: 0 (as libcogw)
+        return manager_status(_fixed(MgrStatus, d.ljust(ctypes.sizeof(MgrStatus), b"\0"),
+                                     "manager status"))
 
     async def boot(self, node: int = 0) -> None:
         await self._c.call(self._n, CMD["MGR_BOOT"], bytes(MgrNodeReq(node)),

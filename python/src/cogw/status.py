@@ -92,7 +92,7 @@ class ManagerStatus:
 
 
 _MGR_COUNTERS = ("nmt_ignored", "unexpected", "duplicates", "errctrl_events", "keep_op_restarts",
-                 "network_boots")
+                 "network_boots", "node_changes", "node_changes_refused")
 _MGR_SETS = ("assigned", "present", "booted", "operational", "stopped", "preop", "mismatch",
              "errctrl_lost", "emcy_active")
 
