@@ -12,7 +12,8 @@
  *
  * - Every call returns 0 (or a count) on success, or a negative COGW_E_*
  *   code (one error space; cogw_strerror() names it). An SDO or local OD
- *   refusal is COGW_E_ABORT with the CiA 301 abort code in *abort.
+ *   refusal is COGW_E_ABORT with the CiA 301 abort code in *abort
+ *   (sdo_abort_to_string() of core/sdo.h names it; libcogw.so carries it).
  * - `line` is the daemon's CAN line (0-based). The library registers with
  *   a line on first use (its queues are created by cogw_open, mode 0600).
  * - Blocking calls take timeout_ms (0 = the handle's default, 5000 ms) for
