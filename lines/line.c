@@ -235,8 +235,8 @@ int line_create(line **out, const line_params *p)
 		line_store_load(l);
 	}
 
-	if ((rc = create_node_and_mailbox(l)) < 0 || (rc = create_epoll_set(l)) < 0 ||
-	    (rc = attach_extensions(l)) < 0)
+	if ((rc = create_node_and_mailbox(l)) < 0 || (rc = line_app_attach(l)) < 0 ||
+	    (rc = create_epoll_set(l)) < 0 || (rc = attach_extensions(l)) < 0)
 		goto fail;
 	*out = l;
 	return 0;
@@ -397,6 +397,9 @@ static uint64_t next_deadline(line *l, uint64_t checkin_period)
 	t = can_port_retry_at_us(l->port);
 	if (t < next)
 		next = t;
+	t = line_app_poll(l, l->now_us); /* indications' deadlines */
+	if (t < next)
+		next = t;
 	t = line_time_poll(l); /* produces the TIME that is due */
 	if (t < next)
 		next = t;
@@ -447,6 +450,9 @@ static void handle_event(line *l, const struct epoll_event *ev)
  * the bus health (lost frames, the transmit queue's watermarks). */
 static void run_due(line *l)
 {
+	/* before the core: an indication's deadline is the SDO server's
+	 * timeout, and the line's own abort must win (docs/sdo-answers.md) */
+	line_app_poll(l, l->now_us);
 	if (l->now_us >= co_node_next_deadline_us(l->node))
 		co_node_tick(l->node, l->now_us);
 	if (can_port_retry_at_us(l->port) <= l->now_us)
@@ -591,6 +597,7 @@ void line_destroy(line *l)
 		return;
 	line_stop(l);
 	detach_extensions(l);
+	line_app_detach(l);
 	mbx_server_destroy(l->mbx);
 	co_node_destroy(l->node);
 	can_port_close(l->port);

@@ -31,6 +31,24 @@ typedef struct line line;
 
 #define LINE_SAFE_OUTPUTS_MAX 32
 
+/* An object of the line's OD that a client may own (docs/application.md):
+ * the object exists (the configuration's "objects"), in 2000h..9FFFh. */
+typedef struct line_app_decl {
+	uint16_t index;
+	uint8_t sub;
+	uint8_t kind; /* mbx_app_kind */
+	uint32_t uid; /* the user whose clients may claim it */
+} line_app_decl;
+
+/* Objects clients own (lines/line_app.c); 0 = the default in brackets. */
+typedef struct line_app_params {
+	const line_app_decl *decl; /* copied by line_create */
+	uint16_t n_decl;
+	uint16_t max_created;        /* objects created at run time, all clients (100) */
+	uint16_t max_per_client;     /* objects one client owns (64) */
+	uint16_t max_ind_per_client; /* indications open to one owner (8) */
+} line_app_params;
+
 typedef struct line_params {
 	uint8_t index;              /* line number, as in mailbox messages */
 	const char *name;           /* "line0", for logs */
@@ -65,6 +83,7 @@ typedef struct line_params {
 	uint32_t app_reactions; /* the configured set (core/appwd.h), 0 = none */
 	uint8_t not_ready_cs;   /* the NMT command host not ready sends to all
 	                         * nodes: stop or enter pre-operational (0 = stop) */
+	line_app_params app;    /* objects clients own */
 } line_params;
 
 /* Counters published by the line thread about once per second. */

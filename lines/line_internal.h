@@ -10,6 +10,9 @@
  *   line_store.c,
  *   line_appwd.c       one family of mailbox commands each: the request
  *                    and its completion in the same file
+ *   line_app.c,
+ *   line_app_ind.c   objects clients own and their indications
+ *                    (line_app.h; line_od.c hands owned objects over)
  *   line_events.c    core and CAN events -> mailbox events
  *   line_pdo.c       RPDO supervision: its events and RPDO_STATUS
  *   line_time.c      the TIME producer's clock
@@ -26,6 +29,7 @@
 
 #include "core/event.h"
 #include "lines/line.h"
+#include "lines/line_app.h"
 #include "lines/line_pending.h"
 
 #define LINE_NODES 128
@@ -150,9 +154,9 @@ struct line {
 	/* the link may have changed: bus state changes, receive errors
 	 * (ENETDOWN when the interface goes down); line_link_events */
 	uint32_t link_events;
-	struct line_app {
+	struct line_appwd {
 		co_appwd wd;
-		co_appwd_effects fx;                /* what trips left behind */
+		co_appwd_effects fx;                  /* what trips left behind */
 		uint32_t holders[LINE_APPWD_HOLDERS]; /* clients holding OPERATIONAL */
 		uint8_t n_holders;
 		bool start_deferred; /* a start was refused: applied at the release */
@@ -176,6 +180,7 @@ struct line {
 		line_tpdo_source src[LINE_TPDO_SOURCE_ENTRIES];
 	} tpdo_sources[LINE_TPDO_SOURCES_MAX];
 	uint32_t tpdo_sources_gen;
+	line_app *app; /* objects clients own (line_app.c) */
 };
 
 /* lines/line_nodes.c: apply a node change the main thread posted. */

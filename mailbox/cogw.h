@@ -12,7 +12,8 @@
  *
  * - Every call returns 0 (or a count) on success, or a negative COGW_E_*
  *   code (one error space; cogw_strerror() names it). An SDO or local OD
- *   refusal is COGW_E_ABORT with the CiA 301 abort code in *abort.
+ *   refusal is COGW_E_ABORT with the CiA 301 abort code in *abort
+ *   (sdo_abort_to_string() of core/sdo.h names it; libcogw.so carries it).
  * - `line` is the daemon's CAN line (0-based). The library registers with
  *   a line on first use (its queues are created by cogw_open, mode 0600).
  * - Blocking calls take timeout_ms (0 = the handle's default, 5000 ms) for
@@ -352,6 +353,41 @@ int cogw_mgr_node_remove(cogw *h, unsigned line, uint8_t node, unsigned timeout_
 int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st, unsigned timeout_ms);
 int cogw_ping(cogw *h, unsigned line, unsigned timeout_ms);
 
+/* ---- objects the client owns (docs/application.md) ------------------------ */
+
+/* Claim an object of the line's own node declared for your user (obj->type
+ * 0, obj->kind as declared), or create one in 2000h..5FFFh / 6000h..9FFFh
+ * (type, access, max_size for strings and DOMAIN; def/def_len its default,
+ * NULL/0 = zeros). Held: the daemon keeps the value (write it with
+ * cogw_od_write or cogw_pdo_write; MBX_EV_APP_WRITTEN tells you of the
+ * writes of others). Served: every read and write reaches you as
+ * MBX_EV_APP_IND (subscribed or not): answer each with cogw_app_answer
+ * within its deadline_ms. COGW_E_ACCESS: another client owns it, or it is
+ * not yours to claim; COGW_E_FULL: the line's or your bound; COGW_E_PARAM:
+ * the description does not match. Claims end with the registration (a
+ * daemon restart, cogw_close): claim again. Needs write access. */
+int cogw_app_claim(cogw *h, unsigned line, const mbx_app_claim_req *obj, const void *def,
+		   size_t def_len, unsigned timeout_ms);
+int cogw_app_release(cogw *h, unsigned line, uint16_t index, uint8_t sub, unsigned timeout_ms);
+/* Answer indication `ind`: abort 0 with the value (a read) or nothing (a
+ * write: accepted, applied), or a CiA 301 abort code (refused: nothing
+ * applied, the requester gets the code). COGW_E_PARAM: not an indication
+ * of yours that is still open (it ended: MBX_EV_APP_CANCEL), or a read's
+ * value that does not fit the object (the requester got 06040047h). */
+int cogw_app_answer(cogw *h, unsigned line, uint32_t ind, uint32_t abort, const void *data,
+		    size_t len, unsigned timeout_ms);
+/* All the data of a write indication (when inline_len < size). */
+int cogw_app_ind_data(cogw *h, unsigned line, uint32_t ind, void *buf, size_t cap, size_t *len,
+		      unsigned timeout_ms);
+/* The line's owned objects (at most cap into objs, *n of them) and its
+ * indication counters. */
+int cogw_app_list(cogw *h, unsigned line, mbx_app_status *st, mbx_app_obj *objs, size_t cap,
+		  size_t *n, unsigned timeout_ms);
+/* MBX_EV_APP_IND / MBX_EV_APP_WRITTEN payloads: the fixed part and the
+ * inline bytes of the value. 0 or COGW_E_PROTOCOL. */
+int cogw_app_ind_parse(const void *payload, size_t len, mbx_ev_app_ind *ind, const uint8_t **data);
+int cogw_app_written_parse(const void *payload, size_t len, mbx_ev_app_written *w,
+			   const uint8_t **data);
 /* ---- the application watchdog, the hold on OPERATIONAL, host ready -------- */
 /* docs/application.md "The application watchdog and host ready". All but
  * cogw_app_status are write-type: COGW_E_ACCESS for read-only clients. */

@@ -34,6 +34,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "mailbox/proto_app.h"
 #include "mailbox/proto_appwd.h"
 #include "mailbox/proto_health.h"
 
@@ -240,8 +241,14 @@ typedef enum mbx_cmd {
 	MBX_CMD_DEV_WRITE = 0x0C05,    /* W mbx_dev_obj_req + data -> mbx_dev_write_resp */
 	MBX_CMD_DEV_FORWARDS = 0x0C06, /* R - -> mbx_dev_forward[n]: this line's ends of
 	                                * gateway.forward with their counters */
-	/* 0x10xx the application watchdog, the hold on OPERATIONAL, host ready
-	 * (mailbox/proto_appwd.h, docs/application.md) */
+	/* 0x0Dxx objects a client owns on the line's own node
+	 * (mailbox/proto_app.h, docs/application.md) */
+	MBX_CMD_APP_CLAIM = 0x0D01,    /* W mbx_app_claim_req + default -> - */
+	MBX_CMD_APP_RELEASE = 0x0D02,  /* W mbx_obj_req -> - */
+	MBX_CMD_APP_ANSWER = 0x0D03,   /* W mbx_app_answer_req + value (chunkable) -> - */
+	MBX_CMD_APP_IND_DATA = 0x0D04, /* W mbx_app_ind_req -> the write's data */
+	MBX_CMD_APP_LIST = 0x0D05,     /* R - -> mbx_app_status + mbx_app_obj[n] */
+	/* 0x10xx application watchdog, hold on OPERATIONAL, host ready (proto_appwd.h) */
 	MBX_CMD_APP_WATCHDOG = 0x1001,  /* W mbx_appwd_req -> mbx_appwd_resp */
 	MBX_CMD_APP_KEEPALIVE = 0x1002, /* W - -> -: NOT_FOUND undeclared, STATE tripped */
 	MBX_CMD_APP_HOLD = 0x1003,      /* W mbx_appwd_hold_req -> mbx_appwd_nmt */
@@ -296,10 +303,11 @@ enum mbx_event_class {
 	MBX_EVC_PDO_FAULT = 1u << 13, /* RPDO supervision: deadline, length */
 	MBX_EVC_VALUE = 1u << 14,     /* typed values of watched device objects; only
 	                               * the objects the client watches (DEV_WATCH) */
-	MBX_EVC_APP = 1u << 16,       /* application watchdog trips, the own node's NMT
-	                         * states and refused starts, host ready */
+	MBX_EVC_APP = 1u << 15,       /* the application (docs/application.md): watchdog
+	                               * trips, own NMT, host ready to subscribers;
+	                               * indications to the owner only, subscribed or not */
 };
-#define MBX_EVC_ALL 0x00017FFFu
+#define MBX_EVC_ALL 0x0000FFFFu
 
 /* Name of a single class bit ("nmt", "hb", ...); "?" otherwise. */
 const char *mbx_event_class_to_string(uint32_t cls);
@@ -335,8 +343,10 @@ typedef enum mbx_event {
 	                                 * new value, to its watchers only */
 	MBX_EV_DEV_MIRROR = 0x0E02,     /* MANAGER mbx_ev_dev_mirror: a node's mirror
 	                                 * PDOs were programmed or released */
-	MBX_EV_APP_WD_TIMEOUT = 0x1001, /* APP mbx_ev_appwd: an essential client missed
-	                                 * its keep-alive deadline */
+	MBX_EV_APP_IND = 0x0F01,        /* APP mbx_ev_app_ind + data: answer with APP_ANSWER */
+	MBX_EV_APP_WRITTEN = 0x0F02,    /* APP mbx_ev_app_written + data: a held object */
+	MBX_EV_APP_CANCEL = 0x0F03,     /* APP mbx_ev_app_cancel: an indication ended */
+	MBX_EV_APP_WD_TIMEOUT = 0x1001, /* APP mbx_ev_appwd: a keep-alive deadline missed */
 	MBX_EV_APP_NMT = 0x1002,        /* APP mbx_appwd_nmt: own NMT state, refused start */
 	MBX_EV_HOST_STATE = 0x1003,     /* APP mbx_ev_host: host ready / not ready */
 } mbx_event;
@@ -1163,6 +1173,13 @@ bool mbx_client_queues_pair(const char *resp, const char *evt);
 bool mbx_instance_is_valid(const char *instance);
 /* "/cogw.<instance>.line<N>.cmd". Returns 0, -EINVAL, -ENAMETOOLONG. */
 int mbx_queue_name(char *buf, size_t cap, const char *instance, unsigned line);
+
+/* An MBX_EV_APP_IND or MBX_EV_APP_WRITTEN payload (mailbox/proto_app.h):
+ * its fixed part into *fixed (mbx_ev_app_ind / mbx_ev_app_written; NULL:
+ * only check), *data (optional) at its inline_len bytes. 0 or
+ * MBX_E_MALFORMED. */
+int mbx_app_event_split(unsigned code, const void *p, size_t len, void *fixed,
+			const uint8_t **data);
 
 /* Does a raw frame match a filter? (see mbx_raw_filter) */
 bool mbx_raw_filter_match(const mbx_raw_filter *f, const mbx_raw_frame *fr);

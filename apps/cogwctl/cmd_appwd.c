@@ -1,11 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * cogwctl app / host: the application watchdog, the hold on the daemon's
- * own OPERATIONAL and host ready / not ready (docs/application.md,
- * "The application watchdog and host ready"). `app` shows a line's
- * watchdogs and counters, or runs as an essential client (keep-alives
- * until a signal) or as a holder; `host` says ready or not ready.
- * `cogwctl status` prints the summary line from here too.
+ * cogwctl app (its watchdog part) / host: the application watchdog, the
+ * hold on the daemon's own OPERATIONAL and host ready / not ready
+ * (docs/application.md, "The application watchdog and host ready").
+ * cmd_app.c owns the verb: it shows a line's watchdogs and counters from
+ * here, and hands `app LINE essential|hold` over (running as an essential
+ * client, keep-alives until a signal, or as a holder); `host` says ready
+ * or not ready. `cogwctl status` prints the summary line from here too.
  */
 #include <errno.h>
 #include <inttypes.h>
@@ -78,11 +79,11 @@ void ctl_appwd_json(cJSON *o, const mbx_appwd_status *st, const mbx_appwd_entry 
 	}
 }
 
-static void app_text(unsigned line, const mbx_appwd_status *st, const mbx_appwd_entry *wd)
+static void app_text(const mbx_appwd_status *st, const mbx_appwd_entry *wd)
 {
 	char set[160];
-	printf("line %u: host %s, own node %s%s, %u holder%s\n", line,
-	       st->host_ready ? "ready" : "NOT READY", co_nmt_state_to_string(st->own_state),
+	printf("  host %s, own node %s%s, %u holder%s\n", st->host_ready ? "ready" : "NOT READY",
+	       co_nmt_state_to_string(st->own_state),
 	       st->flags & MBX_APPWD_NMT_DEFERRED ? " (start deferred)" : "", st->holders,
 	       st->holders == 1 ? "" : "s");
 	mbx_appwd_reactions_format(st->configured, set, sizeof set);
@@ -111,7 +112,7 @@ static void app_text(unsigned line, const mbx_appwd_status *st, const mbx_appwd_
 	}
 }
 
-static int show(ctl *c, cogw *h, unsigned line, cJSON *arr)
+int ctl_appwd_show(ctl *c, cogw *h, unsigned line, cJSON *o)
 {
 	char ctx[48];
 	mbx_appwd_status st;
@@ -120,14 +121,10 @@ static int show(ctl *c, cogw *h, unsigned line, cJSON *arr)
 	int n = cogw_app_status(h, line, &st, wd, MBX_APPWD_MAX, c->timeout_ms);
 	if (n < 0)
 		return ctl_fail(c, n, 0, ctx);
-	if (arr) {
-		cJSON *o = cJSON_CreateObject();
-		cJSON_AddNumberToObject(o, "line", line);
+	if (o)
 		ctl_appwd_json(o, &st, wd);
-		cJSON_AddItemToArray(arr, o);
-	} else {
-		app_text(line, &st, wd);
-	}
+	else
+		app_text(&st, wd);
 	return 0;
 }
 
@@ -256,7 +253,15 @@ static int essential_args(ctl *c, const char *interval, const char *react, essen
 	return 0;
 }
 
-static int run(ctl *c, int argc, char **argv)
+bool ctl_appwd_wants(int argc, char **argv)
+{
+	for (int i = 1; i < argc; i++)
+		if (!strcmp(argv[i], "essential") || !strcmp(argv[i], "hold"))
+			return true;
+	return false;
+}
+
+int ctl_appwd_run(ctl *c, int argc, char **argv, const ctl_cmd *cmd)
 {
 	const char *pos[MBX_LINES_MAX], *interval = NULL, *react = NULL;
 	essential_opts o = { 0 };
@@ -269,10 +274,9 @@ static int run(ctl *c, int argc, char **argv)
 	if (rc)
 		return rc;
 	if (c->help)
-		return ctl_print_help(&ctl_cmd_appwd);
-	bool verb = n_pos == 2 && (!strcmp(pos[1], "essential") || !strcmp(pos[1], "hold"));
-	if (!verb)
-		return ctl_each_line(c, pos, n_pos, show);
+		return ctl_print_help(cmd);
+	if (n_pos != 2 || (strcmp(pos[1], "essential") && strcmp(pos[1], "hold")))
+		return ctl_usage_error(c, "app LINE essential|hold");
 	unsigned line;
 	if (ctl_arg_line(c, pos[0], &line) < 0)
 		return CTL_EXIT_USAGE;
@@ -283,37 +287,6 @@ static int run(ctl *c, int argc, char **argv)
 		return ex;
 	return !strcmp(pos[1], "hold") ? hold(c, h, line) : essential(c, h, line, &o);
 }
-
-const ctl_cmd ctl_cmd_appwd = {
-	.name = "app",
-	.synopsis = "  app [LINE...] | app LINE essential|hold  application watchdog, hold\n",
-	.help = "usage: cogwctl app [LINE...]\n"
-		"       cogwctl app LINE essential --interval MS [--react LIST|configured] "
-		"[--rearm]\n"
-		"       cogwctl app LINE hold\n"
-		"\n"
-		"Without a verb: per line whether the host is ready, the own node's NMT state and\n"
-		"its holders, the configured reactions and safe outputs, the essential clients\n"
-		"with their state and time left, the last trip and the counters.\n"
-		"\n"
-		"essential declares this cogwctl essential for LINE (write rights) and sends a\n"
-		"keep-alive every MS/4 until SIGINT/SIGTERM, then withdraws. Stopped (SIGSTOP)\n"
-		"or killed, it misses its deadline and the line runs the reactions: LIST is a\n"
-		"comma-separated set of emcy, nmt-preop, nmt-stop, nmt-reset-comm, "
-		"nmt-reset-node,\n"
-		"hb-stop, safe-outputs (at most one nmt-*), default the line's configured set.\n"
-		"After a trip it exits 1, or with --rearm declares again (which acknowledges the\n"
-		"trip) and goes on.\n"
-		"\n"
-		"hold keeps the daemon's own node out of OPERATIONAL (a start is deferred) until\n"
-		"SIGINT/SIGTERM, then says ready. docs/application.md has the whole story.\n"
-		"\n"
-		"Examples:\n"
-		"  cogwctl app\n"
-		"  cogwctl app 0 essential --interval 200 --react emcy,nmt-stop,safe-outputs\n"
-		"  cogwctl app 0 hold\n",
-	.run = run,
-};
 
 /* ---- host ready / not ready ------------------------------------------------- */
 
@@ -349,7 +322,7 @@ const ctl_cmd ctl_cmd_host = {
 		"\n"
 		"not-ready stops LINE's process data: the safe outputs are written (their TPDOs\n"
 		"sent), the line's NMT master stops the network (or puts it into\n"
-		"pre-operational, lines[].application.not_ready_nmt), the daemon's own node goes\n"
+		"pre-operational, lines[].app.not_ready_nmt), the daemon's own node goes\n"
 		"PRE-OPERATIONAL (its TPDOs stop) and requests for the line's nodes are refused\n"
 		"(status STATE) until ready, which starts the network and the own node again.\n"
 		"Needs write rights. docs/application.md has the details.\n"

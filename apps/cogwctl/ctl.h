@@ -140,12 +140,16 @@ typedef struct ctl_cmd {
 extern const ctl_cmd ctl_cmd_status, ctl_cmd_sdo, ctl_cmd_od, ctl_cmd_nmt, ctl_cmd_pdo,
 	ctl_cmd_emcy, ctl_cmd_lss, ctl_cmd_monitor, ctl_cmd_raw, ctl_cmd_dcf, ctl_cmd_route,
 	ctl_cmd_manager, ctl_cmd_boot, ctl_cmd_diag, ctl_cmd_program, ctl_cmd_configure,
-	ctl_cmd_watch, ctl_cmd_dev, ctl_cmd_health, ctl_cmd_node, ctl_cmd_appwd, ctl_cmd_host;
+	ctl_cmd_watch, ctl_cmd_dev, ctl_cmd_health, ctl_cmd_node, ctl_cmd_app, ctl_cmd_host;
 
 /* Run one(c, h, line, arr) for the lines given as
  * positionals (or every line of the daemon); with --json one object
  * {"ok":true,"instance":...,"lines":arr} of what each added to arr. */
 int ctl_each_line(ctl *c, const char *const *pos, int n_pos,
+		  int (*one)(ctl *c, cogw *h, unsigned line, cJSON *arr));
+/* A whole command of the form `cogwctl CMD [LINE...]` (options, --help,
+ * then ctl_each_line): its exit status. */
+int ctl_run_lines(ctl *c, int argc, char **argv, const ctl_cmd *cmd,
 		  int (*one)(ctl *c, cogw *h, unsigned line, cJSON *arr));
 
 /* cmd_health.c: the health summary line of `status`, and its JSON. */
@@ -156,6 +160,12 @@ void ctl_health_json(cJSON *o, const mbx_line_health *hl);
  * (wd: st->n entries). */
 void ctl_appwd_summary_text(const mbx_appwd_status *st);
 void ctl_appwd_json(cJSON *o, const mbx_appwd_status *st, const mbx_appwd_entry *wd);
+/* cmd_appwd.c, for `app` (cmd_app.c): a line's watchdog, hold and host
+ * ready, into o (--json) or printed; whether argv asks for essential or
+ * hold, and running them (cmd: for --help). */
+int ctl_appwd_show(ctl *c, cogw *h, unsigned line, cJSON *o);
+bool ctl_appwd_wants(int argc, char **argv);
+int ctl_appwd_run(ctl *c, int argc, char **argv, const ctl_cmd *cmd);
 
 /* cmd_dev.c: "pdo map [LINE [NODE]]" (pos[0] = "map"). */
 int ctl_pdo_map(ctl *c, int n_pos, const char **pos);

@@ -201,6 +201,17 @@ static int create_lines(daemon_state *d)
 		_Static_assert(COGW_SAFE_OUTPUTS_MAX <= LINE_SAFE_OUTPUTS_MAX, "safe outputs");
 		memcpy(p.safe_outputs, lc->appwd.safe_outputs,
 		       lc->appwd.n_safe_outputs * sizeof p.safe_outputs[0]);
+		line_app_decl decl[COGW_APP_DECL_MAX];
+		for (uint16_t k = 0; k < lc->app.n_decl; k++)
+			decl[k] = (line_app_decl){ .index = lc->app.decl[k].index,
+						   .sub = lc->app.decl[k].sub,
+						   .kind = lc->app.decl[k].kind,
+						   .uid = lc->app.decl[k].uid };
+		p.app = (line_app_params){ .decl = decl,
+					   .n_decl = lc->app.n_decl,
+					   .max_created = lc->app.max_created,
+					   .max_per_client = lc->app.max_per_client,
+					   .max_ind_per_client = lc->app.indications };
 		cogwd_exts_for_line(&d->exts, (unsigned)i, p.ext);
 		rc = line_create(&d->lines[i], &p);
 		if (rc < 0)

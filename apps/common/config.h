@@ -116,8 +116,8 @@ typedef struct cogw_devobj_config {
 	uint16_t watches;         /* watch table of the line */
 } cogw_devobj_config;
 
-/* "application" of a line: the application watchdog's configured reactions,
- * host not ready's NMT action, the safe outputs (docs/config.md,
+/* The application watchdog's keys of a line's "app": its configured
+ * reactions, host not ready's NMT action, the safe outputs (docs/config.md,
  * docs/application.md). */
 #define COGW_SAFE_OUTPUTS_MAX 32u
 typedef struct cogw_appwd_config {
@@ -126,6 +126,22 @@ typedef struct cogw_appwd_config {
 	uint8_t n_safe_outputs;
 	co_safe_output safe_outputs[COGW_SAFE_OUTPUTS_MAX];
 } cogw_appwd_config;
+/* "app" of a line: objects clients own (docs/application.md). */
+#define COGW_APP_DECL_MAX 256
+typedef struct cogw_app_decl {
+	uint16_t index;
+	uint8_t sub;
+	uint8_t kind; /* mbx_app_kind */
+	uint32_t uid;
+} cogw_app_decl;
+
+typedef struct cogw_app_config {
+	uint16_t max_created;    /* run-time objects of the line (100) */
+	uint16_t max_per_client; /* (64) */
+	uint16_t indications;    /* open to one owner (8) */
+	cogw_app_decl decl[COGW_APP_DECL_MAX];
+	uint16_t n_decl;
+} cogw_app_config;
 
 typedef struct cogw_line_config {
 	char name[COGW_NAME_MAX];      /* "line0" (default "line<N>") */
@@ -158,7 +174,8 @@ typedef struct cogw_line_config {
 	uint8_t pdo;                       /* cogw_pdo_mode, the nodes' default */
 	uint16_t pdo_scan_max;             /* PDOs per direction scanned and kept, 1..512 */
 	cogw_devobj_config device_objects; /* "device_objects" */
-	cogw_appwd_config appwd;           /* "application" */
+	cogw_app_config app;               /* "app": objects clients own */
+	cogw_appwd_config appwd;           /* "app": the watchdog, host not ready */
 } cogw_line_config;
 
 typedef struct cogw_mailbox_config {

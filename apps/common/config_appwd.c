@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * apps/common/config_appwd.c - a line's "application": the application
- * watchdog's configured reactions, the NMT action of host not ready and
- * the safe outputs (docs/config.md "application", docs/application.md).
+ * apps/common/config_appwd.c - the application watchdog's keys of a line's
+ * "app": its configured reactions, the NMT action of host not ready and
+ * the safe outputs (docs/config.md "The application", docs/application.md).
  * Read after the line's object dictionary is built: a safe output names
  * one of its objects and its value is encoded by that object's type.
  */
@@ -16,8 +16,6 @@
 #include "core/nmt.h"
 #include "mailbox/proto.h"
 
-static const char *const app_keys[] = { "watchdog_reactions", "not_ready_nmt", "safe_outputs",
-					"comment", NULL };
 static const char *const safe_keys[] = { "index", "sub", "value", "comment", NULL };
 
 static int parse_reactions(struct ctx *c, const cJSON *v, const char *path, uint32_t *out)
@@ -58,8 +56,18 @@ static int parse_not_ready(struct ctx *c, const cJSON *v, const char *path, uint
 
 /* One safe output: an application object of the line (not 1000h..1FFFh),
  * at most 8 bytes, its value valid for it, named once. */
-static int parse_safe_output(struct ctx *c, const cJSON *o, const char *path, co_od *od,
-			     cogw_appwd_config *a)
+/* A served object's value is its owner's and never read from the OD: a
+ * safe value written there would reach nobody (docs/application.md). */
+static bool is_served(const cogw_app_config *app, uint16_t index, uint8_t sub)
+{
+	for (uint16_t i = 0; i < app->n_decl; i++)
+		if (app->decl[i].index == index && app->decl[i].sub == sub)
+			return app->decl[i].kind == MBX_APP_SERVED;
+	return false;
+}
+
+static int parse_safe_output(struct ctx *c, const cJSON *o, const char *path,
+			     const cogw_line_config *l, cogw_appwd_config *a)
 {
 	co_safe_output *s = &a->safe_outputs[a->n_safe_outputs];
 	json_od_buf buf = { .buf = s->value, .cap = sizeof s->value };
@@ -77,8 +85,11 @@ static int parse_safe_output(struct ctx *c, const cJSON *o, const char *path, co
 		return rc;
 	if (s->index < 0x2000)
 		return cfg_fail(c, p, "%04Xh is a communication object, not an output", s->index);
-	if (!(e = co_od_find(od, s->index, s->sub)))
+	if (!(e = co_od_find(l->od, s->index, s->sub)))
 		return cfg_fail(c, p, "%04Xh:%02X is not an object of this line", s->index, s->sub);
+	if (is_served(&l->app, s->index, s->sub))
+		return cfg_fail(c, p, "%04Xh:%02X is served by a client, not an output", s->index,
+				s->sub);
 	for (unsigned i = 0; i < a->n_safe_outputs; i++)
 		if (a->safe_outputs[i].index == s->index && a->safe_outputs[i].sub == s->sub)
 			return cfg_fail(c, p, "%04Xh:%02X is named twice", s->index, s->sub);
@@ -93,8 +104,8 @@ static int parse_safe_output(struct ctx *c, const cJSON *o, const char *path, co
 	return 0;
 }
 
-static int parse_safe_outputs(struct ctx *c, const cJSON *v, const char *path, co_od *od,
-			      cogw_appwd_config *a)
+static int parse_safe_outputs(struct ctx *c, const cJSON *v, const char *path,
+			      const cogw_line_config *l, cogw_appwd_config *a)
 {
 	char p[JSON_PATH_MAX];
 	const cJSON *it;
@@ -107,25 +118,22 @@ static int parse_safe_outputs(struct ctx *c, const cJSON *v, const char *path, c
 	cJSON_ArrayForEach(it, v)
 	{
 		json_util_path_index(p, sizeof p, path, i++);
-		if ((rc = parse_safe_output(c, it, p, od, a)))
+		if ((rc = parse_safe_output(c, it, p, l, a)))
 			return rc;
 	}
 	return 0;
 }
 
-int cfg_parse_application(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l)
+int cfg_parse_appwd(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l)
 {
 	cogw_appwd_config *a = &l->appwd;
 	char p[JSON_PATH_MAX];
 	const cJSON *v;
 	int rc;
 
-	a->not_ready_cs = CO_NMT_CS_STOP;
-	if ((rc = cfg_check_object(c, o, path, app_keys)))
-		return rc;
 	if ((v = json_util_get(o, "safe_outputs"))) {
 		json_util_path_key(p, sizeof p, path, "safe_outputs");
-		if ((rc = parse_safe_outputs(c, v, p, l->od, a)))
+		if ((rc = parse_safe_outputs(c, v, p, l, a)))
 			return rc;
 	}
 	if ((v = json_util_get(o, "not_ready_nmt"))) {

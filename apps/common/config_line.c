@@ -53,7 +53,7 @@ static const char *const line_keys[] = { "name",
 					 "device_objects",
 					 "fault_quiet_ms",
 					 "id_conflict_quiet_ms",
-					 "application",
+					 "app",
 					 "comment",
 					 NULL };
 
@@ -315,6 +315,12 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path, cogw_line_c
 		if (rc || (rc = cfg_check_attached_routes(c, path, l->od)))
 			return rc;
 	}
+	v = json_util_get(o, "app");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "app");
+		if ((rc = cfg_parse_app(c, v, p, l)))
+			return rc;
+	}
 	line_sync_from_od(l);
 	return 0;
 }
@@ -337,6 +343,10 @@ static void line_defaults(cogw_line_config *l, size_t idx)
 	l->device_objects = (cogw_devobj_config){ .read_max_age_ms = 1000,
 						  .write_update_ms = 10,
 						  .watches = 64 };
+	l->app.max_created = 100;
+	l->app.max_per_client = 64;
+	l->app.indications = 8;
+	l->appwd.not_ready_cs = CO_NMT_CS_STOP;
 }
 
 static int parse_interface(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l)
@@ -558,15 +568,7 @@ int cfg_parse_line(struct ctx *c, const cJSON *o, size_t idx, cogw_line_config *
 	so->sdo_servers = l->sdo_servers;
 	so->sdo_clients = l->sdo_clients;
 	so->gateway = true;
-	if ((rc = build_od(c, o, path, l, so)))
-		return rc;
-	l->appwd.not_ready_cs = CO_NMT_CS_STOP;
-	const cJSON *app = json_util_get(o, "application");
-	if (!app)
-		return 0;
-	char p[JSON_PATH_MAX];
-	json_util_path_key(p, sizeof(p), path, "application");
-	return cfg_parse_application(c, app, p, l);
+	return build_od(c, o, path, l, so);
 }
 
 int cfg_check_unique(struct ctx *c, const cogw_config *cfg, size_t i)

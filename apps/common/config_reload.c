@@ -78,6 +78,14 @@ static bool od_same(const co_od *a, const co_od *b)
 	}
 }
 
+/* "app": the bounds and the declared objects, in order. */
+static bool app_same(const cogw_app_config *x, const cogw_app_config *y)
+{
+	return x->max_created == y->max_created && x->max_per_client == y->max_per_client &&
+	       x->indications == y->indications && x->n_decl == y->n_decl &&
+	       !memcmp(x->decl, y->decl, x->n_decl * sizeof x->decl[0]);
+}
+
 /* Everything a node entry says that the line follows at run time. */
 static bool node_same(const cogw_node *a, const cogw_node *b)
 {
@@ -198,7 +206,7 @@ static void line_diff(const cogw_line_config *x, const cogw_line_config *y, size
 	LDIFF(memcmp(&x->manager, &y->manager, sizeof(x->manager)), "manager");
 	LDIFF(memcmp(&x->device_objects, &y->device_objects, sizeof(x->device_objects)),
 	      "device_objects");
-	LDIFF(memcmp(&x->appwd, &y->appwd, sizeof(x->appwd)), "application");
+	LDIFF(!app_same(&x->app, &y->app) || memcmp(&x->appwd, &y->appwd, sizeof(x->appwd)), "app");
 #undef LDIFF
 	d->changed = d->changed || before;
 }

@@ -50,6 +50,11 @@ vcan0. It catches bugs that cosim, which runs our own core, would mirror.
     and reported by segmented transfer; the application watchdog's NMT stop
     (an essential cogwctl killed) and host not ready / ready as the slaves
     see them;
+  - objects a client owns on cogwd's node (cogw-app-example): python-canopen
+    reads and writes its served and held objects (expedited, segmented,
+    block), receives the TPDO that maps the held counter with the
+    application's values, gets the application's abort code for a refused
+    write and 08000021h once the application is gone;
   - device objects on cogwd's third line (vcan2) with python-canopen
     LocalNode devices whose EDS (written by the test) gives their PDOs: the
     layouts from the files and the daemon's PDOs mirroring them (cogwctl pdo
@@ -243,7 +248,7 @@ CONFIG = {
         "sdo_timeout_ms": int(SDO_TIMEOUT_S * 1000),
         "time_period_ms": TIME_PERIOD_MS,
         "id_conflict_quiet_ms": ID_CONFLICT_QUIET_MS,
-        "rpdos": 1,
+        "rpdos": 1, "tpdos": 1,  # TPDO 1: mapped by cogw-app-example (test_app_*)
         "objects": [
             {"index": "0x2000", "name": "big domain", "type": "DOMAIN", "access": "rw",
              "max_size": 4096},
@@ -1955,6 +1960,92 @@ def test_mirror_supervises_a_device_tpdo_with_an_event_timer():
         d20.remove_network()
 
 
+# ---------------------------------------------------------------------------
+# objects a client owns on cogwd's node (docs/application.md): the example
+# application cogw-app-example owns 2400h (served set-point, refused above
+# its limit), 2401h (served status text) and 2402h (held counter mapped into
+# cogwd's TPDO 1); python-canopen is the SDO client on the bus
+
+APP_BASE = 0x2400
+APP_TPDO_COB = 0x1E0
+APP_LIMIT = 1000
+
+
+def start_app_example():
+    log = open(os.path.join(WORK, "app.log"), "w")
+    p = subprocess.Popen([os.path.join(BIN, "cogw-app-example"), "--instance", INSTANCE,
+                          "--line", "0", "--base", hex(APP_BASE), "--limit", str(APP_LIMIT),
+                          "--period-ms", "100", "--tpdo", "1", "--cob", hex(APP_TPDO_COB)],
+                         stdout=log, stderr=subprocess.STDOUT, cwd=TOP)
+    PROCS["app"] = p
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline and "objects" not in read_log("app"):
+        check(p.poll() is None, "cogw-app-example exited: " + read_log("app"))
+        time.sleep(0.1)
+    check("objects" in read_log("app"), "cogw-app-example did not start: " + read_log("app"))
+    return p
+
+
+def test_app_objects_served_and_held_with_python_canopen():
+    ours = remote(OUR_ID)
+    app = start_app_example()
+    try:
+        nmt(OUR_ID, "start")  # PDOs run in OPERATIONAL
+        step("served set-point: written and read back in every mode")
+        for i, mode in enumerate(("expedited", "segmented", "block")):
+            v = struct.pack("<L", 100 + i)
+            sdo_write(ours, APP_BASE, 0, v, mode)
+            eq(v, bytes(sdo_read(ours, APP_BASE, 0, mode)), f"set-point read back ({mode})")
+        step("a write the application refuses: its abort code, nothing applied")
+        for mode in ("expedited", "segmented", "block"):
+            try:
+                sdo_write(ours, APP_BASE, 0, struct.pack("<L", APP_LIMIT + 1), mode)
+                raise AssertionError(f"a set-point above the limit was accepted ({mode})")
+            except SdoAbortedError as e:
+                eq(0x06090031, e.code, f"abort of the refused write ({mode})")
+        eq(struct.pack("<L", 102), bytes(ours.sdo.upload(APP_BASE, 0)), "set-point unchanged")
+        step("served status text, segmented and block")
+        text = bytes(ours.sdo.upload(APP_BASE + 1, 0))
+        check(text.startswith(b"running: "), f"status text {text!r}")
+        text = bytes(sdo_read(ours, APP_BASE + 1, 0, "block"))
+        check(text.startswith(b"running: "), f"status text by block {text!r}")
+        step("held counter: SDO reads never wait, the TPDO carries the owner's value")
+        mark = len(RECORDER.frames)
+        frames = wait_frames(mark, APP_TPDO_COB, 3)
+        check(len(frames) >= 3, f"TPDOs of the counter: {frames!r}")
+        a = struct.unpack("<H", frames[-2])[0]
+        b = struct.unpack("<H", frames[-1])[0]
+        eq((a + 1) & 0xFFFF, b, "consecutive counter values in the TPDO")
+        for mode in ("expedited", "segmented", "block"):
+            c = struct.unpack("<H", bytes(sdo_read(ours, APP_BASE + 2, 0, mode)))[0]
+            check(c >= b, f"counter read by SDO ({mode}) {c} behind the TPDO's {b}")
+        step("held counter written from the bus: the application counts on from there")
+        sdo_write(ours, APP_BASE + 2, 0, struct.pack("<H", 30000), "expedited")
+        mark = len(RECORDER.frames)
+        deadline = time.monotonic() + 5
+        seen = []
+        while time.monotonic() < deadline:
+            seen = [struct.unpack("<H", f)[0] for f in frames_since(mark, APP_TPDO_COB)]
+            if any(30000 < v < 30100 for v in seen):
+                break
+            time.sleep(0.05)
+        check(any(30000 < v < 30100 for v in seen), f"TPDO after the write: {seen}")
+        step("the application gone: its served objects answer 08000021h")
+        stop_process(app)
+        try:
+            ours.sdo.upload(APP_BASE, 0)
+            raise AssertionError("a served object answered without its owner")
+        except SdoAbortedError as e:
+            eq(0x08000021, e.code, "abort without an owner")
+        r = ctl("app", "0", "--json")
+        listed = json.loads(r.stdout)["lines"][0]
+        check(listed["answered"] >= 12, f"cogwctl app counters: {listed}")
+        eq(1, listed["no_owner"], "accesses answered 08000021h")
+    finally:
+        stop_process(app)
+        nmt(OUR_ID, "preop")
+
+
 def main():
     logging.basicConfig(level=logging.CRITICAL)  # the tests report, not the library
     # a hang shows where it is: every thread's stack, every 5 minutes
@@ -1987,7 +2078,8 @@ def main():
                   test_manager_no_sdo_while_network_stopped_and_both_ways_out,
                   test_watchdog_and_host_not_ready_seen_by_python_slaves,
                   test_device_objects_mirror_values_and_writes,
-                  test_mirror_supervises_a_device_tpdo_with_an_event_timer):
+                  test_mirror_supervises_a_device_tpdo_with_an_event_timer,
+                  test_app_objects_served_and_held_with_python_canopen):
             only = os.environ.get("COGW_TEST_ONLY")  # comma-separated substrings
             if only and not any(o in t.__name__ for o in only.split(",")):
                 continue

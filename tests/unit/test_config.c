@@ -18,6 +18,7 @@
 #include "apps/common/json_od.h"
 #include "core/od.h"
 #include "core/sdo.h"
+#include "mailbox/proto.h"
 
 static cogw_config cfg;
 static char err[512];
@@ -490,6 +491,60 @@ static void test_bad_object_definitions(void)
 			  "\"default\": 18446744073709551615}]"),
 		     "t.json: lines[0].objects[0].default: 1.8446744073709552e+19 is beyond the "
 		     "exact range of JSON numbers; write it as a string (\"0x...\")");
+}
+
+/* "app": objects clients own (docs/application.md), checked against the
+ * line's objects. */
+#define APP_OBJS                                                                                  \
+	", \"objects\": [{\"index\": \"0x2100\", \"type\": \"UNSIGNED32\"},"                      \
+	" {\"index\": \"0x2101\", \"type\": \"UNSIGNED16\", \"access\": \"rwr\", \"pdo\": true}," \
+	" {\"index\": \"0xA000\", \"type\": \"UNSIGNED8\"}]"
+
+static void test_app_objects(void)
+{
+	load_ok(CFG1(APP_OBJS ", \"app\": {\"indications\": 4, \"objects\": ["
+			      "{\"index\": \"0x2100\", \"kind\": \"served\", \"uid\": 1001},"
+			      "{\"index\": \"0x2101\", \"kind\": \"held\", \"user\": \"root\"}]}"));
+	const cogw_app_config *a = &cfg.lines[0].app;
+	TEST_ASSERT_EQUAL(2, a->n_decl);
+	TEST_ASSERT_EQUAL_HEX16(0x2100, a->decl[0].index);
+	TEST_ASSERT_EQUAL(MBX_APP_SERVED, a->decl[0].kind);
+	TEST_ASSERT_EQUAL(1001, a->decl[0].uid);
+	TEST_ASSERT_EQUAL(MBX_APP_HELD, a->decl[1].kind);
+	TEST_ASSERT_EQUAL(0, a->decl[1].uid);
+	TEST_ASSERT_EQUAL(100, a->max_created);
+	TEST_ASSERT_EQUAL(64, a->max_per_client);
+	TEST_ASSERT_EQUAL(4, a->indications);
+	cogw_config_free(&cfg);
+	memset(&cfg, 0, sizeof cfg);
+	expect_error(CFG1(APP_OBJS ", \"app\": {\"objects\": [{\"index\": \"0x2102\", "
+				   "\"kind\": \"held\", \"uid\": 1}]}"),
+		     "t.json: lines[0].app.objects[0]: 2102h:0 is not in the line's \"objects\"");
+	expect_error(CFG1(APP_OBJS ", \"app\": {\"objects\": [{\"index\": \"0xA000\", "
+				   "\"kind\": \"held\", \"uid\": 1}]}"),
+		     "t.json: lines[0].app.objects[0].index: A000h: objects clients own are in "
+		     "2000h..9FFFh");
+	expect_error(CFG1(APP_OBJS ", \"app\": {\"objects\": [{\"index\": \"0x1017\", "
+				   "\"kind\": \"held\", \"uid\": 1}]}"),
+		     "t.json: lines[0].app.objects[0].index: 1017h: objects clients own are in "
+		     "2000h..9FFFh");
+	expect_error(CFG1(APP_OBJS ", \"app\": {\"objects\": [{\"index\": \"0x2101\", "
+				   "\"kind\": \"served\", \"uid\": 1}]}"),
+		     "t.json: lines[0].app.objects[0]: 2101h:0: a served object cannot be "
+		     "PDO-mappable");
+	expect_error(
+		CFG1(APP_OBJS ", \"app\": {\"objects\": [{\"index\": \"0x2100\", "
+			      "\"kind\": \"mine\", \"uid\": 1}]}"),
+		"t.json: lines[0].app.objects[0].kind: unknown kind \"mine\" (held or served)");
+	expect_error(CFG1(APP_OBJS ", \"app\": {\"objects\": [{\"index\": \"0x2100\", "
+				   "\"kind\": \"held\"}]}"),
+		     "t.json: lines[0].app.objects[0]: give either \"user\" or \"uid\"");
+	expect_error(CFG1(APP_OBJS ", \"app\": {\"objects\": ["
+				   "{\"index\": \"0x2100\", \"kind\": \"held\", \"uid\": 1},"
+				   "{\"index\": \"0x2100\", \"kind\": \"held\", \"uid\": 2}]}"),
+		     "t.json: lines[0].app.objects[1]: 2100h:0 declared twice");
+	expect_error(CFG1(APP_OBJS ", \"app\": {\"indications\": 33}"),
+		     "t.json: lines[0].app.indications: 33 is out of range 1..32");
 }
 
 static void test_bad_values(void)
@@ -1107,6 +1162,7 @@ int main(void)
 	RUN_TEST(test_too_many_lines_and_rules);
 	RUN_TEST(test_access_rules);
 	RUN_TEST(test_bad_object_definitions);
+	RUN_TEST(test_app_objects);
 	RUN_TEST(test_bad_values);
 	RUN_TEST(test_od_typed_values);
 	RUN_TEST(test_limits_enforced_after_load);

@@ -160,8 +160,10 @@ static int fill_key_defaults(struct key_default *k)
 	KD("`lines[]`", "tpdos", "%u", count_records(l->od, 0x1800));
 	KD("`lines[]`", "pdo", "%s", l->pdo == 0 ? "off" : "not off");
 	KD("`lines[]`", "pdo_scan_max", "%u", l->pdo_scan_max);
-	/* "application" (a sub-heading of `lines[]`) */
-	KD("`lines[]`", "not_ready_nmt", "%s",
+	KD("The application (`app`)", "max_created", "%u", l->app.max_created);
+	KD("The application (`app`)", "max_per_client", "%u", l->app.max_per_client);
+	KD("The application (`app`)", "indications", "%u", l->app.indications);
+	KD("The application (`app`)", "not_ready_nmt", "%s",
 	   l->appwd.not_ready_cs == CO_NMT_CS_STOP ? "stop" : "pre-operational");
 	TEST_ASSERT_EQUAL_size_t(1, l->n_nodes);
 	KD("Node configuration", "store", "%s", l->nodes[0].config.store ? "true" : "false");
