@@ -73,11 +73,11 @@ static uint8_t app_flags(const line *l)
 static mbx_appwd_nmt own_nmt(const line *l, uint8_t prev, uint8_t cs)
 {
 	return (mbx_appwd_nmt){ .state = co_nmt_get_state(l->node),
-			      .prev = prev,
-			      .cs = cs,
-			      .flags = app_flags(l),
-			      .holders = l->appwd.n_holders,
-			      .node = co_node_id(l->node) };
+				.prev = prev,
+				.cs = cs,
+				.flags = app_flags(l),
+				.holders = l->appwd.n_holders,
+				.node = co_node_id(l->node) };
 }
 
 /* The veto on OPERATIONAL (core/nmt.h): refused while a client holds the
@@ -151,14 +151,14 @@ static void trip(line *l, const co_appwd_entry *e)
 	l->appwd.last.late_us = late > UINT32_MAX ? UINT32_MAX : (uint32_t)late;
 	l->appwd.last.at_us = l->now_us;
 	mbx_ev_appwd ev = { .client = e->owner,
-			     .pid = e->pid,
-			     .interval_ms = e->interval_ms,
-			     .reactions = e->reactions,
-			     .done = done,
-			     .late_us = l->appwd.last.late_us,
-			     .deadline_us = e->deadline_us,
-			     .trips = (uint32_t)l->appwd.wd.stats.trips,
-			     .gone = e->gone };
+			    .pid = e->pid,
+			    .interval_ms = e->interval_ms,
+			    .reactions = e->reactions,
+			    .done = done,
+			    .late_us = l->appwd.last.late_us,
+			    .deadline_us = e->deadline_us,
+			    .trips = (uint32_t)l->appwd.wd.stats.trips,
+			    .gone = e->gone };
 	mbx_server_publish(l->mbx, MBX_EV_APP_WD_TIMEOUT, 0, &ev, sizeof ev);
 	char what[128];
 	mbx_appwd_reactions_format(done, what, sizeof what);
@@ -381,24 +381,24 @@ static void app_status(line *l, const mbx_request *req)
 	uint8_t buf[sizeof(mbx_appwd_status) + CO_APPWD_MAX * sizeof(mbx_appwd_entry)];
 	const co_appwd_stats *s = &l->appwd.wd.stats;
 	mbx_appwd_status st = { .host_ready = !l->appwd.host_not_ready,
-			      .own_state = co_nmt_get_state(l->node),
-			      .holders = l->appwd.n_holders,
-			      .flags = app_flags(l),
-			      .configured = l->p.app_reactions,
-			      .safe_outputs = l->p.n_safe_outputs,
-			      .nmt_master = nmt_master(l),
-			      .not_ready_action = not_ready_cs(l),
-			      .declared = s->declared,
-			      .keepalives = s->keepalives,
-			      .refused = s->refused,
-			      .trips = s->trips,
-			      .late_keepalives = s->late_keepalives,
-			      .not_ready_episodes = l->appwd.not_ready_episodes,
-			      .starts_refused = l->appwd.starts_refused,
-			      .last_client = l->appwd.last.client,
-			      .last_pid = l->appwd.last.pid,
-			      .last_done = l->appwd.last.done,
-			      .last_late_us = l->appwd.last.late_us };
+				.own_state = co_nmt_get_state(l->node),
+				.holders = l->appwd.n_holders,
+				.flags = app_flags(l),
+				.configured = l->p.app_reactions,
+				.safe_outputs = l->p.n_safe_outputs,
+				.nmt_master = nmt_master(l),
+				.not_ready_action = not_ready_cs(l),
+				.declared = s->declared,
+				.keepalives = s->keepalives,
+				.refused = s->refused,
+				.trips = s->trips,
+				.late_keepalives = s->late_keepalives,
+				.not_ready_episodes = l->appwd.not_ready_episodes,
+				.starts_refused = l->appwd.starts_refused,
+				.last_client = l->appwd.last.client,
+				.last_pid = l->appwd.last.pid,
+				.last_done = l->appwd.last.done,
+				.last_late_us = l->appwd.last.late_us };
 	if (l->appwd.last.at_us)
 		st.last_age_ms = (l->now_us - l->appwd.last.at_us) / 1000u;
 	for (unsigned i = 0; i < CO_APPWD_MAX; i++) {
@@ -406,12 +406,12 @@ static void app_status(line *l, const mbx_request *req)
 		if (e->state == CO_APPWD_FREE)
 			continue;
 		mbx_appwd_entry w = { .client = e->owner,
-				       .pid = e->pid,
-				       .interval_ms = e->interval_ms,
-				       .reactions = e->reactions,
-				       .state = e->state,
-				       .gone = e->gone,
-				       .keepalives = e->keepalives };
+				      .pid = e->pid,
+				      .interval_ms = e->interval_ms,
+				      .reactions = e->reactions,
+				      .state = e->state,
+				      .gone = e->gone,
+				      .keepalives = e->keepalives };
 		if (e->state == CO_APPWD_ARMED && e->deadline_us > l->now_us)
 			w.left_ms = (uint32_t)((e->deadline_us - l->now_us) / 1000u);
 		memcpy(buf + sizeof st + st.n++ * sizeof w, &w, sizeof w);

@@ -25,7 +25,7 @@ enum mbx_appwd_reaction {
 	MBX_APPWD_R_CONFIGURED = 1u << 31,    /* request only: the line's configured set */
 };
 #define MBX_APPWD_R_ALL 0x7Fu
-#define MBX_APPWD_R_NMT                                                          \
+#define MBX_APPWD_R_NMT                                                              \
 	(MBX_APPWD_R_NMT_PREOP | MBX_APPWD_R_NMT_STOP | MBX_APPWD_R_NMT_RESET_COMM | \
 	 MBX_APPWD_R_NMT_RESET_NODE)
 #define MBX_APPWD_INTERVAL_MIN_MS 10u

@@ -427,9 +427,10 @@ static void test_every_nmt_reaction_and_the_safe_outputs(void)
 	TEST_ASSERT_EQUAL_UINT(0, count_frames(0x000));
 	TEST_ASSERT_EQUAL_INT(COGW_E_UNSUPPORTED,
 			      cogw_app_watchdog(h, 1, 50, MBX_APPWD_R_CONFIGURED, NULL, 3000));
-	TEST_ASSERT_EQUAL_INT(
-		COGW_E_PARAM,
-		cogw_app_watchdog(h, 1, 50, MBX_APPWD_R_NMT_STOP | MBX_APPWD_R_NMT_PREOP, NULL, 3000));
+	TEST_ASSERT_EQUAL_INT(COGW_E_PARAM,
+			      cogw_app_watchdog(h, 1, 50,
+						MBX_APPWD_R_NMT_STOP | MBX_APPWD_R_NMT_PREOP, NULL,
+						3000));
 }
 
 /* ---- read-only ---------------------------------------------------------------------- */

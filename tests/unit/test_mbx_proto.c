@@ -577,7 +577,8 @@ static void test_nmt_fields(void)
 static void test_app_fields(void)
 {
 	mbx_hdr h = cmd_hdr(MBX_CMD_APP_WATCHDOG);
-	mbx_appwd_req w = { .interval_ms = 200, .reactions = MBX_APPWD_R_EMCY | MBX_APPWD_R_NMT_STOP };
+	mbx_appwd_req w = { .interval_ms = 200,
+			    .reactions = MBX_APPWD_R_EMCY | MBX_APPWD_R_NMT_STOP };
 	mbx_appwd_hold_req f = { .hold = 1 };
 	uint32_t set = 0;
 	char text[160];
