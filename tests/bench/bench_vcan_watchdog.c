@@ -63,7 +63,7 @@ static int write_config(const char *path)
 		 " {\"index\": \"0x1800\", \"sub\": 2, \"value\": 254},"
 		 " {\"index\": \"0x1A00\", \"sub\": 0, \"value\": 1},"
 		 " {\"index\": \"0x1A00\", \"sub\": 1, \"value\": 536870928}],\n"
-		 "  \"application\": {\"safe_outputs\": [{\"index\": \"0x2000\", \"value\": "
+		 "  \"app\": {\"safe_outputs\": [{\"index\": \"0x2000\", \"value\": "
 		 "0}]}}]}\n",
 		 tmpdir, instance, OWN);
 	return bench_write_file(path, t);
