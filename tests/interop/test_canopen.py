@@ -1182,7 +1182,7 @@ def test_watchdog_and_host_not_ready_seen_by_python_slaves():
         check("essential" in first, f"the client did not declare itself: {first!r}")
 
         def armed():
-            app = json.loads(ctl("app", str(MGR_LINE), "--json").stdout)["lines"][0]
+            app = json.loads(ctl("app", str(MGR_LINE), "--json").stdout)["lines"][0]["watchdog"]
             return any(w["pid"] == essential.pid and w["state"] == "armed"
                        for w in app["watchdogs"])
         deadline = time.monotonic() + 10
@@ -1192,7 +1192,7 @@ def test_watchdog_and_host_not_ready_seen_by_python_slaves():
         essential.kill()
         essential.wait()
         wait_manager("stopped", (mandatory, optional), "STOPPED")
-        app = json.loads(ctl("app", str(MGR_LINE), "--json").stdout)["lines"][0]
+        app = json.loads(ctl("app", str(MGR_LINE), "--json").stdout)["lines"][0]["watchdog"]
         eq("nmt-stop", app["last_trip"]["done"], "what the trip did")
         eq(essential.pid, app["last_trip"]["pid"], "whose trip")
 

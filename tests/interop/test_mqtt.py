@@ -787,7 +787,7 @@ def test_application_watchdog_trip_is_published():
                             "--json"], capture_output=True, text=True, cwd=TOP)
         return r.returncode == 0 and any(
             w["pid"] == ctl.pid and w["state"] == "armed"
-            for w in json.loads(r.stdout)["lines"][0]["watchdogs"])
+            for w in json.loads(r.stdout)["lines"][0]["watchdog"]["watchdogs"])
     wait_until("the essential client armed", armed)
     ctl.kill()
     ctl.wait()
