@@ -460,6 +460,7 @@ install: all
 	install -m 644 $(COGW_PC) $(DESTDIR)$(pkgconfigdir)/cogw.pc
 	install -m 644 core/*.h $(DESTDIR)$(includedir)/cogw/core/
 	install -m 644 mailbox/cogw.h mailbox/proto.h mailbox/proto_health.h mailbox/cogw_health.h \
+		mailbox/proto_scan.h mailbox/cogw_scan.h \
 		$(DESTDIR)$(includedir)/cogw/mailbox/
 	$(if $(PROGRAM_BINS),install -m 755 $(PROGRAM_BINS) $(DESTDIR)$(bindir)/)
 	for u in cogwd.service cogw-ascii.service cogw-mqtt.service cogw-ascii.socket; do \

@@ -28,6 +28,20 @@
 
 typedef struct line line;
 
+/* Nodes outside the configuration (lines/line_scan.c, docs/config.md
+ * "unknown_nodes"). */
+typedef struct line_unknown_params {
+	uint8_t policy;          /* enum mbx_unknown_policy */
+	uint16_t heartbeat_ms;   /* supervise, boot: its 1016h consumer time
+	                          * (0 = none) */
+	uint16_t sdo_timeout_ms; /* per SDO frame of identity reads and scans
+	                          * (0 = LINE_SCAN_TIMEOUT_MS) */
+	uint32_t known[4];       /* the configured node-IDs: bit n % 32 of
+	                          * known[n / 32] */
+} line_unknown_params;
+
+#define LINE_SCAN_TIMEOUT_MS 100u
+
 typedef struct line_params {
 	uint8_t index;              /* line number, as in mailbox messages */
 	const char *name;           /* "line0", for logs */
@@ -55,6 +69,7 @@ typedef struct line_params {
 	 * silence; 0 = the default */
 	uint32_t id_conflict_quiet_ms; /* a node-ID collision (5000) */
 	uint32_t fault_quiet_ms;       /* lost frames (1000) */
+	line_unknown_params unknown;
 } line_params;
 
 /* Counters published by the line thread about once per second. */

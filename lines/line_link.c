@@ -125,6 +125,7 @@ bool line_link_refuses(const line *l, uint16_t code)
 	switch (code) {
 	case MBX_CMD_SDO_UPLOAD:
 	case MBX_CMD_SDO_DOWNLOAD:
+	case MBX_CMD_NODE_SCAN:
 	case MBX_CMD_GW_SDO_UPLOAD:
 	case MBX_CMD_GW_SDO_DOWNLOAD:
 	case MBX_CMD_NMT:

@@ -35,6 +35,7 @@
 #include <stdint.h>
 
 #include "mailbox/proto_health.h"
+#include "mailbox/proto_scan.h"
 
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
 #error "mailbox payload structs assume a little-endian host (see proto.h)"
@@ -186,6 +187,9 @@ typedef enum mbx_cmd {
 	/* 0x03xx NMT and node table */
 	MBX_CMD_NMT = 0x0301,        /* W mbx_nmt_req */
 	MBX_CMD_NODE_TABLE = 0x0302, /* R - -> mbx_node_entry[n] */
+	MBX_CMD_NODE_SCAN = 0x0303,       /* W mbx_scan_req -> mbx_scan_resp +
+	                                   * mbx_node_ident[n] (proto_scan.h) */
+	MBX_CMD_NODE_SCAN_CACHE = 0x0304, /* R - -> the same, from the cache */
 	/* 0x04xx PDO / process data */
 	MBX_CMD_PDO_REQUEST = 0x0401, /* W mbx_pdo_num_req: send a TPDO now */
 	MBX_CMD_PDO_READ = 0x0402,    /* R mbx_obj_req -> data (<= 8 bytes) */
@@ -314,6 +318,7 @@ typedef enum mbx_event {
 	MBX_EV_GUARD_TOGGLE = 0x0306,   /* HB mbx_ev_node: toggle bit repeated */
 	MBX_EV_LIFE_LOST = 0x0307,      /* HB mbx_ev_node: our node no longer guarded */
 	MBX_EV_LIFE_RESUMED = 0x0308,   /* HB mbx_ev_node: guarded again */
+	MBX_EV_UNKNOWN_NODE = 0x0309,   /* MANAGER mbx_ev_unknown_node (proto_scan.h) */
 	MBX_EV_RPDO_FAULT = 0x0402,     /* PDO_FAULT mbx_ev_rpdo_fault: episode began */
 	MBX_EV_RPDO_RECOVERED = 0x0403, /* PDO_FAULT mbx_ev_rpdo_fault: episodes ended */
 	MBX_EV_SYNC = 0x0C01,           /* SYNC mbx_ev_sync */

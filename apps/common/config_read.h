@@ -112,4 +112,12 @@ int cfg_parse_manager(struct ctx *c, const cJSON *o, const char *path, cogw_mana
 /* The manager's objects (1F80h, 1F81h, ...) in the line's OD. */
 int cfg_manager_objects(struct ctx *c, const char *path, cogw_line_config *l);
 
+/* ---- a line's "unknown_nodes" (config_unknown.c) ---- */
+
+/* After "manager" (the boot policy needs it). */
+int cfg_parse_unknown(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l);
+/* The boot policy's device files, and 1F22h:n for the node-IDs it may
+ * adopt; after the nodes' objects. */
+int cfg_unknown_objects(struct ctx *c, const char *path, cogw_line_config *l);
+
 #endif /* COGW_APPS_CONFIG_READ_H */
