@@ -168,6 +168,11 @@ static void line_diff(const cogw_line_config *x, const cogw_line_config *y, size
 	LDIFF(memcmp(&x->manager, &y->manager, sizeof(x->manager)), "manager");
 	LDIFF(memcmp(&x->device_objects, &y->device_objects, sizeof(x->device_objects)),
 	      "device_objects");
+	LDIFF(x->unknown.policy != y->unknown.policy ||
+		      x->unknown.heartbeat_ms != y->unknown.heartbeat_ms ||
+		      x->unknown.sdo_timeout_ms != y->unknown.sdo_timeout_ms ||
+		      strcmp(x->unknown.devices_dir, y->unknown.devices_dir),
+	      "unknown_nodes");
 #undef LDIFF
 	d->changed = d->changed || before;
 }
