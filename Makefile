@@ -291,7 +291,7 @@ check-callgraph:
 # Interoperability with python-canopen (tests/interop/): one VM boot for the group.
 # scripts/pyenv.sh installs the pinned packages into build/pyenv on first use.
 # tests/interop/run-mqtt: the MQTT bridge against mosquitto and paho-mqtt, in the same boot.
-INTEROP_TESTS := tests/interop/run tests/interop/run-mqtt
+INTEROP_TESTS := tests/interop/run tests/interop/run-mqtt tests/interop/run-network
 interop: $(SAN_PROGRAM_BINS)
 	@scripts/pyenv.sh
 	tests/vcan/run -n 3 -- env COGW_TEST_TIMEOUT=$${COGW_INTEROP_TIMEOUT:-1800} tests/run-tests interop $(INTEROP_TESTS)

@@ -53,6 +53,13 @@ static uint32_t age_ms(uint64_t now_us, uint64_t then_us)
 	return ms >= UINT32_MAX ? UINT32_MAX - 1 : (uint32_t)ms;
 }
 
+/* The NMT state last heard; a boot-up ends in PRE-OPERATIONAL (CiA 301). */
+static uint8_t heard_state(line *l, uint8_t node)
+{
+	uint8_t st = co_hb_remote_state(l->node, node);
+	return st == CO_NMT_INITIALISING ? CO_NMT_PRE_OPERATIONAL : st;
+}
+
 static void probe_con(void *arg, const co_ev_sdo_cli *c);
 
 /* The read of the probe's step: 1000h, then 1018h:1..4. */
@@ -89,7 +96,7 @@ static int probe_start(line *l, uint8_t node, uint8_t source, uint16_t timeout_m
 	memset(id, 0, sizeof *id);
 	id->node = node;
 	id->source = source;
-	id->nmt_state = co_hb_remote_state(l->node, node);
+	id->nmt_state = heard_state(l, node);
 	p->step = 1;
 	p->gen++;
 	p->timeout_ms = timeout_ms;
@@ -109,7 +116,7 @@ static void node_done(line *l, uint8_t node)
 	struct line_probe *p = &l->scan.probe[node];
 	p->step = 0;
 	l->scan.read_us[node] = l->now_us;
-	l->scan.cache[node].nmt_state = co_hb_remote_state(l->node, node);
+	l->scan.cache[node].nmt_state = heard_state(l, node);
 	if (p->for_unknown) {
 		p->for_unknown = false;
 		unknown_report(l, node);
@@ -289,17 +296,24 @@ static uint8_t apply_boot(line *l, uint8_t node, const mbx_node_ident *id)
 	return MBX_UNKNOWN_REFUSED; /* no manager on this line */
 }
 
-/* The policy (docs/config.md "unknown_nodes"): what the line does now. */
+/* The policy (docs/config.md "unknown_nodes"): what the line does now.
+ * A booted node gets its heartbeat consumer as well: the boot's error
+ * control step (CiA 302-2) waits for it, and comes after SDO round trips,
+ * so the consumer set after the boot began is in time for it. */
 static uint8_t apply_policy(line *l, uint8_t node, const mbx_node_ident *id)
 {
 	const line_unknown_params *u = &l->p.unknown;
+	uint8_t action = MBX_UNKNOWN_SUPERVISED;
 	if (u->policy == MBX_UNKNOWN_IGNORE)
 		return MBX_UNKNOWN_NONE;
-	if (u->heartbeat_ms && co_hb_consumer_set(l->node, node, u->heartbeat_ms, l->now_us) < 0)
+	if (u->policy == MBX_UNKNOWN_BOOT &&
+	    (action = apply_boot(l, node, id)) != MBX_UNKNOWN_BOOTING)
+		return action;
+	if (!u->heartbeat_ms)
+		return u->policy == MBX_UNKNOWN_BOOT ? action : MBX_UNKNOWN_NONE;
+	if (co_hb_consumer_set(l->node, node, u->heartbeat_ms, l->now_us) < 0)
 		return MBX_UNKNOWN_REFUSED; /* 1016h full (or absent) */
-	if (u->policy == MBX_UNKNOWN_SUPERVISE)
-		return u->heartbeat_ms ? MBX_UNKNOWN_SUPERVISED : MBX_UNKNOWN_NONE;
-	return apply_boot(l, node, id);
+	return action;
 }
 
 static void unknown_report(line *l, uint8_t node)
@@ -315,7 +329,7 @@ static void unknown_report(line *l, uint8_t node)
 		 "line %s: node %u is not configured (%s, state %s): device type %08X, identity "
 		 "%08X/%08X/%08X serial %08X%s; policy %s: %s",
 		 l->name, node, mbx_ident_source_to_string(id->source),
-		 co_nmt_state_to_string(id->nmt_state), (unsigned)id->device_type,
+		 id->nmt_state == CO_HB_STATE_UNKNOWN ? "unknown" : co_nmt_state_to_string(id->nmt_state), (unsigned)id->device_type,
 		 (unsigned)id->vendor_id, (unsigned)id->product_code, (unsigned)id->revision,
 		 (unsigned)id->serial,
 		 id->flags & MBX_IDENT_NOT_ASKED ? " (not read: stopped)"

@@ -131,10 +131,10 @@ static int run(ctl *c, int argc, char **argv)
 {
 	const char *pos[2], *range = NULL, *timeout = NULL, *parallel = NULL;
 	bool cache = false;
-	const ctl_opt opts[] = { { "nodes", true, &range, NULL },
-				 { "timeout-ms", true, &timeout, NULL },
-				 { "parallel", true, &parallel, NULL },
-				 { "cache", false, NULL, &cache },
+	const ctl_opt opts[] = { { "--nodes", true, &range, NULL },
+				 { "--timeout-ms", true, &timeout, NULL },
+				 { "--parallel", true, &parallel, NULL },
+				 { "--cache", false, NULL, &cache },
 				 { NULL, false, NULL, NULL } };
 	int n_pos, ex = 0, rc = ctl_parse(c, argc, argv, opts, pos, 2, &n_pos);
 	unsigned line;

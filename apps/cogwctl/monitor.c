@@ -455,6 +455,7 @@ static void print_unknown_node(const cogw_msg *m, const ctl_monitor_spec *spec, 
 	cJSON_AddNumberToObject(out->o, "serial", id->serial);
 	cJSON_AddStringToObject(out->o, "policy", mbx_unknown_policy_to_string(e.policy));
 	cJSON_AddStringToObject(out->o, "action", mbx_unknown_action_to_string(e.action));
+	cJSON_AddNumberToObject(out->o, "reported", e.reported);
 }
 
 static void print_raw(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
