@@ -17,7 +17,11 @@ tests/interop/requirements.txt) that the daemon was not configured for:
     one STOPPED, which does not answer SDO): exactly those, with their
     identities, within the bound it reports; the cache afterwards; a
     second scan while one runs is BUSY; a part of the range one node at a
-    time; cogwctl's refusal of bad arguments.
+    time; cogwctl's refusal of bad arguments;
+  - an interface deleted and created again under the daemon (the adapter
+    unplugged and plugged in): a configured python-canopen node switched
+    on again with it is booted again by the manager; an unknown node the
+    line supervises is lost during the outage and supervised again after.
 
 Own daemon (instance "netscan") on its own vcan interfaces, which the test
 creates (it runs as root in the VM): nothing of it touches the other interop
@@ -54,6 +58,7 @@ SDO_TIMEOUT_MS = 1000   # per frame: python nodes in the emulated VM under load 
 SCAN_PRESENT = tuple(range(60, 68))  # 8 nodes
 SCAN_STOPPED = 70
 BOOT_VALUE = 0x5A5A1234  # 2000h in the EDS: what the boot downloads
+MANAGED_ID = 45          # a configured node of the boot line (its manager's)
 
 RESULTS = []
 STEP = [""]
@@ -240,7 +245,8 @@ CONFIG = {
     }, {
         "name": "boot", "interface": IFACES[2], "bitrate": 1000000, "node_id": OWN_ID,
         "heartbeat_ms": 0, "sdo_timeout_ms": 3000,
-        "manager": {"sdo_timeout_ms": 2000},
+        "manager": {"sdo_timeout_ms": 2000, "retry_ms": 1000},
+        "nodes": [{"id": MANAGED_ID, "heartbeat_ms": 3000, "device_type": hex(DEVICE_TYPE)}],
         "unknown_nodes": {"policy": "boot", "heartbeat_ms": 3000,
                           "sdo_timeout_ms": SDO_TIMEOUT_MS, "devices_dir": "devices"},
     }],
@@ -433,6 +439,91 @@ def test_boot_policy_boots_a_node_matched_by_identity():
 
 
 # ---------------------------------------------------------------------------
+# an interface that goes away and comes back
+
+def health(line):
+    return ctl_json("health", str(line))["lines"][0]["faults"]["link-down"]
+
+
+def wait_link(line, down, timeout=10.0):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if health(line)["active"] == down:
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"line {line}: link-down still {not down}")
+
+
+def recreate(line):
+    """The adapter of the line unplugged and plugged in again: the
+    interface deleted and created, python-canopen's socket opened anew."""
+    name = IFACES[line]
+    # python-can's receive thread dies with the interface (and says so at
+    # the disconnect): the test's side leaves before and comes back after
+    NETS[line].disconnect()
+    ip("del", name)
+    wait_link(line, True)
+    time.sleep(1.0)
+    ip("add", name, "type", "vcan")
+    ip("set", name, "up")
+    NETS[line].connect(interface="socketcan", channel=name)
+    wait_link(line, False)
+
+
+def wait_diag(node, pred, what, timeout=30.0):
+    deadline = time.monotonic() + timeout
+    d = None
+    while time.monotonic() < deadline:
+        d = ctl_json("diag", str(BOOT_LINE), str(node))
+        if pred(d):
+            return d
+        time.sleep(0.2)
+    raise AssertionError(f"node {node}: {what}; diag {d}")
+
+
+def test_interface_returns_manager_reboots_and_supervision_resumes():
+    mon = Monitor(SUPERVISE_LINE)
+    managed = local(BOOT_LINE, MANAGED_ID, hb_ms=200)
+    supervised = local(SUPERVISE_LINE, 31, hb_ms=200)
+    try:
+        step("node 45 (configured) booted by the manager, node 31 (unknown) supervised")
+        boot_up(managed)
+        d = wait_diag(MANAGED_ID, lambda d: d["booted"], "not booted")
+        boots = d["boot_count"]
+        boot_up(supervised)
+        eq("supervised", mon.unknown(31)["action"], "node 31")
+        mon.wait("hb-started of node 31", lambda: mon.of("hb-started", 31))
+
+        step("the boot line's interface deleted and created again; node 45 was off")
+        managed.nmt.stop_heartbeat()
+        recreate(BOOT_LINE)
+        boot_up(managed)  # switched on again with the adapter
+        step("the manager boots node 45 again: configured, started")
+        wait_diag(MANAGED_ID, lambda d: d["booted"] and d["boot_count"] > boots,
+                  "not booted again")
+        deadline = time.monotonic() + 15
+        while time.monotonic() < deadline and managed.nmt.state != "OPERATIONAL":
+            time.sleep(0.1)
+        eq("OPERATIONAL", managed.nmt.state, "node 45 after the return")
+
+        step("the supervising line's interface deleted and created again; node 31 "
+             "kept running")
+        started = len(mon.of("hb-started", 31))
+        supervised.nmt.stop_heartbeat()  # its periodic frame is the old socket's
+        recreate(SUPERVISE_LINE)
+        supervised.nmt.start_heartbeat(200)  # on the new socket
+        mon.wait("hb-lost of node 31 during the outage", lambda: mon.of("hb-lost", 31),
+                 timeout=15)
+        mon.wait("hb-started of node 31 after the return",
+                 lambda: len(mon.of("hb-started", 31)) > started, timeout=15)
+        eq(1, len(mon.of("unknown-node", 31)), "reports of node 31")
+    finally:
+        mon.stop()
+        remove(managed)
+        remove(supervised)
+
+
+# ---------------------------------------------------------------------------
 # the scan
 
 def test_scan_finds_every_answering_node_within_its_bound():
@@ -443,17 +534,21 @@ def test_scan_finds_every_answering_node_within_its_bound():
     stopped.remove_network()
     stopped_hb = NETS[IGNORE_LINE].send_periodic(0x700 + SCAN_STOPPED, [0x04], 0.2)
     try:
-        step("scan of 1..127 while another scan is asked: the second is BUSY")
-        first = subprocess.Popen([os.path.join(BIN, "cogwctl"), "--instance", INSTANCE,
-                                  "--json", "scan", str(IGNORE_LINE)],
-                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        time.sleep(0.5)
-        busy = ctl("scan", str(IGNORE_LINE), check_rc=False)
-        check(busy.returncode != 0 and "busy" in busy.stderr.lower(),
-              f"second scan: exit {busy.returncode}: {busy.stderr}")
-        out, err = first.communicate(timeout=120)
-        eq(0, first.returncode, f"scan: {err}")
-        res = json.loads(out)
+        step("two scans of 1..127 asked 2 s apart: one runs, the other is BUSY")
+        argv = [os.path.join(BIN, "cogwctl"), "--instance", INSTANCE, "--json", "scan",
+                str(IGNORE_LINE)]
+        first = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                 text=True)
+        time.sleep(2.0)  # a scan takes > 10 s here; cogwctl may start slowly
+        second = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                  text=True)
+        runs = [p.communicate(timeout=180) + (p.returncode,) for p in (first, second)]
+        busy = [r for r in runs if r[2] != 0]
+        done = [r for r in runs if r[2] == 0]
+        check(len(busy) == 1 and len(done) == 1 and
+              json.loads(busy[0][0])["error"].startswith("busy"),
+              f"two scans at once: {runs}")
+        res = json.loads(done[0][0])
         found = {n["node"]: n for n in res["nodes"]}
         eq(sorted(SCAN_PRESENT), sorted(found), "nodes found")
         for n in SCAN_PRESENT:
@@ -500,7 +595,8 @@ def main():
         for t in (test_unknown_node_boot_up_heartbeat_emcy_reported_once_with_identity,
                   test_supervise_policy_consumes_the_heartbeat,
                   test_boot_policy_boots_a_node_matched_by_identity,
-                  test_scan_finds_every_answering_node_within_its_bound):
+                  test_scan_finds_every_answering_node_within_its_bound,
+                  test_interface_returns_manager_reboots_and_supervision_resumes):
             only = os.environ.get("COGW_TEST_ONLY")
             if only and not any(o in t.__name__ for o in only.split(",")):
                 continue
