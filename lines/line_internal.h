@@ -142,12 +142,12 @@ struct line {
 		} probe[LINE_NODES];
 		uint32_t unknown_seen[4]; /* heard and reported (or being read) */
 		uint32_t unknown_reported;
-		bool running;           /* a NODE_SCAN runs */
-		mbx_reply_to reply;     /* ... and waits for its answer */
+		bool running;            /* a NODE_SCAN runs */
+		mbx_reply_to reply;      /* ... and waits for its answer */
 		uint8_t next, in_flight; /* next node-ID to ask, nodes being read */
 		uint64_t started_us, ended_us;
 		mbx_scan_resp figures; /* of the running or last scan */
-	} scan; /* line_scan.c */
+	} scan;                        /* line_scan.c */
 	/* the link may have changed: bus state changes, receive errors
 	 * (ENETDOWN when the interface goes down); line_link_events */
 	uint32_t link_events;
@@ -244,6 +244,8 @@ void line_link_lost(line *l, int err);
  * (UINT64_MAX when up). *reopened: the port has a new socket, which the
  * caller watches instead of the old one. */
 uint64_t line_link_poll(line *l, bool *reopened);
+/* A frame was received: while down, look at the interface at once. */
+void line_link_frame_heard(line *l);
 /* While down: does this command need the bus (refused with MBX_E_STATE)? */
 bool line_link_refuses(const line *l, uint16_t code);
 

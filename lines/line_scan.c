@@ -131,8 +131,7 @@ static void node_done(line *l, uint8_t node)
 /* What a read gave, into the cache entry; whether the probe goes on. An
  * abort answered by the device still proves a device (PRESENT); 1018h:4
  * (the serial number) is optional in CiA 301. */
-static bool probe_took(mbx_node_ident *id, uint8_t step, const co_ev_sdo_cli *c,
-		       const uint8_t *buf)
+static bool probe_took(mbx_node_ident *id, uint8_t step, const co_ev_sdo_cli *c, const uint8_t *buf)
 {
 	uint32_t v = c->abort ? 0 : (uint32_t)co_get_le(buf, c->size < 4 ? c->size : 4);
 	if (c->abort && !id->abort)
@@ -252,9 +251,9 @@ void line_scan_command(line *l, const mbx_request *req)
 	s->figures.first = r.first;
 	s->figures.last = r.last;
 	s->figures.parallel = r.parallel && r.parallel < channels ? r.parallel : channels;
-	s->figures.timeout_ms = r.timeout_ms ? r.timeout_ms
-			      : l->p.unknown.sdo_timeout_ms ? l->p.unknown.sdo_timeout_ms
-							    : LINE_SCAN_TIMEOUT_MS;
+	s->figures.timeout_ms = r.timeout_ms                  ? r.timeout_ms
+				: l->p.unknown.sdo_timeout_ms ? l->p.unknown.sdo_timeout_ms
+							      : LINE_SCAN_TIMEOUT_MS;
 	unsigned n = (unsigned)r.last - r.first + 1u;
 	s->figures.bound_ms = (n + s->figures.parallel - 1u) / s->figures.parallel *
 			      PROBE_LAST_STEP * s->figures.timeout_ms;
@@ -289,7 +288,7 @@ static uint8_t apply_boot(line *l, uint8_t node, const mbx_node_ident *id)
 		if (!x->ops || !x->ops->adopt_node)
 			continue;
 		int rc = x->ops->adopt_node(x->ctx, l, node, ident);
-		return rc == 0 ? MBX_UNKNOWN_BOOTING
+		return rc == 0         ? MBX_UNKNOWN_BOOTING
 		       : rc == -ENOENT ? MBX_UNKNOWN_NO_MATCH
 				       : MBX_UNKNOWN_REFUSED;
 	}
@@ -329,13 +328,13 @@ static void unknown_report(line *l, uint8_t node)
 		 "line %s: node %u is not configured (%s, state %s): device type %08X, identity "
 		 "%08X/%08X/%08X serial %08X%s; policy %s: %s",
 		 l->name, node, mbx_ident_source_to_string(id->source),
-		 id->nmt_state == CO_HB_STATE_UNKNOWN ? "unknown" : co_nmt_state_to_string(id->nmt_state), (unsigned)id->device_type,
-		 (unsigned)id->vendor_id, (unsigned)id->product_code, (unsigned)id->revision,
-		 (unsigned)id->serial,
-		 id->flags & MBX_IDENT_NOT_ASKED ? " (not read: stopped)"
-		 : id->flags & MBX_IDENT_IDENTITY
-			 ? ""
-			 : " (identity not read)",
+		 id->nmt_state == CO_HB_STATE_UNKNOWN ? "unknown"
+						      : co_nmt_state_to_string(id->nmt_state),
+		 (unsigned)id->device_type, (unsigned)id->vendor_id, (unsigned)id->product_code,
+		 (unsigned)id->revision, (unsigned)id->serial,
+		 id->flags & MBX_IDENT_NOT_ASKED  ? " (not read: stopped)"
+		 : id->flags & MBX_IDENT_IDENTITY ? ""
+						  : " (identity not read)",
 		 mbx_unknown_policy_to_string(u->policy), mbx_unknown_action_to_string(ev.action));
 	mbx_server_publish(l->mbx, MBX_EV_UNKNOWN_NODE, 0, &ev, sizeof ev);
 }

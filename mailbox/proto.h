@@ -185,8 +185,8 @@ typedef enum mbx_cmd {
 	MBX_CMD_SDO_UPLOAD = 0x0201,   /* R mbx_sdo_req -> data, hdr.abort */
 	MBX_CMD_SDO_DOWNLOAD = 0x0202, /* W mbx_sdo_req + data -> -, hdr.abort */
 	/* 0x03xx NMT and node table */
-	MBX_CMD_NMT = 0x0301,        /* W mbx_nmt_req */
-	MBX_CMD_NODE_TABLE = 0x0302, /* R - -> mbx_node_entry[n] */
+	MBX_CMD_NMT = 0x0301,             /* W mbx_nmt_req */
+	MBX_CMD_NODE_TABLE = 0x0302,      /* R - -> mbx_node_entry[n] */
 	MBX_CMD_NODE_SCAN = 0x0303,       /* W mbx_scan_req -> mbx_scan_resp +
 	                                   * mbx_node_ident[n] (proto_scan.h) */
 	MBX_CMD_NODE_SCAN_CACHE = 0x0304, /* R - -> the same, from the cache */

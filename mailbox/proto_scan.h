@@ -15,10 +15,10 @@
 
 /* NODE_SCAN: read 1000h and 1018h:1..4 of node-IDs first..last. */
 typedef struct mbx_scan_req {
-	uint8_t first, last;  /* 1 <= first <= last <= 127 */
-	uint16_t timeout_ms;  /* per SDO frame, 1..MBX_SCAN_TIMEOUT_MAX_MS;
+	uint8_t first, last; /* 1 <= first <= last <= 127 */
+	uint16_t timeout_ms; /* per SDO frame, 1..MBX_SCAN_TIMEOUT_MAX_MS;
 	                       * 0 = the line's unknown_nodes.sdo_timeout_ms */
-	uint8_t parallel;     /* nodes asked at once; 0 = the line's SDO
+	uint8_t parallel;    /* nodes asked at once; 0 = the line's SDO
 	                       * client channels (more are not used) */
 	uint8_t pad[3];
 } mbx_scan_req;

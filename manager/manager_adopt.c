@@ -17,8 +17,7 @@ static bool field_matches(uint32_t want, uint32_t have)
 	return !want || want == have;
 }
 
-const mgr_ext_device *mgr_adopt_match(const mgr_ext_device *devs, size_t n,
-				      const uint32_t ident[4])
+const mgr_ext_device *mgr_adopt_match(const mgr_ext_device *devs, size_t n, const uint32_t ident[4])
 {
 	for (size_t i = 0; i < n; i++) {
 		const uint32_t *w = devs[i].ident;

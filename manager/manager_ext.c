@@ -46,7 +46,7 @@ struct mgr_line {
 	co_pdo_scan_line scan;
 	line *l; /* while attached: progress events go to its mailbox */
 	struct mgr_program prog[MGR_PROGRAM_MAX];
-	size_t copy_cap;          /* bytes of each prog[].copy */
+	size_t copy_cap;         /* bytes of each prog[].copy */
 	mgr_ext_device *devices; /* lc.devices, owned */
 };
 

@@ -54,8 +54,8 @@ static void node_text(const mbx_node_ident *id)
 	printf("  %3u  %-9s  %08" PRIX32, id->node, mbx_ident_source_to_string(id->source),
 	       id->device_type);
 	if (id->flags & MBX_IDENT_IDENTITY)
-		printf("  %08" PRIX32 "  %08" PRIX32 "  %08" PRIX32, id->vendor_id, id->product_code,
-		       id->revision);
+		printf("  %08" PRIX32 "  %08" PRIX32 "  %08" PRIX32, id->vendor_id,
+		       id->product_code, id->revision);
 	else
 		printf("  (1018h: %s)", ctl_abort_text(id->abort, buf, sizeof buf));
 	if (id->flags & MBX_IDENT_SERIAL)
@@ -109,7 +109,8 @@ static int scan_args(ctl *c, const char *range, const char *timeout, const char 
 		const char *dash = strchr(range, '-');
 		size_t la = dash ? (size_t)(dash - range) : strlen(range);
 		if (la >= sizeof a || (dash && strlen(dash + 1) >= sizeof b))
-			return ctl_usage_error(c, "--nodes: expected FIRST-LAST, got \"%s\"", range);
+			return ctl_usage_error(c, "--nodes: expected FIRST-LAST, got \"%s\"",
+					       range);
 		memcpy(a, range, la);
 		snprintf(b, sizeof b, "%s", dash ? dash + 1 : a);
 		if (ctl_arg_node(c, a, &first) < 0 || ctl_arg_node(c, b, &last) < 0)
@@ -165,7 +166,8 @@ static int run(ctl *c, int argc, char **argv)
 
 const ctl_cmd ctl_cmd_scan = {
 	.name = "scan",
-	.synopsis = "  scan LINE [--nodes A-B] [--cache]       node-IDs that answer, their identity\n",
+	.synopsis =
+		"  scan LINE [--nodes A-B] [--cache]       node-IDs that answer, their identity\n",
 	.help = "usage: cogwctl scan LINE [--nodes FIRST-LAST] [--timeout-ms MS] [--parallel N]\n"
 		"       cogwctl scan LINE --cache\n"
 		"\n"

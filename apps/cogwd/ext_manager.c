@@ -53,7 +53,8 @@ static int device_params(const cogw_line_config *lc, mgr_ext_line_params *o, mgr
 	for (size_t i = 0; i < u->n_devices; i++)
 		d[i] = (mgr_ext_device){ .file = u->devices[i].file,
 					 .ident = { u->devices[i].ident[0], u->devices[i].ident[1],
-						    u->devices[i].ident[2], u->devices[i].ident[3] },
+						    u->devices[i].ident[2],
+						    u->devices[i].ident[3] },
 					 .cdcf = u->devices[i].cdcf,
 					 .cdcf_len = u->devices[i].cdcf_len };
 	o->devices = d;

@@ -120,8 +120,8 @@ typedef struct cogw_devobj_config {
  * of that identity gets, for every node-ID ($NODEID resolved). */
 typedef struct cogw_unknown_device {
 	char file[COGW_FILE_NAME_MAX];
-	uint32_t ident[4];   /* 1000h, 1018h:1..3 of the file (0 = any) */
-	uint8_t *cdcf[128];  /* by node-ID; entries may share one buffer
+	uint32_t ident[4];  /* 1000h, 1018h:1..3 of the file (0 = any) */
+	uint8_t *cdcf[128]; /* by node-ID; entries may share one buffer
 	                      * (shared set: the file has no $NODEID) */
 	size_t cdcf_len[128];
 	bool shared;
@@ -131,9 +131,9 @@ typedef struct cogw_unknown_device {
 
 /* A line's "unknown_nodes". */
 typedef struct cogw_unknown_config {
-	uint8_t policy;          /* enum mbx_unknown_policy */
-	uint16_t heartbeat_ms;   /* supervise, boot: 1016h consumer time */
-	uint16_t sdo_timeout_ms; /* identity reads and scans, per frame */
+	uint8_t policy;                       /* enum mbx_unknown_policy */
+	uint16_t heartbeat_ms;                /* supervise, boot: 1016h consumer time */
+	uint16_t sdo_timeout_ms;              /* identity reads and scans, per frame */
 	char devices_dir[COGW_FILE_NAME_MAX]; /* boot: resolved, "" = none */
 	cogw_unknown_device *devices;         /* owned, n_devices */
 	size_t n_devices;

@@ -68,8 +68,8 @@ int cfg_parse_unknown(struct ctx *c, const cJSON *o, const char *path, cogw_line
 	    (rc = parse_policy(c, o, path, &u->policy)) ||
 	    (rc = cfg_opt_u16(c, o, "heartbeat_ms", path, (cfg_range){ 0, 65535 },
 			      &u->heartbeat_ms)) ||
-	    (rc = cfg_opt_u16(c, o, "sdo_timeout_ms", path, (cfg_range){ 1, MBX_SCAN_TIMEOUT_MAX_MS },
-			      &u->sdo_timeout_ms)) ||
+	    (rc = cfg_opt_u16(c, o, "sdo_timeout_ms", path,
+			      (cfg_range){ 1, MBX_SCAN_TIMEOUT_MAX_MS }, &u->sdo_timeout_ms)) ||
 	    (rc = json_util_opt_string(o, "devices_dir", path, 1, dir, sizeof dir, c->msg,
 				       sizeof c->msg)))
 		return rc;
@@ -109,11 +109,13 @@ static void pick_identity(void *arg, const eds_entry *e)
 		ip->ident[e->sub] = v;
 }
 
-static int convert(struct ctx *c, const char *path, const uint8_t *text, size_t len,
-		   uint8_t node, struct ident_pick *ip, uint8_t **out, size_t *out_len)
+static int convert(struct ctx *c, const char *path, const uint8_t *text, size_t len, uint8_t node,
+		   struct ident_pick *ip, uint8_t **out, size_t *out_len)
 {
 	char err[256];
-	eds_options opts = { .node_id = node, .on_entry = ip ? pick_identity : NULL, .entry_arg = ip };
+	eds_options opts = { .node_id = node,
+			     .on_entry = ip ? pick_identity : NULL,
+			     .entry_arg = ip };
 	int rc = eds_convert_opts((const char *)text, len, path, &opts, out, out_len, NULL, err,
 				  sizeof err);
 	if (rc == -ENOMEM)
@@ -132,8 +134,7 @@ static bool adoptable(const cogw_line_config *l, unsigned id)
 	return true;
 }
 
-static int load_device(struct ctx *c, cogw_line_config *l, const char *file,
-		       cogw_unknown_device *d)
+static int load_device(struct ctx *c, cogw_line_config *l, const char *file, cogw_unknown_device *d)
 {
 	uint8_t *text = NULL;
 	size_t len = 0;
@@ -191,7 +192,8 @@ static int list_files(struct ctx *c, const char *dir, char (*names)[COGW_FILE_NA
 		if (!device_file(de->d_name))
 			continue;
 		if (*n == COGW_UNKNOWN_DEVICES_MAX)
-			rc = cfg_fail(c, dir, "more than %u device files", COGW_UNKNOWN_DEVICES_MAX);
+			rc = cfg_fail(c, dir, "more than %u device files",
+				      COGW_UNKNOWN_DEVICES_MAX);
 		else if (snprintf(names[*n], COGW_FILE_NAME_MAX, "%s/%s", dir, de->d_name) >=
 			 (int)COGW_FILE_NAME_MAX)
 			rc = cfg_fail(c, dir, "%s: path too long", de->d_name);

@@ -6,21 +6,23 @@
  *    cosim nodes present, the line's default pool of 4 SDO clients and
  *    100 ms per frame. Baseline: the same reads (1000h of every node-ID,
  *    1018h:1..4 of the nodes that answer) made by this process on a raw
- *    socket with the same window of 4 nodes and the same timeout, before
- *    the daemon runs; for context the bus time of the scan's frames at
+ *    socket with the same window of 4 nodes and the same timeout,
+ *    interleaved with the daemon's scans (best of each); for context the bus time of the scan's frames at
  *    1 Mbit/s (47 + 8 x DLC bits per frame, without stuffing): the scan is
  *    bound by the time-outs of the absent nodes, not by the bus.
- * 2. An interface's return: vcan0 taken down and up (`ip link set`), and
+ * 2. An interface's return: vcan0 taken down and up, and
  *    deleted and created again (`ip link del` / `add`), under a running
  *    daemon whose line 0 forwards RPDO 181h (B000h) to line 1's TPDO 1FFh
  *    on vcan1: the time from the `ip` command that brings it back to the
  *    first forwarded PDO on vcan1 (RPDOs injected every ms) and to the
  *    first answered mailbox SDO read of a cosim node on vcan0 (down/up
  *    only: a deleted interface takes the device's socket with it).
- *    Baseline: a plain process's first raw SDO round trip with the same
- *    node after the same command (down/up), its first frame on a new
- *    socket (deleted). Median of ROUNDS; the line looks at a lost interface
- *    every 200 ms (lines/line_link.c), which bounds the deleted case.
+ *    Timed from the ioctl that sets the interface up (a deleted one is
+ *    created again first, still down). Baseline: a plain process's first
+ *    raw SDO round trip with the same node after the same step (down/up),
+ *    its first frame through new sockets (deleted). Median of ROUNDS; the
+ *    line looks at a lost interface every 200 ms, and at once at a frame
+ *    received (lines/line_link.c).
  */
 #include <errno.h>
 #include <linux/can.h>
@@ -31,6 +33,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <net/if.h>
+#include <netinet/in.h>
+#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -46,6 +51,7 @@
 #define SCAN_TIMEOUT_MS 100
 #define BITRATE 1000000.0
 #define ROUNDS 5
+#define SCAN_ROUNDS 3 /* scans of each kind, interleaved: the best counts */
 #define RPDO_IN 0x181
 #define TPDO_OUT 0x1FF
 
@@ -55,11 +61,11 @@ static char tmpdir[128];
 static int write_files(const char *dev, const char *cfg)
 {
 	char text[4096];
-	if (bench_write_file(dev, "{\"name\": \"bench-node\", \"node_id\": 1, "
-				  "\"device_type\": \"0x000F0191\", \"heartbeat_ms\": 0,\n"
-				  " \"identity\": {\"vendor\": \"0x00001234\", \"product\": "
-				  "\"0x00000401\", \"revision\": \"0x00010000\", \"serial\": 4711}}\n") <
-	    0)
+	if (bench_write_file(
+		    dev, "{\"name\": \"bench-node\", \"node_id\": 1, "
+			 "\"device_type\": \"0x000F0191\", \"heartbeat_ms\": 0,\n"
+			 " \"identity\": {\"vendor\": \"0x00001234\", \"product\": "
+			 "\"0x00000401\", \"revision\": \"0x00010000\", \"serial\": 4711}}\n") < 0)
 		return -1;
 	snprintf(text, sizeof text,
 		 "{\"version\": 1, \"state_dir\": \"%s\",\n"
@@ -67,7 +73,8 @@ static int write_files(const char *dev, const char *cfg)
 		 " \"gateway\": {\"process_image\": [{\"index\": \"0xB000\", \"type\": "
 		 "\"UNSIGNED32\", \"access\": \"rw\", \"pdo\": true}]},\n"
 		 " \"lines\": [{\"name\": \"bench0\", \"interface\": \"vcan0\", \"bitrate\": "
-		 "1000000, \"node_id\": 127, \"heartbeat_ms\": 0, \"sdo_clients\": %u, \"rpdos\": 1,\n"
+		 "1000000, \"node_id\": 127, \"heartbeat_ms\": 0, \"sdo_clients\": %u, \"rpdos\": "
+		 "1,\n"
 		 "   \"unknown_nodes\": {\"sdo_timeout_ms\": %u},\n"
 		 "   \"values\": [{\"index\": \"0x1400\", \"sub\": 1, \"value\": \"0x181\"},\n"
 		 "     {\"index\": \"0x1600\", \"sub\": 1, \"value\": \"0xB0000020\"},\n"
@@ -191,24 +198,51 @@ static unsigned count_sdo_frames(int fd, double *bits)
 	return n;
 }
 
-static int scan_figures(cogw *h, double raw_s, unsigned raw_found)
+/* The daemon's scan, and the plain process's after it, SCAN_ROUNDS times:
+ * the best of each (the emulated VM's load comes and goes). */
+static int scan_figures(cogw *h)
 {
 	int fd = can_open_raw("vcan0");
 	int big = 4 * 1024 * 1024;
-	double bits = 0;
+	double bits = 0, s = -1, raw_s = -1;
+	unsigned frames = 0, raw_found = 0;
 	cogw_scan_result r;
 	if (fd < 0 || setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &big, sizeof big) < 0)
 		return -1;
-	double t0 = bench_now_s();
-	int rc = cogw_node_scan(h, 0, 1, 127, SCAN_TIMEOUT_MS, 0, 0, &r);
-	double s = bench_now_s() - t0;
-	unsigned frames = count_sdo_frames(fd, &bits);
-	close(fd);
-	if (rc != 0 || r.n_nodes != N_PRESENT || raw_found != N_PRESENT) {
-		printf("bench_vcan_network: scan: %s, %u nodes found (raw %u), want %u\n",
-		       cogw_strerror(rc), r.n_nodes, raw_found, N_PRESENT);
+	/* a device that answered later than the timeout (the emulated VM
+	 * under load) spoils that round: it is run again, a few times */
+	int good = 0, missed = 0;
+	while (good < SCAN_ROUNDS && missed < 2 * SCAN_ROUNDS) {
+		double b = 0, t0 = bench_now_s();
+		int rc = cogw_node_scan(h, 0, 1, 127, SCAN_TIMEOUT_MS, 0, 0, &r);
+		double t = bench_now_s() - t0;
+		unsigned n = count_sdo_frames(fd, &b);
+		double raw = raw_scan(&raw_found);
+		count_sdo_frames(fd, &(double){ 0 }); /* not the daemon's */
+		if (rc != 0 || raw < 0) {
+			printf("bench_vcan_network: scan: %s\n", cogw_strerror(rc));
+			close(fd);
+			return -1;
+		}
+		if (r.n_nodes != N_PRESENT || raw_found != N_PRESENT) {
+			missed++;
+			bench_note("a scan round found %u (plain %u) of %u nodes: run again",
+				   r.n_nodes, raw_found, N_PRESENT);
+			continue;
+		}
+		good++;
+		if (s < 0 || t < s) {
+			s = t;
+			bits = b;
+			frames = n;
+		}
+		raw_s = raw_s < 0 || raw < raw_s ? raw : raw_s;
+	}
+	if (good < SCAN_ROUNDS) {
+		close(fd);
 		return -1;
 	}
+	close(fd);
 	bench_print_figure(&(bench_figure){
 		.name = "scan of 127 node-IDs with 8 present (4 at once, 100 ms per frame)",
 		.value = s * 1e3,
@@ -229,11 +263,11 @@ static int scan_figures(cogw *h, double raw_s, unsigned raw_found)
 		.ratio = s / (bits / BITRATE),
 		.target = "none (context)",
 		.verdict = "-" });
-	bench_note("scan: %u SDO frames on the bus (%u requests), %u ms in the daemon, its bound "
-		   "%u ms; the time-outs of the %u absent node-IDs, %u at once, make its floor: "
-		   "ceil(%u / %u) x %u ms = %u ms",
-		   frames, r.figures.requests, r.figures.duration_ms, r.figures.bound_ms,
-		   126 - N_PRESENT, POOL, 126 - N_PRESENT, POOL, SCAN_TIMEOUT_MS,
+	bench_note("scan: best of %d scans of each kind, interleaved; %u SDO frames on the bus "
+		   "(%u requests), its bound %u ms; the time-outs of the %u absent node-IDs, %u at "
+		   "once, make its floor: ceil(%u / %u) x %u ms = %u ms",
+		   SCAN_ROUNDS, frames, r.figures.requests, r.figures.bound_ms, 126 - N_PRESENT,
+		   POOL, 126 - N_PRESENT, POOL, SCAN_TIMEOUT_MS,
 		   (126 - N_PRESENT + POOL - 1) / POOL * SCAN_TIMEOUT_MS);
 	return 0;
 }
@@ -254,7 +288,9 @@ static void *inject_loop(void *arg)
 		if (fd < 0)
 			fd = can_open_raw("vcan0");
 		co_put_le32(b, ++n);
-		if (fd >= 0 && can_send_std(fd, RPDO_IN, b, 4) == -ENODEV) {
+		/* a socket of a deleted interface stays useless: a new one (the
+		 * errno differs by kernel; reopening a merely down one is harmless) */
+		if (fd >= 0 && can_send_std(fd, RPDO_IN, b, 4) != 0) {
 			close(fd);
 			fd = -1;
 		}
@@ -345,18 +381,39 @@ static double first_frame(cogw *h, int fd1, double t0)
 	return -1;
 }
 
+/* vcan0 up or down by the ioctl `ip link set` uses: no fork and exec of a
+ * program inside the measured time. */
+static int set_up(bool up)
+{
+	struct ifreq ifr;
+	int fd = socket(AF_INET, SOCK_DGRAM, 0), rc = -1;
+	if (fd < 0)
+		return -1;
+	memset(&ifr, 0, sizeof ifr);
+	snprintf(ifr.ifr_name, sizeof ifr.ifr_name, "vcan0");
+	if (ioctl(fd, SIOCGIFFLAGS, &ifr) == 0) {
+		ifr.ifr_flags = (short)(up ? ifr.ifr_flags | IFF_UP : ifr.ifr_flags & ~IFF_UP);
+		rc = ioctl(fd, SIOCSIFFLAGS, &ifr);
+	}
+	close(fd);
+	return rc;
+}
+
+/* Taken away (down, or deleted and created again still down), then timed
+ * from the moment it is set up. */
 static double median_return(cogw *h, int fd1, bool deleted, first_fn first)
 {
 	double v[ROUNDS];
 	for (int r = 0; r < ROUNDS; r++) {
-		if (system(deleted ? "ip link del vcan0" : "ip link set vcan0 down") != 0 ||
+		if ((deleted ? system("ip link del vcan0") : set_up(false)) != 0 ||
 		    wait_link(h, true) != 0)
 			return -1;
 		sleep_ms(300);
+		if (deleted && system("ip link add dev vcan0 type vcan") != 0)
+			return -1;
 		drain(fd1);
 		double t0 = bench_now_s();
-		if (system(deleted ? "ip link add dev vcan0 type vcan && ip link set vcan0 up"
-				   : "ip link set vcan0 up") != 0)
+		if (set_up(true) != 0)
 			return -1;
 		if ((v[r] = first(h, fd1, t0)) < 0 || wait_link(h, false) != 0)
 			return -1;
@@ -382,10 +439,13 @@ static void return_figure(const char *name, double value, const char *base, doub
 static int return_figures(cogw *h)
 {
 	int fd1 = can_open_raw("vcan1");
-	uint8_t start[2] = { 0x01, 127 }; /* line 1's node: PDOs need OPERATIONAL */
+	int fd0 = can_open_raw("vcan0");
+	uint8_t start[2] = { 0x01, 127 }; /* both lines' node: PDOs need OPERATIONAL */
 	pthread_t th;
-	if (fd1 < 0 || can_send_std(fd1, 0x000, start, 2) != 0)
+	if (fd1 < 0 || fd0 < 0 || can_send_std(fd1, 0x000, start, 2) != 0 ||
+	    can_send_std(fd0, 0x000, start, 2) != 0)
 		return -1;
+	close(fd0);
 	atomic_store(&inject_stop, false);
 	if (pthread_create(&th, NULL, inject_loop, NULL) != 0)
 		return -1;
@@ -410,12 +470,12 @@ static int return_figures(cogw *h)
 		      "a plain process's first raw SDO round trip after the same command", raw,
 		      2 * raw + 0.05, "<= 2 x baseline + 50 ms");
 	return_figure("interface deleted and created: to the first forwarded PDO", pdo_del,
-		      "a plain process's first frame through new sockets", raw_del,
-		      raw_del + 0.25, "<= baseline + 250 ms (the 200 ms probe)");
-	bench_note("interface return: medians of %d rounds each, timed from the start of the "
-		   "`ip link` command that brings vcan0 back (its fork and exec included in both); "
-		   "RPDOs injected every ms; a line looks at a lost interface every 200 ms, "
-		   "one that was only down is seen at once (its socket's next event)",
+		      "a plain process's first frame through new sockets", raw_del, raw_del + 0.25,
+		      "<= baseline + 250 ms (the 200 ms probe)");
+	bench_note("interface return: medians of %d rounds each, timed from the ioctl that sets "
+		   "vcan0 up (SIOCSIFFLAGS, as `ip link set up`; a deleted one was created again "
+		   "before, still down); RPDOs injected every ms; a line looks at a lost interface "
+		   "every 200 ms, and at once at a frame received",
 		   ROUNDS);
 	return 0;
 }
@@ -426,7 +486,6 @@ int main(void)
 	bench_daemon d = { .pid = -1 };
 	cogw *h = NULL;
 	pid_t sim = -1;
-	unsigned raw_found = 0;
 	int status = 1;
 
 	if (bench_setup(instance, sizeof instance, "bench", tmpdir, sizeof tmpdir, "net") < 0)
@@ -440,13 +499,12 @@ int main(void)
 	if (write_files(dev, cfg) < 0 || (sim = start_devices(dev)) < 0)
 		goto out;
 	sleep_ms(1000); /* the devices are up */
-	double raw_s = raw_scan(&raw_found);
-	if (raw_s < 0 || bench_daemon_start(&d, cfg, instance, log) < 0)
+	if (bench_daemon_start(&d, cfg, instance, log) < 0)
 		goto out;
 	cogw_options o = { .instance = instance, .timeout_ms = 10000 };
 	if (cogw_open_opts(&h, &o) < 0)
 		goto out;
-	if (scan_figures(h, raw_s, raw_found) < 0 || return_figures(h) < 0) {
+	if (scan_figures(h) < 0 || return_figures(h) < 0) {
 		proc_dump_log(log, 20);
 		goto out;
 	}

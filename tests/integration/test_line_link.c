@@ -44,21 +44,21 @@
  * maps it: PDO forwarding from the line whose interface goes away. */
 #define RPDO_IN 0x181
 #define TPDO_OUT 0x1FF
-#define CONFIG                                                                               \
-	"{\"version\": 1, \"mailbox\": {\"instance\": \"" INSTANCE "\"},"                     \
+#define CONFIG                                                                                 \
+	"{\"version\": 1, \"mailbox\": {\"instance\": \"" INSTANCE "\"},"                      \
 	" \"gateway\": {\"process_image\": [{\"index\": \"0xB000\", \"type\": \"UNSIGNED32\"," \
-	"  \"access\": \"rw\", \"pdo\": true}]}, \"lines\": ["                                \
-	"{\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127, "                \
-	" \"sdo_timeout_ms\": 300, \"rpdos\": 1, "                                          \
-	" \"manager\": {\"retry_ms\": 300, \"reset_wait_ms\": 1000}, "                       \
-	" \"nodes\": [{\"id\": 5, \"heartbeat_ms\": 1000}],"                                 \
-	" \"values\": [{\"index\": \"0x1400\", \"sub\": 1, \"value\": \"0x181\"},"            \
-	"  {\"index\": \"0x1600\", \"sub\": 1, \"value\": \"0xB0000020\"},"                  \
+	"  \"access\": \"rw\", \"pdo\": true}]}, \"lines\": ["                                 \
+	"{\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127, "                  \
+	" \"sdo_timeout_ms\": 300, \"rpdos\": 1, "                                             \
+	" \"manager\": {\"retry_ms\": 300, \"reset_wait_ms\": 1000}, "                         \
+	" \"nodes\": [{\"id\": 5, \"heartbeat_ms\": 1000}],"                                   \
+	" \"values\": [{\"index\": \"0x1400\", \"sub\": 1, \"value\": \"0x181\"},"             \
+	"  {\"index\": \"0x1600\", \"sub\": 1, \"value\": \"0xB0000020\"},"                    \
 	"  {\"index\": \"0x1600\", \"sub\": 0, \"value\": 1}]},"                               \
-	"{\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127, "                \
-	" \"sdo_timeout_ms\": 1500, \"tpdos\": 1,"                                          \
-	" \"values\": [{\"index\": \"0x1800\", \"sub\": 1, \"value\": \"0x1FF\"},"            \
-	"  {\"index\": \"0x1A00\", \"sub\": 1, \"value\": \"0xB0000020\"},"                  \
+	"{\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127, "                  \
+	" \"sdo_timeout_ms\": 1500, \"tpdos\": 1,"                                             \
+	" \"values\": [{\"index\": \"0x1800\", \"sub\": 1, \"value\": \"0x1FF\"},"             \
+	"  {\"index\": \"0x1A00\", \"sub\": 1, \"value\": \"0xB0000020\"},"                    \
 	"  {\"index\": \"0x1A00\", \"sub\": 0, \"value\": 1}]}]}"
 
 static daemon_run dmn;
@@ -378,7 +378,8 @@ static void test_deleted_under_load_with_forwarded_pdos(void)
 		TEST_ASSERT_TRUE_MESSAGE(pdo >= 0, "PDO forwarding did not resume");
 		const char *dev0[] = { "etc/devices/io-generic.json:5", NULL };
 		TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim0, dmn.dir, 0, dev0, NULL));
-		TEST_ASSERT_TRUE_MESSAGE(until_answered() >= 0, "no SDO answer on the new interface");
+		TEST_ASSERT_TRUE_MESSAGE(until_answered() >= 0,
+					 "no SDO answer on the new interface");
 		long sdo = (long)(mono_ms() - back);
 		printf("round %d: first forwarded PDO %ld ms, first answered SDO %ld ms after "
 		       "`ip link add` (with the device's start)\n",

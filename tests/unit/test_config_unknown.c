@@ -26,20 +26,21 @@ static char dir[64];
 
 /* Two device files written by the test: one whose values do not depend on
  * the node-ID, one with $NODEID. */
-static const char eds_fixed[] = "[FileInfo]\nFileName=fixed.eds\n\n"
-				"[1000]\nParameterName=Device type\nObjectType=0x7\n"
-				"DataType=0x0007\nAccessType=ro\nDefaultValue=0x00030191\n\n"
-				"[1017]\nParameterName=Producer heartbeat time\nObjectType=0x7\n"
-				"DataType=0x0006\nAccessType=rw\nDefaultValue=200\n\n"
-				"[1018]\nParameterName=Identity\nObjectType=0x9\nSubNumber=4\n\n"
-				"[1018sub0]\nParameterName=n\nObjectType=0x7\nDataType=0x0005\n"
-				"AccessType=ro\nDefaultValue=3\n\n"
-				"[1018sub1]\nParameterName=Vendor\nObjectType=0x7\nDataType=0x0007\n"
-				"AccessType=ro\nDefaultValue=0x00000ABC\n\n"
-				"[1018sub2]\nParameterName=Product\nObjectType=0x7\nDataType=0x0007\n"
-				"AccessType=ro\nDefaultValue=0x12\n\n"
-				"[1018sub3]\nParameterName=Revision\nObjectType=0x7\n"
-				"DataType=0x0007\nAccessType=ro\nDefaultValue=0x00010002\n";
+static const char eds_fixed[] =
+	"[FileInfo]\nFileName=fixed.eds\n\n"
+	"[1000]\nParameterName=Device type\nObjectType=0x7\n"
+	"DataType=0x0007\nAccessType=ro\nDefaultValue=0x00030191\n\n"
+	"[1017]\nParameterName=Producer heartbeat time\nObjectType=0x7\n"
+	"DataType=0x0006\nAccessType=rw\nDefaultValue=200\n\n"
+	"[1018]\nParameterName=Identity\nObjectType=0x9\nSubNumber=4\n\n"
+	"[1018sub0]\nParameterName=n\nObjectType=0x7\nDataType=0x0005\n"
+	"AccessType=ro\nDefaultValue=3\n\n"
+	"[1018sub1]\nParameterName=Vendor\nObjectType=0x7\nDataType=0x0007\n"
+	"AccessType=ro\nDefaultValue=0x00000ABC\n\n"
+	"[1018sub2]\nParameterName=Product\nObjectType=0x7\nDataType=0x0007\n"
+	"AccessType=ro\nDefaultValue=0x12\n\n"
+	"[1018sub3]\nParameterName=Revision\nObjectType=0x7\n"
+	"DataType=0x0007\nAccessType=ro\nDefaultValue=0x00010002\n";
 static const char eds_nodeid[] = "[FileInfo]\nFileName=nodeid.eds\n\n"
 				 "[1000]\nParameterName=Device type\nObjectType=0x7\n"
 				 "DataType=0x0007\nAccessType=ro\nDefaultValue=0x00020192\n\n"
@@ -109,7 +110,8 @@ static void test_defaults_and_supervise(void)
 	TEST_ASSERT_EQUAL_UINT16(100, u->sdo_timeout_ms);
 	TEST_ASSERT_EQUAL_size_t(0, u->n_devices);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(
-		0, load("{\"policy\": \"supervise\", \"heartbeat_ms\": 3000, \"sdo_timeout_ms\": 40}"),
+		0,
+		load("{\"policy\": \"supervise\", \"heartbeat_ms\": 3000, \"sdo_timeout_ms\": 40}"),
 		err);
 	u = &cfg.lines[0].unknown;
 	TEST_ASSERT_EQUAL_UINT8(MBX_UNKNOWN_SUPERVISE, u->policy);
@@ -134,13 +136,13 @@ static void test_bad_values_are_refused_with_their_path(void)
 	assert_refused("{\"policy\": \"boot\", \"devices_dir\": \"/nonexistent-cogw\"}",
 		       "cannot open the directory");
 	/* boot needs the line's manager */
-	TEST_ASSERT_EQUAL_INT(-EINVAL,
-			      cogw_config_load_string(
-				      &cfg,
-				      "{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, "
-				      "\"node_id\": 5, \"unknown_nodes\": {\"policy\": \"boot\", "
-				      "\"devices_dir\": \"/tmp\"}}]}",
-				      "t.json", err, sizeof err));
+	TEST_ASSERT_EQUAL_INT(
+		-EINVAL, cogw_config_load_string(
+				 &cfg,
+				 "{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, "
+				 "\"node_id\": 5, \"unknown_nodes\": {\"policy\": \"boot\", "
+				 "\"devices_dir\": \"/tmp\"}}]}",
+				 "t.json", err, sizeof err));
 	TEST_ASSERT_NOT_NULL_MESSAGE(strstr(err, "needs the line's \"manager\""), err);
 }
 
@@ -199,7 +201,9 @@ static void test_identity_match(void)
 	static uint8_t *const none[128] = { NULL };
 	static const size_t lens[128] = { 0 };
 	const mgr_ext_device devs[] = {
-		{ .file = "exact", .ident = { 0x191, 0xABC, 0x12, 0x10002 }, .cdcf = none,
+		{ .file = "exact",
+		  .ident = { 0x191, 0xABC, 0x12, 0x10002 },
+		  .cdcf = none,
 		  .cdcf_len = lens },
 		{ .file = "vendor", .ident = { 0, 0xABC, 0, 0 }, .cdcf = none, .cdcf_len = lens },
 	};
