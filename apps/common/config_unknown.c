@@ -46,8 +46,8 @@ void cogw_unknown_config_free(cogw_unknown_config *u)
 static int parse_policy(struct ctx *c, const cJSON *o, const char *path, uint8_t *policy)
 {
 	char name[16] = "ignore", p[JSON_PATH_MAX];
-	int rc = json_util_opt_string(o, "policy", path, 1, name, sizeof name, c->msg,
-				      sizeof c->msg);
+	const json_at at = cfg_at(c, path);
+	int rc = json_util_opt_string(o, "policy", &at, 1, name, sizeof name);
 	if (rc)
 		return rc;
 	for (uint8_t i = MBX_UNKNOWN_IGNORE; i <= MBX_UNKNOWN_BOOT; i++)
@@ -63,6 +63,7 @@ int cfg_parse_unknown(struct ctx *c, const cJSON *o, const char *path, cogw_line
 {
 	cogw_unknown_config *u = &l->unknown;
 	char dir[COGW_FILE_NAME_MAX] = "", p[JSON_PATH_MAX];
+	const json_at at = cfg_at(c, path);
 	int rc;
 	if ((rc = cfg_check_object(c, o, path, unknown_keys)) ||
 	    (rc = parse_policy(c, o, path, &u->policy)) ||
@@ -70,8 +71,7 @@ int cfg_parse_unknown(struct ctx *c, const cJSON *o, const char *path, cogw_line
 			      &u->heartbeat_ms)) ||
 	    (rc = cfg_opt_u16(c, o, "sdo_timeout_ms", path,
 			      (cfg_range){ 1, MBX_SCAN_TIMEOUT_MAX_MS }, &u->sdo_timeout_ms)) ||
-	    (rc = json_util_opt_string(o, "devices_dir", path, 1, dir, sizeof dir, c->msg,
-				       sizeof c->msg)))
+	    (rc = json_util_opt_string(o, "devices_dir", &at, 1, dir, sizeof dir)))
 		return rc;
 	json_util_path_key(p, sizeof p, path, "devices_dir");
 	if (dir[0] && u->policy != MBX_UNKNOWN_BOOT)
@@ -109,18 +109,30 @@ static void pick_identity(void *arg, const eds_entry *e)
 		ip->ident[e->sub] = v;
 }
 
-static int convert(struct ctx *c, const char *path, const uint8_t *text, size_t len, uint8_t node,
-		   struct ident_pick *ip, uint8_t **out, size_t *out_len)
+/* A device file's text, read once for all its conversions. */
+struct device_text {
+	const char *path;
+	const uint8_t *text;
+	size_t len;
+};
+
+/* d's concise DCF for node-ID `node` into dev's slot; ip: its identity
+ * too (NULL: not wanted). */
+static int convert(struct ctx *c, const struct device_text *t, uint8_t node, struct ident_pick *ip,
+		   cogw_unknown_device *dev)
 {
-	char err[256];
 	eds_options opts = { .node_id = node,
 			     .on_entry = ip ? pick_identity : NULL,
 			     .entry_arg = ip };
-	int rc = eds_convert_opts((const char *)text, len, path, &opts, out, out_len, NULL, err,
-				  sizeof err);
+	eds_result res;
+	int rc = eds_convert_opts((const char *)t->text, t->len, t->path, &opts, &res);
 	if (rc == -ENOMEM)
 		return rc;
-	return rc ? cfg_fail(c, path, "%s", err) : 0;
+	if (rc)
+		return cfg_fail(c, t->path, "%s", res.err);
+	dev->cdcf[node] = res.cdcf;
+	dev->cdcf_len[node] = res.len;
+	return 0;
 }
 
 /* Node-IDs the line may adopt: neither configured nor its own. */
@@ -142,9 +154,9 @@ static int load_device(struct ctx *c, cogw_line_config *l, const char *file, cog
 	int rc = cogw_file_read(file, EDS_FILE_MAX, &text, &len, c->msg, sizeof c->msg);
 	if (rc)
 		return rc;
+	const struct device_text t = { file, text, len };
 	snprintf(d->file, sizeof d->file, "%s", file);
-	if ((rc = convert(c, file, text, len, 1, &ip, &d->cdcf[1], &d->cdcf_len[1])) ||
-	    (rc = convert(c, file, text, len, 2, NULL, &d->cdcf[2], &d->cdcf_len[2])))
+	if ((rc = convert(c, &t, 1, &ip, d)) || (rc = convert(c, &t, 2, NULL, d)))
 		goto out;
 	memcpy(d->ident, ip.ident, sizeof d->ident);
 	d->shared = d->cdcf_len[1] == d->cdcf_len[2] &&
@@ -160,8 +172,7 @@ static int load_device(struct ctx *c, cogw_line_config *l, const char *file, cog
 	}
 	for (unsigned id = 3; id < 128 && !rc; id++)
 		if (adoptable(l, id))
-			rc = convert(c, file, text, len, (uint8_t)id, NULL, &d->cdcf[id],
-				     &d->cdcf_len[id]);
+			rc = convert(c, &t, (uint8_t)id, NULL, d);
 out:
 	free(text);
 	return rc;
