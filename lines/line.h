@@ -36,6 +36,9 @@ typedef struct line_unknown_params {
 	                          * (0 = none) */
 	uint16_t sdo_timeout_ms; /* per SDO frame of identity reads and scans
 	                          * (0 = LINE_SCAN_TIMEOUT_MS) */
+	bool identify;           /* read an unknown node's identity; false: reported
+	                * without (another SDO client, a configuration tool,
+	                * talks to new nodes) */
 	uint32_t known[4];       /* the configured node-IDs: bit n % 32 of
 	                          * known[n / 32] */
 } line_unknown_params;

@@ -315,6 +315,15 @@ static uint8_t apply_policy(line *l, uint8_t node, const mbx_node_ident *id)
 	return action;
 }
 
+static const char *not_read_why(const line *l, const mbx_node_ident *id)
+{
+	if (id->flags & MBX_IDENT_IDENTITY)
+		return "";
+	if (!(id->flags & MBX_IDENT_NOT_ASKED))
+		return " (identity not read)";
+	return l->p.unknown.identify ? " (not read: stopped)" : " (not read: identify off)";
+}
+
 static void unknown_report(line *l, uint8_t node)
 {
 	const line_unknown_params *u = &l->p.unknown;
@@ -331,10 +340,7 @@ static void unknown_report(line *l, uint8_t node)
 		 id->nmt_state == CO_HB_STATE_UNKNOWN ? "unknown"
 						      : co_nmt_state_to_string(id->nmt_state),
 		 (unsigned)id->device_type, (unsigned)id->vendor_id, (unsigned)id->product_code,
-		 (unsigned)id->revision, (unsigned)id->serial,
-		 id->flags & MBX_IDENT_NOT_ASKED  ? " (not read: stopped)"
-		 : id->flags & MBX_IDENT_IDENTITY ? ""
-						  : " (identity not read)",
+		 (unsigned)id->revision, (unsigned)id->serial, not_read_why(l, id),
 		 mbx_unknown_policy_to_string(u->policy), mbx_unknown_action_to_string(ev.action));
 	mbx_server_publish(l->mbx, MBX_EV_UNKNOWN_NODE, 0, &ev, sizeof ev);
 }
@@ -369,13 +375,14 @@ void line_unknown_on_event(line *l, const co_event *ev)
 		return;
 	s->unknown_seen[node / 32] |= 1u << (node % 32);
 	/* a boot-up ends in PRE-OPERATIONAL, where SDO is allowed */
-	if (source != MBX_IDENT_BOOTUP && co_hb_remote_state(l->node, node) == CO_NMT_STOPPED) {
+	if (!l->p.unknown.identify ||
+	    (source != MBX_IDENT_BOOTUP && co_hb_remote_state(l->node, node) == CO_NMT_STOPPED)) {
 		mbx_node_ident *id = &s->cache[node];
 		memset(id, 0, sizeof *id);
 		id->node = node;
 		id->source = source;
 		id->flags = MBX_IDENT_NOT_ASKED;
-		id->nmt_state = CO_NMT_STOPPED;
+		id->nmt_state = heard_state(l, node);
 		s->read_us[node] = l->now_us;
 		unknown_report(l, node);
 		return;

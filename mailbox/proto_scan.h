@@ -43,7 +43,8 @@ enum mbx_ident_flag {
 	MBX_IDENT_IDENTITY = 1u << 1, /* 1018h:1..3 read */
 	MBX_IDENT_SERIAL = 1u << 2,   /* 1018h:4 read */
 	MBX_IDENT_NOT_ASKED = 1u << 3 /* not read: the node was STOPPED (no SDO,
-	                               * CiA 301 §7.3.2.2) */
+	                               * CiA 301 §7.3.2.2), or the line reads no
+	                               * identities (unknown_nodes.identify) */
 };
 
 /* One node as read. */

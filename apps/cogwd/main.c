@@ -141,7 +141,8 @@ static line_unknown_params unknown_params(const cogw_line_config *lc)
 {
 	line_unknown_params u = { .policy = lc->unknown.policy,
 				  .heartbeat_ms = lc->unknown.heartbeat_ms,
-				  .sdo_timeout_ms = lc->unknown.sdo_timeout_ms };
+				  .sdo_timeout_ms = lc->unknown.sdo_timeout_ms,
+				  .identify = lc->unknown.identify };
 	for (size_t i = 0; i < lc->n_nodes; i++)
 		u.known[lc->nodes[i].id / 32] |= 1u << (lc->nodes[i].id % 32);
 	for (size_t i = 0; i < lc->n_hb_consumers; i++) {

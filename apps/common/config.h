@@ -134,6 +134,7 @@ typedef struct cogw_unknown_config {
 	uint8_t policy;                       /* enum mbx_unknown_policy */
 	uint16_t heartbeat_ms;                /* supervise, boot: 1016h consumer time */
 	uint16_t sdo_timeout_ms;              /* identity reads and scans, per frame */
+	bool identify;                        /* read an unknown node's identity (SDO) */
 	char devices_dir[COGW_FILE_NAME_MAX]; /* boot: resolved, "" = none */
 	cogw_unknown_device *devices;         /* owned, n_devices */
 	size_t n_devices;

@@ -295,7 +295,8 @@ static void line_defaults(cogw_line_config *l, size_t idx)
 	l->fault_quiet_ms = 1000;
 	l->unknown = (cogw_unknown_config){ .policy = MBX_UNKNOWN_IGNORE,
 					    .heartbeat_ms = 1500,
-					    .sdo_timeout_ms = 100 };
+					    .sdo_timeout_ms = 100,
+					    .identify = true };
 	l->device_objects = (cogw_devobj_config){ .read_max_age_ms = 1000,
 						  .write_update_ms = 10,
 						  .watches = 64 };

@@ -171,6 +171,7 @@ static void line_diff(const cogw_line_config *x, const cogw_line_config *y, size
 	LDIFF(x->unknown.policy != y->unknown.policy ||
 		      x->unknown.heartbeat_ms != y->unknown.heartbeat_ms ||
 		      x->unknown.sdo_timeout_ms != y->unknown.sdo_timeout_ms ||
+		      x->unknown.identify != y->unknown.identify ||
 		      strcmp(x->unknown.devices_dir, y->unknown.devices_dir),
 	      "unknown_nodes");
 #undef LDIFF

@@ -27,8 +27,9 @@
 #include "core/cfgmgr.h"
 #include "mailbox/proto.h"
 
-static const char *const unknown_keys[] = { "policy",      "heartbeat_ms", "sdo_timeout_ms",
-					    "devices_dir", "comment",      NULL };
+static const char *const unknown_keys[] = { "policy",   "heartbeat_ms", "sdo_timeout_ms",
+					    "identify", "devices_dir",  "comment",
+					    NULL };
 
 void cogw_unknown_config_free(cogw_unknown_config *u)
 {
@@ -71,6 +72,7 @@ int cfg_parse_unknown(struct ctx *c, const cJSON *o, const char *path, cogw_line
 			      &u->heartbeat_ms)) ||
 	    (rc = cfg_opt_u16(c, o, "sdo_timeout_ms", path,
 			      (cfg_range){ 1, MBX_SCAN_TIMEOUT_MAX_MS }, &u->sdo_timeout_ms)) ||
+	    (rc = json_util_opt_bool(o, "identify", &at, &u->identify)) ||
 	    (rc = json_util_opt_string(o, "devices_dir", &at, 1, dir, sizeof dir)))
 		return rc;
 	json_util_path_key(p, sizeof p, path, "devices_dir");

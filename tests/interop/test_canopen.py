@@ -88,6 +88,8 @@ import canopen
 from canopen.objectdictionary import ODRecord, ODVariable, ObjectDictionary, datatypes, export_od
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
+from interop import RESULTS, STEP, check, eq, step
+
 TOP = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BIN = os.environ.get("COGW_BIN", os.path.join(TOP, "build/san/bin"))
 IFACE = "vcan0"
@@ -123,7 +125,6 @@ SDO_TIMEOUT_S = 5.0  # python-canopen, cogwd and cosim alike (slow VM)
 # ---------------------------------------------------------------------------
 # tiny Unity-style runner
 
-RESULTS = []
 
 
 class Recorder(can.Listener):
@@ -170,28 +171,8 @@ def run_test(fn):
         RESULTS.append(False)
 
 
-STEP = [""]
 
 
-T0 = time.monotonic()
-
-
-def step(text):
-    """What the test is doing now (printed if it fails; as it goes with
-    COGW_INTEROP_VERBOSE=1)."""
-    STEP[0] = text
-    if os.environ.get("COGW_INTEROP_VERBOSE"):
-        print(f"  [{time.monotonic() - T0:7.1f} s] {text}", file=sys.stderr, flush=True)
-
-
-def check(cond, msg):
-    if not cond:
-        raise AssertionError(msg)
-
-
-def eq(want, got, what):
-    if want != got:
-        raise AssertionError(f"{what}: expected {want!r}, got {got!r}")
 
 
 # ---------------------------------------------------------------------------
@@ -237,6 +218,9 @@ CONFIG = {
         "sdo_timeout_ms": int(SDO_TIMEOUT_S * 1000),
         "time_period_ms": TIME_PERIOD_MS,
         "id_conflict_quiet_ms": ID_CONFLICT_QUIET_MS,
+        # python-canopen is the configuration tool here (LSS, SDO to nodes
+        # that just appeared): the line reports them without SDO of its own
+        "unknown_nodes": {"identify": False},
         "rpdos": 1,
         "objects": [
             {"index": "0x2000", "name": "big domain", "type": "DOMAIN", "access": "rw",

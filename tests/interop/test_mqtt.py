@@ -51,6 +51,8 @@ import paho.mqtt.client as mqtt
 from paho.mqtt.packettypes import PacketTypes
 from paho.mqtt.properties import Properties
 
+from interop import RESULTS, STEP, check, eq, step
+
 TOP = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BIN = os.environ.get("COGW_BIN", os.path.join(TOP, "build/san/bin"))
 PORT = 18830          # anonymous
@@ -58,9 +60,6 @@ PORT_AUTH = 18831     # user/password
 PORT_TLS = 18832      # TLS, anonymous
 WORK = tempfile.mkdtemp(prefix="cogw-mqtt-")
 PROCS = {}
-RESULTS = []
-STEP = [""]
-T0 = time.monotonic()
 STI_VENDOR = 0x250
 IO_VENDOR = 0x1234
 WAIT_S = 30  # the emulated VM with sanitizer builds can be slow
@@ -122,22 +121,6 @@ def bridge_config(gateway, daemon_cfg, **extra):
 
 # ---------------------------------------------------------------------------
 # runner (Unity-style lines for tests/run-tests)
-
-def step(text):
-    STEP[0] = text
-    if os.environ.get("COGW_INTEROP_VERBOSE"):
-        print(f"  [{time.monotonic() - T0:7.1f} s] {text}", file=sys.stderr, flush=True)
-
-
-def check(cond, msg):
-    if not cond:
-        raise AssertionError(msg)
-
-
-def eq(want, got, what):
-    if want != got:
-        raise AssertionError(f"{what}: expected {want!r}, got {got!r}")
-
 
 def read_log(name, tail=1500):
     try:

@@ -42,6 +42,8 @@ import traceback
 import canopen
 from canopen.objectdictionary import ODRecord, ODVariable, ObjectDictionary, datatypes, export_od
 
+from interop import RESULTS, check, eq, run_test, selected, step, summary
+
 TOP = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BIN = os.environ.get("COGW_BIN", os.path.join(TOP, "build/san/bin"))
 INSTANCE = "netscan"
@@ -60,29 +62,10 @@ SCAN_STOPPED = 70
 BOOT_VALUE = 0x5A5A1234  # 2000h in the EDS: what the boot downloads
 MANAGED_ID = 45          # a configured node of the boot line (its manager's)
 
-RESULTS = []
-STEP = [""]
-T0 = time.monotonic()
 WORK = tempfile.mkdtemp(prefix="cogw-network-")
 DEVICES = os.path.join(WORK, "devices")
 PROCS = {}
 NETS = []
-
-
-def step(text):
-    STEP[0] = text
-    if os.environ.get("COGW_INTEROP_VERBOSE"):
-        print(f"  [{time.monotonic() - T0:7.1f} s] {text}", file=sys.stderr, flush=True)
-
-
-def check(cond, msg):
-    if not cond:
-        raise AssertionError(msg)
-
-
-def eq(want, got, what):
-    if want != got:
-        raise AssertionError(f"{what}: expected {want!r}, got {got!r}")
 
 
 def read_log(name, tail=2000):
@@ -93,21 +76,8 @@ def read_log(name, tail=2000):
         return ""
 
 
-def run_test(fn):
-    line = fn.__code__.co_firstlineno
-    step(fn.__name__)
-    try:
-        fn()
-        print(f"tests/interop/test_network.py:{line}:{fn.__name__}:PASS", flush=True)
-        RESULTS.append(True)
-    except Exception as exc:  # noqa: BLE001 - report every failure the same way
-        tb = traceback.extract_tb(exc.__traceback__)
-        where = next((f.lineno for f in reversed(tb) if f.filename == __file__), line)
-        msg = f"{type(exc).__name__}: {exc}".replace("\n", " ")
-        print(f"tests/interop/test_network.py:{where}:{fn.__name__}:FAIL: {msg}", flush=True)
-        print("  step: " + STEP[0])
-        print("  cogwd log:\n" + read_log("cogwd", 1500), flush=True)
-        RESULTS.append(False)
+def on_failure():
+    print("  cogwd log:\n" + read_log("cogwd", 1500), flush=True)
 
 
 def ctl(*args, check_rc=True, timeout=60):
@@ -597,21 +567,15 @@ def main():
                   test_boot_policy_boots_a_node_matched_by_identity,
                   test_scan_finds_every_answering_node_within_its_bound,
                   test_interface_returns_manager_reboots_and_supervision_resumes):
-            only = os.environ.get("COGW_TEST_ONLY")
-            if only and not any(o in t.__name__ for o in only.split(",")):
-                continue
-            run_test(t)
+            if selected(t):
+                run_test(t, "tests/interop/test_network.py", on_failure)
     except Exception:  # noqa: BLE001 - set-up failure: one failed test
         traceback.print_exc()
         RESULTS.append(False)
         print("cogwd log:\n" + read_log("cogwd"))
     finally:
         stop_system()
-    failed = RESULTS.count(False)
-    print("\n-----------------------")
-    print(f"{len(RESULTS)} Tests {failed} Failures 0 Ignored")
-    print("OK" if failed == 0 else "FAIL")
-    return 1 if failed else 0
+    return summary()
 
 
 if __name__ == "__main__":

@@ -108,6 +108,7 @@ static void test_defaults_and_supervise(void)
 	TEST_ASSERT_EQUAL_UINT8(MBX_UNKNOWN_IGNORE, u->policy);
 	TEST_ASSERT_EQUAL_UINT16(1500, u->heartbeat_ms);
 	TEST_ASSERT_EQUAL_UINT16(100, u->sdo_timeout_ms);
+	TEST_ASSERT_TRUE(u->identify);
 	TEST_ASSERT_EQUAL_size_t(0, u->n_devices);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(
 		0,
@@ -117,6 +118,8 @@ static void test_defaults_and_supervise(void)
 	TEST_ASSERT_EQUAL_UINT8(MBX_UNKNOWN_SUPERVISE, u->policy);
 	TEST_ASSERT_EQUAL_UINT16(3000, u->heartbeat_ms);
 	TEST_ASSERT_EQUAL_UINT16(40, u->sdo_timeout_ms);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, load("{\"identify\": false}"), err);
+	TEST_ASSERT_FALSE(cfg.lines[0].unknown.identify);
 	/* nothing for node-IDs the line would adopt without "boot" */
 	TEST_ASSERT_NULL(co_od_find(cfg.lines[0].od, CO_CFGMGR_IDX_CDCF, 9));
 }
@@ -129,6 +132,7 @@ static void test_bad_values_are_refused_with_their_path(void)
 	assert_refused("{\"sdo_timeout_ms\": 5001}", "sdo_timeout_ms");
 	assert_refused("{\"heartbeat_ms\": 65536}", "heartbeat_ms");
 	assert_refused("{\"heartbeat_ms\": -1}", "heartbeat_ms");
+	assert_refused("{\"identify\": 1}", "identify");
 	assert_refused("{\"policy\": \"ignore\", \"nodes\": 1}", "nodes");
 	assert_refused("[]", "unknown_nodes");
 	assert_refused("{\"devices_dir\": \"/tmp\"}", "only with");
