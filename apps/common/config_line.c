@@ -295,8 +295,7 @@ static void line_defaults(cogw_line_config *l, size_t idx)
 	l->fault_quiet_ms = 1000;
 	l->unknown = (cogw_unknown_config){ .policy = MBX_UNKNOWN_IGNORE,
 					    .heartbeat_ms = 1500,
-					    .sdo_timeout_ms = 100,
-					    .identify = true };
+					    .sdo_timeout_ms = 100 };
 	l->device_objects = (cogw_devobj_config){ .read_max_age_ms = 1000,
 						  .write_update_ms = 10,
 						  .watches = 64 };
@@ -453,6 +452,9 @@ static int parse_line_sections(struct ctx *c, const cJSON *o, const char *path, 
 		if ((rc = parse_devobj(c, v, p, &l->device_objects)))
 			return rc;
 	}
+	/* the network's master asks what it hears; a line without a manager
+	 * leaves other masters' devices alone (docs/config.md "Unknown nodes") */
+	l->unknown.identify = l->manager.enabled;
 	v = json_util_get(o, "unknown_nodes");
 	if (v) {
 		json_util_path_key(p, sizeof(p), path, "unknown_nodes");

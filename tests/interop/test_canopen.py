@@ -218,9 +218,6 @@ CONFIG = {
         "sdo_timeout_ms": int(SDO_TIMEOUT_S * 1000),
         "time_period_ms": TIME_PERIOD_MS,
         "id_conflict_quiet_ms": ID_CONFLICT_QUIET_MS,
-        # python-canopen is the configuration tool here (LSS, SDO to nodes
-        # that just appeared): the line reports them without SDO of its own
-        "unknown_nodes": {"identify": False},
         "rpdos": 1,
         "objects": [
             {"index": "0x2000", "name": "big domain", "type": "DOMAIN", "access": "rw",

@@ -206,12 +206,14 @@ CONFIG = {
         "name": "ignore", "interface": IFACES[0], "bitrate": 1000000, "node_id": OWN_ID,
         "heartbeat_ms": 0, "sdo_clients": 8, "sdo_timeout_ms": 3000,
         "heartbeat_consumers": [{"node_id": KNOWN_ID, "time_ms": 3000}],
-        "unknown_nodes": {"policy": "ignore", "sdo_timeout_ms": SDO_TIMEOUT_MS},
+        # no manager here: identities are read when asked for
+        "unknown_nodes": {"policy": "ignore", "identify": True,
+                          "sdo_timeout_ms": SDO_TIMEOUT_MS},
     }, {
         "name": "supervise", "interface": IFACES[1], "bitrate": 1000000, "node_id": OWN_ID,
         "heartbeat_ms": 0, "sdo_timeout_ms": 3000,
         "unknown_nodes": {"policy": "supervise", "heartbeat_ms": SUPERVISE_HB_MS,
-                          "sdo_timeout_ms": SDO_TIMEOUT_MS},
+                          "identify": True, "sdo_timeout_ms": SDO_TIMEOUT_MS},
     }, {
         "name": "boot", "interface": IFACES[2], "bitrate": 1000000, "node_id": OWN_ID,
         "heartbeat_ms": 0, "sdo_timeout_ms": 3000,

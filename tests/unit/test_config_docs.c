@@ -165,8 +165,6 @@ static int fill_key_defaults(struct key_default *k)
 	   mbx_unknown_policy_to_string(l->unknown.policy));
 	KD("Unknown nodes (`unknown_nodes`)", "heartbeat_ms", "%u", l->unknown.heartbeat_ms);
 	KD("Unknown nodes (`unknown_nodes`)", "sdo_timeout_ms", "%u", l->unknown.sdo_timeout_ms);
-	KD("Unknown nodes (`unknown_nodes`)", "identify", "%s",
-	   l->unknown.identify ? "true" : "false");
 	TEST_ASSERT_EQUAL_size_t(1, l->n_nodes);
 	KD("Node configuration", "store", "%s", l->nodes[0].config.store ? "true" : "false");
 	{

@@ -108,7 +108,7 @@ static void test_defaults_and_supervise(void)
 	TEST_ASSERT_EQUAL_UINT8(MBX_UNKNOWN_IGNORE, u->policy);
 	TEST_ASSERT_EQUAL_UINT16(1500, u->heartbeat_ms);
 	TEST_ASSERT_EQUAL_UINT16(100, u->sdo_timeout_ms);
-	TEST_ASSERT_TRUE(u->identify);
+	TEST_ASSERT_TRUE(u->identify); /* the line has a manager */
 	TEST_ASSERT_EQUAL_size_t(0, u->n_devices);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(
 		0,
@@ -133,6 +133,18 @@ static void test_bad_values_are_refused_with_their_path(void)
 	assert_refused("{\"heartbeat_ms\": 65536}", "heartbeat_ms");
 	assert_refused("{\"heartbeat_ms\": -1}", "heartbeat_ms");
 	assert_refused("{\"identify\": 1}", "identify");
+	/* without a manager the line reads no identity unless told to */
+	cogw_config_free(&cfg);
+	memset(&cfg, 0, sizeof cfg);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(
+		0,
+		cogw_config_load_string(
+			&cfg,
+			"{\"lines\": [{\"interface\": \"vcan0\", \"bitrate\": 500000, "
+			"\"node_id\": 5}]}",
+			"t.json", err, sizeof err),
+		err);
+	TEST_ASSERT_FALSE(cfg.lines[0].unknown.identify);
 	assert_refused("{\"policy\": \"ignore\", \"nodes\": 1}", "nodes");
 	assert_refused("[]", "unknown_nodes");
 	assert_refused("{\"devices_dir\": \"/tmp\"}", "only with");
