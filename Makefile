@@ -296,6 +296,14 @@ interop: $(SAN_PROGRAM_BINS)
 	@scripts/pyenv.sh
 	tests/vcan/run -n 3 -- env COGW_TEST_TIMEOUT=$${COGW_INTEROP_TIMEOUT:-1800} tests/run-tests interop $(INTEROP_TESTS)
 
+# The Python package's own tests (python/tests, pytest; docs/python.md "Tests"):
+# against cogwd on 3 vcan lines, with the release libcogw.so; one VM boot.
+PYTHON_TESTS := tests/python/run
+.PHONY: python-test
+python-test: all $(SAN_PROGRAM_BINS)
+	@scripts/pyenv.sh
+	tests/vcan/run -n 3 -- tests/run-tests python $(PYTHON_TESTS)
+
 # The MQTT group alone (one VM boot).
 .PHONY: interop-mqtt
 interop-mqtt: $(SAN_PROGRAM_BINS)
@@ -303,13 +311,13 @@ interop-mqtt: $(SAN_PROGRAM_BINS)
 	tests/vcan/run -n 3 -- tests/run-tests mqtt tests/interop/run-mqtt
 
 # The whole suite: set-up if needed, build, unit tests, then integration tests on
-# 3 vcan lines and the interoperability group in the same VM boot; one closing
-# line "N passed, M failed".
+# 3 vcan lines, the interoperability group and the Python package's tests in the
+# same VM boot; one closing line "N passed, M failed".
 test:
 	@scripts/deps.sh
 	@scripts/pyenv.sh
 	@$(MAKE) --no-print-directory all tests-build
-	@tests/run-all "$(UNIT_BINS)" "$(INTEG_BINS) $(TSAN_VCAN_BINS)" "$(TSAN_BINS)" "$(INTEROP_TESTS)"
+	@tests/run-all "$(UNIT_BINS)" "$(INTEG_BINS) $(TSAN_VCAN_BINS)" "$(TSAN_BINS)" "$(INTEROP_TESTS)" "$(PYTHON_TESTS)"
 
 # ---- house rules -----------------------------------------------------------------
 # `make check` runs every tests/checks/check_* script (layering, core I/O, format, ...);
@@ -459,7 +467,7 @@ install: all
 	ln -sf libcogw.so.1 $(DESTDIR)$(libdir)/libcogw.so
 	install -m 644 $(COGW_PC) $(DESTDIR)$(pkgconfigdir)/cogw.pc
 	install -m 644 core/*.h $(DESTDIR)$(includedir)/cogw/core/
-	install -m 644 mailbox/cogw.h mailbox/proto.h mailbox/proto_health.h mailbox/cogw_health.h \
+	install -m 644 mailbox/cogw.h mailbox/proto.h mailbox/proto_app.h mailbox/proto_health.h mailbox/cogw_health.h \
 		mailbox/proto_scan.h mailbox/cogw_scan.h \
 		$(DESTDIR)$(includedir)/cogw/mailbox/
 	$(if $(PROGRAM_BINS),install -m 755 $(PROGRAM_BINS) $(DESTDIR)$(bindir)/)
@@ -514,7 +522,11 @@ $(SAN_COGW_LIB): $(call obj,$(SAN),$(MBX_CLIENT_SRC))
 	@mkdir -p $(@D)
 	rm -f $@ && $(AR) rcs $@ $^
 
-$(REL_COGW_SO): $(patsubst %.c,$(REL)/pic/%.o,$(MBX_CLIENT_SRC))
+# core/sdo_abort.c: the SDO abort codes' names (sdo_abort_to_string, core/sdo.h)
+# travel with the shared library, for clients that have no core/ of their own
+# (the Python package, docs/python.md); the static libcogw.a goes with libcogw_core.a.
+COGW_SO_SRC := $(MBX_CLIENT_SRC) core/sdo_abort.c
+$(REL_COGW_SO): $(patsubst %.c,$(REL)/pic/%.o,$(COGW_SO_SRC))
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) $(LDFLAGS) -shared -Wl,-soname,libcogw.so.1 -o $@.1 $^ -lrt -lpthread -lm
 	ln -sf libcogw.so.1 $@

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Creates build/pyenv, a Python virtual environment with the pinned packages
-# of tests/interop/requirements.txt (python-canopen and python-can) from PyPI,
-# for the interoperability tests (tests/interop/). Idempotent: a second run
+# of tests/interop/requirements.txt (python-canopen and python-can, pytest) from
+# PyPI, for the interoperability tests (tests/interop/) and the Python package's
+# tests (python/tests, tests/python/run). Idempotent: a second run
 # only compares the requirements with what was installed and returns.
 # Nothing of it is committed (build/ is ignored). The VM harness sees it,
 # since the VM runs this machine's file system read-only.
@@ -25,6 +26,6 @@ log "creating $venv"
 log "installing $(grep -v '^#' "$req" | tr '\n' ' ')"
 "$venv/bin/python" -m pip install -q --disable-pip-version-check --no-input -r "$req" \
     || die "pip install from PyPI failed"
-"$venv/bin/python" -c 'import canopen, can, paho.mqtt.client, socket; socket.AF_CAN' \
-    || die "the environment cannot import canopen/can or has no AF_CAN sockets"
+"$venv/bin/python" -c 'import canopen, can, paho.mqtt.client, pytest, socket; socket.AF_CAN' \
+    || die "the environment cannot import canopen/can/pytest or has no AF_CAN sockets"
 cp "$req" "$venv/.complete"

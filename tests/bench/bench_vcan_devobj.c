@@ -183,22 +183,6 @@ static void injector(struct shared *s)
 
 /* ---- the client side ------------------------------------------------------------ */
 
-static int go_operational(cogw *h)
-{
-	int fd = can_open_raw("vcan0");
-	uint8_t start[2] = { 0x01, OUR_NODE };
-	if (fd < 0 || can_send_std(fd, 0x000, start, 2) < 0)
-		return -1;
-	close(fd);
-	for (uint64_t until = mono_ms() + 5000; mono_ms() < until; sleep_ms(20)) {
-		mbx_line_status st;
-		if (cogw_line_status(h, 0, &st, 5000) == 0 && st.nmt_state == 0x05)
-			return 0;
-	}
-	printf("the daemon's node did not become operational\n");
-	return -1;
-}
-
 static int watch(cogw *h, uint8_t node, uint8_t sub)
 {
 	mbx_dev_obj_req o = { .node = node, .index = 0x6401, .sub = sub };
@@ -449,7 +433,7 @@ int main(void)
 	    write_config(cfg, eds, msg_max < 64 ? msg_max : 64) < 0 ||
 	    bench_daemon_start(&d, cfg, instance, log) < 0)
 		goto out;
-	if (cogw_open_opts(&h, &o) < 0 || go_operational(h) < 0)
+	if (cogw_open_opts(&h, &o) < 0 || bench_go_operational(h, OUR_NODE) < 0)
 		goto out;
 	fflush(stdout);
 	if ((lr = fork()) == 0)

@@ -165,6 +165,9 @@ static int fill_key_defaults(struct key_default *k)
 	   mbx_unknown_policy_to_string(l->unknown.policy));
 	KD("Unknown nodes (`unknown_nodes`)", "heartbeat_ms", "%u", l->unknown.heartbeat_ms);
 	KD("Unknown nodes (`unknown_nodes`)", "sdo_timeout_ms", "%u", l->unknown.sdo_timeout_ms);
+	KD("Objects clients own (`app`)", "max_created", "%u", l->app.max_created);
+	KD("Objects clients own (`app`)", "max_per_client", "%u", l->app.max_per_client);
+	KD("Objects clients own (`app`)", "indications", "%u", l->app.indications);
 	TEST_ASSERT_EQUAL_size_t(1, l->n_nodes);
 	KD("Node configuration", "store", "%s", l->nodes[0].config.store ? "true" : "false");
 	{

@@ -120,8 +120,6 @@ static void test_defaults_and_supervise(void)
 	TEST_ASSERT_EQUAL_UINT16(40, u->sdo_timeout_ms);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, load("{\"identify\": false}"), err);
 	TEST_ASSERT_FALSE(cfg.lines[0].unknown.identify);
-	/* nothing for node-IDs the line would adopt without "boot" */
-	TEST_ASSERT_NULL(co_od_find(cfg.lines[0].od, CO_CFGMGR_IDX_CDCF, 9));
 }
 
 static void test_bad_values_are_refused_with_their_path(void)

@@ -1,6 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 #include "tests/bench/support/bench.h"
 
+#include "mailbox/cogw.h"
+
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -397,4 +399,25 @@ int bench_write_tpdo_eds(const char *path, int tpdos)
 	if (n >= sizeof t)
 		return -ENOSPC;
 	return bench_write_file(path, t);
+}
+
+int bench_go_operational(cogw *h, uint8_t node_id)
+{
+	int fd = can_open_raw("vcan0");
+	uint8_t start[2] = { 0x01, node_id };
+
+	if (fd < 0 || can_send_std(fd, 0x000, start, 2) < 0) {
+		if (fd >= 0)
+			close(fd);
+		return -1;
+	}
+	close(fd);
+	for (uint64_t until = mono_ms() + 5000; mono_ms() < until; sleep_ms(20)) {
+		mbx_line_status st;
+
+		if (cogw_line_status(h, 0, &st, 5000) == 0 && st.nmt_state == 0x05)
+			return 0;
+	}
+	printf("the daemon's node %u did not become operational\n", node_id);
+	return -1;
 }

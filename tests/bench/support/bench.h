@@ -93,6 +93,12 @@ void bench_daemon_stop(bench_daemon *d);
  * left behind). */
 void bench_unlink_instance_queues(const char *instance);
 
+/* Start the daemon's node `node_id` of line 0 on vcan0 (an NMT start frame
+ * from the bus: its PDOs, the mirror's too, work only in OPERATIONAL) and
+ * wait until line 0 says so. 0, or -1 (said on stdout). */
+typedef struct cogw cogw;
+int bench_go_operational(cogw *h, uint8_t node_id);
+
 /* Cumulative on-CPU time of one thread of another process, in seconds:
  * /proc/<pid>/task/<tid>/schedstat (ns) where the kernel has it, else
  * utime+stime from .../stat (clock ticks). Negative if unreadable. */
