@@ -3,8 +3,11 @@
 the step it is at (printed when a test fails; as it goes with
 COGW_INTEROP_VERBOSE=1), the checks, and the Unity-style result lines that
 tests/run-tests counts (file:line:name:PASS/FAIL, then the summary)."""
+import json
 import os
+import subprocess
 import sys
+import threading
 import time
 import traceback
 
@@ -62,3 +65,41 @@ def summary():
     print(f"{len(RESULTS)} Tests {failed} Failures 0 Ignored")
     print("OK" if failed == 0 else "FAIL")
     return 1 if failed else 0
+
+
+class Monitor:
+    """A mailbox subscriber: `cogwctl [OPTIONS] --json monitor --line LINE
+    --class CLASSES` (cogwctl_argv: the program and its global options) in
+    the background, its events collected as they come."""
+
+    def __init__(self, cogwctl_argv, classes, line=0, cwd=None):
+        argv = list(cogwctl_argv) + ["--json", "monitor", "--line", str(line),
+                                     "--class", classes]
+        self.proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                     text=True, cwd=cwd)
+        self.events = []
+        # it says on stderr when its subscriptions are in place
+        said = self.proc.stderr.readline()
+        check("watching" in said, f"cogwctl monitor: {said!r}")
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self):
+        for line in self.proc.stdout:
+            self.events.append(json.loads(line))
+
+    def of(self, *names):
+        return [e for e in list(self.events) if e["event"] in names]
+
+    def wait(self, what, pred, timeout=5.0):
+        """Until pred() gives something true; that."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            got = pred()
+            if got:
+                return got
+            time.sleep(0.05)
+        raise AssertionError(f"subscriber: no {what}; got {self.events[-10:]}")
+
+    def stop(self):
+        self.proc.terminate()
+        self.proc.wait(10)

@@ -97,6 +97,7 @@ import canopen
 from canopen.objectdictionary import ODRecord, ODVariable, ObjectDictionary, datatypes, export_od
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
+import interop
 from interop import RESULTS, STEP, check, eq, step
 
 TOP = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -773,39 +774,12 @@ def test_emcy_from_cosim_and_from_cogwd():
     eq(0x11, e.register & 0x11, "cogwd EMCY error register")
 
 
-class Monitor:
-    """A mailbox subscriber: `cogwctl monitor --json` in the background,
-    its events collected as they come."""
+class Monitor(interop.Monitor):
+    """A subscriber of the daemon's line (interop.Monitor)."""
 
     def __init__(self, classes, line=0):
-        argv = [os.path.join(BIN, "cogwctl"), "--instance", INSTANCE, "--json", "monitor",
-                "--line", str(line), "--class", classes]
-        self.proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                     text=True, cwd=TOP)
-        self.events = []
-        # it says on stderr when its subscriptions are in place
-        said = self.proc.stderr.readline()
-        check("watching" in said, f"cogwctl monitor: {said!r}")
-        threading.Thread(target=self._read, daemon=True).start()
-
-    def _read(self):
-        for line in self.proc.stdout:
-            self.events.append(json.loads(line))
-
-    def of(self, *names):
-        return [e for e in list(self.events) if e["event"] in names]
-
-    def wait(self, what, pred, timeout=5.0):
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if pred():
-                return
-            time.sleep(0.05)
-        raise AssertionError(f"subscriber: no {what}; got {self.events[-10:]}")
-
-    def stop(self):
-        self.proc.terminate()
-        self.proc.wait(10)
+        super().__init__([os.path.join(BIN, "cogwctl"), "--instance", INSTANCE], classes,
+                         line, cwd=TOP)
 
 
 def frames_since(mark, cob):

@@ -35,13 +35,13 @@ import signal
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 import traceback
 
 import canopen
 from canopen.objectdictionary import ODRecord, ODVariable, ObjectDictionary, datatypes, export_od
 
+import interop
 from interop import RESULTS, check, eq, run_test, selected, step, summary
 
 TOP = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -93,43 +93,22 @@ def ctl_json(*args):
     return json.loads(ctl("--json", *args).stdout)
 
 
-class Monitor:
-    """`cogwctl monitor --json` of one line in the background."""
+class Monitor(interop.Monitor):
+    """A subscriber of one line of the daemon, events of a node."""
 
     def __init__(self, line, classes="manager,hb"):
-        argv = [os.path.join(BIN, "cogwctl"), "--instance", INSTANCE, "--json", "monitor",
-                "--line", str(line), "--class", classes]
-        self.proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                     text=True, cwd=TOP)
-        self.events = []
-        said = self.proc.stderr.readline()
-        check("watching" in said, f"cogwctl monitor: {said!r}")
-        threading.Thread(target=self._read, daemon=True).start()
-
-    def _read(self):
-        for line in self.proc.stdout:
-            self.events.append(json.loads(line))
+        super().__init__([os.path.join(BIN, "cogwctl"), "--instance", INSTANCE], classes,
+                         line, cwd=TOP)
 
     def of(self, name, node=None):
-        return [e for e in list(self.events)
-                if e["event"] == name and (node is None or e.get("node") == node)]
+        return [e for e in super().of(name) if node is None or e.get("node") == node]
 
     def wait(self, what, pred, timeout=15.0):
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            got = pred()
-            if got:
-                return got
-            time.sleep(0.05)
-        raise AssertionError(f"subscriber: no {what}; got {self.events[-8:]}")
+        return super().wait(what, pred, timeout)
 
     def unknown(self, node, timeout=15.0):
         return self.wait(f"unknown-node event of node {node}",
                          lambda: self.of("unknown-node", node), timeout)[0]
-
-    def stop(self):
-        self.proc.terminate()
-        self.proc.wait(10)
 
 
 # ---------------------------------------------------------------------------
