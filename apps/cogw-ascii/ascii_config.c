@@ -48,8 +48,9 @@ void ascii_config_defaults(ascii_config *c)
 static int access_of(const cJSON *v, const char *path, uint8_t *out, char *err, size_t errlen)
 {
 	char s[16];
+	const json_at at = { path, err, errlen };
 
-	if (json_util_string(v, path, 1, s, sizeof s, err, errlen))
+	if (json_util_string(v, &at, 1, s, sizeof s))
 		return -EINVAL;
 	if (strcmp(s, "none") == 0)
 		*out = COGW_ACCESS_NONE;
@@ -70,15 +71,15 @@ static int load_tcp(ascii_config *c, const cJSON *o, char *err, size_t errlen)
 	uint64_t u;
 	const cJSON *v;
 	unsigned char addr[16];
+	const json_at at = { path, err, errlen };
 
 	if (!cJSON_IsObject(o))
 		return json_util_fail(err, errlen, path, "must be an object, not %s",
 				      json_util_kind(o));
-	if (json_util_check_object(o, path, tcp_keys, err, errlen))
+	if (json_util_check_object(o, &at, tcp_keys))
 		return -EINVAL;
 	c->tcp = true;
-	if (json_util_opt_string(o, "address", path, 1, c->tcp_address, sizeof c->tcp_address, err,
-				 errlen))
+	if (json_util_opt_string(o, "address", &at, 1, c->tcp_address, sizeof c->tcp_address))
 		return -EINVAL;
 	if (inet_pton(AF_INET, c->tcp_address, addr) != 1 &&
 	    inet_pton(AF_INET6, c->tcp_address, addr) != 1) {
@@ -88,7 +89,7 @@ static int load_tcp(ascii_config *c, const cJSON *o, char *err, size_t errlen)
 				      c->tcp_address);
 	}
 	u = c->tcp_port;
-	if (json_util_opt_uint(o, "port", path, 1, 65535, &u, err, errlen))
+	if (json_util_opt_uint(o, "port", &at, 1, 65535, &u))
 		return -EINVAL;
 	c->tcp_port = (uint16_t)u;
 	v = json_util_get(o, "access");
@@ -103,21 +104,19 @@ static int load_tcp(ascii_config *c, const cJSON *o, char *err, size_t errlen)
 static int load_limits(ascii_config *c, const cJSON *o, char *err, size_t errlen)
 {
 	const char *path = "limits";
+	const json_at at = { path, err, errlen };
 
 	if (!cJSON_IsObject(o))
 		return json_util_fail(err, errlen, path, "must be an object, not %s",
 				      json_util_kind(o));
-	if (json_util_check_object(o, path, limit_keys, err, errlen) ||
-	    json_util_opt_unsigned(o, "max_connections", path, 1, 4096, &c->max_connections, err,
-				   errlen) ||
-	    json_util_opt_unsigned(o, "max_line", path, 64, 16u * 1024u * 1024u, &c->max_line, err,
-				   errlen) ||
-	    json_util_opt_unsigned(o, "max_outstanding", path, 1, 64, &c->max_outstanding, err,
-				   errlen) ||
-	    json_util_opt_unsigned(o, "max_output", path, 4096, 256u * 1024u * 1024u,
-				   &c->max_output, err, errlen) ||
-	    json_util_opt_unsigned(o, "request_timeout_ms", path, 100, 3600000,
-				   &c->request_timeout_ms, err, errlen))
+	if (json_util_check_object(o, &at, limit_keys) ||
+	    json_util_opt_unsigned(o, "max_connections", &at, 1, 4096, &c->max_connections) ||
+	    json_util_opt_unsigned(o, "max_line", &at, 64, 16u * 1024u * 1024u, &c->max_line) ||
+	    json_util_opt_unsigned(o, "max_outstanding", &at, 1, 64, &c->max_outstanding) ||
+	    json_util_opt_unsigned(o, "max_output", &at, 4096, 256u * 1024u * 1024u,
+				   &c->max_output) ||
+	    json_util_opt_unsigned(o, "request_timeout_ms", &at, 100, 3600000,
+				   &c->request_timeout_ms))
 		return -EINVAL;
 	return 0;
 }
@@ -126,15 +125,15 @@ static int load_session(ascii_config *c, const cJSON *o, char *err, size_t errle
 {
 	const char *path = "session";
 	int64_t net = c->default_network;
+	const json_at at = { path, err, errlen };
 
 	if (!cJSON_IsObject(o))
 		return json_util_fail(err, errlen, path, "must be an object, not %s",
 				      json_util_kind(o));
-	if (json_util_check_object(o, path, session_keys, err, errlen) ||
-	    json_util_opt_sint(o, "network", path, 0, 127, &net, err, errlen) ||
-	    json_util_opt_unsigned(o, "sdo_timeout_ms", path, 1, 600000, &c->sdo_timeout_ms, err,
-				   errlen) ||
-	    json_util_opt_bool(o, "sdo_block", path, &c->sdo_block, err, errlen))
+	if (json_util_check_object(o, &at, session_keys) ||
+	    json_util_opt_sint(o, "network", &at, 0, 127, &net) ||
+	    json_util_opt_unsigned(o, "sdo_timeout_ms", &at, 1, 600000, &c->sdo_timeout_ms) ||
+	    json_util_opt_bool(o, "sdo_block", &at, &c->sdo_block))
 		return -EINVAL;
 	c->default_network = (int)net;
 	return 0;
@@ -144,18 +143,19 @@ static int load_tree(ascii_config *c, const cJSON *root, char *err, size_t errle
 {
 	const cJSON *v;
 	uint64_t u = 1;
+	const json_at at = { "", err, errlen };
+	const json_at at_unix_mode = { "unix_mode", err, errlen };
 
 	if (!cJSON_IsObject(root))
 		return json_util_fail(err, errlen, "(top)", "must be an object, not %s",
 				      json_util_kind(root));
-	if (json_util_check_object(root, "", top_keys, err, errlen) ||
-	    json_util_opt_uint(root, "version", "", 1, 1, &u, err, errlen) ||
-	    json_util_opt_string(root, "daemon_config", "", 1, c->daemon_config,
-				 sizeof c->daemon_config, err, errlen) ||
-	    json_util_opt_string(root, "unix_socket", "", 0, c->unix_socket, sizeof c->unix_socket,
-				 err, errlen) ||
-	    json_util_opt_unsigned(root, "route_line", "", 0, COGW_LINES_MAX - 1, &c->route_line,
-				   err, errlen))
+	if (json_util_check_object(root, &at, top_keys) ||
+	    json_util_opt_uint(root, "version", &at, 1, 1, &u) ||
+	    json_util_opt_string(root, "daemon_config", &at, 1, c->daemon_config,
+				 sizeof c->daemon_config) ||
+	    json_util_opt_string(root, "unix_socket", &at, 0, c->unix_socket,
+				 sizeof c->unix_socket) ||
+	    json_util_opt_unsigned(root, "route_line", &at, 0, COGW_LINES_MAX - 1, &c->route_line))
 		return -EINVAL;
 	v = json_util_get(root, "unix_mode");
 	if (v) {
@@ -163,7 +163,7 @@ static int load_tree(ascii_config *c, const cJSON *root, char *err, size_t errle
 			return json_util_fail(err, errlen, "unix_mode",
 					      "must be an octal string like \"0660\", not %s",
 					      json_util_kind(v));
-		if (json_util_uint(v, "unix_mode", 0, 0777, false, &u, err, errlen))
+		if (json_util_uint(v, &at_unix_mode, 0, 0777, false, &u))
 			return -EINVAL;
 		if (u & 0007)
 			return json_util_fail(err, errlen, "unix_mode",

@@ -185,26 +185,21 @@ static int read_broker_keys(mqtt_config *c, const cJSON *o, char *uri, char *pro
 {
 	const char *path = "broker";
 	uint64_t qos = (uint64_t)c->qos;
+	const json_at at = { path, err, errlen };
 
-	if (json_util_check_object(o, path, broker_keys, err, errlen) ||
-	    json_util_opt_string(o, "uri", path, 1, uri, BROKER_URI_MAX, err, errlen) ||
-	    json_util_opt_string(o, "client_id", path, 1, c->client_id, sizeof c->client_id, err,
-				 errlen) ||
-	    json_util_opt_string(o, "protocol", path, 1, proto, BROKER_PROTO_MAX, err, errlen) ||
-	    json_util_opt_unsigned(o, "keepalive_s", path, 5, 3600, &c->keepalive_s, err, errlen) ||
-	    json_util_opt_uint(o, "qos", path, 0, 2, &qos, err, errlen) ||
-	    json_util_opt_string(o, "ca_file", path, 1, c->ca_file, sizeof c->ca_file, err,
-				 errlen) ||
-	    json_util_opt_string(o, "cert_file", path, 1, c->cert_file, sizeof c->cert_file, err,
-				 errlen) ||
-	    json_util_opt_string(o, "key_file", path, 1, c->key_file, sizeof c->key_file, err,
-				 errlen) ||
-	    json_util_opt_string(o, "credentials_file", path, 1, c->credentials_file,
-				 sizeof c->credentials_file, err, errlen) ||
-	    json_util_opt_unsigned(o, "reconnect_min_ms", path, 100, 600000, &c->reconnect_min_ms,
-				   err, errlen) ||
-	    json_util_opt_unsigned(o, "reconnect_max_ms", path, 100, 3600000, &c->reconnect_max_ms,
-				   err, errlen))
+	if (json_util_check_object(o, &at, broker_keys) ||
+	    json_util_opt_string(o, "uri", &at, 1, uri, BROKER_URI_MAX) ||
+	    json_util_opt_string(o, "client_id", &at, 1, c->client_id, sizeof c->client_id) ||
+	    json_util_opt_string(o, "protocol", &at, 1, proto, BROKER_PROTO_MAX) ||
+	    json_util_opt_unsigned(o, "keepalive_s", &at, 5, 3600, &c->keepalive_s) ||
+	    json_util_opt_uint(o, "qos", &at, 0, 2, &qos) ||
+	    json_util_opt_string(o, "ca_file", &at, 1, c->ca_file, sizeof c->ca_file) ||
+	    json_util_opt_string(o, "cert_file", &at, 1, c->cert_file, sizeof c->cert_file) ||
+	    json_util_opt_string(o, "key_file", &at, 1, c->key_file, sizeof c->key_file) ||
+	    json_util_opt_string(o, "credentials_file", &at, 1, c->credentials_file,
+				 sizeof c->credentials_file) ||
+	    json_util_opt_unsigned(o, "reconnect_min_ms", &at, 100, 600000, &c->reconnect_min_ms) ||
+	    json_util_opt_unsigned(o, "reconnect_max_ms", &at, 100, 3600000, &c->reconnect_max_ms))
 		return -EINVAL;
 	c->qos = (int)qos;
 	return 0;
@@ -264,19 +259,19 @@ static int load_broker(mqtt_config *c, const cJSON *o, char *err, size_t errlen)
 static int load_publish(mqtt_config *c, const cJSON *o, char *err, size_t errlen)
 {
 	const char *path = "publish";
+	const json_at at = { path, err, errlen };
 
 	if (!cJSON_IsObject(o))
 		return json_util_fail(err, errlen, path, "must be an object, not %s",
 				      json_util_kind(o));
-	if (json_util_check_object(o, path, publish_keys, err, errlen) ||
-	    json_util_opt_bool(o, "nmt", path, &c->pub_nmt, err, errlen) ||
-	    json_util_opt_bool(o, "boot", path, &c->pub_boot, err, errlen) ||
-	    json_util_opt_bool(o, "emcy", path, &c->pub_emcy, err, errlen) ||
-	    json_util_opt_bool(o, "heartbeat", path, &c->pub_heartbeat, err, errlen) ||
-	    json_util_opt_bool(o, "manager", path, &c->pub_manager, err, errlen) ||
-	    json_util_opt_unsigned(o, "counters_period_s", path, 0, 86400, &c->counters_period_s,
-				   err, errlen) ||
-	    json_util_opt_unsigned(o, "emcy_history", path, 0, 16, &c->emcy_history, err, errlen))
+	if (json_util_check_object(o, &at, publish_keys) ||
+	    json_util_opt_bool(o, "nmt", &at, &c->pub_nmt) ||
+	    json_util_opt_bool(o, "boot", &at, &c->pub_boot) ||
+	    json_util_opt_bool(o, "emcy", &at, &c->pub_emcy) ||
+	    json_util_opt_bool(o, "heartbeat", &at, &c->pub_heartbeat) ||
+	    json_util_opt_bool(o, "manager", &at, &c->pub_manager) ||
+	    json_util_opt_unsigned(o, "counters_period_s", &at, 0, 86400, &c->counters_period_s) ||
+	    json_util_opt_unsigned(o, "emcy_history", &at, 0, 16, &c->emcy_history))
 		return -EINVAL;
 	if (c->counters_period_s && c->counters_period_s < 1)
 		return json_util_fail(err, errlen, "publish.counters_period_s", "must be >= 1");
@@ -295,15 +290,15 @@ static int load_section(const cJSON *root, const char *key,
 static int load_queue(mqtt_config *c, const cJSON *o, char *err, size_t errlen)
 {
 	const char *path = "queue";
+	const json_at at = { path, err, errlen };
 
 	if (!cJSON_IsObject(o))
 		return json_util_fail(err, errlen, path, "must be an object, not %s",
 				      json_util_kind(o));
-	if (json_util_check_object(o, path, queue_keys, err, errlen) ||
-	    json_util_opt_unsigned(o, "max_messages", path, 1, 1000000, &c->queue_messages, err,
-				   errlen) ||
-	    json_util_opt_unsigned(o, "max_bytes", path, 1024, 1024u * 1024u * 1024u,
-				   &c->queue_bytes, err, errlen))
+	if (json_util_check_object(o, &at, queue_keys) ||
+	    json_util_opt_unsigned(o, "max_messages", &at, 1, 1000000, &c->queue_messages) ||
+	    json_util_opt_unsigned(o, "max_bytes", &at, 1024, 1024u * 1024u * 1024u,
+				   &c->queue_bytes))
 		return -EINVAL;
 	return 0;
 }
@@ -311,18 +306,16 @@ static int load_queue(mqtt_config *c, const cJSON *o, char *err, size_t errlen)
 static int load_requests(mqtt_config *c, const cJSON *o, char *err, size_t errlen)
 {
 	const char *path = "requests";
+	const json_at at = { path, err, errlen };
 
 	if (!cJSON_IsObject(o))
 		return json_util_fail(err, errlen, path, "must be an object, not %s",
 				      json_util_kind(o));
-	if (json_util_check_object(o, path, request_keys, err, errlen) ||
-	    json_util_opt_unsigned(o, "max_payload", path, 256, 1024u * 1024u, &c->max_payload, err,
-				   errlen) ||
-	    json_util_opt_unsigned(o, "max_inflight", path, 1, 64, &c->max_inflight, err, errlen) ||
-	    json_util_opt_unsigned(o, "per_second", path, 1, 10000, &c->requests_per_s, err,
-				   errlen) ||
-	    json_util_opt_unsigned(o, "timeout_ms", path, 100, 600000, &c->request_timeout_ms, err,
-				   errlen))
+	if (json_util_check_object(o, &at, request_keys) ||
+	    json_util_opt_unsigned(o, "max_payload", &at, 256, 1024u * 1024u, &c->max_payload) ||
+	    json_util_opt_unsigned(o, "max_inflight", &at, 1, 64, &c->max_inflight) ||
+	    json_util_opt_unsigned(o, "per_second", &at, 1, 10000, &c->requests_per_s) ||
+	    json_util_opt_unsigned(o, "timeout_ms", &at, 100, 600000, &c->request_timeout_ms))
 		return -EINVAL;
 	return 0;
 }
@@ -335,26 +328,27 @@ static int load_watch_entry(mqtt_watch_cfg *w, const cJSON *o, const char *path,
 	uint64_t got[4], interval = 1000;
 	const cJSON *v;
 	char kw[8], p[JSON_PATH_MAX];
+	const json_at at = { path, err, errlen };
+	const json_at at_p = { p, err, errlen };
 
 	if (!cJSON_IsObject(o))
 		return json_util_fail(err, errlen, path, "must be an object, not %s",
 				      json_util_kind(o));
-	if (json_util_check_object(o, path, watch_keys, err, errlen))
+	if (json_util_check_object(o, &at, watch_keys))
 		return -EINVAL;
 	for (size_t i = 0; i < 4; i++) {
 		json_util_path_key(p, sizeof p, path, keys[i]);
-		if (json_util_require(o, keys[i], path, &v, err, errlen) ||
-		    json_util_uint(v, p, mins[i], maxs[i], i == 2, &got[i], err, errlen))
+		if (json_util_require(o, keys[i], &at, &v) ||
+		    json_util_uint(v, &at_p, mins[i], maxs[i], i == 2, &got[i]))
 			return -EINVAL;
 	}
 	json_util_path_key(p, sizeof p, path, "type");
-	if (json_util_require(o, "type", path, &v, err, errlen) ||
-	    json_util_string(v, p, 1, kw, sizeof kw, err, errlen))
+	if (json_util_require(o, "type", &at, &v) || json_util_string(v, &at_p, 1, kw, sizeof kw))
 		return -EINVAL;
 	w->type = ascii_type_find(kw, strlen(kw));
 	if (!w->type)
 		return json_util_fail(err, errlen, p, "\"%s\" is not a CiA 309-3 type keyword", kw);
-	if (json_util_opt_uint(o, "min_interval_ms", path, 0, 3600000, &interval, err, errlen))
+	if (json_util_opt_uint(o, "min_interval_ms", &at, 0, 3600000, &interval))
 		return -EINVAL;
 	w->net = (uint16_t)got[0];
 	w->node = (uint8_t)got[1];
@@ -406,21 +400,20 @@ static int load_tree(mqtt_config *c, const cJSON *root, char *err, size_t errlen
 {
 	char role[8] = "";
 	uint64_t u = 1;
+	const json_at at = { "", err, errlen };
 
 	if (!cJSON_IsObject(root))
 		return json_util_fail(err, errlen, "(top)", "must be an object, not %s",
 				      json_util_kind(root));
-	if (json_util_check_object(root, "", top_keys, err, errlen) ||
-	    json_util_opt_uint(root, "version", "", 1, 1, &u, err, errlen) ||
-	    json_util_opt_string(root, "daemon_config", "", 1, c->daemon_config,
-				 sizeof c->daemon_config, err, errlen) ||
-	    json_util_opt_string(root, "gateway", "", 1, c->gateway, sizeof c->gateway, err,
-				 errlen) ||
-	    json_util_opt_string(root, "topic_prefix", "", 1, c->topic_prefix,
-				 sizeof c->topic_prefix, err, errlen) ||
-	    json_util_opt_string(root, "role", "", 1, role, sizeof role, err, errlen) ||
-	    json_util_opt_unsigned(root, "route_line", "", 0, COGW_LINES_MAX - 1, &c->route_line,
-				   err, errlen))
+	if (json_util_check_object(root, &at, top_keys) ||
+	    json_util_opt_uint(root, "version", &at, 1, 1, &u) ||
+	    json_util_opt_string(root, "daemon_config", &at, 1, c->daemon_config,
+				 sizeof c->daemon_config) ||
+	    json_util_opt_string(root, "gateway", &at, 1, c->gateway, sizeof c->gateway) ||
+	    json_util_opt_string(root, "topic_prefix", &at, 1, c->topic_prefix,
+				 sizeof c->topic_prefix) ||
+	    json_util_opt_string(root, "role", &at, 1, role, sizeof role) ||
+	    json_util_opt_unsigned(root, "route_line", &at, 0, COGW_LINES_MAX - 1, &c->route_line))
 		return -EINVAL;
 	if (!topic_level_ok(c->gateway, false))
 		return json_util_fail(err, errlen, "gateway",

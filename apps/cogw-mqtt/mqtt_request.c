@@ -103,16 +103,17 @@ static bool reply_topic_ok(const char *s)
 static int decode_return_path(const cJSON *root, mqtt_request *r, char *err, size_t errlen)
 {
 	const cJSON *v = json_util_get(root, "id");
+	const json_at at = { "id", err, errlen };
+	const json_at at_reply_to = { "reply_to", err, errlen };
 
 	if (v) {
 		if (cJSON_IsString(v)) {
-			if (json_util_string(v, "id", 1, r->id, sizeof r->id, err, errlen))
+			if (json_util_string(v, &at, 1, r->id, sizeof r->id))
 				return MQTT_REQ_BAD_FIELD;
 		} else {
 			int64_t n;
 
-			if (json_util_sint(v, "id", -JSON_EXACT_INT_MAX, JSON_EXACT_INT_MAX, &n,
-					   err, errlen))
+			if (json_util_sint(v, &at, -JSON_EXACT_INT_MAX, JSON_EXACT_INT_MAX, &n))
 				return json_util_fail(err, errlen, "id",
 						      "must be a string of 1..64 bytes or an "
 						      "integer"),
@@ -125,7 +126,7 @@ static int decode_return_path(const cJSON *root, mqtt_request *r, char *err, siz
 	if (v) {
 		char topic[MQTT_REQ_TOPIC_MAX];
 
-		if (json_util_string(v, "reply_to", 1, topic, sizeof topic, err, errlen))
+		if (json_util_string(v, &at_reply_to, 1, topic, sizeof topic))
 			return MQTT_REQ_BAD_FIELD;
 		if (!reply_topic_ok(topic))
 			return json_util_fail(err, errlen, "reply_to",
@@ -141,9 +142,10 @@ static int need_uint(const cJSON *root, const char *key, uint64_t min, uint64_t 
 		     uint64_t *out, char *err, size_t errlen)
 {
 	const cJSON *v;
+	const json_at at = { "", err, errlen };
+	const json_at at_key = { key, err, errlen };
 
-	if (json_util_require(root, key, "", &v, err, errlen) ||
-	    json_util_uint(v, key, min, max, hex, out, err, errlen))
+	if (json_util_require(root, key, &at, &v) || json_util_uint(v, &at_key, min, max, hex, out))
 		return MQTT_REQ_BAD_FIELD;
 	return 0;
 }
@@ -152,9 +154,11 @@ static int decode_type(const cJSON *root, mqtt_request *r, char *err, size_t err
 {
 	const cJSON *v;
 	char kw[8];
+	const json_at at = { "", err, errlen };
+	const json_at at_type = { "type", err, errlen };
 
-	if (json_util_require(root, "type", "", &v, err, errlen) ||
-	    json_util_string(v, "type", 1, kw, sizeof kw, err, errlen))
+	if (json_util_require(root, "type", &at, &v) ||
+	    json_util_string(v, &at_type, 1, kw, sizeof kw))
 		return MQTT_REQ_BAD_FIELD;
 	r->type = ascii_type_find(kw, strlen(kw));
 	if (!r->type)
@@ -192,8 +196,9 @@ static int decode_value(const cJSON *root, mqtt_request *r, char *err, size_t er
 	const char *s;
 	size_t n;
 	int rc;
+	const json_at at = { "", err, errlen };
 
-	if (json_util_require(root, "value", "", &v, err, errlen))
+	if (json_util_require(root, "value", &at, &v))
 		return MQTT_REQ_BAD_FIELD;
 	if (cJSON_IsString(v)) {
 		s = v->valuestring;
@@ -245,11 +250,13 @@ static int decode_nmt(const cJSON *root, mqtt_request *r, char *err, size_t errl
 	uint64_t net, node;
 	const cJSON *v;
 	char cmd[24];
+	const json_at at = { "", err, errlen };
+	const json_at at_command = { "command", err, errlen };
 
 	if (need_uint(root, "net", 1, 127, false, &net, err, errlen) ||
 	    need_uint(root, "node", 0, 127, false, &node, err, errlen) ||
-	    json_util_require(root, "command", "", &v, err, errlen) ||
-	    json_util_string(v, "command", 1, cmd, sizeof cmd, err, errlen))
+	    json_util_require(root, "command", &at, &v) ||
+	    json_util_string(v, &at_command, 1, cmd, sizeof cmd))
 		return MQTT_REQ_BAD_FIELD;
 	r->net = (uint16_t)net;
 	r->node = (uint8_t)node;
@@ -272,6 +279,8 @@ static int decode_tree(const cJSON *root, mqtt_request *r, char *err, size_t err
 	size_t i;
 	uint64_t u;
 	int rc;
+	const json_at at = { "", err, errlen };
+	const json_at at_op = { "op", err, errlen };
 
 	if (!cJSON_IsObject(root))
 		return json_util_fail(err, errlen, "(top)", "must be an object, not %s",
@@ -280,8 +289,7 @@ static int decode_tree(const cJSON *root, mqtt_request *r, char *err, size_t err
 	rc = decode_return_path(root, r, err, errlen);
 	if (rc)
 		return rc;
-	if (json_util_require(root, "op", "", &v, err, errlen) ||
-	    json_util_string(v, "op", 1, op, sizeof op, err, errlen))
+	if (json_util_require(root, "op", &at, &v) || json_util_string(v, &at_op, 1, op, sizeof op))
 		return MQTT_REQ_BAD_OP;
 	for (i = 0; i < sizeof ops / sizeof ops[0]; i++)
 		if (strcmp(op, ops[i].name) == 0)
@@ -293,7 +301,7 @@ static int decode_tree(const cJSON *root, mqtt_request *r, char *err, size_t err
 				      op),
 		       MQTT_REQ_BAD_OP;
 	r->op = ops[i].op;
-	if (json_util_check_object(root, "", ops[i].keys, err, errlen))
+	if (json_util_check_object(root, &at, ops[i].keys))
 		return MQTT_REQ_BAD_FIELD;
 	if (r->op == MQTT_OP_NMT)
 		return decode_nmt(root, r, err, errlen);
@@ -301,11 +309,11 @@ static int decode_tree(const cJSON *root, mqtt_request *r, char *err, size_t err
 	if (rc)
 		return rc;
 	u = 0;
-	if (json_util_opt_uint(root, "timeout_ms", "", 1, 600000, &u, err, errlen))
+	if (json_util_opt_uint(root, "timeout_ms", &at, 1, 600000, &u))
 		return MQTT_REQ_BAD_FIELD;
 	r->sdo_timeout_ms = (uint32_t)u;
 	u = 1000;
-	if (json_util_opt_uint(root, "min_interval_ms", "", 0, 3600000, &u, err, errlen))
+	if (json_util_opt_uint(root, "min_interval_ms", &at, 0, 3600000, &u))
 		return MQTT_REQ_BAD_FIELD;
 	r->min_interval_ms = (uint32_t)u;
 	if (r->op == MQTT_OP_SDO_WRITE)

@@ -98,12 +98,12 @@ static void print_warnings(const warnings *w)
  * without --node, a file that needs $NODEID is checked with node 1 and
  * says so.
  */
-static int convert(ctl *c, const char *file, eds_options *opts, bool check, uint8_t **out,
-		   size_t *len, eds_stats *st, bool *assumed_node)
+static int convert(ctl *c, const char *file, eds_options *opts, bool check, eds_result *res,
+		   bool *assumed_node)
 {
-	char err[600];
+	const char *err = res->err;
 	warnings *w = opts->warning_arg;
-	int rc = eds_convert_file_opts(file, opts, out, len, st, err, sizeof err);
+	int rc = eds_convert_file_opts(file, opts, res);
 
 	*assumed_node = false;
 	if (rc == -EINVAL && check && !opts->node_id && strstr(err, "$NODEID needs a node id")) {
@@ -112,7 +112,7 @@ static int convert(ctl *c, const char *file, eds_options *opts, bool check, uint
 		while (cJSON_GetArraySize(w->list))
 			cJSON_DeleteItemFromArray(w->list, 0);
 		w->count = 0;
-		rc = eds_convert_file_opts(file, opts, out, len, st, err, sizeof err);
+		rc = eds_convert_file_opts(file, opts, res);
 	}
 	if (rc == -EINVAL && !c->json)
 		print_warnings(w); /* what came before the refusal */
@@ -277,9 +277,8 @@ static int run_dcf(ctl *c, int argc, char **argv)
 		{ "--strict", false, NULL, &o.strict },  { NULL, false, NULL, NULL }
 	};
 	int rc = ctl_parse(c, argc, argv, opts, pos, 4, &n_pos);
-	uint8_t node = 0, *buf = NULL;
-	size_t len = 0;
-	eds_stats st;
+	uint8_t node = 0;
+	eds_result res = { 0 };
 	bool assumed, check = false;
 	warnings w = { 0 };
 	eds_options eo = { .on_warning = on_warning, .warning_arg = &w };
@@ -300,13 +299,14 @@ static int run_dcf(ctl *c, int argc, char **argv)
 		fprintf(stderr, "cogwctl %s: out of memory\n", c->what);
 		return CTL_EXIT_REFUSED;
 	}
-	rc = convert(c, pos[1], &eo, check, &buf, &len, &st, &assumed);
+	rc = convert(c, pos[1], &eo, check, &res, &assumed);
 	if (!rc && !check)
-		rc = write_file(c, o.out, buf, len);
+		rc = write_file(c, o.out, res.cdcf, res.len);
 	if (!rc)
-		report(c, pos[1], check ? NULL : o.out, buf, len, &st, assumed, &w, o.list);
+		report(c, pos[1], check ? NULL : o.out, res.cdcf, res.len, &res.stats, assumed, &w,
+		       o.list);
 	cJSON_Delete(w.list);
-	free(buf);
+	free(res.cdcf);
 	return rc ? rc : CTL_EXIT_OK;
 }
 

@@ -71,17 +71,18 @@ static int parse_top_keys(struct ctx *c, const cJSON *root, cogw_config *cfg)
 {
 	const cJSON *v = json_util_get(root, "version");
 	int rc;
+	const json_at at = cfg_at(c, "version");
+	const json_at at_root = cfg_at(c, "");
 
 	if (v) {
 		uint64_t ver;
 
-		if ((rc = json_util_uint(v, "version", 1, 1, false, &ver, c->msg, sizeof(c->msg))))
+		if ((rc = json_util_uint(v, &at, 1, 1, false, &ver)))
 			return rc;
 	}
-	if ((rc = json_util_opt_string(root, "state_dir", "", 1, cfg->state_dir,
-				       sizeof(cfg->state_dir), c->msg, sizeof(c->msg))) ||
-	    (rc = json_util_opt_bool(root, "mlockall", "", &cfg->mlockall, c->msg,
-				     sizeof(c->msg))) ||
+	if ((rc = json_util_opt_string(root, "state_dir", &at_root, 1, cfg->state_dir,
+				       sizeof(cfg->state_dir))) ||
+	    (rc = json_util_opt_bool(root, "mlockall", &at_root, &cfg->mlockall)) ||
 	    (rc = cfg_opt_unsigned(c, root, "watchdog_check_ms", "", (cfg_range){ 10, 60000 },
 				   &cfg->watchdog_check_ms)) ||
 	    (rc = cfg_opt_unsigned(c, root, "file_memory", "", (cfg_range){ 4096, UINT32_MAX },
@@ -95,10 +96,10 @@ static int parse_top_keys(struct ctx *c, const cJSON *root, cogw_config *cfg)
 static int parse_debug(struct ctx *c, const cJSON *v, cogw_config *cfg)
 {
 	int rc;
+	const json_at at = cfg_at(c, "debug");
 
 	if ((rc = cfg_check_object(c, v, "debug", debug_keys)) ||
-	    (rc = json_util_opt_bool(v, "stall_signal", "debug", &cfg->debug_stall_signal, c->msg,
-				     sizeof(c->msg))) ||
+	    (rc = json_util_opt_bool(v, "stall_signal", &at, &cfg->debug_stall_signal)) ||
 	    (rc = cfg_opt_unsigned(c, v, "stall_ms", "debug", (cfg_range){ 0, 3600000 },
 				   &cfg->debug_stall_ms)))
 		return rc;
@@ -141,6 +142,7 @@ static int parse_root(struct ctx *c, const cJSON *root, cogw_config *cfg)
 {
 	const cJSON *v, *gw = json_util_get(root, "gateway"), *lines;
 	int rc;
+	const json_at at = cfg_at(c, "");
 
 	if ((rc = cfg_check_object(c, root, "", top_keys)) || (rc = parse_top_keys(c, root, cfg)))
 		return rc;
@@ -150,8 +152,7 @@ static int parse_root(struct ctx *c, const cJSON *root, cogw_config *cfg)
 	v = json_util_get(root, "debug");
 	if (v && (rc = parse_debug(c, v, cfg)))
 		return rc;
-	if ((rc = json_util_require(root, "lines", "", &lines, c->msg, sizeof(c->msg))) ||
-	    (rc = check_lines(c, lines)))
+	if ((rc = json_util_require(root, "lines", &at, &lines)) || (rc = check_lines(c, lines)))
 		return rc;
 	cfg_scan_networks(c, lines);
 	if ((gw && (rc = cfg_parse_gateway(c, gw))) || (rc = parse_lines(c, lines, cfg)))

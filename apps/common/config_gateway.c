@@ -175,6 +175,10 @@ static int parse_route(struct ctx *c, const cJSON *o, size_t idx)
 	uint64_t net, line, router = 0;
 	const cJSON *v;
 	int rc;
+	const json_at at = cfg_at(c, path);
+	const json_at at_pn = cfg_at(c, pn);
+	const json_at at_pl = cfg_at(c, pl);
+	const json_at at_pr = cfg_at(c, pr);
 
 	json_util_path_index(path, sizeof(path), "gateway.routes", idx);
 	json_util_path_key(pn, sizeof(pn), path, "network");
@@ -182,18 +186,16 @@ static int parse_route(struct ctx *c, const cJSON *o, size_t idx)
 	json_util_path_key(pr, sizeof(pr), path, "router");
 	if ((rc = cfg_check_object(c, o, path, route_keys)))
 		return rc;
-	if ((rc = json_util_require(o, "network", path, &v, c->msg, sizeof(c->msg))) ||
-	    (rc = json_util_uint(v, pn, GW_NET_MIN, GW_NET_MAX, false, &net, c->msg,
-				 sizeof(c->msg))) ||
-	    (rc = json_util_require(o, "line", path, &v, c->msg, sizeof(c->msg))) ||
-	    (rc = json_util_uint(v, pl, 0, COGW_LINES_MAX - 1, false, &line, c->msg,
-				 sizeof(c->msg))))
+	if ((rc = json_util_require(o, "network", &at, &v)) ||
+	    (rc = json_util_uint(v, &at_pn, GW_NET_MIN, GW_NET_MAX, false, &net)) ||
+	    (rc = json_util_require(o, "line", &at, &v)) ||
+	    (rc = json_util_uint(v, &at_pl, 0, COGW_LINES_MAX - 1, false, &line)))
 		return rc;
 	if (line >= c->n_lines)
 		return cfg_fail(c, pl, "line %u does not exist (%zu lines)", (unsigned)line,
 				c->n_lines);
 	v = json_util_get(o, "router");
-	if (v && (rc = json_util_uint(v, pr, 1, 127, false, &router, c->msg, sizeof(c->msg))))
+	if (v && (rc = json_util_uint(v, &at_pr, 1, 127, false, &router)))
 		return rc;
 	for (size_t i = 0; i < c->n_lines; i++)
 		if (c->line_net[i] == net)
@@ -266,27 +268,28 @@ static int parse_dev_ref(struct ctx *c, const cJSON *o, const char *path, const 
 	const cJSON *v;
 	uint64_t x;
 	int rc;
+	const json_at at = cfg_at(c, path);
+	const json_at at_p = cfg_at(c, p);
 
 	if ((rc = cfg_check_object(c, o, path, dev_ref_keys)))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "line");
-	if ((rc = json_util_require(o, "line", path, &v, c->msg, sizeof(c->msg))) ||
-	    (rc = json_util_uint(v, p, 0, cfg->n_lines - 1, false, &x, c->msg, sizeof(c->msg))))
+	if ((rc = json_util_require(o, "line", &at, &v)) ||
+	    (rc = json_util_uint(v, &at_p, 0, cfg->n_lines - 1, false, &x)))
 		return rc;
 	r->line = (uint8_t)x;
 	json_util_path_key(p, sizeof(p), path, "node");
-	if ((rc = json_util_require(o, "node", path, &v, c->msg, sizeof(c->msg))) ||
-	    (rc = json_util_uint(v, p, 1, 127, false, &x, c->msg, sizeof(c->msg))))
+	if ((rc = json_util_require(o, "node", &at, &v)) ||
+	    (rc = json_util_uint(v, &at_p, 1, 127, false, &x)))
 		return rc;
 	r->node = (uint8_t)x;
 	json_util_path_key(p, sizeof(p), path, "index");
-	if ((rc = json_util_require(o, "index", path, &v, c->msg, sizeof(c->msg))) ||
+	if ((rc = json_util_require(o, "index", &at, &v)) ||
 	    (rc = json_od_parse_index(v, p, &r->index, c->msg, sizeof(c->msg))))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "sub");
 	x = 0;
-	if ((v = json_util_get(o, "sub")) &&
-	    (rc = json_util_uint(v, p, 0, 255, false, &x, c->msg, sizeof(c->msg))))
+	if ((v = json_util_get(o, "sub")) && (rc = json_util_uint(v, &at_p, 0, 255, false, &x)))
 		return rc;
 	r->sub = (uint8_t)x;
 	const cogw_line_config *l = &cfg->lines[r->line];
@@ -320,6 +323,7 @@ int cfg_parse_forwards(struct ctx *c, const cJSON *list, cogw_config *cfg)
 	cJSON_ArrayForEach(it, list)
 	{
 		char p[JSON_PATH_MAX], q[JSON_PATH_MAX];
+		const json_at at = cfg_at(c, p);
 		cogw_forward *f = &cfg->forwards[i];
 		const cJSON *v;
 
@@ -327,11 +331,11 @@ int cfg_parse_forwards(struct ctx *c, const cJSON *list, cogw_config *cfg)
 		if ((rc = cfg_check_object(c, it, p, forward_keys)))
 			return rc;
 		json_util_path_key(q, sizeof(q), p, "from");
-		if ((rc = json_util_require(it, "from", p, &v, c->msg, sizeof(c->msg))) ||
+		if ((rc = json_util_require(it, "from", &at, &v)) ||
 		    (rc = parse_dev_ref(c, v, q, cfg, &f->from)))
 			return rc;
 		json_util_path_key(q, sizeof(q), p, "to");
-		if ((rc = json_util_require(it, "to", p, &v, c->msg, sizeof(c->msg))) ||
+		if ((rc = json_util_require(it, "to", &at, &v)) ||
 		    (rc = parse_dev_ref(c, v, q, cfg, &f->to)))
 			return rc;
 		if (f->from.line == f->to.line)

@@ -73,6 +73,7 @@ static int parse_device(struct ctx *c, const cJSON *o, const char *path, struct 
 	co_od_std_opts *so = &d->so;
 	char *name = d->name, *hw = d->hw, *sw = d->sw;
 	int rc;
+	const json_at at = cfg_at(c, path);
 
 	if ((rc = cfg_check_object(c, o, path, device_keys)) ||
 	    (rc = cfg_opt_u32(c, o, "device_type", path, (cfg_range){ 0, UINT32_MAX },
@@ -84,12 +85,9 @@ static int parse_device(struct ctx *c, const cJSON *o, const char *path, struct 
 	    (rc = cfg_opt_u32(c, o, "revision", path, (cfg_range){ 0, UINT32_MAX },
 			      &so->revision)) ||
 	    (rc = cfg_opt_u32(c, o, "serial", path, (cfg_range){ 0, UINT32_MAX }, &so->serial)) ||
-	    (rc = json_util_opt_string(o, "name", path, 0, name, CO_OD_STD_STRING_MAX + 1, c->msg,
-				       sizeof(c->msg))) ||
-	    (rc = json_util_opt_string(o, "hw_version", path, 0, hw, CO_OD_STD_STRING_MAX + 1,
-				       c->msg, sizeof(c->msg))) ||
-	    (rc = json_util_opt_string(o, "sw_version", path, 0, sw, CO_OD_STD_STRING_MAX + 1,
-				       c->msg, sizeof(c->msg))))
+	    (rc = json_util_opt_string(o, "name", &at, 0, name, CO_OD_STD_STRING_MAX + 1)) ||
+	    (rc = json_util_opt_string(o, "hw_version", &at, 0, hw, CO_OD_STD_STRING_MAX + 1)) ||
+	    (rc = json_util_opt_string(o, "sw_version", &at, 0, sw, CO_OD_STD_STRING_MAX + 1)))
 		return rc;
 	return 0;
 }
@@ -99,6 +97,8 @@ static int parse_hb_consumers(struct ctx *c, const cJSON *v, const char *path, c
 	const cJSON *it;
 	char p[JSON_PATH_MAX], kp[JSON_PATH_MAX];
 	int rc;
+	const json_at at = cfg_at(c, p);
+	const json_at at_kp = cfg_at(c, kp);
 
 	if (!cJSON_IsArray(v))
 		return cfg_fail(c, path, "expected an array, got %s", json_util_kind(v));
@@ -113,11 +113,11 @@ static int parse_hb_consumers(struct ctx *c, const cJSON *v, const char *path, c
 
 		json_util_path_index(p, sizeof(p), path, l->n_hb_consumers);
 		if ((rc = cfg_check_object(c, it, p, hb_keys)) ||
-		    (rc = json_util_require(it, "node_id", p, &nv, c->msg, sizeof(c->msg))) ||
-		    (rc = json_util_require(it, "time_ms", p, &tv, c->msg, sizeof(c->msg))))
+		    (rc = json_util_require(it, "node_id", &at, &nv)) ||
+		    (rc = json_util_require(it, "time_ms", &at, &tv)))
 			return rc;
 		json_util_path_key(kp, sizeof(kp), p, "node_id");
-		if ((rc = json_util_uint(nv, kp, 1, 127, false, &u, c->msg, sizeof(c->msg))))
+		if ((rc = json_util_uint(nv, &at_kp, 1, 127, false, &u)))
 			return rc;
 		h->node_id = (uint8_t)u;
 		if (h->node_id == l->node_id)
@@ -127,7 +127,7 @@ static int parse_hb_consumers(struct ctx *c, const cJSON *v, const char *path, c
 				return cfg_fail(c, kp, "node %u is already monitored (%s[%zu])",
 						h->node_id, path, j);
 		json_util_path_key(kp, sizeof(kp), p, "time_ms");
-		if ((rc = json_util_uint(tv, kp, 1, 65535, false, &u, c->msg, sizeof(c->msg))))
+		if ((rc = json_util_uint(tv, &at_kp, 1, 65535, false, &u)))
 			return rc;
 		h->time_ms = (uint16_t)u;
 		l->n_hb_consumers++;
@@ -287,11 +287,13 @@ static int parse_interface(struct ctx *c, const cJSON *o, const char *path, cogw
 	char p[JSON_PATH_MAX];
 	const cJSON *v;
 	int rc;
+	const json_at at = cfg_at(c, path);
+	const json_at at_p = cfg_at(c, p);
 
-	if ((rc = json_util_require(o, "interface", path, &v, c->msg, sizeof(c->msg))))
+	if ((rc = json_util_require(o, "interface", &at, &v)))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "interface");
-	if ((rc = json_util_string(v, p, 1, l->interface, IFNAME_MAX + 1, c->msg, sizeof(c->msg))))
+	if ((rc = json_util_string(v, &at_p, 1, l->interface, IFNAME_MAX + 1)))
 		return rc;
 	/* What the kernel's dev_valid_name() refuses. */
 	if (!strcmp(l->interface, ".") || !strcmp(l->interface, "..") ||
@@ -306,11 +308,13 @@ static int parse_bitrate(struct ctx *c, const cJSON *o, const char *path, cogw_l
 	const cJSON *v;
 	uint64_t u;
 	int rc;
+	const json_at at = cfg_at(c, path);
+	const json_at at_p = cfg_at(c, p);
 
-	if ((rc = json_util_require(o, "bitrate", path, &v, c->msg, sizeof(c->msg))))
+	if ((rc = json_util_require(o, "bitrate", &at, &v)))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "bitrate");
-	if ((rc = json_util_uint(v, p, 1, UINT32_MAX, false, &u, c->msg, sizeof(c->msg))))
+	if ((rc = json_util_uint(v, &at_p, 1, UINT32_MAX, false, &u)))
 		return rc;
 	l->bitrate = 0;
 	for (size_t i = 0; i < sizeof(cia_bitrates) / sizeof(cia_bitrates[0]); i++)
@@ -330,16 +334,17 @@ static int parse_rt(struct ctx *c, const cJSON *v, const char *path, cogw_line_c
 	char p[JSON_PATH_MAX];
 	int64_t s;
 	int rc;
+	const json_at at = cfg_at(c, p);
 
 	json_util_path_key(p, sizeof(p), path, "rt");
 	if ((rc = cfg_check_object(c, v, p, rt_keys)))
 		return rc;
 	s = l->rt.priority;
-	if ((rc = json_util_opt_sint(v, "priority", p, 0, 99, &s, c->msg, sizeof(c->msg))))
+	if ((rc = json_util_opt_sint(v, "priority", &at, 0, 99, &s)))
 		return rc;
 	l->rt.priority = (int)s;
 	s = l->rt.cpu;
-	if ((rc = json_util_opt_sint(v, "cpu", p, -1, 1023, &s, c->msg, sizeof(c->msg))))
+	if ((rc = json_util_opt_sint(v, "cpu", &at, -1, 1023, &s)))
 		return rc;
 	l->rt.cpu = (int)s;
 	return 0;
@@ -352,19 +357,20 @@ static int parse_line_identity(struct ctx *c, const cJSON *o, const char *path, 
 	const cJSON *v;
 	uint64_t u;
 	int rc;
+	const json_at at = cfg_at(c, path);
+	const json_at at_p = cfg_at(c, p);
 
-	if ((rc = json_util_opt_string(o, "name", path, 1, l->name, sizeof(l->name), c->msg,
-				       sizeof(c->msg))))
+	if ((rc = json_util_opt_string(o, "name", &at, 1, l->name, sizeof(l->name))))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "name");
 	if ((rc = cfg_check_name_chars(c, p, l->name)) || (rc = parse_interface(c, o, path, l)) ||
 	    (rc = parse_bitrate(c, o, path, l)))
 		return rc;
 
-	if ((rc = json_util_require(o, "node_id", path, &v, c->msg, sizeof(c->msg))))
+	if ((rc = json_util_require(o, "node_id", &at, &v)))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "node_id");
-	if ((rc = json_util_uint(v, p, 1, 127, false, &u, c->msg, sizeof(c->msg))))
+	if ((rc = json_util_uint(v, &at_p, 1, 127, false, &u)))
 		return rc;
 	l->node_id = (uint8_t)u;
 

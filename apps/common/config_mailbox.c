@@ -68,6 +68,8 @@ static int parse_rule(struct ctx *c, const cJSON *o, const char *path, cogw_acce
 	char p[JSON_PATH_MAX];
 	const cJSON *user, *uid, *acc;
 	int rc;
+	const json_at at = cfg_at(c, p);
+	const json_at at_path = cfg_at(c, path);
 
 	if ((rc = cfg_check_object(c, o, path, rule_keys)))
 		return rc;
@@ -80,7 +82,7 @@ static int parse_rule(struct ctx *c, const cJSON *o, const char *path, cogw_acce
 		struct passwd pw, *res = NULL;
 
 		json_util_path_key(p, sizeof(p), path, "user");
-		if ((rc = json_util_string(user, p, 1, name, sizeof(name), c->msg, sizeof(c->msg))))
+		if ((rc = json_util_string(user, &at, 1, name, sizeof(name))))
 			return rc;
 		if (getpwnam_r(name, &pw, buf, sizeof(buf), &res) != 0 || !res)
 			return cfg_fail(c, p, "unknown user \"%s\"", name);
@@ -89,12 +91,11 @@ static int parse_rule(struct ctx *c, const cJSON *o, const char *path, cogw_acce
 		uint64_t u;
 
 		json_util_path_key(p, sizeof(p), path, "uid");
-		if ((rc = json_util_uint(uid, p, 0, UINT32_MAX - 1, false, &u, c->msg,
-					 sizeof(c->msg))))
+		if ((rc = json_util_uint(uid, &at, 0, UINT32_MAX - 1, false, &u)))
 			return rc;
 		r->uid = (uid_t)u;
 	}
-	if ((rc = json_util_require(o, "access", path, &acc, c->msg, sizeof(c->msg))))
+	if ((rc = json_util_require(o, "access", &at_path, &acc)))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "access");
 	return parse_access_word(c, acc, p, &r->access);
@@ -157,11 +158,12 @@ static int parse_queue_mode(struct ctx *c, const cJSON *v, const char *p, cogw_m
 {
 	uint64_t mode;
 	int rc;
+	const json_at at = cfg_at(c, p);
 
 	/* A string, because JSON has no octal: 660 would be 01224. */
 	if (!cJSON_IsString(v) || v->valuestring[0] != '0')
 		return cfg_fail(c, p, "expected an octal string like \"0620\"");
-	if ((rc = json_util_uint(v, p, 0, 0777, false, &mode, c->msg, sizeof(c->msg))))
+	if ((rc = json_util_uint(v, &at, 0, 0777, false, &mode)))
 		return rc;
 	/* Every command carries its client's token: a command queue
 	 * others can read gives them every client's rights. */
@@ -208,9 +210,9 @@ static int parse_mailbox_queue(struct ctx *c, const cJSON *o, cogw_mailbox_confi
 	const char *path = "mailbox";
 	char p[JSON_PATH_MAX];
 	int rc;
+	const json_at at = cfg_at(c, path);
 
-	if ((rc = json_util_opt_string(o, "instance", path, 1, m->instance, sizeof(m->instance),
-				       c->msg, sizeof(c->msg))))
+	if ((rc = json_util_opt_string(o, "instance", &at, 1, m->instance, sizeof(m->instance))))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "instance");
 	if ((rc = cfg_check_name_chars(c, p, m->instance)) ||

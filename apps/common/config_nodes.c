@@ -101,9 +101,11 @@ static int parse_node_software(struct ctx *c, const cJSON *it, const char *np, c
 	char p[JSON_PATH_MAX], name[256];
 	bool update = false;
 	int rc;
+	const json_at at = cfg_at(c, np);
+	const json_at at_p = cfg_at(c, p);
 
 	if ((rc = cfg_opt_u32_hex(c, it, "software_id", np, &n->software_id)) ||
-	    (rc = json_util_opt_bool(it, "software_update", np, &update, c->msg, sizeof(c->msg))))
+	    (rc = json_util_opt_bool(it, "software_update", &at, &update)))
 		return rc;
 	if (n->software_id)
 		*a |= CO_SWMGR_F81_CHECK;
@@ -117,7 +119,7 @@ static int parse_node_software(struct ctx *c, const cJSON *it, const char *np, c
 				n->id);
 	*a |= CO_SWMGR_F81_UPDATE;
 	json_util_path_key(p, sizeof(p), np, "program");
-	if ((rc = json_util_string(prog, p, 1, name, sizeof(name), c->msg, sizeof(c->msg))))
+	if ((rc = json_util_string(prog, &at_p, 1, name, sizeof(name))))
 		return rc;
 	return load_program(c, p, name, n);
 }
@@ -133,9 +135,9 @@ static int parse_node_state(struct ctx *c, const cJSON *it, const char *np, uint
 		      { "stopped", CO_NMT_STOPPED } };
 	char what[20] = "operational", p[JSON_PATH_MAX];
 	int rc;
+	const json_at at = cfg_at(c, np);
 
-	if ((rc = json_util_opt_string(it, "state", np, 1, what, sizeof(what), c->msg,
-				       sizeof(c->msg))))
+	if ((rc = json_util_opt_string(it, "state", &at, 1, what, sizeof(what))))
 		return rc;
 	for (size_t i = 0; i < sizeof(names) / sizeof(names[0]); i++)
 		if (!strcmp(what, names[i].name)) {
@@ -157,6 +159,7 @@ static int parse_node_manager(struct ctx *c, const cJSON *it, const char *np, co
 	uint16_t hb = 0;
 	bool keep_op = false;
 	int rc;
+	const json_at at = cfg_at(c, np);
 
 	if ((rc = cfg_opt_flag(c, it, "boot", np, (cfg_flag){ CO_MGR_1F81_BOOT, true }, &a)) ||
 	    (rc = cfg_opt_flag(c, it, "mandatory", np, (cfg_flag){ CO_MGR_1F81_MANDATORY, false },
@@ -166,7 +169,7 @@ static int parse_node_manager(struct ctx *c, const cJSON *it, const char *np, co
 	    (rc = cfg_opt_u32(c, it, "retry_factor", np, (cfg_range){ 0, 255 }, &factor)) ||
 	    (rc = cfg_opt_u32(c, it, "guard_time_ms", np, (cfg_range){ 0, 65535 }, &guard)) ||
 	    (rc = cfg_opt_u16(c, it, "heartbeat_ms", np, (cfg_range){ 0, 65535 }, &hb)) ||
-	    (rc = json_util_opt_bool(it, "keep_op", np, &keep_op, c->msg, sizeof(c->msg))))
+	    (rc = json_util_opt_bool(it, "keep_op", &at, &keep_op)))
 		return rc;
 	for (int i = 0; i < 5; i++)
 		if ((rc = cfg_opt_u32_hex(c, it, id_keys[i], np, &n->identity[i])))
@@ -192,6 +195,7 @@ static int parse_nmt_startup(struct ctx *c, const cJSON *o, const char *path, ui
 	char p[JSON_PATH_MAX], what[16] = "node";
 	uint32_t b = 0, self = 0, slaves = 0;
 	int rc;
+	const json_at at = cfg_at(c, path);
 
 	if ((rc = cfg_opt_flag(c, o, "master", path, (cfg_flag){ CO_MGR_1F80_MASTER, true }, &b)) ||
 	    (rc = cfg_opt_flag(c, o, "start_all", path, (cfg_flag){ CO_MGR_1F80_START_ALL, false },
@@ -206,8 +210,7 @@ static int parse_nmt_startup(struct ctx *c, const cJSON *o, const char *path, ui
 		b |= CO_MGR_1F80_NO_SELF_START;
 	if (!slaves)
 		b |= CO_MGR_1F80_APP_STARTS_SLAVES;
-	if ((rc = json_util_opt_string(o, "on_mandatory_error", path, 1, what, sizeof(what), c->msg,
-				       sizeof(c->msg))))
+	if ((rc = json_util_opt_string(o, "on_mandatory_error", &at, 1, what, sizeof(what))))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "on_mandatory_error");
 	if (!strcmp(what, "reset_all"))
@@ -225,6 +228,7 @@ static int parse_nmt_startup(struct ctx *c, const cJSON *o, const char *path, ui
 int cfg_parse_manager(struct ctx *c, const cJSON *o, const char *path, cogw_manager_config *m)
 {
 	int rc;
+	const json_at at = cfg_at(c, path);
 
 	if ((rc = cfg_check_object(c, o, path, manager_keys)))
 		return rc;
@@ -244,8 +248,7 @@ int cfg_parse_manager(struct ctx *c, const cJSON *o, const char *path, cogw_mana
 			      &m->sdo_timeout_ms)) ||
 	    (rc = cfg_opt_u8(c, o, "max_parallel", path, (cfg_range){ 0, 128 },
 			     &m->max_parallel)) ||
-	    (rc = json_util_opt_bool(o, "accept_remote_nmt", path, &m->accept_remote_nmt, c->msg,
-				     sizeof(c->msg))))
+	    (rc = json_util_opt_bool(o, "accept_remote_nmt", &at, &m->accept_remote_nmt)))
 		return rc;
 	return 0;
 }
@@ -348,16 +351,17 @@ int cfg_parse_nodes(struct ctx *c, const cJSON *v, const char *path, cogw_line_c
 	cJSON_ArrayForEach(it, v)
 	{
 		char np[JSON_PATH_MAX], p[JSON_PATH_MAX];
+		const json_at at = cfg_at(c, np), at_p = cfg_at(c, p);
 		cogw_node *n = &l->nodes[i];
 		const cJSON *x;
 		uint64_t id;
 
 		json_util_path_index(np, sizeof(np), path, i++);
 		if ((rc = cfg_check_object(c, it, np, node_keys)) ||
-		    (rc = json_util_require(it, "id", np, &x, c->msg, sizeof(c->msg))))
+		    (rc = json_util_require(it, "id", &at, &x)))
 			return rc;
 		json_util_path_key(p, sizeof(p), np, "id");
-		if ((rc = json_util_uint(x, p, 1, 127, false, &id, c->msg, sizeof(c->msg))))
+		if ((rc = json_util_uint(x, &at_p, 1, 127, false, &id)))
 			return rc;
 		if (id == l->node_id)
 			return cfg_fail(c, p, "%llu is the line's own node_id",

@@ -33,7 +33,8 @@ int cfg_opt_u32(struct ctx *c, const cJSON *o, const char *key, const char *path
 		uint32_t *out)
 {
 	uint64_t v = *out;
-	int rc = json_util_opt_uint(o, key, path, r.min, r.max, &v, c->msg, sizeof(c->msg));
+	const json_at at = cfg_at(c, path);
+	int rc = json_util_opt_uint(o, key, &at, r.min, r.max, &v);
 
 	if (!rc)
 		*out = (uint32_t)v;
@@ -75,7 +76,9 @@ int cfg_opt_unsigned(struct ctx *c, const cJSON *o, const char *key, const char 
 
 int cfg_check_object(struct ctx *c, const cJSON *o, const char *path, const char *const *keys)
 {
-	return json_util_check_object(o, path, keys, c->msg, sizeof(c->msg));
+	const json_at at = cfg_at(c, path);
+
+	return json_util_check_object(o, &at, keys);
 }
 
 /* Names that end up in queue names and logs: [A-Za-z0-9_-]. */
@@ -94,7 +97,8 @@ int cfg_opt_flag(struct ctx *c, const cJSON *o, const char *key, const char *pat
 		 uint32_t *bits)
 {
 	bool b = f.def;
-	int rc = json_util_opt_bool(o, key, path, &b, c->msg, sizeof(c->msg));
+	const json_at at = cfg_at(c, path);
+	int rc = json_util_opt_bool(o, key, &at, &b);
 
 	if (!rc && b)
 		*bits |= f.bit;
@@ -108,11 +112,12 @@ int cfg_opt_u32_hex(struct ctx *c, const cJSON *o, const char *key, const char *
 	char p[JSON_PATH_MAX];
 	uint64_t u;
 	int rc;
+	const json_at at = cfg_at(c, p);
 
 	if (!v)
 		return 0;
 	json_util_path_key(p, sizeof(p), path, key);
-	if ((rc = json_util_uint(v, p, 0, UINT32_MAX, true, &u, c->msg, sizeof(c->msg))))
+	if ((rc = json_util_uint(v, &at, 0, UINT32_MAX, true, &u)))
 		return rc;
 	*out = (uint32_t)u;
 	return 0;

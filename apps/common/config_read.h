@@ -18,6 +18,7 @@
 
 #include "apps/common/config.h"
 #include "apps/common/file_read.h"
+#include "apps/common/json_util.h"
 #include "apps/common/node_config.h"
 #include "core/od.h"
 #include "gateway/route.h"
@@ -41,6 +42,13 @@ struct ctx {
 };
 
 /* ---- the typed readers (config_read.c) ---- */
+
+/* The json_util readers' place at path, their message going to c->msg
+ * (path may still be filled in later: only the pointer is kept). */
+static inline json_at cfg_at(struct ctx *c, const char *path)
+{
+	return (json_at){ path, c->msg, sizeof(c->msg) };
+}
 
 /* "path: reason" into c->msg; returns -EINVAL. */
 int cfg_fail(struct ctx *c, const char *path, const char *fmt, ...)

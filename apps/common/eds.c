@@ -102,7 +102,7 @@ static int convert(eds_ctx *c, const char *text, size_t len, uint8_t **out, size
 }
 
 int eds_convert_opts(const char *text, size_t len, const char *file, const eds_options *opts,
-		     uint8_t **out, size_t *out_len, eds_stats *stats, char *err, size_t errlen)
+		     eds_result *res)
 {
 	eds_ctx c = { .file = file ? file : "(buffer)",
 		      .node_id = opts->node_id,
@@ -113,54 +113,47 @@ int eds_convert_opts(const char *text, size_t len, const char *file, const eds_o
 		      .entry_arg = opts->entry_arg };
 	int rc;
 
-	*out = NULL;
-	*out_len = 0;
-	rc = convert(&c, text, len, out, out_len);
+	res->cdcf = NULL;
+	res->len = 0;
+	rc = convert(&c, text, len, &res->cdcf, &res->len);
 	if (rc) {
-		free(*out);
-		*out = NULL;
-		*out_len = 0;
+		free(res->cdcf);
+		res->cdcf = NULL;
+		res->len = 0;
 	}
-	if (stats)
-		*stats = c.st; /* warnings too when the file was refused */
-	if (err && errlen) {
-		if (rc == -ENOMEM)
-			snprintf(err, errlen, "%s: out of memory", c.file);
-		else
-			snprintf(err, errlen, "%s", rc ? c.msg : "");
-	}
+	res->stats = c.st; /* warnings too when the file was refused */
+	if (rc == -ENOMEM)
+		snprintf(res->err, sizeof res->err, "%s: out of memory", c.file);
+	else
+		snprintf(res->err, sizeof res->err, "%s", rc ? c.msg : "");
 	ctx_free(&c);
 	return rc;
 }
 
-int eds_convert(const char *text, size_t len, const char *file, uint8_t node_id, uint8_t **out,
-		size_t *out_len, eds_stats *stats, char *err, size_t errlen)
+int eds_convert(const char *text, size_t len, const char *file, uint8_t node_id, eds_result *res)
 {
 	eds_options o = { .node_id = node_id };
 
-	return eds_convert_opts(text, len, file, &o, out, out_len, stats, err, errlen);
+	return eds_convert_opts(text, len, file, &o, res);
 }
 
-int eds_convert_file_opts(const char *path, const eds_options *opts, uint8_t **out, size_t *out_len,
-			  eds_stats *stats, char *err, size_t errlen)
+int eds_convert_file_opts(const char *path, const eds_options *opts, eds_result *res)
 {
 	uint8_t *buf;
 	size_t len;
 	int rc;
 
-	*out = NULL;
-	*out_len = 0;
-	if ((rc = cogw_file_read(path, EDS_FILE_MAX, &buf, &len, err, errlen)))
+	*res = (eds_result){ 0 };
+	if ((rc = cogw_file_read(path, EDS_FILE_MAX, &buf, &len, res->err, sizeof res->err)))
 		return rc;
-	rc = eds_convert_opts((const char *)buf, len, path, opts, out, out_len, stats, err, errlen);
+	rc = eds_convert_opts((const char *)buf, len, path, opts, res);
 	free(buf);
 	return rc;
 }
 
-int eds_convert_file(const char *path, uint8_t node_id, uint8_t **out, size_t *out_len,
-		     eds_stats *stats, char *err, size_t errlen)
+int eds_convert_file(const char *path, uint8_t node_id, eds_result *res)
 {
 	eds_options o = { .node_id = node_id };
 
-	return eds_convert_file_opts(path, &o, out, out_len, stats, err, errlen);
+	return eds_convert_file_opts(path, &o, res);
 }

@@ -31,8 +31,9 @@
  * 31 set (PDO invalid), the other communication parameters, mapping sub0
  * = 0, mapping entries 1..N, mapping sub0 = N, then the final COB-ID.
  *
- * Errors: -EINVAL with "file:line: reason" in err (line 0 for problems of
- * the whole file), -ENOMEM, or -errno of the file for eds_load_file.
+ * Errors: -EINVAL with "file:line: reason" in eds_result.err (line 0 for
+ * problems of the whole file), -ENOMEM, or -errno of the file for
+ * eds_convert_file.
  * No global state; any thread; allocates (not for a real-time path).
  */
 #ifndef COGW_APPS_EDS_H
@@ -89,24 +90,29 @@ typedef struct eds_options {
 	void *entry_arg;
 } eds_options;
 
+/* What a conversion gives back. */
+typedef struct eds_result {
+	uint8_t *cdcf; /* the concise DCF (malloc'd, the caller frees it; also
+			* when it has no entries), NULL when refused */
+	size_t len;
+	eds_stats stats; /* also when the file was refused: its warnings */
+	char err[512];   /* why it was refused ("" when it was not) */
+} eds_result;
+
 /*
  * Convert the text of an EDS/DCF (len bytes, need not be NUL-terminated;
- * `file` names it in errors) into a concise DCF in *out (malloc'd, caller
- * frees; also when it has no entries). node_id 1..127 is what $NODEID
- * stands for; 0 = take [DeviceComissioning] NodeID, and a $NODEID with no
- * node id at all is an error. stats may be NULL.
+ * `file` names it in errors) into a concise DCF in res. node_id 1..127 is
+ * what $NODEID stands for; 0 = take [DeviceComissioning] NodeID, and a
+ * $NODEID with no node id at all is an error.
  */
-int eds_convert(const char *text, size_t len, const char *file, uint8_t node_id, uint8_t **out,
-		size_t *out_len, eds_stats *stats, char *err, size_t errlen);
+int eds_convert(const char *text, size_t len, const char *file, uint8_t node_id, eds_result *res);
 
 /* Read a file (at most EDS_FILE_MAX bytes) and eds_convert it. */
-int eds_convert_file(const char *path, uint8_t node_id, uint8_t **out, size_t *out_len,
-		     eds_stats *stats, char *err, size_t errlen);
+int eds_convert_file(const char *path, uint8_t node_id, eds_result *res);
 
 /* The same with options (eds_convert reads leniently, without a callback). */
 int eds_convert_opts(const char *text, size_t len, const char *file, const eds_options *opts,
-		     uint8_t **out, size_t *out_len, eds_stats *stats, char *err, size_t errlen);
-int eds_convert_file_opts(const char *path, const eds_options *opts, uint8_t **out, size_t *out_len,
-			  eds_stats *stats, char *err, size_t errlen);
+		     eds_result *res);
+int eds_convert_file_opts(const char *path, const eds_options *opts, eds_result *res);
 
 #endif /* COGW_APPS_EDS_H */

@@ -253,10 +253,10 @@ static int read_layout(const struct layout_read *x, eds_pdo_file *out)
 
 /* The file's objects with the overrides merged in (an override keeps the
  * file's access when it gives none). */
-static int merge_types(const eds_pdo_reader *r, const co_pdo_layout_type *overrides,
-		       size_t n_overrides, co_pdo_layout_type **out, size_t *n_out)
+static int merge_types(const eds_pdo_reader *r, co_pdo_layout_type **out, size_t *n_out)
 {
-	size_t n = 0;
+	const co_pdo_layout_type *overrides = r->overrides.list;
+	size_t n = 0, n_overrides = r->overrides.n;
 	co_pdo_layout_type *list = malloc((r->n + n_overrides + 1) * sizeof *list);
 	const co_pdo_layout_type *dup;
 
@@ -279,9 +279,8 @@ static int merge_types(const eds_pdo_reader *r, const co_pdo_layout_type *overri
 	return 0;
 }
 
-int eds_pdo_reader_finish(eds_pdo_reader *r, const char *file, const co_pdo_layout_type *overrides,
-			  size_t n_overrides, eds_pdo_file *layout, co_pdo_layout_type **types,
-			  size_t *n_types, char *err, size_t errlen)
+int eds_pdo_reader_finish(eds_pdo_reader *r, const char *file, eds_pdo_file *layout,
+			  eds_pdo_types *types, char *err, size_t errlen)
 {
 	co_pdo_layout_type *list = NULL;
 	size_t n = 0;
@@ -291,7 +290,7 @@ int eds_pdo_reader_finish(eds_pdo_reader *r, const char *file, const co_pdo_layo
 		memset(layout, 0, sizeof *layout);
 	if (r->out_of_memory)
 		return -ENOMEM;
-	if ((rc = merge_types(r, overrides, n_overrides, &list, &n)))
+	if ((rc = merge_types(r, &list, &n)))
 		return rc;
 	if (layout &&
 	    (rc = read_layout(&(struct layout_read){ r, file, list, n, err, errlen }, layout))) {
@@ -300,8 +299,8 @@ int eds_pdo_reader_finish(eds_pdo_reader *r, const char *file, const co_pdo_layo
 		return rc;
 	}
 	if (types) {
-		*types = list;
-		*n_types = n;
+		types->list = list;
+		types->n = n;
 	} else {
 		free(list);
 	}

@@ -11,10 +11,10 @@
  * Built from the sub-objects apps/common/eds.c reports (eds_options
  * .on_entry), so a file is read once, by the one reader, with its rules:
  *
- *   eds_pdo_reader r = {0};
+ *   eds_pdo_reader r = { .overrides = { list, n } };
  *   opts.on_entry = eds_pdo_reader_on_entry; opts.entry_arg = &r;
- *   eds_convert_opts(..., &opts, ...);
- *   eds_pdo_reader_finish(&r, file, overrides, n, &layout, err, errlen);
+ *   eds_convert_opts(..., &opts, &result);
+ *   eds_pdo_reader_finish(&r, file, &layout, &types, err, errlen);
  *   eds_pdo_reader_free(&r);
  *
  * Errors: -EINVAL with "file: reason" (a valid PDO whose mapping cannot be
@@ -32,8 +32,17 @@
 #include "apps/common/eds.h"
 #include "core/pdo_layout.h"
 
+/* A list of object types, sorted by index and sub. */
+typedef struct eds_pdo_types {
+	co_pdo_layout_type *list;
+	size_t n;
+} eds_pdo_types;
+
 /* The sub-objects collected while a file is read. */
 typedef struct eds_pdo_reader {
+	/* Given by the caller: the configuration's types, which win over the
+	 * file's (sorted; the caller's memory, not freed by the reader). */
+	eds_pdo_types overrides;
 	co_pdo_layout_type *obj; /* every typed sub-object, in file order */
 	uint32_t *value;         /* obj[i]'s value (up to 4 bytes, LE) */
 	bool *has_value;
@@ -50,12 +59,11 @@ typedef struct eds_pdo_file {
 /* An eds_entry_fn: collects one sub-object into the reader `arg`. */
 void eds_pdo_reader_on_entry(void *arg, const eds_entry *e);
 
-/* The file's layout into *layout (may be NULL: types only) and its type
- * list into *types / *n_types (malloc'd, sorted; may be NULL), with the
- * configuration's `overrides` (sorted, n_overrides) winning over the file. */
-int eds_pdo_reader_finish(eds_pdo_reader *r, const char *file, const co_pdo_layout_type *overrides,
-			  size_t n_overrides, eds_pdo_file *layout, co_pdo_layout_type **types,
-			  size_t *n_types, char *err, size_t errlen);
+/* The layout of `file` (the one read) into *layout (may be NULL: types
+ * only) and its type list into *types (malloc'd, sorted; may be NULL),
+ * r->overrides winning over the file. */
+int eds_pdo_reader_finish(eds_pdo_reader *r, const char *file, eds_pdo_file *layout,
+			  eds_pdo_types *types, char *err, size_t errlen);
 void eds_pdo_reader_free(eds_pdo_reader *r); /* accepts zeroed */
 void eds_pdo_file_free(eds_pdo_file *f);     /* accepts zeroed */
 

@@ -72,7 +72,7 @@ typedef struct eds_ctx {
 	void *warning_arg;
 	eds_entry_fn on_entry;
 	void *entry_arg;
-	char msg[512]; /* the refusal, "file:line: reason", copied to err */
+	char msg[512]; /* the refusal, "file:line: reason", copied to eds_result.err */
 } eds_ctx;
 
 typedef struct num_val {

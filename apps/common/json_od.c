@@ -134,6 +134,7 @@ static int parse_time(const cJSON *v, co_type t, const char *path, uint8_t *buf,
 	static const char *const keys[] = { "ms", "days", NULL };
 	uint64_t ms = 0, days = 0;
 	int rc;
+	const json_at at = { path, err, errlen };
 
 	/* CiA 301 §7.1.6.5/6: 28 bits of ms after midnight (or of a
 	 * difference), 4 reserved bits, then 16 bits of days (since
@@ -142,9 +143,9 @@ static int parse_time(const cJSON *v, co_type t, const char *path, uint8_t *buf,
 		return json_util_fail(err, errlen, path,
 				      "expected {\"ms\": .., \"days\": ..} for %s, got %s",
 				      co_type_to_string(t), json_util_kind(v));
-	if ((rc = json_util_check_object(v, path, keys, err, errlen)) ||
-	    (rc = json_util_opt_uint(v, "ms", path, 0, 0x0FFFFFFF, &ms, err, errlen)) ||
-	    (rc = json_util_opt_uint(v, "days", path, 0, 0xFFFF, &days, err, errlen)))
+	if ((rc = json_util_check_object(v, &at, keys)) ||
+	    (rc = json_util_opt_uint(v, "ms", &at, 0, 0x0FFFFFFF, &ms)) ||
+	    (rc = json_util_opt_uint(v, "days", &at, 0, 0xFFFF, &days)))
 		return rc;
 	co_put_le(buf, 4, ms);
 	co_put_le(buf + 4, 2, days);
@@ -161,12 +162,13 @@ static int parse_boolean(const cJSON *v, co_type t, const char *path, json_od_bu
 	bool b;
 	uint64_t u;
 	int rc;
+	const json_at at = { path, err, errlen };
 
 	(void)t;
 	if (cJSON_IsBool(v))
 		b = cJSON_IsTrue(v);
 	else if (cJSON_IsNumber(v)) {
-		if ((rc = json_util_uint(v, path, 0, 1, false, &u, err, errlen)))
+		if ((rc = json_util_uint(v, &at, 0, 1, false, &u)))
 			return rc;
 		b = u != 0;
 	} else
@@ -194,11 +196,12 @@ static int parse_real(const cJSON *v, co_type t, const char *path, json_od_buf *
 {
 	double d;
 	int rc;
+	const json_at at = { path, err, errlen };
 
 	if (!cJSON_IsNumber(v))
 		return json_util_fail(err, errlen, path, "expected a number for %s, got %s",
 				      co_type_to_string(t), json_util_kind(v));
-	if ((rc = json_util_real(v, path, &d, err, errlen)))
+	if ((rc = json_util_real(v, &at, &d)))
 		return rc;
 	if (t == CO_T_REAL32) {
 		float f;
@@ -225,6 +228,7 @@ static int parse_integer(const cJSON *v, co_type t, const char *path, json_od_bu
 {
 	uint32_t size = co_type_size(t);
 	int rc;
+	const json_at at = { path, err, errlen };
 
 	if (!cJSON_IsNumber(v) && !cJSON_IsString(v))
 		return json_util_fail(err, errlen, path, "expected an integer for %s, got %s",
@@ -234,14 +238,14 @@ static int parse_integer(const cJSON *v, co_type t, const char *path, json_od_bu
 		int64_t hi = size == 8 ? INT64_MAX : ((int64_t)1 << (8 * size - 1)) - 1;
 		int64_t s;
 
-		if ((rc = json_util_sint(v, path, lo, hi, &s, err, errlen)))
+		if ((rc = json_util_sint(v, &at, lo, hi, &s)))
 			return rc;
 		co_put_le(out->buf, size, (uint64_t)s);
 	} else {
 		uint64_t hi = size == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * size)) - 1;
 		uint64_t u;
 
-		if ((rc = json_util_uint(v, path, 0, hi, false, &u, err, errlen)))
+		if ((rc = json_util_uint(v, &at, 0, hi, false, &u)))
 			return rc;
 		co_put_le(out->buf, size, u);
 	}
@@ -295,9 +299,10 @@ static int parse_hex_bytes(const cJSON *v, co_type t, const char *path, json_od_
 {
 	size_t n;
 	int rc;
+	const json_at at = { path, err, errlen };
 
 	(void)t;
-	if ((rc = json_util_hex(v, path, out->buf, out->cap, &n, err, errlen)))
+	if ((rc = json_util_hex(v, &at, out->buf, out->cap, &n)))
 		return rc;
 	out->len = (uint32_t)n;
 	return 0;
@@ -333,7 +338,8 @@ int json_od_parse_value(const cJSON *v, co_type t, const char *path, json_od_buf
 int json_od_parse_index(const cJSON *v, const char *path, uint16_t *out, char *err, size_t errlen)
 {
 	uint64_t u;
-	int rc = json_util_uint(v, path, 0x1000, 0xFFFF, true, &u, err, errlen);
+	const json_at at = { path, err, errlen };
+	int rc = json_util_uint(v, &at, 0x1000, 0xFFFF, true, &u);
 
 	if (!rc)
 		*out = (uint16_t)u;
@@ -402,8 +408,9 @@ static int parse_kind(const cJSON *o, const char *path, struct ent_spec *s, char
 	const cJSON *v;
 	bool pdo = false, persist = false;
 	int rc;
+	const json_at at = { path, err, errlen };
 
-	if ((rc = json_util_require(o, "type", path, &v, err, errlen)))
+	if ((rc = json_util_require(o, "type", &at, &v)))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "type");
 	if (!cJSON_IsString(v))
@@ -426,8 +433,8 @@ static int parse_kind(const cJSON *o, const char *path, struct ent_spec *s, char
 				"unknown access %s (one of ro, wo, rw, rwr, rww, const)", r);
 		}
 	}
-	if ((rc = json_util_opt_bool(o, "pdo", path, &pdo, err, errlen)) ||
-	    (rc = json_util_opt_bool(o, "persist", path, &persist, err, errlen)))
+	if ((rc = json_util_opt_bool(o, "pdo", &at, &pdo)) ||
+	    (rc = json_util_opt_bool(o, "persist", &at, &persist)))
 		return rc;
 	/* "pdo": mappable in the direction(s) the access allows. */
 	if (pdo) {
@@ -460,6 +467,7 @@ static int parse_size(const cJSON *o, const char *path, struct ent_spec *s, char
 	const cJSON *v = json_util_get(o, "max_size");
 	uint64_t u;
 	int rc;
+	const json_at at = { p, err, errlen };
 
 	if (s->min || s->max) {
 		json_util_path_key(p, sizeof(p), path, s->min ? "min" : "max");
@@ -469,7 +477,7 @@ static int parse_size(const cJSON *o, const char *path, struct ent_spec *s, char
 	if (!v)
 		return 0;
 	json_util_path_key(p, sizeof(p), path, "max_size");
-	if ((rc = json_util_uint(v, p, 1, JSON_OD_MAX_SIZE, false, &u, err, errlen)))
+	if ((rc = json_util_uint(v, &at, 1, JSON_OD_MAX_SIZE, false, &u)))
 		return rc;
 	s->max_size = (uint32_t)u;
 	return 0;
@@ -675,8 +683,9 @@ static int add_var(co_od *od, uint16_t index, const cJSON *o, const char *path, 
 	struct ent_spec s;
 	char dp[JSON_PATH_MAX];
 	int rc;
+	const json_at at = { path, err, errlen };
 
-	if ((rc = json_util_check_object(o, path, var_keys, err, errlen)) ||
+	if ((rc = json_util_check_object(o, &at, var_keys)) ||
 	    (rc = parse_common(o, path, &s, err, errlen)))
 		return rc;
 	json_util_path_key(dp, sizeof(dp), path, "default");
@@ -707,13 +716,15 @@ static int add_array(co_od *od, uint16_t index, const cJSON *o, const char *path
 	char p[JSON_PATH_MAX], dp[JSON_PATH_MAX];
 	uint64_t n;
 	int rc;
+	const json_at at = { path, err, errlen };
+	const json_at at_p = { p, err, errlen };
 
-	if ((rc = json_util_check_object(o, path, array_keys, err, errlen)) ||
+	if ((rc = json_util_check_object(o, &at, array_keys)) ||
 	    (rc = parse_common(o, path, &s, err, errlen)) ||
-	    (rc = json_util_require(o, "length", path, &lv, err, errlen)))
+	    (rc = json_util_require(o, "length", &at, &lv)))
 		return rc;
 	json_util_path_key(p, sizeof(p), path, "length");
-	if ((rc = json_util_uint(lv, p, 1, SUB_MAX, false, &n, err, errlen)))
+	if ((rc = json_util_uint(lv, &at_p, 1, SUB_MAX, false, &n)))
 		return rc;
 	def = json_util_get(o, "default");
 	defs = json_util_get(o, "defaults");
@@ -762,9 +773,12 @@ static int add_record(co_od *od, uint16_t index, const cJSON *o, const char *pat
 	unsigned highest = 0;
 	size_t i = 0;
 	int rc;
+	const json_at at = { path, err, errlen };
+	const json_at at_p = { p, err, errlen };
+	const json_at at_dp = { dp, err, errlen };
 
-	if ((rc = json_util_check_object(o, path, record_keys, err, errlen)) ||
-	    (rc = json_util_require(o, "subs", path, &subs, err, errlen)))
+	if ((rc = json_util_check_object(o, &at, record_keys)) ||
+	    (rc = json_util_require(o, "subs", &at, &subs)))
 		return rc;
 	json_util_path_key(sp, sizeof(sp), path, "subs");
 	if (!cJSON_IsArray(subs) || cJSON_GetArraySize(subs) == 0)
@@ -778,11 +792,11 @@ static int add_record(co_od *od, uint16_t index, const cJSON *o, const char *pat
 		uint64_t sub;
 
 		json_util_path_index(p, sizeof(p), sp, i++);
-		if ((rc = json_util_check_object(it, p, sub_keys, err, errlen)) ||
-		    (rc = json_util_require(it, "sub", p, &sv, err, errlen)))
+		if ((rc = json_util_check_object(it, &at_p, sub_keys)) ||
+		    (rc = json_util_require(it, "sub", &at_p, &sv)))
 			return rc;
 		json_util_path_key(dp, sizeof(dp), p, "sub");
-		if ((rc = json_util_uint(sv, dp, 1, SUB_MAX, false, &sub, err, errlen)))
+		if ((rc = json_util_uint(sv, &at_dp, 1, SUB_MAX, false, &sub)))
 			return rc;
 		if (seen[sub])
 			return json_util_fail(err, errlen, dp, "sub-index %llu is defined twice",
@@ -801,7 +815,7 @@ static int add_record(co_od *od, uint16_t index, const cJSON *o, const char *pat
 		uint64_t sub = 0;
 
 		json_util_path_index(p, sizeof(p), sp, i++);
-		json_util_uint(json_util_get(it, "sub"), p, 1, SUB_MAX, false, &sub, err, errlen);
+		json_util_uint(json_util_get(it, "sub"), &at_p, 1, SUB_MAX, false, &sub);
 		if ((rc = parse_common(it, p, &s, err, errlen)))
 			return rc;
 		json_util_path_key(dp, sizeof(dp), p, "default");
@@ -820,6 +834,7 @@ int json_od_add_objects(co_od *od, const cJSON *objects, const char *path_prefix
 	char p[JSON_PATH_MAX], kp[JSON_PATH_MAX];
 	size_t i = 0;
 	int rc;
+	const json_at at = { p, err, errlen };
 
 	if (!cJSON_IsArray(objects))
 		return json_util_fail(err, errlen, path_prefix,
@@ -835,7 +850,7 @@ int json_od_add_objects(co_od *od, const cJSON *objects, const char *path_prefix
 		if (!cJSON_IsObject(o))
 			return json_util_fail(err, errlen, p, "expected an object, got %s",
 					      json_util_kind(o));
-		if ((rc = json_util_require(o, "index", p, &iv, err, errlen)))
+		if ((rc = json_util_require(o, "index", &at, &iv)))
 			return rc;
 		json_util_path_key(kp, sizeof(kp), p, "index");
 		if ((rc = json_od_parse_index(iv, kp, &index, err, errlen)))
@@ -885,8 +900,10 @@ static int value_entry(co_od *od, const cJSON *o, const char *p, co_od_entry **e
 	uint64_t sub = 0;
 	uint32_t abort = 0;
 	int rc;
+	const json_at at = { p, err, errlen };
+	const json_at at_kp = { kp, err, errlen };
 
-	if ((rc = json_util_require(o, "index", p, &iv, err, errlen)))
+	if ((rc = json_util_require(o, "index", &at, &iv)))
 		return rc;
 	json_util_path_key(kp, sizeof(kp), p, "index");
 	if ((rc = json_od_parse_index(iv, kp, &index, err, errlen)))
@@ -896,7 +913,7 @@ static int value_entry(co_od *od, const cJSON *o, const char *p, co_od_entry **e
 	sv = json_util_get(o, "sub");
 	if (sv) {
 		json_util_path_key(kp, sizeof(kp), p, "sub");
-		if ((rc = json_util_uint(sv, kp, 0, 255, false, &sub, err, errlen)))
+		if ((rc = json_util_uint(sv, &at_kp, 0, 255, false, &sub)))
 			return rc;
 	}
 	*e = co_od_find_ex(od, index, (uint8_t)sub, &abort);
@@ -950,11 +967,12 @@ static int apply_one(co_od *od, const cJSON *o, const char *p, uint32_t *key, ch
 	uint8_t num[8];
 	uint8_t *buf = num;
 	int rc;
+	const json_at at = { p, err, errlen };
 
 	/* "index" is missing, then "value": the first of them is named */
-	if ((rc = json_util_check_object(o, p, value_keys, err, errlen)) ||
-	    (rc = json_util_require(o, "index", p, &vv, err, errlen)) ||
-	    (rc = json_util_require(o, "value", p, &vv, err, errlen)) ||
+	if ((rc = json_util_check_object(o, &at, value_keys)) ||
+	    (rc = json_util_require(o, "index", &at, &vv)) ||
+	    (rc = json_util_require(o, "value", &at, &vv)) ||
 	    (rc = value_entry(od, o, p, &e, err, errlen)))
 		return rc;
 	*key = (uint32_t)e->index << 8 | (uint32_t)e->sub;

@@ -164,21 +164,20 @@ static unsigned edit_distance(const char *a, const char *b)
 	return row[lb];
 }
 
-int json_util_check_object(const cJSON *obj, const char *path, const char *const *allowed,
-			   char *err, size_t errlen)
+int json_util_check_object(const cJSON *obj, const json_at *at, const char *const *allowed)
 {
 	char p[JSON_PATH_MAX];
 	const cJSON *c, *d;
 
 	if (!cJSON_IsObject(obj))
-		return json_util_fail(err, errlen, path, "expected an object, got %s",
+		return json_util_fail(at->err, at->errlen, at->path, "expected an object, got %s",
 				      json_util_kind(obj));
 	for (c = obj->child; c; c = c->next) {
 		bool known = false;
 		const char *hint = NULL;
 		unsigned best = 3;
 
-		json_util_path_key(p, sizeof(p), path, c->string);
+		json_util_path_key(p, sizeof(p), at->path, c->string);
 		for (size_t i = 0; allowed[i]; i++) {
 			unsigned dist;
 
@@ -194,13 +193,13 @@ int json_util_check_object(const cJSON *obj, const char *path, const char *const
 		}
 		if (!known) {
 			if (hint)
-				return json_util_fail(err, errlen, p,
+				return json_util_fail(at->err, at->errlen, p,
 						      "unknown key (did you mean \"%s\"?)", hint);
-			return json_util_fail(err, errlen, p, "unknown key");
+			return json_util_fail(at->err, at->errlen, p, "unknown key");
 		}
 		for (d = obj->child; d != c; d = d->next)
 			if (!strcmp(d->string, c->string))
-				return json_util_fail(err, errlen, p, "duplicate key");
+				return json_util_fail(at->err, at->errlen, p, "duplicate key");
 	}
 	return 0;
 }
@@ -210,16 +209,15 @@ const cJSON *json_util_get(const cJSON *obj, const char *key)
 	return cJSON_GetObjectItemCaseSensitive(obj, key);
 }
 
-int json_util_require(const cJSON *obj, const char *key, const char *path, const cJSON **out,
-		      char *err, size_t errlen)
+int json_util_require(const cJSON *obj, const char *key, const json_at *at, const cJSON **out)
 {
 	char p[JSON_PATH_MAX];
 
 	*out = json_util_get(obj, key);
 	if (*out)
 		return 0;
-	json_util_path_key(p, sizeof(p), path, key);
-	return json_util_fail(err, errlen, p, "required key is missing");
+	json_util_path_key(p, sizeof(p), at->path, key);
+	return json_util_fail(at->err, at->errlen, p, "required key is missing");
 }
 
 static int digit_value(char c)
@@ -266,8 +264,7 @@ static bool parse_int_string(const char *s, bool *neg, uint64_t *mag)
 	return true;
 }
 
-int json_util_int(const cJSON *v, const char *path, bool *neg, uint64_t *mag, char *err,
-		  size_t errlen)
+int json_util_int(const cJSON *v, const json_at *at, bool *neg, uint64_t *mag)
 {
 	char r[64];
 
@@ -276,9 +273,10 @@ int json_util_int(const cJSON *v, const char *path, bool *neg, uint64_t *mag, ch
 
 		json_util_repr(v, r, sizeof(r));
 		if (!isfinite(d) || d != floor(d))
-			return json_util_fail(err, errlen, path, "%s is not an integer", r);
+			return json_util_fail(at->err, at->errlen, at->path, "%s is not an integer",
+					      r);
 		if (fabs(d) > JSON_EXACT_INT_MAX)
-			return json_util_fail(err, errlen, path,
+			return json_util_fail(at->err, at->errlen, at->path,
 					      "%s is beyond the exact range of JSON numbers; write "
 					      "it as a string (\"0x...\")",
 					      r);
@@ -289,44 +287,46 @@ int json_util_int(const cJSON *v, const char *path, bool *neg, uint64_t *mag, ch
 	if (cJSON_IsString(v)) {
 		if (!parse_int_string(v->valuestring, neg, mag)) {
 			json_util_repr(v, r, sizeof(r));
-			return json_util_fail(err, errlen, path, "%s is not an integer", r);
+			return json_util_fail(at->err, at->errlen, at->path, "%s is not an integer",
+					      r);
 		}
 		return 0;
 	}
-	return json_util_fail(err, errlen, path, "expected an integer, got %s", json_util_kind(v));
+	return json_util_fail(at->err, at->errlen, at->path, "expected an integer, got %s",
+			      json_util_kind(v));
 }
 
-int json_util_uint(const cJSON *v, const char *path, uint64_t min, uint64_t max, bool hex,
-		   uint64_t *out, char *err, size_t errlen)
+int json_util_uint(const cJSON *v, const json_at *at, uint64_t min, uint64_t max, bool hex,
+		   uint64_t *out)
 {
 	bool neg;
 	uint64_t mag;
 	char r[64];
-	int rc = json_util_int(v, path, &neg, &mag, err, errlen);
+	int rc = json_util_int(v, at, &neg, &mag);
 
 	if (rc)
 		return rc;
 	if (neg || mag < min || mag > max) {
 		json_util_repr(v, r, sizeof(r));
 		if (hex)
-			return json_util_fail(err, errlen, path,
+			return json_util_fail(at->err, at->errlen, at->path,
 					      "%s is out of range 0x%04llX..0x%04llX", r,
 					      (unsigned long long)min, (unsigned long long)max);
-		return json_util_fail(err, errlen, path, "%s is out of range %llu..%llu", r,
-				      (unsigned long long)min, (unsigned long long)max);
+		return json_util_fail(at->err, at->errlen, at->path,
+				      "%s is out of range %llu..%llu", r, (unsigned long long)min,
+				      (unsigned long long)max);
 	}
 	*out = mag;
 	return 0;
 }
 
-int json_util_sint(const cJSON *v, const char *path, int64_t min, int64_t max, int64_t *out,
-		   char *err, size_t errlen)
+int json_util_sint(const cJSON *v, const json_at *at, int64_t min, int64_t max, int64_t *out)
 {
 	bool neg;
 	uint64_t mag;
 	char r[64];
 	int64_t val;
-	int rc = json_util_int(v, path, &neg, &mag, err, errlen);
+	int rc = json_util_int(v, at, &neg, &mag);
 
 	if (rc)
 		return rc;
@@ -341,95 +341,104 @@ int json_util_sint(const cJSON *v, const char *path, int64_t min, int64_t max, i
 	return 0;
 range:
 	json_util_repr(v, r, sizeof(r));
-	return json_util_fail(err, errlen, path, "%s is out of range %lld..%lld", r, (long long)min,
-			      (long long)max);
+	return json_util_fail(at->err, at->errlen, at->path, "%s is out of range %lld..%lld", r,
+			      (long long)min, (long long)max);
 }
 
-int json_util_real(const cJSON *v, const char *path, double *out, char *err, size_t errlen)
+int json_util_real(const cJSON *v, const json_at *at, double *out)
 {
 	if (!cJSON_IsNumber(v))
-		return json_util_fail(err, errlen, path, "expected a number, got %s",
+		return json_util_fail(at->err, at->errlen, at->path, "expected a number, got %s",
 				      json_util_kind(v));
 	if (!isfinite(v->valuedouble))
-		return json_util_fail(err, errlen, path, "number is not finite");
+		return json_util_fail(at->err, at->errlen, at->path, "number is not finite");
 	*out = v->valuedouble;
 	return 0;
 }
 
-int json_util_bool(const cJSON *v, const char *path, bool *out, char *err, size_t errlen)
+int json_util_bool(const cJSON *v, const json_at *at, bool *out)
 {
 	if (!cJSON_IsBool(v))
-		return json_util_fail(err, errlen, path, "expected true or false, got %s",
-				      json_util_kind(v));
+		return json_util_fail(at->err, at->errlen, at->path,
+				      "expected true or false, got %s", json_util_kind(v));
 	*out = cJSON_IsTrue(v);
 	return 0;
 }
 
-int json_util_string(const cJSON *v, const char *path, size_t min_len, char *buf, size_t cap,
-		     char *err, size_t errlen)
+int json_util_string(const cJSON *v, const json_at *at, size_t min_len, char *buf, size_t cap)
 {
 	size_t len;
 
 	if (!cJSON_IsString(v))
-		return json_util_fail(err, errlen, path, "expected a string, got %s",
+		return json_util_fail(at->err, at->errlen, at->path, "expected a string, got %s",
 				      json_util_kind(v));
 	len = strlen(v->valuestring);
 	if (len < min_len)
-		return json_util_fail(err, errlen, path, "must not be empty");
+		return json_util_fail(at->err, at->errlen, at->path, "must not be empty");
 	if (len >= cap)
-		return json_util_fail(err, errlen, path,
+		return json_util_fail(at->err, at->errlen, at->path,
 				      "\"%.40s%s\" is too long (%zu bytes, at most %zu)",
 				      v->valuestring, len > 40 ? "..." : "", len, cap - 1);
 	memcpy(buf, v->valuestring, len + 1);
 	return 0;
 }
 
-int json_util_opt_uint(const cJSON *obj, const char *key, const char *path, uint64_t min,
-		       uint64_t max, uint64_t *out, char *err, size_t errlen)
+/* The json_at of obj's member key: its path "path.key" written into p. */
+static json_at member_at(const json_at *at, const char *key, char *p, size_t n)
 {
-	const cJSON *v = json_util_get(obj, key);
-	char p[JSON_PATH_MAX];
-
-	if (!v)
-		return 0;
-	json_util_path_key(p, sizeof(p), path, key);
-	return json_util_uint(v, p, min, max, false, out, err, errlen);
+	json_util_path_key(p, n, at->path, key);
+	return (json_at){ p, at->err, at->errlen };
 }
 
-int json_util_opt_sint(const cJSON *obj, const char *key, const char *path, int64_t min,
-		       int64_t max, int64_t *out, char *err, size_t errlen)
+int json_util_opt_uint(const cJSON *obj, const char *key, const json_at *at, uint64_t min,
+		       uint64_t max, uint64_t *out)
 {
 	const cJSON *v = json_util_get(obj, key);
 	char p[JSON_PATH_MAX];
+	json_at member;
 
 	if (!v)
 		return 0;
-	json_util_path_key(p, sizeof(p), path, key);
-	return json_util_sint(v, p, min, max, out, err, errlen);
+	member = member_at(at, key, p, sizeof(p));
+	return json_util_uint(v, &member, min, max, false, out);
 }
 
-int json_util_opt_bool(const cJSON *obj, const char *key, const char *path, bool *out, char *err,
-		       size_t errlen)
+int json_util_opt_sint(const cJSON *obj, const char *key, const json_at *at, int64_t min,
+		       int64_t max, int64_t *out)
 {
 	const cJSON *v = json_util_get(obj, key);
 	char p[JSON_PATH_MAX];
+	json_at member;
 
 	if (!v)
 		return 0;
-	json_util_path_key(p, sizeof(p), path, key);
-	return json_util_bool(v, p, out, err, errlen);
+	member = member_at(at, key, p, sizeof(p));
+	return json_util_sint(v, &member, min, max, out);
 }
 
-int json_util_opt_string(const cJSON *obj, const char *key, const char *path, size_t min_len,
-			 char *buf, size_t cap, char *err, size_t errlen)
+int json_util_opt_bool(const cJSON *obj, const char *key, const json_at *at, bool *out)
 {
 	const cJSON *v = json_util_get(obj, key);
 	char p[JSON_PATH_MAX];
+	json_at member;
 
 	if (!v)
 		return 0;
-	json_util_path_key(p, sizeof(p), path, key);
-	return json_util_string(v, p, min_len, buf, cap, err, errlen);
+	member = member_at(at, key, p, sizeof(p));
+	return json_util_bool(v, &member, out);
+}
+
+int json_util_opt_string(const cJSON *obj, const char *key, const json_at *at, size_t min_len,
+			 char *buf, size_t cap)
+{
+	const cJSON *v = json_util_get(obj, key);
+	char p[JSON_PATH_MAX];
+	json_at member;
+
+	if (!v)
+		return 0;
+	member = member_at(at, key, p, sizeof(p));
+	return json_util_string(v, &member, min_len, buf, cap);
 }
 
 /* Decode into buf (NULL = count only). Returns bytes or -1. */
@@ -466,34 +475,33 @@ long json_util_hex_len(const cJSON *v)
 	return hex_decode(v->valuestring, NULL, 0);
 }
 
-int json_util_hex(const cJSON *v, const char *path, uint8_t *buf, size_t cap, size_t *len,
-		  char *err, size_t errlen)
+int json_util_hex(const cJSON *v, const json_at *at, uint8_t *buf, size_t cap, size_t *len)
 {
 	long n;
 
 	if (!cJSON_IsString(v))
-		return json_util_fail(err, errlen, path,
+		return json_util_fail(at->err, at->errlen, at->path,
 				      "expected a hex string like \"01 02 ff\", got %s",
 				      json_util_kind(v));
 	n = json_util_hex_len(v);
 	if (n < 0)
 		return json_util_fail(
-			err, errlen, path,
+			at->err, at->errlen, at->path,
 			"not a hex string (pairs of hex digits, optionally separated by spaces)");
 	if ((size_t)n > cap)
-		return json_util_fail(err, errlen, path, "%ld bytes are longer than max_size %zu",
-				      n, cap);
+		return json_util_fail(at->err, at->errlen, at->path,
+				      "%ld bytes are longer than max_size %zu", n, cap);
 	hex_decode(v->valuestring, buf, cap);
 	*len = (size_t)n;
 	return 0;
 }
 
-int json_util_opt_unsigned(const cJSON *obj, const char *key, const char *path, uint64_t min,
-			   uint64_t max, unsigned *out, char *err, size_t errlen)
+int json_util_opt_unsigned(const cJSON *obj, const char *key, const json_at *at, uint64_t min,
+			   uint64_t max, unsigned *out)
 {
 	uint64_t u = *out;
 
-	if (json_util_opt_uint(obj, key, path, min, max, &u, err, errlen))
+	if (json_util_opt_uint(obj, key, at, min, max, &u))
 		return -EINVAL;
 	*out = (unsigned)u;
 	return 0;

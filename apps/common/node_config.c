@@ -102,24 +102,26 @@ static int add_listed_entry(const cJSON *e, const char *ep, co_cdcf_writer *w, u
 	co_type t;
 	uint32_t len = 0;
 	int rc;
+	const json_at at = { ep, err, errlen };
+	const json_at at_p = { p, err, errlen };
 
-	if ((rc = json_util_check_object(e, ep, entry_keys, err, errlen)) ||
-	    (rc = json_util_require(e, "index", ep, &v, err, errlen)))
+	if ((rc = json_util_check_object(e, &at, entry_keys)) ||
+	    (rc = json_util_require(e, "index", &at, &v)))
 		return rc;
 	json_util_path_key(p, sizeof(p), ep, "index");
 	if ((rc = json_od_parse_index(v, p, &index, err, errlen)) ||
-	    (rc = json_util_opt_uint(e, "sub", ep, 0, 255, &sub, err, errlen)) ||
-	    (rc = json_util_require(e, "type", ep, &v, err, errlen)))
+	    (rc = json_util_opt_uint(e, "sub", &at, 0, 255, &sub)) ||
+	    (rc = json_util_require(e, "type", &at, &v)))
 		return rc;
 	json_util_path_key(p, sizeof(p), ep, "type");
-	if ((rc = json_util_string(v, p, 1, tname, sizeof(tname), err, errlen)))
+	if ((rc = json_util_string(v, &at_p, 1, tname, sizeof(tname))))
 		return rc;
 	if (!json_od_type_from_string(tname, &t))
 		return json_util_fail(err, errlen, p,
 				      "\"%s\" is not a CiA 301 data type name (e.g. "
 				      "UNSIGNED16, VISIBLE_STRING)",
 				      tname);
-	if ((rc = json_util_require(e, "value", ep, &v, err, errlen)))
+	if ((rc = json_util_require(e, "value", &at, &v)))
 		return rc;
 	json_util_path_key(p, sizeof(p), ep, "value");
 	json_od_buf out = { val, COGW_NODE_ENTRY_MAX, 0 };
@@ -234,13 +236,17 @@ static int convert_device_file(const char *name, cogw_device_ref dev, const cogw
 	eds_options o = { .node_id = dev.node_id,
 			  .on_entry = dev.pdo ? eds_pdo_reader_on_entry : NULL,
 			  .entry_arg = dev.pdo };
-	eds_stats st = { 0 };
+	eds_result res = { 0 };
 	int rc = f ? 0 : cogw_file_set_get(ld->read, nc->file, EDS_FILE_MAX, &text, why, whylen);
 
-	if (!rc)
-		rc = eds_convert_opts((const char *)text.data, text.len, nc->file, &o, &nc->cdcf,
-				      &nc->cdcf_len, &st, why, whylen);
-	nc->entries = st.entries;
+	if (rc)
+		return rc;
+	rc = eds_convert_opts((const char *)text.data, text.len, nc->file, &o, &res);
+	if (rc)
+		snprintf(why, whylen, "%s", res.err);
+	nc->cdcf = res.cdcf;
+	nc->cdcf_len = res.len;
+	nc->entries = res.stats.entries;
 	return rc;
 }
 
@@ -250,8 +256,9 @@ int cogw_device_file_read(const cJSON *v, const char *path, cogw_device_ref dev,
 	char name[256], why[512];
 	cogw_node_config nc = { 0 };
 	int rc;
+	const json_at at = { path, ld->err, ld->errlen };
 
-	if ((rc = json_util_string(v, path, 1, name, sizeof(name), ld->err, ld->errlen)))
+	if ((rc = json_util_string(v, &at, 1, name, sizeof(name))))
 		return rc;
 	if (!resolve(nc.file, sizeof(nc.file), ld->base_dir, name))
 		return json_util_fail(ld->err, ld->errlen, path, "file name longer than %zu bytes",
@@ -303,10 +310,11 @@ static int parse_download_options(const cJSON *v, const char *path, cogw_node_co
 	char p[JSON_PATH_MAX];
 	uint64_t date = 0, time = 0;
 	int rc;
+	const json_at at = { path, err, errlen };
 
-	if ((rc = json_util_opt_bool(v, "store", path, &nc->store, err, errlen)) ||
-	    (rc = json_util_opt_uint(v, "date", path, 0, UINT32_MAX, &date, err, errlen)) ||
-	    (rc = json_util_opt_uint(v, "time", path, 0, 86399999, &time, err, errlen)))
+	if ((rc = json_util_opt_bool(v, "store", &at, &nc->store)) ||
+	    (rc = json_util_opt_uint(v, "date", &at, 0, UINT32_MAX, &date)) ||
+	    (rc = json_util_opt_uint(v, "time", &at, 0, 86399999, &time)))
 		return rc;
 	if (!json_util_get(v, "date") != !json_util_get(v, "time")) {
 		json_util_path_key(p, sizeof(p), path, json_util_get(v, "date") ? "time" : "date");
@@ -342,8 +350,9 @@ static int read_config_file(const cJSON *src, const char *p, bool dcf, cogw_devi
 {
 	char name[256], why[512];
 	int rc;
+	const json_at at = { p, ld->err, ld->errlen };
 
-	if ((rc = json_util_string(src, p, 1, name, sizeof(name), ld->err, ld->errlen)))
+	if ((rc = json_util_string(src, &at, 1, name, sizeof(name))))
 		return rc;
 	if (!resolve(nc->file, sizeof(nc->file), ld->base_dir, name))
 		return json_util_fail(ld->err, ld->errlen, p, "file name longer than %zu bytes",
@@ -378,9 +387,10 @@ int cogw_node_config_parse(const cJSON *v, const char *path, cogw_device_ref dev
 	const cJSON *src = NULL;
 	char p[JSON_PATH_MAX];
 	int which = -1, rc;
+	const json_at at = { path, ld->err, ld->errlen };
 
 	memset(nc, 0, sizeof(*nc));
-	if ((rc = json_util_check_object(v, path, config_keys, ld->err, ld->errlen)) ||
+	if ((rc = json_util_check_object(v, &at, config_keys)) ||
 	    (rc = pick_source(v, path, &src, &which, ld->err, ld->errlen)) ||
 	    (rc = parse_download_options(v, path, nc, ld->err, ld->errlen)))
 		return rc;

@@ -25,9 +25,10 @@ int cogw_pdo_mode_parse(const cJSON *o, const char *path, uint8_t *mode, char *e
 {
 	char what[16], p[JSON_PATH_MAX];
 	int rc;
+	const json_at at = { path, err, errlen };
 
 	snprintf(what, sizeof what, "%s", cogw_pdo_mode_to_string(*mode));
-	if ((rc = json_util_opt_string(o, "pdo", path, 1, what, sizeof what, err, errlen)))
+	if ((rc = json_util_opt_string(o, "pdo", &at, 1, what, sizeof what)))
 		return rc;
 	for (uint8_t m = 0; m < 3; m++)
 		if (!strcmp(what, pdo_mode_names[m])) {
@@ -110,6 +111,7 @@ static int parse_types(const cJSON *v, const char *path, co_pdo_layout_type **ou
 	cJSON_ArrayForEach(it, v)
 	{
 		char p[JSON_PATH_MAX], name[32];
+		const json_at at = { p, err, errlen };
 		co_type t;
 		co_pdo_layout_type *e = &list[n];
 		int rc;
@@ -123,7 +125,7 @@ static int parse_types(const cJSON *v, const char *path, co_pdo_layout_type **ou
 					      "not an object \"INDEX:SUB\" (index hex, e.g. "
 					      "\"6401:1\")");
 		}
-		if ((rc = json_util_string(it, p, 1, name, sizeof name, err, errlen))) {
+		if ((rc = json_util_string(it, &at, 1, name, sizeof name))) {
 			free(list);
 			return rc;
 		}
@@ -149,23 +151,22 @@ static int parse_types(const cJSON *v, const char *path, co_pdo_layout_type **ou
 	return 0;
 }
 
-/* A node's "types": the data types over its file's. */
-struct type_overrides {
-	co_pdo_layout_type *list;
-	size_t n;
-};
-
-/* The file's layout (when it is the node's) and types into n. */
-static int finish_file(eds_pdo_reader *r, const char *p, const struct type_overrides *o,
-		       const char *file, cogw_node *n, const cogw_load *ld)
+/* The file's layout (when it is the node's) and types, the node's
+ * "types" (r->overrides) over the file's, into n. */
+static int finish_file(eds_pdo_reader *r, const char *p, const char *file, cogw_node *n,
+		       const cogw_load *ld)
 {
 	char why[400];
-	int rc = eds_pdo_reader_finish(r, file, o->list, o->n,
-				       n->pdo_from_file ? &n->pdo_file : NULL, &n->types,
-				       &n->n_types, why, sizeof why);
+	eds_pdo_types t = { 0 };
+	int rc = eds_pdo_reader_finish(r, file, n->pdo_from_file ? &n->pdo_file : NULL, &t, why,
+				       sizeof why);
 	if (rc == -EINVAL)
 		return json_util_fail(ld->err, ld->errlen, p, "%s", why);
-	return rc;
+	if (rc)
+		return rc;
+	n->types = t.list;
+	n->n_types = t.n;
+	return 0;
 }
 
 int cogw_node_pdo_parse(const cJSON *node, const char *np, const cogw_line_config *l, cogw_node *n,
@@ -175,7 +176,7 @@ int cogw_node_pdo_parse(const cJSON *node, const char *np, const cogw_line_confi
 	size_t errlen = ld->errlen;
 	const cJSON *cfg = json_util_get(node, "config"), *eds = json_util_get(node, "eds");
 	const cJSON *types = json_util_get(node, "types");
-	struct type_overrides o = { 0 };
+	eds_pdo_types o = { 0 }; /* the node's "types" */
 	eds_pdo_reader r = { 0 };
 	char p[JSON_PATH_MAX], fp[JSON_PATH_MAX];
 	int rc = 0;
@@ -206,7 +207,8 @@ int cogw_node_pdo_parse(const cJSON *node, const char *np, const cogw_line_confi
 		/* with "eds" and a download of another kind the download may
 		 * remap: the file then only types what the scan finds */
 		n->pdo_from_file = !(eds && cfg);
-		rc = finish_file(&r, fp, &o, eds ? n->eds : n->config.file, n, ld);
+		r.overrides = o;
+		rc = finish_file(&r, fp, eds ? n->eds : n->config.file, n, ld);
 	} else if (!rc) {
 		n->types = o.list;
 		n->n_types = o.n;

@@ -158,17 +158,15 @@ static int parse_identity(const cJSON *root, struct parsed_top *t, char *err, si
 	const cJSON *id = json_util_get(root, "identity");
 	uint64_t v[4] = { 0, 0, 0, 0 };
 	int rc;
+	const json_at at = { "identity", err, errlen };
 
 	if (!id)
 		return 0;
-	if ((rc = json_util_check_object(id, "identity", keys, err, errlen)) ||
-	    (rc = json_util_opt_uint(id, "vendor", "identity", 0, UINT32_MAX, &v[0], err,
-				     errlen)) ||
-	    (rc = json_util_opt_uint(id, "product", "identity", 0, UINT32_MAX, &v[1], err,
-				     errlen)) ||
-	    (rc = json_util_opt_uint(id, "revision", "identity", 0, UINT32_MAX, &v[2], err,
-				     errlen)) ||
-	    (rc = json_util_opt_uint(id, "serial", "identity", 0, UINT32_MAX, &v[3], err, errlen)))
+	if ((rc = json_util_check_object(id, &at, keys)) ||
+	    (rc = json_util_opt_uint(id, "vendor", &at, 0, UINT32_MAX, &v[0])) ||
+	    (rc = json_util_opt_uint(id, "product", &at, 0, UINT32_MAX, &v[1])) ||
+	    (rc = json_util_opt_uint(id, "revision", &at, 0, UINT32_MAX, &v[2])) ||
+	    (rc = json_util_opt_uint(id, "serial", &at, 0, UINT32_MAX, &v[3])))
 		return rc;
 	t->std.vendor_id = (uint32_t)v[0];
 	t->std.product_code = (uint32_t)v[1];
@@ -182,24 +180,22 @@ static int parse_top(const cJSON *root, cosim_device *dev, const cosim_device_op
 {
 	uint64_t node = 1, dt = 0, hb = 0, hist = 8, store = 1;
 	int rc;
+	const json_at at = { "", err, errlen };
 
 	co_od_std_opts_init(&t->std);
 	snprintf(t->device_name, sizeof t->device_name, "cosim");
 	t->hw[0] = t->sw[0] = 0;
-	if ((rc = json_util_check_object(root, "", top_keys, err, errlen)) ||
-	    (rc = json_util_opt_string(root, "name", "", 1, dev->name, sizeof dev->name, err,
-				       errlen)) ||
-	    (rc = json_util_opt_uint(root, "node_id", "", 1, 255, &node, err, errlen)) ||
-	    (rc = json_util_opt_uint(root, "device_type", "", 0, UINT32_MAX, &dt, err, errlen)) ||
-	    (rc = json_util_opt_string(root, "device_name", "", 0, t->device_name,
-				       sizeof t->device_name, err, errlen)) ||
-	    (rc = json_util_opt_string(root, "hw_version", "", 0, t->hw, sizeof t->hw, err,
-				       errlen)) ||
-	    (rc = json_util_opt_string(root, "sw_version", "", 0, t->sw, sizeof t->sw, err,
-				       errlen)) ||
-	    (rc = json_util_opt_uint(root, "heartbeat_ms", "", 0, 0xFFFF, &hb, err, errlen)) ||
-	    (rc = json_util_opt_uint(root, "emcy_history", "", 0, 254, &hist, err, errlen)) ||
-	    (rc = json_util_opt_uint(root, "store_subs", "", 0, 127, &store, err, errlen)) ||
+	if ((rc = json_util_check_object(root, &at, top_keys)) ||
+	    (rc = json_util_opt_string(root, "name", &at, 1, dev->name, sizeof dev->name)) ||
+	    (rc = json_util_opt_uint(root, "node_id", &at, 1, 255, &node)) ||
+	    (rc = json_util_opt_uint(root, "device_type", &at, 0, UINT32_MAX, &dt)) ||
+	    (rc = json_util_opt_string(root, "device_name", &at, 0, t->device_name,
+				       sizeof t->device_name)) ||
+	    (rc = json_util_opt_string(root, "hw_version", &at, 0, t->hw, sizeof t->hw)) ||
+	    (rc = json_util_opt_string(root, "sw_version", &at, 0, t->sw, sizeof t->sw)) ||
+	    (rc = json_util_opt_uint(root, "heartbeat_ms", &at, 0, 0xFFFF, &hb)) ||
+	    (rc = json_util_opt_uint(root, "emcy_history", &at, 0, 254, &hist)) ||
+	    (rc = json_util_opt_uint(root, "store_subs", &at, 0, 127, &store)) ||
 	    (rc = parse_identity(root, t, err, errlen)))
 		return rc;
 	if (node > 127 && node != 255)
@@ -334,10 +330,11 @@ static int pdo_keys_read(const struct pdo_read *r, const cJSON *it, const char *
 	char *err = r->err;
 	size_t errlen = r->errlen;
 	int rc;
+	const json_at at = { p, err, errlen };
 
 	*k = (struct pdo_keys){ .nr = i + 1, .tt = 254, .add_id = true, .valid = true };
-	if ((rc = json_util_check_object(it, p, pdo_keys, err, errlen)) ||
-	    (rc = json_util_opt_uint(it, "nr", p, 1, COSIM_PDO_MAX, &k->nr, err, errlen)))
+	if ((rc = json_util_check_object(it, &at, pdo_keys)) ||
+	    (rc = json_util_opt_uint(it, "nr", &at, 1, COSIM_PDO_MAX, &k->nr)))
 		return rc;
 	/* Default COB-ID: the predefined connection set for PDO 1..4
 	 * (CiA 301 §7.3.5), the caller must give one for the others. */
@@ -349,14 +346,13 @@ static int pdo_keys_read(const struct pdo_read *r, const cJSON *it, const char *
 				      "\"cob_id\" is required for PDO %llu (only 1..4 have "
 				      "predefined ones)",
 				      (unsigned long long)k->nr);
-	if ((rc = json_util_opt_uint(it, "cob_id", p, 1, 0x7FF, &k->cob, err, errlen)) ||
-	    (rc = json_util_opt_bool(it, "add_node_id", p, &k->add_id, err, errlen)) ||
-	    (rc = json_util_opt_bool(it, "valid", p, &k->valid, err, errlen)) ||
-	    (rc = json_util_opt_uint(it, "transmission", p, 0, 255, &k->tt, err, errlen)) ||
-	    (rc = json_util_opt_uint(it, "inhibit_100us", p, 0, 0xFFFF, &k->inhibit, err,
-				     errlen)) ||
-	    (rc = json_util_opt_uint(it, "event_ms", p, 0, 0xFFFF, &k->event, err, errlen)) ||
-	    (rc = json_util_opt_uint(it, "sync_start", p, 0, 255, &k->start, err, errlen)))
+	if ((rc = json_util_opt_uint(it, "cob_id", &at, 1, 0x7FF, &k->cob)) ||
+	    (rc = json_util_opt_bool(it, "add_node_id", &at, &k->add_id)) ||
+	    (rc = json_util_opt_bool(it, "valid", &at, &k->valid)) ||
+	    (rc = json_util_opt_uint(it, "transmission", &at, 0, 255, &k->tt)) ||
+	    (rc = json_util_opt_uint(it, "inhibit_100us", &at, 0, 0xFFFF, &k->inhibit)) ||
+	    (rc = json_util_opt_uint(it, "event_ms", &at, 0, 0xFFFF, &k->event)) ||
+	    (rc = json_util_opt_uint(it, "sync_start", &at, 0, 255, &k->start)))
 		return rc;
 	return pdo_keys_check(r, p, k);
 }
@@ -440,13 +436,15 @@ static int parse_lss(const cJSON *root, cosim_device *dev, char *err, size_t err
 	char p[JSON_PATH_MAX], ip[JSON_PATH_MAX];
 	size_t i = 0;
 	int rc;
+	const json_at at = { "lss", err, errlen };
+	const json_at at_ip = { ip, err, errlen };
 
 	dev->lss_enabled = true;
 	if (!l)
 		return 0;
-	if ((rc = json_util_check_object(l, "lss", keys, err, errlen)) ||
-	    (rc = json_util_opt_bool(l, "enabled", "lss", &dev->lss_enabled, err, errlen)) ||
-	    (rc = json_util_opt_bool(l, "constant_id", "lss", &dev->lss_constant_id, err, errlen)))
+	if ((rc = json_util_check_object(l, &at, keys)) ||
+	    (rc = json_util_opt_bool(l, "enabled", &at, &dev->lss_enabled)) ||
+	    (rc = json_util_opt_bool(l, "constant_id", &at, &dev->lss_constant_id)))
 		return rc;
 	bt = json_util_get(l, "bit_timing");
 	if (!bt)
@@ -459,7 +457,7 @@ static int parse_lss(const cJSON *root, cosim_device *dev, char *err, size_t err
 	{
 		uint64_t v;
 		json_util_path_index(ip, sizeof ip, p, i++);
-		if ((rc = json_util_uint(it, ip, 0, 8, false, &v, err, errlen)))
+		if ((rc = json_util_uint(it, &at_ip, 0, 8, false, &v)))
 			return rc;
 		if (v == 5)
 			return json_util_fail(err, errlen, ip, "index 5 is reserved (CiA 305)");
@@ -480,11 +478,12 @@ static int opt_real(const cJSON *o, const char *key, const char *path, double *o
 {
 	char p[JSON_PATH_MAX];
 	const cJSON *v = json_util_get(o, key);
+	const json_at at = { p, err, errlen };
 
 	json_util_path_key(p, sizeof p, path, key);
 	if (!v)
 		return required ? json_util_fail(err, errlen, p, "required key is missing") : 0;
-	return json_util_real(v, p, out, err, errlen);
+	return json_util_real(v, &at, out);
 }
 
 /* The scaling objects of signal s (at p), when it names them, are numbers. */
@@ -508,16 +507,17 @@ static int parse_signal(const cJSON *it, const char *p, cosim_device *dev, cosim
 	char kp[JSON_PATH_MAX], kind[16] = "const";
 	uint64_t period = 0, update = 100;
 	int rc;
+	const json_at at = { p, err, errlen };
 
 	memset(s, 0, sizeof *s);
-	if ((rc = json_util_check_object(it, p, signal_keys, err, errlen)) ||
-	    (rc = json_util_opt_string(it, "name", p, 1, s->name, sizeof s->name, err, errlen)) ||
+	if ((rc = json_util_check_object(it, &at, signal_keys)) ||
+	    (rc = json_util_opt_string(it, "name", &at, 1, s->name, sizeof s->name)) ||
 	    (rc = get_object(it, "object", p, true, &s->index, &s->sub, err, errlen)) ||
 	    (rc = check_numeric(dev->od, s->index, s->sub, p, "object", err, errlen)) ||
-	    (rc = json_util_opt_string(it, "kind", p, 1, kind, sizeof kind, err, errlen)) ||
-	    (rc = json_util_opt_uint(it, "period_ms", p, 1, 86400000, &period, err, errlen)) ||
-	    (rc = json_util_opt_uint(it, "update_ms", p, 1, 3600000, &update, err, errlen)) ||
-	    (rc = json_util_opt_bool(it, "notify", p, &s->notify, err, errlen)) ||
+	    (rc = json_util_opt_string(it, "kind", &at, 1, kind, sizeof kind)) ||
+	    (rc = json_util_opt_uint(it, "period_ms", &at, 1, 86400000, &period)) ||
+	    (rc = json_util_opt_uint(it, "update_ms", &at, 1, 3600000, &update)) ||
+	    (rc = json_util_opt_bool(it, "notify", &at, &s->notify)) ||
 	    (rc = get_object(it, "offset_object", p, false, &s->offset_index, &s->offset_sub, err,
 			     errlen)) ||
 	    (rc = get_object(it, "span_object", p, false, &s->span_index, &s->span_sub, err,
@@ -581,12 +581,13 @@ static int parse_loopback(const cJSON *root, cosim_device *dev, char *err, size_
 	char p[JSON_PATH_MAX], ip[JSON_PATH_MAX];
 	size_t i = 0;
 	int rc;
+	const json_at at = { "loopback", err, errlen };
+	const json_at at_ip = { ip, err, errlen };
 
 	if (!l)
 		return 0;
-	if ((rc = json_util_check_object(l, "loopback", keys, err, errlen)) ||
-	    (rc = json_util_opt_bool(l, "enabled", "loopback", &dev->loopback_enabled, err,
-				     errlen)))
+	if ((rc = json_util_check_object(l, &at, keys)) ||
+	    (rc = json_util_opt_bool(l, "enabled", &at, &dev->loopback_enabled)))
 		return rc;
 	pairs = json_util_get(l, "pairs");
 	if (!pairs)
@@ -601,7 +602,7 @@ static int parse_loopback(const cJSON *root, cosim_device *dev, char *err, size_
 		if (dev->n_loopback >= COSIM_LOOPBACK_MAX)
 			return json_util_fail(err, errlen, ip, "more than %u pairs",
 					      COSIM_LOOPBACK_MAX);
-		if ((rc = json_util_check_object(it, ip, pair_keys, err, errlen)) ||
+		if ((rc = json_util_check_object(it, &at_ip, pair_keys)) ||
 		    (rc = get_object(it, "from", ip, true, &d->from_index, &d->from_sub, err,
 				     errlen)) ||
 		    (rc = check_numeric(dev->od, d->from_index, d->from_sub, ip, "from", err,
@@ -701,15 +702,15 @@ static int parse_program(const cJSON *root, cosim_device *dev, char *err, size_t
 	uint8_t image[160];
 	uint32_t image_len = 0;
 	int rc;
+	const json_at at = { "program", err, errlen };
 
 	if (!v)
 		return 0;
 	dev->program.factory = true;
-	if ((rc = json_util_check_object(v, "program", keys, err, errlen)) ||
-	    (rc = json_util_opt_uint(v, "flash_max", "program", 16, 16u * 1024u * 1024u, &flash,
-				     err, errlen)) ||
-	    (rc = json_util_opt_bool(v, "refuse", "program", &dev->program.refuse, err, errlen)) ||
-	    (rc = json_util_opt_bool(v, "factory", "program", &dev->program.factory, err, errlen)))
+	if ((rc = json_util_check_object(v, &at, keys)) ||
+	    (rc = json_util_opt_uint(v, "flash_max", &at, 16, 16u * 1024u * 1024u, &flash)) ||
+	    (rc = json_util_opt_bool(v, "refuse", &at, &dev->program.refuse)) ||
+	    (rc = json_util_opt_bool(v, "factory", &at, &dev->program.factory)))
 		return rc;
 	if (co_od_has_index(dev->od, 0x1F50) || co_od_has_index(dev->od, 0x1F51) ||
 	    co_od_has_index(dev->od, 0x1F56))

@@ -53,16 +53,13 @@ static int check_refusal(int rc, const uint8_t *out, size_t len, const char *err
 static int check_strict(const uint8_t *data, size_t size, bool lenient_accepted, size_t lines)
 {
 	eds_options strict = { .node_id = 5, .strict = true };
-	char err[512] = "";
-	uint8_t *out = NULL;
-	size_t len = 0;
-	int rc = eds_convert_opts((const char *)data, size, "fuzz", &strict, &out, &len, NULL, err,
-				  sizeof(err));
+	eds_result res;
+	int rc = eds_convert_opts((const char *)data, size, "fuzz", &strict, &res);
 
-	free(out);
+	free(res.cdcf);
 	if (!rc)
 		return lenient_accepted ? 0 : 6;
-	return check_refusal(rc, out, len, err, lines) ? 7 : 0;
+	return check_refusal(rc, res.cdcf, res.len, res.err, lines) ? 7 : 0;
 }
 
 /* 0 when the layout the reader collected is refused in the documented
@@ -70,11 +67,9 @@ static int check_strict(const uint8_t *data, size_t size, bool lenient_accepted,
 static int check_layout(eds_pdo_reader *r)
 {
 	eds_pdo_file f;
-	co_pdo_layout_type *types = NULL;
-	size_t n_types = 0;
+	eds_pdo_types types = { 0 };
 	char err[512] = "";
-	int bad = 0,
-	    rc = eds_pdo_reader_finish(r, "fuzz", NULL, 0, &f, &types, &n_types, err, sizeof(err));
+	int bad = 0, rc = eds_pdo_reader_finish(r, "fuzz", &f, &types, err, sizeof(err));
 
 	if (rc == -ENOMEM)
 		return 0;
@@ -86,12 +81,12 @@ static int check_layout(eds_pdo_reader *r)
 			if (p->cob >> 31 || p->n > CO_PDO_MAX_MAP || p->bytes > 8 || !p->nr)
 				bad = 9;
 		}
-	for (size_t i = 1; i < n_types && !bad; i++)
-		if (((uint32_t)types[i - 1].index << 8 | types[i - 1].sub) >
-		    ((uint32_t)types[i].index << 8 | types[i].sub))
+	for (size_t i = 1; i < types.n && !bad; i++)
+		if (((uint32_t)types.list[i - 1].index << 8 | types.list[i - 1].sub) >
+		    ((uint32_t)types.list[i].index << 8 | types.list[i].sub))
 			bad = 10;
 	eds_pdo_file_free(&f);
-	free(types);
+	free(types.list);
 	return bad;
 }
 
@@ -101,33 +96,30 @@ int fuzz_eds_one(const uint8_t *data, size_t size)
 	eds_options with_layout = { .node_id = 5,
 				    .on_entry = eds_pdo_reader_on_entry,
 				    .entry_arg = &reader };
-	char err[512] = "";
-	uint8_t *out = NULL, *again = NULL;
-	size_t len = 0, len2 = 0, lines = 1;
-	eds_stats st;
+	eds_result res, again = { 0 };
+	size_t lines = 1;
 	uint32_t count = 0;
 	int rc, bad = 0;
 
 	for (size_t i = 0; i < size; i++)
 		lines += data[i] == '\n';
-	rc = eds_convert((const char *)data, size, "fuzz", 5, &out, &len, &st, err, sizeof(err));
+	rc = eds_convert((const char *)data, size, "fuzz", 5, &res);
 	if (rc == -ENOMEM)
 		return 0;
 	if (rc) {
-		bad = check_refusal(rc, out, len, err, lines);
+		bad = check_refusal(rc, res.cdcf, res.len, res.err, lines);
 		return bad ? bad : check_strict(data, size, false, lines);
 	}
-	if (co_cdcf_check(out, len, &count, NULL) || count != st.entries)
+	if (co_cdcf_check(res.cdcf, res.len, &count, NULL) || count != res.stats.entries)
 		bad = 4;
-	else if (eds_convert_opts((const char *)data, size, "fuzz", &with_layout, &again, &len2,
-				  NULL, err, sizeof(err)) ||
-		 len2 != len || memcmp(again, out, len))
+	else if (eds_convert_opts((const char *)data, size, "fuzz", &with_layout, &again) ||
+		 again.len != res.len || memcmp(again.cdcf, res.cdcf, res.len))
 		bad = 5;
 	else
 		bad = check_layout(&reader);
 	eds_pdo_reader_free(&reader);
-	free(out);
-	free(again);
+	free(res.cdcf);
+	free(again.cdcf);
 	return bad ? bad : check_strict(data, size, true, lines);
 }
 

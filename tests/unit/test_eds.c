@@ -15,6 +15,16 @@ static uint8_t *out;
 static size_t out_len;
 static eds_stats st;
 
+/* A conversion's result into the globals the checks read. */
+static int kept(int rc, const eds_result *res)
+{
+	out = res->cdcf;
+	out_len = res->len;
+	st = res->stats;
+	snprintf(err, sizeof err, "%s", res->err);
+	return rc;
+}
+
 void setUp(void)
 {
 	out = NULL;
@@ -31,17 +41,19 @@ static int conv(const char *text, uint8_t node)
 {
 	free(out);
 	out = NULL;
-	return eds_convert(text, strlen(text), "t.dcf", node, &out, &out_len, &st, err, sizeof err);
+	eds_result res;
+
+	return kept(eds_convert(text, strlen(text), "t.dcf", node, &res), &res);
 }
 
 static int conv_strict(const char *text, uint8_t node)
 {
 	eds_options o = { .node_id = node, .strict = true };
+	eds_result res;
 
 	free(out);
 	out = NULL;
-	return eds_convert_opts(text, strlen(text), "t.dcf", &o, &out, &out_len, &st, err,
-				sizeof err);
+	return kept(eds_convert_opts(text, strlen(text), "t.dcf", &o, &res), &res);
 }
 
 #define HEAD "[FileInfo]\nFileName=t.dcf\n\n"
@@ -285,8 +297,9 @@ static void test_ini_syntax_errors(void)
 	expect_err(HEAD "[DeviceInfo]\nVendorName=x\n", 1,
 		   "t.dcf:0: no object sections: not an EDS or DCF");
 	static const char nul[] = "[2000]\nDataType=5\0\nAccessType=rw\n";
-	TEST_ASSERT_EQUAL_INT(-EINVAL, eds_convert(nul, sizeof nul - 1, "t.dcf", 1, &out, &out_len,
-						   &st, err, sizeof err));
+	eds_result res;
+	TEST_ASSERT_EQUAL_INT(-EINVAL,
+			      kept(eds_convert(nul, sizeof nul - 1, "t.dcf", 1, &res), &res));
 	TEST_ASSERT_EQUAL_STRING("t.dcf:2: NUL byte: not a text file", err);
 	/* CRLF, comments, blanks and case-insensitive keys are fine */
 	TEST_ASSERT_EQUAL_INT_MESSAGE(
@@ -495,14 +508,13 @@ static void expect_warnings(const char *text, uint8_t node, const char *const *w
 			    const char *strict_err)
 {
 	eds_options o = { .node_id = node, .on_warning = record_warning };
+	eds_result res;
 
 	free(out);
 	out = NULL;
 	n_warned = 0;
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0,
-				      eds_convert_opts(text, strlen(text), "t.dcf", &o, &out,
-						       &out_len, &st, err, sizeof err),
-				      err);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(
+		0, kept(eds_convert_opts(text, strlen(text), "t.dcf", &o, &res), &res), err);
 	TEST_ASSERT_EQUAL_UINT_MESSAGE(n, n_warned, n_warned ? warned[0] : text);
 	TEST_ASSERT_EQUAL_UINT(n, st.warnings);
 	for (unsigned i = 0; i < n && i < 16; i++)
@@ -691,22 +703,20 @@ static void test_file_loader(void)
 	char path[] = "/tmp/test_eds_XXXXXX";
 	int fd = mkstemp(path);
 	const char *t = "[2000]\nDataType=5\nAccessType=rw\nDefaultValue=9\n";
+	eds_result res;
 	TEST_ASSERT_TRUE(fd >= 0);
 	TEST_ASSERT_EQUAL_INT((int)strlen(t), (int)write(fd, t, strlen(t)));
 	close(fd);
-	TEST_ASSERT_EQUAL_INT_MESSAGE(
-		0, eds_convert_file(path, 1, &out, &out_len, &st, err, sizeof err), err);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, kept(eds_convert_file(path, 1, &res), &res), err);
 	TEST_ASSERT_EQUAL_UINT(1, st.entries);
 	unlink(path);
 	free(out);
 	out = NULL;
-	TEST_ASSERT_EQUAL_INT(-ENOENT,
-			      eds_convert_file(path, 1, &out, &out_len, &st, err, sizeof err));
+	TEST_ASSERT_EQUAL_INT(-ENOENT, kept(eds_convert_file(path, 1, &res), &res));
 	char want[128];
 	snprintf(want, sizeof want, "%s: cannot open: No such file or directory", path);
 	TEST_ASSERT_EQUAL_STRING(want, err);
-	TEST_ASSERT_EQUAL_INT(-EIO,
-			      eds_convert_file("/tmp", 1, &out, &out_len, &st, err, sizeof err));
+	TEST_ASSERT_EQUAL_INT(-EIO, kept(eds_convert_file("/tmp", 1, &res), &res));
 }
 
 /* ---- files this project did not write (python-canopen's sdist, PyPI) ---- */
@@ -723,13 +733,13 @@ static void test_foreign_eds_files(void)
 {
 	const char *dir = foreign_dir();
 	char path[1200];
+	eds_result res;
 	TEST_ASSERT_NOT_NULL_MESSAGE(
 		dir, "python-canopen sdist missing: scripts/fetch-python-canopen.sh failed");
 
 	/* a vendor's device file: converts, with its DCF values and PDO order */
 	snprintf(path, sizeof path, "%s/examples/eds/e35.eds", dir);
-	TEST_ASSERT_EQUAL_INT_MESSAGE(
-		0, eds_convert_file(path, 5, &out, &out_len, &st, err, sizeof err), err);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, kept(eds_convert_file(path, 5, &res), &res), err);
 	TEST_ASSERT_EQUAL_INT(0, co_cdcf_check(out, out_len, NULL, NULL));
 	TEST_ASSERT_TRUE(st.objects > 200);
 	TEST_ASSERT_TRUE(st.entries > 500);
@@ -758,14 +768,12 @@ static void test_foreign_eds_files(void)
 	 * reads the sections present, and so do we, with a warning each;
 	 * strict reading refuses it with the line */
 	snprintf(path, sizeof path, "%s/test/sample.eds", dir);
-	TEST_ASSERT_EQUAL_INT_MESSAGE(
-		0, eds_convert_file(path, 5, &out, &out_len, &st, err, sizeof err), err);
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, kept(eds_convert_file(path, 5, &res), &res), err);
 	TEST_ASSERT_EQUAL_UINT(6, st.warnings);
 	free(out);
 	out = NULL;
 	eds_options strict = { .node_id = 5, .strict = true };
-	TEST_ASSERT_EQUAL_INT(-EINVAL, eds_convert_file_opts(path, &strict, &out, &out_len, &st,
-							     err, sizeof err));
+	TEST_ASSERT_EQUAL_INT(-EINVAL, kept(eds_convert_file_opts(path, &strict, &res), &res));
 	TEST_ASSERT_NOT_NULL_MESSAGE(
 		strstr(err, "sample.eds:121: [1003]: SubNumber=9 but 6 sub-object sections"), err);
 }

@@ -26,15 +26,12 @@ void tearDown(void) {}
 
 static bool accepts(const uint8_t *data, size_t size)
 {
-	uint8_t *out = NULL;
-	size_t len = 0;
-	char err[512];
-	int rc = eds_convert((const char *)data, size, "corpus", 5, &out, &len, NULL, err,
-			     sizeof(err));
+	eds_result res;
+	int rc = eds_convert((const char *)data, size, "corpus", 5, &res);
 
-	free(out);
+	free(res.cdcf);
 	if (rc)
-		TEST_MESSAGE(err);
+		TEST_MESSAGE(res.err);
 	return rc == 0;
 }
 
@@ -129,31 +126,32 @@ static int count_device_file(const char *path, const struct stat *sb, int type, 
 
 static void check_foreign(const foreign_file *f)
 {
-	char path[1600], err[600], msg[2400];
+	char path[1600], msg[2400];
 	eds_options strict = { .node_id = 5, .strict = true };
-	uint8_t *out = NULL, *data;
-	size_t len = 0, size;
-	eds_stats st;
+	eds_result res;
+	const char *err = res.err;
+	const eds_stats *st = &res.stats;
+	uint8_t *data;
+	size_t size;
 	int rc;
 	FILE *fp;
 
 	snprintf(path, sizeof path, "%s/%s", corpus_dir, f->path);
-	rc = eds_convert_file(path, 5, &out, &len, &st, err, sizeof err);
-	snprintf(msg, sizeof msg, "%s: %s", f->path, rc ? err : st.first_warning);
+	rc = eds_convert_file(path, 5, &res);
+	snprintf(msg, sizeof msg, "%s: %s", f->path, rc ? err : st->first_warning);
 	if (f->warnings < 0) {
 		TEST_ASSERT_EQUAL_INT_MESSAGE(-EINVAL, rc, msg);
 		TEST_ASSERT_NOT_NULL_MESSAGE(strstr(err, f->reason), msg);
 	} else {
 		TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, msg);
-		TEST_ASSERT_EQUAL_UINT_MESSAGE((unsigned)f->warnings, st.warnings, msg);
-		TEST_ASSERT_EQUAL_UINT_MESSAGE(f->entries, st.entries, msg);
-		TEST_ASSERT_NOT_NULL_MESSAGE(strstr(st.first_warning, f->reason), msg);
-		TEST_ASSERT_EQUAL_INT_MESSAGE(0, co_cdcf_check(out, len, NULL, NULL), msg);
+		TEST_ASSERT_EQUAL_UINT_MESSAGE((unsigned)f->warnings, st->warnings, msg);
+		TEST_ASSERT_EQUAL_UINT_MESSAGE(f->entries, st->entries, msg);
+		TEST_ASSERT_NOT_NULL_MESSAGE(strstr(st->first_warning, f->reason), msg);
+		TEST_ASSERT_EQUAL_INT_MESSAGE(0, co_cdcf_check(res.cdcf, res.len, NULL, NULL), msg);
 	}
-	free(out);
-	out = NULL;
+	free(res.cdcf);
 
-	rc = eds_convert_file_opts(path, &strict, &out, &len, &st, err, sizeof err);
+	rc = eds_convert_file_opts(path, &strict, &res);
 	snprintf(msg, sizeof msg, "%s (strict): %s", f->path, rc ? err : "accepted");
 	if (f->refused_strictly) {
 		TEST_ASSERT_EQUAL_INT_MESSAGE(-EINVAL, rc, msg);
@@ -161,7 +159,7 @@ static void check_foreign(const foreign_file *f)
 	} else {
 		TEST_ASSERT_EQUAL_INT_MESSAGE(0, rc, msg);
 	}
-	free(out);
+	free(res.cdcf);
 
 	/* the fuzz target's properties hold for real files too */
 	fp = fopen(path, "rb");
