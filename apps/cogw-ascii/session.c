@@ -505,12 +505,14 @@ static bool send_one(gateway *g, request *r)
 	return true;
 }
 
-/* Can r go to the daemon now? At most max_outstanding per line (more would
- * be refused BUSY), as many in all as the response queue holds answers
- * (libcogw refuses more), not while its command queue is full, and one chunked transfer per line at a time:
- * the daemon keeps up to half of our response queue filled with the
- * chunks of each transfer (docs/mailbox.md), so two at once could fill it
- * and leave no room for the other connections' answers. */
+/* Can r go to the daemon now? Not while its line's command queue is full
+ * (held: it was refused in this pass; GW_BLOCKED: the loop waits for room),
+ * at most max_outstanding per line (more would be refused BUSY), as many in
+ * all as the response queue holds answers (libcogw refuses more), and one
+ * chunked transfer per line at a time: the daemon keeps up to half of our
+ * response queue filled with the chunks of each transfer
+ * (docs/mailbox.md), so two at once could fill it and leave no room for
+ * the other connections' answers. */
 static bool may_launch(const gateway *g, const request *r, const bool *held)
 {
 	return !held[r->line] && g->blocked[r->line] != GW_BLOCKED &&
@@ -521,13 +523,12 @@ static bool may_launch(const gateway *g, const request *r, const bool *held)
 void session_launch(gateway *g)
 {
 	request **pp = &g->wait_head, *prev = NULL;
-	bool held[COGW_LINES_MAX] = { false }; /* a line keeps its order */
+	bool held[COGW_LINES_MAX] = { false }; /* refused: the line's later ones wait too */
 
 	while (*pp) {
 		request *r = *pp;
 
 		if (r->conn && !may_launch(g, r, held)) {
-			held[r->line] = true;
 			prev = r;
 			pp = &r->next_wait;
 			continue;
