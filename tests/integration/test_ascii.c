@@ -14,6 +14,7 @@
  */
 #include "unity.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <mqueue.h>
@@ -865,6 +866,37 @@ static void test_events_on_request(void)
 
 /* cogwd restarted under a connected client: an error line while it is
  * away, then the same connection works again. */
+/* Every thread of pid stopped (SIGSTOP is delivered asynchronously). */
+static bool all_threads_stopped(pid_t pid)
+{
+	char path[64], stat[512];
+	bool stopped = true;
+	struct dirent *e;
+	DIR *dir;
+
+	snprintf(path, sizeof path, "/proc/%d/task", (int)pid);
+	dir = opendir(path);
+	if (!dir)
+		return false;
+	while (stopped && (e = readdir(dir))) {
+		if (e->d_name[0] == '.')
+			continue;
+		char file[384];
+		FILE *f;
+
+		snprintf(file, sizeof file, "%s/%s/stat", path, e->d_name);
+		f = fopen(file, "r");
+		/* "tid (comm) S ...": the state follows the last ')' */
+		char *close_paren = f && fgets(stat, sizeof stat, f) ? strrchr(stat, ')') : NULL;
+
+		stopped = close_paren && close_paren[1] == ' ' && close_paren[2] == 'T';
+		if (f)
+			fclose(f);
+	}
+	closedir(dir);
+	return stopped;
+}
+
 /* A line whose command queue in the daemon is full (the daemon stopped,
  * another writer filled its queue) holds the gateway up nowhere: the
  * command keeps its place, local commands are answered meanwhile, and the
@@ -883,6 +915,9 @@ static void test_full_command_queue_holds_up_nobody(void)
 	q = mq_open(qname, O_WRONLY | O_NONBLOCK);
 	TEST_ASSERT_TRUE(q != (mqd_t)-1);
 	TEST_ASSERT_EQUAL_INT(0, kill(d.pid, SIGSTOP));
+	for (int i = 0; i < 100 && !all_threads_stopped(d.pid); i++)
+		sleep_ms(20);
+	TEST_ASSERT_TRUE_MESSAGE(all_threads_stopped(d.pid), "cogwd did not stop");
 	/* empty messages: the daemon refuses and counts each as malformed */
 	while (mq_send(q, "", 0, 0) == 0)
 		filled++;
@@ -934,7 +969,13 @@ static void test_daemon_restart_under_a_client(void)
 
 void setUp(void) {}
 
-void tearDown(void) {}
+/* a failed test_full_command_queue_holds_up_nobody must not leave the
+ * group's daemon stopped */
+void tearDown(void)
+{
+	if (d.pid > 0)
+		kill(d.pid, SIGCONT);
+}
 
 int main(void)
 {
