@@ -459,7 +459,7 @@ install: all
 	ln -sf libcogw.so.1 $(DESTDIR)$(libdir)/libcogw.so
 	install -m 644 $(COGW_PC) $(DESTDIR)$(pkgconfigdir)/cogw.pc
 	install -m 644 core/*.h $(DESTDIR)$(includedir)/cogw/core/
-	install -m 644 mailbox/cogw.h mailbox/proto.h mailbox/proto_health.h mailbox/cogw_health.h \
+	install -m 644 mailbox/cogw.h mailbox/proto.h mailbox/proto_app.h mailbox/proto_health.h mailbox/cogw_health.h \
 		$(DESTDIR)$(includedir)/cogw/mailbox/
 	$(if $(PROGRAM_BINS),install -m 755 $(PROGRAM_BINS) $(DESTDIR)$(bindir)/)
 	for u in cogwd.service cogw-ascii.service cogw-mqtt.service cogw-ascii.socket; do \

@@ -324,6 +324,14 @@ int co_manager_boot_network(co_manager *m, uint64_t now_us);
  * -EINVAL for a bad node, -ENOENT if not assigned, -EPERM in slave mode or
  * FATAL. */
 int co_manager_boot_node(co_manager *m, uint8_t node_id, uint64_t now_us);
+/* 1F81h:n was written at run time (a write of 1F81h:n through the OD calls
+ * it; docs/config.md "Nodes at run time"): an assigned node's boot slave
+ * process runs again with the objects as they are now (1F84h..1F88h,
+ * 1F22h:n, 1016h), a node no longer assigned leaves the network list: its
+ * boot is aborted and it is no longer supervised or reported. 0 also in
+ * slave mode (read at the next network boot), -EAGAIN while the network
+ * boot runs, -EINVAL for a bad node or the manager's own node-ID. */
+int co_manager_node_reassigned(co_manager *m, uint8_t node_id, uint64_t now_us);
 /* Start the network (when 1F80h leaves it to the application): the
  * manager itself, then the slaves. -EAGAIN while a mandatory slave has not
  * booted, -EPERM in slave mode or FATAL. A stopped network always leaves

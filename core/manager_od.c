@@ -67,10 +67,15 @@ static const co_od_hooks f25_hooks = { .check_write = f25_check };
 
 /* 1F80h, 1F81h, 1F84h..1F89h while the network boots: the boot reads
  * them step by step, a change in the middle would boot a node against
- * half old, half new values. 1F89h stays writable while the line waits for mandatory slaves (a new limit,
- * 0 = wait for ever). The flying master (1F80h bit 5) is not supported.
- * Writes are refused with 08000022h (device state) or 06090030h (value
- * range); docs/config.md "The manager" describes the lock. */
+ * half old, half new values. Once its first pass is over and the line
+ * waits for mandatory slaves, each node's boot slave process reads its
+ * objects when it (re)starts, as in a running network: 1F81h and
+ * 1F84h..1F88h may be written then (a node added or removed while a
+ * mandatory one is missing; a 1F81h:n write restarts node n's process),
+ * and 1F89h (a new limit, 0 = wait for ever); 1F80h stays locked. The
+ * flying master (1F80h bit 5) is not supported. Writes are refused with
+ * 08000022h (device state) or 06090030h (value range); docs/config.md
+ * "The manager" describes the lock. */
 static uint32_t lock_check(void *ctx, co_od_entry *e, const co_od_access *a)
 {
 	co_manager *m = ctx;
@@ -80,14 +85,30 @@ static uint32_t lock_check(void *ctx, co_od_entry *e, const co_od_access *a)
 	if (e->index == 0x1F80 && a->data && a->size >= 1 &&
 	    (a->data[0] & CO_MGR_1F80_FLYING_MASTER))
 		return SDO_AB_VALUE;
+	/* the manager is no slave of its own network */
+	if (e->index == 0x1F81 && e->sub == m->own_id && a->data && a->size >= 1 &&
+	    (a->data[0] & CO_MGR_1F81_SLAVE))
+		return SDO_AB_VALUE;
 	if (st == CO_MGR_RESETTING || st == CO_MGR_BOOTING)
 		return SDO_AB_DEV_STATE;
-	if (st == CO_MGR_WAIT_MANDATORY && e->index != 0x1F89)
+	if (st == CO_MGR_WAIT_MANDATORY && e->index == 0x1F80)
 		return SDO_AB_DEV_STATE;
 	return 0;
 }
 
 static const co_od_hooks lock_hooks = { .check_write = lock_check };
+
+/* 1F81h:n written after the network boot: the node follows at once. */
+static void assignment_written(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	co_manager *m = ctx;
+	if (a->origin == CO_OD_ORIGIN_RESET)
+		return;
+	(void)co_manager_node_reassigned(m, e->sub, m->node->now_us);
+}
+
+static const co_od_hooks assignment_hooks = { .check_write = lock_check,
+					      .after_write = assignment_written };
 
 /* 1F89h written while the line waits for mandatory slaves: the new boot
  * time counts from the start of the boot (0 = wait for ever); one that
@@ -115,14 +136,19 @@ static const struct locked_object {
 	{ 0x1F86, 1, 127 }, { 0x1F87, 1, 127 }, { 0x1F88, 1, 127 }, { 0x1F89, 0, 0 },
 };
 
+static const co_od_hooks *hooks_of(uint16_t index)
+{
+	return index == 0x1F89   ? &boot_time_hooks
+	       : index == 0x1F81 ? &assignment_hooks
+				 : &lock_hooks;
+}
+
 static void set_lock_hooks(co_manager *m, bool on)
 {
 	for (size_t i = 0; i < sizeof(locked_objects) / sizeof(locked_objects[0]); i++)
 		for (unsigned sub = locked_objects[i].first; sub <= locked_objects[i].last; sub++)
 			(void)co_od_set_hooks(m->od, locked_objects[i].index, (uint8_t)sub,
-					      !on                                 ? NULL
-					      : locked_objects[i].index == 0x1F89 ? &boot_time_hooks
-										  : &lock_hooks,
+					      !on ? NULL : hooks_of(locked_objects[i].index),
 					      on ? m : NULL);
 }
 

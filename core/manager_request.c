@@ -36,6 +36,49 @@ int co_manager_boot_node(co_manager *m, uint8_t node_id, uint64_t now_us)
 	return 0;
 }
 
+/* CiA 302-2 keeps the network list in the manager's own object 1F81h: a
+ * node assigned while the network runs boots like a late node, one whose
+ * assignment is withdrawn is no longer booted or supervised. Its bits of
+ * the diagnostics go with it; a removed node that stays on the bus is not
+ * reported as unexpected until the next network boot (it is known, only
+ * no longer managed). */
+int co_manager_node_reassigned(co_manager *m, uint8_t node_id, uint64_t now_us)
+{
+	struct mgr_slave *s;
+	uint8_t st;
+
+	if (node_id < 1 || node_id > 127 || node_id == m->own_id)
+		return -EINVAL;
+	if (!mgr_active(m))
+		return 0; /* read at the next network boot */
+	st = (uint8_t)co_fsm_state_of(&m->fsm);
+	if (st == CO_MGR_RESETTING || st == CO_MGR_BOOTING)
+		return -EAGAIN; /* the network boot reads 1F81h itself */
+	s = &m->s[node_id];
+	mgr_enter(m, now_us);
+	if (!is_slave(m, node_id)) {
+		co_fsm_goto(&s->fsm, BS_IDLE, now_us);
+		s->d.booted = false;
+		s->d.assignment = 0;
+		s->d.status = 0;
+		s->lost = false;
+		s->mismatch = false;
+		s->boot_deferred = false;
+		s->emcy_active = false;
+		s->unexpected_reported = true;
+	} else {
+		s->unexpected_reported = false;
+		s->d.booted = false;
+		if (is_bootable(m, node_id))
+			mgr_boot_begin(s, false, false, now_us);
+		else
+			co_fsm_goto(&s->fsm, BS_IDLE, now_us);
+	}
+	m->check_pending = true;
+	mgr_after(m, now_us);
+	return 0;
+}
+
 int co_manager_start_network(co_manager *m, uint64_t now_us)
 {
 	bool stopped = co_fsm_state_of(&m->fsm) == CO_MGR_STOPPED;

@@ -138,11 +138,20 @@ typedef struct co_od_access {
  * - read: before a value is read over SDO (or by a TPDO, at the PDO module's
  *   choice). May refresh the value with co_od_entry_set_*(); return 0, an
  *   abort code, or CO_OD_DEFERRED (SDO only).
+ * - check_streamed: an SDO download streamed in place (sdo_server.h) has
+ *   all its data: a->data = e->data, a->size = its length, not yet
+ *   committed (e->size is the old one). Return 0, an abort code or
+ *   CO_OD_DEFERRED, as check_write. Without it an in-place download is
+ *   checked only at its initiate. A refusal cannot undo the bytes already
+ *   in e->data: an entry whose value must survive a refusal is small
+ *   enough to be staged, or its daemon copy is scratch (a served object,
+ *   docs/application.md).
  */
 typedef struct co_od_hooks {
 	uint32_t (*check_write)(void *ctx, co_od_entry *e, const co_od_access *a);
 	void (*after_write)(void *ctx, co_od_entry *e, const co_od_access *a);
 	uint32_t (*read)(void *ctx, co_od_entry *e, const co_od_access *a);
+	uint32_t (*check_streamed)(void *ctx, co_od_entry *e, const co_od_access *a);
 } co_od_hooks;
 
 /*

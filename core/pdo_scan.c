@@ -441,6 +441,16 @@ void co_pdo_scan_line_on_event(co_pdo_scan_line *l, const co_event *ev, uint64_t
 	cancel(&l->job[id - 1], now_us);
 }
 
+void co_pdo_scan_line_forget(co_pdo_scan_line *l, uint8_t node_id, uint64_t now_us)
+{
+	if (node_id < 1 || node_id > 127)
+		return;
+	cancel(&l->job[node_id - 1], now_us);
+	if (l->table)
+		co_pdo_layout_invalidate(l->table, node_id);
+	l->cdcf_crc[node_id] = 0;
+}
+
 void co_pdo_scan_line_cancel_all(co_pdo_scan_line *l, uint64_t now_us)
 {
 	for (unsigned n = 0; n < 127; n++)

@@ -142,6 +142,11 @@ int co_pdo_scan_line_step(void *ctx, uint8_t node_id, uint64_t now_us);
 /* Every core event of the node: a boot-up invalidates that node's layout
  * and cancels its scan (done() reports CANCELLED). */
 void co_pdo_scan_line_on_event(co_pdo_scan_line *l, const co_event *ev, uint64_t now_us);
+/* Node n left the network list or its configuration changed at run time
+ * (docs/config.md "Nodes at run time"): its scan is cancelled (no report
+ * to the manager's boot) and its layout invalidated; cfg[n] is the
+ * caller's to set again. */
+void co_pdo_scan_line_forget(co_pdo_scan_line *l, uint8_t node_id, uint64_t now_us);
 /* Cancel every running scan (done() reports CANCELLED for each). */
 void co_pdo_scan_line_cancel_all(co_pdo_scan_line *l, uint64_t now_us);
 bool co_pdo_scan_running(const co_pdo_scan *job);

@@ -290,9 +290,12 @@ static int dn_complete(struct srv_chan *ch, const co_frame *resp)
 	if (ch->size_ind && len != ch->size)
 		return abort_transfer(ch, SDO_AB_TYPE_LEN);
 	ab = co_od_check_value(e, ch->dst, len);
-	if (!ab && !ch->in_place && e->hooks && e->hooks->check_write) {
+	if (!ab && e->hooks) {
 		co_od_access a = access_of(ch, ch->dst, len);
-		ab = e->hooks->check_write(e->hook_ctx, e, &a);
+		if (!ch->in_place && e->hooks->check_write)
+			ab = e->hooks->check_write(e->hook_ctx, e, &a);
+		else if (ch->in_place && e->hooks->check_streamed)
+			ab = e->hooks->check_streamed(e->hook_ctx, e, &a);
 	}
 	if (ab == CO_OD_DEFERRED) {
 		ch->pending = *resp;
@@ -530,6 +533,17 @@ static int up_start_block(struct srv_chan *ch)
 	return SS_BLK_UP_START;
 }
 
+/* An upload of the entry's own value sends a copy taken now when it fits
+ * the stage: a value changed while the transfer runs (between segments,
+ * before a block's CRC) goes out whole, as it was at the request. */
+static void up_source(struct srv_chan *ch)
+{
+	bool copy = ch->e->size <= cfg_of(ch)->sdo_stage_size;
+
+	ch->size = ch->e->size;
+	ch->src = copy ? memcpy(ch->stage, ch->e->data, ch->e->size) : ch->e->data;
+}
+
 static int up_begin(struct srv_chan *ch, bool block)
 {
 	co_od_entry *e = ch->e;
@@ -545,8 +559,7 @@ static int up_begin(struct srv_chan *ch, bool block)
 	}
 	if (ab)
 		return abort_transfer(ch, ab);
-	ch->src = e->data;
-	ch->size = e->size;
+	up_source(ch);
 	return block ? up_start_block(ch) : up_start_normal(ch);
 }
 
@@ -787,8 +800,11 @@ static int deferred_on_con(void *obj, const void *con, uint64_t now_us)
 		return ch->resume_state;
 	case DEFER_READ:
 	default:
-		ch->src = c->data ? c->data : ch->e->data;
-		ch->size = c->data ? c->size : ch->e->size;
+		up_source(ch);
+		if (c->data) {
+			ch->src = c->data;
+			ch->size = c->size;
+		}
 		return ch->defer_block ? up_start_block(ch) : up_start_normal(ch);
 	}
 }

@@ -30,8 +30,9 @@
  * Block transfers answer sc = cc: the CRC is used only when the client
  * asked for it.
  *
- * Deferred answers: a read or check_write hook returning CO_OD_DEFERRED
- * parks the channel. No reply goes out until sdo_server_continue() is
+ * Deferred answers: a read, check_write or check_streamed hook (the last
+ * at the end of an in-place download, before the value is committed)
+ * returning CO_OD_DEFERRED parks the channel. No reply goes out until sdo_server_continue() is
  * called (the per-frame timeout keeps running; when it expires the server
  * aborts with 0x05040000 and a later continue returns -ENOENT).
  */

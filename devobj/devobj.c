@@ -111,6 +111,8 @@ static void sync_mirrors(devobj_line *dl)
 	if (changed) {
 		reset_records(dl);
 		devobj_watch_relink(dl);
+		if (dl->p.n_fwd)
+			devobj_forward_sources(dl);
 	}
 }
 
@@ -122,8 +124,8 @@ static int devobj_attach(void *ctx, line *l)
 	int rc;
 
 	dl->l = l;
-	rc = devobj_mirror_create(&dl->mirror, line_node(l), line_pdo_layout(l),
-				  dl->p.mirror_nodes);
+	rc = devobj_mirror_create(&dl->mirror, line_node(l), line_pdo_layout(l), dl->p.mirror_nodes,
+				  dl->p.room_nodes);
 	if (rc == -EEXIST)
 		cogw_log(COGW_LOG_ERR,
 			 "line %s: objects %04Xh/%04Xh are the PDO mirror's slots "
@@ -203,6 +205,36 @@ static void devobj_on_core_event(void *ctx, line *l, const co_event *ev)
 	}
 }
 
+/* A node added, changed or removed at run time (line_node_changed): its
+ * mirror follows its "pdo" (its layout, learnt again by its boot, is
+ * programmed by sync_mirrors), its objects' types follow its file. */
+static void devobj_node_changed(void *ctx, line *l, const line_node_news *in)
+{
+	devobj_line *dl = ctx;
+	bool want = !in->removed && in->pdo == 2;
+	unsigned i;
+	(void)l;
+
+	dl->p.objects[in->node] = (devobj_node_objects){ .list = in->types, .n = in->n_types };
+	if (devobj_mirror_want(&dl->mirror, in->node, want) < 0) {
+		cogw_log(COGW_LOG_WARNING,
+			 "line %s: node %u: its PDOs cannot be mirrored (no room reserved at "
+			 "start-up: the line has no manager or no PDO layout table)",
+			 dl->p.name, in->node);
+		want = false;
+	}
+	for (i = 0; i < dl->n_mirrored && dl->mirrored[i] != in->node; i++)
+		;
+	if (want && i == dl->n_mirrored)
+		dl->mirrored[dl->n_mirrored++] = in->node;
+	if (!want && i < dl->n_mirrored) {
+		dl->mirrored[i] = dl->mirrored[--dl->n_mirrored];
+		reset_records(dl);
+		devobj_watch_relink(dl);
+		publish_mirror(dl, in->node);
+	}
+}
+
 static void devobj_on_command(void *ctx, line *l, const mbx_request *req)
 {
 	devobj_line *dl = ctx;
@@ -251,6 +283,7 @@ static const line_ext_ops devobj_ops = {
 	.attach = devobj_attach,
 	.detach = devobj_detach,
 	.on_core_event = devobj_on_core_event,
+	.node_changed = devobj_node_changed,
 	.cmd_first = MBX_CMD_DEV_LAYOUT,
 	.cmd_last = MBX_CMD_DEV_FORWARDS,
 	.on_command = devobj_on_command,

@@ -58,6 +58,9 @@ typedef struct devobj_node_objects {
 typedef struct devobj_line_params {
 	char name[DEVOBJ_NAME_MAX];       /* for logs */
 	uint32_t mirror_nodes[4];         /* bit n of word n / 32: node n has pdo "auto" */
+	uint32_t room_nodes[4];           /* nodes that may be added at run time
+	                                   * (the line has a manager): their
+	                                   * mirror tables are made at start-up */
 	uint32_t read_max_age_ms;         /* DEV_READ from the mirror when the value is
 	                             * at most this old (request's max_age 0) */
 	uint32_t write_update_ms;         /* writes to one RPDO of a device within this

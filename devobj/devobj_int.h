@@ -136,10 +136,17 @@ uint64_t devobj_write_poll(devobj_line *dl, uint64_t now_us);
  * frame goes when every object of the device's RPDO has one - within the
  * update time, or in this loop when at_once. Returns whether it is held. */
 bool devobj_tx_given(devobj_line *dl, const devobj_place *at, bool at_once);
+/* Record i's frame goes now: the slot takes it and the TPDO is triggered
+ * (its gate may say another line's thread sent it already,
+ * docs/gateway.md "One wake-up per hop"). */
+void devobj_tx_send(devobj_line *dl, unsigned i, uint64_t now_us);
 
 /* forward.c */
 void devobj_forward_received(devobj_line *dl, unsigned rec, uint64_t now_us);
 void devobj_forward_updated(devobj_line *dl, uint16_t index, uint8_t sub);
+/* The objects of the frames the forwards fill alone (line_tpdo_sources):
+ * after the mirror changed. */
+void devobj_forward_sources(devobj_line *dl);
 void devobj_cmd_forwards(devobj_line *dl, const mbx_request *req);
 
 /* layout_answer.c */

@@ -12,6 +12,17 @@
  * that RPDO has a value, like a client's write by PDO but without the
  * update time: forwarding is not coalesced beyond what the image does (the
  * updates of one source frame come in one wake-up, docs/gateway.md).
+ *
+ * A device RPDO that carries the forwarded object alone needs nothing of
+ * the target line but the value: its frame is the image object's low bits.
+ * The TPDO that produces it names that object as its frame's source
+ * (line_tpdo_sources), so the source line's thread sends the frame itself
+ * in the wake-up the value came in (the gateway's fast path,
+ * docs/gateway.md "One wake-up per hop"); the target line, when it applies
+ * the value, triggers its TPDO at once and the gate tells the core that
+ * frame already left. A device RPDO of several objects keeps the hand-off:
+ * its objects come one by one at the source, and one frame must carry the
+ * values of one source frame.
  */
 #include <string.h>
 
@@ -99,7 +110,44 @@ void devobj_forward_updated(devobj_line *dl, uint16_t index, uint8_t sub)
 		co_put_le(tx->frame, 8, frame);
 		if (tx->dirty)
 			c->superseded++;
-		devobj_tx_given(dl, &at, true);
+		/* alone in its frame: at once, while the gate knows whether the
+		 * source line sent it (the update is being applied) */
+		if (!devobj_tx_given(dl, &at, true) && at.pdo->n == 1)
+			devobj_tx_send(dl, (unsigned)at.rec, line_loop_now_us(dl->l));
+	}
+}
+
+void devobj_forward_sources(devobj_line *dl)
+{
+	line_tpdo_source src[DEVOBJ_FORWARDS_MAX];
+	uint16_t nr[DEVOBJ_FORWARDS_MAX];
+	unsigned n = 0;
+
+	for (unsigned i = 0; i < dl->p.n_fwd; i++) {
+		const devobj_forward *f = &dl->p.fwd[i];
+		devobj_place at;
+		if (f->source || !devobj_find(dl, f->node, CO_PDO_RX, f->index, f->sub, &at) ||
+		    at.rec < 0 || at.pdo->n != 1)
+			continue;
+		nr[n] = dl->mirror.rec[CO_PDO_TX][at.rec].nr;
+		src[n++] = (line_tpdo_source){ .index = f->image,
+					       .sub = 0,
+					       .bits = at.entry->bits,
+					       .is_signed = co_type_is_signed(
+						       (co_type)at.entry->type) };
+	}
+	/* every record named afresh: those that no longer carry a forward alone
+	 * lose their sources */
+	for (unsigned i = 0; i < dl->mirror.n_rec[CO_PDO_TX]; i++) {
+		uint16_t rec_nr = dl->mirror.rec[CO_PDO_TX][i].nr;
+		unsigned k = 0;
+		while (k < n && nr[k] != rec_nr)
+			k++;
+		if (line_tpdo_sources_set(dl->l, rec_nr, k < n ? &src[k] : NULL, k < n ? 1 : 0) < 0)
+			cogw_log(COGW_LOG_WARNING,
+				 "line %s: PDO %u of the device object forwards keeps the hand-off "
+				 "(no room to name its source)",
+				 dl->p.name, rec_nr);
 	}
 }
 

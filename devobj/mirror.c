@@ -121,15 +121,20 @@ static int create_records(devobj_mirror *m, co_pdo_dir d)
 	return co_od_add_array(od, slot_index(d), CO_T_UNSIGNED64, (uint8_t)m->n_rec[d], access, 0);
 }
 
+static bool bit_of(const uint32_t *bits, unsigned id)
+{
+	return bits && ((bits[id / 32u] >> (id % 32u)) & 1u);
+}
+
 int devobj_mirror_create(devobj_mirror *m, co_node *co, co_pdo_layout *layout,
-			 const uint32_t wanted[4])
+			 const uint32_t wanted[4], const uint32_t room[4])
 {
 	int rc = 0;
 	bool any = false;
 
 	memset(m, 0, sizeof *m);
 	for (unsigned id = 1; id <= CO_PDO_LAYOUT_NODES; id++)
-		any |= (wanted[id / 32u] >> (id % 32u)) & 1u;
+		any |= bit_of(wanted, id) || bit_of(room, id);
 	if (!any || !layout)
 		return 0;
 	m->co = co;
@@ -139,10 +144,10 @@ int devobj_mirror_create(devobj_mirror *m, co_node *co, co_pdo_layout *layout,
 	for (unsigned id = 1; id <= CO_PDO_LAYOUT_NODES; id++) {
 		devobj_node_mirror *nm = &m->node[id];
 		const co_pdo_layout_node *ln = co_pdo_layout_node_get(layout, (uint8_t)id);
-		if (!((wanted[id / 32u] >> (id % 32u)) & 1u) || !ln)
+		if ((!bit_of(wanted, id) && !bit_of(room, id)) || !ln)
 			continue;
-		nm->wanted = true;
-		nm->status = DEVOBJ_M_WAITING;
+		nm->wanted = bit_of(wanted, id);
+		nm->status = nm->wanted ? DEVOBJ_M_WAITING : DEVOBJ_M_OFF;
 		if ((rc = alloc_node(nm, ln->cap)) < 0)
 			goto fail;
 	}
@@ -280,6 +285,23 @@ static void release_node(devobj_mirror *m, uint8_t id, uint16_t cap)
 	}
 	nm->missing = 0;
 	nm->reason = DEVOBJ_R_NONE;
+}
+
+int devobj_mirror_want(devobj_mirror *m, uint8_t id, bool on)
+{
+	devobj_node_mirror *nm = id >= 1 && id <= CO_PDO_LAYOUT_NODES ? &m->node[id] : NULL;
+	const co_pdo_layout_node *ln = nm && m->layout ? co_pdo_layout_node_get(m->layout, id)
+						       : NULL;
+
+	if (!ln || !nm->rec[0])
+		return on ? -ENOSPC : 0;
+	if (nm->wanted && !on)
+		release_node(m, id, ln->cap);
+	nm->wanted = on;
+	nm->status = on ? DEVOBJ_M_WAITING : DEVOBJ_M_OFF;
+	nm->generation = 0;
+	nm->stale = on; /* programmed at the next sync, whatever the layout's generation */
+	return 0;
 }
 
 bool devobj_mirror_sync(devobj_mirror *m, uint8_t id)

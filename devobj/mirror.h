@@ -106,12 +106,17 @@ typedef struct devobj_mirror {
 /*
  * Find the free records of the daemon's node, create the slot arrays for
  * them and the per-node tables of the nodes in `wanted` (bit n of word
- * n / 32, as co_pdo_layout_create). Does nothing but zero *m when no node
- * is wanted. 0, -EEXIST (a slot array index is defined by the
+ * n / 32, as co_pdo_layout_create) and in `room` (NULL = none: nodes that
+ * may be wanted later, devobj_mirror_want). Does nothing but zero *m when
+ * no node is in either. 0, -EEXIST (a slot array index is defined by the
  * configuration), -ENOMEM.
  */
 int devobj_mirror_create(devobj_mirror *m, co_node *co, co_pdo_layout *layout,
-			 const uint32_t wanted[4]);
+			 const uint32_t wanted[4], const uint32_t room[4]);
+/* Node `id` is mirrored from now on (at the next devobj_mirror_sync), or
+ * no longer (its records are released now). No allocation: -ENOSPC when
+ * the node had neither `wanted` nor `room` at creation. */
+int devobj_mirror_want(devobj_mirror *m, uint8_t id, bool on);
 void devobj_mirror_destroy(devobj_mirror *m);
 
 /* Bring node `id`'s mirror in line with its layout: release what it

@@ -282,11 +282,29 @@ static void keep_sending(devobj_line *dl, const devobj_record *r)
 		devobj_mirror_keep_sending(&dl->mirror, r, deadline / 2u ? deadline / 2u : 1u);
 }
 
+void devobj_tx_send(devobj_line *dl, unsigned i, uint64_t now_us)
+{
+	co_node *co = line_node(dl->l);
+	devobj_tx *tx = &dl->tx[i];
+	const devobj_record *r = &dl->mirror.rec[CO_PDO_TX][i];
+	co_od_entry *slot = co_od_find(co_node_od(co), DEVOBJ_SLOT_TX_INDEX, r->slot_sub);
+
+	co_od_entry_set_raw(slot, co_get_le(tx->frame, 8));
+	if (!tx->sent)
+		keep_sending(dl, r); /* before: the transmission starts the timer */
+	if (co_pdo_tpdo_event(co, r->nr, now_us) < 0)
+		dl->tx_failed++; /* not OPERATIONAL: the value waits in the slot */
+	if (tx->dirty)
+		dl->n_dirty--;
+	tx->dirty = false;
+	tx->sent_us = now_us;
+	tx->sent++;
+}
+
 /* Send the frames that are due: the slot takes the frame, the TPDO goes. */
 uint64_t devobj_write_poll(devobj_line *dl, uint64_t now_us)
 {
 	uint64_t next = CO_NO_DEADLINE;
-	co_node *co = line_node(dl->l);
 	for (unsigned i = 0; i < dl->mirror.n_rec[CO_PDO_TX] && dl->n_dirty; i++) {
 		devobj_tx *tx = &dl->tx[i];
 		const devobj_record *r = &dl->mirror.rec[CO_PDO_TX][i];
@@ -302,16 +320,7 @@ uint64_t devobj_write_poll(devobj_line *dl, uint64_t now_us)
 				next = tx->due_us;
 			continue;
 		}
-		co_od_entry *slot = co_od_find(co_node_od(co), DEVOBJ_SLOT_TX_INDEX, r->slot_sub);
-		co_od_entry_set_raw(slot, co_get_le(tx->frame, 8));
-		if (!tx->sent)
-			keep_sending(dl, r); /* before: the transmission starts the timer */
-		if (co_pdo_tpdo_event(co, r->nr, now_us) < 0)
-			dl->tx_failed++; /* not OPERATIONAL: the value waits in the slot */
-		tx->dirty = false;
-		dl->n_dirty--;
-		tx->sent_us = now_us;
-		tx->sent++;
+		devobj_tx_send(dl, i, now_us);
 	}
 	return next;
 }

@@ -43,7 +43,9 @@ int gw_fast_init(gw_fast *F, size_t n_slots)
 	F->quiet = calloc(F->quiet_words, sizeof(*F->quiet));
 	F->quiet_next = calloc(F->quiet_words, sizeof(*F->quiet_next));
 	F->mapped_slow = calloc(F->quiet_words, sizeof(*F->mapped_slow));
-	if (!F->by_slot || !F->scratch || !F->quiet || !F->quiet_next || !F->mapped_slow) {
+	F->sourced = calloc(F->quiet_words, sizeof(*F->sourced));
+	if (!F->by_slot || !F->scratch || !F->quiet || !F->quiet_next || !F->mapped_slow ||
+	    !F->sourced) {
 		gw_fast_fini(F);
 		return -ENOMEM;
 	}
@@ -69,7 +71,8 @@ void gw_fast_fini(gw_fast *F)
 	free((void *)F->quiet);
 	free(F->quiet_next);
 	free(F->mapped_slow);
-	F->quiet_next = F->mapped_slow = NULL;
+	free(F->sourced);
+	F->quiet_next = F->mapped_slow = F->sourced = NULL;
 	F->by_slot = NULL;
 	F->scratch = NULL;
 	F->quiet = NULL;
@@ -111,6 +114,7 @@ static void publish_one(gw_fast_tpdo *t, const gw_fast_desc *d, uint64_t inhibit
 	atomic_store_explicit(&t->flags, d->flags, memory_order_release);
 	atomic_store_explicit(&t->len, d->len, memory_order_release);
 	atomic_store_explicit(&t->n, d->n, memory_order_release);
+	atomic_store_explicit(&t->fit, d->fit, memory_order_release);
 	atomic_store_explicit(&t->inhibit_us, d->inhibit_us, memory_order_release);
 	for (uint8_t i = 0; i < d->n; i++)
 		atomic_store_explicit(&t->map[i], d->map[i], memory_order_release);
@@ -367,13 +371,28 @@ void gw_fast_undo_hold(gw_fast *F, uint32_t held)
 	busy_change(F, held, false);
 }
 
+/* Whether v keeps its value in bits (signed: as a two's complement
+ * integer, sign-extended to 64 bits in the image). */
+static bool fits(uint64_t v, unsigned bits, bool is_signed)
+{
+	if (bits >= 64)
+		return true;
+	if (is_signed) {
+		int64_t s = (int64_t)v, lim = INT64_C(1) << (bits - 1);
+		return s >= -lim && s < lim;
+	}
+	return v >> bits == 0;
+}
+
 /* The frame of t from the image's values, packed as core/pdo_map.c packs
  * a TPDO: entries LSB first in mapping order, each the low bits of its
- * object. */
-static void build_frame(gw_fast_tpdo *t, const gw_image *img, co_frame *f, uint32_t *inhibit_us,
+ * object. false: a value does not fit where t asks for it (the owner
+ * refuses it). */
+static bool build_frame(gw_fast_tpdo *t, const gw_image *img, co_frame *f, uint32_t *inhibit_us,
 			uint16_t *nr)
 {
 	uint8_t n = atomic_load_explicit(&t->n, memory_order_acquire);
+	bool fit = atomic_load_explicit(&t->fit, memory_order_acquire);
 	uint64_t acc = 0;
 	unsigned off = 0;
 
@@ -384,18 +403,23 @@ static void build_frame(gw_fast_tpdo *t, const gw_image *img, co_frame *f, uint3
 	*nr = atomic_load_explicit(&t->nr, memory_order_acquire);
 	for (uint8_t i = 0; i < n && i < CO_PDO_MAX_MAP; i++) {
 		uint32_t e = atomic_load_explicit(&t->map[i], memory_order_acquire);
-		unsigned bits = e & 0xFFu;
+		unsigned bits = e & GW_FAST_MAP_BITS;
 		int slot = (int)(e >> 8);
 		uint64_t mask = bits >= 64 ? UINT64_MAX : (UINT64_C(1) << bits) - 1;
+		uint64_t v;
 
 		if (off + bits > 64 || !gw_image_slot_at(img, slot))
 			break; /* torn by a republication: the swap below fails */
-		acc |= (gw_image_read(img, slot) & mask) << off;
+		v = gw_image_read(img, slot);
+		if (fit && !fits(v, bits, e & GW_FAST_MAP_SIGNED))
+			return false;
+		acc |= (v & mask) << off;
 		off += bits;
 	}
 	if (f->len > 8)
 		f->len = 8;
 	co_put_le(f->data, f->len, acc);
+	return true;
 }
 
 /* One fast TPDO: take its gate and send (its number), or leave it to the
@@ -413,7 +437,8 @@ static uint16_t try_one(gw_fast_tpdo *t, const gw_image *img, uint64_t now_us, g
 	g = atomic_load_explicit(&t->gate, memory_order_acquire);
 	if ((g & GW_FAST_GATE_CLOSED) || now_us < gate_time(g))
 		return 0;
-	build_frame(t, img, &f, &inhibit_us, &nr);
+	if (!build_frame(t, img, &f, &inhibit_us, &nr))
+		return 0;
 	taken = gate_with_time(g, now_us + inhibit_us);
 	if (!atomic_compare_exchange_strong_explicit(&t->gate, &g, taken, memory_order_acq_rel,
 						     memory_order_relaxed))

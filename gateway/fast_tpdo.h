@@ -74,7 +74,9 @@
 #define GW_FAST_NONE 0xFFu /* gw_fast.of_nr: not a fast TPDO */
 #define GW_FAST_GATE_CLOSED (UINT64_C(1) << 63)
 #define GW_FAST_PENDING 0x80000000u
-#define GW_FAST_SENT_MAX 4u /* fast TPDOs a source sends for one update */
+#define GW_FAST_SENT_MAX 4u      /* fast TPDOs a source sends for one update */
+#define GW_FAST_MAP_BITS 0x7Fu   /* gw_fast_desc.map: the entry's length */
+#define GW_FAST_MAP_SIGNED 0x80u /* gw_fast_desc.map: fits as a signed integer */
 
 /* What a source needs to build the frame of one TPDO. */
 typedef struct gw_fast_desc {
@@ -83,8 +85,13 @@ typedef struct gw_fast_desc {
 	uint8_t flags; /* co_frame flags */
 	uint8_t len;
 	uint8_t n;
+	/* each value must fit its bits (as a signed integer where its entry
+	 * has GW_FAST_MAP_SIGNED, else as an unsigned one), or the frame is
+	 * left to the owner, who refuses it: a device object's frame
+	 * (lines/line_ext.h line_tpdo_sources) */
+	uint8_t fit;
 	uint32_t inhibit_us;
-	uint32_t map[CO_PDO_MAX_MAP]; /* image slot << 8 | bits, in mapping order */
+	uint32_t map[CO_PDO_MAX_MAP]; /* image slot << 8 | bits (and flags), in mapping order */
 } gw_fast_desc;
 
 typedef struct gw_fast_tpdo {
@@ -92,7 +99,7 @@ typedef struct gw_fast_tpdo {
 	_Atomic uint32_t busy;
 	_Atomic uint16_t nr;
 	_Atomic uint32_t can_id;
-	_Atomic uint8_t flags, len, n;
+	_Atomic uint8_t flags, len, n, fit;
 	_Atomic uint32_t inhibit_us;
 	_Atomic uint32_t map[CO_PDO_MAX_MAP];
 } gw_fast_tpdo;
@@ -121,7 +128,8 @@ typedef struct gw_fast {
 	/* the caller's build area for publish: the quiet set, and the slots
 	 * a TPDO that is not fast maps (which keeps them out of it) */
 	uint64_t *quiet_next, *mapped_slow;
-	bool stale; /* a TPDO was reset: publish again before sleeping */
+	uint64_t *sourced; /* slots of fast TPDOs built from named sources */
+	bool stale;        /* a TPDO was reset: publish again before sleeping */
 	/* held updates applied while the owner's transmit queue was not
 	 * empty: their frames may still be queued, so they count as busy
 	 * until it is (gw_fast_set_carrying) */

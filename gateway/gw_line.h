@@ -255,6 +255,7 @@ struct gw_line {
 	 * by them), and per other line i the socket on this line's interface
 	 * that line i's thread sends them on (-1: none). */
 	gw_fast fast;
+	uint32_t sources_gen; /* line_tpdo_sources_generation() fast was built from */
 	int peer_fd[GW_LINES_MAX];
 	co_frame ignored[GW_FAST_MAX]; /* the fast TPDOs' ids its port leaves out */
 	unsigned n_ignored;

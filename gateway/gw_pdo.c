@@ -175,39 +175,84 @@ void gw_fast_detach(struct gw_line *gl)
 	gw_fast_fini(&gl->fast);
 }
 
-/* Valid TPDO nr (state st) is one another thread may send: event-driven,
- * the node OPERATIONAL, and every mapped object a B-object of the image
+/* The image slot of this line's object index:sub when it is a B-object
  * with no hook but the gateway's (a read hook could refresh the value on
- * this thread only). */
-static bool fast_desc(struct gw_line *gl, uint16_t nr, const co_pdo_tpdo_state *st, gw_fast_desc *d)
+ * this thread only), else -1. */
+static int image_slot_of(struct gw_line *gl, uint16_t index, uint8_t sub)
+{
+	int slot = gw_image_find(gl->g->img, index, sub);
+	co_od_entry *e = co_od_find(co_node_od(gl->node), index, sub);
+
+	return slot >= 0 && e && e->hooks == &gw_image_hooks && e->hook_ctx == gl ? slot : -1;
+}
+
+/* The frame of TPDO nr from its mapping: every object a B-object. */
+static bool map_from_od(struct gw_line *gl, uint16_t nr, gw_fast_desc *d)
 {
 	co_od *od = co_node_od(gl->node);
 	uint16_t map = (uint16_t)(CO_PDO_TPDO_MAP + nr - 1);
-	uint32_t id, entry;
-	uint8_t flags, count;
+	uint32_t entry;
+	uint8_t count;
 
-	if (!st->operational || st->tt < CO_PDO_TT_EVENT_MANUF || st->len == 0 || st->len > 8)
-		return false;
 	if (co_od_get_u8(od, map, 0, &count) || count == 0 || count > CO_PDO_MAX_MAP)
 		return false;
 	for (uint8_t i = 1; i <= count; i++) {
-		co_od_entry *e;
 		int slot;
 
 		if (co_od_get_u32(od, map, i, &entry))
 			return false;
-		slot = gw_image_find(gl->g->img, (uint16_t)(entry >> 16), (uint8_t)(entry >> 8));
-		e = co_od_find(od, (uint16_t)(entry >> 16), (uint8_t)(entry >> 8));
-		if (slot < 0 || !e || e->hooks != &gw_image_hooks || e->hook_ctx != gl)
+		slot = image_slot_of(gl, (uint16_t)(entry >> 16), (uint8_t)(entry >> 8));
+		if (slot < 0)
 			return false;
 		d->map[i - 1] = (uint32_t)slot << 8 | (entry & 0xFFu);
 	}
+	d->n = count;
+	d->fit = 0;
+	return true;
+}
+
+/* The frame of TPDO nr from the objects another extension named for it
+ * (line_tpdo_sources: a device object's RPDO, devobj/forward.c): every
+ * one a B-object, each value to fit its bits, the frame no longer than
+ * the TPDO's. */
+static bool map_from_sources(struct gw_line *gl, uint16_t nr, uint8_t len, gw_fast_desc *d)
+{
+	const line_tpdo_source *src;
+	uint8_t n = line_tpdo_sources_get(gl->l, nr, &src);
+	unsigned bits = 0;
+
+	if (n == 0 || n > CO_PDO_MAX_MAP)
+		return false;
+	for (uint8_t i = 0; i < n; i++) {
+		int slot = image_slot_of(gl, src[i].index, src[i].sub);
+
+		bits += src[i].bits;
+		if (slot < 0 || bits > 8u * len)
+			return false;
+		d->map[i] = (uint32_t)slot << 8 | src[i].bits |
+			    (src[i].is_signed ? GW_FAST_MAP_SIGNED : 0u);
+	}
+	d->n = n;
+	d->fit = 1;
+	return true;
+}
+
+/* Valid TPDO nr (state st) is one another thread may send: event-driven,
+ * the node OPERATIONAL, and its frame made of B-objects of the image. */
+static bool fast_desc(struct gw_line *gl, uint16_t nr, const co_pdo_tpdo_state *st, gw_fast_desc *d)
+{
+	uint32_t id;
+	uint8_t flags;
+
+	if (!st->operational || st->tt < CO_PDO_TT_EVENT_MANUF || st->len == 0 || st->len > 8)
+		return false;
+	if (!map_from_od(gl, nr, d) && !map_from_sources(gl, nr, st->len, d))
+		return false;
 	co_cob_split(st->cob_id, &id, &flags);
 	d->nr = nr;
 	d->can_id = id;
 	d->flags = flags;
 	d->len = st->len;
-	d->n = count;
 	d->inhibit_us = (uint32_t)st->inhibit_100us * 100u;
 	return true;
 }
@@ -283,6 +328,7 @@ void gw_fast_refresh(struct gw_line *gl)
 		return;
 	memset(F->quiet_next, 0, words * sizeof(*F->quiet_next));
 	memset(F->mapped_slow, 0, words * sizeof(*F->mapped_slow));
+	memset(F->sourced, 0, words * sizeof(*F->sourced));
 	for (uint16_t nr = 1; nr <= CO_PDO_MAX; nr++) {
 		if (co_pdo_tpdo_state_get(gl->node, nr, &st) || !st.valid)
 			continue;
@@ -290,15 +336,20 @@ void gw_fast_refresh(struct gw_line *gl)
 			mark_mapped_slots(gl, nr, F->mapped_slow, words);
 			continue;
 		}
-		for (uint8_t i = 0; i < F->next[n].n; i++)
+		for (uint8_t i = 0; i < F->next[n].n; i++) {
 			mark_slot(F->quiet_next, words, (int)(F->next[n].map[i] >> 8));
+			if (F->next[n].fit)
+				mark_slot(F->sourced, words, (int)(F->next[n].map[i] >> 8));
+		}
 		until[n] = st.inhibit_until;
 		pending[n] = st.event_pending;
 		n++;
 	}
 	for (size_t w = 0; w < words; w++) {
 		uint64_t pinned = gl->fwd.pinned && w < gl->fwd.words ? gl->fwd.pinned[w] : 0;
-		F->quiet_next[w] &= ~(F->mapped_slow[w] | pinned);
+		/* a forward whose device RPDO is a fast TPDO's frame alone has
+		 * nothing left for this line once that frame left */
+		F->quiet_next[w] &= ~(F->mapped_slow[w] | (pinned & ~F->sourced[w]));
 	}
 	n = gw_fast_publish(F, F->next, until, pending, n, F->quiet_next);
 	ignore_fast_frames(gl, F->next, n);
@@ -308,8 +359,10 @@ void gw_fast_poll(struct gw_line *gl)
 {
 	if (!gl->fast.by_slot)
 		return;
-	if (gl->fast.stale)
+	if (gl->fast.stale || gl->sources_gen != line_tpdo_sources_generation(gl->l)) {
+		gl->sources_gen = line_tpdo_sources_generation(gl->l);
 		gw_fast_refresh(gl);
+	}
 	gw_fast_set_carrying(&gl->fast, line_tx_idle(gl->l));
 	gw_publish_done(gl);
 }

@@ -562,7 +562,40 @@ static int blk_up_end(gw_sdo_route *s, const uint8_t *d)
 		return target_turn(obj, con, sub_block, step);                      \
 	}
 
-REQUESTER_TURN(wait_init, req_wait_init, false)
+/* WAIT_INIT: confirmed, and nothing of the transfer reached the target.
+ * The requester's next frame is the transfer the confirmation announced:
+ * it is the session's whatever happened meanwhile - if the lease ended
+ * (the target line could not bind it, or lost its link), that initiate is
+ * answered with the reason, carrying its own multiplexer; an abort sent
+ * before it would not be the transfer's (CiA 301 §7.2.4.3.17: an abort
+ * names the transfer's index and sub-index), and the initiate would then
+ * reach the gateway's own SDO server, which would answer it as a request
+ * for its own dictionary. */
+static int wait_init_requester(void *obj, const co_frame *f, uint64_t now_us)
+{
+	gw_sdo_route *s = obj;
+
+	(void)now_us;
+	if (!s->lost || is_abort(f->data, false))
+		return requester_turn(obj, f, false, req_wait_init);
+	memcpy(s->mux, &f->data[1], 3);
+	return fail(s, s->lost, 0, GW_OUT_ABORTED);
+}
+
+/* Before the initiate the target has nothing of this transfer: a frame
+ * from it answers another client of the same server channel (the
+ * transfer it ends, or one it aborts) and is not the session's. */
+static int wait_init_target(void *obj, const void *con, uint64_t now_us)
+{
+	gw_sdo_route *s = obj;
+	const gw_sdo_route_con *c = con;
+
+	(void)now_us;
+	if (c->kind == GW_CON_LOST && !s->lost)
+		s->lost = c->abort ? c->abort : GW_AB_NO_ANSWER;
+	return CO_FSM_STAY;
+}
+
 TARGET_TURN(dn_init_resp, dn_init_resp, false)
 REQUESTER_TURN(dn_seg_req, dn_seg_req, false)
 TARGET_TURN(dn_seg_resp, dn_seg_resp, false)
@@ -671,6 +704,7 @@ int gw_sdo_route_start(gw_sdo_route *s, gw_netind ni, uint32_t refuse, const gw_
 	s->opened = s->confirmed = s->target_answered = s->started = false;
 	s->expedited = s->last = false;
 	s->abort = 0;
+	s->lost = 0;
 	s->outcome = GW_OUT_ROUTED;
 	s->frames_to_target = s->frames_to_requester = 0;
 	co_put_le16(&s->mux[0], ni.net);

@@ -100,6 +100,7 @@ typedef struct gw_sdo_route {
 	bool last;            /* the last segment went through */
 	uint8_t last_seq;     /* its sequence number (block) */
 	uint32_t refuse;      /* refusal given to start() */
+	uint32_t lost;        /* the lease ended before the initiate: its abort */
 	uint32_t abort;       /* outcome code */
 	uint8_t outcome;      /* gw_route_outcome */
 	uint64_t frames_to_target, frames_to_requester;

@@ -234,8 +234,8 @@ int line_create(line **out, const line_params *p)
 		line_store_load(l);
 	}
 
-	if ((rc = create_node_and_mailbox(l)) < 0 || (rc = create_epoll_set(l)) < 0 ||
-	    (rc = attach_extensions(l)) < 0)
+	if ((rc = create_node_and_mailbox(l)) < 0 || (rc = line_app_attach(l)) < 0 ||
+	    (rc = create_epoll_set(l)) < 0 || (rc = attach_extensions(l)) < 0)
 		goto fail;
 	*out = l;
 	return 0;
@@ -339,6 +339,7 @@ static void handle_requests(line *l)
 		mbx_server_set_lease(l->mbx, a->lease_ms);
 		atomic_store_explicit(&a->state, 0, memory_order_release);
 	}
+	line_nodes_poll(l);
 	line_store_poll(l);
 }
 
@@ -395,6 +396,9 @@ static uint64_t next_deadline(line *l, uint64_t checkin_period)
 	t = can_port_retry_at_us(l->port);
 	if (t < next)
 		next = t;
+	t = line_app_poll(l, l->now_us); /* indications' deadlines */
+	if (t < next)
+		next = t;
 	t = line_time_poll(l); /* produces the TIME that is due */
 	if (t < next)
 		next = t;
@@ -442,6 +446,9 @@ static void handle_event(line *l, const struct epoll_event *ev)
  * the bus health (lost frames, the transmit queue's watermarks). */
 static void run_due(line *l)
 {
+	/* before the core: an indication's deadline is the SDO server's
+	 * timeout, and the line's own abort must win (docs/sdo-answers.md) */
+	line_app_poll(l, l->now_us);
 	if (l->now_us >= co_node_next_deadline_us(l->node))
 		co_node_tick(l->node, l->now_us);
 	if (can_port_retry_at_us(l->port) <= l->now_us)
@@ -505,6 +512,29 @@ static void apply_rt(line *l, pthread_attr_t *attr)
 	}
 }
 
+int line_set_rt(line *l, int priority, int cpu)
+{
+	struct sched_param sp = { .sched_priority = priority > 0 ? priority : 0 };
+	cpu_set_t set;
+	int rc;
+
+	if (!l->started)
+		return -ESRCH;
+	rc = pthread_setschedparam(l->thread, priority > 0 ? SCHED_FIFO : SCHED_OTHER, &sp);
+	if (rc)
+		return -rc;
+	CPU_ZERO(&set);
+	if (cpu >= 0)
+		CPU_SET(cpu, &set);
+	else /* unpinned: every CPU the process may use */
+		(void)sched_getaffinity(0, sizeof set, &set);
+	if ((rc = pthread_setaffinity_np(l->thread, sizeof set, &set)))
+		return -rc;
+	l->p.rt_priority = priority;
+	l->p.rt_cpu = cpu;
+	return 0;
+}
+
 int line_start(line *l)
 {
 	pthread_attr_t attr;
@@ -563,6 +593,7 @@ void line_destroy(line *l)
 		return;
 	line_stop(l);
 	detach_extensions(l);
+	line_app_detach(l);
 	mbx_server_destroy(l->mbx);
 	co_node_destroy(l->node);
 	can_port_close(l->port);

@@ -28,6 +28,24 @@
 
 typedef struct line line;
 
+/* An object of the line's OD that a client may own (docs/application.md):
+ * the object exists (the configuration's "objects"), in 2000h..9FFFh. */
+typedef struct line_app_decl {
+	uint16_t index;
+	uint8_t sub;
+	uint8_t kind; /* mbx_app_kind */
+	uint32_t uid; /* the user whose clients may claim it */
+} line_app_decl;
+
+/* Objects clients own (lines/line_app.c); 0 = the default in brackets. */
+typedef struct line_app_params {
+	const line_app_decl *decl; /* copied by line_create */
+	uint16_t n_decl;
+	uint16_t max_created;        /* objects created at run time, all clients (100) */
+	uint16_t max_per_client;     /* objects one client owns (64) */
+	uint16_t max_ind_per_client; /* indications open to one owner (8) */
+} line_app_params;
+
 typedef struct line_params {
 	uint8_t index;              /* line number, as in mailbox messages */
 	const char *name;           /* "line0", for logs */
@@ -55,6 +73,7 @@ typedef struct line_params {
 	 * silence; 0 = the default */
 	uint32_t id_conflict_quiet_ms; /* a node-ID collision (5000) */
 	uint32_t fault_quiet_ms;       /* lost frames (1000) */
+	line_app_params app;           /* objects clients own */
 } line_params;
 
 /* Counters published by the line thread about once per second. */
@@ -123,6 +142,24 @@ void line_request_hb_producer(line *l, uint16_t ms); /* reload */
  * Returns 0 (applied), -EINVAL (too many rules), -EBUSY (the previous
  * request is still pending: nothing posted) or -ETIMEDOUT (posted, the
  * line will apply it when it loops again). */
+/* A node added, changed or removed at run time (reload; lines/line_ext.h
+ * line_node_set, docs/config.md "Nodes at run time"): handed to the line
+ * thread, which applies it through its extensions. Waits until it is
+ * applied and returns its result: 0, a negative errno of the extension,
+ * -EOPNOTSUPP (no extension keeps a network list), -ETIMEDOUT (the line
+ * did not take it within a second: it may still apply it; set->cdcf and
+ * set->types must stay valid), -EBUSY (an earlier one is still pending).
+ * Main thread only. */
+int line_request_node(line *l, const line_node_set *set);
+/* A heartbeat consumer of "heartbeat_consumers" (1016h) at run time: the
+ * entry of `node` set to time_ms (0 = no longer consumed), written by the
+ * line thread (reload). Results as line_request_node; -ENOSPC when 1016h
+ * has no free entry. Main thread only. */
+int line_request_consumer(line *l, uint8_t node, uint16_t time_ms);
+/* The line thread's scheduling (lines[].rt) at run time: SCHED_FIFO at
+ * priority (0 = normal scheduling), pinned to cpu (-1 = none). 0 or
+ * -errno (-EPERM without CAP_SYS_NICE). Main thread only. */
+int line_set_rt(line *l, int priority, int cpu);
 int line_request_access(line *l, const mbx_access_rule *rules, size_t n_rules,
 			uint8_t default_access, unsigned lease_ms);
 

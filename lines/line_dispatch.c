@@ -44,6 +44,11 @@ static const struct {
 	{ MBX_CMD_LSS_IDENTIFY_REMOTE, line_lss_command },
 	{ MBX_CMD_LSS_IDENTIFY_NONCONF, line_lss_command },
 	{ MBX_CMD_LSS_FASTSCAN, line_lss_command },
+	{ MBX_CMD_APP_CLAIM, line_app_claim }, /* line_app.c */
+	{ MBX_CMD_APP_RELEASE, line_app_release },
+	{ MBX_CMD_APP_LIST, line_app_list },
+	{ MBX_CMD_APP_ANSWER, line_app_answer }, /* line_app_ind.c */
+	{ MBX_CMD_APP_IND_DATA, line_app_ind_data },
 };
 
 void line_dispatch(void *ctx, mbx_server *srv, const mbx_request *req)
@@ -72,6 +77,7 @@ void line_client_gone(void *ctx, mbx_server *srv, uint32_t client)
 	(void)srv;
 	line_sdo_client_gone(l, client);
 	line_lss_client_gone(l, client);
+	line_app_client_gone(l, client);
 	for (unsigned i = 0; i < l->ext_attached; i++) {
 		const line_ext *x = &l->p.ext[i];
 		if (x->ops && x->ops->on_client_gone)

@@ -170,6 +170,7 @@ void line_on_core_event(void *ctx, const co_event *ev)
 {
 	line *l = ctx;
 	uint64_t now = ev->now_us;
+	line_app_on_core_event(l, ev); /* owned objects: transfers' ends, RPDO values */
 	switch (ev->kind) {
 	case CO_EV_OD_WRITTEN: {
 		mbx_ev_od_written w = { .index = ev->u.od.index,

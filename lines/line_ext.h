@@ -46,6 +46,14 @@
  *   poll          once per loop iteration: run what is due at now_us and
  *                 return the next time it needs the line (CO_NO_DEADLINE
  *                 for none); the line sleeps no longer than that.
+ *   node_set      a slave added to, changed in or removed from the line's
+ *                 network list at run time by the main thread (a reload,
+ *                 line_request_node): the extension that owns the list
+ *                 (the manager) applies it and returns 0 or a negative
+ *                 errno; the first extension with this op takes it.
+ *   node_changed  a node's entry changed (line_node_changed, called by
+ *                 the extension that applied it): follow it (the device
+ *                 object layer mirrors or releases the node's PDOs).
  *   detach        at line_destroy(), after the thread stopped and before
  *                 the node is destroyed.
  * Rules for every op: never block, never allocate after attach, never
@@ -73,6 +81,30 @@ typedef struct line_sdo_route {
 	uint32_t relay_target; /* see sdo_client_req.relay_target */
 } line_sdo_route;
 
+/* A slave added, changed or removed at run time (docs/config.md "Nodes at
+ * run time"): the mailbox's fixed part (MBX_CMD_MGR_NODE_SET, validated
+ * the same way) and what only the daemon's configuration can give. */
+typedef struct line_node_set {
+	mbx_mgr_node_set_req req;
+	const uint8_t *cdcf; /* 1F22h:n, cdcf_len bytes (NULL, 0 = none);
+	                      * valid during the call */
+	uint32_t cdcf_len;
+	const co_pdo_layout_type *types; /* sorted; must outlive the line */
+	size_t n_types;
+	bool as_file; /* a reload: the node becomes what the file says,
+	               * whether or not the mailbox added or removed it
+	               * meanwhile (no duplicate or not-found refusal) */
+} line_node_set;
+
+/* What the other extensions hear of a change that was applied. */
+typedef struct line_node_news {
+	uint8_t node;
+	bool removed;
+	uint8_t pdo;                     /* 0 off, 1 learn, 2 auto: its PDOs are mirrored */
+	const co_pdo_layout_type *types; /* sorted; must outlive the line */
+	size_t n_types;
+} line_node_news;
+
 typedef struct line_ext_ops {
 	const char *name;                  /* for logs */
 	int (*attach)(void *ctx, line *l); /* 0 or -errno: line_create fails */
@@ -88,6 +120,8 @@ typedef struct line_ext_ops {
 	uint32_t (*sdo_route)(void *ctx, line *l, uint64_t tag, uint16_t net, uint8_t node,
 			      line_sdo_route *out);
 	void (*sdo_route_end)(void *ctx, line *l, uint64_t tag);
+	int (*node_set)(void *ctx, line *l, const line_node_set *set);
+	void (*node_changed)(void *ctx, line *l, const line_node_news *info);
 } line_ext_ops;
 
 typedef struct line_ext {
@@ -112,6 +146,37 @@ uint64_t line_loop_now_us(const line *l);
  * reads it; both on the line thread. */
 co_pdo_layout *line_pdo_layout(line *l);
 
+/*
+ * The objects a TPDO's frame carries when an extension builds that frame
+ * itself. The device object layer's TPDO that produces a device's RPDO maps
+ * one slot object holding the whole frame (docs/devices.md); when the
+ * frame's objects are process image objects, it names them here, so that
+ * the gateway's fast path (docs/gateway.md "One wake-up per hop") can
+ * build the same frame from the image on another line's thread and send
+ * it: entries LSB first in frame order, each the low `bits` of its object;
+ * `is_signed`: the object holds a signed integer, else an unsigned one - a
+ * value its bits cannot hold is not sent that way (the extension refuses
+ * it). Set, replaced or cleared (n = 0) by the extension and read by the
+ * others, all on the line thread; at most LINE_TPDO_SOURCES_MAX TPDOs of
+ * LINE_TPDO_SOURCE_ENTRIES objects (-ENOSPC, -EINVAL: the TPDO keeps its
+ * ordinary way).
+ */
+#define LINE_TPDO_SOURCES_MAX 32u
+#define LINE_TPDO_SOURCE_ENTRIES 8u
+
+typedef struct line_tpdo_source {
+	uint16_t index;
+	uint8_t sub;
+	uint8_t bits; /* 1..64 */
+	bool is_signed;
+} line_tpdo_source;
+
+int line_tpdo_sources_set(line *l, uint16_t nr, const line_tpdo_source *src, uint8_t n);
+/* The objects TPDO nr's frame carries, 0 when none were named. */
+uint8_t line_tpdo_sources_get(const line *l, uint16_t nr, const line_tpdo_source **src);
+/* Raised by every change, for a reader that keeps what it derived. */
+uint32_t line_tpdo_sources_generation(const line *l);
+
 /* The answer of an extension's SDO transfer (line_sdo_submit), at its
  * confirmation: abort 0 = done, data/len the uploaded bytes (download:
  * NULL, 0). It must answer `to` exactly once (mbx_server_respond). */
@@ -135,5 +200,13 @@ typedef struct line_sdo_xfer {
  * are answered here (false); otherwise (true) x->answer answers at the
  * confirmation, exactly once. */
 bool line_sdo_submit(line *l, const mbx_request *req, const line_sdo_xfer *x);
+
+/* Node `node`'s heartbeat consumed with time_ms in 1016h (0 = no longer):
+ * its entry, else a free one, written through the OD (the consumer loads
+ * it again). 0, -ENOSPC (1016h full), -EIO (the entry refused it). Line
+ * thread. */
+int line_consumer_set(line *l, uint8_t node, uint16_t time_ms);
+/* Tell every extension with node_changed (line thread). */
+void line_node_changed(line *l, const line_node_news *info);
 
 #endif /* COGW_LINES_LINE_EXT_H */

@@ -9,6 +9,9 @@
  *   line_sdo.c, line_lss.c, line_od.c, line_nmt.c, line_bus.c,
  *   line_store.c     one family of mailbox commands each: the request
  *                    and its completion in the same file
+ *   line_app.c,
+ *   line_app_ind.c   objects clients own and their indications
+ *                    (line_app.h; line_od.c hands owned objects over)
  *   line_events.c    core and CAN events -> mailbox events
  *   line_pdo.c       RPDO supervision: its events and RPDO_STATUS
  *   line_time.c      the TIME producer's clock
@@ -25,6 +28,7 @@
 
 #include "core/event.h"
 #include "lines/line.h"
+#include "lines/line_app.h"
 #include "lines/line_pending.h"
 
 #define LINE_NODES 128
@@ -68,6 +72,22 @@ typedef struct line_access_req {
 	uint8_t default_access;
 	unsigned lease_ms;
 } line_access_req;
+
+/* A node change handed over by a reload (main thread -> line thread,
+ * lines/line_nodes.c): the main thread fills `set` while state is FREE
+ * (or DONE), then sets POSTED; the line thread applies it, writes rc and
+ * sets DONE. No lock on the RT path. */
+enum {
+	LINE_NODE_FREE = 0,
+	LINE_NODE_POSTED,
+	LINE_NODE_DONE
+};
+typedef struct line_node_req {
+	atomic_int state;
+	line_node_set set;
+	bool consumer_only; /* only set.req.node's 1016h entry (heartbeat_ms) */
+	int rc;
+} line_node_req;
 
 struct line {
 	line_params p;
@@ -134,8 +154,21 @@ struct line {
 	uint32_t link_events;
 	line_store_req store;
 	line_access_req access;
+	line_node_req node_req;
 	unsigned ext_attached; /* p.ext[0..ext_attached) attached */
+	/* TPDO frames an extension builds from named objects (line_ext.h,
+	 * line_tpdo_source.c) */
+	struct line_tpdo_sources {
+		uint16_t nr; /* 0 = free */
+		uint8_t n;
+		line_tpdo_source src[LINE_TPDO_SOURCE_ENTRIES];
+	} tpdo_sources[LINE_TPDO_SOURCES_MAX];
+	uint32_t tpdo_sources_gen;
+	line_app *app; /* objects clients own (line_app.c) */
 };
+
+/* lines/line_nodes.c: apply a node change the main thread posted. */
+void line_nodes_poll(line *l);
 
 /* Wake the line thread (any thread may call it): an eventfd counter never
  * blocks, a pending wake-up just adds up. */

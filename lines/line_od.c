@@ -4,7 +4,8 @@
  * OD_READ / OD_WRITE, and their PDO variants (PDO_READ, PDO_WRITE with an
  * optional TPDO trigger, PDO_REQUEST). Answered at once; what is checked
  * here is what only the line knows (does the object exist, may it be read
- * or written).
+ * or written). An object a client owns goes to lines/line_app_ind.c,
+ * which may answer later (docs/application.md).
  */
 #include "lines/line_internal.h"
 
@@ -22,6 +23,9 @@ static void od_read_at(line *l, const mbx_request *req, uint16_t index, uint8_t 
 		return line_answer(l, &req->reply, MBX_E_ABORT, abort, NULL, 0);
 	if (!(e->access & CO_ACC_READ))
 		return line_answer(l, &req->reply, MBX_E_ABORT, SDO_AB_WRITE_ONLY, NULL, 0);
+	line_app_obj *o = line_app_find(l, e);
+	if (o) /* a client owns it: its value may be the client's to give */
+		return line_app_od_read(l, req, o);
 	line_answer(l, &req->reply, 0, 0, e->data, e->size);
 }
 
@@ -41,6 +45,9 @@ static void od_write_at(line *l, const mbx_request *req, uint16_t index, uint8_t
 		return line_answer(l, &req->reply, MBX_E_ABORT, abort, NULL, 0);
 	if (!(e->access & CO_ACC_WRITE) || (e->access & CO_ACC_CONST))
 		return line_answer(l, &req->reply, MBX_E_ABORT, SDO_AB_READ_ONLY, NULL, 0);
+	line_app_obj *o = line_app_find(l, e);
+	if (o) /* a client owns it: it may refuse, or must hear of it */
+		return line_app_od_write(l, req, o, trigger_pdo);
 	co_od_access a = { .origin = CO_OD_ORIGIN_LOCAL,
 			   .data = req->data,
 			   .size = (uint32_t)req->data_len };

@@ -376,15 +376,11 @@ void line_store_poll(line *l)
 	atomic_store(&l->store.state, 0);
 }
 
-/* Start-up, before the node is created (its services read their objects
- * when they start) and before the thread runs, so plain file I/O is fine.
- * Both parts are read and checked first; only a whole, consistent set is
- * applied. */
-int line_store_load(line *l)
+/* The configured values, before any saved file changes them: what a
+ * later 1011h "load" makes the defaults again. Without memory for it
+ * "load" only takes effect at the next start (logged). */
+static void keep_configured_values(line *l)
 {
-	/* The configured values, before any saved file changes them: what a
-	 * later 1011h "load" makes the defaults again. Without memory for it
-	 * "load" only takes effect at the next start (logged). */
 	long n = write_parts(l->p.node.od, CO_OD_IMAGE_COMM | CO_OD_IMAGE_APP, l->store.blob,
 			     LINE_STORE_MAX);
 	if (n > 0 && (l->store.factory = malloc((size_t)n)) != NULL) {
@@ -396,6 +392,15 @@ int line_store_load(line *l)
 			 "takes effect at the next start only",
 			 l->name);
 	}
+}
+
+/* Start-up, before the node is created (its services read their objects
+ * when they start) and before the thread runs, so plain file I/O is fine.
+ * Both parts are read and checked first; only a whole, consistent set is
+ * applied. */
+int line_store_load(line *l)
+{
+	keep_configured_values(l);
 	char path[N_PARTS][400];
 	long len[N_PARTS];
 	co_store_file_info info[N_PARTS] = { { 0 } };

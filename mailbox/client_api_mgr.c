@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * mailbox/client_api_mgr.c - libcogw, the CiA 302 manager (status, node diagnostics, boot,
- * start, NMT requests, counters) and the gateway (routes, routed sessions).
+ * start, NMT requests, counters, nodes at run time) and the gateway (routes, routed sessions).
  * Each call is one request and its answer through client_call()
  * (mailbox/client_internal.h).
  */
@@ -57,6 +57,19 @@ int cogw_mgr_reset_counters(cogw *h, unsigned line, unsigned timeout_ms)
 {
 	return client_call(h, line, MBX_CMD_MGR_RESET_COUNTERS, NULL, 0, NULL, 0, NULL, 0, NULL,
 			   NULL, timeout_ms);
+}
+
+int cogw_mgr_node_set(cogw *h, unsigned line, const mbx_mgr_node_set_req *req, const uint8_t *cdcf,
+		      size_t cdcf_len, unsigned timeout_ms)
+{
+	return client_call(h, line, MBX_CMD_MGR_NODE_SET, req, sizeof *req, cdcf, cdcf_len, NULL, 0,
+			   NULL, NULL, timeout_ms);
+}
+
+int cogw_mgr_node_remove(cogw *h, unsigned line, uint8_t node, unsigned timeout_ms)
+{
+	mbx_mgr_node_set_req r = { .node = node, .op = MBX_NODE_REMOVE };
+	return cogw_mgr_node_set(h, line, &r, NULL, 0, timeout_ms);
 }
 
 int cogw_gw_status(cogw *h, unsigned line, mbx_gw_status *st, mbx_gw_route *routes, size_t cap,

@@ -337,8 +337,56 @@ int cogw_mgr_start(cogw *h, unsigned line, unsigned timeout_ms);
 /* Request NMT (1F82h): node 1..127 or 128 = all; cmd 4, 5, 6, 7, 127. */
 int cogw_mgr_request_nmt(cogw *h, unsigned line, uint8_t node, uint8_t cmd, unsigned timeout_ms);
 int cogw_mgr_reset_counters(cogw *h, unsigned line, unsigned timeout_ms);
+/* A node added to the manager's network list, changed, or removed without
+ * restarting the line (docs/mailbox.md "Nodes at run time"): req->op
+ * MBX_NODE_ADD / CHANGE / REMOVE; cdcf (cdcf_len bytes, NULL/0 = none) is
+ * the concise DCF for 1F22h:n. Answered once the objects are written and
+ * the node's boot has started (its progress: MGR_BOOT events).
+ * COGW_E_PARAM (own node-ID, not a concise DCF), COGW_E_STATE (network
+ * boot running, slave mode, ADD of an assigned node), COGW_E_NOT_FOUND
+ * (CHANGE/REMOVE of a node not assigned), COGW_E_TOO_BIG (the DCF exceeds
+ * the room of 1F22h:n). */
+int cogw_mgr_node_set(cogw *h, unsigned line, const mbx_mgr_node_set_req *req, const uint8_t *cdcf,
+		      size_t cdcf_len, unsigned timeout_ms);
+int cogw_mgr_node_remove(cogw *h, unsigned line, uint8_t node, unsigned timeout_ms);
 int cogw_mbx_stats(cogw *h, unsigned line, mbx_stats_wire *st, unsigned timeout_ms);
 int cogw_ping(cogw *h, unsigned line, unsigned timeout_ms);
+
+/* ---- objects the client owns (docs/application.md) ------------------------ */
+
+/* Claim an object of the line's own node declared for your user (obj->type
+ * 0, obj->kind as declared), or create one in 2000h..5FFFh / 6000h..9FFFh
+ * (type, access, max_size for strings and DOMAIN; def/def_len its default,
+ * NULL/0 = zeros). Held: the daemon keeps the value (write it with
+ * cogw_od_write or cogw_pdo_write; MBX_EV_APP_WRITTEN tells you of the
+ * writes of others). Served: every read and write reaches you as
+ * MBX_EV_APP_IND (subscribed or not): answer each with cogw_app_answer
+ * within its deadline_ms. COGW_E_ACCESS: another client owns it, or it is
+ * not yours to claim; COGW_E_FULL: the line's or your bound; COGW_E_PARAM:
+ * the description does not match. Claims end with the registration (a
+ * daemon restart, cogw_close): claim again. Needs write access. */
+int cogw_app_claim(cogw *h, unsigned line, const mbx_app_claim_req *obj, const void *def,
+		   size_t def_len, unsigned timeout_ms);
+int cogw_app_release(cogw *h, unsigned line, uint16_t index, uint8_t sub, unsigned timeout_ms);
+/* Answer indication `ind`: abort 0 with the value (a read) or nothing (a
+ * write: accepted, applied), or a CiA 301 abort code (refused: nothing
+ * applied, the requester gets the code). COGW_E_PARAM: not an indication
+ * of yours that is still open (it ended: MBX_EV_APP_CANCEL), or a read's
+ * value that does not fit the object (the requester got 06040047h). */
+int cogw_app_answer(cogw *h, unsigned line, uint32_t ind, uint32_t abort, const void *data,
+		    size_t len, unsigned timeout_ms);
+/* All the data of a write indication (when inline_len < size). */
+int cogw_app_ind_data(cogw *h, unsigned line, uint32_t ind, void *buf, size_t cap, size_t *len,
+		      unsigned timeout_ms);
+/* The line's owned objects (at most cap into objs, *n of them) and its
+ * indication counters. */
+int cogw_app_list(cogw *h, unsigned line, mbx_app_status *st, mbx_app_obj *objs, size_t cap,
+		  size_t *n, unsigned timeout_ms);
+/* MBX_EV_APP_IND / MBX_EV_APP_WRITTEN payloads: the fixed part and the
+ * inline bytes of the value. 0 or COGW_E_PROTOCOL. */
+int cogw_app_ind_parse(const void *payload, size_t len, mbx_ev_app_ind *ind, const uint8_t **data);
+int cogw_app_written_parse(const void *payload, size_t len, mbx_ev_app_written *w,
+			   const uint8_t **data);
 
 /* ---- events and asynchronous requests ------------------------------------ */
 

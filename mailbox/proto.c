@@ -74,6 +74,14 @@ _Static_assert(sizeof(mbx_gw_status) == 160, "wire layout");
 _Static_assert(sizeof(mbx_gw_route) == 40, "wire layout");
 _Static_assert(sizeof(mbx_ev_gw_sdo) == 16, "wire layout");
 _Static_assert(sizeof(mbx_ev_gw_emcy) == 8, "wire layout");
+_Static_assert(sizeof(mbx_app_claim_req) == 16, "wire layout");
+_Static_assert(sizeof(mbx_app_answer_req) == 8, "wire layout");
+_Static_assert(sizeof(mbx_app_ind_req) == 8, "wire layout");
+_Static_assert(sizeof(mbx_ev_app_ind) == 28, "wire layout");
+_Static_assert(sizeof(mbx_ev_app_written) == 16, "wire layout");
+_Static_assert(sizeof(mbx_ev_app_cancel) == 8, "wire layout");
+_Static_assert(sizeof(mbx_app_status) == 48, "wire layout");
+_Static_assert(sizeof(mbx_app_obj) == 24, "wire layout");
 _Static_assert(offsetof(mbx_sdo_req, timeout_ms) == 8, "wire layout");
 _Static_assert(offsetof(mbx_lss_req, vendor) == 12, "wire layout");
 _Static_assert(offsetof(mbx_ev_emcy, msef) == 12, "wire layout");
@@ -416,6 +424,71 @@ static int check_dev_obj(uint16_t code, const uint8_t *p, size_t len, mbx_bad *b
 	return 0;
 }
 
+/* Application objects live in 2000h..5FFFh and 6000h..9FFFh only: the
+ * communication objects and the reserved ranges are the daemon's
+ * (docs/application.md). */
+static bool app_index_ok(uint16_t index)
+{
+	return index >= 0x2000 && index <= 0x9FFF;
+}
+
+static int check_app_claim(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_app_claim_req r;
+
+	(void)code;
+	(void)len;
+	memcpy(&r, p, sizeof r);
+	if (r.pad || r.pad2 || (r.access & ~MBX_APP_ACCESS_MASK))
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (!app_index_ok(r.index) || (r.kind != MBX_APP_HELD && r.kind != MBX_APP_SERVED))
+		return refuse(bad, MBX_BAD_PARAM);
+	if (!r.type) /* a declared object, as declared */
+		return r.access || r.max_size ? refuse(bad, MBX_BAD_PARAM) : 0;
+	if (!mbx_data_type_is_valid(r.type) || !(r.access & (MBX_APP_READ | MBX_APP_WRITE)) ||
+	    r.max_size > MBX_APP_MAX_SIZE)
+		return refuse(bad, MBX_BAD_PARAM);
+	/* a served value is the owner's: no PDO can wait for it */
+	if (r.kind == MBX_APP_SERVED && (r.access & (MBX_APP_RPDO | MBX_APP_TPDO)))
+		return refuse(bad, MBX_BAD_PARAM);
+	return 0;
+}
+
+static int check_app_answer(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_app_answer_req r;
+
+	(void)code;
+	(void)len;
+	memcpy(&r, p, sizeof r);
+	/* 0xFFFFFFFF is no CiA 301 abort code (core/od.h CO_OD_DEFERRED) */
+	if (r.abort == 0xFFFFFFFFu)
+		return refuse(bad, MBX_BAD_PARAM);
+	return 0;
+}
+
+static int check_app_ind(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_app_ind_req r;
+
+	(void)code;
+	(void)len;
+	memcpy(&r, p, sizeof r);
+	return r.pad ? refuse(bad, MBX_BAD_RESERVED) : 0;
+}
+
+static int check_app_release(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_obj_req r;
+
+	(void)code;
+	(void)len;
+	memcpy(&r, p, sizeof r);
+	if (r.flags)
+		return refuse(bad, MBX_BAD_RESERVED);
+	return app_index_ok(r.index) ? 0 : refuse(bad, MBX_BAD_PARAM);
+}
+
 static int check_dev_node(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
 {
 	mbx_dev_node_req r;
@@ -440,6 +513,31 @@ static int check_mgr_node_req(uint16_t code, const uint8_t *p, size_t len, mbx_b
 	if (!all_zero(r.pad, sizeof r.pad))
 		return refuse(bad, MBX_BAD_RESERVED);
 	if (r.node > 127 || (code == MBX_CMD_MGR_NODE_DIAG && r.node < 1))
+		return refuse(bad, MBX_BAD_PARAM);
+	return 0;
+}
+
+/* The NMT state a node is put in after its boot: 0 (= 5), 4, 5, 127. */
+static bool node_target_state_valid(uint8_t state)
+{
+	return state == 0 || state == 4 || state == 5 || state == 127;
+}
+
+static int check_mgr_node_set(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_mgr_node_set_req r;
+
+	(void)code;
+	memcpy(&r, p, sizeof r);
+	if (r.pad)
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (r.node < 1 || r.node > 127 || r.op < MBX_NODE_ADD || r.op > MBX_NODE_REMOVE)
+		return refuse(bad, MBX_BAD_PARAM);
+	if (r.op == MBX_NODE_REMOVE) /* the other fields are not read; no data */
+		return len > sizeof r ? refuse(bad, MBX_BAD_PARAM) : 0;
+	/* a slave (1F81h bit 0), supervised one way: heartbeat or guarding */
+	if ((r.flags & ~MBX_NODE_F_ALL) || r.pdo > 2 || !(r.assignment & 1u) ||
+	    !node_target_state_valid(r.target_state) || (r.heartbeat_ms && (r.assignment >> 16)))
 		return refuse(bad, MBX_BAD_PARAM);
 	return 0;
 }
@@ -613,6 +711,8 @@ static const mbx_cmd_info cmd_table[] = {
 	{ MBX_CMD_MGR_RESET_COUNTERS, W, 0, 0, "manager-reset-counters", NULL },
 	{ MBX_CMD_MGR_PROGRAM, W | D, sizeof(mbx_mgr_program_req), 0, "manager-program",
 	  check_mgr_program },
+	{ MBX_CMD_MGR_NODE_SET, W | D, sizeof(mbx_mgr_node_set_req), 0, "manager-node-set",
+	  check_mgr_node_set },
 	{ MBX_CMD_GW_ROUTES, R, 0, 0, "gw-routes", NULL },
 	{ MBX_CMD_GW_SDO_UPLOAD, R, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-upload", check_gw_sdo_req },
 	{ MBX_CMD_GW_SDO_DOWNLOAD, W | D, sizeof(mbx_gw_sdo_req), 0, "gw-sdo-download",
@@ -623,6 +723,12 @@ static const mbx_cmd_info cmd_table[] = {
 	{ MBX_CMD_DEV_READ, R, sizeof(mbx_dev_read_req), 0, "dev-read", check_dev_obj },
 	{ MBX_CMD_DEV_WRITE, W | D, sizeof(mbx_dev_obj_req), 0, "dev-write", check_dev_obj },
 	{ MBX_CMD_DEV_FORWARDS, R, 0, 0, "dev-forwards", NULL },
+	{ MBX_CMD_APP_CLAIM, W | D, sizeof(mbx_app_claim_req), 0, "app-claim", check_app_claim },
+	{ MBX_CMD_APP_RELEASE, W, sizeof(mbx_obj_req), 0, "app-release", check_app_release },
+	{ MBX_CMD_APP_ANSWER, W | D, sizeof(mbx_app_answer_req), 0, "app-answer",
+	  check_app_answer },
+	{ MBX_CMD_APP_IND_DATA, W, sizeof(mbx_app_ind_req), 0, "app-ind-data", check_app_ind },
+	{ MBX_CMD_APP_LIST, R, 0, 0, "app-list", NULL },
 };
 
 #undef R

@@ -34,6 +34,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "mailbox/proto_app.h"
 #include "mailbox/proto_health.h"
 
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
@@ -223,6 +224,9 @@ typedef enum mbx_cmd {
 	MBX_CMD_MGR_RESET_COUNTERS = 0x0A06, /* W - */
 	MBX_CMD_MGR_PROGRAM = 0x0A07,        /* W mbx_mgr_program_req + image
 	                                      * -> mbx_mgr_program_resp */
+	MBX_CMD_MGR_NODE_SET = 0x0A10,       /* W mbx_mgr_node_set_req + concise DCF:
+	                                      * a node added, changed or removed
+	                                      * at run time */
 	/* 0x0Bxx gateway (CiA 302-7, docs/gateway.md) */
 	MBX_CMD_GW_ROUTES = 0x0B01,       /* R - -> mbx_gw_status + mbx_gw_route[n] */
 	MBX_CMD_GW_SDO_UPLOAD = 0x0B02,   /* R mbx_gw_sdo_req -> data, hdr.abort */
@@ -236,6 +240,13 @@ typedef enum mbx_cmd {
 	MBX_CMD_DEV_WRITE = 0x0C05,    /* W mbx_dev_obj_req + data -> mbx_dev_write_resp */
 	MBX_CMD_DEV_FORWARDS = 0x0C06, /* R - -> mbx_dev_forward[n]: this line's ends of
 	                                * gateway.forward with their counters */
+	/* 0x0Dxx objects a client owns on the line's own node
+	 * (mailbox/proto_app.h, docs/application.md) */
+	MBX_CMD_APP_CLAIM = 0x0D01,    /* W mbx_app_claim_req + default -> - */
+	MBX_CMD_APP_RELEASE = 0x0D02,  /* W mbx_obj_req -> - */
+	MBX_CMD_APP_ANSWER = 0x0D03,   /* W mbx_app_answer_req + value (chunkable) -> - */
+	MBX_CMD_APP_IND_DATA = 0x0D04, /* W mbx_app_ind_req -> the write's data */
+	MBX_CMD_APP_LIST = 0x0D05,     /* R - -> mbx_app_status + mbx_app_obj[n] */
 } mbx_cmd;
 
 const char *mbx_cmd_to_string(unsigned code); /* "?" if unknown */
@@ -285,8 +296,10 @@ enum mbx_event_class {
 	MBX_EVC_PDO_FAULT = 1u << 13, /* RPDO supervision: deadline, length */
 	MBX_EVC_VALUE = 1u << 14,     /* typed values of watched device objects; only
 	                               * the objects the client watches (DEV_WATCH) */
+	MBX_EVC_APP = 1u << 15,       /* indications to the owner of objects; sent to
+	                               * the owner only, subscribed or not */
 };
-#define MBX_EVC_ALL 0x00007FFFu
+#define MBX_EVC_ALL 0x0000FFFFu
 
 /* Name of a single class bit ("nmt", "hb", ...); "?" otherwise. */
 const char *mbx_event_class_to_string(uint32_t cls);
@@ -322,6 +335,9 @@ typedef enum mbx_event {
 	                                 * new value, to its watchers only */
 	MBX_EV_DEV_MIRROR = 0x0E02,     /* MANAGER mbx_ev_dev_mirror: a node's mirror
 	                                 * PDOs were programmed or released */
+	MBX_EV_APP_IND = 0x0F01,        /* APP mbx_ev_app_ind + data: answer with APP_ANSWER */
+	MBX_EV_APP_WRITTEN = 0x0F02,    /* APP mbx_ev_app_written + data: a held object */
+	MBX_EV_APP_CANCEL = 0x0F03,     /* APP mbx_ev_app_cancel: an indication ended */
 } mbx_event;
 
 const char *mbx_event_to_string(unsigned code); /* "?" if unknown */
@@ -510,6 +526,8 @@ typedef struct mbx_mgr_status {
 	uint32_t keep_op_restarts, network_boots;
 	mbx_mgr_bits assigned, present, booted, operational, stopped, preop, mismatch, errctrl_lost,
 		emcy_active;
+	uint32_t node_changes;         /* MGR_NODE_SET and reloads applied */
+	uint32_t node_changes_refused; /* ... refused by the line (status != 0) */
 } mbx_mgr_status;
 
 typedef struct mbx_mgr_emcy {
@@ -571,6 +589,41 @@ typedef struct mbx_mgr_program_resp {
 	uint32_t expected; /* what it was compared with (0 = nothing) */
 	uint32_t bytes;    /* image bytes sent */
 } mbx_mgr_program_resp;
+
+/* MBX_CMD_MGR_NODE_SET: a slave added to the manager's network list,
+ * changed, or removed, without restarting the line (docs/config.md "Nodes
+ * at run time"). Add and change write 1F84h..1F88h:n, 1F22h:n (the concise
+ * DCF that follows this fixed part; none = an empty 1F22h:n), the 1016h
+ * consumer entry of the node, then 1F81h:n, and run the node's boot slave
+ * process; remove withdraws 1F81h:n, the 1016h entry and 1F22h:n. Refused:
+ * PARAM (the line's own node-ID, a concise DCF that is not one, a
+ * heartbeat and a guard time together), TOO_BIG (the DCF does not fit
+ * 1F22h:n), STATE (the network boot runs, the manager is in slave mode,
+ * or ADD names a node that is assigned already: a duplicate), NOT_FOUND
+ * (CHANGE or REMOVE of a node that is not assigned). Refusals are counted
+ * (mbx_mgr_status.node_changes_refused). */
+enum mbx_node_op {
+	MBX_NODE_ADD = 1,    /* refused when 1F81h:n bit 0 is set */
+	MBX_NODE_CHANGE = 2, /* refused when it is not */
+	MBX_NODE_REMOVE = 3, /* refused when it is not; fields below ignored */
+};
+#define MBX_NODE_F_KEEP_OP 0x01u /* restart it when it leaves OPERATIONAL */
+#define MBX_NODE_F_STORE 0x02u   /* 1010h:1 "save" after a download */
+#define MBX_NODE_F_ALL (MBX_NODE_F_KEEP_OP | MBX_NODE_F_STORE)
+typedef struct mbx_mgr_node_set_req {
+	uint8_t node;         /* 1..127, not the line's own node-ID */
+	uint8_t op;           /* enum mbx_node_op */
+	uint8_t flags;        /* MBX_NODE_F_* */
+	uint8_t target_state; /* after its boot: 5 operational (0 = 5), 127
+	                        * pre-operational, 4 stopped (core/nmt.h) */
+	uint8_t pdo;          /* 0 off, 1 learn, 2 auto (docs/config.md "pdo") */
+	uint8_t pad;
+	uint16_t heartbeat_ms; /* its 1016h consumer time, 0 = none */
+	uint32_t assignment;   /* 1F81h:n: bit 0 set (add, change) */
+	uint32_t identity[5];  /* 1F84h..1F88h:n, 0 = not checked */
+	uint32_t date, time;   /* 1F26h:n/1F27h:n, the configuration's date and
+	                        * time (CiA 302-3: both 0 = always download) */
+} mbx_mgr_node_set_req;
 
 /* MBX_EV_MGR_*: the fields of co_ev_mgr (core/event.h). */
 typedef struct mbx_ev_mgr {
@@ -1109,6 +1162,13 @@ bool mbx_client_queues_pair(const char *resp, const char *evt);
 bool mbx_instance_is_valid(const char *instance);
 /* "/cogw.<instance>.line<N>.cmd". Returns 0, -EINVAL, -ENAMETOOLONG. */
 int mbx_queue_name(char *buf, size_t cap, const char *instance, unsigned line);
+
+/* An MBX_EV_APP_IND or MBX_EV_APP_WRITTEN payload (mailbox/proto_app.h):
+ * its fixed part into *fixed (mbx_ev_app_ind / mbx_ev_app_written; NULL:
+ * only check), *data (optional) at its inline_len bytes. 0 or
+ * MBX_E_MALFORMED. */
+int mbx_app_event_split(unsigned code, const void *p, size_t len, void *fixed,
+			const uint8_t **data);
 
 /* Does a raw frame match a filter? (see mbx_raw_filter) */
 bool mbx_raw_filter_match(const mbx_raw_filter *f, const mbx_raw_frame *fr);

@@ -24,6 +24,18 @@ static bool dev_value_ok(const uint8_t *p, size_t len)
 	return v.len <= MBX_DEV_VALUE_EVENT_MAX && len == sizeof v + v.len;
 }
 
+/* Application events: their fixed part, then inline_len bytes of a value
+ * of `size` bytes. */
+static bool app_ind_ok(const uint8_t *p, size_t len)
+{
+	return mbx_app_event_split(MBX_EV_APP_IND, p, len, NULL, NULL) == 0;
+}
+
+static bool app_written_ok(const uint8_t *p, size_t len)
+{
+	return mbx_app_event_split(MBX_EV_APP_WRITTEN, p, len, NULL, NULL) == 0;
+}
+
 /* A PDO event: mbx_ev_pdo and its n mapped values. */
 static bool pdo_ok(const uint8_t *p, size_t len)
 {
@@ -73,6 +85,9 @@ static const struct event_kind event_kinds[] = {
 	{ MBX_EV_TIME, MBX_EVC_TIME, "time", sizeof(mbx_ev_time), NULL },
 	{ MBX_EV_DEV_VALUE, MBX_EVC_VALUE, "dev-value", 0, dev_value_ok },
 	{ MBX_EV_DEV_MIRROR, MBX_EVC_MANAGER, "dev-mirror", sizeof(mbx_ev_dev_mirror), NULL },
+	{ MBX_EV_APP_IND, MBX_EVC_APP, "app-ind", 0, app_ind_ok },
+	{ MBX_EV_APP_WRITTEN, MBX_EVC_APP, "app-written", 0, app_written_ok },
+	{ MBX_EV_APP_CANCEL, MBX_EVC_APP, "app-cancel", sizeof(mbx_ev_app_cancel), NULL },
 };
 
 static const struct event_kind *event_kind_of(unsigned code)
@@ -121,10 +136,11 @@ const char *mbx_event_class_to_string(uint32_t cls)
 {
 	/* by bit number */
 	static const char *const names[32] = {
-		[0] = "nmt",   [1] = "hb",         [2] = "boot",     [3] = "emcy",
-		[4] = "pdo",   [5] = "sdo",        [6] = "can",      [7] = "raw",
-		[8] = "od",    [9] = "manager",    [10] = "gateway", [11] = "sync",
-		[12] = "time", [13] = "pdo-fault", [14] = "value",   [31] = "overflow",
+		[0] = "nmt",       [1] = "hb",         [2] = "boot",     [3] = "emcy",
+		[4] = "pdo",       [5] = "sdo",        [6] = "can",      [7] = "raw",
+		[8] = "od",        [9] = "manager",    [10] = "gateway", [11] = "sync",
+		[12] = "time",     [13] = "pdo-fault", [14] = "value",   [15] = "app",
+		[31] = "overflow",
 	};
 	unsigned bit = 0;
 
@@ -133,6 +149,34 @@ const char *mbx_event_class_to_string(uint32_t cls)
 	while (!(cls >> bit & 1u))
 		bit++;
 	return names[bit] ? names[bit] : "?";
+}
+
+int mbx_app_event_split(unsigned code, const void *p, size_t len, void *fixed, const uint8_t **data)
+{
+	mbx_ev_app_ind ind;
+	mbx_ev_app_written w;
+	size_t fixed_len = code == MBX_EV_APP_IND ? sizeof ind : sizeof w;
+	uint16_t inline_len;
+	uint32_t size;
+
+	if ((code != MBX_EV_APP_IND && code != MBX_EV_APP_WRITTEN) || len < fixed_len)
+		return MBX_E_MALFORMED;
+	if (code == MBX_EV_APP_IND) {
+		memcpy(&ind, p, sizeof ind);
+		inline_len = ind.inline_len;
+		size = ind.size;
+	} else {
+		memcpy(&w, p, sizeof w);
+		inline_len = w.inline_len;
+		size = w.size;
+	}
+	if (inline_len > size || len != fixed_len + inline_len)
+		return MBX_E_MALFORMED;
+	if (fixed)
+		memcpy(fixed, p, fixed_len);
+	if (data)
+		*data = (const uint8_t *)p + fixed_len;
+	return 0;
 }
 
 bool mbx_raw_filter_match(const mbx_raw_filter *f, const mbx_raw_frame *fr)

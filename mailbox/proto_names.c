@@ -35,6 +35,7 @@ static const struct {
 	{ EBUSY, MBX_E_BUSY },             /* the resource is in use now */
 	{ EAGAIN, MBX_E_STATE },           /* not in the current state */
 	{ EPERM, MBX_E_STATE },            /* the state forbids it (NMT, ...) */
+	{ EEXIST, MBX_E_STATE },           /* it is there already (a node added twice) */
 	{ ENODEV, MBX_E_UNSUPPORTED },     /* the service is not configured */
 	{ EOPNOTSUPP, MBX_E_UNSUPPORTED }, /* nor implemented */
 	{ ENOMEM, MBX_E_NO_MEMORY },       /* the transfer memory budget */
@@ -79,7 +80,8 @@ const char *mbx_status_to_string(int status)
 		[-MBX_E_INTERNAL] = "internal error",
 		[-MBX_E_SHUTDOWN] = "line shutting down",
 		[-MBX_E_LSS] = "LSS slave reported an error",
-		[-MBX_E_NOT_FOUND] = "not found: no such device object, or no LSS slave answered",
+		[-MBX_E_NOT_FOUND] =
+			"not found: no such device object or node, or no LSS slave answered",
 		[-MBX_E_NO_ANSWER] = "the device did not answer in time",
 		[-MBX_E_NO_MEMORY] = "the daemon's transfer memory budget is spent (retry later)",
 	};

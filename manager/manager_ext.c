@@ -12,6 +12,7 @@
 
 #include "core/cfgmgr.h"
 #include "core/manager.h"
+#include "core/nmt.h"
 #include "core/pdo_scan.h"
 #include "core/sdo.h"
 #include "core/swmgr.h"
@@ -46,7 +47,8 @@ struct mgr_line {
 	co_pdo_scan_line scan;
 	line *l; /* while attached: progress events go to its mailbox */
 	struct mgr_program prog[MGR_PROGRAM_MAX];
-	size_t copy_cap; /* bytes of each prog[].copy */
+	uint32_t node_changes, node_changes_refused; /* nodes at run time */
+	size_t copy_cap;                             /* bytes of each prog[].copy */
 };
 
 struct mgr_ext {
@@ -434,6 +436,8 @@ static int answer_status(struct mgr_line *ml, mbx_mgr_status *s)
 	copy_bits(&s->mismatch, &d.mismatch);
 	copy_bits(&s->errctrl_lost, &d.errctrl_lost);
 	copy_bits(&s->emcy_active, &d.emcy_active);
+	s->node_changes = ml->node_changes;
+	s->node_changes_refused = ml->node_changes_refused;
 	return 0;
 }
 
@@ -537,6 +541,167 @@ static void program_request(struct mgr_line *ml, line *l, const mbx_request *req
 	}
 }
 
+/* ---- nodes at run time (docs/config.md "Nodes at run time") ------------------- */
+
+/* A write through the OD's hooks, as an SDO write would be: the heartbeat
+ * consumer loads 1016h:sub again, the manager follows 1F81h:n, the
+ * configuration manager checks 1F22h:n. The defaults stay the file's (a
+ * reset communication of the daemon's own node returns to them, as after
+ * any SDO write). Returns 0 or the abort code. */
+static uint32_t od_put(co_od *od, uint16_t index, uint8_t sub, const uint8_t *data, uint32_t len)
+{
+	co_od_entry *e = co_od_find(od, index, sub);
+	co_od_access a = { .origin = CO_OD_ORIGIN_LOCAL, .data = data, .size = len };
+
+	return e ? co_od_write(e, data, len, &a) : SDO_AB_NO_OBJ;
+}
+
+static uint32_t od_put_u32(co_od *od, uint16_t index, uint8_t sub, uint32_t v)
+{
+	uint8_t b[4] = { (uint8_t)v, (uint8_t)(v >> 8), (uint8_t)(v >> 16), (uint8_t)(v >> 24) };
+	return od_put(od, index, sub, b, sizeof b);
+}
+
+/* The manager's part of a refusal: its state, the node's place in the
+ * list, a program download to it. */
+static int node_list_refusal(struct mgr_line *ml, const co_od *od, const line_node_set *set)
+{
+	const mbx_mgr_node_set_req *r = &set->req;
+	uint8_t st = co_manager_state(ml->mgr);
+	uint32_t a = 0;
+	bool listed;
+
+	/* the network boot reads the objects step by step (their lock,
+	 * core/manager_od.c); FATAL and slave mode boot nobody */
+	if (st == CO_MGR_SLAVE || st == CO_MGR_RESETTING || st == CO_MGR_BOOTING ||
+	    st == CO_MGR_FATAL)
+		return -EAGAIN;
+	(void)co_od_get_u32(od, 0x1F81, r->node, &a);
+	listed = a & CO_MGR_1F81_SLAVE;
+	/* an addition needs a node not listed, a change or removal a listed
+	 * one; a reload makes the node what the file says either way */
+	if (!set->as_file && listed != (r->op != MBX_NODE_ADD))
+		return listed ? -EEXIST : -ENOENT;
+	if (co_swmgr_running(&ml->swm.job[r->node - 1]) || program_of(ml, r->node))
+		return -EBUSY; /* a program download must not be cut short */
+	return 0;
+}
+
+/* Why a change cannot be applied now (0: it can): nothing is written then. */
+static int node_refusal(struct mgr_line *ml, line *l, const line_node_set *set)
+{
+	const mbx_mgr_node_set_req *r = &set->req;
+	const co_od *od = co_node_od(line_node(l));
+	const co_od_entry *cdcf;
+	int rc;
+
+	if (r->node < 1 || r->node > 127 || r->node == co_node_id(line_node(l)))
+		return -EINVAL;
+	if ((rc = node_list_refusal(ml, od, set)) || r->op == MBX_NODE_REMOVE || !set->cdcf_len)
+		return rc;
+	if (co_cdcf_check(set->cdcf, set->cdcf_len, NULL, NULL))
+		return -EINVAL;
+	cdcf = co_od_find(od, CO_CFGMGR_IDX_CDCF, r->node);
+	return !cdcf || set->cdcf_len > cdcf->max_size ? -E2BIG : 0;
+}
+
+/* The objects of node s->req.node in the order the boot reads them:
+ * 1F81h:n is withdrawn first (a boot that runs stops, its jobs are
+ * cancelled without a report) and written last (the node boots with
+ * everything in place). s is what the node gets: all zero for a removal.
+ * Refusals were ruled out by node_refusal; a write the OD still refuses is
+ * logged (it would be a programming error). */
+static void node_objects(struct mgr_line *ml, line *l, uint8_t id, const line_node_set *s,
+			 uint64_t now)
+{
+	co_od *od = co_node_od(line_node(l));
+	uint32_t ab = od_put_u32(od, 0x1F81, id, 0);
+
+	(void)co_cfgmgr_cancel(&ml->cfgm.job[id - 1], now);
+	co_pdo_scan_line_forget(&ml->scan, id, now);
+	if (!ab && line_consumer_set(l, id, 0) < 0)
+		ab = SDO_AB_GENERAL;
+	for (unsigned k = 0; k < 5 && !ab; k++)
+		ab = od_put_u32(od, (uint16_t)(0x1F84 + k), id, s->req.identity[k]);
+	if (!ab && co_od_find(od, CO_CFGMGR_IDX_CDCF, id)) {
+		ab = od_put(od, CO_CFGMGR_IDX_CDCF, id, s->cdcf, s->cdcf_len);
+		if (!ab)
+			ab = od_put_u32(od, CO_CFGMGR_IDX_DATE, id, s->req.date);
+		if (!ab)
+			ab = od_put_u32(od, CO_CFGMGR_IDX_TIME, id, s->req.time);
+	}
+	if (!ab && s->req.heartbeat_ms && line_consumer_set(l, id, s->req.heartbeat_ms) < 0)
+		ab = SDO_AB_GENERAL;
+	if (!ab && s->req.assignment)
+		ab = od_put_u32(od, 0x1F81, id, s->req.assignment);
+	if (ab)
+		cogw_log(COGW_LOG_ERR, "line %s: node %u: its objects refused a change: %08X (%s)",
+			 ml->lc.name, id, (unsigned)ab, sdo_abort_to_string(ab));
+}
+
+/* Add, change or remove one node on the line thread (the mailbox's
+ * MGR_NODE_SET and a reload's line_request_node): 0 or a negative errno. */
+static int node_set(struct mgr_line *ml, line *l, const line_node_set *set)
+{
+	static const char *const ops[] = { "?", "added", "changed", "removed" };
+	static const line_node_set removed; /* what a removed node keeps */
+	const mbx_mgr_node_set_req *r = &set->req;
+	const line_node_set *s = r->op == MBX_NODE_REMOVE ? &removed : set;
+	uint8_t id = r->node;
+	int rc = node_refusal(ml, l, set);
+
+	if (rc) {
+		ml->node_changes_refused++;
+		return rc;
+	}
+	ml->scan.cfg[id] = (co_pdo_scan_node){ .scan = s->req.pdo != 0,
+					       .types = s->types,
+					       .n_types = s->n_types };
+	ml->cfgm.store[id] = s->req.flags & MBX_NODE_F_STORE;
+	(void)co_manager_set_keep_op(ml->mgr, id, s->req.flags & MBX_NODE_F_KEEP_OP);
+	(void)co_manager_set_target_state(
+		ml->mgr, id, s->req.target_state ? s->req.target_state : CO_NMT_OPERATIONAL);
+	node_objects(ml, l, id, s, line_loop_now_us(l));
+	ml->node_changes++;
+	cogw_log(COGW_LOG_NOTICE,
+		 "line %s: node %u %s at run time (1F81h:%u = %08X, heartbeat %u ms, concise DCF "
+		 "%u bytes)",
+		 ml->lc.name, id, ops[r->op <= 3 ? r->op : 0], id, (unsigned)s->req.assignment,
+		 s->req.heartbeat_ms, (unsigned)s->cdcf_len);
+	line_node_changed(l, &(line_node_news){ .node = id,
+						.removed = s == &removed,
+						.pdo = s->req.pdo,
+						.types = s->types,
+						.n_types = s->n_types });
+	return 0;
+}
+
+static int mgr_node_set(void *ctx, line *l, const line_node_set *set)
+{
+	return node_set(ctx, l, set);
+}
+
+/* MBX_CMD_MGR_NODE_SET: the mailbox validated the fixed part (node range,
+ * operation, flags, state); the concise DCF is the request's data. */
+static void node_command(struct mgr_line *ml, line *l, const mbx_request *req)
+{
+	line_node_set set = { .cdcf = req->data_len ? req->data : NULL,
+			      .cdcf_len = (uint32_t)req->data_len };
+	int rc;
+
+	memcpy(&set.req, req->payload, sizeof set.req);
+	if (req->data_len > UINT32_MAX)
+		rc = -E2BIG;
+	else
+		rc = node_set(ml, l, &set);
+	if (rc)
+		cogw_log(COGW_LOG_WARNING, "line %s: node %u: change over the mailbox refused: %s",
+			 ml->lc.name, set.req.node, strerror(-rc));
+	(void)mbx_server_respond(line_mbx(l), &req->reply,
+				 rc == -ENOENT ? MBX_E_NOT_FOUND : mbx_status_of_errno(rc), 0, NULL,
+				 0);
+}
+
 static void mgr_on_command(void *ctx, line *l, const mbx_request *req)
 {
 	struct mgr_line *ml = ctx;
@@ -577,9 +742,13 @@ static void mgr_on_command(void *ctx, line *l, const mbx_request *req)
 	}
 	case MBX_CMD_MGR_RESET_COUNTERS:
 		co_manager_reset_counters(ml->mgr);
+		ml->node_changes = ml->node_changes_refused = 0;
 		break;
 	case MBX_CMD_MGR_PROGRAM:
 		program_request(ml, l, req, now);
+		return;
+	case MBX_CMD_MGR_NODE_SET:
+		node_command(ml, l, req);
 		return;
 	default:
 		rc = -EINVAL;
@@ -595,9 +764,10 @@ static const line_ext_ops mgr_ops = {
 	.detach = mgr_detach,
 	.on_core_event = mgr_on_core_event,
 	.cmd_first = MBX_CMD_MGR_STATUS,
-	.cmd_last = MBX_CMD_MGR_PROGRAM,
+	.cmd_last = MBX_CMD_MGR_NODE_SET,
 	.on_command = mgr_on_command,
 	.poll = mgr_poll,
+	.node_set = mgr_node_set,
 };
 
 void mgr_ext_destroy(mgr_ext *x)

@@ -139,6 +139,8 @@ static void status_out(ctl *c, unsigned line, const mbx_mgr_status *s, const rpd
 		cJSON_AddNumberToObject(k, "duplicates", s->duplicates);
 		cJSON_AddNumberToObject(k, "errctrl_events", s->errctrl_events);
 		cJSON_AddNumberToObject(k, "keep_op_restarts", s->keep_op_restarts);
+		cJSON_AddNumberToObject(k, "node_changes", s->node_changes);
+		cJSON_AddNumberToObject(k, "node_changes_refused", s->node_changes_refused);
 		if (r)
 			rpdo_out(c, o, r);
 		ctl_json_print(o);
@@ -155,9 +157,9 @@ static void status_out(ctl *c, unsigned line, const mbx_mgr_status *s, const rpd
 		       s->first_error_status ? s->first_error_status : ' ', s->first_error_code);
 	printf("  counters         network boots %" PRIu32 ", NMT ignored %" PRIu32
 	       ", unexpected %" PRIu32 ", duplicates %" PRIu32 ", error control lost %" PRIu32
-	       ", KEEP_OP restarts %" PRIu32 "\n",
+	       ", KEEP_OP restarts %" PRIu32 ", node changes %" PRIu32 " (refused %" PRIu32 ")\n",
 	       s->network_boots, s->nmt_ignored, s->unexpected, s->duplicates, s->errctrl_events,
-	       s->keep_op_restarts);
+	       s->keep_op_restarts, s->node_changes, s->node_changes_refused);
 	if (r)
 		rpdo_out(c, NULL, r);
 }

@@ -11,6 +11,8 @@
 #include <string.h>
 
 #include "apps/cogwctl/ctl.h"
+#include "apps/common/node_config.h"
+#include "core/cdcf.h"
 
 /* Largest answer we prepare for at first; a bigger one (the daemon's
  * max_transfer can be raised) is read again with the size it announced.
@@ -267,6 +269,50 @@ static int obj_options(ctl *c, const struct obj_opts *o, bool write, obj_args *a
 }
 
 /* argv: "sdo" or "od", then read|write and the positionals. */
+/*
+ * "od import LINE FILE": every entry of a concise DCF written into the
+ * daemon's own OD of the line, in the file's order (the CiA 302 manager's
+ * objects, 1F81h:n last, configure a node at run time: docs/config.md
+ * "Nodes at run time"). The first refusal stops it: its entry number,
+ * index:sub and abort code, as the import of a concise DCF reports them.
+ */
+static int od_import(ctl *c, const char **pos, int n_pos)
+{
+	uint8_t *buf = NULL;
+	size_t len = 0;
+	unsigned line;
+	char err[600], ctx[96];
+	co_cdcf_iter it;
+	co_cdcf_entry e;
+	int ex = 0, rc;
+
+	c->what = "od import";
+	if (n_pos != 3)
+		return ctl_usage_error(c, "expected import LINE FILE");
+	if (ctl_arg_line(c, pos[1], &line) < 0)
+		return CTL_EXIT_USAGE;
+	if ((rc = cogw_cdcf_load_file(pos[2], &buf, &len, err, sizeof err))) {
+		fprintf(stderr, "cogwctl %s: %s\n", c->what, err);
+		return rc == -EINVAL ? CTL_EXIT_REFUSED : CTL_EXIT_USAGE;
+	}
+	cogw *h = ctl_handle(c, &ex);
+	rc = h && !co_cdcf_iter_init(&it, buf, len, NULL) ? 0 : -1;
+	while (!rc && co_cdcf_iter_next(&it, &e)) {
+		uint32_t abort = 0;
+		rc = cogw_od_write(h, line, e.index, e.sub, e.data, e.size, c->timeout_ms, &abort);
+		if (rc < 0) {
+			snprintf(ctx, sizeof ctx, "entry %" PRIu32 ", %04X:%02X on line %u",
+				 e.number, e.index, e.sub, line);
+			ex = ctl_fail(c, rc, abort, ctx);
+		}
+	}
+	free(buf);
+	if (!h || ex)
+		return ex;
+	printf("line %u: %" PRIu32 " entries written\n", line, it.count);
+	return CTL_EXIT_OK;
+}
+
 static int run_obj(ctl *c, int argc, char **argv, bool remote, const ctl_cmd *self)
 {
 	const char *pos[8];
@@ -288,6 +334,8 @@ static int run_obj(ctl *c, int argc, char **argv, bool remote, const ctl_cmd *se
 		return ctl_print_help(self);
 	if (n_pos < 1)
 		return ctl_usage_error(c, "read or write?");
+	if (!remote && !strcmp(pos[0], "import"))
+		return od_import(c, pos, n_pos);
 	bool write = strcmp(pos[0], "write") == 0;
 	if (!write && strcmp(pos[0], "read") != 0)
 		return ctl_usage_error(c, "unknown action '%s' (read or write)", pos[0]);
@@ -380,14 +428,18 @@ const ctl_cmd ctl_cmd_od = {
 	.name = "od",
 	.synopsis =
 		"  od read|write LINE INDEX SUB [TYPE] [VALUE]\n"
-		"                                           the daemon's own object dictionary\n",
+		"  od import LINE FILE.cdc                  the daemon's own object dictionary\n",
 	.help = "usage: cogwctl od read LINE INDEX SUB [TYPE] [--out FILE]\n"
 		"       cogwctl od write LINE INDEX SUB TYPE VALUE|@FILE\n"
+		"       cogwctl od import LINE FILE.cdc\n"
 		"\n"
 		"Read or write an object of the daemon's own object dictionary on line LINE (the\n"
 		"manager's node on that line: 1017h heartbeat, 1016h consumers, PDO parameters,\n"
 		"the B000h process image, ...). INDEX, SUB, TYPE, VALUE and --out as for 'sdo'.\n"
 		"A refusal is an SDO abort code with its meaning (exit 1).\n"
+		"'import' writes every entry of a concise DCF (CiA 302-3) in its order, e.g. the\n"
+		"manager's objects of a node (1F84h..1F88h:n, 1016h, 1F81h:n last) to add it at\n"
+		"run time; the first refusal stops it and names the entry.\n"
 		"\n"
 		"Examples:\n"
 		"  cogwctl od read 0 1017 0 u16\n"

@@ -209,14 +209,7 @@ static int status_line(ctl *c, cogw *h, unsigned line, cJSON *arr)
 
 static int run(ctl *c, int argc, char **argv)
 {
-	const char *pos[MBX_LINES_MAX];
-	int n_pos;
-	int rc = ctl_parse(c, argc, argv, NULL, pos, MBX_LINES_MAX, &n_pos);
-	if (rc)
-		return rc;
-	if (c->help)
-		return ctl_print_help(&ctl_cmd_status);
-	return ctl_each_line(c, pos, n_pos, status_line);
+	return ctl_run_lines(c, argc, argv, &ctl_cmd_status, status_line);
 }
 
 const ctl_cmd ctl_cmd_status = {

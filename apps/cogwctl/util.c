@@ -789,3 +789,16 @@ int ctl_each_line(ctl *c, const char *const *pos, int n_pos,
 	}
 	return 0;
 }
+
+int ctl_run_lines(ctl *c, int argc, char **argv, const ctl_cmd *cmd,
+		  int (*one)(ctl *c, cogw *h, unsigned line, cJSON *arr))
+{
+	const char *pos[MBX_LINES_MAX];
+	int n_pos;
+	int rc = ctl_parse(c, argc, argv, NULL, pos, MBX_LINES_MAX, &n_pos);
+	if (rc)
+		return rc;
+	if (c->help)
+		return ctl_print_help(cmd);
+	return ctl_each_line(c, pos, n_pos, one);
+}

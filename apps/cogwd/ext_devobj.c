@@ -19,6 +19,12 @@ static void line_params(const cogw_line_config *lc, devobj_line_params *o)
 	o->write_update_ms = lc->device_objects.write_update_ms;
 	o->watches = lc->device_objects.watches;
 	memset(o->mirror_nodes, 0, sizeof o->mirror_nodes);
+	memset(o->room_nodes, 0, sizeof o->room_nodes);
+	/* a manager takes nodes at run time (docs/config.md "Nodes at run
+	 * time"): every node-ID but the line's own may be mirrored later */
+	for (unsigned id = 1; lc->manager.enabled && id <= 127; id++)
+		if (id != lc->node_id)
+			o->room_nodes[id / 32u] |= 1u << (id % 32u);
 	for (size_t i = 0; i < lc->n_nodes; i++) {
 		const cogw_node *n = &lc->nodes[i];
 		if (n->pdo == COGW_PDO_AUTO)

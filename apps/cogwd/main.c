@@ -46,6 +46,15 @@ typedef struct daemon_state {
 	bool watchdog_withheld;
 	cogwd_exts exts;            /* manager, gateway: plugged into the lines */
 	mbx_budget transfer_memory; /* shared by every line (lock-free) */
+	/* Nodes at run time (docs/config.md "Nodes at run time"): what each
+	 * line has of "nodes" by node-ID, from the files applied so far, and
+	 * the configurations of reloads whose nodes the lines refer to (their
+	 * types lists, and concise DCFs a late line may still copy): kept
+	 * until the daemon stops. */
+	const cogw_node *nodes_in_force[COGW_LINES_MAX][128];
+	uint16_t consumers_in_force[COGW_LINES_MAX][128]; /* heartbeat_consumers, ms */
+	cogw_config **kept;
+	size_t n_kept;
 } daemon_state;
 
 static void usage(FILE *to)
@@ -186,6 +195,17 @@ static int create_lines(daemon_state *d)
 			.pdo_layout = d->pdo_layouts[i],
 			.mbx = mailbox_params(d, i),
 		};
+		line_app_decl decl[COGW_APP_DECL_MAX];
+		for (uint16_t k = 0; k < lc->app.n_decl; k++)
+			decl[k] = (line_app_decl){ .index = lc->app.decl[k].index,
+						   .sub = lc->app.decl[k].sub,
+						   .kind = lc->app.decl[k].kind,
+						   .uid = lc->app.decl[k].uid };
+		p.app = (line_app_params){ .decl = decl,
+					   .n_decl = lc->app.n_decl,
+					   .max_created = lc->app.max_created,
+					   .max_per_client = lc->app.max_per_client,
+					   .max_ind_per_client = lc->app.indications };
 		cogwd_exts_for_line(&d->exts, (unsigned)i, p.ext);
 		rc = line_create(&d->lines[i], &p);
 		if (rc < 0)
@@ -331,58 +351,209 @@ static void apply_access_reload(daemon_state *d, const cogw_config *next)
 	d->cfg.mailbox.lease_ms = nm->lease_ms;
 }
 
-/* cogw_config_reload_check() lets these through as run-time changes, but
- * the daemon cannot apply them yet: say so instead of pretending. */
-static void warn_unapplied_reload(daemon_state *d, const cogw_config *next)
+/* lines[].rt at run time: the thread's scheduling and CPU. */
+static void apply_rt_reload(daemon_state *d, const cogw_config *next)
 {
 	for (size_t i = 0; i < d->n_lines; i++) {
-		const cogw_line_config *a = &d->cfg.lines[i], *b = &next->lines[i];
-		bool hb = a->n_hb_consumers != b->n_hb_consumers ||
-			  memcmp(a->hb_consumers, b->hb_consumers,
-				 a->n_hb_consumers * sizeof a->hb_consumers[0]);
-		bool rt = a->rt.priority != b->rt.priority || a->rt.cpu != b->rt.cpu;
-		if (hb || rt)
-			cogw_log(COGW_LOG_WARNING,
-				 "reload: line %s: %s%s%s not applied at run time yet: restart the "
-				 "daemon for it",
-				 line_name(d->lines[i]), hb ? "heartbeat_consumers" : "",
-				 hb && rt ? " and " : "", rt ? "rt" : "");
+		cogw_rt_config *a = &d->cfg.lines[i].rt;
+		const cogw_rt_config *b = &next->lines[i].rt;
+		if (a->priority == b->priority && a->cpu == b->cpu)
+			continue;
+		int rc = line_set_rt(d->lines[i], b->priority, b->cpu);
+		if (rc < 0) {
+			cogw_log(COGW_LOG_ERR,
+				 "reload: lines[%zu].rt: priority %d, cpu %d not applied: %s; the "
+				 "line keeps priority %d, cpu %d",
+				 i, b->priority, b->cpu, strerror(-rc), a->priority, a->cpu);
+			continue;
+		}
+		cogw_log(COGW_LOG_INFO, "reload: line %s: rt priority %d -> %d, cpu %d -> %d",
+			 line_name(d->lines[i]), a->priority, b->priority, a->cpu, b->cpu);
+		*a = *b;
 	}
 }
 
+/* lines[].heartbeat_consumers at run time: each changed 1016h entry. The
+ * entries of listed nodes are their heartbeat_ms, set by the node changes
+ * (applied first: a node removed and kept as a consumer is consumed). */
+static void apply_consumers_reload(daemon_state *d, const cogw_config *next)
+{
+	for (size_t i = 0; i < d->n_lines; i++) {
+		uint16_t *was = d->consumers_in_force[i], now[128];
+		const cogw_node *node[128];
+		(void)cogw_config_consumers(&next->lines[i], now);
+		cogw_nodes_by_id(&next->lines[i], node);
+		for (unsigned id = 1; id < 128; id++) {
+			int rc;
+			if (was[id] == now[id] || node[id]) {
+				was[id] = now[id];
+				continue;
+			}
+			if ((rc = line_request_consumer(d->lines[i], (uint8_t)id, now[id])) < 0) {
+				cogw_log(COGW_LOG_ERR,
+					 "reload: lines[%zu].heartbeat_consumers: node %u not "
+					 "applied: %s",
+					 i, id, strerror(-rc));
+				continue;
+			}
+			cogw_log(COGW_LOG_INFO,
+				 "reload: line %s: heartbeat of node %u consumed: %u -> %u ms",
+				 line_name(d->lines[i]), id, was[id], now[id]);
+			was[id] = now[id];
+		}
+	}
+}
+
+/* The line's part of one added, changed or removed node. */
+static line_node_set node_set_of(const cogw_node_change *ch)
+{
+	static const uint8_t ops[] = { [COGW_NODE_ADDED] = MBX_NODE_ADD,
+				       [COGW_NODE_CHANGED] = MBX_NODE_CHANGE,
+				       [COGW_NODE_REMOVED] = MBX_NODE_REMOVE };
+	const cogw_node *n = ch->node;
+	line_node_set set = { .req = { .node = ch->id, .op = ops[ch->kind] }, .as_file = true };
+
+	if (ch->kind == COGW_NODE_REMOVED)
+		return set;
+	set.req.flags = (uint8_t)((n->keep_op ? MBX_NODE_F_KEEP_OP : 0) |
+				  (n->config.store ? MBX_NODE_F_STORE : 0));
+	set.req.target_state = n->target_state;
+	set.req.pdo = n->pdo;
+	set.req.heartbeat_ms = n->heartbeat_ms;
+	set.req.assignment = n->assignment;
+	memcpy(set.req.identity, n->identity, sizeof set.req.identity);
+	set.req.date = n->config.verify ? n->config.date : 0;
+	set.req.time = n->config.verify ? n->config.time : 0;
+	set.cdcf = n->config.cdcf_len ? n->config.cdcf : NULL;
+	set.cdcf_len = (uint32_t)n->config.cdcf_len;
+	set.types = n->types;
+	set.n_types = n->n_types;
+	return set;
+}
+
+/* Why a line did not take a node change, for the log. */
+static const char *node_refusal_text(int rc)
+{
+	switch (rc) {
+	case -EAGAIN:
+		return "the network boot runs (or the manager is not the NMT master now): "
+		       "send SIGHUP again when it has ended";
+	case -EBUSY:
+		return "a program download to it runs: reload when it has ended";
+	default:
+		return strerror(-rc);
+	}
+}
+
+/* Line i's node changes, one by one; what a line took is in force. */
+static bool apply_nodes_reload(daemon_state *d, size_t i, const cogw_node_diff *nd)
+{
+	static const char *const done[] = { "?", "added", "changed", "removed" };
+	for (size_t k = 0; k < nd->n; k++) {
+		const cogw_node_change *ch = &nd->change[k];
+		line_node_set set = node_set_of(ch);
+		int rc = line_request_node(d->lines[i], &set);
+		char path[48];
+
+		if (ch->kind == COGW_NODE_REMOVED)
+			snprintf(path, sizeof path, "lines[%zu].nodes", i);
+		else
+			snprintf(path, sizeof path, "lines[%zu].nodes[%zu]", i, ch->index);
+		if (rc < 0) {
+			cogw_log(COGW_LOG_ERR, "reload: %s: node %u not %s: %s", path, ch->id,
+				 done[ch->kind], node_refusal_text(rc));
+			continue;
+		}
+		cogw_log(COGW_LOG_NOTICE, "reload: %s: node %u %s", path, ch->id, done[ch->kind]);
+		d->nodes_in_force[i][ch->id] = ch->kind == COGW_NODE_REMOVED ? NULL : ch->node;
+	}
+	return nd->n > 0;
+}
+
+/* Everything of `next` that needs a restart, by JSON path, into what
+ * (and the node changes of each line into nd): true when nothing does. */
+static bool reload_acceptable(daemon_state *d, const cogw_config *next, cogw_node_diff *nd,
+			      char *what, size_t len)
+{
+	bool ok = cogw_config_reload_check(&d->cfg, next, what, len);
+
+	for (size_t i = 0; ok && i < d->n_lines; i++)
+		if (!cogw_config_node_diff(d->nodes_in_force[i], &d->cfg.lines[i], &next->lines[i],
+					   i, &nd[i])) {
+			size_t used = strlen(what);
+			snprintf(what + used, len - used, "%s%s", used ? "; " : "", nd[i].what);
+			ok = false;
+		}
+	return ok;
+}
+
+/* Keep a reload's configuration while a line refers to it. */
+static bool keep_config(daemon_state *d, cogw_config *next)
+{
+	cogw_config **k = realloc(d->kept, (d->n_kept + 1) * sizeof *k);
+	if (!k)
+		return false;
+	d->kept = k;
+	d->kept[d->n_kept++] = next;
+	return true;
+}
+
+static void reload_refused(cogw_config *next, cogw_node_diff *nd)
+{
+	if (next)
+		cogw_config_free(next);
+	free(next);
+	free(nd);
+	sd_notify(0, "READY=1");
+}
+
+/*
+ * SIGHUP: the file loaded and validated whole; refused, with every key
+ * that needs a restart named by its JSON path, unless all of it can change
+ * at run time; then applied key by key (docs/config.md "Reload"): the
+ * heartbeat producer, the mailbox's access, the lines' scheduling, the
+ * heartbeat consumers and the nodes of each line, each on its line thread.
+ */
 static void reload(daemon_state *d)
 {
 	sd_notify(0, "RELOADING=1");
-	cogw_config next;
-	memset(&next, 0, sizeof next);
-	if (load_config(d, &next) < 0) {
+	cogw_config *next = calloc(1, sizeof *next);
+	cogw_node_diff *nd = calloc(d->n_lines ? d->n_lines : 1, sizeof *nd);
+	char what[4096] = "";
+	bool used = false;
+
+	if (!next || !nd || load_config(d, next) < 0) {
 		cogw_log(COGW_LOG_ERR,
 			 "reload refused: the configuration has errors; keeping the running one");
-		cogw_config_free(&next);
-		sd_notify(0, "READY=1");
-		return;
+		return reload_refused(next, nd);
 	}
-	char what[512] = "";
-	if (!cogw_config_reload_check(&d->cfg, &next, what, sizeof what)) {
-		cogw_log(COGW_LOG_ERR, "reload refused: %s", what);
-		cogw_config_free(&next);
-		sd_notify(0, "READY=1");
-		return;
+	if (!reload_acceptable(d, next, nd, what, sizeof what)) {
+		cogw_log(COGW_LOG_ERR,
+			 "reload refused: %s; the running configuration stays in force", what);
+		return reload_refused(next, nd);
 	}
-	if (what[0])
-		cogw_log(COGW_LOG_WARNING,
-			 "reload: these settings need a restart and were not applied: %s", what);
 	for (size_t i = 0; i < d->n_lines; i++)
-		if (next.lines[i].heartbeat_ms != d->cfg.lines[i].heartbeat_ms) {
-			line_request_hb_producer(d->lines[i], next.lines[i].heartbeat_ms);
+		if (next->lines[i].heartbeat_ms != d->cfg.lines[i].heartbeat_ms) {
+			line_request_hb_producer(d->lines[i], next->lines[i].heartbeat_ms);
 			cogw_log(COGW_LOG_INFO, "reload: line %s heartbeat %u -> %u ms",
 				 line_name(d->lines[i]), d->cfg.lines[i].heartbeat_ms,
-				 next.lines[i].heartbeat_ms);
-			d->cfg.lines[i].heartbeat_ms = next.lines[i].heartbeat_ms;
+				 next->lines[i].heartbeat_ms);
+			d->cfg.lines[i].heartbeat_ms = next->lines[i].heartbeat_ms;
 		}
-	apply_access_reload(d, &next);
-	warn_unapplied_reload(d, &next);
-	cogw_config_free(&next);
+	apply_access_reload(d, next);
+	apply_rt_reload(d, next);
+	for (size_t i = 0; i < d->n_lines; i++)
+		used |= apply_nodes_reload(d, i, &nd[i]);
+	apply_consumers_reload(d, next);
+	free(nd);
+	if (!used) {
+		cogw_config_free(next);
+		free(next);
+	} else if (!keep_config(d, next)) {
+		/* the lines refer to its nodes' types: it must stay */
+		cogw_log(COGW_LOG_WARNING, "reload: out of memory listing the configuration the "
+					   "lines now refer to; it stays allocated");
+	}
 	sd_notify(0, "READY=1");
 }
 
@@ -619,6 +790,10 @@ int main(int argc, char **argv)
 
 	if (load_config(&d, &d.cfg) < 0)
 		return 1;
+	for (size_t i = 0; i < d.cfg.n_lines; i++) {
+		cogw_nodes_by_id(&d.cfg.lines[i], d.nodes_in_force[i]);
+		(void)cogw_config_consumers(&d.cfg.lines[i], d.consumers_in_force[i]);
+	}
 	if (check_only) {
 		printf("%s: configuration is valid (%zu lines)\n", d.cfg.source, d.cfg.n_lines);
 		cogw_config_free(&d.cfg);
@@ -637,6 +812,11 @@ int main(int argc, char **argv)
 	for (size_t i = 0; i < COGW_LINES_MAX; i++)
 		co_pdo_layout_destroy(d.pdo_layouts[i]);
 	cogwd_exts_teardown(&d.exts);
+	for (size_t i = 0; i < d.n_kept; i++) {
+		cogw_config_free(d.kept[i]);
+		free(d.kept[i]);
+	}
+	free(d.kept);
 	cogw_config_free(&d.cfg);
 	if (d.sigfd >= 0)
 		close(d.sigfd);

@@ -41,6 +41,14 @@ int cogwd_pdo_layouts_create(co_pdo_layout **out, const cogw_line_config *lc, ui
 			kept[lc->nodes[i].id / 32u] |= 1u << (lc->nodes[i].id % 32u);
 			any = true;
 		}
+	/* a manager takes nodes at run time (docs/config.md "Nodes at run
+	 * time"): room for every node-ID, allocated now (address space until a
+	 * layout is learnt), never on the line thread */
+	for (unsigned id = 1; lc->manager.enabled && id <= 127; id++)
+		if (id != lc->node_id) {
+			kept[id / 32u] |= 1u << (id % 32u);
+			any = true;
+		}
 	if (!any)
 		return 0;
 	if ((rc = co_pdo_layout_create(out, kept, lc->pdo_scan_max)) < 0)

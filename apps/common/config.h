@@ -115,6 +115,23 @@ typedef struct cogw_devobj_config {
 	uint16_t watches;         /* watch table of the line */
 } cogw_devobj_config;
 
+/* "app" of a line: objects clients own (docs/application.md). */
+#define COGW_APP_DECL_MAX 256
+typedef struct cogw_app_decl {
+	uint16_t index;
+	uint8_t sub;
+	uint8_t kind; /* mbx_app_kind */
+	uint32_t uid;
+} cogw_app_decl;
+
+typedef struct cogw_app_config {
+	uint16_t max_created;    /* run-time objects of the line (100) */
+	uint16_t max_per_client; /* (64) */
+	uint16_t indications;    /* open to one owner (8) */
+	cogw_app_decl decl[COGW_APP_DECL_MAX];
+	uint16_t n_decl;
+} cogw_app_config;
+
 typedef struct cogw_line_config {
 	char name[COGW_NAME_MAX];      /* "line0" (default "line<N>") */
 	char interface[COGW_NAME_MAX]; /* "vcan0" (IFNAMSIZ-1 chars max) */
@@ -146,6 +163,7 @@ typedef struct cogw_line_config {
 	uint8_t pdo;                       /* cogw_pdo_mode, the nodes' default */
 	uint16_t pdo_scan_max;             /* PDOs per direction scanned and kept, 1..512 */
 	cogw_devobj_config device_objects; /* "device_objects" */
+	cogw_app_config app;               /* "app" */
 } cogw_line_config;
 
 typedef struct cogw_mailbox_config {
@@ -234,11 +252,56 @@ int cogw_config_load_string(cogw_config *cfg, const char *json, const char *sour
 			    size_t errlen);
 void cogw_config_free(cogw_config *cfg); /* accepts a zeroed config */
 
-/* What a reload may change without restarting: access rules, lease,
- * heartbeat consumers/producer time, RT settings. Fills `what` with the
- * settings that differ but cannot change at run time ("" if none).
- * Returns true if `next` is acceptable as a reload of `cur`. */
+/* What a reload may change without restarting (docs/config.md "Reload"):
+ * access rules, lease, the heartbeat producer time and consumers, RT
+ * settings, and the nodes of a line with a manager (cogw_config_node_diff
+ * names what of those needs a restart). Fills `what` with the keys that
+ * differ but cannot change at run time, by JSON path:
+ * "lines[0].bitrate: needs a restart; mailbox.depth: needs a restart"
+ * ("" if none). Returns true if `next` is acceptable as a reload of
+ * `cur`. */
 bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next, char *what,
 			      size_t whatlen);
+
+/* The explicit "heartbeat_consumers" of a line by node-ID (time in ms, 0 =
+ * none), without the 1016h entries of its nodes' heartbeat_ms. Returns
+ * how many. */
+size_t cogw_config_consumers(const cogw_line_config *l, uint16_t out[128]);
+
+/* The room of 1F22h:id in the OD a line started with (0 = none): what a
+ * concise DCF of that node may take at run time. */
+uint32_t cogw_node_cdcf_room(const cogw_line_config *started, uint8_t id);
+
+/* A line's "nodes" by node-ID (NULL = not listed). */
+void cogw_nodes_by_id(const cogw_line_config *l, const cogw_node *out[128]);
+
+typedef enum cogw_node_change_kind {
+	COGW_NODE_ADDED = 1,
+	COGW_NODE_CHANGED,
+	COGW_NODE_REMOVED,
+} cogw_node_change_kind;
+
+typedef struct cogw_node_change {
+	uint8_t kind; /* cogw_node_change_kind */
+	uint8_t id;
+	size_t index;          /* in next->nodes (removed: 0) */
+	const cogw_node *node; /* next's entry (removed: the running one) */
+} cogw_node_change;
+
+typedef struct cogw_node_diff {
+	cogw_node_change change[254]; /* removals first, then in next's order */
+	size_t n;
+	char what[1024]; /* the keys that need a restart, as reload_check's */
+} cogw_node_diff;
+
+/* The nodes of line line_no that a reload adds, changes or removes, from
+ * the running ones by node-ID (`cur`: what the line has from the last
+ * file it applied; `started`: the configuration the line started with) to
+ * `next`'s. Returns false, with `what` naming them, when some of it needs
+ * a restart: a node's software_id or program, a concise DCF larger than
+ * the room its 1F22h:n got at start-up, or a node list on a line without
+ * a manager. */
+bool cogw_config_node_diff(const cogw_node *const cur[128], const cogw_line_config *started,
+			   const cogw_line_config *next, size_t line_no, cogw_node_diff *out);
 
 #endif /* COGW_APPS_CONFIG_H */

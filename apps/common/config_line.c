@@ -26,20 +26,35 @@
 
 #define IFNAME_MAX 15u /* IFNAMSIZ - 1 */
 
-static const char *const line_keys[] = { "name",           "interface",
-					 "bitrate",        "node_id",
-					 "network_id",     "rt",
-					 "sdo_servers",    "sdo_clients",
-					 "sdo_timeout_ms", "sdo_block_threshold",
-					 "heartbeat_ms",   "sync_period_us",
-					 "time_period_ms", "heartbeat_consumers",
-					 "device",         "rpdos",
-					 "tpdos",          "objects",
-					 "values",         "nodes",
-					 "manager",        "pdo",
-					 "pdo_scan_max",   "device_objects",
-					 "fault_quiet_ms", "id_conflict_quiet_ms",
-					 "comment",        NULL };
+static const char *const line_keys[] = { "name",
+					 "interface",
+					 "bitrate",
+					 "node_id",
+					 "network_id",
+					 "rt",
+					 "sdo_servers",
+					 "sdo_clients",
+					 "sdo_timeout_ms",
+					 "sdo_block_threshold",
+					 "heartbeat_ms",
+					 "sync_period_us",
+					 "time_period_ms",
+					 "heartbeat_consumers",
+					 "device",
+					 "rpdos",
+					 "tpdos",
+					 "objects",
+					 "values",
+					 "nodes",
+					 "manager",
+					 "pdo",
+					 "pdo_scan_max",
+					 "device_objects",
+					 "fault_quiet_ms",
+					 "id_conflict_quiet_ms",
+					 "app",
+					 "comment",
+					 NULL };
 
 static const char *const rt_keys[] = { "priority", "cpu", "comment", NULL };
 
@@ -166,6 +181,47 @@ static void line_sync_from_od(cogw_line_config *l)
  * defaults too: a reset communication keeps them. The configuration
  * manager (core/cfgmgr.h) reads them when the node boots. */
 #define COGW_NODE_CDCF_ROOM (16u * 1024u)
+/* A line with a manager gives every other node-ID 1F22h:n too, with this
+ * room: a node added at run time (docs/config.md "Nodes at run time") gets
+ * its concise DCF without an allocation on the line thread. */
+#define COGW_RUNTIME_CDCF_ROOM (4u * 1024u)
+
+static bool node_listed(const cogw_line_config *l, unsigned id)
+{
+	for (size_t i = 0; i < l->n_nodes; i++)
+		if (l->nodes[i].id == id)
+			return true;
+	return false;
+}
+
+uint32_t cogw_node_cdcf_room(const cogw_line_config *l, uint8_t id)
+{
+	for (size_t i = 0; i < l->n_nodes; i++)
+		if (l->nodes[i].id == id)
+			return l->nodes[i].config.cdcf_len > COGW_NODE_CDCF_ROOM
+				       ? (uint32_t)l->nodes[i].config.cdcf_len
+				       : COGW_NODE_CDCF_ROOM;
+	return l->manager.enabled && id >= 1 && id <= 127 && id != l->node_id
+		       ? COGW_RUNTIME_CDCF_ROOM
+		       : 0;
+}
+
+static int runtime_node_objects(struct ctx *c, const char *path, cogw_line_config *l)
+{
+	for (unsigned id = 1; l->manager.enabled && id <= 127; id++) {
+		int rc;
+
+		if (id == l->node_id || node_listed(l, id))
+			continue;
+		rc = co_od_add_cfgmgr_node(l->od, (uint8_t)id, COGW_RUNTIME_CDCF_ROOM);
+		if (rc == -ENOMEM)
+			return rc;
+		if (rc)
+			return cfg_fail(c, path, "cannot add 1F22h:%u (%s)", id, strerror(-rc));
+	}
+	return 0;
+}
+
 static int node_objects(struct ctx *c, const char *path, cogw_line_config *l)
 {
 	for (size_t i = 0; i < l->n_nodes; i++) {
@@ -240,7 +296,7 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path, cogw_line_c
 		co_od_entry_reset(eb);
 	}
 	if ((rc = cfg_gateway_objects(c, l)) || (rc = node_objects(c, path, l)) ||
-	    (rc = cfg_manager_objects(c, path, l)))
+	    (rc = runtime_node_objects(c, path, l)) || (rc = cfg_manager_objects(c, path, l)))
 		return rc;
 	v = json_util_get(o, "objects");
 	if (v) {
@@ -256,6 +312,12 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path, cogw_line_c
 		rc = json_od_apply_values(l->od, v, p, c->msg, sizeof(c->msg));
 		cfg_route_checks(c, l->od, false);
 		if (rc || (rc = cfg_check_attached_routes(c, path, l->od)))
+			return rc;
+	}
+	v = json_util_get(o, "app");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "app");
+		if ((rc = cfg_parse_app(c, v, p, l)))
 			return rc;
 	}
 	line_sync_from_od(l);
@@ -280,6 +342,9 @@ static void line_defaults(cogw_line_config *l, size_t idx)
 	l->device_objects = (cogw_devobj_config){ .read_max_age_ms = 1000,
 						  .write_update_ms = 10,
 						  .watches = 64 };
+	l->app.max_created = 100;
+	l->app.max_per_client = 64;
+	l->app.indications = 8;
 }
 
 static int parse_interface(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l)

@@ -66,15 +66,27 @@ static int parse_access_word(struct ctx *c, const cJSON *v, const char *path, ui
 static int parse_rule(struct ctx *c, const cJSON *o, const char *path, cogw_access_rule *r)
 {
 	char p[JSON_PATH_MAX];
-	const cJSON *user, *uid, *acc;
+	const cJSON *acc;
 	int rc;
-	const json_at at = cfg_at(c, p);
 	const json_at at_path = cfg_at(c, path);
 
 	if ((rc = cfg_check_object(c, o, path, rule_keys)))
 		return rc;
-	user = json_util_get(o, "user");
-	uid = json_util_get(o, "uid");
+	if ((rc = cfg_parse_uid(c, o, path, &r->uid)))
+		return rc;
+	if ((rc = json_util_require(o, "access", &at_path, &acc)))
+		return rc;
+	json_util_path_key(p, sizeof(p), path, "access");
+	return parse_access_word(c, acc, p, &r->access);
+}
+
+int cfg_parse_uid(struct ctx *c, const cJSON *o, const char *path, uint32_t *out)
+{
+	char p[JSON_PATH_MAX];
+	const cJSON *user = json_util_get(o, "user"), *uid = json_util_get(o, "uid");
+	const json_at at = cfg_at(c, p);
+	int rc;
+
 	if (!user == !uid)
 		return cfg_fail(c, path, "give either \"user\" or \"uid\"");
 	if (user) {
@@ -86,19 +98,16 @@ static int parse_rule(struct ctx *c, const cJSON *o, const char *path, cogw_acce
 			return rc;
 		if (getpwnam_r(name, &pw, buf, sizeof(buf), &res) != 0 || !res)
 			return cfg_fail(c, p, "unknown user \"%s\"", name);
-		r->uid = res->pw_uid;
+		*out = res->pw_uid;
 	} else {
 		uint64_t u;
 
 		json_util_path_key(p, sizeof(p), path, "uid");
 		if ((rc = json_util_uint(uid, &at, 0, UINT32_MAX - 1, false, &u)))
 			return rc;
-		r->uid = (uid_t)u;
+		*out = (uint32_t)u;
 	}
-	if ((rc = json_util_require(o, "access", &at_path, &acc)))
-		return rc;
-	json_util_path_key(p, sizeof(p), path, "access");
-	return parse_access_word(c, acc, p, &r->access);
+	return 0;
 }
 
 /* The per-user / per-client limits that depend on each other (ranges and

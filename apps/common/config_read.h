@@ -116,6 +116,10 @@ int cfg_check_unique(struct ctx *c, const cogw_config *cfg, size_t i);
 /* ---- a line's "nodes" and "manager" (config_nodes.c) ---- */
 
 int cfg_parse_nodes(struct ctx *c, const cJSON *v, const char *path, cogw_line_config *l);
+/* {"user": NAME} (resolved now) or {"uid": N} of object o (config_mailbox.c). */
+int cfg_parse_uid(struct ctx *c, const cJSON *o, const char *path, uint32_t *uid);
+/* A line's "app": objects clients own (config_app.c); after its objects. */
+int cfg_parse_app(struct ctx *c, const cJSON *v, const char *path, cogw_line_config *l);
 int cfg_parse_manager(struct ctx *c, const cJSON *o, const char *path, cogw_manager_config *m);
 /* The manager's objects (1F80h, 1F81h, ...) in the line's OD. */
 int cfg_manager_objects(struct ctx *c, const char *path, cogw_line_config *l);

@@ -1,8 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * apps/common/config_reload.c - what a reload may not change: the
- * difference between the running configuration and a new one, named key
- * by key (cogw_config_reload_check in config.h, docs/config.md).
+ * apps/common/config_reload.c - what a reload may change: the difference
+ * between the running configuration and a new one, named key by key with
+ * its JSON path where it needs a restart (cogw_config_reload_check), and
+ * node by node where the line follows at run time (cogw_config_node_diff;
+ * config.h, docs/config.md "Reload").
  */
 #include <stdio.h>
 #include <string.h>
@@ -11,7 +13,8 @@
 #include "apps/common/pdo_config.h"
 #include "core/cfgmgr.h"
 
-/* The names of what differs, "a, b, c", and whether anything does. */
+/* The keys that differ, "a: needs a restart; b: needs a restart", and
+ * whether any does. */
 struct diff {
 	char *what;
 	size_t len;
@@ -26,7 +29,7 @@ static void note(struct diff *d, const char *name)
 	if (!d->what || !d->len)
 		return;
 	used = strlen(d->what);
-	snprintf(d->what + used, d->len - used, "%s%s", used ? ", " : "", name);
+	snprintf(d->what + used, d->len - used, "%s%s: needs a restart", used ? "; " : "", name);
 }
 
 static bool entry_same(const co_od_entry *a, const co_od_entry *b)
@@ -44,11 +47,14 @@ static bool entry_same(const co_od_entry *a, const co_od_entry *b)
 }
 
 /* Left out of the OD comparison: 1016h/1017h, which a reload may change,
- * and the node configuration objects, which "nodes" explains. */
+ * and the manager's objects of each node (1F81h, 1F84h..1F88h, 1F22h,
+ * 1F26h, 1F27h, 1F55h), which "nodes" explains (cogw_config_node_diff). */
 static bool od_skip(uint16_t index)
 {
-	return index == 0x1016 || index == 0x1017 || index == CO_CFGMGR_IDX_CDCF ||
-	       index == CO_CFGMGR_IDX_DATE || index == CO_CFGMGR_IDX_TIME;
+	return index == 0x1016 || index == 0x1017 || index == 0x1F81 ||
+	       (index >= 0x1F84 && index <= 0x1F88) || index == 0x1F55 ||
+	       index == CO_CFGMGR_IDX_CDCF || index == CO_CFGMGR_IDX_DATE ||
+	       index == CO_CFGMGR_IDX_TIME;
 }
 
 /* The ODs agree apart from what od_skip() leaves out. */
@@ -72,23 +78,56 @@ static bool od_same(const co_od *a, const co_od *b)
 	}
 }
 
-/* Same node ids and configurations, in the same order. */
-static bool nodes_same(const cogw_line_config *a, const cogw_line_config *b)
+/* "app": the bounds and the declared objects, in order. */
+static bool app_same(const cogw_app_config *x, const cogw_app_config *y)
 {
-	if (a->n_nodes != b->n_nodes)
-		return false;
-	for (size_t i = 0; i < a->n_nodes; i++)
-		if (a->nodes[i].id != b->nodes[i].id ||
-		    !cogw_node_config_equal(&a->nodes[i].config, &b->nodes[i].config) ||
-		    a->nodes[i].assignment != b->nodes[i].assignment ||
-		    memcmp(a->nodes[i].identity, b->nodes[i].identity,
-			   sizeof(a->nodes[i].identity)) ||
-		    a->nodes[i].heartbeat_ms != b->nodes[i].heartbeat_ms ||
-		    a->nodes[i].keep_op != b->nodes[i].keep_op ||
-		    a->nodes[i].target_state != b->nodes[i].target_state ||
-		    !cogw_node_pdo_equal(&a->nodes[i], &b->nodes[i]))
-			return false;
-	return true;
+	return x->max_created == y->max_created && x->max_per_client == y->max_per_client &&
+	       x->indications == y->indications && x->n_decl == y->n_decl &&
+	       !memcmp(x->decl, y->decl, x->n_decl * sizeof x->decl[0]);
+}
+
+/* Everything a node entry says that the line follows at run time. */
+static bool node_same(const cogw_node *a, const cogw_node *b)
+{
+	return a->id == b->id && cogw_node_config_equal(&a->config, &b->config) &&
+	       a->assignment == b->assignment &&
+	       !memcmp(a->identity, b->identity, sizeof(a->identity)) &&
+	       a->heartbeat_ms == b->heartbeat_ms && a->keep_op == b->keep_op &&
+	       a->target_state == b->target_state && cogw_node_pdo_equal(a, b);
+}
+
+/* The program download of a node is not changed at run time: the image
+ * is read at start-up and the software manager holds it. */
+static bool node_software_same(const cogw_node *a, const cogw_node *b)
+{
+	uint32_t sw_a = a ? a->software_id : 0, sw_b = b ? b->software_id : 0;
+	size_t len_a = a ? a->program_len : 0, len_b = b ? b->program_len : 0;
+
+	return sw_a == sw_b && len_a == len_b && (!len_a || !memcmp(a->program, b->program, len_a));
+}
+
+/* The heartbeat consumers of "heartbeat_consumers" alone: 1016h also
+ * holds the entries of the nodes' heartbeat_ms (config_line.c reads them
+ * all back). */
+static bool consumer_is_node(const cogw_line_config *l, const cogw_hb_consumer *h)
+{
+	for (size_t i = 0; i < l->n_nodes; i++)
+		if (l->nodes[i].id == h->node_id && l->nodes[i].heartbeat_ms == h->time_ms)
+			return true;
+	return false;
+}
+
+size_t cogw_config_consumers(const cogw_line_config *l, uint16_t out[128])
+{
+	size_t n = 0;
+
+	memset(out, 0, 128 * sizeof out[0]);
+	for (size_t i = 0; i < l->n_hb_consumers; i++)
+		if (!consumer_is_node(l, &l->hb_consumers[i]) && l->hb_consumers[i].node_id < 128) {
+			out[l->hb_consumers[i].node_id] = l->hb_consumers[i].time_ms;
+			n++;
+		}
+	return n;
 }
 
 #define DIFF(cond, label)               \
@@ -162,12 +201,12 @@ static void line_diff(const cogw_line_config *x, const cogw_line_config *y, size
 	/* The OD follows from the keys above: name it only when they do not
 	 * explain the difference. */
 	LDIFF(!d->changed && x->od && y->od && !od_same(x->od, y->od), "objects/values");
-	LDIFF(!nodes_same(x, y), "nodes");
 	LDIFF(x->pdo != y->pdo, "pdo");
 	LDIFF(x->pdo_scan_max != y->pdo_scan_max, "pdo_scan_max");
 	LDIFF(memcmp(&x->manager, &y->manager, sizeof(x->manager)), "manager");
 	LDIFF(memcmp(&x->device_objects, &y->device_objects, sizeof(x->device_objects)),
 	      "device_objects");
+	LDIFF(!app_same(&x->app, &y->app), "app");
 #undef LDIFF
 	d->changed = d->changed || before;
 }
@@ -186,6 +225,78 @@ bool cogw_config_reload_check(const cogw_config *cur, const cogw_config *next, c
 	} else {
 		for (size_t i = 0; i < cur->n_lines; i++)
 			line_diff(&cur->lines[i], &next->lines[i], i, &d);
+	}
+	return !d.changed;
+}
+
+void cogw_nodes_by_id(const cogw_line_config *l, const cogw_node *out[128])
+{
+	memset(out, 0, 128 * sizeof out[0]);
+	for (size_t i = 0; i < l->n_nodes; i++)
+		if (l->nodes[i].id < 128)
+			out[l->nodes[i].id] = &l->nodes[i];
+}
+
+static void add_change(cogw_node_diff *out, uint8_t kind, const cogw_node *n, size_t index)
+{
+	out->change[out->n++] =
+		(cogw_node_change){ .kind = kind, .id = n->id, .index = index, .node = n };
+}
+
+/* A node's program download differs: "lines[i].nodes[j].software_id". */
+static void note_software(struct diff *d, const cogw_node *a, const cogw_node *b, size_t line_no,
+			  size_t j)
+{
+	char name[96];
+
+	snprintf(name, sizeof name, "lines[%zu].nodes[%zu].%s", line_no, j,
+		 (a ? a->software_id : 0) != b->software_id ? "software_id" : "program");
+	note(d, name);
+}
+
+/* A concise DCF that does not fit the 1F22h:n made at start-up. */
+static void note_room(struct diff *d, const cogw_line_config *started, const cogw_node *b,
+		      size_t line_no, size_t j)
+{
+	uint32_t room = cogw_node_cdcf_room(started, b->id);
+	char name[160];
+
+	if (b->config.cdcf_len <= room)
+		return;
+	snprintf(name, sizeof name,
+		 "lines[%zu].nodes[%zu].config (a concise DCF of %zu bytes; 1F22h:%u holds %u)",
+		 line_no, j, b->config.cdcf_len, b->id, (unsigned)room);
+	note(d, name);
+}
+
+bool cogw_config_node_diff(const cogw_node *const cur[128], const cogw_line_config *started,
+			   const cogw_line_config *next, size_t line_no, cogw_node_diff *out)
+{
+	struct diff d = { out->what, sizeof out->what, false };
+	const cogw_node *nxt[128];
+	char name[64];
+
+	out->n = 0;
+	out->what[0] = '\0';
+	cogw_nodes_by_id(next, nxt);
+	/* removals first: the 1016h entries they free may serve an addition */
+	for (unsigned id = 1; id < 128; id++)
+		if (cur[id] && !nxt[id])
+			add_change(out, COGW_NODE_REMOVED, cur[id], 0);
+	for (size_t j = 0; j < next->n_nodes; j++) {
+		const cogw_node *b = &next->nodes[j], *a = cur[b->id];
+
+		if (!node_software_same(a, b))
+			note_software(&d, a, b, line_no, j);
+		if (a && node_same(a, b))
+			continue;
+		note_room(&d, started, b, line_no, j);
+		add_change(out, a ? COGW_NODE_CHANGED : COGW_NODE_ADDED, b, j);
+	}
+	if (out->n && !next->manager.enabled) {
+		/* without a manager nothing on the line follows a node list */
+		snprintf(name, sizeof name, "lines[%zu].nodes", line_no);
+		note(&d, name);
 	}
 	return !d.changed;
 }

@@ -11,6 +11,10 @@
  *     write()) over the same lines; the three are measured in interleaved
  *     rounds, and kernel timestamps split each into send / forward /
  *     delivery stages (notes);
+ *   - the same by device object (gateway.forward): node 6's TPDO 186h on
+ *     vcan0 (6000h:1, UNSIGNED32) forwarded to node 9's RPDO 209h on vcan1
+ *     (6200h:1 alone), both mirrored by the daemon, in the same rounds,
+ *     against can-gw and against the B000h path;
  *   - routed SDO: a 1 MiB block upload through the gateway (network
  *     indication on vcan0, relayed to vcan1) against the same upload made
  *     directly on vcan1 (target >= 80 %), and the expedited round trip
@@ -54,28 +58,67 @@ static uint8_t pattern(uint32_t i)
 	return (uint8_t)(i * 131u + (i >> 11));
 }
 
-static int write_config(const char *path)
+/* A device file with one PDO (comm 1800h: TPDO, 1400h: RPDO, COB-ID cob)
+ * that maps obj:1 alone, an UNSIGNED32. */
+static int write_one_object_eds(const char *path, uint16_t comm, uint16_t obj, unsigned cob)
 {
-	char text[2048];
+	char t[2048];
+	snprintf(t, sizeof t,
+		 "[FileInfo]\nFileName=bench.eds\nEDSVersion=4.0\n"
+		 "[DeviceInfo]\nVendorName=cogw bench\nProductName=one object\n"
+		 "[MandatoryObjects]\nSupportedObjects=1\n1=0x1000\n"
+		 "[1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\n"
+		 "AccessType=ro\nDefaultValue=0\nPDOMapping=0\n"
+		 "[OptionalObjects]\nSupportedObjects=3\n1=0x%04X\n2=0x%04X\n3=0x%04X\n"
+		 "[%04X]\nParameterName=PDO 1 communication\nObjectType=0x9\nSubNumber=3\n"
+		 "[%04Xsub0]\nParameterName=n\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\n"
+		 "DefaultValue=2\nPDOMapping=0\n"
+		 "[%04Xsub1]\nParameterName=COB-ID\nObjectType=0x7\nDataType=0x0007\n"
+		 "AccessType=rw\nDefaultValue=0x%03X\nPDOMapping=0\n"
+		 "[%04Xsub2]\nParameterName=transmission type\nObjectType=0x7\n"
+		 "DataType=0x0005\nAccessType=rw\nDefaultValue=254\nPDOMapping=0\n"
+		 "[%04X]\nParameterName=PDO 1 mapping\nObjectType=0x9\nSubNumber=2\n"
+		 "[%04Xsub0]\nParameterName=n\nObjectType=0x7\nDataType=0x0005\nAccessType=rw\n"
+		 "DefaultValue=1\nPDOMapping=0\n"
+		 "[%04Xsub1]\nParameterName=entry 1\nObjectType=0x7\nDataType=0x0007\n"
+		 "AccessType=rw\nDefaultValue=0x%04X0120\nPDOMapping=0\n"
+		 "[%04X]\nParameterName=value\nObjectType=0x8\nSubNumber=2\n"
+		 "[%04Xsub0]\nParameterName=n\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\n"
+		 "DefaultValue=1\nPDOMapping=0\n"
+		 "[%04Xsub1]\nParameterName=value 1\nObjectType=0x7\nDataType=0x0007\n"
+		 "AccessType=rw\nDefaultValue=0\nPDOMapping=1\n",
+		 comm, comm + 0x200, obj, comm, comm, comm, cob, comm, comm + 0x200, comm + 0x200,
+		 comm + 0x200, obj, obj, obj, obj);
+	return bench_write_file(path, t);
+}
+
+static int write_config(const char *path, const char *src_eds, const char *dst_eds)
+{
+	char text[4096];
 	snprintf(text, sizeof text,
 		 "{\"state_dir\": \"%s/state\", \"mailbox\": {\"instance\": \"%s\"},\n"
 		 " \"gateway\": {\"process_image\": [{\"index\": \"0xB000\", \"type\": "
 		 "\"UNSIGNED32\","
-		 " \"access\": \"rw\", \"pdo\": true}]},\n"
+		 " \"access\": \"rw\", \"pdo\": true}],\n"
+		 "  \"forward\": [{\"from\": {\"line\": 0, \"node\": 6, \"index\": \"0x6000\", "
+		 "\"sub\": 1},\n"
+		 "    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 1}}]},\n"
 		 " \"lines\": [\n"
 		 "  {\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127, "
 		 "\"network_id\": 1,\n"
-		 "   \"heartbeat_ms\": 0, \"sdo_timeout_ms\": 5000, \"rpdos\": 1, \"values\": [\n"
+		 "   \"nodes\": [{\"id\": 6, \"eds\": \"%s\", \"pdo\": \"auto\"}],\n"
+		 "   \"heartbeat_ms\": 0, \"sdo_timeout_ms\": 5000, \"rpdos\": 2, \"values\": [\n"
 		 "    {\"index\": \"0x1400\", \"sub\": 1, \"value\": \"0x181\"},\n"
 		 "    {\"index\": \"0x1600\", \"sub\": 1, \"value\": \"0xB0000020\"},\n"
 		 "    {\"index\": \"0x1600\", \"sub\": 0, \"value\": 1}]},\n"
 		 "  {\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127, "
 		 "\"network_id\": 2,\n"
-		 "   \"heartbeat_ms\": 0, \"sdo_timeout_ms\": 5000, \"tpdos\": 1, \"values\": [\n"
+		 "   \"nodes\": [{\"id\": 9, \"eds\": \"%s\", \"pdo\": \"auto\"}],\n"
+		 "   \"heartbeat_ms\": 0, \"sdo_timeout_ms\": 5000, \"tpdos\": 2, \"values\": [\n"
 		 "    {\"index\": \"0x1800\", \"sub\": 1, \"value\": \"0x1FF\"},\n"
 		 "    {\"index\": \"0x1A00\", \"sub\": 1, \"value\": \"0xB0000020\"},\n"
 		 "    {\"index\": \"0x1A00\", \"sub\": 0, \"value\": 1}]}]}\n",
-		 tmpdir, instance);
+		 tmpdir, instance, src_eds, dst_eds);
 	return bench_write_file(path, text);
 }
 
@@ -445,6 +488,7 @@ enum {
 	WAY_CANGW,
 	WAY_RELAY,
 	WAY_COGW,
+	WAY_DEVOBJ,
 	WAYS
 };
 #define LAT_ROUNDS 10
@@ -464,8 +508,10 @@ static void way_measure(way *w, int tx, uint32_t tx_id, int rx, uint32_t rx_id, 
 	w->n += forward_latency(tx, tx_id, rx, rx_id, per_round, w->lat + w->n, &at);
 }
 
-static void latency_rounds(way *ways, size_t per_round, int tx0, int rx1, int tx2, int rx3)
+static void latency_rounds(way *ways, size_t per_round, const int fd[6])
 {
+	int tx0 = fd[0], rx1 = fd[1], tx2 = fd[2], rx3 = fd[3];
+
 	for (int r = 0; r < LAT_ROUNDS; r++) {
 		if (tx2 >= 0 && rx3 >= 0 &&
 		    system("cangw -A -s vcan2 -d vcan3 -e >/dev/null 2>&1") == 0) {
@@ -480,6 +526,8 @@ static void latency_rounds(way *ways, size_t per_round, int tx0, int rx1, int tx
 			waitpid(relay, NULL, 0);
 		}
 		way_measure(&ways[WAY_COGW], tx0, 0x181, rx1, 0x1FF, per_round);
+		if (fd[4] >= 0 && fd[5] >= 0)
+			way_measure(&ways[WAY_DEVOBJ], fd[4], 0x186, fd[5], 0x209, per_round);
 		for (int i = 0; i < WAYS; i++)
 			ways[i].round_end[r] = ways[i].n;
 	}
@@ -587,6 +635,37 @@ static void print_latency(way *ways, size_t asked)
 			note_stages(ways[i].name, &ways[i].st, ways[i].n);
 }
 
+/* Device object forwarding (gateway.forward) against can-gw and against
+ * the B000h path of the same rounds. */
+static void print_devobj_latency(const way *ways, size_t asked)
+{
+	const way *g = &ways[WAY_CANGW], *c = &ways[WAY_COGW], *o = &ways[WAY_DEVOBJ];
+	double gw_p50 = g->n ? bench_percentile(g->lat, g->n, 50) : -1;
+	double p50 = bench_percentile(o->lat, o->n, 50), b000 = bench_percentile(c->lat, c->n, 50);
+
+	if (!o->n) {
+		bench_note("device object forwarding: no forwarded frame arrived (of %zu)", asked);
+		return;
+	}
+	latency_figure("device object forwarding latency vcan0 to vcan1 (gateway.forward), p50",
+		       p50, 50, gw_p50, NULL);
+	bench_print_figure(&(bench_figure){
+		.name = "device object forwarding latency against the B000h path, p50",
+		.value = p50,
+		.unit = "us",
+		.base_name = "PDO forwarding latency vcan0 to vcan1 (B000h), p50",
+		.base_value = b000,
+		.base_unit = "us",
+		.ratio = b000 > 0 ? p50 / b000 : -1,
+		.target = "ratio <= 1.30",
+		.verdict = bench_verdict(b000 > 0 && p50 <= 1.30 * b000) });
+	bench_note("device object forwarding: %zu of %zu TPDOs of node 6 (186h, 6000h:1 "
+		   "UNSIGNED32) timed from the send on vcan0 to node 9's RPDO 209h on vcan1 "
+		   "(mirror RPDO -> forward image BF00h -> the mirror's TPDO, sent by line 0's "
+		   "thread when it may go at once, docs/gateway.md), in the same rounds",
+		   o->n, asked);
+}
+
 /* Context for the figures: what one precise clock read costs here. Every
  * line thread reads the clock once per wake-up (timers and inhibit times
  * need it), the can-gw baseline never does; under emulation with the hpet
@@ -625,7 +704,12 @@ int main(void)
 	double *lat_v = calloc(4 * WAYS * n_lat, sizeof *lat_v);
 	way ways[WAYS] = { { .name = "kernel can-gw" },
 			   { .name = "one-process user-space relay" },
-			   { .name = "cogw gateway" } };
+			   { .name = "cogw gateway" },
+			   { .name = "cogw device object forward" } };
+	char src_eds[256], dst_eds[256];
+	int tx6 = -1, rx9 = -1;
+	snprintf(src_eds, sizeof src_eds, "%s/source.eds", tmpdir);
+	snprintf(dst_eds, sizeof dst_eds, "%s/target.eds", tmpdir);
 	for (int i = 0; i < WAYS && lat_v; i++) {
 		double *base = lat_v + 4 * (size_t)i * n_lat;
 		ways[i].lat = base;
@@ -638,7 +722,9 @@ int main(void)
 	int tx0 = -1, rx1 = -1, tx2 = -1, rx3 = -1, status = 1;
 
 	printf("bench_vcan_gateway: cogwd on vcan0 + vcan1, cosim (node %d) on vcan1\n", NODE);
-	if (!lat_v || !buf || write_config(cfg) < 0 || write_device(dev) < 0)
+	if (!lat_v || !buf || write_one_object_eds(src_eds, 0x1800, 0x6000, 0x186) < 0 ||
+	    write_one_object_eds(dst_eds, 0x1400, 0x6200, 0x209) < 0 ||
+	    write_config(cfg, src_eds, dst_eds) < 0 || write_device(dev) < 0)
 		goto out;
 
 	const char *sim_argv[] = { bench_program("cosim", prog, sizeof prog),
@@ -655,6 +741,10 @@ int main(void)
 	rx1 = open_filtered("vcan1", 0x1FF);
 	tx2 = open_filtered("vcan2", 0x181);
 	rx3 = open_filtered("vcan3", 0x181);
+	tx6 = open_filtered("vcan0", 0x186);
+	rx9 = open_filtered("vcan1", 0x209);
+	stamp_socket(tx6, true);
+	stamp_socket(rx9, false);
 	stamp_socket(tx0, true);
 	stamp_socket(rx1, false);
 	stamp_socket(tx2, true);
@@ -676,12 +766,14 @@ int main(void)
 	 * compete with the gateway for its processors, in the VM cosim would
 	 * (it reads every frame of vcan1, the forwarded TPDO included). */
 	if (!sdo_only) {
-		latency_rounds(ways, n_lat / LAT_ROUNDS, tx0, rx1, tx2, rx3);
+		latency_rounds(ways, n_lat / LAT_ROUNDS,
+			       (const int[6]){ tx0, rx1, tx2, rx3, tx6, rx9 });
 		if (ways[WAY_COGW].n == 0) {
 			printf("bench_vcan_gateway: no forwarded PDO arrived\n");
 			goto out;
 		}
 		print_latency(ways, n_lat);
+		print_devobj_latency(ways, n_lat);
 		note_clock_cost();
 	}
 	if (only && strcmp(only, "pdo") == 0) {
@@ -770,6 +862,10 @@ out:
 		close(tx2);
 	if (rx3 >= 0)
 		close(rx3);
+	if (tx6 >= 0)
+		close(tx6);
+	if (rx9 >= 0)
+		close(rx9);
 	bench_daemon_stop(&d);
 	if (sim > 0)
 		proc_stop(sim, SIGTERM, 5000);

@@ -149,12 +149,7 @@ static int cogwctl(const char *args, char *out, size_t cap)
 {
 	char cmd[256];
 	snprintf(cmd, sizeof cmd, "build/san/bin/cogwctl --instance " INSTANCE " %s", args);
-	FILE *p = popen(cmd, "r");
-	TEST_ASSERT_NOT_NULL(p);
-	size_t n = fread(out, 1, cap - 1, p);
-	out[n] = '\0';
-	int st = pclose(p);
-	return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+	return run_capture(cmd, out, cap);
 }
 
 static void test_stray_frame_on_own_node_id_both_lines_recover(void)

@@ -98,13 +98,6 @@ static const char *config_text(char *buf, size_t cap, const cfg_params *p)
 
 /* ---- small helpers ------------------------------------------------------------ */
 
-static void drain_notify(notify_sock *ns)
-{
-	char buf[4096];
-	while (recv(ns->fd, buf, sizeof buf, MSG_DONTWAIT) > 0)
-		;
-}
-
 static void drain_can(int fd)
 {
 	struct can_frame f;
@@ -302,7 +295,7 @@ static void test_notify_ready_status_watchdog_stall_stopping(void)
 	TEST_ASSERT_TRUE_MESSAGE(
 		file_wait_contains(d.log_path, "withholding the watchdog ping", 5000),
 		"the stall was not detected");
-	drain_notify(&d.ns);
+	notify_drain(&d.ns);
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, notify_count(&d.ns, "WATCHDOG=1", 2000),
 				      "WATCHDOG=1 sent while line0 was stalled");
 	/* after the stall the pings resume by themselves */
@@ -374,7 +367,7 @@ static void test_watchdog_check_period_fits_the_watchdog(void)
 				   .n_lines = 2,
 				   .top = "\"watchdog_check_ms\": 1000," });
 	start_daemon(&d, json, "sys1w", 2, 2000000, NULL);
-	drain_notify(&d.ns);
+	notify_drain(&d.ns);
 	TEST_ASSERT_GREATER_OR_EQUAL_INT(6, notify_count(&d.ns, "WATCHDOG=1", 5000));
 	TEST_ASSERT_FALSE(file_contains(d.log_path, "withholding the watchdog ping"));
 }
@@ -1281,13 +1274,8 @@ static void stop_child(void)
 
 static void reload_with(const char *json)
 {
-	TEST_ASSERT_EQUAL_INT(0, write_text_file(d.config_path, json));
-	drain_notify(&d.ns);
-	TEST_ASSERT_EQUAL_INT(0, kill(d.pid, SIGHUP));
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, notify_wait(&d.ns, "RELOADING=1", 5000, NULL, 0),
-				      "no RELOADING=1");
-	TEST_ASSERT_EQUAL_INT_MESSAGE(0, notify_wait(&d.ns, "READY=1", 5000, NULL, 0),
-				      "no READY=1 after RELOADING=1");
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, daemon_reload(&d, json, 5000),
+				      "no RELOADING=1 and READY=1 after SIGHUP");
 }
 
 #define RELOAD_OBJ \

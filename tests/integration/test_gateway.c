@@ -1777,8 +1777,10 @@ static void test_routes_written_and_saved_survive_a_restart(void)
 /* ---- PDO forwarding by device object (gateway.forward) ------------------------------ */
 
 /* A device's EDS with one PDO (comm, dir: 0x1800 TPDO / 0x1400 RPDO) that
- * maps obj:1 and obj:2, both UNSIGNED8. */
-static void write_two_byte_eds(const char *path, uint16_t comm, uint16_t obj, unsigned cob_base)
+ * maps obj:1 and obj:2 (mapped: 2), or obj:1 alone (mapped: 1), both
+ * UNSIGNED8. */
+static void write_byte_pdo_eds(const char *path, uint16_t comm, uint16_t obj, unsigned cob_base,
+			       unsigned mapped)
 {
 	char t[4096];
 	const char *acc = comm == 0x1800 ? "ro" : "rw";
@@ -1800,7 +1802,7 @@ static void write_two_byte_eds(const char *path, uint16_t comm, uint16_t obj, un
 		 "DataType=0x0005\nAccessType=rw\nDefaultValue=254\nPDOMapping=0\n"
 		 "[%04X]\nParameterName=PDO 1 mapping\nObjectType=0x9\nSubNumber=3\n"
 		 "[%04Xsub0]\nParameterName=n\nObjectType=0x7\nDataType=0x0005\nAccessType=rw\n"
-		 "DefaultValue=2\nPDOMapping=0\n"
+		 "DefaultValue=%u\nPDOMapping=0\n"
 		 "[%04Xsub1]\nParameterName=entry 1\nObjectType=0x7\nDataType=0x0007\n"
 		 "AccessType=rw\nDefaultValue=0x%04X0108\nPDOMapping=0\n"
 		 "[%04Xsub2]\nParameterName=entry 2\nObjectType=0x7\nDataType=0x0007\n"
@@ -1813,30 +1815,26 @@ static void write_two_byte_eds(const char *path, uint16_t comm, uint16_t obj, un
 		 "[%04Xsub2]\nParameterName=byte 2\nObjectType=0x7\nDataType=0x0005\n"
 		 "AccessType=%s\nDefaultValue=0\nPDOMapping=1\n",
 		 comm, comm + 0x200, obj, comm, comm, comm, cob_base, comm, comm + 0x200,
-		 comm + 0x200, comm + 0x200, obj, comm + 0x200, obj, obj, obj, obj, acc, obj, acc);
+		 comm + 0x200, mapped, comm + 0x200, obj, comm + 0x200, obj, obj, obj, obj, acc,
+		 obj, acc);
 	TEST_ASSERT_EQUAL_INT(0, write_text_file(path, t));
 }
 
-static void test_forwarding_by_device_object(void)
+/* A daemon on vcan0 + vcan1 whose device object layer mirrors node 5 on
+ * vcan0 (TPDO 1, 185h: 6000h:1, 6000h:2) and node 9 on vcan1 (RPDO 1,
+ * 209h: 6200h:1, and 6200h:2 when target_mapped is 2), with `forwards`
+ * (gateway.forward's list); the device files in dir. */
+static void forward_daemon_start(const char *dir, unsigned target_mapped, const char *forwards)
 {
-	char dir[] = "/tmp/cogw-fwd-XXXXXX", src[64], dst[64], cfg[4096], out[8192];
-	uint8_t d[8];
+	char src[64], dst[64], cfg[4096];
 
-	TEST_ASSERT_NOT_NULL(mkdtemp(dir));
 	snprintf(src, sizeof src, "%s/source.eds", dir);
 	snprintf(dst, sizeof dst, "%s/target.eds", dir);
-	/* node 5 on vcan0: TPDO 1 (185h) = 6000h:1, 6000h:2; node 9 on vcan1:
-	 * RPDO 1 (209h) = 6200h:1, 6200h:2 */
-	write_two_byte_eds(src, 0x1800, 0x6000, 0x180);
-	write_two_byte_eds(dst, 0x1400, 0x6200, 0x200);
+	write_byte_pdo_eds(src, 0x1800, 0x6000, 0x180, 2);
+	write_byte_pdo_eds(dst, 0x1400, 0x6200, 0x200, target_mapped);
 	snprintf(cfg, sizeof cfg,
 		 "{\"mailbox\": {\"instance\": \"" INSTANCE "\"},\n"
-		 " \"gateway\": {\"forward\": [\n"
-		 "   {\"from\": {\"line\": 0, \"node\": 5, \"index\": \"0x6000\", \"sub\": 1},\n"
-		 "    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 1}},\n"
-		 "   {\"from\": {\"line\": 0, \"node\": 5, \"index\": \"0x6000\", \"sub\": 2},\n"
-		 "    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 2},\n"
-		 "    \"image\": \"0xB123\"}]},\n"
+		 " \"gateway\": {\"forward\": [%s]},\n"
 		 " \"lines\": [\n"
 		 "  {\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127,\n"
 		 "   \"network_id\": 1, \"heartbeat_ms\": 0, \"rpdos\": 2,\n"
@@ -1844,7 +1842,7 @@ static void test_forwarding_by_device_object(void)
 		 "  {\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127,\n"
 		 "   \"network_id\": 2, \"heartbeat_ms\": 0, \"tpdos\": 2,\n"
 		 "   \"nodes\": [{\"id\": 9, \"eds\": \"%s\", \"pdo\": \"auto\"}]}]}\n",
-		 src, dst);
+		 forwards, src, dst);
 	TEST_ASSERT_EQUAL_INT(0, daemon_start(&dmn, &(daemon_opts){ .config_json = cfg,
 								    .instance = INSTANCE,
 								    .n_lines = 2,
@@ -1852,6 +1850,33 @@ static void test_forwarding_by_device_object(void)
 								    .drop_notify = true }));
 	nmt_start_all_daemon_nodes();
 	drain(fd1);
+}
+
+static void forward_files_remove(const char *dir)
+{
+	char p[64];
+
+	snprintf(p, sizeof p, "%s/source.eds", dir);
+	unlink(p);
+	snprintf(p, sizeof p, "%s/target.eds", dir);
+	unlink(p);
+	rmdir(dir);
+}
+
+static void test_forwarding_by_device_object(void)
+{
+	char dir[] = "/tmp/cogw-fwd-XXXXXX", out[8192];
+	uint8_t d[8];
+
+	TEST_ASSERT_NOT_NULL(mkdtemp(dir));
+	/* node 5's 6000h:1 and 6000h:2 -> node 9's 6200h:1 and 6200h:2 */
+	forward_daemon_start(
+		dir, 2,
+		"\n   {\"from\": {\"line\": 0, \"node\": 5, \"index\": \"0x6000\", \"sub\": 1},\n"
+		"    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 1}},\n"
+		"   {\"from\": {\"line\": 0, \"node\": 5, \"index\": \"0x6000\", \"sub\": 2},\n"
+		"    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 2},\n"
+		"    \"image\": \"0xB123\"}");
 
 	/* node 5's TPDO on vcan0 -> node 9's RPDO on vcan1, both objects at once */
 	uint8_t v1[2] = { 0x12, 0x34 }, v2[2] = { 0x56, 0x34 };
@@ -1893,9 +1918,59 @@ static void test_forwarding_by_device_object(void)
 	TEST_ASSERT_EQUAL_STRING("B123", cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(
 						 cJSON_GetArrayItem(f0, 1), "image")));
 	cJSON_Delete(root);
-	unlink(src);
-	unlink(dst);
-	rmdir(dir);
+	forward_files_remove(dir);
+}
+
+/* A device RPDO that carries the forwarded object alone leaves by the
+ * fast path (docs/gateway.md "One wake-up per hop"): line 0's thread sends
+ * node 9's RPDO in the wake-up in which node 5's TPDO came, and line 1 does
+ * not send it again; a device RPDO of two objects keeps the hand-off (the
+ * test above). */
+static void test_device_object_forwarded_in_one_wake_up(void)
+{
+	char dir[] = "/tmp/cogw-fwd1-XXXXXX", out[8192];
+	uint8_t d[8];
+
+	TEST_ASSERT_NOT_NULL(mkdtemp(dir));
+	/* node 5's 6000h:2 -> node 9's 6200h:1, alone in its RPDO */
+	forward_daemon_start(
+		dir, 1,
+		"\n   {\"from\": {\"line\": 0, \"node\": 5, \"index\": \"0x6000\", \"sub\": 2},\n"
+		"    \"to\": {\"line\": 1, \"node\": 9, \"index\": \"0x6200\", \"sub\": 1}}");
+	mbx_open(INSTANCE);
+	drain(fd1);
+
+	/* each value once, in the frame's one byte; tried a few times: the
+	 * target may be busy for an instant (its mirror being programmed) */
+	mbx_gw_status s0 = gw_status(0), e0;
+	unsigned values = 0;
+	for (uint8_t i = 1; i <= 8 && gw_status(0).pdo_fast == s0.pdo_fast; i++) {
+		uint8_t v[2] = { 0xA0, (uint8_t)(0x40 + i) };
+		TEST_ASSERT_EQUAL_INT(0, can_send_std(fd0, 0x185, v, 2));
+		TEST_ASSERT_EQUAL_INT_MESSAGE(1, can_wait_id(fd1, 0x209, d, 3000),
+					      "node 9's RPDO did not come on vcan1");
+		TEST_ASSERT_EQUAL_HEX8(0x40 + i, d[0]);
+		TEST_ASSERT_TRUE_MESSAGE(can_wait_id(fd1, 0x209, d, 300) < 0,
+					 "the forwarded value was sent twice");
+		values++;
+	}
+	e0 = gw_status(0);
+	TEST_ASSERT_TRUE_MESSAGE(e0.pdo_fast > s0.pdo_fast,
+				 "line 0 never sent node 9's RPDO in its own wake-up");
+
+	/* line 1 counts the frames as its device RPDO's, sent once per value */
+	TEST_ASSERT_EQUAL_INT_MESSAGE(0, ctl_capture("route --json", out, sizeof out), out);
+	cJSON *root = cJSON_Parse(out);
+	TEST_ASSERT_NOT_NULL_MESSAGE(root, out);
+	const cJSON *l1 = cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(root, "lines"), 1);
+	const cJSON *b = cJSON_GetArrayItem(
+		cJSON_GetObjectItemCaseSensitive(l1, "forwarded_objects"), 0);
+	TEST_ASSERT_NOT_NULL_MESSAGE(b, out);
+	TEST_ASSERT_EQUAL_INT((int)values, cJSON_GetObjectItemCaseSensitive(b, "values")->valueint);
+	TEST_ASSERT_EQUAL_INT((int)values, cJSON_GetObjectItemCaseSensitive(b, "sent")->valueint);
+	TEST_ASSERT_EQUAL_INT(0, cJSON_GetObjectItemCaseSensitive(b, "refused")->valueint);
+	cJSON_Delete(root);
+	forward_files_remove(dir);
 }
 
 int main(void)
@@ -1910,6 +1985,7 @@ int main(void)
 	RUN_TEST(test_emcy_routing_follows_1f2f);
 	RUN_TEST(test_pdo_forwarding);
 	RUN_TEST(test_forwarding_by_device_object);
+	RUN_TEST(test_device_object_forwarded_in_one_wake_up);
 	RUN_TEST(test_reset_on_line_0_leaves_line_1_untouched);
 	RUN_TEST(test_mailbox_client_reaches_any_network);
 	RUN_TEST(test_multi_hop_through_two_daemons);

@@ -38,12 +38,21 @@ vcan0. It catches bugs that cosim, which runs our own core, would mirror.
     remapped and rebooted is learnt again (checked on the daemon's log line
     per learnt PDO and its boot events); the layout read at start-up from
     an EDS that python-canopen wrote (export_od) equals the device's;
+  - a python-canopen device nobody listed, added to the manager of cogwd's
+    second line at run time (cogwctl node add): its concise DCF downloaded,
+    started, its PDO layout learnt equal to its records, its heartbeat loss
+    reported; removed (cogwctl node remove): no SDO request, no event;
   - the CiA 302-2 manager of cogwd's second line (vcan1) with python-canopen
     slaves: no SDO frame on the bus while the network is stopped (after
     the "stop all" error reaction and after a Request NMT stop), both ways
     out of STOPPED (cogwctl manager start, cogwctl boot); a program update
     (cogwctl program) to a slave that refuses block transfer, delivered
     and reported by segmented transfer;
+  - objects a client owns on cogwd's node (cogw-app-example): python-canopen
+    reads and writes its served and held objects (expedited, segmented,
+    block), receives the TPDO that maps the held counter with the
+    application's values, gets the application's abort code for a refused
+    write and 08000021h once the application is gone;
   - device objects on cogwd's third line (vcan2) with python-canopen
     LocalNode devices whose EDS (written by the test) gives their PDOs: the
     layouts from the files and the daemon's PDOs mirroring them (cogwctl pdo
@@ -237,7 +246,7 @@ CONFIG = {
         "sdo_timeout_ms": int(SDO_TIMEOUT_S * 1000),
         "time_period_ms": TIME_PERIOD_MS,
         "id_conflict_quiet_ms": ID_CONFLICT_QUIET_MS,
-        "rpdos": 1,
+        "rpdos": 1, "tpdos": 1,  # TPDO 1: mapped by cogw-app-example (test_app_*)
         "objects": [
             {"index": "0x2000", "name": "big domain", "type": "DOMAIN", "access": "rw",
              "max_size": 4096},
@@ -1319,6 +1328,75 @@ def test_pdo_layout_from_an_eds_equals_the_device():
     eq("(dummy)", types[(0x0005, 0)], "RPDO dummy entry")
 
 
+RUNTIME_ID = 15    # python-canopen device added to line 1 at run time
+
+
+def concise_dcf(entries):
+    """CiA 302-3 concise DCF: the count, then index, sub, size, data (LE)."""
+    out = struct.pack("<L", len(entries))
+    for index, sub, data in entries:
+        out += struct.pack("<HBL", index, sub, len(data)) + data
+    return out
+
+
+def test_node_added_at_run_time_booted_configured_supervised_removed():
+    """A python-canopen device nobody listed, added to line 1's manager with
+    cogwctl node add: its concise DCF downloaded by cogwd's SDO client into
+    python-canopen's server, started, its PDO layout learnt equal to its own
+    records, its heartbeat supervised; removed: no SDO, no events."""
+    cdc = os.path.join(WORK, "runtime.cdc")
+    with open(cdc, "wb") as f:
+        f.write(concise_dcf([(0x2000, 0, struct.pack("<L", 0x11223344))]))
+    mon = Monitor("boot,manager", line=MGR_LINE)
+    slave = StrictSlave(RUNTIME_ID, scan_device_od(RUNTIME_ID))
+    try:
+        step("the network boot's first pass is over (its objects are locked till then)")
+        deadline = time.monotonic() + 30
+        while manager_state() in ("resetting", "booting") and time.monotonic() < deadline:
+            time.sleep(0.3)
+        step("cogwctl node add: the device boots")
+        ctl("node", "add", str(MGR_LINE), str(RUNTIME_ID), "--heartbeat-ms",
+            str(SLAVE_HB_TIMEOUT_MS), "--device-type", hex(SLAVE_DEVICE_TYPE), "--pdo",
+            "learn", "--dcf", cdc)
+        mon.wait("a 'booted' event of the added node",
+                 lambda: any(e.get("node") == RUNTIME_ID and e.get("done") and
+                             not e.get("status") for e in mon.of("manager-boot")), 30.0)
+        eq(0x11223344, u32(slave.node, 0x2000, 0), "2000h written by the concise DCF")
+        # started with the network (CiA 302-2): while a mandatory slave is
+        # missing the line waits and its booted slaves stay pre-operational
+        wait_state_local(slave, "OPERATIONAL" if manager_state() == "operational"
+                         else "PRE-OPERATIONAL")
+        eq(without_inhibit(device_layout(slave.node)), mapped_layout(RUNTIME_ID),
+           "the layout learnt at run time against the device's records")
+
+        step("its heartbeat stops: the loss is reported")
+        slave.node.nmt.stop_heartbeat()
+        mon.wait("a 'lost' event of the added node",
+                 lambda: any(e.get("node") == RUNTIME_ID and e.get("what") == "lost"
+                             for e in mon.of("manager-node")), 15.0)
+        slave.node.nmt.start_heartbeat(SLAVE_HB_MS)
+
+        step("cogwctl node remove: no SDO, no events for it")
+        ctl("node", "remove", str(MGR_LINE), str(RUNTIME_ID))
+        seen = len(mon.events)
+        mark = len(RECORDER1.frames)
+        slave.node.nmt.stop_heartbeat()
+        time.sleep(SLAVE_HB_TIMEOUT_MS / 1000.0 + 1.0)
+        eq(0, sdo_requests_to(RUNTIME_ID, mark), "SDO requests to the removed node")
+        eq([], [e for e in mon.events[seen:] if e.get("node") == RUNTIME_ID],
+           "events about the removed node")
+    finally:
+        mon.stop()
+        slave.remove()
+
+
+def wait_state_local(slave, state, timeout=10.0):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and slave.state() != state:
+        time.sleep(0.1)
+    eq(state, slave.state(), "NMT state of the python-canopen device")
+
+
 def test_program_by_segmented_transfer_when_block_is_refused():
     """python-canopen's SDO server refuses a block download (05040001h):
     the software manager's image goes by segmented transfer and cogwctl
@@ -1825,6 +1903,92 @@ def test_mirror_supervises_a_device_tpdo_with_an_event_timer():
         d20.remove_network()
 
 
+# ---------------------------------------------------------------------------
+# objects a client owns on cogwd's node (docs/application.md): the example
+# application cogw-app-example owns 2400h (served set-point, refused above
+# its limit), 2401h (served status text) and 2402h (held counter mapped into
+# cogwd's TPDO 1); python-canopen is the SDO client on the bus
+
+APP_BASE = 0x2400
+APP_TPDO_COB = 0x1E0
+APP_LIMIT = 1000
+
+
+def start_app_example():
+    log = open(os.path.join(WORK, "app.log"), "w")
+    p = subprocess.Popen([os.path.join(BIN, "cogw-app-example"), "--instance", INSTANCE,
+                          "--line", "0", "--base", hex(APP_BASE), "--limit", str(APP_LIMIT),
+                          "--period-ms", "100", "--tpdo", "1", "--cob", hex(APP_TPDO_COB)],
+                         stdout=log, stderr=subprocess.STDOUT, cwd=TOP)
+    PROCS["app"] = p
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline and "objects" not in read_log("app"):
+        check(p.poll() is None, "cogw-app-example exited: " + read_log("app"))
+        time.sleep(0.1)
+    check("objects" in read_log("app"), "cogw-app-example did not start: " + read_log("app"))
+    return p
+
+
+def test_app_objects_served_and_held_with_python_canopen():
+    ours = remote(OUR_ID)
+    app = start_app_example()
+    try:
+        nmt(OUR_ID, "start")  # PDOs run in OPERATIONAL
+        step("served set-point: written and read back in every mode")
+        for i, mode in enumerate(("expedited", "segmented", "block")):
+            v = struct.pack("<L", 100 + i)
+            sdo_write(ours, APP_BASE, 0, v, mode)
+            eq(v, bytes(sdo_read(ours, APP_BASE, 0, mode)), f"set-point read back ({mode})")
+        step("a write the application refuses: its abort code, nothing applied")
+        for mode in ("expedited", "segmented", "block"):
+            try:
+                sdo_write(ours, APP_BASE, 0, struct.pack("<L", APP_LIMIT + 1), mode)
+                raise AssertionError(f"a set-point above the limit was accepted ({mode})")
+            except SdoAbortedError as e:
+                eq(0x06090031, e.code, f"abort of the refused write ({mode})")
+        eq(struct.pack("<L", 102), bytes(ours.sdo.upload(APP_BASE, 0)), "set-point unchanged")
+        step("served status text, segmented and block")
+        text = bytes(ours.sdo.upload(APP_BASE + 1, 0))
+        check(text.startswith(b"running: "), f"status text {text!r}")
+        text = bytes(sdo_read(ours, APP_BASE + 1, 0, "block"))
+        check(text.startswith(b"running: "), f"status text by block {text!r}")
+        step("held counter: SDO reads never wait, the TPDO carries the owner's value")
+        mark = len(RECORDER.frames)
+        frames = wait_frames(mark, APP_TPDO_COB, 3)
+        check(len(frames) >= 3, f"TPDOs of the counter: {frames!r}")
+        a = struct.unpack("<H", frames[-2])[0]
+        b = struct.unpack("<H", frames[-1])[0]
+        eq((a + 1) & 0xFFFF, b, "consecutive counter values in the TPDO")
+        for mode in ("expedited", "segmented", "block"):
+            c = struct.unpack("<H", bytes(sdo_read(ours, APP_BASE + 2, 0, mode)))[0]
+            check(c >= b, f"counter read by SDO ({mode}) {c} behind the TPDO's {b}")
+        step("held counter written from the bus: the application counts on from there")
+        sdo_write(ours, APP_BASE + 2, 0, struct.pack("<H", 30000), "expedited")
+        mark = len(RECORDER.frames)
+        deadline = time.monotonic() + 5
+        seen = []
+        while time.monotonic() < deadline:
+            seen = [struct.unpack("<H", f)[0] for f in frames_since(mark, APP_TPDO_COB)]
+            if any(30000 < v < 30100 for v in seen):
+                break
+            time.sleep(0.05)
+        check(any(30000 < v < 30100 for v in seen), f"TPDO after the write: {seen}")
+        step("the application gone: its served objects answer 08000021h")
+        stop_process(app)
+        try:
+            ours.sdo.upload(APP_BASE, 0)
+            raise AssertionError("a served object answered without its owner")
+        except SdoAbortedError as e:
+            eq(0x08000021, e.code, "abort without an owner")
+        r = ctl("app", "0", "--json")
+        listed = json.loads(r.stdout)["lines"][0]
+        check(listed["answered"] >= 12, f"cogwctl app counters: {listed}")
+        eq(1, listed["no_owner"], "accesses answered 08000021h")
+    finally:
+        stop_process(app)
+        nmt(OUR_ID, "preop")
+
+
 def main():
     logging.basicConfig(level=logging.CRITICAL)  # the tests report, not the library
     # a hang shows where it is: every thread's stack, every 5 minutes
@@ -1851,11 +2015,13 @@ def main():
                   test_lss_fastscan_and_node_id_assignment,
                   test_pdo_layout_learnt_by_sdo_scan_equals_the_device,
                   test_pdo_layout_from_an_eds_equals_the_device,
+                  test_node_added_at_run_time_booted_configured_supervised_removed,
                   # before the manager test: its end leaves line 1 stopped
                   test_program_by_segmented_transfer_when_block_is_refused,
                   test_manager_no_sdo_while_network_stopped_and_both_ways_out,
                   test_device_objects_mirror_values_and_writes,
-                  test_mirror_supervises_a_device_tpdo_with_an_event_timer):
+                  test_mirror_supervises_a_device_tpdo_with_an_event_timer,
+                  test_app_objects_served_and_held_with_python_canopen):
             only = os.environ.get("COGW_TEST_ONLY")  # comma-separated substrings
             if only and not any(o in t.__name__ for o in only.split(",")):
                 continue

@@ -154,6 +154,18 @@ static void test_dispatch_11bit_chain_counters(void)
 	TEST_ASSERT_EQUAL_STRING("rx-unhandled", co_event_kind_to_string(CO_EV_RX_UNHANDLED));
 }
 
+/* Every event kind has its own name (logs and the mailbox's event texts). */
+static void test_every_event_kind_named(void)
+{
+	for (int k = 0; k < CO_EV_KIND_COUNT; k++)
+		for (int j = 0; j < k; j++)
+			TEST_ASSERT_NOT_EQUAL(0, strcmp(co_event_kind_to_string((co_event_kind)j),
+							co_event_kind_to_string((co_event_kind)k)));
+	for (int k = 0; k < CO_EV_KIND_COUNT; k++)
+		TEST_ASSERT_NOT_EQUAL(0, strcmp("?", co_event_kind_to_string((co_event_kind)k)));
+	TEST_ASSERT_EQUAL_STRING("?", co_event_kind_to_string(CO_EV_KIND_COUNT));
+}
+
 static void test_dispatch_29bit_and_invalid_frames(void)
 {
 	struct rx_log a = { 0 }, b = { 0 }, c = { 0 };
@@ -264,6 +276,7 @@ int main(void)
 	UNITY_BEGIN();
 	RUN_TEST(test_create_rejects_bad_config);
 	RUN_TEST(test_dispatch_11bit_chain_counters);
+	RUN_TEST(test_every_event_kind_named);
 	RUN_TEST(test_dispatch_29bit_and_invalid_frames);
 	RUN_TEST(test_receiver_pool_limit);
 	RUN_TEST(test_send_failure_counted_and_reported);

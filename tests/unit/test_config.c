@@ -18,6 +18,7 @@
 #include "apps/common/json_od.h"
 #include "core/od.h"
 #include "core/sdo.h"
+#include "mailbox/proto.h"
 
 static cogw_config cfg;
 static char err[512];
@@ -492,6 +493,60 @@ static void test_bad_object_definitions(void)
 		     "exact range of JSON numbers; write it as a string (\"0x...\")");
 }
 
+/* "app": objects clients own (docs/application.md), checked against the
+ * line's objects. */
+#define APP_OBJS                                                                                  \
+	", \"objects\": [{\"index\": \"0x2100\", \"type\": \"UNSIGNED32\"},"                      \
+	" {\"index\": \"0x2101\", \"type\": \"UNSIGNED16\", \"access\": \"rwr\", \"pdo\": true}," \
+	" {\"index\": \"0xA000\", \"type\": \"UNSIGNED8\"}]"
+
+static void test_app_objects(void)
+{
+	load_ok(CFG1(APP_OBJS ", \"app\": {\"indications\": 4, \"objects\": ["
+			      "{\"index\": \"0x2100\", \"kind\": \"served\", \"uid\": 1001},"
+			      "{\"index\": \"0x2101\", \"kind\": \"held\", \"user\": \"root\"}]}"));
+	const cogw_app_config *a = &cfg.lines[0].app;
+	TEST_ASSERT_EQUAL(2, a->n_decl);
+	TEST_ASSERT_EQUAL_HEX16(0x2100, a->decl[0].index);
+	TEST_ASSERT_EQUAL(MBX_APP_SERVED, a->decl[0].kind);
+	TEST_ASSERT_EQUAL(1001, a->decl[0].uid);
+	TEST_ASSERT_EQUAL(MBX_APP_HELD, a->decl[1].kind);
+	TEST_ASSERT_EQUAL(0, a->decl[1].uid);
+	TEST_ASSERT_EQUAL(100, a->max_created);
+	TEST_ASSERT_EQUAL(64, a->max_per_client);
+	TEST_ASSERT_EQUAL(4, a->indications);
+	cogw_config_free(&cfg);
+	memset(&cfg, 0, sizeof cfg);
+	expect_error(CFG1(APP_OBJS ", \"app\": {\"objects\": [{\"index\": \"0x2102\", "
+				   "\"kind\": \"held\", \"uid\": 1}]}"),
+		     "t.json: lines[0].app.objects[0]: 2102h:0 is not in the line's \"objects\"");
+	expect_error(CFG1(APP_OBJS ", \"app\": {\"objects\": [{\"index\": \"0xA000\", "
+				   "\"kind\": \"held\", \"uid\": 1}]}"),
+		     "t.json: lines[0].app.objects[0].index: A000h: objects clients own are in "
+		     "2000h..9FFFh");
+	expect_error(CFG1(APP_OBJS ", \"app\": {\"objects\": [{\"index\": \"0x1017\", "
+				   "\"kind\": \"held\", \"uid\": 1}]}"),
+		     "t.json: lines[0].app.objects[0].index: 1017h: objects clients own are in "
+		     "2000h..9FFFh");
+	expect_error(CFG1(APP_OBJS ", \"app\": {\"objects\": [{\"index\": \"0x2101\", "
+				   "\"kind\": \"served\", \"uid\": 1}]}"),
+		     "t.json: lines[0].app.objects[0]: 2101h:0: a served object cannot be "
+		     "PDO-mappable");
+	expect_error(
+		CFG1(APP_OBJS ", \"app\": {\"objects\": [{\"index\": \"0x2100\", "
+			      "\"kind\": \"mine\", \"uid\": 1}]}"),
+		"t.json: lines[0].app.objects[0].kind: unknown kind \"mine\" (held or served)");
+	expect_error(CFG1(APP_OBJS ", \"app\": {\"objects\": [{\"index\": \"0x2100\", "
+				   "\"kind\": \"held\"}]}"),
+		     "t.json: lines[0].app.objects[0]: give either \"user\" or \"uid\"");
+	expect_error(CFG1(APP_OBJS ", \"app\": {\"objects\": ["
+				   "{\"index\": \"0x2100\", \"kind\": \"held\", \"uid\": 1},"
+				   "{\"index\": \"0x2100\", \"kind\": \"held\", \"uid\": 2}]}"),
+		     "t.json: lines[0].app.objects[1]: 2100h:0 declared twice");
+	expect_error(CFG1(APP_OBJS ", \"app\": {\"indications\": 33}"),
+		     "t.json: lines[0].app.indications: 33 is out of range 1..32");
+}
+
 static void test_bad_values(void)
 {
 	expect_error(CFG1(", \"values\": [{\"index\": \"0x2FFF\", \"value\": 1}]"),
@@ -788,8 +843,9 @@ static void test_reload_check(void)
 			   " \"network_id\": 3}]}",
 			   "next", err, sizeof(err)));
 	TEST_ASSERT_FALSE(cogw_config_reload_check(&cfg, &next, what, sizeof(what)));
-	TEST_ASSERT_EQUAL_STRING("mailbox.depth, lines[0].bitrate, lines[1].objects/values, "
-				 "lines[2].objects/values",
+	TEST_ASSERT_EQUAL_STRING("mailbox.depth: needs a restart; lines[0].bitrate: needs a "
+				 "restart; lines[1].objects/values: needs a restart; "
+				 "lines[2].objects/values: needs a restart",
 				 what);
 	cogw_config_free(&next);
 
@@ -797,7 +853,7 @@ static void test_reload_check(void)
 			      cogw_config_load_string(&next, CFG1(""), "next", err, sizeof(err)));
 	TEST_ASSERT_FALSE(cogw_config_reload_check(&cfg, &next, NULL, 0));
 	TEST_ASSERT_FALSE(cogw_config_reload_check(&cfg, &next, what, sizeof(what)));
-	TEST_ASSERT_EQUAL_STRING("lines (count)", what);
+	TEST_ASSERT_EQUAL_STRING("lines (count): needs a restart", what);
 	cogw_config_free(&next);
 }
 
@@ -1106,6 +1162,7 @@ int main(void)
 	RUN_TEST(test_too_many_lines_and_rules);
 	RUN_TEST(test_access_rules);
 	RUN_TEST(test_bad_object_definitions);
+	RUN_TEST(test_app_objects);
 	RUN_TEST(test_bad_values);
 	RUN_TEST(test_od_typed_values);
 	RUN_TEST(test_limits_enforced_after_load);

@@ -160,6 +160,9 @@ static int fill_key_defaults(struct key_default *k)
 	KD("`lines[]`", "tpdos", "%u", count_records(l->od, 0x1800));
 	KD("`lines[]`", "pdo", "%s", l->pdo == 0 ? "off" : "not off");
 	KD("`lines[]`", "pdo_scan_max", "%u", l->pdo_scan_max);
+	KD("Objects clients own (`app`)", "max_created", "%u", l->app.max_created);
+	KD("Objects clients own (`app`)", "max_per_client", "%u", l->app.max_per_client);
+	KD("Objects clients own (`app`)", "indications", "%u", l->app.indications);
 	TEST_ASSERT_EQUAL_size_t(1, l->n_nodes);
 	KD("Node configuration", "store", "%s", l->nodes[0].config.store ? "true" : "false");
 	{

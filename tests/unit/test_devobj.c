@@ -245,7 +245,7 @@ static void start(uint16_t n_rx, uint16_t n_tx)
 	TEST_ASSERT_NOT_NULL(dp);
 	TEST_ASSERT_NOT_NULL(sp);
 	TEST_ASSERT_EQUAL(0, co_pdo_layout_create(&layout, nodes, 8));
-	TEST_ASSERT_EQUAL(0, devobj_mirror_create(&mirror, dp->node, layout, nodes));
+	TEST_ASSERT_EQUAL(0, devobj_mirror_create(&mirror, dp->node, layout, nodes, NULL));
 	tb_advance(&bus, 0);
 	co_nmt_local_cmd(dp->node, CO_NMT_CS_START, 0);
 	co_nmt_local_cmd(sp->node, CO_NMT_CS_START, 0);
@@ -430,7 +430,7 @@ void test_mirror_refuses_a_configured_slot_index(void)
 	tb_init(&bus);
 	dp = tb_add_node(&bus, &dc, od);
 	TEST_ASSERT_EQUAL(0, co_pdo_layout_create(&layout, nodes, 8));
-	TEST_ASSERT_EQUAL(-EEXIST, devobj_mirror_create(&mirror, dp->node, layout, nodes));
+	TEST_ASSERT_EQUAL(-EEXIST, devobj_mirror_create(&mirror, dp->node, layout, nodes, NULL));
 }
 
 int main(void)

@@ -25,6 +25,8 @@ static bool accepted(const uint8_t *data, size_t len)
 
 	if (mbx_hdr_decode(data, len, &h, NULL) != 0)
 		return false;
+	if (h.kind == MBX_KIND_EVENT) /* what a client checks before it hands one out */
+		return mbx_event_validate(h.code, data + MBX_HDR_SIZE, h.len) == 0;
 	return h.kind != MBX_KIND_COMMAND || mbx_cmd_validate(&h, data + MBX_HDR_SIZE, NULL) == 0;
 }
 

@@ -40,6 +40,9 @@ void setUp(void)
 	TEST_ASSERT_EQUAL(0, gw_image_add(img, 0xB000, 0, 4, 0x11223344));
 	TEST_ASSERT_EQUAL(0, gw_image_add(img, 0xB001, 0, 1, 0x01));
 	TEST_ASSERT_EQUAL(0, gw_image_add(img, 0xB002, 0, 2, 0xBEEF));
+	/* as gateway.forward's image objects: UNSIGNED64, values sign-extended */
+	TEST_ASSERT_EQUAL(0, gw_image_add(img, 0xBF00, 0, 8, 0));
+	TEST_ASSERT_EQUAL(0, gw_image_add(img, 0xBF01, 0, 8, 0));
 	gw_image_seal(img);
 	TEST_ASSERT_EQUAL(0, gw_fast_init(&F, gw_image_count(img)));
 	gw_fast_set_carrying(&F, true);
@@ -115,6 +118,33 @@ static void test_bit_packing_follows_the_mapping(void)
 	TEST_ASSERT_EQUAL_HEX8(0x7D, sent.last.data[1]);
 	TEST_ASSERT_EQUAL_HEX8(0x89, sent.last.data[2]);
 	TEST_ASSERT_EQUAL_HEX8(0x00, sent.last.data[3]);
+}
+
+/* A device object's frame (fit): a value its entry cannot hold is not
+ * sent - the owner takes it and refuses it; one that fits goes, as its
+ * low bits. Signed entries hold the image's sign-extended integer. */
+static void test_values_that_do_not_fit_are_left_to_the_owner(void)
+{
+	gw_fast_desc d = { .nr = 3, .can_id = 0x209, .len = 2, .n = 2, .fit = 1 };
+	int u8 = gw_image_find(img, 0xBF00, 0), s8 = gw_image_find(img, 0xBF01, 0);
+	uint32_t held;
+
+	d.map[0] = (uint32_t)u8 << 8 | 8;
+	d.map[1] = (uint32_t)s8 << 8 | 8 | GW_FAST_MAP_SIGNED;
+	publish(&d, 1);
+	gw_image_write(img, u8, 300); /* UNSIGNED8: 300 does not fit */
+	gw_image_write(img, s8, UINT64_MAX);
+	TEST_ASSERT_EQUAL(0, try_at(u8, 10, &held));
+	TEST_ASSERT_EQUAL(0, sent.n);
+	TEST_ASSERT_EQUAL_HEX32(1, held);
+	gw_image_write(img, u8, 255);
+	gw_image_write(img, s8, (uint64_t)-129); /* INTEGER8: -129 does not fit */
+	TEST_ASSERT_EQUAL(0, try_at(s8, 20, &held));
+	gw_image_write(img, s8, (uint64_t)-128);
+	TEST_ASSERT_EQUAL_HEX32(1, try_at(s8, 30, &held));
+	TEST_ASSERT_EQUAL(1, sent.n);
+	TEST_ASSERT_EQUAL_HEX8(0xFF, sent.last.data[0]);
+	TEST_ASSERT_EQUAL_HEX8(0x80, sent.last.data[1]);
 }
 
 static void test_inhibit_time_is_shared_by_both_senders(void)
@@ -267,6 +297,7 @@ int main(void)
 	UNITY_BEGIN();
 	RUN_TEST(test_frame_carries_cob_id_and_image_value);
 	RUN_TEST(test_bit_packing_follows_the_mapping);
+	RUN_TEST(test_values_that_do_not_fit_are_left_to_the_owner);
 	RUN_TEST(test_inhibit_time_is_shared_by_both_senders);
 	RUN_TEST(test_held_update_is_not_overtaken);
 	RUN_TEST(test_closed_and_retired_tpdos_are_handed_off);

@@ -554,23 +554,61 @@ static void test_protocol_errors_and_aborts(void)
 }
 
 /* The target line could not bind the lease it was told of (its state
- * changed since the reservation): the confirmed session ends with that
- * code at once, its close still owed once. */
+ * changed since the reservation): the requester already has the
+ * confirmation and sends the transfer it announced. That initiate is
+ * answered with the code, carrying its own multiplexer (an abort sent
+ * before it would name no transfer of the requester's, and the initiate
+ * would reach the gateway's own SDO server); the close is owed once. */
 static void test_lease_lost_after_the_confirmation(void)
 {
 	uint8_t init[8] = { 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0 };
+	unsigned sent_before;
 
 	indicate();
+	sent_before = n_to_req;
 	gw_sdo_route_lost(&s, GW_AB_NO_ANSWER, bus_a.now);
-	hex_eq("80 02 00 05 02 00 00 0A", last_to_req);
+	TEST_ASSERT_EQUAL(sent_before, n_to_req); /* nothing before the initiate */
+	TEST_ASSERT_TRUE(gw_sdo_route_busy(&s));  /* the initiate is still the session's */
+	gw_sdo_route_requester_frame(&s, init, bus_a.now);
+	hex_eq("80 00 10 00 02 00 00 0A", last_to_req);
 	TEST_ASSERT_EQUAL(1, dones);
 	TEST_ASSERT_EQUAL(GW_OUT_ABORTED, done_outcome);
+	TEST_ASSERT_EQUAL_HEX32(GW_AB_NO_ANSWER, done_abort);
 	TEST_ASSERT_EQUAL(1, closes);
 	TEST_ASSERT_EQUAL(0, n_to_tgt);
-	/* the requester's initiate that crossed it goes nowhere */
-	gw_sdo_route_requester_frame(&s, init, bus_a.now);
-	TEST_ASSERT_EQUAL(0, n_to_tgt);
-	TEST_ASSERT_EQUAL(1, dones);
+	TEST_ASSERT_FALSE(gw_sdo_route_busy(&s));
+
+	/* the requester gave up meanwhile (its own abort): nothing to answer */
+	pump();
+	indicate();
+	sent_before = n_to_req;
+	gw_sdo_route_lost(&s, GW_AB_NO_ANSWER, bus_a.now);
+	uint8_t ab[8] = { 0x80, 0x00, 0x10, 0x00, 0x00, 0x00, 0x04, 0x05 };
+	gw_sdo_route_requester_frame(&s, ab, bus_a.now);
+	TEST_ASSERT_EQUAL(sent_before, n_to_req);
+	TEST_ASSERT_FALSE(gw_sdo_route_busy(&s));
+	TEST_ASSERT_EQUAL(opens, closes);
+}
+
+/* A frame of the target before the initiate answers another client of the
+ * same server channel (on a real bus: one that just ended its own transfer
+ * with the device): the session goes on and relays the transfer. */
+static void test_target_frame_before_the_initiate_is_not_the_sessions(void)
+{
+	uint8_t stray[8] = { 0x60, 0x00, 0x2F, 0x00, 0, 0, 0, 0 };
+	uint8_t stray_abort[8] = { 0x80, 0x00, 0x2F, 0x00, 0x00, 0x00, 0x04, 0x05 };
+	uint32_t v = 0;
+	sdo_client_req r = {
+		.upload = true, .node_id = GW_ID, .index = 0x1000, .buf = (uint8_t *)&v, .cap = 4
+	};
+
+	indicate();
+	gw_sdo_route_target_frame(&s, stray, bus_a.now);
+	gw_sdo_route_target_frame(&s, stray_abort, bus_a.now);
+	TEST_ASSERT_EQUAL(GW_SR_WAIT_INIT, gw_sdo_route_state_of(&s));
+	const co_event *ev = client_run(&r);
+	TEST_ASSERT_EQUAL_HEX32(0, ev->u.sdo_cli.abort);
+	TEST_ASSERT_EQUAL(GW_OUT_ROUTED, done_outcome);
 }
 
 static void test_target_line_lost_mid_transfer(void)
@@ -947,6 +985,7 @@ int main(void)
 	RUN_TEST(test_requester_vanishing_in_a_block_download_releases_both);
 	RUN_TEST(test_protocol_errors_and_aborts);
 	RUN_TEST(test_lease_lost_after_the_confirmation);
+	RUN_TEST(test_target_frame_before_the_initiate_is_not_the_sessions);
 	RUN_TEST(test_target_line_lost_mid_transfer);
 	RUN_TEST(test_reservation_refusals_keep_their_codes);
 	RUN_TEST(test_reservation_and_own_clients_exclude_each_other);

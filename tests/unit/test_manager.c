@@ -942,8 +942,9 @@ static void test_stopped_network_no_sdo_then_network_boot(void)
 	assert_network_runs(CO_NMT_OPERATIONAL, CO_NMT_OPERATIONAL);
 }
 
-/* 1F80h, 1F81h, 1F84h..1F89h are locked while the network boots; 1F89h
- * stays writable while the line waits for a mandatory slave. */
+/* 1F80h, 1F81h, 1F84h..1F89h are locked while the network boots; while
+ * the line waits for a mandatory slave only 1F80h is (docs/config.md "The
+ * manager"). */
 static void test_boot_objects_locked_during_boot(void)
 {
 	co_manager_config c = { .sdo_timeout_ms = 100, .reset_wait_ms = 300 };
@@ -962,7 +963,8 @@ static void test_boot_objects_locked_during_boot(void)
 	TEST_ASSERT_EQUAL_HEX32(MANDATORY, v);
 	tb_advance(&f.bus, 1 * S);
 	TEST_ASSERT_EQUAL(CO_MGR_WAIT_MANDATORY, mstate());
-	TEST_ASSERT_EQUAL_HEX32(0x08000022, tb_od_write(&f.bus, f.mp->node, 0x1F81, 3, SLAVE_BOOT));
+	TEST_ASSERT_EQUAL_HEX32(0x08000022, tb_od_write(&f.bus, f.mp->node, 0x1F80, 0, MASTER));
+	TEST_ASSERT_EQUAL_HEX32(0, tb_od_write(&f.bus, f.mp->node, 0x1F85, 2, 0));
 	TEST_ASSERT_EQUAL_HEX32(0, tb_od_write(&f.bus, f.mp->node, 0x1F89, 0, 100));
 	/* the new boot time ran out: booted, not started; writable again */
 	tb_advance(&f.bus, 500 * MS);
@@ -971,6 +973,50 @@ static void test_boot_objects_locked_during_boot(void)
 	/* the flying master (bit 5) is not supported */
 	TEST_ASSERT_EQUAL_HEX32(0x06090030, tb_od_write(&f.bus, f.mp->node, 0x1F80, 0,
 							MASTER | CO_MGR_1F80_FLYING_MASTER));
+}
+
+/* CiA 302-2's network list at run time: 1F81h:3 written in a running
+ * network boots node 3 like a late node; withdrawn, node 3 is no longer
+ * booted or reported (its heartbeats go on); node 2 is not disturbed. */
+static void test_assignment_written_at_run_time(void)
+{
+	mf_init(&f, MASTER, 4);
+	mf_slave(&f, 2, 100);
+	mf_slave(&f, 3, 100);
+	mf_assign(&f, 2, MANDATORY, 300);
+	mf_expect(&f, 2, MF_DEVICE_TYPE, MF_VENDOR, MF_PRODUCT, MF_REVISION, 1002);
+	mf_expect(&f, 3, MF_DEVICE_TYPE, MF_VENDOR, MF_PRODUCT, MF_REVISION, 1003);
+	tb_advance(&f.bus, 10 * MS);
+	mf_start(&f, NULL);
+	tb_advance(&f.bus, 2 * S);
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	TEST_ASSERT_FALSE(co_manager_node_diag(f.mgr, 3)->booted);
+
+	TEST_ASSERT_EQUAL_HEX32(0, tb_od_write(&f.bus, f.mp->node, 0x1F81, 3, SLAVE_BOOT));
+	tb_advance(&f.bus, 1 * S);
+	TEST_ASSERT_TRUE(co_manager_node_diag(f.mgr, 3)->booted);
+	TEST_ASSERT_NOT_NULL(mf_boot(&f, 3, CO_MGR_STEP_START, 0));
+	TEST_ASSERT_EQUAL_HEX8(CO_NMT_OPERATIONAL, hb_of(f.bus.port + 2));
+
+	unsigned events3 = mf_node_count(&f, 3, CO_MGR_NODE_UNEXPECTED) +
+			   mf_node_count(&f, 3, CO_MGR_NODE_LOST);
+	TEST_ASSERT_EQUAL_HEX32(0, tb_od_write(&f.bus, f.mp->node, 0x1F81, 3, 0));
+	tb_advance(&f.bus, 2 * S);
+	co_mgr_diag d;
+	co_manager_get_diag(f.mgr, &d);
+	TEST_ASSERT_FALSE(co_mgr_bit(&d.assigned, 3));
+	TEST_ASSERT_FALSE(co_mgr_bit(&d.booted, 3));
+	TEST_ASSERT_EQUAL_UINT(events3, mf_node_count(&f, 3, CO_MGR_NODE_UNEXPECTED) +
+						mf_node_count(&f, 3, CO_MGR_NODE_LOST));
+	TEST_ASSERT_EQUAL(CO_MGR_OPERATIONAL, mstate());
+	TEST_ASSERT_EQUAL_UINT(1, mf_boot_count(&f, 2, CO_MGR_STEP_START, 0));
+	/* the manager's own node-ID and bad ones are refused */
+	TEST_ASSERT_EQUAL_HEX32(0x06090030, tb_od_write(&f.bus, f.mp->node, 0x1F81,
+							co_node_id(f.mp->node), SLAVE_BOOT));
+	TEST_ASSERT_EQUAL_INT(-EINVAL, co_manager_node_reassigned(f.mgr, 0, f.bus.now));
+	TEST_ASSERT_EQUAL_INT(-EINVAL, co_manager_node_reassigned(f.mgr, 128, f.bus.now));
+	TEST_ASSERT_EQUAL_INT(-EINVAL,
+			      co_manager_node_reassigned(f.mgr, co_node_id(f.mp->node), f.bus.now));
 }
 
 /* The manager's own NMT state is a flag of the line: a change of it alone
@@ -1131,6 +1177,7 @@ int main(void)
 	RUN_TEST(test_stopped_network_application_start_without_self_start);
 	RUN_TEST(test_stopped_network_no_sdo_then_network_boot);
 	RUN_TEST(test_boot_objects_locked_during_boot);
+	RUN_TEST(test_assignment_written_at_run_time);
 	RUN_TEST(test_state_event_on_flag_change);
 	RUN_TEST(test_scan_finds_missing_node);
 	RUN_TEST(test_keep_op_restarts_node);

@@ -131,8 +131,16 @@ static void test_entries_become_a_concise_dcf(void)
 	put_file("cogw.json", NODES("[{\"id\": 5}, {\"id\": 6}]"),
 		 strlen(NODES("[{\"id\": 5}, {\"id\": 6}]")));
 	TEST_ASSERT_EQUAL_INT_MESSAGE(0, cogw_config_load_file(&other, path, err, sizeof err), err);
-	TEST_ASSERT_FALSE(cogw_config_reload_check(&cfg, &other, what, sizeof what));
-	TEST_ASSERT_EQUAL_STRING("lines[0].nodes", what);
+	/* a node's configuration is a node change (a reload's node diff); on
+	 * a line without a manager nothing follows it at run time */
+	TEST_ASSERT_TRUE(cogw_config_reload_check(&cfg, &other, what, sizeof what));
+	static cogw_node_diff nd;
+	const cogw_node *cur[128];
+	cogw_nodes_by_id(&cfg.lines[0], cur);
+	TEST_ASSERT_FALSE(cogw_config_node_diff(cur, &cfg.lines[0], &other.lines[0], 0, &nd));
+	TEST_ASSERT_EQUAL_STRING("lines[0].nodes: needs a restart", nd.what);
+	TEST_ASSERT_EQUAL_size_t(1, nd.n);
+	TEST_ASSERT_EQUAL_UINT8(COGW_NODE_CHANGED, nd.change[0].kind);
 	cogw_config_free(&other);
 }
 

@@ -353,8 +353,9 @@ static void test_unusable_mappings_refused(void)
 		     "but sub 1 has no value");
 }
 
-/* A changed layout file is a changed configuration: the reload check
- * names the nodes (a restart re-learns). */
+/* A changed layout file is a changed node: the reload changes it at run
+ * time (its layout is learnt again at its boot); a changed pdo_scan_max
+ * needs a restart (the table is sized at start-up). */
 static void test_reload_sees_a_changed_layout(void)
 {
 	char path[128], what[256];
@@ -375,8 +376,14 @@ static void test_reload_sees_a_changed_layout(void)
 	at[strlen("DefaultValue=25")] = '3';
 	write_file("dev.eds", changed);
 	TEST_ASSERT_EQUAL_INT(0, cogw_config_load_file(&next, path, err, sizeof err));
-	TEST_ASSERT_FALSE(cogw_config_reload_check(&cfg, &next, what, sizeof what));
-	TEST_ASSERT_EQUAL_STRING("lines[0].nodes", what);
+	TEST_ASSERT_TRUE(cogw_config_reload_check(&cfg, &next, what, sizeof what));
+	static cogw_node_diff nd;
+	const cogw_node *cur[128];
+	cogw_nodes_by_id(&cfg.lines[0], cur);
+	TEST_ASSERT_TRUE(cogw_config_node_diff(cur, &cfg.lines[0], &next.lines[0], 0, &nd));
+	TEST_ASSERT_EQUAL_size_t(1, nd.n);
+	TEST_ASSERT_EQUAL_UINT8(COGW_NODE_CHANGED, nd.change[0].kind);
+	TEST_ASSERT_EQUAL_UINT8(9, nd.change[0].id);
 	cogw_config_free(&next);
 
 	write_file("dev.eds", device_file);
@@ -384,7 +391,7 @@ static void test_reload_sees_a_changed_layout(void)
 				      "\"dev.eds\", \"types\": {\"2000:0\": \"INTEGER32\"}}]"));
 	TEST_ASSERT_EQUAL_INT(0, cogw_config_load_file(&next, path, err, sizeof err));
 	TEST_ASSERT_FALSE(cogw_config_reload_check(&cfg, &next, what, sizeof what));
-	TEST_ASSERT_EQUAL_STRING("lines[0].pdo_scan_max", what);
+	TEST_ASSERT_EQUAL_STRING("lines[0].pdo_scan_max: needs a restart", what);
 	cogw_config_free(&next);
 }
 

@@ -680,6 +680,81 @@ static void test_deferred_check_at_initiate_for_in_place_domain(void)
 	TEST_ASSERT_EQUAL(-EINVAL, sdo_server_continue(srv->node, 9, 0, NULL, 0, bus.now));
 }
 
+static uint32_t streamed_size;
+static uint8_t streamed_first;
+static uint32_t defer_streamed(void *ctx, co_od_entry *e, const co_od_access *a)
+{
+	(void)ctx;
+	TEST_ASSERT_EQUAL_PTR(e->data, a->data); /* all of it, in place */
+	streamed_size = a->size;
+	streamed_first = a->data[0];
+	return CO_OD_DEFERRED;
+}
+
+static const co_od_hooks defer_streamed_hooks = { .check_streamed = defer_streamed };
+
+/* An in-place download checked at its end: the last confirmation waits
+ * for the continue, and a refusal is the hook's abort code with no
+ * CO_EV_OD_WRITTEN (segmented and block). */
+static void test_deferred_check_at_end_of_streamed_download(void)
+{
+	co_od_set_hooks(srv->od, FX_IDX_DOMAIN, 0, &defer_streamed_hooks, NULL);
+	streamed_size = 0;
+	req("21 00 22 00 0A 00 00 00");
+	EXPECT("60 00 22 00 00 00 00 00"); /* no check at initiate */
+	req("00 30 31 32 33 34 35 36");
+	EXPECT("20 00 00 00 00 00 00 00");
+	size_t n = tb_count_from_id(&bus, 0, 0x581, 0);
+	req("19 37 38 39 00 00 00 00");
+	TEST_ASSERT_EQUAL(n, tb_count_from_id(&bus, 0, 0x581, 0)); /* parked */
+	TEST_ASSERT_EQUAL_UINT32(10, streamed_size);
+	TEST_ASSERT_EQUAL_HEX8(0x30, streamed_first);
+	TEST_ASSERT_EQUAL(0, sdo_server_continue(srv->node, 0, 0, NULL, 0, bus.now));
+	tb_pump(&bus);
+	EXPECT("30 00 00 00 00 00 00 00");
+	TEST_ASSERT_EQUAL_UINT32(10, co_od_find(srv->od, FX_IDX_DOMAIN, 0)->size);
+	/* refused at the end of a block download */
+	req("C2 00 22 00 03 00 00 00");
+	EXPECT("A0 00 22 00 7F 00 00 00");
+	req("81 41 42 43 00 00 00 00");
+	EXPECT("A2 01 7F 00 00 00 00 00");
+	req("D1 00 00 00 00 00 00 00"); /* end: 4 bytes of the last segment unused */
+	TEST_ASSERT_EQUAL_UINT32(3, streamed_size);
+	TEST_ASSERT_EQUAL(0, sdo_server_continue(srv->node, 0, 0x08000020, NULL, 0, bus.now));
+	tb_pump(&bus);
+	expect_abort(0x2200, 0, 0x08000020);
+	TEST_ASSERT_EQUAL_UINT32(10, co_od_find(srv->od, FX_IDX_DOMAIN, 0)->size);
+}
+
+/* A value the application changes while its upload runs goes out as it
+ * was at the request: segments and the block end's CRC agree with one
+ * value, never a mix of two. */
+static void test_upload_sends_the_value_as_it_was_at_the_request(void)
+{
+	co_od_set_u64(srv->od, FX_IDX_U64, 0, 0x1122334455667788ull);
+	req("40 01 24 00 00 00 00 00");
+	EXPECT("41 01 24 00 08 00 00 00");
+	co_od_set_u64(srv->od, FX_IDX_U64, 0, 0xAAAAAAAAAAAAAAAAull);
+	req("60 00 00 00 00 00 00 00");
+	EXPECT("00 88 77 66 55 44 33 22");
+	req("70 00 00 00 00 00 00 00");
+	EXPECT("1D 11 00 00 00 00 00 00");
+	/* block upload with CRC: the value changes after the sub-block went */
+	co_od_set_u64(srv->od, FX_IDX_U64, 0, 0x1122334455667788ull);
+	req("A4 01 24 00 7F 00 00 00");
+	EXPECT("C6 01 24 00 08 00 00 00");
+	req("A3 00 00 00 00 00 00 00");
+	EXPECT("82 11 00 00 00 00 00 00"); /* the sub-block's last segment */
+	co_od_set_u64(srv->od, FX_IDX_U64, 0, 0xAAAAAAAAAAAAAAAAull);
+	req("A2 02 7F 00 00 00 00 00");
+	static const uint8_t v[8] = { 0x88, 0x77, 0x66, 0x55, 0x44, 0x33, 0x22, 0x11 };
+	uint16_t crc = crc16_ccitt(0, v, sizeof v);
+	char end[40];
+	snprintf(end, sizeof end, "D9 %02X %02X 00 00 00 00 00", crc & 0xFF, crc >> 8);
+	EXPECT(end);
+	req("A1 00 00 00 00 00 00 00");
+}
+
 /* Garbage from the bus never crashes the server or leaves it stuck. */
 static void test_random_frames_fuzz(void)
 {
@@ -1022,6 +1097,8 @@ int main(void)
 	RUN_TEST(test_deferred_read_still_times_out);
 	RUN_TEST(test_deferred_write_commit_and_refuse);
 	RUN_TEST(test_deferred_check_at_initiate_for_in_place_domain);
+	RUN_TEST(test_deferred_check_at_end_of_streamed_download);
+	RUN_TEST(test_upload_sends_the_value_as_it_was_at_the_request);
 	RUN_TEST(test_random_frames_fuzz);
 	RUN_TEST(test_second_channel_cob_id_rules);
 	RUN_TEST(test_two_channels_in_parallel);

@@ -33,6 +33,22 @@ int write_text_file(const char *path, const char *text)
 	return rc;
 }
 
+int daemon_reload(daemon_run *d, const char *json, int timeout_ms)
+{
+	int rc = write_text_file(d->config_path, json);
+
+	if (rc < 0)
+		return rc;
+	if (!d->has_notify)
+		return -EINVAL;
+	notify_drain(&d->ns);
+	if (kill(d->pid, SIGHUP) != 0)
+		return -errno;
+	if ((rc = notify_wait(&d->ns, "RELOADING=1", timeout_ms, NULL, 0)) < 0)
+		return rc;
+	return notify_wait(&d->ns, "READY=1", timeout_ms, NULL, 0);
+}
+
 void daemon_cmd_queue(const daemon_run *d, unsigned line, char *buf, size_t cap)
 {
 	snprintf(buf, cap, "/cogw.%s.line%u.cmd", d->instance, line);

@@ -110,6 +110,10 @@ void daemon_cleanup(daemon_run *d);
  * bounding set of etc/cogwd.service ("--bounding-set=-all,+sys_nice,...").
  * 0, or -ENOENT when the unit names none, or -errno. */
 int daemon_unit_bounding_set(char *buf, size_t cap);
+/* Write json as the daemon's configuration file, send SIGHUP and wait for
+ * RELOADING=1, then READY=1 (each up to timeout_ms; the daemon started with
+ * notify). 0, -ETIMEDOUT, -EINVAL (no notify socket) or -errno. */
+int daemon_reload(daemon_run *d, const char *json, int timeout_ms);
 /* Path of line `line`'s command queue, "/cogw.<instance>.line<N>.cmd". */
 void daemon_cmd_queue(const daemon_run *d, unsigned line, char *buf, size_t cap);
 

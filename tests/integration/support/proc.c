@@ -192,6 +192,31 @@ int notify_count(notify_sock *ns, const char *prefix, int window_ms)
 	}
 }
 
+void notify_drain(notify_sock *ns)
+{
+	char buf[4096];
+	while (recv(ns->fd, buf, sizeof buf, MSG_DONTWAIT) > 0)
+		;
+}
+
+int run_capture(const char *cmd, char *out, size_t cap)
+{
+	FILE *p = popen(cmd, "r");
+	size_t n = 0;
+	int st;
+
+	if (cap)
+		out[0] = '\0';
+	if (!p)
+		return -1;
+	if (cap) {
+		n = fread(out, 1, cap - 1, p);
+		out[n] = '\0';
+	}
+	st = pclose(p);
+	return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
 int can_open_raw(const char *ifname)
 {
 	int fd = socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW);

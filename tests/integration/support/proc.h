@@ -40,6 +40,12 @@ void notify_close(notify_sock *ns);
 int notify_wait(notify_sock *ns, const char *prefix, int timeout_ms, char *out, size_t len);
 /* Count datagrams containing `prefix` within window_ms. */
 int notify_count(notify_sock *ns, const char *prefix, int window_ms);
+/* Throw away the datagrams that came so far. */
+void notify_drain(notify_sock *ns);
+
+/* Run a shell command (e.g. build/san/bin/cogwctl ...), its stdout into out
+ * (cap bytes with the NUL). Its exit status, -1 if it did not exit. */
+int run_capture(const char *cmd, char *out, size_t cap);
 
 /* Raw CAN on a vcan line. */
 int can_open_raw(const char *ifname);
