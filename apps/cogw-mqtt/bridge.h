@@ -164,6 +164,10 @@ void bridge_time_of(uint64_t wall_ms, char *buf, size_t n);
 void bridge_time_text(char *buf, size_t n);
 int bridge_line_of_net(const bridge *b, uint16_t net); /* -1 if not attached */
 
+/* A request to the daemon through the loop handle (never waits: a full
+ * command queue is COGW_E_WOULDBLOCK). 0 or a cogw_err. */
+int bridge_send(bridge *b, unsigned line, uint16_t cmd, const void *payload, size_t len,
+		uint64_t *corr);
 /* The bridge's own mailbox request: the slot it took, or NULL (counted). */
 pending *bridge_send_internal(bridge *b, unsigned line, uint16_t cmd, const void *payload,
 			      size_t len);
