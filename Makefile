@@ -291,7 +291,7 @@ check-callgraph:
 # Interoperability with python-canopen (tests/interop/): one VM boot for the group.
 # scripts/pyenv.sh installs the pinned packages into build/pyenv on first use.
 # tests/interop/run-mqtt: the MQTT bridge against mosquitto and paho-mqtt, in the same boot.
-INTEROP_TESTS := tests/interop/run tests/interop/run-mqtt
+INTEROP_TESTS := tests/interop/run tests/interop/run-mqtt tests/interop/run-network
 interop: $(SAN_PROGRAM_BINS)
 	@scripts/pyenv.sh
 	tests/vcan/run -n 3 -- env COGW_TEST_TIMEOUT=$${COGW_INTEROP_TIMEOUT:-1800} tests/run-tests interop $(INTEROP_TESTS)
@@ -468,6 +468,7 @@ install: all
 	install -m 644 $(COGW_PC) $(DESTDIR)$(pkgconfigdir)/cogw.pc
 	install -m 644 core/*.h $(DESTDIR)$(includedir)/cogw/core/
 	install -m 644 mailbox/cogw.h mailbox/proto.h mailbox/proto_app.h mailbox/proto_appwd.h mailbox/proto_health.h mailbox/cogw_health.h \
+		mailbox/proto_scan.h mailbox/cogw_scan.h \
 		$(DESTDIR)$(includedir)/cogw/mailbox/
 	$(if $(PROGRAM_BINS),install -m 755 $(PROGRAM_BINS) $(DESTDIR)$(bindir)/)
 	for u in cogwd.service cogw-ascii.service cogw-mqtt.service cogw-ascii.socket; do \

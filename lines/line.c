@@ -291,6 +291,7 @@ static void handle_can(line *l)
 			}
 			return;
 		}
+		line_link_frame_heard(l);
 		for (int i = 0; i < n; i++) {
 			if (items[i].is_error) {
 				line_on_can_error(l, &items[i]);

@@ -31,6 +31,23 @@ typedef struct line line;
 
 #define LINE_SAFE_OUTPUTS_MAX 32
 
+/* Nodes outside the configuration (lines/line_scan.c, docs/config.md
+ * "unknown_nodes"). */
+typedef struct line_unknown_params {
+	uint8_t policy;          /* enum mbx_unknown_policy */
+	uint16_t heartbeat_ms;   /* supervise, boot: its 1016h consumer time
+	                          * (0 = none) */
+	uint16_t sdo_timeout_ms; /* per SDO frame of identity reads and scans
+	                          * (0 = LINE_SCAN_TIMEOUT_MS) */
+	bool identify;           /* read an unknown node's identity; false: reported
+	                * without (another SDO client, a configuration tool,
+	                * talks to new nodes) */
+	uint32_t known[4];       /* the configured node-IDs: bit n % 32 of
+	                          * known[n / 32] */
+} line_unknown_params;
+
+#define LINE_SCAN_TIMEOUT_MS 100u
+
 /* An object of the line's OD that a client may own (docs/application.md):
  * the object exists (the configuration's "objects"), in 2000h..9FFFh. */
 typedef struct line_app_decl {
@@ -83,7 +100,8 @@ typedef struct line_params {
 	uint32_t app_reactions; /* the configured set (core/appwd.h), 0 = none */
 	uint8_t not_ready_cs;   /* the NMT command host not ready sends to all
 	                         * nodes: stop or enter pre-operational (0 = stop) */
-	line_app_params app;    /* objects clients own */
+	line_unknown_params unknown;
+	line_app_params app; /* objects clients own */
 } line_params;
 
 /* Counters published by the line thread about once per second. */

@@ -27,6 +27,8 @@ static const struct {
 	{ MBX_CMD_GW_SDO_DOWNLOAD, line_sdo_download_net },
 	{ MBX_CMD_NMT, line_nmt_command }, /* line_nmt.c */
 	{ MBX_CMD_NODE_TABLE, line_node_table },
+	{ MBX_CMD_NODE_SCAN, line_scan_command }, /* line_scan.c */
+	{ MBX_CMD_NODE_SCAN_CACHE, line_scan_cache_command },
 	{ MBX_CMD_LINE_STATUS, line_status }, /* line_bus.c */
 	{ MBX_CMD_LINE_HEALTH, line_health }, /* line_health.c */
 	{ MBX_CMD_LINE_HEALTH_RESET, line_health_reset },

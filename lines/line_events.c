@@ -227,6 +227,8 @@ void line_on_core_event(void *ctx, const co_event *ev)
 		publish_errctrl(l, ev);
 		break;
 	}
+	/* a node outside the configuration (lines/line_scan.c) */
+	line_unknown_on_event(l, ev);
 	tell_extensions(l, ev);
 }
 

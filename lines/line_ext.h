@@ -53,6 +53,8 @@
  *   poll          once per loop iteration: run what is due at now_us and
  *                 return the next time it needs the line (CO_NO_DEADLINE
  *                 for none); the line sleeps no longer than that.
+ *   adopt_node    boot a node outside the configuration (lines/line_scan.c,
+ *                 the "boot" policy of unknown_nodes).
  *   node_set      a slave added to, changed in or removed from the line's
  *                 network list at run time by the main thread (a reload,
  *                 line_request_node): the extension that owns the list
@@ -127,6 +129,12 @@ typedef struct line_ext_ops {
 	uint32_t (*sdo_route)(void *ctx, line *l, uint64_t tag, uint16_t net, uint8_t node,
 			      line_sdo_route *out);
 	void (*sdo_route_end)(void *ctx, line *l, uint64_t tag);
+	/* The line's unknown_nodes policy is "boot" and the identity of
+	 * `node`, a node outside the configuration, was read (ident: 1000h,
+	 * 1018h:1..4): take it as an optional slave. 0 = its boot began,
+	 * -ENOENT = no device file has that identity, another -errno = not
+	 * possible. The first extension that has the op decides. */
+	int (*adopt_node)(void *ctx, line *l, uint8_t node, const uint32_t ident[5]);
 	int (*node_set)(void *ctx, line *l, const line_node_set *set);
 	void (*node_changed)(void *ctx, line *l, const line_node_news *info);
 	int (*nmt_all)(void *ctx, line *l, uint8_t cs, uint64_t now_us);

@@ -14,6 +14,7 @@
  *   line_app_ind.c   objects clients own and their indications
  *                    (line_app.h; line_od.c hands owned objects over)
  *   line_events.c    core and CAN events -> mailbox events
+ *   line_scan.c      NODE_SCAN, its cache, nodes outside the configuration
  *   line_pdo.c       RPDO supervision: its events and RPDO_STATUS
  *   line_time.c      the TIME producer's clock
  *   line_pending.c   the table of requests waiting for the core
@@ -151,6 +152,24 @@ struct line {
 		uint32_t last_outage_ms;
 		uint64_t since_us, next_probe_us;
 	} link; /* line_link.c */
+	struct line_scan {
+		mbx_node_ident cache[LINE_NODES]; /* what was read, by node-ID */
+		uint64_t read_us[LINE_NODES];     /* when (0 = never) */
+		struct line_probe {
+			uint8_t step; /* 0 idle, 1 1000h, 2..5 1018h:1..4 */
+			bool for_scan, for_unknown;
+			uint8_t buf[4];
+			uint16_t timeout_ms;
+			uint32_t gen; /* in the tag: stale confirmations */
+		} probe[LINE_NODES];
+		uint32_t unknown_seen[4]; /* heard and reported (or being read) */
+		uint32_t unknown_reported;
+		bool running;            /* a NODE_SCAN runs */
+		mbx_reply_to reply;      /* ... and waits for its answer */
+		uint8_t next, in_flight; /* next node-ID to ask, nodes being read */
+		uint64_t started_us, ended_us;
+		mbx_scan_resp figures; /* of the running or last scan */
+	} scan;                        /* line_scan.c */
 	/* the link may have changed: bus state changes, receive errors
 	 * (ENETDOWN when the interface goes down); line_link_events */
 	uint32_t link_events;
@@ -224,6 +243,7 @@ static inline bool line_cmd_needs_bus(uint16_t code)
 	switch (code) {
 	case MBX_CMD_SDO_UPLOAD:
 	case MBX_CMD_SDO_DOWNLOAD:
+	case MBX_CMD_NODE_SCAN:
 	case MBX_CMD_GW_SDO_UPLOAD:
 	case MBX_CMD_GW_SDO_DOWNLOAD:
 	case MBX_CMD_NMT:
@@ -285,6 +305,13 @@ void line_raw_send(line *l, const mbx_request *req);
 void line_on_core_event(void *ctx, const co_event *ev);
 void line_publish_raw(line *l, const co_frame *f, uint64_t ts_ns);
 
+/* line_scan.c */
+void line_scan_command(line *l, const mbx_request *req);       /* NODE_SCAN */
+void line_scan_cache_command(line *l, const mbx_request *req); /* NODE_SCAN_CACHE */
+/* A core event that may come from a node outside the configuration
+ * (boot-up, heartbeat state, EMCY): reported once, its policy applied. */
+void line_unknown_on_event(line *l, const co_event *ev);
+
 /* line_link.c */
 /* The socket said the interface is down (ENETDOWN) or gone (ENODEV). */
 void line_link_lost(line *l, int err);
@@ -292,6 +319,8 @@ void line_link_lost(line *l, int err);
  * (UINT64_MAX when up). *reopened: the port has a new socket, which the
  * caller watches instead of the old one. */
 uint64_t line_link_poll(line *l, bool *reopened);
+/* A frame was received: while down, look at the interface at once. */
+void line_link_frame_heard(line *l);
 /* While down: does this command need the bus (refused with MBX_E_STATE)? */
 bool line_link_refuses(const line *l, uint16_t code);
 

@@ -14,7 +14,10 @@
  *    MBX_E_STATE (line_link_refuses), instead of each running into its
  *    own time-out; what only reads or writes the line's own dictionary
  *    goes on.
- * 3. Every LINK_PROBE_US the line looks at the interface by name: a
+ * 3. Every LINK_PROBE_US, and at once when a frame comes in on the socket
+ *    (line_link_frame_heard: the interface carries frames again, and a
+ *    request should not wait for the next look), the line looks at the
+ *    interface by name: a
  *    deleted one that is there again is a new interface (another index),
  *    so the port opens a new socket on it with its options and filter
  *    (can_port_reopen) and the line's loop watches that one.
@@ -81,6 +84,12 @@ static void link_back(line *l)
 	cogw_log(COGW_LOG_NOTICE, "line %s (%s): interface back after %u ms", l->name, l->ifname,
 		 k->last_outage_ms);
 	publish(l);
+}
+
+void line_link_frame_heard(line *l)
+{
+	if (l->link.down)
+		l->link.next_probe_us = l->now_us;
 }
 
 uint64_t line_link_poll(line *l, bool *reopened)

@@ -25,6 +25,10 @@ _Static_assert(sizeof(mbx_dev_forward) == 32, "wire layout");
 _Static_assert(sizeof(mbx_dev_node_req) == 4, "wire layout");
 _Static_assert(sizeof(mbx_dev_watch_req) == 12, "wire layout");
 _Static_assert(sizeof(mbx_dev_watch_resp) == 8, "wire layout");
+_Static_assert(sizeof(mbx_scan_req) == 8, "wire layout");
+_Static_assert(sizeof(mbx_node_ident) == 32, "wire layout");
+_Static_assert(sizeof(mbx_scan_resp) == 24, "wire layout");
+_Static_assert(sizeof(mbx_ev_unknown_node) == 40, "wire layout");
 _Static_assert(sizeof(mbx_dev_read_req) == 12, "wire layout");
 _Static_assert(sizeof(mbx_dev_value) == 32, "wire layout");
 _Static_assert(sizeof(mbx_dev_write_resp) == 8, "wire layout");
@@ -689,6 +693,20 @@ static int check_store_req(uint16_t code, const uint8_t *p, size_t len, mbx_bad 
 	return 0;
 }
 
+static int check_scan_req(uint16_t code, const uint8_t *p, size_t len, mbx_bad *bad)
+{
+	mbx_scan_req r;
+
+	(void)code, (void)len;
+	memcpy(&r, p, sizeof r);
+	if (!all_zero(r.pad, sizeof r.pad))
+		return refuse(bad, MBX_BAD_RESERVED);
+	if (r.first < 1 || r.last > 127 || r.first > r.last ||
+	    r.timeout_ms > MBX_SCAN_TIMEOUT_MAX_MS || r.parallel > 128)
+		return refuse(bad, MBX_BAD_PARAM);
+	return 0;
+}
+
 /* ---- command table ------------------------------------------------------- */
 
 #define R 0
@@ -716,6 +734,8 @@ static const mbx_cmd_info cmd_table[] = {
 	{ MBX_CMD_SDO_DOWNLOAD, W | D, sizeof(mbx_sdo_req), 0, "sdo-download", check_sdo_req },
 	{ MBX_CMD_NMT, W, sizeof(mbx_nmt_req), 0, "nmt", check_nmt },
 	{ MBX_CMD_NODE_TABLE, R, 0, 0, "node-table", NULL },
+	{ MBX_CMD_NODE_SCAN, W, sizeof(mbx_scan_req), 0, "node-scan", check_scan_req },
+	{ MBX_CMD_NODE_SCAN_CACHE, R, 0, 0, "node-scan-cache", NULL },
 	{ MBX_CMD_PDO_REQUEST, W, sizeof(mbx_pdo_num_req), 0, "pdo-request", check_pdo_request },
 	{ MBX_CMD_PDO_READ, R, sizeof(mbx_obj_req), 0, "pdo-read", check_obj_req },
 	{ MBX_CMD_PDO_WRITE, W | D, sizeof(mbx_obj_req), 8, "pdo-write", check_obj_req },

@@ -37,6 +37,7 @@
 #include "mailbox/proto_app.h"
 #include "mailbox/proto_appwd.h"
 #include "mailbox/proto_health.h"
+#include "mailbox/proto_scan.h"
 
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
 #error "mailbox payload structs assume a little-endian host (see proto.h)"
@@ -186,8 +187,11 @@ typedef enum mbx_cmd {
 	MBX_CMD_SDO_UPLOAD = 0x0201,   /* R mbx_sdo_req -> data, hdr.abort */
 	MBX_CMD_SDO_DOWNLOAD = 0x0202, /* W mbx_sdo_req + data -> -, hdr.abort */
 	/* 0x03xx NMT and node table */
-	MBX_CMD_NMT = 0x0301,        /* W mbx_nmt_req */
-	MBX_CMD_NODE_TABLE = 0x0302, /* R - -> mbx_node_entry[n] */
+	MBX_CMD_NMT = 0x0301,             /* W mbx_nmt_req */
+	MBX_CMD_NODE_TABLE = 0x0302,      /* R - -> mbx_node_entry[n] */
+	MBX_CMD_NODE_SCAN = 0x0303,       /* W mbx_scan_req -> mbx_scan_resp +
+	                                   * mbx_node_ident[n] (proto_scan.h) */
+	MBX_CMD_NODE_SCAN_CACHE = 0x0304, /* R - -> the same, from the cache */
 	/* 0x04xx PDO / process data */
 	MBX_CMD_PDO_REQUEST = 0x0401, /* W mbx_pdo_num_req: send a TPDO now */
 	MBX_CMD_PDO_READ = 0x0402,    /* R mbx_obj_req -> data (<= 8 bytes) */
@@ -243,13 +247,12 @@ typedef enum mbx_cmd {
 	                                * gateway.forward with their counters */
 	/* 0x0Dxx objects a client owns on the line's own node
 	 * (mailbox/proto_app.h, docs/application.md) */
-	MBX_CMD_APP_CLAIM = 0x0D01,    /* W mbx_app_claim_req + default -> - */
-	MBX_CMD_APP_RELEASE = 0x0D02,  /* W mbx_obj_req -> - */
-	MBX_CMD_APP_ANSWER = 0x0D03,   /* W mbx_app_answer_req + value (chunkable) -> - */
-	MBX_CMD_APP_IND_DATA = 0x0D04, /* W mbx_app_ind_req -> the write's data */
-	MBX_CMD_APP_LIST = 0x0D05,     /* R - -> mbx_app_status + mbx_app_obj[n] */
-	/* 0x10xx application watchdog, hold on OPERATIONAL, host ready (proto_appwd.h) */
-	MBX_CMD_APP_WATCHDOG = 0x1001,  /* W mbx_appwd_req -> mbx_appwd_resp */
+	MBX_CMD_APP_CLAIM = 0x0D01,     /* W mbx_app_claim_req + default -> - */
+	MBX_CMD_APP_RELEASE = 0x0D02,   /* W mbx_obj_req -> - */
+	MBX_CMD_APP_ANSWER = 0x0D03,    /* W mbx_app_answer_req + value (chunkable) -> - */
+	MBX_CMD_APP_IND_DATA = 0x0D04,  /* W mbx_app_ind_req -> the write's data */
+	MBX_CMD_APP_LIST = 0x0D05,      /* R - -> mbx_app_status + mbx_app_obj[n] */
+	MBX_CMD_APP_WATCHDOG = 0x1001,  /* W mbx_appwd_req -> mbx_appwd_resp (proto_appwd.h) */
 	MBX_CMD_APP_KEEPALIVE = 0x1002, /* W - -> -: NOT_FOUND undeclared, STATE tripped */
 	MBX_CMD_APP_HOLD = 0x1003,      /* W mbx_appwd_hold_req -> mbx_appwd_nmt */
 	MBX_CMD_HOST_READY = 0x1004,    /* W mbx_host_ready_req -> - */
@@ -303,9 +306,8 @@ enum mbx_event_class {
 	MBX_EVC_PDO_FAULT = 1u << 13, /* RPDO supervision: deadline, length */
 	MBX_EVC_VALUE = 1u << 14,     /* typed values of watched device objects; only
 	                               * the objects the client watches (DEV_WATCH) */
-	MBX_EVC_APP = 1u << 15,       /* the application (docs/application.md): watchdog
-	                               * trips, own NMT, host ready to subscribers;
-	                               * indications to the owner only, subscribed or not */
+	MBX_EVC_APP = 1u << 15,       /* watchdog trips, own NMT, host ready: subscribers;
+	                               * indications: their owner, subscribed or not */
 };
 #define MBX_EVC_ALL 0x0000FFFFu
 
@@ -335,6 +337,7 @@ typedef enum mbx_event {
 	MBX_EV_GUARD_TOGGLE = 0x0306,   /* HB mbx_ev_node: toggle bit repeated */
 	MBX_EV_LIFE_LOST = 0x0307,      /* HB mbx_ev_node: our node no longer guarded */
 	MBX_EV_LIFE_RESUMED = 0x0308,   /* HB mbx_ev_node: guarded again */
+	MBX_EV_UNKNOWN_NODE = 0x0309,   /* MANAGER mbx_ev_unknown_node (proto_scan.h) */
 	MBX_EV_RPDO_FAULT = 0x0402,     /* PDO_FAULT mbx_ev_rpdo_fault: episode began */
 	MBX_EV_RPDO_RECOVERED = 0x0403, /* PDO_FAULT mbx_ev_rpdo_fault: episodes ended */
 	MBX_EV_SYNC = 0x0C01,           /* SYNC mbx_ev_sync */

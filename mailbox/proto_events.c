@@ -68,6 +68,7 @@ static const struct event_kind event_kinds[] = {
 	{ MBX_EV_GUARD_TOGGLE, MBX_EVC_HB, "guard-toggle", sizeof(mbx_ev_node), NULL },
 	{ MBX_EV_LIFE_LOST, MBX_EVC_HB, "life-lost", sizeof(mbx_ev_node), NULL },
 	{ MBX_EV_LIFE_RESUMED, MBX_EVC_HB, "life-resumed", sizeof(mbx_ev_node), NULL },
+	{ MBX_EV_UNKNOWN_NODE, MBX_EVC_MANAGER, "unknown-node", sizeof(mbx_ev_unknown_node), NULL },
 	{ MBX_EV_PDO, MBX_EVC_PDO, "pdo", 0, pdo_ok },
 	{ MBX_EV_RPDO_FAULT, MBX_EVC_PDO_FAULT, "rpdo-fault", sizeof(mbx_ev_rpdo_fault), NULL },
 	{ MBX_EV_RPDO_RECOVERED, MBX_EVC_PDO_FAULT, "rpdo-recovered", sizeof(mbx_ev_rpdo_fault),

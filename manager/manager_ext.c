@@ -49,6 +49,7 @@ struct mgr_line {
 	struct mgr_program prog[MGR_PROGRAM_MAX];
 	uint32_t node_changes, node_changes_refused; /* nodes at run time */
 	size_t copy_cap;                             /* bytes of each prog[].copy */
+	mgr_ext_device *devices;                     /* lc.devices, owned */
 };
 
 struct mgr_ext {
@@ -799,6 +800,24 @@ static int mgr_nmt_all(void *ctx, line *l, uint8_t cs, uint64_t now_us)
 	return co_manager_request_nmt(ml->mgr, CO_MGR_ALL_NODES, cmd, now_us);
 }
 
+/* unknown_nodes "boot" (lines/line_scan.c): a node outside the
+ * configuration whose identity a device file of the directory has. */
+static int mgr_adopt_node(void *ctx, line *l, uint8_t node, const uint32_t ident[5])
+{
+	struct mgr_line *ml = ctx;
+	const mgr_ext_device *d = mgr_adopt_match(ml->lc.devices, ml->lc.n_devices, ident);
+	if (!d)
+		return -ENOENT;
+	int rc = mgr_adopt_boot(ml->mgr, line_node(l), node, d, ident, line_loop_now_us(l));
+	if (rc < 0)
+		cogw_log(COGW_LOG_ERR, "line %s: node %u matches %s but cannot be booted: %s",
+			 ml->lc.name, node, d->file, strerror(-rc));
+	else
+		cogw_log(COGW_LOG_INFO, "line %s: node %u is booted as an optional slave with %s",
+			 ml->lc.name, node, d->file);
+	return rc == -ENOENT ? -EIO : rc;
+}
+
 static const line_ext_ops mgr_ops = {
 	.name = "manager",
 	.attach = mgr_attach,
@@ -808,6 +827,7 @@ static const line_ext_ops mgr_ops = {
 	.cmd_last = MBX_CMD_MGR_NODE_SET,
 	.on_command = mgr_on_command,
 	.poll = mgr_poll,
+	.adopt_node = mgr_adopt_node,
 	.node_set = mgr_node_set,
 	.nmt_all = mgr_nmt_all,
 	.nmt_master = mgr_nmt_master,
@@ -817,9 +837,11 @@ void mgr_ext_destroy(mgr_ext *x)
 {
 	if (!x)
 		return;
-	for (unsigned i = 0; i < MGR_EXT_LINES_MAX; i++)
+	for (unsigned i = 0; i < MGR_EXT_LINES_MAX; i++) {
 		for (unsigned k = 0; k < MGR_PROGRAM_MAX; k++)
 			free(x->lines[i].prog[k].copy);
+		free(x->lines[i].devices);
+	}
 	free(x);
 }
 
@@ -842,8 +864,22 @@ int mgr_ext_create(mgr_ext **out, const mgr_ext_params *p)
 	for (unsigned i = 0; i < p->n_lines; i++) {
 		struct mgr_line *ml = &x->lines[i];
 		ml->lc = p->line[i];
+		ml->lc.devices = NULL;
+		ml->lc.n_devices = 0;
 		if (!ml->lc.enabled)
 			continue;
+		/* the table of device files is the extension's own (the files'
+		 * data it points to outlives it) */
+		if (p->line[i].n_devices) {
+			size_t sz = p->line[i].n_devices * sizeof p->line[i].devices[0];
+			if (!(ml->devices = malloc(sz))) {
+				mgr_ext_destroy(x);
+				return -ENOMEM;
+			}
+			memcpy(ml->devices, p->line[i].devices, sz);
+			ml->lc.devices = ml->devices;
+			ml->lc.n_devices = p->line[i].n_devices;
+		}
 		/* the largest image that arrives in one message (not chunked) */
 		ml->copy_cap = p->msg_size > MBX_HDR_SIZE + sizeof(mbx_mgr_program_req)
 				       ? p->msg_size - MBX_HDR_SIZE - sizeof(mbx_mgr_program_req)

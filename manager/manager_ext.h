@@ -27,6 +27,7 @@
 #include "core/manager.h"
 #include "core/pdo_layout.h"
 #include "lines/line_ext.h"
+#include "manager/manager_adopt.h"
 
 #define MGR_EXT_LINES_MAX 16u
 #define MGR_EXT_NAME_MAX 32u
@@ -56,6 +57,10 @@ typedef struct mgr_ext_line_params {
 	                              * software hooks are set here */
 	size_t n_nodes;
 	mgr_ext_node nodes[127];
+	/* unknown_nodes "boot" (docs/config.md): the device files a node
+	 * outside the configuration may match (manager_adopt.h) */
+	const mgr_ext_device *devices;
+	size_t n_devices;
 } mgr_ext_line_params;
 
 typedef struct mgr_ext_params {

@@ -40,13 +40,12 @@ typedef struct request {
 	uint16_t mbx_cmd; /* MBX_CMD_* to send */
 	uint8_t *payload; /* fixed part + data */
 	size_t payload_len;
-	uint64_t corr;    /* 0 = not sent */
-	uint64_t sent_ms; /* CLOCK_MONOTONIC when sent */
-	bool in_flight;   /* sent, reply not yet here */
-	bool waiting;     /* in the wait queue */
-	bool large;       /* its data may take more than one mailbox message */
-	bool done;        /* answer is set */
-	char *answer;     /* answer text with line ends, NUL-terminated */
+	uint64_t corr;  /* 0 = not sent */
+	bool in_flight; /* sent, reply not yet here */
+	bool waiting;   /* in the wait queue */
+	bool large;     /* its data may take more than one mailbox message */
+	bool done;      /* answer is set */
+	char *answer;   /* answer text with line ends, NUL-terminated */
 	size_t answer_len;
 } request;
 
@@ -83,6 +82,20 @@ typedef struct gw_stats {
 	uint64_t mbx_errors, orphaned, expired;
 } gw_stats;
 
+/* The depth of our response queue: as many requests under way in all
+ * (main.c opens the handle with it). */
+#define GW_RESP_DEPTH 64u
+
+/* A line whose command queue had no room (session.c sends, server.c waits). */
+enum gw_line_room {
+	GW_FREE,    /* sends go */
+	GW_BLOCKED, /* refused: wait until its command queue is writable */
+	GW_ROOM,    /* writable again: try */
+	GW_AGAIN    /* refused although writable (the line registers again after a daemon
+		     * restart, or another client was quicker): try at the next wake-up,
+		     * RETRY_PAUSE_MS at the latest */
+};
+
 typedef struct gateway {
 	ascii_config cfg;
 	cogw_config daemon;
@@ -96,6 +109,9 @@ typedef struct gateway {
 	request *wait_head, *wait_tail;          /* requests waiting for a mailbox slot */
 	unsigned inflight[COGW_LINES_MAX];       /* mailbox requests under way per line */
 	unsigned inflight_max;                   /* the daemon's max_outstanding */
+	unsigned inflight_total;                 /* of every line */
+	uint8_t blocked[COGW_LINES_MAX];         /* enum gw_line_room */
+	int armed_fd[COGW_LINES_MAX];            /* command queue watched for room, or -1 */
 	unsigned large_inflight[COGW_LINES_MAX]; /* of them large (0 or 1) */
 	request **sent;                          /* requests under way (by corr) */
 	size_t n_sent, cap_sent;
@@ -112,12 +128,14 @@ void session_line(gateway *g, conn *c, const char *line, size_t len);
 /* Answer ERROR: err in c's turn, for input that is no command (an
  * overlong line). */
 void session_refuse(gateway *g, conn *c, int err);
-/* A mailbox answer or event from cogw_recv. */
+/* A mailbox answer or event from cogw_loop_recv (a request libcogw gave
+ * up on after request_timeout_ms comes as COGW_E_TIMEOUT: ERROR: 103). */
 void session_mailbox(gateway *g, const cogw_msg *m);
 /* The connection goes: its requests under way become orphans. */
 void session_conn_gone(gateway *g, conn *c);
-/* Answer ERROR: 103 for requests under way too long (called every second). */
-void session_expire(gateway *g);
+/* Send what waits for a mailbox slot, in order per line (after an answer,
+ * a command queue's room, a pause). */
+void session_launch(gateway *g);
 /* At exit, after every connection closed: free what is left. */
 void session_free_all(gateway *g);
 /* Line of network net (the daemon's), or -1 if not attached. */

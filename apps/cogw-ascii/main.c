@@ -12,6 +12,7 @@
  * bound here from the configuration.
  */
 #include "apps/cogw-ascii/gateway.h"
+#include "apps/common/mbx_loop.h"
 #include "apps/common/signal_loop.h"
 #include "apps/common/version.h"
 
@@ -277,9 +278,9 @@ int main(int argc, char **argv)
 	/* deep queues: the answers of many connections' transfers share them */
 	cogw_options o = { .instance = g.daemon.mailbox.instance,
 			   .timeout_ms = 2000,
-			   .resp_depth = 64,
+			   .resp_depth = GW_RESP_DEPTH,
 			   .event_depth = 64 };
-	rc = cogw_open_opts(&g.h, &o);
+	rc = mbx_loop_open(&g.h, &o, g.daemon.n_lines, "cogw-ascii");
 	if (rc < 0) {
 		fprintf(stderr, "cogw-ascii: mailbox of instance %s: %s\n", o.instance,
 			cogw_strerror(rc));

@@ -10,9 +10,14 @@
  * served, alone; a line longer than max_line is answered ERROR: 600 and
  * skipped to its end without being stored; a peer that sends half a line
  * and goes silent holds only its own buffer. Mailbox replies come through
- * libcogw's event descriptor in the same loop (cogw_recv without waiting).
+ * libcogw's loop descriptor in the same loop (cogw_loop_recv: the answer
+ * is taken from the response queue in this wake-up, no helper thread in
+ * between, docs/fastpath.md); a line whose command queue is full waits
+ * for room on that queue's descriptor, without holding up the others.
  */
 #include "apps/cogw-ascii/gateway.h"
+
+#include "apps/common/mbx_loop.h"
 
 #include <errno.h>
 #include <netinet/in.h>
@@ -23,14 +28,18 @@
 #include <sys/epoll.h>
 #include <sys/signalfd.h>
 #include <sys/socket.h>
-#include <sys/timerfd.h>
 #include <unistd.h>
 
 #define TAG_MAILBOX 1u
 #define TAG_SIGNAL 2u
-#define TAG_TIMER 3u
 #define TAG_LISTEN 16u /* + listener index */
+#define TAG_ROOM 32u   /* + line: its command queue has room */
 #define TAG_MAX 64u    /* below: fixed descriptors; above: a conn pointer */
+
+/* The longest a line refused although its queue was writable waits for
+ * its next try (a re-registration after a daemon restart takes one round
+ * trip). */
+#define RETRY_PAUSE_MS 20
 
 /* ---- connections -------------------------------------------------------------- */
 
@@ -297,14 +306,44 @@ static void reload_rules(gateway *g)
 
 /* ---- the loop ------------------------------------------------------------------ */
 
-static void drain_mailbox(gateway *g)
+/* One answer or event per wake-up: the loop descriptor is level-triggered
+ * and stays readable while more waits, and a receive that finds nothing
+ * costs two system calls (docs/fastpath.md). */
+static void take_mailbox(gateway *g)
 {
 	cogw_msg m;
 
-	while (cogw_recv(g->h, &m, 0) == 0) {
+	if (cogw_loop_recv(g->h, &m) == 0) {
 		session_mailbox(g, &m);
 		cogw_msg_release(&m);
 	}
+}
+
+/* Lines waiting for room: watch their command queue (once, EPOLLONESHOT;
+ * the descriptor is another after a daemon restart). The epoll_wait
+ * time-out: RETRY_PAUSE_MS while a line waits for its retry, else -1. */
+static int watch_rooms(gateway *g)
+{
+	int pause = -1;
+
+	for (unsigned l = 0; l < COGW_LINES_MAX; l++) {
+		if (g->blocked[l] == GW_AGAIN)
+			pause = RETRY_PAUSE_MS;
+		if (g->blocked[l] != GW_BLOCKED)
+			continue;
+		int fd = cogw_loop_cmd_fd(g->h, l);
+		struct epoll_event ev = { .events = EPOLLOUT | EPOLLONESHOT,
+					  .data.u64 = TAG_ROOM + l };
+
+		if (fd < 0)
+			continue;
+		if (fd == g->armed_fd[l] && epoll_ctl(g->epfd, EPOLL_CTL_MOD, fd, &ev) == 0)
+			continue;
+		if (g->armed_fd[l] >= 0)
+			epoll_ctl(g->epfd, EPOLL_CTL_DEL, g->armed_fd[l], NULL);
+		g->armed_fd[l] = epoll_ctl(g->epfd, EPOLL_CTL_ADD, fd, &ev) == 0 ? fd : -1;
+	}
+	return pause;
 }
 
 static int add_fd(gateway *g, int fd, uint64_t tag)
@@ -316,33 +355,31 @@ static int add_fd(gateway *g, int fd, uint64_t tag)
 
 int server_run(gateway *g)
 {
-	struct itimerspec every_second = { .it_interval = { 1, 0 }, .it_value = { 1, 0 } };
-	int tfd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
 	struct epoll_event evs[64];
 
-	if (tfd < 0 || timerfd_settime(tfd, 0, &every_second, NULL) < 0 ||
-	    add_fd(g, tfd, TAG_TIMER) < 0 || add_fd(g, g->sigfd, TAG_SIGNAL) < 0 ||
-	    add_fd(g, cogw_event_fd(g->h), TAG_MAILBOX) < 0) {
+	for (unsigned l = 0; l < COGW_LINES_MAX; l++)
+		g->armed_fd[l] = -1;
+	if (add_fd(g, g->sigfd, TAG_SIGNAL) < 0 || add_fd(g, cogw_loop_fd(g->h), TAG_MAILBOX) < 0) {
 		perror("cogw-ascii: epoll set-up");
-		if (tfd >= 0)
-			close(tfd);
 		return -1;
 	}
 	for (unsigned i = 0; i < g->n_listen; i++)
 		if (add_fd(g, g->listen_fd[i], TAG_LISTEN + i) < 0)
 			return -1;
 	while (!g->stop) {
-		int n = epoll_wait(g->epfd, evs, 64, -1);
+		int n = epoll_wait(g->epfd, evs, 64, mbx_loop_wait_ms(g->h, watch_rooms(g)));
 
 		if (n < 0 && errno != EINTR) {
 			perror("cogw-ascii: epoll_wait");
 			break;
 		}
+		/* leases, a daemon restart, requests past their time-out */
+		cogw_loop_tick(g->h);
 		for (int i = 0; i < n; i++) {
 			uint64_t tag = evs[i].data.u64;
 
 			if (tag == TAG_MAILBOX) {
-				drain_mailbox(g);
+				take_mailbox(g);
 			} else if (tag == TAG_SIGNAL) {
 				struct signalfd_siginfo si;
 
@@ -352,14 +389,9 @@ int server_run(gateway *g)
 					else if (si.ssi_signo == SIGHUP)
 						reload_rules(g);
 				}
-			} else if (tag == TAG_TIMER) {
-				uint64_t ticks;
-
-				if (read(tfd, &ticks, sizeof ticks) < 0) {
-					/* nothing: a spurious wake */
-				}
-				session_expire(g);
-			} else if (tag >= TAG_LISTEN && tag < TAG_MAX) {
+			} else if (tag >= TAG_ROOM && tag < TAG_MAX) {
+				g->blocked[tag - TAG_ROOM] = GW_ROOM;
+			} else if (tag >= TAG_LISTEN && tag < TAG_ROOM) {
 				accept_one(g, (unsigned)(tag - TAG_LISTEN));
 			} else {
 				conn *c = evs[i].data.ptr;
@@ -373,15 +405,16 @@ int server_run(gateway *g)
 					c->dead = true;
 			}
 		}
-		/* the replies of this round may already be complete */
-		drain_mailbox(g);
+		for (unsigned l = 0; l < COGW_LINES_MAX; l++)
+			if (g->blocked[l] == GW_AGAIN)
+				g->blocked[l] = GW_FREE;
+		session_launch(g);
 		for (conn *c = g->conns, *next; c; c = next) {
 			next = c->next;
 			if (c->kick || c->dead)
 				conn_pump(g, c);
 		}
 	}
-	close(tfd);
 	while (g->conns)
 		conn_close(g, g->conns);
 	session_free_all(g);

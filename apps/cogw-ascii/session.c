@@ -20,25 +20,18 @@
  */
 #include "apps/cogw-ascii/gateway.h"
 
+#include "apps/common/mbx_loop.h"
+
 #include <errno.h>
 #include <inttypes.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "core/manager.h"
 #include "core/nmt.h"
 #include "core/sdo.h"
-
-static uint64_t mono_ms(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u;
-}
 
 /* ---- answers ---------------------------------------------------------------- */
 
@@ -410,6 +403,8 @@ static void slot_free(gateway *g, request *r)
 	r->in_flight = false;
 	if (g->inflight[r->line])
 		g->inflight[r->line]--;
+	if (g->inflight_total)
+		g->inflight_total--;
 	if (r->large && g->large_inflight[r->line])
 		g->large_inflight[r->line]--;
 }
@@ -479,16 +474,20 @@ static void finished(gateway *g, request *r)
 	flush_answers(g, r->conn);
 }
 
-static void send_one(gateway *g, request *r)
+/* The request to the daemon, without waiting: false when the line's
+ * command queue has no room now (COGW_E_WOULDBLOCK; the request keeps its
+ * place and the line waits, server.c); true when it is under way or
+ * answered with an error. */
+static bool send_one(gateway *g, request *r)
 {
-	uint64_t t0 = mono_ms();
-	int rc = cogw_send_async(g->h, r->line, r->mbx_cmd, r->payload, r->payload_len, &r->corr);
+	int rc = mbx_loop_send(g->h, r->line, r->mbx_cmd, r->payload, r->payload_len,
+			       g->cfg.request_timeout_ms, &r->corr);
 
-	if (g->verbose && mono_ms() - t0 > 100)
-		fprintf(stderr, "cogw-ascii: sending %s to line %u took %llu ms\n",
-			ascii_verb_to_string(r->cmd.verb), r->line,
-			(unsigned long long)(mono_ms() - t0));
-
+	if (rc == COGW_E_WOULDBLOCK) {
+		g->blocked[r->line] = g->blocked[r->line] == GW_ROOM ? GW_AGAIN : GW_BLOCKED;
+		return false;
+	}
+	g->blocked[r->line] = GW_FREE;
 	free(r->payload);
 	r->payload = NULL;
 	if (rc < 0) {
@@ -496,43 +495,61 @@ static void send_one(gateway *g, request *r)
 		r->corr = 0;
 		answer_error(r, err_of_status(rc));
 		finished(g, r);
-		return;
+		return true;
 	}
-	r->sent_ms = mono_ms();
 	r->in_flight = true;
 	g->inflight[r->line]++;
+	g->inflight_total++;
 	g->large_inflight[r->line] += r->large;
 	sent_add(g, r);
+	return true;
 }
 
-/* Start waiting requests of lines with a free mailbox slot, in order. */
-static void launch_waiting(gateway *g)
+/* Can r go to the daemon now? Not while its line's command queue is full
+ * (held: it was refused in this pass; GW_BLOCKED: the loop waits for room),
+ * at most max_outstanding per line (more would be refused BUSY), as many in
+ * all as the response queue holds answers (libcogw refuses more), and one
+ * chunked transfer per line at a time: the daemon keeps up to half of our
+ * response queue filled with the chunks of each transfer
+ * (docs/mailbox.md), so two at once could fill it and leave no room for
+ * the other connections' answers. */
+static bool may_launch(const gateway *g, const request *r, const bool *held)
+{
+	return !held[r->line] && g->blocked[r->line] != GW_BLOCKED &&
+	       g->inflight[r->line] < g->inflight_max && g->inflight_total < GW_RESP_DEPTH &&
+	       !(r->large && g->large_inflight[r->line]);
+}
+
+void session_launch(gateway *g)
 {
 	request **pp = &g->wait_head, *prev = NULL;
+	bool held[COGW_LINES_MAX] = { false }; /* refused: the line's later ones wait too */
 
 	while (*pp) {
 		request *r = *pp;
 
-		/* One chunked transfer per line at a time: the daemon keeps up to
-		 * half of our response queue filled with the chunks of each
-		 * transfer (docs/mailbox.md), so two at once could fill it and
-		 * leave no room for the other connections' answers. */
-		if (g->inflight[r->line] >= g->inflight_max ||
-		    (r->large && g->large_inflight[r->line])) {
+		if (r->conn && !may_launch(g, r, held)) {
 			prev = r;
 			pp = &r->next_wait;
 			continue;
 		}
 		*pp = r->next_wait;
-		if (g->wait_tail == r)
-			g->wait_tail = prev;
 		r->next_wait = NULL;
 		r->waiting = false;
 		if (!r->conn) {
 			request_free(r);
+		} else if (!send_one(g, r)) {
+			/* its place again: r is untouched */
+			r->next_wait = *pp;
+			r->waiting = true;
+			*pp = r;
+			held[r->line] = true;
+			prev = r;
+			pp = &r->next_wait;
 			continue;
 		}
-		send_one(g, r);
+		if (!*pp)
+			g->wait_tail = prev;
 	}
 }
 
@@ -545,7 +562,7 @@ static void enqueue(gateway *g, request *r)
 	else
 		g->wait_head = r;
 	g->wait_tail = r;
-	launch_waiting(g);
+	session_launch(g);
 }
 
 /* Steps 2-4 for a command that goes to the daemon. */
@@ -829,39 +846,10 @@ void session_mailbox(gateway *g, const cogw_msg *m)
 			ascii_verb_to_string(r->cmd.verb), r->line, cogw_strerror(m->status));
 	if (r->conn && !r->done)
 		answer_reply(r, m);
-	finished(g, r);
-	launch_waiting(g);
-}
-
-/* Requests under way longer than request_timeout_ms are answered
- * ERROR: 103 and given up: their mailbox slot counts as free again (the
- * daemon answers every request it received, so a reply that never came
- * was lost), a late reply is dropped as one to no request. */
-void session_expire(gateway *g)
-{
-	uint64_t now = mono_ms();
-	bool freed = false;
-
-	for (size_t i = 0; i < g->n_sent;) {
-		request *r = g->sent[i];
-
-		if (now - r->sent_ms < g->cfg.request_timeout_ms) {
-			i++;
-			continue;
-		}
-		g->sent[i] = g->sent[--g->n_sent];
-		slot_free(g, r);
+	if (m->status == COGW_E_TIMEOUT)
 		g->st.expired++;
-		freed = true;
-		if (!r->conn) {
-			request_free(r);
-			continue;
-		}
-		answer_error(r, ASCII_E_TIMEOUT);
-		flush_answers(g, r->conn);
-	}
-	if (freed)
-		launch_waiting(g);
+	finished(g, r);
+	session_launch(g);
 }
 
 /* At exit: requests still under way or waiting. */

@@ -13,6 +13,7 @@
 #include <time.h>
 
 #include "apps/cogw-mqtt/bridge.h"
+#include "apps/common/mbx_loop.h"
 #include "apps/common/json_util.h"
 
 /* ---- clocks ---- */
@@ -75,6 +76,15 @@ void bridge_pending_release(pending *p)
 	p->used = false;
 }
 
+int bridge_send(bridge *b, unsigned line, uint16_t cmd, const void *payload, size_t len,
+		uint64_t *corr)
+{
+	/* the bridge's own deadline (serve_expire) answers first; libcogw's,
+	 * a second later, only ends its bookkeeping of a reply that never came */
+	return mbx_loop_send(b->h, line, cmd, payload, len, b->cfg.request_timeout_ms + 1000u,
+			     corr);
+}
+
 /* The bridge's own requests have slots after the requests' ones. */
 pending *bridge_send_internal(bridge *b, unsigned line, uint16_t cmd, const void *payload,
 			      size_t len)
@@ -84,7 +94,7 @@ pending *bridge_send_internal(bridge *b, unsigned line, uint16_t cmd, const void
 
 		if (p->used)
 			continue;
-		int rc = cogw_send_async(b->h, line, cmd, payload, len, &p->corr);
+		int rc = bridge_send(b, line, cmd, payload, len, &p->corr);
 
 		if (rc < 0) {
 			b->st.mbx_errors++;

@@ -86,6 +86,13 @@ typedef struct manager_state {
 	uint8_t flags; /* CO_MGR_F_* */
 } manager_state;
 
+/* A bus health fault of a line as last published (retained at
+ * health/<fault>): the episode that runs, the counters. */
+typedef struct fault_state {
+	bool known;
+	mbx_ev_comm_fault last;
+} fault_state;
+
 typedef struct bridge_stats {
 	uint64_t published, queued, dropped, dropped_bytes, connects, connect_failures, disconnects;
 	uint64_t events, events_lost; /* mailbox events, and lost before us */
@@ -139,6 +146,7 @@ struct bridge {
 	uint64_t tokens_ms;
 	node_state *nodes; /* [line * 128 + node] */
 	manager_state managers[COGW_LINES_MAX];
+	fault_state faults[COGW_LINES_MAX][MBX_FAULT_COUNT];
 	bridge_watch watch[MQTT_WATCH_MAX];
 	size_t n_watch;
 	bool cfg_watch_removed[MQTT_WATCH_MAX];  /* by a watch_remove request */
@@ -156,6 +164,10 @@ void bridge_time_of(uint64_t wall_ms, char *buf, size_t n);
 void bridge_time_text(char *buf, size_t n);
 int bridge_line_of_net(const bridge *b, uint16_t net); /* -1 if not attached */
 
+/* A request to the daemon through the loop handle (never waits: a full
+ * command queue is COGW_E_WOULDBLOCK). 0 or a cogw_err. */
+int bridge_send(bridge *b, unsigned line, uint16_t cmd, const void *payload, size_t len,
+		uint64_t *corr);
 /* The bridge's own mailbox request: the slot it took, or NULL (counted). */
 pending *bridge_send_internal(bridge *b, unsigned line, uint16_t cmd, const void *payload,
 			      size_t len);

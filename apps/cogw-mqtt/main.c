@@ -8,6 +8,7 @@
  *   cogw-mqtt [--config FILE] [--daemon-config FILE] [--check] [-v]
  */
 #include "apps/cogw-mqtt/bridge.h"
+#include "apps/common/mbx_loop.h"
 #include "apps/common/signal_loop.h"
 #include "apps/common/version.h"
 #include "apps/cogw-mqtt/mqtt_watch.h"
@@ -110,14 +111,16 @@ static int open_loop(bridge *b)
 	if (epoll_ctl(b->epfd, EPOLL_CTL_ADD, b->sigfd, &ev) < 0)
 		return -1;
 	ev.data.u32 = EPOLL_TAG_MAILBOX;
-	return epoll_ctl(b->epfd, EPOLL_CTL_ADD, cogw_event_fd(b->h), &ev);
+	return epoll_ctl(b->epfd, EPOLL_CTL_ADD, cogw_loop_fd(b->h), &ev);
 }
 
 static void drain_mailbox(bridge *b)
 {
 	cogw_msg m;
 
-	while (cogw_recv(b->h, &m, 0) == 0) {
+	/* all that waits: events come in bursts (a watched value per TPDO) and
+	 * every turn of the loop services the broker link too */
+	while (cogw_loop_recv(b->h, &m) == 0) {
 		if (m.kind == MBX_KIND_EVENT) {
 			events_on_event(b, &m);
 		} else {
@@ -148,12 +151,14 @@ static int run(bridge *b)
 		int timeout = next <= now ? 0 : next - now > 200 ? 200 : (int)(next - now);
 
 		link_sync_epoll(b);
-		int n = epoll_wait(b->epfd, evs, 8, timeout);
+		int n = epoll_wait(b->epfd, evs, 8, mbx_loop_wait_ms(b->h, timeout));
 
 		if (n < 0 && errno != EINTR) {
 			perror("cogw-mqtt: epoll_wait");
 			return -1;
 		}
+		/* leases, a daemon restart, requests past libcogw's time-out */
+		cogw_loop_tick(b->h);
 		for (int i = 0; i < n; i++) {
 			if (evs[i].data.u32 == EPOLL_TAG_SIGNAL) {
 				struct signalfd_siginfo si;
@@ -235,7 +240,7 @@ int main(int argc, char **argv)
 			   .timeout_ms = 2000,
 			   .resp_depth = 64,
 			   .event_depth = 64 };
-	rc = cogw_open_opts(&b.h, &o);
+	rc = mbx_loop_open(&b.h, &o, b.daemon.n_lines, "cogw-mqtt");
 	if (rc < 0) {
 		fprintf(stderr, "cogw-mqtt: mailbox of instance %s: %s\n", o.instance,
 			cogw_strerror(rc));

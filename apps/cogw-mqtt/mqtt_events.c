@@ -280,9 +280,9 @@ static void on_mgr_node(bridge *b, unsigned line, const mbx_ev_mgr *e)
 	link_publish_json(b, t, o, false, NULL);
 }
 
-/* A bus health episode began or ended: retained per fault, so a dashboard
- * that connects later sees which faults run now. */
-static void on_comm_fault(bridge *b, unsigned line, const mbx_ev_comm_fault *e)
+/* A bus health fault, retained per fault, so a dashboard that connects
+ * later sees which faults run now. */
+static void publish_fault(bridge *b, unsigned line, const mbx_ev_comm_fault *e)
 {
 	cJSON *o = head(b, line, -1);
 	char t[TOPIC_MAX], leaf[40];
@@ -344,6 +344,62 @@ static void on_app_event(bridge *b, unsigned line, const cogw_msg *m)
 		memcpy(&e, m->data, sizeof e);
 		on_host_state(b, line, &e);
 	}
+}
+
+/* An episode began or ended. */
+static void on_comm_fault(bridge *b, unsigned line, const mbx_ev_comm_fault *e)
+{
+	b->faults[line][e->fault] = (fault_state){ .known = true, .last = *e };
+	publish_fault(b, line, e);
+}
+
+/* The line's present bus health (LINE_HEALTH), asked at every birth and
+ * period: every fault is published the first time (a retained "active"
+ * of an earlier run is replaced), later when an episode began or ended
+ * that no event brought (lost with an overflowed queue, or before the
+ * bridge subscribed). */
+static void on_line_health(bridge *b, unsigned line, const cogw_msg *m)
+{
+	mbx_line_health h;
+
+	if (m->len < sizeof h)
+		return;
+	memcpy(&h, m->data, sizeof h);
+	for (unsigned i = 0; i < MBX_FAULT_COUNT && i < h.n_faults; i++) {
+		fault_state *fs = &b->faults[line][i];
+		mbx_ev_comm_fault e = { .fault = (uint8_t)i,
+					.active = h.fault[i].active,
+					.info = h.fault[i].info,
+					.can_state = h.can_state,
+					.episodes = h.fault[i].episodes,
+					.occurrences = h.fault[i].occurrences };
+
+		if (fs->known && fs->last.active == e.active && fs->last.episodes == e.episodes)
+			continue;
+		*fs = (fault_state){ .known = true, .last = e };
+		publish_fault(b, line, &e);
+	}
+}
+
+/* A node outside the line's configuration was heard (once per node and
+ * daemon run), with its identity and what the line's policy did. */
+static void on_unknown_node(bridge *b, unsigned line, const mbx_ev_unknown_node *e)
+{
+	const mbx_node_ident *id = &e->ident;
+	cJSON *o = head(b, line, id->node);
+	char t[TOPIC_MAX];
+
+	cJSON_AddStringToObject(o, "source", mbx_ident_source_to_string(id->source));
+	cJSON_AddBoolToObject(o, "identity", id->flags & MBX_IDENT_IDENTITY);
+	cJSON_AddNumberToObject(o, "device_type", id->device_type);
+	cJSON_AddNumberToObject(o, "vendor_id", id->vendor_id);
+	cJSON_AddNumberToObject(o, "product_code", id->product_code);
+	cJSON_AddNumberToObject(o, "revision", id->revision);
+	cJSON_AddNumberToObject(o, "serial", id->serial);
+	cJSON_AddStringToObject(o, "policy", mbx_unknown_policy_to_string(e->policy));
+	cJSON_AddStringToObject(o, "action", mbx_unknown_action_to_string(e->action));
+	node_topic(b, line, id->node, "unknown", t, sizeof t);
+	link_publish_json(b, t, o, false, NULL);
 }
 
 static void on_node_event(bridge *b, unsigned line, uint16_t code, const mbx_ev_node *e)
@@ -448,6 +504,14 @@ void events_on_event(bridge *b, const cogw_msg *m)
 	case MBX_EV_HOST_STATE:
 		on_app_event(b, line, m);
 		break;
+	case MBX_EV_UNKNOWN_NODE: {
+		mbx_ev_unknown_node e;
+
+		memcpy(&e, m->data, sizeof e);
+		if (b->cfg.pub_manager && e.ident.node >= 1 && e.ident.node <= 127)
+			on_unknown_node(b, line, &e);
+		break;
+	}
 	default:
 		break;
 	}
@@ -565,6 +629,8 @@ void events_on_internal(bridge *b, pending *p, const cogw_msg *m)
 		on_node_table(b, p->line, m);
 	else if (p->cmd == MBX_CMD_MGR_STATUS)
 		on_mgr_status(b, p->line, m);
+	else if (p->cmd == MBX_CMD_LINE_HEALTH)
+		on_line_health(b, p->line, m);
 	else if (p->cmd == MBX_CMD_GW_ROUTES)
 		on_gw_status(b, p->line, m);
 	else if (p->cmd == MBX_CMD_MGR_NODE_DIAG)
@@ -618,12 +684,15 @@ static void publish_bridge_counters(bridge *b)
 }
 
 /* The state the daemon has now, for what only events would tell: the
- * manager's state first (one slot, before the node table's diagnostics
- * and the watches take the rest), then the node table. */
+ * manager's state and the bus health first (a slot each, before the node
+ * table's diagnostics and the watches take the rest), then the node
+ * table. */
 static void request_state(bridge *b, unsigned line)
 {
 	if (b->cfg.pub_manager && b->daemon.lines[line].manager.enabled)
 		bridge_send_internal(b, line, MBX_CMD_MGR_STATUS, NULL, 0);
+	if (b->cfg.pub_manager)
+		bridge_send_internal(b, line, MBX_CMD_LINE_HEALTH, NULL, 0);
 	bridge_send_internal(b, line, MBX_CMD_NODE_TABLE, NULL, 0);
 }
 
@@ -644,6 +713,9 @@ void events_on_connect(bridge *b)
 
 		if (ms->known && b->cfg.pub_manager)
 			publish_manager(b, l, ms->state, -1, ms->flags);
+		for (unsigned f = 0; f < MBX_FAULT_COUNT; f++)
+			if (b->faults[l][f].known && b->cfg.pub_manager)
+				publish_fault(b, l, &b->faults[l][f].last);
 		for (unsigned n = 1; n < 128; n++) {
 			node_state *ns = node_of(b, l, (uint8_t)n);
 

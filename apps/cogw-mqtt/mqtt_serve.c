@@ -3,7 +3,7 @@
  * apps/cogw-mqtt/mqtt_serve.c - requests from the broker (docs/mqtt.md
  * "Requests"): decoded and checked (mqtt_request.c), held against the
  * bridge's role and its flood and in-flight limits, sent to the daemon
- * without waiting (cogw_send_async) and answered when the mailbox answer
+ * without waiting (cogw_loop_send) and answered when the mailbox answer
  * comes: MQTT 5 request/response (response topic and correlation data of
  * the request), or for MQTT 3.1.1 clients the request's reply_to and id.
  */
@@ -165,8 +165,14 @@ static int start_request(bridge *b, reply_path *rp, const mqtt_request *r)
 			len += r->value_len;
 		}
 	}
-	int rc = cogw_send_async(b->h, (unsigned)line, cmd, payload, len, &p->corr);
+	int rc = bridge_send(b, (unsigned)line, cmd, payload, len, &p->corr);
 
+	if (rc == COGW_E_WOULDBLOCK) {
+		b->st.busy++;
+		snprintf(why, sizeof why, "the daemon's command queue of line %d is full", line);
+		refuse(b, rp, r, true, "busy", why);
+		return -1;
+	}
 	if (rc < 0) {
 		b->st.mbx_errors++;
 		snprintf(why, sizeof why, "the daemon's mailbox: %s", cogw_strerror(rc));

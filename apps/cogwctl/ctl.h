@@ -140,7 +140,8 @@ typedef struct ctl_cmd {
 extern const ctl_cmd ctl_cmd_status, ctl_cmd_sdo, ctl_cmd_od, ctl_cmd_nmt, ctl_cmd_pdo,
 	ctl_cmd_emcy, ctl_cmd_lss, ctl_cmd_monitor, ctl_cmd_raw, ctl_cmd_dcf, ctl_cmd_route,
 	ctl_cmd_manager, ctl_cmd_boot, ctl_cmd_diag, ctl_cmd_program, ctl_cmd_configure,
-	ctl_cmd_watch, ctl_cmd_dev, ctl_cmd_health, ctl_cmd_node, ctl_cmd_app, ctl_cmd_host;
+	ctl_cmd_watch, ctl_cmd_dev, ctl_cmd_health, ctl_cmd_node, ctl_cmd_app, ctl_cmd_host,
+	ctl_cmd_scan;
 
 /* Run one(c, h, line, arr) for the lines given as
  * positionals (or every line of the daemon); with --json one object

@@ -16,7 +16,7 @@ static const ctl_cmd *const commands[] = {
 	&ctl_cmd_emcy,      &ctl_cmd_lss,     &ctl_cmd_monitor, &ctl_cmd_raw,    &ctl_cmd_dcf,
 	&ctl_cmd_route,     &ctl_cmd_manager, &ctl_cmd_boot,    &ctl_cmd_diag,   &ctl_cmd_program,
 	&ctl_cmd_configure, &ctl_cmd_watch,   &ctl_cmd_dev,     &ctl_cmd_health, &ctl_cmd_node,
-	&ctl_cmd_app,       &ctl_cmd_host,
+	&ctl_cmd_app,       &ctl_cmd_host,    &ctl_cmd_scan,
 };
 #define N_COMMANDS (sizeof commands / sizeof commands[0])
 

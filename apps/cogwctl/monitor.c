@@ -430,6 +430,34 @@ static void print_comm_fault(const cogw_msg *m, const ctl_monitor_spec *spec, ev
 		cJSON_AddNumberToObject(out->o, "state_heard", e.info);
 }
 
+static void print_unknown_node(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
+{
+	mbx_ev_unknown_node e;
+	const mbx_node_ident *id = &e.ident;
+
+	(void)spec;
+	memcpy(&e, m->data, sizeof e);
+	snprintf(out->text, out->len,
+		 "node %u not configured (%s): 1000h %08X, 1018h %08X/%08X/%08X%s; %s: %s",
+		 id->node, mbx_ident_source_to_string(id->source), (unsigned)id->device_type,
+		 (unsigned)id->vendor_id, (unsigned)id->product_code, (unsigned)id->revision,
+		 id->flags & MBX_IDENT_IDENTITY ? "" : " (not read)",
+		 mbx_unknown_policy_to_string(e.policy), mbx_unknown_action_to_string(e.action));
+	if (!out->o)
+		return;
+	cJSON_AddNumberToObject(out->o, "node", id->node);
+	cJSON_AddStringToObject(out->o, "source", mbx_ident_source_to_string(id->source));
+	cJSON_AddBoolToObject(out->o, "identity", id->flags & MBX_IDENT_IDENTITY);
+	cJSON_AddNumberToObject(out->o, "device_type", id->device_type);
+	cJSON_AddNumberToObject(out->o, "vendor_id", id->vendor_id);
+	cJSON_AddNumberToObject(out->o, "product_code", id->product_code);
+	cJSON_AddNumberToObject(out->o, "revision", id->revision);
+	cJSON_AddNumberToObject(out->o, "serial", id->serial);
+	cJSON_AddStringToObject(out->o, "policy", mbx_unknown_policy_to_string(e.policy));
+	cJSON_AddStringToObject(out->o, "action", mbx_unknown_action_to_string(e.action));
+	cJSON_AddNumberToObject(out->o, "reported", e.reported);
+}
+
 static void print_raw(const cogw_msg *m, const ctl_monitor_spec *spec, event_out *out)
 {
 	mbx_ev_raw e;
@@ -660,6 +688,7 @@ static const struct {
 	{ MBX_EV_MGR_NODE, print_mgr_node },
 	{ MBX_EV_CAN_STATE, print_can_state },
 	{ MBX_EV_COMM_FAULT, print_comm_fault },
+	{ MBX_EV_UNKNOWN_NODE, print_unknown_node },
 	{ MBX_EV_RAW, print_raw },
 	{ MBX_EV_OD_WRITTEN, print_od_written },
 	{ MBX_EV_RPDO_FAULT, print_rpdo_fault },

@@ -41,20 +41,48 @@ static void line_params(const cogw_line_config *lc, mgr_ext_line_params *o)
 	}
 }
 
+/* unknown_nodes "boot": the device files of the directory, pointing into
+ * the configuration (which outlives the extension). */
+static int device_params(const cogw_line_config *lc, mgr_ext_line_params *o, mgr_ext_device **out)
+{
+	const cogw_unknown_config *u = &lc->unknown;
+	mgr_ext_device *d = u->n_devices ? calloc(u->n_devices, sizeof *d) : NULL;
+	*out = d;
+	if (u->n_devices && !d)
+		return -ENOMEM;
+	for (size_t i = 0; i < u->n_devices; i++)
+		d[i] = (mgr_ext_device){ .file = u->devices[i].file,
+					 .ident = { u->devices[i].ident[0], u->devices[i].ident[1],
+						    u->devices[i].ident[2],
+						    u->devices[i].ident[3] },
+					 .cdcf = u->devices[i].cdcf,
+					 .cdcf_len = u->devices[i].cdcf_len };
+	o->devices = d;
+	o->n_devices = u->n_devices;
+	return 0;
+}
+
 static int mgr_setup(const cogw_config *cfg, void **state)
 {
 	mgr_ext_params *p = calloc(1, sizeof *p);
 	mgr_ext *x = NULL;
-	int rc;
+	mgr_ext_device *devs[MGR_EXT_LINES_MAX] = { NULL };
+	int rc = 0;
 
 	*state = NULL;
 	if (!p)
 		return -ENOMEM;
 	p->n_lines = (unsigned)cfg->n_lines;
 	p->msg_size = cfg->mailbox.msg_size;
-	for (size_t i = 0; i < cfg->n_lines; i++)
+	for (size_t i = 0; i < cfg->n_lines; i++) {
 		line_params(&cfg->lines[i], &p->line[i]);
-	rc = mgr_ext_create(&x, p);
+		if (!rc && i < MGR_EXT_LINES_MAX)
+			rc = device_params(&cfg->lines[i], &p->line[i], &devs[i]);
+	}
+	if (!rc)
+		rc = mgr_ext_create(&x, p); /* copies the tables of devices */
+	for (size_t i = 0; i < MGR_EXT_LINES_MAX; i++)
+		free(devs[i]);
 	free(p);
 	*state = rc ? NULL : x;
 	return rc;

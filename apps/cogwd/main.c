@@ -143,6 +143,25 @@ static mbx_server_config mailbox_params(daemon_state *d, size_t i)
 	};
 }
 
+/* What a line does with a node outside its configuration (docs/config.md
+ * "unknown_nodes"): the configured nodes are those of "nodes" and of
+ * "heartbeat_consumers". */
+static line_unknown_params unknown_params(const cogw_line_config *lc)
+{
+	line_unknown_params u = { .policy = lc->unknown.policy,
+				  .heartbeat_ms = lc->unknown.heartbeat_ms,
+				  .sdo_timeout_ms = lc->unknown.sdo_timeout_ms,
+				  .identify = lc->unknown.identify };
+	for (size_t i = 0; i < lc->n_nodes; i++)
+		u.known[lc->nodes[i].id / 32] |= 1u << (lc->nodes[i].id % 32);
+	for (size_t i = 0; i < lc->n_hb_consumers; i++) {
+		uint8_t id = lc->hb_consumers[i].node_id;
+		if (id >= 1 && id <= 127)
+			u.known[id / 32] |= 1u << (id % 32);
+	}
+	return u;
+}
+
 static int create_lines(daemon_state *d)
 {
 	const cogw_config *c = &d->cfg;
@@ -173,6 +192,7 @@ static int create_lines(daemon_state *d)
 			.n_safe_outputs = lc->appwd.n_safe_outputs,
 			.app_reactions = lc->appwd.reactions,
 			.not_ready_cs = lc->appwd.not_ready_cs,
+			.unknown = unknown_params(lc),
 			.can = { .ifname = lc->interface, .bitrate = lc->bitrate },
 			.node = {
 				.node_id = lc->node_id,

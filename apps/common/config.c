@@ -241,6 +241,7 @@ void cogw_config_free(cogw_config *cfg)
 		}
 		free(l->nodes);
 		l->nodes = NULL;
+		cogw_unknown_config_free(&l->unknown);
 	}
 	cogw_file_set_free(&cfg->files);
 	memset(cfg, 0, sizeof(*cfg));

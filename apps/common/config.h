@@ -126,6 +126,33 @@ typedef struct cogw_appwd_config {
 	uint8_t n_safe_outputs;
 	co_safe_output safe_outputs[COGW_SAFE_OUTPUTS_MAX];
 } cogw_appwd_config;
+
+/* A device file of "unknown_nodes.devices_dir" (docs/config.md
+ * "unknown_nodes"): the identity it describes and the concise DCF a node
+ * of that identity gets, for every node-ID ($NODEID resolved). */
+typedef struct cogw_unknown_device {
+	char file[COGW_FILE_NAME_MAX];
+	uint32_t ident[4];  /* 1000h, 1018h:1..3 of the file (0 = any) */
+	uint8_t *cdcf[128]; /* by node-ID; entries may share one buffer
+	                      * (shared set: the file has no $NODEID) */
+	size_t cdcf_len[128];
+	bool shared;
+} cogw_unknown_device;
+
+#define COGW_UNKNOWN_DEVICES_MAX 64u
+
+/* A line's "unknown_nodes". */
+typedef struct cogw_unknown_config {
+	uint8_t policy;                       /* enum mbx_unknown_policy */
+	uint16_t heartbeat_ms;                /* supervise, boot: 1016h consumer time */
+	uint16_t sdo_timeout_ms;              /* identity reads and scans, per frame */
+	bool identify;                        /* read an unknown node's identity (SDO) */
+	char devices_dir[COGW_FILE_NAME_MAX]; /* boot: resolved, "" = none */
+	cogw_unknown_device *devices;         /* owned, n_devices */
+	size_t n_devices;
+} cogw_unknown_config;
+
+void cogw_unknown_config_free(cogw_unknown_config *u); /* accepts zeroed */
 /* "app" of a line: objects clients own (docs/application.md). */
 #define COGW_APP_DECL_MAX 256
 typedef struct cogw_app_decl {
@@ -174,6 +201,7 @@ typedef struct cogw_line_config {
 	uint8_t pdo;                       /* cogw_pdo_mode, the nodes' default */
 	uint16_t pdo_scan_max;             /* PDOs per direction scanned and kept, 1..512 */
 	cogw_devobj_config device_objects; /* "device_objects" */
+	cogw_unknown_config unknown;       /* "unknown_nodes" */
 	cogw_app_config app;               /* "app": objects clients own */
 	cogw_appwd_config appwd;           /* "app": the watchdog, host not ready */
 } cogw_line_config;

@@ -24,38 +24,25 @@
 #include "core/cfgmgr.h"
 #include "core/nmt.h"
 #include "core/od_std.h"
+#include "mailbox/proto.h"
 
 #define IFNAME_MAX 15u /* IFNAMSIZ - 1 */
 
-static const char *const line_keys[] = { "name",
-					 "interface",
-					 "bitrate",
-					 "node_id",
-					 "network_id",
-					 "rt",
-					 "sdo_servers",
-					 "sdo_clients",
-					 "sdo_timeout_ms",
-					 "sdo_block_threshold",
-					 "heartbeat_ms",
-					 "sync_period_us",
-					 "time_period_ms",
-					 "heartbeat_consumers",
-					 "device",
-					 "rpdos",
-					 "tpdos",
-					 "objects",
-					 "values",
-					 "nodes",
-					 "manager",
-					 "pdo",
-					 "pdo_scan_max",
-					 "device_objects",
-					 "fault_quiet_ms",
-					 "id_conflict_quiet_ms",
-					 "app",
-					 "comment",
-					 NULL };
+static const char *const line_keys[] = { "name",           "interface",
+					 "bitrate",        "node_id",
+					 "network_id",     "rt",
+					 "sdo_servers",    "sdo_clients",
+					 "sdo_timeout_ms", "sdo_block_threshold",
+					 "heartbeat_ms",   "sync_period_us",
+					 "time_period_ms", "heartbeat_consumers",
+					 "device",         "rpdos",
+					 "tpdos",          "objects",
+					 "values",         "nodes",
+					 "manager",        "pdo",
+					 "pdo_scan_max",   "device_objects",
+					 "fault_quiet_ms", "id_conflict_quiet_ms",
+					 "unknown_nodes",  "app",
+					 "comment",        NULL };
 
 static const char *const rt_keys[] = { "priority", "cpu", "comment", NULL };
 
@@ -297,7 +284,8 @@ static int build_od(struct ctx *c, const cJSON *o, const char *path, cogw_line_c
 		co_od_entry_reset(eb);
 	}
 	if ((rc = cfg_gateway_objects(c, l)) || (rc = node_objects(c, path, l)) ||
-	    (rc = runtime_node_objects(c, path, l)) || (rc = cfg_manager_objects(c, path, l)))
+	    (rc = cfg_unknown_objects(c, path, l)) || (rc = runtime_node_objects(c, path, l)) ||
+	    (rc = cfg_manager_objects(c, path, l)))
 		return rc;
 	v = json_util_get(o, "objects");
 	if (v) {
@@ -340,6 +328,9 @@ static void line_defaults(cogw_line_config *l, size_t idx)
 	l->pdo_scan_max = COGW_PDO_SCAN_MAX_DEFAULT;
 	l->id_conflict_quiet_ms = 5000;
 	l->fault_quiet_ms = 1000;
+	l->unknown = (cogw_unknown_config){ .policy = MBX_UNKNOWN_IGNORE,
+					    .heartbeat_ms = 1500,
+					    .sdo_timeout_ms = 100 };
 	l->device_objects = (cogw_devobj_config){ .read_max_age_ms = 1000,
 						  .write_update_ms = 10,
 						  .watches = 64 };
@@ -498,6 +489,15 @@ static int parse_line_sections(struct ctx *c, const cJSON *o, const char *path, 
 	if (v) {
 		json_util_path_key(p, sizeof(p), path, "device_objects");
 		if ((rc = parse_devobj(c, v, p, &l->device_objects)))
+			return rc;
+	}
+	/* the network's master asks what it hears; a line without a manager
+	 * leaves other masters' devices alone (docs/config.md "Unknown nodes") */
+	l->unknown.identify = l->manager.enabled;
+	v = json_util_get(o, "unknown_nodes");
+	if (v) {
+		json_util_path_key(p, sizeof(p), path, "unknown_nodes");
+		if ((rc = cfg_parse_unknown(c, v, p, l)))
 			return rc;
 	}
 	return 0;

@@ -128,5 +128,12 @@ int cfg_manager_objects(struct ctx *c, const char *path, cogw_line_config *l);
 /* ---- config_appwd.c: the application watchdog's keys of a line's "app",
  * which cfg_parse_app checked (after its OD is built) ---- */
 int cfg_parse_appwd(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l);
+/* ---- a line's "unknown_nodes" (config_unknown.c) ---- */
+
+/* After "manager" (the boot policy needs it). */
+int cfg_parse_unknown(struct ctx *c, const cJSON *o, const char *path, cogw_line_config *l);
+/* The boot policy's device files, and 1F22h:n for the node-IDs it may
+ * adopt; after the nodes' objects. */
+int cfg_unknown_objects(struct ctx *c, const char *path, cogw_line_config *l);
 
 #endif /* COGW_APPS_CONFIG_READ_H */

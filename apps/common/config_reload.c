@@ -206,6 +206,12 @@ static void line_diff(const cogw_line_config *x, const cogw_line_config *y, size
 	LDIFF(memcmp(&x->manager, &y->manager, sizeof(x->manager)), "manager");
 	LDIFF(memcmp(&x->device_objects, &y->device_objects, sizeof(x->device_objects)),
 	      "device_objects");
+	LDIFF(x->unknown.policy != y->unknown.policy ||
+		      x->unknown.heartbeat_ms != y->unknown.heartbeat_ms ||
+		      x->unknown.sdo_timeout_ms != y->unknown.sdo_timeout_ms ||
+		      x->unknown.identify != y->unknown.identify ||
+		      strcmp(x->unknown.devices_dir, y->unknown.devices_dir),
+	      "unknown_nodes");
 	LDIFF(!app_same(&x->app, &y->app) || memcmp(&x->appwd, &y->appwd, sizeof(x->appwd)), "app");
 #undef LDIFF
 	d->changed = d->changed || before;

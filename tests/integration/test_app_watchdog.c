@@ -65,7 +65,7 @@
 	"   {\"index\": \"0x1800\", \"sub\": 2, \"value\": 254},"                               \
 	"   {\"index\": \"0x1A00\", \"sub\": 0, \"value\": 1},"                                 \
 	"   {\"index\": \"0x1A00\", \"sub\": 1, \"value\": 536870928}],"                        \
-	" \"app\": {\"watchdog_reactions\": [\"emcy\", \"safe-outputs\"],"              \
+	" \"app\": {\"watchdog_reactions\": [\"emcy\", \"safe-outputs\"],"                      \
 	"   \"safe_outputs\": [{\"index\": \"0x2000\", \"value\": 0}]}},"                       \
 	"{\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127, "                   \
 	" \"heartbeat_ms\": 0}]}"

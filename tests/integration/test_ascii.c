@@ -14,8 +14,10 @@
  */
 #include "unity.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <mqueue.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <signal.h>
@@ -29,6 +31,7 @@
 #include <unistd.h>
 
 #include "apps/cogw-ascii/ascii_value.h"
+#include "mailbox/proto.h"
 #include "tests/integration/support/daemon.h"
 #include "tests/integration/support/proc.h"
 
@@ -863,6 +866,76 @@ static void test_events_on_request(void)
 
 /* cogwd restarted under a connected client: an error line while it is
  * away, then the same connection works again. */
+/* Every thread of pid stopped (SIGSTOP is delivered asynchronously). */
+static bool all_threads_stopped(pid_t pid)
+{
+	char path[64], stat[512];
+	bool stopped = true;
+	struct dirent *e;
+	DIR *dir;
+
+	snprintf(path, sizeof path, "/proc/%d/task", (int)pid);
+	dir = opendir(path);
+	if (!dir)
+		return false;
+	while (stopped && (e = readdir(dir))) {
+		if (e->d_name[0] == '.')
+			continue;
+		char file[384];
+		FILE *f;
+
+		snprintf(file, sizeof file, "%s/%s/stat", path, e->d_name);
+		f = fopen(file, "r");
+		/* "tid (comm) S ...": the state follows the last ')' */
+		char *close_paren = f && fgets(stat, sizeof stat, f) ? strrchr(stat, ')') : NULL;
+
+		stopped = close_paren && close_paren[1] == ' ' && close_paren[2] == 'T';
+		if (f)
+			fclose(f);
+	}
+	closedir(dir);
+	return stopped;
+}
+
+/* A line whose command queue in the daemon is full (the daemon stopped,
+ * another writer filled its queue) holds the gateway up nowhere: the
+ * command keeps its place, local commands are answered meanwhile, and the
+ * command goes out once the queue has room (docs/ascii.md "Known limits").
+ * Stopped for longer than a blocking send's 2 s: a gateway that waited for
+ * room would have given the command up. */
+static void test_full_command_queue_holds_up_nobody(void)
+{
+	int fd = connect_unix(), other = connect_unix();
+	char qname[MBX_QNAME_MAX];
+	unsigned filled = 0;
+	mqd_t q;
+
+	TEST_ASSERT_EQUAL_STRING("[1] 4242", ask(fd, "[1] 1 5 r 0x1018 4 u32"));
+	TEST_ASSERT_EQUAL_INT(0, mbx_queue_name(qname, sizeof qname, "asc", 0));
+	q = mq_open(qname, O_WRONLY | O_NONBLOCK);
+	TEST_ASSERT_TRUE(q != (mqd_t)-1);
+	TEST_ASSERT_EQUAL_INT(0, kill(d.pid, SIGSTOP));
+	for (int i = 0; i < 100 && !all_threads_stopped(d.pid); i++)
+		sleep_ms(20);
+	TEST_ASSERT_TRUE_MESSAGE(all_threads_stopped(d.pid), "cogwd did not stop");
+	/* empty messages: the daemon refuses and counts each as malformed */
+	while (mq_send(q, "", 0, 0) == 0)
+		filled++;
+	TEST_ASSERT_EQUAL_INT(EAGAIN, errno);
+	TEST_ASSERT_TRUE(filled > 0);
+	send_text(fd, "[2] 1 5 r 0x1018 4 u32\n");
+	TEST_ASSERT_EQUAL_STRING_LEN("[3] cogw-ascii", ask(other, "[3] info version"), 14);
+	TEST_ASSERT_EQUAL_STRING("", recv_lines(fd, 1, 3000));
+	TEST_ASSERT_EQUAL_INT(0, kill(d.pid, SIGCONT));
+	char *got = recv_lines(fd, 1, 15000);
+
+	got[strcspn(got, "\r\n")] = '\0';
+	TEST_ASSERT_EQUAL_STRING("[2] 4242", got);
+	mq_close(q);
+	close(other);
+	close(fd);
+}
+
 static void test_daemon_restart_under_a_client(void)
 {
 	int fd = connect_unix();
@@ -896,7 +969,13 @@ static void test_daemon_restart_under_a_client(void)
 
 void setUp(void) {}
 
-void tearDown(void) {}
+/* a failed test_full_command_queue_holds_up_nobody must not leave the
+ * group's daemon stopped */
+void tearDown(void)
+{
+	if (d.pid > 0)
+		kill(d.pid, SIGCONT);
+}
 
 int main(void)
 {
@@ -944,6 +1023,7 @@ int main(void)
 	RUN_TEST(test_tcp_is_read_only);
 	RUN_TEST(test_unix_peer_mapped_through_rules);
 	RUN_TEST(test_events_on_request);
+	RUN_TEST(test_full_command_queue_holds_up_nobody);
 	RUN_TEST(test_daemon_restart_under_a_client);
 	rc = stop_gateway();
 	proc_dump_log(gw_log, 60);

@@ -9,11 +9,15 @@
  *     supervised and booted again; line 1 sees no failed call;
  *   - `ip link del vcan0` / `ip link add vcan0`, three times: the same,
  *     with a new socket on the new interface (its receive filter too);
- *     the device is switched on again with it and booted by the manager.
+ *     the device is switched on again with it and booted by the manager;
+ *   - the same under load: besides the two readers, RPDOs injected on
+ *     vcan0 every 10 ms are forwarded (B000h, docs/gateway.md) to line 1's
+ *     event-driven TPDO on vcan1; after each return the forwarding
+ *     resumes by itself, and line 1's reader never fails.
  * Prints the failed calls and the time from the interface's return to the
- * first answered SDO read. Line 1's SDO time-out is long (1.5 s): a call
- * there must not fail for a scheduling delay of the emulated VM, only for
- * what line 0 went through.
+ * first answered SDO read (and the first forwarded PDO). Line 1's SDO
+ * time-out is long (1.5 s): a call there must not fail for a scheduling
+ * delay of the emulated VM, only for what line 0 went through.
  * Run: tests/vcan/run -n 2 -- build/san/tests/integration/test_line_link
  */
 #include <pthread.h>
@@ -21,8 +25,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
+#include "core/frame.h"
 #include "core/manager.h"
 #include "mailbox/cogw.h"
 #include "mailbox/cogw_health.h"
@@ -34,14 +40,26 @@
 #define NODE0 5
 #define NODE1 3
 #define ROUNDS 3
-#define CONFIG                                                                         \
-	"{\"version\": 1, \"mailbox\": {\"instance\": \"" INSTANCE "\"}, \"lines\": [" \
-	"{\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127, "          \
-	" \"sdo_timeout_ms\": 300, "                                                   \
-	" \"manager\": {\"retry_ms\": 300, \"reset_wait_ms\": 1000}, "                 \
-	" \"nodes\": [{\"id\": 5, \"heartbeat_ms\": 1000}]},"                          \
-	"{\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127, "          \
-	" \"sdo_timeout_ms\": 1500}]}"
+/* Line 0's RPDO 1 (181h) writes B000h, line 1's TPDO 1 (1FFh, event-driven)
+ * maps it: PDO forwarding from the line whose interface goes away. */
+#define RPDO_IN 0x181
+#define TPDO_OUT 0x1FF
+#define CONFIG                                                                                 \
+	"{\"version\": 1, \"mailbox\": {\"instance\": \"" INSTANCE "\"},"                      \
+	" \"gateway\": {\"process_image\": [{\"index\": \"0xB000\", \"type\": \"UNSIGNED32\"," \
+	"  \"access\": \"rw\", \"pdo\": true}]}, \"lines\": ["                                 \
+	"{\"interface\": \"vcan0\", \"bitrate\": 1000000, \"node_id\": 127, "                  \
+	" \"sdo_timeout_ms\": 300, \"rpdos\": 1, "                                             \
+	" \"manager\": {\"retry_ms\": 300, \"reset_wait_ms\": 1000}, "                         \
+	" \"nodes\": [{\"id\": 5, \"heartbeat_ms\": 1000}],"                                   \
+	" \"values\": [{\"index\": \"0x1400\", \"sub\": 1, \"value\": \"0x181\"},"             \
+	"  {\"index\": \"0x1600\", \"sub\": 1, \"value\": \"0xB0000020\"},"                    \
+	"  {\"index\": \"0x1600\", \"sub\": 0, \"value\": 1}]},"                               \
+	"{\"interface\": \"vcan1\", \"bitrate\": 1000000, \"node_id\": 127, "                  \
+	" \"sdo_timeout_ms\": 1500, \"tpdos\": 1,"                                             \
+	" \"values\": [{\"index\": \"0x1800\", \"sub\": 1, \"value\": \"0x1FF\"},"             \
+	"  {\"index\": \"0x1A00\", \"sub\": 1, \"value\": \"0xB0000020\"},"                    \
+	"  {\"index\": \"0x1A00\", \"sub\": 0, \"value\": 1}]}]}"
 
 static daemon_run dmn;
 static cosim_run sim0, sim1;
@@ -279,10 +297,110 @@ static void test_interface_deleted_and_created_again(void)
 	finish("interface deleted/created", worst);
 }
 
+/* RPDOs on vcan0 every 10 ms, as a device would send them: a counter.
+ * The socket goes with the interface; a new one is opened on the new
+ * interface (tried every 10 ms). */
+typedef struct injector {
+	pthread_t thread;
+	atomic_bool stop;
+	atomic_uint sent, refused;
+} injector;
+
+static injector inj;
+
+static void *inject_loop(void *arg)
+{
+	injector *in = arg;
+	int fd = -1;
+	uint32_t n = 0;
+	while (!atomic_load(&in->stop)) {
+		uint8_t b[4];
+		if (fd < 0)
+			fd = can_open_raw("vcan0");
+		co_put_le32(b, ++n);
+		if (fd >= 0 && can_send_std(fd, RPDO_IN, b, 4) == 0) {
+			atomic_fetch_add(&in->sent, 1);
+		} else {
+			atomic_fetch_add(&in->refused, 1);
+			if (fd >= 0)
+				close(fd);
+			fd = -1;
+		}
+		sleep_ms(10);
+	}
+	if (fd >= 0)
+		close(fd);
+	return NULL;
+}
+
+/* ms from `since` to the first forwarded TPDO on fd1 (-1: none in 10 s). */
+static long until_forwarded(int fd1, uint64_t since)
+{
+	uint8_t d[8];
+	if (can_wait_id(fd1, TPDO_OUT, d, 10000) < 0)
+		return -1;
+	return (long)(mono_ms() - since);
+}
+
+/* Forget the frames received so far (those forwarded before the outage). */
+static void drain_fd(int fd)
+{
+	uint8_t f[16];
+	while (recv(fd, f, sizeof f, MSG_DONTWAIT) > 0)
+		;
+}
+
+static void test_deleted_under_load_with_forwarded_pdos(void)
+{
+	long worst_sdo = 0, worst_pdo = 0;
+	int fd1 = can_open_raw("vcan1");
+	TEST_ASSERT_TRUE(fd1 >= 0);
+	start();
+	uint8_t start_cmd[2] = { 0x01, 127 }; /* line 1's node: PDOs need OPERATIONAL */
+	TEST_ASSERT_EQUAL_INT(0, can_send_std(fd1, 0x000, start_cmd, 2));
+	readers_start();
+	atomic_store(&inj.stop, false);
+	TEST_ASSERT_EQUAL_INT(0, pthread_create(&inj.thread, NULL, inject_loop, &inj));
+	TEST_ASSERT_TRUE_MESSAGE(until_forwarded(fd1, mono_ms()) >= 0, "no forwarded PDO");
+	for (int round = 1; round <= ROUNDS; round++) {
+		sleep_ms(500);
+		TEST_ASSERT_EQUAL_INT(0, system("ip link del vcan0"));
+		TEST_ASSERT_EQUAL_INT(0, wait_link(true, 3000));
+		cosim_stop(&sim0, 3000);
+		sleep_ms(700);
+		drain_fd(fd1);
+		/* from the command on: the injector may send on the new interface
+		 * before system() returns */
+		uint64_t back = mono_ms();
+		TEST_ASSERT_EQUAL_INT(
+			0, system("ip link add dev vcan0 type vcan && ip link set vcan0 up"));
+		long pdo = until_forwarded(fd1, back);
+		TEST_ASSERT_TRUE_MESSAGE(pdo >= 0, "PDO forwarding did not resume");
+		const char *dev0[] = { "etc/devices/io-generic.json:5", NULL };
+		TEST_ASSERT_EQUAL_INT(0, cosim_start(&sim0, dmn.dir, 0, dev0, NULL));
+		TEST_ASSERT_TRUE_MESSAGE(until_answered() >= 0,
+					 "no SDO answer on the new interface");
+		long sdo = (long)(mono_ms() - back);
+		printf("round %d: first forwarded PDO %ld ms, first answered SDO %ld ms after "
+		       "`ip link add` (with the device's start)\n",
+		       round, pdo, sdo);
+		worst_pdo = pdo > worst_pdo ? pdo : worst_pdo;
+		worst_sdo = sdo > worst_sdo ? sdo : worst_sdo;
+	}
+	atomic_store(&inj.stop, true);
+	pthread_join(inj.thread, NULL);
+	close(fd1);
+	printf("under load: %u RPDOs injected, %u not sent (interface gone); slowest first "
+	       "forwarded PDO after the return %ld ms\n",
+	       atomic_load(&inj.sent), atomic_load(&inj.refused), worst_pdo);
+	finish("interface deleted/created under load", worst_sdo);
+}
+
 int main(void)
 {
 	UNITY_BEGIN();
 	RUN_TEST(test_link_down_and_up_repeatedly);
 	RUN_TEST(test_interface_deleted_and_created_again);
+	RUN_TEST(test_deleted_under_load_with_forwarded_pdos);
 	return UNITY_END();
 }

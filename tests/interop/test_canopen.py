@@ -99,6 +99,9 @@ import canopen
 from canopen.objectdictionary import ODRecord, ODVariable, ObjectDictionary, datatypes, export_od
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
+import interop
+from interop import RESULTS, STEP, check, eq, step
+
 TOP = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BIN = os.environ.get("COGW_BIN", os.path.join(TOP, "build/san/bin"))
 IFACE = "vcan0"
@@ -134,7 +137,6 @@ SDO_TIMEOUT_S = 5.0  # python-canopen, cogwd and cosim alike (slow VM)
 # ---------------------------------------------------------------------------
 # tiny Unity-style runner
 
-RESULTS = []
 
 
 class Recorder(can.Listener):
@@ -181,28 +183,8 @@ def run_test(fn):
         RESULTS.append(False)
 
 
-STEP = [""]
 
 
-T0 = time.monotonic()
-
-
-def step(text):
-    """What the test is doing now (printed if it fails; as it goes with
-    COGW_INTEROP_VERBOSE=1)."""
-    STEP[0] = text
-    if os.environ.get("COGW_INTEROP_VERBOSE"):
-        print(f"  [{time.monotonic() - T0:7.1f} s] {text}", file=sys.stderr, flush=True)
-
-
-def check(cond, msg):
-    if not cond:
-        raise AssertionError(msg)
-
-
-def eq(want, got, what):
-    if want != got:
-        raise AssertionError(f"{what}: expected {want!r}, got {got!r}")
 
 
 # ---------------------------------------------------------------------------
@@ -794,39 +776,12 @@ def test_emcy_from_cosim_and_from_cogwd():
     eq(0x11, e.register & 0x11, "cogwd EMCY error register")
 
 
-class Monitor:
-    """A mailbox subscriber: `cogwctl monitor --json` in the background,
-    its events collected as they come."""
+class Monitor(interop.Monitor):
+    """A subscriber of the daemon's line (interop.Monitor)."""
 
     def __init__(self, classes, line=0):
-        argv = [os.path.join(BIN, "cogwctl"), "--instance", INSTANCE, "--json", "monitor",
-                "--line", str(line), "--class", classes]
-        self.proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                     text=True, cwd=TOP)
-        self.events = []
-        # it says on stderr when its subscriptions are in place
-        said = self.proc.stderr.readline()
-        check("watching" in said, f"cogwctl monitor: {said!r}")
-        threading.Thread(target=self._read, daemon=True).start()
-
-    def _read(self):
-        for line in self.proc.stdout:
-            self.events.append(json.loads(line))
-
-    def of(self, *names):
-        return [e for e in list(self.events) if e["event"] in names]
-
-    def wait(self, what, pred, timeout=5.0):
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if pred():
-                return
-            time.sleep(0.05)
-        raise AssertionError(f"subscriber: no {what}; got {self.events[-10:]}")
-
-    def stop(self):
-        self.proc.terminate()
-        self.proc.wait(10)
+        super().__init__([os.path.join(BIN, "cogwctl"), "--instance", INSTANCE], classes,
+                         line, cwd=TOP)
 
 
 def frames_since(mark, cob):

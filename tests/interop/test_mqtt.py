@@ -23,7 +23,9 @@ each class of bad input (malformed JSON, unknown op, bad fields, unknown
 objects/networks/nodes, oversized, a flood), the broker restarted mid-run
 (birth again, queued messages delivered, drops counted), the daemon
 restarted under its bridge, a bridge started after the manager became
-operational (the present state published at its birth), a broker refusing
+operational (the present state published at its birth), a bridge started
+while a line is error passive (every health/<fault> published retained at
+its birth, the episode's end after it), a broker refusing
 the client's credentials and TLS with a wrong CA (and with the right one).
 
 Output in Unity's format for tests/run-tests. Runs inside the vcan VM
@@ -35,6 +37,7 @@ import random
 import resource
 import shutil
 import signal
+import socket
 import struct
 import subprocess
 import sys
@@ -49,6 +52,8 @@ import paho.mqtt.client as mqtt
 from paho.mqtt.packettypes import PacketTypes
 from paho.mqtt.properties import Properties
 
+from interop import RESULTS, STEP, check, eq, step
+
 TOP = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BIN = os.environ.get("COGW_BIN", os.path.join(TOP, "build/san/bin"))
 PORT = 18830          # anonymous
@@ -56,9 +61,6 @@ PORT_AUTH = 18831     # user/password
 PORT_TLS = 18832      # TLS, anonymous
 WORK = tempfile.mkdtemp(prefix="cogw-mqtt-")
 PROCS = {}
-RESULTS = []
-STEP = [""]
-T0 = time.monotonic()
 STI_VENDOR = 0x250
 IO_VENDOR = 0x1234
 WAIT_S = 30  # the emulated VM with sanitizer builds can be slow
@@ -120,22 +122,6 @@ def bridge_config(gateway, daemon_cfg, **extra):
 
 # ---------------------------------------------------------------------------
 # runner (Unity-style lines for tests/run-tests)
-
-def step(text):
-    STEP[0] = text
-    if os.environ.get("COGW_INTEROP_VERBOSE"):
-        print(f"  [{time.monotonic() - T0:7.1f} s] {text}", file=sys.stderr, flush=True)
-
-
-def check(cond, msg):
-    if not cond:
-        raise AssertionError(msg)
-
-
-def eq(want, got, what):
-    if want != got:
-        raise AssertionError(f"{what}: expected {want!r}, got {got!r}")
-
 
 def read_log(name, tail=1500):
     try:
@@ -767,6 +753,85 @@ def test_a_bridge_started_late_publishes_the_present_manager_state():
         stop("bridge-m")
 
 
+CAN_ERR_FLAG, CAN_ERR_CRTL = 0x20000000, 0x00000004
+CAN_ERR_CRTL_TX_PASSIVE, CAN_ERR_CRTL_ACTIVE = 0x20, 0x40
+
+
+def send_error_frame(iface, ctrl):
+    """A controller error frame as the kernel would deliver it (vcan passes
+    it to the daemon's socket, which asks for error frames)."""
+    s = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
+    try:
+        s.bind((iface,))
+        s.send(struct.pack("=IB3x8s", CAN_ERR_FLAG | CAN_ERR_CRTL, 8,
+                           bytes([0, ctrl, 0, 0, 0, 0, 130, 12])))
+    finally:
+        s.close()
+
+
+def test_a_bridge_started_late_publishes_the_bus_health():
+    """Network 3 (gw-b's line) is error passive before this bridge starts:
+    no episode event will come, the bridge asks for the line's health at
+    its birth and publishes every fault retained - passive active, the
+    others not (a retained "active" of an earlier run would be replaced) -
+    then the episode's end as it happens."""
+    send_error_frame("vcan2", CAN_ERR_CRTL_TX_PASSIVE)
+
+    def passive():
+        r = subprocess.run([os.path.join(BIN, "cogwctl"), "--instance", "mqb", "--timeout",
+                            "1000", "--json", "health", "0"], capture_output=True, text=True)
+        return r.returncode == 0 and \
+            json.loads(r.stdout)["lines"][0]["faults"]["passive"]["active"]
+    wait_until("network 3 error passive", passive, timeout=20)
+    since = CLIENT.mark()
+    start_bridge("h", bridge_config("gw-h", os.path.join(WORK, "cogwd-b.json"),
+                                    publish={"counters_period_s": 600}))
+    try:
+        p = CLIENT.wait("cogw/gw-h/net/3/health/passive", since=since, timeout=20)
+        eq(True, p["active"], f"gw-h's health/passive at its birth: {p}")
+        eq("error-passive", p["can_state"], "the controller state")
+        # error passive is beyond the warning limit: that episode runs too
+        q = CLIENT.wait("cogw/gw-h/net/3/health/warning", since=since, timeout=5)
+        eq(True, q["active"], "health/warning at the birth")
+        for fault in ("id-collision", "bus-off", "rx-overrun", "tx-lost", "tx-pressure",
+                      "link-down"):
+            q = CLIENT.wait(f"cogw/gw-h/net/3/health/{fault}", since=since, timeout=5)
+            eq(False, q["active"], f"health/{fault} at the birth")
+        late = Client(name="late-h")
+        late.start()
+        try:
+            late.wait("cogw/gw-h/net/3/health/passive", lambda p: p["active"], timeout=5)
+            with late.lock:
+                retained = [m[3] for m in late.msgs if m[1] == "cogw/gw-h/net/3/health/passive"]
+            check(retained and all(retained), f"not retained: {retained}")
+        finally:
+            late.stop()
+        since = CLIENT.mark()
+        send_error_frame("vcan2", CAN_ERR_CRTL_ACTIVE)
+        p = CLIENT.wait("cogw/gw-h/net/3/health/passive", lambda p: not p["active"],
+                        since=since, timeout=20)
+        eq("error-active", p["can_state"], "back to error active")
+    finally:
+        stop("bridge-h")
+        send_error_frame("vcan2", CAN_ERR_CRTL_ACTIVE)
+
+
+def test_unknown_node_published_once():
+    """A boot-up of node 50, which network 3 was not configured for: one
+    message on its node/50/unknown topic (no SDO server answers: identity
+    not read), none for the second boot-up."""
+    since = CLIENT.mark()
+    send_frames("vcan2", [(0x700 + 50, b"\x00")])
+    p = CLIENT.wait(node_topic("gw-b", 3, 50, "unknown"), since=since, timeout=20)
+    eq("boot-up", p["source"], "how node 50 was heard")
+    eq(False, p["identity"], "identity of a node without SDO server")
+    eq("ignore", p["policy"], "the line's policy")
+    send_frames("vcan2", [(0x700 + 50, b"\x00")])
+    time.sleep(2)
+    eq(1, len(CLIENT.all(node_topic("gw-b", 3, 50, "unknown"), since=since)),
+       "messages for node 50")
+
+
 def test_counters_of_daemon_and_bridge():
     m = CLIENT.wait("cogw/gw-a/net/1/counters/mailbox")
     check(m["mailbox"]["commands_ok"] > 0, f"mailbox counters: {m}")
@@ -981,6 +1046,8 @@ def main():
                   test_daemon_restarted_under_the_bridge,
                   test_a_long_watch_list_is_armed_at_once,
                   test_a_bridge_started_late_publishes_the_present_manager_state,
+                  test_a_bridge_started_late_publishes_the_bus_health,
+                  test_unknown_node_published_once,
                   test_last_will_when_a_bridge_dies,
                   test_broker_refusing_the_client_and_tls_with_wrong_and_right_ca):
             only = os.environ.get("COGW_TEST_ONLY")

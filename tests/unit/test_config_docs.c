@@ -31,6 +31,7 @@
 
 #include "core/manager.h"
 #include "core/nmt.h"
+#include "mailbox/proto.h"
 
 #define DOC "docs/config.md"
 #define NODE_ID 5
@@ -160,6 +161,10 @@ static int fill_key_defaults(struct key_default *k)
 	KD("`lines[]`", "tpdos", "%u", count_records(l->od, 0x1800));
 	KD("`lines[]`", "pdo", "%s", l->pdo == 0 ? "off" : "not off");
 	KD("`lines[]`", "pdo_scan_max", "%u", l->pdo_scan_max);
+	KD("Unknown nodes (`unknown_nodes`)", "policy", "%s",
+	   mbx_unknown_policy_to_string(l->unknown.policy));
+	KD("Unknown nodes (`unknown_nodes`)", "heartbeat_ms", "%u", l->unknown.heartbeat_ms);
+	KD("Unknown nodes (`unknown_nodes`)", "sdo_timeout_ms", "%u", l->unknown.sdo_timeout_ms);
 	KD("The application (`app`)", "max_created", "%u", l->app.max_created);
 	KD("The application (`app`)", "max_per_client", "%u", l->app.max_per_client);
 	KD("The application (`app`)", "indications", "%u", l->app.indications);

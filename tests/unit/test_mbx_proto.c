@@ -663,6 +663,50 @@ static void test_pdo_request_and_store_fields(void)
 	ASSERT_BAD(MBX_E_MALFORMED, MBX_BAD_RESERVED, h, &s, sizeof s);
 }
 
+/* NODE_SCAN: a range inside 1..127, a bounded timeout, pads zero;
+ * NODE_SCAN_CACHE takes nothing. */
+static void test_node_scan_fields(void)
+{
+	mbx_hdr h = cmd_hdr(MBX_CMD_NODE_SCAN);
+	mbx_scan_req r = { .first = 1, .last = 127 };
+
+	ASSERT_OK(h, &r, sizeof r);
+	r.timeout_ms = MBX_SCAN_TIMEOUT_MAX_MS;
+	r.parallel = 128;
+	ASSERT_OK(h, &r, sizeof r);
+	r.timeout_ms = MBX_SCAN_TIMEOUT_MAX_MS + 1;
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &r, sizeof r);
+	r.timeout_ms = 50;
+	r.parallel = 129;
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &r, sizeof r);
+	r.parallel = 4;
+	r.first = 0;
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &r, sizeof r);
+	r.first = 10;
+	r.last = 9;
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &r, sizeof r);
+	r.last = 128;
+	ASSERT_BAD(MBX_E_PARAM, MBX_BAD_PARAM, h, &r, sizeof r);
+	r.last = 10;
+	r.pad[2] = 1;
+	ASSERT_BAD(MBX_E_MALFORMED, MBX_BAD_RESERVED, h, &r, sizeof r);
+	r.pad[2] = 0;
+	ASSERT_BAD(MBX_E_MALFORMED, MBX_BAD_SIZE, h, &r, sizeof r - 1);
+	TEST_ASSERT_TRUE(mbx_cmd_lookup(MBX_CMD_NODE_SCAN)->flags & MBX_CI_WRITE);
+
+	h = cmd_hdr(MBX_CMD_NODE_SCAN_CACHE);
+	ASSERT_OK(h, NULL, 0);
+	ASSERT_BAD(MBX_E_MALFORMED, MBX_BAD_SIZE, h, &r, sizeof r);
+	TEST_ASSERT_FALSE(mbx_cmd_lookup(MBX_CMD_NODE_SCAN_CACHE)->flags & MBX_CI_WRITE);
+	/* the event: its class and size */
+	TEST_ASSERT_EQUAL_UINT32(MBX_EVC_MANAGER, mbx_event_class_of(MBX_EV_UNKNOWN_NODE));
+	TEST_ASSERT_EQUAL_STRING("unknown-node", mbx_event_to_string(MBX_EV_UNKNOWN_NODE));
+	TEST_ASSERT_EQUAL_STRING("boot", mbx_unknown_policy_to_string(MBX_UNKNOWN_BOOT));
+	TEST_ASSERT_EQUAL_STRING("no-match", mbx_unknown_action_to_string(MBX_UNKNOWN_NO_MATCH));
+	TEST_ASSERT_EQUAL_STRING("?", mbx_unknown_action_to_string(6));
+	TEST_ASSERT_EQUAL_STRING("emcy", mbx_ident_source_to_string(MBX_IDENT_EMCY));
+}
+
 static void test_raw_send_fields(void)
 {
 	mbx_hdr h = cmd_hdr(MBX_CMD_RAW_SEND);
@@ -951,6 +995,7 @@ int main(void)
 	RUN_TEST(test_event_validation);
 	RUN_TEST(test_supervision_sync_time_events);
 	RUN_TEST(test_every_fault_has_a_name);
+	RUN_TEST(test_node_scan_fields);
 	RUN_TEST(test_system_limits_message);
 	return UNITY_END();
 }
