@@ -139,8 +139,8 @@ static int run(ctl *c, int argc, char **argv)
 				 { NULL, false, NULL, NULL } };
 	int n_pos, ex = 0, rc = ctl_parse(c, argc, argv, opts, pos, 2, &n_pos);
 	unsigned line;
-	uint8_t nodes[2] = { 1, 127 }; /* set by scan_args; gcc -O2 cannot see it */
-	uint64_t t, p;
+	uint8_t nodes[2] = { 1, 127 };
+	uint64_t t = 0, p = 0;
 	char ctx[48];
 	cogw_scan_result r;
 	if (rc)
