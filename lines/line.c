@@ -722,12 +722,8 @@ int line_request_access(line *l, const mbx_access_rule *rules, size_t n_rules,
 	/* A previous hand-over not yet taken: the line loops at least every
 	 * checkin_ms/2, so waiting a little is enough unless it is stuck;
 	 * then the fields must not be overwritten under it. */
-	for (int i = 0; atomic_load_explicit(&l->access.state, memory_order_acquire) != 0; i++) {
-		if (i >= 200)
-			return -EBUSY;
-		struct timespec ts = { .tv_nsec = 5 * 1000000L };
-		nanosleep(&ts, NULL);
-	}
+	if (!line_wait_state_leaves(&l->access.state, 1))
+		return -EBUSY;
 	line_access_req *a = &l->access;
 	if (n_rules)
 		memcpy(a->rules, rules, n_rules * sizeof *rules);
@@ -739,11 +735,19 @@ int line_request_access(line *l, const mbx_access_rule *rules, size_t n_rules,
 	/* Wait (briefly) until the line has applied it, so that the READY=1
 	 * after a reload means the new rules are in force. A stuck line
 	 * applies it later. */
-	for (int i = 0; atomic_load_explicit(&l->access.state, memory_order_acquire) != 0; i++) {
+	return line_wait_state_leaves(&l->access.state, 1) ? 0 : -ETIMEDOUT;
+}
+
+/* A control thread's hand-over to the line thread (the access rules, a
+ * node change): up to 200 waits of 5 ms for `state` to leave `busy`; the
+ * line loops at least every checkin_ms/2, so only a stuck line runs out. */
+bool line_wait_state_leaves(atomic_int *state, int busy)
+{
+	for (int i = 0; atomic_load_explicit(state, memory_order_acquire) == busy; i++) {
 		if (i >= 200)
-			return -ETIMEDOUT;
+			return false;
 		struct timespec ts = { .tv_nsec = 5 * 1000000L };
 		nanosleep(&ts, NULL);
 	}
-	return 0;
+	return true;
 }

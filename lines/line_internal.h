@@ -204,6 +204,8 @@ struct line {
 
 /* lines/line_nodes.c: apply a node change the main thread posted. */
 void line_nodes_poll(line *l);
+/* A control thread waiting for the line thread to take a hand-over (lines/line.c). */
+bool line_wait_state_leaves(atomic_int *state, int busy);
 
 /* Wake the line thread (any thread may call it): an eventfd counter never
  * blocks, a pending wake-up just adds up. */

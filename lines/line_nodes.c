@@ -79,31 +79,19 @@ void line_nodes_poll(line *l)
 	atomic_store_explicit(&r->state, LINE_NODE_DONE, memory_order_release);
 }
 
-/* Up to 200 waits of 5 ms for the state to leave `busy`. */
-static bool wait_state_not(line_node_req *r, int busy)
-{
-	for (int i = 0; atomic_load_explicit(&r->state, memory_order_acquire) == busy; i++) {
-		if (i >= 200)
-			return false;
-		struct timespec ts = { .tv_nsec = 5 * 1000000L };
-		nanosleep(&ts, NULL);
-	}
-	return true;
-}
-
 static int post(line *l, const line_node_set *set, bool consumer_only)
 {
 	line_node_req *r = &l->node_req;
 
 	/* one that timed out earlier may still be taken: never overwrite it */
-	if (!wait_state_not(r, LINE_NODE_POSTED))
+	if (!line_wait_state_leaves(&r->state, LINE_NODE_POSTED))
 		return -EBUSY;
 	r->set = *set;
 	r->consumer_only = consumer_only;
 	r->rc = 0;
 	atomic_store_explicit(&r->state, LINE_NODE_POSTED, memory_order_release);
 	line_wake(l);
-	if (!wait_state_not(r, LINE_NODE_POSTED))
+	if (!line_wait_state_leaves(&r->state, LINE_NODE_POSTED))
 		return -ETIMEDOUT;
 	int rc = r->rc;
 	atomic_store_explicit(&r->state, LINE_NODE_FREE, memory_order_release);
