@@ -737,17 +737,3 @@ int line_request_access(line *l, const mbx_access_rule *rules, size_t n_rules,
 	 * applies it later. */
 	return line_wait_state_leaves(&l->access.state, 1) ? 0 : -ETIMEDOUT;
 }
-
-/* A control thread's hand-over to the line thread (the access rules, a
- * node change): up to 200 waits of 5 ms for `state` to leave `busy`; the
- * line loops at least every checkin_ms/2, so only a stuck line runs out. */
-bool line_wait_state_leaves(atomic_int *state, int busy)
-{
-	for (int i = 0; atomic_load_explicit(state, memory_order_acquire) == busy; i++) {
-		if (i >= 200)
-			return false;
-		struct timespec ts = { .tv_nsec = 5 * 1000000L };
-		nanosleep(&ts, NULL);
-	}
-	return true;
-}

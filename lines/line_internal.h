@@ -26,6 +26,7 @@
 
 #include <pthread.h>
 #include <stdatomic.h>
+#include <time.h>
 #include <sys/eventfd.h>
 
 #include "core/event.h"
@@ -204,8 +205,20 @@ struct line {
 
 /* lines/line_nodes.c: apply a node change the main thread posted. */
 void line_nodes_poll(line *l);
-/* A control thread waiting for the line thread to take a hand-over (lines/line.c). */
-bool line_wait_state_leaves(atomic_int *state, int busy);
+/* A control thread's hand-over to the line thread (the access rules, a
+ * node change): up to 200 waits of 5 ms for `state` to leave `busy`; the
+ * line loops at least every checkin_ms/2, so only a stuck line runs out.
+ * Inline: both callers' files are below line.c (no call back up). */
+static inline bool line_wait_state_leaves(atomic_int *state, int busy)
+{
+	for (int i = 0; atomic_load_explicit(state, memory_order_acquire) == busy; i++) {
+		if (i >= 200)
+			return false;
+		struct timespec ts = { .tv_nsec = 5 * 1000000L };
+		nanosleep(&ts, NULL);
+	}
+	return true;
+}
 
 /* Wake the line thread (any thread may call it): an eventfd counter never
  * blocks, a pending wake-up just adds up. */
